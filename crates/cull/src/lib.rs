@@ -1,1 +1,22 @@
-//! placeholder
+//! tiledlight-cull: the pure math of tiled light culling, with no GPU dependency.
+//!
+//! Cameras (reversed-Z perspective with finite or infinite far, orthographic), lights
+//! and their GPU packing, tile frusta, the bounding tests, windowed attenuation and the
+//! shared BRDF, and the CPU reference culler that every GPU kernel is compared with.
+//! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
+
+pub mod error;
+pub mod layout;
+pub mod light;
+
+pub use error::CullError;
+pub use light::{Light, LightKind};
+pub mod bounds;
+pub mod brdf;
+pub mod camera;
+pub mod reference;
+pub mod tiles;
+
+pub use camera::{Camera, DepthParams, Projection};
+pub use reference::{cull_tiles, CullConfig, TileLists};
+pub use tiles::TileGrid;

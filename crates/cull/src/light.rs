@@ -1,0 +1,349 @@
+//! Point and spot lights: construction with validation, the radius from an intensity
+//! threshold, bounding spheres for culling, and the packed GPU layouts (culling data
+//! kept apart from shading data). Depends on glam and bytemuck only.
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+use crate::error::CullError;
+
+/// The narrowest spot cone accepted, in radians (0.5 degree). Narrower cones make the
+/// smooth angular falloff divide by almost zero and the fitted sphere degenerate;
+/// Filament clamps for the same reason.
+pub const MIN_SPOT_ANGLE: f32 = 0.5 * std::f32::consts::PI / 180.0;
+/// The widest spot cone accepted (half-angle), just under 90 degrees.
+pub const MAX_SPOT_ANGLE: f32 = 89.5 * std::f32::consts::PI / 180.0;
+
+/// What kind of light, with the data only that kind needs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightKind {
+    /// Emits in every direction.
+    Point,
+    /// Emits in a cone around `direction` (unit), full intensity inside `inner_angle`,
+    /// smoothly falling to zero at `outer_angle` (half-angles, radians).
+    Spot {
+        /// Unit axis of the cone.
+        direction: Vec3,
+        /// Half-angle of full intensity.
+        inner_angle: f32,
+        /// Half-angle where the light reaches zero.
+        outer_angle: f32,
+    },
+}
+
+/// A punctual light with a finite radius of influence.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Light {
+    /// World-space position (metres).
+    pub position: Vec3,
+    /// Linear colour, components in [0, 1] with the largest being 1 for generated lights.
+    pub color: Vec3,
+    /// Intensity: the light delivers `color * intensity / d^2` at distance `d`.
+    pub intensity: f32,
+    /// Radius of influence: nothing is lit beyond it (windowed falloff).
+    pub radius: f32,
+    /// Point or spot.
+    pub kind: LightKind,
+}
+
+/// The radius at which `intensity / d^2` falls to `threshold`: `sqrt(intensity / threshold)`.
+/// This turns the threshold into the one dial that trades image error for lights per tile.
+pub fn radius_from_threshold(intensity: f32, threshold: f32) -> f32 {
+    (intensity / threshold).sqrt()
+}
+
+fn finite3(v: Vec3) -> bool {
+    v.is_finite()
+}
+
+impl Light {
+    /// A point light whose radius comes from `threshold` (see [`radius_from_threshold`]),
+    /// applied to the brightest colour channel.
+    pub fn point(position: Vec3, color: Vec3, intensity: f32, threshold: f32) -> Result<Self, CullError> {
+        let radius = Self::checked_radius(color, intensity, threshold)?;
+        Self::with_radius(position, color, intensity, radius, LightKind::Point)
+    }
+
+    /// A spot light whose radius comes from `threshold`. Angles are half-angles in radians;
+    /// `outer_angle` is clamped to [[`MIN_SPOT_ANGLE`], [`MAX_SPOT_ANGLE`]] and `inner_angle`
+    /// to [0, outer].
+    #[allow(clippy::too_many_arguments)]
+    pub fn spot(
+        position: Vec3,
+        direction: Vec3,
+        color: Vec3,
+        intensity: f32,
+        inner_angle: f32,
+        outer_angle: f32,
+        threshold: f32,
+    ) -> Result<Self, CullError> {
+        let radius = Self::checked_radius(color, intensity, threshold)?;
+        let kind = Self::spot_kind(direction, inner_angle, outer_angle)?;
+        Self::with_radius(position, color, intensity, radius, kind)
+    }
+
+    /// Builds the [`LightKind::Spot`] after checking and clamping its parameters.
+    pub fn spot_kind(direction: Vec3, inner_angle: f32, outer_angle: f32) -> Result<LightKind, CullError> {
+        if !finite3(direction) || direction.length_squared() < 1e-12 {
+            return Err(CullError::InvalidLight(format!("spot direction {direction} is not a finite non-zero vector")));
+        }
+        if !inner_angle.is_finite() || !outer_angle.is_finite() {
+            return Err(CullError::InvalidLight(format!(
+                "spot angles must be finite (inner {inner_angle}, outer {outer_angle})"
+            )));
+        }
+        let outer_angle = outer_angle.clamp(MIN_SPOT_ANGLE, MAX_SPOT_ANGLE);
+        let inner_angle = inner_angle.clamp(0.0, outer_angle);
+        Ok(LightKind::Spot { direction: direction.normalize(), inner_angle, outer_angle })
+    }
+
+    /// A light with an explicit radius (glTF `range`, tests). Rejects NaN/inf and non-positive values.
+    pub fn with_radius(position: Vec3, color: Vec3, intensity: f32, radius: f32, kind: LightKind) -> Result<Self, CullError> {
+        if !finite3(position) {
+            return Err(CullError::InvalidLight(format!("position {position} is not finite")));
+        }
+        if !finite3(color) || color.min_element() < 0.0 {
+            return Err(CullError::InvalidLight(format!("colour {color} must be finite and non-negative")));
+        }
+        if !intensity.is_finite() || intensity < 0.0 {
+            return Err(CullError::InvalidLight(format!("intensity {intensity} must be finite and non-negative")));
+        }
+        if !radius.is_finite() || radius <= 0.0 {
+            return Err(CullError::InvalidLight(format!("radius {radius} must be finite and positive")));
+        }
+        Ok(Self { position, color, intensity, radius, kind })
+    }
+
+    fn checked_radius(color: Vec3, intensity: f32, threshold: f32) -> Result<f32, CullError> {
+        if !threshold.is_finite() || threshold <= 0.0 {
+            return Err(CullError::InvalidLight(format!("intensity threshold {threshold} must be finite and positive")));
+        }
+        let peak = intensity * color.max_element();
+        let r = radius_from_threshold(peak, threshold);
+        if !r.is_finite() || r <= 0.0 {
+            return Err(CullError::InvalidLight(format!(
+                "intensity {intensity} and colour {color} give radius {r} at threshold {threshold}"
+            )));
+        }
+        Ok(r)
+    }
+
+    /// True for spot lights.
+    pub fn is_spot(&self) -> bool {
+        matches!(self.kind, LightKind::Spot { .. })
+    }
+
+    /// The sphere that bounds everything this light can reach (centre, radius).
+    ///
+    /// For a spot light this is the smallest sphere around the cone of length `radius`
+    /// (AMD's fitted sphere): for half-angles up to 45 degrees the sphere through the
+    /// apex and the cap rim, centred on the axis; wider cones use the cap's centre and
+    /// rim radius. Always at least as tight as the full light sphere.
+    pub fn bounding_sphere(&self) -> (Vec3, f32) {
+        match self.kind {
+            LightKind::Point => (self.position, self.radius),
+            LightKind::Spot { direction, outer_angle, .. } => spot_bounding_sphere(self.position, direction, self.radius, outer_angle),
+        }
+    }
+}
+
+/// Smallest sphere around a cone with apex `apex`, unit axis `dir`, length `len` and
+/// half-angle `angle`.
+pub fn spot_bounding_sphere(apex: Vec3, dir: Vec3, len: f32, angle: f32) -> (Vec3, f32) {
+    let (s, c) = angle.sin_cos();
+    if angle > std::f32::consts::FRAC_PI_4 {
+        // The cap's rim circle is the widest part: centre it there.
+        (apex + dir * (len * c), len * s)
+    } else {
+        // Sphere through the apex and the rim: r = len / (2 cos a), centre r along the axis.
+        let r = len / (2.0 * c);
+        (apex + dir * r, r)
+    }
+}
+
+/// Culling data of one light: its bounding sphere. 16 bytes, in its own buffer so the
+/// culling kernel reads only what it tests (references 000 and 002 measured the gain).
+///
+/// Keep in sync with `shaders/common/lights.wgsl` (`CullLight`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuCullLight {
+    /// Bounding-sphere centre, world space.
+    pub center: [f32; 3],
+    /// Bounding-sphere radius.
+    pub radius: f32,
+}
+
+/// Shading data of one light. 32 bytes.
+///
+/// Keep in sync with `shaders/common/lights.wgsl` (`ShadingLight`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuShadingLight {
+    /// Light position, world space.
+    pub position: [f32; 3],
+    /// Radius of influence (the window of the falloff).
+    pub radius: f32,
+    /// `color * intensity`.
+    pub radiance: [f32; 3],
+    /// Padding to 16-byte alignment.
+    pub _pad: f32,
+}
+
+/// Spot-only shading data, in a buffer that exists only when the scene has spot lights.
+/// 32 bytes. Spot light `i` of the light list (spots follow points) uses entry
+/// `i - num_point_lights`.
+///
+/// Keep in sync with `shaders/common/lights.wgsl` (`SpotLight`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuSpotLight {
+    /// Unit cone axis, world space.
+    pub direction: [f32; 3],
+    /// Cosine of the outer half-angle.
+    pub cos_outer: f32,
+    /// `1 / (cos_inner - cos_outer)` (guarded): the angular falloff's scale.
+    pub angle_scale: f32,
+    /// `-cos_outer * angle_scale`: the angular falloff's offset.
+    pub angle_offset: f32,
+    /// Sine of the outer half-angle (for the cone culling test).
+    pub sin_outer: f32,
+    /// Padding to 16-byte alignment.
+    pub _pad: f32,
+}
+
+/// Angular falloff scale and offset for a spot (as in Filament): `saturate(cos * scale + offset)`
+/// is 0 at the outer angle and 1 at the inner angle.
+pub fn spot_scale_offset(inner_angle: f32, outer_angle: f32) -> (f32, f32) {
+    let cos_outer = outer_angle.cos();
+    let cos_inner = inner_angle.cos();
+    let scale = 1.0 / (cos_inner - cos_outer).max(1e-4);
+    (scale, -cos_outer * scale)
+}
+
+/// Lights split and packed for the GPU: points first, then spots.
+#[derive(Clone, Debug, Default)]
+pub struct PackedLights {
+    /// Culling data, one per light.
+    pub cull: Vec<GpuCullLight>,
+    /// Shading data, one per light.
+    pub shading: Vec<GpuShadingLight>,
+    /// Spot data, one per spot light (empty when there are none).
+    pub spots: Vec<GpuSpotLight>,
+    /// Number of point lights (they come first).
+    pub num_point: u32,
+}
+
+impl PackedLights {
+    /// Total number of lights.
+    pub fn len(&self) -> usize {
+        self.cull.len()
+    }
+    /// True when there are no lights.
+    pub fn is_empty(&self) -> bool {
+        self.cull.is_empty()
+    }
+}
+
+/// Orders `lights` points first (stable), as every kernel indexes them; returns the
+/// ordered lights. The CPU reference and the GPU must use the same order.
+pub fn order_points_first(lights: &[Light]) -> Vec<Light> {
+    let mut v: Vec<Light> = lights.iter().copied().filter(|l| !l.is_spot()).collect();
+    v.extend(lights.iter().copied().filter(|l| l.is_spot()));
+    v
+}
+
+/// Packs lights that are already ordered points-first (see [`order_points_first`]).
+pub fn pack_lights(ordered: &[Light]) -> PackedLights {
+    let mut out = PackedLights::default();
+    for l in ordered {
+        let (c, r) = l.bounding_sphere();
+        out.cull.push(GpuCullLight { center: c.to_array(), radius: r });
+        out.shading.push(GpuShadingLight {
+            position: l.position.to_array(),
+            radius: l.radius,
+            radiance: (l.color * l.intensity).to_array(),
+            _pad: 0.0,
+        });
+        match l.kind {
+            LightKind::Point => {
+                debug_assert!(out.spots.is_empty(), "lights must be ordered points first");
+                out.num_point += 1;
+            }
+            LightKind::Spot { direction, inner_angle, outer_angle } => {
+                let (angle_scale, angle_offset) = spot_scale_offset(inner_angle, outer_angle);
+                out.spots.push(GpuSpotLight {
+                    direction: direction.to_array(),
+                    cos_outer: outer_angle.cos(),
+                    angle_scale,
+                    angle_offset,
+                    sin_outer: outer_angle.sin(),
+                    _pad: 0.0,
+                });
+            }
+        }
+    }
+    out
+}
+
+/// Layouts of this module's GPU structs, for the xtask layout check.
+pub fn layouts() -> Vec<crate::layout::StructLayout> {
+    vec![
+        crate::struct_layout!(GpuCullLight, "CullLight", "common/lights.wgsl", [center, radius]),
+        crate::struct_layout!(GpuShadingLight, "ShadingLight", "common/lights.wgsl", [position, radius, radiance]),
+        crate::struct_layout!(
+            GpuSpotLight,
+            "SpotLight",
+            "common/lights.wgsl",
+            [direction, cos_outer, angle_scale, angle_offset, sin_outer]
+        ),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn radius_threshold_roundtrip() {
+        let l = Light::point(Vec3::ZERO, Vec3::ONE, 4.0, 0.01).unwrap();
+        assert!((l.radius - 20.0).abs() < 1e-5);
+        assert!((l.intensity / (l.radius * l.radius) - 0.01).abs() < 1e-7);
+    }
+
+    #[test]
+    fn rejects_bad_lights() {
+        assert!(Light::point(Vec3::NAN, Vec3::ONE, 1.0, 0.01).is_err());
+        assert!(Light::point(Vec3::ZERO, Vec3::ONE, f32::INFINITY, 0.01).is_err());
+        assert!(Light::point(Vec3::ZERO, Vec3::ONE, 1.0, 0.0).is_err());
+        assert!(Light::point(Vec3::ZERO, Vec3::ZERO, 1.0, 0.01).is_err(), "black light has no radius");
+        assert!(Light::spot(Vec3::ZERO, Vec3::ZERO, Vec3::ONE, 1.0, 0.1, 0.2, 0.01).is_err());
+    }
+
+    #[test]
+    fn spot_sphere_contains_cone() {
+        for deg in [0.5f32, 5.0, 30.0, 44.9, 45.1, 60.0, 89.5] {
+            let a = deg.to_radians();
+            let dir = Vec3::new(0.3, -1.0, 0.2).normalize();
+            let (c, r) = spot_bounding_sphere(Vec3::ONE, dir, 10.0, a);
+            assert!(r <= 10.0 + 1e-4, "never looser than the light sphere");
+            // apex, and points on the cap rim and cap centre must be inside.
+            let perp = dir.any_orthonormal_vector();
+            let rim = Vec3::ONE + dir * 10.0 * a.cos() + perp * 10.0 * a.sin();
+            for p in [Vec3::ONE, rim, Vec3::ONE + dir * 10.0] {
+                assert!((p - c).length() <= r * (1.0 + 1e-5) + 1e-5, "deg {deg}: {p} outside");
+            }
+        }
+    }
+
+    #[test]
+    fn pack_orders_and_splits() {
+        let p = Light::point(Vec3::ZERO, Vec3::ONE, 1.0, 0.01).unwrap();
+        let s = Light::spot(Vec3::ZERO, Vec3::Z, Vec3::ONE, 1.0, 0.1, 0.3, 0.01).unwrap();
+        let ordered = order_points_first(&[s, p, s]);
+        let packed = pack_lights(&ordered);
+        assert_eq!(packed.num_point, 1);
+        assert_eq!(packed.spots.len(), 2);
+        assert_eq!(packed.cull.len(), 3);
+    }
+}

@@ -1,0 +1,290 @@
+//! The CPU reference culler: (depth buffer, packed lights, camera, config) -> per-tile light
+//! lists, running the exact algorithm of the GPU kernel (`shaders/cull.wgsl`): per tile,
+//! min/max depth of its non-sky pixels, side planes and depth range, optional AABB and
+//! spot-cone tests, optional half-z split. Also the ground truth (which lights really
+//! reach a pixel) and culling statistics. Depends on the other modules of this crate.
+
+use glam::{Mat4, Vec3};
+
+use crate::bounds::{aabb_sphere, cone_vs_sphere, sphere_vs_aabb, sphere_vs_frustum, to_view};
+use crate::camera::Camera;
+use crate::error::CullError;
+use crate::light::PackedLights;
+use crate::tiles::{pixel_to_ndc_x, pixel_to_ndc_y, tile_depth_bounds, TileFrustum, TileGrid};
+
+/// Default per-list capacity: room for the densest tiles of the default scene at 16k lights.
+pub const DEFAULT_CAPACITY: u32 = 512;
+/// Largest per-list capacity the GPU kernel accepts (its workgroup list lives in 16 KiB).
+pub const MAX_CAPACITY: u32 = 2048;
+
+/// What the culler tests and how lists are stored. Mirrors the GPU pass's options.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CullConfig {
+    /// Tile side in pixels (8, 16 or 32 on the GPU; any 1..=64 on the CPU).
+    pub tile_size: u32,
+    /// Indices stored per list at most; the count still reports every light found.
+    pub capacity: u32,
+    /// Also test the sphere against the tile's view-space AABB (removes the large-sphere
+    /// false positives of plane tests).
+    pub aabb: bool,
+    /// Two lists per tile, split at the middle of the tile's depth range.
+    pub half_z: bool,
+    /// Also test spot cones against the tile's bounding sphere.
+    pub spot_cone: bool,
+    /// CPU only: grow (>0) or shrink (<0) every light's radius by this fraction of
+    /// `radius + |centre|`, to find decisions within float error of the boundary.
+    pub inflate: f32,
+}
+
+impl Default for CullConfig {
+    fn default() -> Self {
+        Self { tile_size: 16, capacity: DEFAULT_CAPACITY, aabb: false, half_z: false, spot_cone: false, inflate: 0.0 }
+    }
+}
+
+impl CullConfig {
+    /// Lists per tile: 2 with half-z, else 1.
+    pub fn lists_per_tile(&self) -> usize {
+        if self.half_z {
+            2
+        } else {
+            1
+        }
+    }
+
+    /// Checks the options the GPU kernel relies on.
+    pub fn validate(&self) -> Result<(), CullError> {
+        if self.capacity == 0 || self.capacity > MAX_CAPACITY {
+            return Err(CullError::InvalidSize(format!("per-tile capacity {} must be in 1..={MAX_CAPACITY}", self.capacity)));
+        }
+        if !self.inflate.is_finite() {
+            return Err(CullError::InvalidSize(format!("inflate {} is not finite", self.inflate)));
+        }
+        Ok(())
+    }
+}
+
+/// Per-tile light lists. List `i` of tile `t` is `lists[t * lists_per_tile + i]`; with
+/// half-z, list 0 covers the near half of the tile's depth range.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TileLists {
+    /// The tiling.
+    pub grid: TileGrid,
+    /// The options used.
+    pub config: CullConfig,
+    /// Every light found per list, ascending (not truncated: the GPU stores at most
+    /// `capacity` of them, in no particular order).
+    pub lists: Vec<Vec<u32>>,
+    /// Per tile, the view-distance range of its surfaces (None for all-sky tiles).
+    pub ranges: Vec<Option<(f32, f32)>>,
+}
+
+impl TileLists {
+    /// Number of lists whose light count exceeds the capacity.
+    pub fn overflowing_lists(&self) -> usize {
+        self.lists.iter().filter(|l| l.len() > self.config.capacity as usize).count()
+    }
+
+    /// The list a pixel at view distance `dist` of tile `tile` uses.
+    pub fn list_index(&self, tile: usize, dist: f32) -> usize {
+        if !self.config.half_z {
+            return tile;
+        }
+        match self.ranges[tile] {
+            Some((near, far)) if dist > half_z_split(near, far) => tile * 2 + 1,
+            _ => tile * 2,
+        }
+    }
+}
+
+/// The distance where half-z splits a tile's range `[near, far]`.
+pub fn half_z_split(near: f32, far: f32) -> f32 {
+    0.5 * (near + far)
+}
+
+/// Validates a depth buffer against a grid: right size, values finite and in [0, 1].
+pub fn check_depth(grid: &TileGrid, depth: &[f32]) -> Result<(), CullError> {
+    let n = grid.width as usize * grid.height as usize;
+    if depth.len() != n {
+        return Err(CullError::InvalidDepth(format!("{} values for a {}x{} screen", depth.len(), grid.width, grid.height)));
+    }
+    if let Some(i) = depth.iter().position(|d| !(0.0..=1.0).contains(d)) {
+        return Err(CullError::InvalidDepth(format!("pixel {} has depth {} outside [0, 1]", i, depth[i])));
+    }
+    Ok(())
+}
+
+/// One light as the kernel sees it, in view space.
+struct ViewLight {
+    center: Vec3,
+    radius: f32,
+    /// Apex, axis, length, cos, sin of a spot's cone.
+    cone: Option<(Vec3, Vec3, f32, f32, f32)>,
+}
+
+fn view_lights(view: &Mat4, lights: &PackedLights, inflate: f32) -> Vec<ViewLight> {
+    let rot = Mat4::from_mat3(glam::Mat3::from_mat4(*view));
+    (0..lights.len())
+        .map(|i| {
+            let cl = lights.cull[i];
+            let center = to_view(view, Vec3::from(cl.center));
+            let grow = inflate * (cl.radius + center.length());
+            let radius = cl.radius + grow;
+            let cone = (i >= lights.num_point as usize).then(|| {
+                let s = lights.spots[i - lights.num_point as usize];
+                let sh = lights.shading[i];
+                let apex = to_view(view, Vec3::from(sh.position));
+                let axis = to_view(&rot, Vec3::from(s.direction));
+                (apex, axis, sh.radius + grow, s.cos_outer, s.sin_outer)
+            });
+            ViewLight { center, radius, cone }
+        })
+        .collect()
+}
+
+fn light_in_volume(l: &ViewLight, f: &TileFrustum, proj: &Mat4, ortho: bool, cfg: &CullConfig) -> bool {
+    if l.radius <= 0.0 || !sphere_vs_frustum(f, l.center, l.radius) {
+        return false;
+    }
+    let need_box = cfg.aabb || (cfg.spot_cone && l.cone.is_some());
+    if !need_box {
+        return true;
+    }
+    let (lo, hi) = f.aabb(proj, ortho);
+    if cfg.aabb && !sphere_vs_aabb(lo, hi, l.center, l.radius) {
+        return false;
+    }
+    if let (true, Some((apex, axis, len, c, s))) = (cfg.spot_cone, l.cone) {
+        let (sc, sr) = aabb_sphere(lo, hi);
+        return cone_vs_sphere(apex, axis, len, c, s, sc, sr);
+    }
+    true
+}
+
+/// Culls `lights` (packed points first, as uploaded) against every tile of a reversed-Z
+/// `depth` buffer (row-major, `width * height`), as the GPU kernel does.
+pub fn cull_tiles(depth: &[f32], width: u32, height: u32, camera: &Camera, lights: &PackedLights, config: &CullConfig) -> Result<TileLists, CullError> {
+    config.validate()?;
+    let grid = TileGrid::new(width, height, config.tile_size)?;
+    check_depth(&grid, depth)?;
+    let proj = camera.proj();
+    let dp = camera.depth_params();
+    let vls = view_lights(&camera.view(), lights, config.inflate);
+    let per = config.lists_per_tile();
+    let mut lists = vec![Vec::new(); grid.tile_count() * per];
+    let mut ranges = vec![None; grid.tile_count()];
+    for ty in 0..grid.tiles_y {
+        for tx in 0..grid.tiles_x {
+            let t = (ty * grid.tiles_x + tx) as usize;
+            let Some(b) = tile_depth_bounds(&grid, depth, tx, ty) else { continue };
+            let f = TileFrustum::new(&grid, camera, tx, ty, b);
+            ranges[t] = Some((f.near, f.far));
+            let volumes = if config.half_z {
+                let mid = half_z_split(f.near, f.far);
+                vec![f.with_range(f.near, mid), f.with_range(mid, f.far)]
+            } else {
+                vec![f]
+            };
+            for (k, vol) in volumes.iter().enumerate() {
+                lists[t * per + k] = (0..vls.len() as u32).filter(|&i| light_in_volume(&vls[i as usize], vol, &proj, dp.orthographic, config)).collect();
+            }
+        }
+    }
+    Ok(TileLists { grid, config: *config, lists, ranges })
+}
+
+/// View-space position of the centre of pixel (x, y) with reversed-Z depth `d`, or `None`
+/// for sky. The position every renderer shades.
+pub fn pixel_view_position(camera: &Camera, width: u32, height: u32, x: u32, y: u32, d: f32) -> Option<Vec3> {
+    if d <= 0.0 {
+        return None;
+    }
+    camera.unproject_view(pixel_to_ndc_x(x as f32 + 0.5, width), pixel_to_ndc_y(y as f32 + 0.5, height), d)
+}
+
+/// Ground truth: the lights (indices into the packed order) whose light volume contains
+/// view-space point `p` with at least `margin` (a fraction of the radius) to spare:
+/// strictly inside the radius and, for spots, inside the outer cone.
+pub fn lights_reaching(view: &Mat4, lights: &PackedLights, p: Vec3, margin: f32) -> Vec<u32> {
+    let rot = Mat4::from_mat3(glam::Mat3::from_mat4(*view));
+    (0..lights.len())
+        .filter(|&i| {
+            let sh = lights.shading[i];
+            let pos = to_view(view, Vec3::from(sh.position));
+            let d = p - pos;
+            let r = sh.radius * (1.0 - margin);
+            if d.length() >= r {
+                return false;
+            }
+            if i < lights.num_point as usize {
+                return true;
+            }
+            let s = lights.spots[i - lights.num_point as usize];
+            let axis = to_view(&rot, Vec3::from(s.direction));
+            let len = d.length();
+            // Inside the cone by an angular margin too: cos of the angle to the axis above cos_outer.
+            len > 0.0 && d.dot(axis) / len > s.cos_outer + margin * (1.0 - s.cos_outer)
+        })
+        .map(|i| i as u32)
+        .collect()
+}
+
+/// Culling statistics of a set of lists.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CullStats {
+    /// Mean lights per list over lists of tiles with geometry.
+    pub mean_per_list: f64,
+    /// Largest light count of a list.
+    pub max_per_list: u32,
+    /// Lists whose count exceeds the capacity.
+    pub overflowing: u32,
+    /// Tiles with geometry.
+    pub tiles_with_geometry: u32,
+}
+
+/// Mean/max/overflow statistics of `lists`.
+pub fn stats(lists: &TileLists) -> CullStats {
+    let per = lists.config.lists_per_tile();
+    let mut s = CullStats::default();
+    let mut sum = 0u64;
+    let mut n = 0u64;
+    for (t, r) in lists.ranges.iter().enumerate() {
+        if r.is_none() {
+            continue;
+        }
+        s.tiles_with_geometry += 1;
+        for k in 0..per {
+            let c = lists.lists[t * per + k].len() as u32;
+            sum += c as u64;
+            n += 1;
+            s.max_per_list = s.max_per_list.max(c);
+        }
+    }
+    s.overflowing = lists.overflowing_lists() as u32;
+    s.mean_per_list = if n > 0 { sum as f64 / n as f64 } else { 0.0 };
+    s
+}
+
+/// Fraction of listed (tile, light) pairs whose light reaches no pixel of the tile (or of
+/// the list's half, with half-z): the culling test's false-positive rate. Exhaustive over
+/// pixels; meant for small frames.
+pub fn false_positive_rate(depth: &[f32], camera: &Camera, lights: &PackedLights, lists: &TileLists) -> f64 {
+    let g = lists.grid;
+    let view = camera.view();
+    let dp = camera.depth_params();
+    let mut reached: Vec<std::collections::BTreeSet<u32>> = vec![Default::default(); lists.lists.len()];
+    for y in 0..g.height {
+        for x in 0..g.width {
+            let d = depth[(y * g.width + x) as usize];
+            let Some(p) = pixel_view_position(camera, g.width, g.height, x, y, d) else { continue };
+            let li = lists.list_index(g.tile_of_pixel(x, y), dp.view_distance(d));
+            reached[li].extend(lights_reaching(&view, lights, p, 0.0));
+        }
+    }
+    let listed: usize = lists.lists.iter().map(Vec::len).sum();
+    if listed == 0 {
+        return 0.0;
+    }
+    let wasted: usize = lists.lists.iter().zip(&reached).map(|(l, r)| l.iter().filter(|i| !r.contains(i)).count()).sum();
+    wasted as f64 / listed as f64
+}
