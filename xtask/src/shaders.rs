@@ -1,0 +1,435 @@
+//! `cargo xtask validate-shaders`: naga validation of every WGSL entry file in every
+//! variant combination, and the Rust/WGSL struct layout check.
+//!
+//! Reads `shaders/` from disk (not the table embedded in tiledlight-gpu, which is only as
+//! fresh as the last build), preprocesses with `tiledlight_gpu::shader`, and reports
+//! every error at its original file and line.
+
+use std::collections::BTreeMap;
+use std::fs;
+use std::path::Path;
+
+use anyhow::{bail, Context as _, Result};
+use naga::valid::{Capabilities, ValidationFlags, Validator};
+use naga::{Module, Span};
+use tiledlight_cull::layout::StructLayout;
+use tiledlight_gpu::shader::{self, ShaderSource};
+
+/// More variants than this (2^12 combinations) is surely a mistake in the declaration.
+const MAX_VARIANTS: usize = 12;
+
+/// wgpu features the renderer may request; shaders are validated with exactly the naga
+/// capabilities wgpu enables for them. All are available on lavapipe (Mesa's CPU
+/// Vulkan, which CI runs on), so a shader that validates here also loads there.
+pub const FEATURES: wgpu::Features = wgpu::Features::IMMEDIATES.union(wgpu::Features::SUBGROUP);
+
+/// The naga capabilities wgpu gives a device with [`FEATURES`] on an adapter with full
+/// downlevel support (lavapipe has it).
+pub fn capabilities() -> Capabilities {
+    wgpu_naga_bridge::features_to_naga_capabilities(FEATURES, wgpu::DownlevelFlags::all())
+}
+
+/// Reads shader files (paths relative to `shaders/`) from a directory on disk.
+type Reader<'a> = &'a dyn Fn(&str) -> Option<String>;
+
+/// Validates every entry file and variant under `root/shaders`, then the struct layouts.
+pub fn validate_shaders(root: &Path) -> Result<()> {
+    let dir = root.join("shaders");
+    let files = scan(&dir)?;
+    let read = |path: &str| fs::read_to_string(dir.join(path)).ok();
+    let mut failures = 0usize;
+    let mut variants_checked = 0usize;
+    let entries: Vec<&String> = files.iter().filter(|f| shader::is_entry(f)).collect();
+    for &entry in &entries {
+        let text = read(entry).with_context(|| format!("cannot read shaders/{entry}"))?;
+        let variants = shader::variants_in(&text);
+        if variants.len() > MAX_VARIANTS {
+            eprintln!(
+                "error: shaders/{entry}: {} variants declared (2^{} combinations), at most {MAX_VARIANTS}",
+                variants.len(),
+                variants.len()
+            );
+            failures += 1;
+            continue;
+        }
+        // The same error usually shows in many variants: report it once, with them all.
+        let combinations = shader::variant_combinations(&variants);
+        let mut problems: Vec<(Problem, Vec<String>)> = Vec::new();
+        for defines in &combinations {
+            variants_checked += 1;
+            if let Err(p) = compile(&read, entry, defines) {
+                let variant = format!("[{}]", defines.join(" "));
+                match problems.iter_mut().find(|(q, _)| *q == p) {
+                    Some((_, in_variants)) => in_variants.push(variant),
+                    None => problems.push((p, vec![variant])),
+                }
+            }
+        }
+        for (problem, in_variants) in problems {
+            let context = if in_variants.len() == combinations.len() && in_variants.len() > 1 {
+                format!("shaders/{entry}, all {} variants", in_variants.len())
+            } else {
+                format!("shaders/{entry} {}", in_variants.join(" "))
+            };
+            eprintln!("{}", problem.render(&context));
+            failures += 1;
+        }
+    }
+
+    let sources = layout_sources();
+    let mut modules: BTreeMap<&str, Option<Module>> = BTreeMap::new();
+    let mut layouts_checked = 0usize;
+    for (crate_dir, layouts) in &sources {
+        for layout in layouts {
+            layouts_checked += 1;
+            // Parse each declaring file once; a file that fails is reported once.
+            let module = modules.entry(layout.wgsl_file).or_insert_with(|| {
+                parse_for_layout(&read, layout.wgsl_file)
+                    .map_err(|p| {
+                        let context =
+                            format!("shaders/{}, for the struct layout check", layout.wgsl_file);
+                        eprintln!("{}", p.render(&context));
+                    })
+                    .ok()
+            });
+            let Some(module) = module else {
+                failures += 1;
+                continue;
+            };
+            for mismatch in compare_layout(crate_dir, layout, module) {
+                eprintln!("error: {mismatch}");
+                failures += 1;
+            }
+        }
+    }
+
+    if failures > 0 {
+        bail!("shader validation failed: {failures} problem(s), see above");
+    }
+    println!(
+        "xtask: validated {variants_checked} variant(s) of {} WGSL entry file(s); {layouts_checked} Rust/WGSL struct layout(s) match",
+        entries.len()
+    );
+    Ok(())
+}
+
+/// Every Rust struct shared with WGSL, grouped by the crate that defines it (named by
+/// its directory, for messages).
+fn layout_sources() -> Vec<(&'static str, Vec<StructLayout>)> {
+    vec![
+        ("crates/cull", tiledlight_cull::light::layouts()),
+        ("crates/gpu", tiledlight_gpu::layouts()),
+    ]
+}
+
+/// Every `*.wgsl` file under `dir`, relative to it with `/` separators, sorted.
+fn scan(dir: &Path) -> Result<Vec<String>> {
+    fn walk(dir: &Path, prefix: &str, out: &mut Vec<String>) -> Result<()> {
+        for entry in fs::read_dir(dir).with_context(|| format!("cannot read {}", dir.display()))? {
+            let entry = entry.with_context(|| format!("cannot read {}", dir.display()))?;
+            let path = entry.path();
+            let name = entry.file_name();
+            let name = name
+                .to_str()
+                .with_context(|| format!("shader path is not UTF-8: {}", path.display()))?;
+            if path.is_dir() {
+                walk(&path, &format!("{prefix}{name}/"), out)?;
+            } else if name.ends_with(".wgsl") {
+                out.push(format!("{prefix}{name}"));
+            }
+        }
+        Ok(())
+    }
+    let mut out = Vec::new();
+    walk(dir, "", &mut out)?;
+    out.sort();
+    Ok(out)
+}
+
+/// One error, at its original file:line, without saying which entry and variant it
+/// came from (the caller groups equal problems of several variants).
+#[derive(Debug, PartialEq, Eq)]
+struct Problem {
+    /// `location: message`.
+    head: String,
+    /// Further lines (labelled spans with their source line, notes), each starting `\n`.
+    details: String,
+}
+
+impl Problem {
+    fn render(&self, context: &str) -> String {
+        format!("error: {} (in {context}){}", self.head, self.details)
+    }
+}
+
+impl From<shader::ShaderError> for Problem {
+    fn from(e: shader::ShaderError) -> Self {
+        Problem {
+            head: e.to_string(),
+            details: String::new(),
+        }
+    }
+}
+
+/// Preprocesses, parses and validates one variant of `entry`.
+fn compile(read: Reader<'_>, entry: &str, defines: &[&str]) -> Result<Module, Problem> {
+    let source = shader::preprocess_with(read, entry, defines)?;
+    let module = parse(&source)?;
+    Validator::new(ValidationFlags::all(), capabilities())
+        .validate(&module)
+        .map_err(|e| {
+            // naga's errors nest their causes; the chain is the useful message.
+            let mut message = e.to_string();
+            let mut cause = std::error::Error::source(&e);
+            while let Some(c) = cause {
+                message.push_str(&format!(": {c}"));
+                cause = c.source();
+            }
+            let labels: Vec<(Span, String)> = e.spans().cloned().collect();
+            problem(&source, &message, &labels, &[])
+        })?;
+    Ok(module)
+}
+
+/// Parses preprocessed WGSL with naga.
+fn parse(source: &ShaderSource) -> Result<Module, Problem> {
+    naga::front::wgsl::parse_str(&source.text).map_err(|e| {
+        let labels: Vec<(Span, String)> = e.labels().map(|(s, l)| (s, l.to_owned())).collect();
+        let notes: Vec<String> = e.notes().map(|n| format!("note: {n}")).collect();
+        problem(source, e.message(), &labels, &notes)
+    })
+}
+
+/// A naga error with each labelled span at its original file:line:column and the source
+/// line under it.
+fn problem(
+    source: &ShaderSource,
+    message: &str,
+    labels: &[(Span, String)],
+    notes: &[String],
+) -> Problem {
+    let defined: Vec<&(Span, String)> = labels.iter().filter(|(s, _)| s.is_defined()).collect();
+    let position = |span: Span| {
+        let loc = span.location(&source.text);
+        let (file, line) = source.locate(loc.line_number as usize);
+        let text = source
+            .text
+            .lines()
+            .nth(loc.line_number as usize - 1)
+            .unwrap_or("");
+        (
+            format!("shaders/{file}:{line}:{}", loc.line_position),
+            text.trim_end().to_owned(),
+        )
+    };
+    let head = match defined.first() {
+        Some((span, _)) => format!("{}: {message}", position(*span).0),
+        None => message.to_owned(),
+    };
+    let mut details = String::new();
+    for (span, label) in defined {
+        let (at, text) = position(*span);
+        details.push_str(&format!("\n  --> {at}: {label}\n   | {text}"));
+    }
+    for note in notes {
+        details.push_str(&format!("\n  {note}"));
+    }
+    Problem { head, details }
+}
+
+/// Preprocesses (no defines) and parses the file that declares a shared struct. Include
+/// files are parsed on their own, so they must `#include` what they use. Not validated:
+/// only the layout matters, and entry files are validated already.
+fn parse_for_layout(read: Reader<'_>, file: &str) -> Result<Module, Problem> {
+    parse(&shader::preprocess_with(read, file, &[])?)
+}
+
+/// Compares a Rust struct's layout with naga's layout of the WGSL struct it mirrors;
+/// one line per mismatch. WGSL members whose names start with `_` are padding, like the
+/// Rust fields left out of `layout.fields`.
+pub fn compare_layout(crate_dir: &str, layout: &StructLayout, module: &Module) -> Vec<String> {
+    let prefix = format!(
+        "{} ({crate_dir}) vs {} (shaders/{})",
+        layout.rust_name, layout.wgsl_name, layout.wgsl_file
+    );
+    let found = module
+        .types
+        .iter()
+        .find(|(_, ty)| ty.name.as_deref() == Some(layout.wgsl_name));
+    let Some((_, ty)) = found else {
+        return vec![format!(
+            "{prefix}: no type {} in the WGSL",
+            layout.wgsl_name
+        )];
+    };
+    let naga::TypeInner::Struct { members, span } = &ty.inner else {
+        return vec![format!(
+            "{prefix}: {} is not a struct in the WGSL",
+            layout.wgsl_name
+        )];
+    };
+    let mut out = Vec::new();
+    if *span as usize != layout.size {
+        out.push(format!(
+            "{prefix}: size {} in Rust, {span} in WGSL",
+            layout.size
+        ));
+    }
+    for field in &layout.fields {
+        match members
+            .iter()
+            .find(|m| m.name.as_deref() == Some(field.name))
+        {
+            None => out.push(format!(
+                "{prefix}: field {} (offset {} in Rust) has no WGSL member of that name",
+                field.name, field.offset
+            )),
+            Some(m) if m.offset as usize != field.offset => out.push(format!(
+                "{prefix}: field {} at offset {} in Rust, {} in WGSL",
+                field.name, field.offset, m.offset
+            )),
+            Some(_) => {}
+        }
+    }
+    for m in members {
+        let name = m.name.as_deref().unwrap_or("");
+        if !name.starts_with('_') && !layout.fields.iter().any(|f| f.name == name) {
+            out.push(format!(
+                "{prefix}: WGSL member {name} (offset {}) has no Rust field of that name \
+                 (padding must start with `_` on both sides)",
+                m.offset
+            ));
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::HashMap;
+    use tiledlight_cull::layout::FieldLayout;
+
+    fn cull_light(size: usize, radius_offset: usize) -> StructLayout {
+        StructLayout {
+            rust_name: "GpuCullLight",
+            wgsl_name: "CullLight",
+            wgsl_file: "common/lights.wgsl",
+            size,
+            fields: vec![
+                FieldLayout {
+                    name: "center",
+                    offset: 0,
+                },
+                FieldLayout {
+                    name: "radius",
+                    offset: radius_offset,
+                },
+            ],
+        }
+    }
+
+    fn module(wgsl: &str) -> Module {
+        naga::front::wgsl::parse_str(wgsl).unwrap()
+    }
+
+    #[test]
+    fn matching_layout_has_no_mismatch() {
+        let m = module("struct CullLight { center: vec3<f32>, radius: f32, _pad: vec4<f32> }");
+        assert_eq!(
+            compare_layout("crates/cull", &cull_light(32, 12), &m),
+            Vec::<String>::new()
+        );
+    }
+
+    #[test]
+    fn mismatching_layout_is_reported_per_field() {
+        // An extra member pushes radius to 16 and the size to 32.
+        let m = module("struct CullLight { center: vec3<f32>, extra: f32, radius: f32 }");
+        assert_eq!(
+            compare_layout("crates/cull", &cull_light(16, 12), &m),
+            [
+                "GpuCullLight (crates/cull) vs CullLight (shaders/common/lights.wgsl): size 16 in Rust, 32 in WGSL",
+                "GpuCullLight (crates/cull) vs CullLight (shaders/common/lights.wgsl): field radius at offset 12 in Rust, 16 in WGSL",
+                "GpuCullLight (crates/cull) vs CullLight (shaders/common/lights.wgsl): WGSL member extra (offset 12) \
+                 has no Rust field of that name (padding must start with `_` on both sides)",
+            ]
+        );
+    }
+
+    #[test]
+    fn missing_struct_or_member_is_reported() {
+        let m = module("struct Other { a: f32 }");
+        let got = compare_layout("crates/cull", &cull_light(16, 12), &m);
+        assert_eq!(got, ["GpuCullLight (crates/cull) vs CullLight (shaders/common/lights.wgsl): no type CullLight in the WGSL"]);
+        let m = module("struct CullLight { center: vec3<f32>, r: f32 }");
+        let got = compare_layout("crates/cull", &cull_light(16, 12), &m);
+        assert_eq!(got.len(), 2, "{got:?}");
+        assert!(
+            got[0].ends_with("field radius (offset 12 in Rust) has no WGSL member of that name"),
+            "{got:?}"
+        );
+    }
+
+    #[test]
+    fn real_cull_layouts_are_well_formed() {
+        // The check itself needs shaders/; here only that the Rust side lists fields.
+        for l in tiledlight_cull::light::layouts() {
+            assert!(!l.fields.is_empty() && l.size > 0, "{l:?}");
+        }
+    }
+
+    fn files(list: &[(&str, &str)]) -> HashMap<String, String> {
+        list.iter()
+            .map(|(p, t)| (p.to_string(), t.to_string()))
+            .collect()
+    }
+
+    #[test]
+    fn errors_point_at_the_original_file_and_line() {
+        let map = files(&[
+            ("e.wgsl", "// variants: X\n#include \"common/a.wgsl\"\n#ifdef X\nfn g() -> f32 { return f(); }\n#endif\n"),
+            ("common/a.wgsl", "// helper\n\nfn f() -> f32 { return 1.0 }\n"),
+        ]);
+        let read = |p: &str| map.get(p).cloned();
+        let err = compile(&read, "e.wgsl", &[]).unwrap_err().render("ctx");
+        assert!(err.starts_with("error: shaders/common/a.wgsl:3:"), "{err}");
+        assert!(err.contains("(in ctx)"), "{err}");
+        assert!(err.contains("fn f() -> f32 { return 1.0 }"), "{err}");
+    }
+
+    #[test]
+    fn validation_errors_are_mapped_too() {
+        let map = files(&[(
+            "e.wgsl",
+            "// variants: X\n#ifdef X\nfn g() -> f32 { return 1.0; }\n#else\nfn g() -> f32 { return 1u; }\n#endif\n",
+        )]);
+        let read = |p: &str| map.get(p).cloned();
+        assert!(compile(&read, "e.wgsl", &["X"]).is_ok());
+        let err = compile(&read, "e.wgsl", &[]).unwrap_err().render("ctx");
+        assert!(err.starts_with("error: shaders/e.wgsl:5:"), "{err}");
+    }
+
+    #[test]
+    fn preprocessor_errors_are_reported() {
+        let map = files(&[("e.wgsl", "#ifdef X\n")]);
+        let read = |p: &str| map.get(p).cloned();
+        let err = compile(&read, "e.wgsl", &["X"])
+            .unwrap_err()
+            .render("shaders/e.wgsl [X]");
+        assert_eq!(
+            err,
+            "error: shaders/e.wgsl:1: #ifdef/#ifndef is not closed by #endif before the end of the file (in shaders/e.wgsl [X])"
+        );
+    }
+
+    #[test]
+    fn capabilities_allow_what_lavapipe_offers_and_nothing_exotic() {
+        let caps = capabilities();
+        assert!(caps.contains(
+            Capabilities::SUBGROUP | Capabilities::IMMEDIATES | Capabilities::CUBE_ARRAY_TEXTURES
+        ));
+        assert!(!caps.contains(Capabilities::RAY_QUERY));
+        assert!(!caps.contains(Capabilities::FLOAT64));
+    }
+}

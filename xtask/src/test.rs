@@ -1,0 +1,391 @@
+//! `cargo xtask test`: the one command CI and developers run.
+//!
+//! 1. Picks the adapter GPU tests use (`WGPU_ADAPTER_NAME`, default `llvmpipe`, i.e.
+//!    lavapipe on Vulkan) and checks with wgpu that such an adapter exists. A missing
+//!    adapter fails the run: GPU tests are never skipped.
+//! 2. Runs `validate-shaders`.
+//! 3. Runs every workspace test: `cargo nextest run` when installed (GPU tests one at a
+//!    time through the `gpu` test group of `.config/nextest.toml`) plus the doc tests,
+//!    else `cargo test` with the GPU test package run separately on one thread.
+//!
+//! Every step runs even when an earlier one fails (except a missing adapter), so one
+//! run reports everything.
+
+use std::env;
+use std::path::Path;
+use std::process::{Command, Stdio};
+
+use anyhow::{bail, Context as _, Result};
+
+use crate::{cargo, describe, run_status, shaders};
+
+/// The package holding the GPU integration tests (directory `tests/`).
+const GPU_TEST_PACKAGE: &str = "tiledlight-tests";
+
+/// lavapipe's adapter name starts with this (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)").
+const DEFAULT_ADAPTER: &str = "llvmpipe";
+
+/// The Debian packages that provide lavapipe and the Vulkan loader.
+const VULKAN_PACKAGES: [&str; 2] = ["mesa-vulkan-drivers", "libvulkan1"];
+
+/// Which adapter the GPU tests must use, and the environment that tells them.
+#[derive(Debug, PartialEq, Eq)]
+struct AdapterChoice {
+    /// Case-insensitive substring of the adapter name, as `WGPU_ADAPTER_NAME` means it.
+    name: String,
+    /// `WGPU_BACKEND` value (comma list), when one applies.
+    backend: Option<String>,
+    /// Variables to set for the child processes (only those not already set).
+    env: Vec<(&'static str, String)>,
+}
+
+impl AdapterChoice {
+    /// From `WGPU_ADAPTER_NAME` and `WGPU_BACKEND` (`get` reads the environment). Without
+    /// an adapter name, lavapipe on Vulkan.
+    fn new(get: impl Fn(&str) -> Option<String>) -> Self {
+        let get = |key: &str| get(key).filter(|v| !v.trim().is_empty());
+        let mut env = Vec::new();
+        let name = get("WGPU_ADAPTER_NAME").unwrap_or_else(|| {
+            env.push(("WGPU_ADAPTER_NAME", DEFAULT_ADAPTER.to_owned()));
+            DEFAULT_ADAPTER.to_owned()
+        });
+        let mut backend = get("WGPU_BACKEND");
+        // lavapipe is a Vulkan driver; Mesa's llvmpipe also shows up as a GL adapter
+        // with the same name, which the tests must not pick instead.
+        if backend.is_none() && name == DEFAULT_ADAPTER {
+            env.push(("WGPU_BACKEND", "vulkan".to_owned()));
+            backend = Some("vulkan".to_owned());
+        }
+        AdapterChoice { name, backend, env }
+    }
+
+    fn backends(&self) -> wgpu::Backends {
+        self.backend
+            .as_deref()
+            .map_or(wgpu::Backends::all(), wgpu::Backends::from_comma_list)
+    }
+
+    fn matches(&self, adapter_name: &str) -> bool {
+        adapter_name
+            .to_lowercase()
+            .contains(&self.name.to_lowercase())
+    }
+}
+
+/// Runs the whole test suite; `extra` goes to `cargo nextest run` / `cargo test`.
+pub fn test(root: &Path, extra: &[String]) -> Result<()> {
+    let choice = AdapterChoice::new(|k| env::var(k).ok());
+    let set_by_xtask = |key: &str| choice.env.iter().any(|(k, _)| *k == key);
+    println!(
+        "xtask: GPU tests use WGPU_ADAPTER_NAME={}{} and WGPU_BACKEND={}{}",
+        choice.name,
+        if set_by_xtask("WGPU_ADAPTER_NAME") {
+            " (default, lavapipe)"
+        } else {
+            " (from the environment)"
+        },
+        choice.backend.as_deref().unwrap_or("<all>"),
+        if set_by_xtask("WGPU_BACKEND") {
+            " (default)"
+        } else {
+            ""
+        },
+    );
+    ensure_adapter(&choice)?;
+
+    let mut failed: Vec<&str> = Vec::new();
+    if let Err(e) = shaders::validate_shaders(root) {
+        eprintln!("error: {e:#}");
+        failed.push("validate-shaders");
+    }
+
+    let with_env = |mut cmd: Command| {
+        for (k, v) in &choice.env {
+            cmd.env(k, v);
+        }
+        cmd
+    };
+    if nextest_available(root) {
+        // The `gpu` test group in .config/nextest.toml serializes the GPU package.
+        let mut cmd = with_env(cargo(root));
+        cmd.args(["nextest", "run", "--workspace", "--no-fail-fast"])
+            .args(extra);
+        if !run_status(&mut cmd)? {
+            failed.push("cargo nextest run");
+        }
+        // nextest does not run doc tests.
+        let mut cmd = with_env(cargo(root));
+        cmd.args(["test", "--workspace", "--doc", "--no-fail-fast"]);
+        if !run_status(&mut cmd)? {
+            failed.push("doc tests");
+        }
+    } else {
+        println!("xtask: cargo-nextest not found, using cargo test (`cargo install cargo-nextest` for faster runs)");
+        let (cargo_args, test_args) = split_test_args(extra);
+        let mut cmd = with_env(cargo(root));
+        cmd.args([
+            "test",
+            "--workspace",
+            "--exclude",
+            GPU_TEST_PACKAGE,
+            "--no-fail-fast",
+        ])
+        .args(cargo_args);
+        if !test_args.is_empty() {
+            cmd.arg("--").args(test_args);
+        }
+        if !run_status(&mut cmd)? {
+            failed.push("cargo test (CPU packages)");
+        }
+        let mut cmd = with_env(cargo(root));
+        cmd.args(["test", "--package", GPU_TEST_PACKAGE, "--no-fail-fast"])
+            .args(cargo_args)
+            .args(["--", "--test-threads=1"])
+            .args(test_args);
+        if !run_status(&mut cmd)? {
+            failed.push("cargo test (GPU package)");
+        }
+    }
+
+    if !failed.is_empty() {
+        bail!("failed: {}", failed.join(", "));
+    }
+    println!("xtask: all tests passed");
+    Ok(())
+}
+
+/// Splits `cargo test` arguments at the first `--`: (for cargo, for the test binaries).
+fn split_test_args(extra: &[String]) -> (&[String], &[String]) {
+    match extra.iter().position(|a| a == "--") {
+        Some(i) => (&extra[..i], &extra[i + 1..]),
+        None => (extra, &[]),
+    }
+}
+
+fn nextest_available(root: &Path) -> bool {
+    cargo(root)
+        .args(["nextest", "--version"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+/// Names (with backend) of every adapter wgpu finds on `backends`.
+fn enumerate_adapters(backends: wgpu::Backends) -> Vec<(String, wgpu::Backend)> {
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+        backends,
+        ..wgpu::InstanceDescriptor::new_without_display_handle()
+    });
+    pollster::block_on(instance.enumerate_adapters(backends))
+        .iter()
+        .map(|a| {
+            let info = a.get_info();
+            (info.name, info.backend)
+        })
+        .collect()
+}
+
+/// Fails unless an adapter matching `choice` exists. On a Debian CI machine run as root
+/// (`CI` set), installs lavapipe first when it is missing.
+fn ensure_adapter(choice: &AdapterChoice) -> Result<()> {
+    let mut adapters = enumerate_adapters(choice.backends());
+    let found = |adapters: &[(String, wgpu::Backend)]| {
+        adapters.iter().find(|(n, _)| choice.matches(n)).cloned()
+    };
+    let system = System::detect();
+    if found(&adapters).is_none() && choice.name == DEFAULT_ADAPTER && system.can_auto_install() {
+        println!(
+            "xtask: no lavapipe adapter on this CI machine: installing {}",
+            VULKAN_PACKAGES.join(" ")
+        );
+        install_lavapipe()?;
+        adapters = enumerate_adapters(choice.backends());
+    }
+    if let Some((name, backend)) = found(&adapters) {
+        println!("xtask: GPU tests run on adapter \"{name}\" ({backend:?})");
+        return Ok(());
+    }
+
+    let listed = if adapters.is_empty() {
+        "none".to_owned()
+    } else {
+        adapters
+            .iter()
+            .map(|(n, b)| format!("\"{n}\" ({b:?})"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let what = format!(
+        "no adapter whose name contains \"{}\" on backend(s) {} (found: {listed}; {})",
+        choice.name,
+        choice.backend.as_deref().unwrap_or("all"),
+        icd_summary()
+    );
+    if choice.name != DEFAULT_ADAPTER {
+        bail!("{what}: unset WGPU_ADAPTER_NAME to test on lavapipe, or set it to one of the adapters found");
+    }
+    match system.install_command() {
+        Some(cmd) => bail!("no Vulkan adapter found ({what}): run `{cmd}`"),
+        None => bail!(
+            "no Vulkan adapter found ({what}): install Mesa's lavapipe Vulkan driver and the Vulkan loader \
+             (Debian/Ubuntu: `apt-get install -y mesa-vulkan-drivers libvulkan1`)"
+        ),
+    }
+}
+
+/// What the machine allows for installing lavapipe.
+struct System {
+    debian: bool,
+    root: bool,
+    ci: bool,
+}
+
+impl System {
+    fn detect() -> Self {
+        let root = Command::new("id")
+            .arg("-u")
+            .output()
+            .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "0");
+        System {
+            debian: Path::new("/etc/debian_version").exists(),
+            root,
+            ci: env::var_os("CI").is_some_and(|v| !v.is_empty()),
+        }
+    }
+
+    fn can_auto_install(&self) -> bool {
+        self.debian && self.root && self.ci
+    }
+
+    /// The exact command that installs lavapipe here, when known.
+    fn install_command(&self) -> Option<String> {
+        self.debian.then(|| {
+            format!(
+                "{}apt-get install -y --no-install-recommends {}",
+                if self.root { "" } else { "sudo " },
+                VULKAN_PACKAGES.join(" ")
+            )
+        })
+    }
+}
+
+fn install_lavapipe() -> Result<()> {
+    for args in [
+        vec!["update"],
+        [
+            &["install", "-y", "--no-install-recommends"][..],
+            &VULKAN_PACKAGES[..],
+        ]
+        .concat(),
+    ] {
+        let mut cmd = Command::new("apt-get");
+        cmd.args(&args).env("DEBIAN_FRONTEND", "noninteractive");
+        let shown = describe(&cmd);
+        let ok = cmd
+            .status()
+            .with_context(|| format!("cannot start {shown}"))?
+            .success();
+        if !ok {
+            bail!("{shown} failed while installing lavapipe");
+        }
+    }
+    Ok(())
+}
+
+/// Where the Vulkan loader looks for drivers, for the no-adapter message.
+fn icd_summary() -> String {
+    for var in ["VK_DRIVER_FILES", "VK_ICD_FILENAMES"] {
+        if let Some(v) = env::var_os(var).filter(|v| !v.is_empty()) {
+            return format!("{var}={}", v.to_string_lossy());
+        }
+    }
+    let dirs = ["/usr/share/vulkan/icd.d", "/etc/vulkan/icd.d"];
+    let icds: Vec<String> = dirs
+        .iter()
+        .filter_map(|d| std::fs::read_dir(d).ok())
+        .flatten()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".json"))
+        .collect();
+    let loader = [
+        "/usr/lib/x86_64-linux-gnu/libvulkan.so.1",
+        "/usr/lib/aarch64-linux-gnu/libvulkan.so.1",
+        "/usr/lib/libvulkan.so.1",
+        "/usr/lib64/libvulkan.so.1",
+    ]
+    .iter()
+    .any(|p| Path::new(p).exists());
+    format!(
+        "Vulkan ICDs in {}: {}; lavapipe ICD (lvp_icd*.json) {}; Vulkan loader libvulkan.so.1 {}",
+        dirs.join(", "),
+        if icds.is_empty() {
+            "none".to_owned()
+        } else {
+            icds.join(" ")
+        },
+        if icds.iter().any(|n| n.starts_with("lvp_icd")) {
+            "present"
+        } else {
+            "missing"
+        },
+        if loader {
+            "present"
+        } else {
+            "not found in the usual places"
+        }
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn choice(vars: &[(&str, &str)]) -> AdapterChoice {
+        AdapterChoice::new(|k| {
+            vars.iter()
+                .find(|(n, _)| *n == k)
+                .map(|(_, v)| v.to_string())
+        })
+    }
+
+    #[test]
+    fn default_adapter_is_lavapipe_on_vulkan() {
+        let c = choice(&[]);
+        assert_eq!(c.name, "llvmpipe");
+        assert_eq!(c.backends(), wgpu::Backends::VULKAN);
+        assert_eq!(
+            c.env,
+            [
+                ("WGPU_ADAPTER_NAME", "llvmpipe".into()),
+                ("WGPU_BACKEND", "vulkan".into())
+            ]
+        );
+        assert!(c.matches("llvmpipe (LLVM 15.0.6, 256 bits)"));
+        assert!(!c.matches("NVIDIA H100"));
+        // Empty counts as unset.
+        assert_eq!(choice(&[("WGPU_ADAPTER_NAME", " ")]).name, "llvmpipe");
+    }
+
+    #[test]
+    fn environment_wins_and_is_not_overridden() {
+        let c = choice(&[("WGPU_ADAPTER_NAME", "NVIDIA")]);
+        assert!(c.env.is_empty());
+        assert_eq!(c.backends(), wgpu::Backends::all());
+        assert!(c.matches("nvidia h100 80gb"));
+        let c = choice(&[("WGPU_BACKEND", "gl")]);
+        assert_eq!(c.env, [("WGPU_ADAPTER_NAME", "llvmpipe".into())]);
+        assert_eq!(c.backends(), wgpu::Backends::GL);
+    }
+
+    #[test]
+    fn test_args_split_at_double_dash() {
+        let args: Vec<String> = ["-p", "x", "--", "--nocapture"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        assert_eq!(split_test_args(&args), (&args[..2], &args[3..]));
+        assert_eq!(split_test_args(&args[..2]), (&args[..2], &[][..]));
+    }
+}
