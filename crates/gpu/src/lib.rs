@@ -1,1 +1,33 @@
-//! placeholder
+//! tiledlight-gpu: the wgpu layer shared by both renderers.
+//!
+//! Device creation with adapter selection by name ([`context`]), WGSL loading with includes
+//! and variants ([`shader`], shaders embedded from `shaders/`), GPU timers ([`timer`]),
+//! readback ([`readback`]), scene and light buffers ([`scene_gpu`], [`lights_gpu`]), and the
+//! passes both methods share: the depth pre-pass ([`depth_prepass`]), tiled light culling
+//! ([`light_cull`]) and tonemapping ([`tonemap`]). Depends on wgpu, tiledlight-cull and
+//! tiledlight-scene; never on a renderer crate.
+
+pub mod context;
+pub mod depth_prepass;
+pub mod error;
+pub mod frame;
+pub mod light_cull;
+pub mod lights_gpu;
+pub mod memory;
+pub mod readback;
+pub mod scene_gpu;
+pub mod shader;
+pub mod timer;
+pub mod tonemap;
+pub mod util;
+
+pub use context::{ContextOptions, GpuContext};
+pub use error::GpuError;
+pub use wgpu;
+
+/// Every Rust struct shared with WGSL in this crate, for `cargo xtask validate-shaders`.
+pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
+    let mut v = frame::layouts();
+    v.extend(scene_gpu::layouts());
+    v
+}

@@ -1,0 +1,239 @@
+//! The Forward+ renderer and the brute-force reference: depth pre-pass -> light culling
+//! (Forward+ only) -> forward shading into linear HDR -> tonemap (-> heat map). Built once
+//! for a scene, light set, screen size and settings; `record` only writes uniforms and
+//! records passes. Depends on tiledlight-gpu and tiledlight-cull.
+
+use glam::Vec3;
+use tiledlight_cull::{Camera, TileGrid};
+use tiledlight_gpu::depth_prepass::{DepthPrepass, DEPTH_FORMAT};
+use tiledlight_gpu::frame::{FrameBinding, FrameParams, FrameUniforms};
+use tiledlight_gpu::light_cull::{CullOptions, LightCulling};
+use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::memory::MemoryReport;
+use tiledlight_gpu::readback::{read_depth, read_hdr, read_texture};
+use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_gpu::timer::GpuTimer;
+use tiledlight_gpu::tonemap::{HeatmapPass, TonemapPass, HDR_FORMAT, LDR_FORMAT};
+use tiledlight_gpu::{GpuContext, GpuError};
+
+use crate::shading::{LightLoop, ShadingPass};
+
+/// Which renderer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Tiled culling then forward shading of each tile's list.
+    ForwardPlus,
+    /// Every light for every pixel: the reference. `cutoff: false` drops the radius window
+    /// (plain inverse-square), the reference for the cutoff's error.
+    BruteForce {
+        /// Keep the windowed falloff with its radius cutoff.
+        cutoff: bool,
+    },
+}
+
+/// Renderer settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ForwardSettings {
+    /// Forward+ or brute force.
+    pub method: Method,
+    /// Culling options (tile size, capacity, tests); the tile size also sets the heat map's.
+    pub cull: CullOptions,
+    /// Exposure before tonemapping.
+    pub exposure: f32,
+    /// Ambient radiance (times base colour), so unlit areas are not black.
+    pub ambient: Vec3,
+    /// Draw the lights-per-tile heat map over the image (Forward+ only).
+    pub heatmap: bool,
+}
+
+impl Default for ForwardSettings {
+    fn default() -> Self {
+        Self { method: Method::ForwardPlus, cull: CullOptions::default(), exposure: 1.0, ambient: Vec3::splat(0.02), heatmap: false }
+    }
+}
+
+/// Render targets of one size.
+pub struct Targets {
+    /// Reversed-Z depth.
+    pub depth: wgpu::Texture,
+    /// Linear HDR lighting.
+    pub hdr: wgpu::Texture,
+    /// Tonemapped sRGB image.
+    pub ldr: wgpu::Texture,
+    depth_view: wgpu::TextureView,
+    hdr_view: wgpu::TextureView,
+    ldr_view: wgpu::TextureView,
+}
+
+fn texture(device: &wgpu::Device, label: &str, w: u32, h: u32, format: wgpu::TextureFormat, usage: wgpu::TextureUsages) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
+}
+
+impl Targets {
+    fn new(device: &wgpu::Device, w: u32, h: u32) -> Self {
+        use wgpu::TextureUsages as U;
+        let depth = texture(device, "forward.depth", w, h, DEPTH_FORMAT, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING | U::COPY_SRC);
+        let hdr = texture(device, "forward.hdr", w, h, HDR_FORMAT, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING | U::COPY_SRC);
+        let ldr = texture(device, "forward.ldr", w, h, LDR_FORMAT, U::RENDER_ATTACHMENT | U::COPY_SRC);
+        Self { depth_view: depth.create_view(&Default::default()), hdr_view: hdr.create_view(&Default::default()), ldr_view: ldr.create_view(&Default::default()), depth, hdr, ldr }
+    }
+
+    fn bytes(w: u32, h: u32) -> u64 {
+        w as u64 * h as u64 * (4 + 8 + 4)
+    }
+}
+
+/// A Forward+ (or brute-force) renderer for one scene, light set and screen size.
+pub struct ForwardRenderer {
+    settings: ForwardSettings,
+    grid: TileGrid,
+    frame: FrameBinding,
+    prepass: DepthPrepass,
+    culling: Option<LightCulling>,
+    shading: ShadingPass,
+    tonemap: TonemapPass,
+    tonemap_input: wgpu::BindGroup,
+    heatmap: Option<(HeatmapPass, wgpu::BindGroup)>,
+    targets: Targets,
+    num_lights: u32,
+    num_point_lights: u32,
+    memory: MemoryReport,
+}
+
+impl ForwardRenderer {
+    /// Builds every pipeline, target and buffer for a `width` x `height` screen.
+    pub fn new(ctx: &GpuContext, scene: &SceneGpu, lights: &LightBuffers, width: u32, height: u32, settings: ForwardSettings) -> Result<Self, GpuError> {
+        let device = &ctx.device;
+        let grid = TileGrid::new(width, height, settings.cull.tile_size)?;
+        if width > device.limits().max_texture_dimension_2d || height > device.limits().max_texture_dimension_2d {
+            return Err(GpuError::Config(format!("{width}x{height} exceeds this GPU's {} pixel texture limit", device.limits().max_texture_dimension_2d)));
+        }
+        ctx.checked("building the Forward+ renderer", || {
+            let frame = FrameBinding::new(device);
+            let targets = Targets::new(device, width, height);
+            let prepass = DepthPrepass::new(device, &frame, scene)?;
+            let (culling, light_loop) = match settings.method {
+                Method::ForwardPlus => (Some(LightCulling::new(device, &frame, &targets.depth_view, lights, grid, settings.cull)?), LightLoop::Tiled { half_z: settings.cull.half_z }),
+                Method::BruteForce { cutoff } => (None, LightLoop::All { cutoff }),
+            };
+            let shading = ShadingPass::new(device, &frame, scene, lights, culling.as_ref(), light_loop)?;
+            let tonemap = TonemapPass::new(device, &frame)?;
+            let tonemap_input = tonemap.bind(device, &targets.hdr_view);
+            let heatmap = match (&culling, settings.heatmap) {
+                (Some(c), true) => {
+                    let h = HeatmapPass::new(device, &frame)?;
+                    let g = h.bind(device, &c.tile_counts);
+                    Some((h, g))
+                }
+                (None, true) => return Err(GpuError::Config("the heat map needs a tiled method (brute force has no tiles)".into())),
+                _ => None,
+            };
+            let mut memory = MemoryReport::default();
+            memory.extend(&scene.memory);
+            memory.extend(&lights.memory);
+            memory.add("targets (depth+hdr+ldr)", Targets::bytes(width, height));
+            if let Some(c) = &culling {
+                memory.extend(&c.memory);
+            }
+            Ok(Self {
+                settings,
+                grid,
+                frame,
+                prepass,
+                culling,
+                shading,
+                tonemap,
+                tonemap_input,
+                heatmap,
+                targets,
+                num_lights: lights.len(),
+                num_point_lights: lights.num_point(),
+                memory,
+            })
+        })?
+    }
+
+    /// The uniforms of a frame seen through `camera` (its aspect should match the screen).
+    pub fn frame_uniforms(&self, camera: &Camera) -> FrameUniforms {
+        FrameUniforms::new(&FrameParams {
+            camera: *camera,
+            grid: self.grid,
+            capacity: self.settings.cull.capacity,
+            lists_per_tile: self.settings.cull.lists_per_tile(),
+            num_lights: self.num_lights,
+            num_point_lights: self.num_point_lights,
+            exposure: self.settings.exposure,
+            ambient: self.settings.ambient,
+        })
+    }
+
+    /// Writes the frame's uniforms and records every pass of one frame.
+    pub fn record(&self, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, scene: &SceneGpu, camera: &Camera) {
+        self.frame.update(queue, &self.frame_uniforms(camera));
+        self.prepass.record(encoder, timer, &self.frame, scene, &self.targets.depth_view);
+        if let Some(c) = &self.culling {
+            c.record(encoder, timer, &self.frame, "forward.cull");
+        }
+        self.shading.record(encoder, timer, &self.frame, scene, &self.targets.hdr_view, &self.targets.depth_view);
+        self.tonemap.record(encoder, timer, &self.frame, &self.tonemap_input, &self.targets.ldr_view);
+        if let Some((h, g)) = &self.heatmap {
+            h.record(encoder, timer, &self.frame, g, &self.targets.ldr_view);
+        }
+    }
+
+    /// Records, submits and waits for one frame (tests, single renders).
+    pub fn render_once(&self, ctx: &GpuContext, timer: &mut GpuTimer, scene: &SceneGpu, camera: &Camera) -> Result<(), GpuError> {
+        ctx.checked("rendering a frame", || {
+            let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("forward.frame") });
+            self.record(&ctx.queue, &mut encoder, timer, scene, camera);
+            timer.resolve(&mut encoder);
+            ctx.queue.submit([encoder.finish()]);
+        })?;
+        timer.end_frame()?;
+        ctx.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Readback(e.to_string()))?;
+        Ok(())
+    }
+
+    /// The tile grid.
+    pub fn grid(&self) -> TileGrid {
+        self.grid
+    }
+    /// The settings it was built with.
+    pub fn settings(&self) -> &ForwardSettings {
+        &self.settings
+    }
+    /// The culling pass (Forward+ only).
+    pub fn culling(&self) -> Option<&LightCulling> {
+        self.culling.as_ref()
+    }
+    /// The render targets.
+    pub fn targets(&self) -> &Targets {
+        &self.targets
+    }
+    /// GPU memory allocated for this renderer, its scene and lights.
+    pub fn memory(&self) -> &MemoryReport {
+        &self.memory
+    }
+
+    /// Reads the depth buffer of the last frame.
+    pub fn read_depth(&self, ctx: &GpuContext) -> Result<Vec<f32>, GpuError> {
+        read_depth(&ctx.device, &ctx.queue, &self.targets.depth)
+    }
+    /// Reads the linear HDR image of the last frame.
+    pub fn read_hdr(&self, ctx: &GpuContext) -> Result<Vec<[f32; 4]>, GpuError> {
+        read_hdr(&ctx.device, &ctx.queue, &self.targets.hdr)
+    }
+    /// Reads the tonemapped sRGB image (RGBA8) of the last frame.
+    pub fn read_ldr(&self, ctx: &GpuContext) -> Result<Vec<u8>, GpuError> {
+        read_texture(&ctx.device, &ctx.queue, &self.targets.ldr, wgpu::TextureAspect::All, 4)
+    }
+}

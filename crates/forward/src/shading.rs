@@ -1,0 +1,159 @@
+//! The forward shading pass: re-draws the scene with depth test Equal against the pre-pass
+//! and, per fragment, sums the lights of its tile list (Forward+) or every light (the
+//! brute-force reference) with the shared BRDF into the `Rgba16Float` target. Shader
+//! variants are chosen from what the scene has (spot lights, textures) and the settings
+//! (half-z, brute force, no cutoff), so unused features cost no code and no buffers.
+//! Bind groups: 0 frame, 1 scene, 2 material texture (textured scenes only), 3 lights.
+//! Depends on tiledlight-gpu.
+
+use tiledlight_gpu::depth_prepass::{primitive_state, DEPTH_FORMAT};
+use tiledlight_gpu::frame::FrameBinding;
+use tiledlight_gpu::light_cull::LightCulling;
+use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, VERTEX_LAYOUTS};
+use tiledlight_gpu::timer::GpuTimer;
+use tiledlight_gpu::tonemap::HDR_FORMAT;
+use tiledlight_gpu::util::{pipeline_layout, shader_module, storage_entry};
+use tiledlight_gpu::GpuError;
+
+/// Which lights each fragment loops over.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightLoop {
+    /// Its tile's culled list (Forward+).
+    Tiled {
+        /// Two lists per tile; the fragment picks its half.
+        half_z: bool,
+    },
+    /// Every light (reference).
+    All {
+        /// Windowed falloff with the radius cutoff (as the tiled methods) or plain 1/d^2.
+        cutoff: bool,
+    },
+}
+
+/// The shading pass's pipelines and light bind group.
+pub struct ShadingPass {
+    pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
+    lights_group: wgpu::BindGroup,
+    /// Stands in for group 2 when the scene has no textures.
+    empty_group: Option<wgpu::BindGroup>,
+    label: &'static str,
+}
+
+impl ShadingPass {
+    /// Builds one pipeline per draw kind of `scene`. `culling` must be given for
+    /// [`LightLoop::Tiled`].
+    pub fn new(device: &wgpu::Device, frame: &FrameBinding, scene: &SceneGpu, lights: &LightBuffers, culling: Option<&LightCulling>, light_loop: LightLoop) -> Result<Self, GpuError> {
+        let fs = wgpu::ShaderStages::FRAGMENT;
+        let mut defines: Vec<&str> = Vec::new();
+        let mut entries = vec![storage_entry(0, fs, true)];
+        let mut bind = vec![wgpu::BindGroupEntry { binding: 0, resource: lights.shading.as_entire_binding() }];
+        if let Some(spots) = &lights.spots {
+            defines.push("SPOT_LIGHTS");
+            entries.push(storage_entry(1, fs, true));
+            bind.push(wgpu::BindGroupEntry { binding: 1, resource: spots.as_entire_binding() });
+        }
+        if scene.textures.is_some() {
+            defines.push("TEXTURES");
+        }
+        let label = match light_loop {
+            LightLoop::Tiled { half_z } => {
+                let c = culling.ok_or_else(|| GpuError::Config("tiled shading needs the culling pass".into()))?;
+                if c.options.half_z != half_z {
+                    return Err(GpuError::Config("half-z must match between culling and shading".into()));
+                }
+                entries.push(storage_entry(2, fs, true));
+                entries.push(storage_entry(3, fs, true));
+                bind.push(wgpu::BindGroupEntry { binding: 2, resource: c.tile_counts.as_entire_binding() });
+                bind.push(wgpu::BindGroupEntry { binding: 3, resource: c.tile_indices.as_entire_binding() });
+                if let Some(r) = &c.tile_ranges {
+                    defines.push("HALF_Z");
+                    entries.push(storage_entry(4, fs, true));
+                    bind.push(wgpu::BindGroupEntry { binding: 4, resource: r.as_entire_binding() });
+                }
+                "forward.shade"
+            }
+            LightLoop::All { cutoff } => {
+                defines.push("BRUTE_FORCE");
+                if !cutoff {
+                    defines.push("NO_CUTOFF");
+                }
+                "brute_force.shade"
+            }
+        };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("shade.lights_layout"), entries: &entries });
+        let lights_group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("shade.lights"), layout: &layout, entries: &bind });
+        let module = shader_module(device, "forward.wgsl", &defines)?;
+        // Group 2 must exist in the layout for group 3 to be bound; an empty layout stands in
+        // when the scene has no textures.
+        let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("shade.empty_layout"), entries: &[] });
+        let tex_layout = scene.textures.as_ref().map_or(&empty, |t| &t.layout);
+        let pl = pipeline_layout(device, "shade.pipeline_layout", &[&frame.layout, &scene.layout, tex_layout, &layout]);
+        let pipelines = scene
+            .kinds()
+            .into_iter()
+            .map(|kind| {
+                let p = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                    label: Some(label),
+                    layout: Some(&pl),
+                    vertex: wgpu::VertexState { module: &module, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &VERTEX_LAYOUTS },
+                    primitive: primitive_state(kind),
+                    depth_stencil: Some(wgpu::DepthStencilState {
+                        format: DEPTH_FORMAT,
+                        depth_write_enabled: Some(false),
+                        depth_compare: Some(wgpu::CompareFunction::Equal),
+                        stencil: Default::default(),
+                        bias: Default::default(),
+                    }),
+                    multisample: Default::default(),
+                    fragment: Some(wgpu::FragmentState {
+                        module: &module,
+                        entry_point: Some("fs_main"),
+                        compilation_options: Default::default(),
+                        targets: &[Some(wgpu::ColorTargetState { format: HDR_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL })],
+                    }),
+                    multiview_mask: None,
+                    cache: None,
+                });
+                (kind, p)
+            })
+            .collect();
+        let empty_group = scene.textures.is_none().then(|| device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("shade.empty"), layout: &empty, entries: &[] }));
+        Ok(Self { pipelines, lights_group, empty_group, label })
+    }
+
+    /// Shades into `hdr` (cleared to black) using the pre-pass `depth`.
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, frame: &FrameBinding, scene: &SceneGpu, hdr: &wgpu::TextureView, depth: &wgpu::TextureView) {
+        let t = timer.begin(self.label, encoder);
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some(self.label),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: hdr,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: depth,
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: t.render_writes(),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, &frame.bind_group, &[]);
+            pass.set_bind_group(1, &scene.bind_group, &[]);
+            if let Some(g) = &self.empty_group {
+                pass.set_bind_group(2, g, &[]);
+            }
+            pass.set_bind_group(3, &self.lights_group, &[]);
+            for (kind, pipeline) in &self.pipelines {
+                pass.set_pipeline(pipeline);
+                scene.record_draws(&mut pass, *kind, true, true);
+            }
+        }
+        timer.end(encoder, t);
+    }
+}

@@ -1,0 +1,128 @@
+//! Instance, adapter and device creation, headless or for a surface. The adapter is chosen
+//! by a case-insensitive substring of its name from `WGPU_ADAPTER_NAME` (e.g. `llvmpipe`
+//! for lavapipe, `H100`), backends from `WGPU_BACKEND`. Only the features and limits the
+//! renderer needs are requested; timestamp queries are used when the adapter has them.
+//! Depends on wgpu.
+
+use crate::error::GpuError;
+
+/// A device and queue with what the renderer learnt about the adapter.
+pub struct GpuContext {
+    /// The wgpu instance.
+    pub instance: wgpu::Instance,
+    /// The chosen adapter.
+    pub adapter: wgpu::Adapter,
+    /// The device.
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+    /// Adapter description, reported at start.
+    pub info: wgpu::AdapterInfo,
+    /// Whether GPU timestamps are available (per-pass timings).
+    pub timestamps: bool,
+}
+
+/// What the caller can ask of the device beyond the defaults.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ContextOptions {
+    /// Disable timestamp queries even when supported.
+    pub no_timestamps: bool,
+}
+
+fn adapter_name_filter() -> Option<String> {
+    std::env::var("WGPU_ADAPTER_NAME").ok().filter(|s| !s.trim().is_empty()).map(|s| s.to_lowercase())
+}
+
+impl GpuContext {
+    /// A device with no surface, for rendering to textures (tests, `render`, `bench`).
+    pub fn headless(options: ContextOptions) -> Result<Self, GpuError> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        if std::env::var("WGPU_BACKEND").is_err() {
+            // Vulkan, Metal and DX12 only: the GL backend lacks compute features we need.
+            desc.backends = wgpu::Backends::PRIMARY;
+        }
+        let instance = wgpu::Instance::new(desc);
+        let adapter = pollster::block_on(select_adapter(&instance, desc_backends()))?;
+        Self::with_adapter(instance, adapter, options)
+    }
+
+    /// A device on a chosen adapter.
+    pub fn with_adapter(instance: wgpu::Instance, adapter: wgpu::Adapter, options: ContextOptions) -> Result<Self, GpuError> {
+        let info = adapter.get_info();
+        let features = adapter.features();
+        let timestamps = !options.no_timestamps && features.contains(wgpu::Features::TIMESTAMP_QUERY);
+        let mut required_features = wgpu::Features::empty();
+        if timestamps {
+            required_features |= wgpu::Features::TIMESTAMP_QUERY;
+        }
+        let supported = adapter.limits();
+        // WebGPU defaults, plus large storage buffers: per-tile lists at 4K with big
+        // capacities and 1M lights exceed the default 128 MiB binding.
+        let required_limits = wgpu::Limits {
+            max_storage_buffer_binding_size: supported.max_storage_buffer_binding_size,
+            max_buffer_size: supported.max_buffer_size,
+            max_texture_dimension_2d: supported.max_texture_dimension_2d.min(16384),
+            ..wgpu::Limits::default()
+        };
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("tiledlight.device"),
+            required_features,
+            required_limits,
+            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            trace: wgpu::Trace::Off,
+        }))
+        .map_err(|e| GpuError::Device { adapter: info.name.clone(), reason: e.to_string() })?;
+        Ok(Self { instance, adapter, device, queue, info, timestamps })
+    }
+
+    /// One line naming the adapter, backend and driver.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} ({:?}, {:?}, driver {} {}){}",
+            self.info.name,
+            self.info.backend,
+            self.info.device_type,
+            self.info.driver,
+            self.info.driver_info,
+            if self.timestamps { "" } else { ", no GPU timestamps" }
+        )
+    }
+
+    /// Runs `f` and turns any wgpu validation or out-of-memory error it raised into
+    /// [`GpuError::Wgpu`] instead of wgpu's default panic.
+    pub fn checked<T>(&self, context: &str, f: impl FnOnce() -> T) -> Result<T, GpuError> {
+        let scope_oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let scope_val = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let out = f();
+        let val = pollster::block_on(scope_val.pop());
+        let oom = pollster::block_on(scope_oom.pop());
+        if let Some(e) = val.or(oom) {
+            return Err(GpuError::Wgpu { context: context.to_string(), message: e.to_string() });
+        }
+        Ok(out)
+    }
+}
+
+fn desc_backends() -> wgpu::Backends {
+    wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY)
+}
+
+/// Picks the adapter named by `WGPU_ADAPTER_NAME`, else the high-performance default.
+pub async fn select_adapter(instance: &wgpu::Instance, backends: wgpu::Backends) -> Result<wgpu::Adapter, GpuError> {
+    let adapters = instance.enumerate_adapters(backends).await;
+    let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
+    if let Some(filter) = adapter_name_filter() {
+        return adapters.into_iter().find(|a| a.get_info().name.to_lowercase().contains(&filter)).ok_or_else(|| {
+            GpuError::NoAdapter(format!(
+                "WGPU_ADAPTER_NAME='{filter}' matches none of the adapters found: [{}]{}",
+                names.join(", "),
+                if names.is_empty() { " (on Debian, `apt-get install mesa-vulkan-drivers` provides lavapipe)" } else { "" }
+            ))
+        });
+    }
+    instance
+        .request_adapter(&wgpu::RequestAdapterOptions { power_preference: wgpu::PowerPreference::HighPerformance, force_fallback_adapter: false, compatible_surface: None, apply_limit_buckets: false })
+        .await
+        .map_err(|e| GpuError::NoAdapter(format!("{e} (on Debian, `apt-get install mesa-vulkan-drivers` provides lavapipe)")))
+}

@@ -1,0 +1,98 @@
+//! The depth pre-pass: reversed-Z `Depth32Float` of the scene's geometry, depth-only for
+//! opaque materials and with an alpha-test fragment stage for masked ones. Both methods
+//! (and the brute-force reference) start with it. Pipelines exist only for the draw kinds
+//! the scene has. Depends on wgpu, [`crate::scene_gpu`] and [`crate::frame`].
+
+use crate::error::GpuError;
+use crate::frame::FrameBinding;
+use crate::scene_gpu::{DrawKind, SceneGpu, VERTEX_LAYOUTS};
+use crate::timer::GpuTimer;
+use crate::util::{pipeline_layout, shader_module};
+
+/// Depth format of every depth buffer (reversed-Z: clear 0, compare Greater).
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// Primitive state for a draw kind: back faces culled unless double-sided.
+pub fn primitive_state(kind: DrawKind) -> wgpu::PrimitiveState {
+    wgpu::PrimitiveState {
+        topology: wgpu::PrimitiveTopology::TriangleList,
+        front_face: wgpu::FrontFace::Ccw,
+        cull_mode: if kind.double_sided { None } else { Some(wgpu::Face::Back) },
+        ..Default::default()
+    }
+}
+
+/// The depth pre-pass pipelines.
+pub struct DepthPrepass {
+    pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
+}
+
+impl DepthPrepass {
+    /// Builds a pipeline per draw kind of `scene`.
+    pub fn new(device: &wgpu::Device, frame: &FrameBinding, scene: &SceneGpu) -> Result<Self, GpuError> {
+        let mut pipelines = Vec::new();
+        let textures = scene.textures.as_ref();
+        for kind in scene.kinds() {
+            let mut defines = Vec::new();
+            let layout = if kind.masked {
+                defines.push("ALPHA_MASK");
+                match textures {
+                    Some(t) => {
+                        defines.push("TEXTURES");
+                        pipeline_layout(device, "depth_prepass.masked.layout", &[&frame.layout, &scene.layout, &t.layout])
+                    }
+                    None => pipeline_layout(device, "depth_prepass.masked.layout", &[&frame.layout, &scene.layout]),
+                }
+            } else {
+                pipeline_layout(device, "depth_prepass.layout", &[&frame.layout, &scene.layout])
+            };
+            let module = shader_module(device, "depth_prepass.wgsl", &defines)?;
+            let (vs, buffers): (&str, &[Option<wgpu::VertexBufferLayout<'_>>]) = if kind.masked { ("vs_masked", &VERTEX_LAYOUTS) } else { ("vs_main", &VERTEX_LAYOUTS[..1]) };
+            let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(&format!("depth_prepass{}{}", if kind.masked { ".masked" } else { "" }, if kind.double_sided { ".double_sided" } else { "" })),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState { module: &module, entry_point: Some(vs), compilation_options: Default::default(), buffers },
+                primitive: primitive_state(kind),
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Greater),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: Default::default(),
+                fragment: kind.masked.then(|| wgpu::FragmentState { module: &module, entry_point: Some("fs_masked"), compilation_options: Default::default(), targets: &[] }),
+                multiview_mask: None,
+                cache: None,
+            });
+            pipelines.push((kind, pipeline));
+        }
+        Ok(Self { pipelines })
+    }
+
+    /// Clears `depth` to 0 (far, reversed-Z) and draws the scene into it.
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, frame: &FrameBinding, scene: &SceneGpu, depth: &wgpu::TextureView) {
+        let t = timer.begin("depth_prepass", encoder);
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("depth_prepass"),
+                color_attachments: &[],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: depth,
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: t.render_writes(),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, &frame.bind_group, &[]);
+            pass.set_bind_group(1, &scene.bind_group, &[]);
+            for (kind, pipeline) in &self.pipelines {
+                pass.set_pipeline(pipeline);
+                scene.record_draws(&mut pass, *kind, kind.masked, kind.masked);
+            }
+        }
+        timer.end(encoder, t);
+    }
+}

@@ -1,0 +1,215 @@
+//! The tiled light-culling compute pass shared by both methods: one workgroup per tile
+//! (8, 16 or 32 pixels a side), min/max depth reduced in workgroup memory, lights tested in
+//! parallel against the tile's volume and appended to a workgroup list, then written to the
+//! tile's region of a global index buffer with the true count. Never writes more than the
+//! capacity; overflowing lists are counted. The CPU reference is
+//! `tiledlight_cull::reference::cull_tiles`. Depends on wgpu, [`crate::frame`],
+//! [`crate::lights_gpu`].
+
+use tiledlight_cull::reference::MAX_CAPACITY;
+use tiledlight_cull::TileGrid;
+
+use crate::error::GpuError;
+use crate::frame::FrameBinding;
+use crate::lights_gpu::LightBuffers;
+use crate::memory::MemoryReport;
+use crate::readback::read_buffer;
+use crate::timer::GpuTimer;
+use crate::util::{buffer_zeroed, pipeline_layout, shader_module, storage_entry};
+
+/// Options of the culling pass (mirrors `tiledlight_cull::CullConfig`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CullOptions {
+    /// Tile side: 8, 16 or 32.
+    pub tile_size: u32,
+    /// Indices stored per list.
+    pub capacity: u32,
+    /// Also test spheres against the tile's view-space AABB.
+    pub aabb: bool,
+    /// Two lists per tile split at the middle of its depth range.
+    pub half_z: bool,
+    /// Also test spot cones (ignored when the scene has no spot lights).
+    pub spot_cone: bool,
+}
+
+impl Default for CullOptions {
+    fn default() -> Self {
+        Self { tile_size: 16, capacity: tiledlight_cull::reference::DEFAULT_CAPACITY, aabb: false, half_z: false, spot_cone: false }
+    }
+}
+
+impl CullOptions {
+    /// The CPU reference configuration running the same tests.
+    pub fn to_config(&self, has_spots: bool) -> tiledlight_cull::CullConfig {
+        tiledlight_cull::CullConfig {
+            tile_size: self.tile_size,
+            capacity: self.capacity,
+            aabb: self.aabb,
+            half_z: self.half_z,
+            spot_cone: self.spot_cone && has_spots,
+            inflate: 0.0,
+        }
+    }
+
+    /// Lists per tile.
+    pub fn lists_per_tile(&self) -> u32 {
+        if self.half_z {
+            2
+        } else {
+            1
+        }
+    }
+}
+
+/// Per-tile lists as read back from the GPU.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GpuTileLists {
+    /// True light count per list.
+    pub counts: Vec<u32>,
+    /// Stored indices per list (at most the capacity each), in the GPU's order.
+    pub lists: Vec<Vec<u32>>,
+    /// Lists that overflowed, as counted on the GPU.
+    pub overflowing: u32,
+    /// (tile, light) pairs found, as counted on the GPU.
+    pub pairs: u32,
+}
+
+/// The culling pass and its output buffers, sized to one screen and tile size.
+pub struct LightCulling {
+    pipeline: wgpu::ComputePipeline,
+    bind_group: wgpu::BindGroup,
+    /// Per-list light counts.
+    pub tile_counts: wgpu::Buffer,
+    /// Per-list light indices (`capacity` per list).
+    pub tile_indices: wgpu::Buffer,
+    /// Per-tile depth ranges (half-z only).
+    pub tile_ranges: Option<wgpu::Buffer>,
+    stats: wgpu::Buffer,
+    /// The tiling.
+    pub grid: TileGrid,
+    /// The options it was built with.
+    pub options: CullOptions,
+    /// Bytes allocated.
+    pub memory: MemoryReport,
+}
+
+impl LightCulling {
+    /// Builds the pipeline and buffers for `grid`, reading `depth` (a single-sampled
+    /// `Depth32Float` view of the pre-pass).
+    pub fn new(device: &wgpu::Device, frame: &FrameBinding, depth: &wgpu::TextureView, lights: &LightBuffers, grid: TileGrid, options: CullOptions) -> Result<Self, GpuError> {
+        if ![8, 16, 32].contains(&options.tile_size) || grid.tile_size != options.tile_size {
+            return Err(GpuError::Config(format!("tile size {} must be 8, 16 or 32 (and match the grid's {})", options.tile_size, grid.tile_size)));
+        }
+        if options.capacity == 0 || options.capacity > MAX_CAPACITY {
+            return Err(GpuError::Config(format!("per-tile capacity {} must be in 1..={MAX_CAPACITY}", options.capacity)));
+        }
+        let lists = grid.tile_count() as u64 * options.lists_per_tile() as u64;
+        let limits = device.limits();
+        let wg_bytes = options.capacity * 4 * options.lists_per_tile() + 16;
+        if wg_bytes > limits.max_compute_workgroup_storage_size {
+            return Err(GpuError::Config(format!(
+                "capacity {} needs {wg_bytes} bytes of workgroup memory; this device allows {}",
+                options.capacity, limits.max_compute_workgroup_storage_size
+            )));
+        }
+        let index_bytes = lists * options.capacity as u64 * 4;
+        if index_bytes > limits.max_storage_buffer_binding_size as u64 {
+            return Err(GpuError::Config(format!(
+                "tile lists need {index_bytes} bytes ({lists} lists x {} indices); this device binds at most {}",
+                options.capacity, limits.max_storage_buffer_binding_size
+            )));
+        }
+        let spot_cone = options.spot_cone && lights.has_spots();
+        let mut defines = Vec::new();
+        if options.aabb {
+            defines.push("AABB");
+        }
+        if options.half_z {
+            defines.push("HALF_Z");
+        }
+        if spot_cone {
+            defines.push("SPOT_CONE");
+        }
+        let cs = wgpu::ShaderStages::COMPUTE;
+        let mut entries = vec![
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: cs,
+                ty: wgpu::BindingType::Texture { sample_type: wgpu::TextureSampleType::Depth, view_dimension: wgpu::TextureViewDimension::D2, multisampled: false },
+                count: None,
+            },
+            storage_entry(1, cs, true),
+            storage_entry(2, cs, false),
+            storage_entry(3, cs, false),
+            storage_entry(4, cs, false),
+        ];
+        let out_usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        let tile_counts = buffer_zeroed(device, "cull.tile_counts", lists * 4, out_usage);
+        let tile_indices = buffer_zeroed(device, "cull.tile_indices", index_bytes, out_usage);
+        let stats = buffer_zeroed(device, "cull.stats", 8, out_usage);
+        let tile_ranges = options.half_z.then(|| buffer_zeroed(device, "cull.tile_ranges", grid.tile_count() as u64 * 8, out_usage));
+        let mut memory = MemoryReport::default();
+        memory.add("cull.tile_lists", tile_counts.size() + tile_indices.size() + stats.size());
+        if let Some(r) = &tile_ranges {
+            entries.push(storage_entry(5, cs, false));
+            memory.add("cull.tile_ranges", r.size());
+        }
+        if spot_cone {
+            entries.push(storage_entry(6, cs, true));
+            entries.push(storage_entry(7, cs, true));
+        }
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("cull.layout"), entries: &entries });
+        let mut bind = vec![
+            wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(depth) },
+            wgpu::BindGroupEntry { binding: 1, resource: lights.cull.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 2, resource: tile_counts.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 3, resource: tile_indices.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 4, resource: stats.as_entire_binding() },
+        ];
+        if let Some(r) = &tile_ranges {
+            bind.push(wgpu::BindGroupEntry { binding: 5, resource: r.as_entire_binding() });
+        }
+        if let (true, Some(spots)) = (spot_cone, &lights.spots) {
+            bind.push(wgpu::BindGroupEntry { binding: 6, resource: lights.shading.as_entire_binding() });
+            bind.push(wgpu::BindGroupEntry { binding: 7, resource: spots.as_entire_binding() });
+        }
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("cull.bind_group"), layout: &layout, entries: &bind });
+        let module = shader_module(device, "cull.wgsl", &defines)?;
+        let wg = options.tile_size.min(16);
+        let constants = [("TILE_SIZE", options.tile_size as f64), ("WG", wg as f64), ("CAPACITY", options.capacity as f64)];
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("cull"),
+            layout: Some(&pipeline_layout(device, "cull.pipeline_layout", &[&frame.layout, &layout])),
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, zero_initialize_workgroup_memory: false },
+            cache: None,
+        });
+        Ok(Self { pipeline, bind_group, tile_counts, tile_indices, tile_ranges, stats, grid, options, memory })
+    }
+
+    /// Records the culling dispatch (one workgroup per tile) after clearing the counters.
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, frame: &FrameBinding, label: &str) {
+        encoder.clear_buffer(&self.stats, 0, None);
+        let t = timer.begin(label, encoder);
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: t.compute_writes() });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &frame.bind_group, &[]);
+            pass.set_bind_group(1, &self.bind_group, &[]);
+            pass.dispatch_workgroups(self.grid.tiles_x, self.grid.tiles_y, 1);
+        }
+        timer.end(encoder, t);
+    }
+
+    /// Reads the lists of the last culled frame back (tests, statistics; stalls the GPU).
+    pub fn read_lists(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<GpuTileLists, GpuError> {
+        let counts: Vec<u32> = read_buffer(device, queue, &self.tile_counts)?;
+        let indices: Vec<u32> = read_buffer(device, queue, &self.tile_indices)?;
+        let stats: Vec<u32> = read_buffer(device, queue, &self.stats)?;
+        let cap = self.options.capacity as usize;
+        let n = self.grid.tile_count() * self.options.lists_per_tile() as usize;
+        let lists = (0..n).map(|i| indices[i * cap..i * cap + (counts[i] as usize).min(cap)].to_vec()).collect();
+        Ok(GpuTileLists { counts: counts[..n].to_vec(), lists, overflowing: stats[0], pairs: stats[1] })
+    }
+}

@@ -1,0 +1,69 @@
+//! Light buffers on the GPU: culling data (bounding spheres) apart from shading data, and a
+//! spot buffer that exists only when the scene has spot lights. Depends on wgpu and
+//! tiledlight-cull.
+
+use tiledlight_cull::light::{order_points_first, pack_lights, PackedLights};
+use tiledlight_cull::Light;
+
+use crate::error::GpuError;
+use crate::memory::MemoryReport;
+use crate::util::buffer_init;
+
+/// Most lights accepted (1,048,576): far beyond what the tiled methods are meant for, and
+/// a guard against absurd counts exhausting GPU memory.
+pub const MAX_LIGHTS: usize = 1 << 20;
+
+/// The scene's lights in GPU buffers, points first.
+pub struct LightBuffers {
+    /// Bounding spheres (culling kernel input).
+    pub cull: wgpu::Buffer,
+    /// Shading data.
+    pub shading: wgpu::Buffer,
+    /// Spot data, only when there are spot lights.
+    pub spots: Option<wgpu::Buffer>,
+    /// The packed lights as uploaded (the CPU reference culls exactly these).
+    pub packed: PackedLights,
+    /// Bytes allocated.
+    pub memory: MemoryReport,
+}
+
+impl LightBuffers {
+    /// Orders (points first), packs and uploads `lights`.
+    pub fn new(device: &wgpu::Device, lights: &[Light]) -> Result<Self, GpuError> {
+        if lights.len() > MAX_LIGHTS {
+            return Err(GpuError::Config(format!("{} lights requested; at most {MAX_LIGHTS} are supported", lights.len())));
+        }
+        let packed = pack_lights(&order_points_first(lights));
+        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        let cull = buffer_init(device, "lights.cull", bytemuck::cast_slice(&packed.cull), usage);
+        let shading = buffer_init(device, "lights.shading", bytemuck::cast_slice(&packed.shading), usage);
+        let spots = (!packed.spots.is_empty()).then(|| buffer_init(device, "lights.spots", bytemuck::cast_slice(&packed.spots), usage));
+        let mut memory = MemoryReport::default();
+        memory.add("lights.cull", cull.size());
+        memory.add("lights.shading", shading.size());
+        if let Some(s) = &spots {
+            memory.add("lights.spots", s.size());
+        }
+        Ok(Self { cull, shading, spots, packed, memory })
+    }
+
+    /// Number of lights.
+    pub fn len(&self) -> u32 {
+        self.packed.len() as u32
+    }
+
+    /// True when there are no lights.
+    pub fn is_empty(&self) -> bool {
+        self.packed.is_empty()
+    }
+
+    /// Number of point lights (the first ones).
+    pub fn num_point(&self) -> u32 {
+        self.packed.num_point
+    }
+
+    /// True when the spot buffer exists.
+    pub fn has_spots(&self) -> bool {
+        self.spots.is_some()
+    }
+}

@@ -1,0 +1,79 @@
+//! Accounting of the GPU memory each renderer allocates, by category, so `render` and
+//! `bench` can print what a configuration costs. Depends on nothing.
+
+use std::fmt;
+
+/// Bytes allocated per named category (e.g. "scene.vertices", "forward.tile_lists").
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct MemoryReport {
+    /// (category, bytes), in the order they were added.
+    pub entries: Vec<(String, u64)>,
+}
+
+impl MemoryReport {
+    /// Adds `bytes` under `category` (summed with an existing entry of that name).
+    pub fn add(&mut self, category: &str, bytes: u64) {
+        match self.entries.iter_mut().find(|(c, _)| c == category) {
+            Some((_, b)) => *b += bytes,
+            None => self.entries.push((category.to_string(), bytes)),
+        }
+    }
+
+    /// Appends every entry of `other`.
+    pub fn extend(&mut self, other: &MemoryReport) {
+        for (c, b) in &other.entries {
+            self.add(c, *b);
+        }
+    }
+
+    /// Total bytes.
+    pub fn total(&self) -> u64 {
+        self.entries.iter().map(|(_, b)| b).sum()
+    }
+
+    /// Bytes of one category (0 if absent).
+    pub fn get(&self, category: &str) -> u64 {
+        self.entries.iter().find(|(c, _)| c == category).map_or(0, |(_, b)| *b)
+    }
+}
+
+/// Formats a byte count with binary units.
+pub fn format_bytes(b: u64) -> String {
+    const UNITS: [&str; 4] = ["B", "KiB", "MiB", "GiB"];
+    let mut v = b as f64;
+    let mut u = 0;
+    while v >= 1024.0 && u + 1 < UNITS.len() {
+        v /= 1024.0;
+        u += 1;
+    }
+    if u == 0 {
+        format!("{b} B")
+    } else {
+        format!("{v:.2} {}", UNITS[u])
+    }
+}
+
+impl fmt::Display for MemoryReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (c, b) in &self.entries {
+            writeln!(f, "  {c:<28} {:>12}", format_bytes(*b))?;
+        }
+        write!(f, "  {:<28} {:>12}", "total", format_bytes(self.total()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sums_categories() {
+        let mut m = MemoryReport::default();
+        m.add("a", 10);
+        m.add("b", 5);
+        m.add("a", 1);
+        assert_eq!(m.get("a"), 11);
+        assert_eq!(m.total(), 16);
+        assert_eq!(format_bytes(1536), "1.50 KiB");
+    }
+}

@@ -1,0 +1,57 @@
+// Shading maths shared by every renderer; the CPU twin is crates/cull/src/brdf.rs.
+
+const PI: f32 = 3.14159265358979;
+// Squared emitter size (1 cm): keeps 1/d^2 finite at the light.
+const LIGHT_SIZE_SQ: f32 = 1e-4;
+const MIN_ROUGHNESS: f32 = 0.045;
+
+fn windowed_attenuation(dist_sq: f32, radius: f32) -> f32 {
+    let x = dist_sq / (radius * radius);
+    let w = saturate(1.0 - x * x);
+    return w * w / max(dist_sq, LIGHT_SIZE_SQ);
+}
+
+fn unwindowed_attenuation(dist_sq: f32) -> f32 {
+    return 1.0 / max(dist_sq, LIGHT_SIZE_SQ);
+}
+
+fn spot_falloff(cos_angle: f32, scale: f32, offset: f32) -> f32 {
+    let t = saturate(cos_angle * scale + offset);
+    return t * t;
+}
+
+struct Surface {
+    albedo: vec3<f32>,
+    roughness: f32,
+    metallic: f32,
+}
+
+// BRDF times cosine: Lambert diffuse + GGX with height-correlated Smith visibility and
+// Schlick Fresnel. n, v, l are unit vectors pointing away from the surface.
+fn brdf_cos(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, s: Surface) -> vec3<f32> {
+    let n_dot_l = saturate(dot(n, l));
+    if n_dot_l <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let n_dot_v = max(dot(n, v), 1e-4);
+    let hv = v + l;
+    let hl = length(hv);
+    var h = vec3<f32>(0.0);
+    if hl > 0.0 {
+        h = hv / hl;
+    }
+    let n_dot_h = saturate(dot(n, h));
+    let v_dot_h = saturate(dot(v, h));
+    let rough = clamp(s.roughness, MIN_ROUGHNESS, 1.0);
+    let a = rough * rough;
+    let a2 = a * a;
+    let dd = n_dot_h * n_dot_h * (a2 - 1.0) + 1.0;
+    let d = a2 / (PI * dd * dd);
+    let gv = n_dot_l * sqrt(n_dot_v * n_dot_v * (1.0 - a2) + a2);
+    let gl = n_dot_v * sqrt(n_dot_l * n_dot_l * (1.0 - a2) + a2);
+    let vis = 0.5 / (gv + gl);
+    let f0 = mix(vec3<f32>(0.04), s.albedo, s.metallic);
+    let f = f0 + (vec3<f32>(1.0) - f0) * pow(1.0 - v_dot_h, 5.0);
+    let diffuse = s.albedo * ((1.0 - s.metallic) / PI);
+    return (diffuse + f * (d * vis)) * n_dot_l;
+}

@@ -1,0 +1,63 @@
+// Scene geometry bindings and the shared vertex transform.
+// Keep in sync with crates/gpu/src/scene_gpu.rs (GpuInstance, GpuMaterial).
+#include "common/frame.wgsl"
+
+struct Instance {
+    model: mat4x4<f32>,
+    normal_matrix: mat3x3<f32>,
+    material: u32,
+}
+
+struct Material {
+    base_color: vec4<f32>,
+    roughness: f32,
+    metallic: f32,
+    alpha_cutoff: f32,
+    has_texture: u32,
+}
+
+@group(1) @binding(0) var<storage, read> instances: array<Instance>;
+@group(1) @binding(1) var<storage, read> materials: array<Material>;
+
+#ifdef TEXTURES
+@group(2) @binding(0) var base_color_texture: texture_2d<f32>;
+@group(2) @binding(1) var base_color_sampler: sampler;
+#endif
+
+// Base colour and alpha of a material at `uv`.
+fn material_color(m: Material, uv: vec2<f32>) -> vec4<f32> {
+    var c = m.base_color;
+#ifdef TEXTURES
+    // Sampled unconditionally: textureSample needs uniform control flow (derivatives).
+    let t = textureSample(base_color_texture, base_color_sampler, uv);
+    c *= select(vec4<f32>(1.0), t, m.has_texture != 0u);
+#endif
+    return c;
+}
+
+struct VertexOut {
+    // Invariant: the shading pass tests depth Equal against the pre-pass.
+    @invariant @builtin(position) clip: vec4<f32>,
+    @location(0) world_pos: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+    @location(3) @interpolate(flat) material: u32,
+}
+
+fn transform_vertex(instance_index: u32, position: vec3<f32>, normal: vec3<f32>, uv: vec2<f32>) -> VertexOut {
+    let inst = instances[instance_index];
+    let world = inst.model * vec4<f32>(position, 1.0);
+    var out: VertexOut;
+    out.clip = frame.view_proj * world;
+    out.world_pos = world.xyz;
+    out.normal = inst.normal_matrix * normal;
+    out.uv = uv;
+    out.material = inst.material;
+    return out;
+}
+
+// Clip position only: the same arithmetic as transform_vertex so depths match exactly.
+fn transform_position(instance_index: u32, position: vec3<f32>) -> vec4<f32> {
+    let world = instances[instance_index].model * vec4<f32>(position, 1.0);
+    return frame.view_proj * world;
+}

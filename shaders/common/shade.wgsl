@@ -1,0 +1,28 @@
+// One light's contribution at a surface point. The including file declares
+// `shading_lights: array<ShadingLight>` and, with SPOT_LIGHTS, `spot_lights: array<SpotLight>`.
+// With NO_CUTOFF the falloff is plain inverse-square (the brute-force reference without radius).
+#include "common/frame.wgsl"
+#include "common/lights.wgsl"
+#include "common/brdf.wgsl"
+
+fn shade_light(i: u32, p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, s: Surface) -> vec3<f32> {
+    let light = shading_lights[i];
+    let to_light = light.position - p;
+    let d2 = dot(to_light, to_light);
+#ifdef NO_CUTOFF
+    var atten = unwindowed_attenuation(d2);
+#else
+    if d2 >= light.radius * light.radius {
+        return vec3<f32>(0.0);
+    }
+    var atten = windowed_attenuation(d2, light.radius);
+#endif
+    let l = to_light * inverseSqrt(max(d2, 1e-30));
+#ifdef SPOT_LIGHTS
+    if i >= frame.num_point_lights {
+        let spot = spot_lights[i - frame.num_point_lights];
+        atten *= spot_falloff(dot(-l, spot.direction), spot.angle_scale, spot.angle_offset);
+    }
+#endif
+    return light.radiance * (atten * brdf_cos(n, v, l, s));
+}

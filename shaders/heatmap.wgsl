@@ -1,0 +1,42 @@
+// Heat map of lights per tile over the tonemapped image: a log-scale palette from 1 light
+// (blue) to the list capacity (red); tiles whose count exceeds the capacity are magenta;
+// tiles with no light keep the image. With half-z the two lists' counts are summed.
+#include "common/frame.wgsl"
+
+@group(1) @binding(0) var<storage, read> tile_counts: array<u32>;
+
+@vertex
+fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+    return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
+}
+
+// Blue -> cyan -> green -> yellow -> red for t in [0, 1].
+fn palette(t: f32) -> vec3<f32> {
+    let x = saturate(t) * 4.0;
+    let r = saturate(x - 2.0);
+    let g = select(saturate(x - 0.0), saturate(4.0 - x), x > 2.0);
+    let b = saturate(2.0 - x);
+    return vec3<f32>(r, g, b);
+}
+
+@fragment
+fn fs_heatmap(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
+    let tile = vec2<u32>(pos.xy) / frame.tile_size;
+    let t = tile.y * frame.tiles.x + tile.x;
+    var count = 0u;
+    var overflow = false;
+    for (var k = 0u; k < frame.lists_per_tile; k++) {
+        let c = tile_counts[t * frame.lists_per_tile + k];
+        count += c;
+        overflow = overflow || c > frame.capacity;
+    }
+    if count == 0u {
+        return vec4<f32>(0.0);
+    }
+    if overflow {
+        return vec4<f32>(1.0, 0.0, 1.0, 0.75);
+    }
+    let t_log = log2(f32(count)) / log2(f32(max(frame.capacity, 2u)));
+    return vec4<f32>(palette(t_log), 0.6);
+}
