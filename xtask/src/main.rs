@@ -107,7 +107,35 @@ fn describe(cmd: &Command) -> String {
         .to_string_lossy()
         .into_owned();
     std::iter::once(program)
-        .chain(cmd.get_args().map(|a| a.to_string_lossy().into_owned()))
+        .chain(cmd.get_args().map(|a| quote(&a.to_string_lossy())))
         .collect::<Vec<_>>()
         .join(" ")
+}
+
+/// `arg` quoted for a shell when it needs to be, so echoed commands can be pasted.
+fn quote(arg: &str) -> String {
+    let plain = !arg.is_empty()
+        && arg
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_=./:,+@%".contains(c));
+    if plain {
+        arg.to_owned()
+    } else {
+        format!("'{}'", arg.replace('\'', r"'\''"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn commands_are_echoed_pasteably() {
+        let mut cmd = Command::new("/usr/bin/cargo");
+        cmd.args(["nextest", "run", "-E", "package(x)", "it's"]);
+        assert_eq!(
+            describe(&cmd),
+            r"cargo nextest run -E 'package(x)' 'it'\''s'"
+        );
+    }
 }

@@ -217,19 +217,22 @@ fn ensure_adapter(choice: &AdapterChoice) -> Result<()> {
             .join(", ")
     };
     let what = format!(
-        "no adapter whose name contains \"{}\" on backend(s) {} (found: {listed}; {})",
+        "looked for an adapter whose name contains \"{}\" on backend(s) {}; found: {listed}; {}",
         choice.name,
         choice.backend.as_deref().unwrap_or("all"),
         icd_summary()
     );
     if choice.name != DEFAULT_ADAPTER {
-        bail!("{what}: unset WGPU_ADAPTER_NAME to test on lavapipe, or set it to one of the adapters found");
+        bail!(
+            "no matching GPU adapter: unset WGPU_ADAPTER_NAME to test on lavapipe, \
+             or set it to part of a name found ({what})"
+        );
     }
     match system.install_command() {
-        Some(cmd) => bail!("no Vulkan adapter found ({what}): run `{cmd}`"),
+        Some(cmd) => bail!("no Vulkan adapter found: run `{cmd}` ({what})"),
         None => bail!(
-            "no Vulkan adapter found ({what}): install Mesa's lavapipe Vulkan driver and the Vulkan loader \
-             (Debian/Ubuntu: `apt-get install -y mesa-vulkan-drivers libvulkan1`)"
+            "no Vulkan adapter found: install Mesa's lavapipe Vulkan driver and the Vulkan loader \
+             (Debian/Ubuntu: `apt-get install -y mesa-vulkan-drivers libvulkan1`) ({what})"
         ),
     }
 }
