@@ -1,1 +1,31 @@
-//! placeholder
+//! GPU integration-test harness for tiledlight, run on lavapipe in CI.
+//!
+//! [`gpu`] creates a device on the adapter named by `WGPU_ADAPTER_NAME` (failing, never
+//! skipping, when none exists); [`scenes`] builds small test scenes, cameras and lights;
+//! [`images`] compares images with nv-flip (mean and percentile thresholds) and writes
+//! `-actual.png` / `-difference.png` next to the test output on failure. Depends on every
+//! tiledlight crate; nothing depends on it.
+
+pub mod images;
+pub mod scenes;
+
+use tiledlight_gpu::{ContextOptions, GpuContext};
+
+/// A device for one test. Panics with the reason when no adapter exists: a GPU test must
+/// fail, not pass silently, on a machine without Vulkan (install mesa-vulkan-drivers).
+pub fn gpu() -> GpuContext {
+    match GpuContext::headless(ContextOptions::default()) {
+        Ok(ctx) => {
+            eprintln!("adapter: {}", ctx.describe());
+            ctx
+        }
+        Err(e) => panic!("GPU tests need an adapter: {e}"),
+    }
+}
+
+/// Directory for failure artefacts (`target/test-output`).
+pub fn output_dir() -> std::path::PathBuf {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/test-output");
+    std::fs::create_dir_all(&dir).expect("create target/test-output");
+    dir
+}

@@ -1,0 +1,96 @@
+//! Image comparison for tests: nv-flip on tonemapped sRGB images (mean and a percentile
+//! against stated thresholds) and relative error on linear HDR. On failure, writes
+//! `<name>-actual.png`, `<name>-expected.png` and `<name>-difference.png` (FLIP heat map) to
+//! `target/test-output`. Stored reference images are only rewritten when
+//! `TILEDLIGHT_UPDATE_REFERENCES=1`.
+
+use std::path::Path;
+
+/// Thresholds for a FLIP comparison.
+#[derive(Clone, Copy, Debug)]
+pub struct FlipThresholds {
+    /// Largest mean FLIP error accepted.
+    pub mean: f32,
+    /// Percentile to check (e.g. 0.99) and its largest accepted value.
+    pub percentile: (f32, f32),
+}
+
+/// Result of a FLIP comparison.
+#[derive(Clone, Copy, Debug)]
+pub struct FlipResult {
+    /// Mean error.
+    pub mean: f32,
+    /// Error at the checked percentile.
+    pub percentile: f32,
+    /// Largest error.
+    pub max: f32,
+}
+
+fn rgb(rgba: &[u8]) -> Vec<u8> {
+    rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect()
+}
+
+/// Writes RGBA8 pixels as a PNG.
+pub fn save_png(path: &Path, w: u32, h: u32, rgba: &[u8]) {
+    image::save_buffer(path, rgba, w, h, image::ExtendedColorType::Rgba8).unwrap_or_else(|e| panic!("writing {}: {e}", path.display()));
+}
+
+/// Compares `actual` with `expected` (RGBA8 sRGB) and panics with the numbers when a
+/// threshold is exceeded, after writing the artefacts named `name`.
+pub fn assert_flip(name: &str, w: u32, h: u32, expected: &[u8], actual: &[u8], t: FlipThresholds) -> FlipResult {
+    let r = nv_flip::FlipImageRgb8::with_data(w, h, &rgb(expected));
+    let a = nv_flip::FlipImageRgb8::with_data(w, h, &rgb(actual));
+    let map = nv_flip::flip(r, a, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
+    let mut pool = nv_flip::FlipPool::from_image(&map);
+    let res = FlipResult { mean: pool.mean(), percentile: pool.get_percentile(t.percentile.0, false), max: pool.max_value() };
+    eprintln!("{name}: FLIP mean {:.5}, p{} {:.5}, max {:.5}", res.mean, t.percentile.0 * 100.0, res.percentile, res.max);
+    if res.mean > t.mean || res.percentile > t.percentile.1 {
+        let dir = crate::output_dir();
+        save_png(&dir.join(format!("{name}-actual.png")), w, h, actual);
+        save_png(&dir.join(format!("{name}-expected.png")), w, h, expected);
+        let diff = map.apply_color_lut(&nv_flip::magma_lut()).to_vec();
+        image::save_buffer(dir.join(format!("{name}-difference.png")), &diff, w, h, image::ExtendedColorType::Rgb8).expect("write difference");
+        panic!(
+            "{name}: FLIP mean {} (limit {}), p{} {} (limit {}); images in {}",
+            res.mean,
+            t.mean,
+            t.percentile.0 * 100.0,
+            res.percentile,
+            t.percentile.1,
+            dir.display()
+        );
+    }
+    res
+}
+
+/// Compares with a stored reference PNG under `tests/reference/<name>.png`; with
+/// `TILEDLIGHT_UPDATE_REFERENCES=1` the reference is (re)written instead. A missing
+/// reference fails the test with the command that creates it.
+pub fn assert_matches_reference(name: &str, w: u32, h: u32, actual: &[u8], t: FlipThresholds) -> FlipResult {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("reference").join(format!("{name}.png"));
+    if std::env::var("TILEDLIGHT_UPDATE_REFERENCES").as_deref() == Ok("1") {
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        save_png(&path, w, h, actual);
+        eprintln!("updated reference {}", path.display());
+    }
+    let expected = image::open(&path)
+        .unwrap_or_else(|e| panic!("reference {} unreadable ({e}); create it with TILEDLIGHT_UPDATE_REFERENCES=1 cargo xtask test", path.display()))
+        .to_rgba8();
+    assert_eq!((expected.width(), expected.height()), (w, h), "reference {} has another size", path.display());
+    assert_flip(name, w, h, expected.as_raw(), actual, t)
+}
+
+/// Largest error of linear HDR `actual` vs `expected`, per channel, relative to
+/// `max(|expected|, floor)`.
+pub fn max_relative_error(expected: &[[f32; 4]], actual: &[[f32; 4]], floor: f32) -> (f32, usize) {
+    let mut worst = (0.0f32, 0usize);
+    for (i, (e, a)) in expected.iter().zip(actual).enumerate() {
+        for c in 0..3 {
+            let err = (a[c] - e[c]).abs() / e[c].abs().max(floor);
+            if !(err <= worst.0) {
+                worst = (if err.is_nan() { f32::INFINITY } else { err }, i);
+            }
+        }
+    }
+    worst
+}

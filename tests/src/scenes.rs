@@ -1,0 +1,111 @@
+//! Test scenes, cameras and lights: the built-in courtyard, a small hand-made scene that
+//! exercises every material path (texture, alpha mask, double-sided, metal), and seeded
+//! random lights, plus cameras at the extremes DESIGN.md lists.
+
+use glam::{Mat4, Vec3};
+use tiledlight_cull::{Camera, Light};
+use tiledlight_scene::{default_scene, random_lights, Aabb, AlphaMode, DefaultSceneOptions, LightOptions, Material, Mesh, Scene, Texture};
+
+/// The built-in courtyard (no grid objects).
+pub fn courtyard() -> Scene {
+    default_scene(&DefaultSceneOptions::default()).expect("default scene")
+}
+
+/// The courtyard's own camera for a `w` x `h` screen.
+pub fn courtyard_camera(scene: &Scene, w: u32, h: u32) -> Camera {
+    let c = scene.camera.expect("default scene has a camera");
+    Camera::perspective(c.eye, c.target, c.up, c.fov_y, w as f32 / h as f32, c.near, c.far).expect("camera")
+}
+
+/// `n_point` point and `n_spot` spot lights, seeded, inside `scene`'s bounds.
+pub fn lights(scene: &Scene, n_point: u32, n_spot: u32, seed: u64) -> Vec<Light> {
+    random_lights(&scene.bounds, &LightOptions { num_point: n_point, num_spot: n_spot, seed, ..Default::default() }).expect("lights")
+}
+
+fn quad(name: &str, size: f32) -> Mesh {
+    let s = size * 0.5;
+    Mesh {
+        name: name.into(),
+        positions: vec![[-s, 0.0, -s], [-s, 0.0, s], [s, 0.0, s], [s, 0.0, -s]],
+        normals: vec![[0.0, 1.0, 0.0]; 4],
+        uvs: vec![[0.0, 0.0], [0.0, 4.0], [4.0, 4.0], [4.0, 0.0]],
+        indices: vec![0, 1, 2, 0, 2, 3],
+    }
+}
+
+fn cube(name: &str) -> Mesh {
+    let mut m = Mesh { name: name.into(), positions: vec![], normals: vec![], uvs: vec![], indices: vec![] };
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            let mut n = Vec3::ZERO;
+            n[axis] = sign;
+            // u x v = n, so (u, v) corners in this order wind counter-clockwise seen from outside.
+            let u = n.any_orthonormal_vector();
+            let v = n.cross(u);
+            let base = m.positions.len() as u32;
+            for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                m.positions.push((n * 0.5 + u * 0.5 * a + v * 0.5 * b).to_array());
+                m.normals.push(n.to_array());
+                m.uvs.push([(a + 1.0) * 0.5, (b + 1.0) * 0.5]);
+            }
+            m.indices.extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+        }
+    }
+    m
+}
+
+fn material(name: &str, color: [f32; 4], roughness: f32, metallic: f32) -> Material {
+    Material { name: name.into(), base_color: color, base_color_texture: None, roughness, metallic, alpha_mode: AlphaMode::Opaque, double_sided: false }
+}
+
+/// A 20 m square room: floor, boxes, a metal box, a textured alpha-masked double-sided
+/// screen (a checker with holes) and a double-sided plain panel. Every material path.
+pub fn mixed_scene() -> Scene {
+    let mut tex = vec![0u8; 16 * 16 * 4];
+    for y in 0..16 {
+        for x in 0..16 {
+            let on = (x / 4 + y / 4) % 2 == 0;
+            let i = (y * 16 + x) * 4;
+            tex[i..i + 4].copy_from_slice(if on { &[230, 200, 120, 255] } else { &[40, 90, 200, 0] });
+        }
+    }
+    let mut masked = material("screen", [1.0; 4], 0.6, 0.0);
+    masked.base_color_texture = Some(0);
+    masked.alpha_mode = AlphaMode::Mask { cutoff: 0.5 };
+    masked.double_sided = true;
+    let mut panel = material("panel", [0.3, 0.8, 0.4, 1.0], 0.4, 0.0);
+    panel.double_sided = true;
+    let materials = vec![material("floor", [0.7, 0.7, 0.7, 1.0], 0.8, 0.0), material("box", [0.8, 0.3, 0.25, 1.0], 0.5, 0.0), material("metal", [0.95, 0.9, 0.8, 1.0], 0.25, 1.0), masked, panel];
+    let meshes = vec![quad("floor", 20.0), cube("cube"), quad("screen", 3.0)];
+    let inst = |mesh, material, t: Mat4| tiledlight_scene::Instance { mesh, material, transform: t };
+    let mut instances = vec![inst(0, 0, Mat4::IDENTITY)];
+    for i in 0..6 {
+        let x = -6.0 + 2.4 * i as f32;
+        let t = Mat4::from_translation(Vec3::new(x, 0.75, -3.0 + (i % 2) as f32 * 2.0)) * Mat4::from_scale(Vec3::new(1.2, 1.5, 1.2));
+        instances.push(inst(1, if i == 3 { 2 } else { 1 }, t));
+    }
+    // Standing screens: the quad rotated upright.
+    let upright = Mat4::from_rotation_x(std::f32::consts::FRAC_PI_2);
+    instances.push(inst(2, 3, Mat4::from_translation(Vec3::new(-2.0, 1.6, 1.0)) * upright));
+    instances.push(inst(2, 4, Mat4::from_translation(Vec3::new(3.0, 1.6, 2.0)) * Mat4::from_rotation_y(0.6) * upright));
+    let mut scene = Scene {
+        name: "mixed".into(),
+        meshes,
+        materials,
+        textures: vec![Texture { name: "checker".into(), width: 16, height: 16, rgba8: tex }],
+        instances,
+        lights: vec![],
+        camera: None,
+        bounds: Aabb::empty(),
+    };
+    scene.bounds = scene.compute_bounds();
+    // Lights live above the floor too.
+    scene.bounds.max.y = scene.bounds.max.y.max(4.0);
+    scene.validate().expect("mixed scene is valid");
+    scene
+}
+
+/// A camera looking at the mixed scene from a corner.
+pub fn mixed_camera(w: u32, h: u32) -> Camera {
+    Camera::perspective(Vec3::new(7.0, 4.5, 9.0), Vec3::new(0.0, 0.5, 0.0), Vec3::Y, 55f32.to_radians(), w as f32 / h as f32, 0.1, None).expect("camera")
+}
