@@ -1,1 +1,28 @@
-//! placeholder
+//! tiledlight-scene: the scene model every renderer draws, and where scenes come from.
+//!
+//! - [`Scene`] and its parts ([`Mesh`], [`Material`], [`Texture`], [`Instance`],
+//!   [`CameraDesc`], [`Aabb`]), with [`Scene::validate`] to check one before upload;
+//! - [`default_scene`]: a procedural Sponza-like courtyard (about 250k triangles) plus
+//!   TiledLighting11's grid objects;
+//! - [`random_lights`]: deterministic random point and spot lights;
+//! - [`load_gltf`]: glTF 2.0 files (.gltf/.glb) with KHR_lights_punctual.
+//!
+//! Conventions (see the workspace's DESIGN.md): right-handed, Y up, metres, front faces
+//! counter-clockwise. Depends on tiledlight-cull (for [`Light`]), glam, gltf, image,
+//! rand and thiserror; no GPU dependency.
+
+mod error;
+mod geometry;
+mod lights;
+mod loader;
+mod model;
+mod procedural;
+
+pub use error::SceneError;
+pub use lights::{
+    random_lights, LightOptions, DEFAULT_INTENSITY_RANGE, DEFAULT_LIGHT_THRESHOLD, MAX_LIGHTS,
+};
+pub use loader::load_gltf;
+pub use model::{Aabb, AlphaMode, CameraDesc, Instance, Material, Mesh, Scene, Texture};
+pub use procedural::{default_scene, DefaultSceneOptions, GridDensity, MAX_GRID_OBJECTS};
+pub use tiledlight_cull::{Light, LightKind};

@@ -1,0 +1,878 @@
+//! glTF loader tests. Each test writes its own small glTF (JSON built with serde_json,
+//! binary buffers packed by hand) into a temporary directory, as .gltf with an external
+//! .bin, .gltf with a base64 data URI, or .glb.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+
+use glam::{Mat4, Vec3};
+use serde_json::{json, Value};
+use tiledlight_cull::LightKind;
+
+use super::load_gltf;
+use crate::error::SceneError;
+use crate::model::{AlphaMode, Material, Scene};
+
+const F32: u32 = 5126;
+const U16: u32 = 5123;
+const U32: u32 = 5125;
+
+/// A binary buffer with its buffer views and accessors, built up piece by piece.
+#[derive(Default)]
+struct Bin {
+    data: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+}
+
+impl Bin {
+    fn view(&mut self, bytes: &[u8]) -> usize {
+        while !self.data.len().is_multiple_of(4) {
+            self.data.push(0);
+        }
+        self.views
+            .push(json!({"buffer": 0, "byteOffset": self.data.len(), "byteLength": bytes.len()}));
+        self.data.extend_from_slice(bytes);
+        self.views.len() - 1
+    }
+
+    fn floats(&mut self, values: &[f32], ty: &str) -> usize {
+        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let view = self.view(&bytes);
+        let comps = match ty {
+            "VEC2" => 2,
+            "VEC3" => 3,
+            _ => 1,
+        };
+        let mut acc = json!({"bufferView": view, "componentType": F32, "count": values.len() / comps, "type": ty});
+        if ty == "VEC3" {
+            // POSITION accessors must carry min/max; NaNs are skipped (f32::min ignores them).
+            let mut min = [f32::MAX; 3];
+            let mut max = [f32::MIN; 3];
+            for v in values.chunks_exact(3) {
+                for c in 0..3 {
+                    min[c] = min[c].min(v[c]);
+                    max[c] = max[c].max(v[c]);
+                }
+            }
+            acc["min"] = json!(min);
+            acc["max"] = json!(max);
+        }
+        self.accessors.push(acc);
+        self.accessors.len() - 1
+    }
+
+    fn indices_u16(&mut self, values: &[u16]) -> usize {
+        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let view = self.view(&bytes);
+        self.accessors.push(json!({"bufferView": view, "componentType": U16, "count": values.len(), "type": "SCALAR"}));
+        self.accessors.len() - 1
+    }
+
+    fn indices_u32(&mut self, values: &[u32]) -> usize {
+        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let view = self.view(&bytes);
+        self.accessors.push(json!({"bufferView": view, "componentType": U32, "count": values.len(), "type": "SCALAR"}));
+        self.accessors.len() - 1
+    }
+
+    /// A unit right triangle in the XY plane facing +Z, with normals, UVs and indices.
+    fn triangle(&mut self) -> Value {
+        let p = self.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], "VEC3");
+        let n = self.floats(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0], "VEC3");
+        let t = self.floats(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0], "VEC2");
+        let i = self.indices_u16(&[0, 1, 2]);
+        json!({"attributes": {"POSITION": p, "NORMAL": n, "TEXCOORD_0": t}, "indices": i})
+    }
+
+    /// The document: asset, buffer, views and accessors, plus `extra`'s top-level keys.
+    fn document(&self, extra: Value) -> Value {
+        let mut root = json!({
+            "asset": {"version": "2.0"},
+            "buffers": [{"byteLength": self.data.len()}],
+            "bufferViews": self.views,
+            "accessors": self.accessors,
+        });
+        if let Value::Object(map) = extra {
+            for (k, v) in map {
+                root[k] = v;
+            }
+        }
+        root
+    }
+}
+
+/// Writes `name.gltf` with its buffer in `name.bin`.
+fn write_gltf(dir: &Path, name: &str, mut root: Value, bin: &[u8]) -> PathBuf {
+    root["buffers"][0]["uri"] = json!(format!("{name}.bin"));
+    fs::write(dir.join(format!("{name}.bin")), bin).unwrap();
+    let path = dir.join(format!("{name}.gltf"));
+    fs::write(&path, serde_json::to_vec_pretty(&root).unwrap()).unwrap();
+    path
+}
+
+fn base64(bytes: &[u8]) -> String {
+    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for chunk in bytes.chunks(3) {
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
+        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
+        for k in 0..4 {
+            if k <= chunk.len() {
+                out.push(ALPHABET[((n >> (18 - 6 * k)) & 63) as usize] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+/// Writes `name.gltf` with its buffer embedded as a base64 data URI.
+fn write_embedded(dir: &Path, name: &str, mut root: Value, bin: &[u8]) -> PathBuf {
+    root["buffers"][0]["uri"] = json!(format!(
+        "data:application/octet-stream;base64,{}",
+        base64(bin)
+    ));
+    let path = dir.join(format!("{name}.gltf"));
+    fs::write(&path, serde_json::to_vec(&root).unwrap()).unwrap();
+    path
+}
+
+/// Writes `name.glb`: header, JSON chunk (space-padded), BIN chunk (zero-padded).
+fn write_glb(dir: &Path, name: &str, root: Value, bin: &[u8]) -> PathBuf {
+    let mut json_bytes = serde_json::to_vec(&root).unwrap();
+    while !json_bytes.len().is_multiple_of(4) {
+        json_bytes.push(b' ');
+    }
+    let mut bin = bin.to_vec();
+    while !bin.len().is_multiple_of(4) {
+        bin.push(0);
+    }
+    let total = 12 + 8 + json_bytes.len() + 8 + bin.len();
+    let mut out = Vec::new();
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&(total as u32).to_le_bytes());
+    out.extend_from_slice(&(json_bytes.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&json_bytes);
+    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(&bin);
+    let path = dir.join(format!("{name}.glb"));
+    fs::write(&path, out).unwrap();
+    path
+}
+
+fn png(width: u32, height: u32) -> (Vec<u8>, Vec<u8>) {
+    let img = image::RgbaImage::from_fn(width, height, |x, y| {
+        image::Rgba([(x * 60) as u8, (y * 70) as u8, 200, 255 - x as u8])
+    });
+    let mut bytes = Vec::new();
+    img.write_to(
+        &mut std::io::Cursor::new(&mut bytes),
+        image::ImageFormat::Png,
+    )
+    .unwrap();
+    (bytes, img.into_raw())
+}
+
+fn world_positions(scene: &Scene, instance: usize) -> Vec<Vec3> {
+    let inst = &scene.instances[instance];
+    scene.meshes[inst.mesh]
+        .positions
+        .iter()
+        .map(|p| inst.transform.transform_point3(Vec3::from_array(*p)))
+        .collect()
+}
+
+fn assert_close(a: Vec3, b: Vec3) {
+    assert!((a - b).abs().max_element() < 1e-5, "{a} != {b}");
+}
+
+/// Asserts that loading failed with a message naming the file and containing `needles`.
+fn assert_fails(path: &Path, result: Result<Scene, SceneError>, needles: &[&str]) -> String {
+    let msg = result.expect_err("load must fail").to_string();
+    let file = path.file_name().unwrap().to_string_lossy();
+    assert!(
+        msg.contains(&*file),
+        "message {msg:?} should name the file {file}"
+    );
+    for n in needles {
+        assert!(msg.contains(n), "message {msg:?} should contain {n:?}");
+    }
+    msg
+}
+
+fn one_mesh_scene(prim: Value, extra: Value) -> Value {
+    let mut root = json!({
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"name": "tri", "primitives": [prim]}],
+    });
+    if let Value::Object(map) = extra {
+        for (k, v) in map {
+            root[k] = v;
+        }
+    }
+    root
+}
+
+// ---- valid files, contents asserted exactly ----
+
+#[test]
+fn triangle_with_point_lights() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let prim = bin.triangle();
+    let root = bin.document(json!({
+        "extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": {"KHR_lights_punctual": {"lights": [
+            {"type": "point", "name": "lamp", "color": [1.0, 0.5, 0.25], "intensity": 10.0},
+            {"type": "point", "intensity": 3.0, "range": 7.0},
+            {"type": "directional", "intensity": 3.0}
+        ]}},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1, 2, 3]}],
+        "nodes": [
+            {"mesh": 0, "translation": [1.0, 2.0, 3.0]},
+            {"translation": [0.0, 5.0, 0.0], "extensions": {"KHR_lights_punctual": {"light": 0}}},
+            {"translation": [1.0, 1.0, 1.0], "extensions": {"KHR_lights_punctual": {"light": 1}}},
+            {"extensions": {"KHR_lights_punctual": {"light": 2}}}
+        ],
+        "meshes": [{"name": "tri", "primitives": [prim]}],
+    }));
+    let path = write_gltf(dir.path(), "triangle", root, &bin.data);
+    let scene = load_gltf(&path, 0.1).unwrap();
+    assert_eq!(scene.name, "triangle.gltf");
+    assert_eq!(scene.meshes.len(), 1);
+    assert_eq!(scene.meshes[0].name, "tri");
+    assert_eq!(
+        scene.meshes[0].positions,
+        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+    );
+    assert_eq!(scene.meshes[0].normals, vec![[0.0, 0.0, 1.0]; 3]);
+    assert_eq!(
+        scene.meshes[0].uvs,
+        vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
+    );
+    assert_eq!(scene.meshes[0].indices, vec![0, 1, 2]);
+    assert_eq!(scene.instances.len(), 1);
+    assert_eq!(
+        world_positions(&scene, 0),
+        vec![
+            Vec3::new(1.0, 2.0, 3.0),
+            Vec3::new(2.0, 2.0, 3.0),
+            Vec3::new(1.0, 3.0, 3.0)
+        ]
+    );
+    assert_eq!(
+        scene.materials,
+        vec![Material::default()],
+        "no material: glTF's default"
+    );
+    assert_eq!(scene.bounds.min, Vec3::new(1.0, 2.0, 3.0));
+    assert_eq!(scene.bounds.max, Vec3::new(2.0, 3.0, 3.0));
+    assert_eq!(scene.triangle_count(), 1);
+    assert!(scene.camera.is_none());
+
+    assert_eq!(scene.lights.len(), 2, "the directional light is skipped");
+    let lamp = scene.lights[0];
+    assert_eq!(lamp.position, Vec3::new(0.0, 5.0, 0.0));
+    assert_eq!(lamp.color, Vec3::new(1.0, 0.5, 0.25));
+    assert_eq!(lamp.intensity, 10.0);
+    assert_eq!(lamp.kind, LightKind::Point);
+    // r = sqrt(intensity * max(colour) / threshold) = sqrt(10 / 0.1)
+    assert!((lamp.radius - 10.0).abs() < 1e-5, "radius {}", lamp.radius);
+    let ranged = scene.lights[1];
+    assert_eq!(ranged.position, Vec3::ONE);
+    assert_eq!(ranged.radius, 7.0, "range is the radius");
+    assert_eq!(ranged.color, Vec3::ONE, "colour defaults to white");
+}
+
+#[test]
+fn spot_light_points_down_the_node_axis() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let prim = bin.triangle();
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    let root = bin.document(json!({
+        "extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": {"KHR_lights_punctual": {"lights": [
+            {"type": "spot", "intensity": 4.0, "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5}}
+        ]}},
+        "scenes": [{"nodes": [0, 1]}],
+        "nodes": [
+            {"mesh": 0},
+            // -90 degrees about X turns the light's -Z axis to -Y.
+            {"translation": [0.0, 4.0, 0.0], "rotation": [-h, 0.0, 0.0, h],
+             "extensions": {"KHR_lights_punctual": {"light": 0}}}
+        ],
+        "meshes": [{"primitives": [prim]}],
+    }));
+    let path = write_gltf(dir.path(), "spot", root, &bin.data);
+    let scene = load_gltf(&path, 0.01).unwrap();
+    assert!(scene.has_spot_lights());
+    let l = scene.lights[0];
+    assert_close(l.position, Vec3::new(0.0, 4.0, 0.0));
+    assert!(
+        (l.radius - 20.0).abs() < 1e-4,
+        "sqrt(4 / 0.01) = 20, got {}",
+        l.radius
+    );
+    let LightKind::Spot {
+        direction,
+        inner_angle,
+        outer_angle,
+    } = l.kind
+    else {
+        panic!("not a spot: {:?}", l.kind)
+    };
+    assert_close(direction, Vec3::NEG_Y);
+    assert_eq!((inner_angle, outer_angle), (0.2, 0.5));
+    assert_eq!(scene.meshes[0].name, "mesh 0");
+}
+
+#[test]
+fn first_perspective_camera_becomes_the_scene_camera() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let prim = bin.triangle();
+    let root = bin.document(json!({
+        "cameras": [
+            {"type": "orthographic", "orthographic": {"xmag": 1.0, "ymag": 1.0, "znear": 0.1, "zfar": 10.0}},
+            {"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.05}},
+            {"type": "perspective", "perspective": {"yfov": 1.2, "znear": 0.5, "zfar": 100.0}}
+        ],
+        "scenes": [{"nodes": [0, 1, 2, 3]}],
+        "nodes": [
+            {"mesh": 0},
+            {"camera": 0, "translation": [9.0, 9.0, 9.0]},
+            {"camera": 1, "translation": [0.0, 1.7, 5.0]},
+            {"camera": 2, "translation": [3.0, 3.0, 3.0]}
+        ],
+        "meshes": [{"primitives": [prim]}],
+    }));
+    let path = write_embedded(dir.path(), "camera", root, &bin.data);
+    let scene = load_gltf(&path, 0.1).unwrap();
+    let cam = scene.camera.expect("a camera");
+    assert_eq!(cam.eye, Vec3::new(0.0, 1.7, 5.0));
+    assert_eq!(cam.target, Vec3::new(0.0, 1.7, 4.0));
+    assert_eq!(cam.up, Vec3::Y);
+    assert_eq!(cam.fov_y, 0.8);
+    assert_eq!(cam.near, 0.05);
+    assert_eq!(cam.far, None, "no zfar: infinite");
+}
+
+#[test]
+fn node_hierarchy_composes_parent_times_local() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let prim = bin.triangle();
+    let root = bin.document(json!({
+        "scenes": [{"nodes": [0]}],
+        "nodes": [
+            {"translation": [0.0, 0.0, -1.0], "scale": [2.0, 2.0, 2.0], "children": [1]},
+            {"translation": [1.0, 0.0, 0.0], "children": [2], "mesh": 0},
+            {"matrix": [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 10.0, 0.0, 1.0], "mesh": 0}
+        ],
+        "meshes": [{"primitives": [prim]}],
+    }));
+    let path = write_glb(dir.path(), "hierarchy", root, &bin.data);
+    let scene = load_gltf(&path, 0.1).unwrap();
+    assert_eq!(scene.meshes.len(), 1, "both instances share the mesh");
+    assert_eq!(scene.instances.len(), 2);
+    // world = parent * child: (x, y, z) -> 2 * ((x, y, z) + (1, 0, 0)) + (0, 0, -1)
+    assert_eq!(
+        world_positions(&scene, 0),
+        vec![
+            Vec3::new(2.0, 0.0, -1.0),
+            Vec3::new(4.0, 0.0, -1.0),
+            Vec3::new(2.0, 2.0, -1.0)
+        ]
+    );
+    // The grandchild adds 10 up in its parent's (scaled) frame: 20 in world space.
+    assert_eq!(
+        world_positions(&scene, 1),
+        vec![
+            Vec3::new(2.0, 20.0, -1.0),
+            Vec3::new(4.0, 20.0, -1.0),
+            Vec3::new(2.0, 22.0, -1.0)
+        ]
+    );
+    assert_eq!(scene.bounds.max, Vec3::new(4.0, 22.0, -1.0));
+}
+
+#[test]
+fn default_scene_is_chosen_among_several() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let prim = bin.triangle();
+    let root = bin.document(json!({
+        "scene": 1,
+        "scenes": [{"nodes": [0]}, {"nodes": [1]}],
+        "nodes": [{"mesh": 0, "translation": [100.0, 0.0, 0.0]}, {"mesh": 0, "translation": [0.0, 0.0, 7.0]}],
+        "meshes": [{"primitives": [prim]}],
+    }));
+    let path = write_gltf(dir.path(), "scenes", root, &bin.data);
+    let scene = load_gltf(&path, 0.1).unwrap();
+    assert_eq!(scene.instances.len(), 1);
+    assert_eq!(
+        scene.instances[0].transform,
+        Mat4::from_translation(Vec3::new(0.0, 0.0, 7.0))
+    );
+}
+
+#[test]
+fn materials_and_textures_external_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let (png_bytes, pixels) = png(3, 2);
+    fs::write(dir.path().join("albedo map.png"), &png_bytes).unwrap();
+    let mut bin = Bin::default();
+    let mut prim = bin.triangle();
+    prim["material"] = json!(0);
+    let root = bin.document(json!({
+        "images": [{"uri": "albedo%20map.png"}],
+        "textures": [{"source": 0}],
+        "materials": [{
+            "name": "painted",
+            "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.25, 1.0, 0.75], "baseColorTexture": {"index": 0},
+                                      "metallicFactor": 0.2, "roughnessFactor": 0.7},
+            "alphaMode": "MASK", "alphaCutoff": 0.3, "doubleSided": true
+        }],
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [prim]}],
+    }));
+    let path = write_gltf(dir.path(), "textured", root, &bin.data);
+    let scene = load_gltf(&path, 0.1).unwrap();
+    assert_eq!(
+        scene.materials,
+        vec![Material {
+            name: "painted".into(),
+            base_color: [0.5, 0.25, 1.0, 0.75],
+            base_color_texture: Some(0),
+            roughness: 0.7,
+            metallic: 0.2,
+            alpha_mode: AlphaMode::Mask { cutoff: 0.3 },
+            double_sided: true,
+        }]
+    );
+    assert!(scene.has_alpha_mask());
+    let t = &scene.textures[0];
+    assert_eq!((t.width, t.height), (3, 2));
+    assert_eq!(t.rgba8, pixels);
+    assert_eq!(t.name, "albedo%20map.png");
+}
+
+#[test]
+fn textures_embedded_in_glb_and_data_uri() {
+    let dir = tempfile::tempdir().unwrap();
+    let (png_bytes, pixels) = png(4, 4);
+    let mut jpeg = Vec::new();
+    image::RgbImage::from_pixel(8, 4, image::Rgb([200, 100, 50]))
+        .write_to(
+            &mut std::io::Cursor::new(&mut jpeg),
+            image::ImageFormat::Jpeg,
+        )
+        .unwrap();
+    let mut bin = Bin::default();
+    let mut prim = bin.triangle();
+    prim["material"] = json!(0);
+    let mut prim2 = bin.triangle();
+    prim2["material"] = json!(1);
+    let image_view = bin.view(&png_bytes);
+    let root = bin.document(json!({
+        "images": [
+            {"bufferView": image_view, "mimeType": "image/png", "name": "embedded"},
+            {"uri": format!("data:image/jpeg;base64,{}", base64(&jpeg))}
+        ],
+        "textures": [{"source": 0}, {"source": 1}],
+        "materials": [
+            {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}, "alphaMode": "BLEND"},
+            {"pbrMetallicRoughness": {"baseColorTexture": {"index": 1}}}
+        ],
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [prim, prim2]}],
+    }));
+    let path = write_glb(dir.path(), "embedded", root, &bin.data);
+    let scene = load_gltf(&path, 0.1).unwrap();
+    assert_eq!(scene.meshes.len(), 2, "one mesh per primitive");
+    assert_eq!(scene.meshes[1].name, "mesh 0 primitive 1");
+    assert_eq!(scene.textures.len(), 2);
+    assert_eq!(scene.textures[0].name, "embedded");
+    assert_eq!(scene.textures[0].rgba8, pixels);
+    assert_eq!((scene.textures[1].width, scene.textures[1].height), (8, 4));
+    assert_eq!(scene.textures[1].rgba8.len(), 8 * 4 * 4);
+    let texel = &scene.textures[1].rgba8[..4];
+    assert!(
+        texel[0].abs_diff(200) < 8 && texel[1].abs_diff(100) < 8 && texel[3] == 255,
+        "{texel:?}"
+    );
+    assert_eq!(scene.materials[0].alpha_mode, AlphaMode::Blend);
+    assert_eq!(scene.materials[0].base_color_texture, Some(0));
+    assert_eq!(scene.materials[1].base_color_texture, Some(1));
+    assert!(scene.has_blend());
+}
+
+#[test]
+fn flat_normals_zero_uvs_and_generated_indices() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    // Two non-indexed triangles without normals or UVs: one facing +Z, one facing +Y.
+    let p = bin.floats(
+        &[
+            0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0,
+            0.0,
+        ],
+        "VEC3",
+    );
+    let root = bin.document(one_mesh_scene(
+        json!({"attributes": {"POSITION": p}}),
+        json!({}),
+    ));
+    let path = write_gltf(dir.path(), "flat", root, &bin.data);
+    let scene = load_gltf(&path, 0.1).unwrap();
+    let m = &scene.meshes[0];
+    assert_eq!(m.indices, vec![0, 1, 2, 3, 4, 5]);
+    assert_eq!(
+        m.normals,
+        vec![
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, 1.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0]
+        ]
+    );
+    assert_eq!(m.uvs, vec![[0.0, 0.0]; 6]);
+}
+
+#[test]
+fn strips_and_fans_become_lists_with_consistent_winding() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    // A unit quad in the XY plane: strip order 0 1 2 3 = (0,0) (1,0) (0,1) (1,1).
+    let p = bin.floats(
+        &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0],
+        "VEC3",
+    );
+    let n = bin.floats(
+        &[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0],
+        "VEC3",
+    );
+    let fan_idx = bin.indices_u32(&[0, 1, 3, 2]);
+    let root = bin.document(json!({
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [
+            {"attributes": {"POSITION": p, "NORMAL": n}, "mode": 5},
+            {"attributes": {"POSITION": p, "NORMAL": n}, "indices": fan_idx, "mode": 6}
+        ]}],
+    }));
+    let path = write_gltf(dir.path(), "strips", root, &bin.data);
+    let scene = load_gltf(&path, 0.1).unwrap();
+    assert_eq!(scene.meshes[0].indices, vec![0, 1, 2, 2, 1, 3]);
+    assert_eq!(scene.meshes[1].indices, vec![0, 1, 3, 0, 3, 2]);
+    for mesh in &scene.meshes {
+        for t in mesh.indices.chunks_exact(3) {
+            let p = [t[0], t[1], t[2]].map(|i| Vec3::from_array(mesh.positions[i as usize]));
+            assert!(
+                (p[1] - p[0]).cross(p[2] - p[0]).z > 0.0,
+                "{}: {t:?} is clockwise",
+                mesh.name
+            );
+        }
+    }
+}
+
+#[test]
+fn mirrored_instances_get_flipped_winding() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let prim = bin.triangle();
+    let root = bin.document(json!({
+        "scenes": [{"nodes": [0, 1]}],
+        "nodes": [{"mesh": 0}, {"mesh": 0, "scale": [-1.0, 1.0, 1.0]}],
+        "meshes": [{"name": "tri", "primitives": [prim]}],
+    }));
+    let path = write_gltf(dir.path(), "mirror", root, &bin.data);
+    let scene = load_gltf(&path, 0.1).unwrap();
+    assert_eq!(scene.meshes.len(), 2);
+    assert_eq!(scene.meshes[0].indices, vec![0, 1, 2]);
+    assert_eq!(scene.meshes[1].indices, vec![0, 2, 1]);
+    assert_eq!(scene.meshes[1].name, "tri (mirrored)");
+    // In world space the mirrored triangle still winds counter-clockwise seen from +Z.
+    let w = world_positions(&scene, 1);
+    let i = &scene.meshes[1].indices;
+    let (a, b, c) = (w[i[0] as usize], w[i[1] as usize], w[i[2] as usize]);
+    assert!((b - a).cross(c - a).z > 0.0);
+}
+
+// ---- bad input: each must fail with the file and the problem in the message ----
+
+#[test]
+fn missing_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("nowhere.gltf");
+    let result = load_gltf(&path, 0.1);
+    assert!(matches!(result, Err(SceneError::Io { .. })));
+    assert_fails(&path, result, &["cannot read file"]);
+}
+
+#[test]
+fn malformed_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("broken.gltf");
+    fs::write(&path, b"{ \"asset\": { \"version\": \"2.0\" }, ").unwrap();
+    assert_fails(&path, load_gltf(&path, 0.1), &["malformed glTF JSON"]);
+    fs::write(&path, b"").unwrap();
+    assert_fails(&path, load_gltf(&path, 0.1), &["malformed glTF JSON"]);
+    // Well-formed JSON that is not valid glTF (a node refers to a missing mesh).
+    fs::write(
+        &path,
+        serde_json::to_vec(&json!({"asset": {"version": "2.0"}, "nodes": [{"mesh": 3}]})).unwrap(),
+    )
+    .unwrap();
+    assert_fails(
+        &path,
+        load_gltf(&path, 0.1),
+        &["does not validate", "nodes[0].mesh"],
+    );
+}
+
+#[test]
+fn malformed_glb() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let prim = bin.triangle();
+    let path = write_glb(
+        dir.path(),
+        "cut",
+        bin.document(one_mesh_scene(prim, json!({}))),
+        &bin.data,
+    );
+    let bytes = fs::read(&path).unwrap();
+    fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
+    assert_fails(&path, load_gltf(&path, 0.1), &["malformed GLB"]);
+}
+
+#[test]
+fn missing_external_buffer() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let prim = bin.triangle();
+    let path = write_gltf(
+        dir.path(),
+        "lost",
+        bin.document(one_mesh_scene(prim, json!({}))),
+        &bin.data,
+    );
+    fs::remove_file(dir.path().join("lost.bin")).unwrap();
+    assert_fails(
+        &path,
+        load_gltf(&path, 0.1),
+        &["buffer 0", "cannot read", "lost.bin"],
+    );
+}
+
+#[test]
+fn buffer_too_short() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let prim = bin.triangle();
+    let path = write_gltf(
+        dir.path(),
+        "short",
+        bin.document(one_mesh_scene(prim.clone(), json!({}))),
+        &bin.data[..20],
+    );
+    assert_fails(
+        &path,
+        load_gltf(&path, 0.1),
+        &[
+            "buffer 0 is too short",
+            &format!("byteLength is {}", bin.data.len()),
+            "20 bytes",
+        ],
+    );
+
+    // The buffer is as long as it says, but an accessor reads past its view.
+    let mut root = bin.document(one_mesh_scene(prim.clone(), json!({})));
+    root["accessors"][0]["count"] = json!(30);
+    let path = write_embedded(dir.path(), "overrun", root, &bin.data);
+    assert_fails(
+        &path,
+        load_gltf(&path, 0.1),
+        &["POSITION", "accessor 0", "do not fit"],
+    );
+
+    // A buffer view that runs past its buffer.
+    let mut root = bin.document(one_mesh_scene(prim, json!({})));
+    root["bufferViews"][0]["byteLength"] = json!(10_000);
+    let path = write_embedded(dir.path(), "view", root, &bin.data);
+    assert_fails(
+        &path,
+        load_gltf(&path, 0.1),
+        &["buffer view 0", "runs past the end"],
+    );
+}
+
+#[test]
+fn unsupported_primitive_mode() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let mut prim = bin.triangle();
+    prim["mode"] = json!(1);
+    let path = write_gltf(
+        dir.path(),
+        "lines",
+        bin.document(one_mesh_scene(prim, json!({}))),
+        &bin.data,
+    );
+    assert_fails(
+        &path,
+        load_gltf(&path, 0.1),
+        &["mesh 0 'tri' primitive 0", "mode Lines is not supported"],
+    );
+}
+
+#[test]
+fn out_of_range_indices() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let p = bin.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], "VEC3");
+    let i = bin.indices_u16(&[0, 1, 5]);
+    let prim = json!({"attributes": {"POSITION": p}, "indices": i});
+    let path = write_gltf(
+        dir.path(),
+        "indices",
+        bin.document(one_mesh_scene(prim, json!({}))),
+        &bin.data,
+    );
+    assert_fails(
+        &path,
+        load_gltf(&path, 0.1),
+        &["mesh 0 'tri'", "index 2 is 5", "3 vertices", "out of range"],
+    );
+}
+
+#[test]
+fn nan_positions() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let p = bin.floats(&[0.0, 0.0, 0.0, f32::NAN, 0.0, 0.0, 0.0, 1.0, 0.0], "VEC3");
+    let prim = json!({"attributes": {"POSITION": p}});
+    let path = write_gltf(
+        dir.path(),
+        "nan",
+        bin.document(one_mesh_scene(prim, json!({}))),
+        &bin.data,
+    );
+    assert_fails(
+        &path,
+        load_gltf(&path, 0.1),
+        &["mesh 0 'tri'", "POSITION 1 is not finite"],
+    );
+}
+
+#[test]
+fn missing_texture_image_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let mut prim = bin.triangle();
+    prim["material"] = json!(0);
+    let extra = json!({
+        "images": [{"uri": "gone.png"}],
+        "textures": [{"source": 0}],
+        "materials": [{"name": "paint", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+    });
+    let path = write_gltf(
+        dir.path(),
+        "notex",
+        bin.document(one_mesh_scene(prim, extra)),
+        &bin.data,
+    );
+    assert_fails(
+        &path,
+        load_gltf(&path, 0.1),
+        &[
+            "material 0 'paint'",
+            "image 0",
+            "cannot read image file",
+            "gone.png",
+        ],
+    );
+
+    // Present but not an image.
+    fs::write(dir.path().join("gone.png"), b"definitely not a png").unwrap();
+    assert_fails(
+        &path,
+        load_gltf(&path, 0.1),
+        &["image 0", "cannot decode image"],
+    );
+}
+
+#[test]
+fn other_bad_inputs_fail_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let prim = bin.triangle();
+
+    // POSITION with the wrong accessor type.
+    let mut root = bin.document(one_mesh_scene(prim.clone(), json!({})));
+    root["accessors"][2]["type"] = json!("VEC3");
+    root["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(2);
+    let path = write_embedded(dir.path(), "types", root, &bin.data);
+    assert!(load_gltf(&path, 0.1).is_err());
+
+    // A cycle in the node hierarchy must not hang or overflow the stack.
+    let root = bin.document(json!({
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0, "children": [1]}, {"children": [0]}],
+        "meshes": [{"primitives": [prim.clone()]}],
+    }));
+    let path = write_embedded(dir.path(), "cycle", root, &bin.data);
+    assert_fails(&path, load_gltf(&path, 0.1), &[]);
+
+    // Only lights, nothing to draw.
+    let root = bin.document(json!({
+        "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point"}]}},
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"extensions": {"KHR_lights_punctual": {"light": 0}}}],
+    }));
+    let path = write_embedded(dir.path(), "empty", root, &bin.data);
+    assert_fails(&path, load_gltf(&path, 0.1), &["no instances"]);
+
+    // An unsupported buffer URI scheme, and a bad base64 payload.
+    let mut root = bin.document(one_mesh_scene(prim.clone(), json!({})));
+    root["buffers"][0]["uri"] = json!("https://example.com/a.bin");
+    let path = dir.path().join("remote.gltf");
+    fs::write(&path, serde_json::to_vec(&root).unwrap()).unwrap();
+    assert_fails(
+        &path,
+        load_gltf(&path, 0.1),
+        &["buffer 0", "unsupported scheme"],
+    );
+    root["buffers"][0]["uri"] = json!("data:application/octet-stream;base64,@@@@");
+    fs::write(&path, serde_json::to_vec(&root).unwrap()).unwrap();
+    assert_fails(
+        &path,
+        load_gltf(&path, 0.1),
+        &["buffer 0", "invalid base64"],
+    );
+
+    // A bad threshold is an argument error, caught before reading.
+    assert!(matches!(
+        load_gltf(&path, 0.0),
+        Err(SceneError::InvalidArgument(_))
+    ));
+}

@@ -1,0 +1,739 @@
+//! The scene model every renderer consumes: meshes, materials, textures, instances,
+//! lights, an optional camera and world bounds, plus the checks that a scene is
+//! internally consistent before it reaches the GPU. Depends on glam, tiledlight-cull
+//! (for [`Light`]) and this crate's error type.
+
+use glam::{Mat4, Vec3};
+use tiledlight_cull::{Light, LightKind};
+
+use crate::error::SceneError;
+
+/// An indexed triangle list. Front faces wind counter-clockwise; normals are unit
+/// length; `normals` and `uvs` have one entry per position.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    /// Name, for error messages and debugging.
+    pub name: String,
+    /// Object-space positions (metres).
+    pub positions: Vec<[f32; 3]>,
+    /// Object-space unit normals, one per position.
+    pub normals: Vec<[f32; 3]>,
+    /// Texture coordinates, one per position.
+    pub uvs: Vec<[f32; 2]>,
+    /// Three indices per triangle, each below `positions.len()`.
+    pub indices: Vec<u32>,
+}
+
+impl Mesh {
+    /// Number of triangles (`indices.len() / 3`).
+    pub fn triangle_count(&self) -> u64 {
+        (self.indices.len() / 3) as u64
+    }
+
+    /// Object-space bounds of the positions (empty for a mesh without vertices).
+    pub fn bounds(&self) -> Aabb {
+        let mut b = Aabb::empty();
+        for p in &self.positions {
+            b.extend(Vec3::from_array(*p));
+        }
+        b
+    }
+}
+
+/// How a material's alpha is interpreted (glTF's `alphaMode`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AlphaMode {
+    /// Alpha is ignored.
+    Opaque,
+    /// Fragments with alpha below `cutoff` are discarded; the rest are opaque.
+    Mask {
+        /// Alpha threshold in [0, 1].
+        cutoff: f32,
+    },
+    /// Alpha-blended (drawn after opaque geometry, back to front, with its own light lists).
+    Blend,
+}
+
+/// A metallic-roughness material.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    /// Name, for error messages and debugging.
+    pub name: String,
+    /// Linear RGBA base colour factor (multiplies the texture when there is one).
+    pub base_color: [f32; 4],
+    /// Index into [`Scene::textures`] of the sRGB base-colour texture, if any.
+    pub base_color_texture: Option<usize>,
+    /// Perceptual roughness in [0, 1].
+    pub roughness: f32,
+    /// Metalness in [0, 1].
+    pub metallic: f32,
+    /// How alpha is used.
+    pub alpha_mode: AlphaMode,
+    /// Whether back faces are drawn (and lit with the flipped normal).
+    pub double_sided: bool,
+}
+
+impl Default for Material {
+    /// glTF's default material: white, fully metallic and rough, opaque, single-sided.
+    fn default() -> Self {
+        Self {
+            name: "default".to_owned(),
+            base_color: [1.0; 4],
+            base_color_texture: None,
+            roughness: 1.0,
+            metallic: 1.0,
+            alpha_mode: AlphaMode::Opaque,
+            double_sided: false,
+        }
+    }
+}
+
+/// A decoded texture image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    /// Name, for error messages and debugging.
+    pub name: String,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// sRGB-encoded RGBA8 texels, row-major, `width * height * 4` bytes.
+    pub rgba8: Vec<u8>,
+}
+
+/// One placement of a mesh with a material.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Instance {
+    /// Index into [`Scene::meshes`].
+    pub mesh: usize,
+    /// Index into [`Scene::materials`].
+    pub material: usize,
+    /// Object-to-world transform. Normals need its inverse transpose; a negative
+    /// determinant mirrors the mesh (loaders flip the winding of such meshes so front
+    /// faces stay counter-clockwise in world space).
+    pub transform: Mat4,
+}
+
+/// A perspective camera as a scene suggests it (the viewer may move it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraDesc {
+    /// Eye position, world space.
+    pub eye: Vec3,
+    /// A point the camera looks at.
+    pub target: Vec3,
+    /// World-space up hint.
+    pub up: Vec3,
+    /// Vertical field of view, radians.
+    pub fov_y: f32,
+    /// Near plane distance (positive).
+    pub near: f32,
+    /// Far plane distance; `None` for an infinite far plane.
+    pub far: Option<f32>,
+}
+
+/// An axis-aligned bounding box. The empty box has `min = +inf` and `max = -inf`, so
+/// extending it with any point gives that point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    /// Smallest corner.
+    pub min: Vec3,
+    /// Largest corner.
+    pub max: Vec3,
+}
+
+impl Default for Aabb {
+    fn default() -> Self {
+        Self::empty()
+    }
+}
+
+impl Aabb {
+    /// A box from its corners (not checked: see [`Aabb::is_valid`]).
+    pub fn new(min: Vec3, max: Vec3) -> Self {
+        Self { min, max }
+    }
+
+    /// The empty box, the identity of [`Aabb::union`].
+    pub fn empty() -> Self {
+        Self {
+            min: Vec3::INFINITY,
+            max: Vec3::NEG_INFINITY,
+        }
+    }
+
+    /// The smallest box containing all `points` (empty for none).
+    pub fn from_points(points: impl IntoIterator<Item = Vec3>) -> Self {
+        let mut b = Self::empty();
+        for p in points {
+            b.extend(p);
+        }
+        b
+    }
+
+    /// Grows the box to contain `p`.
+    pub fn extend(&mut self, p: Vec3) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+
+    /// The smallest box containing both.
+    pub fn union(&self, other: &Aabb) -> Aabb {
+        Aabb {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
+    }
+
+    /// Centre point (meaningless for an empty box).
+    pub fn center(&self) -> Vec3 {
+        (self.min + self.max) * 0.5
+    }
+
+    /// Extent along each axis (negative for an empty box).
+    pub fn size(&self) -> Vec3 {
+        self.max - self.min
+    }
+
+    /// True when the corners are finite and `min <= max` on every axis.
+    pub fn is_valid(&self) -> bool {
+        self.min.is_finite() && self.max.is_finite() && self.min.cmple(self.max).all()
+    }
+
+    /// True when `p` lies inside or on the box.
+    pub fn contains(&self, p: Vec3) -> bool {
+        p.cmpge(self.min).all() && p.cmple(self.max).all()
+    }
+
+    /// The box around this box's eight corners after `m` (empty stays empty).
+    pub fn transformed(&self, m: &Mat4) -> Aabb {
+        if !self.is_valid() {
+            return Aabb::empty();
+        }
+        let mut out = Aabb::empty();
+        for i in 0..8 {
+            let corner = Vec3::new(
+                if i & 1 == 0 { self.min.x } else { self.max.x },
+                if i & 2 == 0 { self.min.y } else { self.max.y },
+                if i & 4 == 0 { self.min.z } else { self.max.z },
+            );
+            out.extend(m.transform_point3(corner));
+        }
+        out
+    }
+}
+
+/// A complete scene: geometry, materials, lights, and a suggested camera.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// Name (for a loaded scene, the file name), used in error messages.
+    pub name: String,
+    /// Meshes, referenced by [`Instance::mesh`].
+    pub meshes: Vec<Mesh>,
+    /// Materials, referenced by [`Instance::material`].
+    pub materials: Vec<Material>,
+    /// Textures, referenced by [`Material::base_color_texture`].
+    pub textures: Vec<Texture>,
+    /// What is drawn.
+    pub instances: Vec<Instance>,
+    /// Lights (the default scene has none: generate them with [`crate::random_lights`]).
+    pub lights: Vec<Light>,
+    /// A suggested camera, if the scene has one.
+    pub camera: Option<CameraDesc>,
+    /// World-space bounds of all instances (see [`Scene::compute_bounds`]).
+    pub bounds: Aabb,
+}
+
+/// Normals are accepted this far from unit length: generated and loaded normals are
+/// normalised in f32, far tighter than this.
+const NORMAL_LENGTH_TOLERANCE: f32 = 1e-3;
+
+fn finite3(v: &[f32; 3]) -> bool {
+    v.iter().all(|c| c.is_finite())
+}
+
+impl Scene {
+    fn invalid(&self, problem: String) -> SceneError {
+        SceneError::InvalidScene {
+            scene: self.name.clone(),
+            problem,
+        }
+    }
+
+    /// Checks that the scene is consistent: no NaN or infinity anywhere, every index in
+    /// range, texture sizes matching their data, whole triangles, unit normals, at least
+    /// one instance. The error names the offending mesh, material, texture, instance,
+    /// light or camera.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        if self.instances.is_empty() {
+            return Err(self.invalid("the scene has no instances (nothing to draw)".to_owned()));
+        }
+        for (i, mesh) in self.meshes.iter().enumerate() {
+            self.validate_mesh(i, mesh)?;
+        }
+        for (i, t) in self.textures.iter().enumerate() {
+            let expected = u64::from(t.width) * u64::from(t.height) * 4;
+            if t.width == 0 || t.height == 0 {
+                return Err(self.invalid(format!(
+                    "texture {i} '{}' has size {}x{}",
+                    t.name, t.width, t.height
+                )));
+            }
+            if t.rgba8.len() as u64 != expected {
+                return Err(self.invalid(format!(
+                    "texture {i} '{}' is {}x{} so needs {expected} bytes of RGBA8, but has {}",
+                    t.name,
+                    t.width,
+                    t.height,
+                    t.rgba8.len()
+                )));
+            }
+        }
+        for (i, m) in self.materials.iter().enumerate() {
+            self.validate_material(i, m)?;
+        }
+        for (i, inst) in self.instances.iter().enumerate() {
+            if inst.mesh >= self.meshes.len() {
+                return Err(self.invalid(format!(
+                    "instance {i} uses mesh {} but there are {} meshes",
+                    inst.mesh,
+                    self.meshes.len()
+                )));
+            }
+            if inst.material >= self.materials.len() {
+                return Err(self.invalid(format!(
+                    "instance {i} uses material {} but there are {} materials",
+                    inst.material,
+                    self.materials.len()
+                )));
+            }
+            if !inst.transform.is_finite() {
+                return Err(self.invalid(format!(
+                    "instance {i} (mesh {} '{}') has a non-finite transform",
+                    inst.mesh, self.meshes[inst.mesh].name
+                )));
+            }
+        }
+        for (i, l) in self.lights.iter().enumerate() {
+            let finite = l.position.is_finite()
+                && l.color.is_finite()
+                && l.intensity.is_finite()
+                && l.radius.is_finite();
+            if !finite {
+                return Err(self.invalid(format!(
+                    "light {i} has a non-finite position, colour, intensity or radius"
+                )));
+            }
+            if l.radius <= 0.0 || l.intensity < 0.0 || l.color.min_element() < 0.0 {
+                return Err(self.invalid(format!(
+                    "light {i} has radius {}, intensity {} and colour {}: radius must be positive, the rest non-negative",
+                    l.radius, l.intensity, l.color
+                )));
+            }
+            if let LightKind::Spot {
+                direction,
+                inner_angle,
+                outer_angle,
+            } = l.kind
+            {
+                if !direction.is_finite() || !inner_angle.is_finite() || !outer_angle.is_finite() {
+                    return Err(self.invalid(format!(
+                        "spot light {i} has a non-finite direction or angle"
+                    )));
+                }
+                if (direction.length() - 1.0).abs() > NORMAL_LENGTH_TOLERANCE {
+                    return Err(self.invalid(format!(
+                        "spot light {i} direction {direction} is not unit length"
+                    )));
+                }
+            }
+        }
+        if let Some(c) = &self.camera {
+            self.validate_camera(c)?;
+        }
+        Ok(())
+    }
+
+    fn validate_mesh(&self, i: usize, mesh: &Mesh) -> Result<(), SceneError> {
+        let name = &mesh.name;
+        let n = mesh.positions.len();
+        if n == 0 || mesh.indices.is_empty() {
+            return Err(self.invalid(format!("mesh {i} '{name}' has no triangles")));
+        }
+        if mesh.normals.len() != n || mesh.uvs.len() != n {
+            return Err(self.invalid(format!(
+                "mesh {i} '{name}' has {n} positions but {} normals and {} uvs",
+                mesh.normals.len(),
+                mesh.uvs.len()
+            )));
+        }
+        if let Some(v) = mesh.positions.iter().position(|p| !finite3(p)) {
+            return Err(self.invalid(format!(
+                "mesh {i} '{name}': position {v} is not finite ({:?})",
+                mesh.positions[v]
+            )));
+        }
+        for (v, nrm) in mesh.normals.iter().enumerate() {
+            if !finite3(nrm) {
+                return Err(self.invalid(format!(
+                    "mesh {i} '{name}': normal {v} is not finite ({nrm:?})"
+                )));
+            }
+            let len = Vec3::from_array(*nrm).length();
+            if (len - 1.0).abs() > NORMAL_LENGTH_TOLERANCE {
+                return Err(self.invalid(format!(
+                    "mesh {i} '{name}': normal {v} has length {len}, not 1"
+                )));
+            }
+        }
+        if let Some(v) = mesh
+            .uvs
+            .iter()
+            .position(|uv| !uv.iter().all(|c| c.is_finite()))
+        {
+            return Err(self.invalid(format!(
+                "mesh {i} '{name}': uv {v} is not finite ({:?})",
+                mesh.uvs[v]
+            )));
+        }
+        if !mesh.indices.len().is_multiple_of(3) {
+            return Err(self.invalid(format!(
+                "mesh {i} '{name}' has {} indices, not a multiple of 3 (triangle lists only)",
+                mesh.indices.len()
+            )));
+        }
+        if let Some(k) = mesh.indices.iter().position(|&ix| ix as usize >= n) {
+            return Err(self.invalid(format!(
+                "mesh {i} '{name}': index {k} is {} but the mesh has {n} vertices",
+                mesh.indices[k]
+            )));
+        }
+        Ok(())
+    }
+
+    fn validate_material(&self, i: usize, m: &Material) -> Result<(), SceneError> {
+        let name = &m.name;
+        let factors_finite = m.base_color.iter().all(|c| c.is_finite())
+            && m.roughness.is_finite()
+            && m.metallic.is_finite();
+        if !factors_finite {
+            return Err(self.invalid(format!(
+                "material {i} '{name}' has a non-finite factor (base colour {:?}, roughness {}, metallic {})",
+                m.base_color, m.roughness, m.metallic
+            )));
+        }
+        let in_unit = |x: f32| (0.0..=1.0).contains(&x);
+        if !m.base_color.iter().all(|&c| in_unit(c))
+            || !in_unit(m.roughness)
+            || !in_unit(m.metallic)
+        {
+            return Err(self.invalid(format!(
+                "material {i} '{name}' has a factor outside [0, 1] (base colour {:?}, roughness {}, metallic {})",
+                m.base_color, m.roughness, m.metallic
+            )));
+        }
+        if let AlphaMode::Mask { cutoff } = m.alpha_mode {
+            if !cutoff.is_finite() || !in_unit(cutoff) {
+                return Err(self.invalid(format!(
+                    "material {i} '{name}' has alpha cutoff {cutoff}, not in [0, 1]"
+                )));
+            }
+        }
+        if let Some(t) = m.base_color_texture {
+            if t >= self.textures.len() {
+                return Err(self.invalid(format!(
+                    "material {i} '{name}' uses texture {t} but there are {} textures",
+                    self.textures.len()
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    fn validate_camera(&self, c: &CameraDesc) -> Result<(), SceneError> {
+        let finite = c.eye.is_finite()
+            && c.target.is_finite()
+            && c.up.is_finite()
+            && c.fov_y.is_finite()
+            && c.near.is_finite();
+        if !finite || c.far.is_some_and(|f| !f.is_finite()) {
+            return Err(self.invalid(format!("camera has a non-finite parameter: {c:?}")));
+        }
+        let forward = c.target - c.eye;
+        if forward.length_squared() < 1e-12 || forward.cross(c.up).length_squared() < 1e-12 {
+            return Err(self.invalid(format!(
+                "camera eye {} and target {} coincide or the view direction is parallel to up {}",
+                c.eye, c.target, c.up
+            )));
+        }
+        if !(c.fov_y > 0.0 && c.fov_y < std::f32::consts::PI) {
+            return Err(self.invalid(format!("camera fov_y {} is not in (0, pi)", c.fov_y)));
+        }
+        if c.near <= 0.0 || c.far.is_some_and(|f| f <= c.near) {
+            return Err(self.invalid(format!(
+                "camera near {} must be positive and below far {:?}",
+                c.near, c.far
+            )));
+        }
+        Ok(())
+    }
+
+    /// Triangles drawn: each instance's mesh counted once per instance.
+    pub fn triangle_count(&self) -> u64 {
+        self.instances
+            .iter()
+            .filter_map(|inst| self.meshes.get(inst.mesh))
+            .map(Mesh::triangle_count)
+            .sum()
+    }
+
+    /// World-space bounds of all instances (each mesh's box transformed by its
+    /// instance). Instances with an out-of-range mesh are skipped; empty if none is left.
+    pub fn compute_bounds(&self) -> Aabb {
+        let local: Vec<Aabb> = self.meshes.iter().map(Mesh::bounds).collect();
+        self.instances
+            .iter()
+            .filter_map(|inst| local.get(inst.mesh).map(|b| b.transformed(&inst.transform)))
+            .fold(Aabb::empty(), |acc, b| acc.union(&b))
+    }
+
+    /// True when at least one light is a spot light.
+    pub fn has_spot_lights(&self) -> bool {
+        self.lights.iter().any(Light::is_spot)
+    }
+
+    /// True when some instance is drawn with an alpha-masked material.
+    pub fn has_alpha_mask(&self) -> bool {
+        self.instance_materials()
+            .any(|m| matches!(m.alpha_mode, AlphaMode::Mask { .. }))
+    }
+
+    /// True when some instance is drawn with an alpha-blended material.
+    pub fn has_blend(&self) -> bool {
+        self.instance_materials()
+            .any(|m| m.alpha_mode == AlphaMode::Blend)
+    }
+
+    fn instance_materials(&self) -> impl Iterator<Item = &Material> + '_ {
+        self.instances
+            .iter()
+            .filter_map(|inst| self.materials.get(inst.material))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn triangle_scene() -> Scene {
+        let mesh = Mesh {
+            name: "tri".into(),
+            positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            normals: vec![[0.0, 0.0, 1.0]; 3],
+            uvs: vec![[0.0, 0.0]; 3],
+            indices: vec![0, 1, 2],
+        };
+        let mut scene = Scene {
+            name: "test".into(),
+            meshes: vec![mesh],
+            materials: vec![Material::default()],
+            textures: vec![Texture {
+                name: "t".into(),
+                width: 2,
+                height: 1,
+                rgba8: vec![255; 8],
+            }],
+            instances: vec![Instance {
+                mesh: 0,
+                material: 0,
+                transform: Mat4::from_translation(Vec3::new(0.0, 0.0, -5.0)),
+            }],
+            lights: vec![Light::point(Vec3::ONE, Vec3::ONE, 1.0, 0.01).unwrap()],
+            camera: Some(CameraDesc {
+                eye: Vec3::ZERO,
+                target: Vec3::NEG_Z,
+                up: Vec3::Y,
+                fov_y: 1.0,
+                near: 0.1,
+                far: None,
+            }),
+            bounds: Aabb::empty(),
+        };
+        scene.bounds = scene.compute_bounds();
+        scene
+    }
+
+    /// Asserts that `f`'s corruption is caught and the message contains `needle`.
+    fn rejects(f: impl FnOnce(&mut Scene), needle: &str) {
+        let mut s = triangle_scene();
+        f(&mut s);
+        let err = s.validate().expect_err(needle).to_string();
+        assert!(
+            err.contains(needle),
+            "message {err:?} should contain {needle:?}"
+        );
+        assert!(
+            err.contains("scene 'test'"),
+            "message {err:?} should name the scene"
+        );
+    }
+
+    #[test]
+    fn valid_scene_passes() {
+        let s = triangle_scene();
+        s.validate().unwrap();
+        assert_eq!(s.triangle_count(), 1);
+        assert_eq!(
+            s.bounds,
+            Aabb::new(Vec3::new(0.0, 0.0, -5.0), Vec3::new(1.0, 1.0, -5.0))
+        );
+        assert!(!s.has_spot_lights() && !s.has_alpha_mask() && !s.has_blend());
+    }
+
+    #[test]
+    fn validate_catches_bad_data() {
+        rejects(|s| s.instances.clear(), "no instances");
+        rejects(
+            |s| s.meshes[0].positions[1][0] = f32::NAN,
+            "mesh 0 'tri': position 1 is not finite",
+        );
+        rejects(
+            |s| s.meshes[0].positions[2][2] = f32::INFINITY,
+            "position 2 is not finite",
+        );
+        rejects(
+            |s| s.meshes[0].normals[0][1] = f32::NAN,
+            "mesh 0 'tri': normal 0 is not finite",
+        );
+        rejects(
+            |s| s.meshes[0].normals[0] = [0.0, 0.0, 2.0],
+            "normal 0 has length 2",
+        );
+        rejects(
+            |s| s.meshes[0].uvs[2][0] = f32::NAN,
+            "mesh 0 'tri': uv 2 is not finite",
+        );
+        rejects(
+            |s| {
+                s.meshes[0].uvs.pop();
+            },
+            "3 positions but 3 normals and 2 uvs",
+        );
+        rejects(
+            |s| s.meshes[0].indices[1] = 3,
+            "mesh 0 'tri': index 1 is 3 but the mesh has 3 vertices",
+        );
+        rejects(
+            |s| s.meshes[0].indices.push(0),
+            "4 indices, not a multiple of 3",
+        );
+        rejects(
+            |s| s.meshes[0].indices.clear(),
+            "mesh 0 'tri' has no triangles",
+        );
+        rejects(
+            |s| s.instances[0].mesh = 1,
+            "instance 0 uses mesh 1 but there are 1 meshes",
+        );
+        rejects(
+            |s| s.instances[0].material = 7,
+            "instance 0 uses material 7",
+        );
+        rejects(
+            |s| s.instances[0].transform.w_axis.x = f32::NAN,
+            "instance 0 (mesh 0 'tri') has a non-finite transform",
+        );
+        rejects(
+            |s| s.materials[0].roughness = f32::NAN,
+            "material 0 'default' has a non-finite factor",
+        );
+        rejects(
+            |s| s.materials[0].base_color[3] = f32::INFINITY,
+            "material 0 'default' has a non-finite factor",
+        );
+        rejects(
+            |s| s.materials[0].metallic = 1.5,
+            "material 0 'default' has a factor outside [0, 1]",
+        );
+        rejects(
+            |s| s.materials[0].alpha_mode = AlphaMode::Mask { cutoff: f32::NAN },
+            "alpha cutoff NaN",
+        );
+        rejects(
+            |s| s.materials[0].base_color_texture = Some(1),
+            "material 0 'default' uses texture 1 but there are 1 textures",
+        );
+        rejects(
+            |s| {
+                s.textures[0].rgba8.pop();
+            },
+            "texture 0 't' is 2x1 so needs 8 bytes of RGBA8, but has 7",
+        );
+        rejects(|s| s.textures[0].width = 0, "texture 0 't' has size 0x1");
+        rejects(
+            |s| s.lights[0].position.x = f32::NAN,
+            "light 0 has a non-finite",
+        );
+        rejects(
+            |s| s.lights[0].intensity = f32::INFINITY,
+            "light 0 has a non-finite",
+        );
+        rejects(|s| s.lights[0].radius = 0.0, "light 0 has radius 0");
+        rejects(
+            |s| {
+                s.lights[0].kind = LightKind::Spot {
+                    direction: Vec3::new(f32::NAN, 0.0, 0.0),
+                    inner_angle: 0.1,
+                    outer_angle: 0.2,
+                }
+            },
+            "spot light 0 has a non-finite direction",
+        );
+        rejects(
+            |s| s.camera.as_mut().unwrap().fov_y = f32::NAN,
+            "camera has a non-finite parameter",
+        );
+        rejects(
+            |s| s.camera.as_mut().unwrap().target = Vec3::ZERO,
+            "camera eye",
+        );
+        rejects(
+            |s| s.camera.as_mut().unwrap().far = Some(0.05),
+            "camera near 0.1 must be positive and below far",
+        );
+    }
+
+    #[test]
+    fn aabb_helpers() {
+        let e = Aabb::empty();
+        assert!(!e.is_valid());
+        let mut b = e;
+        b.extend(Vec3::new(1.0, 2.0, 3.0));
+        b.extend(Vec3::new(-1.0, 0.0, 5.0));
+        assert!(b.is_valid());
+        assert_eq!(b.center(), Vec3::new(0.0, 1.0, 4.0));
+        assert_eq!(b.size(), Vec3::new(2.0, 2.0, 2.0));
+        assert_eq!(e.union(&b), b);
+        assert!(b.contains(Vec3::new(0.0, 1.0, 4.0)) && !b.contains(Vec3::ZERO));
+        let moved = b.transformed(&Mat4::from_translation(Vec3::X));
+        assert_eq!(moved.min, Vec3::new(0.0, 0.0, 3.0));
+        assert!(!e.transformed(&Mat4::IDENTITY).is_valid());
+        assert!(!Aabb::new(Vec3::NAN, Vec3::ONE).is_valid());
+    }
+
+    #[test]
+    fn helpers_see_spots_and_alpha() {
+        let mut s = triangle_scene();
+        s.lights
+            .push(Light::spot(Vec3::ZERO, Vec3::NEG_Y, Vec3::ONE, 1.0, 0.1, 0.2, 0.01).unwrap());
+        s.materials.push(Material {
+            alpha_mode: AlphaMode::Blend,
+            ..Material::default()
+        });
+        assert!(s.has_spot_lights());
+        assert!(!s.has_blend(), "an unused blended material draws nothing");
+        s.instances[0].material = 1;
+        assert!(s.has_blend());
+        s.materials[1].alpha_mode = AlphaMode::Mask { cutoff: 0.5 };
+        assert!(s.has_alpha_mask());
+    }
+}
