@@ -171,8 +171,16 @@ fn nextest_available(root: &Path) -> bool {
         .is_ok_and(|s| s.success())
 }
 
-/// Names (with backend) of every adapter wgpu finds on `backends`.
-fn enumerate_adapters(backends: wgpu::Backends) -> Vec<(String, wgpu::Backend)> {
+/// One adapter wgpu found.
+#[derive(Clone, Debug)]
+struct FoundAdapter {
+    name: String,
+    backend: wgpu::Backend,
+    features: wgpu::Features,
+}
+
+/// Every adapter wgpu finds on `backends`.
+fn enumerate_adapters(backends: wgpu::Backends) -> Vec<FoundAdapter> {
     let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
         backends,
         ..wgpu::InstanceDescriptor::new_without_display_handle()
@@ -181,7 +189,11 @@ fn enumerate_adapters(backends: wgpu::Backends) -> Vec<(String, wgpu::Backend)> 
         .iter()
         .map(|a| {
             let info = a.get_info();
-            (info.name, info.backend)
+            FoundAdapter {
+                name: info.name,
+                backend: info.backend,
+                features: a.features(),
+            }
         })
         .collect()
 }
@@ -190,9 +202,8 @@ fn enumerate_adapters(backends: wgpu::Backends) -> Vec<(String, wgpu::Backend)> 
 /// (`CI` set), installs lavapipe first when it is missing.
 fn ensure_adapter(choice: &AdapterChoice) -> Result<()> {
     let mut adapters = enumerate_adapters(choice.backends());
-    let found = |adapters: &[(String, wgpu::Backend)]| {
-        adapters.iter().find(|(n, _)| choice.matches(n)).cloned()
-    };
+    let found =
+        |adapters: &[FoundAdapter]| adapters.iter().find(|a| choice.matches(&a.name)).cloned();
     let system = System::detect();
     if found(&adapters).is_none() && choice.name == DEFAULT_ADAPTER && system.can_auto_install() {
         println!(
@@ -202,8 +213,18 @@ fn ensure_adapter(choice: &AdapterChoice) -> Result<()> {
         install_lavapipe()?;
         adapters = enumerate_adapters(choice.backends());
     }
-    if let Some((name, backend)) = found(&adapters) {
-        println!("xtask: GPU tests run on adapter \"{name}\" ({backend:?})");
+    if let Some(a) = found(&adapters) {
+        println!(
+            "xtask: GPU tests run on adapter \"{}\" ({:?})",
+            a.name, a.backend
+        );
+        let lacking = shaders::FEATURES - a.features;
+        if !lacking.is_empty() {
+            // validate-shaders accepts shaders that use these; the device cannot run them.
+            println!(
+                "xtask: warning: the adapter lacks {lacking:?}, which validate-shaders allows"
+            );
+        }
         return Ok(());
     }
 
@@ -212,7 +233,7 @@ fn ensure_adapter(choice: &AdapterChoice) -> Result<()> {
     } else {
         adapters
             .iter()
-            .map(|(n, b)| format!("\"{n}\" ({b:?})"))
+            .map(|a| format!("\"{}\" ({:?})", a.name, a.backend))
             .collect::<Vec<_>>()
             .join(", ")
     };
