@@ -128,7 +128,9 @@ fn view_lights(view: &Mat4, lights: &PackedLights, inflate: f32) -> Vec<ViewLigh
         .map(|i| {
             let cl = lights.cull[i];
             let center = to_view(view, Vec3::from(cl.center));
-            let grow = inflate * (cl.radius + center.length());
+            // Skipped when 0: beyond ~1.8e19 m `center.length()` overflows to inf and
+            // 0 * inf = NaN would turn the radius into NaN, which culls the light everywhere.
+            let grow = if inflate == 0.0 { 0.0 } else { inflate * (cl.radius + center.length()) };
             let radius = cl.radius + grow;
             let cone = (i >= lights.num_point as usize).then(|| {
                 let s = lights.spots[i - lights.num_point as usize];

@@ -1,0 +1,379 @@
+//! Shared generators for the integration tests of tiledlight-cull: cameras described by
+//! plain parameters (so a failing case prints them), random depth buffers and random
+//! lights placed where they actually light something. Every generator is driven by a
+//! seeded PCG so a case is reproducible from what the failure message prints.
+
+#![allow(dead_code)] // Each test binary uses a different part of this module.
+
+use glam::{EulerRot, Mat4, Quat, Vec3};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use tiledlight_cull::{Camera, Light, LightKind};
+
+/// f32 machine epsilon (2^-23), the unit of every tolerance below.
+pub const EPS: f32 = f32::EPSILON;
+
+/// A deterministic generator.
+pub fn rng(seed: u64) -> Pcg64 {
+    Pcg64::seed_from_u64(seed)
+}
+
+/// Log-uniform in [lo, hi): every decade equally likely.
+pub fn log_uniform(rng: &mut impl Rng, lo: f32, hi: f32) -> f32 {
+    let (a, b) = (lo.ln(), hi.ln());
+    (a + (b - a) * rng.random::<f32>()).exp().clamp(lo, hi)
+}
+
+/// A uniformly distributed unit vector.
+pub fn unit(rng: &mut impl Rng) -> Vec3 {
+    loop {
+        let v = Vec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        );
+        let l = v.length();
+        if l > 0.05 && l <= 1.0 {
+            return v / l;
+        }
+    }
+}
+
+/// Projection kind of a [`CamSpec`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CamKind {
+    /// Perspective with a finite far plane.
+    Finite,
+    /// Perspective with an infinite far plane.
+    Infinite,
+    /// Orthographic.
+    Ortho,
+}
+
+/// A camera as plain numbers: printed by a failing proptest case.
+#[derive(Clone, Copy, Debug)]
+pub struct CamSpec {
+    /// Projection kind.
+    pub kind: CamKind,
+    /// Near plane distance (orthographic: may be 0).
+    pub near: f32,
+    /// Far plane distance (ignored for `Infinite`).
+    pub far: f32,
+    /// Vertical field of view, degrees (perspective).
+    pub fov_deg: f32,
+    /// Orthographic half-height.
+    pub half_height: f32,
+    /// Width / height.
+    pub aspect: f32,
+    /// Eye position.
+    pub eye: Vec3,
+    /// Yaw, pitch, roll (radians) of the view direction and up vector.
+    pub euler: Vec3,
+}
+
+impl CamSpec {
+    /// Unit view direction and up vector (orthogonal by construction).
+    pub fn basis(&self) -> (Vec3, Vec3) {
+        let q = Quat::from_euler(EulerRot::YXZ, self.euler.x, self.euler.y, self.euler.z);
+        (q * Vec3::NEG_Z, q * Vec3::Y)
+    }
+
+    /// Builds the camera; the specs generated here are always valid.
+    pub fn camera(&self) -> Camera {
+        let (fwd, up) = self.basis();
+        let target = self.eye + fwd;
+        match self.kind {
+            CamKind::Finite => Camera::perspective(
+                self.eye,
+                target,
+                up,
+                self.fov_deg.to_radians(),
+                self.aspect,
+                self.near,
+                Some(self.far),
+            ),
+            CamKind::Infinite => Camera::perspective(
+                self.eye,
+                target,
+                up,
+                self.fov_deg.to_radians(),
+                self.aspect,
+                self.near,
+                None,
+            ),
+            CamKind::Ortho => Camera::orthographic(
+                self.eye,
+                target,
+                up,
+                self.half_height,
+                self.aspect,
+                self.near,
+                self.far,
+            ),
+        }
+        .unwrap_or_else(|e| panic!("generated camera {self:?} rejected: {e}"))
+    }
+
+    /// A random spec over the ranges the brief asks for: near 1e-4..10, far 1e2..1e7,
+    /// FOV 1..170 degrees, aspect 0.1..10, any position (within 1e3) and orientation.
+    pub fn random(rng: &mut impl Rng) -> Self {
+        let kind = [CamKind::Finite, CamKind::Infinite, CamKind::Ortho][rng.random_range(0..3)];
+        let near = if kind == CamKind::Ortho && rng.random_bool(0.3) {
+            0.0
+        } else {
+            log_uniform(rng, 1e-4, 10.0)
+        };
+        Self {
+            kind,
+            near,
+            far: log_uniform(rng, 1e2, 1e7),
+            fov_deg: rng.random_range(1.0..170.0),
+            half_height: log_uniform(rng, 0.1, 1e3),
+            aspect: log_uniform(rng, 0.1, 10.0),
+            eye: unit(rng) * log_uniform(rng, 1e-3, 1e3),
+            euler: Vec3::new(
+                rng.random_range(0.0..std::f32::consts::TAU),
+                rng.random_range(-1.5..1.5),
+                rng.random_range(0.0..std::f32::consts::TAU),
+            ),
+        }
+    }
+}
+
+/// View-space point to world space.
+pub fn view_to_world(camera: &Camera, p: Vec3) -> Vec3 {
+    camera.view().inverse().transform_point3(p)
+}
+
+/// How a random depth buffer is filled.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DepthMode {
+    /// One depth everywhere.
+    Constant,
+    /// Depth affine in NDC: a plane in view space (reversed-Z is affine in 1/z, and 1/z
+    /// of a plane is affine in screen space); non-positive values become sky.
+    Plane,
+    /// Independent per-pixel view distances, log-uniform between near and far.
+    PerPixel,
+    /// Depths within 1e-6 of 1, including exactly 1 (surfaces on the near plane).
+    NearOne,
+    /// Depths near 0 (far away), down to the smallest subnormal, where an infinite far
+    /// plane makes the view distance overflow.
+    NearZero,
+}
+
+/// All modes, for picking one at random.
+pub const DEPTH_MODES: [DepthMode; 5] = [
+    DepthMode::Constant,
+    DepthMode::Plane,
+    DepthMode::PerPixel,
+    DepthMode::NearOne,
+    DepthMode::NearZero,
+];
+
+/// One depth value of a mode for pixel (x, y); `base` carries the mode's per-buffer constants.
+fn depth_value(
+    rng: &mut impl Rng,
+    mode: DepthMode,
+    camera: &Camera,
+    base: [f32; 3],
+    (x, y): (u32, u32),
+    (w, h): (u32, u32),
+) -> f32 {
+    let dp = camera.depth_params();
+    let v = match mode {
+        DepthMode::Constant => base[0],
+        DepthMode::Plane => {
+            let nx = 2.0 * (x as f32 + 0.5) / w as f32 - 1.0;
+            let ny = 1.0 - 2.0 * (y as f32 + 0.5) / h as f32;
+            base[0] + base[1] * nx + base[2] * ny
+        }
+        DepthMode::PerPixel => {
+            if rng.random_bool(0.5) {
+                rng.random::<f32>()
+            } else {
+                let far = if dp.far.is_finite() { dp.far } else { 1e7 };
+                dp.depth(log_uniform(rng, dp.near.max(1e-4), far))
+            }
+        }
+        DepthMode::NearOne => {
+            if rng.random_bool(0.2) {
+                1.0
+            } else {
+                1.0 - rng.random::<f32>() * 1e-6
+            }
+        }
+        DepthMode::NearZero => match rng.random_range(0..4) {
+            0 => f32::from_bits(1),
+            1 => f32::MIN_POSITIVE * rng.random::<f32>(),
+            _ => log_uniform(rng, 1e-38, 1e-3),
+        },
+    };
+    if v.is_nan() {
+        0.0
+    } else {
+        v.clamp(0.0, 1.0)
+    }
+}
+
+fn mode_base(rng: &mut impl Rng, mode: DepthMode) -> [f32; 3] {
+    match mode {
+        DepthMode::Constant => [rng.random_range(0.0..1.0), 0.0, 0.0],
+        DepthMode::Plane => [
+            rng.random_range(-0.2..1.2),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        ],
+        _ => [0.0; 3],
+    }
+}
+
+/// A random depth buffer for a `w` x `h` screen. `geometry_tiles`: when `Some((tile, k))`,
+/// only `k` random tiles (of side `tile`) have geometry and the rest is sky (large screens);
+/// otherwise the whole screen is filled and random rectangles are cut out as sky.
+pub fn random_depth(
+    rng: &mut impl Rng,
+    mode: DepthMode,
+    camera: &Camera,
+    w: u32,
+    h: u32,
+    geometry_tiles: Option<(u32, u32)>,
+) -> Vec<f32> {
+    let mut depth = vec![0.0f32; (w * h) as usize];
+    let base = mode_base(rng, mode);
+    match geometry_tiles {
+        Some((tile, k)) => {
+            let (tx, ty) = (w.div_ceil(tile), h.div_ceil(tile));
+            for i in 0..k {
+                // The last one is a partial corner tile whenever the screen has one.
+                let (cx, cy) = if i + 1 == k {
+                    (tx - 1, ty - 1)
+                } else {
+                    (rng.random_range(0..tx), rng.random_range(0..ty))
+                };
+                for y in cy * tile..((cy + 1) * tile).min(h) {
+                    for x in cx * tile..((cx + 1) * tile).min(w) {
+                        depth[(y * w + x) as usize] =
+                            depth_value(rng, mode, camera, base, (x, y), (w, h));
+                    }
+                }
+            }
+        }
+        None => {
+            for y in 0..h {
+                for x in 0..w {
+                    depth[(y * w + x) as usize] =
+                        depth_value(rng, mode, camera, base, (x, y), (w, h));
+                }
+            }
+            for _ in 0..rng.random_range(0..3) {
+                let (x0, y0) = (rng.random_range(0..w), rng.random_range(0..h));
+                let (x1, y1) = (rng.random_range(x0..=w), rng.random_range(y0..=h));
+                for y in y0..y1 {
+                    depth[(y * w) as usize + x0 as usize..(y * w) as usize + x1 as usize].fill(0.0);
+                }
+            }
+        }
+    }
+    depth
+}
+
+/// A random light colour whose brightest channel is 1.
+pub fn colour(rng: &mut impl Rng) -> Vec3 {
+    let mut c = [1.0, rng.random::<f32>(), rng.random::<f32>()];
+    let i = rng.random_range(0..3);
+    c.swap(0, i);
+    Vec3::from(c)
+}
+
+/// A light of radius ~`radius` at `pos` built through one of the four public
+/// constructors (chosen at random): `Light::point`, `Light::spot` (radius from an
+/// intensity threshold), or `Light::with_radius` with a point or spot kind. `dir` and
+/// `outer` are used for spots; `outer` may lie outside the accepted range (it is clamped).
+pub fn random_light(
+    rng: &mut impl Rng,
+    pos: Vec3,
+    radius: f32,
+    spot: Option<(Vec3, f32)>,
+) -> Light {
+    let color = colour(rng);
+    let intensity = log_uniform(rng, 0.1, 100.0);
+    // Light::point/spot derive r = sqrt(intensity * max(colour) / threshold), and max(colour) = 1.
+    let threshold = intensity / (radius * radius);
+    let by_threshold = rng.random_bool(0.5);
+    let l = match spot {
+        None if by_threshold => Light::point(pos, color, intensity, threshold),
+        None => Light::with_radius(pos, color, intensity, radius, LightKind::Point),
+        Some((dir, outer)) => {
+            let inner = outer * rng.random::<f32>();
+            if by_threshold {
+                Light::spot(pos, dir, color, intensity, inner, outer, threshold)
+            } else {
+                Light::spot_kind(dir, inner, outer)
+                    .and_then(|k| Light::with_radius(pos, color, intensity, radius, k))
+            }
+        }
+    };
+    l.unwrap_or_else(|e| panic!("generated light at {pos} radius {radius} rejected: {e}"))
+}
+
+/// Rotates unit `dir` by `angle` about a random axis perpendicular to it.
+pub fn tilt(rng: &mut impl Rng, dir: Vec3, angle: f32) -> Vec3 {
+    let perp = dir
+        .cross(unit(rng))
+        .normalize_or(dir.any_orthonormal_vector());
+    Quat::from_axis_angle(perp, angle) * dir
+}
+
+/// Random lights around a camera: half aimed at `targets` (world points of visible
+/// surfaces: placed closer than their radius, spots pointed at them), the rest at the
+/// eye, behind the camera, straddling the near plane, or anywhere in front.
+pub fn random_lights(rng: &mut impl Rng, spec: &CamSpec, targets: &[Vec3], n: usize) -> Vec<Light> {
+    let (fwd, up) = spec.basis();
+    let right = fwd.cross(up);
+    let far = if spec.kind == CamKind::Infinite {
+        1e7
+    } else {
+        spec.far
+    };
+    (0..n)
+        .map(|i| {
+            let radius = log_uniform(rng, 1e-4, 1e6);
+            let is_spot = rng.random_bool(0.5);
+            // Requested half-angles from 0.2 to 90 degrees: both clamps get exercised.
+            let outer = log_uniform(rng, 0.2f32.to_radians(), 90f32.to_radians());
+            let clamped = outer.clamp(
+                tiledlight_cull::light::MIN_SPOT_ANGLE,
+                tiledlight_cull::light::MAX_SPOT_ANGLE,
+            );
+            if i % 2 == 0 && !targets.is_empty() {
+                let target = targets[rng.random_range(0..targets.len())];
+                let offset = unit(rng) * radius * rng.random::<f32>();
+                let pos = target + offset;
+                let to_target = (target - pos).normalize_or(unit(rng));
+                // Tilted by less than the cone's half-angle: the target is inside the cone.
+                let angle = clamped * 0.99 * rng.random::<f32>();
+                let dir = tilt(rng, to_target, angle);
+                return random_light(rng, pos, radius, is_spot.then_some((dir, outer)));
+            }
+            let lateral = right * rng.random_range(-1.0..1.0) + up * rng.random_range(-1.0..1.0);
+            let pos = match rng.random_range(0..4) {
+                0 => spec.eye,
+                1 => spec.eye - fwd * log_uniform(rng, 1e-3, 1e3) + lateral * radius,
+                2 => {
+                    spec.eye
+                        + fwd * (spec.near + radius * rng.random_range(-0.9..0.9))
+                        + lateral * radius * 0.3
+                }
+                _ => spec.eye + unit(rng) * log_uniform(rng, 1e-3, far.min(1e5)),
+            };
+            let dir = unit(rng);
+            random_light(rng, pos, radius, is_spot.then_some((dir, outer)))
+        })
+        .collect()
+}
+
+/// World-to-view point transform, as the culler does it.
+pub fn to_view(view: &Mat4, p: Vec3) -> Vec3 {
+    tiledlight_cull::bounds::to_view(view, p)
+}
