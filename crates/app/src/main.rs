@@ -1,1 +1,168 @@
-fn main() {}
+//! `tiledlight`: the command-line front end of the tiledlight renderers.
+//!
+//! - `tiledlight render ...`: one image (or heat map) of a configuration, with a report
+//!   ([`render`]);
+//! - `tiledlight bench ...`: per-pass GPU times over many frames, optionally as JSON
+//!   ([`bench`]);
+//! - `tiledlight` alone: the default scene at 1080p, image + heat map + short benchmark
+//!   ([`quickstart`]).
+//!
+//! Both subcommands build their scene, lights, camera and renderer from the same flags
+//! ([`scene_setup`]). Every failure ends with one `error: ...` line on stderr and a
+//! non-zero exit code (1 for run-time errors, 2 for unparsable flags); logging goes
+//! through env_logger (`RUST_LOG`). This module may depend on all the others.
+
+mod bench;
+mod legend;
+mod quickstart;
+mod render;
+mod scene_setup;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Forward+ lighting with thousands of lights: renders and benchmarks scenes headless.
+/// With no subcommand: renders the default scene at 1920x1080 with 1024 lights to
+/// out/render.png and out/heatmap.png and prints the pass timings.
+#[derive(Parser, Debug)]
+#[command(name = "tiledlight", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Render one image (or the lights-per-tile heat map) to a PNG and report on it.
+    // Negative numbers are values, so `--threshold -1` gets a range error, not "unknown flag".
+    #[command(allow_negative_numbers = true)]
+    Render(render::RenderArgs),
+    /// Time every pass over many frames; print a table and optionally write JSON.
+    #[command(allow_negative_numbers = true)]
+    Bench(bench::BenchArgs),
+}
+
+/// Makes a possibly multi-line message (wgpu validation errors, clap's usage hints) one
+/// line, so every failure is a single `error:` line.
+fn one_line(msg: &str) -> String {
+    msg.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// The error and its causes on one line, "context: cause: cause", leaving out a cause
+/// whose text the line already holds (some errors print their source in their own
+/// message, which anyhow's `{:#}` would repeat).
+fn error_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = one_line(&cause.to_string());
+        if line.contains(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
+}
+
+fn main() -> ExitCode {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => {
+            // --help and --version: clap prints them as it always does.
+            let _ = e.print();
+            return ExitCode::SUCCESS;
+        }
+        Err(e) => {
+            let text = e.render().to_string();
+            // Keep the problem and clap's tips; the usage line and the pointer to --help
+            // are replaced by the short hint below.
+            let kept: Vec<&str> = text
+                .lines()
+                .filter(|l| !l.starts_with("For more information") && !l.starts_with("Usage:"))
+                .collect();
+            let msg = one_line(&kept.join("\n"));
+            let msg = msg.strip_prefix("error: ").unwrap_or(&msg);
+            eprintln!("error: {msg} (see --help)");
+            return ExitCode::from(2);
+        }
+    };
+    let result = match &cli.command {
+        Some(Command::Render(args)) => render::run(args),
+        Some(Command::Bench(args)) => bench::run(args),
+        None => quickstart::run(),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {}", error_line(&e));
+            ExitCode::FAILURE
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn cli_is_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn messages_become_one_line() {
+        assert_eq!(one_line("a\n\n  b  \nc"), "a b c");
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "gone");
+        let e = anyhow::Error::new(io)
+            .context("x: cannot read: gone")
+            .context("loading");
+        assert_eq!(error_line(&e), "loading: x: cannot read: gone");
+    }
+
+    #[test]
+    fn flags_parse() {
+        let cli = Cli::try_parse_from([
+            "tiledlight",
+            "render",
+            "--lights",
+            "5",
+            "--method",
+            "brute-force-no-cutoff",
+            "--tile-size",
+            "32",
+            "--heatmap",
+            "--out",
+            "x.png",
+            "--density",
+            "high",
+        ])
+        .unwrap();
+        let Some(Command::Render(r)) = cli.command else {
+            panic!("not render")
+        };
+        assert_eq!(r.scene.lights, Some(5));
+        assert_eq!(r.scene.method, scene_setup::MethodArg::BruteForceNoCutoff);
+        assert_eq!(r.scene.tile_size, 32);
+        assert!(r.heatmap);
+        let cli = Cli::try_parse_from(["tiledlight", "bench", "--frames", "3", "--json", "a.json"])
+            .unwrap();
+        let Some(Command::Bench(b)) = cli.command else {
+            panic!("not bench")
+        };
+        assert_eq!((b.frames, b.warmup), (3, 20));
+        assert_eq!(b.scene.width, 1920);
+        assert!(Cli::try_parse_from(["tiledlight"])
+            .unwrap()
+            .command
+            .is_none());
+    }
+}

@@ -1,0 +1,396 @@
+//! `tiledlight bench`: renders warm-up frames, then N measured frames, collecting each
+//! frame's per-pass GPU times (timestamp queries through `GpuTimer`) and its CPU wall
+//! time, and prints (and optionally writes as JSON) median/min/max per pass.
+//!
+//! Frames are serialised: each frame is recorded, submitted and waited for before the
+//! next, so the CPU frame time is the wall time of record + submit + wait of that frame
+//! (latency, not pipelined throughput) and the profiler never has to drop a pending frame.
+//! The frame loop ([`measure`]) and the table are shared with `render` and the default run.
+//!
+//! May depend on [`crate::scene_setup`], tiledlight-forward and tiledlight-gpu.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{ensure, Context, Result};
+use clap::Args;
+use serde::Serialize;
+use tiledlight_forward::ForwardRenderer;
+use tiledlight_gpu::timer::{GpuTimer, PassTime};
+
+use crate::scene_setup::{Prepared, SceneArgs};
+
+/// How the CPU frame time is measured (printed and written to JSON).
+pub const CPU_TIME_MEANING: &str =
+    "wall time of record + submit + wait for the GPU, per frame (frames serialised)";
+
+/// The most frames `--frames` and `--warmup` accept (a guard against typos that would run
+/// for hours).
+pub const MAX_FRAMES: u32 = 100_000;
+
+/// Flags of `tiledlight bench`.
+#[derive(Args, Clone, Debug)]
+pub struct BenchArgs {
+    /// Scene, lights, screen and renderer.
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Measured frames.
+    #[arg(long, default_value_t = 200, value_name = "N")]
+    pub frames: u32,
+    /// Frames rendered before measuring (pipeline warm-up, caches, clocks).
+    #[arg(long, default_value_t = 20, value_name = "N")]
+    pub warmup: u32,
+    /// Also write the results as JSON to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+}
+
+/// What a run of frames measured.
+#[derive(Clone, Debug, Default)]
+pub struct Measurement {
+    /// Per measured frame whose timestamps came back, its pass times, in frame order.
+    pub gpu_frames: Vec<Vec<PassTime>>,
+    /// Per measured frame, its CPU wall time in milliseconds.
+    pub cpu_ms: Vec<f64>,
+    /// Whether the device had timestamp queries.
+    pub timestamps: bool,
+}
+
+/// Median, minimum and maximum of a set of samples.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Summary {
+    /// Median (mean of the middle two for an even count).
+    pub median_ms: f64,
+    /// Smallest.
+    pub min_ms: f64,
+    /// Largest.
+    pub max_ms: f64,
+    /// Number of samples.
+    pub frames: usize,
+}
+
+impl Summary {
+    /// Summary of `samples` (None when empty).
+    pub fn of(samples: &[f64]) -> Option<Self> {
+        if samples.is_empty() {
+            return None;
+        }
+        let mut s = samples.to_vec();
+        s.sort_by(f64::total_cmp);
+        let n = s.len();
+        let median = if n % 2 == 1 {
+            s[n / 2]
+        } else {
+            0.5 * (s[n / 2 - 1] + s[n / 2])
+        };
+        Some(Self {
+            median_ms: median,
+            min_ms: s[0],
+            max_ms: s[n - 1],
+            frames: n,
+        })
+    }
+}
+
+/// One pass's summary.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PassSummary {
+    /// Pass label, e.g. "forward.cull".
+    pub pass: String,
+    /// Its times.
+    #[serde(flatten)]
+    pub summary: Summary,
+}
+
+impl Measurement {
+    /// Per pass (in the order passes run), the summary of its times over the frames.
+    pub fn passes(&self) -> Vec<PassSummary> {
+        let mut labels: Vec<&str> = Vec::new();
+        for f in &self.gpu_frames {
+            for p in f {
+                if !labels.contains(&p.label.as_str()) {
+                    labels.push(&p.label);
+                }
+            }
+        }
+        labels
+            .into_iter()
+            .filter_map(|label| {
+                let samples: Vec<f64> = self
+                    .gpu_frames
+                    .iter()
+                    .flat_map(|f| f.iter().filter(|p| p.label == label).map(|p| p.ms))
+                    .collect();
+                Summary::of(&samples).map(|summary| PassSummary {
+                    pass: label.to_string(),
+                    summary,
+                })
+            })
+            .collect()
+    }
+
+    /// Summary of the CPU frame times.
+    pub fn cpu(&self) -> Option<Summary> {
+        Summary::of(&self.cpu_ms)
+    }
+}
+
+/// Renders `warmup` then `frames` frames through `renderer`, each submitted and waited
+/// for, and collects the measured frames' pass times and CPU wall times.
+pub fn measure(
+    prep: &Prepared,
+    renderer: &ForwardRenderer,
+    warmup: u32,
+    frames: u32,
+) -> Result<Measurement> {
+    let ctx = &prep.ctx;
+    let mut timer = GpuTimer::new(ctx).context("creating the GPU timer")?;
+    let mut out = Measurement {
+        timestamps: timer.enabled(),
+        ..Default::default()
+    };
+    // The profiler hands frames back in submission order: count them to skip warm-up.
+    let mut finished = 0u32;
+    let drain = |timer: &mut GpuTimer, out: &mut Measurement, finished: &mut u32| {
+        while let Some(f) = timer.finished_frame() {
+            if *finished >= warmup {
+                out.gpu_frames.push(f);
+            }
+            *finished += 1;
+        }
+    };
+    for i in 0..warmup + frames {
+        let t0 = Instant::now();
+        let mut encoder = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("bench.frame"),
+            });
+        renderer.record(
+            &ctx.queue,
+            &mut encoder,
+            &timer,
+            &prep.scene_gpu,
+            &prep.camera,
+        );
+        timer.resolve(&mut encoder);
+        ctx.queue.submit([encoder.finish()]);
+        timer.end_frame().context("ending a timed frame")?;
+        ctx.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .context("waiting for the GPU")?;
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        if i >= warmup {
+            out.cpu_ms.push(ms);
+        }
+        prep.check_gpu_errors()?;
+        // The timestamp readback is mapped after the submit; the next poll delivers it.
+        ctx.device
+            .poll(wgpu::PollType::Poll)
+            .context("polling the GPU")?;
+        drain(&mut timer, &mut out, &mut finished);
+    }
+    // Frames still in flight: wait, then take what is left.
+    for _ in 0..8 {
+        if finished >= warmup + frames || !out.timestamps {
+            break;
+        }
+        ctx.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .context("waiting for the GPU")?;
+        drain(&mut timer, &mut out, &mut finished);
+    }
+    Ok(out)
+}
+
+/// The table of pass times: pass | median | min | max | frames, a "total GPU" row (sum of
+/// medians) and the CPU frame time.
+pub fn table(m: &Measurement) -> String {
+    let mut s = String::new();
+    if !m.timestamps {
+        s.push_str("GPU pass times: not available (the adapter has no timestamp queries)\n");
+    } else {
+        let passes = m.passes();
+        s.push_str(&format!(
+            "{:<22} {:>10} {:>10} {:>10} {:>7}\n",
+            "pass", "median ms", "min", "max", "frames"
+        ));
+        for p in &passes {
+            let t = p.summary;
+            s.push_str(&format!(
+                "{:<22} {:>10.3} {:>10.3} {:>10.3} {:>7}\n",
+                p.pass, t.median_ms, t.min_ms, t.max_ms, t.frames
+            ));
+        }
+        let total: f64 = passes.iter().map(|p| p.summary.median_ms).sum();
+        s.push_str(&format!("{:<22} {:>10.3}\n", "total GPU", total));
+    }
+    if let Some(c) = m.cpu() {
+        s.push_str(&format!(
+            "{:<22} {:>10.3} {:>10.3} {:>10.3} {:>7}   ({CPU_TIME_MEANING})\n",
+            "CPU frame", c.median_ms, c.min_ms, c.max_ms, c.frames
+        ));
+    }
+    s
+}
+
+/// The JSON written by `--json`.
+#[derive(Serialize)]
+struct BenchJson {
+    config: ConfigJson,
+    frames: u32,
+    warmup: u32,
+    timestamps: bool,
+    passes: Vec<PassSummary>,
+    total_gpu_median_ms: Option<f64>,
+    cpu_frame: Option<Summary>,
+    cpu_frame_measure: &'static str,
+}
+
+#[derive(Serialize)]
+struct ConfigJson {
+    adapter: String,
+    width: u32,
+    height: u32,
+    scene: String,
+    triangles: u64,
+    instances: usize,
+    point_lights: usize,
+    spot_lights: usize,
+    seed: u64,
+    threshold: f32,
+    method: &'static str,
+    tile_size: u32,
+    capacity: u32,
+    aabb: bool,
+    half_z: bool,
+    spot_cone: bool,
+    commit: String,
+}
+
+/// `git rev-parse HEAD` of the working directory, or "unknown".
+pub fn commit_hash() -> String {
+    std::process::Command::new("git")
+        .args(["rev-parse", "HEAD"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .and_then(|o| String::from_utf8(o.stdout).ok())
+        .map(|s| s.trim().to_string())
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| "unknown".into())
+}
+
+/// Runs `tiledlight bench`.
+pub fn run(args: &BenchArgs) -> Result<()> {
+    ensure!(
+        (1..=MAX_FRAMES).contains(&args.frames),
+        "--frames {}: must be between 1 and {MAX_FRAMES}",
+        args.frames
+    );
+    ensure!(
+        args.warmup <= MAX_FRAMES,
+        "--warmup {}: must be at most {MAX_FRAMES}",
+        args.warmup
+    );
+    if let Some(p) = &args.json {
+        // Fail before minutes of rendering if the file cannot be written.
+        if let Some(dir) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("creating directory {}", dir.display()))?;
+        }
+    }
+    let prep = Prepared::new(&args.scene)?;
+    for (k, v) in prep.describe() {
+        println!("{:<11} {v}", format!("{k}:"));
+    }
+    let renderer = prep.renderer(false)?;
+    println!(
+        "frames:     {} warm-up + {} measured",
+        args.warmup, args.frames
+    );
+    let m = measure(&prep, &renderer, args.warmup, args.frames)?;
+    print!("{}", table(&m));
+    if let Some(path) = &args.json {
+        let a = &prep.args;
+        let passes = m.passes();
+        let json = BenchJson {
+            config: ConfigJson {
+                adapter: prep.ctx.describe(),
+                width: a.width,
+                height: a.height,
+                scene: prep.scene_name.clone(),
+                triangles: prep.scene_gpu.triangles,
+                instances: prep.instances,
+                point_lights: prep.light_summary.point,
+                spot_lights: prep.light_summary.spot,
+                seed: a.seed,
+                threshold: a.threshold,
+                method: a.method.name(),
+                tile_size: a.tile_size,
+                capacity: a.capacity,
+                aabb: a.aabb,
+                half_z: a.half_z,
+                spot_cone: a.spot_cone,
+                commit: commit_hash(),
+            },
+            frames: args.frames,
+            warmup: args.warmup,
+            timestamps: m.timestamps,
+            total_gpu_median_ms: m
+                .timestamps
+                .then(|| passes.iter().map(|p| p.summary.median_ms).sum()),
+            passes,
+            cpu_frame: m.cpu(),
+            cpu_frame_measure: CPU_TIME_MEANING,
+        };
+        let text = serde_json::to_string_pretty(&json).context("encoding the results as JSON")?;
+        std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn summary_statistics() {
+        assert_eq!(Summary::of(&[]), None);
+        let s = Summary::of(&[3.0, 1.0, 2.0]).unwrap();
+        assert_eq!(
+            (s.median_ms, s.min_ms, s.max_ms, s.frames),
+            (2.0, 1.0, 3.0, 3)
+        );
+        assert_eq!(Summary::of(&[4.0, 1.0, 2.0, 3.0]).unwrap().median_ms, 2.5);
+    }
+
+    #[test]
+    fn passes_keep_their_order() {
+        let f = |a: f64, b: f64| {
+            vec![
+                PassTime {
+                    label: "z".into(),
+                    ms: a,
+                },
+                PassTime {
+                    label: "a".into(),
+                    ms: b,
+                },
+            ]
+        };
+        let m = Measurement {
+            gpu_frames: vec![f(1.0, 2.0), f(3.0, 4.0)],
+            cpu_ms: vec![5.0],
+            timestamps: true,
+        };
+        let p = m.passes();
+        assert_eq!(p[0].pass, "z");
+        assert_eq!(p[0].summary.median_ms, 2.0);
+        assert_eq!(p[1].pass, "a");
+        let t = table(&m);
+        assert!(t.contains("total GPU"), "{t}");
+        assert!(t.contains("CPU frame"), "{t}");
+    }
+}

@@ -1,0 +1,57 @@
+//! `tiledlight` with no subcommand: the one-command tour. Renders the default scene with
+//! 1024 point lights at 1920x1080 with Forward+, writes `out/render.png` and
+//! `out/heatmap.png` (with its legend), and prints the median pass times of a short
+//! benchmark. Two renderers, one after the other: the heat map is drawn over the lit
+//! image, so the plain image needs a renderer without it.
+//!
+//! May depend on [`crate::scene_setup`], [`crate::bench`] and [`crate::render`].
+
+use std::path::Path;
+
+use anyhow::Result;
+
+use crate::bench;
+use crate::render::{culling_stats, write_image};
+use crate::scene_setup::{Prepared, SceneArgs};
+
+/// Frames of the short benchmark (after a few warm-up frames).
+const FRAMES: u32 = 30;
+const WARMUP: u32 = 5;
+
+/// Runs the default tour.
+pub fn run() -> Result<()> {
+    let args = SceneArgs::default();
+    let render_path = Path::new("out/render.png");
+    let heatmap_path = Path::new("out/heatmap.png");
+    let prep = Prepared::new(&args)?;
+    for (k, v) in prep.describe() {
+        println!("{:<11} {v}", format!("{k}:"));
+    }
+
+    {
+        let renderer = prep.renderer(false)?;
+        println!("benchmark:  {WARMUP} warm-up + {FRAMES} measured frames");
+        let m = bench::measure(&prep, &renderer, WARMUP, FRAMES)?;
+        print!("{}", bench::table(&m));
+        if let Some(s) = culling_stats(&prep, &renderer)? {
+            println!("culling:    {s}");
+        }
+        write_image(&prep, &renderer, false, render_path)?;
+        println!("GPU memory:\n{}", renderer.memory());
+    }
+    // The first renderer is dropped: only one set of targets is alive at a time.
+    let heat = prep.renderer(true)?;
+    bench::measure(&prep, &heat, 0, 1)?;
+    let note = write_image(&prep, &heat, true, heatmap_path)?;
+    prep.check_gpu_errors()?;
+    if let Some(n) = note {
+        println!("note:       {n}");
+    }
+    println!(
+        "wrote {} and {} (heat map with legend)",
+        render_path.display(),
+        heatmap_path.display()
+    );
+    println!("more: `tiledlight render --help`, `tiledlight bench --help`");
+    Ok(())
+}

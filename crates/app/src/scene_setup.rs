@@ -1,0 +1,781 @@
+//! The flags `render` and `bench` share, and what they build from them: the scene (the
+//! procedural courtyard or a glTF file), its lights, the camera, the GPU context, the
+//! scene and light buffers, and a renderer. Every flag is checked here, before any file
+//! or GPU work, so bad input gives one clear error line instead of a panic deep inside
+//! wgpu. Also the small output helpers both commands use (PNG writing, GPU error capture).
+//!
+//! May depend on every tiledlight library crate; the subcommand modules depend on it.
+
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+
+use anyhow::{bail, ensure, Context, Result};
+use clap::{Args, ValueEnum};
+use glam::Vec3;
+use tiledlight_cull::reference::{DEFAULT_CAPACITY, MAX_CAPACITY};
+use tiledlight_cull::tiles::MAX_SCREEN_SIDE;
+use tiledlight_cull::{Camera, LightKind};
+use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
+use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_gpu::{ContextOptions, GpuContext};
+use tiledlight_scene::{
+    default_scene, load_gltf, random_lights, Aabb, CameraDesc, DefaultSceneOptions, GridDensity,
+    Light, LightOptions, Scene, DEFAULT_INTENSITY_RANGE, DEFAULT_LIGHT_THRESHOLD, MAX_GRID_OBJECTS,
+    MAX_LIGHTS,
+};
+
+/// Random point lights of the default scene when `--lights` is not given.
+pub const DEFAULT_POINT_LIGHTS: u64 = 1024;
+
+/// Vertical field of view of the camera that frames a scene without its own camera.
+const FRAMING_FOV_Y_DEG: f32 = 60.0;
+
+/// Which renderer draws the frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MethodArg {
+    /// Depth pre-pass, tiled light culling, forward shading of each tile's list.
+    ForwardPlus,
+    /// Every light for every pixel, with the radius cutoff (the reference for culling).
+    BruteForce,
+    /// Every light for every pixel, plain inverse-square (the reference for the cutoff).
+    BruteForceNoCutoff,
+}
+
+impl MethodArg {
+    /// The renderer's method.
+    pub fn method(self) -> Method {
+        match self {
+            MethodArg::ForwardPlus => Method::ForwardPlus,
+            MethodArg::BruteForce => Method::BruteForce { cutoff: true },
+            MethodArg::BruteForceNoCutoff => Method::BruteForce { cutoff: false },
+        }
+    }
+
+    /// The flag value, for reports and JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            MethodArg::ForwardPlus => "forward-plus",
+            MethodArg::BruteForce => "brute-force",
+            MethodArg::BruteForceNoCutoff => "brute-force-no-cutoff",
+        }
+    }
+
+    /// True for the methods that cull lights per tile.
+    pub fn is_tiled(self) -> bool {
+        self == MethodArg::ForwardPlus
+    }
+}
+
+/// Tessellation of the default scene's grid objects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DensityArg {
+    /// 484 triangles per object.
+    Low,
+    /// 1764 triangles per object.
+    Medium,
+    /// 3600 triangles per object.
+    High,
+}
+
+impl From<DensityArg> for GridDensity {
+    fn from(d: DensityArg) -> Self {
+        match d {
+            DensityArg::Low => GridDensity::Low,
+            DensityArg::Medium => GridDensity::Medium,
+            DensityArg::High => GridDensity::High,
+        }
+    }
+}
+
+/// Scene, lights, screen and renderer flags shared by `render` and `bench`.
+///
+/// Numbers are parsed wide (u64 light counts) and range-checked in [`SceneArgs::validate`],
+/// so an absurd value gets a message naming the flag and its limit.
+#[derive(Args, Clone, Debug)]
+pub struct SceneArgs {
+    /// `default` (the procedural courtyard) or a glTF file (.gltf or .glb).
+    #[arg(long, default_value = "default", value_name = "default|FILE")]
+    pub scene: String,
+    /// Random point lights [default: 1024 for the default scene; for a glTF file, random
+    /// lights are added to its own lights only when this or --spot-lights is given].
+    #[arg(long, value_name = "N")]
+    pub lights: Option<u64>,
+    /// Random spot lights [default: 0].
+    #[arg(long, value_name = "N")]
+    pub spot_lights: Option<u64>,
+    /// Seed of the random lights (the same seed gives the same lights).
+    #[arg(long, default_value_t = 1, value_name = "S")]
+    pub seed: u64,
+    /// Intensity threshold that sets each light's radius: r = sqrt(intensity / T).
+    #[arg(long, default_value_t = DEFAULT_LIGHT_THRESHOLD, value_name = "T")]
+    pub threshold: f32,
+    /// Grid objects (instanced spheres) added to the default scene, 0 to 280.
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    pub grid_objects: u32,
+    /// Tessellation of the grid objects.
+    #[arg(long, value_enum, default_value_t = DensityArg::Medium)]
+    pub density: DensityArg,
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 1920, value_name = "W")]
+    pub width: u32,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 1080, value_name = "H")]
+    pub height: u32,
+    /// Renderer.
+    #[arg(long, value_enum, default_value_t = MethodArg::ForwardPlus)]
+    pub method: MethodArg,
+    /// Tile side in pixels: 8, 16 or 32.
+    #[arg(long, default_value_t = 16, value_name = "8|16|32")]
+    pub tile_size: u32,
+    /// Light indices stored per tile list (more are counted as overflow), 1 to 2048.
+    #[arg(long, default_value_t = DEFAULT_CAPACITY, value_name = "N")]
+    pub capacity: u32,
+    /// Also test light spheres against each tile's view-space AABB.
+    #[arg(long)]
+    pub aabb: bool,
+    /// Two lists per tile, split at the middle of its depth range.
+    #[arg(long)]
+    pub half_z: bool,
+    /// Also test spot cones against each tile (needs spot lights to matter).
+    #[arg(long)]
+    pub spot_cone: bool,
+    /// Exposure before tonemapping.
+    #[arg(long, default_value_t = 1.0, value_name = "E")]
+    pub exposure: f32,
+}
+
+impl Default for SceneArgs {
+    /// The defaults clap gives (the default scene, 1024 lights, 1920x1080, Forward+).
+    fn default() -> Self {
+        Self {
+            scene: "default".into(),
+            lights: None,
+            spot_lights: None,
+            seed: 1,
+            threshold: DEFAULT_LIGHT_THRESHOLD,
+            grid_objects: 0,
+            density: DensityArg::Medium,
+            width: 1920,
+            height: 1080,
+            method: MethodArg::ForwardPlus,
+            tile_size: 16,
+            capacity: DEFAULT_CAPACITY,
+            aabb: false,
+            half_z: false,
+            spot_cone: false,
+            exposure: 1.0,
+        }
+    }
+}
+
+/// Where the scene comes from.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum SceneSource {
+    /// The procedural courtyard.
+    Default,
+    /// A glTF file.
+    File(PathBuf),
+}
+
+impl SceneArgs {
+    /// Where `--scene` points.
+    pub fn source(&self) -> SceneSource {
+        if self.scene.eq_ignore_ascii_case("default") {
+            SceneSource::Default
+        } else {
+            SceneSource::File(PathBuf::from(&self.scene))
+        }
+    }
+
+    /// Random (point, spot) lights asked for, with the per-scene defaults applied.
+    pub fn random_light_counts(&self) -> (u64, u64) {
+        match self.source() {
+            SceneSource::Default => (
+                self.lights.unwrap_or(DEFAULT_POINT_LIGHTS),
+                self.spot_lights.unwrap_or(0),
+            ),
+            SceneSource::File(_) => (self.lights.unwrap_or(0), self.spot_lights.unwrap_or(0)),
+        }
+    }
+
+    /// Checks every flag's range; the error names the flag, its value and the limit.
+    pub fn validate(&self) -> Result<()> {
+        let side = 1..=MAX_SCREEN_SIDE;
+        ensure!(
+            side.contains(&self.width),
+            "--width {}: must be between 1 and {MAX_SCREEN_SIDE} pixels",
+            self.width
+        );
+        ensure!(
+            side.contains(&self.height),
+            "--height {}: must be between 1 and {MAX_SCREEN_SIDE} pixels",
+            self.height
+        );
+        ensure!(
+            [8, 16, 32].contains(&self.tile_size),
+            "--tile-size {}: must be 8, 16 or 32",
+            self.tile_size
+        );
+        ensure!(
+            (1..=MAX_CAPACITY).contains(&self.capacity),
+            "--capacity {}: must be between 1 and {MAX_CAPACITY} lights per tile list",
+            self.capacity
+        );
+        for (flag, n) in [
+            ("--lights", self.lights),
+            ("--spot-lights", self.spot_lights),
+        ] {
+            if let Some(n) = n {
+                ensure!(
+                    n <= MAX_LIGHTS,
+                    "{flag} {n}: at most {MAX_LIGHTS} lights are supported"
+                );
+            }
+        }
+        let (points, spots) = self.random_light_counts();
+        ensure!(
+            points + spots <= MAX_LIGHTS,
+            "--lights {points} plus --spot-lights {spots}: at most {MAX_LIGHTS} lights in total are supported"
+        );
+        ensure!(
+            self.threshold.is_finite() && self.threshold > 0.0,
+            "--threshold {}: must be a positive number",
+            self.threshold
+        );
+        ensure!(
+            self.exposure.is_finite() && self.exposure > 0.0,
+            "--exposure {}: must be a positive number",
+            self.exposure
+        );
+        ensure!(
+            self.grid_objects <= MAX_GRID_OBJECTS,
+            "--grid-objects {}: must be between 0 and {MAX_GRID_OBJECTS}",
+            self.grid_objects
+        );
+        if let SceneSource::File(path) = self.source() {
+            let ext = path
+                .extension()
+                .and_then(|e| e.to_str())
+                .map(str::to_ascii_lowercase);
+            ensure!(
+                matches!(ext.as_deref(), Some("gltf" | "glb")),
+                "--scene {}: expected 'default' or a .gltf/.glb file",
+                path.display()
+            );
+            ensure!(
+                self.grid_objects == 0,
+                "--grid-objects {}: grid objects exist only in the default scene",
+                self.grid_objects
+            );
+        }
+        if self.method.is_tiled() {
+            let lists = u64::from(self.width.div_ceil(self.tile_size))
+                * u64::from(self.height.div_ceil(self.tile_size))
+                * if self.half_z { 2 } else { 1 };
+            // The GPU checks its own binding limit; this only stops requests no GPU binds
+            // (u32 offsets) before minutes of scene loading.
+            let bytes = lists * u64::from(self.capacity) * 4;
+            ensure!(
+                bytes <= u64::from(u32::MAX),
+                "--capacity {} at {}x{} with {} px tiles needs {bytes} bytes of tile lists: lower the capacity or raise the tile size",
+                self.capacity,
+                self.width,
+                self.height,
+                self.tile_size
+            );
+        }
+        Ok(())
+    }
+
+    /// The renderer settings of these flags (`heatmap` only for the tiled method).
+    pub fn settings(&self, heatmap: bool) -> ForwardSettings {
+        ForwardSettings {
+            method: self.method.method(),
+            cull: CullOptions {
+                tile_size: self.tile_size,
+                capacity: self.capacity,
+                aabb: self.aabb,
+                half_z: self.half_z,
+                spot_cone: self.spot_cone,
+            },
+            exposure: self.exposure,
+            heatmap,
+            ..ForwardSettings::default()
+        }
+    }
+
+    /// One line of the culling options, e.g. "16 px tiles, capacity 512, tests: planes+aabb".
+    pub fn culling_description(&self) -> String {
+        let mut tests = String::from("planes");
+        if self.aabb {
+            tests.push_str("+aabb");
+        }
+        if self.spot_cone {
+            tests.push_str("+spot-cone");
+        }
+        if self.half_z {
+            tests.push_str(", half-z (2 lists per tile)");
+        }
+        format!(
+            "{} px tiles, capacity {}, tests: {tests}",
+            self.tile_size, self.capacity
+        )
+    }
+}
+
+/// The lights of a run, counted.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LightSummary {
+    /// Point lights in total.
+    pub point: usize,
+    /// Spot lights in total.
+    pub spot: usize,
+    /// Lights that came from the glTF file (KHR_lights_punctual).
+    pub from_file: usize,
+    /// Random lights generated.
+    pub random: usize,
+}
+
+impl LightSummary {
+    fn of(lights: &[Light], from_file: usize) -> Self {
+        let spot = lights
+            .iter()
+            .filter(|l| matches!(l.kind, LightKind::Spot { .. }))
+            .count();
+        Self {
+            point: lights.len() - spot,
+            spot,
+            from_file,
+            random: lights.len() - from_file,
+        }
+    }
+}
+
+/// Everything a run needs before a renderer exists: the GPU, the uploaded scene and
+/// lights, the camera, and what to print about them.
+pub struct Prepared {
+    /// The flags it was built from.
+    pub args: SceneArgs,
+    /// Device, queue and adapter.
+    pub ctx: GpuContext,
+    /// The scene's name.
+    pub scene_name: String,
+    /// Instances drawn.
+    pub instances: usize,
+    /// The scene on the GPU.
+    pub scene_gpu: SceneGpu,
+    /// The lights on the GPU.
+    pub lights: LightBuffers,
+    /// Light counts.
+    pub light_summary: LightSummary,
+    /// The camera (aspect = width / height).
+    pub camera: Camera,
+    /// Where the camera came from, for the report.
+    pub camera_source: &'static str,
+    gpu_errors: Arc<Mutex<Vec<String>>>,
+}
+
+impl Prepared {
+    /// Checks the flags, builds the scene and lights on the CPU (so file errors come
+    /// before the slow device creation), then creates the device and uploads them.
+    pub fn new(args: &SceneArgs) -> Result<Self> {
+        args.validate()?;
+        let (scene, file_lights) = load_scene(args)?;
+        let lights = build_lights(args, &scene, file_lights)?;
+        let light_summary = LightSummary::of(&lights, file_lights);
+        let aspect = args.width as f32 / args.height as f32;
+        let (camera, camera_source) = match &scene.camera {
+            Some(desc) => (
+                camera_from_desc(desc, aspect).context("the scene's camera is unusable")?,
+                "the scene's camera",
+            ),
+            None => (
+                frame_bounds(&scene.bounds, aspect)?,
+                "framing the scene bounds",
+            ),
+        };
+
+        let ctx = GpuContext::headless(ContextOptions::default())
+            .context("creating the GPU device (set WGPU_ADAPTER_NAME to pick an adapter)")?;
+        // wgpu panics on errors raised outside an error scope; collect them instead so a
+        // GPU problem during the frame loop ends the run with an error message.
+        let gpu_errors = Arc::new(Mutex::new(Vec::new()));
+        let sink = gpu_errors.clone();
+        ctx.device
+            .on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+                log::error!("GPU error: {e}");
+                if let Ok(mut v) = sink.lock() {
+                    v.push(e.to_string());
+                }
+            }));
+        let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &scene)
+            .with_context(|| format!("uploading scene '{}'", scene.name))?;
+        let light_buffers =
+            LightBuffers::new(&ctx.device, &lights).context("uploading the lights")?;
+        Ok(Self {
+            args: args.clone(),
+            ctx,
+            scene_name: scene.name.clone(),
+            instances: scene.instances.len(),
+            scene_gpu,
+            lights: light_buffers,
+            light_summary,
+            camera,
+            camera_source,
+            gpu_errors,
+        })
+    }
+
+    /// Builds a renderer for the flags' screen and settings.
+    pub fn renderer(&self, heatmap: bool) -> Result<ForwardRenderer> {
+        if heatmap && !self.args.method.is_tiled() {
+            bail!(
+                "--heatmap needs --method forward-plus ({} has no tiles)",
+                self.args.method.name()
+            );
+        }
+        let r = ForwardRenderer::new(
+            &self.ctx,
+            &self.scene_gpu,
+            &self.lights,
+            self.args.width,
+            self.args.height,
+            self.args.settings(heatmap),
+        )
+        .with_context(|| {
+            format!(
+                "building the {} renderer at {}x{}",
+                self.args.method.name(),
+                self.args.width,
+                self.args.height
+            )
+        })?;
+        self.check_gpu_errors()?;
+        Ok(r)
+    }
+
+    /// Fails with the first GPU error wgpu raised outside an error scope, if any.
+    pub fn check_gpu_errors(&self) -> Result<()> {
+        let errors = self
+            .gpu_errors
+            .lock()
+            .map(|v| v.clone())
+            .unwrap_or_default();
+        match errors.first() {
+            Some(e) => bail!("GPU error ({} in all): {e}", errors.len()),
+            None => Ok(()),
+        }
+    }
+
+    /// The report lines about adapter, scene, lights, screen and method.
+    pub fn describe(&self) -> Vec<(String, String)> {
+        let a = &self.args;
+        let l = &self.light_summary;
+        let mut lights = format!("{} point, {} spot", l.point, l.spot);
+        match (l.from_file, l.random) {
+            (0, _) => lights.push_str(&format!(
+                " (random, seed {}, threshold {})",
+                a.seed, a.threshold
+            )),
+            (f, 0) => lights.push_str(&format!(" (all {f} from the glTF file)")),
+            (f, r) => lights.push_str(&format!(
+                " ({f} from the glTF file + {r} random, seed {}, threshold {})",
+                a.seed, a.threshold
+            )),
+        }
+        let grid = tiledlight_cull::TileGrid::new(a.width, a.height, a.tile_size).ok();
+        let mut res = format!("{}x{}", a.width, a.height);
+        if let Some(g) = grid {
+            res.push_str(&format!(
+                ", {} px tiles: {}x{} = {} tiles",
+                g.tile_size,
+                g.tiles_x,
+                g.tiles_y,
+                g.tile_count()
+            ));
+        }
+        let method = match a.method {
+            MethodArg::ForwardPlus => format!("forward-plus ({})", a.culling_description()),
+            m => format!("{} (every light for every pixel)", m.name()),
+        };
+        vec![
+            ("adapter".into(), self.ctx.describe()),
+            (
+                "scene".into(),
+                format!(
+                    "{}: {} triangles, {} instances, camera: {}",
+                    self.scene_name,
+                    group_digits(self.scene_gpu.triangles),
+                    self.instances,
+                    self.camera_source
+                ),
+            ),
+            ("lights".into(), lights),
+            ("resolution".into(), res),
+            ("method".into(), method),
+        ]
+    }
+}
+
+/// Loads or builds the scene; returns it with the number of lights it brought along.
+fn load_scene(args: &SceneArgs) -> Result<(Scene, usize)> {
+    match args.source() {
+        SceneSource::Default => {
+            let opts = DefaultSceneOptions {
+                grid_objects: args.grid_objects,
+                density: args.density.into(),
+            };
+            let scene = default_scene(&opts).context("building the default scene")?;
+            Ok((scene, 0))
+        }
+        SceneSource::File(path) => {
+            let scene = load_gltf(&path, args.threshold).context("loading the scene")?;
+            let n = scene.lights.len();
+            Ok((scene, n))
+        }
+    }
+}
+
+/// The scene's own lights followed by the random ones asked for.
+fn build_lights(args: &SceneArgs, scene: &Scene, file_lights: usize) -> Result<Vec<Light>> {
+    let (points, spots) = args.random_light_counts();
+    let total = file_lights as u64 + points + spots;
+    ensure!(
+        total <= MAX_LIGHTS,
+        "{file_lights} lights from the scene plus {} random: at most {MAX_LIGHTS} lights are supported",
+        points + spots
+    );
+    let mut lights = scene.lights.clone();
+    if points + spots > 0 {
+        let opts = LightOptions {
+            // Both fit: validate() capped them at MAX_LIGHTS (2^20).
+            num_point: points as u32,
+            num_spot: spots as u32,
+            seed: args.seed,
+            threshold: args.threshold,
+            intensity_range: DEFAULT_INTENSITY_RANGE,
+        };
+        lights.extend(random_lights(&scene.bounds, &opts).context("generating random lights")?);
+    }
+    Ok(lights)
+}
+
+/// The scene's suggested camera at the screen's aspect ratio.
+pub fn camera_from_desc(d: &CameraDesc, aspect: f32) -> Result<Camera> {
+    Ok(Camera::perspective(
+        d.eye, d.target, d.up, d.fov_y, aspect, d.near, d.far,
+    )?)
+}
+
+/// A camera in front of the scene (+z side, a little above) that sees the whole bounding
+/// sphere of `bounds`, with an infinite far plane.
+pub fn frame_bounds(bounds: &Aabb, aspect: f32) -> Result<Camera> {
+    ensure!(
+        bounds.is_valid(),
+        "the scene has no valid bounds to frame a camera on"
+    );
+    let center = bounds.center();
+    // A flat or point-like scene still needs a distance to stand back.
+    let radius = (0.5 * bounds.size().length()).max(1e-3);
+    let fov_y = FRAMING_FOV_Y_DEG.to_radians();
+    let half_x = ((fov_y * 0.5).tan() * aspect).atan();
+    let half = (fov_y * 0.5).min(half_x);
+    let dist = radius / half.sin();
+    let dir = Vec3::new(0.0, 0.35, 1.0).normalize();
+    let eye = center + dir * dist;
+    // Every surface is at least dist - radius away; reversed-Z keeps precision with a
+    // small near plane, so halve that for margin.
+    let near = ((dist - radius) * 0.5).max(dist * 1e-4);
+    Ok(Camera::perspective(
+        eye,
+        center,
+        Vec3::Y,
+        fov_y,
+        aspect,
+        near,
+        None,
+    )?)
+}
+
+/// An RGB image from tightly packed RGBA8 pixels.
+pub fn rgb_image(width: u32, height: u32, rgba: &[u8]) -> Result<image::RgbImage> {
+    ensure!(
+        rgba.len() == width as usize * height as usize * 4,
+        "image readback has {} bytes, expected {width}x{height}x4",
+        rgba.len()
+    );
+    let rgb: Vec<u8> = rgba
+        .chunks_exact(4)
+        .flat_map(|p| [p[0], p[1], p[2]])
+        .collect();
+    image::RgbImage::from_raw(width, height, rgb).context("building the output image")
+}
+
+/// Saves `img` as PNG at `path` (which must end in .png), creating its directory.
+pub fn save_png(path: &Path, img: &image::RgbImage) -> Result<()> {
+    check_png_path(path)?;
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("creating directory {}", dir.display()))?;
+    }
+    img.save_with_format(path, image::ImageFormat::Png)
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+/// Output paths must be PNG files: checked before rendering so a typo costs no time.
+pub fn check_png_path(path: &Path) -> Result<()> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    ensure!(
+        ext.as_deref() == Some("png"),
+        "--out {}: only .png output is supported",
+        path.display()
+    );
+    Ok(())
+}
+
+/// 1234567 -> "1,234,567".
+pub fn group_digits(n: u64) -> String {
+    let s = n.to_string();
+    let mut out = String::new();
+    for (i, c) in s.chars().enumerate() {
+        if i > 0 && (s.len() - i).is_multiple_of(3) {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args() -> SceneArgs {
+        SceneArgs {
+            width: 64,
+            height: 36,
+            ..SceneArgs::default()
+        }
+    }
+
+    fn err(a: SceneArgs) -> String {
+        format!("{:#}", a.validate().unwrap_err())
+    }
+
+    #[test]
+    fn defaults_are_valid() {
+        SceneArgs::default().validate().unwrap();
+        assert_eq!(SceneArgs::default().random_light_counts(), (1024, 0));
+    }
+
+    #[test]
+    fn bad_flags_name_the_flag() {
+        assert!(err(SceneArgs { width: 0, ..args() }).contains("--width 0"));
+        assert!(err(SceneArgs {
+            height: 20000,
+            ..args()
+        })
+        .contains("--height 20000"));
+        assert!(err(SceneArgs {
+            tile_size: 7,
+            ..args()
+        })
+        .contains("--tile-size 7"));
+        assert!(err(SceneArgs {
+            capacity: 0,
+            ..args()
+        })
+        .contains("--capacity 0"));
+        assert!(err(SceneArgs {
+            lights: Some(99_999_999),
+            ..args()
+        })
+        .contains("--lights 99999999"));
+        let both = SceneArgs {
+            lights: Some(MAX_LIGHTS),
+            spot_lights: Some(1),
+            ..args()
+        };
+        assert!(err(both).contains("in total"));
+        assert!(err(SceneArgs {
+            threshold: f32::NAN,
+            ..args()
+        })
+        .contains("--threshold"));
+        assert!(err(SceneArgs {
+            threshold: 0.0,
+            ..args()
+        })
+        .contains("--threshold"));
+        assert!(err(SceneArgs {
+            exposure: -1.0,
+            ..args()
+        })
+        .contains("--exposure"));
+        assert!(err(SceneArgs {
+            grid_objects: 281,
+            ..args()
+        })
+        .contains("--grid-objects 281"));
+        assert!(err(SceneArgs {
+            scene: "x.obj".into(),
+            ..args()
+        })
+        .contains("--scene x.obj"));
+        let grid_on_file = SceneArgs {
+            scene: "x.glb".into(),
+            grid_objects: 3,
+            ..args()
+        };
+        assert!(err(grid_on_file).contains("default scene"));
+    }
+
+    #[test]
+    fn gltf_gets_random_lights_only_when_asked() {
+        let a = SceneArgs {
+            scene: "a.gltf".into(),
+            ..args()
+        };
+        assert_eq!(a.random_light_counts(), (0, 0));
+        let a = SceneArgs {
+            scene: "a.gltf".into(),
+            spot_lights: Some(5),
+            ..args()
+        };
+        assert_eq!(a.random_light_counts(), (0, 5));
+    }
+
+    #[test]
+    fn framing_sees_the_whole_box() {
+        let b = Aabb::new(Vec3::new(-10.0, 0.0, -3.0), Vec3::new(10.0, 5.0, 3.0));
+        let cam = frame_bounds(&b, 16.0 / 9.0).unwrap();
+        for i in 0..8 {
+            let p = Vec3::new(
+                if i & 1 == 0 { b.min.x } else { b.max.x },
+                if i & 2 == 0 { b.min.y } else { b.max.y },
+                if i & 4 == 0 { b.min.z } else { b.max.z },
+            );
+            let c = cam.view_proj() * p.extend(1.0);
+            let ndc = c.truncate() / c.w;
+            assert!(
+                c.w > 0.0 && ndc.x.abs() <= 1.0 && ndc.y.abs() <= 1.0,
+                "corner {p} at {ndc}"
+            );
+            assert!(ndc.z > 0.0 && ndc.z <= 1.0, "corner {p} depth {}", ndc.z);
+        }
+        assert!(frame_bounds(&Aabb::empty(), 1.0).is_err());
+    }
+
+    #[test]
+    fn digits_are_grouped() {
+        assert_eq!(group_digits(0), "0");
+        assert_eq!(group_digits(999), "999");
+        assert_eq!(group_digits(1000), "1,000");
+        assert_eq!(group_digits(1234567), "1,234,567");
+    }
+}

@@ -1,0 +1,340 @@
+//! Integration tests of the `tiledlight` command line: runs the built binary at tiny sizes
+//! (64x36, a few lights) on the adapter `WGPU_ADAPTER_NAME` names (lavapipe in CI) and
+//! checks the files it writes and its error handling. Bad input must fail before any GPU
+//! work, with exit code != 0 and one `error:` line naming the problem.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::Mutex;
+
+use serde_json::Value;
+
+/// lavapipe spreads each draw over every core: run the GPU tests of this binary one at a
+/// time (nextest runs each test in its own process anyway).
+static GPU: Mutex<()> = Mutex::new(());
+
+fn tiledlight(args: &[&str]) -> Output {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_tiledlight"));
+    cmd.args(args);
+    // Mesa's WSI complains on stderr without it; the complaint is noise to these tests.
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        cmd.env("XDG_RUNTIME_DIR", std::env::temp_dir());
+    }
+    cmd.output().expect("run the tiledlight binary")
+}
+
+fn gpu_run(args: &[&str]) -> Output {
+    let _guard = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let out = tiledlight(args);
+    assert!(
+        out.status.success(),
+        "tiledlight {args:?} failed ({:?}):\nstdout:\n{}\nstderr:\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// A fresh directory under the target dir for one test's outputs.
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("cli")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+const TINY: [&str; 6] = ["--width", "64", "--height", "36", "--lights", "16"];
+
+fn with_tiny<'a>(cmd: &'a str, rest: &[&'a str]) -> Vec<&'a str> {
+    let mut v = vec![cmd];
+    v.extend_from_slice(&TINY);
+    v.extend_from_slice(rest);
+    v
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+#[test]
+fn render_writes_a_png_of_the_requested_size() {
+    let dir = scratch("render");
+    let png = dir.join("a.png");
+    let out = gpu_run(&with_tiny("render", &["--out", png.to_str().unwrap()]));
+    let img = image::open(&png).expect("a readable PNG");
+    assert_eq!((img.width(), img.height()), (64, 36));
+    // Even 16 lights light part of the courtyard (the rest is near-black ambient).
+    let rgb = img.to_rgb8();
+    let lit = rgb.pixels().filter(|p| p.0.iter().any(|&c| c > 20)).count();
+    assert!(lit > 50, "only {lit} lit pixels");
+    let text = stdout(&out);
+    for needle in [
+        "adapter:",
+        "scene:",
+        "16 point, 0 spot",
+        "64x36",
+        "culling:",
+        "GPU memory",
+        "wrote",
+    ] {
+        assert!(text.contains(needle), "no {needle:?} in:\n{text}");
+    }
+}
+
+#[test]
+fn render_heatmap_and_brute_force() {
+    let dir = scratch("heatmap");
+    let png = dir.join("h.png");
+    let out = gpu_run(&with_tiny(
+        "render",
+        &[
+            "--heatmap",
+            "--tile-size",
+            "8",
+            "--out",
+            png.to_str().unwrap(),
+        ],
+    ));
+    let img = image::open(&png).expect("a readable PNG");
+    assert_eq!((img.width(), img.height()), (64, 36));
+    assert!(stdout(&out).contains("heat map"), "{}", stdout(&out));
+
+    let png = dir.join("b.png");
+    let out = gpu_run(&with_tiny(
+        "render",
+        &[
+            "--method",
+            "brute-force-no-cutoff",
+            "--out",
+            png.to_str().unwrap(),
+        ],
+    ));
+    assert_eq!(image::image_dimensions(&png).unwrap(), (64, 36));
+    assert!(
+        stdout(&out).contains("brute_force.shade"),
+        "{}",
+        stdout(&out)
+    );
+}
+
+#[test]
+fn bench_writes_json_with_every_pass() {
+    let dir = scratch("bench");
+    let json = dir.join("nested/b.json");
+    let out = gpu_run(&with_tiny(
+        "bench",
+        &[
+            "--frames",
+            "3",
+            "--warmup",
+            "1",
+            "--json",
+            json.to_str().unwrap(),
+        ],
+    ));
+    let text = stdout(&out);
+    assert!(
+        text.contains("total GPU") || text.contains("not available"),
+        "{text}"
+    );
+    let v: Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).expect("valid JSON");
+    let config = &v["config"];
+    assert_eq!(config["width"], 64);
+    assert_eq!(config["height"], 36);
+    assert_eq!(config["method"], "forward-plus");
+    assert_eq!(config["tile_size"], 16);
+    assert_eq!(config["point_lights"], 16);
+    assert!(config["adapter"].as_str().is_some_and(|s| !s.is_empty()));
+    assert!(config["commit"].as_str().is_some_and(|s| !s.is_empty()));
+    assert_eq!(v["frames"], 3);
+    assert_eq!(v["cpu_frame"]["frames"], 3);
+    if v["timestamps"] == Value::Bool(true) {
+        let passes = v["passes"].as_array().expect("passes");
+        for name in ["depth_prepass", "forward.cull", "forward.shade", "tonemap"] {
+            let p = passes
+                .iter()
+                .find(|p| p["pass"] == name)
+                .unwrap_or_else(|| panic!("no pass {name} in {v}"));
+            let ms = p["median_ms"].as_f64().unwrap();
+            assert!(ms.is_finite() && ms >= 0.0, "{name}: {ms}");
+            assert!(p["frames"].as_u64().unwrap() >= 1, "{name}");
+        }
+        assert!(v["total_gpu_median_ms"].as_f64().unwrap().is_finite());
+    }
+}
+
+/// A 10 m quad with one KHR point light and no camera, written next to its buffer.
+fn write_gltf(dir: &Path) -> PathBuf {
+    let mut bin = Vec::new();
+    let positions: [[f32; 3]; 4] = [
+        [-5.0, 0.0, -5.0],
+        [5.0, 0.0, -5.0],
+        [5.0, 0.0, 5.0],
+        [-5.0, 0.0, 5.0],
+    ];
+    for p in positions {
+        for c in p {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for _ in 0..4 {
+        for c in [0.0f32, 1.0, 0.0] {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for i in [0u16, 2, 1, 0, 3, 2] {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    std::fs::write(dir.join("quad.bin"), &bin).unwrap();
+    let gltf = r#"{
+      "asset": {"version": "2.0"},
+      "extensionsUsed": ["KHR_lights_punctual"],
+      "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "color": [1, 0.5, 0.2], "intensity": 5, "range": 6}]}},
+      "scene": 0,
+      "scenes": [{"nodes": [0, 1]}],
+      "nodes": [
+        {"mesh": 0},
+        {"translation": [0, 1, 0], "extensions": {"KHR_lights_punctual": {"light": 0}}}
+      ],
+      "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2}]}],
+      "buffers": [{"uri": "quad.bin", "byteLength": 108}],
+      "bufferViews": [
+        {"buffer": 0, "byteOffset": 0, "byteLength": 48},
+        {"buffer": 0, "byteOffset": 48, "byteLength": 48},
+        {"buffer": 0, "byteOffset": 96, "byteLength": 12}
+      ],
+      "accessors": [
+        {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-5, 0, -5], "max": [5, 0, 5]},
+        {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
+        {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}
+      ]
+    }"#;
+    let path = dir.join("quad.gltf");
+    std::fs::write(&path, gltf).unwrap();
+    path
+}
+
+#[test]
+fn render_gltf_with_its_own_and_random_lights() {
+    let dir = scratch("gltf");
+    let scene = write_gltf(&dir);
+    let png = dir.join("q.png");
+    let base = [
+        "render",
+        "--scene",
+        scene.to_str().unwrap(),
+        "--width",
+        "64",
+        "--height",
+        "36",
+        "--out",
+        png.to_str().unwrap(),
+    ];
+    let out = gpu_run(&base);
+    let text = stdout(&out);
+    assert!(
+        text.contains("1 point, 0 spot (all 1 from the glTF file)"),
+        "{text}"
+    );
+    assert!(text.contains("framing the scene bounds"), "{text}");
+    assert_eq!(image::image_dimensions(&png).unwrap(), (64, 36));
+
+    let mut more = base.to_vec();
+    more.extend(["--lights", "3", "--spot-lights", "2"]);
+    let text = stdout(&gpu_run(&more));
+    assert!(
+        text.contains("4 point, 2 spot (1 from the glTF file + 5 random"),
+        "{text}"
+    );
+}
+
+/// Runs a failing command; returns its single stderr line.
+fn fails(args: &[&str]) -> String {
+    let out = tiledlight(args);
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(
+        !out.status.success(),
+        "tiledlight {args:?} succeeded:\n{}",
+        stdout(&out)
+    );
+    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(
+        lines.len(),
+        1,
+        "tiledlight {args:?}: expected one error line, got:\n{err}"
+    );
+    assert!(lines[0].starts_with("error: "), "{err}");
+    lines[0].to_string()
+}
+
+#[test]
+fn bad_input_gives_one_clear_error_line() {
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &["render", "--scene", "/nonexistent.gltf"],
+            "/nonexistent.gltf",
+        ),
+        (&["render", "--scene", "scene.obj"], "--scene"),
+        (&["render", "--width", "0"], "--width 0"),
+        (&["render", "--height", "100000"], "--height 100000"),
+        (&["render", "--lights", "99999999"], "--lights 99999999"),
+        (
+            &["render", "--lights", "1048576", "--spot-lights", "1"],
+            "at most 1048576",
+        ),
+        (&["render", "--tile-size", "7"], "--tile-size 7"),
+        (&["render", "--capacity", "0"], "--capacity 0"),
+        (&["render", "--threshold", "-1"], "--threshold -1"),
+        (&["render", "--exposure", "nan"], "--exposure"),
+        (&["render", "--grid-objects", "281"], "--grid-objects 281"),
+        (&["render", "--out", "x.jpg"], ".png"),
+        (
+            &["render", "--heatmap", "--method", "brute-force"],
+            "--heatmap",
+        ),
+        (&["render", "--density", "extreme"], "extreme"),
+        (&["render", "--lights", "many"], "many"),
+        (&["render", "--no-such-flag"], "--no-such-flag"),
+        (&["bench", "--frames", "0"], "--frames 0"),
+        (&["bench", "--tile-size", "64"], "--tile-size 64"),
+        (&["frobnicate"], "frobnicate"),
+    ];
+    for (args, needle) in cases {
+        let line = fails(args);
+        assert!(
+            line.contains(needle),
+            "tiledlight {args:?}: {line:?} does not name {needle:?}"
+        );
+    }
+}
+
+#[test]
+fn help_and_version_succeed() {
+    for args in [
+        &["--help"][..],
+        &["render", "--help"],
+        &["bench", "--help"],
+        &["--version"],
+    ] {
+        let out = tiledlight(args);
+        assert!(out.status.success(), "{args:?}");
+        assert!(!out.stdout.is_empty(), "{args:?}");
+    }
+    let help = stdout(&tiledlight(&["render", "--help"]));
+    for flag in [
+        "--scene",
+        "--lights",
+        "--spot-lights",
+        "--tile-size",
+        "--heatmap",
+        "--half-z",
+        "--aabb",
+        "--spot-cone",
+    ] {
+        assert!(help.contains(flag), "render --help lacks {flag}");
+    }
+}
