@@ -35,8 +35,15 @@ impl LightBuffers {
         }
         let packed = pack_lights(&order_points_first(lights));
         let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        let cull = buffer_init(device, "lights.cull", bytemuck::cast_slice(&packed.cull), usage);
-        let shading = buffer_init(device, "lights.shading", bytemuck::cast_slice(&packed.shading), usage);
+        // A light-less scene still binds one zeroed element: bindings must cover the
+        // shader's struct size, and the loops never read it (num_lights is 0).
+        let one_if_empty = |n: usize| if n == 0 { 1 } else { 0 };
+        let mut cull_data = packed.cull.clone();
+        cull_data.resize(cull_data.len() + one_if_empty(packed.cull.len()), Default::default());
+        let mut shading_data = packed.shading.clone();
+        shading_data.resize(shading_data.len() + one_if_empty(packed.shading.len()), Default::default());
+        let cull = buffer_init(device, "lights.cull", bytemuck::cast_slice(&cull_data), usage);
+        let shading = buffer_init(device, "lights.shading", bytemuck::cast_slice(&shading_data), usage);
         let spots = (!packed.spots.is_empty()).then(|| buffer_init(device, "lights.spots", bytemuck::cast_slice(&packed.spots), usage));
         let mut memory = MemoryReport::default();
         memory.add("lights.cull", cull.size());

@@ -1,0 +1,121 @@
+//! Bad input gets a clear error naming the problem, never a panic or a wrong image:
+//! zero-size screens, absurd light counts, NaN in a scene, impossible culling settings,
+//! and a device without timestamp queries (the renderer runs, untimed).
+
+use glam::Vec3;
+use tiledlight_cull::Light;
+use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
+use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::lights_gpu::{LightBuffers, MAX_LIGHTS};
+use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_gpu::timer::GpuTimer;
+use tiledlight_gpu::{ContextOptions, GpuContext};
+use tiledlight_tests::{gpu, scenes};
+
+fn err_text<T>(r: Result<T, impl std::fmt::Display>) -> String {
+    match r {
+        Ok(_) => panic!("expected an error"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn renderer_rejects_bad_settings_with_reasons() {
+    let ctx = gpu();
+    let scene = scenes::mixed_scene();
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 16, 0, 1)).unwrap();
+    let new = |w, h, s: ForwardSettings| ForwardRenderer::new(&ctx, &sg, &lights, w, h, s).map(|_| ());
+    let d = ForwardSettings::default();
+    let e = err_text(new(0, 180, d));
+    assert!(e.contains("0x180") && e.contains("no pixels"), "{e}");
+    let e = err_text(new(320, 0, d));
+    assert!(e.contains("no pixels"), "{e}");
+    let e = err_text(new(100_000, 10, d));
+    assert!(e.contains("100000"), "{e}");
+    let e = err_text(new(64, 64, ForwardSettings { cull: CullOptions { tile_size: 7, ..Default::default() }, ..d }));
+    assert!(e.contains("tile size 7"), "{e}");
+    let e = err_text(new(64, 64, ForwardSettings { cull: CullOptions { capacity: 0, ..Default::default() }, ..d }));
+    assert!(e.contains("capacity 0"), "{e}");
+    // 2048 indices x 2 lists x 4 bytes is 16 KiB of workgroup memory, over WebGPU's default limit.
+    let e = err_text(new(64, 64, ForwardSettings { cull: CullOptions { capacity: 2048, half_z: true, ..Default::default() }, ..d }));
+    assert!(e.contains("workgroup memory"), "{e}");
+    let e = err_text(new(64, 64, ForwardSettings { method: Method::BruteForce { cutoff: true }, heatmap: true, ..d }));
+    assert!(e.contains("heat map"), "{e}");
+}
+
+#[test]
+fn absurd_light_counts_are_refused() {
+    let ctx = gpu();
+    let l = Light::point(Vec3::ZERO, Vec3::ONE, 1.0, 0.1).unwrap();
+    let e = err_text(LightBuffers::new(&ctx.device, &vec![l; MAX_LIGHTS + 1]));
+    assert!(e.contains(&format!("{}", MAX_LIGHTS + 1)) && e.contains("at most"), "{e}");
+    // Zero lights is a valid (ambient-only) frame.
+    let scene = scenes::mixed_scene();
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let none = LightBuffers::new(&ctx.device, &[]).unwrap();
+    let r = ForwardRenderer::new(&ctx, &sg, &none, 64, 36, ForwardSettings::default()).unwrap();
+    let mut timer = GpuTimer::new(&ctx).unwrap();
+    r.render_once(&ctx, &mut timer, &sg, &scenes::mixed_camera(64, 36)).unwrap();
+    let hdr = r.read_hdr(&ctx).unwrap();
+    assert!(hdr.iter().all(|p| p[0] < 0.05 && p.iter().all(|c| c.is_finite())), "no lights: ambient only");
+}
+
+#[test]
+fn nan_in_scene_is_reported_not_rendered() {
+    let ctx = gpu();
+    let mut scene = scenes::mixed_scene();
+    scene.meshes[1].positions[3][1] = f32::NAN;
+    let e = err_text(SceneGpu::new(&ctx.device, &ctx.queue, &scene));
+    assert!(e.to_lowercase().contains("nan") || e.contains("finite"), "{e}");
+    assert!(e.contains("cube"), "names the mesh: {e}");
+    let mut scene = scenes::mixed_scene();
+    scene.instances[2].material = 99;
+    let e = err_text(SceneGpu::new(&ctx.device, &ctx.queue, &scene));
+    assert!(e.contains("99"), "{e}");
+}
+
+/// A device without TIMESTAMP_QUERY (forced off here; some adapters lack it) still renders
+/// the same image; the timer reports that it is disabled and yields no pass times.
+#[test]
+fn renders_without_timestamp_queries() {
+    let ctx = GpuContext::headless(ContextOptions { no_timestamps: true }).expect("adapter");
+    assert!(!ctx.timestamps);
+    assert!(ctx.describe().contains("no GPU timestamps"));
+    let scene = scenes::mixed_scene();
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 64, 8, 2)).unwrap();
+    let r = ForwardRenderer::new(&ctx, &sg, &lights, 64, 36, ForwardSettings::default()).unwrap();
+    let mut timer = GpuTimer::new(&ctx).unwrap();
+    assert!(!timer.enabled());
+    for _ in 0..3 {
+        r.render_once(&ctx, &mut timer, &sg, &scenes::mixed_camera(64, 36)).unwrap();
+    }
+    let times: Vec<_> = std::iter::from_fn(|| timer.finished_frame()).flatten().collect();
+    assert!(times.is_empty(), "no timestamps, no times: {times:?}");
+    let hdr = r.read_hdr(&ctx).unwrap();
+    assert!(hdr.iter().any(|p| p[0] + p[1] + p[2] > 0.1), "the frame is lit");
+}
+
+/// With timestamps (lavapipe has them), every pass of a Forward+ frame is timed.
+#[test]
+fn every_pass_is_timed_when_timestamps_exist() {
+    let ctx = gpu();
+    if !ctx.timestamps {
+        panic!("this adapter has no TIMESTAMP_QUERY; run on lavapipe or a GPU that has it");
+    }
+    let scene = scenes::mixed_scene();
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 64, 0, 2)).unwrap();
+    let r = ForwardRenderer::new(&ctx, &sg, &lights, 64, 36, ForwardSettings { heatmap: true, ..Default::default() }).unwrap();
+    let mut timer = GpuTimer::new(&ctx).unwrap();
+    let mut frames = Vec::new();
+    for _ in 0..6 {
+        r.render_once(&ctx, &mut timer, &sg, &scenes::mixed_camera(64, 36)).unwrap();
+        frames.extend(std::iter::from_fn(|| timer.finished_frame()));
+    }
+    let last = frames.last().expect("a finished frame");
+    let labels: Vec<&str> = last.iter().map(|t| t.label.as_str()).collect();
+    assert_eq!(labels, ["depth_prepass", "forward.cull", "forward.shade", "tonemap", "heatmap"]);
+    assert!(last.iter().all(|t| t.ms.is_finite() && t.ms >= 0.0), "{last:?}");
+}

@@ -1,0 +1,78 @@
+//! Forward+ against the brute-force reference on the same frame (same BRDF, same radius
+//! cutoff): the images must be the same up to float summation order, since culling is
+//! conservative and every light a pixel sees is in its tile list.
+//!
+//! Tolerance on linear HDR: the lights are summed in a different order (tile list order vs
+//! index order) in f32 and stored as f16, so a pixel may differ by about one f16 ulp
+//! (2^-10 relative); 4e-3 relative (floor 1e-3 absolute for near-black) allows that with
+//! margin, while a single missing light (typically >5% of a lit pixel) fails. On the
+//! tonemapped image, FLIP mean <= 1e-3 and 99th percentile <= 1e-2.
+
+use tiledlight_cull::Camera;
+use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
+use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_gpu::timer::GpuTimer;
+use tiledlight_gpu::GpuContext;
+use tiledlight_scene::Scene;
+use tiledlight_tests::images::{assert_flip, max_relative_error, save_png, FlipThresholds};
+use tiledlight_tests::{gpu, output_dir, scenes};
+
+const W: u32 = 320;
+const H: u32 = 180;
+const HDR_REL: f32 = 4e-3;
+const HDR_FLOOR: f32 = 1e-3;
+const FLIP: FlipThresholds = FlipThresholds { mean: 1e-3, percentile: (0.99, 1e-2) };
+
+struct Frame {
+    hdr: Vec<[f32; 4]>,
+    ldr: Vec<u8>,
+}
+
+fn render(ctx: &GpuContext, scene: &SceneGpu, lights: &LightBuffers, camera: &Camera, settings: ForwardSettings) -> Frame {
+    let r = ForwardRenderer::new(ctx, scene, lights, W, H, settings).unwrap();
+    let mut timer = GpuTimer::new(ctx).unwrap();
+    r.render_once(ctx, &mut timer, scene, camera).unwrap();
+    Frame { hdr: r.read_hdr(ctx).unwrap(), ldr: r.read_ldr(ctx).unwrap() }
+}
+
+fn compare(name: &str, scene: &Scene, n_point: u32, n_spot: u32, camera: &Camera, cull: CullOptions) {
+    let ctx = gpu();
+    let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, scene).unwrap();
+    let light_list = scenes::lights(scene, n_point, n_spot, 42);
+    let lights = LightBuffers::new(&ctx.device, &light_list).unwrap();
+    let reference = render(&ctx, &scene_gpu, &lights, camera, ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() });
+    let tiled = render(&ctx, &scene_gpu, &lights, camera, ForwardSettings { method: Method::ForwardPlus, cull, ..Default::default() });
+    // The frame must be lit: a black or ambient-only image would pass trivially.
+    let lit = reference.hdr.iter().filter(|p| p[0] + p[1] + p[2] > 0.1).count();
+    assert!(lit * 4 > reference.hdr.len(), "{name}: only {lit} of {} pixels are lit; the comparison would test nothing", reference.hdr.len());
+    let (err, at) = max_relative_error(&reference.hdr, &tiled.hdr, HDR_FLOOR);
+    eprintln!("{name}: max relative HDR error {err:.2e} at pixel ({}, {})", at as u32 % W, at as u32 / W);
+    if err > HDR_REL {
+        save_png(&output_dir().join(format!("{name}-actual.png")), W, H, &tiled.ldr);
+        save_png(&output_dir().join(format!("{name}-expected.png")), W, H, &reference.ldr);
+    }
+    assert!(err <= HDR_REL, "{name}: HDR error {err} at pixel ({}, {}): expected {:?}, got {:?}", at as u32 % W, at as u32 / W, reference.hdr[at], tiled.hdr[at]);
+    assert_flip(name, W, H, &reference.ldr, &tiled.ldr, FLIP);
+}
+
+#[test]
+fn courtyard_points() {
+    let scene = scenes::courtyard();
+    compare("fwd-courtyard", &scene, 1024, 0, &scenes::courtyard_camera(&scene, W, H), CullOptions::default());
+}
+
+#[test]
+fn courtyard_points_and_spots_tile32_aabb_cone() {
+    let scene = scenes::courtyard();
+    let cull = CullOptions { tile_size: 32, aabb: true, spot_cone: true, ..Default::default() };
+    compare("fwd-courtyard-spots", &scene, 512, 256, &scenes::courtyard_camera(&scene, W, H), cull);
+}
+
+#[test]
+fn mixed_materials_half_z_tile8() {
+    let scene = scenes::mixed_scene();
+    let cull = CullOptions { tile_size: 8, half_z: true, ..Default::default() };
+    compare("fwd-mixed-halfz", &scene, 400, 100, &scenes::mixed_camera(W, H), cull);
+}

@@ -1,0 +1,175 @@
+//! The heat map shows the CPU reference's light counts, and the GPU BRDF matches its CPU
+//! twin (`tiledlight_cull::brdf`) pixel by pixel.
+
+use glam::{Mat4, Vec3, Vec4};
+use tiledlight_cull::brdf::{brdf_cos, spot_falloff, windowed_attenuation, Surface};
+use tiledlight_cull::light::spot_scale_offset;
+use tiledlight_cull::reference::pixel_view_position;
+use tiledlight_cull::{cull_tiles, Camera, Light, LightKind};
+use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
+use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_gpu::timer::GpuTimer;
+use tiledlight_scene::{Aabb, AlphaMode, Instance, Material, Mesh, Scene};
+use tiledlight_tests::{gpu, scenes};
+
+fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+fn linear_to_srgb(c: f32) -> f32 {
+    if c <= 0.0031308 {
+        c * 12.92
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// CPU twin of `palette` in shaders/heatmap.wgsl.
+fn palette(t: f32) -> Vec3 {
+    let x = t.clamp(0.0, 1.0) * 4.0;
+    let r = (x - 2.0).clamp(0.0, 1.0);
+    let g = if x > 2.0 { (4.0 - x).clamp(0.0, 1.0) } else { x.clamp(0.0, 1.0) };
+    let b = (2.0 - x).clamp(0.0, 1.0);
+    Vec3::new(r, g, b)
+}
+
+/// Every tile's colour in the heat map is the blend the shader makes for the CPU
+/// reference's count of that tile, within 2/255 (8-bit sRGB rounding of two images).
+#[test]
+fn heatmap_shows_reference_counts() {
+    let ctx = gpu();
+    let scene = scenes::courtyard();
+    let (w, h) = (320, 180);
+    let camera = scenes::courtyard_camera(&scene, w, h);
+    let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 2048, 0, 9)).unwrap();
+    // A small capacity so some tiles overflow and show the overflow colour.
+    let cull = CullOptions { capacity: 48, ..Default::default() };
+    let mut timer = GpuTimer::new(&ctx).unwrap();
+    let plain = ForwardRenderer::new(&ctx, &scene_gpu, &lights, w, h, ForwardSettings { cull, ..Default::default() }).unwrap();
+    plain.render_once(&ctx, &mut timer, &scene_gpu, &camera).unwrap();
+    let base = plain.read_ldr(&ctx).unwrap();
+    let depth = plain.read_depth(&ctx).unwrap();
+    let heat = ForwardRenderer::new(&ctx, &scene_gpu, &lights, w, h, ForwardSettings { cull, heatmap: true, ..Default::default() }).unwrap();
+    heat.render_once(&ctx, &mut timer, &scene_gpu, &camera).unwrap();
+    let img = heat.read_ldr(&ctx).unwrap();
+
+    let cpu = cull_tiles(&depth, w, h, &camera, &lights.packed, &cull.to_config(false)).unwrap();
+    let g = cpu.grid;
+    let (mut overflowing, mut coloured, mut empty) = (0, 0, 0);
+    for ty in 0..g.tiles_y {
+        for tx in 0..g.tiles_x {
+            let count = cpu.lists[(ty * g.tiles_x + tx) as usize].len() as u32;
+            let (x0, x1, y0, y1) = g.tile_pixels(tx, ty);
+            let (x, y) = ((x0 + x1) / 2, (y0 + y1) / 2);
+            let i = ((y * w + x) * 4) as usize;
+            let under = Vec3::new(srgb_to_linear(base[i] as f32 / 255.0), srgb_to_linear(base[i + 1] as f32 / 255.0), srgb_to_linear(base[i + 2] as f32 / 255.0));
+            let expected = if count == 0 {
+                empty += 1;
+                under
+            } else if count > cull.capacity {
+                overflowing += 1;
+                Vec3::new(1.0, 0.0, 1.0) * 0.75 + under * 0.25
+            } else {
+                coloured += 1;
+                let t = (count as f32).log2() / (cull.capacity as f32).log2();
+                palette(t) * 0.6 + under * 0.4
+            };
+            for c in 0..3 {
+                let want = linear_to_srgb(expected[c]) * 255.0;
+                let got = img[i + c] as f32;
+                assert!((want - got).abs() <= 2.0, "tile ({tx}, {ty}) count {count}: channel {c} is {got}, expected {want:.1}");
+            }
+        }
+    }
+    eprintln!("heat map: {coloured} coloured tiles, {overflowing} overflowing, {empty} without lights");
+    assert!(coloured > 0 && overflowing > 0 && empty > 0, "the frame must show every kind of tile");
+}
+
+fn floor_scene(roughness: f32, metallic: f32, lights: Vec<Light>) -> Scene {
+    let floor = Mesh {
+        name: "floor".into(),
+        positions: vec![[-10.0, 0.0, -10.0], [-10.0, 0.0, 10.0], [10.0, 0.0, 10.0], [10.0, 0.0, -10.0]],
+        normals: vec![[0.0, 1.0, 0.0]; 4],
+        uvs: vec![[0.0, 0.0]; 4],
+        indices: vec![0, 1, 2, 0, 2, 3],
+    };
+    let mat = Material { name: "m".into(), base_color: [0.8, 0.6, 0.4, 1.0], base_color_texture: None, roughness, metallic, alpha_mode: AlphaMode::Opaque, double_sided: false };
+    Scene {
+        name: "floor".into(),
+        meshes: vec![floor],
+        materials: vec![mat],
+        textures: vec![],
+        instances: vec![Instance { mesh: 0, material: 0, transform: Mat4::IDENTITY }],
+        lights,
+        camera: None,
+        bounds: Aabb::new(Vec3::new(-10.0, 0.0, -10.0), Vec3::new(10.0, 5.0, 10.0)),
+    }
+}
+
+/// Brute-force pixels of a lit floor against the CPU BRDF evaluated at the pixel's
+/// position (reconstructed from depth). Tolerance 3e-3 relative (floor 1e-3): the f16
+/// target rounds to 2^-11 relative, and the GPU interpolates the world position while the
+/// CPU unprojects it from depth (about 1e-5 relative apart).
+#[test]
+fn gpu_brdf_matches_cpu_twin() {
+    let ctx = gpu();
+    let (w, h) = (96, 64);
+    let camera = Camera::perspective(Vec3::new(0.0, 3.0, 6.0), Vec3::new(0.0, 0.0, 0.0), Vec3::Y, 60f32.to_radians(), w as f32 / h as f32, 0.1, None).unwrap();
+    let ambient = Vec3::splat(0.02);
+    let point = Light::point(Vec3::new(-1.0, 1.5, 0.5), Vec3::new(1.0, 0.8, 0.6), 4.0, 0.05).unwrap();
+    let spot = Light::spot(Vec3::new(1.5, 2.0, 0.0), Vec3::new(-0.3, -1.0, 0.1), Vec3::new(0.4, 0.7, 1.0), 6.0, 0.3, 0.5, 0.05).unwrap();
+    for (roughness, metallic) in [(0.9, 0.0), (0.3, 0.0), (0.2, 1.0)] {
+        let scene = floor_scene(roughness, metallic, vec![point, spot]);
+        let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+        let lights = LightBuffers::new(&ctx.device, &scene.lights).unwrap();
+        let r = ForwardRenderer::new(&ctx, &scene_gpu, &lights, w, h, ForwardSettings { method: Method::BruteForce { cutoff: true }, ambient, ..Default::default() }).unwrap();
+        let mut timer = GpuTimer::new(&ctx).unwrap();
+        r.render_once(&ctx, &mut timer, &scene_gpu, &camera).unwrap();
+        let hdr = r.read_hdr(&ctx).unwrap();
+        let depth = r.read_depth(&ctx).unwrap();
+        let inv_view = camera.view().inverse();
+        let albedo = Vec3::new(0.8, 0.6, 0.4);
+        let s = Surface { albedo, roughness, metallic };
+        let mut checked = 0;
+        let mut worst = 0.0f32;
+        for y in 0..h {
+            for x in 0..w {
+                let i = (y * w + x) as usize;
+                let Some(pv) = pixel_view_position(&camera, w, h, x, y, depth[i]) else { continue };
+                let p = (inv_view * Vec4::from((pv, 1.0))).truncate();
+                let n = Vec3::Y;
+                let v = (camera.eye() - p).normalize();
+                let mut want = ambient * albedo;
+                for l in &scene.lights {
+                    let to = l.position - p;
+                    let d2 = to.length_squared();
+                    if d2 >= l.radius * l.radius {
+                        continue;
+                    }
+                    let dir = to / d2.sqrt();
+                    let mut att = windowed_attenuation(d2, l.radius);
+                    if let LightKind::Spot { direction, inner_angle, outer_angle } = l.kind {
+                        let (scale, offset) = spot_scale_offset(inner_angle, outer_angle);
+                        att *= spot_falloff((-dir).dot(direction), scale, offset);
+                    }
+                    want += l.color * l.intensity * att * brdf_cos(n, v, dir, &s);
+                }
+                for c in 0..3 {
+                    let err = (hdr[i][c] - want[c]).abs() / want[c].abs().max(1e-3);
+                    worst = worst.max(err);
+                    assert!(err <= 3e-3, "roughness {roughness} metallic {metallic}: pixel ({x}, {y}) channel {c}: GPU {} CPU {}", hdr[i][c], want[c]);
+                }
+                checked += 1;
+            }
+        }
+        eprintln!("roughness {roughness} metallic {metallic}: {checked} pixels, worst relative error {worst:.2e}");
+        assert!(checked > (w * h / 3) as usize, "the floor must cover the frame");
+    }
+}
