@@ -69,6 +69,10 @@ pub(crate) fn read_indices(
     })
 }
 
+/// Accessors without a buffer view are zeros (patched by sparse values): nothing but
+/// this bounds their count, so a hostile count cannot exhaust memory.
+const MAX_VIEWLESS_ELEMENTS: usize = 1 << 24;
+
 fn component_size(ty: DataType) -> usize {
     match ty {
         DataType::I8 | DataType::U8 => 1,
@@ -163,7 +167,14 @@ fn read_components<T: Copy + Default>(
             }
         }
         // No view: all zeros until sparse values replace some (glTF 3.6.2.3).
-        None => out.resize(total, T::default()),
+        None => {
+            if count > MAX_VIEWLESS_ELEMENTS {
+                return Err(format!(
+                    "{what} has no buffer view and {count} elements (at most {MAX_VIEWLESS_ELEMENTS} are accepted)"
+                ));
+            }
+            out.resize(total, T::default());
+        }
     }
     if let Some(sparse) = accessor.sparse() {
         let n = sparse.count();

@@ -876,3 +876,71 @@ fn other_bad_inputs_fail_cleanly() {
         Err(SceneError::InvalidArgument(_))
     ));
 }
+
+#[test]
+fn dangling_light_and_camera_references_fail_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let prim = bin.triangle();
+    for (name, extra) in [
+        (
+            "light_index",
+            json!({"extensions": {"KHR_lights_punctual": {"lights": [{"type": "point"}]}},
+                   "nodes": [{"mesh": 0}, {"extensions": {"KHR_lights_punctual": {"light": 5}}}]}),
+        ),
+        (
+            "no_lights",
+            json!({"nodes": [{"mesh": 0}, {"extensions": {"KHR_lights_punctual": {"light": 0}}}]}),
+        ),
+        (
+            "camera_index",
+            json!({"nodes": [{"mesh": 0}, {"camera": 2}]}),
+        ),
+    ] {
+        let mut root = bin.document(one_mesh_scene(prim.clone(), extra));
+        root["scenes"] = json!([{"nodes": [0, 1]}]);
+        let path = write_embedded(dir.path(), name, root, &bin.data);
+        assert_fails(&path, load_gltf(&path, 0.1), &["node"]);
+    }
+}
+
+#[test]
+fn sparse_accessors_patch_their_base() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let p = bin.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], "VEC3");
+    let pos_idx = bin.view(&2u16.to_le_bytes());
+    let pos_val = bin.view(
+        &[0.0f32, 2.0, 0.0]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect::<Vec<u8>>(),
+    );
+    let uv_idx = bin.view(&[1u8]);
+    let uv_val = bin.view(
+        &[0.5f32, 0.25]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect::<Vec<u8>>(),
+    );
+    bin.accessors[p]["sparse"] = json!({"count": 1, "indices": {"bufferView": pos_idx, "componentType": U16}, "values": {"bufferView": pos_val}});
+    bin.accessors[p]["max"] = json!([1.0, 2.0, 0.0]);
+    bin.accessors.push(json!({"componentType": F32, "count": 3, "type": "VEC2",
+        "sparse": {"count": 1, "indices": {"bufferView": uv_idx, "componentType": 5121}, "values": {"bufferView": uv_val}}}));
+    let uv = bin.accessors.len() - 1;
+    let prim = json!({"attributes": {"POSITION": p, "TEXCOORD_0": uv}});
+    let path = write_gltf(
+        dir.path(),
+        "sparse",
+        bin.document(one_mesh_scene(prim, json!({}))),
+        &bin.data,
+    );
+    let scene = load_gltf(&path, 0.1).unwrap();
+    let m = &scene.meshes[0];
+    // Flat normals unweld the vertices in index order (0, 1, 2).
+    assert_eq!(
+        m.positions,
+        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]]
+    );
+    assert_eq!(m.uvs, vec![[0.0, 0.0], [0.5, 0.25], [0.0, 0.0]]);
+}
