@@ -38,7 +38,11 @@ pub fn sphere_vs_aabb(lo: Vec3, hi: Vec3, c: Vec3, r: f32) -> bool {
 pub fn cone_vs_sphere(apex: Vec3, axis: Vec3, len: f32, cos_a: f32, sin_a: f32, center: Vec3, radius: f32) -> bool {
     let v = center - apex;
     let t = v.dot(axis);
-    let perp = (v - axis * t).length();
+    // Scaled by its largest component before squaring: beyond ~1.8e19 the square overflows
+    // to inf and would reject a sphere that is inside the cone.
+    let w = v - axis * t;
+    let m = w.abs().max_element();
+    let perp = if m > 0.0 { (w / m).length() * m } else { 0.0 };
     let closest = cos_a * perp - t * sin_a;
     !(closest > radius || t > radius + len || t < -radius)
 }

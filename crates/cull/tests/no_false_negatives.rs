@@ -84,20 +84,16 @@ fn build(c: &Case) -> Built {
     let depth = common::random_depth(&mut r, c.mode, &camera, w, h, geometry_tiles);
     let mut pixels: Vec<(u32, u32)> = (0..h)
         .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .filter(|&(x, y)| {
-            pixel_view_position(&camera, w, h, x, y, depth[(y * w + x) as usize]).is_some()
-        })
+        .filter(|&(x, y)| pixel_view_position(&camera, w, h, x, y, depth[(y * w + x) as usize]).is_some())
         .collect();
     if pixels.len() > MAX_PIXELS {
-        pixels = (0..MAX_PIXELS)
-            .map(|_| pixels[r.random_range(0..pixels.len())])
-            .collect();
+        pixels = (0..MAX_PIXELS).map(|_| pixels[r.random_range(0..pixels.len())]).collect();
     }
     let targets: Vec<Vec3> = (0..pixels.len().min(64))
         .map(|_| {
             let (x, y) = pixels[r.random_range(0..pixels.len())];
-            let p = pixel_view_position(&camera, w, h, x, y, depth[(y * w + x) as usize])
-                .expect("pixels have geometry");
+            let p =
+                pixel_view_position(&camera, w, h, x, y, depth[(y * w + x) as usize]).expect("pixels have geometry");
             view_to_world(&camera, p)
         })
         // Surfaces ~1e38 m away (subnormal depths) can overflow on the way to world space.
@@ -105,12 +101,7 @@ fn build(c: &Case) -> Built {
         .collect();
     let lights = common::random_lights(&mut r, &c.cam, &targets, c.n_lights);
     let packed = pack_lights(&order_points_first(&lights));
-    Built {
-        camera,
-        depth,
-        packed,
-        pixels,
-    }
+    Built { camera, depth, packed, pixels }
 }
 
 /// Checks every sampled pixel; returns the number of (pixel, light) pairs that reach and
@@ -121,8 +112,7 @@ fn check(c: &Case, b: &Built, lists: &TileLists) -> Result<(usize, usize), TestC
     let (mut pairs, mut skipped) = (0, 0);
     for &(x, y) in &b.pixels {
         let d = b.depth[(y * c.width + x) as usize];
-        let p = pixel_view_position(&b.camera, c.width, c.height, x, y, d)
-            .expect("pixels have geometry");
+        let p = pixel_view_position(&b.camera, c.width, c.height, x, y, d).expect("pixels have geometry");
         let tile = lists.grid.tile_of_pixel(x, y);
         let li = lists.list_index(tile, dp.view_distance(d));
         let list = &lists.lists[li];
@@ -135,8 +125,7 @@ fn check(c: &Case, b: &Built, lists: &TileLists) -> Result<(usize, usize), TestC
             if list.binary_search(&l).is_err() {
                 let cl = b.packed.cull[l as usize];
                 let sh = b.packed.shading[l as usize];
-                let spot = (l >= b.packed.num_point)
-                    .then(|| b.packed.spots[(l - b.packed.num_point) as usize]);
+                let spot = (l >= b.packed.num_point).then(|| b.packed.spots[(l - b.packed.num_point) as usize]);
                 let centre = common::to_view(&view, Vec3::from(cl.center));
                 let pos = common::to_view(&view, Vec3::from(sh.position));
                 return Err(TestCaseError::fail(format!(
@@ -170,50 +159,19 @@ fn exp10(lo: f32, hi: f32) -> impl Strategy<Value = f32> {
 }
 
 fn cam_strategy() -> impl Strategy<Value = CamSpec> {
-    let kind = prop_oneof![
-        Just(CamKind::Finite),
-        Just(CamKind::Infinite),
-        Just(CamKind::Ortho)
-    ];
+    let kind = prop_oneof![Just(CamKind::Finite), Just(CamKind::Infinite), Just(CamKind::Ortho)];
     let near = prop_oneof![4 => exp10(-4.0, 1.0), 1 => Just(0.0)];
-    let eye = (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, exp10(-3.0, 3.0))
-        .prop_map(|(x, y, z, s)| Vec3::new(x, y, z) * s);
-    let euler = (
-        0.0f32..std::f32::consts::TAU,
-        -1.5f32..1.5,
-        0.0f32..std::f32::consts::TAU,
-    )
+    let eye =
+        (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, exp10(-3.0, 3.0)).prop_map(|(x, y, z, s)| Vec3::new(x, y, z) * s);
+    let euler = (0.0f32..std::f32::consts::TAU, -1.5f32..1.5, 0.0f32..std::f32::consts::TAU)
         .prop_map(|(a, b, c)| Vec3::new(a, b, c));
-    (
-        kind,
-        near,
-        exp10(2.0, 7.0),
-        1.0f32..170.0,
-        exp10(-1.0, 3.0),
-        exp10(-1.0, 1.0),
-        eye,
-        euler,
+    (kind, near, exp10(2.0, 7.0), 1.0f32..170.0, exp10(-1.0, 3.0), exp10(-1.0, 1.0), eye, euler).prop_map(
+        |(kind, near, far, fov_deg, half_height, aspect, eye, euler)| {
+            // Near 0 is only valid (and only interesting) for orthographic cameras.
+            let near = if near == 0.0 && kind != CamKind::Ortho { 1e-4 } else { near };
+            CamSpec { kind, near, far, fov_deg, half_height, aspect, eye, euler }
+        },
     )
-        .prop_map(
-            |(kind, near, far, fov_deg, half_height, aspect, eye, euler)| {
-                // Near 0 is only valid (and only interesting) for orthographic cameras.
-                let near = if near == 0.0 && kind != CamKind::Ortho {
-                    1e-4
-                } else {
-                    near
-                };
-                CamSpec {
-                    kind,
-                    near,
-                    far,
-                    fov_deg,
-                    half_height,
-                    aspect,
-                    eye,
-                    euler,
-                }
-            },
-        )
 }
 
 fn case_strategy() -> impl Strategy<Value = Case> {
@@ -223,51 +181,16 @@ fn case_strategy() -> impl Strategy<Value = Case> {
         1 => Just((1921, 1081)),
         3 => (1u32..80, 1u32..80),
     ];
-    let tile = prop_oneof![
-        Just(8u32),
-        Just(16),
-        Just(32),
-        Just(1),
-        Just(3),
-        Just(13),
-        Just(64)
-    ];
+    let tile = prop_oneof![Just(8u32), Just(16), Just(32), Just(1), Just(3), Just(13), Just(64)];
     let flags = (any::<bool>(), any::<bool>(), any::<bool>());
-    (
-        cam_strategy(),
-        screen,
-        tile,
-        flags,
-        0usize..DEPTH_MODES.len(),
-        1usize..40,
-        any::<u64>(),
+    (cam_strategy(), screen, tile, flags, 0usize..DEPTH_MODES.len(), 1usize..40, any::<u64>()).prop_map(
+        |(cam, (width, height), tile, (aabb, half_z, spot_cone), mode, n_lights, seed)| {
+            // 1 and 3 px tiles on 1921x1081 would mean up to 2M lists per case: use 13 there.
+            let tile_size = if width * height > 100_000 && tile < 8 { 13 } else { tile };
+            let config = CullConfig { tile_size, aabb, half_z, spot_cone, ..CullConfig::default() };
+            Case { cam, width, height, config, mode: DEPTH_MODES[mode], n_lights, seed }
+        },
     )
-        .prop_map(
-            |(cam, (width, height), tile, (aabb, half_z, spot_cone), mode, n_lights, seed)| {
-                // 1 and 3 px tiles on 1921x1081 would mean up to 2M lists per case: use 13 there.
-                let tile_size = if width * height > 100_000 && tile < 8 {
-                    13
-                } else {
-                    tile
-                };
-                let config = CullConfig {
-                    tile_size,
-                    aabb,
-                    half_z,
-                    spot_cone,
-                    ..CullConfig::default()
-                };
-                Case {
-                    cam,
-                    width,
-                    height,
-                    config,
-                    mode: DEPTH_MODES[mode],
-                    n_lights,
-                    seed,
-                }
-            },
-        )
 }
 
 /// 256 cases (about a second in the dev profile); `PROPTEST_CASES=n` overrides it for a
@@ -302,12 +225,8 @@ fn generator_produces_reaching_lights() {
     let n = 64;
     for i in 0..n {
         let cam = CamSpec::random(&mut r);
-        let config = CullConfig {
-            tile_size: [1, 8, 16, 13][i % 4],
-            half_z: true,
-            spot_cone: true,
-            ..CullConfig::default()
-        };
+        let config =
+            CullConfig { tile_size: [1, 8, 16, 13][i % 4], half_z: true, spot_cone: true, ..CullConfig::default() };
         let c = Case {
             cam,
             width: r.random_range(1..48),
@@ -318,8 +237,7 @@ fn generator_produces_reaching_lights() {
             seed: r.random(),
         };
         let b = build(&c);
-        let lists = cull_tiles(&b.depth, c.width, c.height, &b.camera, &b.packed, &c.config)
-            .expect("valid case");
+        let lists = cull_tiles(&b.depth, c.width, c.height, &b.camera, &b.packed, &c.config).expect("valid case");
         let (pairs, skip) = check(&c, &b, &lists).expect("no false negatives");
         cases_with_pairs += usize::from(pairs > 0);
         skipped += skip;
@@ -336,21 +254,12 @@ fn generator_produces_reaching_lights() {
     }
     // The depth modes cycle, so NearZero (surfaces ~1e3..1e40 m away, where few lights
     // reach) is a fifth of the cases; everything else should mostly be lit.
-    assert!(
-        cases_with_pairs >= n / 2,
-        "only {cases_with_pairs} of {n} cases have a light reaching a pixel"
-    );
+    assert!(cases_with_pairs >= n / 2, "only {cases_with_pairs} of {n} cases have a light reaching a pixel");
     assert!(spot_pairs > 100, "only {spot_pairs} spot light/pixel pairs");
-    assert!(
-        far_half_pairs > 100,
-        "only {far_half_pairs} pairs in far half-z lists"
-    );
+    assert!(far_half_pairs > 100, "only {far_half_pairs} pairs in far half-z lists");
     // The apex exclusion must stay an exception: it is ~1.5% here, nearly all from spots
     // at the eye (radius up to 1e6 m) over NearOne surfaces lying on a 1e-4 m near plane.
-    assert!(
-        skipped * 20 <= spot_pairs,
-        "{skipped} of {spot_pairs} spot pairs skipped as too close to the apex"
-    );
+    assert!(skipped * 20 <= spot_pairs, "{skipped} of {spot_pairs} spot pairs skipped as too close to the apex");
 }
 
 /// Sanity of `log_uniform`, which every range above relies on.

@@ -27,11 +27,7 @@ pub fn log_uniform(rng: &mut impl Rng, lo: f32, hi: f32) -> f32 {
 /// A uniformly distributed unit vector.
 pub fn unit(rng: &mut impl Rng) -> Vec3 {
     loop {
-        let v = Vec3::new(
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-        );
+        let v = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
         let l = v.length();
         if l > 0.05 && l <= 1.0 {
             return v / l;
@@ -92,24 +88,12 @@ impl CamSpec {
                 self.near,
                 Some(self.far),
             ),
-            CamKind::Infinite => Camera::perspective(
-                self.eye,
-                target,
-                up,
-                self.fov_deg.to_radians(),
-                self.aspect,
-                self.near,
-                None,
-            ),
-            CamKind::Ortho => Camera::orthographic(
-                self.eye,
-                target,
-                up,
-                self.half_height,
-                self.aspect,
-                self.near,
-                self.far,
-            ),
+            CamKind::Infinite => {
+                Camera::perspective(self.eye, target, up, self.fov_deg.to_radians(), self.aspect, self.near, None)
+            }
+            CamKind::Ortho => {
+                Camera::orthographic(self.eye, target, up, self.half_height, self.aspect, self.near, self.far)
+            }
         }
         .unwrap_or_else(|e| panic!("generated camera {self:?} rejected: {e}"))
     }
@@ -118,11 +102,7 @@ impl CamSpec {
     /// FOV 1..170 degrees, aspect 0.1..10, any position (within 1e3) and orientation.
     pub fn random(rng: &mut impl Rng) -> Self {
         let kind = [CamKind::Finite, CamKind::Infinite, CamKind::Ortho][rng.random_range(0..3)];
-        let near = if kind == CamKind::Ortho && rng.random_bool(0.3) {
-            0.0
-        } else {
-            log_uniform(rng, 1e-4, 10.0)
-        };
+        let near = if kind == CamKind::Ortho && rng.random_bool(0.3) { 0.0 } else { log_uniform(rng, 1e-4, 10.0) };
         Self {
             kind,
             near,
@@ -163,13 +143,8 @@ pub enum DepthMode {
 }
 
 /// All modes, for picking one at random.
-pub const DEPTH_MODES: [DepthMode; 5] = [
-    DepthMode::Constant,
-    DepthMode::Plane,
-    DepthMode::PerPixel,
-    DepthMode::NearOne,
-    DepthMode::NearZero,
-];
+pub const DEPTH_MODES: [DepthMode; 5] =
+    [DepthMode::Constant, DepthMode::Plane, DepthMode::PerPixel, DepthMode::NearOne, DepthMode::NearZero];
 
 /// One depth value of a mode for pixel (x, y); `base` carries the mode's per-buffer constants.
 fn depth_value(
@@ -219,11 +194,7 @@ fn depth_value(
 fn mode_base(rng: &mut impl Rng, mode: DepthMode) -> [f32; 3] {
     match mode {
         DepthMode::Constant => [rng.random_range(0.0..1.0), 0.0, 0.0],
-        DepthMode::Plane => [
-            rng.random_range(-0.2..1.2),
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-        ],
+        DepthMode::Plane => [rng.random_range(-0.2..1.2), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)],
         _ => [0.0; 3],
     }
 }
@@ -246,15 +217,11 @@ pub fn random_depth(
             let (tx, ty) = (w.div_ceil(tile), h.div_ceil(tile));
             for i in 0..k {
                 // The last one is a partial corner tile whenever the screen has one.
-                let (cx, cy) = if i + 1 == k {
-                    (tx - 1, ty - 1)
-                } else {
-                    (rng.random_range(0..tx), rng.random_range(0..ty))
-                };
+                let (cx, cy) =
+                    if i + 1 == k { (tx - 1, ty - 1) } else { (rng.random_range(0..tx), rng.random_range(0..ty)) };
                 for y in cy * tile..((cy + 1) * tile).min(h) {
                     for x in cx * tile..((cx + 1) * tile).min(w) {
-                        depth[(y * w + x) as usize] =
-                            depth_value(rng, mode, camera, base, (x, y), (w, h));
+                        depth[(y * w + x) as usize] = depth_value(rng, mode, camera, base, (x, y), (w, h));
                     }
                 }
             }
@@ -262,8 +229,7 @@ pub fn random_depth(
         None => {
             for y in 0..h {
                 for x in 0..w {
-                    depth[(y * w + x) as usize] =
-                        depth_value(rng, mode, camera, base, (x, y), (w, h));
+                    depth[(y * w + x) as usize] = depth_value(rng, mode, camera, base, (x, y), (w, h));
                 }
             }
             for _ in 0..rng.random_range(0..3) {
@@ -290,12 +256,7 @@ pub fn colour(rng: &mut impl Rng) -> Vec3 {
 /// constructors (chosen at random): `Light::point`, `Light::spot` (radius from an
 /// intensity threshold), or `Light::with_radius` with a point or spot kind. `dir` and
 /// `outer` are used for spots; `outer` may lie outside the accepted range (it is clamped).
-pub fn random_light(
-    rng: &mut impl Rng,
-    pos: Vec3,
-    radius: f32,
-    spot: Option<(Vec3, f32)>,
-) -> Light {
+pub fn random_light(rng: &mut impl Rng, pos: Vec3, radius: f32, spot: Option<(Vec3, f32)>) -> Light {
     let color = colour(rng);
     let intensity = log_uniform(rng, 0.1, 100.0);
     // Light::point/spot derive r = sqrt(intensity * max(colour) / threshold), and max(colour) = 1.
@@ -309,8 +270,7 @@ pub fn random_light(
             if by_threshold {
                 Light::spot(pos, dir, color, intensity, inner, outer, threshold)
             } else {
-                Light::spot_kind(dir, inner, outer)
-                    .and_then(|k| Light::with_radius(pos, color, intensity, radius, k))
+                Light::spot_kind(dir, inner, outer).and_then(|k| Light::with_radius(pos, color, intensity, radius, k))
             }
         }
     };
@@ -319,9 +279,7 @@ pub fn random_light(
 
 /// Rotates unit `dir` by `angle` about a random axis perpendicular to it.
 pub fn tilt(rng: &mut impl Rng, dir: Vec3, angle: f32) -> Vec3 {
-    let perp = dir
-        .cross(unit(rng))
-        .normalize_or(dir.any_orthonormal_vector());
+    let perp = dir.cross(unit(rng)).normalize_or(dir.any_orthonormal_vector());
     Quat::from_axis_angle(perp, angle) * dir
 }
 
@@ -331,21 +289,14 @@ pub fn tilt(rng: &mut impl Rng, dir: Vec3, angle: f32) -> Vec3 {
 pub fn random_lights(rng: &mut impl Rng, spec: &CamSpec, targets: &[Vec3], n: usize) -> Vec<Light> {
     let (fwd, up) = spec.basis();
     let right = fwd.cross(up);
-    let far = if spec.kind == CamKind::Infinite {
-        1e7
-    } else {
-        spec.far
-    };
+    let far = if spec.kind == CamKind::Infinite { 1e7 } else { spec.far };
     (0..n)
         .map(|i| {
             let radius = log_uniform(rng, 1e-4, 1e6);
             let is_spot = rng.random_bool(0.5);
             // Requested half-angles from 0.2 to 90 degrees: both clamps get exercised.
             let outer = log_uniform(rng, 0.2f32.to_radians(), 90f32.to_radians());
-            let clamped = outer.clamp(
-                tiledlight_cull::light::MIN_SPOT_ANGLE,
-                tiledlight_cull::light::MAX_SPOT_ANGLE,
-            );
+            let clamped = outer.clamp(tiledlight_cull::light::MIN_SPOT_ANGLE, tiledlight_cull::light::MAX_SPOT_ANGLE);
             if i % 2 == 0 && !targets.is_empty() {
                 let target = targets[rng.random_range(0..targets.len())];
                 let offset = unit(rng) * radius * rng.random::<f32>();
@@ -360,11 +311,7 @@ pub fn random_lights(rng: &mut impl Rng, spec: &CamSpec, targets: &[Vec3], n: us
             let pos = match rng.random_range(0..4) {
                 0 => spec.eye,
                 1 => spec.eye - fwd * log_uniform(rng, 1e-3, 1e3) + lateral * radius,
-                2 => {
-                    spec.eye
-                        + fwd * (spec.near + radius * rng.random_range(-0.9..0.9))
-                        + lateral * radius * 0.3
-                }
+                2 => spec.eye + fwd * (spec.near + radius * rng.random_range(-0.9..0.9)) + lateral * radius * 0.3,
                 _ => spec.eye + unit(rng) * log_uniform(rng, 1e-3, far.min(1e5)),
             };
             let dir = unit(rng);
