@@ -21,8 +21,7 @@ use tiledlight_gpu::timer::{GpuTimer, PassTime};
 use crate::scene_setup::{Prepared, SceneArgs};
 
 /// How the CPU frame time is measured (printed and written to JSON).
-pub const CPU_TIME_MEANING: &str =
-    "wall time of record + submit + wait for the GPU, per frame (frames serialised)";
+pub const CPU_TIME_MEANING: &str = "wall time of record + submit + wait for the GPU, per frame (frames serialised)";
 
 /// The most frames `--frames` and `--warmup` accept (a guard against typos that would run
 /// for hours).
@@ -78,17 +77,8 @@ impl Summary {
         let mut s = samples.to_vec();
         s.sort_by(f64::total_cmp);
         let n = s.len();
-        let median = if n % 2 == 1 {
-            s[n / 2]
-        } else {
-            0.5 * (s[n / 2 - 1] + s[n / 2])
-        };
-        Some(Self {
-            median_ms: median,
-            min_ms: s[0],
-            max_ms: s[n - 1],
-            frames: n,
-        })
+        let median = if n % 2 == 1 { s[n / 2] } else { 0.5 * (s[n / 2 - 1] + s[n / 2]) };
+        Some(Self { median_ms: median, min_ms: s[0], max_ms: s[n - 1], frames: n })
     }
 }
 
@@ -116,15 +106,9 @@ impl Measurement {
         labels
             .into_iter()
             .filter_map(|label| {
-                let samples: Vec<f64> = self
-                    .gpu_frames
-                    .iter()
-                    .flat_map(|f| f.iter().filter(|p| p.label == label).map(|p| p.ms))
-                    .collect();
-                Summary::of(&samples).map(|summary| PassSummary {
-                    pass: label.to_string(),
-                    summary,
-                })
+                let samples: Vec<f64> =
+                    self.gpu_frames.iter().flat_map(|f| f.iter().filter(|p| p.label == label).map(|p| p.ms)).collect();
+                Summary::of(&samples).map(|summary| PassSummary { pass: label.to_string(), summary })
             })
             .collect()
     }
@@ -137,18 +121,10 @@ impl Measurement {
 
 /// Renders `warmup` then `frames` frames through `renderer`, each submitted and waited
 /// for, and collects the measured frames' pass times and CPU wall times.
-pub fn measure(
-    prep: &Prepared,
-    renderer: &ForwardRenderer,
-    warmup: u32,
-    frames: u32,
-) -> Result<Measurement> {
+pub fn measure(prep: &Prepared, renderer: &ForwardRenderer, warmup: u32, frames: u32) -> Result<Measurement> {
     let ctx = &prep.ctx;
     let mut timer = GpuTimer::new(ctx).context("creating the GPU timer")?;
-    let mut out = Measurement {
-        timestamps: timer.enabled(),
-        ..Default::default()
-    };
+    let mut out = Measurement { timestamps: timer.enabled(), ..Default::default() };
     // The profiler hands frames back in submission order: count them to skip warm-up.
     let mut finished = 0u32;
     let drain = |timer: &mut GpuTimer, out: &mut Measurement, finished: &mut u32| {
@@ -161,33 +137,20 @@ pub fn measure(
     };
     for i in 0..warmup + frames {
         let t0 = Instant::now();
-        let mut encoder = ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("bench.frame"),
-            });
-        renderer.record(
-            &ctx.queue,
-            &mut encoder,
-            &timer,
-            &prep.scene_gpu,
-            &prep.camera,
-        );
+        let mut encoder =
+            ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bench.frame") });
+        renderer.record(&ctx.queue, &mut encoder, &timer, &prep.scene_gpu, &prep.camera);
         timer.resolve(&mut encoder);
         ctx.queue.submit([encoder.finish()]);
         timer.end_frame().context("ending a timed frame")?;
-        ctx.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .context("waiting for the GPU")?;
+        ctx.device.poll(wgpu::PollType::wait_indefinitely()).context("waiting for the GPU")?;
         let ms = t0.elapsed().as_secs_f64() * 1e3;
         if i >= warmup {
             out.cpu_ms.push(ms);
         }
         prep.check_gpu_errors()?;
         // The timestamp readback is mapped after the submit; the next poll delivers it.
-        ctx.device
-            .poll(wgpu::PollType::Poll)
-            .context("polling the GPU")?;
+        ctx.device.poll(wgpu::PollType::Poll).context("polling the GPU")?;
         drain(&mut timer, &mut out, &mut finished);
     }
     // Frames still in flight: wait, then take what is left.
@@ -195,9 +158,7 @@ pub fn measure(
         if finished >= warmup + frames || !out.timestamps {
             break;
         }
-        ctx.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .context("waiting for the GPU")?;
+        ctx.device.poll(wgpu::PollType::wait_indefinitely()).context("waiting for the GPU")?;
         drain(&mut timer, &mut out, &mut finished);
     }
     Ok(out)
@@ -211,10 +172,7 @@ pub fn table(m: &Measurement) -> String {
         s.push_str("GPU pass times: not available (the adapter has no timestamp queries)\n");
     } else {
         let passes = m.passes();
-        s.push_str(&format!(
-            "{:<22} {:>10} {:>10} {:>10} {:>7}\n",
-            "pass", "median ms", "min", "max", "frames"
-        ));
+        s.push_str(&format!("{:<22} {:>10} {:>10} {:>10} {:>7}\n", "pass", "median ms", "min", "max", "frames"));
         for p in &passes {
             let t = p.summary;
             s.push_str(&format!(
@@ -283,21 +241,12 @@ pub fn commit_hash() -> String {
 
 /// Runs `tiledlight bench`.
 pub fn run(args: &BenchArgs) -> Result<()> {
-    ensure!(
-        (1..=MAX_FRAMES).contains(&args.frames),
-        "--frames {}: must be between 1 and {MAX_FRAMES}",
-        args.frames
-    );
-    ensure!(
-        args.warmup <= MAX_FRAMES,
-        "--warmup {}: must be at most {MAX_FRAMES}",
-        args.warmup
-    );
+    ensure!((1..=MAX_FRAMES).contains(&args.frames), "--frames {}: must be between 1 and {MAX_FRAMES}", args.frames);
+    ensure!(args.warmup <= MAX_FRAMES, "--warmup {}: must be at most {MAX_FRAMES}", args.warmup);
     if let Some(p) = &args.json {
         // Fail before minutes of rendering if the file cannot be written.
         if let Some(dir) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir)
-                .with_context(|| format!("creating directory {}", dir.display()))?;
+            std::fs::create_dir_all(dir).with_context(|| format!("creating directory {}", dir.display()))?;
         }
     }
     let prep = Prepared::new(&args.scene)?;
@@ -305,10 +254,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         println!("{:<11} {v}", format!("{k}:"));
     }
     let renderer = prep.renderer(false)?;
-    println!(
-        "frames:     {} warm-up + {} measured",
-        args.warmup, args.frames
-    );
+    println!("frames:     {} warm-up + {} measured", args.warmup, args.frames);
     let m = measure(&prep, &renderer, args.warmup, args.frames)?;
     print!("{}", table(&m));
     if let Some(path) = &args.json {
@@ -337,9 +283,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             frames: args.frames,
             warmup: args.warmup,
             timestamps: m.timestamps,
-            total_gpu_median_ms: m
-                .timestamps
-                .then(|| passes.iter().map(|p| p.summary.median_ms).sum()),
+            total_gpu_median_ms: m.timestamps.then(|| passes.iter().map(|p| p.summary.median_ms).sum()),
             passes,
             cpu_frame: m.cpu(),
             cpu_frame_measure: CPU_TIME_MEANING,
@@ -359,32 +303,14 @@ mod tests {
     fn summary_statistics() {
         assert_eq!(Summary::of(&[]), None);
         let s = Summary::of(&[3.0, 1.0, 2.0]).unwrap();
-        assert_eq!(
-            (s.median_ms, s.min_ms, s.max_ms, s.frames),
-            (2.0, 1.0, 3.0, 3)
-        );
+        assert_eq!((s.median_ms, s.min_ms, s.max_ms, s.frames), (2.0, 1.0, 3.0, 3));
         assert_eq!(Summary::of(&[4.0, 1.0, 2.0, 3.0]).unwrap().median_ms, 2.5);
     }
 
     #[test]
     fn passes_keep_their_order() {
-        let f = |a: f64, b: f64| {
-            vec![
-                PassTime {
-                    label: "z".into(),
-                    ms: a,
-                },
-                PassTime {
-                    label: "a".into(),
-                    ms: b,
-                },
-            ]
-        };
-        let m = Measurement {
-            gpu_frames: vec![f(1.0, 2.0), f(3.0, 4.0)],
-            cpu_ms: vec![5.0],
-            timestamps: true,
-        };
+        let f = |a: f64, b: f64| vec![PassTime { label: "z".into(), ms: a }, PassTime { label: "a".into(), ms: b }];
+        let m = Measurement { gpu_frames: vec![f(1.0, 2.0), f(3.0, 4.0)], cpu_ms: vec![5.0], timestamps: true };
         let p = m.passes();
         assert_eq!(p[0].pass, "z");
         assert_eq!(p[0].summary.median_ms, 2.0);

@@ -33,11 +33,7 @@ pub const OVERFLOW: [f32; 3] = [1.0, 0.0, 1.0];
 /// into applies it.
 pub fn srgb_encode(c: f32) -> u8 {
     let c = c.clamp(0.0, 1.0);
-    let s = if c <= 0.003_130_8 {
-        12.92 * c
-    } else {
-        1.055 * c.powf(1.0 / 2.4) - 0.055
-    };
+    let s = if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
     (s * 255.0 + 0.5) as u8
 }
 
@@ -48,9 +44,7 @@ fn srgb(c: [f32; 3]) -> Rgb<u8> {
 /// The tick labels: 1 and capacity^(k/4) for k = 1..4, rounded, without duplicates.
 pub fn label_values(capacity: u32) -> Vec<u32> {
     let cap = capacity.max(1);
-    let mut v: Vec<u32> = (0..=4)
-        .map(|k| ((cap as f64).powf(k as f64 / 4.0).round() as u32).clamp(1, cap))
-        .collect();
+    let mut v: Vec<u32> = (0..=4).map(|k| ((cap as f64).powf(k as f64 / 4.0).round() as u32).clamp(1, cap)).collect();
     v.dedup();
     v
 }
@@ -109,14 +103,7 @@ fn draw_text(img: &mut RgbImage, x: u32, y: u32, text: &str, scale: u32, color: 
         for (row, bits) in g.iter().enumerate() {
             for col in 0..GLYPH_W {
                 if bits & (1 << (GLYPH_W - 1 - col)) != 0 {
-                    fill(
-                        img,
-                        gx + col * scale,
-                        y + row as u32 * scale,
-                        scale,
-                        scale,
-                        color,
-                    );
+                    fill(img, gx + col * scale, y + row as u32 * scale, scale, scale, color);
                 }
             }
         }
@@ -188,25 +175,12 @@ pub fn draw_legend(img: &mut RgbImage, capacity: u32) -> bool {
         let tx = bar_x + (palette_t(v, capacity) * (bar_w - 1) as f32).round() as u32;
         let text = v.to_string();
         let w = text_width(&text, s);
-        let lx = tx
-            .saturating_sub(w / 2)
-            .min((x0 + pw).saturating_sub(s + w))
-            .max(x0 + s);
+        let lx = tx.saturating_sub(w / 2).min((x0 + pw).saturating_sub(s + w)).max(x0 + s);
         // Drop earlier labels that the next one would overlap (the capacity label wins).
-        while placed
-            .last()
-            .is_some_and(|(px, pw_, _)| px + pw_ + 2 * s > lx)
-        {
+        while placed.last().is_some_and(|(px, pw_, _)| px + pw_ + 2 * s > lx) {
             placed.pop();
         }
-        fill(
-            img,
-            tx.min(bar_x + bar_w - s),
-            bar_y + BAR_H * s,
-            s,
-            TICK_H * s,
-            white,
-        );
+        fill(img, tx.min(bar_x + bar_w - s), bar_y + BAR_H * s, s, TICK_H * s, white);
         placed.push((lx, w, text));
     }
     for (lx, _, text) in &placed {
@@ -215,14 +189,7 @@ pub fn draw_legend(img: &mut RgbImage, capacity: u32) -> bool {
 
     let sw_x = bar_x + bar_w + swatch_gap * s;
     fill(img, sw_x, bar_y, BAR_H * s, BAR_H * s, srgb(OVERFLOW));
-    draw_text(
-        img,
-        sw_x + (BAR_H + 3) * s,
-        bar_y + s / 2,
-        OVERFLOW_TEXT,
-        s,
-        white,
-    );
+    draw_text(img, sw_x + (BAR_H + 3) * s, bar_y + s / 2, OVERFLOW_TEXT, s, white);
     true
 }
 
@@ -260,11 +227,7 @@ mod tests {
 
     #[test]
     fn every_legend_character_has_a_glyph() {
-        for c in TITLE
-            .chars()
-            .chain(OVERFLOW_TEXT.chars())
-            .chain("0123456789".chars())
-        {
+        for c in TITLE.chars().chain(OVERFLOW_TEXT.chars()).chain("0123456789".chars()) {
             assert!(c == ' ' || glyph(c) != [0; 7], "no glyph for {c:?}");
         }
     }
@@ -276,10 +239,7 @@ mod tests {
         assert_eq!(img.get_pixel(0, 0), &Rgb([100, 100, 100]));
         let changed = img.pixels().filter(|p| **p != Rgb([100, 100, 100])).count();
         assert!(changed > 1000, "{changed}");
-        assert!(
-            img.pixels().any(|p| *p == Rgb([255, 0, 255])),
-            "overflow swatch"
-        );
+        assert!(img.pixels().any(|p| *p == Rgb([255, 0, 255])), "overflow swatch");
         assert!(img.pixels().any(|p| *p == Rgb([0, 0, 255])), "bar start");
         assert!(img.pixels().any(|p| *p == Rgb([255, 0, 0])), "bar end");
 

@@ -46,11 +46,7 @@ enum Command {
 /// Makes a possibly multi-line message (wgpu validation errors, clap's usage hints) one
 /// line, so every failure is a single `error:` line.
 fn one_line(msg: &str) -> String {
-    msg.lines()
-        .map(str::trim)
-        .filter(|l| !l.is_empty())
-        .collect::<Vec<_>>()
-        .join(" ")
+    msg.lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" ")
 }
 
 /// The error and its causes on one line, "context: cause: cause", leaving out a cause
@@ -84,10 +80,8 @@ fn main() -> ExitCode {
             let text = e.render().to_string();
             // Keep the problem and clap's tips; the usage line and the pointer to --help
             // are replaced by the short hint below.
-            let kept: Vec<&str> = text
-                .lines()
-                .filter(|l| !l.starts_with("For more information") && !l.starts_with("Usage:"))
-                .collect();
+            let kept: Vec<&str> =
+                text.lines().filter(|l| !l.starts_with("For more information") && !l.starts_with("Usage:")).collect();
             let msg = one_line(&kept.join("\n"));
             let msg = msg.strip_prefix("error: ").unwrap_or(&msg);
             eprintln!("error: {msg} (see --help)");
@@ -122,9 +116,7 @@ mod tests {
     fn messages_become_one_line() {
         assert_eq!(one_line("a\n\n  b  \nc"), "a b c");
         let io = std::io::Error::new(std::io::ErrorKind::NotFound, "gone");
-        let e = anyhow::Error::new(io)
-            .context("x: cannot read: gone")
-            .context("loading");
+        let e = anyhow::Error::new(io).context("x: cannot read: gone").context("loading");
         assert_eq!(error_line(&e), "loading: x: cannot read: gone");
     }
 
@@ -146,23 +138,15 @@ mod tests {
             "high",
         ])
         .unwrap();
-        let Some(Command::Render(r)) = cli.command else {
-            panic!("not render")
-        };
+        let Some(Command::Render(r)) = cli.command else { panic!("not render") };
         assert_eq!(r.scene.lights, Some(5));
         assert_eq!(r.scene.method, scene_setup::MethodArg::BruteForceNoCutoff);
         assert_eq!(r.scene.tile_size, 32);
         assert!(r.heatmap);
-        let cli = Cli::try_parse_from(["tiledlight", "bench", "--frames", "3", "--json", "a.json"])
-            .unwrap();
-        let Some(Command::Bench(b)) = cli.command else {
-            panic!("not bench")
-        };
+        let cli = Cli::try_parse_from(["tiledlight", "bench", "--frames", "3", "--json", "a.json"]).unwrap();
+        let Some(Command::Bench(b)) = cli.command else { panic!("not bench") };
         assert_eq!((b.frames, b.warmup), (3, 20));
         assert_eq!(b.scene.width, 1920);
-        assert!(Cli::try_parse_from(["tiledlight"])
-            .unwrap()
-            .command
-            .is_none());
+        assert!(Cli::try_parse_from(["tiledlight"]).unwrap().command.is_none());
     }
 }

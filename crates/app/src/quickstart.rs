@@ -47,11 +47,7 @@ pub fn run() -> Result<()> {
     if let Some(n) = note {
         println!("note:       {n}");
     }
-    println!(
-        "wrote {} and {} (heat map with legend)",
-        render_path.display(),
-        heatmap_path.display()
-    );
+    println!("wrote {} and {} (heat map with legend)", render_path.display(), heatmap_path.display());
     println!("more: `tiledlight render --help`, `tiledlight bench --help`");
     Ok(())
 }

@@ -59,11 +59,7 @@ pub struct CullingStats {
 
 impl std::fmt::Display for CullingStats {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let per = if self.lists_per_tile == 1 {
-            "tile"
-        } else {
-            "list (half-z)"
-        };
+        let per = if self.lists_per_tile == 1 { "tile" } else { "list (half-z)" };
         write!(
             f,
             "mean {:.1}, max {} lights per {per} over {} of {} tiles with geometry; {} overflowing lists (capacity {}); {} tile-light pairs",
@@ -84,12 +80,8 @@ pub fn culling_stats(prep: &Prepared, renderer: &ForwardRenderer) -> Result<Opti
     let Some(culling) = renderer.culling() else {
         return Ok(None);
     };
-    let lists = culling
-        .read_lists(&prep.ctx.device, &prep.ctx.queue)
-        .context("reading the tile lists back")?;
-    let depth = renderer
-        .read_depth(&prep.ctx)
-        .context("reading the depth buffer back")?;
+    let lists = culling.read_lists(&prep.ctx.device, &prep.ctx.queue).context("reading the tile lists back")?;
+    let depth = renderer.read_depth(&prep.ctx).context("reading the depth buffer back")?;
     let grid = culling.grid;
     let per = culling.options.lists_per_tile() as usize;
     let (mut sum, mut n, mut tiles_with_geometry) = (0u64, 0u64, 0usize);
@@ -126,11 +118,7 @@ pub fn last_frame_times(m: &Measurement) -> String {
     let Some(frame) = m.gpu_frames.last() else {
         return "GPU times:  no frame's timestamps came back\n".into();
     };
-    let mut s = format!(
-        "GPU times (frame {} of {}):\n",
-        m.gpu_frames.len(),
-        m.cpu_ms.len()
-    );
+    let mut s = format!("GPU times (frame {} of {}):\n", m.gpu_frames.len(), m.cpu_ms.len());
     for p in frame {
         s.push_str(&format!("  {:<22} {:>9.3} ms\n", p.label, p.ms));
     }
@@ -141,23 +129,12 @@ pub fn last_frame_times(m: &Measurement) -> String {
 
 /// Reads the renderer's image, adds the legend for a heat map, and writes the PNG.
 /// Returns a note when the legend did not fit.
-pub fn write_image(
-    prep: &Prepared,
-    renderer: &ForwardRenderer,
-    heatmap: bool,
-    path: &Path,
-) -> Result<Option<String>> {
-    let ldr = renderer
-        .read_ldr(&prep.ctx)
-        .context("reading the image back")?;
+pub fn write_image(prep: &Prepared, renderer: &ForwardRenderer, heatmap: bool, path: &Path) -> Result<Option<String>> {
+    let ldr = renderer.read_ldr(&prep.ctx).context("reading the image back")?;
     let mut img = rgb_image(prep.args.width, prep.args.height, &ldr)?;
     let mut note = None;
     if heatmap && !legend::draw_legend(&mut img, prep.args.capacity) {
-        note = Some(format!(
-            "the image ({}x{}) is too small for the legend: not drawn",
-            img.width(),
-            img.height()
-        ));
+        note = Some(format!("the image ({}x{}) is too small for the legend: not drawn", img.width(), img.height()));
     }
     save_png(path, &img)?;
     Ok(note)
@@ -165,19 +142,13 @@ pub fn write_image(
 
 /// Runs `tiledlight render`.
 pub fn run(args: &RenderArgs) -> Result<()> {
-    let out = args.out.clone().unwrap_or_else(|| {
-        PathBuf::from(if args.heatmap {
-            "out/heatmap.png"
-        } else {
-            "out/render.png"
-        })
-    });
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(if args.heatmap { "out/heatmap.png" } else { "out/render.png" }));
     check_png_path(&out)?;
     if args.heatmap && !args.scene.method.is_tiled() {
-        bail!(
-            "--heatmap needs --method forward-plus ({} has no tiles)",
-            args.scene.method.name()
-        );
+        bail!("--heatmap needs --method forward-plus ({} has no tiles)", args.scene.method.name());
     }
     let prep = Prepared::new(&args.scene)?;
     let renderer = prep.renderer(args.heatmap)?;
@@ -197,14 +168,6 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     if let Some(n) = note {
         println!("note:       {n}");
     }
-    println!(
-        "wrote {}{}",
-        out.display(),
-        if args.heatmap {
-            " (heat map with legend)"
-        } else {
-            ""
-        }
-    );
+    println!("wrote {}{}", out.display(), if args.heatmap { " (heat map with legend)" } else { "" });
     Ok(())
 }

@@ -38,9 +38,7 @@ fn gpu_run(args: &[&str]) -> Output {
 
 /// A fresh directory under the target dir for one test's outputs.
 fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("cli")
-        .join(name);
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli").join(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
@@ -71,15 +69,7 @@ fn render_writes_a_png_of_the_requested_size() {
     let lit = rgb.pixels().filter(|p| p.0.iter().any(|&c| c > 20)).count();
     assert!(lit > 50, "only {lit} lit pixels");
     let text = stdout(&out);
-    for needle in [
-        "adapter:",
-        "scene:",
-        "16 point, 0 spot",
-        "64x36",
-        "culling:",
-        "GPU memory",
-        "wrote",
-    ] {
+    for needle in ["adapter:", "scene:", "16 point, 0 spot", "64x36", "culling:", "GPU memory", "wrote"] {
         assert!(text.contains(needle), "no {needle:?} in:\n{text}");
     }
 }
@@ -88,60 +78,25 @@ fn render_writes_a_png_of_the_requested_size() {
 fn render_heatmap_and_brute_force() {
     let dir = scratch("heatmap");
     let png = dir.join("h.png");
-    let out = gpu_run(&with_tiny(
-        "render",
-        &[
-            "--heatmap",
-            "--tile-size",
-            "8",
-            "--out",
-            png.to_str().unwrap(),
-        ],
-    ));
+    let out = gpu_run(&with_tiny("render", &["--heatmap", "--tile-size", "8", "--out", png.to_str().unwrap()]));
     let img = image::open(&png).expect("a readable PNG");
     assert_eq!((img.width(), img.height()), (64, 36));
     assert!(stdout(&out).contains("heat map"), "{}", stdout(&out));
 
     let png = dir.join("b.png");
-    let out = gpu_run(&with_tiny(
-        "render",
-        &[
-            "--method",
-            "brute-force-no-cutoff",
-            "--out",
-            png.to_str().unwrap(),
-        ],
-    ));
+    let out = gpu_run(&with_tiny("render", &["--method", "brute-force-no-cutoff", "--out", png.to_str().unwrap()]));
     assert_eq!(image::image_dimensions(&png).unwrap(), (64, 36));
-    assert!(
-        stdout(&out).contains("brute_force.shade"),
-        "{}",
-        stdout(&out)
-    );
+    assert!(stdout(&out).contains("brute_force.shade"), "{}", stdout(&out));
 }
 
 #[test]
 fn bench_writes_json_with_every_pass() {
     let dir = scratch("bench");
     let json = dir.join("nested/b.json");
-    let out = gpu_run(&with_tiny(
-        "bench",
-        &[
-            "--frames",
-            "3",
-            "--warmup",
-            "1",
-            "--json",
-            json.to_str().unwrap(),
-        ],
-    ));
+    let out = gpu_run(&with_tiny("bench", &["--frames", "3", "--warmup", "1", "--json", json.to_str().unwrap()]));
     let text = stdout(&out);
-    assert!(
-        text.contains("total GPU") || text.contains("not available"),
-        "{text}"
-    );
-    let v: Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).expect("valid JSON");
+    assert!(text.contains("total GPU") || text.contains("not available"), "{text}");
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).expect("valid JSON");
     let config = &v["config"];
     assert_eq!(config["width"], 64);
     assert_eq!(config["height"], 36);
@@ -155,10 +110,7 @@ fn bench_writes_json_with_every_pass() {
     if v["timestamps"] == Value::Bool(true) {
         let passes = v["passes"].as_array().expect("passes");
         for name in ["depth_prepass", "forward.cull", "forward.shade", "tonemap"] {
-            let p = passes
-                .iter()
-                .find(|p| p["pass"] == name)
-                .unwrap_or_else(|| panic!("no pass {name} in {v}"));
+            let p = passes.iter().find(|p| p["pass"] == name).unwrap_or_else(|| panic!("no pass {name} in {v}"));
             let ms = p["median_ms"].as_f64().unwrap();
             assert!(ms.is_finite() && ms >= 0.0, "{name}: {ms}");
             assert!(p["frames"].as_u64().unwrap() >= 1, "{name}");
@@ -170,12 +122,7 @@ fn bench_writes_json_with_every_pass() {
 /// A 10 m quad with one KHR point light and no camera, written next to its buffer.
 fn write_gltf(dir: &Path) -> PathBuf {
     let mut bin = Vec::new();
-    let positions: [[f32; 3]; 4] = [
-        [-5.0, 0.0, -5.0],
-        [5.0, 0.0, -5.0],
-        [5.0, 0.0, 5.0],
-        [-5.0, 0.0, 5.0],
-    ];
+    let positions: [[f32; 3]; 4] = [[-5.0, 0.0, -5.0], [5.0, 0.0, -5.0], [5.0, 0.0, 5.0], [-5.0, 0.0, 5.0]];
     for p in positions {
         for c in p {
             bin.extend_from_slice(&c.to_le_bytes());
@@ -236,37 +183,23 @@ fn render_gltf_with_its_own_and_random_lights() {
     ];
     let out = gpu_run(&base);
     let text = stdout(&out);
-    assert!(
-        text.contains("1 point, 0 spot (all 1 from the glTF file)"),
-        "{text}"
-    );
+    assert!(text.contains("1 point, 0 spot (all 1 from the glTF file)"), "{text}");
     assert!(text.contains("framing the scene bounds"), "{text}");
     assert_eq!(image::image_dimensions(&png).unwrap(), (64, 36));
 
     let mut more = base.to_vec();
     more.extend(["--lights", "3", "--spot-lights", "2"]);
     let text = stdout(&gpu_run(&more));
-    assert!(
-        text.contains("4 point, 2 spot (1 from the glTF file + 5 random"),
-        "{text}"
-    );
+    assert!(text.contains("4 point, 2 spot (1 from the glTF file + 5 random"), "{text}");
 }
 
 /// Runs a failing command; returns its single stderr line.
 fn fails(args: &[&str]) -> String {
     let out = tiledlight(args);
     let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(
-        !out.status.success(),
-        "tiledlight {args:?} succeeded:\n{}",
-        stdout(&out)
-    );
+    assert!(!out.status.success(), "tiledlight {args:?} succeeded:\n{}", stdout(&out));
     let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(
-        lines.len(),
-        1,
-        "tiledlight {args:?}: expected one error line, got:\n{err}"
-    );
+    assert_eq!(lines.len(), 1, "tiledlight {args:?}: expected one error line, got:\n{err}");
     assert!(lines[0].starts_with("error: "), "{err}");
     lines[0].to_string()
 }
@@ -274,28 +207,20 @@ fn fails(args: &[&str]) -> String {
 #[test]
 fn bad_input_gives_one_clear_error_line() {
     let cases: &[(&[&str], &str)] = &[
-        (
-            &["render", "--scene", "/nonexistent.gltf"],
-            "/nonexistent.gltf",
-        ),
+        (&["render", "--scene", "/nonexistent.gltf"], "/nonexistent.gltf"),
         (&["render", "--scene", "scene.obj"], "--scene"),
         (&["render", "--width", "0"], "--width 0"),
         (&["render", "--height", "100000"], "--height 100000"),
         (&["render", "--lights", "99999999"], "--lights 99999999"),
-        (
-            &["render", "--lights", "1048576", "--spot-lights", "1"],
-            "at most 1048576",
-        ),
+        (&["render", "--lights", "1048576", "--spot-lights", "1"], "at most 1048576"),
         (&["render", "--tile-size", "7"], "--tile-size 7"),
+        (&["render", "--lights", "0"], "no lights"),
         (&["render", "--capacity", "0"], "--capacity 0"),
         (&["render", "--threshold", "-1"], "--threshold -1"),
         (&["render", "--exposure", "nan"], "--exposure"),
         (&["render", "--grid-objects", "281"], "--grid-objects 281"),
         (&["render", "--out", "x.jpg"], ".png"),
-        (
-            &["render", "--heatmap", "--method", "brute-force"],
-            "--heatmap",
-        ),
+        (&["render", "--heatmap", "--method", "brute-force"], "--heatmap"),
         (&["render", "--density", "extreme"], "extreme"),
         (&["render", "--lights", "many"], "many"),
         (&["render", "--no-such-flag"], "--no-such-flag"),
@@ -305,36 +230,21 @@ fn bad_input_gives_one_clear_error_line() {
     ];
     for (args, needle) in cases {
         let line = fails(args);
-        assert!(
-            line.contains(needle),
-            "tiledlight {args:?}: {line:?} does not name {needle:?}"
-        );
+        assert!(line.contains(needle), "tiledlight {args:?}: {line:?} does not name {needle:?}");
     }
 }
 
 #[test]
 fn help_and_version_succeed() {
-    for args in [
-        &["--help"][..],
-        &["render", "--help"],
-        &["bench", "--help"],
-        &["--version"],
-    ] {
+    for args in [&["--help"][..], &["render", "--help"], &["bench", "--help"], &["--version"]] {
         let out = tiledlight(args);
         assert!(out.status.success(), "{args:?}");
         assert!(!out.stdout.is_empty(), "{args:?}");
     }
     let help = stdout(&tiledlight(&["render", "--help"]));
-    for flag in [
-        "--scene",
-        "--lights",
-        "--spot-lights",
-        "--tile-size",
-        "--heatmap",
-        "--half-z",
-        "--aabb",
-        "--spot-cone",
-    ] {
+    for flag in
+        ["--scene", "--lights", "--spot-lights", "--tile-size", "--heatmap", "--half-z", "--aabb", "--spot-cone"]
+    {
         assert!(help.contains(flag), "render --help lacks {flag}");
     }
 }
