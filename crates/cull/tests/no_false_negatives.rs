@@ -26,27 +26,6 @@ use tiledlight_cull::{cull_tiles, Camera, CullConfig, TileLists};
 /// (far more than f32 error at any FOV or aspect tested), so no margin has been needed.
 const MARGIN: f32 = 0.0;
 
-/// True when `l` is a spot light whose apex is closer to view point `p` than f32 can
-/// resolve against its fitted bounding sphere: such pairs are not checked.
-///
-/// Why: for half-angles up to 45 degrees the bounding sphere (`spot_bounding_sphere`, AMD's
-/// fit) passes exactly through the apex, so a point at distance `delta` from the apex
-/// inside the cone lies only `delta * cos(angle) >= 0.7 * delta` inside the sphere. The
-/// sphere's centre `apex + dir * R` is rounded in world space and again by the view
-/// transform, at magnitude `s = |apex| + R + |eye|`: each rounding is at most half an ulp,
-/// `0.5 * EPS * s`, and about 8 of them add up, so `4 * EPS * s` bounds how far outside
-/// the sphere such a point can land. Measured over 2000 random cases: at most 1.54 EPS * s.
-/// Found by this suite: a spot at the eye with R = 5.2e5 m and a surface 1.9e-4 m in front
-/// of it. This excludes a ball of radius 5e-7 of the light's reach around the apex.
-fn near_spot_apex(camera: &Camera, packed: &PackedLights, l: u32, p: Vec3) -> bool {
-    if l < packed.num_point {
-        return false;
-    }
-    let apex = Vec3::from(packed.shading[l as usize].position);
-    let scale = apex.length() + packed.cull[l as usize].radius + camera.eye().length();
-    (p - common::to_view(&camera.view(), apex)).length() < 4.0 * common::EPS * scale
-}
-
 /// Pixels checked per case at most (all of them when there are fewer).
 const MAX_PIXELS: usize = 4096;
 
@@ -105,7 +84,7 @@ fn build(c: &Case) -> Built {
 }
 
 /// Checks every sampled pixel; returns the number of (pixel, light) pairs that reach and
-/// were checked, and the number skipped by [`near_spot_apex`].
+/// were checked, and the number skipped by `common::near_spot_apex`.
 fn check(c: &Case, b: &Built, lists: &TileLists) -> Result<(usize, usize), TestCaseError> {
     let view = b.camera.view();
     let dp = b.camera.depth_params();
@@ -117,7 +96,7 @@ fn check(c: &Case, b: &Built, lists: &TileLists) -> Result<(usize, usize), TestC
         let li = lists.list_index(tile, dp.view_distance(d));
         let list = &lists.lists[li];
         for l in lights_reaching(&view, &b.packed, p, MARGIN) {
-            if near_spot_apex(&b.camera, &b.packed, l, p) {
+            if common::near_spot_apex(&b.camera, &b.packed, l, p) {
                 skipped += 1;
                 continue;
             }
@@ -193,13 +172,13 @@ fn case_strategy() -> impl Strategy<Value = Case> {
     )
 }
 
-/// 256 cases (about a second in the dev profile); `PROPTEST_CASES=n` overrides it for a
+/// 1024 cases (about 4 s in the dev profile); `PROPTEST_CASES=n` overrides it for a
 /// longer hunt.
 fn proptest_config() -> ProptestConfig {
     if std::env::var_os("PROPTEST_CASES").is_some() {
         ProptestConfig::default()
     } else {
-        ProptestConfig::with_cases(256)
+        ProptestConfig::with_cases(1024)
     }
 }
 
