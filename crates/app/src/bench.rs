@@ -208,6 +208,7 @@ struct BenchJson {
 #[derive(Serialize)]
 struct ConfigJson {
     adapter: String,
+    resolution: String,
     width: u32,
     height: u32,
     scene: String,
@@ -263,6 +264,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let json = BenchJson {
             config: ConfigJson {
                 adapter: prep.ctx.describe(),
+                resolution: format!("{}x{}", a.width, a.height),
                 width: a.width,
                 height: a.height,
                 scene: prep.scene_name.clone(),

@@ -3,7 +3,7 @@
 //! - `tiledlight render ...`: one image (or heat map) of a configuration, with a report
 //!   ([`render`]);
 //! - `tiledlight bench ...`: per-pass GPU times over many frames, optionally as JSON
-//!   ([`bench`]);
+//!   ([`mod@bench`]);
 //! - `tiledlight` alone: the default scene at 1080p, image + heat map + short benchmark
 //!   ([`quickstart`]).
 //!

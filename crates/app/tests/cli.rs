@@ -98,6 +98,7 @@ fn bench_writes_json_with_every_pass() {
     assert!(text.contains("total GPU") || text.contains("not available"), "{text}");
     let v: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).expect("valid JSON");
     let config = &v["config"];
+    assert_eq!(config["resolution"], "64x36");
     assert_eq!(config["width"], 64);
     assert_eq!(config["height"], 36);
     assert_eq!(config["method"], "forward-plus");
