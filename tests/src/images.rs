@@ -32,7 +32,8 @@ fn rgb(rgba: &[u8]) -> Vec<u8> {
 
 /// Writes RGBA8 pixels as a PNG.
 pub fn save_png(path: &Path, w: u32, h: u32, rgba: &[u8]) {
-    image::save_buffer(path, rgba, w, h, image::ExtendedColorType::Rgba8).unwrap_or_else(|e| panic!("writing {}: {e}", path.display()));
+    image::save_buffer(path, rgba, w, h, image::ExtendedColorType::Rgba8)
+        .unwrap_or_else(|e| panic!("writing {}: {e}", path.display()));
 }
 
 /// Compares `actual` with `expected` (RGBA8 sRGB) and panics with the numbers when a
@@ -42,14 +43,22 @@ pub fn assert_flip(name: &str, w: u32, h: u32, expected: &[u8], actual: &[u8], t
     let a = nv_flip::FlipImageRgb8::with_data(w, h, &rgb(actual));
     let map = nv_flip::flip(r, a, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
     let mut pool = nv_flip::FlipPool::from_image(&map);
-    let res = FlipResult { mean: pool.mean(), percentile: pool.get_percentile(t.percentile.0, false), max: pool.max_value() };
-    eprintln!("{name}: FLIP mean {:.5}, p{} {:.5}, max {:.5}", res.mean, t.percentile.0 * 100.0, res.percentile, res.max);
+    let res =
+        FlipResult { mean: pool.mean(), percentile: pool.get_percentile(t.percentile.0, false), max: pool.max_value() };
+    eprintln!(
+        "{name}: FLIP mean {:.5}, p{} {:.5}, max {:.5}",
+        res.mean,
+        t.percentile.0 * 100.0,
+        res.percentile,
+        res.max
+    );
     if res.mean > t.mean || res.percentile > t.percentile.1 {
         let dir = crate::output_dir();
         save_png(&dir.join(format!("{name}-actual.png")), w, h, actual);
         save_png(&dir.join(format!("{name}-expected.png")), w, h, expected);
         let diff = map.apply_color_lut(&nv_flip::magma_lut()).to_vec();
-        image::save_buffer(dir.join(format!("{name}-difference.png")), &diff, w, h, image::ExtendedColorType::Rgb8).expect("write difference");
+        image::save_buffer(dir.join(format!("{name}-difference.png")), &diff, w, h, image::ExtendedColorType::Rgb8)
+            .expect("write difference");
         panic!(
             "{name}: FLIP mean {} (limit {}), p{} {} (limit {}); images in {}",
             res.mean,
@@ -74,7 +83,12 @@ pub fn assert_matches_reference(name: &str, w: u32, h: u32, actual: &[u8], t: Fl
         eprintln!("updated reference {}", path.display());
     }
     let expected = image::open(&path)
-        .unwrap_or_else(|e| panic!("reference {} unreadable ({e}); create it with TILEDLIGHT_UPDATE_REFERENCES=1 cargo xtask test", path.display()))
+        .unwrap_or_else(|e| {
+            panic!(
+                "reference {} unreadable ({e}); create it with TILEDLIGHT_UPDATE_REFERENCES=1 cargo xtask test",
+                path.display()
+            )
+        })
         .to_rgba8();
     assert_eq!((expected.width(), expected.height()), (w, h), "reference {} has another size", path.display());
     assert_flip(name, w, h, expected.as_raw(), actual, t)
@@ -86,9 +100,11 @@ pub fn max_relative_error(expected: &[[f32; 4]], actual: &[[f32; 4]], floor: f32
     let mut worst = (0.0f32, 0usize);
     for (i, (e, a)) in expected.iter().zip(actual).enumerate() {
         for c in 0..3 {
+            // NaN counts as infinitely wrong.
             let err = (a[c] - e[c]).abs() / e[c].abs().max(floor);
-            if !(err <= worst.0) {
-                worst = (if err.is_nan() { f32::INFINITY } else { err }, i);
+            let err = if err.is_nan() { f32::INFINITY } else { err };
+            if err > worst.0 {
+                worst = (err, i);
             }
         }
     }

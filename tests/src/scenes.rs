@@ -4,7 +4,9 @@
 
 use glam::{Mat4, Vec3};
 use tiledlight_cull::{Camera, Light};
-use tiledlight_scene::{default_scene, random_lights, Aabb, AlphaMode, DefaultSceneOptions, LightOptions, Material, Mesh, Scene, Texture};
+use tiledlight_scene::{
+    default_scene, random_lights, Aabb, AlphaMode, DefaultSceneOptions, LightOptions, Material, Mesh, Scene, Texture,
+};
 
 /// The built-in courtyard (no grid objects).
 pub fn courtyard() -> Scene {
@@ -19,7 +21,8 @@ pub fn courtyard_camera(scene: &Scene, w: u32, h: u32) -> Camera {
 
 /// `n_point` point and `n_spot` spot lights, seeded, inside `scene`'s bounds.
 pub fn lights(scene: &Scene, n_point: u32, n_spot: u32, seed: u64) -> Vec<Light> {
-    random_lights(&scene.bounds, &LightOptions { num_point: n_point, num_spot: n_spot, seed, ..Default::default() }).expect("lights")
+    random_lights(&scene.bounds, &LightOptions { num_point: n_point, num_spot: n_spot, seed, ..Default::default() })
+        .expect("lights")
 }
 
 fn quad(name: &str, size: f32) -> Mesh {
@@ -55,7 +58,15 @@ fn cube(name: &str) -> Mesh {
 }
 
 fn material(name: &str, color: [f32; 4], roughness: f32, metallic: f32) -> Material {
-    Material { name: name.into(), base_color: color, base_color_texture: None, roughness, metallic, alpha_mode: AlphaMode::Opaque, double_sided: false }
+    Material {
+        name: name.into(),
+        base_color: color,
+        base_color_texture: None,
+        roughness,
+        metallic,
+        alpha_mode: AlphaMode::Opaque,
+        double_sided: false,
+    }
 }
 
 /// A 20 m square room: floor, boxes, a metal box, a textured alpha-masked double-sided
@@ -75,13 +86,20 @@ pub fn mixed_scene() -> Scene {
     masked.double_sided = true;
     let mut panel = material("panel", [0.3, 0.8, 0.4, 1.0], 0.4, 0.0);
     panel.double_sided = true;
-    let materials = vec![material("floor", [0.7, 0.7, 0.7, 1.0], 0.8, 0.0), material("box", [0.8, 0.3, 0.25, 1.0], 0.5, 0.0), material("metal", [0.95, 0.9, 0.8, 1.0], 0.25, 1.0), masked, panel];
+    let materials = vec![
+        material("floor", [0.7, 0.7, 0.7, 1.0], 0.8, 0.0),
+        material("box", [0.8, 0.3, 0.25, 1.0], 0.5, 0.0),
+        material("metal", [0.95, 0.9, 0.8, 1.0], 0.25, 1.0),
+        masked,
+        panel,
+    ];
     let meshes = vec![quad("floor", 20.0), cube("cube"), quad("screen", 3.0)];
     let inst = |mesh, material, t: Mat4| tiledlight_scene::Instance { mesh, material, transform: t };
     let mut instances = vec![inst(0, 0, Mat4::IDENTITY)];
     for i in 0..6 {
         let x = -6.0 + 2.4 * i as f32;
-        let t = Mat4::from_translation(Vec3::new(x, 0.75, -3.0 + (i % 2) as f32 * 2.0)) * Mat4::from_scale(Vec3::new(1.2, 1.5, 1.2));
+        let t = Mat4::from_translation(Vec3::new(x, 0.75, -3.0 + (i % 2) as f32 * 2.0))
+            * Mat4::from_scale(Vec3::new(1.2, 1.5, 1.2));
         instances.push(inst(1, if i == 3 { 2 } else { 1 }, t));
     }
     // Standing screens: the quad rotated upright.
@@ -107,5 +125,14 @@ pub fn mixed_scene() -> Scene {
 
 /// A camera looking at the mixed scene from a corner.
 pub fn mixed_camera(w: u32, h: u32) -> Camera {
-    Camera::perspective(Vec3::new(7.0, 4.5, 9.0), Vec3::new(0.0, 0.5, 0.0), Vec3::Y, 55f32.to_radians(), w as f32 / h as f32, 0.1, None).expect("camera")
+    Camera::perspective(
+        Vec3::new(7.0, 4.5, 9.0),
+        Vec3::new(0.0, 0.5, 0.0),
+        Vec3::Y,
+        55f32.to_radians(),
+        w as f32 / h as f32,
+        0.1,
+        None,
+    )
+    .expect("camera")
 }

@@ -38,7 +38,11 @@ fn renderer_rejects_bad_settings_with_reasons() {
     let e = err_text(new(64, 64, ForwardSettings { cull: CullOptions { capacity: 0, ..Default::default() }, ..d }));
     assert!(e.contains("capacity 0"), "{e}");
     // 2048 indices x 2 lists x 4 bytes is 16 KiB of workgroup memory, over WebGPU's default limit.
-    let e = err_text(new(64, 64, ForwardSettings { cull: CullOptions { capacity: 2048, half_z: true, ..Default::default() }, ..d }));
+    let e = err_text(new(
+        64,
+        64,
+        ForwardSettings { cull: CullOptions { capacity: 2048, half_z: true, ..Default::default() }, ..d },
+    ));
     assert!(e.contains("workgroup memory"), "{e}");
     let e = err_text(new(64, 64, ForwardSettings { method: Method::BruteForce { cutoff: true }, heatmap: true, ..d }));
     assert!(e.contains("heat map"), "{e}");
@@ -107,7 +111,8 @@ fn every_pass_is_timed_when_timestamps_exist() {
     let scene = scenes::mixed_scene();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 64, 0, 2)).unwrap();
-    let r = ForwardRenderer::new(&ctx, &sg, &lights, 64, 36, ForwardSettings { heatmap: true, ..Default::default() }).unwrap();
+    let r = ForwardRenderer::new(&ctx, &sg, &lights, 64, 36, ForwardSettings { heatmap: true, ..Default::default() })
+        .unwrap();
     let mut timer = GpuTimer::new(&ctx).unwrap();
     let mut frames = Vec::new();
     for _ in 0..6 {

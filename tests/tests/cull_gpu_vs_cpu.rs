@@ -44,10 +44,29 @@ fn check(case: &Case<'_>, options: CullOptions) {
 
     let config = options.to_config(lights.has_spots());
     let cpu = cull_tiles(&depth, case.width, case.height, &case.camera, &lights.packed, &config).unwrap();
-    let grown = cull_tiles(&depth, case.width, case.height, &case.camera, &lights.packed, &CullConfig { inflate: INFLATE, ..config }).unwrap();
-    let shrunk = cull_tiles(&depth, case.width, case.height, &case.camera, &lights.packed, &CullConfig { inflate: -INFLATE, ..config }).unwrap();
+    let grown = cull_tiles(
+        &depth,
+        case.width,
+        case.height,
+        &case.camera,
+        &lights.packed,
+        &CullConfig { inflate: INFLATE, ..config },
+    )
+    .unwrap();
+    let shrunk = cull_tiles(
+        &depth,
+        case.width,
+        case.height,
+        &case.camera,
+        &lights.packed,
+        &CullConfig { inflate: -INFLATE, ..config },
+    )
+    .unwrap();
 
-    let label = format!("{} {}x{} tile {} aabb {} half-z {} cone {}", case.name, case.width, case.height, options.tile_size, options.aabb, options.half_z, options.spot_cone);
+    let label = format!(
+        "{} {}x{} tile {} aabb {} half-z {} cone {}",
+        case.name, case.width, case.height, options.tile_size, options.aabb, options.half_z, options.spot_cone
+    );
     assert_eq!(gpu_lists.counts.len(), cpu.lists.len(), "{label}: list count");
     let cap = options.capacity as usize;
     let mut pairs = 0usize;
@@ -67,21 +86,36 @@ fn check(case: &Case<'_>, options: CullOptions) {
             // all be real members and the count must be the true one.
             assert_eq!(gpu_set.len(), cap, "{label}: overflowing list {i} stores exactly the capacity");
             assert!(gpu_set.is_subset(&hi), "{label}: overflowing list {i} stored a light the CPU never lists");
-            assert!(count.abs_diff(cpu_set.len()) <= hi.len() - lo.len(), "{label}: list {i} count {count} vs CPU {}", cpu_set.len());
+            assert!(
+                count.abs_diff(cpu_set.len()) <= hi.len() - lo.len(),
+                "{label}: list {i} count {count} vs CPU {}",
+                cpu_set.len()
+            );
             continue;
         }
         assert_eq!(count, gpu_set.len(), "{label}: list {i} count vs stored");
         for l in gpu_set.symmetric_difference(&cpu_set) {
             let gpu_has = gpu_set.contains(l);
             let within_float_error = if gpu_has { hi.contains(l) } else { !lo.contains(l) };
-            assert!(within_float_error, "{label}: list {i}: light {l} {} by the GPU only, and not within float error of the boundary", if gpu_has { "listed" } else { "dropped" });
+            assert!(
+                within_float_error,
+                "{label}: list {i}: light {l} {} by the GPU only, and not within float error of the boundary",
+                if gpu_has { "listed" } else { "dropped" }
+            );
             borderline += 1;
         }
     }
     assert!(borderline * 1000 <= pairs.max(1), "{label}: {borderline} borderline decisions of {pairs} pairs");
     let cpu_overflow = cpu.overflowing_lists() as u32;
-    assert!(gpu_lists.overflowing.abs_diff(cpu_overflow) as usize <= borderline, "{label}: overflow {} vs CPU {cpu_overflow}", gpu_lists.overflowing);
-    eprintln!("{label}: {pairs} pairs in {geometry_tiles} lists, {borderline} borderline, {} overflowing", gpu_lists.overflowing);
+    assert!(
+        gpu_lists.overflowing.abs_diff(cpu_overflow) as usize <= borderline,
+        "{label}: overflow {} vs CPU {cpu_overflow}",
+        gpu_lists.overflowing
+    );
+    eprintln!(
+        "{label}: {pairs} pairs in {geometry_tiles} lists, {borderline} borderline, {} overflowing",
+        gpu_lists.overflowing
+    );
     // The test must have had something to compare.
     assert!(pairs > 0, "{label}: no light reached any tile; the case tests nothing");
 }
@@ -106,7 +140,14 @@ fn courtyard_odd_screen_every_option() {
     let scene = scenes::courtyard();
     let lights = scenes::lights(&scene, 512, 128, 7);
     let (w, h) = (327, 183);
-    let case = Case { name: "courtyard", scene: &scene, camera: scenes::courtyard_camera(&scene, w, h), lights: &lights, width: w, height: h };
+    let case = Case {
+        name: "courtyard",
+        scene: &scene,
+        camera: scenes::courtyard_camera(&scene, w, h),
+        lights: &lights,
+        width: w,
+        height: h,
+    };
     for o in all_options(true) {
         check(&case, o);
     }
@@ -117,7 +158,8 @@ fn mixed_scene_every_option() {
     let scene = scenes::mixed_scene();
     let lights = scenes::lights(&scene, 300, 60, 11);
     let (w, h) = (320, 180);
-    let case = Case { name: "mixed", scene: &scene, camera: scenes::mixed_camera(w, h), lights: &lights, width: w, height: h };
+    let case =
+        Case { name: "mixed", scene: &scene, camera: scenes::mixed_camera(w, h), lights: &lights, width: w, height: h };
     for o in all_options(true) {
         check(&case, o);
     }
@@ -131,9 +173,28 @@ fn extreme_cameras() {
     let eye = glam::Vec3::new(0.3, 1.2, 6.0);
     let target = glam::Vec3::new(0.0, 0.8, 0.0);
     let cams = [
-        ("fov170-near1e-4-far1e7", Camera::perspective(eye, target, glam::Vec3::Y, 170f32.to_radians(), w as f32 / h as f32, 1e-4, Some(1e7)).unwrap()),
-        ("fov1", Camera::perspective(eye, target, glam::Vec3::Y, 1f32.to_radians(), w as f32 / h as f32, 0.1, None).unwrap()),
-        ("orthographic", Camera::orthographic(glam::Vec3::new(2.0, 12.0, 6.0), target, glam::Vec3::Y, 6.0, w as f32 / h as f32, 0.0, 40.0).unwrap()),
+        (
+            "fov170-near1e-4-far1e7",
+            Camera::perspective(eye, target, glam::Vec3::Y, 170f32.to_radians(), w as f32 / h as f32, 1e-4, Some(1e7))
+                .unwrap(),
+        ),
+        (
+            "fov1",
+            Camera::perspective(eye, target, glam::Vec3::Y, 1f32.to_radians(), w as f32 / h as f32, 0.1, None).unwrap(),
+        ),
+        (
+            "orthographic",
+            Camera::orthographic(
+                glam::Vec3::new(2.0, 12.0, 6.0),
+                target,
+                glam::Vec3::Y,
+                6.0,
+                w as f32 / h as f32,
+                0.0,
+                40.0,
+            )
+            .unwrap(),
+        ),
     ];
     for (name, camera) in cams {
         let case = Case { name, scene: &scene, camera, lights: &lights, width: w, height: h };
@@ -148,7 +209,14 @@ fn overflow_is_counted_never_written_out_of_bounds() {
     // Many big lights and a tiny capacity: most tiles overflow.
     let lights = scenes::lights(&scene, 2000, 0, 5);
     let (w, h) = (160, 90);
-    let case = Case { name: "overflow", scene: &scene, camera: scenes::mixed_camera(w, h), lights: &lights, width: w, height: h };
+    let case = Case {
+        name: "overflow",
+        scene: &scene,
+        camera: scenes::mixed_camera(w, h),
+        lights: &lights,
+        width: w,
+        height: h,
+    };
     check(&case, CullOptions { capacity: 8, ..Default::default() });
     check(&case, CullOptions { capacity: 8, half_z: true, ..Default::default() });
 }

@@ -30,7 +30,13 @@ struct Frame {
     ldr: Vec<u8>,
 }
 
-fn render(ctx: &GpuContext, scene: &SceneGpu, lights: &LightBuffers, camera: &Camera, settings: ForwardSettings) -> Frame {
+fn render(
+    ctx: &GpuContext,
+    scene: &SceneGpu,
+    lights: &LightBuffers,
+    camera: &Camera,
+    settings: ForwardSettings,
+) -> Frame {
     let r = ForwardRenderer::new(ctx, scene, lights, W, H, settings).unwrap();
     let mut timer = GpuTimer::new(ctx).unwrap();
     r.render_once(ctx, &mut timer, scene, camera).unwrap();
@@ -42,18 +48,41 @@ fn compare(name: &str, scene: &Scene, n_point: u32, n_spot: u32, camera: &Camera
     let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, scene).unwrap();
     let light_list = scenes::lights(scene, n_point, n_spot, 42);
     let lights = LightBuffers::new(&ctx.device, &light_list).unwrap();
-    let reference = render(&ctx, &scene_gpu, &lights, camera, ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() });
-    let tiled = render(&ctx, &scene_gpu, &lights, camera, ForwardSettings { method: Method::ForwardPlus, cull, ..Default::default() });
+    let reference = render(
+        &ctx,
+        &scene_gpu,
+        &lights,
+        camera,
+        ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() },
+    );
+    let tiled = render(
+        &ctx,
+        &scene_gpu,
+        &lights,
+        camera,
+        ForwardSettings { method: Method::ForwardPlus, cull, ..Default::default() },
+    );
     // The frame must be lit: a black or ambient-only image would pass trivially.
     let lit = reference.hdr.iter().filter(|p| p[0] + p[1] + p[2] > 0.1).count();
-    assert!(lit * 4 > reference.hdr.len(), "{name}: only {lit} of {} pixels are lit; the comparison would test nothing", reference.hdr.len());
+    assert!(
+        lit * 4 > reference.hdr.len(),
+        "{name}: only {lit} of {} pixels are lit; the comparison would test nothing",
+        reference.hdr.len()
+    );
     let (err, at) = max_relative_error(&reference.hdr, &tiled.hdr, HDR_FLOOR);
     eprintln!("{name}: max relative HDR error {err:.2e} at pixel ({}, {})", at as u32 % W, at as u32 / W);
     if err > HDR_REL {
         save_png(&output_dir().join(format!("{name}-actual.png")), W, H, &tiled.ldr);
         save_png(&output_dir().join(format!("{name}-expected.png")), W, H, &reference.ldr);
     }
-    assert!(err <= HDR_REL, "{name}: HDR error {err} at pixel ({}, {}): expected {:?}, got {:?}", at as u32 % W, at as u32 / W, reference.hdr[at], tiled.hdr[at]);
+    assert!(
+        err <= HDR_REL,
+        "{name}: HDR error {err} at pixel ({}, {}): expected {:?}, got {:?}",
+        at as u32 % W,
+        at as u32 / W,
+        reference.hdr[at],
+        tiled.hdr[at]
+    );
     assert_flip(name, W, H, &reference.ldr, &tiled.ldr, FLIP);
 }
 

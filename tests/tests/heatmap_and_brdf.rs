@@ -11,6 +11,7 @@ use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
+use tiledlight_gpu::tonemap::{heatmap_palette, heatmap_t, HEATMAP_ALPHA, HEATMAP_OVERFLOW};
 use tiledlight_scene::{Aabb, AlphaMode, Instance, Material, Mesh, Scene};
 use tiledlight_tests::{gpu, scenes};
 
@@ -30,15 +31,6 @@ fn linear_to_srgb(c: f32) -> f32 {
     }
 }
 
-/// CPU twin of `palette` in shaders/heatmap.wgsl.
-fn palette(t: f32) -> Vec3 {
-    let x = t.clamp(0.0, 1.0) * 4.0;
-    let r = (x - 2.0).clamp(0.0, 1.0);
-    let g = if x > 2.0 { (4.0 - x).clamp(0.0, 1.0) } else { x.clamp(0.0, 1.0) };
-    let b = (2.0 - x).clamp(0.0, 1.0);
-    Vec3::new(r, g, b)
-}
-
 /// Every tile's colour in the heat map is the blend the shader makes for the CPU
 /// reference's count of that tile, within 2/255 (8-bit sRGB rounding of two images).
 #[test]
@@ -52,11 +44,20 @@ fn heatmap_shows_reference_counts() {
     // A small capacity so some tiles overflow and show the overflow colour.
     let cull = CullOptions { capacity: 48, ..Default::default() };
     let mut timer = GpuTimer::new(&ctx).unwrap();
-    let plain = ForwardRenderer::new(&ctx, &scene_gpu, &lights, w, h, ForwardSettings { cull, ..Default::default() }).unwrap();
+    let plain =
+        ForwardRenderer::new(&ctx, &scene_gpu, &lights, w, h, ForwardSettings { cull, ..Default::default() }).unwrap();
     plain.render_once(&ctx, &mut timer, &scene_gpu, &camera).unwrap();
     let base = plain.read_ldr(&ctx).unwrap();
     let depth = plain.read_depth(&ctx).unwrap();
-    let heat = ForwardRenderer::new(&ctx, &scene_gpu, &lights, w, h, ForwardSettings { cull, heatmap: true, ..Default::default() }).unwrap();
+    let heat = ForwardRenderer::new(
+        &ctx,
+        &scene_gpu,
+        &lights,
+        w,
+        h,
+        ForwardSettings { cull, heatmap: true, ..Default::default() },
+    )
+    .unwrap();
     heat.render_once(&ctx, &mut timer, &scene_gpu, &camera).unwrap();
     let img = heat.read_ldr(&ctx).unwrap();
 
@@ -69,22 +70,29 @@ fn heatmap_shows_reference_counts() {
             let (x0, x1, y0, y1) = g.tile_pixels(tx, ty);
             let (x, y) = ((x0 + x1) / 2, (y0 + y1) / 2);
             let i = ((y * w + x) * 4) as usize;
-            let under = Vec3::new(srgb_to_linear(base[i] as f32 / 255.0), srgb_to_linear(base[i + 1] as f32 / 255.0), srgb_to_linear(base[i + 2] as f32 / 255.0));
+            let under = Vec3::new(
+                srgb_to_linear(base[i] as f32 / 255.0),
+                srgb_to_linear(base[i + 1] as f32 / 255.0),
+                srgb_to_linear(base[i + 2] as f32 / 255.0),
+            );
             let expected = if count == 0 {
                 empty += 1;
                 under
             } else if count > cull.capacity {
                 overflowing += 1;
-                Vec3::new(1.0, 0.0, 1.0) * 0.75 + under * 0.25
+                Vec3::from(HEATMAP_OVERFLOW) * HEATMAP_ALPHA.1 + under * (1.0 - HEATMAP_ALPHA.1)
             } else {
                 coloured += 1;
-                let t = (count as f32).log2() / (cull.capacity as f32).log2();
-                palette(t) * 0.6 + under * 0.4
+                Vec3::from(heatmap_palette(heatmap_t(count, cull.capacity))) * HEATMAP_ALPHA.0
+                    + under * (1.0 - HEATMAP_ALPHA.0)
             };
             for c in 0..3 {
                 let want = linear_to_srgb(expected[c]) * 255.0;
                 let got = img[i + c] as f32;
-                assert!((want - got).abs() <= 2.0, "tile ({tx}, {ty}) count {count}: channel {c} is {got}, expected {want:.1}");
+                assert!(
+                    (want - got).abs() <= 2.0,
+                    "tile ({tx}, {ty}) count {count}: channel {c} is {got}, expected {want:.1}"
+                );
             }
         }
     }
@@ -100,7 +108,15 @@ fn floor_scene(roughness: f32, metallic: f32, lights: Vec<Light>) -> Scene {
         uvs: vec![[0.0, 0.0]; 4],
         indices: vec![0, 1, 2, 0, 2, 3],
     };
-    let mat = Material { name: "m".into(), base_color: [0.8, 0.6, 0.4, 1.0], base_color_texture: None, roughness, metallic, alpha_mode: AlphaMode::Opaque, double_sided: false };
+    let mat = Material {
+        name: "m".into(),
+        base_color: [0.8, 0.6, 0.4, 1.0],
+        base_color_texture: None,
+        roughness,
+        metallic,
+        alpha_mode: AlphaMode::Opaque,
+        double_sided: false,
+    };
     Scene {
         name: "floor".into(),
         meshes: vec![floor],
@@ -121,15 +137,41 @@ fn floor_scene(roughness: f32, metallic: f32, lights: Vec<Light>) -> Scene {
 fn gpu_brdf_matches_cpu_twin() {
     let ctx = gpu();
     let (w, h) = (96, 64);
-    let camera = Camera::perspective(Vec3::new(0.0, 3.0, 6.0), Vec3::new(0.0, 0.0, 0.0), Vec3::Y, 60f32.to_radians(), w as f32 / h as f32, 0.1, None).unwrap();
+    let camera = Camera::perspective(
+        Vec3::new(0.0, 3.0, 6.0),
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::Y,
+        60f32.to_radians(),
+        w as f32 / h as f32,
+        0.1,
+        None,
+    )
+    .unwrap();
     let ambient = Vec3::splat(0.02);
     let point = Light::point(Vec3::new(-1.0, 1.5, 0.5), Vec3::new(1.0, 0.8, 0.6), 4.0, 0.05).unwrap();
-    let spot = Light::spot(Vec3::new(1.5, 2.0, 0.0), Vec3::new(-0.3, -1.0, 0.1), Vec3::new(0.4, 0.7, 1.0), 6.0, 0.3, 0.5, 0.05).unwrap();
+    let spot = Light::spot(
+        Vec3::new(1.5, 2.0, 0.0),
+        Vec3::new(-0.3, -1.0, 0.1),
+        Vec3::new(0.4, 0.7, 1.0),
+        6.0,
+        0.3,
+        0.5,
+        0.05,
+    )
+    .unwrap();
     for (roughness, metallic) in [(0.9, 0.0), (0.3, 0.0), (0.2, 1.0)] {
         let scene = floor_scene(roughness, metallic, vec![point, spot]);
         let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
         let lights = LightBuffers::new(&ctx.device, &scene.lights).unwrap();
-        let r = ForwardRenderer::new(&ctx, &scene_gpu, &lights, w, h, ForwardSettings { method: Method::BruteForce { cutoff: true }, ambient, ..Default::default() }).unwrap();
+        let r = ForwardRenderer::new(
+            &ctx,
+            &scene_gpu,
+            &lights,
+            w,
+            h,
+            ForwardSettings { method: Method::BruteForce { cutoff: true }, ambient, ..Default::default() },
+        )
+        .unwrap();
         let mut timer = GpuTimer::new(&ctx).unwrap();
         r.render_once(&ctx, &mut timer, &scene_gpu, &camera).unwrap();
         let hdr = r.read_hdr(&ctx).unwrap();
@@ -164,7 +206,12 @@ fn gpu_brdf_matches_cpu_twin() {
                 for c in 0..3 {
                     let err = (hdr[i][c] - want[c]).abs() / want[c].abs().max(1e-3);
                     worst = worst.max(err);
-                    assert!(err <= 3e-3, "roughness {roughness} metallic {metallic}: pixel ({x}, {y}) channel {c}: GPU {} CPU {}", hdr[i][c], want[c]);
+                    assert!(
+                        err <= 3e-3,
+                        "roughness {roughness} metallic {metallic}: pixel ({x}, {y}) channel {c}: GPU {} CPU {}",
+                        hdr[i][c],
+                        want[c]
+                    );
                 }
                 checked += 1;
             }

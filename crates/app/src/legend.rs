@@ -5,29 +5,11 @@
 //! (digits and the few capitals needed) scaled 1x to 3x with the image, so no font crate
 //! is needed.
 //!
-//! Depends on `image` only; keep [`palette`] in step with `shaders/heatmap.wgsl`.
+//! Depends on `image` only; the palette is `tiledlight_gpu::tonemap::heatmap_palette`, the shader's CPU twin.
 
 use image::{Rgb, RgbImage};
 
-/// The heat map's palette, as `palette` in `shaders/heatmap.wgsl`: blue -> cyan -> green
-/// -> yellow -> red for `t` in [0, 1], linear RGB.
-pub fn palette(t: f32) -> [f32; 3] {
-    let x = t.clamp(0.0, 1.0) * 4.0;
-    let sat = |v: f32| v.clamp(0.0, 1.0);
-    let r = sat(x - 2.0);
-    let g = if x > 2.0 { sat(4.0 - x) } else { sat(x) };
-    let b = sat(2.0 - x);
-    [r, g, b]
-}
-
-/// Where a tile with `count` lights falls on the palette, as the shader computes it:
-/// `log2(count) / log2(max(capacity, 2))`.
-pub fn palette_t(count: u32, capacity: u32) -> f32 {
-    (count.max(1) as f32).log2() / (capacity.max(2) as f32).log2()
-}
-
-/// The colour of magenta overflow tiles.
-pub const OVERFLOW: [f32; 3] = [1.0, 0.0, 1.0];
+pub use tiledlight_gpu::tonemap::{heatmap_palette as palette, heatmap_t as palette_t, HEATMAP_OVERFLOW as OVERFLOW};
 
 /// sRGB encoding of a linear value, as the `Rgba8UnormSrgb` target the heat map is drawn
 /// into applies it.

@@ -352,13 +352,6 @@ impl Prepared {
         args.validate()?;
         let (scene, file_lights) = load_scene(args)?;
         let lights = build_lights(args, &scene, file_lights)?;
-        // The light buffers of an empty set fail GPU validation (a 16-byte placeholder
-        // where the shader reads 32-byte records): refuse clearly until that is fixed.
-        ensure!(
-            !lights.is_empty(),
-            "no lights to render: scene '{}' has none and --lights/--spot-lights add none (give --lights N with N >= 1)",
-            scene.name
-        );
         let light_summary = LightSummary::of(&lights, file_lights);
         let aspect = args.width as f32 / args.height as f32;
         let (camera, camera_source) = match &scene.camera {

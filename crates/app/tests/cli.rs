@@ -205,6 +205,16 @@ fn fails(args: &[&str]) -> String {
     lines[0].to_string()
 }
 
+/// Zero lights is a valid frame (ambient only), not an error.
+#[test]
+fn zero_lights_render_ambient_only() {
+    let dir = scratch("zero");
+    let png = dir.join("z.png");
+    let out = gpu_run(&["render", "--lights", "0", "--width", "64", "--height", "36", "--out", png.to_str().unwrap()]);
+    assert!(stdout(&out).contains("0 point, 0 spot"), "{}", stdout(&out));
+    assert_eq!(image::image_dimensions(&png).unwrap(), (64, 36));
+}
+
 #[test]
 fn bad_input_gives_one_clear_error_line() {
     let cases: &[(&[&str], &str)] = &[
@@ -215,7 +225,6 @@ fn bad_input_gives_one_clear_error_line() {
         (&["render", "--lights", "99999999"], "--lights 99999999"),
         (&["render", "--lights", "1048576", "--spot-lights", "1"], "at most 1048576"),
         (&["render", "--tile-size", "7"], "--tile-size 7"),
-        (&["render", "--lights", "0"], "no lights"),
         (&["render", "--capacity", "0"], "--capacity 0"),
         (&["render", "--threshold", "-1"], "--threshold -1"),
         (&["render", "--exposure", "nan"], "--exposure"),

@@ -48,7 +48,13 @@ pub struct ForwardSettings {
 
 impl Default for ForwardSettings {
     fn default() -> Self {
-        Self { method: Method::ForwardPlus, cull: CullOptions::default(), exposure: 1.0, ambient: Vec3::splat(0.02), heatmap: false }
+        Self {
+            method: Method::ForwardPlus,
+            cull: CullOptions::default(),
+            exposure: 1.0,
+            ambient: Vec3::splat(0.02),
+            heatmap: false,
+        }
     }
 }
 
@@ -65,7 +71,14 @@ pub struct Targets {
     ldr_view: wgpu::TextureView,
 }
 
-fn texture(device: &wgpu::Device, label: &str, w: u32, h: u32, format: wgpu::TextureFormat, usage: wgpu::TextureUsages) -> wgpu::Texture {
+fn texture(
+    device: &wgpu::Device,
+    label: &str,
+    w: u32,
+    h: u32,
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
     device.create_texture(&wgpu::TextureDescriptor {
         label: Some(label),
         size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
@@ -81,10 +94,25 @@ fn texture(device: &wgpu::Device, label: &str, w: u32, h: u32, format: wgpu::Tex
 impl Targets {
     fn new(device: &wgpu::Device, w: u32, h: u32) -> Self {
         use wgpu::TextureUsages as U;
-        let depth = texture(device, "forward.depth", w, h, DEPTH_FORMAT, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING | U::COPY_SRC);
-        let hdr = texture(device, "forward.hdr", w, h, HDR_FORMAT, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING | U::COPY_SRC);
+        let depth = texture(
+            device,
+            "forward.depth",
+            w,
+            h,
+            DEPTH_FORMAT,
+            U::RENDER_ATTACHMENT | U::TEXTURE_BINDING | U::COPY_SRC,
+        );
+        let hdr =
+            texture(device, "forward.hdr", w, h, HDR_FORMAT, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING | U::COPY_SRC);
         let ldr = texture(device, "forward.ldr", w, h, LDR_FORMAT, U::RENDER_ATTACHMENT | U::COPY_SRC);
-        Self { depth_view: depth.create_view(&Default::default()), hdr_view: hdr.create_view(&Default::default()), ldr_view: ldr.create_view(&Default::default()), depth, hdr, ldr }
+        Self {
+            depth_view: depth.create_view(&Default::default()),
+            hdr_view: hdr.create_view(&Default::default()),
+            ldr_view: ldr.create_view(&Default::default()),
+            depth,
+            hdr,
+            ldr,
+        }
     }
 
     fn bytes(w: u32, h: u32) -> u64 {
@@ -111,18 +139,31 @@ pub struct ForwardRenderer {
 
 impl ForwardRenderer {
     /// Builds every pipeline, target and buffer for a `width` x `height` screen.
-    pub fn new(ctx: &GpuContext, scene: &SceneGpu, lights: &LightBuffers, width: u32, height: u32, settings: ForwardSettings) -> Result<Self, GpuError> {
+    pub fn new(
+        ctx: &GpuContext,
+        scene: &SceneGpu,
+        lights: &LightBuffers,
+        width: u32,
+        height: u32,
+        settings: ForwardSettings,
+    ) -> Result<Self, GpuError> {
         let device = &ctx.device;
         let grid = TileGrid::new(width, height, settings.cull.tile_size)?;
         if width > device.limits().max_texture_dimension_2d || height > device.limits().max_texture_dimension_2d {
-            return Err(GpuError::Config(format!("{width}x{height} exceeds this GPU's {} pixel texture limit", device.limits().max_texture_dimension_2d)));
+            return Err(GpuError::Config(format!(
+                "{width}x{height} exceeds this GPU's {} pixel texture limit",
+                device.limits().max_texture_dimension_2d
+            )));
         }
         ctx.checked("building the Forward+ renderer", || {
             let frame = FrameBinding::new(device);
             let targets = Targets::new(device, width, height);
             let prepass = DepthPrepass::new(device, &frame, scene)?;
             let (culling, light_loop) = match settings.method {
-                Method::ForwardPlus => (Some(LightCulling::new(device, &frame, &targets.depth_view, lights, grid, settings.cull)?), LightLoop::Tiled { half_z: settings.cull.half_z }),
+                Method::ForwardPlus => (
+                    Some(LightCulling::new(device, &frame, &targets.depth_view, lights, grid, settings.cull)?),
+                    LightLoop::Tiled { half_z: settings.cull.half_z },
+                ),
                 Method::BruteForce { cutoff } => (None, LightLoop::All { cutoff }),
             };
             let shading = ShadingPass::new(device, &frame, scene, lights, culling.as_ref(), light_loop)?;
@@ -134,7 +175,9 @@ impl ForwardRenderer {
                     let g = h.bind(device, &c.tile_counts);
                     Some((h, g))
                 }
-                (None, true) => return Err(GpuError::Config("the heat map needs a tiled method (brute force has no tiles)".into())),
+                (None, true) => {
+                    return Err(GpuError::Config("the heat map needs a tiled method (brute force has no tiles)".into()))
+                }
                 _ => None,
             };
             let mut memory = MemoryReport::default();
@@ -177,7 +220,14 @@ impl ForwardRenderer {
     }
 
     /// Writes the frame's uniforms and records every pass of one frame.
-    pub fn record(&self, queue: &wgpu::Queue, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, scene: &SceneGpu, camera: &Camera) {
+    pub fn record(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: &GpuTimer,
+        scene: &SceneGpu,
+        camera: &Camera,
+    ) {
         self.frame.update(queue, &self.frame_uniforms(camera));
         self.prepass.record(encoder, timer, &self.frame, scene, &self.targets.depth_view);
         if let Some(c) = &self.culling {
@@ -191,9 +241,16 @@ impl ForwardRenderer {
     }
 
     /// Records, submits and waits for one frame (tests, single renders).
-    pub fn render_once(&self, ctx: &GpuContext, timer: &mut GpuTimer, scene: &SceneGpu, camera: &Camera) -> Result<(), GpuError> {
+    pub fn render_once(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut GpuTimer,
+        scene: &SceneGpu,
+        camera: &Camera,
+    ) -> Result<(), GpuError> {
         ctx.checked("rendering a frame", || {
-            let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("forward.frame") });
+            let mut encoder =
+                ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("forward.frame") });
             self.record(&ctx.queue, &mut encoder, timer, scene, camera);
             timer.resolve(&mut encoder);
             ctx.queue.submit([encoder.finish()]);

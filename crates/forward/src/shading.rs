@@ -43,7 +43,14 @@ pub struct ShadingPass {
 impl ShadingPass {
     /// Builds one pipeline per draw kind of `scene`. `culling` must be given for
     /// [`LightLoop::Tiled`].
-    pub fn new(device: &wgpu::Device, frame: &FrameBinding, scene: &SceneGpu, lights: &LightBuffers, culling: Option<&LightCulling>, light_loop: LightLoop) -> Result<Self, GpuError> {
+    pub fn new(
+        device: &wgpu::Device,
+        frame: &FrameBinding,
+        scene: &SceneGpu,
+        lights: &LightBuffers,
+        culling: Option<&LightCulling>,
+        light_loop: LightLoop,
+    ) -> Result<Self, GpuError> {
         let fs = wgpu::ShaderStages::FRAGMENT;
         let mut defines: Vec<&str> = Vec::new();
         let mut entries = vec![storage_entry(0, fs, true)];
@@ -81,12 +88,22 @@ impl ShadingPass {
                 "brute_force.shade"
             }
         };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("shade.lights_layout"), entries: &entries });
-        let lights_group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("shade.lights"), layout: &layout, entries: &bind });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("shade.lights_layout"),
+            entries: &entries,
+        });
+        let lights_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("shade.lights"),
+            layout: &layout,
+            entries: &bind,
+        });
         let module = shader_module(device, "forward.wgsl", &defines)?;
         // Group 2 must exist in the layout for group 3 to be bound; an empty layout stands in
         // when the scene has no textures.
-        let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("shade.empty_layout"), entries: &[] });
+        let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("shade.empty_layout"),
+            entries: &[],
+        });
         let tex_layout = scene.textures.as_ref().map_or(&empty, |t| &t.layout);
         let pl = pipeline_layout(device, "shade.pipeline_layout", &[&frame.layout, &scene.layout, tex_layout, &layout]);
         let pipelines = scene
@@ -96,7 +113,12 @@ impl ShadingPass {
                 let p = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                     label: Some(label),
                     layout: Some(&pl),
-                    vertex: wgpu::VertexState { module: &module, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &VERTEX_LAYOUTS },
+                    vertex: wgpu::VertexState {
+                        module: &module,
+                        entry_point: Some("vs_main"),
+                        compilation_options: Default::default(),
+                        buffers: &VERTEX_LAYOUTS,
+                    },
                     primitive: primitive_state(kind),
                     depth_stencil: Some(wgpu::DepthStencilState {
                         format: DEPTH_FORMAT,
@@ -110,7 +132,11 @@ impl ShadingPass {
                         module: &module,
                         entry_point: Some("fs_main"),
                         compilation_options: Default::default(),
-                        targets: &[Some(wgpu::ColorTargetState { format: HDR_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL })],
+                        targets: &[Some(wgpu::ColorTargetState {
+                            format: HDR_FORMAT,
+                            blend: None,
+                            write_mask: wgpu::ColorWrites::ALL,
+                        })],
                     }),
                     multiview_mask: None,
                     cache: None,
@@ -118,12 +144,26 @@ impl ShadingPass {
                 (kind, p)
             })
             .collect();
-        let empty_group = scene.textures.is_none().then(|| device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("shade.empty"), layout: &empty, entries: &[] }));
+        let empty_group = scene.textures.is_none().then(|| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("shade.empty"),
+                layout: &empty,
+                entries: &[],
+            })
+        });
         Ok(Self { pipelines, lights_group, empty_group, label })
     }
 
     /// Shades into `hdr` (cleared to black) using the pre-pass `depth`.
-    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, frame: &FrameBinding, scene: &SceneGpu, hdr: &wgpu::TextureView, depth: &wgpu::TextureView) {
+    pub fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: &GpuTimer,
+        frame: &FrameBinding,
+        scene: &SceneGpu,
+        hdr: &wgpu::TextureView,
+        depth: &wgpu::TextureView,
+    ) {
         let t = timer.begin(self.label, encoder);
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -132,7 +172,10 @@ impl ShadingPass {
                     view: hdr,
                     depth_slice: None,
                     resolve_target: None,
-                    ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
                 })],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                     view: depth,

@@ -47,7 +47,11 @@ impl GpuContext {
     }
 
     /// A device on a chosen adapter.
-    pub fn with_adapter(instance: wgpu::Instance, adapter: wgpu::Adapter, options: ContextOptions) -> Result<Self, GpuError> {
+    pub fn with_adapter(
+        instance: wgpu::Instance,
+        adapter: wgpu::Adapter,
+        options: ContextOptions,
+    ) -> Result<Self, GpuError> {
         let info = adapter.get_info();
         let features = adapter.features();
         let timestamps = !options.no_timestamps && features.contains(wgpu::Features::TIMESTAMP_QUERY);
@@ -117,12 +121,23 @@ pub async fn select_adapter(instance: &wgpu::Instance, backends: wgpu::Backends)
             GpuError::NoAdapter(format!(
                 "WGPU_ADAPTER_NAME='{filter}' matches none of the adapters found: [{}]{}",
                 names.join(", "),
-                if names.is_empty() { " (on Debian, `apt-get install mesa-vulkan-drivers` provides lavapipe)" } else { "" }
+                if names.is_empty() {
+                    " (on Debian, `apt-get install mesa-vulkan-drivers` provides lavapipe)"
+                } else {
+                    ""
+                }
             ))
         });
     }
     instance
-        .request_adapter(&wgpu::RequestAdapterOptions { power_preference: wgpu::PowerPreference::HighPerformance, force_fallback_adapter: false, compatible_surface: None, apply_limit_buckets: false })
+        .request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: None,
+            apply_limit_buckets: false,
+        })
         .await
-        .map_err(|e| GpuError::NoAdapter(format!("{e} (on Debian, `apt-get install mesa-vulkan-drivers` provides lavapipe)")))
+        .map_err(|e| {
+            GpuError::NoAdapter(format!("{e} (on Debian, `apt-get install mesa-vulkan-drivers` provides lavapipe)"))
+        })
 }

@@ -39,7 +39,11 @@ impl DepthPrepass {
                 match textures {
                     Some(t) => {
                         defines.push("TEXTURES");
-                        pipeline_layout(device, "depth_prepass.masked.layout", &[&frame.layout, &scene.layout, &t.layout])
+                        pipeline_layout(
+                            device,
+                            "depth_prepass.masked.layout",
+                            &[&frame.layout, &scene.layout, &t.layout],
+                        )
                     }
                     None => pipeline_layout(device, "depth_prepass.masked.layout", &[&frame.layout, &scene.layout]),
                 }
@@ -47,11 +51,21 @@ impl DepthPrepass {
                 pipeline_layout(device, "depth_prepass.layout", &[&frame.layout, &scene.layout])
             };
             let module = shader_module(device, "depth_prepass.wgsl", &defines)?;
-            let (vs, buffers): (&str, &[Option<wgpu::VertexBufferLayout<'_>>]) = if kind.masked { ("vs_masked", &VERTEX_LAYOUTS) } else { ("vs_main", &VERTEX_LAYOUTS[..1]) };
+            let (vs, buffers): (&str, &[Option<wgpu::VertexBufferLayout<'_>>]) =
+                if kind.masked { ("vs_masked", &VERTEX_LAYOUTS) } else { ("vs_main", &VERTEX_LAYOUTS[..1]) };
             let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(&format!("depth_prepass{}{}", if kind.masked { ".masked" } else { "" }, if kind.double_sided { ".double_sided" } else { "" })),
+                label: Some(&format!(
+                    "depth_prepass{}{}",
+                    if kind.masked { ".masked" } else { "" },
+                    if kind.double_sided { ".double_sided" } else { "" }
+                )),
                 layout: Some(&layout),
-                vertex: wgpu::VertexState { module: &module, entry_point: Some(vs), compilation_options: Default::default(), buffers },
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some(vs),
+                    compilation_options: Default::default(),
+                    buffers,
+                },
                 primitive: primitive_state(kind),
                 depth_stencil: Some(wgpu::DepthStencilState {
                     format: DEPTH_FORMAT,
@@ -61,7 +75,12 @@ impl DepthPrepass {
                     bias: Default::default(),
                 }),
                 multisample: Default::default(),
-                fragment: kind.masked.then(|| wgpu::FragmentState { module: &module, entry_point: Some("fs_masked"), compilation_options: Default::default(), targets: &[] }),
+                fragment: kind.masked.then(|| wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some("fs_masked"),
+                    compilation_options: Default::default(),
+                    targets: &[],
+                }),
                 multiview_mask: None,
                 cache: None,
             });
@@ -71,7 +90,14 @@ impl DepthPrepass {
     }
 
     /// Clears `depth` to 0 (far, reversed-Z) and draws the scene into it.
-    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, frame: &FrameBinding, scene: &SceneGpu, depth: &wgpu::TextureView) {
+    pub fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: &GpuTimer,
+        frame: &FrameBinding,
+        scene: &SceneGpu,
+        depth: &wgpu::TextureView,
+    ) {
         let t = timer.begin("depth_prepass", encoder);
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {

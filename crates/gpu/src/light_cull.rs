@@ -34,7 +34,13 @@ pub struct CullOptions {
 
 impl Default for CullOptions {
     fn default() -> Self {
-        Self { tile_size: 16, capacity: tiledlight_cull::reference::DEFAULT_CAPACITY, aabb: false, half_z: false, spot_cone: false }
+        Self {
+            tile_size: 16,
+            capacity: tiledlight_cull::reference::DEFAULT_CAPACITY,
+            aabb: false,
+            half_z: false,
+            spot_cone: false,
+        }
     }
 }
 
@@ -96,12 +102,25 @@ pub struct LightCulling {
 impl LightCulling {
     /// Builds the pipeline and buffers for `grid`, reading `depth` (a single-sampled
     /// `Depth32Float` view of the pre-pass).
-    pub fn new(device: &wgpu::Device, frame: &FrameBinding, depth: &wgpu::TextureView, lights: &LightBuffers, grid: TileGrid, options: CullOptions) -> Result<Self, GpuError> {
+    pub fn new(
+        device: &wgpu::Device,
+        frame: &FrameBinding,
+        depth: &wgpu::TextureView,
+        lights: &LightBuffers,
+        grid: TileGrid,
+        options: CullOptions,
+    ) -> Result<Self, GpuError> {
         if ![8, 16, 32].contains(&options.tile_size) || grid.tile_size != options.tile_size {
-            return Err(GpuError::Config(format!("tile size {} must be 8, 16 or 32 (and match the grid's {})", options.tile_size, grid.tile_size)));
+            return Err(GpuError::Config(format!(
+                "tile size {} must be 8, 16 or 32 (and match the grid's {})",
+                options.tile_size, grid.tile_size
+            )));
         }
         if options.capacity == 0 || options.capacity > MAX_CAPACITY {
-            return Err(GpuError::Config(format!("per-tile capacity {} must be in 1..={MAX_CAPACITY}", options.capacity)));
+            return Err(GpuError::Config(format!(
+                "per-tile capacity {} must be in 1..={MAX_CAPACITY}",
+                options.capacity
+            )));
         }
         let lists = grid.tile_count() as u64 * options.lists_per_tile() as u64;
         let limits = device.limits();
@@ -113,7 +132,7 @@ impl LightCulling {
             )));
         }
         let index_bytes = lists * options.capacity as u64 * 4;
-        if index_bytes > limits.max_storage_buffer_binding_size as u64 {
+        if index_bytes > limits.max_storage_buffer_binding_size {
             return Err(GpuError::Config(format!(
                 "tile lists need {index_bytes} bytes ({lists} lists x {} indices); this device binds at most {}",
                 options.capacity, limits.max_storage_buffer_binding_size
@@ -135,7 +154,11 @@ impl LightCulling {
             wgpu::BindGroupLayoutEntry {
                 binding: 0,
                 visibility: cs,
-                ty: wgpu::BindingType::Texture { sample_type: wgpu::TextureSampleType::Depth, view_dimension: wgpu::TextureViewDimension::D2, multisampled: false },
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Depth,
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
                 count: None,
             },
             storage_entry(1, cs, true),
@@ -147,7 +170,8 @@ impl LightCulling {
         let tile_counts = buffer_zeroed(device, "cull.tile_counts", lists * 4, out_usage);
         let tile_indices = buffer_zeroed(device, "cull.tile_indices", index_bytes, out_usage);
         let stats = buffer_zeroed(device, "cull.stats", 8, out_usage);
-        let tile_ranges = options.half_z.then(|| buffer_zeroed(device, "cull.tile_ranges", grid.tile_count() as u64 * 8, out_usage));
+        let tile_ranges =
+            options.half_z.then(|| buffer_zeroed(device, "cull.tile_ranges", grid.tile_count() as u64 * 8, out_usage));
         let mut memory = MemoryReport::default();
         memory.add("cull.tile_lists", tile_counts.size() + tile_indices.size() + stats.size());
         if let Some(r) = &tile_ranges {
@@ -158,7 +182,10 @@ impl LightCulling {
             entries.push(storage_entry(6, cs, true));
             entries.push(storage_entry(7, cs, true));
         }
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("cull.layout"), entries: &entries });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("cull.layout"),
+            entries: &entries,
+        });
         let mut bind = vec![
             wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(depth) },
             wgpu::BindGroupEntry { binding: 1, resource: lights.cull.as_entire_binding() },
@@ -173,16 +200,24 @@ impl LightCulling {
             bind.push(wgpu::BindGroupEntry { binding: 6, resource: lights.shading.as_entire_binding() });
             bind.push(wgpu::BindGroupEntry { binding: 7, resource: spots.as_entire_binding() });
         }
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("cull.bind_group"), layout: &layout, entries: &bind });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("cull.bind_group"),
+            layout: &layout,
+            entries: &bind,
+        });
         let module = shader_module(device, "cull.wgsl", &defines)?;
         let wg = options.tile_size.min(16);
-        let constants = [("TILE_SIZE", options.tile_size as f64), ("WG", wg as f64), ("CAPACITY", options.capacity as f64)];
+        let constants =
+            [("TILE_SIZE", options.tile_size as f64), ("WG", wg as f64), ("CAPACITY", options.capacity as f64)];
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("cull"),
             layout: Some(&pipeline_layout(device, "cull.pipeline_layout", &[&frame.layout, &layout])),
             module: &module,
             entry_point: Some("main"),
-            compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, zero_initialize_workgroup_memory: false },
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants: &constants,
+                zero_initialize_workgroup_memory: false,
+            },
             cache: None,
         });
         Ok(Self { pipeline, bind_group, tile_counts, tile_indices, tile_ranges, stats, grid, options, memory })
@@ -193,7 +228,10 @@ impl LightCulling {
         encoder.clear_buffer(&self.stats, 0, None);
         let t = timer.begin(label, encoder);
         {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: t.compute_writes() });
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(label),
+                timestamp_writes: t.compute_writes(),
+            });
             pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, &frame.bind_group, &[]);
             pass.set_bind_group(1, &self.bind_group, &[]);

@@ -31,7 +31,10 @@ impl LightBuffers {
     /// Orders (points first), packs and uploads `lights`.
     pub fn new(device: &wgpu::Device, lights: &[Light]) -> Result<Self, GpuError> {
         if lights.len() > MAX_LIGHTS {
-            return Err(GpuError::Config(format!("{} lights requested; at most {MAX_LIGHTS} are supported", lights.len())));
+            return Err(GpuError::Config(format!(
+                "{} lights requested; at most {MAX_LIGHTS} are supported",
+                lights.len()
+            )));
         }
         let packed = pack_lights(&order_points_first(lights));
         let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
@@ -44,7 +47,8 @@ impl LightBuffers {
         shading_data.resize(shading_data.len() + one_if_empty(packed.shading.len()), Default::default());
         let cull = buffer_init(device, "lights.cull", bytemuck::cast_slice(&cull_data), usage);
         let shading = buffer_init(device, "lights.shading", bytemuck::cast_slice(&shading_data), usage);
-        let spots = (!packed.spots.is_empty()).then(|| buffer_init(device, "lights.spots", bytemuck::cast_slice(&packed.spots), usage));
+        let spots = (!packed.spots.is_empty())
+            .then(|| buffer_init(device, "lights.spots", bytemuck::cast_slice(&packed.spots), usage));
         let mut memory = MemoryReport::default();
         memory.add("lights.cull", cull.size());
         memory.add("lights.shading", shading.size());

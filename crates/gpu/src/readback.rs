@@ -17,7 +17,11 @@ fn map_blocking(device: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<Vec<u8>,
 }
 
 /// Copies `buffer` (must have COPY_SRC) to the CPU as `T`s.
-pub fn read_buffer<T: bytemuck::Pod>(device: &wgpu::Device, queue: &wgpu::Queue, buffer: &wgpu::Buffer) -> Result<Vec<T>, GpuError> {
+pub fn read_buffer<T: bytemuck::Pod>(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    buffer: &wgpu::Buffer,
+) -> Result<Vec<T>, GpuError> {
     let staging = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback.buffer"),
         size: buffer.size(),
@@ -33,7 +37,13 @@ pub fn read_buffer<T: bytemuck::Pod>(device: &wgpu::Device, queue: &wgpu::Queue,
 
 /// Copies a single-sampled 2D texture (mip 0, aspect `aspect`) to tightly packed rows of
 /// `bytes_per_texel`-byte texels.
-pub fn read_texture(device: &wgpu::Device, queue: &wgpu::Queue, texture: &wgpu::Texture, aspect: wgpu::TextureAspect, bytes_per_texel: u32) -> Result<Vec<u8>, GpuError> {
+pub fn read_texture(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+    aspect: wgpu::TextureAspect,
+    bytes_per_texel: u32,
+) -> Result<Vec<u8>, GpuError> {
     let (w, h) = (texture.width(), texture.height());
     let row = w * bytes_per_texel;
     let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
@@ -46,7 +56,10 @@ pub fn read_texture(device: &wgpu::Device, queue: &wgpu::Queue, texture: &wgpu::
     let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback.texture") });
     enc.copy_texture_to_buffer(
         wgpu::TexelCopyTextureInfo { texture, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect },
-        wgpu::TexelCopyBufferInfo { buffer: &staging, layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded), rows_per_image: Some(h) } },
+        wgpu::TexelCopyBufferInfo {
+            buffer: &staging,
+            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded), rows_per_image: Some(h) },
+        },
         wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
     );
     queue.submit([enc.finish()]);
@@ -65,10 +78,17 @@ pub fn read_depth(device: &wgpu::Device, queue: &wgpu::Queue, texture: &wgpu::Te
 }
 
 /// Reads an `Rgba16Float` texture as linear RGBA f32.
-pub fn read_hdr(device: &wgpu::Device, queue: &wgpu::Queue, texture: &wgpu::Texture) -> Result<Vec<[f32; 4]>, GpuError> {
+pub fn read_hdr(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+) -> Result<Vec<[f32; 4]>, GpuError> {
     let bytes = read_texture(device, queue, texture, wgpu::TextureAspect::All, 8)?;
     let halves: Vec<u16> = bytemuck::pod_collect_to_vec(&bytes);
-    Ok(halves.chunks_exact(4).map(|c| [f16_to_f32(c[0]), f16_to_f32(c[1]), f16_to_f32(c[2]), f16_to_f32(c[3])]).collect())
+    Ok(halves
+        .chunks_exact(4)
+        .map(|c| [f16_to_f32(c[0]), f16_to_f32(c[1]), f16_to_f32(c[2]), f16_to_f32(c[3])])
+        .collect())
 }
 
 /// IEEE half to f32 (no dependency for one function).

@@ -75,9 +75,21 @@ pub struct Draw {
 /// Vertex buffer layouts: positions (location 0), normals (1), uvs (2), one buffer each so
 /// the depth pre-pass reads positions only.
 pub const VERTEX_LAYOUTS: [Option<wgpu::VertexBufferLayout<'static>>; 3] = [
-    Some(wgpu::VertexBufferLayout { array_stride: 12, step_mode: wgpu::VertexStepMode::Vertex, attributes: &wgpu::vertex_attr_array![0 => Float32x3] }),
-    Some(wgpu::VertexBufferLayout { array_stride: 12, step_mode: wgpu::VertexStepMode::Vertex, attributes: &wgpu::vertex_attr_array![1 => Float32x3] }),
-    Some(wgpu::VertexBufferLayout { array_stride: 8, step_mode: wgpu::VertexStepMode::Vertex, attributes: &wgpu::vertex_attr_array![2 => Float32x2] }),
+    Some(wgpu::VertexBufferLayout {
+        array_stride: 12,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &wgpu::vertex_attr_array![0 => Float32x3],
+    }),
+    Some(wgpu::VertexBufferLayout {
+        array_stride: 12,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &wgpu::vertex_attr_array![1 => Float32x3],
+    }),
+    Some(wgpu::VertexBufferLayout {
+        array_stride: 8,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &wgpu::vertex_attr_array![2 => Float32x2],
+    }),
 ];
 
 /// Base-colour textures: group 2, one bind group per material.
@@ -151,7 +163,9 @@ impl SceneGpu {
         };
         // Sort instances so equal (kind, material, mesh) are consecutive: one instanced draw each.
         let mut order: Vec<usize> = (0..scene.instances.len()).collect();
-        order.sort_by_key(|&i| (kind_of(scene.instances[i].material), scene.instances[i].material, scene.instances[i].mesh));
+        order.sort_by_key(|&i| {
+            (kind_of(scene.instances[i].material), scene.instances[i].material, scene.instances[i].mesh)
+        });
         let mut gpu_instances = Vec::with_capacity(order.len());
         let mut draws: Vec<Draw> = Vec::new();
         let mut triangles = 0u64;
@@ -167,8 +181,21 @@ impl SceneGpu {
             triangles += (range.len() / 3) as u64;
             let slot = slot as u32;
             match draws.last_mut() {
-                Some(d) if d.material == inst.material && d.indices == range && d.base_vertex == base_vertex && d.instances.end == slot => d.instances.end += 1,
-                _ => draws.push(Draw { indices: range, base_vertex, instances: slot..slot + 1, material: inst.material, kind: kind_of(inst.material) }),
+                Some(d)
+                    if d.material == inst.material
+                        && d.indices == range
+                        && d.base_vertex == base_vertex
+                        && d.instances.end == slot =>
+                {
+                    d.instances.end += 1
+                }
+                _ => draws.push(Draw {
+                    indices: range,
+                    base_vertex,
+                    instances: slot..slot + 1,
+                    material: inst.material,
+                    kind: kind_of(inst.material),
+                }),
             }
         }
         let gpu_materials: Vec<GpuMaterial> = scene
@@ -208,7 +235,19 @@ impl SceneGpu {
         } else {
             None
         };
-        Ok(Self { positions, normals, uvs, indices, layout, bind_group, textures, draws, triangles, blended_as_opaque, memory })
+        Ok(Self {
+            positions,
+            normals,
+            uvs,
+            indices,
+            layout,
+            bind_group,
+            textures,
+            draws,
+            triangles,
+            blended_as_opaque,
+            memory,
+        })
     }
 
     /// The pipeline kinds this scene's draws need.
@@ -225,7 +264,13 @@ impl SceneGpu {
 
     /// Binds vertex/index buffers (`with_attributes`: normals and uvs too) and records the
     /// draws of `kind`, switching texture bind groups (group 2) when `bind_textures`.
-    pub fn record_draws(&self, pass: &mut wgpu::RenderPass<'_>, kind: DrawKind, with_attributes: bool, bind_textures: bool) {
+    pub fn record_draws(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        kind: DrawKind,
+        with_attributes: bool,
+        bind_textures: bool,
+    ) {
         pass.set_vertex_buffer(0, self.positions.slice(..));
         if with_attributes {
             pass.set_vertex_buffer(1, self.normals.slice(..));
@@ -256,12 +301,22 @@ fn mip_chain(width: u32, height: u32, rgba: &[u8]) -> Vec<(u32, u32, Vec<u8>)> {
     levels
 }
 
-fn upload_textures(device: &wgpu::Device, queue: &wgpu::Queue, scene: &Scene, memory: &mut MemoryReport) -> SceneTextures {
+fn upload_textures(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    scene: &Scene,
+    memory: &mut MemoryReport,
+) -> SceneTextures {
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("scene.texture_layout"),
         entries: &[
             texture_entry(0, wgpu::ShaderStages::FRAGMENT, wgpu::TextureSampleType::Float { filterable: true }),
-            wgpu::BindGroupLayoutEntry { binding: 1, visibility: wgpu::ShaderStages::FRAGMENT, ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering), count: None },
+            wgpu::BindGroupLayoutEntry {
+                binding: 1,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            },
         ],
     });
     let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
@@ -289,7 +344,12 @@ fn upload_textures(device: &wgpu::Device, queue: &wgpu::Queue, scene: &Scene, me
         for (level, (lw, lh, data)) in levels.iter().enumerate() {
             memory.add("scene.textures", data.len() as u64);
             queue.write_texture(
-                wgpu::TexelCopyTextureInfo { texture: &tex, mip_level: level as u32, origin: wgpu::Origin3d::ZERO, aspect: wgpu::TextureAspect::All },
+                wgpu::TexelCopyTextureInfo {
+                    texture: &tex,
+                    mip_level: level as u32,
+                    origin: wgpu::Origin3d::ZERO,
+                    aspect: wgpu::TextureAspect::All,
+                },
                 data,
                 wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(lw * 4), rows_per_image: Some(*lh) },
                 wgpu::Extent3d { width: *lw, height: *lh, depth_or_array_layers: 1 },
@@ -297,7 +357,11 @@ fn upload_textures(device: &wgpu::Device, queue: &wgpu::Queue, scene: &Scene, me
         }
         tex
     };
-    let mut textures: Vec<wgpu::Texture> = scene.textures.iter().map(|t| make(&format!("scene.texture.{}", t.name), t.width, t.height, &t.rgba8, memory)).collect();
+    let mut textures: Vec<wgpu::Texture> = scene
+        .textures
+        .iter()
+        .map(|t| make(&format!("scene.texture.{}", t.name), t.width, t.height, &t.rgba8, memory))
+        .collect();
     let white_index = textures.len();
     textures.push(make("scene.texture.white", 1, 1, &[255; 4], memory));
     let views: Vec<wgpu::TextureView> = textures.iter().map(|t| t.create_view(&Default::default())).collect();
@@ -309,7 +373,12 @@ fn upload_textures(device: &wgpu::Device, queue: &wgpu::Queue, scene: &Scene, me
                 label: Some(&format!("scene.material.{}", m.name)),
                 layout: &layout,
                 entries: &[
-                    wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&views[m.base_color_texture.unwrap_or(white_index)]) },
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: wgpu::BindingResource::TextureView(
+                            &views[m.base_color_texture.unwrap_or(white_index)],
+                        ),
+                    },
                     wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&sampler) },
                 ],
             })
@@ -322,6 +391,11 @@ fn upload_textures(device: &wgpu::Device, queue: &wgpu::Queue, scene: &Scene, me
 pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
     vec![
         tiledlight_cull::struct_layout!(GpuInstance, "Instance", "common/scene.wgsl", [model, normal_matrix, material]),
-        tiledlight_cull::struct_layout!(GpuMaterial, "Material", "common/scene.wgsl", [base_color, roughness, metallic, alpha_cutoff, has_texture]),
+        tiledlight_cull::struct_layout!(
+            GpuMaterial,
+            "Material",
+            "common/scene.wgsl",
+            [base_color, roughness, metallic, alpha_cutoff, has_texture]
+        ),
     ]
 }

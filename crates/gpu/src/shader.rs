@@ -93,9 +93,7 @@ pub enum ShaderError {
         directive: &'static str,
     },
     /// An `#ifdef`/`#ifndef` not closed by `#endif` before the end of its file.
-    #[error(
-        "shaders/{file}:{line}: #ifdef/#ifndef is not closed by #endif before the end of the file"
-    )]
+    #[error("shaders/{file}:{line}: #ifdef/#ifndef is not closed by #endif before the end of the file")]
     Unterminated {
         /// File containing the conditional.
         file: String,
@@ -147,19 +145,12 @@ impl ShaderSource {
 
 /// The embedded contents of `path` (relative to `shaders/`), if that file exists.
 pub fn embedded(path: &str) -> Option<&'static str> {
-    SHADER_FILES
-        .binary_search_by(|(p, _)| (*p).cmp(path))
-        .ok()
-        .map(|i| SHADER_FILES[i].1)
+    SHADER_FILES.binary_search_by(|(p, _)| (*p).cmp(path)).ok().map(|i| SHADER_FILES[i].1)
 }
 
 /// Every embedded entry file (every file not under `common/`), sorted.
 pub fn entry_files() -> Vec<&'static str> {
-    SHADER_FILES
-        .iter()
-        .map(|(p, _)| *p)
-        .filter(|p| is_entry(p))
-        .collect()
+    SHADER_FILES.iter().map(|(p, _)| *p).filter(|p| is_entry(p)).collect()
 }
 
 /// True when `path` (relative to `shaders/`) is an entry file, not an include-only one.
@@ -199,12 +190,7 @@ pub fn variant_combinations(variants: &[String]) -> Vec<Vec<&str>> {
     assert!(variants.len() < 32, "too many variants: {}", variants.len());
     (0u32..1 << variants.len())
         .map(|mask| {
-            variants
-                .iter()
-                .enumerate()
-                .filter(|(i, _)| mask & (1 << i) != 0)
-                .map(|(_, v)| v.as_str())
-                .collect()
+            variants.iter().enumerate().filter(|(i, _)| mask & (1 << i) != 0).map(|(_, v)| v.as_str()).collect()
         })
         .collect()
 }
@@ -222,9 +208,7 @@ pub fn preprocess_with(
     entry: &str,
     defines: &[&str],
 ) -> Result<ShaderSource, ShaderError> {
-    let text = files(entry).ok_or_else(|| ShaderError::NotFound {
-        file: entry.to_owned(),
-    })?;
+    let text = files(entry).ok_or_else(|| ShaderError::NotFound { file: entry.to_owned() })?;
     let mut pre = Preprocessor {
         files,
         defines: defines.iter().copied().collect(),
@@ -235,11 +219,7 @@ pub fn preprocess_with(
         stack: Vec::new(),
     };
     pre.process(entry, &text)?;
-    Ok(ShaderSource {
-        text: pre.text,
-        files: pre.names,
-        line_map: pre.line_map,
-    })
+    Ok(ShaderSource { text: pre.text, files: pre.names, line_map: pre.line_map })
 }
 
 /// State of one [`preprocess_with`] call.
@@ -306,16 +286,12 @@ impl Preprocessor<'_> {
                         self.include(include, path, line)?;
                     }
                 }
-                Directive::Ifdef(name) => conds.push(Conditional {
-                    taken: self.defines.contains(name),
-                    in_else: false,
-                    line,
-                }),
-                Directive::Ifndef(name) => conds.push(Conditional {
-                    taken: !self.defines.contains(name),
-                    in_else: false,
-                    line,
-                }),
+                Directive::Ifdef(name) => {
+                    conds.push(Conditional { taken: self.defines.contains(name), in_else: false, line })
+                }
+                Directive::Ifndef(name) => {
+                    conds.push(Conditional { taken: !self.defines.contains(name), in_else: false, line })
+                }
                 Directive::Else => {
                     let cond = conds.last_mut().ok_or_else(|| ShaderError::Unmatched {
                         file: path.to_owned(),
@@ -326,10 +302,7 @@ impl Preprocessor<'_> {
                         return Err(ShaderError::BadDirective {
                             file: path.to_owned(),
                             line,
-                            message: format!(
-                                "second #else for the #ifdef/#ifndef of line {}",
-                                cond.line
-                            ),
+                            message: format!("second #else for the #ifdef/#ifndef of line {}", cond.line),
                         });
                     }
                     cond.in_else = true;
@@ -344,10 +317,7 @@ impl Preprocessor<'_> {
             }
         }
         if let Some(open) = conds.last() {
-            return Err(ShaderError::Unterminated {
-                file: path.to_owned(),
-                line: open.line,
-            });
+            return Err(ShaderError::Unterminated { file: path.to_owned(), line: open.line });
         }
         self.stack.pop();
         Ok(())
@@ -357,11 +327,7 @@ impl Preprocessor<'_> {
         if let Some(start) = self.stack.iter().position(|f| f == include) {
             let mut chain = self.stack[start..].to_vec();
             chain.push(include.to_owned());
-            return Err(ShaderError::IncludeCycle {
-                file: from.to_owned(),
-                line,
-                chain,
-            });
+            return Err(ShaderError::IncludeCycle { file: from.to_owned(), line, chain });
         }
         if !self.included.insert(include.to_owned()) {
             return Ok(());
@@ -376,19 +342,11 @@ impl Preprocessor<'_> {
 }
 
 /// Parses `raw` as a directive; `Ok(None)` when it is ordinary WGSL.
-fn parse_directive<'s>(
-    raw: &'s str,
-    file: &str,
-    line: usize,
-) -> Result<Option<Directive<'s>>, ShaderError> {
+fn parse_directive<'s>(raw: &'s str, file: &str, line: usize) -> Result<Option<Directive<'s>>, ShaderError> {
     let Some(body) = raw.trim_start().strip_prefix('#') else {
         return Ok(None);
     };
-    let bad = |message: String| ShaderError::BadDirective {
-        file: file.to_owned(),
-        line,
-        message,
-    };
+    let bad = |message: String| ShaderError::BadDirective { file: file.to_owned(), line, message };
     let (name, args) = body.split_once(char::is_whitespace).unwrap_or((body, ""));
     let args = args.trim();
     // Whatever follows the arguments must be nothing or a comment.
@@ -401,14 +359,10 @@ fn parse_directive<'s>(
         }
     };
     let ident = |directive: &str| -> Result<&'s str, ShaderError> {
-        let end = args
-            .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
-            .unwrap_or(args.len());
+        let end = args.find(|c: char| !(c.is_ascii_alphanumeric() || c == '_')).unwrap_or(args.len());
         let (ident, rest) = args.split_at(end);
         if ident.is_empty() || ident.starts_with(|c: char| c.is_ascii_digit()) {
-            return Err(bad(format!(
-                "#{directive} needs a define name (letters, digits, `_`)"
-            )));
+            return Err(bad(format!("#{directive} needs a define name (letters, digits, `_`)")));
         }
         check_rest(rest, &format!("#{directive} {ident}"))?;
         Ok(ident)
@@ -419,15 +373,11 @@ fn parse_directive<'s>(
                 .strip_prefix('"')
                 .and_then(|a| a.split_once('"'))
                 .map(|(path, rest)| check_rest(rest, "the #include path").map(|()| path))
-                .ok_or_else(|| {
-                    bad("#include needs a quoted path: #include \"common/file.wgsl\"".to_owned())
-                })??;
+                .ok_or_else(|| bad("#include needs a quoted path: #include \"common/file.wgsl\"".to_owned()))??;
             let clean = !path.is_empty()
                 && !path.starts_with('/')
                 && !path.contains('\\')
-                && path
-                    .split('/')
-                    .all(|c| !c.is_empty() && c != "." && c != "..");
+                && path.split('/').all(|c| !c.is_empty() && c != "." && c != "..");
             if !clean {
                 return Err(bad(format!(
                     "#include \"{path}\": the path must be relative to shaders/, with `/` and no `.` or `..`"
@@ -445,13 +395,7 @@ fn parse_directive<'s>(
                 Directive::Endif
             }
         }
-        _ => {
-            return Err(ShaderError::UnknownDirective {
-                file: file.to_owned(),
-                line,
-                directive: format!("#{name}"),
-            })
-        }
+        _ => return Err(ShaderError::UnknownDirective { file: file.to_owned(), line, directive: format!("#{name}") }),
     };
     Ok(Some(directive))
 }
@@ -462,25 +406,14 @@ mod tests {
     use std::collections::HashMap;
 
     /// Preprocesses `entry` from the literal `files`.
-    fn run(
-        files: &[(&str, &str)],
-        entry: &str,
-        defines: &[&str],
-    ) -> Result<ShaderSource, ShaderError> {
-        let map: HashMap<String, String> = files
-            .iter()
-            .map(|(p, t)| (p.to_string(), t.to_string()))
-            .collect();
+    fn run(files: &[(&str, &str)], entry: &str, defines: &[&str]) -> Result<ShaderSource, ShaderError> {
+        let map: HashMap<String, String> = files.iter().map(|(p, t)| (p.to_string(), t.to_string())).collect();
         preprocess_with(&|p| map.get(p).cloned(), entry, defines)
     }
 
     /// The non-empty output lines, trimmed.
     fn lines(src: &ShaderSource) -> Vec<&str> {
-        src.text
-            .lines()
-            .map(str::trim)
-            .filter(|l| !l.is_empty())
-            .collect()
+        src.text.lines().map(str::trim).filter(|l| !l.is_empty()).collect()
     }
 
     #[test]
@@ -494,26 +427,16 @@ mod tests {
     #[test]
     fn include_inserts_file_and_maps_lines() {
         let files = [
-            (
-                "main.wgsl",
-                "// entry\n#include \"common/x.wgsl\"\nfn main_fn() {}\n",
-            ),
+            ("main.wgsl", "// entry\n#include \"common/x.wgsl\"\nfn main_fn() {}\n"),
             ("common/x.wgsl", "fn x1() {}\nfn x2() {}\n"),
         ];
         let src = run(&files, "main.wgsl", &[]).unwrap();
-        assert_eq!(
-            lines(&src),
-            ["// entry", "fn x1() {}", "fn x2() {}", "fn main_fn() {}"]
-        );
+        assert_eq!(lines(&src), ["// entry", "fn x1() {}", "fn x2() {}", "fn main_fn() {}"]);
         assert_eq!(src.files(), ["main.wgsl", "common/x.wgsl"]);
         let at = |needle: &str| src.text.lines().position(|l| l == needle).unwrap() + 1;
         assert_eq!(src.locate(at("fn x2() {}")), ("common/x.wgsl".into(), 2));
         assert_eq!(src.locate(at("fn main_fn() {}")), ("main.wgsl".into(), 3));
-        assert_eq!(
-            src.locate(2),
-            ("main.wgsl".into(), 2),
-            "the #include line itself"
-        );
+        assert_eq!(src.locate(2), ("main.wgsl".into(), 2), "the #include line itself");
         // Past the end and line 0 are clamped rather than panicking.
         assert_eq!(src.locate(1000), ("main.wgsl".into(), 3));
         assert_eq!(src.locate(0), ("main.wgsl".into(), 1));
@@ -522,10 +445,7 @@ mod tests {
     #[test]
     fn every_output_line_maps_to_its_source_line() {
         let files = [
-            (
-                "e.wgsl",
-                "a\n#ifdef X\nb\n#else\nc\n#endif\n#include \"common/i.wgsl\"\nd",
-            ),
+            ("e.wgsl", "a\n#ifdef X\nb\n#else\nc\n#endif\n#include \"common/i.wgsl\"\nd"),
             ("common/i.wgsl", "#ifndef X\ne\n#endif\nf"),
         ];
         for defines in [&[][..], &["X"][..]] {
@@ -534,10 +454,7 @@ mod tests {
                 let (file, line) = src.locate(n + 1);
                 let original = files.iter().find(|(p, _)| *p == file).unwrap().1;
                 let original = original.lines().nth(line - 1).unwrap();
-                assert!(
-                    out.is_empty() || out == original,
-                    "{out:?} vs {file}:{line} {original:?}"
-                );
+                assert!(out.is_empty() || out == original, "{out:?} vs {file}:{line} {original:?}");
             }
         }
     }
@@ -567,11 +484,7 @@ mod tests {
             ShaderError::IncludeCycle {
                 file: "common/b.wgsl".into(),
                 line: 2,
-                chain: vec![
-                    "common/a.wgsl".into(),
-                    "common/b.wgsl".into(),
-                    "common/a.wgsl".into()
-                ],
+                chain: vec!["common/a.wgsl".into(), "common/b.wgsl".into(), "common/a.wgsl".into()],
             }
         );
         assert_eq!(
@@ -579,34 +492,15 @@ mod tests {
             "shaders/common/b.wgsl:2: #include cycle: common/a.wgsl -> common/b.wgsl -> common/a.wgsl"
         );
         // Including the entry from an include is a cycle too.
-        let files = [
-            ("e.wgsl", "#include \"common/a.wgsl\""),
-            ("common/a.wgsl", "#include \"e.wgsl\""),
-        ];
-        assert!(matches!(
-            run(&files, "e.wgsl", &[]),
-            Err(ShaderError::IncludeCycle { .. })
-        ));
+        let files = [("e.wgsl", "#include \"common/a.wgsl\""), ("common/a.wgsl", "#include \"e.wgsl\"")];
+        assert!(matches!(run(&files, "e.wgsl", &[]), Err(ShaderError::IncludeCycle { .. })));
     }
 
     #[test]
     fn missing_files_are_errors() {
-        assert_eq!(
-            run(&[], "nope.wgsl", &[]).unwrap_err(),
-            ShaderError::NotFound {
-                file: "nope.wgsl".into()
-            }
-        );
-        let err = run(
-            &[("e.wgsl", "x\n#include \"common/gone.wgsl\"")],
-            "e.wgsl",
-            &[],
-        )
-        .unwrap_err();
-        assert_eq!(
-            err.to_string(),
-            "shaders/e.wgsl:2: #include \"common/gone.wgsl\": no such shader file"
-        );
+        assert_eq!(run(&[], "nope.wgsl", &[]).unwrap_err(), ShaderError::NotFound { file: "nope.wgsl".into() });
+        let err = run(&[("e.wgsl", "x\n#include \"common/gone.wgsl\"")], "e.wgsl", &[]).unwrap_err();
+        assert_eq!(err.to_string(), "shaders/e.wgsl:2: #include \"common/gone.wgsl\": no such shader file");
     }
 
     #[test]
@@ -645,10 +539,7 @@ always";
     #[test]
     fn includes_in_inactive_branches_are_skipped() {
         let files = [
-            (
-                "e.wgsl",
-                "#ifdef X\n#include \"common/x.wgsl\"\n#endif\n#include \"common/y.wgsl\"",
-            ),
+            ("e.wgsl", "#ifdef X\n#include \"common/x.wgsl\"\n#endif\n#include \"common/y.wgsl\""),
             ("common/x.wgsl", "x"),
             ("common/y.wgsl", "#include \"common/x.wgsl\"\ny"),
         ];
@@ -656,10 +547,7 @@ always";
         assert_eq!(lines(&run(&files, "e.wgsl", &[]).unwrap()), ["x", "y"]);
         assert_eq!(lines(&run(&files, "e.wgsl", &["X"]).unwrap()), ["x", "y"]);
         // A missing file in an inactive branch is not read.
-        let files = [(
-            "e.wgsl",
-            "#ifdef X\n#include \"common/none.wgsl\"\n#endif\nok",
-        )];
+        let files = [("e.wgsl", "#ifdef X\n#include \"common/none.wgsl\"\n#endif\nok")];
         assert_eq!(lines(&run(&files, "e.wgsl", &[]).unwrap()), ["ok"]);
     }
 
@@ -668,72 +556,21 @@ always";
         let err = |text: &str| run(&[("e.wgsl", text)], "e.wgsl", &["X"]).unwrap_err();
         assert_eq!(
             err("a\n#define X 1"),
-            ShaderError::UnknownDirective {
-                file: "e.wgsl".into(),
-                line: 2,
-                directive: "#define".into()
-            }
+            ShaderError::UnknownDirective { file: "e.wgsl".into(), line: 2, directive: "#define".into() }
         );
         // Unknown directives are errors in inactive branches too.
-        assert!(matches!(
-            err("#ifdef Y\n#if X\n#endif"),
-            ShaderError::UnknownDirective { line: 2, .. }
-        ));
-        assert_eq!(
-            err("a\n#endif"),
-            ShaderError::Unmatched {
-                file: "e.wgsl".into(),
-                line: 2,
-                directive: "endif"
-            }
-        );
-        assert!(matches!(
-            err("#else"),
-            ShaderError::Unmatched {
-                line: 1,
-                directive: "else",
-                ..
-            }
-        ));
-        assert_eq!(
-            err("#ifdef X\n#ifdef Y\n#endif\n"),
-            ShaderError::Unterminated {
-                file: "e.wgsl".into(),
-                line: 1
-            }
-        );
-        assert!(matches!(
-            err("#ifdef X\n#else\n#else\n#endif"),
-            ShaderError::BadDirective { line: 3, .. }
-        ));
-        assert!(matches!(
-            err("#ifdef\n#endif"),
-            ShaderError::BadDirective { line: 1, .. }
-        ));
-        assert!(matches!(
-            err("#ifdef X Y\n#endif"),
-            ShaderError::BadDirective { line: 1, .. }
-        ));
-        assert!(matches!(
-            err("#ifdef 1X\n#endif"),
-            ShaderError::BadDirective { line: 1, .. }
-        ));
-        assert!(matches!(
-            err("#endif junk"),
-            ShaderError::BadDirective { .. }
-        ));
-        assert!(matches!(
-            err("#include common/a.wgsl"),
-            ShaderError::BadDirective { .. }
-        ));
-        assert!(matches!(
-            err("#include \"../a.wgsl\""),
-            ShaderError::BadDirective { .. }
-        ));
-        assert!(matches!(
-            err("#include \"/a.wgsl\""),
-            ShaderError::BadDirective { .. }
-        ));
+        assert!(matches!(err("#ifdef Y\n#if X\n#endif"), ShaderError::UnknownDirective { line: 2, .. }));
+        assert_eq!(err("a\n#endif"), ShaderError::Unmatched { file: "e.wgsl".into(), line: 2, directive: "endif" });
+        assert!(matches!(err("#else"), ShaderError::Unmatched { line: 1, directive: "else", .. }));
+        assert_eq!(err("#ifdef X\n#ifdef Y\n#endif\n"), ShaderError::Unterminated { file: "e.wgsl".into(), line: 1 });
+        assert!(matches!(err("#ifdef X\n#else\n#else\n#endif"), ShaderError::BadDirective { line: 3, .. }));
+        assert!(matches!(err("#ifdef\n#endif"), ShaderError::BadDirective { line: 1, .. }));
+        assert!(matches!(err("#ifdef X Y\n#endif"), ShaderError::BadDirective { line: 1, .. }));
+        assert!(matches!(err("#ifdef 1X\n#endif"), ShaderError::BadDirective { line: 1, .. }));
+        assert!(matches!(err("#endif junk"), ShaderError::BadDirective { .. }));
+        assert!(matches!(err("#include common/a.wgsl"), ShaderError::BadDirective { .. }));
+        assert!(matches!(err("#include \"../a.wgsl\""), ShaderError::BadDirective { .. }));
+        assert!(matches!(err("#include \"/a.wgsl\""), ShaderError::BadDirective { .. }));
         assert_eq!(
             err("\n\n#foo").to_string(),
             "shaders/e.wgsl:3: unknown directive `#foo` (expected #include, #ifdef, #ifndef, #else or #endif)"
@@ -742,26 +579,16 @@ always";
 
     #[test]
     fn conditionals_must_balance_per_file() {
-        let files = [
-            ("e.wgsl", "#ifdef X\n#include \"common/i.wgsl\""),
-            ("common/i.wgsl", "#endif"),
-        ];
+        let files = [("e.wgsl", "#ifdef X\n#include \"common/i.wgsl\""), ("common/i.wgsl", "#endif")];
         assert_eq!(
             run(&files, "e.wgsl", &["X"]).unwrap_err(),
-            ShaderError::Unmatched {
-                file: "common/i.wgsl".into(),
-                line: 1,
-                directive: "endif"
-            }
+            ShaderError::Unmatched { file: "common/i.wgsl".into(), line: 1, directive: "endif" }
         );
     }
 
     #[test]
     fn include_with_trailing_comment_and_crlf() {
-        let files = [
-            ("e.wgsl", "#include \"common/i.wgsl\" // why\r\nmain\r\n"),
-            ("common/i.wgsl", "inc\r\n"),
-        ];
+        let files = [("e.wgsl", "#include \"common/i.wgsl\" // why\r\nmain\r\n"), ("common/i.wgsl", "inc\r\n")];
         let src = run(&files, "e.wgsl", &[]).unwrap();
         assert_eq!(src.text, "\ninc\nmain\n");
     }
@@ -776,10 +603,7 @@ always";
     #[test]
     fn combinations_cover_every_subset() {
         let v = vec!["A".to_owned(), "B".to_owned()];
-        assert_eq!(
-            variant_combinations(&v),
-            [vec![], vec!["A"], vec!["B"], vec!["A", "B"]]
-        );
+        assert_eq!(variant_combinations(&v), [vec![], vec!["A"], vec!["B"], vec!["A", "B"]]);
         assert_eq!(variant_combinations(&[]), [Vec::<&str>::new()]);
     }
 

@@ -41,8 +41,13 @@ pub struct PassTime {
 impl GpuTimer {
     /// A timer for `ctx` (disabled when the device has no timestamps).
     pub fn new(ctx: &GpuContext) -> Result<Self, GpuError> {
-        let settings = GpuProfilerSettings { enable_timer_queries: ctx.timestamps, enable_debug_groups: false, max_num_pending_frames: 4 };
-        let profiler = GpuProfiler::new(&ctx.device, settings).map_err(|e| GpuError::Config(format!("GPU timer: {e}")))?;
+        let settings = GpuProfilerSettings {
+            enable_timer_queries: ctx.timestamps,
+            enable_debug_groups: false,
+            max_num_pending_frames: 4,
+        };
+        let profiler =
+            GpuProfiler::new(&ctx.device, settings).map_err(|e| GpuError::Config(format!("GPU timer: {e}")))?;
         Ok(Self { profiler, period: ctx.queue.get_timestamp_period(), enabled: ctx.timestamps })
     }
 
