@@ -10,20 +10,11 @@ use crate::{cargo, run_status};
 /// Runs `cargo fmt --all --check` and `cargo clippy --workspace --all-targets -D warnings`.
 pub fn lint(root: &Path) -> Result<()> {
     let fmt = run_status(cargo(root).args(["fmt", "--all", "--check"]))?;
-    let clippy = run_status(cargo(root).args([
-        "clippy",
-        "--workspace",
-        "--all-targets",
-        "--",
-        "-D",
-        "warnings",
-    ]))?;
+    let clippy = run_status(cargo(root).args(["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"]))?;
     match (fmt, clippy) {
         (true, true) => Ok(()),
         (false, true) => bail!("formatting differs from rustfmt: run `cargo fmt --all`"),
         (true, false) => bail!("clippy found problems"),
-        (false, false) => bail!(
-            "formatting differs from rustfmt (run `cargo fmt --all`) and clippy found problems"
-        ),
+        (false, false) => bail!("formatting differs from rustfmt (run `cargo fmt --all`) and clippy found problems"),
     }
 }

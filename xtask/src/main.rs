@@ -72,10 +72,7 @@ fn run(args: &[String]) -> Result<()> {
 
 /// The workspace root: xtask lives one directory below it.
 fn workspace_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("xtask is inside the workspace")
-        .to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("xtask is inside the workspace").to_path_buf()
 }
 
 /// A `cargo` command run at the workspace root, with the cargo that runs xtask.
@@ -90,9 +87,7 @@ fn cargo(root: &Path) -> Command {
 fn run_status(cmd: &mut Command) -> Result<bool> {
     let shown = describe(cmd);
     println!("xtask: running {shown}");
-    let status = cmd
-        .status()
-        .with_context(|| format!("cannot start {shown}"))?;
+    let status = cmd.status().with_context(|| format!("cannot start {shown}"))?;
     if !status.success() {
         eprintln!("xtask: {shown} failed ({status})");
     }
@@ -101,23 +96,13 @@ fn run_status(cmd: &mut Command) -> Result<bool> {
 
 /// `cmd` as a shell-like line, for messages.
 fn describe(cmd: &Command) -> String {
-    let program = Path::new(cmd.get_program())
-        .file_name()
-        .unwrap_or(cmd.get_program())
-        .to_string_lossy()
-        .into_owned();
-    std::iter::once(program)
-        .chain(cmd.get_args().map(|a| quote(&a.to_string_lossy())))
-        .collect::<Vec<_>>()
-        .join(" ")
+    let program = Path::new(cmd.get_program()).file_name().unwrap_or(cmd.get_program()).to_string_lossy().into_owned();
+    std::iter::once(program).chain(cmd.get_args().map(|a| quote(&a.to_string_lossy()))).collect::<Vec<_>>().join(" ")
 }
 
 /// `arg` quoted for a shell when it needs to be, so echoed commands can be pasted.
 fn quote(arg: &str) -> String {
-    let plain = !arg.is_empty()
-        && arg
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || "-_=./:,+@%".contains(c));
+    let plain = !arg.is_empty() && arg.chars().all(|c| c.is_ascii_alphanumeric() || "-_=./:,+@%".contains(c));
     if plain {
         arg.to_owned()
     } else {
@@ -133,9 +118,6 @@ mod tests {
     fn commands_are_echoed_pasteably() {
         let mut cmd = Command::new("/usr/bin/cargo");
         cmd.args(["nextest", "run", "-E", "package(x)", "it's"]);
-        assert_eq!(
-            describe(&cmd),
-            r"cargo nextest run -E 'package(x)' 'it'\''s'"
-        );
+        assert_eq!(describe(&cmd), r"cargo nextest run -E 'package(x)' 'it'\''s'");
     }
 }

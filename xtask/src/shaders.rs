@@ -88,8 +88,7 @@ pub fn validate_shaders(root: &Path) -> Result<()> {
             let module = modules.entry(layout.wgsl_file).or_insert_with(|| {
                 parse_for_layout(&read, layout.wgsl_file)
                     .map_err(|p| {
-                        let context =
-                            format!("shaders/{}, for the struct layout check", layout.wgsl_file);
+                        let context = format!("shaders/{}, for the struct layout check", layout.wgsl_file);
                         eprintln!("{}", p.render(&context));
                     })
                     .ok()
@@ -118,10 +117,7 @@ pub fn validate_shaders(root: &Path) -> Result<()> {
 /// Every Rust struct shared with WGSL, grouped by the crate that defines it (named by
 /// its directory, for messages).
 fn layout_sources() -> Vec<(&'static str, Vec<StructLayout>)> {
-    vec![
-        ("crates/cull", tiledlight_cull::light::layouts()),
-        ("crates/gpu", tiledlight_gpu::layouts()),
-    ]
+    vec![("crates/cull", tiledlight_cull::light::layouts()), ("crates/gpu", tiledlight_gpu::layouts())]
 }
 
 /// Every `*.wgsl` file under `dir`, relative to it with `/` separators, sorted.
@@ -131,9 +127,7 @@ fn scan(dir: &Path) -> Result<Vec<String>> {
             let entry = entry.with_context(|| format!("cannot read {}", dir.display()))?;
             let path = entry.path();
             let name = entry.file_name();
-            let name = name
-                .to_str()
-                .with_context(|| format!("shader path is not UTF-8: {}", path.display()))?;
+            let name = name.to_str().with_context(|| format!("shader path is not UTF-8: {}", path.display()))?;
             if path.is_dir() {
                 walk(&path, &format!("{prefix}{name}/"), out)?;
             } else if name.ends_with(".wgsl") {
@@ -166,10 +160,7 @@ impl Problem {
 
 impl From<shader::ShaderError> for Problem {
     fn from(e: shader::ShaderError) -> Self {
-        Problem {
-            head: e.to_string(),
-            details: String::new(),
-        }
+        Problem { head: e.to_string(), details: String::new() }
     }
 }
 
@@ -177,19 +168,17 @@ impl From<shader::ShaderError> for Problem {
 fn compile(read: Reader<'_>, entry: &str, defines: &[&str]) -> Result<Module, Problem> {
     let source = shader::preprocess_with(read, entry, defines)?;
     let module = parse(&source)?;
-    Validator::new(ValidationFlags::all(), capabilities())
-        .validate(&module)
-        .map_err(|e| {
-            // naga's errors nest their causes; the chain is the useful message.
-            let mut message = e.to_string();
-            let mut cause = std::error::Error::source(&e);
-            while let Some(c) = cause {
-                message.push_str(&format!(": {c}"));
-                cause = c.source();
-            }
-            let labels: Vec<(Span, String)> = e.spans().cloned().collect();
-            problem(&source, &message, &labels, &[])
-        })?;
+    Validator::new(ValidationFlags::all(), capabilities()).validate(&module).map_err(|e| {
+        // naga's errors nest their causes; the chain is the useful message.
+        let mut message = e.to_string();
+        let mut cause = std::error::Error::source(&e);
+        while let Some(c) = cause {
+            message.push_str(&format!(": {c}"));
+            cause = c.source();
+        }
+        let labels: Vec<(Span, String)> = e.spans().cloned().collect();
+        problem(&source, &message, &labels, &[])
+    })?;
     Ok(module)
 }
 
@@ -204,25 +193,13 @@ fn parse(source: &ShaderSource) -> Result<Module, Problem> {
 
 /// A naga error with each labelled span at its original file:line:column and the source
 /// line under it.
-fn problem(
-    source: &ShaderSource,
-    message: &str,
-    labels: &[(Span, String)],
-    notes: &[String],
-) -> Problem {
+fn problem(source: &ShaderSource, message: &str, labels: &[(Span, String)], notes: &[String]) -> Problem {
     let defined: Vec<&(Span, String)> = labels.iter().filter(|(s, _)| s.is_defined()).collect();
     let position = |span: Span| {
         let loc = span.location(&source.text);
         let (file, line) = source.locate(loc.line_number as usize);
-        let text = source
-            .text
-            .lines()
-            .nth(loc.line_number as usize - 1)
-            .unwrap_or("");
-        (
-            format!("shaders/{file}:{line}:{}", loc.line_position),
-            text.trim_end().to_owned(),
-        )
+        let text = source.text.lines().nth(loc.line_number as usize - 1).unwrap_or("");
+        (format!("shaders/{file}:{line}:{}", loc.line_position), text.trim_end().to_owned())
     };
     let head = match defined.first() {
         Some((span, _)) => format!("{}: {message}", position(*span).0),
@@ -250,38 +227,20 @@ fn parse_for_layout(read: Reader<'_>, file: &str) -> Result<Module, Problem> {
 /// one line per mismatch. WGSL members whose names start with `_` are padding, like the
 /// Rust fields left out of `layout.fields`.
 pub fn compare_layout(crate_dir: &str, layout: &StructLayout, module: &Module) -> Vec<String> {
-    let prefix = format!(
-        "{} ({crate_dir}) vs {} (shaders/{})",
-        layout.rust_name, layout.wgsl_name, layout.wgsl_file
-    );
-    let found = module
-        .types
-        .iter()
-        .find(|(_, ty)| ty.name.as_deref() == Some(layout.wgsl_name));
+    let prefix = format!("{} ({crate_dir}) vs {} (shaders/{})", layout.rust_name, layout.wgsl_name, layout.wgsl_file);
+    let found = module.types.iter().find(|(_, ty)| ty.name.as_deref() == Some(layout.wgsl_name));
     let Some((_, ty)) = found else {
-        return vec![format!(
-            "{prefix}: no type {} in the WGSL",
-            layout.wgsl_name
-        )];
+        return vec![format!("{prefix}: no type {} in the WGSL", layout.wgsl_name)];
     };
     let naga::TypeInner::Struct { members, span } = &ty.inner else {
-        return vec![format!(
-            "{prefix}: {} is not a struct in the WGSL",
-            layout.wgsl_name
-        )];
+        return vec![format!("{prefix}: {} is not a struct in the WGSL", layout.wgsl_name)];
     };
     let mut out = Vec::new();
     if *span as usize != layout.size {
-        out.push(format!(
-            "{prefix}: size {} in Rust, {span} in WGSL",
-            layout.size
-        ));
+        out.push(format!("{prefix}: size {} in Rust, {span} in WGSL", layout.size));
     }
     for field in &layout.fields {
-        match members
-            .iter()
-            .find(|m| m.name.as_deref() == Some(field.name))
-        {
+        match members.iter().find(|m| m.name.as_deref() == Some(field.name)) {
             None => out.push(format!(
                 "{prefix}: field {} (offset {} in Rust) has no WGSL member of that name",
                 field.name, field.offset
@@ -319,14 +278,8 @@ mod tests {
             wgsl_file: "common/lights.wgsl",
             size,
             fields: vec![
-                FieldLayout {
-                    name: "center",
-                    offset: 0,
-                },
-                FieldLayout {
-                    name: "radius",
-                    offset: radius_offset,
-                },
+                FieldLayout { name: "center", offset: 0 },
+                FieldLayout { name: "radius", offset: radius_offset },
             ],
         }
     }
@@ -338,10 +291,7 @@ mod tests {
     #[test]
     fn matching_layout_has_no_mismatch() {
         let m = module("struct CullLight { center: vec3<f32>, radius: f32, _pad: vec4<f32> }");
-        assert_eq!(
-            compare_layout("crates/cull", &cull_light(32, 12), &m),
-            Vec::<String>::new()
-        );
+        assert_eq!(compare_layout("crates/cull", &cull_light(32, 12), &m), Vec::<String>::new());
     }
 
     #[test]
@@ -363,14 +313,14 @@ mod tests {
     fn missing_struct_or_member_is_reported() {
         let m = module("struct Other { a: f32 }");
         let got = compare_layout("crates/cull", &cull_light(16, 12), &m);
-        assert_eq!(got, ["GpuCullLight (crates/cull) vs CullLight (shaders/common/lights.wgsl): no type CullLight in the WGSL"]);
+        assert_eq!(
+            got,
+            ["GpuCullLight (crates/cull) vs CullLight (shaders/common/lights.wgsl): no type CullLight in the WGSL"]
+        );
         let m = module("struct CullLight { center: vec3<f32>, r: f32 }");
         let got = compare_layout("crates/cull", &cull_light(16, 12), &m);
         assert_eq!(got.len(), 2, "{got:?}");
-        assert!(
-            got[0].ends_with("field radius (offset 12 in Rust) has no WGSL member of that name"),
-            "{got:?}"
-        );
+        assert!(got[0].ends_with("field radius (offset 12 in Rust) has no WGSL member of that name"), "{got:?}");
     }
 
     #[test]
@@ -382,9 +332,7 @@ mod tests {
     }
 
     fn files(list: &[(&str, &str)]) -> HashMap<String, String> {
-        list.iter()
-            .map(|(p, t)| (p.to_string(), t.to_string()))
-            .collect()
+        list.iter().map(|(p, t)| (p.to_string(), t.to_string())).collect()
     }
 
     #[test]
@@ -416,9 +364,7 @@ mod tests {
     fn preprocessor_errors_are_reported() {
         let map = files(&[("e.wgsl", "#ifdef X\n")]);
         let read = |p: &str| map.get(p).cloned();
-        let err = compile(&read, "e.wgsl", &["X"])
-            .unwrap_err()
-            .render("shaders/e.wgsl [X]");
+        let err = compile(&read, "e.wgsl", &["X"]).unwrap_err().render("shaders/e.wgsl [X]");
         assert_eq!(
             err,
             "error: shaders/e.wgsl:1: #ifdef/#ifndef is not closed by #endif before the end of the file (in shaders/e.wgsl [X])"
@@ -428,10 +374,7 @@ mod tests {
     #[test]
     fn capabilities_are_those_of_a_full_downlevel_device_without_extras() {
         let caps = capabilities();
-        assert!(
-            caps.contains(Capabilities::CUBE_ARRAY_TEXTURES | Capabilities::MULTISAMPLED_SHADING)
-        );
-        assert!(!caps
-            .intersects(Capabilities::SUBGROUP | Capabilities::RAY_QUERY | Capabilities::FLOAT64));
+        assert!(caps.contains(Capabilities::CUBE_ARRAY_TEXTURES | Capabilities::MULTISAMPLED_SHADING));
+        assert!(!caps.intersects(Capabilities::SUBGROUP | Capabilities::RAY_QUERY | Capabilities::FLOAT64));
     }
 }

@@ -60,15 +60,11 @@ impl AdapterChoice {
     }
 
     fn backends(&self) -> wgpu::Backends {
-        self.backend
-            .as_deref()
-            .map_or(wgpu::Backends::all(), wgpu::Backends::from_comma_list)
+        self.backend.as_deref().map_or(wgpu::Backends::all(), wgpu::Backends::from_comma_list)
     }
 
     fn matches(&self, adapter_name: &str) -> bool {
-        adapter_name
-            .to_lowercase()
-            .contains(&self.name.to_lowercase())
+        adapter_name.to_lowercase().contains(&self.name.to_lowercase())
     }
 }
 
@@ -79,17 +75,9 @@ pub fn test(root: &Path, extra: &[String]) -> Result<()> {
     println!(
         "xtask: GPU tests use WGPU_ADAPTER_NAME={}{} and WGPU_BACKEND={}{}",
         choice.name,
-        if set_by_xtask("WGPU_ADAPTER_NAME") {
-            " (default, lavapipe)"
-        } else {
-            " (from the environment)"
-        },
+        if set_by_xtask("WGPU_ADAPTER_NAME") { " (default, lavapipe)" } else { " (from the environment)" },
         choice.backend.as_deref().unwrap_or("<all>"),
-        if set_by_xtask("WGPU_BACKEND") {
-            " (default)"
-        } else {
-            ""
-        },
+        if set_by_xtask("WGPU_BACKEND") { " (default)" } else { "" },
     );
     ensure_adapter(&choice)?;
 
@@ -108,8 +96,7 @@ pub fn test(root: &Path, extra: &[String]) -> Result<()> {
     if nextest_available(root) {
         // The `gpu` test group in .config/nextest.toml serializes the GPU package.
         let mut cmd = with_env(cargo(root));
-        cmd.args(["nextest", "run", "--workspace", "--no-fail-fast"])
-            .args(extra);
+        cmd.args(["nextest", "run", "--workspace", "--no-fail-fast"]).args(extra);
         if !run_status(&mut cmd)? {
             failed.push("cargo nextest run");
         }
@@ -123,14 +110,7 @@ pub fn test(root: &Path, extra: &[String]) -> Result<()> {
         println!("xtask: cargo-nextest not found, using cargo test (`cargo install cargo-nextest` for faster runs)");
         let (cargo_args, test_args) = split_test_args(extra);
         let mut cmd = with_env(cargo(root));
-        cmd.args([
-            "test",
-            "--workspace",
-            "--exclude",
-            GPU_TEST_PACKAGE,
-            "--no-fail-fast",
-        ])
-        .args(cargo_args);
+        cmd.args(["test", "--workspace", "--exclude", GPU_TEST_PACKAGE, "--no-fail-fast"]).args(cargo_args);
         if !test_args.is_empty() {
             cmd.arg("--").args(test_args);
         }
@@ -189,11 +169,7 @@ fn enumerate_adapters(backends: wgpu::Backends) -> Vec<FoundAdapter> {
         .iter()
         .map(|a| {
             let info = a.get_info();
-            FoundAdapter {
-                name: info.name,
-                backend: info.backend,
-                features: a.features(),
-            }
+            FoundAdapter { name: info.name, backend: info.backend, features: a.features() }
         })
         .collect()
 }
@@ -202,28 +178,19 @@ fn enumerate_adapters(backends: wgpu::Backends) -> Vec<FoundAdapter> {
 /// (`CI` set), installs lavapipe first when it is missing.
 fn ensure_adapter(choice: &AdapterChoice) -> Result<()> {
     let mut adapters = enumerate_adapters(choice.backends());
-    let found =
-        |adapters: &[FoundAdapter]| adapters.iter().find(|a| choice.matches(&a.name)).cloned();
+    let found = |adapters: &[FoundAdapter]| adapters.iter().find(|a| choice.matches(&a.name)).cloned();
     let system = System::detect();
     if found(&adapters).is_none() && choice.name == DEFAULT_ADAPTER && system.can_auto_install() {
-        println!(
-            "xtask: no lavapipe adapter on this CI machine: installing {}",
-            VULKAN_PACKAGES.join(" ")
-        );
+        println!("xtask: no lavapipe adapter on this CI machine: installing {}", VULKAN_PACKAGES.join(" "));
         install_lavapipe()?;
         adapters = enumerate_adapters(choice.backends());
     }
     if let Some(a) = found(&adapters) {
-        println!(
-            "xtask: GPU tests run on adapter \"{}\" ({:?})",
-            a.name, a.backend
-        );
+        println!("xtask: GPU tests run on adapter \"{}\" ({:?})", a.name, a.backend);
         let lacking = shaders::FEATURES - a.features;
         if !lacking.is_empty() {
             // validate-shaders accepts shaders that use these; the device cannot run them.
-            println!(
-                "xtask: warning: the adapter lacks {lacking:?}, which validate-shaders allows"
-            );
+            println!("xtask: warning: the adapter lacks {lacking:?}, which validate-shaders allows");
         }
         return Ok(());
     }
@@ -231,11 +198,7 @@ fn ensure_adapter(choice: &AdapterChoice) -> Result<()> {
     let listed = if adapters.is_empty() {
         "none".to_owned()
     } else {
-        adapters
-            .iter()
-            .map(|a| format!("\"{}\" ({:?})", a.name, a.backend))
-            .collect::<Vec<_>>()
-            .join(", ")
+        adapters.iter().map(|a| format!("\"{}\" ({:?})", a.name, a.backend)).collect::<Vec<_>>().join(", ")
     };
     let what = format!(
         "looked for an adapter whose name contains \"{}\" on backend(s) {}; found: {listed}; {}",
@@ -267,10 +230,8 @@ struct System {
 
 impl System {
     fn detect() -> Self {
-        let root = Command::new("id")
-            .arg("-u")
-            .output()
-            .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "0");
+        let root =
+            Command::new("id").arg("-u").output().is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "0");
         System {
             debian: Path::new("/etc/debian_version").exists(),
             root,
@@ -295,21 +256,11 @@ impl System {
 }
 
 fn install_lavapipe() -> Result<()> {
-    for args in [
-        vec!["update"],
-        [
-            &["install", "-y", "--no-install-recommends"][..],
-            &VULKAN_PACKAGES[..],
-        ]
-        .concat(),
-    ] {
+    for args in [vec!["update"], [&["install", "-y", "--no-install-recommends"][..], &VULKAN_PACKAGES[..]].concat()] {
         let mut cmd = Command::new("apt-get");
         cmd.args(&args).env("DEBIAN_FRONTEND", "noninteractive");
         let shown = describe(&cmd);
-        let ok = cmd
-            .status()
-            .with_context(|| format!("cannot start {shown}"))?
-            .success();
+        let ok = cmd.status().with_context(|| format!("cannot start {shown}"))?.success();
         if !ok {
             bail!("{shown} failed while installing lavapipe");
         }
@@ -344,21 +295,9 @@ fn icd_summary() -> String {
     format!(
         "Vulkan ICDs in {}: {}; lavapipe ICD (lvp_icd*.json) {}; Vulkan loader libvulkan.so.1 {}",
         dirs.join(", "),
-        if icds.is_empty() {
-            "none".to_owned()
-        } else {
-            icds.join(" ")
-        },
-        if icds.iter().any(|n| n.starts_with("lvp_icd")) {
-            "present"
-        } else {
-            "missing"
-        },
-        if loader {
-            "present"
-        } else {
-            "not found in the usual places"
-        }
+        if icds.is_empty() { "none".to_owned() } else { icds.join(" ") },
+        if icds.iter().any(|n| n.starts_with("lvp_icd")) { "present" } else { "missing" },
+        if loader { "present" } else { "not found in the usual places" }
     )
 }
 
@@ -367,11 +306,7 @@ mod tests {
     use super::*;
 
     fn choice(vars: &[(&str, &str)]) -> AdapterChoice {
-        AdapterChoice::new(|k| {
-            vars.iter()
-                .find(|(n, _)| *n == k)
-                .map(|(_, v)| v.to_string())
-        })
+        AdapterChoice::new(|k| vars.iter().find(|(n, _)| *n == k).map(|(_, v)| v.to_string()))
     }
 
     #[test]
@@ -379,13 +314,7 @@ mod tests {
         let c = choice(&[]);
         assert_eq!(c.name, "llvmpipe");
         assert_eq!(c.backends(), wgpu::Backends::VULKAN);
-        assert_eq!(
-            c.env,
-            [
-                ("WGPU_ADAPTER_NAME", "llvmpipe".into()),
-                ("WGPU_BACKEND", "vulkan".into())
-            ]
-        );
+        assert_eq!(c.env, [("WGPU_ADAPTER_NAME", "llvmpipe".into()), ("WGPU_BACKEND", "vulkan".into())]);
         assert!(c.matches("llvmpipe (LLVM 15.0.6, 256 bits)"));
         assert!(!c.matches("NVIDIA H100"));
         // Empty counts as unset.
@@ -405,10 +334,7 @@ mod tests {
 
     #[test]
     fn test_args_split_at_double_dash() {
-        let args: Vec<String> = ["-p", "x", "--", "--nocapture"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect();
+        let args: Vec<String> = ["-p", "x", "--", "--nocapture"].iter().map(|s| s.to_string()).collect();
         assert_eq!(split_test_args(&args), (&args[..2], &args[3..]));
         assert_eq!(split_test_args(&args[..2]), (&args[..2], &[][..]));
     }

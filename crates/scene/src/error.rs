@@ -41,9 +41,7 @@ pub enum SceneError {
         max: u32,
     },
     /// More lights were asked for than any renderer here supports.
-    #[error(
-        "{requested} lights requested: at most {limit} (point and spot together) can be generated"
-    )]
+    #[error("{requested} lights requested: at most {limit} (point and spot together) can be generated")]
     TooManyLights {
         /// Point plus spot lights asked for.
         requested: u64,

@@ -50,12 +50,7 @@ impl MeshBuilder {
     /// every hand-built shape consistent without reasoning about each one's orientation.
     pub(crate) fn quad_facing_normals(&mut self, a: u32, b: u32, c: u32, d: u32) {
         let n = self.normal(a) + self.normal(b) + self.normal(c) + self.normal(d);
-        let (pa, pb, pc, pd) = (
-            self.position(a),
-            self.position(b),
-            self.position(c),
-            self.position(d),
-        );
+        let (pa, pb, pc, pd) = (self.position(a), self.position(b), self.position(c), self.position(d));
         let geometric = (pb - pa).cross(pc - pa) + (pc - pa).cross(pd - pa);
         if geometric.dot(n) >= 0.0 {
             self.triangle(a, b, c);
@@ -68,11 +63,7 @@ impl MeshBuilder {
 
     /// A flat quad with one normal for all four corners.
     pub(crate) fn flat_quad(&mut self, corners: [Vec3; 4], normal: Vec3, uvs: [Vec2; 4]) {
-        let v: Vec<u32> = corners
-            .iter()
-            .zip(uvs)
-            .map(|(&p, uv)| self.vertex(p, normal, uv))
-            .collect();
+        let v: Vec<u32> = corners.iter().zip(uvs).map(|(&p, uv)| self.vertex(p, normal, uv)).collect();
         self.quad_facing_normals(v[0], v[1], v[2], v[3]);
     }
 
@@ -115,26 +106,14 @@ impl MeshBuilder {
 /// A planar grid from `origin` spanning edges `eu` and `ev`, split into `nu` x `nv`
 /// cells, facing `eu x ev`. UVs are in metres along the edges divided by `uv_scale`
 /// (so textures tile at a fixed world size).
-pub(crate) fn add_grid(
-    b: &mut MeshBuilder,
-    origin: Vec3,
-    eu: Vec3,
-    ev: Vec3,
-    nu: u32,
-    nv: u32,
-    uv_scale: f32,
-) {
+pub(crate) fn add_grid(b: &mut MeshBuilder, origin: Vec3, eu: Vec3, ev: Vec3, nu: u32, nv: u32, uv_scale: f32) {
     let normal = eu.cross(ev).normalize();
     let (lu, lv) = (eu.length(), ev.length());
     let base = b.positions.len() as u32;
     for j in 0..=nv {
         for i in 0..=nu {
             let (fu, fv) = (i as f32 / nu as f32, j as f32 / nv as f32);
-            b.vertex(
-                origin + eu * fu + ev * fv,
-                normal,
-                Vec2::new(fu * lu, fv * lv) / uv_scale,
-            );
+            b.vertex(origin + eu * fu + ev * fv, normal, Vec2::new(fu * lu, fv * lv) / uv_scale);
         }
     }
     let row = nu + 1;
@@ -151,47 +130,15 @@ pub(crate) fn add_box(b: &mut MeshBuilder, min: Vec3, max: Vec3, cell: f32) {
     let d = max - min;
     let cells = |len: f32| ((len / cell).ceil() as u32).max(1);
     let faces = [
-        (
-            Vec3::new(max.x, min.y, max.z),
-            Vec3::new(0.0, 0.0, -d.z),
-            Vec3::new(0.0, d.y, 0.0),
-        ),
-        (
-            Vec3::new(min.x, min.y, min.z),
-            Vec3::new(0.0, 0.0, d.z),
-            Vec3::new(0.0, d.y, 0.0),
-        ),
-        (
-            Vec3::new(min.x, max.y, max.z),
-            Vec3::new(d.x, 0.0, 0.0),
-            Vec3::new(0.0, 0.0, -d.z),
-        ),
-        (
-            Vec3::new(min.x, min.y, min.z),
-            Vec3::new(d.x, 0.0, 0.0),
-            Vec3::new(0.0, 0.0, d.z),
-        ),
-        (
-            Vec3::new(min.x, min.y, max.z),
-            Vec3::new(d.x, 0.0, 0.0),
-            Vec3::new(0.0, d.y, 0.0),
-        ),
-        (
-            Vec3::new(max.x, min.y, min.z),
-            Vec3::new(-d.x, 0.0, 0.0),
-            Vec3::new(0.0, d.y, 0.0),
-        ),
+        (Vec3::new(max.x, min.y, max.z), Vec3::new(0.0, 0.0, -d.z), Vec3::new(0.0, d.y, 0.0)),
+        (Vec3::new(min.x, min.y, min.z), Vec3::new(0.0, 0.0, d.z), Vec3::new(0.0, d.y, 0.0)),
+        (Vec3::new(min.x, max.y, max.z), Vec3::new(d.x, 0.0, 0.0), Vec3::new(0.0, 0.0, -d.z)),
+        (Vec3::new(min.x, min.y, min.z), Vec3::new(d.x, 0.0, 0.0), Vec3::new(0.0, 0.0, d.z)),
+        (Vec3::new(min.x, min.y, max.z), Vec3::new(d.x, 0.0, 0.0), Vec3::new(0.0, d.y, 0.0)),
+        (Vec3::new(max.x, min.y, min.z), Vec3::new(-d.x, 0.0, 0.0), Vec3::new(0.0, d.y, 0.0)),
     ];
     for (origin, eu, ev) in faces {
-        add_grid(
-            b,
-            origin,
-            eu,
-            ev,
-            cells(eu.length()),
-            cells(ev.length()),
-            1.0,
-        );
+        add_grid(b, origin, eu, ev, cells(eu.length()), cells(ev.length()), 1.0);
     }
 }
 
@@ -199,24 +146,14 @@ pub(crate) fn add_box(b: &mut MeshBuilder, min: Vec3, max: Vec3, cell: f32) {
 /// `2 * stacks * slices` triangles: the quads touching the poles keep both triangles
 /// (one of them degenerate), which is how TiledLighting11 counts its grid objects
 /// (484 / 1764 / 3600 triangles for 11 / 21 / 30 stacks).
-pub(crate) fn add_uv_sphere(
-    b: &mut MeshBuilder,
-    center: Vec3,
-    radius: f32,
-    stacks: u32,
-    slices: u32,
-) {
+pub(crate) fn add_uv_sphere(b: &mut MeshBuilder, center: Vec3, radius: f32, stacks: u32, slices: u32) {
     let base = b.positions.len() as u32;
     for i in 0..=stacks {
         let phi = PI * i as f32 / stacks as f32;
         for j in 0..=slices {
             let theta = TAU * j as f32 / slices as f32;
             let n = Vec3::new(phi.sin() * theta.sin(), phi.cos(), phi.sin() * theta.cos());
-            b.vertex(
-                center + n * radius,
-                n,
-                Vec2::new(j as f32 / slices as f32, i as f32 / stacks as f32),
-            );
+            b.vertex(center + n * radius, n, Vec2::new(j as f32 / slices as f32, i as f32 / stacks as f32));
         }
     }
     let row = slices + 1;
@@ -236,13 +173,7 @@ pub(crate) fn add_uv_sphere(
 /// segments meeting at less than `smooth_degrees` share a smoothed normal; sharper
 /// corners get a crease. Rings on the axis (radius 0) emit one triangle per step, not a
 /// degenerate pair.
-pub(crate) fn add_lathe(
-    b: &mut MeshBuilder,
-    center: Vec3,
-    profile: &[Vec2],
-    segments: u32,
-    smooth_degrees: f32,
-) {
+pub(crate) fn add_lathe(b: &mut MeshBuilder, center: Vec3, profile: &[Vec2], segments: u32, smooth_degrees: f32) {
     let seg_normal = |k: usize| {
         let d = profile[k + 1] - profile[k];
         Vec2::new(d.y, -d.x).normalize_or(Vec2::X)
@@ -255,25 +186,13 @@ pub(crate) fn add_lathe(
             n1
         }
     };
-    let total: f32 = profile
-        .windows(2)
-        .map(|w| (w[1] - w[0]).length())
-        .sum::<f32>()
-        .max(1e-6);
+    let total: f32 = profile.windows(2).map(|w| (w[1] - w[0]).length()).sum::<f32>().max(1e-6);
     let mut travelled = 0.0;
     for k in 0..profile.len().saturating_sub(1) {
         let (p0, p1) = (profile[k], profile[k + 1]);
         let nk = seg_normal(k);
-        let n_start = if k > 0 {
-            joined(seg_normal(k - 1), nk)
-        } else {
-            nk
-        };
-        let n_end = if k + 2 < profile.len() {
-            joined(seg_normal(k + 1), nk)
-        } else {
-            nk
-        };
+        let n_start = if k > 0 { joined(seg_normal(k - 1), nk) } else { nk };
+        let n_end = if k + 2 < profile.len() { joined(seg_normal(k + 1), nk) } else { nk };
         let v0 = travelled / total;
         travelled += (p1 - p0).length();
         let v1 = travelled / total;
@@ -327,19 +246,11 @@ pub(crate) fn add_arch_wall(b: &mut MeshBuilder, inner: f32, outer: f32, depth: 
         .collect();
     // (z, y) of the opening and of the wall outline along the same rays.
     let inner_pts: Vec<Vec2> = dirs.iter().map(|d| *d * inner).collect();
-    let outer_pts: Vec<Vec2> = dirs
-        .iter()
-        .map(|d| *d * (outer / d.x.abs().max(d.y)))
-        .collect();
+    let outer_pts: Vec<Vec2> = dirs.iter().map(|d| *d * (outer / d.x.abs().max(d.y))).collect();
     let at = |x: f32, zy: Vec2| Vec3::new(x, zy.y, zy.x);
     for (x, n) in [(hx, Vec3::X), (-hx, Vec3::NEG_X)] {
         for k in 0..steps as usize {
-            let quad = [
-                inner_pts[k],
-                outer_pts[k],
-                outer_pts[k + 1],
-                inner_pts[k + 1],
-            ];
+            let quad = [inner_pts[k], outer_pts[k], outer_pts[k + 1], inner_pts[k + 1]];
             let uvs = quad.map(|zy| Vec2::new(zy.x, -zy.y));
             b.flat_quad(quad.map(|zy| at(x, zy)), n, uvs);
         }
@@ -362,32 +273,17 @@ pub(crate) fn add_arch_wall(b: &mut MeshBuilder, inner: f32, outer: f32, depth: 
     let (o, i) = (outer, inner);
     face(
         b,
-        [
-            at(hx, Vec2::new(o, 0.0)),
-            at(-hx, Vec2::new(o, 0.0)),
-            at(-hx, Vec2::new(o, o)),
-            at(hx, Vec2::new(o, o)),
-        ],
+        [at(hx, Vec2::new(o, 0.0)), at(-hx, Vec2::new(o, 0.0)), at(-hx, Vec2::new(o, o)), at(hx, Vec2::new(o, o))],
         Vec3::Z,
     );
     face(
         b,
-        [
-            at(hx, Vec2::new(-o, 0.0)),
-            at(-hx, Vec2::new(-o, 0.0)),
-            at(-hx, Vec2::new(-o, o)),
-            at(hx, Vec2::new(-o, o)),
-        ],
+        [at(hx, Vec2::new(-o, 0.0)), at(-hx, Vec2::new(-o, 0.0)), at(-hx, Vec2::new(-o, o)), at(hx, Vec2::new(-o, o))],
         Vec3::NEG_Z,
     );
     face(
         b,
-        [
-            at(hx, Vec2::new(-o, o)),
-            at(-hx, Vec2::new(-o, o)),
-            at(-hx, Vec2::new(o, o)),
-            at(hx, Vec2::new(o, o)),
-        ],
+        [at(hx, Vec2::new(-o, o)), at(-hx, Vec2::new(-o, o)), at(-hx, Vec2::new(o, o)), at(hx, Vec2::new(o, o))],
         Vec3::Y,
     );
     for (z0, z1) in [(i, o), (-o, -i)] {
@@ -447,27 +343,16 @@ pub(crate) mod tests {
         assert_eq!(mesh.indices.len() % 3, 0, "{}", mesh.name);
         for (i, nrm) in mesh.normals.iter().enumerate() {
             let len = Vec3::from_array(*nrm).length();
-            assert!(
-                (len - 1.0).abs() < 1e-4,
-                "{}: normal {i} has length {len}",
-                mesh.name
-            );
+            assert!((len - 1.0).abs() < 1e-4, "{}: normal {i} has length {len}", mesh.name);
         }
-        assert!(
-            mesh.indices.iter().all(|&i| (i as usize) < n),
-            "{}: index out of range",
-            mesh.name
-        );
+        assert!(mesh.indices.iter().all(|&i| (i as usize) < n), "{}: index out of range", mesh.name);
         for (t, tri) in mesh.indices.chunks_exact(3).enumerate() {
             let p = [tri[0], tri[1], tri[2]].map(|i| Vec3::from_array(mesh.positions[i as usize]));
             let geometric = (p[1] - p[0]).cross(p[2] - p[0]);
             if geometric.length() < 1e-7 {
                 continue;
             }
-            let shading: Vec3 = tri
-                .iter()
-                .map(|&i| Vec3::from_array(mesh.normals[i as usize]))
-                .sum();
+            let shading: Vec3 = tri.iter().map(|&i| Vec3::from_array(mesh.normals[i as usize])).sum();
             assert!(
                 geometric.normalize().dot(shading.normalize()) > 0.2,
                 "{}: triangle {t} faces away from its normals",
@@ -489,12 +374,7 @@ pub(crate) mod tests {
     #[test]
     fn shapes_are_consistent() {
         let mut b = MeshBuilder::new();
-        add_box(
-            &mut b,
-            Vec3::new(-1.0, 0.0, -2.0),
-            Vec3::new(1.0, 3.0, 2.0),
-            0.5,
-        );
+        add_box(&mut b, Vec3::new(-1.0, 0.0, -2.0), Vec3::new(1.0, 3.0, 2.0), 0.5);
         assert_eq!(b.triangle_count(), 2 * 2 * (4 * 6 + 4 * 8 + 6 * 8));
         check_mesh(&b.build("box"));
 

@@ -19,9 +19,7 @@ mod model;
 mod procedural;
 
 pub use error::SceneError;
-pub use lights::{
-    random_lights, LightOptions, DEFAULT_INTENSITY_RANGE, DEFAULT_LIGHT_THRESHOLD, MAX_LIGHTS,
-};
+pub use lights::{random_lights, LightOptions, DEFAULT_INTENSITY_RANGE, DEFAULT_LIGHT_THRESHOLD, MAX_LIGHTS};
 pub use loader::load_gltf;
 pub use model::{Aabb, AlphaMode, CameraDesc, Instance, Material, Mesh, Scene, Texture};
 pub use procedural::{default_scene, DefaultSceneOptions, GridDensity, MAX_GRID_OBJECTS};

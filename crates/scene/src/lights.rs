@@ -93,10 +93,7 @@ fn hue_color(h: f32) -> Vec3 {
 fn check_options(bounds: &Aabb, opts: &LightOptions) -> Result<(), SceneError> {
     let requested = u64::from(opts.num_point) + u64::from(opts.num_spot);
     if requested > MAX_LIGHTS {
-        return Err(SceneError::TooManyLights {
-            requested,
-            limit: MAX_LIGHTS,
-        });
+        return Err(SceneError::TooManyLights { requested, limit: MAX_LIGHTS });
     }
     if requested == 0 {
         return Ok(());
@@ -125,13 +122,7 @@ fn check_options(bounds: &Aabb, opts: &LightOptions) -> Result<(), SceneError> {
 /// Draws a position, colour and intensity. Intensities of 0 would give a light no
 /// radius, so the draw is kept above a tiny floor.
 fn draw_common(rng: &mut Pcg64, min: Vec3, size: Vec3, range: (f32, f32)) -> (Vec3, Vec3, f32) {
-    let position = min
-        + size
-            * Vec3::new(
-                rng.random::<f32>(),
-                rng.random::<f32>(),
-                rng.random::<f32>(),
-            );
+    let position = min + size * Vec3::new(rng.random::<f32>(), rng.random::<f32>(), rng.random::<f32>());
     let color = hue_color(rng.random::<f32>());
     let intensity = (range.0 + (range.1 - range.0) * rng.random::<f32>()).max(range.1 * 1e-6);
     (position, color, intensity)
@@ -154,9 +145,7 @@ pub fn random_lights(bounds: &Aabb, opts: &LightOptions) -> Result<Vec<Light>, S
     }
     let margin = bounds.size() * BOUNDS_MARGIN;
     let (min, size) = (bounds.min + margin, bounds.size() - 2.0 * margin);
-    let wrap = |e: tiledlight_cull::CullError| {
-        SceneError::InvalidArgument(format!("cannot build a random light: {e}"))
-    };
+    let wrap = |e: tiledlight_cull::CullError| SceneError::InvalidArgument(format!("cannot build a random light: {e}"));
 
     let mut rng = stream_rng(opts.seed, POINT_STREAM);
     for _ in 0..opts.num_point {
@@ -172,15 +161,9 @@ pub fn random_lights(bounds: &Aabb, opts: &LightOptions) -> Result<Vec<Light>, S
         let cos_tilt = cos_max_tilt + (1.0 - cos_max_tilt) * rng.random::<f32>();
         let sin_tilt = (1.0 - cos_tilt * cos_tilt).max(0.0).sqrt();
         let azimuth = TAU * rng.random::<f32>();
-        let direction = Vec3::new(
-            sin_tilt * azimuth.cos(),
-            -cos_tilt,
-            sin_tilt * azimuth.sin(),
-        );
+        let direction = Vec3::new(sin_tilt * azimuth.cos(), -cos_tilt, sin_tilt * azimuth.sin());
         let outer = (15.0 + 30.0 * rng.random::<f32>()).to_radians();
-        lights.push(
-            Light::spot(p, direction, c, i, 0.7 * outer, outer, opts.threshold).map_err(wrap)?,
-        );
+        lights.push(Light::spot(p, direction, c, i, 0.7 * outer, outer, opts.threshold).map_err(wrap)?);
     }
     Ok(lights)
 }
@@ -196,12 +179,7 @@ mod tests {
 
     #[test]
     fn deterministic_and_exact_counts() {
-        let opts = LightOptions {
-            num_point: 300,
-            num_spot: 200,
-            seed: 7,
-            ..LightOptions::default()
-        };
+        let opts = LightOptions { num_point: 300, num_spot: 200, seed: 7, ..LightOptions::default() };
         let a = random_lights(&courtyard(), &opts).unwrap();
         let b = random_lights(&courtyard(), &opts).unwrap();
         assert_eq!(a, b);
@@ -215,45 +193,15 @@ mod tests {
     #[test]
     fn default_lights_fit_the_courtyard() {
         let bounds = courtyard();
-        let lights = random_lights(
-            &bounds,
-            &LightOptions {
-                num_spot: 256,
-                ..LightOptions::default()
-            },
-        )
-        .unwrap();
+        let lights = random_lights(&bounds, &LightOptions { num_spot: 256, ..LightOptions::default() }).unwrap();
         assert_eq!(lights.len(), 1024 + 256);
-        let inner = Aabb::new(
-            bounds.min + bounds.size() * 0.05 - 1e-4,
-            bounds.max - bounds.size() * 0.05 + 1e-4,
-        );
+        let inner = Aabb::new(bounds.min + bounds.size() * 0.05 - 1e-4, bounds.max - bounds.size() * 0.05 + 1e-4);
         for l in &lights {
-            assert!(
-                inner.contains(l.position),
-                "{} outside {inner:?}",
-                l.position
-            );
-            assert!(
-                (l.color.max_element() - 1.0).abs() < 1e-6 && l.color.min_element() >= 0.0,
-                "{}",
-                l.color
-            );
-            assert!(
-                l.radius >= 1.5 - 1e-4 && l.radius <= 4.0 + 1e-4,
-                "radius {}",
-                l.radius
-            );
-            if let LightKind::Spot {
-                direction,
-                inner_angle,
-                outer_angle,
-            } = l.kind
-            {
-                assert!(
-                    direction.dot(Vec3::NEG_Y) >= 60f32.to_radians().cos() - 1e-5,
-                    "{direction}"
-                );
+            assert!(inner.contains(l.position), "{} outside {inner:?}", l.position);
+            assert!((l.color.max_element() - 1.0).abs() < 1e-6 && l.color.min_element() >= 0.0, "{}", l.color);
+            assert!(l.radius >= 1.5 - 1e-4 && l.radius <= 4.0 + 1e-4, "radius {}", l.radius);
+            if let LightKind::Spot { direction, inner_angle, outer_angle } = l.kind {
+                assert!(direction.dot(Vec3::NEG_Y) >= 60f32.to_radians().cos() - 1e-5, "{direction}");
                 assert!((direction.length() - 1.0).abs() < 1e-5);
                 let deg = outer_angle.to_degrees();
                 assert!((15.0 - 1e-3..=45.0 + 1e-3).contains(&deg), "outer {deg}");
@@ -262,140 +210,48 @@ mod tests {
         }
         // Hues are spread: some light is mostly red, some mostly green, some mostly blue.
         for axis in 0..3 {
-            assert!(lights
-                .iter()
-                .any(|l| l.color[axis] == 1.0 && l.color.min_element() < 0.2));
+            assert!(lights.iter().any(|l| l.color[axis] == 1.0 && l.color.min_element() < 0.2));
         }
     }
 
     #[test]
     fn point_and_spot_streams_are_independent() {
         let bounds = courtyard();
-        let base = LightOptions {
-            num_point: 64,
-            num_spot: 0,
-            seed: 3,
-            ..LightOptions::default()
-        };
+        let base = LightOptions { num_point: 64, num_spot: 0, seed: 3, ..LightOptions::default() };
         let points_only = random_lights(&bounds, &base).unwrap();
-        let with_spots = random_lights(
-            &bounds,
-            &LightOptions {
-                num_spot: 50,
-                ..base
-            },
-        )
-        .unwrap();
+        let with_spots = random_lights(&bounds, &LightOptions { num_spot: 50, ..base }).unwrap();
         assert_eq!(points_only[..], with_spots[..64]);
-        let more_points = random_lights(
-            &bounds,
-            &LightOptions {
-                num_point: 100,
-                num_spot: 50,
-                ..base
-            },
-        )
-        .unwrap();
-        assert_eq!(
-            with_spots[64..],
-            more_points[100..],
-            "spots do not depend on the point count"
-        );
-        assert_eq!(
-            points_only[..],
-            more_points[..64],
-            "more points extend the same sequence"
-        );
+        let more_points = random_lights(&bounds, &LightOptions { num_point: 100, num_spot: 50, ..base }).unwrap();
+        assert_eq!(with_spots[64..], more_points[100..], "spots do not depend on the point count");
+        assert_eq!(points_only[..], more_points[..64], "more points extend the same sequence");
     }
 
     #[test]
     fn counts_and_arguments_are_checked() {
         let bounds = courtyard();
-        let err = random_lights(
-            &bounds,
-            &LightOptions {
-                num_point: 1 << 20,
-                num_spot: 1,
-                ..LightOptions::default()
-            },
-        )
-        .unwrap_err();
-        assert!(matches!(
-            err,
-            SceneError::TooManyLights {
-                requested: 1_048_577,
-                limit: 1_048_576
-            }
-        ));
+        let err = random_lights(&bounds, &LightOptions { num_point: 1 << 20, num_spot: 1, ..LightOptions::default() })
+            .unwrap_err();
+        assert!(matches!(err, SceneError::TooManyLights { requested: 1_048_577, limit: 1_048_576 }));
         assert!(err.to_string().contains("1048576"), "{err}");
-        let none = LightOptions {
-            num_point: 0,
-            num_spot: 0,
-            ..LightOptions::default()
-        };
+        let none = LightOptions { num_point: 0, num_spot: 0, ..LightOptions::default() };
         assert!(random_lights(&bounds, &none).unwrap().is_empty());
         assert!(random_lights(&Aabb::empty(), &none).unwrap().is_empty());
-        let one = LightOptions {
-            num_point: 1,
-            ..none
-        };
+        let one = LightOptions { num_point: 1, ..none };
         assert!(random_lights(&Aabb::empty(), &one).is_err());
-        assert!(random_lights(
-            &bounds,
-            &LightOptions {
-                threshold: 0.0,
-                ..one
-            }
-        )
-        .is_err());
-        assert!(random_lights(
-            &bounds,
-            &LightOptions {
-                threshold: f32::NAN,
-                ..one
-            }
-        )
-        .is_err());
-        assert!(random_lights(
-            &bounds,
-            &LightOptions {
-                intensity_range: (2.0, 1.0),
-                ..one
-            }
-        )
-        .is_err());
-        assert!(random_lights(
-            &bounds,
-            &LightOptions {
-                intensity_range: (0.0, f32::INFINITY),
-                ..one
-            }
-        )
-        .is_err());
+        assert!(random_lights(&bounds, &LightOptions { threshold: 0.0, ..one }).is_err());
+        assert!(random_lights(&bounds, &LightOptions { threshold: f32::NAN, ..one }).is_err());
+        assert!(random_lights(&bounds, &LightOptions { intensity_range: (2.0, 1.0), ..one }).is_err());
+        assert!(random_lights(&bounds, &LightOptions { intensity_range: (0.0, f32::INFINITY), ..one }).is_err());
         // A flat box (a plane scene) still works.
         let flat = Aabb::new(Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 1.0));
-        assert_eq!(
-            random_lights(
-                &flat,
-                &LightOptions {
-                    num_point: 10,
-                    ..none
-                }
-            )
-            .unwrap()
-            .len(),
-            10
-        );
+        assert_eq!(random_lights(&flat, &LightOptions { num_point: 10, ..none }).unwrap().len(), 10);
     }
 
     #[test]
     fn hues_are_saturated() {
         for i in 0..60 {
             let c = hue_color(i as f32 / 60.0);
-            assert!(
-                (c.max_element() - 1.0).abs() < 1e-6 && c.min_element().abs() < 1e-6,
-                "{c}"
-            );
+            assert!((c.max_element() - 1.0).abs() < 1e-6 && c.min_element().abs() < 1e-6, "{c}");
         }
         assert_eq!(hue_color(0.0), Vec3::new(1.0, 0.0, 0.0));
         assert_eq!(hue_color(1.0 / 3.0), Vec3::new(0.0, 1.0, 0.0));

@@ -155,10 +155,7 @@ impl Aabb {
 
     /// The empty box, the identity of [`Aabb::union`].
     pub fn empty() -> Self {
-        Self {
-            min: Vec3::INFINITY,
-            max: Vec3::NEG_INFINITY,
-        }
+        Self { min: Vec3::INFINITY, max: Vec3::NEG_INFINITY }
     }
 
     /// The smallest box containing all `points` (empty for none).
@@ -178,10 +175,7 @@ impl Aabb {
 
     /// The smallest box containing both.
     pub fn union(&self, other: &Aabb) -> Aabb {
-        Aabb {
-            min: self.min.min(other.min),
-            max: self.max.max(other.max),
-        }
+        Aabb { min: self.min.min(other.min), max: self.max.max(other.max) }
     }
 
     /// Centre point (meaningless for an empty box).
@@ -253,10 +247,7 @@ fn finite3(v: &[f32; 3]) -> bool {
 
 impl Scene {
     fn invalid(&self, problem: String) -> SceneError {
-        SceneError::InvalidScene {
-            scene: self.name.clone(),
-            problem,
-        }
+        SceneError::InvalidScene { scene: self.name.clone(), problem }
     }
 
     /// Checks that the scene is consistent: no NaN or infinity anywhere, every index in
@@ -273,10 +264,7 @@ impl Scene {
         for (i, t) in self.textures.iter().enumerate() {
             let expected = u64::from(t.width) * u64::from(t.height) * 4;
             if t.width == 0 || t.height == 0 {
-                return Err(self.invalid(format!(
-                    "texture {i} '{}' has size {}x{}",
-                    t.name, t.width, t.height
-                )));
+                return Err(self.invalid(format!("texture {i} '{}' has size {}x{}", t.name, t.width, t.height)));
             }
             if t.rgba8.len() as u64 != expected {
                 return Err(self.invalid(format!(
@@ -314,14 +302,10 @@ impl Scene {
             }
         }
         for (i, l) in self.lights.iter().enumerate() {
-            let finite = l.position.is_finite()
-                && l.color.is_finite()
-                && l.intensity.is_finite()
-                && l.radius.is_finite();
+            let finite =
+                l.position.is_finite() && l.color.is_finite() && l.intensity.is_finite() && l.radius.is_finite();
             if !finite {
-                return Err(self.invalid(format!(
-                    "light {i} has a non-finite position, colour, intensity or radius"
-                )));
+                return Err(self.invalid(format!("light {i} has a non-finite position, colour, intensity or radius")));
             }
             if l.radius <= 0.0 || l.intensity < 0.0 || l.color.min_element() < 0.0 {
                 return Err(self.invalid(format!(
@@ -329,21 +313,12 @@ impl Scene {
                     l.radius, l.intensity, l.color
                 )));
             }
-            if let LightKind::Spot {
-                direction,
-                inner_angle,
-                outer_angle,
-            } = l.kind
-            {
+            if let LightKind::Spot { direction, inner_angle, outer_angle } = l.kind {
                 if !direction.is_finite() || !inner_angle.is_finite() || !outer_angle.is_finite() {
-                    return Err(self.invalid(format!(
-                        "spot light {i} has a non-finite direction or angle"
-                    )));
+                    return Err(self.invalid(format!("spot light {i} has a non-finite direction or angle")));
                 }
                 if (direction.length() - 1.0).abs() > NORMAL_LENGTH_TOLERANCE {
-                    return Err(self.invalid(format!(
-                        "spot light {i} direction {direction} is not unit length"
-                    )));
+                    return Err(self.invalid(format!("spot light {i} direction {direction} is not unit length")));
                 }
             }
         }
@@ -367,33 +342,21 @@ impl Scene {
             )));
         }
         if let Some(v) = mesh.positions.iter().position(|p| !finite3(p)) {
-            return Err(self.invalid(format!(
-                "mesh {i} '{name}': position {v} is not finite ({:?})",
-                mesh.positions[v]
-            )));
+            return Err(
+                self.invalid(format!("mesh {i} '{name}': position {v} is not finite ({:?})", mesh.positions[v]))
+            );
         }
         for (v, nrm) in mesh.normals.iter().enumerate() {
             if !finite3(nrm) {
-                return Err(self.invalid(format!(
-                    "mesh {i} '{name}': normal {v} is not finite ({nrm:?})"
-                )));
+                return Err(self.invalid(format!("mesh {i} '{name}': normal {v} is not finite ({nrm:?})")));
             }
             let len = Vec3::from_array(*nrm).length();
             if (len - 1.0).abs() > NORMAL_LENGTH_TOLERANCE {
-                return Err(self.invalid(format!(
-                    "mesh {i} '{name}': normal {v} has length {len}, not 1"
-                )));
+                return Err(self.invalid(format!("mesh {i} '{name}': normal {v} has length {len}, not 1")));
             }
         }
-        if let Some(v) = mesh
-            .uvs
-            .iter()
-            .position(|uv| !uv.iter().all(|c| c.is_finite()))
-        {
-            return Err(self.invalid(format!(
-                "mesh {i} '{name}': uv {v} is not finite ({:?})",
-                mesh.uvs[v]
-            )));
+        if let Some(v) = mesh.uvs.iter().position(|uv| !uv.iter().all(|c| c.is_finite())) {
+            return Err(self.invalid(format!("mesh {i} '{name}': uv {v} is not finite ({:?})", mesh.uvs[v])));
         }
         if !mesh.indices.len().is_multiple_of(3) {
             return Err(self.invalid(format!(
@@ -412,9 +375,8 @@ impl Scene {
 
     fn validate_material(&self, i: usize, m: &Material) -> Result<(), SceneError> {
         let name = &m.name;
-        let factors_finite = m.base_color.iter().all(|c| c.is_finite())
-            && m.roughness.is_finite()
-            && m.metallic.is_finite();
+        let factors_finite =
+            m.base_color.iter().all(|c| c.is_finite()) && m.roughness.is_finite() && m.metallic.is_finite();
         if !factors_finite {
             return Err(self.invalid(format!(
                 "material {i} '{name}' has a non-finite factor (base colour {:?}, roughness {}, metallic {})",
@@ -422,10 +384,7 @@ impl Scene {
             )));
         }
         let in_unit = |x: f32| (0.0..=1.0).contains(&x);
-        if !m.base_color.iter().all(|&c| in_unit(c))
-            || !in_unit(m.roughness)
-            || !in_unit(m.metallic)
-        {
+        if !m.base_color.iter().all(|&c| in_unit(c)) || !in_unit(m.roughness) || !in_unit(m.metallic) {
             return Err(self.invalid(format!(
                 "material {i} '{name}' has a factor outside [0, 1] (base colour {:?}, roughness {}, metallic {})",
                 m.base_color, m.roughness, m.metallic
@@ -433,9 +392,7 @@ impl Scene {
         }
         if let AlphaMode::Mask { cutoff } = m.alpha_mode {
             if !cutoff.is_finite() || !in_unit(cutoff) {
-                return Err(self.invalid(format!(
-                    "material {i} '{name}' has alpha cutoff {cutoff}, not in [0, 1]"
-                )));
+                return Err(self.invalid(format!("material {i} '{name}' has alpha cutoff {cutoff}, not in [0, 1]")));
             }
         }
         if let Some(t) = m.base_color_texture {
@@ -450,11 +407,8 @@ impl Scene {
     }
 
     fn validate_camera(&self, c: &CameraDesc) -> Result<(), SceneError> {
-        let finite = c.eye.is_finite()
-            && c.target.is_finite()
-            && c.up.is_finite()
-            && c.fov_y.is_finite()
-            && c.near.is_finite();
+        let finite =
+            c.eye.is_finite() && c.target.is_finite() && c.up.is_finite() && c.fov_y.is_finite() && c.near.is_finite();
         if !finite || c.far.is_some_and(|f| !f.is_finite()) {
             return Err(self.invalid(format!("camera has a non-finite parameter: {c:?}")));
         }
@@ -469,21 +423,14 @@ impl Scene {
             return Err(self.invalid(format!("camera fov_y {} is not in (0, pi)", c.fov_y)));
         }
         if c.near <= 0.0 || c.far.is_some_and(|f| f <= c.near) {
-            return Err(self.invalid(format!(
-                "camera near {} must be positive and below far {:?}",
-                c.near, c.far
-            )));
+            return Err(self.invalid(format!("camera near {} must be positive and below far {:?}", c.near, c.far)));
         }
         Ok(())
     }
 
     /// Triangles drawn: each instance's mesh counted once per instance.
     pub fn triangle_count(&self) -> u64 {
-        self.instances
-            .iter()
-            .filter_map(|inst| self.meshes.get(inst.mesh))
-            .map(Mesh::triangle_count)
-            .sum()
+        self.instances.iter().filter_map(|inst| self.meshes.get(inst.mesh)).map(Mesh::triangle_count).sum()
     }
 
     /// World-space bounds of all instances (each mesh's box transformed by its
@@ -503,20 +450,16 @@ impl Scene {
 
     /// True when some instance is drawn with an alpha-masked material.
     pub fn has_alpha_mask(&self) -> bool {
-        self.instance_materials()
-            .any(|m| matches!(m.alpha_mode, AlphaMode::Mask { .. }))
+        self.instance_materials().any(|m| matches!(m.alpha_mode, AlphaMode::Mask { .. }))
     }
 
     /// True when some instance is drawn with an alpha-blended material.
     pub fn has_blend(&self) -> bool {
-        self.instance_materials()
-            .any(|m| m.alpha_mode == AlphaMode::Blend)
+        self.instance_materials().any(|m| m.alpha_mode == AlphaMode::Blend)
     }
 
     fn instance_materials(&self) -> impl Iterator<Item = &Material> + '_ {
-        self.instances
-            .iter()
-            .filter_map(|inst| self.materials.get(inst.material))
+        self.instances.iter().filter_map(|inst| self.materials.get(inst.material))
     }
 }
 
@@ -536,12 +479,7 @@ mod tests {
             name: "test".into(),
             meshes: vec![mesh],
             materials: vec![Material::default()],
-            textures: vec![Texture {
-                name: "t".into(),
-                width: 2,
-                height: 1,
-                rgba8: vec![255; 8],
-            }],
+            textures: vec![Texture { name: "t".into(), width: 2, height: 1, rgba8: vec![255; 8] }],
             instances: vec![Instance {
                 mesh: 0,
                 material: 0,
@@ -567,14 +505,8 @@ mod tests {
         let mut s = triangle_scene();
         f(&mut s);
         let err = s.validate().expect_err(needle).to_string();
-        assert!(
-            err.contains(needle),
-            "message {err:?} should contain {needle:?}"
-        );
-        assert!(
-            err.contains("scene 'test'"),
-            "message {err:?} should name the scene"
-        );
+        assert!(err.contains(needle), "message {err:?} should contain {needle:?}");
+        assert!(err.contains("scene 'test'"), "message {err:?} should name the scene");
     }
 
     #[test]
@@ -582,82 +514,37 @@ mod tests {
         let s = triangle_scene();
         s.validate().unwrap();
         assert_eq!(s.triangle_count(), 1);
-        assert_eq!(
-            s.bounds,
-            Aabb::new(Vec3::new(0.0, 0.0, -5.0), Vec3::new(1.0, 1.0, -5.0))
-        );
+        assert_eq!(s.bounds, Aabb::new(Vec3::new(0.0, 0.0, -5.0), Vec3::new(1.0, 1.0, -5.0)));
         assert!(!s.has_spot_lights() && !s.has_alpha_mask() && !s.has_blend());
     }
 
     #[test]
     fn validate_catches_bad_data() {
         rejects(|s| s.instances.clear(), "no instances");
-        rejects(
-            |s| s.meshes[0].positions[1][0] = f32::NAN,
-            "mesh 0 'tri': position 1 is not finite",
-        );
-        rejects(
-            |s| s.meshes[0].positions[2][2] = f32::INFINITY,
-            "position 2 is not finite",
-        );
-        rejects(
-            |s| s.meshes[0].normals[0][1] = f32::NAN,
-            "mesh 0 'tri': normal 0 is not finite",
-        );
-        rejects(
-            |s| s.meshes[0].normals[0] = [0.0, 0.0, 2.0],
-            "normal 0 has length 2",
-        );
-        rejects(
-            |s| s.meshes[0].uvs[2][0] = f32::NAN,
-            "mesh 0 'tri': uv 2 is not finite",
-        );
+        rejects(|s| s.meshes[0].positions[1][0] = f32::NAN, "mesh 0 'tri': position 1 is not finite");
+        rejects(|s| s.meshes[0].positions[2][2] = f32::INFINITY, "position 2 is not finite");
+        rejects(|s| s.meshes[0].normals[0][1] = f32::NAN, "mesh 0 'tri': normal 0 is not finite");
+        rejects(|s| s.meshes[0].normals[0] = [0.0, 0.0, 2.0], "normal 0 has length 2");
+        rejects(|s| s.meshes[0].uvs[2][0] = f32::NAN, "mesh 0 'tri': uv 2 is not finite");
         rejects(
             |s| {
                 s.meshes[0].uvs.pop();
             },
             "3 positions but 3 normals and 2 uvs",
         );
-        rejects(
-            |s| s.meshes[0].indices[1] = 3,
-            "mesh 0 'tri': index 1 is 3 but the mesh has 3 vertices",
-        );
-        rejects(
-            |s| s.meshes[0].indices.push(0),
-            "4 indices, not a multiple of 3",
-        );
-        rejects(
-            |s| s.meshes[0].indices.clear(),
-            "mesh 0 'tri' has no triangles",
-        );
-        rejects(
-            |s| s.instances[0].mesh = 1,
-            "instance 0 uses mesh 1 but there are 1 meshes",
-        );
-        rejects(
-            |s| s.instances[0].material = 7,
-            "instance 0 uses material 7",
-        );
+        rejects(|s| s.meshes[0].indices[1] = 3, "mesh 0 'tri': index 1 is 3 but the mesh has 3 vertices");
+        rejects(|s| s.meshes[0].indices.push(0), "4 indices, not a multiple of 3");
+        rejects(|s| s.meshes[0].indices.clear(), "mesh 0 'tri' has no triangles");
+        rejects(|s| s.instances[0].mesh = 1, "instance 0 uses mesh 1 but there are 1 meshes");
+        rejects(|s| s.instances[0].material = 7, "instance 0 uses material 7");
         rejects(
             |s| s.instances[0].transform.w_axis.x = f32::NAN,
             "instance 0 (mesh 0 'tri') has a non-finite transform",
         );
-        rejects(
-            |s| s.materials[0].roughness = f32::NAN,
-            "material 0 'default' has a non-finite factor",
-        );
-        rejects(
-            |s| s.materials[0].base_color[3] = f32::INFINITY,
-            "material 0 'default' has a non-finite factor",
-        );
-        rejects(
-            |s| s.materials[0].metallic = 1.5,
-            "material 0 'default' has a factor outside [0, 1]",
-        );
-        rejects(
-            |s| s.materials[0].alpha_mode = AlphaMode::Mask { cutoff: f32::NAN },
-            "alpha cutoff NaN",
-        );
+        rejects(|s| s.materials[0].roughness = f32::NAN, "material 0 'default' has a non-finite factor");
+        rejects(|s| s.materials[0].base_color[3] = f32::INFINITY, "material 0 'default' has a non-finite factor");
+        rejects(|s| s.materials[0].metallic = 1.5, "material 0 'default' has a factor outside [0, 1]");
+        rejects(|s| s.materials[0].alpha_mode = AlphaMode::Mask { cutoff: f32::NAN }, "alpha cutoff NaN");
         rejects(
             |s| s.materials[0].base_color_texture = Some(1),
             "material 0 'default' uses texture 1 but there are 1 textures",
@@ -669,37 +556,19 @@ mod tests {
             "texture 0 't' is 2x1 so needs 8 bytes of RGBA8, but has 7",
         );
         rejects(|s| s.textures[0].width = 0, "texture 0 't' has size 0x1");
-        rejects(
-            |s| s.lights[0].position.x = f32::NAN,
-            "light 0 has a non-finite",
-        );
-        rejects(
-            |s| s.lights[0].intensity = f32::INFINITY,
-            "light 0 has a non-finite",
-        );
+        rejects(|s| s.lights[0].position.x = f32::NAN, "light 0 has a non-finite");
+        rejects(|s| s.lights[0].intensity = f32::INFINITY, "light 0 has a non-finite");
         rejects(|s| s.lights[0].radius = 0.0, "light 0 has radius 0");
         rejects(
             |s| {
-                s.lights[0].kind = LightKind::Spot {
-                    direction: Vec3::new(f32::NAN, 0.0, 0.0),
-                    inner_angle: 0.1,
-                    outer_angle: 0.2,
-                }
+                s.lights[0].kind =
+                    LightKind::Spot { direction: Vec3::new(f32::NAN, 0.0, 0.0), inner_angle: 0.1, outer_angle: 0.2 }
             },
             "spot light 0 has a non-finite direction",
         );
-        rejects(
-            |s| s.camera.as_mut().unwrap().fov_y = f32::NAN,
-            "camera has a non-finite parameter",
-        );
-        rejects(
-            |s| s.camera.as_mut().unwrap().target = Vec3::ZERO,
-            "camera eye",
-        );
-        rejects(
-            |s| s.camera.as_mut().unwrap().far = Some(0.05),
-            "camera near 0.1 must be positive and below far",
-        );
+        rejects(|s| s.camera.as_mut().unwrap().fov_y = f32::NAN, "camera has a non-finite parameter");
+        rejects(|s| s.camera.as_mut().unwrap().target = Vec3::ZERO, "camera eye");
+        rejects(|s| s.camera.as_mut().unwrap().far = Some(0.05), "camera near 0.1 must be positive and below far");
     }
 
     #[test]
@@ -723,12 +592,8 @@ mod tests {
     #[test]
     fn helpers_see_spots_and_alpha() {
         let mut s = triangle_scene();
-        s.lights
-            .push(Light::spot(Vec3::ZERO, Vec3::NEG_Y, Vec3::ONE, 1.0, 0.1, 0.2, 0.01).unwrap());
-        s.materials.push(Material {
-            alpha_mode: AlphaMode::Blend,
-            ..Material::default()
-        });
+        s.lights.push(Light::spot(Vec3::ZERO, Vec3::NEG_Y, Vec3::ONE, 1.0, 0.1, 0.2, 0.01).unwrap());
+        s.materials.push(Material { alpha_mode: AlphaMode::Blend, ..Material::default() });
         assert!(s.has_spot_lights());
         assert!(!s.has_blend(), "an unused blended material draws nothing");
         s.instances[0].material = 1;

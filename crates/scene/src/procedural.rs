@@ -13,9 +13,7 @@ use std::f32::consts::{FRAC_PI_2, PI};
 use glam::{Mat4, Quat, Vec2, Vec3};
 
 use crate::error::SceneError;
-use crate::geometry::{
-    add_arch_wall, add_banner, add_box, add_grid, add_lathe, add_uv_sphere, arc, MeshBuilder,
-};
+use crate::geometry::{add_arch_wall, add_banner, add_box, add_grid, add_lathe, add_uv_sphere, arc, MeshBuilder};
 use crate::model::{Aabb, AlphaMode, CameraDesc, Instance, Material, Mesh, Scene, Texture};
 
 /// The most grid objects the default scene lays out (TiledLighting11's slider maximum).
@@ -62,10 +60,7 @@ pub struct DefaultSceneOptions {
 impl Default for DefaultSceneOptions {
     /// No grid objects, medium density.
     fn default() -> Self {
-        Self {
-            grid_objects: 0,
-            density: GridDensity::Medium,
-        }
+        Self { grid_objects: 0, density: GridDensity::Medium }
     }
 }
 
@@ -134,10 +129,7 @@ fn material(name: &str, rgb: [f32; 3], roughness: f32, metallic: f32) -> Materia
 
 fn materials() -> Vec<Material> {
     let mut m = vec![
-        Material {
-            base_color_texture: Some(0),
-            ..material("stone floor", [1.0, 1.0, 1.0], 0.8, 0.0)
-        },
+        Material { base_color_texture: Some(0), ..material("stone floor", [1.0, 1.0, 1.0], 0.8, 0.0) },
         material("plaster walls", [0.70, 0.62, 0.50], 0.9, 0.0),
         material("marble columns", [0.80, 0.78, 0.74], 0.35, 0.0),
         material("sandstone arches", [0.62, 0.55, 0.46], 0.7, 0.0),
@@ -166,31 +158,17 @@ fn checker_texture() -> Texture {
     for y in 0..h {
         for x in 0..w {
             let light = ((x / 8) + (y / 8)) % 2 == 0;
-            let c: [u8; 4] = if light {
-                [196, 186, 166, 255]
-            } else {
-                [140, 130, 116, 255]
-            };
+            let c: [u8; 4] = if light { [196, 186, 166, 255] } else { [140, 130, 116, 255] };
             rgba8.extend_from_slice(&c);
         }
     }
-    Texture {
-        name: "stone checker".to_owned(),
-        width: w,
-        height: h,
-        rgba8,
-    }
+    Texture { name: "stone checker".to_owned(), width: w, height: h, rgba8 }
 }
 
 /// Column profile (radius, height) with plinth, torus, shaft with entasis, astragal,
 /// flared capital and abacus, for a column `height` tall.
 fn column_profile(height: f32) -> Vec<Vec2> {
-    let mut p = vec![
-        Vec2::new(0.0, 0.0),
-        Vec2::new(0.45, 0.0),
-        Vec2::new(0.45, 0.16),
-        Vec2::new(0.38, 0.16),
-    ];
+    let mut p = vec![Vec2::new(0.0, 0.0), Vec2::new(0.45, 0.0), Vec2::new(0.45, 0.16), Vec2::new(0.38, 0.16)];
     p.extend(arc(Vec2::new(0.36, 0.24), 0.08, -90.0, 90.0, 10));
     p.push(Vec2::new(0.31, 0.32));
     p.push(Vec2::new(0.30, 0.36));
@@ -206,10 +184,7 @@ fn column_profile(height: f32) -> Vec<Vec2> {
     // Echinus: a convex cushion flaring out to the abacus.
     for i in 1..=10 {
         let a = FRAC_PI_2 * i as f32 / 10.0;
-        p.push(Vec2::new(
-            0.26 + 0.20 * a.sin(),
-            height - 0.46 + 0.30 * (1.0 - a.cos()),
-        ));
+        p.push(Vec2::new(0.26 + 0.20 * a.sin(), height - 0.46 + 0.30 * (1.0 - a.cos())));
     }
     p.push(Vec2::new(0.48, height - 0.16));
     p.push(Vec2::new(0.48, height));
@@ -219,13 +194,7 @@ fn column_profile(height: f32) -> Vec<Vec2> {
 
 fn column_mesh(name: &str, height: f32) -> Mesh {
     let mut b = MeshBuilder::new();
-    add_lathe(
-        &mut b,
-        Vec3::ZERO,
-        &column_profile(height),
-        COLUMN_SEGMENTS,
-        40.0,
-    );
+    add_lathe(&mut b, Vec3::ZERO, &column_profile(height), COLUMN_SEGMENTS, 40.0);
     b.build(name)
 }
 
@@ -240,18 +209,8 @@ fn arch_mesh() -> Mesh {
 fn balustrade_mesh() -> Mesh {
     let half = BAY * 0.5 - 0.32;
     let mut b = MeshBuilder::new();
-    add_box(
-        &mut b,
-        Vec3::new(-0.1, 0.0, -half),
-        Vec3::new(0.1, 0.1, half),
-        10.0,
-    );
-    add_box(
-        &mut b,
-        Vec3::new(-0.11, 0.92, -half),
-        Vec3::new(0.11, 1.02, half),
-        10.0,
-    );
+    add_box(&mut b, Vec3::new(-0.1, 0.0, -half), Vec3::new(0.1, 0.1, half), 10.0);
+    add_box(&mut b, Vec3::new(-0.11, 0.92, -half), Vec3::new(0.11, 1.02, half), 10.0);
     let profile: Vec<Vec2> = [
         (0.0, 0.0),
         (0.065, 0.0),
@@ -274,42 +233,18 @@ fn balustrade_mesh() -> Mesh {
     let inner = half - 0.2;
     for i in 0..BALUSTERS_PER_BAY {
         let z = -inner + 2.0 * inner * i as f32 / (BALUSTERS_PER_BAY - 1) as f32;
-        add_lathe(
-            &mut b,
-            Vec3::new(0.0, 0.1, z),
-            &profile,
-            BALUSTER_SEGMENTS,
-            50.0,
-        );
+        add_lathe(&mut b, Vec3::new(0.0, 0.1, z), &profile, BALUSTER_SEGMENTS, 50.0);
     }
     b.build("balustrade bay")
 }
 
 fn urn_mesh() -> Mesh {
-    let mut p = vec![
-        Vec2::new(0.0, 0.0),
-        Vec2::new(0.22, 0.0),
-        Vec2::new(0.22, 0.06),
-        Vec2::new(0.12, 0.12),
-    ];
+    let mut p = vec![Vec2::new(0.0, 0.0), Vec2::new(0.22, 0.0), Vec2::new(0.22, 0.06), Vec2::new(0.12, 0.12)];
     // Body: a bulb from the foot to the shoulder.
-    p.extend(
-        arc(Vec2::new(0.0, 0.55), 0.42, -70.0, 60.0, 20)
-            .into_iter()
-            .skip(1),
-    );
-    p.extend([
-        Vec2::new(0.16, 0.98),
-        Vec2::new(0.15, 1.08),
-        Vec2::new(0.24, 1.14),
-        Vec2::new(0.24, 1.18),
-    ]);
+    p.extend(arc(Vec2::new(0.0, 0.55), 0.42, -70.0, 60.0, 20).into_iter().skip(1));
+    p.extend([Vec2::new(0.16, 0.98), Vec2::new(0.15, 1.08), Vec2::new(0.24, 1.14), Vec2::new(0.24, 1.18)]);
     // The rim turns inward and down into the mouth, so the urn reads as hollow.
-    p.extend([
-        Vec2::new(0.20, 1.18),
-        Vec2::new(0.17, 1.05),
-        Vec2::new(0.0, 1.05),
-    ]);
+    p.extend([Vec2::new(0.20, 1.18), Vec2::new(0.17, 1.05), Vec2::new(0.0, 1.05)]);
     let mut b = MeshBuilder::new();
     add_lathe(&mut b, Vec3::ZERO, &p, URN_SEGMENTS, 40.0);
     b.build("urn")
@@ -317,12 +252,7 @@ fn urn_mesh() -> Mesh {
 
 fn planter_mesh() -> Mesh {
     let mut b = MeshBuilder::new();
-    add_box(
-        &mut b,
-        Vec3::new(-0.45, 0.0, -0.45),
-        Vec3::new(0.45, 0.6, 0.45),
-        0.3,
-    );
+    add_box(&mut b, Vec3::new(-0.45, 0.0, -0.45), Vec3::new(0.45, 0.6, 0.45), 0.3);
     b.build("planter box")
 }
 
@@ -393,30 +323,10 @@ fn floor_mesh() -> Mesh {
 fn walls_mesh() -> Mesh {
     let (hw, hl, t, h) = (HALF_WIDTH, HALF_LENGTH, WALL_THICKNESS, WALL_HEIGHT);
     let mut b = MeshBuilder::new();
-    add_box(
-        &mut b,
-        Vec3::new(hw, 0.0, -hl - t),
-        Vec3::new(hw + t, h, hl + t),
-        1.0,
-    );
-    add_box(
-        &mut b,
-        Vec3::new(-hw - t, 0.0, -hl - t),
-        Vec3::new(-hw, h, hl + t),
-        1.0,
-    );
-    add_box(
-        &mut b,
-        Vec3::new(-hw, 0.0, hl),
-        Vec3::new(hw, h, hl + t),
-        0.5,
-    );
-    add_box(
-        &mut b,
-        Vec3::new(-hw, 0.0, -hl - t),
-        Vec3::new(hw, h, -hl),
-        1.0,
-    );
+    add_box(&mut b, Vec3::new(hw, 0.0, -hl - t), Vec3::new(hw + t, h, hl + t), 1.0);
+    add_box(&mut b, Vec3::new(-hw - t, 0.0, -hl - t), Vec3::new(-hw, h, hl + t), 1.0);
+    add_box(&mut b, Vec3::new(-hw, 0.0, hl), Vec3::new(hw, h, hl + t), 0.5);
+    add_box(&mut b, Vec3::new(-hw, 0.0, -hl - t), Vec3::new(hw, h, -hl), 1.0);
     b.build("walls")
 }
 
@@ -475,10 +385,7 @@ fn grid_positions(n: u32) -> Vec<Vec3> {
 /// [`GridDensity::triangles_per_object`].
 pub fn default_scene(opts: &DefaultSceneOptions) -> Result<Scene, SceneError> {
     if opts.grid_objects > MAX_GRID_OBJECTS {
-        return Err(SceneError::TooManyGridObjects {
-            requested: opts.grid_objects,
-            max: MAX_GRID_OBJECTS,
-        });
+        return Err(SceneError::TooManyGridObjects { requested: opts.grid_objects, max: MAX_GRID_OBJECTS });
     }
     let mut meshes = Vec::new();
     let mut instances = Vec::new();
@@ -486,13 +393,8 @@ pub fn default_scene(opts: &DefaultSceneOptions) -> Result<Scene, SceneError> {
         meshes.push(mesh);
         meshes.len() - 1
     };
-    let mut place = |mesh: usize, material: usize, transform: Mat4| {
-        instances.push(Instance {
-            mesh,
-            material,
-            transform,
-        })
-    };
+    let mut place =
+        |mesh: usize, material: usize, transform: Mat4| instances.push(Instance { mesh, material, transform });
 
     let floor = add_mesh(floor_mesh());
     let walls = add_mesh(walls_mesh());
@@ -536,16 +438,8 @@ pub fn default_scene(opts: &DefaultSceneOptions) -> Result<Scene, SceneError> {
             // arches, facing the courtyard (the mesh faces +X).
             if i % 2 == 1 {
                 let fabric = [M_FABRIC_RED, M_FABRIC_BLUE, M_FABRIC_GREEN][(i as usize / 2) % 3];
-                let facing = if side > 0.0 {
-                    Mat4::from_rotation_y(PI)
-                } else {
-                    Mat4::IDENTITY
-                };
-                place(
-                    banner,
-                    fabric,
-                    t(side * (COLUMN_X - 0.55), UPPER_SLAB_Y - 0.2, z) * facing,
-                );
+                let facing = if side > 0.0 { Mat4::from_rotation_y(PI) } else { Mat4::IDENTITY };
+                place(banner, fabric, t(side * (COLUMN_X - 0.55), UPPER_SLAB_Y - 0.2, z) * facing);
             }
         }
     }
@@ -565,14 +459,7 @@ pub fn default_scene(opts: &DefaultSceneOptions) -> Result<Scene, SceneError> {
             place(bush, M_FABRIC_GREEN, t(x, 0.95, z));
         }
     }
-    for (x, z) in [
-        (7.0f32, -8.8f32),
-        (-7.0, -3.0),
-        (7.1, 3.0),
-        (-7.0, 12.5),
-        (7.2, -6.0),
-        (-7.1, -6.2),
-    ] {
+    for (x, z) in [(7.0f32, -8.8f32), (-7.0, -3.0), (7.1, 3.0), (-7.0, 12.5), (7.2, -6.0), (-7.1, -6.2)] {
         place(ball, M_GOLD, t(x, 0.25, z));
     }
 
@@ -617,64 +504,37 @@ mod tests {
         }
         // The courtyard plus its walls.
         let b = scene.bounds;
-        assert!(
-            (b.min - Vec3::new(-8.5, 0.0, -18.5)).abs().max_element() < 1e-4,
-            "{b:?}"
-        );
-        assert!(
-            (b.max - Vec3::new(8.5, 13.0, 18.5)).abs().max_element() < 1e-4,
-            "{b:?}"
-        );
+        assert!((b.min - Vec3::new(-8.5, 0.0, -18.5)).abs().max_element() < 1e-4, "{b:?}");
+        assert!((b.max - Vec3::new(8.5, 13.0, 18.5)).abs().max_element() < 1e-4, "{b:?}");
         assert!(scene.lights.is_empty());
         let cam = scene.camera.unwrap();
         assert_eq!(cam.far, None);
         assert!((cam.fov_y - 60f32.to_radians()).abs() < 1e-6);
         assert!(b.contains(cam.eye) && cam.target.z < cam.eye.z);
         assert!(!scene.has_alpha_mask() && !scene.has_blend() && !scene.has_spot_lights());
-        assert!(scene
-            .materials
-            .iter()
-            .any(|m| m.base_color_texture.is_some()));
+        assert!(scene.materials.iter().any(|m| m.base_color_texture.is_some()));
     }
 
     #[test]
     fn default_scene_is_deterministic() {
-        let opts = DefaultSceneOptions {
-            grid_objects: 17,
-            density: GridDensity::Low,
-        };
+        let opts = DefaultSceneOptions { grid_objects: 17, density: GridDensity::Low };
         assert_eq!(default_scene(&opts).unwrap(), default_scene(&opts).unwrap());
     }
 
     #[test]
     fn grid_objects_counts_per_density() {
         let base = default_scene(&DefaultSceneOptions::default()).unwrap();
-        for (density, per_object) in [
-            (GridDensity::Low, 484),
-            (GridDensity::Medium, 1764),
-            (GridDensity::High, 3600),
-        ] {
+        for (density, per_object) in [(GridDensity::Low, 484), (GridDensity::Medium, 1764), (GridDensity::High, 3600)] {
             assert_eq!(density.triangles_per_object(), per_object);
             for n in [1u32, 7, 100, 280] {
-                let scene = default_scene(&DefaultSceneOptions {
-                    grid_objects: n,
-                    density,
-                })
-                .unwrap();
-                let grid: Vec<&Instance> = scene
-                    .instances
-                    .iter()
-                    .filter(|i| i.material == M_GRID)
-                    .collect();
+                let scene = default_scene(&DefaultSceneOptions { grid_objects: n, density }).unwrap();
+                let grid: Vec<&Instance> = scene.instances.iter().filter(|i| i.material == M_GRID).collect();
                 assert_eq!(grid.len(), n as usize);
                 // All grid objects share one mesh, so the renderer can instance them.
                 let mesh = grid[0].mesh;
                 assert!(grid.iter().all(|i| i.mesh == mesh));
                 assert_eq!(scene.meshes[mesh].triangle_count(), per_object);
-                assert_eq!(
-                    scene.triangle_count(),
-                    base.triangle_count() + u64::from(n) * per_object
-                );
+                assert_eq!(scene.triangle_count(), base.triangle_count() + u64::from(n) * per_object);
                 if n == 280 {
                     scene.validate().unwrap();
                 }
@@ -690,16 +550,10 @@ mod tests {
             for (i, a) in p.iter().enumerate() {
                 // Inside the column rows (plinths reach x = +-5.55) and on the floor.
                 assert!(a.x.abs() + GRID_RADIUS < COLUMN_X - 0.45, "{a}");
-                assert!(
-                    a.z - GRID_RADIUS > -HALF_LENGTH && a.z + GRID_RADIUS < HALF_LENGTH,
-                    "{a}"
-                );
+                assert!(a.z - GRID_RADIUS > -HALF_LENGTH && a.z + GRID_RADIUS < HALF_LENGTH, "{a}");
                 assert_eq!(a.y, GRID_RADIUS);
                 for b in &p[i + 1..] {
-                    assert!(
-                        a.distance(*b) > 2.0 * GRID_RADIUS + 0.1,
-                        "n {n}: {a} and {b} overlap"
-                    );
+                    assert!(a.distance(*b) > 2.0 * GRID_RADIUS + 0.1, "n {n}: {a} and {b} overlap");
                 }
             }
         }
@@ -707,18 +561,8 @@ mod tests {
 
     #[test]
     fn too_many_grid_objects_rejected() {
-        let err = default_scene(&DefaultSceneOptions {
-            grid_objects: 281,
-            density: GridDensity::Low,
-        })
-        .unwrap_err();
-        assert!(matches!(
-            err,
-            SceneError::TooManyGridObjects {
-                requested: 281,
-                max: 280
-            }
-        ));
+        let err = default_scene(&DefaultSceneOptions { grid_objects: 281, density: GridDensity::Low }).unwrap_err();
+        assert!(matches!(err, SceneError::TooManyGridObjects { requested: 281, max: 280 }));
         assert!(err.to_string().contains("281") && err.to_string().contains("280"));
     }
 }

@@ -17,25 +17,14 @@ pub(crate) fn read_f32(
 ) -> Result<Vec<f32>, String> {
     let a = accessor.index();
     if accessor.dimensions() != dims {
-        return Err(format!(
-            "accessor {a} has type {:?}, expected {dims:?}",
-            accessor.dimensions()
-        ));
+        return Err(format!("accessor {a} has type {:?}, expected {dims:?}", accessor.dimensions()));
     }
     let ty = accessor.data_type();
     let ok = ty == DataType::F32
-        || (allow_normalized
-            && accessor.normalized()
-            && matches!(ty, DataType::U8 | DataType::U16));
+        || (allow_normalized && accessor.normalized() && matches!(ty, DataType::U8 | DataType::U16));
     if !ok {
-        let norm = if accessor.normalized() {
-            "normalized "
-        } else {
-            ""
-        };
-        return Err(format!(
-            "accessor {a} has {norm}component type {ty:?}, which is not supported here"
-        ));
+        let norm = if accessor.normalized() { "normalized " } else { "" };
+        return Err(format!("accessor {a} has {norm}component type {ty:?}, which is not supported here"));
     }
     read_components(accessor, buffers, |bytes| match ty {
         DataType::F32 => f32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]),
@@ -45,22 +34,14 @@ pub(crate) fn read_f32(
 }
 
 /// Reads a scalar unsigned-integer accessor (vertex indices).
-pub(crate) fn read_indices(
-    accessor: &gltf::Accessor<'_>,
-    buffers: &[Vec<u8>],
-) -> Result<Vec<u32>, String> {
+pub(crate) fn read_indices(accessor: &gltf::Accessor<'_>, buffers: &[Vec<u8>]) -> Result<Vec<u32>, String> {
     let a = accessor.index();
     if accessor.dimensions() != Dimensions::Scalar {
-        return Err(format!(
-            "index accessor {a} has type {:?}, expected Scalar",
-            accessor.dimensions()
-        ));
+        return Err(format!("index accessor {a} has type {:?}, expected Scalar", accessor.dimensions()));
     }
     let ty = accessor.data_type();
     if !matches!(ty, DataType::U8 | DataType::U16 | DataType::U32) {
-        return Err(format!(
-            "index accessor {a} has component type {ty:?}, expected an unsigned integer"
-        ));
+        return Err(format!("index accessor {a} has component type {ty:?}, expected an unsigned integer"));
     }
     read_components(accessor, buffers, |bytes| match ty {
         DataType::U8 => u32::from(bytes[0]),
@@ -93,28 +74,22 @@ fn view_elements<'b>(
     what: &str,
 ) -> Result<&'b [u8], String> {
     let b = view.buffer().index();
-    let data = buffers
-        .get(b)
-        .ok_or_else(|| format!("{what}: buffer {b} does not exist"))?;
+    let data = buffers.get(b).ok_or_else(|| format!("{what}: buffer {b} does not exist"))?;
     let view_end = view.offset().checked_add(view.length());
-    let view_bytes = view_end
-        .and_then(|end| data.get(view.offset()..end))
-        .ok_or_else(|| {
-            format!(
-                "{what}: buffer view {} (offset {}, length {}) runs past the end of buffer {b} ({} bytes)",
-                view.index(),
-                view.offset(),
-                view.length(),
-                data.len()
-            )
-        })?;
+    let view_bytes = view_end.and_then(|end| data.get(view.offset()..end)).ok_or_else(|| {
+        format!(
+            "{what}: buffer view {} (offset {}, length {}) runs past the end of buffer {b} ({} bytes)",
+            view.index(),
+            view.offset(),
+            view.length(),
+            data.len()
+        )
+    })?;
     if count == 0 {
         return Ok(&view_bytes[..0]);
     }
-    let needed = stride
-        .checked_mul(count - 1)
-        .and_then(|n| n.checked_add(elem_size))
-        .and_then(|n| n.checked_add(offset));
+    let needed =
+        stride.checked_mul(count - 1).and_then(|n| n.checked_add(elem_size)).and_then(|n| n.checked_add(offset));
     match needed {
         Some(end) if end <= view_bytes.len() => Ok(&view_bytes[offset..end]),
         _ => Err(format!(
@@ -138,29 +113,16 @@ fn read_components<T: Copy + Default>(
     let comps = accessor.dimensions().multiplicity();
     let csize = component_size(accessor.data_type());
     let elem_size = comps * csize;
-    let total = count
-        .checked_mul(comps)
-        .ok_or_else(|| format!("{what}: count {count} is absurd"))?;
+    let total = count.checked_mul(comps).ok_or_else(|| format!("{what}: count {count} is absurd"))?;
     let mut out = Vec::new();
-    out.try_reserve_exact(total)
-        .map_err(|_| format!("{what}: count {count} is too large to load"))?;
+    out.try_reserve_exact(total).map_err(|_| format!("{what}: count {count} is too large to load"))?;
     match accessor.view() {
         Some(view) => {
             let stride = view.stride().unwrap_or(elem_size);
             if stride < elem_size {
-                return Err(format!(
-                    "{what}: byteStride {stride} is smaller than the element size {elem_size}"
-                ));
+                return Err(format!("{what}: byteStride {stride} is smaller than the element size {elem_size}"));
             }
-            let bytes = view_elements(
-                &view,
-                buffers,
-                accessor.offset(),
-                count,
-                stride,
-                elem_size,
-                &what,
-            )?;
+            let bytes = view_elements(&view, buffers, accessor.offset(), count, stride, elem_size, &what)?;
             for e in 0..count {
                 let elem = &bytes[e * stride..e * stride + elem_size];
                 out.extend(elem.chunks_exact(csize).map(&decode));
@@ -185,26 +147,10 @@ fn read_components<T: Copy + Default>(
             gltf::accessor::sparse::IndexType::U32 => 4,
         };
         let what_i = format!("{what} sparse indices");
-        let ibytes = view_elements(
-            &indices.view(),
-            buffers,
-            indices.offset(),
-            n,
-            isize,
-            isize,
-            &what_i,
-        )?;
+        let ibytes = view_elements(&indices.view(), buffers, indices.offset(), n, isize, isize, &what_i)?;
         let values = sparse.values();
         let what_v = format!("{what} sparse values");
-        let vbytes = view_elements(
-            &values.view(),
-            buffers,
-            values.offset(),
-            n,
-            elem_size,
-            elem_size,
-            &what_v,
-        )?;
+        let vbytes = view_elements(&values.view(), buffers, values.offset(), n, elem_size, elem_size, &what_v)?;
         for k in 0..n {
             let ib = &ibytes[k * isize..(k + 1) * isize];
             let target = match isize {
@@ -213,9 +159,7 @@ fn read_components<T: Copy + Default>(
                 _ => u32::from_le_bytes([ib[0], ib[1], ib[2], ib[3]]) as usize,
             };
             if target >= count {
-                return Err(format!(
-                    "{what}: sparse index {target} is out of range ({count} elements)"
-                ));
+                return Err(format!("{what}: sparse index {target} is out of range ({count} elements)"));
             }
             let elem = &vbytes[k * elem_size..(k + 1) * elem_size];
             for (c, comp) in elem.chunks_exact(csize).enumerate() {

@@ -25,12 +25,12 @@ pub(crate) fn resolve_uri(base: &Path, uri: &str) -> Result<UriTarget, String> {
     let path = if let Some(rest) = uri.strip_prefix("file://") {
         percent_decode(rest)?
     } else if uri.contains("://")
-        || uri
-            .split_once(':')
-            .is_some_and(|(scheme, _)| scheme.len() > 1 && !scheme.contains('/'))
+        || uri.split_once(':').is_some_and(|(scheme, _)| scheme.len() > 1 && !scheme.contains('/'))
     {
         // A single letter before ':' is a Windows drive, not a scheme.
-        return Err(format!("URI '{uri}' uses an unsupported scheme (only relative paths, file:// and data: are read)"));
+        return Err(format!(
+            "URI '{uri}' uses an unsupported scheme (only relative paths, file:// and data: are read)"
+        ));
     } else {
         percent_decode(uri)?
     };
@@ -44,9 +44,7 @@ fn percent_decode(s: &str) -> Result<String, String> {
     let mut i = 0;
     while i < bytes.len() {
         if bytes[i] == b'%' {
-            let hex = bytes
-                .get(i + 1..i + 3)
-                .and_then(|h| std::str::from_utf8(h).ok());
+            let hex = bytes.get(i + 1..i + 3).and_then(|h| std::str::from_utf8(h).ok());
             let value = hex.and_then(|h| u8::from_str_radix(h, 16).ok());
             let Some(v) = value else {
                 return Err(format!("URI '{s}' has a malformed %-escape at byte {i}"));
@@ -79,10 +77,7 @@ pub(crate) fn decode_base64(s: &str) -> Result<Vec<u8>, String> {
     let (mut acc, mut bits) = (0u32, 0u32);
     for (i, c) in trimmed.bytes().enumerate() {
         let Some(v) = base64_value(c) else {
-            return Err(format!(
-                "invalid base64 character {:?} at offset {i}",
-                c as char
-            ));
+            return Err(format!("invalid base64 character {:?} at offset {i}", c as char));
         };
         acc = (acc << 6) | v;
         bits += 6;
@@ -110,22 +105,19 @@ pub(crate) fn load_buffers(
         let i = buffer.index();
         let (data, from) = match buffer.source() {
             gltf::buffer::Source::Bin => {
-                let data = blob.take().ok_or_else(|| {
-                    format!("buffer {i} refers to the GLB binary chunk, but the file has none")
-                })?;
+                let data = blob
+                    .take()
+                    .ok_or_else(|| format!("buffer {i} refers to the GLB binary chunk, but the file has none"))?;
                 (data, "the GLB binary chunk".to_owned())
             }
-            gltf::buffer::Source::Uri(uri) => {
-                match resolve_uri(base, uri).map_err(|e| format!("buffer {i}: {e}"))? {
-                    UriTarget::Data(data) => (data, "its data URI".to_owned()),
-                    UriTarget::File(path) => {
-                        let data = std::fs::read(&path).map_err(|e| {
-                            format!("buffer {i}: cannot read '{}': {e}", path.display())
-                        })?;
-                        (data, format!("'{}'", path.display()))
-                    }
+            gltf::buffer::Source::Uri(uri) => match resolve_uri(base, uri).map_err(|e| format!("buffer {i}: {e}"))? {
+                UriTarget::Data(data) => (data, "its data URI".to_owned()),
+                UriTarget::File(path) => {
+                    let data = std::fs::read(&path)
+                        .map_err(|e| format!("buffer {i}: cannot read '{}': {e}", path.display()))?;
+                    (data, format!("'{}'", path.display()))
                 }
-            }
+            },
         };
         if data.len() < buffer.length() {
             return Err(format!(
@@ -150,10 +142,7 @@ mod tests {
         assert_eq!(decode_base64("Zm8=").unwrap(), b"fo");
         assert_eq!(decode_base64("Zm9v").unwrap(), b"foo");
         assert_eq!(decode_base64("Zm9vYmFy").unwrap(), b"foobar");
-        assert_eq!(
-            decode_base64("AAECAwQF/w").unwrap(),
-            [0, 1, 2, 3, 4, 5, 255]
-        );
+        assert_eq!(decode_base64("AAECAwQF/w").unwrap(), [0, 1, 2, 3, 4, 5, 255]);
         assert!(decode_base64("Zm9v!").is_err());
         assert!(decode_base64("Z").is_err());
     }

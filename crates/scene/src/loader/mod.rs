@@ -42,21 +42,12 @@ pub fn load_gltf(path: &Path, threshold: f32) -> Result<Scene, SceneError> {
             path.display()
         )));
     }
-    let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
-        path: path.to_owned(),
-        source,
-    })?;
-    let fail = |message: String| SceneError::Gltf {
-        path: path.to_owned(),
-        message,
-    };
+    let bytes = std::fs::read(path).map_err(|source| SceneError::Io { path: path.to_owned(), source })?;
+    let fail = |message: String| SceneError::Gltf { path: path.to_owned(), message };
     let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| fail(describe_gltf_error(e)))?;
     let base = path.parent().unwrap_or(Path::new("."));
     let buffers = load_buffers(&gltf.document, base, gltf.blob.clone()).map_err(fail)?;
-    let name = path.file_name().map_or_else(
-        || path.display().to_string(),
-        |n| n.to_string_lossy().into_owned(),
-    );
+    let name = path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
     let mut loader = Loader {
         doc: &gltf.document,
         base: base.to_owned(),
@@ -136,19 +127,13 @@ impl Loader<'_> {
             }
         };
         let mut visited = vec![false; doc.nodes().len()];
-        let mut stack: Vec<(gltf::Node<'_>, Mat4)> = roots
-            .into_iter()
-            .rev()
-            .map(|n| (n, Mat4::IDENTITY))
-            .collect();
+        let mut stack: Vec<(gltf::Node<'_>, Mat4)> = roots.into_iter().rev().map(|n| (n, Mat4::IDENTITY)).collect();
         while let Some((node, parent)) = stack.pop() {
             let label = node_label(&node);
             // A node reached twice would be a cycle (endless) or a shared child; both
             // are invalid glTF, and a cycle must not hang the loader.
             if std::mem::replace(&mut visited[node.index()], true) {
-                return Err(format!(
-                    "{label} is reached twice: the node hierarchy is not a tree"
-                ));
+                return Err(format!("{label} is reached twice: the node hierarchy is not a tree"));
             }
             let local = Mat4::from_cols_array_2d(&node.transform().matrix());
             let world = parent * local;
@@ -156,12 +141,10 @@ impl Loader<'_> {
                 return Err(format!("{label} has a non-finite world transform"));
             }
             if let Some(mesh) = node.mesh() {
-                self.add_mesh_instances(&mesh, world)
-                    .map_err(|e| format!("{label}: {e}"))?;
+                self.add_mesh_instances(&mesh, world).map_err(|e| format!("{label}: {e}"))?;
             }
             if let Some(light) = node.light() {
-                self.add_light(&light, world)
-                    .map_err(|e| format!("{label}: {e}"))?;
+                self.add_light(&light, world).map_err(|e| format!("{label}: {e}"))?;
             }
             if let Some(camera) = node.camera() {
                 self.add_camera(&camera, world);
@@ -180,19 +163,12 @@ impl Loader<'_> {
             let mesh_index = match self.mesh_cache.get(&key) {
                 Some(&i) => i,
                 None => {
-                    let mut name = mesh
-                        .name()
-                        .map_or_else(|| format!("mesh {}", mesh.index()), str::to_owned);
+                    let mut name = mesh.name().map_or_else(|| format!("mesh {}", mesh.index()), str::to_owned);
                     if primitive_count > 1 {
                         name = format!("{name} primitive {}", prim.index());
                     }
                     let mut m = self.load_primitive(&prim, name.clone()).map_err(|e| {
-                        format!(
-                            "mesh {} '{}' primitive {}: {e}",
-                            mesh.index(),
-                            mesh.name().unwrap_or(""),
-                            prim.index()
-                        )
+                        format!("mesh {} '{}' primitive {}: {e}", mesh.index(), mesh.name().unwrap_or(""), prim.index())
                     })?;
                     if mirrored {
                         // A mirroring transform turns counter-clockwise triangles
@@ -209,27 +185,18 @@ impl Loader<'_> {
                 }
             };
             let material = self.material(&prim.material())?;
-            self.scene.instances.push(Instance {
-                mesh: mesh_index,
-                material,
-                transform: world,
-            });
+            self.scene.instances.push(Instance { mesh: mesh_index, material, transform: world });
         }
         Ok(())
     }
 
     fn load_primitive(&self, prim: &gltf::Primitive<'_>, name: String) -> Result<Mesh, String> {
-        let pos_acc = prim
-            .get(&Semantic::Positions)
-            .ok_or("has no POSITION attribute")?;
+        let pos_acc = prim.get(&Semantic::Positions).ok_or("has no POSITION attribute")?;
         let flat = accessor::read_f32(&pos_acc, &self.buffers, Dimensions::Vec3, false)
             .map_err(|e| format!("POSITION: {e}"))?;
         let positions: Vec<[f32; 3]> = flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
         let n = positions.len();
-        if let Some(v) = positions
-            .iter()
-            .position(|p| !p.iter().all(|c| c.is_finite()))
-        {
+        if let Some(v) = positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
             return Err(format!("POSITION {v} is not finite ({:?})", positions[v]));
         }
         let normals = match prim.get(&Semantic::Normals) {
@@ -237,10 +204,7 @@ impl Loader<'_> {
                 let flat = accessor::read_f32(&acc, &self.buffers, Dimensions::Vec3, false)
                     .map_err(|e| format!("NORMAL: {e}"))?;
                 if flat.len() != 3 * n {
-                    return Err(format!(
-                        "NORMAL has {} elements but POSITION has {n}",
-                        flat.len() / 3
-                    ));
+                    return Err(format!("NORMAL has {} elements but POSITION has {n}", flat.len() / 3));
                 }
                 let mut normals = Vec::with_capacity(n);
                 for (v, c) in flat.chunks_exact(3).enumerate() {
@@ -261,10 +225,7 @@ impl Loader<'_> {
                 let flat = accessor::read_f32(&acc, &self.buffers, Dimensions::Vec2, true)
                     .map_err(|e| format!("TEXCOORD_0: {e}"))?;
                 if flat.len() != 2 * n {
-                    return Err(format!(
-                        "TEXCOORD_0 has {} elements but POSITION has {n}",
-                        flat.len() / 2
-                    ));
+                    return Err(format!("TEXCOORD_0 has {} elements but POSITION has {n}", flat.len() / 2));
                 }
                 if let Some(v) = flat.iter().position(|c| !c.is_finite()) {
                     return Err(format!("TEXCOORD_0 {} is not finite", v / 2));
@@ -274,25 +235,14 @@ impl Loader<'_> {
             None => vec![[0.0, 0.0]; n],
         };
         let raw_indices = match prim.indices() {
-            Some(acc) => {
-                accessor::read_indices(&acc, &self.buffers).map_err(|e| format!("indices: {e}"))?
-            }
+            Some(acc) => accessor::read_indices(&acc, &self.buffers).map_err(|e| format!("indices: {e}"))?,
             None => (0..n as u32).collect(),
         };
         if let Some(k) = raw_indices.iter().position(|&i| i as usize >= n) {
-            return Err(format!(
-                "index {k} is {} but there are only {n} vertices (out of range)",
-                raw_indices[k]
-            ));
+            return Err(format!("index {k} is {} but there are only {n} vertices (out of range)", raw_indices[k]));
         }
         let indices = triangulate(prim.mode(), &raw_indices)?;
-        let mut mesh = Mesh {
-            name,
-            positions,
-            normals: Vec::new(),
-            uvs,
-            indices,
-        };
+        let mut mesh = Mesh { name, positions, normals: Vec::new(), uvs, indices };
         match normals {
             Some(normals) => mesh.normals = normals,
             None => flat_normals(&mut mesh),
@@ -311,17 +261,12 @@ impl Loader<'_> {
         };
         let pbr = mat.pbr_metallic_roughness();
         let base_color_texture = match pbr.base_color_texture() {
-            Some(info) => Some(
-                self.texture(&info.texture().source())
-                    .map_err(|e| format!("{label}: {e}"))?,
-            ),
+            Some(info) => Some(self.texture(&info.texture().source()).map_err(|e| format!("{label}: {e}"))?),
             None => None,
         };
         let alpha_mode = match mat.alpha_mode() {
             gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
-            gltf::material::AlphaMode::Mask => AlphaMode::Mask {
-                cutoff: mat.alpha_cutoff().unwrap_or(0.5),
-            },
+            gltf::material::AlphaMode::Mask => AlphaMode::Mask { cutoff: mat.alpha_cutoff().unwrap_or(0.5) },
             gltf::material::AlphaMode::Blend => AlphaMode::Blend,
         };
         let name = match (mat.name(), mat.index()) {
@@ -350,12 +295,7 @@ impl Loader<'_> {
         }
         // Read the JSON directly: the gltf crate's `Image::source` unwraps fields that
         // a malformed file may lack.
-        let json = self
-            .doc
-            .as_json()
-            .images
-            .get(index)
-            .ok_or_else(|| format!("image {index} does not exist"))?;
+        let json = self.doc.as_json().images.get(index).ok_or_else(|| format!("image {index} does not exist"))?;
         let label = match &json.name {
             Some(n) => format!("image {index} '{n}'"),
             None => format!("image {index}"),
@@ -372,57 +312,38 @@ impl Loader<'_> {
                 match resolve_uri(&self.base, uri).map_err(|e| format!("{label}: {e}"))? {
                     UriTarget::Data(d) => (d, name),
                     UriTarget::File(p) => {
-                        let d = std::fs::read(&p).map_err(|e| {
-                            format!("{label}: cannot read image file '{}': {e}", p.display())
-                        })?;
+                        let d = std::fs::read(&p)
+                            .map_err(|e| format!("{label}: cannot read image file '{}': {e}", p.display()))?;
                         (d, name)
                     }
                 }
             }
             (None, Some(view_index)) => {
-                let view = self.doc.views().nth(view_index.value()).ok_or_else(|| {
-                    format!("{label}: buffer view {} does not exist", view_index.value())
-                })?;
-                let buffer = self
-                    .buffers
-                    .get(view.buffer().index())
-                    .ok_or_else(|| format!("{label}: missing buffer"))?;
+                let view = self
+                    .doc
+                    .views()
+                    .nth(view_index.value())
+                    .ok_or_else(|| format!("{label}: buffer view {} does not exist", view_index.value()))?;
+                let buffer =
+                    self.buffers.get(view.buffer().index()).ok_or_else(|| format!("{label}: missing buffer"))?;
                 let bytes = view
                     .offset()
                     .checked_add(view.length())
                     .and_then(|end| buffer.get(view.offset()..end))
-                    .ok_or_else(|| {
-                        format!(
-                            "{label}: buffer view {} runs past the end of its buffer",
-                            view.index()
-                        )
-                    })?;
-                (
-                    bytes.to_vec(),
-                    json.name.clone().unwrap_or_else(|| label.clone()),
-                )
+                    .ok_or_else(|| format!("{label}: buffer view {} runs past the end of its buffer", view.index()))?;
+                (bytes.to_vec(), json.name.clone().unwrap_or_else(|| label.clone()))
             }
             (None, None) => return Err(format!("{label} has neither a uri nor a bufferView")),
         };
-        let decoded = image::load_from_memory(&bytes)
-            .map_err(|e| format!("{label}: cannot decode image: {e}"))?;
+        let decoded = image::load_from_memory(&bytes).map_err(|e| format!("{label}: cannot decode image: {e}"))?;
         let rgba = decoded.to_rgba8();
-        self.scene.textures.push(Texture {
-            name,
-            width: rgba.width(),
-            height: rgba.height(),
-            rgba8: rgba.into_raw(),
-        });
+        self.scene.textures.push(Texture { name, width: rgba.width(), height: rgba.height(), rgba8: rgba.into_raw() });
         let t = self.scene.textures.len() - 1;
         self.texture_cache.insert(index, t);
         Ok(t)
     }
 
-    fn add_light(
-        &mut self,
-        light: &gltf::khr_lights_punctual::Light<'_>,
-        world: Mat4,
-    ) -> Result<(), String> {
+    fn add_light(&mut self, light: &gltf::khr_lights_punctual::Light<'_>, world: Mat4) -> Result<(), String> {
         use gltf::khr_lights_punctual::Kind;
         let label = match light.name() {
             Some(n) => format!("light {} '{n}'", light.index()),
@@ -434,13 +355,9 @@ impl Loader<'_> {
         let kind = match light.kind() {
             Kind::Directional => return Ok(()),
             Kind::Point => tiledlight_cull::LightKind::Point,
-            Kind::Spot {
-                inner_cone_angle,
-                outer_cone_angle,
-            } => {
+            Kind::Spot { inner_cone_angle, outer_cone_angle } => {
                 let direction = world.transform_vector3(Vec3::NEG_Z);
-                Light::spot_kind(direction, inner_cone_angle, outer_cone_angle)
-                    .map_err(|e| format!("{label}: {e}"))?
+                Light::spot_kind(direction, inner_cone_angle, outer_cone_angle).map_err(|e| format!("{label}: {e}"))?
             }
         };
         if intensity == 0.0 || color.max_element() == 0.0 {
@@ -449,27 +366,13 @@ impl Loader<'_> {
         let built = match light.range() {
             Some(range) => Light::with_radius(position, color, intensity, range, kind),
             None => match kind {
-                tiledlight_cull::LightKind::Point => {
-                    Light::point(position, color, intensity, self.threshold)
+                tiledlight_cull::LightKind::Point => Light::point(position, color, intensity, self.threshold),
+                tiledlight_cull::LightKind::Spot { direction, inner_angle, outer_angle } => {
+                    Light::spot(position, direction, color, intensity, inner_angle, outer_angle, self.threshold)
                 }
-                tiledlight_cull::LightKind::Spot {
-                    direction,
-                    inner_angle,
-                    outer_angle,
-                } => Light::spot(
-                    position,
-                    direction,
-                    color,
-                    intensity,
-                    inner_angle,
-                    outer_angle,
-                    self.threshold,
-                ),
             },
         };
-        self.scene
-            .lights
-            .push(built.map_err(|e| format!("{label}: {e}"))?);
+        self.scene.lights.push(built.map_err(|e| format!("{label}: {e}"))?);
         Ok(())
     }
 
@@ -479,18 +382,10 @@ impl Loader<'_> {
         }
         if let gltf::camera::Projection::Perspective(p) = camera.projection() {
             let eye = world.transform_point3(Vec3::ZERO);
-            let forward = world
-                .transform_vector3(Vec3::NEG_Z)
-                .normalize_or(Vec3::NEG_Z);
+            let forward = world.transform_vector3(Vec3::NEG_Z).normalize_or(Vec3::NEG_Z);
             let up = world.transform_vector3(Vec3::Y).normalize_or(Vec3::Y);
-            self.scene.camera = Some(CameraDesc {
-                eye,
-                target: eye + forward,
-                up,
-                fov_y: p.yfov(),
-                near: p.znear(),
-                far: p.zfar(),
-            });
+            self.scene.camera =
+                Some(CameraDesc { eye, target: eye + forward, up, fov_y: p.yfov(), near: p.znear(), far: p.zfar() });
         }
     }
 }
@@ -502,10 +397,7 @@ fn triangulate(mode: Mode, indices: &[u32]) -> Result<Vec<u32>, String> {
     match mode {
         Mode::Triangles => {
             if !indices.len().is_multiple_of(3) {
-                return Err(format!(
-                    "TRIANGLES primitive has {} indices, not a multiple of 3",
-                    indices.len()
-                ));
+                return Err(format!("TRIANGLES primitive has {} indices, not a multiple of 3", indices.len()));
             }
             Ok(indices.to_vec())
         }
@@ -530,9 +422,7 @@ fn triangulate(mode: Mode, indices: &[u32]) -> Result<Vec<u32>, String> {
             }
             Ok(out)
         }
-        other => Err(format!(
-            "primitive mode {other:?} is not supported (only triangles, strips and fans)"
-        )),
+        other => Err(format!("primitive mode {other:?} is not supported (only triangles, strips and fans)")),
     }
 }
 

@@ -30,8 +30,7 @@ impl Bin {
         while !self.data.len().is_multiple_of(4) {
             self.data.push(0);
         }
-        self.views
-            .push(json!({"buffer": 0, "byteOffset": self.data.len(), "byteLength": bytes.len()}));
+        self.views.push(json!({"buffer": 0, "byteOffset": self.data.len(), "byteLength": bytes.len()}));
         self.data.extend_from_slice(bytes);
         self.views.len() - 1
     }
@@ -115,11 +114,7 @@ fn base64(bytes: &[u8]) -> String {
     const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     let mut out = String::new();
     for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
+        let b = [chunk[0], *chunk.get(1).unwrap_or(&0), *chunk.get(2).unwrap_or(&0)];
         let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
         for k in 0..4 {
             if k <= chunk.len() {
@@ -134,10 +129,7 @@ fn base64(bytes: &[u8]) -> String {
 
 /// Writes `name.gltf` with its buffer embedded as a base64 data URI.
 fn write_embedded(dir: &Path, name: &str, mut root: Value, bin: &[u8]) -> PathBuf {
-    root["buffers"][0]["uri"] = json!(format!(
-        "data:application/octet-stream;base64,{}",
-        base64(bin)
-    ));
+    root["buffers"][0]["uri"] = json!(format!("data:application/octet-stream;base64,{}", base64(bin)));
     let path = dir.join(format!("{name}.gltf"));
     fs::write(&path, serde_json::to_vec(&root).unwrap()).unwrap();
     path
@@ -174,21 +166,13 @@ fn png(width: u32, height: u32) -> (Vec<u8>, Vec<u8>) {
         image::Rgba([(x * 60) as u8, (y * 70) as u8, 200, 255 - x as u8])
     });
     let mut bytes = Vec::new();
-    img.write_to(
-        &mut std::io::Cursor::new(&mut bytes),
-        image::ImageFormat::Png,
-    )
-    .unwrap();
+    img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png).unwrap();
     (bytes, img.into_raw())
 }
 
 fn world_positions(scene: &Scene, instance: usize) -> Vec<Vec3> {
     let inst = &scene.instances[instance];
-    scene.meshes[inst.mesh]
-        .positions
-        .iter()
-        .map(|p| inst.transform.transform_point3(Vec3::from_array(*p)))
-        .collect()
+    scene.meshes[inst.mesh].positions.iter().map(|p| inst.transform.transform_point3(Vec3::from_array(*p))).collect()
 }
 
 fn assert_close(a: Vec3, b: Vec3) {
@@ -199,10 +183,7 @@ fn assert_close(a: Vec3, b: Vec3) {
 fn assert_fails(path: &Path, result: Result<Scene, SceneError>, needles: &[&str]) -> String {
     let msg = result.expect_err("load must fail").to_string();
     let file = path.file_name().unwrap().to_string_lossy();
-    assert!(
-        msg.contains(&*file),
-        "message {msg:?} should name the file {file}"
-    );
+    assert!(msg.contains(&*file), "message {msg:?} should name the file {file}");
     for n in needles {
         assert!(msg.contains(n), "message {msg:?} should contain {n:?}");
     }
@@ -253,30 +234,16 @@ fn triangle_with_point_lights() {
     assert_eq!(scene.name, "triangle.gltf");
     assert_eq!(scene.meshes.len(), 1);
     assert_eq!(scene.meshes[0].name, "tri");
-    assert_eq!(
-        scene.meshes[0].positions,
-        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
-    );
+    assert_eq!(scene.meshes[0].positions, vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
     assert_eq!(scene.meshes[0].normals, vec![[0.0, 0.0, 1.0]; 3]);
-    assert_eq!(
-        scene.meshes[0].uvs,
-        vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
-    );
+    assert_eq!(scene.meshes[0].uvs, vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
     assert_eq!(scene.meshes[0].indices, vec![0, 1, 2]);
     assert_eq!(scene.instances.len(), 1);
     assert_eq!(
         world_positions(&scene, 0),
-        vec![
-            Vec3::new(1.0, 2.0, 3.0),
-            Vec3::new(2.0, 2.0, 3.0),
-            Vec3::new(1.0, 3.0, 3.0)
-        ]
+        vec![Vec3::new(1.0, 2.0, 3.0), Vec3::new(2.0, 2.0, 3.0), Vec3::new(1.0, 3.0, 3.0)]
     );
-    assert_eq!(
-        scene.materials,
-        vec![Material::default()],
-        "no material: glTF's default"
-    );
+    assert_eq!(scene.materials, vec![Material::default()], "no material: glTF's default");
     assert_eq!(scene.bounds.min, Vec3::new(1.0, 2.0, 3.0));
     assert_eq!(scene.bounds.max, Vec3::new(2.0, 3.0, 3.0));
     assert_eq!(scene.triangle_count(), 1);
@@ -321,19 +288,8 @@ fn spot_light_points_down_the_node_axis() {
     assert!(scene.has_spot_lights());
     let l = scene.lights[0];
     assert_close(l.position, Vec3::new(0.0, 4.0, 0.0));
-    assert!(
-        (l.radius - 20.0).abs() < 1e-4,
-        "sqrt(4 / 0.01) = 20, got {}",
-        l.radius
-    );
-    let LightKind::Spot {
-        direction,
-        inner_angle,
-        outer_angle,
-    } = l.kind
-    else {
-        panic!("not a spot: {:?}", l.kind)
-    };
+    assert!((l.radius - 20.0).abs() < 1e-4, "sqrt(4 / 0.01) = 20, got {}", l.radius);
+    let LightKind::Spot { direction, inner_angle, outer_angle } = l.kind else { panic!("not a spot: {:?}", l.kind) };
     assert_close(direction, Vec3::NEG_Y);
     assert_eq!((inner_angle, outer_angle), (0.2, 0.5));
     assert_eq!(scene.meshes[0].name, "mesh 0");
@@ -391,20 +347,12 @@ fn node_hierarchy_composes_parent_times_local() {
     // world = parent * child: (x, y, z) -> 2 * ((x, y, z) + (1, 0, 0)) + (0, 0, -1)
     assert_eq!(
         world_positions(&scene, 0),
-        vec![
-            Vec3::new(2.0, 0.0, -1.0),
-            Vec3::new(4.0, 0.0, -1.0),
-            Vec3::new(2.0, 2.0, -1.0)
-        ]
+        vec![Vec3::new(2.0, 0.0, -1.0), Vec3::new(4.0, 0.0, -1.0), Vec3::new(2.0, 2.0, -1.0)]
     );
     // The grandchild adds 10 up in its parent's (scaled) frame: 20 in world space.
     assert_eq!(
         world_positions(&scene, 1),
-        vec![
-            Vec3::new(2.0, 20.0, -1.0),
-            Vec3::new(4.0, 20.0, -1.0),
-            Vec3::new(2.0, 22.0, -1.0)
-        ]
+        vec![Vec3::new(2.0, 20.0, -1.0), Vec3::new(4.0, 20.0, -1.0), Vec3::new(2.0, 22.0, -1.0)]
     );
     assert_eq!(scene.bounds.max, Vec3::new(4.0, 22.0, -1.0));
 }
@@ -423,10 +371,7 @@ fn default_scene_is_chosen_among_several() {
     let path = write_gltf(dir.path(), "scenes", root, &bin.data);
     let scene = load_gltf(&path, 0.1).unwrap();
     assert_eq!(scene.instances.len(), 1);
-    assert_eq!(
-        scene.instances[0].transform,
-        Mat4::from_translation(Vec3::new(0.0, 0.0, 7.0))
-    );
+    assert_eq!(scene.instances[0].transform, Mat4::from_translation(Vec3::new(0.0, 0.0, 7.0)));
 }
 
 #[test]
@@ -477,10 +422,7 @@ fn textures_embedded_in_glb_and_data_uri() {
     let (png_bytes, pixels) = png(4, 4);
     let mut jpeg = Vec::new();
     image::RgbImage::from_pixel(8, 4, image::Rgb([200, 100, 50]))
-        .write_to(
-            &mut std::io::Cursor::new(&mut jpeg),
-            image::ImageFormat::Jpeg,
-        )
+        .write_to(&mut std::io::Cursor::new(&mut jpeg), image::ImageFormat::Jpeg)
         .unwrap();
     let mut bin = Bin::default();
     let mut prim = bin.triangle();
@@ -512,10 +454,7 @@ fn textures_embedded_in_glb_and_data_uri() {
     assert_eq!((scene.textures[1].width, scene.textures[1].height), (8, 4));
     assert_eq!(scene.textures[1].rgba8.len(), 8 * 4 * 4);
     let texel = &scene.textures[1].rgba8[..4];
-    assert!(
-        texel[0].abs_diff(200) < 8 && texel[1].abs_diff(100) < 8 && texel[3] == 255,
-        "{texel:?}"
-    );
+    assert!(texel[0].abs_diff(200) < 8 && texel[1].abs_diff(100) < 8 && texel[3] == 255, "{texel:?}");
     assert_eq!(scene.materials[0].alpha_mode, AlphaMode::Blend);
     assert_eq!(scene.materials[0].base_color_texture, Some(0));
     assert_eq!(scene.materials[1].base_color_texture, Some(1));
@@ -527,31 +466,16 @@ fn flat_normals_zero_uvs_and_generated_indices() {
     let dir = tempfile::tempdir().unwrap();
     let mut bin = Bin::default();
     // Two non-indexed triangles without normals or UVs: one facing +Z, one facing +Y.
-    let p = bin.floats(
-        &[
-            0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0,
-            0.0,
-        ],
-        "VEC3",
-    );
-    let root = bin.document(one_mesh_scene(
-        json!({"attributes": {"POSITION": p}}),
-        json!({}),
-    ));
+    let p =
+        bin.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0], "VEC3");
+    let root = bin.document(one_mesh_scene(json!({"attributes": {"POSITION": p}}), json!({})));
     let path = write_gltf(dir.path(), "flat", root, &bin.data);
     let scene = load_gltf(&path, 0.1).unwrap();
     let m = &scene.meshes[0];
     assert_eq!(m.indices, vec![0, 1, 2, 3, 4, 5]);
     assert_eq!(
         m.normals,
-        vec![
-            [0.0, 0.0, 1.0],
-            [0.0, 0.0, 1.0],
-            [0.0, 0.0, 1.0],
-            [0.0, 1.0, 0.0],
-            [0.0, 1.0, 0.0],
-            [0.0, 1.0, 0.0]
-        ]
+        vec![[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0]]
     );
     assert_eq!(m.uvs, vec![[0.0, 0.0]; 6]);
 }
@@ -561,14 +485,8 @@ fn strips_and_fans_become_lists_with_consistent_winding() {
     let dir = tempfile::tempdir().unwrap();
     let mut bin = Bin::default();
     // A unit quad in the XY plane: strip order 0 1 2 3 = (0,0) (1,0) (0,1) (1,1).
-    let p = bin.floats(
-        &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0],
-        "VEC3",
-    );
-    let n = bin.floats(
-        &[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0],
-        "VEC3",
-    );
+    let p = bin.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0], "VEC3");
+    let n = bin.floats(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0], "VEC3");
     let fan_idx = bin.indices_u32(&[0, 1, 3, 2]);
     let root = bin.document(json!({
         "scenes": [{"nodes": [0]}],
@@ -585,11 +503,7 @@ fn strips_and_fans_become_lists_with_consistent_winding() {
     for mesh in &scene.meshes {
         for t in mesh.indices.chunks_exact(3) {
             let p = [t[0], t[1], t[2]].map(|i| Vec3::from_array(mesh.positions[i as usize]));
-            assert!(
-                (p[1] - p[0]).cross(p[2] - p[0]).z > 0.0,
-                "{}: {t:?} is clockwise",
-                mesh.name
-            );
+            assert!((p[1] - p[0]).cross(p[2] - p[0]).z > 0.0, "{}: {t:?} is clockwise", mesh.name);
         }
     }
 }
@@ -637,16 +551,9 @@ fn malformed_json() {
     fs::write(&path, b"").unwrap();
     assert_fails(&path, load_gltf(&path, 0.1), &["malformed glTF JSON"]);
     // Well-formed JSON that is not valid glTF (a node refers to a missing mesh).
-    fs::write(
-        &path,
-        serde_json::to_vec(&json!({"asset": {"version": "2.0"}, "nodes": [{"mesh": 3}]})).unwrap(),
-    )
-    .unwrap();
-    assert_fails(
-        &path,
-        load_gltf(&path, 0.1),
-        &["does not validate", "nodes[0].mesh"],
-    );
+    fs::write(&path, serde_json::to_vec(&json!({"asset": {"version": "2.0"}, "nodes": [{"mesh": 3}]})).unwrap())
+        .unwrap();
+    assert_fails(&path, load_gltf(&path, 0.1), &["does not validate", "nodes[0].mesh"]);
 }
 
 #[test]
@@ -654,12 +561,7 @@ fn malformed_glb() {
     let dir = tempfile::tempdir().unwrap();
     let mut bin = Bin::default();
     let prim = bin.triangle();
-    let path = write_glb(
-        dir.path(),
-        "cut",
-        bin.document(one_mesh_scene(prim, json!({}))),
-        &bin.data,
-    );
+    let path = write_glb(dir.path(), "cut", bin.document(one_mesh_scene(prim, json!({}))), &bin.data);
     let bytes = fs::read(&path).unwrap();
     fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
     assert_fails(&path, load_gltf(&path, 0.1), &["malformed GLB"]);
@@ -670,18 +572,9 @@ fn missing_external_buffer() {
     let dir = tempfile::tempdir().unwrap();
     let mut bin = Bin::default();
     let prim = bin.triangle();
-    let path = write_gltf(
-        dir.path(),
-        "lost",
-        bin.document(one_mesh_scene(prim, json!({}))),
-        &bin.data,
-    );
+    let path = write_gltf(dir.path(), "lost", bin.document(one_mesh_scene(prim, json!({}))), &bin.data);
     fs::remove_file(dir.path().join("lost.bin")).unwrap();
-    assert_fails(
-        &path,
-        load_gltf(&path, 0.1),
-        &["buffer 0", "cannot read", "lost.bin"],
-    );
+    assert_fails(&path, load_gltf(&path, 0.1), &["buffer 0", "cannot read", "lost.bin"]);
 }
 
 #[test]
@@ -689,41 +582,24 @@ fn buffer_too_short() {
     let dir = tempfile::tempdir().unwrap();
     let mut bin = Bin::default();
     let prim = bin.triangle();
-    let path = write_gltf(
-        dir.path(),
-        "short",
-        bin.document(one_mesh_scene(prim.clone(), json!({}))),
-        &bin.data[..20],
-    );
+    let path = write_gltf(dir.path(), "short", bin.document(one_mesh_scene(prim.clone(), json!({}))), &bin.data[..20]);
     assert_fails(
         &path,
         load_gltf(&path, 0.1),
-        &[
-            "buffer 0 is too short",
-            &format!("byteLength is {}", bin.data.len()),
-            "20 bytes",
-        ],
+        &["buffer 0 is too short", &format!("byteLength is {}", bin.data.len()), "20 bytes"],
     );
 
     // The buffer is as long as it says, but an accessor reads past its view.
     let mut root = bin.document(one_mesh_scene(prim.clone(), json!({})));
     root["accessors"][0]["count"] = json!(30);
     let path = write_embedded(dir.path(), "overrun", root, &bin.data);
-    assert_fails(
-        &path,
-        load_gltf(&path, 0.1),
-        &["POSITION", "accessor 0", "do not fit"],
-    );
+    assert_fails(&path, load_gltf(&path, 0.1), &["POSITION", "accessor 0", "do not fit"]);
 
     // A buffer view that runs past its buffer.
     let mut root = bin.document(one_mesh_scene(prim, json!({})));
     root["bufferViews"][0]["byteLength"] = json!(10_000);
     let path = write_embedded(dir.path(), "view", root, &bin.data);
-    assert_fails(
-        &path,
-        load_gltf(&path, 0.1),
-        &["buffer view 0", "runs past the end"],
-    );
+    assert_fails(&path, load_gltf(&path, 0.1), &["buffer view 0", "runs past the end"]);
 }
 
 #[test]
@@ -732,17 +608,8 @@ fn unsupported_primitive_mode() {
     let mut bin = Bin::default();
     let mut prim = bin.triangle();
     prim["mode"] = json!(1);
-    let path = write_gltf(
-        dir.path(),
-        "lines",
-        bin.document(one_mesh_scene(prim, json!({}))),
-        &bin.data,
-    );
-    assert_fails(
-        &path,
-        load_gltf(&path, 0.1),
-        &["mesh 0 'tri' primitive 0", "mode Lines is not supported"],
-    );
+    let path = write_gltf(dir.path(), "lines", bin.document(one_mesh_scene(prim, json!({}))), &bin.data);
+    assert_fails(&path, load_gltf(&path, 0.1), &["mesh 0 'tri' primitive 0", "mode Lines is not supported"]);
 }
 
 #[test]
@@ -752,17 +619,8 @@ fn out_of_range_indices() {
     let p = bin.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], "VEC3");
     let i = bin.indices_u16(&[0, 1, 5]);
     let prim = json!({"attributes": {"POSITION": p}, "indices": i});
-    let path = write_gltf(
-        dir.path(),
-        "indices",
-        bin.document(one_mesh_scene(prim, json!({}))),
-        &bin.data,
-    );
-    assert_fails(
-        &path,
-        load_gltf(&path, 0.1),
-        &["mesh 0 'tri'", "index 2 is 5", "3 vertices", "out of range"],
-    );
+    let path = write_gltf(dir.path(), "indices", bin.document(one_mesh_scene(prim, json!({}))), &bin.data);
+    assert_fails(&path, load_gltf(&path, 0.1), &["mesh 0 'tri'", "index 2 is 5", "3 vertices", "out of range"]);
 }
 
 #[test]
@@ -771,17 +629,8 @@ fn nan_positions() {
     let mut bin = Bin::default();
     let p = bin.floats(&[0.0, 0.0, 0.0, f32::NAN, 0.0, 0.0, 0.0, 1.0, 0.0], "VEC3");
     let prim = json!({"attributes": {"POSITION": p}});
-    let path = write_gltf(
-        dir.path(),
-        "nan",
-        bin.document(one_mesh_scene(prim, json!({}))),
-        &bin.data,
-    );
-    assert_fails(
-        &path,
-        load_gltf(&path, 0.1),
-        &["mesh 0 'tri'", "POSITION 1 is not finite"],
-    );
+    let path = write_gltf(dir.path(), "nan", bin.document(one_mesh_scene(prim, json!({}))), &bin.data);
+    assert_fails(&path, load_gltf(&path, 0.1), &["mesh 0 'tri'", "POSITION 1 is not finite"]);
 }
 
 #[test]
@@ -795,30 +644,16 @@ fn missing_texture_image_file() {
         "textures": [{"source": 0}],
         "materials": [{"name": "paint", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
     });
-    let path = write_gltf(
-        dir.path(),
-        "notex",
-        bin.document(one_mesh_scene(prim, extra)),
-        &bin.data,
-    );
+    let path = write_gltf(dir.path(), "notex", bin.document(one_mesh_scene(prim, extra)), &bin.data);
     assert_fails(
         &path,
         load_gltf(&path, 0.1),
-        &[
-            "material 0 'paint'",
-            "image 0",
-            "cannot read image file",
-            "gone.png",
-        ],
+        &["material 0 'paint'", "image 0", "cannot read image file", "gone.png"],
     );
 
     // Present but not an image.
     fs::write(dir.path().join("gone.png"), b"definitely not a png").unwrap();
-    assert_fails(
-        &path,
-        load_gltf(&path, 0.1),
-        &["image 0", "cannot decode image"],
-    );
+    assert_fails(&path, load_gltf(&path, 0.1), &["image 0", "cannot decode image"]);
 }
 
 #[test]
@@ -857,24 +692,13 @@ fn other_bad_inputs_fail_cleanly() {
     root["buffers"][0]["uri"] = json!("https://example.com/a.bin");
     let path = dir.path().join("remote.gltf");
     fs::write(&path, serde_json::to_vec(&root).unwrap()).unwrap();
-    assert_fails(
-        &path,
-        load_gltf(&path, 0.1),
-        &["buffer 0", "unsupported scheme"],
-    );
+    assert_fails(&path, load_gltf(&path, 0.1), &["buffer 0", "unsupported scheme"]);
     root["buffers"][0]["uri"] = json!("data:application/octet-stream;base64,@@@@");
     fs::write(&path, serde_json::to_vec(&root).unwrap()).unwrap();
-    assert_fails(
-        &path,
-        load_gltf(&path, 0.1),
-        &["buffer 0", "invalid base64"],
-    );
+    assert_fails(&path, load_gltf(&path, 0.1), &["buffer 0", "invalid base64"]);
 
     // A bad threshold is an argument error, caught before reading.
-    assert!(matches!(
-        load_gltf(&path, 0.0),
-        Err(SceneError::InvalidArgument(_))
-    ));
+    assert!(matches!(load_gltf(&path, 0.0), Err(SceneError::InvalidArgument(_))));
 }
 
 #[test]
@@ -888,14 +712,8 @@ fn dangling_light_and_camera_references_fail_cleanly() {
             json!({"extensions": {"KHR_lights_punctual": {"lights": [{"type": "point"}]}},
                    "nodes": [{"mesh": 0}, {"extensions": {"KHR_lights_punctual": {"light": 5}}}]}),
         ),
-        (
-            "no_lights",
-            json!({"nodes": [{"mesh": 0}, {"extensions": {"KHR_lights_punctual": {"light": 0}}}]}),
-        ),
-        (
-            "camera_index",
-            json!({"nodes": [{"mesh": 0}, {"camera": 2}]}),
-        ),
+        ("no_lights", json!({"nodes": [{"mesh": 0}, {"extensions": {"KHR_lights_punctual": {"light": 0}}}]})),
+        ("camera_index", json!({"nodes": [{"mesh": 0}, {"camera": 2}]})),
     ] {
         let mut root = bin.document(one_mesh_scene(prim.clone(), extra));
         root["scenes"] = json!([{"nodes": [0, 1]}]);
@@ -910,37 +728,19 @@ fn sparse_accessors_patch_their_base() {
     let mut bin = Bin::default();
     let p = bin.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], "VEC3");
     let pos_idx = bin.view(&2u16.to_le_bytes());
-    let pos_val = bin.view(
-        &[0.0f32, 2.0, 0.0]
-            .iter()
-            .flat_map(|v| v.to_le_bytes())
-            .collect::<Vec<u8>>(),
-    );
+    let pos_val = bin.view(&[0.0f32, 2.0, 0.0].iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>());
     let uv_idx = bin.view(&[1u8]);
-    let uv_val = bin.view(
-        &[0.5f32, 0.25]
-            .iter()
-            .flat_map(|v| v.to_le_bytes())
-            .collect::<Vec<u8>>(),
-    );
+    let uv_val = bin.view(&[0.5f32, 0.25].iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>());
     bin.accessors[p]["sparse"] = json!({"count": 1, "indices": {"bufferView": pos_idx, "componentType": U16}, "values": {"bufferView": pos_val}});
     bin.accessors[p]["max"] = json!([1.0, 2.0, 0.0]);
     bin.accessors.push(json!({"componentType": F32, "count": 3, "type": "VEC2",
         "sparse": {"count": 1, "indices": {"bufferView": uv_idx, "componentType": 5121}, "values": {"bufferView": uv_val}}}));
     let uv = bin.accessors.len() - 1;
     let prim = json!({"attributes": {"POSITION": p, "TEXCOORD_0": uv}});
-    let path = write_gltf(
-        dir.path(),
-        "sparse",
-        bin.document(one_mesh_scene(prim, json!({}))),
-        &bin.data,
-    );
+    let path = write_gltf(dir.path(), "sparse", bin.document(one_mesh_scene(prim, json!({}))), &bin.data);
     let scene = load_gltf(&path, 0.1).unwrap();
     let m = &scene.meshes[0];
     // Flat normals unweld the vertices in index order (0, 1, 2).
-    assert_eq!(
-        m.positions,
-        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]]
-    );
+    assert_eq!(m.positions, vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]]);
     assert_eq!(m.uvs, vec![[0.0, 0.0], [0.5, 0.25], [0.0, 0.0]]);
 }
