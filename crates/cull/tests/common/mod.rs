@@ -326,6 +326,38 @@ pub fn to_view(view: &Mat4, p: Vec3) -> Vec3 {
     tiledlight_cull::bounds::to_view(view, p)
 }
 
+/// True when `l` is a spot light and f32 cannot say whether view point `p` is in it: too
+/// close to its apex ([`near_spot_apex`]) or to its cone's surface ([`near_spot_rim`]).
+/// The no-false-negative checks skip such (pixel, light) pairs.
+pub fn spot_pair_unresolvable(camera: &Camera, packed: &PackedLights, l: u32, p: Vec3) -> bool {
+    near_spot_apex(camera, packed, l, p) || near_spot_rim(camera, packed, l, p)
+}
+
+/// True when `l` is a spot light and the cosine of the angle between its axis and the
+/// direction to view point `p` is within 8 eps of the cone's `cos_outer`.
+///
+/// Why: `lights_reaching` decides the cone by `dot(d, axis) / |d| > cos_outer` in f32.
+/// Near 1 the cosine's ulp is 6e-8 and it carries ~4 ulps of error (the rotated axis is
+/// unit only to ~1 ulp, the dot product and the division add ~3), so the ground truth
+/// misplaces the cone's surface by up to ~2.4e-7 in cosine, which for a 0.5 degree cone
+/// is 0.3% of the half-angle. The culler's cone test works with `perp * cos - t * sin` and
+/// resolves the surface far better; the two disagree inside that band, where the shaded
+/// spot falloff `((cos - cos_outer) * scale)^2` is below 1e-5 anyway (scale <= 1e4). Found
+/// by no_false_negatives.rs: a 0.5 degree spot, a pixel at 0.5008 degrees that the
+/// ground truth's cosine put at 0.4997, and a 1 px tile 2e-7 m across. 8 eps (9.5e-7) is
+/// twice the ~4 ulps, and spans 1.3% of a 0.5 degree cone's half-angle, less for wider.
+pub fn near_spot_rim(camera: &Camera, packed: &PackedLights, l: u32, p: Vec3) -> bool {
+    if l < packed.num_point {
+        return false;
+    }
+    let view = camera.view();
+    let rot = Mat4::from_mat3(glam::Mat3::from_mat4(view));
+    let spot = packed.spots[(l - packed.num_point) as usize];
+    let axis = to_view(&rot, Vec3::from(spot.direction));
+    let d = p - to_view(&view, Vec3::from(packed.shading[l as usize].position));
+    (d.dot(axis) / d.length() - spot.cos_outer).abs() < 8.0 * EPS
+}
+
 /// True when `l` is a spot light whose apex is closer to view point `p` than f32 can
 /// resolve against its fitted bounding sphere: such pairs are not checked.
 ///
