@@ -3,7 +3,9 @@
 // survivors appended to a workgroup list and written to the tile's region of the global
 // list buffer with the true count (never more than CAPACITY indices: overflow is counted).
 // The CPU reference is crates/cull/src/reference.rs (cull_tiles).
-// variants: AABB HALF_Z SPOT_CONE
+// With COARSE, each tile tests only the lights of its 64x64-pixel cell (cull_coarse.wgsl),
+// or every light when the cell overflowed.
+// variants: AABB HALF_Z SPOT_CONE COARSE
 #include "common/cull_tests.wgsl"
 #include "common/lights.wgsl"
 
@@ -24,6 +26,12 @@ override CAPACITY: u32 = 512u;
 #ifdef HALF_Z
 // Per tile: near and far view distance of its surfaces (the pixel picks its half).
 @group(1) @binding(5) var<storage, read_write> tile_ranges: array<vec2<f32>>;
+#endif
+#ifdef COARSE
+override CELL: u32 = 64u;
+override COARSE_CAPACITY: u32 = 8192u;
+// Cell counts, then COARSE_CAPACITY indices per cell (see cull_coarse.wgsl).
+@group(1) @binding(8) var<storage, read> cell_lists: array<u32>;
 #endif
 #ifdef SPOT_CONE
 @group(1) @binding(6) var<storage, read> shading_lights: array<ShadingLight>;
@@ -152,7 +160,24 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid
 #else
         let v0 = tile_volume(ndc, near, far);
 #endif
-        for (var light = lidx; light < frame.num_lights; light += WG * WG) {
+        var candidates = frame.num_lights;
+#ifdef COARSE
+        let cells = (frame.screen + CELL - 1u) / CELL;
+        let cell_index = (origin.y / CELL) * cells.x + origin.x / CELL;
+        let cell_first = cells.x * cells.y + cell_index * COARSE_CAPACITY;
+        let cell_count = cell_lists[cell_index];
+        let from_cell = cell_count <= COARSE_CAPACITY;
+        if from_cell {
+            candidates = cell_count;
+        }
+#endif
+        for (var k = lidx; k < candidates; k += WG * WG) {
+            var light = k;
+#ifdef COARSE
+            if from_cell {
+                light = cell_lists[cell_first + k];
+            }
+#endif
             let cl = cull_lights[light];
             let c = (frame.view * vec4<f32>(cl.center, 1.0)).xyz;
             let r = cl.radius;

@@ -93,7 +93,14 @@ fn sphere_vs_aabb(b: Aabb, c: vec3<f32>, r: f32) -> bool {
 fn cone_vs_sphere(apex: vec3<f32>, axis: vec3<f32>, len: f32, cos_a: f32, sin_a: f32, center: vec3<f32>, radius: f32) -> bool {
     let v = center - apex;
     let t = dot(v, axis);
-    let perp = length(v - axis * t);
+    // Scaled by its largest component before squaring: beyond ~1.8e19 the square would
+    // overflow to inf and reject a sphere inside the cone (crates/cull/src/bounds.rs).
+    let w = v - axis * t;
+    let m = max(max(abs(w.x), abs(w.y)), abs(w.z));
+    var perp = 0.0;
+    if m > 0.0 {
+        perp = length(w / m) * m;
+    }
     let closest = cos_a * perp - t * sin_a;
     return !(closest > radius || t > radius + len || t < -radius);
 }

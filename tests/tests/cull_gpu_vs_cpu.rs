@@ -31,7 +31,8 @@ struct Case<'a> {
     height: u32,
 }
 
-fn check(case: &Case<'_>, options: CullOptions) {
+/// Culls `case` on the GPU and the CPU and compares every list; returns the depth buffer.
+fn check(case: &Case<'_>, options: CullOptions) -> Vec<f32> {
     let ctx = gpu();
     let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, case.scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, case.lights).unwrap();
@@ -64,8 +65,15 @@ fn check(case: &Case<'_>, options: CullOptions) {
     .unwrap();
 
     let label = format!(
-        "{} {}x{} tile {} aabb {} half-z {} cone {}",
-        case.name, case.width, case.height, options.tile_size, options.aabb, options.half_z, options.spot_cone
+        "{} {}x{} tile {} aabb {} half-z {} cone {} coarse {}",
+        case.name,
+        case.width,
+        case.height,
+        options.tile_size,
+        options.aabb,
+        options.half_z,
+        options.spot_cone,
+        options.coarse
     );
     assert_eq!(gpu_lists.counts.len(), cpu.lists.len(), "{label}: list count");
     let cap = options.capacity as usize;
@@ -118,8 +126,10 @@ fn check(case: &Case<'_>, options: CullOptions) {
     );
     // The test must have had something to compare.
     assert!(pairs > 0, "{label}: no light reached any tile; the case tests nothing");
+    depth
 }
 
+/// Every tile size and test, each both two-level (the default) and flat.
 fn all_options(has_spots: bool) -> Vec<CullOptions> {
     let mut v = Vec::new();
     for tile_size in [8, 16, 32] {
@@ -132,6 +142,8 @@ fn all_options(has_spots: bool) -> Vec<CullOptions> {
         v.push(CullOptions { spot_cone: true, ..Default::default() });
         v.push(CullOptions { tile_size: 8, aabb: true, half_z: true, spot_cone: true, ..Default::default() });
     }
+    let flat: Vec<CullOptions> = v.iter().map(|o| CullOptions { coarse: false, ..*o }).collect();
+    v.extend(flat);
     v
 }
 
@@ -199,6 +211,7 @@ fn extreme_cameras() {
     for (name, camera) in cams {
         let case = Case { name, scene: &scene, camera, lights: &lights, width: w, height: h };
         check(&case, CullOptions::default());
+        check(&case, CullOptions { coarse: false, ..Default::default() });
         check(&case, CullOptions { tile_size: 8, aabb: true, half_z: true, ..Default::default() });
     }
 }
@@ -219,4 +232,30 @@ fn overflow_is_counted_never_written_out_of_bounds() {
     };
     check(&case, CullOptions { capacity: 8, ..Default::default() });
     check(&case, CullOptions { capacity: 8, half_z: true, ..Default::default() });
+    check(&case, CullOptions { capacity: 8, coarse: false, ..Default::default() });
+}
+
+/// More lights reach a 64x64 cell than it stores (COARSE_CAPACITY): those cells' tiles
+/// fall back to testing every light, and the lists still equal the reference's.
+#[test]
+fn coarse_cell_overflow_falls_back_to_every_light() {
+    let scene = scenes::mixed_scene();
+    // Radii of 40 m: every light reaches every cell of the 20 m room.
+    let mut lights = scenes::lights(&scene, tiledlight_cull::reference::COARSE_CAPACITY + 1500, 0, 8);
+    for l in &mut lights {
+        l.radius = 40.0;
+    }
+    let (w, h) = (128, 72);
+    let case = Case {
+        name: "cell-overflow",
+        scene: &scene,
+        camera: scenes::mixed_camera(w, h),
+        lights: &lights,
+        width: w,
+        height: h,
+    };
+    let depth = check(&case, CullOptions { capacity: 2048, ..Default::default() });
+    let packed = tiledlight_cull::light::pack_lights(&tiledlight_cull::light::order_points_first(&lights));
+    let (_, cells) = tiledlight_cull::reference::coarse_cells(&depth, w, h, &case.camera, &packed).unwrap();
+    assert!(cells.iter().any(Option::is_none), "no cell overflowed: the fallback path went untested");
 }

@@ -224,11 +224,16 @@ struct ConfigJson {
     aabb: bool,
     half_z: bool,
     spot_cone: bool,
+    coarse: bool,
     commit: String,
 }
 
-/// `git rev-parse HEAD` of the working directory, or "unknown".
+/// The commit the binary was built from (`TILEDLIGHT_COMMIT`, set by build.rs), else
+/// `git rev-parse HEAD` of the working directory, else "unknown".
 pub fn commit_hash() -> String {
+    if let Some(c) = option_env!("TILEDLIGHT_COMMIT").filter(|c| !c.is_empty()) {
+        return c.to_string();
+    }
     std::process::Command::new("git")
         .args(["rev-parse", "HEAD"])
         .output()
@@ -280,6 +285,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 aabb: a.aabb,
                 half_z: a.half_z,
                 spot_cone: a.spot_cone,
+                coarse: !a.flat_cull,
                 commit: commit_hash(),
             },
             frames: args.frames,

@@ -140,6 +140,10 @@ pub struct SceneArgs {
     /// Also test spot cones against each tile (needs spot lights to matter).
     #[arg(long)]
     pub spot_cone: bool,
+    /// One-level culling: every tile tests every light (the default first culls per
+    /// 64x64-pixel cell, and tiles test only their cell's lights).
+    #[arg(long)]
+    pub flat_cull: bool,
     /// Exposure before tonemapping.
     #[arg(long, default_value_t = 1.0, value_name = "E")]
     pub exposure: f32,
@@ -164,6 +168,7 @@ impl Default for SceneArgs {
             aabb: false,
             half_z: false,
             spot_cone: false,
+            flat_cull: false,
             exposure: 1.0,
         }
     }
@@ -278,6 +283,7 @@ impl SceneArgs {
                 aabb: self.aabb,
                 half_z: self.half_z,
                 spot_cone: self.spot_cone,
+                coarse: !self.flat_cull,
             },
             exposure: self.exposure,
             heatmap,
@@ -297,7 +303,8 @@ impl SceneArgs {
         if self.half_z {
             tests.push_str(", half-z (2 lists per tile)");
         }
-        format!("{} px tiles, capacity {}, tests: {tests}", self.tile_size, self.capacity)
+        let levels = if self.flat_cull { "one level" } else { "two levels (64 px cells, then tiles)" };
+        format!("{} px tiles, capacity {}, {levels}, tests: {tests}", self.tile_size, self.capacity)
     }
 }
 

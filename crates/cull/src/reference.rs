@@ -16,6 +16,10 @@ use crate::tiles::{pixel_to_ndc_x, pixel_to_ndc_y, tile_depth_bounds, TileFrustu
 pub const DEFAULT_CAPACITY: u32 = 512;
 /// Largest per-list capacity the GPU kernel accepts (its workgroup list lives in 16 KiB).
 pub const MAX_CAPACITY: u32 = 2048;
+/// Side in pixels of the coarse cells of two-level culling (a multiple of every tile size).
+pub const COARSE_SIZE: u32 = 64;
+/// Light indices a coarse cell stores; a cell with more falls back to testing every light.
+pub const COARSE_CAPACITY: u32 = 8192;
 
 /// What the culler tests and how lists are stored. Mirrors the GPU pass's options.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -31,6 +35,11 @@ pub struct CullConfig {
     pub half_z: bool,
     /// Also test spot cones against the tile's bounding sphere.
     pub spot_cone: bool,
+    /// Two-level culling: lights are first culled against 64x64-pixel cells (planes and
+    /// depth range only), and each tile tests only its cell's survivors (every light when
+    /// the cell overflowed [`COARSE_CAPACITY`]). The cell volume contains the tile's, so
+    /// this stays conservative; it may drop a false positive the flat test would keep.
+    pub coarse: bool,
     /// CPU only: grow (>0) or shrink (<0) every light's radius by this fraction of
     /// `radius + |centre|`, to find decisions within float error of the boundary.
     pub inflate: f32,
@@ -38,7 +47,15 @@ pub struct CullConfig {
 
 impl Default for CullConfig {
     fn default() -> Self {
-        Self { tile_size: 16, capacity: DEFAULT_CAPACITY, aabb: false, half_z: false, spot_cone: false, inflate: 0.0 }
+        Self {
+            tile_size: 16,
+            capacity: DEFAULT_CAPACITY,
+            aabb: false,
+            half_z: false,
+            spot_cone: false,
+            coarse: false,
+            inflate: 0.0,
+        }
     }
 }
 
@@ -56,6 +73,12 @@ impl CullConfig {
     pub fn validate(&self) -> Result<(), CullError> {
         if self.capacity == 0 || self.capacity > MAX_CAPACITY {
             return Err(CullError::InvalidSize(format!("per-tile capacity {} must be in 1..={MAX_CAPACITY}", self.capacity)));
+        }
+        if self.coarse && COARSE_SIZE % self.tile_size != 0 {
+            return Err(CullError::InvalidSize(format!(
+                "two-level culling needs a tile size dividing {COARSE_SIZE}, not {}",
+                self.tile_size
+            )));
         }
         if !self.inflate.is_finite() {
             return Err(CullError::InvalidSize(format!("inflate {} is not finite", self.inflate)));
@@ -173,6 +196,8 @@ pub fn cull_tiles(depth: &[f32], width: u32, height: u32, camera: &Camera, light
     let dp = camera.depth_params();
     let vls = view_lights(&camera.view(), lights, config.inflate);
     let per = config.lists_per_tile();
+    let cells = if config.coarse { Some(coarse_cells_of(depth, width, height, camera, &vls)?) } else { None };
+    let all: Vec<u32> = (0..vls.len() as u32).collect();
     let mut lists = vec![Vec::new(); grid.tile_count() * per];
     let mut ranges = vec![None; grid.tile_count()];
     for ty in 0..grid.tiles_y {
@@ -187,12 +212,67 @@ pub fn cull_tiles(depth: &[f32], width: u32, height: u32, camera: &Camera, light
             } else {
                 vec![f]
             };
+            let candidates = match &cells {
+                Some((cgrid, cell_lists)) => {
+                    let (x0, _, y0, _) = grid.tile_pixels(tx, ty);
+                    cell_lists[cgrid.tile_of_pixel(x0, y0)].as_ref().unwrap_or(&all)
+                }
+                None => &all,
+            };
             for (k, vol) in volumes.iter().enumerate() {
-                lists[t * per + k] = (0..vls.len() as u32).filter(|&i| light_in_volume(&vls[i as usize], vol, &proj, dp.orthographic, config)).collect();
+                lists[t * per + k] = candidates
+                    .iter()
+                    .copied()
+                    .filter(|&i| light_in_volume(&vls[i as usize], vol, &proj, dp.orthographic, config))
+                    .collect();
             }
         }
     }
     Ok(TileLists { grid, config: *config, lists, ranges })
+}
+
+/// The coarse cells of two-level culling: per cell, the lights passing the plane and
+/// depth-range test of the cell's volume, or `None` when more than [`COARSE_CAPACITY`] do
+/// (the tiles then test every light). All-sky cells get an empty list.
+fn coarse_cells_of(
+    depth: &[f32],
+    width: u32,
+    height: u32,
+    camera: &Camera,
+    vls: &[ViewLight],
+) -> Result<(TileGrid, Vec<Option<Vec<u32>>>), CullError> {
+    let cgrid = TileGrid::new(width, height, COARSE_SIZE)?;
+    let mut cells = Vec::with_capacity(cgrid.tile_count());
+    for cy in 0..cgrid.tiles_y {
+        for cx in 0..cgrid.tiles_x {
+            let Some(b) = tile_depth_bounds(&cgrid, depth, cx, cy) else {
+                cells.push(Some(Vec::new()));
+                continue;
+            };
+            let f = TileFrustum::new(&cgrid, camera, cx, cy, b);
+            let list: Vec<u32> = (0..vls.len() as u32)
+                .filter(|&i| {
+                    let l = &vls[i as usize];
+                    l.radius > 0.0 && sphere_vs_frustum(&f, l.center, l.radius)
+                })
+                .collect();
+            cells.push((list.len() <= COARSE_CAPACITY as usize).then_some(list));
+        }
+    }
+    Ok((cgrid, cells))
+}
+
+/// The first level of two-level culling on its own: the cell grid and, per cell, its
+/// lights, or `None` for a cell that overflowed [`COARSE_CAPACITY`].
+pub fn coarse_cells(
+    depth: &[f32],
+    width: u32,
+    height: u32,
+    camera: &Camera,
+    lights: &PackedLights,
+) -> Result<(TileGrid, Vec<Option<Vec<u32>>>), CullError> {
+    check_depth(&TileGrid::new(width, height, COARSE_SIZE)?, depth)?;
+    coarse_cells_of(depth, width, height, camera, &view_lights(&camera.view(), lights, 0.0))
 }
 
 /// View-space position of the centre of pixel (x, y) with reversed-Z depth `d`, or `None`

@@ -6,7 +6,7 @@
 //! `tiledlight_cull::reference::cull_tiles`. Depends on wgpu, [`crate::frame`],
 //! [`crate::lights_gpu`].
 
-use tiledlight_cull::reference::MAX_CAPACITY;
+use tiledlight_cull::reference::{COARSE_CAPACITY, COARSE_SIZE, MAX_CAPACITY};
 use tiledlight_cull::TileGrid;
 
 use crate::error::GpuError;
@@ -30,6 +30,9 @@ pub struct CullOptions {
     pub half_z: bool,
     /// Also test spot cones (ignored when the scene has no spot lights).
     pub spot_cone: bool,
+    /// Two-level culling: a first pass culls lights per 64x64-pixel cell and each tile
+    /// tests only its cell's survivors (see `tiledlight_cull::CullConfig::coarse`).
+    pub coarse: bool,
 }
 
 impl Default for CullOptions {
@@ -40,6 +43,7 @@ impl Default for CullOptions {
             aabb: false,
             half_z: false,
             spot_cone: false,
+            coarse: true,
         }
     }
 }
@@ -53,6 +57,7 @@ impl CullOptions {
             aabb: self.aabb,
             half_z: self.half_z,
             spot_cone: self.spot_cone && has_spots,
+            coarse: self.coarse,
             inflate: 0.0,
         }
     }
@@ -80,10 +85,82 @@ pub struct GpuTileLists {
     pub pairs: u32,
 }
 
+/// The first level of two-level culling: per 64x64-pixel cell, the lights that may touch it.
+struct CoarseCulling {
+    pipeline: wgpu::ComputePipeline,
+    bind_group: wgpu::BindGroup,
+    cells: TileGrid,
+}
+
+impl CoarseCulling {
+    /// Pipeline and cell buffers; returns the buffers for the per-tile pass to read.
+    fn new(
+        device: &wgpu::Device,
+        frame: &FrameBinding,
+        depth: &wgpu::TextureView,
+        lights: &LightBuffers,
+        grid: &TileGrid,
+        memory: &mut MemoryReport,
+    ) -> Result<(Self, wgpu::Buffer), GpuError> {
+        let cells = TileGrid::new(grid.width, grid.height, COARSE_SIZE)?;
+        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        // Counts first, then COARSE_CAPACITY indices per cell: one binding, since a stage
+        // has only 8 storage buffers and the per-tile pass already uses up to 7.
+        let n = cells.tile_count() as u64;
+        let lists = buffer_zeroed(device, "cull.cell_lists", (n + n * COARSE_CAPACITY as u64) * 4, usage);
+        memory.add("cull.cell_lists", lists.size());
+        let cs = wgpu::ShaderStages::COMPUTE;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("cull_coarse.layout"),
+            entries: &[depth_entry(0), storage_entry(1, cs, true), storage_entry(2, cs, false)],
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("cull_coarse.bind_group"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(depth) },
+                wgpu::BindGroupEntry { binding: 1, resource: lights.cull.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: lists.as_entire_binding() },
+            ],
+        });
+        let module = shader_module(device, "cull_coarse.wgsl", &[])?;
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("cull_coarse"),
+            layout: Some(&pipeline_layout(device, "cull_coarse.pipeline_layout", &[&frame.layout, &layout])),
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants: &COARSE_CONSTANTS,
+                zero_initialize_workgroup_memory: false,
+            },
+            cache: None,
+        });
+        Ok((Self { pipeline, bind_group, cells }, lists))
+    }
+}
+
+/// Override constants shared by both levels (from the CPU reference's constants).
+const COARSE_CONSTANTS: [(&str, f64); 2] = [("CELL", COARSE_SIZE as f64), ("COARSE_CAPACITY", COARSE_CAPACITY as f64)];
+
+fn depth_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Depth,
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
 /// The culling pass and its output buffers, sized to one screen and tile size.
 pub struct LightCulling {
     pipeline: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
+    /// The first level of two-level culling, when enabled.
+    coarse: Option<CoarseCulling>,
     /// Per-list light counts.
     pub tile_counts: wgpu::Buffer,
     /// Per-list light indices (`capacity` per list).
@@ -149,18 +226,15 @@ impl LightCulling {
         if spot_cone {
             defines.push("SPOT_CONE");
         }
+        if options.coarse {
+            if COARSE_SIZE % options.tile_size != 0 {
+                return Err(GpuError::Config(format!("two-level culling needs a tile size dividing {COARSE_SIZE}")));
+            }
+            defines.push("COARSE");
+        }
         let cs = wgpu::ShaderStages::COMPUTE;
         let mut entries = vec![
-            wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: cs,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Depth,
-                    view_dimension: wgpu::TextureViewDimension::D2,
-                    multisampled: false,
-                },
-                count: None,
-            },
+            depth_entry(0),
             storage_entry(1, cs, true),
             storage_entry(2, cs, false),
             storage_entry(3, cs, false),
@@ -182,6 +256,13 @@ impl LightCulling {
             entries.push(storage_entry(6, cs, true));
             entries.push(storage_entry(7, cs, true));
         }
+        let coarse = if options.coarse {
+            let (c, lists) = CoarseCulling::new(device, frame, depth, lights, &grid, &mut memory)?;
+            entries.push(storage_entry(8, cs, true));
+            Some((c, lists))
+        } else {
+            None
+        };
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cull.layout"),
             entries: &entries,
@@ -199,6 +280,9 @@ impl LightCulling {
         if let (true, Some(spots)) = (spot_cone, &lights.spots) {
             bind.push(wgpu::BindGroupEntry { binding: 6, resource: lights.shading.as_entire_binding() });
             bind.push(wgpu::BindGroupEntry { binding: 7, resource: spots.as_entire_binding() });
+        }
+        if let Some((_, lists)) = &coarse {
+            bind.push(wgpu::BindGroupEntry { binding: 8, resource: lists.as_entire_binding() });
         }
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cull.bind_group"),
@@ -220,7 +304,9 @@ impl LightCulling {
             },
             cache: None,
         });
-        Ok(Self { pipeline, bind_group, tile_counts, tile_indices, tile_ranges, stats, grid, options, memory })
+        // The cell buffers live on through the bind groups that reference them.
+        let coarse = coarse.map(|(c, _)| c);
+        Ok(Self { pipeline, bind_group, coarse, tile_counts, tile_indices, tile_ranges, stats, grid, options, memory })
     }
 
     /// Records the culling dispatch (one workgroup per tile) after clearing the counters.
@@ -232,8 +318,13 @@ impl LightCulling {
                 label: Some(label),
                 timestamp_writes: t.compute_writes(),
             });
-            pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, &frame.bind_group, &[]);
+            if let Some(c) = &self.coarse {
+                pass.set_pipeline(&c.pipeline);
+                pass.set_bind_group(1, &c.bind_group, &[]);
+                pass.dispatch_workgroups(c.cells.tiles_x, c.cells.tiles_y, 1);
+            }
+            pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(1, &self.bind_group, &[]);
             pass.dispatch_workgroups(self.grid.tiles_x, self.grid.tiles_y, 1);
         }

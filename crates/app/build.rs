@@ -1,0 +1,20 @@
+//! Records the git commit the binary is built from, so benchmark JSON written on another
+//! machine (without the repository) still names it. Empty when git is unavailable.
+
+fn main() {
+    let commit = std::process::Command::new("git")
+        .args(["rev-parse", "--short=12", "HEAD"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_default();
+    let dirty = std::process::Command::new("git")
+        .args(["status", "--porcelain", "--untracked-files=no"])
+        .output()
+        .ok()
+        .is_some_and(|o| !o.stdout.is_empty());
+    println!("cargo:rustc-env=TILEDLIGHT_COMMIT={commit}{}", if dirty && !commit.is_empty() { "-dirty" } else { "" });
+    println!("cargo:rerun-if-changed=../../.git/HEAD");
+    println!("cargo:rerun-if-changed=../../.git/index");
+}
