@@ -281,7 +281,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 threshold: a.threshold,
                 method: a.method.name(),
                 tile_size: a.tile_size,
-                capacity: a.capacity,
+                capacity: a.capacity(),
                 aabb: a.aabb,
                 half_z: a.half_z,
                 spot_cone: a.spot_cone,

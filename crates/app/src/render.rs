@@ -133,7 +133,7 @@ pub fn write_image(prep: &Prepared, renderer: &ForwardRenderer, heatmap: bool, p
     let ldr = renderer.read_ldr(&prep.ctx).context("reading the image back")?;
     let mut img = rgb_image(prep.args.width, prep.args.height, &ldr)?;
     let mut note = None;
-    if heatmap && !legend::draw_legend(&mut img, prep.args.capacity) {
+    if heatmap && !legend::draw_legend(&mut img, prep.args.capacity()) {
         note = Some(format!("the image ({}x{}) is too small for the legend: not drawn", img.width(), img.height()));
     }
     save_png(path, &img)?;

@@ -129,8 +129,10 @@ pub struct SceneArgs {
     #[arg(long, default_value_t = 16, value_name = "8|16|32")]
     pub tile_size: u32,
     /// Light indices stored per tile list (more are counted as overflow), 1 to 2048.
-    #[arg(long, default_value_t = DEFAULT_CAPACITY, value_name = "N")]
-    pub capacity: u32,
+    /// Default: the light count, up to what the GPU's workgroup memory holds (2048), so
+    /// lists overflow only when a tile really sees more lights than that.
+    #[arg(long, value_name = "N")]
+    pub capacity: Option<u32>,
     /// Also test light spheres against each tile's view-space AABB.
     #[arg(long)]
     pub aabb: bool,
@@ -164,7 +166,7 @@ impl Default for SceneArgs {
             height: 1080,
             method: MethodArg::ForwardPlus,
             tile_size: 16,
-            capacity: DEFAULT_CAPACITY,
+            capacity: None,
             aabb: false,
             half_z: false,
             spot_cone: false,
@@ -212,9 +214,9 @@ impl SceneArgs {
         );
         ensure!([8, 16, 32].contains(&self.tile_size), "--tile-size {}: must be 8, 16 or 32", self.tile_size);
         ensure!(
-            (1..=MAX_CAPACITY).contains(&self.capacity),
+            self.capacity.is_none_or(|c| (1..=MAX_CAPACITY).contains(&c)),
             "--capacity {}: must be between 1 and {MAX_CAPACITY} lights per tile list",
-            self.capacity
+            self.capacity.unwrap_or_default()
         );
         for (flag, n) in [("--lights", self.lights), ("--spot-lights", self.spot_lights)] {
             if let Some(n) = n {
@@ -260,11 +262,11 @@ impl SceneArgs {
                 * if self.half_z { 2 } else { 1 };
             // The GPU checks its own binding limit; this only stops requests no GPU binds
             // (u32 offsets) before minutes of scene loading.
-            let bytes = lists * u64::from(self.capacity) * 4;
+            let bytes = lists * u64::from(self.capacity.unwrap_or(MAX_CAPACITY)) * 4;
             ensure!(
                 bytes <= u64::from(u32::MAX),
                 "--capacity {} at {}x{} with {} px tiles needs {bytes} bytes of tile lists: lower the capacity or raise the tile size",
-                self.capacity,
+                self.capacity.unwrap_or(MAX_CAPACITY),
                 self.width,
                 self.height,
                 self.tile_size
@@ -273,13 +275,19 @@ impl SceneArgs {
         Ok(())
     }
 
+    /// The per-list capacity: `--capacity`, or the one `Prepared::new` chose for the
+    /// scene's light count.
+    pub fn capacity(&self) -> u32 {
+        self.capacity.unwrap_or(DEFAULT_CAPACITY)
+    }
+
     /// The renderer settings of these flags (`heatmap` only for the tiled method).
     pub fn settings(&self, heatmap: bool) -> ForwardSettings {
         ForwardSettings {
             method: self.method.method(),
             cull: CullOptions {
                 tile_size: self.tile_size,
-                capacity: self.capacity,
+                capacity: self.capacity(),
                 aabb: self.aabb,
                 half_z: self.half_z,
                 spot_cone: self.spot_cone,
@@ -304,7 +312,7 @@ impl SceneArgs {
             tests.push_str(", half-z (2 lists per tile)");
         }
         let levels = if self.flat_cull { "one level" } else { "two levels (64 px cells, then tiles)" };
-        format!("{} px tiles, capacity {}, {levels}, tests: {tests}", self.tile_size, self.capacity)
+        format!("{} px tiles, capacity {}, {levels}, tests: {tests}", self.tile_size, self.capacity())
     }
 }
 
@@ -383,8 +391,12 @@ impl Prepared {
         let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &scene)
             .with_context(|| format!("uploading scene '{}'", scene.name))?;
         let light_buffers = LightBuffers::new(&ctx.device, &lights).context("uploading the lights")?;
+        let mut args = args.clone();
+        if args.capacity.is_none() {
+            args.capacity = Some(CullOptions::capacity_for(light_buffers.len(), args.half_z, &ctx.device.limits()));
+        }
         Ok(Self {
-            args: args.clone(),
+            args,
             ctx,
             scene_name: scene.name.clone(),
             instances: scene.instances.len(),
@@ -600,7 +612,7 @@ mod tests {
         assert!(err(SceneArgs { width: 0, ..args() }).contains("--width 0"));
         assert!(err(SceneArgs { height: 20000, ..args() }).contains("--height 20000"));
         assert!(err(SceneArgs { tile_size: 7, ..args() }).contains("--tile-size 7"));
-        assert!(err(SceneArgs { capacity: 0, ..args() }).contains("--capacity 0"));
+        assert!(err(SceneArgs { capacity: Some(0), ..args() }).contains("--capacity 0"));
         assert!(err(SceneArgs { lights: Some(99_999_999), ..args() }).contains("--lights 99999999"));
         let both = SceneArgs { lights: Some(MAX_LIGHTS), spot_lights: Some(1), ..args() };
         assert!(err(both).contains("in total"));

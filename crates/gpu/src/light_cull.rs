@@ -62,6 +62,15 @@ impl CullOptions {
         }
     }
 
+    /// The capacity that holds every light of a `num_lights` scene in every list, as far as
+    /// the device's workgroup memory allows (2048 a list on WebGPU's default 16 KiB without
+    /// half-z, 2044 with): overflow then only happens when a tile really sees more lights.
+    pub fn capacity_for(num_lights: u32, half_z: bool, limits: &wgpu::Limits) -> u32 {
+        let lists = if half_z { 2 } else { 1 };
+        let fits = (limits.max_compute_workgroup_storage_size.saturating_sub(16)) / (4 * lists);
+        num_lights.clamp(1, MAX_CAPACITY.min(fits).max(1))
+    }
+
     /// Lists per tile.
     pub fn lists_per_tile(&self) -> u32 {
         if self.half_z {
@@ -340,5 +349,21 @@ impl LightCulling {
         let n = self.grid.tile_count() * self.options.lists_per_tile() as usize;
         let lists = (0..n).map(|i| indices[i * cap..i * cap + (counts[i] as usize).min(cap)].to_vec()).collect();
         Ok(GpuTileLists { counts: counts[..n].to_vec(), lists, overflowing: stats[0], pairs: stats[1] })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::CullOptions;
+
+    #[test]
+    fn capacity_follows_lights_up_to_workgroup_memory() {
+        let limits = wgpu::Limits::default(); // 16 KiB of workgroup memory
+        assert_eq!(CullOptions::capacity_for(0, false, &limits), 1);
+        assert_eq!(CullOptions::capacity_for(1024, false, &limits), 1024);
+        assert_eq!(CullOptions::capacity_for(100_000, false, &limits), 2048);
+        assert_eq!(CullOptions::capacity_for(100_000, true, &limits), 2044);
+        let small = wgpu::Limits { max_compute_workgroup_storage_size: 4096, ..limits };
+        assert_eq!(CullOptions::capacity_for(100_000, true, &small), 510);
     }
 }
