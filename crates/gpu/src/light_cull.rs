@@ -64,7 +64,7 @@ impl CullOptions {
 
     /// The capacity that holds every light of a `num_lights` scene in every list, as far as
     /// the device's workgroup memory allows (2048 a list on WebGPU's default 16 KiB without
-    /// half-z, 2044 with): overflow then only happens when a tile really sees more lights.
+    /// half-z, 2046 with): overflow then only happens when a tile really sees more lights.
     pub fn capacity_for(num_lights: u32, half_z: bool, limits: &wgpu::Limits) -> u32 {
         let lists = if half_z { 2 } else { 1 };
         let fits = (limits.max_compute_workgroup_storage_size.saturating_sub(16)) / (4 * lists);
@@ -362,7 +362,7 @@ mod tests {
         assert_eq!(CullOptions::capacity_for(0, false, &limits), 1);
         assert_eq!(CullOptions::capacity_for(1024, false, &limits), 1024);
         assert_eq!(CullOptions::capacity_for(100_000, false, &limits), 2048);
-        assert_eq!(CullOptions::capacity_for(100_000, true, &limits), 2044);
+        assert_eq!(CullOptions::capacity_for(100_000, true, &limits), 2046);
         let small = wgpu::Limits { max_compute_workgroup_storage_size: 4096, ..limits };
         assert_eq!(CullOptions::capacity_for(100_000, true, &small), 510);
     }
