@@ -327,10 +327,11 @@ pub fn to_view(view: &Mat4, p: Vec3) -> Vec3 {
 }
 
 /// True when `l` is a spot light and f32 cannot say whether view point `p` is in it: too
-/// close to its apex ([`near_spot_apex`]) or to its cone's surface ([`near_spot_rim`]).
+/// close to its fitted sphere's surface ([`near_spot_sphere_surface`]: at its apex and
+/// cap rim) or to its cone's surface ([`near_spot_rim`]).
 /// The no-false-negative checks skip such (pixel, light) pairs.
 pub fn spot_pair_unresolvable(camera: &Camera, packed: &PackedLights, l: u32, p: Vec3) -> bool {
-    near_spot_apex(camera, packed, l, p) || near_spot_rim(camera, packed, l, p)
+    near_spot_sphere_surface(camera, packed, l, p) || near_spot_rim(camera, packed, l, p)
 }
 
 /// True when `l` is a spot light and the cosine of the angle between its axis and the
@@ -358,23 +359,34 @@ pub fn near_spot_rim(camera: &Camera, packed: &PackedLights, l: u32, p: Vec3) ->
     (d.dot(axis) / d.length() - spot.cos_outer).abs() < 8.0 * EPS
 }
 
-/// True when `l` is a spot light whose apex is closer to view point `p` than f32 can
-/// resolve against its fitted bounding sphere: such pairs are not checked.
+/// True when `l` is a spot light and view point `p` lies closer to the surface of the
+/// spot's fitted bounding sphere than f32 can resolve at the light's position.
 ///
-/// Why: for half-angles up to 45 degrees the bounding sphere (`spot_bounding_sphere`, AMD's
-/// fit) passes exactly through the apex, so a point at distance `delta` from the apex
-/// inside the cone lies only `delta * cos(angle) >= 0.7 * delta` inside the sphere. The
-/// sphere's centre `apex + dir * R` is rounded in world space and again by the view
-/// transform, at magnitude `s = |apex| + R + |eye|`: each rounding is at most half an ulp,
-/// `0.5 * EPS * s`, and about 8 of them add up, so `4 * EPS * s` bounds how far outside
-/// the sphere such a point can land. Measured over 2000 random cases: at most 1.54 EPS * s.
-/// Found by no_false_negatives.rs: a spot at the eye with R = 5.2e5 m and a surface 1.9e-4 m in front
-/// of it. This excludes a ball of radius 5e-7 of the light's reach around the apex.
-pub fn near_spot_apex(camera: &Camera, packed: &PackedLights, l: u32, p: Vec3) -> bool {
+/// Why: the culler tests the fitted sphere (`GpuCullLight::center`, `radius`), the ground
+/// truth the cone from the apex (`GpuShadingLight::position`). In exact arithmetic the
+/// sphere holds the cone, but the two points are rounded separately (the centre
+/// `apex + dir * offset` in world space, then each by the view transform) at magnitude
+/// `s = |apex| + R + |eye|`: each rounding is at most half an ulp, `0.5 * EPS * s`, and
+/// about 8 of them add up, so they can disagree by `4 * EPS * s` (measured over 2000
+/// random cases: at most 1.54 EPS * s). A point of the cone whose exact distance inside
+/// the sphere (computed here relative to the apex, at the light's own scale) is less than
+/// that may land outside the culler's sphere. The sphere touches the cone at the apex
+/// (half-angles up to 45 degrees) and along the cap's rim, so this covers those two
+/// places, and whole spots smaller than `4 * EPS * s`. Found by no_false_negatives.rs: a
+/// spot at the eye with R = 5.2e5 m and a surface 1.9e-4 m in front of it; a 0.7 mm spot
+/// 1.4 km from the origin.
+pub fn near_spot_sphere_surface(camera: &Camera, packed: &PackedLights, l: u32, p: Vec3) -> bool {
     if l < packed.num_point {
         return false;
     }
-    let apex = Vec3::from(packed.shading[l as usize].position);
-    let scale = apex.length() + packed.cull[l as usize].radius + camera.eye().length();
-    (p - to_view(&camera.view(), apex)).length() < 4.0 * EPS * scale
+    let view = camera.view();
+    let rot = Mat4::from_mat3(glam::Mat3::from_mat4(view));
+    let spot = packed.spots[(l - packed.num_point) as usize];
+    let sh = packed.shading[l as usize];
+    let apex = Vec3::from(sh.position);
+    let axis = to_view(&rot, Vec3::from(spot.direction));
+    let angle = spot.sin_outer.atan2(spot.cos_outer);
+    let (c_rel, radius) = tiledlight_cull::light::spot_bounding_sphere(Vec3::ZERO, axis, sh.radius, angle);
+    let slack = radius - (p - to_view(&view, apex) - c_rel).length();
+    slack < 4.0 * EPS * (apex.length() + radius + camera.eye().length())
 }
