@@ -94,17 +94,19 @@ pub fn test(root: &Path, extra: &[String]) -> Result<()> {
         cmd
     };
     if nextest_available(root) {
+        // nextest does not run doc tests. They run first so that nextest's summary of the
+        // whole suite ("N tests run: N passed") is the last thing printed, not a doc-test
+        // run of zero tests that a reader of the closing line would take for no tests.
+        let mut cmd = with_env(cargo(root));
+        cmd.args(["test", "--workspace", "--doc", "--no-fail-fast"]);
+        if !run_status(&mut cmd)? {
+            failed.push("doc tests");
+        }
         // The `gpu` test group in .config/nextest.toml serializes the GPU package.
         let mut cmd = with_env(cargo(root));
         cmd.args(["nextest", "run", "--workspace", "--no-fail-fast"]).args(extra);
         if !run_status(&mut cmd)? {
             failed.push("cargo nextest run");
-        }
-        // nextest does not run doc tests.
-        let mut cmd = with_env(cargo(root));
-        cmd.args(["test", "--workspace", "--doc", "--no-fail-fast"]);
-        if !run_status(&mut cmd)? {
-            failed.push("doc tests");
         }
     } else {
         println!("xtask: cargo-nextest not found, using cargo test (`cargo install cargo-nextest` for faster runs)");
