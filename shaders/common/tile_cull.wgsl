@@ -1,0 +1,175 @@
+// The per-tile light culling shared by the culling pass (cull.wgsl, Forward+) and the
+// deferred pass (deferred.wgsl, Tiled Deferred): one WG x WG workgroup per tile reduces
+// the min/max depth of the tile's non-sky pixels, builds the tile's view volume and tests
+// the candidate lights (every light, or its 64x64-pixel cell's with COARSE) in parallel,
+// appending survivors to workgroup lists (two with HALF_Z). The CPU reference is
+// crates/cull/src/reference.rs (cull_tiles).
+//
+// The including file declares: `depth_texture: texture_depth_2d`, `cull_lights:
+// array<CullLight>`, with COARSE `cell_lists: array<u32>`, with SPOT_CONE `shading_lights`
+// and `spot_lights`.
+#include "common/cull_tests.wgsl"
+#include "common/lights.wgsl"
+
+// Tile side in pixels; the workgroup is WG x WG threads, each reducing (TILE_SIZE / WG)^2 pixels.
+override TILE_SIZE: u32 = 16u;
+override WG: u32 = 16u;
+// Indices stored per list.
+override CAPACITY: u32 = 512u;
+
+#ifdef COARSE
+// Cell side and the indices a cell stores (tiledlight_cull::reference::{COARSE_SIZE, COARSE_CAPACITY}).
+override CELL: u32 = 64u;
+override COARSE_CAPACITY: u32 = 8192u;
+#endif
+
+var<workgroup> wg_min_depth: atomic<u32>;
+var<workgroup> wg_max_depth: atomic<u32>;
+var<workgroup> wg_count: array<atomic<u32>, 2>;
+var<workgroup> wg_list: array<u32, CAPACITY>;
+#ifdef HALF_Z
+var<workgroup> wg_list_far: array<u32, CAPACITY>;
+#endif
+
+fn append(list: u32, light: u32) {
+    let slot = atomicAdd(&wg_count[list], 1u);
+    if slot < CAPACITY {
+#ifdef HALF_Z
+        if list == 1u {
+            wg_list_far[slot] = light;
+            return;
+        }
+#endif
+        wg_list[slot] = light;
+    }
+}
+
+// The light's tests beyond the sphere/planes one (AABB, spot cone); `c` is the view-space centre.
+fn extra_tests(v: TileVolume, light: u32, c: vec3<f32>, r: f32) -> bool {
+#ifdef AABB
+    let b = volume_aabb(v);
+    if !sphere_vs_aabb(b, c, r) {
+        return false;
+    }
+#endif
+#ifdef SPOT_CONE
+    if light >= frame.num_point_lights {
+#ifndef AABB
+        let b = volume_aabb(v);
+#endif
+        let s = spot_lights[light - frame.num_point_lights];
+        let sh = shading_lights[light];
+        let apex = (frame.view * vec4<f32>(sh.position, 1.0)).xyz;
+        let axis = (frame.view * vec4<f32>(s.direction, 0.0)).xyz;
+        let sc = (b.lo + b.hi) * 0.5;
+        let sr = length(b.hi - b.lo) * 0.5;
+        if !cone_vs_sphere(apex, axis, sh.radius, s.cos_outer, s.sin_outer, sc, sr) {
+            return false;
+        }
+    }
+#endif
+    return true;
+}
+
+// What cull_tile found out about its tile.
+struct TileCull {
+    index: u32,
+    // View distances of the nearest and farthest surface (0, 0 for an all-sky tile).
+    near: f32,
+    far: f32,
+}
+
+// The distance where half-z splits a tile's range (tiledlight_cull::reference::half_z_split).
+fn half_z_split(near: f32, far: f32) -> f32 {
+    return 0.5 * (near + far);
+}
+
+// Culls the workgroup's tile into wg_list (and wg_list_far with HALF_Z); wg_count holds the
+// true counts. Must be called from uniform control flow (it has barriers) by every thread.
+fn cull_tile(tile: vec2<u32>, lid: vec2<u32>, lidx: u32) -> TileCull {
+    if lidx == 0u {
+        // Depth is in [0, 1]: non-negative floats order like their bit patterns.
+        atomicStore(&wg_min_depth, 0x7f800000u);
+        atomicStore(&wg_max_depth, 0u);
+        atomicStore(&wg_count[0], 0u);
+        atomicStore(&wg_count[1], 0u);
+    }
+    workgroupBarrier();
+
+    let origin = tile * TILE_SIZE;
+    var lo = 3.4e38;
+    var hi = 0.0;
+    let steps = TILE_SIZE / WG;
+    for (var j = 0u; j < steps; j++) {
+        for (var i = 0u; i < steps; i++) {
+            let p = origin + lid + vec2<u32>(i, j) * WG;
+            if p.x < frame.screen.x && p.y < frame.screen.y {
+                let d = textureLoad(depth_texture, p, 0);
+                // Sky (depth 0, the clear value) is no surface.
+                if d > 0.0 {
+                    lo = min(lo, d);
+                    hi = max(hi, d);
+                }
+            }
+        }
+    }
+    if hi > 0.0 {
+        atomicMin(&wg_min_depth, bitcast<u32>(lo));
+        atomicMax(&wg_max_depth, bitcast<u32>(hi));
+    }
+    workgroupBarrier();
+
+    var result = TileCull(tile.y * frame.tiles.x + tile.x, 0.0, 0.0);
+    let max_depth = bitcast<f32>(atomicLoad(&wg_max_depth));
+    let min_depth = bitcast<f32>(atomicLoad(&wg_min_depth));
+    if max_depth > 0.0 {
+        // Reversed-Z: the largest depth is the nearest surface.
+        let near = view_distance(max_depth);
+        let far = view_distance(min_depth);
+        result.near = near;
+        result.far = far;
+        let ndc = tile_ndc(tile, TILE_SIZE);
+#ifdef HALF_Z
+        let mid = half_z_split(near, far);
+        let v0 = tile_volume(ndc, near, mid);
+        let v1 = tile_volume(ndc, mid, far);
+#else
+        let v0 = tile_volume(ndc, near, far);
+#endif
+        var candidates = frame.num_lights;
+#ifdef COARSE
+        let cells = (frame.screen + CELL - 1u) / CELL;
+        let cell_index = (origin.y / CELL) * cells.x + origin.x / CELL;
+        let cell_first = cells.x * cells.y + cell_index * COARSE_CAPACITY;
+        let cell_count = cell_lists[cell_index];
+        let from_cell = cell_count <= COARSE_CAPACITY;
+        if from_cell {
+            candidates = cell_count;
+        }
+#endif
+        for (var k = lidx; k < candidates; k += WG * WG) {
+            var light = k;
+#ifdef COARSE
+            if from_cell {
+                light = cell_lists[cell_first + k];
+            }
+#endif
+            let cl = cull_lights[light];
+            let c = (frame.view * vec4<f32>(cl.center, 1.0)).xyz;
+            let r = cl.radius;
+            if r <= 0.0 {
+                continue;
+            }
+            if sphere_vs_frustum(v0, c, r) && extra_tests(v0, light, c, r) {
+                append(0u, light);
+            }
+#ifdef HALF_Z
+            if sphere_vs_frustum(v1, c, r) && extra_tests(v1, light, c, r) {
+                append(1u, light);
+            }
+#endif
+        }
+    }
+    workgroupBarrier();
+    return result;
+}
