@@ -2,7 +2,8 @@
 //! light around the eye is kept exactly by the tiles whose surfaces it reaches; capacity
 //! and overflow counting (lists are never truncated); half-z lists are subsets of the
 //! full list and every pixel finds its lights through `list_index`; AABB, cone and
-//! negative-inflate lists are subsets, positive inflate a superset; `stats` and
+//! negative-inflate lists are subsets, positive inflate a superset; two-level (coarse)
+//! culling keeps subsets too, and falls back to every light when a cell overflows; `stats` and
 //! `false_positive_rate` on a hand-checked 2x1-tile frame; invalid depth buffers and
 //! options are rejected with typed errors.
 
@@ -13,7 +14,8 @@ use glam::Vec3;
 use rand::Rng;
 use tiledlight_cull::light::{order_points_first, pack_lights, PackedLights};
 use tiledlight_cull::reference::{
-    false_positive_rate, half_z_split, lights_reaching, pixel_view_position, stats, CullStats, MAX_CAPACITY,
+    coarse_cells, false_positive_rate, half_z_split, lights_reaching, pixel_view_position, stats, CullStats,
+    COARSE_CAPACITY, COARSE_SIZE, MAX_CAPACITY,
 };
 use tiledlight_cull::{cull_tiles, Camera, CullConfig, CullError, Light, LightKind, TileLists};
 
@@ -251,7 +253,7 @@ fn half_z_separates_two_surfaces() {
 
 #[test]
 fn tighter_tests_give_subsets_and_inflate_is_monotonic() {
-    let mut removed = [0usize; 3];
+    let mut removed = [0usize; 4];
     for seed in 0..60 {
         let f = frame(500 + seed, DEPTH_MODES[seed as usize % DEPTH_MODES.len()]);
         let base =
@@ -261,6 +263,10 @@ fn tighter_tests_give_subsets_and_inflate_is_monotonic() {
             CullConfig { aabb: true, ..base },
             CullConfig { spot_cone: true, ..base },
             CullConfig { inflate: -1e-3, ..base },
+            // The 64 px cell's volume holds the tile's, so its test keeps at least what the
+            // tile needs; it also drops some of the tile's false positives (balls by or
+            // behind the eye, where the planes through the eye no longer nest).
+            CullConfig { coarse: true, ..base },
         ];
         for (k, config) in variants.into_iter().enumerate() {
             let tight = cull(&f, config);
@@ -275,7 +281,45 @@ fn tighter_tests_give_subsets_and_inflate_is_monotonic() {
         }
     }
     // Each tighter test must actually remove lights somewhere, or the subset check is idle.
-    assert!(removed.iter().all(|&n| n > 0), "lights removed by aabb / cone / shrink: {removed:?}");
+    assert!(removed.iter().all(|&n| n > 0), "lights removed by aabb / cone / shrink / coarse: {removed:?}");
+}
+
+#[test]
+fn coarse_cells_keep_what_their_pixels_need_and_fall_back_when_full() {
+    // 130x70 px: 3x2 cells of 64 px (partial ones on the right and bottom). The right
+    // column of cells is sky.
+    let (w, h) = (130, 70);
+    let cam = axis_camera(w as f32 / h as f32);
+    let d = cam.depth_params().depth(10.0);
+    let depth: Vec<f32> = (0..w * h).map(|i| if i % w < 128 { d } else { 0.0 }).collect();
+    // Light 0 lights the wall's centre; light 1 is behind the camera, out of every cell
+    // (its 1 m ball stays 5 m behind the eye).
+    let packed = pack_lights(&[point(Vec3::new(0.0, 0.0, -10.0), 1.0), point(Vec3::new(0.0, 0.0, 5.0), 1.0)]);
+    let (cgrid, cells) = coarse_cells(&depth, w, h, &cam, &packed).unwrap();
+    assert_eq!((cgrid.tiles_x, cgrid.tiles_y, cgrid.tile_size), (3, 2, COARSE_SIZE));
+    for (i, cell) in cells.iter().enumerate() {
+        let cell = cell.as_ref().expect("2 lights never overflow a cell");
+        assert!(!cell.contains(&1), "cell {i}: the light behind the camera");
+        if i % 3 == 2 {
+            assert!(cell.is_empty(), "cell {i} is sky");
+        }
+    }
+    // The centre pixel's cell keeps light 0.
+    let centre_cell = cgrid.tile_of_pixel(w / 2, h / 2);
+    assert_eq!(cells[centre_cell], Some(vec![0]));
+
+    // Past COARSE_CAPACITY lights a cell stores nothing (None) and its tiles test every
+    // light: the lists are exactly the flat ones.
+    let many: Vec<Light> =
+        (0..COARSE_CAPACITY + 1).map(|i| point(Vec3::new(0.0, 0.0, -9.0 - 1e-4 * i as f32), 2.0)).collect();
+    let many = pack_lights(&many);
+    let (_, cells) = coarse_cells(&depth, w, h, &cam, &many).unwrap();
+    assert_eq!(cells[centre_cell], None, "an overflowing cell falls back");
+    let config = CullConfig { tile_size: 16, capacity: MAX_CAPACITY, ..CullConfig::default() };
+    let flat = cull_tiles(&depth, w, h, &cam, &many, &config).unwrap();
+    let two_level = cull_tiles(&depth, w, h, &cam, &many, &CullConfig { coarse: true, ..config }).unwrap();
+    assert_eq!(flat.lists, two_level.lists);
+    assert!(flat.lists.iter().any(|l| l.len() == many.len()), "the centre tiles see every light");
 }
 
 /// The 2x1-tile frame of `stats_and_false_positives_by_hand`: a wall 10 m in front of
@@ -411,6 +455,12 @@ fn rejects_bad_depth_and_options() {
     for tile_size in [0, 65] {
         let r = cull_tiles(&[0.5; 4], 2, 2, &cam, &packed, &CullConfig { tile_size, ..cfg });
         assert!(matches!(r, Err(CullError::InvalidSize(_))), "tile {tile_size}: {r:?}");
+    }
+    // Two-level culling needs tiles that divide the 64 px cells.
+    for (tile_size, ok) in [(13, false), (48, false), (1, true), (32, true), (64, true)] {
+        let r = cull_tiles(&[0.5; 4], 2, 2, &cam, &packed, &CullConfig { tile_size, coarse: true, ..cfg });
+        assert_eq!(r.is_ok(), ok, "coarse with tile {tile_size}: {r:?}");
+        assert!(ok || matches!(r, Err(CullError::InvalidSize(_))));
     }
     assert!(matches!(cull_tiles(&[], 0, 0, &cam, &packed, &cfg), Err(CullError::InvalidSize(_))));
 }
