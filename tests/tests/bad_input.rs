@@ -8,6 +8,7 @@ use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::{LightBuffers, MAX_LIGHTS};
 use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_gpu::targets::Renderer as _;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::{ContextOptions, GpuContext};
 use tiledlight_tests::{gpu, scenes};

@@ -16,6 +16,7 @@ use anyhow::{ensure, Context, Result};
 use clap::Args;
 use serde::Serialize;
 use tiledlight_forward::ForwardRenderer;
+use tiledlight_gpu::targets::Renderer as _;
 use tiledlight_gpu::timer::{GpuTimer, PassTime};
 
 use crate::scene_setup::{Prepared, SceneArgs};

@@ -10,6 +10,8 @@ use std::path::Path;
 
 use anyhow::Result;
 
+use tiledlight_gpu::targets::Renderer as _;
+
 use crate::bench;
 use crate::render::{culling_stats, write_image};
 use crate::scene_setup::{Prepared, SceneArgs};

@@ -12,6 +12,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use tiledlight_cull::tiles::tile_depth_bounds;
 use tiledlight_forward::ForwardRenderer;
+use tiledlight_gpu::targets::Renderer as _;
 
 use crate::bench::{self, Measurement};
 use crate::legend;

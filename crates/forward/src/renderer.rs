@@ -5,15 +5,15 @@
 
 use glam::Vec3;
 use tiledlight_cull::{Camera, TileGrid};
-use tiledlight_gpu::depth_prepass::{DepthPrepass, DEPTH_FORMAT};
+use tiledlight_gpu::depth_prepass::DepthPrepass;
 use tiledlight_gpu::frame::{FrameBinding, FrameParams, FrameUniforms};
 use tiledlight_gpu::light_cull::{CullOptions, LightCulling};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
-use tiledlight_gpu::readback::{read_depth, read_hdr, read_texture};
 use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_gpu::targets::{DisplayTargets, Renderer};
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::tonemap::{HeatmapPass, TonemapPass, HDR_FORMAT, LDR_FORMAT};
+use tiledlight_gpu::tonemap::{HeatmapPass, TonemapPass};
 use tiledlight_gpu::{GpuContext, GpuError};
 
 use crate::shading::{LightLoop, ShadingPass};
@@ -58,68 +58,6 @@ impl Default for ForwardSettings {
     }
 }
 
-/// Render targets of one size.
-pub struct Targets {
-    /// Reversed-Z depth.
-    pub depth: wgpu::Texture,
-    /// Linear HDR lighting.
-    pub hdr: wgpu::Texture,
-    /// Tonemapped sRGB image.
-    pub ldr: wgpu::Texture,
-    depth_view: wgpu::TextureView,
-    hdr_view: wgpu::TextureView,
-    ldr_view: wgpu::TextureView,
-}
-
-fn texture(
-    device: &wgpu::Device,
-    label: &str,
-    w: u32,
-    h: u32,
-    format: wgpu::TextureFormat,
-    usage: wgpu::TextureUsages,
-) -> wgpu::Texture {
-    device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage,
-        view_formats: &[],
-    })
-}
-
-impl Targets {
-    fn new(device: &wgpu::Device, w: u32, h: u32) -> Self {
-        use wgpu::TextureUsages as U;
-        let depth = texture(
-            device,
-            "forward.depth",
-            w,
-            h,
-            DEPTH_FORMAT,
-            U::RENDER_ATTACHMENT | U::TEXTURE_BINDING | U::COPY_SRC,
-        );
-        let hdr =
-            texture(device, "forward.hdr", w, h, HDR_FORMAT, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING | U::COPY_SRC);
-        let ldr = texture(device, "forward.ldr", w, h, LDR_FORMAT, U::RENDER_ATTACHMENT | U::COPY_SRC);
-        Self {
-            depth_view: depth.create_view(&Default::default()),
-            hdr_view: hdr.create_view(&Default::default()),
-            ldr_view: ldr.create_view(&Default::default()),
-            depth,
-            hdr,
-            ldr,
-        }
-    }
-
-    fn bytes(w: u32, h: u32) -> u64 {
-        w as u64 * h as u64 * (4 + 8 + 4)
-    }
-}
-
 /// A Forward+ (or brute-force) renderer for one scene, light set and screen size.
 pub struct ForwardRenderer {
     settings: ForwardSettings,
@@ -131,7 +69,7 @@ pub struct ForwardRenderer {
     tonemap: TonemapPass,
     tonemap_input: wgpu::BindGroup,
     heatmap: Option<(HeatmapPass, wgpu::BindGroup)>,
-    targets: Targets,
+    targets: DisplayTargets,
     num_lights: u32,
     num_point_lights: u32,
     memory: MemoryReport,
@@ -157,7 +95,7 @@ impl ForwardRenderer {
         }
         ctx.checked("building the Forward+ renderer", || {
             let frame = FrameBinding::new(device);
-            let targets = Targets::new(device, width, height);
+            let targets = DisplayTargets::new(device, "forward", width, height, wgpu::TextureUsages::RENDER_ATTACHMENT);
             let prepass = DepthPrepass::new(device, &frame, scene)?;
             let (culling, light_loop) = match settings.method {
                 Method::ForwardPlus => (
@@ -183,7 +121,7 @@ impl ForwardRenderer {
             let mut memory = MemoryReport::default();
             memory.extend(&scene.memory);
             memory.extend(&lights.memory);
-            memory.add("targets (depth+hdr+ldr)", Targets::bytes(width, height));
+            memory.add("targets (depth+hdr+ldr)", targets.bytes());
             if let Some(c) = &culling {
                 memory.extend(&c.memory);
             }
@@ -219,8 +157,18 @@ impl ForwardRenderer {
         })
     }
 
-    /// Writes the frame's uniforms and records every pass of one frame.
-    pub fn record(
+    /// The settings it was built with.
+    pub fn settings(&self) -> &ForwardSettings {
+        &self.settings
+    }
+    /// The culling pass (Forward+ only).
+    pub fn culling(&self) -> Option<&LightCulling> {
+        self.culling.as_ref()
+    }
+}
+
+impl Renderer for ForwardRenderer {
+    fn record(
         &self,
         queue: &wgpu::Queue,
         encoder: &mut wgpu::CommandEncoder,
@@ -239,58 +187,16 @@ impl ForwardRenderer {
             h.record(encoder, timer, &self.frame, g, &self.targets.ldr_view);
         }
     }
-
-    /// Records, submits and waits for one frame (tests, single renders).
-    pub fn render_once(
-        &self,
-        ctx: &GpuContext,
-        timer: &mut GpuTimer,
-        scene: &SceneGpu,
-        camera: &Camera,
-    ) -> Result<(), GpuError> {
-        ctx.checked("rendering a frame", || {
-            let mut encoder =
-                ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("forward.frame") });
-            self.record(&ctx.queue, &mut encoder, timer, scene, camera);
-            timer.resolve(&mut encoder);
-            ctx.queue.submit([encoder.finish()]);
-        })?;
-        timer.end_frame()?;
-        ctx.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Readback(e.to_string()))?;
-        Ok(())
-    }
-
-    /// The tile grid.
-    pub fn grid(&self) -> TileGrid {
-        self.grid
-    }
-    /// The settings it was built with.
-    pub fn settings(&self) -> &ForwardSettings {
-        &self.settings
-    }
-    /// The culling pass (Forward+ only).
-    pub fn culling(&self) -> Option<&LightCulling> {
-        self.culling.as_ref()
-    }
-    /// The render targets.
-    pub fn targets(&self) -> &Targets {
+    fn targets(&self) -> &DisplayTargets {
         &self.targets
     }
-    /// GPU memory allocated for this renderer, its scene and lights.
-    pub fn memory(&self) -> &MemoryReport {
+    fn grid(&self) -> TileGrid {
+        self.grid
+    }
+    fn memory(&self) -> &MemoryReport {
         &self.memory
     }
-
-    /// Reads the depth buffer of the last frame.
-    pub fn read_depth(&self, ctx: &GpuContext) -> Result<Vec<f32>, GpuError> {
-        read_depth(&ctx.device, &ctx.queue, &self.targets.depth)
-    }
-    /// Reads the linear HDR image of the last frame.
-    pub fn read_hdr(&self, ctx: &GpuContext) -> Result<Vec<[f32; 4]>, GpuError> {
-        read_hdr(&ctx.device, &ctx.queue, &self.targets.hdr)
-    }
-    /// Reads the tonemapped sRGB image (RGBA8) of the last frame.
-    pub fn read_ldr(&self, ctx: &GpuContext) -> Result<Vec<u8>, GpuError> {
-        read_texture(&ctx.device, &ctx.queue, &self.targets.ldr, wgpu::TextureAspect::All, 4)
+    fn tile_counts(&self) -> Option<&wgpu::Buffer> {
+        self.culling.as_ref().map(|c| &c.tile_counts)
     }
 }

@@ -18,6 +18,8 @@ pub struct FrameUniforms {
     pub proj: [[f32; 4]; 4],
     /// World to clip.
     pub view_proj: [[f32; 4]; 4],
+    /// View to world.
+    pub inv_view: [[f32; 4]; 4],
     /// Eye position, world space.
     pub eye: [f32; 3],
     /// Exposure multiplier before tonemapping.
@@ -78,6 +80,7 @@ impl FrameUniforms {
             view: m(p.camera.view()),
             proj: m(p.camera.proj()),
             view_proj: m(p.camera.view_proj()),
+            inv_view: m(p.camera.view().inverse()),
             eye: p.camera.eye().to_array(),
             exposure: p.exposure,
             screen: [p.grid.width, p.grid.height],
@@ -152,6 +155,7 @@ pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
             view,
             proj,
             view_proj,
+            inv_view,
             eye,
             exposure,
             screen,

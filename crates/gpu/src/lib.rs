@@ -17,6 +17,7 @@ pub mod memory;
 pub mod readback;
 pub mod scene_gpu;
 pub mod shader;
+pub mod targets;
 pub mod timer;
 pub mod tonemap;
 pub mod util;

@@ -94,23 +94,28 @@ pub struct GpuTileLists {
     pub pairs: u32,
 }
 
-/// The first level of two-level culling: per 64x64-pixel cell, the lights that may touch it.
-struct CoarseCulling {
+/// The first level of two-level culling: per 64x64-pixel cell, the lights that may touch
+/// it (`shaders/cull_coarse.wgsl`). Shared by Forward+'s culling pass and Tiled Deferred.
+pub struct CoarseCulling {
     pipeline: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
-    cells: TileGrid,
+    /// The cell grid.
+    pub cells: TileGrid,
+    /// Cell counts, then `COARSE_CAPACITY` indices per cell; bind it read-only as
+    /// `cell_lists` in the per-tile kernel.
+    pub lists: wgpu::Buffer,
 }
 
 impl CoarseCulling {
-    /// Pipeline and cell buffers; returns the buffers for the per-tile pass to read.
-    fn new(
+    /// Pipeline and cell buffer for `grid`'s screen, reading `depth`.
+    pub fn new(
         device: &wgpu::Device,
         frame: &FrameBinding,
         depth: &wgpu::TextureView,
         lights: &LightBuffers,
         grid: &TileGrid,
         memory: &mut MemoryReport,
-    ) -> Result<(Self, wgpu::Buffer), GpuError> {
+    ) -> Result<Self, GpuError> {
         let cells = TileGrid::new(grid.width, grid.height, COARSE_SIZE)?;
         let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
         // Counts first, then COARSE_CAPACITY indices per cell: one binding, since a stage
@@ -144,14 +149,23 @@ impl CoarseCulling {
             },
             cache: None,
         });
-        Ok((Self { pipeline, bind_group, cells }, lists))
+        Ok(Self { pipeline, bind_group, cells, lists })
+    }
+
+    /// Records the cell dispatch into `pass` (group 0, the frame, must be bound).
+    pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(1, &self.bind_group, &[]);
+        pass.dispatch_workgroups(self.cells.tiles_x, self.cells.tiles_y, 1);
     }
 }
 
 /// Override constants shared by both levels (from the CPU reference's constants).
-const COARSE_CONSTANTS: [(&str, f64); 2] = [("CELL", COARSE_SIZE as f64), ("COARSE_CAPACITY", COARSE_CAPACITY as f64)];
+pub const COARSE_CONSTANTS: [(&str, f64); 2] =
+    [("CELL", COARSE_SIZE as f64), ("COARSE_CAPACITY", COARSE_CAPACITY as f64)];
 
-fn depth_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+/// Layout entry for the single-sampled depth texture a compute kernel reads.
+pub fn depth_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
@@ -266,9 +280,9 @@ impl LightCulling {
             entries.push(storage_entry(7, cs, true));
         }
         let coarse = if options.coarse {
-            let (c, lists) = CoarseCulling::new(device, frame, depth, lights, &grid, &mut memory)?;
+            let c = CoarseCulling::new(device, frame, depth, lights, &grid, &mut memory)?;
             entries.push(storage_entry(8, cs, true));
-            Some((c, lists))
+            Some(c)
         } else {
             None
         };
@@ -290,8 +304,8 @@ impl LightCulling {
             bind.push(wgpu::BindGroupEntry { binding: 6, resource: lights.shading.as_entire_binding() });
             bind.push(wgpu::BindGroupEntry { binding: 7, resource: spots.as_entire_binding() });
         }
-        if let Some((_, lists)) = &coarse {
-            bind.push(wgpu::BindGroupEntry { binding: 8, resource: lists.as_entire_binding() });
+        if let Some(c) = &coarse {
+            bind.push(wgpu::BindGroupEntry { binding: 8, resource: c.lists.as_entire_binding() });
         }
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cull.bind_group"),
@@ -313,8 +327,6 @@ impl LightCulling {
             },
             cache: None,
         });
-        // The cell buffers live on through the bind groups that reference them.
-        let coarse = coarse.map(|(c, _)| c);
         Ok(Self { pipeline, bind_group, coarse, tile_counts, tile_indices, tile_ranges, stats, grid, options, memory })
     }
 
@@ -329,9 +341,7 @@ impl LightCulling {
             });
             pass.set_bind_group(0, &frame.bind_group, &[]);
             if let Some(c) = &self.coarse {
-                pass.set_pipeline(&c.pipeline);
-                pass.set_bind_group(1, &c.bind_group, &[]);
-                pass.dispatch_workgroups(c.cells.tiles_x, c.cells.tiles_y, 1);
+                c.dispatch(&mut pass);
             }
             pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(1, &self.bind_group, &[]);

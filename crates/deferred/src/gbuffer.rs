@@ -1,0 +1,246 @@
+//! The G-buffer pass: the scene drawn once into what the shared BRDF needs per pixel, with
+//! reversed-Z depth. Formats, chosen for the comparison with Forward+ to hold:
+//! - albedo + metallic: `Rgba8UnormSrgb` (4 B): base colours come from 8-bit sRGB textures
+//!   and factors, so 8-bit sRGB loses little;
+//! - normal + roughness: `Rgba16Float` (8 B): an 8-bit or 10-bit normal moves GGX highlights
+//!   visibly at low roughness (d ln D / d theta peaks near 2 / alpha, alpha = roughness^2:
+//!   50 per radian at roughness 0.2), which would break the comparison with Forward+;
+//! - depth: `Depth32Float` (4 B), world position rebuilt from it;
+//! - the stress knob's extra targets: `Rgba8Unorm` layers of one array texture, written white.
+//!
+//! 16 bytes a pixel with 2 targets (33 MB at 1080p), plus 4 per extra target. Pipelines
+//! exist per draw kind the scene has. Depends on tiledlight-gpu.
+
+use tiledlight_gpu::depth_prepass::{primitive_state, DEPTH_FORMAT};
+use tiledlight_gpu::frame::FrameBinding;
+use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, VERTEX_LAYOUTS};
+use tiledlight_gpu::targets::texture_2d;
+use tiledlight_gpu::timer::GpuTimer;
+use tiledlight_gpu::util::{pipeline_layout, shader_module};
+use tiledlight_gpu::GpuError;
+
+/// Format of target 0 (albedo, metallic).
+pub const ALBEDO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+/// Format of target 1 (normal, roughness).
+pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// Format of the extra (stress) targets.
+pub const EXTRA_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+/// Fewest and most G-buffer render targets (the sample's slider).
+pub const RT_RANGE: std::ops::RangeInclusive<u32> = 2..=5;
+
+/// The G-buffer textures of one screen size.
+pub struct GBuffer {
+    /// Albedo and metallic.
+    pub albedo: wgpu::Texture,
+    /// Normal and roughness.
+    pub normal: wgpu::Texture,
+    /// Extra white targets as array layers (None with 2 targets).
+    pub extra: Option<wgpu::Texture>,
+    albedo_view: wgpu::TextureView,
+    normal_view: wgpu::TextureView,
+    extra_layer_views: Vec<wgpu::TextureView>,
+    /// All layers of `extra`, for the shading pass.
+    pub extra_view: Option<wgpu::TextureView>,
+}
+
+impl GBuffer {
+    /// Targets for `w` x `h` with `rts` render targets (2..=5).
+    pub fn new(device: &wgpu::Device, w: u32, h: u32, rts: u32) -> Result<Self, GpuError> {
+        if !RT_RANGE.contains(&rts) {
+            return Err(GpuError::Config(format!("G-buffer render targets {rts} must be in 2..=5")));
+        }
+        use wgpu::TextureUsages as U;
+        let usage = U::RENDER_ATTACHMENT | U::TEXTURE_BINDING;
+        let albedo = texture_2d(device, "deferred.gbuffer.albedo", (w, h), ALBEDO_FORMAT, usage);
+        let normal = texture_2d(device, "deferred.gbuffer.normal", (w, h), NORMAL_FORMAT, usage);
+        let n_extra = rts - 2;
+        let extra = (n_extra > 0).then(|| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("deferred.gbuffer.extra"),
+                size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: n_extra },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: EXTRA_FORMAT,
+                usage,
+                view_formats: &[],
+            })
+        });
+        let extra_layer_views = extra
+            .as_ref()
+            .map(|t| {
+                (0..n_extra)
+                    .map(|layer| {
+                        t.create_view(&wgpu::TextureViewDescriptor {
+                            label: Some("deferred.gbuffer.extra.layer"),
+                            dimension: Some(wgpu::TextureViewDimension::D2),
+                            base_array_layer: layer,
+                            array_layer_count: Some(1),
+                            ..Default::default()
+                        })
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        let extra_view = extra.as_ref().map(|t| {
+            t.create_view(&wgpu::TextureViewDescriptor {
+                label: Some("deferred.gbuffer.extra.all"),
+                dimension: Some(wgpu::TextureViewDimension::D2Array),
+                ..Default::default()
+            })
+        });
+        Ok(Self {
+            albedo_view: albedo.create_view(&Default::default()),
+            normal_view: normal.create_view(&Default::default()),
+            albedo,
+            normal,
+            extra,
+            extra_layer_views,
+            extra_view,
+        })
+    }
+
+    /// Number of render targets.
+    pub fn rts(&self) -> u32 {
+        2 + self.extra_layer_views.len() as u32
+    }
+
+    /// Bytes of the colour targets (depth not included).
+    pub fn bytes(&self) -> u64 {
+        let px = self.albedo.width() as u64 * self.albedo.height() as u64;
+        px * (4 + 8 + 4 * self.extra_layer_views.len() as u64)
+    }
+
+    /// View of the albedo target.
+    pub fn albedo_view(&self) -> &wgpu::TextureView {
+        &self.albedo_view
+    }
+    /// View of the normal target.
+    pub fn normal_view(&self) -> &wgpu::TextureView {
+        &self.normal_view
+    }
+}
+
+/// The G-buffer pass's pipelines.
+pub struct GBufferPass {
+    pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
+    empty_group: Option<wgpu::BindGroup>,
+}
+
+impl GBufferPass {
+    /// One pipeline per draw kind of `scene`, writing `rts` targets.
+    pub fn new(device: &wgpu::Device, frame: &FrameBinding, scene: &SceneGpu, rts: u32) -> Result<Self, GpuError> {
+        let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("deferred.gbuffer.empty_layout"),
+            entries: &[],
+        });
+        let tex_layout = scene.textures.as_ref().map_or(&empty, |t| &t.layout);
+        let layout = pipeline_layout(device, "deferred.gbuffer.layout", &[&frame.layout, &scene.layout, tex_layout]);
+        let mut targets = vec![
+            Some(wgpu::ColorTargetState { format: ALBEDO_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL }),
+            Some(wgpu::ColorTargetState { format: NORMAL_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL }),
+        ];
+        for _ in 2..rts {
+            targets.push(Some(wgpu::ColorTargetState {
+                format: EXTRA_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            }));
+        }
+        let fs = format!("fs_gbuffer{rts}");
+        let mut pipelines = Vec::new();
+        for kind in scene.kinds() {
+            let mut defines = Vec::new();
+            if kind.masked {
+                defines.push("ALPHA_MASK");
+            }
+            if scene.textures.is_some() {
+                defines.push("TEXTURES");
+            }
+            let module = shader_module(device, "gbuffer.wgsl", &defines)?;
+            let p = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("deferred.gbuffer"),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &VERTEX_LAYOUTS,
+                },
+                primitive: primitive_state(kind),
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Greater),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some(&fs),
+                    compilation_options: Default::default(),
+                    targets: &targets,
+                }),
+                multiview_mask: None,
+                cache: None,
+            });
+            pipelines.push((kind, p));
+        }
+        let empty_group = scene.textures.is_none().then(|| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("deferred.gbuffer.empty"),
+                layout: &empty,
+                entries: &[],
+            })
+        });
+        Ok(Self { pipelines, empty_group })
+    }
+
+    /// Clears and fills the G-buffer and `depth`.
+    pub fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: &GpuTimer,
+        frame: &FrameBinding,
+        scene: &SceneGpu,
+        gbuffer: &GBuffer,
+        depth: &wgpu::TextureView,
+    ) {
+        let clear = |view| {
+            Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+            })
+        };
+        let mut attachments = vec![clear(&gbuffer.albedo_view), clear(&gbuffer.normal_view)];
+        attachments.extend(gbuffer.extra_layer_views.iter().map(clear));
+        let t = timer.begin("deferred.gbuffer", encoder);
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("deferred.gbuffer"),
+                color_attachments: &attachments,
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: depth,
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: t.render_writes(),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, &frame.bind_group, &[]);
+            pass.set_bind_group(1, &scene.bind_group, &[]);
+            if let Some(g) = &self.empty_group {
+                pass.set_bind_group(2, g, &[]);
+            }
+            for (kind, pipeline) in &self.pipelines {
+                pass.set_pipeline(pipeline);
+                scene.record_draws(&mut pass, *kind, true, true);
+            }
+        }
+        timer.end(encoder, t);
+    }
+}

@@ -1,0 +1,179 @@
+//! The Tiled Deferred renderer: G-buffer pass -> (cell culling) -> one compute pass that
+//! culls each tile's lights and shades its pixels -> tonemap (-> heat map). Built once for a
+//! scene, light set, screen and settings. Depends on tiledlight-gpu and [`crate::gbuffer`],
+//! [`crate::shading`].
+
+use glam::Vec3;
+use tiledlight_cull::{Camera, TileGrid};
+use tiledlight_gpu::frame::{FrameBinding, FrameParams, FrameUniforms};
+use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::memory::MemoryReport;
+use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_gpu::targets::{DisplayTargets, Renderer};
+use tiledlight_gpu::timer::GpuTimer;
+use tiledlight_gpu::tonemap::{HeatmapPass, TonemapPass};
+use tiledlight_gpu::{GpuContext, GpuError};
+
+use crate::gbuffer::{GBuffer, GBufferPass};
+use crate::shading::DeferredShading;
+
+/// Tiled Deferred settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DeferredSettings {
+    /// Culling options (tile size, capacity, tests), as for Forward+.
+    pub cull: CullOptions,
+    /// G-buffer render targets, 2..=5 (extra ones are written white and read back).
+    pub gbuffer_rts: u32,
+    /// Exposure before tonemapping.
+    pub exposure: f32,
+    /// Ambient radiance (times albedo).
+    pub ambient: Vec3,
+    /// Draw the lights-per-tile heat map over the image.
+    pub heatmap: bool,
+}
+
+impl Default for DeferredSettings {
+    fn default() -> Self {
+        Self { cull: CullOptions::default(), gbuffer_rts: 2, exposure: 1.0, ambient: Vec3::splat(0.02), heatmap: false }
+    }
+}
+
+/// A Tiled Deferred renderer for one scene, light set and screen size.
+pub struct DeferredRenderer {
+    settings: DeferredSettings,
+    grid: TileGrid,
+    frame: FrameBinding,
+    gbuffer_pass: GBufferPass,
+    gbuffer: GBuffer,
+    shading: DeferredShading,
+    tonemap: TonemapPass,
+    tonemap_input: wgpu::BindGroup,
+    heatmap: Option<(HeatmapPass, wgpu::BindGroup)>,
+    targets: DisplayTargets,
+    num_lights: u32,
+    num_point_lights: u32,
+    memory: MemoryReport,
+}
+
+impl DeferredRenderer {
+    /// Builds every pipeline, target and buffer for a `width` x `height` screen.
+    pub fn new(
+        ctx: &GpuContext,
+        scene: &SceneGpu,
+        lights: &LightBuffers,
+        width: u32,
+        height: u32,
+        settings: DeferredSettings,
+    ) -> Result<Self, GpuError> {
+        let device = &ctx.device;
+        let grid = TileGrid::new(width, height, settings.cull.tile_size)?;
+        let max_side = device.limits().max_texture_dimension_2d;
+        if width > max_side || height > max_side {
+            return Err(GpuError::Config(format!(
+                "{width}x{height} exceeds this GPU's {max_side} pixel texture limit"
+            )));
+        }
+        ctx.checked("building the Tiled Deferred renderer", || {
+            let frame = FrameBinding::new(device);
+            let targets = DisplayTargets::new(device, "deferred", width, height, wgpu::TextureUsages::STORAGE_BINDING);
+            let gbuffer = GBuffer::new(device, width, height, settings.gbuffer_rts)?;
+            let gbuffer_pass = GBufferPass::new(device, &frame, scene, settings.gbuffer_rts)?;
+            let mut memory = MemoryReport::default();
+            memory.extend(&scene.memory);
+            memory.extend(&lights.memory);
+            memory.add("targets (depth+hdr+ldr)", targets.bytes());
+            memory.add("deferred.gbuffer", gbuffer.bytes());
+            let shading = DeferredShading::new(
+                device,
+                &frame,
+                &targets.depth_view,
+                &gbuffer,
+                &targets.hdr_view,
+                lights,
+                grid,
+                settings.cull,
+                &mut memory,
+            )?;
+            let tonemap = TonemapPass::new(device, &frame)?;
+            let tonemap_input = tonemap.bind(device, &targets.hdr_view);
+            let heatmap = if settings.heatmap {
+                let h = HeatmapPass::new(device, &frame)?;
+                let g = h.bind(device, &shading.tile_counts);
+                Some((h, g))
+            } else {
+                None
+            };
+            Ok(Self {
+                settings,
+                grid,
+                frame,
+                gbuffer_pass,
+                gbuffer,
+                shading,
+                tonemap,
+                tonemap_input,
+                heatmap,
+                targets,
+                num_lights: lights.len(),
+                num_point_lights: lights.num_point(),
+                memory,
+            })
+        })?
+    }
+
+    /// The uniforms of a frame seen through `camera`.
+    pub fn frame_uniforms(&self, camera: &Camera) -> FrameUniforms {
+        FrameUniforms::new(&FrameParams {
+            camera: *camera,
+            grid: self.grid,
+            capacity: self.settings.cull.capacity,
+            lists_per_tile: self.settings.cull.lists_per_tile(),
+            num_lights: self.num_lights,
+            num_point_lights: self.num_point_lights,
+            exposure: self.settings.exposure,
+            ambient: self.settings.ambient,
+        })
+    }
+
+    /// The settings it was built with.
+    pub fn settings(&self) -> &DeferredSettings {
+        &self.settings
+    }
+
+    /// The G-buffer.
+    pub fn gbuffer(&self) -> &GBuffer {
+        &self.gbuffer
+    }
+}
+
+impl Renderer for DeferredRenderer {
+    fn record(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: &GpuTimer,
+        scene: &SceneGpu,
+        camera: &Camera,
+    ) {
+        self.frame.update(queue, &self.frame_uniforms(camera));
+        self.gbuffer_pass.record(encoder, timer, &self.frame, scene, &self.gbuffer, &self.targets.depth_view);
+        self.shading.record(encoder, timer, &self.frame);
+        self.tonemap.record(encoder, timer, &self.frame, &self.tonemap_input, &self.targets.ldr_view);
+        if let Some((h, g)) = &self.heatmap {
+            h.record(encoder, timer, &self.frame, g, &self.targets.ldr_view);
+        }
+    }
+    fn targets(&self) -> &DisplayTargets {
+        &self.targets
+    }
+    fn grid(&self) -> TileGrid {
+        self.grid
+    }
+    fn memory(&self) -> &MemoryReport {
+        &self.memory
+    }
+    fn tile_counts(&self) -> Option<&wgpu::Buffer> {
+        Some(&self.shading.tile_counts)
+    }
+}
