@@ -49,7 +49,11 @@ pub fn cone_vs_sphere(apex: Vec3, axis: Vec3, len: f32, cos_a: f32, sin_a: f32, 
 
 /// The sphere around an AABB (centre, radius), the tile volume's bound for the cone test.
 pub fn aabb_sphere(lo: Vec3, hi: Vec3) -> (Vec3, f32) {
-    ((lo + hi) * 0.5, (hi - lo).length() * 0.5)
+    // The radius reaches the farthest corner from the rounded centre, not half the
+    // diagonal: far from the origin the centre rounds off the middle by up to half an ulp
+    // of |lo + hi|, which can exceed the box's half-size (a 3 m deep tile 1e7 m away).
+    let c = (lo + hi) * 0.5;
+    (c, (hi - c).max(c - lo).length())
 }
 
 /// Transforms a world-space point by a view matrix given as columns, in the same order

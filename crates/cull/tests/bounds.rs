@@ -143,8 +143,10 @@ fn cone_vs_sphere_at_huge_coordinates() {
 #[test]
 fn aabb_sphere_holds_the_box() {
     let mut r = rng(4);
-    for _ in 0..1000 {
-        let a = unit(&mut r) * log_uniform(&mut r, 1e-3, 1e6);
+    for i in 0..10_000 {
+        // Boxes up to 1e7 from the origin and down to 1e-3 across: far from the origin the
+        // rounded centre can be off the middle by more than the box's half-size.
+        let a = unit(&mut r) * log_uniform(&mut r, 1e-3, 1e7);
         let b = a + unit(&mut r).abs() * log_uniform(&mut r, 1e-3, 1e3);
         let (c, rad) = aabb_sphere(a, b);
         for corner in 0..8 {
@@ -153,11 +155,19 @@ fn aabb_sphere_holds_the_box() {
                 if corner & 2 == 0 { a.y } else { b.y },
                 if corner & 4 == 0 { a.z } else { b.z },
             );
-            // Centre and half-diagonal are each a few roundings at magnitude |a| + |b|.
-            let tol = 4.0 * common::EPS * (a.length() + b.length());
-            assert!((p - c).length() <= rad + tol, "corner {p} outside sphere {c} r {rad}");
+            // Only the final length may round (a relative ulp or two): the sphere must
+            // hold the corners of the box it was given, not of a box near it.
+            assert!(
+                (p - c).length() <= rad * (1.0 + 2.0 * common::EPS),
+                "box {i}: corner {p} outside sphere {c} r {rad}"
+            );
         }
     }
+    // The hunt's case: a 3 m deep, 2.6 cm wide tile volume 9.77e6 m away (orthographic),
+    // whose midpoint rounds 0.5 m off (ulp 1 m there) while its half-diagonal is 1.5 m.
+    let (lo, hi) = (Vec3::new(0.0, 0.0, -9770554.0), Vec3::new(0.026, 0.026, -9770551.0));
+    let (c, rad) = aabb_sphere(lo, hi);
+    assert!((lo - c).length() <= rad && (hi - c).length() <= rad, "{c} r {rad}");
 }
 
 #[test]
