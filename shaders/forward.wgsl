@@ -1,7 +1,9 @@
 // Forward shading: each fragment loops over its tile's light list (Forward+), or over every
 // light (BRUTE_FORCE, the reference renderer), with the shared BRDF, into linear HDR.
 // The depth test is Equal against the pre-pass, so each pixel is shaded once.
-// variants: SPOT_LIGHTS TEXTURES HALF_Z BRUTE_FORCE NO_CUTOFF
+// Alpha-masked draws (ALPHA_MASK) discard as the pre-pass did: depth Equal alone would let a
+// masked-out texel shade a coplanar surface behind it.
+// variants: SPOT_LIGHTS TEXTURES HALF_Z BRUTE_FORCE NO_CUTOFF ALPHA_MASK
 #include "common/scene.wgsl"
 #include "common/shade.wgsl"
 
@@ -31,10 +33,15 @@ fn vs_main(
 fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
     let m = materials[in.material];
     let base = material_color(m, in.uv);
+#ifdef ALPHA_MASK
+    if base.a < m.alpha_cutoff {
+        discard;
+    }
+#endif
     var n = normalize(in.normal);
     // Double-sided surfaces seen from behind are lit on their back.
     n = select(-n, n, front);
-    let v = normalize(frame.eye - in.world_pos);
+    let v = view_vector(in.world_pos);
     let s = Surface(base.rgb, m.roughness, m.metallic);
     var color = frame.ambient * base.rgb;
 #ifdef BRUTE_FORCE

@@ -9,12 +9,9 @@ fn main() {
         .filter(|o| o.status.success())
         .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
         .unwrap_or_default();
-    let dirty = std::process::Command::new("git")
-        .args(["status", "--porcelain", "--untracked-files=no"])
-        .output()
-        .ok()
-        .is_some_and(|o| !o.stdout.is_empty());
-    println!("cargo:rustc-env=TILEDLIGHT_COMMIT={commit}{}", if dirty && !commit.is_empty() { "-dirty" } else { "" });
+    // No "-dirty" mark: cargo reruns this only when HEAD or the index moves, so a mark
+    // would go stale with the next edit. Benchmarks are run from committed trees.
+    println!("cargo:rustc-env=TILEDLIGHT_COMMIT={commit}");
     println!("cargo:rerun-if-changed=../../.git/HEAD");
     println!("cargo:rerun-if-changed=../../.git/index");
 }

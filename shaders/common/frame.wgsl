@@ -5,6 +5,8 @@ struct Frame {
     view: mat4x4<f32>,
     proj: mat4x4<f32>,
     view_proj: mat4x4<f32>,
+    // View to world (deferred shading rebuilds world positions from depth).
+    inv_view: mat4x4<f32>,
     eye: vec3<f32>,
     exposure: f32,
     // Screen size in pixels and tiles.
@@ -50,4 +52,13 @@ fn view_point_at(ndc: vec2<f32>, dist: f32) -> vec3<f32> {
 fn pixel_to_ndc(p: vec2<f32>) -> vec2<f32> {
     let s = vec2<f32>(frame.screen);
     return vec2<f32>(2.0 * p.x / s.x - 1.0, 1.0 - 2.0 * p.y / s.y);
+}
+
+// Unit vector from a world-space surface point towards the viewer: towards the eye for
+// perspective, the camera's backward axis for orthographic projections.
+fn view_vector(world: vec3<f32>) -> vec3<f32> {
+    if frame.orthographic != 0u {
+        return normalize(frame.inv_view[2].xyz);
+    }
+    return normalize(frame.eye - world);
 }

@@ -87,10 +87,15 @@ pub fn test(root: &Path, extra: &[String]) -> Result<()> {
         failed.push("validate-shaders");
     }
 
+    // Property tests draw random cases; CI runs the same ones every time (a new random
+    // failure would turn an unrelated submission red). Set PROPTEST_RNG_SEED to explore.
+    let proptest_seed = env::var("PROPTEST_RNG_SEED").unwrap_or_else(|_| "20261122".to_owned());
+    println!("xtask: property tests use PROPTEST_RNG_SEED={proptest_seed}");
     let with_env = |mut cmd: Command| {
         for (k, v) in &choice.env {
             cmd.env(k, v);
         }
+        cmd.env("PROPTEST_RNG_SEED", &proptest_seed);
         cmd
     };
     if nextest_available(root) {

@@ -15,8 +15,7 @@ use std::time::Instant;
 use anyhow::{ensure, Context, Result};
 use clap::Args;
 use serde::Serialize;
-use tiledlight_forward::ForwardRenderer;
-use tiledlight_gpu::targets::Renderer as _;
+use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::{GpuTimer, PassTime};
 
 use crate::scene_setup::{Prepared, SceneArgs};
@@ -122,7 +121,7 @@ impl Measurement {
 
 /// Renders `warmup` then `frames` frames through `renderer`, each submitted and waited
 /// for, and collects the measured frames' pass times and CPU wall times.
-pub fn measure(prep: &Prepared, renderer: &ForwardRenderer, warmup: u32, frames: u32) -> Result<Measurement> {
+pub fn measure(prep: &Prepared, renderer: &dyn Renderer, warmup: u32, frames: u32) -> Result<Measurement> {
     let ctx = &prep.ctx;
     let mut timer = GpuTimer::new(ctx).context("creating the GPU timer")?;
     let mut out = Measurement { timestamps: timer.enabled(), ..Default::default() };
@@ -204,6 +203,9 @@ struct BenchJson {
     total_gpu_median_ms: Option<f64>,
     cpu_frame: Option<Summary>,
     cpu_frame_measure: &'static str,
+    /// GPU memory allocated, bytes per category.
+    gpu_memory: Vec<(String, u64)>,
+    gpu_memory_total: u64,
 }
 
 #[derive(Serialize)]
@@ -226,6 +228,7 @@ struct ConfigJson {
     half_z: bool,
     spot_cone: bool,
     coarse: bool,
+    gbuffer_rts: u32,
     commit: String,
 }
 
@@ -262,8 +265,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     }
     let renderer = prep.renderer(false)?;
     println!("frames:     {} warm-up + {} measured", args.warmup, args.frames);
-    let m = measure(&prep, &renderer, args.warmup, args.frames)?;
+    let m = measure(&prep, renderer.as_ref(), args.warmup, args.frames)?;
     print!("{}", table(&m));
+    println!("GPU memory:\n{}", renderer.memory());
     if let Some(path) = &args.json {
         let a = &prep.args;
         let passes = m.passes();
@@ -287,6 +291,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 half_z: a.half_z,
                 spot_cone: a.spot_cone,
                 coarse: !a.flat_cull,
+                gbuffer_rts: a.gbuffer_rts,
                 commit: commit_hash(),
             },
             frames: args.frames,
@@ -296,6 +301,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             passes,
             cpu_frame: m.cpu(),
             cpu_frame_measure: CPU_TIME_MEANING,
+            gpu_memory: renderer.memory().entries.clone(),
+            gpu_memory_total: renderer.memory().total(),
         };
         let text = serde_json::to_string_pretty(&json).context("encoding the results as JSON")?;
         std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))?;

@@ -10,8 +10,6 @@ use std::path::Path;
 
 use anyhow::Result;
 
-use tiledlight_gpu::targets::Renderer as _;
-
 use crate::bench;
 use crate::render::{culling_stats, write_image};
 use crate::scene_setup::{Prepared, SceneArgs};
@@ -33,18 +31,18 @@ pub fn run() -> Result<()> {
     {
         let renderer = prep.renderer(false)?;
         println!("benchmark:  {WARMUP} warm-up + {FRAMES} measured frames");
-        let m = bench::measure(&prep, &renderer, WARMUP, FRAMES)?;
+        let m = bench::measure(&prep, renderer.as_ref(), WARMUP, FRAMES)?;
         print!("{}", bench::table(&m));
-        if let Some(s) = culling_stats(&prep, &renderer)? {
+        if let Some(s) = culling_stats(&prep, renderer.as_ref())? {
             println!("culling:    {s}");
         }
-        write_image(&prep, &renderer, false, render_path)?;
+        write_image(&prep, renderer.as_ref(), false, render_path)?;
         println!("GPU memory:\n{}", renderer.memory());
     }
     // The first renderer is dropped: only one set of targets is alive at a time.
     let heat = prep.renderer(true)?;
-    bench::measure(&prep, &heat, 0, 1)?;
-    let note = write_image(&prep, &heat, true, heatmap_path)?;
+    bench::measure(&prep, heat.as_ref(), 0, 1)?;
+    let note = write_image(&prep, heat.as_ref(), true, heatmap_path)?;
     prep.check_gpu_errors()?;
     if let Some(n) = note {
         println!("note:       {n}");

@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use tiledlight_cull::tiles::tile_depth_bounds;
-use tiledlight_forward::ForwardRenderer;
-use tiledlight_gpu::targets::Renderer as _;
+use tiledlight_gpu::readback::read_buffer;
+use tiledlight_gpu::targets::Renderer;
 
 use crate::bench::{self, Measurement};
 use crate::legend;
@@ -52,8 +52,8 @@ pub struct CullingStats {
     pub max_per_list: u32,
     /// Lists whose count exceeded the capacity (counted on the GPU).
     pub overflowing: u32,
-    /// (tile, light) pairs found (counted on the GPU).
-    pub pairs: u32,
+    /// (tile, light) pairs found (summed from the GPU's per-list counts).
+    pub pairs: u64,
     /// The list capacity.
     pub capacity: u32,
 }
@@ -70,21 +70,24 @@ impl std::fmt::Display for CullingStats {
             self.tiles,
             self.overflowing,
             self.capacity,
-            group_digits(u64::from(self.pairs))
+            group_digits(self.pairs)
         )
     }
 }
 
 /// Reads the last frame's lists and depth back and computes the statistics (None for a
 /// renderer without culling).
-pub fn culling_stats(prep: &Prepared, renderer: &ForwardRenderer) -> Result<Option<CullingStats>> {
-    let Some(culling) = renderer.culling() else {
+pub fn culling_stats(prep: &Prepared, renderer: &dyn Renderer) -> Result<Option<CullingStats>> {
+    let Some(counts_buffer) = renderer.tile_counts() else {
         return Ok(None);
     };
-    let lists = culling.read_lists(&prep.ctx.device, &prep.ctx.queue).context("reading the tile lists back")?;
+    let counts: Vec<u32> =
+        read_buffer(&prep.ctx.device, &prep.ctx.queue, counts_buffer).context("reading the tile counts back")?;
     let depth = renderer.read_depth(&prep.ctx).context("reading the depth buffer back")?;
-    let grid = culling.grid;
-    let per = culling.options.lists_per_tile() as usize;
+    let grid = renderer.grid();
+    let options = prep.args.cull_options();
+    let per = options.lists_per_tile() as usize;
+    let counts = &counts[..grid.tile_count() * per];
     let (mut sum, mut n, mut tiles_with_geometry) = (0u64, 0u64, 0usize);
     for ty in 0..grid.tiles_y {
         for tx in 0..grid.tiles_x {
@@ -93,7 +96,7 @@ pub fn culling_stats(prep: &Prepared, renderer: &ForwardRenderer) -> Result<Opti
             }
             tiles_with_geometry += 1;
             let t = (ty * grid.tiles_x + tx) as usize;
-            for c in &lists.counts[t * per..(t + 1) * per] {
+            for c in &counts[t * per..(t + 1) * per] {
                 sum += u64::from(*c);
                 n += 1;
             }
@@ -104,10 +107,10 @@ pub fn culling_stats(prep: &Prepared, renderer: &ForwardRenderer) -> Result<Opti
         tiles_with_geometry,
         tiles: grid.tile_count(),
         mean_per_list: if n > 0 { sum as f64 / n as f64 } else { 0.0 },
-        max_per_list: lists.counts.iter().copied().max().unwrap_or(0),
-        overflowing: lists.overflowing,
-        pairs: lists.pairs,
-        capacity: culling.options.capacity,
+        max_per_list: counts.iter().copied().max().unwrap_or(0),
+        overflowing: counts.iter().filter(|&&c| c > options.capacity).count() as u32,
+        pairs: counts.iter().map(|&c| u64::from(c)).sum(),
+        capacity: options.capacity,
     }))
 }
 
@@ -130,7 +133,7 @@ pub fn last_frame_times(m: &Measurement) -> String {
 
 /// Reads the renderer's image, adds the legend for a heat map, and writes the PNG.
 /// Returns a note when the legend did not fit.
-pub fn write_image(prep: &Prepared, renderer: &ForwardRenderer, heatmap: bool, path: &Path) -> Result<Option<String>> {
+pub fn write_image(prep: &Prepared, renderer: &dyn Renderer, heatmap: bool, path: &Path) -> Result<Option<String>> {
     let ldr = renderer.read_ldr(&prep.ctx).context("reading the image back")?;
     let mut img = rgb_image(prep.args.width, prep.args.height, &ldr)?;
     let mut note = None;
@@ -153,9 +156,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     }
     let prep = Prepared::new(&args.scene)?;
     let renderer = prep.renderer(args.heatmap)?;
-    let m = bench::measure(&prep, &renderer, 0, RENDER_FRAMES)?;
-    let stats = culling_stats(&prep, &renderer)?;
-    let note = write_image(&prep, &renderer, args.heatmap, &out)?;
+    let m = bench::measure(&prep, renderer.as_ref(), 0, RENDER_FRAMES)?;
+    let stats = culling_stats(&prep, renderer.as_ref())?;
+    let note = write_image(&prep, renderer.as_ref(), args.heatmap, &out)?;
     prep.check_gpu_errors()?;
 
     for (k, v) in prep.describe() {

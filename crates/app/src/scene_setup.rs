@@ -15,10 +15,12 @@ use glam::Vec3;
 use tiledlight_cull::reference::{DEFAULT_CAPACITY, MAX_CAPACITY};
 use tiledlight_cull::tiles::MAX_SCREEN_SIDE;
 use tiledlight_cull::{Camera, LightKind};
+use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
 use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::{ContextOptions, GpuContext};
 use tiledlight_scene::{
     default_scene, load_gltf, random_lights, Aabb, CameraDesc, DefaultSceneOptions, GridDensity, Light, LightOptions,
@@ -40,15 +42,18 @@ pub enum MethodArg {
     BruteForce,
     /// Every light for every pixel, plain inverse-square (the reference for the cutoff).
     BruteForceNoCutoff,
+    /// G-buffer pass, then one compute pass that culls each tile's lights and shades it.
+    Deferred,
 }
 
 impl MethodArg {
-    /// The renderer's method.
-    pub fn method(self) -> Method {
+    /// The forward renderer's method (None for Tiled Deferred).
+    pub fn method(self) -> Option<Method> {
         match self {
-            MethodArg::ForwardPlus => Method::ForwardPlus,
-            MethodArg::BruteForce => Method::BruteForce { cutoff: true },
-            MethodArg::BruteForceNoCutoff => Method::BruteForce { cutoff: false },
+            MethodArg::ForwardPlus => Some(Method::ForwardPlus),
+            MethodArg::BruteForce => Some(Method::BruteForce { cutoff: true }),
+            MethodArg::BruteForceNoCutoff => Some(Method::BruteForce { cutoff: false }),
+            MethodArg::Deferred => None,
         }
     }
 
@@ -58,12 +63,13 @@ impl MethodArg {
             MethodArg::ForwardPlus => "forward-plus",
             MethodArg::BruteForce => "brute-force",
             MethodArg::BruteForceNoCutoff => "brute-force-no-cutoff",
+            MethodArg::Deferred => "deferred",
         }
     }
 
     /// True for the methods that cull lights per tile.
     pub fn is_tiled(self) -> bool {
-        self == MethodArg::ForwardPlus
+        matches!(self, MethodArg::ForwardPlus | MethodArg::Deferred)
     }
 }
 
@@ -146,6 +152,10 @@ pub struct SceneArgs {
     /// 64x64-pixel cell, and tiles test only their cell's lights).
     #[arg(long)]
     pub flat_cull: bool,
+    /// Tiled Deferred's G-buffer render targets, 2 to 5: the extra ones are written white
+    /// and read back (the sample's bandwidth stress knob; the image does not change).
+    #[arg(long, default_value_t = 2, value_name = "2..5")]
+    pub gbuffer_rts: u32,
     /// Exposure before tonemapping.
     #[arg(long, default_value_t = 1.0, value_name = "E")]
     pub exposure: f32,
@@ -171,6 +181,7 @@ impl Default for SceneArgs {
             half_z: false,
             spot_cone: false,
             flat_cull: false,
+            gbuffer_rts: 2,
             exposure: 1.0,
         }
     }
@@ -207,6 +218,7 @@ impl SceneArgs {
     pub fn validate(&self) -> Result<()> {
         let side = 1..=MAX_SCREEN_SIDE;
         ensure!(side.contains(&self.width), "--width {}: must be between 1 and {MAX_SCREEN_SIDE} pixels", self.width);
+        ensure!((2..=5).contains(&self.gbuffer_rts), "--gbuffer-rts {}: must be between 2 and 5", self.gbuffer_rts);
         ensure!(
             side.contains(&self.height),
             "--height {}: must be between 1 and {MAX_SCREEN_SIDE} pixels",
@@ -281,21 +293,37 @@ impl SceneArgs {
         self.capacity.unwrap_or(DEFAULT_CAPACITY)
     }
 
-    /// The renderer settings of these flags (`heatmap` only for the tiled method).
+    /// The culling options of these flags.
+    pub fn cull_options(&self) -> CullOptions {
+        CullOptions {
+            tile_size: self.tile_size,
+            capacity: self.capacity(),
+            aabb: self.aabb,
+            half_z: self.half_z,
+            spot_cone: self.spot_cone,
+            coarse: !self.flat_cull,
+        }
+    }
+
+    /// The forward renderer's settings of these flags (`heatmap` only for the tiled method).
     pub fn settings(&self, heatmap: bool) -> ForwardSettings {
         ForwardSettings {
-            method: self.method.method(),
-            cull: CullOptions {
-                tile_size: self.tile_size,
-                capacity: self.capacity(),
-                aabb: self.aabb,
-                half_z: self.half_z,
-                spot_cone: self.spot_cone,
-                coarse: !self.flat_cull,
-            },
+            method: self.method.method().unwrap_or(Method::ForwardPlus),
+            cull: self.cull_options(),
             exposure: self.exposure,
             heatmap,
             ..ForwardSettings::default()
+        }
+    }
+
+    /// The Tiled Deferred renderer's settings of these flags.
+    pub fn deferred_settings(&self, heatmap: bool) -> DeferredSettings {
+        DeferredSettings {
+            cull: self.cull_options(),
+            gbuffer_rts: self.gbuffer_rts,
+            exposure: self.exposure,
+            heatmap,
+            ..DeferredSettings::default()
         }
     }
 
@@ -409,22 +437,26 @@ impl Prepared {
         })
     }
 
-    /// Builds a renderer for the flags' screen and settings.
-    pub fn renderer(&self, heatmap: bool) -> Result<ForwardRenderer> {
-        if heatmap && !self.args.method.is_tiled() {
-            bail!("--heatmap needs --method forward-plus ({} has no tiles)", self.args.method.name());
+    /// Builds a renderer for the flags' method, screen and settings.
+    pub fn renderer(&self, heatmap: bool) -> Result<Box<dyn Renderer>> {
+        let a = &self.args;
+        if heatmap && !a.method.is_tiled() {
+            bail!("--heatmap needs a tiled method, forward-plus or deferred ({} has no tiles)", a.method.name());
         }
-        let r = ForwardRenderer::new(
-            &self.ctx,
-            &self.scene_gpu,
-            &self.lights,
-            self.args.width,
-            self.args.height,
-            self.args.settings(heatmap),
-        )
-        .with_context(|| {
-            format!("building the {} renderer at {}x{}", self.args.method.name(), self.args.width, self.args.height)
-        })?;
+        let r: Result<Box<dyn Renderer>, _> = match a.method {
+            MethodArg::Deferred => DeferredRenderer::new(
+                &self.ctx,
+                &self.scene_gpu,
+                &self.lights,
+                a.width,
+                a.height,
+                a.deferred_settings(heatmap),
+            )
+            .map(|r| Box::new(r) as Box<dyn Renderer>),
+            _ => ForwardRenderer::new(&self.ctx, &self.scene_gpu, &self.lights, a.width, a.height, a.settings(heatmap))
+                .map(|r| Box::new(r) as Box<dyn Renderer>),
+        };
+        let r = r.with_context(|| format!("building the {} renderer at {}x{}", a.method.name(), a.width, a.height))?;
         self.check_gpu_errors()?;
         Ok(r)
     }
@@ -464,6 +496,9 @@ impl Prepared {
         }
         let method = match a.method {
             MethodArg::ForwardPlus => format!("forward-plus ({})", a.culling_description()),
+            MethodArg::Deferred => {
+                format!("deferred ({}, {} G-buffer targets)", a.culling_description(), a.gbuffer_rts)
+            }
             m => format!("{} (every light for every pixel)", m.name()),
         };
         vec![

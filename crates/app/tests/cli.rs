@@ -205,6 +205,27 @@ fn fails(args: &[&str]) -> String {
     lines[0].to_string()
 }
 
+/// Tiled Deferred renders and benches through the same flags, with its own passes.
+#[test]
+fn deferred_renders_and_benches() {
+    let dir = scratch("deferred");
+    let png = dir.join("d.png");
+    let args = ["--method", "deferred", "--gbuffer-rts", "5", "--spot-lights", "8", "--width", "64", "--height", "36"];
+    let mut render = vec!["render", "--out", png.to_str().unwrap()];
+    render.extend(args);
+    let text = stdout(&gpu_run(&render));
+    assert!(text.contains("deferred (16 px tiles") && text.contains("5 G-buffer targets"), "{text}");
+    assert!(text.contains("deferred.gbuffer"), "{text}");
+    assert_eq!(image::image_dimensions(&png).unwrap(), (64, 36));
+    let json = dir.join("d.json");
+    let mut bench = vec!["bench", "--frames", "3", "--warmup", "1", "--json", json.to_str().unwrap()];
+    bench.extend(args);
+    gpu_run(&bench);
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let passes: Vec<&str> = v["passes"].as_array().unwrap().iter().map(|p| p["pass"].as_str().unwrap()).collect();
+    assert_eq!(passes, ["deferred.gbuffer", "deferred.cull_cells", "deferred.shade", "tonemap"]);
+}
+
 /// Zero lights is a valid frame (ambient only), not an error.
 #[test]
 fn zero_lights_render_ambient_only() {
@@ -225,6 +246,7 @@ fn bad_input_gives_one_clear_error_line() {
         (&["render", "--lights", "99999999"], "--lights 99999999"),
         (&["render", "--lights", "1048576", "--spot-lights", "1"], "at most 1048576"),
         (&["render", "--tile-size", "7"], "--tile-size 7"),
+        (&["render", "--method", "deferred", "--gbuffer-rts", "6"], "--gbuffer-rts 6"),
         (&["render", "--capacity", "0"], "--capacity 0"),
         (&["render", "--threshold", "-1"], "--threshold -1"),
         (&["render", "--exposure", "nan"], "--exposure"),

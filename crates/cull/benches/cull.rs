@@ -1,6 +1,6 @@
 //! The CPU reference culler at 1920x1080 with 16x16 tiles (8160 tiles), 1024 and 16384
-//! random point lights in a 36 x 13 x 16 m room (x, y up, z), planes only and planes +
-//! AABB. The depth buffer is the room's floor, ceiling and walls, intersected
+//! random point lights in a 36 x 13 x 16 m room (x, y up, z): planes only, planes + AABB,
+//! and planes after a 64 px coarse pass (two-level culling). The depth buffer is the room's floor, ceiling and walls, intersected
 //! analytically per pixel for a camera standing inside it, so every tile has geometry
 //! (the costliest case). Slow by design (it is the reference, not the kernel):
 //! `sample_size(10)`.
@@ -79,8 +79,11 @@ fn bench(c: &mut Criterion) {
     group.sample_size(10);
     for n in [1024, 16384] {
         let packed = lights(n);
-        for (name, aabb) in [("planes", false), ("planes+aabb", true)] {
-            let config = CullConfig { tile_size: 16, aabb, capacity: 2048, ..CullConfig::default() };
+        // Two-level culling (64 px cells first) is the app's default: measured as well.
+        for (name, aabb, coarse) in
+            [("planes", false, false), ("planes+aabb", true, false), ("coarse+planes", false, true)]
+        {
+            let config = CullConfig { tile_size: 16, aabb, coarse, capacity: 2048, ..CullConfig::default() };
             // Printed once per input, so the timings can be read against the list sizes.
             let s = stats(&cull_tiles(&depth, W, H, &cam, &packed, &config).expect("valid input"));
             eprintln!(

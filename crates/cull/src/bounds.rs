@@ -44,6 +44,9 @@ pub fn cone_vs_sphere(apex: Vec3, axis: Vec3, len: f32, cos_a: f32, sin_a: f32, 
     let m = w.abs().max_element();
     let perp = if m > 0.0 { (w / m).length() * m } else { 0.0 };
     let closest = cos_a * perp - t * sin_a;
+    // `center - apex` loses up to an ulp of the larger coordinate (1 m at 1e7 m from the
+    // eye, far more than a narrow cone's width there): widen the sphere by a few of those.
+    let radius = radius + 4.0 * f32::EPSILON * (center.abs().max_element() + apex.abs().max_element());
     !(closest > radius || t > radius + len || t < -radius)
 }
 

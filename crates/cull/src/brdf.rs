@@ -92,7 +92,9 @@ mod tests {
                 let l = Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin());
                 let f = brdf_cos(n, Vec3::new(0.3, 0.9, 0.1).normalize(), l, &s);
                 assert!(f.min_element() >= 0.0);
-                let dw = th.sin() * (std::f32::consts::FRAC_PI_2 / steps as f32) * (std::f32::consts::TAU / (steps * 4) as f32);
+                let dw = th.sin()
+                    * (std::f32::consts::FRAC_PI_2 / steps as f32)
+                    * (std::f32::consts::TAU / (steps * 4) as f32);
                 sum += f.x * dw;
             }
         }

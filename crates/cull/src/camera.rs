@@ -98,9 +98,7 @@ fn look_at(eye: Vec3, target: Vec3, up: Vec3) -> Result<Mat4, CullError> {
     check(target.is_finite(), || format!("target {target} is not finite"))?;
     check(up.is_finite(), || format!("up {up} is not finite"))?;
     let fwd = target - eye;
-    check(fwd.length() > 1e-6 * eye.length().max(1.0), || {
-        format!("target {target} coincides with eye {eye}")
-    })?;
+    check(fwd.length() > 1e-6 * eye.length().max(1.0), || format!("target {target} coincides with eye {eye}"))?;
     let fwd = fwd.normalize();
     check(up.length_squared() > 0.0 && fwd.cross(up.normalize()).length() > 1e-4, || {
         format!("up {up} is zero or parallel to the view direction {fwd}")
@@ -110,14 +108,30 @@ fn look_at(eye: Vec3, target: Vec3, up: Vec3) -> Result<Mat4, CullError> {
 
 impl Camera {
     /// A perspective camera at `eye` looking at `target`. `far: None` is an infinite far plane.
-    pub fn perspective(eye: Vec3, target: Vec3, up: Vec3, fov_y: f32, aspect: f32, near: f32, far: Option<f32>) -> Result<Self, CullError> {
+    pub fn perspective(
+        eye: Vec3,
+        target: Vec3,
+        up: Vec3,
+        fov_y: f32,
+        aspect: f32,
+        near: f32,
+        far: Option<f32>,
+    ) -> Result<Self, CullError> {
         let view = look_at(eye, target, up)?;
         Self::from_view(view, Projection::Perspective { fov_y, aspect, near, far })
     }
 
     /// An orthographic camera at `eye` looking at `target`.
     #[allow(clippy::too_many_arguments)]
-    pub fn orthographic(eye: Vec3, target: Vec3, up: Vec3, half_height: f32, aspect: f32, near: f32, far: f32) -> Result<Self, CullError> {
+    pub fn orthographic(
+        eye: Vec3,
+        target: Vec3,
+        up: Vec3,
+        half_height: f32,
+        aspect: f32,
+        near: f32,
+        far: f32,
+    ) -> Result<Self, CullError> {
         let view = look_at(eye, target, up)?;
         Self::from_view(view, Projection::Orthographic { half_height, aspect, near, far })
     }
@@ -132,22 +146,34 @@ impl Camera {
                 check(fov_y.is_finite() && fov_y > 0.0 && fov_y < std::f32::consts::PI, || {
                     format!("field of view {} degrees must be in (0, 180)", fov_y.to_degrees())
                 })?;
-                check(aspect.is_finite() && aspect > 0.0, || format!("aspect ratio {aspect} must be finite and positive"))?;
+                check(aspect.is_finite() && aspect > 0.0, || {
+                    format!("aspect ratio {aspect} must be finite and positive")
+                })?;
                 check(near.is_finite() && near > 0.0, || format!("near plane {near} must be finite and positive"))?;
                 match far {
                     None => Mat4::perspective_infinite_reverse_rh(fov_y, aspect, near),
                     Some(far) => {
-                        check(far.is_finite() && far > near, || format!("far plane {far} must be finite and beyond near {near}"))?;
+                        check(far.is_finite() && far > near, || {
+                            format!("far plane {far} must be finite and beyond near {near}")
+                        })?;
                         // glam maps z_near to 0 and z_far to 1: swapping them reverses Z.
                         Mat4::perspective_rh(fov_y, aspect, far, near)
                     }
                 }
             }
             Projection::Orthographic { half_height, aspect, near, far } => {
-                check(half_height.is_finite() && half_height > 0.0, || format!("orthographic half-height {half_height} must be finite and positive"))?;
-                check(aspect.is_finite() && aspect > 0.0, || format!("aspect ratio {aspect} must be finite and positive"))?;
-                check(near.is_finite() && near >= 0.0, || format!("near plane {near} must be finite and non-negative"))?;
-                check(far.is_finite() && far > near, || format!("far plane {far} must be finite and beyond near {near}"))?;
+                check(half_height.is_finite() && half_height > 0.0, || {
+                    format!("orthographic half-height {half_height} must be finite and positive")
+                })?;
+                check(aspect.is_finite() && aspect > 0.0, || {
+                    format!("aspect ratio {aspect} must be finite and positive")
+                })?;
+                check(near.is_finite() && near >= 0.0, || {
+                    format!("near plane {near} must be finite and non-negative")
+                })?;
+                check(far.is_finite() && far > near, || {
+                    format!("far plane {far} must be finite and beyond near {near}")
+                })?;
                 let hw = half_height * aspect;
                 Mat4::orthographic_rh(-hw, hw, -half_height, half_height, far, near)
             }
@@ -161,7 +187,9 @@ impl Camera {
     pub fn with_aspect(&self, aspect: f32) -> Result<Self, CullError> {
         let projection = match self.projection {
             Projection::Perspective { fov_y, near, far, .. } => Projection::Perspective { fov_y, aspect, near, far },
-            Projection::Orthographic { half_height, near, far, .. } => Projection::Orthographic { half_height, aspect, near, far },
+            Projection::Orthographic { half_height, near, far, .. } => {
+                Projection::Orthographic { half_height, aspect, near, far }
+            }
         };
         Self::from_view(self.view, projection)
     }

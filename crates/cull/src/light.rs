@@ -98,7 +98,13 @@ impl Light {
     }
 
     /// A light with an explicit radius (glTF `range`, tests). Rejects NaN/inf and non-positive values.
-    pub fn with_radius(position: Vec3, color: Vec3, intensity: f32, radius: f32, kind: LightKind) -> Result<Self, CullError> {
+    pub fn with_radius(
+        position: Vec3,
+        color: Vec3,
+        intensity: f32,
+        radius: f32,
+        kind: LightKind,
+    ) -> Result<Self, CullError> {
         if !finite3(position) {
             return Err(CullError::InvalidLight(format!("position {position} is not finite")));
         }
@@ -116,7 +122,9 @@ impl Light {
 
     fn checked_radius(color: Vec3, intensity: f32, threshold: f32) -> Result<f32, CullError> {
         if !threshold.is_finite() || threshold <= 0.0 {
-            return Err(CullError::InvalidLight(format!("intensity threshold {threshold} must be finite and positive")));
+            return Err(CullError::InvalidLight(format!(
+                "intensity threshold {threshold} must be finite and positive"
+            )));
         }
         let peak = intensity * color.max_element();
         let r = radius_from_threshold(peak, threshold);
@@ -142,7 +150,9 @@ impl Light {
     pub fn bounding_sphere(&self) -> (Vec3, f32) {
         match self.kind {
             LightKind::Point => (self.position, self.radius),
-            LightKind::Spot { direction, outer_angle, .. } => spot_bounding_sphere(self.position, direction, self.radius, outer_angle),
+            LightKind::Spot { direction, outer_angle, .. } => {
+                spot_bounding_sphere(self.position, direction, self.radius, outer_angle)
+            }
         }
     }
 }
@@ -257,7 +267,13 @@ pub fn order_points_first(lights: &[Light]) -> Vec<Light> {
 pub fn pack_lights(ordered: &[Light]) -> PackedLights {
     let mut out = PackedLights::default();
     for l in ordered {
-        let (c, r) = l.bounding_sphere();
+        let (c, mut r) = l.bounding_sphere();
+        if l.is_spot() {
+            // The fitted sphere passes exactly through the apex and the cap rim, where the
+            // light is brightest: grow it by a few ulps of the coordinates so float error in
+            // the tests can never cut those points off.
+            r += 8.0 * f32::EPSILON * (c.abs().max_element() + r);
+        }
         out.cull.push(GpuCullLight { center: c.to_array(), radius: r });
         out.shading.push(GpuShadingLight {
             position: l.position.to_array(),

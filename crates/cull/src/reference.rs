@@ -12,7 +12,9 @@ use crate::error::CullError;
 use crate::light::PackedLights;
 use crate::tiles::{pixel_to_ndc_x, pixel_to_ndc_y, tile_depth_bounds, TileFrustum, TileGrid};
 
-/// Default per-list capacity: room for the densest tiles of the default scene at 16k lights.
+/// Default per-list capacity of the library types (the app picks the light count, up to
+/// 2048, instead). Enough for the default scene up to about 4k lights (longest list 306 at
+/// 4,096 lights; 1,209 at 16,384, which overflows it).
 pub const DEFAULT_CAPACITY: u32 = 512;
 /// Largest per-list capacity the GPU kernel accepts (its workgroup list lives in 16 KiB).
 pub const MAX_CAPACITY: u32 = 2048;
@@ -72,9 +74,12 @@ impl CullConfig {
     /// Checks the options the GPU kernel relies on.
     pub fn validate(&self) -> Result<(), CullError> {
         if self.capacity == 0 || self.capacity > MAX_CAPACITY {
-            return Err(CullError::InvalidSize(format!("per-tile capacity {} must be in 1..={MAX_CAPACITY}", self.capacity)));
+            return Err(CullError::InvalidSize(format!(
+                "per-tile capacity {} must be in 1..={MAX_CAPACITY}",
+                self.capacity
+            )));
         }
-        if self.coarse && COARSE_SIZE % self.tile_size != 0 {
+        if self.coarse && !COARSE_SIZE.is_multiple_of(self.tile_size) {
             return Err(CullError::InvalidSize(format!(
                 "two-level culling needs a tile size dividing {COARSE_SIZE}, not {}",
                 self.tile_size
@@ -129,7 +134,12 @@ pub fn half_z_split(near: f32, far: f32) -> f32 {
 pub fn check_depth(grid: &TileGrid, depth: &[f32]) -> Result<(), CullError> {
     let n = grid.width as usize * grid.height as usize;
     if depth.len() != n {
-        return Err(CullError::InvalidDepth(format!("{} values for a {}x{} screen", depth.len(), grid.width, grid.height)));
+        return Err(CullError::InvalidDepth(format!(
+            "{} values for a {}x{} screen",
+            depth.len(),
+            grid.width,
+            grid.height
+        )));
     }
     if let Some(i) = depth.iter().position(|d| !(0.0..=1.0).contains(d)) {
         return Err(CullError::InvalidDepth(format!("pixel {} has depth {} outside [0, 1]", i, depth[i])));
@@ -188,7 +198,14 @@ fn light_in_volume(l: &ViewLight, f: &TileFrustum, proj: &Mat4, ortho: bool, cfg
 
 /// Culls `lights` (packed points first, as uploaded) against every tile of a reversed-Z
 /// `depth` buffer (row-major, `width * height`), as the GPU kernel does.
-pub fn cull_tiles(depth: &[f32], width: u32, height: u32, camera: &Camera, lights: &PackedLights, config: &CullConfig) -> Result<TileLists, CullError> {
+pub fn cull_tiles(
+    depth: &[f32],
+    width: u32,
+    height: u32,
+    camera: &Camera,
+    lights: &PackedLights,
+    config: &CullConfig,
+) -> Result<TileLists, CullError> {
     config.validate()?;
     let grid = TileGrid::new(width, height, config.tile_size)?;
     check_depth(&grid, depth)?;
@@ -240,7 +257,7 @@ fn coarse_cells_of(
     height: u32,
     camera: &Camera,
     vls: &[ViewLight],
-) -> Result<(TileGrid, Vec<Option<Vec<u32>>>), CullError> {
+) -> Result<(TileGrid, CellLists), CullError> {
     let cgrid = TileGrid::new(width, height, COARSE_SIZE)?;
     let mut cells = Vec::with_capacity(cgrid.tile_count());
     for cy in 0..cgrid.tiles_y {
@@ -262,6 +279,9 @@ fn coarse_cells_of(
     Ok((cgrid, cells))
 }
 
+/// Per coarse cell, its lights, or `None` when the cell overflowed.
+pub type CellLists = Vec<Option<Vec<u32>>>;
+
 /// The first level of two-level culling on its own: the cell grid and, per cell, its
 /// lights, or `None` for a cell that overflowed [`COARSE_CAPACITY`].
 pub fn coarse_cells(
@@ -270,7 +290,7 @@ pub fn coarse_cells(
     height: u32,
     camera: &Camera,
     lights: &PackedLights,
-) -> Result<(TileGrid, Vec<Option<Vec<u32>>>), CullError> {
+) -> Result<(TileGrid, CellLists), CullError> {
     check_depth(&TileGrid::new(width, height, COARSE_SIZE)?, depth)?;
     coarse_cells_of(depth, width, height, camera, &view_lights(&camera.view(), lights, 0.0))
 }
@@ -367,6 +387,7 @@ pub fn false_positive_rate(depth: &[f32], camera: &Camera, lights: &PackedLights
     if listed == 0 {
         return 0.0;
     }
-    let wasted: usize = lists.lists.iter().zip(&reached).map(|(l, r)| l.iter().filter(|i| !r.contains(i)).count()).sum();
+    let wasted: usize =
+        lists.lists.iter().zip(&reached).map(|(l, r)| l.iter().filter(|i| !r.contains(i)).count()).sum();
     wasted as f64 / listed as f64
 }

@@ -33,7 +33,9 @@ impl TileGrid {
             return Err(CullError::InvalidSize(format!("screen {width}x{height} has no pixels")));
         }
         if width > MAX_SCREEN_SIDE || height > MAX_SCREEN_SIDE {
-            return Err(CullError::InvalidSize(format!("screen {width}x{height} exceeds {MAX_SCREEN_SIDE} pixels a side")));
+            return Err(CullError::InvalidSize(format!(
+                "screen {width}x{height} exceeds {MAX_SCREEN_SIDE} pixels a side"
+            )));
         }
         if tile_size == 0 || tile_size > 64 {
             return Err(CullError::InvalidSize(format!("tile size {tile_size} must be in 1..=64")));
@@ -59,10 +61,15 @@ impl TileGrid {
     }
 
     /// NDC rectangle of a tile: (left, right, bottom, top), y up. Same arithmetic as
-    /// `shaders/common/tile.wgsl`.
+    /// `tile_ndc` in `shaders/common/cull_tests.wgsl`.
     pub fn tile_ndc(&self, tx: u32, ty: u32) -> (f32, f32, f32, f32) {
         let (x0, x1, y0, y1) = self.tile_pixels(tx, ty);
-        (pixel_to_ndc_x(x0 as f32, self.width), pixel_to_ndc_x(x1 as f32, self.width), pixel_to_ndc_y(y1 as f32, self.height), pixel_to_ndc_y(y0 as f32, self.height))
+        (
+            pixel_to_ndc_x(x0 as f32, self.width),
+            pixel_to_ndc_x(x1 as f32, self.width),
+            pixel_to_ndc_y(y1 as f32, self.height),
+            pixel_to_ndc_y(y0 as f32, self.height),
+        )
     }
 }
 
@@ -120,13 +127,24 @@ impl TileFrustum {
     /// The view volume of tile (tx, ty) between the distances of `bounds`.
     pub fn new(grid: &TileGrid, camera: &Camera, tx: u32, ty: u32, bounds: DepthBounds) -> Self {
         let dp = camera.depth_params();
-        Self::from_parts(&camera.proj(), &dp, grid.tile_ndc(tx, ty), dp.view_distance(bounds.max_depth), dp.view_distance(bounds.min_depth))
+        Self::from_parts(
+            &camera.proj(),
+            &dp,
+            grid.tile_ndc(tx, ty),
+            dp.view_distance(bounds.max_depth),
+            dp.view_distance(bounds.min_depth),
+        )
     }
 
     /// From a projection, NDC rectangle and distance range (used by the half-z split too).
     pub fn from_parts(proj: &Mat4, _dp: &DepthParams, ndc: (f32, f32, f32, f32), near: f32, far: f32) -> Self {
         let (l, r, b, t) = ndc;
-        let planes = [clip_edge_plane(proj, 0, l, 1.0), clip_edge_plane(proj, 0, r, -1.0), clip_edge_plane(proj, 1, b, 1.0), clip_edge_plane(proj, 1, t, -1.0)];
+        let planes = [
+            clip_edge_plane(proj, 0, l, 1.0),
+            clip_edge_plane(proj, 0, r, -1.0),
+            clip_edge_plane(proj, 1, b, 1.0),
+            clip_edge_plane(proj, 1, t, -1.0),
+        ];
         Self { planes, ndc, near, far }
     }
 

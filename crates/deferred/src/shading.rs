@@ -8,7 +8,7 @@
 use tiledlight_cull::reference::{COARSE_SIZE, MAX_CAPACITY};
 use tiledlight_cull::TileGrid;
 use tiledlight_gpu::frame::FrameBinding;
-use tiledlight_gpu::light_cull::{depth_entry, CoarseCulling, CullOptions, COARSE_CONSTANTS};
+use tiledlight_gpu::light_cull::{depth_entry, CoarseCulling, CullOptions};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::timer::GpuTimer;
@@ -124,7 +124,7 @@ impl DeferredShading {
             defines.push("HALF_Z");
         }
         let coarse = if options.coarse {
-            if COARSE_SIZE % options.tile_size != 0 {
+            if !COARSE_SIZE.is_multiple_of(options.tile_size) {
                 return Err(GpuError::Config(format!("two-level culling needs a tile size dividing {COARSE_SIZE}")));
             }
             defines.push("COARSE");
@@ -151,8 +151,8 @@ impl DeferredShading {
             ("WG", options.tile_size.min(16) as f64),
             ("CAPACITY", options.capacity as f64),
         ];
-        if options.coarse {
-            constants.extend(COARSE_CONSTANTS);
+        if let Some(c) = &coarse {
+            constants.extend(c.constants());
         }
         if gbuffer.extra_view.is_some() {
             constants.push(("NUM_EXTRA", (gbuffer.rts() - 2) as f64));

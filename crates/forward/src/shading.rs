@@ -97,9 +97,6 @@ impl ShadingPass {
             layout: &layout,
             entries: &bind,
         });
-        let module = shader_module(device, "forward.wgsl", &defines)?;
-        // Group 2 must exist in the layout for group 3 to be bound; an empty layout stands in
-        // when the scene has no textures.
         let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shade.empty_layout"),
             entries: &[],
@@ -110,6 +107,11 @@ impl ShadingPass {
             .kinds()
             .into_iter()
             .map(|kind| {
+                let mut kind_defines = defines.clone();
+                if kind.masked {
+                    kind_defines.push("ALPHA_MASK");
+                }
+                let module = shader_module(device, "forward.wgsl", &kind_defines)?;
                 let p = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                     label: Some(label),
                     layout: Some(&pl),
@@ -141,9 +143,9 @@ impl ShadingPass {
                     multiview_mask: None,
                     cache: None,
                 });
-                (kind, p)
+                Ok((kind, p))
             })
-            .collect();
+            .collect::<Result<Vec<_>, GpuError>>()?;
         let empty_group = scene.textures.is_none().then(|| {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("shade.empty"),

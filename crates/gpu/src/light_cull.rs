@@ -101,9 +101,12 @@ pub struct CoarseCulling {
     bind_group: wgpu::BindGroup,
     /// The cell grid.
     pub cells: TileGrid,
-    /// Cell counts, then `COARSE_CAPACITY` indices per cell; bind it read-only as
-    /// `cell_lists` in the per-tile kernel.
+    /// Cell counts, then `capacity` indices per cell; bind it read-only as `cell_lists` in
+    /// the per-tile kernel.
     pub lists: wgpu::Buffer,
+    /// Indices a cell stores: `COARSE_CAPACITY`, or the light count when smaller (a cell
+    /// cannot hold more lights than exist, so overflow means the same as on the CPU).
+    pub capacity: u32,
 }
 
 impl CoarseCulling {
@@ -117,11 +120,19 @@ impl CoarseCulling {
         memory: &mut MemoryReport,
     ) -> Result<Self, GpuError> {
         let cells = TileGrid::new(grid.width, grid.height, COARSE_SIZE)?;
+        let capacity = COARSE_CAPACITY.min(lights.len().max(1));
         let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
         // Counts first, then COARSE_CAPACITY indices per cell: one binding, since a stage
         // has only 8 storage buffers and the per-tile pass already uses up to 7.
         let n = cells.tile_count() as u64;
-        let lists = buffer_zeroed(device, "cull.cell_lists", (n + n * COARSE_CAPACITY as u64) * 4, usage);
+        let bytes = (n + n * capacity as u64) * 4;
+        if bytes > device.limits().max_storage_buffer_binding_size {
+            return Err(GpuError::Config(format!(
+                "cell lists need {bytes} bytes ({n} cells x {capacity} lights); this device binds at most {}",
+                device.limits().max_storage_buffer_binding_size
+            )));
+        }
+        let lists = buffer_zeroed(device, "cull.cell_lists", bytes, usage);
         memory.add("cull.cell_lists", lists.size());
         let cs = wgpu::ShaderStages::COMPUTE;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -144,12 +155,17 @@ impl CoarseCulling {
             module: &module,
             entry_point: Some("main"),
             compilation_options: wgpu::PipelineCompilationOptions {
-                constants: &COARSE_CONSTANTS,
+                constants: &coarse_constants(capacity),
                 zero_initialize_workgroup_memory: false,
             },
             cache: None,
         });
-        Ok(Self { pipeline, bind_group, cells, lists })
+        Ok(Self { pipeline, bind_group, cells, lists, capacity })
+    }
+
+    /// The override constants the per-tile kernel needs to read these cells.
+    pub fn constants(&self) -> [(&'static str, f64); 2] {
+        coarse_constants(self.capacity)
     }
 
     /// Records the cell dispatch into `pass` (group 0, the frame, must be bound).
@@ -160,9 +176,10 @@ impl CoarseCulling {
     }
 }
 
-/// Override constants shared by both levels (from the CPU reference's constants).
-pub const COARSE_CONSTANTS: [(&str, f64); 2] =
-    [("CELL", COARSE_SIZE as f64), ("COARSE_CAPACITY", COARSE_CAPACITY as f64)];
+/// Override constants shared by both levels: the cell size and the cell capacity.
+fn coarse_constants(capacity: u32) -> [(&'static str, f64); 2] {
+    [("CELL", COARSE_SIZE as f64), ("COARSE_CAPACITY", capacity as f64)]
+}
 
 /// Layout entry for the single-sampled depth texture a compute kernel reads.
 pub fn depth_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
@@ -250,7 +267,7 @@ impl LightCulling {
             defines.push("SPOT_CONE");
         }
         if options.coarse {
-            if COARSE_SIZE % options.tile_size != 0 {
+            if !COARSE_SIZE.is_multiple_of(options.tile_size) {
                 return Err(GpuError::Config(format!("two-level culling needs a tile size dividing {COARSE_SIZE}")));
             }
             defines.push("COARSE");
@@ -314,8 +331,11 @@ impl LightCulling {
         });
         let module = shader_module(device, "cull.wgsl", &defines)?;
         let wg = options.tile_size.min(16);
-        let constants =
-            [("TILE_SIZE", options.tile_size as f64), ("WG", wg as f64), ("CAPACITY", options.capacity as f64)];
+        let mut constants =
+            vec![("TILE_SIZE", options.tile_size as f64), ("WG", wg as f64), ("CAPACITY", options.capacity as f64)];
+        if let Some(c) = &coarse {
+            constants.extend(c.constants());
+        }
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("cull"),
             layout: Some(&pipeline_layout(device, "cull.pipeline_layout", &[&frame.layout, &layout])),

@@ -331,7 +331,7 @@ pub fn to_view(view: &Mat4, p: Vec3) -> Vec3 {
 /// cap rim) or to its cone's surface ([`near_spot_rim`]).
 /// The no-false-negative checks skip such (pixel, light) pairs.
 pub fn spot_pair_unresolvable(camera: &Camera, packed: &PackedLights, l: u32, p: Vec3) -> bool {
-    near_spot_sphere_surface(camera, packed, l, p) || near_spot_rim(camera, packed, l, p)
+    near_spot_rim(camera, packed, l, p)
 }
 
 /// True when `l` is a spot light and the cosine of the angle between its axis and the
