@@ -21,7 +21,7 @@ run() { # name frames args...
   timeout 300 "$bin" bench --width 1920 --height 1080 --frames "$frames" --warmup 20 --json "$out/$name.json" "$@" 2>&1 \
     | tee -a "$out/log.txt" | grep -E "^(depth|forward|brute|tonemap|total|error)"
 }
-sets=${*:-core cull scale}
+sets=${*:-core cull scale methods}
 for set in $sets; do
   case $set in
   core)
@@ -34,6 +34,14 @@ for set in $sets; do
     run fp-16384-halfz 100 --lights 16384 --half-z
     run fp-16384-t8 100 --lights 16384 --tile-size 8
     run fp-16384-t32 100 --lights 16384 --tile-size 32
+    ;;
+  methods)
+    # Forward+ vs Tiled Deferred, the sample's comparison: ~750k triangles, 4 G-buffer targets.
+    for n in 256 1024 4096 16384; do
+      run "cmp-fp-$n" 50 --lights $n --grid-objects 280 --density medium
+      run "cmp-td-$n" 50 --lights $n --grid-objects 280 --density medium --method deferred --gbuffer-rts 4
+    done
+    for rts in 2 3 5; do run "td-rts$rts" 50 --lights 1024 --grid-objects 280 --density medium --method deferred --gbuffer-rts $rts; done
     ;;
   scale)
     run fp-1024-grid280 100 --lights 1024 --grid-objects 280 --density medium
