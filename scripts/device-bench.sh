@@ -19,7 +19,7 @@ run() { # name frames args...
   local name=$1 frames=$2; shift 2
   echo "== $name: $*" | tee -a "$out/log.txt"
   timeout 300 "$bin" bench --width 1920 --height 1080 --frames "$frames" --warmup 20 --json "$out/$name.json" "$@" 2>&1 \
-    | tee -a "$out/log.txt" | grep -E "^(depth|forward|brute|tonemap|total|error)"
+    | tee -a "$out/log.txt" | grep -E "^(depth|forward|brute|deferred|tonemap|total|error)"
 }
 sets=${*:-core cull scale methods}
 for set in $sets; do
