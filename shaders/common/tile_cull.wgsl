@@ -62,7 +62,8 @@ fn extra_tests(v: TileVolume, light: u32, c: vec3<f32>, r: f32) -> bool {
         let apex = (frame.view * vec4<f32>(sh.position, 1.0)).xyz;
         let axis = (frame.view * vec4<f32>(s.direction, 0.0)).xyz;
         let sc = (b.lo + b.hi) * 0.5;
-        let sr = length(b.hi - b.lo) * 0.5;
+        // The farthest corner from the rounded centre (crates/cull/src/bounds.rs aabb_sphere).
+        let sr = length(max(b.hi - sc, sc - b.lo));
         if !cone_vs_sphere(apex, axis, sh.radius, s.cos_outer, s.sin_outer, sc, sr) {
             return false;
         }
