@@ -106,3 +106,24 @@ fn mixed_materials_half_z_tile8() {
     let cull = CullOptions { tile_size: 8, half_z: true, ..Default::default() };
     compare("fwd-mixed-halfz", &scene, 400, 100, &scenes::mixed_camera(W, H), cull);
 }
+
+/// Regression guard: the Forward+ image of the mixed scene against the stored
+/// `tests/reference/forward-mixed.png` (rewrite it with TILEDLIGHT_UPDATE_REFERENCES=1 after
+/// an intended change, and look at it). FLIP mean <= 5e-3, p99 <= 5e-2: another Mesa or
+/// GPU rasterises edges and rounds f16 slightly differently; a changed BRDF, tonemap,
+/// camera or culling fault moves far more.
+#[test]
+fn mixed_scene_matches_stored_reference() {
+    let ctx = gpu();
+    let scene = scenes::mixed_scene();
+    let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 200, 40, 42)).unwrap();
+    let frame = render(&ctx, &scene_gpu, &lights, &scenes::mixed_camera(W, H), ForwardSettings::default());
+    tiledlight_tests::images::assert_matches_reference(
+        "forward-mixed",
+        W,
+        H,
+        &frame.ldr,
+        FlipThresholds { mean: 5e-3, percentile: (0.99, 5e-2) },
+    );
+}
