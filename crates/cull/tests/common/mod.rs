@@ -331,7 +331,7 @@ pub fn to_view(view: &Mat4, p: Vec3) -> Vec3 {
 /// cap rim) or to its cone's surface ([`near_spot_rim`]).
 /// The no-false-negative checks skip such (pixel, light) pairs.
 pub fn spot_pair_unresolvable(camera: &Camera, packed: &PackedLights, l: u32, p: Vec3) -> bool {
-    near_spot_rim(camera, packed, l, p)
+    near_spot_sphere_surface(camera, packed, l, p) || near_spot_rim(camera, packed, l, p)
 }
 
 /// True when `l` is a spot light and the cosine of the angle between its axis and the
@@ -374,7 +374,10 @@ pub fn near_spot_rim(camera: &Camera, packed: &PackedLights, l: u32, p: Vec3) ->
 /// (half-angles up to 45 degrees) and along the cap's rim, so this covers those two
 /// places, and whole spots smaller than `4 * EPS * s`. Found by no_false_negatives.rs: a
 /// spot at the eye with R = 5.2e5 m and a surface 1.9e-4 m in front of it; a 0.7 mm spot
-/// 1.4 km from the origin.
+/// 1.4 km from the origin. `pack_lights` now pads spot spheres by 8 eps of their world
+/// coordinates, which covers those; it cannot cover the `|eye|` part: a 0.1 mm spot at
+/// the origin seen from 1 km has its apex and centre rounded to the same view z (ulp
+/// 6e-5 m) and is still missed by the AABB test, so the exclusion stays.
 pub fn near_spot_sphere_surface(camera: &Camera, packed: &PackedLights, l: u32, p: Vec3) -> bool {
     if l < packed.num_point {
         return false;
