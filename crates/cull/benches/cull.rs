@@ -1,8 +1,8 @@
 //! The CPU reference culler at 1920x1080 with 16x16 tiles (8160 tiles), 1024 and 16384
 //! random point lights in a 36 x 13 x 16 m room (x, y up, z): planes only, planes + AABB,
-//! and planes after a 64 px coarse pass (two-level culling). The depth buffer is the room's floor, ceiling and walls, intersected
-//! analytically per pixel for a camera standing inside it, so every tile has geometry
-//! (the costliest case). Slow by design (it is the reference, not the kernel):
+//! and planes after a 64 px coarse pass (two-level culling). The depth buffer is the
+//! room's floor, ceiling and walls, intersected analytically per pixel for a camera
+//! standing inside it, so every tile has geometry (the costliest case). Slow by design (it is the reference, not the kernel):
 //! `sample_size(10)`.
 
 use std::hint::black_box;
