@@ -10,6 +10,7 @@
 // and `spot_lights`.
 #include "common/cull_tests.wgsl"
 #include "common/lights.wgsl"
+#include "common/depth_range.wgsl"
 
 // Tile side in pixels; the workgroup is WG x WG threads, each reducing (TILE_SIZE / WG)^2 pixels.
 override TILE_SIZE: u32 = 16u;
@@ -23,8 +24,6 @@ override CELL: u32 = 64u;
 override COARSE_CAPACITY: u32 = 8192u;
 #endif
 
-var<workgroup> wg_min_depth: atomic<u32>;
-var<workgroup> wg_max_depth: atomic<u32>;
 var<workgroup> wg_count: array<atomic<u32>, 2>;
 var<workgroup> wg_list: array<u32, CAPACITY>;
 #ifdef HALF_Z
@@ -89,40 +88,15 @@ fn half_z_split(near: f32, far: f32) -> f32 {
 // true counts. Must be called from uniform control flow (it has barriers) by every thread.
 fn cull_tile(tile: vec2<u32>, lid: vec2<u32>, lidx: u32) -> TileCull {
     if lidx == 0u {
-        // Depth is in [0, 1]: non-negative floats order like their bit patterns.
-        atomicStore(&wg_min_depth, 0x7f800000u);
-        atomicStore(&wg_max_depth, 0u);
         atomicStore(&wg_count[0], 0u);
         atomicStore(&wg_count[1], 0u);
     }
-    workgroupBarrier();
-
     let origin = tile * TILE_SIZE;
-    var lo = 3.4e38;
-    var hi = 0.0;
-    let steps = TILE_SIZE / WG;
-    for (var j = 0u; j < steps; j++) {
-        for (var i = 0u; i < steps; i++) {
-            let p = origin + lid + vec2<u32>(i, j) * WG;
-            if p.x < frame.screen.x && p.y < frame.screen.y {
-                let d = textureLoad(depth_texture, p, 0);
-                // Sky (depth 0, the clear value) is no surface.
-                if d > 0.0 {
-                    lo = min(lo, d);
-                    hi = max(hi, d);
-                }
-            }
-        }
-    }
-    if hi > 0.0 {
-        atomicMin(&wg_min_depth, bitcast<u32>(lo));
-        atomicMax(&wg_max_depth, bitcast<u32>(hi));
-    }
-    workgroupBarrier();
+    let range = region_depth_range(origin, TILE_SIZE, WG, lid, lidx);
 
     var result = TileCull(tile.y * frame.tiles.x + tile.x, 0.0, 0.0);
-    let max_depth = bitcast<f32>(atomicLoad(&wg_max_depth));
-    let min_depth = bitcast<f32>(atomicLoad(&wg_min_depth));
+    let min_depth = range.x;
+    let max_depth = range.y;
     if max_depth > 0.0 {
         // Reversed-Z: the largest depth is the nearest surface.
         let near = view_distance(max_depth);

@@ -1,0 +1,42 @@
+// Min/max reversed-Z depth of a screen region's non-sky pixels, reduced by a workgroup in
+// workgroup memory; shared by the cell pass (cull_coarse.wgsl) and the per-tile culling
+// (common/tile_cull.wgsl). The CPU reference is tiledlight_cull::tiles::tile_depth_bounds.
+// The including file declares `depth_texture: texture_depth_2d`.
+#include "common/frame.wgsl"
+
+var<workgroup> wg_min_depth: atomic<u32>;
+var<workgroup> wg_max_depth: atomic<u32>;
+
+// Min (x) and max (y) depth of the `size` x `size` pixels at `origin`, clipped to the screen,
+// reduced by a `threads` x `threads` workgroup (this thread is `lid`). Max 0 means all sky.
+// Every thread must call it from uniform control flow: it has barriers.
+fn region_depth_range(origin: vec2<u32>, size: u32, threads: u32, lid: vec2<u32>, lidx: u32) -> vec2<f32> {
+    if lidx == 0u {
+        // Depth is in [0, 1]: non-negative floats order like their bit patterns.
+        atomicStore(&wg_min_depth, 0x7f800000u);
+        atomicStore(&wg_max_depth, 0u);
+    }
+    workgroupBarrier();
+    var lo = 3.4e38;
+    var hi = 0.0;
+    let steps = size / threads;
+    for (var j = 0u; j < steps; j++) {
+        for (var i = 0u; i < steps; i++) {
+            let p = origin + lid + vec2<u32>(i, j) * threads;
+            if p.x < frame.screen.x && p.y < frame.screen.y {
+                let d = textureLoad(depth_texture, p, 0);
+                // Sky (depth 0, the clear value) is no surface.
+                if d > 0.0 {
+                    lo = min(lo, d);
+                    hi = max(hi, d);
+                }
+            }
+        }
+    }
+    if hi > 0.0 {
+        atomicMin(&wg_min_depth, bitcast<u32>(lo));
+        atomicMax(&wg_max_depth, bitcast<u32>(hi));
+    }
+    workgroupBarrier();
+    return vec2<f32>(bitcast<f32>(atomicLoad(&wg_min_depth)), bitcast<f32>(atomicLoad(&wg_max_depth)));
+}
