@@ -6,10 +6,10 @@
 // The CPU reference is crates/cull/src/reference.rs (cull_tiles).
 // With COARSE, each tile tests only the lights of its 64x64-pixel cell (cull_coarse.wgsl),
 // or every light when the cell overflowed.
-// variants: AABB HALF_Z SPOT_CONE COARSE
+// With MSAA the depth buffer is multisampled and the tile's range covers every sample.
+// variants: AABB HALF_Z SPOT_CONE COARSE MSAA
 #include "common/tile_cull.wgsl"
 
-@group(1) @binding(0) var depth_texture: texture_depth_2d;
 @group(1) @binding(1) var<storage, read> cull_lights: array<CullLight>;
 // Per list: the number of lights found (may exceed CAPACITY).
 @group(1) @binding(2) var<storage, read_write> tile_counts: array<u32>;

@@ -3,6 +3,7 @@
 // planes and depth range; survivors are written to the cell's region of a global list with
 // the true count. The per-tile kernel (cull.wgsl with COARSE) then tests only those.
 // The CPU reference is crates/cull/src/reference.rs (coarse_cells).
+// variants: MSAA
 #include "common/cull_tests.wgsl"
 #include "common/lights.wgsl"
 #include "common/depth_range.wgsl"
@@ -13,7 +14,6 @@ override CELL: u32 = 64u;
 override COARSE_CAPACITY: u32 = 8192u;
 const WG: u32 = 16u;
 
-@group(1) @binding(0) var depth_texture: texture_depth_2d;
 @group(1) @binding(1) var<storage, read> cull_lights: array<CullLight>;
 // One buffer (a storage-buffer binding is scarce: 8 per stage): the cells' true counts,
 // then COARSE_CAPACITY indices per cell.

@@ -2,21 +2,39 @@
 // the same code as Forward+ (common/tile_cull.wgsl) into workgroup memory, then each thread
 // shades its pixels from the G-buffer with that list (its half with HALF_Z) and the shared
 // BRDF, writing linear HDR to a storage texture. Per-list counts are written for the heat
-// map and for tests. With EXTRA_RTS the stress knob's extra G-buffer targets (NUM_EXTRA
-// layers, all white) are read and multiplied into the albedo.
-// variants: SPOT_LIGHTS HALF_Z AABB SPOT_CONE COARSE EXTRA_RTS
+// map and for tests. With EXTRA_RTS (EXTRA_RTS_2, EXTRA_RTS_3) the stress knob's extra
+// G-buffer targets (all white) are read and multiplied into the albedo.
+//
+// With MSAA the G-buffer is multisampled (SAMPLES per pixel). Each pixel first shades its
+// sample 0 and runs the edge test (is_edge); a pixel whose samples all lie on one surface
+// writes that colour to the HDR image and is done. Edge pixels are queued in workgroup
+// memory, and once every pixel is classified the tile's threads are redistributed over the
+// queued pixels' remaining samples. An edge pixel's samples go to the oversized `samples_out`
+// texture (SAMPLES_X x SAMPLES_Y texels a pixel) and its position to a global edge list,
+// which deferred_resolve.wgsl averages into the HDR image (an indirect dispatch sized here).
+// variants: SPOT_LIGHTS HALF_Z AABB SPOT_CONE COARSE EXTRA_RTS EXTRA_RTS_2 EXTRA_RTS_3 MSAA
 #include "common/tile_cull.wgsl"
 #include "common/shade.wgsl"
 
-@group(1) @binding(0) var depth_texture: texture_depth_2d;
+#ifdef MSAA
+alias GTexture = texture_multisampled_2d<f32>;
+#else
+alias GTexture = texture_2d<f32>;
+#endif
+
 @group(1) @binding(1) var<storage, read> cull_lights: array<CullLight>;
 // Per list: the number of lights found (may exceed CAPACITY).
 @group(1) @binding(2) var<storage, read_write> tile_counts: array<u32>;
-@group(1) @binding(3) var gbuffer_albedo: texture_2d<f32>;
-@group(1) @binding(4) var gbuffer_normal: texture_2d<f32>;
+@group(1) @binding(3) var gbuffer_albedo: GTexture;
+@group(1) @binding(4) var gbuffer_normal: GTexture;
 #ifdef EXTRA_RTS
-override NUM_EXTRA: u32 = 1u;
-@group(1) @binding(5) var gbuffer_extra: texture_2d_array<f32>;
+@group(1) @binding(5) var gbuffer_extra0: GTexture;
+#ifdef EXTRA_RTS_2
+@group(1) @binding(10) var gbuffer_extra1: GTexture;
+#ifdef EXTRA_RTS_3
+@group(1) @binding(11) var gbuffer_extra2: GTexture;
+#endif
+#endif
 #endif
 @group(1) @binding(6) var<storage, read> shading_lights: array<ShadingLight>;
 #ifdef SPOT_LIGHTS
@@ -32,45 +50,142 @@ override NUM_EXTRA: u32 = 1u;
 #endif
 @group(1) @binding(9) var output: texture_storage_2d<rgba16float, write>;
 
-fn shade_pixel(p: vec2<u32>, t: TileCull, counts: vec2<u32>) {
-    let d = textureLoad(depth_texture, p, 0);
-    if d <= 0.0 {
-        // Sky: black, as the forward pass's clear.
-        textureStore(output, p, vec4<f32>(0.0, 0.0, 0.0, 1.0));
-        return;
+#ifdef MSAA
+// Texels per pixel of `samples_out` across and down (SAMPLES_X * SAMPLES_Y = SAMPLES).
+override SAMPLES_X: u32 = 2u;
+// The edge test's thresholds (tiledlight_deferred::EdgeTest): a sample off sample 0's
+// tangent plane by more than EDGE_DISTANCE times its view distance, or whose normal turns
+// more than acos(EDGE_COS) from sample 0's, makes the pixel an edge.
+override EDGE_DISTANCE: f32 = 0.01;
+override EDGE_COS: f32 = 0.9848;
+// Pixels a tile holds (TILE_SIZE^2): the edge queue's size.
+override TILE_PIXELS: u32 = 256u;
+@group(1) @binding(12) var samples_out: texture_storage_2d<rgba16float, write>;
+// Edge pixels of the frame, packed x | y << 16, for the resolve.
+@group(1) @binding(13) var<storage, read_write> edge_list: array<u32>;
+// The resolve's indirect dispatch (x, y, z) and the frame's edge-pixel count.
+@group(1) @binding(14) var<storage, read_write> edge_args: array<atomic<u32>, 4>;
+
+var<workgroup> wg_edge_count: atomic<u32>;
+var<workgroup> wg_edge_first: u32;
+var<workgroup> wg_edges: array<u32, TILE_PIXELS>;
+
+// Standard sample positions (Vulkan, D3D and Metal agree), in pixels from the pixel's corner.
+fn sample_position(s: u32) -> vec2<f32> {
+    if SAMPLES == 2u {
+        return select(vec2<f32>(0.25, 0.25), vec2<f32>(0.75, 0.75), s == 0u);
     }
-    let dist = view_distance(d);
-    let view_pos = view_point_at(pixel_to_ndc(vec2<f32>(p) + 0.5), dist);
-    let world = (frame.inv_view * vec4<f32>(view_pos, 1.0)).xyz;
-    let am = textureLoad(gbuffer_albedo, p, 0);
-    let nr = textureLoad(gbuffer_normal, p, 0);
+    if SAMPLES == 4u {
+        var p4 = array<vec2<f32>, 4>(vec2(0.375, 0.125), vec2(0.875, 0.375), vec2(0.125, 0.625), vec2(0.625, 0.875));
+        return p4[s];
+    }
+    var p8 = array<vec2<f32>, 8>(
+        vec2(0.5625, 0.3125), vec2(0.4375, 0.6875), vec2(0.8125, 0.5625), vec2(0.3125, 0.1875),
+        vec2(0.1875, 0.8125), vec2(0.0625, 0.4375), vec2(0.6875, 0.9375), vec2(0.9375, 0.0625),
+    );
+    return p8[s];
+}
+
+fn sample_texel(p: vec2<u32>, s: u32) -> vec2<u32> {
+    return p * vec2<u32>(SAMPLES_X, SAMPLES / SAMPLES_X) + vec2<u32>(s % SAMPLES_X, s / SAMPLES_X);
+}
+#else
+fn sample_position(s: u32) -> vec2<f32> {
+    return vec2<f32>(0.5);
+}
+#endif
+
+// What the G-buffer holds for one sample (sample 0 without MSAA), with its world position.
+struct GSample {
+    sky: bool,
+    dist: f32,
+    world: vec3<f32>,
+    normal: vec3<f32>,
+    surface: Surface,
+}
+
+// `textureLoad(t, p, k)` reads mip level k of a plain texture and sample k of a
+// multisampled one: with k = s (0 without MSAA) the same code serves both.
+fn load_gsample(p: vec2<u32>, s: u32) -> GSample {
+    var g: GSample;
+    let d = load_depth(p, s);
+    g.sky = d <= 0.0;
+    if g.sky {
+        return g;
+    }
+    g.dist = view_distance(d);
+    let view_pos = view_point_at(pixel_to_ndc(vec2<f32>(p) + sample_position(s)), g.dist);
+    g.world = (frame.inv_view * vec4<f32>(view_pos, 1.0)).xyz;
+    let am = textureLoad(gbuffer_albedo, p, s);
+    let nr = textureLoad(gbuffer_normal, p, s);
     var albedo = am.rgb;
 #ifdef EXTRA_RTS
-    for (var k = 0u; k < NUM_EXTRA; k++) {
-        albedo *= textureLoad(gbuffer_extra, p, k, 0).rgb;
-    }
+    albedo *= textureLoad(gbuffer_extra0, p, s).rgb;
+#ifdef EXTRA_RTS_2
+    albedo *= textureLoad(gbuffer_extra1, p, s).rgb;
+#ifdef EXTRA_RTS_3
+    albedo *= textureLoad(gbuffer_extra2, p, s).rgb;
 #endif
-    let n = normalize(nr.xyz);
-    let v = view_vector(world);
-    let s = Surface(albedo, nr.w, am.a);
-    var color = frame.ambient * albedo;
+#endif
+#endif
+    g.normal = normalize(nr.xyz);
+    g.surface = Surface(albedo, nr.w, am.a);
+    return g;
+}
+
+// Linear HDR of one G-buffer sample lit by the tile's list (its half with HALF_Z).
+fn shade(g: GSample, t: TileCull, counts: vec2<u32>) -> vec3<f32> {
+    if g.sky {
+        // Sky: black, as the forward pass's clear.
+        return vec3<f32>(0.0);
+    }
+    let v = view_vector(g.world);
+    var color = frame.ambient * g.surface.albedo;
 #ifdef HALF_Z
-    if dist > half_z_split(t.near, t.far) {
+    if g.dist > half_z_split(t.near, t.far) {
         for (var i = 0u; i < counts.y; i++) {
-            color += shade_light(wg_list_far[i], world, n, v, s);
+            color += shade_light(wg_list_far[i], g.world, g.normal, v, g.surface);
         }
-        textureStore(output, p, vec4<f32>(color, 1.0));
-        return;
+        return color;
     }
 #endif
     for (var i = 0u; i < counts.x; i++) {
-        color += shade_light(wg_list[i], world, n, v, s);
+        color += shade_light(wg_list[i], g.world, g.normal, v, g.surface);
     }
-    textureStore(output, p, vec4<f32>(color, 1.0));
+    return color;
 }
+
+#ifdef MSAA
+// Scale-independent edge test. Sample 0's normal gives the surface's depth slope across the
+// pixel exactly (the role of Lauritzen's screen-space depth derivatives), so instead of a
+// depth threshold in scene units each sample is tested against sample 0's tangent plane,
+// relative to the view distance: a tilted or distant surface is no edge, a silhouette or
+// crease is, at any scene scale. Sky next to a surface is always an edge.
+fn is_edge(p: vec2<u32>, g0: GSample) -> bool {
+    for (var s = 1u; s < SAMPLES; s++) {
+        let g = load_gsample(p, s);
+        if g.sky != g0.sky {
+            return true;
+        }
+        if g.sky {
+            continue;
+        }
+        if abs(dot(g.world - g0.world, g0.normal)) > EDGE_DISTANCE * g0.dist || dot(g.normal, g0.normal) < EDGE_COS {
+            return true;
+        }
+    }
+    return false;
+}
+#endif
 
 @compute @workgroup_size(WG, WG)
 fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>, @builtin(local_invocation_index) lidx: u32) {
+#ifdef MSAA
+    if lidx == 0u {
+        atomicStore(&wg_edge_count, 0u);
+    }
+#endif
+    // cull_tile's barriers also order the reset above before any use.
     let t = cull_tile(wid.xy, lid.xy, lidx);
     let found = vec2<u32>(atomicLoad(&wg_count[0]), atomicLoad(&wg_count[1]));
     if lidx == 0u {
@@ -86,8 +201,43 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid
         for (var i = 0u; i < steps; i++) {
             let p = origin + lid.xy + vec2<u32>(i, j) * WG;
             if p.x < frame.screen.x && p.y < frame.screen.y {
-                shade_pixel(p, t, counts);
+                let g0 = load_gsample(p, 0u);
+                let color = vec4<f32>(shade(g0, t, counts), 1.0);
+#ifdef MSAA
+                if is_edge(p, g0) {
+                    wg_edges[atomicAdd(&wg_edge_count, 1u)] = p.x | (p.y << 16u);
+                    textureStore(samples_out, sample_texel(p, 0u), color);
+                    continue;
+                }
+#endif
+                textureStore(output, p, color);
             }
         }
     }
+#ifdef MSAA
+    workgroupBarrier();
+    let edges = atomicLoad(&wg_edge_count);
+    if lidx == 0u && edges > 0u {
+        // Reserve the tile's block of the frame's edge list and grow the resolve's dispatch
+        // to cover it (64 pixels a workgroup); the max over tiles is the frame's total.
+        let first = atomicAdd(&edge_args[3], edges);
+        wg_edge_first = first;
+        atomicMax(&edge_args[0], (first + edges + 63u) / 64u);
+        atomicMax(&edge_args[1], 1u);
+        atomicMax(&edge_args[2], 1u);
+    }
+    workgroupBarrier();
+    let first = wg_edge_first;
+    for (var k = lidx; k < edges; k += WG * WG) {
+        edge_list[first + k] = wg_edges[k];
+    }
+    // The queued pixels' other samples, spread over every thread of the tile.
+    let per_pixel = SAMPLES - 1u;
+    for (var k = lidx; k < edges * per_pixel; k += WG * WG) {
+        let packed = wg_edges[k / per_pixel];
+        let p = vec2<u32>(packed & 0xffffu, packed >> 16u);
+        let s = 1u + k % per_pixel;
+        textureStore(samples_out, sample_texel(p, s), vec4<f32>(shade(load_gsample(p, s), t, counts), 1.0));
+    }
+#endif
 }

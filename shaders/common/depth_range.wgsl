@@ -1,11 +1,29 @@
-// Min/max reversed-Z depth of a screen region's non-sky pixels, reduced by a workgroup in
-// workgroup memory; shared by the cell pass (cull_coarse.wgsl) and the per-tile culling
-// (common/tile_cull.wgsl). The CPU reference is tiledlight_cull::tiles::tile_depth_bounds.
-// The including file declares `depth_texture: texture_depth_2d`.
+// The depth buffer the culling kernels read, and the min/max reversed-Z depth of a screen
+// region's non-sky samples reduced by a workgroup in workgroup memory; shared by the cell
+// pass (cull_coarse.wgsl), the per-tile culling (common/tile_cull.wgsl) and Tiled Deferred.
+// With MSAA the buffer is multisampled (SAMPLES per pixel, set by the pipeline) and the
+// range covers every sample, so a light reaching any sample stays in the tile's list.
+// The CPU reference is tiledlight_cull::tiles::tile_depth_bounds_samples.
 #include "common/frame.wgsl"
+
+#ifdef MSAA
+override SAMPLES: u32 = 4u;
+@group(1) @binding(0) var depth_texture: texture_depth_multisampled_2d;
+#else
+@group(1) @binding(0) var depth_texture: texture_depth_2d;
+#endif
 
 var<workgroup> wg_min_depth: atomic<u32>;
 var<workgroup> wg_max_depth: atomic<u32>;
+
+// Depth of sample `s` of pixel `p` (s is 0 without MSAA).
+fn load_depth(p: vec2<u32>, s: u32) -> f32 {
+#ifdef MSAA
+    return textureLoad(depth_texture, p, s);
+#else
+    return textureLoad(depth_texture, p, 0);
+#endif
+}
 
 // Min (x) and max (y) depth of the `size` x `size` pixels at `origin`, clipped to the screen,
 // reduced by a `threads` x `threads` workgroup (this thread is `lid`). Max 0 means all sky.
@@ -19,16 +37,23 @@ fn region_depth_range(origin: vec2<u32>, size: u32, threads: u32, lid: vec2<u32>
     workgroupBarrier();
     var lo = 3.4e38;
     var hi = 0.0;
+#ifdef MSAA
+    let samples = SAMPLES;
+#else
+    let samples = 1u;
+#endif
     let steps = size / threads;
     for (var j = 0u; j < steps; j++) {
         for (var i = 0u; i < steps; i++) {
             let p = origin + lid + vec2<u32>(i, j) * threads;
             if p.x < frame.screen.x && p.y < frame.screen.y {
-                let d = textureLoad(depth_texture, p, 0);
-                // Sky (depth 0, the clear value) is no surface.
-                if d > 0.0 {
-                    lo = min(lo, d);
-                    hi = max(hi, d);
+                for (var s = 0u; s < samples; s++) {
+                    let d = load_depth(p, s);
+                    // Sky (depth 0, the clear value) is no surface.
+                    if d > 0.0 {
+                        lo = min(lo, d);
+                        hi = max(hi, d);
+                    }
                 }
             }
         }

@@ -38,9 +38,11 @@ fn material_color(m: Material, uv: vec2<f32>) -> vec4<f32> {
 struct VertexOut {
     // Invariant: the shading pass tests depth Equal against the pre-pass.
     @invariant @builtin(position) clip: vec4<f32>,
-    @location(0) world_pos: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) uv: vec2<f32>,
+    // Centroid: with MSAA a pixel whose centre lies outside the triangle is shaded at a
+    // covered point, not extrapolated off the surface (no change without MSAA).
+    @location(0) @interpolate(perspective, centroid) world_pos: vec3<f32>,
+    @location(1) @interpolate(perspective, centroid) normal: vec3<f32>,
+    @location(2) @interpolate(perspective, centroid) uv: vec2<f32>,
     @location(3) @interpolate(flat) material: u32,
 }
 

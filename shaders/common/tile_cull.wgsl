@@ -5,7 +5,8 @@
 // appending survivors to workgroup lists (two with HALF_Z). The CPU reference is
 // crates/cull/src/reference.rs (cull_tiles).
 //
-// The including file declares: `depth_texture: texture_depth_2d`, `cull_lights:
+// The depth buffer is declared by common/depth_range.wgsl (group 1, binding 0).
+// The including file declares: `cull_lights:
 // array<CullLight>`, with COARSE `cell_lists: array<u32>`, with SPOT_CONE `shading_lights`
 // and `spot_lights`.
 #include "common/cull_tests.wgsl"

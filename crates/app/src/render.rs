@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use tiledlight_cull::tiles::tile_depth_bounds;
+use tiledlight_cull::tiles::tile_depth_bounds_samples;
 use tiledlight_gpu::readback::read_buffer;
 use tiledlight_gpu::targets::Renderer;
 
@@ -91,7 +91,7 @@ pub fn culling_stats(prep: &Prepared, renderer: &dyn Renderer) -> Result<Option<
     let (mut sum, mut n, mut tiles_with_geometry) = (0u64, 0u64, 0usize);
     for ty in 0..grid.tiles_y {
         for tx in 0..grid.tiles_x {
-            if tile_depth_bounds(&grid, &depth, tx, ty).is_none() {
+            if tile_depth_bounds_samples(&grid, &depth, renderer.targets().samples, tx, ty).is_none() {
                 continue;
             }
             tiles_with_geometry += 1;
@@ -158,6 +158,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let renderer = prep.renderer(args.heatmap)?;
     let m = bench::measure(&prep, renderer.as_ref(), 0, RENDER_FRAMES)?;
     let stats = culling_stats(&prep, renderer.as_ref())?;
+    let edges = renderer.edge_pixels(&prep.ctx).context("reading the MSAA edge count back")?;
     let note = write_image(&prep, renderer.as_ref(), args.heatmap, &out)?;
     prep.check_gpu_errors()?;
 
@@ -167,6 +168,13 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     print!("{}", last_frame_times(&m));
     if let Some(s) = stats {
         println!("culling:    {s}");
+    }
+    if let Some(e) = edges {
+        let pixels = u64::from(prep.args.width) * u64::from(prep.args.height);
+        println!(
+            "MSAA edges: {e} pixels ({:.2}%) shaded per sample by the edge test, the rest once",
+            100.0 * e as f64 / pixels as f64
+        );
     }
     println!("GPU memory:\n{}", renderer.memory());
     if let Some(n) = note {

@@ -15,9 +15,10 @@ use glam::Vec3;
 use tiledlight_cull::reference::{DEFAULT_CAPACITY, MAX_CAPACITY};
 use tiledlight_cull::tiles::MAX_SCREEN_SIDE;
 use tiledlight_cull::{Camera, LightKind};
-use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
+use tiledlight_deferred::shading::workgroup_bytes_besides_lists;
+use tiledlight_deferred::{DeferredRenderer, DeferredSettings, EdgeTest};
 use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
-use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::light_cull::{CullOptions, CULL_WORKGROUP_BYTES};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::Renderer;
@@ -156,6 +157,18 @@ pub struct SceneArgs {
     /// and read back (the sample's bandwidth stress knob; the image does not change).
     #[arg(long, default_value_t = 2, value_name = "2..5")]
     pub gbuffer_rts: u32,
+    /// MSAA samples per pixel: 1 (off), 2, 4 or 8 (2 and 8 where the GPU has them). Forward+
+    /// and brute force use hardware MSAA; Tiled Deferred shades edge pixels per sample.
+    #[arg(long, default_value_t = 1, value_name = "1|2|4|8")]
+    pub msaa: u32,
+    /// Tiled Deferred's MSAA edge test: a sample farther than this fraction of the view
+    /// distance from sample 0's tangent plane makes the pixel an edge.
+    #[arg(long, default_value_t = EdgeTest::default().distance, value_name = "F")]
+    pub edge_distance: f32,
+    /// Tiled Deferred's MSAA edge test: a sample normal turned more than this many degrees
+    /// from sample 0's makes the pixel an edge.
+    #[arg(long, default_value_t = EdgeTest::default().normal_deg, value_name = "DEG")]
+    pub edge_normal_deg: f32,
     /// Exposure before tonemapping.
     #[arg(long, default_value_t = 1.0, value_name = "E")]
     pub exposure: f32,
@@ -182,6 +195,9 @@ impl Default for SceneArgs {
             spot_cone: false,
             flat_cull: false,
             gbuffer_rts: 2,
+            msaa: 1,
+            edge_distance: EdgeTest::default().distance,
+            edge_normal_deg: EdgeTest::default().normal_deg,
             exposure: 1.0,
         }
     }
@@ -225,6 +241,17 @@ impl SceneArgs {
             self.height
         );
         ensure!([8, 16, 32].contains(&self.tile_size), "--tile-size {}: must be 8, 16 or 32", self.tile_size);
+        ensure!([1, 2, 4, 8].contains(&self.msaa), "--msaa {}: must be 1, 2, 4 or 8", self.msaa);
+        ensure!(
+            self.edge_distance.is_finite() && self.edge_distance >= 0.0,
+            "--edge-distance {}: must be a number >= 0",
+            self.edge_distance
+        );
+        ensure!(
+            (0.0..=180.0).contains(&self.edge_normal_deg),
+            "--edge-normal-deg {}: must be between 0 and 180 degrees",
+            self.edge_normal_deg
+        );
         ensure!(
             self.capacity.is_none_or(|c| (1..=MAX_CAPACITY).contains(&c)),
             "--capacity {}: must be between 1 and {MAX_CAPACITY} lights per tile list",
@@ -302,6 +329,15 @@ impl SceneArgs {
             half_z: self.half_z,
             spot_cone: self.spot_cone,
             coarse: !self.flat_cull,
+            samples: self.msaa,
+        }
+    }
+
+    /// Workgroup memory the method's culling kernel needs besides its lists (bytes).
+    pub fn reserved_workgroup_bytes(&self) -> u32 {
+        match self.method {
+            MethodArg::Deferred => workgroup_bytes_besides_lists(self.tile_size, self.msaa),
+            _ => CULL_WORKGROUP_BYTES,
         }
     }
 
@@ -312,6 +348,7 @@ impl SceneArgs {
             cull: self.cull_options(),
             exposure: self.exposure,
             heatmap,
+            msaa: self.msaa,
             ..ForwardSettings::default()
         }
     }
@@ -323,6 +360,8 @@ impl SceneArgs {
             gbuffer_rts: self.gbuffer_rts,
             exposure: self.exposure,
             heatmap,
+            msaa: self.msaa,
+            edge: EdgeTest { distance: self.edge_distance, normal_deg: self.edge_normal_deg },
             ..DeferredSettings::default()
         }
     }
@@ -421,7 +460,12 @@ impl Prepared {
         let light_buffers = LightBuffers::new(&ctx.device, &lights).context("uploading the lights")?;
         let mut args = args.clone();
         if args.capacity.is_none() {
-            args.capacity = Some(CullOptions::capacity_for(light_buffers.len(), args.half_z, &ctx.device.limits()));
+            args.capacity = Some(CullOptions::capacity_for(
+                light_buffers.len(),
+                args.half_z,
+                args.reserved_workgroup_bytes(),
+                &ctx.device.limits(),
+            ));
         }
         Ok(Self {
             args,
@@ -501,6 +545,15 @@ impl Prepared {
             }
             m => format!("{} (every light for every pixel)", m.name()),
         };
+        if a.msaa > 1 {
+            res.push_str(&format!(", MSAA {}x", a.msaa));
+            if a.method == MethodArg::Deferred {
+                res.push_str(&format!(
+                    " (edge test: {} of the view distance off the tangent plane, or normals {} deg apart)",
+                    a.edge_distance, a.edge_normal_deg
+                ));
+            }
+        }
         vec![
             ("adapter".into(), self.ctx.describe()),
             (

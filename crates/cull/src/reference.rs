@@ -10,7 +10,7 @@ use crate::bounds::{aabb_sphere, cone_vs_sphere, sphere_vs_aabb, sphere_vs_frust
 use crate::camera::Camera;
 use crate::error::CullError;
 use crate::light::PackedLights;
-use crate::tiles::{pixel_to_ndc_x, pixel_to_ndc_y, tile_depth_bounds, TileFrustum, TileGrid};
+use crate::tiles::{pixel_to_ndc_x, pixel_to_ndc_y, tile_depth_bounds_samples, TileFrustum, TileGrid};
 
 /// Default per-list capacity of the library types (the app picks the light count, up to
 /// 2048, instead). Enough for the default scene up to about 4k lights (longest list 306 at
@@ -45,6 +45,10 @@ pub struct CullConfig {
     /// CPU only: grow (>0) or shrink (<0) every light's radius by this fraction of
     /// `radius + |centre|`, to find decisions within float error of the boundary.
     pub inflate: f32,
+    /// Depth samples per pixel (MSAA: 1, 2, 4 or 8). The depth buffer holds `samples`
+    /// values per pixel, pixel-major; a tile's depth range covers every sample, as the
+    /// GPU kernel's does over a multisampled depth buffer.
+    pub samples: u32,
 }
 
 impl Default for CullConfig {
@@ -57,6 +61,7 @@ impl Default for CullConfig {
             spot_cone: false,
             coarse: false,
             inflate: 0.0,
+            samples: 1,
         }
     }
 }
@@ -83,6 +88,12 @@ impl CullConfig {
             return Err(CullError::InvalidSize(format!(
                 "two-level culling needs a tile size dividing {COARSE_SIZE}, not {}",
                 self.tile_size
+            )));
+        }
+        if !matches!(self.samples, 1 | 2 | 4 | 8) {
+            return Err(CullError::InvalidSize(format!(
+                "{} depth samples per pixel: must be 1, 2, 4 or 8",
+                self.samples
             )));
         }
         if !self.inflate.is_finite() {
@@ -132,17 +143,29 @@ pub fn half_z_split(near: f32, far: f32) -> f32 {
 
 /// Validates a depth buffer against a grid: right size, values finite and in [0, 1].
 pub fn check_depth(grid: &TileGrid, depth: &[f32]) -> Result<(), CullError> {
-    let n = grid.width as usize * grid.height as usize;
+    check_depth_samples(grid, depth, 1)
+}
+
+/// Validates a depth buffer of `samples` values per pixel (pixel-major) against a grid.
+pub fn check_depth_samples(grid: &TileGrid, depth: &[f32], samples: u32) -> Result<(), CullError> {
+    let n = grid.width as usize * grid.height as usize * samples as usize;
     if depth.len() != n {
         return Err(CullError::InvalidDepth(format!(
-            "{} values for a {}x{} screen",
+            "{} values for a {}x{} screen with {} sample(s) per pixel",
             depth.len(),
             grid.width,
-            grid.height
+            grid.height,
+            samples
         )));
     }
     if let Some(i) = depth.iter().position(|d| !(0.0..=1.0).contains(d)) {
-        return Err(CullError::InvalidDepth(format!("pixel {} has depth {} outside [0, 1]", i, depth[i])));
+        let s = samples as usize;
+        return Err(CullError::InvalidDepth(format!(
+            "pixel {} sample {} has depth {} outside [0, 1]",
+            i / s,
+            i % s,
+            depth[i]
+        )));
     }
     Ok(())
 }
@@ -208,19 +231,20 @@ pub fn cull_tiles(
 ) -> Result<TileLists, CullError> {
     config.validate()?;
     let grid = TileGrid::new(width, height, config.tile_size)?;
-    check_depth(&grid, depth)?;
+    check_depth_samples(&grid, depth, config.samples)?;
     let proj = camera.proj();
     let dp = camera.depth_params();
     let vls = view_lights(&camera.view(), lights, config.inflate);
     let per = config.lists_per_tile();
-    let cells = if config.coarse { Some(coarse_cells_of(depth, width, height, camera, &vls)?) } else { None };
+    let cells =
+        if config.coarse { Some(coarse_cells_of(depth, width, height, config.samples, camera, &vls)?) } else { None };
     let all: Vec<u32> = (0..vls.len() as u32).collect();
     let mut lists = vec![Vec::new(); grid.tile_count() * per];
     let mut ranges = vec![None; grid.tile_count()];
     for ty in 0..grid.tiles_y {
         for tx in 0..grid.tiles_x {
             let t = (ty * grid.tiles_x + tx) as usize;
-            let Some(b) = tile_depth_bounds(&grid, depth, tx, ty) else { continue };
+            let Some(b) = tile_depth_bounds_samples(&grid, depth, config.samples, tx, ty) else { continue };
             let f = TileFrustum::new(&grid, camera, tx, ty, b);
             ranges[t] = Some((f.near, f.far));
             let volumes = if config.half_z {
@@ -255,6 +279,7 @@ fn coarse_cells_of(
     depth: &[f32],
     width: u32,
     height: u32,
+    samples: u32,
     camera: &Camera,
     vls: &[ViewLight],
 ) -> Result<(TileGrid, CellLists), CullError> {
@@ -262,7 +287,7 @@ fn coarse_cells_of(
     let mut cells = Vec::with_capacity(cgrid.tile_count());
     for cy in 0..cgrid.tiles_y {
         for cx in 0..cgrid.tiles_x {
-            let Some(b) = tile_depth_bounds(&cgrid, depth, cx, cy) else {
+            let Some(b) = tile_depth_bounds_samples(&cgrid, depth, samples, cx, cy) else {
                 cells.push(Some(Vec::new()));
                 continue;
             };
@@ -292,7 +317,7 @@ pub fn coarse_cells(
     lights: &PackedLights,
 ) -> Result<(TileGrid, CellLists), CullError> {
     check_depth(&TileGrid::new(width, height, COARSE_SIZE)?, depth)?;
-    coarse_cells_of(depth, width, height, camera, &view_lights(&camera.view(), lights, 0.0))
+    coarse_cells_of(depth, width, height, 1, camera, &view_lights(&camera.view(), lights, 0.0))
 }
 
 /// View-space position of the centre of pixel (x, y) with reversed-Z depth `d`, or `None`

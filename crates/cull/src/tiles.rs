@@ -95,11 +95,25 @@ pub struct DepthBounds {
 
 /// Min/max over the non-sky (depth > 0) pixels of tile (tx, ty) of a row-major depth buffer.
 pub fn tile_depth_bounds(grid: &TileGrid, depth: &[f32], tx: u32, ty: u32) -> Option<DepthBounds> {
+    tile_depth_bounds_samples(grid, depth, 1, tx, ty)
+}
+
+/// Min/max over the non-sky samples of tile (tx, ty) of a row-major depth buffer holding
+/// `samples` values per pixel, pixel-major (a multisampled buffer read back sample by sample).
+pub fn tile_depth_bounds_samples(
+    grid: &TileGrid,
+    depth: &[f32],
+    samples: u32,
+    tx: u32,
+    ty: u32,
+) -> Option<DepthBounds> {
     let (x0, x1, y0, y1) = grid.tile_pixels(tx, ty);
+    let s = samples as usize;
     let mut lo = f32::INFINITY;
     let mut hi = 0.0f32;
     for y in y0..y1 {
-        for &d in &depth[(y * grid.width + x0) as usize..(y * grid.width + x1) as usize] {
+        let row = (y * grid.width) as usize;
+        for &d in &depth[(row + x0 as usize) * s..(row + x1 as usize) * s] {
             if d > 0.0 {
                 lo = lo.min(d);
                 hi = hi.max(d);

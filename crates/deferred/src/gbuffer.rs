@@ -6,15 +6,16 @@
 //!   visibly at low roughness (d ln D / d theta peaks near 2 / alpha, alpha = roughness^2:
 //!   50 per radian at roughness 0.2), which would break the comparison with Forward+;
 //! - depth: `Depth32Float` (4 B), world position rebuilt from it;
-//! - the stress knob's extra targets: `Rgba8Unorm` layers of one array texture, written white.
+//! - the stress knob's extra targets: `Rgba8Unorm`, one texture each, written white.
 //!
-//! 16 bytes a pixel with 2 targets (33 MB at 1080p), plus 4 per extra target. Pipelines
-//! exist per draw kind the scene has. Depends on tiledlight-gpu.
+//! 16 bytes a pixel with 2 targets (33 MB at 1080p), plus 4 per extra target, times the MSAA
+//! sample count: every target is multisampled with MSAA. Pipelines exist per draw kind the
+//! scene has. Depends on tiledlight-gpu.
 
 use tiledlight_gpu::depth_prepass::{primitive_state, DEPTH_FORMAT};
 use tiledlight_gpu::frame::FrameBinding;
 use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, VERTEX_LAYOUTS};
-use tiledlight_gpu::targets::texture_2d;
+use tiledlight_gpu::targets::texture_2d_msaa;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::util::{pipeline_layout, shader_module};
 use tiledlight_gpu::GpuError;
@@ -34,81 +35,55 @@ pub struct GBuffer {
     pub albedo: wgpu::Texture,
     /// Normal and roughness.
     pub normal: wgpu::Texture,
-    /// Extra white targets as array layers (None with 2 targets).
-    pub extra: Option<wgpu::Texture>,
+    /// Extra white targets, one texture each (multisampled textures cannot be array layers).
+    pub extra: Vec<wgpu::Texture>,
     albedo_view: wgpu::TextureView,
     normal_view: wgpu::TextureView,
-    extra_layer_views: Vec<wgpu::TextureView>,
-    /// All layers of `extra`, for the shading pass.
-    pub extra_view: Option<wgpu::TextureView>,
+    extra_views: Vec<wgpu::TextureView>,
+    samples: u32,
 }
 
 impl GBuffer {
-    /// Targets for `w` x `h` with `rts` render targets (2..=5).
-    pub fn new(device: &wgpu::Device, w: u32, h: u32, rts: u32) -> Result<Self, GpuError> {
+    /// Targets for `w` x `h` with `rts` render targets (2..=5) of `samples` samples each.
+    pub fn new(device: &wgpu::Device, w: u32, h: u32, rts: u32, samples: u32) -> Result<Self, GpuError> {
         if !RT_RANGE.contains(&rts) {
             return Err(GpuError::Config(format!("G-buffer render targets {rts} must be in 2..=5")));
         }
-        use wgpu::TextureUsages as U;
-        let usage = U::RENDER_ATTACHMENT | U::TEXTURE_BINDING;
-        let albedo = texture_2d(device, "deferred.gbuffer.albedo", (w, h), ALBEDO_FORMAT, usage);
-        let normal = texture_2d(device, "deferred.gbuffer.normal", (w, h), NORMAL_FORMAT, usage);
-        let n_extra = rts - 2;
-        let extra = (n_extra > 0).then(|| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("deferred.gbuffer.extra"),
-                size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: n_extra },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: EXTRA_FORMAT,
-                usage,
-                view_formats: &[],
-            })
-        });
-        let extra_layer_views = extra
-            .as_ref()
-            .map(|t| {
-                (0..n_extra)
-                    .map(|layer| {
-                        t.create_view(&wgpu::TextureViewDescriptor {
-                            label: Some("deferred.gbuffer.extra.layer"),
-                            dimension: Some(wgpu::TextureViewDimension::D2),
-                            base_array_layer: layer,
-                            array_layer_count: Some(1),
-                            ..Default::default()
-                        })
-                    })
-                    .collect()
-            })
-            .unwrap_or_default();
-        let extra_view = extra.as_ref().map(|t| {
-            t.create_view(&wgpu::TextureViewDescriptor {
-                label: Some("deferred.gbuffer.extra.all"),
-                dimension: Some(wgpu::TextureViewDimension::D2Array),
-                ..Default::default()
-            })
-        });
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+        let target = |label: &str, format| texture_2d_msaa(device, label, (w, h), format, samples, usage);
+        let view = |t: &wgpu::Texture, label: &str| {
+            t.create_view(&wgpu::TextureViewDescriptor { label: Some(label), ..Default::default() })
+        };
+        let albedo = target("deferred.gbuffer.albedo", ALBEDO_FORMAT);
+        let normal = target("deferred.gbuffer.normal", NORMAL_FORMAT);
+        let extra: Vec<wgpu::Texture> =
+            (2..rts).map(|k| target(&format!("deferred.gbuffer.extra{}", k - 2), EXTRA_FORMAT)).collect();
+        let extra_views = extra.iter().map(|t| view(t, "deferred.gbuffer.extra.view")).collect();
         Ok(Self {
-            albedo_view: albedo.create_view(&Default::default()),
-            normal_view: normal.create_view(&Default::default()),
+            albedo_view: view(&albedo, "deferred.gbuffer.albedo.view"),
+            normal_view: view(&normal, "deferred.gbuffer.normal.view"),
             albedo,
             normal,
             extra,
-            extra_layer_views,
-            extra_view,
+            extra_views,
+            samples,
         })
     }
 
     /// Number of render targets.
     pub fn rts(&self) -> u32 {
-        2 + self.extra_layer_views.len() as u32
+        2 + self.extra.len() as u32
     }
 
-    /// Bytes of the colour targets (depth not included).
+    /// Samples per pixel.
+    pub fn samples(&self) -> u32 {
+        self.samples
+    }
+
+    /// Bytes of the colour targets (depth not included), every sample counted.
     pub fn bytes(&self) -> u64 {
-        let px = self.albedo.width() as u64 * self.albedo.height() as u64;
-        px * (4 + 8 + 4 * self.extra_layer_views.len() as u64)
+        let px = self.albedo.width() as u64 * self.albedo.height() as u64 * self.samples as u64;
+        px * (4 + 8 + 4 * self.extra.len() as u64)
     }
 
     /// View of the albedo target.
@@ -119,6 +94,10 @@ impl GBuffer {
     pub fn normal_view(&self) -> &wgpu::TextureView {
         &self.normal_view
     }
+    /// Views of the extra targets, in order.
+    pub fn extra_views(&self) -> &[wgpu::TextureView] {
+        &self.extra_views
+    }
 }
 
 /// The G-buffer pass's pipelines.
@@ -128,8 +107,14 @@ pub struct GBufferPass {
 }
 
 impl GBufferPass {
-    /// One pipeline per draw kind of `scene`, writing `rts` targets.
-    pub fn new(device: &wgpu::Device, frame: &FrameBinding, scene: &SceneGpu, rts: u32) -> Result<Self, GpuError> {
+    /// One pipeline per draw kind of `scene`, writing `rts` targets of `samples` samples.
+    pub fn new(
+        device: &wgpu::Device,
+        frame: &FrameBinding,
+        scene: &SceneGpu,
+        rts: u32,
+        samples: u32,
+    ) -> Result<Self, GpuError> {
         let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("deferred.gbuffer.empty_layout"),
             entries: &[],
@@ -175,7 +160,7 @@ impl GBufferPass {
                     stencil: Default::default(),
                     bias: Default::default(),
                 }),
-                multisample: Default::default(),
+                multisample: wgpu::MultisampleState { count: samples, ..Default::default() },
                 fragment: Some(wgpu::FragmentState {
                     module: &module,
                     entry_point: Some(&fs),
@@ -216,7 +201,7 @@ impl GBufferPass {
             })
         };
         let mut attachments = vec![clear(&gbuffer.albedo_view), clear(&gbuffer.normal_view)];
-        attachments.extend(gbuffer.extra_layer_views.iter().map(clear));
+        attachments.extend(gbuffer.extra_views.iter().map(clear));
         let t = timer.begin("deferred.gbuffer", encoder);
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {

@@ -9,3 +9,4 @@ pub mod renderer;
 pub mod shading;
 
 pub use renderer::{DeferredRenderer, DeferredSettings};
+pub use shading::EdgeTest;

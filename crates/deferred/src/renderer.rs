@@ -1,22 +1,25 @@
 //! The Tiled Deferred renderer: G-buffer pass -> (cell culling) -> one compute pass that
-//! culls each tile's lights and shades its pixels -> tonemap (-> heat map). Built once for a
+//! culls each tile's lights and shades its pixels (-> MSAA resolve of edge pixels) ->
+//! tonemap (-> heat map). Built once for a
 //! scene, light set, screen and settings. Depends on tiledlight-gpu and [`crate::gbuffer`],
 //! [`crate::shading`].
 
 use glam::Vec3;
 use tiledlight_cull::{Camera, TileGrid};
+use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
 use tiledlight_gpu::frame::{FrameBinding, FrameParams, FrameUniforms};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::{DisplayTargets, Renderer};
+use tiledlight_gpu::targets::{check_msaa, DisplayTargets, Renderer};
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::{HeatmapPass, TonemapPass};
 use tiledlight_gpu::{GpuContext, GpuError};
 
 use crate::gbuffer::{GBuffer, GBufferPass};
-use crate::shading::DeferredShading;
+use crate::gbuffer::{ALBEDO_FORMAT, EXTRA_FORMAT, NORMAL_FORMAT};
+use crate::shading::{DeferredShading, EdgeTest};
 
 /// Tiled Deferred settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -31,11 +34,24 @@ pub struct DeferredSettings {
     pub ambient: Vec3,
     /// Draw the lights-per-tile heat map over the image.
     pub heatmap: bool,
+    /// MSAA samples per pixel: 1, 2, 4 or 8 (as the adapter supports). Also sets
+    /// `cull.samples`.
+    pub msaa: u32,
+    /// The MSAA edge test's thresholds (unused without MSAA).
+    pub edge: EdgeTest,
 }
 
 impl Default for DeferredSettings {
     fn default() -> Self {
-        Self { cull: CullOptions::default(), gbuffer_rts: 2, exposure: 1.0, ambient: Vec3::splat(0.02), heatmap: false }
+        Self {
+            cull: CullOptions::default(),
+            gbuffer_rts: 2,
+            exposure: 1.0,
+            ambient: Vec3::splat(0.02),
+            heatmap: false,
+            msaa: 1,
+            edge: EdgeTest::default(),
+        }
     }
 }
 
@@ -67,7 +83,14 @@ impl DeferredRenderer {
         settings: DeferredSettings,
     ) -> Result<Self, GpuError> {
         let device = &ctx.device;
+        let mut settings = settings;
+        settings.cull.samples = settings.msaa;
         let grid = TileGrid::new(width, height, settings.cull.tile_size)?;
+        let mut formats = vec![DEPTH_FORMAT, ALBEDO_FORMAT, NORMAL_FORMAT];
+        if settings.gbuffer_rts > 2 {
+            formats.push(EXTRA_FORMAT);
+        }
+        check_msaa(ctx, settings.msaa, &formats)?;
         let max_side = device.limits().max_texture_dimension_2d;
         if width > max_side || height > max_side {
             return Err(GpuError::Config(format!(
@@ -76,9 +99,15 @@ impl DeferredRenderer {
         }
         ctx.checked("building the Tiled Deferred renderer", || {
             let frame = FrameBinding::new(device);
-            let targets = DisplayTargets::new(device, "deferred", width, height, wgpu::TextureUsages::STORAGE_BINDING);
-            let gbuffer = GBuffer::new(device, width, height, settings.gbuffer_rts)?;
-            let gbuffer_pass = GBufferPass::new(device, &frame, scene, settings.gbuffer_rts)?;
+            let targets = DisplayTargets::new(
+                device,
+                "deferred",
+                (width, height),
+                settings.msaa,
+                wgpu::TextureUsages::STORAGE_BINDING,
+            );
+            let gbuffer = GBuffer::new(device, width, height, settings.gbuffer_rts, settings.msaa)?;
+            let gbuffer_pass = GBufferPass::new(device, &frame, scene, settings.gbuffer_rts, settings.msaa)?;
             let mut memory = MemoryReport::default();
             memory.extend(&scene.memory);
             memory.extend(&lights.memory);
@@ -93,6 +122,7 @@ impl DeferredRenderer {
                 lights,
                 grid,
                 settings.cull,
+                settings.edge,
                 &mut memory,
             )?;
             let tonemap = TonemapPass::new(device, &frame)?;
@@ -175,5 +205,8 @@ impl Renderer for DeferredRenderer {
     }
     fn tile_counts(&self) -> Option<&wgpu::Buffer> {
         Some(&self.shading.tile_counts)
+    }
+    fn edge_pixels(&self, ctx: &GpuContext) -> Result<Option<u32>, GpuError> {
+        self.shading.read_edge_pixels(&ctx.device, &ctx.queue)
     }
 }

@@ -2,7 +2,13 @@
 //! as Forward+ (`shaders/common/tile_cull.wgsl`, after the shared 64x64-cell pass when
 //! two-level culling is on) into workgroup memory, then every pixel of the tile shaded from
 //! the G-buffer with that list, into the HDR storage texture. Per-list counts are written
-//! for the heat map and tests. Bind group 1 holds everything; it is built once per screen.
+//! for the heat map and tests.
+//!
+//! With MSAA it also runs the edge test ([`EdgeTest`]): edge pixels are queued in workgroup
+//! memory and their other samples shaded by all of the tile's threads into an oversized
+//! sample texture, then [`DeferredShading::record`] resolves them with an indirect dispatch
+//! (`shaders/deferred_resolve.wgsl`) sized by the shading pass. None of those resources exist
+//! without MSAA. Bind group 1 holds everything; it is built once per screen.
 //! Depends on tiledlight-gpu and [`crate::gbuffer`].
 
 use tiledlight_cull::reference::{COARSE_SIZE, MAX_CAPACITY};
@@ -11,24 +17,120 @@ use tiledlight_gpu::frame::FrameBinding;
 use tiledlight_gpu::light_cull::{depth_entry, CoarseCulling, CullOptions};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
+use tiledlight_gpu::readback::read_buffer;
+use tiledlight_gpu::targets::texture_2d;
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::util::{buffer_zeroed, pipeline_layout, shader_module, storage_entry, texture_entry};
+use tiledlight_gpu::tonemap::HDR_FORMAT;
+use tiledlight_gpu::util::{buffer_zeroed, pipeline_layout, shader_module, storage_entry};
 use tiledlight_gpu::GpuError;
 
 use crate::gbuffer::GBuffer;
+
+/// The MSAA edge test's thresholds. A pixel is shaded per sample when one of its samples
+/// lies off sample 0's tangent plane by more than `distance` times the view distance, or
+/// when its normal turns more than `normal_deg` from sample 0's, or when sky meets surface.
+///
+/// Scale-independent: the tangent plane (from the G-buffer normal) gives the surface's depth
+/// slope across the pixel, the job Lauritzen's screen-space depth derivatives do, and the
+/// tolerance is relative to the view distance, so neither scene units nor a tilted surface
+/// change the verdict. AMD's sample uses a fixed 50-unit depth range instead, which depends
+/// on the scene's scale.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EdgeTest {
+    /// Off-plane distance as a fraction of the view distance (0.002: 2 mm at 1 m).
+    pub distance: f32,
+    /// Normal angle in degrees (AMD's sample: 10).
+    pub normal_deg: f32,
+}
+
+impl Default for EdgeTest {
+    fn default() -> Self {
+        Self { distance: 0.002, normal_deg: 10.0 }
+    }
+}
+
+impl EdgeTest {
+    /// Checks the thresholds are finite and in range.
+    pub fn validate(&self) -> Result<(), GpuError> {
+        if !(self.distance.is_finite() && self.distance >= 0.0) {
+            return Err(GpuError::Config(format!("edge distance threshold {} must be finite and >= 0", self.distance)));
+        }
+        if !(0.0..=180.0).contains(&self.normal_deg) {
+            return Err(GpuError::Config(format!("edge normal angle {} must be in 0..=180 degrees", self.normal_deg)));
+        }
+        Ok(())
+    }
+}
+
+/// Texels across (x) and down (y) that one pixel's samples take in the oversized sample
+/// texture: 2x1, 2x2, 4x2.
+pub fn sample_grid(samples: u32) -> (u32, u32) {
+    let x = if samples >= 8 { 4 } else { samples.min(2) };
+    (x, samples / x)
+}
+
+/// Workgroup memory the pass needs besides the light lists (bytes): the depth range, the
+/// list counts and, with MSAA, the edge queue of `tile_size`^2 pixels.
+pub fn workgroup_bytes_besides_lists(tile_size: u32, samples: u32) -> u32 {
+    16 + if samples > 1 { 8 + 4 * tile_size * tile_size } else { 0 }
+}
+
+/// MSAA-only resources: sample texture, edge list and the resolve.
+struct Msaa {
+    samples_texture: wgpu::Texture,
+    edge_list: wgpu::Buffer,
+    edge_args: wgpu::Buffer,
+    resolve: wgpu::ComputePipeline,
+    resolve_group: wgpu::BindGroup,
+}
 
 /// The cull-and-shade pass.
 pub struct DeferredShading {
     pipeline: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
     coarse: Option<CoarseCulling>,
+    msaa: Option<Msaa>,
     grid: TileGrid,
     /// Per-list light counts of the last frame.
     pub tile_counts: wgpu::Buffer,
 }
 
+fn gbuffer_entry(binding: u32, samples: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: samples > 1,
+        },
+        count: None,
+    }
+}
+
+fn hdr_storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::StorageTexture {
+            access: wgpu::StorageTextureAccess::WriteOnly,
+            format: HDR_FORMAT,
+            view_dimension: wgpu::TextureViewDimension::D2,
+        },
+        count: None,
+    }
+}
+
+fn view_entry(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) }
+}
+
+/// Bindings of the extra G-buffer targets, in order (keep in sync with shaders/deferred.wgsl).
+const EXTRA_BINDINGS: [(u32, &str); 3] = [(5, "EXTRA_RTS"), (10, "EXTRA_RTS_2"), (11, "EXTRA_RTS_3")];
+
 impl DeferredShading {
-    /// Builds the pipeline and bindings for `grid`, reading `depth` and `gbuffer`, writing `hdr`.
+    /// Builds the pipeline and bindings for `grid`, reading `depth` and `gbuffer` (both of
+    /// `gbuffer.samples()` samples), writing `hdr`.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         device: &wgpu::Device,
@@ -39,6 +141,7 @@ impl DeferredShading {
         lights: &LightBuffers,
         grid: TileGrid,
         options: CullOptions,
+        edge: EdgeTest,
         memory: &mut MemoryReport,
     ) -> Result<Self, GpuError> {
         if ![8, 16, 32].contains(&options.tile_size) || grid.tile_size != options.tile_size {
@@ -50,34 +153,34 @@ impl DeferredShading {
                 options.capacity
             )));
         }
+        let samples = gbuffer.samples();
+        if options.samples != samples {
+            return Err(GpuError::Config(format!(
+                "culling reads {} depth samples but the G-buffer has {samples}",
+                options.samples
+            )));
+        }
+        edge.validate()?;
         let limit = device.limits().max_compute_workgroup_storage_size;
-        let wg_bytes = options.capacity * 4 * options.lists_per_tile() + 16;
+        let wg_bytes =
+            options.capacity * 4 * options.lists_per_tile() + workgroup_bytes_besides_lists(options.tile_size, samples);
         if wg_bytes > limit {
             return Err(GpuError::Config(format!(
-                "capacity {} needs {wg_bytes} bytes of workgroup memory; this device allows {limit}",
-                options.capacity
+                "capacity {} needs {wg_bytes} bytes of workgroup memory{}; this device allows {limit}",
+                options.capacity,
+                if samples > 1 { " with the MSAA edge queue" } else { "" }
             )));
         }
         let cs = wgpu::ShaderStages::COMPUTE;
-        let unfilterable = wgpu::TextureSampleType::Float { filterable: false };
         let mut defines = Vec::new();
         let mut entries = vec![
-            depth_entry(0),
+            depth_entry(0, samples),
             storage_entry(1, cs, true),
             storage_entry(2, cs, false),
-            texture_entry(3, cs, unfilterable),
-            texture_entry(4, cs, unfilterable),
+            gbuffer_entry(3, samples),
+            gbuffer_entry(4, samples),
             storage_entry(6, cs, true),
-            wgpu::BindGroupLayoutEntry {
-                binding: 9,
-                visibility: cs,
-                ty: wgpu::BindingType::StorageTexture {
-                    access: wgpu::StorageTextureAccess::WriteOnly,
-                    format: tiledlight_gpu::tonemap::HDR_FORMAT,
-                    view_dimension: wgpu::TextureViewDimension::D2,
-                },
-                count: None,
-            },
+            hdr_storage_entry(9),
         ];
         let tile_counts = buffer_zeroed(
             device,
@@ -87,27 +190,18 @@ impl DeferredShading {
         );
         memory.add("deferred.tile_counts", tile_counts.size());
         let mut bind = vec![
-            wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(depth) },
+            view_entry(0, depth),
             wgpu::BindGroupEntry { binding: 1, resource: lights.cull.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 2, resource: tile_counts.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(gbuffer.albedo_view()) },
-            wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(gbuffer.normal_view()) },
+            view_entry(3, gbuffer.albedo_view()),
+            view_entry(4, gbuffer.normal_view()),
             wgpu::BindGroupEntry { binding: 6, resource: lights.shading.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 9, resource: wgpu::BindingResource::TextureView(hdr) },
+            view_entry(9, hdr),
         ];
-        if let Some(extra) = &gbuffer.extra_view {
-            defines.push("EXTRA_RTS");
-            entries.push(wgpu::BindGroupLayoutEntry {
-                binding: 5,
-                visibility: cs,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: unfilterable,
-                    view_dimension: wgpu::TextureViewDimension::D2Array,
-                    multisampled: false,
-                },
-                count: None,
-            });
-            bind.push(wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(extra) });
+        for (view, (binding, define)) in gbuffer.extra_views().iter().zip(EXTRA_BINDINGS) {
+            defines.push(define);
+            entries.push(gbuffer_entry(binding, samples));
+            bind.push(view_entry(binding, view));
         }
         if let Some(spots) = &lights.spots {
             defines.push("SPOT_LIGHTS");
@@ -129,12 +223,52 @@ impl DeferredShading {
             }
             defines.push("COARSE");
             entries.push(storage_entry(8, cs, true));
-            Some(CoarseCulling::new(device, frame, depth, lights, &grid, memory)?)
+            Some(CoarseCulling::new(device, frame, depth, lights, &grid, &options, memory)?)
         } else {
             None
         };
         if let Some(c) = &coarse {
             bind.push(wgpu::BindGroupEntry { binding: 8, resource: c.lists.as_entire_binding() });
+        }
+        let (msaa_define, samples_constant) = options.depth_variant();
+        defines.extend(msaa_define);
+        let (sx, sy) = sample_grid(samples);
+        let msaa_buffers = (samples > 1).then(|| {
+            let (w, h) = (grid.width, grid.height);
+            use wgpu::TextureUsages as U;
+            let tex = texture_2d(
+                device,
+                "deferred.msaa_samples",
+                (w * sx, h * sy),
+                HDR_FORMAT,
+                U::STORAGE_BINDING | U::TEXTURE_BINDING,
+            );
+            let pixels = w as u64 * h as u64;
+            let edge_list = buffer_zeroed(device, "deferred.edge_list", pixels * 4, wgpu::BufferUsages::STORAGE);
+            let edge_args = buffer_zeroed(
+                device,
+                "deferred.edge_args",
+                16,
+                wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::INDIRECT
+                    | wgpu::BufferUsages::COPY_DST
+                    | wgpu::BufferUsages::COPY_SRC,
+            );
+            memory.add("deferred.msaa_samples", pixels * samples as u64 * 8);
+            memory.add("deferred.edge_list", edge_list.size() + edge_args.size());
+            let view = tex.create_view(&wgpu::TextureViewDescriptor {
+                label: Some("deferred.msaa_samples.view"),
+                ..Default::default()
+            });
+            (tex, view, edge_list, edge_args)
+        });
+        if let Some((_, view, edge_list, edge_args)) = &msaa_buffers {
+            entries.push(hdr_storage_entry(12));
+            entries.push(storage_entry(13, cs, false));
+            entries.push(storage_entry(14, cs, false));
+            bind.push(view_entry(12, view));
+            bind.push(wgpu::BindGroupEntry { binding: 13, resource: edge_list.as_entire_binding() });
+            bind.push(wgpu::BindGroupEntry { binding: 14, resource: edge_args.as_entire_binding() });
         }
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("deferred.layout"),
@@ -154,8 +288,12 @@ impl DeferredShading {
         if let Some(c) = &coarse {
             constants.extend(c.constants());
         }
-        if gbuffer.extra_view.is_some() {
-            constants.push(("NUM_EXTRA", (gbuffer.rts() - 2) as f64));
+        constants.extend(samples_constant);
+        if samples > 1 {
+            constants.push(("SAMPLES_X", sx as f64));
+            constants.push(("EDGE_DISTANCE", edge.distance as f64));
+            constants.push(("EDGE_COS", (edge.normal_deg as f64).to_radians().cos()));
+            constants.push(("TILE_PIXELS", (options.tile_size * options.tile_size) as f64));
         }
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("deferred.shade"),
@@ -168,10 +306,18 @@ impl DeferredShading {
             },
             cache: None,
         });
-        Ok(Self { pipeline, bind_group, coarse, grid, tile_counts })
+        let msaa = match msaa_buffers {
+            Some((samples_texture, view, edge_list, edge_args)) => {
+                let (resolve, resolve_group) = resolve_pipeline(device, samples, &view, &edge_list, &edge_args, hdr)?;
+                Some(Msaa { samples_texture, edge_list, edge_args, resolve, resolve_group })
+            }
+            None => None,
+        };
+        Ok(Self { pipeline, bind_group, coarse, msaa, grid, tile_counts })
     }
 
-    /// Records the cell pass (two-level culling) and the cull-and-shade dispatch.
+    /// Records the cell pass (two-level culling), the cull-and-shade dispatch and, with
+    /// MSAA, the resolve of the edge pixels.
     pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, frame: &FrameBinding) {
         if let Some(c) = &self.coarse {
             let t = timer.begin("deferred.cull_cells", encoder);
@@ -185,6 +331,9 @@ impl DeferredShading {
             }
             timer.end(encoder, t);
         }
+        if let Some(m) = &self.msaa {
+            encoder.clear_buffer(&m.edge_args, 0, None);
+        }
         let t = timer.begin("deferred.shade", encoder);
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -197,5 +346,94 @@ impl DeferredShading {
             pass.dispatch_workgroups(self.grid.tiles_x, self.grid.tiles_y, 1);
         }
         timer.end(encoder, t);
+        if let Some(m) = &self.msaa {
+            let t = timer.begin("deferred.resolve", encoder);
+            {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("deferred.resolve"),
+                    timestamp_writes: t.compute_writes(),
+                });
+                pass.set_pipeline(&m.resolve);
+                pass.set_bind_group(0, &m.resolve_group, &[]);
+                pass.dispatch_workgroups_indirect(&m.edge_args, 0);
+            }
+            timer.end(encoder, t);
+        }
+    }
+
+    /// Edge pixels of the last frame (MSAA only; stalls the GPU).
+    pub fn read_edge_pixels(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Option<u32>, GpuError> {
+        let Some(m) = &self.msaa else { return Ok(None) };
+        let args: Vec<u32> = read_buffer(device, queue, &m.edge_args)?;
+        Ok(Some(args[3]))
+    }
+
+    /// The oversized per-sample texture of edge pixels (MSAA only).
+    pub fn samples_texture(&self) -> Option<&wgpu::Texture> {
+        self.msaa.as_ref().map(|m| &m.samples_texture)
+    }
+
+    /// The frame's edge-pixel list buffer (MSAA only), packed `x | y << 16`.
+    pub fn edge_list(&self) -> Option<&wgpu::Buffer> {
+        self.msaa.as_ref().map(|m| &m.edge_list)
+    }
+}
+
+/// The resolve's pipeline and bind group: averages edge pixels' samples into `hdr`.
+fn resolve_pipeline(
+    device: &wgpu::Device,
+    samples: u32,
+    samples_view: &wgpu::TextureView,
+    edge_list: &wgpu::Buffer,
+    edge_args: &wgpu::Buffer,
+    hdr: &wgpu::TextureView,
+) -> Result<(wgpu::ComputePipeline, wgpu::BindGroup), GpuError> {
+    let cs = wgpu::ShaderStages::COMPUTE;
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("deferred.resolve.layout"),
+        entries: &[gbuffer_entry(0, 1), storage_entry(1, cs, true), storage_entry(2, cs, true), hdr_storage_entry(3)],
+    });
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("deferred.resolve"),
+        layout: &layout,
+        entries: &[
+            view_entry(0, samples_view),
+            wgpu::BindGroupEntry { binding: 1, resource: edge_list.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 2, resource: edge_args.as_entire_binding() },
+            view_entry(3, hdr),
+        ],
+    });
+    let module = shader_module(device, "deferred_resolve.wgsl", &[])?;
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("deferred.resolve"),
+        layout: Some(&pipeline_layout(device, "deferred.resolve.pipeline_layout", &[&layout])),
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: wgpu::PipelineCompilationOptions {
+            constants: &[("SAMPLES", samples as f64), ("SAMPLES_X", sample_grid(samples).0 as f64)],
+            zero_initialize_workgroup_memory: false,
+        },
+        cache: None,
+    });
+    Ok((pipeline, group))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sample_grids_hold_every_sample() {
+        for (s, want) in [(1, (1, 1)), (2, (2, 1)), (4, (2, 2)), (8, (4, 2))] {
+            assert_eq!(sample_grid(s), want);
+        }
+    }
+
+    #[test]
+    fn edge_thresholds_are_checked() {
+        assert!(EdgeTest::default().validate().is_ok());
+        assert!(EdgeTest { distance: f32::NAN, ..Default::default() }.validate().is_err());
+        assert!(EdgeTest { distance: -1.0, ..Default::default() }.validate().is_err());
+        assert!(EdgeTest { normal_deg: 200.0, ..Default::default() }.validate().is_err());
     }
 }

@@ -1,19 +1,21 @@
 //! The Forward+ renderer and the brute-force reference: depth pre-pass -> light culling
-//! (Forward+ only) -> forward shading into linear HDR -> tonemap (-> heat map). Built once
+//! (Forward+ only) -> forward shading into linear HDR -> tonemap (-> heat map). With MSAA the
+//! pre-pass and shading pass are multisampled (hardware MSAA), culling bounds every sample's
+//! depth, and the shading pass resolves into the HDR image. Built once
 //! for a scene, light set, screen size and settings; `record` only writes uniforms and
 //! records passes. Depends on tiledlight-gpu and tiledlight-cull.
 
 use glam::Vec3;
 use tiledlight_cull::{Camera, TileGrid};
-use tiledlight_gpu::depth_prepass::DepthPrepass;
+use tiledlight_gpu::depth_prepass::{DepthPrepass, DEPTH_FORMAT};
 use tiledlight_gpu::frame::{FrameBinding, FrameParams, FrameUniforms};
 use tiledlight_gpu::light_cull::{CullOptions, LightCulling};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::{DisplayTargets, Renderer};
+use tiledlight_gpu::targets::{check_msaa, texture_2d_msaa, DisplayTargets, Renderer};
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::tonemap::{HeatmapPass, TonemapPass};
+use tiledlight_gpu::tonemap::{HeatmapPass, TonemapPass, HDR_FORMAT};
 use tiledlight_gpu::{GpuContext, GpuError};
 
 use crate::shading::{LightLoop, ShadingPass};
@@ -44,6 +46,9 @@ pub struct ForwardSettings {
     pub ambient: Vec3,
     /// Draw the lights-per-tile heat map over the image (Forward+ only).
     pub heatmap: bool,
+    /// MSAA samples per pixel: 1, 2, 4 or 8 (as the adapter supports). Also sets
+    /// `cull.samples`.
+    pub msaa: u32,
 }
 
 impl Default for ForwardSettings {
@@ -54,6 +59,7 @@ impl Default for ForwardSettings {
             exposure: 1.0,
             ambient: Vec3::splat(0.02),
             heatmap: false,
+            msaa: 1,
         }
     }
 }
@@ -70,6 +76,8 @@ pub struct ForwardRenderer {
     tonemap_input: wgpu::BindGroup,
     heatmap: Option<(HeatmapPass, wgpu::BindGroup)>,
     targets: DisplayTargets,
+    /// The multisampled HDR target the shading pass draws into and resolves (MSAA only).
+    hdr_msaa: Option<(wgpu::Texture, wgpu::TextureView)>,
     num_lights: u32,
     num_point_lights: u32,
     memory: MemoryReport,
@@ -86,6 +94,9 @@ impl ForwardRenderer {
         settings: ForwardSettings,
     ) -> Result<Self, GpuError> {
         let device = &ctx.device;
+        let mut settings = settings;
+        settings.cull.samples = settings.msaa;
+        check_msaa(ctx, settings.msaa, &[DEPTH_FORMAT, HDR_FORMAT])?;
         let grid = TileGrid::new(width, height, settings.cull.tile_size)?;
         if width > device.limits().max_texture_dimension_2d || height > device.limits().max_texture_dimension_2d {
             return Err(GpuError::Config(format!(
@@ -95,8 +106,29 @@ impl ForwardRenderer {
         }
         ctx.checked("building the Forward+ renderer", || {
             let frame = FrameBinding::new(device);
-            let targets = DisplayTargets::new(device, "forward", width, height, wgpu::TextureUsages::RENDER_ATTACHMENT);
-            let prepass = DepthPrepass::new(device, &frame, scene)?;
+            let targets = DisplayTargets::new(
+                device,
+                "forward",
+                (width, height),
+                settings.msaa,
+                wgpu::TextureUsages::RENDER_ATTACHMENT,
+            );
+            let hdr_msaa = (settings.msaa > 1).then(|| {
+                let t = texture_2d_msaa(
+                    device,
+                    "forward.hdr_msaa",
+                    (width, height),
+                    HDR_FORMAT,
+                    settings.msaa,
+                    wgpu::TextureUsages::RENDER_ATTACHMENT,
+                );
+                let v = t.create_view(&wgpu::TextureViewDescriptor {
+                    label: Some("forward.hdr_msaa.view"),
+                    ..Default::default()
+                });
+                (t, v)
+            });
+            let prepass = DepthPrepass::new(device, &frame, scene, settings.msaa)?;
             let (culling, light_loop) = match settings.method {
                 Method::ForwardPlus => (
                     Some(LightCulling::new(device, &frame, &targets.depth_view, lights, grid, settings.cull)?),
@@ -104,7 +136,7 @@ impl ForwardRenderer {
                 ),
                 Method::BruteForce { cutoff } => (None, LightLoop::All { cutoff }),
             };
-            let shading = ShadingPass::new(device, &frame, scene, lights, culling.as_ref(), light_loop)?;
+            let shading = ShadingPass::new(device, &frame, scene, lights, culling.as_ref(), light_loop, settings.msaa)?;
             let tonemap = TonemapPass::new(device, &frame)?;
             let tonemap_input = tonemap.bind(device, &targets.hdr_view);
             let heatmap = match (&culling, settings.heatmap) {
@@ -122,6 +154,9 @@ impl ForwardRenderer {
             memory.extend(&scene.memory);
             memory.extend(&lights.memory);
             memory.add("targets (depth+hdr+ldr)", targets.bytes());
+            if let Some((t, _)) = &hdr_msaa {
+                memory.add("forward.hdr_msaa", t.width() as u64 * t.height() as u64 * settings.msaa as u64 * 8);
+            }
             if let Some(c) = &culling {
                 memory.extend(&c.memory);
             }
@@ -136,6 +171,7 @@ impl ForwardRenderer {
                 tonemap_input,
                 heatmap,
                 targets,
+                hdr_msaa,
                 num_lights: lights.len(),
                 num_point_lights: lights.num_point(),
                 memory,
@@ -181,7 +217,12 @@ impl Renderer for ForwardRenderer {
         if let Some(c) = &self.culling {
             c.record(encoder, timer, &self.frame, "forward.cull");
         }
-        self.shading.record(encoder, timer, &self.frame, scene, &self.targets.hdr_view, &self.targets.depth_view);
+        // With MSAA the pass draws the multisampled target and resolves it into the HDR image.
+        let (hdr, resolve) = match &self.hdr_msaa {
+            Some((_, v)) => (v, Some(&self.targets.hdr_view)),
+            None => (&self.targets.hdr_view, None),
+        };
+        self.shading.record(encoder, timer, &self.frame, scene, hdr, resolve, &self.targets.depth_view);
         self.tonemap.record(encoder, timer, &self.frame, &self.tonemap_input, &self.targets.ldr_view);
         if let Some((h, g)) = &self.heatmap {
             h.record(encoder, timer, &self.frame, g, &self.targets.ldr_view);

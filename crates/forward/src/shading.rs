@@ -50,6 +50,7 @@ impl ShadingPass {
         lights: &LightBuffers,
         culling: Option<&LightCulling>,
         light_loop: LightLoop,
+        samples: u32,
     ) -> Result<Self, GpuError> {
         let fs = wgpu::ShaderStages::FRAGMENT;
         let mut defines: Vec<&str> = Vec::new();
@@ -129,7 +130,7 @@ impl ShadingPass {
                         stencil: Default::default(),
                         bias: Default::default(),
                     }),
-                    multisample: Default::default(),
+                    multisample: wgpu::MultisampleState { count: samples, ..Default::default() },
                     fragment: Some(wgpu::FragmentState {
                         module: &module,
                         entry_point: Some("fs_main"),
@@ -156,7 +157,9 @@ impl ShadingPass {
         Ok(Self { pipelines, lights_group, empty_group, label })
     }
 
-    /// Shades into `hdr` (cleared to black) using the pre-pass `depth`.
+    /// Shades into `hdr` (cleared to black) using the pre-pass `depth`; with MSAA `hdr` is
+    /// the multisampled target, resolved into `resolve` and then discarded.
+    #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -164,6 +167,7 @@ impl ShadingPass {
         frame: &FrameBinding,
         scene: &SceneGpu,
         hdr: &wgpu::TextureView,
+        resolve: Option<&wgpu::TextureView>,
         depth: &wgpu::TextureView,
     ) {
         let t = timer.begin(self.label, encoder);
@@ -173,10 +177,11 @@ impl ShadingPass {
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
                     view: hdr,
                     depth_slice: None,
-                    resolve_target: None,
+                    resolve_target: resolve,
                     ops: wgpu::Operations {
                         load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: wgpu::StoreOp::Store,
+                        // The samples are needed only for the resolve.
+                        store: if resolve.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store },
                     },
                 })],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {

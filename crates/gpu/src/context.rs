@@ -59,6 +59,11 @@ impl GpuContext {
         if timestamps {
             required_features |= wgpu::Features::TIMESTAMP_QUERY;
         }
+        // MSAA 2x and 8x: WebGPU guarantees only 1x and 4x; the adapter's own sample counts
+        // are usable only with this feature (targets::check_msaa asks it per format).
+        if features.contains(wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES) {
+            required_features |= wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES;
+        }
         let supported = adapter.limits();
         // WebGPU defaults, plus large storage buffers: per-tile lists at 4K with big
         // capacities and 1M lights exceed the default 128 MiB binding.
@@ -69,6 +74,10 @@ impl GpuContext {
             // Tiled Deferred's stress knob: 5 G-buffer targets are 40 bytes a sample, over
             // WebGPU's default 32. Raised only as far as that needs and the adapter allows.
             max_color_attachment_bytes_per_sample: supported.max_color_attachment_bytes_per_sample.min(64),
+            // Per-tile light lists live in workgroup memory: WebGPU's 16 KiB holds 2048
+            // indices, half that per list with half-z, less once Tiled Deferred's MSAA edge
+            // queue takes its share. 32 KiB where the adapter has it (most desktop GPUs).
+            max_compute_workgroup_storage_size: supported.max_compute_workgroup_storage_size.min(32768),
             ..wgpu::Limits::default()
         };
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {

@@ -28,8 +28,8 @@ pub struct DepthPrepass {
 }
 
 impl DepthPrepass {
-    /// Builds a pipeline per draw kind of `scene`.
-    pub fn new(device: &wgpu::Device, frame: &FrameBinding, scene: &SceneGpu) -> Result<Self, GpuError> {
+    /// Builds a pipeline per draw kind of `scene`, drawing `samples` depth samples a pixel.
+    pub fn new(device: &wgpu::Device, frame: &FrameBinding, scene: &SceneGpu, samples: u32) -> Result<Self, GpuError> {
         let mut pipelines = Vec::new();
         let textures = scene.textures.as_ref();
         for kind in scene.kinds() {
@@ -74,7 +74,7 @@ impl DepthPrepass {
                     stencil: Default::default(),
                     bias: Default::default(),
                 }),
-                multisample: Default::default(),
+                multisample: wgpu::MultisampleState { count: samples, ..Default::default() },
                 fragment: kind.masked.then(|| wgpu::FragmentState {
                     module: &module,
                     entry_point: Some("fs_masked"),

@@ -33,6 +33,9 @@ pub struct CullOptions {
     /// Two-level culling: a first pass culls lights per 64x64-pixel cell and each tile
     /// tests only its cell's survivors (see `tiledlight_cull::CullConfig::coarse`).
     pub coarse: bool,
+    /// Samples per pixel of the depth buffer the pass reads (1, 2, 4 or 8): the renderers
+    /// set it from their MSAA setting; tiles then bound every sample's depth.
+    pub samples: u32,
 }
 
 impl Default for CullOptions {
@@ -44,6 +47,7 @@ impl Default for CullOptions {
             half_z: false,
             spot_cone: false,
             coarse: true,
+            samples: 1,
         }
     }
 }
@@ -59,16 +63,29 @@ impl CullOptions {
             spot_cone: self.spot_cone && has_spots,
             coarse: self.coarse,
             inflate: 0.0,
+            samples: self.samples,
         }
     }
 
     /// The capacity that holds every light of a `num_lights` scene in every list, as far as
-    /// the device's workgroup memory allows (2048 a list on WebGPU's default 16 KiB without
-    /// half-z, 2046 with): overflow then only happens when a tile really sees more lights.
-    pub fn capacity_for(num_lights: u32, half_z: bool, limits: &wgpu::Limits) -> u32 {
+    /// the device's workgroup memory allows once `reserved` bytes are set aside for the rest
+    /// of the kernel ([`CULL_WORKGROUP_BYTES`] for the culling pass; Tiled Deferred's MSAA
+    /// edge queue needs more). With WebGPU's default 16 KiB: 2048 a list without half-z,
+    /// 2046 with. Overflow then only happens when a tile really sees more lights.
+    pub fn capacity_for(num_lights: u32, half_z: bool, reserved: u32, limits: &wgpu::Limits) -> u32 {
         let lists = if half_z { 2 } else { 1 };
-        let fits = (limits.max_compute_workgroup_storage_size.saturating_sub(16)) / (4 * lists);
+        let fits = (limits.max_compute_workgroup_storage_size.saturating_sub(reserved)) / (4 * lists);
         num_lights.clamp(1, MAX_CAPACITY.min(fits).max(1))
+    }
+
+    /// The depth-range defines and override constants every kernel reading the depth
+    /// buffer needs (`shaders/common/depth_range.wgsl`).
+    pub fn depth_variant(&self) -> (Option<&'static str>, Option<(&'static str, f64)>) {
+        if self.samples > 1 {
+            (Some("MSAA"), Some(("SAMPLES", self.samples as f64)))
+        } else {
+            (None, None)
+        }
     }
 
     /// Lists per tile.
@@ -80,6 +97,10 @@ impl CullOptions {
         }
     }
 }
+
+/// Workgroup memory of the culling kernel besides its lists (bytes): the depth range and
+/// the two list counts (`shaders/common/depth_range.wgsl`, `common/tile_cull.wgsl`).
+pub const CULL_WORKGROUP_BYTES: u32 = 16;
 
 /// Per-tile lists as read back from the GPU.
 #[derive(Clone, Debug, PartialEq)]
@@ -117,6 +138,7 @@ impl CoarseCulling {
         depth: &wgpu::TextureView,
         lights: &LightBuffers,
         grid: &TileGrid,
+        options: &CullOptions,
         memory: &mut MemoryReport,
     ) -> Result<Self, GpuError> {
         let cells = TileGrid::new(grid.width, grid.height, COARSE_SIZE)?;
@@ -137,7 +159,7 @@ impl CoarseCulling {
         let cs = wgpu::ShaderStages::COMPUTE;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cull_coarse.layout"),
-            entries: &[depth_entry(0), storage_entry(1, cs, true), storage_entry(2, cs, false)],
+            entries: &[depth_entry(0, options.samples), storage_entry(1, cs, true), storage_entry(2, cs, false)],
         });
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cull_coarse.bind_group"),
@@ -148,14 +170,17 @@ impl CoarseCulling {
                 wgpu::BindGroupEntry { binding: 2, resource: lists.as_entire_binding() },
             ],
         });
-        let module = shader_module(device, "cull_coarse.wgsl", &[])?;
+        let (msaa, samples) = options.depth_variant();
+        let module = shader_module(device, "cull_coarse.wgsl", &msaa.into_iter().collect::<Vec<_>>())?;
+        let mut constants = coarse_constants(capacity).to_vec();
+        constants.extend(samples);
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("cull_coarse"),
             layout: Some(&pipeline_layout(device, "cull_coarse.pipeline_layout", &[&frame.layout, &layout])),
             module: &module,
             entry_point: Some("main"),
             compilation_options: wgpu::PipelineCompilationOptions {
-                constants: &coarse_constants(capacity),
+                constants: &constants,
                 zero_initialize_workgroup_memory: false,
             },
             cache: None,
@@ -181,15 +206,15 @@ fn coarse_constants(capacity: u32) -> [(&'static str, f64); 2] {
     [("CELL", COARSE_SIZE as f64), ("COARSE_CAPACITY", capacity as f64)]
 }
 
-/// Layout entry for the single-sampled depth texture a compute kernel reads.
-pub fn depth_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+/// Layout entry for the depth texture a compute kernel reads (multisampled when `samples` > 1).
+pub fn depth_entry(binding: u32, samples: u32) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
         ty: wgpu::BindingType::Texture {
             sample_type: wgpu::TextureSampleType::Depth,
             view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
+            multisampled: samples > 1,
         },
         count: None,
     }
@@ -217,8 +242,8 @@ pub struct LightCulling {
 }
 
 impl LightCulling {
-    /// Builds the pipeline and buffers for `grid`, reading `depth` (a single-sampled
-    /// `Depth32Float` view of the pre-pass).
+    /// Builds the pipeline and buffers for `grid`, reading `depth` (a `Depth32Float` view
+    /// of the pre-pass with `options.samples` samples per pixel).
     pub fn new(
         device: &wgpu::Device,
         frame: &FrameBinding,
@@ -241,7 +266,7 @@ impl LightCulling {
         }
         let lists = grid.tile_count() as u64 * options.lists_per_tile() as u64;
         let limits = device.limits();
-        let wg_bytes = options.capacity * 4 * options.lists_per_tile() + 16;
+        let wg_bytes = options.capacity * 4 * options.lists_per_tile() + CULL_WORKGROUP_BYTES;
         if wg_bytes > limits.max_compute_workgroup_storage_size {
             return Err(GpuError::Config(format!(
                 "capacity {} needs {wg_bytes} bytes of workgroup memory; this device allows {}",
@@ -266,6 +291,8 @@ impl LightCulling {
         if spot_cone {
             defines.push("SPOT_CONE");
         }
+        let (msaa, samples) = options.depth_variant();
+        defines.extend(msaa);
         if options.coarse {
             if !COARSE_SIZE.is_multiple_of(options.tile_size) {
                 return Err(GpuError::Config(format!("two-level culling needs a tile size dividing {COARSE_SIZE}")));
@@ -274,7 +301,7 @@ impl LightCulling {
         }
         let cs = wgpu::ShaderStages::COMPUTE;
         let mut entries = vec![
-            depth_entry(0),
+            depth_entry(0, options.samples),
             storage_entry(1, cs, true),
             storage_entry(2, cs, false),
             storage_entry(3, cs, false),
@@ -297,7 +324,7 @@ impl LightCulling {
             entries.push(storage_entry(7, cs, true));
         }
         let coarse = if options.coarse {
-            let c = CoarseCulling::new(device, frame, depth, lights, &grid, &mut memory)?;
+            let c = CoarseCulling::new(device, frame, depth, lights, &grid, &options, &mut memory)?;
             entries.push(storage_entry(8, cs, true));
             Some(c)
         } else {
@@ -336,6 +363,7 @@ impl LightCulling {
         if let Some(c) = &coarse {
             constants.extend(c.constants());
         }
+        constants.extend(samples);
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("cull"),
             layout: Some(&pipeline_layout(device, "cull.pipeline_layout", &[&frame.layout, &layout])),
@@ -384,16 +412,19 @@ impl LightCulling {
 
 #[cfg(test)]
 mod tests {
-    use super::CullOptions;
+    use super::{CullOptions, CULL_WORKGROUP_BYTES};
 
     #[test]
     fn capacity_follows_lights_up_to_workgroup_memory() {
         let limits = wgpu::Limits::default(); // 16 KiB of workgroup memory
-        assert_eq!(CullOptions::capacity_for(0, false, &limits), 1);
-        assert_eq!(CullOptions::capacity_for(1024, false, &limits), 1024);
-        assert_eq!(CullOptions::capacity_for(100_000, false, &limits), 2048);
-        assert_eq!(CullOptions::capacity_for(100_000, true, &limits), 2046);
+        let r = CULL_WORKGROUP_BYTES;
+        assert_eq!(CullOptions::capacity_for(0, false, r, &limits), 1);
+        assert_eq!(CullOptions::capacity_for(1024, false, r, &limits), 1024);
+        assert_eq!(CullOptions::capacity_for(100_000, false, r, &limits), 2048);
+        assert_eq!(CullOptions::capacity_for(100_000, true, r, &limits), 2046);
         let small = wgpu::Limits { max_compute_workgroup_storage_size: 4096, ..limits };
-        assert_eq!(CullOptions::capacity_for(100_000, true, &small), 510);
+        assert_eq!(CullOptions::capacity_for(100_000, true, r, &small), 510);
+        // A 16 px tile's MSAA edge queue (1 KiB + 8 bytes) comes out of the lists.
+        assert_eq!(CullOptions::capacity_for(100_000, true, r + 8 + 1024, &limits), 1917);
     }
 }

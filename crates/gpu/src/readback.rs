@@ -71,10 +71,68 @@ pub fn read_texture(
     Ok(out)
 }
 
-/// Reads a `Depth32Float` texture as f32 values, row-major.
+/// Reads a `Depth32Float` texture as f32 values, row-major; a multisampled one gives
+/// `sample_count` values per pixel, pixel-major (the layout of
+/// `tiledlight_cull::CullConfig::samples`).
 pub fn read_depth(device: &wgpu::Device, queue: &wgpu::Queue, texture: &wgpu::Texture) -> Result<Vec<f32>, GpuError> {
+    if texture.sample_count() > 1 {
+        return read_depth_samples(device, queue, texture);
+    }
     let bytes = read_texture(device, queue, texture, wgpu::TextureAspect::DepthOnly, 4)?;
     Ok(bytemuck::pod_collect_to_vec(&bytes))
+}
+
+/// Multisampled textures cannot be copied to a buffer: a small compute kernel
+/// (`shaders/depth_samples.wgsl`) copies every sample. Built per call: a debug path.
+fn read_depth_samples(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+) -> Result<Vec<f32>, GpuError> {
+    let (w, h, n) = (texture.width(), texture.height(), texture.sample_count());
+    let out = crate::util::buffer_zeroed(
+        device,
+        "readback.depth_samples",
+        w as u64 * h as u64 * n as u64 * 4,
+        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+    );
+    let module = crate::util::shader_module(device, "depth_samples.wgsl", &[])?;
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("readback.depth_samples"),
+        layout: None,
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let view = texture.create_view(&wgpu::TextureViewDescriptor {
+        label: Some("readback.depth_samples.view"),
+        aspect: wgpu::TextureAspect::DepthOnly,
+        ..Default::default()
+    });
+    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("readback.depth_samples"),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
+            wgpu::BindGroupEntry { binding: 1, resource: out.as_entire_binding() },
+        ],
+    });
+    let mut enc =
+        device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback.depth_samples") });
+    {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("readback.depth_samples"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
+    }
+    queue.submit([enc.finish()]);
+    let mut v: Vec<f32> = read_buffer(device, queue, &out)?;
+    v.truncate(w as usize * h as usize * n as usize);
+    Ok(v)
 }
 
 /// Reads an `Rgba16Float` texture as linear RGBA f32.

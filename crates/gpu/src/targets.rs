@@ -33,9 +33,70 @@ pub fn texture_2d(
     })
 }
 
+/// A labelled multisampled 2D render target (`samples` > 1).
+pub fn texture_2d_msaa(
+    device: &wgpu::Device,
+    label: &str,
+    (w, h): (u32, u32),
+    format: wgpu::TextureFormat,
+    samples: u32,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: samples,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
+}
+
+/// Fails with a message naming the format and the adapter's sample counts when `samples`
+/// is not 1, 2, 4 or 8 or when the adapter cannot multisample `formats` that many times
+/// (WebGPU guarantees only 1 and 4; 2 and 8 need adapter-specific format features).
+pub fn check_msaa(ctx: &GpuContext, samples: u32, formats: &[wgpu::TextureFormat]) -> Result<(), GpuError> {
+    if !matches!(samples, 1 | 2 | 4 | 8) {
+        return Err(GpuError::Config(format!("MSAA {samples}x: the sample count must be 1, 2, 4 or 8")));
+    }
+    if samples == 1 {
+        return Ok(());
+    }
+    let specific = ctx.device.features().contains(wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES);
+    for &format in formats {
+        let ok = if specific {
+            ctx.adapter.get_texture_format_features(format).flags.sample_count_supported(samples)
+        } else {
+            samples == 4
+        };
+        if !ok {
+            let counts: Vec<String> = [2, 4, 8]
+                .into_iter()
+                .filter(|&n| {
+                    if specific {
+                        ctx.adapter.get_texture_format_features(format).flags.sample_count_supported(n)
+                    } else {
+                        n == 4
+                    }
+                })
+                .map(|n| format!("{n}x"))
+                .collect();
+            return Err(GpuError::Config(format!(
+                "MSAA {samples}x is not supported by {} for {format:?} render targets (it supports: 1x{}{})",
+                ctx.info.name,
+                if counts.is_empty() { "" } else { ", " },
+                counts.join(", ")
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Depth, linear HDR and tonemapped display targets of one screen.
 pub struct DisplayTargets {
-    /// Reversed-Z depth.
+    /// Reversed-Z depth, with `samples` samples per pixel.
     pub depth: wgpu::Texture,
     /// Linear HDR lighting.
     pub hdr: wgpu::Texture,
@@ -47,19 +108,31 @@ pub struct DisplayTargets {
     pub hdr_view: wgpu::TextureView,
     /// View of `ldr`.
     pub ldr_view: wgpu::TextureView,
+    /// MSAA samples per pixel of `depth` (the HDR and display images are resolved).
+    pub samples: u32,
 }
 
 impl DisplayTargets {
-    /// Targets for `w` x `h`; `hdr_usage` adds how the method writes the HDR image
-    /// (render attachment for Forward+, storage for Tiled Deferred's compute shading).
-    pub fn new(device: &wgpu::Device, prefix: &str, w: u32, h: u32, hdr_usage: wgpu::TextureUsages) -> Self {
+    /// Targets for `w` x `h` with a `samples`-sample depth buffer; `hdr_usage` adds how the
+    /// method writes the HDR image (render attachment for Forward+, storage for Tiled
+    /// Deferred's compute shading).
+    pub fn new(
+        device: &wgpu::Device,
+        prefix: &str,
+        (w, h): (u32, u32),
+        samples: u32,
+        hdr_usage: wgpu::TextureUsages,
+    ) -> Self {
         use wgpu::TextureUsages as U;
-        let depth = texture_2d(
+        // A multisampled texture cannot be copied: read_depth uses a kernel for it.
+        let copy = if samples == 1 { U::COPY_SRC } else { U::empty() };
+        let depth = texture_2d_msaa(
             device,
             &format!("{prefix}.depth"),
             (w, h),
             DEPTH_FORMAT,
-            U::RENDER_ATTACHMENT | U::TEXTURE_BINDING | U::COPY_SRC,
+            samples,
+            U::RENDER_ATTACHMENT | U::TEXTURE_BINDING | copy,
         );
         let hdr = texture_2d(
             device,
@@ -70,19 +143,29 @@ impl DisplayTargets {
         );
         let ldr = texture_2d(device, &format!("{prefix}.ldr"), (w, h), LDR_FORMAT, U::RENDER_ATTACHMENT | U::COPY_SRC);
         Self {
-            depth_view: depth.create_view(&Default::default()),
-            hdr_view: hdr.create_view(&Default::default()),
-            ldr_view: ldr.create_view(&Default::default()),
+            depth_view: depth.create_view(&wgpu::TextureViewDescriptor {
+                label: Some(&format!("{prefix}.depth.view")),
+                ..Default::default()
+            }),
+            hdr_view: hdr.create_view(&wgpu::TextureViewDescriptor {
+                label: Some(&format!("{prefix}.hdr.view")),
+                ..Default::default()
+            }),
+            ldr_view: ldr.create_view(&wgpu::TextureViewDescriptor {
+                label: Some(&format!("{prefix}.ldr.view")),
+                ..Default::default()
+            }),
             depth,
             hdr,
             ldr,
+            samples,
         }
     }
 
-    /// Bytes of the three targets.
+    /// Bytes of the three targets (the depth buffer has `samples` values a pixel).
     pub fn bytes(&self) -> u64 {
         let px = self.depth.width() as u64 * self.depth.height() as u64;
-        px * (4 + 8 + 4)
+        px * (4 * self.samples as u64 + 8 + 4)
     }
 }
 
@@ -105,8 +188,14 @@ pub trait Renderer {
     fn memory(&self) -> &MemoryReport;
     /// Per-list light counts of the last frame (tiled methods), for statistics and tests.
     fn tile_counts(&self) -> Option<&wgpu::Buffer>;
+    /// Pixels of the last frame that the edge test sent to per-sample shading, when the
+    /// method has such a test (Tiled Deferred with MSAA).
+    fn edge_pixels(&self, _ctx: &GpuContext) -> Result<Option<u32>, GpuError> {
+        Ok(None)
+    }
 
-    /// Reads the depth buffer of the last frame.
+    /// Reads the depth buffer of the last frame: row-major, with MSAA `samples` values per
+    /// pixel, pixel-major.
     fn read_depth(&self, ctx: &GpuContext) -> Result<Vec<f32>, GpuError> {
         read_depth(&ctx.device, &ctx.queue, &self.targets().depth)
     }
