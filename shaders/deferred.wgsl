@@ -5,9 +5,9 @@
 // map and for tests. With EXTRA_RTS (EXTRA_RTS_2, EXTRA_RTS_3) the stress knob's extra
 // G-buffer targets (all white) are read and multiplied into the albedo.
 //
-// With MSAA the G-buffer is multisampled (SAMPLES per pixel). Each pixel first shades its
-// sample 0 and runs the edge test (is_edge); a pixel whose samples all lie on one surface
-// writes that colour to the HDR image and is done. Edge pixels are queued in workgroup
+// With MSAA the G-buffer is multisampled (SAMPLES per pixel). Each pixel first runs the edge
+// test (is_edge); a pixel whose samples all lie on one surface is shaded once, at its centre
+// on that surface, straight into the HDR image. Edge pixels are queued in workgroup
 // memory, and once every pixel is classified the tile's threads are redistributed over the
 // queued pixels' remaining samples. An edge pixel's samples go to the oversized `samples_out`
 // texture (SAMPLES_X x SAMPLES_Y texels a pixel) and its position to a global edge list,
@@ -156,6 +156,35 @@ fn shade(g: GSample, t: TileCull, counts: vec2<u32>) -> vec3<f32> {
 }
 
 #ifdef MSAA
+// A non-edge pixel's samples lie on one plane: its shading point is where the pixel-centre
+// ray meets that plane (sample 0's tangent plane), the point Forward+ and the no-MSAA path
+// shade, rather than sample 0's own position up to 0.4 px away.
+fn at_pixel_centre(p: vec2<u32>, g: GSample) -> GSample {
+    if g.sky {
+        return g;
+    }
+    let ndc = pixel_to_ndc(vec2<f32>(p) + 0.5);
+    // The ray's point at view distance 0 (the eye, or the ortho image plane) and its step
+    // per unit of view distance.
+    let o = view_point_at(ndc, 0.0);
+    let d = view_point_at(ndc, 1.0) - o;
+    let n = (frame.view * vec4<f32>(g.normal, 0.0)).xyz;
+    let p0 = (frame.view * vec4<f32>(g.world, 1.0)).xyz;
+    let denom = dot(d, n);
+    // Edge-on to the ray (only if the plane test let it through): keep sample 0's point.
+    if abs(denom) < 1e-6 * length(d) {
+        return g;
+    }
+    let t = dot(p0 - o, n) / denom;
+    if !(t > 0.0) {
+        return g;
+    }
+    var out = g;
+    out.dist = t;
+    out.world = (frame.inv_view * vec4<f32>(o + t * d, 1.0)).xyz;
+    return out;
+}
+
 // Scale-independent edge test. Sample 0's normal gives the surface's depth slope across the
 // pixel exactly (the role of Lauritzen's screen-space depth derivatives), so instead of a
 // depth threshold in scene units each sample is tested against sample 0's tangent plane,
@@ -202,15 +231,16 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid
             let p = origin + lid.xy + vec2<u32>(i, j) * WG;
             if p.x < frame.screen.x && p.y < frame.screen.y {
                 let g0 = load_gsample(p, 0u);
-                let color = vec4<f32>(shade(g0, t, counts), 1.0);
 #ifdef MSAA
                 if is_edge(p, g0) {
                     wg_edges[atomicAdd(&wg_edge_count, 1u)] = p.x | (p.y << 16u);
-                    textureStore(samples_out, sample_texel(p, 0u), color);
+                    textureStore(samples_out, sample_texel(p, 0u), vec4<f32>(shade(g0, t, counts), 1.0));
                     continue;
                 }
+                textureStore(output, p, vec4<f32>(shade(at_pixel_centre(p, g0), t, counts), 1.0));
+#else
+                textureStore(output, p, vec4<f32>(shade(g0, t, counts), 1.0));
 #endif
-                textureStore(output, p, color);
             }
         }
     }

@@ -175,6 +175,11 @@ impl DeferredRenderer {
     pub fn gbuffer(&self) -> &GBuffer {
         &self.gbuffer
     }
+
+    /// The cull-and-shade pass (edge statistics, MSAA sample texture).
+    pub fn shading(&self) -> &DeferredShading {
+        &self.shading
+    }
 }
 
 impl Renderer for DeferredRenderer {

@@ -241,10 +241,17 @@ impl DeferredShading {
                 "deferred.msaa_samples",
                 (w * sx, h * sy),
                 HDR_FORMAT,
-                U::STORAGE_BINDING | U::TEXTURE_BINDING,
+                // COPY_SRC: tests read the samples of edge pixels back.
+                U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC,
             );
             let pixels = w as u64 * h as u64;
-            let edge_list = buffer_zeroed(device, "deferred.edge_list", pixels * 4, wgpu::BufferUsages::STORAGE);
+            // COPY_SRC: tests and statistics read the edge pixels back.
+            let edge_list = buffer_zeroed(
+                device,
+                "deferred.edge_list",
+                pixels * 4,
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            );
             let edge_args = buffer_zeroed(
                 device,
                 "deferred.edge_args",
@@ -368,14 +375,18 @@ impl DeferredShading {
         Ok(Some(args[3]))
     }
 
-    /// The oversized per-sample texture of edge pixels (MSAA only).
+    /// The oversized per-sample texture of edge pixels (MSAA only): pixel (x, y) sample s
+    /// at texel `(x * sx + s % sx, y * sy + s / sx)` with `(sx, sy) = sample_grid(samples)`.
     pub fn samples_texture(&self) -> Option<&wgpu::Texture> {
         self.msaa.as_ref().map(|m| &m.samples_texture)
     }
 
-    /// The frame's edge-pixel list buffer (MSAA only), packed `x | y << 16`.
-    pub fn edge_list(&self) -> Option<&wgpu::Buffer> {
-        self.msaa.as_ref().map(|m| &m.edge_list)
+    /// The last frame's edge pixels (MSAA only; stalls the GPU), in no particular order.
+    pub fn read_edge_list(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Vec<(u32, u32)>, GpuError> {
+        let Some(m) = &self.msaa else { return Ok(Vec::new()) };
+        let n = read_buffer::<u32>(device, queue, &m.edge_args)?[3] as usize;
+        let list: Vec<u32> = read_buffer(device, queue, &m.edge_list)?;
+        Ok(list[..n.min(list.len())].iter().map(|&p| (p & 0xffff, p >> 16)).collect())
     }
 }
 
