@@ -15,8 +15,7 @@ use rand::Rng;
 use tiledlight_cull::light::{order_points_first, pack_lights, PackedLights};
 use tiledlight_cull::reference::{
     coarse_cells, false_positive_rate, half_z_split, lights_reaching, list_quality, pixel_view_position, stats,
-    tile_ranges, CullStats,
-    COARSE_CAPACITY, COARSE_SIZE, MAX_CAPACITY,
+    tile_ranges, CullStats, COARSE_CAPACITY, COARSE_SIZE, MAX_CAPACITY,
 };
 use tiledlight_cull::{cull_tiles, Camera, CullConfig, CullError, Light, LightKind, TileLists};
 
