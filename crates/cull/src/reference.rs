@@ -422,10 +422,49 @@ pub fn tile_ranges(depth: &[f32], grid: &TileGrid, camera: &Camera) -> Result<Ve
 pub fn list_quality(depth: &[f32], camera: &Camera, lights: &PackedLights, lists: &TileLists) -> ListQuality {
     let g = lists.grid;
     let test = ReachTest::new(&camera.view(), lights);
+    // Rows of tiles touch disjoint lists, so bands of them run on separate threads with no
+    // shared state, and the integer sums are the same whatever the thread count.
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(g.tiles_y as usize).max(1);
+    let band = (g.tiles_y as usize).div_ceil(threads) as u32;
+    let counts: Vec<[u64; 5]> = std::thread::scope(|s| {
+        let handles: Vec<_> = (0..g.tiles_y)
+            .step_by(band as usize)
+            .map(|ty0| {
+                let test = &test;
+                s.spawn(move || quality_of_rows(depth, camera, test, lists, ty0..(ty0 + band).min(g.tiles_y)))
+            })
+            .collect();
+        handles.into_iter().map(|h| h.join().expect("a list-quality thread panicked")).collect()
+    });
+    let [evaluated, wasted, pixels, listed, unused] =
+        counts.iter().fold([0u64; 5], |acc, c| std::array::from_fn(|i| acc[i] + c[i]));
+    let per_pixel = |n: u64| if pixels > 0 { n as f64 / pixels as f64 } else { 0.0 };
+    ListQuality {
+        false_positive_rate: if listed > 0 { unused as f64 / listed as f64 } else { 0.0 },
+        wasted_per_pixel: per_pixel(wasted),
+        evaluated_per_pixel: per_pixel(evaluated),
+        pixels,
+    }
+}
+
+/// [`list_quality`]'s counts over the tile rows `rows`: evaluated, wasted, pixels, listed
+/// pairs, listed pairs reaching no pixel.
+fn quality_of_rows(
+    depth: &[f32],
+    camera: &Camera,
+    test: &ReachTest,
+    lists: &TileLists,
+    rows: std::ops::Range<u32>,
+) -> [u64; 5] {
+    let g = lists.grid;
     let dp = camera.depth_params();
-    let mut used: Vec<Vec<bool>> = lists.lists.iter().map(|l| vec![false; l.len()]).collect();
+    let per = lists.config.lists_per_tile();
+    let first = rows.start as usize * g.tiles_x as usize * per;
+    let last = rows.end as usize * g.tiles_x as usize * per;
+    let mut used: Vec<Vec<bool>> = lists.lists[first..last].iter().map(|l| vec![false; l.len()]).collect();
     let (mut evaluated, mut wasted, mut pixels) = (0u64, 0u64, 0u64);
-    for y in 0..g.height {
+    let y_end = (rows.end * g.tile_size).min(g.height);
+    for y in rows.start * g.tile_size..y_end {
         for x in 0..g.width {
             let d = depth[(y * g.width + x) as usize];
             let Some(p) = pixel_view_position(camera, g.width, g.height, x, y, d) else { continue };
@@ -434,22 +473,16 @@ pub fn list_quality(depth: &[f32], camera: &Camera, lights: &PackedLights, lists
             for (k, &i) in lists.lists[li].iter().enumerate() {
                 evaluated += 1;
                 if test.reaches(i, p, 0.0) {
-                    used[li][k] = true;
+                    used[li - first][k] = true;
                 } else {
                     wasted += 1;
                 }
             }
         }
     }
-    let listed: usize = lists.lists.iter().map(Vec::len).sum();
-    let unused: usize = used.iter().map(|u| u.iter().filter(|&&b| !b).count()).sum();
-    let per_pixel = |n: u64| if pixels > 0 { n as f64 / pixels as f64 } else { 0.0 };
-    ListQuality {
-        false_positive_rate: if listed > 0 { unused as f64 / listed as f64 } else { 0.0 },
-        wasted_per_pixel: per_pixel(wasted),
-        evaluated_per_pixel: per_pixel(evaluated),
-        pixels,
-    }
+    let listed = used.iter().map(|u| u.len() as u64).sum();
+    let unused = used.iter().map(|u| u.iter().filter(|&&b| !b).count() as u64).sum();
+    [evaluated, wasted, pixels, listed, unused]
 }
 
 /// Fraction of listed (tile, light) pairs whose light reaches no pixel of the tile (or of
