@@ -306,9 +306,11 @@ pub fn pixel_view_position(camera: &Camera, width: u32, height: u32, x: u32, y: 
 
 /// Lights in view space, ready for the ground-truth test of whether a light reaches a point.
 struct ReachTest {
-    /// Per light: centre, radius, and a spot's view-space axis and cos outer.
-    lights: Vec<(Vec3, f32, Option<(Vec3, f32)>)>,
+    lights: Vec<ReachLight>,
 }
+
+/// A light's centre, radius, and a spot's view-space axis and cos outer.
+type ReachLight = (Vec3, f32, Option<(Vec3, f32)>);
 
 impl ReachTest {
     fn new(view: &Mat4, lights: &PackedLights) -> Self {
