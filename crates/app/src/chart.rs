@@ -400,19 +400,20 @@ pub struct ParetoChart {
     pub note: Option<String>,
 }
 
-/// Draws `c` to the PNG `path`: points coloured by series, labelled, the frontier as a
+/// Draws `c` to the PNG `path`: points coloured by series, the frontier's labelled, the frontier as a
 /// staircase, the target line, the chosen point ringed. Log scales where values span 10x.
 pub fn pareto_chart(path: &Path, c: &ParetoChart) -> Result<()> {
     let pts: Vec<&ParetoPoint> = c.points.iter().filter(|p| p.time.is_finite() && p.error.is_finite()).collect();
     ensure!(!pts.is_empty(), "chart {}: no finite points to draw", path.display());
     let xsc = Scale::auto(pts.iter().map(|p| p.time), 10.0);
-    // A zero error (an image identical to the reference) cannot go on a log axis.
-    let ysc = Scale::auto(pts.iter().map(|p| p.error), 10.0);
     let xs: Vec<f64> = pts.iter().map(|p| p.time).collect();
     let mut ys: Vec<f64> = pts.iter().map(|p| p.error).collect();
     if let Some((t, _)) = c.target {
         ys.push(t);
     }
+    // A zero error (an image identical to the reference) cannot go on a log axis: auto
+    // falls back to linear then.
+    let ysc = Scale::auto(ys.iter().copied(), 10.0);
     let frontier = pareto_frontier(&c.points);
     let mut names: Vec<&str> = Vec::new();
     for p in &c.points {
@@ -485,8 +486,12 @@ pub fn pareto_chart(path: &Path, c: &ParetoChart) -> Result<()> {
                 .map_err(err)?
                 .label(name.to_string())
                 .legend(move |(x, y)| Circle::new((x + 12, y), 7, col.filled()));
+            // Labels on the frontier only: settings of one threshold share a height, and
+            // labelling every point would print them on top of each other.
+            let on_frontier: Vec<&&ParetoPoint> =
+                mine.iter().filter(|p| frontier.iter().any(|&i| std::ptr::eq(&c.points[i], **p))).collect();
             chart
-                .draw_series(mine.iter().map(|p| {
+                .draw_series(on_frontier.iter().map(|p| {
                     let (u, v) = map(p);
                     Text::new(p.label.clone(), (u + (x1 - x0) * 0.008, v + (y1 - y0) * 0.025), (FAMILY, 15).into_font())
                 }))
