@@ -533,7 +533,8 @@ mod tests {
     #[test]
     fn ticks_and_labels() {
         assert_eq!(nice_ticks(0.0, 10.0, Scale::Linear), [0.0, 2.0, 4.0, 6.0, 8.0, 10.0]);
-        assert_eq!(nice_ticks(3.0, 300.0, Scale::Log), [5.0, 10.0, 20.0, 50.0, 100.0, 200.0]);
+        assert_eq!(nice_ticks(3.0, 90.0, Scale::Log), [5.0, 10.0, 20.0, 50.0]);
+        assert_eq!(nice_ticks(3.0, 300.0, Scale::Log), [10.0, 100.0]);
         assert_eq!(nice_ticks(0.5, 5000.0, Scale::Log), [1.0, 10.0, 100.0, 1000.0]);
         assert_eq!(tick_label(16384.0), "16,384");
         assert_eq!(tick_label(0.0125), "0.0125");
