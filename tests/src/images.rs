@@ -1,4 +1,4 @@
-//! Image comparison for tests: nv-flip on tonemapped sRGB images (mean and a percentile
+//! Image comparison for tests: FLIP (`tiledlight_metrics::flip`) on tonemapped sRGB images (mean and a percentile
 //! against stated thresholds) and relative error on linear HDR. On failure, writes
 //! `<name>-actual.png`, `<name>-expected.png` and `<name>-difference.png` (FLIP heat map) to
 //! `target/test-output`. Stored reference images are only rewritten when
@@ -15,20 +15,7 @@ pub struct FlipThresholds {
     pub percentile: (f32, f32),
 }
 
-/// Result of a FLIP comparison.
-#[derive(Clone, Copy, Debug)]
-pub struct FlipResult {
-    /// Mean error.
-    pub mean: f32,
-    /// Error at the checked percentile.
-    pub percentile: f32,
-    /// Largest error.
-    pub max: f32,
-}
-
-fn rgb(rgba: &[u8]) -> Vec<u8> {
-    rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect()
-}
+pub use tiledlight_metrics::FlipResult;
 
 /// Writes RGBA8 pixels as a PNG.
 pub fn save_png(path: &Path, w: u32, h: u32, rgba: &[u8]) {
@@ -39,12 +26,8 @@ pub fn save_png(path: &Path, w: u32, h: u32, rgba: &[u8]) {
 /// Compares `actual` with `expected` (RGBA8 sRGB) and panics with the numbers when a
 /// threshold is exceeded, after writing the artefacts named `name`.
 pub fn assert_flip(name: &str, w: u32, h: u32, expected: &[u8], actual: &[u8], t: FlipThresholds) -> FlipResult {
-    let r = nv_flip::FlipImageRgb8::with_data(w, h, &rgb(expected));
-    let a = nv_flip::FlipImageRgb8::with_data(w, h, &rgb(actual));
-    let map = nv_flip::flip(r, a, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
-    let mut pool = nv_flip::FlipPool::from_image(&map);
-    let res =
-        FlipResult { mean: pool.mean(), percentile: pool.get_percentile(t.percentile.0, false), max: pool.max_value() };
+    let map = tiledlight_metrics::flip(w, h, expected, actual);
+    let res = map.summary(t.percentile.0);
     eprintln!(
         "{name}: FLIP mean {:.5}, p{} {:.5}, max {:.5}",
         res.mean,
@@ -56,7 +39,7 @@ pub fn assert_flip(name: &str, w: u32, h: u32, expected: &[u8], actual: &[u8], t
         let dir = crate::output_dir();
         save_png(&dir.join(format!("{name}-actual.png")), w, h, actual);
         save_png(&dir.join(format!("{name}-expected.png")), w, h, expected);
-        let diff = map.apply_color_lut(&nv_flip::magma_lut()).to_vec();
+        let diff = map.heat_rgb();
         image::save_buffer(dir.join(format!("{name}-difference.png")), &diff, w, h, image::ExtendedColorType::Rgb8)
             .expect("write difference");
         panic!(

@@ -4,19 +4,27 @@
 //!   ([`render`]);
 //! - `tiledlight bench ...`: per-pass GPU times over many frames, optionally as JSON
 //!   ([`mod@bench`]);
+//! - `tiledlight sweep ...`: per-pass GPU times over a grid of settings, CSV + chart
+//!   ([`sweep`], on [`lab`] and [`chart`]);
+//! - `tiledlight accuracy ...`: time and image error against the brute-force reference per
+//!   setting, CSV + Pareto chart + FLIP heat maps ([`accuracy`]);
 //! - `tiledlight` alone: the default scene at 1080p, image + heat map + short benchmark
 //!   ([`quickstart`]).
 //!
-//! Both subcommands build their scene, lights, camera and renderer from the same flags
+//! Every subcommand builds its scene, lights, camera and renderer from the same flags
 //! ([`scene_setup`]). Every failure ends with one `error: ...` line on stderr and a
 //! non-zero exit code (1 for run-time errors, 2 for unparsable flags); logging goes
 //! through env_logger (`RUST_LOG`). This module may depend on all the others.
 
+mod accuracy;
 mod bench;
+mod chart;
+mod lab;
 mod legend;
 mod quickstart;
 mod render;
 mod scene_setup;
+mod sweep;
 
 use std::process::ExitCode;
 
@@ -41,6 +49,15 @@ enum Command {
     /// Time every pass over many frames; print a table and optionally write JSON.
     #[command(allow_negative_numbers = true)]
     Bench(bench::BenchArgs),
+    /// Measure per-pass GPU time over a grid of settings (--axis NAME=VALUES, or --preset
+    /// figure9); write a resumable CSV and a chart.
+    #[command(allow_negative_numbers = true)]
+    Sweep(sweep::SweepArgs),
+    /// Measure the speed/accuracy trade: per setting, GPU time, image error against the
+    /// brute-force reference without cutoff, and culling statistics; CSV, Pareto chart and
+    /// FLIP heat maps.
+    #[command(allow_negative_numbers = true)]
+    Accuracy(accuracy::AccuracyArgs),
 }
 
 /// Makes a possibly multi-line message (wgpu validation errors, clap's usage hints) one
@@ -91,6 +108,8 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Some(Command::Render(args)) => render::run(args),
         Some(Command::Bench(args)) => bench::run(args),
+        Some(Command::Sweep(args)) => sweep::run(args),
+        Some(Command::Accuracy(args)) => accuracy::run(args),
         None => quickstart::run(),
     };
     match result {

@@ -425,6 +425,10 @@ pub struct Prepared {
     /// Where the camera came from, for the report.
     pub camera_source: &'static str,
     gpu_errors: Arc<Mutex<Vec<String>>>,
+    /// The scene on the CPU and how many lights it brought, kept so that
+    /// [`Prepared::reconfigure`] can regenerate lights without reloading it.
+    scene: Scene,
+    file_lights: usize,
 }
 
 impl Prepared {
@@ -435,13 +439,7 @@ impl Prepared {
         let (scene, file_lights) = load_scene(args)?;
         let lights = build_lights(args, &scene, file_lights)?;
         let light_summary = LightSummary::of(&lights, file_lights);
-        let aspect = args.width as f32 / args.height as f32;
-        let (camera, camera_source) = match &scene.camera {
-            Some(desc) => {
-                (camera_from_desc(desc, aspect).context("the scene's camera is unusable")?, "the scene's camera")
-            }
-            None => (frame_bounds(&scene.bounds, aspect)?, "framing the scene bounds"),
-        };
+        let (camera, camera_source) = scene_camera(&scene, args)?;
 
         let ctx = GpuContext::headless(ContextOptions::default())
             .context("creating the GPU device (set WGPU_ADAPTER_NAME to pick an adapter)")?;
@@ -458,15 +456,7 @@ impl Prepared {
         let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &scene)
             .with_context(|| format!("uploading scene '{}'", scene.name))?;
         let light_buffers = LightBuffers::new(&ctx.device, &lights).context("uploading the lights")?;
-        let mut args = args.clone();
-        if args.capacity.is_none() {
-            args.capacity = Some(CullOptions::capacity_for(
-                light_buffers.len(),
-                args.half_z,
-                args.reserved_workgroup_bytes(),
-                &ctx.device.limits(),
-            ));
-        }
+        let args = with_capacity(args, &light_buffers, &ctx);
         Ok(Self {
             args,
             ctx,
@@ -478,7 +468,46 @@ impl Prepared {
             camera,
             camera_source,
             gpu_errors,
+            scene,
+            file_lights,
         })
+    }
+
+    /// Switches to the flags `args` on the same GPU device, rebuilding only what they
+    /// change: the scene (`--scene`, `--grid-objects`, `--density`; the threshold of a
+    /// glTF file's lights), the lights (their counts, seed and threshold) and the camera
+    /// (the aspect ratio). Renderers built before must be rebuilt ([`Prepared::renderer`]).
+    /// Sweeps use it so that a GPU context is created once per run, not once per point.
+    pub fn reconfigure(&mut self, args: &SceneArgs) -> Result<()> {
+        args.validate()?;
+        let old = &self.args;
+        let file = matches!(args.source(), SceneSource::File(_));
+        let scene_changed = old.scene != args.scene
+            || old.grid_objects != args.grid_objects
+            || old.density != args.density
+            || (file && old.threshold != args.threshold);
+        let lights_changed = scene_changed
+            || old.lights != args.lights
+            || old.spot_lights != args.spot_lights
+            || old.seed != args.seed
+            || old.threshold != args.threshold;
+        if scene_changed {
+            let (scene, file_lights) = load_scene(args)?;
+            self.scene_gpu = SceneGpu::new(&self.ctx.device, &self.ctx.queue, &scene)
+                .with_context(|| format!("uploading scene '{}'", scene.name))?;
+            self.scene_name = scene.name.clone();
+            self.instances = scene.instances.len();
+            self.scene = scene;
+            self.file_lights = file_lights;
+        }
+        if lights_changed {
+            let lights = build_lights(args, &self.scene, self.file_lights)?;
+            self.light_summary = LightSummary::of(&lights, self.file_lights);
+            self.lights = LightBuffers::new(&self.ctx.device, &lights).context("uploading the lights")?;
+        }
+        (self.camera, self.camera_source) = scene_camera(&self.scene, args)?;
+        self.args = with_capacity(args, &self.lights, &self.ctx);
+        self.check_gpu_errors()
     }
 
     /// Builds a renderer for the flags' method, screen and settings.
@@ -571,6 +600,30 @@ impl Prepared {
             ("method".into(), method),
         ]
     }
+}
+
+/// `args` with the per-list capacity filled in: `--capacity`, or every light up to what
+/// the device's workgroup memory holds.
+fn with_capacity(args: &SceneArgs, lights: &LightBuffers, ctx: &GpuContext) -> SceneArgs {
+    let mut args = args.clone();
+    if args.capacity.is_none() {
+        args.capacity = Some(CullOptions::capacity_for(
+            lights.len(),
+            args.half_z,
+            args.reserved_workgroup_bytes(),
+            &ctx.device.limits(),
+        ));
+    }
+    args
+}
+
+/// The camera of a run (the scene's own, else one framing its bounds) and where it came from.
+fn scene_camera(scene: &Scene, args: &SceneArgs) -> Result<(Camera, &'static str)> {
+    let aspect = args.width as f32 / args.height as f32;
+    Ok(match &scene.camera {
+        Some(desc) => (camera_from_desc(desc, aspect).context("the scene's camera is unusable")?, "the scene's camera"),
+        None => (frame_bounds(&scene.bounds, aspect)?, "framing the scene bounds"),
+    })
 }
 
 /// Loads or builds the scene; returns it with the number of lights it brought along.

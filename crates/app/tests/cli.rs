@@ -3,46 +3,12 @@
 //! checks the files it writes and its error handling. Bad input must fail before any GPU
 //! work, with exit code != 0 and one `error:` line naming the problem.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-use std::sync::Mutex;
 
+use common::{fails, gpu_run, scratch, stdout, tiledlight};
 use serde_json::Value;
-
-/// lavapipe spreads each draw over every core: run the GPU tests of this binary one at a
-/// time (nextest runs each test in its own process anyway).
-static GPU: Mutex<()> = Mutex::new(());
-
-fn tiledlight(args: &[&str]) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_tiledlight"));
-    cmd.args(args);
-    // Mesa's WSI complains on stderr without it; the complaint is noise to these tests.
-    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
-        cmd.env("XDG_RUNTIME_DIR", std::env::temp_dir());
-    }
-    cmd.output().expect("run the tiledlight binary")
-}
-
-fn gpu_run(args: &[&str]) -> Output {
-    let _guard = GPU.lock().unwrap_or_else(|e| e.into_inner());
-    let out = tiledlight(args);
-    assert!(
-        out.status.success(),
-        "tiledlight {args:?} failed ({:?}):\nstdout:\n{}\nstderr:\n{}",
-        out.status,
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
-}
-
-/// A fresh directory under the target dir for one test's outputs.
-fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli").join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 const TINY: [&str; 6] = ["--width", "64", "--height", "36", "--lights", "16"];
 
@@ -51,10 +17,6 @@ fn with_tiny<'a>(cmd: &'a str, rest: &[&'a str]) -> Vec<&'a str> {
     v.extend_from_slice(&TINY);
     v.extend_from_slice(rest);
     v
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
 }
 
 #[test]
@@ -192,17 +154,6 @@ fn render_gltf_with_its_own_and_random_lights() {
     more.extend(["--lights", "3", "--spot-lights", "2"]);
     let text = stdout(&gpu_run(&more));
     assert!(text.contains("4 point, 2 spot (1 from the glTF file + 5 random"), "{text}");
-}
-
-/// Runs a failing command; returns its single stderr line.
-fn fails(args: &[&str]) -> String {
-    let out = tiledlight(args);
-    let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(!out.status.success(), "tiledlight {args:?} succeeded:\n{}", stdout(&out));
-    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(lines.len(), 1, "tiledlight {args:?}: expected one error line, got:\n{err}");
-    assert!(lines[0].starts_with("error: "), "{err}");
-    lines[0].to_string()
 }
 
 /// Tiled Deferred renders and benches through the same flags, with its own passes.

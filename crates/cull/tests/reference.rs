@@ -14,8 +14,8 @@ use glam::Vec3;
 use rand::Rng;
 use tiledlight_cull::light::{order_points_first, pack_lights, PackedLights};
 use tiledlight_cull::reference::{
-    coarse_cells, false_positive_rate, half_z_split, lights_reaching, pixel_view_position, stats, CullStats,
-    COARSE_CAPACITY, COARSE_SIZE, MAX_CAPACITY,
+    coarse_cells, false_positive_rate, half_z_split, lights_reaching, list_quality, pixel_view_position, stats,
+    tile_ranges, CullStats, COARSE_CAPACITY, COARSE_SIZE, MAX_CAPACITY,
 };
 use tiledlight_cull::{cull_tiles, Camera, CullConfig, CullError, Light, LightKind, TileLists};
 
@@ -393,6 +393,57 @@ fn false_positive_rate_is_a_fraction_and_aabb_lowers_it() {
         lower += usize::from(a < p);
     }
     assert!(lower > 5, "the AABB test lowered the rate in only {lower} frames");
+}
+
+/// `list_quality` against a direct count: every pixel's list member tested with
+/// `lights_reaching` over all lights, and a list's light wasted when no pixel of it is reached.
+#[test]
+fn list_quality_matches_a_direct_count() {
+    for seed in 0..30 {
+        let f = frame(1300 + seed, DEPTH_MODES[seed as usize % 3]);
+        let config = CullConfig { tile_size: 4, half_z: seed % 2 == 0, ..CullConfig::default() };
+        let lists = cull(&f, config);
+        let q = list_quality(&f.depth, &f.camera, &f.packed, &lists);
+        let dp = f.camera.depth_params();
+        let (mut pixels, mut evaluated, mut wasted) = (0u64, 0u64, 0u64);
+        let mut reached = vec![std::collections::BTreeSet::new(); lists.lists.len()];
+        for y in 0..f.h {
+            for x in 0..f.w {
+                let d = f.depth[(y * f.w + x) as usize];
+                let Some(p) = pixel_view_position(&f.camera, f.w, f.h, x, y, d) else { continue };
+                let li = lists.list_index(lists.grid.tile_of_pixel(x, y), dp.view_distance(d));
+                let truth = lights_reaching(&f.camera.view(), &f.packed, p, 0.0);
+                pixels += 1;
+                evaluated += lists.lists[li].len() as u64;
+                wasted += lists.lists[li].iter().filter(|i| !truth.contains(i)).count() as u64;
+                reached[li].extend(truth);
+            }
+        }
+        let listed: usize = lists.lists.iter().map(Vec::len).sum();
+        let unused: usize =
+            lists.lists.iter().zip(&reached).map(|(l, r)| l.iter().filter(|i| !r.contains(i)).count()).sum();
+        assert_eq!(q.pixels, pixels, "seed {seed}");
+        let per = |n: u64| if pixels > 0 { n as f64 / pixels as f64 } else { 0.0 };
+        assert_eq!(q.evaluated_per_pixel, per(evaluated), "seed {seed}");
+        assert_eq!(q.wasted_per_pixel, per(wasted), "seed {seed}");
+        let fp = if listed > 0 { unused as f64 / listed as f64 } else { 0.0 };
+        assert_eq!(q.false_positive_rate, fp, "seed {seed}");
+        assert!(q.wasted_per_pixel <= q.evaluated_per_pixel);
+        assert_eq!(tile_ranges(&f.depth, &lists.grid, &f.camera).unwrap(), lists.ranges, "seed {seed}");
+    }
+}
+
+#[test]
+fn wasted_evaluations_by_hand() {
+    let (cam, depth, packed) = hand_frame();
+    // Left tile (256 of 512 pixels) lists lights 0 and 1 with plane tests, only 0 with the
+    // AABB test; light 1 reaches no pixel, so it is wasted at each of the 256 pixels.
+    let planes = cull_tiles(&depth, 32, 16, &cam, &packed, &CullConfig::default()).unwrap();
+    let aabb = cull_tiles(&depth, 32, 16, &cam, &packed, &CullConfig { aabb: true, ..CullConfig::default() }).unwrap();
+    let qp = list_quality(&depth, &cam, &packed, &planes);
+    let qa = list_quality(&depth, &cam, &packed, &aabb);
+    assert_eq!((qp.pixels, qp.evaluated_per_pixel, qa.evaluated_per_pixel), (512, 1.0, 0.5));
+    assert!((qp.wasted_per_pixel - qa.wasted_per_pixel - 0.5).abs() < 1e-12, "{qp:?} {qa:?}");
 }
 
 #[test]

@@ -1,0 +1,393 @@
+//! `tiledlight accuracy`: the speed/accuracy trade, measured. For every setting (the
+//! product of the `--axis` values; by default the intensity threshold, i.e. the light
+//! radius dial, times the culling test) it records the GPU time of each pass and the error
+//! of the image against the brute-force reference (every light for every pixel, plain
+//! inverse-square with no radius cutoff, the same frame): PSNR on linear HDR, FLIP mean,
+//! 99th percentile and maximum after tonemapping, the largest HDR error and the energy
+//! lost; and the culling statistics: mean/max lights per tile (the GPU's counts), the
+//! false-positive rate and wasted light evaluations per pixel (the CPU reference culler's
+//! lists for the GPU's depth buffer, `tiledlight_cull::reference::list_quality`).
+//!
+//! Output: a resumable CSV (one row per setting), a Pareto chart (time vs FLIP mean, the
+//! frontier drawn, the fastest setting under the target error ringed) and FLIP heat maps
+//! of the frontier's settings. May depend on [`crate::lab`], [`crate::bench`],
+//! [`crate::render`], [`crate::chart`], [`crate::scene_setup`], tiledlight-cull and
+//! tiledlight-metrics.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::{ensure, Context, Result};
+use clap::Args;
+use tiledlight_cull::reference::{cull_tiles, list_quality, ListQuality};
+use tiledlight_metrics::{flip, HdrError};
+
+use crate::bench::{self, MAX_FRAMES};
+use crate::chart::{self, ParetoChart, ParetoPoint};
+use crate::lab::{self, Axis, ResumableCsv};
+use crate::render::culling_stats;
+use crate::scene_setup::{group_digits, MethodArg, Prepared, SceneArgs};
+
+/// The settings measured when no `--axis` is given: thirteen thresholds, about halving
+/// (radii from 0.5x to 32x the default 0.1's; at 1e-4 every light of the default scene
+/// reaches every pixel), times three culling tests.
+pub const DEFAULT_AXES: [&str; 2] = [
+    "threshold=0.4,0.2,0.1,0.05,0.025,0.0125,0.00625,0.003,0.0015,0.0008,0.0004,0.0002,0.0001",
+    "culling=planes,aabb,half-z",
+];
+
+/// The FLIP percentile recorded besides the mean.
+pub const PERCENTILE: f32 = 0.99;
+
+/// Flags of `tiledlight accuracy`.
+#[derive(Args, Clone, Debug)]
+pub struct AccuracyArgs {
+    /// Scene, lights, screen and renderer: the settings every point starts from.
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// A setting to vary, NAME=VALUES (as for `sweep`) [default: threshold=0.4,0.2,...,0.0001
+    /// (13 values) and culling=planes,aabb,half-z]. Given axes replace default ones of the same name
+    /// and add to the others.
+    #[arg(long = "axis", value_name = "NAME=VALUES")]
+    pub axes: Vec<String>,
+    /// Measured frames per setting.
+    #[arg(long, default_value_t = 20, value_name = "N")]
+    pub frames: u32,
+    /// Frames rendered before measuring each setting.
+    #[arg(long, default_value_t = 5, value_name = "N")]
+    pub warmup: u32,
+    /// Measured frames of the brute-force reference (slow: every light for every pixel).
+    #[arg(long, default_value_t = 3, value_name = "N")]
+    pub reference_frames: u32,
+    /// The FLIP mean the recommendation must stay under.
+    #[arg(long, default_value_t = 0.01, value_name = "E")]
+    pub target_flip: f64,
+    /// CSV output, resumed when it exists with the same columns [default: out/accuracy.csv].
+    #[arg(long, value_name = "FILE.csv")]
+    pub out: Option<PathBuf>,
+    /// Pareto chart [default: the CSV path with .png].
+    #[arg(long, value_name = "FILE.png")]
+    pub chart: Option<PathBuf>,
+    /// Directory of the FLIP heat maps of the frontier's settings [default: the CSV path
+    /// without extension, plus "-flip"].
+    #[arg(long, value_name = "DIR")]
+    pub diff_dir: Option<PathBuf>,
+}
+
+const HEAD: [&str; 3] = ["adapter", "width", "height"];
+const TAIL: [&str; 17] = [
+    "total_ms",
+    "passes",
+    "psnr_db",
+    "flip_mean",
+    "flip_p99",
+    "flip_max",
+    "max_error",
+    "energy_lost",
+    "mean_lights_per_tile",
+    "max_lights_per_tile",
+    "overflowing_lists",
+    "false_positive_rate",
+    "wasted_per_pixel",
+    "evaluated_per_pixel",
+    "reference_ms",
+    "reference_passes",
+    "lights",
+];
+
+/// The CSV header of a run over `axes`.
+pub fn header(axes: &[Axis]) -> Vec<String> {
+    HEAD.iter()
+        .map(|s| s.to_string())
+        .chain(axes.iter().map(|a| a.name.clone()))
+        .chain(TAIL.iter().map(|s| s.to_string()))
+        .collect()
+}
+
+/// The brute-force, no-cutoff image of one scene, light set and screen.
+struct Reference {
+    hdr: Vec<[f32; 4]>,
+    ldr: Vec<u8>,
+    total_ms: f64,
+    passes: String,
+}
+
+/// What identifies a reference image: everything but the settings it is compared over
+/// (threshold, tests, tile size, method), which do not change it.
+fn reference_key(a: &SceneArgs) -> String {
+    format!(
+        "{}|{}|{:?}|{:?}|{:?}|{}|{}x{}|{}|{}",
+        a.scene, a.grid_objects, a.density, a.lights, a.spot_lights, a.seed, a.width, a.height, a.exposure, a.msaa
+    )
+}
+
+/// "depth_prepass=0.592;forward.cull=0.043" and their sum.
+fn pass_times(m: &bench::Measurement) -> Result<(f64, String)> {
+    ensure!(m.timestamps, "the adapter has no timestamp queries: the accuracy lab needs GPU pass times");
+    let passes = m.passes();
+    ensure!(!passes.is_empty(), "no frame's timestamps came back");
+    let total = passes.iter().map(|p| p.summary.median_ms).sum();
+    let text = passes.iter().map(|p| format!("{}={:.4}", p.pass, p.summary.median_ms)).collect::<Vec<_>>().join(";");
+    Ok((total, text))
+}
+
+fn render_reference(prep: &mut Prepared, point_args: &SceneArgs, frames: u32) -> Result<Reference> {
+    let args = SceneArgs { method: MethodArg::BruteForceNoCutoff, ..point_args.clone() };
+    prep.reconfigure(&args)?;
+    let r = prep.renderer(false)?;
+    let m = bench::measure(prep, r.as_ref(), 1, frames).context("rendering the brute-force reference")?;
+    let (total_ms, passes) = pass_times(&m)?;
+    let hdr = r.read_hdr(&prep.ctx).context("reading the reference back")?;
+    let ldr = r.read_ldr(&prep.ctx).context("reading the reference back")?;
+    Ok(Reference { hdr, ldr, total_ms, passes })
+}
+
+/// Culling quality of the frame just rendered: the CPU reference culler's lists for the
+/// GPU's depth buffer (the GPU test suite checks they are the GPU's lists), scored pixel
+/// by pixel. None for the untiled methods.
+fn quality(prep: &Prepared, depth: &[f32]) -> Result<Option<ListQuality>> {
+    if !prep.args.method.is_tiled() {
+        return Ok(None);
+    }
+    let a = &prep.args;
+    let config = a.cull_options().to_config(prep.lights.has_spots());
+    let lists = cull_tiles(depth, a.width, a.height, &prep.camera, &prep.lights.packed, &config)
+        .context("culling on the CPU for the statistics")?;
+    // With MSAA the lists bound every sample; pixels are scored at their sample 0.
+    let pixels: Vec<f32> = depth.iter().step_by(a.msaa.max(1) as usize).copied().collect();
+    Ok(Some(list_quality(&pixels, &prep.camera, &prep.lights.packed, &lists)))
+}
+
+fn f(v: f64, digits: usize) -> String {
+    if v.is_finite() {
+        format!("{v:.digits$}")
+    } else if v > 0.0 {
+        "inf".into()
+    } else {
+        "nan".into()
+    }
+}
+
+/// Runs `tiledlight accuracy`.
+pub fn run(args: &AccuracyArgs) -> Result<()> {
+    ensure!((1..=MAX_FRAMES).contains(&args.frames), "--frames {}: must be between 1 and {MAX_FRAMES}", args.frames);
+    ensure!(args.warmup <= MAX_FRAMES, "--warmup {}: must be at most {MAX_FRAMES}", args.warmup);
+    ensure!(
+        (1..=MAX_FRAMES).contains(&args.reference_frames),
+        "--reference-frames {}: must be between 1 and {MAX_FRAMES}",
+        args.reference_frames
+    );
+    ensure!(
+        args.target_flip.is_finite() && args.target_flip > 0.0 && args.target_flip <= 1.0,
+        "--target-flip {}: must be in (0, 1]",
+        args.target_flip
+    );
+    let defaults: Vec<Axis> = DEFAULT_AXES.iter().map(|s| lab::parse_axis(s)).collect::<Result<_>>()?;
+    let given: Vec<Axis> = args.axes.iter().map(|s| lab::parse_axis(s)).collect::<Result<_>>()?;
+    let axes = lab::merge_axes(defaults, given);
+    let points = lab::points(&axes)?;
+    let all_args: Vec<SceneArgs> = points.iter().map(|p| lab::args_at(&args.scene, &axes, p)).collect::<Result<_>>()?;
+    ensure!(
+        all_args.iter().all(|a| a.method != MethodArg::BruteForceNoCutoff),
+        "method brute-force-no-cutoff is the reference itself: leave it out of the settings"
+    );
+    let out = args.out.clone().unwrap_or_else(|| PathBuf::from("out/accuracy.csv"));
+    let chart_path = args.chart.clone().unwrap_or_else(|| lab::sibling(&out, "png"));
+    let ext = chart_path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    ensure!(ext.as_deref() == Some("png"), "--chart {}: only .png charts are supported", chart_path.display());
+    let diff_dir = args.diff_dir.clone().unwrap_or_else(|| {
+        let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("accuracy");
+        out.with_file_name(format!("{stem}-flip"))
+    });
+
+    let head = header(&axes);
+    let key: Vec<usize> = (HEAD.len()..HEAD.len() + axes.len()).collect();
+    let mut csv = ResumableCsv::open(&out, &head, &key, None)?;
+    let pending: Vec<usize> = (0..points.len()).filter(|&i| !csv.is_done(&points[i])).collect();
+    println!(
+        "accuracy:   {} settings ({}), {} already in {}",
+        points.len(),
+        axes.iter().map(|a| format!("{} x{}", a.name, a.values.len())).collect::<Vec<_>>().join(", "),
+        points.len() - pending.len(),
+        out.display()
+    );
+    let mut prep: Option<Prepared> = None;
+    let mut references: HashMap<String, Reference> = HashMap::new();
+    let mut heat: HashMap<Vec<String>, Vec<u8>> = HashMap::new();
+    let mut adapter = String::new();
+    let pb = lab::progress(pending.len());
+    for &i in &pending {
+        let (point, pargs) = (&points[i], &all_args[i]);
+        let what = lab::describe(&axes, point);
+        pb.set_message(what.clone());
+        let p = match prep.as_mut() {
+            Some(p) => p,
+            None => {
+                let p = Prepared::new(pargs).with_context(|| what.clone())?;
+                adapter = p.ctx.info.name.clone();
+                let size = [adapter.as_str(), &pargs.width.to_string(), &pargs.height.to_string()];
+                lab::check_same_setup(&csv.existing, [0, 1, 2], size, &out)?;
+                lab::say(&pb, format!("adapter:    {}", p.ctx.describe()));
+                prep.insert(p)
+            }
+        };
+        let rkey = reference_key(pargs);
+        if !references.contains_key(&rkey) {
+            let r = render_reference(p, pargs, args.reference_frames).with_context(|| format!("{what}: reference"))?;
+            lab::say(&pb, format!("reference (brute force, no cutoff): {:.3} ms", r.total_ms));
+            references.insert(rkey.clone(), r);
+        }
+        let reference = &references[&rkey];
+        p.reconfigure(pargs).with_context(|| what.clone())?;
+        let renderer = p.renderer(false).with_context(|| what.clone())?;
+        let m = bench::measure(p, renderer.as_ref(), args.warmup, args.frames).with_context(|| what.clone())?;
+        let (total, passes) = pass_times(&m).with_context(|| what.clone())?;
+        let stats = culling_stats(p, renderer.as_ref())?;
+        let depth = renderer.read_depth(&p.ctx).context("reading the depth buffer back")?;
+        let hdr = renderer.read_hdr(&p.ctx).context("reading the image back")?;
+        let ldr = renderer.read_ldr(&p.ctx).context("reading the image back")?;
+        p.check_gpu_errors()?;
+        let q = quality(p, &depth)?;
+        let e = HdrError::of(&reference.hdr, &hdr);
+        let map = flip(pargs.width, pargs.height, &reference.ldr, &ldr);
+        let fl = map.summary(PERCENTILE);
+        heat.insert(point.clone(), map.heat_rgb());
+        let mut row = vec![adapter.clone(), pargs.width.to_string(), pargs.height.to_string()];
+        row.extend(point.iter().cloned());
+        let opt = |v: Option<String>| v.unwrap_or_default();
+        row.extend([
+            f(total, 4),
+            passes,
+            f(e.psnr_db, 3),
+            f(f64::from(fl.mean), 6),
+            f(f64::from(fl.percentile), 6),
+            f(f64::from(fl.max), 6),
+            f(e.max_error, 6),
+            f(e.energy_lost, 6),
+            opt(stats.as_ref().map(|s| f(s.mean_per_list, 3))),
+            opt(stats.as_ref().map(|s| s.max_per_list.to_string())),
+            opt(stats.as_ref().map(|s| s.overflowing.to_string())),
+            opt(q.map(|q| f(q.false_positive_rate, 6))),
+            opt(q.map(|q| f(q.wasted_per_pixel, 4))),
+            opt(q.map(|q| f(q.evaluated_per_pixel, 4))),
+            f(reference.total_ms, 4),
+            reference.passes.clone(),
+            p.lights.len().to_string(),
+        ]);
+        csv.append(&[row])?;
+        lab::say(
+            &pb,
+            format!(
+                "{what}: {total:.3} ms, FLIP mean {:.5} p99 {:.4}, PSNR {:.2} dB, energy lost {:.3}%",
+                fl.mean,
+                fl.percentile,
+                e.psnr_db,
+                100.0 * e.energy_lost
+            ),
+        );
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    let rows = csv.read_all()?;
+    let summary = report(&chart_path, &diff_dir, &axes, &rows, &heat, args)?;
+    println!("{summary}");
+    println!("wrote {} and {}", out.display(), chart_path.display());
+    Ok(())
+}
+
+/// Draws the Pareto chart, writes the heat maps of the frontier's settings measured in
+/// this run, and returns the recommendation line.
+fn report(
+    chart_path: &Path,
+    diff_dir: &Path,
+    axes: &[Axis],
+    rows: &[Vec<String>],
+    heat: &HashMap<Vec<String>, Vec<u8>>,
+    args: &AccuracyArgs,
+) -> Result<String> {
+    let head = header(axes);
+    let col = |name: &str| head.iter().position(|h| h == name).expect("known column");
+    let n = HEAD.len();
+    let threshold = axes.iter().position(|a| a.name == "threshold");
+    // Colour by the axes with several values other than the threshold; label by threshold.
+    let series_axes: Vec<usize> =
+        (0..axes.len()).filter(|&i| Some(i) != threshold && axes[i].values.len() > 1).collect();
+    let parse = |r: &Vec<String>, c: &str| r[col(c)].parse::<f64>().unwrap_or(f64::NAN);
+    let points: Vec<ParetoPoint> = rows
+        .iter()
+        .map(|r| ParetoPoint {
+            series: {
+                let s = series_axes.iter().map(|&i| r[n + i].clone()).collect::<Vec<_>>().join(", ");
+                if s.is_empty() {
+                    "settings".into()
+                } else {
+                    s
+                }
+            },
+            label: match threshold {
+                Some(t) => format!("T={}", r[n + t]),
+                None => String::new(),
+            },
+            time: parse(r, "total_ms"),
+            error: parse(r, "flip_mean"),
+        })
+        .collect();
+    let frontier = chart::pareto_frontier(&points);
+    let chosen = frontier.iter().copied().find(|&i| points[i].error < args.target_flip);
+    let describe = |i: usize| lab::describe(axes, &rows[i][n..n + axes.len()].to_vec());
+    let note = match chosen {
+        Some(i) => format!(
+            "fastest under FLIP mean {}: {} at {:.3} ms (FLIP mean {:.4})",
+            args.target_flip,
+            describe(i),
+            points[i].time,
+            points[i].error
+        ),
+        None => format!("no setting reaches FLIP mean < {}", args.target_flip),
+    };
+    let first = rows.first();
+    let adapter = first.map(|r| r[0].clone()).unwrap_or_default();
+    let res = first.map(|r| format!("{}x{}", r[1], r[2])).unwrap_or_default();
+    let lights = first.map(|r| group_digits(r[col("lights")].parse().unwrap_or(0))).unwrap_or_default();
+    let fixed: Vec<String> =
+        axes.iter().filter(|a| a.values.len() == 1).map(|a| format!("{}={}", a.name, a.values[0])).collect();
+    let s = &args.scene;
+    let c = ParetoChart {
+        title: format!("Speed vs accuracy: {adapter}, {res}"),
+        subtitle: format!(
+            "{} scene, {lights} lights, {}{}{}; error vs brute force without cutoff; labels: intensity threshold T",
+            s.scene,
+            s.method.name(),
+            if fixed.is_empty() { "" } else { ", " },
+            fixed.join(", ")
+        ),
+        x_label: "GPU frame time, ms (sum of pass medians)".into(),
+        y_label: "FLIP mean (tonemapped, vs reference)".into(),
+        points,
+        target: Some((args.target_flip, format!("target: FLIP mean {}", args.target_flip))),
+        chosen,
+        note: Some(note.clone()),
+    };
+    chart::pareto_chart(chart_path, &c)?;
+    let (w, h) = first.map(|r| (r[1].parse().unwrap_or(0), r[2].parse().unwrap_or(0))).unwrap_or((0, 0));
+    let mut wrote = 0;
+    for &i in &frontier {
+        let key = rows[i][n..n + axes.len()].to_vec();
+        let Some(rgb) = heat.get(&key) else { continue };
+        let name = format!("flip-{}.png", describe(i).replace(' ', "_").replace(['=', '+'], "-"));
+        let img = image::RgbImage::from_raw(w, h, rgb.clone()).context("building a heat map image")?;
+        crate::scene_setup::save_png(&diff_dir.join(name), &img)?;
+        wrote += 1;
+    }
+    let mut out = format!(
+        "frontier:   {} of {} settings: {}\n",
+        frontier.len(),
+        rows.len(),
+        frontier.iter().map(|&i| describe(i)).collect::<Vec<_>>().join("; ")
+    );
+    if wrote > 0 {
+        out.push_str(&format!("heat maps:  {wrote} in {}\n", diff_dir.display()));
+    }
+    out.push_str(&format!("result:     {note}"));
+    Ok(out)
+}

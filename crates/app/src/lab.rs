@@ -1,0 +1,471 @@
+//! What the measurement lab's two subcommands (`sweep`, `accuracy`) share: the axes a
+//! run varies (`--axis NAME=VALUES`), parsed and applied to [`SceneArgs`]; the points of a
+//! run (the product of its axes); the resumable CSV file that records them; and the
+//! progress bar.
+//!
+//! An axis is one entry of [`AXES`]: adding a setting to the lab (as MSAA and its edge
+//! thresholds were) is one more entry there and one more arm in [`apply`]. May depend on
+//! [`crate::scene_setup`].
+
+use std::collections::HashSet;
+use std::fs::OpenOptions;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, ensure, Context, Result};
+use clap::ValueEnum;
+use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::scene_setup::{DensityArg, MethodArg, SceneArgs};
+
+/// The most points one run may have (a guard against a typo that would run for days).
+pub const MAX_POINTS: usize = 10_000;
+
+/// The axes a sweep can vary: name and what its values are.
+pub const AXES: &[(&str, &str)] = &[
+    ("lights", "random point lights (integer; ranges allowed)"),
+    ("spot-lights", "random spot lights (integer; ranges allowed)"),
+    ("method", "forward-plus | deferred | brute-force | brute-force-no-cutoff"),
+    ("grid-objects", "grid objects of the default scene, 0..280 (integer; ranges allowed)"),
+    ("density", "grid object tessellation: low | medium | high"),
+    ("gbuffer-rts", "Tiled Deferred G-buffer targets, 2..5"),
+    ("tile-size", "8 | 16 | 32"),
+    ("threshold", "light intensity threshold, the radius dial (number; ranges allowed)"),
+    ("culling", "culling tests: planes | aabb | half-z | aabb+half-z"),
+    ("aabb", "sphere-vs-AABB test: on | off"),
+    ("half-z", "two lists per tile: on | off"),
+    ("seed", "seed of the random lights (integer)"),
+    ("msaa", "MSAA samples per pixel: 1 | 2 | 4 | 8"),
+    ("edge-distance", "Tiled Deferred MSAA edge test: off-plane distance / view distance (number; ranges allowed)"),
+    ("edge-normal-deg", "Tiled Deferred MSAA edge test: normal angle in degrees (number; ranges allowed)"),
+];
+
+/// One swept axis: its name (a key of [`AXES`]) and its values, in sweep order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Axis {
+    /// Name, e.g. "lights".
+    pub name: String,
+    /// Values as the CSV records them, e.g. "256".
+    pub values: Vec<String>,
+}
+
+fn known(name: &str) -> Result<()> {
+    if AXES.iter().any(|(n, _)| *n == name) {
+        return Ok(());
+    }
+    let names: Vec<&str> = AXES.iter().map(|(n, _)| *n).collect();
+    bail!("unknown axis '{name}': expected one of {}", names.join(", "))
+}
+
+fn is_integer_axis(name: &str) -> bool {
+    matches!(name, "lights" | "spot-lights" | "grid-objects" | "gbuffer-rts" | "tile-size" | "seed" | "msaa")
+}
+
+/// Whether the axis's values are numbers (plotted on a numeric x axis).
+pub fn is_numeric_axis(name: &str) -> bool {
+    is_integer_axis(name) || matches!(name, "threshold" | "edge-distance" | "edge-normal-deg")
+}
+
+/// Parses `NAME=VALUES`. VALUES is a comma-separated list, or for numeric axes a range
+/// `A..B` (A, 2A, 4A, ... up to B, B included; halving when B < A) or `A..B:N` (N values
+/// evenly spaced on a log scale, integers rounded).
+pub fn parse_axis(spec: &str) -> Result<Axis> {
+    let (name, values) = spec.split_once('=').with_context(|| format!("--axis {spec}: expected NAME=VALUES"))?;
+    let name = name.trim();
+    known(name).with_context(|| format!("--axis {spec}"))?;
+    let values = values.trim();
+    ensure!(!values.is_empty(), "--axis {spec}: no values (an empty sweep)");
+    let list: Vec<String> = if let Some((a, b)) = values.split_once("..") {
+        ensure!(is_numeric_axis(name), "--axis {spec}: ranges need a numeric axis, '{name}' is not");
+        range(name, a, b).with_context(|| format!("--axis {spec}"))?
+    } else {
+        values.split(',').map(|v| v.trim().to_string()).collect()
+    };
+    for v in &list {
+        // Check every value now, not after an hour of measuring the ones before it.
+        apply(&mut SceneArgs::default(), name, v).with_context(|| format!("--axis {spec}"))?;
+    }
+    let mut seen = HashSet::new();
+    if let Some(d) = list.iter().find(|v| !seen.insert(v.as_str())) {
+        bail!("--axis {spec}: value {d} appears twice");
+    }
+    Ok(Axis { name: name.to_string(), values: list })
+}
+
+fn number(name: &str, v: &str) -> Result<f64> {
+    let x: f64 = v.trim().parse().with_context(|| format!("'{v}' is not a number"))?;
+    ensure!(x.is_finite() && x > 0.0, "range bound {v} of '{name}' must be a positive number");
+    Ok(x)
+}
+
+/// The values of `A..B` or `A..B:N` (see [`parse_axis`]).
+fn range(name: &str, a: &str, b: &str) -> Result<Vec<String>> {
+    let (b, steps) = match b.split_once(':') {
+        Some((b, n)) => (b, Some(n.trim().parse::<usize>().with_context(|| format!("step count '{n}'"))?)),
+        None => (b, None),
+    };
+    let (a, b) = (number(name, a)?, number(name, b)?);
+    let mut xs = Vec::new();
+    match steps {
+        Some(n) => {
+            ensure!((2..=MAX_POINTS).contains(&n), "step count {n}: must be between 2 and {MAX_POINTS}");
+            let r = (b / a).ln() / (n - 1) as f64;
+            xs.extend((0..n).map(|i| a * (r * i as f64).exp()));
+            xs[n - 1] = b;
+        }
+        None => {
+            let f = if b >= a { 2.0 } else { 0.5 };
+            let mut x = a;
+            while (f > 1.0 && x < b * (1.0 - 1e-9)) || (f < 1.0 && x > b * (1.0 + 1e-9)) {
+                xs.push(x);
+                x *= f;
+                ensure!(xs.len() < MAX_POINTS, "the range has more than {MAX_POINTS} values");
+            }
+            xs.push(b);
+        }
+    }
+    let mut out: Vec<String> = Vec::new();
+    for x in xs {
+        let s = if is_integer_axis(name) { format!("{}", x.round() as u64) } else { format_number(x) };
+        if !out.contains(&s) {
+            out.push(s);
+        }
+    }
+    Ok(out)
+}
+
+/// A number with at most 6 significant digits and no trailing zeros: 0.0125, 400, 1e-5.
+pub fn format_number(x: f64) -> String {
+    let s = format!("{x:.6e}");
+    let v: f64 = s.parse().unwrap_or(x);
+    format!("{v}")
+}
+
+fn on_off(v: &str) -> Result<bool> {
+    match v {
+        "on" | "true" | "yes" | "1" => Ok(true),
+        "off" | "false" | "no" | "0" => Ok(false),
+        _ => bail!("'{v}': expected on or off"),
+    }
+}
+
+/// Sets axis `name` of `args` to `value`. The ranges are checked by
+/// [`SceneArgs::validate`] when the point runs; here only the syntax.
+pub fn apply(args: &mut SceneArgs, name: &str, value: &str) -> Result<()> {
+    let int =
+        || -> Result<u64> { value.parse::<u64>().with_context(|| format!("{name} '{value}': expected an integer")) };
+    let small = || -> Result<u32> {
+        let n = int()?;
+        u32::try_from(n).with_context(|| format!("{name} {n}: too large"))
+    };
+    match name {
+        "lights" => args.lights = Some(int()?),
+        "spot-lights" => args.spot_lights = Some(int()?),
+        "seed" => args.seed = int()?,
+        "grid-objects" => args.grid_objects = small()?,
+        "gbuffer-rts" => args.gbuffer_rts = small()?,
+        "tile-size" => args.tile_size = small()?,
+        "msaa" => args.msaa = small()?,
+        "edge-distance" => {
+            args.edge_distance = value.parse().with_context(|| format!("edge-distance '{value}': expected a number"))?
+        }
+        "edge-normal-deg" => {
+            args.edge_normal_deg =
+                value.parse().with_context(|| format!("edge-normal-deg '{value}': expected a number"))?
+        }
+        "threshold" => {
+            args.threshold = value.parse().with_context(|| format!("threshold '{value}': expected a number"))?
+        }
+        "method" => {
+            args.method = MethodArg::from_str(value, true).map_err(|e| anyhow::anyhow!("method '{value}': {e}"))?
+        }
+        "density" => {
+            args.density = DensityArg::from_str(value, true).map_err(|e| anyhow::anyhow!("density '{value}': {e}"))?
+        }
+        "aabb" => args.aabb = on_off(value)?,
+        "half-z" => args.half_z = on_off(value)?,
+        "culling" => {
+            (args.aabb, args.half_z) = match value {
+                "planes" => (false, false),
+                "aabb" => (true, false),
+                "half-z" => (false, true),
+                "aabb+half-z" => (true, true),
+                _ => bail!("culling '{value}': expected planes, aabb, half-z or aabb+half-z"),
+            }
+        }
+        _ => known(name)?,
+    }
+    let probe = args.validate();
+    // Only this axis's own range matters here; other flags are checked when the point runs.
+    if let Err(e) = probe {
+        let msg = e.to_string();
+        let flag = format!("--{name} ");
+        if msg.starts_with(&flag) {
+            return Err(e);
+        }
+    }
+    Ok(())
+}
+
+/// One point of a run: per axis, its value (in axis order).
+pub type Point = Vec<String>;
+
+/// Every point of `axes` (their product, the first axis varying slowest).
+pub fn points(axes: &[Axis]) -> Result<Vec<Point>> {
+    ensure!(!axes.is_empty(), "nothing to sweep: give at least one --axis NAME=VALUES");
+    let mut names = HashSet::new();
+    for a in axes {
+        ensure!(names.insert(a.name.as_str()), "axis '{}' is given twice", a.name);
+    }
+    let total = axes.iter().try_fold(1usize, |n, a| n.checked_mul(a.values.len())).unwrap_or(usize::MAX);
+    ensure!(total <= MAX_POINTS, "{total} points: at most {MAX_POINTS} per run (fewer values per axis)");
+    let mut out: Vec<Point> = vec![vec![]];
+    for a in axes {
+        out = out.iter().flat_map(|p| a.values.iter().map(move |v| [p.clone(), vec![v.clone()]].concat())).collect();
+    }
+    Ok(out)
+}
+
+/// `base` with the point's values applied.
+pub fn args_at(base: &SceneArgs, axes: &[Axis], point: &Point) -> Result<SceneArgs> {
+    let mut args = base.clone();
+    for (a, v) in axes.iter().zip(point) {
+        apply(&mut args, &a.name, v)?;
+    }
+    args.validate().with_context(|| describe(axes, point))?;
+    Ok(args)
+}
+
+/// "lights=256 method=deferred".
+pub fn describe(axes: &[Axis], point: &Point) -> String {
+    axes.iter().zip(point).map(|(a, v)| format!("{}={v}", a.name)).collect::<Vec<_>>().join(" ")
+}
+
+/// Replaces axes of `base` by those of `over` with the same name and appends the others.
+pub fn merge_axes(base: Vec<Axis>, over: Vec<Axis>) -> Vec<Axis> {
+    let mut out = base;
+    for a in over {
+        match out.iter_mut().find(|b| b.name == a.name) {
+            Some(b) => *b = a,
+            None => out.push(a),
+        }
+    }
+    out
+}
+
+/// A CSV file that a run appends to point by point and that a later run with the same
+/// header resumes: points already complete are skipped, rows of an incomplete point (a
+/// run cut off while writing) are dropped.
+pub struct ResumableCsv {
+    path: PathBuf,
+    header: Vec<String>,
+    key: Vec<usize>,
+    done: HashSet<Vec<String>>,
+    writer: csv::Writer<std::fs::File>,
+    /// The rows found in the file when it was opened.
+    pub existing: Vec<Vec<String>>,
+}
+
+impl ResumableCsv {
+    /// Opens (or creates) `path` with `header`. A point is keyed by the columns `key`; it
+    /// is complete once a row has `marker.1` in column `marker.0` (or any row, without a
+    /// marker). An existing file with another header is an error, never overwritten.
+    pub fn open(path: &Path, header: &[String], key: &[usize], marker: Option<(usize, &str)>) -> Result<Self> {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).with_context(|| format!("creating directory {}", dir.display()))?;
+        }
+        let key_of = |r: &[String]| key.iter().map(|&i| r[i].clone()).collect::<Vec<_>>();
+        let mut existing = Vec::new();
+        let mut done = HashSet::new();
+        let fresh = !path.exists() || std::fs::metadata(path).map(|m| m.len() == 0).unwrap_or(true);
+        if !fresh {
+            let mut r = csv::ReaderBuilder::new()
+                .flexible(true)
+                .from_path(path)
+                .with_context(|| format!("reading {}", path.display()))?;
+            let found: Vec<String> = r.headers()?.iter().map(str::to_string).collect();
+            ensure!(
+                found == header,
+                "{} exists with other columns ({}), not this run's ({}): choose another output file or remove it",
+                path.display(),
+                found.join(","),
+                header.join(",")
+            );
+            for rec in r.records() {
+                // A line cut short by an interrupted run is dropped with its point.
+                let Ok(rec) = rec else { continue };
+                if rec.len() != header.len() {
+                    continue;
+                }
+                existing.push(rec.iter().map(str::to_string).collect::<Vec<_>>());
+            }
+            for row in &existing {
+                if marker.is_none_or(|(c, v)| row[c] == v) {
+                    done.insert(key_of(row));
+                }
+            }
+            let before = existing.len();
+            existing.retain(|row| done.contains(&key_of(row)));
+            if existing.len() != before {
+                // Rewrite without the incomplete point's rows so it can be measured again.
+                let mut w = csv::Writer::from_path(path).with_context(|| format!("rewriting {}", path.display()))?;
+                w.write_record(header)?;
+                for row in &existing {
+                    w.write_record(row)?;
+                }
+                w.flush()?;
+            }
+        }
+        let file = OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(path)
+            .with_context(|| format!("opening {} for writing", path.display()))?;
+        let mut writer = csv::WriterBuilder::new().has_headers(false).from_writer(file);
+        if fresh {
+            writer.write_record(header)?;
+            writer.flush()?;
+        }
+        Ok(Self { path: path.to_path_buf(), header: header.to_vec(), key: key.to_vec(), done, writer, existing })
+    }
+
+    /// Whether the point with these key values is already in the file.
+    pub fn is_done(&self, key: &[String]) -> bool {
+        self.done.contains(key)
+    }
+
+    /// Appends one point's rows and flushes them to disk.
+    pub fn append(&mut self, rows: &[Vec<String>]) -> Result<()> {
+        for r in rows {
+            ensure!(r.len() == self.header.len(), "internal: a row of {} columns for {}", r.len(), self.header.len());
+            self.writer.write_record(r)?;
+        }
+        self.writer.flush().with_context(|| format!("writing {}", self.path.display()))?;
+        if let Some(r) = rows.first() {
+            self.done.insert(self.key.iter().map(|&i| r[i].clone()).collect());
+        }
+        Ok(())
+    }
+
+    /// Every row now in the file (after a run: the old ones and the new ones).
+    pub fn read_all(&self) -> Result<Vec<Vec<String>>> {
+        let mut r = csv::Reader::from_path(&self.path).with_context(|| format!("reading {}", self.path.display()))?;
+        let rows: Result<Vec<Vec<String>>, csv::Error> =
+            r.records().map(|rec| rec.map(|rec| rec.iter().map(str::to_string).collect())).collect();
+        rows.with_context(|| format!("reading {}", self.path.display()))
+    }
+}
+
+/// Fails when rows of an existing file were measured on another adapter or screen (the
+/// columns `adapter`, `width`, `height` at `cols`): mixing them would compare GPUs.
+pub fn check_same_setup(rows: &[Vec<String>], cols: [usize; 3], now: [&str; 3], path: &Path) -> Result<()> {
+    if let Some(r) = rows.iter().find(|r| cols.iter().zip(now).any(|(&c, v)| r[c] != v)) {
+        bail!(
+            "{} holds points measured on {} at {}x{}, this run is {} at {}x{}: choose another output file",
+            path.display(),
+            r[cols[0]],
+            r[cols[1]],
+            r[cols[2]],
+            now[0],
+            now[1],
+            now[2]
+        );
+    }
+    Ok(())
+}
+
+/// A progress bar of `n` points on stderr (hidden when stderr is not a terminal).
+pub fn progress(n: usize) -> ProgressBar {
+    let pb = ProgressBar::new(n as u64);
+    if let Ok(style) =
+        ProgressStyle::with_template("{bar:30} {pos}/{len} points, {elapsed} elapsed, ~{eta} left  {msg}")
+    {
+        pb.set_style(style);
+    }
+    pb
+}
+
+/// Prints a line above the progress bar, or plainly when the bar is hidden (output to a
+/// file or pipe, where a log of every point is wanted).
+pub fn say(pb: &ProgressBar, line: String) {
+    if pb.is_hidden() {
+        println!("{line}");
+    } else {
+        pb.println(line);
+    }
+}
+
+/// `path` with its extension replaced by `ext`.
+pub fn sibling(path: &Path, ext: &str) -> PathBuf {
+    path.with_extension(ext)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ranges_and_lists() {
+        assert_eq!(parse_axis("lights=64..1000").unwrap().values, ["64", "128", "256", "512", "1000"]);
+        assert_eq!(parse_axis("lights=64..65536:4").unwrap().values, ["64", "645", "6502", "65536"]);
+        assert_eq!(parse_axis("threshold=0.4..0.05").unwrap().values, ["0.4", "0.2", "0.1", "0.05"]);
+        assert_eq!(parse_axis("method=forward-plus, deferred").unwrap().values, ["forward-plus", "deferred"]);
+        assert_eq!(parse_axis("culling=planes,aabb+half-z").unwrap().values.len(), 2);
+    }
+
+    #[test]
+    fn bad_axes_are_clear_errors() {
+        let e = |s: &str| format!("{:#}", parse_axis(s).unwrap_err());
+        assert!(e("colour=1,2").contains("unknown axis 'colour'"), "{}", e("colour=1,2"));
+        assert!(e("lights=").contains("empty sweep"));
+        assert!(e("lights").contains("NAME=VALUES"));
+        assert!(e("method=forward").contains("method 'forward'"));
+        assert!(e("method=a..b").contains("numeric"));
+        assert!(e("lights=0..8").contains("positive"));
+        assert!(e("lights=99999999999").contains("--lights"), "{}", e("lights=99999999999"));
+        assert!(e("tile-size=12").contains("--tile-size 12"));
+        assert!(e("threshold=-1").contains("--threshold"));
+        assert!(e("lights=1,1").contains("twice"));
+        assert!(e("lights=1..1e9:100000").contains("step count"));
+        assert!(points(&[]).is_err());
+    }
+
+    #[test]
+    fn points_are_the_product() {
+        let axes = vec![parse_axis("lights=1,2").unwrap(), parse_axis("method=forward-plus,deferred").unwrap()];
+        let p = points(&axes).unwrap();
+        assert_eq!(p.len(), 4);
+        assert_eq!(p[1], ["1", "deferred"]);
+        let a = args_at(&SceneArgs::default(), &axes, &p[3]).unwrap();
+        assert_eq!((a.lights, a.method), (Some(2), MethodArg::Deferred));
+        let merged = merge_axes(axes.clone(), vec![parse_axis("lights=8").unwrap(), parse_axis("seed=3").unwrap()]);
+        assert_eq!(merged.iter().map(|a| a.values.len()).collect::<Vec<_>>(), [1, 2, 1]);
+        assert!(points(&[axes[0].clone(), axes[0].clone()]).is_err());
+    }
+
+    #[test]
+    fn csv_resumes_and_drops_incomplete_points() {
+        let dir = std::env::temp_dir().join(format!("tiledlight-lab-{}", std::process::id()));
+        let path = dir.join("r.csv");
+        let _ = std::fs::remove_file(&path);
+        let header: Vec<String> = ["k", "pass", "ms"].map(String::from).to_vec();
+        let row = |k: &str, p: &str| vec![k.to_string(), p.to_string(), "1".to_string()];
+        {
+            let mut c = ResumableCsv::open(&path, &header, &[0], Some((1, "total"))).unwrap();
+            c.append(&[row("a", "x"), row("a", "total")]).unwrap();
+            c.append(&[row("b", "x")]).unwrap(); // cut off before its total
+        }
+        let c = ResumableCsv::open(&path, &header, &[0], Some((1, "total"))).unwrap();
+        assert!(c.is_done(&["a".into()]) && !c.is_done(&["b".into()]));
+        assert_eq!(c.read_all().unwrap().len(), 2, "b's partial row dropped");
+        let other: Vec<String> = ["k", "ms"].map(String::from).to_vec();
+        let e = ResumableCsv::open(&path, &other, &[0], None).err().unwrap();
+        assert!(e.to_string().contains("other columns"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn numbers_are_short() {
+        assert_eq!(format_number(0.1 * 0.5 * 0.5), "0.025");
+        assert_eq!(format_number(400.0), "400");
+    }
+}

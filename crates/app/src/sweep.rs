@@ -1,0 +1,409 @@
+//! `tiledlight sweep`: per-pass GPU time over a grid of settings (`--axis NAME=VALUES`,
+//! any number of axes, every combination), one GPU context for the whole run, written
+//! point by point to a resumable CSV and drawn as a chart of frame time (the sum of the
+//! per-pass medians) against the x axis, one line per combination of the other axes. With
+//! two lines over a numeric x, the chart marks where they cross.
+//!
+//! `--preset figure9` is the comparison of AMD's sample (reference 000, Figure 9): Forward+
+//! vs Tiled Deferred over the light count, ~750k triangles, 4 G-buffer targets.
+//!
+//! May depend on [`crate::lab`], [`crate::bench`] (the frame loop), [`crate::render`]
+//! (culling statistics), [`crate::chart`] and [`crate::scene_setup`].
+
+use std::path::PathBuf;
+
+use anyhow::{ensure, Context, Result};
+use clap::{Args, ValueEnum};
+
+use crate::bench::{self, MAX_FRAMES};
+use crate::chart::{self, AxisSpec, LineChart, Scale, Series};
+use crate::lab::{self, Axis, ResumableCsv};
+use crate::render::culling_stats;
+use crate::scene_setup::{group_digits, Prepared, SceneArgs};
+
+/// Named sweeps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Preset {
+    /// AMD's Figure 9: frame time vs light count (32 to 16,384, denser around the
+    /// sample's 1,792-light crossover; down to 32 because on an H100 the crossover lies
+    /// below 256), Forward+ and Tiled Deferred, the default scene plus 280 medium grid
+    /// objects (748,980 triangles), 4 G-buffer targets.
+    Figure9,
+}
+
+impl Preset {
+    /// The preset's axes (the light count first: lights are rebuilt per light count, the
+    /// renderer per method).
+    pub fn axes(self) -> Vec<Axis> {
+        let a = |spec: &str| lab::parse_axis(spec).expect("preset axes are valid");
+        match self {
+            Preset::Figure9 => vec![
+                a("lights=32,64,128,256,512,1024,1536,1792,2048,3072,4096,8192,16384"),
+                a("method=forward-plus,deferred"),
+                a("grid-objects=280"),
+                a("density=medium"),
+                a("gbuffer-rts=4"),
+            ],
+        }
+    }
+
+    /// The flag value.
+    pub fn name(self) -> &'static str {
+        match self {
+            Preset::Figure9 => "figure9",
+        }
+    }
+}
+
+/// Flags of `tiledlight sweep`.
+#[derive(Args, Clone, Debug)]
+pub struct SweepArgs {
+    /// Scene, lights, screen and renderer: the settings every point starts from.
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// An axis to vary, NAME=VALUES: a list (method=forward-plus,deferred), a doubling range
+    /// (lights=64..65536) or N log-spaced values (lights=64..65536:9). Repeat for more axes;
+    /// every combination is measured. Names: lights, spot-lights, method, grid-objects,
+    /// density, gbuffer-rts, tile-size, threshold, culling, aabb, half-z, seed.
+    #[arg(long = "axis", value_name = "NAME=VALUES")]
+    pub axes: Vec<String>,
+    /// A named sweep; --axis replaces its axes of the same name.
+    #[arg(long, value_enum)]
+    pub preset: Option<Preset>,
+    /// Measured frames per point (the median of each pass is recorded).
+    #[arg(long, default_value_t = 30, value_name = "N")]
+    pub frames: u32,
+    /// Frames rendered before measuring each point.
+    #[arg(long, default_value_t = 10, value_name = "N")]
+    pub warmup: u32,
+    /// CSV output; an existing file with the same columns is resumed (points already in it
+    /// are skipped) [default: out/sweep.csv, or out/<preset>.csv].
+    #[arg(long, value_name = "FILE.csv")]
+    pub out: Option<PathBuf>,
+    /// Chart output [default: the CSV path with .png].
+    #[arg(long, value_name = "FILE.png")]
+    pub chart: Option<PathBuf>,
+    /// The axis on the chart's x [default: the first numeric axis with several values].
+    #[arg(long, value_name = "AXIS")]
+    pub x: Option<String>,
+}
+
+/// The columns before the axes and after them (per pass).
+const HEAD: [&str; 3] = ["adapter", "width", "height"];
+const TAIL: [&str; 8] =
+    ["triangles", "mean_lights_per_tile", "max_lights_per_tile", "pass", "median_ms", "min_ms", "max_ms", "frames"];
+/// The pseudo-pass holding the sum of the pass medians.
+pub const TOTAL: &str = "total";
+
+/// The CSV header of a sweep over `axes`.
+pub fn header(axes: &[Axis]) -> Vec<String> {
+    HEAD.iter()
+        .map(|s| s.to_string())
+        .chain(axes.iter().map(|a| a.name.clone()))
+        .chain(TAIL.iter().map(|s| s.to_string()))
+        .collect()
+}
+
+/// Where two lines cross.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Crossing {
+    /// The first crossing, interpolated (linearly in the chart's x scale), and how many
+    /// times the lines cross in all.
+    At {
+        /// The x where they cross.
+        x: f64,
+        /// The series that is lower (faster) before the crossing.
+        lower_before: usize,
+        /// Sign changes in all.
+        count: usize,
+    },
+    /// One series is lower at every common x.
+    None {
+        /// Which.
+        lower: usize,
+    },
+    /// Fewer than two common x values.
+    Unknown,
+}
+
+/// The crossing of series `a` (index 0) and `b` (index 1) over their common x values.
+pub fn crossing(a: &Series, b: &Series, scale: Scale) -> Crossing {
+    let common: Vec<(f64, f64)> = a
+        .points
+        .iter()
+        .filter_map(|&(x, ya)| b.points.iter().find(|p| p.0 == x).map(|&(_, yb)| (x, ya - yb)))
+        .collect();
+    if common.len() < 2 {
+        return Crossing::Unknown;
+    }
+    let mut first = None;
+    let mut count = 0;
+    for w in common.windows(2) {
+        let ((x0, d0), (x1, d1)) = (w[0], w[1]);
+        if d0 != 0.0 && d1 != 0.0 && (d0 < 0.0) != (d1 < 0.0) {
+            count += 1;
+            if first.is_none() {
+                let t = d0 / (d0 - d1);
+                let u = scale.map(x0) + t * (scale.map(x1) - scale.map(x0));
+                first = Some((scale.unmap(u), if d0 < 0.0 { 0 } else { 1 }));
+            }
+        }
+    }
+    match first {
+        Some((x, lower_before)) => Crossing::At { x, lower_before, count },
+        None => Crossing::None { lower: if common.iter().map(|c| c.1).sum::<f64>() < 0.0 { 0 } else { 1 } },
+    }
+}
+
+/// Runs `tiledlight sweep`.
+pub fn run(args: &SweepArgs) -> Result<()> {
+    ensure!((1..=MAX_FRAMES).contains(&args.frames), "--frames {}: must be between 1 and {MAX_FRAMES}", args.frames);
+    ensure!(args.warmup <= MAX_FRAMES, "--warmup {}: must be at most {MAX_FRAMES}", args.warmup);
+    let given: Vec<Axis> = args.axes.iter().map(|s| lab::parse_axis(s)).collect::<Result<_>>()?;
+    let axes = match args.preset {
+        Some(p) => lab::merge_axes(p.axes(), given),
+        None => given,
+    };
+    let points = lab::points(&axes)?;
+    let x_axis = chart_x_axis(&axes, args.x.as_deref())?;
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("out/{}.csv", args.preset.map(Preset::name).unwrap_or("sweep"))));
+    let chart_path = args.chart.clone().unwrap_or_else(|| lab::sibling(&out, "png"));
+    let ext = chart_path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    ensure!(ext.as_deref() == Some("png"), "--chart {}: only .png charts are supported", chart_path.display());
+    // Every point's flags are checked before the first is measured.
+    let all_args: Vec<SceneArgs> = points.iter().map(|p| lab::args_at(&args.scene, &axes, p)).collect::<Result<_>>()?;
+
+    let head = header(&axes);
+    let n_axes = axes.len();
+    let key: Vec<usize> = (HEAD.len()..HEAD.len() + n_axes).collect();
+    let pass_col = HEAD.len() + n_axes + 3;
+    let mut csv = ResumableCsv::open(&out, &head, &key, Some((pass_col, TOTAL)))?;
+    let pending: Vec<usize> = (0..points.len()).filter(|&i| !csv.is_done(&points[i])).collect();
+    println!(
+        "sweep:      {} points ({}), {} already in {}",
+        points.len(),
+        axes.iter().map(|a| format!("{} x{}", a.name, a.values.len())).collect::<Vec<_>>().join(", "),
+        points.len() - pending.len(),
+        out.display()
+    );
+    let mut adapter = None;
+    let mut prep: Option<Prepared> = None;
+    let pb = lab::progress(pending.len());
+    for &i in &pending {
+        let (point, pargs) = (&points[i], &all_args[i]);
+        let what = lab::describe(&axes, point);
+        pb.set_message(what.clone());
+        let p = match prep.as_mut() {
+            Some(p) => {
+                p.reconfigure(pargs).with_context(|| what.clone())?;
+                p
+            }
+            None => {
+                let p = Prepared::new(pargs).with_context(|| what.clone())?;
+                let name = p.ctx.info.name.clone();
+                lab::check_same_setup(
+                    &csv.existing,
+                    [0, 1, 2],
+                    [&name, &pargs.width.to_string(), &pargs.height.to_string()],
+                    &out,
+                )?;
+                lab::say(&pb, format!("adapter:    {}", p.ctx.describe()));
+                adapter = Some(name);
+                prep.insert(p)
+            }
+        };
+        let renderer = p.renderer(false).with_context(|| what.clone())?;
+        let m = bench::measure(p, renderer.as_ref(), args.warmup, args.frames).with_context(|| what.clone())?;
+        ensure!(m.timestamps, "the adapter has no timestamp queries: a sweep needs GPU pass times");
+        let stats = culling_stats(p, renderer.as_ref())?;
+        let passes = m.passes();
+        ensure!(!passes.is_empty(), "{what}: no frame's timestamps came back");
+        let total: f64 = passes.iter().map(|ps| ps.summary.median_ms).sum();
+        let mut lead = vec![adapter.clone().unwrap_or_default(), pargs.width.to_string(), pargs.height.to_string()];
+        lead.extend(point.iter().cloned());
+        lead.push(p.scene_gpu.triangles.to_string());
+        lead.push(stats.as_ref().map(|s| format!("{:.2}", s.mean_per_list)).unwrap_or_default());
+        lead.push(stats.as_ref().map(|s| s.max_per_list.to_string()).unwrap_or_default());
+        let mut rows: Vec<Vec<String>> = passes
+            .iter()
+            .map(|ps| {
+                let s = ps.summary;
+                let mut r = lead.clone();
+                r.extend([ps.pass.clone(), ms(s.median_ms), ms(s.min_ms), ms(s.max_ms), s.frames.to_string()]);
+                r
+            })
+            .collect();
+        let frames = passes.iter().map(|ps| ps.summary.frames).min().unwrap_or(0);
+        let mut r = lead.clone();
+        r.extend([TOTAL.to_string(), ms(total), String::new(), String::new(), frames.to_string()]);
+        rows.push(r);
+        csv.append(&rows)?;
+        lab::say(&pb, format!("{what}: {total:.3} ms"));
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    let rows = csv.read_all()?;
+    let note = draw(&chart_path, &axes, &x_axis, &rows, args)?;
+    println!("wrote {} and {}", out.display(), chart_path.display());
+    if let Some(n) = note {
+        println!("chart:      {n}");
+    }
+    Ok(())
+}
+
+fn ms(v: f64) -> String {
+    format!("{v:.4}")
+}
+
+/// The axis on the chart's x: `--x`, else the first numeric axis with several values,
+/// else the first with several values, else the first.
+fn chart_x_axis(axes: &[Axis], x: Option<&str>) -> Result<String> {
+    if let Some(x) = x {
+        ensure!(axes.iter().any(|a| a.name == x), "--x {x}: not one of the swept axes");
+        return Ok(x.to_string());
+    }
+    let multi = |a: &&Axis| a.values.len() > 1;
+    let pick = axes
+        .iter()
+        .filter(multi)
+        .find(|a| lab::is_numeric_axis(&a.name))
+        .or_else(|| axes.iter().find(multi))
+        .or(axes.first());
+    Ok(pick.map(|a| a.name.clone()).unwrap_or_default())
+}
+
+/// Draws the chart of the `total` rows; returns the crossover sentence, if any.
+fn draw(
+    path: &std::path::Path,
+    axes: &[Axis],
+    x_axis: &str,
+    rows: &[Vec<String>],
+    args: &SweepArgs,
+) -> Result<Option<String>> {
+    let col = |name: &str| header(axes).iter().position(|h| h == name).expect("known column");
+    let (xc, pass, total) = (col(x_axis), col("pass"), col("median_ms"));
+    let xi = axes.iter().position(|a| a.name == x_axis).expect("x is an axis");
+    let numeric = lab::is_numeric_axis(x_axis);
+    // Lines: one per combination of the other axes that have several values.
+    let others: Vec<usize> = (0..axes.len()).filter(|&i| i != xi && axes[i].values.len() > 1).collect();
+    let fixed: Vec<String> = axes
+        .iter()
+        .enumerate()
+        .filter(|(i, a)| *i != xi && a.values.len() == 1)
+        .map(|(_, a)| format!("{}={}", a.name, a.values[0]))
+        .collect();
+    let mut series: Vec<Series> = Vec::new();
+    let totals: Vec<&Vec<String>> = rows.iter().filter(|r| r[pass] == TOTAL).collect();
+    for r in &totals {
+        let name = others.iter().map(|&i| r[col(&axes[i].name)].clone()).collect::<Vec<_>>().join(", ");
+        let name = if name.is_empty() { "frame time".to_string() } else { name };
+        let x = if numeric {
+            r[xc].parse::<f64>().with_context(|| format!("CSV value '{}' of {x_axis}", r[xc]))?
+        } else {
+            axes[xi].values.iter().position(|v| *v == r[xc]).map(|p| p as f64).unwrap_or(f64::NAN)
+        };
+        let y: f64 = r[total].parse().with_context(|| format!("CSV total '{}'", r[total]))?;
+        if !x.is_finite() {
+            continue; // a value of an older run's axis not swept now
+        }
+        match series.iter_mut().find(|s| s.name == name) {
+            Some(s) => s.points.push((x, y)),
+            None => series.push(Series { name, points: vec![(x, y)] }),
+        }
+    }
+    for s in &mut series {
+        s.points.sort_by(|a, b| a.0.total_cmp(&b.0));
+    }
+    let xscale = if numeric {
+        Scale::auto(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)), 8.0)
+    } else {
+        Scale::Linear
+    };
+    let yscale = Scale::auto(series.iter().flat_map(|s| s.points.iter().map(|p| p.1)), 20.0);
+    let (mut marker, mut note) = (None, None);
+    if numeric && series.len() == 2 {
+        let unit = x_axis.replace('-', " ");
+        match crossing(&series[0], &series[1], xscale) {
+            Crossing::At { x, lower_before, count } => {
+                let (lo, hi) = (&series[lower_before].name, &series[1 - lower_before].name);
+                let more = if count > 1 { format!(" ({count} crossings)") } else { String::new() };
+                let text =
+                    format!("crossover ~{} {unit}: {lo} faster below, {hi} above{more}", chart::tick_label(x.round()));
+                marker = Some((x, format!("crossover ~{}", chart::tick_label(x.round()))));
+                note = Some(text);
+            }
+            Crossing::None { lower } => {
+                note = Some(format!("no crossover in range: {} faster at every {unit} value", series[lower].name));
+            }
+            Crossing::Unknown => {}
+        }
+    }
+    let first = totals.first();
+    let adapter = first.map(|r| r[0].clone()).unwrap_or_default();
+    let res = first.map(|r| format!("{}x{}", r[1], r[2])).unwrap_or_default();
+    let tris =
+        first.map(|r| r[col("triangles")].parse::<u64>().map(group_digits).unwrap_or_default()).unwrap_or_default();
+    let chart = LineChart {
+        title: format!("Frame time vs {x_axis}: {adapter}, {res}"),
+        subtitle: format!(
+            "{} scene, {tris} triangles{}{}; per pass the median of {} frames after {} warm-up",
+            args.scene.scene,
+            if fixed.is_empty() { "" } else { ", " },
+            fixed.join(", "),
+            args.frames,
+            args.warmup
+        ),
+        x: AxisSpec {
+            label: x_axis.replace('-', " "),
+            scale: xscale,
+            ticks: numeric.then(|| {
+                let mut v: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).collect();
+                v.sort_by(f64::total_cmp);
+                v.dedup();
+                v
+            }),
+        },
+        y: AxisSpec { label: "GPU frame time, ms (sum of pass medians)".into(), scale: yscale, ticks: None },
+        series,
+        marker,
+        note: note.clone(),
+        categories: (!numeric).then(|| axes[xi].values.clone()),
+    };
+    chart::line_chart(path, &chart)?;
+    Ok(note)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn s(pts: &[(f64, f64)]) -> Series {
+        Series { name: String::new(), points: pts.to_vec() }
+    }
+
+    #[test]
+    fn crossing_is_interpolated() {
+        let a = s(&[(1.0, 1.0), (2.0, 3.0), (4.0, 5.0)]);
+        let b = s(&[(1.0, 2.0), (2.0, 2.0), (4.0, 3.0)]);
+        assert_eq!(crossing(&a, &b, Scale::Linear), Crossing::At { x: 1.5, lower_before: 0, count: 1 });
+        match crossing(&a, &b, Scale::Log) {
+            Crossing::At { x, .. } => assert!((x - 2f64.sqrt()).abs() < 1e-12),
+            c => panic!("{c:?}"),
+        }
+        let c = s(&[(1.0, 0.5), (2.0, 0.5), (4.0, 0.5)]);
+        assert_eq!(crossing(&a, &c, Scale::Linear), Crossing::None { lower: 1 });
+        assert_eq!(crossing(&a, &s(&[(9.0, 1.0)]), Scale::Linear), Crossing::Unknown);
+    }
+
+    #[test]
+    fn preset_axes_are_valid() {
+        let axes = Preset::Figure9.axes();
+        assert_eq!(lab::points(&axes).unwrap().len(), 26);
+        assert!(axes[0].values.contains(&"1792".to_string()));
+        assert_eq!(chart_x_axis(&axes, None).unwrap(), "lights");
+        assert!(chart_x_axis(&axes, Some("colour")).is_err());
+    }
+}

@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# Runs the measurement lab recorded in docs/PERFORMANCE.md (Figure 9) and docs/ACCURACY.md
+# on the device machine (H100), staged like scripts/device-bench.sh (.gl loader packages,
+# .device/tiledlight = the release binary). Writes CSVs, charts, FLIP heat maps and a log
+# under $OUT and packs them into $OUT/lab.tar.gz; copy them to docs/results/<gpu>-<commit>/.
+#
+# Time on an H100 (1920x1080): the Figure 9 sweep is 26 points x 40 frames, at most
+# ~150 ms a frame (Forward+ at 16,384 lights): ~1 minute; the accuracy sweep is 39
+# settings x 15 frames (the lowest thresholds list every light, ~160 ms a frame) plus the
+# CPU statistics (threaded, ~1-3 s a setting): 2-3 minutes. Each step has a timeout, and
+# both resume from their CSV if rerun with the same $OUT.
+# Usage: scripts/device-lab.sh [figure9] [accuracy] [deferred]   (default: all three)
+set -uo pipefail
+out=${OUT:-lab-out}
+mkdir -p "$out"
+if ls .gl/*.deb >/dev/null 2>&1; then
+  for f in .gl/*.deb; do dpkg -x "$f" /; done
+  ldconfig
+fi
+if [ -f /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json ]; then
+  export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+fi
+bin=./.device/tiledlight
+nvidia-smi --query-gpu=name,clocks.sm,clocks.max.sm,memory.total --format=csv,noheader | tee "$out/gpu.txt"
+"$bin" --version | tee -a "$out/log.txt"
+step() { # seconds name args...
+  local limit=$1 name=$2; shift 2
+  echo "== $name: $*" | tee -a "$out/log.txt"
+  local t0=$SECONDS
+  timeout "$limit" "$bin" "$@" --width 1920 --height 1080 2>&1 | tee -a "$out/log.txt" | grep -vE "^(threshold|lights)=" 
+  echo "== $name: exit ${PIPESTATUS[0]}, $((SECONDS - t0)) s" | tee -a "$out/log.txt"
+}
+steps=${*:-figure9 accuracy deferred}
+for s in $steps; do
+  case $s in
+  figure9)
+    step 150 figure9 sweep --preset figure9 --frames 30 --warmup 10 --out "$out/figure9.csv"
+    ;;
+  accuracy)
+    # Forward+: its image is the brute force's with the same cutoff, so the error is the
+    # cutoff's alone and the culling tests change only the time.
+    step 300 accuracy accuracy --frames 10 --warmup 3 --reference-frames 3 --out "$out/accuracy.csv"
+    ;;
+  deferred)
+    # Tiled Deferred over the same thresholds (one culling test): its 8-bit albedo adds a
+    # floor of error of its own (tests/tests/deferred.rs: FLIP mean ~0.01 on the courtyard).
+    step 120 accuracy-deferred accuracy --method deferred --axis culling=aabb --frames 10 --warmup 3 \
+      --reference-frames 3 --out "$out/accuracy-deferred.csv"
+    ;;
+  *) echo "unknown step $s (figure9, accuracy, deferred)" >&2; exit 2 ;;
+  esac
+done
+tar -czf "$out/lab.tar.gz" -C "$out" --exclude lab.tar.gz . && ls -la "$out"
