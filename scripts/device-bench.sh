@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale (default: all)
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa (default: all)
 set -uo pipefail
 out=${OUT:-bench-out}
 mkdir -p "$out"
@@ -19,9 +19,9 @@ run() { # name frames args...
   local name=$1 frames=$2; shift 2
   echo "== $name: $*" | tee -a "$out/log.txt"
   timeout 300 "$bin" bench --width 1920 --height 1080 --frames "$frames" --warmup 20 --json "$out/$name.json" "$@" 2>&1 \
-    | tee -a "$out/log.txt" | grep -E "^(depth|forward|brute|deferred|tonemap|total|error)"
+    | tee -a "$out/log.txt" | grep -E "^(depth|forward|brute|deferred|tonemap|total|error|MSAA)"
 }
-sets=${*:-core cull scale methods}
+sets=${*:-core cull scale methods msaa}
 for set in $sets; do
   case $set in
   core)
@@ -42,6 +42,17 @@ for set in $sets; do
       run "cmp-td-$n" 50 --lights $n --grid-objects 280 --density medium --method deferred --gbuffer-rts 4
     done
     for rts in 2 3 5; do run "td-rts$rts" 50 --lights 1024 --grid-objects 280 --density medium --method deferred --gbuffer-rts $rts; done
+    ;;
+  msaa)
+    # The methods comparison again with 4x MSAA (and 2x/8x at 1024 lights: the H100 has them).
+    for n in 256 1024 4096 16384; do
+      run "msaa4-fp-$n" 30 --lights $n --grid-objects 280 --density medium --msaa 4
+      run "msaa4-td-$n" 30 --lights $n --grid-objects 280 --density medium --method deferred --gbuffer-rts 4 --msaa 4
+    done
+    for s in 2 8; do
+      run "msaa$s-fp-1024" 30 --lights 1024 --grid-objects 280 --density medium --msaa $s
+      run "msaa$s-td-1024" 30 --lights 1024 --grid-objects 280 --density medium --method deferred --gbuffer-rts 4 --msaa $s
+    done
     ;;
   scale)
     run fp-1024-grid280 100 --lights 1024 --grid-objects 280 --density medium

@@ -206,6 +206,8 @@ struct BenchJson {
     /// GPU memory allocated, bytes per category.
     gpu_memory: Vec<(String, u64)>,
     gpu_memory_total: u64,
+    /// Pixels of the last frame the MSAA edge test shaded per sample (Tiled Deferred, MSAA).
+    edge_pixels: Option<u32>,
 }
 
 #[derive(Serialize)]
@@ -229,6 +231,9 @@ struct ConfigJson {
     spot_cone: bool,
     coarse: bool,
     gbuffer_rts: u32,
+    msaa: u32,
+    edge_distance: f32,
+    edge_normal_deg: f32,
     commit: String,
 }
 
@@ -267,6 +272,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     println!("frames:     {} warm-up + {} measured", args.warmup, args.frames);
     let m = measure(&prep, renderer.as_ref(), args.warmup, args.frames)?;
     print!("{}", table(&m));
+    let edge_pixels = renderer.edge_pixels(&prep.ctx).context("reading the MSAA edge count back")?;
+    if let Some(e) = edge_pixels {
+        let pixels = f64::from(prep.args.width) * f64::from(prep.args.height);
+        println!("MSAA edges: {e} pixels ({:.2}%) shaded per sample", 100.0 * f64::from(e) / pixels);
+    }
     println!("GPU memory:\n{}", renderer.memory());
     if let Some(path) = &args.json {
         let a = &prep.args;
@@ -292,6 +302,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 spot_cone: a.spot_cone,
                 coarse: !a.flat_cull,
                 gbuffer_rts: a.gbuffer_rts,
+                msaa: a.msaa,
+                edge_distance: a.edge_distance,
+                edge_normal_deg: a.edge_normal_deg,
                 commit: commit_hash(),
             },
             frames: args.frames,
@@ -303,6 +316,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             cpu_frame_measure: CPU_TIME_MEANING,
             gpu_memory: renderer.memory().entries.clone(),
             gpu_memory_total: renderer.memory().total(),
+            edge_pixels,
         };
         let text = serde_json::to_string_pretty(&json).context("encoding the results as JSON")?;
         std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))?;
