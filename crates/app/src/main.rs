@@ -4,8 +4,9 @@
 //!   ([`render`]);
 //! - `tiledlight bench ...`: per-pass GPU times over many frames, optionally as JSON
 //!   ([`mod@bench`]);
-//! - `tiledlight` alone: the default scene at 1080p, image + heat map + short benchmark
-//!   ([`quickstart`]).
+//! - `tiledlight view ...`: the interactive viewer ([`viewer`]);
+//! - `tiledlight` alone: the viewer when a display is available, else the default scene at
+//!   1080p headless, image + heat map + short benchmark ([`quickstart`]).
 //!
 //! Both subcommands build their scene, lights, camera and renderer from the same flags
 //! ([`scene_setup`]). Every failure ends with one `error: ...` line on stderr and a
@@ -13,17 +14,20 @@
 //! through env_logger (`RUST_LOG`). This module may depend on all the others.
 
 mod bench;
+mod bookmark;
 mod legend;
 mod quickstart;
 mod render;
 mod scene_setup;
+mod viewer;
 
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
-/// Forward+ lighting with thousands of lights: renders and benchmarks scenes headless.
-/// With no subcommand: renders the default scene at 1920x1080 with 1024 lights to
+/// Forward+ and Tiled Deferred lighting with thousands of lights: an interactive viewer,
+/// headless renders and benchmarks. With no subcommand: opens the viewer when a display is
+/// available; otherwise renders the default scene at 1920x1080 with 1024 lights to
 /// out/render.png and out/heatmap.png and prints the pass timings.
 #[derive(Parser, Debug)]
 #[command(name = "tiledlight", version, about, long_about = None)]
@@ -41,6 +45,9 @@ enum Command {
     /// Time every pass over many frames; print a table and optionally write JSON.
     #[command(allow_negative_numbers = true)]
     Bench(bench::BenchArgs),
+    /// Open the interactive viewer: a window with the controls, camera and pass timings.
+    #[command(allow_negative_numbers = true)]
+    View(viewer::ViewArgs),
 }
 
 /// Makes a possibly multi-line message (wgpu validation errors, clap's usage hints) one
@@ -91,7 +98,8 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Some(Command::Render(args)) => render::run(args),
         Some(Command::Bench(args)) => bench::run(args),
-        None => quickstart::run(),
+        Some(Command::View(args)) => viewer::run(args),
+        None => viewer::run_default(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
