@@ -1,58 +1,61 @@
-//! The viewer in a real window: each test starts its own Xvfb (a virtual X server) on a
-//! free display number, runs `tiledlight view` on it at 320x180 with a `--script` that
+//! The viewer in a real window: each test starts its own Xvfb (a virtual X server; it
+//! picks a free display number itself), runs `tiledlight view` on it at 320x180 with a `--script` that
 //! drives the panel's code (method, light count, a bad glTF path, an impossible setting),
 //! and checks the exit status, the state it reports and the screenshots it saves. Xvfb
 //! missing is a failure, not a skip: CI (`.ci/run`) installs it.
 
+use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-/// A running Xvfb, killed when dropped (also when a test fails).
+/// A running Xvfb, stopped when dropped (also when a test fails).
 struct Xvfb {
     child: Child,
     display: String,
 }
 
 impl Xvfb {
+    /// Starts Xvfb on a display number it picks itself (`-displayfd`: no race with other
+    /// tests or a desktop for a free number) and waits until it accepts connections.
     fn start() -> Self {
-        for n in 90..140u32 {
-            // A lock file or socket means the number is taken (by another test or a desktop).
-            if Path::new(&format!("/tmp/.X{n}-lock")).exists() || Path::new(&format!("/tmp/.X11-unix/X{n}")).exists() {
-                continue;
+        let child = Command::new("Xvfb")
+            .args(["-displayfd", "1", "-screen", "0", "640x480x24", "-nolisten", "tcp"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn();
+        let mut child = match child {
+            Ok(c) => c,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                panic!("Xvfb not found: the viewer test needs it (`apt-get install xvfb`; .ci/run installs it)")
             }
-            let child = Command::new("Xvfb")
-                .args([format!(":{n}").as_str(), "-screen", "0", "640x480x24", "-nolisten", "tcp"])
-                .stdout(Stdio::null())
-                .stderr(Stdio::null())
-                .spawn();
-            let mut child = match child {
-                Ok(c) => c,
-                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-                    panic!("Xvfb not found: the viewer test needs it (`apt-get install xvfb`; .ci/run installs it)")
-                }
-                Err(e) => panic!("cannot start Xvfb: {e}"),
-            };
-            let socket = PathBuf::from(format!("/tmp/.X11-unix/X{n}"));
-            let t0 = Instant::now();
-            while t0.elapsed() < Duration::from_secs(10) {
-                if socket.exists() {
-                    return Self { child, display: format!(":{n}") };
-                }
-                if let Ok(Some(_)) = child.try_wait() {
-                    break; // lost a race for this number: try the next one
-                }
-                std::thread::sleep(Duration::from_millis(50));
-            }
+            Err(e) => panic!("cannot start Xvfb: {e}"),
+        };
+        // Xvfb writes the display number once it is ready to accept clients.
+        let mut line = String::new();
+        let stdout = child.stdout.take().expect("piped stdout");
+        let read = BufReader::new(stdout).read_line(&mut line);
+        let n = line.trim();
+        if read.is_err() || n.is_empty() || !n.bytes().all(|b| b.is_ascii_digit()) {
             let _ = child.kill();
             let _ = child.wait();
+            panic!("Xvfb did not report a display number (read {read:?}, got {line:?})");
         }
-        panic!("could not start Xvfb on any display :90 to :139");
+        Self { display: format!(":{n}"), child }
     }
 }
 
 impl Drop for Xvfb {
     fn drop(&mut self) {
+        // SIGTERM lets Xvfb remove its lock file and socket; SIGKILL only if it hangs.
+        let _ = Command::new("kill").args(["-TERM", &self.child.id().to_string()]).status();
+        let t0 = Instant::now();
+        while t0.elapsed() < Duration::from_secs(5) {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
