@@ -188,8 +188,8 @@ mod tests {
     #[test]
     fn fly_moves_along_the_view() {
         let mut r = rig();
-        r.speed = 2.0;
-        r.step(Motion { forward: 1.0, boost: 1.0, ..Motion::default() }, 0.5);
+        r.speed = 4.0;
+        r.step(Motion { forward: 1.0, boost: 1.0, ..Motion::default() }, 0.25);
         assert!((r.eye - Vec3::new(0.0, 2.0, 9.0)).length() < 1e-5, "{}", r.eye);
         // Turning right by 90 degrees looks down +X; strafing right then moves to +Z.
         r.turn(std::f32::consts::FRAC_PI_2 / LOOK_PER_PIXEL, 0.0);
