@@ -258,7 +258,7 @@ fn stats_section(ui: &mut egui::Ui, info: &Info<'_>) {
     egui::CollapsingHeader::new("Statistics").default_open(true).show(ui, |ui| {
         let frame = st.mean_frame_ms();
         ui.label(format!(
-            "{}x{}  frame {:.2} ms ({:.0} fps)",
+            "{}x{}  frame {:.2} ms ({:.1} fps)",
             info.size.0,
             info.size.1,
             frame,
@@ -472,4 +472,28 @@ fn camera_section(ui: &mut egui::Ui, rig: &mut CameraRig, commands: &mut Vec<Com
             }
         });
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn readme_lists_every_key() {
+        let readme = include_str!("../../../../README.md");
+        for (k, what) in KEYS {
+            let row = format!("| {k} | {what} |");
+            assert!(readme.contains(&row), "README.md has no row {row:?}");
+        }
+    }
+
+    #[test]
+    fn history_is_bounded() {
+        let mut s = Stats::default();
+        for i in 0..HISTORY + 10 {
+            s.push_frame(i as f32);
+        }
+        assert_eq!(s.history.len(), HISTORY);
+        assert!(s.mean_frame_ms() > 10.0);
+    }
 }
