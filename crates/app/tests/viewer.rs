@@ -1,8 +1,9 @@
 //! The viewer in a real window: each test starts its own Xvfb (a virtual X server; it
-//! picks a free display number itself), runs `tiledlight view` on it at 320x180 with a `--script` that
-//! drives the panel's code (method, light count, a bad glTF path, an impossible setting),
-//! and checks the exit status, the state it reports and the screenshots it saves. Xvfb
-//! missing is a failure, not a skip: CI (`.ci/run`) installs it.
+//! picks a free display number itself), runs `tiledlight view` on it at 320x180 with a
+//! `--script` that drives the panel's code (method, light count, a bad glTF path, an
+//! impossible setting, a window resize), and checks the exit status, the state it reports
+//! and the screenshots it saves. Xvfb missing is a failure, not a skip: CI (`.ci/run`)
+//! installs it.
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -158,7 +159,12 @@ fn bad_gltf_and_impossible_settings_show_errors_and_the_viewer_goes_on() {
     let out = view(
         &x,
         &dir,
-        &["--frames", "2", "--script", "scene=missing/nothing.gltf;lights=40;tile-size=7;method=deferred"],
+        &[
+            "--frames",
+            "2",
+            "--script",
+            "scene=missing/nothing.gltf;lights=40;tile-size=7;method=deferred;window=256x144;wait=2",
+        ],
     );
     let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
     assert!(stderr.contains("error: loading the scene: missing/nothing.gltf"), "stderr:\n{stderr}");
@@ -170,6 +176,8 @@ fn bad_gltf_and_impossible_settings_show_errors_and_the_viewer_goes_on() {
         "viewer scene: courtyard",
         "viewer lights: 40 point",
         "viewer method: deferred",
+        // Resized through the window system: surface and renderer follow.
+        "viewer size: 256x144",
         "viewer frames:",
     ] {
         assert!(stdout.contains(needle), "no {needle:?} in:\n{stdout}\nstderr:\n{stderr}");

@@ -423,7 +423,8 @@ impl Viewer {
         }
         if renderer {
             self.prep.set_renderer_args(&new.args)?;
-            // The old renderer goes first: only one set of targets is alive at a time.
+            // The old renderer stays in use until the new one is built, so a renderer
+            // the GPU refuses leaves a working viewer behind.
             let size = (new.args.width, new.args.height);
             let built = self.prep.renderer(new.effective_heatmap());
             self.renderer = built?;
@@ -449,6 +450,13 @@ impl Viewer {
         match action {
             Action::Wait(n) => self.wait = n,
             Action::Camera(mode) => self.rig.mode = mode,
+            Action::Window(w, h) => {
+                // Some window systems resize at once (returning the size), others later
+                // with a Resized event; both end in `resize`.
+                if let Some(size) = self.window.request_inner_size(winit::dpi::PhysicalSize::new(w, h)) {
+                    self.resize(size.width, size.height);
+                }
+            }
             Action::Set { key, value } => {
                 let mut s = self.pending.clone();
                 match script::set(&mut s, &key, &value) {

@@ -27,11 +27,13 @@ pub enum Action {
     Camera(Mode),
     /// Render this many frames before the next action.
     Wait(u32),
+    /// Ask the window system for a new window size (pixels), as a user's resize would.
+    Window(u32, u32),
 }
 
 /// The keys `Action::Set` understands.
 pub const KEYS: &str = "method, lights, spot-lights, threshold, seed, tile-size, half-z, aabb, spot-cone, \
-                        grid-objects, density, gbuffer-rts, heatmap, animate, vsync, scene, camera, wait";
+                        grid-objects, density, gbuffer-rts, heatmap, animate, vsync, scene, camera, window, wait";
 
 /// Parses a script; an unknown key or a malformed action is an error naming it.
 pub fn parse(script: &str) -> Result<Vec<Action>> {
@@ -43,6 +45,13 @@ pub fn parse(script: &str) -> Result<Vec<Action>> {
         let (key, value) = (key.trim(), value.trim());
         let action = match key {
             "wait" => Action::Wait(value.parse().with_context(|| format!("--script: wait={value}: not a count"))?),
+            "window" => {
+                let size = value.split_once('x').and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)));
+                match size {
+                    Some((w, h)) if w > 0 && h > 0 => Action::Window(w, h),
+                    _ => bail!("--script: window={value}: expected WIDTHxHEIGHT in pixels"),
+                }
+            }
             "camera" => Action::Camera(match value {
                 "fly" => Mode::Fly,
                 "orbit" => Mode::Orbit,
@@ -108,8 +117,9 @@ mod tests {
 
     #[test]
     fn parses_actions() {
-        let a = parse(" method=deferred; lights=300 ;wait=2;camera=orbit;scene=x.gltf;").unwrap();
-        assert_eq!(a.len(), 5);
+        let a = parse(" method=deferred; lights=300 ;wait=2;camera=orbit;scene=x.gltf;window=64x48").unwrap();
+        assert_eq!(a.len(), 6);
+        assert_eq!(a[5], Action::Window(64, 48));
         assert_eq!(a[0], Action::Set { key: "method".into(), value: "deferred".into() });
         assert_eq!(a[2], Action::Wait(2));
         assert_eq!(a[3], Action::Camera(Mode::Orbit));
@@ -128,5 +138,6 @@ mod tests {
         assert!(e("method=fast").contains("method=fast"));
         assert!(e("heatmap=maybe").contains("expected on or off"));
         assert!(e("wait=-1").contains("wait=-1"));
+        assert!(e("window=0x5").contains("WIDTHxHEIGHT"));
     }
 }
