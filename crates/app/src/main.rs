@@ -8,8 +8,9 @@
 //!   ([`sweep`], on [`lab`] and [`chart`]);
 //! - `tiledlight accuracy ...`: time and image error against the brute-force reference per
 //!   setting, CSV + Pareto chart + FLIP heat maps ([`accuracy`]);
-//! - `tiledlight` alone: the default scene at 1080p, image + heat map + short benchmark
-//!   ([`quickstart`]).
+//! - `tiledlight view ...`: the interactive viewer ([`viewer`]);
+//! - `tiledlight` alone: the viewer when a display is available, else the default scene at
+//!   1080p headless, image + heat map + short benchmark ([`quickstart`]).
 //!
 //! Every subcommand builds its scene, lights, camera and renderer from the same flags
 //! ([`scene_setup`]). Every failure ends with one `error: ...` line on stderr and a
@@ -18,6 +19,7 @@
 
 mod accuracy;
 mod bench;
+mod bookmark;
 mod chart;
 mod lab;
 mod legend;
@@ -25,13 +27,15 @@ mod quickstart;
 mod render;
 mod scene_setup;
 mod sweep;
+mod viewer;
 
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
-/// Forward+ lighting with thousands of lights: renders and benchmarks scenes headless.
-/// With no subcommand: renders the default scene at 1920x1080 with 1024 lights to
+/// Forward+ and Tiled Deferred lighting with thousands of lights: an interactive viewer,
+/// headless renders and benchmarks. With no subcommand: opens the viewer when a display is
+/// available; otherwise renders the default scene at 1920x1080 with 1024 lights to
 /// out/render.png and out/heatmap.png and prints the pass timings.
 #[derive(Parser, Debug)]
 #[command(name = "tiledlight", version, about, long_about = None)]
@@ -58,6 +62,9 @@ enum Command {
     /// FLIP heat maps.
     #[command(allow_negative_numbers = true)]
     Accuracy(accuracy::AccuracyArgs),
+    /// Open the interactive viewer: a window with the controls, camera and pass timings.
+    #[command(allow_negative_numbers = true)]
+    View(viewer::ViewArgs),
 }
 
 /// Makes a possibly multi-line message (wgpu validation errors, clap's usage hints) one
@@ -110,7 +117,8 @@ fn main() -> ExitCode {
         Some(Command::Bench(args)) => bench::run(args),
         Some(Command::Sweep(args)) => sweep::run(args),
         Some(Command::Accuracy(args)) => accuracy::run(args),
-        None => quickstart::run(),
+        Some(Command::View(args)) => viewer::run(args),
+        None => viewer::run_default(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

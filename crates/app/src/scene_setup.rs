@@ -9,9 +9,11 @@
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
+use crate::bookmark;
 use anyhow::{bail, ensure, Context, Result};
 use clap::{Args, ValueEnum};
 use glam::Vec3;
+use tiledlight_cull::light::{order_points_first, pack_lights};
 use tiledlight_cull::reference::{DEFAULT_CAPACITY, MAX_CAPACITY};
 use tiledlight_cull::tiles::MAX_SCREEN_SIDE;
 use tiledlight_cull::{Camera, LightKind};
@@ -99,7 +101,7 @@ impl From<DensityArg> for GridDensity {
 ///
 /// Numbers are parsed wide (u64 light counts) and range-checked in [`SceneArgs::validate`],
 /// so an absurd value gets a message naming the flag and its limit.
-#[derive(Args, Clone, Debug)]
+#[derive(Args, Clone, Debug, PartialEq)]
 pub struct SceneArgs {
     /// `default` (the procedural courtyard) or a glTF file (.gltf or .glb).
     #[arg(long, default_value = "default", value_name = "default|FILE")]
@@ -172,6 +174,10 @@ pub struct SceneArgs {
     /// Exposure before tonemapping.
     #[arg(long, default_value_t = 1.0, value_name = "E")]
     pub exposure: f32,
+    /// Camera bookmark to render from (a small text file; the viewer writes them with its
+    /// "save camera" button): eye, target, up, field of view, near and far plane.
+    #[arg(long, value_name = "FILE")]
+    pub camera: Option<PathBuf>,
 }
 
 impl Default for SceneArgs {
@@ -199,6 +205,7 @@ impl Default for SceneArgs {
             edge_distance: EdgeTest::default().distance,
             edge_normal_deg: EdgeTest::default().normal_deg,
             exposure: 1.0,
+            camera: None,
         }
     }
 }
@@ -423,26 +430,84 @@ pub struct Prepared {
     /// The camera (aspect = width / height).
     pub camera: Camera,
     /// Where the camera came from, for the report.
-    pub camera_source: &'static str,
+    pub camera_source: String,
+    /// The scene's bounds (random lights are placed in them).
+    pub bounds: Aabb,
+    /// The lights the scene file brought along (before the random ones).
+    pub file_lights: Vec<Light>,
+    /// The scene file's own camera, if any (the camera is rebuilt from it on a new aspect).
+    scene_camera: Option<CameraDesc>,
     gpu_errors: Arc<Mutex<Vec<String>>>,
-    /// The scene on the CPU and how many lights it brought, kept so that
-    /// [`Prepared::reconfigure`] can regenerate lights without reloading it.
-    scene: Scene,
-    file_lights: usize,
+}
+
+/// The CPU half of a run, built before any GPU work so that file and flag errors come
+/// before the slow device creation: the scene, all its lights and the camera.
+pub struct SceneCpu {
+    /// The scene.
+    pub scene: Scene,
+    /// The scene's own lights followed by the random ones.
+    pub lights: Vec<Light>,
+    /// How many of `lights` came from the scene file.
+    pub file_lights: usize,
+    /// The camera (aspect = width / height): the bookmark, the scene's, or one framing it.
+    pub camera: Camera,
+    /// Where the camera came from, for the report.
+    pub camera_source: String,
+}
+
+impl SceneCpu {
+    /// Checks the flags and builds the scene, its lights and the camera.
+    pub fn load(args: &SceneArgs) -> Result<Self> {
+        args.validate()?;
+        let (scene, file_lights) = load_scene(args)?;
+        let lights = build_lights(args, &scene.bounds, &scene.lights)?;
+        let (camera, camera_source) = choose_camera(args, scene.camera.as_ref(), &scene.bounds)?;
+        Ok(Self { scene, lights, file_lights, camera, camera_source })
+    }
+}
+
+/// The camera of a run at the screen's aspect ratio, and where it came from: the
+/// `--camera` bookmark, else the scene's own camera, else one framing the scene's bounds.
+fn choose_camera(args: &SceneArgs, scene_camera: Option<&CameraDesc>, bounds: &Aabb) -> Result<(Camera, String)> {
+    let aspect = args.width as f32 / args.height as f32;
+    Ok(match (&args.camera, scene_camera) {
+        (Some(path), _) => {
+            let desc = bookmark::load(path)?;
+            let cam = camera_from_desc(&desc, aspect)
+                .with_context(|| format!("--camera {}: unusable camera", path.display()))?;
+            (cam, format!("bookmark {}", path.display()))
+        }
+        (None, Some(desc)) => (
+            camera_from_desc(desc, aspect).context("the scene's camera is unusable")?,
+            "the scene's camera".to_string(),
+        ),
+        (None, None) => (frame_bounds(bounds, aspect)?, "framing the scene bounds".to_string()),
+    })
+}
+
+/// `args` with the per-list capacity chosen for `lights` lights when `--capacity` is not
+/// given (what the device's workgroup memory holds, up to the light count).
+fn with_capacity(args: &SceneArgs, lights: u32, limits: &wgpu::Limits) -> SceneArgs {
+    let mut args = args.clone();
+    if args.capacity.is_none() {
+        args.capacity = Some(CullOptions::capacity_for(lights, args.half_z, args.reserved_workgroup_bytes(), limits));
+    }
+    args
 }
 
 impl Prepared {
     /// Checks the flags, builds the scene and lights on the CPU (so file errors come
     /// before the slow device creation), then creates the device and uploads them.
     pub fn new(args: &SceneArgs) -> Result<Self> {
-        args.validate()?;
-        let (scene, file_lights) = load_scene(args)?;
-        let lights = build_lights(args, &scene, file_lights)?;
-        let light_summary = LightSummary::of(&lights, file_lights);
-        let (camera, camera_source) = scene_camera(&scene, args)?;
-
+        let cpu = SceneCpu::load(args)?;
         let ctx = GpuContext::headless(ContextOptions::default())
             .context("creating the GPU device (set WGPU_ADAPTER_NAME to pick an adapter)")?;
+        Self::with_context(args, cpu, ctx)
+    }
+
+    /// Uploads a loaded scene and its lights to an existing device (the viewer's, made for
+    /// its window).
+    pub fn with_context(args: &SceneArgs, cpu: SceneCpu, ctx: GpuContext) -> Result<Self> {
         // wgpu panics on errors raised outside an error scope; collect them instead so a
         // GPU problem during the frame loop ends the run with an error message.
         let gpu_errors = Arc::new(Mutex::new(Vec::new()));
@@ -453,31 +518,48 @@ impl Prepared {
                 v.push(e.to_string());
             }
         }));
-        let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &scene)
-            .with_context(|| format!("uploading scene '{}'", scene.name))?;
-        let light_buffers = LightBuffers::new(&ctx.device, &lights).context("uploading the lights")?;
-        let args = with_capacity(args, &light_buffers, &ctx);
+        let (scene_gpu, lights) = upload(&ctx, &cpu)?;
         Ok(Self {
-            args,
+            args: with_capacity(args, lights.len(), &ctx.device.limits()),
             ctx,
-            scene_name: scene.name.clone(),
-            instances: scene.instances.len(),
+            scene_name: cpu.scene.name.clone(),
+            instances: cpu.scene.instances.len(),
             scene_gpu,
-            lights: light_buffers,
-            light_summary,
-            camera,
-            camera_source,
+            lights,
+            light_summary: LightSummary::of(&cpu.lights, cpu.file_lights),
+            camera: cpu.camera,
+            camera_source: cpu.camera_source,
+            bounds: cpu.scene.bounds,
+            file_lights: cpu.scene.lights,
+            scene_camera: cpu.scene.camera,
             gpu_errors,
-            scene,
-            file_lights,
         })
+    }
+
+    /// Replaces the scene and lights by a newly loaded one (the viewer's scene picker).
+    /// Nothing changes when the upload fails. Renderers built before must be rebuilt.
+    pub fn replace_scene(&mut self, args: &SceneArgs, cpu: SceneCpu) -> Result<()> {
+        let (scene_gpu, lights) = upload(&self.ctx, &cpu)?;
+        self.args = with_capacity(args, lights.len(), &self.ctx.device.limits());
+        self.scene_name = cpu.scene.name.clone();
+        self.instances = cpu.scene.instances.len();
+        self.scene_gpu = scene_gpu;
+        self.lights = lights;
+        self.light_summary = LightSummary::of(&cpu.lights, cpu.file_lights);
+        self.camera = cpu.camera;
+        self.camera_source = cpu.camera_source;
+        self.bounds = cpu.scene.bounds;
+        self.file_lights = cpu.scene.lights;
+        self.scene_camera = cpu.scene.camera;
+        Ok(())
     }
 
     /// Switches to the flags `args` on the same GPU device, rebuilding only what they
     /// change: the scene (`--scene`, `--grid-objects`, `--density`; the threshold of a
     /// glTF file's lights), the lights (their counts, seed and threshold) and the camera
-    /// (the aspect ratio). Renderers built before must be rebuilt ([`Prepared::renderer`]).
-    /// Sweeps use it so that a GPU context is created once per run, not once per point.
+    /// (bookmark, aspect ratio). Renderers built before must be rebuilt
+    /// ([`Prepared::renderer`]). Sweeps use it so that a GPU context is created once per
+    /// run, not once per point.
     pub fn reconfigure(&mut self, args: &SceneArgs) -> Result<()> {
         args.validate()?;
         let old = &self.args;
@@ -486,28 +568,64 @@ impl Prepared {
             || old.grid_objects != args.grid_objects
             || old.density != args.density
             || (file && old.threshold != args.threshold);
-        let lights_changed = scene_changed
-            || old.lights != args.lights
+        let lights_changed = old.lights != args.lights
             || old.spot_lights != args.spot_lights
             || old.seed != args.seed
             || old.threshold != args.threshold;
         if scene_changed {
-            let (scene, file_lights) = load_scene(args)?;
-            self.scene_gpu = SceneGpu::new(&self.ctx.device, &self.ctx.queue, &scene)
-                .with_context(|| format!("uploading scene '{}'", scene.name))?;
-            self.scene_name = scene.name.clone();
-            self.instances = scene.instances.len();
-            self.scene = scene;
-            self.file_lights = file_lights;
+            self.replace_scene(args, SceneCpu::load(args)?)?;
+        } else if lights_changed {
+            self.replace_lights(args)?;
         }
-        if lights_changed {
-            let lights = build_lights(args, &self.scene, self.file_lights)?;
-            self.light_summary = LightSummary::of(&lights, self.file_lights);
-            self.lights = LightBuffers::new(&self.ctx.device, &lights).context("uploading the lights")?;
-        }
-        (self.camera, self.camera_source) = scene_camera(&self.scene, args)?;
-        self.args = with_capacity(args, &self.lights, &self.ctx);
+        (self.camera, self.camera_source) = choose_camera(args, self.scene_camera.as_ref(), &self.bounds)?;
+        self.set_renderer_args(args)?;
         self.check_gpu_errors()
+    }
+
+    /// Regenerates the random lights for `args` (counts, seed, threshold) in the current
+    /// scene. With the same number of point and spot lights the buffers are rewritten in
+    /// place and `false` is returned; otherwise they are reallocated and `true` says that
+    /// renderers built before must be rebuilt. Nothing changes on error.
+    pub fn replace_lights(&mut self, args: &SceneArgs) -> Result<bool> {
+        args.validate()?;
+        let lights = build_lights(args, &self.bounds, &self.file_lights)?;
+        let summary = LightSummary::of(&lights, self.file_lights.len());
+        let same_shape = summary.point == self.light_summary.point && summary.spot == self.light_summary.spot;
+        let realloc = if same_shape {
+            let packed = pack_lights(&order_points_first(&lights));
+            if !packed.is_empty() {
+                let q = &self.ctx.queue;
+                q.write_buffer(&self.lights.cull, 0, bytemuck::cast_slice(&packed.cull));
+                q.write_buffer(&self.lights.shading, 0, bytemuck::cast_slice(&packed.shading));
+                if let Some(spots) = &self.lights.spots {
+                    q.write_buffer(spots, 0, bytemuck::cast_slice(&packed.spots));
+                }
+            }
+            self.lights.packed = packed;
+            false
+        } else {
+            self.lights = LightBuffers::new(&self.ctx.device, &lights).context("uploading the lights")?;
+            true
+        };
+        self.args = with_capacity(args, self.lights.len(), &self.ctx.device.limits());
+        self.light_summary = summary;
+        Ok(realloc)
+    }
+
+    /// Sets the renderer flags (method, screen size, culling options...) for the next
+    /// [`Prepared::renderer`], keeping the scene and lights; the capacity is chosen for the
+    /// current lights when `args` has none. The caller checks that scene and light flags
+    /// did not change (those need [`Prepared::replace_scene`] / [`Prepared::replace_lights`]).
+    pub fn set_renderer_args(&mut self, args: &SceneArgs) -> Result<()> {
+        args.validate()?;
+        self.args = with_capacity(args, self.lights.len(), &self.ctx.device.limits());
+        Ok(())
+    }
+
+    /// Takes the GPU errors raised outside an error scope since the last call (the viewer
+    /// shows them and goes on; `check_gpu_errors` ends a headless run instead).
+    pub fn take_gpu_errors(&self) -> Vec<String> {
+        self.gpu_errors.lock().map(|mut v| std::mem::take(&mut *v)).unwrap_or_default()
     }
 
     /// Builds a renderer for the flags' method, screen and settings.
@@ -602,30 +720,6 @@ impl Prepared {
     }
 }
 
-/// `args` with the per-list capacity filled in: `--capacity`, or every light up to what
-/// the device's workgroup memory holds.
-fn with_capacity(args: &SceneArgs, lights: &LightBuffers, ctx: &GpuContext) -> SceneArgs {
-    let mut args = args.clone();
-    if args.capacity.is_none() {
-        args.capacity = Some(CullOptions::capacity_for(
-            lights.len(),
-            args.half_z,
-            args.reserved_workgroup_bytes(),
-            &ctx.device.limits(),
-        ));
-    }
-    args
-}
-
-/// The camera of a run (the scene's own, else one framing its bounds) and where it came from.
-fn scene_camera(scene: &Scene, args: &SceneArgs) -> Result<(Camera, &'static str)> {
-    let aspect = args.width as f32 / args.height as f32;
-    Ok(match &scene.camera {
-        Some(desc) => (camera_from_desc(desc, aspect).context("the scene's camera is unusable")?, "the scene's camera"),
-        None => (frame_bounds(&scene.bounds, aspect)?, "framing the scene bounds"),
-    })
-}
-
 /// Loads or builds the scene; returns it with the number of lights it brought along.
 fn load_scene(args: &SceneArgs) -> Result<(Scene, usize)> {
     match args.source() {
@@ -642,8 +736,17 @@ fn load_scene(args: &SceneArgs) -> Result<(Scene, usize)> {
     }
 }
 
-/// The scene's own lights followed by the random ones asked for.
-fn build_lights(args: &SceneArgs, scene: &Scene, file_lights: usize) -> Result<Vec<Light>> {
+/// Uploads the scene and its lights.
+fn upload(ctx: &GpuContext, cpu: &SceneCpu) -> Result<(SceneGpu, LightBuffers)> {
+    let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &cpu.scene)
+        .with_context(|| format!("uploading scene '{}'", cpu.scene.name))?;
+    let lights = LightBuffers::new(&ctx.device, &cpu.lights).context("uploading the lights")?;
+    Ok((scene_gpu, lights))
+}
+
+/// The scene's own lights followed by the random ones asked for, placed in `bounds`.
+fn build_lights(args: &SceneArgs, bounds: &Aabb, scene_lights: &[Light]) -> Result<Vec<Light>> {
+    let file_lights = scene_lights.len();
     let (points, spots) = args.random_light_counts();
     let total = file_lights as u64 + points + spots;
     ensure!(
@@ -651,7 +754,7 @@ fn build_lights(args: &SceneArgs, scene: &Scene, file_lights: usize) -> Result<V
         "{file_lights} lights from the scene plus {} random: at most {MAX_LIGHTS} lights are supported",
         points + spots
     );
-    let mut lights = scene.lights.clone();
+    let mut lights = scene_lights.to_vec();
     if points + spots > 0 {
         let opts = LightOptions {
             // Both fit: validate() capped them at MAX_LIGHTS (2^20).
@@ -661,7 +764,7 @@ fn build_lights(args: &SceneArgs, scene: &Scene, file_lights: usize) -> Result<V
             threshold: args.threshold,
             intensity_range: DEFAULT_INTENSITY_RANGE,
         };
-        lights.extend(random_lights(&scene.bounds, &opts).context("generating random lights")?);
+        lights.extend(random_lights(bounds, &opts).context("generating random lights")?);
     }
     Ok(lights)
 }

@@ -210,6 +210,10 @@ fn bad_input_gives_one_clear_error_line() {
         (&["bench", "--frames", "0"], "--frames 0"),
         (&["bench", "--tile-size", "64"], "--tile-size 64"),
         (&["frobnicate"], "frobnicate"),
+        (&["render", "--camera", "/nonexistent/cam.txt"], "--camera /nonexistent/cam.txt"),
+        (&["view", "--script", "zoom=3"], "unknown key 'zoom'"),
+        (&["view", "--screenshot", "a.png"], "need --frames"),
+        (&["view", "--frames", "1", "--screenshot", "a.jpg"], ".png"),
     ];
     for (args, needle) in cases {
         let line = fails(args);
@@ -217,9 +221,30 @@ fn bad_input_gives_one_clear_error_line() {
     }
 }
 
+/// A camera bookmark (as the viewer's "save camera" writes it) pins the view of `render`;
+/// a malformed one names the file and line before any GPU work.
+#[test]
+fn render_from_a_camera_bookmark() {
+    let dir = scratch("bookmark");
+    let cam = dir.join("cam.txt");
+    std::fs::write(
+        &cam,
+        "# saved by the viewer\neye 0 3 12\ntarget 0 2 0\nup 0 1 0\nfov_y_deg 50\nnear 0.05\nfar inf\n",
+    )
+    .unwrap();
+    let png = dir.join("b.png");
+    let out = gpu_run(&with_tiny("render", &["--camera", cam.to_str().unwrap(), "--out", png.to_str().unwrap()]));
+    let text = stdout(&out);
+    assert!(text.contains(&format!("camera: bookmark {}", cam.display())), "{text}");
+    assert!(png.exists());
+    std::fs::write(&cam, "eye 0 3 12\ntarget 0 NaN 0\n").unwrap();
+    let line = fails(&["render", "--camera", cam.to_str().unwrap()]);
+    assert!(line.contains(&format!("{}:2: 'NaN' must be a finite number", cam.display())), "{line}");
+}
+
 #[test]
 fn help_and_version_succeed() {
-    for args in [&["--help"][..], &["render", "--help"], &["bench", "--help"], &["--version"]] {
+    for args in [&["--help"][..], &["render", "--help"], &["bench", "--help"], &["view", "--help"], &["--version"]] {
         let out = tiledlight(args);
         assert!(out.status.success(), "{args:?}");
         assert!(!out.stdout.is_empty(), "{args:?}");

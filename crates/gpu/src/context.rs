@@ -46,6 +46,27 @@ impl GpuContext {
         Self::with_adapter(instance, adapter, options)
     }
 
+    /// A device that can present to the surface made by `make_surface` (the viewer's
+    /// window): the instance is created with the window system's `display` handle, the
+    /// surface from it, and the adapter must support that surface (`WGPU_ADAPTER_NAME`
+    /// still picks it by name). Returns the context and the unconfigured surface.
+    pub fn for_surface<'w>(
+        options: ContextOptions,
+        display: Box<dyn wgpu::wgt::WgpuHasDisplayHandle>,
+        make_surface: impl FnOnce(&wgpu::Instance) -> Result<wgpu::Surface<'w>, wgpu::CreateSurfaceError>,
+    ) -> Result<(Self, wgpu::Surface<'w>), GpuError> {
+        let mut desc = wgpu::InstanceDescriptor::new_with_display_handle_from_env(display);
+        if std::env::var("WGPU_BACKEND").is_err() {
+            desc.backends = wgpu::Backends::PRIMARY;
+        }
+        let instance = wgpu::Instance::new(desc);
+        let surface =
+            make_surface(&instance).map_err(|e| GpuError::Config(format!("cannot create a window surface: {e}")))?;
+        let adapter = pollster::block_on(select_adapter_for(&instance, desc_backends(), Some(&surface)))?;
+        let ctx = Self::with_adapter(instance, adapter, options)?;
+        Ok((ctx, surface))
+    }
+
     /// A device on a chosen adapter.
     pub fn with_adapter(
         instance: wgpu::Instance,
@@ -126,7 +147,20 @@ fn desc_backends() -> wgpu::Backends {
 
 /// Picks the adapter named by `WGPU_ADAPTER_NAME`, else the high-performance default.
 pub async fn select_adapter(instance: &wgpu::Instance, backends: wgpu::Backends) -> Result<wgpu::Adapter, GpuError> {
-    let adapters = instance.enumerate_adapters(backends).await;
+    select_adapter_for(instance, backends, None).await
+}
+
+/// [`select_adapter`] among the adapters that can present to `surface` (all of them when
+/// `None`).
+pub async fn select_adapter_for(
+    instance: &wgpu::Instance,
+    backends: wgpu::Backends,
+    surface: Option<&wgpu::Surface<'_>>,
+) -> Result<wgpu::Adapter, GpuError> {
+    let mut adapters = instance.enumerate_adapters(backends).await;
+    if let Some(s) = surface {
+        adapters.retain(|a| a.is_surface_supported(s));
+    }
     let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
     if let Some(filter) = adapter_name_filter() {
         return adapters.into_iter().find(|a| a.get_info().name.to_lowercase().contains(&filter)).ok_or_else(|| {
@@ -145,7 +179,7 @@ pub async fn select_adapter(instance: &wgpu::Instance, backends: wgpu::Backends)
         .request_adapter(&wgpu::RequestAdapterOptions {
             power_preference: wgpu::PowerPreference::HighPerformance,
             force_fallback_adapter: false,
-            compatible_surface: None,
+            compatible_surface: surface,
             apply_limit_buckets: false,
         })
         .await

@@ -1,0 +1,132 @@
+//! Presenting the lit image: the renderer's tonemapped target is copied into a sampled
+//! texture (the renderers' `ldr` target is a render attachment and copy source only) and
+//! drawn onto the window surface with `shaders/viewer_blit.wgsl`, whatever the surface's
+//! format. The pipeline is built once per surface format, the texture and bind group once
+//! per renderer (screen size), never per frame. Depends on wgpu and tiledlight-gpu.
+
+use anyhow::Result;
+use tiledlight_gpu::timer::GpuTimer;
+use tiledlight_gpu::tonemap::LDR_FORMAT;
+use tiledlight_gpu::util::{pipeline_layout, shader_module, texture_entry};
+
+/// The blit pipeline for one surface format.
+pub struct Blit {
+    pipeline: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+    sampler: wgpu::Sampler,
+}
+
+/// A sampled copy of a renderer's display image, with its bind group.
+pub struct DisplayImage {
+    texture: wgpu::Texture,
+    bind_group: wgpu::BindGroup,
+}
+
+impl Blit {
+    /// Builds the pipeline writing `format`.
+    pub fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> Result<Self> {
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("viewer.blit.layout"),
+            entries: &[
+                texture_entry(0, wgpu::ShaderStages::FRAGMENT, wgpu::TextureSampleType::Float { filterable: true }),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        let module = shader_module(device, "viewer_blit.wgsl", &[])?;
+        let pl = pipeline_layout(device, "viewer.blit.pipeline_layout", &[&layout]);
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("viewer.blit"),
+            layout: Some(&pl),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_blit"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: Default::default(),
+            depth_stencil: None,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_blit"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("viewer.blit.sampler"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        Ok(Self { pipeline, layout, sampler })
+    }
+
+    /// The sampled texture a renderer's `ldr` target of `size` is copied into.
+    pub fn display_image(&self, device: &wgpu::Device, size: (u32, u32)) -> DisplayImage {
+        let texture = tiledlight_gpu::targets::texture_2d(
+            device,
+            "viewer.display",
+            size,
+            LDR_FORMAT,
+            wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        );
+        let view = texture.create_view(&Default::default());
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("viewer.blit.bind_group"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&self.sampler) },
+            ],
+        });
+        DisplayImage { texture, bind_group }
+    }
+
+    /// Copies `ldr` into `image` and draws it over all of `target`; timed as
+    /// `viewer.present` when `timer` is given.
+    pub fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: Option<&GpuTimer>,
+        ldr: &wgpu::Texture,
+        image: &DisplayImage,
+        target: &wgpu::TextureView,
+    ) {
+        if ldr.size() == image.texture.size() {
+            encoder.copy_texture_to_texture(ldr.as_image_copy(), image.texture.as_image_copy(), ldr.size());
+        }
+        let t = timer.map(|t| t.begin("viewer.present", encoder));
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("viewer.present"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: target,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: t.as_ref().and_then(|t| t.render_writes()),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &image.bind_group, &[]);
+            pass.draw(0..3, 0..1);
+        }
+        if let (Some(timer), Some(t)) = (timer, t) {
+            timer.end(encoder, t);
+        }
+    }
+}

@@ -1,0 +1,726 @@
+//! `tiledlight view`: the interactive viewer. A winit window with a wgpu surface; each
+//! frame the renderer of the chosen method draws into its own targets, the tonemapped
+//! image is drawn onto the surface ([`blit`]) and the egui panel over it ([`ui`]). The
+//! GPU context is made for the window's surface; scene, lights and renderer come from the
+//! same [`Prepared`] as `render` and `bench`, and a change of settings rebuilds only what
+//! depends on it ([`settings`]). `--frames N` (with `--script`, `--screenshot`,
+//! `--screenshot-ui`) makes a scripted run that exits by itself, for tests and demos.
+//!
+//! Plain `tiledlight` opens the viewer when a display is available ([`run_default`]), and
+//! otherwise runs the headless quickstart, saying why in one line.
+//!
+//! May depend on every other module of the app.
+
+mod animate;
+mod blit;
+pub mod camera_control;
+mod script;
+pub mod settings;
+pub mod ui;
+
+use std::collections::VecDeque;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use tiledlight_cull::bounds::{sphere_vs_frustum, to_view};
+use tiledlight_cull::tiles::TileFrustum;
+use tiledlight_cull::Camera;
+use tiledlight_gpu::readback::read_texture;
+use tiledlight_gpu::targets::Renderer;
+use tiledlight_gpu::timer::GpuTimer;
+use tiledlight_gpu::{ContextOptions, GpuContext};
+use winit::application::ApplicationHandler;
+use winit::event::WindowEvent;
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
+use winit::window::{Window, WindowId};
+
+use crate::bookmark;
+use crate::render::{culling_stats, write_image};
+use crate::scene_setup::{check_png_path, rgb_image, save_png, Prepared, SceneArgs, SceneCpu};
+use animate::LightAnimator;
+use blit::{Blit, DisplayImage};
+use camera_control::CameraRig;
+use script::Action;
+use settings::{plan, Settings};
+use ui::{Command, Info, Stats, UiState};
+
+/// How often the culling statistics (a GPU readback) are refreshed.
+const STATS_PERIOD: Duration = Duration::from_millis(500);
+/// Where the "save camera" key writes the bookmark.
+pub const BOOKMARK_PATH: &str = "out/camera.txt";
+
+/// Flags of `tiledlight view`.
+#[derive(Args, Clone, Debug)]
+pub struct ViewArgs {
+    /// Scene, lights, window size and renderer (as for render and bench).
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Exit after rendering N frames (after the script's actions); without it the viewer
+    /// runs until closed.
+    #[arg(long, value_name = "N")]
+    pub frames: Option<u32>,
+    /// Actions applied one per frame through the panel's code, e.g.
+    /// "method=deferred;lights=300;heatmap=on;wait=5" (keys: see the README).
+    #[arg(long, value_name = "ACTIONS")]
+    pub script: Option<String>,
+    /// When exiting after --frames: save the lit image (no UI) to this PNG.
+    #[arg(long, value_name = "FILE.png")]
+    pub screenshot: Option<PathBuf>,
+    /// When exiting after --frames: save the window as shown, panel included, to this PNG.
+    #[arg(long, value_name = "FILE.png")]
+    pub screenshot_ui: Option<PathBuf>,
+}
+
+/// Why the viewer did not run.
+enum Failure {
+    /// No window could be opened (no display, no surface, no adapter for it).
+    NoWindow(anyhow::Error),
+    /// Anything else (bad flags, a scene that does not load, a GPU error).
+    Other(anyhow::Error),
+}
+
+/// Runs `tiledlight view`.
+pub fn run(args: &ViewArgs) -> Result<()> {
+    match run_viewer(args) {
+        Ok(()) => Ok(()),
+        Err(Failure::NoWindow(e)) => {
+            Err(e.context("cannot open the viewer window (is DISPLAY or WAYLAND_DISPLAY set?)"))
+        }
+        Err(Failure::Other(e)) => Err(e),
+    }
+}
+
+/// Plain `tiledlight`: the viewer when a display is available, else the headless
+/// quickstart, with one line saying why.
+pub fn run_default() -> Result<()> {
+    let has_display = ["DISPLAY", "WAYLAND_DISPLAY"].iter().any(|v| std::env::var_os(v).is_some_and(|s| !s.is_empty()));
+    let headless_line = |why: &str| {
+        println!("{why}: rendering headless to out/ (run `tiledlight view` with a display for the viewer)");
+    };
+    if std::env::var_os("TILEDLIGHT_HEADLESS").is_some() {
+        headless_line("TILEDLIGHT_HEADLESS is set");
+        return crate::quickstart::run();
+    }
+    if !has_display {
+        headless_line("no display (DISPLAY and WAYLAND_DISPLAY are unset)");
+        return crate::quickstart::run();
+    }
+    let args = ViewArgs {
+        scene: SceneArgs { width: 1280, height: 720, ..SceneArgs::default() },
+        frames: None,
+        script: None,
+        screenshot: None,
+        screenshot_ui: None,
+    };
+    match run_viewer(&args) {
+        Ok(()) => Ok(()),
+        Err(Failure::NoWindow(e)) => {
+            headless_line(&format!("no window ({})", crate::error_line(&e)));
+            crate::quickstart::run()
+        }
+        Err(Failure::Other(e)) => Err(e),
+    }
+}
+
+fn run_viewer(args: &ViewArgs) -> Result<(), Failure> {
+    let script: VecDeque<Action> = match &args.script {
+        Some(s) => script::parse(s).map_err(Failure::Other)?.into(),
+        None => VecDeque::new(),
+    };
+    for p in [&args.screenshot, &args.screenshot_ui].into_iter().flatten() {
+        check_png_path(p).map_err(Failure::Other)?;
+    }
+    if args.frames.is_none() && (args.screenshot.is_some() || args.screenshot_ui.is_some()) {
+        return Err(Failure::Other(anyhow::anyhow!("--screenshot and --screenshot-ui need --frames N")));
+    }
+    // Flags and files first: a typo should not cost a window and a device.
+    let cpu = SceneCpu::load(&args.scene).map_err(Failure::Other)?;
+    let event_loop = EventLoop::new().map_err(|e| Failure::NoWindow(e.into()))?;
+    event_loop.set_control_flow(ControlFlow::Poll);
+    let mut app = App { args: args.clone(), script, cpu: Some(cpu), viewer: None, failure: None };
+    event_loop.run_app(&mut app).map_err(|e| Failure::Other(e.into()))?;
+    match app.failure {
+        Some(f) => Err(f),
+        None => Ok(()),
+    }
+}
+
+/// The winit application: creates the viewer when the event loop starts.
+struct App {
+    args: ViewArgs,
+    script: VecDeque<Action>,
+    cpu: Option<SceneCpu>,
+    viewer: Option<Viewer>,
+    failure: Option<Failure>,
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.viewer.is_some() {
+            return;
+        }
+        let Some(cpu) = self.cpu.take() else { return };
+        match Viewer::new(event_loop, &self.args, cpu, std::mem::take(&mut self.script)) {
+            Ok(v) => self.viewer = Some(v),
+            Err(f) => {
+                self.failure = Some(f);
+                event_loop.exit();
+            }
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        let Some(v) = self.viewer.as_mut() else { return };
+        let response = v.egui_state.on_window_event(&v.window, &event);
+        match event {
+            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::Resized(size) => v.resize(size.width, size.height),
+            WindowEvent::RedrawRequested => match v.frame() {
+                Ok(true) => event_loop.exit(),
+                Ok(false) => {}
+                Err(e) => {
+                    self.failure = Some(Failure::Other(e));
+                    event_loop.exit();
+                }
+            },
+            _ => {
+                if response.repaint {
+                    v.window.request_redraw();
+                }
+            }
+        }
+    }
+
+    fn about_to_wait(&mut self, _event_loop: &ActiveEventLoop) {
+        if let Some(v) = &self.viewer {
+            v.window.request_redraw();
+        }
+    }
+}
+
+/// The window, its surface, and everything drawn into it.
+struct Viewer {
+    window: Arc<Window>,
+    surface: wgpu::Surface<'static>,
+    config: wgpu::SurfaceConfiguration,
+    prep: Prepared,
+    renderer: Box<dyn Renderer>,
+    blit: Blit,
+    display: DisplayImage,
+    timer: GpuTimer,
+    egui_ctx: egui::Context,
+    egui_state: egui_winit::State,
+    egui_renderer: egui_wgpu::Renderer,
+    egui_free: Vec<egui::TextureId>,
+    /// The settings in use, and the copy the panel edits.
+    settings: Settings,
+    pending: Settings,
+    rig: CameraRig,
+    home: CameraRig,
+    animator: LightAnimator,
+    stats: Stats,
+    ui: UiState,
+    script: VecDeque<Action>,
+    wait: u32,
+    frames_left: Option<u32>,
+    screenshot: Option<PathBuf>,
+    screenshot_ui: Option<PathBuf>,
+    frames: u64,
+    last_frame: Instant,
+    last_stats: Option<Instant>,
+    minimized: bool,
+}
+
+/// The surface format: a plain (non-sRGB) 8-bit one, which egui expects (it blends in
+/// gamma space); the blit writes the lit image through an sRGB view of it, so the image's
+/// linear values are encoded exactly as in the PNGs.
+fn surface_format(caps: &wgpu::SurfaceCapabilities) -> Result<wgpu::TextureFormat> {
+    caps.formats
+        .iter()
+        .copied()
+        .find(|f| !f.is_srgb() && f.add_srgb_suffix() != *f)
+        .or_else(|| caps.formats.first().map(|f| f.remove_srgb_suffix()))
+        .context("the window surface offers no format")
+}
+
+fn present_mode(vsync: bool) -> wgpu::PresentMode {
+    if vsync {
+        wgpu::PresentMode::AutoVsync
+    } else {
+        wgpu::PresentMode::AutoNoVsync
+    }
+}
+
+/// A rig at the prepared scene's starting camera, its orbit target at the scene centre's
+/// distance; the near plane is pulled in so flying close to walls does not clip them.
+fn home_rig(prep: &Prepared) -> CameraRig {
+    let dist = (prep.bounds.center() - prep.camera.eye()).length().max(1e-2);
+    let mut rig = CameraRig::from_camera(&prep.camera, dist);
+    if prep.args.camera.is_none() {
+        rig.near = rig.near.min(dist * 1e-3).max(1e-4);
+    }
+    rig
+}
+
+impl Viewer {
+    fn new(
+        event_loop: &ActiveEventLoop,
+        args: &ViewArgs,
+        cpu: SceneCpu,
+        script: VecDeque<Action>,
+    ) -> Result<Self, Failure> {
+        let no_window = |e: anyhow::Error| Failure::NoWindow(e);
+        let other = |e: anyhow::Error| Failure::Other(e);
+        let attrs = Window::default_attributes()
+            .with_title("tiledlight")
+            .with_inner_size(winit::dpi::PhysicalSize::new(args.scene.width, args.scene.height));
+        let window = Arc::new(event_loop.create_window(attrs).map_err(|e| no_window(e.into()))?);
+        let display = event_loop.owned_display_handle();
+        let w = window.clone();
+        let (ctx, surface) =
+            GpuContext::for_surface(ContextOptions::default(), Box::new(display), move |i| i.create_surface(w))
+                .map_err(|e| no_window(e.into()))?;
+        let caps = surface.get_capabilities(&ctx.adapter);
+        let format = surface_format(&caps).map_err(no_window)?;
+        let size = window.inner_size();
+        let (width, height) = (size.width.max(1), size.height.max(1));
+        let config = wgpu::SurfaceConfiguration {
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            format,
+            color_space: wgpu::SurfaceColorSpace::Auto,
+            width,
+            height,
+            present_mode: present_mode(true),
+            desired_maximum_frame_latency: 2,
+            alpha_mode: caps.alpha_modes.first().copied().unwrap_or(wgpu::CompositeAlphaMode::Auto),
+            view_formats: vec![format.add_srgb_suffix()],
+        };
+        surface.configure(&ctx.device, &config);
+
+        let mut scene_args = args.scene.clone();
+        (scene_args.width, scene_args.height) = (width, height);
+        let prep = Prepared::with_context(&scene_args, cpu, ctx).map_err(other)?;
+        let settings = Settings::new(scene_args);
+        let renderer = prep.renderer(false).map_err(other)?;
+        let blit = Blit::new(&prep.ctx.device, format.add_srgb_suffix()).map_err(other)?;
+        let display = blit.display_image(&prep.ctx.device, (width, height));
+        let timer = GpuTimer::new(&prep.ctx).map_err(|e| other(e.into()))?;
+
+        let egui_ctx = egui::Context::default();
+        let egui_state = egui_winit::State::new(
+            egui_ctx.clone(),
+            egui::ViewportId::ROOT,
+            &window,
+            Some(window.scale_factor() as f32),
+            None,
+            Some(prep.ctx.device.limits().max_texture_dimension_2d as usize),
+        );
+        let egui_renderer = egui_wgpu::Renderer::new(&prep.ctx.device, format, egui_wgpu::RendererOptions::default());
+        let home = home_rig(&prep);
+        let animator = LightAnimator::new(&prep.lights.packed, prep.bounds.center());
+        let stats = Stats { timestamps: timer.enabled(), ..Stats::default() };
+        let scene_path = if prep.args.scene == "default" { String::new() } else { prep.args.scene.clone() };
+        log::info!("viewer: {} on {}", prep.scene_name, prep.ctx.describe());
+        Ok(Self {
+            window,
+            surface,
+            config,
+            renderer,
+            blit,
+            display,
+            timer,
+            egui_ctx,
+            egui_state,
+            egui_renderer,
+            egui_free: Vec::new(),
+            pending: settings.clone(),
+            settings,
+            rig: home.clone(),
+            home,
+            animator,
+            stats,
+            ui: UiState { scene_path, ..UiState::default() },
+            script,
+            wait: 0,
+            frames_left: args.frames,
+            screenshot: args.screenshot.clone(),
+            screenshot_ui: args.screenshot_ui.clone(),
+            frames: 0,
+            last_frame: Instant::now(),
+            last_stats: None,
+            minimized: false,
+            prep,
+        })
+    }
+
+    /// A new window size: the surface is reconfigured now, the renderer at the next frame.
+    fn resize(&mut self, width: u32, height: u32) {
+        self.minimized = width == 0 || height == 0;
+        if self.minimized {
+            return;
+        }
+        self.config.width = width;
+        self.config.height = height;
+        self.surface.configure(&self.prep.ctx.device, &self.config);
+        self.pending.args.width = width;
+        self.pending.args.height = height;
+    }
+
+    /// Shows an error in the panel and on stderr; the viewer goes on.
+    fn report(&mut self, e: &anyhow::Error) {
+        let line = crate::error_line(e);
+        eprintln!("error: {line}");
+        self.ui.error = Some(line);
+    }
+
+    /// Applies `new` (the panel's or the script's edit), rebuilding what it must. On error
+    /// the previous settings stay in use (and the panel shows them again).
+    fn apply(&mut self, new: Settings) {
+        if let Err(e) = self.try_apply(&new) {
+            self.report(&e);
+            let old = self.settings.clone();
+            // The failed attempt may have replaced the scene or the lights before the
+            // renderer failed: go back from what `prep` holds now to the old settings.
+            let mut now = old.clone();
+            now.args = self.prep.args.clone();
+            now.args.capacity = old.args.capacity;
+            self.settings = now;
+            if let Err(e) = self.try_apply(&old) {
+                self.report(&e);
+            }
+            self.settings = old;
+        }
+        self.pending = self.settings.clone();
+    }
+
+    fn try_apply(&mut self, new: &Settings) -> Result<()> {
+        let p = plan(&self.settings, new);
+        if p.is_empty() {
+            self.settings = new.clone();
+            return Ok(());
+        }
+        new.args.validate()?;
+        let mut renderer = p.renderer;
+        if p.scene {
+            let mut args = new.args.clone();
+            // A new scene starts from its own camera, not the bookmark of the first one.
+            if args.scene != self.settings.args.scene {
+                args.camera = None;
+            }
+            let cpu = SceneCpu::load(&args)?;
+            self.prep.replace_scene(&new.args, cpu)?;
+            self.home = home_rig(&self.prep);
+            self.rig = self.home.clone();
+            renderer = true;
+        } else if p.lights {
+            renderer |= self.prep.replace_lights(&new.args)?;
+        }
+        if p.scene || p.lights {
+            self.animator = LightAnimator::new(&self.prep.lights.packed, self.prep.bounds.center());
+        }
+        if renderer {
+            self.prep.set_renderer_args(&new.args)?;
+            // The old renderer stays in use until the new one is built, so a renderer
+            // the GPU refuses leaves a working viewer behind.
+            let size = (new.args.width, new.args.height);
+            let built = self.prep.renderer(new.effective_heatmap());
+            self.renderer = built?;
+            self.display = self.blit.display_image(&self.prep.ctx.device, size);
+            self.stats.culling = None;
+            self.last_stats = None;
+        }
+        if p.surface {
+            self.config.present_mode = present_mode(new.vsync);
+            self.surface.configure(&self.prep.ctx.device, &self.config);
+        }
+        self.settings = new.clone();
+        Ok(())
+    }
+
+    /// Runs the next script action, if its turn has come.
+    fn script_step(&mut self) {
+        if self.wait > 0 {
+            self.wait -= 1;
+            return;
+        }
+        let Some(action) = self.script.pop_front() else { return };
+        match action {
+            Action::Wait(n) => self.wait = n,
+            Action::Camera(mode) => self.rig.mode = mode,
+            Action::Window(w, h) => {
+                // Some window systems resize at once (returning the size), others later
+                // with a Resized event; both end in `resize`.
+                if let Some(size) = self.window.request_inner_size(winit::dpi::PhysicalSize::new(w, h)) {
+                    self.resize(size.width, size.height);
+                }
+            }
+            Action::Set { key, value } => {
+                let mut s = self.pending.clone();
+                match script::set(&mut s, &key, &value) {
+                    Ok(()) => self.apply(s),
+                    Err(e) => self.report(&e),
+                }
+            }
+        }
+    }
+
+    fn run_command(&mut self, c: Command) -> bool {
+        match c {
+            Command::ResetCamera => self.rig = self.home.clone(),
+            Command::SaveCamera => match bookmark::save(Path::new(BOOKMARK_PATH), &self.rig.desc()) {
+                Ok(()) => self.ui.notice = Some(format!("wrote {BOOKMARK_PATH} (use with --camera)")),
+                Err(e) => self.report(&e),
+            },
+            Command::Screenshot => {
+                let path = (1..).map(|n| PathBuf::from(format!("out/screenshot-{n}.png"))).find(|p| !p.exists());
+                if let Some(path) = path {
+                    match write_image(&self.prep, self.renderer.as_ref(), self.settings.effective_heatmap(), &path) {
+                        Ok(_) => self.ui.notice = Some(format!("wrote {}", path.display())),
+                        Err(e) => self.report(&e),
+                    }
+                }
+            }
+            Command::Quit => return true,
+        }
+        false
+    }
+
+    /// Lights whose bounding sphere meets the view frustum (CPU, from the uploaded data).
+    fn visible_lights(&self, camera: &Camera) -> usize {
+        let dp = camera.depth_params();
+        let f = TileFrustum::from_parts(&camera.proj(), &dp, (-1.0, 1.0, -1.0, 1.0), dp.near, dp.far);
+        let view = camera.view();
+        let lights = if self.settings.animate { self.animator.current() } else { &self.prep.lights.packed };
+        lights.cull.iter().filter(|l| sphere_vs_frustum(&f, to_view(&view, l.center.into()), l.radius)).count()
+    }
+
+    /// Renders one frame; true when a scripted run is finished.
+    fn frame(&mut self) -> Result<bool> {
+        let now = Instant::now();
+        let dt = (now - self.last_frame).as_secs_f32();
+        self.last_frame = now;
+        if self.minimized {
+            return Ok(false);
+        }
+        for e in self.prep.take_gpu_errors() {
+            self.report(&anyhow::anyhow!("GPU: {e}"));
+        }
+
+        // The panel (and keys) edit `pending`; applied below unless a slider is held.
+        let raw = self.egui_state.take_egui_input(&self.window);
+        let info = Info {
+            adapter: &self.prep.ctx.info.name,
+            scene: format!(
+                "{}: {} triangles, {} instances",
+                self.prep.scene_name,
+                crate::scene_setup::group_digits(self.prep.scene_gpu.triangles),
+                self.prep.instances
+            ),
+            lights: &self.prep.light_summary,
+            memory: self.renderer.memory(),
+            capacity: self.prep.args.capacity(),
+            size: (self.prep.args.width, self.prep.args.height),
+            stats: &self.stats,
+        };
+        let (ui, pending, rig) = (&mut self.ui, &mut self.pending, &mut self.rig);
+        let mut commands = Vec::new();
+        let mut output = self.egui_ctx.run_pass(raw, |ctx| commands = ui::draw(ctx, ui, pending, rig, &info, dt));
+        self.egui_state.handle_platform_output(&self.window, std::mem::take(&mut output.platform_output));
+        // Texture changes are applied now, even if this frame is not drawn; textures egui
+        // no longer uses are freed at the next frame, after this one's paint jobs ran.
+        {
+            let ctx = &self.prep.ctx;
+            for id in self.egui_free.drain(..) {
+                self.egui_renderer.free_texture(&id);
+            }
+            for (id, deltas) in &output.textures_delta.set {
+                for delta in deltas {
+                    self.egui_renderer.update_texture(&ctx.device, &ctx.queue, *id, delta);
+                }
+            }
+            self.egui_free.extend(output.textures_delta.free.iter().copied());
+            output.textures_delta.clear();
+        }
+        let mut quit = false;
+        for c in commands {
+            quit |= self.run_command(c);
+        }
+        if self.pending != self.settings && !self.egui_ctx.egui_is_using_pointer() {
+            self.apply(self.pending.clone());
+        }
+        if self.frames > 0 {
+            self.script_step();
+        }
+
+        if self.settings.animate {
+            self.animator.advance(&self.prep.ctx.queue, &self.prep.lights, dt);
+        }
+        let (w, h) = (self.prep.args.width, self.prep.args.height);
+        let camera = match self.rig.camera(w as f32 / h as f32) {
+            Ok(c) => c,
+            Err(e) => {
+                self.report(&e.context("camera"));
+                self.rig = self.home.clone();
+                return Ok(quit);
+            }
+        };
+
+        let frame = match self.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
+            wgpu::CurrentSurfaceTexture::Timeout | wgpu::CurrentSurfaceTexture::Occluded => return Ok(quit),
+            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+                self.surface.configure(&self.prep.ctx.device, &self.config);
+                return Ok(quit);
+            }
+            other => bail!("cannot draw to the window: {other:?}"),
+        };
+        let (target, target_srgb) = views(&frame.texture);
+        let scripted_end = self.frames_left == Some(0) && self.script.is_empty() && self.wait == 0;
+        let capture = if scripted_end { self.screenshot_ui.take() } else { None };
+
+        let ctx = &self.prep.ctx;
+        let ppp = egui_winit::pixels_per_point(&self.egui_ctx, &self.window);
+        let paint = self.egui_ctx.tessellate(output.shapes, ppp);
+        let screen = egui_wgpu::ScreenDescriptor {
+            size_in_pixels: [self.config.width, self.config.height],
+            pixels_per_point: ppp,
+        };
+        let mut encoder =
+            ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("viewer.frame") });
+        self.renderer.record(&ctx.queue, &mut encoder, &self.timer, &self.prep.scene_gpu, &camera);
+        let extra = self.egui_renderer.update_buffers(&ctx.device, &ctx.queue, &mut encoder, &paint, &screen);
+        let ldr = &self.renderer.targets().ldr;
+        self.blit.record(&mut encoder, Some(&self.timer), ldr, &self.display, &target_srgb);
+        let t = self.timer.begin("viewer.ui", &mut encoder);
+        draw_ui(&self.egui_renderer, &mut encoder, &target, t.render_writes(), &paint, &screen);
+        self.timer.end(&mut encoder, t);
+        let captured = capture.map(|path| {
+            let tex = ctx.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("viewer.capture"),
+                size: wgpu::Extent3d { width: self.config.width, height: self.config.height, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: self.config.format,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[self.config.format.add_srgb_suffix()],
+            });
+            let (view, view_srgb) = views(&tex);
+            self.blit.record(&mut encoder, None, ldr, &self.display, &view_srgb);
+            draw_ui(&self.egui_renderer, &mut encoder, &view, None, &paint, &screen);
+            (path, tex)
+        });
+        self.timer.resolve(&mut encoder);
+        ctx.queue.submit(extra.into_iter().chain([encoder.finish()]));
+        self.window.pre_present_notify();
+        ctx.queue.present(frame);
+        self.timer.end_frame()?;
+        ctx.device.poll(wgpu::PollType::Poll).context("polling the GPU")?;
+        while let Some(times) = self.timer.finished_frame() {
+            self.stats.passes = times;
+        }
+        self.stats.push_frame(dt * 1e3);
+        self.frames += 1;
+
+        if self.last_stats.is_none_or(|t| t.elapsed() >= STATS_PERIOD) || scripted_end {
+            self.last_stats = Some(Instant::now());
+            self.stats.visible_lights = self.visible_lights(&camera);
+            match culling_stats(&self.prep, self.renderer.as_ref()) {
+                Ok(c) => self.stats.culling = c,
+                Err(e) => self.report(&e),
+            }
+        }
+
+        if let Some((path, tex)) = captured {
+            self.save_capture(&path, &tex)?;
+        }
+        if scripted_end {
+            if let Some(path) = self.screenshot.take() {
+                write_image(&self.prep, self.renderer.as_ref(), self.settings.effective_heatmap(), &path)?;
+                println!("wrote {}", path.display());
+            }
+            self.print_state();
+            return Ok(true);
+        }
+        if let Some(n) = self.frames_left.as_mut() {
+            if self.script.is_empty() && self.wait == 0 {
+                *n = n.saturating_sub(1);
+            }
+        }
+        Ok(quit)
+    }
+
+    /// Writes the window as shown (panel included), read back from `tex`.
+    fn save_capture(&self, path: &Path, tex: &wgpu::Texture) -> Result<()> {
+        let ctx = &self.prep.ctx;
+        let mut px = read_texture(&ctx.device, &ctx.queue, tex, wgpu::TextureAspect::All, 4)?;
+        if matches!(tex.format(), wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb) {
+            px.chunks_exact_mut(4).for_each(|p| p.swap(0, 2));
+        }
+        save_png(path, &rgb_image(tex.width(), tex.height(), &px)?)?;
+        println!("wrote {} (with the panel)", path.display());
+        Ok(())
+    }
+
+    /// The end state of a scripted run, for tests: what the panel would show.
+    fn print_state(&self) {
+        let s = &self.settings;
+        let l = &self.prep.light_summary;
+        println!("viewer frames: {}", self.frames);
+        println!("viewer method: {}", s.args.method.name());
+        println!("viewer lights: {} point, {} spot", l.point, l.spot);
+        println!("viewer scene: {}", self.prep.scene_name);
+        println!("viewer size: {}x{}", self.prep.args.width, self.prep.args.height);
+        if let Some(c) = &self.stats.culling {
+            println!("viewer culling: {c}");
+        }
+        println!("viewer visible lights: {}", self.stats.visible_lights);
+        println!("viewer error: {}", self.ui.error.as_deref().unwrap_or("none"));
+    }
+}
+
+/// Plain and sRGB views of a surface (or capture) texture: egui draws through the first,
+/// the blit through the second.
+fn views(texture: &wgpu::Texture) -> (wgpu::TextureView, wgpu::TextureView) {
+    let plain = texture.create_view(&wgpu::TextureViewDescriptor {
+        label: Some("viewer.surface"),
+        format: Some(texture.format().remove_srgb_suffix()),
+        ..Default::default()
+    });
+    let srgb = texture.create_view(&wgpu::TextureViewDescriptor {
+        label: Some("viewer.surface.srgb"),
+        format: Some(texture.format().add_srgb_suffix()),
+        ..Default::default()
+    });
+    (plain, srgb)
+}
+
+/// Draws egui's paint jobs over `target`.
+fn draw_ui(
+    renderer: &egui_wgpu::Renderer,
+    encoder: &mut wgpu::CommandEncoder,
+    target: &wgpu::TextureView,
+    timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    paint: &[egui::ClippedPrimitive],
+    screen: &egui_wgpu::ScreenDescriptor,
+) {
+    let mut pass = encoder
+        .begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("viewer.ui"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: target,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: timestamps,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        })
+        .forget_lifetime();
+    renderer.render(&mut pass, paint, screen);
+}

@@ -1,0 +1,144 @@
+//! `--script`: a scripted run of the viewer for tests and demos. A `;`-separated list of
+//! `key=value` actions, one applied per frame after the first frame, e.g.
+//! `method=deferred;lights=300;scene=missing.gltf;heatmap=on`. Each action edits a copy of
+//! the viewer's [`Settings`] exactly as the panel's widget does, and the viewer applies it
+//! through the same path (so a bad value shows up in the panel as a widget's would).
+//! `wait=N` renders N frames before the next action. Depends on [`super::settings`] and
+//! [`crate::scene_setup`].
+
+use anyhow::{bail, Context, Result};
+use clap::ValueEnum;
+
+use super::camera_control::Mode;
+use super::settings::Settings;
+use crate::scene_setup::{DensityArg, MethodArg};
+
+/// One step of a script.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Action {
+    /// Set a control, as its widget would.
+    Set {
+        /// The control.
+        key: String,
+        /// Its new value, as text.
+        value: String,
+    },
+    /// Switch the camera to fly or orbit.
+    Camera(Mode),
+    /// Render this many frames before the next action.
+    Wait(u32),
+    /// Ask the window system for a new window size (pixels), as a user's resize would.
+    Window(u32, u32),
+}
+
+/// The keys `Action::Set` understands.
+pub const KEYS: &str = "method, lights, spot-lights, threshold, seed, tile-size, half-z, aabb, spot-cone, \
+                        grid-objects, density, gbuffer-rts, msaa, heatmap, animate, vsync, scene, camera, window, wait";
+
+/// Parses a script; an unknown key or a malformed action is an error naming it.
+pub fn parse(script: &str) -> Result<Vec<Action>> {
+    let mut out = Vec::new();
+    for item in script.split(';').map(str::trim).filter(|s| !s.is_empty()) {
+        let Some((key, value)) = item.split_once('=') else {
+            bail!("--script: '{item}' is not key=value (keys: {KEYS})");
+        };
+        let (key, value) = (key.trim(), value.trim());
+        let action = match key {
+            "wait" => Action::Wait(value.parse().with_context(|| format!("--script: wait={value}: not a count"))?),
+            "window" => {
+                let size = value.split_once('x').and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)));
+                match size {
+                    Some((w, h)) if w > 0 && h > 0 => Action::Window(w, h),
+                    _ => bail!("--script: window={value}: expected WIDTHxHEIGHT in pixels"),
+                }
+            }
+            "camera" => Action::Camera(match value {
+                "fly" => Mode::Fly,
+                "orbit" => Mode::Orbit,
+                _ => bail!("--script: camera={value}: expected fly or orbit"),
+            }),
+            _ => {
+                // Check the value now, so a typo fails before the window opens.
+                set(&mut Settings::new(Default::default()), key, value)?;
+                Action::Set { key: key.into(), value: value.into() }
+            }
+        };
+        out.push(action);
+    }
+    Ok(out)
+}
+
+fn on_off(key: &str, v: &str) -> Result<bool> {
+    match v {
+        "on" | "true" | "1" => Ok(true),
+        "off" | "false" | "0" => Ok(false),
+        _ => bail!("--script: {key}={v}: expected on or off"),
+    }
+}
+
+fn number<T: std::str::FromStr>(key: &str, v: &str) -> Result<T> {
+    v.parse().map_err(|_| anyhow::anyhow!("--script: {key}={v}: not a number"))
+}
+
+/// Sets control `key` of `s` to `value` (range checks happen when the viewer applies it,
+/// as for the widgets).
+pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
+    let a = &mut s.args;
+    match key {
+        "method" => {
+            a.method = MethodArg::from_str(value, true).map_err(|e| anyhow::anyhow!("--script: method={value}: {e}"))?
+        }
+        "lights" => a.lights = Some(number(key, value)?),
+        "spot-lights" => a.spot_lights = Some(number(key, value)?),
+        "threshold" => a.threshold = number(key, value)?,
+        "seed" => a.seed = number(key, value)?,
+        "tile-size" => a.tile_size = number(key, value)?,
+        "gbuffer-rts" => a.gbuffer_rts = number(key, value)?,
+        "msaa" => a.msaa = number(key, value)?,
+        "grid-objects" => a.grid_objects = number(key, value)?,
+        "density" => {
+            a.density =
+                DensityArg::from_str(value, true).map_err(|e| anyhow::anyhow!("--script: density={value}: {e}"))?
+        }
+        "half-z" => a.half_z = on_off(key, value)?,
+        "aabb" => a.aabb = on_off(key, value)?,
+        "spot-cone" => a.spot_cone = on_off(key, value)?,
+        "scene" => a.scene = value.to_string(),
+        "heatmap" => s.heatmap = on_off(key, value)?,
+        "animate" => s.animate = on_off(key, value)?,
+        "vsync" => s.vsync = on_off(key, value)?,
+        _ => bail!("--script: unknown key '{key}' (keys: {KEYS})"),
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_actions() {
+        let a = parse(" method=deferred; lights=300 ;wait=2;camera=orbit;scene=x.gltf;window=64x48").unwrap();
+        assert_eq!(a.len(), 6);
+        assert_eq!(a[5], Action::Window(64, 48));
+        assert_eq!(a[0], Action::Set { key: "method".into(), value: "deferred".into() });
+        assert_eq!(a[2], Action::Wait(2));
+        assert_eq!(a[3], Action::Camera(Mode::Orbit));
+        let mut s = Settings::new(Default::default());
+        set(&mut s, "method", "brute-force").unwrap();
+        set(&mut s, "heatmap", "on").unwrap();
+        assert_eq!((s.args.method, s.heatmap), (MethodArg::BruteForce, true));
+    }
+
+    #[test]
+    fn bad_actions_are_named() {
+        let e = |s: &str| format!("{:#}", parse(s).unwrap_err());
+        assert!(e("method").contains("'method' is not key=value"));
+        assert!(e("zoom=3").contains("unknown key 'zoom'"));
+        assert!(e("lights=many").contains("lights=many: not a number"));
+        assert!(e("method=fast").contains("method=fast"));
+        assert!(e("heatmap=maybe").contains("expected on or off"));
+        assert!(e("wait=-1").contains("wait=-1"));
+        assert!(e("window=0x5").contains("WIDTHxHEIGHT"));
+    }
+}

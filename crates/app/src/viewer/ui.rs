@@ -1,0 +1,506 @@
+//! The viewer's egui panel, help overlay and input: the controls of TiledLighting11's
+//! sample (method, light counts, threshold, tile size, half-z, grid objects, G-buffer
+//! targets, MSAA, heat map with legend), scene and camera controls, and the statistics
+//! (per-pass GPU times with a rolling graph, frame time, visible lights, lights per tile,
+//! overflowing tiles, GPU memory). Widgets edit a copy of the settings; the viewer applies
+//! it ([`super::settings::plan`] decides what to rebuild). Keys and mouse steer the camera
+//! when egui does not want them. Depends on egui and the viewer's other modules.
+
+use std::collections::VecDeque;
+
+use egui::{Color32, RichText};
+use tiledlight_gpu::memory::{format_bytes, MemoryReport};
+use tiledlight_gpu::timer::PassTime;
+use tiledlight_gpu::tonemap::{heatmap_palette, heatmap_t, HEATMAP_OVERFLOW};
+
+use super::camera_control::{CameraRig, Mode, Motion};
+use super::settings::{method_label, Settings, METHODS, MSAA_CHOICES};
+use crate::legend::label_values;
+use crate::render::CullingStats;
+use crate::scene_setup::{DensityArg, LightSummary, SceneSource};
+
+/// Key bindings, as the help overlay (F1) and the README list them.
+pub const KEYS: [(&str, &str); 15] = [
+    ("W A S D", "fly forward / left / back / right"),
+    ("Q / E", "fly down / up"),
+    ("Shift", "move 5x faster"),
+    ("drag (left or right button)", "look around (fly) / turn around the target (orbit)"),
+    ("wheel", "flight speed (fly) / distance to the target (orbit)"),
+    ("Tab", "switch between fly and orbit"),
+    ("R", "reset the camera"),
+    ("C", "save the camera bookmark (out/camera.txt)"),
+    ("M", "next method"),
+    ("H", "heat map on / off"),
+    ("Space", "light animation on / off"),
+    ("P or F12", "screenshot of the lit image, no UI (out/screenshot-N.png)"),
+    ("U", "hide / show the panel"),
+    ("F1", "this help"),
+    ("Esc", "quit"),
+];
+
+/// Frames kept for the rolling graph.
+pub const HISTORY: usize = 240;
+
+/// Something the panel or a key asks the viewer to do.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Command {
+    /// Back to the scene's starting camera.
+    ResetCamera,
+    /// Write the camera bookmark.
+    SaveCamera,
+    /// Save the lit image.
+    Screenshot,
+    /// Close the viewer.
+    Quit,
+}
+
+/// Measurements shown in the panel.
+#[derive(Clone, Debug, Default)]
+pub struct Stats {
+    /// Pass times of the last finished frame.
+    pub passes: Vec<PassTime>,
+    /// Per frame: CPU frame time and summed GPU time, milliseconds.
+    pub history: VecDeque<(f32, f32)>,
+    /// Culling statistics, refreshed a few times a second (tiled methods).
+    pub culling: Option<CullingStats>,
+    /// Lights whose bounding sphere meets the view frustum.
+    pub visible_lights: usize,
+    /// Whether the device has timestamp queries.
+    pub timestamps: bool,
+}
+
+impl Stats {
+    /// Records a frame's CPU time (and the latest GPU total).
+    pub fn push_frame(&mut self, frame_ms: f32) {
+        let gpu: f64 = self.passes.iter().map(|p| p.ms).sum();
+        if self.history.len() == HISTORY {
+            self.history.pop_front();
+        }
+        self.history.push_back((frame_ms, gpu as f32));
+    }
+
+    /// Mean CPU frame time over the history.
+    pub fn mean_frame_ms(&self) -> f32 {
+        if self.history.is_empty() {
+            return 0.0;
+        }
+        self.history.iter().map(|h| h.0).sum::<f32>() / self.history.len() as f32
+    }
+}
+
+/// What the panel shows about the current state.
+pub struct Info<'a> {
+    /// Adapter line.
+    pub adapter: &'a str,
+    /// Scene line.
+    pub scene: String,
+    /// Light counts of the scene in use.
+    pub lights: &'a LightSummary,
+    /// GPU memory of the renderer, scene and lights.
+    pub memory: &'a MemoryReport,
+    /// The list capacity in use (heat-map legend).
+    pub capacity: u32,
+    /// Render size in pixels.
+    pub size: (u32, u32),
+    /// Measurements.
+    pub stats: &'a Stats,
+}
+
+/// Panel state that is not a setting.
+#[derive(Clone, Debug, Default)]
+pub struct UiState {
+    /// Show the key list.
+    pub show_help: bool,
+    /// Hide the panel.
+    pub hide_panel: bool,
+    /// The last error, shown in red until dismissed.
+    pub error: Option<String>,
+    /// The last notice (file written...).
+    pub notice: Option<String>,
+    /// The glTF path being typed.
+    pub scene_path: String,
+}
+
+fn rgb(c: [f32; 3]) -> Color32 {
+    egui::Rgba::from_rgb(c[0], c[1], c[2]).into()
+}
+
+/// Draws the panel (and help) and handles keys and mouse. Returns the commands asked for.
+pub fn draw(
+    ctx: &egui::Context,
+    st: &mut UiState,
+    s: &mut Settings,
+    rig: &mut CameraRig,
+    info: &Info<'_>,
+    dt: f32,
+) -> Vec<Command> {
+    let mut commands = Vec::new();
+    input(ctx, st, s, rig, dt, &mut commands);
+    if st.show_help {
+        egui::Window::new("Keys (F1)").collapsible(false).anchor(egui::Align2::CENTER_CENTER, [0.0, 0.0]).show(
+            ctx,
+            |ui| {
+                egui::Grid::new("keys").striped(true).show(ui, |ui| {
+                    for (k, what) in KEYS {
+                        ui.label(RichText::new(k).strong());
+                        ui.label(what);
+                        ui.end_row();
+                    }
+                });
+            },
+        );
+    }
+    if st.hide_panel {
+        return commands;
+    }
+    egui::Window::new("tiledlight").default_pos([8.0, 8.0]).default_width(290.0).resizable(true).vscroll(true).show(
+        ctx,
+        |ui| {
+            if let Some(e) = st.error.clone() {
+                ui.horizontal_wrapped(|ui| {
+                    ui.colored_label(Color32::from_rgb(255, 90, 90), format!("error: {e}"));
+                    if ui.small_button("dismiss").clicked() {
+                        st.error = None;
+                    }
+                });
+            }
+            if let Some(n) = &st.notice {
+                ui.label(RichText::new(n).weak());
+            }
+            stats_section(ui, info);
+            controls(ui, st, s, info);
+            camera_section(ui, rig, &mut commands);
+            ui.horizontal(|ui| {
+                if ui.button("Screenshot (P)").clicked() {
+                    commands.push(Command::Screenshot);
+                }
+                if ui.button("Keys (F1)").clicked() {
+                    st.show_help = !st.show_help;
+                }
+            });
+        },
+    );
+    commands
+}
+
+fn input(
+    ctx: &egui::Context,
+    st: &mut UiState,
+    s: &mut Settings,
+    rig: &mut CameraRig,
+    dt: f32,
+    commands: &mut Vec<Command>,
+) {
+    use egui::Key;
+    if !ctx.egui_wants_keyboard_input() {
+        ctx.input(|i| {
+            let down = |k| if i.key_down(k) { 1.0 } else { 0.0 };
+            let motion = Motion {
+                right: down(Key::D) - down(Key::A),
+                up: down(Key::E) - down(Key::Q),
+                forward: down(Key::W) - down(Key::S),
+                boost: if i.modifiers.shift { 5.0 } else { 1.0 },
+            };
+            if rig.mode == Mode::Fly {
+                rig.step(motion, dt);
+            }
+            let pressed = |k| i.key_pressed(k);
+            if pressed(Key::F1) {
+                st.show_help = !st.show_help;
+            }
+            if pressed(Key::Tab) {
+                rig.mode = if rig.mode == Mode::Fly { Mode::Orbit } else { Mode::Fly };
+            }
+            if pressed(Key::R) {
+                commands.push(Command::ResetCamera);
+            }
+            if pressed(Key::C) {
+                commands.push(Command::SaveCamera);
+            }
+            if pressed(Key::P) || pressed(Key::F12) {
+                commands.push(Command::Screenshot);
+            }
+            if pressed(Key::U) {
+                st.hide_panel = !st.hide_panel;
+            }
+            if pressed(Key::Escape) {
+                commands.push(Command::Quit);
+            }
+            if pressed(Key::H) {
+                s.heatmap = !s.heatmap;
+            }
+            if pressed(Key::Space) {
+                s.animate = !s.animate;
+            }
+            if pressed(Key::M) {
+                let i = METHODS.iter().position(|(m, _)| *m == s.args.method).unwrap_or(0);
+                s.args.method = METHODS[(i + 1) % METHODS.len()].0;
+            }
+        });
+    }
+    if !ctx.egui_wants_pointer_input() {
+        ctx.input(|i| {
+            if i.pointer.primary_down() || i.pointer.secondary_down() {
+                let d = i.pointer.delta();
+                rig.turn(d.x, d.y);
+            }
+            let scroll = i.smooth_scroll_delta.y;
+            if scroll != 0.0 {
+                // About 50 points a wheel notch (egui-winit's line height); touchpads less.
+                rig.wheel(scroll / 50.0);
+            }
+        });
+    }
+}
+
+fn stats_section(ui: &mut egui::Ui, info: &Info<'_>) {
+    let st = info.stats;
+    egui::CollapsingHeader::new("Statistics").default_open(true).show(ui, |ui| {
+        let frame = st.mean_frame_ms();
+        ui.label(format!(
+            "{}x{}  frame {:.2} ms ({:.1} fps)",
+            info.size.0,
+            info.size.1,
+            frame,
+            if frame > 0.0 { 1000.0 / frame } else { 0.0 }
+        ));
+        if st.timestamps {
+            egui::Grid::new("passes").num_columns(2).show(ui, |ui| {
+                for p in &st.passes {
+                    ui.label(&p.label);
+                    ui.label(format!("{:.3} ms", p.ms));
+                    ui.end_row();
+                }
+                let total: f64 = st.passes.iter().map(|p| p.ms).sum();
+                ui.label(RichText::new("GPU total").strong());
+                ui.label(RichText::new(format!("{total:.3} ms")).strong());
+                ui.end_row();
+            });
+        } else {
+            ui.label("GPU pass times: the adapter has no timestamp queries");
+        }
+        graph(ui, st);
+        let l = info.lights;
+        ui.label(format!("lights: {} point, {} spot; {} visible", l.point, l.spot, st.visible_lights));
+        match &st.culling {
+            Some(c) => {
+                let per = if c.lists_per_tile == 1 { "tile" } else { "half-z list" };
+                ui.label(format!("lights per {per}: mean {:.1}, max {}", c.mean_per_list, c.max_per_list));
+                let colour =
+                    if c.overflowing > 0 { Color32::from_rgb(255, 120, 255) } else { ui.visuals().text_color() };
+                ui.colored_label(colour, format!("overflowing lists: {} (capacity {})", c.overflowing, c.capacity));
+            }
+            None => {
+                ui.label("no tiles (brute force)");
+            }
+        }
+        egui::CollapsingHeader::new(format!("GPU memory: {}", format_bytes(info.memory.total()))).show(ui, |ui| {
+            egui::Grid::new("memory").num_columns(2).show(ui, |ui| {
+                for (c, b) in &info.memory.entries {
+                    ui.label(c);
+                    ui.label(format_bytes(*b));
+                    ui.end_row();
+                }
+            });
+        });
+        ui.label(RichText::new(info.adapter).weak().small());
+        ui.label(RichText::new(&info.scene).weak().small());
+    });
+}
+
+/// The rolling graph: CPU frame time (white) and GPU time (green), scaled to the largest.
+fn graph(ui: &mut egui::Ui, st: &Stats) {
+    let (rect, _) = ui.allocate_exact_size(egui::vec2(ui.available_width().min(260.0), 48.0), egui::Sense::hover());
+    let painter = ui.painter_at(rect);
+    painter.rect_filled(rect, 2.0, Color32::from_black_alpha(120));
+    let max = st.history.iter().map(|h| h.0.max(h.1)).fold(1e-3f32, f32::max);
+    let point = |i: usize, v: f32| {
+        egui::pos2(
+            rect.left() + rect.width() * i as f32 / (HISTORY - 1) as f32,
+            rect.bottom() - rect.height() * (v / max).clamp(0.0, 1.0),
+        )
+    };
+    for (series, colour) in [(0usize, Color32::WHITE), (1, Color32::from_rgb(80, 220, 120))] {
+        let pts: Vec<egui::Pos2> =
+            st.history.iter().enumerate().map(|(i, h)| point(i, if series == 0 { h.0 } else { h.1 })).collect();
+        painter.add(egui::Shape::line(pts, egui::Stroke::new(1.0, colour)));
+    }
+    painter.text(
+        rect.left_top() + egui::vec2(3.0, 2.0),
+        egui::Align2::LEFT_TOP,
+        format!("{max:.1} ms  frame / GPU"),
+        egui::FontId::monospace(9.0),
+        Color32::LIGHT_GRAY,
+    );
+}
+
+fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'_>) {
+    egui::CollapsingHeader::new("Method and culling").default_open(true).show(ui, |ui| {
+        egui::ComboBox::from_label("method").selected_text(method_label(s.args.method)).show_ui(ui, |ui| {
+            for (m, label) in METHODS {
+                ui.selectable_value(&mut s.args.method, m, label);
+            }
+        });
+        let tiled = s.args.method.is_tiled();
+        ui.add_enabled_ui(tiled, |ui| {
+            ui.horizontal(|ui| {
+                ui.label("tile size");
+                for t in [8, 16, 32] {
+                    ui.radio_value(&mut s.args.tile_size, t, format!("{t}"));
+                }
+            });
+            ui.checkbox(&mut s.args.half_z, "half-z (two lists per tile)");
+            ui.checkbox(&mut s.args.aabb, "sphere vs tile AABB test");
+            ui.checkbox(&mut s.args.spot_cone, "spot cone test");
+            let mut two_level = !s.args.flat_cull;
+            ui.checkbox(&mut two_level, "two-level culling (64 px cells)");
+            s.args.flat_cull = !two_level;
+        });
+        ui.add_enabled(s.args.method == crate::scene_setup::MethodArg::Deferred, |ui: &mut egui::Ui| {
+            ui.add(egui::Slider::new(&mut s.args.gbuffer_rts, 2..=5).text("G-buffer RTs"))
+        });
+        egui::ComboBox::from_label("MSAA")
+            .selected_text(format!("{}x", s.args.msaa))
+            .show_ui(ui, |ui| {
+                for m in MSAA_CHOICES {
+                    ui.selectable_value(&mut s.args.msaa, m, format!("{m}x"));
+                }
+            })
+            .response
+            .on_hover_text("2x and 8x only where the GPU has them (an error says so otherwise)");
+        ui.add_enabled_ui(s.args.method == crate::scene_setup::MethodArg::Deferred && s.args.msaa > 1, |ui| {
+            ui.add(
+                egui::Slider::new(&mut s.args.edge_distance, 0.0..=0.05)
+                    .logarithmic(true)
+                    .text("edge: off-plane / distance"),
+            )
+            .on_hover_text("Tiled Deferred MSAA edge test: a sample this far off sample 0's tangent plane (relative to the view distance) makes the pixel an edge");
+            ui.add(egui::Slider::new(&mut s.args.edge_normal_deg, 0.0..=90.0).text("edge: normal angle (deg)"));
+        });
+        ui.add_enabled_ui(tiled, |ui| {
+            ui.checkbox(&mut s.heatmap, "heat map (lights per tile)").on_disabled_hover_text("needs a tiled method");
+        });
+        if s.effective_heatmap() {
+            legend(ui, info.capacity);
+        }
+    });
+    egui::CollapsingHeader::new("Lights").default_open(true).show(ui, |ui| {
+        let (mut points, mut spots) = s.args.random_light_counts();
+        ui.add(egui::Slider::new(&mut points, 0..=65_536).logarithmic(true).text("point lights"));
+        ui.add(egui::Slider::new(&mut spots, 0..=65_536).logarithmic(true).text("spot lights"));
+        if (points, spots) != s.args.random_light_counts() {
+            (s.args.lights, s.args.spot_lights) = (Some(points), Some(spots));
+        }
+        ui.add(egui::Slider::new(&mut s.args.threshold, 0.001..=2.0).logarithmic(true).text("intensity threshold"))
+            .on_hover_text("each light's radius is sqrt(intensity / threshold): lower is more accurate and slower");
+        ui.checkbox(&mut s.animate, "animate lights");
+    });
+    egui::CollapsingHeader::new("Scene").default_open(false).show(ui, |ui| {
+        let builtin = s.args.source() == SceneSource::Default;
+        ui.add_enabled_ui(builtin, |ui| {
+            ui.add(
+                egui::Slider::new(&mut s.args.grid_objects, 0..=tiledlight_scene::MAX_GRID_OBJECTS)
+                    .text("grid objects"),
+            );
+            ui.horizontal(|ui| {
+                ui.label("density");
+                ui.radio_value(&mut s.args.density, DensityArg::Low, "low");
+                ui.radio_value(&mut s.args.density, DensityArg::Medium, "medium");
+                ui.radio_value(&mut s.args.density, DensityArg::High, "high");
+            });
+        });
+        ui.horizontal(|ui| {
+            if ui.radio(builtin, "built-in courtyard").clicked() && !builtin {
+                s.args.scene = "default".into();
+            }
+        });
+        ui.horizontal(|ui| {
+            ui.label("glTF");
+            ui.text_edit_singleline(&mut st.scene_path);
+            if ui.button("load").clicked() && !st.scene_path.trim().is_empty() {
+                s.args.scene = st.scene_path.trim().to_string();
+                s.args.grid_objects = 0;
+            }
+        });
+        ui.checkbox(&mut s.vsync, "vsync");
+    });
+}
+
+/// The heat map's palette from 1 light to the capacity, log scale, and the overflow colour.
+fn legend(ui: &mut egui::Ui, capacity: u32) {
+    let (rect, _) = ui.allocate_exact_size(egui::vec2(ui.available_width().min(240.0), 14.0), egui::Sense::hover());
+    let painter = ui.painter_at(rect);
+    let steps = 48;
+    for k in 0..steps {
+        let t0 = k as f32 / steps as f32;
+        let x0 = rect.left() + rect.width() * t0;
+        let x1 = rect.left() + rect.width() * (k + 1) as f32 / steps as f32;
+        let r = egui::Rect::from_x_y_ranges(x0..=x1, rect.y_range());
+        painter.rect_filled(r, 0.0, rgb(heatmap_palette(t0)));
+    }
+    let (lrect, _) = ui.allocate_exact_size(egui::vec2(rect.width(), 12.0), egui::Sense::hover());
+    let lp = ui.painter_at(lrect);
+    for v in label_values(capacity) {
+        let x = lrect.left() + lrect.width() * heatmap_t(v, capacity);
+        lp.text(
+            egui::pos2(x.min(lrect.right() - 8.0), lrect.top()),
+            egui::Align2::CENTER_TOP,
+            v.to_string(),
+            egui::FontId::monospace(9.0),
+            Color32::LIGHT_GRAY,
+        );
+    }
+    ui.horizontal(|ui| {
+        let (r, _) = ui.allocate_exact_size(egui::vec2(12.0, 12.0), egui::Sense::hover());
+        ui.painter().rect_filled(r, 0.0, rgb(HEATMAP_OVERFLOW));
+        ui.label(format!("overflow (more than {capacity} lights)"));
+    });
+}
+
+fn camera_section(ui: &mut egui::Ui, rig: &mut CameraRig, commands: &mut Vec<Command>) {
+    egui::CollapsingHeader::new("Camera").default_open(false).show(ui, |ui| {
+        ui.horizontal(|ui| {
+            ui.radio_value(&mut rig.mode, Mode::Fly, "fly");
+            ui.radio_value(&mut rig.mode, Mode::Orbit, "orbit");
+        });
+        ui.add(egui::Slider::new(&mut rig.speed, 0.01..=1000.0).logarithmic(true).text("speed m/s"));
+        let mut fov = rig.fov_y.to_degrees();
+        if ui.add(egui::Slider::new(&mut fov, 10.0..=120.0).text("fov")).changed() {
+            rig.fov_y = fov.to_radians();
+        }
+        let e = rig.eye;
+        ui.label(RichText::new(format!("eye {:.2} {:.2} {:.2}", e.x, e.y, e.z)).small());
+        ui.horizontal(|ui| {
+            if ui.button("reset camera (R)").clicked() {
+                commands.push(Command::ResetCamera);
+            }
+            if ui.button("save camera (C)").clicked() {
+                commands.push(Command::SaveCamera);
+            }
+        });
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn readme_lists_every_key() {
+        let readme = include_str!("../../../../README.md");
+        for (k, what) in KEYS {
+            let row = format!("| {k} | {what} |");
+            assert!(readme.contains(&row), "README.md has no row {row:?}");
+        }
+    }
+
+    #[test]
+    fn history_is_bounded() {
+        let mut s = Stats::default();
+        for i in 0..HISTORY + 10 {
+            s.push_frame(i as f32);
+        }
+        assert_eq!(s.history.len(), HISTORY);
+        assert!(s.mean_frame_ms() > 10.0);
+    }
+}

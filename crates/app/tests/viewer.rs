@@ -1,0 +1,185 @@
+//! The viewer in a real window: each test starts its own Xvfb (a virtual X server; it
+//! picks a free display number itself), runs `tiledlight view` on it at 320x180 with a
+//! `--script` that drives the panel's code (method, light count, a bad glTF path, an
+//! impossible setting, a window resize), and checks the exit status, the state it reports
+//! and the screenshots it saves. Xvfb missing is a failure, not a skip: CI (`.ci/run`)
+//! installs it.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// A running Xvfb, stopped when dropped (also when a test fails).
+struct Xvfb {
+    child: Child,
+    display: String,
+}
+
+impl Xvfb {
+    /// Starts Xvfb on a display number it picks itself (`-displayfd`: no race with other
+    /// tests or a desktop for a free number) and waits until it accepts connections.
+    fn start() -> Self {
+        let child = Command::new("Xvfb")
+            .args(["-displayfd", "1", "-screen", "0", "640x480x24", "-nolisten", "tcp"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn();
+        let mut child = match child {
+            Ok(c) => c,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                panic!("Xvfb not found: the viewer test needs it (`apt-get install xvfb`; .ci/run installs it)")
+            }
+            Err(e) => panic!("cannot start Xvfb: {e}"),
+        };
+        // Xvfb writes the display number once it is ready to accept clients.
+        let mut line = String::new();
+        let stdout = child.stdout.take().expect("piped stdout");
+        let read = BufReader::new(stdout).read_line(&mut line);
+        let n = line.trim();
+        if read.is_err() || n.is_empty() || !n.bytes().all(|b| b.is_ascii_digit()) {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("Xvfb did not report a display number (read {read:?}, got {line:?})");
+        }
+        Self { display: format!(":{n}"), child }
+    }
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        // SIGTERM lets Xvfb remove its lock file and socket; SIGKILL only if it hangs.
+        let _ = Command::new("kill").args(["-TERM", &self.child.id().to_string()]).status();
+        let t0 = Instant::now();
+        while t0.elapsed() < Duration::from_secs(5) {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("viewer").join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Runs `tiledlight view` at 320x180 on `x` with `rest` flags; asserts exit 0.
+fn view(x: &Xvfb, dir: &Path, rest: &[&str]) -> Output {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_tiledlight"));
+    cmd.args(["view", "--width", "320", "--height", "180", "--lights", "32"]).args(rest);
+    cmd.current_dir(dir).env("DISPLAY", &x.display).env_remove("WAYLAND_DISPLAY");
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        cmd.env("XDG_RUNTIME_DIR", std::env::temp_dir());
+    }
+    let out = cmd.output().expect("run the tiledlight binary");
+    assert!(
+        out.status.success(),
+        "tiledlight view {rest:?} failed ({:?}):\nstdout:\n{}\nstderr:\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+fn rgb(path: &Path) -> image::RgbImage {
+    image::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display())).to_rgb8()
+}
+
+#[test]
+fn viewer_renders_changes_method_and_lights_and_saves_screenshots() {
+    let x = Xvfb::start();
+    let dir = scratch("window");
+    let out = view(
+        &x,
+        &dir,
+        &[
+            "--frames",
+            "3",
+            "--script",
+            "method=deferred;lights=96;heatmap=on;heatmap=off;method=forward-plus",
+            "--screenshot",
+            "lit.png",
+            "--screenshot-ui",
+            "ui.png",
+        ],
+    );
+    let stdout = text(&out.stdout);
+    for needle in [
+        "viewer method: forward-plus",
+        "viewer lights: 96 point, 0 spot",
+        "viewer size: 320x180",
+        "viewer error: none",
+        "viewer culling:",
+    ] {
+        assert!(stdout.contains(needle), "no {needle:?} in:\n{stdout}\nstderr:\n{}", text(&out.stderr));
+    }
+
+    let lit = rgb(&dir.join("lit.png"));
+    assert_eq!(lit.dimensions(), (320, 180));
+    // The scene, not a black or clear-coloured frame: many lit pixels and many colours.
+    let lit_px = lit.pixels().filter(|p| p.0.iter().any(|&c| c > 24)).count();
+    assert!(lit_px > 320 * 180 / 20, "only {lit_px} lit pixels");
+    let mut colours: Vec<[u8; 3]> = lit.pixels().map(|p| p.0).collect();
+    colours.sort_unstable();
+    colours.dedup();
+    assert!(colours.len() > 500, "only {} distinct colours", colours.len());
+
+    // The window as shown: the same image with the panel over its top-left part.
+    let ui = rgb(&dir.join("ui.png"));
+    assert_eq!(ui.dimensions(), (320, 180));
+    let differs = |x0: u32, x1: u32, y0: u32, y1: u32| {
+        let mut n = 0;
+        for y in y0..y1 {
+            for x in x0..x1 {
+                let (a, b) = (lit.get_pixel(x, y).0, ui.get_pixel(x, y).0);
+                n += usize::from(a.iter().zip(b).any(|(a, b)| a.abs_diff(b) > 8));
+            }
+        }
+        n as f64 / ((x1 - x0) * (y1 - y0)) as f64
+    };
+    let panel = differs(10, 120, 10, 60);
+    assert!(panel > 0.5, "the panel region matches the lit image ({:.0}% differs)", panel * 100.0);
+}
+
+#[test]
+fn bad_gltf_and_impossible_settings_show_errors_and_the_viewer_goes_on() {
+    let x = Xvfb::start();
+    let dir = scratch("errors");
+    let out = view(
+        &x,
+        &dir,
+        &[
+            "--frames",
+            "2",
+            "--script",
+            "scene=missing/nothing.gltf;lights=40;tile-size=7;method=deferred;window=256x144;wait=2",
+        ],
+    );
+    let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
+    assert!(stderr.contains("error: loading the scene: missing/nothing.gltf"), "stderr:\n{stderr}");
+    assert!(stderr.contains("--tile-size 7"), "stderr:\n{stderr}");
+    // The last error is shown in the panel; the settings before each failure stayed in use
+    // and the later actions were applied.
+    for needle in [
+        "viewer error: --tile-size 7",
+        "viewer scene: courtyard",
+        "viewer lights: 40 point",
+        "viewer method: deferred",
+        // Resized through the window system: surface and renderer follow.
+        "viewer size: 256x144",
+        "viewer frames:",
+    ] {
+        assert!(stdout.contains(needle), "no {needle:?} in:\n{stdout}\nstderr:\n{stderr}");
+    }
+}
