@@ -9,7 +9,7 @@
 # settings x 15 frames (the lowest thresholds list every light, ~160 ms a frame) plus the
 # CPU statistics (threaded, ~1-3 s a setting): 2-3 minutes. Each step has a timeout, and
 # both resume from their CSV if rerun with the same $OUT.
-# Usage: scripts/device-lab.sh [figure9] [accuracy] [deferred]   (default: all three)
+# Usage: scripts/device-lab.sh [figure9] [accuracy] [deferred] [msaa]   (default: all four)
 set -uo pipefail
 out=${OUT:-lab-out}
 mkdir -p "$out"
@@ -30,7 +30,7 @@ step() { # seconds name args...
   timeout "$limit" "$bin" "$@" --width 1920 --height 1080 2>&1 | tee -a "$out/log.txt" | grep -vE "^(threshold|lights)=" 
   echo "== $name: exit ${PIPESTATUS[0]}, $((SECONDS - t0)) s" | tee -a "$out/log.txt"
 }
-steps=${*:-figure9 accuracy deferred}
+steps=${*:-figure9 accuracy deferred msaa}
 for s in $steps; do
   case $s in
   figure9)
@@ -47,7 +47,15 @@ for s in $steps; do
     step 120 accuracy-deferred accuracy --method deferred --axis culling=aabb --frames 10 --warmup 3 \
       --reference-frames 3 --out "$out/accuracy-deferred.csv"
     ;;
-  *) echo "unknown step $s (figure9, accuracy, deferred)" >&2; exit 2 ;;
+  msaa)
+    # The MSAA edge test's dial: Tiled Deferred 4x over edge thresholds against brute force
+    # 4x with the same cutoff (so the cutoff's error does not swamp the edge test's), and
+    # Forward+ 4x and Tiled Deferred 1x for scale.
+    step 150 accuracy-msaa accuracy --method deferred --msaa 4 --axis threshold=0.1 --axis culling=aabb \
+      --axis edge-distance=0.0005,0.002,0.01,0.05,1000 --reference cutoff --frames 10 --warmup 3 \
+      --reference-frames 3 --out "$out/accuracy-msaa.csv"
+    ;;
+  *) echo "unknown step $s (figure9, accuracy, deferred, msaa)" >&2; exit 2 ;;
   esac
 done
 tar -czf "$out/lab.tar.gz" -C "$out" --exclude lab.tar.gz . && ls -la "$out"

@@ -59,6 +59,13 @@ pub struct AccuracyArgs {
     /// Measured frames of the brute-force reference (slow: every light for every pixel).
     #[arg(long, default_value_t = 3, value_name = "N")]
     pub reference_frames: u32,
+    /// The reference: `no-cutoff` (brute force, plain inverse-square: what the radius
+    /// cutoff costs is part of the error) or `cutoff` (brute force with the same radii:
+    /// the error is only what the method's other approximations cost, e.g. the G-buffer's
+    /// 8-bit albedo or the MSAA edge test, which the cutoff's error would swamp). The
+    /// reference has the setting's MSAA.
+    #[arg(long, value_enum, default_value_t = ReferenceArg::NoCutoff)]
+    pub reference: ReferenceArg,
     /// The FLIP mean the recommendation must stay under.
     #[arg(long, default_value_t = 0.01, value_name = "E")]
     pub target_flip: f64,
@@ -74,8 +81,17 @@ pub struct AccuracyArgs {
     pub diff_dir: Option<PathBuf>,
 }
 
+/// What the settings are compared with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ReferenceArg {
+    /// Brute force without the radius cutoff.
+    NoCutoff,
+    /// Brute force with the same radius cutoff as the setting.
+    Cutoff,
+}
+
 const HEAD: [&str; 3] = ["adapter", "width", "height"];
-const TAIL: [&str; 17] = [
+const TAIL: [&str; 18] = [
     "total_ms",
     "passes",
     "psnr_db",
@@ -93,6 +109,7 @@ const TAIL: [&str; 17] = [
     "reference_ms",
     "reference_passes",
     "lights",
+    "edge_pixels",
 ];
 
 /// The CSV header of a run over `axes`.
@@ -114,11 +131,14 @@ struct Reference {
 
 /// What identifies a reference image: everything but the settings it is compared over
 /// (threshold, tests, tile size, method), which do not change it.
-fn reference_key(a: &SceneArgs) -> String {
-    format!(
-        "{}|{}|{:?}|{:?}|{:?}|{}|{}x{}|{}|{}",
-        a.scene, a.grid_objects, a.density, a.lights, a.spot_lights, a.seed, a.width, a.height, a.exposure, a.msaa
-    )
+fn reference_key(a: &SceneArgs, reference: ReferenceArg) -> String {
+    // With the cutoff the radii, so the threshold, shape the reference too.
+    let threshold = if reference == ReferenceArg::Cutoff { a.threshold.to_string() } else { String::new() };
+    threshold
+        + &format!(
+            "{}|{}|{:?}|{:?}|{:?}|{}|{}x{}|{}|{}",
+            a.scene, a.grid_objects, a.density, a.lights, a.spot_lights, a.seed, a.width, a.height, a.exposure, a.msaa
+        )
 }
 
 /// "depth_prepass=0.592;forward.cull=0.043" and their sum.
@@ -131,8 +151,17 @@ fn pass_times(m: &bench::Measurement) -> Result<(f64, String)> {
     Ok((total, text))
 }
 
-fn render_reference(prep: &mut Prepared, point_args: &SceneArgs, frames: u32) -> Result<Reference> {
-    let args = SceneArgs { method: MethodArg::BruteForceNoCutoff, ..point_args.clone() };
+fn render_reference(
+    prep: &mut Prepared,
+    point_args: &SceneArgs,
+    reference: ReferenceArg,
+    frames: u32,
+) -> Result<Reference> {
+    let method = match reference {
+        ReferenceArg::NoCutoff => MethodArg::BruteForceNoCutoff,
+        ReferenceArg::Cutoff => MethodArg::BruteForce,
+    };
+    let args = SceneArgs { method, ..point_args.clone() };
     prep.reconfigure(&args)?;
     let r = prep.renderer(false)?;
     let m = bench::measure(prep, r.as_ref(), 1, frames).context("rendering the brute-force reference")?;
@@ -231,10 +260,15 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
                 prep.insert(p)
             }
         };
-        let rkey = reference_key(pargs);
+        let rkey = reference_key(pargs, args.reference);
         if !references.contains_key(&rkey) {
-            let r = render_reference(p, pargs, args.reference_frames).with_context(|| format!("{what}: reference"))?;
-            lab::say(&pb, format!("reference (brute force, no cutoff): {:.3} ms", r.total_ms));
+            let r = render_reference(p, pargs, args.reference, args.reference_frames)
+                .with_context(|| format!("{what}: reference"))?;
+            let kind = match args.reference {
+                ReferenceArg::NoCutoff => "no cutoff",
+                ReferenceArg::Cutoff => "same cutoff",
+            };
+            lab::say(&pb, format!("reference (brute force, {kind}): {:.3} ms", r.total_ms));
             references.insert(rkey.clone(), r);
         }
         let reference = &references[&rkey];
@@ -243,6 +277,7 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
         let m = bench::measure(p, renderer.as_ref(), args.warmup, args.frames).with_context(|| what.clone())?;
         let (total, passes) = pass_times(&m).with_context(|| what.clone())?;
         let stats = culling_stats(p, renderer.as_ref())?;
+        let edges = renderer.edge_pixels(&p.ctx).context("reading the MSAA edge count back")?;
         let depth = renderer.read_depth(&p.ctx).context("reading the depth buffer back")?;
         let hdr = renderer.read_hdr(&p.ctx).context("reading the image back")?;
         let ldr = renderer.read_ldr(&p.ctx).context("reading the image back")?;
@@ -273,6 +308,7 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
             f(reference.total_ms, 4),
             reference.passes.clone(),
             p.lights.len().to_string(),
+            opt(edges.map(|e| e.to_string())),
         ]);
         csv.append(&[row])?;
         lab::say(

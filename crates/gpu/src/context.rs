@@ -27,6 +27,9 @@ pub struct GpuContext {
 pub struct ContextOptions {
     /// Disable timestamp queries even when supported.
     pub no_timestamps: bool,
+    /// Ask for at most this much workgroup memory (bytes; at least WebGPU's 16 KiB is
+    /// always asked for): to see what a GPU with less does (tests).
+    pub workgroup_memory_cap: Option<u32>,
 }
 
 fn adapter_name_filter() -> Option<String> {
@@ -98,7 +101,9 @@ impl GpuContext {
             // Per-tile light lists live in workgroup memory: WebGPU's 16 KiB holds 2048
             // indices, half that per list with half-z, less once Tiled Deferred's MSAA edge
             // queue takes its share. 32 KiB where the adapter has it (most desktop GPUs).
-            max_compute_workgroup_storage_size: supported.max_compute_workgroup_storage_size.min(32768),
+            max_compute_workgroup_storage_size: supported
+                .max_compute_workgroup_storage_size
+                .min(options.workgroup_memory_cap.unwrap_or(32768).clamp(16384, 32768)),
             ..wgpu::Limits::default()
         };
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
