@@ -17,23 +17,14 @@ use crate::tonemap::{HDR_FORMAT, LDR_FORMAT};
 pub fn texture_2d(
     device: &wgpu::Device,
     label: &str,
-    (w, h): (u32, u32),
+    size: (u32, u32),
     format: wgpu::TextureFormat,
     usage: wgpu::TextureUsages,
 ) -> wgpu::Texture {
-    device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage,
-        view_formats: &[],
-    })
+    texture_2d_msaa(device, label, size, format, 1, usage)
 }
 
-/// A labelled multisampled 2D render target (`samples` > 1).
+/// A labelled 2D texture of `samples` samples per texel (a render target when > 1).
 pub fn texture_2d_msaa(
     device: &wgpu::Device,
     label: &str,
