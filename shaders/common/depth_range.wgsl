@@ -37,24 +37,28 @@ fn region_depth_range(origin: vec2<u32>, size: u32, threads: u32, lid: vec2<u32>
     workgroupBarrier();
     var lo = 3.4e38;
     var hi = 0.0;
-#ifdef MSAA
-    let samples = SAMPLES;
-#else
-    let samples = 1u;
-#endif
     let steps = size / threads;
     for (var j = 0u; j < steps; j++) {
         for (var i = 0u; i < steps; i++) {
             let p = origin + lid + vec2<u32>(i, j) * threads;
             if p.x < frame.screen.x && p.y < frame.screen.y {
-                for (var s = 0u; s < samples; s++) {
-                    let d = load_depth(p, s);
+#ifdef MSAA
+                for (var s = 0u; s < SAMPLES; s++) {
+                    let d = textureLoad(depth_texture, p, s);
                     // Sky (depth 0, the clear value) is no surface.
                     if d > 0.0 {
                         lo = min(lo, d);
                         hi = max(hi, d);
                     }
                 }
+#else
+                let d = textureLoad(depth_texture, p, 0);
+                // Sky (depth 0, the clear value) is no surface.
+                if d > 0.0 {
+                    lo = min(lo, d);
+                    hi = max(hi, d);
+                }
+#endif
             }
         }
     }
