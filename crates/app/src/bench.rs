@@ -27,6 +27,11 @@ pub const CPU_TIME_MEANING: &str = "wall time of record + submit + wait for the 
 /// for hours).
 pub const MAX_FRAMES: u32 = 100_000;
 
+/// The shortest warm-up (when any is asked for): long enough for an idle GPU to raise its
+/// clocks. On the H100, 3 warm-up frames after a few seconds of CPU work left every pass
+/// up to 5x slower (the 0.29 ms tonemap pass measured up to 1.69 ms).
+pub const MIN_WARMUP: std::time::Duration = std::time::Duration::from_millis(500);
+
 /// Flags of `tiledlight bench`.
 #[derive(Args, Clone, Debug)]
 pub struct BenchArgs {
@@ -119,47 +124,59 @@ impl Measurement {
     }
 }
 
-/// Renders `warmup` then `frames` frames through `renderer`, each submitted and waited
-/// for, and collects the measured frames' pass times and CPU wall times.
+/// Renders `warmup` frames (and more until [`MIN_WARMUP`] has passed), then `frames`
+/// frames through `renderer`, each submitted and waited for, and collects the measured
+/// frames' pass times and CPU wall times.
 pub fn measure(prep: &Prepared, renderer: &dyn Renderer, warmup: u32, frames: u32) -> Result<Measurement> {
     let ctx = &prep.ctx;
     let mut timer = GpuTimer::new(ctx).context("creating the GPU timer")?;
     let mut out = Measurement { timestamps: timer.enabled(), ..Default::default() };
-    // The profiler hands frames back in submission order: count them to skip warm-up.
+    let frame = |timer: &mut GpuTimer| {
+        let mut encoder =
+            ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bench.frame") });
+        renderer.record(&ctx.queue, &mut encoder, timer, &prep.scene_gpu, &prep.camera);
+        timer.resolve(&mut encoder);
+        ctx.queue.submit([encoder.finish()]);
+        timer.end_frame().context("ending a timed frame")?;
+        ctx.device.poll(wgpu::PollType::wait_indefinitely()).context("waiting for the GPU")?;
+        prep.check_gpu_errors()
+    };
+    // Warm-up: `warmup` frames, and at least MIN_WARMUP of them back to back, so a GPU
+    // that idled (e.g. while the accuracy lab computed statistics on the CPU) has its
+    // clocks up again before anything is measured. The profiler hands frames back in
+    // submission order: the first `skip` are the warm-up's.
+    let start = Instant::now();
+    let mut skip = 0u32;
     let mut finished = 0u32;
-    let drain = |timer: &mut GpuTimer, out: &mut Measurement, finished: &mut u32| {
+    let drain = |timer: &mut GpuTimer, out: &mut Measurement, finished: &mut u32, skip: u32| {
         while let Some(f) = timer.finished_frame() {
-            if *finished >= warmup {
+            if *finished >= skip {
                 out.gpu_frames.push(f);
             }
             *finished += 1;
         }
     };
-    for i in 0..warmup + frames {
+    while (skip < warmup || (warmup > 0 && start.elapsed() < MIN_WARMUP)) && skip < MAX_FRAMES {
+        frame(&mut timer)?;
+        skip += 1;
+        ctx.device.poll(wgpu::PollType::Poll).context("polling the GPU")?;
+        drain(&mut timer, &mut out, &mut finished, skip);
+    }
+    for _ in 0..frames {
         let t0 = Instant::now();
-        let mut encoder =
-            ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bench.frame") });
-        renderer.record(&ctx.queue, &mut encoder, &timer, &prep.scene_gpu, &prep.camera);
-        timer.resolve(&mut encoder);
-        ctx.queue.submit([encoder.finish()]);
-        timer.end_frame().context("ending a timed frame")?;
-        ctx.device.poll(wgpu::PollType::wait_indefinitely()).context("waiting for the GPU")?;
-        let ms = t0.elapsed().as_secs_f64() * 1e3;
-        if i >= warmup {
-            out.cpu_ms.push(ms);
-        }
-        prep.check_gpu_errors()?;
+        frame(&mut timer)?;
+        out.cpu_ms.push(t0.elapsed().as_secs_f64() * 1e3);
         // The timestamp readback is mapped after the submit; the next poll delivers it.
         ctx.device.poll(wgpu::PollType::Poll).context("polling the GPU")?;
-        drain(&mut timer, &mut out, &mut finished);
+        drain(&mut timer, &mut out, &mut finished, skip);
     }
     // Frames still in flight: wait, then take what is left.
     for _ in 0..8 {
-        if finished >= warmup + frames || !out.timestamps {
+        if finished >= skip + frames || !out.timestamps {
             break;
         }
         ctx.device.poll(wgpu::PollType::wait_indefinitely()).context("waiting for the GPU")?;
-        drain(&mut timer, &mut out, &mut finished);
+        drain(&mut timer, &mut out, &mut finished, skip);
     }
     Ok(out)
 }
