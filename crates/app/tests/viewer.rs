@@ -107,7 +107,7 @@ fn viewer_renders_changes_method_and_lights_and_saves_screenshots() {
             "--frames",
             "3",
             "--script",
-            "method=deferred;lights=96;heatmap=on;heatmap=off;method=forward-plus",
+            "method=deferred;msaa=4;lights=96;heatmap=on;heatmap=off;method=forward-plus",
             "--screenshot",
             "lit.png",
             "--screenshot-ui",
@@ -119,6 +119,7 @@ fn viewer_renders_changes_method_and_lights_and_saves_screenshots() {
         "viewer method: forward-plus",
         "viewer lights: 96 point, 0 spot",
         "viewer size: 320x180",
+        "viewer msaa: 4x",
         "viewer error: none",
         "viewer culling:",
     ] {
@@ -163,12 +164,13 @@ fn bad_gltf_and_impossible_settings_show_errors_and_the_viewer_goes_on() {
             "--frames",
             "2",
             "--script",
-            "scene=missing/nothing.gltf;lights=40;tile-size=7;method=deferred;window=256x144;wait=2",
+            "scene=missing/nothing.gltf;lights=40;msaa=3;tile-size=7;method=deferred;window=256x144;wait=2",
         ],
     );
     let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
     assert!(stderr.contains("error: loading the scene: missing/nothing.gltf"), "stderr:\n{stderr}");
     assert!(stderr.contains("--tile-size 7"), "stderr:\n{stderr}");
+    assert!(stderr.contains("--msaa 3"), "stderr:\n{stderr}");
     // The last error is shown in the panel; the settings before each failure stayed in use
     // and the later actions were applied.
     for needle in [
@@ -176,6 +178,7 @@ fn bad_gltf_and_impossible_settings_show_errors_and_the_viewer_goes_on() {
         "viewer scene: courtyard",
         "viewer lights: 40 point",
         "viewer method: deferred",
+        "viewer msaa: 1x",
         // Resized through the window system: surface and renderer follow.
         "viewer size: 256x144",
         "viewer frames:",

@@ -674,6 +674,7 @@ impl Viewer {
         println!("viewer lights: {} point, {} spot", l.point, l.spot);
         println!("viewer scene: {}", self.prep.scene_name);
         println!("viewer size: {}x{}", self.prep.args.width, self.prep.args.height);
+        println!("viewer msaa: {}x", self.prep.args.msaa);
         if let Some(c) = &self.stats.culling {
             println!("viewer culling: {c}");
         }
