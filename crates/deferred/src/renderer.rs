@@ -67,8 +67,7 @@ pub struct DeferredRenderer {
     tonemap_input: wgpu::BindGroup,
     heatmap: Option<(HeatmapPass, wgpu::BindGroup)>,
     targets: DisplayTargets,
-    num_lights: u32,
-    num_point_lights: u32,
+    frame_params: FrameParams,
     memory: MemoryReport,
 }
 
@@ -145,8 +144,7 @@ impl DeferredRenderer {
                 tonemap_input,
                 heatmap,
                 targets,
-                num_lights: lights.len(),
-                num_point_lights: lights.num_point(),
+                frame_params: FrameParams::new(grid, &settings.cull, lights, settings.exposure, settings.ambient),
                 memory,
             })
         })?
@@ -154,16 +152,7 @@ impl DeferredRenderer {
 
     /// The uniforms of a frame seen through `camera`.
     pub fn frame_uniforms(&self, camera: &Camera) -> FrameUniforms {
-        FrameUniforms::new(&FrameParams {
-            camera: *camera,
-            grid: self.grid,
-            capacity: self.settings.cull.capacity,
-            lists_per_tile: self.settings.cull.lists_per_tile(),
-            num_lights: self.num_lights,
-            num_point_lights: self.num_point_lights,
-            exposure: self.settings.exposure,
-            ambient: self.settings.ambient,
-        })
+        FrameUniforms::new(&self.frame_params, camera)
     }
 
     /// The settings it was built with.

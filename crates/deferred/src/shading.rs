@@ -21,7 +21,7 @@ use tiledlight_gpu::readback::read_buffer;
 use tiledlight_gpu::targets::texture_2d;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
-use tiledlight_gpu::util::{buffer_zeroed, pipeline_layout, shader_module, storage_entry};
+use tiledlight_gpu::util::{buffer_zeroed, compute_pipeline, shader_module, storage_entry};
 use tiledlight_gpu::GpuError;
 
 use crate::gbuffer::GBuffer;
@@ -302,17 +302,7 @@ impl DeferredShading {
             constants.push(("EDGE_COS", (edge.normal_deg as f64).to_radians().cos()));
             constants.push(("TILE_PIXELS", (options.tile_size * options.tile_size) as f64));
         }
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("deferred.shade"),
-            layout: Some(&pipeline_layout(device, "deferred.pipeline_layout", &[&frame.layout, &layout])),
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: wgpu::PipelineCompilationOptions {
-                constants: &constants,
-                zero_initialize_workgroup_memory: false,
-            },
-            cache: None,
-        });
+        let pipeline = compute_pipeline(device, "deferred.shade", &[&frame.layout, &layout], &module, &constants);
         let msaa = match msaa_buffers {
             Some((samples_texture, view, edge_list, edge_args)) => {
                 let (resolve, resolve_group) = resolve_pipeline(device, samples, &view, &edge_list, &edge_args, hdr)?;
@@ -415,17 +405,13 @@ fn resolve_pipeline(
         ],
     });
     let module = shader_module(device, "deferred_resolve.wgsl", &[])?;
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("deferred.resolve"),
-        layout: Some(&pipeline_layout(device, "deferred.resolve.pipeline_layout", &[&layout])),
-        module: &module,
-        entry_point: Some("main"),
-        compilation_options: wgpu::PipelineCompilationOptions {
-            constants: &[("SAMPLES", samples as f64), ("SAMPLES_X", sample_grid(samples).0 as f64)],
-            zero_initialize_workgroup_memory: false,
-        },
-        cache: None,
-    });
+    let pipeline = compute_pipeline(
+        device,
+        "deferred.resolve",
+        &[&layout],
+        &module,
+        &[("SAMPLES", samples as f64), ("SAMPLES_X", sample_grid(samples).0 as f64)],
+    );
     Ok((pipeline, group))
 }
 

@@ -78,8 +78,7 @@ pub struct ForwardRenderer {
     targets: DisplayTargets,
     /// The multisampled HDR target the shading pass draws into and resolves (MSAA only).
     hdr_msaa: Option<(wgpu::Texture, wgpu::TextureView)>,
-    num_lights: u32,
-    num_point_lights: u32,
+    frame_params: FrameParams,
     memory: MemoryReport,
 }
 
@@ -172,8 +171,7 @@ impl ForwardRenderer {
                 heatmap,
                 targets,
                 hdr_msaa,
-                num_lights: lights.len(),
-                num_point_lights: lights.num_point(),
+                frame_params: FrameParams::new(grid, &settings.cull, lights, settings.exposure, settings.ambient),
                 memory,
             })
         })?
@@ -181,16 +179,7 @@ impl ForwardRenderer {
 
     /// The uniforms of a frame seen through `camera` (its aspect should match the screen).
     pub fn frame_uniforms(&self, camera: &Camera) -> FrameUniforms {
-        FrameUniforms::new(&FrameParams {
-            camera: *camera,
-            grid: self.grid,
-            capacity: self.settings.cull.capacity,
-            lists_per_tile: self.settings.cull.lists_per_tile(),
-            num_lights: self.num_lights,
-            num_point_lights: self.num_point_lights,
-            exposure: self.settings.exposure,
-            ambient: self.settings.ambient,
-        })
+        FrameUniforms::new(&self.frame_params, camera)
     }
 
     /// The settings it was built with.

@@ -1,10 +1,14 @@
 //! Per-frame uniforms shared by every pass (camera, screen and tile sizes, depth
 //! parameters, light counts) and the bind group that holds them (group 0 of every
-//! pipeline). Depends on wgpu and tiledlight-cull.
+//! pipeline). Depends on wgpu, tiledlight-cull, and the culling options and light buffers
+//! whose sizes it carries ([`crate::light_cull`], [`crate::lights_gpu`]).
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 use tiledlight_cull::{Camera, TileGrid};
+
+use crate::light_cull::CullOptions;
+use crate::lights_gpu::LightBuffers;
 
 /// Per-frame constants.
 ///
@@ -50,11 +54,10 @@ pub struct FrameUniforms {
     pub lists_per_tile: u32,
 }
 
-/// What a frame's uniforms are built from.
+/// What a renderer's frame uniforms are built from besides the camera: fixed when the
+/// renderer is built.
 #[derive(Clone, Copy, Debug)]
 pub struct FrameParams {
-    /// The camera.
-    pub camera: Camera,
     /// Tile grid (screen size and tile size).
     pub grid: TileGrid,
     /// Per-list capacity.
@@ -71,17 +74,34 @@ pub struct FrameParams {
     pub ambient: Vec3,
 }
 
+impl FrameParams {
+    /// The parameters of a renderer on `grid` with culling options `cull` (capacity, lists
+    /// per tile) over `lights`.
+    pub fn new(grid: TileGrid, cull: &CullOptions, lights: &LightBuffers, exposure: f32, ambient: Vec3) -> Self {
+        Self {
+            grid,
+            capacity: cull.capacity,
+            lists_per_tile: cull.lists_per_tile(),
+            num_lights: lights.len(),
+            num_point_lights: lights.num_point(),
+            exposure,
+            ambient,
+        }
+    }
+}
+
 impl FrameUniforms {
-    /// Builds the uniforms.
-    pub fn new(p: &FrameParams) -> Self {
-        let dp = p.camera.depth_params();
+    /// Builds the uniforms of a frame seen through `camera` (its aspect should match the
+    /// screen).
+    pub fn new(p: &FrameParams, camera: &Camera) -> Self {
+        let dp = camera.depth_params();
         let m = |m: Mat4| m.to_cols_array_2d();
         Self {
-            view: m(p.camera.view()),
-            proj: m(p.camera.proj()),
-            view_proj: m(p.camera.view_proj()),
-            inv_view: m(p.camera.view().inverse()),
-            eye: p.camera.eye().to_array(),
+            view: m(camera.view()),
+            proj: m(camera.proj()),
+            view_proj: m(camera.view_proj()),
+            inv_view: m(camera.view().inverse()),
+            eye: camera.eye().to_array(),
             exposure: p.exposure,
             screen: [p.grid.width, p.grid.height],
             tiles: [p.grid.tiles_x, p.grid.tiles_y],

@@ -15,7 +15,7 @@ use crate::lights_gpu::LightBuffers;
 use crate::memory::MemoryReport;
 use crate::readback::read_buffer;
 use crate::timer::GpuTimer;
-use crate::util::{buffer_zeroed, pipeline_layout, shader_module, storage_entry};
+use crate::util::{buffer_zeroed, compute_pipeline, shader_module, storage_entry};
 
 /// Options of the culling pass (mirrors `tiledlight_cull::CullConfig`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -174,17 +174,7 @@ impl CoarseCulling {
         let module = shader_module(device, "cull_coarse.wgsl", &msaa.into_iter().collect::<Vec<_>>())?;
         let mut constants = coarse_constants(capacity).to_vec();
         constants.extend(samples);
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("cull_coarse"),
-            layout: Some(&pipeline_layout(device, "cull_coarse.pipeline_layout", &[&frame.layout, &layout])),
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: wgpu::PipelineCompilationOptions {
-                constants: &constants,
-                zero_initialize_workgroup_memory: false,
-            },
-            cache: None,
-        });
+        let pipeline = compute_pipeline(device, "cull_coarse", &[&frame.layout, &layout], &module, &constants);
         Ok(Self { pipeline, bind_group, cells, lists, capacity })
     }
 
@@ -364,17 +354,7 @@ impl LightCulling {
             constants.extend(c.constants());
         }
         constants.extend(samples);
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("cull"),
-            layout: Some(&pipeline_layout(device, "cull.pipeline_layout", &[&frame.layout, &layout])),
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: wgpu::PipelineCompilationOptions {
-                constants: &constants,
-                zero_initialize_workgroup_memory: false,
-            },
-            cache: None,
-        });
+        let pipeline = compute_pipeline(device, "cull", &[&frame.layout, &layout], &module, &constants);
         Ok(Self { pipeline, bind_group, coarse, tile_counts, tile_indices, tile_ranges, stats, grid, options, memory })
     }
 

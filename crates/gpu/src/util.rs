@@ -81,3 +81,23 @@ pub fn pipeline_layout(device: &wgpu::Device, label: &str, groups: &[&wgpu::Bind
         immediate_size: 0,
     })
 }
+
+/// A labelled compute pipeline running `main` of `module`, laid out as `groups` in order,
+/// with the override `constants` set. Workgroup memory is not zeroed: every kernel writes
+/// what it reads first, and zeroing costs a pass over it per workgroup.
+pub fn compute_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    groups: &[&wgpu::BindGroupLayout],
+    module: &wgpu::ShaderModule,
+    constants: &[(&str, f64)],
+) -> wgpu::ComputePipeline {
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
+        layout: Some(&pipeline_layout(device, &format!("{label}.pipeline_layout"), groups)),
+        module,
+        entry_point: Some("main"),
+        compilation_options: wgpu::PipelineCompilationOptions { constants, zero_initialize_workgroup_memory: false },
+        cache: None,
+    })
+}
