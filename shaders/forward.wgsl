@@ -31,19 +31,11 @@ fn vs_main(
 
 @fragment
 fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
-    let m = materials[in.material];
-    let base = material_color(m, in.uv);
-#ifdef ALPHA_MASK
-    if base.a < m.alpha_cutoff {
-        discard;
-    }
-#endif
-    var n = normalize(in.normal);
-    // Double-sided surfaces seen from behind are lit on their back.
-    n = select(-n, n, front);
+    let ms = material_sample(in, front);
+    let n = ms.normal;
     let v = view_vector(in.world_pos);
-    let s = Surface(base.rgb, m.roughness, m.metallic);
-    var color = frame.ambient * base.rgb;
+    let s = Surface(ms.base, ms.roughness, ms.metallic);
+    var color = frame.ambient * ms.base;
 #ifdef BRUTE_FORCE
     for (var i = 0u; i < frame.num_lights; i++) {
         color += shade_light(i, in.world_pos, n, v, s);

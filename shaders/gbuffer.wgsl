@@ -3,7 +3,7 @@
 //   target 1, Rgba16Float:    unit normal (already facing the viewer), roughness in alpha
 //   targets 2-4 (the stress knob, 3 to 5 targets in all), Rgba8Unorm: written white, and
 //   multiplied into the albedo when shading, so their bandwidth is real and the image unchanged.
-// Alpha-masked materials discard below their cutoff, as in the depth pre-pass.
+// Alpha-masked materials discard below their cutoff (common/scene.wgsl material_sample).
 // variants: ALPHA_MASK TEXTURES
 #include "common/scene.wgsl"
 
@@ -23,16 +23,8 @@ struct Surfel {
 }
 
 fn surfel(in: VertexOut, front: bool) -> Surfel {
-    let m = materials[in.material];
-    let base = material_color(m, in.uv);
-#ifdef ALPHA_MASK
-    if base.a < m.alpha_cutoff {
-        discard;
-    }
-#endif
-    var n = normalize(in.normal);
-    n = select(-n, n, front);
-    return Surfel(vec4<f32>(base.rgb, m.metallic), vec4<f32>(n, m.roughness));
+    let ms = material_sample(in, front);
+    return Surfel(vec4<f32>(ms.base, ms.metallic), vec4<f32>(ms.normal, ms.roughness));
 }
 
 struct Out2 {

@@ -63,3 +63,27 @@ fn transform_position(instance_index: u32, position: vec3<f32>) -> vec4<f32> {
     let world = instances[instance_index].model * vec4<f32>(position, 1.0);
     return frame.view_proj * world;
 }
+
+// The material seen by a rasterised fragment, for the shading pass and the G-buffer alike.
+struct MaterialSample {
+    base: vec3<f32>,
+    roughness: f32,
+    metallic: f32,
+    // Unit normal facing the viewer: double-sided surfaces seen from behind are lit on
+    // their back.
+    normal: vec3<f32>,
+}
+
+// The material at fragment `in`. With ALPHA_MASK it discards below the material's cutoff,
+// as the depth pre-pass does: call it only from fragment entry points.
+fn material_sample(in: VertexOut, front: bool) -> MaterialSample {
+    let m = materials[in.material];
+    let base = material_color(m, in.uv);
+#ifdef ALPHA_MASK
+    if base.a < m.alpha_cutoff {
+        discard;
+    }
+#endif
+    let n = normalize(in.normal);
+    return MaterialSample(base.rgb, m.roughness, m.metallic, select(-n, n, front));
+}

@@ -12,7 +12,7 @@
 //! sample count: every target is multisampled with MSAA. Pipelines exist per draw kind the
 //! scene has. Depends on tiledlight-gpu.
 
-use tiledlight_gpu::depth_prepass::{primitive_state, DEPTH_FORMAT};
+use tiledlight_gpu::depth_prepass::{scene_pipeline, SceneDraw};
 use tiledlight_gpu::frame::FrameBinding;
 use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, VERTEX_LAYOUTS};
 use tiledlight_gpu::targets::texture_2d_msaa;
@@ -143,33 +143,19 @@ impl GBufferPass {
                 defines.push("TEXTURES");
             }
             let module = shader_module(device, "gbuffer.wgsl", &defines)?;
-            let p = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("deferred.gbuffer"),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
+            let p = scene_pipeline(
+                device,
+                kind,
+                &SceneDraw {
+                    label: "deferred.gbuffer",
+                    layout: &layout,
                     module: &module,
-                    entry_point: Some("vs_main"),
-                    compilation_options: Default::default(),
-                    buffers: &VERTEX_LAYOUTS,
+                    vertex: ("vs_main", &VERTEX_LAYOUTS),
+                    depth_write: true,
+                    samples,
+                    fragment: Some((&fs, &targets)),
                 },
-                primitive: primitive_state(kind),
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Greater),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
-                multisample: wgpu::MultisampleState { count: samples, ..Default::default() },
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some(&fs),
-                    compilation_options: Default::default(),
-                    targets: &targets,
-                }),
-                multiview_mask: None,
-                cache: None,
-            });
+            );
             pipelines.push((kind, p));
         }
         let empty_group = scene.textures.is_none().then(|| {

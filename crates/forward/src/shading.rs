@@ -6,7 +6,7 @@
 //! Bind groups: 0 frame, 1 scene, 2 material texture (textured scenes only), 3 lights.
 //! Depends on tiledlight-gpu.
 
-use tiledlight_gpu::depth_prepass::{primitive_state, DEPTH_FORMAT};
+use tiledlight_gpu::depth_prepass::{scene_pipeline, SceneDraw};
 use tiledlight_gpu::frame::FrameBinding;
 use tiledlight_gpu::light_cull::LightCulling;
 use tiledlight_gpu::lights_gpu::LightBuffers;
@@ -113,37 +113,24 @@ impl ShadingPass {
                     kind_defines.push("ALPHA_MASK");
                 }
                 let module = shader_module(device, "forward.wgsl", &kind_defines)?;
-                let p = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                    label: Some(label),
-                    layout: Some(&pl),
-                    vertex: wgpu::VertexState {
+                let target = [Some(wgpu::ColorTargetState {
+                    format: HDR_FORMAT,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })];
+                let p = scene_pipeline(
+                    device,
+                    kind,
+                    &SceneDraw {
+                        label,
+                        layout: &pl,
                         module: &module,
-                        entry_point: Some("vs_main"),
-                        compilation_options: Default::default(),
-                        buffers: &VERTEX_LAYOUTS,
+                        vertex: ("vs_main", &VERTEX_LAYOUTS),
+                        depth_write: false,
+                        samples,
+                        fragment: Some(("fs_main", &target)),
                     },
-                    primitive: primitive_state(kind),
-                    depth_stencil: Some(wgpu::DepthStencilState {
-                        format: DEPTH_FORMAT,
-                        depth_write_enabled: Some(false),
-                        depth_compare: Some(wgpu::CompareFunction::Equal),
-                        stencil: Default::default(),
-                        bias: Default::default(),
-                    }),
-                    multisample: wgpu::MultisampleState { count: samples, ..Default::default() },
-                    fragment: Some(wgpu::FragmentState {
-                        module: &module,
-                        entry_point: Some("fs_main"),
-                        compilation_options: Default::default(),
-                        targets: &[Some(wgpu::ColorTargetState {
-                            format: HDR_FORMAT,
-                            blend: None,
-                            write_mask: wgpu::ColorWrites::ALL,
-                        })],
-                    }),
-                    multiview_mask: None,
-                    cache: None,
-                });
+                );
                 Ok((kind, p))
             })
             .collect::<Result<Vec<_>, GpuError>>()?;

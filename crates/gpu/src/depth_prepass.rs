@@ -22,6 +22,57 @@ pub fn primitive_state(kind: DrawKind) -> wgpu::PrimitiveState {
     }
 }
 
+/// How a pass draws the scene's geometry: what [`scene_pipeline`] needs besides the draw kind.
+pub struct SceneDraw<'a> {
+    /// Pipeline label.
+    pub label: &'a str,
+    /// Pipeline layout.
+    pub layout: &'a wgpu::PipelineLayout,
+    /// The shader module holding both stages.
+    pub module: &'a wgpu::ShaderModule,
+    /// Vertex entry point and the vertex buffers it reads.
+    pub vertex: (&'a str, &'a [Option<wgpu::VertexBufferLayout<'a>>]),
+    /// Writes depth (pre-pass, G-buffer: compare Greater) or tests it Equal against the
+    /// pre-pass without writing (Forward+ shading).
+    pub depth_write: bool,
+    /// MSAA samples.
+    pub samples: u32,
+    /// Fragment entry point and colour targets (None: depth only).
+    pub fragment: Option<(&'a str, &'a [Option<wgpu::ColorTargetState>])>,
+}
+
+/// A render pipeline drawing the scene's `kind` of draws into `DEPTH_FORMAT` (reversed-Z).
+pub fn scene_pipeline(device: &wgpu::Device, kind: DrawKind, d: &SceneDraw<'_>) -> wgpu::RenderPipeline {
+    let compare = if d.depth_write { wgpu::CompareFunction::Greater } else { wgpu::CompareFunction::Equal };
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(d.label),
+        layout: Some(d.layout),
+        vertex: wgpu::VertexState {
+            module: d.module,
+            entry_point: Some(d.vertex.0),
+            compilation_options: Default::default(),
+            buffers: d.vertex.1,
+        },
+        primitive: primitive_state(kind),
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(d.depth_write),
+            depth_compare: Some(compare),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: wgpu::MultisampleState { count: d.samples, ..Default::default() },
+        fragment: d.fragment.map(|(fs, targets)| wgpu::FragmentState {
+            module: d.module,
+            entry_point: Some(fs),
+            compilation_options: Default::default(),
+            targets,
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
 /// The depth pre-pass pipelines.
 pub struct DepthPrepass {
     pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
@@ -53,37 +104,24 @@ impl DepthPrepass {
             let module = shader_module(device, "depth_prepass.wgsl", &defines)?;
             let (vs, buffers): (&str, &[Option<wgpu::VertexBufferLayout<'_>>]) =
                 if kind.masked { ("vs_masked", &VERTEX_LAYOUTS) } else { ("vs_main", &VERTEX_LAYOUTS[..1]) };
-            let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(&format!(
-                    "depth_prepass{}{}",
-                    if kind.masked { ".masked" } else { "" },
-                    if kind.double_sided { ".double_sided" } else { "" }
-                )),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
+            let label = format!(
+                "depth_prepass{}{}",
+                if kind.masked { ".masked" } else { "" },
+                if kind.double_sided { ".double_sided" } else { "" }
+            );
+            let pipeline = scene_pipeline(
+                device,
+                kind,
+                &SceneDraw {
+                    label: &label,
+                    layout: &layout,
                     module: &module,
-                    entry_point: Some(vs),
-                    compilation_options: Default::default(),
-                    buffers,
+                    vertex: (vs, buffers),
+                    depth_write: true,
+                    samples,
+                    fragment: kind.masked.then_some(("fs_masked", &[][..])),
                 },
-                primitive: primitive_state(kind),
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Greater),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
-                multisample: wgpu::MultisampleState { count: samples, ..Default::default() },
-                fragment: kind.masked.then(|| wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some("fs_masked"),
-                    compilation_options: Default::default(),
-                    targets: &[],
-                }),
-                multiview_mask: None,
-                cache: None,
-            });
+            );
             pipelines.push((kind, pipeline));
         }
         Ok(Self { pipelines })
