@@ -77,7 +77,8 @@ pub fn workgroup_bytes_besides_lists(tile_size: u32, samples: u32) -> u32 {
 
 /// MSAA-only resources: sample texture, edge list and the resolve.
 struct Msaa {
-    samples_texture: wgpu::Texture,
+    /// Kept with the views and bind groups that read and write it.
+    _samples_texture: wgpu::Texture,
     edge_list: wgpu::Buffer,
     edge_args: wgpu::Buffer,
     resolve: wgpu::ComputePipeline,
@@ -241,8 +242,7 @@ impl DeferredShading {
                 "deferred.msaa_samples",
                 (w * sx, h * sy),
                 HDR_FORMAT,
-                // COPY_SRC: tests read the samples of edge pixels back.
-                U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC,
+                U::STORAGE_BINDING | U::TEXTURE_BINDING,
             );
             let pixels = w as u64 * h as u64;
             // COPY_SRC: tests and statistics read the edge pixels back.
@@ -306,7 +306,7 @@ impl DeferredShading {
         let msaa = match msaa_buffers {
             Some((samples_texture, view, edge_list, edge_args)) => {
                 let (resolve, resolve_group) = resolve_pipeline(device, samples, &view, &edge_list, &edge_args, hdr)?;
-                Some(Msaa { samples_texture, edge_list, edge_args, resolve, resolve_group })
+                Some(Msaa { _samples_texture: samples_texture, edge_list, edge_args, resolve, resolve_group })
             }
             None => None,
         };
@@ -365,16 +365,10 @@ impl DeferredShading {
         Ok(Some(args[3]))
     }
 
-    /// The oversized per-sample texture of edge pixels (MSAA only): pixel (x, y) sample s
-    /// at texel `(x * sx + s % sx, y * sy + s / sx)` with `(sx, sy) = sample_grid(samples)`.
-    pub fn samples_texture(&self) -> Option<&wgpu::Texture> {
-        self.msaa.as_ref().map(|m| &m.samples_texture)
-    }
-
     /// The last frame's edge pixels (MSAA only; stalls the GPU), in no particular order.
     pub fn read_edge_list(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Vec<(u32, u32)>, GpuError> {
-        let Some(m) = &self.msaa else { return Ok(Vec::new()) };
-        let n = read_buffer::<u32>(device, queue, &m.edge_args)?[3] as usize;
+        let (Some(m), Some(n)) = (&self.msaa, self.read_edge_pixels(device, queue)?) else { return Ok(Vec::new()) };
+        let n = n as usize;
         let list: Vec<u32> = read_buffer(device, queue, &m.edge_list)?;
         Ok(list[..n.min(list.len())].iter().map(|&p| (p & 0xffff, p >> 16)).collect())
     }
