@@ -1,6 +1,6 @@
 //! GPU integration-test harness for tiledlight, run on lavapipe in CI.
 //!
-//! [`gpu`] creates a device on the adapter named by `WGPU_ADAPTER_NAME` (failing, never
+//! [`gpu`] shares one device per test process, on the adapter named by `WGPU_ADAPTER_NAME` (failing, never
 //! skipping, when none exists); [`scenes`] builds small test scenes, cameras and lights;
 //! [`images`] compares images with nv-flip (mean and percentile thresholds) and writes
 //! `-actual.png` / `-difference.png` next to the test output on failure. Depends on every
@@ -11,16 +11,21 @@ pub mod scenes;
 
 use tiledlight_gpu::{ContextOptions, GpuContext};
 
-/// A device for one test. Panics with the reason when no adapter exists: a GPU test must
-/// fail, not pass silently, on a machine without Vulkan (install mesa-vulkan-drivers).
-pub fn gpu() -> GpuContext {
-    match GpuContext::headless(ContextOptions::default()) {
+/// The test process's one device, created on first use and shared by every test of the
+/// process (`cargo test` runs a file's tests as threads of one process; nextest runs each
+/// in its own). One device per case exhausted the H200's driver: after a few dozen
+/// devices, instance creation found no adapter at all. Panics with the reason when no
+/// adapter exists: a GPU test must fail, not pass silently, on a machine without Vulkan
+/// (install mesa-vulkan-drivers).
+pub fn gpu() -> &'static GpuContext {
+    static CONTEXT: std::sync::OnceLock<GpuContext> = std::sync::OnceLock::new();
+    CONTEXT.get_or_init(|| match GpuContext::headless(ContextOptions::default()) {
         Ok(ctx) => {
             eprintln!("adapter: {}", ctx.describe());
             ctx
         }
         Err(e) => panic!("GPU tests need an adapter: {e}"),
-    }
+    })
 }
 
 /// Directory for failure artefacts (`target/test-output`).
