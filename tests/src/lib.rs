@@ -34,3 +34,12 @@ pub fn output_dir() -> std::path::PathBuf {
     std::fs::create_dir_all(&dir).expect("create target/test-output");
     dir
 }
+
+/// Whether `ctx` runs on lavapipe (Mesa's CPU Vulkan, what CI has). Some expectations are
+/// per adapter, as in wgpu's own test suite: lavapipe runs a workgroup's threads in order
+/// and filters textures its own way, so results that a parallel GPU may legitimately
+/// vary (the order of atomically appended lights, texture-filter precision) are exact or
+/// tighter there. Each test that asks says why.
+pub fn is_lavapipe(ctx: &GpuContext) -> bool {
+    ctx.info.name.to_lowercase().contains("llvmpipe")
+}

@@ -26,7 +26,7 @@ fn renderer_rejects_bad_settings_with_reasons() {
     let scene = scenes::mixed_scene();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 16, 0, 1)).unwrap();
-    let new = |w, h, s: ForwardSettings| ForwardRenderer::new(&ctx, &sg, &lights, w, h, s).map(|_| ());
+    let new = |w, h, s: ForwardSettings| ForwardRenderer::new(ctx, &sg, &lights, w, h, s).map(|_| ());
     let d = ForwardSettings::default();
     let e = err_text(new(0, 180, d));
     assert!(e.contains("0x180") && e.contains("no pixels"), "{e}");
@@ -62,15 +62,38 @@ fn absurd_light_counts_are_refused() {
     let l = Light::point(Vec3::ZERO, Vec3::ONE, 1.0, 0.1).unwrap();
     let e = err_text(LightBuffers::new(&ctx.device, &vec![l; MAX_LIGHTS + 1]));
     assert!(e.contains(&format!("{}", MAX_LIGHTS + 1)) && e.contains("at most"), "{e}");
-    // Zero lights is a valid (ambient-only) frame.
-    let scene = scenes::mixed_scene();
+    // Zero lights is a valid (ambient-only) frame: every floor pixel is exactly the ambient
+    // light times the floor's albedo, sky pixels are black. A black frame (nothing drawn, or
+    // the ambient term lost), NaN from an empty light loop, or stray light all fail.
+    let mut scene = scenes::mixed_scene();
+    scene.instances.truncate(1); // the floor alone: one albedo
+    let albedo = Vec3::from_slice(&scene.materials[scene.instances[0].material].base_color[..3]);
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let none = LightBuffers::new(&ctx.device, &[]).unwrap();
-    let r = ForwardRenderer::new(&ctx, &sg, &none, 64, 36, ForwardSettings::default()).unwrap();
-    let mut timer = GpuTimer::new(&ctx).unwrap();
-    r.render_once(&ctx, &mut timer, &sg, &scenes::mixed_camera(64, 36)).unwrap();
-    let hdr = r.read_hdr(&ctx).unwrap();
-    assert!(hdr.iter().all(|p| p[0] < 0.05 && p.iter().all(|c| c.is_finite())), "no lights: ambient only");
+    for method in [Method::ForwardPlus, Method::BruteForce { cutoff: true }] {
+        let settings = ForwardSettings { method, ..Default::default() };
+        let ambient = settings.ambient;
+        assert!(ambient.min_element() > 0.0, "the default ambient light is not black");
+        let r = ForwardRenderer::new(ctx, &sg, &none, 64, 36, settings).unwrap();
+        let mut timer = GpuTimer::new(ctx).unwrap();
+        r.render_once(ctx, &mut timer, &sg, &scenes::mixed_camera(64, 36)).unwrap();
+        let hdr = r.read_hdr(ctx).unwrap();
+        let depth = r.read_depth(ctx).unwrap();
+        let want = ambient * albedo;
+        let mut floor = 0;
+        for (p, d) in hdr.iter().zip(&depth) {
+            let expected = if *d > 0.0 { want } else { Vec3::ZERO };
+            floor += (*d > 0.0) as usize;
+            for c in 0..3 {
+                // f16 output: 2^-11 relative.
+                assert!(
+                    (p[c] - expected[c]).abs() <= 1e-3 * expected[c] + 1e-6,
+                    "{method:?}, no lights: pixel {p:?}, expected {expected} (ambient x albedo, or black sky)"
+                );
+            }
+        }
+        assert!(floor * 2 > hdr.len(), "{method:?}: the floor must fill most of the frame ({floor} pixels)");
+    }
 }
 
 #[test]
@@ -119,12 +142,12 @@ fn every_pass_is_timed_when_timestamps_exist() {
     let scene = scenes::mixed_scene();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 64, 0, 2)).unwrap();
-    let r = ForwardRenderer::new(&ctx, &sg, &lights, 64, 36, ForwardSettings { heatmap: true, ..Default::default() })
+    let r = ForwardRenderer::new(ctx, &sg, &lights, 64, 36, ForwardSettings { heatmap: true, ..Default::default() })
         .unwrap();
-    let mut timer = GpuTimer::new(&ctx).unwrap();
+    let mut timer = GpuTimer::new(ctx).unwrap();
     let mut frames = Vec::new();
     for _ in 0..6 {
-        r.render_once(&ctx, &mut timer, &sg, &scenes::mixed_camera(64, 36)).unwrap();
+        r.render_once(ctx, &mut timer, &sg, &scenes::mixed_camera(64, 36)).unwrap();
         frames.extend(std::iter::from_fn(|| timer.finished_frame()));
     }
     let last = frames.last().expect("a finished frame");

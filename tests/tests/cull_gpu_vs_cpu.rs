@@ -38,10 +38,10 @@ fn check(case: &Case<'_>, options: CullOptions) -> Vec<f32> {
     let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, case.scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, case.lights).unwrap();
     let settings = ForwardSettings { method: Method::ForwardPlus, cull: options, ..Default::default() };
-    let renderer = ForwardRenderer::new(&ctx, &scene_gpu, &lights, case.width, case.height, settings).unwrap();
-    let mut timer = GpuTimer::new(&ctx).unwrap();
-    renderer.render_once(&ctx, &mut timer, &scene_gpu, &case.camera).unwrap();
-    let depth = renderer.read_depth(&ctx).unwrap();
+    let renderer = ForwardRenderer::new(ctx, &scene_gpu, &lights, case.width, case.height, settings).unwrap();
+    let mut timer = GpuTimer::new(ctx).unwrap();
+    renderer.render_once(ctx, &mut timer, &scene_gpu, &case.camera).unwrap();
+    let depth = renderer.read_depth(ctx).unwrap();
     let gpu_lists = renderer.culling().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
 
     let config = options.to_config(lights.has_spots());
@@ -115,6 +115,16 @@ fn check(case: &Case<'_>, options: CullOptions) -> Vec<f32> {
         }
     }
     assert!(borderline * 1000 <= pairs.max(1), "{label}: {borderline} borderline decisions of {pairs} pairs");
+    // The GPU's pair counter (reported by `render` and the lab) is the sum of the true list
+    // counts; a counter that missed half-z's far lists or the overflowing ones fails here.
+    let gpu_total: u64 = gpu_lists.counts.iter().map(|&c| c as u64).sum();
+    assert_eq!(gpu_lists.pairs as u64, gpu_total, "{label}: GPU pair counter vs its own list counts");
+    let cpu_total: usize = cpu.lists.iter().map(Vec::len).sum();
+    assert!(
+        (gpu_lists.pairs as usize).abs_diff(cpu_total) <= borderline,
+        "{label}: GPU counted {} pairs, the CPU culler {cpu_total}",
+        gpu_lists.pairs
+    );
     let cpu_overflow = cpu.overflowing_lists() as u32;
     assert!(
         gpu_lists.overflowing.abs_diff(cpu_overflow) as usize <= borderline,

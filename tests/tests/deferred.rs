@@ -51,7 +51,7 @@ fn compare_with_forward(
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(scene, n_point, n_spot, 21)).unwrap();
     let reference = ForwardRenderer::new(
-        &ctx,
+        ctx,
         &sg,
         &lights,
         W,
@@ -59,20 +59,14 @@ fn compare_with_forward(
         ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() },
     )
     .unwrap();
-    let (ref_hdr, ref_ldr) = frame(&ctx, &reference, &sg, &camera);
+    let (ref_hdr, ref_ldr) = frame(ctx, &reference, &sg, &camera);
     let forward =
-        ForwardRenderer::new(&ctx, &sg, &lights, W, H, ForwardSettings { cull, ..Default::default() }).unwrap();
-    let (_, fwd_ldr) = frame(&ctx, &forward, &sg, &camera);
-    let deferred = DeferredRenderer::new(
-        &ctx,
-        &sg,
-        &lights,
-        W,
-        H,
-        DeferredSettings { cull, gbuffer_rts: 3, ..Default::default() },
-    )
-    .unwrap();
-    let (def_hdr, def_ldr) = frame(&ctx, &deferred, &sg, &camera);
+        ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { cull, ..Default::default() }).unwrap();
+    let (_, fwd_ldr) = frame(ctx, &forward, &sg, &camera);
+    let deferred =
+        DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings { cull, gbuffer_rts: 3, ..Default::default() })
+            .unwrap();
+    let (def_hdr, def_ldr) = frame(ctx, &deferred, &sg, &camera);
     let lit = ref_hdr.iter().filter(|p| p[0] + p[1] + p[2] > 0.1).count();
     assert!(lit * 4 > ref_hdr.len(), "{name}: frame mostly unlit; the comparison would test nothing");
     let (err, at) = max_relative_error(&ref_hdr, &def_hdr, 1e-2);
@@ -106,8 +100,13 @@ fn mixed_scene_spots_half_z_aabb_tile8_match() {
     compare_with_forward("mixed", &scene, 300, 100, scenes::mixed_camera(W, H), cull);
 }
 
-/// The extra G-buffer targets are white and multiplied in: 2 and 5 targets give the same
-/// image, bit for bit.
+/// The extra G-buffer targets are white and multiplied in: 2 to 5 targets give the same
+/// image. On lavapipe bit for bit. On a parallel GPU within one f16 step per channel
+/// (2^-10 relative): a tile's lights are appended to its list with atomics, so their order,
+/// and with it the f32 summation order, changes from run to run even at the same settings
+/// (measured on the H200: 1-6 of 57,600 pixels differ by at most 9.6e-4 relative between
+/// two identical runs). A target multiplied in that is not white, or shading that depends
+/// on the target count, moves pixels by far more.
 #[test]
 fn gbuffer_targets_do_not_change_the_image() {
     let ctx = gpu();
@@ -118,7 +117,7 @@ fn gbuffer_targets_do_not_change_the_image() {
     let images: Vec<Vec<[f32; 4]>> = (2..=5)
         .map(|rts| {
             let r = DeferredRenderer::new(
-                &ctx,
+                ctx,
                 &sg,
                 &lights,
                 W,
@@ -127,13 +126,28 @@ fn gbuffer_targets_do_not_change_the_image() {
             )
             .unwrap();
             assert_eq!(r.gbuffer().rts(), rts);
-            frame(&ctx, &r, &sg, &camera).0
+            frame(ctx, &r, &sg, &camera).0
         })
         .collect();
+    let exact = tiledlight_tests::is_lavapipe(ctx);
     for (i, img) in images.iter().enumerate().skip(1) {
-        assert!(img == &images[0], "{} targets differ from 2", i + 2);
+        if exact {
+            assert!(img == &images[0], "{} targets differ from 2", i + 2);
+            continue;
+        }
+        for (p, (a, b)) in img.iter().zip(&images[0]).enumerate() {
+            for c in 0..3 {
+                assert!(
+                    (a[c] - b[c]).abs() <= a[c].abs().max(b[c].abs()) * 2f32.powi(-10),
+                    "{} targets differ from 2 at pixel ({}, {}) by more than one f16 step: {a:?} vs {b:?}",
+                    i + 2,
+                    p as u32 % W,
+                    p as u32 / W
+                );
+            }
+        }
     }
-    let e = DeferredRenderer::new(&ctx, &sg, &lights, W, H, DeferredSettings { gbuffer_rts: 6, ..Default::default() })
+    let e = DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings { gbuffer_rts: 6, ..Default::default() })
         .err()
         .expect("6 targets refused");
     assert!(e.to_string().contains("2..=5"), "{e}");
@@ -153,7 +167,7 @@ fn deferred_counts_equal_cpu_reference() {
         CullOptions { tile_size: 32, half_z: true, aabb: true, spot_cone: true, coarse: false, ..Default::default() },
     ] {
         let r = DeferredRenderer::new(
-            &ctx,
+            ctx,
             &sg,
             &lights,
             w,
@@ -161,16 +175,16 @@ fn deferred_counts_equal_cpu_reference() {
             DeferredSettings { cull, heatmap: true, ..Default::default() },
         )
         .unwrap();
-        let mut timer = GpuTimer::new(&ctx).unwrap();
-        r.render_once(&ctx, &mut timer, &sg, &camera).unwrap();
-        let depth = r.read_depth(&ctx).unwrap();
+        let mut timer = GpuTimer::new(ctx).unwrap();
+        r.render_once(ctx, &mut timer, &sg, &camera).unwrap();
+        let depth = r.read_depth(ctx).unwrap();
         let counts: Vec<u32> = read_buffer(&ctx.device, &ctx.queue, r.tile_counts().unwrap()).unwrap();
         let cpu = cull_tiles(&depth, w, h, &camera, &lights.packed, &cull.to_config(true)).unwrap();
         let expected: Vec<u32> = cpu.lists.iter().map(|l| l.len() as u32).collect();
         assert_eq!(&counts[..expected.len()], &expected[..], "{cull:?}: per-list counts");
         assert!(expected.iter().sum::<u32>() > 0, "lights reach the tiles");
         // The heat map drew over the image: some pixels differ from plain tonemapping.
-        let ldr = r.read_ldr(&ctx).unwrap();
+        let ldr = r.read_ldr(ctx).unwrap();
         assert!(ldr.chunks_exact(4).any(|p| p[2] as u16 > p[0] as u16 + 40), "heat map colours present");
     }
 }

@@ -50,14 +50,14 @@ fn compare(name: &str, scene: &Scene, n_point: u32, n_spot: u32, camera: &Camera
     let light_list = scenes::lights(scene, n_point, n_spot, 42);
     let lights = LightBuffers::new(&ctx.device, &light_list).unwrap();
     let reference = render(
-        &ctx,
+        ctx,
         &scene_gpu,
         &lights,
         camera,
         ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() },
     );
     let tiled = render(
-        &ctx,
+        ctx,
         &scene_gpu,
         &lights,
         camera,
@@ -108,22 +108,33 @@ fn mixed_materials_half_z_tile8() {
 }
 
 /// Regression guard: the Forward+ image of the mixed scene against the stored
-/// `tests/reference/forward-mixed.png` (rewrite it with TILEDLIGHT_UPDATE_REFERENCES=1 after
-/// an intended change, and look at it). FLIP mean <= 5e-3, p99 <= 5e-2: another Mesa or
-/// GPU rasterises edges and rounds f16 slightly differently; a changed BRDF, tonemap,
-/// camera or culling fault moves far more.
+/// `tests/reference/forward-mixed.png`, made on lavapipe (rewrite it with
+/// TILEDLIGHT_UPDATE_REFERENCES=1 after an intended change, and look at it).
+///
+/// Per adapter, as wgpu's suite states its expectations: on lavapipe FLIP mean <= 5e-3 and
+/// p99 <= 5e-2 (another Mesa version rasterises edges and rounds f16 slightly
+/// differently). Other GPUs filter textures with their own sub-texel precision (Vulkan
+/// guarantees 4 bits), which moves where the bilinearly filtered alpha mask of the checker
+/// screen crosses its cutoff and which texels blend at its squares' borders: on the H200
+/// the difference lies on the screen alone, FLIP mean 0.0052, p99 0.036 (the rest of the
+/// frame within f16 rounding). There: mean <= 1e-2, p99 <= 5e-2. A changed BRDF, tonemap,
+/// camera or culling fault moves the whole frame, far more than either bound.
 #[test]
 fn mixed_scene_matches_stored_reference() {
     let ctx = gpu();
     let scene = scenes::mixed_scene();
     let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 200, 40, 42)).unwrap();
-    let frame = render(&ctx, &scene_gpu, &lights, &scenes::mixed_camera(W, H), ForwardSettings::default());
+    let frame = render(ctx, &scene_gpu, &lights, &scenes::mixed_camera(W, H), ForwardSettings::default());
     tiledlight_tests::images::assert_matches_reference(
         "forward-mixed",
         W,
         H,
         &frame.ldr,
-        FlipThresholds { mean: 5e-3, percentile: (0.99, 5e-2) },
+        if tiledlight_tests::is_lavapipe(ctx) {
+            FlipThresholds { mean: 5e-3, percentile: (0.99, 5e-2) }
+        } else {
+            FlipThresholds { mean: 1e-2, percentile: (0.99, 5e-2) }
+        },
     );
 }

@@ -42,15 +42,15 @@ fn gpu_lists_give_the_cpu_false_positive_rate_and_wasted_evaluations() {
     let camera = scenes::courtyard_camera(&scene, W, H);
     let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &lights(&scene, 256, 0.1)).unwrap();
-    let mut timer = GpuTimer::new(&ctx).unwrap();
+    let mut timer = GpuTimer::new(ctx).unwrap();
     for options in [
         CullOptions { capacity: 256, ..Default::default() },
         CullOptions { capacity: 256, aabb: true, ..Default::default() },
         CullOptions { capacity: 256, half_z: true, tile_size: 8, ..Default::default() },
     ] {
-        let r = renderer(&ctx, &scene_gpu, &lights, Method::ForwardPlus, options);
-        r.render_once(&ctx, &mut timer, &scene_gpu, &camera).unwrap();
-        let depth = r.read_depth(&ctx).unwrap();
+        let r = renderer(ctx, &scene_gpu, &lights, Method::ForwardPlus, options);
+        r.render_once(ctx, &mut timer, &scene_gpu, &camera).unwrap();
+        let depth = r.read_depth(ctx).unwrap();
         let gpu_lists = r.culling().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
         assert_eq!(gpu_lists.overflowing, 0, "the test needs complete lists");
         let config = options.to_config(false);
@@ -105,11 +105,11 @@ fn energy_lost_to_the_cutoff_shrinks_with_the_threshold() {
     let scene = scenes::courtyard();
     let camera = scenes::courtyard_camera(&scene, W, H);
     let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
-    let mut timer = GpuTimer::new(&ctx).unwrap();
+    let mut timer = GpuTimer::new(ctx).unwrap();
     let mut render = |lights: &LightBuffers, method: Method| {
-        let r = renderer(&ctx, &scene_gpu, lights, method, CullOptions { capacity: 128, ..Default::default() });
-        r.render_once(&ctx, &mut timer, &scene_gpu, &camera).unwrap();
-        r.read_hdr(&ctx).unwrap()
+        let r = renderer(ctx, &scene_gpu, lights, method, CullOptions { capacity: 128, ..Default::default() });
+        r.render_once(ctx, &mut timer, &scene_gpu, &camera).unwrap();
+        r.read_hdr(ctx).unwrap()
     };
     let reference = render(
         &LightBuffers::new(&ctx.device, &lights(&scene, 128, 0.1)).unwrap(),

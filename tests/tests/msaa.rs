@@ -18,7 +18,7 @@ use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;
 use tiledlight_scene::Scene;
-use tiledlight_tests::images::{assert_flip, save_png, FlipThresholds};
+use tiledlight_tests::images::{assert_flip, max_relative_error, save_png, FlipThresholds};
 use tiledlight_tests::{gpu, scenes};
 
 const W: u32 = 320;
@@ -65,9 +65,9 @@ fn msaa_culling_matches_cpu_reference() {
         CullOptions { tile_size: 32, half_z: true, aabb: true, spot_cone: true, coarse: false, ..Default::default() },
         CullOptions { tile_size: 8, half_z: true, ..Default::default() },
     ] {
-        let f = forward(&ctx, &sg, &lights, (w, h), ForwardSettings { cull, msaa: 4, ..Default::default() });
-        render(&ctx, &f, &sg, &camera);
-        let depth = f.read_depth(&ctx).unwrap();
+        let f = forward(ctx, &sg, &lights, (w, h), ForwardSettings { cull, msaa: 4, ..Default::default() });
+        render(ctx, &f, &sg, &camera);
+        let depth = f.read_depth(ctx).unwrap();
         assert_eq!(depth.len(), (w * h * 4) as usize, "4 depth samples a pixel");
         // The samples of an edge pixel differ: the readback really is per sample.
         assert!(depth.chunks_exact(4).any(|s| s[0] != s[3]), "some pixel's samples differ");
@@ -81,9 +81,9 @@ fn msaa_culling_matches_cpu_reference() {
         }
         assert!(cpu.lists.iter().map(Vec::len).sum::<usize>() > 0, "lights reach the tiles");
 
-        let d = deferred(&ctx, &sg, &lights, (w, h), DeferredSettings { cull, msaa: 4, ..Default::default() });
-        render(&ctx, &d, &sg, &camera);
-        let depth = d.read_depth(&ctx).unwrap();
+        let d = deferred(ctx, &sg, &lights, (w, h), DeferredSettings { cull, msaa: 4, ..Default::default() });
+        render(ctx, &d, &sg, &camera);
+        let depth = d.read_depth(ctx).unwrap();
         let cpu = cull_tiles(&depth, w, h, &camera, &lights.packed, &config).unwrap();
         let counts: Vec<u32> = read_buffer(&ctx.device, &ctx.queue, d.tile_counts().unwrap()).unwrap();
         let expected: Vec<u32> = cpu.lists.iter().map(|l| l.len() as u32).collect();
@@ -96,7 +96,6 @@ fn msaa_culling_matches_cpu_reference() {
 /// space across a plane, so samples 0-2 at the standard 4x positions predict sample 3
 /// exactly on a planar surface: an independent, depth-only edge detector.
 fn depth_edges(depth: &[f32], (w, h): (u32, u32), grow: i32) -> Vec<bool> {
-    const POS: [(f64, f64); 4] = [(0.375, 0.125), (0.875, 0.375), (0.125, 0.625), (0.625, 0.875)];
     let mut edge = vec![false; (w * h) as usize];
     for (i, s) in depth.chunks_exact(4).enumerate() {
         let sky = s.iter().filter(|&&d| d <= 0.0).count();
@@ -104,17 +103,26 @@ fn depth_edges(depth: &[f32], (w, h): (u32, u32), grow: i32) -> Vec<bool> {
             edge[i] = sky < 4;
             continue;
         }
-        // d = a + b x + c y through samples 0, 1, 2 (Cramer's rule).
-        let (x0, y0, d0) = (POS[0].0, POS[0].1, s[0] as f64);
-        let (dx1, dy1, dd1) = (POS[1].0 - x0, POS[1].1 - y0, s[1] as f64 - d0);
-        let (dx2, dy2, dd2) = (POS[2].0 - x0, POS[2].1 - y0, s[2] as f64 - d0);
-        let det = dx1 * dy2 - dx2 * dy1;
-        let b = (dd1 * dy2 - dd2 * dy1) / det;
-        let c = (dx1 * dd2 - dx2 * dd1) / det;
-        let predicted = d0 + b * (POS[3].0 - x0) + c * (POS[3].1 - y0);
-        edge[i] = (predicted - s[3] as f64).abs() > 1e-4 * d0.max(s[3] as f64);
+        let predicted = plane_depth(s, POS[3]);
+        edge[i] = (predicted - s[3] as f64).abs() > 1e-4 * (s[0] as f64).max(s[3] as f64);
     }
     grow_mask(&edge, (w, h), grow)
+}
+
+/// The standard 4x sample positions (the Vulkan specification's table; measured on the
+/// adapter by tests/independent.rs), in pixels from the pixel's corner.
+const POS: [(f64, f64); 4] = [(0.375, 0.125), (0.875, 0.375), (0.125, 0.625), (0.625, 0.875)];
+
+/// Depth at `at` (pixels from the pixel's corner) of the plane through 4x samples 0, 1, 2.
+fn plane_depth(s: &[f32], at: (f64, f64)) -> f64 {
+    // d = d0 + b (x - x0) + c (y - y0) (Cramer's rule).
+    let (x0, y0, d0) = (POS[0].0, POS[0].1, s[0] as f64);
+    let (dx1, dy1, dd1) = (POS[1].0 - x0, POS[1].1 - y0, s[1] as f64 - d0);
+    let (dx2, dy2, dd2) = (POS[2].0 - x0, POS[2].1 - y0, s[2] as f64 - d0);
+    let det = dx1 * dy2 - dx2 * dy1;
+    let b = (dd1 * dy2 - dd2 * dy1) / det;
+    let c = (dx1 * dd2 - dx2 * dd1) / det;
+    d0 + b * (at.0 - x0) + c * (at.1 - y0)
 }
 
 /// `mask` dilated by `grow` pixels (a square).
@@ -173,12 +181,12 @@ fn deferred_msaa_matches_forward_msaa() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights_in_slab(&scene, 3.5, 4.0, 300, 100, 21)).unwrap();
     let bf = ForwardSettings { method: Method::BruteForce { cutoff: true }, msaa: 4, ..Default::default() };
-    let reference = render(&ctx, &forward(&ctx, &sg, &lights, (W, H), bf), &sg, &camera);
-    let f = forward(&ctx, &sg, &lights, (W, H), ForwardSettings { cull, msaa: 4, ..Default::default() });
-    let fwd = render(&ctx, &f, &sg, &camera);
-    let d = deferred(&ctx, &sg, &lights, (W, H), DeferredSettings { cull, msaa: 4, ..Default::default() });
-    let def = render(&ctx, &d, &sg, &camera);
-    assert!(d.edge_pixels(&ctx).unwrap().is_some_and(|n| n > 0), "the frame has edge pixels");
+    let reference = render(ctx, &forward(ctx, &sg, &lights, (W, H), bf), &sg, &camera);
+    let f = forward(ctx, &sg, &lights, (W, H), ForwardSettings { cull, msaa: 4, ..Default::default() });
+    let fwd = render(ctx, &f, &sg, &camera);
+    let d = deferred(ctx, &sg, &lights, (W, H), DeferredSettings { cull, msaa: 4, ..Default::default() });
+    let def = render(ctx, &d, &sg, &camera);
+    assert!(d.edge_pixels(ctx).unwrap().is_some_and(|n| n > 0), "the frame has edge pixels");
     let exact = FlipThresholds { mean: 1e-3, percentile: (0.99, 1e-2) };
     assert_flip("msaa-mixed-forward-vs-reference", W, H, &reference, &fwd, exact);
     let flip = FlipThresholds { mean: 0.015, percentile: (0.99, 0.05) };
@@ -202,18 +210,18 @@ fn deferred_msaa_parts_match_their_references() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 1024, 0, 21)).unwrap();
     let hdr = |r: &dyn Renderer, camera: &Camera| {
-        render(&ctx, r, &sg, camera);
-        r.read_hdr(&ctx).unwrap()
+        render(ctx, r, &sg, camera);
+        r.read_hdr(ctx).unwrap()
     };
     let bf = ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() };
-    let fwd = hdr(&forward(&ctx, &sg, &lights, (W, H), ForwardSettings { msaa: 4, ..Default::default() }), &camera);
-    let d = deferred(&ctx, &sg, &lights, (W, H), DeferredSettings { msaa: 4, ..Default::default() });
+    let fwd = hdr(&forward(ctx, &sg, &lights, (W, H), ForwardSettings { msaa: 4, ..Default::default() }), &camera);
+    let d = deferred(ctx, &sg, &lights, (W, H), DeferredSettings { msaa: 4, ..Default::default() });
     let def = hdr(&d, &camera);
 
-    let edges = deferred_edges(&ctx, &d, (W, H));
+    let edges = deferred_edges(ctx, &d, (W, H));
     let (edge_px, flat_px): (Vec<usize>, Vec<usize>) = (0..(W * H) as usize).partition(|&i| edges[i]);
     assert!(!edge_px.is_empty() && flat_px.len() > edge_px.len(), "{} edge pixels", edge_px.len());
-    let big = hdr(&forward(&ctx, &sg, &lights, (2 * W, 2 * H), bf), &scenes::courtyard_camera(&scene, 2 * W, 2 * H));
+    let big = hdr(&forward(ctx, &sg, &lights, (2 * W, 2 * H), bf), &scenes::courtyard_camera(&scene, 2 * W, 2 * H));
     let ssaa: Vec<[f32; 4]> = (0..(W * H) as usize)
         .map(|i| {
             let (x, y) = (2 * (i as u32 % W), 2 * (i as u32 / W));
@@ -227,6 +235,32 @@ fn deferred_msaa_parts_match_their_references() {
             s
         })
         .collect();
+    // Pixels the edge test did not flag are shaded once, at the pixel centre on sample 0's
+    // plane, with sample 0's G-buffer attributes. Where one triangle covers the whole pixel
+    // that is exactly what a 1x render shades. Where two triangles of one surface meet in
+    // the pixel, sample 0 may hold the other triangle's material or smooth normal than the
+    // centre (the courtyard's checkered floor tiles and round columns: measured 15.7% of
+    // these pixels beyond 3e-2 of the 1x image, on lavapipe and the H200), as hardware MSAA
+    // stores one fragment per triangle: no error, another sampling of the pixel. So: the
+    // median pixel equals the 1x reference up to the 8-bit sRGB albedo's rounding (under
+    // 1.5e-2, tests/deferred.rs; measured 7.3e-3), and at least 75% (measured 84.3%) lie
+    // within tests/deferred.rs's 3e-2. A pass that
+    // left them unwritten, shaded them with another tile's list, at the wrong depth, or
+    // without a light fails. The exact check, without coplanar triangles of different
+    // materials, is msaa_changes_only_edge_pixels.
+    let one_x = hdr(&forward(ctx, &sg, &lights, (W, H), bf), &camera);
+    let mut errors: Vec<f32> =
+        flat_px.iter().map(|&i| max_relative_error(&one_x[i..=i], &def[i..=i], 1e-2).0).collect();
+    errors.sort_by(f32::total_cmp);
+    let median = errors[errors.len() / 2];
+    let within = errors.partition_point(|&e| e <= 3e-2) as f64 / errors.len() as f64;
+    eprintln!(
+        "{} pixels shaded once: median relative error {median:.2e} against the 1x reference, {:.1}% within 3e-2",
+        flat_px.len(),
+        100.0 * within
+    );
+    assert!(median < 1.5e-2, "pixels shaded once: median relative error {median} against 1x");
+    assert!(within >= 0.75, "only {:.1}% of the pixels shaded once within 3e-2 of 1x", 100.0 * within);
     let e_def = mean_relative_error(&ssaa, &def, &edge_px);
     let e_fwd = mean_relative_error(&ssaa, &fwd, &edge_px);
     eprintln!(
@@ -240,7 +274,7 @@ fn deferred_msaa_parts_match_their_references() {
 /// (within 3/255 per channel: 8-bit rounding of a resolved average, and two coplanar
 /// triangles meeting inside a pixel, stay below it) everywhere except within a pixel of an
 /// edge, and do differ somewhere (edges really are antialiased). Edges are the depth-only
-/// detector's for Forward+ and the edge test's own for Tiled Deferred. Lit from above
+/// detector's, for both methods. Lit from above
 /// (`lights_in_slab`): with a light's core on a surface, hardware MSAA would also change
 /// pixels where two triangles of one surface meet, shading each at its own centroid.
 /// Untextured materials only (see below).
@@ -255,15 +289,19 @@ fn msaa_changes_only_edge_pixels() {
     let camera = scenes::mixed_camera(W, H);
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights_in_slab(&scene, 3.5, 4.0, 200, 50, 5)).unwrap();
-    let f1 = render(&ctx, &forward(&ctx, &sg, &lights, (W, H), ForwardSettings::default()), &sg, &camera);
-    let f = forward(&ctx, &sg, &lights, (W, H), ForwardSettings { msaa: 4, ..Default::default() });
-    let f4 = render(&ctx, &f, &sg, &camera);
-    let d1 = render(&ctx, &deferred(&ctx, &sg, &lights, (W, H), DeferredSettings::default()), &sg, &camera);
-    let d = deferred(&ctx, &sg, &lights, (W, H), DeferredSettings { msaa: 4, ..Default::default() });
-    let d4 = render(&ctx, &d, &sg, &camera);
-    let geometric = depth_edges(&f.read_depth(&ctx).unwrap(), (W, H), 1);
-    let tested = grow_mask(&deferred_edges(&ctx, &d, (W, H)), (W, H), 1);
-    for (name, one, four, near_edge) in [("forward", &f1, &f4, &geometric), ("deferred", &d1, &d4, &tested)] {
+    let f1 = render(ctx, &forward(ctx, &sg, &lights, (W, H), ForwardSettings::default()), &sg, &camera);
+    let f = forward(ctx, &sg, &lights, (W, H), ForwardSettings { msaa: 4, ..Default::default() });
+    let f4 = render(ctx, &f, &sg, &camera);
+    let d1 = render(ctx, &deferred(ctx, &sg, &lights, (W, H), DeferredSettings::default()), &sg, &camera);
+    let d = deferred(ctx, &sg, &lights, (W, H), DeferredSettings { msaa: 4, ..Default::default() });
+    let d4 = render(ctx, &d, &sg, &camera);
+    // Both methods against the independent depth-only detector (never the edge test's own
+    // list: a deferred pass that blurred or re-shaded flat pixels it had itself flagged
+    // would pass against that).
+    let geometric = depth_edges(&f.read_depth(ctx).unwrap(), (W, H), 1);
+    let deferred_geometric = depth_edges(&d.read_depth(ctx).unwrap(), (W, H), 1);
+    for (name, one, four, near_edge) in [("forward", &f1, &f4, &geometric), ("deferred", &d1, &d4, &deferred_geometric)]
+    {
         let mut changed = 0;
         let mut away = Vec::new();
         let mut map = vec![0u8; (W * H * 4) as usize];
@@ -328,7 +366,7 @@ fn edge_test_is_scale_independent() {
     let ctx = gpu();
     let scene = scenes::mixed_scene();
     let camera = scenes::mixed_camera(W, H);
-    let (base, depth) = edge_pixels(&ctx, &scene, &camera, EdgeTest::default());
+    let (base, depth) = edge_pixels(ctx, &scene, &camera, EdgeTest::default());
     let geometric = depth_edges(&depth, (W, H), 0).iter().filter(|&&e| e).count() as f64;
     eprintln!(
         "mixed scene: {base} edge pixels ({:.2}%), {geometric} pixels whose depth samples leave one plane",
@@ -340,7 +378,7 @@ fn edge_test_is_scale_independent() {
         let (eye, target) = (Vec3::new(7.0, 4.5, 9.0) * k, Vec3::new(0.0, 0.5, 0.0) * k);
         let aspect = W as f32 / H as f32;
         let camera = Camera::perspective(eye, target, Vec3::Y, 55f32.to_radians(), aspect, 0.1 * k, None).unwrap();
-        let (n, _) = edge_pixels(&ctx, &scaled(&scene, k), &camera, EdgeTest::default());
+        let (n, _) = edge_pixels(ctx, &scaled(&scene, k), &camera, EdgeTest::default());
         eprintln!("scale {k}: {n} edge pixels");
         assert!(
             (n as f64 - base as f64).abs() <= 0.01 * base as f64,
@@ -349,8 +387,8 @@ fn edge_test_is_scale_independent() {
     }
     // Monotone in the thresholds: zero tolerance flags every pixel whose samples are not
     // bit-exactly coplanar; a loose one keeps only the silhouettes and sharp creases.
-    let (tight, _) = edge_pixels(&ctx, &scene, &camera, EdgeTest { distance: 0.0, normal_deg: 0.0 });
-    let (loose, _) = edge_pixels(&ctx, &scene, &camera, EdgeTest { distance: 0.05, normal_deg: 45.0 });
+    let (tight, _) = edge_pixels(ctx, &scene, &camera, EdgeTest { distance: 0.0, normal_deg: 0.0 });
+    let (loose, _) = edge_pixels(ctx, &scene, &camera, EdgeTest { distance: 0.05, normal_deg: 45.0 });
     eprintln!("edge pixels: {tight} with zero tolerance, {loose} with 5% and 45 deg");
     assert!(tight > base && base >= loose, "edge pixels not monotone in the thresholds: {tight}, {base}, {loose}");
 
@@ -368,13 +406,13 @@ fn edge_test_is_scale_independent() {
         None,
     )
     .unwrap();
-    let (n, _) = edge_pixels(&ctx, &floor, &grazing, EdgeTest::default());
+    let (n, _) = edge_pixels(ctx, &floor, &grazing, EdgeTest::default());
     eprintln!("grazing floor: {n} edge pixels");
     assert!(n > 0 && n <= 2 * W, "grazing floor: {n} edge pixels, expected only the horizon's");
 }
 
 /// Sample counts: 3 is refused by name; 2x and 8x render where the adapter supports them
-/// (and then match Forward+ at the same count) and otherwise fail with a message naming
+/// (and then both methods match brute force at the same count) and otherwise fail with a message naming
 /// the count, the format and what the adapter supports (lavapipe: 1x and 4x only).
 #[test]
 fn unsupported_sample_counts_are_refused_clearly() {
@@ -382,21 +420,30 @@ fn unsupported_sample_counts_are_refused_clearly() {
     let scene = scenes::mixed_scene();
     let camera = scenes::mixed_camera(W, H);
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
-    let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 100, 0, 1)).unwrap();
-    let e = DeferredRenderer::new(&ctx, &sg, &lights, W, H, DeferredSettings { msaa: 3, ..Default::default() })
+    let lights = LightBuffers::new(&ctx.device, &scenes::lights_in_slab(&scene, 3.5, 4.0, 100, 20, 1)).unwrap();
+    let e = DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings { msaa: 3, ..Default::default() })
         .err()
         .expect("3 samples refused");
     assert!(e.to_string().contains("must be 1, 2, 4 or 8"), "{e}");
     for msaa in [2, 8] {
-        let f = ForwardRenderer::new(&ctx, &sg, &lights, W, H, ForwardSettings { msaa, ..Default::default() });
-        let d = DeferredRenderer::new(&ctx, &sg, &lights, W, H, DeferredSettings { msaa, ..Default::default() });
+        let f = ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { msaa, ..Default::default() });
+        let d = DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings { msaa, ..Default::default() });
         match (f, d) {
             (Ok(f), Ok(d)) => {
-                eprintln!("{msaa}x supported: comparing");
-                let a = render(&ctx, &f, &sg, &camera);
-                let b = render(&ctx, &d, &sg, &camera);
+                // Where the adapter has the count (the H200: scripts/device-gpu-tests.sh;
+                // results in docs/PERFORMANCE.md), both methods against brute force at the same
+                // count with the bounds of deferred_msaa_matches_forward_msaa.
+                eprintln!("{msaa}x supported: comparing with brute force");
+                let bf = ForwardSettings { method: Method::BruteForce { cutoff: true }, msaa, ..Default::default() };
+                let reference = render(ctx, &forward(ctx, &sg, &lights, (W, H), bf), &sg, &camera);
+                let a = render(ctx, &f, &sg, &camera);
+                let b = render(ctx, &d, &sg, &camera);
+                let exact = FlipThresholds { mean: 1e-3, percentile: (0.99, 1e-2) };
+                assert_flip(&format!("msaa{msaa}-forward-vs-reference"), W, H, &reference, &a, exact);
                 let t = FlipThresholds { mean: 0.015, percentile: (0.99, 0.05) };
+                assert_flip(&format!("msaa{msaa}-deferred-vs-reference"), W, H, &reference, &b, t);
                 assert_flip(&format!("msaa{msaa}-deferred-vs-forward"), W, H, &a, &b, t);
+                assert!(d.edge_pixels(ctx).unwrap().is_some_and(|n| n > 0), "{msaa}x: edge pixels found");
             }
             (f, d) => {
                 for e in [f.err(), d.err()].into_iter().flatten() {

@@ -9,7 +9,7 @@ use crate::scene_gpu::{DrawKind, SceneGpu, VERTEX_LAYOUTS};
 use crate::timer::GpuTimer;
 use crate::util::{pipeline_layout, shader_module};
 
-/// Depth format of every depth buffer (reversed-Z: clear 0, compare Greater).
+/// Depth format of every depth buffer (reversed-Z: clear 0, compare GreaterEqual when writing, Equal when shading after the pre-pass).
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
 /// Primitive state for a draw kind: back faces culled unless double-sided.
@@ -32,8 +32,8 @@ pub struct SceneDraw<'a> {
     pub module: &'a wgpu::ShaderModule,
     /// Vertex entry point and the vertex buffers it reads.
     pub vertex: (&'a str, &'a [Option<wgpu::VertexBufferLayout<'a>>]),
-    /// Writes depth (pre-pass, G-buffer: compare Greater) or tests it Equal against the
-    /// pre-pass without writing (Forward+ shading).
+    /// Writes depth (pre-pass, G-buffer: compare GreaterEqual) or tests it Equal against
+    /// the pre-pass without writing (Forward+ shading).
     pub depth_write: bool,
     /// MSAA samples.
     pub samples: u32,
@@ -43,7 +43,13 @@ pub struct SceneDraw<'a> {
 
 /// A render pipeline drawing the scene's `kind` of draws into `DEPTH_FORMAT` (reversed-Z).
 pub fn scene_pipeline(device: &wgpu::Device, kind: DrawKind, d: &SceneDraw<'_>) -> wgpu::RenderPipeline {
-    let compare = if d.depth_write { wgpu::CompareFunction::Greater } else { wgpu::CompareFunction::Equal };
+    // Writing passes keep the last of several fragments at exactly the same depth
+    // (GreaterEqual), as the Equal-tested shading pass after a pre-pass does (every such
+    // fragment passes Equal and the last one's colour stays). With Greater the G-buffer kept
+    // the first: where two surfaces meet at exactly the pixel centre's depth (measured on
+    // the H200: one pixel of the courtyard at 320x180) Tiled Deferred then shaded another
+    // surface than Forward+ and brute force.
+    let compare = if d.depth_write { wgpu::CompareFunction::GreaterEqual } else { wgpu::CompareFunction::Equal };
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some(d.label),
         layout: Some(d.layout),
