@@ -7,7 +7,7 @@
 // With COARSE, each tile tests only the lights of its 64x64-pixel cell (cull_coarse.wgsl),
 // or every light when the cell overflowed.
 // With MSAA the depth buffer is multisampled and the tile's range covers every sample.
-// variants: AABB HALF_Z SPOT_CONE COARSE MSAA
+// variants: AABB HALF_Z SPOT_CONE COARSE MSAA DROP_LIGHT
 #include "common/tile_cull.wgsl"
 
 @group(1) @binding(1) var<storage, read> cull_lights: array<CullLight>;

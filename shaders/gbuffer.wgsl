@@ -4,8 +4,21 @@
 //   targets 2-4 (the stress knob, 3 to 5 targets in all), Rgba8Unorm: written white, and
 //   multiplied into the albedo when shading, so their bandwidth is real and the image unchanged.
 // Alpha-masked materials discard below their cutoff (common/scene.wgsl material_sample).
-// variants: ALPHA_MASK TEXTURES
+// With EXTRA_TEST_VALUES (tests only, tiledlight_deferred::DeferredSettings::test_gbuffer_values)
+// the extra targets hold known colours instead of white (crates/deferred/src/gbuffer.rs
+// EXTRA_TEST_VALUES: keep in step), so tests can prove each one is read and multiplied in.
+// variants: ALPHA_MASK TEXTURES EXTRA_TEST_VALUES
 #include "common/scene.wgsl"
+
+#ifdef EXTRA_TEST_VALUES
+const EXTRA0 = vec4<f32>(204.0, 153.0, 230.0, 255.0) / 255.0;
+const EXTRA1 = vec4<f32>(179.0, 230.0, 128.0, 255.0) / 255.0;
+const EXTRA2 = vec4<f32>(230.0, 204.0, 153.0, 255.0) / 255.0;
+#else
+const EXTRA0 = vec4<f32>(1.0);
+const EXTRA1 = vec4<f32>(1.0);
+const EXTRA2 = vec4<f32>(1.0);
+#endif
 
 @vertex
 fn vs_main(
@@ -62,17 +75,17 @@ fn fs_gbuffer2(in: VertexOut, @builtin(front_facing) front: bool) -> Out2 {
 @fragment
 fn fs_gbuffer3(in: VertexOut, @builtin(front_facing) front: bool) -> Out3 {
     let s = surfel(in, front);
-    return Out3(s.albedo_metallic, s.normal_roughness, vec4<f32>(1.0));
+    return Out3(s.albedo_metallic, s.normal_roughness, EXTRA0);
 }
 
 @fragment
 fn fs_gbuffer4(in: VertexOut, @builtin(front_facing) front: bool) -> Out4 {
     let s = surfel(in, front);
-    return Out4(s.albedo_metallic, s.normal_roughness, vec4<f32>(1.0), vec4<f32>(1.0));
+    return Out4(s.albedo_metallic, s.normal_roughness, EXTRA0, EXTRA1);
 }
 
 @fragment
 fn fs_gbuffer5(in: VertexOut, @builtin(front_facing) front: bool) -> Out5 {
     let s = surfel(in, front);
-    return Out5(s.albedo_metallic, s.normal_roughness, vec4<f32>(1.0), vec4<f32>(1.0), vec4<f32>(1.0));
+    return Out5(s.albedo_metallic, s.normal_roughness, EXTRA0, EXTRA1, EXTRA2);
 }

@@ -19,6 +19,14 @@ override WG: u32 = 16u;
 // Indices stored per list.
 override CAPACITY: u32 = 512u;
 
+#ifdef DROP_LIGHT
+// Test-only (tiledlight_gpu::light_cull::DropLight, never set in production): tile DROP_TILE
+// leaves light DROP_INDEX out of its lists, so tests can prove the image comparisons with
+// the brute-force reference fail when one light is missing from one tile.
+override DROP_TILE: u32 = 0u;
+override DROP_INDEX: u32 = 0u;
+#endif
+
 #ifdef COARSE
 // Cell side and the indices a cell stores (tiledlight_cull::reference::{COARSE_SIZE, COARSE_CAPACITY}).
 override CELL: u32 = 64u;
@@ -136,6 +144,11 @@ fn cull_tile(tile: vec2<u32>, lid: vec2<u32>, lidx: u32) -> TileCull {
             if r <= 0.0 {
                 continue;
             }
+#ifdef DROP_LIGHT
+            if result.index == DROP_TILE && light == DROP_INDEX {
+                continue;
+            }
+#endif
             if sphere_vs_frustum(v0, c, r) && extra_tests(v0, light, c, r) {
                 append(0u, light);
             }

@@ -93,3 +93,23 @@ pub fn max_relative_error(expected: &[[f32; 4]], actual: &[[f32; 4]], floor: f32
     }
     worst
 }
+
+/// sRGB-encoded value in [0, 1] to linear (the exact sRGB curve, as GPUs decode
+/// `*Srgb` formats).
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Linear value in [0, 1] to sRGB-encoded (the exact sRGB curve, as GPUs encode `*Srgb`
+/// formats).
+pub fn linear_to_srgb(c: f32) -> f32 {
+    if c <= 0.0031308 {
+        c * 12.92
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}

@@ -2,10 +2,12 @@
 //!
 //! [`gpu`] shares one device per test process, on the adapter named by `WGPU_ADAPTER_NAME` (failing, never
 //! skipping, when none exists); [`scenes`] builds small test scenes, cameras and lights;
-//! [`images`] compares images with nv-flip (mean and percentile thresholds) and writes
+//! [`compare`] holds the comparisons with the brute-force reference as functions (their
+//! tolerances stated once); [`images`] compares images with nv-flip (mean and percentile thresholds) and writes
 //! `-actual.png` / `-difference.png` next to the test output on failure. Depends on every
 //! tiledlight crate; nothing depends on it.
 
+pub mod compare;
 pub mod images;
 pub mod scenes;
 

@@ -2,14 +2,9 @@
 //! G-buffer stress knob (2 vs 5 targets: the same image), and its per-tile light counts
 //! against the CPU reference culler.
 //!
-//! Tolerance vs the reference (same BRDF and cutoff): the G-buffer stores the albedo in
-//! 8-bit sRGB, as real deferred renderers do: half an sRGB step is about 1% of the linear
-//! value in mid-dark tones (sRGB 100/255), so lit pixels differ by up to ~1.5% everywhere.
-//! Measured on the courtyard: max relative HDR error 1.3e-2, FLIP mean 0.0104 (p99 0.031);
-//! with an f16 albedo instead (tried, not kept: 4 more bytes a pixel) 6.3e-3 and 0.0023,
-//! the rest coming from the f16 normal (~5e-4 rad moves GGX highlights by ~2.5% at
-//! roughness 0.2) and positions rebuilt from depth. Limits: HDR 3e-2 relative, FLIP mean
-//! 0.015 and p99 0.05; a missing light changes a lit pixel by well over 5% and fails.
+//! Tolerance vs the reference: `tiledlight_tests::compare::DEFERRED_VS_REFERENCE` (HDR 3e-2
+//! relative, FLIP mean 0.015, p99 0.05) and the reasons for them (8-bit sRGB albedo, f16
+//! normal, positions rebuilt from depth); deferred vs Forward+ uses its FLIP limits.
 
 use tiledlight_cull::cull_tiles;
 use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
@@ -21,12 +16,12 @@ use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;
-use tiledlight_tests::images::{assert_flip, max_relative_error, FlipThresholds};
+use tiledlight_tests::compare::{assert_matches_reference_frame, render_frame, DEFERRED_VS_REFERENCE};
+use tiledlight_tests::images::assert_flip;
 use tiledlight_tests::{gpu, scenes};
 
 const W: u32 = 320;
 const H: u32 = 180;
-const FLIP: FlipThresholds = FlipThresholds { mean: 0.015, percentile: (0.99, 0.05) };
 
 fn frame(
     ctx: &GpuContext,
@@ -59,32 +54,24 @@ fn compare_with_forward(
         ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() },
     )
     .unwrap();
-    let (ref_hdr, ref_ldr) = frame(ctx, &reference, &sg, &camera);
+    let reference = render_frame(ctx, &reference, &sg, &camera);
     let forward =
         ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { cull, ..Default::default() }).unwrap();
-    let (_, fwd_ldr) = frame(ctx, &forward, &sg, &camera);
+    let forward = render_frame(ctx, &forward, &sg, &camera);
     let deferred =
         DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings { cull, gbuffer_rts: 3, ..Default::default() })
             .unwrap();
-    let (def_hdr, def_ldr) = frame(ctx, &deferred, &sg, &camera);
-    let lit = ref_hdr.iter().filter(|p| p[0] + p[1] + p[2] > 0.1).count();
-    assert!(lit * 4 > ref_hdr.len(), "{name}: frame mostly unlit; the comparison would test nothing");
-    let (err, at) = max_relative_error(&ref_hdr, &def_hdr, 1e-2);
-    eprintln!(
-        "{name}: deferred vs reference, max relative HDR error {err:.2e} at ({}, {})",
-        at as u32 % W,
-        at as u32 / W
+    let deferred = render_frame(ctx, &deferred, &sg, &camera);
+    let lit = reference.hdr.iter().filter(|p| p[0] + p[1] + p[2] > 0.1).count();
+    assert!(lit * 4 > reference.hdr.len(), "{name}: frame mostly unlit; the comparison would test nothing");
+    assert_matches_reference_frame(
+        &format!("{name}-deferred-vs-reference"),
+        W,
+        &reference,
+        &deferred,
+        DEFERRED_VS_REFERENCE,
     );
-    assert!(
-        err <= 3e-2,
-        "{name}: pixel ({}, {}): reference {:?}, deferred {:?}",
-        at as u32 % W,
-        at as u32 / W,
-        ref_hdr[at],
-        def_hdr[at]
-    );
-    assert_flip(&format!("{name}-deferred-vs-reference"), W, H, &ref_ldr, &def_ldr, FLIP);
-    assert_flip(&format!("{name}-deferred-vs-forward"), W, H, &fwd_ldr, &def_ldr, FLIP);
+    assert_flip(&format!("{name}-deferred-vs-forward"), W, H, &forward.ldr, &deferred.ldr, DEFERRED_VS_REFERENCE.flip);
 }
 
 #[test]

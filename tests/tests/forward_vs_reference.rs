@@ -2,34 +2,22 @@
 //! cutoff): the images must be the same up to float summation order, since culling is
 //! conservative and every light a pixel sees is in its tile list.
 //!
-//! Tolerance on linear HDR: the lights are summed in a different order (tile list order vs
-//! index order) in f32 and stored as f16, so a pixel may differ by about one f16 ulp
-//! (2^-10 relative); 4e-3 relative (floor 1e-3 absolute for near-black) allows that with
-//! margin, while a single missing light (typically >5% of a lit pixel) fails. On the
-//! tonemapped image, FLIP mean <= 1e-3 and 99th percentile <= 1e-2.
+//! Tolerances: `tiledlight_tests::compare::FORWARD_VS_REFERENCE` (HDR 4e-3 relative, FLIP
+//! mean 1e-3, p99 1e-2) and the reasons for them.
 
 use tiledlight_cull::Camera;
 use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::Renderer as _;
-use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;
 use tiledlight_scene::Scene;
-use tiledlight_tests::images::{assert_flip, max_relative_error, save_png, FlipThresholds};
-use tiledlight_tests::{gpu, output_dir, scenes};
+use tiledlight_tests::compare::{assert_matches_reference_frame, Frame, FORWARD_VS_REFERENCE};
+use tiledlight_tests::images::FlipThresholds;
+use tiledlight_tests::{gpu, scenes};
 
 const W: u32 = 320;
 const H: u32 = 180;
-const HDR_REL: f32 = 4e-3;
-const HDR_FLOOR: f32 = 1e-3;
-const FLIP: FlipThresholds = FlipThresholds { mean: 1e-3, percentile: (0.99, 1e-2) };
-
-struct Frame {
-    hdr: Vec<[f32; 4]>,
-    ldr: Vec<u8>,
-}
 
 fn render(
     ctx: &GpuContext,
@@ -39,9 +27,7 @@ fn render(
     settings: ForwardSettings,
 ) -> Frame {
     let r = ForwardRenderer::new(ctx, scene, lights, W, H, settings).unwrap();
-    let mut timer = GpuTimer::new(ctx).unwrap();
-    r.render_once(ctx, &mut timer, scene, camera).unwrap();
-    Frame { hdr: r.read_hdr(ctx).unwrap(), ldr: r.read_ldr(ctx).unwrap() }
+    tiledlight_tests::compare::render_frame(ctx, &r, scene, camera)
 }
 
 fn compare(name: &str, scene: &Scene, n_point: u32, n_spot: u32, camera: &Camera, cull: CullOptions) {
@@ -70,21 +56,7 @@ fn compare(name: &str, scene: &Scene, n_point: u32, n_spot: u32, camera: &Camera
         "{name}: only {lit} of {} pixels are lit; the comparison would test nothing",
         reference.hdr.len()
     );
-    let (err, at) = max_relative_error(&reference.hdr, &tiled.hdr, HDR_FLOOR);
-    eprintln!("{name}: max relative HDR error {err:.2e} at pixel ({}, {})", at as u32 % W, at as u32 / W);
-    if err > HDR_REL {
-        save_png(&output_dir().join(format!("{name}-actual.png")), W, H, &tiled.ldr);
-        save_png(&output_dir().join(format!("{name}-expected.png")), W, H, &reference.ldr);
-    }
-    assert!(
-        err <= HDR_REL,
-        "{name}: HDR error {err} at pixel ({}, {}): expected {:?}, got {:?}",
-        at as u32 % W,
-        at as u32 / W,
-        reference.hdr[at],
-        tiled.hdr[at]
-    );
-    assert_flip(name, W, H, &reference.ldr, &tiled.ldr, FLIP);
+    assert_matches_reference_frame(name, W, &reference, &tiled, FORWARD_VS_REFERENCE);
 }
 
 #[test]

@@ -26,6 +26,12 @@ pub const ALBEDO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSr
 pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// Format of the extra (stress) targets.
 pub const EXTRA_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+/// Test-only values of the extra targets 0, 1, 2 (RGB, 8-bit unorm, so stored exactly),
+/// written instead of white by the `EXTRA_TEST_VALUES` variant of `shaders/gbuffer.wgsl`
+/// (keep the two in step). Different per target and per channel, so a target read twice,
+/// one never read, or channels swapped all change the product.
+pub const EXTRA_TEST_VALUES: [[u8; 3]; 3] = [[204, 153, 230], [179, 230, 128], [230, 204, 153]];
+
 /// Fewest and most G-buffer render targets (the sample's slider).
 pub const RT_RANGE: std::ops::RangeInclusive<u32> = 2..=5;
 
@@ -108,12 +114,15 @@ pub struct GBufferPass {
 
 impl GBufferPass {
     /// One pipeline per draw kind of `scene`, writing `rts` targets of `samples` samples.
+    /// `test_values` (tests only) writes [`EXTRA_TEST_VALUES`] into the extra targets
+    /// instead of white.
     pub fn new(
         device: &wgpu::Device,
         frame: &FrameBinding,
         scene: &SceneGpu,
         rts: u32,
         samples: u32,
+        test_values: bool,
     ) -> Result<Self, GpuError> {
         let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("deferred.gbuffer.empty_layout"),
@@ -141,6 +150,9 @@ impl GBufferPass {
             }
             if scene.textures.is_some() {
                 defines.push("TEXTURES");
+            }
+            if test_values {
+                defines.push("EXTRA_TEST_VALUES");
             }
             let module = shader_module(device, "gbuffer.wgsl", &defines)?;
             let p = scene_pipeline(

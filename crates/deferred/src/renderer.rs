@@ -8,7 +8,7 @@ use glam::Vec3;
 use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
 use tiledlight_gpu::frame::{FrameBinding, FrameParams, FrameUniforms};
-use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::light_cull::{CullOptions, DropLight};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::scene_gpu::SceneGpu;
@@ -39,6 +39,14 @@ pub struct DeferredSettings {
     pub msaa: u32,
     /// The MSAA edge test's thresholds (unused without MSAA).
     pub edge: EdgeTest,
+    /// Test-only: leave one light out of one tile's list (see [`DropLight`]). `None` by
+    /// default; production never sets it.
+    pub test_drop_light: Option<DropLight>,
+    /// Test-only: the extra G-buffer targets hold
+    /// [`crate::gbuffer::EXTRA_TEST_VALUES`] instead of white, so tests can prove the
+    /// shading pass reads and multiplies each of them. `false` by default; production never
+    /// sets it.
+    pub test_gbuffer_values: bool,
 }
 
 impl Default for DeferredSettings {
@@ -51,6 +59,8 @@ impl Default for DeferredSettings {
             heatmap: false,
             msaa: 1,
             edge: EdgeTest::default(),
+            test_drop_light: None,
+            test_gbuffer_values: false,
         }
     }
 }
@@ -106,7 +116,14 @@ impl DeferredRenderer {
                 wgpu::TextureUsages::STORAGE_BINDING,
             );
             let gbuffer = GBuffer::new(device, width, height, settings.gbuffer_rts, settings.msaa)?;
-            let gbuffer_pass = GBufferPass::new(device, &frame, scene, settings.gbuffer_rts, settings.msaa)?;
+            let gbuffer_pass = GBufferPass::new(
+                device,
+                &frame,
+                scene,
+                settings.gbuffer_rts,
+                settings.msaa,
+                settings.test_gbuffer_values,
+            )?;
             let mut memory = MemoryReport::default();
             memory.extend(&scene.memory);
             memory.extend(&lights.memory);
@@ -122,6 +139,7 @@ impl DeferredRenderer {
                 grid,
                 settings.cull,
                 settings.edge,
+                settings.test_drop_light,
                 &mut memory,
             )?;
             let tonemap = TonemapPass::new(device, &frame)?;

@@ -14,7 +14,7 @@
 use tiledlight_cull::reference::{COARSE_SIZE, MAX_CAPACITY};
 use tiledlight_cull::TileGrid;
 use tiledlight_gpu::frame::FrameBinding;
-use tiledlight_gpu::light_cull::{depth_entry, CoarseCulling, CullOptions};
+use tiledlight_gpu::light_cull::{depth_entry, CoarseCulling, CullOptions, DropLight};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::readback::read_buffer;
@@ -131,7 +131,8 @@ const EXTRA_BINDINGS: [(u32, &str); 3] = [(5, "EXTRA_RTS"), (10, "EXTRA_RTS_2"),
 
 impl DeferredShading {
     /// Builds the pipeline and bindings for `grid`, reading `depth` and `gbuffer` (both of
-    /// `gbuffer.samples()` samples), writing `hdr`.
+    /// `gbuffer.samples()` samples), writing `hdr`. `drop` is the test-only hook that
+    /// leaves one light out of one tile's list (`None` in production).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         device: &wgpu::Device,
@@ -143,6 +144,7 @@ impl DeferredShading {
         grid: TileGrid,
         options: CullOptions,
         edge: EdgeTest,
+        drop: Option<DropLight>,
         memory: &mut MemoryReport,
     ) -> Result<Self, GpuError> {
         if ![8, 16, 32].contains(&options.tile_size) || grid.tile_size != options.tile_size {
@@ -286,6 +288,11 @@ impl DeferredShading {
             layout: &layout,
             entries: &bind,
         });
+        if let Some(d) = &drop {
+            d.check(&grid, lights.len())?;
+        }
+        let (drop_define, drop_constants) = DropLight::variant(drop);
+        defines.extend(drop_define);
         let module = shader_module(device, "deferred.wgsl", &defines)?;
         let mut constants = vec![
             ("TILE_SIZE", options.tile_size as f64),
@@ -302,6 +309,7 @@ impl DeferredShading {
             constants.push(("EDGE_COS", (edge.normal_deg as f64).to_radians().cos()));
             constants.push(("TILE_PIXELS", (options.tile_size * options.tile_size) as f64));
         }
+        constants.extend(drop_constants);
         let pipeline = compute_pipeline(device, "deferred.shade", &[&frame.layout, &layout], &module, &constants);
         let msaa = match msaa_buffers {
             Some((samples_texture, view, edge_list, edge_args)) => {

@@ -9,7 +9,7 @@ use glam::Vec3;
 use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::depth_prepass::{DepthPrepass, DEPTH_FORMAT};
 use tiledlight_gpu::frame::{FrameBinding, FrameParams, FrameUniforms};
-use tiledlight_gpu::light_cull::{CullOptions, LightCulling};
+use tiledlight_gpu::light_cull::{CullOptions, DropLight, LightCulling};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::scene_gpu::SceneGpu;
@@ -49,6 +49,9 @@ pub struct ForwardSettings {
     /// MSAA samples per pixel: 1, 2, 4 or 8 (as the adapter supports). Also sets
     /// `cull.samples`.
     pub msaa: u32,
+    /// Test-only: leave one light out of one tile's list (Forward+ only; see
+    /// [`DropLight`]). `None` by default; production never sets it.
+    pub test_drop_light: Option<DropLight>,
 }
 
 impl Default for ForwardSettings {
@@ -60,6 +63,7 @@ impl Default for ForwardSettings {
             ambient: Vec3::splat(0.02),
             heatmap: false,
             msaa: 1,
+            test_drop_light: None,
         }
     }
 }
@@ -130,9 +134,22 @@ impl ForwardRenderer {
             let prepass = DepthPrepass::new(device, &frame, scene, settings.msaa)?;
             let (culling, light_loop) = match settings.method {
                 Method::ForwardPlus => (
-                    Some(LightCulling::new(device, &frame, &targets.depth_view, lights, grid, settings.cull)?),
+                    Some(LightCulling::with_drop_light(
+                        device,
+                        &frame,
+                        &targets.depth_view,
+                        lights,
+                        grid,
+                        settings.cull,
+                        settings.test_drop_light,
+                    )?),
                     LightLoop::Tiled { half_z: settings.cull.half_z },
                 ),
+                Method::BruteForce { .. } if settings.test_drop_light.is_some() => {
+                    return Err(GpuError::Config(
+                        "the drop-light test hook needs a tiled method (brute force has no tiles)".into(),
+                    ))
+                }
                 Method::BruteForce { cutoff } => (None, LightLoop::All { cutoff }),
             };
             let shading = ShadingPass::new(device, &frame, scene, lights, culling.as_ref(), light_loop, settings.msaa)?;

@@ -98,6 +98,44 @@ impl CullOptions {
     }
 }
 
+/// Test-only hook: tile `tile` (row-major tile index) leaves light `light` out of its lists
+/// (both lists with half-z), as if culling had wrongly rejected it. Tests use it to prove
+/// the image comparisons with the brute-force reference fail on one missing light; the
+/// renderers' settings default to `None` and production never sets it, so the `DROP_LIGHT`
+/// variant of `shaders/common/tile_cull.wgsl` is never compiled there.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DropLight {
+    /// Row-major tile index.
+    pub tile: u32,
+    /// Index of the light in the packed (points first) light list.
+    pub light: u32,
+}
+
+impl DropLight {
+    /// Checks the tile and light exist (a hook that names neither would silently drop
+    /// nothing, and a negative test relying on it would prove nothing).
+    pub fn check(&self, grid: &TileGrid, num_lights: u32) -> Result<(), GpuError> {
+        if self.tile as usize >= grid.tile_count() || self.light >= num_lights {
+            return Err(GpuError::Config(format!(
+                "test hook drops light {} from tile {}, but there are {num_lights} lights and {} tiles",
+                self.light,
+                self.tile,
+                grid.tile_count()
+            )));
+        }
+        Ok(())
+    }
+
+    /// The define and override constants of the hook, to add to a kernel that includes
+    /// `common/tile_cull.wgsl`.
+    pub fn variant(drop: Option<DropLight>) -> (Option<&'static str>, Vec<(&'static str, f64)>) {
+        match drop {
+            Some(d) => (Some("DROP_LIGHT"), vec![("DROP_TILE", d.tile as f64), ("DROP_INDEX", d.light as f64)]),
+            None => (None, Vec::new()),
+        }
+    }
+}
+
 /// Workgroup memory of the culling kernel besides its lists (bytes): the depth range and
 /// the two list counts (`shaders/common/depth_range.wgsl`, `common/tile_cull.wgsl`).
 pub const CULL_WORKGROUP_BYTES: u32 = 16;
@@ -242,6 +280,19 @@ impl LightCulling {
         grid: TileGrid,
         options: CullOptions,
     ) -> Result<Self, GpuError> {
+        Self::with_drop_light(device, frame, depth, lights, grid, options, None)
+    }
+
+    /// [`LightCulling::new`] with the test-only [`DropLight`] hook (`None`: the same).
+    pub fn with_drop_light(
+        device: &wgpu::Device,
+        frame: &FrameBinding,
+        depth: &wgpu::TextureView,
+        lights: &LightBuffers,
+        grid: TileGrid,
+        options: CullOptions,
+        drop: Option<DropLight>,
+    ) -> Result<Self, GpuError> {
         if ![8, 16, 32].contains(&options.tile_size) || grid.tile_size != options.tile_size {
             return Err(GpuError::Config(format!(
                 "tile size {} must be 8, 16 or 32 (and match the grid's {})",
@@ -346,6 +397,11 @@ impl LightCulling {
             layout: &layout,
             entries: &bind,
         });
+        if let Some(d) = &drop {
+            d.check(&grid, lights.len())?;
+        }
+        let (drop_define, drop_constants) = DropLight::variant(drop);
+        defines.extend(drop_define);
         let module = shader_module(device, "cull.wgsl", &defines)?;
         let wg = options.tile_size.min(16);
         let mut constants =
@@ -354,6 +410,7 @@ impl LightCulling {
             constants.extend(c.constants());
         }
         constants.extend(samples);
+        constants.extend(drop_constants);
         let pipeline = compute_pipeline(device, "cull", &[&frame.layout, &layout], &module, &constants);
         Ok(Self { pipeline, bind_group, coarse, tile_counts, tile_indices, tile_ranges, stats, grid, options, memory })
     }
