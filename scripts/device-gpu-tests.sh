@@ -73,7 +73,8 @@ run)
     name=$(basename "$exe")
     # Each file's tests run as threads of one process, sharing one device, as `cargo test`
     # runs them: concurrency lavapipe never shows.
-    timeout 500 "$exe" "$@" >"$logs/$name.log" 2>&1
+    # --show-output: what passing tests measured (FLIP, errors, counts) goes in the log too.
+    timeout 500 "$exe" --show-output "$@" >"$logs/$name.log" 2>&1
     rc=$?
     p=$(grep -oE '[0-9]+ passed' "$logs/$name.log" | tail -1 | cut -d' ' -f1)
     f=$(grep -oE '[0-9]+ failed' "$logs/$name.log" | tail -1 | cut -d' ' -f1)

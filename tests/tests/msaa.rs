@@ -110,7 +110,7 @@ fn depth_edges(depth: &[f32], (w, h): (u32, u32), grow: i32) -> Vec<bool> {
 }
 
 /// The standard 4x sample positions (the Vulkan specification's table; measured on the
-/// adapter by tests/independent.rs), in pixels from the pixel's corner.
+/// adapter by tests/independent.rs `msaa_4x_sample_positions_are_vulkan_standard`), in pixels from the pixel's corner.
 const POS: [(f64, f64); 4] = [(0.375, 0.125), (0.875, 0.375), (0.125, 0.625), (0.625, 0.875)];
 
 /// Depth at `at` (pixels from the pixel's corner) of the plane through 4x samples 0, 1, 2.

@@ -256,3 +256,43 @@ fn help_and_version_succeed() {
         assert!(help.contains(flag), "render --help lacks {flag}");
     }
 }
+
+/// The culling flags reach the renderer, each seen in what `render` reports of the frame
+/// (not in the settings line it echoes): the AABB test and the spot-cone test list
+/// strictly fewer (tile, light) pairs than planes alone, half-z reports per-half lists
+/// and other pairs, and `--flat-cull` leaves the 64x64-cell level (its lists) out of the
+/// frame with the same pairs. A flag parsed but never passed to the renderer fails here.
+#[test]
+fn culling_flags_change_the_frame() {
+    let dir = scratch("cull-flags");
+    let run = |extra: &[&str]| {
+        let png = dir.join("c.png");
+        let mut args =
+            vec!["render", "--width", "160", "--height", "90", "--lights", "400", "--spot-lights", "200", "--out"];
+        args.push(png.to_str().unwrap());
+        args.extend_from_slice(extra);
+        let text = stdout(&gpu_run(&args));
+        let culling = text.lines().find(|l| l.starts_with("culling:")).unwrap_or_else(|| panic!("{text}")).to_owned();
+        let pairs: u64 = culling
+            .rsplit(';')
+            .next()
+            .and_then(|s| s.trim().strip_suffix(" tile-light pairs"))
+            .map(|s| s.replace(',', "").parse().unwrap())
+            .unwrap_or_else(|| panic!("no pair count in {culling:?}"));
+        (text, culling, pairs)
+    };
+    let (text, _, planes) = run(&[]);
+    // Forward+ times both levels as one pass: the cell lists in the memory report show
+    // the first level exists.
+    assert!(text.contains("cull.cell_lists"), "two-level culling by default: {text}");
+    assert!(planes > 0, "lights reach the tiles");
+    let (_, _, aabb) = run(&["--aabb"]);
+    assert!(aabb < planes, "--aabb: {aabb} pairs, planes alone {planes}");
+    let (_, _, cone) = run(&["--spot-cone"]);
+    assert!(cone < planes, "--spot-cone: {cone} pairs, planes alone {planes}");
+    let (_, culling, half) = run(&["--half-z"]);
+    assert!(culling.contains("per list (half-z)") && half != planes, "--half-z: {culling}");
+    let (text, _, flat) = run(&["--flat-cull"]);
+    assert!(!text.contains("cull.cell_lists"), "--flat-cull still builds the cell lists: {text}");
+    assert_eq!(flat, planes, "--flat-cull finds the same lists");
+}
