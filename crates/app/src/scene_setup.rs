@@ -13,7 +13,7 @@ use crate::bookmark;
 use anyhow::{bail, ensure, Context, Result};
 use clap::{Args, ValueEnum};
 use glam::Vec3;
-use tiledlight_cull::light::{order_points_first, pack_lights};
+use tiledlight_cull::light::try_pack_lights;
 use tiledlight_cull::reference::{DEFAULT_CAPACITY, MAX_CAPACITY};
 use tiledlight_cull::tiles::MAX_SCREEN_SIDE;
 use tiledlight_cull::{Camera, LightKind};
@@ -592,7 +592,8 @@ impl Prepared {
         let summary = LightSummary::of(&lights, self.file_lights.len());
         let same_shape = summary.point == self.light_summary.point && summary.spot == self.light_summary.spot;
         let realloc = if same_shape {
-            let packed = pack_lights(&order_points_first(&lights));
+            // Validated like every upload (`LightBuffers::new` does the same).
+            let packed = try_pack_lights(&lights).context("uploading the lights")?;
             if !packed.is_empty() {
                 let q = &self.ctx.queue;
                 q.write_buffer(&self.lights.cull, 0, bytemuck::cast_slice(&packed.cull));

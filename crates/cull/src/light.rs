@@ -105,19 +105,67 @@ impl Light {
         radius: f32,
         kind: LightKind,
     ) -> Result<Self, CullError> {
+        let light = Self { position, color, intensity, radius, kind };
+        light.problem().map_or(Ok(light), |p| Err(CullError::InvalidLight(p)))
+    }
+
+    /// Checks every field, since they are public and a light can be built without the
+    /// constructors: finite position; finite, non-negative colour and intensity whose
+    /// product (the radiance uploaded) is finite; finite positive radius; for spots a
+    /// finite unit direction and angles with `0 <= inner <= outer` and `outer` in
+    /// [[`MIN_SPOT_ANGLE`], [`MAX_SPOT_ANGLE`]] (the range the constructors clamp to). The
+    /// error names the field and its value. [`validate_lights`] adds the light's index.
+    pub fn validate(&self) -> Result<(), CullError> {
+        self.problem().map_or(Ok(()), |p| Err(CullError::InvalidLight(p)))
+    }
+
+    /// What is wrong with this light, if anything (see [`Light::validate`]).
+    fn problem(&self) -> Option<String> {
+        let Self { position, color, intensity, radius, kind } = *self;
         if !finite3(position) {
-            return Err(CullError::InvalidLight(format!("position {position} is not finite")));
+            return Some(format!("position {position} is not finite"));
         }
         if !finite3(color) || color.min_element() < 0.0 {
-            return Err(CullError::InvalidLight(format!("colour {color} must be finite and non-negative")));
+            return Some(format!("colour {color} must be finite and non-negative"));
         }
         if !intensity.is_finite() || intensity < 0.0 {
-            return Err(CullError::InvalidLight(format!("intensity {intensity} must be finite and non-negative")));
+            return Some(format!("intensity {intensity} must be finite and non-negative"));
+        }
+        if !finite3(color * intensity) {
+            return Some(format!("radiance (colour {color} x intensity {intensity}) overflows f32"));
         }
         if !radius.is_finite() || radius <= 0.0 {
-            return Err(CullError::InvalidLight(format!("radius {radius} must be finite and positive")));
+            return Some(format!("radius {radius} must be finite and positive"));
         }
-        Ok(Self { position, color, intensity, radius, kind })
+        if let LightKind::Spot { direction, inner_angle, outer_angle } = kind {
+            if !finite3(direction) || direction.length_squared() < 1e-12 {
+                return Some(format!("spot direction {direction} is not a finite non-zero vector"));
+            }
+            // The shaders and the cone test use the direction as uploaded: it must be unit.
+            // `normalize` leaves it within a few ulps of 1; 1e-4 also accepts values
+            // normalised in f64 or read from files with 6 decimals.
+            if (direction.length() - 1.0).abs() > 1e-4 {
+                return Some(format!(
+                    "spot direction {direction} has length {}, not 1 (normalise it, or use Light::spot_kind)",
+                    direction.length()
+                ));
+            }
+            if !inner_angle.is_finite() || !outer_angle.is_finite() {
+                return Some(format!("spot angles must be finite (inner {inner_angle}, outer {outer_angle})"));
+            }
+            if !(MIN_SPOT_ANGLE..=MAX_SPOT_ANGLE).contains(&outer_angle) {
+                return Some(format!(
+                    "spot outer angle {outer_angle} rad ({} deg) is outside [{MIN_SPOT_ANGLE}, {MAX_SPOT_ANGLE}] rad (0.5 to 89.5 deg)",
+                    outer_angle.to_degrees()
+                ));
+            }
+            if !(0.0..=outer_angle).contains(&inner_angle) {
+                return Some(format!(
+                    "spot inner angle {inner_angle} rad must be in [0, outer angle {outer_angle}] rad"
+                ));
+            }
+        }
+        None
     }
 
     fn checked_radius(color: Vec3, intensity: f32, threshold: f32) -> Result<f32, CullError> {
@@ -224,10 +272,15 @@ pub struct GpuSpotLight {
 
 /// Angular falloff scale and offset for a spot (as in Filament): `saturate(cos * scale + offset)`
 /// is 0 at the outer angle and 1 at the inner angle.
+///
+/// The ramp's width in cosine is kept at least `f32::EPSILON` (2 ulps of a cosine near 1)
+/// so that inner == outer gives a finite scale (a hard edge) instead of a division by zero.
+/// It was 1e-4, which is wider than the whole ramp of cones under ~0.8 degrees: a 0.5
+/// degree spot then reached only 15% of its intensity on its own axis.
 pub fn spot_scale_offset(inner_angle: f32, outer_angle: f32) -> (f32, f32) {
     let cos_outer = outer_angle.cos();
     let cos_inner = inner_angle.cos();
-    let scale = 1.0 / (cos_inner - cos_outer).max(1e-4);
+    let scale = 1.0 / (cos_inner - cos_outer).max(f32::EPSILON);
     (scale, -cos_outer * scale)
 }
 
@@ -263,7 +316,27 @@ pub fn order_points_first(lights: &[Light]) -> Vec<Light> {
     v
 }
 
+/// Checks every light with [`Light::validate`]; the error names the first bad light's
+/// index in `lights` and what is wrong with it.
+pub fn validate_lights(lights: &[Light]) -> Result<(), CullError> {
+    for (i, l) in lights.iter().enumerate() {
+        if let Some(p) = l.problem() {
+            return Err(CullError::InvalidLight(format!("light {i}: {p}")));
+        }
+    }
+    Ok(())
+}
+
+/// Validates `lights` ([`validate_lights`]: errors name the index in `lights`, before
+/// reordering), orders them points first and packs them: the path every upload takes.
+pub fn try_pack_lights(lights: &[Light]) -> Result<PackedLights, CullError> {
+    validate_lights(lights)?;
+    Ok(pack_lights(&order_points_first(lights)))
+}
+
 /// Packs lights that are already ordered points-first (see [`order_points_first`]).
+/// Does not validate: a NaN field packs into NaN data that every culling test rejects, so
+/// the light silently vanishes. Uploads go through [`try_pack_lights`] instead.
 pub fn pack_lights(ordered: &[Light]) -> PackedLights {
     let mut out = PackedLights::default();
     for l in ordered {
@@ -334,6 +407,109 @@ mod tests {
         assert!(Light::point(Vec3::ZERO, Vec3::ONE, 1.0, 0.0).is_err());
         assert!(Light::point(Vec3::ZERO, Vec3::ZERO, 1.0, 0.01).is_err(), "black light has no radius");
         assert!(Light::spot(Vec3::ZERO, Vec3::ZERO, Vec3::ONE, 1.0, 0.1, 0.2, 0.01).is_err());
+    }
+
+    /// A valid spot built without the constructors, for `validation_names_index_and_problem`.
+    fn raw_spot() -> Light {
+        Light {
+            position: Vec3::new(1.0, 2.0, 3.0),
+            color: Vec3::new(1.0, 0.5, 0.25),
+            intensity: 2.0,
+            radius: 5.0,
+            kind: LightKind::Spot { direction: Vec3::NEG_Y, inner_angle: 0.2, outer_angle: 0.4 },
+        }
+    }
+
+    /// Every invalid field of a light built by hand (the fields are public) is rejected by
+    /// `validate_lights` with the light's index and a message naming the field. Catches a
+    /// validation that misses a field (NaN would pack into NaN spheres the culler drops
+    /// silently, or NaN radiance that turns pixels NaN) or reports the wrong index.
+    #[test]
+    fn validation_names_index_and_problem() {
+        let spot = |direction: Vec3, inner_angle: f32, outer_angle: f32| LightKind::Spot {
+            direction,
+            inner_angle,
+            outer_angle,
+        };
+        let deg = |d: f32| d.to_radians();
+        let ok = raw_spot();
+        let cases: Vec<(Light, &str)> = vec![
+            (Light { position: Vec3::new(f32::NAN, 0.0, 0.0), ..ok }, "position"),
+            (Light { position: Vec3::new(0.0, f32::INFINITY, 0.0), ..ok }, "position"),
+            (Light { position: Vec3::new(0.0, 0.0, f32::NEG_INFINITY), ..ok }, "position"),
+            (Light { color: Vec3::new(f32::NAN, 1.0, 1.0), ..ok }, "colour"),
+            (Light { color: Vec3::new(1.0, f32::INFINITY, 1.0), ..ok }, "colour"),
+            (Light { color: Vec3::new(1.0, 1.0, -0.1), ..ok }, "colour"),
+            (Light { intensity: f32::NAN, ..ok }, "intensity"),
+            (Light { intensity: f32::INFINITY, ..ok }, "intensity"),
+            (Light { intensity: -1.0, ..ok }, "intensity"),
+            // Both finite, but their product (the uploaded radiance) is not.
+            (Light { intensity: 1e38, color: Vec3::new(10.0, 1.0, 1.0), ..ok }, "radiance"),
+            (Light { radius: f32::NAN, ..ok }, "radius"),
+            (Light { radius: f32::INFINITY, ..ok }, "radius"),
+            (Light { radius: 0.0, ..ok }, "radius"),
+            (Light { radius: -1.0, ..ok }, "radius"),
+            (Light { kind: spot(Vec3::ZERO, 0.2, 0.4), ..ok }, "spot direction"),
+            (Light { kind: spot(Vec3::new(f32::NAN, 1.0, 0.0), 0.2, 0.4), ..ok }, "spot direction"),
+            (Light { kind: spot(Vec3::new(0.0, f32::INFINITY, 0.0), 0.2, 0.4), ..ok }, "spot direction"),
+            (Light { kind: spot(Vec3::new(0.0, 2.0, 0.0), 0.2, 0.4), ..ok }, "has length 2"),
+            (Light { kind: spot(Vec3::Y, f32::NAN, 0.4), ..ok }, "spot angles must be finite"),
+            (Light { kind: spot(Vec3::Y, 0.2, f32::NAN), ..ok }, "spot angles must be finite"),
+            (Light { kind: spot(Vec3::Y, 0.2, f32::INFINITY), ..ok }, "spot angles must be finite"),
+            (Light { kind: spot(Vec3::Y, 0.5, 0.4), ..ok }, "inner angle 0.5"),
+            (Light { kind: spot(Vec3::Y, -0.1, 0.4), ..ok }, "inner angle -0.1"),
+            (Light { kind: spot(Vec3::Y, 0.0, 0.0), ..ok }, "outer angle 0 rad"),
+            (Light { kind: spot(Vec3::Y, 0.0, -0.3), ..ok }, "outer angle -0.3"),
+            (Light { kind: spot(Vec3::Y, 0.0, deg(0.4)), ..ok }, "outer angle"),
+            (Light { kind: spot(Vec3::Y, 0.1, deg(90.0)), ..ok }, "outer angle 1.5707964 rad"),
+            (Light { kind: spot(Vec3::Y, 0.1, deg(89.6)), ..ok }, "outer angle"),
+            (Light { kind: spot(Vec3::Y, 0.1, deg(120.0)), ..ok }, "outer angle"),
+        ];
+        for (k, (bad, what)) in cases.iter().enumerate() {
+            // The bad light third of four, so a validator reporting the wrong index fails.
+            let list = [ok, Light::point(Vec3::ZERO, Vec3::ONE, 1.0, 0.01).unwrap(), *bad, ok];
+            let e = validate_lights(&list).expect_err(&format!("case {k} ({what}) accepted: {bad:?}")).to_string();
+            assert!(e.starts_with("invalid light: light 2: "), "case {k}: {e}");
+            assert!(e.contains(what), "case {k}: {e:?} should name {what:?}");
+            assert_eq!(bad.validate().map_err(|e| e.to_string()), Err(e.replace("light 2: ", "")), "case {k}");
+            // Uploads go through `try_pack_lights`: it must reject the same list.
+            assert!(try_pack_lights(&list).is_err(), "case {k}");
+            // The explicit-radius constructor agrees with `validate` (spot kinds given
+            // directly, not through the clamping `spot_kind`).
+            let built = Light::with_radius(bad.position, bad.color, bad.intensity, bad.radius, bad.kind);
+            assert_eq!(built.map_err(|e| e.to_string()), Err(e.replace("light 2: ", "")), "case {k}");
+        }
+    }
+
+    /// The accepted extremes stay accepted: the clamped angle limits exactly, inner == outer,
+    /// inner 0, black and zero-intensity lights with an explicit radius, a direction
+    /// normalised in f64. Catches a validation stricter than the constructors' clamps
+    /// (which would reject lights the loader and generators produce).
+    #[test]
+    fn validation_accepts_the_limits_constructors_produce() {
+        let ok = raw_spot();
+        let spot = |inner_angle: f32, outer_angle: f32| LightKind::Spot {
+            direction: Vec3::new(0.3, -0.9, 0.1).normalize(),
+            inner_angle,
+            outer_angle,
+        };
+        for l in [
+            ok,
+            Light { kind: spot(0.0, MIN_SPOT_ANGLE), ..ok },
+            Light { kind: spot(MIN_SPOT_ANGLE, MIN_SPOT_ANGLE), ..ok },
+            Light { kind: spot(MAX_SPOT_ANGLE, MAX_SPOT_ANGLE), ..ok },
+            Light { kind: LightKind::Point, color: Vec3::ZERO, intensity: 0.0, ..ok },
+            Light { kind: LightKind::Point, radius: f32::MIN_POSITIVE, ..ok },
+            Light { kind: LightKind::Point, radius: f32::MAX, position: Vec3::splat(-f32::MAX), ..ok },
+        ] {
+            l.validate().unwrap_or_else(|e| panic!("{l:?}: {e}"));
+        }
+        // The clamping constructor maps out-of-range angles onto accepted ones.
+        for (inner, outer) in [(0.0, 0.0), (1.0, 0.5), (2.0, 3.0), (-1.0, 1e-9)] {
+            let kind = Light::spot_kind(Vec3::new(0.0, 5.0, 0.0), inner, outer).unwrap();
+            Light { kind, ..ok }.validate().unwrap_or_else(|e| panic!("inner {inner} outer {outer}: {e}"));
+        }
+        assert!(validate_lights(&[]).is_ok());
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! spot buffer that exists only when the scene has spot lights. Depends on wgpu and
 //! tiledlight-cull.
 
-use tiledlight_cull::light::{order_points_first, pack_lights, PackedLights};
+use tiledlight_cull::light::{try_pack_lights, PackedLights};
 use tiledlight_cull::Light;
 
 use crate::error::GpuError;
@@ -28,7 +28,10 @@ pub struct LightBuffers {
 }
 
 impl LightBuffers {
-    /// Orders (points first), packs and uploads `lights`.
+    /// Validates, orders (points first), packs and uploads `lights`. A light with a NaN,
+    /// infinite or out-of-range field (its fields are public) is an error naming its index
+    /// in `lights` and the field ([`tiledlight_cull::light::validate_lights`]), not NaN data
+    /// that the culling kernel would silently drop.
     pub fn new(device: &wgpu::Device, lights: &[Light]) -> Result<Self, GpuError> {
         if lights.len() > MAX_LIGHTS {
             return Err(GpuError::Config(format!(
@@ -36,7 +39,7 @@ impl LightBuffers {
                 lights.len()
             )));
         }
-        let packed = pack_lights(&order_points_first(lights));
+        let packed = try_pack_lights(lights)?;
         let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
         // A light-less scene still binds one zeroed element: bindings must cover the
         // shader's struct size, and the loops never read it (num_lights is 0).

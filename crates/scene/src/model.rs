@@ -4,7 +4,7 @@
 //! (for [`Light`]) and this crate's error type.
 
 use glam::{Mat4, Vec3};
-use tiledlight_cull::{Light, LightKind};
+use tiledlight_cull::Light;
 
 use crate::error::SceneError;
 
@@ -301,27 +301,9 @@ impl Scene {
                 )));
             }
         }
-        for (i, l) in self.lights.iter().enumerate() {
-            let finite =
-                l.position.is_finite() && l.color.is_finite() && l.intensity.is_finite() && l.radius.is_finite();
-            if !finite {
-                return Err(self.invalid(format!("light {i} has a non-finite position, colour, intensity or radius")));
-            }
-            if l.radius <= 0.0 || l.intensity < 0.0 || l.color.min_element() < 0.0 {
-                return Err(self.invalid(format!(
-                    "light {i} has radius {}, intensity {} and colour {}: radius must be positive, the rest non-negative",
-                    l.radius, l.intensity, l.color
-                )));
-            }
-            if let LightKind::Spot { direction, inner_angle, outer_angle } = l.kind {
-                if !direction.is_finite() || !inner_angle.is_finite() || !outer_angle.is_finite() {
-                    return Err(self.invalid(format!("spot light {i} has a non-finite direction or angle")));
-                }
-                if (direction.length() - 1.0).abs() > NORMAL_LENGTH_TOLERANCE {
-                    return Err(self.invalid(format!("spot light {i} direction {direction} is not unit length")));
-                }
-            }
-        }
+        // The same checks as every upload (`LightBuffers::new` runs them too), so a scene
+        // that validates never fails there.
+        tiledlight_cull::light::validate_lights(&self.lights).map_err(|e| self.invalid(e.to_string()))?;
         if let Some(c) = &self.camera {
             self.validate_camera(c)?;
         }
@@ -466,6 +448,7 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use tiledlight_cull::LightKind;
 
     fn triangle_scene() -> Scene {
         let mesh = Mesh {
@@ -556,15 +539,19 @@ mod tests {
             "texture 0 't' is 2x1 so needs 8 bytes of RGBA8, but has 7",
         );
         rejects(|s| s.textures[0].width = 0, "texture 0 't' has size 0x1");
-        rejects(|s| s.lights[0].position.x = f32::NAN, "light 0 has a non-finite");
-        rejects(|s| s.lights[0].intensity = f32::INFINITY, "light 0 has a non-finite");
-        rejects(|s| s.lights[0].radius = 0.0, "light 0 has radius 0");
+        rejects(|s| s.lights[0].position.x = f32::NAN, "light 0: position");
+        rejects(|s| s.lights[0].intensity = f32::INFINITY, "light 0: intensity inf");
+        rejects(|s| s.lights[0].radius = 0.0, "light 0: radius 0");
         rejects(
             |s| {
                 s.lights[0].kind =
                     LightKind::Spot { direction: Vec3::new(f32::NAN, 0.0, 0.0), inner_angle: 0.1, outer_angle: 0.2 }
             },
-            "spot light 0 has a non-finite direction",
+            "light 0: spot direction [NaN, 0, 0] is not a finite non-zero vector",
+        );
+        rejects(
+            |s| s.lights[0].kind = LightKind::Spot { direction: Vec3::Y, inner_angle: 0.3, outer_angle: 0.2 },
+            "light 0: spot inner angle 0.3",
         );
         rejects(|s| s.camera.as_mut().unwrap().fov_y = f32::NAN, "camera has a non-finite parameter");
         rejects(|s| s.camera.as_mut().unwrap().target = Vec3::ZERO, "camera eye");

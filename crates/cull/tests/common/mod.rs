@@ -5,7 +5,7 @@
 
 #![allow(dead_code)] // Each test binary uses a different part of this module.
 
-use glam::{EulerRot, Mat4, Quat, Vec3};
+use glam::{DVec3, EulerRot, Mat4, Quat, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use tiledlight_cull::light::PackedLights;
@@ -147,21 +147,22 @@ pub enum DepthMode {
 pub const DEPTH_MODES: [DepthMode; 5] =
     [DepthMode::Constant, DepthMode::Plane, DepthMode::PerPixel, DepthMode::NearOne, DepthMode::NearZero];
 
-/// One depth value of a mode for pixel (x, y); `base` carries the mode's per-buffer constants.
+/// One depth value of a mode at pixel-space position (x, y) (a pixel's centre, or one of
+/// its MSAA sample positions); `base` carries the mode's per-buffer constants.
 fn depth_value(
     rng: &mut impl Rng,
     mode: DepthMode,
     camera: &Camera,
     base: [f32; 3],
-    (x, y): (u32, u32),
+    (x, y): (f32, f32),
     (w, h): (u32, u32),
 ) -> f32 {
     let dp = camera.depth_params();
     let v = match mode {
         DepthMode::Constant => base[0],
         DepthMode::Plane => {
-            let nx = 2.0 * (x as f32 + 0.5) / w as f32 - 1.0;
-            let ny = 1.0 - 2.0 * (y as f32 + 0.5) / h as f32;
+            let nx = 2.0 * x / w as f32 - 1.0;
+            let ny = 1.0 - 2.0 * y / h as f32;
             base[0] + base[1] * nx + base[2] * ny
         }
         DepthMode::PerPixel => {
@@ -222,7 +223,7 @@ pub fn random_depth(
                     if i + 1 == k { (tx - 1, ty - 1) } else { (rng.random_range(0..tx), rng.random_range(0..ty)) };
                 for y in cy * tile..((cy + 1) * tile).min(h) {
                     for x in cx * tile..((cx + 1) * tile).min(w) {
-                        depth[(y * w + x) as usize] = depth_value(rng, mode, camera, base, (x, y), (w, h));
+                        depth[(y * w + x) as usize] = depth_value(rng, mode, camera, base, centre(x, y), (w, h));
                     }
                 }
             }
@@ -230,7 +231,7 @@ pub fn random_depth(
         None => {
             for y in 0..h {
                 for x in 0..w {
-                    depth[(y * w + x) as usize] = depth_value(rng, mode, camera, base, (x, y), (w, h));
+                    depth[(y * w + x) as usize] = depth_value(rng, mode, camera, base, centre(x, y), (w, h));
                 }
             }
             for _ in 0..rng.random_range(0..3) {
@@ -239,6 +240,75 @@ pub fn random_depth(
                 for y in y0..y1 {
                     depth[(y * w) as usize + x0 as usize..(y * w) as usize + x1 as usize].fill(0.0);
                 }
+            }
+        }
+    }
+    depth
+}
+
+/// Pixel-space position of pixel (x, y)'s centre.
+fn centre(x: u32, y: u32) -> (f32, f32) {
+    (x as f32 + 0.5, y as f32 + 0.5)
+}
+
+/// The standard MSAA sample positions (Vulkan, D3D and Metal agree), in pixels from the
+/// pixel's top-left corner: the CPU copy of `sample_position` in `shaders/deferred.wgsl`,
+/// where Tiled Deferred shades each sample. 1 sample: the pixel centre.
+pub fn sample_positions(samples: u32) -> &'static [(f32, f32)] {
+    match samples {
+        1 => &[(0.5, 0.5)],
+        2 => &[(0.75, 0.75), (0.25, 0.25)],
+        4 => &[(0.375, 0.125), (0.875, 0.375), (0.125, 0.625), (0.625, 0.875)],
+        8 => &[
+            (0.5625, 0.3125),
+            (0.4375, 0.6875),
+            (0.8125, 0.5625),
+            (0.3125, 0.1875),
+            (0.1875, 0.8125),
+            (0.0625, 0.4375),
+            (0.6875, 0.9375),
+            (0.9375, 0.0625),
+        ],
+        _ => panic!("{samples} samples: the GPU accepts 1, 2, 4 or 8"),
+    }
+}
+
+/// A random multisampled depth buffer: `samples` values per pixel, pixel-major (the layout
+/// `CullConfig::samples` reads). With 1 sample exactly [`random_depth`] (same values from
+/// the same generator state, so recorded cases replay). With more, each sample gets its
+/// mode's value at its own standard position (planes tilt across the pixel, per-pixel
+/// noise differs per sample), and edge pixels are made by turning single samples into sky
+/// with probability `sky_sample` (silhouettes: some samples on geometry, some not).
+#[allow(clippy::too_many_arguments)]
+pub fn random_depth_samples(
+    rng: &mut impl Rng,
+    mode: DepthMode,
+    camera: &Camera,
+    w: u32,
+    h: u32,
+    samples: u32,
+    geometry_tiles: Option<(u32, u32)>,
+    sky_sample: f64,
+) -> Vec<f32> {
+    if samples == 1 {
+        return random_depth(rng, mode, camera, w, h, geometry_tiles);
+    }
+    // Which pixels have geometry: the single-sample layout decides (sky rectangles, or a
+    // few geometry tiles on large screens), then every sample gets its own value.
+    let layout = random_depth(rng, mode, camera, w, h, geometry_tiles);
+    let base = mode_base(rng, mode);
+    let positions = sample_positions(samples);
+    let mut depth = vec![0.0f32; layout.len() * samples as usize];
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            if layout[i] <= 0.0 {
+                continue;
+            }
+            for (s, &(sx, sy)) in positions.iter().enumerate() {
+                let pos = (x as f32 + sx, y as f32 + sy);
+                let v = depth_value(rng, mode, camera, base, pos, (w, h));
+                depth[i * samples as usize + s] = if rng.random_bool(sky_sample) { 0.0 } else { v };
             }
         }
     }
@@ -343,7 +413,10 @@ pub fn spot_pair_unresolvable(camera: &Camera, packed: &PackedLights, l: u32, p:
 /// misplaces the cone's surface by up to ~2.4e-7 in cosine, which for a 0.5 degree cone
 /// is 0.3% of the half-angle. The culler's cone test works with `perp * cos - t * sin` and
 /// resolves the surface far better; the two disagree inside that band, where the shaded
-/// spot falloff `((cos - cos_outer) * scale)^2` is below 1e-5 anyway (scale <= 1e4). Found
+/// spot falloff `((cos - cos_outer) * scale)^2` is at most `(9.5e-7 * scale)^2`, under 1e-3
+/// for every cone with a ramp (`scale = 1 / (cos_inner - cos_outer)`) of 3e-5 in cosine or
+/// more; a hard-edged spot (inner == outer) has its edge in that band, and f32 cannot place
+/// the edge any closer. Found
 /// by no_false_negatives.rs: a 0.5 degree spot, a pixel at 0.5008 degrees that the
 /// ground truth's cosine put at 0.4997, and a 1 px tile 2e-7 m across. 8 eps (9.5e-7) is
 /// twice the ~4 ulps, and spans 1.3% of a 0.5 degree cone's half-angle, less for wider.
@@ -360,7 +433,8 @@ pub fn near_spot_rim(camera: &Camera, packed: &PackedLights, l: u32, p: Vec3) ->
 }
 
 /// True when `l` is a spot light and view point `p` lies closer to the surface of the
-/// spot's fitted bounding sphere than f32 can resolve at the light's position.
+/// spot's fitted bounding sphere (inside or outside it) than f32 can resolve at the
+/// light's position.
 ///
 /// Why: the culler tests the fitted sphere (`GpuCullLight::center`, `radius`), the ground
 /// truth the cone from the apex (`GpuShadingLight::position`). In exact arithmetic the
@@ -391,5 +465,55 @@ pub fn near_spot_sphere_surface(camera: &Camera, packed: &PackedLights, l: u32, 
     let angle = spot.sin_outer.atan2(spot.cos_outer);
     let (c_rel, radius) = tiledlight_cull::light::spot_bounding_sphere(Vec3::ZERO, axis, sh.radius, angle);
     let slack = radius - (p - to_view(&view, apex) - c_rel).length();
-    slack < 4.0 * EPS * (apex.length() + radius + camera.eye().length())
+    // Two-sided: only points within float error of the surface, on either side. A point
+    // that reaches the spot but lies clearly outside the sphere (negative slack beyond
+    // the error) means the fitted sphere is too small: that must fail, not be skipped.
+    slack.abs() < 4.0 * EPS * (apex.length() + radius + camera.eye().length())
+}
+
+/// Checks a (view point, spot light) pair that [`spot_pair_unresolvable`] skipped, with an
+/// independent computation: in f64, from the packed apex, axis, radius and outer angle, with
+/// the fitted sphere written out here (half-angles up to 45 degrees: through the apex and
+/// the cap rim, radius `R / (2 cos a)` on the axis; wider: centred on the cap's centre,
+/// radius `R sin a`). The skip is justified when `p` lies within twice the predicate's
+/// bands of that sphere's surface (`2 * 4 EPS s`) or of the cone's (`2 * 8 EPS` in
+/// cosine): twice, because the predicate works in f32 and may err by its own band. Fails
+/// when `spot_bounding_sphere` (which the predicate shares with the culler) were wrong,
+/// since then the predicate would skip points the exact sphere holds with room to spare.
+pub fn spot_skip_justified(camera: &Camera, packed: &PackedLights, l: u32, p: Vec3) -> Result<(), String> {
+    if l < packed.num_point {
+        return Err("point lights are never skipped".into());
+    }
+    let view = camera.view().as_dmat4();
+    let spot = packed.spots[(l - packed.num_point) as usize];
+    let sh = packed.shading[l as usize];
+    let apex_world = Vec3::from(sh.position);
+    let apex = view.transform_point3(apex_world.as_dvec3());
+    let axis = view.transform_vector3(Vec3::from(spot.direction).as_dvec3()).normalize();
+    let len = f64::from(sh.radius);
+    let (sin_a, cos_a) = (f64::from(spot.sin_outer), f64::from(spot.cos_outer));
+    let (centre, radius) = if sin_a > cos_a {
+        (apex + axis * (len * cos_a), len * sin_a)
+    } else {
+        let r = len / (2.0 * cos_a);
+        (apex + axis * r, r)
+    };
+    let p = p.as_dvec3();
+    let slack = radius - (p - centre).length();
+    let scale = f64::from(apex_world.length() + packed.cull[l as usize].radius + camera.eye().length());
+    let sphere_band = 2.0 * 4.0 * f64::from(EPS) * scale;
+    let d: DVec3 = p - apex;
+    let cos = d.dot(axis) / d.length();
+    // The f32 predicate's cosine also inherits the rounding of the apex's view position
+    // (~4 EPS s, see `near_spot_sphere_surface`), an angle of 4 EPS s / |d| as seen from
+    // `p`: large when `p` is close to an apex far from the origin.
+    let cone_band = 2.0 * (8.0 * f64::from(EPS) + 4.0 * f64::from(EPS) * scale / d.length());
+    if slack.abs() < sphere_band || (cos - cos_a).abs() < cone_band {
+        Ok(())
+    } else {
+        Err(format!(
+            "{:e} m inside the exact fitted sphere (band {sphere_band:e}), cos to the axis {cos} vs cos outer {cos_a} (band {cone_band:e})",
+            slack
+        ))
+    }
 }

@@ -662,12 +662,17 @@ fn other_bad_inputs_fail_cleanly() {
     let mut bin = Bin::default();
     let prim = bin.triangle();
 
-    // POSITION with the wrong accessor type.
+    // TEXCOORD_0 pointing at a VEC3 accessor (a texture coordinate must be VEC2): the
+    // message must name the mesh, primitive, attribute, accessor and both types.
     let mut root = bin.document(one_mesh_scene(prim.clone(), json!({})));
     root["accessors"][2]["type"] = json!("VEC3");
     root["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(2);
     let path = write_embedded(dir.path(), "types", root, &bin.data);
-    assert!(load_gltf(&path, 0.1).is_err());
+    assert_fails(
+        &path,
+        load_gltf(&path, 0.1),
+        &["mesh 0 'tri'", "primitive 0", "TEXCOORD_0", "accessor 2", "has type Vec3, expected Vec2"],
+    );
 
     // A cycle in the node hierarchy must not hang or overflow the stack.
     let root = bin.document(json!({
@@ -676,7 +681,7 @@ fn other_bad_inputs_fail_cleanly() {
         "meshes": [{"primitives": [prim.clone()]}],
     }));
     let path = write_embedded(dir.path(), "cycle", root, &bin.data);
-    assert_fails(&path, load_gltf(&path, 0.1), &[]);
+    assert_fails(&path, load_gltf(&path, 0.1), &["node 0 is reached twice", "not a tree"]);
 
     // Only lights, nothing to draw.
     let root = bin.document(json!({
@@ -698,7 +703,10 @@ fn other_bad_inputs_fail_cleanly() {
     assert_fails(&path, load_gltf(&path, 0.1), &["buffer 0", "invalid base64"]);
 
     // A bad threshold is an argument error, caught before reading.
-    assert!(matches!(load_gltf(&path, 0.0), Err(SceneError::InvalidArgument(_))));
+    let e = load_gltf(&path, 0.0).expect_err("threshold 0");
+    assert!(matches!(e, SceneError::InvalidArgument(_)), "{e:?}");
+    assert!(e.to_string().contains("light threshold 0 must be finite and positive"), "{e}");
+    assert!(e.to_string().contains("remote.gltf"), "names the file: {e}");
 }
 
 #[test]
@@ -718,7 +726,10 @@ fn dangling_light_and_camera_references_fail_cleanly() {
         let mut root = bin.document(one_mesh_scene(prim.clone(), extra));
         root["scenes"] = json!([{"nodes": [0, 1]}]);
         let path = write_embedded(dir.path(), name, root, &bin.data);
-        assert_fails(&path, load_gltf(&path, 0.1), &["node"]);
+        // gltf's validation names the node, the field and what is wrong with it.
+        let field =
+            if name == "camera_index" { "nodes[1].camera" } else { "nodes[1].extensions.khrLightsPunctual.light" };
+        assert_fails(&path, load_gltf(&path, 0.1), &[&format!("{field}: Index out of bounds")]);
     }
 }
 
