@@ -45,7 +45,10 @@ fn brdf_cos(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, s: Surface) -> vec3<f32> {
     let rough = clamp(s.roughness, MIN_ROUGHNESS, 1.0);
     let a = rough * rough;
     let a2 = a * a;
-    let dd = n_dot_h * n_dot_h * (a2 - 1.0) + 1.0;
+    // 1 - n.h^2 (1 - a^2) as n.h^2 a^2 + |n x h|^2: no f32 cancellation near the peak
+    // (tiledlight_cull::brdf::brdf_cos says why).
+    let n_cross_h = cross(n, h);
+    let dd = n_dot_h * n_dot_h * a2 + dot(n_cross_h, n_cross_h);
     let d = a2 / (PI * dd * dd);
     let gv = n_dot_l * sqrt(n_dot_v * n_dot_v * (1.0 - a2) + a2);
     let gl = n_dot_v * sqrt(n_dot_l * n_dot_l * (1.0 - a2) + a2);

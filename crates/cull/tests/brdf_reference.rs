@@ -346,18 +346,12 @@ fn white_surfaces_conserve_energy_as_the_formula_says() {
 }
 
 /// [`check_energy`] at low roughness: 0.1, the clamp 0.045, and 0 (which clamps to it).
-/// Fails today: a white metal seen head-on reflects 1.0203 of the light at 0.045 and
-/// 1.00052 at 0.1 (reference 1.0000 and 0.9999), because `brdf_cos` computes the NDF's
-/// `1 - n.h^2 (1 - alpha^2)` in f32 by cancellation: near the peak `n.h` is within an ulp
-/// or two of 1, so `1 - n.h^2` is quantised in steps of 1.2e-7 against `alpha^2` = 4.1e-6
-/// (1e-4 at 0.1), and D is convex, so the quantisation biases it up. Measured with the
-/// same f32 code but `dd = n.h^2 alpha^2 + |n x h|^2` (Lagrange's identity, as Filament
-/// does): 1.00000 head-on, 1.00004 at 60 degrees, 0.99254 at 89 degrees against the
-/// reference's 0.99265 (0.045), and 0.99990 head-on at 0.1: that is the fix. It has to go
-/// into `brdf.rs` and `shaders/common/brdf.wgsl` together (they are twins); then this test
-/// runs and its roughness joins the one above.
+/// Failed before `brdf_cos` computed the NDF's `1 - n.h^2 (1 - alpha^2)` as
+/// `n.h^2 alpha^2 + |n x h|^2`: near the peak `n.h` is within an ulp or two of 1, so
+/// `1 - n.h^2` was quantised in steps of 1.2e-7 against `alpha^2` = 4.1e-6 (1e-4 at 0.1),
+/// and D is convex, so the quantisation biased it up: a white metal seen head-on reflected
+/// 1.0203 of the light at 0.045 and 1.00052 at 0.1 (reference 1.0000 and 0.9999).
 #[test]
-#[ignore = "f32 cancellation in the GGX NDF at low roughness gains energy (2% at 0.045): fix brdf.rs and brdf.wgsl together"]
 fn low_roughness_conserves_energy() {
     for roughness in [0.0, f64::from(MIN_ROUGHNESS), 0.1] {
         check_energy(roughness);
