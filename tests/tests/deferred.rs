@@ -1,5 +1,5 @@
 //! Tiled Deferred against Forward+ and the brute-force reference on the same frame, the
-//! G-buffer stress knob (2 vs 5 targets: the same image), and its per-tile light counts
+//! G-buffer stress knob (2 vs 5 targets: the same image), and its per-tile light lists
 //! against the CPU reference culler.
 //!
 //! Tolerance vs the reference (same BRDF and cutoff): the G-buffer stores the albedo in
@@ -11,17 +11,16 @@
 //! roughness 0.2) and positions rebuilt from depth. Limits: HDR 3e-2 relative, FLIP mean
 //! 0.015 and p99 0.05; a missing light changes a lit pixel by well over 5% and fails.
 
-use tiledlight_cull::cull_tiles;
 use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
 use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
-use tiledlight_gpu::readback::read_buffer;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;
 use tiledlight_tests::images::{assert_flip, max_relative_error, FlipThresholds};
+use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
 use tiledlight_tests::{gpu, scenes};
 
 const W: u32 = 320;
@@ -139,9 +138,14 @@ fn gbuffer_targets_do_not_change_the_image() {
     assert!(e.to_string().contains("2..=5"), "{e}");
 }
 
-/// The deferred pass's per-list counts equal the CPU reference culler's.
+/// The lights each tile of the deferred pass is shaded with (its `DEBUG_LISTS` copy of the
+/// workgroup lists) equal the CPU reference culler's, list for list as sets, with the
+/// shared float-borderline acceptance (`tiledlight_tests::lists`); the per-list counts (the
+/// heat map's input, read by the same reader) must equal the stored lists. Catches a
+/// deferred pass that shades a tile with the wrong lights even when their number is right
+/// (a count-only check passes that).
 #[test]
-fn deferred_counts_equal_cpu_reference() {
+fn deferred_lists_equal_cpu_reference() {
     let ctx = gpu();
     let scene = scenes::courtyard();
     let (w, h) = (327, 183);
@@ -153,24 +157,23 @@ fn deferred_counts_equal_cpu_reference() {
         CullOptions { tile_size: 32, half_z: true, aabb: true, spot_cone: true, coarse: false, ..Default::default() },
     ] {
         let r = DeferredRenderer::new(
-            &ctx,
+            ctx,
             &sg,
             &lights,
             w,
             h,
-            DeferredSettings { cull, heatmap: true, ..Default::default() },
+            DeferredSettings { cull, heatmap: true, debug_lists: true, ..Default::default() },
         )
         .unwrap();
-        let mut timer = GpuTimer::new(&ctx).unwrap();
-        r.render_once(&ctx, &mut timer, &sg, &camera).unwrap();
-        let depth = r.read_depth(&ctx).unwrap();
-        let counts: Vec<u32> = read_buffer(&ctx.device, &ctx.queue, r.tile_counts().unwrap()).unwrap();
-        let cpu = cull_tiles(&depth, w, h, &camera, &lights.packed, &cull.to_config(true)).unwrap();
-        let expected: Vec<u32> = cpu.lists.iter().map(|l| l.len() as u32).collect();
-        assert_eq!(&counts[..expected.len()], &expected[..], "{cull:?}: per-list counts");
-        assert!(expected.iter().sum::<u32>() > 0, "lights reach the tiles");
+        let mut timer = GpuTimer::new(ctx).unwrap();
+        r.render_once(ctx, &mut timer, &sg, &camera).unwrap();
+        let depth = r.read_depth(ctx).unwrap();
+        let gpu_lists = r.read_lists(ctx).unwrap();
+        let frame = CulledFrame { depth: &depth, width: w, height: h, camera: &camera, lights: &lights.packed };
+        let c = assert_lists_match(&format!("deferred {cull:?}"), &frame, &gpu_lists, &cull.to_config(true));
+        assert!(c.pairs > 0, "lights reach the tiles");
         // The heat map drew over the image: some pixels differ from plain tonemapping.
-        let ldr = r.read_ldr(&ctx).unwrap();
+        let ldr = r.read_ldr(ctx).unwrap();
         assert!(ldr.chunks_exact(4).any(|p| p[2] as u16 > p[0] as u16 + 40), "heat map colours present");
     }
 }

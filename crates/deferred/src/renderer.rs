@@ -8,7 +8,7 @@ use glam::Vec3;
 use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
 use tiledlight_gpu::frame::{FrameBinding, FrameParams, FrameUniforms};
-use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::light_cull::{CullOptions, GpuTileLists};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::scene_gpu::SceneGpu;
@@ -39,6 +39,11 @@ pub struct DeferredSettings {
     pub msaa: u32,
     /// The MSAA edge test's thresholds (unused without MSAA).
     pub edge: EdgeTest,
+    /// Test-only, off by default: keep a copy of every tile's light lists (the
+    /// `DEBUG_LISTS` shader variant and one more buffer) for [`DeferredRenderer::read_lists`],
+    /// so tests can compare the lights each tile was shaded with against the CPU culler.
+    /// Production settings never turn it on, so that variant is never compiled there.
+    pub debug_lists: bool,
 }
 
 impl Default for DeferredSettings {
@@ -51,6 +56,7 @@ impl Default for DeferredSettings {
             heatmap: false,
             msaa: 1,
             edge: EdgeTest::default(),
+            debug_lists: false,
         }
     }
 }
@@ -122,6 +128,7 @@ impl DeferredRenderer {
                 grid,
                 settings.cull,
                 settings.edge,
+                settings.debug_lists,
                 &mut memory,
             )?;
             let tonemap = TonemapPass::new(device, &frame)?;
@@ -168,6 +175,12 @@ impl DeferredRenderer {
     /// The cull-and-shade pass (edge statistics, MSAA sample texture).
     pub fn shading(&self) -> &DeferredShading {
         &self.shading
+    }
+
+    /// The per-tile light lists the last frame was shaded with (tests; stalls the GPU).
+    /// Needs `debug_lists` in the settings; an error says so otherwise.
+    pub fn read_lists(&self, ctx: &GpuContext) -> Result<GpuTileLists, GpuError> {
+        self.shading.read_lists(&ctx.device, &ctx.queue)
     }
 }
 
