@@ -3,22 +3,68 @@
 //! pass, Tiled Deferred's debug lists, with and without MSAA, and the GPU property test).
 //!
 //! Tolerance: CPU and GPU evaluate the same f32 formulas, but WGSL lets the GPU fuse
-//! multiply-adds and divide within 2.5 ulp, so a light whose sphere touches a plane within
+//! multiply-adds and divide within 2.5 ulp, so a light whose volume touches a tile within
 //! float error may be decided differently. Such a light is accepted only if the CPU culler
-//! with radii grown by [`INFLATE`] x (radius + distance) lists it (or the one shrunk by as
-//! much does not): the decision was within float error of the boundary. Any other
-//! difference fails, and borderline decisions must stay under 0.1% of the pairs
+//! run on every light grown by its float error lists it (or the one run on every light
+//! shrunk by as much does not): the decision was within float error of the boundary. Any
+//! other difference fails, and borderline decisions must stay under 0.1% of the pairs
 //! ([`assert_lists_match`] per frame; the property test over all its cases).
+//!
+//! A light's float error ([`light_error`]) has two parts: [`INFLATE`] x (radius + view
+//! distance), the tile planes' and tests' relative error; and [`WORLD_ULPS`] ulps of its
+//! world coordinates and of the eye's, the world-to-view transform's rounding, which both
+//! sides do from world coordinates (the GPU with fused multiply-adds): far from the origin
+//! that is the larger one (1.5e-5 m at 170 m, where the GPU property test found a 0.5
+//! degree spot 4.7 cm from a 0.17 mm tile decided differently, 1.4e-6 m from the boundary).
+//! Growing a light moves its sphere's surface out by the error and, for a spot, its apex
+//! back along the axis by error / sin(half-angle), which moves the cone's surface out by
+//! the error everywhere (shrinking does the opposite).
 
 use std::collections::BTreeSet;
 
+use glam::Vec3;
+use tiledlight_cull::bounds::to_view;
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::{cull_tiles, Camera, CullConfig, TileLists};
 use tiledlight_gpu::light_cull::GpuTileLists;
 
-/// How far the CPU culler grows and shrinks every radius, as a fraction of
-/// `radius + |centre|`, to find decisions within float error of the boundary.
+/// The relative part of a light's float error, as a fraction of `radius + |view centre|`.
 pub const INFLATE: f32 = 1e-5;
+
+/// The world-to-view part of a light's float error, in ulps (f32 epsilon) of
+/// `|world position| + |eye|`: the bound `crates/cull/tests/common` uses for the same
+/// transform's rounding (`near_spot_sphere_surface`: measured at most 1.54 there).
+pub const WORLD_ULPS: f32 = 4.0;
+
+/// How far light `i` of `lights` may be misplaced by float error, seen through `camera`
+/// (metres; see the module docs).
+pub fn light_error(camera: &Camera, lights: &PackedLights, i: usize) -> f32 {
+    let c = Vec3::from(lights.cull[i].center);
+    let view_centre = to_view(&camera.view(), c);
+    let world = c.length().max(Vec3::from(lights.shading[i].position).length());
+    INFLATE * (lights.cull[i].radius + view_centre.length())
+        + WORLD_ULPS * f32::EPSILON * (world + camera.eye().length())
+}
+
+/// `lights` with every light grown (`sign` 1) or shrunk (-1) by its [`light_error`].
+pub fn perturbed_lights(camera: &Camera, lights: &PackedLights, sign: f32) -> PackedLights {
+    let mut out = lights.clone();
+    for i in 0..lights.len() {
+        let e = light_error(camera, lights, i);
+        out.cull[i].radius = (lights.cull[i].radius + sign * e).max(0.0);
+        let mut len = lights.shading[i].radius + sign * e;
+        if i >= lights.num_point as usize {
+            let spot = lights.spots[i - lights.num_point as usize];
+            let shift = e / spot.sin_outer;
+            let apex = Vec3::from(lights.shading[i].position) - sign * shift * Vec3::from(spot.direction);
+            out.shading[i].position = apex.to_array();
+            // The cap stays as far out as the grown (or shrunk) sphere's.
+            len += sign * shift;
+        }
+        out.shading[i].radius = len.max(0.0);
+    }
+    out
+}
 
 /// The frame a GPU pass culled: its depth buffer as read back (`samples` values per pixel,
 /// pixel-major, as `CullConfig::samples` says), camera and lights as uploaded.
@@ -59,20 +105,20 @@ pub fn compare_lists(
     gpu: &GpuTileLists,
     config: &CullConfig,
 ) -> Result<ListComparison, String> {
-    let cull = |inflate: f32| {
+    let cull = |lights: &PackedLights| {
         cull_tiles(
             frame.depth,
             frame.width,
             frame.height,
             frame.camera,
-            frame.lights,
-            &CullConfig { inflate, ..*config },
+            lights,
+            &CullConfig { inflate: 0.0, ..*config },
         )
         .map_err(|e| format!("{label}: CPU culler refused the frame: {e}"))
     };
-    let cpu = cull(0.0)?;
-    let grown = cull(INFLATE)?;
-    let shrunk = cull(-INFLATE)?;
+    let cpu = cull(frame.lights)?;
+    let grown = cull(&perturbed_lights(frame.camera, frame.lights, 1.0))?;
+    let shrunk = cull(&perturbed_lights(frame.camera, frame.lights, -1.0))?;
     let fail = |msg: String| Err(format!("{label}: {msg}"));
     if gpu.counts.len() != cpu.lists.len() || gpu.lists.len() != cpu.lists.len() {
         return fail(format!(

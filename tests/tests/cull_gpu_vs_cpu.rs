@@ -3,8 +3,9 @@
 //! multiples of the tile size, an extreme camera, every tile size and every test option.
 //!
 //! Tolerance: `tiledlight_tests::lists` (the shared comparison): a differing light is
-//! accepted only when the CPU culler with radii grown or shrunk by 1e-5 x (radius +
-//! distance) agrees with the GPU, i.e. the decision was within float error of the boundary,
+//! accepted only when the CPU culler agrees with the GPU once every light is grown or
+//! shrunk by its float error (1e-5 x (radius + distance) plus 4 ulps of its world
+//! coordinates and the eye's), i.e. the decision was within float error of the boundary,
 //! and such decisions must stay under 0.1% of the pairs.
 
 use tiledlight_cull::Camera;
