@@ -12,7 +12,12 @@
 // queued pixels' remaining samples. An edge pixel's samples go to the oversized `samples_out`
 // texture (SAMPLES_X x SAMPLES_Y texels a pixel) and its position to a global edge list,
 // which deferred_resolve.wgsl averages into the HDR image (an indirect dispatch sized here).
-// variants: SPOT_LIGHTS HALF_Z AABB SPOT_CONE COARSE EXTRA_RTS EXTRA_RTS_2 EXTRA_RTS_3 MSAA
+//
+// DEBUG_LISTS is test-only (DeferredSettings::debug_lists, off by default: production never
+// compiles it): each tile's workgroup lists are also copied to `debug_lists`, laid out as the
+// culling pass's tile_indices (cull.wgsl), so tests can compare the lights each tile is
+// shaded with against the CPU culler, list for list.
+// variants: SPOT_LIGHTS HALF_Z AABB SPOT_CONE COARSE EXTRA_RTS EXTRA_RTS_2 EXTRA_RTS_3 MSAA DEBUG_LISTS
 #include "common/tile_cull.wgsl"
 #include "common/shade.wgsl"
 
@@ -49,6 +54,10 @@ alias GTexture = texture_2d<f32>;
 @group(1) @binding(8) var<storage, read> cell_lists: array<u32>;
 #endif
 @group(1) @binding(9) var output: texture_storage_2d<rgba16float, write>;
+#ifdef DEBUG_LISTS
+// Per list: CAPACITY slots, the first min(count, CAPACITY) holding the list's light indices.
+@group(1) @binding(15) var<storage, read_write> debug_lists: array<u32>;
+#endif
 
 #ifdef MSAA
 // Texels per pixel of `samples_out` across and down (SAMPLES_X * SAMPLES_Y = SAMPLES).
@@ -224,6 +233,19 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid
 #endif
     }
     let counts = min(found, vec2<u32>(CAPACITY));
+#ifdef DEBUG_LISTS
+    {
+        let list0 = t.index * frame.lists_per_tile * CAPACITY;
+        for (var i = lidx; i < counts.x; i += WG * WG) {
+            debug_lists[list0 + i] = wg_list[i];
+        }
+#ifdef HALF_Z
+        for (var i = lidx; i < counts.y; i += WG * WG) {
+            debug_lists[list0 + CAPACITY + i] = wg_list_far[i];
+        }
+#endif
+    }
+#endif
     let origin = wid.xy * TILE_SIZE;
     let steps = TILE_SIZE / WG;
     for (var j = 0u; j < steps; j++) {

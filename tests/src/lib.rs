@@ -3,12 +3,14 @@
 //! [`gpu`] shares one device per test process, on the adapter named by `WGPU_ADAPTER_NAME` (failing, never
 //! skipping, when none exists); [`scenes`] builds small test scenes, cameras and lights;
 //! [`compare`] holds the comparisons with the brute-force reference as functions (their
-//! tolerances stated once); [`images`] compares images with nv-flip (mean and percentile thresholds) and writes
+//! tolerances stated once); [`lists`] compares GPU per-tile light lists with the CPU
+//! reference culler; [`images`] compares images with nv-flip (mean and percentile thresholds) and writes
 //! `-actual.png` / `-difference.png` next to the test output on failure. Depends on every
 //! tiledlight crate; nothing depends on it.
 
 pub mod compare;
 pub mod images;
+pub mod lists;
 pub mod scenes;
 
 use tiledlight_gpu::{ContextOptions, GpuContext};

@@ -37,7 +37,8 @@ pub fn lights_in_slab(scene: &Scene, y0: f32, y1: f32, n_point: u32, n_spot: u32
         .expect("lights")
 }
 
-fn quad(name: &str, size: f32) -> Mesh {
+/// A `size` x `size` quad in the XZ plane, centred, facing +Y.
+pub fn quad(name: &str, size: f32) -> Mesh {
     let s = size * 0.5;
     Mesh {
         name: name.into(),
@@ -48,7 +49,8 @@ fn quad(name: &str, size: f32) -> Mesh {
     }
 }
 
-fn cube(name: &str) -> Mesh {
+/// A unit cube, centred, faces wound counter-clockwise seen from outside.
+pub fn cube(name: &str) -> Mesh {
     let mut m = Mesh { name: name.into(), positions: vec![], normals: vec![], uvs: vec![], indices: vec![] };
     for axis in 0..3 {
         for sign in [-1.0f32, 1.0] {
@@ -69,7 +71,8 @@ fn cube(name: &str) -> Mesh {
     m
 }
 
-fn material(name: &str, color: [f32; 4], roughness: f32, metallic: f32) -> Material {
+/// An opaque, single-sided material without texture.
+pub fn material(name: &str, color: [f32; 4], roughness: f32, metallic: f32) -> Material {
     Material {
         name: name.into(),
         base_color: color,

@@ -1,9 +1,11 @@
 //! Bad input gets a clear error naming the problem, never a panic or a wrong image:
-//! zero-size screens, absurd light counts, NaN in a scene, impossible culling settings,
-//! and a device without timestamp queries (the renderer runs, untimed).
+//! zero-size screens, absurd light counts, NaN in a scene, impossible culling settings
+//! (Forward+ and Tiled Deferred), and a device without timestamp queries (the renderer runs, untimed).
 
 use glam::Vec3;
+use tiledlight_cull::reference::MAX_CAPACITY;
 use tiledlight_cull::Light;
+use tiledlight_deferred::{DeferredRenderer, DeferredSettings, EdgeTest};
 use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::{LightBuffers, MAX_LIGHTS};
@@ -154,4 +156,54 @@ fn every_pass_is_timed_when_timestamps_exist() {
     let labels: Vec<&str> = last.iter().map(|t| t.label.as_str()).collect();
     assert_eq!(labels, ["depth_prepass", "forward.cull", "forward.shade", "tonemap", "heatmap"]);
     assert!(last.iter().all(|t| t.ms.is_finite() && t.ms >= 0.0), "{last:?}");
+}
+
+/// Tiled Deferred refuses impossible settings with a message naming the problem: a tile
+/// size the kernel has no variant for, capacity 0 or above the kernel's maximum, a sample
+/// count that is not 1/2/4/8, and lists that fit the device's workgroup memory alone but
+/// not once the MSAA edge queue (4 bytes a tile pixel) takes its share. Catches a renderer
+/// that builds the pipeline anyway (a wgpu validation panic or a silently wrong frame) or
+/// reports the memory overflow without saying the MSAA queue caused it.
+#[test]
+fn deferred_rejects_bad_settings_with_reasons() {
+    let ctx = gpu();
+    let scene = scenes::mixed_scene();
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 16, 4, 1)).unwrap();
+    let new = |s: DeferredSettings| DeferredRenderer::new(ctx, &sg, &lights, 64, 64, s).map(|_| ());
+    let d = DeferredSettings::default();
+    let cull = |c: CullOptions| DeferredSettings { cull: c, ..d };
+    let e = err_text(new(cull(CullOptions { tile_size: 7, ..Default::default() })));
+    assert!(e.contains("tile size 7") && e.contains("8, 16 or 32"), "{e}");
+    let e = err_text(new(cull(CullOptions { capacity: 0, ..Default::default() })));
+    assert!(e.contains("capacity 0"), "{e}");
+    let e = err_text(new(cull(CullOptions { capacity: MAX_CAPACITY + 1, ..Default::default() })));
+    assert!(e.contains(&format!("capacity {}", MAX_CAPACITY + 1)) && e.contains(&format!("{MAX_CAPACITY}")), "{e}");
+    let e = err_text(new(DeferredSettings { msaa: 3, ..d }));
+    assert!(e.contains("MSAA 3x") && e.contains("1, 2, 4 or 8"), "{e}");
+    let e = err_text(new(DeferredSettings { msaa: 4, edge: EdgeTest { distance: f32::NAN, ..d.edge }, ..d }));
+    assert!(e.contains("edge distance"), "{e}");
+
+    // 2046 indices x 2 lists x 4 bytes + 16 bytes is exactly WebGPU's 16 KiB: without MSAA
+    // it fits a device that has only that; with 4x MSAA the 16 px tile's edge queue
+    // (8 + 4 x 256 bytes) does not, and the error must say that the queue is why.
+    let small = GpuContext::headless(ContextOptions { workgroup_memory_cap: Some(16384), ..Default::default() })
+        .expect("adapter");
+    assert_eq!(small.device.limits().max_compute_workgroup_storage_size, 16384);
+    let small_scene = SceneGpu::new(&small.device, &small.queue, &scene).unwrap();
+    let small_lights = LightBuffers::new(&small.device, &scenes::lights(&scene, 16, 4, 1)).unwrap();
+    let full = cull(CullOptions { capacity: 2046, half_z: true, ..Default::default() });
+    DeferredRenderer::new(&small, &small_scene, &small_lights, 64, 64, full).expect("2046 x 2 lists fit 16 KiB");
+    let e = err_text(DeferredRenderer::new(
+        &small,
+        &small_scene,
+        &small_lights,
+        64,
+        64,
+        DeferredSettings { msaa: 4, ..full },
+    ));
+    assert!(
+        e.contains("capacity 2046") && e.contains("17416") && e.contains("MSAA edge queue") && e.contains("16384"),
+        "{e}"
+    );
 }

@@ -2,16 +2,14 @@
 //! same counts, same overflow count, for several scenes, screen sizes that are not
 //! multiples of the tile size, an extreme camera, every tile size and every test option.
 //!
-//! Tolerance: CPU and GPU evaluate the same f32 formulas, but WGSL lets the GPU fuse
-//! multiply-adds and divide within 2.5 ulp, so a light whose sphere touches a plane within
-//! float error may be decided differently. Such a light is accepted only if the CPU culler
-//! with radii grown by 1e-5 x (radius + distance) lists it (or the one shrunk by as much does
-//! not): the decision was within float error of the boundary. Any other difference fails,
-//! and borderline decisions must stay under 0.1% of the pairs.
+//! Tolerance: `tiledlight_tests::lists` (the shared comparison): a differing light is
+//! accepted only when the CPU culler agrees with the GPU once every light is grown or
+//! shrunk by its float error (1e-5 x (radius + distance) plus 4 ulps of its world
+//! coordinates and the eye's), i.e. the decision was within float error of the boundary,
+//! and such decisions must stay under 0.1% of the pairs.
 
-use std::collections::BTreeSet;
-
-use tiledlight_cull::{cull_tiles, Camera, CullConfig, Light};
+use tiledlight_cull::Camera;
+use tiledlight_cull::Light;
 use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
@@ -19,9 +17,8 @@ use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::Renderer as _;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_scene::Scene;
+use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
 use tiledlight_tests::{gpu, scenes};
-
-const INFLATE: f32 = 1e-5;
 
 struct Case<'a> {
     name: &'a str,
@@ -45,26 +42,6 @@ fn check(case: &Case<'_>, options: CullOptions) -> Vec<f32> {
     let gpu_lists = renderer.culling().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
 
     let config = options.to_config(lights.has_spots());
-    let cpu = cull_tiles(&depth, case.width, case.height, &case.camera, &lights.packed, &config).unwrap();
-    let grown = cull_tiles(
-        &depth,
-        case.width,
-        case.height,
-        &case.camera,
-        &lights.packed,
-        &CullConfig { inflate: INFLATE, ..config },
-    )
-    .unwrap();
-    let shrunk = cull_tiles(
-        &depth,
-        case.width,
-        case.height,
-        &case.camera,
-        &lights.packed,
-        &CullConfig { inflate: -INFLATE, ..config },
-    )
-    .unwrap();
-
     let label = format!(
         "{} {}x{} tile {} aabb {} half-z {} cone {} coarse {}",
         case.name,
@@ -76,67 +53,26 @@ fn check(case: &Case<'_>, options: CullOptions) -> Vec<f32> {
         options.spot_cone,
         options.coarse
     );
-    assert_eq!(gpu_lists.counts.len(), cpu.lists.len(), "{label}: list count");
-    let cap = options.capacity as usize;
-    let mut pairs = 0usize;
-    let mut borderline = 0usize;
-    let mut geometry_tiles = 0usize;
-    for (i, cpu_list) in cpu.lists.iter().enumerate() {
-        let gpu_set: BTreeSet<u32> = gpu_lists.lists[i].iter().copied().collect();
-        assert_eq!(gpu_set.len(), gpu_lists.lists[i].len(), "{label}: list {i} has duplicates");
-        let count = gpu_lists.counts[i] as usize;
-        let cpu_set: BTreeSet<u32> = cpu_list.iter().copied().collect();
-        let hi: BTreeSet<u32> = grown.lists[i].iter().copied().collect();
-        let lo: BTreeSet<u32> = shrunk.lists[i].iter().copied().collect();
-        pairs += cpu_set.len();
-        geometry_tiles += !cpu_set.is_empty() as usize;
-        if count > cap {
-            // Overflow: which `cap` lights the GPU kept depends on thread timing; they must
-            // all be real members and the count must be the true one.
-            assert_eq!(gpu_set.len(), cap, "{label}: overflowing list {i} stores exactly the capacity");
-            assert!(gpu_set.is_subset(&hi), "{label}: overflowing list {i} stored a light the CPU never lists");
-            assert!(
-                count.abs_diff(cpu_set.len()) <= hi.len() - lo.len(),
-                "{label}: list {i} count {count} vs CPU {}",
-                cpu_set.len()
-            );
-            continue;
-        }
-        assert_eq!(count, gpu_set.len(), "{label}: list {i} count vs stored");
-        for l in gpu_set.symmetric_difference(&cpu_set) {
-            let gpu_has = gpu_set.contains(l);
-            let within_float_error = if gpu_has { hi.contains(l) } else { !lo.contains(l) };
-            assert!(
-                within_float_error,
-                "{label}: list {i}: light {l} {} by the GPU only, and not within float error of the boundary",
-                if gpu_has { "listed" } else { "dropped" }
-            );
-            borderline += 1;
-        }
-    }
-    assert!(borderline * 1000 <= pairs.max(1), "{label}: {borderline} borderline decisions of {pairs} pairs");
+    let frame = CulledFrame {
+        depth: &depth,
+        width: case.width,
+        height: case.height,
+        camera: &case.camera,
+        lights: &lights.packed,
+    };
+    let c = assert_lists_match(&label, &frame, &gpu_lists, &config);
     // The GPU's pair counter (reported by `render` and the lab) is the sum of the true list
     // counts; a counter that missed half-z's far lists or the overflowing ones fails here.
-    let gpu_total: u64 = gpu_lists.counts.iter().map(|&c| c as u64).sum();
+    let gpu_total: u64 = gpu_lists.counts.iter().map(|&n| n as u64).sum();
     assert_eq!(gpu_lists.pairs as u64, gpu_total, "{label}: GPU pair counter vs its own list counts");
-    let cpu_total: usize = cpu.lists.iter().map(Vec::len).sum();
     assert!(
-        (gpu_lists.pairs as usize).abs_diff(cpu_total) <= borderline,
-        "{label}: GPU counted {} pairs, the CPU culler {cpu_total}",
-        gpu_lists.pairs
-    );
-    let cpu_overflow = cpu.overflowing_lists() as u32;
-    assert!(
-        gpu_lists.overflowing.abs_diff(cpu_overflow) as usize <= borderline,
-        "{label}: overflow {} vs CPU {cpu_overflow}",
-        gpu_lists.overflowing
-    );
-    eprintln!(
-        "{label}: {pairs} pairs in {geometry_tiles} lists, {borderline} borderline, {} overflowing",
-        gpu_lists.overflowing
+        (gpu_lists.pairs as usize).abs_diff(c.pairs) <= c.borderline,
+        "{label}: GPU counted {} pairs, the CPU culler {}",
+        gpu_lists.pairs,
+        c.pairs
     );
     // The test must have had something to compare.
-    assert!(pairs > 0, "{label}: no light reached any tile; the case tests nothing");
+    assert!(c.pairs > 0, "{label}: no light reached any tile; the case tests nothing");
     depth
 }
 

@@ -14,44 +14,8 @@ use tiledlight_gpu::targets::Renderer as _;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::{heatmap_palette, heatmap_t, HEATMAP_ALPHA, HEATMAP_OVERFLOW};
 use tiledlight_scene::{Aabb, AlphaMode, Instance, Material, Mesh, Scene};
+use tiledlight_tests::images::{documented_heat_colour, linear_to_srgb, srgb_to_linear};
 use tiledlight_tests::{gpu, scenes};
-
-fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
-
-fn linear_to_srgb(c: f32) -> f32 {
-    if c <= 0.0031308 {
-        c * 12.92
-    } else {
-        1.055 * c.powf(1.0 / 2.4) - 0.055
-    }
-}
-
-/// The heat map's colours as the README's legend documents them, written here
-/// independently of `tiledlight_gpu::tonemap`'s palette: a log scale (`t = log2(count) /
-/// log2(capacity)`) through blue, cyan, green, yellow and red at t = 0, 1/4, 1/2, 3/4, 1,
-/// blended over the image at 60%; overflowing tiles magenta at 75%; tiles without lights
-/// untouched.
-fn documented_heat_colour(count: u32, capacity: u32) -> Option<(Vec3, f32)> {
-    const ANCHORS: [[f32; 3]; 5] =
-        [[0.0, 0.0, 1.0], [0.0, 1.0, 1.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0], [1.0, 0.0, 0.0]];
-    if count == 0 {
-        return None;
-    }
-    if count > capacity {
-        return Some((Vec3::new(1.0, 0.0, 1.0), 0.75));
-    }
-    let t = (count as f64).log2() / (capacity as f64).log2() * 4.0;
-    let k = (t.floor() as usize).min(3);
-    let f = (t - k as f64) as f32;
-    let (a, b) = (Vec3::from(ANCHORS[k]), Vec3::from(ANCHORS[k + 1]));
-    Some((a + (b - a) * f, 0.6))
-}
 
 /// Every tile's colour in the heat map is the documented blend for the CPU reference's
 /// count of that tile, within 2/255 (8-bit sRGB rounding of two images). Checked at the

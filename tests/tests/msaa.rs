@@ -7,18 +7,18 @@
 //! error where it does not.
 
 use glam::{Mat4, Vec3};
-use tiledlight_cull::{cull_tiles, Camera};
+use tiledlight_cull::Camera;
 use tiledlight_deferred::{DeferredRenderer, DeferredSettings, EdgeTest};
 use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
-use tiledlight_gpu::readback::read_buffer;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;
 use tiledlight_scene::Scene;
 use tiledlight_tests::images::{assert_flip, max_relative_error, save_png, FlipThresholds};
+use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
 use tiledlight_tests::{gpu, scenes};
 
 const W: u32 = 320;
@@ -50,8 +50,11 @@ fn deferred(
     DeferredRenderer::new(ctx, sg, l, w, h, s).unwrap()
 }
 
-/// The GPU lists of a 4x frame equal the CPU reference run on the same depth samples:
-/// Forward+'s culling pass list by list (as sets), Tiled Deferred's per-list counts.
+/// The GPU lists of a 4x frame equal the CPU reference run on the same depth samples, list
+/// for list as sets (shared float-borderline acceptance, `tiledlight_tests::lists`), for
+/// both Forward+'s culling pass and the lists Tiled Deferred shades with (its `DEBUG_LISTS`
+/// copy). Catches a kernel that bounds only sample 0 (the CPU reads every sample) and a
+/// deferred pass shading with the right number of wrong lights.
 #[test]
 fn msaa_culling_matches_cpu_reference() {
     let ctx = gpu();
@@ -71,23 +74,22 @@ fn msaa_culling_matches_cpu_reference() {
         assert_eq!(depth.len(), (w * h * 4) as usize, "4 depth samples a pixel");
         // The samples of an edge pixel differ: the readback really is per sample.
         assert!(depth.chunks_exact(4).any(|s| s[0] != s[3]), "some pixel's samples differ");
-        let config = CullOptions { samples: 4, ..cull }.to_config(true);
-        let cpu = cull_tiles(&depth, w, h, &camera, &lights.packed, &config).unwrap();
+        let opts = CullOptions { samples: 4, ..cull };
+        let config = opts.to_config(true);
         let gpu_lists = f.culling().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
-        for (i, (g, c)) in gpu_lists.lists.iter().zip(&cpu.lists).enumerate() {
-            let mut g = g.clone();
-            g.sort_unstable();
-            assert_eq!(&g, c, "{cull:?}: list {i}");
-        }
-        assert!(cpu.lists.iter().map(Vec::len).sum::<usize>() > 0, "lights reach the tiles");
+        let frame = CulledFrame { depth: &depth, width: w, height: h, camera: &camera, lights: &lights.packed };
+        let c = assert_lists_match(&format!("forward+ {opts:?}"), &frame, &gpu_lists, &config);
+        assert!(c.pairs > 0, "lights reach the tiles");
 
-        let d = deferred(ctx, &sg, &lights, (w, h), DeferredSettings { cull, msaa: 4, ..Default::default() });
+        let settings = DeferredSettings { cull, msaa: 4, debug_lists: true, ..Default::default() };
+        let d = deferred(ctx, &sg, &lights, (w, h), settings);
         render(ctx, &d, &sg, &camera);
         let depth = d.read_depth(ctx).unwrap();
-        let cpu = cull_tiles(&depth, w, h, &camera, &lights.packed, &config).unwrap();
-        let counts: Vec<u32> = read_buffer(&ctx.device, &ctx.queue, d.tile_counts().unwrap()).unwrap();
-        let expected: Vec<u32> = cpu.lists.iter().map(|l| l.len() as u32).collect();
-        assert_eq!(&counts[..expected.len()], &expected[..], "{cull:?}: deferred per-list counts");
+        assert_eq!(depth.len(), (w * h * 4) as usize, "4 depth samples a pixel");
+        let gpu_lists = d.read_lists(ctx).unwrap();
+        let frame = CulledFrame { depth: &depth, ..frame };
+        let c = assert_lists_match(&format!("deferred {opts:?}"), &frame, &gpu_lists, &config);
+        assert!(c.pairs > 0, "lights reach the tiles");
     }
 }
 

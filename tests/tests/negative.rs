@@ -185,6 +185,8 @@ fn one_dropped_light_fails_the_reference_comparisons() {
     let dropped_frame = render_frame(ctx, &dropped, &sg, &camera);
     let counts: Vec<u32> = read_buffer(&ctx.device, &ctx.queue, dropped.tile_counts().unwrap()).unwrap();
     assert_eq!(counts[tile] as usize + 1, cpu.lists[tile].len(), "deferred: the tile's count lost one light");
+    // The same reference, with the G-buffer normal's allowance (compare::Frame::allow_gbuffer_normals).
+    let reference = reference.allow_gbuffer_normals(&depth, W, &camera, &lights.packed);
     assert_only_the_drop_fails("deferred", DEFERRED_VS_REFERENCE, &reference, &plain_frame, &dropped_frame);
 }
 
@@ -255,7 +257,7 @@ fn gbuffer_extra_targets_are_read_and_multiplied() {
             }
         }
         let tinted_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &tinted).unwrap();
-        let reference = ForwardRenderer::new(
+        let bf = ForwardRenderer::new(
             ctx,
             &tinted_gpu,
             &lights,
@@ -264,7 +266,12 @@ fn gbuffer_extra_targets_are_read_and_multiplied() {
             ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() },
         )
         .unwrap();
-        let reference = render_frame(ctx, &reference, &tinted_gpu, &camera);
+        let reference = render_frame(ctx, &bf, &tinted_gpu, &camera).allow_gbuffer_normals(
+            &bf.read_depth(ctx).unwrap(),
+            W,
+            &camera,
+            &lights.packed,
+        );
         let r = DeferredRenderer::new(
             ctx,
             &sg,

@@ -8,7 +8,7 @@ use glam::Vec3;
 use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
 use tiledlight_gpu::frame::{FrameBinding, FrameParams, FrameUniforms};
-use tiledlight_gpu::light_cull::{CullOptions, DropLight};
+use tiledlight_gpu::light_cull::{CullOptions, DropLight, GpuTileLists};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::scene_gpu::SceneGpu;
@@ -47,6 +47,11 @@ pub struct DeferredSettings {
     /// shading pass reads and multiplies each of them. `false` by default; production never
     /// sets it.
     pub test_gbuffer_values: bool,
+    /// Test-only, off by default: keep a copy of every tile's light lists (the
+    /// `DEBUG_LISTS` shader variant and one more buffer) for [`DeferredRenderer::read_lists`],
+    /// so tests can compare the lights each tile was shaded with against the CPU culler.
+    /// Production settings never turn it on, so that variant is never compiled there.
+    pub debug_lists: bool,
 }
 
 impl Default for DeferredSettings {
@@ -61,6 +66,7 @@ impl Default for DeferredSettings {
             edge: EdgeTest::default(),
             test_drop_light: None,
             test_gbuffer_values: false,
+            debug_lists: false,
         }
     }
 }
@@ -140,6 +146,7 @@ impl DeferredRenderer {
                 settings.cull,
                 settings.edge,
                 settings.test_drop_light,
+                settings.debug_lists,
                 &mut memory,
             )?;
             let tonemap = TonemapPass::new(device, &frame)?;
@@ -186,6 +193,12 @@ impl DeferredRenderer {
     /// The cull-and-shade pass (edge statistics, MSAA sample texture).
     pub fn shading(&self) -> &DeferredShading {
         &self.shading
+    }
+
+    /// The per-tile light lists the last frame was shaded with (tests; stalls the GPU).
+    /// Needs `debug_lists` in the settings; an error says so otherwise.
+    pub fn read_lists(&self, ctx: &GpuContext) -> Result<GpuTileLists, GpuError> {
+        self.shading.read_lists(&ctx.device, &ctx.queue)
     }
 }
 

@@ -9,12 +9,18 @@
 //! sample texture, then [`DeferredShading::record`] resolves them with an indirect dispatch
 //! (`shaders/deferred_resolve.wgsl`) sized by the shading pass. None of those resources exist
 //! without MSAA. Bind group 1 holds everything; it is built once per screen.
+//!
+//! Test-only: with `debug_lists` (`DeferredSettings::debug_lists`, off by default) the
+//! `DEBUG_LISTS` variant also copies each tile's workgroup lists to a storage buffer laid
+//! out like the Forward+ culling pass's indices, so tests compare the lights this pass
+//! shades with, not just their counts ([`DeferredShading::read_lists`]). Production
+//! renderers never compile that variant nor allocate the buffer.
 //! Depends on tiledlight-gpu and [`crate::gbuffer`].
 
 use tiledlight_cull::reference::{COARSE_SIZE, MAX_CAPACITY};
 use tiledlight_cull::TileGrid;
 use tiledlight_gpu::frame::FrameBinding;
-use tiledlight_gpu::light_cull::{depth_entry, CoarseCulling, CullOptions, DropLight};
+use tiledlight_gpu::light_cull::{depth_entry, read_tile_lists, CoarseCulling, CullOptions, DropLight, GpuTileLists};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::readback::read_buffer;
@@ -92,8 +98,12 @@ pub struct DeferredShading {
     coarse: Option<CoarseCulling>,
     msaa: Option<Msaa>,
     grid: TileGrid,
+    options: CullOptions,
     /// Per-list light counts of the last frame.
     pub tile_counts: wgpu::Buffer,
+    /// Test-only (`debug_lists`): per list, `capacity` slots holding the indices the pass
+    /// shaded with, as the culling pass's `tile_indices`.
+    debug_indices: Option<wgpu::Buffer>,
 }
 
 fn gbuffer_entry(binding: u32, samples: u32) -> wgpu::BindGroupLayoutEntry {
@@ -132,7 +142,8 @@ const EXTRA_BINDINGS: [(u32, &str); 3] = [(5, "EXTRA_RTS"), (10, "EXTRA_RTS_2"),
 impl DeferredShading {
     /// Builds the pipeline and bindings for `grid`, reading `depth` and `gbuffer` (both of
     /// `gbuffer.samples()` samples), writing `hdr`. `drop` is the test-only hook that
-    /// leaves one light out of one tile's list (`None` in production).
+    /// leaves one light out of one tile's list (`None` in production); `debug_lists` (tests
+    /// only) adds the `DEBUG_LISTS` variant and its list buffer, read by [`Self::read_lists`].
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         device: &wgpu::Device,
@@ -145,6 +156,7 @@ impl DeferredShading {
         options: CullOptions,
         edge: EdgeTest,
         drop: Option<DropLight>,
+        debug_lists: bool,
         memory: &mut MemoryReport,
     ) -> Result<Self, GpuError> {
         if ![8, 16, 32].contains(&options.tile_size) || grid.tile_size != options.tile_size {
@@ -271,6 +283,32 @@ impl DeferredShading {
             });
             (tex, view, edge_list, edge_args)
         });
+        let debug_indices = if debug_lists {
+            let lists = grid.tile_count() as u64 * options.lists_per_tile() as u64;
+            let bytes = lists * options.capacity as u64 * 4;
+            let max = device.limits().max_storage_buffer_binding_size;
+            if bytes > max {
+                return Err(GpuError::Config(format!(
+                    "debug lists need {bytes} bytes ({lists} lists x {} indices); this device binds at most {max}",
+                    options.capacity
+                )));
+            }
+            let b = buffer_zeroed(
+                device,
+                "deferred.debug_lists",
+                bytes,
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            );
+            memory.add("deferred.debug_lists", b.size());
+            defines.push("DEBUG_LISTS");
+            entries.push(storage_entry(15, cs, false));
+            Some(b)
+        } else {
+            None
+        };
+        if let Some(b) = &debug_indices {
+            bind.push(wgpu::BindGroupEntry { binding: 15, resource: b.as_entire_binding() });
+        }
         if let Some((_, view, edge_list, edge_args)) = &msaa_buffers {
             entries.push(hdr_storage_entry(12));
             entries.push(storage_entry(13, cs, false));
@@ -318,7 +356,7 @@ impl DeferredShading {
             }
             None => None,
         };
-        Ok(Self { pipeline, bind_group, coarse, msaa, grid, tile_counts })
+        Ok(Self { pipeline, bind_group, coarse, msaa, grid, options, tile_counts, debug_indices })
     }
 
     /// Records the cell pass (two-level culling), the cull-and-shade dispatch and, with
@@ -364,6 +402,18 @@ impl DeferredShading {
             }
             timer.end(encoder, t);
         }
+    }
+
+    /// The light lists the last frame was shaded with (stalls the GPU), in the culling
+    /// pass's layout and type; `overflowing` and `pairs` are derived from the counts. Only
+    /// when built with `debug_lists`: an error names the setting otherwise.
+    pub fn read_lists(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<GpuTileLists, GpuError> {
+        let Some(indices) = &self.debug_indices else {
+            return Err(GpuError::Config(
+                "the deferred pass keeps its light lists only with DeferredSettings::debug_lists".into(),
+            ));
+        };
+        read_tile_lists(device, queue, &self.tile_counts, indices, &self.grid, &self.options)
     }
 
     /// Edge pixels of the last frame (MSAA only; stalls the GPU).

@@ -437,14 +437,45 @@ impl LightCulling {
 
     /// Reads the lists of the last culled frame back (tests, statistics; stalls the GPU).
     pub fn read_lists(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<GpuTileLists, GpuError> {
-        let counts: Vec<u32> = read_buffer(device, queue, &self.tile_counts)?;
-        let indices: Vec<u32> = read_buffer(device, queue, &self.tile_indices)?;
         let stats: Vec<u32> = read_buffer(device, queue, &self.stats)?;
-        let cap = self.options.capacity as usize;
-        let n = self.grid.tile_count() * self.options.lists_per_tile() as usize;
-        let lists = (0..n).map(|i| indices[i * cap..i * cap + (counts[i] as usize).min(cap)].to_vec()).collect();
-        Ok(GpuTileLists { counts: counts[..n].to_vec(), lists, overflowing: stats[0], pairs: stats[1] })
+        let mut lists =
+            read_tile_lists(device, queue, &self.tile_counts, &self.tile_indices, &self.grid, &self.options)?;
+        lists.overflowing = stats[0];
+        lists.pairs = stats[1];
+        Ok(lists)
     }
+}
+
+/// Reads per-tile lists laid out as the culling pass writes them: `counts` holds the true
+/// light count of every list (list `t * lists_per_tile + k` for tile `t`), `indices` holds
+/// `options.capacity` slots per list of which the first `min(count, capacity)` are valid.
+/// The culling pass and Tiled Deferred's debug output (`DeferredSettings::debug_lists`)
+/// share this layout and this reader. `overflowing` and `pairs` are derived from the counts
+/// here; [`LightCulling::read_lists`] replaces them with its kernel's own tallies.
+pub fn read_tile_lists(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    counts: &wgpu::Buffer,
+    indices: &wgpu::Buffer,
+    grid: &TileGrid,
+    options: &CullOptions,
+) -> Result<GpuTileLists, GpuError> {
+    let counts: Vec<u32> = read_buffer(device, queue, counts)?;
+    let indices: Vec<u32> = read_buffer(device, queue, indices)?;
+    let cap = options.capacity as usize;
+    let n = grid.tile_count() * options.lists_per_tile() as usize;
+    if counts.len() < n || indices.len() < n * cap {
+        return Err(GpuError::Readback(format!(
+            "{} counts and {} indices read back for {n} lists of capacity {cap}",
+            counts.len(),
+            indices.len()
+        )));
+    }
+    let lists = (0..n).map(|i| indices[i * cap..i * cap + (counts[i] as usize).min(cap)].to_vec()).collect();
+    let counts = counts[..n].to_vec();
+    let overflowing = counts.iter().filter(|&&c| c as usize > cap).count() as u32;
+    let pairs = counts.iter().sum();
+    Ok(GpuTileLists { counts, lists, overflowing, pairs })
 }
 
 #[cfg(test)]

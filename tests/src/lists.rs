@@ -1,0 +1,201 @@
+//! GPU per-tile light lists against the CPU reference culler (`tiledlight_cull::cull_tiles`),
+//! list for list, as sets: the one comparison every GPU culling test uses (Forward+'s culling
+//! pass, Tiled Deferred's debug lists, with and without MSAA, and the GPU property test).
+//!
+//! Tolerance: CPU and GPU evaluate the same f32 formulas, but WGSL lets the GPU fuse
+//! multiply-adds and divide within 2.5 ulp, so a light whose volume touches a tile within
+//! float error may be decided differently. Such a light is accepted only if the CPU culler
+//! run on every light grown by its float error lists it (or the one run on every light
+//! shrunk by as much does not): the decision was within float error of the boundary. Any
+//! other difference fails, and borderline decisions must stay under 0.1% of the pairs
+//! ([`assert_lists_match`] per frame; the property test over all its cases).
+//!
+//! A light's float error ([`light_error`]) has two parts: [`INFLATE`] x (radius + view
+//! distance), the tile planes' and tests' relative error; and [`WORLD_ULPS`] ulps of its
+//! world coordinates and of the eye's, the world-to-view transform's rounding, which both
+//! sides do from world coordinates (the GPU with fused multiply-adds): far from the origin
+//! that is the larger one (1.5e-5 m at 170 m, where the GPU property test found a 0.5
+//! degree spot 4.7 cm from a 0.17 mm tile decided differently, 1.4e-6 m from the boundary).
+//! Growing a light moves its sphere's surface out by the error and, for a spot, its apex
+//! back along the axis by error / sin(half-angle), which moves the cone's surface out by
+//! the error everywhere (shrinking does the opposite).
+
+use std::collections::BTreeSet;
+
+use glam::Vec3;
+use tiledlight_cull::bounds::to_view;
+use tiledlight_cull::light::PackedLights;
+use tiledlight_cull::{cull_tiles, Camera, CullConfig, TileLists};
+use tiledlight_gpu::light_cull::GpuTileLists;
+
+/// The relative part of a light's float error, as a fraction of `radius + |view centre|`.
+pub const INFLATE: f32 = 1e-5;
+
+/// The world-to-view part of a light's float error, in ulps (f32 epsilon) of
+/// `|world position| + |eye|`: the bound `crates/cull/tests/common` uses for the same
+/// transform's rounding (`near_spot_sphere_surface`: measured at most 1.54 there).
+pub const WORLD_ULPS: f32 = 4.0;
+
+/// How far light `i` of `lights` may be misplaced by float error, seen through `camera`
+/// (metres; see the module docs).
+pub fn light_error(camera: &Camera, lights: &PackedLights, i: usize) -> f32 {
+    let c = Vec3::from(lights.cull[i].center);
+    let view_centre = to_view(&camera.view(), c);
+    let world = c.length().max(Vec3::from(lights.shading[i].position).length());
+    INFLATE * (lights.cull[i].radius + view_centre.length())
+        + WORLD_ULPS * f32::EPSILON * (world + camera.eye().length())
+}
+
+/// `lights` with every light grown (`sign` 1) or shrunk (-1) by its [`light_error`].
+pub fn perturbed_lights(camera: &Camera, lights: &PackedLights, sign: f32) -> PackedLights {
+    let mut out = lights.clone();
+    for i in 0..lights.len() {
+        let e = light_error(camera, lights, i);
+        out.cull[i].radius = (lights.cull[i].radius + sign * e).max(0.0);
+        let mut len = lights.shading[i].radius + sign * e;
+        if i >= lights.num_point as usize {
+            let spot = lights.spots[i - lights.num_point as usize];
+            let shift = e / spot.sin_outer;
+            let apex = Vec3::from(lights.shading[i].position) - sign * shift * Vec3::from(spot.direction);
+            out.shading[i].position = apex.to_array();
+            // The cap stays as far out as the grown (or shrunk) sphere's.
+            len += sign * shift;
+        }
+        out.shading[i].radius = len.max(0.0);
+    }
+    out
+}
+
+/// The frame a GPU pass culled: its depth buffer as read back (`samples` values per pixel,
+/// pixel-major, as `CullConfig::samples` says), camera and lights as uploaded.
+#[derive(Clone, Copy)]
+pub struct CulledFrame<'a> {
+    /// Reversed-Z depth, row-major.
+    pub depth: &'a [f32],
+    /// Screen width in pixels.
+    pub width: u32,
+    /// Screen height in pixels.
+    pub height: u32,
+    /// The camera of the frame.
+    pub camera: &'a Camera,
+    /// The lights as uploaded (`LightBuffers::packed`).
+    pub lights: &'a PackedLights,
+}
+
+/// What a comparison counted.
+#[derive(Clone, Debug)]
+pub struct ListComparison {
+    /// (list, light) pairs of the CPU lists.
+    pub pairs: usize,
+    /// Pairs decided differently by the GPU, each within float error of the boundary.
+    pub borderline: usize,
+    /// Lists with at least one light.
+    pub nonempty_lists: usize,
+    /// The CPU reference lists (for ground-truth checks on the same frame).
+    pub cpu: TileLists,
+}
+
+/// Compares `gpu` with the CPU culler run on `frame` with `config` (which must match the
+/// GPU pass's options, samples included). Returns the first difference that is not within
+/// float error as an error naming `label`, the list and the light; does not check the
+/// borderline rate (see [`assert_lists_match`]).
+pub fn compare_lists(
+    label: &str,
+    frame: &CulledFrame<'_>,
+    gpu: &GpuTileLists,
+    config: &CullConfig,
+) -> Result<ListComparison, String> {
+    let cull = |lights: &PackedLights| {
+        cull_tiles(
+            frame.depth,
+            frame.width,
+            frame.height,
+            frame.camera,
+            lights,
+            &CullConfig { inflate: 0.0, ..*config },
+        )
+        .map_err(|e| format!("{label}: CPU culler refused the frame: {e}"))
+    };
+    let cpu = cull(frame.lights)?;
+    let grown = cull(&perturbed_lights(frame.camera, frame.lights, 1.0))?;
+    let shrunk = cull(&perturbed_lights(frame.camera, frame.lights, -1.0))?;
+    let fail = |msg: String| Err(format!("{label}: {msg}"));
+    if gpu.counts.len() != cpu.lists.len() || gpu.lists.len() != cpu.lists.len() {
+        return fail(format!(
+            "{} GPU counts and {} GPU lists, {} CPU lists",
+            gpu.counts.len(),
+            gpu.lists.len(),
+            cpu.lists.len()
+        ));
+    }
+    let cap = config.capacity as usize;
+    let (mut pairs, mut borderline, mut nonempty_lists) = (0, 0, 0);
+    for (i, cpu_list) in cpu.lists.iter().enumerate() {
+        let gpu_set: BTreeSet<u32> = gpu.lists[i].iter().copied().collect();
+        if gpu_set.len() != gpu.lists[i].len() {
+            return fail(format!("list {i} has duplicates: {:?}", gpu.lists[i]));
+        }
+        let count = gpu.counts[i] as usize;
+        let cpu_set: BTreeSet<u32> = cpu_list.iter().copied().collect();
+        let hi: BTreeSet<u32> = grown.lists[i].iter().copied().collect();
+        let lo: BTreeSet<u32> = shrunk.lists[i].iter().copied().collect();
+        pairs += cpu_set.len();
+        nonempty_lists += usize::from(!cpu_set.is_empty());
+        if count > cap {
+            // Overflow: which `cap` lights the GPU kept depends on thread timing; they must
+            // all be real members and the count must be the true one.
+            if gpu_set.len() != cap {
+                return fail(format!("overflowing list {i} stores {} indices, not the capacity {cap}", gpu_set.len()));
+            }
+            if !gpu_set.is_subset(&hi) {
+                return fail(format!("overflowing list {i} stored a light the CPU never lists"));
+            }
+            if count.abs_diff(cpu_set.len()) > hi.len() - lo.len() {
+                return fail(format!("list {i} count {count} vs CPU {}", cpu_set.len()));
+            }
+            continue;
+        }
+        if count != gpu_set.len() {
+            return fail(format!("list {i} count {count} vs {} stored", gpu_set.len()));
+        }
+        for l in gpu_set.symmetric_difference(&cpu_set) {
+            let gpu_has = gpu_set.contains(l);
+            let within_float_error = if gpu_has { hi.contains(l) } else { !lo.contains(l) };
+            if !within_float_error {
+                return fail(format!(
+                    "list {i}: light {l} {} by the GPU only, and not within float error of the boundary \
+                     (GPU {gpu_set:?}, CPU {cpu_set:?})",
+                    if gpu_has { "listed" } else { "dropped" }
+                ));
+            }
+            borderline += 1;
+        }
+    }
+    let cpu_overflow = cpu.overflowing_lists() as u32;
+    if gpu.overflowing.abs_diff(cpu_overflow) as usize > borderline {
+        return fail(format!("overflow {} vs CPU {cpu_overflow}", gpu.overflowing));
+    }
+    Ok(ListComparison { pairs, borderline, nonempty_lists, cpu })
+}
+
+/// [`compare_lists`], panicking on a difference or when borderline decisions exceed 0.1%
+/// of the pairs; prints the counts.
+pub fn assert_lists_match(
+    label: &str,
+    frame: &CulledFrame<'_>,
+    gpu: &GpuTileLists,
+    config: &CullConfig,
+) -> ListComparison {
+    let c = compare_lists(label, frame, gpu, config).unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        c.borderline * 1000 <= c.pairs.max(1),
+        "{label}: {} borderline decisions of {} pairs",
+        c.borderline,
+        c.pairs
+    );
+    eprintln!(
+        "{label}: {} pairs in {} lists, {} borderline, {} overflowing",
+        c.pairs, c.nonempty_lists, c.borderline, gpu.overflowing
+    );
+    c
+}

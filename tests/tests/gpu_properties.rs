@@ -1,0 +1,415 @@
+//! The culling property on the GPU: for random cameras, scenes, lights and settings, the
+//! lists both methods culled on the GPU (Forward+'s culling pass, and the lists Tiled
+//! Deferred shades with, its `DEBUG_LISTS` copy) equal the CPU reference culler's list for
+//! list (the shared comparison, `tiledlight_tests::lists`), and no light that reaches a
+//! depth sample's surface point is missing from the list that sample reads (ground truth
+//! `tiledlight_cull::reference::lights_reaching`, margin 0, as the CPU property
+//! `crates/cull/tests/no_false_negatives.rs` checks it).
+//!
+//! Cases: cameras perspective with finite and infinite far and orthographic (near 0
+//! included), FOV 1..170 degrees, near 1e-4..10, far 1e2..1e7, eye up to 1e3 from the
+//! origin, any orientation; screens 40x24..97x61; a small random scene rendered by the GPU
+//! (1 to 5 quads and boxes at the near plane, straddling it, at middle distances and near or
+//! past the far plane, facing the camera or tilted, plus sometimes a background wall):
+//! depth buffers with sky, constant, planar and mixed tiles; 1 to 39 lights from the CPU
+//! property's generator (`crates/cull/tests/common`: spheres containing the eye or
+//! straddling the near plane, cones asked for down to 0.2 degrees, which the light
+//! constructors clamp to 0.5, radii 1e-4..1e6, half of them within reach of a surface);
+//! tile size 8/16/32, AABB, half-z, spot cone and two-level culling each on or off; MSAA 1x and 4x, plus 2x and 8x where the adapter
+//! multisamples every target format that many times (`targets::check_msaa`; lavapipe has
+//! only 1x and 4x, so CI never runs 2x or 8x).
+//!
+//! Exclusions, no looser than the CPU property's: (sample, light) pairs that f32 cannot
+//! resolve (`common::spot_pair_unresolvable`, the same function) are skipped. With MSAA a
+//! sample's surface point is rebuilt at its standard sample position. A half-z sample picks
+//! its list by the CPU's tile range, computed from the same depth buffer with the GPU's
+//! formula.
+//!
+//! Float-borderline decisions (`tiledlight_tests::lists`) must stay under 0.1% of the list
+//! pairs over the run, as in every GPU-vs-CPU comparison; each is printed with its case.
+//! Measured: 2 of 11,590 (41 cases), 12 of 18,570 (61), 4 of 23,826 (101), 14 of 75,022
+//! (251). The one examined (saved below) culls 0.17 mm tiles seen from an eye 170 m from
+//! the origin, where a world-coordinate ulp is a tenth of the tile.
+//!
+//! Catches: culling tests that drop lights (radii shrunk by 1% in the kernel failed within
+//! 10 cases), a deferred pass whose lists hold the right number of wrong lights, a kernel
+//! bounding fewer depth samples than the CPU does, and false negatives either culler shares.
+//!
+//! Cost: 60 cases by default (two renderers built, one frame each, per case) take about
+//! 110 s on lavapipe in the dev profile (2 CPU cores; 251 cases took 529 s).
+//! `PROPTEST_CASES=n` runs more; `PROPTEST_RNG_SEED=s` (CI sets it) makes the cases
+//! deterministic. Failures are saved to `gpu_properties.proptest-regressions` and replayed
+//! first; the one there is the world-scale spot cone decision described in
+//! `tiledlight_tests::lists`.
+
+#[path = "../../crates/cull/tests/common/mod.rs"]
+mod cull_common;
+
+use std::cell::RefCell;
+use std::time::Instant;
+
+use cull_common::{log_uniform, rng, spot_pair_unresolvable, unit, CamKind, CamSpec};
+use glam::{Mat4, Quat, Vec3};
+use proptest::prelude::*;
+use proptest::test_runner::{Config, FileFailurePersistence, TestRunner};
+use rand::Rng;
+use tiledlight_cull::reference::lights_reaching;
+use tiledlight_cull::tiles::{pixel_to_ndc_x, pixel_to_ndc_y};
+use tiledlight_cull::{Camera, CullConfig};
+use tiledlight_deferred::gbuffer::{ALBEDO_FORMAT, NORMAL_FORMAT};
+use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
+use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
+use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
+use tiledlight_gpu::light_cull::{CullOptions, GpuTileLists};
+use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_gpu::targets::{check_msaa, Renderer};
+use tiledlight_gpu::timer::GpuTimer;
+use tiledlight_gpu::tonemap::HDR_FORMAT;
+use tiledlight_gpu::GpuContext;
+use tiledlight_scene::{Aabb, Instance, Scene};
+use tiledlight_tests::lists::{compare_lists, CulledFrame};
+use tiledlight_tests::{gpu, scenes};
+
+/// Cases per run unless `PROPTEST_CASES` says otherwise: sized for ~2 minutes on lavapipe.
+const DEFAULT_CASES: u32 = 60;
+
+/// One generated case. Everything but the seed-driven parts (scene, lights) shrinks.
+#[derive(Clone, Debug)]
+struct Case {
+    cam: CamSpec,
+    width: u32,
+    height: u32,
+    cull: CullOptions,
+    /// Picks the sample count among the adapter's (index modulo their number).
+    samples_pick: usize,
+    objects: usize,
+    background: bool,
+    n_lights: usize,
+    seed: u64,
+}
+
+/// Standard sample positions (Vulkan, D3D and Metal agree; `shaders/deferred.wgsl`'s
+/// `sample_position`), in pixels from the pixel's corner.
+fn sample_positions(samples: u32) -> &'static [(f32, f32)] {
+    match samples {
+        1 => &[(0.5, 0.5)],
+        2 => &[(0.75, 0.75), (0.25, 0.25)],
+        4 => &[(0.375, 0.125), (0.875, 0.375), (0.125, 0.625), (0.625, 0.875)],
+        8 => &[
+            (0.5625, 0.3125),
+            (0.4375, 0.6875),
+            (0.8125, 0.5625),
+            (0.3125, 0.1875),
+            (0.1875, 0.8125),
+            (0.0625, 0.4375),
+            (0.6875, 0.9375),
+            (0.9375, 0.0625),
+        ],
+        _ => panic!("{samples} samples"),
+    }
+}
+
+/// The sample counts both renderers' targets support on this adapter.
+fn supported_samples(ctx: &GpuContext) -> Vec<u32> {
+    let formats = [DEPTH_FORMAT, HDR_FORMAT, ALBEDO_FORMAT, NORMAL_FORMAT];
+    [1, 2, 4, 8].into_iter().filter(|&s| check_msaa(ctx, s, &formats).is_ok()).collect()
+}
+
+/// Half the visible height at view distance `d`.
+fn half_height_at(spec: &CamSpec, d: f32) -> f32 {
+    match spec.kind {
+        CamKind::Ortho => spec.half_height,
+        _ => d * (spec.fov_deg.to_radians() * 0.5).tan(),
+    }
+}
+
+/// A view distance for an object: at (or straddling) the near plane, in the middle, near or
+/// past the far plane, or anywhere in between (log-uniform).
+fn object_distance(r: &mut impl Rng, spec: &CamSpec) -> f32 {
+    let lo = spec.near.max(1e-4);
+    let far = if spec.kind == CamKind::Infinite { 1e7 } else { spec.far };
+    match r.random_range(0..4) {
+        0 => lo * r.random_range(0.5..2.0),
+        1 => log_uniform(r, lo, far.min(1e3).max(lo * 1.01)),
+        2 => far * r.random_range(0.3..1.2),
+        _ => log_uniform(r, lo, far),
+    }
+}
+
+/// A random scene in front of `spec`'s camera and the world points of its surfaces that
+/// lights are aimed at.
+fn build_scene(c: &Case, r: &mut impl Rng) -> (Scene, Vec<Vec3>) {
+    let (fwd, up) = c.cam.basis();
+    let right = fwd.cross(up);
+    let aspect = c.width as f32 / c.height as f32;
+    let facing = Quat::from_rotation_arc(Vec3::Y, -fwd);
+    let mut instances = Vec::new();
+    let mut targets = Vec::new();
+    let mut place = |mesh: usize, d: f32, lateral: f32, size: Vec3, rot: Quat, r: &mut dyn rand::RngCore| {
+        let hh = half_height_at(&c.cam, d);
+        let centre = c.cam.eye
+            + fwd * d
+            + right * hh * aspect * lateral * r.random_range(-1.0f32..1.0)
+            + up * hh * lateral * r.random_range(-1.0f32..1.0);
+        let scale = size * hh;
+        instances.push(Instance {
+            mesh,
+            material: 0,
+            transform: Mat4::from_scale_rotation_translation(scale, rot, centre),
+        });
+        for _ in 0..4 {
+            let local = Vec3::new(r.random_range(-0.5..0.5), r.random_range(-0.5..0.5), r.random_range(-0.5..0.5));
+            let local = if mesh == 0 { local * Vec3::new(1.0, 0.0, 1.0) } else { local };
+            targets.push(centre + rot * (local * scale));
+        }
+    };
+    if c.background {
+        // A wall across the whole view, facing the camera or tilted up to 60 degrees.
+        let d = object_distance(r, &c.cam);
+        let tilt = Quat::from_axis_angle(unit(r), r.random_range(0.0..60f32.to_radians()));
+        let rot = if r.random_bool(0.5) { facing } else { tilt * facing };
+        let side = 8.0 * aspect.max(1.0);
+        place(0, d, 0.0, Vec3::new(side, 1.0, side), rot, r);
+    }
+    for _ in 0..c.objects {
+        let d = object_distance(r, &c.cam);
+        let mesh = r.random_range(0..2);
+        let size = log_uniform(r, 0.05, 2.0);
+        let stretch = Vec3::new(log_uniform(r, 0.3, 3.0), log_uniform(r, 0.3, 3.0), log_uniform(r, 0.3, 3.0));
+        let rot = if r.random_bool(0.3) { facing } else { Quat::from_axis_angle(unit(r), r.random_range(0.0..6.3)) };
+        place(mesh, d, 1.0, stretch * size, rot, r);
+    }
+    let mut material = scenes::material("surface", [0.7, 0.7, 0.7, 1.0], 0.5, 0.0);
+    // Seen from both sides: a tilted quad's back must still write depth.
+    material.double_sided = true;
+    let mut scene = Scene {
+        name: "gpu-property".into(),
+        meshes: vec![scenes::quad("quad", 1.0), scenes::cube("box")],
+        materials: vec![material],
+        textures: vec![],
+        instances,
+        lights: vec![],
+        camera: None,
+        bounds: Aabb::empty(),
+    };
+    scene.bounds = scene.compute_bounds();
+    scene.validate().unwrap_or_else(|e| panic!("generated scene rejected: {e}"));
+    (scene, targets)
+}
+
+/// What the run has seen, to show the property was not vacuous.
+#[derive(Debug, Default)]
+struct Totals {
+    cases: usize,
+    /// Cases per sample count (index: 1, 2, 4, 8).
+    per_samples: [usize; 4],
+    /// CPU list pairs compared, and GPU decisions within float error among them.
+    list_pairs: usize,
+    borderline: usize,
+    /// (sample, light) pairs that reach and were found in their list; skipped as
+    /// unresolvable; of them spot lights; of them in far half-z lists.
+    reach_pairs: usize,
+    skipped: usize,
+    spot_pairs: usize,
+    far_half_pairs: usize,
+    /// Cases with at least one reaching pair.
+    cases_reached: usize,
+}
+
+/// Checks one method's lists of a frame: against the CPU culler, then against ground truth.
+#[allow(clippy::too_many_arguments)]
+fn check_method(
+    method: &str,
+    c: &Case,
+    camera: &Camera,
+    lights: &LightBuffers,
+    depth: &[f32],
+    gpu_lists: &GpuTileLists,
+    config: &CullConfig,
+    totals: &mut Totals,
+) -> Result<usize, TestCaseError> {
+    let frame = CulledFrame { depth, width: c.width, height: c.height, camera, lights: &lights.packed };
+    let cmp = compare_lists(method, &frame, gpu_lists, config).map_err(TestCaseError::fail)?;
+    if cmp.borderline > 0 {
+        eprintln!("{method}: {} borderline decisions of {} pairs: {c:?}", cmp.borderline, cmp.pairs);
+    }
+    totals.list_pairs += cmp.pairs;
+    totals.borderline += cmp.borderline;
+    let view = camera.view();
+    let dp = camera.depth_params();
+    let positions = sample_positions(config.samples);
+    let packed = &lights.packed;
+    let mut reached = 0;
+    for y in 0..c.height {
+        for x in 0..c.width {
+            let tile = cmp.cpu.grid.tile_of_pixel(x, y);
+            for (s, &(sx, sy)) in positions.iter().enumerate() {
+                let d = depth[(y * c.width + x) as usize * positions.len() + s];
+                if d <= 0.0 {
+                    continue;
+                }
+                let ndc = (pixel_to_ndc_x(x as f32 + sx, c.width), pixel_to_ndc_y(y as f32 + sy, c.height));
+                let Some(p) = camera.unproject_view(ndc.0, ndc.1, d) else { continue };
+                let li = cmp.cpu.list_index(tile, dp.view_distance(d));
+                let list = &gpu_lists.lists[li];
+                for l in lights_reaching(&view, packed, p, 0.0) {
+                    if spot_pair_unresolvable(camera, packed, l, p) {
+                        totals.skipped += 1;
+                        continue;
+                    }
+                    if !list.contains(&l) {
+                        return Err(TestCaseError::fail(format!(
+                            "{method}: false negative: pixel ({x}, {y}) sample {s} depth {d:e} view pos {p} \
+                             dist {:e}, tile {tile} list {li} (CPU range {:?}): light {l} (of {}, {} points) \
+                             reaches it but the GPU list is {list:?} (CPU {:?})",
+                            dp.view_distance(d),
+                            cmp.cpu.ranges[tile],
+                            packed.len(),
+                            packed.num_point,
+                            cmp.cpu.lists[li],
+                        )));
+                    }
+                    reached += 1;
+                    totals.spot_pairs += usize::from(l >= packed.num_point);
+                    totals.far_half_pairs += usize::from(config.half_z && li % 2 == 1);
+                }
+            }
+        }
+    }
+    totals.reach_pairs += reached;
+    Ok(reached)
+}
+
+fn run_case(ctx: &GpuContext, supported: &[u32], c: &Case, totals: &mut Totals) -> Result<(), TestCaseError> {
+    let samples = supported[c.samples_pick % supported.len()];
+    let mut r = rng(c.seed);
+    let (scene, targets) = build_scene(c, &mut r);
+    let camera = CamSpec { aspect: c.width as f32 / c.height as f32, ..c.cam }.camera();
+    let lights = cull_common::random_lights(&mut r, &c.cam, &targets, c.n_lights);
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).map_err(|e| TestCaseError::fail(e.to_string()))?;
+    let lights = LightBuffers::new(&ctx.device, &lights).map_err(|e| TestCaseError::fail(e.to_string()))?;
+    let config = CullOptions { samples, ..c.cull }.to_config(lights.has_spots());
+    let fail = |what: &str, e: tiledlight_gpu::GpuError| TestCaseError::fail(format!("{what}: {e}"));
+    let mut timer = GpuTimer::new(ctx).map_err(|e| fail("timer", e))?;
+    let (w, h) = (c.width, c.height);
+
+    let settings = ForwardSettings { method: Method::ForwardPlus, cull: c.cull, msaa: samples, ..Default::default() };
+    let f = ForwardRenderer::new(ctx, &sg, &lights, w, h, settings).map_err(|e| fail("Forward+ renderer", e))?;
+    f.render_once(ctx, &mut timer, &sg, &camera).map_err(|e| fail("Forward+ frame", e))?;
+    let depth = f.read_depth(ctx).map_err(|e| fail("Forward+ depth", e))?;
+    let lists = f.culling().expect("Forward+ culls").read_lists(&ctx.device, &ctx.queue);
+    let lists = lists.map_err(|e| fail("Forward+ lists", e))?;
+    let mut reached = check_method("Forward+", c, &camera, &lights, &depth, &lists, &config, totals)?;
+
+    let settings = DeferredSettings { cull: c.cull, msaa: samples, debug_lists: true, ..Default::default() };
+    let d = DeferredRenderer::new(ctx, &sg, &lights, w, h, settings).map_err(|e| fail("deferred renderer", e))?;
+    d.render_once(ctx, &mut timer, &sg, &camera).map_err(|e| fail("deferred frame", e))?;
+    let depth = d.read_depth(ctx).map_err(|e| fail("deferred depth", e))?;
+    let lists = d.read_lists(ctx).map_err(|e| fail("deferred lists", e))?;
+    reached += check_method("Tiled Deferred", c, &camera, &lights, &depth, &lists, &config, totals)?;
+
+    totals.cases += 1;
+    totals.per_samples[samples.trailing_zeros() as usize] += 1;
+    totals.cases_reached += usize::from(reached > 0);
+    Ok(())
+}
+
+fn exp10(lo: f32, hi: f32) -> impl Strategy<Value = f32> {
+    (lo..hi).prop_map(|e| 10f32.powf(e))
+}
+
+fn cam_strategy() -> impl Strategy<Value = CamSpec> {
+    let kind = prop_oneof![Just(CamKind::Finite), Just(CamKind::Infinite), Just(CamKind::Ortho)];
+    let near = prop_oneof![4 => exp10(-4.0, 1.0), 1 => Just(0.0)];
+    let eye =
+        (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, exp10(-3.0, 3.0)).prop_map(|(x, y, z, s)| Vec3::new(x, y, z) * s);
+    let euler = (0.0f32..std::f32::consts::TAU, -1.5f32..1.5, 0.0f32..std::f32::consts::TAU)
+        .prop_map(|(a, b, c)| Vec3::new(a, b, c));
+    (kind, near, exp10(2.0, 7.0), 1.0f32..170.0, exp10(-1.0, 3.0), eye, euler).prop_map(
+        |(kind, near, far, fov_deg, half_height, eye, euler)| {
+            // Near 0 is only valid for orthographic cameras.
+            let near = if near == 0.0 && kind != CamKind::Ortho { 1e-4 } else { near };
+            // The aspect is set from the screen when the case runs.
+            CamSpec { kind, near, far, fov_deg, half_height, aspect: 1.0, eye, euler }
+        },
+    )
+}
+
+fn case_strategy() -> impl Strategy<Value = Case> {
+    let tile = prop_oneof![Just(8u32), Just(16), Just(32)];
+    let flags = (any::<bool>(), any::<bool>(), any::<bool>(), any::<bool>());
+    (
+        cam_strategy(),
+        (40u32..=97, 24u32..=61),
+        tile,
+        flags,
+        0usize..4,
+        (1usize..=5, any::<bool>()),
+        1usize..40,
+        any::<u64>(),
+    )
+        .prop_map(
+            |(
+                cam,
+                (width, height),
+                tile_size,
+                (aabb, half_z, spot_cone, coarse),
+                samples_pick,
+                (objects, background),
+                n_lights,
+                seed,
+            )| {
+                let cull = CullOptions { tile_size, aabb, half_z, spot_cone, coarse, ..Default::default() };
+                Case { cam, width, height, cull, samples_pick, objects, background, n_lights, seed }
+            },
+        )
+}
+
+#[test]
+fn gpu_lists_match_cpu_and_miss_no_reaching_light() {
+    let ctx = gpu();
+    let supported = supported_samples(ctx);
+    assert!(supported.contains(&1) && supported.contains(&4), "WebGPU guarantees 1x and 4x: {supported:?}");
+    let defaults = Config::default();
+    let cases = if std::env::var_os("PROPTEST_CASES").is_some() { defaults.cases } else { DEFAULT_CASES };
+    // Shrinking re-renders every candidate: bounded so a failure reports in minutes.
+    // Failures are saved next to this file (gpu_properties.proptest-regressions) and
+    // replayed first on the next run.
+    let config = Config {
+        cases,
+        max_shrink_iters: 64,
+        source_file: Some(file!()),
+        failure_persistence: Some(Box::new(FileFailurePersistence::WithSource("proptest-regressions"))),
+        ..defaults
+    };
+    let mut runner = TestRunner::new(config);
+    let totals = RefCell::new(Totals::default());
+    let start = Instant::now();
+    let result = runner.run(&case_strategy(), |c| run_case(ctx, &supported, &c, &mut totals.borrow_mut()));
+    if let Err(e) = result {
+        panic!("{e}");
+    }
+    let t = totals.into_inner();
+    eprintln!(
+        "{} cases in {:.1} s (samples 1/2/4/8: {:?}, supported {supported:?}): {t:?}",
+        t.cases,
+        start.elapsed().as_secs_f64(),
+        t.per_samples
+    );
+    // Borderline decisions stay exceptions, as in every GPU-vs-CPU comparison.
+    assert!(t.borderline * 1000 <= t.list_pairs.max(1), "{} borderline of {} pairs", t.borderline, t.list_pairs);
+    // Not vacuous: lights reached surfaces in most cases, spots and far half-z lists among
+    // them, every supported sample count ran, and the exclusions stayed exceptions.
+    assert!(t.cases_reached * 2 >= t.cases, "only {} of {} cases had a light reach a sample", t.cases_reached, t.cases);
+    assert!(t.spot_pairs > 0 && t.far_half_pairs > 0, "{t:?}");
+    for s in &supported {
+        assert!(t.per_samples[s.trailing_zeros() as usize] > 0, "no case ran at {s}x: {t:?}");
+    }
+    assert!(
+        t.skipped * 100 <= t.spot_pairs.max(1),
+        "{} of {} spot pairs skipped as unresolvable",
+        t.skipped,
+        t.spot_pairs
+    );
+}
