@@ -10,8 +10,9 @@
 //! other difference fails, and borderline decisions must stay under 0.1% of the pairs
 //! ([`assert_lists_match`] per frame; the property test over all its cases).
 //!
-//! A light's float error ([`light_error`]) has two parts: [`INFLATE`] x (radius + view
-//! distance), the tile planes' and tests' relative error; and [`WORLD_ULPS`] ulps of its
+//! A light's float error ([`light_error`]) has three parts: [`INFLATE`] x (radius + view
+//! distance), the tile planes' and tests' relative error; for orthographic cameras an ulp
+//! budget of the depth range (`depth_error`); and [`WORLD_ULPS`] ulps of its
 //! world coordinates and of the eye's, the world-to-view transform's rounding, which both
 //! sides do from world coordinates (the GPU with fused multiply-adds): far from the origin
 //! that is the larger one (1.5e-5 m at 170 m, where the GPU property test found a 0.5
@@ -44,6 +45,22 @@ pub fn light_error(camera: &Camera, lights: &PackedLights, i: usize) -> f32 {
     let world = c.length().max(Vec3::from(lights.shading[i].position).length());
     INFLATE * (lights.cull[i].radius + view_centre.length())
         + WORLD_ULPS * f32::EPSILON * (world + camera.eye().length())
+        + depth_error(camera)
+}
+
+/// The tile depth range's float error (metres): an orthographic depth is linear in view
+/// distance, `near + (1 - d) (far - near)`, and the GPU's fused multiply-add rounds that
+/// once where the CPU rounds twice, so a tile's near or far bound differs by up to an ulp
+/// of `far - near` (measured on the H200 by the GPU property test: an orthographic camera
+/// with far 9.1e5 m put a tile's bound centimetres from the CPU's, and a light touching
+/// that bound was listed by the GPU alone). [`WORLD_ULPS`] of it, as for the transform.
+/// Perspective depth gives the distance as `near / d`, a relative error of a few ulps,
+/// inside [`INFLATE`].
+fn depth_error(camera: &Camera) -> f32 {
+    match camera.projection() {
+        tiledlight_cull::Projection::Orthographic { near, far, .. } => WORLD_ULPS * f32::EPSILON * (far - near),
+        tiledlight_cull::Projection::Perspective { .. } => 0.0,
+    }
 }
 
 /// `lights` with every light grown (`sign` 1) or shrunk (-1) by its [`light_error`].
