@@ -151,3 +151,34 @@ pub fn mixed_camera(w: u32, h: u32) -> Camera {
     )
     .expect("camera")
 }
+
+/// A 20 m square floor (y = 0) of one material, albedo (0.8, 0.6, 0.4), lit by `lights`: the
+/// scene the BRDF tests evaluate pixel by pixel on the CPU.
+pub fn floor_scene(roughness: f32, metallic: f32, lights: Vec<Light>) -> Scene {
+    let floor = Mesh {
+        name: "floor".into(),
+        positions: vec![[-10.0, 0.0, -10.0], [-10.0, 0.0, 10.0], [10.0, 0.0, 10.0], [10.0, 0.0, -10.0]],
+        normals: vec![[0.0, 1.0, 0.0]; 4],
+        uvs: vec![[0.0, 0.0]; 4],
+        indices: vec![0, 1, 2, 0, 2, 3],
+    };
+    let mat = Material {
+        name: "m".into(),
+        base_color: [0.8, 0.6, 0.4, 1.0],
+        base_color_texture: None,
+        roughness,
+        metallic,
+        alpha_mode: AlphaMode::Opaque,
+        double_sided: false,
+    };
+    Scene {
+        name: "floor".into(),
+        meshes: vec![floor],
+        materials: vec![mat],
+        textures: vec![],
+        instances: vec![tiledlight_scene::Instance { mesh: 0, material: 0, transform: Mat4::IDENTITY }],
+        lights,
+        camera: None,
+        bounds: Aabb::new(Vec3::new(-10.0, 0.0, -10.0), Vec3::new(10.0, 5.0, 10.0)),
+    }
+}

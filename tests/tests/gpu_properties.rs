@@ -89,27 +89,6 @@ struct Case {
     seed: u64,
 }
 
-/// Standard sample positions (Vulkan, D3D and Metal agree; `shaders/deferred.wgsl`'s
-/// `sample_position`), in pixels from the pixel's corner.
-fn sample_positions(samples: u32) -> &'static [(f32, f32)] {
-    match samples {
-        1 => &[(0.5, 0.5)],
-        2 => &[(0.75, 0.75), (0.25, 0.25)],
-        4 => &[(0.375, 0.125), (0.875, 0.375), (0.125, 0.625), (0.625, 0.875)],
-        8 => &[
-            (0.5625, 0.3125),
-            (0.4375, 0.6875),
-            (0.8125, 0.5625),
-            (0.3125, 0.1875),
-            (0.1875, 0.8125),
-            (0.0625, 0.4375),
-            (0.6875, 0.9375),
-            (0.9375, 0.0625),
-        ],
-        _ => panic!("{samples} samples"),
-    }
-}
-
 /// The sample counts both renderers' targets support on this adapter.
 fn supported_samples(ctx: &GpuContext) -> Vec<u32> {
     let formats = [DEPTH_FORMAT, HDR_FORMAT, ALBEDO_FORMAT, NORMAL_FORMAT];
@@ -238,7 +217,7 @@ fn check_method(
     totals.borderline += cmp.borderline;
     let view = camera.view();
     let dp = camera.depth_params();
-    let positions = sample_positions(config.samples);
+    let positions = cull_common::sample_positions(config.samples);
     let packed = &lights.packed;
     let mut reached = 0;
     for y in 0..c.height {

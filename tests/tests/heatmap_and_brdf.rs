@@ -1,7 +1,7 @@
 //! The heat map shows the CPU reference's light counts, and the GPU BRDF matches its CPU
 //! twin (`tiledlight_cull::brdf`) pixel by pixel.
 
-use glam::{Mat4, Vec3, Vec4};
+use glam::{Vec3, Vec4};
 use tiledlight_cull::brdf::{brdf_cos, spot_falloff, windowed_attenuation, Surface};
 use tiledlight_cull::light::spot_scale_offset;
 use tiledlight_cull::reference::pixel_view_position;
@@ -13,7 +13,6 @@ use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::Renderer as _;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::{heatmap_palette, heatmap_t, HEATMAP_ALPHA, HEATMAP_OVERFLOW};
-use tiledlight_scene::{Aabb, AlphaMode, Instance, Material, Mesh, Scene};
 use tiledlight_tests::images::{documented_heat_colour, linear_to_srgb, srgb_to_linear};
 use tiledlight_tests::{gpu, scenes};
 
@@ -142,35 +141,6 @@ fn heatmap_palette_is_the_documented_one() {
     }
 }
 
-fn floor_scene(roughness: f32, metallic: f32, lights: Vec<Light>) -> Scene {
-    let floor = Mesh {
-        name: "floor".into(),
-        positions: vec![[-10.0, 0.0, -10.0], [-10.0, 0.0, 10.0], [10.0, 0.0, 10.0], [10.0, 0.0, -10.0]],
-        normals: vec![[0.0, 1.0, 0.0]; 4],
-        uvs: vec![[0.0, 0.0]; 4],
-        indices: vec![0, 1, 2, 0, 2, 3],
-    };
-    let mat = Material {
-        name: "m".into(),
-        base_color: [0.8, 0.6, 0.4, 1.0],
-        base_color_texture: None,
-        roughness,
-        metallic,
-        alpha_mode: AlphaMode::Opaque,
-        double_sided: false,
-    };
-    Scene {
-        name: "floor".into(),
-        meshes: vec![floor],
-        materials: vec![mat],
-        textures: vec![],
-        instances: vec![Instance { mesh: 0, material: 0, transform: Mat4::IDENTITY }],
-        lights,
-        camera: None,
-        bounds: Aabb::new(Vec3::new(-10.0, 0.0, -10.0), Vec3::new(10.0, 5.0, 10.0)),
-    }
-}
-
 /// Brute-force pixels of a lit floor against the CPU BRDF evaluated at the pixel's
 /// position (reconstructed from depth). Tolerance 3e-3 relative (floor 1e-3): the f16
 /// target rounds to 2^-11 relative, and the GPU interpolates the world position while the
@@ -202,7 +172,7 @@ fn gpu_brdf_matches_cpu_twin() {
     )
     .unwrap();
     for (roughness, metallic) in [(0.9, 0.0), (0.3, 0.0), (0.2, 1.0)] {
-        let scene = floor_scene(roughness, metallic, vec![point, spot]);
+        let scene = scenes::floor_scene(roughness, metallic, vec![point, spot]);
         let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
         let lights = LightBuffers::new(&ctx.device, &scene.lights).unwrap();
         let r = ForwardRenderer::new(

@@ -385,26 +385,6 @@ fn materials_match_cpu_ray_cast() {
 // ---------------------------------------------------------------------------------------
 // The no-cutoff reference against unwindowed_attenuation.
 
-fn floor_scene(lights: Vec<Light>) -> Scene {
-    let floor = Mesh {
-        name: "floor".into(),
-        positions: vec![[-10.0, 0.0, -10.0], [-10.0, 0.0, 10.0], [10.0, 0.0, 10.0], [10.0, 0.0, -10.0]],
-        normals: vec![[0.0, 1.0, 0.0]; 4],
-        uvs: vec![[0.0, 0.0]; 4],
-        indices: vec![0, 1, 2, 0, 2, 3],
-    };
-    Scene {
-        name: "floor".into(),
-        meshes: vec![floor],
-        materials: vec![plain_material("floor", [0.8, 0.6, 0.4, 1.0], 0.4, false)],
-        textures: vec![],
-        instances: vec![Instance { mesh: 0, material: 0, transform: Mat4::IDENTITY }],
-        lights,
-        camera: None,
-        bounds: Aabb::new(Vec3::new(-10.0, 0.0, -10.0), Vec3::new(10.0, 5.0, 10.0)),
-    }
-}
-
 /// Brute force without the cutoff (`cutoff: false`) against the CPU twin with
 /// `unwindowed_attenuation` (and the spot falloff), at every floor pixel, including those
 /// beyond both lights' radius (small radii: intensity threshold 0.5). Tolerance 3e-3
@@ -437,7 +417,7 @@ fn no_cutoff_matches_unwindowed_cpu_twin() {
             .unwrap();
     let lights = vec![point, spot];
     eprintln!("radii: point {:.2} m, spot {:.2} m", point.radius, spot.radius);
-    let scene = floor_scene(lights.clone());
+    let scene = tiledlight_tests::scenes::floor_scene(0.4, 0.0, lights.clone());
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lb = LightBuffers::new(&ctx.device, &lights).unwrap();
     let render = |cutoff: bool| {
