@@ -47,3 +47,11 @@ pub fn output_dir() -> std::path::PathBuf {
 pub fn is_lavapipe(ctx: &GpuContext) -> bool {
     ctx.info.name.to_lowercase().contains("llvmpipe")
 }
+
+/// The error message of `r`, which must be an error (bad-input tests assert what it names).
+pub fn err_text<T>(r: Result<T, impl std::fmt::Display>) -> String {
+    match r {
+        Ok(_) => panic!("expected an error"),
+        Err(e) => e.to_string(),
+    }
+}

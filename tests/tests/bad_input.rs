@@ -13,14 +13,7 @@ use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::Renderer as _;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::{ContextOptions, GpuContext};
-use tiledlight_tests::{gpu, scenes};
-
-fn err_text<T>(r: Result<T, impl std::fmt::Display>) -> String {
-    match r {
-        Ok(_) => panic!("expected an error"),
-        Err(e) => e.to_string(),
-    }
-}
+use tiledlight_tests::{err_text, gpu, scenes};
 
 #[test]
 fn renderer_rejects_bad_settings_with_reasons() {

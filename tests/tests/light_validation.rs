@@ -8,14 +8,7 @@
 use glam::Vec3;
 use tiledlight_cull::{Light, LightKind};
 use tiledlight_gpu::lights_gpu::LightBuffers;
-use tiledlight_tests::gpu;
-
-fn err_text<T>(r: Result<T, impl std::fmt::Display>) -> String {
-    match r {
-        Ok(_) => panic!("expected an error"),
-        Err(e) => e.to_string(),
-    }
-}
+use tiledlight_tests::{err_text, gpu};
 
 /// Catches an upload that skips validation (it would return Ok), validates after
 /// reordering points first (the index would be 2, the packed position, not 3), or loses
