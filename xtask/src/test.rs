@@ -3,7 +3,8 @@
 //! 1. Picks the adapter GPU tests use (`WGPU_ADAPTER_NAME`, default `llvmpipe`, i.e.
 //!    lavapipe on Vulkan) and checks with wgpu that such an adapter exists. A missing
 //!    adapter fails the run: GPU tests are never skipped.
-//! 2. Runs `validate-shaders`.
+//! 2. Runs `validate-shaders`, and `cargo doc --no-deps --workspace` with rustdoc
+//!    warnings denied.
 //! 3. Runs every workspace test: `cargo nextest run` when installed (GPU tests one at a
 //!    time through the `gpu` test group of `.config/nextest.toml`) plus the doc tests,
 //!    else `cargo test` with the GPU test package run separately on one thread.
@@ -85,6 +86,14 @@ pub fn test(root: &Path, extra: &[String]) -> Result<()> {
     if let Err(e) = shaders::validate_shaders(root) {
         eprintln!("error: {e:#}");
         failed.push("validate-shaders");
+    }
+    // The API docs build without a warning (a broken intra-doc link, stray HTML in a doc
+    // comment): the crates are meant to be read and reused.
+    println!("xtask: running cargo doc --no-deps --workspace (rustdoc warnings denied)");
+    let mut cmd = cargo(root);
+    cmd.args(["doc", "--no-deps", "--workspace"]).env("RUSTDOCFLAGS", "-D warnings");
+    if !run_status(&mut cmd)? {
+        failed.push("cargo doc");
     }
 
     // Property tests draw random cases; CI runs the same ones every time (a new random

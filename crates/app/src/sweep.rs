@@ -77,7 +77,7 @@ pub struct SweepArgs {
     #[arg(long, default_value_t = 10, value_name = "N")]
     pub warmup: u32,
     /// CSV output; an existing file with the same columns is resumed (points already in it
-    /// are skipped) [default: out/sweep.csv, or out/<preset>.csv].
+    /// are skipped) [default: out/sweep.csv, or out/PRESET.csv].
     #[arg(long, value_name = "FILE.csv")]
     pub out: Option<PathBuf>,
     /// Chart output [default: the CSV path with .png].

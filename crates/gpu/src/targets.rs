@@ -1,6 +1,6 @@
 //! What every renderer draws into and how a frame is driven: the depth / HDR / display
 //! targets of one screen size, the [`Renderer`] trait both methods implement, and
-//! [`render_once`] for tests and single images. Depends on wgpu and the rest of this crate.
+//! [`Renderer::render_once`] for tests and single images. Depends on wgpu and the rest of this crate.
 
 use tiledlight_cull::{Camera, TileGrid};
 
