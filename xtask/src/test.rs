@@ -3,8 +3,8 @@
 //! 1. Picks the adapter GPU tests use (`WGPU_ADAPTER_NAME`, default `llvmpipe`, i.e.
 //!    lavapipe on Vulkan) and checks with wgpu that such an adapter exists. A missing
 //!    adapter fails the run: GPU tests are never skipped.
-//! 2. Runs `validate-shaders`, and `cargo doc --no-deps --workspace` with rustdoc
-//!    warnings denied.
+//! 2. Runs `validate-shaders`, `cargo doc --no-deps --workspace` with rustdoc warnings
+//!    denied, and the examples (`EXAMPLES`).
 //! 3. Runs every workspace test: `cargo nextest run` when installed (GPU tests one at a
 //!    time through the `gpu` test group of `.config/nextest.toml`) plus the doc tests,
 //!    else `cargo test` with the GPU test package run separately on one thread.
@@ -22,6 +22,9 @@ use crate::{cargo, describe, run_status, shaders};
 
 /// The package holding the GPU integration tests (directory `tests/`).
 const GPU_TEST_PACKAGE: &str = "tiledlight-tests";
+
+/// (package, example) of every example `cargo xtask test` runs.
+const EXAMPLES: [(&str, &str); 1] = [("tiledlight-cull", "cull_a_floor")];
 
 /// lavapipe's adapter name starts with this (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)").
 const DEFAULT_ADAPTER: &str = "llvmpipe";
@@ -94,6 +97,15 @@ pub fn test(root: &Path, extra: &[String]) -> Result<()> {
     cmd.args(["doc", "--no-deps", "--workspace"]).env("RUSTDOCFLAGS", "-D warnings");
     if !run_status(&mut cmd)? {
         failed.push("cargo doc");
+    }
+    // The examples a user would copy build and run (each asserts what it shows).
+    for (package, example) in EXAMPLES {
+        println!("xtask: running example {example} of {package}");
+        let mut cmd = cargo(root);
+        cmd.args(["run", "--quiet", "--package", package, "--example", example]);
+        if !run_status(&mut cmd)? {
+            failed.push("examples");
+        }
     }
 
     // Property tests draw random cases; CI runs the same ones every time (a new random
