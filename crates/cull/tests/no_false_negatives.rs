@@ -184,26 +184,6 @@ fn run_case(c: &Case) -> Result<(usize, usize), TestCaseError> {
     check(c, &b, &lists)
 }
 
-fn exp10(lo: f32, hi: f32) -> impl Strategy<Value = f32> {
-    (lo..hi).prop_map(|e| 10f32.powf(e))
-}
-
-fn cam_strategy() -> impl Strategy<Value = CamSpec> {
-    let kind = prop_oneof![Just(CamKind::Finite), Just(CamKind::Infinite), Just(CamKind::Ortho)];
-    let near = prop_oneof![4 => exp10(-4.0, 1.0), 1 => Just(0.0)];
-    let eye =
-        (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, exp10(-3.0, 3.0)).prop_map(|(x, y, z, s)| Vec3::new(x, y, z) * s);
-    let euler = (0.0f32..std::f32::consts::TAU, -1.5f32..1.5, 0.0f32..std::f32::consts::TAU)
-        .prop_map(|(a, b, c)| Vec3::new(a, b, c));
-    (kind, near, exp10(2.0, 7.0), 1.0f32..170.0, exp10(-1.0, 3.0), exp10(-1.0, 1.0), eye, euler).prop_map(
-        |(kind, near, far, fov_deg, half_height, aspect, eye, euler)| {
-            // Near 0 is only valid (and only interesting) for orthographic cameras.
-            let near = if near == 0.0 && kind != CamKind::Ortho { 1e-4 } else { near };
-            CamSpec { kind, near, far, fov_deg, half_height, aspect, eye, euler }
-        },
-    )
-}
-
 /// Cases with tile sizes from `tiles` and samples per pixel from `samples`.
 fn case_strategy(tiles: &'static [u32], samples: &'static [u32]) -> impl Strategy<Value = Case> {
     let screen = prop_oneof![
@@ -215,21 +195,32 @@ fn case_strategy(tiles: &'static [u32], samples: &'static [u32]) -> impl Strateg
     let tile = prop::sample::select(tiles);
     let samples = prop::sample::select(samples);
     let flags = (any::<bool>(), any::<bool>(), any::<bool>(), any::<bool>());
-    (cam_strategy(), screen, tile, samples, flags, 0usize..DEPTH_MODES.len(), 1usize..40, any::<u64>()).prop_map(
-        |(cam, (width, height), tile, samples, (aabb, half_z, spot_cone, coarse), mode, n_lights, seed)| {
-            let large = width * height > 100_000;
-            // 1 and 3 px tiles on 1921x1081 would mean up to 2M lists per case: use 13 there.
-            let tile_size = if large && tile < 8 { 13 } else { tile };
-            // The large screen is there for tile counts and partial edge tiles, which do not
-            // depend on the sample count (small screens cover partial tiles at every count);
-            // 8 samples of it would cost ~0.15 s a case, mostly zeroing 66 MB of depth.
-            let samples = if large { samples.min(2) } else { samples };
-            // Two-level culling needs tiles that divide its 64 px cells.
-            let coarse = coarse && COARSE_SIZE.is_multiple_of(tile_size);
-            let config = CullConfig { tile_size, samples, aabb, half_z, spot_cone, coarse, ..CullConfig::default() };
-            Case { cam, width, height, config, mode: DEPTH_MODES[mode], n_lights, seed }
-        },
+    (
+        common::cam_strategy(common::exp10(-1.0, 1.0)),
+        screen,
+        tile,
+        samples,
+        flags,
+        0usize..DEPTH_MODES.len(),
+        1usize..40,
+        any::<u64>(),
     )
+        .prop_map(
+            |(cam, (width, height), tile, samples, (aabb, half_z, spot_cone, coarse), mode, n_lights, seed)| {
+                let large = width * height > 100_000;
+                // 1 and 3 px tiles on 1921x1081 would mean up to 2M lists per case: use 13 there.
+                let tile_size = if large && tile < 8 { 13 } else { tile };
+                // The large screen is there for tile counts and partial edge tiles, which do not
+                // depend on the sample count (small screens cover partial tiles at every count);
+                // 8 samples of it would cost ~0.15 s a case, mostly zeroing 66 MB of depth.
+                let samples = if large { samples.min(2) } else { samples };
+                // Two-level culling needs tiles that divide its 64 px cells.
+                let coarse = coarse && COARSE_SIZE.is_multiple_of(tile_size);
+                let config =
+                    CullConfig { tile_size, samples, aabb, half_z, spot_cone, coarse, ..CullConfig::default() };
+                Case { cam, width, height, config, mode: DEPTH_MODES[mode], n_lights, seed }
+            },
+        )
 }
 
 /// Tile sizes the GPU kernel accepts.

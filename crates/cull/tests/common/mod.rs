@@ -6,6 +6,7 @@
 #![allow(dead_code)] // Each test binary uses a different part of this module.
 
 use glam::{DVec3, EulerRot, Mat4, Quat, Vec3};
+use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use tiledlight_cull::light::PackedLights;
@@ -516,4 +517,29 @@ pub fn spot_skip_justified(camera: &Camera, packed: &PackedLights, l: u32, p: Ve
             slack
         ))
     }
+}
+
+/// `10^e` for `e` uniform in [`lo`, `hi`): magnitudes spread over decades.
+pub fn exp10(lo: f32, hi: f32) -> impl Strategy<Value = f32> {
+    (lo..hi).prop_map(|e| 10f32.powf(e))
+}
+
+/// Cameras at DESIGN.md's extremes: perspective with finite or infinite far plane and
+/// orthographic (near down to 0), fov 1-170 degrees, near 1e-4..10, far 1e2..1e7, eyes up
+/// to 1 km from the origin in any orientation; `aspect` from the caller (the GPU property
+/// test sets it from the screen, so passes `Just(1.0)`, which draws nothing).
+pub fn cam_strategy(aspect: impl Strategy<Value = f32>) -> impl Strategy<Value = CamSpec> {
+    let kind = prop_oneof![Just(CamKind::Finite), Just(CamKind::Infinite), Just(CamKind::Ortho)];
+    let near = prop_oneof![4 => exp10(-4.0, 1.0), 1 => Just(0.0)];
+    let eye =
+        (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0, exp10(-3.0, 3.0)).prop_map(|(x, y, z, s)| Vec3::new(x, y, z) * s);
+    let euler = (0.0f32..std::f32::consts::TAU, -1.5f32..1.5, 0.0f32..std::f32::consts::TAU)
+        .prop_map(|(a, b, c)| Vec3::new(a, b, c));
+    (kind, near, exp10(2.0, 7.0), 1.0f32..170.0, exp10(-1.0, 3.0), aspect, eye, euler).prop_map(
+        |(kind, near, far, fov_deg, half_height, aspect, eye, euler)| {
+            // Near 0 is only valid (and only interesting) for orthographic cameras.
+            let near = if near == 0.0 && kind != CamKind::Ortho { 1e-4 } else { near };
+            CamSpec { kind, near, far, fov_deg, half_height, aspect, eye, euler }
+        },
+    )
 }
