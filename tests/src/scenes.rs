@@ -182,3 +182,17 @@ pub fn floor_scene(roughness: f32, metallic: f32, lights: Vec<Light>) -> Scene {
         bounds: Aabb::new(Vec3::new(-10.0, 0.0, -10.0), Vec3::new(10.0, 5.0, 10.0)),
     }
 }
+
+/// The camera of [`floor_scene`]'s tests: 3 m up, 6 m back, looking at the origin, 60 degrees.
+pub fn floor_camera(w: u32, h: u32) -> Camera {
+    Camera::perspective(
+        Vec3::new(0.0, 3.0, 6.0),
+        Vec3::ZERO,
+        Vec3::Y,
+        60f32.to_radians(),
+        w as f32 / h as f32,
+        0.1,
+        None,
+    )
+    .expect("camera")
+}

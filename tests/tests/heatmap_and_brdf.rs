@@ -5,7 +5,7 @@ use glam::{Vec3, Vec4};
 use tiledlight_cull::brdf::{brdf_cos, spot_falloff, windowed_attenuation, Surface};
 use tiledlight_cull::light::spot_scale_offset;
 use tiledlight_cull::reference::pixel_view_position;
-use tiledlight_cull::{cull_tiles, Camera, Light, LightKind};
+use tiledlight_cull::{cull_tiles, Light, LightKind};
 use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
@@ -149,16 +149,7 @@ fn heatmap_palette_is_the_documented_one() {
 fn gpu_brdf_matches_cpu_twin() {
     let ctx = gpu();
     let (w, h) = (96, 64);
-    let camera = Camera::perspective(
-        Vec3::new(0.0, 3.0, 6.0),
-        Vec3::new(0.0, 0.0, 0.0),
-        Vec3::Y,
-        60f32.to_radians(),
-        w as f32 / h as f32,
-        0.1,
-        None,
-    )
-    .unwrap();
+    let camera = tiledlight_tests::scenes::floor_camera(w, h);
     let ambient = Vec3::splat(0.02);
     let point = Light::point(Vec3::new(-1.0, 1.5, 0.5), Vec3::new(1.0, 0.8, 0.6), 4.0, 0.05).unwrap();
     let spot = Light::spot(

@@ -401,16 +401,7 @@ fn materials_match_cpu_ray_cast() {
 fn no_cutoff_matches_unwindowed_cpu_twin() {
     let ctx = gpu();
     let (w, h) = (96u32, 64u32);
-    let camera = Camera::perspective(
-        Vec3::new(0.0, 3.0, 6.0),
-        Vec3::ZERO,
-        Vec3::Y,
-        60f32.to_radians(),
-        w as f32 / h as f32,
-        0.1,
-        None,
-    )
-    .unwrap();
+    let camera = tiledlight_tests::scenes::floor_camera(w, h);
     let point = Light::point(Vec3::new(-1.0, 1.5, 0.5), Vec3::new(1.0, 0.8, 0.6), 4.0, 0.5).unwrap();
     let spot =
         Light::spot(Vec3::new(1.5, 2.0, 0.0), Vec3::new(-0.3, -1.0, 0.1), Vec3::new(0.4, 0.7, 1.0), 6.0, 0.3, 0.5, 0.5)
