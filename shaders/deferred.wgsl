@@ -1,8 +1,10 @@
 // Tiled Deferred: one compute dispatch culls and shades. Each workgroup culls its tile with
-// the same code as Forward+ (common/tile_cull.wgsl) into workgroup memory, then each thread
-// shades its pixels from the G-buffer with that list (its half with HALF_Z) and the shared
-// BRDF, writing linear HDR to a storage texture. Per-list counts are written for the heat
-// map and for tests. With EXTRA_RTS (EXTRA_RTS_2, EXTRA_RTS_3) the stress knob's extra
+// the same code as Forward+ (common/tile_cull.wgsl) into workgroup memory and writes its
+// lists to the light grid (common/light_grid_write.wgsl: heat map, statistics, tests, and
+// the lists longer than the workgroup list), then each thread shades its pixels from the
+// G-buffer with that list (its half with HALF_Z) and the shared BRDF, writing linear HDR to
+// a storage texture. A list that fits the workgroup list is read from workgroup memory, as
+// in AMD's sample; a longer one from the grid, so no tile has a ceiling on its lights. With EXTRA_RTS (EXTRA_RTS_2, EXTRA_RTS_3) the stress knob's extra
 // G-buffer targets (all white) are read and multiplied into the albedo.
 //
 // With MSAA the G-buffer is multisampled (SAMPLES per pixel). Each pixel first runs the edge
@@ -13,12 +15,9 @@
 // texture (SAMPLES_X x SAMPLES_Y texels a pixel) and its position to a global edge list,
 // which deferred_resolve.wgsl averages into the HDR image (an indirect dispatch sized here).
 //
-// DEBUG_LISTS is test-only (DeferredSettings::debug_lists, off by default: production never
-// compiles it): each tile's workgroup lists are also copied to `debug_lists`, laid out as the
-// culling pass's tile_indices (cull.wgsl), so tests can compare the lights each tile is
-// shaded with against the CPU culler, list for list.
-// variants: SPOT_LIGHTS HALF_Z AABB SPOT_CONE COARSE EXTRA_RTS EXTRA_RTS_2 EXTRA_RTS_3 MSAA DEBUG_LISTS
+// variants: SPOT_LIGHTS HALF_Z AABB SPOT_CONE COARSE EXTRA_RTS EXTRA_RTS_2 EXTRA_RTS_3 MSAA
 #include "common/tile_cull.wgsl"
+#include "common/light_grid_write.wgsl"
 #include "common/shade.wgsl"
 
 #ifdef MSAA
@@ -28,8 +27,6 @@ alias GTexture = texture_2d<f32>;
 #endif
 
 @group(1) @binding(1) var<storage, read> cull_lights: array<CullLight>;
-// Per list: the number of lights found (may exceed CAPACITY).
-@group(1) @binding(2) var<storage, read_write> tile_counts: array<u32>;
 @group(1) @binding(3) var gbuffer_albedo: GTexture;
 @group(1) @binding(4) var gbuffer_normal: GTexture;
 #ifdef EXTRA_RTS
@@ -54,10 +51,9 @@ alias GTexture = texture_2d<f32>;
 @group(1) @binding(8) var<storage, read> cell_lists: array<u32>;
 #endif
 @group(1) @binding(9) var output: texture_storage_2d<rgba16float, write>;
-#ifdef DEBUG_LISTS
-// Per list: CAPACITY slots, the first min(count, CAPACITY) holding the list's light indices.
-@group(1) @binding(15) var<storage, read_write> debug_lists: array<u32>;
-#endif
+// The light grid (crates/gpu/src/light_grid.rs).
+@group(2) @binding(0) var<storage, read_write> light_grid: LightGridRw;
+@group(2) @binding(1) var<storage, read_write> light_indices: array<u32>;
 
 #ifdef MSAA
 // Texels per pixel of `samples_out` across and down (SAMPLES_X * SAMPLES_Y = SAMPLES).
@@ -142,23 +138,54 @@ fn load_gsample(p: vec2<u32>, s: u32) -> GSample {
     return g;
 }
 
+// The lights a pixel of the tile is shaded with: workgroup list `k` (0 near, 1 far) when
+// the list fits it (`in_wg`), else the list's stored part in the light grid.
+struct TileList {
+    in_wg: bool,
+    k: u32,
+    grid: LightList,
+    count: u32,
+}
+
+fn tile_list(k: u32, grid: LightList) -> TileList {
+    let found = atomicLoad(&wg_count[k]);
+    if found <= CAPACITY {
+        return TileList(true, k, grid, found);
+    }
+    return TileList(false, k, grid, grid.count);
+}
+
 // Linear HDR of one G-buffer sample lit by the tile's list (its half with HALF_Z).
-fn shade(g: GSample, t: TileCull, counts: vec2<u32>) -> vec3<f32> {
+fn shade(g: GSample, t: TileCull, near: TileList, far: TileList) -> vec3<f32> {
     if g.sky {
         // Sky: black, as the forward pass's clear.
         return vec3<f32>(0.0);
     }
     let v = view_vector(g.world);
     var color = frame.ambient * g.surface.albedo;
+    var l = near;
 #ifdef HALF_Z
     if g.dist > half_z_split(t.near, t.far) {
-        for (var i = 0u; i < counts.y; i++) {
+        l = far;
+    }
+#endif
+    // The loops are written out per source so the common case reads workgroup memory
+    // exactly as before the grid existed.
+    if !l.in_wg {
+        for (var i = 0u; i < l.count; i++) {
+            color += shade_light(light_indices[l.grid.first + i], g.world, g.normal, v, g.surface);
+        }
+        return color;
+    }
+#ifdef HALF_Z
+    if l.k == 1u {
+        for (var i = 0u; i < l.count; i++) {
             color += shade_light(wg_list_far[i], g.world, g.normal, v, g.surface);
         }
         return color;
     }
 #endif
-    for (var i = 0u; i < counts.x; i++) {
+    for (var i = 0u; i < l.count; i++) {
         color += shade_light(wg_list[i], g.world, g.normal, v, g.surface);
     }
     return color;
@@ -225,27 +252,15 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid
 #endif
     // cull_tile's barriers also order the reset above before any use.
     let t = cull_tile(wid.xy, lid.xy, lidx);
-    let found = vec2<u32>(atomicLoad(&wg_count[0]), atomicLoad(&wg_count[1]));
-    if lidx == 0u {
-        tile_counts[t.index * frame.lists_per_tile] = found.x;
 #ifdef HALF_Z
-        tile_counts[t.index * 2u + 1u] = found.y;
+    let near = tile_list(0u, write_list(t, 0u, t.index * 2u, lidx));
+    let far = tile_list(1u, write_list(t, 1u, t.index * 2u + 1u, lidx));
+#else
+    let near = tile_list(0u, write_list(t, 0u, t.index, lidx));
+    let far = near;
 #endif
-    }
-    let counts = min(found, vec2<u32>(CAPACITY));
-#ifdef DEBUG_LISTS
-    {
-        let list0 = t.index * frame.lists_per_tile * CAPACITY;
-        for (var i = lidx; i < counts.x; i += WG * WG) {
-            debug_lists[list0 + i] = wg_list[i];
-        }
-#ifdef HALF_Z
-        for (var i = lidx; i < counts.y; i += WG * WG) {
-            debug_lists[list0 + CAPACITY + i] = wg_list_far[i];
-        }
-#endif
-    }
-#endif
+    // Lists longer than the workgroup list were written to the grid by every thread.
+    storageBarrier();
     let origin = wid.xy * TILE_SIZE;
     let steps = TILE_SIZE / WG;
     for (var j = 0u; j < steps; j++) {
@@ -256,12 +271,12 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid
 #ifdef MSAA
                 if is_edge(p, g0) {
                     wg_edges[atomicAdd(&wg_edge_count, 1u)] = p.x | (p.y << 16u);
-                    textureStore(samples_out, sample_texel(p, 0u), vec4<f32>(shade(g0, t, counts), 1.0));
+                    textureStore(samples_out, sample_texel(p, 0u), vec4<f32>(shade(g0, t, near, far), 1.0));
                     continue;
                 }
-                textureStore(output, p, vec4<f32>(shade(at_pixel_centre(p, g0), t, counts), 1.0));
+                textureStore(output, p, vec4<f32>(shade(at_pixel_centre(p, g0), t, near, far), 1.0));
 #else
-                textureStore(output, p, vec4<f32>(shade(g0, t, counts), 1.0));
+                textureStore(output, p, vec4<f32>(shade(g0, t, near, far), 1.0));
 #endif
             }
         }
@@ -289,7 +304,7 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid
         let packed = wg_edges[k / per_pixel];
         let p = vec2<u32>(packed & 0xffffu, packed >> 16u);
         let s = 1u + k % per_pixel;
-        textureStore(samples_out, sample_texel(p, s), vec4<f32>(shade(load_gsample(p, s), t, counts), 1.0));
+        textureStore(samples_out, sample_texel(p, s), vec4<f32>(shade(load_gsample(p, s), t, near, far), 1.0));
     }
 #endif
 }

@@ -1,4 +1,4 @@
-// Forward shading: each fragment loops over its tile's light list (Forward+), or over every
+// Forward shading: each fragment loops over its light-grid list (Forward+), or over every
 // light (BRUTE_FORCE, the reference renderer), with the shared BRDF, into linear HDR.
 // The depth test is Equal against the pre-pass, so each pixel is shaded once.
 // Alpha-masked draws (ALPHA_MASK) discard as the pre-pass did: depth Equal alone would let a
@@ -12,11 +12,13 @@
 @group(3) @binding(1) var<storage, read> spot_lights: array<SpotLight>;
 #endif
 #ifndef BRUTE_FORCE
-@group(3) @binding(2) var<storage, read> tile_counts: array<u32>;
-@group(3) @binding(3) var<storage, read> tile_indices: array<u32>;
+// The light grid the culling pass wrote (common/light_grid.wgsl).
+@group(3) @binding(2) var<storage, read> light_grid: LightGrid;
+@group(3) @binding(3) var<storage, read> light_indices: array<u32>;
 #ifdef HALF_Z
 @group(3) @binding(4) var<storage, read> tile_ranges: array<vec2<f32>>;
 #endif
+#include "common/light_grid_pixel.wgsl"
 #endif
 
 @vertex
@@ -41,18 +43,9 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
         color += shade_light(i, in.world_pos, n, v, s);
     }
 #else
-    let tile = vec2<u32>(in.clip.xy) / frame.tile_size;
-    let tile_index = tile.y * frame.tiles.x + tile.x;
-    var list = tile_index;
-#ifdef HALF_Z
-    let range = tile_ranges[tile_index];
-    let dist = view_distance(in.clip.z);
-    list = tile_index * 2u + select(0u, 1u, dist > 0.5 * (range.x + range.y));
-#endif
-    let count = min(tile_counts[list], frame.capacity);
-    let first = list * frame.capacity;
-    for (var i = 0u; i < count; i++) {
-        color += shade_light(tile_indices[first + i], in.world_pos, n, v, s);
+    let list = pixel_list(vec2<u32>(in.clip.xy), view_distance(in.clip.z));
+    for (var i = 0u; i < list.count; i++) {
+        color += shade_light(light_indices[list.first + i], in.world_pos, n, v, s);
     }
 #endif
     return vec4<f32>(color, 1.0);

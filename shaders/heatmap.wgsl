@@ -1,9 +1,11 @@
 // Heat map of lights per tile over the tonemapped image: a log-scale palette from 1 light
-// (blue) to the list capacity (red); tiles whose count exceeds the capacity are magenta;
-// tiles with no light keep the image. With half-z the two lists' counts are summed.
+// (blue) to the workgroup list capacity (red, also for longer lists); tiles that lost lights
+// because the light grid was full are magenta; tiles with no light keep the image. With
+// half-z the two lists' counts are summed. Reads the light grid's lists (true counts).
 #include "common/frame.wgsl"
 
-@group(1) @binding(0) var<storage, read> tile_counts: array<u32>;
+@group(1) @binding(0) var<storage, read> light_grid: LightGrid;
+#include "common/light_grid.wgsl"
 
 @vertex
 fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
@@ -27,9 +29,10 @@ fn fs_heatmap(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
     var count = 0u;
     var overflow = false;
     for (var k = 0u; k < frame.lists_per_tile; k++) {
-        let c = tile_counts[t * frame.lists_per_tile + k];
+        let l = t * frame.lists_per_tile + k;
+        let c = light_grid.lists[l].y;
         count += c;
-        overflow = overflow || c > frame.capacity;
+        overflow = overflow || light_list(light_grid.lists[l], light_grid.header.capacity).count < c;
     }
     if count == 0u {
         return vec4<f32>(0.0);

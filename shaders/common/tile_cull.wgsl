@@ -80,17 +80,58 @@ fn extra_tests(v: TileVolume, light: u32, c: vec3<f32>, r: f32) -> bool {
     return true;
 }
 
-// What cull_tile found out about its tile.
+// What cull_tile found out about its tile: its volumes and candidates, so the light loop
+// can be run again (write_list in common/light_grid_write.wgsl re-tests a list longer than
+// the workgroup list, writing straight to the light grid).
 struct TileCull {
     index: u32,
     // View distances of the nearest and farthest surface (0, 0 for an all-sky tile).
     near: f32,
     far: f32,
+    // The near (or only) list's volume, and the far list's with HALF_Z.
+    v0: TileVolume,
+    v1: TileVolume,
+    // Lights to test: every light, or (COARSE, cell not overflowed) the cell's list from
+    // cell_lists[cell_first].
+    candidates: u32,
+    from_cell: bool,
+    cell_first: u32,
 }
 
 // The distance where half-z splits a tile's range (tiledlight_cull::reference::half_z_split).
 fn half_z_split(near: f32, far: f32) -> f32 {
     return 0.5 * (near + far);
+}
+
+// Light index of candidate `k` of the tile.
+fn tile_candidate(t: TileCull, k: u32) -> u32 {
+#ifdef COARSE
+    if t.from_cell {
+        return cell_lists[t.cell_first + k];
+    }
+#endif
+    return k;
+}
+
+// Whether `light` belongs to the tile's near (x) and far (y, HALF_Z only) list.
+fn tile_hits(t: TileCull, light: u32) -> vec2<bool> {
+    let cl = cull_lights[light];
+    let c = (frame.view * vec4<f32>(cl.center, 1.0)).xyz;
+    let r = cl.radius;
+    if r <= 0.0 {
+        return vec2<bool>(false);
+    }
+#ifdef DROP_LIGHT
+    if t.index == DROP_TILE && light == DROP_INDEX {
+        return vec2<bool>(false);
+    }
+#endif
+    var hit = vec2<bool>(false);
+    hit.x = sphere_vs_frustum(t.v0, c, r) && extra_tests(t.v0, light, c, r);
+#ifdef HALF_Z
+    hit.y = sphere_vs_frustum(t.v1, c, r) && extra_tests(t.v1, light, c, r);
+#endif
+    return hit;
 }
 
 // Culls the workgroup's tile into wg_list (and wg_list_far with HALF_Z); wg_count holds the
@@ -103,62 +144,48 @@ fn cull_tile(tile: vec2<u32>, lid: vec2<u32>, lidx: u32) -> TileCull {
     let origin = tile * TILE_SIZE;
     let range = region_depth_range(origin, TILE_SIZE, WG, lid, lidx);
 
-    var result = TileCull(tile.y * frame.tiles.x + tile.x, 0.0, 0.0);
+    var t: TileCull;
+    t.index = tile.y * frame.tiles.x + tile.x;
     let min_depth = range.x;
     let max_depth = range.y;
     if max_depth > 0.0 {
         // Reversed-Z: the largest depth is the nearest surface.
         let near = view_distance(max_depth);
         let far = view_distance(min_depth);
-        result.near = near;
-        result.far = far;
+        t.near = near;
+        t.far = far;
         let ndc = tile_ndc(tile, TILE_SIZE);
 #ifdef HALF_Z
         let mid = half_z_split(near, far);
-        let v0 = tile_volume(ndc, near, mid);
-        let v1 = tile_volume(ndc, mid, far);
+        t.v0 = tile_volume(ndc, near, mid);
+        t.v1 = tile_volume(ndc, mid, far);
 #else
-        let v0 = tile_volume(ndc, near, far);
+        t.v0 = tile_volume(ndc, near, far);
 #endif
-        var candidates = frame.num_lights;
+        t.candidates = frame.num_lights;
 #ifdef COARSE
         let cells = (frame.screen + CELL - 1u) / CELL;
         let cell_index = (origin.y / CELL) * cells.x + origin.x / CELL;
-        let cell_first = cells.x * cells.y + cell_index * COARSE_CAPACITY;
+        t.cell_first = cells.x * cells.y + cell_index * COARSE_CAPACITY;
         let cell_count = cell_lists[cell_index];
-        let from_cell = cell_count <= COARSE_CAPACITY;
-        if from_cell {
-            candidates = cell_count;
+        t.from_cell = cell_count <= COARSE_CAPACITY;
+        if t.from_cell {
+            t.candidates = cell_count;
         }
 #endif
-        for (var k = lidx; k < candidates; k += WG * WG) {
-            var light = k;
-#ifdef COARSE
-            if from_cell {
-                light = cell_lists[cell_first + k];
-            }
-#endif
-            let cl = cull_lights[light];
-            let c = (frame.view * vec4<f32>(cl.center, 1.0)).xyz;
-            let r = cl.radius;
-            if r <= 0.0 {
-                continue;
-            }
-#ifdef DROP_LIGHT
-            if result.index == DROP_TILE && light == DROP_INDEX {
-                continue;
-            }
-#endif
-            if sphere_vs_frustum(v0, c, r) && extra_tests(v0, light, c, r) {
+        for (var k = lidx; k < t.candidates; k += WG * WG) {
+            let light = tile_candidate(t, k);
+            let hit = tile_hits(t, light);
+            if hit.x {
                 append(0u, light);
             }
 #ifdef HALF_Z
-            if sphere_vs_frustum(v1, c, r) && extra_tests(v1, light, c, r) {
+            if hit.y {
                 append(1u, light);
             }
 #endif
         }
     }
     workgroupBarrier();
-    return result;
+    return t;
 }

@@ -2,7 +2,8 @@
 //!
 //! Cameras (reversed-Z perspective with finite or infinite far, orthographic), lights
 //! and their GPU packing, tile frusta, the bounding tests, windowed attenuation and the
-//! shared BRDF, and the CPU reference culler that every GPU kernel is compared with.
+//! shared BRDF, the CPU reference culler that every GPU kernel is compared with, and the
+//! light grid's packing ([`grid`]).
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
 
 pub mod error;
@@ -14,6 +15,7 @@ pub use light::{Light, LightKind};
 pub mod bounds;
 pub mod brdf;
 pub mod camera;
+pub mod grid;
 pub mod reference;
 pub mod tiles;
 

@@ -9,6 +9,7 @@ use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
 use tiledlight_gpu::frame::{FrameBinding, FrameParams, FrameUniforms};
 use tiledlight_gpu::light_cull::{CullOptions, DropLight, GpuTileLists};
+use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::scene_gpu::SceneGpu;
@@ -47,11 +48,6 @@ pub struct DeferredSettings {
     /// shading pass reads and multiplies each of them. `false` by default; production never
     /// sets it.
     pub test_gbuffer_values: bool,
-    /// Test-only, off by default: keep a copy of every tile's light lists (the
-    /// `DEBUG_LISTS` shader variant and one more buffer) for [`DeferredRenderer::read_lists`],
-    /// so tests can compare the lights each tile was shaded with against the CPU culler.
-    /// Production settings never turn it on, so that variant is never compiled there.
-    pub debug_lists: bool,
 }
 
 impl Default for DeferredSettings {
@@ -66,7 +62,6 @@ impl Default for DeferredSettings {
             edge: EdgeTest::default(),
             test_drop_light: None,
             test_gbuffer_values: false,
-            debug_lists: false,
         }
     }
 }
@@ -146,14 +141,13 @@ impl DeferredRenderer {
                 settings.cull,
                 settings.edge,
                 settings.test_drop_light,
-                settings.debug_lists,
                 &mut memory,
             )?;
             let tonemap = TonemapPass::new(device, &frame)?;
             let tonemap_input = tonemap.bind(device, &targets.hdr_view);
             let heatmap = if settings.heatmap {
                 let h = HeatmapPass::new(device, &frame)?;
-                let g = h.bind(device, &shading.tile_counts);
+                let g = h.bind(device, &shading.light_grid.grid);
                 Some((h, g))
             } else {
                 None
@@ -169,7 +163,7 @@ impl DeferredRenderer {
                 tonemap_input,
                 heatmap,
                 targets,
-                frame_params: FrameParams::new(grid, &settings.cull, lights, settings.exposure, settings.ambient),
+                frame_params: settings.cull.frame_params(grid, lights, settings.exposure, settings.ambient),
                 memory,
             })
         })?
@@ -196,7 +190,6 @@ impl DeferredRenderer {
     }
 
     /// The per-tile light lists the last frame was shaded with (tests; stalls the GPU).
-    /// Needs `debug_lists` in the settings; an error says so otherwise.
     pub fn read_lists(&self, ctx: &GpuContext) -> Result<GpuTileLists, GpuError> {
         self.shading.read_lists(&ctx.device, &ctx.queue)
     }
@@ -228,8 +221,15 @@ impl Renderer for DeferredRenderer {
     fn memory(&self) -> &MemoryReport {
         &self.memory
     }
-    fn tile_counts(&self) -> Option<&wgpu::Buffer> {
-        Some(&self.shading.tile_counts)
+    fn light_grid(&self) -> Option<&LightGrid> {
+        Some(&self.shading.light_grid)
+    }
+    fn grow_light_grid(&mut self, ctx: &GpuContext, capacity: u32) {
+        let grid = &mut self.shading.light_grid;
+        grid.grow(&ctx.device, &ctx.queue, capacity);
+        for (category, bytes) in grid.memory().entries {
+            self.memory.set(&category, bytes);
+        }
     }
     fn edge_pixels(&self, ctx: &GpuContext) -> Result<Option<u32>, GpuError> {
         self.shading.read_edge_pixels(&ctx.device, &ctx.queue)

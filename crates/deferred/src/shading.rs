@@ -1,8 +1,7 @@
 //! Tiled Deferred's one compute pass (`shaders/deferred.wgsl`): per tile, the same culling
 //! as Forward+ (`shaders/common/tile_cull.wgsl`, after the shared 64x64-cell pass when
 //! two-level culling is on) into workgroup memory, then every pixel of the tile shaded from
-//! the G-buffer with that list, into the HDR storage texture. Per-list counts are written
-//! for the heat map and tests.
+//! the G-buffer with that list, into the HDR storage texture.
 //!
 //! With MSAA it also runs the edge test ([`EdgeTest`]): edge pixels are queued in workgroup
 //! memory and their other samples shaded by all of the tile's threads into an oversized
@@ -10,17 +9,15 @@
 //! (`shaders/deferred_resolve.wgsl`) sized by the shading pass. None of those resources exist
 //! without MSAA. Bind group 1 holds everything; it is built once per screen.
 //!
-//! Test-only: with `debug_lists` (`DeferredSettings::debug_lists`, off by default) the
-//! `DEBUG_LISTS` variant also copies each tile's workgroup lists to a storage buffer laid
-//! out like the Forward+ culling pass's indices, so tests compare the lights this pass
-//! shades with, not just their counts ([`DeferredShading::read_lists`]). Production
-//! renderers never compile that variant nor allocate the buffer.
+//! Every tile writes its lists to the light grid ([`LightGrid`], group 2): the heat map,
+//! statistics and tests read them there, and a list longer than the workgroup list is
+//! culled a second time into the grid and shaded from it, so no tile has a light ceiling.
 //! Depends on tiledlight-gpu and [`crate::gbuffer`].
 
-use tiledlight_cull::reference::{COARSE_SIZE, MAX_CAPACITY};
 use tiledlight_cull::TileGrid;
 use tiledlight_gpu::frame::FrameBinding;
-use tiledlight_gpu::light_cull::{depth_entry, read_tile_lists, CoarseCulling, CullOptions, DropLight, GpuTileLists};
+use tiledlight_gpu::light_cull::{depth_entry, CoarseCulling, CullOptions, DropLight, CULL_WORKGROUP_BYTES};
+use tiledlight_gpu::light_grid::{GpuTileLists, LightGrid};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::readback::read_buffer;
@@ -75,10 +72,11 @@ pub fn sample_grid(samples: u32) -> (u32, u32) {
     (x, samples / x)
 }
 
-/// Workgroup memory the pass needs besides the light lists (bytes): the depth range, the
-/// list counts and, with MSAA, the edge queue of `tile_size`^2 pixels.
+/// Workgroup memory the pass needs besides the light lists (bytes): the culling kernel's
+/// (depth range, list counts, grid writer) and, with MSAA, the edge queue of
+/// `tile_size`^2 pixels.
 pub fn workgroup_bytes_besides_lists(tile_size: u32, samples: u32) -> u32 {
-    16 + if samples > 1 { 8 + 4 * tile_size * tile_size } else { 0 }
+    CULL_WORKGROUP_BYTES + if samples > 1 { 8 + 4 * tile_size * tile_size } else { 0 }
 }
 
 /// MSAA-only resources: sample texture, edge list and the resolve.
@@ -98,12 +96,8 @@ pub struct DeferredShading {
     coarse: Option<CoarseCulling>,
     msaa: Option<Msaa>,
     grid: TileGrid,
-    options: CullOptions,
-    /// Per-list light counts of the last frame.
-    pub tile_counts: wgpu::Buffer,
-    /// Test-only (`debug_lists`): per list, `capacity` slots holding the indices the pass
-    /// shaded with, as the culling pass's `tile_indices`.
-    debug_indices: Option<wgpu::Buffer>,
+    /// The lists every tile was shaded with.
+    pub light_grid: LightGrid,
 }
 
 fn gbuffer_entry(binding: u32, samples: u32) -> wgpu::BindGroupLayoutEntry {
@@ -142,8 +136,7 @@ const EXTRA_BINDINGS: [(u32, &str); 3] = [(5, "EXTRA_RTS"), (10, "EXTRA_RTS_2"),
 impl DeferredShading {
     /// Builds the pipeline and bindings for `grid`, reading `depth` and `gbuffer` (both of
     /// `gbuffer.samples()` samples), writing `hdr`. `drop` is the test-only hook that
-    /// leaves one light out of one tile's list (`None` in production); `debug_lists` (tests
-    /// only) adds the `DEBUG_LISTS` variant and its list buffer, read by [`Self::read_lists`].
+    /// leaves one light out of one tile's list (`None` in production).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         device: &wgpu::Device,
@@ -156,18 +149,8 @@ impl DeferredShading {
         options: CullOptions,
         edge: EdgeTest,
         drop: Option<DropLight>,
-        debug_lists: bool,
         memory: &mut MemoryReport,
     ) -> Result<Self, GpuError> {
-        if ![8, 16, 32].contains(&options.tile_size) || grid.tile_size != options.tile_size {
-            return Err(GpuError::Config(format!("tile size {} must be 8, 16 or 32", options.tile_size)));
-        }
-        if options.capacity == 0 || options.capacity > MAX_CAPACITY {
-            return Err(GpuError::Config(format!(
-                "per-tile capacity {} must be in 1..={MAX_CAPACITY}",
-                options.capacity
-            )));
-        }
         let samples = gbuffer.samples();
         if options.samples != samples {
             return Err(GpuError::Config(format!(
@@ -176,38 +159,34 @@ impl DeferredShading {
             )));
         }
         edge.validate()?;
-        let limit = device.limits().max_compute_workgroup_storage_size;
-        let wg_bytes =
-            options.capacity * 4 * options.lists_per_tile() + workgroup_bytes_besides_lists(options.tile_size, samples);
-        if wg_bytes > limit {
-            return Err(GpuError::Config(format!(
-                "capacity {} needs {wg_bytes} bytes of workgroup memory{}; this device allows {limit}",
-                options.capacity,
-                if samples > 1 { " with the MSAA edge queue" } else { "" }
-            )));
+        options.validate(&grid, workgroup_bytes_besides_lists(options.tile_size, samples), &device.limits())?;
+        if let Some(d) = &drop {
+            d.check(&grid, lights.len())?;
         }
+        // No tile ranges: the pass picks a pixel's half-z list from its own tile's range.
+        let light_grid = LightGrid::new(
+            device,
+            "deferred.light_grid",
+            grid,
+            options.lists_per_tile(),
+            false,
+            lights.len(),
+            options.grid_pairs,
+        )?;
+        memory.extend(&light_grid.memory());
         let cs = wgpu::ShaderStages::COMPUTE;
-        let mut defines = Vec::new();
+        let mut defines = options.cull_defines(lights.has_spots(), drop);
         let mut entries = vec![
             depth_entry(0, samples),
             storage_entry(1, cs, true),
-            storage_entry(2, cs, false),
             gbuffer_entry(3, samples),
             gbuffer_entry(4, samples),
             storage_entry(6, cs, true),
             hdr_storage_entry(9),
         ];
-        let tile_counts = buffer_zeroed(
-            device,
-            "deferred.tile_counts",
-            grid.tile_count() as u64 * options.lists_per_tile() as u64 * 4,
-            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        );
-        memory.add("deferred.tile_counts", tile_counts.size());
         let mut bind = vec![
             view_entry(0, depth),
             wgpu::BindGroupEntry { binding: 1, resource: lights.cull.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 2, resource: tile_counts.as_entire_binding() },
             view_entry(3, gbuffer.albedo_view()),
             view_entry(4, gbuffer.normal_view()),
             wgpu::BindGroupEntry { binding: 6, resource: lights.shading.as_entire_binding() },
@@ -220,23 +199,10 @@ impl DeferredShading {
         }
         if let Some(spots) = &lights.spots {
             defines.push("SPOT_LIGHTS");
-            if options.spot_cone {
-                defines.push("SPOT_CONE");
-            }
             entries.push(storage_entry(7, cs, true));
             bind.push(wgpu::BindGroupEntry { binding: 7, resource: spots.as_entire_binding() });
         }
-        if options.aabb {
-            defines.push("AABB");
-        }
-        if options.half_z {
-            defines.push("HALF_Z");
-        }
         let coarse = if options.coarse {
-            if !COARSE_SIZE.is_multiple_of(options.tile_size) {
-                return Err(GpuError::Config(format!("two-level culling needs a tile size dividing {COARSE_SIZE}")));
-            }
-            defines.push("COARSE");
             entries.push(storage_entry(8, cs, true));
             Some(CoarseCulling::new(device, frame, depth, lights, &grid, &options, memory)?)
         } else {
@@ -245,8 +211,6 @@ impl DeferredShading {
         if let Some(c) = &coarse {
             bind.push(wgpu::BindGroupEntry { binding: 8, resource: c.lists.as_entire_binding() });
         }
-        let (msaa_define, samples_constant) = options.depth_variant();
-        defines.extend(msaa_define);
         let (sx, sy) = sample_grid(samples);
         let msaa_buffers = (samples > 1).then(|| {
             let (w, h) = (grid.width, grid.height);
@@ -283,32 +247,6 @@ impl DeferredShading {
             });
             (tex, view, edge_list, edge_args)
         });
-        let debug_indices = if debug_lists {
-            let lists = grid.tile_count() as u64 * options.lists_per_tile() as u64;
-            let bytes = lists * options.capacity as u64 * 4;
-            let max = device.limits().max_storage_buffer_binding_size;
-            if bytes > max {
-                return Err(GpuError::Config(format!(
-                    "debug lists need {bytes} bytes ({lists} lists x {} indices); this device binds at most {max}",
-                    options.capacity
-                )));
-            }
-            let b = buffer_zeroed(
-                device,
-                "deferred.debug_lists",
-                bytes,
-                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            );
-            memory.add("deferred.debug_lists", b.size());
-            defines.push("DEBUG_LISTS");
-            entries.push(storage_entry(15, cs, false));
-            Some(b)
-        } else {
-            None
-        };
-        if let Some(b) = &debug_indices {
-            bind.push(wgpu::BindGroupEntry { binding: 15, resource: b.as_entire_binding() });
-        }
         if let Some((_, view, edge_list, edge_args)) = &msaa_buffers {
             entries.push(hdr_storage_entry(12));
             entries.push(storage_entry(13, cs, false));
@@ -326,29 +264,21 @@ impl DeferredShading {
             layout: &layout,
             entries: &bind,
         });
-        if let Some(d) = &drop {
-            d.check(&grid, lights.len())?;
-        }
-        let (drop_define, drop_constants) = DropLight::variant(drop);
-        defines.extend(drop_define);
         let module = shader_module(device, "deferred.wgsl", &defines)?;
-        let mut constants = vec![
-            ("TILE_SIZE", options.tile_size as f64),
-            ("WG", options.tile_size.min(16) as f64),
-            ("CAPACITY", options.capacity as f64),
-        ];
-        if let Some(c) = &coarse {
-            constants.extend(c.constants());
-        }
-        constants.extend(samples_constant);
+        let mut constants = options.cull_constants(coarse.as_ref(), drop);
         if samples > 1 {
             constants.push(("SAMPLES_X", sx as f64));
             constants.push(("EDGE_DISTANCE", edge.distance as f64));
             constants.push(("EDGE_COS", (edge.normal_deg as f64).to_radians().cos()));
             constants.push(("TILE_PIXELS", (options.tile_size * options.tile_size) as f64));
         }
-        constants.extend(drop_constants);
-        let pipeline = compute_pipeline(device, "deferred.shade", &[&frame.layout, &layout], &module, &constants);
+        let pipeline = compute_pipeline(
+            device,
+            "deferred.shade",
+            &[&frame.layout, &layout, light_grid.layout()],
+            &module,
+            &constants,
+        );
         let msaa = match msaa_buffers {
             Some((samples_texture, view, edge_list, edge_args)) => {
                 let (resolve, resolve_group) = resolve_pipeline(device, samples, &view, &edge_list, &edge_args, hdr)?;
@@ -356,12 +286,13 @@ impl DeferredShading {
             }
             None => None,
         };
-        Ok(Self { pipeline, bind_group, coarse, msaa, grid, options, tile_counts, debug_indices })
+        Ok(Self { pipeline, bind_group, coarse, msaa, grid, light_grid })
     }
 
     /// Records the cell pass (two-level culling), the cull-and-shade dispatch and, with
     /// MSAA, the resolve of the edge pixels.
     pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, frame: &FrameBinding) {
+        self.light_grid.record_clear(encoder);
         if let Some(c) = &self.coarse {
             let t = timer.begin("deferred.cull_cells", encoder);
             {
@@ -386,9 +317,11 @@ impl DeferredShading {
             pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, &frame.bind_group, &[]);
             pass.set_bind_group(1, &self.bind_group, &[]);
+            pass.set_bind_group(2, self.light_grid.bind_group(), &[]);
             pass.dispatch_workgroups(self.grid.tiles_x, self.grid.tiles_y, 1);
         }
         timer.end(encoder, t);
+        self.light_grid.record_readback(encoder);
         if let Some(m) = &self.msaa {
             let t = timer.begin("deferred.resolve", encoder);
             {
@@ -404,16 +337,9 @@ impl DeferredShading {
         }
     }
 
-    /// The light lists the last frame was shaded with (stalls the GPU), in the culling
-    /// pass's layout and type; `overflowing` and `pairs` are derived from the counts. Only
-    /// when built with `debug_lists`: an error names the setting otherwise.
+    /// The light lists the last frame was shaded with (stalls the GPU).
     pub fn read_lists(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<GpuTileLists, GpuError> {
-        let Some(indices) = &self.debug_indices else {
-            return Err(GpuError::Config(
-                "the deferred pass keeps its light lists only with DeferredSettings::debug_lists".into(),
-            ));
-        };
-        read_tile_lists(device, queue, &self.tile_counts, indices, &self.grid, &self.options)
+        self.light_grid.read_lists(device, queue)
     }
 
     /// Edge pixels of the last frame (MSAA only; stalls the GPU).

@@ -9,6 +9,7 @@ use glam::Vec3;
 use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::depth_prepass::{DepthPrepass, DEPTH_FORMAT};
 use tiledlight_gpu::frame::{FrameBinding, FrameParams, FrameUniforms};
+use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::light_cull::{CullOptions, DropLight, LightCulling};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
@@ -158,7 +159,7 @@ impl ForwardRenderer {
             let heatmap = match (&culling, settings.heatmap) {
                 (Some(c), true) => {
                     let h = HeatmapPass::new(device, &frame)?;
-                    let g = h.bind(device, &c.tile_counts);
+                    let g = h.bind(device, &c.grid.grid);
                     Some((h, g))
                 }
                 (None, true) => {
@@ -188,7 +189,7 @@ impl ForwardRenderer {
                 heatmap,
                 targets,
                 hdr_msaa,
-                frame_params: FrameParams::new(grid, &settings.cull, lights, settings.exposure, settings.ambient),
+                frame_params: settings.cull.frame_params(grid, lights, settings.exposure, settings.ambient),
                 memory,
             })
         })?
@@ -243,7 +244,16 @@ impl Renderer for ForwardRenderer {
     fn memory(&self) -> &MemoryReport {
         &self.memory
     }
-    fn tile_counts(&self) -> Option<&wgpu::Buffer> {
-        self.culling.as_ref().map(|c| &c.tile_counts)
+    fn light_grid(&self) -> Option<&LightGrid> {
+        self.culling.as_ref().map(|c| &c.grid)
+    }
+    fn grow_light_grid(&mut self, ctx: &GpuContext, capacity: u32) {
+        if let Some(c) = &mut self.culling {
+            c.grid.grow(&ctx.device, &ctx.queue, capacity);
+            self.shading.rebind(&ctx.device, &c.grid);
+            for (category, bytes) in c.grid.memory().entries {
+                self.memory.set(&category, bytes);
+            }
+        }
     }
 }

@@ -9,6 +9,7 @@
 use tiledlight_gpu::depth_prepass::{scene_pipeline, SceneDraw};
 use tiledlight_gpu::frame::FrameBinding;
 use tiledlight_gpu::light_cull::LightCulling;
+use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, VERTEX_LAYOUTS};
 use tiledlight_gpu::timer::GpuTimer;
@@ -34,6 +35,9 @@ pub enum LightLoop {
 /// The shading pass's pipelines and light bind group.
 pub struct ShadingPass {
     pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
+    lights_layout: wgpu::BindGroupLayout,
+    /// Light buffers: shading, spots (when the scene has spot lights).
+    lights: (wgpu::Buffer, Option<wgpu::Buffer>),
     lights_group: wgpu::BindGroup,
     /// Stands in for group 2 when the scene has no textures.
     empty_group: Option<wgpu::BindGroup>,
@@ -55,11 +59,9 @@ impl ShadingPass {
         let fs = wgpu::ShaderStages::FRAGMENT;
         let mut defines: Vec<&str> = Vec::new();
         let mut entries = vec![storage_entry(0, fs, true)];
-        let mut bind = vec![wgpu::BindGroupEntry { binding: 0, resource: lights.shading.as_entire_binding() }];
-        if let Some(spots) = &lights.spots {
+        if lights.spots.is_some() {
             defines.push("SPOT_LIGHTS");
             entries.push(storage_entry(1, fs, true));
-            bind.push(wgpu::BindGroupEntry { binding: 1, resource: spots.as_entire_binding() });
         }
         if scene.textures.is_some() {
             defines.push("TEXTURES");
@@ -72,12 +74,9 @@ impl ShadingPass {
                 }
                 entries.push(storage_entry(2, fs, true));
                 entries.push(storage_entry(3, fs, true));
-                bind.push(wgpu::BindGroupEntry { binding: 2, resource: c.tile_counts.as_entire_binding() });
-                bind.push(wgpu::BindGroupEntry { binding: 3, resource: c.tile_indices.as_entire_binding() });
-                if let Some(r) = &c.tile_ranges {
+                if half_z {
                     defines.push("HALF_Z");
                     entries.push(storage_entry(4, fs, true));
-                    bind.push(wgpu::BindGroupEntry { binding: 4, resource: r.as_entire_binding() });
                 }
                 "forward.shade"
             }
@@ -89,21 +88,18 @@ impl ShadingPass {
                 "brute_force.shade"
             }
         };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        let lights_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shade.lights_layout"),
             entries: &entries,
         });
-        let lights_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("shade.lights"),
-            layout: &layout,
-            entries: &bind,
-        });
+        let lights = (lights.shading.clone(), lights.spots.clone());
+        let lights_group = lights_group(device, &lights_layout, &lights, culling.map(|c| &c.grid));
         let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shade.empty_layout"),
             entries: &[],
         });
         let tex_layout = scene.textures.as_ref().map_or(&empty, |t| &t.layout);
-        let pl = pipeline_layout(device, "shade.pipeline_layout", &[&frame.layout, &scene.layout, tex_layout, &layout]);
+        let pl = pipeline_layout(device, "shade.pipeline_layout", &[&frame.layout, &scene.layout, tex_layout, &lights_layout]);
         let pipelines = scene
             .kinds()
             .into_iter()
@@ -141,7 +137,12 @@ impl ShadingPass {
                 entries: &[],
             })
         });
-        Ok(Self { pipelines, lights_group, empty_group, label })
+        Ok(Self { pipelines, lights_layout, lights, lights_group, empty_group, label })
+    }
+
+    /// Binds the light grid again after it grew (its index buffer is a new one).
+    pub fn rebind(&mut self, device: &wgpu::Device, grid: &LightGrid) {
+        self.lights_group = lights_group(device, &self.lights_layout, &self.lights, Some(grid));
     }
 
     /// Shades into `hdr` (cleared to black) using the pre-pass `depth`; with MSAA `hdr` is
@@ -193,4 +194,26 @@ impl ShadingPass {
         }
         timer.end(encoder, t);
     }
+}
+
+/// Group 3: shading lights (0), spots (1), and for tiled shading the light grid (2), its
+/// indices (3) and with half-z the tile ranges (4).
+fn lights_group(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    (shading, spots): &(wgpu::Buffer, Option<wgpu::Buffer>),
+    grid: Option<&LightGrid>,
+) -> wgpu::BindGroup {
+    let mut bind = vec![wgpu::BindGroupEntry { binding: 0, resource: shading.as_entire_binding() }];
+    if let Some(s) = spots {
+        bind.push(wgpu::BindGroupEntry { binding: 1, resource: s.as_entire_binding() });
+    }
+    if let Some(g) = grid {
+        bind.push(wgpu::BindGroupEntry { binding: 2, resource: g.grid.as_entire_binding() });
+        bind.push(wgpu::BindGroupEntry { binding: 3, resource: g.indices().as_entire_binding() });
+        if let Some(r) = &g.ranges {
+            bind.push(wgpu::BindGroupEntry { binding: 4, resource: r.as_entire_binding() });
+        }
+    }
+    device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("shade.lights"), layout, entries: &bind })
 }

@@ -1,14 +1,12 @@
 //! Per-frame uniforms shared by every pass (camera, screen and tile sizes, depth
 //! parameters, light counts) and the bind group that holds them (group 0 of every
-//! pipeline). Depends on wgpu, tiledlight-cull, and the culling options and light buffers
-//! whose sizes it carries ([`crate::light_cull`], [`crate::lights_gpu`]).
+//! pipeline). Depends on wgpu and tiledlight-cull only (the culling options build their
+//! [`FrameParams`]: `light_cull::CullOptions::frame_params`).
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 use tiledlight_cull::{Camera, TileGrid};
 
-use crate::light_cull::CullOptions;
-use crate::lights_gpu::LightBuffers;
 
 /// Per-frame constants.
 ///
@@ -72,22 +70,6 @@ pub struct FrameParams {
     pub exposure: f32,
     /// Ambient radiance.
     pub ambient: Vec3,
-}
-
-impl FrameParams {
-    /// The parameters of a renderer on `grid` with culling options `cull` (capacity, lists
-    /// per tile) over `lights`.
-    pub fn new(grid: TileGrid, cull: &CullOptions, lights: &LightBuffers, exposure: f32, ambient: Vec3) -> Self {
-        Self {
-            grid,
-            capacity: cull.capacity,
-            lists_per_tile: cull.lists_per_tile(),
-            num_lights: lights.len(),
-            num_point_lights: lights.num_point(),
-            exposure,
-            ambient,
-        }
-    }
 }
 
 impl FrameUniforms {

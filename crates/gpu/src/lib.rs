@@ -4,7 +4,7 @@
 //! and variants ([`shader`], shaders embedded from `shaders/`), GPU timers ([`timer`]),
 //! readback ([`readback`]), scene and light buffers ([`scene_gpu`], [`lights_gpu`]), and the
 //! passes both methods share: the depth pre-pass ([`depth_prepass`]), tiled light culling
-//! ([`light_cull`]) and tonemapping ([`tonemap`]). Depends on wgpu, tiledlight-cull and
+//! ([`light_cull`]) into the light grid ([`light_grid`]) and tonemapping ([`tonemap`]). Depends on wgpu, tiledlight-cull and
 //! tiledlight-scene; never on a renderer crate.
 
 pub mod context;
@@ -12,6 +12,7 @@ pub mod depth_prepass;
 pub mod error;
 pub mod frame;
 pub mod light_cull;
+pub mod light_grid;
 pub mod lights_gpu;
 pub mod memory;
 pub mod readback;
@@ -30,5 +31,6 @@ pub use wgpu;
 pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
     let mut v = frame::layouts();
     v.extend(scene_gpu::layouts());
+    v.extend(light_grid::layouts());
     v
 }

@@ -19,6 +19,14 @@ impl MemoryReport {
         }
     }
 
+    /// Sets `category` to `bytes` (added at the end when absent), e.g. after a buffer grew.
+    pub fn set(&mut self, category: &str, bytes: u64) {
+        match self.entries.iter_mut().find(|(c, _)| c == category) {
+            Some((_, b)) => *b = bytes,
+            None => self.entries.push((category.to_string(), bytes)),
+        }
+    }
+
     /// Appends every entry of `other`.
     pub fn extend(&mut self, other: &MemoryReport) {
         for (c, b) in &other.entries {

@@ -22,14 +22,25 @@ pub fn read_buffer<T: bytemuck::Pod>(
     queue: &wgpu::Queue,
     buffer: &wgpu::Buffer,
 ) -> Result<Vec<T>, GpuError> {
+    read_buffer_range(device, queue, buffer, 0, buffer.size())
+}
+
+/// Copies `size` bytes of `buffer` from `offset` (both multiples of 4) to the CPU as `T`s.
+pub fn read_buffer_range<T: bytemuck::Pod>(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    buffer: &wgpu::Buffer,
+    offset: u64,
+    size: u64,
+) -> Result<Vec<T>, GpuError> {
     let staging = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("readback.buffer"),
-        size: buffer.size(),
+        label: Some("readback.buffer_range"),
+        size,
         usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
         mapped_at_creation: false,
     });
-    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback.buffer") });
-    enc.copy_buffer_to_buffer(buffer, 0, &staging, 0, buffer.size());
+    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback.buffer_range") });
+    enc.copy_buffer_to_buffer(buffer, offset, &staging, 0, size);
     queue.submit([enc.finish()]);
     let bytes = map_blocking(device, &staging)?;
     Ok(bytemuck::pod_collect_to_vec(&bytes))

@@ -7,6 +7,7 @@ use tiledlight_cull::{Camera, TileGrid};
 use crate::context::GpuContext;
 use crate::depth_prepass::DEPTH_FORMAT;
 use crate::error::GpuError;
+use crate::light_grid::{GridStatus, LightGrid};
 use crate::memory::MemoryReport;
 use crate::readback::{read_depth, read_hdr, read_texture};
 use crate::scene_gpu::SceneGpu;
@@ -177,8 +178,23 @@ pub trait Renderer {
     fn grid(&self) -> TileGrid;
     /// GPU memory allocated for the renderer, its scene and lights, by category.
     fn memory(&self) -> &MemoryReport;
-    /// Per-list light counts of the last frame (tiled methods), for statistics and tests.
-    fn tile_counts(&self) -> Option<&wgpu::Buffer>;
+    /// The light grid the last frame was shaded with (tiled methods): lists, counts and
+    /// its header, for statistics, the heat map and tests.
+    fn light_grid(&self) -> Option<&LightGrid>;
+    /// Grows the light grid's index buffer to `capacity` indices and binds it again
+    /// wherever it is read (methods without a grid ignore it).
+    fn grow_light_grid(&mut self, _ctx: &GpuContext, _capacity: u32) {}
+
+    /// Call between frames: takes the light-grid header of the latest finished frame when
+    /// its copy has arrived (never waits) and, when that frame dropped lights because the
+    /// grid was full, grows the grid for the next frame. Returns that header, if any.
+    fn prepare(&mut self, ctx: &GpuContext) -> Option<GridStatus> {
+        let status = self.light_grid()?.poll_status()?;
+        if let Some(capacity) = self.light_grid().and_then(|g| g.growth(status.header.pairs)) {
+            self.grow_light_grid(ctx, capacity);
+        }
+        Some(status)
+    }
     /// Pixels of the last frame that the edge test sent to per-sample shading, when the
     /// method has such a test (Tiled Deferred with MSAA).
     fn edge_pixels(&self, _ctx: &GpuContext) -> Result<Option<u32>, GpuError> {
@@ -198,23 +214,35 @@ pub trait Renderer {
     fn read_ldr(&self, ctx: &GpuContext) -> Result<Vec<u8>, GpuError> {
         read_texture(&ctx.device, &ctx.queue, &self.targets().ldr, wgpu::TextureAspect::All, 4)
     }
-    /// Records, submits and waits for one frame (tests, single renders).
+    /// Records, submits and waits for one frame (tests, single renders). When the frame
+    /// dropped lights because the light grid was full, grows the grid and renders it
+    /// again (once: the header counts every pair found, so the new size holds them), unless
+    /// the budget is fixed or the device cannot bind more; [`LightGrid::status`] then says
+    /// what was dropped.
     fn render_once(
-        &self,
+        &mut self,
         ctx: &GpuContext,
         timer: &mut GpuTimer,
         scene: &SceneGpu,
         camera: &Camera,
     ) -> Result<(), GpuError> {
-        ctx.checked("rendering a frame", || {
-            let mut encoder =
-                ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
-            self.record(&ctx.queue, &mut encoder, timer, scene, camera);
-            timer.resolve(&mut encoder);
-            ctx.queue.submit([encoder.finish()]);
-        })?;
-        timer.end_frame()?;
-        ctx.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Readback(e.to_string()))?;
+        for _ in 0..2 {
+            ctx.checked("rendering a frame", || {
+                let mut encoder =
+                    ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+                self.record(&ctx.queue, &mut encoder, timer, scene, camera);
+                timer.resolve(&mut encoder);
+                ctx.queue.submit([encoder.finish()]);
+            })?;
+            timer.end_frame()?;
+            ctx.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Readback(e.to_string()))?;
+            let Some(grid) = self.light_grid() else { break };
+            let status = grid.status(&ctx.device, &ctx.queue)?;
+            match grid.growth(status.header.pairs) {
+                Some(capacity) if !status.complete() => self.grow_light_grid(ctx, capacity),
+                _ => break,
+            }
+        }
         Ok(())
     }
 }

@@ -175,12 +175,13 @@ impl HeatmapPass {
         })
     }
 
-    /// The bind group reading per-list counts (make once per culling setup).
-    pub fn bind(&self, device: &wgpu::Device, tile_counts: &wgpu::Buffer) -> wgpu::BindGroup {
+    /// The bind group reading the light grid's lists (`LightGrid::grid`, which never
+    /// changes size; make once per culling setup).
+    pub fn bind(&self, device: &wgpu::Device, light_grid: &wgpu::Buffer) -> wgpu::BindGroup {
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("heatmap.bind_group"),
             layout: &self.layout,
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: tile_counts.as_entire_binding() }],
+            entries: &[wgpu::BindGroupEntry { binding: 0, resource: light_grid.as_entire_binding() }],
         })
     }
 
