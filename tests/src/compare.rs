@@ -70,7 +70,7 @@ impl Frame {
 }
 
 /// Renders one frame with `r` and reads both images back.
-pub fn render_frame(ctx: &GpuContext, r: &dyn Renderer, scene: &SceneGpu, camera: &Camera) -> Frame {
+pub fn render_frame(ctx: &GpuContext, r: &mut dyn Renderer, scene: &SceneGpu, camera: &Camera) -> Frame {
     let mut timer = GpuTimer::new(ctx).expect("timer");
     r.render_once(ctx, &mut timer, scene, camera).expect("render");
     Frame { hdr: r.read_hdr(ctx).expect("read HDR"), ldr: r.read_ldr(ctx).expect("read LDR"), allowance: Vec::new() }

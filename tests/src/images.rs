@@ -116,19 +116,20 @@ pub fn linear_to_srgb(c: f32) -> f32 {
 
 /// The heat map's colours as the README's legend documents them, written here
 /// independently of `tiledlight_gpu::tonemap`'s palette: a log scale (`t = log2(count) /
-/// log2(capacity)`) through blue, cyan, green, yellow and red at t = 0, 1/4, 1/2, 3/4, 1,
-/// blended over the image at 60%; overflowing tiles magenta at 75%; tiles without lights
+/// log2(capacity)`) through blue, cyan, green, yellow and red at t = 0, 1/4, 1/2, 3/4, 1
+/// (counts past the capacity red too), blended over the image at 60%; tiles that lost
+/// lights (`dropped`: the light grid was full) magenta at 75%; tiles without lights
 /// untouched.
-pub fn documented_heat_colour(count: u32, capacity: u32) -> Option<(glam::Vec3, f32)> {
+pub fn documented_heat_colour(count: u32, capacity: u32, dropped: bool) -> Option<(glam::Vec3, f32)> {
     const ANCHORS: [[f32; 3]; 5] =
         [[0.0, 0.0, 1.0], [0.0, 1.0, 1.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0], [1.0, 0.0, 0.0]];
     if count == 0 {
         return None;
     }
-    if count > capacity {
+    if dropped {
         return Some((glam::Vec3::new(1.0, 0.0, 1.0), 0.75));
     }
-    let t = (count as f64).log2() / (capacity as f64).log2() * 4.0;
+    let t = ((count as f64).log2() / (capacity as f64).log2()).min(1.0) * 4.0;
     let k = (t.floor() as usize).min(3);
     let f = (t - k as f64) as f32;
     let (a, b) = (glam::Vec3::from(ANCHORS[k]), glam::Vec3::from(ANCHORS[k + 1]));

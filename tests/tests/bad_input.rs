@@ -69,7 +69,7 @@ fn absurd_light_counts_are_refused() {
         let settings = ForwardSettings { method, ..Default::default() };
         let ambient = settings.ambient;
         assert!(ambient.min_element() > 0.0, "the default ambient light is not black");
-        let r = ForwardRenderer::new(ctx, &sg, &none, 64, 36, settings).unwrap();
+        let mut r = ForwardRenderer::new(ctx, &sg, &none, 64, 36, settings).unwrap();
         let mut timer = GpuTimer::new(ctx).unwrap();
         r.render_once(ctx, &mut timer, &sg, &scenes::mixed_camera(64, 36)).unwrap();
         let hdr = r.read_hdr(ctx).unwrap();
@@ -115,7 +115,7 @@ fn renders_without_timestamp_queries() {
     let scene = scenes::mixed_scene();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 64, 8, 2)).unwrap();
-    let r = ForwardRenderer::new(&ctx, &sg, &lights, 64, 36, ForwardSettings::default()).unwrap();
+    let mut r = ForwardRenderer::new(&ctx, &sg, &lights, 64, 36, ForwardSettings::default()).unwrap();
     let mut timer = GpuTimer::new(&ctx).unwrap();
     assert!(!timer.enabled());
     for _ in 0..3 {
@@ -137,7 +137,7 @@ fn every_pass_is_timed_when_timestamps_exist() {
     let scene = scenes::mixed_scene();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 64, 0, 2)).unwrap();
-    let r = ForwardRenderer::new(ctx, &sg, &lights, 64, 36, ForwardSettings { heatmap: true, ..Default::default() })
+    let mut r = ForwardRenderer::new(ctx, &sg, &lights, 64, 36, ForwardSettings { heatmap: true, ..Default::default() })
         .unwrap();
     let mut timer = GpuTimer::new(ctx).unwrap();
     let mut frames = Vec::new();

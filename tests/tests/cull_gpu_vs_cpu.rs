@@ -1,6 +1,8 @@
 //! The GPU culling kernel against the CPU reference culler, list by list: same light sets,
-//! same counts, same overflow count, for several scenes, screen sizes that are not
-//! multiples of the tile size, an extreme camera, every tile size and every test option.
+//! same counts, for several scenes, screen sizes that are not multiples of the tile size,
+//! an extreme camera, every tile size and every test option; lists longer than the
+//! kernel's workgroup list (culled twice) and a light grid too small for the frame (grown,
+//! or with a fixed budget truncated and counted as the CPU twin `tiledlight_cull::grid` says).
 //!
 //! Tolerance: `tiledlight_tests::lists` (the shared comparison): a differing light is
 //! accepted only when the CPU culler agrees with the GPU once every light is grown or
@@ -35,7 +37,7 @@ fn check(case: &Case<'_>, options: CullOptions) -> Vec<f32> {
     let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, case.scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, case.lights).unwrap();
     let settings = ForwardSettings { method: Method::ForwardPlus, cull: options, ..Default::default() };
-    let renderer = ForwardRenderer::new(ctx, &scene_gpu, &lights, case.width, case.height, settings).unwrap();
+    let mut renderer = ForwardRenderer::new(ctx, &scene_gpu, &lights, case.width, case.height, settings).unwrap();
     let mut timer = GpuTimer::new(ctx).unwrap();
     renderer.render_once(ctx, &mut timer, &scene_gpu, &case.camera).unwrap();
     let depth = renderer.read_depth(ctx).unwrap();
@@ -73,6 +75,29 @@ fn check(case: &Case<'_>, options: CullOptions) -> Vec<f32> {
     );
     // The test must have had something to compare.
     assert!(c.pairs > 0, "{label}: no light reached any tile; the case tests nothing");
+    let header = gpu_lists.status.header;
+    match options.grid_pairs {
+        // Automatic budget: render_once grew the grid until the frame fit.
+        None => assert_eq!(
+            (header.dropped_pairs, gpu_lists.overflowing),
+            (0, 0),
+            "{label}: an automatic light grid must hold the frame"
+        ),
+        // Fixed budget: every index slot is used and the rest counted, as the CPU twin packs
+        // the same lists (the GPU's allocation order differs; the totals do not).
+        Some(budget) => {
+            let twin = tiledlight_cull::grid::PackedGrid::pack(&c.cpu.lists, budget);
+            let slack = c.borderline as u64;
+            assert!(
+                u64::from(header.dropped_pairs).abs_diff(twin.dropped_pairs) <= slack,
+                "{label}: GPU dropped {} pairs, the CPU twin {}",
+                header.dropped_pairs,
+                twin.dropped_pairs
+            );
+            let stored: usize = gpu_lists.lists.iter().map(Vec::len).sum();
+            assert_eq!(stored as u64, u64::from(header.pairs).min(u64::from(budget)), "{label}: stored pairs");
+        }
+    }
     depth
 }
 
@@ -163,23 +188,64 @@ fn extreme_cameras() {
     }
 }
 
+/// Many big lights and a tiny workgroup list: most lists are longer than the kernel holds
+/// in workgroup memory and are culled a second time straight into the grid; they must be
+/// complete (the old layout truncated them to the capacity). The automatic grid starts at
+/// 32 indices a tile, far below these frames' pairs, so it also has to grow.
 #[test]
-fn overflow_is_counted_never_written_out_of_bounds() {
+fn lists_longer_than_the_workgroup_list_are_complete() {
     let scene = scenes::mixed_scene();
-    // Many big lights and a tiny capacity: most tiles overflow.
     let lights = scenes::lights(&scene, 2000, 0, 5);
     let (w, h) = (160, 90);
     let case = Case {
-        name: "overflow",
+        name: "spill",
         scene: &scene,
         camera: scenes::mixed_camera(w, h),
         lights: &lights,
         width: w,
         height: h,
     };
-    check(&case, CullOptions { capacity: 8, ..Default::default() });
-    check(&case, CullOptions { capacity: 8, half_z: true, ..Default::default() });
-    check(&case, CullOptions { capacity: 8, coarse: false, ..Default::default() });
+    for options in [
+        CullOptions { capacity: 8, ..Default::default() },
+        CullOptions { capacity: 8, half_z: true, ..Default::default() },
+        CullOptions { capacity: 8, coarse: false, ..Default::default() },
+    ] {
+        check(&case, options);
+        let spilled = spilled_lists(&case, options);
+        assert!(spilled > 0, "no list passed the workgroup list: the second pass went untested");
+    }
+}
+
+/// A fixed light-grid budget far below the frame's pairs: lists keep what fits, nothing is
+/// written out of bounds (the stored lights are real members, the header's counts match
+/// the lists and the CPU twin's totals).
+#[test]
+fn a_full_grid_drops_counts_and_stays_in_bounds() {
+    let scene = scenes::mixed_scene();
+    let lights = scenes::lights(&scene, 500, 0, 5);
+    let (w, h) = (160, 90);
+    let case = Case {
+        name: "grid-full",
+        scene: &scene,
+        camera: scenes::mixed_camera(w, h),
+        lights: &lights,
+        width: w,
+        height: h,
+    };
+    check(&case, CullOptions { grid_pairs: Some(1000), ..Default::default() });
+    check(&case, CullOptions { grid_pairs: Some(1000), capacity: 8, half_z: true, ..Default::default() });
+    check(&case, CullOptions { grid_pairs: Some(1), ..Default::default() });
+}
+
+/// Lists of `case` longer than `options.capacity`, as the GPU counted them.
+fn spilled_lists(case: &Case<'_>, options: CullOptions) -> u32 {
+    let ctx = gpu();
+    let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, case.scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, case.lights).unwrap();
+    let settings = ForwardSettings { method: Method::ForwardPlus, cull: options, ..Default::default() };
+    let mut renderer = ForwardRenderer::new(ctx, &scene_gpu, &lights, case.width, case.height, settings).unwrap();
+    renderer.render_once(ctx, &mut GpuTimer::new(ctx).unwrap(), &scene_gpu, &case.camera).unwrap();
+    renderer.light_grid().unwrap().status(&ctx.device, &ctx.queue).unwrap().header.spilled_lists
 }
 
 /// More lights reach a 64x64 cell than it stores (COARSE_CAPACITY): those cells' tiles

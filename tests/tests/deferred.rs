@@ -24,7 +24,7 @@ const H: u32 = 180;
 
 fn frame(
     ctx: &GpuContext,
-    r: &dyn Renderer,
+    r: &mut dyn Renderer,
     scene: &SceneGpu,
     camera: &tiledlight_cull::Camera,
 ) -> (Vec<[f32; 4]>, Vec<u8>) {
@@ -44,7 +44,7 @@ fn compare_with_forward(
     let ctx = gpu();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(scene, n_point, n_spot, 21)).unwrap();
-    let bf = ForwardRenderer::new(
+    let mut bf = ForwardRenderer::new(
         ctx,
         &sg,
         &lights,
@@ -54,19 +54,19 @@ fn compare_with_forward(
     )
     .unwrap();
     // The G-buffer's f16 normal moves grazing lights (tiledlight_tests::compare::Frame::allow_gbuffer_normals).
-    let reference = render_frame(ctx, &bf, &sg, &camera).allow_gbuffer_normals(
+    let reference = render_frame(ctx, &mut bf, &sg, &camera).allow_gbuffer_normals(
         &bf.read_depth(ctx).unwrap(),
         W,
         &camera,
         &lights.packed,
     );
-    let forward =
+    let mut forward =
         ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { cull, ..Default::default() }).unwrap();
-    let forward = render_frame(ctx, &forward, &sg, &camera);
-    let deferred =
+    let forward = render_frame(ctx, &mut forward, &sg, &camera);
+    let mut deferred =
         DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings { cull, gbuffer_rts: 3, ..Default::default() })
             .unwrap();
-    let deferred = render_frame(ctx, &deferred, &sg, &camera);
+    let deferred = render_frame(ctx, &mut deferred, &sg, &camera);
     let lit = reference.hdr.iter().filter(|p| p[0] + p[1] + p[2] > 0.1).count();
     assert!(lit * 4 > reference.hdr.len(), "{name}: frame mostly unlit; the comparison would test nothing");
     assert_matches_reference_frame(
@@ -108,7 +108,7 @@ fn gbuffer_targets_do_not_change_the_image() {
     let camera = scenes::mixed_camera(W, H);
     let images: Vec<Vec<[f32; 4]>> = (2..=5)
         .map(|rts| {
-            let r = DeferredRenderer::new(
+            let mut r = DeferredRenderer::new(
                 ctx,
                 &sg,
                 &lights,
@@ -118,7 +118,7 @@ fn gbuffer_targets_do_not_change_the_image() {
             )
             .unwrap();
             assert_eq!(r.gbuffer().rts(), rts);
-            frame(ctx, &r, &sg, &camera).0
+            frame(ctx, &mut r, &sg, &camera).0
         })
         .collect();
     let exact = tiledlight_tests::is_lavapipe(ctx);
@@ -163,13 +163,13 @@ fn deferred_lists_equal_cpu_reference() {
         CullOptions::default(),
         CullOptions { tile_size: 32, half_z: true, aabb: true, spot_cone: true, coarse: false, ..Default::default() },
     ] {
-        let r = DeferredRenderer::new(
+        let mut r = DeferredRenderer::new(
             ctx,
             &sg,
             &lights,
             w,
             h,
-            DeferredSettings { cull, heatmap: true, debug_lists: true, ..Default::default() },
+            DeferredSettings { cull, heatmap: true, ..Default::default() },
         )
         .unwrap();
         let mut timer = GpuTimer::new(ctx).unwrap();
@@ -187,7 +187,7 @@ fn deferred_lists_equal_cpu_reference() {
         // counts, or not drawn (the old check, "some blue pixel", passed on random light
         // colours alone).
         let heat = r.read_ldr(ctx).unwrap();
-        let plain =
+        let mut plain =
             DeferredRenderer::new(ctx, &sg, &lights, w, h, DeferredSettings { cull, ..Default::default() }).unwrap();
         plain.render_once(ctx, &mut timer, &sg, &camera).unwrap();
         let base = plain.read_ldr(ctx).unwrap();
@@ -197,16 +197,16 @@ fn deferred_lists_equal_cpu_reference() {
         for ty in 0..grid.tiles_y {
             for tx in 0..grid.tiles_x {
                 let t = (ty * grid.tiles_x + tx) as usize;
-                let lists = &gpu_lists.counts[t * per_tile..(t + 1) * per_tile];
-                // Magenta when a list overflowed; a sum over the capacity from two lists that
-                // did not is the palette's end (red).
-                let overflow = lists.iter().any(|&n| n > cull.capacity);
-                let count: u32 =
-                    if overflow { cull.capacity + 1 } else { lists.iter().sum::<u32>().min(cull.capacity) };
+                let lists = t * per_tile..(t + 1) * per_tile;
+                // Magenta when a list lost lights (the grid was full: never with the
+                // automatic budget); otherwise the sum of the lists' counts (past the
+                // capacity: the palette's end, red).
+                let dropped = lists.clone().any(|l| gpu_lists.lists[l].len() < gpu_lists.counts[l] as usize);
+                let count: u32 = gpu_lists.counts[lists].iter().sum();
                 let (x0, x1, y0, y1) = grid.tile_pixels(tx, ty);
                 let i = ((((y0 + y1) / 2) * w + (x0 + x1) / 2) * 4) as usize;
                 let under = glam::Vec3::from_array(std::array::from_fn(|k| srgb_to_linear(base[i + k] as f32 / 255.0)));
-                let want = match documented_heat_colour(count, cull.capacity) {
+                let want = match documented_heat_colour(count, cull.capacity, dropped) {
                     None => under,
                     Some((colour, alpha)) => {
                         coloured += 1;

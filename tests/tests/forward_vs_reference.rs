@@ -26,8 +26,8 @@ fn render(
     camera: &Camera,
     settings: ForwardSettings,
 ) -> Frame {
-    let r = ForwardRenderer::new(ctx, scene, lights, W, H, settings).unwrap();
-    tiledlight_tests::compare::render_frame(ctx, &r, scene, camera)
+    let mut r = ForwardRenderer::new(ctx, scene, lights, W, H, settings).unwrap();
+    tiledlight_tests::compare::render_frame(ctx, &mut r, scene, camera)
 }
 
 fn compare(name: &str, scene: &Scene, n_point: u32, n_spot: u32, camera: &Camera, cull: CullOptions) {

@@ -276,15 +276,15 @@ fn run_case(ctx: &GpuContext, supported: &[u32], c: &Case, totals: &mut Totals) 
     let (w, h) = (c.width, c.height);
 
     let settings = ForwardSettings { method: Method::ForwardPlus, cull: c.cull, msaa: samples, ..Default::default() };
-    let f = ForwardRenderer::new(ctx, &sg, &lights, w, h, settings).map_err(|e| fail("Forward+ renderer", e))?;
+    let mut f = ForwardRenderer::new(ctx, &sg, &lights, w, h, settings).map_err(|e| fail("Forward+ renderer", e))?;
     f.render_once(ctx, &mut timer, &sg, &camera).map_err(|e| fail("Forward+ frame", e))?;
     let depth = f.read_depth(ctx).map_err(|e| fail("Forward+ depth", e))?;
     let lists = f.culling().expect("Forward+ culls").read_lists(&ctx.device, &ctx.queue);
     let lists = lists.map_err(|e| fail("Forward+ lists", e))?;
     let mut reached = check_method("Forward+", c, &camera, &lights, &depth, &lists, &config, totals)?;
 
-    let settings = DeferredSettings { cull: c.cull, msaa: samples, debug_lists: true, ..Default::default() };
-    let d = DeferredRenderer::new(ctx, &sg, &lights, w, h, settings).map_err(|e| fail("deferred renderer", e))?;
+    let settings = DeferredSettings { cull: c.cull, msaa: samples, ..Default::default() };
+    let mut d = DeferredRenderer::new(ctx, &sg, &lights, w, h, settings).map_err(|e| fail("deferred renderer", e))?;
     d.render_once(ctx, &mut timer, &sg, &camera).map_err(|e| fail("deferred frame", e))?;
     let depth = d.read_depth(ctx).map_err(|e| fail("deferred depth", e))?;
     let lists = d.read_lists(ctx).map_err(|e| fail("deferred lists", e))?;

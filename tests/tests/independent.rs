@@ -364,7 +364,7 @@ fn materials_match_cpu_ray_cast() {
         }
         eprintln!("{name}: worst relative excess {:.2e} at ({}, {})", worst.0, worst.1 as u32 % w, worst.1 as u32 / w);
     };
-    let brute = ForwardRenderer::new(
+    let mut brute = ForwardRenderer::new(
         ctx,
         &sg,
         &lb,
@@ -373,13 +373,13 @@ fn materials_match_cpu_ray_cast() {
         ForwardSettings { method: Method::BruteForce { cutoff: true }, ambient: AMBIENT, ..Default::default() },
     )
     .unwrap();
-    check("brute force", &render_frame(ctx, &brute, &sg, &camera).hdr, false, 3e-3, 1e-3);
-    let fwd =
+    check("brute force", &render_frame(ctx, &mut brute, &sg, &camera).hdr, false, 3e-3, 1e-3);
+    let mut fwd =
         ForwardRenderer::new(ctx, &sg, &lb, w, h, ForwardSettings { ambient: AMBIENT, ..Default::default() }).unwrap();
-    check("forward+", &render_frame(ctx, &fwd, &sg, &camera).hdr, false, 3e-3, 1e-3);
-    let def = DeferredRenderer::new(ctx, &sg, &lb, w, h, DeferredSettings { ambient: AMBIENT, ..Default::default() })
+    check("forward+", &render_frame(ctx, &mut fwd, &sg, &camera).hdr, false, 3e-3, 1e-3);
+    let mut def = DeferredRenderer::new(ctx, &sg, &lb, w, h, DeferredSettings { ambient: AMBIENT, ..Default::default() })
         .unwrap();
-    check("deferred", &render_frame(ctx, &def, &sg, &camera).hdr, true, 5e-3, 1e-3);
+    check("deferred", &render_frame(ctx, &mut def, &sg, &camera).hdr, true, 5e-3, 1e-3);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -412,7 +412,7 @@ fn no_cutoff_matches_unwindowed_cpu_twin() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lb = LightBuffers::new(&ctx.device, &lights).unwrap();
     let render = |cutoff: bool| {
-        let r = ForwardRenderer::new(
+        let mut r = ForwardRenderer::new(
             ctx,
             &sg,
             &lb,
@@ -421,7 +421,7 @@ fn no_cutoff_matches_unwindowed_cpu_twin() {
             ForwardSettings { method: Method::BruteForce { cutoff }, ambient: AMBIENT, ..Default::default() },
         )
         .unwrap();
-        let f = render_frame(ctx, &r, &sg, &camera);
+        let f = render_frame(ctx, &mut r, &sg, &camera);
         (f.hdr, r.read_depth(ctx).unwrap())
     };
     let (unwindowed, depth) = render(false);
@@ -552,7 +552,7 @@ fn msaa_4x_sample_positions_are_vulkan_standard() {
     for &(a, b) in &planes {
         let scene = tilted_plane(a, b);
         let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
-        let r = ForwardRenderer::new(
+        let mut r = ForwardRenderer::new(
             ctx,
             &sg,
             &lb,
@@ -561,7 +561,7 @@ fn msaa_4x_sample_positions_are_vulkan_standard() {
             ForwardSettings { method: Method::BruteForce { cutoff: true }, msaa: 4, ..Default::default() },
         )
         .unwrap();
-        render_frame(ctx, &r, &sg, &camera);
+        render_frame(ctx, &mut r, &sg, &camera);
         let depth = r.read_depth(ctx).unwrap();
         assert_eq!(depth.len(), (w * h * 4) as usize, "4 depth samples a pixel");
         let (a, b) = (a as f64, b as f64);

@@ -48,7 +48,7 @@ fn gpu_lists_give_the_cpu_false_positive_rate_and_wasted_evaluations() {
         CullOptions { capacity: 256, aabb: true, ..Default::default() },
         CullOptions { capacity: 256, half_z: true, tile_size: 8, ..Default::default() },
     ] {
-        let r = renderer(ctx, &scene_gpu, &lights, Method::ForwardPlus, options);
+        let mut r = renderer(ctx, &scene_gpu, &lights, Method::ForwardPlus, options);
         r.render_once(ctx, &mut timer, &scene_gpu, &camera).unwrap();
         let depth = r.read_depth(ctx).unwrap();
         let gpu_lists = r.culling().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
@@ -107,7 +107,7 @@ fn energy_lost_to_the_cutoff_shrinks_with_the_threshold() {
     let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let mut timer = GpuTimer::new(ctx).unwrap();
     let mut render = |lights: &LightBuffers, method: Method| {
-        let r = renderer(ctx, &scene_gpu, lights, method, CullOptions { capacity: 128, ..Default::default() });
+        let mut r = renderer(ctx, &scene_gpu, lights, method, CullOptions { capacity: 128, ..Default::default() });
         r.render_once(ctx, &mut timer, &scene_gpu, &camera).unwrap();
         r.read_hdr(ctx).unwrap()
     };

@@ -24,7 +24,7 @@ use tiledlight_tests::{gpu, scenes};
 const W: u32 = 320;
 const H: u32 = 180;
 
-fn render(ctx: &GpuContext, r: &dyn Renderer, scene: &SceneGpu, camera: &Camera) -> Vec<u8> {
+fn render(ctx: &GpuContext, r: &mut dyn Renderer, scene: &SceneGpu, camera: &Camera) -> Vec<u8> {
     let mut timer = GpuTimer::new(ctx).unwrap();
     r.render_once(ctx, &mut timer, scene, camera).unwrap();
     r.read_ldr(ctx).unwrap()
@@ -68,8 +68,8 @@ fn msaa_culling_matches_cpu_reference() {
         CullOptions { tile_size: 32, half_z: true, aabb: true, spot_cone: true, coarse: false, ..Default::default() },
         CullOptions { tile_size: 8, half_z: true, ..Default::default() },
     ] {
-        let f = forward(ctx, &sg, &lights, (w, h), ForwardSettings { cull, msaa: 4, ..Default::default() });
-        render(ctx, &f, &sg, &camera);
+        let mut f = forward(ctx, &sg, &lights, (w, h), ForwardSettings { cull, msaa: 4, ..Default::default() });
+        render(ctx, &mut f, &sg, &camera);
         let depth = f.read_depth(ctx).unwrap();
         assert_eq!(depth.len(), (w * h * 4) as usize, "4 depth samples a pixel");
         // The samples of an edge pixel differ: the readback really is per sample.
@@ -81,9 +81,9 @@ fn msaa_culling_matches_cpu_reference() {
         let c = assert_lists_match(&format!("forward+ {opts:?}"), &frame, &gpu_lists, &config);
         assert!(c.pairs > 0, "lights reach the tiles");
 
-        let settings = DeferredSettings { cull, msaa: 4, debug_lists: true, ..Default::default() };
-        let d = deferred(ctx, &sg, &lights, (w, h), settings);
-        render(ctx, &d, &sg, &camera);
+        let settings = DeferredSettings { cull, msaa: 4, ..Default::default() };
+        let mut d = deferred(ctx, &sg, &lights, (w, h), settings);
+        render(ctx, &mut d, &sg, &camera);
         let depth = d.read_depth(ctx).unwrap();
         assert_eq!(depth.len(), (w * h * 4) as usize, "4 depth samples a pixel");
         let gpu_lists = d.read_lists(ctx).unwrap();
@@ -183,11 +183,11 @@ fn deferred_msaa_matches_forward_msaa() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights_in_slab(&scene, 3.5, 4.0, 300, 100, 21)).unwrap();
     let bf = ForwardSettings { method: Method::BruteForce { cutoff: true }, msaa: 4, ..Default::default() };
-    let reference = render(ctx, &forward(ctx, &sg, &lights, (W, H), bf), &sg, &camera);
-    let f = forward(ctx, &sg, &lights, (W, H), ForwardSettings { cull, msaa: 4, ..Default::default() });
-    let fwd = render(ctx, &f, &sg, &camera);
-    let d = deferred(ctx, &sg, &lights, (W, H), DeferredSettings { cull, msaa: 4, ..Default::default() });
-    let def = render(ctx, &d, &sg, &camera);
+    let reference = render(ctx, &mut forward(ctx, &sg, &lights, (W, H), bf), &sg, &camera);
+    let mut f = forward(ctx, &sg, &lights, (W, H), ForwardSettings { cull, msaa: 4, ..Default::default() });
+    let fwd = render(ctx, &mut f, &sg, &camera);
+    let mut d = deferred(ctx, &sg, &lights, (W, H), DeferredSettings { cull, msaa: 4, ..Default::default() });
+    let def = render(ctx, &mut d, &sg, &camera);
     assert!(d.edge_pixels(ctx).unwrap().is_some_and(|n| n > 0), "the frame has edge pixels");
     let exact = FlipThresholds { mean: 1e-3, percentile: (0.99, 1e-2) };
     assert_flip("msaa-mixed-forward-vs-reference", W, H, &reference, &fwd, exact);
@@ -211,19 +211,19 @@ fn deferred_msaa_parts_match_their_references() {
     let camera = scenes::courtyard_camera(&scene, W, H);
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 1024, 0, 21)).unwrap();
-    let hdr = |r: &dyn Renderer, camera: &Camera| {
+    let hdr = |r: &mut dyn Renderer, camera: &Camera| {
         render(ctx, r, &sg, camera);
         r.read_hdr(ctx).unwrap()
     };
     let bf = ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() };
-    let fwd = hdr(&forward(ctx, &sg, &lights, (W, H), ForwardSettings { msaa: 4, ..Default::default() }), &camera);
-    let d = deferred(ctx, &sg, &lights, (W, H), DeferredSettings { msaa: 4, ..Default::default() });
-    let def = hdr(&d, &camera);
+    let fwd = hdr(&mut forward(ctx, &sg, &lights, (W, H), ForwardSettings { msaa: 4, ..Default::default() }), &camera);
+    let mut d = deferred(ctx, &sg, &lights, (W, H), DeferredSettings { msaa: 4, ..Default::default() });
+    let def = hdr(&mut d, &camera);
 
     let edges = deferred_edges(ctx, &d, (W, H));
     let (edge_px, flat_px): (Vec<usize>, Vec<usize>) = (0..(W * H) as usize).partition(|&i| edges[i]);
     assert!(!edge_px.is_empty() && flat_px.len() > edge_px.len(), "{} edge pixels", edge_px.len());
-    let big = hdr(&forward(ctx, &sg, &lights, (2 * W, 2 * H), bf), &scenes::courtyard_camera(&scene, 2 * W, 2 * H));
+    let big = hdr(&mut forward(ctx, &sg, &lights, (2 * W, 2 * H), bf), &scenes::courtyard_camera(&scene, 2 * W, 2 * H));
     let ssaa: Vec<[f32; 4]> = (0..(W * H) as usize)
         .map(|i| {
             let (x, y) = (2 * (i as u32 % W), 2 * (i as u32 / W));
@@ -250,7 +250,7 @@ fn deferred_msaa_parts_match_their_references() {
     // left them unwritten, shaded them with another tile's list, at the wrong depth, or
     // without a light fails. The exact check, without coplanar triangles of different
     // materials, is msaa_changes_only_edge_pixels.
-    let one_x = hdr(&forward(ctx, &sg, &lights, (W, H), bf), &camera);
+    let one_x = hdr(&mut forward(ctx, &sg, &lights, (W, H), bf), &camera);
     let mut errors: Vec<f32> =
         flat_px.iter().map(|&i| max_relative_error(&one_x[i..=i], &def[i..=i], 1e-2).0).collect();
     errors.sort_by(f32::total_cmp);
@@ -291,12 +291,12 @@ fn msaa_changes_only_edge_pixels() {
     let camera = scenes::mixed_camera(W, H);
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights_in_slab(&scene, 3.5, 4.0, 200, 50, 5)).unwrap();
-    let f1 = render(ctx, &forward(ctx, &sg, &lights, (W, H), ForwardSettings::default()), &sg, &camera);
-    let f = forward(ctx, &sg, &lights, (W, H), ForwardSettings { msaa: 4, ..Default::default() });
-    let f4 = render(ctx, &f, &sg, &camera);
-    let d1 = render(ctx, &deferred(ctx, &sg, &lights, (W, H), DeferredSettings::default()), &sg, &camera);
-    let d = deferred(ctx, &sg, &lights, (W, H), DeferredSettings { msaa: 4, ..Default::default() });
-    let d4 = render(ctx, &d, &sg, &camera);
+    let f1 = render(ctx, &mut forward(ctx, &sg, &lights, (W, H), ForwardSettings::default()), &sg, &camera);
+    let mut f = forward(ctx, &sg, &lights, (W, H), ForwardSettings { msaa: 4, ..Default::default() });
+    let f4 = render(ctx, &mut f, &sg, &camera);
+    let d1 = render(ctx, &mut deferred(ctx, &sg, &lights, (W, H), DeferredSettings::default()), &sg, &camera);
+    let mut d = deferred(ctx, &sg, &lights, (W, H), DeferredSettings { msaa: 4, ..Default::default() });
+    let d4 = render(ctx, &mut d, &sg, &camera);
     // Both methods against the independent depth-only detector (never the edge test's own
     // list: a deferred pass that blurred or re-shaded flat pixels it had itself flagged
     // would pass against that).
@@ -350,8 +350,8 @@ fn scaled(scene: &Scene, k: f32) -> Scene {
 fn edge_pixels(ctx: &GpuContext, scene: &Scene, camera: &Camera, edge: EdgeTest) -> (u32, Vec<f32>) {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(scene, 16, 0, 2)).unwrap();
-    let d = deferred(ctx, &sg, &lights, (W, H), DeferredSettings { msaa: 4, edge, ..Default::default() });
-    render(ctx, &d, &sg, camera);
+    let mut d = deferred(ctx, &sg, &lights, (W, H), DeferredSettings { msaa: 4, edge, ..Default::default() });
+    render(ctx, &mut d, &sg, camera);
     (d.edge_pixels(ctx).unwrap().expect("MSAA deferred counts edges"), d.read_depth(ctx).unwrap())
 }
 
@@ -431,15 +431,15 @@ fn unsupported_sample_counts_are_refused_clearly() {
         let f = ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { msaa, ..Default::default() });
         let d = DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings { msaa, ..Default::default() });
         match (f, d) {
-            (Ok(f), Ok(d)) => {
+            (Ok(mut f), Ok(mut d)) => {
                 // Where the adapter has the count (the H200: scripts/device-gpu-tests.sh;
                 // results in docs/PERFORMANCE.md), both methods against brute force at the same
                 // count with the bounds of deferred_msaa_matches_forward_msaa.
                 eprintln!("{msaa}x supported: comparing with brute force");
                 let bf = ForwardSettings { method: Method::BruteForce { cutoff: true }, msaa, ..Default::default() };
-                let reference = render(ctx, &forward(ctx, &sg, &lights, (W, H), bf), &sg, &camera);
-                let a = render(ctx, &f, &sg, &camera);
-                let b = render(ctx, &d, &sg, &camera);
+                let reference = render(ctx, &mut forward(ctx, &sg, &lights, (W, H), bf), &sg, &camera);
+                let a = render(ctx, &mut f, &sg, &camera);
+                let b = render(ctx, &mut d, &sg, &camera);
                 let exact = FlipThresholds { mean: 1e-3, percentile: (0.99, 1e-2) };
                 assert_flip(&format!("msaa{msaa}-forward-vs-reference"), W, H, &reference, &a, exact);
                 let t = FlipThresholds { mean: 0.015, percentile: (0.99, 0.05) };

@@ -21,7 +21,6 @@ use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
 use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
 use tiledlight_gpu::light_cull::{CullOptions, DropLight};
 use tiledlight_gpu::lights_gpu::LightBuffers;
-use tiledlight_gpu::readback::read_buffer;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_tests::compare::{
@@ -115,7 +114,7 @@ fn one_dropped_light_fails_the_reference_comparisons() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 1024, 0, 42)).unwrap();
     let cull = CullOptions::default();
-    let reference = ForwardRenderer::new(
+    let mut reference = ForwardRenderer::new(
         ctx,
         &sg,
         &lights,
@@ -124,10 +123,10 @@ fn one_dropped_light_fails_the_reference_comparisons() {
         ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() },
     )
     .unwrap();
-    let reference = render_frame(ctx, &reference, &sg, &camera);
+    let reference = render_frame(ctx, &mut reference, &sg, &camera);
 
-    let plain = ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { cull, ..Default::default() }).unwrap();
-    let plain_frame = render_frame(ctx, &plain, &sg, &camera);
+    let mut plain = ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { cull, ..Default::default() }).unwrap();
+    let plain_frame = render_frame(ctx, &mut plain, &sg, &camera);
     let depth = plain.read_depth(ctx).unwrap();
     let cpu = cull_tiles(&depth, W, H, &camera, &lights.packed, &cull.to_config(false)).unwrap();
     let (drop, estimate) = pick_drop(&depth, &camera, &lights.packed, &cpu);
@@ -140,7 +139,7 @@ fn one_dropped_light_fails_the_reference_comparisons() {
     );
 
     // Forward+: the hook removes exactly that light from exactly that list.
-    let dropped = ForwardRenderer::new(
+    let mut dropped = ForwardRenderer::new(
         ctx,
         &sg,
         &lights,
@@ -149,7 +148,7 @@ fn one_dropped_light_fails_the_reference_comparisons() {
         ForwardSettings { cull, test_drop_light: Some(drop), ..Default::default() },
     )
     .unwrap();
-    let dropped_frame = render_frame(ctx, &dropped, &sg, &camera);
+    let dropped_frame = render_frame(ctx, &mut dropped, &sg, &camera);
     let sorted = |mut l: Vec<u32>| {
         l.sort_unstable();
         l
@@ -177,13 +176,13 @@ fn one_dropped_light_fails_the_reference_comparisons() {
 
     // Tiled Deferred: the same drop in its own culling.
     let settings = DeferredSettings { cull, gbuffer_rts: 3, ..Default::default() };
-    let plain = DeferredRenderer::new(ctx, &sg, &lights, W, H, settings).unwrap();
-    let plain_frame = render_frame(ctx, &plain, &sg, &camera);
-    let dropped =
+    let mut plain = DeferredRenderer::new(ctx, &sg, &lights, W, H, settings).unwrap();
+    let plain_frame = render_frame(ctx, &mut plain, &sg, &camera);
+    let mut dropped =
         DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings { test_drop_light: Some(drop), ..settings })
             .unwrap();
-    let dropped_frame = render_frame(ctx, &dropped, &sg, &camera);
-    let counts: Vec<u32> = read_buffer(&ctx.device, &ctx.queue, dropped.tile_counts().unwrap()).unwrap();
+    let dropped_frame = render_frame(ctx, &mut dropped, &sg, &camera);
+    let counts = dropped.light_grid().unwrap().read_counts(&ctx.device, &ctx.queue).unwrap();
     assert_eq!(counts[tile] as usize + 1, cpu.lists[tile].len(), "deferred: the tile's count lost one light");
     // The same reference, with the G-buffer normal's allowance (compare::Frame::allow_gbuffer_normals).
     let reference = reference.allow_gbuffer_normals(&depth, W, &camera, &lights.packed);
@@ -244,10 +243,10 @@ fn gbuffer_extra_targets_are_read_and_multiplied() {
     let light_list = scenes::lights(&scene, 200, 20, 3);
     let lights = LightBuffers::new(&ctx.device, &light_list).unwrap();
     let camera = scenes::mixed_camera(W, H);
-    let white =
+    let mut white =
         DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings { gbuffer_rts: 5, ..Default::default() })
             .unwrap();
-    let white = render_frame(ctx, &white, &sg, &camera);
+    let white = render_frame(ctx, &mut white, &sg, &camera);
     for rts in 3..=5u32 {
         let product = extra_product(rts as usize - 2);
         let mut tinted = scene.clone();
@@ -257,7 +256,7 @@ fn gbuffer_extra_targets_are_read_and_multiplied() {
             }
         }
         let tinted_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &tinted).unwrap();
-        let bf = ForwardRenderer::new(
+        let mut bf = ForwardRenderer::new(
             ctx,
             &tinted_gpu,
             &lights,
@@ -266,13 +265,13 @@ fn gbuffer_extra_targets_are_read_and_multiplied() {
             ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() },
         )
         .unwrap();
-        let reference = render_frame(ctx, &bf, &tinted_gpu, &camera).allow_gbuffer_normals(
+        let reference = render_frame(ctx, &mut bf, &tinted_gpu, &camera).allow_gbuffer_normals(
             &bf.read_depth(ctx).unwrap(),
             W,
             &camera,
             &lights.packed,
         );
-        let r = DeferredRenderer::new(
+        let mut r = DeferredRenderer::new(
             ctx,
             &sg,
             &lights,
@@ -281,7 +280,7 @@ fn gbuffer_extra_targets_are_read_and_multiplied() {
             DeferredSettings { gbuffer_rts: rts, test_gbuffer_values: true, ..Default::default() },
         )
         .unwrap();
-        let tested = render_frame(ctx, &r, &sg, &camera);
+        let tested = render_frame(ctx, &mut r, &sg, &camera);
         let lit = reference.hdr.iter().filter(|p| p[0] + p[1] + p[2] > 0.05).count();
         assert!(lit * 4 > reference.hdr.len(), "{rts} targets: frame mostly unlit; the comparison would test nothing");
         let c = compare_with_reference(

@@ -163,8 +163,8 @@ fn render_reference(
     };
     let args = SceneArgs { method, ..point_args.clone() };
     prep.reconfigure(&args)?;
-    let r = prep.renderer(false)?;
-    let m = bench::measure(prep, r.as_ref(), 1, frames).context("rendering the brute-force reference")?;
+    let mut r = prep.renderer(false)?;
+    let m = bench::measure(prep, r.as_mut(), 1, frames).context("rendering the brute-force reference")?;
     let (total_ms, passes) = pass_times(&m)?;
     let hdr = r.read_hdr(&prep.ctx).context("reading the reference back")?;
     let ldr = r.read_ldr(&prep.ctx).context("reading the reference back")?;
@@ -273,8 +273,8 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
         }
         let reference = &references[&rkey];
         p.reconfigure(pargs).with_context(|| what.clone())?;
-        let renderer = p.renderer(false).with_context(|| what.clone())?;
-        let m = bench::measure(p, renderer.as_ref(), args.warmup, args.frames).with_context(|| what.clone())?;
+        let mut renderer = p.renderer(false).with_context(|| what.clone())?;
+        let m = bench::measure(p, renderer.as_mut(), args.warmup, args.frames).with_context(|| what.clone())?;
         let (total, passes) = pass_times(&m).with_context(|| what.clone())?;
         let stats = culling_stats(p, renderer.as_ref())?;
         let edges = renderer.edge_pixels(&p.ctx).context("reading the MSAA edge count back")?;

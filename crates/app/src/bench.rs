@@ -15,6 +15,7 @@ use std::time::Instant;
 use anyhow::{ensure, Context, Result};
 use clap::Args;
 use serde::Serialize;
+use tiledlight_gpu::light_grid::GridStatus;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::{GpuTimer, PassTime};
 
@@ -58,6 +59,28 @@ pub struct Measurement {
     pub cpu_ms: Vec<f64>,
     /// Whether the device had timestamp queries.
     pub timestamps: bool,
+    /// Light-grid headers of measured frames that came back (tiled methods; every other
+    /// frame or so, as the readback never waits).
+    pub grid: Vec<GridStatus>,
+}
+
+impl Measurement {
+    /// One line on the measured frames' light grid: pairs, grid size, and any lights
+    /// dropped because the grid was full (None for a method without one).
+    pub fn grid_line(&self) -> Option<String> {
+        let last = self.grid.last()?;
+        let dropped: Vec<&GridStatus> = self.grid.iter().filter(|g| !g.complete()).collect();
+        Some(match dropped.first() {
+            None => format!("{last}; no frame dropped lights"),
+            Some(d) => format!(
+                "{last}; {} of {} frames read back DROPPED lights (e.g. {} from {} lists): their times are of incomplete frames",
+                dropped.len(),
+                self.grid.len(),
+                d.header.dropped_pairs,
+                d.header.dropped_lists
+            ),
+        })
+    }
 }
 
 /// Median, minimum and maximum of a set of samples.
@@ -127,11 +150,15 @@ impl Measurement {
 /// Renders `warmup` frames (and more until [`MIN_WARMUP`] has passed), then `frames`
 /// frames through `renderer`, each submitted and waited for, and collects the measured
 /// frames' pass times and CPU wall times.
-pub fn measure(prep: &Prepared, renderer: &dyn Renderer, warmup: u32, frames: u32) -> Result<Measurement> {
+pub fn measure(prep: &Prepared, renderer: &mut dyn Renderer, warmup: u32, frames: u32) -> Result<Measurement> {
     let ctx = &prep.ctx;
     let mut timer = GpuTimer::new(ctx).context("creating the GPU timer")?;
     let mut out = Measurement { timestamps: timer.enabled(), ..Default::default() };
-    let frame = |timer: &mut GpuTimer| {
+    let frame = |timer: &mut GpuTimer, renderer: &mut dyn Renderer, grid: Option<&mut Vec<GridStatus>>| {
+        // The last finished frame's light-grid header: grows the grid when it was too small.
+        if let (Some(status), Some(grid)) = (renderer.prepare(ctx), grid) {
+            grid.push(status);
+        }
         let mut encoder =
             ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bench.frame") });
         renderer.record(&ctx.queue, &mut encoder, timer, &prep.scene_gpu, &prep.camera);
@@ -157,14 +184,14 @@ pub fn measure(prep: &Prepared, renderer: &dyn Renderer, warmup: u32, frames: u3
         }
     };
     while (skip < warmup || (warmup > 0 && start.elapsed() < MIN_WARMUP)) && skip < MAX_FRAMES {
-        frame(&mut timer)?;
+        frame(&mut timer, renderer, None)?;
         skip += 1;
         ctx.device.poll(wgpu::PollType::Poll).context("polling the GPU")?;
         drain(&mut timer, &mut out, &mut finished, skip);
     }
     for _ in 0..frames {
         let t0 = Instant::now();
-        frame(&mut timer)?;
+        frame(&mut timer, renderer, Some(&mut out.grid))?;
         out.cpu_ms.push(t0.elapsed().as_secs_f64() * 1e3);
         // The timestamp readback is mapped after the submit; the next poll delivers it.
         ctx.device.poll(wgpu::PollType::Poll).context("polling the GPU")?;
@@ -206,6 +233,9 @@ pub fn table(m: &Measurement) -> String {
             "CPU frame", c.median_ms, c.min_ms, c.max_ms, c.frames
         ));
     }
+    if let Some(g) = m.grid_line() {
+        s.push_str(&format!("light grid: {g}\n"));
+    }
     s
 }
 
@@ -225,6 +255,11 @@ struct BenchJson {
     gpu_memory_total: u64,
     /// Pixels of the last frame the MSAA edge test shaded per sample (Tiled Deferred, MSAA).
     edge_pixels: Option<u32>,
+    /// (list, light) pairs of the last measured frame read back (tiled methods).
+    light_pairs: Option<u32>,
+    /// Lights dropped because the light grid was full, summed over the measured frames
+    /// read back (0: every measured frame was complete).
+    dropped_lights: Option<u64>,
 }
 
 #[derive(Serialize)]
@@ -285,9 +320,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     for (k, v) in prep.describe() {
         println!("{:<11} {v}", format!("{k}:"));
     }
-    let renderer = prep.renderer(false)?;
+    let mut renderer = prep.renderer(false)?;
     println!("frames:     {} warm-up + {} measured", args.warmup, args.frames);
-    let m = measure(&prep, renderer.as_ref(), args.warmup, args.frames)?;
+    let m = measure(&prep, renderer.as_mut(), args.warmup, args.frames)?;
     print!("{}", table(&m));
     let edge_pixels = renderer.edge_pixels(&prep.ctx).context("reading the MSAA edge count back")?;
     if let Some(e) = edge_pixels {
@@ -334,6 +369,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             gpu_memory: renderer.memory().entries.clone(),
             gpu_memory_total: renderer.memory().total(),
             edge_pixels,
+            light_pairs: m.grid.last().map(|g| g.header.pairs),
+            dropped_lights: m.grid.last().map(|_| m.grid.iter().map(|g| u64::from(g.header.dropped_pairs)).sum()),
         };
         let text = serde_json::to_string_pretty(&json).context("encoding the results as JSON")?;
         std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))?;
@@ -357,7 +394,7 @@ mod tests {
     #[test]
     fn passes_keep_their_order() {
         let f = |a: f64, b: f64| vec![PassTime { label: "z".into(), ms: a }, PassTime { label: "a".into(), ms: b }];
-        let m = Measurement { gpu_frames: vec![f(1.0, 2.0), f(3.0, 4.0)], cpu_ms: vec![5.0], timestamps: true };
+        let m = Measurement { gpu_frames: vec![f(1.0, 2.0), f(3.0, 4.0)], cpu_ms: vec![5.0], timestamps: true, grid: Vec::new() };
         let p = m.passes();
         assert_eq!(p[0].pass, "z");
         assert_eq!(p[0].summary.median_ms, 2.0);

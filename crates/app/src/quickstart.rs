@@ -29,9 +29,9 @@ pub fn run() -> Result<()> {
     }
 
     {
-        let renderer = prep.renderer(false)?;
+        let mut renderer = prep.renderer(false)?;
         println!("benchmark:  {WARMUP} warm-up + {FRAMES} measured frames");
-        let m = bench::measure(&prep, renderer.as_ref(), WARMUP, FRAMES)?;
+        let m = bench::measure(&prep, renderer.as_mut(), WARMUP, FRAMES)?;
         print!("{}", bench::table(&m));
         if let Some(s) = culling_stats(&prep, renderer.as_ref())? {
             println!("culling:    {s}");
@@ -40,8 +40,8 @@ pub fn run() -> Result<()> {
         println!("GPU memory:\n{}", renderer.memory());
     }
     // The first renderer is dropped: only one set of targets is alive at a time.
-    let heat = prep.renderer(true)?;
-    bench::measure(&prep, heat.as_ref(), 0, 1)?;
+    let mut heat = prep.renderer(true)?;
+    bench::measure(&prep, heat.as_mut(), 0, 1)?;
     let note = write_image(&prep, heat.as_ref(), true, heatmap_path)?;
     prep.check_gpu_errors()?;
     if let Some(n) = note {

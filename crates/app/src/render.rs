@@ -11,7 +11,6 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use tiledlight_cull::tiles::tile_depth_bounds_samples;
-use tiledlight_gpu::readback::read_buffer;
 use tiledlight_gpu::targets::Renderer;
 
 use crate::bench::{self, Measurement};
@@ -50,12 +49,19 @@ pub struct CullingStats {
     pub mean_per_list: f64,
     /// Largest light count of a list.
     pub max_per_list: u32,
-    /// Lists whose count exceeded the capacity (counted on the GPU).
+    /// Lists that lost lights because the light grid was full (counted on the GPU; 0
+    /// unless the grid's budget was fixed or the device could not bind a larger one).
     pub overflowing: u32,
+    /// Lights those lists lost.
+    pub dropped: u32,
+    /// Lists longer than the culling kernel's workgroup list, written by its second pass.
+    pub spilled: u32,
     /// (tile, light) pairs found (summed from the GPU's per-list counts).
     pub pairs: u64,
-    /// The list capacity.
+    /// The workgroup list's capacity.
     pub capacity: u32,
+    /// Indices the light grid holds.
+    pub grid_capacity: u32,
 }
 
 impl std::fmt::Display for CullingStats {
@@ -63,26 +69,38 @@ impl std::fmt::Display for CullingStats {
         let per = if self.lists_per_tile == 1 { "tile" } else { "list (half-z)" };
         write!(
             f,
-            "mean {:.1}, max {} lights per {per} over {} of {} tiles with geometry; {} overflowing lists (capacity {}); {} tile-light pairs",
+            "mean {:.1}, max {} lights per {per} over {} of {} tiles with geometry; {} lists longer than the workgroup list ({}), culled twice; ",
             self.mean_per_list,
             self.max_per_list,
             self.tiles_with_geometry,
             self.tiles,
-            self.overflowing,
+            self.spilled,
             self.capacity,
-            group_digits(self.pairs)
-        )
+        )?;
+        if self.overflowing > 0 {
+            write!(
+                f,
+                "DROPPED {} lights from {} lists (light grid of {} indices full); ",
+                group_digits(self.dropped.into()),
+                self.overflowing,
+                group_digits(self.grid_capacity.into())
+            )?;
+        } else {
+            write!(f, "0 dropped (light grid of {} indices); ", group_digits(self.grid_capacity.into()))?;
+        }
+        write!(f, "{} tile-light pairs", group_digits(self.pairs))
     }
 }
 
 /// Reads the last frame's lists and depth back and computes the statistics (None for a
 /// renderer without culling).
 pub fn culling_stats(prep: &Prepared, renderer: &dyn Renderer) -> Result<Option<CullingStats>> {
-    let Some(counts_buffer) = renderer.tile_counts() else {
+    let Some(grid) = renderer.light_grid() else {
         return Ok(None);
     };
-    let counts: Vec<u32> =
-        read_buffer(&prep.ctx.device, &prep.ctx.queue, counts_buffer).context("reading the tile counts back")?;
+    let (device, queue) = (&prep.ctx.device, &prep.ctx.queue);
+    let counts = grid.read_counts(device, queue).context("reading the tile counts back")?;
+    let header = grid.status(device, queue).context("reading the light grid's header back")?.header;
     let depth = renderer.read_depth(&prep.ctx).context("reading the depth buffer back")?;
     let grid = renderer.grid();
     let options = prep.args.cull_options();
@@ -108,9 +126,12 @@ pub fn culling_stats(prep: &Prepared, renderer: &dyn Renderer) -> Result<Option<
         tiles: grid.tile_count(),
         mean_per_list: if n > 0 { sum as f64 / n as f64 } else { 0.0 },
         max_per_list: counts.iter().copied().max().unwrap_or(0),
-        overflowing: counts.iter().filter(|&&c| c > options.capacity).count() as u32,
+        overflowing: header.dropped_lists,
+        dropped: header.dropped_pairs,
+        spilled: header.spilled_lists,
         pairs: counts.iter().map(|&c| u64::from(c)).sum(),
         capacity: options.capacity,
+        grid_capacity: header.capacity,
     }))
 }
 
@@ -155,8 +176,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         bail!("--heatmap needs --method forward-plus ({} has no tiles)", args.scene.method.name());
     }
     let prep = Prepared::new(&args.scene)?;
-    let renderer = prep.renderer(args.heatmap)?;
-    let m = bench::measure(&prep, renderer.as_ref(), 0, RENDER_FRAMES)?;
+    let mut renderer = prep.renderer(args.heatmap)?;
+    let m = bench::measure(&prep, renderer.as_mut(), 0, RENDER_FRAMES)?;
     let stats = culling_stats(&prep, renderer.as_ref())?;
     let edges = renderer.edge_pixels(&prep.ctx).context("reading the MSAA edge count back")?;
     let note = write_image(&prep, renderer.as_ref(), args.heatmap, &out)?;

@@ -337,6 +337,7 @@ impl SceneArgs {
             spot_cone: self.spot_cone,
             coarse: !self.flat_cull,
             samples: self.msaa,
+            grid_pairs: None,
         }
     }
 

@@ -215,8 +215,8 @@ pub fn run(args: &SweepArgs) -> Result<()> {
                 prep.insert(p)
             }
         };
-        let renderer = p.renderer(false).with_context(|| what.clone())?;
-        let m = bench::measure(p, renderer.as_ref(), args.warmup, args.frames).with_context(|| what.clone())?;
+        let mut renderer = p.renderer(false).with_context(|| what.clone())?;
+        let m = bench::measure(p, renderer.as_mut(), args.warmup, args.frames).with_context(|| what.clone())?;
         ensure!(m.timestamps, "the adapter has no timestamp queries: a sweep needs GPU pass times");
         let stats = culling_stats(p, renderer.as_ref())?;
         let passes = m.passes();
