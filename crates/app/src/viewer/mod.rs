@@ -3,8 +3,9 @@
 //! image is drawn onto the surface ([`blit`]) and the egui panel over it ([`ui`]). The
 //! GPU context is made for the window's surface; scene, lights and renderer come from the
 //! same tiledlight-setup [`Prepared`] as `render` and `bench`, and a change of settings
-//! rebuilds only what depends on it ([`settings`], `Prepared::reconfigure`). `--frames N` (with `--script`, `--screenshot`,
-//! `--screenshot-ui`) makes a scripted run that exits by itself, for tests and demos.
+//! rebuilds only what depends on it ([`settings`], `Prepared::reconfigure`). `--frames N`
+//! (with `--script`, `--screenshot`, `--screenshot-ui`) makes a scripted run that exits by
+//! itself, for tests and demos.
 //!
 //! Plain `tiledlight` opens the viewer when a display is available ([`run_default`]), and
 //! otherwise runs the headless quickstart, saying why in one line.

@@ -4,7 +4,8 @@
 //! (per-pass GPU times with a rolling graph, frame time, visible lights, lights per tile,
 //! overflowing tiles, GPU memory). Widgets edit a copy of the settings; the viewer applies
 //! it ([`super::settings::plan`] decides what to rebuild). Keys and mouse steer the camera
-//! when egui does not want them. Depends on egui and the viewer's other modules.
+//! when egui does not want them. Depends on egui, tiledlight-setup (settings, statistics)
+//! and the viewer's other modules.
 
 use std::collections::VecDeque;
 
