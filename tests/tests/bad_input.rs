@@ -137,8 +137,9 @@ fn every_pass_is_timed_when_timestamps_exist() {
     let scene = scenes::mixed_scene();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 64, 0, 2)).unwrap();
-    let mut r = ForwardRenderer::new(ctx, &sg, &lights, 64, 36, ForwardSettings { heatmap: true, ..Default::default() })
-        .unwrap();
+    let mut r =
+        ForwardRenderer::new(ctx, &sg, &lights, 64, 36, ForwardSettings { heatmap: true, ..Default::default() })
+            .unwrap();
     let mut timer = GpuTimer::new(ctx).unwrap();
     let mut frames = Vec::new();
     for _ in 0..6 {

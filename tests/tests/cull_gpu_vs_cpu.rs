@@ -197,14 +197,8 @@ fn lists_longer_than_the_workgroup_list_are_complete() {
     let scene = scenes::mixed_scene();
     let lights = scenes::lights(&scene, 2000, 0, 5);
     let (w, h) = (160, 90);
-    let case = Case {
-        name: "spill",
-        scene: &scene,
-        camera: scenes::mixed_camera(w, h),
-        lights: &lights,
-        width: w,
-        height: h,
-    };
+    let case =
+        Case { name: "spill", scene: &scene, camera: scenes::mixed_camera(w, h), lights: &lights, width: w, height: h };
     for options in [
         CullOptions { capacity: 8, ..Default::default() },
         CullOptions { capacity: 8, half_z: true, ..Default::default() },

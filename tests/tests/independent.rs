@@ -377,8 +377,9 @@ fn materials_match_cpu_ray_cast() {
     let mut fwd =
         ForwardRenderer::new(ctx, &sg, &lb, w, h, ForwardSettings { ambient: AMBIENT, ..Default::default() }).unwrap();
     check("forward+", &render_frame(ctx, &mut fwd, &sg, &camera).hdr, false, 3e-3, 1e-3);
-    let mut def = DeferredRenderer::new(ctx, &sg, &lb, w, h, DeferredSettings { ambient: AMBIENT, ..Default::default() })
-        .unwrap();
+    let mut def =
+        DeferredRenderer::new(ctx, &sg, &lb, w, h, DeferredSettings { ambient: AMBIENT, ..Default::default() })
+            .unwrap();
     check("deferred", &render_frame(ctx, &mut def, &sg, &camera).hdr, true, 5e-3, 1e-3);
 }
 

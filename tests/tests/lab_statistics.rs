@@ -1,9 +1,11 @@
 //! The measurement lab's statistics, GPU path against CPU reference, on 320x180 frames of
 //! the courtyard: the false-positive rate and wasted evaluations per pixel of the lists the
-//! GPU culled (read back) equal those of the CPU reference culler's lists, and the GPU's
-//! per-tile counts give the CPU's mean and maximum lights per tile; the energy lost to the
-//! cutoff (image against the no-cutoff brute force) is positive and shrinks as the
-//! threshold falls, and Forward+ loses exactly what brute force with the cutoff loses.
+//! GPU culled (read back) equal those of the CPU reference culler's lists, and the lab's
+//! statistics of the GPU's per-tile counts (`tiledlight_setup::culling_stats`, what
+//! `render`, `sweep` and `accuracy` report) give the CPU's mean and maximum lights per
+//! tile; the energy lost to the cutoff (image against the no-cutoff brute force) is
+//! positive and shrinks as the threshold falls, and Forward+ loses exactly what brute
+//! force with the cutoff loses.
 
 use tiledlight_cull::reference::{list_quality, stats, tile_ranges};
 use tiledlight_cull::{cull_tiles, TileLists};
@@ -16,6 +18,7 @@ use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;
 use tiledlight_metrics::HdrError;
 use tiledlight_scene::{random_lights, LightOptions, Scene};
+use tiledlight_setup::culling_stats;
 use tiledlight_tests::{gpu, scenes};
 
 const W: u32 = 320;
@@ -84,18 +87,16 @@ fn gpu_lists_give_the_cpu_false_positive_rate_and_wasted_evaluations() {
         assert!((q_gpu.false_positive_rate - q_cpu.false_positive_rate).abs() <= tol, "false-positive rate");
         assert!((q_gpu.wasted_per_pixel - q_cpu.wasted_per_pixel).abs() <= 2.0 * W as f64 / q_cpu.pixels as f64);
         assert!((q_gpu.evaluated_per_pixel - q_cpu.evaluated_per_pixel).abs() <= 2.0 * W as f64 / q_cpu.pixels as f64);
-        // The GPU's counts give the CPU's mean and maximum per list.
+        // The lab's statistics of the GPU's counts give the CPU's mean and maximum per list.
         let s = stats(&cpu);
-        let per = options.lists_per_tile() as usize;
-        let (mut sum, mut n) = (0u64, 0u64);
-        for (t, range) in cpu.ranges.iter().enumerate() {
-            if range.is_some() {
-                sum += gpu_lists.counts[t * per..(t + 1) * per].iter().map(|&c| u64::from(c)).sum::<u64>();
-                n += per as u64;
-            }
-        }
-        assert!((sum as f64 / n as f64 - s.mean_per_list).abs() <= 2.0 / n as f64, "mean lights per list");
-        assert_eq!(gpu_lists.counts.iter().copied().max().unwrap(), s.max_per_list);
+        let lab = culling_stats(ctx, &r, &options).unwrap().expect("Forward+ has tile lists");
+        let geometry = cpu.ranges.iter().filter(|r| r.is_some()).count();
+        assert_eq!(lab.tiles_with_geometry, geometry, "tiles with geometry");
+        let n = (geometry * options.lists_per_tile() as usize) as f64;
+        assert!((lab.mean_per_list - s.mean_per_list).abs() <= 2.0 / n, "mean lights per list");
+        assert_eq!(lab.max_per_list, s.max_per_list);
+        assert_eq!(lab.max_per_list, gpu_lists.counts.iter().copied().max().unwrap());
+        assert_eq!(lab.overflowing, 0);
     }
 }
 

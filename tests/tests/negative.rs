@@ -125,7 +125,8 @@ fn one_dropped_light_fails_the_reference_comparisons() {
     .unwrap();
     let reference = render_frame(ctx, &mut reference, &sg, &camera);
 
-    let mut plain = ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { cull, ..Default::default() }).unwrap();
+    let mut plain =
+        ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { cull, ..Default::default() }).unwrap();
     let plain_frame = render_frame(ctx, &mut plain, &sg, &camera);
     let depth = plain.read_depth(ctx).unwrap();
     let cpu = cull_tiles(&depth, W, H, &camera, &lights.packed, &cull.to_config(false)).unwrap();

@@ -11,7 +11,7 @@
 //! Output: a resumable CSV (one row per setting), a Pareto chart (time vs FLIP mean, the
 //! frontier drawn, the fastest setting under the target error ringed) and FLIP heat maps
 //! of the frontier's settings. May depend on [`crate::lab`], [`crate::bench`],
-//! [`crate::render`], [`crate::chart`], [`crate::scene_setup`], tiledlight-cull and
+//! [`crate::chart`], [`crate::scene_setup`], tiledlight-setup, tiledlight-cull and
 //! tiledlight-metrics.
 
 use std::collections::HashMap;
@@ -21,12 +21,12 @@ use anyhow::{ensure, Context, Result};
 use clap::Args;
 use tiledlight_cull::reference::{cull_tiles, list_quality, ListQuality};
 use tiledlight_metrics::{flip, HdrError};
+use tiledlight_setup::{group_digits, Method, Prepared, Settings};
 
 use crate::bench::{self, MAX_FRAMES};
 use crate::chart::{self, ParetoChart, ParetoPoint};
 use crate::lab::{self, Axis, ResumableCsv};
-use crate::render::culling_stats;
-use crate::scene_setup::{group_digits, MethodArg, Prepared, SceneArgs};
+use crate::scene_setup::SceneArgs;
 
 /// The settings measured when no `--axis` is given: thirteen thresholds, about halving
 /// (radii from 0.5x to 32x the default 0.1's; at 1e-4 every light of the default scene
@@ -131,7 +131,7 @@ struct Reference {
 
 /// What identifies a reference image: everything but the settings it is compared over
 /// (threshold, tests, tile size, method), which do not change it.
-fn reference_key(a: &SceneArgs, reference: ReferenceArg) -> String {
+fn reference_key(a: &Settings, reference: ReferenceArg) -> String {
     // With the cutoff the radii, so the threshold, shape the reference too.
     let threshold = if reference == ReferenceArg::Cutoff { a.threshold.to_string() } else { String::new() };
     threshold
@@ -153,16 +153,16 @@ fn pass_times(m: &bench::Measurement) -> Result<(f64, String)> {
 
 fn render_reference(
     prep: &mut Prepared,
-    point_args: &SceneArgs,
+    point_args: &Settings,
     reference: ReferenceArg,
     frames: u32,
 ) -> Result<Reference> {
     let method = match reference {
-        ReferenceArg::NoCutoff => MethodArg::BruteForceNoCutoff,
-        ReferenceArg::Cutoff => MethodArg::BruteForce,
+        ReferenceArg::NoCutoff => Method::BruteForceNoCutoff,
+        ReferenceArg::Cutoff => Method::BruteForce,
     };
-    let args = SceneArgs { method, ..point_args.clone() };
-    prep.reconfigure(&args)?;
+    let settings = Settings { method, ..point_args.clone() };
+    prep.reconfigure(&settings)?;
     let mut r = prep.renderer(false)?;
     let m = bench::measure(prep, r.as_mut(), 1, frames).context("rendering the brute-force reference")?;
     let (total_ms, passes) = pass_times(&m)?;
@@ -175,10 +175,10 @@ fn render_reference(
 /// GPU's depth buffer (the GPU test suite checks they are the GPU's lists), scored pixel
 /// by pixel. None for the untiled methods.
 fn quality(prep: &Prepared, depth: &[f32]) -> Result<Option<ListQuality>> {
-    if !prep.args.method.is_tiled() {
+    if !prep.settings.method.is_tiled() {
         return Ok(None);
     }
-    let a = &prep.args;
+    let a = &prep.settings;
     let config = a.cull_options().to_config(prep.lights.has_spots());
     let lists = cull_tiles(depth, a.width, a.height, &prep.camera, &prep.lights.packed, &config)
         .context("culling on the CPU for the statistics")?;
@@ -215,9 +215,10 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
     let given: Vec<Axis> = args.axes.iter().map(|s| lab::parse_axis(s)).collect::<Result<_>>()?;
     let axes = lab::merge_axes(defaults, given);
     let points = lab::points(&axes)?;
-    let all_args: Vec<SceneArgs> = points.iter().map(|p| lab::args_at(&args.scene, &axes, p)).collect::<Result<_>>()?;
+    let all_args: Vec<Settings> =
+        points.iter().map(|p| lab::args_at(&args.scene, &axes, p).and_then(|a| a.settings())).collect::<Result<_>>()?;
     ensure!(
-        all_args.iter().all(|a| a.method != MethodArg::BruteForceNoCutoff),
+        all_args.iter().all(|a| a.method != Method::BruteForceNoCutoff),
         "method brute-force-no-cutoff is the reference itself: leave it out of the settings"
     );
     let out = args.out.clone().unwrap_or_else(|| PathBuf::from("out/accuracy.csv"));
@@ -276,7 +277,7 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
         let mut renderer = p.renderer(false).with_context(|| what.clone())?;
         let m = bench::measure(p, renderer.as_mut(), args.warmup, args.frames).with_context(|| what.clone())?;
         let (total, passes) = pass_times(&m).with_context(|| what.clone())?;
-        let stats = culling_stats(p, renderer.as_ref())?;
+        let stats = p.culling_stats(renderer.as_ref())?;
         let edges = renderer.edge_pixels(&p.ctx).context("reading the MSAA edge count back")?;
         let depth = renderer.read_depth(&p.ctx).context("reading the depth buffer back")?;
         let hdr = renderer.read_hdr(&p.ctx).context("reading the image back")?;
@@ -393,7 +394,7 @@ fn report(
         subtitle: format!(
             "{} scene, {lights} lights, {}{}{}; error vs brute force without cutoff; labels: intensity threshold T",
             s.scene,
-            s.method.name(),
+            Method::from(s.method).name(),
             if fixed.is_empty() { "" } else { ", " },
             fixed.join(", ")
         ),

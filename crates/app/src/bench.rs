@@ -7,7 +7,7 @@
 //! (latency, not pipelined throughput) and the profiler never has to drop a pending frame.
 //! The frame loop ([`measure`]) and the table are shared with `render` and the default run.
 //!
-//! May depend on [`crate::scene_setup`], tiledlight-forward and tiledlight-gpu.
+//! May depend on [`crate::scene_setup`], tiledlight-setup and tiledlight-gpu.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -19,7 +19,9 @@ use tiledlight_gpu::light_grid::GridStatus;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::{GpuTimer, PassTime};
 
-use crate::scene_setup::{Prepared, SceneArgs};
+use tiledlight_setup::Prepared;
+
+use crate::scene_setup::SceneArgs;
 
 /// How the CPU frame time is measured (printed and written to JSON).
 pub const CPU_TIME_MEANING: &str = "wall time of record + submit + wait for the GPU, per frame (frames serialised)";
@@ -316,7 +318,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             std::fs::create_dir_all(dir).with_context(|| format!("creating directory {}", dir.display()))?;
         }
     }
-    let prep = Prepared::new(&args.scene)?;
+    let prep = Prepared::new(&args.scene.settings()?)?;
     for (k, v) in prep.describe() {
         println!("{:<11} {v}", format!("{k}:"));
     }
@@ -326,12 +328,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     print!("{}", table(&m));
     let edge_pixels = renderer.edge_pixels(&prep.ctx).context("reading the MSAA edge count back")?;
     if let Some(e) = edge_pixels {
-        let pixels = f64::from(prep.args.width) * f64::from(prep.args.height);
+        let pixels = f64::from(prep.settings.width) * f64::from(prep.settings.height);
         println!("MSAA edges: {e} pixels ({:.2}%) shaded per sample", 100.0 * f64::from(e) / pixels);
     }
     println!("GPU memory:\n{}", renderer.memory());
     if let Some(path) = &args.json {
-        let a = &prep.args;
+        let a = &prep.settings;
         let passes = m.passes();
         let json = BenchJson {
             config: ConfigJson {
@@ -394,7 +396,12 @@ mod tests {
     #[test]
     fn passes_keep_their_order() {
         let f = |a: f64, b: f64| vec![PassTime { label: "z".into(), ms: a }, PassTime { label: "a".into(), ms: b }];
-        let m = Measurement { gpu_frames: vec![f(1.0, 2.0), f(3.0, 4.0)], cpu_ms: vec![5.0], timestamps: true, grid: Vec::new() };
+        let m = Measurement {
+            gpu_frames: vec![f(1.0, 2.0), f(3.0, 4.0)],
+            cpu_ms: vec![5.0],
+            timestamps: true,
+            grid: Vec::new(),
+        };
         let p = m.passes();
         assert_eq!(p[0].pass, "z");
         assert_eq!(p[0].summary.median_ms, 2.0);

@@ -144,7 +144,7 @@ impl Ranged for Keyed {
 /// "1,024" for integers, else up to 3 significant digits.
 pub fn tick_label(v: f64) -> String {
     if v.abs() >= 1.0 && (v - v.round()).abs() < 1e-6 * v.abs() {
-        crate::scene_setup::group_digits(v.round() as u64)
+        tiledlight_setup::group_digits(v.round() as u64)
     } else if v == 0.0 {
         "0".into()
     } else {

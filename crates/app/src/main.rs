@@ -13,7 +13,8 @@
 //!   1080p headless, image + heat map + short benchmark ([`quickstart`]).
 //!
 //! Every subcommand builds its scene, lights, camera and renderer from the same flags
-//! ([`scene_setup`]). Every failure ends with one `error: ...` line on stderr and a
+//! ([`scene_setup`]), converted into tiledlight-setup's settings; that library crate
+//! builds them. Every failure ends with one `error: ...` line on stderr and a
 //! non-zero exit code (1 for run-time errors, 2 for unparsable flags); logging goes
 //! through env_logger (`RUST_LOG`). This module may depend on all the others.
 

@@ -4,15 +4,15 @@
 //! benchmark. Two renderers, one after the other: the heat map is drawn over the lit
 //! image, so the plain image needs a renderer without it.
 //!
-//! May depend on [`crate::scene_setup`], [`crate::bench`] and [`crate::render`].
+//! May depend on tiledlight-setup, [`crate::bench`] and [`crate::render`].
 
 use std::path::Path;
 
 use anyhow::Result;
+use tiledlight_setup::{Prepared, Settings};
 
 use crate::bench;
-use crate::render::{culling_stats, write_image};
-use crate::scene_setup::{Prepared, SceneArgs};
+use crate::render::write_image;
 
 /// Frames of the short benchmark (after a few warm-up frames).
 const FRAMES: u32 = 30;
@@ -20,10 +20,10 @@ const WARMUP: u32 = 5;
 
 /// Runs the default tour.
 pub fn run() -> Result<()> {
-    let args = SceneArgs::default();
+    let settings = Settings::default();
     let render_path = Path::new("out/render.png");
     let heatmap_path = Path::new("out/heatmap.png");
-    let prep = Prepared::new(&args)?;
+    let prep = Prepared::new(&settings)?;
     for (k, v) in prep.describe() {
         println!("{:<11} {v}", format!("{k}:"));
     }
@@ -33,7 +33,7 @@ pub fn run() -> Result<()> {
         println!("benchmark:  {WARMUP} warm-up + {FRAMES} measured frames");
         let m = bench::measure(&prep, renderer.as_mut(), WARMUP, FRAMES)?;
         print!("{}", bench::table(&m));
-        if let Some(s) = culling_stats(&prep, renderer.as_ref())? {
+        if let Some(s) = prep.culling_stats(renderer.as_ref())? {
             println!("culling:    {s}");
         }
         write_image(&prep, renderer.as_ref(), false, render_path)?;

@@ -7,19 +7,19 @@
 //! `--preset figure9` is the comparison of AMD's sample (reference 000, Figure 9): Forward+
 //! vs Tiled Deferred over the light count, ~750k triangles, 4 G-buffer targets.
 //!
-//! May depend on [`crate::lab`], [`crate::bench`] (the frame loop), [`crate::render`]
-//! (culling statistics), [`crate::chart`] and [`crate::scene_setup`].
+//! May depend on [`crate::lab`], [`crate::bench`] (the frame loop), [`crate::chart`],
+//! [`crate::scene_setup`] and tiledlight-setup (the run, its culling statistics).
 
 use std::path::PathBuf;
 
 use anyhow::{ensure, Context, Result};
 use clap::{Args, ValueEnum};
+use tiledlight_setup::{group_digits, Prepared, Settings};
 
 use crate::bench::{self, MAX_FRAMES};
 use crate::chart::{self, AxisSpec, LineChart, Scale, Series};
 use crate::lab::{self, Axis, ResumableCsv};
-use crate::render::culling_stats;
-use crate::scene_setup::{group_digits, Prepared, SceneArgs};
+use crate::scene_setup::SceneArgs;
 
 /// Named sweeps.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -174,7 +174,8 @@ pub fn run(args: &SweepArgs) -> Result<()> {
     let ext = chart_path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     ensure!(ext.as_deref() == Some("png"), "--chart {}: only .png charts are supported", chart_path.display());
     // Every point's flags are checked before the first is measured.
-    let all_args: Vec<SceneArgs> = points.iter().map(|p| lab::args_at(&args.scene, &axes, p)).collect::<Result<_>>()?;
+    let all_args: Vec<Settings> =
+        points.iter().map(|p| lab::args_at(&args.scene, &axes, p).and_then(|a| a.settings())).collect::<Result<_>>()?;
 
     let head = header(&axes);
     let n_axes = axes.len();
@@ -218,7 +219,7 @@ pub fn run(args: &SweepArgs) -> Result<()> {
         let mut renderer = p.renderer(false).with_context(|| what.clone())?;
         let m = bench::measure(p, renderer.as_mut(), args.warmup, args.frames).with_context(|| what.clone())?;
         ensure!(m.timestamps, "the adapter has no timestamp queries: a sweep needs GPU pass times");
-        let stats = culling_stats(p, renderer.as_ref())?;
+        let stats = p.culling_stats(renderer.as_ref())?;
         let passes = m.passes();
         ensure!(!passes.is_empty(), "{what}: no frame's timestamps came back");
         let total: f64 = passes.iter().map(|ps| ps.summary.median_ms).sum();

@@ -99,7 +99,11 @@ impl ShadingPass {
             entries: &[],
         });
         let tex_layout = scene.textures.as_ref().map_or(&empty, |t| &t.layout);
-        let pl = pipeline_layout(device, "shade.pipeline_layout", &[&frame.layout, &scene.layout, tex_layout, &lights_layout]);
+        let pl = pipeline_layout(
+            device,
+            "shade.pipeline_layout",
+            &[&frame.layout, &scene.layout, tex_layout, &lights_layout],
+        );
         let pipelines = scene
             .kinds()
             .into_iter()

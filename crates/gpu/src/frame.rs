@@ -7,7 +7,6 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 use tiledlight_cull::{Camera, TileGrid};
 
-
 /// Per-frame constants.
 ///
 /// Keep in sync with `shaders/common/frame.wgsl` (`Frame`); `cargo xtask validate-shaders` checks it.

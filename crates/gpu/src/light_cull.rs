@@ -85,10 +85,7 @@ impl CullOptions {
             )));
         }
         if self.capacity == 0 || self.capacity > MAX_CAPACITY {
-            return Err(GpuError::Config(format!(
-                "per-tile capacity {} must be in 1..={MAX_CAPACITY}",
-                self.capacity
-            )));
+            return Err(GpuError::Config(format!("per-tile capacity {} must be in 1..={MAX_CAPACITY}", self.capacity)));
         }
         if self.coarse && !COARSE_SIZE.is_multiple_of(self.tile_size) {
             return Err(GpuError::Config(format!("two-level culling needs a tile size dividing {COARSE_SIZE}")));

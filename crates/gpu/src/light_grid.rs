@@ -178,9 +178,8 @@ impl LightGrid {
         contents[..HEADER_BYTES as usize].copy_from_slice(bytemuck::bytes_of(&header));
         let grid = buffer_init(device, &format!("{label}.grid"), &contents, usage);
         let indices = index_buffer(device, label, capacity);
-        let ranges = ranges.then(|| {
-            buffer_init(device, &format!("{label}.ranges"), &vec![0u8; tiles.tile_count() * 8], usage)
-        });
+        let ranges =
+            ranges.then(|| buffer_init(device, &format!("{label}.ranges"), &vec![0u8; tiles.tile_count() * 8], usage));
         let cs = wgpu::ShaderStages::COMPUTE;
         let mut entries = vec![storage_entry(0, cs, false), storage_entry(1, cs, false)];
         if ranges.is_some() {
@@ -386,7 +385,11 @@ fn compute_group(
     if let Some(r) = ranges {
         entries.push(wgpu::BindGroupEntry { binding: 2, resource: r.as_entire_binding() });
     }
-    device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(&format!("{label}.group")), layout, entries: &entries })
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(&format!("{label}.group")),
+        layout,
+        entries: &entries,
+    })
 }
 
 /// Layouts of this module's GPU structs, for the xtask layout check.

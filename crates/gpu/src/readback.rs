@@ -39,7 +39,8 @@ pub fn read_buffer_range<T: bytemuck::Pod>(
         usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
         mapped_at_creation: false,
     });
-    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback.buffer_range") });
+    let mut enc =
+        device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback.buffer_range") });
     enc.copy_buffer_to_buffer(buffer, offset, &staging, 0, size);
     queue.submit([enc.finish()]);
     let bytes = map_blocking(device, &staging)?;

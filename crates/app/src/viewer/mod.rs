@@ -2,9 +2,10 @@
 //! frame the renderer of the chosen method draws into its own targets, the tonemapped
 //! image is drawn onto the surface ([`blit`]) and the egui panel over it ([`ui`]). The
 //! GPU context is made for the window's surface; scene, lights and renderer come from the
-//! same [`Prepared`] as `render` and `bench`, and a change of settings rebuilds only what
-//! depends on it ([`settings`]). `--frames N` (with `--script`, `--screenshot`,
-//! `--screenshot-ui`) makes a scripted run that exits by itself, for tests and demos.
+//! same tiledlight-setup [`Prepared`] as `render` and `bench`, and a change of settings
+//! rebuilds only what depends on it ([`settings`], `Prepared::reconfigure`). `--frames N`
+//! (with `--script`, `--screenshot`, `--screenshot-ui`) makes a scripted run that exits by
+//! itself, for tests and demos.
 //!
 //! Plain `tiledlight` opens the viewer when a display is available ([`run_default`]), and
 //! otherwise runs the headless quickstart, saying why in one line.
@@ -32,14 +33,15 @@ use tiledlight_gpu::readback::read_texture;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::{ContextOptions, GpuContext};
+use tiledlight_setup::{group_digits, Prepared, Reload, SceneCpu, SceneSource};
 use winit::application::ApplicationHandler;
 use winit::event::WindowEvent;
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::window::{Window, WindowId};
 
 use crate::bookmark;
-use crate::render::{culling_stats, write_image};
-use crate::scene_setup::{check_png_path, rgb_image, save_png, Prepared, SceneArgs, SceneCpu};
+use crate::render::write_image;
+use crate::scene_setup::{check_png_path, rgb_image, save_png, SceneArgs};
 use animate::LightAnimator;
 use blit::{Blit, DisplayImage};
 use camera_control::CameraRig;
@@ -137,10 +139,11 @@ fn run_viewer(args: &ViewArgs) -> Result<(), Failure> {
         return Err(Failure::Other(anyhow::anyhow!("--screenshot and --screenshot-ui need --frames N")));
     }
     // Flags and files first: a typo should not cost a window and a device.
-    let cpu = SceneCpu::load(&args.scene).map_err(Failure::Other)?;
+    let setup = args.scene.settings().map_err(Failure::Other)?;
+    let cpu = SceneCpu::load(&setup).map_err(Failure::Other)?;
     let event_loop = EventLoop::new().map_err(|e| Failure::NoWindow(e.into()))?;
     event_loop.set_control_flow(ControlFlow::Poll);
-    let mut app = App { args: args.clone(), script, cpu: Some(cpu), viewer: None, failure: None };
+    let mut app = App { args: args.clone(), script, cpu: Some((setup, cpu)), viewer: None, failure: None };
     event_loop.run_app(&mut app).map_err(|e| Failure::Other(e.into()))?;
     match app.failure {
         Some(f) => Err(f),
@@ -152,7 +155,8 @@ fn run_viewer(args: &ViewArgs) -> Result<(), Failure> {
 struct App {
     args: ViewArgs,
     script: VecDeque<Action>,
-    cpu: Option<SceneCpu>,
+    /// The settings of the flags and the scene loaded from them, until the window opens.
+    cpu: Option<(tiledlight_setup::Settings, SceneCpu)>,
     viewer: Option<Viewer>,
     failure: Option<Failure>,
 }
@@ -162,8 +166,8 @@ impl ApplicationHandler for App {
         if self.viewer.is_some() {
             return;
         }
-        let Some(cpu) = self.cpu.take() else { return };
-        match Viewer::new(event_loop, &self.args, cpu, std::mem::take(&mut self.script)) {
+        let Some((setup, cpu)) = self.cpu.take() else { return };
+        match Viewer::new(event_loop, &self.args, setup, cpu, std::mem::take(&mut self.script)) {
             Ok(v) => self.viewer = Some(v),
             Err(f) => {
                 self.failure = Some(f);
@@ -259,7 +263,7 @@ fn present_mode(vsync: bool) -> wgpu::PresentMode {
 fn home_rig(prep: &Prepared) -> CameraRig {
     let dist = (prep.bounds.center() - prep.camera.eye()).length().max(1e-2);
     let mut rig = CameraRig::from_camera(&prep.camera, dist);
-    if prep.args.camera.is_none() {
+    if prep.settings.camera.is_none() {
         rig.near = rig.near.min(dist * 1e-3).max(1e-4);
     }
     rig
@@ -269,6 +273,7 @@ impl Viewer {
     fn new(
         event_loop: &ActiveEventLoop,
         args: &ViewArgs,
+        mut setup: tiledlight_setup::Settings,
         cpu: SceneCpu,
         script: VecDeque<Action>,
     ) -> Result<Self, Failure> {
@@ -276,7 +281,7 @@ impl Viewer {
         let other = |e: anyhow::Error| Failure::Other(e);
         let attrs = Window::default_attributes()
             .with_title("tiledlight")
-            .with_inner_size(winit::dpi::PhysicalSize::new(args.scene.width, args.scene.height));
+            .with_inner_size(winit::dpi::PhysicalSize::new(setup.width, setup.height));
         let window = Arc::new(event_loop.create_window(attrs).map_err(|e| no_window(e.into()))?);
         let display = event_loop.owned_display_handle();
         let w = window.clone();
@@ -300,10 +305,9 @@ impl Viewer {
         };
         surface.configure(&ctx.device, &config);
 
-        let mut scene_args = args.scene.clone();
-        (scene_args.width, scene_args.height) = (width, height);
-        let prep = Prepared::with_context(&scene_args, cpu, ctx).map_err(other)?;
-        let settings = Settings::new(scene_args);
+        (setup.width, setup.height) = (width, height);
+        let prep = Prepared::with_context(&setup, cpu, ctx).map_err(other)?;
+        let settings = Settings::new(setup);
         let renderer = prep.renderer(false).map_err(other)?;
         let blit = Blit::new(&prep.ctx.device, format.add_srgb_suffix()).map_err(other)?;
         let display = blit.display_image(&prep.ctx.device, (width, height));
@@ -322,7 +326,10 @@ impl Viewer {
         let home = home_rig(&prep);
         let animator = LightAnimator::new(&prep.lights.packed, prep.bounds.center());
         let stats = Stats { timestamps: timer.enabled(), ..Stats::default() };
-        let scene_path = if prep.args.scene == "default" { String::new() } else { prep.args.scene.clone() };
+        let scene_path = match &prep.settings.scene {
+            SceneSource::Default => String::new(),
+            SceneSource::File(path) => path.display().to_string(),
+        };
         log::info!("viewer: {} on {}", prep.scene_name, prep.ctx.describe());
         Ok(Self {
             window,
@@ -365,8 +372,8 @@ impl Viewer {
         self.config.width = width;
         self.config.height = height;
         self.surface.configure(&self.prep.ctx.device, &self.config);
-        self.pending.args.width = width;
-        self.pending.args.height = height;
+        self.pending.setup.width = width;
+        self.pending.setup.height = height;
     }
 
     /// Shows an error in the panel and on stderr; the viewer goes on.
@@ -384,48 +391,39 @@ impl Viewer {
             let old = self.settings.clone();
             // The failed attempt may have replaced the scene or the lights before the
             // renderer failed: go back from what `prep` holds now to the old settings.
-            let mut now = old.clone();
-            now.args = self.prep.args.clone();
-            now.args.capacity = old.args.capacity;
-            self.settings = now;
+            self.settings = Settings { setup: self.prep.requested().clone(), ..old.clone() };
             if let Err(e) = self.try_apply(&old) {
                 self.report(&e);
+                self.settings = old;
             }
-            self.settings = old;
         }
         self.pending = self.settings.clone();
     }
 
     fn try_apply(&mut self, new: &Settings) -> Result<()> {
-        let p = plan(&self.settings, new);
+        let mut new = new.clone();
+        // A new scene starts from its own camera, not the bookmark of the first one.
+        if new.setup.scene != self.settings.setup.scene {
+            new.setup.camera = None;
+        }
+        let p = plan(&self.settings, &new);
         if p.is_empty() {
-            self.settings = new.clone();
+            self.settings = new;
             return Ok(());
         }
-        new.args.validate()?;
-        let mut renderer = p.renderer;
-        if p.scene {
-            let mut args = new.args.clone();
-            // A new scene starts from its own camera, not the bookmark of the first one.
-            if args.scene != self.settings.args.scene {
-                args.camera = None;
-            }
-            let cpu = SceneCpu::load(&args)?;
-            self.prep.replace_scene(&new.args, cpu)?;
+        // Scene, lights and camera as the plan says (nothing changes when it fails).
+        let rebuilt = self.prep.reconfigure(&new.setup)?;
+        if rebuilt.reload == Reload::Scene || new.setup.camera != self.settings.setup.camera {
             self.home = home_rig(&self.prep);
             self.rig = self.home.clone();
-            renderer = true;
-        } else if p.lights {
-            renderer |= self.prep.replace_lights(&new.args)?;
         }
-        if p.scene || p.lights {
+        if rebuilt.reload != Reload::Nothing {
             self.animator = LightAnimator::new(&self.prep.lights.packed, self.prep.bounds.center());
         }
-        if renderer {
-            self.prep.set_renderer_args(&new.args)?;
+        if p.renderer || rebuilt.renderer {
             // The old renderer stays in use until the new one is built, so a renderer
             // the GPU refuses leaves a working viewer behind.
-            let size = (new.args.width, new.args.height);
+            let size = (new.setup.width, new.setup.height);
             let built = self.prep.renderer(new.effective_heatmap());
             self.renderer = built?;
             self.display = self.blit.display_image(&self.prep.ctx.device, size);
@@ -436,7 +434,7 @@ impl Viewer {
             self.config.present_mode = present_mode(new.vsync);
             self.surface.configure(&self.prep.ctx.device, &self.config);
         }
-        self.settings = new.clone();
+        self.settings = new;
         Ok(())
     }
 
@@ -516,13 +514,13 @@ impl Viewer {
             scene: format!(
                 "{}: {} triangles, {} instances",
                 self.prep.scene_name,
-                crate::scene_setup::group_digits(self.prep.scene_gpu.triangles),
+                group_digits(self.prep.scene_gpu.triangles),
                 self.prep.instances
             ),
             lights: &self.prep.light_summary,
             memory: self.renderer.memory(),
-            capacity: self.prep.args.capacity(),
-            size: (self.prep.args.width, self.prep.args.height),
+            capacity: self.prep.settings.capacity(),
+            size: (self.prep.settings.width, self.prep.settings.height),
             stats: &self.stats,
         };
         let (ui, pending, rig) = (&mut self.ui, &mut self.pending, &mut self.rig);
@@ -558,7 +556,7 @@ impl Viewer {
         if self.settings.animate {
             self.animator.advance(&self.prep.ctx.queue, &self.prep.lights, dt);
         }
-        let (w, h) = (self.prep.args.width, self.prep.args.height);
+        let (w, h) = (self.prep.settings.width, self.prep.settings.height);
         let camera = match self.rig.camera(w as f32 / h as f32) {
             Ok(c) => c,
             Err(e) => {
@@ -588,6 +586,9 @@ impl Viewer {
             size_in_pixels: [self.config.width, self.config.height],
             pixels_per_point: ppp,
         };
+        // A finished frame's light-grid header, when its copy has arrived: the grid grows
+        // for the next frame if that one dropped lights (the statistics panel reports it).
+        self.renderer.prepare(ctx);
         let mut encoder =
             ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("viewer.frame") });
         self.renderer.record(&ctx.queue, &mut encoder, &self.timer, &self.prep.scene_gpu, &camera);
@@ -628,7 +629,7 @@ impl Viewer {
         if self.last_stats.is_none_or(|t| t.elapsed() >= STATS_PERIOD) || scripted_end {
             self.last_stats = Some(Instant::now());
             self.stats.visible_lights = self.visible_lights(&camera);
-            match culling_stats(&self.prep, self.renderer.as_ref()) {
+            match self.prep.culling_stats(self.renderer.as_ref()) {
                 Ok(c) => self.stats.culling = c,
                 Err(e) => self.report(&e),
             }
@@ -670,11 +671,11 @@ impl Viewer {
         let s = &self.settings;
         let l = &self.prep.light_summary;
         println!("viewer frames: {}", self.frames);
-        println!("viewer method: {}", s.args.method.name());
+        println!("viewer method: {}", s.setup.method.name());
         println!("viewer lights: {} point, {} spot", l.point, l.spot);
         println!("viewer scene: {}", self.prep.scene_name);
-        println!("viewer size: {}x{}", self.prep.args.width, self.prep.args.height);
-        println!("viewer msaa: {}x", self.prep.args.msaa);
+        println!("viewer size: {}x{}", self.prep.settings.width, self.prep.settings.height);
+        println!("viewer msaa: {}x", self.prep.settings.msaa);
         if let Some(c) = &self.stats.culling {
             println!("viewer culling: {c}");
         }

@@ -3,8 +3,8 @@
 //! `method=deferred;lights=300;scene=missing.gltf;heatmap=on`. Each action edits a copy of
 //! the viewer's [`Settings`] exactly as the panel's widget does, and the viewer applies it
 //! through the same path (so a bad value shows up in the panel as a widget's would).
-//! `wait=N` renders N frames before the next action. Depends on [`super::settings`] and
-//! [`crate::scene_setup`].
+//! `wait=N` renders N frames before the next action. Depends on [`super::settings`],
+//! [`crate::scene_setup`] (the flags' value names) and tiledlight-setup.
 
 use anyhow::{bail, Context, Result};
 use clap::ValueEnum;
@@ -12,6 +12,7 @@ use clap::ValueEnum;
 use super::camera_control::Mode;
 use super::settings::Settings;
 use crate::scene_setup::{DensityArg, MethodArg};
+use tiledlight_setup::SceneSource;
 
 /// One step of a script.
 #[derive(Clone, Debug, PartialEq)]
@@ -83,10 +84,11 @@ fn number<T: std::str::FromStr>(key: &str, v: &str) -> Result<T> {
 /// Sets control `key` of `s` to `value` (range checks happen when the viewer applies it,
 /// as for the widgets).
 pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
-    let a = &mut s.args;
+    let a = &mut s.setup;
     match key {
         "method" => {
-            a.method = MethodArg::from_str(value, true).map_err(|e| anyhow::anyhow!("--script: method={value}: {e}"))?
+            a.method =
+                MethodArg::from_str(value, true).map_err(|e| anyhow::anyhow!("--script: method={value}: {e}"))?.into()
         }
         "lights" => a.lights = Some(number(key, value)?),
         "spot-lights" => a.spot_lights = Some(number(key, value)?),
@@ -98,12 +100,12 @@ pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
         "grid-objects" => a.grid_objects = number(key, value)?,
         "density" => {
             a.density =
-                DensityArg::from_str(value, true).map_err(|e| anyhow::anyhow!("--script: density={value}: {e}"))?
+                DensityArg::from_str(value, true).map_err(|e| anyhow::anyhow!("--script: density={value}: {e}"))?.into()
         }
         "half-z" => a.half_z = on_off(key, value)?,
         "aabb" => a.aabb = on_off(key, value)?,
         "spot-cone" => a.spot_cone = on_off(key, value)?,
-        "scene" => a.scene = value.to_string(),
+        "scene" => a.scene = SceneSource::parse(value),
         "heatmap" => s.heatmap = on_off(key, value)?,
         "animate" => s.animate = on_off(key, value)?,
         "vsync" => s.vsync = on_off(key, value)?,
@@ -126,8 +128,10 @@ mod tests {
         assert_eq!(a[3], Action::Camera(Mode::Orbit));
         let mut s = Settings::new(Default::default());
         set(&mut s, "method", "brute-force").unwrap();
+        set(&mut s, "scene", "x.gltf").unwrap();
+        assert_eq!(s.setup.scene, SceneSource::File("x.gltf".into()));
         set(&mut s, "heatmap", "on").unwrap();
-        assert_eq!((s.args.method, s.heatmap), (MethodArg::BruteForce, true));
+        assert_eq!((s.setup.method, s.heatmap), (tiledlight_setup::Method::BruteForce, true));
     }
 
     #[test]

@@ -1,19 +1,20 @@
 //! What the viewer's controls set, and what a change of them must rebuild. The panel and
 //! the `--script` actions both edit a copy of [`Settings`]; the viewer then compares it
-//! with the settings in use ([`plan`]) and rebuilds only what depends on what changed:
+//! with the settings in use ([`plan`]) and rebuilds only what depends on what changed.
+//! Scene, lights, screen and renderer settings are tiledlight-setup's, and so is the
+//! decision of what their change rebuilds ([`tiledlight_setup::rebuild_plan`]: scene +
+//! lights + renderer, new light buffers + renderer, light data in place, renderer). The
+//! viewer adds its own controls:
 //!
 //! | changed | rebuilt |
 //! | --- | --- |
-//! | scene, grid objects, density (threshold of a glTF scene's own lights) | scene + lights + renderer |
-//! | point/spot light counts | light buffers + renderer (bind groups and list sizes follow the counts) |
-//! | seed, threshold (same counts) | light data rewritten in place, nothing else |
-//! | method, tile size, capacity, tests, half-z, G-buffer RTs, heat map, window size | renderer |
+//! | heat map (tiled methods only) | renderer |
 //! | vsync | surface configuration |
 //! | animation | nothing (lights are moved and uploaded each frame while it is on) |
 //!
-//! Pure data (no GPU): depends on [`crate::scene_setup`] only.
+//! Pure data (no GPU): depends on tiledlight-setup only.
 
-use crate::scene_setup::{MethodArg, SceneArgs, SceneSource};
+use tiledlight_setup::{rebuild_plan, Method, Rebuild};
 
 /// MSAA sample counts offered in the panel (the MSAA work wires them to the renderers).
 pub const MSAA_CHOICES: [u32; 4] = [1, 2, 4, 8];
@@ -21,9 +22,9 @@ pub const MSAA_CHOICES: [u32; 4] = [1, 2, 4, 8];
 /// Everything the viewer's controls set.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Settings {
-    /// Scene, lights, screen (the window's size in pixels) and renderer flags, exactly as
-    /// `render` and `bench` take them.
-    pub args: SceneArgs,
+    /// Scene, lights, screen (the window's size in pixels) and renderer settings, exactly
+    /// as `render` and `bench` build from their flags.
+    pub setup: tiledlight_setup::Settings,
     /// Draw the lights-per-tile heat map over the image (tiled methods only).
     pub heatmap: bool,
     /// Move the lights every frame.
@@ -33,26 +34,24 @@ pub struct Settings {
 }
 
 impl Settings {
-    /// The settings of a run started with `args`.
-    pub fn new(args: SceneArgs) -> Self {
-        Self { args, heatmap: false, animate: true, vsync: true }
+    /// The settings of a run started with `setup`.
+    pub fn new(setup: tiledlight_setup::Settings) -> Self {
+        Self { setup, heatmap: false, animate: true, vsync: true }
     }
 
     /// The heat map as the renderer gets it: only methods with tiles have one.
     pub fn effective_heatmap(&self) -> bool {
-        self.heatmap && self.args.method.is_tiled()
+        self.heatmap && self.setup.method.is_tiled()
     }
 }
 
-/// What a change of settings must rebuild (each implies nothing about the others: the
-/// viewer rebuilds the renderer after a scene or a reallocation of the light buffers).
+/// What a change of settings must rebuild.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Plan {
-    /// Load (or generate) the scene again, with its lights.
-    pub scene: bool,
-    /// Regenerate the random lights.
-    pub lights: bool,
-    /// Build a new renderer.
+    /// Scene, lights, camera and renderer, as tiledlight-setup decides for the scene,
+    /// light, screen and renderer settings (`Prepared::reconfigure` carries it out).
+    pub setup: Rebuild,
+    /// Build a new renderer (the setup's reason, or the heat map).
     pub renderer: bool,
     /// Reconfigure the window surface.
     pub surface: bool,
@@ -67,54 +66,31 @@ impl Plan {
 
 /// What going from `old` to `new` must rebuild.
 pub fn plan(old: &Settings, new: &Settings) -> Plan {
-    let (a, b) = (&old.args, &new.args);
-    let file_scene = matches!(b.source(), SceneSource::File(_));
-    let scene = a.scene != b.scene
-        || a.grid_objects != b.grid_objects
-        || a.density != b.density
-        // A glTF file's own lights get their radii from the threshold when it is loaded.
-        || (file_scene && a.threshold != b.threshold)
-        || a.camera != b.camera;
-    let lights = !scene
-        && (a.lights != b.lights || a.spot_lights != b.spot_lights || a.seed != b.seed || a.threshold != b.threshold);
-    let renderer = scene
-        || a.method != b.method
-        || a.tile_size != b.tile_size
-        || a.capacity != b.capacity
-        || a.aabb != b.aabb
-        || a.half_z != b.half_z
-        || a.spot_cone != b.spot_cone
-        || a.flat_cull != b.flat_cull
-        || a.gbuffer_rts != b.gbuffer_rts
-        || a.exposure != b.exposure
-        || a.width != b.width
-        || a.height != b.height
-        || a.msaa != b.msaa
-        || a.edge_distance != b.edge_distance
-        || a.edge_normal_deg != b.edge_normal_deg
-        || old.effective_heatmap() != new.effective_heatmap();
-    Plan { scene, lights, renderer, surface: old.vsync != new.vsync }
+    let setup = rebuild_plan(&old.setup, &new.setup);
+    let renderer = setup.renderer || old.effective_heatmap() != new.effective_heatmap();
+    Plan { setup, renderer, surface: old.vsync != new.vsync }
 }
 
 /// The methods in the panel's order, with their labels.
-pub const METHODS: [(MethodArg, &str); 4] = [
-    (MethodArg::ForwardPlus, "Forward+"),
-    (MethodArg::Deferred, "Tiled Deferred"),
-    (MethodArg::BruteForce, "Brute force"),
-    (MethodArg::BruteForceNoCutoff, "Brute force, no cutoff"),
+pub const METHODS: [(Method, &str); 4] = [
+    (Method::ForwardPlus, "Forward+"),
+    (Method::Deferred, "Tiled Deferred"),
+    (Method::BruteForce, "Brute force"),
+    (Method::BruteForceNoCutoff, "Brute force, no cutoff"),
 ];
 
 /// The panel's label of a method.
-pub fn method_label(m: MethodArg) -> &'static str {
+pub fn method_label(m: Method) -> &'static str {
     METHODS.iter().find(|(x, _)| *x == m).map_or("?", |(_, l)| l)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use tiledlight_setup::Reload;
 
     fn base() -> Settings {
-        Settings::new(SceneArgs { width: 320, height: 180, ..SceneArgs::default() })
+        Settings::new(tiledlight_setup::Settings { width: 320, height: 180, ..Default::default() })
     }
 
     fn with(f: impl FnOnce(&mut Settings)) -> Plan {
@@ -125,43 +101,31 @@ mod tests {
     }
 
     #[test]
-    fn sliders_rebuild_only_what_depends_on_them() {
+    fn viewer_controls_rebuild_only_what_depends_on_them() {
         assert!(with(|_| {}).is_empty());
         assert!(with(|s| s.animate = false).is_empty());
         assert_eq!(with(|s| s.vsync = false), Plan { surface: true, ..Plan::default() });
-        assert_eq!(with(|s| s.args.threshold *= 2.0), Plan { lights: true, ..Plan::default() });
-        assert_eq!(with(|s| s.args.lights = Some(7)), Plan { lights: true, ..Plan::default() });
-        assert_eq!(with(|s| s.args.seed = 9), Plan { lights: true, ..Plan::default() });
-        for f in [
-            (|s: &mut Settings| s.args.method = MethodArg::Deferred) as fn(&mut Settings),
-            |s| s.args.tile_size = 32,
-            |s| s.args.half_z = true,
-            |s| s.args.gbuffer_rts = 4,
-            |s| s.heatmap = true,
-            |s| s.args.width = 640,
-        ] {
-            assert_eq!(with(f), Plan { renderer: true, ..Plan::default() });
-        }
-        let p = with(|s| s.args.grid_objects = 10);
-        assert!(p.scene && p.renderer && !p.lights);
+        assert_eq!(with(|s| s.heatmap = true), Plan { renderer: true, ..Plan::default() });
+    }
+
+    #[test]
+    fn setup_settings_follow_the_library_plan() {
+        let p = with(|s| s.setup.seed = 9);
+        assert_eq!((p.setup.reload, p.renderer), (Reload::LightData, false));
+        let p = with(|s| s.setup.lights = Some(7));
+        assert_eq!((p.setup.reload, p.renderer), (Reload::LightBuffers, true));
+        let p = with(|s| s.setup.method = Method::Deferred);
+        assert_eq!((p.setup.reload, p.renderer, p.surface), (Reload::Nothing, true, false));
+        let p = with(|s| s.setup.grid_objects = 10);
+        assert_eq!((p.setup.reload, p.renderer), (Reload::Scene, true));
     }
 
     #[test]
     fn heat_map_of_an_untiled_method_changes_nothing() {
         let mut old = base();
-        old.args.method = MethodArg::BruteForce;
+        old.setup.method = Method::BruteForce;
         let mut new = old.clone();
         new.heatmap = true;
         assert!(plan(&old, &new).is_empty());
-    }
-
-    #[test]
-    fn threshold_of_a_gltf_scene_reloads_it() {
-        let mut old = base();
-        old.args.scene = "a.glb".into();
-        let mut new = old.clone();
-        new.args.threshold *= 2.0;
-        let p = plan(&old, &new);
-        assert!(p.scene && p.renderer && !p.lights);
     }
 }

@@ -2,9 +2,10 @@
 //! sample (method, light counts, threshold, tile size, half-z, grid objects, G-buffer
 //! targets, MSAA, heat map with legend), scene and camera controls, and the statistics
 //! (per-pass GPU times with a rolling graph, frame time, visible lights, lights per tile,
-//! overflowing tiles, GPU memory). Widgets edit a copy of the settings; the viewer applies
+//! lists that lost lights to a full light grid, GPU memory). Widgets edit a copy of the settings; the viewer applies
 //! it ([`super::settings::plan`] decides what to rebuild). Keys and mouse steer the camera
-//! when egui does not want them. Depends on egui and the viewer's other modules.
+//! when egui does not want them. Depends on egui, tiledlight-setup (settings, statistics)
+//! and the viewer's other modules.
 
 use std::collections::VecDeque;
 
@@ -16,8 +17,8 @@ use tiledlight_gpu::tonemap::{heatmap_palette, heatmap_t, HEATMAP_OVERFLOW};
 use super::camera_control::{CameraRig, Mode, Motion};
 use super::settings::{method_label, Settings, METHODS, MSAA_CHOICES};
 use crate::legend::label_values;
-use crate::render::CullingStats;
-use crate::scene_setup::{DensityArg, LightSummary, SceneSource};
+use tiledlight_scene::GridDensity;
+use tiledlight_setup::{CullingStats, LightSummary, Method, SceneSource};
 
 /// Key bindings, as the help overlay (F1) and the README list them.
 pub const KEYS: [(&str, &str); 15] = [
@@ -233,8 +234,8 @@ fn input(
                 s.animate = !s.animate;
             }
             if pressed(Key::M) {
-                let i = METHODS.iter().position(|(m, _)| *m == s.args.method).unwrap_or(0);
-                s.args.method = METHODS[(i + 1) % METHODS.len()].0;
+                let i = METHODS.iter().position(|(m, _)| *m == s.setup.method).unwrap_or(0);
+                s.setup.method = METHODS[(i + 1) % METHODS.len()].0;
             }
         });
     }
@@ -288,7 +289,11 @@ fn stats_section(ui: &mut egui::Ui, info: &Info<'_>) {
                 ui.label(format!("lights per {per}: mean {:.1}, max {}", c.mean_per_list, c.max_per_list));
                 let colour =
                     if c.overflowing > 0 { Color32::from_rgb(255, 120, 255) } else { ui.visuals().text_color() };
-                ui.colored_label(colour, format!("overflowing lists: {} (capacity {})", c.overflowing, c.capacity));
+                ui.colored_label(
+                    colour,
+                    format!("lists that lost lights (grid full): {} ({} lights)", c.overflowing, c.dropped),
+                );
+                ui.label(format!("lists past the workgroup list ({}): {}", c.capacity, c.spilled));
             }
             None => {
                 ui.label("no tiles (brute force)");
@@ -336,46 +341,46 @@ fn graph(ui: &mut egui::Ui, st: &Stats) {
 
 fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'_>) {
     egui::CollapsingHeader::new("Method and culling").default_open(true).show(ui, |ui| {
-        egui::ComboBox::from_label("method").selected_text(method_label(s.args.method)).show_ui(ui, |ui| {
+        egui::ComboBox::from_label("method").selected_text(method_label(s.setup.method)).show_ui(ui, |ui| {
             for (m, label) in METHODS {
-                ui.selectable_value(&mut s.args.method, m, label);
+                ui.selectable_value(&mut s.setup.method, m, label);
             }
         });
-        let tiled = s.args.method.is_tiled();
+        let tiled = s.setup.method.is_tiled();
         ui.add_enabled_ui(tiled, |ui| {
             ui.horizontal(|ui| {
                 ui.label("tile size");
                 for t in [8, 16, 32] {
-                    ui.radio_value(&mut s.args.tile_size, t, format!("{t}"));
+                    ui.radio_value(&mut s.setup.tile_size, t, format!("{t}"));
                 }
             });
-            ui.checkbox(&mut s.args.half_z, "half-z (two lists per tile)");
-            ui.checkbox(&mut s.args.aabb, "sphere vs tile AABB test");
-            ui.checkbox(&mut s.args.spot_cone, "spot cone test");
-            let mut two_level = !s.args.flat_cull;
+            ui.checkbox(&mut s.setup.half_z, "half-z (two lists per tile)");
+            ui.checkbox(&mut s.setup.aabb, "sphere vs tile AABB test");
+            ui.checkbox(&mut s.setup.spot_cone, "spot cone test");
+            let mut two_level = !s.setup.flat_cull;
             ui.checkbox(&mut two_level, "two-level culling (64 px cells)");
-            s.args.flat_cull = !two_level;
+            s.setup.flat_cull = !two_level;
         });
-        ui.add_enabled(s.args.method == crate::scene_setup::MethodArg::Deferred, |ui: &mut egui::Ui| {
-            ui.add(egui::Slider::new(&mut s.args.gbuffer_rts, 2..=5).text("G-buffer RTs"))
+        ui.add_enabled(s.setup.method == Method::Deferred, |ui: &mut egui::Ui| {
+            ui.add(egui::Slider::new(&mut s.setup.gbuffer_rts, 2..=5).text("G-buffer RTs"))
         });
         egui::ComboBox::from_label("MSAA")
-            .selected_text(format!("{}x", s.args.msaa))
+            .selected_text(format!("{}x", s.setup.msaa))
             .show_ui(ui, |ui| {
                 for m in MSAA_CHOICES {
-                    ui.selectable_value(&mut s.args.msaa, m, format!("{m}x"));
+                    ui.selectable_value(&mut s.setup.msaa, m, format!("{m}x"));
                 }
             })
             .response
             .on_hover_text("2x and 8x only where the GPU has them (an error says so otherwise)");
-        ui.add_enabled_ui(s.args.method == crate::scene_setup::MethodArg::Deferred && s.args.msaa > 1, |ui| {
+        ui.add_enabled_ui(s.setup.method == Method::Deferred && s.setup.msaa > 1, |ui| {
             ui.add(
-                egui::Slider::new(&mut s.args.edge_distance, 0.0..=0.05)
+                egui::Slider::new(&mut s.setup.edge_distance, 0.0..=0.05)
                     .logarithmic(true)
                     .text("edge: off-plane / distance"),
             )
             .on_hover_text("Tiled Deferred MSAA edge test: a sample this far off sample 0's tangent plane (relative to the view distance) makes the pixel an edge");
-            ui.add(egui::Slider::new(&mut s.args.edge_normal_deg, 0.0..=90.0).text("edge: normal angle (deg)"));
+            ui.add(egui::Slider::new(&mut s.setup.edge_normal_deg, 0.0..=90.0).text("edge: normal angle (deg)"));
         });
         ui.add_enabled_ui(tiled, |ui| {
             ui.checkbox(&mut s.heatmap, "heat map (lights per tile)").on_disabled_hover_text("needs a tiled method");
@@ -385,41 +390,41 @@ fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'
         }
     });
     egui::CollapsingHeader::new("Lights").default_open(true).show(ui, |ui| {
-        let (mut points, mut spots) = s.args.random_light_counts();
+        let (mut points, mut spots) = s.setup.random_light_counts();
         ui.add(egui::Slider::new(&mut points, 0..=65_536).logarithmic(true).text("point lights"));
         ui.add(egui::Slider::new(&mut spots, 0..=65_536).logarithmic(true).text("spot lights"));
-        if (points, spots) != s.args.random_light_counts() {
-            (s.args.lights, s.args.spot_lights) = (Some(points), Some(spots));
+        if (points, spots) != s.setup.random_light_counts() {
+            (s.setup.lights, s.setup.spot_lights) = (Some(points), Some(spots));
         }
-        ui.add(egui::Slider::new(&mut s.args.threshold, 0.001..=2.0).logarithmic(true).text("intensity threshold"))
+        ui.add(egui::Slider::new(&mut s.setup.threshold, 0.001..=2.0).logarithmic(true).text("intensity threshold"))
             .on_hover_text("each light's radius is sqrt(intensity / threshold): lower is more accurate and slower");
         ui.checkbox(&mut s.animate, "animate lights");
     });
     egui::CollapsingHeader::new("Scene").default_open(false).show(ui, |ui| {
-        let builtin = s.args.source() == SceneSource::Default;
+        let builtin = s.setup.scene == SceneSource::Default;
         ui.add_enabled_ui(builtin, |ui| {
             ui.add(
-                egui::Slider::new(&mut s.args.grid_objects, 0..=tiledlight_scene::MAX_GRID_OBJECTS)
+                egui::Slider::new(&mut s.setup.grid_objects, 0..=tiledlight_scene::MAX_GRID_OBJECTS)
                     .text("grid objects"),
             );
             ui.horizontal(|ui| {
                 ui.label("density");
-                ui.radio_value(&mut s.args.density, DensityArg::Low, "low");
-                ui.radio_value(&mut s.args.density, DensityArg::Medium, "medium");
-                ui.radio_value(&mut s.args.density, DensityArg::High, "high");
+                ui.radio_value(&mut s.setup.density, GridDensity::Low, "low");
+                ui.radio_value(&mut s.setup.density, GridDensity::Medium, "medium");
+                ui.radio_value(&mut s.setup.density, GridDensity::High, "high");
             });
         });
         ui.horizontal(|ui| {
             if ui.radio(builtin, "built-in courtyard").clicked() && !builtin {
-                s.args.scene = "default".into();
+                s.setup.scene = SceneSource::Default;
             }
         });
         ui.horizontal(|ui| {
             ui.label("glTF");
             ui.text_edit_singleline(&mut st.scene_path);
             if ui.button("load").clicked() && !st.scene_path.trim().is_empty() {
-                s.args.scene = st.scene_path.trim().to_string();
-                s.args.grid_objects = 0;
+                s.setup.scene = SceneSource::parse(st.scene_path.trim());
+                s.setup.grid_objects = 0;
             }
         });
         ui.checkbox(&mut s.vsync, "vsync");

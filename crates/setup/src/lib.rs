@@ -1,0 +1,37 @@
+//! tiledlight-setup: a run of tiledlight without a command line. From plain
+//! [`Settings`] (no clap types; the app's flags convert into them) it checks the input,
+//! builds the scene, its lights and the camera on the CPU ([`SceneCpu`]), creates or takes
+//! a GPU context, uploads everything and builds the chosen renderer ([`Prepared`]). A
+//! change of settings is planned as a value ([`rebuild_plan`] -> [`Rebuild`]) and carried
+//! out by [`Prepared::reconfigure`], so the viewer and the measurement lab rebuild only
+//! what a change needs. [`culling_stats`] reads a frame's per-tile light counts back
+//! for reports and tests.
+//!
+//! Modules:
+//! - [`settings`]: [`Settings`], [`Method`], [`SceneSource`], validation, what the
+//!   renderers take, report text (pure data);
+//! - [`rebuild`]: [`rebuild_plan`], [`Rebuild`], [`Reload`] (pure data);
+//! - [`camera`]: [`choose_camera`], [`camera_from_desc`], [`frame_bounds`] (no GPU);
+//! - [`load`]: [`SceneCpu`], [`LightSummary`] (files and CPU work, no GPU);
+//! - [`prepared`]: [`Prepared`] (the GPU side);
+//! - [`stats`]: [`CullingStats`], [`culling_stats`], [`group_digits`].
+//!
+//! Layering: depends on tiledlight-cull, tiledlight-scene, tiledlight-gpu,
+//! tiledlight-forward and tiledlight-deferred (and wgpu, glam, anyhow); the app
+//! (`tiledlight`) and the GPU tests depend on it, never the other way round. Errors are
+//! `anyhow` errors whose text is meant for the user as it is: settings errors name the
+//! app's flag (`--width 0: ...`).
+
+pub mod camera;
+pub mod load;
+pub mod prepared;
+pub mod rebuild;
+pub mod settings;
+pub mod stats;
+
+pub use camera::{camera_from_desc, choose_camera, frame_bounds};
+pub use load::{LightSummary, SceneCpu};
+pub use prepared::Prepared;
+pub use rebuild::{rebuild_plan, Rebuild, Reload};
+pub use settings::{CameraBookmark, Method, SceneSource, Settings, DEFAULT_POINT_LIGHTS};
+pub use stats::{culling_stats, group_digits, CullingStats};

@@ -1,0 +1,131 @@
+//! The CPU half of a run, built before any GPU work so that file and settings errors come
+//! before the slow device creation: the scene (the procedural courtyard or a glTF file),
+//! its lights (the file's own, then the random ones asked for) and the camera
+//! ([`SceneCpu`]); and the light counts a report shows ([`LightSummary`]).
+//!
+//! Depends on tiledlight-scene (scene model, procedural scene, glTF loading, light
+//! generation), tiledlight-cull and [`crate::settings`] / [`crate::camera`]; no GPU work.
+
+use anyhow::{ensure, Context, Result};
+use tiledlight_cull::{Camera, LightKind};
+use tiledlight_scene::{
+    default_scene, load_gltf, random_lights, Aabb, DefaultSceneOptions, Light, LightOptions, Scene,
+    DEFAULT_INTENSITY_RANGE, MAX_LIGHTS,
+};
+
+use crate::camera::choose_camera;
+use crate::settings::{SceneSource, Settings};
+
+/// The lights of a run, counted.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LightSummary {
+    /// Point lights in total.
+    pub point: usize,
+    /// Spot lights in total.
+    pub spot: usize,
+    /// Lights that came from the glTF file (KHR_lights_punctual).
+    pub from_file: usize,
+    /// Random lights generated.
+    pub random: usize,
+}
+
+impl LightSummary {
+    /// The counts of `lights`, of which the first `from_file` came from the scene file.
+    pub fn of(lights: &[Light], from_file: usize) -> Self {
+        let spot = lights.iter().filter(|l| matches!(l.kind, LightKind::Spot { .. })).count();
+        Self { point: lights.len() - spot, spot, from_file, random: lights.len() - from_file }
+    }
+}
+
+/// The CPU half of a run, built before any GPU work so that file and flag errors come
+/// before the slow device creation: the scene, all its lights and the camera.
+pub struct SceneCpu {
+    /// The scene.
+    pub scene: Scene,
+    /// The scene's own lights followed by the random ones.
+    pub lights: Vec<Light>,
+    /// How many of `lights` came from the scene file.
+    pub file_lights: usize,
+    /// The camera (aspect = width / height): the bookmark, the scene's, or one framing it.
+    pub camera: Camera,
+    /// Where the camera came from, for the report.
+    pub camera_source: String,
+}
+
+impl SceneCpu {
+    /// Checks the settings and builds the scene, its lights and the camera.
+    pub fn load(settings: &Settings) -> Result<Self> {
+        settings.validate()?;
+        let (scene, file_lights) = load_scene(settings)?;
+        let lights = build_lights(settings, &scene.bounds, &scene.lights)?;
+        let (camera, camera_source) = choose_camera(settings, scene.camera.as_ref(), &scene.bounds)?;
+        Ok(Self { scene, lights, file_lights, camera, camera_source })
+    }
+}
+
+/// Loads or builds the scene; returns it with the number of lights it brought along.
+fn load_scene(settings: &Settings) -> Result<(Scene, usize)> {
+    match &settings.scene {
+        SceneSource::Default => {
+            let opts = DefaultSceneOptions { grid_objects: settings.grid_objects, density: settings.density };
+            let scene = default_scene(&opts).context("building the default scene")?;
+            Ok((scene, 0))
+        }
+        SceneSource::File(path) => {
+            let scene = load_gltf(path, settings.threshold).context("loading the scene")?;
+            let n = scene.lights.len();
+            Ok((scene, n))
+        }
+    }
+}
+
+/// The scene's own lights followed by the random ones asked for, placed in `bounds`.
+pub(crate) fn build_lights(settings: &Settings, bounds: &Aabb, scene_lights: &[Light]) -> Result<Vec<Light>> {
+    let file_lights = scene_lights.len();
+    let (points, spots) = settings.random_light_counts();
+    let total = file_lights as u64 + points + spots;
+    ensure!(
+        total <= MAX_LIGHTS,
+        "{file_lights} lights from the scene plus {} random: at most {MAX_LIGHTS} lights are supported",
+        points + spots
+    );
+    let mut lights = scene_lights.to_vec();
+    if points + spots > 0 {
+        let opts = LightOptions {
+            // Both fit: validate() capped them at MAX_LIGHTS (2^20).
+            num_point: points as u32,
+            num_spot: spots as u32,
+            seed: settings.seed,
+            threshold: settings.threshold,
+            intensity_range: DEFAULT_INTENSITY_RANGE,
+        };
+        lights.extend(random_lights(bounds, &opts).context("generating random lights")?);
+    }
+    Ok(lights)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_scene_gets_its_random_lights_and_a_framing_camera() {
+        let s = Settings { width: 64, height: 36, lights: Some(10), spot_lights: Some(3), ..Settings::default() };
+        let cpu = SceneCpu::load(&s).unwrap();
+        assert_eq!(cpu.file_lights, 0);
+        assert_eq!(LightSummary::of(&cpu.lights, 0), LightSummary { point: 10, spot: 3, from_file: 0, random: 13 });
+        assert!(!cpu.camera_source.is_empty());
+        // The same settings give the same lights.
+        assert_eq!(SceneCpu::load(&s).unwrap().lights, cpu.lights);
+    }
+
+    #[test]
+    fn settings_errors_come_before_any_loading() {
+        let s = Settings { scene: SceneSource::File("/nonexistent.glb".into()), width: 0, ..Settings::default() };
+        let e = format!("{:#}", SceneCpu::load(&s).err().unwrap());
+        assert!(e.contains("--width 0"), "{e}");
+        let s = Settings { scene: SceneSource::File("/nonexistent.glb".into()), ..Settings::default() };
+        let e = format!("{:#}", SceneCpu::load(&s).err().unwrap());
+        assert!(e.contains("loading the scene"), "{e}");
+    }
+}

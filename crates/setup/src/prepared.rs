@@ -1,0 +1,326 @@
+//! A run on the GPU ([`Prepared`]): the device, the uploaded scene and lights, the camera,
+//! the renderer built from the settings, a change of settings carried out as
+//! [`crate::rebuild_plan`] decides ([`Prepared::reconfigure`]), GPU errors collected
+//! instead of panicking, and the report lines about it all.
+//!
+//! Depends on tiledlight-gpu (context, scene and light buffers, the `Renderer` trait),
+//! tiledlight-forward and tiledlight-deferred (the renderers), tiledlight-cull, and the
+//! crate's other modules.
+
+use std::sync::{Arc, Mutex};
+
+use anyhow::{bail, ensure, Context, Result};
+use tiledlight_cull::light::try_pack_lights;
+use tiledlight_cull::Camera;
+use tiledlight_deferred::DeferredRenderer;
+use tiledlight_forward::ForwardRenderer;
+use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_gpu::targets::Renderer;
+use tiledlight_gpu::{ContextOptions, GpuContext};
+use tiledlight_scene::{Aabb, CameraDesc, Light};
+
+use crate::camera::choose_camera;
+use crate::load::{build_lights, LightSummary, SceneCpu};
+use crate::rebuild::{rebuild_plan, Rebuild, Reload};
+use crate::settings::{Method, Settings};
+use crate::stats::{culling_stats, group_digits, CullingStats};
+
+/// Everything a run needs before a renderer exists: the GPU, the uploaded scene and
+/// lights, the camera, and what to print about them.
+pub struct Prepared {
+    /// The settings in use, with the list capacity chosen for the lights when the
+    /// settings left it open (`capacity` is always `Some`).
+    pub settings: Settings,
+    /// Device, queue and adapter.
+    pub ctx: GpuContext,
+    /// The scene's name.
+    pub scene_name: String,
+    /// Instances drawn.
+    pub instances: usize,
+    /// The scene on the GPU.
+    pub scene_gpu: SceneGpu,
+    /// The lights on the GPU.
+    pub lights: LightBuffers,
+    /// Light counts.
+    pub light_summary: LightSummary,
+    /// The camera (aspect = width / height).
+    pub camera: Camera,
+    /// Where the camera came from, for the report.
+    pub camera_source: String,
+    /// The scene's bounds (random lights are placed in them).
+    pub bounds: Aabb,
+    /// The lights the scene file brought along (before the random ones).
+    pub file_lights: Vec<Light>,
+    /// The settings as given (capacity possibly open): what [`Prepared::reconfigure`]
+    /// plans from.
+    requested: Settings,
+    /// The scene file's own camera, if any (the camera is rebuilt from it on a new aspect).
+    scene_camera: Option<CameraDesc>,
+    gpu_errors: Arc<Mutex<Vec<String>>>,
+}
+
+/// Uploads the scene and its lights.
+fn upload(ctx: &GpuContext, cpu: &SceneCpu) -> Result<(SceneGpu, LightBuffers)> {
+    let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &cpu.scene)
+        .with_context(|| format!("uploading scene '{}'", cpu.scene.name))?;
+    let lights = LightBuffers::new(&ctx.device, &cpu.lights).context("uploading the lights")?;
+    Ok((scene_gpu, lights))
+}
+
+/// `settings` with the per-list capacity chosen for `lights` lights when it has none
+/// (what the device's workgroup memory holds, up to the light count).
+fn with_capacity(settings: &Settings, lights: u32, limits: &wgpu::Limits) -> Settings {
+    let mut settings = settings.clone();
+    if settings.capacity.is_none() {
+        settings.capacity =
+            Some(CullOptions::capacity_for(lights, settings.half_z, settings.reserved_workgroup_bytes(), limits));
+    }
+    settings
+}
+
+impl Prepared {
+    /// Checks the settings, builds the scene and lights on the CPU (so file errors come
+    /// before the slow device creation), then creates the device and uploads them.
+    pub fn new(settings: &Settings) -> Result<Self> {
+        let cpu = SceneCpu::load(settings)?;
+        let ctx = GpuContext::headless(ContextOptions::default())
+            .context("creating the GPU device (set WGPU_ADAPTER_NAME to pick an adapter)")?;
+        Self::with_context(settings, cpu, ctx)
+    }
+
+    /// Uploads a loaded scene and its lights to an existing device (the viewer's, made for
+    /// its window).
+    pub fn with_context(settings: &Settings, cpu: SceneCpu, ctx: GpuContext) -> Result<Self> {
+        // wgpu panics on errors raised outside an error scope; collect them instead so a
+        // GPU problem during the frame loop ends the run with an error message.
+        let gpu_errors = Arc::new(Mutex::new(Vec::new()));
+        let sink = gpu_errors.clone();
+        ctx.device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            log::debug!("GPU error: {e}");
+            if let Ok(mut v) = sink.lock() {
+                v.push(e.to_string());
+            }
+        }));
+        let (scene_gpu, lights) = upload(&ctx, &cpu)?;
+        Ok(Self {
+            settings: with_capacity(settings, lights.len(), &ctx.device.limits()),
+            requested: settings.clone(),
+            ctx,
+            scene_name: cpu.scene.name.clone(),
+            instances: cpu.scene.instances.len(),
+            scene_gpu,
+            lights,
+            light_summary: LightSummary::of(&cpu.lights, cpu.file_lights),
+            camera: cpu.camera,
+            camera_source: cpu.camera_source,
+            bounds: cpu.scene.bounds,
+            file_lights: cpu.scene.lights,
+            scene_camera: cpu.scene.camera,
+            gpu_errors,
+        })
+    }
+
+    /// The settings as last given to [`Prepared::new`], [`Prepared::with_context`] or
+    /// [`Prepared::reconfigure`] (the capacity left open if it was).
+    pub fn requested(&self) -> &Settings {
+        &self.requested
+    }
+
+    /// Switches to `settings` on the same GPU device, rebuilding only what
+    /// [`rebuild_plan`] says they change (from the settings last given): the scene, the
+    /// lights (in place when their counts stay), the camera. Returns that plan: when its
+    /// `renderer` is set, renderers built before must be rebuilt ([`Prepared::renderer`]).
+    /// Sweeps use it so that a GPU context is created once per run, not once per point.
+    ///
+    /// On error nothing has changed, except for GPU errors raised by the new uploads
+    /// (after which the new scene or lights are in use).
+    pub fn reconfigure(&mut self, settings: &Settings) -> Result<Rebuild> {
+        settings.validate()?;
+        let plan = rebuild_plan(&self.requested, settings);
+        match plan.reload {
+            Reload::Scene => self.replace_scene(settings, SceneCpu::load(settings)?)?,
+            reload => {
+                let camera = if plan.camera {
+                    Some(choose_camera(settings, self.scene_camera.as_ref(), &self.bounds)?)
+                } else {
+                    None
+                };
+                if reload != Reload::Nothing {
+                    self.replace_lights(settings, reload)?;
+                }
+                if let Some((camera, source)) = camera {
+                    (self.camera, self.camera_source) = (camera, source);
+                }
+            }
+        }
+        self.requested = settings.clone();
+        self.settings = with_capacity(settings, self.lights.len(), &self.ctx.device.limits());
+        self.check_gpu_errors()?;
+        Ok(plan)
+    }
+
+    /// Replaces the scene and lights by a newly loaded one (with its camera). Nothing
+    /// changes when the upload fails.
+    fn replace_scene(&mut self, settings: &Settings, cpu: SceneCpu) -> Result<()> {
+        let (scene_gpu, lights) = upload(&self.ctx, &cpu)?;
+        self.settings = with_capacity(settings, lights.len(), &self.ctx.device.limits());
+        self.scene_name = cpu.scene.name.clone();
+        self.instances = cpu.scene.instances.len();
+        self.scene_gpu = scene_gpu;
+        self.lights = lights;
+        self.light_summary = LightSummary::of(&cpu.lights, cpu.file_lights);
+        self.camera = cpu.camera;
+        self.camera_source = cpu.camera_source;
+        self.bounds = cpu.scene.bounds;
+        self.file_lights = cpu.scene.lights;
+        self.scene_camera = cpu.scene.camera;
+        Ok(())
+    }
+
+    /// Regenerates the random lights for `settings` (counts, seed, threshold) in the
+    /// current scene: written over the existing buffers for [`Reload::LightData`] (the
+    /// counts must be the same), into new buffers for [`Reload::LightBuffers`] (renderers
+    /// built before must be rebuilt). Nothing changes on error.
+    fn replace_lights(&mut self, settings: &Settings, reload: Reload) -> Result<()> {
+        let lights = build_lights(settings, &self.bounds, &self.file_lights)?;
+        let summary = LightSummary::of(&lights, self.file_lights.len());
+        if reload == Reload::LightData {
+            let same_shape = summary.point == self.light_summary.point && summary.spot == self.light_summary.spot;
+            ensure!(
+                same_shape,
+                "internal: light data rewritten in place with other counts ({} point, {} spot instead of {} and {})",
+                summary.point,
+                summary.spot,
+                self.light_summary.point,
+                self.light_summary.spot
+            );
+            // Validated like every upload (`LightBuffers::new` does the same).
+            let packed = try_pack_lights(&lights).context("uploading the lights")?;
+            if !packed.is_empty() {
+                let q = &self.ctx.queue;
+                q.write_buffer(&self.lights.cull, 0, bytemuck::cast_slice(&packed.cull));
+                q.write_buffer(&self.lights.shading, 0, bytemuck::cast_slice(&packed.shading));
+                if let Some(spots) = &self.lights.spots {
+                    q.write_buffer(spots, 0, bytemuck::cast_slice(&packed.spots));
+                }
+            }
+            self.lights.packed = packed;
+        } else {
+            self.lights = LightBuffers::new(&self.ctx.device, &lights).context("uploading the lights")?;
+        }
+        self.light_summary = summary;
+        Ok(())
+    }
+
+    /// Takes the GPU errors raised outside an error scope since the last call (the viewer
+    /// shows them and goes on; `check_gpu_errors` ends a headless run instead).
+    pub fn take_gpu_errors(&self) -> Vec<String> {
+        self.gpu_errors.lock().map(|mut v| std::mem::take(&mut *v)).unwrap_or_default()
+    }
+
+    /// Builds a renderer for the settings' method, screen and culling options.
+    pub fn renderer(&self, heatmap: bool) -> Result<Box<dyn Renderer>> {
+        let a = &self.settings;
+        if heatmap && !a.method.is_tiled() {
+            bail!("--heatmap needs a tiled method, forward-plus or deferred ({} has no tiles)", a.method.name());
+        }
+        let r: Result<Box<dyn Renderer>, _> = match a.method {
+            Method::Deferred => DeferredRenderer::new(
+                &self.ctx,
+                &self.scene_gpu,
+                &self.lights,
+                a.width,
+                a.height,
+                a.deferred_settings(heatmap),
+            )
+            .map(|r| Box::new(r) as Box<dyn Renderer>),
+            _ => ForwardRenderer::new(
+                &self.ctx,
+                &self.scene_gpu,
+                &self.lights,
+                a.width,
+                a.height,
+                a.forward_settings(heatmap),
+            )
+            .map(|r| Box::new(r) as Box<dyn Renderer>),
+        };
+        let r = r.with_context(|| format!("building the {} renderer at {}x{}", a.method.name(), a.width, a.height))?;
+        self.check_gpu_errors()?;
+        Ok(r)
+    }
+
+    /// The culling statistics of the last frame `renderer` (built by this run) drew:
+    /// [`culling_stats`] with this run's device and culling options.
+    pub fn culling_stats(&self, renderer: &dyn Renderer) -> Result<Option<CullingStats>> {
+        culling_stats(&self.ctx, renderer, &self.settings.cull_options())
+    }
+
+    /// Fails with the first GPU error wgpu raised outside an error scope, if any.
+    pub fn check_gpu_errors(&self) -> Result<()> {
+        let errors = self.gpu_errors.lock().map(|v| v.clone()).unwrap_or_default();
+        match errors.first() {
+            Some(e) => bail!("GPU error ({} in all): {e}", errors.len()),
+            None => Ok(()),
+        }
+    }
+
+    /// The report lines about adapter, scene, lights, screen and method.
+    pub fn describe(&self) -> Vec<(String, String)> {
+        let a = &self.settings;
+        let l = &self.light_summary;
+        let mut lights = format!("{} point, {} spot", l.point, l.spot);
+        match (l.from_file, l.random) {
+            (0, _) => lights.push_str(&format!(" (random, seed {}, threshold {})", a.seed, a.threshold)),
+            (f, 0) => lights.push_str(&format!(" (all {f} from the glTF file)")),
+            (f, r) => lights.push_str(&format!(
+                " ({f} from the glTF file + {r} random, seed {}, threshold {})",
+                a.seed, a.threshold
+            )),
+        }
+        let grid = tiledlight_cull::TileGrid::new(a.width, a.height, a.tile_size).ok();
+        let mut res = format!("{}x{}", a.width, a.height);
+        if let Some(g) = grid {
+            res.push_str(&format!(
+                ", {} px tiles: {}x{} = {} tiles",
+                g.tile_size,
+                g.tiles_x,
+                g.tiles_y,
+                g.tile_count()
+            ));
+        }
+        let method = match a.method {
+            Method::ForwardPlus => format!("forward-plus ({})", a.culling_description()),
+            Method::Deferred => {
+                format!("deferred ({}, {} G-buffer targets)", a.culling_description(), a.gbuffer_rts)
+            }
+            m => format!("{} (every light for every pixel)", m.name()),
+        };
+        if a.msaa > 1 {
+            res.push_str(&format!(", MSAA {}x", a.msaa));
+            if a.method == Method::Deferred {
+                res.push_str(&format!(
+                    " (edge test: {} of the view distance off the tangent plane, or normals {} deg apart)",
+                    a.edge_distance, a.edge_normal_deg
+                ));
+            }
+        }
+        vec![
+            ("adapter".into(), self.ctx.describe()),
+            (
+                "scene".into(),
+                format!(
+                    "{}: {} triangles, {} instances, camera: {}",
+                    self.scene_name,
+                    group_digits(self.scene_gpu.triangles),
+                    self.instances,
+                    self.camera_source
+                ),
+            ),
+            ("lights".into(), lights),
+            ("resolution".into(), res),
+            ("method".into(), method),
+        ]
+    }
+}

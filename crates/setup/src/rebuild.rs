@@ -1,0 +1,192 @@
+//! What a change of [`Settings`] must rebuild, decided in one place ([`rebuild_plan`])
+//! and returned as a value ([`Rebuild`]) that `Prepared::reconfigure` carries out and the
+//! viewer and the lab read:
+//!
+//! | changed | reload | camera | renderer |
+//! | --- | --- | --- | --- |
+//! | scene, grid objects, density (threshold of a glTF scene's own lights) | scene + all lights | yes | yes |
+//! | random point/spot light counts | new light buffers (bind groups and list capacity follow the count) | | yes |
+//! | seed, threshold (same counts) | light data rewritten in place | | |
+//! | camera bookmark | | yes | |
+//! | width, height | | yes (aspect ratio) | yes |
+//! | method, tile size, capacity, culling tests, half-z, G-buffer targets, MSAA, edge test, exposure | | | yes |
+//!
+//! Pure data: depends on [`crate::settings`] only.
+
+use crate::settings::{SceneSource, Settings};
+
+/// What is loaded or generated again, from the least to the most work.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Reload {
+    /// Scene and lights stay as they are.
+    #[default]
+    Nothing,
+    /// The random lights are generated again with the same counts and written over the
+    /// existing light buffers: renderers built before stay valid.
+    LightData,
+    /// The random lights are generated again with other counts into new light buffers:
+    /// renderers built before must be rebuilt.
+    LightBuffers,
+    /// The scene is loaded (or generated) again, with all its lights and its camera.
+    Scene,
+}
+
+/// What going from one [`Settings`] to another rebuilds ([`rebuild_plan`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Rebuild {
+    /// Scene and lights.
+    pub reload: Reload,
+    /// The camera is chosen again (the bookmark, the scene's own, or one framing the
+    /// scene) at the new aspect ratio.
+    pub camera: bool,
+    /// Renderers built before no longer fit: build a new one.
+    pub renderer: bool,
+}
+
+impl Rebuild {
+    /// True when nothing needs rebuilding.
+    pub fn is_nothing(&self) -> bool {
+        *self == Rebuild::default()
+    }
+}
+
+/// What going from `old` to `new` must rebuild (see the module's table).
+pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
+    let (a, b) = (old, new);
+    let file_scene = matches!(b.scene, SceneSource::File(_));
+    let scene = a.scene != b.scene
+        || a.grid_objects != b.grid_objects
+        || a.density != b.density
+        // A glTF file's own lights get their radii from the threshold when it is loaded.
+        || (file_scene && a.threshold != b.threshold);
+    let reload = if scene {
+        Reload::Scene
+    } else if a.random_light_counts() != b.random_light_counts() {
+        Reload::LightBuffers
+    } else if a.seed != b.seed || a.threshold != b.threshold {
+        Reload::LightData
+    } else {
+        Reload::Nothing
+    };
+    let screen = a.width != b.width || a.height != b.height;
+    let camera = scene || screen || a.camera != b.camera;
+    let renderer = reload >= Reload::LightBuffers
+        || screen
+        || a.method != b.method
+        || a.tile_size != b.tile_size
+        || a.capacity != b.capacity
+        || a.aabb != b.aabb
+        || a.half_z != b.half_z
+        || a.spot_cone != b.spot_cone
+        || a.flat_cull != b.flat_cull
+        || a.gbuffer_rts != b.gbuffer_rts
+        || a.exposure != b.exposure
+        || a.msaa != b.msaa
+        || a.edge_distance != b.edge_distance
+        || a.edge_normal_deg != b.edge_normal_deg;
+    Rebuild { reload, camera, renderer }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::settings::{CameraBookmark, Method};
+    use glam::Vec3;
+    use tiledlight_scene::{CameraDesc, GridDensity};
+
+    fn base() -> Settings {
+        Settings { width: 320, height: 180, ..Settings::default() }
+    }
+
+    fn with(f: impl FnOnce(&mut Settings)) -> Rebuild {
+        with_from(base(), f)
+    }
+
+    fn with_from(old: Settings, f: impl FnOnce(&mut Settings)) -> Rebuild {
+        let mut new = old.clone();
+        f(&mut new);
+        rebuild_plan(&old, &new)
+    }
+
+    const RENDERER: Rebuild = Rebuild { reload: Reload::Nothing, camera: false, renderer: true };
+
+    #[test]
+    fn nothing_changed_rebuilds_nothing() {
+        assert!(with(|_| {}).is_nothing());
+        // The default light count, given explicitly, is the same lights.
+        assert!(with(|s| s.lights = Some(1024)).is_nothing());
+    }
+
+    #[test]
+    fn renderer_settings_rebuild_only_the_renderer() {
+        for f in [
+            (|s: &mut Settings| s.method = Method::Deferred) as fn(&mut Settings),
+            |s| s.tile_size = 32,
+            |s| s.capacity = Some(64),
+            |s| s.aabb = true,
+            |s| s.half_z = true,
+            |s| s.spot_cone = true,
+            |s| s.flat_cull = true,
+            |s| s.gbuffer_rts = 4,
+            |s| s.exposure = 2.0,
+            |s| s.msaa = 4,
+            |s| s.edge_distance = 0.01,
+            |s| s.edge_normal_deg = 20.0,
+        ] {
+            assert_eq!(with(f), RENDERER);
+        }
+    }
+
+    #[test]
+    fn screen_size_rebuilds_renderer_and_camera() {
+        assert_eq!(with(|s| s.width = 640), Rebuild { camera: true, ..RENDERER });
+        assert_eq!(with(|s| s.height = 640), Rebuild { camera: true, ..RENDERER });
+    }
+
+    #[test]
+    fn lights_are_rewritten_in_place_when_their_counts_stay() {
+        let data = Rebuild { reload: Reload::LightData, ..Rebuild::default() };
+        assert_eq!(with(|s| s.seed = 9), data);
+        assert_eq!(with(|s| s.threshold *= 2.0), data);
+        let buffers = Rebuild { reload: Reload::LightBuffers, ..RENDERER };
+        assert_eq!(with(|s| s.lights = Some(7)), buffers);
+        assert_eq!(with(|s| s.spot_lights = Some(7)), buffers);
+        assert_eq!(with(|s| (s.lights, s.seed) = (Some(7), 3)), buffers);
+        // Light data and a renderer setting together: both.
+        assert_eq!(with(|s| (s.seed, s.half_z) = (3, true)), Rebuild { reload: Reload::LightData, ..RENDERER });
+    }
+
+    #[test]
+    fn scene_settings_reload_everything() {
+        let scene = Rebuild { reload: Reload::Scene, camera: true, renderer: true };
+        assert_eq!(with(|s| s.grid_objects = 10), scene);
+        assert_eq!(with(|s| s.density = GridDensity::High), scene);
+        assert_eq!(with(|s| s.scene = SceneSource::File("a.glb".into())), scene);
+        assert_eq!(with(|s| (s.scene, s.seed) = (SceneSource::File("a.glb".into()), 5)), scene);
+    }
+
+    #[test]
+    fn threshold_of_a_gltf_scene_reloads_it() {
+        let gltf = Settings { scene: SceneSource::File("a.glb".into()), ..base() };
+        assert_eq!(with_from(gltf, |s| s.threshold *= 2.0).reload, Reload::Scene);
+    }
+
+    #[test]
+    fn a_new_bookmark_only_moves_the_camera() {
+        let desc = CameraDesc {
+            eye: Vec3::new(0.0, 1.0, 5.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_y: 1.0,
+            near: 0.1,
+            far: None,
+        };
+        let bookmark = CameraBookmark { path: "cam.txt".into(), camera: desc };
+        let moved = with(|s| s.camera = Some(bookmark.clone()));
+        assert_eq!(moved, Rebuild { camera: true, ..Rebuild::default() });
+        let mut other = bookmark.clone();
+        other.camera.eye.x = 1.0;
+        let from = Settings { camera: Some(bookmark), ..base() };
+        assert_eq!(with_from(from, |s| s.camera = Some(other)), moved);
+    }
+}

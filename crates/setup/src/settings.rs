@@ -1,0 +1,447 @@
+//! The settings of a run as plain data: where the scene comes from, the lights, the
+//! screen, the method and its culling options ([`Settings`]). Checked in one place
+//! ([`Settings::validate`], before any file or GPU work, so bad input gives one clear
+//! error line instead of a panic deep inside wgpu), and turned into what the renderers
+//! take (culling options, Forward+ and Tiled Deferred settings) and into report text.
+//!
+//! The error texts name the command-line flag of each field (`--width 0: ...`): the app's
+//! flags are these fields, and its users read these messages as they are.
+//!
+//! Pure data, no GPU work and no files: depends on tiledlight-cull, tiledlight-scene
+//! (limits, `GridDensity`, `CameraDesc`) and the renderers' settings types
+//! (tiledlight-gpu's `CullOptions`, tiledlight-forward, tiledlight-deferred).
+
+use std::fmt;
+use std::path::PathBuf;
+
+use anyhow::{ensure, Result};
+use tiledlight_cull::reference::{DEFAULT_CAPACITY, MAX_CAPACITY};
+use tiledlight_cull::tiles::MAX_SCREEN_SIDE;
+use tiledlight_deferred::shading::workgroup_bytes_besides_lists;
+use tiledlight_deferred::{DeferredSettings, EdgeTest};
+use tiledlight_forward::ForwardSettings;
+use tiledlight_gpu::light_cull::{CullOptions, CULL_WORKGROUP_BYTES};
+use tiledlight_scene::{CameraDesc, GridDensity, DEFAULT_LIGHT_THRESHOLD, MAX_GRID_OBJECTS, MAX_LIGHTS};
+
+/// Random point lights of the default scene when [`Settings::lights`] is not given.
+pub const DEFAULT_POINT_LIGHTS: u64 = 1024;
+
+/// Which renderer draws the frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Method {
+    /// Depth pre-pass, tiled light culling, forward shading of each tile's list.
+    #[default]
+    ForwardPlus,
+    /// Every light for every pixel, with the radius cutoff (the reference for culling).
+    BruteForce,
+    /// Every light for every pixel, plain inverse-square (the reference for the cutoff).
+    BruteForceNoCutoff,
+    /// G-buffer pass, then one compute pass that culls each tile's lights and shades it.
+    Deferred,
+}
+
+impl Method {
+    /// Every method.
+    pub const ALL: [Method; 4] =
+        [Method::ForwardPlus, Method::BruteForce, Method::BruteForceNoCutoff, Method::Deferred];
+
+    /// The forward renderer's method (None for Tiled Deferred).
+    pub fn method(self) -> Option<tiledlight_forward::Method> {
+        match self {
+            Method::ForwardPlus => Some(tiledlight_forward::Method::ForwardPlus),
+            Method::BruteForce => Some(tiledlight_forward::Method::BruteForce { cutoff: true }),
+            Method::BruteForceNoCutoff => Some(tiledlight_forward::Method::BruteForce { cutoff: false }),
+            Method::Deferred => None,
+        }
+    }
+
+    /// The flag value, for reports and JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::ForwardPlus => "forward-plus",
+            Method::BruteForce => "brute-force",
+            Method::BruteForceNoCutoff => "brute-force-no-cutoff",
+            Method::Deferred => "deferred",
+        }
+    }
+
+    /// True for the methods that cull lights per tile.
+    pub fn is_tiled(self) -> bool {
+        matches!(self, Method::ForwardPlus | Method::Deferred)
+    }
+}
+
+/// Where the scene comes from.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub enum SceneSource {
+    /// The procedural courtyard.
+    #[default]
+    Default,
+    /// A glTF file.
+    File(PathBuf),
+}
+
+impl SceneSource {
+    /// The source a `--scene` value names: `default` (any case) or a glTF file.
+    pub fn parse(value: &str) -> Self {
+        if value.eq_ignore_ascii_case("default") {
+            SceneSource::Default
+        } else {
+            SceneSource::File(PathBuf::from(value))
+        }
+    }
+}
+
+impl fmt::Display for SceneSource {
+    /// `default` or the file's path, as `--scene` takes it.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SceneSource::Default => f.write_str("default"),
+            SceneSource::File(path) => write!(f, "{}", path.display()),
+        }
+    }
+}
+
+/// A camera the user pinned (a bookmark file, already read: parsing it is the caller's).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraBookmark {
+    /// The file it was read from, named in the report and in errors.
+    pub path: PathBuf,
+    /// The camera (its aspect ratio comes from the screen).
+    pub camera: CameraDesc,
+}
+
+/// Scene, lights, screen and renderer settings of a run: what `render`, `bench`, the lab
+/// and the viewer build from. [`Settings::default`] is the default run (the courtyard,
+/// 1024 point lights, 1920x1080, Forward+).
+///
+/// Numbers are wide (u64 light counts) and range-checked in [`Settings::validate`], so
+/// an absurd value gets a message naming the flag and its limit.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// The procedural courtyard or a glTF file (.gltf or .glb).
+    pub scene: SceneSource,
+    /// Random point lights [default: 1024 for the default scene; for a glTF file, random
+    /// lights are added to its own lights only when this or `spot_lights` is given].
+    pub lights: Option<u64>,
+    /// Random spot lights [default: 0].
+    pub spot_lights: Option<u64>,
+    /// Seed of the random lights (the same seed gives the same lights).
+    pub seed: u64,
+    /// Intensity threshold that sets each light's radius: r = sqrt(intensity / T).
+    pub threshold: f32,
+    /// Grid objects (instanced spheres) added to the default scene, 0 to 280.
+    pub grid_objects: u32,
+    /// Tessellation of the grid objects.
+    pub density: GridDensity,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Renderer.
+    pub method: Method,
+    /// Tile side in pixels: 8, 16 or 32.
+    pub tile_size: u32,
+    /// Light indices stored per tile list (more are counted as overflow), 1 to 2048.
+    /// None: the light count, up to what the GPU's workgroup memory holds (chosen when the
+    /// lights are uploaded, see `Prepared`).
+    pub capacity: Option<u32>,
+    /// Also test light spheres against each tile's view-space AABB.
+    pub aabb: bool,
+    /// Two lists per tile, split at the middle of its depth range.
+    pub half_z: bool,
+    /// Also test spot cones against each tile (needs spot lights to matter).
+    pub spot_cone: bool,
+    /// One-level culling: every tile tests every light (the default first culls per
+    /// 64x64-pixel cell, and tiles test only their cell's lights).
+    pub flat_cull: bool,
+    /// Tiled Deferred's G-buffer render targets, 2 to 5.
+    pub gbuffer_rts: u32,
+    /// MSAA samples per pixel: 1 (off), 2, 4 or 8.
+    pub msaa: u32,
+    /// Tiled Deferred's MSAA edge test: off-plane distance / view distance.
+    pub edge_distance: f32,
+    /// Tiled Deferred's MSAA edge test: normal angle in degrees.
+    pub edge_normal_deg: f32,
+    /// Exposure before tonemapping.
+    pub exposure: f32,
+    /// A pinned camera; None: the scene's own camera, else one framing the scene.
+    pub camera: Option<CameraBookmark>,
+}
+
+impl Default for Settings {
+    /// The default run (the default scene, 1024 lights, 1920x1080, Forward+).
+    fn default() -> Self {
+        Self {
+            scene: SceneSource::Default,
+            lights: None,
+            spot_lights: None,
+            seed: 1,
+            threshold: DEFAULT_LIGHT_THRESHOLD,
+            grid_objects: 0,
+            density: GridDensity::Medium,
+            width: 1920,
+            height: 1080,
+            method: Method::ForwardPlus,
+            tile_size: 16,
+            capacity: None,
+            aabb: false,
+            half_z: false,
+            spot_cone: false,
+            flat_cull: false,
+            gbuffer_rts: 2,
+            msaa: 1,
+            edge_distance: EdgeTest::default().distance,
+            edge_normal_deg: EdgeTest::default().normal_deg,
+            exposure: 1.0,
+            camera: None,
+        }
+    }
+}
+
+impl Settings {
+    /// Random (point, spot) lights asked for, with the per-scene defaults applied.
+    pub fn random_light_counts(&self) -> (u64, u64) {
+        match self.scene {
+            SceneSource::Default => (self.lights.unwrap_or(DEFAULT_POINT_LIGHTS), self.spot_lights.unwrap_or(0)),
+            SceneSource::File(_) => (self.lights.unwrap_or(0), self.spot_lights.unwrap_or(0)),
+        }
+    }
+
+    /// Checks every setting's range; the error names the flag, its value and the limit.
+    pub fn validate(&self) -> Result<()> {
+        let side = 1..=MAX_SCREEN_SIDE;
+        ensure!(side.contains(&self.width), "--width {}: must be between 1 and {MAX_SCREEN_SIDE} pixels", self.width);
+        ensure!((2..=5).contains(&self.gbuffer_rts), "--gbuffer-rts {}: must be between 2 and 5", self.gbuffer_rts);
+        ensure!(
+            side.contains(&self.height),
+            "--height {}: must be between 1 and {MAX_SCREEN_SIDE} pixels",
+            self.height
+        );
+        ensure!([8, 16, 32].contains(&self.tile_size), "--tile-size {}: must be 8, 16 or 32", self.tile_size);
+        ensure!([1, 2, 4, 8].contains(&self.msaa), "--msaa {}: must be 1, 2, 4 or 8", self.msaa);
+        ensure!(
+            self.edge_distance.is_finite() && self.edge_distance >= 0.0,
+            "--edge-distance {}: must be a number >= 0",
+            self.edge_distance
+        );
+        ensure!(
+            (0.0..=180.0).contains(&self.edge_normal_deg),
+            "--edge-normal-deg {}: must be between 0 and 180 degrees",
+            self.edge_normal_deg
+        );
+        ensure!(
+            self.capacity.is_none_or(|c| (1..=MAX_CAPACITY).contains(&c)),
+            "--capacity {}: must be between 1 and {MAX_CAPACITY} lights per tile list",
+            self.capacity.unwrap_or_default()
+        );
+        for (flag, n) in [("--lights", self.lights), ("--spot-lights", self.spot_lights)] {
+            if let Some(n) = n {
+                ensure!(n <= MAX_LIGHTS, "{flag} {n}: at most {MAX_LIGHTS} lights are supported");
+            }
+        }
+        let (points, spots) = self.random_light_counts();
+        ensure!(
+            points + spots <= MAX_LIGHTS,
+            "--lights {points} plus --spot-lights {spots}: at most {MAX_LIGHTS} lights in total are supported"
+        );
+        ensure!(
+            self.threshold.is_finite() && self.threshold > 0.0,
+            "--threshold {}: must be a positive number",
+            self.threshold
+        );
+        ensure!(
+            self.exposure.is_finite() && self.exposure > 0.0,
+            "--exposure {}: must be a positive number",
+            self.exposure
+        );
+        ensure!(
+            self.grid_objects <= MAX_GRID_OBJECTS,
+            "--grid-objects {}: must be between 0 and {MAX_GRID_OBJECTS}",
+            self.grid_objects
+        );
+        if let SceneSource::File(path) = &self.scene {
+            let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+            ensure!(
+                matches!(ext.as_deref(), Some("gltf" | "glb")),
+                "--scene {}: expected 'default' or a .gltf/.glb file",
+                path.display()
+            );
+            ensure!(
+                self.grid_objects == 0,
+                "--grid-objects {}: grid objects exist only in the default scene",
+                self.grid_objects
+            );
+        }
+        if self.method.is_tiled() {
+            let lists = u64::from(self.width.div_ceil(self.tile_size))
+                * u64::from(self.height.div_ceil(self.tile_size))
+                * if self.half_z { 2 } else { 1 };
+            // The GPU checks its own binding limit; this only stops requests no GPU binds
+            // (u32 offsets) before minutes of scene loading.
+            let bytes = lists * u64::from(self.capacity.unwrap_or(MAX_CAPACITY)) * 4;
+            ensure!(
+                bytes <= u64::from(u32::MAX),
+                "--capacity {} at {}x{} with {} px tiles needs {bytes} bytes of tile lists: lower the capacity or raise the tile size",
+                self.capacity.unwrap_or(MAX_CAPACITY),
+                self.width,
+                self.height,
+                self.tile_size
+            );
+        }
+        Ok(())
+    }
+
+    /// The per-list capacity: [`Settings::capacity`], or the one `Prepared` chose for the
+    /// scene's light count.
+    pub fn capacity(&self) -> u32 {
+        self.capacity.unwrap_or(DEFAULT_CAPACITY)
+    }
+
+    /// The culling options of these settings.
+    pub fn cull_options(&self) -> CullOptions {
+        CullOptions {
+            tile_size: self.tile_size,
+            capacity: self.capacity(),
+            aabb: self.aabb,
+            half_z: self.half_z,
+            spot_cone: self.spot_cone,
+            coarse: !self.flat_cull,
+            samples: self.msaa,
+            grid_pairs: None,
+        }
+    }
+
+    /// Workgroup memory the method's culling kernel needs besides its lists (bytes).
+    pub fn reserved_workgroup_bytes(&self) -> u32 {
+        match self.method {
+            Method::Deferred => workgroup_bytes_besides_lists(self.tile_size, self.msaa),
+            _ => CULL_WORKGROUP_BYTES,
+        }
+    }
+
+    /// The forward renderer's settings (`heatmap` only for the tiled method).
+    pub fn forward_settings(&self, heatmap: bool) -> ForwardSettings {
+        ForwardSettings {
+            method: self.method.method().unwrap_or(tiledlight_forward::Method::ForwardPlus),
+            cull: self.cull_options(),
+            exposure: self.exposure,
+            heatmap,
+            msaa: self.msaa,
+            ..ForwardSettings::default()
+        }
+    }
+
+    /// The Tiled Deferred renderer's settings.
+    pub fn deferred_settings(&self, heatmap: bool) -> DeferredSettings {
+        DeferredSettings {
+            cull: self.cull_options(),
+            gbuffer_rts: self.gbuffer_rts,
+            exposure: self.exposure,
+            heatmap,
+            msaa: self.msaa,
+            edge: EdgeTest { distance: self.edge_distance, normal_deg: self.edge_normal_deg },
+            ..DeferredSettings::default()
+        }
+    }
+
+    /// One line of the culling options, e.g. "16 px tiles, capacity 512, tests: planes+aabb".
+    pub fn culling_description(&self) -> String {
+        let mut tests = String::from("planes");
+        if self.aabb {
+            tests.push_str("+aabb");
+        }
+        if self.spot_cone {
+            tests.push_str("+spot-cone");
+        }
+        if self.half_z {
+            tests.push_str(", half-z (2 lists per tile)");
+        }
+        let levels = if self.flat_cull { "one level" } else { "two levels (64 px cells, then tiles)" };
+        format!("{} px tiles, capacity {}, {levels}, tests: {tests}", self.tile_size, self.capacity())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn small() -> Settings {
+        Settings { width: 64, height: 36, ..Settings::default() }
+    }
+
+    fn err(s: Settings) -> String {
+        format!("{:#}", s.validate().unwrap_err())
+    }
+
+    fn file(name: &str) -> SceneSource {
+        SceneSource::File(name.into())
+    }
+
+    #[test]
+    fn defaults_are_valid() {
+        Settings::default().validate().unwrap();
+        assert_eq!(Settings::default().random_light_counts(), (1024, 0));
+    }
+
+    #[test]
+    fn bad_settings_name_the_flag() {
+        assert!(err(Settings { width: 0, ..small() }).contains("--width 0"));
+        assert!(err(Settings { height: 20000, ..small() }).contains("--height 20000"));
+        assert!(err(Settings { tile_size: 7, ..small() }).contains("--tile-size 7"));
+        assert!(err(Settings { capacity: Some(0), ..small() }).contains("--capacity 0"));
+        assert!(err(Settings { lights: Some(99_999_999), ..small() }).contains("--lights 99999999"));
+        let both = Settings { lights: Some(MAX_LIGHTS), spot_lights: Some(1), ..small() };
+        assert!(err(both).contains("in total"));
+        assert!(err(Settings { threshold: f32::NAN, ..small() }).contains("--threshold"));
+        assert!(err(Settings { threshold: 0.0, ..small() }).contains("--threshold"));
+        assert!(err(Settings { exposure: -1.0, ..small() }).contains("--exposure"));
+        assert!(err(Settings { grid_objects: 281, ..small() }).contains("--grid-objects 281"));
+        assert!(err(Settings { scene: file("x.obj"), ..small() }).contains("--scene x.obj"));
+        let grid_on_file = Settings { scene: file("x.glb"), grid_objects: 3, ..small() };
+        assert!(err(grid_on_file).contains("default scene"));
+        assert!(err(Settings { msaa: 3, ..small() }).contains("--msaa 3"));
+        assert!(err(Settings { gbuffer_rts: 6, ..small() }).contains("--gbuffer-rts 6"));
+        let huge = Settings { width: 16384, height: 16384, tile_size: 8, capacity: Some(2048), ..small() };
+        assert!(err(huge).contains("bytes of tile lists"));
+    }
+
+    #[test]
+    fn gltf_gets_random_lights_only_when_asked() {
+        let s = Settings { scene: file("a.gltf"), ..small() };
+        assert_eq!(s.random_light_counts(), (0, 0));
+        let s = Settings { scene: file("a.gltf"), spot_lights: Some(5), ..small() };
+        assert_eq!(s.random_light_counts(), (0, 5));
+    }
+
+    #[test]
+    fn scene_source_round_trips_through_its_text() {
+        assert_eq!(SceneSource::parse("Default"), SceneSource::Default);
+        assert_eq!(SceneSource::parse("a/b.glb"), file("a/b.glb"));
+        assert_eq!(SceneSource::parse("a/b.glb").to_string(), "a/b.glb");
+        assert_eq!(SceneSource::Default.to_string(), "default");
+    }
+
+    #[test]
+    fn renderer_settings_follow_the_settings() {
+        let s = Settings {
+            method: Method::BruteForceNoCutoff,
+            capacity: Some(99),
+            half_z: true,
+            flat_cull: true,
+            msaa: 4,
+            ..small()
+        };
+        let f = s.forward_settings(false);
+        assert_eq!(f.method, tiledlight_forward::Method::BruteForce { cutoff: false });
+        assert_eq!((f.cull.capacity, f.cull.half_z, f.cull.coarse, f.cull.samples, f.msaa), (99, true, false, 4, 4));
+        let d = Settings { gbuffer_rts: 4, edge_distance: 0.5, ..s.clone() }.deferred_settings(true);
+        assert_eq!((d.gbuffer_rts, d.edge.distance, d.heatmap), (4, 0.5, true));
+        assert_eq!(
+            Settings { aabb: true, ..s }.culling_description(),
+            "16 px tiles, capacity 99, one level, tests: planes+aabb, half-z (2 lists per tile)"
+        );
+        let tiled: Vec<&str> = Method::ALL.iter().filter(|m| m.is_tiled()).map(|m| m.name()).collect();
+        assert_eq!(tiled, ["forward-plus", "deferred"]);
+    }
+}

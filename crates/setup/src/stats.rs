@@ -1,0 +1,163 @@
+//! Culling statistics of one frame, read back from the GPU ([`culling_stats`]): lights
+//! per list over the tiles with geometry, the largest list, lists that lost lights and
+//! (tile, light) pairs, as `render`, the lab, the viewer and the GPU tests report them;
+//! and [`group_digits`], the thousands separators of the reports.
+//!
+//! Depends on tiledlight-gpu (readback, the `Renderer` trait, `CullOptions`) and
+//! tiledlight-cull (tile depth bounds); nothing else of the crate.
+
+use anyhow::{Context, Result};
+use tiledlight_cull::tiles::tile_depth_bounds_samples;
+use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::targets::Renderer;
+use tiledlight_gpu::GpuContext;
+
+/// Culling statistics of one frame, read back from the GPU.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CullingStats {
+    /// Lists per tile (2 with half-z).
+    pub lists_per_tile: u32,
+    /// Tiles with at least one non-sky pixel.
+    pub tiles_with_geometry: usize,
+    /// All tiles.
+    pub tiles: usize,
+    /// Mean light count per list, over the lists of tiles with geometry (as
+    /// `tiledlight_cull::reference::stats` defines it).
+    pub mean_per_list: f64,
+    /// Largest light count of a list.
+    pub max_per_list: u32,
+    /// Lists that lost lights because the light grid was full (counted on the GPU; 0
+    /// unless the grid's budget was fixed or the device could not bind a larger one).
+    pub overflowing: u32,
+    /// Lights those lists lost.
+    pub dropped: u32,
+    /// Lists longer than the culling kernel's workgroup list, written by its second pass.
+    pub spilled: u32,
+    /// (tile, light) pairs found (summed from the GPU's per-list counts).
+    pub pairs: u64,
+    /// The workgroup list's capacity.
+    pub capacity: u32,
+    /// Indices the light grid holds.
+    pub grid_capacity: u32,
+}
+
+impl std::fmt::Display for CullingStats {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let per = if self.lists_per_tile == 1 { "tile" } else { "list (half-z)" };
+        write!(
+            f,
+            "mean {:.1}, max {} lights per {per} over {} of {} tiles with geometry; {} lists longer than the workgroup list ({}), culled twice; ",
+            self.mean_per_list,
+            self.max_per_list,
+            self.tiles_with_geometry,
+            self.tiles,
+            self.spilled,
+            self.capacity,
+        )?;
+        if self.overflowing > 0 {
+            write!(
+                f,
+                "DROPPED {} lights from {} lists (light grid of {} indices full); ",
+                group_digits(self.dropped.into()),
+                self.overflowing,
+                group_digits(self.grid_capacity.into())
+            )?;
+        } else {
+            write!(f, "0 dropped (light grid of {} indices); ", group_digits(self.grid_capacity.into()))?;
+        }
+        write!(f, "{} tile-light pairs", group_digits(self.pairs))
+    }
+}
+
+/// Reads the last frame's lists and depth back and computes the statistics (None for a
+/// renderer without culling). `renderer` was built on `ctx` with the culling `options`
+/// (tile size, capacity, half-z) given here.
+pub fn culling_stats(ctx: &GpuContext, renderer: &dyn Renderer, options: &CullOptions) -> Result<Option<CullingStats>> {
+    let Some(grid) = renderer.light_grid() else {
+        return Ok(None);
+    };
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let counts = grid.read_counts(device, queue).context("reading the tile counts back")?;
+    let header = grid.status(device, queue).context("reading the light grid's header back")?.header;
+    let depth = renderer.read_depth(ctx).context("reading the depth buffer back")?;
+    let grid = renderer.grid();
+    let per = options.lists_per_tile() as usize;
+    let counts = &counts[..grid.tile_count() * per];
+    let (mut sum, mut n, mut tiles_with_geometry) = (0u64, 0u64, 0usize);
+    for ty in 0..grid.tiles_y {
+        for tx in 0..grid.tiles_x {
+            if tile_depth_bounds_samples(&grid, &depth, renderer.targets().samples, tx, ty).is_none() {
+                continue;
+            }
+            tiles_with_geometry += 1;
+            let t = (ty * grid.tiles_x + tx) as usize;
+            for c in &counts[t * per..(t + 1) * per] {
+                sum += u64::from(*c);
+                n += 1;
+            }
+        }
+    }
+    Ok(Some(CullingStats {
+        lists_per_tile: per as u32,
+        tiles_with_geometry,
+        tiles: grid.tile_count(),
+        mean_per_list: if n > 0 { sum as f64 / n as f64 } else { 0.0 },
+        max_per_list: counts.iter().copied().max().unwrap_or(0),
+        overflowing: header.dropped_lists,
+        dropped: header.dropped_pairs,
+        spilled: header.spilled_lists,
+        pairs: counts.iter().map(|&c| u64::from(c)).sum(),
+        capacity: options.capacity,
+        grid_capacity: header.capacity,
+    }))
+}
+
+/// 1234567 -> "1,234,567".
+pub fn group_digits(n: u64) -> String {
+    let s = n.to_string();
+    let mut out = String::new();
+    for (i, c) in s.chars().enumerate() {
+        if i > 0 && (s.len() - i).is_multiple_of(3) {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn digits_are_grouped() {
+        assert_eq!(group_digits(0), "0");
+        assert_eq!(group_digits(999), "999");
+        assert_eq!(group_digits(1000), "1,000");
+        assert_eq!(group_digits(1234567), "1,234,567");
+    }
+
+    #[test]
+    fn stats_read_as_one_line() {
+        let s = CullingStats {
+            lists_per_tile: 2,
+            tiles_with_geometry: 3,
+            tiles: 4,
+            mean_per_list: 1.26,
+            max_per_list: 9,
+            overflowing: 0,
+            dropped: 0,
+            spilled: 2,
+            pairs: 12345,
+            capacity: 64,
+            grid_capacity: 20000,
+        };
+        assert_eq!(
+            s.to_string(),
+            "mean 1.3, max 9 lights per list (half-z) over 3 of 4 tiles with geometry; 2 lists longer than the \
+             workgroup list (64), culled twice; 0 dropped (light grid of 20,000 indices); 12,345 tile-light pairs"
+        );
+        let dropped = CullingStats { overflowing: 3, dropped: 1500, ..s };
+        assert!(dropped.to_string().contains("DROPPED 1,500 lights from 3 lists (light grid of 20,000 indices full)"));
+    }
+}

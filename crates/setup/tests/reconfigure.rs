@@ -1,0 +1,94 @@
+//! `Prepared::reconfigure` on a real device (lavapipe in CI), through a sequence of
+//! changes on one GPU context: each returns the plan `rebuild_plan` gives, leaves the run
+//! in the state a fresh load of the new settings has (lights, light counts, camera, scene,
+//! settings), and a renderer built before a light-data change keeps working and draws the
+//! new lights. A change that fails (a missing glTF file) changes nothing.
+
+use tiledlight_cull::light::try_pack_lights;
+use tiledlight_gpu::timer::GpuTimer;
+use tiledlight_scene::GridDensity;
+use tiledlight_setup::{rebuild_plan, Method, Prepared, Rebuild, Reload, SceneCpu, SceneSource, Settings};
+
+/// The run holds what loading `s` from scratch gives.
+fn assert_matches_a_fresh_load(prep: &Prepared, s: &Settings) {
+    let cpu = SceneCpu::load(s).unwrap();
+    let packed = try_pack_lights(&cpu.lights).unwrap();
+    let bytes = |p: &tiledlight_cull::light::PackedLights| {
+        let mut b: Vec<u8> = bytemuck::cast_slice(&p.cull).to_vec();
+        b.extend_from_slice(bytemuck::cast_slice(&p.shading));
+        b.extend_from_slice(bytemuck::cast_slice(&p.spots));
+        b
+    };
+    assert_eq!(bytes(&prep.lights.packed), bytes(&packed), "lights");
+    assert_eq!(prep.lights.len() as usize, cpu.lights.len());
+    assert_eq!(prep.light_summary, tiledlight_setup::LightSummary::of(&cpu.lights, cpu.file_lights));
+    assert_eq!(prep.camera.view_proj(), cpu.camera.view_proj(), "camera");
+    assert_eq!(prep.camera_source, cpu.camera_source);
+    assert_eq!((prep.scene_name.as_str(), prep.instances), (cpu.scene.name.as_str(), cpu.scene.instances.len()));
+    assert_eq!(prep.requested(), s);
+    assert!(prep.settings.capacity.is_some(), "the capacity is chosen for the lights");
+    assert_eq!(Settings { capacity: s.capacity, ..prep.settings.clone() }, *s);
+}
+
+#[test]
+fn reconfigure_rebuilds_what_the_plan_says_and_ends_where_a_fresh_load_would() {
+    let s0 = Settings { width: 64, height: 36, lights: Some(48), ..Settings::default() };
+    let mut prep = Prepared::new(&s0).unwrap();
+    assert_matches_a_fresh_load(&prep, &s0);
+    let mut timer = GpuTimer::new(&prep.ctx).unwrap();
+
+    // Light data in place: the renderer built before stays valid and draws the new lights.
+    let mut before = prep.renderer(false).unwrap();
+    before.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
+    let seed_1 = before.read_hdr(&prep.ctx).unwrap();
+    let lights_buffer = prep.lights.cull.clone();
+    let s1 = Settings { seed: 2, ..s0.clone() };
+    let plan = prep.reconfigure(&s1).unwrap();
+    assert_eq!(plan, Rebuild { reload: Reload::LightData, ..Rebuild::default() });
+    assert_eq!(prep.lights.cull, lights_buffer, "rewritten in place");
+    assert_matches_a_fresh_load(&prep, &s1);
+    before.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
+    let mut fresh = prep.renderer(false).unwrap();
+    fresh.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
+    let seed_2 = before.read_hdr(&prep.ctx).unwrap();
+    assert_ne!(seed_1, seed_2, "other lights, another image");
+    assert_eq!(seed_2, fresh.read_hdr(&prep.ctx).unwrap());
+    let stats = prep.culling_stats(fresh.as_ref()).unwrap().expect("Forward+ culls");
+    assert!(stats.tiles_with_geometry > 0 && stats.pairs > 0, "{stats}");
+    drop((before, fresh));
+
+    let steps = [
+        Settings { lights: Some(20), spot_lights: Some(6), ..s1.clone() },
+        Settings { lights: Some(20), spot_lights: Some(6), method: Method::Deferred, width: 80, ..s1.clone() },
+        Settings {
+            lights: Some(20),
+            spot_lights: Some(6),
+            method: Method::Deferred,
+            width: 80,
+            grid_objects: 4,
+            density: GridDensity::Low,
+            ..s1.clone()
+        },
+    ];
+    let mut old = s1;
+    for s in steps {
+        let plan = prep.reconfigure(&s).unwrap();
+        assert_eq!(plan, rebuild_plan(&old, &s));
+        assert!(plan.renderer);
+        assert_matches_a_fresh_load(&prep, &s);
+        prep.renderer(false).unwrap().render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
+        prep.check_gpu_errors().unwrap();
+        old = s;
+    }
+    assert!(prep.reconfigure(&old).unwrap().is_nothing());
+
+    // A failed change leaves everything as it was.
+    let missing =
+        Settings { scene: SceneSource::File("/nonexistent/scene.glb".into()), grid_objects: 0, ..old.clone() };
+    let e = prep.reconfigure(&missing).unwrap_err();
+    assert!(format!("{e:#}").contains("loading the scene"), "{e:#}");
+    assert_matches_a_fresh_load(&prep, &old);
+    let bad = Settings { tile_size: 7, ..old.clone() };
+    assert!(format!("{:#}", prep.reconfigure(&bad).unwrap_err()).contains("--tile-size 7"));
+    assert_matches_a_fresh_load(&prep, &old);
+}
