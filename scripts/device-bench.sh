@@ -2,7 +2,9 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa (default: all)
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid (default:
+# all but grid). BIN=path picks another binary (A/B runs: stage the old one beside it);
+# PREFIX= is prepended to every result name.
 set -uo pipefail
 out=${OUT:-bench-out}
 mkdir -p "$out"
@@ -13,13 +15,14 @@ fi
 if [ -f /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json ]; then
   export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 fi
-bin=./.device/tiledlight
+bin=${BIN:-./.device/tiledlight}
+prefix=${PREFIX:-}
 nvidia-smi --query-gpu=name,clocks.sm,clocks.max.sm,memory.total --format=csv,noheader | tee "$out/gpu.txt"
 run() { # name frames args...
-  local name=$1 frames=$2; shift 2
+  local name=$prefix$1 frames=$2; shift 2
   echo "== $name: $*" | tee -a "$out/log.txt"
   timeout 300 "$bin" bench --width 1920 --height 1080 --frames "$frames" --warmup 20 --json "$out/$name.json" "$@" 2>&1 \
-    | tee -a "$out/log.txt" | grep -E "^(depth|forward|brute|deferred|tonemap|total|error|MSAA)"
+    | tee -a "$out/log.txt" | grep -E "^(depth|forward|brute|deferred|tonemap|total|error|MSAA|light grid)"
 }
 sets=${*:-core cull scale methods msaa}
 for set in $sets; do
@@ -57,6 +60,16 @@ for set in $sets; do
   scale)
     run fp-1024-grid280 100 --lights 1024 --grid-objects 280 --density medium
     run fp-65536 30 --lights 65536 --capacity 2048
+    ;;
+  grid)
+    # The light grid's A/B set (issue 10): the Figure 9 scene, both methods, 1,024 to
+    # 16,384 lights, then 65,536 lights (lists past the workgroup list).
+    for n in 1024 4096 16384; do
+      run "g-fp-$n" 50 --lights $n --grid-objects 280 --density medium
+      run "g-td-$n" 50 --lights $n --grid-objects 280 --density medium --method deferred --gbuffer-rts 4
+    done
+    run g-fp-65536 20 --lights 65536
+    run g-td-65536 20 --lights 65536 --method deferred
     ;;
   esac
 done

@@ -145,8 +145,8 @@ fn gbuffer_targets_do_not_change_the_image() {
     assert!(e.to_string().contains("2..=5"), "{e}");
 }
 
-/// The lights each tile of the deferred pass is shaded with (its `DEBUG_LISTS` copy of the
-/// workgroup lists) equal the CPU reference culler's, list for list as sets, with the
+/// The lights each tile of the deferred pass is shaded with (the lists it writes to the
+/// light grid) equal the CPU reference culler's, list for list as sets, with the
 /// shared float-borderline acceptance (`tiledlight_tests::lists`); the per-list counts (the
 /// heat map's input, read by the same reader) must equal the stored lists. Catches a
 /// deferred pass that shades a tile with the wrong lights even when their number is right

@@ -1,6 +1,6 @@
 //! The culling property on the GPU: for random cameras, scenes, lights and settings, the
 //! lists both methods culled on the GPU (Forward+'s culling pass, and the lists Tiled
-//! Deferred shades with, its `DEBUG_LISTS` copy) equal the CPU reference culler's list for
+//! Deferred shades with, as it writes them to the light grid) equal the CPU reference culler's list for
 //! list (the shared comparison, `tiledlight_tests::lists`), and no light that reaches a
 //! depth sample's surface point is missing from the list that sample reads (ground truth
 //! `tiledlight_cull::reference::lights_reaching`, margin 0, as the CPU property

@@ -52,8 +52,8 @@ fn deferred(
 
 /// The GPU lists of a 4x frame equal the CPU reference run on the same depth samples, list
 /// for list as sets (shared float-borderline acceptance, `tiledlight_tests::lists`), for
-/// both Forward+'s culling pass and the lists Tiled Deferred shades with (its `DEBUG_LISTS`
-/// copy). Catches a kernel that bounds only sample 0 (the CPU reads every sample) and a
+/// both Forward+'s culling pass and the lists Tiled Deferred shades with (the light grid
+/// it writes). Catches a kernel that bounds only sample 0 (the CPU reads every sample) and a
 /// deferred pass shading with the right number of wrong lights.
 #[test]
 fn msaa_culling_matches_cpu_reference() {
