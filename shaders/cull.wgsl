@@ -13,6 +13,7 @@
 #include "common/light_grid_write.wgsl"
 
 @group(1) @binding(1) var<storage, read> cull_lights: array<CullLight>;
+@group(1) @binding(9) var<uniform> lighting: Lighting;
 #ifdef COARSE
 // Cell counts, then COARSE_CAPACITY indices per cell (see cull_coarse.wgsl).
 @group(1) @binding(8) var<storage, read> cell_lists: array<u32>;

@@ -18,6 +18,7 @@ const WG: u32 = 16u;
 // One buffer (a storage-buffer binding is scarce: 8 per stage): the cells' true counts,
 // then COARSE_CAPACITY indices per cell.
 @group(1) @binding(2) var<storage, read_write> cell_lists: array<u32>;
+@group(1) @binding(3) var<uniform> lighting: Lighting;
 
 var<workgroup> wg_count: atomic<u32>;
 
@@ -28,14 +29,14 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid
     }
     let cell = wid.xy;
     let range = region_depth_range(cell * CELL, CELL, WG, lid.xy, lidx);
-    let cells = (frame.screen + CELL - 1u) / CELL;
+    let cells = (view.screen + CELL - 1u) / CELL;
     let cell_index = cell.y * cells.x + cell.x;
     let first = cells.x * cells.y + cell_index * COARSE_CAPACITY;
     if range.y > 0.0 {
         let v = tile_volume(tile_ndc(cell, CELL), view_distance(range.y), view_distance(range.x));
-        for (var light = lidx; light < frame.num_lights; light += WG * WG) {
+        for (var light = lidx; light < lighting.num_lights; light += WG * WG) {
             let cl = cull_lights[light];
-            let c = (frame.view * vec4<f32>(cl.center, 1.0)).xyz;
+            let c = (view.world_to_view * vec4<f32>(cl.center, 1.0)).xyz;
             if cl.radius > 0.0 && sphere_vs_frustum(v, c, cl.radius) {
                 let slot = atomicAdd(&wg_count, 1u);
                 if slot < COARSE_CAPACITY {

@@ -27,6 +27,7 @@ alias GTexture = texture_2d<f32>;
 #endif
 
 @group(1) @binding(1) var<storage, read> cull_lights: array<CullLight>;
+@group(1) @binding(2) var<uniform> lighting: Lighting;
 @group(1) @binding(3) var gbuffer_albedo: GTexture;
 @group(1) @binding(4) var gbuffer_normal: GTexture;
 #ifdef EXTRA_RTS
@@ -120,7 +121,7 @@ fn load_gsample(p: vec2<u32>, s: u32) -> GSample {
     }
     g.dist = view_distance(d);
     let view_pos = view_point_at(pixel_to_ndc(vec2<f32>(p) + sample_position(s)), g.dist);
-    g.world = (frame.inv_view * vec4<f32>(view_pos, 1.0)).xyz;
+    g.world = (view.view_to_world * vec4<f32>(view_pos, 1.0)).xyz;
     let am = textureLoad(gbuffer_albedo, p, s);
     let nr = textureLoad(gbuffer_normal, p, s);
     var albedo = am.rgb;
@@ -162,7 +163,7 @@ fn shade(g: GSample, t: TileCull, near: TileList, far: TileList) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     let v = view_vector(g.world);
-    var color = frame.ambient * g.surface.albedo;
+    var color = lighting.ambient * g.surface.albedo;
     var l = near;
 #ifdef HALF_Z
     if g.dist > half_z_split(t.near, t.far) {
@@ -204,8 +205,8 @@ fn at_pixel_centre(p: vec2<u32>, g: GSample) -> GSample {
     // per unit of view distance.
     let o = view_point_at(ndc, 0.0);
     let d = view_point_at(ndc, 1.0) - o;
-    let n = (frame.view * vec4<f32>(g.normal, 0.0)).xyz;
-    let p0 = (frame.view * vec4<f32>(g.world, 1.0)).xyz;
+    let n = (view.world_to_view * vec4<f32>(g.normal, 0.0)).xyz;
+    let p0 = (view.world_to_view * vec4<f32>(g.world, 1.0)).xyz;
     let denom = dot(d, n);
     // Edge-on to the ray (only if the plane test let it through): keep sample 0's point.
     if abs(denom) < 1e-6 * length(d) {
@@ -217,7 +218,7 @@ fn at_pixel_centre(p: vec2<u32>, g: GSample) -> GSample {
     }
     var out = g;
     out.dist = t;
-    out.world = (frame.inv_view * vec4<f32>(o + t * d, 1.0)).xyz;
+    out.world = (view.view_to_world * vec4<f32>(o + t * d, 1.0)).xyz;
     return out;
 }
 
@@ -266,7 +267,7 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid
     for (var j = 0u; j < steps; j++) {
         for (var i = 0u; i < steps; i++) {
             let p = origin + lid.xy + vec2<u32>(i, j) * WG;
-            if p.x < frame.screen.x && p.y < frame.screen.y {
+            if p.x < view.screen.x && p.y < view.screen.y {
                 let g0 = load_gsample(p, 0u);
 #ifdef MSAA
                 if is_edge(p, g0) {

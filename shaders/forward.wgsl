@@ -8,6 +8,7 @@
 #include "common/shade.wgsl"
 
 @group(3) @binding(0) var<storage, read> shading_lights: array<ShadingLight>;
+@group(3) @binding(5) var<uniform> lighting: Lighting;
 #ifdef SPOT_LIGHTS
 @group(3) @binding(1) var<storage, read> spot_lights: array<SpotLight>;
 #endif
@@ -37,9 +38,9 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
     let n = ms.normal;
     let v = view_vector(in.world_pos);
     let s = Surface(ms.base, ms.roughness, ms.metallic);
-    var color = frame.ambient * ms.base;
+    var color = lighting.ambient * ms.base;
 #ifdef BRUTE_FORCE
-    for (var i = 0u; i < frame.num_lights; i++) {
+    for (var i = 0u; i < lighting.num_lights; i++) {
         color += shade_light(i, in.world_pos, n, v, s);
     }
 #else

@@ -2,9 +2,8 @@
 // (blue) to the workgroup list capacity (red, also for longer lists); tiles that lost lights
 // because the light grid was full are magenta; tiles with no light keep the image. With
 // half-z the two lists' counts are summed. Reads the light grid's lists (true counts).
-#include "common/frame.wgsl"
-
-@group(1) @binding(0) var<storage, read> light_grid: LightGrid;
+// No view: the grid header says the tiling (a pass that only needs the grid).
+@group(0) @binding(0) var<storage, read> light_grid: LightGrid;
 #include "common/light_grid.wgsl"
 
 @vertex
@@ -24,15 +23,16 @@ fn palette(t: f32) -> vec3<f32> {
 
 @fragment
 fn fs_heatmap(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
-    let tile = vec2<u32>(pos.xy) / frame.tile_size;
-    let t = tile.y * frame.tiles.x + tile.x;
+    let h = light_grid.header;
+    let tile = vec2<u32>(pos.xy) / h.tile_size;
+    let t = tile.y * h.tiles.x + tile.x;
     var count = 0u;
     var overflow = false;
-    for (var k = 0u; k < frame.lists_per_tile; k++) {
-        let l = t * frame.lists_per_tile + k;
+    for (var k = 0u; k < h.lists_per_tile; k++) {
+        let l = t * h.lists_per_tile + k;
         let c = light_grid.lists[l].y;
         count += c;
-        overflow = overflow || light_list(light_grid.lists[l], light_grid.header.capacity).count < c;
+        overflow = overflow || light_list(light_grid.lists[l], h.capacity).count < c;
     }
     if count == 0u {
         return vec4<f32>(0.0);
@@ -40,6 +40,6 @@ fn fs_heatmap(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
     if overflow {
         return vec4<f32>(1.0, 0.0, 1.0, 0.75);
     }
-    let t_log = log2(f32(count)) / log2(f32(max(frame.capacity, 2u)));
+    let t_log = log2(f32(count)) / log2(f32(max(h.list_capacity, 2u)));
     return vec4<f32>(palette(t_log), 0.6);
 }

@@ -1,8 +1,16 @@
 // Tonemapping for display: exposure, the ACES filmic fit (Narkowicz 2015), and the sRGB
 // encoding done by the Rgba8UnormSrgb target. A full-screen triangle reads the HDR image.
-#include "common/frame.wgsl"
+// The pass's own parameters (crates/gpu/src/tonemap.rs, TonemapUniforms): written when
+// they change, so changing the exposure rebuilds nothing.
+struct Tonemap {
+    exposure: f32,
+    _pad0: f32,
+    _pad1: f32,
+    _pad2: f32,
+}
 
-@group(1) @binding(0) var hdr: texture_2d<f32>;
+@group(0) @binding(0) var hdr: texture_2d<f32>;
+@group(0) @binding(1) var<uniform> params: Tonemap;
 
 @vertex
 fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
@@ -22,5 +30,5 @@ fn aces(x: vec3<f32>) -> vec3<f32> {
 @fragment
 fn fs_tonemap(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
     let c = textureLoad(hdr, vec2<i32>(pos.xy), 0).rgb;
-    return vec4<f32>(aces(c * frame.exposure), 1.0);
+    return vec4<f32>(aces(c * params.exposure), 1.0);
 }

@@ -1,6 +1,6 @@
 // Tile view volumes and the bounding tests of the light-culling kernel.
 // The CPU reference is crates/cull/src/{tiles,bounds}.rs; keep the arithmetic identical.
-#include "common/frame.wgsl"
+#include "common/view.wgsl"
 
 struct TileVolume {
     // Left, right, bottom, top planes, normals inward: dot(p.xyz, x) + p.w >= 0 inside.
@@ -19,7 +19,7 @@ struct Aabb {
 // Plane where clip-space row `row` equals `edge * clip.w`, built from the projection's rows
 // (no cross products of nearly parallel corner rays).
 fn clip_edge_plane(row: u32, edge: f32, sign: f32) -> vec4<f32> {
-    let p = frame.proj;
+    let p = view.view_to_clip;
     let r = vec4<f32>(p[0][row], p[1][row], p[2][row], p[3][row]);
     let w = vec4<f32>(p[0][3], p[1][3], p[2][3], p[3][3]);
     let q = (r - w * edge) * sign;
@@ -30,9 +30,9 @@ fn clip_edge_plane(row: u32, edge: f32, sign: f32) -> vec4<f32> {
 fn tile_ndc(tile: vec2<u32>, tile_size: u32) -> vec4<f32> {
     let x0 = tile.x * tile_size;
     let y0 = tile.y * tile_size;
-    let x1 = min(x0 + tile_size, frame.screen.x);
-    let y1 = min(y0 + tile_size, frame.screen.y);
-    let s = vec2<f32>(frame.screen);
+    let x1 = min(x0 + tile_size, view.screen.x);
+    let y1 = min(y0 + tile_size, view.screen.y);
+    let s = vec2<f32>(view.screen);
     return vec4<f32>(
         2.0 * f32(x0) / s.x - 1.0,
         2.0 * f32(x1) / s.x - 1.0,

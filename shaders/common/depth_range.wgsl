@@ -4,7 +4,7 @@
 // With MSAA the buffer is multisampled (SAMPLES per pixel, set by the pipeline) and the
 // range covers every sample, so a light reaching any sample stays in the tile's list.
 // The CPU reference is tiledlight_cull::tiles::tile_depth_bounds_samples.
-#include "common/frame.wgsl"
+#include "common/view.wgsl"
 
 #ifdef MSAA
 override SAMPLES: u32 = 4u;
@@ -66,7 +66,7 @@ fn region_depth_range(origin: vec2<u32>, size: u32, threads: u32, lid: vec2<u32>
     for (var j = 0u; j < steps; j++) {
         for (var i = 0u; i < steps; i++) {
             let p = origin + lid + vec2<u32>(i, j) * threads;
-            if p.x < frame.screen.x && p.y < frame.screen.y {
+            if p.x < view.screen.x && p.y < view.screen.y {
 #ifdef MSAA
                 // Unrolled by hand (SAMPLES is a pipeline constant, so the untaken branches
                 // fold away): the H100's driver did not unroll the loop, and culling ran 3x

@@ -30,8 +30,13 @@ struct LightGridHeader {
     spilled_lists: u32,
     // Length of `light_indices` (written by the host when it allocates the buffer).
     capacity: u32,
+    // The layout, written by the host: tiles across and down, tile side in pixels, lists
+    // per tile (2 with half-z), and the culling kernel's workgroup list length.
+    tiles: vec2<u32>,
+    tile_size: u32,
+    lists_per_tile: u32,
+    list_capacity: u32,
     _pad0: u32,
-    _pad1: u32,
 }
 
 struct LightGrid {

@@ -17,8 +17,11 @@ struct LightGridCounters {
     dropped_lists: atomic<u32>,
     spilled_lists: atomic<u32>,
     capacity: u32,
+    tiles: vec2<u32>,
+    tile_size: u32,
+    lists_per_tile: u32,
+    list_capacity: u32,
     _pad0: u32,
-    _pad1: u32,
 }
 
 struct LightGridRw {

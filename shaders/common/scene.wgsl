@@ -1,6 +1,6 @@
 // Scene geometry bindings and the shared vertex transform.
 // Keep in sync with crates/gpu/src/scene_gpu.rs (GpuInstance, GpuMaterial).
-#include "common/frame.wgsl"
+#include "common/view.wgsl"
 
 struct Instance {
     model: mat4x4<f32>,
@@ -50,7 +50,7 @@ fn transform_vertex(instance_index: u32, position: vec3<f32>, normal: vec3<f32>,
     let inst = instances[instance_index];
     let world = inst.model * vec4<f32>(position, 1.0);
     var out: VertexOut;
-    out.clip = frame.view_proj * world;
+    out.clip = view.world_to_clip * world;
     out.world_pos = world.xyz;
     out.normal = inst.normal_matrix * normal;
     out.uv = uv;
@@ -61,7 +61,7 @@ fn transform_vertex(instance_index: u32, position: vec3<f32>, normal: vec3<f32>,
 // Clip position only: the same arithmetic as transform_vertex so depths match exactly.
 fn transform_position(instance_index: u32, position: vec3<f32>) -> vec4<f32> {
     let world = instances[instance_index].model * vec4<f32>(position, 1.0);
-    return frame.view_proj * world;
+    return view.world_to_clip * world;
 }
 
 // The material seen by a rasterised fragment, for the shading pass and the G-buffer alike.

@@ -1,7 +1,7 @@
 // One light's contribution at a surface point. The including file declares
 // `shading_lights: array<ShadingLight>` and, with SPOT_LIGHTS, `spot_lights: array<SpotLight>`.
 // With NO_CUTOFF the falloff is plain inverse-square (the brute-force reference without radius).
-#include "common/frame.wgsl"
+#include "common/view.wgsl"
 #include "common/lights.wgsl"
 #include "common/brdf.wgsl"
 
@@ -19,8 +19,8 @@ fn shade_light(i: u32, p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, s: Surface) -> 
 #endif
     let l = to_light * inverseSqrt(max(d2, 1e-30));
 #ifdef SPOT_LIGHTS
-    if i >= frame.num_point_lights {
-        let spot = spot_lights[i - frame.num_point_lights];
+    if i >= lighting.num_point_lights {
+        let spot = spot_lights[i - lighting.num_point_lights];
         atten *= spot_falloff(dot(-l, spot.direction), spot.angle_scale, spot.angle_offset);
     }
 #endif

@@ -61,14 +61,14 @@ fn extra_tests(v: TileVolume, light: u32, c: vec3<f32>, r: f32) -> bool {
     }
 #endif
 #ifdef SPOT_CONE
-    if light >= frame.num_point_lights {
+    if light >= lighting.num_point_lights {
 #ifndef AABB
         let b = volume_aabb(v);
 #endif
-        let s = spot_lights[light - frame.num_point_lights];
+        let s = spot_lights[light - lighting.num_point_lights];
         let sh = shading_lights[light];
-        let apex = (frame.view * vec4<f32>(sh.position, 1.0)).xyz;
-        let axis = (frame.view * vec4<f32>(s.direction, 0.0)).xyz;
+        let apex = (view.world_to_view * vec4<f32>(sh.position, 1.0)).xyz;
+        let axis = (view.world_to_view * vec4<f32>(s.direction, 0.0)).xyz;
         let sc = (b.lo + b.hi) * 0.5;
         // The farthest corner from the rounded centre (crates/cull/src/bounds.rs aabb_sphere).
         let sr = length(max(b.hi - sc, sc - b.lo));
@@ -116,7 +116,7 @@ fn tile_candidate(t: TileCull, k: u32) -> u32 {
 // Whether `light` belongs to the tile's near (x) and far (y, HALF_Z only) list.
 fn tile_hits(t: TileCull, light: u32) -> vec2<bool> {
     let cl = cull_lights[light];
-    let c = (frame.view * vec4<f32>(cl.center, 1.0)).xyz;
+    let c = (view.world_to_view * vec4<f32>(cl.center, 1.0)).xyz;
     let r = cl.radius;
     if r <= 0.0 {
         return vec2<bool>(false);
@@ -145,7 +145,7 @@ fn cull_tile(tile: vec2<u32>, lid: vec2<u32>, lidx: u32) -> TileCull {
     let range = region_depth_range(origin, TILE_SIZE, WG, lid, lidx);
 
     var t: TileCull;
-    t.index = tile.y * frame.tiles.x + tile.x;
+    t.index = tile.y * ((view.screen.x + TILE_SIZE - 1u) / TILE_SIZE) + tile.x;
     let min_depth = range.x;
     let max_depth = range.y;
     if max_depth > 0.0 {
@@ -162,9 +162,9 @@ fn cull_tile(tile: vec2<u32>, lid: vec2<u32>, lidx: u32) -> TileCull {
 #else
         t.v0 = tile_volume(ndc, near, far);
 #endif
-        t.candidates = frame.num_lights;
+        t.candidates = lighting.num_lights;
 #ifdef COARSE
-        let cells = (frame.screen + CELL - 1u) / CELL;
+        let cells = (view.screen + CELL - 1u) / CELL;
         let cell_index = (origin.y / CELL) * cells.x + origin.x / CELL;
         t.cell_first = cells.x * cells.y + cell_index * COARSE_CAPACITY;
         let cell_count = cell_lists[cell_index];

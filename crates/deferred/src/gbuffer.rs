@@ -13,11 +13,11 @@
 //! scene has. Depends on tiledlight-gpu.
 
 use tiledlight_gpu::depth_prepass::{scene_pipeline, SceneDraw};
-use tiledlight_gpu::frame::FrameBinding;
 use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, VERTEX_LAYOUTS};
 use tiledlight_gpu::targets::texture_2d_msaa;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::util::{pipeline_layout, shader_module};
+use tiledlight_gpu::view::Views;
 use tiledlight_gpu::GpuError;
 
 /// Format of target 0 (albedo, metallic).
@@ -118,7 +118,7 @@ impl GBufferPass {
     /// instead of white.
     pub fn new(
         device: &wgpu::Device,
-        frame: &FrameBinding,
+        views: &Views,
         scene: &SceneGpu,
         rts: u32,
         samples: u32,
@@ -129,7 +129,7 @@ impl GBufferPass {
             entries: &[],
         });
         let tex_layout = scene.textures.as_ref().map_or(&empty, |t| &t.layout);
-        let layout = pipeline_layout(device, "deferred.gbuffer.layout", &[&frame.layout, &scene.layout, tex_layout]);
+        let layout = pipeline_layout(device, "deferred.gbuffer.layout", &[&views.layout, &scene.layout, tex_layout]);
         let mut targets = vec![
             Some(wgpu::ColorTargetState { format: ALBEDO_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL }),
             Some(wgpu::ColorTargetState { format: NORMAL_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL }),
@@ -180,12 +180,12 @@ impl GBufferPass {
         Ok(Self { pipelines, empty_group })
     }
 
-    /// Clears and fills the G-buffer and `depth`.
+    /// Clears and fills the G-buffer and `depth` with the scene seen from view slot `view`.
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         timer: &GpuTimer,
-        frame: &FrameBinding,
+        (views, view): (&Views, u32),
         scene: &SceneGpu,
         gbuffer: &GBuffer,
         depth: &wgpu::TextureView,
@@ -214,7 +214,7 @@ impl GBufferPass {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_bind_group(0, &frame.bind_group, &[]);
+            pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
             pass.set_bind_group(1, &scene.bind_group, &[]);
             if let Some(g) = &self.empty_group {
                 pass.set_bind_group(2, g, &[]);

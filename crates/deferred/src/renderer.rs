@@ -7,7 +7,6 @@
 use glam::Vec3;
 use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
-use tiledlight_gpu::frame::{FrameBinding, FrameParams, FrameUniforms};
 use tiledlight_gpu::light_cull::{CullOptions, DropLight, GpuTileLists};
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
@@ -16,6 +15,7 @@ use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::{check_msaa, DisplayTargets, Renderer};
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::{HeatmapPass, TonemapPass};
+use tiledlight_gpu::view::{ViewUniforms, Views, MAIN_VIEW};
 use tiledlight_gpu::{GpuContext, GpuError};
 
 use crate::gbuffer::{GBuffer, GBufferPass};
@@ -70,15 +70,14 @@ impl Default for DeferredSettings {
 pub struct DeferredRenderer {
     settings: DeferredSettings,
     grid: TileGrid,
-    frame: FrameBinding,
+    views: Views,
     gbuffer_pass: GBufferPass,
     gbuffer: GBuffer,
     shading: DeferredShading,
     tonemap: TonemapPass,
-    tonemap_input: wgpu::BindGroup,
-    heatmap: Option<(HeatmapPass, wgpu::BindGroup)>,
+    /// Drawn when enabled.
+    heatmap: HeatmapPass,
     targets: DisplayTargets,
-    frame_params: FrameParams,
     memory: MemoryReport,
 }
 
@@ -108,7 +107,8 @@ impl DeferredRenderer {
             )));
         }
         ctx.checked("building the Tiled Deferred renderer", || {
-            let frame = FrameBinding::new(device);
+            let views = Views::new(device, 1);
+            let lighting = lights.lighting(device, settings.ambient);
             let targets = DisplayTargets::new(
                 device,
                 "deferred",
@@ -119,7 +119,7 @@ impl DeferredRenderer {
             let gbuffer = GBuffer::new(device, width, height, settings.gbuffer_rts, settings.msaa)?;
             let gbuffer_pass = GBufferPass::new(
                 device,
-                &frame,
+                &views,
                 scene,
                 settings.gbuffer_rts,
                 settings.msaa,
@@ -132,46 +132,21 @@ impl DeferredRenderer {
             memory.add("deferred.gbuffer", gbuffer.bytes());
             let shading = DeferredShading::new(
                 device,
-                &frame,
+                &views,
                 &targets.depth_view,
                 &gbuffer,
                 &targets.hdr_view,
-                lights,
+                (lights, &lighting),
                 grid,
                 settings.cull,
                 settings.edge,
                 settings.test_drop_light,
                 &mut memory,
             )?;
-            let tonemap = TonemapPass::new(device, &frame)?;
-            let tonemap_input = tonemap.bind(device, &targets.hdr_view);
-            let heatmap = if settings.heatmap {
-                let h = HeatmapPass::new(device, &frame)?;
-                let g = h.bind(device, &shading.light_grid.grid);
-                Some((h, g))
-            } else {
-                None
-            };
-            Ok(Self {
-                settings,
-                grid,
-                frame,
-                gbuffer_pass,
-                gbuffer,
-                shading,
-                tonemap,
-                tonemap_input,
-                heatmap,
-                targets,
-                frame_params: settings.cull.frame_params(grid, lights, settings.exposure, settings.ambient),
-                memory,
-            })
+            let tonemap = TonemapPass::new(device, &targets.hdr_view, settings.exposure)?;
+            let heatmap = HeatmapPass::new(device, &shading.light_grid.grid, settings.heatmap)?;
+            Ok(Self { settings, grid, views, gbuffer_pass, gbuffer, shading, tonemap, heatmap, targets, memory })
         })?
-    }
-
-    /// The uniforms of a frame seen through `camera`.
-    pub fn frame_uniforms(&self, camera: &Camera) -> FrameUniforms {
-        FrameUniforms::new(&self.frame_params, camera)
     }
 
     /// The settings it was built with.
@@ -204,13 +179,18 @@ impl Renderer for DeferredRenderer {
         scene: &SceneGpu,
         camera: &Camera,
     ) {
-        self.frame.update(queue, &self.frame_uniforms(camera));
-        self.gbuffer_pass.record(encoder, timer, &self.frame, scene, &self.gbuffer, &self.targets.depth_view);
-        self.shading.record(encoder, timer, &self.frame);
-        self.tonemap.record(encoder, timer, &self.frame, &self.tonemap_input, &self.targets.ldr_view);
-        if let Some((h, g)) = &self.heatmap {
-            h.record(encoder, timer, &self.frame, g, &self.targets.ldr_view);
-        }
+        self.views.write(queue, MAIN_VIEW, &ViewUniforms::new(camera, self.grid.width, self.grid.height));
+        let view = (&self.views, MAIN_VIEW);
+        self.gbuffer_pass.record(encoder, timer, view, scene, &self.gbuffer, &self.targets.depth_view);
+        self.shading.record(encoder, timer, view);
+        self.tonemap.record(encoder, timer, &self.targets.ldr_view);
+        self.heatmap.record(encoder, timer, &self.targets.ldr_view);
+    }
+    fn set_exposure(&self, queue: &wgpu::Queue, exposure: f32) -> Result<(), GpuError> {
+        self.tonemap.set_exposure(queue, exposure)
+    }
+    fn heatmap(&self) -> Option<&HeatmapPass> {
+        Some(&self.heatmap)
     }
     fn targets(&self) -> &DisplayTargets {
         &self.targets

@@ -15,7 +15,6 @@
 //! Depends on tiledlight-gpu and [`crate::gbuffer`].
 
 use tiledlight_cull::TileGrid;
-use tiledlight_gpu::frame::FrameBinding;
 use tiledlight_gpu::light_cull::{depth_entry, CoarseCulling, CullOptions, DropLight, CULL_WORKGROUP_BYTES};
 use tiledlight_gpu::light_grid::{GpuTileLists, LightGrid};
 use tiledlight_gpu::lights_gpu::LightBuffers;
@@ -24,7 +23,8 @@ use tiledlight_gpu::readback::read_buffer;
 use tiledlight_gpu::targets::texture_2d;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
-use tiledlight_gpu::util::{buffer_zeroed, compute_pipeline, shader_module, storage_entry};
+use tiledlight_gpu::util::{buffer_zeroed, compute_pipeline, shader_module, storage_entry, uniform_entry};
+use tiledlight_gpu::view::Views;
 use tiledlight_gpu::GpuError;
 
 use crate::gbuffer::GBuffer;
@@ -140,11 +140,11 @@ impl DeferredShading {
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         device: &wgpu::Device,
-        frame: &FrameBinding,
+        views: &Views,
         depth: &wgpu::TextureView,
         gbuffer: &GBuffer,
         hdr: &wgpu::TextureView,
-        lights: &LightBuffers,
+        (lights, lighting): (&LightBuffers, &wgpu::Buffer),
         grid: TileGrid,
         options: CullOptions,
         edge: EdgeTest,
@@ -167,9 +167,7 @@ impl DeferredShading {
         let light_grid = LightGrid::new(
             device,
             "deferred.light_grid",
-            grid,
-            options.lists_per_tile(),
-            false,
+            options.grid_layout(grid, false),
             lights.len(),
             options.grid_pairs,
         )?;
@@ -179,6 +177,7 @@ impl DeferredShading {
         let mut entries = vec![
             depth_entry(0, samples),
             storage_entry(1, cs, true),
+            uniform_entry(2, cs),
             gbuffer_entry(3, samples),
             gbuffer_entry(4, samples),
             storage_entry(6, cs, true),
@@ -187,6 +186,7 @@ impl DeferredShading {
         let mut bind = vec![
             view_entry(0, depth),
             wgpu::BindGroupEntry { binding: 1, resource: lights.cull.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 2, resource: lighting.as_entire_binding() },
             view_entry(3, gbuffer.albedo_view()),
             view_entry(4, gbuffer.normal_view()),
             wgpu::BindGroupEntry { binding: 6, resource: lights.shading.as_entire_binding() },
@@ -204,7 +204,7 @@ impl DeferredShading {
         }
         let coarse = if options.coarse {
             entries.push(storage_entry(8, cs, true));
-            Some(CoarseCulling::new(device, frame, depth, lights, &grid, &options, memory)?)
+            Some(CoarseCulling::new(device, views, depth, lights, lighting, &grid, &options, memory)?)
         } else {
             None
         };
@@ -275,7 +275,7 @@ impl DeferredShading {
         let pipeline = compute_pipeline(
             device,
             "deferred.shade",
-            &[&frame.layout, &layout, light_grid.layout()],
+            &[&views.layout, &layout, light_grid.layout()],
             &module,
             &constants,
         );
@@ -291,7 +291,7 @@ impl DeferredShading {
 
     /// Records the cell pass (two-level culling), the cull-and-shade dispatch and, with
     /// MSAA, the resolve of the edge pixels.
-    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, frame: &FrameBinding) {
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, (views, view): (&Views, u32)) {
         self.light_grid.record_clear(encoder);
         if let Some(c) = &self.coarse {
             let t = timer.begin("deferred.cull_cells", encoder);
@@ -300,7 +300,7 @@ impl DeferredShading {
                     label: Some("deferred.cull_cells"),
                     timestamp_writes: t.compute_writes(),
                 });
-                pass.set_bind_group(0, &frame.bind_group, &[]);
+                pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
                 c.dispatch(&mut pass);
             }
             timer.end(encoder, t);
@@ -315,7 +315,7 @@ impl DeferredShading {
                 timestamp_writes: t.compute_writes(),
             });
             pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &frame.bind_group, &[]);
+            pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
             pass.set_bind_group(1, &self.bind_group, &[]);
             pass.set_bind_group(2, self.light_grid.bind_group(), &[]);
             pass.dispatch_workgroups(self.grid.tiles_x, self.grid.tiles_y, 1);

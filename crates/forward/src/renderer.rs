@@ -8,7 +8,6 @@
 use glam::Vec3;
 use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::depth_prepass::{DepthPrepass, DEPTH_FORMAT};
-use tiledlight_gpu::frame::{FrameBinding, FrameParams, FrameUniforms};
 use tiledlight_gpu::light_cull::{CullOptions, DropLight, LightCulling};
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
@@ -17,6 +16,7 @@ use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::{check_msaa, texture_2d_msaa, DisplayTargets, Renderer};
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::{HeatmapPass, TonemapPass, HDR_FORMAT};
+use tiledlight_gpu::view::{ViewUniforms, Views, MAIN_VIEW};
 use tiledlight_gpu::{GpuContext, GpuError};
 
 use crate::shading::{LightLoop, ShadingPass};
@@ -73,17 +73,16 @@ impl Default for ForwardSettings {
 pub struct ForwardRenderer {
     settings: ForwardSettings,
     grid: TileGrid,
-    frame: FrameBinding,
+    views: Views,
     prepass: DepthPrepass,
     culling: Option<LightCulling>,
     shading: ShadingPass,
     tonemap: TonemapPass,
-    tonemap_input: wgpu::BindGroup,
-    heatmap: Option<(HeatmapPass, wgpu::BindGroup)>,
+    /// Forward+ only (it reads the light grid); drawn when enabled.
+    heatmap: Option<HeatmapPass>,
     targets: DisplayTargets,
     /// The multisampled HDR target the shading pass draws into and resolves (MSAA only).
     hdr_msaa: Option<(wgpu::Texture, wgpu::TextureView)>,
-    frame_params: FrameParams,
     memory: MemoryReport,
 }
 
@@ -109,7 +108,8 @@ impl ForwardRenderer {
             )));
         }
         ctx.checked("building the Forward+ renderer", || {
-            let frame = FrameBinding::new(device);
+            let views = Views::new(device, 1);
+            let lighting = lights.lighting(device, settings.ambient);
             let targets = DisplayTargets::new(
                 device,
                 "forward",
@@ -132,14 +132,14 @@ impl ForwardRenderer {
                 });
                 (t, v)
             });
-            let prepass = DepthPrepass::new(device, &frame, scene, settings.msaa)?;
+            let prepass = DepthPrepass::new(device, &views, scene, settings.msaa)?;
             let (culling, light_loop) = match settings.method {
                 Method::ForwardPlus => (
                     Some(LightCulling::with_drop_light(
                         device,
-                        &frame,
+                        &views,
                         &targets.depth_view,
-                        lights,
+                        (lights, &lighting),
                         grid,
                         settings.cull,
                         settings.test_drop_light,
@@ -153,20 +153,21 @@ impl ForwardRenderer {
                 }
                 Method::BruteForce { cutoff } => (None, LightLoop::All { cutoff }),
             };
-            let shading = ShadingPass::new(device, &frame, scene, lights, culling.as_ref(), light_loop, settings.msaa)?;
-            let tonemap = TonemapPass::new(device, &frame)?;
-            let tonemap_input = tonemap.bind(device, &targets.hdr_view);
-            let heatmap = match (&culling, settings.heatmap) {
-                (Some(c), true) => {
-                    let h = HeatmapPass::new(device, &frame)?;
-                    let g = h.bind(device, &c.grid.grid);
-                    Some((h, g))
-                }
-                (None, true) => {
-                    return Err(GpuError::Config("the heat map needs a tiled method (brute force has no tiles)".into()))
-                }
-                _ => None,
-            };
+            let shading = ShadingPass::new(
+                device,
+                &views,
+                scene,
+                (lights, &lighting),
+                culling.as_ref(),
+                light_loop,
+                settings.msaa,
+            )?;
+            let tonemap = TonemapPass::new(device, &targets.hdr_view, settings.exposure)?;
+            if settings.heatmap && culling.is_none() {
+                return Err(GpuError::Config("the heat map needs a tiled method (brute force has no tiles)".into()));
+            }
+            let heatmap =
+                culling.as_ref().map(|c| HeatmapPass::new(device, &c.grid.grid, settings.heatmap)).transpose()?;
             let mut memory = MemoryReport::default();
             memory.extend(&scene.memory);
             memory.extend(&lights.memory);
@@ -177,27 +178,8 @@ impl ForwardRenderer {
             if let Some(c) = &culling {
                 memory.extend(&c.memory);
             }
-            Ok(Self {
-                settings,
-                grid,
-                frame,
-                prepass,
-                culling,
-                shading,
-                tonemap,
-                tonemap_input,
-                heatmap,
-                targets,
-                hdr_msaa,
-                frame_params: settings.cull.frame_params(grid, lights, settings.exposure, settings.ambient),
-                memory,
-            })
+            Ok(Self { settings, grid, views, prepass, culling, shading, tonemap, heatmap, targets, hdr_msaa, memory })
         })?
-    }
-
-    /// The uniforms of a frame seen through `camera` (its aspect should match the screen).
-    pub fn frame_uniforms(&self, camera: &Camera) -> FrameUniforms {
-        FrameUniforms::new(&self.frame_params, camera)
     }
 
     /// The settings it was built with.
@@ -219,21 +201,28 @@ impl Renderer for ForwardRenderer {
         scene: &SceneGpu,
         camera: &Camera,
     ) {
-        self.frame.update(queue, &self.frame_uniforms(camera));
-        self.prepass.record(encoder, timer, &self.frame, scene, &self.targets.depth_view);
+        self.views.write(queue, MAIN_VIEW, &ViewUniforms::new(camera, self.grid.width, self.grid.height));
+        let view = (&self.views, MAIN_VIEW);
+        self.prepass.record(encoder, timer, view, scene, &self.targets.depth_view);
         if let Some(c) = &self.culling {
-            c.record(encoder, timer, &self.frame, "forward.cull");
+            c.record(encoder, timer, view, "forward.cull");
         }
         // With MSAA the pass draws the multisampled target and resolves it into the HDR image.
         let (hdr, resolve) = match &self.hdr_msaa {
             Some((_, v)) => (v, Some(&self.targets.hdr_view)),
             None => (&self.targets.hdr_view, None),
         };
-        self.shading.record(encoder, timer, &self.frame, scene, hdr, resolve, &self.targets.depth_view);
-        self.tonemap.record(encoder, timer, &self.frame, &self.tonemap_input, &self.targets.ldr_view);
-        if let Some((h, g)) = &self.heatmap {
-            h.record(encoder, timer, &self.frame, g, &self.targets.ldr_view);
+        self.shading.record(encoder, timer, view, scene, hdr, resolve, &self.targets.depth_view);
+        self.tonemap.record(encoder, timer, &self.targets.ldr_view);
+        if let Some(h) = &self.heatmap {
+            h.record(encoder, timer, &self.targets.ldr_view);
         }
+    }
+    fn set_exposure(&self, queue: &wgpu::Queue, exposure: f32) -> Result<(), GpuError> {
+        self.tonemap.set_exposure(queue, exposure)
+    }
+    fn heatmap(&self) -> Option<&HeatmapPass> {
+        self.heatmap.as_ref()
     }
     fn targets(&self) -> &DisplayTargets {
         &self.targets

@@ -3,18 +3,18 @@
 //! brute-force reference) with the shared BRDF into the `Rgba16Float` target. Shader
 //! variants are chosen from what the scene has (spot lights, textures) and the settings
 //! (half-z, brute force, no cutoff), so unused features cost no code and no buffers.
-//! Bind groups: 0 frame, 1 scene, 2 material texture (textured scenes only), 3 lights.
+//! Bind groups: 0 view, 1 scene, 2 material texture (textured scenes only), 3 lights.
 //! Depends on tiledlight-gpu.
 
 use tiledlight_gpu::depth_prepass::{scene_pipeline, SceneDraw};
-use tiledlight_gpu::frame::FrameBinding;
 use tiledlight_gpu::light_cull::LightCulling;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, VERTEX_LAYOUTS};
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
-use tiledlight_gpu::util::{pipeline_layout, shader_module, storage_entry};
+use tiledlight_gpu::util::{pipeline_layout, shader_module, storage_entry, uniform_entry};
+use tiledlight_gpu::view::Views;
 use tiledlight_gpu::GpuError;
 
 /// Which lights each fragment loops over.
@@ -36,8 +36,8 @@ pub enum LightLoop {
 pub struct ShadingPass {
     pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
     lights_layout: wgpu::BindGroupLayout,
-    /// Light buffers: shading, spots (when the scene has spot lights).
-    lights: (wgpu::Buffer, Option<wgpu::Buffer>),
+    /// Light buffers: shading, spots (when the scene has spot lights), the lighting uniform.
+    lights: (wgpu::Buffer, Option<wgpu::Buffer>, wgpu::Buffer),
     lights_group: wgpu::BindGroup,
     /// Stands in for group 2 when the scene has no textures.
     empty_group: Option<wgpu::BindGroup>,
@@ -49,16 +49,16 @@ impl ShadingPass {
     /// [`LightLoop::Tiled`].
     pub fn new(
         device: &wgpu::Device,
-        frame: &FrameBinding,
+        views: &Views,
         scene: &SceneGpu,
-        lights: &LightBuffers,
+        (lights, lighting): (&LightBuffers, &wgpu::Buffer),
         culling: Option<&LightCulling>,
         light_loop: LightLoop,
         samples: u32,
     ) -> Result<Self, GpuError> {
         let fs = wgpu::ShaderStages::FRAGMENT;
         let mut defines: Vec<&str> = Vec::new();
-        let mut entries = vec![storage_entry(0, fs, true)];
+        let mut entries = vec![storage_entry(0, fs, true), uniform_entry(5, fs)];
         if lights.spots.is_some() {
             defines.push("SPOT_LIGHTS");
             entries.push(storage_entry(1, fs, true));
@@ -92,7 +92,7 @@ impl ShadingPass {
             label: Some("shade.lights_layout"),
             entries: &entries,
         });
-        let lights = (lights.shading.clone(), lights.spots.clone());
+        let lights = (lights.shading.clone(), lights.spots.clone(), lighting.clone());
         let lights_group = lights_group(device, &lights_layout, &lights, culling.map(|c| &c.grid));
         let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shade.empty_layout"),
@@ -102,7 +102,7 @@ impl ShadingPass {
         let pl = pipeline_layout(
             device,
             "shade.pipeline_layout",
-            &[&frame.layout, &scene.layout, tex_layout, &lights_layout],
+            &[&views.layout, &scene.layout, tex_layout, &lights_layout],
         );
         let pipelines = scene
             .kinds()
@@ -156,7 +156,7 @@ impl ShadingPass {
         &self,
         encoder: &mut wgpu::CommandEncoder,
         timer: &GpuTimer,
-        frame: &FrameBinding,
+        (views, view): (&Views, u32),
         scene: &SceneGpu,
         hdr: &wgpu::TextureView,
         resolve: Option<&wgpu::TextureView>,
@@ -185,7 +185,7 @@ impl ShadingPass {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_bind_group(0, &frame.bind_group, &[]);
+            pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
             pass.set_bind_group(1, &scene.bind_group, &[]);
             if let Some(g) = &self.empty_group {
                 pass.set_bind_group(2, g, &[]);
@@ -200,15 +200,18 @@ impl ShadingPass {
     }
 }
 
-/// Group 3: shading lights (0), spots (1), and for tiled shading the light grid (2), its
-/// indices (3) and with half-z the tile ranges (4).
+/// Group 3: shading lights (0), spots (1), the lighting uniform (5), and for tiled shading
+/// the light grid (2), its indices (3) and with half-z the tile ranges (4).
 fn lights_group(
     device: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,
-    (shading, spots): &(wgpu::Buffer, Option<wgpu::Buffer>),
+    (shading, spots, lighting): &(wgpu::Buffer, Option<wgpu::Buffer>, wgpu::Buffer),
     grid: Option<&LightGrid>,
 ) -> wgpu::BindGroup {
-    let mut bind = vec![wgpu::BindGroupEntry { binding: 0, resource: shading.as_entire_binding() }];
+    let mut bind = vec![
+        wgpu::BindGroupEntry { binding: 0, resource: shading.as_entire_binding() },
+        wgpu::BindGroupEntry { binding: 5, resource: lighting.as_entire_binding() },
+    ];
     if let Some(s) = spots {
         bind.push(wgpu::BindGroupEntry { binding: 1, resource: s.as_entire_binding() });
     }

@@ -7,8 +7,8 @@
 //!    arrays, and a camera given as eye, target and field of view, turned into a
 //!    `tiledlight_cull::Camera` (reversed-Z, infinite far plane).
 //! 3. A few hundred random point lights (`tiledlight_cull::Light`) uploaded with
-//!    `LightBuffers`; the camera goes to the GPU through `FrameBinding` / `FrameUniforms`
-//!    (all in [`frame_uniforms`], the one place this example builds them).
+//!    `LightBuffers` (with its `Lighting` uniform: counts and ambient); the camera goes to
+//!    the GPU as one slot of `Views` (`ViewUniforms`, group 0 with a dynamic offset).
 //! 4. The engine's own depth-only pipeline draws the mesh into its own `Depth32Float`
 //!    texture (reversed-Z: clear 0, compare `GreaterEqual`).
 //! 5. `LightCulling` culls the lights against that depth buffer, tile by tile, into the
@@ -40,11 +40,11 @@ use glam::{Mat4, Vec3};
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::reference::{lights_reaching, pixel_view_position};
 use tiledlight_cull::{cull_tiles, Camera, CullConfig, Light, Projection, TileGrid};
-use tiledlight_gpu::frame::{FrameBinding, FrameUniforms};
 use tiledlight_gpu::light_cull::{CullOptions, GpuTileLists, LightCulling, CULL_WORKGROUP_BYTES};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::readback::{read_depth, read_texture};
 use tiledlight_gpu::timer::GpuTimer;
+use tiledlight_gpu::view::{ViewUniforms, Views, MAIN_VIEW};
 use tiledlight_gpu::{shader, wgpu, ContextOptions, GpuContext};
 use wgpu::util::DeviceExt as _;
 
@@ -62,8 +62,8 @@ const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 /// `vs_main` serves both the depth pipeline and the shading pipeline, from one module, so
 /// that both compute bit-identical depths and the shading pass can test depth `Equal`.
 const SHADER: &str = r#"
-// shade_light (the shared BRDF and windowed attenuation) and, through it, the Frame
-// uniforms at group 0 (the camera and the tile grid's size).
+// shade_light (the shared BRDF and windowed attenuation) and, through it, the View uniform
+// at group 0 (the camera and the screen).
 #include "common/shade.wgsl"
 
 // What common/shade.wgsl and common/light_grid_pixel.wgsl expect the including file to
@@ -72,10 +72,10 @@ const SHADER: &str = r#"
 @group(1) @binding(0) var<storage, read> shading_lights: array<ShadingLight>;
 @group(1) @binding(1) var<storage, read> light_grid: LightGrid;
 @group(1) @binding(2) var<storage, read> light_indices: array<u32>;
+@group(1) @binding(3) var<uniform> lighting: Lighting;
 #include "common/light_grid_pixel.wgsl"
 
-// This example's own lighting constants (tiledlight's renderers read theirs from Frame).
-const AMBIENT: f32 = 0.03;
+// This example's own tonemap constant (tiledlight's renderers have a tonemap pass).
 const EXPOSURE: f32 = 1.0;
 
 struct MeshVertex {
@@ -95,7 +95,7 @@ struct MeshOut {
 @vertex
 fn vs_main(v: MeshVertex) -> MeshOut {
     // The mesh is in world space already (no model matrix in this example).
-    return MeshOut(frame.view_proj * vec4<f32>(v.position, 1.0), v.position, v.normal, v.albedo);
+    return MeshOut(view.world_to_clip * vec4<f32>(v.position, 1.0), v.position, v.normal, v.albedo);
 }
 
 @fragment
@@ -103,7 +103,7 @@ fn fs_main(in: MeshOut) -> @location(0) vec4<f32> {
     let n = normalize(in.normal);
     let v = view_vector(in.world_pos);
     let surface = Surface(in.albedo, 0.4, 0.0);
-    var color = AMBIENT * in.albedo;
+    var color = lighting.ambient * in.albedo;
     // The pixel's list: its tile's (first, count), clipped to what the grid stored.
     let list = pixel_list(vec2<u32>(in.clip.xy), view_distance(in.clip.z));
     for (var i = 0u; i < list.count; i++) {
@@ -130,7 +130,7 @@ fn main() -> Result<()> {
     let mesh = Mesh::scene();
     let camera = engine_camera(Vec3::new(0.0, 5.0, 11.0), Vec3::new(0.0, 0.0, -5.0), 55.0)?;
 
-    // 3. Lights, culling options, frame uniforms.
+    // 3. Lights, culling options, the view.
     let lights = random_lights(NUM_LIGHTS, 0x5eed)?;
     let lights = LightBuffers::new(device, &lights)?;
     let grid = TileGrid::new(WIDTH, HEIGHT, 16)?;
@@ -142,8 +142,9 @@ fn main() -> Result<()> {
         aabb: true,
         ..CullOptions::default()
     };
-    let frame = FrameBinding::new(device);
-    frame.update(queue, &frame_uniforms(&camera, grid, &lights, &options));
+    let lighting = lights.lighting(device, Vec3::splat(0.03));
+    let views = Views::new(device, 1);
+    views.write(queue, MAIN_VIEW, &ViewUniforms::new(&camera, WIDTH, HEIGHT));
 
     // 4. The engine's targets and pipelines. The depth texture is also sampled by the
     //    culling pass and copied out for the CPU check.
@@ -164,11 +165,11 @@ fn main() -> Result<()> {
     let color_view =
         color.create_view(&wgpu::TextureViewDescriptor { label: Some("example.color.view"), ..Default::default() });
     let module = shader_module(device)?;
-    let pipelines = Pipelines::new(device, &frame, &module);
+    let pipelines = Pipelines::new(device, &views, &module);
     let gpu_mesh = GpuMesh::new(device, &mesh);
 
     // 5. The culling pass reads the engine's depth view; it owns the light grid.
-    let mut culling = LightCulling::new(device, &frame, &depth_view, &lights, grid, options)?;
+    let mut culling = LightCulling::new(device, &views, &depth_view, &lights, &lighting, grid, options)?;
     let timer = GpuTimer::new(&ctx)?;
 
     // 4-6. One frame in one submission: the engine's depth pass, tiledlight's culling,
@@ -179,12 +180,12 @@ fn main() -> Result<()> {
     let status = loop {
         attempts += 1;
         // The shading group holds the index buffer, which growing re-creates.
-        let shading_group = pipelines.shading_group(device, &lights, &culling);
+        let shading_group = pipelines.shading_group(device, (&lights, &lighting), &culling);
         let mut encoder =
             device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("example.frame") });
-        pipelines.draw_depth(&mut encoder, &frame, &gpu_mesh, &depth_view);
-        culling.record(&mut encoder, &timer, &frame, "example.cull");
-        pipelines.draw_shaded(&mut encoder, &frame, &shading_group, &gpu_mesh, &depth_view, &color_view);
+        pipelines.draw_depth(&mut encoder, &views, &gpu_mesh, &depth_view);
+        culling.record(&mut encoder, &timer, (&views, MAIN_VIEW), "example.cull");
+        pipelines.draw_shaded(&mut encoder, &views, &shading_group, &gpu_mesh, &depth_view, &color_view);
         queue.submit([encoder.finish()]);
         let status = culling.grid.status(device, queue)?;
         match culling.grid.growth(status.header.pairs) {
@@ -245,13 +246,6 @@ fn engine_camera(eye: Vec3, target: Vec3, fov_y_deg: f32) -> Result<Camera> {
         far: None,
     };
     Ok(Camera::from_view(view, projection)?)
-}
-
-/// The frame uniforms (group 0 of the culling pass and of this example's shader): the
-/// camera, the tile grid and the light counts. The only place the example builds them.
-fn frame_uniforms(camera: &Camera, grid: TileGrid, lights: &LightBuffers, options: &CullOptions) -> FrameUniforms {
-    // Exposure and ambient are read by tiledlight's renderers only; SHADER has its own.
-    FrameUniforms::new(&options.frame_params(grid, lights, 1.0, Vec3::ZERO), camera)
 }
 
 /// `n` point lights scattered above the ground, seeded so every run draws the same.
@@ -458,7 +452,7 @@ struct Pipelines {
 }
 
 impl Pipelines {
-    fn new(device: &wgpu::Device, frame: &FrameBinding, module: &wgpu::ShaderModule) -> Self {
+    fn new(device: &wgpu::Device, views: &Views, module: &wgpu::ShaderModule) -> Self {
         let storage = |binding| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::FRAGMENT,
@@ -471,16 +465,30 @@ impl Pipelines {
         };
         let shading_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("example.shading.layout"),
-            entries: &[storage(0), storage(1), storage(2)],
+            entries: &[
+                storage(0),
+                storage(1),
+                storage(2),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 3,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+            ],
         });
         let depth_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("example.depth.pipeline_layout"),
-            bind_group_layouts: &[Some(&frame.layout)],
+            bind_group_layouts: &[Some(&views.layout)],
             immediate_size: 0,
         });
         let shade_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("example.shade.pipeline_layout"),
-            bind_group_layouts: &[Some(&frame.layout), Some(&shading_layout)],
+            bind_group_layouts: &[Some(&views.layout), Some(&shading_layout)],
             immediate_size: 0,
         });
         let vertex_layout = [Some(wgpu::VertexBufferLayout {
@@ -535,8 +543,13 @@ impl Pipelines {
         }
     }
 
-    /// Group 1 of the shading pipeline: lights, light grid, light indices.
-    fn shading_group(&self, device: &wgpu::Device, lights: &LightBuffers, culling: &LightCulling) -> wgpu::BindGroup {
+    /// Group 1 of the shading pipeline: lights, light grid, light indices, lighting.
+    fn shading_group(
+        &self,
+        device: &wgpu::Device,
+        (lights, lighting): (&LightBuffers, &wgpu::Buffer),
+        culling: &LightCulling,
+    ) -> wgpu::BindGroup {
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("example.shading.group"),
             layout: &self.shading_layout,
@@ -544,17 +557,12 @@ impl Pipelines {
                 wgpu::BindGroupEntry { binding: 0, resource: lights.shading.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 1, resource: culling.grid.grid.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 2, resource: culling.grid.indices().as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: lighting.as_entire_binding() },
             ],
         })
     }
 
-    fn draw_depth(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        frame: &FrameBinding,
-        mesh: &GpuMesh,
-        depth: &wgpu::TextureView,
-    ) {
+    fn draw_depth(&self, encoder: &mut wgpu::CommandEncoder, views: &Views, mesh: &GpuMesh, depth: &wgpu::TextureView) {
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("example.depth"),
             color_attachments: &[],
@@ -569,14 +577,14 @@ impl Pipelines {
             multiview_mask: None,
         });
         pass.set_pipeline(&self.depth);
-        pass.set_bind_group(0, &frame.bind_group, &[]);
+        pass.set_bind_group(0, views.bind_group(), &views.offsets(MAIN_VIEW));
         mesh.draw(&mut pass);
     }
 
     fn draw_shaded(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        frame: &FrameBinding,
+        views: &Views,
         shading_group: &wgpu::BindGroup,
         mesh: &GpuMesh,
         depth: &wgpu::TextureView,
@@ -603,7 +611,7 @@ impl Pipelines {
             multiview_mask: None,
         });
         pass.set_pipeline(&self.shade);
-        pass.set_bind_group(0, &frame.bind_group, &[]);
+        pass.set_bind_group(0, views.bind_group(), &views.offsets(MAIN_VIEW));
         pass.set_bind_group(1, shading_group, &[]);
         mesh.draw(&mut pass);
     }

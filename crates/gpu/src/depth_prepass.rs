@@ -1,13 +1,13 @@
 //! The depth pre-pass: reversed-Z `Depth32Float` of the scene's geometry, depth-only for
 //! opaque materials and with an alpha-test fragment stage for masked ones. Both methods
 //! (and the brute-force reference) start with it. Pipelines exist only for the draw kinds
-//! the scene has. Depends on wgpu, [`crate::scene_gpu`] and [`crate::frame`].
+//! the scene has. Depends on wgpu, [`crate::scene_gpu`] and [`crate::view`].
 
 use crate::error::GpuError;
-use crate::frame::FrameBinding;
 use crate::scene_gpu::{DrawKind, SceneGpu, VERTEX_LAYOUTS};
 use crate::timer::GpuTimer;
 use crate::util::{pipeline_layout, shader_module};
+use crate::view::Views;
 
 /// Depth format of every depth buffer (reversed-Z: clear 0, compare GreaterEqual when writing, Equal when shading after the pre-pass).
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -86,7 +86,7 @@ pub struct DepthPrepass {
 
 impl DepthPrepass {
     /// Builds a pipeline per draw kind of `scene`, drawing `samples` depth samples a pixel.
-    pub fn new(device: &wgpu::Device, frame: &FrameBinding, scene: &SceneGpu, samples: u32) -> Result<Self, GpuError> {
+    pub fn new(device: &wgpu::Device, views: &Views, scene: &SceneGpu, samples: u32) -> Result<Self, GpuError> {
         let mut pipelines = Vec::new();
         let textures = scene.textures.as_ref();
         for kind in scene.kinds() {
@@ -99,13 +99,13 @@ impl DepthPrepass {
                         pipeline_layout(
                             device,
                             "depth_prepass.masked.layout",
-                            &[&frame.layout, &scene.layout, &t.layout],
+                            &[&views.layout, &scene.layout, &t.layout],
                         )
                     }
-                    None => pipeline_layout(device, "depth_prepass.masked.layout", &[&frame.layout, &scene.layout]),
+                    None => pipeline_layout(device, "depth_prepass.masked.layout", &[&views.layout, &scene.layout]),
                 }
             } else {
-                pipeline_layout(device, "depth_prepass.layout", &[&frame.layout, &scene.layout])
+                pipeline_layout(device, "depth_prepass.layout", &[&views.layout, &scene.layout])
             };
             let module = shader_module(device, "depth_prepass.wgsl", &defines)?;
             let (vs, buffers): (&str, &[Option<wgpu::VertexBufferLayout<'_>>]) =
@@ -133,12 +133,12 @@ impl DepthPrepass {
         Ok(Self { pipelines })
     }
 
-    /// Clears `depth` to 0 (far, reversed-Z) and draws the scene into it.
+    /// Clears `depth` to 0 (far, reversed-Z) and draws the scene seen from view slot `view` into it.
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         timer: &GpuTimer,
-        frame: &FrameBinding,
+        (views, view): (&Views, u32),
         scene: &SceneGpu,
         depth: &wgpu::TextureView,
     ) {
@@ -156,7 +156,7 @@ impl DepthPrepass {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_bind_group(0, &frame.bind_group, &[]);
+            pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
             pass.set_bind_group(1, &scene.bind_group, &[]);
             for (kind, pipeline) in &self.pipelines {
                 pass.set_pipeline(pipeline);

@@ -10,7 +10,6 @@
 pub mod context;
 pub mod depth_prepass;
 pub mod error;
-pub mod frame;
 pub mod light_cull;
 pub mod light_grid;
 pub mod lights_gpu;
@@ -22,6 +21,7 @@ pub mod targets;
 pub mod timer;
 pub mod tonemap;
 pub mod util;
+pub mod view;
 
 pub use context::{ContextOptions, GpuContext};
 pub use error::GpuError;
@@ -29,8 +29,10 @@ pub use wgpu;
 
 /// Every Rust struct shared with WGSL in this crate, for `cargo xtask validate-shaders`.
 pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
-    let mut v = frame::layouts();
+    let mut v = view::layouts();
     v.extend(scene_gpu::layouts());
     v.extend(light_grid::layouts());
+    v.extend(lights_gpu::layouts());
+    v.extend(tonemap::layouts());
     v
 }

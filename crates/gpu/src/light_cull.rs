@@ -4,21 +4,19 @@
 //! indices, then written to the light grid ([`crate::light_grid`]); a list longer than the
 //! workgroup list is culled again straight into the grid, so no list is ever truncated
 //! while the grid has room. The CPU reference is `tiledlight_cull::reference::cull_tiles`.
-//! Depends on wgpu, [`crate::frame`], [`crate::light_grid`], [`crate::lights_gpu`].
+//! Depends on wgpu, [`crate::view`], [`crate::light_grid`], [`crate::lights_gpu`].
 
 use tiledlight_cull::reference::{COARSE_CAPACITY, COARSE_SIZE, MAX_CAPACITY};
 use tiledlight_cull::TileGrid;
 
-use glam::Vec3;
-
 use crate::error::GpuError;
-use crate::frame::{FrameBinding, FrameParams};
 pub use crate::light_grid::GpuTileLists;
-use crate::light_grid::LightGrid;
+use crate::light_grid::{GridLayout, LightGrid};
 use crate::lights_gpu::LightBuffers;
 use crate::memory::MemoryReport;
 use crate::timer::GpuTimer;
-use crate::util::{buffer_zeroed, compute_pipeline, shader_module, storage_entry};
+use crate::util::{buffer_zeroed, compute_pipeline, shader_module, storage_entry, uniform_entry};
+use crate::view::Views;
 
 /// Options of the culling pass (mirrors `tiledlight_cull::CullConfig`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -62,19 +60,6 @@ impl Default for CullOptions {
 }
 
 impl CullOptions {
-    /// The frame parameters of a renderer on `grid` culling `lights` with these options.
-    pub fn frame_params(&self, grid: TileGrid, lights: &LightBuffers, exposure: f32, ambient: Vec3) -> FrameParams {
-        FrameParams {
-            grid,
-            capacity: self.capacity,
-            lists_per_tile: self.lists_per_tile(),
-            num_lights: lights.len(),
-            num_point_lights: lights.num_point(),
-            exposure,
-            ambient,
-        }
-    }
-
     /// Checks the tile size against `grid` and the capacity against [`MAX_CAPACITY`] and
     /// the workgroup memory left after `reserved` bytes (the rest of the kernel).
     pub fn validate(&self, grid: &TileGrid, reserved: u32, limits: &wgpu::Limits) -> Result<(), GpuError> {
@@ -137,6 +122,12 @@ impl CullOptions {
         constants.extend(self.depth_variant().1);
         constants.extend(DropLight::variant(drop).1);
         constants
+    }
+
+    /// The light grid's layout for these options on `grid` (`ranges`: keep the half-z
+    /// depth ranges for lookups by pixel).
+    pub fn grid_layout(&self, grid: TileGrid, ranges: bool) -> GridLayout {
+        GridLayout { tiles: grid, lists_per_tile: self.lists_per_tile(), list_capacity: self.capacity, ranges }
     }
 
     /// The CPU reference configuration running the same tests.
@@ -244,11 +235,13 @@ pub struct CoarseCulling {
 
 impl CoarseCulling {
     /// Pipeline and cell buffer for `grid`'s screen, reading `depth`.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         device: &wgpu::Device,
-        frame: &FrameBinding,
+        views: &Views,
         depth: &wgpu::TextureView,
         lights: &LightBuffers,
+        lighting: &wgpu::Buffer,
         grid: &TileGrid,
         options: &CullOptions,
         memory: &mut MemoryReport,
@@ -271,7 +264,12 @@ impl CoarseCulling {
         let cs = wgpu::ShaderStages::COMPUTE;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cull_coarse.layout"),
-            entries: &[depth_entry(0, options.samples), storage_entry(1, cs, true), storage_entry(2, cs, false)],
+            entries: &[
+                depth_entry(0, options.samples),
+                storage_entry(1, cs, true),
+                storage_entry(2, cs, false),
+                uniform_entry(3, cs),
+            ],
         });
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cull_coarse.bind_group"),
@@ -280,13 +278,14 @@ impl CoarseCulling {
                 wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(depth) },
                 wgpu::BindGroupEntry { binding: 1, resource: lights.cull.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 2, resource: lists.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: lighting.as_entire_binding() },
             ],
         });
         let (msaa, samples) = options.depth_variant();
         let module = shader_module(device, "cull_coarse.wgsl", &msaa.into_iter().collect::<Vec<_>>())?;
         let mut constants = coarse_constants(capacity).to_vec();
         constants.extend(samples);
-        let pipeline = compute_pipeline(device, "cull_coarse", &[&frame.layout, &layout], &module, &constants);
+        let pipeline = compute_pipeline(device, "cull_coarse", &[&views.layout, &layout], &module, &constants);
         Ok(Self { pipeline, bind_group, cells, lists, capacity })
     }
 
@@ -295,7 +294,7 @@ impl CoarseCulling {
         coarse_constants(self.capacity)
     }
 
-    /// Records the cell dispatch into `pass` (group 0, the frame, must be bound).
+    /// Records the cell dispatch into `pass` (group 0, the view, must be bound).
     pub fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>) {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(1, &self.bind_group, &[]);
@@ -341,21 +340,22 @@ impl LightCulling {
     /// of the pre-pass with `options.samples` samples per pixel).
     pub fn new(
         device: &wgpu::Device,
-        frame: &FrameBinding,
+        views: &Views,
         depth: &wgpu::TextureView,
         lights: &LightBuffers,
+        lighting: &wgpu::Buffer,
         grid: TileGrid,
         options: CullOptions,
     ) -> Result<Self, GpuError> {
-        Self::with_drop_light(device, frame, depth, lights, grid, options, None)
+        Self::with_drop_light(device, views, depth, (lights, lighting), grid, options, None)
     }
 
     /// [`LightCulling::new`] with the test-only [`DropLight`] hook (`None`: the same).
     pub fn with_drop_light(
         device: &wgpu::Device,
-        frame: &FrameBinding,
+        views: &Views,
         depth: &wgpu::TextureView,
-        lights: &LightBuffers,
+        (lights, lighting): (&LightBuffers, &wgpu::Buffer),
         grid: TileGrid,
         options: CullOptions,
         drop: Option<DropLight>,
@@ -367,18 +367,17 @@ impl LightCulling {
         let light_grid = LightGrid::new(
             device,
             "cull.light_grid",
-            grid,
-            options.lists_per_tile(),
-            options.half_z,
+            options.grid_layout(grid, options.half_z),
             lights.len(),
             options.grid_pairs,
         )?;
         let spot_cone = options.spot_cone && lights.has_spots();
         let cs = wgpu::ShaderStages::COMPUTE;
-        let mut entries = vec![depth_entry(0, options.samples), storage_entry(1, cs, true)];
+        let mut entries = vec![depth_entry(0, options.samples), storage_entry(1, cs, true), uniform_entry(9, cs)];
         let mut bind = vec![
             wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(depth) },
             wgpu::BindGroupEntry { binding: 1, resource: lights.cull.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 9, resource: lighting.as_entire_binding() },
         ];
         if let (true, Some(spots)) = (spot_cone, &lights.spots) {
             entries.push(storage_entry(6, cs, true));
@@ -389,7 +388,7 @@ impl LightCulling {
         let mut memory = light_grid.memory();
         let coarse = if options.coarse {
             entries.push(storage_entry(8, cs, true));
-            Some(CoarseCulling::new(device, frame, depth, lights, &grid, &options, &mut memory)?)
+            Some(CoarseCulling::new(device, views, depth, lights, lighting, &grid, &options, &mut memory)?)
         } else {
             None
         };
@@ -408,12 +407,19 @@ impl LightCulling {
         let module = shader_module(device, "cull.wgsl", &options.cull_defines(lights.has_spots(), drop))?;
         let constants = options.cull_constants(coarse.as_ref(), drop);
         let pipeline =
-            compute_pipeline(device, "cull", &[&frame.layout, &layout, light_grid.layout()], &module, &constants);
+            compute_pipeline(device, "cull", &[&views.layout, &layout, light_grid.layout()], &module, &constants);
         Ok(Self { pipeline, bind_group, coarse, grid: light_grid, options, memory })
     }
 
-    /// Records the culling dispatch (one workgroup per tile) after clearing the counters.
-    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, frame: &FrameBinding, label: &str) {
+    /// Records the culling dispatch (one workgroup per tile) of view slot `view` after
+    /// clearing the counters.
+    pub fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: &GpuTimer,
+        (views, view): (&Views, u32),
+        label: &str,
+    ) {
         self.grid.record_clear(encoder);
         let t = timer.begin(label, encoder);
         {
@@ -421,7 +427,7 @@ impl LightCulling {
                 label: Some(label),
                 timestamp_writes: t.compute_writes(),
             });
-            pass.set_bind_group(0, &frame.bind_group, &[]);
+            pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
             if let Some(c) = &self.coarse {
                 c.dispatch(&mut pass);
             }

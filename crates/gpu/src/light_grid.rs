@@ -49,13 +49,19 @@ pub struct LightGridHeader {
     pub spilled_lists: u32,
     /// Length of the index buffer, in indices (written by the host).
     pub capacity: u32,
-    /// Padding to 32 bytes.
+    /// Tiles across and down (the layout, written by the host).
+    pub tiles: [u32; 2],
+    /// Tile side in pixels.
+    pub tile_size: u32,
+    /// Lists per tile (2 with half-z).
+    pub lists_per_tile: u32,
+    /// The culling kernel's workgroup list length (the heat map's palette top).
+    pub list_capacity: u32,
+    /// Padding to 48 bytes.
     pub _pad0: u32,
-    /// Padding to 32 bytes.
-    pub _pad1: u32,
 }
 
-/// Bytes of the counters the kernels clear each frame (every header word before `capacity`).
+/// Bytes of the counters cleared each frame (every header word before `capacity`).
 const COUNTER_BYTES: u64 = 20;
 /// Bytes of the header.
 pub const HEADER_BYTES: u64 = std::mem::size_of::<LightGridHeader>() as u64;
@@ -115,6 +121,19 @@ const COPIED: u8 = 1;
 const MAPPING: u8 = 2;
 const MAPPED: u8 = 3;
 
+/// The layout of a grid: which lists exist and how the kernels that fill it are set up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GridLayout {
+    /// The tiling.
+    pub tiles: TileGrid,
+    /// Lists per tile (2 with half-z).
+    pub lists_per_tile: u32,
+    /// The culling kernel's workgroup list length.
+    pub list_capacity: u32,
+    /// Keep the per-tile depth ranges (half-z lookups by pixel).
+    pub ranges: bool,
+}
+
 /// The light grid of one screen and layout: the grid buffer (header + one `(first, count)`
 /// per list), the index buffer, and with half-z the per-tile depth ranges.
 pub struct LightGrid {
@@ -142,18 +161,16 @@ pub struct LightGrid {
 }
 
 impl LightGrid {
-    /// The grid of `tiles` with `lists_per_tile` lists a tile, for `num_lights` lights.
-    /// `ranges`: keep the half-z depth ranges for lookups by pixel. `fixed_pairs`: a fixed
-    /// index budget (never grows) instead of the automatic one.
+    /// The grid of `layout` for `num_lights` lights. `fixed_pairs`: a fixed index budget
+    /// (never grows) instead of the automatic one.
     pub fn new(
         device: &wgpu::Device,
         label: &'static str,
-        tiles: TileGrid,
-        lists_per_tile: u32,
-        ranges: bool,
+        layout: GridLayout,
         num_lights: u32,
         fixed_pairs: Option<u32>,
     ) -> Result<Self, GpuError> {
+        let GridLayout { tiles, lists_per_tile, list_capacity, ranges } = layout;
         let max_binding = device.limits().max_storage_buffer_binding_size;
         let lists = tiles.tile_count() as u64 * lists_per_tile as u64;
         let grid_bytes = HEADER_BYTES + lists * 8;
@@ -175,7 +192,14 @@ impl LightGrid {
             None => initial_capacity(tiles.tile_count() as u64, num_lights).min(max_capacity as u64) as u32,
         };
         let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
-        let header = LightGridHeader { capacity, ..Default::default() };
+        let header = LightGridHeader {
+            capacity,
+            tiles: [tiles.tiles_x, tiles.tiles_y],
+            tile_size: tiles.tile_size,
+            lists_per_tile,
+            list_capacity,
+            ..Default::default()
+        };
         let mut contents = vec![0u8; grid_bytes as usize];
         contents[..HEADER_BYTES as usize].copy_from_slice(bytemuck::bytes_of(&header));
         let grid = buffer_init(device, &format!("{label}.grid"), &contents, usage);
@@ -324,9 +348,10 @@ impl LightGrid {
     pub fn read_lists(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<GpuTileLists, GpuError> {
         let grid: Vec<u32> = read_buffer(device, queue, &self.grid)?;
         let indices: Vec<u32> = read_buffer(device, queue, &self.indices)?;
-        let header: LightGridHeader = *bytemuck::from_bytes(bytemuck::cast_slice(&grid[..8]));
+        let words = (HEADER_BYTES / 4) as usize;
+        let header: LightGridHeader = *bytemuck::from_bytes(bytemuck::cast_slice(&grid[..words]));
         let n = self.list_count();
-        let entries = &grid[8..];
+        let entries = &grid[words..];
         if entries.len() < 2 * n {
             return Err(GpuError::Readback(format!("{} list entries read back for {n} lists", entries.len() / 2)));
         }
@@ -353,7 +378,7 @@ impl LightGrid {
     /// Reads the per-list true counts of the last frame (heat map statistics; stalls).
     pub fn read_counts(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Vec<u32>, GpuError> {
         let grid: Vec<u32> = read_buffer(device, queue, &self.grid)?;
-        Ok(grid[8..].chunks_exact(2).map(|e| e[1]).take(self.list_count()).collect())
+        Ok(grid[(HEADER_BYTES / 4) as usize..].chunks_exact(2).map(|e| e[1]).take(self.list_count()).collect())
     }
 }
 
@@ -400,7 +425,19 @@ pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
         LightGridHeader,
         "LightGridHeader",
         "common/light_grid.wgsl",
-        [allocated, pairs, dropped_pairs, dropped_lists, spilled_lists, capacity, _pad0, _pad1]
+        [
+            allocated,
+            pairs,
+            dropped_pairs,
+            dropped_lists,
+            spilled_lists,
+            capacity,
+            tiles,
+            tile_size,
+            lists_per_tile,
+            list_capacity,
+            _pad0
+        ]
     )]
 }
 
@@ -409,8 +446,8 @@ mod tests {
     use super::*;
 
     #[test]
-    fn header_is_32_bytes_and_counters_precede_capacity() {
-        assert_eq!(HEADER_BYTES, 32);
+    fn header_is_48_bytes_and_counters_precede_capacity() {
+        assert_eq!(HEADER_BYTES, 48);
         assert_eq!(std::mem::offset_of!(LightGridHeader, capacity) as u64, COUNTER_BYTES);
     }
 

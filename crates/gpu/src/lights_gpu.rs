@@ -1,7 +1,10 @@
-//! Light buffers on the GPU: culling data (bounding spheres) apart from shading data, and a
-//! spot buffer that exists only when the scene has spot lights. Depends on wgpu and
-//! tiledlight-cull.
+//! Light buffers on the GPU: culling data (bounding spheres) apart from shading data, a
+//! spot buffer that exists only when the scene has spot lights, and the small `Lighting`
+//! uniform (light counts, ambient) that culling and shading read next to them. Depends on
+//! wgpu and tiledlight-cull.
 
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
 use tiledlight_cull::light::{try_pack_lights, PackedLights};
 use tiledlight_cull::Light;
 
@@ -12,6 +15,36 @@ use crate::util::buffer_init;
 /// Most lights accepted (1,048,576): far beyond what the tiled methods are meant for, and
 /// a guard against absurd counts exhausting GPU memory.
 pub const MAX_LIGHTS: usize = 1 << 20;
+
+/// The light counts and the ambient term, bound as `lighting` next to the light buffers.
+///
+/// Keep in sync with `shaders/common/lights.wgsl` (`Lighting`); `cargo xtask validate-shaders` checks it.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct LightingUniforms {
+    /// Ambient radiance multiplied by the base colour.
+    pub ambient: [f32; 3],
+    /// Number of lights.
+    pub num_lights: u32,
+    /// Number of point lights (they come first).
+    pub num_point_lights: u32,
+    /// Padding to 32 bytes.
+    pub _pad0: u32,
+    /// Padding.
+    pub _pad1: u32,
+    /// Padding.
+    pub _pad2: u32,
+}
+
+/// Layouts of this module's GPU structs, for the xtask layout check.
+pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
+    vec![tiledlight_cull::struct_layout!(
+        LightingUniforms,
+        "Lighting",
+        "common/lights.wgsl",
+        [ambient, num_lights, num_point_lights, _pad0, _pad1, _pad2]
+    )]
+}
 
 /// The scene's lights in GPU buffers, points first.
 pub struct LightBuffers {
@@ -79,5 +112,17 @@ impl LightBuffers {
     /// True when the spot buffer exists.
     pub fn has_spots(&self) -> bool {
         self.spots.is_some()
+    }
+
+    /// A renderer's `Lighting` uniform over these lights with `ambient` (a renderer
+    /// setting, so each renderer owns its own).
+    pub fn lighting(&self, device: &wgpu::Device, ambient: Vec3) -> wgpu::Buffer {
+        let u = LightingUniforms {
+            ambient: ambient.to_array(),
+            num_lights: self.len(),
+            num_point_lights: self.num_point(),
+            ..Default::default()
+        };
+        buffer_init(device, "lighting.uniforms", bytemuck::bytes_of(&u), wgpu::BufferUsages::UNIFORM)
     }
 }

@@ -12,7 +12,7 @@ use crate::memory::MemoryReport;
 use crate::readback::{read_depth, read_hdr, read_texture};
 use crate::scene_gpu::SceneGpu;
 use crate::timer::GpuTimer;
-use crate::tonemap::{HDR_FORMAT, LDR_FORMAT};
+use crate::tonemap::{HeatmapPass, HDR_FORMAT, LDR_FORMAT};
 
 /// A labelled single-sampled 2D texture.
 pub fn texture_2d(
@@ -172,6 +172,13 @@ pub trait Renderer {
         scene: &SceneGpu,
         camera: &Camera,
     );
+    /// Sets the exposure of the next frames (the tonemap's own uniform: nothing is rebuilt).
+    fn set_exposure(&self, queue: &wgpu::Queue, exposure: f32) -> Result<(), GpuError>;
+    /// The heat map pass (tiled methods): switch it with `HeatmapPass::set_enabled`
+    /// between frames, nothing is rebuilt.
+    fn heatmap(&self) -> Option<&HeatmapPass> {
+        None
+    }
     /// The render targets.
     fn targets(&self) -> &DisplayTargets;
     /// The tile grid.

@@ -1,11 +1,16 @@
 //! Display passes shared by both methods: tonemapping of the linear HDR image into an
-//! sRGB target, and the lights-per-tile heat map blended over it. Bind groups are made
-//! once per target set, never per frame. Depends on wgpu and [`crate::frame`].
+//! sRGB target, and the lights-per-tile heat map blended over it. Neither reads a view:
+//! the tonemap has its own parameters, the heat map the light grid. Bind groups are made
+//! once per target set, never per frame. Depends on wgpu and the rest of this crate's
+//! utilities.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use bytemuck::{Pod, Zeroable};
 
 use crate::error::GpuError;
-use crate::frame::FrameBinding;
 use crate::timer::GpuTimer;
-use crate::util::{pipeline_layout, shader_module, storage_entry, texture_entry};
+use crate::util::{buffer_init, pipeline_layout, shader_module, storage_entry, texture_entry, uniform_entry};
 
 /// Format of the HDR lighting target.
 pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
@@ -50,7 +55,7 @@ fn fullscreen_pass(
     target: &wgpu::TextureView,
     load: wgpu::LoadOp<wgpu::Color>,
     pipeline: &wgpu::RenderPipeline,
-    groups: [&wgpu::BindGroup; 2],
+    group: &wgpu::BindGroup,
 ) {
     let t = timer.begin(label, encoder);
     {
@@ -68,8 +73,7 @@ fn fullscreen_pass(
             multiview_mask: None,
         });
         pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, groups[0], &[]);
-        pass.set_bind_group(1, groups[1], &[]);
+        pass.set_bind_group(0, group, &[]);
         pass.draw(0..3, 0..1);
     }
     timer.end(encoder, t);
@@ -95,46 +99,80 @@ pub const HEATMAP_OVERFLOW: [f32; 3] = [1.0, 0.0, 1.0];
 /// Opacity of the heat map over the image, for counted and overflowing tiles.
 pub const HEATMAP_ALPHA: (f32, f32) = (0.6, 0.75);
 
-/// Tonemapping: HDR texture -> sRGB display target.
+/// The tonemap pass's own parameters.
+///
+/// Keep in sync with `shaders/tonemap.wgsl` (`Tonemap`); `cargo xtask validate-shaders` checks it.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct TonemapUniforms {
+    /// Exposure multiplier before tonemapping.
+    pub exposure: f32,
+    /// Padding to 16 bytes.
+    pub _pad0: f32,
+    /// Padding.
+    pub _pad1: f32,
+    /// Padding.
+    pub _pad2: f32,
+}
+
+/// Layouts of this module's GPU structs, for the xtask layout check.
+pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
+    vec![tiledlight_cull::struct_layout!(TonemapUniforms, "Tonemap", "tonemap.wgsl", [exposure, _pad0, _pad1, _pad2])]
+}
+
+/// Tonemapping: HDR texture -> sRGB display target, with its exposure in its own uniform
+/// (changing it rebuilds nothing: [`TonemapPass::set_exposure`]).
 pub struct TonemapPass {
     pipeline: wgpu::RenderPipeline,
-    layout: wgpu::BindGroupLayout,
+    params: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
 }
 
 impl TonemapPass {
-    /// Builds the pipeline.
-    pub fn new(device: &wgpu::Device, frame: &FrameBinding) -> Result<Self, GpuError> {
+    /// Builds the pipeline and the bind group reading `hdr`.
+    pub fn new(device: &wgpu::Device, hdr: &wgpu::TextureView, exposure: f32) -> Result<Self, GpuError> {
+        check_exposure(exposure)?;
+        let fs = wgpu::ShaderStages::FRAGMENT;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("tonemap.layout"),
-            entries: &[texture_entry(
-                0,
-                wgpu::ShaderStages::FRAGMENT,
-                wgpu::TextureSampleType::Float { filterable: false },
-            )],
+            entries: &[
+                texture_entry(0, fs, wgpu::TextureSampleType::Float { filterable: false }),
+                uniform_entry(1, fs),
+            ],
+        });
+        let u = TonemapUniforms { exposure, ..Default::default() };
+        let params = buffer_init(
+            device,
+            "tonemap.params",
+            bytemuck::bytes_of(&u),
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("tonemap.bind_group"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(hdr) },
+                wgpu::BindGroupEntry { binding: 1, resource: params.as_entire_binding() },
+            ],
         });
         let module = shader_module(device, "tonemap.wgsl", &[])?;
-        let pl = pipeline_layout(device, "tonemap.pipeline_layout", &[&frame.layout, &layout]);
-        Ok(Self { pipeline: fullscreen_pipeline(device, "tonemap", &module, "fs_tonemap", &pl, None), layout })
-    }
-
-    /// The bind group reading `hdr` (make once per target).
-    pub fn bind(&self, device: &wgpu::Device, hdr: &wgpu::TextureView) -> wgpu::BindGroup {
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("tonemap.bind_group"),
-            layout: &self.layout,
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(hdr) }],
+        let pl = pipeline_layout(device, "tonemap.pipeline_layout", &[&layout]);
+        Ok(Self {
+            pipeline: fullscreen_pipeline(device, "tonemap", &module, "fs_tonemap", &pl, None),
+            params,
+            bind_group,
         })
     }
 
+    /// Sets the exposure of the next frames (a positive finite number).
+    pub fn set_exposure(&self, queue: &wgpu::Queue, exposure: f32) -> Result<(), GpuError> {
+        check_exposure(exposure)?;
+        queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&TonemapUniforms { exposure, ..Default::default() }));
+        Ok(())
+    }
+
     /// Writes the tonemapped image to `target`.
-    pub fn record(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: &GpuTimer,
-        frame: &FrameBinding,
-        input: &wgpu::BindGroup,
-        target: &wgpu::TextureView,
-    ) {
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, target: &wgpu::TextureView) {
         fullscreen_pass(
             encoder,
             timer,
@@ -142,66 +180,63 @@ impl TonemapPass {
             target,
             wgpu::LoadOp::Clear(wgpu::Color::BLACK),
             &self.pipeline,
-            [&frame.bind_group, input],
+            &self.bind_group,
         );
     }
 }
 
-/// Heat map of lights per tile, blended over the display target.
+fn check_exposure(exposure: f32) -> Result<(), GpuError> {
+    if exposure.is_finite() && exposure > 0.0 {
+        Ok(())
+    } else {
+        Err(GpuError::Config(format!("exposure {exposure} must be a positive finite number")))
+    }
+}
+
+/// Heat map of lights per tile, blended over the display target. It reads only the light
+/// grid (whose header says the tiling), so it can be switched on and off between frames
+/// without rebuilding anything ([`HeatmapPass::set_enabled`]).
 pub struct HeatmapPass {
     pipeline: wgpu::RenderPipeline,
-    layout: wgpu::BindGroupLayout,
+    bind_group: wgpu::BindGroup,
+    enabled: AtomicBool,
 }
 
 impl HeatmapPass {
-    /// Builds the pipeline.
-    pub fn new(device: &wgpu::Device, frame: &FrameBinding) -> Result<Self, GpuError> {
+    /// Builds the pipeline and the bind group reading the light grid's lists
+    /// (`LightGrid::grid`, which never changes size), drawn when `enabled`.
+    pub fn new(device: &wgpu::Device, light_grid: &wgpu::Buffer, enabled: bool) -> Result<Self, GpuError> {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("heatmap.layout"),
             entries: &[storage_entry(0, wgpu::ShaderStages::FRAGMENT, true)],
         });
-        let module = shader_module(device, "heatmap.wgsl", &[])?;
-        let pl = pipeline_layout(device, "heatmap.pipeline_layout", &[&frame.layout, &layout]);
-        Ok(Self {
-            pipeline: fullscreen_pipeline(
-                device,
-                "heatmap",
-                &module,
-                "fs_heatmap",
-                &pl,
-                Some(wgpu::BlendState::ALPHA_BLENDING),
-            ),
-            layout,
-        })
-    }
-
-    /// The bind group reading the light grid's lists (`LightGrid::grid`, which never
-    /// changes size; make once per culling setup).
-    pub fn bind(&self, device: &wgpu::Device, light_grid: &wgpu::Buffer) -> wgpu::BindGroup {
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("heatmap.bind_group"),
-            layout: &self.layout,
+            layout: &layout,
             entries: &[wgpu::BindGroupEntry { binding: 0, resource: light_grid.as_entire_binding() }],
-        })
+        });
+        let module = shader_module(device, "heatmap.wgsl", &[])?;
+        let pl = pipeline_layout(device, "heatmap.pipeline_layout", &[&layout]);
+        let pipeline =
+            fullscreen_pipeline(device, "heatmap", &module, "fs_heatmap", &pl, Some(wgpu::BlendState::ALPHA_BLENDING));
+        Ok(Self { pipeline, bind_group, enabled: AtomicBool::new(enabled) })
     }
 
-    /// Blends the heat map over `target`.
-    pub fn record(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: &GpuTimer,
-        frame: &FrameBinding,
-        input: &wgpu::BindGroup,
-        target: &wgpu::TextureView,
-    ) {
-        fullscreen_pass(
-            encoder,
-            timer,
-            "heatmap",
-            target,
-            wgpu::LoadOp::Load,
-            &self.pipeline,
-            [&frame.bind_group, input],
-        );
+    /// Draws the heat map in the next frames, or not.
+    pub fn set_enabled(&self, on: bool) {
+        self.enabled.store(on, Ordering::Relaxed);
+    }
+
+    /// Whether it is drawn.
+    pub fn enabled(&self) -> bool {
+        self.enabled.load(Ordering::Relaxed)
+    }
+
+    /// Blends the heat map over `target` (nothing when disabled).
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, target: &wgpu::TextureView) {
+        if !self.enabled() {
+            return;
+        }
+        fullscreen_pass(encoder, timer, "heatmap", target, wgpu::LoadOp::Load, &self.pipeline, &self.bind_group);
     }
 }

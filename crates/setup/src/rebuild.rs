@@ -9,7 +9,8 @@
 //! | seed, threshold (same counts) | light data rewritten in place | | |
 //! | camera bookmark | | yes | |
 //! | width, height | | yes (aspect ratio) | yes |
-//! | method, tile size, capacity, culling tests, half-z, G-buffer targets, MSAA, edge test, exposure | | | yes |
+//! | method, tile size, capacity, culling tests, half-z, G-buffer targets, MSAA, edge test | | | yes |
+//! | exposure | | | no: `exposure` (the tonemap pass's uniform is rewritten) |
 //!
 //! Pure data: depends on [`crate::settings`] only.
 
@@ -41,6 +42,9 @@ pub struct Rebuild {
     pub camera: bool,
     /// Renderers built before no longer fit: build a new one.
     pub renderer: bool,
+    /// Only the exposure changed for the renderer: set it (`Renderer::set_exposure`), nothing
+    /// is rebuilt (a new renderer is built with the new exposure anyway).
+    pub exposure: bool,
 }
 
 impl Rebuild {
@@ -80,11 +84,10 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || a.spot_cone != b.spot_cone
         || a.flat_cull != b.flat_cull
         || a.gbuffer_rts != b.gbuffer_rts
-        || a.exposure != b.exposure
         || a.msaa != b.msaa
         || a.edge_distance != b.edge_distance
         || a.edge_normal_deg != b.edge_normal_deg;
-    Rebuild { reload, camera, renderer }
+    Rebuild { reload, camera, renderer, exposure: a.exposure != b.exposure }
 }
 
 #[cfg(test)]
@@ -108,7 +111,7 @@ mod tests {
         rebuild_plan(&old, &new)
     }
 
-    const RENDERER: Rebuild = Rebuild { reload: Reload::Nothing, camera: false, renderer: true };
+    const RENDERER: Rebuild = Rebuild { reload: Reload::Nothing, camera: false, renderer: true, exposure: false };
 
     #[test]
     fn nothing_changed_rebuilds_nothing() {
@@ -128,13 +131,18 @@ mod tests {
             |s| s.spot_cone = true,
             |s| s.flat_cull = true,
             |s| s.gbuffer_rts = 4,
-            |s| s.exposure = 2.0,
             |s| s.msaa = 4,
             |s| s.edge_distance = 0.01,
             |s| s.edge_normal_deg = 20.0,
         ] {
             assert_eq!(with(f), RENDERER);
         }
+    }
+
+    #[test]
+    fn exposure_rebuilds_nothing() {
+        assert_eq!(with(|s| s.exposure = 2.0), Rebuild { exposure: true, ..Rebuild::default() });
+        assert!(!with(|s| s.exposure = 2.0).renderer);
     }
 
     #[test]
@@ -158,7 +166,7 @@ mod tests {
 
     #[test]
     fn scene_settings_reload_everything() {
-        let scene = Rebuild { reload: Reload::Scene, camera: true, renderer: true };
+        let scene = Rebuild { reload: Reload::Scene, camera: true, renderer: true, exposure: false };
         assert_eq!(with(|s| s.grid_objects = 10), scene);
         assert_eq!(with(|s| s.density = GridDensity::High), scene);
         assert_eq!(with(|s| s.scene = SceneSource::File("a.glb".into())), scene);

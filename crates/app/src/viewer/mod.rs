@@ -429,6 +429,14 @@ impl Viewer {
             self.display = self.blit.display_image(&self.prep.ctx.device, size);
             self.stats.culling = None;
             self.last_stats = None;
+        } else {
+            // The same renderer: its exposure and heat map are switched in place.
+            if p.setup.exposure {
+                self.renderer.set_exposure(&self.prep.ctx.queue, new.setup.exposure)?;
+            }
+            if let Some(h) = self.renderer.heatmap() {
+                h.set_enabled(new.effective_heatmap());
+            }
         }
         if p.surface {
             self.config.present_mode = present_mode(new.vsync);

@@ -51,8 +51,10 @@ pub struct Plan {
     /// Scene, lights, camera and renderer, as tiledlight-setup decides for the scene,
     /// light, screen and renderer settings (`Prepared::reconfigure` carries it out).
     pub setup: Rebuild,
-    /// Build a new renderer (the setup's reason, or the heat map).
+    /// Build a new renderer (the setup's reason).
     pub renderer: bool,
+    /// Switch the heat map pass on or off (nothing is rebuilt).
+    pub heatmap: bool,
     /// Reconfigure the window surface.
     pub surface: bool,
 }
@@ -67,8 +69,12 @@ impl Plan {
 /// What going from `old` to `new` must rebuild.
 pub fn plan(old: &Settings, new: &Settings) -> Plan {
     let setup = rebuild_plan(&old.setup, &new.setup);
-    let renderer = setup.renderer || old.effective_heatmap() != new.effective_heatmap();
-    Plan { setup, renderer, surface: old.vsync != new.vsync }
+    Plan {
+        setup,
+        renderer: setup.renderer,
+        heatmap: old.effective_heatmap() != new.effective_heatmap(),
+        surface: old.vsync != new.vsync,
+    }
 }
 
 /// The methods in the panel's order, with their labels.
@@ -105,7 +111,9 @@ mod tests {
         assert!(with(|_| {}).is_empty());
         assert!(with(|s| s.animate = false).is_empty());
         assert_eq!(with(|s| s.vsync = false), Plan { surface: true, ..Plan::default() });
-        assert_eq!(with(|s| s.heatmap = true), Plan { renderer: true, ..Plan::default() });
+        assert_eq!(with(|s| s.heatmap = true), Plan { heatmap: true, ..Plan::default() });
+        let p = with(|s| s.setup.exposure = 2.0);
+        assert!(p.setup.exposure && !p.renderer, "exposure is set, not rebuilt: {p:?}");
     }
 
     #[test]
