@@ -9,6 +9,7 @@ use tiledlight_cull::brdf::windowed_attenuation;
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::Camera;
+use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;

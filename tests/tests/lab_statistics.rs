@@ -10,10 +10,10 @@
 use tiledlight_cull::reference::{list_quality, stats, tile_ranges};
 use tiledlight_cull::{cull_tiles, TileLists};
 use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
+use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::Renderer as _;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;
 use tiledlight_metrics::HdrError;

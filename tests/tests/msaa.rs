@@ -10,6 +10,7 @@ use glam::{Mat4, Vec3};
 use tiledlight_cull::Camera;
 use tiledlight_deferred::{DeferredRenderer, DeferredSettings, EdgeTest};
 use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
+use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;

@@ -19,6 +19,7 @@ use tiledlight_cull::{cull_tiles, Camera, TileLists};
 use tiledlight_deferred::gbuffer::EXTRA_TEST_VALUES;
 use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
 use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
+use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::light_cull::{CullOptions, DropLight};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;

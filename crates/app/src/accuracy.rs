@@ -16,6 +16,7 @@
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use tiledlight_gpu::diagnostics::Diagnostics as _;
 
 use anyhow::{ensure, Context, Result};
 use clap::Args;

@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_setup::{Method, Prepared};
 

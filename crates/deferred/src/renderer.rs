@@ -1,21 +1,25 @@
-//! The Tiled Deferred renderer: G-buffer pass -> (cell culling) -> one compute pass that
-//! culls each tile's lights and shades its pixels (-> MSAA resolve of edge pixels) ->
-//! tonemap (-> heat map). Built once for a
-//! scene, light set, screen and settings. Depends on tiledlight-gpu and [`crate::gbuffer`],
-//! [`crate::shading`].
+//! The Tiled Deferred renderer: the shared half of a frame
+//! (`tiledlight_gpu::frame::FrameCommon`: targets, views, tonemap) plus this method's
+//! passes, recorded in the order of the frame plan (`tiledlight_gpu::plan`): G-buffer pass
+//! -> (cell culling) -> one compute pass that culls each tile's lights into the light grid
+//! and shades its pixels (-> MSAA resolve of edge pixels) -> tonemap (-> heat map). Built
+//! once for a scene, light set, screen and settings. Depends on tiledlight-gpu and
+//! [`crate::gbuffer`], [`crate::shading`].
 
 use glam::Vec3;
 use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
+use tiledlight_gpu::features::{Features, Method};
+use tiledlight_gpu::frame::{CommonSettings, FrameCommon};
 use tiledlight_gpu::light_cull::{CullOptions, DropLight, GpuTileLists};
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
+use tiledlight_gpu::plan::{FramePlan, Step};
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::{check_msaa, DisplayTargets, Renderer};
+use tiledlight_gpu::targets::{DisplayTargets, Renderer};
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::tonemap::{HeatmapPass, TonemapPass};
-use tiledlight_gpu::view::{ViewUniforms, Views, MAIN_VIEW};
+use tiledlight_gpu::tonemap::HeatmapPass;
 use tiledlight_gpu::{GpuContext, GpuError};
 
 use crate::gbuffer::{GBuffer, GBufferPass};
@@ -69,16 +73,12 @@ impl Default for DeferredSettings {
 /// A Tiled Deferred renderer for one scene, light set and screen size.
 pub struct DeferredRenderer {
     settings: DeferredSettings,
-    grid: TileGrid,
-    views: Views,
+    common: FrameCommon,
     gbuffer_pass: GBufferPass,
     gbuffer: GBuffer,
     shading: DeferredShading,
-    tonemap: TonemapPass,
     /// Drawn when enabled.
     heatmap: HeatmapPass,
-    targets: DisplayTargets,
-    memory: MemoryReport,
 }
 
 impl DeferredRenderer {
@@ -94,59 +94,61 @@ impl DeferredRenderer {
         let device = &ctx.device;
         let mut settings = settings;
         settings.cull.samples = settings.msaa;
-        let grid = TileGrid::new(width, height, settings.cull.tile_size)?;
+        let features =
+            Features::new(scene, lights, Method::TiledDeferred, &settings.cull, settings.msaa, settings.gbuffer_rts);
         let mut formats = vec![DEPTH_FORMAT, ALBEDO_FORMAT, NORMAL_FORMAT];
-        if settings.gbuffer_rts > 2 {
+        if features.extra_targets > 0 {
             formats.push(EXTRA_FORMAT);
         }
-        check_msaa(ctx, settings.msaa, &formats)?;
-        let max_side = device.limits().max_texture_dimension_2d;
-        if width > max_side || height > max_side {
-            return Err(GpuError::Config(format!(
-                "{width}x{height} exceeds this GPU's {max_side} pixel texture limit"
-            )));
-        }
+        let common = FrameCommon::new(
+            ctx,
+            scene,
+            lights,
+            features,
+            CommonSettings {
+                prefix: "deferred",
+                size: (width, height),
+                tile_size: settings.cull.tile_size,
+                msaa_formats: &formats,
+                hdr_usage: wgpu::TextureUsages::STORAGE_BINDING,
+                exposure: settings.exposure,
+                ambient: settings.ambient,
+            },
+        )?;
+        let mut memory = common.memory.clone();
         ctx.checked("building the Tiled Deferred renderer", || {
-            let views = Views::new(device, 1);
-            let lighting = lights.lighting(device, settings.ambient);
-            let targets = DisplayTargets::new(
-                device,
-                "deferred",
-                (width, height),
-                settings.msaa,
-                wgpu::TextureUsages::STORAGE_BINDING,
-            );
-            let gbuffer = GBuffer::new(device, width, height, settings.gbuffer_rts, settings.msaa)?;
+            let (features, views, targets) = (&common.features, &common.views, &common.targets);
+            let gbuffer = GBuffer::new(device, width, height, settings.gbuffer_rts, features.msaa)?;
             let gbuffer_pass = GBufferPass::new(
                 device,
-                &views,
+                views,
                 scene,
                 settings.gbuffer_rts,
-                settings.msaa,
+                features.msaa,
                 settings.test_gbuffer_values,
             )?;
-            let mut memory = MemoryReport::default();
-            memory.extend(&scene.memory);
-            memory.extend(&lights.memory);
-            memory.add("targets (depth+hdr+ldr)", targets.bytes());
             memory.add("deferred.gbuffer", gbuffer.bytes());
             let shading = DeferredShading::new(
                 device,
-                &views,
+                views,
                 &targets.depth_view,
                 &gbuffer,
                 &targets.hdr_view,
-                (lights, &lighting),
-                grid,
+                (lights, &common.lighting),
+                common.grid,
                 settings.cull,
                 settings.edge,
                 settings.test_drop_light,
                 &mut memory,
             )?;
-            let tonemap = TonemapPass::new(device, &targets.hdr_view, settings.exposure)?;
             let heatmap = HeatmapPass::new(device, &shading.light_grid.grid, settings.heatmap)?;
-            Ok(Self { settings, grid, views, gbuffer_pass, gbuffer, shading, tonemap, heatmap, targets, memory })
+            Ok((gbuffer_pass, gbuffer, shading, heatmap))
         })?
+        .map(|(gbuffer_pass, gbuffer, shading, heatmap)| {
+            let mut common = common;
+            common.memory = memory;
+            Self { settings, common, gbuffer_pass, gbuffer, shading, heatmap }
+        })
     }
 
     /// The settings it was built with.
@@ -164,6 +166,16 @@ impl DeferredRenderer {
         &self.shading
     }
 
+    /// What the frame models.
+    pub fn features(&self) -> &Features {
+        &self.common.features
+    }
+
+    /// The frame's steps.
+    pub fn plan(&self) -> &FramePlan {
+        &self.common.plan
+    }
+
     /// The per-tile light lists the last frame was shaded with (tests; stalls the GPU).
     pub fn read_lists(&self, ctx: &GpuContext) -> Result<GpuTileLists, GpuError> {
         self.shading.read_lists(&ctx.device, &ctx.queue)
@@ -179,27 +191,38 @@ impl Renderer for DeferredRenderer {
         scene: &SceneGpu,
         camera: &Camera,
     ) {
-        self.views.write(queue, MAIN_VIEW, &ViewUniforms::new(camera, self.grid.width, self.grid.height));
-        let view = (&self.views, MAIN_VIEW);
-        self.gbuffer_pass.record(encoder, timer, view, scene, &self.gbuffer, &self.targets.depth_view);
-        self.shading.record(encoder, timer, view);
-        self.tonemap.record(encoder, timer, &self.targets.ldr_view);
-        self.heatmap.record(encoder, timer, &self.targets.ldr_view);
+        let c = &self.common;
+        c.write_view(queue, camera);
+        let view = c.main_view();
+        let targets = &c.targets;
+        for step in c.plan.steps() {
+            match step {
+                Step::GBuffer => {
+                    self.gbuffer_pass.record(encoder, timer, view, scene, &self.gbuffer, &targets.depth_view)
+                }
+                Step::DeferredShade => self.shading.record(encoder, timer, view),
+                Step::DeferredResolve => self.shading.record_resolve(encoder, timer),
+                Step::Tonemap => c.tonemap.record(encoder, timer, &targets.ldr_view),
+                Step::Heatmap => self.heatmap.record(encoder, timer, &targets.ldr_view),
+                // Forward steps: never in a Tiled Deferred plan (plan.rs tests it).
+                Step::DepthPrepass | Step::Cull | Step::ForwardShade | Step::BruteForceShade => {}
+            }
+        }
     }
     fn set_exposure(&self, queue: &wgpu::Queue, exposure: f32) -> Result<(), GpuError> {
-        self.tonemap.set_exposure(queue, exposure)
+        self.common.tonemap.set_exposure(queue, exposure)
     }
     fn heatmap(&self) -> Option<&HeatmapPass> {
         Some(&self.heatmap)
     }
     fn targets(&self) -> &DisplayTargets {
-        &self.targets
+        &self.common.targets
     }
     fn grid(&self) -> TileGrid {
-        self.grid
+        self.common.grid
     }
     fn memory(&self) -> &MemoryReport {
-        &self.memory
+        &self.common.memory
     }
     fn light_grid(&self) -> Option<&LightGrid> {
         Some(&self.shading.light_grid)
@@ -208,7 +231,7 @@ impl Renderer for DeferredRenderer {
         let grid = &mut self.shading.light_grid;
         grid.grow(&ctx.device, &ctx.queue, capacity);
         for (category, bytes) in grid.memory().entries {
-            self.memory.set(&category, bytes);
+            self.common.memory.set(&category, bytes);
         }
     }
     fn edge_pixels(&self, ctx: &GpuContext) -> Result<Option<u32>, GpuError> {

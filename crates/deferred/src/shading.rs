@@ -289,8 +289,8 @@ impl DeferredShading {
         Ok(Self { pipeline, bind_group, coarse, msaa, grid, light_grid })
     }
 
-    /// Records the cell pass (two-level culling), the cull-and-shade dispatch and, with
-    /// MSAA, the resolve of the edge pixels.
+    /// Records the cell pass (two-level culling) and the cull-and-shade dispatch (the MSAA
+    /// resolve is [`Self::record_resolve`], its own step of the frame plan).
     pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, (views, view): (&Views, u32)) {
         self.light_grid.record_clear(encoder);
         if let Some(c) = &self.coarse {
@@ -322,6 +322,11 @@ impl DeferredShading {
         }
         timer.end(encoder, t);
         self.light_grid.record_readback(encoder);
+    }
+
+    /// Records the MSAA resolve of the last shading pass's edge pixels (an indirect
+    /// dispatch sized by that pass; nothing without MSAA).
+    pub fn record_resolve(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer) {
         if let Some(m) = &self.msaa {
             let t = timer.begin("deferred.resolve", encoder);
             {

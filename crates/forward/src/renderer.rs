@@ -1,22 +1,27 @@
-//! The Forward+ renderer and the brute-force reference: depth pre-pass -> light culling
-//! (Forward+ only) -> forward shading into linear HDR -> tonemap (-> heat map). With MSAA the
-//! pre-pass and shading pass are multisampled (hardware MSAA), culling bounds every sample's
-//! depth, and the shading pass resolves into the HDR image. Built once
-//! for a scene, light set, screen size and settings; `record` only writes uniforms and
-//! records passes. Depends on tiledlight-gpu and tiledlight-cull.
+//! The Forward+ renderer and the brute-force reference: the shared half of a frame
+//! (`tiledlight_gpu::frame::FrameCommon`: targets, views, tonemap) plus this method's
+//! passes, recorded in the order of the frame plan (`tiledlight_gpu::plan`): depth
+//! pre-pass -> light culling into the light grid (Forward+ only) -> forward shading into
+//! linear HDR -> tonemap (-> heat map). With MSAA the pre-pass and shading pass are
+//! multisampled (hardware MSAA), culling bounds every sample's depth, and the shading pass
+//! resolves into the HDR image. Built once for a scene, light set, screen size and
+//! settings; `record` only writes the view and records passes. Depends on tiledlight-gpu
+//! and tiledlight-cull.
 
 use glam::Vec3;
 use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::depth_prepass::{DepthPrepass, DEPTH_FORMAT};
+use tiledlight_gpu::features::{self, Features};
+use tiledlight_gpu::frame::{CommonSettings, FrameCommon};
 use tiledlight_gpu::light_cull::{CullOptions, DropLight, LightCulling};
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
+use tiledlight_gpu::plan::{FramePlan, Step};
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::{check_msaa, texture_2d_msaa, DisplayTargets, Renderer};
+use tiledlight_gpu::targets::{texture_2d_msaa, DisplayTargets, Renderer};
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::tonemap::{HeatmapPass, TonemapPass, HDR_FORMAT};
-use tiledlight_gpu::view::{ViewUniforms, Views, MAIN_VIEW};
+use tiledlight_gpu::tonemap::{HeatmapPass, HDR_FORMAT};
 use tiledlight_gpu::{GpuContext, GpuError};
 
 use crate::shading::{LightLoop, ShadingPass};
@@ -72,18 +77,24 @@ impl Default for ForwardSettings {
 /// A Forward+ (or brute-force) renderer for one scene, light set and screen size.
 pub struct ForwardRenderer {
     settings: ForwardSettings,
-    grid: TileGrid,
-    views: Views,
+    common: FrameCommon,
     prepass: DepthPrepass,
     culling: Option<LightCulling>,
     shading: ShadingPass,
-    tonemap: TonemapPass,
     /// Forward+ only (it reads the light grid); drawn when enabled.
     heatmap: Option<HeatmapPass>,
-    targets: DisplayTargets,
     /// The multisampled HDR target the shading pass draws into and resolves (MSAA only).
     hdr_msaa: Option<(wgpu::Texture, wgpu::TextureView)>,
-    memory: MemoryReport,
+}
+
+impl Method {
+    /// The frame's method.
+    pub fn features_method(self) -> features::Method {
+        match self {
+            Method::ForwardPlus => features::Method::ForwardPlus,
+            Method::BruteForce { cutoff } => features::Method::BruteForce { cutoff },
+        }
+    }
 }
 
 impl ForwardRenderer {
@@ -99,31 +110,43 @@ impl ForwardRenderer {
         let device = &ctx.device;
         let mut settings = settings;
         settings.cull.samples = settings.msaa;
-        check_msaa(ctx, settings.msaa, &[DEPTH_FORMAT, HDR_FORMAT])?;
-        let grid = TileGrid::new(width, height, settings.cull.tile_size)?;
-        if width > device.limits().max_texture_dimension_2d || height > device.limits().max_texture_dimension_2d {
-            return Err(GpuError::Config(format!(
-                "{width}x{height} exceeds this GPU's {} pixel texture limit",
-                device.limits().max_texture_dimension_2d
-            )));
+        let features =
+            Features::new(scene, lights, settings.method.features_method(), &settings.cull, settings.msaa, 0);
+        if !features.method.is_tiled() {
+            if settings.test_drop_light.is_some() {
+                return Err(GpuError::Config(
+                    "the drop-light test hook needs a tiled method (brute force has no tiles)".into(),
+                ));
+            }
+            if settings.heatmap {
+                return Err(GpuError::Config("the heat map needs a tiled method (brute force has no tiles)".into()));
+            }
         }
+        let common = FrameCommon::new(
+            ctx,
+            scene,
+            lights,
+            features,
+            CommonSettings {
+                prefix: "forward",
+                size: (width, height),
+                tile_size: settings.cull.tile_size,
+                msaa_formats: &[DEPTH_FORMAT, HDR_FORMAT],
+                hdr_usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                exposure: settings.exposure,
+                ambient: settings.ambient,
+            },
+        )?;
         ctx.checked("building the Forward+ renderer", || {
-            let views = Views::new(device, 1);
-            let lighting = lights.lighting(device, settings.ambient);
-            let targets = DisplayTargets::new(
-                device,
-                "forward",
-                (width, height),
-                settings.msaa,
-                wgpu::TextureUsages::RENDER_ATTACHMENT,
-            );
-            let hdr_msaa = (settings.msaa > 1).then(|| {
+            let (features, views, targets, lighting) =
+                (&common.features, &common.views, &common.targets, &common.lighting);
+            let hdr_msaa = (features.msaa > 1).then(|| {
                 let t = texture_2d_msaa(
                     device,
                     "forward.hdr_msaa",
                     (width, height),
                     HDR_FORMAT,
-                    settings.msaa,
+                    features.msaa,
                     wgpu::TextureUsages::RENDER_ATTACHMENT,
                 );
                 let v = t.create_view(&wgpu::TextureViewDescriptor {
@@ -132,54 +155,52 @@ impl ForwardRenderer {
                 });
                 (t, v)
             });
-            let prepass = DepthPrepass::new(device, &views, scene, settings.msaa)?;
-            let (culling, light_loop) = match settings.method {
-                Method::ForwardPlus => (
-                    Some(LightCulling::with_drop_light(
+            let prepass = DepthPrepass::new(device, views, scene, features.msaa)?;
+            let plan = &common.plan;
+            let culling = plan
+                .has(Step::Cull)
+                .then(|| {
+                    LightCulling::with_drop_light(
                         device,
-                        &views,
+                        views,
                         &targets.depth_view,
-                        (lights, &lighting),
-                        grid,
+                        (lights, lighting),
+                        common.grid,
                         settings.cull,
                         settings.test_drop_light,
-                    )?),
-                    LightLoop::Tiled { half_z: settings.cull.half_z },
-                ),
-                Method::BruteForce { .. } if settings.test_drop_light.is_some() => {
-                    return Err(GpuError::Config(
-                        "the drop-light test hook needs a tiled method (brute force has no tiles)".into(),
-                    ))
-                }
-                Method::BruteForce { cutoff } => (None, LightLoop::All { cutoff }),
+                    )
+                })
+                .transpose()?;
+            let light_loop = match settings.method {
+                Method::ForwardPlus => LightLoop::Tiled { half_z: features.half_z },
+                Method::BruteForce { cutoff } => LightLoop::All { cutoff },
             };
             let shading = ShadingPass::new(
                 device,
-                &views,
+                views,
                 scene,
-                (lights, &lighting),
+                (lights, lighting),
                 culling.as_ref(),
                 light_loop,
-                settings.msaa,
+                features.msaa,
             )?;
-            let tonemap = TonemapPass::new(device, &targets.hdr_view, settings.exposure)?;
-            if settings.heatmap && culling.is_none() {
-                return Err(GpuError::Config("the heat map needs a tiled method (brute force has no tiles)".into()));
-            }
-            let heatmap =
-                culling.as_ref().map(|c| HeatmapPass::new(device, &c.grid.grid, settings.heatmap)).transpose()?;
-            let mut memory = MemoryReport::default();
-            memory.extend(&scene.memory);
-            memory.extend(&lights.memory);
-            memory.add("targets (depth+hdr+ldr)", targets.bytes());
-            if let Some((t, _)) = &hdr_msaa {
-                memory.add("forward.hdr_msaa", t.width() as u64 * t.height() as u64 * settings.msaa as u64 * 8);
-            }
-            if let Some(c) = &culling {
-                memory.extend(&c.memory);
-            }
-            Ok(Self { settings, grid, views, prepass, culling, shading, tonemap, heatmap, targets, hdr_msaa, memory })
+            let heatmap = match (&culling, plan.has(Step::Heatmap)) {
+                (Some(c), true) => Some(HeatmapPass::new(device, &c.grid.grid, settings.heatmap)?),
+                _ => None,
+            };
+            Ok((prepass, culling, shading, heatmap, hdr_msaa))
         })?
+        .map(|(prepass, culling, shading, heatmap, hdr_msaa)| {
+            let mut r = Self { settings, common, prepass, culling, shading, heatmap, hdr_msaa };
+            if let Some((t, _)) = &r.hdr_msaa {
+                let bytes = t.width() as u64 * t.height() as u64 * r.common.features.msaa as u64 * 8;
+                r.common.memory.add("forward.hdr_msaa", bytes);
+            }
+            if let Some(c) = &r.culling {
+                r.common.memory.extend(&c.memory);
+            }
+            r
+        })
     }
 
     /// The settings it was built with.
@@ -189,6 +210,14 @@ impl ForwardRenderer {
     /// The culling pass (Forward+ only).
     pub fn culling(&self) -> Option<&LightCulling> {
         self.culling.as_ref()
+    }
+    /// What the frame models.
+    pub fn features(&self) -> &Features {
+        &self.common.features
+    }
+    /// The frame's steps.
+    pub fn plan(&self) -> &FramePlan {
+        &self.common.plan
     }
 }
 
@@ -201,37 +230,52 @@ impl Renderer for ForwardRenderer {
         scene: &SceneGpu,
         camera: &Camera,
     ) {
-        self.views.write(queue, MAIN_VIEW, &ViewUniforms::new(camera, self.grid.width, self.grid.height));
-        let view = (&self.views, MAIN_VIEW);
-        self.prepass.record(encoder, timer, view, scene, &self.targets.depth_view);
-        if let Some(c) = &self.culling {
-            c.record(encoder, timer, view, "forward.cull");
-        }
-        // With MSAA the pass draws the multisampled target and resolves it into the HDR image.
-        let (hdr, resolve) = match &self.hdr_msaa {
-            Some((_, v)) => (v, Some(&self.targets.hdr_view)),
-            None => (&self.targets.hdr_view, None),
-        };
-        self.shading.record(encoder, timer, view, scene, hdr, resolve, &self.targets.depth_view);
-        self.tonemap.record(encoder, timer, &self.targets.ldr_view);
-        if let Some(h) = &self.heatmap {
-            h.record(encoder, timer, &self.targets.ldr_view);
+        let c = &self.common;
+        c.write_view(queue, camera);
+        let view = c.main_view();
+        let targets = &c.targets;
+        for step in c.plan.steps() {
+            match step {
+                Step::DepthPrepass => self.prepass.record(encoder, timer, view, scene, &targets.depth_view),
+                Step::Cull => {
+                    if let Some(cull) = &self.culling {
+                        cull.record(encoder, timer, view, "forward.cull");
+                    }
+                }
+                Step::ForwardShade | Step::BruteForceShade => {
+                    // With MSAA the pass draws the multisampled target and resolves it into
+                    // the HDR image.
+                    let (hdr, resolve) = match &self.hdr_msaa {
+                        Some((_, v)) => (v, Some(&targets.hdr_view)),
+                        None => (&targets.hdr_view, None),
+                    };
+                    self.shading.record(encoder, timer, view, scene, hdr, resolve, &targets.depth_view);
+                }
+                Step::Tonemap => c.tonemap.record(encoder, timer, &targets.ldr_view),
+                Step::Heatmap => {
+                    if let Some(h) = &self.heatmap {
+                        h.record(encoder, timer, &targets.ldr_view);
+                    }
+                }
+                // Tiled Deferred's steps: never in a Forward+ plan (plan.rs tests it).
+                Step::GBuffer | Step::DeferredShade | Step::DeferredResolve => {}
+            }
         }
     }
     fn set_exposure(&self, queue: &wgpu::Queue, exposure: f32) -> Result<(), GpuError> {
-        self.tonemap.set_exposure(queue, exposure)
+        self.common.tonemap.set_exposure(queue, exposure)
     }
     fn heatmap(&self) -> Option<&HeatmapPass> {
         self.heatmap.as_ref()
     }
     fn targets(&self) -> &DisplayTargets {
-        &self.targets
+        &self.common.targets
     }
     fn grid(&self) -> TileGrid {
-        self.grid
+        self.common.grid
     }
     fn memory(&self) -> &MemoryReport {
-        &self.memory
+        &self.common.memory
     }
     fn light_grid(&self) -> Option<&LightGrid> {
         self.culling.as_ref().map(|c| &c.grid)
@@ -241,7 +285,7 @@ impl Renderer for ForwardRenderer {
             c.grid.grow(&ctx.device, &ctx.queue, capacity);
             self.shading.rebind(&ctx.device, &c.grid);
             for (category, bytes) in c.grid.memory().entries {
-                self.memory.set(&category, bytes);
+                self.common.memory.set(&category, bytes);
             }
         }
     }

@@ -9,11 +9,15 @@
 
 pub mod context;
 pub mod depth_prepass;
+pub mod diagnostics;
 pub mod error;
+pub mod features;
+pub mod frame;
 pub mod light_cull;
 pub mod light_grid;
 pub mod lights_gpu;
 pub mod memory;
+pub mod plan;
 pub mod readback;
 pub mod scene_gpu;
 pub mod shader;

@@ -1,6 +1,7 @@
 //! What every renderer draws into and how a frame is driven: the depth / HDR / display
-//! targets of one screen size, the [`Renderer`] trait both methods implement, and
-//! [`Renderer::render_once`] for tests and single images. Depends on wgpu and the rest of this crate.
+//! targets of one screen size and the [`Renderer`] trait both methods implement (recording
+//! and named outputs; readback and single frames are [`crate::diagnostics`]). Depends on
+//! wgpu and the rest of this crate.
 
 use tiledlight_cull::{Camera, TileGrid};
 
@@ -9,7 +10,6 @@ use crate::depth_prepass::DEPTH_FORMAT;
 use crate::error::GpuError;
 use crate::light_grid::{GridStatus, LightGrid};
 use crate::memory::MemoryReport;
-use crate::readback::{read_depth, read_hdr, read_texture};
 use crate::scene_gpu::SceneGpu;
 use crate::timer::GpuTimer;
 use crate::tonemap::{HeatmapPass, HDR_FORMAT, LDR_FORMAT};
@@ -206,50 +206,5 @@ pub trait Renderer {
     /// method has such a test (Tiled Deferred with MSAA).
     fn edge_pixels(&self, _ctx: &GpuContext) -> Result<Option<u32>, GpuError> {
         Ok(None)
-    }
-
-    /// Reads the depth buffer of the last frame: row-major, with MSAA `samples` values per
-    /// pixel, pixel-major.
-    fn read_depth(&self, ctx: &GpuContext) -> Result<Vec<f32>, GpuError> {
-        read_depth(&ctx.device, &ctx.queue, &self.targets().depth)
-    }
-    /// Reads the linear HDR image of the last frame.
-    fn read_hdr(&self, ctx: &GpuContext) -> Result<Vec<[f32; 4]>, GpuError> {
-        read_hdr(&ctx.device, &ctx.queue, &self.targets().hdr)
-    }
-    /// Reads the tonemapped sRGB image (RGBA8) of the last frame.
-    fn read_ldr(&self, ctx: &GpuContext) -> Result<Vec<u8>, GpuError> {
-        read_texture(&ctx.device, &ctx.queue, &self.targets().ldr, wgpu::TextureAspect::All, 4)
-    }
-    /// Records, submits and waits for one frame (tests, single renders). When the frame
-    /// dropped lights because the light grid was full, grows the grid and renders it
-    /// again (once: the header counts every pair found, so the new size holds them), unless
-    /// the budget is fixed or the device cannot bind more; [`LightGrid::status`] then says
-    /// what was dropped.
-    fn render_once(
-        &mut self,
-        ctx: &GpuContext,
-        timer: &mut GpuTimer,
-        scene: &SceneGpu,
-        camera: &Camera,
-    ) -> Result<(), GpuError> {
-        for _ in 0..2 {
-            ctx.checked("rendering a frame", || {
-                let mut encoder =
-                    ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
-                self.record(&ctx.queue, &mut encoder, timer, scene, camera);
-                timer.resolve(&mut encoder);
-                ctx.queue.submit([encoder.finish()]);
-            })?;
-            timer.end_frame()?;
-            ctx.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Readback(e.to_string()))?;
-            let Some(grid) = self.light_grid() else { break };
-            let status = grid.status(&ctx.device, &ctx.queue)?;
-            match grid.growth(status.header.pairs) {
-                Some(capacity) if !status.complete() => self.grow_light_grid(ctx, capacity),
-                _ => break,
-            }
-        }
-        Ok(())
     }
 }

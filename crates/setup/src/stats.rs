@@ -8,6 +8,7 @@
 
 use anyhow::{Context, Result};
 use tiledlight_cull::tiles::tile_depth_bounds_samples;
+use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::GpuContext;

@@ -5,6 +5,7 @@
 //! new lights. A change that fails (a missing glTF file) changes nothing.
 
 use tiledlight_cull::light::try_pack_lights;
+use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_scene::GridDensity;
 use tiledlight_setup::{rebuild_plan, Method, Prepared, Rebuild, Reload, SceneCpu, SceneSource, Settings};

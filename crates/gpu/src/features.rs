@@ -1,0 +1,132 @@
+//! Scene features: one value, computed once per renderer from the scene, the lights and the
+//! settings, that decides which passes exist ([`crate::plan`]), which buffers are allocated
+//! and which shader variants are compiled. Passes read it; nothing re-derives it from the
+//! scene or the light buffers.
+//!
+//! "Model only what the scene requires": a spot buffer, the spot-cone test, texture bind
+//! groups, masked pipelines, multisampled targets, the heat map pass exist only when this
+//! value says the scene or the settings need them. Features the renderer does not have
+//! yet (blended geometry, shadow casters, VPLs) are listed with what the scene asks for,
+//! so a frame can say what it leaves out. Depends on [`crate::scene_gpu`],
+//! [`crate::lights_gpu`] and [`crate::light_cull`] (the culling options).
+
+use crate::light_cull::CullOptions;
+use crate::lights_gpu::LightBuffers;
+use crate::scene_gpu::{DrawKind, SceneGpu};
+
+/// How a frame is lit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Depth pre-pass, tiled culling, forward shading of each tile's list.
+    ForwardPlus,
+    /// G-buffer, then one compute pass that culls each tile and shades it.
+    TiledDeferred,
+    /// Depth pre-pass, then every light for every pixel (the reference). `cutoff: false`
+    /// drops the radius window (plain inverse-square).
+    BruteForce {
+        /// Keep the windowed falloff with its radius cutoff.
+        cutoff: bool,
+    },
+}
+
+impl Method {
+    /// True for the methods with tiles (culling, light grid, heat map).
+    pub fn is_tiled(self) -> bool {
+        !matches!(self, Method::BruteForce { .. })
+    }
+}
+
+/// What the scene, its lights and the settings require of a frame.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Features {
+    /// The method.
+    pub method: Method,
+    /// Some lights are spot lights: the spot buffer and the `SPOT_LIGHTS` shading variant.
+    pub spot_lights: bool,
+    /// Spot cones are culled against tiles (`SPOT_CONE`): asked for and spot lights exist.
+    pub spot_cone: bool,
+    /// Some material has a texture: group 2 and the `TEXTURES` variants.
+    pub textures: bool,
+    /// The draw kinds (masked / double-sided) the scene has: one pipeline each.
+    pub draw_kinds: Vec<DrawKind>,
+    /// MSAA samples per pixel (1: none of the multisampled resources exist).
+    pub msaa: u32,
+    /// Two lists per tile (tiled methods).
+    pub half_z: bool,
+    /// Two-level culling (the 64x64-pixel cell pass; tiled methods).
+    pub coarse: bool,
+    /// The view-space AABB test (tiled methods).
+    pub aabb: bool,
+    /// Tiled Deferred's extra G-buffer targets (the stress knob; 0 otherwise).
+    pub extra_targets: u32,
+    /// Materials that ask for alpha blending, drawn opaque: the renderer has no
+    /// transparent pass yet, and says so.
+    pub blended_as_opaque: usize,
+}
+
+impl Features {
+    /// The features of `scene` lit by `lights` with `method`, culling options `cull`,
+    /// `msaa` samples and (Tiled Deferred) `gbuffer_rts` G-buffer targets.
+    pub fn new(
+        scene: &SceneGpu,
+        lights: &LightBuffers,
+        method: Method,
+        cull: &CullOptions,
+        msaa: u32,
+        gbuffer_rts: u32,
+    ) -> Self {
+        let tiled = method.is_tiled();
+        let spot_lights = lights.has_spots();
+        Self {
+            method,
+            spot_lights,
+            spot_cone: tiled && cull.spot_cone && spot_lights,
+            textures: scene.textures.is_some(),
+            draw_kinds: scene.kinds(),
+            msaa,
+            half_z: tiled && cull.half_z,
+            coarse: tiled && cull.coarse,
+            aabb: tiled && cull.aabb,
+            extra_targets: if method == Method::TiledDeferred { gbuffer_rts.saturating_sub(2) } else { 0 },
+            blended_as_opaque: scene.blended_as_opaque,
+        }
+    }
+
+    /// Some draw is alpha-masked (masked pre-pass pipelines).
+    pub fn masked(&self) -> bool {
+        self.draw_kinds.iter().any(|k| k.masked)
+    }
+
+    /// The shading defines every lighting shader shares: `SPOT_LIGHTS`.
+    pub fn light_defines(&self) -> Vec<&'static str> {
+        if self.spot_lights {
+            vec!["SPOT_LIGHTS"]
+        } else {
+            Vec::new()
+        }
+    }
+
+    /// One line of what the frame models, e.g. "Forward+, points+spots, textures, MSAA 4x".
+    pub fn describe(&self) -> String {
+        let mut parts = vec![match self.method {
+            Method::ForwardPlus => "Forward+".to_string(),
+            Method::TiledDeferred => "Tiled Deferred".to_string(),
+            Method::BruteForce { cutoff: true } => "brute force".to_string(),
+            Method::BruteForce { cutoff: false } => "brute force, no cutoff".to_string(),
+        }];
+        parts.push(if self.spot_lights { "points+spots" } else { "points" }.into());
+        if self.textures {
+            parts.push("textures".into());
+        }
+        if self.masked() {
+            parts.push("alpha-masked".into());
+        }
+        if self.msaa > 1 {
+            parts.push(format!("MSAA {}x", self.msaa));
+        }
+        if self.blended_as_opaque > 0 {
+            parts.push(format!("{} blended materials drawn opaque (no transparent pass yet)", self.blended_as_opaque));
+        }
+        parts.join(", ")
+    }
+}

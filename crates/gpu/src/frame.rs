@@ -1,0 +1,101 @@
+//! The half of a frame both methods share, built once per renderer ([`FrameCommon`]): the
+//! features and the frame plan, the MSAA and texture-size checks, the views, the lighting
+//! uniform, the display targets, the tonemap pass and the memory report of the scene,
+//! lights and targets. Each method adds its own passes (and the heat map over its light
+//! grid) and records the plan's steps. Depends on the rest of this crate; no module it uses
+//! depends on it.
+
+use glam::Vec3;
+use tiledlight_cull::{Camera, TileGrid};
+
+use crate::context::GpuContext;
+use crate::error::GpuError;
+use crate::features::Features;
+use crate::lights_gpu::LightBuffers;
+use crate::memory::MemoryReport;
+use crate::plan::FramePlan;
+use crate::scene_gpu::SceneGpu;
+use crate::targets::{check_msaa, DisplayTargets};
+use crate::tonemap::TonemapPass;
+use crate::view::{ViewUniforms, Views, MAIN_VIEW};
+
+/// What a renderer needs besides its features to build the shared half.
+#[derive(Clone, Copy, Debug)]
+pub struct CommonSettings<'a> {
+    /// Label prefix of the targets ("forward", "deferred").
+    pub prefix: &'a str,
+    /// Screen size in pixels.
+    pub size: (u32, u32),
+    /// Tile side (the grid of tiled methods; also sizes nothing for brute force).
+    pub tile_size: u32,
+    /// Formats the method renders multisampled (checked against the adapter's MSAA support).
+    pub msaa_formats: &'a [wgpu::TextureFormat],
+    /// How the method writes the HDR image (render attachment or storage).
+    pub hdr_usage: wgpu::TextureUsages,
+    /// Exposure before tonemapping.
+    pub exposure: f32,
+    /// Ambient radiance (times base colour).
+    pub ambient: Vec3,
+}
+
+/// The shared half of a renderer.
+pub struct FrameCommon {
+    /// What the scene and the settings require.
+    pub features: Features,
+    /// The frame's steps, in order.
+    pub plan: FramePlan,
+    /// The tiling of the screen.
+    pub grid: TileGrid,
+    /// The views (slot [`MAIN_VIEW`]: the camera).
+    pub views: Views,
+    /// The `Lighting` uniform (light counts, ambient).
+    pub lighting: wgpu::Buffer,
+    /// Depth, HDR and display images.
+    pub targets: DisplayTargets,
+    /// HDR to display.
+    pub tonemap: TonemapPass,
+    /// Scene, lights and targets; the method adds its own.
+    pub memory: MemoryReport,
+}
+
+impl FrameCommon {
+    /// Checks the MSAA sample count and the screen size, then builds the shared resources.
+    pub fn new(
+        ctx: &GpuContext,
+        scene: &SceneGpu,
+        lights: &LightBuffers,
+        features: Features,
+        s: CommonSettings<'_>,
+    ) -> Result<Self, GpuError> {
+        let device = &ctx.device;
+        check_msaa(ctx, features.msaa, s.msaa_formats)?;
+        let (width, height) = s.size;
+        let max_side = device.limits().max_texture_dimension_2d;
+        if width > max_side || height > max_side {
+            return Err(GpuError::Config(format!(
+                "{width}x{height} exceeds this GPU's {max_side} pixel texture limit"
+            )));
+        }
+        let grid = TileGrid::new(width, height, s.tile_size)?;
+        let views = Views::new(device, 1);
+        let lighting = lights.lighting(device, s.ambient);
+        let targets = DisplayTargets::new(device, s.prefix, s.size, features.msaa, s.hdr_usage);
+        let tonemap = TonemapPass::new(device, &targets.hdr_view, s.exposure)?;
+        let mut memory = MemoryReport::default();
+        memory.extend(&scene.memory);
+        memory.extend(&lights.memory);
+        memory.add("targets (depth+hdr+ldr)", targets.bytes());
+        let plan = FramePlan::new(&features);
+        Ok(Self { features, plan, grid, views, lighting, targets, tonemap, memory })
+    }
+
+    /// Writes the main view's uniforms for `camera`.
+    pub fn write_view(&self, queue: &wgpu::Queue, camera: &Camera) {
+        self.views.write(queue, MAIN_VIEW, &ViewUniforms::new(camera, self.grid.width, self.grid.height));
+    }
+
+    /// The main view, as the passes' `record` take it.
+    pub fn main_view(&self) -> (&Views, u32) {
+        (&self.views, MAIN_VIEW)
+    }
+}

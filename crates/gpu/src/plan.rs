@@ -1,0 +1,129 @@
+//! The frame plan: every pass of a frame, in order, for both methods, decided once from the
+//! scene features ([`Features`]) when a renderer is built. The renderers record exactly
+//! these steps, each with the pass struct they built for it; tests and the app read the
+//! plan to see what a frame does (and that a feature the scene lacks costs no pass).
+//!
+//! ```text
+//! head     depth pre-pass (Forward+, brute force)      | G-buffer (Tiled Deferred)
+//! culling  cells + tiles -> light grid (Forward+)      | (Tiled Deferred culls in its shading pass)
+//! middle   forward shading (Forward+ / brute force)     | cull + shade, [MSAA resolve] (Tiled Deferred)
+//! tail     tonemap, heat map (tiled methods; drawn when switched on)
+//! ```
+//!
+//! A new pass touches its own Rust file, its WGSL, one line here and, when the scene
+//! decides whether it exists, one field of [`Features`]. Depends on [`crate::features`].
+
+use crate::features::{Features, Method};
+
+/// One step of a frame. Each names the pass struct that records it and its timer label.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Step {
+    /// Depth of the opaque and masked geometry (`depth_prepass`).
+    DepthPrepass,
+    /// Tiled Deferred's G-buffer, with depth (`deferred.gbuffer`).
+    GBuffer,
+    /// Forward+'s culling into the light grid, two-level when the features say so
+    /// (`forward.cull`).
+    Cull,
+    /// Forward shading of each fragment's grid list (`forward.shade`).
+    ForwardShade,
+    /// Every light for every fragment (`brute_force.shade`).
+    BruteForceShade,
+    /// Tiled Deferred's cells (two-level) and its cull-and-shade pass
+    /// (`deferred.cull_cells`, `deferred.shade`).
+    DeferredShade,
+    /// Averages the per-sample shading of MSAA edge pixels (`deferred.resolve`).
+    DeferredResolve,
+    /// HDR to the display image (`tonemap`).
+    Tonemap,
+    /// Lights per tile over the image, when switched on (`heatmap`).
+    Heatmap,
+}
+
+/// The ordered steps of a frame.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FramePlan {
+    steps: Vec<Step>,
+}
+
+impl FramePlan {
+    /// The frame of `features`: the whole frame of both methods reads here.
+    pub fn new(features: &Features) -> Self {
+        let mut steps = Vec::new();
+        // Head: what writes depth.
+        match features.method {
+            Method::TiledDeferred => steps.push(Step::GBuffer),
+            Method::ForwardPlus | Method::BruteForce { .. } => steps.push(Step::DepthPrepass),
+        }
+        // Culling and the method's middle.
+        match features.method {
+            Method::ForwardPlus => {
+                steps.push(Step::Cull);
+                steps.push(Step::ForwardShade);
+            }
+            Method::BruteForce { .. } => steps.push(Step::BruteForceShade),
+            Method::TiledDeferred => {
+                steps.push(Step::DeferredShade);
+                if features.msaa > 1 {
+                    steps.push(Step::DeferredResolve);
+                }
+            }
+        }
+        // Tail.
+        steps.push(Step::Tonemap);
+        if features.method.is_tiled() {
+            steps.push(Step::Heatmap);
+        }
+        Self { steps }
+    }
+
+    /// The steps, in order.
+    pub fn steps(&self) -> &[Step] {
+        &self.steps
+    }
+
+    /// True when the frame has `step`.
+    pub fn has(&self, step: Step) -> bool {
+        self.steps.contains(&step)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene_gpu::DrawKind;
+
+    fn features(method: Method, msaa: u32) -> Features {
+        Features {
+            method,
+            spot_lights: false,
+            spot_cone: false,
+            textures: false,
+            draw_kinds: vec![DrawKind { masked: false, double_sided: false }],
+            msaa,
+            half_z: false,
+            coarse: true,
+            aabb: false,
+            extra_targets: 0,
+            blended_as_opaque: 0,
+        }
+    }
+
+    #[test]
+    fn each_method_has_its_passes_and_the_shared_tail() {
+        use Step::*;
+        let plan = |m, s| FramePlan::new(&features(m, s)).steps().to_vec();
+        assert_eq!(plan(Method::ForwardPlus, 1), [DepthPrepass, Cull, ForwardShade, Tonemap, Heatmap]);
+        assert_eq!(plan(Method::BruteForce { cutoff: true }, 4), [DepthPrepass, BruteForceShade, Tonemap]);
+        assert_eq!(plan(Method::TiledDeferred, 1), [GBuffer, DeferredShade, Tonemap, Heatmap]);
+        assert_eq!(plan(Method::TiledDeferred, 4), [GBuffer, DeferredShade, DeferredResolve, Tonemap, Heatmap]);
+    }
+
+    #[test]
+    fn no_feature_no_pass() {
+        // Without MSAA there is no resolve; without tiles no culling and no heat map.
+        assert!(!FramePlan::new(&features(Method::TiledDeferred, 1)).has(Step::DeferredResolve));
+        let bf = FramePlan::new(&features(Method::BruteForce { cutoff: false }, 1));
+        assert!(!bf.has(Step::Cull) && !bf.has(Step::Heatmap));
+    }
+}
