@@ -1,16 +1,18 @@
 //! Project tasks, run as `cargo xtask <task>` (alias in `.cargo/config.toml`):
 //!
 //! - `validate-shaders`: preprocess every entry WGSL file of `shaders/` in every variant
-//!   combination, parse and validate it with naga, and check that the Rust structs shared
-//!   with WGSL have the same size and field offsets as their WGSL twins.
+//!   combination, parse and validate it with naga, compare each variant's bindings with
+//!   its pass's Rust declaration (`tiledlight_gpu::bindings`), and check that the Rust
+//!   structs shared with WGSL have the same size and field offsets as their WGSL twins.
 //! - `test [ARGS...]`: check that a Vulkan adapter (lavapipe by default) exists, run
 //!   `validate-shaders`, then every workspace test with GPU tests one at a time; `ARGS`
 //!   go to `cargo nextest run` (or `cargo test` when nextest is missing).
 //! - `lint`: `cargo fmt --check` and `cargo clippy -D warnings` over the workspace.
 //!
-//! Depends on the workspace's own crates (for the shader preprocessor and the Rust
-//! struct layouts), naga (validation) and wgpu (the adapter probe).
+//! Depends on the workspace's own crates (for the shader preprocessor, the bindings
+//! declarations and the Rust struct layouts), naga (validation) and wgpu (the adapter probe).
 
+mod bindings;
 mod lint;
 mod shaders;
 mod test;
@@ -24,7 +26,7 @@ const USAGE: &str = "\
 usage: cargo xtask <task>
 
 tasks:
-  validate-shaders   validate every WGSL entry file and variant with naga, check Rust/WGSL struct layouts
+  validate-shaders   validate every WGSL entry file and variant with naga, check Rust/WGSL bindings and struct layouts
   test [ARGS...]     check for a Vulkan adapter, validate shaders, run all tests (ARGS go to cargo nextest run / cargo test)
   lint               cargo fmt --check and cargo clippy -D warnings over the workspace";
 

@@ -1,5 +1,6 @@
 //! `cargo xtask validate-shaders`: naga validation of every WGSL entry file in every
-//! variant combination, and the Rust/WGSL struct layout check.
+//! variant combination, the Rust/WGSL bindings check of every variant (see
+//! [`crate::bindings`]) and the Rust/WGSL struct layout check.
 //!
 //! Reads `shaders/` from disk (not the table embedded in tiledlight-gpu, which is only as
 //! fresh as the last build), preprocesses with `tiledlight_gpu::shader`, and reports
@@ -10,10 +11,12 @@ use std::fs;
 use std::path::Path;
 
 use anyhow::{bail, Context as _, Result};
-use naga::valid::{Capabilities, ValidationFlags, Validator};
+use naga::valid::{Capabilities, ModuleInfo, ValidationFlags, Validator};
 use naga::{Module, Span};
 use tiledlight_cull::layout::StructLayout;
 use tiledlight_gpu::shader::{self, ShaderSource};
+
+use crate::bindings::{compare_bindings, declarations, named_defines};
 
 /// More variants than this (2^12 combinations) is surely a mistake in the declaration.
 const MAX_VARIANTS: usize = 12;
@@ -34,7 +37,11 @@ pub fn capabilities() -> Capabilities {
 /// Reads shader files (paths relative to `shaders/`) from a directory on disk.
 type Reader<'a> = &'a dyn Fn(&str) -> Option<String>;
 
-/// Validates every entry file and variant under `root/shaders`, then the struct layouts.
+/// More variants than this are listed as "and N more" in a binding mismatch.
+const LISTED_VARIANTS: usize = 8;
+
+/// Validates every entry file and variant under `root/shaders`, compares each variant's
+/// bindings with its pass's Rust declaration, then checks the struct layouts.
 pub fn validate_shaders(root: &Path) -> Result<()> {
     let dir = root.join("shaders");
     let files = scan(&dir)?;
@@ -42,6 +49,21 @@ pub fn validate_shaders(root: &Path) -> Result<()> {
     let mut failures = 0usize;
     let mut variants_checked = 0usize;
     let entries: Vec<&String> = files.iter().filter(|f| shader::is_entry(f)).collect();
+
+    let passes = declarations();
+    let mut binding_variants = 0usize;
+    let mut bindings_compared = 0usize;
+    for (i, pass) in passes.iter().enumerate() {
+        if !entries.iter().any(|e| *e == pass.entry) {
+            eprintln!("error: {}: bindings declared for shaders/{}, which is no entry file", pass.source, pass.entry);
+            failures += 1;
+        }
+        if passes[..i].iter().any(|p| p.entry == pass.entry) {
+            eprintln!("error: {}: a second binding declaration for shaders/{}", pass.source, pass.entry);
+            failures += 1;
+        }
+    }
+
     for &entry in &entries {
         let text = read(entry).with_context(|| format!("cannot read shaders/{entry}"))?;
         let variants = shader::variants_in(&text);
@@ -54,18 +76,59 @@ pub fn validate_shaders(root: &Path) -> Result<()> {
             failures += 1;
             continue;
         }
+        let pass = passes.iter().find(|p| p.entry == entry.as_str());
+        if let Some(pass) = pass {
+            for define in named_defines(pass) {
+                if !variants.iter().any(|v| v == define) {
+                    eprintln!(
+                        "error: {}: a binding of shaders/{entry} depends on {define}, which is not one of its \
+                         `// variants:` (so no variant checks it)",
+                        pass.source
+                    );
+                    failures += 1;
+                }
+            }
+        }
         // The same error usually shows in many variants: report it once, with them all.
         let combinations = shader::variant_combinations(&variants);
         let mut problems: Vec<(Problem, Vec<String>)> = Vec::new();
+        let mut mismatches: Vec<(String, Vec<String>)> = Vec::new();
         for defines in &combinations {
             variants_checked += 1;
-            if let Err(p) = compile(&read, entry, defines) {
-                let variant = format!("[{}]", defines.join(" "));
-                match problems.iter_mut().find(|(q, _)| *q == p) {
+            let variant = format!("[{}]", defines.join(" "));
+            match compile(&read, entry, defines) {
+                Err(p) => match problems.iter_mut().find(|(q, _)| *q == p) {
                     Some((_, in_variants)) => in_variants.push(variant),
                     None => problems.push((p, vec![variant])),
+                },
+                Ok((module, info)) => {
+                    let Some(pass) = pass else { continue };
+                    binding_variants += 1;
+                    bindings_compared += pass.resolve(defines).len();
+                    for m in compare_bindings(pass, defines, &module, &info) {
+                        match mismatches.iter_mut().find(|(n, _)| *n == m) {
+                            Some((_, in_variants)) => in_variants.push(variant.clone()),
+                            None => mismatches.push((m, vec![variant.clone()])),
+                        }
+                    }
                 }
             }
+        }
+        for (mismatch, in_variants) in mismatches {
+            let variants = if in_variants.len() == combinations.len() && in_variants.len() > 1 {
+                format!("all {} variants", in_variants.len())
+            } else if in_variants.len() > LISTED_VARIANTS {
+                format!(
+                    "{} and {} more variants",
+                    in_variants[..LISTED_VARIANTS].join(" "),
+                    in_variants.len() - LISTED_VARIANTS
+                )
+            } else {
+                in_variants.join(" ")
+            };
+            let pass = pass.expect("mismatches come from a declaration");
+            eprintln!("error: bindings of {} vs shaders/{entry} {variants}: {mismatch}", pass.source);
+            failures += 1;
         }
         for (problem, in_variants) in problems {
             let context = if in_variants.len() == combinations.len() && in_variants.len() > 1 {
@@ -110,6 +173,13 @@ pub fn validate_shaders(root: &Path) -> Result<()> {
     println!(
         "xtask: validated {variants_checked} variant(s) of {} WGSL entry file(s); {layouts_checked} Rust/WGSL struct layout(s) match",
         entries.len()
+    );
+    let undeclared: Vec<&str> =
+        entries.iter().map(|e| e.as_str()).filter(|e| !passes.iter().any(|p| p.entry == *e)).collect();
+    println!(
+        "xtask: {} Rust binding declaration(s) match naga in {binding_variants} variant(s) ({bindings_compared} binding(s) compared){}",
+        passes.len(),
+        if undeclared.is_empty() { String::new() } else { format!("; no declaration: {}", undeclared.join(", ")) }
     );
     Ok(())
 }
@@ -165,10 +235,10 @@ impl From<shader::ShaderError> for Problem {
 }
 
 /// Preprocesses, parses and validates one variant of `entry`.
-fn compile(read: Reader<'_>, entry: &str, defines: &[&str]) -> Result<Module, Problem> {
+fn compile(read: Reader<'_>, entry: &str, defines: &[&str]) -> Result<(Module, ModuleInfo), Problem> {
     let source = shader::preprocess_with(read, entry, defines)?;
     let module = parse(&source)?;
-    Validator::new(ValidationFlags::all(), capabilities()).validate(&module).map_err(|e| {
+    let info = Validator::new(ValidationFlags::all(), capabilities()).validate(&module).map_err(|e| {
         // naga's errors nest their causes; the chain is the useful message.
         let mut message = e.to_string();
         let mut cause = std::error::Error::source(&e);
@@ -179,7 +249,7 @@ fn compile(read: Reader<'_>, entry: &str, defines: &[&str]) -> Result<Module, Pr
         let labels: Vec<(Span, String)> = e.spans().cloned().collect();
         problem(&source, &message, &labels, &[])
     })?;
-    Ok(module)
+    Ok((module, info))
 }
 
 /// Parses preprocessed WGSL with naga.
@@ -368,6 +438,41 @@ mod tests {
         assert_eq!(
             err,
             "error: shaders/e.wgsl:1: #ifdef/#ifndef is not closed by #endif before the end of the file (in shaders/e.wgsl [X])"
+        );
+    }
+
+    #[test]
+    fn real_declarations_match_their_shaders_and_fail_on_another_variant() {
+        let read = |p: &str| shader::embedded(p).map(str::to_owned);
+        let forward = tiledlight_forward::shading::FORWARD_BINDINGS;
+        let (module, info) = compile(&read, forward.entry, &["HALF_Z"]).unwrap();
+        assert_eq!(compare_bindings(&forward, &["HALF_Z"], &module, &info), Vec::<String>::new());
+        // The declaration filtered for brute force against the tiled half-z variant.
+        assert_eq!(
+            compare_bindings(&forward, &["BRUTE_FORCE"], &module, &info),
+            [
+                "@group(3) @binding(2): not declared in Rust, light_grid: var<storage, read> in the WGSL",
+                "@group(3) @binding(3): not declared in Rust, light_indices: var<storage, read> in the WGSL",
+                "@group(3) @binding(4): not declared in Rust, tile_ranges: var<storage, read> in the WGSL",
+            ]
+        );
+        let deferred = tiledlight_deferred::shading::DEFERRED_BINDINGS;
+        let (module, info) = compile(&read, deferred.entry, &["MSAA"]).unwrap();
+        assert_eq!(compare_bindings(&deferred, &["MSAA"], &module, &info), Vec::<String>::new());
+        let got = compare_bindings(&deferred, &[], &module, &info);
+        assert!(
+            got.contains(
+                &"@group(1) @binding(0): texture_depth_2d in Rust, depth_texture: texture_depth_multisampled_2d in the WGSL"
+                    .to_string()
+            ),
+            "{got:?}"
+        );
+        assert!(
+            got.contains(
+                &"@group(1) @binding(13): not declared in Rust, edge_list: var<storage, read_write> in the WGSL"
+                    .to_string()
+            ),
+            "{got:?}"
         );
     }
 

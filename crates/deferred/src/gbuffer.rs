@@ -12,8 +12,9 @@
 //! sample count: every target is multisampled with MSAA. Pipelines exist per draw kind the
 //! scene has. Depends on tiledlight-gpu.
 
+use tiledlight_gpu::bindings::PassBindings;
 use tiledlight_gpu::depth_prepass::{scene_pipeline, SceneDraw};
-use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, VERTEX_LAYOUTS};
+use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS, VERTEX_LAYOUTS};
 use tiledlight_gpu::targets::texture_2d_msaa;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::util::{pipeline_layout, shader_module};
@@ -106,6 +107,11 @@ impl GBuffer {
     }
 }
 
+/// The bindings of the G-buffer pass (`shaders/gbuffer.wgsl`): the scene's groups, the
+/// material textures with `TEXTURES`. Its layouts are the views' and the scene's own.
+pub const GBUFFER_BINDINGS: PassBindings =
+    PassBindings { entry: "gbuffer.wgsl", source: file!(), groups: &SCENE_GROUPS };
+
 /// The G-buffer pass's pipelines.
 pub struct GBufferPass {
     pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
@@ -154,7 +160,7 @@ impl GBufferPass {
             if test_values {
                 defines.push("EXTRA_TEST_VALUES");
             }
-            let module = shader_module(device, "gbuffer.wgsl", &defines)?;
+            let module = shader_module(device, GBUFFER_BINDINGS.entry, &defines)?;
             let p = scene_pipeline(
                 device,
                 kind,

@@ -15,15 +15,16 @@
 //! Depends on tiledlight-gpu and [`crate::gbuffer`].
 
 use tiledlight_cull::TileGrid;
-use tiledlight_gpu::light_cull::{depth_entry, CoarseCulling, CullOptions, DropLight, CULL_WORKGROUP_BYTES};
-use tiledlight_gpu::light_grid::{GpuTileLists, LightGrid};
+use tiledlight_gpu::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
+use tiledlight_gpu::light_cull::{CoarseCulling, CullOptions, DropLight, CULL_WORKGROUP_BYTES, DEPTH_BINDING};
+use tiledlight_gpu::light_grid::{compute_bindings, GpuTileLists, LightGrid};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::readback::read_buffer;
 use tiledlight_gpu::targets::texture_2d;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
-use tiledlight_gpu::util::{buffer_zeroed, compute_pipeline, shader_module, storage_entry, uniform_entry};
+use tiledlight_gpu::util::{buffer_zeroed, compute_pipeline, shader_module};
 use tiledlight_gpu::view::Views;
 use tiledlight_gpu::GpuError;
 
@@ -100,37 +101,80 @@ pub struct DeferredShading {
     pub light_grid: LightGrid,
 }
 
-fn gbuffer_entry(binding: u32, samples: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable: false },
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: samples > 1,
-        },
-        count: None,
-    }
+const CS: wgpu::ShaderStages = wgpu::ShaderStages::COMPUTE;
+
+/// A G-buffer target read by the pass (multisampled with `MSAA`).
+const fn gbuffer_binding(binding: u32) -> Binding {
+    Binding::texture(binding, CS, wgpu::TextureSampleType::Float { filterable: false })
+        .multisampled_when(Cond::Defined("MSAA"))
 }
 
-fn hdr_storage_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::StorageTexture {
-            access: wgpu::StorageTextureAccess::WriteOnly,
-            format: HDR_FORMAT,
-            view_dimension: wgpu::TextureViewDimension::D2,
-        },
-        count: None,
-    }
+/// An HDR image the pass writes.
+const fn hdr_storage_binding(binding: u32) -> Binding {
+    Binding::storage_texture(binding, CS, HDR_FORMAT, wgpu::StorageTextureAccess::WriteOnly)
 }
+
+/// The bindings of [`DeferredShading`] (`shaders/deferred.wgsl`). Group 1: depth (0),
+/// bounding spheres (1), the lighting uniform (2), albedo (3), normal (4), shading lights
+/// (6), the HDR output (9); the extra targets (5, 10, 11) with `EXTRA_RTS`, `_2`, `_3`;
+/// spots (7) with `SPOT_LIGHTS` (or `SPOT_CONE`, which the pass sets only with spots);
+/// cells (8) with `COARSE`; with `MSAA` the sample texture (12), edge list (13) and
+/// resolve arguments (14). Group 2: the light grid, without tile ranges.
+pub const DEFERRED_BINDINGS: PassBindings = PassBindings {
+    entry: "deferred.wgsl",
+    source: file!(),
+    groups: &[
+        PassGroup::new(0, tiledlight_gpu::view::BINDINGS),
+        PassGroup::new(
+            1,
+            &[
+                DEPTH_BINDING,
+                Binding::storage(1, CS),
+                Binding::uniform(2, CS),
+                gbuffer_binding(3),
+                gbuffer_binding(4),
+                Binding::storage(6, CS),
+                hdr_storage_binding(9),
+                gbuffer_binding(5).when(Cond::Defined("EXTRA_RTS")),
+                gbuffer_binding(10).when(Cond::All(&[Cond::Defined("EXTRA_RTS"), Cond::Defined("EXTRA_RTS_2")])),
+                gbuffer_binding(11).when(Cond::All(&[
+                    Cond::Defined("EXTRA_RTS"),
+                    Cond::Defined("EXTRA_RTS_2"),
+                    Cond::Defined("EXTRA_RTS_3"),
+                ])),
+                Binding::storage(7, CS).when(Cond::Any(&[Cond::Defined("SPOT_LIGHTS"), Cond::Defined("SPOT_CONE")])),
+                Binding::storage(8, CS).when(Cond::Defined("COARSE")),
+                hdr_storage_binding(12).when(Cond::Defined("MSAA")),
+                Binding::storage_rw(13, CS).when(Cond::Defined("MSAA")),
+                Binding::storage_rw(14, CS).when(Cond::Defined("MSAA")),
+            ],
+        ),
+        PassGroup::new(2, &compute_bindings(Cond::Never)),
+    ],
+};
+
+/// The bindings of the MSAA resolve (`shaders/deferred_resolve.wgsl`): group 0, the
+/// sample texture (0), edge list (1), edge count and dispatch arguments (2), HDR output (3).
+pub const DEFERRED_RESOLVE_BINDINGS: PassBindings = PassBindings {
+    entry: "deferred_resolve.wgsl",
+    source: file!(),
+    groups: &[PassGroup::new(
+        0,
+        &[
+            Binding::texture(0, CS, wgpu::TextureSampleType::Float { filterable: false }),
+            Binding::storage(1, CS),
+            Binding::storage(2, CS),
+            hdr_storage_binding(3),
+        ],
+    )],
+};
 
 fn view_entry(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
     wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) }
 }
 
-/// Bindings of the extra G-buffer targets, in order (keep in sync with shaders/deferred.wgsl).
+/// Bindings of the extra G-buffer targets and their defines, in order (as declared in
+/// [`DEFERRED_BINDINGS`], which `cargo xtask validate-shaders` checks against shaders/deferred.wgsl).
 const EXTRA_BINDINGS: [(u32, &str); 3] = [(5, "EXTRA_RTS"), (10, "EXTRA_RTS_2"), (11, "EXTRA_RTS_3")];
 
 impl DeferredShading {
@@ -172,17 +216,7 @@ impl DeferredShading {
             options.grid_pairs,
         )?;
         memory.extend(&light_grid.memory());
-        let cs = wgpu::ShaderStages::COMPUTE;
         let mut defines = options.cull_defines(lights.has_spots(), drop);
-        let mut entries = vec![
-            depth_entry(0, samples),
-            storage_entry(1, cs, true),
-            uniform_entry(2, cs),
-            gbuffer_entry(3, samples),
-            gbuffer_entry(4, samples),
-            storage_entry(6, cs, true),
-            hdr_storage_entry(9),
-        ];
         let mut bind = vec![
             view_entry(0, depth),
             wgpu::BindGroupEntry { binding: 1, resource: lights.cull.as_entire_binding() },
@@ -194,16 +228,13 @@ impl DeferredShading {
         ];
         for (view, (binding, define)) in gbuffer.extra_views().iter().zip(EXTRA_BINDINGS) {
             defines.push(define);
-            entries.push(gbuffer_entry(binding, samples));
             bind.push(view_entry(binding, view));
         }
         if let Some(spots) = &lights.spots {
             defines.push("SPOT_LIGHTS");
-            entries.push(storage_entry(7, cs, true));
             bind.push(wgpu::BindGroupEntry { binding: 7, resource: spots.as_entire_binding() });
         }
         let coarse = if options.coarse {
-            entries.push(storage_entry(8, cs, true));
             Some(CoarseCulling::new(device, views, depth, lights, lighting, &grid, &options, memory)?)
         } else {
             None
@@ -248,23 +279,17 @@ impl DeferredShading {
             (tex, view, edge_list, edge_args)
         });
         if let Some((_, view, edge_list, edge_args)) = &msaa_buffers {
-            entries.push(hdr_storage_entry(12));
-            entries.push(storage_entry(13, cs, false));
-            entries.push(storage_entry(14, cs, false));
             bind.push(view_entry(12, view));
             bind.push(wgpu::BindGroupEntry { binding: 13, resource: edge_list.as_entire_binding() });
             bind.push(wgpu::BindGroupEntry { binding: 14, resource: edge_args.as_entire_binding() });
         }
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("deferred.layout"),
-            entries: &entries,
-        });
+        let layout = create_layout(device, "deferred.layout", DEFERRED_BINDINGS.group(1), &defines);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("deferred.bind_group"),
             layout: &layout,
             entries: &bind,
         });
-        let module = shader_module(device, "deferred.wgsl", &defines)?;
+        let module = shader_module(device, DEFERRED_BINDINGS.entry, &defines)?;
         let mut constants = options.cull_constants(coarse.as_ref(), drop);
         if samples > 1 {
             constants.push(("SAMPLES_X", sx as f64));
@@ -372,11 +397,7 @@ fn resolve_pipeline(
     edge_args: &wgpu::Buffer,
     hdr: &wgpu::TextureView,
 ) -> Result<(wgpu::ComputePipeline, wgpu::BindGroup), GpuError> {
-    let cs = wgpu::ShaderStages::COMPUTE;
-    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("deferred.resolve.layout"),
-        entries: &[gbuffer_entry(0, 1), storage_entry(1, cs, true), storage_entry(2, cs, true), hdr_storage_entry(3)],
-    });
+    let layout = create_layout(device, "deferred.resolve.layout", DEFERRED_RESOLVE_BINDINGS.group(0), &[]);
     let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("deferred.resolve"),
         layout: &layout,
@@ -387,7 +408,7 @@ fn resolve_pipeline(
             view_entry(3, hdr),
         ],
     });
-    let module = shader_module(device, "deferred_resolve.wgsl", &[])?;
+    let module = shader_module(device, DEFERRED_RESOLVE_BINDINGS.entry, &[])?;
     let pipeline = compute_pipeline(
         device,
         "deferred.resolve",

@@ -6,14 +6,15 @@
 //! Bind groups: 0 view, 1 scene, 2 material texture (textured scenes only), 3 lights.
 //! Depends on tiledlight-gpu.
 
+use tiledlight_gpu::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
 use tiledlight_gpu::depth_prepass::{scene_pipeline, SceneDraw};
 use tiledlight_gpu::light_cull::LightCulling;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
-use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, VERTEX_LAYOUTS};
+use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS, VERTEX_LAYOUTS};
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
-use tiledlight_gpu::util::{pipeline_layout, shader_module, storage_entry, uniform_entry};
+use tiledlight_gpu::util::{pipeline_layout, shader_module};
 use tiledlight_gpu::view::Views;
 use tiledlight_gpu::GpuError;
 
@@ -31,6 +32,32 @@ pub enum LightLoop {
         cutoff: bool,
     },
 }
+
+/// The bindings of the shading pass (`shaders/forward.wgsl`): the scene's groups 0 to 2,
+/// then group 3, the lights: shading lights (0), the lighting uniform (5), with
+/// `SPOT_LIGHTS` the spots (1), unless `BRUTE_FORCE` the light grid (2) and its indices
+/// (3), and with `HALF_Z` the tile ranges (4).
+pub const FORWARD_BINDINGS: PassBindings = PassBindings {
+    entry: "forward.wgsl",
+    source: file!(),
+    groups: &[
+        SCENE_GROUPS[0],
+        SCENE_GROUPS[1],
+        SCENE_GROUPS[2],
+        PassGroup::new(
+            3,
+            &[
+                Binding::storage(0, wgpu::ShaderStages::FRAGMENT),
+                Binding::uniform(5, wgpu::ShaderStages::FRAGMENT),
+                Binding::storage(1, wgpu::ShaderStages::FRAGMENT).when(Cond::Defined("SPOT_LIGHTS")),
+                Binding::storage(2, wgpu::ShaderStages::FRAGMENT).when(Cond::NotDefined("BRUTE_FORCE")),
+                Binding::storage(3, wgpu::ShaderStages::FRAGMENT).when(Cond::NotDefined("BRUTE_FORCE")),
+                Binding::storage(4, wgpu::ShaderStages::FRAGMENT)
+                    .when(Cond::All(&[Cond::Defined("HALF_Z"), Cond::NotDefined("BRUTE_FORCE")])),
+            ],
+        ),
+    ],
+};
 
 /// The shading pass's pipelines and light bind group.
 pub struct ShadingPass {
@@ -56,12 +83,9 @@ impl ShadingPass {
         light_loop: LightLoop,
         samples: u32,
     ) -> Result<Self, GpuError> {
-        let fs = wgpu::ShaderStages::FRAGMENT;
         let mut defines: Vec<&str> = Vec::new();
-        let mut entries = vec![storage_entry(0, fs, true), uniform_entry(5, fs)];
         if lights.spots.is_some() {
             defines.push("SPOT_LIGHTS");
-            entries.push(storage_entry(1, fs, true));
         }
         if scene.textures.is_some() {
             defines.push("TEXTURES");
@@ -72,11 +96,8 @@ impl ShadingPass {
                 if c.options.half_z != half_z {
                     return Err(GpuError::Config("half-z must match between culling and shading".into()));
                 }
-                entries.push(storage_entry(2, fs, true));
-                entries.push(storage_entry(3, fs, true));
                 if half_z {
                     defines.push("HALF_Z");
-                    entries.push(storage_entry(4, fs, true));
                 }
                 "forward.shade"
             }
@@ -88,10 +109,7 @@ impl ShadingPass {
                 "brute_force.shade"
             }
         };
-        let lights_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("shade.lights_layout"),
-            entries: &entries,
-        });
+        let lights_layout = create_layout(device, "shade.lights_layout", FORWARD_BINDINGS.group(3), &defines);
         let lights = (lights.shading.clone(), lights.spots.clone(), lighting.clone());
         let lights_group = lights_group(device, &lights_layout, &lights, culling.map(|c| &c.grid));
         let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -112,7 +130,7 @@ impl ShadingPass {
                 if kind.masked {
                     kind_defines.push("ALPHA_MASK");
                 }
-                let module = shader_module(device, "forward.wgsl", &kind_defines)?;
+                let module = shader_module(device, FORWARD_BINDINGS.entry, &kind_defines)?;
                 let target = [Some(wgpu::ColorTargetState {
                     format: HDR_FORMAT,
                     blend: None,

@@ -3,8 +3,9 @@
 //! (and the brute-force reference) start with it. Pipelines exist only for the draw kinds
 //! the scene has. Depends on wgpu, [`crate::scene_gpu`] and [`crate::view`].
 
+use crate::bindings::PassBindings;
 use crate::error::GpuError;
-use crate::scene_gpu::{DrawKind, SceneGpu, VERTEX_LAYOUTS};
+use crate::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS, VERTEX_LAYOUTS};
 use crate::timer::GpuTimer;
 use crate::util::{pipeline_layout, shader_module};
 use crate::view::Views;
@@ -79,6 +80,12 @@ pub fn scene_pipeline(device: &wgpu::Device, kind: DrawKind, d: &SceneDraw<'_>) 
     })
 }
 
+/// The bindings of the depth pre-pass (`shaders/depth_prepass.wgsl`): the scene's groups,
+/// the material textures only in the masked pipelines of textured scenes. Its layouts are
+/// the views' and the scene's own.
+pub const DEPTH_PREPASS_BINDINGS: PassBindings =
+    PassBindings { entry: "depth_prepass.wgsl", source: file!(), groups: &SCENE_GROUPS };
+
 /// The depth pre-pass pipelines.
 pub struct DepthPrepass {
     pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
@@ -107,7 +114,7 @@ impl DepthPrepass {
             } else {
                 pipeline_layout(device, "depth_prepass.layout", &[&views.layout, &scene.layout])
             };
-            let module = shader_module(device, "depth_prepass.wgsl", &defines)?;
+            let module = shader_module(device, DEPTH_PREPASS_BINDINGS.entry, &defines)?;
             let (vs, buffers): (&str, &[Option<wgpu::VertexBufferLayout<'_>>]) =
                 if kind.masked { ("vs_masked", &VERTEX_LAYOUTS) } else { ("vs_main", &VERTEX_LAYOUTS[..1]) };
             let label = format!(

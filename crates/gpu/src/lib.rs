@@ -1,12 +1,14 @@
 //! tiledlight-gpu: the wgpu layer shared by both renderers.
 //!
 //! Device creation with adapter selection by name ([`context`]), WGSL loading with includes
-//! and variants ([`shader`], shaders embedded from `shaders/`), GPU timers ([`timer`]),
+//! and variants ([`shader`], shaders embedded from `shaders/`), bind group layouts declared
+//! once as data and checked against the WGSL ([`bindings`]), GPU timers ([`timer`]),
 //! readback ([`readback`]), scene and light buffers ([`scene_gpu`], [`lights_gpu`]), and the
 //! passes both methods share: the depth pre-pass ([`depth_prepass`]), tiled light culling
 //! ([`light_cull`]) into the light grid ([`light_grid`]) and tonemapping ([`tonemap`]). Depends on wgpu, tiledlight-cull and
 //! tiledlight-scene; never on a renderer crate.
 
+pub mod bindings;
 pub mod context;
 pub mod depth_prepass;
 pub mod diagnostics;

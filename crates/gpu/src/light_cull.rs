@@ -9,13 +9,14 @@
 use tiledlight_cull::reference::{COARSE_CAPACITY, COARSE_SIZE, MAX_CAPACITY};
 use tiledlight_cull::TileGrid;
 
+use crate::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
 use crate::error::GpuError;
 pub use crate::light_grid::GpuTileLists;
 use crate::light_grid::{GridLayout, LightGrid};
 use crate::lights_gpu::LightBuffers;
 use crate::memory::MemoryReport;
 use crate::timer::GpuTimer;
-use crate::util::{buffer_zeroed, compute_pipeline, shader_module, storage_entry, uniform_entry};
+use crate::util::{buffer_zeroed, compute_pipeline, shader_module};
 use crate::view::Views;
 
 /// Options of the culling pass (mirrors `tiledlight_cull::CullConfig`).
@@ -261,16 +262,9 @@ impl CoarseCulling {
         }
         let lists = buffer_zeroed(device, "cull.cell_lists", bytes, usage);
         memory.add("cull.cell_lists", lists.size());
-        let cs = wgpu::ShaderStages::COMPUTE;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("cull_coarse.layout"),
-            entries: &[
-                depth_entry(0, options.samples),
-                storage_entry(1, cs, true),
-                storage_entry(2, cs, false),
-                uniform_entry(3, cs),
-            ],
-        });
+        let (msaa, samples) = options.depth_variant();
+        let defines: Vec<&str> = msaa.into_iter().collect();
+        let layout = create_layout(device, "cull_coarse.layout", CULL_COARSE_BINDINGS.group(1), &defines);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cull_coarse.bind_group"),
             layout: &layout,
@@ -281,8 +275,7 @@ impl CoarseCulling {
                 wgpu::BindGroupEntry { binding: 3, resource: lighting.as_entire_binding() },
             ],
         });
-        let (msaa, samples) = options.depth_variant();
-        let module = shader_module(device, "cull_coarse.wgsl", &msaa.into_iter().collect::<Vec<_>>())?;
+        let module = shader_module(device, CULL_COARSE_BINDINGS.entry, &defines)?;
         let mut constants = coarse_constants(capacity).to_vec();
         constants.extend(samples);
         let pipeline = compute_pipeline(device, "cull_coarse", &[&views.layout, &layout], &module, &constants);
@@ -302,24 +295,58 @@ impl CoarseCulling {
     }
 }
 
+/// The depth texture a culling kernel reads at group 1 binding 0
+/// (`shaders/common/depth_range.wgsl`): multisampled with `MSAA`.
+pub const DEPTH_BINDING: Binding = Binding::texture(0, wgpu::ShaderStages::COMPUTE, wgpu::TextureSampleType::Depth)
+    .multisampled_when(Cond::Defined("MSAA"));
+
+/// The bindings of [`CoarseCulling`] (`shaders/cull_coarse.wgsl`). Group 1: depth (0),
+/// bounding spheres (1), the cell lists it writes (2), the lighting uniform (3).
+pub const CULL_COARSE_BINDINGS: PassBindings = PassBindings {
+    entry: "cull_coarse.wgsl",
+    source: file!(),
+    groups: &[
+        PassGroup::new(0, crate::view::BINDINGS),
+        PassGroup::new(
+            1,
+            &[
+                DEPTH_BINDING,
+                Binding::storage(1, wgpu::ShaderStages::COMPUTE),
+                Binding::storage_rw(2, wgpu::ShaderStages::COMPUTE),
+                Binding::uniform(3, wgpu::ShaderStages::COMPUTE),
+            ],
+        ),
+    ],
+};
+
 /// Override constants shared by both levels: the cell size and the cell capacity.
 fn coarse_constants(capacity: u32) -> [(&'static str, f64); 2] {
     [("CELL", COARSE_SIZE as f64), ("COARSE_CAPACITY", capacity as f64)]
 }
 
-/// Layout entry for the depth texture a compute kernel reads (multisampled when `samples` > 1).
-pub fn depth_entry(binding: u32, samples: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Depth,
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: samples > 1,
-        },
-        count: None,
-    }
-}
+/// The bindings of [`LightCulling`] (`shaders/cull.wgsl`). Group 1: depth (0), bounding
+/// spheres (1), the lighting uniform (9), with `SPOT_CONE` the shading lights (6) and spots
+/// (7), with `COARSE` the cell lists (8). Group 2: the light grid, with tile ranges under
+/// `HALF_Z`.
+pub const CULL_BINDINGS: PassBindings = PassBindings {
+    entry: "cull.wgsl",
+    source: file!(),
+    groups: &[
+        PassGroup::new(0, crate::view::BINDINGS),
+        PassGroup::new(
+            1,
+            &[
+                DEPTH_BINDING,
+                Binding::storage(1, wgpu::ShaderStages::COMPUTE),
+                Binding::uniform(9, wgpu::ShaderStages::COMPUTE),
+                Binding::storage(6, wgpu::ShaderStages::COMPUTE).when(Cond::Defined("SPOT_CONE")),
+                Binding::storage(7, wgpu::ShaderStages::COMPUTE).when(Cond::Defined("SPOT_CONE")),
+                Binding::storage(8, wgpu::ShaderStages::COMPUTE).when(Cond::Defined("COARSE")),
+            ],
+        ),
+        PassGroup::new(2, &crate::light_grid::compute_bindings(Cond::Defined("HALF_Z"))),
+    ],
+};
 
 /// The culling pass and the light grid it writes, sized to one screen and tile size.
 pub struct LightCulling {
@@ -372,22 +399,18 @@ impl LightCulling {
             options.grid_pairs,
         )?;
         let spot_cone = options.spot_cone && lights.has_spots();
-        let cs = wgpu::ShaderStages::COMPUTE;
-        let mut entries = vec![depth_entry(0, options.samples), storage_entry(1, cs, true), uniform_entry(9, cs)];
+        let defines = options.cull_defines(lights.has_spots(), drop);
         let mut bind = vec![
             wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(depth) },
             wgpu::BindGroupEntry { binding: 1, resource: lights.cull.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 9, resource: lighting.as_entire_binding() },
         ];
         if let (true, Some(spots)) = (spot_cone, &lights.spots) {
-            entries.push(storage_entry(6, cs, true));
-            entries.push(storage_entry(7, cs, true));
             bind.push(wgpu::BindGroupEntry { binding: 6, resource: lights.shading.as_entire_binding() });
             bind.push(wgpu::BindGroupEntry { binding: 7, resource: spots.as_entire_binding() });
         }
         let mut memory = light_grid.memory();
         let coarse = if options.coarse {
-            entries.push(storage_entry(8, cs, true));
             Some(CoarseCulling::new(device, views, depth, lights, lighting, &grid, &options, &mut memory)?)
         } else {
             None
@@ -395,16 +418,13 @@ impl LightCulling {
         if let Some(c) = &coarse {
             bind.push(wgpu::BindGroupEntry { binding: 8, resource: c.lists.as_entire_binding() });
         }
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("cull.layout"),
-            entries: &entries,
-        });
+        let layout = create_layout(device, "cull.layout", CULL_BINDINGS.group(1), &defines);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cull.bind_group"),
             layout: &layout,
             entries: &bind,
         });
-        let module = shader_module(device, "cull.wgsl", &options.cull_defines(lights.has_spots(), drop))?;
+        let module = shader_module(device, CULL_BINDINGS.entry, &defines)?;
         let constants = options.cull_constants(coarse.as_ref(), drop);
         let pipeline =
             compute_pipeline(device, "cull", &[&views.layout, &layout, light_grid.layout()], &module, &constants);

@@ -15,7 +15,7 @@
 //!
 //! The buffers are built once per screen; only the index buffer is re-created when it grows
 //! (with the one bind group that holds it here, and the shading pass's that reads it).
-//! Depends on wgpu, [`crate::light_cull`] for the options and [`crate::readback`].
+//! Depends on wgpu, [`crate::light_cull`] for the options, [`crate::readback`] and [`crate::bindings`].
 //!
 //! [`CullOptions::grid_pairs`]: crate::light_cull::CullOptions::grid_pairs
 
@@ -25,10 +25,11 @@ use std::sync::Arc;
 use bytemuck::{Pod, Zeroable};
 use tiledlight_cull::TileGrid;
 
+use crate::bindings::{create_layout, Binding, Cond};
 use crate::error::GpuError;
 use crate::memory::MemoryReport;
 use crate::readback::{read_buffer, read_buffer_range};
-use crate::util::{buffer_init, storage_entry};
+use crate::util::buffer_init;
 
 /// The grid buffer's header: this frame's counters and the index buffer's length.
 ///
@@ -134,6 +135,14 @@ pub struct GridLayout {
     pub ranges: bool,
 }
 
+/// The culling kernels' group (group 2 of `shaders/cull.wgsl` and `shaders/deferred.wgsl`),
+/// all read-write: the grid (0), the indices (1) and, when `ranges` holds, the per-tile
+/// depth ranges (2). The culling pass has ranges with `HALF_Z`, Tiled Deferred never.
+pub const fn compute_bindings(ranges: Cond) -> [Binding; 3] {
+    let cs = wgpu::ShaderStages::COMPUTE;
+    [Binding::storage_rw(0, cs), Binding::storage_rw(1, cs), Binding::storage_rw(2, cs).when(ranges)]
+}
+
 /// The light grid of one screen and layout: the grid buffer (header + one `(first, count)`
 /// per list), the index buffer, and with half-z the per-tile depth ranges.
 pub struct LightGrid {
@@ -206,15 +215,12 @@ impl LightGrid {
         let indices = index_buffer(device, label, capacity);
         let ranges =
             ranges.then(|| buffer_init(device, &format!("{label}.ranges"), &vec![0u8; tiles.tile_count() * 8], usage));
-        let cs = wgpu::ShaderStages::COMPUTE;
-        let mut entries = vec![storage_entry(0, cs, false), storage_entry(1, cs, false)];
-        if ranges.is_some() {
-            entries.push(storage_entry(2, cs, false));
-        }
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some(&format!("{label}.layout")),
-            entries: &entries,
-        });
+        let layout = create_layout(
+            device,
+            &format!("{label}.layout"),
+            &compute_bindings(Cond::from_bool(ranges.is_some())),
+            &[],
+        );
         let readback = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(&format!("{label}.header_readback")),
             size: HEADER_BYTES,

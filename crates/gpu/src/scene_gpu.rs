@@ -10,9 +10,10 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, Mat4};
 use tiledlight_scene::{AlphaMode, Scene};
 
+use crate::bindings::{create_layout, Binding, Cond, PassGroup};
 use crate::error::GpuError;
 use crate::memory::MemoryReport;
-use crate::util::{buffer_init, storage_entry, texture_entry};
+use crate::util::buffer_init;
 
 /// One instance's transforms and material.
 ///
@@ -90,6 +91,29 @@ pub const VERTEX_LAYOUTS: [Option<wgpu::VertexBufferLayout<'static>>; 3] = [
         step_mode: wgpu::VertexStepMode::Vertex,
         attributes: &wgpu::vertex_attr_array![2 => Float32x2],
     }),
+];
+
+/// Group 1 of the scene's raster passes: instances (0) and materials (1)
+/// (`shaders/common/scene.wgsl`).
+pub const SCENE_BINDINGS: &[Binding] = &[
+    Binding::storage(0, wgpu::ShaderStages::VERTEX_FRAGMENT),
+    Binding::storage(1, wgpu::ShaderStages::VERTEX_FRAGMENT),
+];
+
+/// Group 2 of the scene's raster passes, for scenes with textures: a material's
+/// base-colour texture (0) and its sampler (1).
+pub const TEXTURE_BINDINGS: &[Binding] = &[
+    Binding::texture(0, wgpu::ShaderStages::FRAGMENT, wgpu::TextureSampleType::Float { filterable: true }),
+    Binding::sampler(1, wgpu::ShaderStages::FRAGMENT, wgpu::SamplerBindingType::Filtering),
+];
+
+/// Groups 0 to 2 of a raster pass drawing the scene with `shaders/common/scene.wgsl`: the
+/// view, [`SCENE_BINDINGS`] and, when the shader is compiled with `TEXTURES`,
+/// [`TEXTURE_BINDINGS`].
+pub const SCENE_GROUPS: [PassGroup; 3] = [
+    PassGroup::new(0, crate::view::BINDINGS),
+    PassGroup::new(1, SCENE_BINDINGS),
+    PassGroup::new(2, TEXTURE_BINDINGS).when(Cond::Defined("TEXTURES")),
 ];
 
 /// Base-colour textures: group 2, one bind group per material.
@@ -217,11 +241,7 @@ impl SceneGpu {
         let instance_buf = buffer_init(device, "scene.instances", bytemuck::cast_slice(&gpu_instances), storage);
         let material_buf = buffer_init(device, "scene.materials", bytemuck::cast_slice(&gpu_materials), storage);
         memory.add("scene.instances+materials", (gpu_instances.len() * 128 + gpu_materials.len() * 32) as u64);
-        let vis = wgpu::ShaderStages::VERTEX_FRAGMENT;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("scene.layout"),
-            entries: &[storage_entry(0, vis, true), storage_entry(1, vis, true)],
-        });
+        let layout = create_layout(device, "scene.layout", SCENE_BINDINGS, &[]);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("scene.bind_group"),
             layout: &layout,
@@ -307,18 +327,7 @@ fn upload_textures(
     scene: &Scene,
     memory: &mut MemoryReport,
 ) -> SceneTextures {
-    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("scene.texture_layout"),
-        entries: &[
-            texture_entry(0, wgpu::ShaderStages::FRAGMENT, wgpu::TextureSampleType::Float { filterable: true }),
-            wgpu::BindGroupLayoutEntry {
-                binding: 1,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                count: None,
-            },
-        ],
-    });
+    let layout = create_layout(device, "scene.texture_layout", TEXTURE_BINDINGS, &[]);
     let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
         label: Some("scene.sampler"),
         address_mode_u: wgpu::AddressMode::Repeat,

@@ -8,9 +8,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use bytemuck::{Pod, Zeroable};
 
+use crate::bindings::{create_layout, Binding, PassBindings, PassGroup};
 use crate::error::GpuError;
 use crate::timer::GpuTimer;
-use crate::util::{buffer_init, pipeline_layout, shader_module, storage_entry, texture_entry, uniform_entry};
+use crate::util::{buffer_init, pipeline_layout, shader_module};
 
 /// Format of the HDR lighting target.
 pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
@@ -120,6 +121,27 @@ pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
     vec![tiledlight_cull::struct_layout!(TonemapUniforms, "Tonemap", "tonemap.wgsl", [exposure, _pad0, _pad1, _pad2])]
 }
 
+/// The bindings of [`TonemapPass`] (`shaders/tonemap.wgsl`): group 0, the HDR image (0)
+/// and the parameters (1).
+pub const TONEMAP_BINDINGS: PassBindings = PassBindings {
+    entry: "tonemap.wgsl",
+    source: file!(),
+    groups: &[PassGroup::new(
+        0,
+        &[
+            Binding::texture(0, wgpu::ShaderStages::FRAGMENT, wgpu::TextureSampleType::Float { filterable: false }),
+            Binding::uniform(1, wgpu::ShaderStages::FRAGMENT),
+        ],
+    )],
+};
+
+/// The bindings of [`HeatmapPass`] (`shaders/heatmap.wgsl`): group 0, the light grid (0).
+pub const HEATMAP_BINDINGS: PassBindings = PassBindings {
+    entry: "heatmap.wgsl",
+    source: file!(),
+    groups: &[PassGroup::new(0, &[Binding::storage(0, wgpu::ShaderStages::FRAGMENT)])],
+};
+
 /// Tonemapping: HDR texture -> sRGB display target, with its exposure in its own uniform
 /// (changing it rebuilds nothing: [`TonemapPass::set_exposure`]).
 pub struct TonemapPass {
@@ -132,14 +154,7 @@ impl TonemapPass {
     /// Builds the pipeline and the bind group reading `hdr`.
     pub fn new(device: &wgpu::Device, hdr: &wgpu::TextureView, exposure: f32) -> Result<Self, GpuError> {
         check_exposure(exposure)?;
-        let fs = wgpu::ShaderStages::FRAGMENT;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("tonemap.layout"),
-            entries: &[
-                texture_entry(0, fs, wgpu::TextureSampleType::Float { filterable: false }),
-                uniform_entry(1, fs),
-            ],
-        });
+        let layout = create_layout(device, "tonemap.layout", TONEMAP_BINDINGS.group(0), &[]);
         let u = TonemapUniforms { exposure, ..Default::default() };
         let params = buffer_init(
             device,
@@ -155,7 +170,7 @@ impl TonemapPass {
                 wgpu::BindGroupEntry { binding: 1, resource: params.as_entire_binding() },
             ],
         });
-        let module = shader_module(device, "tonemap.wgsl", &[])?;
+        let module = shader_module(device, TONEMAP_BINDINGS.entry, &[])?;
         let pl = pipeline_layout(device, "tonemap.pipeline_layout", &[&layout]);
         Ok(Self {
             pipeline: fullscreen_pipeline(device, "tonemap", &module, "fs_tonemap", &pl, None),
@@ -206,16 +221,13 @@ impl HeatmapPass {
     /// Builds the pipeline and the bind group reading the light grid's lists
     /// (`LightGrid::grid`, which never changes size), drawn when `enabled`.
     pub fn new(device: &wgpu::Device, light_grid: &wgpu::Buffer, enabled: bool) -> Result<Self, GpuError> {
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("heatmap.layout"),
-            entries: &[storage_entry(0, wgpu::ShaderStages::FRAGMENT, true)],
-        });
+        let layout = create_layout(device, "heatmap.layout", HEATMAP_BINDINGS.group(0), &[]);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("heatmap.bind_group"),
             layout: &layout,
             entries: &[wgpu::BindGroupEntry { binding: 0, resource: light_grid.as_entire_binding() }],
         });
-        let module = shader_module(device, "heatmap.wgsl", &[])?;
+        let module = shader_module(device, HEATMAP_BINDINGS.entry, &[])?;
         let pl = pipeline_layout(device, "heatmap.pipeline_layout", &[&layout]);
         let pipeline =
             fullscreen_pipeline(device, "heatmap", &module, "fs_heatmap", &pl, Some(wgpu::BlendState::ALPHA_BLENDING));

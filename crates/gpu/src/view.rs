@@ -7,11 +7,13 @@
 //! RSM views next, without new pipelines or bind groups. Culling parameters live with the
 //! light grid ([`crate::light_grid`]), the light counts and ambient with the lights
 //! ([`crate::lights_gpu::LightingUniforms`]), the exposure with the tonemap pass.
-//! Depends on wgpu and tiledlight-cull only.
+//! Depends on wgpu, tiledlight-cull and [`crate::bindings`].
 
 use bytemuck::{Pod, Zeroable};
 use glam::Mat4;
 use tiledlight_cull::Camera;
+
+use crate::bindings::{create_layout, Binding};
 
 /// The slot of the main camera.
 pub const MAIN_VIEW: u32 = 0;
@@ -72,6 +74,12 @@ impl ViewUniforms {
     }
 }
 
+/// Group 0 of every scene and culling pipeline: the view uniform, bound at a slot's
+/// dynamic offset (`shaders/common/view.wgsl`).
+pub const BINDINGS: &[Binding] =
+    &[Binding::uniform(0, wgpu::ShaderStages::VERTEX_FRAGMENT.union(wgpu::ShaderStages::COMPUTE))
+        .dynamic_offset(std::mem::size_of::<ViewUniforms>() as u64)];
+
 /// The views' uniform buffer and the group-0 bind group that addresses one slot of it.
 pub struct Views {
     buffer: wgpu::Buffer,
@@ -95,19 +103,7 @@ impl Views {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("views.layout"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: true,
-                    min_binding_size: wgpu::BufferSize::new(size),
-                },
-                count: None,
-            }],
-        });
+        let layout = create_layout(device, "views.layout", BINDINGS, &[]);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("views.bind_group"),
             layout: &layout,

@@ -2,12 +2,29 @@
 //! texture (the renderers' `ldr` target is a render attachment and copy source only) and
 //! drawn onto the window surface with `shaders/viewer_blit.wgsl`, whatever the surface's
 //! format. The pipeline is built once per surface format, the texture and bind group once
-//! per renderer (screen size), never per frame. Depends on wgpu and tiledlight-gpu.
+//! per renderer (screen size), never per frame. Depends on wgpu, anyhow and tiledlight-gpu
+//! only: `cargo xtask validate-shaders` compiles this file too (`#[path]`), for the bindings
+//! check of [`BLIT_BINDINGS`], so it must not use the rest of the app.
 
 use anyhow::Result;
+use tiledlight_gpu::bindings::{create_layout, Binding, PassBindings, PassGroup};
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::LDR_FORMAT;
-use tiledlight_gpu::util::{pipeline_layout, shader_module, texture_entry};
+use tiledlight_gpu::util::{pipeline_layout, shader_module};
+
+/// The bindings of the blit (`shaders/viewer_blit.wgsl`): group 0, the display image (0)
+/// and its sampler (1).
+pub const BLIT_BINDINGS: PassBindings = PassBindings {
+    entry: "viewer_blit.wgsl",
+    source: file!(),
+    groups: &[PassGroup::new(
+        0,
+        &[
+            Binding::texture(0, wgpu::ShaderStages::FRAGMENT, wgpu::TextureSampleType::Float { filterable: true }),
+            Binding::sampler(1, wgpu::ShaderStages::FRAGMENT, wgpu::SamplerBindingType::Filtering),
+        ],
+    )],
+};
 
 /// The blit pipeline for one surface format.
 pub struct Blit {
@@ -25,19 +42,8 @@ pub struct DisplayImage {
 impl Blit {
     /// Builds the pipeline writing `format`.
     pub fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> Result<Self> {
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("viewer.blit.layout"),
-            entries: &[
-                texture_entry(0, wgpu::ShaderStages::FRAGMENT, wgpu::TextureSampleType::Float { filterable: true }),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                    count: None,
-                },
-            ],
-        });
-        let module = shader_module(device, "viewer_blit.wgsl", &[])?;
+        let layout = create_layout(device, "viewer.blit.layout", BLIT_BINDINGS.group(0), &[]);
+        let module = shader_module(device, BLIT_BINDINGS.entry, &[])?;
         let pl = pipeline_layout(device, "viewer.blit.pipeline_layout", &[&layout]);
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("viewer.blit"),
