@@ -37,9 +37,6 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid
     if lidx == 0u {
         tile_ranges[t.index] = vec2<f32>(t.near, t.far);
     }
-    write_list(t, 0u, t.index * 2u, lidx);
-    write_list(t, 1u, t.index * 2u + 1u, lidx);
-#else
-    write_list(t, 0u, t.index, lidx);
 #endif
+    write_lists(t, t.index * lists_per_tile(), lidx);
 }

@@ -253,11 +253,11 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid
 #endif
     // cull_tile's barriers also order the reset above before any use.
     let t = cull_tile(wid.xy, lid.xy, lidx);
+    let lists = write_lists(t, t.index * lists_per_tile(), lidx);
+    let near = tile_list(0u, lists[0]);
 #ifdef HALF_Z
-    let near = tile_list(0u, write_list(t, 0u, t.index * 2u, lidx));
-    let far = tile_list(1u, write_list(t, 1u, t.index * 2u + 1u, lidx));
+    let far = tile_list(1u, lists[1]);
 #else
-    let near = tile_list(0u, write_list(t, 0u, t.index, lidx));
     let far = near;
 #endif
     // Lists longer than the workgroup list were written to the grid by every thread.

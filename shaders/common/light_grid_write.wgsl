@@ -4,7 +4,9 @@
 // `light_indices: array<u32>` (read_write).
 //
 // Per list, one thread allocates `count` indices with one atomicAdd on the frame's counter
-// (no fixed per-list region: the buffer is sized from the frame's real number of pairs).
+// (no fixed per-list region: the buffer is sized from the frame's real number of pairs);
+// the GRID_GUARD constant (set by the host when a frame could find 2^32 pairs) keeps the
+// counter from wrapping.
 // A list that fits the workgroup list (count <= CAPACITY) is copied from it; a longer one is
 // culled again, every survivor written straight to the grid, so a tile has no ceiling on its
 // lights. When the buffer is full the list keeps what fits and the header counts the rest.
@@ -29,9 +31,13 @@ struct LightGridRw {
     lists: array<vec2<u32>>,
 }
 
-var<workgroup> wg_list_first: u32;
-var<workgroup> wg_list_stored: u32;
-var<workgroup> wg_spill_count: atomic<u32>;
+// True when lists x lights may reach 2^32 (tiledlight_gpu::light_grid::needs_guard).
+override GRID_GUARD: bool = true;
+
+// Per list (0 near, 1 far): its first index and stored count, and the spill counter.
+var<workgroup> wg_grid_first: array<u32, 2>;
+var<workgroup> wg_grid_stored: array<u32, 2>;
+var<workgroup> wg_spill_count: array<atomic<u32>, 2>;
 
 // Entry `i` of workgroup list `k` (0 near, 1 far).
 fn wg_list_entry(k: u32, i: u32) -> u32 {
@@ -43,55 +49,84 @@ fn wg_list_entry(k: u32, i: u32) -> u32 {
     return wg_list[i];
 }
 
-// Writes workgroup list `k` of the culled tile `t` as grid list `list` and returns its stored
-// part. Every thread must call it from uniform control flow (it has barriers).
-fn write_list(t: TileCull, k: u32, list: u32, lidx: u32) -> LightList {
-    // Spill loops of the previous list may still be counting.
-    workgroupBarrier();
-    if lidx == 0u {
-        let count = atomicLoad(&wg_count[k]);
-        let cap = light_grid.header.capacity;
-        // `first` past the end stores nothing (light_list clips it). Once the buffer is
-        // full nothing more is allocated, so the counter cannot wrap around.
-        var first = cap;
-        var stored = 0u;
-        if count > 0u {
+// Allocates workgroup list `k` as grid list `list` (one thread per list).
+fn allocate_list(k: u32, list: u32) {
+    let count = atomicLoad(&wg_count[k]);
+    let cap = light_grid.header.capacity;
+    // `first` past the end stores nothing (light_list clips it).
+    var first = cap;
+    var stored = 0u;
+    if count > 0u {
+        if GRID_GUARD {
+            // This frame could find 2^32 pairs or more (lists x lights, checked on the
+            // host): once the buffer is full nothing more is allocated, so the counter
+            // cannot wrap around onto stored lists. Costs a second atomic round trip.
             if atomicLoad(&light_grid.header.allocated) < cap {
                 first = atomicAdd(&light_grid.header.allocated, count);
-                stored = min(count, cap - min(first, cap));
             }
-            atomicAdd(&light_grid.header.pairs, count);
-            if stored < count {
-                atomicAdd(&light_grid.header.dropped_pairs, count - stored);
-                atomicAdd(&light_grid.header.dropped_lists, 1u);
-            }
-            if count > CAPACITY {
-                atomicAdd(&light_grid.header.spilled_lists, 1u);
-            }
+        } else {
+            first = atomicAdd(&light_grid.header.allocated, count);
         }
-        light_grid.lists[list] = vec2<u32>(first, count);
-        wg_list_first = first;
-        wg_list_stored = stored;
-        atomicStore(&wg_spill_count, 0u);
+        stored = min(count, cap - min(first, cap));
+        atomicAdd(&light_grid.header.pairs, count);
+        if stored < count {
+            atomicAdd(&light_grid.header.dropped_pairs, count - stored);
+            atomicAdd(&light_grid.header.dropped_lists, 1u);
+        }
+        if count > CAPACITY {
+            atomicAdd(&light_grid.header.spilled_lists, 1u);
+        }
     }
-    let first = workgroupUniformLoad(&wg_list_first);
-    let stored = wg_list_stored;
+    light_grid.lists[list] = vec2<u32>(first, count);
+    wg_grid_first[k] = min(first, cap);
+    wg_grid_stored[k] = stored;
+    atomicStore(&wg_spill_count[k], 0u);
+}
+
+// Writes the stored part of workgroup list `k`: a copy when it fits the workgroup list,
+// else the tile's candidates tested again and every survivor written straight to the grid
+// (the order differs from the first pass; only the set counts).
+fn fill_list(t: TileCull, k: u32, lidx: u32) {
+    let first = wg_grid_first[k];
+    let stored = wg_grid_stored[k];
     if atomicLoad(&wg_count[k]) <= CAPACITY {
         for (var i = lidx; i < stored; i += WG * WG) {
             light_indices[first + i] = wg_list_entry(k, i);
         }
-    } else {
-        // Longer than the workgroup list: test the candidates again and write every
-        // survivor to the grid (the order differs from the first pass; only the set counts).
-        for (var c = lidx; c < t.candidates; c += WG * WG) {
-            let light = tile_candidate(t, c);
-            if tile_hits(t, light)[k] {
-                let slot = atomicAdd(&wg_spill_count, 1u);
-                if slot < stored {
-                    light_indices[first + slot] = light;
-                }
+        return;
+    }
+    for (var c = lidx; c < t.candidates; c += WG * WG) {
+        let light = tile_candidate(t, c);
+        if tile_hits(t, light)[k] {
+            let slot = atomicAdd(&wg_spill_count[k], 1u);
+            if slot < stored {
+                light_indices[first + slot] = light;
             }
         }
     }
-    return LightList(first, stored);
+}
+
+// Writes the culled tile `t`'s lists to the grid (grid lists `list0`, and `list0 + 1` with
+// HALF_Z) and returns their stored parts. Every thread must call it from uniform control
+// flow, after cull_tile (whose last barrier orders the workgroup lists before this).
+// With HALF_Z the two lists are allocated by two threads at once: one atomic round trip
+// of latency per tile, not two.
+fn write_lists(t: TileCull, list0: u32, lidx: u32) -> array<LightList, 2> {
+    if lidx == 0u {
+        allocate_list(0u, list0);
+    }
+#ifdef HALF_Z
+    if lidx == 1u {
+        allocate_list(1u, list0 + 1u);
+    }
+#endif
+    workgroupBarrier();
+    fill_list(t, 0u, lidx);
+#ifdef HALF_Z
+    fill_list(t, 1u, lidx);
+#endif
+    return array<LightList, 2>(
+        LightList(wg_grid_first[0], wg_grid_stored[0]),
+        LightList(wg_grid_first[1], wg_grid_stored[1]),
+    );
 }

@@ -98,6 +98,15 @@ struct TileCull {
     cell_first: u32,
 }
 
+// Lists a tile has: 2 with HALF_Z.
+fn lists_per_tile() -> u32 {
+#ifdef HALF_Z
+    return 2u;
+#else
+    return 1u;
+#endif
+}
+
 // The distance where half-z splits a tile's range (tiledlight_cull::reference::half_z_split).
 fn half_z_split(near: f32, far: f32) -> f32 {
     return 0.5 * (near + far);

@@ -178,8 +178,8 @@ fn deferred_rejects_bad_settings_with_reasons() {
     let e = err_text(new(DeferredSettings { msaa: 4, edge: EdgeTest { distance: f32::NAN, ..d.edge }, ..d }));
     assert!(e.contains("edge distance"), "{e}");
 
-    // 2044 indices x 2 lists x 4 bytes + 28 bytes (depth range, counts, grid writer) is the
-    // most WebGPU's 16 KiB holds: without MSAA it fits a device that has only that; with 4x
+    // 2043 indices x 2 lists x 4 bytes + 40 bytes (depth range, counts, grid writer) is
+    // exactly WebGPU's 16 KiB: without MSAA it fits a device that has only that; with 4x
     // MSAA the 16 px tile's edge queue (8 + 4 x 256 bytes) does not, and the error must say
     // that the queue is why.
     let small = GpuContext::headless(ContextOptions { workgroup_memory_cap: Some(16384), ..Default::default() })
@@ -187,8 +187,8 @@ fn deferred_rejects_bad_settings_with_reasons() {
     assert_eq!(small.device.limits().max_compute_workgroup_storage_size, 16384);
     let small_scene = SceneGpu::new(&small.device, &small.queue, &scene).unwrap();
     let small_lights = LightBuffers::new(&small.device, &scenes::lights(&scene, 16, 4, 1)).unwrap();
-    let full = cull(CullOptions { capacity: 2044, half_z: true, ..Default::default() });
-    DeferredRenderer::new(&small, &small_scene, &small_lights, 64, 64, full).expect("2044 x 2 lists fit 16 KiB");
+    let full = cull(CullOptions { capacity: 2043, half_z: true, ..Default::default() });
+    DeferredRenderer::new(&small, &small_scene, &small_lights, 64, 64, full).expect("2043 x 2 lists fit 16 KiB");
     let e = err_text(DeferredRenderer::new(
         &small,
         &small_scene,
@@ -198,7 +198,7 @@ fn deferred_rejects_bad_settings_with_reasons() {
         DeferredSettings { msaa: 4, ..full },
     ));
     assert!(
-        e.contains("capacity 2044") && e.contains("17412") && e.contains("MSAA edge queue") && e.contains("16384"),
+        e.contains("capacity 2043") && e.contains("17416") && e.contains("MSAA edge queue") && e.contains("16384"),
         "{e}"
     );
 }

@@ -290,7 +290,7 @@ impl DeferredShading {
             entries: &bind,
         });
         let module = shader_module(device, DEFERRED_BINDINGS.entry, &defines)?;
-        let mut constants = options.cull_constants(coarse.as_ref(), drop);
+        let mut constants = options.cull_constants(coarse.as_ref(), drop, (&light_grid, lights.len()));
         if samples > 1 {
             constants.push(("SAMPLES_X", sx as f64));
             constants.push(("EDGE_DISTANCE", edge.distance as f64));

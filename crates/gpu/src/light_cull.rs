@@ -111,11 +111,19 @@ impl CullOptions {
 
     /// The override constants of the culling code: tile and workgroup size, capacity, the
     /// cells' (two-level), the depth samples' and the test hook's.
-    pub fn cull_constants(&self, coarse: Option<&CoarseCulling>, drop: Option<DropLight>) -> Vec<(&'static str, f64)> {
+    /// `grid` is the light grid the kernel writes (its lists and the light count decide
+    /// whether its allocation counter needs the wrap guard: [`LightGrid::needs_guard`]).
+    pub fn cull_constants(
+        &self,
+        coarse: Option<&CoarseCulling>,
+        drop: Option<DropLight>,
+        grid: (&LightGrid, u32),
+    ) -> Vec<(&'static str, f64)> {
         let mut constants = vec![
             ("TILE_SIZE", self.tile_size as f64),
             ("WG", self.tile_size.min(16) as f64),
             ("CAPACITY", self.capacity as f64),
+            ("GRID_GUARD", f64::from(u8::from(grid.0.needs_guard(grid.1)))),
         ];
         if let Some(c) = coarse {
             constants.extend(c.constants());
@@ -215,9 +223,10 @@ impl DropLight {
 }
 
 /// Workgroup memory of the culling kernel besides its lists (bytes): the depth range, the
-/// two list counts and the grid writer's first, stored and spill count
-/// (`shaders/common/depth_range.wgsl`, `common/tile_cull.wgsl`, `common/light_grid_write.wgsl`).
-pub const CULL_WORKGROUP_BYTES: u32 = 28;
+/// two list counts and, per list, the grid writer's first index, stored count and spill
+/// counter (`shaders/common/depth_range.wgsl`, `common/tile_cull.wgsl`,
+/// `common/light_grid_write.wgsl`).
+pub const CULL_WORKGROUP_BYTES: u32 = 40;
 
 /// The first level of two-level culling: per 64x64-pixel cell, the lights that may touch
 /// it (`shaders/cull_coarse.wgsl`). Shared by Forward+'s culling pass and Tiled Deferred.
@@ -425,7 +434,7 @@ impl LightCulling {
             entries: &bind,
         });
         let module = shader_module(device, CULL_BINDINGS.entry, &defines)?;
-        let constants = options.cull_constants(coarse.as_ref(), drop);
+        let constants = options.cull_constants(coarse.as_ref(), drop, (&light_grid, lights.len()));
         let pipeline =
             compute_pipeline(device, "cull", &[&views.layout, &layout, light_grid.layout()], &module, &constants);
         Ok(Self { pipeline, bind_group, coarse, grid: light_grid, options, memory })
@@ -477,11 +486,11 @@ mod tests {
         assert_eq!(CullOptions::capacity_for(0, false, r, &limits), 1);
         assert_eq!(CullOptions::capacity_for(1024, false, r, &limits), 1024);
         assert_eq!(CullOptions::capacity_for(100_000, false, r, &limits), 2048);
-        // (16384 - 28) / 8.
-        assert_eq!(CullOptions::capacity_for(100_000, true, r, &limits), 2044);
+        // (16384 - 40) / 8.
+        assert_eq!(CullOptions::capacity_for(100_000, true, r, &limits), 2043);
         let small = wgpu::Limits { max_compute_workgroup_storage_size: 4096, ..limits };
-        assert_eq!(CullOptions::capacity_for(100_000, true, r, &small), 508);
+        assert_eq!(CullOptions::capacity_for(100_000, true, r, &small), 507);
         // A 16 px tile's MSAA edge queue (1 KiB + 8 bytes) comes out of the lists.
-        assert_eq!(CullOptions::capacity_for(100_000, true, r + 8 + 1024, &limits), 1915);
+        assert_eq!(CullOptions::capacity_for(100_000, true, r + 8 + 1024, &limits), 1914);
     }
 }

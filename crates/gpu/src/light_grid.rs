@@ -245,6 +245,13 @@ impl LightGrid {
         })
     }
 
+    /// True when a frame of `num_lights` lights could find 2^32 (list, light) pairs or more:
+    /// the kernels then check the counter before adding to it, so it cannot wrap around
+    /// onto stored lists (a second atomic round trip per list, so only when needed).
+    pub fn needs_guard(&self, num_lights: u32) -> bool {
+        self.list_count() as u64 * num_lights as u64 >= 1 << 32
+    }
+
     /// Number of lists.
     pub fn list_count(&self) -> usize {
         self.tiles.tile_count() * self.lists_per_tile as usize
