@@ -49,38 +49,56 @@ fn wg_list_entry(k: u32, i: u32) -> u32 {
     return wg_list[i];
 }
 
-// Allocates workgroup list `k` as grid list `list` (one thread per list).
-fn allocate_list(k: u32, list: u32) {
-    let count = atomicLoad(&wg_count[k]);
+// Records workgroup list `k` (`count` lights) as grid list `list` at `first` (past the end
+// of the buffer: nothing stored; light_list clips it).
+fn place_list(k: u32, list: u32, first: u32, count: u32) {
     let cap = light_grid.header.capacity;
-    // `first` past the end stores nothing (light_list clips it).
-    var first = cap;
-    var stored = 0u;
-    if count > 0u {
-        if GRID_GUARD {
-            // This frame could find 2^32 pairs or more (lists x lights, checked on the
-            // host): once the buffer is full nothing more is allocated, so the counter
-            // cannot wrap around onto stored lists. Costs a second atomic round trip.
-            if atomicLoad(&light_grid.header.allocated) < cap {
-                first = atomicAdd(&light_grid.header.allocated, count);
-            }
-        } else {
-            first = atomicAdd(&light_grid.header.allocated, count);
-        }
-        stored = min(count, cap - min(first, cap));
-        atomicAdd(&light_grid.header.pairs, count);
-        if stored < count {
-            atomicAdd(&light_grid.header.dropped_pairs, count - stored);
-            atomicAdd(&light_grid.header.dropped_lists, 1u);
-        }
-        if count > CAPACITY {
-            atomicAdd(&light_grid.header.spilled_lists, 1u);
-        }
+    let stored = min(count, cap - min(first, cap));
+    if stored < count {
+        atomicAdd(&light_grid.header.dropped_pairs, count - stored);
+        atomicAdd(&light_grid.header.dropped_lists, 1u);
+    }
+    if count > CAPACITY {
+        atomicAdd(&light_grid.header.spilled_lists, 1u);
     }
     light_grid.lists[list] = vec2<u32>(first, count);
     wg_grid_first[k] = min(first, cap);
     wg_grid_stored[k] = stored;
     atomicStore(&wg_spill_count[k], 0u);
+}
+
+// Allocates the tile's lists (both with HALF_Z, one after the other) with one atomic add on
+// the frame's counter: one thread of the workgroup calls it. Every workgroup adds to the
+// same address, so the adds are few: one a tile (the frame's pair count is then the
+// counter; with GRID_GUARD, a separate count).
+fn allocate_lists(list0: u32) {
+    let c0 = atomicLoad(&wg_count[0]);
+    var c1 = 0u;
+#ifdef HALF_Z
+    c1 = atomicLoad(&wg_count[1]);
+#endif
+    let total = c0 + c1;
+    let cap = light_grid.header.capacity;
+    var base = cap;
+    if total > 0u {
+        if GRID_GUARD {
+            // This frame could find 2^32 pairs or more (lists x lights, checked on the
+            // host): once the buffer is full nothing more is allocated, so the counter
+            // cannot wrap around onto stored lists. Costs a second atomic round trip.
+            atomicAdd(&light_grid.header.pairs, total);
+            if atomicLoad(&light_grid.header.allocated) < cap {
+                base = atomicAdd(&light_grid.header.allocated, total);
+            }
+        } else {
+            base = atomicAdd(&light_grid.header.allocated, total);
+        }
+    }
+    place_list(0u, list0, base, c0);
+#ifdef HALF_Z
+    // base + c0 cannot wrap: without the guard a frame's pairs stay below 2^32, with it
+    // base is below the capacity (at most 2^30) plus the adds in flight.
+    place_list(1u, list0 + 1u, select(base + c0, cap, base >= cap), c1);
+#endif
 }
 
 // Writes the stored part of workgroup list `k`: a copy when it fits the workgroup list,
@@ -109,17 +127,10 @@ fn fill_list(t: TileCull, k: u32, lidx: u32) {
 // Writes the culled tile `t`'s lists to the grid (grid lists `list0`, and `list0 + 1` with
 // HALF_Z) and returns their stored parts. Every thread must call it from uniform control
 // flow, after cull_tile (whose last barrier orders the workgroup lists before this).
-// With HALF_Z the two lists are allocated by two threads at once: one atomic round trip
-// of latency per tile, not two.
 fn write_lists(t: TileCull, list0: u32, lidx: u32) -> array<LightList, 2> {
     if lidx == 0u {
-        allocate_list(0u, list0);
+        allocate_lists(list0);
     }
-#ifdef HALF_Z
-    if lidx == 1u {
-        allocate_list(1u, list0 + 1u);
-    }
-#endif
     workgroupBarrier();
     fill_list(t, 0u, lidx);
 #ifdef HALF_Z

@@ -40,7 +40,9 @@ use crate::util::buffer_init;
 pub struct LightGridHeader {
     /// Indices allocated this frame (may exceed `capacity`: the excess was not stored).
     pub allocated: u32,
-    /// (list, light) pairs found this frame.
+    /// (list, light) pairs found this frame. The kernels count them apart only when the
+    /// allocation counter is guarded against wrapping (`needs_guard`); otherwise the
+    /// counter is the pair count. [`LightGrid::status`] and the other readers fill it in.
     pub pairs: u32,
     /// Pairs that did not fit in the index buffer.
     pub dropped_pairs: u32,
@@ -80,6 +82,13 @@ pub struct GridStatus {
 }
 
 impl GridStatus {
+    /// The status of a header as the GPU left it, with `pairs` filled in from the
+    /// allocation counter when the kernel did not count them apart (no wrap guard).
+    pub fn from_gpu(mut header: LightGridHeader) -> Self {
+        header.pairs = header.pairs.max(header.allocated);
+        Self { header }
+    }
+
     /// True when every pair found was stored.
     pub fn complete(&self) -> bool {
         self.header.dropped_pairs == 0
@@ -324,7 +333,7 @@ impl LightGrid {
                     .map(|bytes| *bytemuck::from_bytes::<LightGridHeader>(&bytes[..HEADER_BYTES as usize]));
                 self.readback.unmap();
                 self.readback_state.store(IDLE, Ordering::Release);
-                header.map(|header| GridStatus { header })
+                header.map(GridStatus::from_gpu)
             }
             _ => None,
         }
@@ -333,7 +342,7 @@ impl LightGrid {
     /// The header of the last frame (stalls the GPU: tests, single renders).
     pub fn status(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<GridStatus, GpuError> {
         let words: Vec<u32> = read_buffer_range(device, queue, &self.grid, 0, HEADER_BYTES)?;
-        Ok(GridStatus { header: *bytemuck::from_bytes(bytemuck::cast_slice(&words)) })
+        Ok(GridStatus::from_gpu(*bytemuck::from_bytes(bytemuck::cast_slice(&words))))
     }
 
     /// The index count to grow to after a frame that needed `pairs`, or None when the grid
@@ -362,7 +371,7 @@ impl LightGrid {
         let grid: Vec<u32> = read_buffer(device, queue, &self.grid)?;
         let indices: Vec<u32> = read_buffer(device, queue, &self.indices)?;
         let words = (HEADER_BYTES / 4) as usize;
-        let header: LightGridHeader = *bytemuck::from_bytes(bytemuck::cast_slice(&grid[..words]));
+        let header = GridStatus::from_gpu(*bytemuck::from_bytes(bytemuck::cast_slice(&grid[..words]))).header;
         let n = self.list_count();
         let entries = &grid[words..];
         if entries.len() < 2 * n {
@@ -384,7 +393,7 @@ impl LightGrid {
             lists,
             overflowing: header.dropped_lists,
             pairs: header.pairs,
-            status: GridStatus { header },
+            status: GridStatus::from_gpu(header),
         })
     }
 
