@@ -85,12 +85,10 @@ fn extra_tests(v: TileVolume, light: u32, c: vec3<f32>, r: f32) -> bool {
 // the workgroup list, writing straight to the light grid).
 struct TileCull {
     index: u32,
+    tile: vec2<u32>,
     // View distances of the nearest and farthest surface (0, 0 for an all-sky tile).
     near: f32,
     far: f32,
-    // The near (or only) list's volume, and the far list's with HALF_Z.
-    v0: TileVolume,
-    v1: TileVolume,
     // Lights to test: every light, or (COARSE, cell not overflowed) the cell's list from
     // cell_lists[cell_first].
     candidates: u32,
@@ -122,8 +120,30 @@ fn tile_candidate(t: TileCull, k: u32) -> u32 {
     return k;
 }
 
+// The near (or only) list's volume, and the far list's with HALF_Z. Recomputed where it is
+// needed (the same arithmetic gives the same planes) rather than kept in TileCull: a
+// second pass over a long list is rare, and registers held across the grid writing would
+// cost every tile.
+struct TileVolumes {
+    v0: TileVolume,
+    v1: TileVolume,
+}
+
+fn tile_volumes(t: TileCull) -> TileVolumes {
+    var v: TileVolumes;
+    let ndc = tile_ndc(t.tile, TILE_SIZE);
+#ifdef HALF_Z
+    let mid = half_z_split(t.near, t.far);
+    v.v0 = tile_volume(ndc, t.near, mid);
+    v.v1 = tile_volume(ndc, mid, t.far);
+#else
+    v.v0 = tile_volume(ndc, t.near, t.far);
+#endif
+    return v;
+}
+
 // Whether `light` belongs to the tile's near (x) and far (y, HALF_Z only) list.
-fn tile_hits(t: TileCull, light: u32) -> vec2<bool> {
+fn tile_hits(t: TileCull, vols: TileVolumes, light: u32) -> vec2<bool> {
     let cl = cull_lights[light];
     let c = (view.world_to_view * vec4<f32>(cl.center, 1.0)).xyz;
     let r = cl.radius;
@@ -136,9 +156,9 @@ fn tile_hits(t: TileCull, light: u32) -> vec2<bool> {
     }
 #endif
     var hit = vec2<bool>(false);
-    hit.x = sphere_vs_frustum(t.v0, c, r) && extra_tests(t.v0, light, c, r);
+    hit.x = sphere_vs_frustum(vols.v0, c, r) && extra_tests(vols.v0, light, c, r);
 #ifdef HALF_Z
-    hit.y = sphere_vs_frustum(t.v1, c, r) && extra_tests(t.v1, light, c, r);
+    hit.y = sphere_vs_frustum(vols.v1, c, r) && extra_tests(vols.v1, light, c, r);
 #endif
     return hit;
 }
@@ -155,6 +175,7 @@ fn cull_tile(tile: vec2<u32>, lid: vec2<u32>, lidx: u32) -> TileCull {
 
     var t: TileCull;
     t.index = tile.y * ((view.screen.x + TILE_SIZE - 1u) / TILE_SIZE) + tile.x;
+    t.tile = tile;
     let min_depth = range.x;
     let max_depth = range.y;
     if max_depth > 0.0 {
@@ -163,14 +184,7 @@ fn cull_tile(tile: vec2<u32>, lid: vec2<u32>, lidx: u32) -> TileCull {
         let far = view_distance(min_depth);
         t.near = near;
         t.far = far;
-        let ndc = tile_ndc(tile, TILE_SIZE);
-#ifdef HALF_Z
-        let mid = half_z_split(near, far);
-        t.v0 = tile_volume(ndc, near, mid);
-        t.v1 = tile_volume(ndc, mid, far);
-#else
-        t.v0 = tile_volume(ndc, near, far);
-#endif
+        let vols = tile_volumes(t);
         t.candidates = lighting.num_lights;
 #ifdef COARSE
         let cells = (view.screen + CELL - 1u) / CELL;
@@ -184,7 +198,7 @@ fn cull_tile(tile: vec2<u32>, lid: vec2<u32>, lidx: u32) -> TileCull {
 #endif
         for (var k = lidx; k < t.candidates; k += WG * WG) {
             let light = tile_candidate(t, k);
-            let hit = tile_hits(t, light);
+            let hit = tile_hits(t, vols, light);
             if hit.x {
                 append(0u, light);
             }

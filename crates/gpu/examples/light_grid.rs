@@ -188,7 +188,7 @@ fn main() -> Result<()> {
         pipelines.draw_shaded(&mut encoder, &views, &shading_group, &gpu_mesh, &depth_view, &color_view);
         queue.submit([encoder.finish()]);
         let status = culling.grid.status(device, queue)?;
-        match culling.grid.growth(status.header.pairs) {
+        match culling.grid.growth(status.needed()) {
             Some(indices) if !status.complete() && attempts == 1 => {
                 println!("grid too small ({status}): growing to {indices} indices and drawing again");
                 culling.grid.grow(device, queue, indices);

@@ -53,7 +53,7 @@ pub trait Diagnostics: Renderer {
             ctx.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Readback(e.to_string()))?;
             let Some(grid) = self.light_grid() else { break };
             let status = grid.status(&ctx.device, &ctx.queue)?;
-            match grid.growth(status.header.pairs) {
+            match grid.growth(status.needed()) {
                 Some(capacity) if !status.complete() => self.grow_light_grid(ctx, capacity),
                 _ => break,
             }

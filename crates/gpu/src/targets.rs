@@ -197,7 +197,7 @@ pub trait Renderer {
     /// grid was full, grows the grid for the next frame. Returns that header, if any.
     fn prepare(&mut self, ctx: &GpuContext) -> Option<GridStatus> {
         let status = self.light_grid()?.poll_status()?;
-        if let Some(capacity) = self.light_grid().and_then(|g| g.growth(status.header.pairs)) {
+        if let Some(capacity) = self.light_grid().and_then(|g| g.growth(status.needed())) {
             self.grow_light_grid(ctx, capacity);
         }
         Some(status)
