@@ -32,16 +32,11 @@
 
 @compute @workgroup_size(WG, WG)
 fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>, @builtin(local_invocation_index) lidx: u32) {
-    let list0 = (wid.y * ((view.screen.x + TILE_SIZE - 1u) / TILE_SIZE) + wid.x) * lists_per_tile();
-    var reserved = vec2<u32>(0u, 0u);
-    if lidx == 0u {
-        reserved = reserve_lists(list0);
-    }
     let t = cull_tile(wid.xy, lid.xy, lidx);
 #ifdef HALF_Z
     if lidx == 0u {
         tile_ranges[t.index] = vec2<f32>(t.near, t.far);
     }
 #endif
-    write_lists(t, list0, lidx, reserved);
+    write_lists(t, t.index * lists_per_tile(), lidx);
 }

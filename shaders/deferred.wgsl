@@ -251,14 +251,9 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid
         atomicStore(&wg_edge_count, 0u);
     }
 #endif
-    let list0 = (wid.y * ((view.screen.x + TILE_SIZE - 1u) / TILE_SIZE) + wid.x) * lists_per_tile();
-    var reserved = vec2<u32>(0u, 0u);
-    if lidx == 0u {
-        reserved = reserve_lists(list0);
-    }
     // cull_tile's barriers also order the reset above before any use.
     let t = cull_tile(wid.xy, lid.xy, lidx);
-    let lists = write_lists(t, list0, lidx, reserved);
+    let lists = write_lists(t, t.index * lists_per_tile(), lidx);
     let near = tile_list(0u, lists[0]);
 #ifdef HALF_Z
     let far = tile_list(1u, lists[1]);

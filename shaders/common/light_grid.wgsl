@@ -19,10 +19,10 @@
 // validate-shaders` checks it).
 
 struct LightGridHeader {
-    // Indices allocated this frame: the pairs, plus reservations a tile's lists outgrew
-    // (may pass `capacity`: the rest were not stored).
+    // Indices allocated this frame (may pass `capacity`: the rest were not stored).
     allocated: u32,
-    // (list, light) pairs found this frame.
+    // (list, light) pairs found this frame, counted only with GRID_GUARD (without it the
+    // allocation counter is the pair count; the host reads the larger of the two).
     pairs: u32,
     // Pairs and lists that did not fit in `light_indices`.
     dropped_pairs: u32,

@@ -67,27 +67,11 @@ fn place_list(k: u32, list: u32, first: u32, count: u32) {
     atomicStore(&wg_spill_count[k], 0u);
 }
 
-// Reserves, when the workgroup starts, as many indices as the tile's lists held last frame
-// (their entries are still in the grid): one thread calls it and keeps the result in a
-// register, so the atomic add's round trip overlaps the depth reduction and the culling
-// instead of stalling the workgroup at the end. Returns (base, size); size 0 when nothing
-// was reserved (first frame, empty tile, or the wrap guard is on).
-fn reserve_lists(list0: u32) -> vec2<u32> {
-    var prev = light_grid.lists[list0].y;
-#ifdef HALF_Z
-    prev += light_grid.lists[list0 + 1u].y;
-#endif
-    if GRID_GUARD || prev == 0u {
-        return vec2<u32>(0u, 0u);
-    }
-    return vec2<u32>(atomicAdd(&light_grid.header.allocated, prev), prev);
-}
-
-// Allocates the tile's lists (both with HALF_Z, one after the other) in the reservation
-// when they fit it (a static camera: always), else with one atomic add on the frame's
-// counter; one thread of the workgroup calls it. A reservation the lists do not fit is
-// left unused this frame (the counter then exceeds the pairs: growth is sized from it).
-fn allocate_lists(list0: u32, reserved: vec2<u32>) {
+// Allocates the tile's lists (both with HALF_Z, one after the other) with one atomic add on
+// the frame's counter: one thread of the workgroup calls it. Every workgroup adds to the
+// same address, so the adds are few: one a tile (the frame's pair count is then the
+// counter; with GRID_GUARD, a separate count).
+fn allocate_lists(list0: u32) {
     let c0 = atomicLoad(&wg_count[0]);
     var c1 = 0u;
 #ifdef HALF_Z
@@ -97,13 +81,11 @@ fn allocate_lists(list0: u32, reserved: vec2<u32>) {
     let cap = light_grid.header.capacity;
     var base = cap;
     if total > 0u {
-        atomicAdd(&light_grid.header.pairs, total);
-        if total <= reserved.y {
-            base = reserved.x;
-        } else if GRID_GUARD {
+        if GRID_GUARD {
             // This frame could find 2^32 pairs or more (lists x lights, checked on the
             // host): once the buffer is full nothing more is allocated, so the counter
             // cannot wrap around onto stored lists. Costs a second atomic round trip.
+            atomicAdd(&light_grid.header.pairs, total);
             if atomicLoad(&light_grid.header.allocated) < cap {
                 base = atomicAdd(&light_grid.header.allocated, total);
             }
@@ -113,8 +95,8 @@ fn allocate_lists(list0: u32, reserved: vec2<u32>) {
     }
     place_list(0u, list0, base, c0);
 #ifdef HALF_Z
-    // base + c0 cannot wrap: without the guard a frame's allocations stay below 2^32, with
-    // it base is below the capacity (at most 2^30) plus the adds in flight.
+    // base + c0 cannot wrap: without the guard a frame's pairs stay below 2^32, with it
+    // base is below the capacity (at most 2^30) plus the adds in flight.
     place_list(1u, list0 + 1u, select(base + c0, cap, base >= cap), c1);
 #endif
 }
@@ -144,11 +126,11 @@ fn fill_list(t: TileCull, k: u32, lidx: u32) {
 }
 
 // Writes the culled tile `t`'s lists to the grid (grid lists `list0`, and `list0 + 1` with
-// HALF_Z) and returns their stored parts; `reserved` is thread 0's reserve_lists. Every thread must call it from uniform control
+// HALF_Z) and returns their stored parts. Every thread must call it from uniform control
 // flow, after cull_tile (whose last barrier orders the workgroup lists before this).
-fn write_lists(t: TileCull, list0: u32, lidx: u32, reserved: vec2<u32>) -> array<LightList, 2> {
+fn write_lists(t: TileCull, list0: u32, lidx: u32) -> array<LightList, 2> {
     if lidx == 0u {
-        allocate_lists(list0, reserved);
+        allocate_lists(list0);
     }
     workgroupBarrier();
     fill_list(t, 0u, lidx);

@@ -268,12 +268,11 @@ fn coarse_cell_overflow_falls_back_to_every_light() {
     assert!(cells.iter().any(Option::is_none), "no cell overflowed: the fallback path went untested");
 }
 
-/// One renderer, several frames, the camera moving between them: each workgroup reserves
-/// its tile's last-frame count when it starts (`reserve_lists`), so lists that shrink
-/// leave part of a reservation unused and lists that grow allocate again. Every frame's
-/// lists must still equal the CPU culler's, complete, with the automatic grid.
+/// One renderer, several frames, the camera moving between them (lists of another length
+/// each frame, the grid's counters cleared between frames): every frame's lists must equal
+/// the CPU culler's, complete, with the automatic grid.
 #[test]
-fn reservations_follow_a_moving_camera() {
+fn lists_follow_a_moving_camera() {
     let ctx = gpu();
     let scene = scenes::mixed_scene();
     let lights = scenes::lights(&scene, 600, 0, 7);
@@ -295,7 +294,6 @@ fn reservations_follow_a_moving_camera() {
         )
         .unwrap();
         let far = scenes::mixed_camera(w, h);
-        let mut unused = 0u64;
         for (i, camera) in [&far, &far, &near, &far, &near].into_iter().enumerate() {
             renderer.render_once(ctx, &mut timer, &scene_gpu, camera).unwrap();
             let depth = renderer.read_depth(ctx).unwrap();
@@ -305,9 +303,6 @@ fn reservations_follow_a_moving_camera() {
             assert_lists_match(&label, &frame, &gpu_lists, &options.to_config(false));
             let head = gpu_lists.status.header;
             assert_eq!(head.dropped_pairs, 0, "{label}: {}", gpu_lists.status);
-            unused += u64::from(head.allocated - head.pairs);
         }
-        // The camera moved: some reservation went unused (else the second path went untested).
-        assert!(unused > 0, "no reservation was left unused: the moving camera tested nothing");
     }
 }

@@ -38,11 +38,12 @@ use crate::util::buffer_init;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
 pub struct LightGridHeader {
-    /// Indices allocated this frame: the pairs plus the reservations (last frame's counts,
-    /// made when a workgroup starts) that a tile's lists outgrew and left unused; may
-    /// exceed `capacity` (the excess was not stored).
+    /// Indices allocated this frame (may exceed `capacity`: the excess was not stored).
     pub allocated: u32,
-    /// (list, light) pairs found this frame.
+    /// (list, light) pairs found this frame. The kernels count them apart only when the
+    /// allocation counter is guarded against wrapping (`needs_guard`); otherwise the
+    /// counter is the pair count (one same-address atomic a tile instead of two).
+    /// [`GridStatus::from_gpu`] fills it in.
     pub pairs: u32,
     /// Pairs that did not fit in the index buffer.
     pub dropped_pairs: u32,
@@ -82,14 +83,16 @@ pub struct GridStatus {
 }
 
 impl GridStatus {
-    /// The status of a header as the GPU left it.
-    pub fn from_gpu(header: LightGridHeader) -> Self {
+    /// The status of a header as the GPU left it, with `pairs` filled in from the
+    /// allocation counter when the kernel did not count them apart (no wrap guard).
+    pub fn from_gpu(mut header: LightGridHeader) -> Self {
+        header.pairs = header.pairs.max(header.allocated);
         Self { header }
     }
 
-    /// Indices the frame needed: its pairs, or more when reservations went unused.
+    /// Indices the frame needed: its pairs.
     pub fn needed(&self) -> u32 {
-        self.header.pairs.max(self.header.allocated)
+        self.header.pairs
     }
 
     /// True when every pair found was stored.
@@ -261,8 +264,7 @@ impl LightGrid {
     /// the kernels then check the counter before adding to it, so it cannot wrap around
     /// onto stored lists (a second atomic round trip per list, so only when needed).
     pub fn needs_guard(&self, num_lights: u32) -> bool {
-        // A frame allocates its pairs plus at most last frame's counts as reservations.
-        2 * self.list_count() as u64 * num_lights as u64 >= 1 << 32
+        self.list_count() as u64 * num_lights as u64 >= 1 << 32
     }
 
     /// Number of lists.
