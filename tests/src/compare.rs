@@ -34,12 +34,6 @@ pub struct Frame {
 /// component below 1, so at most sqrt(3) 2^-12 = 4.2e-4; 2^-11 with margin).
 pub const F16_NORMAL_ERROR: f32 = 1.0 / 2048.0;
 
-/// How far Tiled Deferred's shading point (rebuilt from the f32 depth and the inverse
-/// projection) may lie from the forward passes' (the rasterizer's interpolated world
-/// position), relative to the view distance: a few f32 ulps of the depth and of the
-/// unprojection, 4e-6 with margin.
-pub const DEPTH_POSITION_ERROR: f32 = 4e-6;
-
 impl Frame {
     /// Adds, per pixel, what Tiled Deferred's f16 normal may legitimately change: each
     /// light's diffuse term is `radiance x attenuation x albedo / pi x n.l`, and the rounded
@@ -50,14 +44,6 @@ impl Frame {
     /// CPU BRDF fed that pixel's G-buffer normal gives the deferred value to 1e-4. A light
     /// missing from a pixel is far outside this allowance (it is a light's whole
     /// contribution, the allowance 5e-4 / n.l of it).
-    ///
-    /// It also adds what the rebuilt position may change: a light at distance `d` from the
-    /// surface point varies as `1/d^2` times `n.l`, so a point moved by `dp`
-    /// ([`DEPTH_POSITION_ERROR`] x view distance) changes it by up to about `3 dp / d` of
-    /// itself; bounded by the pixel's brightest channel times `3 dp / d` of its nearest
-    /// light. This matters only for a light within millimetres of a surface (measured on
-    /// the H200 with 65,536 random lights: a pixel of 478 lit mostly by one light moved
-    /// 9%); elsewhere it is far below the relative limit.
     pub fn allow_gbuffer_normals(mut self, depth: &[f32], w: u32, camera: &Camera, lights: &PackedLights) -> Self {
         let h = (self.hdr.len() / w as usize) as u32;
         let inv_view = camera.view().inverse();
@@ -66,7 +52,6 @@ impl Frame {
                 let (x, y) = (i as u32 % w, i as u32 / w);
                 let Some(pv) = pixel_view_position(camera, w, h, x, y, depth[i]) else { return 0.0 };
                 let p = (inv_view * pv.extend(1.0)).truncate();
-                let mut nearest = f32::INFINITY;
                 let sum: f32 = lights
                     .shading
                     .iter()
@@ -75,14 +60,10 @@ impl Frame {
                         if d2 >= l.radius * l.radius {
                             return 0.0;
                         }
-                        nearest = nearest.min(d2.sqrt());
                         Vec3::from(l.radiance).max_element() * windowed_attenuation(d2, l.radius)
                     })
                     .sum();
-                let dp = DEPTH_POSITION_ERROR * pv.length();
-                let brightest = self.hdr[i][0].max(self.hdr[i][1]).max(self.hdr[i][2]);
-                let position = brightest * (3.0 * dp / nearest).min(1.0);
-                sum / std::f32::consts::PI * F16_NORMAL_ERROR + position
+                sum / std::f32::consts::PI * F16_NORMAL_ERROR
             })
             .collect();
         self
