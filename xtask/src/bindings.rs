@@ -26,7 +26,7 @@ mod blit;
 
 /// Every pass declaration of the workspace.
 pub fn declarations() -> Vec<PassBindings> {
-    let mut v = tiledlight_gpu::bindings::passes();
+    let mut v = tiledlight_gpu::binding_declarations();
     v.extend([
         tiledlight_forward::shading::FORWARD_BINDINGS,
         tiledlight_deferred::gbuffer::GBUFFER_BINDINGS,

@@ -139,6 +139,7 @@ impl DeferredRenderer {
                 settings.cull,
                 settings.edge,
                 settings.test_drop_light,
+                features,
                 &mut memory,
             )?;
             let heatmap = HeatmapPass::new(device, &shading.light_grid.grid, settings.heatmap)?;

@@ -16,6 +16,7 @@
 
 use tiledlight_cull::TileGrid;
 use tiledlight_gpu::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
+use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_cull::{CoarseCulling, CullOptions, DropLight, CULL_WORKGROUP_BYTES, DEPTH_BINDING};
 use tiledlight_gpu::light_grid::{compute_bindings, GpuTileLists, LightGrid};
 use tiledlight_gpu::lights_gpu::LightBuffers;
@@ -193,6 +194,7 @@ impl DeferredShading {
         options: CullOptions,
         edge: EdgeTest,
         drop: Option<DropLight>,
+        features: &Features,
         memory: &mut MemoryReport,
     ) -> Result<Self, GpuError> {
         let samples = gbuffer.samples();
@@ -216,7 +218,7 @@ impl DeferredShading {
             options.grid_pairs,
         )?;
         memory.extend(&light_grid.memory());
-        let mut defines = options.cull_defines(lights.has_spots(), drop);
+        let mut defines = options.cull_defines(features.spot_lights, drop);
         let mut bind = vec![
             view_entry(0, depth),
             wgpu::BindGroupEntry { binding: 1, resource: lights.cull.as_entire_binding() },
@@ -230,8 +232,8 @@ impl DeferredShading {
             defines.push(define);
             bind.push(view_entry(binding, view));
         }
-        if let Some(spots) = &lights.spots {
-            defines.push("SPOT_LIGHTS");
+        defines.extend(features.light_defines());
+        if let Some(spots) = lights.spots.as_ref().filter(|_| features.spot_lights) {
             bind.push(wgpu::BindGroupEntry { binding: 7, resource: spots.as_entire_binding() });
         }
         let coarse = if options.coarse {

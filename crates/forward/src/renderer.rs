@@ -155,7 +155,7 @@ impl ForwardRenderer {
                 });
                 (t, v)
             });
-            let prepass = DepthPrepass::new(device, views, scene, features.msaa)?;
+            let prepass = DepthPrepass::new(device, views, scene, features)?;
             let plan = &common.plan;
             let culling = plan
                 .has(Step::Cull)
@@ -175,15 +175,8 @@ impl ForwardRenderer {
                 Method::ForwardPlus => LightLoop::Tiled { half_z: features.half_z },
                 Method::BruteForce { cutoff } => LightLoop::All { cutoff },
             };
-            let shading = ShadingPass::new(
-                device,
-                views,
-                scene,
-                (lights, lighting),
-                culling.as_ref(),
-                light_loop,
-                features.msaa,
-            )?;
+            let shading =
+                ShadingPass::new(device, views, scene, (lights, lighting), culling.as_ref(), light_loop, features)?;
             let heatmap = match (&culling, plan.has(Step::Heatmap)) {
                 (Some(c), true) => Some(HeatmapPass::new(device, &c.grid.grid, settings.heatmap)?),
                 _ => None,

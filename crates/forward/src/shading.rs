@@ -8,6 +8,7 @@
 
 use tiledlight_gpu::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
 use tiledlight_gpu::depth_prepass::{scene_pipeline, SceneDraw};
+use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_cull::LightCulling;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
@@ -81,13 +82,11 @@ impl ShadingPass {
         (lights, lighting): (&LightBuffers, &wgpu::Buffer),
         culling: Option<&LightCulling>,
         light_loop: LightLoop,
-        samples: u32,
+        features: &Features,
     ) -> Result<Self, GpuError> {
-        let mut defines: Vec<&str> = Vec::new();
-        if lights.spots.is_some() {
-            defines.push("SPOT_LIGHTS");
-        }
-        if scene.textures.is_some() {
+        let samples = features.msaa;
+        let mut defines: Vec<&str> = features.light_defines();
+        if features.textures {
             defines.push("TEXTURES");
         }
         let label = match light_loop {
@@ -122,10 +121,10 @@ impl ShadingPass {
             "shade.pipeline_layout",
             &[&views.layout, &scene.layout, tex_layout, &lights_layout],
         );
-        let pipelines = scene
-            .kinds()
-            .into_iter()
-            .map(|kind| {
+        let pipelines = features
+            .draw_kinds
+            .iter()
+            .map(|&kind| {
                 let mut kind_defines = defines.clone();
                 if kind.masked {
                     kind_defines.push("ALPHA_MASK");

@@ -318,17 +318,6 @@ impl PassBindings {
     }
 }
 
-/// Every pass declaration of this crate, for `cargo xtask validate-shaders`.
-pub fn passes() -> Vec<PassBindings> {
-    vec![
-        crate::depth_prepass::DEPTH_PREPASS_BINDINGS,
-        crate::light_cull::CULL_BINDINGS,
-        crate::light_cull::CULL_COARSE_BINDINGS,
-        crate::tonemap::TONEMAP_BINDINGS,
-        crate::tonemap::HEATMAP_BINDINGS,
-    ]
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -376,7 +365,7 @@ mod tests {
 
     #[test]
     fn every_declared_group_resolves_without_duplicates() {
-        for pass in passes() {
+        for pass in crate::binding_declarations() {
             // Every define any condition names, all set and none set.
             for defines in [&[][..], &["MSAA", "HALF_Z", "COARSE", "SPOT_CONE", "TEXTURES"][..]] {
                 let mut seen: Vec<(u32, u32)> = pass.resolve(defines).iter().map(|(g, e)| (*g, e.binding)).collect();

@@ -5,6 +5,7 @@
 
 use crate::bindings::PassBindings;
 use crate::error::GpuError;
+use crate::features::Features;
 use crate::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS, VERTEX_LAYOUTS};
 use crate::timer::GpuTimer;
 use crate::util::{pipeline_layout, shader_module};
@@ -92,11 +93,14 @@ pub struct DepthPrepass {
 }
 
 impl DepthPrepass {
-    /// Builds a pipeline per draw kind of `scene`, drawing `samples` depth samples a pixel.
-    pub fn new(device: &wgpu::Device, views: &Views, scene: &SceneGpu, samples: u32) -> Result<Self, GpuError> {
+    /// Builds a pipeline per draw kind the features list (`draw_kinds`), drawing
+    /// `features.msaa` depth samples a pixel; masked kinds of a textured scene (`textures`)
+    /// sample `scene`'s material textures.
+    pub fn new(device: &wgpu::Device, views: &Views, scene: &SceneGpu, features: &Features) -> Result<Self, GpuError> {
         let mut pipelines = Vec::new();
-        let textures = scene.textures.as_ref();
-        for kind in scene.kinds() {
+        let samples = features.msaa;
+        let textures = scene.textures.as_ref().filter(|_| features.textures);
+        for &kind in &features.draw_kinds {
             let mut defines = Vec::new();
             let layout = if kind.masked {
                 defines.push("ALPHA_MASK");

@@ -33,6 +33,18 @@ pub use context::{ContextOptions, GpuContext};
 pub use error::GpuError;
 pub use wgpu;
 
+/// Every pass binding declaration of this crate, for `cargo xtask validate-shaders`
+/// (listed here, not in [`bindings`], which the passes import).
+pub fn binding_declarations() -> Vec<bindings::PassBindings> {
+    vec![
+        depth_prepass::DEPTH_PREPASS_BINDINGS,
+        light_cull::CULL_BINDINGS,
+        light_cull::CULL_COARSE_BINDINGS,
+        tonemap::TONEMAP_BINDINGS,
+        tonemap::HEATMAP_BINDINGS,
+    ]
+}
+
 /// Every Rust struct shared with WGSL in this crate, for `cargo xtask validate-shaders`.
 pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
     let mut v = view::layouts();
