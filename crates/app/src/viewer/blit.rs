@@ -4,7 +4,7 @@
 //! format. The pipeline is built once per surface format, the texture and bind group once
 //! per renderer (screen size), never per frame. Depends on wgpu, anyhow and tiledlight-gpu
 //! only: `cargo xtask validate-shaders` compiles this file too (`#[path]`), for the bindings
-//! check of [`BLIT_BINDINGS`], so it must not use the rest of the app.
+//! check of `BLIT_BINDINGS`, so it must not use the rest of the app.
 
 use anyhow::Result;
 use tiledlight_gpu::bindings::{create_layout, Binding, PassBindings, PassGroup};
