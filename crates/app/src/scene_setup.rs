@@ -39,6 +39,17 @@ impl From<MethodArg> for Method {
     }
 }
 
+impl From<Method> for MethodArg {
+    fn from(m: Method) -> Self {
+        match m {
+            Method::ForwardPlus => MethodArg::ForwardPlus,
+            Method::BruteForce => MethodArg::BruteForce,
+            Method::BruteForceNoCutoff => MethodArg::BruteForceNoCutoff,
+            Method::Deferred => MethodArg::Deferred,
+        }
+    }
+}
+
 /// Tessellation of the default scene's grid objects.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum DensityArg {
@@ -56,6 +67,16 @@ impl From<DensityArg> for GridDensity {
             DensityArg::Low => GridDensity::Low,
             DensityArg::Medium => GridDensity::Medium,
             DensityArg::High => GridDensity::High,
+        }
+    }
+}
+
+impl From<GridDensity> for DensityArg {
+    fn from(d: GridDensity) -> Self {
+        match d {
+            GridDensity::Low => DensityArg::Low,
+            GridDensity::Medium => DensityArg::Medium,
+            GridDensity::High => DensityArg::High,
         }
     }
 }
@@ -144,30 +165,32 @@ pub struct SceneArgs {
 }
 
 impl Default for SceneArgs {
-    /// The defaults clap gives (the default scene, 1024 lights, 1920x1080, Forward+).
+    /// The defaults clap gives, which are tiledlight-setup's `Settings::default()` (a unit
+    /// test checks the flags parse to this).
     fn default() -> Self {
+        let d = Settings::default();
         Self {
-            scene: "default".into(),
-            lights: None,
-            spot_lights: None,
-            seed: 1,
-            threshold: DEFAULT_LIGHT_THRESHOLD,
-            grid_objects: 0,
-            density: DensityArg::Medium,
-            width: 1920,
-            height: 1080,
-            method: MethodArg::ForwardPlus,
-            tile_size: 16,
-            capacity: None,
-            aabb: false,
-            half_z: false,
-            spot_cone: false,
-            flat_cull: false,
-            gbuffer_rts: 2,
-            msaa: 1,
-            edge_distance: EdgeTest::default().distance,
-            edge_normal_deg: EdgeTest::default().normal_deg,
-            exposure: 1.0,
+            scene: d.scene.to_string(),
+            lights: d.lights,
+            spot_lights: d.spot_lights,
+            seed: d.seed,
+            threshold: d.threshold,
+            grid_objects: d.grid_objects,
+            density: d.density.into(),
+            width: d.width,
+            height: d.height,
+            method: d.method.into(),
+            tile_size: d.tile_size,
+            capacity: d.capacity,
+            aabb: d.aabb,
+            half_z: d.half_z,
+            spot_cone: d.spot_cone,
+            flat_cull: d.flat_cull,
+            gbuffer_rts: d.gbuffer_rts,
+            msaa: d.msaa,
+            edge_distance: d.edge_distance,
+            edge_normal_deg: d.edge_normal_deg,
+            exposure: d.exposure,
             camera: None,
         }
     }
