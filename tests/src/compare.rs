@@ -9,7 +9,9 @@ use tiledlight_cull::brdf::windowed_attenuation;
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::Camera;
+use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
 use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;
@@ -75,6 +77,20 @@ pub fn render_frame(ctx: &GpuContext, r: &mut dyn Renderer, scene: &SceneGpu, ca
     let mut timer = GpuTimer::new(ctx).expect("timer");
     r.render_once(ctx, &mut timer, scene, camera).expect("render");
     Frame { hdr: r.read_hdr(ctx).expect("read HDR"), ldr: r.read_ldr(ctx).expect("read LDR"), allowance: Vec::new() }
+}
+
+/// Renders the brute-force reference (same BRDF, radius cutoff on) of `scene` lit by
+/// `lights` at `size` through `camera`: what every renderer's image is compared with.
+pub fn reference_frame(
+    ctx: &GpuContext,
+    scene: &SceneGpu,
+    lights: &LightBuffers,
+    (w, h): (u32, u32),
+    camera: &Camera,
+) -> Frame {
+    let settings = ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() };
+    let mut r = ForwardRenderer::new(ctx, scene, lights, w, h, settings).expect("brute-force renderer");
+    render_frame(ctx, &mut r, scene, camera)
 }
 
 /// The limits of one comparison with the reference.

@@ -24,14 +24,14 @@
 //! deferred tests hold the HDR limit at 1,024 lights.
 
 use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
-use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
+use tiledlight_forward::{ForwardRenderer, ForwardSettings};
 use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_tests::compare::{
-    assert_matches_reference_frame, render_frame, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE,
+    assert_matches_reference_frame, reference_frame, render_frame, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE,
 };
 use tiledlight_tests::images::assert_flip;
 use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
@@ -51,16 +51,7 @@ fn sixty_five_thousand_lights_drop_nothing_and_match_brute_force() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let n = if tiledlight_tests::is_lavapipe(ctx) { LIGHTS_LAVAPIPE } else { LIGHTS };
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, n, 0, 65)).unwrap();
-    let mut bf = ForwardRenderer::new(
-        ctx,
-        &sg,
-        &lights,
-        W,
-        H,
-        ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() },
-    )
-    .unwrap();
-    let reference = render_frame(ctx, &mut bf, &sg, &camera);
+    let reference = reference_frame(ctx, &sg, &lights, (W, H), &camera);
     let lit = reference.hdr.iter().filter(|p| p[0] + p[1] + p[2] > 0.1).count();
     assert!(lit * 4 > reference.hdr.len(), "the frame must be lit");
 

@@ -25,7 +25,8 @@ use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_tests::compare::{
-    compare_with_reference, render_frame, Comparison, Frame, Tolerance, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE,
+    compare_with_reference, reference_frame, render_frame, Comparison, Frame, Tolerance, DEFERRED_VS_REFERENCE,
+    FORWARD_VS_REFERENCE,
 };
 use tiledlight_tests::{gpu, scenes};
 
@@ -115,16 +116,7 @@ fn one_dropped_light_fails_the_reference_comparisons() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 1024, 0, 42)).unwrap();
     let cull = CullOptions::default();
-    let mut reference = ForwardRenderer::new(
-        ctx,
-        &sg,
-        &lights,
-        W,
-        H,
-        ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() },
-    )
-    .unwrap();
-    let reference = render_frame(ctx, &mut reference, &sg, &camera);
+    let reference = reference_frame(ctx, &sg, &lights, (W, H), &camera);
 
     let mut plain =
         ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { cull, ..Default::default() }).unwrap();
