@@ -352,9 +352,56 @@ mod tests {
         assert!(matches!(depth(&["MSAA"]), wgpu::BindingType::Texture { multisampled: true, .. }));
     }
 
+    // The entries the passes wrote by hand before the declarations: the declarations must
+    // give exactly these.
+    /// Layout entry for a uniform buffer.
+    fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+        wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        }
+    }
+
+    /// Layout entry for a storage buffer.
+    fn storage_entry(binding: u32, visibility: wgpu::ShaderStages, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+        wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        }
+    }
+
+    /// Layout entry for a sampled 2D float texture.
+    fn texture_entry(
+        binding: u32,
+        visibility: wgpu::ShaderStages,
+        sample_type: wgpu::TextureSampleType,
+    ) -> wgpu::BindGroupLayoutEntry {
+        wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility,
+            ty: wgpu::BindingType::Texture {
+                sample_type,
+                view_dimension: wgpu::TextureViewDimension::D2,
+                multisampled: false,
+            },
+            count: None,
+        }
+    }
+
     #[test]
-    fn entries_match_the_util_helpers() {
-        use crate::util::{storage_entry, texture_entry, uniform_entry};
+    fn entries_match_the_hand_written_ones() {
         let cs = wgpu::ShaderStages::COMPUTE;
         assert_eq!(Binding::storage(1, cs).layout_entry(&[]), Some(storage_entry(1, cs, true)));
         assert_eq!(Binding::storage_rw(2, cs).layout_entry(&[]), Some(storage_entry(2, cs, false)));
