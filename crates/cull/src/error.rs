@@ -12,6 +12,9 @@ pub enum CullError {
     /// A screen or tile size is zero or too large.
     #[error("invalid screen/tile size: {0}")]
     InvalidSize(String),
+    /// A shadow setting is out of range or the casters do not fit the atlas.
+    #[error("invalid shadow settings: {0}")]
+    InvalidShadow(String),
     /// A depth buffer does not match the screen.
     #[error("invalid depth buffer: {0}")]
     InvalidDepth(String),

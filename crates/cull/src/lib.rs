@@ -3,7 +3,8 @@
 //! Cameras (reversed-Z perspective with finite or infinite far, orthographic), lights
 //! and their GPU packing, tile frusta, the bounding tests, windowed attenuation and the
 //! shared BRDF, the CPU reference culler that every GPU kernel is compared with, and the
-//! light grid's packing ([`grid`]).
+//! light grid's packing ([`grid`]), and the shadow atlas's layout, projections and lookup
+//! ([`shadow`]).
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
 
 pub mod error;
@@ -17,6 +18,7 @@ pub mod brdf;
 pub mod camera;
 pub mod grid;
 pub mod reference;
+pub mod shadow;
 pub mod tiles;
 
 pub use camera::{Camera, DepthParams, Projection};

@@ -295,6 +295,10 @@ pub struct PackedLights {
     pub spots: Vec<GpuSpotLight>,
     /// Number of point lights (they come first).
     pub num_point: u32,
+    /// Shadow-casting point lights: the first `shadow_points` lights.
+    pub shadow_points: u32,
+    /// Shadow-casting spot lights: the first `shadow_spots` spots (lights `num_point..`).
+    pub shadow_spots: u32,
 }
 
 impl PackedLights {
@@ -332,6 +336,57 @@ pub fn validate_lights(lights: &[Light]) -> Result<(), CullError> {
 pub fn try_pack_lights(lights: &[Light]) -> Result<PackedLights, CullError> {
     validate_lights(lights)?;
     Ok(pack_lights(&order_points_first(lights)))
+}
+
+/// Validates `lights`, orders them points first with the shadow casters first within each
+/// kind, and packs them: `casters` = (point, spot) casters, the brightest of each kind
+/// (intensity times the largest colour channel; ties keep the input order). Spots wider
+/// than [`crate::shadow::MAX_SHADOW_SPOT_ANGLE`] are never chosen. Asking for more casters
+/// than there are (eligible) lights of a kind is an error naming both numbers.
+pub fn try_pack_lights_with_casters(lights: &[Light], casters: (u32, u32)) -> Result<PackedLights, CullError> {
+    validate_lights(lights)?;
+    let ordered = order_points_first(lights);
+    let num_point = ordered.iter().filter(|l| !l.is_spot()).count();
+    let (points, spots) = ordered.split_at(num_point);
+    let wide = |l: &Light| match l.kind {
+        LightKind::Spot { outer_angle, .. } => outer_angle > crate::shadow::MAX_SHADOW_SPOT_ANGLE,
+        LightKind::Point => false,
+    };
+    let mut out = Vec::with_capacity(ordered.len());
+    for (kind, group, n) in [("point", points, casters.0), ("spot", spots, casters.1)] {
+        let eligible = group.iter().filter(|l| !wide(l)).count();
+        if n as usize > eligible {
+            let narrow = if kind == "spot" && eligible < group.len() {
+                format!(
+                    " ({eligible} of its {} spots are at most {:.0} degrees wide)",
+                    group.len(),
+                    crate::shadow::MAX_SHADOW_SPOT_ANGLE.to_degrees()
+                )
+            } else {
+                String::new()
+            };
+            return Err(CullError::InvalidShadow(format!(
+                "{n} shadow-casting {kind} lights requested; the scene has {}{narrow}",
+                group.len()
+            )));
+        }
+        let brightness = |l: &Light| l.intensity * l.color.max_element();
+        let mut idx: Vec<usize> = (0..group.len()).filter(|&i| !wide(&group[i])).collect();
+        // Brightest first; the sort is stable, so ties keep the input order.
+        idx.sort_by(|&a, &b| brightness(&group[b]).total_cmp(&brightness(&group[a])));
+        idx.truncate(n as usize);
+        idx.sort_unstable();
+        let mut chosen = vec![false; group.len()];
+        for &i in &idx {
+            chosen[i] = true;
+            out.push(group[i]);
+        }
+        out.extend(group.iter().zip(&chosen).filter(|(_, &c)| !c).map(|(l, _)| *l));
+    }
+    let mut packed = pack_lights(&out);
+    packed.shadow_points = casters.0;
+    packed.shadow_spots = casters.1;
+    Ok(packed)
 }
 
 /// Packs lights that are already ordered points-first (see [`order_points_first`]).
