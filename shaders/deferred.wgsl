@@ -15,7 +15,7 @@
 // texture (SAMPLES_X x SAMPLES_Y texels a pixel) and its position to a global edge list,
 // which deferred_resolve.wgsl averages into the HDR image (an indirect dispatch sized here).
 //
-// variants: SPOT_LIGHTS HALF_Z AABB SPOT_CONE COARSE EXTRA_RTS EXTRA_RTS_2 EXTRA_RTS_3 MSAA
+// variants: SPOT_LIGHTS HALF_Z AABB SPOT_CONE COARSE EXTRA_RTS EXTRA_RTS_2 EXTRA_RTS_3 MSAA SHADOWS
 #include "common/tile_cull.wgsl"
 #include "common/light_grid_write.wgsl"
 #include "common/shade.wgsl"
@@ -52,6 +52,12 @@ alias GTexture = texture_2d<f32>;
 @group(1) @binding(8) var<storage, read> cell_lists: array<u32>;
 #endif
 @group(1) @binding(9) var output: texture_storage_2d<rgba16float, write>;
+#ifdef SHADOWS
+// The shadow atlas (common/shadow.wgsl).
+@group(1) @binding(15) var shadow_atlas: texture_depth_2d_array;
+@group(1) @binding(16) var shadow_sampler: sampler_comparison;
+@group(1) @binding(17) var<storage, read> shadow_faces: array<ShadowFace>;
+#endif
 // The light grid (crates/gpu/src/light_grid.rs).
 @group(2) @binding(0) var<storage, read_write> light_grid: LightGridRw;
 @group(2) @binding(1) var<storage, read_write> light_indices: array<u32>;

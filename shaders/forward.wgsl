@@ -3,7 +3,7 @@
 // The depth test is Equal against the pre-pass, so each pixel is shaded once.
 // Alpha-masked draws (ALPHA_MASK) discard as the pre-pass did: depth Equal alone would let a
 // masked-out texel shade a coplanar surface behind it.
-// variants: SPOT_LIGHTS TEXTURES HALF_Z BRUTE_FORCE NO_CUTOFF ALPHA_MASK
+// variants: SPOT_LIGHTS TEXTURES HALF_Z BRUTE_FORCE NO_CUTOFF ALPHA_MASK SHADOWS
 #include "common/scene.wgsl"
 #include "common/shade.wgsl"
 
@@ -11,6 +11,12 @@
 @group(3) @binding(5) var<uniform> lighting: Lighting;
 #ifdef SPOT_LIGHTS
 @group(3) @binding(1) var<storage, read> spot_lights: array<SpotLight>;
+#endif
+#ifdef SHADOWS
+// The shadow atlas (common/shadow.wgsl).
+@group(3) @binding(6) var shadow_atlas: texture_depth_2d_array;
+@group(3) @binding(7) var shadow_sampler: sampler_comparison;
+@group(3) @binding(8) var<storage, read> shadow_faces: array<ShadowFace>;
 #endif
 #ifndef BRUTE_FORCE
 // The light grid the culling pass wrote (common/light_grid.wgsl).

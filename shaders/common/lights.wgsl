@@ -4,13 +4,19 @@
 // The light set's counts and the ambient term (crates/gpu/src/lights_gpu.rs,
 // LightingUniforms), a uniform the including file declares as `lighting` next to its light
 // buffers.
+// The shadow fields are read only by the SHADOWS variant (common/shadow.wgsl).
 struct Lighting {
     ambient: vec3<f32>,
     num_lights: u32,
     num_point_lights: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    // Shadow casters: the first points and the first spots.
+    num_shadow_points: u32,
+    num_shadow_spots: u32,
+    // Added to the reference depth: two 16-bit quanta for Depth16Unorm, 0 for Depth32Float.
+    shadow_depth_bias: f32,
+    // One atlas texel and one tile, in atlas coordinates.
+    shadow_texel_uv: vec2<f32>,
+    shadow_tile_uv: vec2<f32>,
 }
 
 struct CullLight {
@@ -33,4 +39,15 @@ struct SpotLight {
     angle_offset: f32,
     sin_outer: f32,
     _pad: f32,
+}
+
+// One face of the shadow atlas (crates/gpu/src/shadow_atlas.rs, GpuShadowFace), read by
+// the SHADOWS variant (common/shadow.wgsl).
+struct ShadowFace {
+    world_to_clip: mat4x4<f32>,
+    // Atlas coordinates (0..1) of the tile's top-left corner.
+    uv_origin: vec2<f32>,
+    layer: u32,
+    // World size of one texel per unit of view depth.
+    texel: f32,
 }

@@ -1,9 +1,14 @@
 // One light's contribution at a surface point. The including file declares
 // `shading_lights: array<ShadingLight>` and, with SPOT_LIGHTS, `spot_lights: array<SpotLight>`.
 // With NO_CUTOFF the falloff is plain inverse-square (the brute-force reference without radius).
+// With SHADOWS, shadow-casting lights that reach the point are looked up in the atlas
+// (common/shadow.wgsl); other lights pay one index comparison.
 #include "common/view.wgsl"
 #include "common/lights.wgsl"
 #include "common/brdf.wgsl"
+#ifdef SHADOWS
+#include "common/shadow.wgsl"
+#endif
 
 fn shade_light(i: u32, p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, s: Surface) -> vec3<f32> {
     let light = shading_lights[i];
@@ -22,6 +27,11 @@ fn shade_light(i: u32, p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, s: Surface) -> 
     if i >= lighting.num_point_lights {
         let spot = spot_lights[i - lighting.num_point_lights];
         atten *= spot_falloff(dot(-l, spot.direction), spot.angle_scale, spot.angle_offset);
+    }
+#endif
+#ifdef SHADOWS
+    if casts_shadow(i) && atten > 0.0 && dot(n, l) > 0.0 {
+        atten *= shadow_visibility(i, light.position, p, n, l);
     }
 #endif
     return light.radiance * (atten * brdf_cos(n, v, l, s));

@@ -87,6 +87,67 @@ impl ShadowFilter {
     }
 }
 
+/// Depth format of the atlas (`Depth16Unorm` or `Depth32Float`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum ShadowFormat {
+    /// `Depth16Unorm` (core in WebGPU; TiledLighting11's D16).
+    #[default]
+    Depth16,
+    /// `Depth32Float`.
+    Depth32,
+}
+
+impl ShadowFormat {
+    /// Bytes per texel.
+    pub fn bytes(self) -> u32 {
+        match self {
+            Self::Depth16 => 2,
+            Self::Depth32 => 4,
+        }
+    }
+    /// Added to the lookup's reference depth: two quanta of 16-bit depth (the rasteriser
+    /// rounds to the nearest), nothing for 32-bit float (the world-space bias covers it).
+    pub fn depth_bias(self) -> f32 {
+        match self {
+            Self::Depth16 => 2.0 / 65535.0,
+            Self::Depth32 => 0.0,
+        }
+    }
+    /// The flag value.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Depth16 => "d16",
+            Self::Depth32 => "d32",
+        }
+    }
+    /// The format of flag value `name` (`d16`, `d32`).
+    pub fn from_name(name: &str) -> Result<Self, CullError> {
+        match name {
+            "d16" => Ok(Self::Depth16),
+            "d32" => Ok(Self::Depth32),
+            _ => Err(CullError::InvalidShadow(format!("shadow format {name:?}: use d16 or d32"))),
+        }
+    }
+}
+
+/// How shadows are drawn; which lights cast them is decided with the lights
+/// (`try_pack_lights_with_casters` in [`crate::light`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ShadowOptions {
+    /// Texels per tile side (128 to 1024; 256 as TiledLighting11).
+    pub tile_size: u32,
+    /// Percentage-closer filter.
+    pub filter: ShadowFilter,
+    /// Depth format.
+    pub format: ShadowFormat,
+}
+
+impl Default for ShadowOptions {
+    fn default() -> Self {
+        Self { tile_size: 256, filter: ShadowFilter::Pcf5, format: ShadowFormat::Depth16 }
+    }
+}
+
 /// Where the shadow faces lie in the atlas.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct AtlasLayout {
@@ -237,11 +298,18 @@ pub fn shadow_near(radius: f32) -> f32 {
     (radius * NEAR_FRACTION).max(1e-4)
 }
 
-/// World to clip of point caster at `position` (radius `radius`), cube face `face`.
-pub fn point_face_matrix(position: Vec3, radius: f32, face: u32, tile: u32, filter: ShadowFilter) -> Mat4 {
+/// World to view and view to clip of point caster at `position` (radius `radius`), cube
+/// face `face`.
+pub fn point_face_view_proj(position: Vec3, radius: f32, face: u32, tile: u32, filter: ShadowFilter) -> (Mat4, Mat4) {
     let (fwd, up) = CUBE_FACES[face as usize];
     let fov = 2.0 * widened_tan(1.0, tile, filter).atan();
-    Mat4::perspective_infinite_reverse_rh(fov, 1.0, shadow_near(radius)) * Mat4::look_to_rh(position, fwd, up)
+    (Mat4::look_to_rh(position, fwd, up), Mat4::perspective_infinite_reverse_rh(fov, 1.0, shadow_near(radius)))
+}
+
+/// World to clip of point caster at `position` (radius `radius`), cube face `face`.
+pub fn point_face_matrix(position: Vec3, radius: f32, face: u32, tile: u32, filter: ShadowFilter) -> Mat4 {
+    let (view, proj) = point_face_view_proj(position, radius, face, tile, filter);
+    proj * view
 }
 
 /// World to clip of a spot caster at `position` along unit `direction`, outer half-angle
@@ -251,10 +319,23 @@ pub fn spot_matrix(
     position: Vec3,
     direction: Vec3,
     radius: f32,
-    (sin_outer, cos_outer): (f32, f32),
+    sin_cos: (f32, f32),
     tile: u32,
     filter: ShadowFilter,
 ) -> Result<Mat4, CullError> {
+    let (view, proj) = spot_view_proj(position, direction, radius, sin_cos, tile, filter)?;
+    Ok(proj * view)
+}
+
+/// World to view and view to clip of a spot caster (see [`spot_matrix`]).
+pub fn spot_view_proj(
+    position: Vec3,
+    direction: Vec3,
+    radius: f32,
+    (sin_outer, cos_outer): (f32, f32),
+    tile: u32,
+    filter: ShadowFilter,
+) -> Result<(Mat4, Mat4), CullError> {
     if cos_outer < MAX_SHADOW_SPOT_ANGLE.cos() - 1e-6 {
         return Err(CullError::InvalidShadow(format!(
             "a spot light of outer half-angle {:.1} degrees cannot cast a shadow from one tile \
@@ -265,7 +346,10 @@ pub fn spot_matrix(
     }
     let up = if direction.y.abs() < 0.99 { Vec3::Y } else { Vec3::X };
     let fov = 2.0 * widened_tan(sin_outer / cos_outer, tile, filter).atan();
-    Ok(Mat4::perspective_infinite_reverse_rh(fov, 1.0, shadow_near(radius)) * Mat4::look_to_rh(position, direction, up))
+    Ok((
+        Mat4::look_to_rh(position, direction, up),
+        Mat4::perspective_infinite_reverse_rh(fov, 1.0, shadow_near(radius)),
+    ))
 }
 
 /// A shadow lookup: where to sample and what to compare with.

@@ -13,7 +13,7 @@
 //! scene has. Depends on tiledlight-gpu.
 
 use tiledlight_gpu::bindings::PassBindings;
-use tiledlight_gpu::depth_prepass::{scene_pipeline, SceneDraw};
+use tiledlight_gpu::depth_prepass::{scene_pipeline, SceneDraw, DEPTH_FORMAT};
 use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS, VERTEX_LAYOUTS};
 use tiledlight_gpu::targets::texture_2d_msaa;
 use tiledlight_gpu::timer::GpuTimer;
@@ -172,6 +172,8 @@ impl GBufferPass {
                     depth_write: true,
                     samples,
                     fragment: Some((&fs, &targets)),
+                    depth_format: DEPTH_FORMAT,
+                    constants: &[],
                 },
             );
             pipelines.push((kind, p));

@@ -25,6 +25,9 @@ use tiledlight_gpu::{GpuContext, GpuError};
 use crate::gbuffer::{GBuffer, GBufferPass};
 use crate::gbuffer::{ALBEDO_FORMAT, EXTRA_FORMAT, NORMAL_FORMAT};
 use crate::shading::{DeferredShading, EdgeTest};
+use tiledlight_cull::light::PackedLights;
+use tiledlight_cull::shadow::ShadowOptions;
+use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 
 /// Tiled Deferred settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -52,6 +55,9 @@ pub struct DeferredSettings {
     /// shading pass reads and multiplies each of them. `false` by default; production never
     /// sets it.
     pub test_gbuffer_values: bool,
+    /// How shadows are drawn (tile size, filter, format); used only when the lights were
+    /// uploaded with shadow casters (`LightBuffers::with_casters`).
+    pub shadows: ShadowOptions,
 }
 
 impl Default for DeferredSettings {
@@ -66,6 +72,7 @@ impl Default for DeferredSettings {
             edge: EdgeTest::default(),
             test_drop_light: None,
             test_gbuffer_values: false,
+            shadows: ShadowOptions::default(),
         }
     }
 }
@@ -94,8 +101,14 @@ impl DeferredRenderer {
         let device = &ctx.device;
         let mut settings = settings;
         settings.cull.samples = settings.msaa;
-        let features =
-            Features::new(scene, lights, Method::TiledDeferred, &settings.cull, settings.msaa, settings.gbuffer_rts);
+        let features = Features::new(
+            scene,
+            lights,
+            Method::TiledDeferred,
+            &settings.cull,
+            (settings.msaa, settings.gbuffer_rts),
+            settings.shadows,
+        );
         let mut formats = vec![DEPTH_FORMAT, ALBEDO_FORMAT, NORMAL_FORMAT];
         if features.extra_targets > 0 {
             formats.push(EXTRA_FORMAT);
@@ -139,7 +152,7 @@ impl DeferredRenderer {
                 settings.cull,
                 settings.edge,
                 settings.test_drop_light,
-                features,
+                (features, common.shadows.as_ref()),
                 &mut memory,
             )?;
             let heatmap = HeatmapPass::new(device, &shading.light_grid.grid, settings.heatmap)?;
@@ -198,6 +211,7 @@ impl Renderer for DeferredRenderer {
         let targets = &c.targets;
         for step in c.plan.steps() {
             match step {
+                Step::ShadowMaps => c.record_shadows(encoder, timer, scene),
                 Step::GBuffer => {
                     self.gbuffer_pass.record(encoder, timer, view, scene, &self.gbuffer, &targets.depth_view)
                 }
@@ -224,6 +238,12 @@ impl Renderer for DeferredRenderer {
     }
     fn memory(&self) -> &MemoryReport {
         &self.common.memory
+    }
+    fn shadow_atlas(&self) -> Option<&ShadowAtlas> {
+        self.common.shadows.as_ref()
+    }
+    fn lights_moved(&self, queue: &wgpu::Queue, lights: &PackedLights) -> Result<(), GpuError> {
+        self.common.lights_moved(queue, lights)
     }
     fn light_grid(&self) -> Option<&LightGrid> {
         Some(&self.shading.light_grid)

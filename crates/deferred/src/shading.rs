@@ -22,6 +22,7 @@ use tiledlight_gpu::light_grid::{compute_bindings, GpuTileLists, LightGrid};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::readback::read_buffer;
+use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::targets::texture_2d;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
@@ -120,7 +121,8 @@ const fn hdr_storage_binding(binding: u32) -> Binding {
 /// (6), the HDR output (9); the extra targets (5, 10, 11) with `EXTRA_RTS`, `_2`, `_3`;
 /// spots (7) with `SPOT_LIGHTS` (or `SPOT_CONE`, which the pass sets only with spots);
 /// cells (8) with `COARSE`; with `MSAA` the sample texture (12), edge list (13) and
-/// resolve arguments (14). Group 2: the light grid, without tile ranges.
+/// resolve arguments (14); with `SHADOWS` the shadow atlas (15), its comparison sampler
+/// (16) and faces (17). Group 2: the light grid, without tile ranges.
 pub const DEFERRED_BINDINGS: PassBindings = PassBindings {
     entry: "deferred.wgsl",
     source: file!(),
@@ -148,6 +150,9 @@ pub const DEFERRED_BINDINGS: PassBindings = PassBindings {
                 hdr_storage_binding(12).when(Cond::Defined("MSAA")),
                 Binding::storage_rw(13, CS).when(Cond::Defined("MSAA")),
                 Binding::storage_rw(14, CS).when(Cond::Defined("MSAA")),
+                Binding::depth_array(15, CS).when(Cond::Defined("SHADOWS")),
+                Binding::sampler(16, CS, wgpu::SamplerBindingType::Comparison).when(Cond::Defined("SHADOWS")),
+                Binding::storage(17, CS).when(Cond::Defined("SHADOWS")),
             ],
         ),
         PassGroup::new(2, &compute_bindings(Cond::Never)),
@@ -194,10 +199,21 @@ impl DeferredShading {
         options: CullOptions,
         edge: EdgeTest,
         drop: Option<DropLight>,
-        features: &Features,
+        (features, atlas): (&Features, Option<&ShadowAtlas>),
         memory: &mut MemoryReport,
     ) -> Result<Self, GpuError> {
         let samples = gbuffer.samples();
+        if features.shadows.is_some() != atlas.is_some() {
+            return Err(GpuError::Config("the shadow atlas must exist exactly when the features have shadows".into()));
+        }
+        // With every option on, the pass reads 9 storage buffers (WebGPU guarantees 8).
+        let storage_limit = device.limits().max_storage_buffers_per_shader_stage;
+        if atlas.is_some() && storage_limit < 9 {
+            return Err(GpuError::Config(format!(
+                "Tiled Deferred with shadows binds up to 9 storage buffers in one compute stage; \
+                 this GPU allows {storage_limit}"
+            )));
+        }
         if options.samples != samples {
             return Err(GpuError::Config(format!(
                 "culling reads {} depth samples but the G-buffer has {samples}",
@@ -235,6 +251,11 @@ impl DeferredShading {
         defines.extend(features.light_defines());
         if let Some(spots) = lights.spots.as_ref().filter(|_| features.spot_lights) {
             bind.push(wgpu::BindGroupEntry { binding: 7, resource: spots.as_entire_binding() });
+        }
+        if let Some(a) = atlas {
+            bind.push(view_entry(15, &a.sample_view));
+            bind.push(wgpu::BindGroupEntry { binding: 16, resource: wgpu::BindingResource::Sampler(&a.sampler) });
+            bind.push(wgpu::BindGroupEntry { binding: 17, resource: a.faces.as_entire_binding() });
         }
         let coarse = if options.coarse {
             Some(CoarseCulling::new(device, views, depth, lights, lighting, &grid, &options, memory)?)
@@ -293,6 +314,7 @@ impl DeferredShading {
         });
         let module = shader_module(device, DEFERRED_BINDINGS.entry, &defines)?;
         let mut constants = options.cull_constants(coarse.as_ref(), drop, (&light_grid, lights.len()));
+        constants.extend(features.light_constants());
         if samples > 1 {
             constants.push(("SAMPLES_X", sx as f64));
             constants.push(("EDGE_DISTANCE", edge.distance as f64));

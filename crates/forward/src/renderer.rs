@@ -9,6 +9,8 @@
 //! and tiledlight-cull.
 
 use glam::Vec3;
+use tiledlight_cull::light::PackedLights;
+use tiledlight_cull::shadow::ShadowOptions;
 use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::depth_prepass::{DepthPrepass, DEPTH_FORMAT};
 use tiledlight_gpu::features::{self, Features};
@@ -19,6 +21,7 @@ use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::plan::{FramePlan, Step};
 use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::targets::{texture_2d_msaa, DisplayTargets, Renderer};
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::{HeatmapPass, HDR_FORMAT};
@@ -58,6 +61,9 @@ pub struct ForwardSettings {
     /// Test-only: leave one light out of one tile's list (Forward+ only; see
     /// [`DropLight`]). `None` by default; production never sets it.
     pub test_drop_light: Option<DropLight>,
+    /// How shadows are drawn (tile size, filter, format); used only when the lights were
+    /// uploaded with shadow casters (`LightBuffers::with_casters`).
+    pub shadows: ShadowOptions,
 }
 
 impl Default for ForwardSettings {
@@ -70,6 +76,7 @@ impl Default for ForwardSettings {
             heatmap: false,
             msaa: 1,
             test_drop_light: None,
+            shadows: ShadowOptions::default(),
         }
     }
 }
@@ -110,8 +117,14 @@ impl ForwardRenderer {
         let device = &ctx.device;
         let mut settings = settings;
         settings.cull.samples = settings.msaa;
-        let features =
-            Features::new(scene, lights, settings.method.features_method(), &settings.cull, settings.msaa, 0);
+        let features = Features::new(
+            scene,
+            lights,
+            settings.method.features_method(),
+            &settings.cull,
+            (settings.msaa, 0),
+            settings.shadows,
+        );
         if !features.method.is_tiled() {
             if settings.test_drop_light.is_some() {
                 return Err(GpuError::Config(
@@ -175,8 +188,15 @@ impl ForwardRenderer {
                 Method::ForwardPlus => LightLoop::Tiled { half_z: features.half_z },
                 Method::BruteForce { cutoff } => LightLoop::All { cutoff },
             };
-            let shading =
-                ShadingPass::new(device, views, scene, (lights, lighting), culling.as_ref(), light_loop, features)?;
+            let shading = ShadingPass::new(
+                device,
+                views,
+                scene,
+                (lights, lighting),
+                culling.as_ref(),
+                light_loop,
+                (features, common.shadows.as_ref()),
+            )?;
             let heatmap = match (&culling, plan.has(Step::Heatmap)) {
                 (Some(c), true) => Some(HeatmapPass::new(device, &c.grid.grid, settings.heatmap)?),
                 _ => None,
@@ -229,6 +249,7 @@ impl Renderer for ForwardRenderer {
         let targets = &c.targets;
         for step in c.plan.steps() {
             match step {
+                Step::ShadowMaps => c.record_shadows(encoder, timer, scene),
                 Step::DepthPrepass => self.prepass.record(encoder, timer, view, scene, &targets.depth_view),
                 Step::Cull => {
                     if let Some(cull) = &self.culling {
@@ -272,6 +293,12 @@ impl Renderer for ForwardRenderer {
     }
     fn light_grid(&self) -> Option<&LightGrid> {
         self.culling.as_ref().map(|c| &c.grid)
+    }
+    fn shadow_atlas(&self) -> Option<&ShadowAtlas> {
+        self.common.shadows.as_ref()
+    }
+    fn lights_moved(&self, queue: &wgpu::Queue, lights: &PackedLights) -> Result<(), GpuError> {
+        self.common.lights_moved(queue, lights)
     }
     fn grow_light_grid(&mut self, ctx: &GpuContext, capacity: u32) {
         if let Some(c) = &mut self.culling {

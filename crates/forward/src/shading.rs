@@ -7,12 +7,13 @@
 //! Depends on tiledlight-gpu.
 
 use tiledlight_gpu::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
-use tiledlight_gpu::depth_prepass::{scene_pipeline, SceneDraw};
+use tiledlight_gpu::depth_prepass::{scene_pipeline, SceneDraw, DEPTH_FORMAT};
 use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_cull::LightCulling;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS, VERTEX_LAYOUTS};
+use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::util::{pipeline_layout, shader_module};
@@ -37,7 +38,8 @@ pub enum LightLoop {
 /// The bindings of the shading pass (`shaders/forward.wgsl`): the scene's groups 0 to 2,
 /// then group 3, the lights: shading lights (0), the lighting uniform (5), with
 /// `SPOT_LIGHTS` the spots (1), unless `BRUTE_FORCE` the light grid (2) and its indices
-/// (3), and with `HALF_Z` the tile ranges (4).
+/// (3), with `HALF_Z` the tile ranges (4), and with `SHADOWS` the shadow atlas (6), its
+/// comparison sampler (7) and faces (8).
 pub const FORWARD_BINDINGS: PassBindings = PassBindings {
     entry: "forward.wgsl",
     source: file!(),
@@ -55,6 +57,10 @@ pub const FORWARD_BINDINGS: PassBindings = PassBindings {
                 Binding::storage(3, wgpu::ShaderStages::FRAGMENT).when(Cond::NotDefined("BRUTE_FORCE")),
                 Binding::storage(4, wgpu::ShaderStages::FRAGMENT)
                     .when(Cond::All(&[Cond::Defined("HALF_Z"), Cond::NotDefined("BRUTE_FORCE")])),
+                Binding::depth_array(6, wgpu::ShaderStages::FRAGMENT).when(Cond::Defined("SHADOWS")),
+                Binding::sampler(7, wgpu::ShaderStages::FRAGMENT, wgpu::SamplerBindingType::Comparison)
+                    .when(Cond::Defined("SHADOWS")),
+                Binding::storage(8, wgpu::ShaderStages::FRAGMENT).when(Cond::Defined("SHADOWS")),
             ],
         ),
     ],
@@ -66,6 +72,8 @@ pub struct ShadingPass {
     lights_layout: wgpu::BindGroupLayout,
     /// Light buffers: shading, spots (when the scene has spot lights), the lighting uniform.
     lights: (wgpu::Buffer, Option<wgpu::Buffer>, wgpu::Buffer),
+    /// The shadow atlas's view, sampler and faces (with shadows).
+    shadows: Option<ShadowBindings>,
     lights_group: wgpu::BindGroup,
     /// Stands in for group 2 when the scene has no textures.
     empty_group: Option<wgpu::BindGroup>,
@@ -82,7 +90,7 @@ impl ShadingPass {
         (lights, lighting): (&LightBuffers, &wgpu::Buffer),
         culling: Option<&LightCulling>,
         light_loop: LightLoop,
-        features: &Features,
+        (features, atlas): (&Features, Option<&ShadowAtlas>),
     ) -> Result<Self, GpuError> {
         let samples = features.msaa;
         let mut defines: Vec<&str> = features.light_defines();
@@ -110,7 +118,12 @@ impl ShadingPass {
         };
         let lights_layout = create_layout(device, "shade.lights_layout", FORWARD_BINDINGS.group(3), &defines);
         let lights = (lights.shading.clone(), lights.spots.clone(), lighting.clone());
-        let lights_group = lights_group(device, &lights_layout, &lights, culling.map(|c| &c.grid));
+        if features.shadows.is_some() != atlas.is_some() {
+            return Err(GpuError::Config("the shadow atlas must exist exactly when the features have shadows".into()));
+        }
+        let shadows = atlas.map(|a| (a.sample_view.clone(), a.sampler.clone(), a.faces.clone()));
+        let lights_group = lights_group(device, &lights_layout, (&lights, shadows.as_ref()), culling.map(|c| &c.grid));
+        let constants = features.light_constants();
         let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shade.empty_layout"),
             entries: &[],
@@ -146,6 +159,8 @@ impl ShadingPass {
                         depth_write: false,
                         samples,
                         fragment: Some(("fs_main", &target)),
+                        depth_format: DEPTH_FORMAT,
+                        constants: &constants,
                     },
                 );
                 Ok((kind, p))
@@ -158,12 +173,13 @@ impl ShadingPass {
                 entries: &[],
             })
         });
-        Ok(Self { pipelines, lights_layout, lights, lights_group, empty_group, label })
+        Ok(Self { pipelines, lights_layout, lights, shadows, lights_group, empty_group, label })
     }
 
     /// Binds the light grid again after it grew (its index buffer is a new one).
     pub fn rebind(&mut self, device: &wgpu::Device, grid: &LightGrid) {
-        self.lights_group = lights_group(device, &self.lights_layout, &self.lights, Some(grid));
+        self.lights_group =
+            lights_group(device, &self.lights_layout, (&self.lights, self.shadows.as_ref()), Some(grid));
     }
 
     /// Shades into `hdr` (cleared to black) using the pre-pass `depth`; with MSAA `hdr` is
@@ -217,12 +233,19 @@ impl ShadingPass {
     }
 }
 
-/// Group 3: shading lights (0), spots (1), the lighting uniform (5), and for tiled shading
-/// the light grid (2), its indices (3) and with half-z the tile ranges (4).
+/// The shadow atlas's view, sampler and faces.
+type ShadowBindings = (wgpu::TextureView, wgpu::Sampler, wgpu::Buffer);
+
+/// Group 3: shading lights (0), spots (1), the lighting uniform (5), for tiled shading
+/// the light grid (2), its indices (3) and with half-z the tile ranges (4), and with
+/// shadows the atlas (6), its sampler (7) and faces (8).
 fn lights_group(
     device: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,
-    (shading, spots, lighting): &(wgpu::Buffer, Option<wgpu::Buffer>, wgpu::Buffer),
+    ((shading, spots, lighting), shadows): (
+        &(wgpu::Buffer, Option<wgpu::Buffer>, wgpu::Buffer),
+        Option<&ShadowBindings>,
+    ),
     grid: Option<&LightGrid>,
 ) -> wgpu::BindGroup {
     let mut bind = vec![
@@ -231,6 +254,11 @@ fn lights_group(
     ];
     if let Some(s) = spots {
         bind.push(wgpu::BindGroupEntry { binding: 1, resource: s.as_entire_binding() });
+    }
+    if let Some((view, sampler, faces)) = shadows {
+        bind.push(wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(view) });
+        bind.push(wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(sampler) });
+        bind.push(wgpu::BindGroupEntry { binding: 8, resource: faces.as_entire_binding() });
     }
     if let Some(g) = grid {
         bind.push(wgpu::BindGroupEntry { binding: 2, resource: g.grid.as_entire_binding() });

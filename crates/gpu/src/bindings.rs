@@ -159,6 +159,19 @@ impl Binding {
         )
     }
 
+    /// A depth 2D-array texture (`texture_depth_2d_array`: the shadow atlas).
+    pub const fn depth_array(binding: u32, visibility: wgpu::ShaderStages) -> Self {
+        Self::new(
+            binding,
+            visibility,
+            BindingKind::Texture {
+                sample_type: wgpu::TextureSampleType::Depth,
+                dimension: wgpu::TextureViewDimension::D2Array,
+                multisampled: Cond::Never,
+            },
+        )
+    }
+
     /// A 2D storage texture.
     pub const fn storage_texture(
         binding: u32,

@@ -101,6 +101,9 @@ impl GpuContext {
             // Per-tile light lists live in workgroup memory: WebGPU's 16 KiB holds 2048
             // indices, half that per list with half-z, less once Tiled Deferred's MSAA edge
             // queue takes its share. 32 KiB where the adapter has it (most desktop GPUs).
+            // Tiled Deferred with shadows, MSAA, spots and two-level culling binds 9 storage
+            // buffers in its compute stage (WebGPU guarantees 8).
+            max_storage_buffers_per_shader_stage: supported.max_storage_buffers_per_shader_stage.min(16),
             max_compute_workgroup_storage_size: supported
                 .max_compute_workgroup_storage_size
                 .min(options.workgroup_memory_cap.unwrap_or(32768).clamp(16384, 32768)),

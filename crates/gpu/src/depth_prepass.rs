@@ -41,9 +41,13 @@ pub struct SceneDraw<'a> {
     pub samples: u32,
     /// Fragment entry point and colour targets (None: depth only).
     pub fragment: Option<(&'a str, &'a [Option<wgpu::ColorTargetState>])>,
+    /// Depth format ([`DEPTH_FORMAT`] except for shadow maps).
+    pub depth_format: wgpu::TextureFormat,
+    /// Pipeline-overridable constants (`override` in the WGSL).
+    pub constants: &'a [(&'a str, f64)],
 }
 
-/// A render pipeline drawing the scene's `kind` of draws into `DEPTH_FORMAT` (reversed-Z).
+/// A render pipeline drawing the scene's `kind` of draws into `d.depth_format` (reversed-Z).
 pub fn scene_pipeline(device: &wgpu::Device, kind: DrawKind, d: &SceneDraw<'_>) -> wgpu::RenderPipeline {
     // Writing passes keep the last of several fragments at exactly the same depth
     // (GreaterEqual), as the Equal-tested shading pass after a pre-pass does (every such
@@ -58,12 +62,15 @@ pub fn scene_pipeline(device: &wgpu::Device, kind: DrawKind, d: &SceneDraw<'_>) 
         vertex: wgpu::VertexState {
             module: d.module,
             entry_point: Some(d.vertex.0),
-            compilation_options: Default::default(),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants: d.constants,
+                zero_initialize_workgroup_memory: false,
+            },
             buffers: d.vertex.1,
         },
         primitive: primitive_state(kind),
         depth_stencil: Some(wgpu::DepthStencilState {
-            format: DEPTH_FORMAT,
+            format: d.depth_format,
             depth_write_enabled: Some(d.depth_write),
             depth_compare: Some(compare),
             stencil: Default::default(),
@@ -73,7 +80,10 @@ pub fn scene_pipeline(device: &wgpu::Device, kind: DrawKind, d: &SceneDraw<'_>) 
         fragment: d.fragment.map(|(fs, targets)| wgpu::FragmentState {
             module: d.module,
             entry_point: Some(fs),
-            compilation_options: Default::default(),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants: d.constants,
+                zero_initialize_workgroup_memory: false,
+            },
             targets,
         }),
         multiview_mask: None,
@@ -90,6 +100,19 @@ pub const DEPTH_PREPASS_BINDINGS: PassBindings =
 /// The depth pre-pass pipelines.
 pub struct DepthPrepass {
     pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
+    label: &'static str,
+}
+
+/// What a depth-only drawing of the scene writes: the pre-pass's depth buffer or a shadow
+/// atlas (same shaders, views and scene bind groups; another format and label).
+#[derive(Clone, Copy, Debug)]
+pub struct DepthTarget {
+    /// Label of the pipelines, the pass and its timer.
+    pub label: &'static str,
+    /// Depth format.
+    pub format: wgpu::TextureFormat,
+    /// Samples per pixel.
+    pub samples: u32,
 }
 
 impl DepthPrepass {
@@ -97,8 +120,20 @@ impl DepthPrepass {
     /// `features.msaa` depth samples a pixel; masked kinds of a textured scene (`textures`)
     /// sample `scene`'s material textures.
     pub fn new(device: &wgpu::Device, views: &Views, scene: &SceneGpu, features: &Features) -> Result<Self, GpuError> {
+        let target = DepthTarget { label: "depth_prepass", format: DEPTH_FORMAT, samples: features.msaa };
+        Self::for_target(device, views, scene, features, target)
+    }
+
+    /// The pipelines drawing the scene's depth into `target`.
+    pub fn for_target(
+        device: &wgpu::Device,
+        views: &Views,
+        scene: &SceneGpu,
+        features: &Features,
+        target: DepthTarget,
+    ) -> Result<Self, GpuError> {
         let mut pipelines = Vec::new();
-        let samples = features.msaa;
+        let samples = target.samples;
         let textures = scene.textures.as_ref().filter(|_| features.textures);
         for &kind in &features.draw_kinds {
             let mut defines = Vec::new();
@@ -122,7 +157,8 @@ impl DepthPrepass {
             let (vs, buffers): (&str, &[Option<wgpu::VertexBufferLayout<'_>>]) =
                 if kind.masked { ("vs_masked", &VERTEX_LAYOUTS) } else { ("vs_main", &VERTEX_LAYOUTS[..1]) };
             let label = format!(
-                "depth_prepass{}{}",
+                "{}{}{}",
+                target.label,
                 if kind.masked { ".masked" } else { "" },
                 if kind.double_sided { ".double_sided" } else { "" }
             );
@@ -137,11 +173,23 @@ impl DepthPrepass {
                     depth_write: true,
                     samples,
                     fragment: kind.masked.then_some(("fs_masked", &[][..])),
+                    depth_format: target.format,
+                    constants: &[],
                 },
             );
             pipelines.push((kind, pipeline));
         }
-        Ok(Self { pipelines })
+        Ok(Self { pipelines, label: target.label })
+    }
+
+    /// Draws the scene seen from view slot `view` into the pass's depth attachment.
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, (views, view): (&Views, u32), scene: &SceneGpu) {
+        pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
+        pass.set_bind_group(1, &scene.bind_group, &[]);
+        for (kind, pipeline) in &self.pipelines {
+            pass.set_pipeline(pipeline);
+            scene.record_draws(pass, *kind, kind.masked, kind.masked);
+        }
     }
 
     /// Clears `depth` to 0 (far, reversed-Z) and draws the scene seen from view slot `view` into it.
@@ -153,10 +201,10 @@ impl DepthPrepass {
         scene: &SceneGpu,
         depth: &wgpu::TextureView,
     ) {
-        let t = timer.begin("depth_prepass", encoder);
+        let t = timer.begin(self.label, encoder);
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("depth_prepass"),
+                label: Some(self.label),
                 color_attachments: &[],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                     view: depth,
@@ -167,12 +215,7 @@ impl DepthPrepass {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
-            pass.set_bind_group(1, &scene.bind_group, &[]);
-            for (kind, pipeline) in &self.pipelines {
-                pass.set_pipeline(pipeline);
-                scene.record_draws(&mut pass, *kind, kind.masked, kind.masked);
-            }
+            self.draw(&mut pass, (views, view), scene);
         }
         timer.end(encoder, t);
     }

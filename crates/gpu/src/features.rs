@@ -13,6 +13,7 @@
 use crate::light_cull::CullOptions;
 use crate::lights_gpu::LightBuffers;
 use crate::scene_gpu::{DrawKind, SceneGpu};
+use tiledlight_cull::shadow::ShadowOptions;
 
 /// How a frame is lit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -34,6 +35,17 @@ impl Method {
     pub fn is_tiled(self) -> bool {
         !matches!(self, Method::BruteForce { .. })
     }
+}
+
+/// Shadow-casting lights: the atlas, its pass, the `SHADOWS` shading variant.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shadows {
+    /// Shadow-casting point lights (the first lights).
+    pub points: u32,
+    /// Shadow-casting spot lights (the first spots).
+    pub spots: u32,
+    /// Tile size, filter, depth format.
+    pub options: ShadowOptions,
 }
 
 /// What the scene, its lights and the settings require of a frame.
@@ -62,19 +74,24 @@ pub struct Features {
     /// Materials that ask for alpha blending, drawn opaque: the renderer has no
     /// transparent pass yet, and says so.
     pub blended_as_opaque: usize,
+    /// Shadow casters, when some light casts a shadow (None: no atlas, no shadow pass, no
+    /// shadow variant).
+    pub shadows: Option<Shadows>,
 }
 
 impl Features {
     /// The features of `scene` lit by `lights` with `method`, culling options `cull`,
-    /// `msaa` samples and (Tiled Deferred) `gbuffer_rts` G-buffer targets.
+    /// `msaa` samples, (Tiled Deferred) `gbuffer_rts` G-buffer targets, and shadows drawn
+    /// with `shadow` for the casters `lights` were packed with.
     pub fn new(
         scene: &SceneGpu,
         lights: &LightBuffers,
         method: Method,
         cull: &CullOptions,
-        msaa: u32,
-        gbuffer_rts: u32,
+        (msaa, gbuffer_rts): (u32, u32),
+        shadow: ShadowOptions,
     ) -> Self {
+        let (points, spots) = (lights.packed.shadow_points, lights.packed.shadow_spots);
         let tiled = method.is_tiled();
         let spot_lights = lights.has_spots();
         Self {
@@ -89,6 +106,7 @@ impl Features {
             aabb: tiled && cull.aabb,
             extra_targets: if method == Method::TiledDeferred { gbuffer_rts.saturating_sub(2) } else { 0 },
             blended_as_opaque: scene.blended_as_opaque,
+            shadows: (points + spots > 0).then_some(Shadows { points, spots, options: shadow }),
         }
     }
 
@@ -97,13 +115,22 @@ impl Features {
         self.draw_kinds.iter().any(|k| k.masked)
     }
 
-    /// The shading defines every lighting shader shares: `SPOT_LIGHTS`.
+    /// The shading defines every lighting shader shares: `SPOT_LIGHTS`, `SHADOWS`.
     pub fn light_defines(&self) -> Vec<&'static str> {
+        let mut d = Vec::new();
         if self.spot_lights {
-            vec!["SPOT_LIGHTS"]
-        } else {
-            Vec::new()
+            d.push("SPOT_LIGHTS");
         }
+        if self.shadows.is_some() {
+            d.push("SHADOWS");
+        }
+        d
+    }
+
+    /// The pipeline constants of the lighting shaders: the shadow filter's radius when
+    /// shadows exist (`SHADOW_RADIUS` is declared only in the `SHADOWS` variant).
+    pub fn light_constants(&self) -> Vec<(&'static str, f64)> {
+        self.shadows.map(|s| vec![("SHADOW_RADIUS", s.options.filter.radius() as f64)]).unwrap_or_default()
     }
 
     /// One line of what the frame models, e.g. "Forward+, points+spots, textures, MSAA 4x".
@@ -123,6 +150,17 @@ impl Features {
         }
         if self.msaa > 1 {
             parts.push(format!("MSAA {}x", self.msaa));
+        }
+        if let Some(s) = &self.shadows {
+            parts.push(format!(
+                "shadows: {} point + {} spot casters, {}px tiles, {}x{} PCF, {}",
+                s.points,
+                s.spots,
+                s.options.tile_size,
+                s.options.filter.size(),
+                s.options.filter.size(),
+                s.options.format.name()
+            ));
         }
         if self.blended_as_opaque > 0 {
             parts.push(format!("{} blended materials drawn opaque (no transparent pass yet)", self.blended_as_opaque));

@@ -6,6 +6,7 @@
 //! depends on it.
 
 use glam::Vec3;
+use tiledlight_cull::shadow::AtlasLayout;
 use tiledlight_cull::{Camera, TileGrid};
 
 use crate::context::GpuContext;
@@ -15,6 +16,7 @@ use crate::lights_gpu::LightBuffers;
 use crate::memory::MemoryReport;
 use crate::plan::FramePlan;
 use crate::scene_gpu::SceneGpu;
+use crate::shadow_atlas::ShadowAtlas;
 use crate::targets::{check_msaa, DisplayTargets};
 use crate::tonemap::TonemapPass;
 use crate::view::{ViewUniforms, Views, MAIN_VIEW};
@@ -54,6 +56,9 @@ pub struct FrameCommon {
     pub targets: DisplayTargets,
     /// HDR to display.
     pub tonemap: TonemapPass,
+    /// The shadow atlas (only when some light casts a shadow); its faces are view slots
+    /// after [`MAIN_VIEW`].
+    pub shadows: Option<ShadowAtlas>,
     /// Scene, lights and targets; the method adds its own.
     pub memory: MemoryReport,
 }
@@ -77,16 +82,67 @@ impl FrameCommon {
             )));
         }
         let grid = TileGrid::new(width, height, s.tile_size)?;
-        let views = Views::new(device, 1);
-        let lighting = lights.lighting(device, s.ambient);
+        let limits = device.limits();
+        let layout = features
+            .shadows
+            .map(|sh| {
+                AtlasLayout::new(
+                    sh.options.tile_size,
+                    sh.points,
+                    sh.spots,
+                    limits.max_texture_dimension_2d,
+                    limits.max_texture_array_layers,
+                )
+            })
+            .transpose()?;
+        let views = Views::new(device, 1 + layout.map_or(0, |l| l.faces()));
+        let shadows = match (layout, features.shadows) {
+            (Some(layout), Some(sh)) => {
+                let atlas = ShadowAtlas::new(device, &views, scene, &features, layout, sh.options, MAIN_VIEW + 1)?;
+                atlas.update(&ctx.queue, &views, &lights.packed)?;
+                Some(atlas)
+            }
+            _ => None,
+        };
+        let mut lighting_u = lights.lighting_uniforms(s.ambient);
+        if let Some(a) = &shadows {
+            let (texel, tile) = a.texel_and_tile_uv();
+            lighting_u.shadow_texel_uv = texel;
+            lighting_u.shadow_tile_uv = tile;
+            lighting_u.shadow_depth_bias = a.options.format.depth_bias();
+        }
+        let lighting = LightBuffers::upload_lighting(device, &lighting_u);
         let targets = DisplayTargets::new(device, s.prefix, s.size, features.msaa, s.hdr_usage);
         let tonemap = TonemapPass::new(device, &targets.hdr_view, s.exposure)?;
         let mut memory = MemoryReport::default();
         memory.extend(&scene.memory);
         memory.extend(&lights.memory);
         memory.add("targets (depth+hdr+ldr)", targets.bytes());
+        if let Some(a) = &shadows {
+            memory.extend(&a.memory);
+        }
         let plan = FramePlan::new(&features);
-        Ok(Self { features, plan, grid, views, lighting, targets, tonemap, memory })
+        Ok(Self { features, plan, grid, views, lighting, targets, tonemap, shadows, memory })
+    }
+
+    /// Draws the shadow faces of the casters that moved (the plan's `ShadowMaps` step).
+    pub fn record_shadows(&self, encoder: &mut wgpu::CommandEncoder, timer: &crate::timer::GpuTimer, scene: &SceneGpu) {
+        if let Some(a) = &self.shadows {
+            a.record(encoder, timer, &self.views, scene);
+        }
+    }
+
+    /// Takes the lights' current positions (after they moved): the shadow faces of casters
+    /// that moved are drawn by the next frame. Nothing without shadows.
+    pub fn lights_moved(
+        &self,
+        queue: &wgpu::Queue,
+        lights: &tiledlight_cull::light::PackedLights,
+    ) -> Result<(), GpuError> {
+        match &self.shadows {
+            Some(a) => a.update(queue, &self.views, lights),
+            None => Ok(()),
+        }
     }
 
     /// Writes the main view's uniforms for `camera`.

@@ -5,7 +5,7 @@
 //! once as data and checked against the WGSL ([`bindings`]), GPU timers ([`timer`]),
 //! readback ([`readback`]), scene and light buffers ([`scene_gpu`], [`lights_gpu`]), and the
 //! passes both methods share: the depth pre-pass ([`depth_prepass`]), tiled light culling
-//! ([`light_cull`]) into the light grid ([`light_grid`]) and tonemapping ([`tonemap`]). Depends on wgpu, tiledlight-cull and
+//! ([`light_cull`]) into the light grid ([`light_grid`]), the shadow atlas ([`shadow_atlas`]) and tonemapping ([`tonemap`]). Depends on wgpu, tiledlight-cull and
 //! tiledlight-scene; never on a renderer crate.
 
 pub mod bindings;
@@ -23,6 +23,7 @@ pub mod plan;
 pub mod readback;
 pub mod scene_gpu;
 pub mod shader;
+pub mod shadow_atlas;
 pub mod targets;
 pub mod timer;
 pub mod tonemap;
@@ -52,5 +53,6 @@ pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
     v.extend(light_grid::layouts());
     v.extend(lights_gpu::layouts());
     v.extend(tonemap::layouts());
+    v.extend(shadow_atlas::layouts());
     v
 }

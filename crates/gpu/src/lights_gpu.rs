@@ -5,7 +5,7 @@
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
-use tiledlight_cull::light::{try_pack_lights, PackedLights};
+use tiledlight_cull::light::{try_pack_lights_with_casters, PackedLights};
 use tiledlight_cull::Light;
 
 use crate::error::GpuError;
@@ -28,12 +28,16 @@ pub struct LightingUniforms {
     pub num_lights: u32,
     /// Number of point lights (they come first).
     pub num_point_lights: u32,
-    /// Padding to 32 bytes.
-    pub _pad0: u32,
-    /// Padding.
-    pub _pad1: u32,
-    /// Padding.
-    pub _pad2: u32,
+    /// Shadow-casting point lights (the first lights).
+    pub num_shadow_points: u32,
+    /// Shadow-casting spot lights (the first spots).
+    pub num_shadow_spots: u32,
+    /// Added to the shadow lookup's reference depth (the atlas format's quanta).
+    pub shadow_depth_bias: f32,
+    /// One atlas texel, in atlas coordinates.
+    pub shadow_texel_uv: [f32; 2],
+    /// One atlas tile, in atlas coordinates.
+    pub shadow_tile_uv: [f32; 2],
 }
 
 /// Layouts of this module's GPU structs, for the xtask layout check.
@@ -42,7 +46,16 @@ pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
         LightingUniforms,
         "Lighting",
         "common/lights.wgsl",
-        [ambient, num_lights, num_point_lights, _pad0, _pad1, _pad2]
+        [
+            ambient,
+            num_lights,
+            num_point_lights,
+            num_shadow_points,
+            num_shadow_spots,
+            shadow_depth_bias,
+            shadow_texel_uv,
+            shadow_tile_uv
+        ]
     )]
 }
 
@@ -66,13 +79,21 @@ impl LightBuffers {
     /// in `lights` and the field ([`tiledlight_cull::light::validate_lights`]), not NaN data
     /// that the culling kernel would silently drop.
     pub fn new(device: &wgpu::Device, lights: &[Light]) -> Result<Self, GpuError> {
+        Self::with_casters(device, lights, (0, 0))
+    }
+
+    /// As [`Self::new`], with `casters` = (point, spot) shadow-casting lights: the brightest
+    /// of each kind, placed first within it
+    /// ([`tiledlight_cull::light::try_pack_lights_with_casters`]). More casters than lights
+    /// of a kind is an error naming both numbers.
+    pub fn with_casters(device: &wgpu::Device, lights: &[Light], casters: (u32, u32)) -> Result<Self, GpuError> {
         if lights.len() > MAX_LIGHTS {
             return Err(GpuError::Config(format!(
                 "{} lights requested; at most {MAX_LIGHTS} are supported",
                 lights.len()
             )));
         }
-        let packed = try_pack_lights(lights)?;
+        let packed = try_pack_lights_with_casters(lights, casters)?;
         let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
         // A light-less scene still binds one zeroed element: bindings must cover the
         // shader's struct size, and the loops never read it (num_lights is 0).
@@ -115,14 +136,26 @@ impl LightBuffers {
     }
 
     /// A renderer's `Lighting` uniform over these lights with `ambient` (a renderer
-    /// setting, so each renderer owns its own).
+    /// setting, so each renderer owns its own), without shadows.
     pub fn lighting(&self, device: &wgpu::Device, ambient: Vec3) -> wgpu::Buffer {
-        let u = LightingUniforms {
+        Self::upload_lighting(device, &self.lighting_uniforms(ambient))
+    }
+
+    /// The `Lighting` values of these lights with `ambient`; the shadow fields are the
+    /// casters' counts, the atlas fields zero (the frame sets them when it has an atlas).
+    pub fn lighting_uniforms(&self, ambient: Vec3) -> LightingUniforms {
+        LightingUniforms {
             ambient: ambient.to_array(),
             num_lights: self.len(),
             num_point_lights: self.num_point(),
+            num_shadow_points: self.packed.shadow_points,
+            num_shadow_spots: self.packed.shadow_spots,
             ..Default::default()
-        };
-        buffer_init(device, "lighting.uniforms", bytemuck::bytes_of(&u), wgpu::BufferUsages::UNIFORM)
+        }
+    }
+
+    /// Uploads a `Lighting` uniform.
+    pub fn upload_lighting(device: &wgpu::Device, u: &LightingUniforms) -> wgpu::Buffer {
+        buffer_init(device, "lighting.uniforms", bytemuck::bytes_of(u), wgpu::BufferUsages::UNIFORM)
     }
 }

@@ -4,6 +4,7 @@
 //! plan to see what a frame does (and that a feature the scene lacks costs no pass).
 //!
 //! ```text
+//! shadows  shadow atlas: the faces of casters that moved (only when a light casts shadows)
 //! head     depth pre-pass (Forward+, brute force)      | G-buffer (Tiled Deferred)
 //! culling  cells + tiles -> light grid (Forward+)      | (Tiled Deferred culls in its shading pass)
 //! middle   forward shading (Forward+ / brute force)     | cull + shade, [MSAA resolve] (Tiled Deferred)
@@ -18,6 +19,8 @@ use crate::features::{Features, Method};
 /// One step of a frame. Each names the pass struct that records it and its timer label.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Step {
+    /// The shadow faces of the casters that moved (`shadow.atlas`; only with shadows).
+    ShadowMaps,
     /// Depth of the opaque and masked geometry (`depth_prepass`).
     DepthPrepass,
     /// Tiled Deferred's G-buffer, with depth (`deferred.gbuffer`).
@@ -50,6 +53,10 @@ impl FramePlan {
     /// The frame of `features`: the whole frame of both methods reads here.
     pub fn new(features: &Features) -> Self {
         let mut steps = Vec::new();
+        // Shadow maps first: every method's shading reads them.
+        if features.shadows.is_some() {
+            steps.push(Step::ShadowMaps);
+        }
         // Head: what writes depth.
         match features.method {
             Method::TiledDeferred => steps.push(Step::GBuffer),
@@ -106,6 +113,7 @@ mod tests {
             aabb: false,
             extra_targets: 0,
             blended_as_opaque: 0,
+            shadows: None,
         }
     }
 

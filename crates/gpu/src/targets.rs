@@ -11,8 +11,10 @@ use crate::error::GpuError;
 use crate::light_grid::{GridStatus, LightGrid};
 use crate::memory::MemoryReport;
 use crate::scene_gpu::SceneGpu;
+use crate::shadow_atlas::ShadowAtlas;
 use crate::timer::GpuTimer;
 use crate::tonemap::{HeatmapPass, HDR_FORMAT, LDR_FORMAT};
+use tiledlight_cull::light::PackedLights;
 
 /// A labelled single-sampled 2D texture.
 pub fn texture_2d(
@@ -206,5 +208,14 @@ pub trait Renderer {
     /// method has such a test (Tiled Deferred with MSAA).
     fn edge_pixels(&self, _ctx: &GpuContext) -> Result<Option<u32>, GpuError> {
         Ok(None)
+    }
+    /// The shadow atlas, when some light casts a shadow.
+    fn shadow_atlas(&self) -> Option<&ShadowAtlas> {
+        None
+    }
+    /// Call after the lights moved on the GPU (their buffers rewritten), with the lights as
+    /// now uploaded: the next frame redraws the shadow faces of the casters that moved.
+    fn lights_moved(&self, _queue: &wgpu::Queue, _lights: &PackedLights) -> Result<(), GpuError> {
+        Ok(())
     }
 }

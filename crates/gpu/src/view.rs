@@ -74,6 +74,28 @@ impl ViewUniforms {
     }
 }
 
+impl ViewUniforms {
+    /// The uniforms of a view with world-to-view `view` and reversed-Z, infinite-far
+    /// projection `proj` of near plane `near` (a shadow face), rendering `size` texels.
+    pub fn from_matrices(view: Mat4, proj: Mat4, near: f32, size: (u32, u32)) -> Self {
+        let m = |m: Mat4| m.to_cols_array_2d();
+        let to_world = view.inverse();
+        Self {
+            world_to_view: m(view),
+            view_to_clip: m(proj),
+            world_to_clip: m(proj * view),
+            view_to_world: m(to_world),
+            eye: to_world.w_axis.truncate().to_array(),
+            orthographic: 0,
+            screen: [size.0, size.1],
+            depth_near: near,
+            depth_far: f32::INFINITY,
+            depth_k: 0.0,
+            ..Default::default()
+        }
+    }
+}
+
 /// Group 0 of every scene and culling pipeline: the view uniform, bound at a slot's
 /// dynamic offset (`shaders/common/view.wgsl`).
 pub const BINDINGS: &[Binding] =

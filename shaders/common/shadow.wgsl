@@ -1,0 +1,82 @@
+// Shadow lookup for shadow-casting lights (variant SHADOWS), the GPU side of
+// crates/cull/src/shadow.rs (its module doc numbers the steps: atlas, widened faces,
+// reversed-Z infinite projection, bias). Included by common/shade.wgsl; the including file
+// declares `shadow_atlas: texture_depth_2d_array`, `shadow_sampler: sampler_comparison`
+// and `shadow_faces: array<ShadowFace>` (crates/gpu/src/shadow_atlas.rs, GpuShadowFace),
+// and sets the override SHADOW_RADIUS (taps each side of the centre: 0, 1, 2).
+//
+// Casters are the first `num_shadow_points` lights and the first `num_shadow_spots` spots
+// (lights num_point_lights..): the light order is the caster flag, so unshadowed lights
+// pay one comparison and read nothing.
+
+// ShadowFace is declared in common/lights.wgsl.
+
+override SHADOW_RADIUS: i32 = 2;
+
+// Normal offset per sin(theta), in texels at the receiver: the filter's reach plus 1.5
+// (tiledlight_cull::shadow::Bias::for_filter).
+fn shadow_normal_bias() -> f32 {
+    return f32(SHADOW_RADIUS) + 1.5;
+}
+
+// Shadowed lights: the first points and the first spots.
+fn casts_shadow(i: u32) -> bool {
+    return i < lighting.num_shadow_points
+        || (i >= lighting.num_point_lights && i - lighting.num_point_lights < lighting.num_shadow_spots);
+}
+
+// Cube face of a direction from the light: the largest axis, ties to x then y
+// (tiledlight_cull::shadow::cube_face).
+fn cube_face(d: vec3<f32>) -> u32 {
+    let a = abs(d);
+    if a.x >= a.y && a.x >= a.z {
+        return select(1u, 0u, d.x >= 0.0);
+    }
+    if a.y >= a.z {
+        return select(3u, 2u, d.y >= 0.0);
+    }
+    return select(5u, 4u, d.z >= 0.0);
+}
+
+// Fraction of caster `i` (at `light_pos`) that reaches surface point `p` with unit normal
+// `n`; `l` is the unit direction to the light.
+fn shadow_visibility(i: u32, light_pos: vec3<f32>, p: vec3<f32>, n: vec3<f32>, l: vec3<f32>) -> f32 {
+    let is_point = i < lighting.num_point_lights;
+    var face: ShadowFace;
+    var depth: f32;
+    if is_point {
+        // A cube face's view depth is the largest axis distance, whichever face.
+        let a = abs(p - light_pos);
+        depth = max(a.x, max(a.y, a.z));
+    } else {
+        face = shadow_faces[6u * lighting.num_shadow_points + (i - lighting.num_point_lights)];
+        depth = (face.world_to_clip * vec4<f32>(p, 1.0)).w;
+    }
+    // Bias in world units from the texel's size here (every point face has the same).
+    var texel_per_depth = face.texel;
+    if is_point {
+        texel_per_depth = shadow_faces[6u * i].texel;
+    }
+    let texel_world = texel_per_depth * depth;
+    let cos_t = clamp(dot(n, l), -1.0, 1.0);
+    let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
+    let q = p + n * (shadow_normal_bias() * texel_world * sin_t) + l * (0.5 * texel_world);
+    if is_point {
+        // The face of the biased point: its taps stay inside that face's tile.
+        face = shadow_faces[6u * i + cube_face(q - light_pos)];
+    }
+    let clip = face.world_to_clip * vec4<f32>(q, 1.0);
+    let ndc = clip.xyz / clip.w;
+    let uv = face.uv_origin + (vec2<f32>(0.5) + vec2<f32>(0.5, -0.5) * ndc.xy) * lighting.shadow_tile_uv;
+    // Reversed-Z: lit where the receiver is at least as near the light as the stored depth.
+    let z = ndc.z + lighting.shadow_depth_bias;
+    var sum = 0.0;
+    for (var y = -SHADOW_RADIUS; y <= SHADOW_RADIUS; y++) {
+        for (var x = -SHADOW_RADIUS; x <= SHADOW_RADIUS; x++) {
+            let at = uv + vec2<f32>(f32(x), f32(y)) * lighting.shadow_texel_uv;
+            sum += textureSampleCompareLevel(shadow_atlas, shadow_sampler, at, face.layer, z);
+        }
+    }
+    let taps = f32((2 * SHADOW_RADIUS + 1) * (2 * SHADOW_RADIUS + 1));
+    return sum / taps;
+}
