@@ -67,7 +67,12 @@ fn shadow_visibility(i: u32, light_pos: vec3<f32>, p: vec3<f32>, n: vec3<f32>, l
     }
     let clip = face.world_to_clip * vec4<f32>(q, 1.0);
     let ndc = clip.xyz / clip.w;
-    let uv = face.uv_origin + (vec2<f32>(0.5) + vec2<f32>(0.5, -0.5) * ndc.xy) * lighting.shadow_tile_uv;
+    var uv = face.uv_origin + (vec2<f32>(0.5) + vec2<f32>(0.5, -0.5) * ndc.xy) * lighting.shadow_tile_uv;
+    // Keep the centre in the face's inner rectangle, so no tap reads a neighbouring tile: a
+    // point's biased lookup is there already (its face was chosen from it); a spot's can
+    // leave it where the bias pushes a point at the cone's rim outward.
+    let margin = f32(SHADOW_RADIUS + 1) * lighting.shadow_texel_uv;
+    uv = clamp(uv, face.uv_origin + margin, face.uv_origin + lighting.shadow_tile_uv - margin);
     // Reversed-Z: lit where the receiver is at least as near the light as the stored depth.
     let z = ndc.z + lighting.shadow_depth_bias;
     var sum = 0.0;

@@ -26,6 +26,7 @@ use crate::depth_prepass::{DepthPrepass, DepthTarget};
 use crate::error::GpuError;
 use crate::features::Features;
 use crate::memory::MemoryReport;
+use crate::readback::read_texture_layer;
 use crate::scene_gpu::SceneGpu;
 use crate::timer::GpuTimer;
 use crate::util::{buffer_zeroed, shader_module};
@@ -142,7 +143,10 @@ impl ShadowAtlas {
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
             format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            // COPY_SRC: tests read faces back ([`Self::read_layer`]).
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::COPY_SRC,
             view_formats: &[],
         });
         let sample_view = texture.create_view(&wgpu::TextureViewDescriptor {
@@ -352,8 +356,22 @@ impl ShadowAtlas {
         state.drawn_last = drawn;
     }
 
-    /// The atlas texture (tests read it back).
+    /// The atlas texture.
     pub fn texture(&self) -> &wgpu::Texture {
         &self.texture
+    }
+
+    /// Reads layer `layer` back as depth values in [0, 1], row-major (tests compare it
+    /// with a ray-cast depth per texel; a debug path, it waits for the GPU).
+    pub fn read_layer(&self, device: &wgpu::Device, queue: &wgpu::Queue, layer: u32) -> Result<Vec<f32>, GpuError> {
+        let aspect = wgpu::TextureAspect::DepthOnly;
+        let bytes = self.options.format.bytes();
+        let raw = read_texture_layer(device, queue, (&self.texture, layer), aspect, bytes)?;
+        Ok(match self.options.format {
+            ShadowFormat::Depth16 => {
+                raw.chunks_exact(2).map(|b| u16::from_le_bytes([b[0], b[1]]) as f32 / 65535.0).collect()
+            }
+            ShadowFormat::Depth32 => bytemuck::pod_collect_to_vec(&raw),
+        })
     }
 }
