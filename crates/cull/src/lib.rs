@@ -2,8 +2,9 @@
 //!
 //! Cameras (reversed-Z perspective with finite or infinite far, orthographic), lights
 //! and their GPU packing, tile frusta, the bounding tests, windowed attenuation and the
-//! shared BRDF, the CPU reference culler that every GPU kernel is compared with, and the
-//! light grid's packing ([`grid`]).
+//! shared BRDF, the CPU reference culler that every GPU kernel is compared with, the
+//! light grid's packing ([`grid`]), and the CPU ray-cast visibility reference that shadow
+//! maps are compared with ([`raycast`]: triangles in a BVH, segment occlusion).
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
 
 pub mod error;
@@ -16,6 +17,7 @@ pub mod bounds;
 pub mod brdf;
 pub mod camera;
 pub mod grid;
+pub mod raycast;
 pub mod reference;
 pub mod tiles;
 
