@@ -2,9 +2,10 @@
 //!
 //! Cameras (reversed-Z perspective with finite or infinite far, orthographic), lights
 //! and their GPU packing, tile frusta, the bounding tests, windowed attenuation and the
-//! shared BRDF, the CPU reference culler that every GPU kernel is compared with, and the
-//! light grid's packing ([`grid`]), and the shadow atlas's layout, projections and lookup
-//! ([`shadow`]).
+//! shared BRDF, the CPU reference culler that every GPU kernel is compared with, the
+//! light grid's packing ([`grid`]), the shadow atlas's layout, projections and lookup
+//! ([`shadow`]), and the CPU ray-cast visibility reference that shadow maps are compared
+//! with ([`raycast`]: triangles in a BVH, segment occlusion).
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
 
 pub mod error;
@@ -17,6 +18,7 @@ pub mod bounds;
 pub mod brdf;
 pub mod camera;
 pub mod grid;
+pub mod raycast;
 pub mod reference;
 pub mod shadow;
 pub mod tiles;

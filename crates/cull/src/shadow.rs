@@ -4,7 +4,7 @@
 //! from these functions and `shaders/common/shadow.wgsl` repeats the lookup; the tests
 //! check the lookup's guarantees here (every tap of a filter stays inside its face's tile,
 //! the faces of a point light cover every direction) and compare the GPU's shadows with a
-//! ray-cast reference (`raycast`).
+//! ray-cast reference ([`crate::raycast`]).
 //!
 //! The steps:
 //! 1. **Atlas.** One `texture_depth_2d_array`; each layer is `6 x rows` tiles of `tile`

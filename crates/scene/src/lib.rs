@@ -1,9 +1,11 @@
 //! tiledlight-scene: the scene model every renderer draws, and where scenes come from.
 //!
 //! - [`Scene`] and its parts ([`Mesh`], [`Material`], [`Texture`], [`Instance`],
-//!   [`CameraDesc`], [`Aabb`]), with [`Scene::validate`] to check one before upload;
+//!   [`CameraDesc`], [`Aabb`]), with [`Scene::validate`] to check one before upload and
+//!   [`Scene::world_triangles`] for the CPU ray-cast shadow reference;
 //! - [`default_scene`]: a procedural Sponza-like courtyard (about 250k triangles) plus
 //!   TiledLighting11's grid objects;
+//! - [`shadow_box_scene`]: a cube on or above a floor, for the shadow tests;
 //! - [`random_lights`]: deterministic random point and spot lights;
 //! - [`load_gltf`]: glTF 2.0 files (.gltf/.glb) with KHR_lights_punctual.
 //!
@@ -22,5 +24,5 @@ pub use error::SceneError;
 pub use lights::{random_lights, LightOptions, DEFAULT_INTENSITY_RANGE, DEFAULT_LIGHT_THRESHOLD, MAX_LIGHTS};
 pub use loader::load_gltf;
 pub use model::{Aabb, AlphaMode, CameraDesc, Instance, Material, Mesh, Scene, Texture};
-pub use procedural::{default_scene, DefaultSceneOptions, GridDensity, MAX_GRID_OBJECTS};
+pub use procedural::{default_scene, shadow_box_scene, DefaultSceneOptions, GridDensity, MAX_GRID_OBJECTS};
 pub use tiledlight_cull::{Light, LightKind};

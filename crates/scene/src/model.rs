@@ -415,6 +415,37 @@ impl Scene {
         self.instances.iter().filter_map(|inst| self.meshes.get(inst.mesh)).map(Mesh::triangle_count).sum()
     }
 
+    /// Every drawn triangle in world space: each instance's mesh triangles with their
+    /// positions transformed by the instance's transform, instance by instance, in index
+    /// order. What the shadow tests' ray-cast reference
+    /// ([`tiledlight_cull::raycast::Triangles`]) is built from.
+    ///
+    /// Every instance is included whatever its material: alpha-masked (and alpha-blended)
+    /// materials count as opaque, since the texture's alpha is not sampled here, so
+    /// cut-out holes cast shadows in this list. Winding is kept as stored (a mirrored
+    /// transform reverses it; the ray cast is two-sided). Instances with an out-of-range
+    /// mesh and triangles with an out-of-range index are skipped, as in
+    /// [`Scene::triangle_count`] ([`Scene::validate`] reports both).
+    pub fn world_triangles(&self) -> Vec<[Vec3; 3]> {
+        let mut out = Vec::with_capacity(usize::try_from(self.triangle_count()).unwrap_or(0));
+        for inst in &self.instances {
+            let Some(mesh) = self.meshes.get(inst.mesh) else {
+                continue;
+            };
+            // Transform each vertex once, not once per triangle using it.
+            let world: Vec<Vec3> =
+                mesh.positions.iter().map(|p| inst.transform.transform_point3(Vec3::from_array(*p))).collect();
+            for tri in mesh.indices.chunks_exact(3) {
+                if let (Some(a), Some(b), Some(c)) =
+                    (world.get(tri[0] as usize), world.get(tri[1] as usize), world.get(tri[2] as usize))
+                {
+                    out.push([*a, *b, *c]);
+                }
+            }
+        }
+        out
+    }
+
     /// World-space bounds of all instances (each mesh's box transformed by its
     /// instance). Instances with an out-of-range mesh are skipped; empty if none is left.
     pub fn compute_bounds(&self) -> Aabb {
@@ -556,6 +587,33 @@ mod tests {
         rejects(|s| s.camera.as_mut().unwrap().fov_y = f32::NAN, "camera has a non-finite parameter");
         rejects(|s| s.camera.as_mut().unwrap().target = Vec3::ZERO, "camera eye");
         rejects(|s| s.camera.as_mut().unwrap().far = Some(0.05), "camera near 0.1 must be positive and below far");
+    }
+
+    #[test]
+    fn world_triangles_apply_instance_transforms() {
+        let mut s = triangle_scene();
+        let (x, y, z) = (Vec3::X, Vec3::Y, Vec3::Z);
+        assert_eq!(s.world_triangles(), vec![[-5.0 * z, x - 5.0 * z, y - 5.0 * z]]);
+        // A second instance, rotated a quarter turn about +Y, scaled and moved, with an
+        // alpha-masked material (still included); and one with a bad mesh (skipped).
+        s.materials.push(Material { alpha_mode: AlphaMode::Mask { cutoff: 0.5 }, ..Material::default() });
+        let m = Mat4::from_scale_rotation_translation(
+            Vec3::splat(2.0),
+            glam::Quat::from_rotation_y(std::f32::consts::FRAC_PI_2),
+            Vec3::new(10.0, 0.0, 0.0),
+        );
+        s.instances.push(Instance { mesh: 0, material: 1, transform: m });
+        s.instances.push(Instance { mesh: 7, material: 0, transform: Mat4::IDENTITY });
+        let w = s.world_triangles();
+        assert_eq!(w.len(), 2);
+        // +X turns to -Z; +Y stays.
+        let expected = [Vec3::new(10.0, 0.0, 0.0), Vec3::new(10.0, 0.0, -2.0), Vec3::new(10.0, 2.0, 0.0)];
+        for (got, want) in w[1].iter().zip(expected) {
+            assert!(got.abs_diff_eq(want, 1e-5), "{got} vs {want}");
+        }
+        // Out-of-range indices drop only their triangle.
+        s.meshes[0].indices.extend_from_slice(&[0, 1, 9]);
+        assert_eq!(s.world_triangles().len(), 2);
     }
 
     #[test]

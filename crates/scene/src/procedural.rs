@@ -1,8 +1,10 @@
-//! The procedural default scene: an atrium-like courtyard (Sponza-like: floor, four
-//! walls, two storeys of columns and arches along the long sides, gallery floors,
-//! balustrades, banners and clutter, no roof) plus TiledLighting11's grid objects, the
-//! stress knob of instanced UV spheres. Deterministic: the same options give the same
-//! scene. Depends on glam, this crate's model, geometry and error modules.
+//! The procedural scenes. The default scene: an atrium-like courtyard (Sponza-like:
+//! floor, four walls, two storeys of columns and arches along the long sides, gallery
+//! floors, balustrades, banners and clutter, no roof) plus TiledLighting11's grid objects,
+//! the stress knob of instanced UV spheres. The shadow box scene ([`shadow_box_scene`]):
+//! a cube on or above a floor, small enough for the shadow tests to ray-cast every pixel.
+//! Deterministic: the same options give the same scene. Depends on glam, this crate's
+//! model, geometry and error modules.
 //!
 //! Layout (metres): the open courtyard spans x in [-8, 8], z in [-18, 18], y in
 //! [0, 13]; the outer walls are 0.5 m thick outside it. Column rows stand at x = +-6,
@@ -488,10 +490,137 @@ pub fn default_scene(opts: &DefaultSceneOptions) -> Result<Scene, SceneError> {
     Ok(scene)
 }
 
+// The shadow box scene (metres).
+const SHADOW_FLOOR_HALF: f32 = 10.0;
+/// Floor cells per side: 2.5 m cells, so the floor has vertices under and around the
+/// cube's shadow instead of being two huge triangles.
+const SHADOW_FLOOR_CELLS: u32 = 8;
+const SHADOW_BOX_HALF: f32 = 1.0;
+
+/// A scene for shadow tests: a 20 m x 20 m floor (y = 0, facing +Y, 8 x 8 cells of
+/// 2.5 m, centred on the origin) and a closed 2 m cube over the origin, x and z in
+/// [-1, 1], y in `[gap, gap + 2]` (outward normals, counter-clockwise front faces seen from
+/// outside, 2 x 2 cells per face: 176 triangles in all). `gap` 0 rests the cube on the
+/// floor (contact shadows); `gap > 0` makes it hover. The cube is one mesh placed by its
+/// instance's translation, so the instance transform path is exercised too. No lights
+/// (the tests add them) and no textures; the camera looks down at the cube from above
+/// at an angle (from (9, 12, 15) m, 60 degree vertical field of view).
+///
+/// # Panics
+///
+/// When `gap` is negative, NaN or infinite.
+pub fn shadow_box_scene(gap: f32) -> Scene {
+    assert!(gap.is_finite() && gap >= 0.0, "shadow_box_scene: gap {gap} must be finite and >= 0");
+    let half = SHADOW_FLOOR_HALF;
+    let mut floor = MeshBuilder::new();
+    // Corner (-10, 0, 10), edges +X and -Z: faces +Y (the winding of `floor_mesh`).
+    add_grid(
+        &mut floor,
+        Vec3::new(-half, 0.0, half),
+        Vec3::new(2.0 * half, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, -2.0 * half),
+        SHADOW_FLOOR_CELLS,
+        SHADOW_FLOOR_CELLS,
+        2.0,
+    );
+    let mut cube = MeshBuilder::new();
+    let h = SHADOW_BOX_HALF;
+    add_box(&mut cube, Vec3::new(-h, 0.0, -h), Vec3::new(h, 2.0 * h, h), h);
+    let mut scene = Scene {
+        name: format!("shadow box (gap {gap} m)"),
+        meshes: vec![floor.build("floor"), cube.build("cube")],
+        materials: vec![material("floor", [0.8, 0.8, 0.8], 0.8, 0.0), material("cube", [0.7, 0.45, 0.25], 0.5, 0.0)],
+        textures: Vec::new(),
+        instances: vec![
+            Instance { mesh: 0, material: 0, transform: Mat4::IDENTITY },
+            Instance { mesh: 1, material: 1, transform: Mat4::from_translation(Vec3::new(0.0, gap, 0.0)) },
+        ],
+        lights: Vec::new(),
+        camera: Some(CameraDesc {
+            eye: Vec3::new(9.0, 12.0, 15.0),
+            target: Vec3::new(0.0, 1.0, 0.0),
+            up: Vec3::Y,
+            fov_y: 60f32.to_radians(),
+            near: 0.1,
+            far: None,
+        }),
+        bounds: Aabb::empty(),
+    };
+    scene.bounds = scene.compute_bounds();
+    scene
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::geometry::tests::check_mesh;
+    use tiledlight_cull::raycast::Triangles;
+
+    #[test]
+    fn shadow_box_scene_shape() {
+        for gap in [0.0f32, 0.5] {
+            let scene = shadow_box_scene(gap);
+            scene.validate().unwrap();
+            assert!(scene.lights.is_empty());
+            assert_eq!(scene.triangle_count(), 8 * 8 * 2 + 6 * 2 * 2 * 2);
+            for mesh in &scene.meshes {
+                check_mesh(mesh);
+            }
+            let b = scene.bounds;
+            assert_eq!(b, Aabb::new(Vec3::new(-10.0, 0.0, -10.0), Vec3::new(10.0, gap + 2.0, 10.0)));
+            // Floor: every normal +Y at y = 0.
+            let floor = &scene.meshes[scene.instances[0].mesh];
+            assert!(floor.normals.iter().all(|n| *n == [0.0, 1.0, 0.0]));
+            assert!(floor.positions.iter().all(|p| p[1] == 0.0));
+            // Cube: normals point away from its centre (outward), in world space too.
+            let cube = &scene.instances[1];
+            let centre = Vec3::new(0.0, gap + 1.0, 0.0);
+            let mesh = &scene.meshes[cube.mesh];
+            for (p, n) in mesh.positions.iter().zip(&mesh.normals) {
+                let world = cube.transform.transform_point3(Vec3::from_array(*p));
+                assert!(Vec3::from_array(*n).dot(world - centre) > 0.5, "{world}");
+                assert!(world.y >= gap && world.y <= gap + 2.0 && world.x.abs() <= 1.0 && world.z.abs() <= 1.0);
+            }
+            // The camera is above, outside the cube, and looks down at it.
+            let cam = scene.camera.unwrap();
+            assert!(cam.eye.y > gap + 2.0 && (cam.target - cam.eye).y < 0.0);
+        }
+    }
+
+    #[test]
+    fn shadow_box_scene_casts_the_expected_shadows() {
+        let light = Vec3::new(0.0, 8.0, 0.0);
+        for gap in [0.0f32, 0.5] {
+            let bvh = Triangles::new(shadow_box_scene(gap).world_triangles());
+            assert_eq!(bvh.len(), 176);
+            // Under the cube, and in its shadow just outside its footprint (the shadow of
+            // a 2 m cube's top face from 8 m above reaches 1 * 8 / (6 - gap) m out).
+            assert!(bvh.occluded(Vec3::new(0.0, 0.0, 0.0), light, 1e-4));
+            assert!(bvh.occluded(Vec3::new(1.2, 0.0, 0.3), light, 1e-4));
+            // Far from it, lit; the cube's own top is lit.
+            assert!(!bvh.occluded(Vec3::new(5.0, 0.0, -5.0), light, 1e-4));
+            assert!(!bvh.occluded(Vec3::new(0.3, gap + 2.0, 0.2), light, 1e-4));
+            // The cube is closed: a ray from its centre escapes in no direction.
+            let centre = Vec3::new(0.0, gap + 1.0, 0.0);
+            for d in
+                [Vec3::X, Vec3::NEG_Y, Vec3::new(1.0, 1.0, 1.0), Vec3::new(-0.3, -1.0, 0.7), Vec3::new(1.0, 0.0, 1.0)]
+            {
+                let t = bvh.first_hit(centre, d, f32::INFINITY).unwrap();
+                assert!(t <= 3f32.sqrt() + 1e-5, "{d}: {t}");
+            }
+        }
+        // Hovering, a light at floor level sees under the cube; resting, it does not.
+        let side = Vec3::new(-6.0, 0.25, 0.0);
+        let beyond = Vec3::new(6.0, 0.0, 0.0);
+        assert!(!Triangles::new(shadow_box_scene(0.5).world_triangles()).occluded(side, beyond, 1e-4));
+        assert!(Triangles::new(shadow_box_scene(0.0).world_triangles()).occluded(side, beyond, 1e-4));
+    }
+
+    #[test]
+    #[should_panic(expected = "gap -1 must be finite")]
+    fn shadow_box_scene_rejects_a_negative_gap() {
+        shadow_box_scene(-1.0);
+    }
 
     #[test]
     fn default_scene_triangles_in_range_and_valid() {
