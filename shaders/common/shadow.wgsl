@@ -13,11 +13,10 @@
 
 override SHADOW_RADIUS: i32 = 2;
 
-// Normal offset per sin(theta), in texels at the receiver: the filter's reach plus 1.5
-// (tiledlight_cull::shadow::Bias::for_filter).
-fn shadow_normal_bias() -> f32 {
-    return f32(SHADOW_RADIUS) + 1.5;
-}
+// Normal offset in texels per sin(theta), and the cap of the slope factor
+// (tiledlight_cull::shadow::{NORMAL_OFFSET_TEXELS, MAX_SLOPE}).
+const SHADOW_NORMAL_OFFSET: f32 = 1.0;
+const SHADOW_MAX_SLOPE: f32 = 20.0;
 
 // Shadowed lights: the first points and the first spots.
 fn casts_shadow(i: u32) -> bool {
@@ -39,28 +38,28 @@ fn cube_face(d: vec3<f32>) -> u32 {
 }
 
 // Fraction of caster `i` (at `light_pos`) that reaches surface point `p` with unit normal
-// `n`; `l` is the unit direction to the light.
+// `n`; `l` is the unit direction to the light. The steps and the bias are
+// tiledlight_cull::shadow's (biased_position, slope_bias, biased_depth).
 fn shadow_visibility(i: u32, light_pos: vec3<f32>, p: vec3<f32>, n: vec3<f32>, l: vec3<f32>) -> f32 {
     let is_point = i < lighting.num_point_lights;
     var face: ShadowFace;
     var depth: f32;
+    var texel_per_depth: f32;
     if is_point {
-        // A cube face's view depth is the largest axis distance, whichever face.
+        // A cube face's view depth is the largest axis distance, whichever face; every face
+        // of the light has the same texel size.
         let a = abs(p - light_pos);
         depth = max(a.x, max(a.y, a.z));
+        texel_per_depth = shadow_faces[6u * i].texel;
     } else {
         face = shadow_faces[6u * lighting.num_shadow_points + (i - lighting.num_point_lights)];
         depth = (face.world_to_clip * vec4<f32>(p, 1.0)).w;
-    }
-    // Bias in world units from the texel's size here (every point face has the same).
-    var texel_per_depth = face.texel;
-    if is_point {
-        texel_per_depth = shadow_faces[6u * i].texel;
+        texel_per_depth = face.texel;
     }
     let texel_world = texel_per_depth * depth;
     let cos_t = clamp(dot(n, l), -1.0, 1.0);
     let sin_t = sqrt(max(1.0 - cos_t * cos_t, 0.0));
-    let q = p + n * (shadow_normal_bias() * texel_world * sin_t) + l * (0.5 * texel_world);
+    let q = p + n * (SHADOW_NORMAL_OFFSET * texel_world * sin_t);
     if is_point {
         // The face of the biased point: its taps stay inside that face's tile.
         face = shadow_faces[6u * i + cube_face(q - light_pos)];
@@ -73,8 +72,19 @@ fn shadow_visibility(i: u32, light_pos: vec3<f32>, p: vec3<f32>, n: vec3<f32>, l
     // leave it where the bias pushes a point at the cone's rim outward.
     let margin = f32(SHADOW_RADIUS + 1) * lighting.shadow_texel_uv;
     uv = clamp(uv, face.uv_origin + margin, face.uv_origin + lighting.shadow_tile_uv - margin);
-    // Reversed-Z: lit where the receiver is at least as near the light as the stored depth.
-    let z = ndc.z + lighting.shadow_depth_bias;
+    // Slope-scaled bias in view depth: how far a plane's depth moves over the filter's
+    // reach as this face sees it (the face's axis is the matrix's w row), plus half a texel.
+    let m = face.world_to_clip;
+    let axis = vec3<f32>(m[0].w, m[1].w, m[2].w);
+    let n_a = dot(n, axis);
+    let sin_alpha = sqrt(max(1.0 - n_a * n_a, 0.0));
+    let cos_phi = max(dot(-l, axis), 0.0);
+    let slope = min(sin_alpha * cos_phi / max(cos_t, 1e-3), SHADOW_MAX_SLOPE);
+    let bias = (f32(SHADOW_RADIUS + 1) * slope + 0.5) * texel_world;
+    // Reversed-Z, infinite far: depth = near / w, so moving toward the light by `bias` is
+    // near / (w - bias). Lit where the receiver is at least as near as the stored depth.
+    let w = clip.w;
+    let z = ndc.z * w / max(w - bias, w * 1e-3) + lighting.shadow_depth_bias;
     var sum = 0.0;
     for (var y = -SHADOW_RADIUS; y <= SHADOW_RADIUS; y++) {
         for (var x = -SHADOW_RADIUS; x <= SHADOW_RADIUS; x++) {

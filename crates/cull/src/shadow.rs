@@ -19,11 +19,14 @@
 //!    clamping per tap (which a fragment-heavy GPU would pay for on every tap).
 //! 3. **Projection.** Reversed-Z, infinite far plane (`depth = near / view_depth`), as the
 //!    main camera, so the brute-force reference without the radius cutoff is shadowed
-//!    beyond the radius too. The near plane is [`NEAR_FRACTION`] of the light's radius.
-//! 4. **Bias** (in world units, from the texel's size at the receiver, so scale-free):
-//!    normal offset `(r + 1.5) * texel * sin(theta)` (the depth a plane tilted by `theta`
-//!    spans over the filter's taps), plus a constant `texel / 2` toward the light and, for
-//!    16-bit depth, two depth quanta.
+//!    beyond the radius too. The near plane is [`NEAR_FRACTION`] of the light's radius,
+//!    pulled in short of the nearest geometry so no occluder next to the light is clipped
+//!    ([`shadow_near`]).
+//! 4. **Bias** (from the texel's size at the receiver, so scale-free): a normal offset of
+//!    [`NORMAL_OFFSET_TEXELS`] texel times `sin(theta)` ([`biased_position`]), and a
+//!    slope-scaled depth bias: the depth a plane spans over the filter's `r + 1` texels as
+//!    the face sees it, plus half a texel ([`slope_bias`], [`biased_depth`]); for 16-bit
+//!    depth, two depth quanta more.
 //!
 //! Depends on glam and [`crate::error`].
 
@@ -293,37 +296,32 @@ pub fn widened_tan(tan_half: f32, tile: u32, filter: ShadowFilter) -> f32 {
     tan_half * tile as f32 / inner
 }
 
-/// The near plane of a light of radius `radius`.
-pub fn shadow_near(radius: f32) -> f32 {
-    (radius * NEAR_FRACTION).max(1e-4)
-}
-
-/// World to view and view to clip of point caster at `position` (radius `radius`), cube
-/// face `face`.
-pub fn point_face_view_proj(position: Vec3, radius: f32, face: u32, tile: u32, filter: ShadowFilter) -> (Mat4, Mat4) {
+/// World to view and view to clip of a point caster at `position` with near plane `near`
+/// ([`shadow_near`]), cube face `face`.
+pub fn point_face_view_proj(position: Vec3, near: f32, face: u32, tile: u32, filter: ShadowFilter) -> (Mat4, Mat4) {
     let (fwd, up) = CUBE_FACES[face as usize];
     let fov = 2.0 * widened_tan(1.0, tile, filter).atan();
-    (Mat4::look_to_rh(position, fwd, up), Mat4::perspective_infinite_reverse_rh(fov, 1.0, shadow_near(radius)))
+    (Mat4::look_to_rh(position, fwd, up), Mat4::perspective_infinite_reverse_rh(fov, 1.0, near))
 }
 
-/// World to clip of point caster at `position` (radius `radius`), cube face `face`.
-pub fn point_face_matrix(position: Vec3, radius: f32, face: u32, tile: u32, filter: ShadowFilter) -> Mat4 {
-    let (view, proj) = point_face_view_proj(position, radius, face, tile, filter);
+/// World to clip of a point caster at `position` with near plane `near`, cube face `face`.
+pub fn point_face_matrix(position: Vec3, near: f32, face: u32, tile: u32, filter: ShadowFilter) -> Mat4 {
+    let (view, proj) = point_face_view_proj(position, near, face, tile, filter);
     proj * view
 }
 
-/// World to clip of a spot caster at `position` along unit `direction`, outer half-angle
+/// World to clip of a spot caster at `position` along unit `direction`, near plane `near`, outer half-angle
 /// with sine and cosine `(sin_outer, cos_outer)`. Errors for cones wider than
 /// [`MAX_SHADOW_SPOT_ANGLE`].
 pub fn spot_matrix(
     position: Vec3,
     direction: Vec3,
-    radius: f32,
+    near: f32,
     sin_cos: (f32, f32),
     tile: u32,
     filter: ShadowFilter,
 ) -> Result<Mat4, CullError> {
-    let (view, proj) = spot_view_proj(position, direction, radius, sin_cos, tile, filter)?;
+    let (view, proj) = spot_view_proj(position, direction, near, sin_cos, tile, filter)?;
     Ok(proj * view)
 }
 
@@ -331,7 +329,7 @@ pub fn spot_matrix(
 pub fn spot_view_proj(
     position: Vec3,
     direction: Vec3,
-    radius: f32,
+    near: f32,
     (sin_outer, cos_outer): (f32, f32),
     tile: u32,
     filter: ShadowFilter,
@@ -346,10 +344,7 @@ pub fn spot_view_proj(
     }
     let up = if direction.y.abs() < 0.99 { Vec3::Y } else { Vec3::X };
     let fov = 2.0 * widened_tan(sin_outer / cos_outer, tile, filter).atan();
-    Ok((
-        Mat4::look_to_rh(position, direction, up),
-        Mat4::perspective_infinite_reverse_rh(fov, 1.0, shadow_near(radius)),
-    ))
+    Ok((Mat4::look_to_rh(position, direction, up), Mat4::perspective_infinite_reverse_rh(fov, 1.0, near)))
 }
 
 /// A shadow lookup: where to sample and what to compare with.
@@ -376,28 +371,63 @@ pub fn project(m: &Mat4, rect: FaceRect, p: Vec3) -> Lookup {
     }
 }
 
-/// Bias settings, in texels at the receiver (see the module doc, step 4).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Bias {
-    /// Normal offset per `sin(theta)`, in texels.
-    pub normal: f32,
-    /// Constant offset toward the light, in texels.
-    pub constant: f32,
-}
+/// Normal offset, in texels at the receiver per `sin(theta)` (theta: the light's incidence):
+/// lifts the lookup off the surface by about one texel where the light grazes it, which
+/// covers the rasteriser's rounding and curved surfaces; the slope is [`slope_bias`]'s.
+pub const NORMAL_OFFSET_TEXELS: f32 = 1.0;
 
-impl Bias {
-    /// The bias that keeps a plane lit under `filter` at any incidence up to 89 degrees.
-    pub fn for_filter(filter: ShadowFilter) -> Self {
-        Self { normal: filter.radius() as f32 + 1.5, constant: 0.5 }
-    }
-}
+/// Largest slope factor of [`slope_bias`]: the bias stops growing at ~87 degrees of
+/// incidence (a plane lit that flatly gets almost no light).
+pub const MAX_SLOPE: f32 = 20.0;
 
-/// The receiver point to look up for surface point `p` with unit normal `n`, unit
-/// direction to the light `l`, when a texel there spans `texel_world` world units.
-pub fn biased_position(p: Vec3, n: Vec3, l: Vec3, texel_world: f32, bias: Bias) -> Vec3 {
+/// The lookup point for surface point `p` with unit normal `n`, unit direction to the light
+/// `l`, where one shadow texel spans `texel_world` world units: `p` lifted along `n` by
+/// [`NORMAL_OFFSET_TEXELS`] texels times `sin(theta)`.
+pub fn biased_position(p: Vec3, n: Vec3, l: Vec3, texel_world: f32) -> Vec3 {
     let cos = n.dot(l).clamp(-1.0, 1.0);
     let sin = (1.0 - cos * cos).max(0.0).sqrt();
-    p + n * (bias.normal * texel_world * sin) + l * (bias.constant * texel_world)
+    p + n * (NORMAL_OFFSET_TEXELS * texel_world * sin)
+}
+
+/// Slope-scaled depth bias, in view depth (world units along the face's axis `axis`), for
+/// a planar receiver with unit normal `n` lit from unit direction `l` (toward the light):
+/// the plane's view depth changes by `texel * sin(alpha) * cos(phi) / cos(theta)` per
+/// shadow texel (alpha: between `n` and the axis; phi: between the ray and the axis;
+/// theta: between `n` and `l`), and the filter reads `r + 1` texels from the centre; half a
+/// texel more covers the rasteriser's rounding. The factor is capped at [`MAX_SLOPE`].
+pub fn slope_bias(texel_world: f32, n: Vec3, l: Vec3, axis: Vec3, filter: ShadowFilter) -> f32 {
+    let sin_alpha = (1.0 - n.dot(axis).powi(2)).max(0.0).sqrt();
+    let cos_phi = (-l).dot(axis).max(0.0);
+    let cos_theta = n.dot(l).max(1e-3);
+    let slope = (sin_alpha * cos_phi / cos_theta).min(MAX_SLOPE);
+    ((filter.radius() as f32 + 1.0) * slope + 0.5) * texel_world
+}
+
+/// The reference depth of a lookup at reversed-Z depth `depth` and view depth `w`, moved
+/// toward the light by `bias` in view depth (`depth = near / w`, so the biased depth is
+/// `near / (w - bias)`), plus `quanta` of the format's resolution.
+pub fn biased_depth(depth: f32, w: f32, bias: f32, quanta: f32) -> f32 {
+    depth * w / (w - bias).max(w * 1e-3) + quanta
+}
+
+/// The near plane of a shadow face of a light of radius `radius` whose nearest geometry
+/// (instance bounds) is `nearest` away, for faces of widened half-angle tangent `tan_w`:
+/// [`NEAR_FRACTION`] of the radius, but never past 90% of the nearest geometry's depth
+/// along any face's axis (a point `d` away at a face's corner is only
+/// `d / sqrt(1 + 2 tan_w^2)` deep; a near plane past it clips an occluder next to the
+/// light), and not below 1 mm or 1e-4 of the radius. The precision of 16-bit depth falls as
+/// `d^2 / near`.
+pub fn shadow_near(radius: f32, nearest: f32, tan_w: f32) -> f32 {
+    let hi = radius * NEAR_FRACTION;
+    let lo = (radius * 1e-4).max(1e-3).min(hi);
+    let corner = (1.0 + 2.0 * tan_w * tan_w).sqrt();
+    (0.9 * nearest / corner).clamp(lo, hi)
+}
+
+/// Distance from `p` to the nearest of `bounds` (world AABBs as (min, max); 0 inside
+/// one); infinity when there are none.
+pub fn nearest_bounds(p: Vec3, bounds: &[(Vec3, Vec3)]) -> f32 {
+    bounds.iter().map(|(lo, hi)| (p.clamp(*lo, *hi) - p).length()).fold(f32::INFINITY, f32::min)
 }
 
 /// World size of one texel per unit of view depth for a tile of `tile` texels and
@@ -470,7 +500,7 @@ mod tests {
             let layout = AtlasLayout::new(tile, 4, 6, 8192, 8).unwrap();
             let light = Vec3::new(3.0, -2.0, 5.0);
             let face = cube_face(dir);
-            let m = point_face_matrix(light, 10.0, face, tile, filter);
+            let m = point_face_matrix(light, 0.1, face, tile, filter);
             let rect = layout.rect(layout.point_face(caster, face));
             let lk = project(&m, rect, light + dir * dist);
             let r = filter.radius() as f32;
@@ -495,7 +525,7 @@ mod tests {
         ) {
             let Some(axis) = unit(d) else { return Ok(()) };
             let filter = FILTERS[f];
-            let m = spot_matrix(Vec3::ZERO, axis, 10.0, (angle.sin(), angle.cos()), 256, filter).unwrap();
+            let m = spot_matrix(Vec3::ZERO, axis, 0.1, (angle.sin(), angle.cos()), 256, filter).unwrap();
             // A direction inside the cone: rotate the axis by up to the outer angle.
             let side = axis.any_orthonormal_vector();
             let side = glam::Quat::from_axis_angle(axis, phi) * side;
@@ -518,7 +548,7 @@ mod tests {
         // faces' projections: the seam is covered from both sides.
         let dir = Vec3::new(1.0, 1.0, 0.3).normalize();
         for face in [0, 2] {
-            let m = point_face_matrix(Vec3::ZERO, 10.0, face, 256, ShadowFilter::Pcf5);
+            let m = point_face_matrix(Vec3::ZERO, 0.1, face, 256, ShadowFilter::Pcf5);
             let lk = project(&m, FaceRect { layer: 0, x: 0, y: 0, size: 256 }, dir * 5.0);
             for t in lk.texel {
                 assert!((3.0..=253.0).contains(&t), "face {face}: {t}");
@@ -528,7 +558,7 @@ mod tests {
 
     #[test]
     fn depth_is_reversed_and_infinite() {
-        let m = point_face_matrix(Vec3::ZERO, 10.0, 0, 256, ShadowFilter::Tap1);
+        let m = point_face_matrix(Vec3::ZERO, 0.1, 0, 256, ShadowFilter::Tap1);
         let r = FaceRect { layer: 0, x: 0, y: 0, size: 256 };
         let near = project(&m, r, Vec3::new(0.1, 0.0, 0.0));
         let far = project(&m, r, Vec3::new(1000.0, 0.0, 0.0));
@@ -540,20 +570,41 @@ mod tests {
     #[test]
     fn wide_spots_are_refused_with_their_angle() {
         let a = 85f32.to_radians();
-        let e = spot_matrix(Vec3::ZERO, Vec3::Y, 1.0, (a.sin(), a.cos()), 256, ShadowFilter::Pcf5).unwrap_err();
+        let e = spot_matrix(Vec3::ZERO, Vec3::Y, 0.01, (a.sin(), a.cos()), 256, ShadowFilter::Pcf5).unwrap_err();
         assert!(e.to_string().contains("85.0 degrees"), "{e}");
     }
 
     #[test]
-    fn bias_lifts_the_receiver_along_normal_and_light() {
+    fn bias_follows_the_slope_seen_from_the_face() {
         let p = Vec3::ZERO;
-        let b = Bias::for_filter(ShadowFilter::Pcf5);
-        // Light straight above: no normal offset, half a texel toward the light.
-        let q = biased_position(p, Vec3::Y, Vec3::Y, 0.1, b);
-        assert!((q - Vec3::new(0.0, 0.05, 0.0)).length() < 1e-6);
-        // Grazing: the normal offset is the filter's reach.
+        // Light straight above, on the face's axis: no normal offset, no slope.
+        assert_eq!(biased_position(p, Vec3::Y, Vec3::Y, 0.1), p);
+        let b = slope_bias(0.1, Vec3::Y, Vec3::Y, Vec3::NEG_Y, ShadowFilter::Pcf5);
+        assert!((b - 0.05).abs() < 1e-6, "{b}");
+        // Grazing: one texel of normal offset; the slope bias is capped.
         let l = Vec3::new(1.0, 0.01, 0.0).normalize();
-        let q = biased_position(p, Vec3::Y, l, 0.1, b);
-        assert!((q.y - 0.35).abs() < 1e-3, "{q}");
+        assert!((biased_position(p, Vec3::Y, l, 0.1).y - 0.1).abs() < 1e-3);
+        let b = slope_bias(0.1, Vec3::Y, l, -l, ShadowFilter::Pcf5);
+        assert!((b - (3.0 * MAX_SLOPE + 0.5) * 0.1).abs() < 1e-3, "{b}");
+        // A spot looking 28 degrees off the normal at a point straight below it: the
+        // plane tilts in the face even though the light is overhead.
+        let axis = Vec3::new(0.47, -0.883, 0.0).normalize();
+        let b = slope_bias(0.1, Vec3::Y, Vec3::Y, axis, ShadowFilter::Pcf3);
+        assert!(b > 0.1 * (2.0 * 0.4 + 0.5), "{b}");
+        // Depth: near / (w - bias).
+        let d = biased_depth(0.01, 10.0, 1.0, 0.0);
+        assert!((d - 0.01 * 10.0 / 9.0).abs() < 1e-7);
+    }
+
+    #[test]
+    fn near_plane_stays_short_of_the_nearest_geometry() {
+        let boxes = [(Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 1.0))];
+        let d = nearest_bounds(Vec3::new(0.0, 3.0, 0.0), &boxes);
+        assert!((d - 1.0).abs() < 1e-6);
+        // A face's corner sees the box at depth d / sqrt(3).
+        assert!((shadow_near(100.0, d, 1.0) - 0.9 / 3f32.sqrt()).abs() < 1e-6, "clipped by the box");
+        assert!((shadow_near(10.0, d, 1.0) - 0.1).abs() < 1e-6, "1% of the radius");
+        assert!((shadow_near(100.0, 0.0, 1.0) - 0.01).abs() < 1e-6, "inside a box: 1e-4 of the radius");
+        assert_eq!(nearest_bounds(Vec3::ZERO, &[]), f32::INFINITY);
     }
 }

@@ -147,6 +147,9 @@ pub struct SceneGpu {
     pub triangles: u64,
     /// Materials with alpha blending, drawn as opaque (transparency is not implemented yet).
     pub blended_as_opaque: usize,
+    /// World-space bounds of each instance (min, max): shadow faces place their near
+    /// plane just short of the nearest one.
+    pub instance_bounds: Vec<(glam::Vec3, glam::Vec3)>,
     /// Bytes allocated.
     pub memory: MemoryReport,
 }
@@ -266,6 +269,14 @@ impl SceneGpu {
             draws,
             triangles,
             blended_as_opaque,
+            instance_bounds: scene
+                .instances
+                .iter()
+                .map(|i| {
+                    let b = scene.meshes[i.mesh].bounds().transformed(&i.transform);
+                    (b.min, b.max)
+                })
+                .collect(),
             memory,
         })
     }

@@ -80,6 +80,8 @@ fn caster_key(lights: &PackedLights, i: usize) -> CasterKey {
 
 /// What [`ShadowAtlas::update`] left to draw, and what the last recorded frame drew.
 struct AtlasState {
+    /// Per face, the view and projection it was last computed with.
+    matrices: Vec<(glam::Mat4, glam::Mat4)>,
     /// Per caster (points, then spots), the key its faces were computed for.
     keys: Vec<Option<CasterKey>>,
     /// Faces to draw in the next recorded frame.
@@ -105,6 +107,8 @@ pub struct ShadowAtlas {
     pub faces: wgpu::Buffer,
     depth: DepthPrepass,
     clear: wgpu::RenderPipeline,
+    /// World bounds of the scene's instances (near planes stop short of them).
+    bounds: Vec<(Vec3, Vec3)>,
     /// View slot of face 0.
     first_slot: u32,
     state: Mutex<AtlasState>,
@@ -215,8 +219,13 @@ impl ShadowAtlas {
         memory.add("shadow.atlas", layout.bytes(options.format.bytes()));
         memory.add("shadow.faces", faces.size());
         let casters = (layout.points + layout.spots) as usize;
-        let state =
-            AtlasState { keys: vec![None; casters], dirty: vec![false; layout.faces() as usize], drawn_last: 0 };
+        let faces_n = layout.faces() as usize;
+        let state = AtlasState {
+            matrices: vec![(glam::Mat4::IDENTITY, glam::Mat4::IDENTITY); faces_n],
+            keys: vec![None; casters],
+            dirty: vec![false; faces_n],
+            drawn_last: 0,
+        };
         Ok(Self {
             layout,
             options,
@@ -227,6 +236,7 @@ impl ShadowAtlas {
             faces,
             depth,
             clear,
+            bounds: scene.instance_bounds.clone(),
             first_slot,
             state: Mutex::new(state),
             memory,
@@ -264,21 +274,27 @@ impl ShadowAtlas {
             state.keys[c] = Some(key);
             let sh = &lights.shading[i];
             let pos = Vec3::from(sh.position);
+            let nearest = shadow::nearest_bounds(pos, &self.bounds);
             let mut faces = Vec::new();
             if c < l.points as usize {
-                let texel = shadow::texel_per_depth(shadow::widened_tan(1.0, tile, filter), tile);
+                let tan_w = shadow::widened_tan(1.0, tile, filter);
+                let near = shadow::shadow_near(sh.radius, nearest, tan_w);
+                let texel = shadow::texel_per_depth(tan_w, tile);
                 for f in 0..6 {
-                    let (view, proj) = shadow::point_face_view_proj(pos, sh.radius, f, tile, filter);
+                    let (view, proj) = shadow::point_face_view_proj(pos, near, f, tile, filter);
                     faces.push((l.point_face(c as u32, f), view, proj, texel));
                 }
             } else {
                 let sp = &lights.spots[i - lights.num_point as usize];
                 let sc = (sp.sin_outer, sp.cos_outer);
-                let (view, proj) = shadow::spot_view_proj(pos, Vec3::from(sp.direction), sh.radius, sc, tile, filter)?;
-                let texel = shadow::texel_per_depth(shadow::widened_tan(sc.0 / sc.1, tile, filter), tile);
+                let tan_w = shadow::widened_tan(sc.0 / sc.1, tile, filter);
+                let near = shadow::shadow_near(sh.radius, nearest, tan_w);
+                let (view, proj) = shadow::spot_view_proj(pos, Vec3::from(sp.direction), near, sc, tile, filter)?;
+                let texel = shadow::texel_per_depth(tan_w, tile);
                 faces.push((l.spot_face((c - l.points as usize) as u32), view, proj, texel));
             }
             for (face, view, proj, texel) in faces {
+                let near = proj.w_axis.z;
                 let r = l.rect(face);
                 let g = GpuShadowFace {
                     world_to_clip: (proj * view).to_cols_array_2d(),
@@ -288,16 +304,22 @@ impl ShadowAtlas {
                 };
                 let at = face as u64 * std::mem::size_of::<GpuShadowFace>() as u64;
                 queue.write_buffer(&self.faces, at, bytemuck::bytes_of(&g));
-                let near = shadow::shadow_near(sh.radius);
                 views.write(
                     queue,
                     self.first_slot + face,
                     &ViewUniforms::from_matrices(view, proj, near, (tile, tile)),
                 );
+                state.matrices[face as usize] = (view, proj);
                 state.dirty[face as usize] = true;
             }
         }
         Ok(())
+    }
+
+    /// Face `face`'s world-to-view and view-to-clip matrices as last computed (tests
+    /// project with them; the lookup reads their product from the faces buffer).
+    pub fn face_view_proj(&self, face: u32) -> (glam::Mat4, glam::Mat4) {
+        self.state.lock().expect("shadow atlas state").matrices[face as usize]
     }
 
     /// Faces drawn by the last recorded frame (0 for a still frame after the first).
