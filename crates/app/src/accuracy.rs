@@ -131,13 +131,17 @@ struct Reference {
 }
 
 /// What identifies a reference image: everything but the settings it is compared over
-/// (threshold, tests, tile size, method), which do not change it.
+/// (threshold, tests, tile size, method), which do not change it. The reference draws
+/// the setting's shadows (casters, tile size, filter, format): the error is the method's,
+/// not the shadow map's, which the shadow axes' times are measured against.
 fn reference_key(a: &Settings, reference: ReferenceArg) -> String {
     // With the cutoff the radii, so the threshold, shape the reference too.
     let threshold = if reference == ReferenceArg::Cutoff { a.threshold.to_string() } else { String::new() };
+    let shadows =
+        if a.has_shadows() { format!("{:?}|{:?}", a.shadow_casters(), a.shadow_options()) } else { String::new() };
     threshold
         + &format!(
-            "{}|{}|{:?}|{:?}|{:?}|{}|{}x{}|{}|{}",
+            "{}|{}|{:?}|{:?}|{:?}|{}|{}x{}|{}|{}|{shadows}",
             a.scene, a.grid_objects, a.density, a.lights, a.spot_lights, a.seed, a.width, a.height, a.exposure, a.msaa
         )
 }

@@ -7,6 +7,13 @@
 //! (latency, not pipelined throughput) and the profiler never has to drop a pending frame.
 //! The frame loop ([`measure`]) and the table are shared with `render` and the default run.
 //!
+//! With shadow-casting lights, each measured frame's count of shadow faces drawn is
+//! recorded: with still lights every face is drawn once, before the measured frames, so
+//! the shadow pass costs nothing there; `--move-lights` moves the lights before every
+//! frame (the viewer's animation, tiledlight-setup's `LightAnimator`, at a fixed step) and
+//! tells the renderer (`Renderer::lights_moved`), so every caster's faces are drawn again
+//! each frame and the shadow pass's cost with moving lights is measured.
+//!
 //! May depend on [`crate::scene_setup`], tiledlight-setup and tiledlight-gpu.
 
 use std::path::PathBuf;
@@ -19,7 +26,7 @@ use tiledlight_gpu::light_grid::GridStatus;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::{GpuTimer, PassTime};
 
-use tiledlight_setup::Prepared;
+use tiledlight_setup::{shadow_atlas_description, LightAnimator, Prepared};
 
 use crate::scene_setup::SceneArgs;
 
@@ -34,6 +41,10 @@ pub const MAX_FRAMES: u32 = 100_000;
 /// clocks. On the H100, 3 warm-up frames after a few seconds of CPU work left every pass
 /// up to 5x slower (the 0.29 ms tonemap pass measured up to 1.69 ms).
 pub const MIN_WARMUP: std::time::Duration = std::time::Duration::from_millis(500);
+
+/// The time step of `--move-lights` per frame, seconds: the lights move as in the viewer at
+/// 60 frames per second, whatever the frame rate (so runs move them alike).
+pub const MOVE_STEP_S: f32 = 1.0 / 60.0;
 
 /// Flags of `tiledlight bench`.
 #[derive(Args, Clone, Debug)]
@@ -50,6 +61,12 @@ pub struct BenchArgs {
     /// Also write the results as JSON to FILE.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
+    /// Move the lights before every frame (warm-up and measured), as the viewer's animation
+    /// does: the shadow faces of every caster are drawn again each frame, so the shadow
+    /// pass is measured with moving lights (without it, still lights' faces are drawn once,
+    /// before the measured frames).
+    #[arg(long)]
+    pub move_lights: bool,
 }
 
 /// What a run of frames measured.
@@ -64,6 +81,8 @@ pub struct Measurement {
     /// Light-grid headers of measured frames that came back (tiled methods; every other
     /// frame or so, as the readback never waits).
     pub grid: Vec<GridStatus>,
+    /// Per measured frame, the shadow faces it drew (empty without shadow casters).
+    pub shadow_faces: Vec<u32>,
 }
 
 impl Measurement {
@@ -82,6 +101,20 @@ impl Measurement {
                 d.header.dropped_lists
             ),
         })
+    }
+
+    /// The smallest and largest count of shadow faces a measured frame drew (None without
+    /// shadow casters).
+    pub fn shadow_faces_range(&self) -> Option<(u32, u32)> {
+        let min = self.shadow_faces.iter().copied().min()?;
+        Some((min, self.shadow_faces.iter().copied().max().unwrap_or(min)))
+    }
+
+    /// One line on the shadow faces the measured frames drew (None without shadow casters).
+    pub fn shadow_line(&self) -> Option<String> {
+        let (min, max) = self.shadow_faces_range()?;
+        let range = if min == max { format!("{min}") } else { format!("{min} to {max}") };
+        Some(format!("{range} shadow faces drawn per measured frame"))
     }
 }
 
@@ -151,15 +184,31 @@ impl Measurement {
 
 /// Renders `warmup` frames (and more until [`MIN_WARMUP`] has passed), then `frames`
 /// frames through `renderer`, each submitted and waited for, and collects the measured
-/// frames' pass times and CPU wall times.
+/// frames' pass times and CPU wall times. The lights stay still.
 pub fn measure(prep: &Prepared, renderer: &mut dyn Renderer, warmup: u32, frames: u32) -> Result<Measurement> {
+    measure_moving(prep, renderer, warmup, frames, None)
+}
+
+/// [`measure`], with the lights moved by `animator` (made for `prep`'s lights), one
+/// [`MOVE_STEP_S`] before every frame, when it is given.
+pub fn measure_moving(
+    prep: &Prepared,
+    renderer: &mut dyn Renderer,
+    warmup: u32,
+    frames: u32,
+    mut animator: Option<&mut LightAnimator>,
+) -> Result<Measurement> {
     let ctx = &prep.ctx;
     let mut timer = GpuTimer::new(ctx).context("creating the GPU timer")?;
     let mut out = Measurement { timestamps: timer.enabled(), ..Default::default() };
-    let frame = |timer: &mut GpuTimer, renderer: &mut dyn Renderer, grid: Option<&mut Vec<GridStatus>>| {
+    let mut frame = |timer: &mut GpuTimer, renderer: &mut dyn Renderer, grid: Option<&mut Vec<GridStatus>>| {
         // The last finished frame's light-grid header: grows the grid when it was too small.
         if let (Some(status), Some(grid)) = (renderer.prepare(ctx), grid) {
             grid.push(status);
+        }
+        if let Some(a) = animator.as_deref_mut() {
+            a.advance(&ctx.queue, &prep.lights, MOVE_STEP_S);
+            renderer.lights_moved(&ctx.queue, a.current()).context("moving the lights' shadows")?;
         }
         let mut encoder =
             ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bench.frame") });
@@ -195,6 +244,9 @@ pub fn measure(prep: &Prepared, renderer: &mut dyn Renderer, warmup: u32, frames
         let t0 = Instant::now();
         frame(&mut timer, renderer, Some(&mut out.grid))?;
         out.cpu_ms.push(t0.elapsed().as_secs_f64() * 1e3);
+        if let Some(a) = renderer.shadow_atlas() {
+            out.shadow_faces.push(a.faces_drawn_last_frame());
+        }
         // The timestamp readback is mapped after the submit; the next poll delivers it.
         ctx.device.poll(wgpu::PollType::Poll).context("polling the GPU")?;
         drain(&mut timer, &mut out, &mut finished, skip);
@@ -238,6 +290,9 @@ pub fn table(m: &Measurement) -> String {
     if let Some(g) = m.grid_line() {
         s.push_str(&format!("light grid: {g}\n"));
     }
+    if let Some(l) = m.shadow_line() {
+        s.push_str(&format!("shadows:    {l}\n"));
+    }
     s
 }
 
@@ -262,6 +317,23 @@ struct BenchJson {
     /// Lights dropped because the light grid was full, summed over the measured frames
     /// read back (0: every measured frame was complete).
     dropped_lights: Option<u64>,
+    /// Whether the lights moved before every frame (`--move-lights`).
+    move_lights: bool,
+    /// Shadow faces drawn per measured frame, smallest and largest (null without shadow
+    /// casters; with still lights both are 0).
+    shadow_faces_per_frame: Option<MinMax>,
+    /// GPU memory of the shadow atlas and its face buffer (null without shadow casters).
+    shadow_atlas_bytes: Option<u64>,
+    /// The shadow atlas's layout, e.g. "atlas 1536x2304 x1 layer, 256 px tiles, 5x5 PCF,
+    /// d16; 52 faces; 9.00 MiB" (null without shadow casters).
+    shadow_atlas: Option<String>,
+}
+
+/// The smallest and largest of a count over the measured frames.
+#[derive(Serialize)]
+struct MinMax {
+    min: u32,
+    max: u32,
 }
 
 #[derive(Serialize)]
@@ -288,6 +360,11 @@ struct ConfigJson {
     msaa: u32,
     edge_distance: f32,
     edge_normal_deg: f32,
+    shadow_point_lights: u32,
+    shadow_spot_lights: u32,
+    shadow_size: u32,
+    shadow_filter: u32,
+    shadow_format: &'static str,
     commit: String,
 }
 
@@ -323,9 +400,15 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         println!("{:<11} {v}", format!("{k}:"));
     }
     let mut renderer = prep.renderer(false)?;
-    println!("frames:     {} warm-up + {} measured", args.warmup, args.frames);
-    let m = measure(&prep, renderer.as_mut(), args.warmup, args.frames)?;
+    let motion = if args.move_lights { "lights moved before every frame (--move-lights)" } else { "lights still" };
+    println!("frames:     {} warm-up + {} measured, {motion}", args.warmup, args.frames);
+    let mut animator = args.move_lights.then(|| LightAnimator::new(&prep.lights.packed, prep.bounds.center()));
+    let m = measure_moving(&prep, renderer.as_mut(), args.warmup, args.frames, animator.as_mut())?;
     print!("{}", table(&m));
+    let atlas = renderer.shadow_atlas();
+    if let Some(a) = atlas {
+        println!("shadow map: {}", shadow_atlas_description(a));
+    }
     let edge_pixels = renderer.edge_pixels(&prep.ctx).context("reading the MSAA edge count back")?;
     if let Some(e) = edge_pixels {
         let pixels = f64::from(prep.settings.width) * f64::from(prep.settings.height);
@@ -359,6 +442,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 msaa: a.msaa,
                 edge_distance: a.edge_distance,
                 edge_normal_deg: a.edge_normal_deg,
+                shadow_point_lights: a.shadow_point_lights,
+                shadow_spot_lights: a.shadow_spot_lights,
+                shadow_size: a.shadow_size,
+                shadow_filter: a.shadow_filter,
+                shadow_format: a.shadow_format.name(),
                 commit: commit_hash(),
             },
             frames: args.frames,
@@ -373,6 +461,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             edge_pixels,
             light_pairs: m.grid.last().map(|g| g.header.pairs),
             dropped_lights: m.grid.last().map(|_| m.grid.iter().map(|g| u64::from(g.header.dropped_pairs)).sum()),
+            move_lights: args.move_lights,
+            shadow_faces_per_frame: m.shadow_faces_range().map(|(min, max)| MinMax { min, max }),
+            shadow_atlas_bytes: atlas.map(|a| a.memory.total()),
+            shadow_atlas: atlas.map(shadow_atlas_description),
         };
         let text = serde_json::to_string_pretty(&json).context("encoding the results as JSON")?;
         std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))?;
@@ -401,6 +493,7 @@ mod tests {
             cpu_ms: vec![5.0],
             timestamps: true,
             grid: Vec::new(),
+            shadow_faces: Vec::new(),
         };
         let p = m.passes();
         assert_eq!(p[0].pass, "z");
@@ -409,5 +502,12 @@ mod tests {
         let t = table(&m);
         assert!(t.contains("total GPU"), "{t}");
         assert!(t.contains("CPU frame"), "{t}");
+        assert!(!t.contains("shadow"), "no shadow line without casters: {t}");
+        assert_eq!(m.shadow_line(), None);
+        let still = Measurement { shadow_faces: vec![0, 0, 0], ..m.clone() };
+        assert_eq!(still.shadow_faces_range(), Some((0, 0)));
+        assert!(table(&still).contains("shadows:    0 shadow faces drawn per measured frame"));
+        let moving = Measurement { shadow_faces: vec![52, 48, 52], ..m };
+        assert_eq!(moving.shadow_line().unwrap(), "48 to 52 shadow faces drawn per measured frame");
     }
 }

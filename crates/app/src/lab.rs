@@ -15,7 +15,7 @@ use anyhow::{bail, ensure, Context, Result};
 use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::scene_setup::{DensityArg, MethodArg, SceneArgs};
+use crate::scene_setup::{DensityArg, MethodArg, SceneArgs, ShadowFormatArg};
 
 /// The most points one run may have (a guard against a typo that would run for days).
 pub const MAX_POINTS: usize = 10_000;
@@ -37,6 +37,11 @@ pub const AXES: &[(&str, &str)] = &[
     ("msaa", "MSAA samples per pixel: 1 | 2 | 4 | 8"),
     ("edge-distance", "Tiled Deferred MSAA edge test: off-plane distance / view distance (number; ranges allowed)"),
     ("edge-normal-deg", "Tiled Deferred MSAA edge test: normal angle in degrees (number; ranges allowed)"),
+    ("shadow-point-lights", "shadow-casting point lights, the brightest (integer; ranges allowed)"),
+    ("shadow-spot-lights", "shadow-casting spot lights, the brightest (integer; ranges allowed)"),
+    ("shadow-size", "shadow tile size in texels: 128 | 256 | 512 | 1024 (integer)"),
+    ("shadow-filter", "shadow filter taps per side: 1 | 3 | 5"),
+    ("shadow-format", "shadow atlas depth format: d16 | d32"),
 ];
 
 /// One swept axis: its name (a key of [`AXES`]) and its values, in sweep order.
@@ -57,7 +62,20 @@ fn known(name: &str) -> Result<()> {
 }
 
 fn is_integer_axis(name: &str) -> bool {
-    matches!(name, "lights" | "spot-lights" | "grid-objects" | "gbuffer-rts" | "tile-size" | "seed" | "msaa")
+    matches!(
+        name,
+        "lights"
+            | "spot-lights"
+            | "grid-objects"
+            | "gbuffer-rts"
+            | "tile-size"
+            | "seed"
+            | "msaa"
+            | "shadow-point-lights"
+            | "shadow-spot-lights"
+            | "shadow-size"
+            | "shadow-filter"
+    )
 }
 
 /// Whether the axis's values are numbers (plotted on a numeric x axis).
@@ -181,6 +199,14 @@ pub fn apply(args: &mut SceneArgs, name: &str, value: &str) -> Result<()> {
         "density" => {
             args.density = DensityArg::from_str(value, true).map_err(|e| anyhow::anyhow!("density '{value}': {e}"))?
         }
+        "shadow-point-lights" => args.shadow_point_lights = small()?,
+        "shadow-spot-lights" => args.shadow_spot_lights = small()?,
+        "shadow-size" => args.shadow_size = small()?,
+        "shadow-filter" => args.shadow_filter = small()?,
+        "shadow-format" => {
+            args.shadow_format =
+                ShadowFormatArg::from_str(value, true).map_err(|e| anyhow::anyhow!("shadow-format '{value}': {e}"))?
+        }
         "aabb" => args.aabb = on_off(value)?,
         "half-z" => args.half_z = on_off(value)?,
         "culling" => {
@@ -193,6 +219,11 @@ pub fn apply(args: &mut SceneArgs, name: &str, value: &str) -> Result<()> {
             }
         }
         _ => known(name)?,
+    }
+    if matches!(name, "shadow-point-lights" | "shadow-spot-lights") {
+        // Their only limit is the scene's lights of that kind, which other axes and flags
+        // set: checked with the point's whole settings ([`args_at`]).
+        return Ok(());
     }
     let probe = args.validate();
     // Only this axis's own range matters here; other flags are checked when the point runs.
@@ -426,6 +457,9 @@ mod tests {
         assert!(e("threshold=-1").contains("--threshold"));
         assert!(e("lights=1,1").contains("twice"));
         assert!(e("lights=1..1e9:100000").contains("step count"));
+        assert!(e("shadow-size=100").contains("--shadow-size 100"), "{}", e("shadow-size=100"));
+        assert!(e("shadow-filter=2").contains("--shadow-filter 2"));
+        assert!(e("shadow-format=d24").contains("shadow-format 'd24'"));
         assert!(points(&[]).is_err());
     }
 
@@ -440,6 +474,30 @@ mod tests {
         let merged = merge_axes(axes.clone(), vec![parse_axis("lights=8").unwrap(), parse_axis("seed=3").unwrap()]);
         assert_eq!(merged.iter().map(|a| a.values.len()).collect::<Vec<_>>(), [1, 2, 1]);
         assert!(points(&[axes[0].clone(), axes[0].clone()]).is_err());
+    }
+
+    #[test]
+    fn shadows_are_axes() {
+        // Spot casters parse before the spot lights they need are known...
+        let axes = vec![
+            parse_axis("shadow-spot-lights=1..8").unwrap(),
+            parse_axis("shadow-size=128,1024").unwrap(),
+            parse_axis("shadow-filter=1,5").unwrap(),
+            parse_axis("shadow-format=d16,d32").unwrap(),
+            parse_axis("shadow-point-lights=2").unwrap(),
+        ];
+        assert_eq!(axes[0].values, ["1", "2", "4", "8"]);
+        let p = points(&axes).unwrap();
+        assert_eq!(p.len(), 4 * 2 * 2 * 2);
+        let base = SceneArgs { spot_lights: Some(8), ..SceneArgs::default() };
+        let a = args_at(&base, &axes, &p[p.len() - 1]).unwrap();
+        assert_eq!(
+            (a.shadow_spot_lights, a.shadow_size, a.shadow_filter, a.shadow_format, a.shadow_point_lights),
+            (8, 1024, 5, ShadowFormatArg::D32, 2)
+        );
+        // ...and are checked against them with the point's settings.
+        let e = format!("{:#}", args_at(&SceneArgs::default(), &axes, &p[0]).unwrap_err());
+        assert!(e.contains("--shadow-spot-lights 1: more than the scene's 0 spot lights"), "{e}");
     }
 
     #[test]

@@ -1,7 +1,9 @@
 //! `tiledlight render`: renders a few frames of one configuration, writes the image (or,
 //! with `--heatmap`, the lights-per-tile heat map with its legend) as PNG, and prints the
 //! adapter, scene, lights, tile grid, the last frame's pass times, the culling statistics
-//! read back from the GPU, and the GPU memory the configuration allocated.
+//! read back from the GPU, the shadow atlas (faces drawn by the last frame: 0 with still
+//! lights, whose faces the first frame drew; layout; memory) when lights cast shadows, and
+//! the GPU memory the configuration allocated.
 //!
 //! The culling statistics are tiledlight-setup's (`Prepared::culling_stats`).
 //!
@@ -14,7 +16,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::targets::Renderer;
-use tiledlight_setup::{Method, Prepared};
+use tiledlight_setup::{shadow_atlas_description, Method, Prepared};
 
 use crate::bench::{self, Measurement};
 use crate::legend;
@@ -99,6 +101,13 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         println!(
             "MSAA edges: {e} pixels ({:.2}%) shaded per sample by the edge test, the rest once",
             100.0 * e as f64 / pixels as f64
+        );
+    }
+    if let Some(a) = renderer.shadow_atlas() {
+        println!(
+            "shadow map: {} faces drawn by the last frame (of {RENDER_FRAMES}; still lights' faces are drawn by the first); {}",
+            a.faces_drawn_last_frame(),
+            shadow_atlas_description(a)
         );
     }
     println!("GPU memory:\n{}", renderer.memory());

@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 use crate::bookmark;
 use anyhow::{ensure, Context, Result};
 use clap::{Args, ValueEnum};
+use tiledlight_cull::shadow::ShadowFormat;
 use tiledlight_deferred::EdgeTest;
 use tiledlight_scene::{GridDensity, DEFAULT_LIGHT_THRESHOLD};
 use tiledlight_setup::{CameraBookmark, Method, SceneSource, Settings};
@@ -77,6 +78,33 @@ impl From<GridDensity> for DensityArg {
             GridDensity::Low => DensityArg::Low,
             GridDensity::Medium => DensityArg::Medium,
             GridDensity::High => DensityArg::High,
+        }
+    }
+}
+
+/// Depth format of the shadow atlas.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ShadowFormatArg {
+    /// 16-bit unsigned normalised depth (TiledLighting11's).
+    D16,
+    /// 32-bit float depth.
+    D32,
+}
+
+impl From<ShadowFormatArg> for ShadowFormat {
+    fn from(f: ShadowFormatArg) -> Self {
+        match f {
+            ShadowFormatArg::D16 => ShadowFormat::Depth16,
+            ShadowFormatArg::D32 => ShadowFormat::Depth32,
+        }
+    }
+}
+
+impl From<ShadowFormat> for ShadowFormatArg {
+    fn from(f: ShadowFormat) -> Self {
+        match f {
+            ShadowFormat::Depth16 => ShadowFormatArg::D16,
+            ShadowFormat::Depth32 => ShadowFormatArg::D32,
         }
     }
 }
@@ -158,6 +186,23 @@ pub struct SceneArgs {
     /// Exposure before tonemapping.
     #[arg(long, default_value_t = 1.0, value_name = "E")]
     pub exposure: f32,
+    /// Shadow-casting point lights: the N brightest point lights cast shadows (six cube
+    /// faces each, in the shadow atlas).
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    pub shadow_point_lights: u32,
+    /// Shadow-casting spot lights: the N brightest spot lights cast shadows (one face each).
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    pub shadow_spot_lights: u32,
+    /// Texels per side of each shadow face, 128 to 1024.
+    #[arg(long, default_value_t = 256, value_name = "128..1024")]
+    pub shadow_size: u32,
+    /// Shadow filter: taps per side of the percentage-closer filter (each a hardware 2x2
+    /// comparison).
+    #[arg(long, default_value_t = 5, value_name = "1|3|5")]
+    pub shadow_filter: u32,
+    /// Depth format of the shadow atlas.
+    #[arg(long, value_enum, default_value_t = ShadowFormatArg::D16)]
+    pub shadow_format: ShadowFormatArg,
     /// Camera bookmark to render from (a small text file; the viewer writes them with its
     /// "save camera" button): eye, target, up, field of view, near and far plane.
     #[arg(long, value_name = "FILE")]
@@ -191,6 +236,11 @@ impl Default for SceneArgs {
             edge_distance: d.edge_distance,
             edge_normal_deg: d.edge_normal_deg,
             exposure: d.exposure,
+            shadow_point_lights: d.shadow_point_lights,
+            shadow_spot_lights: d.shadow_spot_lights,
+            shadow_size: d.shadow_size,
+            shadow_filter: d.shadow_filter,
+            shadow_format: d.shadow_format.into(),
             camera: None,
         }
     }
@@ -221,6 +271,11 @@ impl SceneArgs {
             edge_distance: self.edge_distance,
             edge_normal_deg: self.edge_normal_deg,
             exposure: self.exposure,
+            shadow_point_lights: self.shadow_point_lights,
+            shadow_spot_lights: self.shadow_spot_lights,
+            shadow_size: self.shadow_size,
+            shadow_filter: self.shadow_filter,
+            shadow_format: self.shadow_format.into(),
             camera: None,
         }
     }
@@ -330,6 +385,16 @@ mod tests {
             "30",
             "--exposure",
             "2",
+            "--shadow-point-lights",
+            "2",
+            "--shadow-spot-lights",
+            "1",
+            "--shadow-size",
+            "512",
+            "--shadow-filter",
+            "3",
+            "--shadow-format",
+            "d32",
         ]);
         let s = a.settings().unwrap();
         let expected = Settings {
@@ -354,6 +419,11 @@ mod tests {
             edge_distance: 0.25,
             edge_normal_deg: 30.0,
             exposure: 2.0,
+            shadow_point_lights: 2,
+            shadow_spot_lights: 1,
+            shadow_size: 512,
+            shadow_filter: 3,
+            shadow_format: ShadowFormat::Depth32,
             camera: None,
         };
         assert_eq!(s, expected);
@@ -369,5 +439,11 @@ mod tests {
         let line = e(SceneArgs { camera: missing, ..SceneArgs::default() });
         assert!(line.contains("--camera /nonexistent/cam.txt: cannot read the file"), "{line}");
         assert!(SceneArgs { tile_size: 7, ..SceneArgs::default() }.validate().is_err());
+        let e = |flags: &[&str]| format!("{:#}", parse(flags).settings().unwrap_err());
+        assert_eq!(e(&["--shadow-size", "100"]), "--shadow-size 100: must be between 128 and 1024 texels");
+        assert!(e(&["--shadow-filter", "4"]).starts_with("--shadow-filter 4:"));
+        assert!(e(&["--lights", "3", "--shadow-point-lights", "4"]).starts_with("--shadow-point-lights 4:"));
+        let bad_format = Flags::try_parse_from(["x", "--shadow-format", "d24"]);
+        assert!(bad_format.is_err());
     }
 }

@@ -64,7 +64,9 @@ pub struct SweepArgs {
     /// An axis to vary, NAME=VALUES: a list (method=forward-plus,deferred), a doubling range
     /// (lights=64..65536) or N log-spaced values (lights=64..65536:9). Repeat for more axes;
     /// every combination is measured. Names: lights, spot-lights, method, grid-objects,
-    /// density, gbuffer-rts, tile-size, threshold, culling, aabb, half-z, seed.
+    /// density, gbuffer-rts, tile-size, threshold, culling, aabb, half-z, seed, msaa,
+    /// edge-distance, edge-normal-deg, shadow-point-lights, shadow-spot-lights, shadow-size,
+    /// shadow-filter, shadow-format.
     #[arg(long = "axis", value_name = "NAME=VALUES")]
     pub axes: Vec<String>,
     /// A named sweep; --axis replaces its axes of the same name.

@@ -80,6 +80,59 @@ fn bench_writes_json_with_every_pass() {
         }
         assert!(v["total_gpu_median_ms"].as_f64().unwrap().is_finite());
     }
+    // No light casts a shadow: no shadow numbers, and no shadow line in the report.
+    assert!(v["shadow_faces_per_frame"].is_null() && v["shadow_atlas_bytes"].is_null(), "{v}");
+    assert_eq!(v["move_lights"], false);
+    assert!(!text.contains("shadow"), "{text}");
+}
+
+/// Shadow-casting lights: `render` reports the atlas and the faces its last frame drew (0:
+/// the lights stand still, their faces were drawn by the first frame), `bench` the faces
+/// per measured frame, 0 with still lights and every face with `--move-lights`.
+#[test]
+fn shadows_render_and_bench_report_their_faces() {
+    let dir = scratch("shadows");
+    let png = dir.join("s.png");
+    let shadows = ["--spot-lights", "4", "--shadow-point-lights", "2", "--shadow-spot-lights", "1"];
+    let mut render = with_tiny("render", &["--out", png.to_str().unwrap()]);
+    render.extend(shadows);
+    let text = stdout(&gpu_run(&render));
+    for needle in [
+        "shadows:    2 point + 1 spot casters (the brightest of each kind), 256 px tiles, 5x5 PCF, d16",
+        "shadow map: 0 faces drawn by the last frame",
+        // Two point casters' rows and one row of spots: 3 rows of 256 texels.
+        "atlas 1536x768 x1 layer, 256 px tiles, 5x5 PCF, d16; 13 faces; ",
+        "shadow.atlas",
+    ] {
+        assert!(text.contains(needle), "no {needle:?} in:\n{text}");
+    }
+    assert_eq!(image::image_dimensions(&png).unwrap(), (64, 36));
+
+    for (moving, faces) in [(false, 0), (true, 13)] {
+        let json = dir.join(format!("b{moving}.json"));
+        let mut bench = with_tiny("bench", &["--frames", "3", "--warmup", "1", "--json", json.to_str().unwrap()]);
+        bench.extend(shadows);
+        if moving {
+            bench.push("--move-lights");
+        }
+        let text = stdout(&gpu_run(&bench));
+        let motion = if moving { "lights moved before every frame (--move-lights)" } else { "lights still" };
+        assert!(text.contains(motion), "{text}");
+        assert!(text.contains(&format!("shadows:    {faces} shadow faces drawn per measured frame")), "{text}");
+        assert!(text.contains("shadow map: atlas 1536x768"), "{text}");
+        let v: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        assert_eq!(v["shadow_faces_per_frame"]["min"], faces, "{v}");
+        assert_eq!(v["shadow_faces_per_frame"]["max"], faces, "{v}");
+        assert_eq!(v["move_lights"], moving);
+        // 1536x768 16-bit texels and 13 faces of 80 bytes.
+        assert_eq!(v["shadow_atlas_bytes"], 1536 * 768 * 2 + 13 * 80, "{v}");
+        assert_eq!(v["config"]["shadow_spot_lights"], 1);
+        assert_eq!(v["config"]["shadow_format"], "d16");
+        if moving && v["timestamps"] == Value::Bool(true) {
+            let passes = v["passes"].as_array().unwrap();
+            assert!(passes.iter().any(|p| p["pass"] == "shadow.atlas"), "{v}");
+        }
+    }
 }
 
 /// A 10 m quad with one KHR point light and no camera, written next to its buffer.
@@ -154,6 +207,17 @@ fn render_gltf_with_its_own_and_random_lights() {
     more.extend(["--lights", "3", "--spot-lights", "2"]);
     let text = stdout(&gpu_run(&more));
     assert!(text.contains("4 point, 2 spot (1 from the glTF file + 5 random"), "{text}");
+
+    // The file's lights are counted when it loads: more casters than it has is an upload
+    // error naming the flags and both numbers.
+    let mut casters = base.to_vec();
+    casters.extend(["--shadow-point-lights", "2"]);
+    let line = fails(&casters);
+    assert!(
+        line.contains("--shadow-point-lights 2 --shadow-spot-lights 0")
+            && line.contains("2 shadow-casting point lights requested; the scene has 1"),
+        "{line}"
+    );
 }
 
 /// Tiled Deferred renders and benches through the same flags, with its own passes.
@@ -209,6 +273,11 @@ fn bad_input_gives_one_clear_error_line() {
         (&["render", "--no-such-flag"], "--no-such-flag"),
         (&["bench", "--frames", "0"], "--frames 0"),
         (&["bench", "--tile-size", "64"], "--tile-size 64"),
+        (&["render", "--shadow-size", "100"], "--shadow-size 100"),
+        (&["render", "--shadow-filter", "4"], "--shadow-filter 4"),
+        (&["render", "--shadow-format", "d24"], "d24"),
+        (&["render", "--lights", "2", "--shadow-point-lights", "3"], "--shadow-point-lights 3"),
+        (&["bench", "--shadow-spot-lights", "1"], "--shadow-spot-lights 1"),
         (&["frobnicate"], "frobnicate"),
         (&["render", "--camera", "/nonexistent/cam.txt"], "--camera /nonexistent/cam.txt"),
         (&["view", "--script", "zoom=3"], "unknown key 'zoom'"),

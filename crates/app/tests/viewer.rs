@@ -107,7 +107,8 @@ fn viewer_renders_changes_method_and_lights_and_saves_screenshots() {
             "--frames",
             "3",
             "--script",
-            "method=deferred;msaa=4;lights=96;heatmap=on;heatmap=off;method=forward-plus",
+            "method=deferred;msaa=4;lights=96;heatmap=on;heatmap=off;method=forward-plus;spot-lights=4;\
+             shadow-point-lights=2;shadow-spot-lights=1;shadow-size=128;shadow-filter=3;shadow-format=d32",
             "--screenshot",
             "lit.png",
             "--screenshot-ui",
@@ -117,7 +118,10 @@ fn viewer_renders_changes_method_and_lights_and_saves_screenshots() {
     let stdout = text(&out.stdout);
     for needle in [
         "viewer method: forward-plus",
-        "viewer lights: 96 point, 0 spot",
+        "viewer lights: 96 point, 4 spot",
+        // The lights move (the animation is on): every caster's faces are drawn each frame.
+        "viewer shadows: 2 point + 1 spot casters, 13 faces drawn by the last frame; \
+         atlas 768x384 x1 layer, 128 px tiles, 3x3 PCF, d32; 13 faces;",
         "viewer size: 320x180",
         "viewer msaa: 4x",
         "viewer error: none",

@@ -5,7 +5,8 @@
 //! change of settings is planned as a value ([`rebuild_plan`] -> [`Rebuild`]) and carried
 //! out by [`Prepared::reconfigure`], so the viewer and the measurement lab rebuild only
 //! what a change needs. [`culling_stats`] reads a frame's per-tile light counts back
-//! for reports and tests.
+//! for reports and tests. Shadow-casting lights are settings too (how many of each kind,
+//! the atlas tile size, filter and format), uploaded with the lights.
 //!
 //! Modules:
 //! - [`settings`]: [`Settings`], [`Method`], [`SceneSource`], validation, what the
@@ -14,7 +15,9 @@
 //! - [`camera`]: [`choose_camera`], [`camera_from_desc`], [`frame_bounds`] (no GPU);
 //! - [`load`]: [`SceneCpu`], [`LightSummary`] (files and CPU work, no GPU);
 //! - [`prepared`]: [`Prepared`] (the GPU side);
-//! - [`stats`]: [`CullingStats`], [`culling_stats`], [`group_digits`].
+//! - [`stats`]: [`CullingStats`], [`culling_stats`], [`group_digits`], [`shadow_atlas_description`];
+//! - [`animate`]: [`LightAnimator`], the lights circling the scene (the viewer's animation,
+//!   `bench --move-lights`).
 //!
 //! Layering: depends on tiledlight-cull, tiledlight-scene, tiledlight-gpu,
 //! tiledlight-forward and tiledlight-deferred (and wgpu, glam, anyhow); the app
@@ -22,6 +25,7 @@
 //! `anyhow` errors whose text is meant for the user as it is: settings errors name the
 //! app's flag (`--width 0: ...`).
 
+pub mod animate;
 pub mod camera;
 pub mod load;
 pub mod prepared;
@@ -29,9 +33,10 @@ pub mod rebuild;
 pub mod settings;
 pub mod stats;
 
+pub use animate::LightAnimator;
 pub use camera::{camera_from_desc, choose_camera, frame_bounds};
 pub use load::{LightSummary, SceneCpu};
 pub use prepared::Prepared;
 pub use rebuild::{rebuild_plan, Rebuild, Reload};
 pub use settings::{CameraBookmark, Method, SceneSource, Settings, DEFAULT_POINT_LIGHTS};
-pub use stats::{culling_stats, group_digits, CullingStats};
+pub use stats::{culling_stats, group_digits, shadow_atlas_description, CullingStats};

@@ -10,7 +10,7 @@
 use std::sync::{Arc, Mutex};
 
 use anyhow::{bail, ensure, Context, Result};
-use tiledlight_cull::light::try_pack_lights;
+use tiledlight_cull::light::try_pack_lights_with_casters;
 use tiledlight_cull::Camera;
 use tiledlight_deferred::DeferredRenderer;
 use tiledlight_forward::ForwardRenderer;
@@ -61,12 +61,29 @@ pub struct Prepared {
     gpu_errors: Arc<Mutex<Vec<String>>>,
 }
 
-/// Uploads the scene and its lights.
-fn upload(ctx: &GpuContext, cpu: &SceneCpu) -> Result<(SceneGpu, LightBuffers)> {
+/// Uploads the scene and its lights (with the settings' shadow casters).
+fn upload(ctx: &GpuContext, cpu: &SceneCpu, settings: &Settings) -> Result<(SceneGpu, LightBuffers)> {
     let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &cpu.scene)
         .with_context(|| format!("uploading scene '{}'", cpu.scene.name))?;
-    let lights = LightBuffers::new(&ctx.device, &cpu.lights).context("uploading the lights")?;
+    let lights = upload_lights(ctx, &cpu.lights, settings)?;
     Ok((scene_gpu, lights))
+}
+
+/// What an upload of the lights is called in its errors: the caster flags are named when
+/// some are asked for (the scene may have fewer lights of a kind than that).
+fn lights_context(settings: &Settings) -> String {
+    let (points, spots) = settings.shadow_casters();
+    if settings.has_shadows() {
+        format!("uploading the lights with --shadow-point-lights {points} --shadow-spot-lights {spots}")
+    } else {
+        "uploading the lights".into()
+    }
+}
+
+/// Uploads `lights` into new buffers, the brightest of each kind casting shadows as the
+/// settings ask.
+fn upload_lights(ctx: &GpuContext, lights: &[Light], settings: &Settings) -> Result<LightBuffers> {
+    LightBuffers::with_casters(&ctx.device, lights, settings.shadow_casters()).with_context(|| lights_context(settings))
 }
 
 /// `settings` with the per-list capacity chosen for `lights` lights when it has none
@@ -103,7 +120,7 @@ impl Prepared {
                 v.push(e.to_string());
             }
         }));
-        let (scene_gpu, lights) = upload(&ctx, &cpu)?;
+        let (scene_gpu, lights) = upload(&ctx, &cpu, settings)?;
         Ok(Self {
             settings: with_capacity(settings, lights.len(), &ctx.device.limits()),
             requested: settings.clone(),
@@ -131,7 +148,10 @@ impl Prepared {
     /// Switches to `settings` on the same GPU device, rebuilding only what
     /// [`rebuild_plan`] says they change (from the settings last given): the scene, the
     /// lights (in place when their counts stay), the camera. Returns that plan: when its
-    /// `renderer` is set, renderers built before must be rebuilt ([`Prepared::renderer`]).
+    /// `renderer` is set, renderers built before must be rebuilt ([`Prepared::renderer`]);
+    /// when only the light data was rewritten ([`Reload::LightData`]) and lights cast
+    /// shadows, renderers built before must be given the new lights
+    /// (`Renderer::lights_moved` with `lights.packed`) to redraw their shadows.
     /// Sweeps use it so that a GPU context is created once per run, not once per point.
     ///
     /// On error nothing has changed, except for GPU errors raised by the new uploads
@@ -164,7 +184,7 @@ impl Prepared {
     /// Replaces the scene and lights by a newly loaded one (with its camera). Nothing
     /// changes when the upload fails.
     fn replace_scene(&mut self, settings: &Settings, cpu: SceneCpu) -> Result<()> {
-        let (scene_gpu, lights) = upload(&self.ctx, &cpu)?;
+        let (scene_gpu, lights) = upload(&self.ctx, &cpu, settings)?;
         self.settings = with_capacity(settings, lights.len(), &self.ctx.device.limits());
         self.scene_name = cpu.scene.name.clone();
         self.instances = cpu.scene.instances.len();
@@ -181,8 +201,10 @@ impl Prepared {
 
     /// Regenerates the random lights for `settings` (counts, seed, threshold) in the
     /// current scene: written over the existing buffers for [`Reload::LightData`] (the
-    /// counts must be the same), into new buffers for [`Reload::LightBuffers`] (renderers
-    /// built before must be rebuilt). Nothing changes on error.
+    /// counts and shadow casters must be the same; renderers built before with shadow
+    /// casters must be told, `Renderer::lights_moved`), into new buffers for
+    /// [`Reload::LightBuffers`] (renderers built before must be rebuilt). Nothing changes
+    /// on error.
     fn replace_lights(&mut self, settings: &Settings, reload: Reload) -> Result<()> {
         let lights = build_lights(settings, &self.bounds, &self.file_lights)?;
         let summary = LightSummary::of(&lights, self.file_lights.len());
@@ -196,8 +218,19 @@ impl Prepared {
                 self.light_summary.point,
                 self.light_summary.spot
             );
-            // Validated like every upload (`LightBuffers::new` does the same).
-            let packed = try_pack_lights(&lights).context("uploading the lights")?;
+            // Validated and ordered like every upload (`LightBuffers::with_casters` does the
+            // same): the casters are the brightest of the new lights.
+            let packed = try_pack_lights_with_casters(&lights, settings.shadow_casters())
+                .with_context(|| lights_context(settings))?;
+            let (old, new) = (&self.lights.packed, &packed);
+            ensure!(
+                (new.shadow_points, new.shadow_spots) == (old.shadow_points, old.shadow_spots),
+                "internal: light data rewritten in place with other shadow casters ({} point, {} spot instead of {} and {})",
+                new.shadow_points,
+                new.shadow_spots,
+                old.shadow_points,
+                old.shadow_spots
+            );
             if !packed.is_empty() {
                 let q = &self.ctx.queue;
                 q.write_buffer(&self.lights.cull, 0, bytemuck::cast_slice(&packed.cull));
@@ -208,7 +241,7 @@ impl Prepared {
             }
             self.lights.packed = packed;
         } else {
-            self.lights = LightBuffers::new(&self.ctx.device, &lights).context("uploading the lights")?;
+            self.lights = upload_lights(&self.ctx, &lights, settings)?;
         }
         self.light_summary = summary;
         Ok(())
@@ -306,7 +339,7 @@ impl Prepared {
                 ));
             }
         }
-        vec![
+        let mut lines = vec![
             ("adapter".into(), self.ctx.describe()),
             (
                 "scene".into(),
@@ -321,6 +354,11 @@ impl Prepared {
             ("lights".into(), lights),
             ("resolution".into(), res),
             ("method".into(), method),
-        ]
+        ];
+        // Only when some light casts a shadow.
+        if let Some(shadows) = a.shadow_description() {
+            lines.push(("shadows".into(), shadows));
+        }
+        lines
     }
 }

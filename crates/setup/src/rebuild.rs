@@ -6,10 +6,12 @@
 //! | --- | --- | --- | --- |
 //! | scene, grid objects, density (threshold of a glTF scene's own lights) | scene + all lights | yes | yes |
 //! | random point/spot light counts | new light buffers (bind groups and list capacity follow the count) | | yes |
-//! | seed, threshold (same counts) | light data rewritten in place | | |
+//! | shadow-casting point/spot light counts | new light buffers (the casters are ordered first) | | yes |
+//! | seed, threshold (same counts) | light data rewritten in place (renderers with shadows are told: `Renderer::lights_moved`) | | |
 //! | camera bookmark | | yes | |
 //! | width, height | | yes (aspect ratio) | yes |
 //! | method, tile size, capacity, culling tests, half-z, G-buffer targets, MSAA, edge test | | | yes |
+//! | shadow tile size, filter, format (while some light casts a shadow; unused otherwise) | | | yes |
 //! | exposure | | | no: `exposure` (the tonemap pass's uniform is rewritten) |
 //!
 //! Pure data: depends on [`crate::settings`] only.
@@ -23,7 +25,8 @@ pub enum Reload {
     #[default]
     Nothing,
     /// The random lights are generated again with the same counts and written over the
-    /// existing light buffers: renderers built before stay valid.
+    /// existing light buffers: renderers built before stay valid (with shadow casters, give
+    /// them the new lights: `Renderer::lights_moved`).
     LightData,
     /// The random lights are generated again with other counts into new light buffers:
     /// renderers built before must be rebuilt.
@@ -65,7 +68,7 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || (file_scene && a.threshold != b.threshold);
     let reload = if scene {
         Reload::Scene
-    } else if a.random_light_counts() != b.random_light_counts() {
+    } else if a.random_light_counts() != b.random_light_counts() || a.shadow_casters() != b.shadow_casters() {
         Reload::LightBuffers
     } else if a.seed != b.seed || a.threshold != b.threshold {
         Reload::LightData
@@ -86,7 +89,9 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || a.gbuffer_rts != b.gbuffer_rts
         || a.msaa != b.msaa
         || a.edge_distance != b.edge_distance
-        || a.edge_normal_deg != b.edge_normal_deg;
+        || a.edge_normal_deg != b.edge_normal_deg
+        // How shadows are drawn matters only while some light casts one.
+        || (b.has_shadows() && a.shadow_options() != b.shadow_options());
     Rebuild { reload, camera, renderer, exposure: a.exposure != b.exposure }
 }
 
@@ -95,6 +100,7 @@ mod tests {
     use super::*;
     use crate::settings::{CameraBookmark, Method};
     use glam::Vec3;
+    use tiledlight_cull::shadow::ShadowFormat;
     use tiledlight_scene::{CameraDesc, GridDensity};
 
     fn base() -> Settings {
@@ -137,6 +143,35 @@ mod tests {
         ] {
             assert_eq!(with(f), RENDERER);
         }
+    }
+
+    #[test]
+    fn shadow_casters_reupload_the_lights_and_rebuild_the_renderer() {
+        let buffers = Rebuild { reload: Reload::LightBuffers, ..RENDERER };
+        assert_eq!(with(|s| s.shadow_point_lights = 8), buffers);
+        assert_eq!(with(|s| (s.spot_lights, s.shadow_spot_lights) = (Some(8), 4)), buffers);
+        let shadowed = Settings { spot_lights: Some(8), shadow_point_lights: 2, shadow_spot_lights: 2, ..base() };
+        assert_eq!(with_from(shadowed.clone(), |s| s.shadow_spot_lights = 0), buffers);
+        assert_eq!(with_from(shadowed, |s| s.shadow_point_lights = 0), buffers);
+    }
+
+    #[test]
+    fn shadow_options_rebuild_the_renderer_while_lights_cast_shadows() {
+        let shadowed = Settings { shadow_point_lights: 2, ..base() };
+        for f in [
+            (|s: &mut Settings| s.shadow_size = 512) as fn(&mut Settings),
+            |s| s.shadow_filter = 3,
+            |s| s.shadow_format = ShadowFormat::Depth32,
+        ] {
+            assert_eq!(with_from(shadowed.clone(), f), RENDERER);
+            // Without casters the renderer does not use them.
+            assert!(with(f).is_nothing());
+        }
+        // Casters and how they are drawn, together: both.
+        let both = with(|s| (s.shadow_point_lights, s.shadow_size) = (2, 1024));
+        assert_eq!(both, Rebuild { reload: Reload::LightBuffers, ..RENDERER });
+        // New light data with the same casters: in place (the renderer is told, not rebuilt).
+        assert_eq!(with_from(Settings { shadow_point_lights: 2, ..base() }, |s| s.seed = 4).reload, Reload::LightData);
     }
 
     #[test]

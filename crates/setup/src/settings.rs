@@ -16,6 +16,7 @@ use std::path::PathBuf;
 
 use anyhow::{ensure, Result};
 use tiledlight_cull::reference::{DEFAULT_CAPACITY, MAX_CAPACITY};
+use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat, ShadowOptions, TILE_SIZES};
 use tiledlight_cull::tiles::MAX_SCREEN_SIDE;
 use tiledlight_deferred::shading::workgroup_bytes_besides_lists;
 use tiledlight_deferred::{DeferredSettings, EdgeTest};
@@ -165,6 +166,17 @@ pub struct Settings {
     pub edge_normal_deg: f32,
     /// Exposure before tonemapping.
     pub exposure: f32,
+    /// Shadow-casting point lights: the brightest point lights of the scene (0: no point
+    /// light casts a shadow).
+    pub shadow_point_lights: u32,
+    /// Shadow-casting spot lights: the brightest spot lights of the scene.
+    pub shadow_spot_lights: u32,
+    /// Texels per side of each shadow face's atlas tile, 128 to 1024.
+    pub shadow_size: u32,
+    /// Shadow filter: taps per side of the percentage-closer filter, 1, 3 or 5.
+    pub shadow_filter: u32,
+    /// Depth format of the shadow atlas.
+    pub shadow_format: ShadowFormat,
     /// A pinned camera; None: the scene's own camera, else one framing the scene.
     pub camera: Option<CameraBookmark>,
 }
@@ -194,6 +206,11 @@ impl Default for Settings {
             edge_distance: EdgeTest::default().distance,
             edge_normal_deg: EdgeTest::default().normal_deg,
             exposure: 1.0,
+            shadow_point_lights: 0,
+            shadow_spot_lights: 0,
+            shadow_size: ShadowOptions::default().tile_size,
+            shadow_filter: ShadowOptions::default().filter.size(),
+            shadow_format: ShadowOptions::default().format,
             camera: None,
         }
     }
@@ -260,6 +277,32 @@ impl Settings {
             "--grid-objects {}: must be between 0 and {MAX_GRID_OBJECTS}",
             self.grid_objects
         );
+        ensure!(
+            TILE_SIZES.contains(&self.shadow_size),
+            "--shadow-size {}: must be between {} and {} texels",
+            self.shadow_size,
+            TILE_SIZES.start(),
+            TILE_SIZES.end()
+        );
+        ensure!(
+            ShadowFilter::from_size(self.shadow_filter).is_ok(),
+            "--shadow-filter {}: must be 1, 3 or 5 (taps per side)",
+            self.shadow_filter
+        );
+        // The default scene's lights are all random, so their counts are known here; a glTF
+        // file's own lights are counted when it is loaded (the upload checks the casters).
+        if self.scene == SceneSource::Default {
+            let casters = [
+                ("--shadow-point-lights", self.shadow_point_lights, "point", "--lights", points),
+                ("--shadow-spot-lights", self.shadow_spot_lights, "spot", "--spot-lights", spots),
+            ];
+            for (flag, n, kind, count_flag, count) in casters {
+                ensure!(
+                    u64::from(n) <= count,
+                    "{flag} {n}: more than the scene's {count} {kind} lights ({count_flag} {count})"
+                );
+            }
+        }
         if let SceneSource::File(path) = &self.scene {
             let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
             ensure!(
@@ -315,6 +358,7 @@ impl Settings {
             exposure: self.exposure,
             heatmap,
             msaa: self.msaa,
+            shadows: self.shadow_options(),
             ..ForwardSettings::default()
         }
     }
@@ -328,8 +372,42 @@ impl Settings {
             heatmap,
             msaa: self.msaa,
             edge: EdgeTest { distance: self.edge_distance, normal_deg: self.edge_normal_deg },
+            shadows: self.shadow_options(),
             ..DeferredSettings::default()
         }
+    }
+
+    /// Shadow-casting (point, spot) lights asked for.
+    pub fn shadow_casters(&self) -> (u32, u32) {
+        (self.shadow_point_lights, self.shadow_spot_lights)
+    }
+
+    /// True when some light casts a shadow.
+    pub fn has_shadows(&self) -> bool {
+        self.shadow_casters() != (0, 0)
+    }
+
+    /// How shadows are drawn (the filter is the default one for a size that
+    /// [`Settings::validate`] refuses).
+    pub fn shadow_options(&self) -> ShadowOptions {
+        ShadowOptions {
+            tile_size: self.shadow_size,
+            filter: ShadowFilter::from_size(self.shadow_filter).unwrap_or_default(),
+            format: self.shadow_format,
+        }
+    }
+
+    /// One line of the shadow settings, e.g. "8 point + 4 spot casters (the brightest of
+    /// each kind), 256 px tiles, 5x5 PCF, d16"; None when no light casts a shadow.
+    pub fn shadow_description(&self) -> Option<String> {
+        self.has_shadows().then(|| {
+            format!(
+                "{} point + {} spot casters (the brightest of each kind), {}",
+                self.shadow_point_lights,
+                self.shadow_spot_lights,
+                shadow_options_description(&self.shadow_options())
+            )
+        })
     }
 
     /// One line of the culling options, e.g. "16 px tiles, capacity 512, tests: planes+aabb".
@@ -347,6 +425,15 @@ impl Settings {
         let levels = if self.flat_cull { "one level" } else { "two levels (64 px cells, then tiles)" };
         format!("{} px tiles, capacity {}, {levels}, tests: {tests}", self.tile_size, self.capacity())
     }
+}
+
+/// "256 px tiles, 5x5 PCF, d16" (1x1 is "1 tap").
+pub fn shadow_options_description(o: &ShadowOptions) -> String {
+    let filter = match o.filter.size() {
+        1 => "1 tap".to_string(),
+        n => format!("{n}x{n} PCF"),
+    };
+    format!("{} px tiles, {filter}, {}", o.tile_size, o.format.name())
 }
 
 #[cfg(test)]
@@ -389,6 +476,17 @@ mod tests {
         assert!(err(grid_on_file).contains("default scene"));
         assert!(err(Settings { msaa: 3, ..small() }).contains("--msaa 3"));
         assert!(err(Settings { gbuffer_rts: 6, ..small() }).contains("--gbuffer-rts 6"));
+        assert!(err(Settings { shadow_size: 100, ..small() }).contains("--shadow-size 100: must be between 128"));
+        assert!(err(Settings { shadow_filter: 2, ..small() }).contains("--shadow-filter 2"));
+        let casters = Settings { lights: Some(4), shadow_point_lights: 5, ..small() };
+        assert_eq!(err(casters), "--shadow-point-lights 5: more than the scene's 4 point lights (--lights 4)");
+        let spots = Settings { spot_lights: Some(2), shadow_spot_lights: 3, ..small() };
+        assert!(err(spots).contains("--shadow-spot-lights 3: more than the scene's 2 spot lights"));
+        // A glTF file's own lights are unknown here: the upload checks its casters.
+        Settings { scene: file("a.glb"), shadow_point_lights: 5, ..small() }.validate().unwrap();
+        Settings { spot_lights: Some(2), shadow_spot_lights: 2, shadow_point_lights: 1024, ..small() }
+            .validate()
+            .unwrap();
         // Refused for 8 GiB of "lists x capacity" before the light grid; fine now.
         let huge = Settings { width: 16384, height: 16384, tile_size: 8, capacity: Some(2048), ..small() };
         huge.validate().unwrap();
@@ -428,6 +526,17 @@ mod tests {
         assert_eq!(
             Settings { aabb: true, ..s }.culling_description(),
             "16 px tiles, capacity 99, one level, tests: planes+aabb, half-z (2 lists per tile)"
+        );
+        assert_eq!((f.shadows, d.shadows), (ShadowOptions::default(), ShadowOptions::default()));
+        let sh = Settings { shadow_size: 512, shadow_filter: 3, shadow_format: ShadowFormat::Depth32, ..small() };
+        let want = ShadowOptions { tile_size: 512, filter: ShadowFilter::Pcf3, format: ShadowFormat::Depth32 };
+        assert_eq!((sh.forward_settings(false).shadows, sh.deferred_settings(false).shadows), (want, want));
+        // Shadows are mentioned only when some light casts one.
+        assert_eq!(sh.shadow_description(), None);
+        let one = Settings { shadow_spot_lights: 1, shadow_filter: 1, ..sh };
+        assert_eq!(
+            one.shadow_description().unwrap(),
+            "0 point + 1 spot casters (the brightest of each kind), 512 px tiles, 1 tap, d32"
         );
         let tiled: Vec<&str> = Method::ALL.iter().filter(|m| m.is_tiled()).map(|m| m.name()).collect();
         assert_eq!(tiled, ["forward-plus", "deferred"]);

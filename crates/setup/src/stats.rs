@@ -1,17 +1,24 @@
 //! Culling statistics of one frame, read back from the GPU ([`culling_stats`]): lights
 //! per list over the tiles with geometry, the largest list, lists that lost lights and
 //! (tile, light) pairs, as `render`, the lab, the viewer and the GPU tests report them;
-//! and [`group_digits`], the thousands separators of the reports.
+//! the shadow atlas's line ([`shadow_atlas_description`]); and [`group_digits`], the
+//! thousands separators of the reports.
 //!
-//! Depends on tiledlight-gpu (readback, the `Renderer` trait, `CullOptions`) and
-//! tiledlight-cull (tile depth bounds); nothing else of the crate.
+//! Depends on tiledlight-gpu (readback, the `Renderer` trait, `CullOptions`, the shadow
+//! atlas), tiledlight-cull (tile depth bounds, atlas layout) and
+//! [`crate::settings::shadow_options_description`].
 
 use anyhow::{Context, Result};
+use tiledlight_cull::shadow::{AtlasLayout, ShadowOptions};
 use tiledlight_cull::tiles::tile_depth_bounds_samples;
 use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::memory::format_bytes;
+use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::GpuContext;
+
+use crate::settings::shadow_options_description;
 
 /// Culling statistics of one frame, read back from the GPU.
 #[derive(Clone, Debug, PartialEq)]
@@ -113,6 +120,27 @@ pub fn culling_stats(ctx: &GpuContext, renderer: &dyn Renderer, options: &CullOp
     }))
 }
 
+/// "atlas 1536x3584 x1 layer, 256 px tiles, 5x5 PCF, d16; 52 faces": where the shadow
+/// faces of `layout` lie and how they are drawn.
+pub fn atlas_layout_description(layout: &AtlasLayout, options: &ShadowOptions) -> String {
+    let layers = if layout.layers == 1 { "layer" } else { "layers" };
+    format!(
+        "atlas {}x{} x{} {layers}, {}; {} faces",
+        layout.width(),
+        layout.height(),
+        layout.layers,
+        shadow_options_description(options),
+        layout.faces()
+    )
+}
+
+/// The shadow atlas's layout ([`atlas_layout_description`]) and its GPU memory (atlas and
+/// face buffer), e.g. "atlas 1536x3584 x1 layer, 256 px tiles, 5x5 PCF, d16; 52 faces;
+/// 10.50 MiB".
+pub fn shadow_atlas_description(atlas: &ShadowAtlas) -> String {
+    format!("{}; {}", atlas_layout_description(&atlas.layout, &atlas.options), format_bytes(atlas.memory.total()))
+}
+
 /// 1234567 -> "1,234,567".
 pub fn group_digits(n: u64) -> String {
     let s = n.to_string();
@@ -136,6 +164,17 @@ mod tests {
         assert_eq!(group_digits(999), "999");
         assert_eq!(group_digits(1000), "1,000");
         assert_eq!(group_digits(1234567), "1,234,567");
+    }
+
+    #[test]
+    fn the_atlas_reads_as_one_line() {
+        let layout = AtlasLayout::new(256, 8, 4, 8192, 256).unwrap();
+        assert_eq!(
+            atlas_layout_description(&layout, &ShadowOptions::default()),
+            "atlas 1536x2304 x1 layer, 256 px tiles, 5x5 PCF, d16; 52 faces"
+        );
+        let tall = AtlasLayout::new(1024, 9, 0, 8192, 256).unwrap();
+        assert!(atlas_layout_description(&tall, &ShadowOptions::default()).starts_with("atlas 6144x8192 x2 layers"));
     }
 
     #[test]

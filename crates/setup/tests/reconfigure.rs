@@ -2,9 +2,12 @@
 //! changes on one GPU context: each returns the plan `rebuild_plan` gives, leaves the run
 //! in the state a fresh load of the new settings has (lights, light counts, camera, scene,
 //! settings), and a renderer built before a light-data change keeps working and draws the
-//! new lights. A change that fails (a missing glTF file) changes nothing.
+//! new lights. A change that fails (a missing glTF file) changes nothing. Shadow casters
+//! travel the same way: a caster change uploads new lights, a light-data change keeps the
+//! renderer, which redraws every caster's faces once told (`Renderer::lights_moved`).
 
-use tiledlight_cull::light::try_pack_lights;
+use tiledlight_cull::light::try_pack_lights_with_casters;
+use tiledlight_cull::shadow::ShadowFormat;
 use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_scene::GridDensity;
@@ -13,7 +16,7 @@ use tiledlight_setup::{rebuild_plan, Method, Prepared, Rebuild, Reload, SceneCpu
 /// The run holds what loading `s` from scratch gives.
 fn assert_matches_a_fresh_load(prep: &Prepared, s: &Settings) {
     let cpu = SceneCpu::load(s).unwrap();
-    let packed = try_pack_lights(&cpu.lights).unwrap();
+    let packed = try_pack_lights_with_casters(&cpu.lights, s.shadow_casters()).unwrap();
     let bytes = |p: &tiledlight_cull::light::PackedLights| {
         let mut b: Vec<u8> = bytemuck::cast_slice(&p.cull).to_vec();
         b.extend_from_slice(bytemuck::cast_slice(&p.shading));
@@ -22,6 +25,7 @@ fn assert_matches_a_fresh_load(prep: &Prepared, s: &Settings) {
     };
     assert_eq!(bytes(&prep.lights.packed), bytes(&packed), "lights");
     assert_eq!(prep.lights.len() as usize, cpu.lights.len());
+    assert_eq!((prep.lights.packed.shadow_points, prep.lights.packed.shadow_spots), s.shadow_casters());
     assert_eq!(prep.light_summary, tiledlight_setup::LightSummary::of(&cpu.lights, cpu.file_lights));
     assert_eq!(prep.camera.view_proj(), cpu.camera.view_proj(), "camera");
     assert_eq!(prep.camera_source, cpu.camera_source);
@@ -92,4 +96,66 @@ fn reconfigure_rebuilds_what_the_plan_says_and_ends_where_a_fresh_load_would() {
     let bad = Settings { tile_size: 7, ..old.clone() };
     assert!(format!("{:#}", prep.reconfigure(&bad).unwrap_err()).contains("--tile-size 7"));
     assert_matches_a_fresh_load(&prep, &old);
+}
+
+#[test]
+fn shadow_casters_follow_the_settings_through_reconfigure() {
+    let s0 = Settings {
+        width: 64,
+        height: 36,
+        lights: Some(24),
+        spot_lights: Some(6),
+        shadow_point_lights: 2,
+        shadow_spot_lights: 1,
+        shadow_size: 128,
+        ..Settings::default()
+    };
+    let mut prep = Prepared::new(&s0).unwrap();
+    assert_matches_a_fresh_load(&prep, &s0);
+    let mut timer = GpuTimer::new(&prep.ctx).unwrap();
+    let faces = |r: &dyn tiledlight_gpu::targets::Renderer| r.shadow_atlas().map(|a| a.faces_drawn_last_frame());
+
+    // The first frame draws every face (2 x 6 + 1), a still one none.
+    let mut before = prep.renderer(false).unwrap();
+    before.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
+    assert_eq!(faces(before.as_ref()), Some(13));
+    before.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
+    assert_eq!(faces(before.as_ref()), Some(0));
+
+    // New light data, the same casters: in place; told, the renderer redraws every caster
+    // and draws what a fresh renderer draws.
+    let s1 = Settings { seed: 7, ..s0.clone() };
+    assert_eq!(prep.reconfigure(&s1).unwrap().reload, Reload::LightData);
+    assert_matches_a_fresh_load(&prep, &s1);
+    before.lights_moved(&prep.ctx.queue, &prep.lights.packed).unwrap();
+    before.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
+    assert_eq!(faces(before.as_ref()), Some(13));
+    let mut fresh = prep.renderer(false).unwrap();
+    fresh.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
+    assert_eq!(before.read_hdr(&prep.ctx).unwrap(), fresh.read_hdr(&prep.ctx).unwrap());
+    drop((before, fresh));
+
+    // Other casters: new light buffers and a renderer with another atlas.
+    let s2 = Settings { shadow_point_lights: 0, shadow_spot_lights: 4, ..s1.clone() };
+    let plan = prep.reconfigure(&s2).unwrap();
+    assert_eq!((plan.reload, plan.renderer), (Reload::LightBuffers, true));
+    assert_matches_a_fresh_load(&prep, &s2);
+    let mut r = prep.renderer(false).unwrap();
+    r.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
+    assert_eq!(faces(r.as_ref()), Some(4));
+    drop(r);
+
+    // How they are drawn: the renderer only.
+    let s3 = Settings { shadow_size: 256, shadow_filter: 1, shadow_format: ShadowFormat::Depth32, ..s2.clone() };
+    assert_eq!(prep.reconfigure(&s3).unwrap(), Rebuild { renderer: true, ..Rebuild::default() });
+    let r = prep.renderer(false).unwrap();
+    let atlas = r.shadow_atlas().expect("spots cast shadows");
+    assert_eq!((atlas.layout.tile, atlas.options.format), (256, ShadowFormat::Depth32));
+    drop(r);
+
+    // No casters: no atlas.
+    let s4 = Settings { shadow_spot_lights: 0, ..s3 };
+    assert_eq!(prep.reconfigure(&s4).unwrap().reload, Reload::LightBuffers);
+    assert!(prep.renderer(false).unwrap().shadow_atlas().is_none());
+    prep.check_gpu_errors().unwrap();
 }

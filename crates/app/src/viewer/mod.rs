@@ -12,7 +12,6 @@
 //!
 //! May depend on every other module of the app.
 
-mod animate;
 mod blit;
 pub mod camera_control;
 mod script;
@@ -33,7 +32,9 @@ use tiledlight_gpu::readback::read_texture;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::{ContextOptions, GpuContext};
-use tiledlight_setup::{group_digits, Prepared, Reload, SceneCpu, SceneSource};
+use tiledlight_setup::{
+    group_digits, shadow_atlas_description, LightAnimator, Prepared, Reload, SceneCpu, SceneSource,
+};
 use winit::application::ApplicationHandler;
 use winit::event::WindowEvent;
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
@@ -42,7 +43,6 @@ use winit::window::{Window, WindowId};
 use crate::bookmark;
 use crate::render::write_image;
 use crate::scene_setup::{check_png_path, rgb_image, save_png, SceneArgs};
-use animate::LightAnimator;
 use blit::{Blit, DisplayImage};
 use camera_control::CameraRig;
 use script::Action;
@@ -420,7 +420,8 @@ impl Viewer {
         if rebuilt.reload != Reload::Nothing {
             self.animator = LightAnimator::new(&self.prep.lights.packed, self.prep.bounds.center());
         }
-        if p.renderer || rebuilt.renderer {
+        let renderer_rebuilt = p.renderer || rebuilt.renderer;
+        if renderer_rebuilt {
             // The old renderer stays in use until the new one is built, so a renderer
             // the GPU refuses leaves a working viewer behind.
             let size = (new.setup.width, new.setup.height);
@@ -437,6 +438,12 @@ impl Viewer {
             if let Some(h) = self.renderer.heatmap() {
                 h.set_enabled(new.effective_heatmap());
             }
+        }
+        if renderer_rebuilt || rebuilt.reload != Reload::Nothing {
+            // The shadows follow the lights as they are on the GPU now: a new renderer drew
+            // them for the lights as uploaded, not as the animation left them, and light
+            // data rewritten in place (seed, threshold) is news to the renderer in use.
+            self.renderer.lights_moved(&self.prep.ctx.queue, self.animator.current())?;
         }
         if p.surface {
             self.config.present_mode = present_mode(new.vsync);
@@ -528,6 +535,7 @@ impl Viewer {
             lights: &self.prep.light_summary,
             memory: self.renderer.memory(),
             capacity: self.prep.settings.capacity(),
+            shadow_atlas: self.renderer.shadow_atlas(),
             size: (self.prep.settings.width, self.prep.settings.height),
             stats: &self.stats,
         };
@@ -562,7 +570,17 @@ impl Viewer {
         }
 
         if self.settings.animate {
-            self.animator.advance(&self.prep.ctx.queue, &self.prep.lights, dt);
+            let queue = &self.prep.ctx.queue;
+            self.animator.advance(queue, &self.prep.lights, dt);
+            // The moved casters' shadow faces are drawn again by this frame. Should the
+            // renderer not fit the lights (a failed change left them apart), the panel says
+            // so once and the viewer goes on with shadows where they were.
+            if let Err(e) = self.renderer.lights_moved(queue, self.animator.current()) {
+                let e = anyhow::Error::from(e).context("moving the lights' shadows");
+                if self.ui.error.as_deref() != Some(crate::error_line(&e).as_str()) {
+                    self.report(&e);
+                }
+            }
         }
         let (w, h) = (self.prep.settings.width, self.prep.settings.height);
         let camera = match self.rig.camera(w as f32 / h as f32) {
@@ -632,6 +650,7 @@ impl Viewer {
             self.stats.passes = times;
         }
         self.stats.push_frame(dt * 1e3);
+        self.stats.shadow_faces = self.renderer.shadow_atlas().map(|a| a.faces_drawn_last_frame());
         self.frames += 1;
 
         if self.last_stats.is_none_or(|t| t.elapsed() >= STATS_PERIOD) || scripted_end {
@@ -684,6 +703,14 @@ impl Viewer {
         println!("viewer scene: {}", self.prep.scene_name);
         println!("viewer size: {}x{}", self.prep.settings.width, self.prep.settings.height);
         println!("viewer msaa: {}x", self.prep.settings.msaa);
+        if let Some(a) = self.renderer.shadow_atlas() {
+            let (points, spots) = self.prep.settings.shadow_casters();
+            println!(
+                "viewer shadows: {points} point + {spots} spot casters, {} faces drawn by the last frame; {}",
+                a.faces_drawn_last_frame(),
+                shadow_atlas_description(a)
+            );
+        }
         if let Some(c) = &self.stats.culling {
             println!("viewer culling: {c}");
         }

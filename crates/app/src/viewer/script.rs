@@ -11,7 +11,7 @@ use clap::ValueEnum;
 
 use super::camera_control::Mode;
 use super::settings::Settings;
-use crate::scene_setup::{DensityArg, MethodArg};
+use crate::scene_setup::{DensityArg, MethodArg, ShadowFormatArg};
 use tiledlight_setup::SceneSource;
 
 /// One step of a script.
@@ -34,7 +34,8 @@ pub enum Action {
 
 /// The keys `Action::Set` understands.
 pub const KEYS: &str = "method, lights, spot-lights, threshold, seed, tile-size, half-z, aabb, spot-cone, \
-                        grid-objects, density, gbuffer-rts, msaa, heatmap, animate, vsync, scene, camera, window, wait";
+                        grid-objects, density, gbuffer-rts, msaa, shadow-point-lights, shadow-spot-lights, \
+                        shadow-size, shadow-filter, shadow-format, heatmap, animate, vsync, scene, camera, window, wait";
 
 /// Parses a script; an unknown key or a malformed action is an error naming it.
 pub fn parse(script: &str) -> Result<Vec<Action>> {
@@ -102,6 +103,15 @@ pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
             a.density =
                 DensityArg::from_str(value, true).map_err(|e| anyhow::anyhow!("--script: density={value}: {e}"))?.into()
         }
+        "shadow-point-lights" => a.shadow_point_lights = number(key, value)?,
+        "shadow-spot-lights" => a.shadow_spot_lights = number(key, value)?,
+        "shadow-size" => a.shadow_size = number(key, value)?,
+        "shadow-filter" => a.shadow_filter = number(key, value)?,
+        "shadow-format" => {
+            a.shadow_format = ShadowFormatArg::from_str(value, true)
+                .map_err(|e| anyhow::anyhow!("--script: shadow-format={value}: {e}"))?
+                .into()
+        }
         "half-z" => a.half_z = on_off(key, value)?,
         "aabb" => a.aabb = on_off(key, value)?,
         "spot-cone" => a.spot_cone = on_off(key, value)?,
@@ -132,6 +142,18 @@ mod tests {
         assert_eq!(s.setup.scene, SceneSource::File("x.gltf".into()));
         set(&mut s, "heatmap", "on").unwrap();
         assert_eq!((s.setup.method, s.heatmap), (tiledlight_setup::Method::BruteForce, true));
+        for (k, v) in [
+            ("shadow-point-lights", "8"),
+            ("shadow-spot-lights", "4"),
+            ("shadow-size", "512"),
+            ("shadow-filter", "3"),
+            ("shadow-format", "d32"),
+        ] {
+            set(&mut s, k, v).unwrap();
+        }
+        let a = &s.setup;
+        assert_eq!((a.shadow_point_lights, a.shadow_spot_lights, a.shadow_size, a.shadow_filter), (8, 4, 512, 3));
+        assert_eq!(a.shadow_format, tiledlight_cull::shadow::ShadowFormat::Depth32);
     }
 
     #[test]
@@ -142,6 +164,8 @@ mod tests {
         assert!(e("lights=many").contains("lights=many: not a number"));
         assert!(e("method=fast").contains("method=fast"));
         assert!(e("heatmap=maybe").contains("expected on or off"));
+        assert!(e("shadow-size=big").contains("shadow-size=big: not a number"));
+        assert!(e("shadow-format=d24").contains("shadow-format=d24"));
         assert!(e("wait=-1").contains("wait=-1"));
         assert!(e("window=0x5").contains("WIDTHxHEIGHT"));
     }

@@ -126,6 +126,10 @@ mod tests {
         assert_eq!((p.setup.reload, p.renderer, p.surface), (Reload::Nothing, true, false));
         let p = with(|s| s.setup.grid_objects = 10);
         assert_eq!((p.setup.reload, p.renderer), (Reload::Scene, true));
+        let p = with(|s| s.setup.shadow_spot_lights = 4);
+        assert_eq!((p.setup.reload, p.renderer), (Reload::LightBuffers, true));
+        let p = with(|s| (s.setup.shadow_point_lights, s.setup.shadow_filter) = (2, 1));
+        assert_eq!((p.setup.reload, p.renderer), (Reload::LightBuffers, true));
     }
 
     #[test]

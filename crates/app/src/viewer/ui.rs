@@ -1,8 +1,10 @@
 //! The viewer's egui panel, help overlay and input: the controls of TiledLighting11's
 //! sample (method, light counts, threshold, tile size, half-z, grid objects, G-buffer
-//! targets, MSAA, heat map with legend), scene and camera controls, and the statistics
+//! targets, MSAA, heat map with legend, shadow-casting point and spot lights with the
+//! shadow tile size, filter and format), scene and camera controls, and the statistics
 //! (per-pass GPU times with a rolling graph, frame time, visible lights, lights per tile,
-//! lists that lost lights to a full light grid, GPU memory). Widgets edit a copy of the settings; the viewer applies
+//! lists that lost lights to a full light grid, shadow faces drawn and the shadow atlas,
+//! GPU memory). Widgets edit a copy of the settings; the viewer applies
 //! it ([`super::settings::plan`] decides what to rebuild). Keys and mouse steer the camera
 //! when egui does not want them. Depends on egui, tiledlight-setup (settings, statistics)
 //! and the viewer's other modules.
@@ -10,7 +12,9 @@
 use std::collections::VecDeque;
 
 use egui::{Color32, RichText};
+use tiledlight_cull::shadow::ShadowFormat;
 use tiledlight_gpu::memory::{format_bytes, MemoryReport};
+use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::PassTime;
 use tiledlight_gpu::tonemap::{heatmap_palette, heatmap_t, HEATMAP_OVERFLOW};
 
@@ -18,7 +22,15 @@ use super::camera_control::{CameraRig, Mode, Motion};
 use super::settings::{method_label, Settings, METHODS, MSAA_CHOICES};
 use crate::legend::label_values;
 use tiledlight_scene::GridDensity;
+use tiledlight_setup::stats::atlas_layout_description;
 use tiledlight_setup::{CullingStats, LightSummary, Method, SceneSource};
+
+/// The most shadow-casting lights of each kind the panel's sliders offer (TiledLighting11
+/// has a few; every point caster is six atlas tiles).
+pub const MAX_PANEL_CASTERS: usize = 128;
+
+/// The shadow tile sizes the panel offers (texels per side).
+pub const SHADOW_SIZES: [u32; 4] = [128, 256, 512, 1024];
 
 /// Key bindings, as the help overlay (F1) and the README list them.
 pub const KEYS: [(&str, &str); 15] = [
@@ -68,6 +80,8 @@ pub struct Stats {
     pub visible_lights: usize,
     /// Whether the device has timestamp queries.
     pub timestamps: bool,
+    /// Shadow faces the last frame drew (None without shadow casters).
+    pub shadow_faces: Option<u32>,
 }
 
 impl Stats {
@@ -101,6 +115,8 @@ pub struct Info<'a> {
     pub memory: &'a MemoryReport,
     /// The list capacity in use (heat-map legend).
     pub capacity: u32,
+    /// The renderer's shadow atlas, when lights cast shadows.
+    pub shadow_atlas: Option<&'a ShadowAtlas>,
     /// Render size in pixels.
     pub size: (u32, u32),
     /// Measurements.
@@ -299,6 +315,12 @@ fn stats_section(ui: &mut egui::Ui, info: &Info<'_>) {
                 ui.label("no tiles (brute force)");
             }
         }
+        if let Some(a) = info.shadow_atlas {
+            let faces = st.shadow_faces.unwrap_or_default();
+            ui.label(format!("shadow faces drawn last frame: {faces} of {}", a.layout.faces()));
+            ui.label(format!("shadow atlas: {}", format_bytes(a.memory.total())))
+                .on_hover_text(atlas_layout_description(&a.layout, &a.options));
+        }
         egui::CollapsingHeader::new(format!("GPU memory: {}", format_bytes(info.memory.total()))).show(ui, |ui| {
             egui::Grid::new("memory").num_columns(2).show(ui, |ui| {
                 for (c, b) in &info.memory.entries {
@@ -400,6 +422,7 @@ fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'
             .on_hover_text("each light's radius is sqrt(intensity / threshold): lower is more accurate and slower");
         ui.checkbox(&mut s.animate, "animate lights");
     });
+    shadow_controls(ui, s, info);
     egui::CollapsingHeader::new("Scene").default_open(false).show(ui, |ui| {
         let builtin = s.setup.scene == SceneSource::Default;
         ui.add_enabled_ui(builtin, |ui| {
@@ -428,6 +451,48 @@ fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'
             }
         });
         ui.checkbox(&mut s.vsync, "vsync");
+    });
+}
+
+/// The shadow-casting light counts (up to the scene's lights of each kind, at most
+/// [`MAX_PANEL_CASTERS`]) and how the shadows are drawn.
+fn shadow_controls(ui: &mut egui::Ui, s: &mut Settings, info: &Info<'_>) {
+    egui::CollapsingHeader::new("Shadows").default_open(true).show(ui, |ui| {
+        let sh = &mut s.setup;
+        // The default scene's lights are the random ones: a smaller count takes the casters
+        // down with it (a glTF scene's own lights are counted when it loads).
+        if sh.scene == SceneSource::Default {
+            let (points, spots) = sh.random_light_counts();
+            let fit = |n: u64| u32::try_from(n).unwrap_or(u32::MAX);
+            sh.shadow_point_lights = sh.shadow_point_lights.min(fit(points));
+            sh.shadow_spot_lights = sh.shadow_spot_lights.min(fit(spots));
+        }
+        let cap = |n: usize| n.min(MAX_PANEL_CASTERS) as u32;
+        // Casters set beyond the scene's lights (a flag) stay shown; the upload names them.
+        let max_points = cap(info.lights.point).max(sh.shadow_point_lights);
+        let max_spots = cap(info.lights.spot).max(sh.shadow_spot_lights);
+        ui.add(egui::Slider::new(&mut sh.shadow_point_lights, 0..=max_points).text("shadow point lights"))
+            .on_hover_text("the brightest point lights cast shadows: six cube faces each in the shadow atlas");
+        ui.add(egui::Slider::new(&mut sh.shadow_spot_lights, 0..=max_spots).text("shadow spot lights"))
+            .on_hover_text("the brightest spot lights cast shadows: one face each");
+        ui.horizontal(|ui| {
+            ui.label("tile size");
+            for t in SHADOW_SIZES {
+                ui.radio_value(&mut sh.shadow_size, t, format!("{t}"));
+            }
+        });
+        ui.horizontal(|ui| {
+            ui.label("filter");
+            for (n, label) in [(1, "1 tap"), (3, "3x3"), (5, "5x5")] {
+                ui.radio_value(&mut sh.shadow_filter, n, label);
+            }
+        });
+        ui.horizontal(|ui| {
+            ui.label("format");
+            for f in [ShadowFormat::Depth16, ShadowFormat::Depth32] {
+                ui.radio_value(&mut sh.shadow_format, f, f.name());
+            }
+        });
     });
 }
 
@@ -497,6 +562,12 @@ mod tests {
             let row = format!("| {k} | {what} |");
             assert!(readme.contains(&row), "README.md has no row {row:?}");
         }
+    }
+
+    #[test]
+    fn shadow_sizes_are_accepted_tile_sizes() {
+        assert!(SHADOW_SIZES.iter().all(|t| tiledlight_cull::shadow::TILE_SIZES.contains(t)));
+        assert!(SHADOW_SIZES.contains(&tiledlight_setup::Settings::default().shadow_size));
     }
 
     #[test]

@@ -1,8 +1,11 @@
 //! Light animation, as in TiledLighting11: every light circles the scene's vertical axis at
-//! its own speed and direction. Positions (and spot directions) are computed on the CPU
-//! from the lights as generated and written over the existing buffers each frame: no
-//! buffer is created, and the scratch arrays are reused. Depends on glam, wgpu and
-//! tiledlight-cull / tiledlight-gpu.
+//! its own speed and direction ([`LightAnimator`]). Positions (and spot directions) are
+//! computed on the CPU from the lights as generated and written over the existing buffers
+//! each frame: no buffer is created, and the scratch arrays are reused. The viewer moves
+//! its lights with it, and `bench --move-lights` to measure the shadow pass with moving
+//! lights; after each [`LightAnimator::advance`] they give the renderer the moved lights
+//! (`Renderer::lights_moved` with [`LightAnimator::current`]) so that the shadows follow.
+//! Depends on glam, wgpu and tiledlight-cull / tiledlight-gpu.
 
 use glam::{Quat, Vec3};
 use tiledlight_cull::light::PackedLights;
