@@ -2,8 +2,8 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid (default:
-# all but grid). BIN=path picks another binary (A/B runs: stage the old one beside it);
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows
+# (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
 out=${OUT:-bench-out}
@@ -22,7 +22,7 @@ run() { # name frames args...
   local name=$prefix$1 frames=$2; shift 2
   echo "== $name: $*" | tee -a "$out/log.txt"
   timeout 300 "$bin" bench --width 1920 --height 1080 --frames "$frames" --warmup 20 --json "$out/$name.json" "$@" 2>&1 \
-    | tee -a "$out/log.txt" | grep -E "^(depth|forward|brute|deferred|tonemap|total|error|MSAA|light grid)"
+    | tee -a "$out/log.txt" | grep -E "^(depth|forward|brute|deferred|tonemap|shadow|total|error|MSAA|light grid)"
 }
 sets=${*:-core cull scale methods msaa}
 for set in $sets; do
@@ -60,6 +60,25 @@ for set in $sets; do
   scale)
     run fp-1024-grid280 100 --lights 1024 --grid-objects 280 --density medium
     run fp-65536 30 --lights 65536 --capacity 2048
+    ;;
+  shadows)
+    # Issue 11: the courtyard at 1080p, 1024 point + 1024 spot lights, both methods; no
+    # casters, then 12+12 (TiledLighting11) and 64+64 casters at 256 and 1024 px tiles with
+    # 1/3/5 PCF, lights still (the atlas drawn once, in the warm-up) and moving (every
+    # caster redrawn every frame).
+    common="--lights 1024 --spot-lights 1024"
+    for m in forward-plus deferred; do
+      run "sh-$m-none" 30 $common --method $m
+      for c in 12 64; do
+        for size in 256 1024; do
+          for f in 1 3 5; do
+            sh="--shadow-point-lights $c --shadow-spot-lights $c --shadow-size $size --shadow-filter $f"
+            run "sh-$m-$c-$size-f$f" 30 $common --method $m $sh
+            run "sh-$m-$c-$size-f$f-move" 30 $common --method $m $sh --move-lights
+          done
+        done
+      done
+    done
     ;;
   grid)
     # The light grid's A/B set (issue 10): the Figure 9 scene, both methods, 1,024 to

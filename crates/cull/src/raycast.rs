@@ -784,47 +784,6 @@ mod tests {
         assert!((200..1800).contains(&hits), "{hits} of 2000 occluded");
     }
 
-    /// A million triangles: build and query time in a release build. Run with
-    /// `cargo test -p tiledlight-cull --release -- --ignored million --nocapture`.
-    #[test]
-    #[ignore = "timing; run in release"]
-    fn million_triangles_timing() {
-        let mut rng = Pcg64::seed_from_u64(1);
-        let tris: Vec<[Vec3; 3]> = (0..1_000_000)
-            .map(|_| {
-                let c = Vec3::new(
-                    rng.random_range(-100.0..100.0),
-                    rng.random_range(0.0..20.0),
-                    rng.random_range(-100.0..100.0),
-                );
-                let mut corner = || {
-                    c + Vec3::new(rng.random_range(-0.3..0.3), rng.random_range(-0.3..0.3), rng.random_range(-0.3..0.3))
-                };
-                [corner(), corner(), corner()]
-            })
-            .collect();
-        let start = std::time::Instant::now();
-        let bvh = Triangles::new(tris);
-        let build = start.elapsed();
-        let queries: Vec<(Vec3, Vec3)> = (0..100_000)
-            .map(|_| {
-                let receiver = Vec3::new(rng.random_range(-100.0..100.0), 0.0, rng.random_range(-100.0..100.0));
-                let light = Vec3::new(rng.random_range(-100.0..100.0), 25.0, rng.random_range(-100.0..100.0));
-                (receiver, light)
-            })
-            .collect();
-        let start = std::time::Instant::now();
-        let blocked = queries.iter().filter(|(r, l)| bvh.occluded(*r, *l, 1e-3)).count();
-        let query = start.elapsed();
-        println!(
-            "1M triangles: build {build:?} (depth {}, {} nodes); 100k occluded queries {query:?} ({:.2} us each, {blocked} blocked)",
-            bvh.depth,
-            bvh.nodes.len(),
-            query.as_secs_f64() * 1e6 / queries.len() as f64
-        );
-        check_tree(&bvh);
-    }
-
     /// A point on triangle `t` at barycentrics (`u`, `v`), clamped into the triangle.
     fn on_triangle(t: &[Vec3; 3], u: f32, v: f32) -> Vec3 {
         let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };

@@ -519,7 +519,7 @@ mod tests {
         fn spot_taps_never_leave_the_tile(
             d in (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0),
             angle in 0.01f32..MAX_SHADOW_SPOT_ANGLE,
-            u in 0.0f32..1.0, phi in 0.0f32..6.283,
+            u in 0.0f32..1.0, phi in 0.0f32..std::f32::consts::TAU,
             dist in 1e-2f32..1e4,
             f in 0usize..3,
         ) {
