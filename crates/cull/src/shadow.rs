@@ -424,6 +424,25 @@ pub fn shadow_near(radius: f32, nearest: f32, tan_w: f32) -> f32 {
     (0.9 * nearest / corner).clamp(lo, hi)
 }
 
+/// True unless the box `(min, max)` lies wholly outside one of the side or near planes of
+/// the face with world-to-clip matrix `m` (reversed-Z, infinite far: the planes are
+/// `w +- x >= 0`, `w +- y >= 0` and `w - z >= 0`, from the matrix's rows). Conservative: a box
+/// near a frustum's corner may be kept without touching it, never dropped while touching.
+/// The shadow pass draws only the instances each face keeps.
+pub fn box_in_face(m: &Mat4, (min, max): (Vec3, Vec3)) -> bool {
+    let r = |i: usize| m.row(i);
+    let planes = [r(3) + r(0), r(3) - r(0), r(3) + r(1), r(3) - r(1), r(3) - r(2)];
+    planes.iter().all(|p| {
+        // The box corner furthest along the plane's normal.
+        let c = Vec3::new(
+            if p.x >= 0.0 { max.x } else { min.x },
+            if p.y >= 0.0 { max.y } else { min.y },
+            if p.z >= 0.0 { max.z } else { min.z },
+        );
+        p.truncate().dot(c) + p.w >= 0.0
+    })
+}
+
 /// Distance from `p` to the nearest of `bounds` (world AABBs as (min, max); 0 inside
 /// one); infinity when there are none.
 pub fn nearest_bounds(p: Vec3, bounds: &[(Vec3, Vec3)]) -> f32 {
@@ -594,6 +613,38 @@ mod tests {
         // Depth: near / (w - bias).
         let d = biased_depth(0.01, 10.0, 1.0, 0.0);
         assert!((d - 0.01 * 10.0 / 9.0).abs() < 1e-7);
+    }
+
+    proptest! {
+        /// No false negative: a box containing any point the face sees (in front of the
+        /// near plane, inside the widened frustum) is kept.
+        #[test]
+        fn boxes_touching_a_face_are_kept(
+            d in (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0),
+            dist in 0.2f32..1e3,
+            half in (1e-3f32..5.0, 1e-3f32..5.0, 1e-3f32..5.0),
+            off in (-1.0f32..1.0, -1.0f32..1.0, -1.0f32..1.0),
+        ) {
+            let Some(dir) = unit(d) else { return Ok(()) };
+            let light = Vec3::new(1.0, 2.0, 3.0);
+            let face = cube_face(dir);
+            let m = point_face_matrix(light, 0.1, face, 256, ShadowFilter::Pcf5);
+            let p = light + dir * dist;
+            let half = Vec3::new(half.0, half.1, half.2);
+            // A box around p, p anywhere inside it.
+            let centre = p + half * Vec3::new(off.0, off.1, off.2);
+            prop_assert!(box_in_face(&m, (centre - half, centre + half)));
+        }
+    }
+
+    #[test]
+    fn boxes_behind_or_beside_a_face_are_dropped() {
+        let m = point_face_matrix(Vec3::ZERO, 0.1, 0, 256, ShadowFilter::Pcf5);
+        // +X face: a box at -X, a box far off to +Y beyond 45 degrees, a box inside the near plane.
+        assert!(!box_in_face(&m, (Vec3::new(-3.0, -1.0, -1.0), Vec3::new(-2.0, 1.0, 1.0))));
+        assert!(!box_in_face(&m, (Vec3::new(1.0, 5.0, -1.0), Vec3::new(2.0, 6.0, 1.0))));
+        assert!(!box_in_face(&m, (Vec3::new(0.01, -0.01, -0.01), Vec3::new(0.05, 0.01, 0.01))));
+        assert!(box_in_face(&m, (Vec3::new(2.0, -1.0, -1.0), Vec3::new(3.0, 1.0, 1.0))));
     }
 
     #[test]

@@ -182,13 +182,20 @@ impl DepthPrepass {
         Ok(Self { pipelines, label: target.label })
     }
 
-    /// Draws the scene seen from view slot `view` into the pass's depth attachment.
-    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, (views, view): (&Views, u32), scene: &SceneGpu) {
+    /// Draws the scene seen from view slot `view` into the pass's depth attachment: the
+    /// instances set in `visible` (by instance slot), or all.
+    pub fn draw(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        (views, view): (&Views, u32),
+        scene: &SceneGpu,
+        visible: Option<&[bool]>,
+    ) {
         pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
         pass.set_bind_group(1, &scene.bind_group, &[]);
         for (kind, pipeline) in &self.pipelines {
             pass.set_pipeline(pipeline);
-            scene.record_draws(pass, *kind, kind.masked, kind.masked);
+            scene.record_draws_of(pass, *kind, (kind.masked, kind.masked), visible);
         }
     }
 
@@ -215,7 +222,7 @@ impl DepthPrepass {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            self.draw(&mut pass, (views, view), scene);
+            self.draw(&mut pass, (views, view), scene, None);
         }
         timer.end(encoder, t);
     }

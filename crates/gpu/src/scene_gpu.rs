@@ -147,8 +147,9 @@ pub struct SceneGpu {
     pub triangles: u64,
     /// Materials with alpha blending, drawn as opaque (transparency is not implemented yet).
     pub blended_as_opaque: usize,
-    /// World-space bounds of each instance (min, max): shadow faces place their near
-    /// plane just short of the nearest one.
+    /// World-space bounds of each instance (min, max), in the order of the instance buffer
+    /// (what the draws' instance ranges index): shadow faces cull instances with them and
+    /// place their near plane just short of the nearest one.
     pub instance_bounds: Vec<(glam::Vec3, glam::Vec3)>,
     /// Bytes allocated.
     pub memory: MemoryReport,
@@ -225,6 +226,15 @@ impl SceneGpu {
                 }),
             }
         }
+        // In instance-buffer order (the draws' instance ranges index it).
+        let instance_bounds = order
+            .iter()
+            .map(|&i| {
+                let inst = &scene.instances[i];
+                let b = scene.meshes[inst.mesh].bounds().transformed(&inst.transform);
+                (b.min, b.max)
+            })
+            .collect();
         let gpu_materials: Vec<GpuMaterial> = scene
             .materials
             .iter()
@@ -269,14 +279,7 @@ impl SceneGpu {
             draws,
             triangles,
             blended_as_opaque,
-            instance_bounds: scene
-                .instances
-                .iter()
-                .map(|i| {
-                    let b = scene.meshes[i.mesh].bounds().transformed(&i.transform);
-                    (b.min, b.max)
-                })
-                .collect(),
+            instance_bounds,
             memory,
         })
     }
@@ -302,6 +305,18 @@ impl SceneGpu {
         with_attributes: bool,
         bind_textures: bool,
     ) {
+        self.record_draws_of(pass, kind, (with_attributes, bind_textures), None);
+    }
+
+    /// As [`Self::record_draws`], drawing only the instances whose slot (instance-buffer
+    /// index) is set in `visible`, in runs of consecutive slots (all when None).
+    pub fn record_draws_of(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        kind: DrawKind,
+        (with_attributes, bind_textures): (bool, bool),
+        visible: Option<&[bool]>,
+    ) {
         pass.set_vertex_buffer(0, self.positions.slice(..));
         if with_attributes {
             pass.set_vertex_buffer(1, self.normals.slice(..));
@@ -309,14 +324,38 @@ impl SceneGpu {
         }
         pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
         for d in self.draws.iter().filter(|d| d.kind == kind) {
+            let runs = match visible {
+                None => vec![d.instances.clone()],
+                Some(v) => visible_runs(d.instances.clone(), v),
+            };
+            if runs.is_empty() {
+                continue;
+            }
             if bind_textures {
                 if let Some(t) = &self.textures {
                     pass.set_bind_group(2, &t.bind_groups[d.material], &[]);
                 }
             }
-            pass.draw_indexed(d.indices.clone(), d.base_vertex, d.instances.clone());
+            for r in runs {
+                pass.draw_indexed(d.indices.clone(), d.base_vertex, r);
+            }
         }
     }
+}
+
+/// The runs of consecutive slots of `slots` set in `visible`.
+fn visible_runs(slots: Range<u32>, visible: &[bool]) -> Vec<Range<u32>> {
+    let mut runs: Vec<Range<u32>> = Vec::new();
+    for s in slots {
+        if !visible[s as usize] {
+            continue;
+        }
+        match runs.last_mut() {
+            Some(r) if r.end == s => r.end += 1,
+            _ => runs.push(s..s + 1),
+        }
+    }
+    runs
 }
 
 fn mip_chain(width: u32, height: u32, rgba: &[u8]) -> Vec<(u32, u32, Vec<u8>)> {
@@ -418,4 +457,17 @@ pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
             [base_color, roughness, metallic, alpha_cutoff, has_texture]
         ),
     ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::visible_runs;
+
+    #[test]
+    fn runs_of_visible_slots() {
+        let v = [true, true, false, true, false, false, true];
+        assert_eq!(visible_runs(0..7, &v), vec![0..2, 3..4, 6..7]);
+        assert_eq!(visible_runs(2..3, &v), vec![]);
+        assert_eq!(visible_runs(1..4, &v), vec![1..2, 3..4]);
+    }
 }

@@ -82,6 +82,9 @@ fn caster_key(lights: &PackedLights, i: usize) -> CasterKey {
 struct AtlasState {
     /// Per face, the view and projection it was last computed with.
     matrices: Vec<(glam::Mat4, glam::Mat4)>,
+    /// Per face, the instances (by instance slot) it draws: inside its frustum and, unless
+    /// the frame has no radius cutoff, within the light's radius.
+    visible: Vec<Vec<bool>>,
     /// Per caster (points, then spots), the key its faces were computed for.
     keys: Vec<Option<CasterKey>>,
     /// Faces to draw in the next recorded frame.
@@ -107,8 +110,12 @@ pub struct ShadowAtlas {
     pub faces: wgpu::Buffer,
     depth: DepthPrepass,
     clear: wgpu::RenderPipeline,
-    /// World bounds of the scene's instances (near planes stop short of them).
+    /// World bounds of the scene's instances by instance slot (faces cull them; near planes
+    /// stop short of them).
     bounds: Vec<(Vec3, Vec3)>,
+    /// Cull instances beyond the light's radius (false for the no-cutoff reference, whose
+    /// lights reach past it).
+    radius_cull: bool,
     /// View slot of face 0.
     first_slot: u32,
     state: Mutex<AtlasState>,
@@ -222,6 +229,7 @@ impl ShadowAtlas {
         let faces_n = layout.faces() as usize;
         let state = AtlasState {
             matrices: vec![(glam::Mat4::IDENTITY, glam::Mat4::IDENTITY); faces_n],
+            visible: vec![Vec::new(); faces_n],
             keys: vec![None; casters],
             dirty: vec![false; faces_n],
             drawn_last: 0,
@@ -237,6 +245,7 @@ impl ShadowAtlas {
             depth,
             clear,
             bounds: scene.instance_bounds.clone(),
+            radius_cull: features.method != crate::features::Method::BruteForce { cutoff: false },
             first_slot,
             state: Mutex::new(state),
             memory,
@@ -310,6 +319,16 @@ impl ShadowAtlas {
                     &ViewUniforms::from_matrices(view, proj, near, (tile, tile)),
                 );
                 state.matrices[face as usize] = (view, proj);
+                let m = proj * view;
+                let (radius, radius_cull) = (sh.radius, self.radius_cull);
+                state.visible[face as usize] = self
+                    .bounds
+                    .iter()
+                    .map(|&(lo, hi)| {
+                        let reaches = !radius_cull || (pos.clamp(lo, hi) - pos).length() <= radius;
+                        reaches && shadow::box_in_face(&m, (lo, hi))
+                    })
+                    .collect();
                 state.dirty[face as usize] = true;
             }
         }
@@ -368,7 +387,7 @@ impl ShadowAtlas {
                         pass.set_pipeline(&self.clear);
                         pass.draw(0..3, 0..1);
                     }
-                    self.depth.draw(&mut pass, (views, self.first_slot + f), scene);
+                    self.depth.draw(&mut pass, (views, self.first_slot + f), scene, Some(&state.visible[f as usize]));
                     state.dirty[f as usize] = false;
                 }
             }
