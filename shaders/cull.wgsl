@@ -8,7 +8,10 @@
 // With COARSE, each tile tests only the lights of its 64x64-pixel cell (cull_coarse.wgsl),
 // or every light when the cell overflowed.
 // With MSAA the depth buffer is multisampled and the tile's range covers every sample.
-// variants: AABB HALF_Z SPOT_CONE COARSE MSAA DROP_LIGHT
+// With BLENDED it culls for blended geometry (tiledlight_gpu::blended): the range runs from
+// the nearest blended depth to the opaque depth behind it, over the samples with blended
+// geometry in front (common/depth_range.wgsl); one list per tile, planes only, one level.
+// variants: AABB HALF_Z SPOT_CONE COARSE MSAA DROP_LIGHT BLENDED
 #include "common/tile_cull.wgsl"
 #include "common/light_grid_write.wgsl"
 

@@ -1,6 +1,10 @@
 // The depth buffer the culling kernels read, and the min/max reversed-Z depth of a screen
 // region's non-sky samples reduced by a workgroup in workgroup memory; shared by the cell
 // pass (cull_coarse.wgsl), the per-tile culling (common/tile_cull.wgsl) and Tiled Deferred.
+// With BLENDED (the blended geometry's lists) a second buffer holds the nearest blended
+// depth (cleared to 0): only samples where it is in front of the opaque depth count, and
+// the range runs from that blended depth to the opaque depth behind it (0, infinitely far,
+// over the sky). CPU twin: tiledlight_cull::reference::blended_tile_bounds.
 // With MSAA the buffer is multisampled (SAMPLES per pixel, set by the pipeline) and the
 // range covers every sample, so a light reaching any sample stays in the tile's list.
 // The CPU reference is tiledlight_cull::tiles::tile_depth_bounds_samples.
@@ -9,8 +13,14 @@
 #ifdef MSAA
 override SAMPLES: u32 = 4u;
 @group(1) @binding(0) var depth_texture: texture_depth_multisampled_2d;
+#ifdef BLENDED
+@group(1) @binding(10) var blended_depth_texture: texture_depth_multisampled_2d;
+#endif
 #else
 @group(1) @binding(0) var depth_texture: texture_depth_2d;
+#ifdef BLENDED
+@group(1) @binding(10) var blended_depth_texture: texture_depth_2d;
+#endif
 #endif
 
 var<workgroup> wg_min_depth: atomic<u32>;
@@ -24,6 +34,22 @@ fn load_depth(p: vec2<u32>, s: u32) -> f32 {
     return textureLoad(depth_texture, p, 0);
 #endif
 }
+
+#ifdef BLENDED
+// `r` (min, max) grown by sample `s` of pixel `p` when a blended surface lies in front of
+// the opaque one there: min takes the opaque depth, max the blended one.
+fn grow_blended(r: vec4<f32>, p: vec2<u32>, s: u32) -> vec4<f32> {
+#ifdef MSAA
+    let o = textureLoad(depth_texture, p, s);
+    let b = textureLoad(blended_depth_texture, p, s);
+#else
+    let o = textureLoad(depth_texture, p, 0);
+    let b = textureLoad(blended_depth_texture, p, 0);
+#endif
+    // x: min, y: max, z: 1 when any sample counted.
+    return select(r, vec4<f32>(min(r.x, o), max(r.y, b), 1.0, 0.0), b > o);
+}
+#endif
 
 #ifdef MSAA
 // `r` (min, max) grown by depth `d` unless it is sky (0, the clear value).
@@ -63,10 +89,26 @@ fn region_depth_range(origin: vec2<u32>, size: u32, threads: u32, lid: vec2<u32>
     var lo = 3.4e38;
     var hi = 0.0;
     let steps = size / threads;
+#ifdef BLENDED
+    var found = false;
+#endif
     for (var j = 0u; j < steps; j++) {
         for (var i = 0u; i < steps; i++) {
             let p = origin + lid + vec2<u32>(i, j) * threads;
             if p.x < view.screen.x && p.y < view.screen.y {
+#ifdef BLENDED
+                var r = vec4<f32>(lo, hi, 0.0, 0.0);
+#ifdef MSAA
+                for (var s = 0u; s < SAMPLES; s++) {
+                    r = grow_blended(r, p, s);
+                }
+#else
+                r = grow_blended(r, p, 0u);
+#endif
+                lo = r.x;
+                hi = r.y;
+                found = found || r.z > 0.0;
+#else
 #ifdef MSAA
                 // Unrolled by hand (SAMPLES is a pipeline constant, so the untaken branches
                 // fold away): the H100's driver did not unroll the loop, and culling ran 3x
@@ -82,13 +124,22 @@ fn region_depth_range(origin: vec2<u32>, size: u32, threads: u32, lid: vec2<u32>
                     hi = max(hi, d);
                 }
 #endif
+#endif
             }
         }
     }
+#ifdef BLENDED
+    // Blended in front of the sky: min 0 (infinitely far) is a valid bound here.
+    if found {
+        atomicMin(&wg_min_depth, bitcast<u32>(lo));
+        atomicMax(&wg_max_depth, bitcast<u32>(hi));
+    }
+#else
     if hi > 0.0 {
         atomicMin(&wg_min_depth, bitcast<u32>(lo));
         atomicMax(&wg_max_depth, bitcast<u32>(hi));
     }
+#endif
     workgroupBarrier();
     return vec2<f32>(bitcast<f32>(atomicLoad(&wg_min_depth)), bitcast<f32>(atomicLoad(&wg_max_depth)));
 }

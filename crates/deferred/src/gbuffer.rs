@@ -13,7 +13,7 @@
 //! scene has. Depends on tiledlight-gpu.
 
 use tiledlight_gpu::bindings::PassBindings;
-use tiledlight_gpu::depth_prepass::{scene_pipeline, SceneDraw, DEPTH_FORMAT};
+use tiledlight_gpu::depth_prepass::{scene_pipeline, DepthUse, SceneDraw, DEPTH_FORMAT};
 use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS, VERTEX_LAYOUTS};
 use tiledlight_gpu::targets::texture_2d_msaa;
 use tiledlight_gpu::timer::GpuTimer;
@@ -149,7 +149,7 @@ impl GBufferPass {
         }
         let fs = format!("fs_gbuffer{rts}");
         let mut pipelines = Vec::new();
-        for kind in scene.kinds() {
+        for kind in scene.opaque_kinds() {
             let mut defines = Vec::new();
             if kind.masked {
                 defines.push("ALPHA_MASK");
@@ -169,7 +169,7 @@ impl GBufferPass {
                     layout: &layout,
                     module: &module,
                     vertex: ("vs_main", &VERTEX_LAYOUTS),
-                    depth_write: true,
+                    depth: DepthUse::Write,
                     samples,
                     fragment: Some((&fs, &targets)),
                     depth_format: DEPTH_FORMAT,

@@ -27,7 +27,9 @@ use crate::gbuffer::{ALBEDO_FORMAT, EXTRA_FORMAT, NORMAL_FORMAT};
 use crate::shading::{DeferredShading, EdgeTest};
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::shadow::ShadowOptions;
+use tiledlight_gpu::blended::{BlendedInputs, BlendedPath};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
+use tiledlight_gpu::tonemap::HDR_FORMAT;
 
 /// Tiled Deferred settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -86,6 +88,8 @@ pub struct DeferredRenderer {
     shading: DeferredShading,
     /// Drawn when enabled.
     heatmap: HeatmapPass,
+    /// Alpha-blended geometry's passes, the same as Forward+'s (only when the scene has some).
+    blended: Option<BlendedPath>,
 }
 
 impl DeferredRenderer {
@@ -113,6 +117,13 @@ impl DeferredRenderer {
         if features.extra_targets > 0 {
             formats.push(EXTRA_FORMAT);
         }
+        // Blended geometry: a multisampled transparent layer, composited onto the HDR image
+        // by a render pass.
+        let mut hdr_usage = wgpu::TextureUsages::STORAGE_BINDING;
+        if features.blended() {
+            formats.push(HDR_FORMAT);
+            hdr_usage |= wgpu::TextureUsages::RENDER_ATTACHMENT;
+        }
         let common = FrameCommon::new(
             ctx,
             scene,
@@ -123,7 +134,7 @@ impl DeferredRenderer {
                 size: (width, height),
                 tile_size: settings.cull.tile_size,
                 msaa_formats: &formats,
-                hdr_usage: wgpu::TextureUsages::STORAGE_BINDING,
+                hdr_usage,
                 exposure: settings.exposure,
                 ambient: settings.ambient,
             },
@@ -156,18 +167,43 @@ impl DeferredRenderer {
                 &mut memory,
             )?;
             let heatmap = HeatmapPass::new(device, &shading.light_grid.grid, settings.heatmap)?;
-            Ok((gbuffer_pass, gbuffer, shading, heatmap))
+            let blended = features
+                .blended()
+                .then(|| {
+                    BlendedPath::new(
+                        device,
+                        BlendedInputs {
+                            views,
+                            scene,
+                            lights: (lights, &common.lighting),
+                            features,
+                            cull: (common.grid, settings.cull),
+                            opaque_depth: &targets.depth_view,
+                            shadows: common.shadows.as_ref(),
+                        },
+                    )
+                })
+                .transpose()?;
+            if let Some(b) = &blended {
+                memory.extend(&b.memory);
+            }
+            Ok((gbuffer_pass, gbuffer, shading, heatmap, blended))
         })?
-        .map(|(gbuffer_pass, gbuffer, shading, heatmap)| {
+        .map(|(gbuffer_pass, gbuffer, shading, heatmap, blended)| {
             let mut common = common;
             common.memory = memory;
-            Self { settings, common, gbuffer_pass, gbuffer, shading, heatmap }
+            Self { settings, common, gbuffer_pass, gbuffer, shading, heatmap, blended }
         })
     }
 
     /// The settings it was built with.
     pub fn settings(&self) -> &DeferredSettings {
         &self.settings
+    }
+
+    /// The blended-geometry path (scenes with blended materials).
+    pub fn blended(&self) -> Option<&BlendedPath> {
+        self.blended.as_ref()
     }
 
     /// The G-buffer.
@@ -217,6 +253,29 @@ impl Renderer for DeferredRenderer {
                 }
                 Step::DeferredShade => self.shading.record(encoder, timer, view),
                 Step::DeferredResolve => self.shading.record_resolve(encoder, timer),
+                Step::BlendedDepth => {
+                    if let Some(b) = &self.blended {
+                        b.record_depth(encoder, timer, view, scene);
+                    }
+                }
+                Step::BlendedCull => {
+                    if let Some(b) = &self.blended {
+                        b.record_cull(encoder, timer, view);
+                    }
+                }
+                Step::BlendedShade => {
+                    if let Some(b) = &self.blended {
+                        b.record_shade(
+                            encoder,
+                            timer,
+                            view,
+                            scene,
+                            &camera.view(),
+                            &targets.depth_view,
+                            &targets.hdr_view,
+                        );
+                    }
+                }
                 Step::Tonemap => c.tonemap.record(encoder, timer, &targets.ldr_view),
                 Step::Heatmap => self.heatmap.record(encoder, timer, &targets.ldr_view),
                 // Forward steps: never in a Tiled Deferred plan (plan.rs tests it).

@@ -12,6 +12,7 @@ use glam::Vec3;
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::shadow::ShadowOptions;
 use tiledlight_cull::{Camera, TileGrid};
+use tiledlight_gpu::blended::{BlendedInputs, BlendedPath};
 use tiledlight_gpu::depth_prepass::{DepthPrepass, DEPTH_FORMAT};
 use tiledlight_gpu::features::{self, Features};
 use tiledlight_gpu::frame::{CommonSettings, FrameCommon};
@@ -85,6 +86,8 @@ impl Default for ForwardSettings {
 pub struct ForwardRenderer {
     settings: ForwardSettings,
     common: FrameCommon,
+    /// Alpha-blended geometry's passes (only when the scene has some).
+    blended: Option<BlendedPath>,
     prepass: DepthPrepass,
     culling: Option<LightCulling>,
     shading: ShadingPass,
@@ -197,14 +200,34 @@ impl ForwardRenderer {
                 light_loop,
                 (features, common.shadows.as_ref()),
             )?;
+            let blended = features
+                .blended()
+                .then(|| {
+                    BlendedPath::new(
+                        device,
+                        BlendedInputs {
+                            views,
+                            scene,
+                            lights: (lights, lighting),
+                            features,
+                            cull: (common.grid, settings.cull),
+                            opaque_depth: &targets.depth_view,
+                            shadows: common.shadows.as_ref(),
+                        },
+                    )
+                })
+                .transpose()?;
             let heatmap = match (&culling, plan.has(Step::Heatmap)) {
                 (Some(c), true) => Some(HeatmapPass::new(device, &c.grid.grid, settings.heatmap)?),
                 _ => None,
             };
-            Ok((prepass, culling, shading, heatmap, hdr_msaa))
+            Ok((prepass, culling, shading, heatmap, hdr_msaa, blended))
         })?
-        .map(|(prepass, culling, shading, heatmap, hdr_msaa)| {
-            let mut r = Self { settings, common, prepass, culling, shading, heatmap, hdr_msaa };
+        .map(|(prepass, culling, shading, heatmap, hdr_msaa, blended)| {
+            let mut r = Self { settings, common, blended, prepass, culling, shading, heatmap, hdr_msaa };
+            if let Some(b) = &r.blended {
+                r.common.memory.extend(&b.memory);
+            }
             if let Some((t, _)) = &r.hdr_msaa {
                 let bytes = t.width() as u64 * t.height() as u64 * r.common.features.msaa as u64 * 8;
                 r.common.memory.add("forward.hdr_msaa", bytes);
@@ -223,6 +246,10 @@ impl ForwardRenderer {
     /// The culling pass (Forward+ only).
     pub fn culling(&self) -> Option<&LightCulling> {
         self.culling.as_ref()
+    }
+    /// The blended-geometry path (scenes with blended materials).
+    pub fn blended(&self) -> Option<&BlendedPath> {
+        self.blended.as_ref()
     }
     /// What the frame models.
     pub fn features(&self) -> &Features {
@@ -264,6 +291,29 @@ impl Renderer for ForwardRenderer {
                         None => (&targets.hdr_view, None),
                     };
                     self.shading.record(encoder, timer, view, scene, hdr, resolve, &targets.depth_view);
+                }
+                Step::BlendedDepth => {
+                    if let Some(b) = &self.blended {
+                        b.record_depth(encoder, timer, view, scene);
+                    }
+                }
+                Step::BlendedCull => {
+                    if let Some(b) = &self.blended {
+                        b.record_cull(encoder, timer, view);
+                    }
+                }
+                Step::BlendedShade => {
+                    if let Some(b) = &self.blended {
+                        b.record_shade(
+                            encoder,
+                            timer,
+                            view,
+                            scene,
+                            &camera.view(),
+                            &targets.depth_view,
+                            &targets.hdr_view,
+                        );
+                    }
                 }
                 Step::Tonemap => c.tonemap.record(encoder, timer, &targets.ldr_view),
                 Step::Heatmap => {

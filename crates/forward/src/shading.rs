@@ -7,7 +7,7 @@
 //! Depends on tiledlight-gpu.
 
 use tiledlight_gpu::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
-use tiledlight_gpu::depth_prepass::{scene_pipeline, SceneDraw, DEPTH_FORMAT};
+use tiledlight_gpu::depth_prepass::{scene_pipeline, DepthUse, SceneDraw, DEPTH_FORMAT};
 use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_cull::LightCulling;
 use tiledlight_gpu::light_grid::LightGrid;
@@ -156,7 +156,7 @@ impl ShadingPass {
                         layout: &pl,
                         module: &module,
                         vertex: ("vs_main", &VERTEX_LAYOUTS),
-                        depth_write: false,
+                        depth: DepthUse::Equal,
                         samples,
                         fragment: Some(("fs_main", &target)),
                         depth_format: DEPTH_FORMAT,

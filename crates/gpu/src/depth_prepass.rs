@@ -24,6 +24,17 @@ pub fn primitive_state(kind: DrawKind) -> wgpu::PrimitiveState {
     }
 }
 
+/// How a scene pass uses the depth buffer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DepthUse {
+    /// Writes depth, compare GreaterEqual (pre-pass, G-buffer, shadow faces).
+    Write,
+    /// Tests Equal against the pre-pass without writing (Forward+ shading: each pixel once).
+    Equal,
+    /// Tests GreaterEqual without writing (blended geometry in front of the opaque depth).
+    Test,
+}
+
 /// How a pass draws the scene's geometry: what [`scene_pipeline`] needs besides the draw kind.
 pub struct SceneDraw<'a> {
     /// Pipeline label.
@@ -34,9 +45,8 @@ pub struct SceneDraw<'a> {
     pub module: &'a wgpu::ShaderModule,
     /// Vertex entry point and the vertex buffers it reads.
     pub vertex: (&'a str, &'a [Option<wgpu::VertexBufferLayout<'a>>]),
-    /// Writes depth (pre-pass, G-buffer: compare GreaterEqual) or tests it Equal against
-    /// the pre-pass without writing (Forward+ shading).
-    pub depth_write: bool,
+    /// How the pass uses depth.
+    pub depth: DepthUse,
     /// MSAA samples.
     pub samples: u32,
     /// Fragment entry point and colour targets (None: depth only).
@@ -55,7 +65,10 @@ pub fn scene_pipeline(device: &wgpu::Device, kind: DrawKind, d: &SceneDraw<'_>) 
     // the first: where two surfaces meet at exactly the pixel centre's depth (measured on
     // the H200: one pixel of the courtyard at 320x180) Tiled Deferred then shaded another
     // surface than Forward+ and brute force.
-    let compare = if d.depth_write { wgpu::CompareFunction::GreaterEqual } else { wgpu::CompareFunction::Equal };
+    let compare = match d.depth {
+        DepthUse::Write | DepthUse::Test => wgpu::CompareFunction::GreaterEqual,
+        DepthUse::Equal => wgpu::CompareFunction::Equal,
+    };
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some(d.label),
         layout: Some(d.layout),
@@ -71,7 +84,7 @@ pub fn scene_pipeline(device: &wgpu::Device, kind: DrawKind, d: &SceneDraw<'_>) 
         primitive: primitive_state(kind),
         depth_stencil: Some(wgpu::DepthStencilState {
             format: d.depth_format,
-            depth_write_enabled: Some(d.depth_write),
+            depth_write_enabled: Some(d.depth == DepthUse::Write),
             depth_compare: Some(compare),
             stencil: Default::default(),
             bias: Default::default(),
@@ -124,7 +137,7 @@ impl DepthPrepass {
         Self::for_target(device, views, scene, features, target)
     }
 
-    /// The pipelines drawing the scene's depth into `target`.
+    /// The pipelines drawing the scene's opaque and masked depth into `target`.
     pub fn for_target(
         device: &wgpu::Device,
         views: &Views,
@@ -132,10 +145,22 @@ impl DepthPrepass {
         features: &Features,
         target: DepthTarget,
     ) -> Result<Self, GpuError> {
+        Self::for_kinds(device, views, scene, (features, &features.draw_kinds), target)
+    }
+
+    /// The pipelines drawing the depth of the draws of `kinds` (the blended path's own
+    /// depth) into `target`.
+    pub fn for_kinds(
+        device: &wgpu::Device,
+        views: &Views,
+        scene: &SceneGpu,
+        (features, kinds): (&Features, &[DrawKind]),
+        target: DepthTarget,
+    ) -> Result<Self, GpuError> {
         let mut pipelines = Vec::new();
         let samples = target.samples;
         let textures = scene.textures.as_ref().filter(|_| features.textures);
-        for &kind in &features.draw_kinds {
+        for &kind in kinds {
             let mut defines = Vec::new();
             let layout = if kind.masked {
                 defines.push("ALPHA_MASK");
@@ -157,9 +182,10 @@ impl DepthPrepass {
             let (vs, buffers): (&str, &[Option<wgpu::VertexBufferLayout<'_>>]) =
                 if kind.masked { ("vs_masked", &VERTEX_LAYOUTS) } else { ("vs_main", &VERTEX_LAYOUTS[..1]) };
             let label = format!(
-                "{}{}{}",
+                "{}{}{}{}",
                 target.label,
                 if kind.masked { ".masked" } else { "" },
+                if kind.blended { ".blended" } else { "" },
                 if kind.double_sided { ".double_sided" } else { "" }
             );
             let pipeline = scene_pipeline(
@@ -170,7 +196,7 @@ impl DepthPrepass {
                     layout: &layout,
                     module: &module,
                     vertex: (vs, buffers),
-                    depth_write: true,
+                    depth: DepthUse::Write,
                     samples,
                     fragment: kind.masked.then_some(("fs_masked", &[][..])),
                     depth_format: target.format,

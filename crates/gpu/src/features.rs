@@ -71,9 +71,9 @@ pub struct Features {
     pub aabb: bool,
     /// Tiled Deferred's extra G-buffer targets (the stress knob; 0 otherwise).
     pub extra_targets: u32,
-    /// Materials that ask for alpha blending, drawn opaque: the renderer has no
-    /// transparent pass yet, and says so.
-    pub blended_as_opaque: usize,
+    /// The blended draw kinds (empty: no blended geometry, so no blended depth, lists,
+    /// pipelines or layer exist).
+    pub blended_kinds: Vec<DrawKind>,
     /// Shadow casters, when some light casts a shadow (None: no atlas, no shadow pass, no
     /// shadow variant).
     pub shadows: Option<Shadows>,
@@ -99,15 +99,20 @@ impl Features {
             spot_lights,
             spot_cone: tiled && cull.spot_cone && spot_lights,
             textures: scene.textures.is_some(),
-            draw_kinds: scene.kinds(),
+            draw_kinds: scene.opaque_kinds(),
+            blended_kinds: scene.kinds().into_iter().filter(|k| k.blended).collect(),
             msaa,
             half_z: tiled && cull.half_z,
             coarse: tiled && cull.coarse,
             aabb: tiled && cull.aabb,
             extra_targets: if method == Method::TiledDeferred { gbuffer_rts.saturating_sub(2) } else { 0 },
-            blended_as_opaque: scene.blended_as_opaque,
             shadows: (points + spots > 0).then_some(Shadows { points, spots, options: shadow }),
         }
+    }
+
+    /// Some draw is alpha-blended: the blended path exists.
+    pub fn blended(&self) -> bool {
+        !self.blended_kinds.is_empty()
     }
 
     /// Some draw is alpha-masked (masked pre-pass pipelines).
@@ -162,8 +167,8 @@ impl Features {
                 s.options.format.name()
             ));
         }
-        if self.blended_as_opaque > 0 {
-            parts.push(format!("{} blended materials drawn opaque (no transparent pass yet)", self.blended_as_opaque));
+        if self.blended() {
+            parts.push("alpha-blended geometry (sorted back to front)".into());
         }
         parts.join(", ")
     }

@@ -5,10 +5,11 @@
 //! once as data and checked against the WGSL ([`bindings`]), GPU timers ([`timer`]),
 //! readback ([`readback`]), scene and light buffers ([`scene_gpu`], [`lights_gpu`]), and the
 //! passes both methods share: the depth pre-pass ([`depth_prepass`]), tiled light culling
-//! ([`light_cull`]) into the light grid ([`light_grid`]), the shadow atlas ([`shadow_atlas`]) and tonemapping ([`tonemap`]). Depends on wgpu, tiledlight-cull and
+//! ([`light_cull`]) into the light grid ([`light_grid`]), the shadow atlas ([`shadow_atlas`]), the blended-geometry path ([`blended`]) and tonemapping ([`tonemap`]). Depends on wgpu, tiledlight-cull and
 //! tiledlight-scene; never on a renderer crate.
 
 pub mod bindings;
+pub mod blended;
 pub mod context;
 pub mod depth_prepass;
 pub mod diagnostics;
@@ -43,6 +44,8 @@ pub fn binding_declarations() -> Vec<bindings::PassBindings> {
         light_cull::CULL_COARSE_BINDINGS,
         tonemap::TONEMAP_BINDINGS,
         tonemap::HEATMAP_BINDINGS,
+        blended::BLENDED_BINDINGS,
+        blended::COMPOSITE_BINDINGS,
     ]
 }
 

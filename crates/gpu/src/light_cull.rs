@@ -174,6 +174,14 @@ impl CullOptions {
         }
     }
 
+    /// The options of the blended geometry's culling: the same tile size, capacity and
+    /// samples, one list per tile (no half-z), one level, sphere and plane tests only (the
+    /// blended range may reach infinitely far, over the sky, where the AABB and cone tests'
+    /// corners are not finite).
+    pub fn for_blended(&self) -> Self {
+        Self { half_z: false, coarse: false, aabb: false, spot_cone: false, ..*self }
+    }
+
     /// Lists per tile.
     pub fn lists_per_tile(&self) -> u32 {
         if self.half_z {
@@ -335,8 +343,8 @@ fn coarse_constants(capacity: u32) -> [(&'static str, f64); 2] {
 
 /// The bindings of [`LightCulling`] (`shaders/cull.wgsl`). Group 1: depth (0), bounding
 /// spheres (1), the lighting uniform (9), with `SPOT_CONE` the shading lights (6) and spots
-/// (7), with `COARSE` the cell lists (8). Group 2: the light grid, with tile ranges under
-/// `HALF_Z`.
+/// (7), with `COARSE` the cell lists (8), with `BLENDED` the blended depth (10). Group 2:
+/// the light grid, with tile ranges under `HALF_Z`.
 pub const CULL_BINDINGS: PassBindings = PassBindings {
     entry: "cull.wgsl",
     source: file!(),
@@ -351,6 +359,9 @@ pub const CULL_BINDINGS: PassBindings = PassBindings {
                 Binding::storage(6, wgpu::ShaderStages::COMPUTE).when(Cond::Defined("SPOT_CONE")),
                 Binding::storage(7, wgpu::ShaderStages::COMPUTE).when(Cond::Defined("SPOT_CONE")),
                 Binding::storage(8, wgpu::ShaderStages::COMPUTE).when(Cond::Defined("COARSE")),
+                Binding::texture(10, wgpu::ShaderStages::COMPUTE, wgpu::TextureSampleType::Depth)
+                    .multisampled_when(Cond::Defined("MSAA"))
+                    .when(Cond::Defined("BLENDED")),
             ],
         ),
         PassGroup::new(2, &crate::light_grid::compute_bindings(Cond::Defined("HALF_Z"))),
@@ -391,6 +402,35 @@ impl LightCulling {
         device: &wgpu::Device,
         views: &Views,
         depth: &wgpu::TextureView,
+        lights: (&LightBuffers, &wgpu::Buffer),
+        grid: TileGrid,
+        options: CullOptions,
+        drop: Option<DropLight>,
+    ) -> Result<Self, GpuError> {
+        Self::build(device, views, (depth, None), lights, grid, options, drop)
+    }
+
+    /// The culling pass of blended geometry (`BLENDED`, [`crate::blended`]): tiles with
+    /// blended samples in front of the `opaque` depth get a list of the lights reaching the
+    /// range from the nearest `blended` depth to the opaque depth behind it, into a light
+    /// grid of its own. One list per tile, sphere and plane tests only, one level:
+    /// `options`' half-z, two-level, AABB and cone settings do not apply.
+    pub fn blended(
+        device: &wgpu::Device,
+        views: &Views,
+        (opaque, blended): (&wgpu::TextureView, &wgpu::TextureView),
+        lights: (&LightBuffers, &wgpu::Buffer),
+        grid: TileGrid,
+        options: CullOptions,
+    ) -> Result<Self, GpuError> {
+        let options = options.for_blended();
+        Self::build(device, views, (opaque, Some(blended)), lights, grid, options, None)
+    }
+
+    fn build(
+        device: &wgpu::Device,
+        views: &Views,
+        (depth, blended): (&wgpu::TextureView, Option<&wgpu::TextureView>),
         (lights, lighting): (&LightBuffers, &wgpu::Buffer),
         grid: TileGrid,
         options: CullOptions,
@@ -400,20 +440,25 @@ impl LightCulling {
         if let Some(d) = &drop {
             d.check(&grid, lights.len())?;
         }
+        let prefix = if blended.is_some() { "blended" } else { "cull" };
         let light_grid = LightGrid::new(
             device,
-            "cull.light_grid",
+            if blended.is_some() { "blended.light_grid" } else { "cull.light_grid" },
             options.grid_layout(grid, options.half_z),
             lights.len(),
             options.grid_pairs,
         )?;
         let spot_cone = options.spot_cone && lights.has_spots();
-        let defines = options.cull_defines(lights.has_spots(), drop);
+        let mut defines = options.cull_defines(lights.has_spots(), drop);
         let mut bind = vec![
             wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(depth) },
             wgpu::BindGroupEntry { binding: 1, resource: lights.cull.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 9, resource: lighting.as_entire_binding() },
         ];
+        if let Some(b) = blended {
+            defines.push("BLENDED");
+            bind.push(wgpu::BindGroupEntry { binding: 10, resource: wgpu::BindingResource::TextureView(b) });
+        }
         if let (true, Some(spots)) = (spot_cone, &lights.spots) {
             bind.push(wgpu::BindGroupEntry { binding: 6, resource: lights.shading.as_entire_binding() });
             bind.push(wgpu::BindGroupEntry { binding: 7, resource: spots.as_entire_binding() });
@@ -427,16 +472,16 @@ impl LightCulling {
         if let Some(c) = &coarse {
             bind.push(wgpu::BindGroupEntry { binding: 8, resource: c.lists.as_entire_binding() });
         }
-        let layout = create_layout(device, "cull.layout", CULL_BINDINGS.group(1), &defines);
+        let layout = create_layout(device, &format!("{prefix}.layout"), CULL_BINDINGS.group(1), &defines);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("cull.bind_group"),
+            label: Some(&format!("{prefix}.bind_group")),
             layout: &layout,
             entries: &bind,
         });
         let module = shader_module(device, CULL_BINDINGS.entry, &defines)?;
         let constants = options.cull_constants(coarse.as_ref(), drop, (&light_grid, lights.len()));
         let pipeline =
-            compute_pipeline(device, "cull", &[&views.layout, &layout, light_grid.layout()], &module, &constants);
+            compute_pipeline(device, prefix, &[&views.layout, &layout, light_grid.layout()], &module, &constants);
         Ok(Self { pipeline, bind_group, coarse, grid: light_grid, options, memory })
     }
 

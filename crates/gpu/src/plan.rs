@@ -8,6 +8,8 @@
 //! head     depth pre-pass (Forward+, brute force)      | G-buffer (Tiled Deferred)
 //! culling  cells + tiles -> light grid (Forward+)      | (Tiled Deferred culls in its shading pass)
 //! middle   forward shading (Forward+ / brute force)     | cull + shade, [MSAA resolve] (Tiled Deferred)
+//! blended  blended depth, blended culling (tiled), blended shading + composite (only with
+//!          alpha-blended geometry; the same passes for both methods)
 //! tail     tonemap, heat map (tiled methods; drawn when switched on)
 //! ```
 //!
@@ -37,6 +39,14 @@ pub enum Step {
     DeferredShade,
     /// Averages the per-sample shading of MSAA edge pixels (`deferred.resolve`).
     DeferredResolve,
+    /// Depth of the blended geometry, in its own buffer (`blended.depth`; only with blended
+    /// geometry).
+    BlendedDepth,
+    /// Culling for blended geometry into its own light grid (`blended.cull`; tiled methods).
+    BlendedCull,
+    /// Blended geometry shaded back to front into the transparent layer, composited over the
+    /// opaque image (`blended.shade`, `blended.composite`).
+    BlendedShade,
     /// HDR to the display image (`tonemap`).
     Tonemap,
     /// Lights per tile over the image, when switched on (`heatmap`).
@@ -76,6 +86,14 @@ impl FramePlan {
                 }
             }
         }
+        // Blended geometry, over the opaque image, both methods alike.
+        if features.blended() {
+            steps.push(Step::BlendedDepth);
+            if features.method.is_tiled() {
+                steps.push(Step::BlendedCull);
+            }
+            steps.push(Step::BlendedShade);
+        }
         // Tail.
         steps.push(Step::Tonemap);
         if features.method.is_tiled() {
@@ -106,13 +124,13 @@ mod tests {
             spot_lights: false,
             spot_cone: false,
             textures: false,
-            draw_kinds: vec![DrawKind { masked: false, double_sided: false }],
+            draw_kinds: vec![DrawKind { masked: false, double_sided: false, blended: false }],
             msaa,
             half_z: false,
             coarse: true,
             aabb: false,
             extra_targets: 0,
-            blended_as_opaque: 0,
+            blended_kinds: vec![],
             shadows: None,
         }
     }
@@ -125,6 +143,29 @@ mod tests {
         assert_eq!(plan(Method::BruteForce { cutoff: true }, 4), [DepthPrepass, BruteForceShade, Tonemap]);
         assert_eq!(plan(Method::TiledDeferred, 1), [GBuffer, DeferredShade, Tonemap, Heatmap]);
         assert_eq!(plan(Method::TiledDeferred, 4), [GBuffer, DeferredShade, DeferredResolve, Tonemap, Heatmap]);
+    }
+
+    #[test]
+    fn blended_geometry_adds_its_passes_to_both_methods() {
+        use Step::*;
+        let blended = |m| {
+            let mut f = features(m, 1);
+            f.blended_kinds = vec![DrawKind { masked: false, double_sided: true, blended: true }];
+            FramePlan::new(&f).steps().to_vec()
+        };
+        assert_eq!(
+            blended(Method::ForwardPlus),
+            [DepthPrepass, Cull, ForwardShade, BlendedDepth, BlendedCull, BlendedShade, Tonemap, Heatmap]
+        );
+        assert_eq!(
+            blended(Method::TiledDeferred),
+            [GBuffer, DeferredShade, BlendedDepth, BlendedCull, BlendedShade, Tonemap, Heatmap]
+        );
+        assert_eq!(
+            blended(Method::BruteForce { cutoff: true }),
+            [DepthPrepass, BruteForceShade, BlendedDepth, BlendedShade, Tonemap]
+        );
+        assert!(!FramePlan::new(&features(Method::ForwardPlus, 1)).has(BlendedDepth));
     }
 
     #[test]

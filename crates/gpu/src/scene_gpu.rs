@@ -56,6 +56,9 @@ pub struct DrawKind {
     pub masked: bool,
     /// No back-face culling.
     pub double_sided: bool,
+    /// Alpha-blended: drawn only by the blended path ([`crate::blended`]), never by the
+    /// opaque passes or into shadow maps.
+    pub blended: bool,
 }
 
 /// One instanced indexed draw.
@@ -145,8 +148,6 @@ pub struct SceneGpu {
     pub draws: Vec<Draw>,
     /// Triangles drawn per frame.
     pub triangles: u64,
-    /// Materials with alpha blending, drawn as opaque (transparency is not implemented yet).
-    pub blended_as_opaque: usize,
     /// World-space bounds of each instance (min, max), in the order of the instance buffer
     /// (what the draws' instance ranges index): shadow faces cull instances with them and
     /// place their near plane just short of the nearest one.
@@ -187,7 +188,11 @@ impl SceneGpu {
 
         let kind_of = |mat: usize| {
             let m = &scene.materials[mat];
-            DrawKind { masked: matches!(m.alpha_mode, AlphaMode::Mask { .. }), double_sided: m.double_sided }
+            DrawKind {
+                masked: matches!(m.alpha_mode, AlphaMode::Mask { .. }),
+                double_sided: m.double_sided,
+                blended: matches!(m.alpha_mode, AlphaMode::Blend),
+            }
         };
         // Sort instances so equal (kind, material, mesh) are consecutive: one instanced draw each.
         let mut order: Vec<usize> = (0..scene.instances.len()).collect();
@@ -249,7 +254,6 @@ impl SceneGpu {
                 has_texture: m.base_color_texture.is_some() as u32,
             })
             .collect();
-        let blended_as_opaque = scene.materials.iter().filter(|m| matches!(m.alpha_mode, AlphaMode::Blend)).count();
         let storage = wgpu::BufferUsages::STORAGE;
         let instance_buf = buffer_init(device, "scene.instances", bytemuck::cast_slice(&gpu_instances), storage);
         let material_buf = buffer_init(device, "scene.materials", bytemuck::cast_slice(&gpu_materials), storage);
@@ -278,17 +282,50 @@ impl SceneGpu {
             textures,
             draws,
             triangles,
-            blended_as_opaque,
             instance_bounds,
             memory,
         })
     }
 
-    /// The pipeline kinds this scene's draws need.
+    /// The pipeline kinds this scene's draws need (blended ones last).
     pub fn kinds(&self) -> Vec<DrawKind> {
         let mut k: Vec<DrawKind> = self.draws.iter().map(|d| d.kind).collect();
         k.dedup();
         k
+    }
+
+    /// The opaque and masked kinds: what the pre-pass, G-buffer, shading and shadow passes draw.
+    pub fn opaque_kinds(&self) -> Vec<DrawKind> {
+        self.kinds().into_iter().filter(|k| !k.blended).collect()
+    }
+
+    /// The blended instances as (instance slot, draw index), in slot order: what the
+    /// blended path sorts and draws one by one.
+    pub fn blended_instances(&self) -> Vec<(u32, usize)> {
+        self.draws
+            .iter()
+            .enumerate()
+            .filter(|(_, d)| d.kind.blended)
+            .flat_map(|(i, d)| d.instances.clone().map(move |slot| (slot, i)))
+            .collect()
+    }
+
+    /// Draws instance `slot` of draw `draw` alone (the blended path's sorted order); binds
+    /// its material texture (group 2) when the scene has textures.
+    pub fn record_instance(&self, pass: &mut wgpu::RenderPass<'_>, slot: u32, draw: usize) {
+        let d = &self.draws[draw];
+        if let Some(t) = &self.textures {
+            pass.set_bind_group(2, &t.bind_groups[d.material], &[]);
+        }
+        pass.draw_indexed(d.indices.clone(), d.base_vertex, slot..slot + 1);
+    }
+
+    /// Binds the vertex and index buffers every scene draw reads.
+    pub fn bind_geometry(&self, pass: &mut wgpu::RenderPass<'_>) {
+        pass.set_vertex_buffer(0, self.positions.slice(..));
+        pass.set_vertex_buffer(1, self.normals.slice(..));
+        pass.set_vertex_buffer(2, self.uvs.slice(..));
+        pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
     }
 
     /// True when some draw is alpha-masked.

@@ -1,0 +1,478 @@
+//! Alpha-blended geometry, the same passes for both methods (TiledLighting11's
+//! "Alpha-Blended Geometry"; Tiled Deferred uses this forward path after its compute
+//! shading, as the sample does). Exists only when the scene has blended materials
+//! ([`Features::blended`]): no blended depth, grid, pipeline or layer otherwise.
+//!
+//! The steps (the frame plan's `BlendedDepth`, `BlendedCull`, `BlendedShade`):
+//! 1. **Depth.** The blended draws, depth-only, into a depth buffer of their own cleared to
+//!    0 (`blended.depth`): per sample, the nearest blended surface. It is tested against the
+//!    opaque depth where the culling kernel reads both buffers (a blended sample counts
+//!    only in front of the opaque one), which needs no copy of the opaque buffer (a
+//!    multisampled depth buffer cannot be copied).
+//! 2. **Culling** (tiled methods): `LightCulling::blended` into a light grid of its own, one
+//!    list per tile: the range runs from the nearest blended depth to the farthest opaque
+//!    depth behind a blended sample (infinitely far over the sky); a tile without blended
+//!    samples gets an empty list. CPU twin: `tiledlight_cull::reference::cull_tiles_blended`.
+//! 3. **Shading** (`blended.wgsl`): each blended instance drawn alone, back to front by the
+//!    view depth of its bounds' centre (sorted on the CPU each frame; triangles within an
+//!    instance and intersecting instances are not sorted), lit from both sides with the
+//!    shared BRDF over its tile's blended list (brute force: every light), written with
+//!    premultiplied alpha ("over") into a transparent layer cleared to 0, depth-tested
+//!    against the opaque depth without writing. With MSAA the layer is multisampled and
+//!    resolved.
+//! 4. **Composite** (`blended_composite.wgsl`): `hdr = layer.rgb + (1 - layer.a) hdr`.
+//!    Without MSAA this equals drawing each surface over the opaque image; with MSAA the
+//!    layer's samples are averaged before compositing, which differs from per-sample
+//!    compositing only where the opaque colour varies inside a pixel.
+//!
+//! Depends on [`crate::depth_prepass`], [`crate::light_cull`], [`crate::scene_gpu`],
+//! [`crate::shadow_atlas`], [`crate::features`], [`crate::view`].
+
+use std::sync::Mutex;
+
+use glam::{Mat4, Vec3};
+use tiledlight_cull::TileGrid;
+
+use crate::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
+use crate::depth_prepass::{scene_pipeline, DepthPrepass, DepthTarget, DepthUse, SceneDraw, DEPTH_FORMAT};
+use crate::error::GpuError;
+use crate::features::{Features, Method};
+use crate::light_cull::{CullOptions, LightCulling};
+use crate::lights_gpu::LightBuffers;
+use crate::memory::MemoryReport;
+use crate::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS, VERTEX_LAYOUTS};
+use crate::shadow_atlas::ShadowAtlas;
+use crate::targets::texture_2d_msaa;
+use crate::timer::GpuTimer;
+use crate::tonemap::HDR_FORMAT;
+use crate::util::{pipeline_layout, shader_module};
+use crate::view::Views;
+
+const FS: wgpu::ShaderStages = wgpu::ShaderStages::FRAGMENT;
+
+/// The bindings of the blended shading pass (`shaders/blended.wgsl`): the scene's groups,
+/// then group 3 as Forward+'s shading pass binds it: shading lights (0), the lighting
+/// uniform (5), spots (1), unless `BRUTE_FORCE` the blended light grid (2) and its indices
+/// (3), with `SHADOWS` the atlas (6), its sampler (7) and faces (8).
+pub const BLENDED_BINDINGS: PassBindings = PassBindings {
+    entry: "blended.wgsl",
+    source: file!(),
+    groups: &[
+        SCENE_GROUPS[0],
+        SCENE_GROUPS[1],
+        SCENE_GROUPS[2],
+        PassGroup::new(
+            3,
+            &[
+                Binding::storage(0, FS),
+                Binding::uniform(5, FS),
+                Binding::storage(1, FS).when(Cond::Defined("SPOT_LIGHTS")),
+                Binding::storage(2, FS).when(Cond::NotDefined("BRUTE_FORCE")),
+                Binding::storage(3, FS).when(Cond::NotDefined("BRUTE_FORCE")),
+                Binding::depth_array(6, FS).when(Cond::Defined("SHADOWS")),
+                Binding::sampler(7, FS, wgpu::SamplerBindingType::Comparison).when(Cond::Defined("SHADOWS")),
+                Binding::storage(8, FS).when(Cond::Defined("SHADOWS")),
+            ],
+        ),
+    ],
+};
+
+/// The bindings of the composite (`shaders/blended_composite.wgsl`): the layer (0).
+pub const COMPOSITE_BINDINGS: PassBindings = PassBindings {
+    entry: "blended_composite.wgsl",
+    source: file!(),
+    groups: &[PassGroup::new(0, &[Binding::texture(0, FS, wgpu::TextureSampleType::Float { filterable: false })])],
+};
+
+/// The blended path's passes and resources.
+pub struct BlendedPath {
+    /// The blended depth buffer (tests read it back).
+    pub depth_texture: wgpu::Texture,
+    /// The nearest blended depth per sample (0 where none).
+    pub depth_view: wgpu::TextureView,
+    depth_pass: DepthPrepass,
+    /// The blended geometry's culling and light grid (tiled methods).
+    pub culling: Option<LightCulling>,
+    pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
+    lights_group: wgpu::BindGroup,
+    empty_group: Option<wgpu::BindGroup>,
+    /// The transparent layer (resolved), premultiplied.
+    pub layer: wgpu::Texture,
+    layer_view: wgpu::TextureView,
+    layer_msaa: Option<(wgpu::Texture, wgpu::TextureView)>,
+    composite: wgpu::RenderPipeline,
+    composite_group: wgpu::BindGroup,
+    /// Per blended instance: slot, draw index, world centre of its bounds.
+    instances: Vec<(u32, usize, Vec3)>,
+    /// Scratch of the per-frame sort (view depth, index into `instances`), kept to avoid a
+    /// per-frame allocation.
+    order: Mutex<Vec<(f32, usize)>>,
+    /// Bytes allocated (blended depth, layer; the grid's).
+    pub memory: MemoryReport,
+}
+
+/// What the blended path reads from the frame.
+pub struct BlendedInputs<'a> {
+    /// The views (group 0).
+    pub views: &'a Views,
+    /// The scene.
+    pub scene: &'a SceneGpu,
+    /// Lights and the `Lighting` uniform.
+    pub lights: (&'a LightBuffers, &'a wgpu::Buffer),
+    /// What the frame models.
+    pub features: &'a Features,
+    /// The tiling and culling options (tiled methods cull blended geometry with them).
+    pub cull: (TileGrid, CullOptions),
+    /// The opaque depth buffer.
+    pub opaque_depth: &'a wgpu::TextureView,
+    /// The shadow atlas, when lights cast shadows.
+    pub shadows: Option<&'a ShadowAtlas>,
+}
+
+impl BlendedPath {
+    /// Builds the blended path for `inp` (the features must have blended kinds).
+    pub fn new(device: &wgpu::Device, inp: BlendedInputs<'_>) -> Result<Self, GpuError> {
+        let BlendedInputs { views, scene, lights, features, cull: (grid, options), opaque_depth, shadows } = inp;
+        if !features.blended() {
+            return Err(GpuError::Config("the blended path needs blended geometry".into()));
+        }
+        let samples = features.msaa;
+        let size = (grid.width, grid.height);
+        use wgpu::TextureUsages as U;
+        // COPY_SRC (single-sampled only: a multisampled texture cannot be copied): tests read
+        // it back.
+        let copy = if samples == 1 { U::COPY_SRC } else { U::empty() };
+        let depth_texture = texture_2d_msaa(
+            device,
+            "blended.depth",
+            size,
+            DEPTH_FORMAT,
+            samples,
+            U::RENDER_ATTACHMENT | U::TEXTURE_BINDING | copy,
+        );
+        let depth_view = depth_texture
+            .create_view(&wgpu::TextureViewDescriptor { label: Some("blended.depth.view"), ..Default::default() });
+        let target = DepthTarget { label: "blended.depth", format: DEPTH_FORMAT, samples };
+        let depth_pass = DepthPrepass::for_kinds(device, views, scene, (features, &features.blended_kinds), target)?;
+        let culling = match features.method {
+            Method::BruteForce { .. } => None,
+            _ => Some(LightCulling::blended(device, views, (opaque_depth, &depth_view), lights, grid, options)?),
+        };
+        // Shading pipelines.
+        let mut defines = features.light_defines();
+        if features.textures {
+            defines.push("TEXTURES");
+        }
+        if let Method::BruteForce { cutoff } = features.method {
+            defines.push("BRUTE_FORCE");
+            if !cutoff {
+                defines.push("NO_CUTOFF");
+            }
+        }
+        let lights_layout = create_layout(device, "blended.lights_layout", BLENDED_BINDINGS.group(3), &defines);
+        let (lb, lighting) = lights;
+        let mut entries = vec![
+            wgpu::BindGroupEntry { binding: 0, resource: lb.shading.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 5, resource: lighting.as_entire_binding() },
+        ];
+        if let Some(s) = lb.spots.as_ref().filter(|_| features.spot_lights) {
+            entries.push(wgpu::BindGroupEntry { binding: 1, resource: s.as_entire_binding() });
+        }
+        if let Some(c) = &culling {
+            entries.push(wgpu::BindGroupEntry { binding: 2, resource: c.grid.grid.as_entire_binding() });
+            entries.push(wgpu::BindGroupEntry { binding: 3, resource: c.grid.indices().as_entire_binding() });
+        }
+        if let Some(a) = shadows {
+            entries.push(wgpu::BindGroupEntry {
+                binding: 6,
+                resource: wgpu::BindingResource::TextureView(&a.sample_view),
+            });
+            entries.push(wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(&a.sampler) });
+            entries.push(wgpu::BindGroupEntry { binding: 8, resource: a.faces.as_entire_binding() });
+        }
+        let lights_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("blended.lights"),
+            layout: &lights_layout,
+            entries: &entries,
+        });
+        let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("blended.empty_layout"),
+            entries: &[],
+        });
+        let tex_layout = scene.textures.as_ref().map_or(&empty, |t| &t.layout);
+        let pl = pipeline_layout(
+            device,
+            "blended.shade.layout",
+            &[&views.layout, &scene.layout, tex_layout, &lights_layout],
+        );
+        let module = shader_module(device, BLENDED_BINDINGS.entry, &defines)?;
+        // Premultiplied "over": dst = src + (1 - src.a) dst, for colour and coverage alike.
+        let over = wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::One,
+            dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
+            operation: wgpu::BlendOperation::Add,
+        };
+        let target = [Some(wgpu::ColorTargetState {
+            format: HDR_FORMAT,
+            blend: Some(wgpu::BlendState { color: over, alpha: over }),
+            write_mask: wgpu::ColorWrites::ALL,
+        })];
+        let constants = features.light_constants();
+        let pipelines = features
+            .blended_kinds
+            .iter()
+            .map(|&kind| {
+                let p = scene_pipeline(
+                    device,
+                    kind,
+                    &SceneDraw {
+                        label: "blended.shade",
+                        layout: &pl,
+                        module: &module,
+                        vertex: ("vs_main", &VERTEX_LAYOUTS),
+                        depth: DepthUse::Test,
+                        samples,
+                        fragment: Some(("fs_main", &target)),
+                        depth_format: DEPTH_FORMAT,
+                        constants: &constants,
+                    },
+                );
+                (kind, p)
+            })
+            .collect();
+        let empty_group = scene.textures.is_none().then(|| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("blended.empty"),
+                layout: &empty,
+                entries: &[],
+            })
+        });
+        // The layer.
+        let layer =
+            texture_2d_msaa(device, "blended.layer", size, HDR_FORMAT, 1, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING);
+        let layer_view =
+            layer.create_view(&wgpu::TextureViewDescriptor { label: Some("blended.layer.view"), ..Default::default() });
+        let layer_msaa = (samples > 1).then(|| {
+            let t = texture_2d_msaa(device, "blended.layer_msaa", size, HDR_FORMAT, samples, U::RENDER_ATTACHMENT);
+            let v = t.create_view(&wgpu::TextureViewDescriptor {
+                label: Some("blended.layer_msaa.view"),
+                ..Default::default()
+            });
+            (t, v)
+        });
+        let (composite, composite_group) = composite_pipeline(device, &layer_view)?;
+        let instances = scene
+            .blended_instances()
+            .into_iter()
+            .map(|(slot, draw)| {
+                let (lo, hi) = scene.instance_bounds[slot as usize];
+                (slot, draw, (lo + hi) * 0.5)
+            })
+            .collect::<Vec<_>>();
+        let mut memory = MemoryReport::default();
+        let px = size.0 as u64 * size.1 as u64;
+        memory.add("blended.depth", px * samples as u64 * 4);
+        memory.add("blended.layer", px * 8 * if samples > 1 { 1 + samples as u64 } else { 1 });
+        if let Some(c) = &culling {
+            memory.extend(&c.memory);
+        }
+        let order = Mutex::new(Vec::with_capacity(instances.len()));
+        Ok(Self {
+            depth_texture,
+            depth_view,
+            depth_pass,
+            culling,
+            pipelines,
+            lights_group,
+            empty_group,
+            layer,
+            layer_view,
+            layer_msaa,
+            composite,
+            composite_group,
+            instances,
+            order,
+            memory,
+        })
+    }
+
+    /// Step 1: the blended depth of view slot `view`.
+    pub fn record_depth(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: &GpuTimer,
+        view: (&Views, u32),
+        scene: &SceneGpu,
+    ) {
+        let t = timer.begin("blended.depth", encoder);
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("blended.depth"),
+                color_attachments: &[],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &self.depth_view,
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: t.render_writes(),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            self.depth_pass.draw(&mut pass, view, scene, None);
+        }
+        timer.end(encoder, t);
+    }
+
+    /// Step 2: the blended lists (tiled methods).
+    pub fn record_cull(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, view: (&Views, u32)) {
+        if let Some(c) = &self.culling {
+            c.record(encoder, timer, view, "blended.cull");
+        }
+    }
+
+    /// Steps 3 and 4: the blended instances back to front as seen by `world_to_view` into
+    /// the layer (depth-tested against `opaque_depth`), then the layer over `hdr`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record_shade(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: &GpuTimer,
+        (views, view): (&Views, u32),
+        scene: &SceneGpu,
+        world_to_view: &Mat4,
+        opaque_depth: &wgpu::TextureView,
+        hdr: &wgpu::TextureView,
+    ) {
+        let mut order = self.order.lock().expect("blended sort scratch");
+        order.clear();
+        // View space looks down -Z: the view depth is -z; farthest first.
+        order.extend(self.instances.iter().enumerate().map(|(i, (_, _, c))| (world_to_view.transform_point3(*c).z, i)));
+        order.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let t = timer.begin("blended.shade", encoder);
+        {
+            let (target, resolve) = match &self.layer_msaa {
+                Some((_, v)) => (v, Some(&self.layer_view)),
+                None => (&self.layer_view, None),
+            };
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("blended.shade"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: target,
+                    depth_slice: None,
+                    resolve_target: resolve,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                        store: if resolve.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store },
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: opaque_depth,
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: t.render_writes(),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
+            pass.set_bind_group(1, &scene.bind_group, &[]);
+            if let Some(g) = &self.empty_group {
+                pass.set_bind_group(2, g, &[]);
+            }
+            pass.set_bind_group(3, &self.lights_group, &[]);
+            scene.bind_geometry(&mut pass);
+            let mut current: Option<DrawKind> = None;
+            for &(_, i) in order.iter() {
+                let (slot, draw, _) = self.instances[i];
+                let kind = scene.draws[draw].kind;
+                if current != Some(kind) {
+                    if let Some((_, p)) = self.pipelines.iter().find(|(k, _)| *k == kind) {
+                        pass.set_pipeline(p);
+                    }
+                    current = Some(kind);
+                }
+                scene.record_instance(&mut pass, slot, draw);
+            }
+        }
+        timer.end(encoder, t);
+        let t = timer.begin("blended.composite", encoder);
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("blended.composite"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: hdr,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: t.render_writes(),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.composite);
+            pass.set_bind_group(0, &self.composite_group, &[]);
+            pass.draw(0..3, 0..1);
+        }
+        timer.end(encoder, t);
+    }
+
+    /// Blended instances (drawn one by one each frame).
+    pub fn instance_count(&self) -> usize {
+        self.instances.len()
+    }
+}
+
+/// The composite pipeline and its bind group over `layer`.
+fn composite_pipeline(
+    device: &wgpu::Device,
+    layer: &wgpu::TextureView,
+) -> Result<(wgpu::RenderPipeline, wgpu::BindGroup), GpuError> {
+    let layout = create_layout(device, "blended.composite.layout", COMPOSITE_BINDINGS.group(0), &[]);
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("blended.composite"),
+        layout: &layout,
+        entries: &[wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(layer) }],
+    });
+    let module = shader_module(device, COMPOSITE_BINDINGS.entry, &[])?;
+    let pl = pipeline_layout(device, "blended.composite.pipeline_layout", &[&layout]);
+    // hdr.rgb = layer.rgb + (1 - layer.a) hdr.rgb; the HDR image's alpha is kept.
+    let blend = wgpu::BlendState {
+        color: wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::One,
+            dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
+            operation: wgpu::BlendOperation::Add,
+        },
+        alpha: wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::Zero,
+            dst_factor: wgpu::BlendFactor::One,
+            operation: wgpu::BlendOperation::Add,
+        },
+    };
+    let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("blended.composite"),
+        layout: Some(&pl),
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some("vs_main"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: None,
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some("fs_main"),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format: HDR_FORMAT,
+                blend: Some(blend),
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    });
+    Ok((pipeline, group))
+}

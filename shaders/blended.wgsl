@@ -1,0 +1,58 @@
+// Alpha-blended geometry (crates/gpu/src/blended.rs): each blended surface shaded forward
+// with the shared BRDF, lit from both sides (the normal faces the viewer), over the lights
+// of its tile's blended list (or every light with BRUTE_FORCE), and written with
+// premultiplied alpha into the transparent layer, instances drawn back to front. The layer
+// is composited over the opaque image afterwards (blended_composite.wgsl). Depth is tested
+// against the opaque depth and not written.
+// variants: SPOT_LIGHTS TEXTURES BRUTE_FORCE NO_CUTOFF SHADOWS
+#include "common/scene.wgsl"
+#include "common/shade.wgsl"
+
+@group(3) @binding(0) var<storage, read> shading_lights: array<ShadingLight>;
+@group(3) @binding(5) var<uniform> lighting: Lighting;
+#ifdef SPOT_LIGHTS
+@group(3) @binding(1) var<storage, read> spot_lights: array<SpotLight>;
+#endif
+#ifdef SHADOWS
+@group(3) @binding(6) var shadow_atlas: texture_depth_2d_array;
+@group(3) @binding(7) var shadow_sampler: sampler_comparison;
+@group(3) @binding(8) var<storage, read> shadow_faces: array<ShadowFace>;
+#endif
+#ifndef BRUTE_FORCE
+// The blended light grid (common/light_grid.wgsl): one list per tile.
+@group(3) @binding(2) var<storage, read> light_grid: LightGrid;
+@group(3) @binding(3) var<storage, read> light_indices: array<u32>;
+#include "common/light_grid_pixel.wgsl"
+#endif
+
+@vertex
+fn vs_main(
+    @builtin(instance_index) instance: u32,
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+) -> VertexOut {
+    return transform_vertex(instance, position, normal, uv);
+}
+
+@fragment
+fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
+    let m = materials[in.material];
+    let base = material_color(m, in.uv);
+    let nn = normalize(in.normal);
+    let n = select(-nn, nn, front);
+    let v = view_vector(in.world_pos);
+    let s = Surface(base.rgb, m.roughness, m.metallic);
+    var color = lighting.ambient * base.rgb;
+#ifdef BRUTE_FORCE
+    for (var i = 0u; i < lighting.num_lights; i++) {
+        color += shade_light(i, in.world_pos, n, v, s);
+    }
+#else
+    let list = pixel_list(vec2<u32>(in.clip.xy), 0.0);
+    for (var i = 0u; i < list.count; i++) {
+        color += shade_light(light_indices[list.first + i], in.world_pos, n, v, s);
+    }
+#endif
+    return vec4<f32>(color * base.a, base.a);
+}

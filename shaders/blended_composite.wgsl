@@ -1,0 +1,16 @@
+// Composites the transparent layer (premultiplied colour and coverage, crates/gpu/src/
+// blended.rs) over the opaque HDR image: the pipeline blends One, OneMinusSrcAlpha, so the
+// result is layer.rgb + (1 - layer.a) * opaque.
+
+@group(0) @binding(0) var layer: texture_2d<f32>;
+
+@vertex
+fn vs_main(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+    return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
+}
+
+@fragment
+fn fs_main(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
+    return textureLoad(layer, vec2<i32>(pos.xy), 0);
+}
