@@ -24,5 +24,5 @@ pub mod shadow;
 pub mod tiles;
 
 pub use camera::{Camera, DepthParams, Projection};
-pub use reference::{cull_tiles, CullConfig, TileLists};
+pub use reference::{cull_tiles, cull_tiles_blended, CullConfig, TileLists};
 pub use tiles::TileGrid;

@@ -1,7 +1,9 @@
 //! The CPU reference culler: (depth buffer, packed lights, camera, config) -> per-tile light
 //! lists, running the exact algorithm of the GPU kernel (`shaders/cull.wgsl`): per tile,
 //! min/max depth of its non-sky pixels, side planes and depth range, optional AABB and
-//! spot-cone tests, optional half-z split. Also the ground truth (which lights really
+//! spot-cone tests, optional half-z split. The lists of alpha-blended geometry
+//! ([`cull_tiles_blended`]) run the same tests over the range from the nearest blended
+//! surface to the opaque surface behind it. Also the ground truth (which lights really
 //! reach a pixel) and culling statistics. Depends on the other modules of this crate.
 
 use glam::{Mat4, Vec3};
@@ -11,7 +13,8 @@ use crate::camera::Camera;
 use crate::error::CullError;
 use crate::light::PackedLights;
 use crate::tiles::{
-    pixel_to_ndc_x, pixel_to_ndc_y, tile_depth_bounds, tile_depth_bounds_samples, TileFrustum, TileGrid,
+    pixel_to_ndc_x, pixel_to_ndc_y, tile_depth_bounds, tile_depth_bounds_samples, tile_sample_spans, DepthBounds,
+    TileFrustum, TileGrid,
 };
 
 /// Default per-list capacity of the library types (the app picks the light count, up to
@@ -116,7 +119,10 @@ pub struct TileLists {
     /// Every light found per list, ascending (not truncated: the GPU stores at most
     /// `capacity` of them, in no particular order).
     pub lists: Vec<Vec<u32>>,
-    /// Per tile, the view-distance range of its surfaces (None for all-sky tiles).
+    /// Per tile, the view-distance range of its surfaces (None for all-sky tiles). For
+    /// blended lists ([`cull_tiles_blended`]): from the nearest blended surface to the
+    /// farthest opaque one behind it (`f32::INFINITY` where that is sky under an infinite
+    /// far plane), None for tiles without blended geometry.
     pub ranges: Vec<Option<(f32, f32)>>,
 }
 
@@ -206,7 +212,11 @@ fn light_in_volume(l: &ViewLight, f: &TileFrustum, proj: &Mat4, ortho: bool, cfg
     if l.radius <= 0.0 || !sphere_vs_frustum(f, l.center, l.radius) {
         return false;
     }
-    let need_box = cfg.aabb || (cfg.spot_cone && l.cone.is_some());
+    // A volume reaching infinitely far (sky behind blended geometry, or a surface so far
+    // that its distance overflows) has an unbounded box, which rejects nothing. Its corners
+    // at infinity come out NaN (0 * inf), and whether the tests then keep the light would
+    // depend on how min/max treat NaN (WGSL leaves it undefined), so they are skipped.
+    let need_box = (cfg.aabb || (cfg.spot_cone && l.cone.is_some())) && f.far.is_finite();
     if !need_box {
         return true;
     }
@@ -234,19 +244,125 @@ pub fn cull_tiles(
     config.validate()?;
     let grid = TileGrid::new(width, height, config.tile_size)?;
     check_depth_samples(&grid, depth, config.samples)?;
-    let proj = camera.proj();
-    let dp = camera.depth_params();
     let vls = view_lights(&camera.view(), lights, config.inflate);
-    let per = config.lists_per_tile();
     let cells =
         if config.coarse { Some(coarse_cells_of(depth, width, height, config.samples, camera, &vls)?) } else { None };
+    let bounds = |tx, ty| tile_depth_bounds_samples(&grid, depth, config.samples, tx, ty);
+    Ok(cull_with_bounds(grid, camera, &vls, config, cells.as_ref(), bounds))
+}
+
+/// The depth bounds of tile (tx, ty) for alpha-blended geometry, over the samples where
+/// some blended surface was drawn (`blended > 0`; 0 is the blended buffer's clear value,
+/// nothing blended there). Both buffers are reversed-Z, row-major, `samples` values per
+/// pixel, pixel-major (as [`tile_depth_bounds_samples`] reads them).
+///
+/// Returns `(near, far)` as reversed-Z depth values, in the convention of
+/// [`tile_depth_bounds_samples`]'s [`DepthBounds`]: `near` is its `max_depth` (the nearest
+/// surface, the largest value) and `far` its `min_depth` (the farthest surface, the
+/// smallest value), so `near >= far`. `near` is the largest blended depth of those samples,
+/// `far` the smallest opaque depth at those same samples: the volume runs from the nearest
+/// blended surface to the farthest opaque surface behind any blended one. Where that
+/// opaque depth is 0 (sky), `far` is 0, which [`TileFrustum::new`] turns into
+/// `DepthParams::view_distance(0)`: `f32::INFINITY` with an infinite far plane (then the
+/// culler skips the AABB and cone tests, which bound the volume by a box, unbounded here), the far
+/// plane's distance otherwise. `None` when no sample of the tile has blended geometry
+/// (the tile gets an empty blended list).
+///
+/// The blended pass is depth-tested against the opaque depth, so `blended >= opaque`
+/// wherever something is blended; should a sample break that, `far` also covers its
+/// blended depth (the smaller of the two), so the blended surface stays inside the range.
+///
+/// # Panics
+///
+/// If a buffer holds fewer than `grid.width * grid.height * samples` values.
+pub fn blended_tile_bounds(
+    grid: &TileGrid,
+    opaque: &[f32],
+    blended: &[f32],
+    samples: u32,
+    tx: u32,
+    ty: u32,
+) -> Option<(f32, f32)> {
+    let mut near = 0.0f32;
+    let mut far = f32::INFINITY;
+    for span in tile_sample_spans(grid, samples, tx, ty) {
+        for (&b, &o) in blended[span.clone()].iter().zip(&opaque[span]) {
+            if b > 0.0 {
+                near = near.max(b);
+                far = far.min(o.min(b));
+            }
+        }
+    }
+    (near > 0.0).then_some((near, far))
+}
+
+/// Culls `lights` for the alpha-blended geometry of a frame: as [`cull_tiles`] (same side
+/// planes, depth-range, AABB and spot-cone tests), but each tile's volume runs from its
+/// nearest blended surface to the farthest opaque surface behind its blended samples
+/// ([`blended_tile_bounds`]). Tiles without blended geometry get an empty list and a
+/// `None` range. `opaque` is the opaque depth buffer, `blended` the blended geometry's own
+/// (cleared to 0, depth-tested against the opaque one without writing it); both reversed-Z,
+/// row-major, `config.samples` values per pixel.
+///
+/// Every blended fragment that passes the depth test at a sample lies between the opaque
+/// depth and the blended buffer's (nearest) depth there, so the range holds every blended
+/// layer of the tile, not only the nearest.
+///
+/// One list per tile: `config.half_z` is rejected with an error naming it.
+/// `config.coarse` is ignored (not validated either), and the returned `config` has it
+/// cleared: the blended lists are one-level, every tile tests every light (the coarse
+/// cells are built from the opaque depth, whose range does not hold the blended surfaces).
+pub fn cull_tiles_blended(
+    opaque: &[f32],
+    blended: &[f32],
+    width: u32,
+    height: u32,
+    camera: &Camera,
+    lights: &PackedLights,
+    config: &CullConfig,
+) -> Result<TileLists, CullError> {
+    if config.half_z {
+        return Err(CullError::InvalidSize(
+            "half_z is not supported for blended light lists (one list per tile); turn half_z off".into(),
+        ));
+    }
+    let config = CullConfig { coarse: false, ..*config };
+    config.validate()?;
+    let grid = TileGrid::new(width, height, config.tile_size)?;
+    for (name, depth) in [("opaque", opaque), ("blended", blended)] {
+        check_depth_samples(&grid, depth, config.samples).map_err(|e| match e {
+            CullError::InvalidDepth(m) => CullError::InvalidDepth(format!("{name} depth buffer: {m}")),
+            e => e,
+        })?;
+    }
+    let vls = view_lights(&camera.view(), lights, config.inflate);
+    let bounds = |tx, ty| {
+        blended_tile_bounds(&grid, opaque, blended, config.samples, tx, ty)
+            .map(|(near, far)| DepthBounds { min_depth: far, max_depth: near })
+    };
+    Ok(cull_with_bounds(grid, camera, &vls, &config, None, bounds))
+}
+
+/// The per-tile loop of both culler entry points: per tile, `bounds(tx, ty)` gives the depth
+/// range its lists cover (None: no lists), `cells` the lights two-level culling left it.
+fn cull_with_bounds(
+    grid: TileGrid,
+    camera: &Camera,
+    vls: &[ViewLight],
+    config: &CullConfig,
+    cells: Option<&(TileGrid, CellLists)>,
+    bounds: impl Fn(u32, u32) -> Option<DepthBounds>,
+) -> TileLists {
+    let proj = camera.proj();
+    let dp = camera.depth_params();
+    let per = config.lists_per_tile();
     let all: Vec<u32> = (0..vls.len() as u32).collect();
     let mut lists = vec![Vec::new(); grid.tile_count() * per];
     let mut ranges = vec![None; grid.tile_count()];
     for ty in 0..grid.tiles_y {
         for tx in 0..grid.tiles_x {
             let t = (ty * grid.tiles_x + tx) as usize;
-            let Some(b) = tile_depth_bounds_samples(&grid, depth, config.samples, tx, ty) else { continue };
+            let Some(b) = bounds(tx, ty) else { continue };
             let f = TileFrustum::new(&grid, camera, tx, ty, b);
             ranges[t] = Some((f.near, f.far));
             let volumes = if config.half_z {
@@ -255,7 +371,7 @@ pub fn cull_tiles(
             } else {
                 vec![f]
             };
-            let candidates = match &cells {
+            let candidates = match cells {
                 Some((cgrid, cell_lists)) => {
                     let (x0, _, y0, _) = grid.tile_pixels(tx, ty);
                     cell_lists[cgrid.tile_of_pixel(x0, y0)].as_ref().unwrap_or(&all)
@@ -271,7 +387,7 @@ pub fn cull_tiles(
             }
         }
     }
-    Ok(TileLists { grid, config: *config, lists, ranges })
+    TileLists { grid, config: *config, lists, ranges }
 }
 
 /// The coarse cells of two-level culling: per cell, the lights passing the plane and

@@ -107,13 +107,10 @@ pub fn tile_depth_bounds_samples(
     tx: u32,
     ty: u32,
 ) -> Option<DepthBounds> {
-    let (x0, x1, y0, y1) = grid.tile_pixels(tx, ty);
-    let s = samples as usize;
     let mut lo = f32::INFINITY;
     let mut hi = 0.0f32;
-    for y in y0..y1 {
-        let row = (y * grid.width) as usize;
-        for &d in &depth[(row + x0 as usize) * s..(row + x1 as usize) * s] {
+    for span in tile_sample_spans(grid, samples, tx, ty) {
+        for &d in &depth[span] {
             if d > 0.0 {
                 lo = lo.min(d);
                 hi = hi.max(d);
@@ -121,6 +118,19 @@ pub fn tile_depth_bounds_samples(
         }
     }
     (hi > 0.0).then_some(DepthBounds { min_depth: lo, max_depth: hi })
+}
+
+/// The index ranges of tile (tx, ty)'s samples in a row-major buffer holding `samples`
+/// values per pixel, pixel-major: one range per pixel row of the tile.
+pub fn tile_sample_spans(
+    grid: &TileGrid,
+    samples: u32,
+    tx: u32,
+    ty: u32,
+) -> impl Iterator<Item = std::ops::Range<usize>> {
+    let (x0, x1, y0, y1) = grid.tile_pixels(tx, ty);
+    let (s, width) = (samples as usize, grid.width as usize);
+    (y0 as usize..y1 as usize).map(move |y| (y * width + x0 as usize) * s..(y * width + x1 as usize) * s)
 }
 
 /// A tile's view volume: four side planes (normals inward, view space) and the view

@@ -13,7 +13,15 @@
 //! `reference::lights_reaching`) is in the list that sample reads (`TileLists::list_index`).
 //!
 //! Tile sizes the GPU does not accept (1, 3, 13, 64) are a separate, CPU-only property.
-//! A further test checks the generator itself: that the property is not vacuous.
+//!
+//! The same guarantee for the lists of alpha-blended geometry (`cull_tiles_blended`): over
+//! the same cases plus a random blended depth buffer drawn over the opaque one
+//! (`common::random_blended_depth`: panes and per-sample surfaces from the opaque depth
+//! itself to the near plane, over sky too), every light that reaches the nearest blended
+//! surface of a sample, or a farther blended layer between it and the opaque surface, is
+//! in that tile's blended list.
+//!
+//! Further tests check the generator itself: that the properties are not vacuous.
 
 mod common;
 
@@ -24,7 +32,7 @@ use rand::Rng;
 use tiledlight_cull::light::{order_points_first, pack_lights, PackedLights};
 use tiledlight_cull::reference::{lights_reaching, COARSE_SIZE};
 use tiledlight_cull::tiles::{pixel_to_ndc_x, pixel_to_ndc_y};
-use tiledlight_cull::{cull_tiles, Camera, CullConfig, TileLists};
+use tiledlight_cull::{cull_tiles, cull_tiles_blended, Camera, CullConfig, TileLists};
 
 /// Ground-truth margin (fraction of the radius; see `lights_reaching`): 0, the strictest
 /// possible. Every culling test works on the same f32 view-space light centre as the
@@ -53,6 +61,8 @@ struct Case {
     mode: DepthMode,
     n_lights: usize,
     seed: u64,
+    /// Also draw a blended depth buffer and check the blended lists (`cull_tiles_blended`).
+    blended: bool,
 }
 
 /// What a case was built into.
@@ -60,9 +70,14 @@ struct Built {
     camera: Camera,
     /// `config.samples` values per pixel, pixel-major.
     depth: Vec<f32>,
+    /// The blended depth buffer (same layout) of a blended case.
+    blended: Option<Vec<f32>>,
     packed: PackedLights,
-    /// Samples with geometry to check: (x, y, sample).
-    samples: Vec<(u32, u32, u32)>,
+    /// Surface points to check: (x, y, sample) and the depth of the point on that sample's
+    /// ray. Opaque cases: the samples with geometry at their depth. Blended cases: the
+    /// samples with blended geometry at their blended depth (the nearest blended layer),
+    /// then a farther layer between that and the opaque depth for each of them.
+    points: Vec<((u32, u32, u32), f32)>,
 }
 
 /// True for the large screen, where only a few tiles get geometry to keep the case fast.
@@ -81,21 +96,21 @@ fn sample_view_position(c: &Case, camera: &Camera, (x, y, s): (u32, u32, u32), d
     camera.unproject_view(pixel_to_ndc_x(x as f32 + sx, c.width), pixel_to_ndc_y(y as f32 + sy, c.height), d)
 }
 
-/// The depth of sample `s` of pixel (x, y).
-fn depth_of(c: &Case, b: &Built, (x, y, s): (u32, u32, u32)) -> f32 {
-    b.depth[((y * c.width + x) * c.config.samples + s) as usize]
-}
-
 fn build(c: &Case) -> Built {
     let mut r = rng(c.seed);
     let camera = c.cam.camera();
     let (w, h, n) = (c.width, c.height, c.config.samples);
     let geometry_tiles = is_large(c).then(|| (c.config.tile_size, r.random_range(1..=4)));
     let depth = common::random_depth_samples(&mut r, c.mode, &camera, w, h, n, geometry_tiles, SKY_SAMPLE);
+    // Opaque cases draw nothing more here, so the cases in `shrunk_failures_stay_fixed`
+    // still build the same lights.
+    let blended = c.blended.then(|| common::random_blended_depth(&mut r, &camera, &depth, w, h, n, is_large(c)));
+    let surface = blended.as_deref().unwrap_or(&depth);
+    let index = |(x, y, s): (u32, u32, u32)| ((y * w + x) * n + s) as usize;
     // With 1 sample this draws from `r` exactly as the single-sample version did, so the
     // cases in `shrunk_failures_stay_fixed` still build the same lights.
     // In buffer order: row by row, pixel by pixel, sample by sample.
-    let mut samples: Vec<(u32, u32, u32)> = (depth.iter().enumerate())
+    let mut samples: Vec<(u32, u32, u32)> = (surface.iter().enumerate())
         .filter(|&(_, &d)| d > 0.0)
         .map(|(i, &d)| {
             let (pixel, s) = (i as u32 / n, i as u32 % n);
@@ -107,11 +122,22 @@ fn build(c: &Case) -> Built {
     if samples.len() > MAX_SAMPLES {
         samples = (0..MAX_SAMPLES).map(|_| samples[r.random_range(0..samples.len())]).collect();
     }
-    let targets: Vec<Vec3> = (0..samples.len().min(64))
+    let mut points: Vec<((u32, u32, u32), f32)> = samples.iter().map(|&k| (k, surface[index(k)])).collect();
+    if let Some(bl) = &blended {
+        // Blended layers behind the nearest one pass the depth test anywhere between it and
+        // the opaque surface (or the sky) behind.
+        for &k in &samples {
+            let (o, b) = (depth[index(k)], bl[index(k)]);
+            let d = o + (b - o) * r.random::<f32>();
+            if sample_view_position(c, &camera, k, d).is_some() {
+                points.push((k, d));
+            }
+        }
+    }
+    let targets: Vec<Vec3> = (0..points.len().min(64))
         .map(|_| {
-            let k = samples[r.random_range(0..samples.len())];
-            let d = depth[((k.1 * w + k.0) * n + k.2) as usize];
-            let p = sample_view_position(c, &camera, k, d).expect("samples have geometry");
+            let (k, d) = points[r.random_range(0..points.len())];
+            let p = sample_view_position(c, &camera, k, d).expect("points have geometry");
             view_to_world(&camera, p)
         })
         // Surfaces ~1e38 m away (subnormal depths) can overflow on the way to world space.
@@ -119,19 +145,18 @@ fn build(c: &Case) -> Built {
         .collect();
     let lights = common::random_lights(&mut r, &c.cam, &targets, c.n_lights);
     let packed = pack_lights(&order_points_first(&lights));
-    Built { camera, depth, packed, samples }
+    Built { camera, depth, blended, packed, points }
 }
 
-/// Checks every sampled (pixel, sample); returns the number of (sample, light) pairs that
-/// reach and were checked, and the number skipped by `common::spot_pair_unresolvable`.
+/// Checks every point; returns the number of (point, light) pairs that reach and were
+/// checked, and the number skipped by `common::spot_pair_unresolvable`.
 fn check(c: &Case, b: &Built, lists: &TileLists) -> Result<(usize, usize), TestCaseError> {
     let view = b.camera.view();
     let dp = b.camera.depth_params();
     let (mut pairs, mut skipped) = (0, 0);
-    for &k in &b.samples {
+    for &(k, d) in &b.points {
         let (x, y, s) = k;
-        let d = depth_of(c, b, k);
-        let p = sample_view_position(c, &b.camera, k, d).expect("samples have geometry");
+        let p = sample_view_position(c, &b.camera, k, d).expect("points have geometry");
         let tile = lists.grid.tile_of_pixel(x, y);
         let li = lists.list_index(tile, dp.view_distance(d));
         let list = &lists.lists[li];
@@ -176,11 +201,20 @@ fn check(c: &Case, b: &Built, lists: &TileLists) -> Result<(usize, usize), TestC
     Ok((pairs, skipped))
 }
 
+/// Culls a built case: its blended lists for a blended case, else the opaque ones.
+fn cull(c: &Case, b: &Built) -> Result<TileLists, TestCaseError> {
+    match &b.blended {
+        Some(bl) => cull_tiles_blended(&b.depth, bl, c.width, c.height, &b.camera, &b.packed, &c.config)
+            .map_err(|e| TestCaseError::fail(format!("cull_tiles_blended failed: {e}"))),
+        None => cull_tiles(&b.depth, c.width, c.height, &b.camera, &b.packed, &c.config)
+            .map_err(|e| TestCaseError::fail(format!("cull_tiles failed: {e}"))),
+    }
+}
+
 /// Builds, culls and checks a case.
 fn run_case(c: &Case) -> Result<(usize, usize), TestCaseError> {
     let b = build(c);
-    let lists = cull_tiles(&b.depth, c.width, c.height, &b.camera, &b.packed, &c.config)
-        .map_err(|e| TestCaseError::fail(format!("cull_tiles failed: {e}")))?;
+    let lists = cull(c, &b)?;
     check(c, &b, &lists)
 }
 
@@ -218,9 +252,20 @@ fn case_strategy(tiles: &'static [u32], samples: &'static [u32]) -> impl Strateg
                 let coarse = coarse && COARSE_SIZE.is_multiple_of(tile_size);
                 let config =
                     CullConfig { tile_size, samples, aabb, half_z, spot_cone, coarse, ..CullConfig::default() };
-                Case { cam, width, height, config, mode: DEPTH_MODES[mode], n_lights, seed }
+                Case { cam, width, height, config, mode: DEPTH_MODES[mode], n_lights, seed, blended: false }
             },
         )
+}
+
+/// Blended cases: as [`case_strategy`], with a blended depth buffer and no half-z (the
+/// blended lists have one list per tile; two-level culling stays on in some cases, which
+/// the blended culler ignores).
+fn blended_case_strategy(tiles: &'static [u32], samples: &'static [u32]) -> impl Strategy<Value = Case> {
+    case_strategy(tiles, samples).prop_map(|c| Case {
+        blended: true,
+        config: CullConfig { half_z: false, ..c.config },
+        ..c
+    })
 }
 
 /// Tile sizes the GPU kernel accepts.
@@ -264,6 +309,29 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(proptest_config(384))]
+
+    /// Blended lists, GPU tile sizes and sample counts: every light reaching a blended
+    /// surface (nearest layer or one behind it) of a sample is in its tile's blended list.
+    #[test]
+    fn every_light_reaching_a_blended_surface_is_in_its_blended_list(
+        c in blended_case_strategy(&GPU_TILES, &GPU_SAMPLES)
+    ) {
+        run_case(&c)?;
+    }
+}
+
+proptest! {
+    #![proptest_config(proptest_config(128))]
+
+    /// Blended lists, CPU-only tile sizes.
+    #[test]
+    fn blended_cpu_only_tile_sizes_have_no_false_negatives(c in blended_case_strategy(&CPU_ONLY_TILES, &GPU_SAMPLES)) {
+        run_case(&c)?;
+    }
+}
+
 /// The property above is only meaningful if its cases contain lights that reach samples,
 /// including spots, far half-z lists and multisampled pixels whose samples differ. Generates
 /// cases like the strategy does (from a fixed seed, so this is deterministic; GPU tile
@@ -292,6 +360,7 @@ fn generator_produces_reaching_lights() {
             mode: DEPTH_MODES[i % DEPTH_MODES.len()],
             n_lights: 32,
             seed: r.random(),
+            blended: false,
         };
         let b = build(&c);
         let lists = cull_tiles(&b.depth, c.width, c.height, &b.camera, &b.packed, &c.config).expect("valid case");
@@ -306,8 +375,7 @@ fn generator_produces_reaching_lights() {
             .chunks_exact(spp)
             .filter(|px| px.iter().any(|&d| d != px[0]) && px.iter().any(|&d| d > 0.0))
             .count();
-        for &k in &b.samples {
-            let d = depth_of(&c, &b, k);
+        for &(k, d) in &b.points {
             let p = sample_view_position(&c, &b.camera, k, d).unwrap();
             let reach = lights_reaching(&b.camera.view(), &b.packed, p, 0.0);
             spot_pairs += reach.iter().filter(|&&l| l >= b.packed.num_point).count();
@@ -335,6 +403,75 @@ fn generator_produces_reaching_lights() {
     // The spot exclusions must stay exceptions: 182 of 288,674 spot pairs here (0.06%; 80
     // at a fitted sphere's surface, the rest at a cone's). 0.2% leaves room for generator
     // changes; a skip rule that hid whole lights again would take far more.
+    assert!(skipped * 500 <= spot_pairs, "{skipped} of {spot_pairs} spot pairs skipped as unresolvable in f32");
+}
+
+/// The blended property is only meaningful if its cases contain lights that reach blended
+/// surfaces: at the nearest layer and behind it, in tiles with sky behind the blended
+/// geometry (an infinitely far bound) and on multisampled pixels, and lights that the
+/// opaque lists of the same tile do not hold (so the blended lists are not the opaque ones
+/// under another name). Deterministic, like `generator_produces_reaching_lights`.
+#[test]
+fn blended_generator_produces_reaching_lights() {
+    let mut r = rng(11);
+    let mut cases_with_pairs = 0;
+    let (mut all_pairs, mut behind_pairs, mut sky_pairs, mut msaa_pairs, mut not_opaque) = (0, 0, 0, 0, 0);
+    let (mut spot_pairs, mut skipped) = (0, 0);
+    let n = 96;
+    for i in 0..n {
+        let config = CullConfig {
+            tile_size: GPU_TILES[i % 3],
+            samples: GPU_SAMPLES[(i / 3) % 4],
+            aabb: i % 2 == 0,
+            spot_cone: true,
+            ..CullConfig::default()
+        };
+        let c = Case {
+            cam: CamSpec::random(&mut r),
+            width: r.random_range(1..48),
+            height: r.random_range(1..48),
+            config,
+            mode: DEPTH_MODES[i % DEPTH_MODES.len()],
+            n_lights: 32,
+            seed: r.random(),
+            blended: true,
+        };
+        let b = build(&c);
+        let lists = cull(&c, &b).expect("valid case");
+        let opaque = cull_tiles(&b.depth, c.width, c.height, &b.camera, &b.packed, &c.config).expect("valid case");
+        let (pairs, skip) = check(&c, &b, &lists).expect("no false negatives");
+        cases_with_pairs += usize::from(pairs > 0);
+        all_pairs += pairs + skip;
+        skipped += skip;
+        let bl = b.blended.as_ref().unwrap();
+        for &(k, d) in &b.points {
+            let p = sample_view_position(&c, &b.camera, k, d).unwrap();
+            let reach = lights_reaching(&b.camera.view(), &b.packed, p, 0.0);
+            let i = ((k.1 * c.width + k.0) * c.config.samples + k.2) as usize;
+            let tile = lists.grid.tile_of_pixel(k.0, k.1);
+            spot_pairs += reach.iter().filter(|&&l| l >= b.packed.num_point).count();
+            if d < bl[i] {
+                behind_pairs += reach.len();
+            }
+            if lists.ranges[tile].is_some_and(|(_, far)| far.is_infinite()) {
+                sky_pairs += reach.len();
+            }
+            if c.config.samples > 1 {
+                msaa_pairs += reach.len();
+            }
+            not_opaque += reach.iter().filter(|l| opaque.lists[tile].binary_search(l).is_err()).count();
+        }
+    }
+    eprintln!(
+        "{cases_with_pairs} of {n} blended cases with pairs; {all_pairs} pairs, {behind_pairs} behind the nearest \
+         layer, {sky_pairs} with sky behind, {msaa_pairs} MSAA, {not_opaque} not in the opaque list; {skipped} of \
+         {spot_pairs} spot pairs skipped"
+    );
+    assert!(cases_with_pairs >= n / 2, "only {cases_with_pairs} of {n} cases have a light reaching a blended surface");
+    assert!(behind_pairs > 1000, "only {behind_pairs} pairs behind the nearest blended layer");
+    assert!(sky_pairs > 100, "only {sky_pairs} pairs in tiles with sky behind blended geometry");
+    assert!(msaa_pairs > 1000, "only {msaa_pairs} pairs in multisampled cases");
+    assert!(not_opaque > 1000, "only {not_opaque} pairs whose light the opaque list does not hold");
     assert!(skipped * 500 <= spot_pairs, "{skipped} of {spot_pairs} spot pairs skipped as unresolvable in f32");
 }
 
@@ -439,7 +576,7 @@ fn shrunk_failures_stay_fixed() {
                 coarse: bit(3) && COARSE_SIZE.is_multiple_of(tile_size),
                 ..CullConfig::default()
             };
-            let c = Case { cam, width, height, config, mode, n_lights, seed };
+            let c = Case { cam, width, height, config, mode, n_lights, seed, blended: false };
             pairs += run_case(&c).unwrap_or_else(|e| panic!("{c:?}: {e}")).0;
         }
     }

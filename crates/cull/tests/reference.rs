@@ -9,7 +9,7 @@
 
 mod common;
 
-use common::{rng, CamKind, CamSpec, DepthMode, DEPTH_MODES, EPS};
+use common::{axis_camera, point_light as point, rng, CamKind, CamSpec, DepthMode, DEPTH_MODES, EPS};
 use glam::Vec3;
 use rand::Rng;
 use tiledlight_cull::light::{order_points_first, pack_lights, PackedLights};
@@ -17,7 +17,7 @@ use tiledlight_cull::reference::{
     coarse_cells, false_positive_rate, half_z_split, lights_reaching, list_quality, pixel_view_position, stats,
     tile_ranges, CullStats, COARSE_CAPACITY, COARSE_SIZE, MAX_CAPACITY,
 };
-use tiledlight_cull::{cull_tiles, Camera, CullConfig, CullError, Light, LightKind, TileLists};
+use tiledlight_cull::{cull_tiles, Camera, CullConfig, CullError, Light, TileLists};
 
 /// A random small frame: camera, depth buffer, packed lights, size.
 struct Frame {
@@ -52,16 +52,6 @@ fn cull(f: &Frame, config: CullConfig) -> TileLists {
 
 fn is_subset(a: &[u32], b: &[u32]) -> bool {
     a.iter().all(|x| b.binary_search(x).is_ok())
-}
-
-/// A light of radius `r` at `pos`.
-fn point(pos: Vec3, r: f32) -> Light {
-    Light::with_radius(pos, Vec3::ONE, 1.0, r, LightKind::Point).unwrap()
-}
-
-/// Camera at the origin looking down -Z (identity view), 90 degree FOV, infinite far.
-fn axis_camera(aspect: f32) -> Camera {
-    Camera::perspective(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 90f32.to_radians(), aspect, 0.1, None).unwrap()
 }
 
 #[test]

@@ -316,6 +316,87 @@ pub fn random_depth_samples(
     depth
 }
 
+/// A random blended depth buffer over the multisampled `opaque` one (same layout): what
+/// drawing alpha-blended geometry depth-only into its own buffer (cleared to 0, depth-tested
+/// against `opaque`, not writing it) leaves. Per buffer, either a tilted pane (depth affine
+/// in NDC, drawn only where it is in front of the opaque surface, as the depth test does) or
+/// per-sample surfaces; per sample, blended values from exactly the opaque depth (a decal)
+/// through any distance in front of it down to the near plane (depth 1), including
+/// subnormal depths over sky (a pane ~1e38 m away, or at infinity for an infinite far plane).
+/// Some pixels are left empty (0), and in covered pixels single samples too (pane edges
+/// under MSAA). `only_over_geometry`: blended only on pixels with some opaque sample (large
+/// screens, to keep the number of covered tiles small).
+#[allow(clippy::too_many_arguments)]
+pub fn random_blended_depth(
+    rng: &mut impl Rng,
+    camera: &Camera,
+    opaque: &[f32],
+    w: u32,
+    h: u32,
+    samples: u32,
+    only_over_geometry: bool,
+) -> Vec<f32> {
+    let dp = camera.depth_params();
+    let n = samples as usize;
+    let positions = sample_positions(samples);
+    let pane = rng.random_bool(0.3).then(|| mode_base(rng, DepthMode::Plane));
+    let cover = rng.random_range(0.2..1.0);
+    let far = if dp.far.is_finite() { dp.far } else { 1e7 };
+    let mut blended = vec![0.0f32; opaque.len()];
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let px = &opaque[i * n..(i + 1) * n];
+            if (only_over_geometry && px.iter().all(|&d| d <= 0.0)) || !rng.random_bool(cover) {
+                continue;
+            }
+            for (s, &(sx, sy)) in positions.iter().enumerate() {
+                let o = px[s];
+                if n > 1 && rng.random_bool(0.1) {
+                    continue;
+                }
+                let b = if let Some(base) = pane {
+                    let v = depth_value(rng, DepthMode::Plane, camera, base, (x as f32 + sx, y as f32 + sy), (w, h));
+                    // The depth test (greater-or-equal) drops the pane behind the opaque surface.
+                    if v >= o {
+                        v
+                    } else {
+                        0.0
+                    }
+                } else {
+                    match rng.random_range(0..10) {
+                        0 => o,
+                        1 => 1.0,
+                        2 => o.max(f32::from_bits(rng.random_range(1..1 << 23))),
+                        _ => {
+                            let behind = if o > 0.0 { dp.view_distance(o).min(far) } else { far };
+                            let lo = dp.near.max(1e-4);
+                            let d = if behind > lo { dp.depth(log_uniform(rng, lo, behind)) } else { 1.0 };
+                            if d.is_nan() {
+                                0.0
+                            } else {
+                                d.clamp(o, 1.0)
+                            }
+                        }
+                    }
+                };
+                blended[i * n + s] = b;
+            }
+        }
+    }
+    blended
+}
+
+/// A white point light of radius `r` at `pos`.
+pub fn point_light(pos: Vec3, r: f32) -> Light {
+    Light::with_radius(pos, Vec3::ONE, 1.0, r, LightKind::Point).unwrap()
+}
+
+/// Camera at the origin looking down -Z (identity view), 90 degree FOV, infinite far.
+pub fn axis_camera(aspect: f32) -> Camera {
+    Camera::perspective(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 90f32.to_radians(), aspect, 0.1, None).unwrap()
+}
+
 /// A random light colour whose brightest channel is 1.
 pub fn colour(rng: &mut impl Rng) -> Vec3 {
     let mut c = [1.0, rng.random::<f32>(), rng.random::<f32>()];
