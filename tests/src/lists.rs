@@ -122,15 +122,37 @@ pub fn compare_lists(
     gpu: &GpuTileLists,
     config: &CullConfig,
 ) -> Result<ListComparison, String> {
+    compare_lists_with(label, frame, gpu, config, None)
+}
+
+/// [`compare_lists`] for the lists of blended geometry: the CPU twin is
+/// `cull_tiles_blended` of `frame`'s opaque depth and the GPU's `blended` depth buffer
+/// (read back as drawn, not depth-tested: see `depth_tested_blended`).
+pub fn compare_blended_lists(
+    label: &str,
+    frame: &CulledFrame<'_>,
+    blended: &[f32],
+    gpu: &GpuTileLists,
+    config: &CullConfig,
+) -> Result<ListComparison, String> {
+    compare_lists_with(label, frame, gpu, config, Some(blended))
+}
+
+fn compare_lists_with(
+    label: &str,
+    frame: &CulledFrame<'_>,
+    gpu: &GpuTileLists,
+    config: &CullConfig,
+    blended: Option<&[f32]>,
+) -> Result<ListComparison, String> {
+    let tested = blended.map(|b| tiledlight_cull::reference::depth_tested_blended(frame.depth, b));
     let cull = |lights: &PackedLights| {
-        cull_tiles(
-            frame.depth,
-            frame.width,
-            frame.height,
-            frame.camera,
-            lights,
-            &CullConfig { inflate: 0.0, ..*config },
-        )
+        let config = CullConfig { inflate: 0.0, ..*config };
+        let (depth, w, h, cam) = (frame.depth, frame.width, frame.height, frame.camera);
+        match &tested {
+            Some(b) => tiledlight_cull::reference::cull_tiles_blended(depth, b, w, h, cam, lights, &config),
+            None => cull_tiles(depth, w, h, cam, lights, &config),
+        }
         .map_err(|e| format!("{label}: CPU culler refused the frame: {e}"))
     };
     let cpu = cull(frame.lights)?;
@@ -206,6 +228,22 @@ pub fn assert_lists_match(
     config: &CullConfig,
 ) -> ListComparison {
     let c = compare_lists(label, frame, gpu, config).unwrap_or_else(|e| panic!("{e}"));
+    check_and_print(label, gpu, c)
+}
+
+/// [`compare_blended_lists`], with [`assert_lists_match`]'s checks.
+pub fn assert_blended_lists_match(
+    label: &str,
+    frame: &CulledFrame<'_>,
+    blended: &[f32],
+    gpu: &GpuTileLists,
+    config: &CullConfig,
+) -> ListComparison {
+    let c = compare_blended_lists(label, frame, blended, gpu, config).unwrap_or_else(|e| panic!("{e}"));
+    check_and_print(label, gpu, c)
+}
+
+fn check_and_print(label: &str, gpu: &GpuTileLists, c: ListComparison) -> ListComparison {
     assert!(
         c.borderline * 1000 <= c.pairs.max(1),
         "{label}: {} borderline decisions of {} pairs",

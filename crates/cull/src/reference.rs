@@ -296,6 +296,15 @@ pub fn blended_tile_bounds(
     (near > 0.0).then_some((near, far))
 }
 
+/// The blended depth buffer as if depth-tested against `opaque`: each sample's blended
+/// depth where it lies in front of the opaque one, else 0 (nothing blended). The GPU draws
+/// blended depth without that test (a multisampled opaque buffer cannot be copied into the
+/// blended one) and its kernel makes the same comparison per sample, so the GPU's lists are
+/// [`cull_tiles_blended`] of this buffer.
+pub fn depth_tested_blended(opaque: &[f32], blended: &[f32]) -> Vec<f32> {
+    opaque.iter().zip(blended).map(|(&o, &b)| if b > o { b } else { 0.0 }).collect()
+}
+
 /// Culls `lights` for the alpha-blended geometry of a frame: as [`cull_tiles`] (same side
 /// planes, depth-range, AABB and spot-cone tests), but each tile's volume runs from its
 /// nearest blended surface to the farthest opaque surface behind its blended samples
