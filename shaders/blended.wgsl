@@ -4,7 +4,11 @@
 // premultiplied alpha into the transparent layer, instances drawn back to front. The layer
 // is composited over the opaque image afterwards (blended_composite.wgsl). Depth is tested
 // against the opaque depth and not written.
-// variants: SPOT_LIGHTS TEXTURES BRUTE_FORCE NO_CUTOFF SHADOWS
+// With WBOIT (weighted blended order-independent transparency, McGuire and Bavoil, JCGT
+// 2(2) 2013) nothing is sorted: each fragment adds its premultiplied colour and coverage,
+// weighted by its depth, to an accumulation target and multiplies the revealage target by
+// (1 - alpha); blended_composite.wgsl turns the two into the layer.
+// variants: SPOT_LIGHTS TEXTURES BRUTE_FORCE NO_CUTOFF SHADOWS WBOIT
 #include "common/scene.wgsl"
 #include "common/shade.wgsl"
 
@@ -35,8 +39,34 @@ fn vs_main(
     return transform_vertex(instance, position, normal, uv);
 }
 
+#ifdef WBOIT
+struct WboitOut {
+    @location(0) accum: vec4<f32>,
+    @location(1) revealage: vec4<f32>,
+}
+
+// McGuire and Bavoil's weight (their equation 9, view depth in metres): nearer and more
+// opaque fragments weigh more; clamped so f16 accumulation neither overflows nor vanishes.
+fn wboit_weight(alpha: f32, view_depth: f32) -> f32 {
+    let d = view_depth / 200.0;
+    return alpha * clamp(0.03 / (1e-5 + d * d * d * d), 1e-2, 3e3);
+}
+
+@fragment
+fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> WboitOut {
+    let c = shade_blended(in, front);
+    let w = wboit_weight(c.a, view_distance(in.clip.z));
+    return WboitOut(vec4<f32>(c.rgb * w, c.a * w), vec4<f32>(c.a));
+}
+#else
 @fragment
 fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
+    return shade_blended(in, front);
+}
+#endif
+
+// The blended surface's premultiplied colour and coverage.
+fn shade_blended(in: VertexOut, front: bool) -> vec4<f32> {
     let m = materials[in.material];
     let base = material_color(m, in.uv);
     let nn = normalize(in.normal);

@@ -28,6 +28,7 @@ use crate::shading::{DeferredShading, EdgeTest};
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::shadow::ShadowOptions;
 use tiledlight_gpu::blended::{BlendedInputs, BlendedPath};
+use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
 
@@ -60,6 +61,8 @@ pub struct DeferredSettings {
     /// How shadows are drawn (tile size, filter, format); used only when the lights were
     /// uploaded with shadow casters (`LightBuffers::with_casters`).
     pub shadows: ShadowOptions,
+    /// How blended geometry is composited (used only when the scene has some).
+    pub blend: BlendMode,
 }
 
 impl Default for DeferredSettings {
@@ -75,6 +78,7 @@ impl Default for DeferredSettings {
             test_drop_light: None,
             test_gbuffer_values: false,
             shadows: ShadowOptions::default(),
+            blend: BlendMode::Sorted,
         }
     }
 }
@@ -105,7 +109,7 @@ impl DeferredRenderer {
         let device = &ctx.device;
         let mut settings = settings;
         settings.cull.samples = settings.msaa;
-        let features = Features::new(
+        let mut features = Features::new(
             scene,
             lights,
             Method::TiledDeferred,
@@ -113,6 +117,7 @@ impl DeferredRenderer {
             (settings.msaa, settings.gbuffer_rts),
             settings.shadows,
         );
+        features.blend_mode = settings.blend;
         let mut formats = vec![DEPTH_FORMAT, ALBEDO_FORMAT, NORMAL_FORMAT];
         if features.extra_targets > 0 {
             formats.push(EXTRA_FORMAT);

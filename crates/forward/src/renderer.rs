@@ -13,6 +13,7 @@ use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::shadow::ShadowOptions;
 use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::blended::{BlendedInputs, BlendedPath};
+use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::depth_prepass::{DepthPrepass, DEPTH_FORMAT};
 use tiledlight_gpu::features::{self, Features};
 use tiledlight_gpu::frame::{CommonSettings, FrameCommon};
@@ -65,6 +66,8 @@ pub struct ForwardSettings {
     /// How shadows are drawn (tile size, filter, format); used only when the lights were
     /// uploaded with shadow casters (`LightBuffers::with_casters`).
     pub shadows: ShadowOptions,
+    /// How blended geometry is composited (used only when the scene has some).
+    pub blend: BlendMode,
 }
 
 impl Default for ForwardSettings {
@@ -78,6 +81,7 @@ impl Default for ForwardSettings {
             msaa: 1,
             test_drop_light: None,
             shadows: ShadowOptions::default(),
+            blend: BlendMode::Sorted,
         }
     }
 }
@@ -120,7 +124,7 @@ impl ForwardRenderer {
         let device = &ctx.device;
         let mut settings = settings;
         settings.cull.samples = settings.msaa;
-        let features = Features::new(
+        let mut features = Features::new(
             scene,
             lights,
             settings.method.features_method(),
@@ -128,6 +132,7 @@ impl ForwardRenderer {
             (settings.msaa, 0),
             settings.shadows,
         );
+        features.blend_mode = settings.blend;
         if !features.method.is_tiled() {
             if settings.test_drop_light.is_some() {
                 return Err(GpuError::Config(

@@ -21,6 +21,11 @@
 //!    against the opaque depth without writing. With MSAA the layer is multisampled and
 //!    resolved.
 //! 4. **Composite** (`blended_composite.wgsl`): `hdr = layer.rgb + (1 - layer.a) hdr`.
+//!
+//! With [`BlendMode::WeightedOit`] step 3 draws in instance order into an accumulation
+//! target (the layer: premultiplied colour and coverage times a depth weight, added) and
+//! a revealage target (multiplied by `1 - alpha`), and step 4 composites their ratio:
+//! McGuire and Bavoil's approximation of "over" without a sort.
 //!    Without MSAA this equals drawing each surface over the opaque image; with MSAA the
 //!    layer's samples are averaged before compositing, which differs from per-sample
 //!    compositing only where the opaque colour varies inside a pixel.
@@ -36,7 +41,7 @@ use tiledlight_cull::TileGrid;
 use crate::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
 use crate::depth_prepass::{scene_pipeline, DepthPrepass, DepthTarget, DepthUse, SceneDraw, DEPTH_FORMAT};
 use crate::error::GpuError;
-use crate::features::{Features, Method};
+use crate::features::{BlendMode, Features, Method};
 use crate::light_cull::{CullOptions, LightCulling};
 use crate::lights_gpu::LightBuffers;
 use crate::memory::MemoryReport;
@@ -77,12 +82,23 @@ pub const BLENDED_BINDINGS: PassBindings = PassBindings {
     ],
 };
 
-/// The bindings of the composite (`shaders/blended_composite.wgsl`): the layer (0).
+/// The bindings of the composite (`shaders/blended_composite.wgsl`): the layer (0), and
+/// with `WBOIT` the revealage (1).
 pub const COMPOSITE_BINDINGS: PassBindings = PassBindings {
     entry: "blended_composite.wgsl",
     source: file!(),
-    groups: &[PassGroup::new(0, &[Binding::texture(0, FS, wgpu::TextureSampleType::Float { filterable: false })])],
+    groups: &[PassGroup::new(
+        0,
+        &[
+            Binding::texture(0, FS, wgpu::TextureSampleType::Float { filterable: false }),
+            Binding::texture(1, FS, wgpu::TextureSampleType::Float { filterable: false })
+                .when(Cond::Defined("WBOIT")),
+        ],
+    )],
 };
+
+/// Format of the weighted blended OIT's revealage target (the product of `1 - alpha`).
+pub const REVEALAGE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
 
 /// The blended path's passes and resources.
 pub struct BlendedPath {
@@ -96,10 +112,14 @@ pub struct BlendedPath {
     pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
     lights_group: wgpu::BindGroup,
     empty_group: Option<wgpu::BindGroup>,
-    /// The transparent layer (resolved), premultiplied.
+    /// The transparent layer (resolved), premultiplied; with weighted blended OIT, its
+    /// accumulation target.
     pub layer: wgpu::Texture,
     layer_view: wgpu::TextureView,
     layer_msaa: Option<(wgpu::Texture, wgpu::TextureView)>,
+    /// Weighted blended OIT's revealage target (resolved, and multisampled with MSAA).
+    revealage: Option<(wgpu::TextureView, Option<wgpu::TextureView>)>,
+    mode: BlendMode,
     composite: wgpu::RenderPipeline,
     composite_group: wgpu::BindGroup,
     /// Per blended instance: slot, draw index, world centre of its bounds.
@@ -163,6 +183,10 @@ impl BlendedPath {
         if features.textures {
             defines.push("TEXTURES");
         }
+        let wboit = features.blend_mode == BlendMode::WeightedOit;
+        if wboit {
+            defines.push("WBOIT");
+        }
         if let Method::BruteForce { cutoff } = features.method {
             defines.push("BRUTE_FORCE");
             if !cutoff {
@@ -212,11 +236,35 @@ impl BlendedPath {
             dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
             operation: wgpu::BlendOperation::Add,
         };
-        let target = [Some(wgpu::ColorTargetState {
+        // Weighted blended OIT: accumulation adds, revealage multiplies by (1 - alpha).
+        let add = wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::One,
+            dst_factor: wgpu::BlendFactor::One,
+            operation: wgpu::BlendOperation::Add,
+        };
+        let reveal = wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::Zero,
+            dst_factor: wgpu::BlendFactor::OneMinusSrc,
+            operation: wgpu::BlendOperation::Add,
+        };
+        let target_over = [Some(wgpu::ColorTargetState {
             format: HDR_FORMAT,
             blend: Some(wgpu::BlendState { color: over, alpha: over }),
             write_mask: wgpu::ColorWrites::ALL,
         })];
+        let target_oit = [
+            Some(wgpu::ColorTargetState {
+                format: HDR_FORMAT,
+                blend: Some(wgpu::BlendState { color: add, alpha: add }),
+                write_mask: wgpu::ColorWrites::ALL,
+            }),
+            Some(wgpu::ColorTargetState {
+                format: REVEALAGE_FORMAT,
+                blend: Some(wgpu::BlendState { color: reveal, alpha: reveal }),
+                write_mask: wgpu::ColorWrites::ALL,
+            }),
+        ];
+        let target: &[Option<wgpu::ColorTargetState>] = if wboit { &target_oit } else { &target_over };
         let constants = features.light_constants();
         let pipelines = features
             .blended_kinds
@@ -232,7 +280,7 @@ impl BlendedPath {
                         vertex: ("vs_main", &VERTEX_LAYOUTS),
                         depth: DepthUse::Test,
                         samples,
-                        fragment: Some(("fs_main", &target)),
+                        fragment: Some(("fs_main", target)),
                         depth_format: DEPTH_FORMAT,
                         constants: &constants,
                     },
@@ -260,7 +308,23 @@ impl BlendedPath {
             });
             (t, v)
         });
-        let (composite, composite_group) = composite_pipeline(device, &layer_view)?;
+        let revealage = wboit.then(|| {
+            let usage = U::RENDER_ATTACHMENT | U::TEXTURE_BINDING;
+            let t = texture_2d_msaa(device, "blended.revealage", size, REVEALAGE_FORMAT, 1, usage);
+            let v = t.create_view(&wgpu::TextureViewDescriptor {
+                label: Some("blended.revealage.view"),
+                ..Default::default()
+            });
+            let ms = (samples > 1).then(|| {
+                let t = texture_2d_msaa(device, "blended.revealage_msaa", size, REVEALAGE_FORMAT, samples, U::RENDER_ATTACHMENT);
+                t.create_view(&wgpu::TextureViewDescriptor {
+                    label: Some("blended.revealage_msaa.view"),
+                    ..Default::default()
+                })
+            });
+            (v, ms)
+        });
+        let (composite, composite_group) = composite_pipeline(device, &layer_view, revealage.as_ref().map(|r| &r.0))?;
         let instances = scene
             .blended_instances()
             .into_iter()
@@ -272,7 +336,11 @@ impl BlendedPath {
         let mut memory = MemoryReport::default();
         let px = size.0 as u64 * size.1 as u64;
         memory.add("blended.depth", px * samples as u64 * 4);
-        memory.add("blended.layer", px * 8 * if samples > 1 { 1 + samples as u64 } else { 1 });
+        let with_msaa = if samples > 1 { 1 + samples as u64 } else { 1 };
+        memory.add("blended.layer", px * 8 * with_msaa);
+        if wboit {
+            memory.add("blended.revealage", px * 2 * with_msaa);
+        }
         if let Some(c) = &culling {
             memory.extend(&c.memory);
         }
@@ -288,6 +356,8 @@ impl BlendedPath {
             layer,
             layer_view,
             layer_msaa,
+            revealage,
+            mode: features.blend_mode,
             composite,
             composite_group,
             instances,
@@ -345,26 +415,44 @@ impl BlendedPath {
     ) {
         let mut order = self.order.lock().expect("blended sort scratch");
         order.clear();
-        // View space looks down -Z: the view depth is -z; farthest first.
+        // View space looks down -Z: the view depth is -z; farthest first. Weighted blended
+        // OIT needs no order: instance order.
         order.extend(self.instances.iter().enumerate().map(|(i, (_, _, c))| (world_to_view.transform_point3(*c).z, i)));
-        order.sort_by(|a, b| a.0.total_cmp(&b.0));
+        if self.mode == BlendMode::Sorted {
+            order.sort_by(|a, b| a.0.total_cmp(&b.0));
+        }
         let t = timer.begin("blended.shade", encoder);
         {
-            let (target, resolve) = match &self.layer_msaa {
-                Some((_, v)) => (v, Some(&self.layer_view)),
-                None => (&self.layer_view, None),
-            };
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("blended.shade"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: target,
+            // A target and its resolve (MSAA), cleared to `clear`.
+            fn attach<'a>(
+                view: &'a wgpu::TextureView,
+                resolve: Option<&'a wgpu::TextureView>,
+                clear: wgpu::Color,
+            ) -> Option<wgpu::RenderPassColorAttachment<'a>> {
+                Some(wgpu::RenderPassColorAttachment {
+                    view,
                     depth_slice: None,
                     resolve_target: resolve,
                     ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                        load: wgpu::LoadOp::Clear(clear),
                         store: if resolve.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store },
                     },
-                })],
+                })
+            }
+            let layer = match &self.layer_msaa {
+                Some((_, v)) => attach(v, Some(&self.layer_view), wgpu::Color::TRANSPARENT),
+                None => attach(&self.layer_view, None, wgpu::Color::TRANSPARENT),
+            };
+            // Revealage starts at 1: nothing covers the opaque image yet.
+            let reveal = self.revealage.as_ref().map(|(v, ms)| match ms {
+                Some(m) => attach(m, Some(v), wgpu::Color::WHITE),
+                None => attach(v, None, wgpu::Color::WHITE),
+            });
+            let colors = [layer, reveal.flatten()];
+            let n = if self.revealage.is_some() { 2 } else { 1 };
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("blended.shade"),
+                color_attachments: &colors[..n],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                     view: opaque_depth,
                     depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store }),
@@ -423,18 +511,25 @@ impl BlendedPath {
     }
 }
 
-/// The composite pipeline and its bind group over `layer`.
+/// The composite pipeline and its bind group over `layer` (and, for weighted blended OIT,
+/// `revealage`).
 fn composite_pipeline(
     device: &wgpu::Device,
     layer: &wgpu::TextureView,
+    revealage: Option<&wgpu::TextureView>,
 ) -> Result<(wgpu::RenderPipeline, wgpu::BindGroup), GpuError> {
-    let layout = create_layout(device, "blended.composite.layout", COMPOSITE_BINDINGS.group(0), &[]);
+    let defines: &[&str] = if revealage.is_some() { &["WBOIT"] } else { &[] };
+    let layout = create_layout(device, "blended.composite.layout", COMPOSITE_BINDINGS.group(0), defines);
+    let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(layer) }];
+    if let Some(r) = revealage {
+        entries.push(wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(r) });
+    }
     let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("blended.composite"),
         layout: &layout,
-        entries: &[wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(layer) }],
+        entries: &entries,
     });
-    let module = shader_module(device, COMPOSITE_BINDINGS.entry, &[])?;
+    let module = shader_module(device, COMPOSITE_BINDINGS.entry, defines)?;
     let pl = pipeline_layout(device, "blended.composite.pipeline_layout", &[&layout]);
     // hdr.rgb = layer.rgb + (1 - layer.a) hdr.rgb; the HDR image's alpha is kept.
     let blend = wgpu::BlendState {

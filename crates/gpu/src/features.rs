@@ -48,6 +48,35 @@ pub struct Shadows {
     pub options: ShadowOptions,
 }
 
+/// How blended geometry is composited.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum BlendMode {
+    /// Instances sorted back to front each frame and drawn "over" (TiledLighting11's way).
+    #[default]
+    Sorted,
+    /// Weighted blended order-independent transparency (McGuire and Bavoil 2013): no sort,
+    /// an approximation of "over" whose error the lab measures against the sorted result.
+    WeightedOit,
+}
+
+impl BlendMode {
+    /// The flag value.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Sorted => "sorted",
+            Self::WeightedOit => "wboit",
+        }
+    }
+    /// The mode of flag value `name` (`sorted`, `wboit`).
+    pub fn from_name(name: &str) -> Result<Self, String> {
+        match name {
+            "sorted" => Ok(Self::Sorted),
+            "wboit" => Ok(Self::WeightedOit),
+            _ => Err(format!("blend mode {name:?}: use sorted or wboit")),
+        }
+    }
+}
+
 /// What the scene, its lights and the settings require of a frame.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Features {
@@ -74,6 +103,9 @@ pub struct Features {
     /// The blended draw kinds (empty: no blended geometry, so no blended depth, lists,
     /// pipelines or layer exist).
     pub blended_kinds: Vec<DrawKind>,
+    /// How blended geometry is composited (used only with blended kinds; the renderers set
+    /// it from their settings).
+    pub blend_mode: BlendMode,
     /// Shadow casters, when some light casts a shadow (None: no atlas, no shadow pass, no
     /// shadow variant).
     pub shadows: Option<Shadows>,
@@ -101,6 +133,7 @@ impl Features {
             textures: scene.textures.is_some(),
             draw_kinds: scene.opaque_kinds(),
             blended_kinds: scene.kinds().into_iter().filter(|k| k.blended).collect(),
+            blend_mode: BlendMode::Sorted,
             msaa,
             half_z: tiled && cull.half_z,
             coarse: tiled && cull.coarse,
@@ -168,7 +201,10 @@ impl Features {
             ));
         }
         if self.blended() {
-            parts.push("alpha-blended geometry (sorted back to front)".into());
+            parts.push(match self.blend_mode {
+                BlendMode::Sorted => "alpha-blended geometry (sorted back to front)".into(),
+                BlendMode::WeightedOit => "alpha-blended geometry (weighted blended OIT, unsorted)".into(),
+            });
         }
         parts.join(", ")
     }

@@ -131,6 +131,7 @@ mod tests {
             aabb: false,
             extra_targets: 0,
             blended_kinds: vec![],
+            blend_mode: Default::default(),
             shadows: None,
         }
     }
