@@ -40,6 +40,16 @@ pub enum SceneError {
         /// The largest accepted number.
         max: u32,
     },
+    /// More transparent grid objects were asked for than there are grid objects.
+    #[error(
+        "transparent_objects {requested} exceeds grid_objects {grid_objects}: only grid objects can be transparent"
+    )]
+    TooManyTransparentObjects {
+        /// The number of transparent objects asked for.
+        requested: u32,
+        /// The number of grid objects asked for.
+        grid_objects: u32,
+    },
     /// More lights were asked for than any renderer here supports.
     #[error("{requested} lights requested: at most {limit} (point and spot together) can be generated")]
     TooManyLights {

@@ -4,7 +4,7 @@
 //!   [`CameraDesc`], [`Aabb`]), with [`Scene::validate`] to check one before upload and
 //!   [`Scene::world_triangles`] for the CPU ray-cast shadow reference;
 //! - [`default_scene`]: a procedural Sponza-like courtyard (about 250k triangles) plus
-//!   TiledLighting11's grid objects;
+//!   TiledLighting11's grid objects, some of them alpha-blended glass;
 //! - [`shadow_box_scene`]: a cube on or above a floor, for the shadow tests;
 //! - [`random_lights`]: deterministic random point and spot lights;
 //! - [`load_gltf`]: glTF 2.0 files (.gltf/.glb) with KHR_lights_punctual.

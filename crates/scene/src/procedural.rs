@@ -1,8 +1,9 @@
 //! The procedural scenes. The default scene: an atrium-like courtyard (Sponza-like:
 //! floor, four walls, two storeys of columns and arches along the long sides, gallery
 //! floors, balustrades, banners and clutter, no roof) plus TiledLighting11's grid objects,
-//! the stress knob of instanced UV spheres. The shadow box scene ([`shadow_box_scene`]):
-//! a cube on or above a floor, small enough for the shadow tests to ray-cast every pixel.
+//! the stress knob of instanced UV spheres, any number of them alpha-blended glass. The
+//! shadow box scene ([`shadow_box_scene`]): a cube on or above a floor, small enough for
+//! the shadow tests to ray-cast every pixel.
 //! Deterministic: the same options give the same scene. Depends on glam, this crate's
 //! model, geometry and error modules.
 //!
@@ -57,12 +58,15 @@ pub struct DefaultSceneOptions {
     pub grid_objects: u32,
     /// Their tessellation.
     pub density: GridDensity,
+    /// How many of the grid objects are glass (an alpha-blended material, see
+    /// [`default_scene`]), 0 to `grid_objects`; spread evenly over the grid.
+    pub transparent_objects: u32,
 }
 
 impl Default for DefaultSceneOptions {
-    /// No grid objects, medium density.
+    /// No grid objects, medium density, none transparent.
     fn default() -> Self {
-        Self { grid_objects: 0, density: GridDensity::Medium }
+        Self { grid_objects: 0, density: GridDensity::Medium, transparent_objects: 0 }
     }
 }
 
@@ -116,6 +120,8 @@ const M_TERRACOTTA: usize = 9;
 const M_GOLD: usize = 10;
 const M_GRID: usize = 11;
 const M_WOOD: usize = 12;
+/// Only present when some grid objects are transparent.
+const M_GLASS: usize = 13;
 
 fn material(name: &str, rgb: [f32; 3], roughness: f32, metallic: f32) -> Material {
     Material {
@@ -150,6 +156,18 @@ fn materials() -> Vec<Material> {
         m[i].double_sided = true;
     }
     m
+}
+
+/// The transparent grid objects' material: clear glass with a faint blue-green tint,
+/// alpha-blended at 35% opacity, smooth, both sides drawn (a sphere's far inner side shows
+/// through its near side).
+fn glass_material() -> Material {
+    Material {
+        base_color: [0.85, 0.95, 0.92, 0.35],
+        alpha_mode: AlphaMode::Blend,
+        double_sided: true,
+        ..material("glass grid objects", [0.85, 0.95, 0.92], 0.05, 0.0)
+    }
 }
 
 /// A 64x64 sRGB checker of two stone tones with 8-pixel squares, so the texture path
@@ -380,14 +398,32 @@ fn grid_positions(n: u32) -> Vec<Vec3> {
     out
 }
 
+/// Which of `n` grid objects (in [`grid_positions`] order) are transparent when `k` are:
+/// the middle of each of `k` equal runs, so they spread evenly over the rows of the grid.
+fn transparent_indices(n: u32, k: u32) -> impl Iterator<Item = u32> {
+    (0..k).map(move |j| (2 * j + 1) * n / (2 * k))
+}
+
 /// Builds the courtyard with `opts.grid_objects` grid spheres. Lights are left empty
 /// (generate them with [`crate::random_lights`] from the scene's bounds).
+///
+/// `opts.transparent_objects` of the grid objects, spread evenly over the grid (the same
+/// ones for the same options), use a glass material: [`AlphaMode::Blend`], base colour
+/// alpha 0.35, roughness 0.05, a faint blue-green tint, double-sided. The material is only
+/// added to the scene when some grid object uses it, so a scene without transparent
+/// objects has no blended material at all.
 ///
 /// About 250,000 triangles before grid objects; each grid object adds
 /// [`GridDensity::triangles_per_object`].
 pub fn default_scene(opts: &DefaultSceneOptions) -> Result<Scene, SceneError> {
     if opts.grid_objects > MAX_GRID_OBJECTS {
         return Err(SceneError::TooManyGridObjects { requested: opts.grid_objects, max: MAX_GRID_OBJECTS });
+    }
+    if opts.transparent_objects > opts.grid_objects {
+        return Err(SceneError::TooManyTransparentObjects {
+            requested: opts.transparent_objects,
+            grid_objects: opts.grid_objects,
+        });
     }
     let mut meshes = Vec::new();
     let mut instances = Vec::new();
@@ -465,14 +501,20 @@ pub fn default_scene(opts: &DefaultSceneOptions) -> Result<Scene, SceneError> {
         place(ball, M_GOLD, t(x, 0.25, z));
     }
 
-    for p in grid_positions(opts.grid_objects) {
-        place(grid, M_GRID, Mat4::from_translation(p));
+    let mut glass = transparent_indices(opts.grid_objects, opts.transparent_objects).peekable();
+    for (i, p) in (0u32..).zip(grid_positions(opts.grid_objects)) {
+        let material = if glass.next_if_eq(&i).is_some() { M_GLASS } else { M_GRID };
+        place(grid, material, Mat4::from_translation(p));
+    }
+    let mut materials = materials();
+    if opts.transparent_objects > 0 {
+        materials.push(glass_material());
     }
 
     let mut scene = Scene {
         name: "courtyard".to_owned(),
         meshes,
-        materials: materials(),
+        materials,
         textures: vec![checker_texture()],
         instances,
         lights: Vec::new(),
@@ -646,7 +688,7 @@ mod tests {
 
     #[test]
     fn default_scene_is_deterministic() {
-        let opts = DefaultSceneOptions { grid_objects: 17, density: GridDensity::Low };
+        let opts = DefaultSceneOptions { grid_objects: 17, density: GridDensity::Low, transparent_objects: 5 };
         assert_eq!(default_scene(&opts).unwrap(), default_scene(&opts).unwrap());
     }
 
@@ -656,7 +698,8 @@ mod tests {
         for (density, per_object) in [(GridDensity::Low, 484), (GridDensity::Medium, 1764), (GridDensity::High, 3600)] {
             assert_eq!(density.triangles_per_object(), per_object);
             for n in [1u32, 7, 100, 280] {
-                let scene = default_scene(&DefaultSceneOptions { grid_objects: n, density }).unwrap();
+                let opts = DefaultSceneOptions { grid_objects: n, density, ..Default::default() };
+                let scene = default_scene(&opts).unwrap();
                 let grid: Vec<&Instance> = scene.instances.iter().filter(|i| i.material == M_GRID).collect();
                 assert_eq!(grid.len(), n as usize);
                 // All grid objects share one mesh, so the renderer can instance them.
@@ -690,8 +733,102 @@ mod tests {
 
     #[test]
     fn too_many_grid_objects_rejected() {
-        let err = default_scene(&DefaultSceneOptions { grid_objects: 281, density: GridDensity::Low }).unwrap_err();
+        let opts = DefaultSceneOptions { grid_objects: 281, density: GridDensity::Low, ..Default::default() };
+        let err = default_scene(&opts).unwrap_err();
         assert!(matches!(err, SceneError::TooManyGridObjects { requested: 281, max: 280 }));
         assert!(err.to_string().contains("281") && err.to_string().contains("280"));
+    }
+
+    /// The grid instances of `scene` that use an alpha-blended material, and all of them.
+    fn blended_grid_instances(scene: &Scene) -> (Vec<&Instance>, usize) {
+        let grid: Vec<&Instance> =
+            scene.instances.iter().filter(|i| scene.meshes[i.mesh].name == "grid object").collect();
+        let n = grid.len();
+        (grid.into_iter().filter(|i| scene.materials[i.material].alpha_mode == AlphaMode::Blend).collect(), n)
+    }
+
+    #[test]
+    fn transparent_objects_are_glass_grid_objects() {
+        let base =
+            default_scene(&DefaultSceneOptions { grid_objects: 100, density: GridDensity::Low, ..Default::default() })
+                .unwrap();
+        for (n, k) in [(0u32, 0u32), (1, 0), (1, 1), (7, 3), (10, 10), (100, 1), (100, 10), (280, 99), (280, 280)] {
+            let opts = DefaultSceneOptions { grid_objects: n, density: GridDensity::Low, transparent_objects: k };
+            let scene = default_scene(&opts).unwrap();
+            scene.validate().unwrap();
+            let (glass, grid) = blended_grid_instances(&scene);
+            assert_eq!((glass.len(), grid), (k as usize, n as usize), "{opts:?}");
+            // Nothing but the glass grid objects is blended; the opaque ones keep their material.
+            let blended = scene.instances.iter().filter(|i| scene.materials[i.material].alpha_mode == AlphaMode::Blend);
+            assert_eq!(blended.count(), k as usize);
+            assert_eq!(scene.instances.iter().filter(|i| i.material == M_GRID).count(), (n - k) as usize);
+            assert_eq!(scene.has_blend(), k > 0, "{opts:?}");
+            assert!(!scene.has_alpha_mask());
+            // The glass material exists only when used.
+            assert_eq!(scene.materials.len(), if k > 0 { M_GLASS + 1 } else { M_GLASS }, "{opts:?}");
+            if n == 100 && k == 10 {
+                // The all-opaque scene but for the glass material and the instances using it.
+                let mut opaque = scene.clone();
+                opaque.materials.pop();
+                opaque.instances.iter_mut().filter(|i| i.material == M_GLASS).for_each(|i| i.material = M_GRID);
+                assert_eq!(opaque, base);
+            }
+        }
+    }
+
+    #[test]
+    fn glass_material_is_blended_light_and_double_sided() {
+        let scene =
+            default_scene(&DefaultSceneOptions { grid_objects: 4, transparent_objects: 2, ..Default::default() })
+                .unwrap();
+        let m = &scene.materials[M_GLASS];
+        assert_eq!(m.alpha_mode, AlphaMode::Blend);
+        assert!(m.double_sided);
+        assert!((0.3..=0.4).contains(&m.base_color[3]), "alpha {}", m.base_color[3]);
+        assert!(m.roughness <= 0.1 && m.metallic == 0.0);
+        // A light tint: every channel bright.
+        let rgb = &m.base_color[..3];
+        assert!(rgb.iter().all(|c| (0.8..=1.0).contains(c)), "{rgb:?}");
+        assert!(m.base_color_texture.is_none());
+    }
+
+    #[test]
+    fn transparent_objects_spread_over_the_grid() {
+        for (n, k) in [(100u32, 10u32), (280, 28), (30, 3), (9, 2)] {
+            let opts = DefaultSceneOptions { grid_objects: n, transparent_objects: k, ..Default::default() };
+            let idx: Vec<u32> = transparent_indices(n, k).collect();
+            assert!(idx.windows(2).all(|w| w[0] < w[1]) && idx.iter().all(|&i| i < n), "{idx:?}");
+            // Every run of n/k consecutive grid objects holds one, so they span the grid's
+            // rows from end to end.
+            let run = n / k;
+            assert!(idx[0] < run && idx[k as usize - 1] >= n - run, "{idx:?}");
+            assert!(idx.windows(2).all(|w| w[1] - w[0] <= run + 1), "{idx:?}");
+            let scene = default_scene(&opts).unwrap();
+            let zs: Vec<f32> = blended_grid_instances(&scene).0.iter().map(|i| i.transform.w_axis.z).collect();
+            let all = grid_positions(n);
+            let (lo, hi) = all.iter().fold((f32::MAX, f32::MIN), |(lo, hi), p| (lo.min(p.z), hi.max(p.z)));
+            let (glo, ghi) = zs.iter().fold((f32::MAX, f32::MIN), |(lo, hi), &z| (lo.min(z), hi.max(z)));
+            // k evenly spread objects span about 1 - 1/k of the grid's length.
+            let span = 1.0 - 1.5 / k as f32;
+            assert!(ghi - glo >= span * (hi - lo), "{opts:?}: glass z {glo}..{ghi} of {lo}..{hi}");
+        }
+    }
+
+    #[test]
+    fn more_transparent_than_grid_objects_rejected() {
+        for (n, k) in [(0u32, 1u32), (5, 6), (280, 281)] {
+            let opts = DefaultSceneOptions { grid_objects: n, transparent_objects: k, ..Default::default() };
+            let err = default_scene(&opts).unwrap_err();
+            assert!(
+                matches!(err, SceneError::TooManyTransparentObjects { requested, grid_objects } if requested == k && grid_objects == n)
+            );
+            let msg = err.to_string();
+            for word in ["transparent_objects", "grid_objects", &k.to_string(), &n.to_string()] {
+                assert!(msg.contains(word), "{msg:?} does not mention {word:?}");
+            }
+        }
+        // Too many grid objects is reported first.
+        let opts = DefaultSceneOptions { grid_objects: 281, transparent_objects: 300, ..Default::default() };
+        assert!(matches!(default_scene(&opts), Err(SceneError::TooManyGridObjects { .. })));
     }
 }

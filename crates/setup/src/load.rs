@@ -67,7 +67,11 @@ impl SceneCpu {
 fn load_scene(settings: &Settings) -> Result<(Scene, usize)> {
     match &settings.scene {
         SceneSource::Default => {
-            let opts = DefaultSceneOptions { grid_objects: settings.grid_objects, density: settings.density };
+            let opts = DefaultSceneOptions {
+                grid_objects: settings.grid_objects,
+                density: settings.density,
+                ..DefaultSceneOptions::default()
+            };
             let scene = default_scene(&opts).context("building the default scene")?;
             Ok((scene, 0))
         }
