@@ -91,8 +91,7 @@ pub const COMPOSITE_BINDINGS: PassBindings = PassBindings {
         0,
         &[
             Binding::texture(0, FS, wgpu::TextureSampleType::Float { filterable: false }),
-            Binding::texture(1, FS, wgpu::TextureSampleType::Float { filterable: false })
-                .when(Cond::Defined("WBOIT")),
+            Binding::texture(1, FS, wgpu::TextureSampleType::Float { filterable: false }).when(Cond::Defined("WBOIT")),
         ],
     )],
 };
@@ -316,7 +315,14 @@ impl BlendedPath {
                 ..Default::default()
             });
             let ms = (samples > 1).then(|| {
-                let t = texture_2d_msaa(device, "blended.revealage_msaa", size, REVEALAGE_FORMAT, samples, U::RENDER_ATTACHMENT);
+                let t = texture_2d_msaa(
+                    device,
+                    "blended.revealage_msaa",
+                    size,
+                    REVEALAGE_FORMAT,
+                    samples,
+                    U::RENDER_ATTACHMENT,
+                );
                 t.create_view(&wgpu::TextureViewDescriptor {
                     label: Some("blended.revealage_msaa.view"),
                     ..Default::default()
