@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -22,7 +22,7 @@ run() { # name frames args...
   local name=$prefix$1 frames=$2; shift 2
   echo "== $name: $*" | tee -a "$out/log.txt"
   timeout 300 "$bin" bench --width 1920 --height 1080 --frames "$frames" --warmup 20 --json "$out/$name.json" "$@" 2>&1 \
-    | tee -a "$out/log.txt" | grep -E "^(depth|forward|brute|deferred|tonemap|shadow|total|error|MSAA|light grid)"
+    | tee -a "$out/log.txt" | grep -E "^(depth|forward|brute|deferred|tonemap|shadow|blended|total|error|MSAA|light grid)"
 }
 sets=${*:-core cull scale methods msaa}
 for set in $sets; do
@@ -76,6 +76,19 @@ for set in $sets; do
             run "sh-$m-$c-$size-f$f" 30 $common --method $m $sh
             run "sh-$m-$c-$size-f$f-move" 30 $common --method $m $sh --move-lights
           done
+        done
+      done
+    done
+    ;;
+  blended)
+    # Issue 12: the Figure 9 scene (280 medium grid objects), 1,024 lights, both methods; 0,
+    # 10, 50 and 280 of the grid objects blended glass, sorted and weighted blended OIT.
+    for m in forward-plus deferred; do
+      run "bl-$m-0" 30 --lights 1024 --grid-objects 280 --density medium --method $m
+      for t in 10 50 280; do
+        for mode in sorted wboit; do
+          run "bl-$m-$t-$mode" 30 --lights 1024 --grid-objects 280 --density medium --method $m \
+            --transparent-objects $t --blend-mode $mode
         done
       done
     done
