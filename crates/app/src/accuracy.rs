@@ -8,6 +8,10 @@
 //! false-positive rate and wasted light evaluations per pixel (the CPU reference culler's
 //! lists for the GPU's depth buffer, `tiledlight_cull::reference::list_quality`).
 //!
+//! Alpha-blended geometry (`--transparent-objects`, glTF BLEND materials) is drawn by the
+//! reference too, always sorted back to front: the error of `blend-mode=wboit` is the
+//! weighted blended OIT's approximation plus the method's, measured against exact "over".
+//!
 //! Output: a resumable CSV (one row per setting), a Pareto chart (time vs FLIP mean, the
 //! frontier drawn, the fastest setting under the target error ringed) and FLIP heat maps
 //! of the frontier's settings. May depend on [`crate::lab`], [`crate::bench`],
@@ -17,6 +21,7 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_gpu::features::BlendMode;
 
 use anyhow::{ensure, Context, Result};
 use clap::Args;
@@ -133,7 +138,8 @@ struct Reference {
 /// What identifies a reference image: everything but the settings it is compared over
 /// (threshold, tests, tile size, method), which do not change it. The reference draws
 /// the setting's shadows (casters, tile size, filter, format): the error is the method's,
-/// not the shadow map's, which the shadow axes' times are measured against.
+/// not the shadow map's, which the shadow axes' times are measured against. It draws the
+/// setting's transparent objects, always sorted (so the blend mode is not part of the key).
 fn reference_key(a: &Settings, reference: ReferenceArg) -> String {
     // With the cutoff the radii, so the threshold, shape the reference too.
     let threshold = if reference == ReferenceArg::Cutoff { a.threshold.to_string() } else { String::new() };
@@ -141,8 +147,18 @@ fn reference_key(a: &Settings, reference: ReferenceArg) -> String {
         if a.has_shadows() { format!("{:?}|{:?}", a.shadow_casters(), a.shadow_options()) } else { String::new() };
     threshold
         + &format!(
-            "{}|{}|{:?}|{:?}|{:?}|{}|{}x{}|{}|{}|{shadows}",
-            a.scene, a.grid_objects, a.density, a.lights, a.spot_lights, a.seed, a.width, a.height, a.exposure, a.msaa
+            "{}|{}|{}|{:?}|{:?}|{:?}|{}|{}x{}|{}|{}|{shadows}",
+            a.scene,
+            a.grid_objects,
+            a.transparent_objects,
+            a.density,
+            a.lights,
+            a.spot_lights,
+            a.seed,
+            a.width,
+            a.height,
+            a.exposure,
+            a.msaa
         )
 }
 
@@ -166,7 +182,9 @@ fn render_reference(
         ReferenceArg::NoCutoff => Method::BruteForceNoCutoff,
         ReferenceArg::Cutoff => Method::BruteForce,
     };
-    let settings = Settings { method, ..point_args.clone() };
+    // Blended geometry in the reference is exact "over" (sorted back to front), whatever
+    // the setting's blend mode.
+    let settings = Settings { method, blend_mode: BlendMode::Sorted, ..point_args.clone() };
     prep.reconfigure(&settings)?;
     let mut r = prep.renderer(false)?;
     let m = bench::measure(prep, r.as_mut(), 1, frames).context("rendering the brute-force reference")?;
@@ -432,4 +450,19 @@ fn report(
     }
     out.push_str(&format!("result:     {note}"));
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_reference_follows_the_transparent_objects_not_the_blend_mode() {
+        let s = Settings { grid_objects: 50, transparent_objects: 10, ..Settings::default() };
+        let key = |s: &Settings| reference_key(s, ReferenceArg::NoCutoff);
+        let oit = Settings { blend_mode: BlendMode::WeightedOit, ..s.clone() };
+        assert_eq!(key(&s), key(&oit), "the reference is always sorted");
+        assert_ne!(key(&s), key(&Settings { transparent_objects: 20, ..s.clone() }));
+        assert_eq!(key(&s), key(&Settings { threshold: 0.5, method: Method::Deferred, ..s.clone() }));
+    }
 }

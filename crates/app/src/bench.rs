@@ -14,6 +14,11 @@
 //! tells the renderer (`Renderer::lights_moved`), so every caster's faces are drawn again
 //! each frame and the shadow pass's cost with moving lights is measured.
 //!
+//! With alpha-blended geometry (transparent objects, glTF BLEND materials) the blended
+//! instances and the blend mode are printed and written to the JSON (`blended_instances`,
+//! `blend_mode`, null without blended geometry); the blended passes are timed like the
+//! others (`blended.depth`, `blended.cull`, `blended.shade`, `blended.composite`).
+//!
 //! May depend on [`crate::scene_setup`], tiledlight-setup and tiledlight-gpu.
 
 use std::path::PathBuf;
@@ -26,6 +31,7 @@ use tiledlight_gpu::light_grid::GridStatus;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::{GpuTimer, PassTime};
 
+use tiledlight_setup::settings::blend_mode_description;
 use tiledlight_setup::{shadow_atlas_description, LightAnimator, Prepared};
 
 use crate::scene_setup::SceneArgs;
@@ -327,6 +333,10 @@ struct BenchJson {
     /// The shadow atlas's layout, e.g. "atlas 1536x2304 x1 layer, 256 px tiles, 5x5 PCF,
     /// d16; 52 faces; 9.00 MiB" (null without shadow casters).
     shadow_atlas: Option<String>,
+    /// Alpha-blended instances drawn each frame (null without blended geometry).
+    blended_instances: Option<usize>,
+    /// How they were composited: "sorted" or "wboit" (null without blended geometry).
+    blend_mode: Option<&'static str>,
 }
 
 /// The smallest and largest of a count over the measured frames.
@@ -365,6 +375,7 @@ struct ConfigJson {
     shadow_size: u32,
     shadow_filter: u32,
     shadow_format: &'static str,
+    transparent_objects: u32,
     commit: String,
 }
 
@@ -409,6 +420,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     if let Some(a) = atlas {
         println!("shadow map: {}", shadow_atlas_description(a));
     }
+    let blended = renderer.blended();
+    if let Some(b) = blended {
+        let s = if b.instance_count() == 1 { "" } else { "s" };
+        println!("blend path: {} instance{s}, {}", b.instance_count(), blend_mode_description(b.mode()));
+    }
     let edge_pixels = renderer.edge_pixels(&prep.ctx).context("reading the MSAA edge count back")?;
     if let Some(e) = edge_pixels {
         let pixels = f64::from(prep.settings.width) * f64::from(prep.settings.height);
@@ -447,6 +463,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 shadow_size: a.shadow_size,
                 shadow_filter: a.shadow_filter,
                 shadow_format: a.shadow_format.name(),
+                transparent_objects: a.transparent_objects,
                 commit: commit_hash(),
             },
             frames: args.frames,
@@ -465,6 +482,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             shadow_faces_per_frame: m.shadow_faces_range().map(|(min, max)| MinMax { min, max }),
             shadow_atlas_bytes: atlas.map(|a| a.memory.total()),
             shadow_atlas: atlas.map(shadow_atlas_description),
+            blended_instances: blended.map(|b| b.instance_count()),
+            blend_mode: blended.map(|b| b.mode().name()),
         };
         let text = serde_json::to_string_pretty(&json).context("encoding the results as JSON")?;
         std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))?;

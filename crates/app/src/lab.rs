@@ -15,7 +15,7 @@ use anyhow::{bail, ensure, Context, Result};
 use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::scene_setup::{DensityArg, MethodArg, SceneArgs, ShadowFormatArg};
+use crate::scene_setup::{BlendModeArg, DensityArg, MethodArg, SceneArgs, ShadowFormatArg};
 
 /// The most points one run may have (a guard against a typo that would run for days).
 pub const MAX_POINTS: usize = 10_000;
@@ -42,6 +42,8 @@ pub const AXES: &[(&str, &str)] = &[
     ("shadow-size", "shadow tile size in texels: 128 | 256 | 512 | 1024 (integer)"),
     ("shadow-filter", "shadow filter taps per side: 1 | 3 | 5"),
     ("shadow-format", "shadow atlas depth format: d16 | d32"),
+    ("transparent-objects", "grid objects drawn as blended glass, 0 to the grid objects (integer; ranges allowed)"),
+    ("blend-mode", "compositing of blended geometry: sorted | wboit"),
 ];
 
 /// One swept axis: its name (a key of [`AXES`]) and its values, in sweep order.
@@ -75,6 +77,7 @@ fn is_integer_axis(name: &str) -> bool {
             | "shadow-spot-lights"
             | "shadow-size"
             | "shadow-filter"
+            | "transparent-objects"
     )
 }
 
@@ -207,6 +210,11 @@ pub fn apply(args: &mut SceneArgs, name: &str, value: &str) -> Result<()> {
             args.shadow_format =
                 ShadowFormatArg::from_str(value, true).map_err(|e| anyhow::anyhow!("shadow-format '{value}': {e}"))?
         }
+        "transparent-objects" => args.transparent_objects = small()?,
+        "blend-mode" => {
+            args.blend_mode =
+                BlendModeArg::from_str(value, true).map_err(|e| anyhow::anyhow!("blend-mode '{value}': {e}"))?
+        }
         "aabb" => args.aabb = on_off(value)?,
         "half-z" => args.half_z = on_off(value)?,
         "culling" => {
@@ -220,9 +228,9 @@ pub fn apply(args: &mut SceneArgs, name: &str, value: &str) -> Result<()> {
         }
         _ => known(name)?,
     }
-    if matches!(name, "shadow-point-lights" | "shadow-spot-lights") {
-        // Their only limit is the scene's lights of that kind, which other axes and flags
-        // set: checked with the point's whole settings ([`args_at`]).
+    if matches!(name, "shadow-point-lights" | "shadow-spot-lights" | "transparent-objects") {
+        // Their only limit is the scene's lights of that kind (the grid objects), which
+        // other axes and flags set: checked with the point's whole settings ([`args_at`]).
         return Ok(());
     }
     let probe = args.validate();
@@ -498,6 +506,30 @@ mod tests {
         // ...and are checked against them with the point's settings.
         let e = format!("{:#}", args_at(&SceneArgs::default(), &axes, &p[0]).unwrap_err());
         assert!(e.contains("--shadow-spot-lights 1: more than the scene's 0 spot lights"), "{e}");
+    }
+
+    #[test]
+    fn blended_geometry_is_an_axis() {
+        let axes = vec![
+            parse_axis("transparent-objects=0,10,50,280").unwrap(),
+            parse_axis("blend-mode=sorted,wboit").unwrap(),
+        ];
+        assert!(is_numeric_axis("transparent-objects") && !is_numeric_axis("blend-mode"));
+        assert_eq!(parse_axis("transparent-objects=10..40").unwrap().values, ["10", "20", "40"]);
+        let p = points(&axes).unwrap();
+        assert_eq!(p.len(), 8);
+        // The count parses before the grid objects it needs are known...
+        let base = SceneArgs { grid_objects: 280, ..SceneArgs::default() };
+        let a = args_at(&base, &axes, &p[p.len() - 1]).unwrap();
+        assert_eq!((a.transparent_objects, a.blend_mode), (280, BlendModeArg::Wboit));
+        // ...and is checked against them with the point's settings.
+        let e = format!("{:#}", args_at(&SceneArgs { grid_objects: 50, ..base }, &axes, &p[6]).unwrap_err());
+        assert!(
+            e.contains("--transparent-objects 280: must be between 0 and the grid objects (--grid-objects 50)"),
+            "{e}"
+        );
+        let e = format!("{:#}", parse_axis("blend-mode=additive").unwrap_err());
+        assert!(e.contains("blend-mode 'additive'"), "{e}");
     }
 
     #[test]

@@ -2,10 +2,12 @@
 //! with `--heatmap`, the lights-per-tile heat map with its legend) as PNG, and prints the
 //! adapter, scene, lights, tile grid, the last frame's pass times, the culling statistics
 //! read back from the GPU, the shadow atlas (faces drawn by the last frame: 0 with still
-//! lights, whose faces the first frame drew; layout; memory) when lights cast shadows, and
-//! the GPU memory the configuration allocated.
+//! lights, whose faces the first frame drew; layout; memory) when lights cast shadows, the
+//! alpha-blended geometry (instances, blend mode, its own light lists, memory) when the
+//! scene has some, and the GPU memory the configuration allocated.
 //!
-//! The culling statistics are tiledlight-setup's (`Prepared::culling_stats`).
+//! The culling and blended statistics are tiledlight-setup's (`Prepared::culling_stats`,
+//! `Prepared::blended_stats`).
 //!
 //! May depend on [`crate::scene_setup`], [`crate::bench`] (the frame loop),
 //! [`crate::legend`], tiledlight-setup and tiledlight-gpu.
@@ -85,6 +87,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let mut renderer = prep.renderer(args.heatmap)?;
     let m = bench::measure(&prep, renderer.as_mut(), 0, RENDER_FRAMES)?;
     let stats = prep.culling_stats(renderer.as_ref())?;
+    let blended = prep.blended_stats(renderer.as_ref())?;
     let edges = renderer.edge_pixels(&prep.ctx).context("reading the MSAA edge count back")?;
     let note = write_image(&prep, renderer.as_ref(), args.heatmap, &out)?;
     prep.check_gpu_errors()?;
@@ -95,6 +98,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     print!("{}", last_frame_times(&m));
     if let Some(s) = stats {
         println!("culling:    {s}");
+    }
+    if let Some(b) = blended {
+        println!("blend path: {b}");
     }
     if let Some(e) = edges {
         let pixels = u64::from(prep.settings.width) * u64::from(prep.settings.height);

@@ -3,8 +3,8 @@
 //! ([`SceneArgs::settings`]); what is built from them is tiledlight-setup's. Also the small
 //! PNG output helpers the subcommands use.
 //!
-//! May depend on tiledlight-setup, tiledlight-scene, tiledlight-deferred (flag defaults) and
-//! [`crate::bookmark`]; the subcommand modules depend on it.
+//! May depend on tiledlight-setup, tiledlight-scene, tiledlight-deferred (flag defaults),
+//! tiledlight-gpu (the blend mode) and [`crate::bookmark`]; the subcommand modules depend on it.
 
 use std::path::{Path, PathBuf};
 
@@ -13,6 +13,7 @@ use anyhow::{ensure, Context, Result};
 use clap::{Args, ValueEnum};
 use tiledlight_cull::shadow::ShadowFormat;
 use tiledlight_deferred::EdgeTest;
+use tiledlight_gpu::features::BlendMode;
 use tiledlight_scene::{GridDensity, DEFAULT_LIGHT_THRESHOLD};
 use tiledlight_setup::{CameraBookmark, Method, SceneSource, Settings};
 
@@ -109,6 +110,35 @@ impl From<ShadowFormat> for ShadowFormatArg {
     }
 }
 
+/// How alpha-blended geometry is composited.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BlendModeArg {
+    /// Blended instances sorted back to front each frame and drawn "over" (exact for
+    /// instances that do not interpenetrate; TiledLighting11's way).
+    Sorted,
+    /// Weighted blended order-independent transparency (McGuire and Bavoil 2013): no sort,
+    /// an approximation of "over".
+    Wboit,
+}
+
+impl From<BlendModeArg> for BlendMode {
+    fn from(m: BlendModeArg) -> Self {
+        match m {
+            BlendModeArg::Sorted => BlendMode::Sorted,
+            BlendModeArg::Wboit => BlendMode::WeightedOit,
+        }
+    }
+}
+
+impl From<BlendMode> for BlendModeArg {
+    fn from(m: BlendMode) -> Self {
+        match m {
+            BlendMode::Sorted => BlendModeArg::Sorted,
+            BlendMode::WeightedOit => BlendModeArg::Wboit,
+        }
+    }
+}
+
 /// Scene, lights, screen and renderer flags shared by `render` and `bench`.
 ///
 /// Numbers are parsed wide (u64 light counts) and range-checked in [`SceneArgs::validate`],
@@ -137,6 +167,11 @@ pub struct SceneArgs {
     /// Tessellation of the grid objects.
     #[arg(long, value_enum, default_value_t = DensityArg::Medium)]
     pub density: DensityArg,
+    /// Grid objects drawn as alpha-blended glass spheres, 0 to the grid count (spread evenly
+    /// over the grid; the default scene only: a glTF file's BLEND materials are drawn
+    /// blended on their own).
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    pub transparent_objects: u32,
     /// Image width in pixels.
     #[arg(long, default_value_t = 1920, value_name = "W")]
     pub width: u32,
@@ -203,6 +238,10 @@ pub struct SceneArgs {
     /// Depth format of the shadow atlas.
     #[arg(long, value_enum, default_value_t = ShadowFormatArg::D16)]
     pub shadow_format: ShadowFormatArg,
+    /// How alpha-blended geometry (transparent objects, glTF BLEND materials) is
+    /// composited over the opaque image.
+    #[arg(long, value_enum, default_value_t = BlendModeArg::Sorted)]
+    pub blend_mode: BlendModeArg,
     /// Camera bookmark to render from (a small text file; the viewer writes them with its
     /// "save camera" button): eye, target, up, field of view, near and far plane.
     #[arg(long, value_name = "FILE")]
@@ -222,6 +261,7 @@ impl Default for SceneArgs {
             threshold: d.threshold,
             grid_objects: d.grid_objects,
             density: d.density.into(),
+            transparent_objects: d.transparent_objects,
             width: d.width,
             height: d.height,
             method: d.method.into(),
@@ -241,6 +281,7 @@ impl Default for SceneArgs {
             shadow_size: d.shadow_size,
             shadow_filter: d.shadow_filter,
             shadow_format: d.shadow_format.into(),
+            blend_mode: d.blend_mode.into(),
             camera: None,
         }
     }
@@ -257,6 +298,7 @@ impl SceneArgs {
             threshold: self.threshold,
             grid_objects: self.grid_objects,
             density: self.density.into(),
+            transparent_objects: self.transparent_objects,
             width: self.width,
             height: self.height,
             method: self.method.into(),
@@ -276,6 +318,7 @@ impl SceneArgs {
             shadow_size: self.shadow_size,
             shadow_filter: self.shadow_filter,
             shadow_format: self.shadow_format.into(),
+            blend_mode: self.blend_mode.into(),
             camera: None,
         }
     }
@@ -395,6 +438,8 @@ mod tests {
             "3",
             "--shadow-format",
             "d32",
+            "--blend-mode",
+            "wboit",
         ]);
         let s = a.settings().unwrap();
         let expected = Settings {
@@ -405,6 +450,7 @@ mod tests {
             threshold: 0.5,
             grid_objects: 0,
             density: GridDensity::High,
+            transparent_objects: 0,
             width: 64,
             height: 36,
             method: Method::Deferred,
@@ -424,10 +470,13 @@ mod tests {
             shadow_size: 512,
             shadow_filter: 3,
             shadow_format: ShadowFormat::Depth32,
+            blend_mode: BlendMode::WeightedOit,
             camera: None,
         };
         assert_eq!(s, expected);
         assert_eq!(parse(&["--grid-objects", "7"]).settings().unwrap().grid_objects, 7);
+        let glass = parse(&["--grid-objects", "50", "--transparent-objects", "20"]).settings().unwrap();
+        assert_eq!((glass.grid_objects, glass.transparent_objects, glass.blend_mode), (50, 20, BlendMode::Sorted));
         assert_eq!(parse(&["--scene", "DEFAULT"]).settings().unwrap().scene, SceneSource::Default);
     }
 
@@ -445,5 +494,11 @@ mod tests {
         assert!(e(&["--lights", "3", "--shadow-point-lights", "4"]).starts_with("--shadow-point-lights 4:"));
         let bad_format = Flags::try_parse_from(["x", "--shadow-format", "d24"]);
         assert!(bad_format.is_err());
+        assert_eq!(
+            e(&["--grid-objects", "10", "--transparent-objects", "11"]),
+            "--transparent-objects 11: must be between 0 and the grid objects (--grid-objects 10)"
+        );
+        assert!(e(&["--scene", "a.glb", "--transparent-objects", "1"]).starts_with("--transparent-objects 1:"));
+        assert!(Flags::try_parse_from(["x", "--blend-mode", "additive"]).is_err());
     }
 }

@@ -84,6 +84,58 @@ fn bench_writes_json_with_every_pass() {
     assert!(v["shadow_faces_per_frame"].is_null() && v["shadow_atlas_bytes"].is_null(), "{v}");
     assert_eq!(v["move_lights"], false);
     assert!(!text.contains("shadow"), "{text}");
+    // No blended geometry: null, and no line about it.
+    assert!(v["blended_instances"].is_null() && v["blend_mode"].is_null(), "{v}");
+    assert_eq!(v["config"]["transparent_objects"], 0);
+    assert!(!text.contains("blend"), "{text}");
+}
+
+/// Transparent grid objects: `render` names them and reports the blended path (instances,
+/// mode, its own light lists, memory) and times its passes; `bench` writes the blended
+/// instances and the blend mode to its JSON.
+#[test]
+fn transparent_objects_render_and_bench_report_the_blended_geometry() {
+    let dir = scratch("blended");
+    let glass = ["--grid-objects", "24", "--transparent-objects", "6"];
+    for mode in ["sorted", "wboit"] {
+        let png = dir.join(format!("{mode}.png"));
+        let mut render = with_tiny("render", &["--blend-mode", mode, "--out", png.to_str().unwrap()]);
+        render.extend(glass);
+        let text = stdout(&gpu_run(&render));
+        for needle in [
+            "blended:    6 transparent grid objects (glass), ".to_string(),
+            "blend path: 6 instances, ".to_string(),
+            format!("--blend-mode {mode}; lists: "),
+            "lights per tile over ".to_string(),
+            "tiles with blended geometry".to_string(),
+            "blended.layer".to_string(),
+        ] {
+            assert!(text.contains(&needle), "no {needle:?} in:\n{text}");
+        }
+        assert_eq!(image::image_dimensions(&png).unwrap(), (64, 36));
+
+        let json = dir.join(format!("{mode}.json"));
+        let mut bench = with_tiny("bench", &["--frames", "2", "--warmup", "1", "--blend-mode", mode]);
+        bench.extend(["--json", json.to_str().unwrap()]);
+        bench.extend(glass);
+        let text = stdout(&gpu_run(&bench));
+        assert!(
+            text.contains(&format!(
+                "blend path: 6 instances, {}",
+                if mode == "sorted" { "sorted" } else { "weighted" }
+            )),
+            "{text}"
+        );
+        let v: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        assert_eq!((&v["blended_instances"], &v["blend_mode"]), (&Value::from(6), &Value::from(mode)), "{v}");
+        assert_eq!(v["config"]["transparent_objects"], 6);
+        if v["timestamps"] == Value::Bool(true) {
+            let passes = v["passes"].as_array().unwrap();
+            for name in ["blended.depth", "blended.cull", "blended.shade", "blended.composite"] {
+                assert!(passes.iter().any(|p| p["pass"] == name), "no pass {name} in {v}");
+            }
+        }
+    }
 }
 
 /// Shadow-casting lights: `render` reports the atlas and the faces its last frame drew (0:
@@ -276,6 +328,8 @@ fn bad_input_gives_one_clear_error_line() {
         (&["render", "--shadow-size", "100"], "--shadow-size 100"),
         (&["render", "--shadow-filter", "4"], "--shadow-filter 4"),
         (&["render", "--shadow-format", "d24"], "d24"),
+        (&["render", "--grid-objects", "4", "--transparent-objects", "5"], "--transparent-objects 5"),
+        (&["render", "--blend-mode", "additive"], "additive"),
         (&["render", "--lights", "2", "--shadow-point-lights", "3"], "--shadow-point-lights 3"),
         (&["bench", "--shadow-spot-lights", "1"], "--shadow-spot-lights 1"),
         (&["frobnicate"], "frobnicate"),

@@ -1,7 +1,7 @@
 //! The viewer in a real window: each test starts its own Xvfb (a virtual X server; it
 //! picks a free display number itself), runs `tiledlight view` on it at 320x180 with a
-//! `--script` that drives the panel's code (method, light count, a bad glTF path, an
-//! impossible setting, a window resize), and checks the exit status, the state it reports
+//! `--script` that drives the panel's code (method, light count, shadows, transparent
+//! objects and the blend mode, a bad glTF path, an impossible setting, a window resize), and checks the exit status, the state it reports
 //! and the screenshots it saves. Xvfb missing is a failure, not a skip: CI (`.ci/run`)
 //! installs it.
 
@@ -108,7 +108,8 @@ fn viewer_renders_changes_method_and_lights_and_saves_screenshots() {
             "3",
             "--script",
             "method=deferred;msaa=4;lights=96;heatmap=on;heatmap=off;method=forward-plus;spot-lights=4;\
-             shadow-point-lights=2;shadow-spot-lights=1;shadow-size=128;shadow-filter=3;shadow-format=d32",
+             shadow-point-lights=2;shadow-spot-lights=1;shadow-size=128;shadow-filter=3;shadow-format=d32;\
+             grid-objects=24;transparent-objects=6;blend-mode=wboit",
             "--screenshot",
             "lit.png",
             "--screenshot-ui",
@@ -122,6 +123,7 @@ fn viewer_renders_changes_method_and_lights_and_saves_screenshots() {
         // The lights move (the animation is on): every caster's faces are drawn each frame.
         "viewer shadows: 2 point + 1 spot casters, 13 faces drawn by the last frame; \
          atlas 768x384 x1 layer, 128 px tiles, 3x3 PCF, d32; 13 faces;",
+        "viewer blended: 6 instances, weighted blended OIT (unsorted, approximate), --blend-mode wboit",
         "viewer size: 320x180",
         "viewer msaa: 4x",
         "viewer error: none",

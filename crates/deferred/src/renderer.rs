@@ -306,6 +306,9 @@ impl Renderer for DeferredRenderer {
     fn shadow_atlas(&self) -> Option<&ShadowAtlas> {
         self.common.shadows.as_ref()
     }
+    fn blended(&self) -> Option<&BlendedPath> {
+        self.blended.as_ref()
+    }
     fn lights_moved(&self, queue: &wgpu::Queue, lights: &PackedLights) -> Result<(), GpuError> {
         self.common.lights_moved(queue, lights)
     }

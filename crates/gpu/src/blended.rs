@@ -515,6 +515,11 @@ impl BlendedPath {
     pub fn instance_count(&self) -> usize {
         self.instances.len()
     }
+
+    /// How the layer is composited (the renderer's settings' `blend`).
+    pub fn mode(&self) -> BlendMode {
+        self.mode
+    }
 }
 
 /// The composite pipeline and its bind group over `layer` (and, for weighted blended OIT,

@@ -5,6 +5,7 @@
 
 use tiledlight_cull::{Camera, TileGrid};
 
+use crate::blended::BlendedPath;
 use crate::context::GpuContext;
 use crate::depth_prepass::DEPTH_FORMAT;
 use crate::error::GpuError;
@@ -211,6 +212,11 @@ pub trait Renderer {
     }
     /// The shadow atlas, when some light casts a shadow.
     fn shadow_atlas(&self) -> Option<&ShadowAtlas> {
+        None
+    }
+    /// The alpha-blended geometry's passes, when the scene has blended materials (reports
+    /// read its instance count, light grid and memory through a `dyn Renderer`).
+    fn blended(&self) -> Option<&BlendedPath> {
         None
     }
     /// Call after the lights moved on the GPU (their buffers rewritten), with the lights as

@@ -6,7 +6,9 @@
 //! out by [`Prepared::reconfigure`], so the viewer and the measurement lab rebuild only
 //! what a change needs. [`culling_stats`] reads a frame's per-tile light counts back
 //! for reports and tests. Shadow-casting lights are settings too (how many of each kind,
-//! the atlas tile size, filter and format), uploaded with the lights.
+//! the atlas tile size, filter and format), uploaded with the lights; so is alpha-blended
+//! geometry (transparent grid objects of the default scene, and the blend mode: sorted or
+//! weighted blended OIT), with [`blended_stats`] on its own light grid.
 //!
 //! Modules:
 //! - [`settings`]: [`Settings`], [`Method`], [`SceneSource`], validation, what the
@@ -15,7 +17,8 @@
 //! - [`camera`]: [`choose_camera`], [`camera_from_desc`], [`frame_bounds`] (no GPU);
 //! - [`load`]: [`SceneCpu`], [`LightSummary`] (files and CPU work, no GPU);
 //! - [`prepared`]: [`Prepared`] (the GPU side);
-//! - [`stats`]: [`CullingStats`], [`culling_stats`], [`group_digits`], [`shadow_atlas_description`];
+//! - [`stats`]: [`CullingStats`], [`culling_stats`], [`BlendedStats`], [`blended_stats`],
+//!   [`group_digits`], [`shadow_atlas_description`];
 //! - [`animate`]: [`LightAnimator`], the lights circling the scene (the viewer's animation,
 //!   `bench --move-lights`).
 //!
@@ -39,4 +42,4 @@ pub use load::{LightSummary, SceneCpu};
 pub use prepared::Prepared;
 pub use rebuild::{rebuild_plan, Rebuild, Reload};
 pub use settings::{CameraBookmark, Method, SceneSource, Settings, DEFAULT_POINT_LIGHTS};
-pub use stats::{culling_stats, group_digits, shadow_atlas_description, CullingStats};
+pub use stats::{blended_stats, culling_stats, group_digits, shadow_atlas_description, BlendedStats, CullingStats};

@@ -70,7 +70,7 @@ fn load_scene(settings: &Settings) -> Result<(Scene, usize)> {
             let opts = DefaultSceneOptions {
                 grid_objects: settings.grid_objects,
                 density: settings.density,
-                ..DefaultSceneOptions::default()
+                transparent_objects: settings.transparent_objects,
             };
             let scene = default_scene(&opts).context("building the default scene")?;
             Ok((scene, 0))
@@ -121,6 +121,14 @@ mod tests {
         assert!(!cpu.camera_source.is_empty());
         // The same settings give the same lights.
         assert_eq!(SceneCpu::load(&s).unwrap().lights, cpu.lights);
+    }
+
+    #[test]
+    fn transparent_objects_reach_the_default_scene() {
+        let s = Settings { width: 64, height: 36, lights: Some(4), grid_objects: 50, ..Settings::default() };
+        assert!(!SceneCpu::load(&s).unwrap().scene.has_blend());
+        let glass = Settings { transparent_objects: 20, ..s };
+        assert!(SceneCpu::load(&glass).unwrap().scene.has_blend());
     }
 
     #[test]

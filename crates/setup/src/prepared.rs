@@ -25,7 +25,7 @@ use crate::camera::choose_camera;
 use crate::load::{build_lights, LightSummary, SceneCpu};
 use crate::rebuild::{rebuild_plan, Rebuild, Reload};
 use crate::settings::{Method, Settings};
-use crate::stats::{culling_stats, group_digits, CullingStats};
+use crate::stats::{blended_stats, culling_stats, group_digits, BlendedStats, CullingStats};
 
 /// Everything a run needs before a renderer exists: the GPU, the uploaded scene and
 /// lights, the camera, and what to print about them.
@@ -53,6 +53,9 @@ pub struct Prepared {
     pub bounds: Aabb,
     /// The lights the scene file brought along (before the random ones).
     pub file_lights: Vec<Light>,
+    /// Some material of the scene is alpha-blended (transparent grid objects, a glTF
+    /// `BLEND` material): renderers draw it through their blended path.
+    pub has_blend: bool,
     /// The settings as given (capacity possibly open): what [`Prepared::reconfigure`]
     /// plans from.
     requested: Settings,
@@ -133,6 +136,7 @@ impl Prepared {
             camera: cpu.camera,
             camera_source: cpu.camera_source,
             bounds: cpu.scene.bounds,
+            has_blend: cpu.scene.has_blend(),
             file_lights: cpu.scene.lights,
             scene_camera: cpu.scene.camera,
             gpu_errors,
@@ -194,6 +198,7 @@ impl Prepared {
         self.camera = cpu.camera;
         self.camera_source = cpu.camera_source;
         self.bounds = cpu.scene.bounds;
+        self.has_blend = cpu.scene.has_blend();
         self.file_lights = cpu.scene.lights;
         self.scene_camera = cpu.scene.camera;
         Ok(())
@@ -290,6 +295,12 @@ impl Prepared {
         culling_stats(&self.ctx, renderer, &self.settings.cull_options())
     }
 
+    /// The blended geometry of the last frame `renderer` (built by this run) drew:
+    /// [`blended_stats`] with this run's device; None without blended geometry.
+    pub fn blended_stats(&self, renderer: &dyn Renderer) -> Result<Option<BlendedStats>> {
+        blended_stats(&self.ctx, renderer)
+    }
+
     /// Fails with the first GPU error wgpu raised outside an error scope, if any.
     pub fn check_gpu_errors(&self) -> Result<()> {
         let errors = self.gpu_errors.lock().map(|v| v.clone()).unwrap_or_default();
@@ -358,6 +369,10 @@ impl Prepared {
         // Only when some light casts a shadow.
         if let Some(shadows) = a.shadow_description() {
             lines.push(("shadows".into(), shadows));
+        }
+        // Only when the scene has blended geometry.
+        if let Some(blended) = a.blend_description(self.has_blend) {
+            lines.push(("blended".into(), blended));
         }
         lines
     }

@@ -4,7 +4,7 @@
 //!
 //! | changed | reload | camera | renderer |
 //! | --- | --- | --- | --- |
-//! | scene, grid objects, density (threshold of a glTF scene's own lights) | scene + all lights | yes | yes |
+//! | scene, grid objects, density, transparent objects (threshold of a glTF scene's own lights) | scene + all lights | yes | yes |
 //! | random point/spot light counts | new light buffers (bind groups and list capacity follow the count) | | yes |
 //! | shadow-casting point/spot light counts | new light buffers (the casters are ordered first) | | yes |
 //! | seed, threshold (same counts) | light data rewritten in place (renderers with shadows are told: `Renderer::lights_moved`) | | |
@@ -12,6 +12,7 @@
 //! | width, height | | yes (aspect ratio) | yes |
 //! | method, tile size, capacity, culling tests, half-z, G-buffer targets, MSAA, edge test | | | yes |
 //! | shadow tile size, filter, format (while some light casts a shadow; unused otherwise) | | | yes |
+//! | blend mode (while the scene may have blended geometry: transparent objects or a glTF file; unused otherwise) | | | yes |
 //! | exposure | | | no: `exposure` (the tonemap pass's uniform is rewritten) |
 //!
 //! Pure data: depends on [`crate::settings`] only.
@@ -64,6 +65,7 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
     let scene = a.scene != b.scene
         || a.grid_objects != b.grid_objects
         || a.density != b.density
+        || a.transparent_objects != b.transparent_objects
         // A glTF file's own lights get their radii from the threshold when it is loaded.
         || (file_scene && a.threshold != b.threshold);
     let reload = if scene {
@@ -91,7 +93,9 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || a.edge_distance != b.edge_distance
         || a.edge_normal_deg != b.edge_normal_deg
         // How shadows are drawn matters only while some light casts one.
-        || (b.has_shadows() && a.shadow_options() != b.shadow_options());
+        || (b.has_shadows() && a.shadow_options() != b.shadow_options())
+        // So does how blended geometry is composited, while there may be some.
+        || (b.may_blend() && a.blend_mode != b.blend_mode);
     Rebuild { reload, camera, renderer, exposure: a.exposure != b.exposure }
 }
 
@@ -101,6 +105,7 @@ mod tests {
     use crate::settings::{CameraBookmark, Method};
     use glam::Vec3;
     use tiledlight_cull::shadow::ShadowFormat;
+    use tiledlight_gpu::features::BlendMode;
     use tiledlight_scene::{CameraDesc, GridDensity};
 
     fn base() -> Settings {
@@ -175,6 +180,20 @@ mod tests {
     }
 
     #[test]
+    fn blend_mode_rebuilds_the_renderer_while_the_scene_may_blend() {
+        let wboit = |s: &mut Settings| s.blend_mode = BlendMode::WeightedOit;
+        let glass = Settings { grid_objects: 50, transparent_objects: 20, ..base() };
+        assert_eq!(with_from(glass.clone(), wboit), RENDERER);
+        let back = Settings { blend_mode: BlendMode::WeightedOit, ..glass };
+        assert_eq!(with_from(back, |s| s.blend_mode = BlendMode::Sorted), RENDERER);
+        // A glTF file's blended materials are found when it loads: rebuilt too.
+        assert_eq!(with_from(Settings { scene: SceneSource::File("a.glb".into()), ..base() }, wboit), RENDERER);
+        // Without blended geometry the renderer does not use it.
+        assert!(with(wboit).is_nothing());
+        assert!(with_from(Settings { grid_objects: 50, ..base() }, wboit).is_nothing());
+    }
+
+    #[test]
     fn exposure_rebuilds_nothing() {
         assert_eq!(with(|s| s.exposure = 2.0), Rebuild { exposure: true, ..Rebuild::default() });
         assert!(!with(|s| s.exposure = 2.0).renderer);
@@ -204,6 +223,11 @@ mod tests {
         let scene = Rebuild { reload: Reload::Scene, camera: true, renderer: true, exposure: false };
         assert_eq!(with(|s| s.grid_objects = 10), scene);
         assert_eq!(with(|s| s.density = GridDensity::High), scene);
+        assert_eq!(with_from(Settings { grid_objects: 50, ..base() }, |s| s.transparent_objects = 20), scene);
+        let glass = Settings { grid_objects: 50, transparent_objects: 20, ..base() };
+        assert_eq!(with_from(glass.clone(), |s| s.transparent_objects = 0), scene);
+        // A new count and a new mode together: the scene (and so the renderer).
+        assert_eq!(with_from(glass, |s| (s.transparent_objects, s.blend_mode) = (10, BlendMode::WeightedOit)), scene);
         assert_eq!(with(|s| s.scene = SceneSource::File("a.glb".into())), scene);
         assert_eq!(with(|s| (s.scene, s.seed) = (SceneSource::File("a.glb".into()), 5)), scene);
     }

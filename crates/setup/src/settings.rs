@@ -9,7 +9,7 @@
 //!
 //! Pure data, no GPU work and no files: depends on tiledlight-cull, tiledlight-scene
 //! (limits, `GridDensity`, `CameraDesc`) and the renderers' settings types
-//! (tiledlight-gpu's `CullOptions`, tiledlight-forward, tiledlight-deferred).
+//! (tiledlight-gpu's `CullOptions` and `BlendMode`, tiledlight-forward, tiledlight-deferred).
 
 use std::fmt;
 use std::path::PathBuf;
@@ -21,6 +21,7 @@ use tiledlight_cull::tiles::MAX_SCREEN_SIDE;
 use tiledlight_deferred::shading::workgroup_bytes_besides_lists;
 use tiledlight_deferred::{DeferredSettings, EdgeTest};
 use tiledlight_forward::ForwardSettings;
+use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::light_cull::{CullOptions, CULL_WORKGROUP_BYTES};
 use tiledlight_scene::{CameraDesc, GridDensity, DEFAULT_LIGHT_THRESHOLD, MAX_GRID_OBJECTS, MAX_LIGHTS};
 
@@ -135,6 +136,9 @@ pub struct Settings {
     pub grid_objects: u32,
     /// Tessellation of the grid objects.
     pub density: GridDensity,
+    /// Grid objects drawn as alpha-blended glass spheres, 0 to `grid_objects` (the default
+    /// scene only: a glTF file's `BLEND` materials are drawn blended on their own).
+    pub transparent_objects: u32,
     /// Image width in pixels.
     pub width: u32,
     /// Image height in pixels.
@@ -177,6 +181,10 @@ pub struct Settings {
     pub shadow_filter: u32,
     /// Depth format of the shadow atlas.
     pub shadow_format: ShadowFormat,
+    /// How alpha-blended geometry is composited: sorted back to front ("over"), or weighted
+    /// blended order-independent transparency (unsorted, approximate). Used only when the
+    /// scene has blended materials.
+    pub blend_mode: BlendMode,
     /// A pinned camera; None: the scene's own camera, else one framing the scene.
     pub camera: Option<CameraBookmark>,
 }
@@ -192,6 +200,7 @@ impl Default for Settings {
             threshold: DEFAULT_LIGHT_THRESHOLD,
             grid_objects: 0,
             density: GridDensity::Medium,
+            transparent_objects: 0,
             width: 1920,
             height: 1080,
             method: Method::ForwardPlus,
@@ -211,6 +220,7 @@ impl Default for Settings {
             shadow_size: ShadowOptions::default().tile_size,
             shadow_filter: ShadowOptions::default().filter.size(),
             shadow_format: ShadowOptions::default().format,
+            blend_mode: BlendMode::default(),
             camera: None,
         }
     }
@@ -277,6 +287,20 @@ impl Settings {
             "--grid-objects {}: must be between 0 and {MAX_GRID_OBJECTS}",
             self.grid_objects
         );
+        match &self.scene {
+            SceneSource::Default => ensure!(
+                self.transparent_objects <= self.grid_objects,
+                "--transparent-objects {}: must be between 0 and the grid objects (--grid-objects {})",
+                self.transparent_objects,
+                self.grid_objects
+            ),
+            SceneSource::File(_) => ensure!(
+                self.transparent_objects == 0,
+                "--transparent-objects {}: transparent grid objects exist only in the default scene (a glTF \
+                 file's BLEND materials are drawn blended on their own)",
+                self.transparent_objects
+            ),
+        }
         ensure!(
             TILE_SIZES.contains(&self.shadow_size),
             "--shadow-size {}: must be between {} and {} texels",
@@ -359,6 +383,7 @@ impl Settings {
             heatmap,
             msaa: self.msaa,
             shadows: self.shadow_options(),
+            blend: self.blend_mode,
             ..ForwardSettings::default()
         }
     }
@@ -373,6 +398,7 @@ impl Settings {
             msaa: self.msaa,
             edge: EdgeTest { distance: self.edge_distance, normal_deg: self.edge_normal_deg },
             shadows: self.shadow_options(),
+            blend: self.blend_mode,
             ..DeferredSettings::default()
         }
     }
@@ -410,6 +436,29 @@ impl Settings {
         })
     }
 
+    /// True when the scene may have blended geometry, as far as the settings know:
+    /// transparent grid objects, or a glTF file (whose `BLEND` materials are found when it
+    /// loads). The blend mode matters only then.
+    pub fn may_blend(&self) -> bool {
+        self.transparent_objects > 0 || matches!(self.scene, SceneSource::File(_))
+    }
+
+    /// One line on the blended geometry, e.g. "20 transparent grid objects (glass), sorted
+    /// back to front"; None when there is none (no transparent objects and
+    /// `scene_has_blend` false: the loaded scene has no blended material).
+    pub fn blend_description(&self, scene_has_blend: bool) -> Option<String> {
+        if self.transparent_objects == 0 && !scene_has_blend {
+            return None;
+        }
+        let what = if self.transparent_objects > 0 {
+            let s = if self.transparent_objects == 1 { "" } else { "s" };
+            format!("{} transparent grid object{s} (glass)", self.transparent_objects)
+        } else {
+            "the scene's blended materials".to_string()
+        };
+        Some(format!("{what}, {}", blend_mode_description(self.blend_mode)))
+    }
+
     /// One line of the culling options, e.g. "16 px tiles, capacity 512, tests: planes+aabb".
     pub fn culling_description(&self) -> String {
         let mut tests = String::from("planes");
@@ -425,6 +474,15 @@ impl Settings {
         let levels = if self.flat_cull { "one level" } else { "two levels (64 px cells, then tiles)" };
         format!("{} px tiles, capacity {}, {levels}, tests: {tests}", self.tile_size, self.capacity())
     }
+}
+
+/// "sorted back to front" or "weighted blended OIT (unsorted)", with the flag value.
+pub fn blend_mode_description(mode: BlendMode) -> String {
+    let how = match mode {
+        BlendMode::Sorted => "sorted back to front",
+        BlendMode::WeightedOit => "weighted blended OIT (unsorted, approximate)",
+    };
+    format!("{how}, --blend-mode {}", mode.name())
 }
 
 /// "256 px tiles, 5x5 PCF, d16" (1x1 is "1 tap").
@@ -471,6 +529,15 @@ mod tests {
         assert!(err(Settings { threshold: 0.0, ..small() }).contains("--threshold"));
         assert!(err(Settings { exposure: -1.0, ..small() }).contains("--exposure"));
         assert!(err(Settings { grid_objects: 281, ..small() }).contains("--grid-objects 281"));
+        assert_eq!(
+            err(Settings { grid_objects: 10, transparent_objects: 11, ..small() }),
+            "--transparent-objects 11: must be between 0 and the grid objects (--grid-objects 10)"
+        );
+        assert!(err(Settings { transparent_objects: 1, ..small() }).contains("(--grid-objects 0)"));
+        let glass_on_file = Settings { scene: file("x.glb"), transparent_objects: 2, ..small() };
+        assert!(err(glass_on_file)
+            .starts_with("--transparent-objects 2: transparent grid objects exist only in the default scene"));
+        Settings { grid_objects: 280, transparent_objects: 280, ..small() }.validate().unwrap();
         assert!(err(Settings { scene: file("x.obj"), ..small() }).contains("--scene x.obj"));
         let grid_on_file = Settings { scene: file("x.glb"), grid_objects: 3, ..small() };
         assert!(err(grid_on_file).contains("default scene"));
@@ -537,6 +604,28 @@ mod tests {
         assert_eq!(
             one.shadow_description().unwrap(),
             "0 point + 1 spot casters (the brightest of each kind), 512 px tiles, 1 tap, d32"
+        );
+        // The blend mode reaches both renderers; blended geometry is mentioned only when used.
+        assert_eq!((f.blend, d.blend), (BlendMode::Sorted, BlendMode::Sorted));
+        let oit = Settings { blend_mode: BlendMode::WeightedOit, ..small() };
+        assert_eq!(
+            (oit.forward_settings(false).blend, oit.deferred_settings(false).blend),
+            (BlendMode::WeightedOit, BlendMode::WeightedOit)
+        );
+        assert_eq!(oit.blend_description(false), None);
+        assert!(!oit.may_blend());
+        let glass = Settings { grid_objects: 50, transparent_objects: 20, ..oit.clone() };
+        assert!(glass.may_blend());
+        assert_eq!(
+            glass.blend_description(true).unwrap(),
+            "20 transparent grid objects (glass), weighted blended OIT (unsorted, approximate), --blend-mode wboit"
+        );
+        let gltf = Settings { scene: file("a.glb"), ..small() };
+        assert!(gltf.may_blend());
+        assert_eq!(gltf.blend_description(false), None);
+        assert_eq!(
+            gltf.blend_description(true).unwrap(),
+            "the scene's blended materials, sorted back to front, --blend-mode sorted"
         );
         let tiled: Vec<&str> = Method::ALL.iter().filter(|m| m.is_tiled()).map(|m| m.name()).collect();
         assert_eq!(tiled, ["forward-plus", "deferred"]);

@@ -1,24 +1,31 @@
 //! Culling statistics of one frame, read back from the GPU ([`culling_stats`]): lights
 //! per list over the tiles with geometry, the largest list, lists that lost lights and
 //! (tile, light) pairs, as `render`, the lab, the viewer and the GPU tests report them;
-//! the shadow atlas's line ([`shadow_atlas_description`]); and [`group_digits`], the
-//! thousands separators of the reports.
+//! the same for the alpha-blended geometry's own light grid, with its instances, blend
+//! mode and memory ([`blended_stats`]); the shadow atlas's line
+//! ([`shadow_atlas_description`]); and [`group_digits`], the thousands separators of the
+//! reports.
 //!
 //! Depends on tiledlight-gpu (readback, the `Renderer` trait, `CullOptions`, the shadow
-//! atlas), tiledlight-cull (tile depth bounds, atlas layout) and
-//! [`crate::settings::shadow_options_description`].
+//! atlas, the blended path), tiledlight-cull (tile depth bounds, the blended depth test,
+//! atlas layout) and [`crate::settings`]'s descriptions.
 
 use anyhow::{Context, Result};
+use tiledlight_cull::reference::depth_tested_blended;
 use tiledlight_cull::shadow::{AtlasLayout, ShadowOptions};
 use tiledlight_cull::tiles::tile_depth_bounds_samples;
+use tiledlight_cull::TileGrid;
 use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::memory::format_bytes;
+use tiledlight_gpu::readback::read_depth;
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::GpuContext;
 
-use crate::settings::shadow_options_description;
+use crate::settings::{blend_mode_description, shadow_options_description};
 
 /// Culling statistics of one frame, read back from the GPU.
 #[derive(Clone, Debug, PartialEq)]
@@ -51,10 +58,17 @@ pub struct CullingStats {
 
 impl std::fmt::Display for CullingStats {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.write(f, "geometry")
+    }
+}
+
+impl CullingStats {
+    /// The one-line report, the tiles counted being those with `geometry`.
+    fn write(&self, f: &mut std::fmt::Formatter<'_>, geometry: &str) -> std::fmt::Result {
         let per = if self.lists_per_tile == 1 { "tile" } else { "list (half-z)" };
         write!(
             f,
-            "mean {:.1}, max {} lights per {per} over {} of {} tiles with geometry; {} lists longer than the workgroup list ({}), culled twice; ",
+            "mean {:.1}, max {} lights per {per} over {} of {} tiles with {geometry}; {} lists longer than the workgroup list ({}), culled twice; ",
             self.mean_per_list,
             self.max_per_list,
             self.tiles_with_geometry,
@@ -84,17 +98,29 @@ pub fn culling_stats(ctx: &GpuContext, renderer: &dyn Renderer, options: &CullOp
     let Some(grid) = renderer.light_grid() else {
         return Ok(None);
     };
-    let (device, queue) = (&ctx.device, &ctx.queue);
-    let counts = grid.read_counts(device, queue).context("reading the tile counts back")?;
-    let header = grid.status(device, queue).context("reading the light grid's header back")?.header;
     let depth = renderer.read_depth(ctx).context("reading the depth buffer back")?;
-    let grid = renderer.grid();
+    let depth = (depth.as_slice(), renderer.targets().samples);
+    grid_stats(ctx, grid, renderer.grid(), depth, options).map(Some)
+}
+
+/// The statistics of the lists in `light_grid` over the tiles of `grid`, counting the
+/// tiles where `depth` (`samples` values per pixel) has some geometry (a value > 0).
+fn grid_stats(
+    ctx: &GpuContext,
+    light_grid: &LightGrid,
+    grid: TileGrid,
+    (depth, samples): (&[f32], u32),
+    options: &CullOptions,
+) -> Result<CullingStats> {
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let counts = light_grid.read_counts(device, queue).context("reading the tile counts back")?;
+    let header = light_grid.status(device, queue).context("reading the light grid's header back")?.header;
     let per = options.lists_per_tile() as usize;
     let counts = &counts[..grid.tile_count() * per];
     let (mut sum, mut n, mut tiles_with_geometry) = (0u64, 0u64, 0usize);
     for ty in 0..grid.tiles_y {
         for tx in 0..grid.tiles_x {
-            if tile_depth_bounds_samples(&grid, &depth, renderer.targets().samples, tx, ty).is_none() {
+            if tile_depth_bounds_samples(&grid, depth, samples, tx, ty).is_none() {
                 continue;
             }
             tiles_with_geometry += 1;
@@ -105,7 +131,7 @@ pub fn culling_stats(ctx: &GpuContext, renderer: &dyn Renderer, options: &CullOp
             }
         }
     }
-    Ok(Some(CullingStats {
+    Ok(CullingStats {
         lists_per_tile: per as u32,
         tiles_with_geometry,
         tiles: grid.tile_count(),
@@ -117,7 +143,62 @@ pub fn culling_stats(ctx: &GpuContext, renderer: &dyn Renderer, options: &CullOp
         pairs: counts.iter().map(|&c| u64::from(c)).sum(),
         capacity: options.capacity,
         grid_capacity: header.capacity,
-    }))
+    })
+}
+
+/// The alpha-blended geometry of one frame: its instances, how it was composited, its
+/// light lists (tiled methods) and its memory.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BlendedStats {
+    /// Blended instances drawn.
+    pub instances: usize,
+    /// How the layer was composited.
+    pub mode: BlendMode,
+    /// The blended light grid's statistics, over the tiles with blended geometry in front of
+    /// the opaque surfaces (one list per tile; None for brute force, which has no lists).
+    pub culling: Option<CullingStats>,
+    /// GPU memory of the blended path (its depth buffer, layer targets and light grid), bytes.
+    pub memory: u64,
+}
+
+impl std::fmt::Display for BlendedStats {
+    /// "20 instances, sorted back to front, --blend-mode sorted; lists: mean 2.1, max 9
+    /// lights per tile over 40 of 510 tiles with blended geometry; ...; 1.50 MiB".
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = if self.instances == 1 { "" } else { "s" };
+        write!(f, "{} instance{s}, {}; ", self.instances, blend_mode_description(self.mode))?;
+        match &self.culling {
+            Some(c) => {
+                f.write_str("lists: ")?;
+                c.write(f, "blended geometry")?;
+                f.write_str("; ")?;
+            }
+            None => f.write_str("no lists (every light for every pixel); ")?,
+        }
+        write!(f, "{}", format_bytes(self.memory))
+    }
+}
+
+/// The blended geometry of the last frame `renderer` (built on `ctx`) drew: None when its
+/// scene has none. Its light lists are read back with the opaque and the blended depth;
+/// the tiles counted are those with a blended sample in front of the opaque depth (the
+/// blended culling's own test, `tiledlight_cull::reference::depth_tested_blended`).
+pub fn blended_stats(ctx: &GpuContext, renderer: &dyn Renderer) -> Result<Option<BlendedStats>> {
+    let Some(b) = renderer.blended() else {
+        return Ok(None);
+    };
+    let culling = match &b.culling {
+        None => None,
+        Some(c) => {
+            let opaque = renderer.read_depth(ctx).context("reading the depth buffer back")?;
+            let blended = read_depth(&ctx.device, &ctx.queue, &b.depth_texture)
+                .context("reading the blended depth buffer back")?;
+            let tested = depth_tested_blended(&opaque, &blended);
+            let depth = (tested.as_slice(), renderer.targets().samples);
+            Some(grid_stats(ctx, &c.grid, renderer.grid(), depth, &c.options)?)
+        }
+    };
+    Ok(Some(BlendedStats { instances: b.instance_count(), mode: b.mode(), culling, memory: b.memory.total() }))
 }
 
 /// "atlas 1536x3584 x1 layer, 256 px tiles, 5x5 PCF, d16; 52 faces": where the shadow
@@ -197,7 +278,21 @@ mod tests {
             "mean 1.3, max 9 lights per list (half-z) over 3 of 4 tiles with geometry; 2 lists longer than the \
              workgroup list (64), culled twice; 0 dropped (light grid of 20,000 indices); 12,345 tile-light pairs"
         );
-        let dropped = CullingStats { overflowing: 3, dropped: 1500, ..s };
+        let dropped = CullingStats { overflowing: 3, dropped: 1500, ..s.clone() };
         assert!(dropped.to_string().contains("DROPPED 1,500 lights from 3 lists (light grid of 20,000 indices full)"));
+        let one = CullingStats { lists_per_tile: 1, ..s };
+        let b = BlendedStats { instances: 20, mode: BlendMode::Sorted, culling: Some(one), memory: 3 << 20 };
+        assert_eq!(
+            b.to_string(),
+            "20 instances, sorted back to front, --blend-mode sorted; lists: mean 1.3, max 9 lights per tile over 3 of \
+             4 tiles with blended geometry; 2 lists longer than the workgroup list (64), culled twice; 0 dropped \
+             (light grid of 20,000 indices); 12,345 tile-light pairs; 3.00 MiB"
+        );
+        let brute = BlendedStats { instances: 1, mode: BlendMode::WeightedOit, culling: None, memory: 1024 };
+        assert_eq!(
+            brute.to_string(),
+            "1 instance, weighted blended OIT (unsorted, approximate), --blend-mode wboit; no lists (every light for \
+             every pixel); 1.00 KiB"
+        );
     }
 }

@@ -5,10 +5,13 @@
 //! new lights. A change that fails (a missing glTF file) changes nothing. Shadow casters
 //! travel the same way: a caster change uploads new lights, a light-data change keeps the
 //! renderer, which redraws every caster's faces once told (`Renderer::lights_moved`).
+//! Transparent grid objects reload the scene and bring the blended path; the blend mode
+//! rebuilds only the renderer.
 
 use tiledlight_cull::light::try_pack_lights_with_casters;
 use tiledlight_cull::shadow::ShadowFormat;
 use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_scene::GridDensity;
 use tiledlight_setup::{rebuild_plan, Method, Prepared, Rebuild, Reload, SceneCpu, SceneSource, Settings};
@@ -157,5 +160,65 @@ fn shadow_casters_follow_the_settings_through_reconfigure() {
     let s4 = Settings { shadow_spot_lights: 0, ..s3 };
     assert_eq!(prep.reconfigure(&s4).unwrap().reload, Reload::LightBuffers);
     assert!(prep.renderer(false).unwrap().shadow_atlas().is_none());
+    prep.check_gpu_errors().unwrap();
+}
+
+#[test]
+fn transparent_objects_and_the_blend_mode_follow_the_settings_through_reconfigure() {
+    let s0 = Settings { width: 64, height: 36, lights: Some(32), grid_objects: 40, ..Settings::default() };
+    let mut prep = Prepared::new(&s0).unwrap();
+    let mut timer = GpuTimer::new(&prep.ctx).unwrap();
+    let mut r = prep.renderer(false).unwrap();
+    r.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
+    // No transparent objects: no blended path, no report line.
+    assert!(!prep.has_blend && r.blended().is_none());
+    assert_eq!(prep.blended_stats(r.as_ref()).unwrap(), None);
+    assert!(prep.describe().iter().all(|(k, _)| k != "blended"));
+    drop(r);
+
+    // Glass: the scene is loaded again and the renderer draws 10 blended instances.
+    let s1 = Settings { transparent_objects: 10, ..s0.clone() };
+    let plan = prep.reconfigure(&s1).unwrap();
+    assert_eq!(plan, Rebuild { reload: Reload::Scene, camera: true, renderer: true, exposure: false });
+    assert_matches_a_fresh_load(&prep, &s1);
+    assert!(prep.has_blend);
+    let line = prep.describe().into_iter().find(|(k, _)| k == "blended").expect("a blended line").1;
+    assert_eq!(line, "10 transparent grid objects (glass), sorted back to front, --blend-mode sorted");
+    let mut r = prep.renderer(false).unwrap();
+    r.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
+    let b = prep.blended_stats(r.as_ref()).unwrap().expect("blended geometry");
+    assert_eq!((b.instances, b.mode), (10, BlendMode::Sorted));
+    let lists = b.culling.as_ref().expect("Forward+ culls the blended geometry");
+    assert_eq!(lists.lists_per_tile, 1);
+    assert!(lists.tiles_with_geometry > 0 && lists.pairs > 0, "{b}");
+    assert!(b.memory > 0 && r.memory().entries.iter().any(|(c, _)| c.starts_with("blended.")), "{b}");
+    let sorted = r.read_hdr(&prep.ctx).unwrap();
+    drop(r);
+
+    // The blend mode: the renderer only.
+    let s2 = Settings { blend_mode: BlendMode::WeightedOit, ..s1.clone() };
+    assert_eq!(prep.reconfigure(&s2).unwrap(), Rebuild { renderer: true, ..Rebuild::default() });
+    let mut r = prep.renderer(false).unwrap();
+    r.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
+    let b = prep.blended_stats(r.as_ref()).unwrap().expect("blended geometry");
+    assert_eq!((b.instances, b.mode), (10, BlendMode::WeightedOit));
+    assert_ne!(r.read_hdr(&prep.ctx).unwrap(), sorted, "another way of compositing, another image");
+    drop(r);
+
+    // Tiled Deferred culls its own blended lists too; brute force has none.
+    for (method, lists) in [(Method::Deferred, true), (Method::BruteForce, false)] {
+        let s = Settings { method, ..s2.clone() };
+        assert_eq!(prep.reconfigure(&s).unwrap(), Rebuild { renderer: true, ..Rebuild::default() });
+        let mut r = prep.renderer(false).unwrap();
+        r.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
+        let b = prep.blended_stats(r.as_ref()).unwrap().expect("blended geometry");
+        assert_eq!((b.instances, b.culling.is_some()), (10, lists), "{method:?}: {b}");
+    }
+
+    // Back to no glass: the blend mode no longer matters.
+    let s3 = Settings { transparent_objects: 0, ..s2 };
+    assert_eq!(prep.reconfigure(&s3).unwrap().reload, Reload::Scene);
+    assert!(!prep.has_blend);
+    assert!(prep.reconfigure(&Settings { blend_mode: BlendMode::Sorted, ..s3 }).unwrap().is_nothing());
     prep.check_gpu_errors().unwrap();
 }

@@ -32,6 +32,7 @@ use tiledlight_gpu::readback::read_texture;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::{ContextOptions, GpuContext};
+use tiledlight_setup::settings::blend_mode_description;
 use tiledlight_setup::{
     group_digits, shadow_atlas_description, LightAnimator, Prepared, Reload, SceneCpu, SceneSource,
 };
@@ -536,6 +537,7 @@ impl Viewer {
             memory: self.renderer.memory(),
             capacity: self.prep.settings.capacity(),
             shadow_atlas: self.renderer.shadow_atlas(),
+            blended: self.renderer.blended(),
             size: (self.prep.settings.width, self.prep.settings.height),
             stats: &self.stats,
         };
@@ -710,6 +712,9 @@ impl Viewer {
                 a.faces_drawn_last_frame(),
                 shadow_atlas_description(a)
             );
+        }
+        if let Some(b) = self.renderer.blended() {
+            println!("viewer blended: {} instances, {}", b.instance_count(), blend_mode_description(b.mode()));
         }
         if let Some(c) = &self.stats.culling {
             println!("viewer culling: {c}");

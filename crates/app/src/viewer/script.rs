@@ -11,7 +11,7 @@ use clap::ValueEnum;
 
 use super::camera_control::Mode;
 use super::settings::Settings;
-use crate::scene_setup::{DensityArg, MethodArg, ShadowFormatArg};
+use crate::scene_setup::{BlendModeArg, DensityArg, MethodArg, ShadowFormatArg};
 use tiledlight_setup::SceneSource;
 
 /// One step of a script.
@@ -35,7 +35,8 @@ pub enum Action {
 /// The keys `Action::Set` understands.
 pub const KEYS: &str = "method, lights, spot-lights, threshold, seed, tile-size, half-z, aabb, spot-cone, \
                         grid-objects, density, gbuffer-rts, msaa, shadow-point-lights, shadow-spot-lights, \
-                        shadow-size, shadow-filter, shadow-format, heatmap, animate, vsync, scene, camera, window, wait";
+                        shadow-size, shadow-filter, shadow-format, transparent-objects, blend-mode, heatmap, \
+                        animate, vsync, scene, camera, window, wait";
 
 /// Parses a script; an unknown key or a malformed action is an error naming it.
 pub fn parse(script: &str) -> Result<Vec<Action>> {
@@ -112,6 +113,12 @@ pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
                 .map_err(|e| anyhow::anyhow!("--script: shadow-format={value}: {e}"))?
                 .into()
         }
+        "transparent-objects" => a.transparent_objects = number(key, value)?,
+        "blend-mode" => {
+            a.blend_mode = BlendModeArg::from_str(value, true)
+                .map_err(|e| anyhow::anyhow!("--script: blend-mode={value}: {e}"))?
+                .into()
+        }
         "half-z" => a.half_z = on_off(key, value)?,
         "aabb" => a.aabb = on_off(key, value)?,
         "spot-cone" => a.spot_cone = on_off(key, value)?,
@@ -154,6 +161,12 @@ mod tests {
         let a = &s.setup;
         assert_eq!((a.shadow_point_lights, a.shadow_spot_lights, a.shadow_size, a.shadow_filter), (8, 4, 512, 3));
         assert_eq!(a.shadow_format, tiledlight_cull::shadow::ShadowFormat::Depth32);
+        set(&mut s, "transparent-objects", "20").unwrap();
+        set(&mut s, "blend-mode", "wboit").unwrap();
+        assert_eq!(
+            (s.setup.transparent_objects, s.setup.blend_mode),
+            (20, tiledlight_gpu::features::BlendMode::WeightedOit)
+        );
     }
 
     #[test]
@@ -166,6 +179,8 @@ mod tests {
         assert!(e("heatmap=maybe").contains("expected on or off"));
         assert!(e("shadow-size=big").contains("shadow-size=big: not a number"));
         assert!(e("shadow-format=d24").contains("shadow-format=d24"));
+        assert!(e("transparent-objects=some").contains("transparent-objects=some: not a number"));
+        assert!(e("blend-mode=additive").contains("blend-mode=additive"));
         assert!(e("wait=-1").contains("wait=-1"));
         assert!(e("window=0x5").contains("WIDTHxHEIGHT"));
     }

@@ -130,6 +130,16 @@ mod tests {
         assert_eq!((p.setup.reload, p.renderer), (Reload::LightBuffers, true));
         let p = with(|s| (s.setup.shadow_point_lights, s.setup.shadow_filter) = (2, 1));
         assert_eq!((p.setup.reload, p.renderer), (Reload::LightBuffers, true));
+        let p = with(|s| (s.setup.grid_objects, s.setup.transparent_objects) = (50, 20));
+        assert_eq!((p.setup.reload, p.renderer), (Reload::Scene, true));
+        let mut glass = base();
+        (glass.setup.grid_objects, glass.setup.transparent_objects) = (50, 20);
+        let mut oit = glass.clone();
+        oit.setup.blend_mode = tiledlight_gpu::features::BlendMode::WeightedOit;
+        let p = plan(&glass, &oit);
+        assert_eq!((p.setup.reload, p.renderer, p.surface), (Reload::Nothing, true, false));
+        // Without blended geometry the mode is not used: nothing to rebuild.
+        assert!(with(|s| s.setup.blend_mode = tiledlight_gpu::features::BlendMode::WeightedOit).is_empty());
     }
 
     #[test]

@@ -1,10 +1,10 @@
 //! The viewer's egui panel, help overlay and input: the controls of TiledLighting11's
 //! sample (method, light counts, threshold, tile size, half-z, grid objects, G-buffer
 //! targets, MSAA, heat map with legend, shadow-casting point and spot lights with the
-//! shadow tile size, filter and format), scene and camera controls, and the statistics
-//! (per-pass GPU times with a rolling graph, frame time, visible lights, lights per tile,
-//! lists that lost lights to a full light grid, shadow faces drawn and the shadow atlas,
-//! GPU memory). Widgets edit a copy of the settings; the viewer applies
+//! shadow tile size, filter and format, transparent grid objects and the blend mode),
+//! scene and camera controls, and the statistics (per-pass GPU times with a rolling
+//! graph, frame time, visible lights, lights per tile, lists that lost lights to a full
+//! light grid, shadow faces drawn and the shadow atlas, blended instances, GPU memory). Widgets edit a copy of the settings; the viewer applies
 //! it ([`super::settings::plan`] decides what to rebuild). Keys and mouse steer the camera
 //! when egui does not want them. Depends on egui, tiledlight-setup (settings, statistics)
 //! and the viewer's other modules.
@@ -13,6 +13,8 @@ use std::collections::VecDeque;
 
 use egui::{Color32, RichText};
 use tiledlight_cull::shadow::ShadowFormat;
+use tiledlight_gpu::blended::BlendedPath;
+use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::memory::{format_bytes, MemoryReport};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::PassTime;
@@ -117,6 +119,8 @@ pub struct Info<'a> {
     pub capacity: u32,
     /// The renderer's shadow atlas, when lights cast shadows.
     pub shadow_atlas: Option<&'a ShadowAtlas>,
+    /// The renderer's blended path, when the scene has blended geometry.
+    pub blended: Option<&'a BlendedPath>,
     /// Render size in pixels.
     pub size: (u32, u32),
     /// Measurements.
@@ -321,6 +325,14 @@ fn stats_section(ui: &mut egui::Ui, info: &Info<'_>) {
             ui.label(format!("shadow atlas: {}", format_bytes(a.memory.total())))
                 .on_hover_text(atlas_layout_description(&a.layout, &a.options));
         }
+        if let Some(b) = info.blended {
+            ui.label(format!(
+                "blended: {} instances ({}), {}",
+                b.instance_count(),
+                b.mode().name(),
+                format_bytes(b.memory.total())
+            ));
+        }
         egui::CollapsingHeader::new(format!("GPU memory: {}", format_bytes(info.memory.total()))).show(ui, |ui| {
             egui::Grid::new("memory").num_columns(2).show(ui, |ui| {
                 for (c, b) in &info.memory.entries {
@@ -448,9 +460,37 @@ fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'
             if ui.button("load").clicked() && !st.scene_path.trim().is_empty() {
                 s.setup.scene = SceneSource::parse(st.scene_path.trim());
                 s.setup.grid_objects = 0;
+                s.setup.transparent_objects = 0;
             }
         });
         ui.checkbox(&mut s.vsync, "vsync");
+    });
+    transparency_controls(ui, s);
+}
+
+/// The transparent grid objects (0 to the grid objects, the default scene only) and how
+/// blended geometry is composited (also a glTF scene's BLEND materials).
+fn transparency_controls(ui: &mut egui::Ui, s: &mut Settings) {
+    egui::CollapsingHeader::new("Transparency").default_open(true).show(ui, |ui| {
+        let a = &mut s.setup;
+        let builtin = a.scene == SceneSource::Default;
+        // Fewer grid objects take the transparent ones down with them.
+        a.transparent_objects = a.transparent_objects.min(a.grid_objects);
+        ui.add_enabled_ui(builtin && a.grid_objects > 0, |ui| {
+            ui.add(
+                egui::Slider::new(&mut a.transparent_objects, 0..=a.grid_objects.max(1)).text("transparent objects"),
+            )
+            .on_hover_text("grid objects drawn as alpha-blended glass spheres, spread over the grid")
+            .on_disabled_hover_text("needs grid objects of the built-in scene");
+        });
+        a.transparent_objects = a.transparent_objects.min(a.grid_objects);
+        ui.horizontal(|ui| {
+            ui.label("blend");
+            ui.radio_value(&mut a.blend_mode, BlendMode::Sorted, "sorted")
+                .on_hover_text("blended instances sorted back to front and drawn over each other (exact)");
+            ui.radio_value(&mut a.blend_mode, BlendMode::WeightedOit, "WBOIT")
+                .on_hover_text("weighted blended order-independent transparency: no sort, approximate");
+        });
     });
 }
 
