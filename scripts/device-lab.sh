@@ -9,7 +9,8 @@
 # settings x 15 frames (the lowest thresholds list every light, ~160 ms a frame) plus the
 # CPU statistics (threaded, ~1-3 s a setting): 2-3 minutes. Each step has a timeout, and
 # both resume from their CSV if rerun with the same $OUT.
-# Usage: scripts/device-lab.sh [figure9] [accuracy] [deferred] [msaa]   (default: all four)
+# Usage: scripts/device-lab.sh [figure9] [accuracy] [deferred] [msaa] [blended]
+# (default: the first four)
 set -uo pipefail
 out=${OUT:-lab-out}
 mkdir -p "$out"
@@ -35,6 +36,12 @@ for s in $steps; do
   case $s in
   figure9)
     step 150 figure9 sweep --preset figure9 --frames 30 --warmup 10 --out "$out/figure9.csv"
+    ;;
+  blended)
+    # Issue 12: the cost and the image error (against brute force with the sorted blended
+    # layer) of 0/10/50/280 glass objects, sorted and weighted blended OIT, Forward+.
+    step 300 blended accuracy --grid-objects 280 --density medium --axis threshold=0.05 --axis culling=planes \
+      --axis transparent-objects=0,10,50,280 --axis blend-mode=sorted,wboit --frames 15 --out "$out/blended.csv"
     ;;
   accuracy)
     # Forward+: its image is the brute force's with the same cutoff, so the error is the
