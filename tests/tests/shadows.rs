@@ -21,8 +21,8 @@
 //! radiance (the same renderer without casters).
 
 use glam::{Mat4, Vec3};
-use tiledlight_cull::light::PackedLights;
-use tiledlight_cull::raycast::Triangles;
+use tiledlight_cull::light::shadow_casters;
+use tiledlight_cull::raycast::{surface_points, SurfacePoint as Surface, Triangles};
 use tiledlight_cull::shadow::{self, ShadowFilter, ShadowFormat, ShadowOptions};
 use tiledlight_cull::{Camera, Light};
 use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
@@ -94,55 +94,6 @@ fn lum(p: [f32; 4]) -> f32 {
     p[0] + p[1] + p[2]
 }
 
-/// A surface point seen by a pixel: world position and unit normal (facing the camera).
-#[derive(Clone, Copy, Debug)]
-struct Surface {
-    p: Vec3,
-    n: Vec3,
-}
-
-/// World positions of every pixel from the depth buffer, and normals from the smaller of
-/// the one-sided differences with the neighbours (None at the sky and at depth
-/// discontinuities, where the difference crosses a silhouette).
-fn surfaces(cam: &Camera, depth: &[f32]) -> Vec<Option<Surface>> {
-    let to_world = cam.view().inverse();
-    let pos = |x: i64, y: i64| -> Option<Vec3> {
-        if x < 0 || y < 0 || x >= W as i64 || y >= H as i64 {
-            return None;
-        }
-        let d = depth[(y * W as i64 + x) as usize];
-        let ndc = ((x as f32 + 0.5) / W as f32 * 2.0 - 1.0, 1.0 - (y as f32 + 0.5) / H as f32 * 2.0);
-        cam.unproject_view(ndc.0, ndc.1, d).map(|v| to_world.transform_point3(v))
-    };
-    let mut out = Vec::with_capacity((W * H) as usize);
-    for y in 0..H as i64 {
-        for x in 0..W as i64 {
-            let s = pos(x, y).and_then(|p| {
-                let pick = |a: Option<Vec3>, b: Option<Vec3>| -> Option<Vec3> {
-                    let da = a.map(|a| a - p);
-                    let db = b.map(|b| p - b);
-                    match (da, db) {
-                        (Some(a), Some(b)) => Some(if a.length() < b.length() { a } else { b }),
-                        (a, b) => a.or(b),
-                    }
-                };
-                let dx = pick(pos(x + 1, y), pos(x - 1, y))?;
-                let dy = pick(pos(x, y + 1), pos(x, y - 1))?;
-                let n = dx.cross(dy).normalize_or_zero();
-                // A silhouette: the differences are far longer than a pixel's footprint.
-                let footprint = (p - cam.eye()).length() * 4.0 / H as f32;
-                if n == Vec3::ZERO || dx.length() > footprint || dy.length() > footprint {
-                    return None;
-                }
-                let n = if n.dot(cam.eye() - p) < 0.0 { -n } else { n };
-                Some(Surface { p, n })
-            });
-            out.push(s);
-        }
-    }
-    out
-}
-
 /// World size of a shadow texel at `p` for caster light `l` (position, and for spots the
 /// axis and outer-angle tangent).
 fn texel_at(light: &Light, p: Vec3, opts: ShadowOptions) -> f32 {
@@ -167,8 +118,8 @@ fn texel_at(light: &Light, p: Vec3, opts: ShadowOptions) -> f32 {
 fn border(light: &Light, s: Surface, opts: ShadowOptions) -> f32 {
     let r = opts.filter.radius() as f32;
     let texels = (r + 1.0) + (r + 1.5) + 0.5 + 1.0;
-    let l = (light.position - s.p).normalize();
-    texels * texel_at(light, s.p, opts) / s.n.dot(l).max(0.25)
+    let l = (light.position - s.position).normalize();
+    texels * texel_at(light, s.position, opts) / s.normal.dot(l).max(0.25)
 }
 
 /// Ray-cast visibility of `light` from surface `s`: lit, shadowed, or near an edge
@@ -183,15 +134,15 @@ enum Truth {
 
 fn truth(tris: &Triangles, light: &Light, s: Surface, opts: ShadowOptions) -> Truth {
     let eps = 1e-3;
-    let visible = |p: Vec3| !tris.occluded(p + s.n * eps, light.position, eps);
-    let centre = visible(s.p);
+    let visible = |p: Vec3| !tris.occluded(p + s.normal * eps, light.position, eps);
+    let centre = visible(s.position);
     let b = border(light, s, opts);
-    let t1 = s.n.any_orthonormal_vector();
-    let t2 = s.n.cross(t1);
+    let t1 = s.normal.any_orthonormal_vector();
+    let t2 = s.normal.cross(t1);
     for k in 0..12 {
         let a = k as f32 * std::f32::consts::TAU / 12.0;
         for scale in [0.5, 1.0] {
-            let q = s.p + (t1 * a.cos() + t2 * a.sin()) * b * scale;
+            let q = s.position + (t1 * a.cos() + t2 * a.sin()) * b * scale;
             if visible(q) != centre {
                 return Truth::Edge;
             }
@@ -221,7 +172,7 @@ struct Tally {
 fn compare_with_ray_cast(scene: &Scene, light: &Light, r: &Rendered, cam: &Camera, opts: ShadowOptions) -> Tally {
     let tris = Triangles::new(scene.world_triangles());
     let mut t = Tally { overlay: r.shadowed.ldr.clone(), ..Default::default() };
-    for (i, s) in surfaces(cam, &r.depth).into_iter().enumerate() {
+    for (i, s) in surface_points(cam, W, H, &r.depth).into_iter().enumerate() {
         let Some(s) = s else { continue };
         let full = lum(r.unshadowed.hdr[i]);
         // Too dim to measure a ratio (outside the radius or cone, grazing light).
@@ -383,10 +334,10 @@ fn no_acne_on_a_plane_at_grazing_incidence() {
     for opts in cases {
         let r = render_pair(Kind::BruteForce, &scene, &[light], (1, 0), opts, &cam);
         let (mut counted, mut dark, mut steepest) = (0, Vec::new(), 0f32);
-        for (i, s) in surfaces(&cam, &r.depth).into_iter().enumerate() {
+        for (i, s) in surface_points(&cam, W, H, &r.depth).into_iter().enumerate() {
             let Some(s) = s else { continue };
             let full = lum(r.unshadowed.hdr[i]);
-            let cos = s.n.dot((light.position - s.p).normalize());
+            let cos = s.normal.dot((light.position - s.position).normalize());
             if full < 2e-3 || cos < 80f32.to_radians().cos() {
                 continue;
             }
@@ -420,11 +371,11 @@ fn contact_shadow_starts_at_the_box() {
     let r = render_pair(Kind::BruteForce, &scene, &[light], (1, 0), opts, &cam);
     let (mut shadowed, mut far_leak) = (0, Vec::new());
     let mut overlay = r.shadowed.ldr.clone();
-    for (i, s) in surfaces(&cam, &r.depth).into_iter().enumerate() {
+    for (i, s) in surface_points(&cam, W, H, &r.depth).into_iter().enumerate() {
         let Some(s) = s else { continue };
         let full = lum(r.unshadowed.hdr[i]);
         // Floor pixels on the shadow side (x > 1), in the box's shadow by the ray cast.
-        if full < 2e-3 || s.p.y.abs() > 1e-3 || s.p.x <= 1.0 || s.p.z.abs() > 0.9 {
+        if full < 2e-3 || s.position.y.abs() > 1e-3 || s.position.x <= 1.0 || s.position.z.abs() > 0.9 {
             continue;
         }
         // Shadowed by the ray cast, away from the shadow's outer edge (where the filter's
@@ -434,7 +385,7 @@ fn contact_shadow_starts_at_the_box() {
         }
         shadowed += 1;
         let v = lum(r.shadowed.hdr[i]) / full;
-        let gap = (s.p.x - 1.0) / texel_at(&light, s.p, opts);
+        let gap = (s.position.x - 1.0) / texel_at(&light, s.position, opts);
         if v > 0.5 {
             lit_gap = lit_gap.max(gap);
         }
@@ -499,12 +450,10 @@ fn shadows_darken_only_what_a_caster_cannot_see() {
     let cam = scenes::mixed_camera(W, H);
     let opts = ShadowOptions::default();
     let r = render_pair(Kind::BruteForce, &scene, &light_list, (3, 2), opts, &cam);
-    let ctx = gpu();
     // The casters in the packed order: the lights as the GPU holds them.
-    let packed = LightBuffers::with_casters(&ctx.device, &light_list, (3, 2)).unwrap().packed;
-    let casters: Vec<Light> = caster_lights(&light_list, &packed);
+    let casters: Vec<Light> = shadow_casters(&light_list, (3, 2)).unwrap();
     let mut darkened = 0;
-    for (i, s) in surfaces(&cam, &r.depth).into_iter().enumerate() {
+    for (i, s) in surface_points(&cam, W, H, &r.depth).into_iter().enumerate() {
         let Some(s) = s else { continue };
         let full = lum(r.unshadowed.hdr[i]);
         if full < 2e-3 || lum(r.shadowed.hdr[i]) > 0.995 * full {
@@ -529,20 +478,6 @@ fn bright_mixed_lights() -> Vec<Light> {
         spot(Vec3::new(-5.0, 4.0, 3.0), Vec3::new(0.6, -1.0, -0.6), Vec3::new(0.3, 0.5, 0.9)),
         spot(Vec3::new(5.0, 4.5, 4.0), Vec3::new(-0.8, -1.0, -0.9), Vec3::new(1.0, 0.9, 0.6)),
     ]
-}
-
-/// The casters among `lights` as packed: matched by position and radius.
-fn caster_lights(lights: &[Light], packed: &PackedLights) -> Vec<Light> {
-    let np = packed.num_point as usize;
-    let idx = (0..packed.shadow_points as usize).chain(np..np + packed.shadow_spots as usize);
-    idx.map(|i| {
-        let s = &packed.shading[i];
-        *lights
-            .iter()
-            .find(|l| l.position.to_array() == s.position && l.radius == s.radius)
-            .expect("every packed light comes from the list")
-    })
-    .collect()
 }
 
 /// A still frame draws no shadow face; moving one point light redraws its six faces, one

@@ -8,6 +8,9 @@
 //!   ([`sweep`], on [`lab`] and [`chart`]);
 //! - `tiledlight accuracy ...`: time and image error against the brute-force reference per
 //!   setting, CSV + Pareto chart + FLIP heat maps ([`accuracy`]);
+//! - `tiledlight shadow-accuracy ...`: the shadow maps' error against a CPU ray-cast
+//!   reference per atlas tile size, filter and format, with the atlas and shading times;
+//!   JSON + Pareto chart ([`shadow_accuracy`]);
 //! - `tiledlight view ...`: the interactive viewer ([`viewer`]);
 //! - `tiledlight` alone: the viewer when a display is available, else the default scene at
 //!   1080p headless, image + heat map + short benchmark ([`quickstart`]).
@@ -27,6 +30,7 @@ mod legend;
 mod quickstart;
 mod render;
 mod scene_setup;
+mod shadow_accuracy;
 mod sweep;
 mod viewer;
 
@@ -63,6 +67,16 @@ enum Command {
     /// FLIP heat maps.
     #[command(allow_negative_numbers = true)]
     Accuracy(accuracy::AccuracyArgs),
+    /// Measure the shadow maps' own error: only the shadow casters lit, brute force, each
+    /// shadow configuration (atlas tile size x filter x format) against a CPU ray-cast
+    /// reference, with the atlas and shading pass times; table, JSON and Pareto chart.
+    // Its own default resolution: the CPU ray cast must stay affordable.
+    #[command(
+        allow_negative_numbers = true,
+        mut_arg("width", |a| a.default_value(shadow_accuracy::DEFAULT_SIZE.0)),
+        mut_arg("height", |a| a.default_value(shadow_accuracy::DEFAULT_SIZE.1))
+    )]
+    ShadowAccuracy(shadow_accuracy::ShadowAccuracyArgs),
     /// Open the interactive viewer: a window with the controls, camera and pass timings.
     #[command(allow_negative_numbers = true)]
     View(viewer::ViewArgs),
@@ -118,6 +132,7 @@ fn main() -> ExitCode {
         Some(Command::Bench(args)) => bench::run(args),
         Some(Command::Sweep(args)) => sweep::run(args),
         Some(Command::Accuracy(args)) => accuracy::run(args),
+        Some(Command::ShadowAccuracy(args)) => shadow_accuracy::run(args),
         Some(Command::View(args)) => viewer::run(args),
         None => viewer::run_default(),
     };
@@ -176,5 +191,16 @@ mod tests {
         assert_eq!((b.frames, b.warmup), (3, 20));
         assert_eq!(b.scene.width, 1920);
         assert!(Cli::try_parse_from(["tiledlight"]).unwrap().command.is_none());
+        // shadow-accuracy's own resolution default; the other subcommands keep 1920x1080.
+        let cli =
+            Cli::try_parse_from(["tiledlight", "shadow-accuracy", "--config", "512x3", "--config", "128x1"]).unwrap();
+        let Some(Command::ShadowAccuracy(s)) = cli.command else { panic!("not shadow-accuracy") };
+        assert_eq!((s.scene.width, s.scene.height, s.configs.len()), (960, 540, 2));
+        let cli = Cli::try_parse_from(["tiledlight", "shadow-accuracy", "--width", "320"]).unwrap();
+        let Some(Command::ShadowAccuracy(s)) = cli.command else { panic!("not shadow-accuracy") };
+        assert_eq!((s.scene.width, s.scene.height), (320, 540));
+        let cli = Cli::try_parse_from(["tiledlight", "render"]).unwrap();
+        let Some(Command::Render(r)) = cli.command else { panic!("not render") };
+        assert_eq!(r.scene.width, 1920);
     }
 }

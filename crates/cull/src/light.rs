@@ -344,6 +344,27 @@ pub fn try_pack_lights(lights: &[Light]) -> Result<PackedLights, CullError> {
 /// than [`crate::shadow::MAX_SHADOW_SPOT_ANGLE`] are never chosen. Asking for more casters
 /// than there are (eligible) lights of a kind is an error naming both numbers.
 pub fn try_pack_lights_with_casters(lights: &[Light], casters: (u32, u32)) -> Result<PackedLights, CullError> {
+    let out = order_with_casters(lights, casters)?;
+    let mut packed = pack_lights(&out);
+    packed.shadow_points = casters.0;
+    packed.shadow_spots = casters.1;
+    Ok(packed)
+}
+
+/// The shadow casters [`try_pack_lights_with_casters`] chooses among `lights`, in the
+/// order they are packed: the `casters.0` point casters, then the `casters.1` spot
+/// casters (the first lights of each kind on the GPU). Same validation and errors.
+pub fn shadow_casters(lights: &[Light], casters: (u32, u32)) -> Result<Vec<Light>, CullError> {
+    let ordered = order_with_casters(lights, casters)?;
+    let num_point = ordered.iter().filter(|l| !l.is_spot()).count();
+    let points = &ordered[..casters.0 as usize];
+    let spots = &ordered[num_point..num_point + casters.1 as usize];
+    Ok(points.iter().chain(spots).copied().collect())
+}
+
+/// `lights` validated and ordered as [`try_pack_lights_with_casters`] packs them: points
+/// first, the casters first within each kind (in input order), then the others.
+fn order_with_casters(lights: &[Light], casters: (u32, u32)) -> Result<Vec<Light>, CullError> {
     validate_lights(lights)?;
     let ordered = order_points_first(lights);
     let num_point = ordered.iter().filter(|l| !l.is_spot()).count();
@@ -383,10 +404,7 @@ pub fn try_pack_lights_with_casters(lights: &[Light], casters: (u32, u32)) -> Re
         }
         out.extend(group.iter().zip(&chosen).filter(|(_, &c)| !c).map(|(l, _)| *l));
     }
-    let mut packed = pack_lights(&out);
-    packed.shadow_points = casters.0;
-    packed.shadow_spots = casters.1;
-    Ok(packed)
+    Ok(out)
 }
 
 /// Packs lights that are already ordered points-first (see [`order_points_first`]).
@@ -581,6 +599,25 @@ mod tests {
                 assert!((p - c).length() <= r * (1.0 + 1e-5) + 1e-5, "deg {deg}: {p} outside");
             }
         }
+    }
+
+    #[test]
+    fn shadow_casters_are_the_packed_casters() {
+        let p = |i: f32| Light::point(Vec3::splat(i), Vec3::ONE, i, 0.01).unwrap();
+        let s = |i: f32| Light::spot(Vec3::splat(i), Vec3::NEG_Y, Vec3::ONE, i, 0.1, 0.3, 0.01).unwrap();
+        let lights = [s(1.0), p(1.0), p(3.0), s(5.0), p(2.0), s(4.0), p(0.5)];
+        let casters = shadow_casters(&lights, (2, 1)).unwrap();
+        // The two brightest points in input order, then the brightest spot.
+        let intensities: Vec<f32> = casters.iter().map(|l| l.intensity).collect();
+        assert_eq!(intensities, [3.0, 2.0, 5.0]);
+        assert!(!casters[1].is_spot() && casters[2].is_spot());
+        let packed = try_pack_lights_with_casters(&lights, (2, 1)).unwrap();
+        let np = packed.num_point as usize;
+        let packed_casters = [0, 1, np].map(|i| packed.shading[i].position);
+        let positions: Vec<[f32; 3]> = casters.iter().map(|l| l.position.to_array()).collect();
+        assert_eq!(packed_casters.to_vec(), positions);
+        assert!(shadow_casters(&lights, (5, 0)).is_err(), "more casters than point lights");
+        assert!(shadow_casters(&lights, (0, 0)).unwrap().is_empty());
     }
 
     #[test]

@@ -1,7 +1,8 @@
 //! The CPU ray-cast visibility reference for shadow tests: world-space triangles in a
 //! bounding volume hierarchy, answering "is the segment from a surface point to a light
 //! blocked by scene geometry?" ([`Triangles::occluded`]). The GPU shadow maps are
-//! compared with it. Pure CPU; depends on glam only.
+//! compared with it. Also the surface points a depth buffer shows ([`surface_points`]:
+//! where those segments start). Pure CPU; depends on glam and [`crate::Camera`].
 //!
 //! Precision: triangles and query points are f32, as the scene stores them, but every
 //! query runs in f64 (box tests and the Möller–Trumbore triangle test), so rounding is
@@ -21,6 +22,8 @@
 //! BVH miss a hit that the loop finds.
 
 use glam::{DVec3, Vec3};
+
+use crate::Camera;
 
 /// Triangles per leaf that end the split without asking the SAH.
 const MIN_LEAF: usize = 2;
@@ -511,6 +514,74 @@ fn sah_split(
     Some(Some(mid))
 }
 
+/// The surface a pixel sees: world position and unit normal ([`surface_points`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfacePoint {
+    /// World position of the pixel centre's depth.
+    pub position: Vec3,
+    /// Unit normal, on the side facing the camera.
+    pub normal: Vec3,
+}
+
+/// The surface each pixel of a `width` x `height` reversed-Z depth buffer (row-major, top
+/// row first, one depth per pixel, as `camera` rendered it) shows: world positions
+/// unprojected at the pixel centres, and normals from the depth buffer alone, for ray casts
+/// from the surfaces (shadow references) without the scene's normals.
+///
+/// - **Position**: the pixel centre at its depth ([`Camera::unproject_view`]), to world.
+/// - **Normal**: the cross product of the horizontal and vertical position differences,
+///   each the shorter of the one-sided differences with the two neighbours (the one on
+///   the same surface, at a crease or an edge), turned to face the camera.
+/// - **None** at the sky (no position: depth 0 with an infinite far plane), where no
+///   neighbour in a direction has a position, and at depth discontinuities: when a chosen
+///   difference is longer than 4 pixels' footprint at that distance
+///   (`distance to the eye * 4 / height`), the pixel sits on a silhouette and its normal
+///   is unknown.
+///
+/// # Panics
+/// When `depth` does not hold `width * height` values (a caller bug).
+pub fn surface_points(camera: &Camera, width: u32, height: u32, depth: &[f32]) -> Vec<Option<SurfacePoint>> {
+    let (w, h) = (width as i64, height as i64);
+    assert_eq!(depth.len() as i64, w * h, "surface_points: the depth buffer must hold {width}x{height} values");
+    let to_world = camera.view().inverse();
+    let pos = |x: i64, y: i64| -> Option<Vec3> {
+        if x < 0 || y < 0 || x >= w || y >= h {
+            return None;
+        }
+        let d = depth[(y * w + x) as usize];
+        let ndc = ((x as f32 + 0.5) / width as f32 * 2.0 - 1.0, 1.0 - (y as f32 + 0.5) / height as f32 * 2.0);
+        camera.unproject_view(ndc.0, ndc.1, d).map(|v| to_world.transform_point3(v))
+    };
+    let eye = camera.eye();
+    let mut out = Vec::with_capacity(depth.len());
+    for y in 0..h {
+        for x in 0..w {
+            let s = pos(x, y).and_then(|p| {
+                let pick = |a: Option<Vec3>, b: Option<Vec3>| -> Option<Vec3> {
+                    let da = a.map(|a| a - p);
+                    let db = b.map(|b| p - b);
+                    match (da, db) {
+                        (Some(a), Some(b)) => Some(if a.length() < b.length() { a } else { b }),
+                        (a, b) => a.or(b),
+                    }
+                };
+                let dx = pick(pos(x + 1, y), pos(x - 1, y))?;
+                let dy = pick(pos(x, y + 1), pos(x, y - 1))?;
+                let n = dx.cross(dy).normalize_or_zero();
+                // A silhouette: the differences are far longer than a pixel's footprint.
+                let footprint = (p - eye).length() * 4.0 / height as f32;
+                if n == Vec3::ZERO || dx.length() > footprint || dy.length() > footprint {
+                    return None;
+                }
+                let n = if n.dot(eye - p) < 0.0 { -n } else { n };
+                Some(SurfacePoint { position: p, normal: n })
+            });
+            out.push(s);
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -578,6 +649,94 @@ mod tests {
             Vec3::new(-half, y, half),
         );
         vec![[a, b, c], [a, c, d]]
+    }
+
+    /// A depth buffer of the plane `y = plane_y` as `cam` sees it (depth 0 where the pixel's
+    /// ray misses it: sky), computed by intersecting each pixel-centre ray with the plane.
+    fn plane_depth(cam: &crate::Camera, w: u32, h: u32, plane_y: f32) -> Vec<f32> {
+        let to_world = cam.view().inverse();
+        let params = cam.depth_params();
+        let mut depth = Vec::new();
+        for y in 0..h {
+            for x in 0..w {
+                let ndc = ((x as f32 + 0.5) / w as f32 * 2.0 - 1.0, 1.0 - (y as f32 + 0.5) / h as f32 * 2.0);
+                let dir = to_world.transform_point3(cam.view_point_at(ndc.0, ndc.1, 1.0)) - cam.eye();
+                let t = (plane_y - cam.eye().y) / dir.y;
+                let d = if t > 0.0 {
+                    let hit = cam.eye() + dir * t;
+                    params.depth(-cam.view().transform_point3(hit).z)
+                } else {
+                    0.0
+                };
+                depth.push(d);
+            }
+        }
+        depth
+    }
+
+    /// A plane seen from above and from below, horizon in view: every pixel with a surface
+    /// lies on the plane with the plane's normal turned to the camera; the sky has none.
+    /// Every plane pixel whose ray meets the plane at more than 20 degrees has one: a row
+    /// step there spans `fov / h / sin(angle)` of the distance, under the 4-footprint
+    /// limit (`4 / h`) while `sin(angle) > fov / 4 = 0.26`, i.e. above ~15 degrees.
+    #[test]
+    fn surface_points_of_a_plane() {
+        let (w, h) = (64u32, 40u32);
+        for (eye, normal) in [(Vec3::new(1.0, 3.0, 6.0), Vec3::Y), (Vec3::new(1.0, -2.0, 6.0), Vec3::NEG_Y)] {
+            let target = Vec3::new(0.0, 0.5 * eye.y, 0.0);
+            let cam = crate::Camera::perspective(eye, target, Vec3::Y, 60f32.to_radians(), 1.6, 0.1, None).unwrap();
+            let depth = plane_depth(&cam, w, h, 0.5);
+            let points = surface_points(&cam, w, h, &depth);
+            assert_eq!(points.len(), (w * h) as usize);
+            let (mut steep, mut sky) = (0, 0);
+            for (i, (s, &d)) in points.iter().zip(&depth).enumerate() {
+                if d == 0.0 {
+                    assert!(s.is_none(), "pixel {i}: the sky has no surface");
+                    sky += 1;
+                    continue;
+                }
+                let (x, y) = (i as u32 % w, i as u32 / w);
+                let ndc = ((x as f32 + 0.5) / w as f32 * 2.0 - 1.0, 1.0 - (y as f32 + 0.5) / h as f32 * 2.0);
+                let ray = cam.view().inverse().transform_vector3(cam.view_point_at(ndc.0, ndc.1, 1.0)).normalize();
+                if ray.y.abs() > 20f32.to_radians().sin() {
+                    steep += 1;
+                    assert!(s.is_some(), "pixel {i}: a plane pixel seen at more than 20 degrees has a surface");
+                }
+                let Some(s) = s else { continue };
+                let dist = (s.position - eye).length();
+                assert!((s.position.y - 0.5).abs() < 1e-4 * dist, "pixel {i}: {} off the plane", s.position);
+                assert!(s.normal.dot(normal) > 0.9999, "pixel {i}: normal {} for {normal}", s.normal);
+                assert!((s.normal.length() - 1.0).abs() < 1e-5);
+            }
+            assert!(steep > 500 && sky > 100, "the view must hold both: {steep} steep plane pixels, {sky} sky");
+        }
+    }
+
+    /// A step between two planes: the pixels along it have no surface (silhouette), the
+    /// others keep theirs.
+    #[test]
+    fn surface_points_none_at_a_depth_step() {
+        let (w, h) = (32u32, 32u32);
+        let cam =
+            crate::Camera::perspective(Vec3::new(0.0, 10.0, 0.01), Vec3::ZERO, Vec3::Y, 0.5, 1.0, 0.1, None).unwrap();
+        let (low, high) = (plane_depth(&cam, w, h, 0.0), plane_depth(&cam, w, h, 5.0));
+        // The left half sees the high plane, the right half the low one.
+        let depth: Vec<f32> =
+            (0..(w * h) as usize).map(|i| if i % (w as usize) < 16 { high[i] } else { low[i] }).collect();
+        let points = surface_points(&cam, w, h, &depth);
+        for (i, s) in points.iter().enumerate() {
+            let x = i % w as usize;
+            let s = s.unwrap_or_else(|| panic!("pixel {i} (x {x}): no surface; the one-sided difference fits"));
+            let y = if x < 16 { 5.0 } else { 0.0 };
+            assert!((s.position.y - y).abs() < 1e-3, "pixel {i}: {}", s.position);
+            assert!(s.normal.dot(Vec3::Y) > 0.9999);
+        }
+        // Both neighbours across the step: a single-pixel ledge has no surface.
+        let ledge: Vec<f32> =
+            (0..(w * h) as usize).map(|i| if i % w as usize == 16 { high[i] } else { low[i] }).collect();
+        let points = surface_points(&cam, w, h, &ledge);
+        assert!((0..h as usize).all(|y| points[y * w as usize + 16].is_none()), "a 1-pixel ledge is a silhouette");
+        assert!(points[5 * w as usize + 10].is_some());
     }
 
     #[test]
