@@ -99,7 +99,7 @@ pub struct ShadowAccuracyArgs {
     /// 1; --shadow-size/--shadow-filter/--shadow-format are replaced by --config.
     #[command(flatten)]
     pub scene: SceneArgs,
-    /// A shadow configuration to measure, TILExFILTER[:FORMAT] (e.g. 512x3, 1024x5:d32;
+    /// A shadow configuration to measure, `TILExFILTER[:FORMAT]` (e.g. 512x3, 1024x5:d32;
     /// FORMAT d16 or d32, default d16); repeat for several [default: 128, 256, 512 and
     /// 1024 times 1, 3 and 5 with d16, and 1024x5:d32].
     #[arg(long = "config", value_name = "TILExFILTER[:FORMAT]")]
@@ -129,7 +129,7 @@ pub struct ShadowAccuracyArgs {
     pub diff_dir: Option<PathBuf>,
 }
 
-/// Parses one `--config` value, TILExFILTER[:FORMAT].
+/// Parses one `--config` value, `TILExFILTER[:FORMAT]`.
 pub fn parse_config(spec: &str) -> Result<ShadowOptions> {
     let (size, format) = match spec.split_once(':') {
         Some((s, f)) => (s, f.trim()),
