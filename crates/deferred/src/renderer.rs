@@ -258,26 +258,14 @@ impl Renderer for DeferredRenderer {
                 }
                 Step::DeferredShade => self.shading.record(encoder, timer, view),
                 Step::DeferredResolve => self.shading.record_resolve(encoder, timer),
-                Step::BlendedDepth => {
+                Step::BlendedDepth | Step::BlendedCull | Step::BlendedShade => {
                     if let Some(b) = &self.blended {
-                        b.record_depth(encoder, timer, view, scene);
-                    }
-                }
-                Step::BlendedCull => {
-                    if let Some(b) = &self.blended {
-                        b.record_cull(encoder, timer, view);
-                    }
-                }
-                Step::BlendedShade => {
-                    if let Some(b) = &self.blended {
-                        b.record_shade(
+                        b.record_step(
+                            *step,
                             encoder,
                             timer,
-                            view,
-                            scene,
-                            &camera.view(),
-                            &targets.depth_view,
-                            &targets.hdr_view,
+                            (view, scene, camera),
+                            (&targets.depth_view, &targets.hdr_view),
                         );
                     }
                 }

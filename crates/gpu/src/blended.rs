@@ -36,7 +36,7 @@
 use std::sync::Mutex;
 
 use glam::{Mat4, Vec3};
-use tiledlight_cull::TileGrid;
+use tiledlight_cull::{Camera, TileGrid};
 
 use crate::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
 use crate::depth_prepass::{scene_pipeline, DepthPrepass, DepthTarget, DepthUse, SceneDraw, DEPTH_FORMAT};
@@ -45,12 +45,12 @@ use crate::features::{BlendMode, Features, Method};
 use crate::light_cull::{CullOptions, LightCulling};
 use crate::lights_gpu::LightBuffers;
 use crate::memory::MemoryReport;
+use crate::plan::Step;
 use crate::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS, VERTEX_LAYOUTS};
 use crate::shadow_atlas::ShadowAtlas;
-use crate::targets::texture_2d_msaa;
 use crate::timer::GpuTimer;
 use crate::tonemap::HDR_FORMAT;
-use crate::util::{pipeline_layout, shader_module};
+use crate::util::{pipeline_layout, shader_module, texture_2d_msaa};
 use crate::view::Views;
 
 const FS: wgpu::ShaderStages = wgpu::ShaderStages::FRAGMENT;
@@ -509,6 +509,28 @@ impl BlendedPath {
             pass.draw(0..3, 0..1);
         }
         timer.end(encoder, t);
+    }
+
+    /// Records plan step `step` (`BlendedDepth`, `BlendedCull` or `BlendedShade`; others
+    /// record nothing) of view slot `view` seen by `camera`, over the frame's opaque depth
+    /// and HDR image.
+    pub fn record_step(
+        &self,
+        step: Step,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: &GpuTimer,
+        (view, scene, camera): ((&Views, u32), &SceneGpu, &Camera),
+        (opaque_depth, hdr): (&wgpu::TextureView, &wgpu::TextureView),
+    ) {
+        match step {
+            Step::BlendedDepth => self.record_depth(encoder, timer, view, scene),
+            Step::BlendedCull => self.record_cull(encoder, timer, view),
+            Step::BlendedShade => {
+                let to_view = camera.view();
+                self.record_shade(encoder, timer, view, scene, &to_view, opaque_depth, hdr)
+            }
+            _ => {}
+        }
     }
 
     /// Blended instances (drawn one by one each frame).

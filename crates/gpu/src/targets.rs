@@ -17,37 +17,7 @@ use crate::timer::GpuTimer;
 use crate::tonemap::{HeatmapPass, HDR_FORMAT, LDR_FORMAT};
 use tiledlight_cull::light::PackedLights;
 
-/// A labelled single-sampled 2D texture.
-pub fn texture_2d(
-    device: &wgpu::Device,
-    label: &str,
-    size: (u32, u32),
-    format: wgpu::TextureFormat,
-    usage: wgpu::TextureUsages,
-) -> wgpu::Texture {
-    texture_2d_msaa(device, label, size, format, 1, usage)
-}
-
-/// A labelled 2D texture of `samples` samples per texel (a render target when > 1).
-pub fn texture_2d_msaa(
-    device: &wgpu::Device,
-    label: &str,
-    (w, h): (u32, u32),
-    format: wgpu::TextureFormat,
-    samples: u32,
-    usage: wgpu::TextureUsages,
-) -> wgpu::Texture {
-    device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-        mip_level_count: 1,
-        sample_count: samples,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage,
-        view_formats: &[],
-    })
-}
+pub use crate::util::{texture_2d, texture_2d_msaa};
 
 /// Fails with a message naming the format and the adapter's sample counts when `samples`
 /// is not 1, 2, 4 or 8 or when the adapter cannot multisample `formats` that many times
