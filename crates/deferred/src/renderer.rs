@@ -27,7 +27,7 @@ use crate::gbuffer::{ALBEDO_FORMAT, EXTRA_FORMAT, NORMAL_FORMAT};
 use crate::shading::{DeferredShading, EdgeTest};
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::shadow::ShadowOptions;
-use tiledlight_gpu::blended::{BlendedInputs, BlendedPath};
+use tiledlight_gpu::blended::BlendedPath;
 use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
@@ -172,23 +172,7 @@ impl DeferredRenderer {
                 &mut memory,
             )?;
             let heatmap = HeatmapPass::new(device, &shading.light_grid.grid, settings.heatmap)?;
-            let blended = features
-                .blended()
-                .then(|| {
-                    BlendedPath::new(
-                        device,
-                        BlendedInputs {
-                            views,
-                            scene,
-                            lights: (lights, &common.lighting),
-                            features,
-                            cull: (common.grid, settings.cull),
-                            opaque_depth: &targets.depth_view,
-                            shadows: common.shadows.as_ref(),
-                        },
-                    )
-                })
-                .transpose()?;
+            let blended = common.blended_path(device, scene, lights, settings.cull)?;
             if let Some(b) = &blended {
                 memory.extend(&b.memory);
             }

@@ -12,7 +12,7 @@ use glam::Vec3;
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::shadow::ShadowOptions;
 use tiledlight_cull::{Camera, TileGrid};
-use tiledlight_gpu::blended::{BlendedInputs, BlendedPath};
+use tiledlight_gpu::blended::BlendedPath;
 use tiledlight_gpu::depth_prepass::{DepthPrepass, DEPTH_FORMAT};
 use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::features::{self, Features};
@@ -205,23 +205,7 @@ impl ForwardRenderer {
                 light_loop,
                 (features, common.shadows.as_ref()),
             )?;
-            let blended = features
-                .blended()
-                .then(|| {
-                    BlendedPath::new(
-                        device,
-                        BlendedInputs {
-                            views,
-                            scene,
-                            lights: (lights, lighting),
-                            features,
-                            cull: (common.grid, settings.cull),
-                            opaque_depth: &targets.depth_view,
-                            shadows: common.shadows.as_ref(),
-                        },
-                    )
-                })
-                .transpose()?;
+            let blended = common.blended_path(device, scene, lights, settings.cull)?;
             let heatmap = match (&culling, plan.has(Step::Heatmap)) {
                 (Some(c), true) => Some(HeatmapPass::new(device, &c.grid.grid, settings.heatmap)?),
                 _ => None,

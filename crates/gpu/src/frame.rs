@@ -125,6 +125,30 @@ impl FrameCommon {
         Ok(Self { features, plan, grid, views, lighting, targets, tonemap, shadows, memory })
     }
 
+    /// The blended-geometry path over this frame's views, grid, lighting, opaque depth and
+    /// shadows, when the scene has blended geometry (both methods build it alike).
+    pub fn blended_path(
+        &self,
+        device: &wgpu::Device,
+        scene: &SceneGpu,
+        lights: &LightBuffers,
+        cull: crate::light_cull::CullOptions,
+    ) -> Result<Option<crate::blended::BlendedPath>, GpuError> {
+        if !self.features.blended() {
+            return Ok(None);
+        }
+        let inputs = crate::blended::BlendedInputs {
+            views: &self.views,
+            scene,
+            lights: (lights, &self.lighting),
+            features: &self.features,
+            cull: (self.grid, cull),
+            opaque_depth: &self.targets.depth_view,
+            shadows: self.shadows.as_ref(),
+        };
+        crate::blended::BlendedPath::new(device, inputs).map(Some)
+    }
+
     /// Draws the shadow faces of the casters that moved (the plan's `ShadowMaps` step).
     pub fn record_shadows(&self, encoder: &mut wgpu::CommandEncoder, timer: &crate::timer::GpuTimer, scene: &SceneGpu) {
         if let Some(a) = &self.shadows {
