@@ -11,7 +11,9 @@
 // With BLENDED it culls for blended geometry (tiledlight_gpu::blended): the range runs from
 // the nearest blended depth to the opaque depth behind it, over the samples with blended
 // geometry in front (common/depth_range.wgsl); one list per tile, planes only, one level.
-// variants: AABB HALF_Z SPOT_CONE COARSE MSAA DROP_LIGHT BLENDED
+// With DEPTH_MASK (2.5D, Harada 2012) a light must also meet a depth bin of the tile that
+// holds a surface (32 bins over the tile's range; one list per tile).
+// variants: AABB HALF_Z SPOT_CONE COARSE MSAA DROP_LIGHT BLENDED DEPTH_MASK
 #include "common/tile_cull.wgsl"
 #include "common/light_grid_write.wgsl"
 

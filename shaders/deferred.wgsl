@@ -15,9 +15,23 @@
 // texture (SAMPLES_X x SAMPLES_Y texels a pixel) and its position to a global edge list,
 // which deferred_resolve.wgsl averages into the HDR image (an indirect dispatch sized here).
 //
-// variants: SPOT_LIGHTS HALF_Z AABB SPOT_CONE COARSE EXTRA_RTS EXTRA_RTS_2 EXTRA_RTS_3 MSAA SHADOWS
+// With ASSIGNED the lists were assigned before this pass (light-centric assignment,
+// assign.wgsl): nothing is culled here, and each pixel reads its own list from the grid
+// (common/light_grid_pixel.wgsl: its tile's, its half's with HALF_Z, its cluster's with
+// CLUSTERED).
+//
+// variants: SPOT_LIGHTS HALF_Z AABB SPOT_CONE COARSE EXTRA_RTS EXTRA_RTS_2 EXTRA_RTS_3 MSAA SHADOWS ASSIGNED CLUSTERED
+#ifdef ASSIGNED
+#include "common/depth_range.wgsl"
+#include "common/light_grid_rw.wgsl"
+// The shading workgroup's tile (independent of the grid's tiles, which the lookup reads
+// from the grid header).
+override TILE_SIZE: u32 = 16u;
+override WG: u32 = 16u;
+#else
 #include "common/tile_cull.wgsl"
 #include "common/light_grid_write.wgsl"
+#endif
 #include "common/shade.wgsl"
 
 #ifdef MSAA
@@ -61,6 +75,11 @@ alias GTexture = texture_2d<f32>;
 // The light grid (crates/gpu/src/light_grid.rs).
 @group(2) @binding(0) var<storage, read_write> light_grid: LightGridRw;
 @group(2) @binding(1) var<storage, read_write> light_indices: array<u32>;
+#ifdef ASSIGNED
+// Per grid tile: near and far view distance (the half-z lookup).
+@group(2) @binding(2) var<storage, read_write> tile_ranges: array<vec2<f32>>;
+#include "common/light_grid_pixel.wgsl"
+#endif
 
 #ifdef MSAA
 // Texels per pixel of `samples_out` across and down (SAMPLES_X * SAMPLES_Y = SAMPLES).
@@ -145,6 +164,21 @@ fn load_gsample(p: vec2<u32>, s: u32) -> GSample {
     return g;
 }
 
+#ifdef ASSIGNED
+// Linear HDR of one G-buffer sample of pixel `p`, lit by its list in the grid.
+fn shade_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
+    if g.sky {
+        return vec3<f32>(0.0);
+    }
+    let v = view_vector(g.world);
+    var color = lighting.ambient * g.surface.albedo;
+    let l = pixel_list(p, g.dist);
+    for (var i = 0u; i < l.count; i++) {
+        color += shade_light(light_indices[l.first + i], g.world, g.normal, v, g.surface);
+    }
+    return color;
+}
+#else
 // The lights a pixel of the tile is shaded with: workgroup list `k` (0 near, 1 far) when
 // the list fits it (`in_wg`), else the list's stored part in the light grid.
 struct TileList {
@@ -197,6 +231,16 @@ fn shade(g: GSample, t: TileCull, near: TileList, far: TileList) -> vec3<f32> {
     }
     return color;
 }
+
+// The workgroup's tile and lists, set once by main (so one shade_at serves both variants).
+var<private> p_tile: TileCull;
+var<private> p_near: TileList;
+var<private> p_far: TileList;
+
+fn shade_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
+    return shade(g, p_tile, p_near, p_far);
+}
+#endif
 
 #ifdef MSAA
 // A non-edge pixel's samples lie on one plane: its shading point is where the pixel-centre
@@ -257,17 +301,23 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid
         atomicStore(&wg_edge_count, 0u);
     }
 #endif
+#ifdef ASSIGNED
+    // The lists are in the grid already; the barrier orders the reset above.
+    workgroupBarrier();
+#else
     // cull_tile's barriers also order the reset above before any use.
     let t = cull_tile(wid.xy, lid.xy, lidx);
     let lists = write_lists(t, t.index * lists_per_tile(), lidx);
-    let near = tile_list(0u, lists[0]);
+    p_tile = t;
+    p_near = tile_list(0u, lists[0]);
 #ifdef HALF_Z
-    let far = tile_list(1u, lists[1]);
+    p_far = tile_list(1u, lists[1]);
 #else
-    let far = near;
+    p_far = p_near;
 #endif
     // Lists longer than the workgroup list were written to the grid by every thread.
     storageBarrier();
+#endif
     let origin = wid.xy * TILE_SIZE;
     let steps = TILE_SIZE / WG;
     for (var j = 0u; j < steps; j++) {
@@ -278,12 +328,12 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid
 #ifdef MSAA
                 if is_edge(p, g0) {
                     wg_edges[atomicAdd(&wg_edge_count, 1u)] = p.x | (p.y << 16u);
-                    textureStore(samples_out, sample_texel(p, 0u), vec4<f32>(shade(g0, t, near, far), 1.0));
+                    textureStore(samples_out, sample_texel(p, 0u), vec4<f32>(shade_at(g0, p), 1.0));
                     continue;
                 }
-                textureStore(output, p, vec4<f32>(shade(at_pixel_centre(p, g0), t, near, far), 1.0));
+                textureStore(output, p, vec4<f32>(shade_at(at_pixel_centre(p, g0), p), 1.0));
 #else
-                textureStore(output, p, vec4<f32>(shade(g0, t, near, far), 1.0));
+                textureStore(output, p, vec4<f32>(shade_at(g0, p), 1.0));
 #endif
             }
         }
@@ -311,7 +361,7 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid
         let packed = wg_edges[k / per_pixel];
         let p = vec2<u32>(packed & 0xffffu, packed >> 16u);
         let s = 1u + k % per_pixel;
-        textureStore(samples_out, sample_texel(p, s), vec4<f32>(shade(load_gsample(p, s), t, near, far), 1.0));
+        textureStore(samples_out, sample_texel(p, s), vec4<f32>(shade_at(load_gsample(p, s), p), 1.0));
     }
 #endif
 }

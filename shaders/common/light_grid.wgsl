@@ -32,11 +32,16 @@ struct LightGridHeader {
     // Length of `light_indices` (written by the host when it allocates the buffer).
     capacity: u32,
     // The layout, written by the host: tiles across and down, tile side in pixels, lists
-    // per tile (2 with half-z), and the culling kernel's workgroup list length.
+    // per tile (2 with half-z, the slices when clustered), and the culling kernel's
+    // workgroup list length.
     tiles: vec2<u32>,
     tile_size: u32,
     lists_per_tile: u32,
     list_capacity: u32,
+    // Clustered layouts (lists_per_tile = slices): the far end of slice 0 and the scale of
+    // the exponential slices (cluster_slice in common/tile_tests.wgsl); 0 otherwise.
+    slice_first: f32,
+    slice_scale: f32,
     _pad0: u32,
 }
 
@@ -55,4 +60,18 @@ struct LightList {
 fn light_list(e: vec2<u32>, capacity: u32) -> LightList {
     let first = min(e.x, capacity);
     return LightList(first, min(e.y, capacity - first));
+}
+
+// Clustered shading: the depth slice of view distance `d` (tiledlight_cull
+// ClusterConfig::slice_of), from the header's slice_first, slice_scale and lists_per_tile.
+// Slice 0 is [0, first) (no logarithm near the eye: no NaN at near 0), slices 1 ..
+// slices-1 are exponential from `first`, the last reaching to infinity; scale =
+// (slices - 1) / ln(last / first). Monotone in `d`, so a light whose depth interval
+// [dist - r, dist + r] spans slices lo..hi covers the slice of every point it reaches.
+fn cluster_slice(d: f32, first: f32, scale: f32, slices: u32) -> u32 {
+    if slices <= 1u || !(d >= first) {
+        return 0u;
+    }
+    let x = log(d / first) * scale;
+    return 1u + u32(min(max(x, 0.0), f32(slices - 2u)));
 }

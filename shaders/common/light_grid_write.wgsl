@@ -10,26 +10,7 @@
 // A list that fits the workgroup list (count <= CAPACITY) is copied from it; a longer one is
 // culled again, every survivor written straight to the grid, so a tile has no ceiling on its
 // lights. When the buffer is full the list keeps what fits and the header counts the rest.
-#include "common/light_grid.wgsl"
-
-struct LightGridCounters {
-    allocated: atomic<u32>,
-    pairs: atomic<u32>,
-    dropped_pairs: atomic<u32>,
-    dropped_lists: atomic<u32>,
-    spilled_lists: atomic<u32>,
-    capacity: u32,
-    tiles: vec2<u32>,
-    tile_size: u32,
-    lists_per_tile: u32,
-    list_capacity: u32,
-    _pad0: u32,
-}
-
-struct LightGridRw {
-    header: LightGridCounters,
-    lists: array<vec2<u32>>,
-}
+#include "common/light_grid_rw.wgsl"
 
 // True when lists x lights may reach 2^32 (tiledlight_gpu::light_grid::needs_guard).
 override GRID_GUARD: bool = true;

@@ -9,9 +9,11 @@
 // The including file declares: `cull_lights:
 // array<CullLight>`, with COARSE `cell_lists: array<u32>`, with SPOT_CONE `shading_lights`
 // and `spot_lights`.
-#include "common/cull_tests.wgsl"
-#include "common/lights.wgsl"
+#include "common/tile_tests.wgsl"
 #include "common/depth_range.wgsl"
+#ifdef DEPTH_MASK
+#include "common/depth_mask.wgsl"
+#endif
 
 // Tile side in pixels; the workgroup is WG x WG threads, each reducing (TILE_SIZE / WG)^2 pixels.
 override TILE_SIZE: u32 = 16u;
@@ -52,34 +54,6 @@ fn append(list: u32, light: u32) {
     }
 }
 
-// The light's tests beyond the sphere/planes one (AABB, spot cone); `c` is the view-space centre.
-fn extra_tests(v: TileVolume, light: u32, c: vec3<f32>, r: f32) -> bool {
-#ifdef AABB
-    let b = volume_aabb(v);
-    if !sphere_vs_aabb(b, c, r) {
-        return false;
-    }
-#endif
-#ifdef SPOT_CONE
-    if light >= lighting.num_point_lights {
-#ifndef AABB
-        let b = volume_aabb(v);
-#endif
-        let s = spot_lights[light - lighting.num_point_lights];
-        let sh = shading_lights[light];
-        let apex = (view.world_to_view * vec4<f32>(sh.position, 1.0)).xyz;
-        let axis = (view.world_to_view * vec4<f32>(s.direction, 0.0)).xyz;
-        let sc = (b.lo + b.hi) * 0.5;
-        // The farthest corner from the rounded centre (crates/cull/src/bounds.rs aabb_sphere).
-        let sr = length(max(b.hi - sc, sc - b.lo));
-        if !cone_vs_sphere(apex, axis, sh.radius, s.cos_outer, s.sin_outer, sc, sr) {
-            return false;
-        }
-    }
-#endif
-    return true;
-}
-
 // What cull_tile found out about its tile: its volumes and candidates, so the light loop
 // can be run again (write_list in common/light_grid_write.wgsl re-tests a list longer than
 // the workgroup list, writing straight to the light grid).
@@ -94,6 +68,8 @@ struct TileCull {
     candidates: u32,
     from_cell: bool,
     cell_first: u32,
+    // DEPTH_MASK (2.5D): the bins of [near, far] holding a surface of the tile.
+    mask: u32,
 }
 
 // Lists a tile has: 2 with HALF_Z.
@@ -103,11 +79,6 @@ fn lists_per_tile() -> u32 {
 #else
     return 1u;
 #endif
-}
-
-// The distance where half-z splits a tile's range (tiledlight_cull::reference::half_z_split).
-fn half_z_split(near: f32, far: f32) -> f32 {
-    return 0.5 * (near + far);
 }
 
 // Light index of candidate `k` of the tile.
@@ -124,22 +95,8 @@ fn tile_candidate(t: TileCull, k: u32) -> u32 {
 // needed (the same arithmetic gives the same planes) rather than kept in TileCull: a
 // second pass over a long list is rare, and registers held across the grid writing would
 // cost every tile.
-struct TileVolumes {
-    v0: TileVolume,
-    v1: TileVolume,
-}
-
 fn tile_volumes(t: TileCull) -> TileVolumes {
-    var v: TileVolumes;
-    let ndc = tile_ndc(t.tile, TILE_SIZE);
-#ifdef HALF_Z
-    let mid = half_z_split(t.near, t.far);
-    v.v0 = tile_volume(ndc, t.near, mid);
-    v.v1 = tile_volume(ndc, mid, t.far);
-#else
-    v.v0 = tile_volume(ndc, t.near, t.far);
-#endif
-    return v;
+    return tile_volumes_at(t.tile, TILE_SIZE, t.near, t.far);
 }
 
 // Whether `light` belongs to the tile's near (x) and far (y, HALF_Z only) list.
@@ -155,10 +112,12 @@ fn tile_hits(t: TileCull, vols: TileVolumes, light: u32) -> vec2<bool> {
         return vec2<bool>(false);
     }
 #endif
-    var hit = vec2<bool>(false);
-    hit.x = sphere_vs_frustum(vols.v0, c, r) && extra_tests(vols.v0, light, c, r);
-#ifdef HALF_Z
-    hit.y = sphere_vs_frustum(vols.v1, c, r) && extra_tests(vols.v1, light, c, r);
+    var hit = volume_hits(vols, light, c, r);
+#ifdef DEPTH_MASK
+    // 2.5D: the light's depth bins must meet a bin holding a surface of the tile.
+    if (t.mask & depth_mask_between(-c.z - r, -c.z + r, t.near, t.far)) == 0u {
+        hit.x = false;
+    }
 #endif
     return hit;
 }
@@ -180,10 +139,14 @@ fn cull_tile(tile: vec2<u32>, lid: vec2<u32>, lidx: u32) -> TileCull {
     let max_depth = range.y;
     if max_depth > 0.0 {
         // Reversed-Z: the largest depth is the nearest surface.
-        let near = view_distance(max_depth);
-        let far = view_distance(min_depth);
-        t.near = near;
-        t.far = far;
+        t.near = view_distance(max_depth);
+        t.far = view_distance(min_depth);
+    }
+#ifdef DEPTH_MASK
+    // Out here: region_mask has barriers (uniform control flow). All sky: 0.
+    t.mask = region_mask(origin, TILE_SIZE, WG, lid, lidx, t.near, t.far, 0u);
+#endif
+    if max_depth > 0.0 {
         let vols = tile_volumes(t);
         t.candidates = lighting.num_lights;
 #ifdef COARSE

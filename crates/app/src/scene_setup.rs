@@ -14,6 +14,7 @@ use clap::{Args, ValueEnum};
 use tiledlight_cull::shadow::ShadowFormat;
 use tiledlight_deferred::EdgeTest;
 use tiledlight_gpu::features::BlendMode;
+use tiledlight_gpu::light_cull::ClusterOptions;
 use tiledlight_scene::{GridDensity, DEFAULT_LIGHT_THRESHOLD};
 use tiledlight_setup::{CameraBookmark, Method, SceneSource, Settings};
 
@@ -139,6 +140,44 @@ impl From<BlendMode> for BlendModeArg {
     }
 }
 
+/// The light grid's layout.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum GridArg {
+    /// One list per screen tile (TiledLighting11).
+    Tiled,
+    /// Two lists per tile, split at the middle of its depth range (TiledLighting11's half-z).
+    HalfZ,
+    /// One list per tile, lights tested against 32 depth bins of the tile that hold a
+    /// surface (Harada 2012).
+    #[value(name = "2.5d")]
+    DepthMask,
+    /// 3D clusters: tiles x exponential depth slices (Olsson 2012), assigned light-centrically.
+    Clustered,
+}
+
+impl GridArg {
+    /// The layout `settings` name.
+    pub fn of(settings: &Settings) -> Self {
+        match (settings.clusters.is_some(), settings.depth_mask, settings.half_z) {
+            (true, ..) => Self::Clustered,
+            (_, true, _) => Self::DepthMask,
+            (_, _, true) => Self::HalfZ,
+            _ => Self::Tiled,
+        }
+    }
+}
+
+/// How lights get into the grid's lists.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum AssignArg {
+    /// Tile-centric: a workgroup per tile tests the lights (TiledLighting11; cost ~ lights
+    /// x tiles, two-level by default).
+    Gather,
+    /// Light-centric: each light scatters itself into the tiles it covers (cost ~ lights +
+    /// pairs). Same lists.
+    Scatter,
+}
+
 /// Scene, lights, screen and renderer flags shared by `render` and `bench`.
 ///
 /// Numbers are parsed wide (u64 light counts) and range-checked in [`SceneArgs::validate`],
@@ -192,9 +231,31 @@ pub struct SceneArgs {
     /// Also test light spheres against each tile's view-space AABB.
     #[arg(long)]
     pub aabb: bool,
-    /// Two lists per tile, split at the middle of its depth range.
+    /// Two lists per tile, split at the middle of its depth range (the same as --grid half-z).
     #[arg(long)]
     pub half_z: bool,
+    /// The light grid's layout: screen tiles, half-z, 2.5D depth masks or clusters.
+    #[arg(long, value_enum, default_value_t = GridArg::Tiled)]
+    pub grid: GridArg,
+    /// How lights are assigned to the grid's lists (clusters are always scattered).
+    #[arg(long, value_enum, default_value_t = AssignArg::Gather)]
+    pub assign: AssignArg,
+    /// Clusters: tile side in pixels, 8, 16, 32 or 64.
+    #[arg(long, default_value_t = ClusterOptions::default().tile_size, value_name = "PX")]
+    pub cluster_tile: u32,
+    /// Clusters: depth slices, 1 to 32.
+    #[arg(long, default_value_t = ClusterOptions::default().slices, value_name = "N")]
+    pub cluster_slices: u32,
+    /// Clusters: far end of the first depth slice, metres (exponential slicing starts here).
+    #[arg(long, default_value_t = ClusterOptions::default().first, value_name = "M")]
+    pub cluster_first: f32,
+    /// Clusters: far end of the exponential slices, metres (the last slice reaches past it).
+    #[arg(long, default_value_t = ClusterOptions::default().last, value_name = "M")]
+    pub cluster_last: f32,
+    /// Clusters: only clusters holding a surface of the depth buffer get lights (off: every
+    /// cluster of the frustum, which also serves transparent geometry).
+    #[arg(long)]
+    pub cluster_geometry_only: bool,
     /// Also test spot cones against each tile (needs spot lights to matter).
     #[arg(long)]
     pub spot_cone: bool,
@@ -253,6 +314,7 @@ impl Default for SceneArgs {
     /// test checks the flags parse to this).
     fn default() -> Self {
         let d = Settings::default();
+        let c = d.clusters.unwrap_or_default();
         Self {
             scene: d.scene.to_string(),
             lights: d.lights,
@@ -269,6 +331,13 @@ impl Default for SceneArgs {
             capacity: d.capacity,
             aabb: d.aabb,
             half_z: d.half_z,
+            grid: GridArg::of(&d),
+            assign: if d.scatter { AssignArg::Scatter } else { AssignArg::Gather },
+            cluster_tile: c.tile_size,
+            cluster_slices: c.slices,
+            cluster_first: c.first,
+            cluster_last: c.last,
+            cluster_geometry_only: c.geometry_only,
             spot_cone: d.spot_cone,
             flat_cull: d.flat_cull,
             gbuffer_rts: d.gbuffer_rts,
@@ -305,7 +374,16 @@ impl SceneArgs {
             tile_size: self.tile_size,
             capacity: self.capacity,
             aabb: self.aabb,
-            half_z: self.half_z,
+            half_z: self.half_z || self.grid == GridArg::HalfZ,
+            depth_mask: self.grid == GridArg::DepthMask,
+            scatter: self.assign == AssignArg::Scatter,
+            clusters: (self.grid == GridArg::Clustered).then_some(ClusterOptions {
+                tile_size: self.cluster_tile,
+                slices: self.cluster_slices,
+                first: self.cluster_first,
+                last: self.cluster_last,
+                geometry_only: self.cluster_geometry_only,
+            }),
             spot_cone: self.spot_cone,
             flat_cull: self.flat_cull,
             gbuffer_rts: self.gbuffer_rts,
@@ -440,6 +518,8 @@ mod tests {
             "d32",
             "--blend-mode",
             "wboit",
+            "--assign",
+            "scatter",
         ]);
         let s = a.settings().unwrap();
         let expected = Settings {
@@ -458,6 +538,9 @@ mod tests {
             capacity: Some(9),
             aabb: true,
             half_z: true,
+            depth_mask: false,
+            scatter: true,
+            clusters: None,
             spot_cone: true,
             flat_cull: true,
             gbuffer_rts: 3,
@@ -478,6 +561,38 @@ mod tests {
         let glass = parse(&["--grid-objects", "50", "--transparent-objects", "20"]).settings().unwrap();
         assert_eq!((glass.grid_objects, glass.transparent_objects, glass.blend_mode), (50, 20, BlendMode::Sorted));
         assert_eq!(parse(&["--scene", "DEFAULT"]).settings().unwrap().scene, SceneSource::Default);
+    }
+
+    #[test]
+    fn grid_layouts_reach_the_settings() {
+        let s = |flags: &[&str]| parse(flags).settings().unwrap();
+        assert!(s(&["--grid", "half-z"]).half_z);
+        let mask = s(&["--grid", "2.5d"]);
+        assert!(mask.depth_mask && !mask.half_z && mask.clusters.is_none() && !mask.scatter);
+        let c = s(&[
+            "--grid",
+            "clustered",
+            "--cluster-tile",
+            "32",
+            "--cluster-slices",
+            "16",
+            "--cluster-first",
+            "2",
+            "--cluster-last",
+            "100",
+            "--cluster-geometry-only",
+        ]);
+        let want = ClusterOptions { tile_size: 32, slices: 16, first: 2.0, last: 100.0, geometry_only: true };
+        assert_eq!(c.clusters, Some(want));
+        for g in [GridArg::Tiled, GridArg::HalfZ, GridArg::DepthMask, GridArg::Clustered] {
+            let name = g.to_possible_value().unwrap().get_name().to_string();
+            assert_eq!(GridArg::of(&s(&["--grid", &name])), g);
+        }
+        let e = |flags: &[&str]| format!("{:#}", parse(flags).settings().unwrap_err());
+        assert!(e(&["--grid", "2.5d", "--half-z"]).contains("--grid 2.5d"), "{}", e(&["--grid", "2.5d", "--half-z"]));
+        assert!(e(&["--grid", "clustered", "--cluster-slices", "33"]).starts_with("--cluster-slices 33"));
+        assert!(e(&["--grid", "clustered", "--cluster-tile", "12"]).starts_with("--cluster-tile 12"));
+        assert!(e(&["--grid", "clustered", "--cluster-last", "1"]).starts_with("--cluster-last 1"));
     }
 
     #[test]

@@ -17,6 +17,7 @@
 use tiledlight_cull::TileGrid;
 use tiledlight_gpu::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
 use tiledlight_gpu::features::Features;
+use tiledlight_gpu::light_assign::LightAssign;
 use tiledlight_gpu::light_cull::{CoarseCulling, CullOptions, DropLight, CULL_WORKGROUP_BYTES, DEPTH_BINDING};
 use tiledlight_gpu::light_grid::{compute_bindings, GpuTileLists, LightGrid};
 use tiledlight_gpu::lights_gpu::LightBuffers;
@@ -97,6 +98,8 @@ pub struct DeferredShading {
     pipeline: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
     coarse: Option<CoarseCulling>,
+    /// Light-centric assignment, run before the pass (which then only shades).
+    assign: Option<LightAssign>,
     msaa: Option<Msaa>,
     grid: TileGrid,
     /// The lists every tile was shaded with.
@@ -122,7 +125,8 @@ const fn hdr_storage_binding(binding: u32) -> Binding {
 /// spots (7) with `SPOT_LIGHTS` (or `SPOT_CONE`, which the pass sets only with spots);
 /// cells (8) with `COARSE`; with `MSAA` the sample texture (12), edge list (13) and
 /// resolve arguments (14); with `SHADOWS` the shadow atlas (15), its comparison sampler
-/// (16) and faces (17). Group 2: the light grid, without tile ranges.
+/// (16) and faces (17). Group 2: the light grid, with tile ranges only with `ASSIGNED`
+/// (lists assigned light-centrically before the pass, read per pixel).
 pub const DEFERRED_BINDINGS: PassBindings = PassBindings {
     entry: "deferred.wgsl",
     source: file!(),
@@ -155,7 +159,7 @@ pub const DEFERRED_BINDINGS: PassBindings = PassBindings {
                 Binding::storage(17, CS).when(Cond::Defined("SHADOWS")),
             ],
         ),
-        PassGroup::new(2, &compute_bindings(Cond::Never)),
+        PassGroup::new(2, &compute_bindings(Cond::Defined("ASSIGNED"))),
     ],
 };
 
@@ -225,16 +229,38 @@ impl DeferredShading {
         if let Some(d) = &drop {
             d.check(&grid, lights.len())?;
         }
-        // No tile ranges: the pass picks a pixel's half-z list from its own tile's range.
+        // No tile ranges when culling here: the pass picks a pixel's half-z list from its
+        // own tile's range (assignment keeps them: grid_layout).
         let light_grid = LightGrid::new(
             device,
             "deferred.light_grid",
-            options.grid_layout(grid, false),
+            options.grid_layout(grid, false)?,
             lights.len(),
             options.grid_pairs,
         )?;
         memory.extend(&light_grid.memory());
-        let mut defines = options.cull_defines(features.spot_lights, drop);
+        let assigned = options.assigned();
+        if assigned && drop.is_some() {
+            return Err(GpuError::Config("the test hook drops lights in tile-centric culling only".into()));
+        }
+        let assign = if assigned {
+            Some(LightAssign::new(device, views, depth, (lights, lighting), &light_grid, &options, memory)?)
+        } else {
+            None
+        };
+        let mut defines = if assigned {
+            // The pass only looks lists up: the layout's defines, none of the tests'.
+            let mut d = vec!["ASSIGNED"];
+            d.extend(options.depth_variant().0);
+            if options.clusters.is_some() {
+                d.push("CLUSTERED");
+            } else if options.half_z {
+                d.push("HALF_Z");
+            }
+            d
+        } else {
+            options.cull_defines(features.spot_lights, drop)
+        };
         let mut bind = vec![
             view_entry(0, depth),
             wgpu::BindGroupEntry { binding: 1, resource: lights.cull.as_entire_binding() },
@@ -257,7 +283,7 @@ impl DeferredShading {
             bind.push(wgpu::BindGroupEntry { binding: 16, resource: wgpu::BindingResource::Sampler(&a.sampler) });
             bind.push(wgpu::BindGroupEntry { binding: 17, resource: a.faces.as_entire_binding() });
         }
-        let coarse = if options.coarse {
+        let coarse = if options.coarse && !assigned {
             Some(CoarseCulling::new(device, views, depth, lights, lighting, &grid, &options, memory)?)
         } else {
             None
@@ -313,7 +339,13 @@ impl DeferredShading {
             entries: &bind,
         });
         let module = shader_module(device, DEFERRED_BINDINGS.entry, &defines)?;
-        let mut constants = options.cull_constants(coarse.as_ref(), drop, (&light_grid, lights.len()));
+        let mut constants = if assigned {
+            let mut c = vec![("TILE_SIZE", options.tile_size as f64), ("WG", options.tile_size.min(16) as f64)];
+            c.extend(options.depth_variant().1);
+            c
+        } else {
+            options.cull_constants(coarse.as_ref(), drop, (&light_grid, lights.len()))
+        };
         constants.extend(features.light_constants());
         if samples > 1 {
             constants.push(("SAMPLES_X", sx as f64));
@@ -335,13 +367,17 @@ impl DeferredShading {
             }
             None => None,
         };
-        Ok(Self { pipeline, bind_group, coarse, msaa, grid, light_grid })
+        Ok(Self { pipeline, bind_group, coarse, assign, msaa, grid, light_grid })
     }
 
     /// Records the cell pass (two-level culling) and the cull-and-shade dispatch (the MSAA
     /// resolve is [`Self::record_resolve`], its own step of the frame plan).
     pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, (views, view): (&Views, u32)) {
-        self.light_grid.record_clear(encoder);
+        if let Some(a) = &self.assign {
+            a.record(encoder, timer, (views, view), &self.light_grid, "deferred.assign");
+        } else {
+            self.light_grid.record_clear(encoder);
+        }
         if let Some(c) = &self.coarse {
             let t = timer.begin("deferred.cull_cells", encoder);
             {
@@ -370,7 +406,9 @@ impl DeferredShading {
             pass.dispatch_workgroups(self.grid.tiles_x, self.grid.tiles_y, 1);
         }
         timer.end(encoder, t);
-        self.light_grid.record_readback(encoder);
+        if self.assign.is_none() {
+            self.light_grid.record_readback(encoder);
+        }
     }
 
     /// Records the MSAA resolve of the last shading pass's edge pixels (an indirect

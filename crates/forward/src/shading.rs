@@ -78,6 +78,8 @@ pub struct ShadingPass {
     /// Stands in for group 2 when the scene has no textures.
     empty_group: Option<wgpu::BindGroup>,
     label: &'static str,
+    /// Half-z lookups: the tile ranges are bound.
+    half_z: bool,
 }
 
 impl ShadingPass {
@@ -106,6 +108,9 @@ impl ShadingPass {
                 if half_z {
                     defines.push("HALF_Z");
                 }
+                if c.options.clusters.is_some() {
+                    defines.push("CLUSTERED");
+                }
                 "forward.shade"
             }
             LightLoop::All { cutoff } => {
@@ -122,7 +127,11 @@ impl ShadingPass {
             return Err(GpuError::Config("the shadow atlas must exist exactly when the features have shadows".into()));
         }
         let shadows = atlas.map(|a| (a.sample_view.clone(), a.sampler.clone(), a.faces.clone()));
-        let lights_group = lights_group(device, &lights_layout, (&lights, shadows.as_ref()), culling.map(|c| &c.grid));
+        // The tile ranges are bound only for half-z lookups (light-centric assignment keeps
+        // them for every layout).
+        let half_z = matches!(light_loop, LightLoop::Tiled { half_z: true });
+        let grid = culling.map(|c| (&c.grid, half_z));
+        let lights_group = lights_group(device, &lights_layout, (&lights, shadows.as_ref()), grid);
         let constants = features.light_constants();
         let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shade.empty_layout"),
@@ -173,13 +182,13 @@ impl ShadingPass {
                 entries: &[],
             })
         });
-        Ok(Self { pipelines, lights_layout, lights, shadows, lights_group, empty_group, label })
+        Ok(Self { pipelines, lights_layout, lights, shadows, lights_group, empty_group, label, half_z })
     }
 
     /// Binds the light grid again after it grew (its index buffer is a new one).
     pub fn rebind(&mut self, device: &wgpu::Device, grid: &LightGrid) {
-        self.lights_group =
-            lights_group(device, &self.lights_layout, (&self.lights, self.shadows.as_ref()), Some(grid));
+        let grid = Some((grid, self.half_z));
+        self.lights_group = lights_group(device, &self.lights_layout, (&self.lights, self.shadows.as_ref()), grid);
     }
 
     /// Shades into `hdr` (cleared to black) using the pre-pass `depth`; with MSAA `hdr` is
@@ -246,7 +255,7 @@ fn lights_group(
         &(wgpu::Buffer, Option<wgpu::Buffer>, wgpu::Buffer),
         Option<&ShadowBindings>,
     ),
-    grid: Option<&LightGrid>,
+    grid: Option<(&LightGrid, bool)>,
 ) -> wgpu::BindGroup {
     let mut bind = vec![
         wgpu::BindGroupEntry { binding: 0, resource: shading.as_entire_binding() },
@@ -260,10 +269,10 @@ fn lights_group(
         bind.push(wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(sampler) });
         bind.push(wgpu::BindGroupEntry { binding: 8, resource: faces.as_entire_binding() });
     }
-    if let Some(g) = grid {
+    if let Some((g, ranges)) = grid {
         bind.push(wgpu::BindGroupEntry { binding: 2, resource: g.grid.as_entire_binding() });
         bind.push(wgpu::BindGroupEntry { binding: 3, resource: g.indices().as_entire_binding() });
-        if let Some(r) = &g.ranges {
+        if let (true, Some(r)) = (ranges, &g.ranges) {
             bind.push(wgpu::BindGroupEntry { binding: 4, resource: r.as_entire_binding() });
         }
     }

@@ -16,6 +16,7 @@ pub mod diagnostics;
 pub mod error;
 pub mod features;
 pub mod frame;
+pub mod light_assign;
 pub mod light_cull;
 pub mod light_grid;
 pub mod lights_gpu;
@@ -42,6 +43,8 @@ pub fn binding_declarations() -> Vec<bindings::PassBindings> {
         depth_prepass::DEPTH_PREPASS_BINDINGS,
         light_cull::CULL_BINDINGS,
         light_cull::CULL_COARSE_BINDINGS,
+        light_assign::TILE_DEPTH_BINDINGS,
+        light_assign::ASSIGN_BINDINGS,
         tonemap::TONEMAP_BINDINGS,
         tonemap::HEATMAP_BINDINGS,
         blended::BLENDED_BINDINGS,

@@ -11,6 +11,8 @@ use tiledlight_cull::TileGrid;
 
 use crate::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
 use crate::error::GpuError;
+pub use crate::light_assign::ClusterOptions;
+use crate::light_assign::LightAssign;
 pub use crate::light_grid::GpuTileLists;
 use crate::light_grid::{GridLayout, LightGrid};
 use crate::lights_gpu::LightBuffers;
@@ -20,7 +22,7 @@ use crate::util::{buffer_zeroed, compute_pipeline, shader_module};
 use crate::view::Views;
 
 /// Options of the culling pass (mirrors `tiledlight_cull::CullConfig`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CullOptions {
     /// Tile side: 8, 16 or 32.
     pub tile_size: u32,
@@ -43,6 +45,16 @@ pub struct CullOptions {
     /// A fixed light-grid budget in indices (pairs beyond it are dropped and reported);
     /// `None`: sized from the frame's pairs and grown when a frame needs more.
     pub grid_pairs: Option<u32>,
+    /// 2.5D culling (Harada 2012): a light must also meet one of 32 depth bins of the
+    /// tile's range that holds a surface. One list per tile: not with half-z.
+    pub depth_mask: bool,
+    /// Light-centric assignment ([`crate::light_assign`]): each light scatters itself into
+    /// the tiles it covers (cost ~ lights + pairs) instead of each tile testing every light
+    /// (cost ~ lights x tiles). Same lists. Two-level culling does not apply.
+    pub scatter: bool,
+    /// The clustered layout instead of tiles (always assigned light-centrically; sphere,
+    /// side planes and depth slices only: the AABB and cone tests do not apply).
+    pub clusters: Option<ClusterOptions>,
 }
 
 impl Default for CullOptions {
@@ -56,6 +68,9 @@ impl Default for CullOptions {
             coarse: true,
             samples: 1,
             grid_pairs: None,
+            depth_mask: false,
+            scatter: false,
+            clusters: None,
         }
     }
 }
@@ -70,13 +85,24 @@ impl CullOptions {
                 self.tile_size, grid.tile_size
             )));
         }
+        if self.depth_mask && self.half_z {
+            return Err(GpuError::Config("2.5D culling and half-z are alternative layouts: pick one".into()));
+        }
+        if let Some(c) = &self.clusters {
+            c.validate()?;
+            if self.half_z || self.depth_mask {
+                return Err(GpuError::Config(
+                    "the clustered layout slices depth itself: not with half-z or 2.5D culling".into(),
+                ));
+            }
+        }
         if self.capacity == 0 || self.capacity > MAX_CAPACITY {
             return Err(GpuError::Config(format!("per-tile capacity {} must be in 1..={MAX_CAPACITY}", self.capacity)));
         }
-        if self.coarse && !COARSE_SIZE.is_multiple_of(self.tile_size) {
+        if self.coarse && !self.assigned() && !COARSE_SIZE.is_multiple_of(self.tile_size) {
             return Err(GpuError::Config(format!("two-level culling needs a tile size dividing {COARSE_SIZE}")));
         }
-        let wg_bytes = self.capacity * 4 * self.lists_per_tile() + reserved;
+        let wg_bytes = self.capacity * 4 * if self.half_z { 2 } else { 1 } + reserved;
         if wg_bytes > limits.max_compute_workgroup_storage_size {
             return Err(GpuError::Config(format!(
                 "capacity {} needs {wg_bytes} bytes of workgroup memory{}; this device allows {}",
@@ -103,6 +129,9 @@ impl CullOptions {
         }
         if self.coarse {
             defines.push("COARSE");
+        }
+        if self.depth_mask {
+            defines.push("DEPTH_MASK");
         }
         defines.extend(self.depth_variant().0);
         defines.extend(DropLight::variant(drop).0);
@@ -135,8 +164,25 @@ impl CullOptions {
 
     /// The light grid's layout for these options on `grid` (`ranges`: keep the half-z
     /// depth ranges for lookups by pixel).
-    pub fn grid_layout(&self, grid: TileGrid, ranges: bool) -> GridLayout {
-        GridLayout { tiles: grid, lists_per_tile: self.lists_per_tile(), list_capacity: self.capacity, ranges }
+    /// With clusters, the grid's tiles are the clusters' (of their own size); light-centric
+    /// assignment always keeps the tile ranges (its tile-depth pass writes them).
+    pub fn grid_layout(&self, grid: TileGrid, ranges: bool) -> Result<GridLayout, GpuError> {
+        let tiles = match &self.clusters {
+            Some(c) => TileGrid::new(grid.width, grid.height, c.tile_size)?,
+            None => grid,
+        };
+        Ok(GridLayout {
+            tiles,
+            lists_per_tile: self.lists_per_tile(),
+            list_capacity: self.capacity,
+            ranges: ranges || self.assigned(),
+            slicing: self.clusters.map(|c| (c.first, c.scale())),
+        })
+    }
+
+    /// True when the lists are assigned light-centrically ([`Self::scatter`], or clusters).
+    pub fn assigned(&self) -> bool {
+        self.scatter || self.clusters.is_some()
     }
 
     /// The CPU reference configuration running the same tests.
@@ -179,15 +225,24 @@ impl CullOptions {
     /// blended range may reach infinitely far, over the sky, where the AABB and cone tests'
     /// corners are not finite).
     pub fn for_blended(&self) -> Self {
-        Self { half_z: false, coarse: false, aabb: false, spot_cone: false, ..*self }
+        Self {
+            half_z: false,
+            coarse: false,
+            aabb: false,
+            spot_cone: false,
+            depth_mask: false,
+            scatter: false,
+            clusters: None,
+            ..*self
+        }
     }
 
-    /// Lists per tile.
+    /// Lists per tile: the slices with clusters, 2 with half-z, else 1.
     pub fn lists_per_tile(&self) -> u32 {
-        if self.half_z {
-            2
-        } else {
-            1
+        match (&self.clusters, self.half_z) {
+            (Some(c), _) => c.slices,
+            (None, true) => 2,
+            (None, false) => 1,
         }
     }
 }
@@ -368,12 +423,22 @@ pub const CULL_BINDINGS: PassBindings = PassBindings {
     ],
 };
 
+/// How a [`LightCulling`] fills its grid.
+enum CullKernel {
+    /// Tile-centric: a workgroup per tile tests the lights (of its cell, two-level).
+    Gather {
+        pipeline: wgpu::ComputePipeline,
+        bind_group: wgpu::BindGroup,
+        /// The first level of two-level culling, when enabled.
+        coarse: Option<CoarseCulling>,
+    },
+    /// Light-centric ([`crate::light_assign`]).
+    Scatter(LightAssign),
+}
+
 /// The culling pass and the light grid it writes, sized to one screen and tile size.
 pub struct LightCulling {
-    pipeline: wgpu::ComputePipeline,
-    bind_group: wgpu::BindGroup,
-    /// The first level of two-level culling, when enabled.
-    coarse: Option<CoarseCulling>,
+    kernel: CullKernel,
     /// The lists (read by the shading pass, the heat map, statistics and tests).
     pub grid: LightGrid,
     /// The options it was built with.
@@ -444,10 +509,21 @@ impl LightCulling {
         let light_grid = LightGrid::new(
             device,
             if blended.is_some() { "blended.light_grid" } else { "cull.light_grid" },
-            options.grid_layout(grid, options.half_z),
+            options.grid_layout(grid, options.half_z)?,
             lights.len(),
             options.grid_pairs,
         )?;
+        if options.assigned() {
+            if drop.is_some() || blended.is_some() {
+                return Err(GpuError::Config(
+                    "light-centric assignment has no test hook and does not serve blended geometry yet".into(),
+                ));
+            }
+            let mut memory = light_grid.memory();
+            let assign =
+                LightAssign::new(device, views, depth, (lights, lighting), &light_grid, &options, &mut memory)?;
+            return Ok(Self { kernel: CullKernel::Scatter(assign), grid: light_grid, options, memory });
+        }
         let spot_cone = options.spot_cone && lights.has_spots();
         let mut defines = options.cull_defines(lights.has_spots(), drop);
         let mut bind = vec![
@@ -482,7 +558,7 @@ impl LightCulling {
         let constants = options.cull_constants(coarse.as_ref(), drop, (&light_grid, lights.len()));
         let pipeline =
             compute_pipeline(device, prefix, &[&views.layout, &layout, light_grid.layout()], &module, &constants);
-        Ok(Self { pipeline, bind_group, coarse, grid: light_grid, options, memory })
+        Ok(Self { kernel: CullKernel::Gather { pipeline, bind_group, coarse }, grid: light_grid, options, memory })
     }
 
     /// Records the culling dispatch (one workgroup per tile) of view slot `view` after
@@ -494,6 +570,12 @@ impl LightCulling {
         (views, view): (&Views, u32),
         label: &str,
     ) {
+        let CullKernel::Gather { pipeline, bind_group, coarse } = &self.kernel else {
+            if let CullKernel::Scatter(assign) = &self.kernel {
+                assign.record(encoder, timer, (views, view), &self.grid, label);
+            }
+            return;
+        };
         self.grid.record_clear(encoder);
         let t = timer.begin(label, encoder);
         {
@@ -502,16 +584,29 @@ impl LightCulling {
                 timestamp_writes: t.compute_writes(),
             });
             pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
-            if let Some(c) = &self.coarse {
+            if let Some(c) = coarse {
                 c.dispatch(&mut pass);
             }
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(1, &self.bind_group, &[]);
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(1, bind_group, &[]);
             pass.set_bind_group(2, self.grid.bind_group(), &[]);
             pass.dispatch_workgroups(self.grid.tiles.tiles_x, self.grid.tiles.tiles_y, 1);
         }
         timer.end(encoder, t);
         self.grid.record_readback(encoder);
+    }
+
+    /// The per-tile depth masks of the last frame (2.5D bins or occupied cluster slices;
+    /// `None` for layouts without masks or tile-centric culling; stalls the GPU).
+    pub fn read_masks(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Option<Vec<u32>>, GpuError> {
+        match &self.kernel {
+            CullKernel::Scatter(LightAssign { masks: Some(m), .. }) => {
+                let mut v: Vec<u32> = crate::readback::read_buffer(device, queue, m)?;
+                v.truncate(self.grid.tiles.tile_count());
+                Ok(Some(v))
+            }
+            _ => Ok(None),
+        }
     }
 
     /// Reads the lists of the last culled frame back (tests, statistics; stalls the GPU).

@@ -36,7 +36,7 @@ use crate::util::buffer_init;
 /// Keep in sync with `shaders/common/light_grid.wgsl` (`LightGridHeader`); `cargo xtask
 /// validate-shaders` checks it.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct LightGridHeader {
     /// Indices allocated this frame (may exceed `capacity`: the excess was not stored).
     pub allocated: u32,
@@ -61,7 +61,11 @@ pub struct LightGridHeader {
     pub lists_per_tile: u32,
     /// The culling kernel's workgroup list length (the heat map's palette top).
     pub list_capacity: u32,
-    /// Padding to 48 bytes.
+    /// Clustered layouts (`lists_per_tile` slices): the far end of slice 0, metres.
+    pub slice_first: f32,
+    /// Clustered layouts: `(slices - 1) / ln(last / first)` of the exponential slices.
+    pub slice_scale: f32,
+    /// Padding to 56 bytes.
     pub _pad0: u32,
 }
 
@@ -76,7 +80,7 @@ pub const HEADER_BYTES: u64 = std::mem::size_of::<LightGridHeader>() as u64;
 pub const INITIAL_PER_TILE: u32 = 32;
 
 /// What the last frame did with the light grid.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct GridStatus {
     /// The frame's header as the GPU left it.
     pub header: LightGridHeader,
@@ -138,7 +142,7 @@ const MAPPING: u8 = 2;
 const MAPPED: u8 = 3;
 
 /// The layout of a grid: which lists exist and how the kernels that fill it are set up.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GridLayout {
     /// The tiling.
     pub tiles: TileGrid,
@@ -146,8 +150,11 @@ pub struct GridLayout {
     pub lists_per_tile: u32,
     /// The culling kernel's workgroup list length.
     pub list_capacity: u32,
-    /// Keep the per-tile depth ranges (half-z lookups by pixel).
+    /// Keep the per-tile depth ranges (half-z lookups by pixel, light-centric assignment).
     pub ranges: bool,
+    /// Clustered layouts: the first slice's far end and the slices' scale (header fields
+    /// `slice_first`, `slice_scale`).
+    pub slicing: Option<(f32, f32)>,
 }
 
 /// The culling kernels' group (group 2 of `shaders/cull.wgsl` and `shaders/deferred.wgsl`),
@@ -194,7 +201,7 @@ impl LightGrid {
         num_lights: u32,
         fixed_pairs: Option<u32>,
     ) -> Result<Self, GpuError> {
-        let GridLayout { tiles, lists_per_tile, list_capacity, ranges } = layout;
+        let GridLayout { tiles, lists_per_tile, list_capacity, ranges, slicing } = layout;
         let max_binding = device.limits().max_storage_buffer_binding_size;
         let lists = tiles.tile_count() as u64 * lists_per_tile as u64;
         let grid_bytes = HEADER_BYTES + lists * 8;
@@ -222,6 +229,8 @@ impl LightGrid {
             tile_size: tiles.tile_size,
             lists_per_tile,
             list_capacity,
+            slice_first: slicing.map_or(0.0, |s| s.0),
+            slice_scale: slicing.map_or(0.0, |s| s.1),
             ..Default::default()
         };
         let mut contents = vec![0u8; grid_bytes as usize];
@@ -464,6 +473,8 @@ pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
             tile_size,
             lists_per_tile,
             list_capacity,
+            slice_first,
+            slice_scale,
             _pad0
         ]
     )]
@@ -474,8 +485,8 @@ mod tests {
     use super::*;
 
     #[test]
-    fn header_is_48_bytes_and_counters_precede_capacity() {
-        assert_eq!(HEADER_BYTES, 48);
+    fn header_is_56_bytes_and_counters_precede_capacity() {
+        assert_eq!(HEADER_BYTES, 56);
         assert_eq!(std::mem::offset_of!(LightGridHeader, capacity) as u64, COUNTER_BYTES);
     }
 

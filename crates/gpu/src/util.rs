@@ -60,11 +60,22 @@ pub fn compute_pipeline(
     module: &wgpu::ShaderModule,
     constants: &[(&str, f64)],
 ) -> wgpu::ComputePipeline {
+    compute_pipeline_at(device, (label, "main"), groups, module, constants)
+}
+
+/// [`compute_pipeline`] for the entry point `entry` of a module with several.
+pub fn compute_pipeline_at(
+    device: &wgpu::Device,
+    (label, entry): (&str, &str),
+    groups: &[&wgpu::BindGroupLayout],
+    module: &wgpu::ShaderModule,
+    constants: &[(&str, f64)],
+) -> wgpu::ComputePipeline {
     device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
         label: Some(label),
         layout: Some(&pipeline_layout(device, &format!("{label}.pipeline_layout"), groups)),
         module,
-        entry_point: Some("main"),
+        entry_point: Some(entry),
         compilation_options: wgpu::PipelineCompilationOptions { constants, zero_initialize_workgroup_memory: false },
         cache: None,
     })

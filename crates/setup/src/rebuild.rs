@@ -86,6 +86,9 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || a.capacity != b.capacity
         || a.aabb != b.aabb
         || a.half_z != b.half_z
+        || a.depth_mask != b.depth_mask
+        || a.scatter != b.scatter
+        || a.clusters != b.clusters
         || a.spot_cone != b.spot_cone
         || a.flat_cull != b.flat_cull
         || a.gbuffer_rts != b.gbuffer_rts

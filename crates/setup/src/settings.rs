@@ -22,7 +22,7 @@ use tiledlight_deferred::shading::workgroup_bytes_besides_lists;
 use tiledlight_deferred::{DeferredSettings, EdgeTest};
 use tiledlight_forward::ForwardSettings;
 use tiledlight_gpu::features::BlendMode;
-use tiledlight_gpu::light_cull::{CullOptions, CULL_WORKGROUP_BYTES};
+use tiledlight_gpu::light_cull::{ClusterOptions, CullOptions, CULL_WORKGROUP_BYTES};
 use tiledlight_scene::{CameraDesc, GridDensity, DEFAULT_LIGHT_THRESHOLD, MAX_GRID_OBJECTS, MAX_LIGHTS};
 
 /// Random point lights of the default scene when [`Settings::lights`] is not given.
@@ -155,6 +155,15 @@ pub struct Settings {
     pub aabb: bool,
     /// Two lists per tile, split at the middle of its depth range.
     pub half_z: bool,
+    /// 2.5D culling (Harada 2012): 32 depth bins per tile; a light must meet one holding a
+    /// surface. Not with half-z.
+    pub depth_mask: bool,
+    /// Light-centric assignment: each light scatters itself into the tiles it covers
+    /// (same lists; cost ~ lights + pairs instead of lights x tiles).
+    pub scatter: bool,
+    /// The clustered layout (3D cells, exponential depth slices) instead of screen tiles;
+    /// always assigned light-centrically.
+    pub clusters: Option<ClusterOptions>,
     /// Also test spot cones against each tile (needs spot lights to matter).
     pub spot_cone: bool,
     /// One-level culling: every tile tests every light (the default first culls per
@@ -208,6 +217,9 @@ impl Default for Settings {
             capacity: None,
             aabb: false,
             half_z: false,
+            depth_mask: false,
+            scatter: false,
+            clusters: None,
             spot_cone: false,
             flat_cull: false,
             gbuffer_rts: 2,
@@ -247,6 +259,23 @@ impl Settings {
         );
         ensure!([8, 16, 32].contains(&self.tile_size), "--tile-size {}: must be 8, 16 or 32", self.tile_size);
         ensure!([1, 2, 4, 8].contains(&self.msaa), "--msaa {}: must be 1, 2, 4 or 8", self.msaa);
+        ensure!(!(self.depth_mask && self.half_z), "--grid 2.5d with --half-z: they are alternative layouts, pick one");
+        if let Some(c) = &self.clusters {
+            ensure!(!self.half_z, "--grid clustered with --half-z: clusters slice depth themselves");
+            ensure!([8, 16, 32, 64].contains(&c.tile_size), "--cluster-tile {}: must be 8, 16, 32 or 64", c.tile_size);
+            ensure!((1..=32).contains(&c.slices), "--cluster-slices {}: must be 1 to 32", c.slices);
+            ensure!(
+                c.first.is_finite() && c.first > 0.0,
+                "--cluster-first {}: must be a positive distance in metres",
+                c.first
+            );
+            ensure!(
+                c.last.is_finite() && c.last > c.first,
+                "--cluster-last {}: must be finite and beyond --cluster-first {}",
+                c.last,
+                c.first
+            );
+        }
         ensure!(
             self.edge_distance.is_finite() && self.edge_distance >= 0.0,
             "--edge-distance {}: must be a number >= 0",
@@ -363,6 +392,9 @@ impl Settings {
             coarse: !self.flat_cull,
             samples: self.msaa,
             grid_pairs: None,
+            depth_mask: self.depth_mask,
+            scatter: self.scatter,
+            clusters: self.clusters,
         }
     }
 
@@ -471,7 +503,24 @@ impl Settings {
         if self.half_z {
             tests.push_str(", half-z (2 lists per tile)");
         }
-        let levels = if self.flat_cull { "one level" } else { "two levels (64 px cells, then tiles)" };
+        if self.depth_mask {
+            tests.push_str(", 2.5D (32 depth bins per tile)");
+        }
+        if let Some(c) = &self.clusters {
+            let only = if c.geometry_only { ", only clusters holding geometry" } else { "" };
+            return format!(
+                "clusters: {} px tiles x {} depth slices (first to {} m, exponential to {} m{only}), \
+                 assigned light-centrically, tests: sphere vs cluster planes and slices",
+                c.tile_size, c.slices, c.first, c.last
+            );
+        }
+        let levels = if self.scatter {
+            "assigned light-centrically (each light scatters into its tiles)"
+        } else if self.flat_cull {
+            "one level"
+        } else {
+            "two levels (64 px cells, then tiles)"
+        };
         format!("{} px tiles, capacity {}, {levels}, tests: {tests}", self.tile_size, self.capacity())
     }
 }

@@ -1,0 +1,373 @@
+//! Light-centric assignment: each light scatters itself into the lists of the tiles (or
+//! clusters) it covers, so a frame's cost grows with lights + (list, light) pairs rather
+//! than lights x tiles, which is what a million lights needs (the tile-centric kernel,
+//! [`crate::light_cull`], tests every light in every tile or cell). The steps of a frame,
+//! all in one compute pass (`shaders/tile_depth.wgsl`, `shaders/assign.wgsl`):
+//!
+//! 1. **Tile depth**: a workgroup per grid tile writes the view-distance range of its
+//!    surfaces into the grid's tile ranges and, for 2.5D culling or clusters, its 32-bit
+//!    depth-occupancy mask.
+//! 2. **Count**: a thread per light finds its tile rectangle (binary searches on the same
+//!    side planes the tile-centric kernel tests), tests each tile of it with the
+//!    tile-centric kernel's own code (`common/tile_tests.wgsl`; clusters: the light's depth
+//!    slices) and counts hits per list. A light covering more than [`BIG_TILES`] tiles is
+//!    queued and counted by a workgroup of its own (one thread would stall its warp).
+//! 3. **Allocate**: a thread per list; 256 lists' counts are scanned in workgroup memory and
+//!    allocated with one atomic add on the grid's counter (the light grid's contract: a
+//!    full index buffer drops and counts, never writes out of bounds).
+//! 4. **Write**: the same walk again, each hit stored at its list's cursor.
+//!
+//! The lists hold the same lights as the tile-centric kernel's (the order within a list
+//! differs): the CPU twin is `tiledlight_cull::cull_tiles` for tiles, half-z and 2.5D, and
+//! `tiledlight_cull`'s clusters for the clustered layout.
+//! Depends on wgpu, [`crate::light_cull`] (options, depth binding), [`crate::light_grid`],
+//! [`crate::lights_gpu`], [`crate::view`], [`crate::bindings`].
+
+use tiledlight_cull::TileGrid;
+
+use crate::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
+use crate::error::GpuError;
+use crate::light_cull::{CullOptions, DEPTH_BINDING};
+use crate::light_grid::{compute_bindings, LightGrid};
+use crate::lights_gpu::LightBuffers;
+use crate::memory::MemoryReport;
+use crate::timer::GpuTimer;
+use crate::util::{buffer_zeroed, compute_pipeline, compute_pipeline_at, shader_module};
+use crate::view::Views;
+
+/// A light whose tile rectangle holds more tiles than this is walked by a workgroup of its
+/// own instead of one thread.
+pub const BIG_TILES: u32 = 64;
+
+/// Workgroups of the big-light passes (each takes every `BIG_GROUPS`-th queued light):
+/// about two per streaming multiprocessor of a large GPU; none has work without big lights.
+const BIG_GROUPS: u32 = 256;
+
+/// Threads of the per-light and per-list workgroups (`shaders/assign.wgsl`).
+const GROUP: u32 = 256;
+
+/// The clustered layout (Olsson, Billeter, Assarsson 2012): screen tiles of `tile_size`
+/// pixels times `slices` depth slices. Slice 0 runs from the eye to `first` (exponential
+/// slicing would crowd the near plane: with near 0.1 and 24 slices, 10 fall within 5 m, so
+/// Bevy and Filament start at 5 m); slices 1 .. `slices`-1 are exponential from `first` to
+/// `last`, the last one reaching to infinity.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClusterOptions {
+    /// Tile side in pixels: 8, 16, 32 or 64.
+    pub tile_size: u32,
+    /// Depth slices, 1..=32 (a tile's occupancy is one 32-bit mask).
+    pub slices: u32,
+    /// Far end of slice 0, metres.
+    pub first: f32,
+    /// Far end of the exponential slices, metres (beyond it: the last slice).
+    pub last: f32,
+    /// Only clusters that hold a surface of the depth buffer get lights. Off, clusters are
+    /// built from the frustum alone and also serve geometry the depth buffer lacks
+    /// (transparent surfaces).
+    pub geometry_only: bool,
+}
+
+impl Default for ClusterOptions {
+    /// 64-pixel tiles, 24 slices (Bevy's count), the first 5 m, the last at 500 m.
+    fn default() -> Self {
+        Self { tile_size: 64, slices: 24, first: 5.0, last: 500.0, geometry_only: false }
+    }
+}
+
+impl ClusterOptions {
+    /// Checks every field, naming the one that is wrong.
+    pub fn validate(&self) -> Result<(), GpuError> {
+        if ![8, 16, 32, 64].contains(&self.tile_size) {
+            return Err(GpuError::Config(format!("cluster tile size {} must be 8, 16, 32 or 64", self.tile_size)));
+        }
+        if !(1..=32).contains(&self.slices) {
+            return Err(GpuError::Config(format!("{} cluster slices: must be 1 to 32", self.slices)));
+        }
+        if !(self.first.is_finite() && self.first > 0.0) {
+            return Err(GpuError::Config(format!("first cluster slice ends at {}: must be positive", self.first)));
+        }
+        if !(self.last.is_finite() && self.last > self.first) {
+            return Err(GpuError::Config(format!(
+                "cluster slices end at {}: must be finite and beyond the first slice's {}",
+                self.last, self.first
+            )));
+        }
+        Ok(())
+    }
+
+    /// `(slices - 1) / ln(last / first)`: slice `1 + floor(ln(d / first) * scale)` for a
+    /// distance `d` beyond `first` (0 with one slice).
+    pub fn scale(&self) -> f32 {
+        if self.slices <= 1 {
+            return 0.0;
+        }
+        (self.slices - 1) as f32 / (self.last / self.first).ln()
+    }
+}
+
+/// The bindings of the tile-depth pass (`shaders/tile_depth.wgsl`). Group 1: depth (0), the
+/// tile masks it writes (3, for 2.5D or clusters). Group 2: the light grid, tile ranges
+/// included.
+pub const TILE_DEPTH_BINDINGS: PassBindings = PassBindings {
+    entry: "tile_depth.wgsl",
+    source: file!(),
+    groups: &[
+        PassGroup::new(0, crate::view::BINDINGS),
+        PassGroup::new(
+            1,
+            &[
+                DEPTH_BINDING,
+                Binding::storage_rw(3, wgpu::ShaderStages::COMPUTE)
+                    .when(Cond::Any(&[Cond::Defined("DEPTH_MASK"), Cond::Defined("CLUSTERED")])),
+            ],
+        ),
+        PassGroup::new(2, &compute_bindings(Cond::Always)),
+    ],
+};
+
+/// The bindings of the assignment kernels (`shaders/assign.wgsl`). Group 1: bounding
+/// spheres (1), the lighting uniform (9), with `SPOT_CONE` the shading lights (6) and spots
+/// (7), the tile masks (3, 2.5D or geometry-only clusters), the per-list counts (4), the
+/// big-light queue (5). Group 2: the light grid, tile ranges included.
+pub const ASSIGN_BINDINGS: PassBindings = PassBindings {
+    entry: "assign.wgsl",
+    source: file!(),
+    groups: &[
+        PassGroup::new(0, crate::view::BINDINGS),
+        PassGroup::new(
+            1,
+            &[
+                Binding::storage(1, wgpu::ShaderStages::COMPUTE),
+                Binding::uniform(9, wgpu::ShaderStages::COMPUTE),
+                Binding::storage(6, wgpu::ShaderStages::COMPUTE).when(Cond::Defined("SPOT_CONE")),
+                Binding::storage(7, wgpu::ShaderStages::COMPUTE).when(Cond::Defined("SPOT_CONE")),
+                Binding::storage(3, wgpu::ShaderStages::COMPUTE)
+                    .when(Cond::Any(&[Cond::Defined("DEPTH_MASK"), Cond::Defined("GEOMETRY_ONLY")])),
+                Binding::storage_rw(4, wgpu::ShaderStages::COMPUTE),
+                Binding::storage_rw(5, wgpu::ShaderStages::COMPUTE),
+            ],
+        ),
+        PassGroup::new(2, &compute_bindings(Cond::Always)),
+    ],
+};
+
+/// The passes of light-centric assignment into one light grid, built once per screen,
+/// light set and options.
+pub struct LightAssign {
+    tile_depth: wgpu::ComputePipeline,
+    depth_group: wgpu::BindGroup,
+    count: wgpu::ComputePipeline,
+    count_big: wgpu::ComputePipeline,
+    allocate: wgpu::ComputePipeline,
+    write: wgpu::ComputePipeline,
+    write_big: wgpu::ComputePipeline,
+    group: wgpu::BindGroup,
+    /// Per list: the count, then the write cursor.
+    list_counts: wgpu::Buffer,
+    /// The big-light queue: its length, then light indices.
+    big_lights: wgpu::Buffer,
+    /// Per tile: the 2.5D bins or the cluster slices that hold a surface (read by tests).
+    pub masks: Option<wgpu::Buffer>,
+    tiles: TileGrid,
+    lists: u32,
+    lights: u32,
+}
+
+/// A dispatch of `n` workgroups, folded into two dimensions past the 65,535 limit (the
+/// kernels rebuild the index as `x + y * groups_x`).
+fn dispatch_size(n: u32) -> (u32, u32) {
+    let x = n.clamp(1, 65_535);
+    (x, n.div_ceil(x).max(1))
+}
+
+impl LightAssign {
+    /// Builds the passes that fill `grid` (built with tile ranges: [`CullOptions::grid_layout`]
+    /// with `ranges`) from `depth` (`options.samples` samples per pixel).
+    pub fn new(
+        device: &wgpu::Device,
+        views: &Views,
+        depth: &wgpu::TextureView,
+        (lights, lighting): (&LightBuffers, &wgpu::Buffer),
+        grid: &LightGrid,
+        options: &CullOptions,
+        memory: &mut MemoryReport,
+    ) -> Result<Self, GpuError> {
+        if grid.ranges.is_none() {
+            return Err(GpuError::Config("light-centric assignment needs a light grid with tile ranges".into()));
+        }
+        let tiles = grid.tiles;
+        let lists = grid.list_count() as u32;
+        let clusters = options.clusters;
+        let depth_mask = options.depth_mask && clusters.is_none();
+        let geometry_only = clusters.is_some_and(|c| c.geometry_only);
+        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        let masks = (depth_mask || clusters.is_some())
+            .then(|| buffer_zeroed(device, "assign.tile_masks", tiles.tile_count() as u64 * 4, usage));
+        let list_counts = buffer_zeroed(device, "assign.list_counts", lists as u64 * 4, usage);
+        let big_lights = buffer_zeroed(device, "assign.big_lights", (lights.len() as u64 + 1) * 4, usage);
+        memory.add("assign.list_counts", list_counts.size());
+        memory.add("assign.big_lights", big_lights.size());
+        if let Some(m) = &masks {
+            memory.add("assign.tile_masks", m.size());
+        }
+
+        // Step 1: tile depth (and masks).
+        let (msaa, samples) = options.depth_variant();
+        let mut depth_defines: Vec<&str> = msaa.into_iter().collect();
+        if clusters.is_some() {
+            depth_defines.push("CLUSTERED");
+        } else if depth_mask {
+            depth_defines.push("DEPTH_MASK");
+        }
+        let layout = create_layout(device, "tile_depth.layout", TILE_DEPTH_BINDINGS.group(1), &depth_defines);
+        let mut entries =
+            vec![wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(depth) }];
+        if let Some(m) = &masks {
+            entries.push(wgpu::BindGroupEntry { binding: 3, resource: m.as_entire_binding() });
+        }
+        let depth_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("tile_depth.bind_group"),
+            layout: &layout,
+            entries: &entries,
+        });
+        let module = shader_module(device, TILE_DEPTH_BINDINGS.entry, &depth_defines)?;
+        let mut constants = vec![("TILE_SIZE", tiles.tile_size as f64), ("WG", tiles.tile_size.min(16) as f64)];
+        constants.extend(samples);
+        let tile_depth =
+            compute_pipeline(device, "tile_depth", &[&views.layout, &layout, grid.layout()], &module, &constants);
+
+        // Steps 2-4: count, allocate, write.
+        let spot_cone = options.spot_cone && lights.has_spots() && clusters.is_none();
+        let mut defines = Vec::new();
+        if let Some(c) = clusters {
+            defines.push("CLUSTERED");
+            if c.geometry_only {
+                defines.push("GEOMETRY_ONLY");
+            }
+        } else {
+            if options.half_z {
+                defines.push("HALF_Z");
+            }
+            if options.aabb {
+                defines.push("AABB");
+            }
+            if spot_cone {
+                defines.push("SPOT_CONE");
+            }
+            if depth_mask {
+                defines.push("DEPTH_MASK");
+            }
+        }
+        let layout = create_layout(device, "assign.layout", ASSIGN_BINDINGS.group(1), &defines);
+        let mut entries = vec![
+            wgpu::BindGroupEntry { binding: 1, resource: lights.cull.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 9, resource: lighting.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 4, resource: list_counts.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 5, resource: big_lights.as_entire_binding() },
+        ];
+        if let (true, Some(spots)) = (spot_cone, &lights.spots) {
+            entries.push(wgpu::BindGroupEntry { binding: 6, resource: lights.shading.as_entire_binding() });
+            entries.push(wgpu::BindGroupEntry { binding: 7, resource: spots.as_entire_binding() });
+        }
+        if let (true, Some(m)) = (depth_mask || geometry_only, &masks) {
+            entries.push(wgpu::BindGroupEntry { binding: 3, resource: m.as_entire_binding() });
+        }
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("assign.bind_group"),
+            layout: &layout,
+            entries: &entries,
+        });
+        let module = shader_module(device, ASSIGN_BINDINGS.entry, &defines)?;
+        let constants = [
+            ("TILE_SIZE", tiles.tile_size as f64),
+            ("BIG_TILES", BIG_TILES as f64),
+            ("GRID_GUARD", f64::from(u8::from(grid.needs_guard(lights.len())))),
+        ];
+        let groups = [&views.layout, &layout, grid.layout()];
+        let pipeline =
+            |label: &str, entry: &str| compute_pipeline_at(device, (label, entry), &groups, &module, &constants);
+        Ok(Self {
+            tile_depth,
+            depth_group,
+            count: pipeline("assign.count", "count_lights"),
+            count_big: pipeline("assign.count_big", "count_big"),
+            allocate: pipeline("assign.allocate", "allocate"),
+            write: pipeline("assign.write", "write_lights"),
+            write_big: pipeline("assign.write_big", "write_big"),
+            group,
+            list_counts,
+            big_lights,
+            masks,
+            tiles,
+            lists,
+            lights: lights.len(),
+        })
+    }
+
+    /// Records a frame's assignment into `grid` (the one it was built for) as one timed
+    /// compute pass labelled `label`, clearing the grid's counters first.
+    pub fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: &GpuTimer,
+        (views, view): (&Views, u32),
+        grid: &LightGrid,
+        label: &str,
+    ) {
+        grid.record_clear(encoder);
+        encoder.clear_buffer(&self.list_counts, 0, None);
+        encoder.clear_buffer(&self.big_lights, 0, Some(4));
+        let t = timer.begin(label, encoder);
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(label),
+                timestamp_writes: t.compute_writes(),
+            });
+            pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
+            pass.set_bind_group(2, grid.bind_group(), &[]);
+            pass.set_pipeline(&self.tile_depth);
+            pass.set_bind_group(1, &self.depth_group, &[]);
+            pass.dispatch_workgroups(self.tiles.tiles_x, self.tiles.tiles_y, 1);
+            pass.set_bind_group(1, &self.group, &[]);
+            let per_light = dispatch_size(self.lights.div_ceil(GROUP));
+            let per_list = dispatch_size(self.lists.div_ceil(GROUP));
+            for (pipeline, size) in [
+                (&self.count, per_light),
+                (&self.count_big, (BIG_GROUPS, 1)),
+                (&self.allocate, per_list),
+                (&self.write, per_light),
+                (&self.write_big, (BIG_GROUPS, 1)),
+            ] {
+                pass.set_pipeline(pipeline);
+                pass.dispatch_workgroups(size.0, size.1, 1);
+            }
+        }
+        timer.end(encoder, t);
+        grid.record_readback(encoder);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dispatches_fold_past_the_limit() {
+        assert_eq!(dispatch_size(0), (1, 1));
+        assert_eq!(dispatch_size(4096), (4096, 1));
+        assert_eq!(dispatch_size(65_536), (65_535, 2));
+    }
+
+    #[test]
+    fn cluster_options_name_the_bad_field() {
+        assert!(ClusterOptions::default().validate().is_ok());
+        let e = |c: ClusterOptions| c.validate().unwrap_err().to_string();
+        assert!(e(ClusterOptions { tile_size: 12, ..Default::default() }).contains("tile size 12"));
+        assert!(e(ClusterOptions { slices: 33, ..Default::default() }).contains("33 cluster slices"));
+        assert!(e(ClusterOptions { first: f32::NAN, ..Default::default() }).contains("first cluster slice"));
+        assert!(e(ClusterOptions { last: 5.0, ..Default::default() }).contains("beyond the first"));
+        assert_eq!(ClusterOptions { slices: 1, ..Default::default() }.scale(), 0.0);
+        // 23 exponential slices over a factor of 100.
+        assert!((ClusterOptions::default().scale() - 23.0 / 100f32.ln()).abs() < 1e-6);
+    }
+}

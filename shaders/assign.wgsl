@@ -1,0 +1,359 @@
+// Light-centric assignment (crates/gpu/src/light_assign.rs): each light scatters itself into
+// the lists of the tiles (or clusters) it covers, so the cost grows with lights + pairs,
+// not lights x tiles. After the tile-depth pass (tile_depth.wgsl) has written each tile's
+// depth range (and mask), one frame runs, in order:
+//
+// 1. count_lights: a thread per light finds the light's tile rectangle (light_rect: the
+//    tiles whose four side planes the sphere passes, by binary search on the same planes
+//    the tile-centric kernel tests), tests each tile of it exactly as the tile-centric
+//    kernel would (common/tile_tests.wgsl; with CLUSTERED the light's depth slices instead
+//    of the tile's range) and counts the hits per list. A light covering more than
+//    BIG_TILES tiles is queued instead (one thread would hold up its warp).
+// 2. count_big: a workgroup per queued light counts its tiles, 256 threads at a time.
+// 3. allocate: a thread per list; a workgroup scan of 256 lists' counts and one atomic add
+//    on the grid's counter give each list its first index (the light grid's contract:
+//    common/light_grid.wgsl; a full index buffer drops and counts, never writes out of
+//    bounds); the count becomes the list's write cursor.
+// 4. write_lights and 5. write_big: the same walk, each hit written at its list's cursor.
+//
+// The lists hold the same lights as the tile-centric kernel's (order aside): the CPU twin
+// is tiledlight_cull's cull_tiles (and cull_clusters), the rectangle's light_tile_rect.
+// variants: HALF_Z AABB SPOT_CONE DEPTH_MASK CLUSTERED GEOMETRY_ONLY
+#include "common/tile_tests.wgsl"
+#include "common/light_grid_rw.wgsl"
+
+// Side of the grid's tiles in pixels.
+override TILE_SIZE: u32 = 16u;
+// A light whose rectangle holds more tiles than this goes to the big-light queue.
+override BIG_TILES: u32 = 64u;
+// True when lists x lights may reach 2^32 (tiledlight_gpu::light_grid::needs_guard).
+override GRID_GUARD: bool = true;
+
+@group(1) @binding(1) var<storage, read> cull_lights: array<CullLight>;
+@group(1) @binding(9) var<uniform> lighting: Lighting;
+#ifdef SPOT_CONE
+@group(1) @binding(6) var<storage, read> shading_lights: array<ShadingLight>;
+@group(1) @binding(7) var<storage, read> spot_lights: array<SpotLight>;
+#endif
+#ifdef DEPTH_MASK
+// Per tile: the 2.5D bins holding a surface (tile_depth.wgsl).
+@group(1) @binding(3) var<storage, read> tile_masks: array<u32>;
+#else
+#ifdef GEOMETRY_ONLY
+// Per tile: the depth slices holding a surface (tile_depth.wgsl).
+@group(1) @binding(3) var<storage, read> tile_masks: array<u32>;
+#endif
+#endif
+// Per list: the lights found (count passes), then the write cursor (write passes).
+@group(1) @binding(4) var<storage, read_write> list_counts: array<atomic<u32>>;
+// The big-light queue: its length, then light indices.
+@group(1) @binding(5) var<storage, read_write> big_lights: array<atomic<u32>>;
+// The light grid (crates/gpu/src/light_grid.rs) and the tiles' depth ranges.
+@group(2) @binding(0) var<storage, read_write> light_grid: LightGridRw;
+@group(2) @binding(1) var<storage, read_write> light_indices: array<u32>;
+@group(2) @binding(2) var<storage, read_write> tile_ranges: array<vec2<f32>>;
+
+// Lists a tile has.
+fn lists_per_tile() -> u32 {
+#ifdef CLUSTERED
+    return light_grid.header.lists_per_tile;
+#else
+#ifdef HALF_Z
+    return 2u;
+#else
+    return 1u;
+#endif
+#endif
+}
+
+// The side plane test of sphere_vs_frustum (common/cull_tests.wgsl) for one plane.
+fn side_passes(row: u32, edge: f32, sign: f32, c: vec3<f32>, r: f32) -> bool {
+    let p = clip_edge_plane(row, edge, sign);
+    return !(dot(p.xyz, c) + p.w < -r);
+}
+
+// NDC of pixel column x and row y, as tile_ndc computes a tile's edges.
+fn ndc_x(x: u32) -> f32 {
+    return 2.0 * f32(x) / f32(view.screen.x) - 1.0;
+}
+
+fn ndc_y(y: u32) -> f32 {
+    return 1.0 - 2.0 * f32(y) / f32(view.screen.y);
+}
+
+// Tiles [lo, hi) (hi exclusive; empty when not lo < hi on both axes).
+struct TileRect {
+    lo: vec2<u32>,
+    hi: vec2<u32>,
+}
+
+// The tiles whose four side planes the sphere (view-space centre `c`, radius `r`) passes
+// (tiledlight_cull light_tile_rect). Each plane test is monotone over the columns (rows)
+// for a sphere wholly in front of the eye plane, so four binary searches find them;
+// a perspective sphere reaching the eye plane gets every tile.
+fn light_rect(c: vec3<f32>, r: f32) -> TileRect {
+    let n = light_grid.header.tiles;
+    if view.orthographic == 0u && c.z + r >= 0.0 {
+        return TileRect(vec2<u32>(0u), n);
+    }
+    let w = view.screen.x;
+    let h = view.screen.y;
+    // Columns passing the left plane: a prefix.
+    var lo = 0u;
+    var hi = n.x;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if side_passes(0u, ndc_x(mid * TILE_SIZE), 1.0, c, r) {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    let x_end = lo;
+    // Columns passing the right plane: a suffix.
+    lo = 0u;
+    hi = n.x;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if side_passes(0u, ndc_x(min(mid * TILE_SIZE + TILE_SIZE, w)), -1.0, c, r) {
+            hi = mid;
+        } else {
+            lo = mid + 1u;
+        }
+    }
+    let x_begin = lo;
+    // Rows passing the bottom plane (rows go down the screen): a suffix.
+    lo = 0u;
+    hi = n.y;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if side_passes(1u, ndc_y(min(mid * TILE_SIZE + TILE_SIZE, h)), 1.0, c, r) {
+            hi = mid;
+        } else {
+            lo = mid + 1u;
+        }
+    }
+    let y_begin = lo;
+    // Rows passing the top plane: a prefix.
+    lo = 0u;
+    hi = n.y;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if side_passes(1u, ndc_y(mid * TILE_SIZE), -1.0, c, r) {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return TileRect(vec2<u32>(x_begin, y_begin), vec2<u32>(x_end, lo));
+}
+
+// One light as the walks see it.
+struct Walk {
+    light: u32,
+    c: vec3<f32>,
+    r: f32,
+    rect: TileRect,
+    // Tiles of the rectangle (0 when it is empty or the light reaches nothing).
+    tiles: u32,
+    // CLUSTERED: the light's depth slices, first and last.
+    slices: vec2<u32>,
+}
+
+fn walk_of(light: u32) -> Walk {
+    var k: Walk;
+    k.light = light;
+    let cl = cull_lights[light];
+    k.c = (view.world_to_view * vec4<f32>(cl.center, 1.0)).xyz;
+    k.r = cl.radius;
+    if !(k.r > 0.0) {
+        return k;
+    }
+#ifdef CLUSTERED
+    let dist = -k.c.z;
+    // A light wholly behind the eye reaches no cluster.
+    if !(dist + k.r > 0.0) {
+        return k;
+    }
+    let hd = &light_grid.header;
+    k.slices = vec2<u32>(
+        cluster_slice(max(dist - k.r, 0.0), (*hd).slice_first, (*hd).slice_scale, (*hd).lists_per_tile),
+        cluster_slice(dist + k.r, (*hd).slice_first, (*hd).slice_scale, (*hd).lists_per_tile),
+    );
+#endif
+    k.rect = light_rect(k.c, k.r);
+    if k.rect.lo.x < k.rect.hi.x && k.rect.lo.y < k.rect.hi.y {
+        let e = k.rect.hi - k.rect.lo;
+        k.tiles = e.x * e.y;
+    }
+    return k;
+}
+
+// A hit of the walk's light in list `l`: counted, or written at the list's cursor.
+fn emit(l: u32, light: u32, write: bool) {
+    let slot = atomicAdd(&list_counts[l], 1u);
+    if write {
+        let e = light_list(light_grid.lists[l], light_grid.header.capacity);
+        if slot < e.count {
+            light_indices[e.first + slot] = light;
+        }
+    }
+}
+
+// Tile `i` (row-major within the rectangle) of the walk.
+fn visit(k: Walk, i: u32, write: bool) {
+    let e = k.rect.hi.x - k.rect.lo.x;
+    let tile = k.rect.lo + vec2<u32>(i % e, i / e);
+    let t = tile.y * light_grid.header.tiles.x + tile.x;
+#ifdef CLUSTERED
+    // The side planes passed (the rectangle); the depth test is the slice range.
+    let slices = light_grid.header.lists_per_tile;
+#ifdef GEOMETRY_ONLY
+    let occupied = tile_masks[t];
+#endif
+    for (var s = k.slices.x; s <= k.slices.y; s++) {
+#ifdef GEOMETRY_ONLY
+        if ((occupied >> s) & 1u) == 0u {
+            continue;
+        }
+#endif
+        emit(t * slices + s, k.light, write);
+    }
+#else
+    let range = tile_ranges[t];
+    if range.y < 0.0 {
+        // No geometry in the tile: no list (as the tile-centric kernel).
+        return;
+    }
+    // The tile-centric kernel's test, planes included (the same arithmetic, so the same
+    // decisions).
+    let vols = tile_volumes_at(tile, TILE_SIZE, range.x, range.y);
+    var hit = volume_hits(vols, k.light, k.c, k.r);
+#ifdef DEPTH_MASK
+    if (tile_masks[t] & depth_mask_between(-k.c.z - k.r, -k.c.z + k.r, range.x, range.y)) == 0u {
+        hit.x = false;
+    }
+#endif
+    if hit.x {
+        emit(t * lists_per_tile(), k.light, write);
+    }
+#ifdef HALF_Z
+    if hit.y {
+        emit(t * 2u + 1u, k.light, write);
+    }
+#endif
+#endif
+}
+
+// Steps 1 and 4: a thread per light; big lights are queued by the count pass and left to
+// the big-light passes by both.
+fn walk_light(light: u32, write: bool) {
+    if light >= lighting.num_lights {
+        return;
+    }
+    let k = walk_of(light);
+    if k.tiles > BIG_TILES {
+        if !write {
+            let slot = atomicAdd(&big_lights[0], 1u);
+            atomicStore(&big_lights[1u + slot], light);
+        }
+        return;
+    }
+    for (var i = 0u; i < k.tiles; i++) {
+        visit(k, i, write);
+    }
+}
+
+// Steps 2 and 5: a workgroup per queued light, its tiles spread over the threads.
+fn walk_big(group: u32, groups: u32, lidx: u32, write: bool) {
+    let queued = atomicLoad(&big_lights[0]);
+    for (var b = group; b < queued; b += groups) {
+        let k = walk_of(atomicLoad(&big_lights[1u + b]));
+        for (var i = lidx; i < k.tiles; i += 256u) {
+            visit(k, i, write);
+        }
+    }
+}
+
+@compute @workgroup_size(256)
+fn count_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    walk_light(gid.x + gid.y * nwg.x * 256u, false);
+}
+
+@compute @workgroup_size(256)
+fn count_big(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lidx: u32) {
+    walk_big(wid.x, nwg.x, lidx, false);
+}
+
+@compute @workgroup_size(256)
+fn write_lights(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    walk_light(gid.x + gid.y * nwg.x * 256u, true);
+}
+
+@compute @workgroup_size(256)
+fn write_big(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lidx: u32) {
+    walk_big(wid.x, nwg.x, lidx, true);
+}
+
+var<workgroup> wg_scan: array<u32, 256>;
+var<workgroup> wg_base: u32;
+
+// Step 3: a thread per list. The workgroup's 256 counts are scanned in workgroup memory
+// and allocated with one atomic add (as the tile-centric kernel allocates a tile's lists).
+@compute @workgroup_size(256)
+fn allocate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lidx: u32) {
+    let tiles = light_grid.header.tiles;
+    let lists = tiles.x * tiles.y * lists_per_tile();
+    let l = gid.x + gid.y * nwg.x * 256u;
+    var count = 0u;
+    if l < lists {
+        count = atomicLoad(&list_counts[l]);
+    }
+    wg_scan[lidx] = count;
+    workgroupBarrier();
+    // Inclusive Hillis-Steele scan.
+    for (var o = 1u; o < 256u; o <<= 1u) {
+        var v = wg_scan[lidx];
+        if lidx >= o {
+            v += wg_scan[lidx - o];
+        }
+        workgroupBarrier();
+        wg_scan[lidx] = v;
+        workgroupBarrier();
+    }
+    let cap = light_grid.header.capacity;
+    if lidx == 255u {
+        let total = wg_scan[255];
+        var base = cap;
+        if total > 0u {
+            if GRID_GUARD {
+                // As common/light_grid_write.wgsl: no allocation once the buffer is full,
+                // so the counter cannot wrap onto stored lists.
+                atomicAdd(&light_grid.header.pairs, total);
+                if atomicLoad(&light_grid.header.allocated) < cap {
+                    base = atomicAdd(&light_grid.header.allocated, total);
+                }
+            } else {
+                base = atomicAdd(&light_grid.header.allocated, total);
+            }
+        }
+        wg_base = base;
+    }
+    workgroupBarrier();
+    if l >= lists {
+        return;
+    }
+    let base = wg_base;
+    var first = cap;
+    if base < cap {
+        first = base + wg_scan[lidx] - count;
+    }
+    let stored = min(count, cap - min(first, cap));
+    if stored < count {
+        atomicAdd(&light_grid.header.dropped_pairs, count - stored);
+        atomicAdd(&light_grid.header.dropped_lists, 1u);
+    }
+    light_grid.lists[l] = vec2<u32>(first, count);
+    // The write passes count again from 0: the cursor.
+    atomicStore(&list_counts[l], 0u);
+}
