@@ -1,7 +1,8 @@
 // Heat map of lights per tile over the tonemapped image: a log-scale palette from 1 light
 // (blue) to the workgroup list capacity (red, also for longer lists); tiles that lost lights
 // because the light grid was full are magenta; tiles with no light keep the image. With
-// half-z the two lists' counts are summed. Reads the light grid's lists (true counts).
+// half-z the two lists' counts are summed, with clusters the fullest slice's is shown.
+// Reads the light grid's lists (true counts).
 // No view: the grid header says the tiling (a pass that only needs the grid).
 @group(0) @binding(0) var<storage, read> light_grid: LightGrid;
 #include "common/light_grid.wgsl"
@@ -31,7 +32,9 @@ fn fs_heatmap(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
     for (var k = 0u; k < h.lists_per_tile; k++) {
         let l = t * h.lists_per_tile + k;
         let c = light_grid.lists[l].y;
-        count += c;
+        // Half-z: the two halves' sum (the tile's lights); clusters: the fullest slice
+        // (summing the slices would count a light once per slice it spans).
+        count = select(count + c, max(count, c), h.lists_per_tile > 2u);
         overflow = overflow || light_list(light_grid.lists[l], h.capacity).count < c;
     }
     if count == 0u {

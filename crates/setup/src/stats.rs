@@ -65,7 +65,11 @@ impl std::fmt::Display for CullingStats {
 impl CullingStats {
     /// The one-line report, the tiles counted being those with `geometry`.
     fn write(&self, f: &mut std::fmt::Formatter<'_>, geometry: &str) -> std::fmt::Result {
-        let per = if self.lists_per_tile == 1 { "tile" } else { "list (half-z)" };
+        let per = match self.lists_per_tile {
+            1 => "tile".to_string(),
+            2 => "list (half-z)".to_string(),
+            n => format!("cluster ({n} slices a tile)"),
+        };
         write!(
             f,
             "mean {:.1}, max {} lights per {per} over {} of {} tiles with {geometry}; {} lists longer than the workgroup list ({}), culled twice; ",
@@ -100,7 +104,8 @@ pub fn culling_stats(ctx: &GpuContext, renderer: &dyn Renderer, options: &CullOp
     };
     let depth = renderer.read_depth(ctx).context("reading the depth buffer back")?;
     let depth = (depth.as_slice(), renderer.targets().samples);
-    grid_stats(ctx, grid, renderer.grid(), depth, options).map(Some)
+    // The grid's own tiles: a clustered grid's differ from the renderer's shading tiles.
+    grid_stats(ctx, grid, grid.tiles, depth, options).map(Some)
 }
 
 /// The statistics of the lists in `light_grid` over the tiles of `grid`, counting the
