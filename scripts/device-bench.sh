@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -91,6 +91,20 @@ for set in $sets; do
             --transparent-objects $t --blend-mode $mode
         done
       done
+    done
+    ;;
+  million)
+    # Issue 13: a million lights on the courtyard (threshold 10: ~115 lights a tile), both
+    # methods: tile-centric gather (two-level, the old way), then light-centric assignment
+    # into every layout; 100,000 lights at threshold 1 (the same lights a tile).
+    for m in forward-plus deferred; do
+      run "m-$m-gather" 10 --lights 1000000 --threshold 10 --method $m
+      for g in tiled half-z 2.5d clustered; do
+        run "m-$m-$g" 10 --lights 1000000 --threshold 10 --method $m --assign scatter --grid $g
+      done
+      run "m100k-$m-gather" 20 --lights 100000 --threshold 1 --method $m
+      run "m100k-$m-scatter" 20 --lights 100000 --threshold 1 --method $m --assign scatter
+      run "m1k-$m-scatter" 50 --lights 1024 --method $m --assign scatter
     done
     ;;
   grid)

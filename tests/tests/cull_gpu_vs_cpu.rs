@@ -3,6 +3,9 @@
 //! an extreme camera, every tile size and every test option; lists longer than the
 //! kernel's workgroup list (culled twice) and a light grid too small for the frame (grown,
 //! or with a fixed budget truncated and counted as the CPU twin `tiledlight_cull::grid` says).
+//! Light-centric assignment (`CullOptions::scatter`, `tiledlight_gpu::light_assign`) runs
+//! the same cases: its lists must equal the same CPU culler's (the set, not the order), with
+//! lights covering more than `BIG_TILES` tiles (the big-light queue) among them.
 //!
 //! Tolerance: `tiledlight_tests::lists` (the shared comparison): a differing light is
 //! accepted only when the CPU culler agrees with the GPU once every light is grown or
@@ -46,7 +49,7 @@ fn check(case: &Case<'_>, options: CullOptions) -> Vec<f32> {
 
     let config = options.to_config(lights.has_spots());
     let label = format!(
-        "{} {}x{} tile {} aabb {} half-z {} cone {} coarse {}",
+        "{} {}x{} tile {} aabb {} half-z {} cone {} coarse {} scatter {}",
         case.name,
         case.width,
         case.height,
@@ -54,7 +57,8 @@ fn check(case: &Case<'_>, options: CullOptions) -> Vec<f32> {
         options.aabb,
         options.half_z,
         options.spot_cone,
-        options.coarse
+        options.coarse,
+        options.scatter
     );
     let frame = CulledFrame {
         depth: &depth,
@@ -116,7 +120,10 @@ fn all_options(has_spots: bool) -> Vec<CullOptions> {
         v.push(CullOptions { tile_size: 8, aabb: true, half_z: true, spot_cone: true, ..Default::default() });
     }
     let flat: Vec<CullOptions> = v.iter().map(|o| CullOptions { coarse: false, ..*o }).collect();
+    // Light-centric assignment of every test (two-level culling does not apply to it).
+    let scattered: Vec<CullOptions> = v.iter().map(|o| CullOptions { scatter: true, ..*o }).collect();
     v.extend(flat);
+    v.extend(scattered);
     v
 }
 
@@ -186,6 +193,8 @@ fn extreme_cameras() {
         check(&case, CullOptions::default());
         check(&case, CullOptions { coarse: false, ..Default::default() });
         check(&case, CullOptions { tile_size: 8, aabb: true, half_z: true, ..Default::default() });
+        check(&case, CullOptions { scatter: true, ..Default::default() });
+        check(&case, CullOptions { tile_size: 8, aabb: true, half_z: true, scatter: true, ..Default::default() });
     }
 }
 
@@ -230,6 +239,9 @@ fn a_full_grid_drops_counts_and_stays_in_bounds() {
     check(&case, CullOptions { grid_pairs: Some(1000), ..Default::default() });
     check(&case, CullOptions { grid_pairs: Some(1000), capacity: 8, half_z: true, ..Default::default() });
     check(&case, CullOptions { grid_pairs: Some(1), ..Default::default() });
+    check(&case, CullOptions { grid_pairs: Some(1000), scatter: true, ..Default::default() });
+    check(&case, CullOptions { grid_pairs: Some(1000), half_z: true, scatter: true, ..Default::default() });
+    check(&case, CullOptions { grid_pairs: Some(1), scatter: true, ..Default::default() });
 }
 
 /// Lists of `case` longer than `options.capacity`, as the GPU counted them.
@@ -263,6 +275,8 @@ fn coarse_cell_overflow_falls_back_to_every_light() {
         height: h,
     };
     let depth = check(&case, CullOptions { capacity: 2048, ..Default::default() });
+    // Every light covers the whole screen: all of them go through the big-light queue.
+    check(&case, CullOptions { scatter: true, ..Default::default() });
     let packed = tiledlight_cull::light::pack_lights(&tiledlight_cull::light::order_points_first(&lights));
     let (_, cells) = tiledlight_cull::reference::coarse_cells(&depth, w, h, &case.camera, &packed).unwrap();
     assert!(cells.iter().any(Option::is_none), "no cell overflowed: the fallback path went untested");
@@ -279,7 +293,11 @@ fn lists_follow_a_moving_camera() {
     let (w, h) = (160, 90);
     let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let light_buffers = LightBuffers::new(&ctx.device, &lights).unwrap();
-    for options in [CullOptions::default(), CullOptions { half_z: true, capacity: 16, ..Default::default() }] {
+    for options in [
+        CullOptions::default(),
+        CullOptions { half_z: true, capacity: 16, ..Default::default() },
+        CullOptions { scatter: true, ..Default::default() },
+    ] {
         let settings = ForwardSettings { method: Method::ForwardPlus, cull: options, ..Default::default() };
         let mut renderer = ForwardRenderer::new(ctx, &scene_gpu, &light_buffers, w, h, settings).unwrap();
         let mut timer = GpuTimer::new(ctx).unwrap();

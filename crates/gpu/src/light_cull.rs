@@ -193,7 +193,9 @@ impl CullOptions {
             aabb: self.aabb,
             half_z: self.half_z,
             spot_cone: self.spot_cone && has_spots,
-            coarse: self.coarse,
+            // Two-level culling may drop a false positive the flat test keeps; assignment is
+            // flat.
+            coarse: self.coarse && !self.assigned(),
             inflate: 0.0,
             samples: self.samples,
         }
