@@ -9,7 +9,7 @@
 //    kernel would (common/tile_tests.wgsl; with CLUSTERED the light's depth slices instead
 //    of the tile's range) and counts the hits per list. A light covering more than
 //    BIG_TILES tiles is queued instead (one thread would hold up its warp).
-// 2. count_big: a workgroup per queued light counts its tiles, 256 threads at a time.
+// 2. count_big: a team of 32 threads per queued light counts its tiles.
 // 3. allocate: a thread per list; a workgroup scan of 256 lists' counts and one atomic add
 //    on the grid's counter give each list its first index (the light grid's contract:
 //    common/light_grid.wgsl; a full index buffer drops and counts, never writes out of
@@ -225,10 +225,25 @@ fn visit(k: Walk, i: u32, write: bool) {
         // No geometry in the tile: no list (as the tile-centric kernel).
         return;
     }
-    // The tile-centric kernel's test, planes included (the same arithmetic, so the same
-    // decisions).
-    let vols = tile_volumes_at(tile, TILE_SIZE, range.x, range.y);
-    var hit = volume_hits(vols, k.light, k.c, k.r);
+    // The tile-centric kernel's test without its side planes, which every tile of the
+    // rectangle passes (the rectangle was found with the same plane arithmetic): the depth
+    // range (sphere_vs_frustum's expression) and the AABB and cone tests, which read only
+    // the volume's NDC rectangle and depth range.
+    var v: TileVolume;
+    v.ndc = tile_ndc(tile, TILE_SIZE);
+    let dist = -k.c.z;
+    var hit = vec2<bool>(false);
+#ifdef HALF_Z
+    let mid = half_z_split(range.x, range.y);
+    v.near = mid;
+    v.far = range.y;
+    hit.y = dist + k.r >= v.near && dist - k.r <= v.far && extra_tests(v, k.light, k.c, k.r);
+    v.far = mid;
+#else
+    v.far = range.y;
+#endif
+    v.near = range.x;
+    hit.x = dist + k.r >= v.near && dist - k.r <= v.far && extra_tests(v, k.light, k.c, k.r);
 #ifdef DEPTH_MASK
     if (tile_masks[t] & depth_mask_between(-k.c.z - k.r, -k.c.z + k.r, range.x, range.y)) == 0u {
         hit.x = false;
@@ -264,12 +279,17 @@ fn walk_light(light: u32, write: bool) {
     }
 }
 
-// Steps 2 and 5: a workgroup per queued light, its tiles spread over the threads.
+// Steps 2 and 5: a team of TEAM threads per queued light (8 teams a workgroup), the
+// light's tiles spread over the team's threads.
+const TEAM: u32 = 32u;
+
 fn walk_big(group: u32, groups: u32, lidx: u32, write: bool) {
     let queued = atomicLoad(&big_lights[0]);
-    for (var b = group; b < queued; b += groups) {
+    let teams = 256u / TEAM;
+    let lane = lidx % TEAM;
+    for (var b = group * teams + lidx / TEAM; b < queued; b += groups * teams) {
         let k = walk_of(atomicLoad(&big_lights[1u + b]));
-        for (var i = lidx; i < k.tiles; i += 256u) {
+        for (var i = lane; i < k.tiles; i += TEAM) {
             visit(k, i, write);
         }
     }

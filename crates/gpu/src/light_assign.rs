@@ -11,7 +11,7 @@
 //!    side planes the tile-centric kernel tests), tests each tile of it with the
 //!    tile-centric kernel's own code (`common/tile_tests.wgsl`; clusters: the light's depth
 //!    slices) and counts hits per list. A light covering more than [`BIG_TILES`] tiles is
-//!    queued and counted by a workgroup of its own (one thread would stall its warp).
+//!    queued and counted by a team of 32 threads (one thread would stall its warp).
 //! 3. **Allocate**: a thread per list; 256 lists' counts are scanned in workgroup memory and
 //!    allocated with one atomic add on the grid's counter (the light grid's contract: a
 //!    full index buffer drops and counts, never writes out of bounds).
@@ -35,13 +35,15 @@ use crate::timer::GpuTimer;
 use crate::util::{buffer_zeroed, compute_pipeline, compute_pipeline_at, shader_module};
 use crate::view::Views;
 
-/// A light whose tile rectangle holds more tiles than this is walked by a workgroup of its
-/// own instead of one thread.
-pub const BIG_TILES: u32 = 64;
+/// A light whose tile rectangle holds more tiles than this is walked by a team of 32
+/// threads instead of one (a thread's walk holds up its whole warp: on the H200 at a
+/// million lights, 64 cost 3.1 ms of assignment, most of it threads waiting on long walks).
+pub const BIG_TILES: u32 = 8;
 
-/// Workgroups of the big-light passes (each takes every `BIG_GROUPS`-th queued light):
-/// about two per streaming multiprocessor of a large GPU; none has work without big lights.
-const BIG_GROUPS: u32 = 256;
+/// Workgroups of the big-light passes, 8 teams of 32 threads each (team `t` of the frame
+/// takes every `8 * BIG_GROUPS`-th queued light): a few per streaming multiprocessor of a
+/// large GPU; none has work without big lights.
+const BIG_GROUPS: u32 = 512;
 
 /// Threads of the per-light and per-list workgroups (`shaders/assign.wgsl`).
 const GROUP: u32 = 256;
