@@ -150,6 +150,7 @@ impl CullOptions {
             coarse: self.coarse,
             inflate: 0.0,
             samples: self.samples,
+            depth_mask: false,
         }
     }
 
