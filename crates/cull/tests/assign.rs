@@ -248,7 +248,12 @@ fn scatter_cases_have_lights() {
     let pairs: usize = (0..64)
         .map(|seed| {
             let (camera, depth, packed, w, h, config) = scatter_case(seed);
-            cull_tiles_scatter(&depth, w, h, &camera, &packed, &config).unwrap().lists.iter().map(Vec::len).sum::<usize>()
+            cull_tiles_scatter(&depth, w, h, &camera, &packed, &config)
+                .unwrap()
+                .lists
+                .iter()
+                .map(Vec::len)
+                .sum::<usize>()
         })
         .sum();
     assert!(pairs > 10_000, "only {pairs} (list, light) pairs");
