@@ -94,6 +94,8 @@ fn passes(p: Vec4, c: Vec3, r: f32) -> bool {
 /// as an inclusive rectangle, or `None` when there are none (or `r` is not positive). The depth range of the tiles is not tested. See the module docs for
 /// the algorithm, which WGSL mirrors; `proj` and `orthographic` are the camera's.
 pub fn light_tile_rect(grid: &TileGrid, proj: &Mat4, orthographic: bool, c: Vec3, r: f32) -> Option<TileRect> {
+    // Written as in WGSL (`!(r > 0.0)`), so NaN takes this branch.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     if !(r > 0.0) {
         return None;
     }

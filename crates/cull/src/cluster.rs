@@ -105,6 +105,8 @@ impl ClusterConfig {
     /// distances), else `1 + min(ln(d / first) * scale, slices - 2)` truncated; monotone
     /// non-decreasing in `d`, `slices - 1` for `d = inf`.
     pub fn slice_of(&self, d: f32) -> u32 {
+        // Written as in WGSL, so NaN takes this branch.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
         if self.slices == 1 || !(d >= self.first) {
             return 0;
         }

@@ -120,8 +120,10 @@ impl CullConfig {
     }
 }
 
-/// Per-tile light lists. List `i` of tile `t` is `lists[t * lists_per_tile + i]`; with
-/// half-z, list 0 covers the near half of the tile's depth range.
+/// Per-tile light lists. List `i` of tile `t` is `lists[t * lists_per_tile + i]`
+/// ([`TileLists::lists_per_tile`]); with half-z, list 0 covers the near half of the tile's
+/// depth range; with clusters (`cluster` is `Some`), list `i` is depth slice `i`. Which
+/// layout made them: `cluster`, `config.half_z`, `config.depth_mask`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TileLists {
     /// The tiling.
@@ -594,7 +596,8 @@ pub fn lights_reaching(view: &Mat4, lights: &PackedLights, p: Vec3, margin: f32)
 /// Culling statistics of a set of lists.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CullStats {
-    /// Mean lights per list over lists of tiles with geometry.
+    /// Mean lights per list over lists of tiles with geometry (for clusters: over every
+    /// slice of those tiles, empty slices included).
     pub mean_per_list: f64,
     /// Largest light count of a list.
     pub max_per_list: u32,
