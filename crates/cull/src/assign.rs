@@ -22,7 +22,7 @@
 //! 2. Perspective and `c.z + r >= 0`: the whole grid.
 //! 3. A plane `p` passes when `dot(p.xyz, c) + p.w >= -r` (the negation of
 //!    `sphere_vs_frustum`'s rejection). With the planes built exactly as
-//!    [`TileFrustum::from_parts`] builds them from [`TileGrid::tile_ndc`]:
+//!    [`crate::tiles::TileFrustum::from_parts`] builds them from [`TileGrid::tile_ndc`]:
 //!    - `x0` = first column whose right plane passes (monotone false..true);
 //!    - `x1` = last column whose left plane passes (monotone true..false);
 //!    - `y0` = first row whose bottom plane passes (rows count down the screen);

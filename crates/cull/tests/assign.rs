@@ -23,6 +23,15 @@ use tiledlight_cull::reference::{pixel_view_position, COARSE_SIZE};
 use tiledlight_cull::tiles::{TileFrustum, TileGrid};
 use tiledlight_cull::{cull_tiles, Camera, CullConfig};
 
+/// `cases` cases; `PROPTEST_CASES=n` overrides it for a longer hunt.
+fn cases(cases: u32) -> ProptestConfig {
+    if std::env::var_os("PROPTEST_CASES").is_some() {
+        ProptestConfig::default()
+    } else {
+        ProptestConfig::with_cases(cases)
+    }
+}
+
 /// Relative radius slack for decisions within float error: a fraction of `r + |c|`.
 const SLACK: f32 = 1e-5;
 
@@ -110,7 +119,7 @@ fn extreme_cam() -> impl Strategy<Value = CamSpec> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(256))]
+    #![proptest_config(cases(256))]
 
     /// The rectangle holds exactly the tiles passing their side planes, up to float error.
     #[test]
@@ -228,7 +237,7 @@ fn scatter_case(seed: u64) -> (Camera, Vec<f32>, tiledlight_cull::light::PackedL
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(256))]
+    #![proptest_config(cases(256))]
 
     /// The scatter culler runs the same per-tile test on the same tiles: its lists are
     /// `cull_tiles`'s exactly. (They could differ only where a tile's plane test goes

@@ -17,6 +17,15 @@ use tiledlight_cull::reference::{list_quality, pixel_view_position, stats};
 use tiledlight_cull::tiles::TileFrustum;
 use tiledlight_cull::{cull_clusters, Camera, ClusterConfig, CullError, TileLists};
 
+/// `cases` cases; `PROPTEST_CASES=n` overrides it for a longer hunt.
+fn cases(cases: u32) -> ProptestConfig {
+    if std::env::var_os("PROPTEST_CASES").is_some() {
+        ProptestConfig::default()
+    } else {
+        ProptestConfig::with_cases(cases)
+    }
+}
+
 /// A random cluster layout over the ranges the GPU accepts.
 fn random_cluster(r: &mut impl Rng) -> ClusterConfig {
     let first = log_uniform(r, 1e-3, 1e3);
@@ -98,7 +107,7 @@ fn brute_force(f: &Frame) -> Vec<Vec<u32>> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(128))]
+    #![proptest_config(cases(128))]
 
     /// Light-centric (tile rectangle x slice range, each tile plane-tested) = brute force.
     /// They could differ only where a tile outside the rectangle passes its planes by f32
