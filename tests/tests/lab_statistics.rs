@@ -72,6 +72,7 @@ fn gpu_lists_give_the_cpu_false_positive_rate_and_wasted_evaluations() {
                 })
                 .collect(),
             ranges: tile_ranges(&depth, &grid, &camera).unwrap(),
+            cluster: None,
         };
         let q_gpu = list_quality(&depth, &camera, &lights.packed, &from_gpu);
         let q_cpu = list_quality(&depth, &camera, &lights.packed, &cpu);

@@ -3,7 +3,8 @@
 //! Cameras (reversed-Z perspective with finite or infinite far, orthographic), lights
 //! and their GPU packing, tile frusta, the bounding tests, windowed attenuation and the
 //! shared BRDF, the CPU reference culler that every GPU kernel is compared with, the
-//! light grid's packing ([`grid`]), the shadow atlas's layout, projections and lookup
+//! light-centric tile rectangle ([`assign`]), 2.5D depth masks ([`depth_mask`]), clustered
+//! lists ([`cluster`]), the light grid's packing ([`grid`]), the shadow atlas's layout, projections and lookup
 //! ([`shadow`]), and the CPU ray-cast visibility reference that shadow maps are compared
 //! with ([`raycast`]: triangles in a BVH, segment occlusion).
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
@@ -14,9 +15,12 @@ pub mod light;
 
 pub use error::CullError;
 pub use light::{Light, LightKind};
+pub mod assign;
 pub mod bounds;
 pub mod brdf;
 pub mod camera;
+pub mod cluster;
+pub mod depth_mask;
 pub mod grid;
 pub mod raycast;
 pub mod reference;
@@ -24,5 +28,6 @@ pub mod shadow;
 pub mod tiles;
 
 pub use camera::{Camera, DepthParams, Projection};
+pub use cluster::{cull_clusters, ClusterConfig};
 pub use reference::{cull_tiles, cull_tiles_blended, CullConfig, TileLists};
 pub use tiles::TileGrid;

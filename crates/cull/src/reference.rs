@@ -10,6 +10,8 @@ use glam::{Mat4, Vec3};
 
 use crate::bounds::{aabb_sphere, cone_vs_sphere, sphere_vs_aabb, sphere_vs_frustum, to_view};
 use crate::camera::Camera;
+use crate::cluster::ClusterConfig;
+use crate::depth_mask::{light_depth_mask, tile_depth_masks};
 use crate::error::CullError;
 use crate::light::PackedLights;
 use crate::tiles::{
@@ -54,6 +56,10 @@ pub struct CullConfig {
     /// values per pixel, pixel-major; a tile's depth range covers every sample, as the
     /// GPU kernel's does over a multisampled depth buffer.
     pub samples: u32,
+    /// 2.5D culling (Harada 2012): each tile also keeps a 32-bit mask of the depth bins
+    /// (of its own depth range) that hold a surface, and a light must overlap one of them
+    /// ([`crate::depth_mask`]). One list per tile: not with `half_z`.
+    pub depth_mask: bool,
 }
 
 impl Default for CullConfig {
@@ -67,6 +73,7 @@ impl Default for CullConfig {
             coarse: false,
             inflate: 0.0,
             samples: 1,
+            depth_mask: false,
         }
     }
 }
@@ -101,6 +108,11 @@ impl CullConfig {
                 self.samples
             )));
         }
+        if self.depth_mask && self.half_z {
+            return Err(CullError::InvalidSize(
+                "depth_mask (2.5D) and half_z are alternative layouts of one tile's depth range; turn one off".into(),
+            ));
+        }
         if !self.inflate.is_finite() {
             return Err(CullError::InvalidSize(format!("inflate {} is not finite", self.inflate)));
         }
@@ -108,8 +120,10 @@ impl CullConfig {
     }
 }
 
-/// Per-tile light lists. List `i` of tile `t` is `lists[t * lists_per_tile + i]`; with
-/// half-z, list 0 covers the near half of the tile's depth range.
+/// Per-tile light lists. List `i` of tile `t` is `lists[t * lists_per_tile + i]`
+/// ([`TileLists::lists_per_tile`]); with half-z, list 0 covers the near half of the tile's
+/// depth range; with clusters (`cluster` is `Some`), list `i` is depth slice `i`. Which
+/// layout made them: `cluster`, `config.half_z`, `config.depth_mask`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TileLists {
     /// The tiling.
@@ -124,6 +138,10 @@ pub struct TileLists {
     /// farthest opaque one behind it (`f32::INFINITY` where that is sky under an infinite
     /// far plane), None for tiles without blended geometry.
     pub ranges: Vec<Option<(f32, f32)>>,
+    /// `Some` for clustered lists ([`crate::cluster::cull_clusters`]): `slices` lists per
+    /// tile, list `t * slices + s` for depth slice `s`; `None` for the tile layouts, whose
+    /// lists per tile `config` gives.
+    pub cluster: Option<ClusterConfig>,
 }
 
 impl TileLists {
@@ -132,8 +150,16 @@ impl TileLists {
         self.lists.iter().filter(|l| l.len() > self.config.capacity as usize).count()
     }
 
+    /// Lists per tile: the cluster slices, else 2 with half-z, else 1.
+    pub fn lists_per_tile(&self) -> usize {
+        self.cluster.map_or(self.config.lists_per_tile(), |c| c.slices as usize)
+    }
+
     /// The list a pixel at view distance `dist` of tile `tile` uses.
     pub fn list_index(&self, tile: usize, dist: f32) -> usize {
+        if let Some(c) = &self.cluster {
+            return tile * c.slices as usize + c.slice_of(dist) as usize;
+        }
         if !self.config.half_z {
             return tile;
         }
@@ -179,14 +205,15 @@ pub fn check_depth_samples(grid: &TileGrid, depth: &[f32], samples: u32) -> Resu
 }
 
 /// One light as the kernel sees it, in view space.
-struct ViewLight {
-    center: Vec3,
-    radius: f32,
+pub(crate) struct ViewLight {
+    pub(crate) center: Vec3,
+    pub(crate) radius: f32,
     /// Apex, axis, length, cos, sin of a spot's cone.
     cone: Option<(Vec3, Vec3, f32, f32, f32)>,
 }
 
-fn view_lights(view: &Mat4, lights: &PackedLights, inflate: f32) -> Vec<ViewLight> {
+/// The lights in view space, radii grown by `inflate` (see [`CullConfig::inflate`]).
+pub(crate) fn view_lights(view: &Mat4, lights: &PackedLights, inflate: f32) -> Vec<ViewLight> {
     let rot = Mat4::from_mat3(glam::Mat3::from_mat4(*view));
     (0..lights.len())
         .map(|i| {
@@ -208,7 +235,27 @@ fn view_lights(view: &Mat4, lights: &PackedLights, inflate: f32) -> Vec<ViewLigh
         .collect()
 }
 
-fn light_in_volume(l: &ViewLight, f: &TileFrustum, proj: &Mat4, ortho: bool, cfg: &CullConfig) -> bool {
+/// The per-tile test of one light against one volume: side planes and depth range, then
+/// the AABB and cone tests the config asks for, then (`tile_mask`: the tile's 2.5D depth
+/// mask, when `depth_mask` is on) the depth-mask overlap.
+pub(crate) fn light_in_volume(
+    l: &ViewLight,
+    f: &TileFrustum,
+    proj: &Mat4,
+    ortho: bool,
+    cfg: &CullConfig,
+    tile_mask: Option<u32>,
+) -> bool {
+    if !light_in_box(l, f, proj, ortho, cfg) {
+        return false;
+    }
+    // The volume is the whole tile range here (`depth_mask` excludes half-z), the range
+    // the tile's mask was binned over.
+    tile_mask.is_none_or(|m| m & light_depth_mask(-l.center.z, l.radius, f.near, f.far) != 0)
+}
+
+/// [`light_in_volume`] without the depth mask.
+fn light_in_box(l: &ViewLight, f: &TileFrustum, proj: &Mat4, ortho: bool, cfg: &CullConfig) -> bool {
     if l.radius <= 0.0 || !sphere_vs_frustum(f, l.center, l.radius) {
         return false;
     }
@@ -247,8 +294,9 @@ pub fn cull_tiles(
     let vls = view_lights(&camera.view(), lights, config.inflate);
     let cells =
         if config.coarse { Some(coarse_cells_of(depth, width, height, config.samples, camera, &vls)?) } else { None };
+    let masks = config.depth_mask.then(|| tile_depth_masks(depth, &grid, config.samples, camera));
     let bounds = |tx, ty| tile_depth_bounds_samples(&grid, depth, config.samples, tx, ty);
-    Ok(cull_with_bounds(grid, camera, &vls, config, cells.as_ref(), bounds))
+    Ok(cull_with_bounds(grid, camera, &vls, config, cells.as_ref(), masks.as_deref(), bounds))
 }
 
 /// The depth bounds of tile (tx, ty) for alpha-blended geometry, over the samples where
@@ -318,9 +366,10 @@ pub fn depth_tested_blended(opaque: &[f32], blended: &[f32]) -> Vec<f32> {
 /// layer of the tile, not only the nearest.
 ///
 /// One list per tile: `config.half_z` is rejected with an error naming it.
-/// `config.coarse` is ignored (not validated either), and the returned `config` has it
-/// cleared: the blended lists are one-level, every tile tests every light (the coarse
-/// cells are built from the opaque depth, whose range does not hold the blended surfaces).
+/// `config.coarse` and `config.depth_mask` are ignored (not validated either), and the
+/// returned `config` has them cleared: the blended lists are one-level, every tile tests
+/// every light, with no 2.5D mask (the coarse cells and the depth masks are built from the
+/// opaque depth, which does not hold the blended surfaces).
 pub fn cull_tiles_blended(
     opaque: &[f32],
     blended: &[f32],
@@ -335,7 +384,7 @@ pub fn cull_tiles_blended(
             "half_z is not supported for blended light lists (one list per tile); turn half_z off".into(),
         ));
     }
-    let config = CullConfig { coarse: false, ..*config };
+    let config = CullConfig { coarse: false, depth_mask: false, ..*config };
     config.validate()?;
     let grid = TileGrid::new(width, height, config.tile_size)?;
     for (name, depth) in [("opaque", opaque), ("blended", blended)] {
@@ -349,37 +398,78 @@ pub fn cull_tiles_blended(
         blended_tile_bounds(&grid, opaque, blended, config.samples, tx, ty)
             .map(|(near, far)| DepthBounds { min_depth: far, max_depth: near })
     };
-    Ok(cull_with_bounds(grid, camera, &vls, &config, None, bounds))
+    Ok(cull_with_bounds(grid, camera, &vls, &config, None, None, bounds))
+}
+
+/// Per tile (row-major), the volumes its lists cover (`None` for tiles without bounds), and
+/// per tile its view-distance range: what both culler loops share.
+type Volumes = (Vec<Option<Vec<TileFrustum>>>, Vec<Option<(f32, f32)>>);
+
+/// [`Volumes`] of every tile whose `bounds(tx, ty)` exist: its frustum, or the two
+/// half-z halves.
+fn volumes_with_bounds(
+    grid: &TileGrid,
+    camera: &Camera,
+    config: &CullConfig,
+    bounds: impl Fn(u32, u32) -> Option<DepthBounds>,
+) -> Volumes {
+    let mut volumes = vec![None; grid.tile_count()];
+    let mut ranges = vec![None; grid.tile_count()];
+    for ty in 0..grid.tiles_y {
+        for tx in 0..grid.tiles_x {
+            let t = (ty * grid.tiles_x + tx) as usize;
+            let Some(b) = bounds(tx, ty) else { continue };
+            let f = TileFrustum::new(grid, camera, tx, ty, b);
+            ranges[t] = Some((f.near, f.far));
+            volumes[t] = Some(if config.half_z {
+                let mid = half_z_split(f.near, f.far);
+                vec![f.with_range(f.near, mid), f.with_range(mid, f.far)]
+            } else {
+                vec![f]
+            });
+        }
+    }
+    (volumes, ranges)
+}
+
+/// The opaque culler's per-tile data: volumes, depth masks (with `depth_mask`), ranges.
+/// The depth buffer must have been checked.
+#[allow(clippy::type_complexity)]
+pub(crate) fn tile_volumes(
+    grid: &TileGrid,
+    depth: &[f32],
+    camera: &Camera,
+    config: &CullConfig,
+) -> (Vec<Option<Vec<TileFrustum>>>, Option<Vec<u32>>, Vec<Option<(f32, f32)>>) {
+    let (volumes, ranges) = volumes_with_bounds(grid, camera, config, |tx, ty| {
+        tile_depth_bounds_samples(grid, depth, config.samples, tx, ty)
+    });
+    let masks = config.depth_mask.then(|| tile_depth_masks(depth, grid, config.samples, camera));
+    (volumes, masks, ranges)
 }
 
 /// The per-tile loop of both culler entry points: per tile, `bounds(tx, ty)` gives the depth
-/// range its lists cover (None: no lists), `cells` the lights two-level culling left it.
+/// range its lists cover (None: no lists), `cells` the lights two-level culling left it,
+/// `masks` its 2.5D depth mask.
 fn cull_with_bounds(
     grid: TileGrid,
     camera: &Camera,
     vls: &[ViewLight],
     config: &CullConfig,
     cells: Option<&(TileGrid, CellLists)>,
+    masks: Option<&[u32]>,
     bounds: impl Fn(u32, u32) -> Option<DepthBounds>,
 ) -> TileLists {
     let proj = camera.proj();
     let dp = camera.depth_params();
     let per = config.lists_per_tile();
     let all: Vec<u32> = (0..vls.len() as u32).collect();
+    let (volumes, ranges) = volumes_with_bounds(&grid, camera, config, bounds);
     let mut lists = vec![Vec::new(); grid.tile_count() * per];
-    let mut ranges = vec![None; grid.tile_count()];
     for ty in 0..grid.tiles_y {
         for tx in 0..grid.tiles_x {
             let t = (ty * grid.tiles_x + tx) as usize;
-            let Some(b) = bounds(tx, ty) else { continue };
-            let f = TileFrustum::new(&grid, camera, tx, ty, b);
-            ranges[t] = Some((f.near, f.far));
-            let volumes = if config.half_z {
-                let mid = half_z_split(f.near, f.far);
-                vec![f.with_range(f.near, mid), f.with_range(mid, f.far)]
-            } else {
-                vec![f]
-            };
+            let Some(vols) = &volumes[t] else { continue };
             let candidates = match cells {
                 Some((cgrid, cell_lists)) => {
                     let (x0, _, y0, _) = grid.tile_pixels(tx, ty);
@@ -387,22 +477,23 @@ fn cull_with_bounds(
                 }
                 None => &all,
             };
-            for (k, vol) in volumes.iter().enumerate() {
+            let mask = masks.map(|m| m[t]);
+            for (k, vol) in vols.iter().enumerate() {
                 lists[t * per + k] = candidates
                     .iter()
                     .copied()
-                    .filter(|&i| light_in_volume(&vls[i as usize], vol, &proj, dp.orthographic, config))
+                    .filter(|&i| light_in_volume(&vls[i as usize], vol, &proj, dp.orthographic, config, mask))
                     .collect();
             }
         }
     }
-    TileLists { grid, config: *config, lists, ranges }
+    TileLists { grid, config: *config, lists, ranges, cluster: None }
 }
 
 /// The coarse cells of two-level culling: per cell, the lights passing the plane and
 /// depth-range test of the cell's volume, or `None` when more than [`COARSE_CAPACITY`] do
 /// (the tiles then test every light). All-sky cells get an empty list.
-fn coarse_cells_of(
+pub(crate) fn coarse_cells_of(
     depth: &[f32],
     width: u32,
     height: u32,
@@ -505,7 +596,8 @@ pub fn lights_reaching(view: &Mat4, lights: &PackedLights, p: Vec3, margin: f32)
 /// Culling statistics of a set of lists.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CullStats {
-    /// Mean lights per list over lists of tiles with geometry.
+    /// Mean lights per list over lists of tiles with geometry (for clusters: over every
+    /// slice of those tiles, empty slices included).
     pub mean_per_list: f64,
     /// Largest light count of a list.
     pub max_per_list: u32,
@@ -517,7 +609,7 @@ pub struct CullStats {
 
 /// Mean/max/overflow statistics of `lists`.
 pub fn stats(lists: &TileLists) -> CullStats {
-    let per = lists.config.lists_per_tile();
+    let per = lists.lists_per_tile();
     let mut s = CullStats::default();
     let mut sum = 0u64;
     let mut n = 0u64;
@@ -612,7 +704,7 @@ fn quality_of_rows(
 ) -> [u64; 5] {
     let g = lists.grid;
     let dp = camera.depth_params();
-    let per = lists.config.lists_per_tile();
+    let per = lists.lists_per_tile();
     let first = rows.start as usize * g.tiles_x as usize * per;
     let last = rows.end as usize * g.tiles_x as usize * per;
     let mut used: Vec<Vec<bool>> = lists.lists[first..last].iter().map(|l| vec![false; l.len()]).collect();

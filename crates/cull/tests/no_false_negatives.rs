@@ -9,7 +9,7 @@
 //! 1e-4..1e6, at the eye, behind the camera, across the near plane, and half of them
 //! placed within their radius of a visible surface point) and every `CullConfig` switch
 //! the GPU kernel has (tile size 8, 16 or 32, samples, AABB, half-z, spot cone,
-//! two-level): every light that reaches a sample's surface point (ground truth
+//! two-level, 2.5D depth masks, the last exclusive with half-z): every light that reaches a sample's surface point (ground truth
 //! `reference::lights_reaching`) is in the list that sample reads (`TileLists::list_index`).
 //!
 //! Tile sizes the GPU does not accept (1, 3, 13, 64) are a separate, CPU-only property.
@@ -20,6 +20,11 @@
 //! itself to the near plane, over sky too), every light that reaches the nearest blended
 //! surface of a sample, or a farther blended layer between it and the opaque surface, is
 //! in that tile's blended list.
+//!
+//! The same guarantee for clustered lists (`cull_clusters`), over the same cameras, screens,
+//! depth buffers and lights, with random cluster layouts: tile size 8..=256, 1..=32
+//! slices, first slice end 1e-3..1e3 m, last first*1.01..first*1e6, with and without
+//! `geometry_only`.
 //!
 //! Further tests check the generator itself: that the properties are not vacuous.
 
@@ -32,7 +37,7 @@ use rand::Rng;
 use tiledlight_cull::light::{order_points_first, pack_lights, PackedLights};
 use tiledlight_cull::reference::{lights_reaching, COARSE_SIZE};
 use tiledlight_cull::tiles::{pixel_to_ndc_x, pixel_to_ndc_y};
-use tiledlight_cull::{cull_tiles, cull_tiles_blended, Camera, CullConfig, TileLists};
+use tiledlight_cull::{cull_clusters, cull_tiles, cull_tiles_blended, Camera, ClusterConfig, CullConfig, TileLists};
 
 /// Ground-truth margin (fraction of the radius; see `lights_reaching`): 0, the strictest
 /// possible. Every culling test works on the same f32 view-space light centre as the
@@ -63,6 +68,9 @@ struct Case {
     seed: u64,
     /// Also draw a blended depth buffer and check the blended lists (`cull_tiles_blended`).
     blended: bool,
+    /// Check clustered lists of this layout instead (`cull_clusters`; `config.samples`
+    /// and `config.tile_size`, the cluster tile size, still set the depth buffer).
+    cluster: Option<ClusterConfig>,
 }
 
 /// What a case was built into.
@@ -203,6 +211,10 @@ fn check(c: &Case, b: &Built, lists: &TileLists) -> Result<(usize, usize), TestC
 
 /// Culls a built case: its blended lists for a blended case, else the opaque ones.
 fn cull(c: &Case, b: &Built) -> Result<TileLists, TestCaseError> {
+    if let Some(cc) = &c.cluster {
+        return cull_clusters(&b.depth, c.width, c.height, &b.camera, &b.packed, cc, c.config.samples, 0.0)
+            .map_err(|e| TestCaseError::fail(format!("cull_clusters failed: {e}")));
+    }
     match &b.blended {
         Some(bl) => cull_tiles_blended(&b.depth, bl, c.width, c.height, &b.camera, &b.packed, &c.config)
             .map_err(|e| TestCaseError::fail(format!("cull_tiles_blended failed: {e}"))),
@@ -228,7 +240,7 @@ fn case_strategy(tiles: &'static [u32], samples: &'static [u32]) -> impl Strateg
     ];
     let tile = prop::sample::select(tiles);
     let samples = prop::sample::select(samples);
-    let flags = (any::<bool>(), any::<bool>(), any::<bool>(), any::<bool>());
+    let flags = (any::<bool>(), any::<bool>(), any::<bool>(), any::<bool>(), any::<bool>());
     (
         common::cam_strategy(common::exp10(-1.0, 1.0)),
         screen,
@@ -240,7 +252,7 @@ fn case_strategy(tiles: &'static [u32], samples: &'static [u32]) -> impl Strateg
         any::<u64>(),
     )
         .prop_map(
-            |(cam, (width, height), tile, samples, (aabb, half_z, spot_cone, coarse), mode, n_lights, seed)| {
+            |(cam, (width, height), tile, samples, (aabb, half_z, spot_cone, coarse, mask), mode, n_lights, seed)| {
                 let large = width * height > 100_000;
                 // 1 and 3 px tiles on 1921x1081 would mean up to 2M lists per case: use 13 there.
                 let tile_size = if large && tile < 8 { 13 } else { tile };
@@ -250,9 +262,29 @@ fn case_strategy(tiles: &'static [u32], samples: &'static [u32]) -> impl Strateg
                 let samples = if large { samples.min(2) } else { samples };
                 // Two-level culling needs tiles that divide its 64 px cells.
                 let coarse = coarse && COARSE_SIZE.is_multiple_of(tile_size);
-                let config =
-                    CullConfig { tile_size, samples, aabb, half_z, spot_cone, coarse, ..CullConfig::default() };
-                Case { cam, width, height, config, mode: DEPTH_MODES[mode], n_lights, seed, blended: false }
+                // 2.5D depth masks and half-z are alternative layouts.
+                let depth_mask = mask && !half_z;
+                let config = CullConfig {
+                    tile_size,
+                    samples,
+                    aabb,
+                    half_z,
+                    spot_cone,
+                    coarse,
+                    depth_mask,
+                    ..CullConfig::default()
+                };
+                Case {
+                    cam,
+                    width,
+                    height,
+                    config,
+                    mode: DEPTH_MODES[mode],
+                    n_lights,
+                    seed,
+                    blended: false,
+                    cluster: None,
+                }
             },
         )
 }
@@ -266,6 +298,20 @@ fn blended_case_strategy(tiles: &'static [u32], samples: &'static [u32]) -> impl
         config: CullConfig { half_z: false, ..c.config },
         ..c
     })
+}
+
+/// Cluster cases: as [`case_strategy`] (tile-layout switches unused), with a random
+/// cluster layout; the large screen gets tiles of 64 px at least (its lights around the eye
+/// fill every cluster of their slices, up to 32 x 32k lists with 8 px tiles).
+fn cluster_case_strategy() -> impl Strategy<Value = Case> {
+    let cluster = (8u32..=256, 1u32..=32, common::exp10(-3.0, 3.0), common::exp10(0.0044, 6.0), any::<bool>());
+    (case_strategy(&GPU_TILES, &GPU_SAMPLES), cluster).prop_map(
+        |(c, (tile_size, slices, first, ratio, geometry_only))| {
+            let tile_size = if is_large(&c) { tile_size.max(64) } else { tile_size };
+            let cluster = ClusterConfig { tile_size, slices, first, last: first * ratio, geometry_only };
+            Case { config: CullConfig { tile_size, ..c.config }, cluster: Some(cluster), ..c }
+        },
+    )
 }
 
 /// Tile sizes the GPU kernel accepts.
@@ -332,6 +378,17 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(proptest_config(384))]
+
+    /// Clustered lists: every light reaching a sample is in the cluster list the sample
+    /// reads (tile, `slice_of` its view distance).
+    #[test]
+    fn every_light_reaching_a_sample_is_in_its_cluster_list(c in cluster_case_strategy()) {
+        run_case(&c)?;
+    }
+}
+
 /// The property above is only meaningful if its cases contain lights that reach samples,
 /// including spots, far half-z lists and multisampled pixels whose samples differ. Generates
 /// cases like the strategy does (from a fixed seed, so this is deterministic; GPU tile
@@ -361,6 +418,7 @@ fn generator_produces_reaching_lights() {
             n_lights: 32,
             seed: r.random(),
             blended: false,
+            cluster: None,
         };
         let b = build(&c);
         let lists = cull_tiles(&b.depth, c.width, c.height, &b.camera, &b.packed, &c.config).expect("valid case");
@@ -435,6 +493,7 @@ fn blended_generator_produces_reaching_lights() {
             n_lights: 32,
             seed: r.random(),
             blended: true,
+            cluster: None,
         };
         let b = build(&c);
         let lists = cull(&c, &b).expect("valid case");
@@ -473,6 +532,49 @@ fn blended_generator_produces_reaching_lights() {
     assert!(msaa_pairs > 1000, "only {msaa_pairs} pairs in multisampled cases");
     assert!(not_opaque > 1000, "only {not_opaque} pairs whose light the opaque list does not hold");
     assert!(skipped * 500 <= spot_pairs, "{skipped} of {spot_pairs} spot pairs skipped as unresolvable in f32");
+}
+
+/// The cluster property is only meaningful if its cases have lights reaching samples, in
+/// slices past the first and with `geometry_only` on. Deterministic.
+#[test]
+fn cluster_generator_produces_reaching_lights() {
+    let mut r = rng(13);
+    let (mut pairs, mut later_slices, mut geometry_only) = (0, 0, 0);
+    for i in 0..64 {
+        let first = common::log_uniform(&mut r, 1e-3, 1e3);
+        let cluster = ClusterConfig {
+            tile_size: r.random_range(8..=256),
+            slices: r.random_range(1..=32),
+            first,
+            last: first * common::log_uniform(&mut r, 1.01, 1e6),
+            geometry_only: i % 2 == 0,
+        };
+        let c = Case {
+            cam: CamSpec::random(&mut r),
+            width: r.random_range(1..64),
+            height: r.random_range(1..64),
+            config: CullConfig { tile_size: cluster.tile_size, samples: GPU_SAMPLES[i % 4], ..CullConfig::default() },
+            mode: DEPTH_MODES[i % DEPTH_MODES.len()],
+            n_lights: 32,
+            seed: r.random(),
+            blended: false,
+            cluster: Some(cluster),
+        };
+        let b = build(&c);
+        let lists = cull(&c, &b).expect("valid case");
+        let (n, _) = check(&c, &b, &lists).expect("no false negatives");
+        pairs += n;
+        geometry_only += if cluster.geometry_only { n } else { 0 };
+        let dp = b.camera.depth_params();
+        for &(k, d) in &b.points {
+            if cluster.slice_of(dp.view_distance(d)) > 0 {
+                let p = sample_view_position(&c, &b.camera, k, d).unwrap();
+                later_slices += lights_reaching(&b.camera.view(), &b.packed, p, 0.0).len();
+            }
+        }
+    }
+    eprintln!("{pairs} pairs, {later_slices} past slice 0, {geometry_only} with geometry_only");
+    assert!(pairs > 5000 && later_slices > 1000 && geometry_only > 1000);
 }
 
 /// The cases proptest shrank failures to, replayed with every switch (the persisted
@@ -565,8 +667,11 @@ fn shrunk_failures_stay_fixed() {
     ];
     let mut pairs = 0;
     for (cam, (width, height, tile_size), mode, n_lights, seed) in cases {
-        for flags in 0..16 {
+        for flags in 0..32 {
             let bit = |k: u32| flags & (1 << k) != 0;
+            if bit(1) && bit(4) {
+                continue; // half-z and 2.5D masks are alternatives
+            }
             let config = CullConfig {
                 tile_size,
                 aabb: bit(0),
@@ -574,9 +679,10 @@ fn shrunk_failures_stay_fixed() {
                 spot_cone: bit(2),
                 // Two-level culling only where the tile divides the 64 px cells.
                 coarse: bit(3) && COARSE_SIZE.is_multiple_of(tile_size),
+                depth_mask: bit(4),
                 ..CullConfig::default()
             };
-            let c = Case { cam, width, height, config, mode, n_lights, seed, blended: false };
+            let c = Case { cam, width, height, config, mode, n_lights, seed, blended: false, cluster: None };
             pairs += run_case(&c).unwrap_or_else(|e| panic!("{c:?}: {e}")).0;
         }
     }

@@ -198,6 +198,7 @@ impl CullOptions {
             coarse: self.coarse && !self.assigned(),
             inflate: 0.0,
             samples: self.samples,
+            depth_mask: false,
         }
     }
 

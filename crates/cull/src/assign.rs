@@ -1,0 +1,171 @@
+//! Light-centric assignment: the rectangle of tiles whose four side planes a light's
+//! sphere passes, found by binary search instead of testing every tile, and
+//! [`cull_tiles_scatter`], the CPU twin of a culler that walks each light over its
+//! rectangle instead of each tile over every light. The GPU side (WGSL) mirrors
+//! [`light_tile_rect`] operation for operation. Depends on [`crate::camera`]
+//! (`clip_edge_plane`), [`crate::tiles`] (the tile NDC edges) and [`crate::reference`] (the
+//! per-tile test the scatter culler reuses).
+//!
+//! A tile's side planes are separable: its left and right planes depend only on its
+//! column, its bottom and top planes only on its row. So the tiles passing all four planes
+//! are (column set) x (row set), and each set is an interval whenever each plane test is
+//! monotone over columns (rows). It is monotone for orthographic cameras (parallel planes)
+//! and for perspective ones while the sphere lies wholly in front of the eye plane
+//! (`c.z + r < 0`): every side plane passes through the eye, and the sphere then spans an
+//! interval of angles about it. A sphere reaching the eye plane gets the whole grid.
+//!
+//! [`light_tile_rect`]:
+//! 1. `!(r > 0)` (zero, negative or NaN): `None`. An infinite radius goes on and gets the
+//!    whole grid (every plane test passes), as the per-tile test keeps such a light in
+//!    every tile: the CPU culler's `inflate` makes one out of a centre beyond ~1e19 m,
+//!    where `|c|` overflows; the GPU never sees one.
+//! 2. Perspective and `c.z + r >= 0`: the whole grid.
+//! 3. A plane `p` passes when `dot(p.xyz, c) + p.w >= -r` (the negation of
+//!    `sphere_vs_frustum`'s rejection). With the planes built exactly as
+//!    [`crate::tiles::TileFrustum::from_parts`] builds them from [`TileGrid::tile_ndc`]:
+//!    - `x0` = first column whose right plane passes (monotone false..true);
+//!    - `x1` = last column whose left plane passes (monotone true..false);
+//!    - `y0` = first row whose bottom plane passes (rows count down the screen);
+//!    - `y1` = last row whose top plane passes.
+//!
+//!    Each by [`lower_bound`] (the first index of a false..true predicate).
+//! 4. An empty column or row range: `None`. No widening: in f32 the predicates are
+//!    monotone except within rounding of the boundary, where the rectangle and the per-tile
+//!    test may disagree by a tile (the property tests bound that by a radius slack).
+
+use glam::{Mat4, Vec3, Vec4};
+
+use crate::camera::{clip_edge_plane, Camera};
+use crate::error::CullError;
+use crate::light::PackedLights;
+use crate::reference::{
+    check_depth_samples, coarse_cells_of, light_in_volume, tile_volumes, view_lights, CullConfig, TileLists,
+};
+use crate::tiles::TileGrid;
+
+/// An inclusive rectangle of tiles: columns `x0..=x1`, rows `y0..=y1` (row 0 at the top).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TileRect {
+    /// First column.
+    pub x0: u32,
+    /// Last column (inclusive).
+    pub x1: u32,
+    /// First row.
+    pub y0: u32,
+    /// Last row (inclusive).
+    pub y1: u32,
+}
+
+impl TileRect {
+    /// The whole grid.
+    pub fn full(grid: &TileGrid) -> Self {
+        Self { x0: 0, x1: grid.tiles_x - 1, y0: 0, y1: grid.tiles_y - 1 }
+    }
+
+    /// Whether tile (tx, ty) lies inside.
+    pub fn contains(&self, tx: u32, ty: u32) -> bool {
+        (self.x0..=self.x1).contains(&tx) && (self.y0..=self.y1).contains(&ty)
+    }
+}
+
+/// The first index in `0..n` where `pred` is true, `n` if none: a plain lower-bound binary
+/// search for a predicate that is false then true. WGSL uses the same loop, so both sides
+/// evaluate the same indices even where f32 makes a predicate non-monotone.
+pub fn lower_bound(n: u32, mut pred: impl FnMut(u32) -> bool) -> u32 {
+    let (mut lo, mut hi) = (0u32, n);
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if pred(mid) {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    lo
+}
+
+/// Whether the sphere (`c`, `r`) reaches the inside of plane `p`: exactly the negation of
+/// `sphere_vs_frustum`'s per-plane rejection `dot + w < -r`.
+fn passes(p: Vec4, c: Vec3, r: f32) -> bool {
+    p.truncate().dot(c) + p.w >= -r
+}
+
+/// The tiles whose four side planes the sphere (view-space centre `c`, radius `r`) passes,
+/// as an inclusive rectangle, or `None` when there are none (or `r` is not positive). The depth range of the tiles is not tested. See the module docs for
+/// the algorithm, which WGSL mirrors; `proj` and `orthographic` are the camera's.
+pub fn light_tile_rect(grid: &TileGrid, proj: &Mat4, orthographic: bool, c: Vec3, r: f32) -> Option<TileRect> {
+    // Written as in WGSL (`!(r > 0.0)`), so NaN takes this branch.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    if !(r > 0.0) {
+        return None;
+    }
+    if !orthographic && c.z + r >= 0.0 {
+        return Some(TileRect::full(grid));
+    }
+    // The edges as `tile_ndc` computes them: l, r depend on the column only, b, t on the row.
+    let col = |i: u32| grid.tile_ndc(i, 0);
+    let row = |j: u32| grid.tile_ndc(0, j);
+    let x0 = lower_bound(grid.tiles_x, |i| passes(clip_edge_plane(proj, 0, col(i).1, -1.0), c, r));
+    let x1_end = lower_bound(grid.tiles_x, |i| !passes(clip_edge_plane(proj, 0, col(i).0, 1.0), c, r));
+    let y0 = lower_bound(grid.tiles_y, |j| passes(clip_edge_plane(proj, 1, row(j).2, 1.0), c, r));
+    let y1_end = lower_bound(grid.tiles_y, |j| !passes(clip_edge_plane(proj, 1, row(j).3, -1.0), c, r));
+    if x0 == grid.tiles_x || x1_end == 0 || y0 == grid.tiles_y || y1_end == 0 {
+        return None;
+    }
+    let (x1, y1) = (x1_end - 1, y1_end - 1);
+    (x0 <= x1 && y0 <= y1).then_some(TileRect { x0, x1, y0, y1 })
+}
+
+/// The light-centric twin of [`crate::reference::cull_tiles`]: same inputs, same per-tile
+/// test (side planes, depth range, AABB, cone, half-z, depth mask, two-level candidates),
+/// but each light only visits the tiles of its [`light_tile_rect`]. The lists come out
+/// ascending as light indices are visited in order.
+///
+/// Equal to `cull_tiles` whenever the rectangle holds every tile whose side planes the
+/// light passes, which is every case except a tile whose plane test f32 decides against
+/// the monotone trend (within rounding of the boundary; none seen in the property tests).
+pub fn cull_tiles_scatter(
+    depth: &[f32],
+    width: u32,
+    height: u32,
+    camera: &Camera,
+    lights: &PackedLights,
+    config: &CullConfig,
+) -> Result<TileLists, CullError> {
+    config.validate()?;
+    let grid = TileGrid::new(width, height, config.tile_size)?;
+    check_depth_samples(&grid, depth, config.samples)?;
+    let vls = view_lights(&camera.view(), lights, config.inflate);
+    let cells =
+        if config.coarse { Some(coarse_cells_of(depth, width, height, config.samples, camera, &vls)?) } else { None };
+    let proj = camera.proj();
+    let ortho = camera.depth_params().orthographic;
+    let (volumes, masks, ranges) = tile_volumes(&grid, depth, camera, config);
+    let per = config.lists_per_tile();
+    let mut lists = vec![Vec::new(); grid.tile_count() * per];
+    for (i, l) in vls.iter().enumerate() {
+        let Some(rect) = light_tile_rect(&grid, &proj, ortho, l.center, l.radius) else { continue };
+        for ty in rect.y0..=rect.y1 {
+            for tx in rect.x0..=rect.x1 {
+                let t = (ty * grid.tiles_x + tx) as usize;
+                let Some(vols) = &volumes[t] else { continue };
+                // Two-level culling: only the lights the tile's coarse cell kept (every light
+                // when the cell overflowed), as `cull_tiles` does.
+                if let Some((cgrid, cell_lists)) = &cells {
+                    let (px, _, py, _) = grid.tile_pixels(tx, ty);
+                    if let Some(cell) = &cell_lists[cgrid.tile_of_pixel(px, py)] {
+                        if cell.binary_search(&(i as u32)).is_err() {
+                            continue;
+                        }
+                    }
+                }
+                for (k, vol) in vols.iter().enumerate() {
+                    if light_in_volume(l, vol, &proj, ortho, config, masks.as_ref().map(|m| m[t])) {
+                        lists[t * per + k].push(i as u32);
+                    }
+                }
+            }
+        }
+    }
+    Ok(TileLists { grid, config: *config, lists, ranges, cluster: None })
+}
