@@ -158,6 +158,20 @@ struct Walk {
     tiles: u32,
     // CLUSTERED: the light's depth slices, first and last.
     slices: vec2<u32>,
+    // The rectangle is the whole grid because the sphere reaches the eye plane (the plane
+    // tests are not monotone there): each tile tests its side planes itself.
+    planes: bool,
+}
+
+// The side-plane part of sphere_vs_frustum for one tile.
+fn side_planes_pass(tile: vec2<u32>, c: vec3<f32>, r: f32) -> bool {
+    let v = tile_volume(tile_ndc(tile, TILE_SIZE), 0.0, 0.0);
+    for (var i = 0u; i < 4u; i++) {
+        if dot(v.planes[i].xyz, c) + v.planes[i].w < -r {
+            return false;
+        }
+    }
+    return true;
 }
 
 fn walk_of(light: u32) -> Walk {
@@ -181,6 +195,7 @@ fn walk_of(light: u32) -> Walk {
         cluster_slice(dist + k.r, (*hd).slice_first, (*hd).slice_scale, (*hd).lists_per_tile),
     );
 #endif
+    k.planes = view.orthographic == 0u && k.c.z + k.r >= 0.0;
     k.rect = light_rect(k.c, k.r);
     if k.rect.lo.x < k.rect.hi.x && k.rect.lo.y < k.rect.hi.y {
         let e = k.rect.hi - k.rect.lo;
@@ -200,13 +215,40 @@ fn emit(l: u32, light: u32, write: bool) {
     }
 }
 
+// The tile-centric kernel's test without its side planes, which every tile of a
+// rectangle found by the binary searches passes (the same plane arithmetic): the depth
+// range (sphere_vs_frustum's expression) and the AABB and cone tests, which read only the
+// volume's NDC rectangle and depth range. Near (x) and far (y, HALF_Z) list.
+fn depth_hits(tile: vec2<u32>, range: vec2<f32>, k: Walk) -> vec2<bool> {
+    var v: TileVolume;
+    v.ndc = tile_ndc(tile, TILE_SIZE);
+    let dist = -k.c.z;
+    var hit = vec2<bool>(false);
+#ifdef HALF_Z
+    let mid = half_z_split(range.x, range.y);
+    v.near = mid;
+    v.far = range.y;
+    hit.y = dist + k.r >= v.near && dist - k.r <= v.far && extra_tests(v, k.light, k.c, k.r);
+    v.far = mid;
+#else
+    v.far = range.y;
+#endif
+    v.near = range.x;
+    hit.x = dist + k.r >= v.near && dist - k.r <= v.far && extra_tests(v, k.light, k.c, k.r);
+    return hit;
+}
+
 // Tile `i` (row-major within the rectangle) of the walk.
 fn visit(k: Walk, i: u32, write: bool) {
     let e = k.rect.hi.x - k.rect.lo.x;
     let tile = k.rect.lo + vec2<u32>(i % e, i / e);
     let t = tile.y * light_grid.header.tiles.x + tile.x;
 #ifdef CLUSTERED
-    // The side planes passed (the rectangle); the depth test is the slice range.
+    // The side planes passed (the rectangle, unless it is the whole grid); the depth test is
+    // the slice range.
+    if k.planes && !side_planes_pass(tile, k.c, k.r) {
+        return;
+    }
     let slices = light_grid.header.lists_per_tile;
 #ifdef GEOMETRY_ONLY
     let occupied = tile_masks[t];
@@ -225,25 +267,14 @@ fn visit(k: Walk, i: u32, write: bool) {
         // No geometry in the tile: no list (as the tile-centric kernel).
         return;
     }
-    // The tile-centric kernel's test without its side planes, which every tile of the
-    // rectangle passes (the rectangle was found with the same plane arithmetic): the depth
-    // range (sphere_vs_frustum's expression) and the AABB and cone tests, which read only
-    // the volume's NDC rectangle and depth range.
-    var v: TileVolume;
-    v.ndc = tile_ndc(tile, TILE_SIZE);
-    let dist = -k.c.z;
     var hit = vec2<bool>(false);
-#ifdef HALF_Z
-    let mid = half_z_split(range.x, range.y);
-    v.near = mid;
-    v.far = range.y;
-    hit.y = dist + k.r >= v.near && dist - k.r <= v.far && extra_tests(v, k.light, k.c, k.r);
-    v.far = mid;
-#else
-    v.far = range.y;
-#endif
-    v.near = range.x;
-    hit.x = dist + k.r >= v.near && dist - k.r <= v.far && extra_tests(v, k.light, k.c, k.r);
+    if k.planes {
+        // The whole grid: the tile-centric kernel's test, planes included.
+        hit = volume_hits(tile_volumes_at(tile, TILE_SIZE, range.x, range.y), k.light, k.c, k.r);
+    } else {
+        hit = depth_hits(tile, range, k);
+    }
+
 #ifdef DEPTH_MASK
     if (tile_masks[t] & depth_mask_between(-k.c.z - k.r, -k.c.z + k.r, range.x, range.y)) == 0u {
         hit.x = false;

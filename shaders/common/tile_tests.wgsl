@@ -87,7 +87,9 @@ fn depth_bin(d: f32, near: f32, far: f32) -> u32 {
     if inv > 3.4e38 {
         inv = 0.0;
     }
-    let x = (d - near) * inv;
+    // Not (d - near) * 0 for an empty range: a sample at infinite distance (infinite far
+    // plane) would give inf * 0 = NaN, and WGSL leaves max(NaN, 0) undefined.
+    let x = select((d - near) * inv, 0.0, inv == 0.0);
     return u32(min(max(x, 0.0), 31.0));
 }
 

@@ -26,7 +26,7 @@ use std::collections::BTreeSet;
 use glam::Vec3;
 use tiledlight_cull::bounds::to_view;
 use tiledlight_cull::light::PackedLights;
-use tiledlight_cull::{cull_tiles, Camera, CullConfig, TileLists};
+use tiledlight_cull::{cull_clusters, cull_tiles, Camera, ClusterConfig, CullConfig, TileLists};
 use tiledlight_gpu::light_cull::GpuTileLists;
 
 /// The relative part of a light's float error, as a fraction of `radius + |view centre|`.
@@ -122,7 +122,41 @@ pub fn compare_lists(
     gpu: &GpuTileLists,
     config: &CullConfig,
 ) -> Result<ListComparison, String> {
-    compare_lists_with(label, frame, gpu, config, None)
+    compare_lists_with(label, frame, gpu, config, Twin::Tiles)
+}
+
+/// [`compare_lists`] for a clustered grid: the CPU twin is `tiledlight_cull::cull_clusters`
+/// with `cluster` (and `config`'s samples).
+pub fn compare_cluster_lists(
+    label: &str,
+    frame: &CulledFrame<'_>,
+    gpu: &GpuTileLists,
+    config: &CullConfig,
+    cluster: &ClusterConfig,
+) -> Result<ListComparison, String> {
+    compare_lists_with(label, frame, gpu, config, Twin::Clusters(*cluster))
+}
+
+/// [`compare_cluster_lists`], with [`assert_lists_match`]'s checks.
+pub fn assert_cluster_lists_match(
+    label: &str,
+    frame: &CulledFrame<'_>,
+    gpu: &GpuTileLists,
+    config: &CullConfig,
+    cluster: &ClusterConfig,
+) -> ListComparison {
+    let c = compare_cluster_lists(label, frame, gpu, config, cluster).unwrap_or_else(|e| panic!("{e}"));
+    check_and_print(label, gpu, c)
+}
+
+/// Which CPU culler is the twin.
+enum Twin<'a> {
+    /// `cull_tiles`.
+    Tiles,
+    /// `cull_tiles_blended` with this blended depth buffer (as drawn).
+    Blended(&'a [f32]),
+    /// `cull_clusters`.
+    Clusters(ClusterConfig),
 }
 
 /// [`compare_lists`] for the lists of blended geometry: the CPU twin is
@@ -135,7 +169,7 @@ pub fn compare_blended_lists(
     gpu: &GpuTileLists,
     config: &CullConfig,
 ) -> Result<ListComparison, String> {
-    compare_lists_with(label, frame, gpu, config, Some(blended))
+    compare_lists_with(label, frame, gpu, config, Twin::Blended(blended))
 }
 
 fn compare_lists_with(
@@ -143,15 +177,19 @@ fn compare_lists_with(
     frame: &CulledFrame<'_>,
     gpu: &GpuTileLists,
     config: &CullConfig,
-    blended: Option<&[f32]>,
+    twin: Twin<'_>,
 ) -> Result<ListComparison, String> {
-    let tested = blended.map(|b| tiledlight_cull::reference::depth_tested_blended(frame.depth, b));
+    let tested = match twin {
+        Twin::Blended(b) => Some(tiledlight_cull::reference::depth_tested_blended(frame.depth, b)),
+        _ => None,
+    };
     let cull = |lights: &PackedLights| {
         let config = CullConfig { inflate: 0.0, ..*config };
         let (depth, w, h, cam) = (frame.depth, frame.width, frame.height, frame.camera);
-        match &tested {
-            Some(b) => tiledlight_cull::reference::cull_tiles_blended(depth, b, w, h, cam, lights, &config),
-            None => cull_tiles(depth, w, h, cam, lights, &config),
+        match (&tested, &twin) {
+            (Some(b), _) => tiledlight_cull::reference::cull_tiles_blended(depth, b, w, h, cam, lights, &config),
+            (None, Twin::Clusters(c)) => cull_clusters(depth, w, h, cam, lights, c, config.samples, 0.0),
+            (None, _) => cull_tiles(depth, w, h, cam, lights, &config),
         }
         .map_err(|e| format!("{label}: CPU culler refused the frame: {e}"))
     };

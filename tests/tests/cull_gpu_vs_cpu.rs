@@ -18,12 +18,13 @@ use tiledlight_cull::Light;
 use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
 use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::light_cull::{ClusterOptions, LightCulling};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::Renderer as _;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_scene::Scene;
-use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
+use tiledlight_tests::lists::{assert_cluster_lists_match, assert_lists_match, CulledFrame};
 use tiledlight_tests::{gpu, scenes};
 
 struct Case<'a> {
@@ -49,7 +50,7 @@ fn check(case: &Case<'_>, options: CullOptions) -> Vec<f32> {
 
     let config = options.to_config(lights.has_spots());
     let label = format!(
-        "{} {}x{} tile {} aabb {} half-z {} cone {} coarse {} scatter {}",
+        "{} {}x{} tile {} aabb {} half-z {} cone {} coarse {} scatter {} 2.5d {} clusters {:?}",
         case.name,
         case.width,
         case.height,
@@ -58,7 +59,9 @@ fn check(case: &Case<'_>, options: CullOptions) -> Vec<f32> {
         options.half_z,
         options.spot_cone,
         options.coarse,
-        options.scatter
+        options.scatter,
+        options.depth_mask,
+        options.clusters
     );
     let frame = CulledFrame {
         depth: &depth,
@@ -67,7 +70,11 @@ fn check(case: &Case<'_>, options: CullOptions) -> Vec<f32> {
         camera: &case.camera,
         lights: &lights.packed,
     };
-    let c = assert_lists_match(&label, &frame, &gpu_lists, &config);
+    let c = match &options.clusters {
+        Some(cluster) => assert_cluster_lists_match(&label, &frame, &gpu_lists, &config, cluster),
+        None => assert_lists_match(&label, &frame, &gpu_lists, &config),
+    };
+    check_masks(&label, renderer.culling().unwrap(), &frame, &options);
     // The GPU's pair counter (reported by `render` and the lab) is the sum of the true list
     // counts; a counter that missed half-z's far lists or the overflowing ones fails here.
     let gpu_total: u64 = gpu_lists.counts.iter().map(|&n| n as u64).sum();
@@ -106,6 +113,63 @@ fn check(case: &Case<'_>, options: CullOptions) -> Vec<f32> {
     depth
 }
 
+/// The GPU's per-tile masks (2.5D bins, or the cluster slices holding geometry) against
+/// the CPU twin's. A bit may differ only next to a bit the other side set: a sample within
+/// float error of a bin's edge (view distance, and for clusters the GPU's `log`) lands in
+/// the neighbouring bin. A mask the GPU did not compute (gather culling keeps its masks in
+/// workgroup memory) is checked through the lists alone.
+fn check_masks(label: &str, culling: &LightCulling, frame: &CulledFrame<'_>, options: &CullOptions) {
+    let ctx = gpu();
+    let Some(gpu_masks) = culling.read_masks(&ctx.device, &ctx.queue).unwrap() else {
+        assert!(!options.assigned() || (!options.depth_mask && options.clusters.is_none()), "{label}: no masks read");
+        return;
+    };
+    let grid = culling.grid.tiles;
+    let cpu_masks = match &options.clusters {
+        Some(c) => tiledlight_cull::cluster::cluster_occupancy(frame.depth, &grid, options.samples, frame.camera, c),
+        None => tiledlight_cull::depth_mask::tile_depth_masks(frame.depth, &grid, options.samples, frame.camera),
+    };
+    assert_eq!(gpu_masks.len(), cpu_masks.len(), "{label}: mask count");
+    let (mut equal, mut shifted) = (0, 0);
+    for (t, (&g, &c)) in gpu_masks.iter().zip(&cpu_masks).enumerate() {
+        if g == c {
+            equal += 1;
+            continue;
+        }
+        let near = |m: u32| m | (m << 1) | (m >> 1);
+        assert!(
+            (g & !c) & !near(c) == 0 && (c & !g) & !near(g) == 0,
+            "{label}: tile {t} mask GPU {g:#034b} CPU {c:#034b}: a bit differs away from any bin edge"
+        );
+        shifted += 1;
+    }
+    assert!(cpu_masks.iter().any(|&m| m != 0), "{label}: every mask empty; the masks test nothing");
+    println!("{label}: masks {equal} equal, {shifted} with a bin-edge sample");
+}
+
+/// The 2.5D and clustered layouts, gathered and scattered: every cluster tile size (past
+/// the 64 px screen tiles), slice counts from 1 to 32, the first slice's end below and
+/// beyond the scene, geometry-only clusters both ways.
+fn layout_options() -> Vec<CullOptions> {
+    let mut v = vec![
+        CullOptions { depth_mask: true, ..Default::default() },
+        CullOptions { depth_mask: true, coarse: false, tile_size: 8, ..Default::default() },
+        CullOptions { depth_mask: true, scatter: true, ..Default::default() },
+        CullOptions { depth_mask: true, scatter: true, aabb: true, tile_size: 32, ..Default::default() },
+    ];
+    let c = ClusterOptions::default();
+    for cluster in [
+        c,
+        ClusterOptions { tile_size: 8, slices: 32, first: 0.5, last: 40.0, ..c },
+        ClusterOptions { tile_size: 16, slices: 24, geometry_only: true, ..c },
+        ClusterOptions { tile_size: 128, slices: 1, ..c },
+        ClusterOptions { tile_size: 32, slices: 8, first: 2.0, last: 6.0, geometry_only: true },
+    ] {
+        v.push(CullOptions { clusters: Some(cluster), ..Default::default() });
+    }
+    v
+}
+
 /// Every tile size and test, each both two-level (the default) and flat.
 fn all_options(has_spots: bool) -> Vec<CullOptions> {
     let mut v = Vec::new();
@@ -141,6 +205,26 @@ fn courtyard_odd_screen_every_option() {
         height: h,
     };
     for o in all_options(true) {
+        check(&case, o);
+    }
+}
+
+#[test]
+fn depth_masks_and_clusters_match_the_cpu() {
+    let scene = scenes::courtyard();
+    let lights = scenes::lights(&scene, 512, 128, 7);
+    let (w, h) = (327, 183);
+    let camera = scenes::courtyard_camera(&scene, w, h);
+    let case = Case { name: "courtyard", scene: &scene, camera, lights: &lights, width: w, height: h };
+    for o in layout_options() {
+        check(&case, o);
+    }
+    let scene = scenes::mixed_scene();
+    let lights = scenes::lights(&scene, 300, 60, 11);
+    let (w, h) = (320, 180);
+    let case =
+        Case { name: "mixed", scene: &scene, camera: scenes::mixed_camera(w, h), lights: &lights, width: w, height: h };
+    for o in layout_options() {
         check(&case, o);
     }
 }
@@ -195,6 +279,14 @@ fn extreme_cameras() {
         check(&case, CullOptions { tile_size: 8, aabb: true, half_z: true, ..Default::default() });
         check(&case, CullOptions { scatter: true, ..Default::default() });
         check(&case, CullOptions { tile_size: 8, aabb: true, half_z: true, scatter: true, ..Default::default() });
+        check(&case, CullOptions { depth_mask: true, scatter: true, ..Default::default() });
+        check(&case, CullOptions { depth_mask: true, ..Default::default() });
+        let near = ClusterOptions { first: 0.3, last: 30.0, slices: 32, ..Default::default() };
+        check(&case, CullOptions { clusters: Some(near), ..Default::default() });
+        check(
+            &case,
+            CullOptions { clusters: Some(ClusterOptions { geometry_only: true, ..near }), ..Default::default() },
+        );
     }
 }
 

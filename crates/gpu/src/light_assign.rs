@@ -48,64 +48,17 @@ const BIG_GROUPS: u32 = 512;
 /// Threads of the per-light and per-list workgroups (`shaders/assign.wgsl`).
 const GROUP: u32 = 256;
 
-/// The clustered layout (Olsson, Billeter, Assarsson 2012): screen tiles of `tile_size`
-/// pixels times `slices` depth slices. Slice 0 runs from the eye to `first` (exponential
-/// slicing would crowd the near plane: with near 0.1 and 24 slices, 10 fall within 5 m, so
-/// Bevy and Filament start at 5 m); slices 1 .. `slices`-1 are exponential from `first` to
-/// `last`, the last one reaching to infinity.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ClusterOptions {
-    /// Tile side in pixels: 8, 16, 32 or 64.
-    pub tile_size: u32,
-    /// Depth slices, 1..=32 (a tile's occupancy is one 32-bit mask).
-    pub slices: u32,
-    /// Far end of slice 0, metres.
-    pub first: f32,
-    /// Far end of the exponential slices, metres (beyond it: the last slice).
-    pub last: f32,
-    /// Only clusters that hold a surface of the depth buffer get lights. Off, clusters are
-    /// built from the frustum alone and also serve geometry the depth buffer lacks
-    /// (transparent surfaces).
-    pub geometry_only: bool,
-}
+/// The clustered layout (Olsson, Billeter, Assarsson 2012), shared with the CPU twin:
+/// screen tiles times depth slices, slice 0 from the eye to `first` (exponential slicing
+/// would crowd the near plane: with near 0.1 and 24 slices, 10 fall within 5 m, so Bevy and
+/// Filament start at 5 m), then exponential slices to `last`, the last reaching to
+/// infinity. On the GPU the tile side must be 8, 16, 32, 64, 128 or 256 pixels
+/// ([`CullOptions::validate`]).
+pub use tiledlight_cull::ClusterConfig as ClusterOptions;
 
-impl Default for ClusterOptions {
-    /// 64-pixel tiles, 24 slices (Bevy's count), the first 5 m, the last at 500 m.
-    fn default() -> Self {
-        Self { tile_size: 64, slices: 24, first: 5.0, last: 500.0, geometry_only: false }
-    }
-}
-
-impl ClusterOptions {
-    /// Checks every field, naming the one that is wrong.
-    pub fn validate(&self) -> Result<(), GpuError> {
-        if ![8, 16, 32, 64].contains(&self.tile_size) {
-            return Err(GpuError::Config(format!("cluster tile size {} must be 8, 16, 32 or 64", self.tile_size)));
-        }
-        if !(1..=32).contains(&self.slices) {
-            return Err(GpuError::Config(format!("{} cluster slices: must be 1 to 32", self.slices)));
-        }
-        if !(self.first.is_finite() && self.first > 0.0) {
-            return Err(GpuError::Config(format!("first cluster slice ends at {}: must be positive", self.first)));
-        }
-        if !(self.last.is_finite() && self.last > self.first) {
-            return Err(GpuError::Config(format!(
-                "cluster slices end at {}: must be finite and beyond the first slice's {}",
-                self.last, self.first
-            )));
-        }
-        Ok(())
-    }
-
-    /// `(slices - 1) / ln(last / first)`: slice `1 + floor(ln(d / first) * scale)` for a
-    /// distance `d` beyond `first` (0 with one slice).
-    pub fn scale(&self) -> f32 {
-        if self.slices <= 1 {
-            return 0.0;
-        }
-        (self.slices - 1) as f32 / (self.last / self.first).ln()
-    }
-}
+/// Cluster tile sides the tile-depth pass can reduce (a multiple of its 8 or 16 threads a
+/// side).
+pub const CLUSTER_TILE_SIZES: [u32; 6] = [8, 16, 32, 64, 128, 256];
 
 /// The bindings of the tile-depth pass (`shaders/tile_depth.wgsl`). Group 1: depth (0), the
 /// tile masks it writes (3, for 2.5D or clusters). Group 2: the light grid, tile ranges
@@ -358,18 +311,5 @@ mod tests {
         assert_eq!(dispatch_size(0), (1, 1));
         assert_eq!(dispatch_size(4096), (4096, 1));
         assert_eq!(dispatch_size(65_536), (65_535, 2));
-    }
-
-    #[test]
-    fn cluster_options_name_the_bad_field() {
-        assert!(ClusterOptions::default().validate().is_ok());
-        let e = |c: ClusterOptions| c.validate().unwrap_err().to_string();
-        assert!(e(ClusterOptions { tile_size: 12, ..Default::default() }).contains("tile size 12"));
-        assert!(e(ClusterOptions { slices: 33, ..Default::default() }).contains("33 cluster slices"));
-        assert!(e(ClusterOptions { first: f32::NAN, ..Default::default() }).contains("first cluster slice"));
-        assert!(e(ClusterOptions { last: 5.0, ..Default::default() }).contains("beyond the first"));
-        assert_eq!(ClusterOptions { slices: 1, ..Default::default() }.scale(), 0.0);
-        // 23 exponential slices over a factor of 100.
-        assert!((ClusterOptions::default().scale() - 23.0 / 100f32.ln()).abs() < 1e-6);
     }
 }

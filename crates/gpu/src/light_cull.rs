@@ -90,6 +90,13 @@ impl CullOptions {
         }
         if let Some(c) = &self.clusters {
             c.validate()?;
+            if !crate::light_assign::CLUSTER_TILE_SIZES.contains(&c.tile_size) {
+                return Err(GpuError::Config(format!(
+                    "cluster tile size {} must be one of {:?} on the GPU",
+                    c.tile_size,
+                    crate::light_assign::CLUSTER_TILE_SIZES
+                )));
+            }
             if self.half_z || self.depth_mask {
                 return Err(GpuError::Config(
                     "the clustered layout slices depth itself: not with half-z or 2.5D culling".into(),
@@ -168,7 +175,7 @@ impl CullOptions {
     /// assignment always keeps the tile ranges (its tile-depth pass writes them).
     pub fn grid_layout(&self, grid: TileGrid, ranges: bool) -> Result<GridLayout, GpuError> {
         let tiles = match &self.clusters {
-            Some(c) => TileGrid::new(grid.width, grid.height, c.tile_size)?,
+            Some(c) => c.grid(grid.width, grid.height)?,
             None => grid,
         };
         Ok(GridLayout {
@@ -198,7 +205,7 @@ impl CullOptions {
             coarse: self.coarse && !self.assigned(),
             inflate: 0.0,
             samples: self.samples,
-            depth_mask: false,
+            depth_mask: self.depth_mask,
         }
     }
 

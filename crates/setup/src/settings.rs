@@ -22,6 +22,7 @@ use tiledlight_deferred::shading::workgroup_bytes_besides_lists;
 use tiledlight_deferred::{DeferredSettings, EdgeTest};
 use tiledlight_forward::ForwardSettings;
 use tiledlight_gpu::features::BlendMode;
+use tiledlight_gpu::light_assign::CLUSTER_TILE_SIZES;
 use tiledlight_gpu::light_cull::{ClusterOptions, CullOptions, CULL_WORKGROUP_BYTES};
 use tiledlight_scene::{CameraDesc, GridDensity, DEFAULT_LIGHT_THRESHOLD, MAX_GRID_OBJECTS, MAX_LIGHTS};
 
@@ -262,7 +263,11 @@ impl Settings {
         ensure!(!(self.depth_mask && self.half_z), "--grid 2.5d with --half-z: they are alternative layouts, pick one");
         if let Some(c) = &self.clusters {
             ensure!(!self.half_z, "--grid clustered with --half-z: clusters slice depth themselves");
-            ensure!([8, 16, 32, 64].contains(&c.tile_size), "--cluster-tile {}: must be 8, 16, 32 or 64", c.tile_size);
+            ensure!(
+                CLUSTER_TILE_SIZES.contains(&c.tile_size),
+                "--cluster-tile {}: must be one of {CLUSTER_TILE_SIZES:?} pixels",
+                c.tile_size
+            );
             ensure!((1..=32).contains(&c.slices), "--cluster-slices {}: must be 1 to 32", c.slices);
             ensure!(
                 c.first.is_finite() && c.first > 0.0,
