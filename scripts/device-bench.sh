@@ -102,6 +102,13 @@ for set in $sets; do
       for g in tiled half-z 2.5d clustered; do
         run "m-$m-$g" 10 --lights 1000000 --threshold 10 --method $m --assign scatter --grid $g
       done
+      # Tiled Deferred's tile kernel has no 2.5D variant: it assigns 2.5D lists light-centrically.
+      [ $m = forward-plus ] && run "m-$m-2.5d-gather" 10 --lights 1000000 --threshold 10 --method $m --grid 2.5d
+      for ct in 16 32; do
+        run "m-$m-clustered-t$ct" 10 --lights 1000000 --threshold 10 --method $m --grid clustered --cluster-tile $ct
+        run "m-$m-clustered-t$ct-geo" 10 --lights 1000000 --threshold 10 --method $m --grid clustered \
+          --cluster-tile $ct --cluster-geometry-only
+      done
       run "m100k-$m-gather" 20 --lights 100000 --threshold 1 --method $m
       run "m100k-$m-scatter" 20 --lights 100000 --threshold 1 --method $m --assign scatter
       run "m1k-$m-scatter" 50 --lights 1024 --method $m --assign scatter

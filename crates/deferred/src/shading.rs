@@ -239,7 +239,10 @@ impl DeferredShading {
             options.grid_pairs,
         )?;
         memory.extend(&light_grid.memory());
-        let assigned = options.assigned();
+        // 2.5D lists are always assigned light-centrically here: the cull-and-shade kernel
+        // has no 2.5D variant (its variants are at the validator's limit), and assignment
+        // finds the same lists.
+        let assigned = options.assigned() || options.depth_mask;
         if assigned && drop.is_some() {
             return Err(GpuError::Config("the test hook drops lights in tile-centric culling only".into()));
         }
