@@ -9,7 +9,10 @@
 //    kernel would (common/tile_tests.wgsl; with CLUSTERED the light's depth slices instead
 //    of the tile's range) and counts the hits per list. A light covering more than
 //    BIG_TILES tiles is queued instead (one thread would hold up its warp).
-// 2. count_big: a team of 32 threads per queued light counts its tiles.
+// 2. count_big: a team of 32 threads per queued light counts its tiles, a block of 4 x 4
+//    tiles per thread at a time.
+// The walks skip blocks of 4 x 4 tiles whose surfaces the sphere cannot reach in depth
+// (visit_block).
 // 3. allocate: a thread per list; a workgroup scan of 256 lists' counts and one atomic add
 //    on the grid's counter give each list its first index (the light grid's contract:
 //    common/light_grid.wgsl; a full index buffer drops and counts, never writes out of
@@ -26,6 +29,8 @@
 override TILE_SIZE: u32 = 16u;
 // A light whose rectangle holds more tiles than this goes to the big-light queue.
 override BIG_TILES: u32 = 64u;
+// Side of a block in tiles (tile_depth.wgsl keeps each block's depth range).
+const BLOCK: u32 = 4u;
 // True when lists x lights may reach 2^32 (tiledlight_gpu::light_grid::needs_guard).
 override GRID_GUARD: bool = true;
 
@@ -43,6 +48,11 @@ override GRID_GUARD: bool = true;
 // Per tile: the depth slices holding a surface (tile_depth.wgsl).
 @group(1) @binding(3) var<storage, read> tile_masks: array<u32>;
 #endif
+#endif
+#ifndef CLUSTERED
+// Per block of BLOCK x BLOCK tiles: the nearest surface's view distance (x, bit-inverted)
+// and the farthest's (y), order-preserving encoded (tile_depth.wgsl; 0, 0: no geometry).
+@group(1) @binding(2) var<storage, read> block_ranges: array<vec2<u32>>;
 #endif
 // Per list: the lights found (count passes), then the write cursor (write passes).
 @group(1) @binding(4) var<storage, read_write> list_counts: array<atomic<u32>>;
@@ -156,6 +166,10 @@ struct Walk {
     rect: TileRect,
     // Tiles of the rectangle (0 when it is empty or the light reaches nothing).
     tiles: u32,
+    // Its blocks of BLOCK x BLOCK tiles: the first, how many across, and in all.
+    block0: vec2<u32>,
+    blocks_x: u32,
+    blocks: u32,
     // CLUSTERED: the light's depth slices, first and last.
     slices: vec2<u32>,
     // The rectangle is the whole grid because the sphere reaches the eye plane (the plane
@@ -200,6 +214,10 @@ fn walk_of(light: u32) -> Walk {
     if k.rect.lo.x < k.rect.hi.x && k.rect.lo.y < k.rect.hi.y {
         let e = k.rect.hi - k.rect.lo;
         k.tiles = e.x * e.y;
+        k.block0 = k.rect.lo / BLOCK;
+        let b = (k.rect.hi - 1u) / BLOCK - k.block0 + 1u;
+        k.blocks_x = b.x;
+        k.blocks = b.x * b.y;
     }
     return k;
 }
@@ -238,10 +256,36 @@ fn depth_hits(tile: vec2<u32>, range: vec2<f32>, k: Walk) -> vec2<bool> {
     return hit;
 }
 
-// Tile `i` (row-major within the rectangle) of the walk.
-fn visit(k: Walk, i: u32, write: bool) {
-    let e = k.rect.hi.x - k.rect.lo.x;
-    let tile = k.rect.lo + vec2<u32>(i % e, i / e);
+// Decodes a view distance encoded by tile_depth.wgsl's order_key.
+fn from_order_key(u: u32) -> f32 {
+    return bitcast<f32>(select(~u, u ^ 0x80000000u, (u & 0x80000000u) != 0u));
+}
+
+// Block `j` (row-major within the rectangle's blocks) of the walk: its tiles inside the
+// rectangle. For tiles (not clusters, whose empty slices still get lights), a block whose
+// surfaces all lie nearer than the sphere or all farther is skipped whole: every tile's
+// depth test would fail (the block's range is the min and max of its tiles' own values).
+// Most lights of a dense scene are hidden behind walls, so this saves most tile visits.
+fn visit_block(k: Walk, j: u32, write: bool) {
+    let block = k.block0 + vec2<u32>(j % k.blocks_x, j / k.blocks_x);
+#ifndef CLUSTERED
+    let e = block_ranges[block.y * ((light_grid.header.tiles.x + BLOCK - 1u) / BLOCK) + block.x];
+    let dist = -k.c.z;
+    if e.y == 0u || !(dist + k.r >= from_order_key(~e.x) && dist - k.r <= from_order_key(e.y)) {
+        return;
+    }
+#endif
+    let lo = max(block * BLOCK, k.rect.lo);
+    let hi = min(block * BLOCK + BLOCK, k.rect.hi);
+    for (var y = lo.y; y < hi.y; y++) {
+        for (var x = lo.x; x < hi.x; x++) {
+            visit(k, vec2<u32>(x, y), write);
+        }
+    }
+}
+
+// Tile `tile` of the walk.
+fn visit(k: Walk, tile: vec2<u32>, write: bool) {
     let t = tile.y * light_grid.header.tiles.x + tile.x;
 #ifdef CLUSTERED
     // The side planes passed (the rectangle, unless it is the whole grid); the depth test is
@@ -305,8 +349,8 @@ fn walk_light(light: u32, write: bool) {
         }
         return;
     }
-    for (var i = 0u; i < k.tiles; i++) {
-        visit(k, i, write);
+    for (var j = 0u; j < k.blocks; j++) {
+        visit_block(k, j, write);
     }
 }
 
@@ -320,8 +364,8 @@ fn walk_big(group: u32, groups: u32, lidx: u32, write: bool) {
     let lane = lidx % TEAM;
     for (var b = group * teams + lidx / TEAM; b < queued; b += groups * teams) {
         let k = walk_of(atomicLoad(&big_lights[1u + b]));
-        for (var i = lane; i < k.tiles; i += TEAM) {
-            visit(k, i, write);
+        for (var j = lane; j < k.blocks; j += TEAM) {
+            visit_block(k, j, write);
         }
     }
 }

@@ -22,6 +22,20 @@ override WG: u32 = 16u;
 @group(1) @binding(3) var<storage, read_write> tile_masks: array<u32>;
 #endif
 #endif
+#ifndef CLUSTERED
+// Per block of BLOCK x BLOCK tiles: the largest order_key of its tiles' ~near (x: the
+// nearest surface) and of their far (y), cleared to 0 each frame (assign.wgsl's
+// visit_block skips blocks out of a light's depth reach).
+@group(1) @binding(4) var<storage, read_write> block_ranges: array<atomic<u32>>;
+const BLOCK: u32 = 4u;
+
+// A u32 ordered as the float `f` (negative distances too: orthographic near planes),
+// never 0 for a finite f.
+fn order_key(f: f32) -> u32 {
+    let u = bitcast<u32>(f);
+    return select(u | 0x80000000u, ~u, (u & 0x80000000u) != 0u);
+}
+#endif
 // The light grid's group (crates/gpu/src/light_grid.rs): only the header and the tile
 // ranges are used here.
 @group(2) @binding(0) var<storage, read_write> light_grid: LightGridRw;
@@ -50,6 +64,14 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid
 #endif
     if lidx == 0u {
         tile_ranges[t] = select(vec2<f32>(-1.0), vec2<f32>(near, far), geometry);
+#ifndef CLUSTERED
+        if geometry {
+            let blocks_x = (light_grid.header.tiles.x + BLOCK - 1u) / BLOCK;
+            let b = (wid.y / BLOCK) * blocks_x + wid.x / BLOCK;
+            atomicMax(&block_ranges[2u * b], ~order_key(near));
+            atomicMax(&block_ranges[2u * b + 1u], order_key(far));
+        }
+#endif
 #ifdef DEPTH_MASK
         tile_masks[t] = mask;
 #else

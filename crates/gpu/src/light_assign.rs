@@ -17,6 +17,12 @@
 //!    full index buffer drops and counts, never writes out of bounds).
 //! 4. **Write**: the same walk again, each hit stored at its list's cursor.
 //!
+//! The walks go over blocks of 4 x 4 tiles and, for tile layouts, skip a block whose
+//! surfaces all lie nearer or farther than the light reaches (step 1 keeps each block's
+//! range): most of a dense scene's lights are hidden behind walls, and their walks then
+//! cost a block test instead of a test per tile. Clusters cannot skip so (an empty cluster
+//! still gets lights, which is what serves transparent geometry).
+//!
 //! The lists hold the same lights as the tile-centric kernel's (the order within a list
 //! differs): the CPU twin is `tiledlight_cull::cull_tiles` for tiles, half-z and 2.5D, and
 //! `tiledlight_cull`'s clusters for the clustered layout.
@@ -45,6 +51,10 @@ pub const BIG_TILES: u32 = 8;
 /// large GPU; none has work without big lights.
 const BIG_GROUPS: u32 = 512;
 
+/// Side of a block in tiles: the walks skip blocks whose surfaces a light cannot reach in
+/// depth (`BLOCK` in `shaders/assign.wgsl` and `shaders/tile_depth.wgsl`).
+const BLOCK: u32 = 4;
+
 /// Threads of the per-light and per-list workgroups (`shaders/assign.wgsl`).
 const GROUP: u32 = 256;
 
@@ -61,7 +71,7 @@ pub use tiledlight_cull::ClusterConfig as ClusterOptions;
 pub const CLUSTER_TILE_SIZES: [u32; 6] = [8, 16, 32, 64, 128, 256];
 
 /// The bindings of the tile-depth pass (`shaders/tile_depth.wgsl`). Group 1: depth (0), the
-/// tile masks it writes (3, for 2.5D or clusters). Group 2: the light grid, tile ranges
+/// tile masks it writes (3, for 2.5D or clusters), the blocks' depth ranges (4, tiles). Group 2: the light grid, tile ranges
 /// included.
 pub const TILE_DEPTH_BINDINGS: PassBindings = PassBindings {
     entry: "tile_depth.wgsl",
@@ -74,6 +84,7 @@ pub const TILE_DEPTH_BINDINGS: PassBindings = PassBindings {
                 DEPTH_BINDING,
                 Binding::storage_rw(3, wgpu::ShaderStages::COMPUTE)
                     .when(Cond::Any(&[Cond::Defined("DEPTH_MASK"), Cond::Defined("CLUSTERED")])),
+                Binding::storage_rw(4, wgpu::ShaderStages::COMPUTE).when(Cond::NotDefined("CLUSTERED")),
             ],
         ),
         PassGroup::new(2, &compute_bindings(Cond::Always)),
@@ -81,7 +92,8 @@ pub const TILE_DEPTH_BINDINGS: PassBindings = PassBindings {
 };
 
 /// The bindings of the assignment kernels (`shaders/assign.wgsl`). Group 1: bounding
-/// spheres (1), the lighting uniform (9), with `SPOT_CONE` the shading lights (6) and spots
+/// spheres (1), the lighting uniform (9), the blocks' depth ranges (2, tiles), with
+/// `SPOT_CONE` the shading lights (6) and spots
 /// (7), the tile masks (3, 2.5D or geometry-only clusters), the per-list counts (4), the
 /// big-light queue (5). Group 2: the light grid, tile ranges included.
 pub const ASSIGN_BINDINGS: PassBindings = PassBindings {
@@ -94,6 +106,7 @@ pub const ASSIGN_BINDINGS: PassBindings = PassBindings {
             &[
                 Binding::storage(1, wgpu::ShaderStages::COMPUTE),
                 Binding::uniform(9, wgpu::ShaderStages::COMPUTE),
+                Binding::storage(2, wgpu::ShaderStages::COMPUTE).when(Cond::NotDefined("CLUSTERED")),
                 Binding::storage(6, wgpu::ShaderStages::COMPUTE).when(Cond::Defined("SPOT_CONE")),
                 Binding::storage(7, wgpu::ShaderStages::COMPUTE).when(Cond::Defined("SPOT_CONE")),
                 Binding::storage(3, wgpu::ShaderStages::COMPUTE)
@@ -121,6 +134,8 @@ pub struct LightAssign {
     list_counts: wgpu::Buffer,
     /// The big-light queue: its length, then light indices.
     big_lights: wgpu::Buffer,
+    /// Per block of 4 x 4 tiles, its surfaces' depth range (tile layouts).
+    block_ranges: Option<wgpu::Buffer>,
     /// Per tile: the 2.5D bins or the cluster slices that hold a surface (read by tests).
     pub masks: Option<wgpu::Buffer>,
     tiles: TileGrid,
@@ -160,6 +175,11 @@ impl LightAssign {
             .then(|| buffer_zeroed(device, "assign.tile_masks", tiles.tile_count() as u64 * 4, usage));
         let list_counts = buffer_zeroed(device, "assign.list_counts", lists as u64 * 4, usage);
         let big_lights = buffer_zeroed(device, "assign.big_lights", (lights.len() as u64 + 1) * 4, usage);
+        let blocks = (tiles.tiles_x.div_ceil(BLOCK) * tiles.tiles_y.div_ceil(BLOCK)) as u64;
+        let block_ranges = clusters.is_none().then(|| buffer_zeroed(device, "assign.block_ranges", blocks * 8, usage));
+        if let Some(b) = &block_ranges {
+            memory.add("assign.block_ranges", b.size());
+        }
         memory.add("assign.list_counts", list_counts.size());
         memory.add("assign.big_lights", big_lights.size());
         if let Some(m) = &masks {
@@ -179,6 +199,9 @@ impl LightAssign {
             vec![wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(depth) }];
         if let Some(m) = &masks {
             entries.push(wgpu::BindGroupEntry { binding: 3, resource: m.as_entire_binding() });
+        }
+        if let Some(b) = &block_ranges {
+            entries.push(wgpu::BindGroupEntry { binding: 4, resource: b.as_entire_binding() });
         }
         let depth_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("tile_depth.bind_group"),
@@ -227,6 +250,9 @@ impl LightAssign {
         if let (true, Some(m)) = (depth_mask || geometry_only, &masks) {
             entries.push(wgpu::BindGroupEntry { binding: 3, resource: m.as_entire_binding() });
         }
+        if let Some(b) = &block_ranges {
+            entries.push(wgpu::BindGroupEntry { binding: 2, resource: b.as_entire_binding() });
+        }
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("assign.bind_group"),
             layout: &layout,
@@ -252,6 +278,7 @@ impl LightAssign {
             group,
             list_counts,
             big_lights,
+            block_ranges,
             masks,
             tiles,
             lists,
@@ -259,8 +286,11 @@ impl LightAssign {
         })
     }
 
-    /// Records a frame's assignment into `grid` (the one it was built for) as one timed
-    /// compute pass labelled `label`, clearing the grid's counters first.
+    /// Records a frame's assignment into `grid` (the one it was built for), clearing the
+    /// grid's counters first, as four timed compute passes: `{label}.depth` (step 1),
+    /// `{label}.count` (2), `{label}.allocate` (3) and `{label}.write` (4), so the lab sees
+    /// where the time goes (a pass boundary costs what the barrier between two dispatches
+    /// costs anyway).
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -272,32 +302,35 @@ impl LightAssign {
         grid.record_clear(encoder);
         encoder.clear_buffer(&self.list_counts, 0, None);
         encoder.clear_buffer(&self.big_lights, 0, Some(4));
-        let t = timer.begin(label, encoder);
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(label),
-                timestamp_writes: t.compute_writes(),
-            });
-            pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
-            pass.set_bind_group(2, grid.bind_group(), &[]);
-            pass.set_pipeline(&self.tile_depth);
-            pass.set_bind_group(1, &self.depth_group, &[]);
-            pass.dispatch_workgroups(self.tiles.tiles_x, self.tiles.tiles_y, 1);
-            pass.set_bind_group(1, &self.group, &[]);
-            let per_light = dispatch_size(self.lights.div_ceil(GROUP));
-            let per_list = dispatch_size(self.lists.div_ceil(GROUP));
-            for (pipeline, size) in [
-                (&self.count, per_light),
-                (&self.count_big, (BIG_GROUPS, 1)),
-                (&self.allocate, per_list),
-                (&self.write, per_light),
-                (&self.write_big, (BIG_GROUPS, 1)),
-            ] {
-                pass.set_pipeline(pipeline);
-                pass.dispatch_workgroups(size.0, size.1, 1);
-            }
+        if let Some(b) = &self.block_ranges {
+            encoder.clear_buffer(b, 0, None);
         }
-        timer.end(encoder, t);
+        let per_light = dispatch_size(self.lights.div_ceil(GROUP));
+        let per_list = dispatch_size(self.lists.div_ceil(GROUP));
+        let depth = [(&self.tile_depth, (self.tiles.tiles_x, self.tiles.tiles_y))];
+        let count = [(&self.count, per_light), (&self.count_big, (BIG_GROUPS, 1))];
+        let allocate = [(&self.allocate, per_list)];
+        let write = [(&self.write, per_light), (&self.write_big, (BIG_GROUPS, 1))];
+        let steps: [(&str, &[(&wgpu::ComputePipeline, (u32, u32))]); 4] =
+            [("depth", &depth), ("count", &count), ("allocate", &allocate), ("write", &write)];
+        for (step, dispatches) in steps {
+            let name = format!("{label}.{step}");
+            let t = timer.begin(&name, encoder);
+            {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some(&name),
+                    timestamp_writes: t.compute_writes(),
+                });
+                pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
+                pass.set_bind_group(1, if step == "depth" { &self.depth_group } else { &self.group }, &[]);
+                pass.set_bind_group(2, grid.bind_group(), &[]);
+                for (pipeline, size) in dispatches {
+                    pass.set_pipeline(pipeline);
+                    pass.dispatch_workgroups(size.0, size.1, 1);
+                }
+            }
+            timer.end(encoder, t);
+        }
         grid.record_readback(encoder);
     }
 }
