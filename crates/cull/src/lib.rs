@@ -5,7 +5,8 @@
 //! shared BRDF, the CPU reference culler that every GPU kernel is compared with, the
 //! light grid's packing ([`grid`]), the shadow atlas's layout, projections and lookup
 //! ([`shadow`]), and the CPU ray-cast visibility reference that shadow maps are compared
-//! with ([`raycast`]: triangles in a BVH, segment occlusion).
+//! with ([`raycast`]: triangles in a BVH, segment occlusion), and an estimate of the
+//! lights per tile for light counts the reference is too slow for ([`estimate`]).
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
 
 pub mod error;
@@ -17,6 +18,7 @@ pub use light::{Light, LightKind};
 pub mod bounds;
 pub mod brdf;
 pub mod camera;
+pub mod estimate;
 pub mod grid;
 pub mod raycast;
 pub mod reference;
