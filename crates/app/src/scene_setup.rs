@@ -142,7 +142,7 @@ impl From<BlendMode> for BlendModeArg {
     }
 }
 
-/// A named configuration of the lights (`--preset`).
+/// A named configuration of the lights (`--light-preset`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum PresetArg {
     /// 1,000,000 point lights on the scene's surfaces (`--lights-on-surfaces --lights
@@ -171,7 +171,7 @@ pub struct SceneArgs {
     /// --lights-on-surfaces) with the exposure chosen for them. --lights, --lights-per-pixel
     /// and --exposure given with it override its values.
     #[arg(long, value_enum, value_name = "NAME")]
-    pub preset: Option<PresetArg>,
+    pub light_preset: Option<PresetArg>,
     /// Place the random point lights on the scene's surfaces (area-weighted, lifted off
     /// them along the normal by a quarter of their radius), all with one radius that
     /// follows the count so that --lights-per-pixel lights reach a surface point on average
@@ -286,7 +286,7 @@ impl Default for SceneArgs {
             scene: d.scene.to_string(),
             lights: d.lights,
             spot_lights: d.spot_lights,
-            preset: None,
+            light_preset: None,
             lights_on_surfaces: d.placement.on_surfaces(),
             lights_per_pixel: None,
             seed: d.seed,
@@ -322,7 +322,7 @@ impl Default for SceneArgs {
 impl SceneArgs {
     /// The settings of these flags, the camera bookmark not read (`camera: None`).
     fn plain_settings(&self) -> Settings {
-        let million = self.preset == Some(PresetArg::Million);
+        let million = self.light_preset == Some(PresetArg::Million);
         let placement = if self.lights_on_surfaces || million || self.lights_per_pixel.is_some() {
             LightPlacement::Surfaces { lights_per_point: self.lights_per_pixel.unwrap_or(DEFAULT_LIGHTS_PER_POINT) }
         } else {
@@ -528,11 +528,11 @@ mod tests {
 
     #[test]
     fn the_million_preset_places_a_million_lights_on_the_surfaces() {
-        let s = parse(&["--preset", "million"]).settings().unwrap();
+        let s = parse(&["--light-preset", "million"]).settings().unwrap();
         assert_eq!((s.lights, s.placement), (Some(MILLION_LIGHTS), LightPlacement::SURFACES));
         assert_eq!(s.exposure, surface_exposure(DEFAULT_LIGHTS_PER_POINT, DEFAULT_LIGHT_THRESHOLD));
         // Flags given with it win.
-        let s = parse(&["--preset", "million", "--lights", "1000", "--lights-per-pixel", "4", "--exposure", "3"])
+        let s = parse(&["--light-preset", "million", "--lights", "1000", "--lights-per-pixel", "4", "--exposure", "3"])
             .settings()
             .unwrap();
         let placement = LightPlacement::Surfaces { lights_per_point: 4.0 };
@@ -541,7 +541,7 @@ mod tests {
         let s = parse(&["--lights-on-surfaces", "--threshold", "0.2"]).settings().unwrap();
         assert_eq!((s.lights, s.placement), (None, LightPlacement::SURFACES));
         assert_eq!(s.exposure, surface_exposure(DEFAULT_LIGHTS_PER_POINT, 0.2));
-        assert!(Flags::try_parse_from(["x", "--preset", "billion"]).is_err());
+        assert!(Flags::try_parse_from(["x", "--light-preset", "billion"]).is_err());
         let e = format!("{:#}", parse(&["--lights-per-pixel", "0"]).settings().unwrap_err());
         assert!(e.starts_with("--lights-per-pixel 0:"), "{e}");
     }

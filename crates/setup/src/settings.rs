@@ -31,7 +31,7 @@ use tiledlight_scene::{
 /// Random point lights of the default scene when [`Settings::lights`] is not given.
 pub const DEFAULT_POINT_LIGHTS: u64 = 1024;
 
-/// Point lights of the million-light preset (`--preset million`).
+/// Point lights of the million-light preset (`--light-preset million`).
 pub const MILLION_LIGHTS: u64 = 1_000_000;
 
 /// Mean lights reaching a surface point in the million-light preset: about 100 lights per
@@ -74,8 +74,8 @@ const ASSUMED_ALBEDO: f32 = 0.6;
 /// the radius follows the count, so the mean irradiance of a flat surface is
 /// `surface_irradiance_factor(offset) * k * threshold` for a white light; the lights'
 /// saturated hues average 0.5 per channel, and a Lambert surface of albedo 0.6 sends
-/// `albedo / pi` of it back. The exposure maps that mean radiance to
-/// [`SURFACE_EXPOSURE_TARGET`]. Not an automatic exposure (it does not look at the image).
+/// `albedo / pi` of it back. The exposure maps that mean radiance to 0.25 (middle grey
+/// after the ACES fit and sRGB). Not an automatic exposure (it does not look at the image).
 pub fn surface_exposure(lights_per_point: f32, threshold: f32) -> f32 {
     let irradiance = surface_irradiance_factor(DEFAULT_SURFACE_OFFSET) * lights_per_point * threshold * 0.5;
     let radiance = ASSUMED_ALBEDO / std::f32::consts::PI * irradiance;
