@@ -141,8 +141,14 @@ struct Reference {
 /// not the shadow map's, which the shadow axes' times are measured against. It draws the
 /// setting's transparent objects, always sorted (so the blend mode is not part of the key).
 fn reference_key(a: &Settings, reference: ReferenceArg) -> String {
-    // With the cutoff the radii, so the threshold, shape the reference too.
-    let threshold = if reference == ReferenceArg::Cutoff { a.threshold.to_string() } else { String::new() };
+    // With the cutoff the radii, so the threshold, shape the reference too; lights on
+    // surfaces take their radius from k and their intensity from the threshold, so both
+    // always shape it.
+    let threshold = if reference == ReferenceArg::Cutoff || a.placement.on_surfaces() {
+        format!("{}|{:?}|", a.threshold, a.placement)
+    } else {
+        String::new()
+    };
     let shadows =
         if a.has_shadows() { format!("{:?}|{:?}", a.shadow_casters(), a.shadow_options()) } else { String::new() };
     threshold

@@ -16,7 +16,10 @@ use tiledlight_deferred::EdgeTest;
 use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::light_cull::ClusterOptions;
 use tiledlight_scene::{GridDensity, DEFAULT_LIGHT_THRESHOLD};
-use tiledlight_setup::{CameraBookmark, Method, SceneSource, Settings};
+use tiledlight_setup::{
+    surface_exposure, CameraBookmark, LightPlacement, Method, SceneSource, Settings, DEFAULT_LIGHTS_PER_POINT,
+    MILLION_LIGHTS,
+};
 
 /// Which renderer draws the frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -178,6 +181,15 @@ pub enum AssignArg {
     Scatter,
 }
 
+/// A named configuration of the lights (`--light-preset`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PresetArg {
+    /// 1,000,000 point lights on the scene's surfaces (`--lights-on-surfaces --lights
+    /// 1000000`), k = 8 lights per pixel, the exposure chosen for them: about 100 lights per
+    /// 16 px tile at 1080p in the courtyard. Flags given with it override its values.
+    Million,
+}
+
 /// Scene, lights, screen and renderer flags shared by `render` and `bench`.
 ///
 /// Numbers are parsed wide (u64 light counts) and range-checked in [`SceneArgs::validate`],
@@ -194,6 +206,22 @@ pub struct SceneArgs {
     /// Random spot lights [default: 0].
     #[arg(long, value_name = "N")]
     pub spot_lights: Option<u64>,
+    /// A named configuration: `million` is 1,000,000 point lights on the surfaces (see
+    /// --lights-on-surfaces) with the exposure chosen for them. --lights, --lights-per-pixel
+    /// and --exposure given with it override its values.
+    #[arg(long, value_enum, value_name = "NAME")]
+    pub light_preset: Option<PresetArg>,
+    /// Place the random point lights on the scene's surfaces (area-weighted, lifted off
+    /// them along the normal by a quarter of their radius), all with one radius that
+    /// follows the count so that --lights-per-pixel lights reach a surface point on average
+    /// (the threshold then sets their intensity: threshold * radius^2). Spot lights stay in
+    /// the scene's bounds.
+    #[arg(long)]
+    pub lights_on_surfaces: bool,
+    /// Mean number of surface lights reaching a pixel's surface point, the radius dial of
+    /// surface lights (implies --lights-on-surfaces) [default: 8].
+    #[arg(long, value_name = "K")]
+    pub lights_per_pixel: Option<f32>,
     /// Seed of the random lights (the same seed gives the same lights).
     #[arg(long, default_value_t = 1, value_name = "S")]
     pub seed: u64,
@@ -279,9 +307,10 @@ pub struct SceneArgs {
     /// from sample 0's makes the pixel an edge.
     #[arg(long, default_value_t = EdgeTest::default().normal_deg, value_name = "DEG")]
     pub edge_normal_deg: f32,
-    /// Exposure before tonemapping.
-    #[arg(long, default_value_t = 1.0, value_name = "E")]
-    pub exposure: f32,
+    /// Exposure before tonemapping [default: 1; with lights on surfaces, the one that maps
+    /// their expected mean radiance (from k and the threshold) to middle grey].
+    #[arg(long, value_name = "E")]
+    pub exposure: Option<f32>,
     /// Shadow-casting point lights: the N brightest point lights cast shadows (six cube
     /// faces each, in the shadow atlas).
     #[arg(long, default_value_t = 0, value_name = "N")]
@@ -319,6 +348,9 @@ impl Default for SceneArgs {
             scene: d.scene.to_string(),
             lights: d.lights,
             spot_lights: d.spot_lights,
+            light_preset: None,
+            lights_on_surfaces: d.placement.on_surfaces(),
+            lights_per_pixel: None,
             seed: d.seed,
             threshold: d.threshold,
             grid_objects: d.grid_objects,
@@ -344,7 +376,7 @@ impl Default for SceneArgs {
             msaa: d.msaa,
             edge_distance: d.edge_distance,
             edge_normal_deg: d.edge_normal_deg,
-            exposure: d.exposure,
+            exposure: None,
             shadow_point_lights: d.shadow_point_lights,
             shadow_spot_lights: d.shadow_spot_lights,
             shadow_size: d.shadow_size,
@@ -359,10 +391,21 @@ impl Default for SceneArgs {
 impl SceneArgs {
     /// The settings of these flags, the camera bookmark not read (`camera: None`).
     fn plain_settings(&self) -> Settings {
+        let million = self.light_preset == Some(PresetArg::Million);
+        let placement = if self.lights_on_surfaces || million || self.lights_per_pixel.is_some() {
+            LightPlacement::Surfaces { lights_per_point: self.lights_per_pixel.unwrap_or(DEFAULT_LIGHTS_PER_POINT) }
+        } else {
+            LightPlacement::Bounds
+        };
+        let exposure = self.exposure.unwrap_or(match placement {
+            LightPlacement::Surfaces { lights_per_point } => surface_exposure(lights_per_point, self.threshold),
+            LightPlacement::Bounds => Settings::default().exposure,
+        });
         Settings {
             scene: SceneSource::parse(&self.scene),
-            lights: self.lights,
+            lights: self.lights.or(million.then_some(MILLION_LIGHTS)),
             spot_lights: self.spot_lights,
+            placement,
             seed: self.seed,
             threshold: self.threshold,
             grid_objects: self.grid_objects,
@@ -390,7 +433,7 @@ impl SceneArgs {
             msaa: self.msaa,
             edge_distance: self.edge_distance,
             edge_normal_deg: self.edge_normal_deg,
-            exposure: self.exposure,
+            exposure,
             shadow_point_lights: self.shadow_point_lights,
             shadow_spot_lights: self.shadow_spot_lights,
             shadow_size: self.shadow_size,
@@ -506,6 +549,8 @@ mod tests {
             "30",
             "--exposure",
             "2",
+            "--lights-per-pixel",
+            "3",
             "--shadow-point-lights",
             "2",
             "--shadow-spot-lights",
@@ -526,6 +571,7 @@ mod tests {
             scene: SceneSource::File("a.glb".into()),
             lights: Some(3),
             spot_lights: Some(4),
+            placement: LightPlacement::Surfaces { lights_per_point: 3.0 },
             seed: 5,
             threshold: 0.5,
             grid_objects: 0,
@@ -593,6 +639,26 @@ mod tests {
         assert!(e(&["--grid", "clustered", "--cluster-slices", "33"]).starts_with("--cluster-slices 33"));
         assert!(e(&["--grid", "clustered", "--cluster-tile", "12"]).starts_with("--cluster-tile 12"));
         assert!(e(&["--grid", "clustered", "--cluster-last", "1"]).starts_with("--cluster-last 1"));
+    }
+
+    #[test]
+    fn the_million_preset_places_a_million_lights_on_the_surfaces() {
+        let s = parse(&["--light-preset", "million"]).settings().unwrap();
+        assert_eq!((s.lights, s.placement), (Some(MILLION_LIGHTS), LightPlacement::SURFACES));
+        assert_eq!(s.exposure, surface_exposure(DEFAULT_LIGHTS_PER_POINT, DEFAULT_LIGHT_THRESHOLD));
+        // Flags given with it win.
+        let s = parse(&["--light-preset", "million", "--lights", "1000", "--lights-per-pixel", "4", "--exposure", "3"])
+            .settings()
+            .unwrap();
+        let placement = LightPlacement::Surfaces { lights_per_point: 4.0 };
+        assert_eq!((s.lights, s.placement, s.exposure), (Some(1000), placement, 3.0));
+        // On surfaces without the preset: the usual count, the surface exposure for k.
+        let s = parse(&["--lights-on-surfaces", "--threshold", "0.2"]).settings().unwrap();
+        assert_eq!((s.lights, s.placement), (None, LightPlacement::SURFACES));
+        assert_eq!(s.exposure, surface_exposure(DEFAULT_LIGHTS_PER_POINT, 0.2));
+        assert!(Flags::try_parse_from(["x", "--light-preset", "billion"]).is_err());
+        let e = format!("{:#}", parse(&["--lights-per-pixel", "0"]).settings().unwrap_err());
+        assert!(e.starts_with("--lights-per-pixel 0:"), "{e}");
     }
 
     #[test]

@@ -6,7 +6,8 @@
 //! light-centric tile rectangle ([`assign`]), 2.5D depth masks ([`depth_mask`]), clustered
 //! lists ([`cluster`]), the light grid's packing ([`grid`]), the shadow atlas's layout, projections and lookup
 //! ([`shadow`]), and the CPU ray-cast visibility reference that shadow maps are compared
-//! with ([`raycast`]: triangles in a BVH, segment occlusion).
+//! with ([`raycast`]: triangles in a BVH, segment occlusion), and an estimate of the
+//! lights per tile for light counts the reference is too slow for ([`estimate`]).
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
 
 pub mod error;
@@ -21,6 +22,7 @@ pub mod brdf;
 pub mod camera;
 pub mod cluster;
 pub mod depth_mask;
+pub mod estimate;
 pub mod grid;
 pub mod raycast;
 pub mod reference;

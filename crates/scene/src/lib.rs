@@ -7,6 +7,8 @@
 //!   TiledLighting11's grid objects, some of them alpha-blended glass;
 //! - [`shadow_box_scene`]: a cube on or above a floor, for the shadow tests;
 //! - [`random_lights`]: deterministic random point and spot lights;
+//! - [`SurfaceSampler`]: point lights on the scene's surfaces, their radius following
+//!   the count ([`surface_light_radius`]), for the million-light preset;
 //! - [`load_gltf`]: glTF 2.0 files (.gltf/.glb) with KHR_lights_punctual.
 //!
 //! Conventions (see the workspace's DESIGN.md): right-handed, Y up, metres, front faces
@@ -19,10 +21,15 @@ mod lights;
 mod loader;
 mod model;
 mod procedural;
+mod surface_lights;
 
 pub use error::SceneError;
 pub use lights::{random_lights, LightOptions, DEFAULT_INTENSITY_RANGE, DEFAULT_LIGHT_THRESHOLD, MAX_LIGHTS};
 pub use loader::load_gltf;
 pub use model::{Aabb, AlphaMode, CameraDesc, Instance, Material, Mesh, Scene, Texture};
 pub use procedural::{default_scene, shadow_box_scene, DefaultSceneOptions, GridDensity, MAX_GRID_OBJECTS};
+pub use surface_lights::{
+    surface_irradiance_factor, surface_light_radius, SurfaceLightOptions, SurfaceLights, SurfaceSampler,
+    DEFAULT_SURFACE_OFFSET,
+};
 pub use tiledlight_cull::{Light, LightKind};

@@ -70,7 +70,7 @@ fn mix(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
-fn stream_rng(seed: u64, stream: u64) -> Pcg64 {
+pub(crate) fn stream_rng(seed: u64, stream: u64) -> Pcg64 {
     let words = [mix(seed), mix(seed ^ 0x5bd1_e995), stream, mix(stream)];
     let mut bytes = [0u8; 32];
     for (chunk, w) in bytes.chunks_exact_mut(8).zip(words) {
@@ -80,7 +80,7 @@ fn stream_rng(seed: u64, stream: u64) -> Pcg64 {
 }
 
 /// A fully saturated colour of hue `h` in [0, 1) with its largest component 1.
-fn hue_color(h: f32) -> Vec3 {
+pub(crate) fn hue_color(h: f32) -> Vec3 {
     let x = h.rem_euclid(1.0) * 6.0;
     let f = |n: f32| {
         let k = (n + x) % 6.0;

@@ -38,8 +38,11 @@ pub mod stats;
 
 pub use animate::LightAnimator;
 pub use camera::{camera_from_desc, choose_camera, frame_bounds};
-pub use load::{LightSummary, SceneCpu};
+pub use load::{LightSummary, SceneCpu, SurfacePlacement};
 pub use prepared::Prepared;
 pub use rebuild::{rebuild_plan, Rebuild, Reload};
-pub use settings::{CameraBookmark, Method, SceneSource, Settings, DEFAULT_POINT_LIGHTS};
+pub use settings::{
+    surface_exposure, CameraBookmark, LightPlacement, Method, SceneSource, Settings, DEFAULT_LIGHTS_PER_POINT,
+    DEFAULT_POINT_LIGHTS, MILLION_LIGHTS,
+};
 pub use stats::{blended_stats, culling_stats, group_digits, shadow_atlas_description, BlendedStats, CullingStats};

@@ -1,15 +1,18 @@
 //! The CPU half of a run, built before any GPU work so that file and settings errors come
 //! before the slow device creation: the scene (the procedural courtyard or a glTF file),
-//! its lights (the file's own, then the random ones asked for) and the camera
-//! ([`SceneCpu`]); and the light counts a report shows ([`LightSummary`]).
+//! its lights (the file's own, then the random ones asked for: in the bounds, or point
+//! lights on the scene's surfaces) and the camera ([`SceneCpu`]); and the light counts a
+//! report shows ([`LightSummary`], [`SurfacePlacement`]).
 //!
 //! Depends on tiledlight-scene (scene model, procedural scene, glTF loading, light
 //! generation), tiledlight-cull and [`crate::settings`] / [`crate::camera`]; no GPU work.
 
+use std::sync::Arc;
+
 use anyhow::{ensure, Context, Result};
 use tiledlight_cull::{Camera, LightKind};
 use tiledlight_scene::{
-    default_scene, load_gltf, random_lights, Aabb, DefaultSceneOptions, Light, LightOptions, Scene,
+    default_scene, load_gltf, random_lights, Aabb, DefaultSceneOptions, Light, LightOptions, Scene, SurfaceSampler,
     DEFAULT_INTENSITY_RANGE, MAX_LIGHTS,
 };
 
@@ -37,6 +40,35 @@ impl LightSummary {
     }
 }
 
+/// How the point lights were placed on the surfaces (for the report).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfacePlacement {
+    /// Point lights placed.
+    pub count: usize,
+    /// Target mean lights per surface point (`k`).
+    pub lights_per_point: f32,
+    /// The radius every one has (metres).
+    pub radius: f32,
+    /// Total surface area they were spread over (square metres).
+    pub area: f64,
+}
+
+impl std::fmt::Display for SurfacePlacement {
+    /// "1000000 on the surfaces (5573 m^2, area-weighted), radius 0.123 m for k = 8 lights
+    /// per surface point".
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} on the surfaces ({:.0} m^2, area-weighted), radius {:.3} m for k = {} lights per surface point",
+            self.count, self.area, self.radius, self.lights_per_point
+        )
+    }
+}
+
+/// The scene's triangles ready for surface lights: built when the settings place lights
+/// on surfaces, kept so that new surface lights need no new scene.
+pub type Surfaces = Option<Arc<SurfaceSampler>>;
+
 /// The CPU half of a run, built before any GPU work so that file and flag errors come
 /// before the slow device creation: the scene, all its lights and the camera.
 pub struct SceneCpu {
@@ -50,6 +82,11 @@ pub struct SceneCpu {
     pub camera: Camera,
     /// Where the camera came from, for the report.
     pub camera_source: String,
+    /// The surfaces sampled for surface lights (None unless the settings place lights on
+    /// surfaces).
+    pub surfaces: Surfaces,
+    /// How the surface lights were made (None unless there are some).
+    pub surface_placement: Option<SurfacePlacement>,
 }
 
 impl SceneCpu {
@@ -57,10 +94,20 @@ impl SceneCpu {
     pub fn load(settings: &Settings) -> Result<Self> {
         settings.validate()?;
         let (scene, file_lights) = load_scene(settings)?;
-        let lights = build_lights(settings, &scene.bounds, &scene.lights)?;
+        let surfaces = surfaces_of(settings, &scene)?;
+        let (lights, surface_placement) = build_lights(settings, &scene.bounds, surfaces.as_deref(), &scene.lights)?;
         let (camera, camera_source) = choose_camera(settings, scene.camera.as_ref(), &scene.bounds)?;
-        Ok(Self { scene, lights, file_lights, camera, camera_source })
+        Ok(Self { scene, lights, file_lights, camera, camera_source, surfaces, surface_placement })
     }
+}
+
+/// The scene's surfaces, sampled by area, when the settings place lights on them.
+pub(crate) fn surfaces_of(settings: &Settings, scene: &Scene) -> Result<Surfaces> {
+    if !settings.placement.on_surfaces() {
+        return Ok(None);
+    }
+    let sampler = SurfaceSampler::of_scene(scene).context("placing lights on the surfaces (--lights-on-surfaces)")?;
+    Ok(Some(Arc::new(sampler)))
 }
 
 /// Loads or builds the scene; returns it with the number of lights it brought along.
@@ -83,8 +130,15 @@ fn load_scene(settings: &Settings) -> Result<(Scene, usize)> {
     }
 }
 
-/// The scene's own lights followed by the random ones asked for, placed in `bounds`.
-pub(crate) fn build_lights(settings: &Settings, bounds: &Aabb, scene_lights: &[Light]) -> Result<Vec<Light>> {
+/// The scene's own lights followed by the random ones asked for: point lights in `bounds`
+/// or on `surfaces` (which must be given when the settings place lights on surfaces),
+/// then spot lights in `bounds`. Also how the surface lights were made, if any.
+pub(crate) fn build_lights(
+    settings: &Settings,
+    bounds: &Aabb,
+    surfaces: Option<&SurfaceSampler>,
+    scene_lights: &[Light],
+) -> Result<(Vec<Light>, Option<SurfacePlacement>)> {
     let file_lights = scene_lights.len();
     let (points, spots) = settings.random_light_counts();
     let total = file_lights as u64 + points + spots;
@@ -94,10 +148,24 @@ pub(crate) fn build_lights(settings: &Settings, bounds: &Aabb, scene_lights: &[L
         points + spots
     );
     let mut lights = scene_lights.to_vec();
-    if points + spots > 0 {
+    let mut placement = None;
+    let on_surfaces = settings.surface_light_options().filter(|o| o.count > 0);
+    if let Some(opts) = on_surfaces {
+        let sampler = surfaces.context("internal: surface lights asked for without the scene's surfaces")?;
+        let out = sampler.lights(&opts).context("placing lights on the surfaces (--lights-on-surfaces)")?;
+        placement = Some(SurfacePlacement {
+            count: out.lights.len(),
+            lights_per_point: opts.lights_per_point,
+            radius: out.radius,
+            area: out.area,
+        });
+        lights.extend(out.lights);
+    }
+    let random_points = if on_surfaces.is_some() { 0 } else { points };
+    if random_points + spots > 0 {
         let opts = LightOptions {
             // Both fit: validate() capped them at MAX_LIGHTS (2^20).
-            num_point: points as u32,
+            num_point: random_points as u32,
             num_spot: spots as u32,
             seed: settings.seed,
             threshold: settings.threshold,
@@ -105,7 +173,7 @@ pub(crate) fn build_lights(settings: &Settings, bounds: &Aabb, scene_lights: &[L
         };
         lights.extend(random_lights(bounds, &opts).context("generating random lights")?);
     }
-    Ok(lights)
+    Ok((lights, placement))
 }
 
 #[cfg(test)]
@@ -121,6 +189,32 @@ mod tests {
         assert!(!cpu.camera_source.is_empty());
         // The same settings give the same lights.
         assert_eq!(SceneCpu::load(&s).unwrap().lights, cpu.lights);
+    }
+
+    #[test]
+    fn surface_lights_replace_the_random_point_lights() {
+        use crate::settings::LightPlacement;
+        let s = Settings {
+            width: 64,
+            height: 36,
+            lights: Some(5000),
+            spot_lights: Some(3),
+            placement: LightPlacement::SURFACES,
+            ..Settings::default()
+        };
+        let cpu = SceneCpu::load(&s).unwrap();
+        assert_eq!(LightSummary::of(&cpu.lights, 0), LightSummary { point: 5000, spot: 3, from_file: 0, random: 5003 });
+        let p = cpu.surface_placement.unwrap();
+        assert_eq!((p.count, p.lights_per_point), (5000, crate::settings::DEFAULT_LIGHTS_PER_POINT));
+        assert!(cpu.lights[..5000].iter().all(|l| (l.radius - p.radius).abs() < 1e-4 * p.radius));
+        assert!(p.to_string().starts_with("5000 on the surfaces ("), "{p}");
+        // The spot lights are the ones the bounds placement gives.
+        let boxed = SceneCpu::load(&Settings { placement: LightPlacement::Bounds, ..s.clone() }).unwrap();
+        assert_eq!(boxed.lights[5000..], cpu.lights[5000..]);
+        assert!(boxed.surface_placement.is_none() && boxed.surfaces.is_none());
+        // No lights at all on the surfaces: nothing placed, no error.
+        let none = SceneCpu::load(&Settings { lights: Some(0), spot_lights: None, ..s }).unwrap();
+        assert!(none.lights.is_empty() && none.surface_placement.is_none());
     }
 
     #[test]

@@ -22,7 +22,7 @@ use tiledlight_gpu::{ContextOptions, GpuContext};
 use tiledlight_scene::{Aabb, CameraDesc, Light};
 
 use crate::camera::choose_camera;
-use crate::load::{build_lights, LightSummary, SceneCpu};
+use crate::load::{build_lights, LightSummary, SceneCpu, SurfacePlacement, Surfaces};
 use crate::rebuild::{rebuild_plan, Rebuild, Reload};
 use crate::settings::{Method, Settings};
 use crate::stats::{blended_stats, culling_stats, group_digits, BlendedStats, CullingStats};
@@ -53,6 +53,8 @@ pub struct Prepared {
     pub bounds: Aabb,
     /// The lights the scene file brought along (before the random ones).
     pub file_lights: Vec<Light>,
+    /// How the point lights were placed on the surfaces (None when they were not).
+    pub surface_placement: Option<SurfacePlacement>,
     /// Some material of the scene is alpha-blended (transparent grid objects, a glTF
     /// `BLEND` material): renderers draw it through their blended path.
     pub has_blend: bool,
@@ -61,6 +63,9 @@ pub struct Prepared {
     requested: Settings,
     /// The scene file's own camera, if any (the camera is rebuilt from it on a new aspect).
     scene_camera: Option<CameraDesc>,
+    /// The scene's surfaces sampled by area, kept while lights are placed on them (new
+    /// surface lights need no new scene).
+    surfaces: Surfaces,
     gpu_errors: Arc<Mutex<Vec<String>>>,
 }
 
@@ -139,6 +144,8 @@ impl Prepared {
             has_blend: cpu.scene.has_blend(),
             file_lights: cpu.scene.lights,
             scene_camera: cpu.scene.camera,
+            surface_placement: cpu.surface_placement,
+            surfaces: cpu.surfaces,
             gpu_errors,
         })
     }
@@ -201,6 +208,8 @@ impl Prepared {
         self.has_blend = cpu.scene.has_blend();
         self.file_lights = cpu.scene.lights;
         self.scene_camera = cpu.scene.camera;
+        self.surface_placement = cpu.surface_placement;
+        self.surfaces = cpu.surfaces;
         Ok(())
     }
 
@@ -211,7 +220,7 @@ impl Prepared {
     /// [`Reload::LightBuffers`] (renderers built before must be rebuilt). Nothing changes
     /// on error.
     fn replace_lights(&mut self, settings: &Settings, reload: Reload) -> Result<()> {
-        let lights = build_lights(settings, &self.bounds, &self.file_lights)?;
+        let (lights, placement) = build_lights(settings, &self.bounds, self.surfaces.as_deref(), &self.file_lights)?;
         let summary = LightSummary::of(&lights, self.file_lights.len());
         if reload == Reload::LightData {
             let same_shape = summary.point == self.light_summary.point && summary.spot == self.light_summary.spot;
@@ -249,6 +258,7 @@ impl Prepared {
             self.lights = upload_lights(&self.ctx, &lights, settings)?;
         }
         self.light_summary = summary;
+        self.surface_placement = placement;
         Ok(())
     }
 
@@ -315,7 +325,14 @@ impl Prepared {
         let a = &self.settings;
         let l = &self.light_summary;
         let mut lights = format!("{} point, {} spot", l.point, l.spot);
+        if let Some(p) = &self.surface_placement {
+            lights.push_str(&format!(
+                " (point lights: {p}; seed {}, threshold {}, exposure {:.3})",
+                a.seed, a.threshold, a.exposure
+            ));
+        }
         match (l.from_file, l.random) {
+            (0, _) if self.surface_placement.is_some() => {}
             (0, _) => lights.push_str(&format!(" (random, seed {}, threshold {})", a.seed, a.threshold)),
             (f, 0) => lights.push_str(&format!(" (all {f} from the glTF file)")),
             (f, r) => lights.push_str(&format!(

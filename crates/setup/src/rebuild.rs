@@ -4,10 +4,10 @@
 //!
 //! | changed | reload | camera | renderer |
 //! | --- | --- | --- | --- |
-//! | scene, grid objects, density, transparent objects (threshold of a glTF scene's own lights) | scene + all lights | yes | yes |
+//! | scene, grid objects, density, transparent objects (threshold of a glTF scene's own lights), lights on surfaces on/off | scene + all lights | yes | yes |
 //! | random point/spot light counts | new light buffers (bind groups and list capacity follow the count) | | yes |
 //! | shadow-casting point/spot light counts | new light buffers (the casters are ordered first) | | yes |
-//! | seed, threshold (same counts) | light data rewritten in place (renderers with shadows are told: `Renderer::lights_moved`) | | |
+//! | seed, threshold, lights per surface point (same counts) | light data rewritten in place (renderers with shadows are told: `Renderer::lights_moved`) | | |
 //! | camera bookmark | | yes | |
 //! | width, height | | yes (aspect ratio) | yes |
 //! | method, tile size, capacity, culling tests, half-z, G-buffer targets, MSAA, edge test | | | yes |
@@ -67,12 +67,14 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || a.density != b.density
         || a.transparent_objects != b.transparent_objects
         // A glTF file's own lights get their radii from the threshold when it is loaded.
-        || (file_scene && a.threshold != b.threshold);
+        || (file_scene && a.threshold != b.threshold)
+        // The surfaces are sampled when the scene is loaded (kept while lights are on them).
+        || a.placement.on_surfaces() != b.placement.on_surfaces();
     let reload = if scene {
         Reload::Scene
     } else if a.random_light_counts() != b.random_light_counts() || a.shadow_casters() != b.shadow_casters() {
         Reload::LightBuffers
-    } else if a.seed != b.seed || a.threshold != b.threshold {
+    } else if a.seed != b.seed || a.threshold != b.threshold || a.placement != b.placement {
         Reload::LightData
     } else {
         Reload::Nothing
@@ -132,6 +134,19 @@ mod tests {
         assert!(with(|_| {}).is_nothing());
         // The default light count, given explicitly, is the same lights.
         assert!(with(|s| s.lights = Some(1024)).is_nothing());
+    }
+
+    #[test]
+    fn surface_lights_reload_the_scene_only_when_switched() {
+        use crate::settings::LightPlacement;
+        let on = with(|s| s.placement = LightPlacement::SURFACES);
+        assert_eq!((on.reload, on.camera, on.renderer), (Reload::Scene, true, true));
+        let surfaces = Settings { placement: LightPlacement::SURFACES, ..base() };
+        let off = with_from(surfaces.clone(), |s| s.placement = LightPlacement::Bounds);
+        assert_eq!(off.reload, Reload::Scene);
+        // Another k keeps the counts: the light data is rewritten in place.
+        let k = with_from(surfaces, |s| s.placement = LightPlacement::Surfaces { lights_per_point: 2.0 });
+        assert_eq!(k, Rebuild { reload: Reload::LightData, ..Rebuild::default() });
     }
 
     #[test]

@@ -24,10 +24,64 @@ use tiledlight_forward::ForwardSettings;
 use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::light_assign::CLUSTER_TILE_SIZES;
 use tiledlight_gpu::light_cull::{ClusterOptions, CullOptions, CULL_WORKGROUP_BYTES};
-use tiledlight_scene::{CameraDesc, GridDensity, DEFAULT_LIGHT_THRESHOLD, MAX_GRID_OBJECTS, MAX_LIGHTS};
+use tiledlight_scene::{
+    surface_irradiance_factor, CameraDesc, GridDensity, SurfaceLightOptions, DEFAULT_LIGHT_THRESHOLD,
+    DEFAULT_SURFACE_OFFSET, MAX_GRID_OBJECTS, MAX_LIGHTS,
+};
 
 /// Random point lights of the default scene when [`Settings::lights`] is not given.
 pub const DEFAULT_POINT_LIGHTS: u64 = 1024;
+
+/// Point lights of the million-light preset (`--light-preset million`).
+pub const MILLION_LIGHTS: u64 = 1_000_000;
+
+/// Mean lights reaching a surface point in the million-light preset: about 100 lights per
+/// 16 px tile at 1080p in the courtyard with [`MILLION_LIGHTS`] (the scene crate's
+/// estimate test).
+pub const DEFAULT_LIGHTS_PER_POINT: f32 = 8.0;
+
+/// Where the random point lights go.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum LightPlacement {
+    /// Uniformly inside the scene's bounds, intensities (so radii) spread over a range.
+    #[default]
+    Bounds,
+    /// On the scene's surfaces (area-weighted, lifted along the normal), one radius for
+    /// all chosen so that `lights_per_point` lights reach a surface point on average.
+    Surfaces {
+        /// Target mean lights per surface point (`k`), the `--lights-per-pixel` flag.
+        lights_per_point: f32,
+    },
+}
+
+impl LightPlacement {
+    /// Surfaces with the preset's [`DEFAULT_LIGHTS_PER_POINT`].
+    pub const SURFACES: LightPlacement = LightPlacement::Surfaces { lights_per_point: DEFAULT_LIGHTS_PER_POINT };
+
+    /// True for [`LightPlacement::Surfaces`].
+    pub fn on_surfaces(self) -> bool {
+        matches!(self, LightPlacement::Surfaces { .. })
+    }
+}
+
+/// Linear value the exposure of surface lights maps the mean surface radiance to: about
+/// middle grey after the ACES fit and sRGB (0.25 -> 0.35 -> 0.63).
+const SURFACE_EXPOSURE_TARGET: f32 = 0.25;
+
+/// Albedo assumed for the mean radiance (the courtyard's materials are about this bright).
+const ASSUMED_ALBEDO: f32 = 0.6;
+
+/// A fixed exposure for surface lights that keeps the image readable at any light count:
+/// the radius follows the count, so the mean irradiance of a flat surface is
+/// `surface_irradiance_factor(offset) * k * threshold` for a white light; the lights'
+/// saturated hues average 0.5 per channel, and a Lambert surface of albedo 0.6 sends
+/// `albedo / pi` of it back. The exposure maps that mean radiance to 0.25 (middle grey
+/// after the ACES fit and sRGB). Not an automatic exposure (it does not look at the image).
+pub fn surface_exposure(lights_per_point: f32, threshold: f32) -> f32 {
+    let irradiance = surface_irradiance_factor(DEFAULT_SURFACE_OFFSET) * lights_per_point * threshold * 0.5;
+    let radiance = ASSUMED_ALBEDO / std::f32::consts::PI * irradiance;
+    SURFACE_EXPOSURE_TARGET / radiance
+}
 
 /// Which renderer draws the frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -129,6 +183,8 @@ pub struct Settings {
     pub lights: Option<u64>,
     /// Random spot lights [default: 0].
     pub spot_lights: Option<u64>,
+    /// Where the random point lights go (spot lights are always placed in the bounds).
+    pub placement: LightPlacement,
     /// Seed of the random lights (the same seed gives the same lights).
     pub seed: u64,
     /// Intensity threshold that sets each light's radius: r = sqrt(intensity / T).
@@ -206,6 +262,7 @@ impl Default for Settings {
             scene: SceneSource::Default,
             lights: None,
             spot_lights: None,
+            placement: LightPlacement::Bounds,
             seed: 1,
             threshold: DEFAULT_LIGHT_THRESHOLD,
             grid_objects: 0,
@@ -311,6 +368,9 @@ impl Settings {
             "--threshold {}: must be a positive number",
             self.threshold
         );
+        if let LightPlacement::Surfaces { lights_per_point: k } = self.placement {
+            ensure!(k.is_finite() && k > 0.0, "--lights-per-pixel {k}: must be a positive number");
+        }
         ensure!(
             self.exposure.is_finite() && self.exposure > 0.0,
             "--exposure {}: must be a positive number",
@@ -496,6 +556,21 @@ impl Settings {
         Some(format!("{what}, {}", blend_mode_description(self.blend_mode)))
     }
 
+    /// The options of the surface lights, None unless they are placed on surfaces (the
+    /// count is the settings' random point lights, at most [`MAX_LIGHTS`]).
+    pub fn surface_light_options(&self) -> Option<SurfaceLightOptions> {
+        let LightPlacement::Surfaces { lights_per_point } = self.placement else {
+            return None;
+        };
+        Some(SurfaceLightOptions {
+            count: u32::try_from(self.random_light_counts().0).unwrap_or(u32::MAX),
+            lights_per_point,
+            seed: self.seed,
+            threshold: self.threshold,
+            offset: DEFAULT_SURFACE_OFFSET,
+        })
+    }
+
     /// One line of the culling options, e.g. "16 px tiles, capacity 512, tests: planes+aabb".
     pub fn culling_description(&self) -> String {
         let mut tests = String::from("planes");
@@ -611,6 +686,23 @@ mod tests {
         // Refused for 8 GiB of "lists x capacity" before the light grid; fine now.
         let huge = Settings { width: 16384, height: 16384, tile_size: 8, capacity: Some(2048), ..small() };
         huge.validate().unwrap();
+    }
+
+    #[test]
+    fn surface_placement_is_checked_and_exposed() {
+        for k in [0.0, -2.0, f32::NAN] {
+            let s = Settings { placement: LightPlacement::Surfaces { lights_per_point: k }, ..small() };
+            assert!(err(s).starts_with("--lights-per-pixel"), "k {k}");
+        }
+        assert_eq!(small().surface_light_options(), None);
+        let s = Settings { placement: LightPlacement::SURFACES, lights: Some(MILLION_LIGHTS), seed: 3, ..small() };
+        s.validate().unwrap();
+        let o = s.surface_light_options().unwrap();
+        assert_eq!((o.count, o.lights_per_point, o.seed), (1_000_000, DEFAULT_LIGHTS_PER_POINT, 3));
+        // The exposure falls as the expected irradiance (k * threshold) grows.
+        let e = surface_exposure(DEFAULT_LIGHTS_PER_POINT, DEFAULT_LIGHT_THRESHOLD);
+        assert!(e.is_finite() && e > 0.0);
+        assert!((surface_exposure(2.0 * DEFAULT_LIGHTS_PER_POINT, DEFAULT_LIGHT_THRESHOLD) - e / 2.0).abs() < 1e-4 * e);
     }
 
     #[test]
