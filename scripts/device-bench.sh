@@ -109,6 +109,10 @@ for set in $sets; do
         run "m-$m-clustered-t$ct-geo" 10 --lights 1000000 --threshold 10 --method $m --grid clustered \
           --cluster-tile $ct --cluster-geometry-only
       done
+      # The preset: a million lights on the courtyard's surfaces (~100 a tile).
+      run "mp-$m-gather" 10 --light-preset million --method $m
+      for g in tiled 2.5d; do run "mp-$m-$g" 10 --light-preset million --method $m --assign scatter --grid $g; done
+      run "mp-$m-clustered-t32" 10 --light-preset million --method $m --grid clustered --cluster-tile 32
       run "m100k-$m-gather" 20 --lights 100000 --threshold 1 --method $m
       run "m100k-$m-scatter" 20 --lights 100000 --threshold 1 --method $m --assign scatter
       run "m1k-$m-scatter" 50 --lights 1024 --method $m --assign scatter
