@@ -224,12 +224,16 @@ fn walk_of(light: u32) -> Walk {
 
 // A hit of the walk's light in list `l`: counted, or written at the list's cursor.
 fn emit(l: u32, light: u32, write: bool) {
-    let slot = atomicAdd(&list_counts[l], 1u);
     if write {
+        let slot = atomicAdd(&list_counts[l], 1u);
         let e = light_list(light_grid.lists[l], light_grid.header.capacity);
         if slot < e.count {
             light_indices[e.first + slot] = light;
         }
+    } else {
+        // The result unused: a reduction the walk need not wait for (a returning atomic
+        // is a round trip to L2 per hit, and a thread's hits are a chain of them).
+        atomicAdd(&list_counts[l], 1u);
     }
 }
 
