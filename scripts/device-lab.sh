@@ -12,7 +12,7 @@
 # The shadow step (shadow-accuracy: 13 shadow configurations at 960x540 against a CPU ray
 # cast of 12 + 12 casters, on every core) runs at its own resolution.
 # Usage: scripts/device-lab.sh [figure9] [accuracy] [deferred] [msaa] [shadows] [blended]
-# (default: the first five)
+# [blended-vs-sorted] (default: the first five)
 set -uo pipefail
 out=${OUT:-lab-out}
 mkdir -p "$out"
@@ -46,6 +46,16 @@ for s in $steps; do
     step 300 blended accuracy --grid-objects 280 --density medium --axis threshold=0.05 --axis culling=planes \
       --axis transparent-objects=0,10,50,280 --axis blend-mode=sorted,wboit --frames 15 --out "$out/blended.csv"
     ;;
+  blended-vs-sorted)
+    # Issue 12: what dropping the sort alone costs. Weighted blended OIT against the sorted
+    # frame of the same settings (columns sorted_ms, vs_sorted_flip_mean/p99), on glass that
+    # overlaps heavily (up to all 280 grid spheres, down the rows), Forward+. The reference
+    # has the same cutoff, so flip_mean of a sorted point is ~0 and that of a WBOIT point
+    # repeats vs_sorted_flip_mean (a cross-check). 6 points + 3 references.
+    step 300 blended-vs-sorted accuracy --grid-objects 280 --density medium --reference cutoff \
+      --axis threshold=0.05 --axis culling=planes --axis transparent-objects=50,140,280 \
+      --axis blend-mode=sorted,wboit --frames 15 --out "$out/blended-vs-sorted.csv"
+    ;;
   accuracy)
     # Forward+: its image is the brute force's with the same cutoff, so the error is the
     # cutoff's alone and the culling tests change only the time.
@@ -71,7 +81,7 @@ for s in $steps; do
     RES="--width 960 --height 540" step 600 shadow-accuracy shadow-accuracy --frames 10 --warmup 3 \
       --out "$out/shadow-accuracy.json"
     ;;
-  *) echo "unknown step $s (figure9, accuracy, deferred, msaa, shadows, blended)" >&2; exit 2 ;;
+  *) echo "unknown step $s (figure9, accuracy, deferred, msaa, shadows, blended, blended-vs-sorted)" >&2; exit 2 ;;
   esac
 done
 tar -czf "$out/lab.tar.gz" -C "$out" --exclude lab.tar.gz . && ls -la "$out"

@@ -5,6 +5,8 @@
 //! - the blended lists equal the CPU twin (`cull_tiles_blended`), with and without MSAA;
 //! - Forward+ and Tiled Deferred match brute force with the same blending;
 //! - two overlapping panes swap order when the camera crosses between them;
+//! - the heat map of the blended lists colours exactly the tiles whose blended list has
+//!   lights, and is a clear error without blended geometry;
 //! - a scene without blended materials has none of the blended path.
 
 use glam::{Mat4, Vec3};
@@ -286,4 +288,132 @@ fn weighted_oit_approximates_the_sorted_result() {
     assert_matches_reference_frame("blended-wboit-forward", W, &bf, &oit, FORWARD_VS_REFERENCE);
     let bf = bf.allow_gbuffer_normals(&opaque_depth(&sg, &lights, &cam), W, &cam, &lights.packed);
     assert_matches_reference_frame("blended-wboit-deferred", W, &bf, &d, DEFERRED_VS_REFERENCE);
+}
+
+/// Reads the display image of one frame of `r`.
+fn ldr_of(r: &mut dyn Renderer, sg: &SceneGpu, cam: &Camera) -> Vec<u8> {
+    let ctx = gpu();
+    let mut timer = GpuTimer::new(ctx).unwrap();
+    r.render_once(ctx, &mut timer, sg, cam).unwrap();
+    r.read_ldr(ctx).unwrap()
+}
+
+/// The heat map of the blended lists (`HeatmapOf::Blended`), Forward+ and Tiled Deferred:
+/// every pixel of a tile whose blended list holds lights is the documented colour for that
+/// count blended over the same frame without the heat map, within 2/255 (8-bit sRGB
+/// rounding of two images, as in heatmap_and_brdf.rs); every pixel of the other tiles
+/// (no blended geometry, or no light reaching it) is the plain frame's within 1/255 (the
+/// lists' order may differ between frames: float summation order). The same pass switched
+/// to the opaque lists colours wall-only tiles the blended one leaves alone. Asking for the
+/// blended heat map of a scene without blended geometry is an error that says so.
+#[test]
+fn blended_heat_map_colours_exactly_the_tiles_with_blended_lights() {
+    use tiledlight_gpu::tonemap::HeatmapOf;
+    use tiledlight_tests::images::{documented_heat_colour, linear_to_srgb, srgb_to_linear};
+    let ctx = gpu();
+    let scene = three_panes(true);
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, &lights_for_panes()).unwrap();
+    let cam = camera(Vec3::new(0.5, 0.5, 4.0), Vec3::new(0.0, 0.0, -10.0));
+    let of = HeatmapOf::Blended;
+    let renderers: Vec<(&str, Box<dyn Renderer>)> = vec![
+        (
+            "forward",
+            Box::new(
+                ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { heatmap_of: of, ..Default::default() })
+                    .unwrap(),
+            ),
+        ),
+        (
+            "deferred",
+            Box::new(
+                DeferredRenderer::new(
+                    ctx,
+                    &sg,
+                    &lights,
+                    W,
+                    H,
+                    DeferredSettings { heatmap_of: of, ..Default::default() },
+                )
+                .unwrap(),
+            ),
+        ),
+    ];
+    let linear = |px: &[u8]| Vec3::from_array(std::array::from_fn(|c| srgb_to_linear(px[c] as f32 / 255.0)));
+    for (name, mut r) in renderers {
+        let plain = ldr_of(r.as_mut(), &sg, &cam);
+        let h = r.heatmap().expect("tiled methods have a heat map");
+        assert_eq!(h.of(), HeatmapOf::Blended);
+        h.set_enabled(true);
+        // Rendering needs the renderer mutably: the pass is looked up again below.
+        let heat = ldr_of(r.as_mut(), &sg, &cam);
+        let c = r.blended().unwrap().culling.as_ref().unwrap();
+        let blended = c.read_lists(&ctx.device, &ctx.queue).unwrap();
+        let capacity = c.options.capacity;
+        let g = r.grid();
+        let (mut coloured, mut untouched) = (0, 0);
+        for ty in 0..g.tiles_y {
+            for tx in 0..g.tiles_x {
+                let t = (ty * g.tiles_x + tx) as usize;
+                let count = blended.counts[t];
+                let expected = documented_heat_colour(count, capacity, blended.lists[t].len() < count as usize);
+                let (x0, x1, y0, y1) = g.tile_pixels(tx, ty);
+                for (x, y) in (y0..y1).flat_map(|y| (x0..x1).map(move |x| (x, y))) {
+                    let i = ((y * W + x) * 4) as usize;
+                    for ch in 0..3 {
+                        let got = heat[i + ch] as f32;
+                        let (want, tolerance) = match expected {
+                            None => (plain[i + ch] as f32, 1.0),
+                            Some((colour, alpha)) => {
+                                let under = linear(&plain[i..i + 3]);
+                                (linear_to_srgb(colour[ch] * alpha + under[ch] * (1.0 - alpha)) * 255.0, 2.0)
+                            }
+                        };
+                        assert!(
+                            (got - want).abs() <= tolerance,
+                            "{name}: tile ({tx}, {ty}) with {count} blended lights, pixel ({x}, {y}) channel {ch}: \
+                             {got}, expected {want:.1}"
+                        );
+                    }
+                }
+                if expected.is_some() {
+                    coloured += 1;
+                } else {
+                    untouched += 1;
+                }
+            }
+        }
+        eprintln!("{name}: blended heat map colours {coloured} tiles, leaves {untouched}");
+        assert!(coloured > 20 && untouched > 20, "{name}: the frame must show both kinds of tile");
+        // The same pass, switched to the opaque lists: tiles without blended lights that
+        // the opaque heat map colours (the wall and floor) change now.
+        r.heatmap().unwrap().set_of(HeatmapOf::Opaque).unwrap();
+        let opaque_heat = ldr_of(r.as_mut(), &sg, &cam);
+        let opaque = r.light_grid().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
+        let lists_per_tile = opaque.counts.len() / blended.counts.len();
+        let wall_only = (0..blended.counts.len())
+            .filter(|&t| blended.counts[t] == 0 && opaque.counts[t * lists_per_tile] > 0)
+            .filter(|&t| {
+                let (x0, x1, y0, y1) = g.tile_pixels(t as u32 % g.tiles_x, t as u32 / g.tiles_x);
+                let i = ((((y0 + y1) / 2) * W + (x0 + x1) / 2) * 4) as usize;
+                (0..3).any(|ch| opaque_heat[i + ch].abs_diff(heat[i + ch]) > 2)
+            })
+            .count();
+        assert!(wall_only > 20, "{name}: the opaque heat map colours tiles the blended one leaves ({wall_only})");
+    }
+
+    // No blended geometry: no blended lists to show, a clear error (no panic).
+    let plain = SceneGpu::new(&ctx.device, &ctx.queue, &pane_scene(true, &[])).unwrap();
+    let want = "the heat map of the blended lists needs alpha-blended geometry, and this scene has none";
+    let s = ForwardSettings { heatmap: true, heatmap_of: of, ..Default::default() };
+    let e = ForwardRenderer::new(ctx, &plain, &lights, W, H, s).err().expect("forward: an error").to_string();
+    assert!(e.contains(want), "{e}");
+    let s = DeferredSettings { heatmap: true, heatmap_of: of, ..Default::default() };
+    let e = DeferredRenderer::new(ctx, &plain, &lights, W, H, s).err().expect("deferred: an error").to_string();
+    assert!(e.contains(want), "{e}");
+    let r = forward(&plain, &lights, Method::ForwardPlus, 1);
+    let h = r.heatmap().unwrap();
+    assert!(!h.has_blended());
+    assert!(h.set_of(of).unwrap_err().to_string().contains(want));
+    assert_eq!(h.of(), HeatmapOf::Opaque, "a refused switch leaves the grid shown");
 }

@@ -11,6 +11,12 @@
 //! Alpha-blended geometry (`--transparent-objects`, glTF BLEND materials) is drawn by the
 //! reference too, always sorted back to front: the error of `blend-mode=wboit` is the
 //! weighted blended OIT's approximation plus the method's, measured against exact "over".
+//! The error that dropping the sort alone costs is measured too: every setting with
+//! blended geometry and `blend-mode=wboit` is also compared with the sorted frame of the
+//! same settings (same method, cutoff, lights, screen), side by side with its time
+//! (columns `sorted_ms`, `vs_sorted_flip_mean`, `vs_sorted_flip_p99`; empty otherwise).
+//! That frame is the run's own `blend-mode=sorted` point when the run has it, else it is
+//! rendered and timed alike.
 //!
 //! Output: a resumable CSV (one row per setting), a Pareto chart (time vs FLIP mean, the
 //! frontier drawn, the fastest setting under the target error ringed) and FLIP heat maps
@@ -97,7 +103,7 @@ pub enum ReferenceArg {
 }
 
 const HEAD: [&str; 3] = ["adapter", "width", "height"];
-const TAIL: [&str; 18] = [
+const TAIL: [&str; 21] = [
     "total_ms",
     "passes",
     "psnr_db",
@@ -116,6 +122,9 @@ const TAIL: [&str; 18] = [
     "reference_passes",
     "lights",
     "edge_pixels",
+    "sorted_ms",
+    "vs_sorted_flip_mean",
+    "vs_sorted_flip_p99",
 ];
 
 /// The CSV header of a run over `axes`.
@@ -166,6 +175,30 @@ fn reference_key(a: &Settings, reference: ReferenceArg) -> String {
             a.exposure,
             a.msaa
         )
+}
+
+/// The sorted frame a weighted-blended-OIT setting is compared with.
+struct SortedFrame {
+    ldr: Vec<u8>,
+    total_ms: f64,
+}
+
+/// What identifies the sorted frame of a setting: every setting, the blend mode sorted
+/// (the frame differs from the setting's own by the sort alone).
+fn sorted_key(a: &Settings) -> String {
+    format!("{:?}", Settings { blend_mode: BlendMode::Sorted, ..a.clone() })
+}
+
+/// Renders and times the setting `a` with the blended layer sorted, as the setting itself
+/// was measured (`warmup`, `frames`).
+fn render_sorted(prep: &mut Prepared, a: &Settings, warmup: u32, frames: u32) -> Result<SortedFrame> {
+    prep.reconfigure(&Settings { blend_mode: BlendMode::Sorted, ..a.clone() })?;
+    let mut r = prep.renderer(false)?;
+    let m = bench::measure(prep, r.as_mut(), warmup, frames).context("rendering the sorted frame")?;
+    let (total_ms, _) = pass_times(&m)?;
+    let ldr = r.read_ldr(&prep.ctx).context("reading the sorted frame back")?;
+    prep.check_gpu_errors()?;
+    Ok(SortedFrame { ldr, total_ms })
 }
 
 /// "depth_prepass=0.592;forward.cull=0.043" and their sum.
@@ -272,6 +305,9 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
     );
     let mut prep: Option<Prepared> = None;
     let mut references: HashMap<String, Reference> = HashMap::new();
+    // Sorted frames of the run's sorted points, kept only when it has WBOIT points too.
+    let keep_sorted = all_args.iter().any(|a| a.blend_mode == BlendMode::WeightedOit);
+    let mut sorted: HashMap<String, SortedFrame> = HashMap::new();
     let mut heat: HashMap<Vec<String>, Vec<u8>> = HashMap::new();
     let mut adapter = String::new();
     let pb = lab::progress(pending.len());
@@ -317,6 +353,28 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
         let map = flip(pargs.width, pargs.height, &reference.ldr, &ldr);
         let fl = map.summary(PERCENTILE);
         heat.insert(point.clone(), map.heat_rgb());
+        // WBOIT against the sorted frame of the same settings: the sort's share alone.
+        let glass = p.has_blended_geometry();
+        drop(renderer);
+        let vs_sorted = match pargs.blend_mode {
+            BlendMode::Sorted => {
+                if glass && keep_sorted {
+                    sorted.insert(sorted_key(pargs), SortedFrame { ldr: ldr.clone(), total_ms: total });
+                }
+                None
+            }
+            BlendMode::WeightedOit if glass => {
+                let key = sorted_key(pargs);
+                if !sorted.contains_key(&key) {
+                    let s = render_sorted(p, pargs, args.warmup, args.frames)
+                        .with_context(|| format!("{what}: the sorted frame"))?;
+                    sorted.insert(key.clone(), s);
+                }
+                let s = &sorted[&key];
+                Some((s.total_ms, flip(pargs.width, pargs.height, &s.ldr, &ldr).summary(PERCENTILE)))
+            }
+            BlendMode::WeightedOit => None,
+        };
         let mut row = vec![adapter.clone(), pargs.width.to_string(), pargs.height.to_string()];
         row.extend(point.iter().cloned());
         let opt = |v: Option<String>| v.unwrap_or_default();
@@ -339,12 +397,18 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
             reference.passes.clone(),
             p.lights.len().to_string(),
             opt(edges.map(|e| e.to_string())),
+            opt(vs_sorted.as_ref().map(|v| f(v.0, 4))),
+            opt(vs_sorted.as_ref().map(|v| f(f64::from(v.1.mean), 6))),
+            opt(vs_sorted.as_ref().map(|v| f(f64::from(v.1.percentile), 6))),
         ]);
         csv.append(&[row])?;
+        let vs = vs_sorted.map_or(String::new(), |(ms, v)| {
+            format!("; vs sorted ({ms:.3} ms): FLIP mean {:.5} p99 {:.4}", v.mean, v.percentile)
+        });
         lab::say(
             &pb,
             format!(
-                "{what}: {total:.3} ms, FLIP mean {:.5} p99 {:.4}, PSNR {:.2} dB, energy lost {:.3}%",
+                "{what}: {total:.3} ms, FLIP mean {:.5} p99 {:.4}, PSNR {:.2} dB, energy lost {:.3}%{vs}",
                 fl.mean,
                 fl.percentile,
                 e.psnr_db,
@@ -470,5 +534,31 @@ mod tests {
         assert_eq!(key(&s), key(&oit), "the reference is always sorted");
         assert_ne!(key(&s), key(&Settings { transparent_objects: 20, ..s.clone() }));
         assert_eq!(key(&s), key(&Settings { threshold: 0.5, method: Method::Deferred, ..s.clone() }));
+    }
+
+    #[test]
+    fn the_sorted_frame_differs_from_the_setting_by_the_blend_mode_only() {
+        let s = Settings { grid_objects: 50, transparent_objects: 10, ..Settings::default() };
+        let oit = Settings { blend_mode: BlendMode::WeightedOit, ..s.clone() };
+        assert_eq!(sorted_key(&s), sorted_key(&oit), "a WBOIT point finds the sorted point of its settings");
+        // Unlike the reference, the cutoff, method and culling are the setting's own.
+        for other in [
+            Settings { threshold: 0.5, ..oit.clone() },
+            Settings { method: Method::Deferred, ..oit.clone() },
+            Settings { half_z: true, ..oit.clone() },
+            Settings { transparent_objects: 20, ..oit.clone() },
+        ] {
+            assert_ne!(sorted_key(&oit), sorted_key(&other));
+        }
+    }
+
+    #[test]
+    fn the_vs_sorted_columns_follow_the_reference_ones() {
+        let axes = [lab::parse_axis("blend-mode=sorted,wboit").unwrap()];
+        let h = header(&axes);
+        let at = |c: &str| h.iter().position(|x| x == c).unwrap_or_else(|| panic!("no column {c}"));
+        assert_eq!(h[HEAD.len()], "blend-mode");
+        assert!(at("total_ms") < at("sorted_ms") && at("sorted_ms") + 1 == at("vs_sorted_flip_mean"));
+        assert_eq!((at("vs_sorted_flip_p99"), h.len()), (h.len() - 1, HEAD.len() + 1 + TAIL.len()));
     }
 }

@@ -185,7 +185,14 @@ mod tests {
         assert_eq!(r.scene.lights, Some(5));
         assert_eq!(r.scene.method, scene_setup::MethodArg::BruteForceNoCutoff);
         assert_eq!(r.scene.tile_size, 32);
-        assert!(r.heatmap);
+        assert_eq!(r.heatmap, Some(render::HeatmapArg::Opaque));
+        let cli = Cli::try_parse_from(["tiledlight", "render", "--heatmap", "blended", "--out", "x.png"]).unwrap();
+        let Some(Command::Render(r)) = cli.command else { panic!("not render") };
+        assert_eq!(
+            (r.heatmap, r.out.as_deref()),
+            (Some(render::HeatmapArg::Blended), Some(std::path::Path::new("x.png")))
+        );
+        assert!(Cli::try_parse_from(["tiledlight", "render", "--heatmap", "transparent"]).is_err());
         let cli = Cli::try_parse_from(["tiledlight", "bench", "--frames", "3", "--json", "a.json"]).unwrap();
         let Some(Command::Bench(b)) = cli.command else { panic!("not bench") };
         assert_eq!((b.frames, b.warmup), (3, 20));

@@ -1,5 +1,6 @@
 //! `tiledlight render`: renders a few frames of one configuration, writes the image (or,
-//! with `--heatmap`, the lights-per-tile heat map with its legend) as PNG, and prints the
+//! with `--heatmap`, the lights-per-tile heat map with its legend; `--heatmap blended`,
+//! that of the alpha-blended geometry's own lists) as PNG, and prints the
 //! adapter, scene, lights, tile grid, the last frame's pass times, the culling statistics
 //! read back from the GPU, the shadow atlas (faces drawn by the last frame: 0 with still
 //! lights, whose faces the first frame drew; layout; memory) when lights cast shadows, the
@@ -18,6 +19,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::targets::Renderer;
+use tiledlight_gpu::tonemap::HeatmapOf;
 use tiledlight_setup::{shadow_atlas_description, Method, Prepared};
 
 use crate::bench::{self, Measurement};
@@ -34,12 +36,32 @@ pub struct RenderArgs {
     /// Scene, lights, screen and renderer.
     #[command(flatten)]
     pub scene: SceneArgs,
-    /// Write the lights-per-tile heat map (with a legend) instead of the lit image.
-    #[arg(long)]
-    pub heatmap: bool,
+    /// Write the lights-per-tile heat map (with a legend) over the lit image: of the opaque
+    /// geometry's lists (`--heatmap` alone), or of the alpha-blended geometry's own lists
+    /// (`--heatmap blended`; tiles without blended geometry keep the image).
+    #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "opaque", value_name = "LISTS")]
+    pub heatmap: Option<HeatmapArg>,
     /// Output PNG [default: out/render.png, or out/heatmap.png with --heatmap].
     #[arg(long, value_name = "FILE.png")]
     pub out: Option<PathBuf>,
+}
+
+/// Whose light lists the heat map shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum HeatmapArg {
+    /// The opaque geometry's (the method's culling).
+    Opaque,
+    /// The alpha-blended geometry's own (needs blended geometry).
+    Blended,
+}
+
+impl From<HeatmapArg> for HeatmapOf {
+    fn from(a: HeatmapArg) -> Self {
+        match a {
+            HeatmapArg::Opaque => HeatmapOf::Opaque,
+            HeatmapArg::Blended => HeatmapOf::Blended,
+        }
+    }
 }
 
 /// The pass times of the last finished frame, one line each, plus their sum.
@@ -77,19 +99,20 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let out = args
         .out
         .clone()
-        .unwrap_or_else(|| PathBuf::from(if args.heatmap { "out/heatmap.png" } else { "out/render.png" }));
+        .unwrap_or_else(|| PathBuf::from(if args.heatmap.is_some() { "out/heatmap.png" } else { "out/render.png" }));
     check_png_path(&out)?;
     let method = Method::from(args.scene.method);
-    if args.heatmap && !method.is_tiled() {
+    let heatmap = args.heatmap.map(HeatmapOf::from);
+    if heatmap.is_some() && !method.is_tiled() {
         bail!("--heatmap needs --method forward-plus ({} has no tiles)", method.name());
     }
     let prep = Prepared::new(&args.scene.settings()?)?;
-    let mut renderer = prep.renderer(args.heatmap)?;
+    let mut renderer = prep.renderer_with_heatmap(heatmap)?;
     let m = bench::measure(&prep, renderer.as_mut(), 0, RENDER_FRAMES)?;
     let stats = prep.culling_stats(renderer.as_ref())?;
     let blended = prep.blended_stats(renderer.as_ref())?;
     let edges = renderer.edge_pixels(&prep.ctx).context("reading the MSAA edge count back")?;
-    let note = write_image(&prep, renderer.as_ref(), args.heatmap, &out)?;
+    let note = write_image(&prep, renderer.as_ref(), heatmap.is_some(), &out)?;
     prep.check_gpu_errors()?;
 
     for (k, v) in prep.describe() {
@@ -120,6 +143,11 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     if let Some(n) = note {
         println!("note:       {n}");
     }
-    println!("wrote {}{}", out.display(), if args.heatmap { " (heat map with legend)" } else { "" });
+    let what = match heatmap {
+        Some(HeatmapOf::Opaque) => " (heat map with legend)",
+        Some(HeatmapOf::Blended) => " (heat map of the blended lists, with legend)",
+        None => "",
+    };
+    println!("wrote {}{what}", out.display());
     Ok(())
 }

@@ -113,6 +113,20 @@ fn transparent_objects_render_and_bench_report_the_blended_geometry() {
             assert!(text.contains(&needle), "no {needle:?} in:\n{text}");
         }
         assert_eq!(image::image_dimensions(&png).unwrap(), (64, 36));
+        if mode == "sorted" {
+            // The heat map of the blended lists (tests/tests/blended.rs checks its tiles).
+            let heat = dir.join("heat.png");
+            let mut render = with_tiny("render", &["--heatmap", "blended", "--out", heat.to_str().unwrap()]);
+            render.extend(glass);
+            let text = stdout(&gpu_run(&render));
+            assert!(text.contains("(heat map of the blended lists, with legend)"), "{text}");
+            assert_eq!(image::image_dimensions(&heat).unwrap(), (64, 36));
+            // Without glass there are no blended lists: one clear error line, after the
+            // scene is loaded (a glTF's BLEND materials are known only then).
+            let _guard = common::gpu_lock();
+            let line = fails(&with_tiny("render", &["--heatmap", "blended", "--out", heat.to_str().unwrap()]));
+            assert!(line.contains("--heatmap blended") && line.contains("no blended geometry"), "{line}");
+        }
 
         let json = dir.join(format!("{mode}.json"));
         let mut bench = with_tiny("bench", &["--frames", "2", "--warmup", "1", "--blend-mode", mode]);

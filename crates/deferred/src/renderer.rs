@@ -19,7 +19,7 @@ use tiledlight_gpu::plan::{FramePlan, Step};
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::{DisplayTargets, Renderer};
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::tonemap::HeatmapPass;
+use tiledlight_gpu::tonemap::{HeatmapOf, HeatmapPass};
 use tiledlight_gpu::{GpuContext, GpuError};
 
 use crate::gbuffer::{GBuffer, GBufferPass};
@@ -45,6 +45,10 @@ pub struct DeferredSettings {
     pub ambient: Vec3,
     /// Draw the lights-per-tile heat map over the image.
     pub heatmap: bool,
+    /// Which light grid the heat map shows; [`HeatmapOf::Blended`] needs blended geometry
+    /// (an error otherwise, even with the heat map off: the setting asks for a grid the
+    /// frame does not have).
+    pub heatmap_of: HeatmapOf,
     /// MSAA samples per pixel: 1, 2, 4 or 8 (as the adapter supports). Also sets
     /// `cull.samples`.
     pub msaa: u32,
@@ -73,6 +77,7 @@ impl Default for DeferredSettings {
             exposure: 1.0,
             ambient: Vec3::splat(0.02),
             heatmap: false,
+            heatmap_of: HeatmapOf::Opaque,
             msaa: 1,
             edge: EdgeTest::default(),
             test_drop_light: None,
@@ -171,8 +176,10 @@ impl DeferredRenderer {
                 (features, common.shadows.as_ref()),
                 &mut memory,
             )?;
-            let heatmap = HeatmapPass::new(device, &shading.light_grid.grid, settings.heatmap)?;
             let blended = common.blended_path(device, scene, lights, settings.cull)?;
+            let blended_grid = blended.as_ref().and_then(|b| b.culling.as_ref()).map(|c| &c.grid.grid);
+            let heatmap = HeatmapPass::new(device, &shading.light_grid.grid, blended_grid, settings.heatmap)?;
+            heatmap.set_of(settings.heatmap_of)?;
             if let Some(b) = &blended {
                 memory.extend(&b.memory);
             }

@@ -26,7 +26,7 @@ use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::targets::{texture_2d_msaa, DisplayTargets, Renderer};
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::tonemap::{HeatmapPass, HDR_FORMAT};
+use tiledlight_gpu::tonemap::{HeatmapOf, HeatmapPass, HDR_FORMAT};
 use tiledlight_gpu::{GpuContext, GpuError};
 
 use crate::shading::{LightLoop, ShadingPass};
@@ -57,6 +57,10 @@ pub struct ForwardSettings {
     pub ambient: Vec3,
     /// Draw the lights-per-tile heat map over the image (Forward+ only).
     pub heatmap: bool,
+    /// Which light grid the heat map shows (Forward+ only); [`HeatmapOf::Blended`] needs
+    /// blended geometry (an error otherwise, even with the heat map off: the setting asks
+    /// for a grid the frame does not have).
+    pub heatmap_of: HeatmapOf,
     /// MSAA samples per pixel: 1, 2, 4 or 8 (as the adapter supports). Also sets
     /// `cull.samples`.
     pub msaa: u32,
@@ -78,6 +82,7 @@ impl Default for ForwardSettings {
             exposure: 1.0,
             ambient: Vec3::splat(0.02),
             heatmap: false,
+            heatmap_of: HeatmapOf::Opaque,
             msaa: 1,
             test_drop_light: None,
             shadows: ShadowOptions::default(),
@@ -207,7 +212,12 @@ impl ForwardRenderer {
             )?;
             let blended = common.blended_path(device, scene, lights, settings.cull)?;
             let heatmap = match (&culling, plan.has(Step::Heatmap)) {
-                (Some(c), true) => Some(HeatmapPass::new(device, &c.grid.grid, settings.heatmap)?),
+                (Some(c), true) => {
+                    let blended_grid = blended.as_ref().and_then(|b| b.culling.as_ref()).map(|c| &c.grid.grid);
+                    let h = HeatmapPass::new(device, &c.grid.grid, blended_grid, settings.heatmap)?;
+                    h.set_of(settings.heatmap_of)?;
+                    Some(h)
+                }
                 _ => None,
             };
             Ok((prepass, culling, shading, heatmap, hdr_msaa, blended))

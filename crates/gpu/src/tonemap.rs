@@ -1,6 +1,7 @@
 //! Display passes shared by both methods: tonemapping of the linear HDR image into an
-//! sRGB target, and the lights-per-tile heat map blended over it. Neither reads a view:
-//! the tonemap has its own parameters, the heat map the light grid. Bind groups are made
+//! sRGB target, and the lights-per-tile heat map blended over it (of the opaque light grid,
+//! or of the blended geometry's own). Neither reads a view: the tonemap has its own
+//! parameters, the heat map a light grid. Bind groups are made
 //! once per target set, never per frame. Depends on wgpu and the rest of this crate's
 //! utilities.
 
@@ -208,30 +209,73 @@ fn check_exposure(exposure: f32) -> Result<(), GpuError> {
     }
 }
 
-/// Heat map of lights per tile, blended over the display target. It reads only the light
-/// grid (whose header says the tiling), so it can be switched on and off between frames
-/// without rebuilding anything ([`HeatmapPass::set_enabled`]).
+/// Which light grid the heat map shows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum HeatmapOf {
+    /// The opaque geometry's grid (the method's culling; the default).
+    #[default]
+    Opaque,
+    /// The alpha-blended geometry's own grid (`blended.light_grid`): tiles without blended
+    /// samples have an empty list, so they keep the image.
+    Blended,
+}
+
+impl HeatmapOf {
+    /// "opaque" or "blended", as the command line and the viewer name it.
+    pub fn name(self) -> &'static str {
+        match self {
+            HeatmapOf::Opaque => "opaque",
+            HeatmapOf::Blended => "blended",
+        }
+    }
+}
+
+/// Heat map of lights per tile, blended over the display target. It reads only a light
+/// grid (whose header says the tiling), so it can be switched on and off, and between the
+/// opaque and the blended grid, between frames without rebuilding anything
+/// ([`HeatmapPass::set_enabled`], [`HeatmapPass::set_of`]). The blended grid's bind group
+/// exists only when the frame has blended geometry; both grids share the pipeline (the
+/// same layout and shader).
 pub struct HeatmapPass {
     pipeline: wgpu::RenderPipeline,
     bind_group: wgpu::BindGroup,
+    blended_group: Option<wgpu::BindGroup>,
     enabled: AtomicBool,
+    /// Shows the blended grid (only ever true when `blended_group` exists).
+    blended: AtomicBool,
 }
 
 impl HeatmapPass {
-    /// Builds the pipeline and the bind group reading the light grid's lists
-    /// (`LightGrid::grid`, which never changes size), drawn when `enabled`.
-    pub fn new(device: &wgpu::Device, light_grid: &wgpu::Buffer, enabled: bool) -> Result<Self, GpuError> {
+    /// Builds the pipeline and the bind groups reading the light grids' lists
+    /// (`LightGrid::grid`, which never changes size): the opaque grid, and the blended
+    /// geometry's when the frame has one. Drawn when `enabled`, showing the opaque grid.
+    pub fn new(
+        device: &wgpu::Device,
+        light_grid: &wgpu::Buffer,
+        blended_grid: Option<&wgpu::Buffer>,
+        enabled: bool,
+    ) -> Result<Self, GpuError> {
         let layout = create_layout(device, "heatmap.layout", HEATMAP_BINDINGS.group(0), &[]);
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("heatmap.bind_group"),
-            layout: &layout,
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: light_grid.as_entire_binding() }],
-        });
+        let group = |label: &str, grid: &wgpu::Buffer| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(label),
+                layout: &layout,
+                entries: &[wgpu::BindGroupEntry { binding: 0, resource: grid.as_entire_binding() }],
+            })
+        };
+        let bind_group = group("heatmap.bind_group", light_grid);
+        let blended_group = blended_grid.map(|g| group("heatmap.blended.bind_group", g));
         let module = shader_module(device, HEATMAP_BINDINGS.entry, &[])?;
         let pl = pipeline_layout(device, "heatmap.pipeline_layout", &[&layout]);
         let pipeline =
             fullscreen_pipeline(device, "heatmap", &module, "fs_heatmap", &pl, Some(wgpu::BlendState::ALPHA_BLENDING));
-        Ok(Self { pipeline, bind_group, enabled: AtomicBool::new(enabled) })
+        Ok(Self {
+            pipeline,
+            bind_group,
+            blended_group,
+            enabled: AtomicBool::new(enabled),
+            blended: AtomicBool::new(false),
+        })
     }
 
     /// Draws the heat map in the next frames, or not.
@@ -244,11 +288,41 @@ impl HeatmapPass {
         self.enabled.load(Ordering::Relaxed)
     }
 
-    /// Blends the heat map over `target` (nothing when disabled).
+    /// Shows grid `of` in the next frames. The blended grid is an error when the frame has
+    /// no blended geometry (there is no such grid), and the grid shown stays as it was.
+    pub fn set_of(&self, of: HeatmapOf) -> Result<(), GpuError> {
+        if of == HeatmapOf::Blended && self.blended_group.is_none() {
+            return Err(GpuError::Config(
+                "the heat map of the blended lists needs alpha-blended geometry, and this scene has none".into(),
+            ));
+        }
+        self.blended.store(of == HeatmapOf::Blended, Ordering::Relaxed);
+        Ok(())
+    }
+
+    /// The grid shown.
+    pub fn of(&self) -> HeatmapOf {
+        if self.blended.load(Ordering::Relaxed) {
+            HeatmapOf::Blended
+        } else {
+            HeatmapOf::Opaque
+        }
+    }
+
+    /// Whether the blended grid can be shown (the frame has blended geometry).
+    pub fn has_blended(&self) -> bool {
+        self.blended_group.is_some()
+    }
+
+    /// Blends the heat map of the chosen grid over `target` (nothing when disabled).
     pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, target: &wgpu::TextureView) {
         if !self.enabled() {
             return;
         }
-        fullscreen_pass(encoder, timer, "heatmap", target, wgpu::LoadOp::Load, &self.pipeline, &self.bind_group);
+        let group = match (&self.blended_group, self.of()) {
+            (Some(g), HeatmapOf::Blended) => g,
+            _ => &self.bind_group,
+        };
+        fullscreen_pass(encoder, timer, "heatmap", target, wgpu::LoadOp::Load, &self.pipeline, group);
     }
 }

@@ -12,12 +12,13 @@ use std::sync::{Arc, Mutex};
 use anyhow::{bail, ensure, Context, Result};
 use tiledlight_cull::light::try_pack_lights_with_casters;
 use tiledlight_cull::Camera;
-use tiledlight_deferred::DeferredRenderer;
-use tiledlight_forward::ForwardRenderer;
+use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
+use tiledlight_forward::{ForwardRenderer, ForwardSettings};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::Renderer;
+use tiledlight_gpu::tonemap::HeatmapOf;
 use tiledlight_gpu::{ContextOptions, GpuContext};
 use tiledlight_scene::{Aabb, CameraDesc, Light};
 
@@ -268,12 +269,33 @@ impl Prepared {
         self.gpu_errors.lock().map(|mut v| std::mem::take(&mut *v)).unwrap_or_default()
     }
 
-    /// Builds a renderer for the settings' method, screen and culling options.
+    /// Builds a renderer for the settings' method, screen and culling options, with the
+    /// heat map of the opaque lists when `heatmap` ([`Prepared::renderer_with_heatmap`]).
     pub fn renderer(&self, heatmap: bool) -> Result<Box<dyn Renderer>> {
+        self.renderer_with_heatmap(heatmap.then_some(HeatmapOf::Opaque))
+    }
+
+    /// Whether the scene has alpha-blended geometry (the blended path, its lists and their
+    /// heat map exist).
+    pub fn has_blended_geometry(&self) -> bool {
+        self.scene_gpu.draws.iter().any(|d| d.kind.blended && !d.instances.is_empty())
+    }
+
+    /// Builds a renderer for the settings' method, screen and culling options, drawing the
+    /// heat map of grid `heatmap` when given. The blended lists' heat map needs a tiled
+    /// method and blended geometry.
+    pub fn renderer_with_heatmap(&self, heatmap: Option<HeatmapOf>) -> Result<Box<dyn Renderer>> {
         let a = &self.settings;
-        if heatmap && !a.method.is_tiled() {
+        if heatmap.is_some() && !a.method.is_tiled() {
             bail!("--heatmap needs a tiled method, forward-plus or deferred ({} has no tiles)", a.method.name());
         }
+        if heatmap == Some(HeatmapOf::Blended) && !self.has_blended_geometry() {
+            bail!(
+                "--heatmap blended shows the alpha-blended geometry's light lists, and this scene has no blended \
+                 geometry (add --transparent-objects N, or a glTF scene with BLEND materials)"
+            );
+        }
+        let of = heatmap.unwrap_or_default();
         let r: Result<Box<dyn Renderer>, _> = match a.method {
             Method::Deferred => DeferredRenderer::new(
                 &self.ctx,
@@ -281,7 +303,7 @@ impl Prepared {
                 &self.lights,
                 a.width,
                 a.height,
-                a.deferred_settings(heatmap),
+                DeferredSettings { heatmap_of: of, ..a.deferred_settings(heatmap.is_some()) },
             )
             .map(|r| Box::new(r) as Box<dyn Renderer>),
             _ => ForwardRenderer::new(
@@ -290,7 +312,7 @@ impl Prepared {
                 &self.lights,
                 a.width,
                 a.height,
-                a.forward_settings(heatmap),
+                ForwardSettings { heatmap_of: of, ..a.forward_settings(heatmap.is_some()) },
             )
             .map(|r| Box::new(r) as Box<dyn Renderer>),
         };

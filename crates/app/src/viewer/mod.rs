@@ -31,6 +31,7 @@ use tiledlight_cull::Camera;
 use tiledlight_gpu::readback::read_texture;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;
+use tiledlight_gpu::tonemap::HeatmapOf;
 use tiledlight_gpu::{ContextOptions, GpuContext};
 use tiledlight_setup::settings::blend_mode_description;
 use tiledlight_setup::{
@@ -401,6 +402,13 @@ impl Viewer {
         self.pending = self.settings.clone();
     }
 
+    /// The heat map a renderer for `s` is built with: the blended lists only when the scene
+    /// now loaded has blended geometry (the checkbox is kept for a scene that has some).
+    fn heatmap_of(&self, s: &Settings) -> Option<HeatmapOf> {
+        let blended = s.heatmap_blended && self.prep.has_blended_geometry();
+        s.effective_heatmap().then_some(if blended { HeatmapOf::Blended } else { HeatmapOf::Opaque })
+    }
+
     fn try_apply(&mut self, new: &Settings) -> Result<()> {
         let mut new = new.clone();
         // A new scene starts from its own camera, not the bookmark of the first one.
@@ -426,7 +434,7 @@ impl Viewer {
             // The old renderer stays in use until the new one is built, so a renderer
             // the GPU refuses leaves a working viewer behind.
             let size = (new.setup.width, new.setup.height);
-            let built = self.prep.renderer(new.effective_heatmap());
+            let built = self.prep.renderer_with_heatmap(self.heatmap_of(&new));
             self.renderer = built?;
             self.display = self.blit.display_image(&self.prep.ctx.device, size);
             self.stats.culling = None;
@@ -438,6 +446,9 @@ impl Viewer {
             }
             if let Some(h) = self.renderer.heatmap() {
                 h.set_enabled(new.effective_heatmap());
+                // Blended only where the pass has the blended lists: no error to handle.
+                let blended = new.heatmap_blended && h.has_blended();
+                h.set_of(if blended { HeatmapOf::Blended } else { HeatmapOf::Opaque })?;
             }
         }
         if renderer_rebuilt || rebuilt.reload != Reload::Nothing {

@@ -35,7 +35,8 @@ pub enum Action {
 /// The keys `Action::Set` understands.
 pub const KEYS: &str = "method, lights, spot-lights, threshold, seed, tile-size, half-z, aabb, spot-cone, \
                         grid-objects, density, gbuffer-rts, msaa, shadow-point-lights, shadow-spot-lights, \
-                        shadow-size, shadow-filter, shadow-format, transparent-objects, blend-mode, heatmap, \
+                        shadow-size, shadow-filter, shadow-format, transparent-objects, blend-mode, \
+                        heatmap (on, off, blended), \
                         animate, vsync, scene, camera, window, wait";
 
 /// Parses a script; an unknown key or a malformed action is an error naming it.
@@ -123,7 +124,19 @@ pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
         "aabb" => a.aabb = on_off(key, value)?,
         "spot-cone" => a.spot_cone = on_off(key, value)?,
         "scene" => a.scene = SceneSource::parse(value),
-        "heatmap" => s.heatmap = on_off(key, value)?,
+        // on (the opaque lists), off, or blended (the blended geometry's lists).
+        "heatmap" => {
+            (s.heatmap, s.heatmap_blended) = match value {
+                "blended" => (true, true),
+                "opaque" => (true, false),
+                _ => (
+                    on_off(key, value).map_err(|_| {
+                        anyhow::anyhow!("--script: heatmap={value}: expected on, off, opaque or blended")
+                    })?,
+                    false,
+                ),
+            }
+        }
         "animate" => s.animate = on_off(key, value)?,
         "vsync" => s.vsync = on_off(key, value)?,
         _ => bail!("--script: unknown key '{key}' (keys: {KEYS})"),
@@ -149,6 +162,10 @@ mod tests {
         assert_eq!(s.setup.scene, SceneSource::File("x.gltf".into()));
         set(&mut s, "heatmap", "on").unwrap();
         assert_eq!((s.setup.method, s.heatmap), (tiledlight_setup::Method::BruteForce, true));
+        set(&mut s, "heatmap", "blended").unwrap();
+        assert_eq!((s.heatmap, s.heatmap_blended), (true, true));
+        set(&mut s, "heatmap", "on").unwrap();
+        assert_eq!((s.heatmap, s.heatmap_blended), (true, false));
         for (k, v) in [
             ("shadow-point-lights", "8"),
             ("shadow-spot-lights", "4"),
@@ -176,7 +193,7 @@ mod tests {
         assert!(e("zoom=3").contains("unknown key 'zoom'"));
         assert!(e("lights=many").contains("lights=many: not a number"));
         assert!(e("method=fast").contains("method=fast"));
-        assert!(e("heatmap=maybe").contains("expected on or off"));
+        assert!(e("heatmap=maybe").contains("heatmap=maybe: expected on, off, opaque or blended"));
         assert!(e("shadow-size=big").contains("shadow-size=big: not a number"));
         assert!(e("shadow-format=d24").contains("shadow-format=d24"));
         assert!(e("transparent-objects=some").contains("transparent-objects=some: not a number"));

@@ -8,7 +8,7 @@
 //!
 //! | changed | rebuilt |
 //! | --- | --- |
-//! | heat map (tiled methods only) | renderer |
+//! | heat map (tiled methods only), its lists (opaque or blended) | nothing (switched in place) |
 //! | vsync | surface configuration |
 //! | animation | nothing (lights are moved and uploaded each frame while it is on) |
 //!
@@ -27,6 +27,9 @@ pub struct Settings {
     pub setup: tiledlight_setup::Settings,
     /// Draw the lights-per-tile heat map over the image (tiled methods only).
     pub heatmap: bool,
+    /// The heat map shows the alpha-blended geometry's own lists (when the scene has
+    /// blended geometry; the opaque lists otherwise).
+    pub heatmap_blended: bool,
     /// Move the lights every frame.
     pub animate: bool,
     /// Wait for vertical blank when presenting.
@@ -36,7 +39,7 @@ pub struct Settings {
 impl Settings {
     /// The settings of a run started with `setup`.
     pub fn new(setup: tiledlight_setup::Settings) -> Self {
-        Self { setup, heatmap: false, animate: true, vsync: true }
+        Self { setup, heatmap: false, heatmap_blended: false, animate: true, vsync: true }
     }
 
     /// The heat map as the renderer gets it: only methods with tiles have one.
@@ -53,7 +56,8 @@ pub struct Plan {
     pub setup: Rebuild,
     /// Build a new renderer (the setup's reason).
     pub renderer: bool,
-    /// Switch the heat map pass on or off (nothing is rebuilt).
+    /// Switch the heat map pass on or off, or between the opaque and the blended lists
+    /// (nothing is rebuilt).
     pub heatmap: bool,
     /// Reconfigure the window surface.
     pub surface: bool,
@@ -72,7 +76,7 @@ pub fn plan(old: &Settings, new: &Settings) -> Plan {
     Plan {
         setup,
         renderer: setup.renderer,
-        heatmap: old.effective_heatmap() != new.effective_heatmap(),
+        heatmap: old.effective_heatmap() != new.effective_heatmap() || old.heatmap_blended != new.heatmap_blended,
         surface: old.vsync != new.vsync,
     }
 }
@@ -112,6 +116,7 @@ mod tests {
         assert!(with(|s| s.animate = false).is_empty());
         assert_eq!(with(|s| s.vsync = false), Plan { surface: true, ..Plan::default() });
         assert_eq!(with(|s| s.heatmap = true), Plan { heatmap: true, ..Plan::default() });
+        assert_eq!(with(|s| s.heatmap_blended = true), Plan { heatmap: true, ..Plan::default() });
         let p = with(|s| s.setup.exposure = 2.0);
         assert!(p.setup.exposure && !p.renderer, "exposure is set, not rebuilt: {p:?}");
     }

@@ -419,6 +419,11 @@ fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'
         ui.add_enabled_ui(tiled, |ui| {
             ui.checkbox(&mut s.heatmap, "heat map (lights per tile)").on_disabled_hover_text("needs a tiled method");
         });
+        ui.add_enabled_ui(tiled && s.heatmap && info.blended.is_some(), |ui| {
+            ui.checkbox(&mut s.heatmap_blended, "  of the blended geometry's lists")
+                .on_hover_text("the transparent geometry's own light lists; tiles without it keep the image")
+                .on_disabled_hover_text("needs the heat map and blended geometry (transparent objects)");
+        });
         if s.effective_heatmap() {
             legend(ui, info.capacity);
         }

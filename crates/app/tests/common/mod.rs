@@ -23,9 +23,15 @@ pub fn tiledlight(args: &[&str]) -> Output {
     cmd.output().expect("run the tiledlight binary")
 }
 
+/// Holds the one-GPU-run-at-a-time lock (for a GPU run expected to fail, through
+/// [`fails`]).
+pub fn gpu_lock() -> std::sync::MutexGuard<'static, ()> {
+    GPU.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 /// Runs the binary, one GPU run at a time; panics with its output unless it succeeds.
 pub fn gpu_run(args: &[&str]) -> Output {
-    let _guard = GPU.lock().unwrap_or_else(|e| e.into_inner());
+    let _guard = gpu_lock();
     let out = tiledlight(args);
     assert!(
         out.status.success(),
