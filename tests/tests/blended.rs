@@ -417,3 +417,40 @@ fn blended_heat_map_colours_exactly_the_tiles_with_blended_lights() {
     assert!(h.set_of(of).unwrap_err().to_string().contains(want));
     assert_eq!(h.of(), HeatmapOf::Opaque, "a refused switch leaves the grid shown");
 }
+
+/// More blended pairs than the blended light grid's first size (32 indices a tile): the
+/// first frame drops lights, and the grid must grow until the frame fits, in both
+/// methods (it once never grew: every heavy-glass frame lost lights, silently), and the
+/// lists must then equal the CPU twin's.
+#[test]
+fn the_blended_light_grid_grows_until_the_frame_fits() {
+    let ctx = gpu();
+    let scene = three_panes(true);
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    // Radii of 40 m: every light reaches every pane tile (600 x some 100 pairs).
+    let mut lights = scenes::lights(&scene, 600, 0, 9);
+    for l in &mut lights {
+        l.radius = 40.0;
+    }
+    let lights = LightBuffers::new(&ctx.device, &lights).unwrap();
+    let cam = camera(Vec3::new(0.5, 0.5, 4.0), Vec3::new(0.0, 0.0, -10.0));
+    let deferred = DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings::default()).unwrap();
+    let renderers: [Box<dyn Renderer>; 2] =
+        [Box::new(forward(&sg, &lights, Method::ForwardPlus, 1)), Box::new(deferred)];
+    for mut r in renderers {
+        let first = r.blended().unwrap().culling.as_ref().unwrap().grid.capacity();
+        let mut timer = GpuTimer::new(ctx).unwrap();
+        r.render_once(ctx, &mut timer, &sg, &cam).unwrap();
+        let b = r.blended().unwrap();
+        let c = b.culling.as_ref().unwrap();
+        let status = c.grid.status(&ctx.device, &ctx.queue).unwrap();
+        assert!(status.header.pairs > first, "{} pairs fit the first {first} indices: nothing had to grow", status);
+        assert!(status.complete() && c.grid.capacity() > first, "the blended grid did not grow: {status}");
+        let opaque = r.read_depth(ctx).unwrap();
+        let blended = read_depth(&ctx.device, &ctx.queue, &b.depth_texture).unwrap();
+        let gpu_lists = c.read_lists(&ctx.device, &ctx.queue).unwrap();
+        let frame = CulledFrame { depth: &opaque, width: W, height: H, camera: &cam, lights: &lights.packed };
+        let config = c.options.to_config(lights.has_spots());
+        assert_blended_lists_match("grown blended grid", &frame, &blended, &gpu_lists, &config);
+    }
+}

@@ -337,6 +337,9 @@ impl Renderer for ForwardRenderer {
     fn blended(&self) -> Option<&BlendedPath> {
         self.blended.as_ref()
     }
+    fn blended_mut(&mut self) -> Option<&mut BlendedPath> {
+        self.blended.as_mut()
+    }
     fn lights_moved(&self, queue: &wgpu::Queue, lights: &PackedLights) -> Result<(), GpuError> {
         self.common.lights_moved(queue, lights)
     }

@@ -12,6 +12,7 @@ use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_cull::LightCulling;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::lights_group::LightsGroup;
 use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS, VERTEX_LAYOUTS};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::GpuTimer;
@@ -69,17 +70,11 @@ pub const FORWARD_BINDINGS: PassBindings = PassBindings {
 /// The shading pass's pipelines and light bind group.
 pub struct ShadingPass {
     pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
-    lights_layout: wgpu::BindGroupLayout,
-    /// Light buffers: shading, spots (when the scene has spot lights), the lighting uniform.
-    lights: (wgpu::Buffer, Option<wgpu::Buffer>, wgpu::Buffer),
-    /// The shadow atlas's view, sampler and faces (with shadows).
-    shadows: Option<ShadowBindings>,
-    lights_group: wgpu::BindGroup,
+    /// Group 3: the lights, the light grid, the shadow atlas.
+    lights: LightsGroup,
     /// Stands in for group 2 when the scene has no textures.
     empty_group: Option<wgpu::BindGroup>,
     label: &'static str,
-    /// Half-z lookups: the tile ranges are bound.
-    half_z: bool,
 }
 
 impl ShadingPass {
@@ -122,16 +117,21 @@ impl ShadingPass {
             }
         };
         let lights_layout = create_layout(device, "shade.lights_layout", FORWARD_BINDINGS.group(3), &defines);
-        let lights = (lights.shading.clone(), lights.spots.clone(), lighting.clone());
         if features.shadows.is_some() != atlas.is_some() {
             return Err(GpuError::Config("the shadow atlas must exist exactly when the features have shadows".into()));
         }
-        let shadows = atlas.map(|a| (a.sample_view.clone(), a.sampler.clone(), a.faces.clone()));
         // The tile ranges are bound only for half-z lookups (light-centric assignment keeps
         // them for every layout).
         let half_z = matches!(light_loop, LightLoop::Tiled { half_z: true });
         let grid = culling.map(|c| (&c.grid, half_z));
-        let lights_group = lights_group(device, &lights_layout, (&lights, shadows.as_ref()), grid);
+        let lights_group = LightsGroup::new(
+            device,
+            (lights_layout, "shade.lights"),
+            (lights, lighting),
+            lights.has_spots(),
+            atlas,
+            grid,
+        );
         let constants = features.light_constants();
         let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shade.empty_layout"),
@@ -141,7 +141,7 @@ impl ShadingPass {
         let pl = pipeline_layout(
             device,
             "shade.pipeline_layout",
-            &[&views.layout, &scene.layout, tex_layout, &lights_layout],
+            &[&views.layout, &scene.layout, tex_layout, lights_group.layout()],
         );
         let pipelines = features
             .draw_kinds
@@ -182,13 +182,12 @@ impl ShadingPass {
                 entries: &[],
             })
         });
-        Ok(Self { pipelines, lights_layout, lights, shadows, lights_group, empty_group, label, half_z })
+        Ok(Self { pipelines, lights: lights_group, empty_group, label })
     }
 
     /// Binds the light grid again after it grew (its index buffer is a new one).
     pub fn rebind(&mut self, device: &wgpu::Device, grid: &LightGrid) {
-        let grid = Some((grid, self.half_z));
-        self.lights_group = lights_group(device, &self.lights_layout, (&self.lights, self.shadows.as_ref()), grid);
+        self.lights.rebind(device, grid);
     }
 
     /// Shades into `hdr` (cleared to black) using the pre-pass `depth`; with MSAA `hdr` is
@@ -232,7 +231,7 @@ impl ShadingPass {
             if let Some(g) = &self.empty_group {
                 pass.set_bind_group(2, g, &[]);
             }
-            pass.set_bind_group(3, &self.lights_group, &[]);
+            pass.set_bind_group(3, &self.lights.group, &[]);
             for (kind, pipeline) in &self.pipelines {
                 pass.set_pipeline(pipeline);
                 scene.record_draws(&mut pass, *kind, true, true);
@@ -240,41 +239,4 @@ impl ShadingPass {
         }
         timer.end(encoder, t);
     }
-}
-
-/// The shadow atlas's view, sampler and faces.
-type ShadowBindings = (wgpu::TextureView, wgpu::Sampler, wgpu::Buffer);
-
-/// Group 3: shading lights (0), spots (1), the lighting uniform (5), for tiled shading
-/// the light grid (2), its indices (3) and with half-z the tile ranges (4), and with
-/// shadows the atlas (6), its sampler (7) and faces (8).
-fn lights_group(
-    device: &wgpu::Device,
-    layout: &wgpu::BindGroupLayout,
-    ((shading, spots, lighting), shadows): (
-        &(wgpu::Buffer, Option<wgpu::Buffer>, wgpu::Buffer),
-        Option<&ShadowBindings>,
-    ),
-    grid: Option<(&LightGrid, bool)>,
-) -> wgpu::BindGroup {
-    let mut bind = vec![
-        wgpu::BindGroupEntry { binding: 0, resource: shading.as_entire_binding() },
-        wgpu::BindGroupEntry { binding: 5, resource: lighting.as_entire_binding() },
-    ];
-    if let Some(s) = spots {
-        bind.push(wgpu::BindGroupEntry { binding: 1, resource: s.as_entire_binding() });
-    }
-    if let Some((view, sampler, faces)) = shadows {
-        bind.push(wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(view) });
-        bind.push(wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(sampler) });
-        bind.push(wgpu::BindGroupEntry { binding: 8, resource: faces.as_entire_binding() });
-    }
-    if let Some((g, ranges)) = grid {
-        bind.push(wgpu::BindGroupEntry { binding: 2, resource: g.grid.as_entire_binding() });
-        bind.push(wgpu::BindGroupEntry { binding: 3, resource: g.indices().as_entire_binding() });
-        if let (true, Some(r)) = (ranges, &g.ranges) {
-            bind.push(wgpu::BindGroupEntry { binding: 4, resource: r.as_entire_binding() });
-        }
-    }
-    device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("shade.lights"), layout, entries: &bind })
 }

@@ -44,6 +44,7 @@ use crate::error::GpuError;
 use crate::features::{BlendMode, Features, Method};
 use crate::light_cull::{CullOptions, LightCulling};
 use crate::lights_gpu::LightBuffers;
+use crate::lights_group::LightsGroup;
 use crate::memory::MemoryReport;
 use crate::plan::Step;
 use crate::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS, VERTEX_LAYOUTS};
@@ -109,7 +110,7 @@ pub struct BlendedPath {
     /// The blended geometry's culling and light grid (tiled methods).
     pub culling: Option<LightCulling>,
     pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
-    lights_group: wgpu::BindGroup,
+    lights_group: LightsGroup,
     empty_group: Option<wgpu::BindGroup>,
     /// The transparent layer (resolved), premultiplied; with weighted blended OIT, its
     /// accumulation target.
@@ -149,6 +150,31 @@ pub struct BlendedInputs<'a> {
 }
 
 impl BlendedPath {
+    /// Grows the blended light grid when its last finished frame dropped lights (the grid
+    /// was full): between frames, without waiting (`wait`: read the last frame's header,
+    /// stalling, as single renders and tests do). Returns true when it grew.
+    pub fn grow_if_dropped(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        wait: bool,
+    ) -> Result<bool, GpuError> {
+        let Some(c) = &mut self.culling else { return Ok(false) };
+        let status = if wait { Some(c.grid.status(device, queue)?) } else { c.grid.poll_status() };
+        let Some(status) = status else { return Ok(false) };
+        match c.grid.growth(status.needed()) {
+            Some(capacity) if !status.complete() => {
+                c.grid.grow(device, queue, capacity);
+                self.lights_group.rebind(device, &c.grid);
+                for (category, bytes) in c.grid.memory().entries {
+                    self.memory.set(&category, bytes);
+                }
+                Ok(true)
+            }
+            _ => Ok(false),
+        }
+    }
+
     /// Builds the blended path for `inp` (the features must have blended kinds).
     pub fn new(device: &wgpu::Device, inp: BlendedInputs<'_>) -> Result<Self, GpuError> {
         let BlendedInputs { views, scene, lights, features, cull: (grid, options), opaque_depth, shadows } = inp;
@@ -193,31 +219,9 @@ impl BlendedPath {
             }
         }
         let lights_layout = create_layout(device, "blended.lights_layout", BLENDED_BINDINGS.group(3), &defines);
-        let (lb, lighting) = lights;
-        let mut entries = vec![
-            wgpu::BindGroupEntry { binding: 0, resource: lb.shading.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 5, resource: lighting.as_entire_binding() },
-        ];
-        if let Some(s) = lb.spots.as_ref().filter(|_| features.spot_lights) {
-            entries.push(wgpu::BindGroupEntry { binding: 1, resource: s.as_entire_binding() });
-        }
-        if let Some(c) = &culling {
-            entries.push(wgpu::BindGroupEntry { binding: 2, resource: c.grid.grid.as_entire_binding() });
-            entries.push(wgpu::BindGroupEntry { binding: 3, resource: c.grid.indices().as_entire_binding() });
-        }
-        if let Some(a) = shadows {
-            entries.push(wgpu::BindGroupEntry {
-                binding: 6,
-                resource: wgpu::BindingResource::TextureView(&a.sample_view),
-            });
-            entries.push(wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(&a.sampler) });
-            entries.push(wgpu::BindGroupEntry { binding: 8, resource: a.faces.as_entire_binding() });
-        }
-        let lights_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("blended.lights"),
-            layout: &lights_layout,
-            entries: &entries,
-        });
+        let grid = culling.as_ref().map(|c| (&c.grid, false));
+        let lights_group =
+            LightsGroup::new(device, (lights_layout, "blended.lights"), lights, features.spot_lights, shadows, grid);
         let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("blended.empty_layout"),
             entries: &[],
@@ -226,7 +230,7 @@ impl BlendedPath {
         let pl = pipeline_layout(
             device,
             "blended.shade.layout",
-            &[&views.layout, &scene.layout, tex_layout, &lights_layout],
+            &[&views.layout, &scene.layout, tex_layout, lights_group.layout()],
         );
         let module = shader_module(device, BLENDED_BINDINGS.entry, &defines)?;
         // Premultiplied "over": dst = src + (1 - src.a) dst, for colour and coverage alike.
@@ -473,7 +477,7 @@ impl BlendedPath {
             if let Some(g) = &self.empty_group {
                 pass.set_bind_group(2, g, &[]);
             }
-            pass.set_bind_group(3, &self.lights_group, &[]);
+            pass.set_bind_group(3, &self.lights_group.group, &[]);
             scene.bind_geometry(&mut pass);
             let mut current: Option<DrawKind> = None;
             for &(_, i) in order.iter() {

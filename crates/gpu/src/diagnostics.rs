@@ -51,11 +51,19 @@ pub trait Diagnostics: Renderer {
             })?;
             timer.end_frame()?;
             ctx.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Readback(e.to_string()))?;
-            let Some(grid) = self.light_grid() else { break };
-            let status = grid.status(&ctx.device, &ctx.queue)?;
-            match grid.growth(status.needed()) {
-                Some(capacity) if !status.complete() => self.grow_light_grid(ctx, capacity),
-                _ => break,
+            let mut grew = false;
+            if let Some(grid) = self.light_grid() {
+                let status = grid.status(&ctx.device, &ctx.queue)?;
+                if let (Some(capacity), false) = (grid.growth(status.needed()), status.complete()) {
+                    self.grow_light_grid(ctx, capacity);
+                    grew = true;
+                }
+            }
+            if let Some(b) = self.blended_mut() {
+                grew |= b.grow_if_dropped(&ctx.device, &ctx.queue, true)?;
+            }
+            if !grew {
+                break;
             }
         }
         Ok(())

@@ -20,6 +20,7 @@ pub mod light_assign;
 pub mod light_cull;
 pub mod light_grid;
 pub mod lights_gpu;
+pub mod lights_group;
 pub mod memory;
 pub mod plan;
 pub mod readback;

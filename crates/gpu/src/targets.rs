@@ -167,8 +167,13 @@ pub trait Renderer {
 
     /// Call between frames: takes the light-grid header of the latest finished frame when
     /// its copy has arrived (never waits) and, when that frame dropped lights because the
-    /// grid was full, grows the grid for the next frame. Returns that header, if any.
+    /// grid was full, grows the grid for the next frame (the blended geometry's grid too).
+    /// Returns the opaque grid's header, if any.
     fn prepare(&mut self, ctx: &GpuContext) -> Option<GridStatus> {
+        if let Some(b) = self.blended_mut() {
+            // Never waits, so it cannot fail on a readback.
+            let _ = b.grow_if_dropped(&ctx.device, &ctx.queue, false);
+        }
         let status = self.light_grid()?.poll_status()?;
         if let Some(capacity) = self.light_grid().and_then(|g| g.growth(status.needed())) {
             self.grow_light_grid(ctx, capacity);
@@ -187,6 +192,10 @@ pub trait Renderer {
     /// The alpha-blended geometry's passes, when the scene has blended materials (reports
     /// read its instance count, light grid and memory through a `dyn Renderer`).
     fn blended(&self) -> Option<&BlendedPath> {
+        None
+    }
+    /// [`Self::blended`], to grow its light grid.
+    fn blended_mut(&mut self) -> Option<&mut BlendedPath> {
         None
     }
     /// Call after the lights moved on the GPU (their buffers rewritten), with the lights as

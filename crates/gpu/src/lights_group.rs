@@ -1,0 +1,102 @@
+//! The lights group (group 3) of the forward shading passes: Forward+, brute force and the
+//! blended geometry's shading bind the same lights the same way (shading lights 0, spots 1,
+//! light grid 2, its indices 3, tile ranges 4, lighting uniform 5, shadow atlas 6-8). Built
+//! once; [`LightsGroup::rebind`] makes the group again when the light grid's index buffer
+//! grew (a new buffer), the only thing in it that changes after creation. Depends on wgpu,
+//! [`crate::lights_gpu`], [`crate::light_grid`], [`crate::shadow_atlas`].
+
+use crate::light_grid::LightGrid;
+use crate::lights_gpu::LightBuffers;
+use crate::shadow_atlas::ShadowAtlas;
+
+/// The shadow atlas's sampled view, comparison sampler and face table.
+type ShadowBindings = (wgpu::TextureView, wgpu::Sampler, wgpu::Buffer);
+
+/// Group 3 of a forward shading pass and what it was made of.
+pub struct LightsGroup {
+    parts: Parts,
+    /// The group, to bind at index 3.
+    pub group: wgpu::BindGroup,
+}
+
+/// What the group is made of (all but the grid, which is passed in when it is made).
+struct Parts {
+    layout: wgpu::BindGroupLayout,
+    label: &'static str,
+    shading: wgpu::Buffer,
+    spots: Option<wgpu::Buffer>,
+    lighting: wgpu::Buffer,
+    shadows: Option<ShadowBindings>,
+    /// Bind the grid's tile ranges (half-z lookups).
+    ranges: bool,
+}
+
+impl LightsGroup {
+    /// The group of `layout` (labelled `label`): `lights` and the lighting uniform, the
+    /// spots when `spots`, the shadow `atlas` when there is one, and the light `grid` with
+    /// its tile ranges when the pair's flag says so (tiled passes).
+    pub fn new(
+        device: &wgpu::Device,
+        (layout, label): (wgpu::BindGroupLayout, &'static str),
+        (lights, lighting): (&LightBuffers, &wgpu::Buffer),
+        spots: bool,
+        atlas: Option<&ShadowAtlas>,
+        grid: Option<(&LightGrid, bool)>,
+    ) -> Self {
+        let parts = Parts {
+            layout,
+            label,
+            shading: lights.shading.clone(),
+            spots: lights.spots.clone().filter(|_| spots),
+            lighting: lighting.clone(),
+            shadows: atlas.map(|a| (a.sample_view.clone(), a.sampler.clone(), a.faces.clone())),
+            ranges: grid.is_some_and(|g| g.1),
+        };
+        let group = parts.make(device, grid.map(|g| g.0));
+        Self { parts, group }
+    }
+
+    /// Makes the group again around `grid`'s current index buffer (after it grew).
+    pub fn rebind(&mut self, device: &wgpu::Device, grid: &LightGrid) {
+        self.group = self.parts.make(device, Some(grid));
+    }
+
+    /// The group's layout (group 3 of the pass's pipelines).
+    pub fn layout(&self) -> &wgpu::BindGroupLayout {
+        &self.parts.layout
+    }
+}
+
+impl Parts {
+    fn make(&self, device: &wgpu::Device, grid: Option<&LightGrid>) -> wgpu::BindGroup {
+        let mut bind = vec![
+            wgpu::BindGroupEntry { binding: 0, resource: self.shading.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 5, resource: self.lighting.as_entire_binding() },
+        ];
+        if let Some(s) = &self.spots {
+            bind.push(wgpu::BindGroupEntry { binding: 1, resource: s.as_entire_binding() });
+        }
+        if let Some((view, sampler, faces)) = &self.shadows {
+            bind.push(wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(view) });
+            bind.push(wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(sampler) });
+            bind.push(wgpu::BindGroupEntry { binding: 8, resource: faces.as_entire_binding() });
+        }
+        if let Some(g) = grid {
+            bind.push(wgpu::BindGroupEntry { binding: 2, resource: g.grid.as_entire_binding() });
+            bind.push(wgpu::BindGroupEntry { binding: 3, resource: g.indices().as_entire_binding() });
+            if let (true, Some(r)) = (self.ranges, &g.ranges) {
+                bind.push(wgpu::BindGroupEntry { binding: 4, resource: r.as_entire_binding() });
+            }
+        }
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(self.label),
+            layout: &self.layout,
+            entries: &bind,
+        })
+    }
+
+    /// The group's layout (group 3 of the pass's pipelines).
+    pub fn layout(&self) -> &wgpu::BindGroupLayout {
+        &self.layout
+    }
+}
