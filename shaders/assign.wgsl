@@ -9,8 +9,9 @@
 //    kernel would (common/tile_tests.wgsl; with CLUSTERED the light's depth slices instead
 //    of the tile's range) and counts the hits per list. A light covering more than
 //    BIG_TILES tiles is queued instead (one thread would hold up its warp).
-// 2. count_big: a team of 32 threads per queued light counts its tiles, a block of 4 x 4
-//    tiles per thread at a time.
+// 2. count_big: a workgroup per huge light (more than HUGE_BLOCKS blocks), then a team of
+//    32 threads per big light, counts its tiles, a block of 4 x 4 tiles per thread at a
+//    time.
 // The walks skip blocks of 4 x 4 tiles whose surfaces the sphere cannot reach in depth
 // (visit_block).
 // 3. allocate: a thread per list; a workgroup scan of 256 lists' counts and one atomic add
@@ -27,8 +28,10 @@
 
 // Side of the grid's tiles in pixels.
 override TILE_SIZE: u32 = 16u;
-// A light whose rectangle holds more tiles than this goes to the big-light queue.
+// A light whose rectangle holds more tiles than this goes to the big-light queue, and one
+// with more blocks than HUGE_BLOCKS to the huge-light queue.
 override BIG_TILES: u32 = 64u;
+override HUGE_BLOCKS: u32 = 32u;
 // Side of a block in tiles (tile_depth.wgsl keeps each block's depth range).
 const BLOCK: u32 = 4u;
 // True when lists x lights may reach 2^32 (tiledlight_gpu::light_grid::needs_guard).
@@ -56,7 +59,8 @@ override GRID_GUARD: bool = true;
 #endif
 // Per list: the lights found (count passes), then the write cursor (write passes).
 @group(1) @binding(4) var<storage, read_write> list_counts: array<atomic<u32>>;
-// The big-light queue: its length, then light indices.
+// The big- and huge-light queues: their lengths, then the big lights' indices from the
+// start and the huge lights' from the end.
 @group(1) @binding(5) var<storage, read_write> big_lights: array<atomic<u32>>;
 // The light grid (crates/gpu/src/light_grid.rs) and the tiles' depth ranges.
 @group(2) @binding(0) var<storage, read_write> light_grid: LightGridRw;
@@ -346,10 +350,19 @@ fn walk_light(light: u32, write: bool) {
         return;
     }
     let k = walk_of(light);
+    if k.blocks > HUGE_BLOCKS {
+        if !write {
+            // The huge queue fills the buffer from its end, the big one from its start:
+            // together they hold at most every light.
+            let slot = atomicAdd(&big_lights[1], 1u);
+            atomicStore(&big_lights[arrayLength(&big_lights) - 1u - slot], light);
+        }
+        return;
+    }
     if k.tiles > BIG_TILES {
         if !write {
             let slot = atomicAdd(&big_lights[0], 1u);
-            atomicStore(&big_lights[1u + slot], light);
+            atomicStore(&big_lights[2u + slot], light);
         }
         return;
     }
@@ -358,16 +371,25 @@ fn walk_light(light: u32, write: bool) {
     }
 }
 
-// Steps 2 and 5: a team of TEAM threads per queued light (8 teams a workgroup), the
-// light's tiles spread over the team's threads.
+// Steps 2 and 5: a whole workgroup per huge light, its blocks spread over 256 threads
+// (a light around the camera covers every tile: 32 threads would each walk hundreds of
+// tiles while the rest of the GPU waits); then a team of TEAM threads per big light (8
+// teams a workgroup).
 const TEAM: u32 = 32u;
 
 fn walk_big(group: u32, groups: u32, lidx: u32, write: bool) {
+    let huge = atomicLoad(&big_lights[1]);
+    for (var b = group; b < huge; b += groups) {
+        let k = walk_of(atomicLoad(&big_lights[arrayLength(&big_lights) - 1u - b]));
+        for (var j = lidx; j < k.blocks; j += 256u) {
+            visit_block(k, j, write);
+        }
+    }
     let queued = atomicLoad(&big_lights[0]);
     let teams = 256u / TEAM;
     let lane = lidx % TEAM;
     for (var b = group * teams + lidx / TEAM; b < queued; b += groups * teams) {
-        let k = walk_of(atomicLoad(&big_lights[1u + b]));
+        let k = walk_of(atomicLoad(&big_lights[2u + b]));
         for (var j = lane; j < k.blocks; j += TEAM) {
             visit_block(k, j, write);
         }

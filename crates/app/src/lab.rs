@@ -15,7 +15,7 @@ use anyhow::{bail, ensure, Context, Result};
 use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::scene_setup::{BlendModeArg, DensityArg, MethodArg, SceneArgs, ShadowFormatArg};
+use crate::scene_setup::{AssignArg, BlendModeArg, DensityArg, GridArg, MethodArg, SceneArgs, ShadowFormatArg};
 
 /// The most points one run may have (a guard against a typo that would run for days).
 pub const MAX_POINTS: usize = 10_000;
@@ -44,6 +44,12 @@ pub const AXES: &[(&str, &str)] = &[
     ("shadow-format", "shadow atlas depth format: d16 | d32"),
     ("transparent-objects", "grid objects drawn as blended glass, 0 to the grid objects (integer; ranges allowed)"),
     ("blend-mode", "compositing of blended geometry: sorted | wboit"),
+    ("grid", "light grid layout: tiled | half-z | 2.5d | clustered"),
+    ("assign", "light assignment: gather (tile-centric) | scatter (light-centric)"),
+    ("cluster-tile", "cluster tile side in pixels: 8 | 16 | 32 | 64 | 128 | 256 (integer)"),
+    ("cluster-slices", "cluster depth slices, 1 to 32 (integer; ranges allowed)"),
+    ("cluster-first", "far end of the first cluster slice, metres (number; ranges allowed)"),
+    ("lights-per-pixel", "lights placed on surfaces, mean lights per surface point (number; ranges allowed)"),
 ];
 
 /// One swept axis: its name (a key of [`AXES`]) and its values, in sweep order.
@@ -78,12 +84,15 @@ fn is_integer_axis(name: &str) -> bool {
             | "shadow-size"
             | "shadow-filter"
             | "transparent-objects"
+            | "cluster-tile"
+            | "cluster-slices"
     )
 }
 
 /// Whether the axis's values are numbers (plotted on a numeric x axis).
 pub fn is_numeric_axis(name: &str) -> bool {
-    is_integer_axis(name) || matches!(name, "threshold" | "edge-distance" | "edge-normal-deg")
+    is_integer_axis(name)
+        || matches!(name, "threshold" | "edge-distance" | "edge-normal-deg" | "cluster-first" | "lights-per-pixel")
 }
 
 /// Parses `NAME=VALUES`. VALUES is a comma-separated list, or for numeric axes a range
@@ -214,6 +223,23 @@ pub fn apply(args: &mut SceneArgs, name: &str, value: &str) -> Result<()> {
         "blend-mode" => {
             args.blend_mode =
                 BlendModeArg::from_str(value, true).map_err(|e| anyhow::anyhow!("blend-mode '{value}': {e}"))?
+        }
+        "grid" => {
+            args.grid = GridArg::from_str(value, true).map_err(|e| anyhow::anyhow!("grid '{value}': {e}"))?;
+            // The layout is the axis's alone: --half-z on the command line would fight it.
+            args.half_z = false;
+        }
+        "assign" => {
+            args.assign = AssignArg::from_str(value, true).map_err(|e| anyhow::anyhow!("assign '{value}': {e}"))?
+        }
+        "cluster-tile" => args.cluster_tile = small()?,
+        "cluster-slices" => args.cluster_slices = small()?,
+        "cluster-first" => {
+            args.cluster_first = value.parse().with_context(|| format!("cluster-first '{value}': expected a number"))?
+        }
+        "lights-per-pixel" => {
+            args.lights_per_pixel =
+                Some(value.parse().with_context(|| format!("lights-per-pixel '{value}': expected a number"))?)
         }
         "aabb" => args.aabb = on_off(value)?,
         "half-z" => args.half_z = on_off(value)?,
@@ -506,6 +532,21 @@ mod tests {
         // ...and are checked against them with the point's settings.
         let e = format!("{:#}", args_at(&SceneArgs::default(), &axes, &p[0]).unwrap_err());
         assert!(e.contains("--shadow-spot-lights 1: more than the scene's 0 spot lights"), "{e}");
+    }
+
+    #[test]
+    fn layouts_and_assignment_are_axes() {
+        let a = parse_axis("grid=tiled,half-z,2.5d,clustered").unwrap();
+        assert_eq!(a.values.len(), 4);
+        assert!(parse_axis("assign=gather,scatter").is_ok());
+        assert!(parse_axis("cluster-slices=8..32").is_ok() && is_numeric_axis("cluster-first"));
+        let mut args = SceneArgs { half_z: true, ..SceneArgs::default() };
+        apply(&mut args, "grid", "2.5d").unwrap();
+        assert_eq!((args.grid, args.half_z), (GridArg::DepthMask, false));
+        apply(&mut args, "assign", "scatter").unwrap();
+        assert_eq!(args.assign, AssignArg::Scatter);
+        let e = format!("{:#}", parse_axis("grid=hexagonal").unwrap_err());
+        assert!(e.contains("grid 'hexagonal'"), "{e}");
     }
 
     #[test]

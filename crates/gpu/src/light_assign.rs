@@ -11,7 +11,8 @@
 //!    side planes the tile-centric kernel tests), tests each tile of it with the
 //!    tile-centric kernel's own code (`common/tile_tests.wgsl`; clusters: the light's depth
 //!    slices) and counts hits per list. A light covering more than [`BIG_TILES`] tiles is
-//!    queued and counted by a team of 32 threads (one thread would stall its warp).
+//!    queued and counted by a team of 32 threads (one thread would stall its warp), one
+//!    covering more than [`HUGE_BLOCKS`] blocks by a whole workgroup.
 //! 3. **Allocate**: a thread per list; 256 lists' counts are scanned in workgroup memory and
 //!    allocated with one atomic add on the grid's counter (the light grid's contract: a
 //!    full index buffer drops and counts, never writes out of bounds).
@@ -50,6 +51,12 @@ pub const BIG_TILES: u32 = 8;
 /// takes every `8 * BIG_GROUPS`-th queued light): a few per streaming multiprocessor of a
 /// large GPU; none has work without big lights.
 const BIG_GROUPS: u32 = 512;
+
+/// A light whose rectangle holds more blocks than this (512 tiles) is walked by a whole
+/// workgroup: a light around the camera covers every tile, and a team of 32 would walk
+/// hundreds each while the rest of the GPU waits (on the H200 such a tail cost 0.15 ms a
+/// walk at 1,024 lights).
+pub const HUGE_BLOCKS: u32 = 32;
 
 /// Side of a block in tiles: the walks skip blocks whose surfaces a light cannot reach in
 /// depth (`BLOCK` in `shaders/assign.wgsl` and `shaders/tile_depth.wgsl`).
@@ -132,7 +139,8 @@ pub struct LightAssign {
     group: wgpu::BindGroup,
     /// Per list: the count, then the write cursor.
     list_counts: wgpu::Buffer,
-    /// The big-light queue: its length, then light indices.
+    /// The big- and huge-light queues: their lengths, then light indices (big from the
+    /// start, huge from the end).
     big_lights: wgpu::Buffer,
     /// Per block of 4 x 4 tiles, its surfaces' depth range (tile layouts).
     block_ranges: Option<wgpu::Buffer>,
@@ -174,7 +182,7 @@ impl LightAssign {
         let masks = (depth_mask || clusters.is_some())
             .then(|| buffer_zeroed(device, "assign.tile_masks", tiles.tile_count() as u64 * 4, usage));
         let list_counts = buffer_zeroed(device, "assign.list_counts", lists as u64 * 4, usage);
-        let big_lights = buffer_zeroed(device, "assign.big_lights", (lights.len() as u64 + 1) * 4, usage);
+        let big_lights = buffer_zeroed(device, "assign.big_lights", (lights.len() as u64 + 2) * 4, usage);
         let blocks = (tiles.tiles_x.div_ceil(BLOCK) * tiles.tiles_y.div_ceil(BLOCK)) as u64;
         let block_ranges = clusters.is_none().then(|| buffer_zeroed(device, "assign.block_ranges", blocks * 8, usage));
         if let Some(b) = &block_ranges {
@@ -262,6 +270,7 @@ impl LightAssign {
         let constants = [
             ("TILE_SIZE", tiles.tile_size as f64),
             ("BIG_TILES", BIG_TILES as f64),
+            ("HUGE_BLOCKS", HUGE_BLOCKS as f64),
             ("GRID_GUARD", f64::from(u8::from(grid.needs_guard(lights.len())))),
         ];
         let groups = [&views.layout, &layout, grid.layout()];
@@ -301,7 +310,7 @@ impl LightAssign {
     ) {
         grid.record_clear(encoder);
         encoder.clear_buffer(&self.list_counts, 0, None);
-        encoder.clear_buffer(&self.big_lights, 0, Some(4));
+        encoder.clear_buffer(&self.big_lights, 0, Some(8));
         if let Some(b) = &self.block_ranges {
             encoder.clear_buffer(b, 0, None);
         }

@@ -94,9 +94,4 @@ impl Parts {
             entries: &bind,
         })
     }
-
-    /// The group's layout (group 3 of the pass's pipelines).
-    pub fn layout(&self) -> &wgpu::BindGroupLayout {
-        &self.layout
-    }
 }
