@@ -206,6 +206,10 @@ impl DeferredShading {
         (features, atlas): (&Features, Option<&ShadowAtlas>),
         memory: &mut MemoryReport,
     ) -> Result<Self, GpuError> {
+        // 2.5D lists are always assigned light-centrically here: the cull-and-shade kernel
+        // has no 2.5D variant (its variants are at the validator's limit), and assignment
+        // finds the same lists.
+        let options = CullOptions { scatter: options.scatter || options.depth_mask, ..options };
         let samples = gbuffer.samples();
         if features.shadows.is_some() != atlas.is_some() {
             return Err(GpuError::Config("the shadow atlas must exist exactly when the features have shadows".into()));
@@ -239,10 +243,7 @@ impl DeferredShading {
             options.grid_pairs,
         )?;
         memory.extend(&light_grid.memory());
-        // 2.5D lists are always assigned light-centrically here: the cull-and-shade kernel
-        // has no 2.5D variant (its variants are at the validator's limit), and assignment
-        // finds the same lists.
-        let assigned = options.assigned() || options.depth_mask;
+        let assigned = options.assigned();
         if assigned && drop.is_some() {
             return Err(GpuError::Config("the test hook drops lights in tile-centric culling only".into()));
         }
