@@ -31,7 +31,7 @@ override TILE_SIZE: u32 = 16u;
 // A light whose rectangle holds more tiles than this goes to the big-light queue, and one
 // with more blocks than HUGE_BLOCKS to the huge-light queue.
 override BIG_TILES: u32 = 64u;
-override HUGE_BLOCKS: u32 = 32u;
+override HUGE_BLOCKS: u32 = 128u;
 // Side of a block in tiles (tile_depth.wgsl keeps each block's depth range).
 const BLOCK: u32 = 4u;
 // True when lists x lights may reach 2^32 (tiledlight_gpu::light_grid::needs_guard).

@@ -12,7 +12,7 @@
 //!    tile-centric kernel's own code (`common/tile_tests.wgsl`; clusters: the light's depth
 //!    slices) and counts hits per list. A light covering more than [`BIG_TILES`] tiles is
 //!    queued and counted by a team of 32 threads (one thread would stall its warp), one
-//!    covering more than [`HUGE_BLOCKS`] blocks by a whole workgroup.
+//!    covering more than [`HUGE_BLOCKS`] blocks by a whole workgroup (at 32 blocks the H200 lost 25% at a million lights: too many lights walked by 256 threads with a few blocks each).
 //! 3. **Allocate**: a thread per list; 256 lists' counts are scanned in workgroup memory and
 //!    allocated with one atomic add on the grid's counter (the light grid's contract: a
 //!    full index buffer drops and counts, never writes out of bounds).
@@ -52,11 +52,11 @@ pub const BIG_TILES: u32 = 8;
 /// large GPU; none has work without big lights.
 const BIG_GROUPS: u32 = 512;
 
-/// A light whose rectangle holds more blocks than this (512 tiles) is walked by a whole
+/// A light whose rectangle holds more blocks than this (2,048 tiles) is walked by a whole
 /// workgroup: a light around the camera covers every tile, and a team of 32 would walk
 /// hundreds each while the rest of the GPU waits (on the H200 such a tail cost 0.15 ms a
 /// walk at 1,024 lights).
-pub const HUGE_BLOCKS: u32 = 32;
+pub const HUGE_BLOCKS: u32 = 128;
 
 /// Side of a block in tiles: the walks skip blocks whose surfaces a light cannot reach in
 /// depth (`BLOCK` in `shaders/assign.wgsl` and `shaders/tile_depth.wgsl`).
