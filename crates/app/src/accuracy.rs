@@ -242,8 +242,12 @@ fn quality(prep: &Prepared, depth: &[f32]) -> Result<Option<ListQuality>> {
     }
     let a = &prep.settings;
     let config = a.cull_options().to_config(prep.lights.has_spots());
-    let lists = cull_tiles(depth, a.width, a.height, &prep.camera, &prep.lights.packed, &config)
-        .context("culling on the CPU for the statistics")?;
+    let (cam, lights) = (&prep.camera, &prep.lights.packed);
+    let lists = match &a.clusters {
+        Some(c) => tiledlight_cull::cull_clusters(depth, a.width, a.height, cam, lights, c, a.msaa, 0.0),
+        None => cull_tiles(depth, a.width, a.height, cam, lights, &config),
+    }
+    .context("culling on the CPU for the statistics")?;
     // With MSAA the lists bound every sample; pixels are scored at their sample 0.
     let pixels: Vec<f32> = depth.iter().step_by(a.msaa.max(1) as usize).copied().collect();
     Ok(Some(list_quality(&pixels, &prep.camera, &prep.lights.packed, &lists)))
