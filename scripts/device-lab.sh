@@ -46,6 +46,14 @@ for s in $steps; do
     step 300 blended accuracy --grid-objects 280 --density medium --axis threshold=0.05 --axis culling=planes \
       --axis transparent-objects=0,10,50,280 --axis blend-mode=sorted,wboit --frames 15 --out "$out/blended.csv"
     ;;
+  layouts)
+    # Issue 13: every light-grid layout's culling statistics (false positives, wasted
+    # evaluations per pixel, longest list), time and error on one chart: Tiled Deferred,
+    # 16,384 lights (the CPU twin scores each point's lists), two radius dials.
+    step 400 layouts accuracy --lights 16384 --method deferred --axis threshold=0.05,0.2 \
+      --axis grid=tiled,half-z,2.5d,clustered --axis assign=scatter --axis culling=planes \
+      --frames 15 --out "$out/layouts.csv"
+    ;;
   blended-vs-sorted)
     # Issue 12: what dropping the sort alone costs. Weighted blended OIT against the sorted
     # frame of the same settings (columns sorted_ms, vs_sorted_flip_mean/p99), on glass that
