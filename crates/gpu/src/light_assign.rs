@@ -151,6 +151,9 @@ pub struct LightAssign {
     lights: u32,
 }
 
+/// A pipeline and its workgroup counts (x, y).
+type Dispatch<'a> = (&'a wgpu::ComputePipeline, (u32, u32));
+
 /// A dispatch of `n` workgroups, folded into two dimensions past the 65,535 limit (the
 /// kernels rebuild the index as `x + y * groups_x`).
 fn dispatch_size(n: u32) -> (u32, u32) {
@@ -320,7 +323,7 @@ impl LightAssign {
         let count = [(&self.count, per_light), (&self.count_big, (BIG_GROUPS, 1))];
         let allocate = [(&self.allocate, per_list)];
         let write = [(&self.write, per_light), (&self.write_big, (BIG_GROUPS, 1))];
-        let steps: [(&str, &[(&wgpu::ComputePipeline, (u32, u32))]); 4] =
+        let steps: [(&str, &[Dispatch<'_>]); 4] =
             [("depth", &depth), ("count", &count), ("allocate", &allocate), ("write", &write)];
         for (step, dispatches) in steps {
             let name = format!("{label}.{step}");
