@@ -34,8 +34,6 @@ override BIG_TILES: u32 = 64u;
 override HUGE_BLOCKS: u32 = 128u;
 // Side of a block in tiles (tile_depth.wgsl keeps each block's depth range).
 const BLOCK: u32 = 4u;
-// True when lists x lights may reach 2^32 (tiledlight_gpu::light_grid::needs_guard).
-override GRID_GUARD: bool = true;
 
 @group(1) @binding(1) var<storage, read> cull_lights: array<CullLight>;
 @group(1) @binding(9) var<uniform> lighting: Lighting;
@@ -110,56 +108,40 @@ fn light_rect(c: vec3<f32>, r: f32) -> TileRect {
     if view.orthographic == 0u && c.z + r >= 0.0 {
         return TileRect(vec2<u32>(0u), n);
     }
-    let w = view.screen.x;
-    let h = view.screen.y;
-    // Columns passing the left plane: a prefix.
+    // Columns passing the left plane are a prefix, the right plane's a suffix; rows (down
+    // the screen) passing the top plane a prefix, the bottom plane's a suffix.
+    let x_end = plane_search(0u, n.x, false, 1.0, true, c, r);
+    let x_begin = plane_search(0u, n.x, true, -1.0, false, c, r);
+    let y_begin = plane_search(1u, n.y, true, 1.0, false, c, r);
+    let y_end = plane_search(1u, n.y, false, -1.0, true, c, r);
+    return TileRect(vec2<u32>(x_begin, y_begin), vec2<u32>(x_end, y_end));
+}
+
+// NDC of the near (left, top) or far (right, bottom) edge of tile column (`axis` 0) or
+// row (1) `i`, as tile_ndc computes it.
+fn edge_ndc(axis: u32, i: u32, far_edge: bool) -> f32 {
+    let px = min(i * TILE_SIZE + select(0u, TILE_SIZE, far_edge), view.screen[axis]);
+    if axis == 0u {
+        return ndc_x(px);
+    }
+    return ndc_y(px);
+}
+
+// Binary search over the `n` columns or rows on one side plane (clip row `axis`, the
+// edge `far_edge`, `sign` as tile_volume builds it): with `prefix`, the passing ones come
+// first and their count is returned; else they come last and the first is returned.
+fn plane_search(axis: u32, n: u32, far_edge: bool, sign: f32, prefix: bool, c: vec3<f32>, r: f32) -> u32 {
     var lo = 0u;
-    var hi = n.x;
+    var hi = n;
     while lo < hi {
         let mid = (lo + hi) / 2u;
-        if side_passes(0u, ndc_x(mid * TILE_SIZE), 1.0, c, r) {
+        if side_passes(axis, edge_ndc(axis, mid, far_edge), sign, c, r) == prefix {
             lo = mid + 1u;
         } else {
             hi = mid;
         }
     }
-    let x_end = lo;
-    // Columns passing the right plane: a suffix.
-    lo = 0u;
-    hi = n.x;
-    while lo < hi {
-        let mid = (lo + hi) / 2u;
-        if side_passes(0u, ndc_x(min(mid * TILE_SIZE + TILE_SIZE, w)), -1.0, c, r) {
-            hi = mid;
-        } else {
-            lo = mid + 1u;
-        }
-    }
-    let x_begin = lo;
-    // Rows passing the bottom plane (rows go down the screen): a suffix.
-    lo = 0u;
-    hi = n.y;
-    while lo < hi {
-        let mid = (lo + hi) / 2u;
-        if side_passes(1u, ndc_y(min(mid * TILE_SIZE + TILE_SIZE, h)), 1.0, c, r) {
-            hi = mid;
-        } else {
-            lo = mid + 1u;
-        }
-    }
-    let y_begin = lo;
-    // Rows passing the top plane: a prefix.
-    lo = 0u;
-    hi = n.y;
-    while lo < hi {
-        let mid = (lo + hi) / 2u;
-        if side_passes(1u, ndc_y(mid * TILE_SIZE), -1.0, c, r) {
-            lo = mid + 1u;
-        } else {
-            hi = mid;
-        }
-    }
-    return TileRect(vec2<u32>(x_begin, y_begin), vec2<u32>(x_end, lo));
+    return lo;
 }
 
 // One light as the walks see it.
@@ -444,21 +426,7 @@ fn allocate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
     }
     let cap = light_grid.header.capacity;
     if lidx == 255u {
-        let total = wg_scan[255];
-        var base = cap;
-        if total > 0u {
-            if GRID_GUARD {
-                // As common/light_grid_write.wgsl: no allocation once the buffer is full,
-                // so the counter cannot wrap onto stored lists.
-                atomicAdd(&light_grid.header.pairs, total);
-                if atomicLoad(&light_grid.header.allocated) < cap {
-                    base = atomicAdd(&light_grid.header.allocated, total);
-                }
-            } else {
-                base = atomicAdd(&light_grid.header.allocated, total);
-            }
-        }
-        wg_base = base;
+        wg_base = grid_allocate(wg_scan[255]);
     }
     workgroupBarrier();
     if l >= lists {
@@ -469,12 +437,7 @@ fn allocate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
     if base < cap {
         first = base + wg_scan[lidx] - count;
     }
-    let stored = min(count, cap - min(first, cap));
-    if stored < count {
-        atomicAdd(&light_grid.header.dropped_pairs, count - stored);
-        atomicAdd(&light_grid.header.dropped_lists, 1u);
-    }
-    light_grid.lists[l] = vec2<u32>(first, count);
+    grid_place(l, first, count);
     // The write passes count again from 0: the cursor.
     atomicStore(&list_counts[l], 0u);
 }

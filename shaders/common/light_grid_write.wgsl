@@ -12,9 +12,6 @@
 // lights. When the buffer is full the list keeps what fits and the header counts the rest.
 #include "common/light_grid_rw.wgsl"
 
-// True when lists x lights may reach 2^32 (tiledlight_gpu::light_grid::needs_guard).
-override GRID_GUARD: bool = true;
-
 // Per list (0 near, 1 far): its first index and stored count, and the spill counter.
 var<workgroup> wg_grid_first: array<u32, 2>;
 var<workgroup> wg_grid_stored: array<u32, 2>;
@@ -33,17 +30,11 @@ fn wg_list_entry(k: u32, i: u32) -> u32 {
 // Records workgroup list `k` (`count` lights) as grid list `list` at `first` (past the end
 // of the buffer: nothing stored; light_list clips it).
 fn place_list(k: u32, list: u32, first: u32, count: u32) {
-    let cap = light_grid.header.capacity;
-    let stored = min(count, cap - min(first, cap));
-    if stored < count {
-        atomicAdd(&light_grid.header.dropped_pairs, count - stored);
-        atomicAdd(&light_grid.header.dropped_lists, 1u);
-    }
+    let stored = grid_place(list, first, count);
     if count > CAPACITY {
         atomicAdd(&light_grid.header.spilled_lists, 1u);
     }
-    light_grid.lists[list] = vec2<u32>(first, count);
-    wg_grid_first[k] = min(first, cap);
+    wg_grid_first[k] = min(first, light_grid.header.capacity);
     wg_grid_stored[k] = stored;
     atomicStore(&wg_spill_count[k], 0u);
 }
@@ -58,22 +49,8 @@ fn allocate_lists(list0: u32) {
 #ifdef HALF_Z
     c1 = atomicLoad(&wg_count[1]);
 #endif
-    let total = c0 + c1;
     let cap = light_grid.header.capacity;
-    var base = cap;
-    if total > 0u {
-        if GRID_GUARD {
-            // This frame could find 2^32 pairs or more (lists x lights, checked on the
-            // host): once the buffer is full nothing more is allocated, so the counter
-            // cannot wrap around onto stored lists. Costs a second atomic round trip.
-            atomicAdd(&light_grid.header.pairs, total);
-            if atomicLoad(&light_grid.header.allocated) < cap {
-                base = atomicAdd(&light_grid.header.allocated, total);
-            }
-        } else {
-            base = atomicAdd(&light_grid.header.allocated, total);
-        }
-    }
+    let base = grid_allocate(c0 + c1);
     place_list(0u, list0, base, c0);
 #ifdef HALF_Z
     // base + c0 cannot wrap: without the guard a frame's pairs stay below 2^32, with it
