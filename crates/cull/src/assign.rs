@@ -38,9 +38,7 @@ use glam::{Mat4, Vec3, Vec4};
 use crate::camera::{clip_edge_plane, Camera};
 use crate::error::CullError;
 use crate::light::PackedLights;
-use crate::reference::{
-    check_depth_samples, coarse_cells_of, light_in_volume, tile_volumes, view_lights, CullConfig, TileLists,
-};
+use crate::reference::{cull_setup, light_in_volume, tile_volumes, CullConfig, TileLists};
 use crate::tiles::TileGrid;
 
 /// An inclusive rectangle of tiles: columns `x0..=x1`, rows `y0..=y1` (row 0 at the top).
@@ -132,12 +130,7 @@ pub fn cull_tiles_scatter(
     lights: &PackedLights,
     config: &CullConfig,
 ) -> Result<TileLists, CullError> {
-    config.validate()?;
-    let grid = TileGrid::new(width, height, config.tile_size)?;
-    check_depth_samples(&grid, depth, config.samples)?;
-    let vls = view_lights(&camera.view(), lights, config.inflate);
-    let cells =
-        if config.coarse { Some(coarse_cells_of(depth, width, height, config.samples, camera, &vls)?) } else { None };
+    let (grid, vls, cells) = cull_setup(depth, (width, height), camera, lights, config)?;
     let proj = camera.proj();
     let ortho = camera.depth_params().orthographic;
     let (volumes, masks, ranges) = tile_volumes(&grid, depth, camera, config);

@@ -288,12 +288,7 @@ pub fn cull_tiles(
     lights: &PackedLights,
     config: &CullConfig,
 ) -> Result<TileLists, CullError> {
-    config.validate()?;
-    let grid = TileGrid::new(width, height, config.tile_size)?;
-    check_depth_samples(&grid, depth, config.samples)?;
-    let vls = view_lights(&camera.view(), lights, config.inflate);
-    let cells =
-        if config.coarse { Some(coarse_cells_of(depth, width, height, config.samples, camera, &vls)?) } else { None };
+    let (grid, vls, cells) = cull_setup(depth, (width, height), camera, lights, config)?;
     let masks = config.depth_mask.then(|| tile_depth_masks(depth, &grid, config.samples, camera));
     let bounds = |tx, ty| tile_depth_bounds_samples(&grid, depth, config.samples, tx, ty);
     Ok(cull_with_bounds(grid, camera, &vls, config, cells.as_ref(), masks.as_deref(), bounds))
@@ -488,6 +483,26 @@ fn cull_with_bounds(
         }
     }
     TileLists { grid, config: *config, lists, ranges, cluster: None }
+}
+
+/// What both shapes of the tile culler (`cull_tiles`, `assign::cull_tiles_scatter`) set up
+/// first: the options and depth buffer checked, the tile grid, the lights in view space
+/// and, two-level, the coarse cells.
+#[allow(clippy::type_complexity)]
+pub(crate) fn cull_setup(
+    depth: &[f32],
+    (width, height): (u32, u32),
+    camera: &Camera,
+    lights: &PackedLights,
+    config: &CullConfig,
+) -> Result<(TileGrid, Vec<ViewLight>, Option<(TileGrid, CellLists)>), CullError> {
+    config.validate()?;
+    let grid = TileGrid::new(width, height, config.tile_size)?;
+    check_depth_samples(&grid, depth, config.samples)?;
+    let vls = view_lights(&camera.view(), lights, config.inflate);
+    let cells =
+        if config.coarse { Some(coarse_cells_of(depth, width, height, config.samples, camera, &vls)?) } else { None };
+    Ok((grid, vls, cells))
 }
 
 /// The coarse cells of two-level culling: per cell, the lights passing the plane and

@@ -7,7 +7,9 @@
 //! shadows  shadow atlas: the faces of casters that moved (only when a light casts shadows)
 //! head     depth pre-pass (Forward+, brute force)      | G-buffer (Tiled Deferred)
 //! culling  cells + tiles -> light grid (Forward+)      | (Tiled Deferred culls in its shading pass)
-//! middle   forward shading (Forward+ / brute force)     | cull + shade, [MSAA resolve] (Tiled Deferred)
+//!          or light-centric assignment (either method: tile depth, count, allocate, write)
+//! middle   forward shading (Forward+ / brute force)     | cull + shade, [MSAA resolve] (Tiled Deferred;
+//!                                                         shade only when the lists were assigned)
 //! blended  blended depth, blended culling (tiled), blended shading + composite (only with
 //!          alpha-blended geometry; the same passes for both methods)
 //! tail     tonemap, heat map (tiled methods; drawn when switched on)
@@ -35,7 +37,8 @@ pub enum Step {
     /// Every light for every fragment (`brute_force.shade`).
     BruteForceShade,
     /// Tiled Deferred's cells (two-level) and its cull-and-shade pass
-    /// (`deferred.cull_cells`, `deferred.shade`).
+    /// (`deferred.cull_cells`, `deferred.shade`); with light-centric assignment, the
+    /// assignment's passes (`deferred.assign.*`) and a pass that only shades.
     DeferredShade,
     /// Averages the per-sample shading of MSAA edge pixels (`deferred.resolve`).
     DeferredResolve,
