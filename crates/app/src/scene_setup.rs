@@ -159,6 +159,21 @@ pub enum GridArg {
 }
 
 impl GridArg {
+    /// Every layout with the label the viewer shows.
+    pub const ALL: [(GridArg, &'static str); 4] = [
+        (GridArg::Tiled, "tiles"),
+        (GridArg::HalfZ, "half-z (two lists per tile)"),
+        (GridArg::DepthMask, "2.5D (32 depth bins per tile)"),
+        (GridArg::Clustered, "clusters (exponential depth slices)"),
+    ];
+
+    /// Sets `settings` to this layout (clusters keep their options, or get the defaults).
+    pub fn apply(self, settings: &mut Settings) {
+        settings.half_z = self == Self::HalfZ;
+        settings.depth_mask = self == Self::DepthMask;
+        settings.clusters = (self == Self::Clustered).then(|| settings.clusters.unwrap_or_default());
+    }
+
     /// The layout `settings` name.
     pub fn of(settings: &Settings) -> Self {
         match (settings.clusters.is_some(), settings.depth_mask, settings.half_z) {
@@ -633,7 +648,14 @@ mod tests {
         for g in [GridArg::Tiled, GridArg::HalfZ, GridArg::DepthMask, GridArg::Clustered] {
             let name = g.to_possible_value().unwrap().get_name().to_string();
             assert_eq!(GridArg::of(&s(&["--grid", &name])), g);
+            let mut settings = c.clone();
+            g.apply(&mut settings);
+            assert_eq!(GridArg::of(&settings), g);
         }
+        // Switching away and back keeps the clusters' options only while clustered.
+        let mut settings = c.clone();
+        GridArg::Tiled.apply(&mut settings);
+        assert_eq!(settings.clusters, None);
         let e = |flags: &[&str]| format!("{:#}", parse(flags).settings().unwrap_err());
         assert!(e(&["--grid", "2.5d", "--half-z"]).contains("--grid 2.5d"), "{}", e(&["--grid", "2.5d", "--half-z"]));
         assert!(e(&["--grid", "clustered", "--cluster-slices", "33"]).starts_with("--cluster-slices 33"));

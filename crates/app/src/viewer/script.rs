@@ -11,7 +11,7 @@ use clap::ValueEnum;
 
 use super::camera_control::Mode;
 use super::settings::Settings;
-use crate::scene_setup::{BlendModeArg, DensityArg, MethodArg, ShadowFormatArg};
+use crate::scene_setup::{AssignArg, BlendModeArg, DensityArg, GridArg, MethodArg, ShadowFormatArg};
 use tiledlight_setup::SceneSource;
 
 /// One step of a script.
@@ -33,7 +33,8 @@ pub enum Action {
 }
 
 /// The keys `Action::Set` understands.
-pub const KEYS: &str = "method, lights, spot-lights, threshold, seed, tile-size, half-z, aabb, spot-cone, \
+pub const KEYS: &str = "method, lights, spot-lights, threshold, seed, tile-size, half-z, grid (tiled, half-z, \
+                        2.5d, clustered), assign (gather, scatter), aabb, spot-cone, \
                         grid-objects, density, gbuffer-rts, msaa, shadow-point-lights, shadow-spot-lights, \
                         shadow-size, shadow-filter, shadow-format, transparent-objects, blend-mode, \
                         heatmap (on, off, blended), \
@@ -121,6 +122,12 @@ pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
                 .into()
         }
         "half-z" => a.half_z = on_off(key, value)?,
+        "grid" => GridArg::from_str(value, true).map_err(|e| anyhow::anyhow!("--script: grid={value}: {e}"))?.apply(a),
+        "assign" => {
+            a.scatter = AssignArg::from_str(value, true)
+                .map_err(|e| anyhow::anyhow!("--script: assign={value}: {e}"))?
+                == AssignArg::Scatter
+        }
         "aabb" => a.aabb = on_off(key, value)?,
         "spot-cone" => a.spot_cone = on_off(key, value)?,
         "scene" => a.scene = SceneSource::parse(value),
@@ -184,6 +191,14 @@ mod tests {
             (s.setup.transparent_objects, s.setup.blend_mode),
             (20, tiledlight_gpu::features::BlendMode::WeightedOit)
         );
+        set(&mut s, "grid", "clustered").unwrap();
+        assert!(s.setup.clusters.is_some());
+        set(&mut s, "grid", "2.5d").unwrap();
+        assert!(s.setup.depth_mask && s.setup.clusters.is_none());
+        set(&mut s, "assign", "scatter").unwrap();
+        assert!(s.setup.scatter);
+        assert!(set(&mut s, "assign", "sideways").is_err());
+        assert!(set(&mut s, "grid", "hexagonal").is_err());
     }
 
     #[test]

@@ -27,6 +27,8 @@ use tiledlight_scene::GridDensity;
 use tiledlight_setup::stats::atlas_layout_description;
 use tiledlight_setup::{CullingStats, LightSummary, Method, SceneSource};
 
+use crate::scene_setup::GridArg;
+
 /// The most shadow-casting lights of each kind the panel's sliders offer (TiledLighting11
 /// has a few; every point caster is six atlas tiles).
 pub const MAX_PANEL_CASTERS: usize = 128;
@@ -388,7 +390,30 @@ fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'
                     ui.radio_value(&mut s.setup.tile_size, t, format!("{t}"));
                 }
             });
-            ui.checkbox(&mut s.setup.half_z, "half-z (two lists per tile)");
+            let mut grid = GridArg::of(&s.setup);
+            let label = GridArg::ALL.iter().find(|(g, _)| *g == grid).map_or("", |(_, l)| *l);
+            egui::ComboBox::from_label("light grid").selected_text(label).show_ui(ui, |ui| {
+                for (g, label) in GridArg::ALL {
+                    ui.selectable_value(&mut grid, g, label);
+                }
+            });
+            if grid != GridArg::of(&s.setup) {
+                grid.apply(&mut s.setup);
+            }
+            if let Some(c) = &mut s.setup.clusters {
+                ui.horizontal(|ui| {
+                    ui.label("cluster tile");
+                    for t in [16, 32, 64, 128] {
+                        ui.radio_value(&mut c.tile_size, t, format!("{t}"));
+                    }
+                });
+                ui.add(egui::Slider::new(&mut c.slices, 1..=32).text("depth slices"));
+                ui.checkbox(&mut c.geometry_only, "only clusters holding geometry");
+            }
+            ui.add_enabled_ui(s.setup.clusters.is_none(), |ui| {
+                ui.checkbox(&mut s.setup.scatter, "light-centric assignment")
+                    .on_hover_text("each light scatters itself into its tiles: same lists, cost ~ lights + pairs");
+            });
             ui.checkbox(&mut s.setup.aabb, "sphere vs tile AABB test");
             ui.checkbox(&mut s.setup.spot_cone, "spot cone test");
             let mut two_level = !s.setup.flat_cull;
