@@ -19,7 +19,7 @@ use tiledlight_cull::assign::{cull_tiles_scatter, light_tile_rect, lower_bound, 
 use tiledlight_cull::bounds::sphere_vs_frustum;
 use tiledlight_cull::camera::view_point_at;
 use tiledlight_cull::light::{order_points_first, pack_lights};
-use tiledlight_cull::reference::{pixel_view_position, COARSE_SIZE};
+use tiledlight_cull::reference::COARSE_SIZE;
 use tiledlight_cull::tiles::{TileFrustum, TileGrid};
 use tiledlight_cull::{cull_tiles, Camera, CullConfig};
 
@@ -212,14 +212,7 @@ fn scatter_case(seed: u64) -> (Camera, Vec<f32>, tiledlight_cull::light::PackedL
     let tile_size = [1, 3, 8, 16, 32, 64][r.random_range(0..6)];
     let mode: DepthMode = DEPTH_MODES[r.random_range(0..DEPTH_MODES.len())];
     let depth = common::random_depth_samples(&mut r, mode, &camera, w, h, samples, None, 0.1);
-    let targets: Vec<Vec3> = (0..16)
-        .filter_map(|_| {
-            let (x, y) = (r.random_range(0..w), r.random_range(0..h));
-            pixel_view_position(&camera, w, h, x, y, depth[((y * w + x) * samples) as usize])
-        })
-        .map(|p| common::view_to_world(&camera, p))
-        .filter(|t| t.abs().max_element() < 1e30)
-        .collect();
+    let targets = common::surface_targets(&mut r, &camera, &depth, (w, h, samples), 16);
     let lights = common::random_lights(&mut r, &spec, &targets, 32);
     let half_z = r.random_bool(0.3);
     let config = CullConfig {

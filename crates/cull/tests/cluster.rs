@@ -13,7 +13,7 @@ use rand::Rng;
 use tiledlight_cull::bounds::{sphere_vs_frustum, to_view};
 use tiledlight_cull::cluster::{cluster_occupancy, light_slices, MAX_SLICES};
 use tiledlight_cull::light::{order_points_first, pack_lights, PackedLights};
-use tiledlight_cull::reference::{list_quality, pixel_view_position, stats};
+use tiledlight_cull::reference::{list_quality, stats};
 use tiledlight_cull::tiles::TileFrustum;
 use tiledlight_cull::{cull_clusters, Camera, ClusterConfig, CullError, TileLists};
 
@@ -56,14 +56,7 @@ fn frame(seed: u64) -> Frame {
     let samples = [1, 2, 4, 8][r.random_range(0..4)];
     let mode = DEPTH_MODES[r.random_range(0..DEPTH_MODES.len())];
     let depth = common::random_depth_samples(&mut r, mode, &camera, w, h, samples, None, 0.1);
-    let targets: Vec<Vec3> = (0..16)
-        .filter_map(|_| {
-            let (x, y) = (r.random_range(0..w), r.random_range(0..h));
-            pixel_view_position(&camera, w, h, x, y, depth[((y * w + x) * samples) as usize])
-        })
-        .map(|p| common::view_to_world(&camera, p))
-        .filter(|t| t.abs().max_element() < 1e30)
-        .collect();
+    let targets = common::surface_targets(&mut r, &camera, &depth, (w, h, samples), 16);
     let lights = common::random_lights(&mut r, &spec, &targets, 24);
     let cluster = random_cluster(&mut r);
     Frame { camera, depth, packed: pack_lights(&order_points_first(&lights)), w, h, samples, cluster }

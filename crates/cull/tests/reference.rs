@@ -34,14 +34,7 @@ fn frame(seed: u64, mode: DepthMode) -> Frame {
     let camera = spec.camera();
     let (w, h) = (r.random_range(1..40), r.random_range(1..40));
     let depth = common::random_depth(&mut r, mode, &camera, w, h, None);
-    let targets: Vec<Vec3> = (0..16)
-        .filter_map(|_| {
-            let (x, y) = (r.random_range(0..w), r.random_range(0..h));
-            pixel_view_position(&camera, w, h, x, y, depth[(y * w + x) as usize])
-        })
-        .map(|p| common::view_to_world(&camera, p))
-        .filter(|t| t.abs().max_element() < 1e30)
-        .collect();
+    let targets = common::surface_targets(&mut r, &camera, &depth, (w, h, 1), 16);
     let lights = common::random_lights(&mut r, &spec, &targets, 24);
     Frame { camera, depth, packed: pack_lights(&order_points_first(&lights)), w, h }
 }

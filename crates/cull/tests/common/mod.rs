@@ -439,6 +439,27 @@ pub fn tilt(rng: &mut impl Rng, dir: Vec3, angle: f32) -> Vec3 {
 /// Random lights around a camera: half aimed at `targets` (world points of visible
 /// surfaces: placed closer than their radius, spots pointed at them), the rest at the
 /// eye, behind the camera, straddling the near plane, or anywhere in front.
+/// Up to `n` world-space points on the visible surfaces of a `w` x `h` depth buffer of
+/// `samples` values per pixel (sample 0 of random pixels; sky and far-overflowing points
+/// skipped): where the property tests put half their lights.
+pub fn surface_targets(
+    rng: &mut impl Rng,
+    camera: &Camera,
+    depth: &[f32],
+    (w, h, samples): (u32, u32, u32),
+    n: usize,
+) -> Vec<Vec3> {
+    (0..n)
+        .filter_map(|_| {
+            let (x, y) = (rng.random_range(0..w), rng.random_range(0..h));
+            let d = depth[((y * w + x) * samples) as usize];
+            tiledlight_cull::reference::pixel_view_position(camera, w, h, x, y, d)
+        })
+        .map(|p| view_to_world(camera, p))
+        .filter(|t| t.abs().max_element() < 1e30)
+        .collect()
+}
+
 pub fn random_lights(rng: &mut impl Rng, spec: &CamSpec, targets: &[Vec3], n: usize) -> Vec<Light> {
     let (fwd, up) = spec.basis();
     let right = fwd.cross(up);
