@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -117,6 +117,17 @@ for set in $sets; do
       run "m100k-$m-scatter" 20 --lights 100000 --threshold 1 --method $m --assign scatter
       run "m1k-$m-scatter" 50 --lights 1024 --method $m --assign scatter
     done
+    ;;
+  assign)
+    # Light-centric assignment alone (issue 13's targets), Tiled Deferred: a million lights
+    # uniform and preset, 100,000 and 1,024 lights. A/B runs: BIN= and PREFIX=.
+    m=deferred
+    for g in tiled 2.5d; do
+      run "m-$m-$g" 10 --lights 1000000 --threshold 10 --method $m --assign scatter --grid $g
+    done
+    run "mp-$m-tiled" 10 --light-preset million --method $m --assign scatter
+    run "m100k-$m-scatter" 20 --lights 100000 --threshold 1 --method $m --assign scatter
+    run "m1k-$m-scatter" 50 --lights 1024 --method $m --assign scatter
     ;;
   grid)
     # The light grid's A/B set (issue 10): the Figure 9 scene, both methods, 1,024 to

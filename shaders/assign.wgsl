@@ -9,9 +9,10 @@
 //    kernel would (common/tile_tests.wgsl; with CLUSTERED the light's depth slices instead
 //    of the tile's range) and counts the hits per list. A light covering more than
 //    BIG_TILES tiles is queued instead (one thread would hold up its warp).
+//    The rectangle is kept (light_rects) for the passes after it.
 // 2. count_big: a workgroup per huge light (more than HUGE_BLOCKS blocks), then a team of
-//    32 threads per big light, counts its tiles, a block of 4 x 4 tiles per thread at a
-//    time.
+//    TEAM threads per big light, counts its tiles: a tile per thread at a time up to
+//    TEAM_TILES tiles, a block of 4 x 4 tiles per thread above.
 // The walks skip blocks of 4 x 4 tiles whose surfaces the sphere cannot reach in depth
 // (visit_block).
 // 3. allocate: a thread per list; a workgroup scan of 256 lists' counts and one atomic add
@@ -60,6 +61,9 @@ const BLOCK: u32 = 4u;
 // The big- and huge-light queues: their lengths, then the big lights' indices from the
 // start and the huge lights' from the end.
 @group(1) @binding(5) var<storage, read_write> big_lights: array<atomic<u32>>;
+// Per light: its tile rectangle (lo and hi, x in the low 16 bits), found by count_lights,
+// read by the later passes.
+@group(1) @binding(8) var<storage, read_write> light_rects: array<vec2<u32>>;
 // The light grid (crates/gpu/src/light_grid.rs) and the tiles' depth ranges.
 @group(2) @binding(0) var<storage, read_write> light_grid: LightGridRw;
 @group(2) @binding(1) var<storage, read_write> light_indices: array<u32>;
@@ -174,7 +178,8 @@ fn side_planes_pass(tile: vec2<u32>, c: vec3<f32>, r: f32) -> bool {
     return true;
 }
 
-fn walk_of(light: u32) -> Walk {
+// Light `light` as the walks see it; `found`: its rectangle was found by count_lights.
+fn walk_of(light: u32, found: bool) -> Walk {
     var k: Walk;
     k.light = light;
     let cl = cull_lights[light];
@@ -196,7 +201,13 @@ fn walk_of(light: u32) -> Walk {
     );
 #endif
     k.planes = view.orthographic == 0u && k.c.z + k.r >= 0.0;
-    k.rect = light_rect(k.c, k.r);
+    if found {
+        let p = light_rects[light];
+        k.rect = TileRect(vec2<u32>(p.x & 0xffffu, p.x >> 16u), vec2<u32>(p.y & 0xffffu, p.y >> 16u));
+    } else {
+        k.rect = light_rect(k.c, k.r);
+        light_rects[light] = vec2<u32>(k.rect.lo.x | (k.rect.lo.y << 16u), k.rect.hi.x | (k.rect.hi.y << 16u));
+    }
     if k.rect.lo.x < k.rect.hi.x && k.rect.lo.y < k.rect.hi.y {
         let e = k.rect.hi - k.rect.lo;
         k.tiles = e.x * e.y;
@@ -258,13 +269,9 @@ fn from_order_key(u: u32) -> f32 {
 // Most lights of a dense scene are hidden behind walls, so this saves most tile visits.
 fn visit_block(k: Walk, j: u32, write: bool) {
     let block = k.block0 + vec2<u32>(j % k.blocks_x, j / k.blocks_x);
-#ifndef CLUSTERED
-    let e = block_ranges[block.y * ((light_grid.header.tiles.x + BLOCK - 1u) / BLOCK) + block.x];
-    let dist = -k.c.z;
-    if e.y == 0u || !(dist + k.r >= from_order_key(~e.x) && dist - k.r <= from_order_key(e.y)) {
+    if !block_reached(k, block) {
         return;
     }
-#endif
     let lo = max(block * BLOCK, k.rect.lo);
     let hi = min(block * BLOCK + BLOCK, k.rect.hi);
     for (var y = lo.y; y < hi.y; y++) {
@@ -272,6 +279,19 @@ fn visit_block(k: Walk, j: u32, write: bool) {
             visit(k, vec2<u32>(x, y), write);
         }
     }
+}
+
+// Whether the walk's sphere reaches the depth range of block `block`'s surfaces (always
+// for clusters).
+fn block_reached(k: Walk, block: vec2<u32>) -> bool {
+#ifndef CLUSTERED
+    let e = block_ranges[block.y * ((light_grid.header.tiles.x + BLOCK - 1u) / BLOCK) + block.x];
+    let dist = -k.c.z;
+    if e.y == 0u || !(dist + k.r >= from_order_key(~e.x) && dist - k.r <= from_order_key(e.y)) {
+        return false;
+    }
+#endif
+    return true;
 }
 
 // Tile `tile` of the walk.
@@ -331,7 +351,7 @@ fn walk_light(light: u32, write: bool) {
     if light >= lighting.num_lights {
         return;
     }
-    let k = walk_of(light);
+    let k = walk_of(light, write);
     if k.blocks > HUGE_BLOCKS {
         if !write {
             // The huge queue fills the buffer from its end, the big one from its start:
@@ -355,14 +375,16 @@ fn walk_light(light: u32, write: bool) {
 
 // Steps 2 and 5: a whole workgroup per huge light, its blocks spread over 256 threads
 // (a light around the camera covers every tile: 32 threads would each walk hundreds of
-// tiles while the rest of the GPU waits); then a team of TEAM threads per big light (8
-// teams a workgroup).
-const TEAM: u32 = 32u;
+// tiles while the rest of the GPU waits); then a team of TEAM threads per big light (256 /
+// TEAM teams a workgroup).
+override TEAM: u32 = 32u;
+// A team spreads lights of at most this many tiles over tiles, larger ones over blocks.
+override TEAM_TILES: u32 = 256u;
 
 fn walk_big(group: u32, groups: u32, lidx: u32, write: bool) {
     let huge = atomicLoad(&big_lights[1]);
     for (var b = group; b < huge; b += groups) {
-        let k = walk_of(atomicLoad(&big_lights[arrayLength(&big_lights) - 1u - b]));
+        let k = walk_of(atomicLoad(&big_lights[arrayLength(&big_lights) - 1u - b]), true);
         for (var j = lidx; j < k.blocks; j += 256u) {
             visit_block(k, j, write);
         }
@@ -371,9 +393,21 @@ fn walk_big(group: u32, groups: u32, lidx: u32, write: bool) {
     let teams = 256u / TEAM;
     let lane = lidx % TEAM;
     for (var b = group * teams + lidx / TEAM; b < queued; b += groups * teams) {
-        let k = walk_of(atomicLoad(&big_lights[2u + b]));
-        for (var j = lane; j < k.blocks; j += TEAM) {
-            visit_block(k, j, write);
+        let k = walk_of(atomicLoad(&big_lights[2u + b]), true);
+        if k.tiles <= TEAM_TILES {
+            // Spread over tiles, not blocks: a light of a few blocks would keep most lanes
+            // idle while a few walk 16 tiles each. The block test is a cached load.
+            let w = k.rect.hi.x - k.rect.lo.x;
+            for (var i = lane; i < k.tiles; i += TEAM) {
+                let tile = k.rect.lo + vec2<u32>(i % w, i / w);
+                if block_reached(k, tile / BLOCK) {
+                    visit(k, tile, write);
+                }
+            }
+        } else {
+            for (var j = lane; j < k.blocks; j += TEAM) {
+                visit_block(k, j, write);
+            }
         }
     }
 }

@@ -10,13 +10,17 @@
 //! 2. **Count**: a thread per light finds its tile rectangle (binary searches on the same
 //!    side planes the tile-centric kernel tests), tests each tile of it with the
 //!    tile-centric kernel's own code (`common/tile_tests.wgsl`; clusters: the light's depth
-//!    slices) and counts hits per list. A light covering more than [`BIG_TILES`] tiles is
-//!    queued and counted by a team of 32 threads (one thread would stall its warp), one
-//!    covering more than [`HUGE_BLOCKS`] blocks by a whole workgroup (at 32 blocks the H200 lost 25% at a million lights: too many lights walked by 256 threads with a few blocks each).
+//!    slices) and counts hits per list. It keeps the rectangle for the later passes. A
+//!    light covering more than [`BIG_TILES`] tiles is queued and counted by a team of
+//!    [`TEAM`] threads (one thread would stall its warp), tile by tile up to
+//!    [`TEAM_TILES`] tiles and block by block above; one covering more than
+//!    [`HUGE_BLOCKS`] blocks by a whole workgroup (at 32 blocks the H200 lost 25% at a
+//!    million lights: too many lights walked by 256 threads with a few blocks each).
 //! 3. **Allocate**: a thread per list; 256 lists' counts are scanned in workgroup memory and
 //!    allocated with one atomic add on the grid's counter (the light grid's contract: a
 //!    full index buffer drops and counts, never writes out of bounds).
-//! 4. **Write**: the same walk again, each hit stored at its list's cursor.
+//! 4. **Write**: the same walk again (the rectangle read back), each hit stored at its
+//!    list's cursor.
 //!
 //! The walks go over blocks of 4 x 4 tiles and, for tile layouts, skip a block whose
 //! surfaces all lie nearer or farther than the light reaches (step 1 keeps each block's
@@ -42,15 +46,27 @@ use crate::timer::GpuTimer;
 use crate::util::{buffer_zeroed, compute_pipeline, compute_pipeline_at, shader_module};
 use crate::view::Views;
 
-/// A light whose tile rectangle holds more tiles than this is walked by a team of 32
+/// A light whose tile rectangle holds more tiles than this is walked by a team of [`TEAM`]
 /// threads instead of one (a thread's walk holds up its whole warp: on the H200 at a
-/// million lights, 64 cost 3.1 ms of assignment, most of it threads waiting on long walks).
+/// million lights, 64 cost 3.1 ms of assignment, most of it threads waiting on long walks;
+/// 4 or 2 cost more than 8 again: docs/PERFORMANCE.md).
 pub const BIG_TILES: u32 = 8;
 
-/// Workgroups of the big-light passes, 8 teams of 32 threads each (team `t` of the frame
-/// takes every `8 * BIG_GROUPS`-th queued light): a few per streaming multiprocessor of a
-/// large GPU; none has work without big lights.
-const BIG_GROUPS: u32 = 512;
+/// Threads of a team walking one big light (lanes of one warp on NVIDIA; on the H200 16 and 8
+/// were 10-40% slower from 1,024 to 100,000 lights, faster only for a million uniform
+/// lights).
+pub const TEAM: u32 = 32;
+
+/// A team spreads a light of at most this many tiles over its lanes tile by tile, a larger
+/// one block by block: spread by blocks, a light of a few blocks keeps most lanes idle
+/// while a few walk 16 tiles each.
+pub const TEAM_TILES: u32 = 256;
+
+/// Most workgroups of the big-light passes, 256 / [`TEAM`] teams each (team `t` of the frame
+/// takes every `teams * groups`-th queued light); `record` dispatches about a team per light
+/// (at least 512 workgroups): on the H200 512 workgroups left half the GPU idle at 100,000
+/// lights and more (0.47 -> 0.17 ms with the rectangles kept and teams spread by tiles).
+const BIG_GROUPS: u32 = 4096;
 
 /// A light whose rectangle holds more blocks than this (2,048 tiles) is walked by a whole
 /// workgroup: a light around the camera covers every tile, and a team of 32 would walk
@@ -102,7 +118,7 @@ pub const TILE_DEPTH_BINDINGS: PassBindings = PassBindings {
 /// spheres (1), the lighting uniform (9), the blocks' depth ranges (2, tiles), with
 /// `SPOT_CONE` the shading lights (6) and spots
 /// (7), the tile masks (3, 2.5D or geometry-only clusters), the per-list counts (4), the
-/// big-light queue (5). Group 2: the light grid, tile ranges included.
+/// big-light queue (5), each light's tile rectangle (8). Group 2: the light grid, tile ranges included.
 pub const ASSIGN_BINDINGS: PassBindings = PassBindings {
     entry: "assign.wgsl",
     source: file!(),
@@ -120,6 +136,7 @@ pub const ASSIGN_BINDINGS: PassBindings = PassBindings {
                     .when(Cond::Any(&[Cond::Defined("DEPTH_MASK"), Cond::Defined("GEOMETRY_ONLY")])),
                 Binding::storage_rw(4, wgpu::ShaderStages::COMPUTE),
                 Binding::storage_rw(5, wgpu::ShaderStages::COMPUTE),
+                Binding::storage_rw(8, wgpu::ShaderStages::COMPUTE),
             ],
         ),
         PassGroup::new(2, &compute_bindings(Cond::Always)),
@@ -186,6 +203,9 @@ impl LightAssign {
             .then(|| buffer_zeroed(device, "assign.tile_masks", tiles.tile_count() as u64 * 4, usage));
         let list_counts = buffer_zeroed(device, "assign.list_counts", lists as u64 * 4, usage);
         let big_lights = buffer_zeroed(device, "assign.big_lights", (lights.len() as u64 + 2) * 4, usage);
+        // Per light: its tile rectangle, found by the count pass, read by the others (only
+        // the bind group holds it).
+        let light_rects = buffer_zeroed(device, "assign.light_rects", lights.len().max(1) as u64 * 8, usage);
         let blocks = (tiles.tiles_x.div_ceil(BLOCK) * tiles.tiles_y.div_ceil(BLOCK)) as u64;
         let block_ranges = clusters.is_none().then(|| buffer_zeroed(device, "assign.block_ranges", blocks * 8, usage));
         if let Some(b) = &block_ranges {
@@ -193,6 +213,7 @@ impl LightAssign {
         }
         memory.add("assign.list_counts", list_counts.size());
         memory.add("assign.big_lights", big_lights.size());
+        memory.add("assign.light_rects", light_rects.size());
         if let Some(m) = &masks {
             memory.add("assign.tile_masks", m.size());
         }
@@ -253,6 +274,7 @@ impl LightAssign {
             wgpu::BindGroupEntry { binding: 9, resource: lighting.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 4, resource: list_counts.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 5, resource: big_lights.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 8, resource: light_rects.as_entire_binding() },
         ];
         if let (true, Some(spots)) = (spot_cone, &lights.spots) {
             entries.push(wgpu::BindGroupEntry { binding: 6, resource: lights.shading.as_entire_binding() });
@@ -274,6 +296,8 @@ impl LightAssign {
             ("TILE_SIZE", tiles.tile_size as f64),
             ("BIG_TILES", BIG_TILES as f64),
             ("HUGE_BLOCKS", HUGE_BLOCKS as f64),
+            ("TEAM", TEAM as f64),
+            ("TEAM_TILES", TEAM_TILES as f64),
             ("GRID_GUARD", f64::from(u8::from(grid.needs_guard(lights.len())))),
         ];
         let groups = [&views.layout, &layout, grid.layout()];
@@ -320,9 +344,13 @@ impl LightAssign {
         let per_light = dispatch_size(self.lights.div_ceil(GROUP));
         let per_list = dispatch_size(self.lists.div_ceil(GROUP));
         let depth = [(&self.tile_depth, (self.tiles.tiles_x, self.tiles.tiles_y))];
-        let count = [(&self.count, per_light), (&self.count_big, (BIG_GROUPS, 1))];
+        // About a team per light, but at least 512 workgroups for the huge lights (each takes
+        // a whole one): idle workgroups are not free (4,096 of them cost 0.03 ms a pass on
+        // the H200 at 1,024 lights), too few leave huge lights waiting in line.
+        let bg = self.lights.div_ceil(GROUP / TEAM).clamp(512, BIG_GROUPS);
+        let count = [(&self.count, per_light), (&self.count_big, (bg, 1))];
         let allocate = [(&self.allocate, per_list)];
-        let write = [(&self.write, per_light), (&self.write_big, (BIG_GROUPS, 1))];
+        let write = [(&self.write, per_light), (&self.write_big, (bg, 1))];
         let steps: [(&str, &[Dispatch<'_>]); 4] =
             [("depth", &depth), ("count", &count), ("allocate", &allocate), ("write", &write)];
         for (step, dispatches) in steps {
