@@ -429,6 +429,68 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
     Ok(())
 }
 
+/// The CSV's rows as numbers by column name (NaN where empty or not a number).
+fn parse_rows(rows: &[Vec<String>], head: &[String]) -> Vec<HashMap<String, f64>> {
+    rows.iter()
+        .map(|r| head.iter().zip(r).map(|(h, v)| (h.clone(), v.parse::<f64>().unwrap_or(f64::NAN))).collect())
+        .collect()
+}
+
+/// The culling statistics of every setting side by side (false-positive rate, wasted
+/// evaluations per pixel, longest list, frame time) in `<chart>-culling.png`, when the
+/// run has them for two settings or more (methods without light lists have none); returns
+/// the line naming which setting wins each.
+fn culling_chart(
+    chart_path: &Path,
+    title: &str,
+    subtitle: &str,
+    rows: &[Vec<String>],
+    numbers: &[HashMap<String, f64>],
+    describe: &dyn Fn(usize) -> String,
+) -> Result<Option<String>> {
+    let with: Vec<usize> = (0..rows.len()).filter(|&i| numbers[i]["false_positive_rate"].is_finite()).collect();
+    if with.len() < 2 {
+        return Ok(None);
+    }
+    let measures = [
+        ("false_positive_rate", "False-positive rate (listed lights reaching no pixel's surface)"),
+        ("wasted_per_pixel", "Wasted light evaluations per pixel"),
+        ("max_lights_per_tile", "Longest light list (a tile's or a cluster's)"),
+        ("total_ms", "GPU frame time, ms"),
+    ];
+    let settings: Vec<String> = with.iter().map(|&i| describe(i)).collect();
+    let panels: Vec<(String, Vec<f64>)> = measures
+        .iter()
+        .map(|(col, name)| (name.to_string(), with.iter().map(|&i| numbers[i][*col]).collect()))
+        .collect();
+    let best = |k: usize| {
+        let v = &panels[k].1;
+        (0..v.len()).filter(|&j| v[j].is_finite()).min_by(|&a, &b| v[a].total_cmp(&v[b])).map(|j| settings[j].clone())
+    };
+    let line = format!(
+        "culling:    fewest false positives: {}; fewest wasted evaluations: {}; shortest longest list: {}; fastest: {}",
+        best(0).unwrap_or_default(),
+        best(1).unwrap_or_default(),
+        best(2).unwrap_or_default(),
+        best(3).unwrap_or_default()
+    );
+    let path = chart_path.with_file_name(format!(
+        "{}-culling.png",
+        chart_path.file_stem().map_or_else(|| "accuracy".into(), |s| s.to_string_lossy().into_owned())
+    ));
+    chart::bar_panels(
+        &path,
+        &chart::BarPanels {
+            title: title.replace("Speed vs accuracy", "Culling statistics per setting"),
+            subtitle: subtitle.replace("; labels: intensity threshold T", ""),
+            note: Some(line.trim_start_matches("culling:").trim().to_string()),
+            settings,
+            panels,
+        },
+    )?;
+    Ok(Some(format!("{line} ({})", path.display())))
+}
+
 /// Draws the Pareto chart, writes the heat maps of the frontier's settings measured in
 /// this run, and returns the recommendation line.
 fn report(
@@ -503,6 +565,19 @@ fn report(
         note: Some(note.clone()),
     };
     chart::pareto_chart(chart_path, &c)?;
+    // Bars are labelled by the axes that vary (the fixed ones are in the subtitle).
+    let varying = |i: usize| {
+        let v: Vec<String> = (0..axes.len())
+            .filter(|&a| axes[a].values.len() > 1)
+            .map(|a| format!("{}={}", axes[a].name, rows[i][n + a]))
+            .collect();
+        if v.is_empty() {
+            describe(i)
+        } else {
+            v.join(" ")
+        }
+    };
+    let culling = culling_chart(chart_path, &c.title, &c.subtitle, rows, &parse_rows(rows, &head), &varying)?;
     let (w, h) = first.map(|r| (r[1].parse().unwrap_or(0), r[2].parse().unwrap_or(0))).unwrap_or((0, 0));
     let mut wrote = 0;
     for &i in &frontier {
@@ -513,7 +588,8 @@ fn report(
         crate::scene_setup::save_png(&diff_dir.join(name), &img)?;
         wrote += 1;
     }
-    let mut out = format!(
+    let mut out = culling.map_or(String::new(), |line| format!("{line}\n"));
+    out += &format!(
         "frontier:   {} of {} settings: {}\n",
         frontier.len(),
         rows.len(),

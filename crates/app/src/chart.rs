@@ -1,7 +1,9 @@
 //! The measurement lab's charts, drawn with plotters into an RGB buffer and saved as PNG:
 //! [`line_chart`] (a measure against a swept value, one line per series, with an optional
 //! marked x such as a crossover) and [`pareto_chart`] (time against error, one point per
-//! setting, the Pareto frontier drawn, a target error line).
+//! setting, the Pareto frontier drawn, a target error line) and [`bar_panels`] (several
+//! measures side by side, one horizontal bar per setting in each panel: the culling
+//! statistics of each light-grid layout).
 //!
 //! Text uses DejaVu Sans embedded in the binary (`assets/fonts`, through plotters'
 //! ab_glyph backend), so charts render identically without system fonts. Log axes are
@@ -330,6 +332,91 @@ pub fn line_chart(path: &Path, c: &LineChart) -> Result<()> {
     })
 }
 
+/// Panels of horizontal bars: each panel one measure, one bar per setting (the same
+/// settings, in the same order, in every panel).
+#[derive(Clone, Debug)]
+pub struct BarPanels {
+    /// Title (what, where: GPU, resolution, scene).
+    pub title: String,
+    /// Second title line (settings held fixed).
+    pub subtitle: String,
+    /// A note under the subtitle (e.g. which setting wins).
+    pub note: Option<String>,
+    /// The settings' labels, top to bottom.
+    pub settings: Vec<String>,
+    /// Each panel: its measure's name and one value per setting (NaN: not measured).
+    pub panels: Vec<(String, Vec<f64>)>,
+}
+
+/// Draws `c` to the PNG `path`: two panels a row, the settings' labels on each panel's
+/// left, each bar's value at its end.
+pub fn bar_panels(path: &Path, c: &BarPanels) -> Result<()> {
+    ensure!(!c.settings.is_empty() && !c.panels.is_empty(), "chart {}: no bars to draw", path.display());
+    for (name, values) in &c.panels {
+        ensure!(
+            values.len() == c.settings.len(),
+            "chart {}: panel {name} has {} bars for {} settings",
+            path.display(),
+            values.len(),
+            c.settings.len()
+        );
+    }
+    save(path, |root| {
+        let root = titled(root, &c.title, &c.subtitle, c.note.as_deref())?;
+        let rows = c.panels.len().div_ceil(2);
+        let areas = root.split_evenly((rows, 2));
+        let n = c.settings.len();
+        let longest = c.settings.iter().map(|s| s.chars().count()).max().unwrap_or(0);
+        for (k, (area, (name, values))) in areas.iter().zip(&c.panels).enumerate() {
+            let hi = values.iter().copied().filter(|v| v.is_finite()).fold(0.0f64, f64::max);
+            let hi = if hi > 0.0 { hi * 1.25 } else { 1.0 };
+            let labels = c.settings.clone();
+            let fy = move |u: &f64| {
+                let i = u.round();
+                if (u - i).abs() < 1e-6 && i >= 0.0 {
+                    labels.get(n - 1 - i as usize).cloned().unwrap_or_default()
+                } else {
+                    String::new()
+                }
+            };
+            let mut chart = ChartBuilder::on(area)
+                .margin(14)
+                .caption(name, (FAMILY, 22))
+                .x_label_area_size(36)
+                .y_label_area_size((longest as u32 * 9 + 16).min(360))
+                .build_cartesian_2d(0.0..hi, -0.6..(n as f64 - 0.4))
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .label_style((FAMILY, 16))
+                .y_labels(n)
+                .y_label_formatter(&fy)
+                .x_label_formatter(&|v: &f64| tick_label(*v))
+                .disable_y_mesh()
+                .light_line_style(WHITE)
+                .bold_line_style(RGBColor(225, 225, 225))
+                .draw()
+                .map_err(err)?;
+            let col = color(k);
+            for (i, &v) in values.iter().enumerate() {
+                let y = (n - 1 - i) as f64;
+                if !v.is_finite() {
+                    let t =
+                        Text::new("not measured", (0.0, y), (FAMILY, 15).into_font().color(&RGBColor(120, 120, 120)));
+                    chart.draw_series(std::iter::once(t)).map_err(err)?;
+                    continue;
+                }
+                chart
+                    .draw_series(std::iter::once(Rectangle::new([(0.0, y - 0.35), (v, y + 0.35)], col.filled())))
+                    .map_err(err)?;
+                let t = Text::new(format!(" {}", tick_label(v)), (v, y - 0.15), (FAMILY, 15).into_font());
+                chart.draw_series(std::iter::once(t)).map_err(err)?;
+            }
+        }
+        Ok(())
+    })
+}
+
 /// Draws the title and subtitle at the top and returns the area below them.
 fn titled<'a>(
     root: &DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>,
@@ -576,6 +663,19 @@ mod tests {
         };
         pareto_chart(&dir.join("p.png"), &pc).unwrap();
         assert!(image::open(dir.join("p.png")).is_ok());
+        let bars = BarPanels {
+            title: "t".into(),
+            subtitle: "s".into(),
+            note: None,
+            settings: vec!["grid=tiled".into(), "grid=clustered".into()],
+            panels: vec![("a".into(), vec![0.5, 0.9]), ("b".into(), vec![3.0, f64::NAN]), ("c".into(), vec![1.0, 2.0])],
+        };
+        bar_panels(&dir.join("b.png"), &bars).unwrap();
+        let img = image::open(dir.join("b.png")).unwrap().to_rgb8();
+        // The first panel's bars are drawn in the first series colour.
+        assert!(img.pixels().any(|p| *p == image::Rgb([31, 119, 180])));
+        let short = BarPanels { panels: vec![("a".into(), vec![1.0])], ..bars };
+        assert!(bar_panels(&dir.join("b.png"), &short).is_err());
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
