@@ -11,8 +11,8 @@
 # both resume from their CSV if rerun with the same $OUT.
 # The shadow step (shadow-accuracy: 13 shadow configurations at 960x540 against a CPU ray
 # cast of 12 + 12 casters, on every core) runs at its own resolution.
-# Usage: scripts/device-lab.sh [figure9] [accuracy] [deferred] [msaa] [shadows] [blended]
-# [blended-vs-sorted] (default: the first five)
+# Usage: scripts/device-lab.sh [figure9] [accuracy] [deferred] [msaa] [shadows] [blended] [layouts] [layouts-surface] [blended-vs-sorted]
+# (default: the first five)
 set -uo pipefail
 out=${OUT:-lab-out}
 mkdir -p "$out"
@@ -53,6 +53,13 @@ for s in $steps; do
     step 400 layouts accuracy --lights 16384 --method deferred --axis threshold=0.05,0.2 \
       --axis grid=tiled,half-z,2.5d,clustered --axis assign=scatter --axis culling=planes \
       --frames 15 --out "$out/layouts.csv"
+    ;;
+  layouts-surface)
+    # The same on lights that sit on the surfaces (16,384, 8 reaching a surface point):
+    # small lights, where depth bins and clusters have gaps to find.
+    step 400 layouts-surface accuracy --lights 16384 --lights-on-surfaces --method deferred \
+      --axis grid=tiled,half-z,2.5d,clustered --axis assign=scatter --axis culling=planes \
+      --axis threshold=0.1 --frames 15 --out "$out/layouts-surface.csv"
     ;;
   blended-vs-sorted)
     # Issue 12: what dropping the sort alone costs. Weighted blended OIT against the sorted
