@@ -8,7 +8,9 @@
 // 2(2) 2013) nothing is sorted: each fragment adds its premultiplied colour and coverage,
 // weighted by its depth, to an accumulation target and multiplies the revealage target by
 // (1 - alpha); blended_composite.wgsl turns the two into the layer.
-// variants: SPOT_LIGHTS TEXTURES BRUTE_FORCE NO_CUTOFF SHADOWS WBOIT
+// With CLUSTERED the list is the frame's own clustered grid's, at the fragment's depth slice
+// (clusters of the whole frustum list every light of their volume, surface or not).
+// variants: SPOT_LIGHTS TEXTURES BRUTE_FORCE NO_CUTOFF SHADOWS WBOIT CLUSTERED
 #include "common/scene.wgsl"
 #include "common/shade.wgsl"
 
@@ -79,7 +81,11 @@ fn shade_blended(in: VertexOut, front: bool) -> vec4<f32> {
         color += shade_light(i, in.world_pos, n, v, s);
     }
 #else
+#ifdef CLUSTERED
+    let list = pixel_list(vec2<u32>(in.clip.xy), view_distance(in.clip.z));
+#else
     let list = pixel_list(vec2<u32>(in.clip.xy), 0.0);
+#endif
     for (var i = 0u; i < list.count; i++) {
         color += shade_light(light_indices[list.first + i], in.world_pos, n, v, s);
     }

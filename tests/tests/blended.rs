@@ -7,13 +7,16 @@
 //! - two overlapping panes swap order when the camera crosses between them;
 //! - the heat map of the blended lists colours exactly the tiles whose blended list has
 //!   lights, and is a clear error without blended geometry;
-//! - a scene without blended materials has none of the blended path.
+//! - a scene without blended materials has none of the blended path;
+//! - with clusters of the whole frustum, blended geometry reads the frame's clusters (no
+//!   blended depth or lists) and both methods still match brute force.
 
 use glam::{Mat4, Vec3};
 use tiledlight_cull::{Camera, Light};
 use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
 use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
 use tiledlight_gpu::diagnostics::Diagnostics;
+use tiledlight_gpu::light_cull::{ClusterOptions, CullOptions};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::plan::Step;
 use tiledlight_gpu::readback::read_depth;
@@ -151,7 +154,7 @@ fn blended_lists_match_the_cpu_twin() {
             r.render_once(ctx, &mut timer, &sg, &cam).unwrap();
             let b = r.blended().expect("blended path");
             let opaque = r.read_depth(ctx).unwrap();
-            let blended = read_depth(&ctx.device, &ctx.queue, &b.depth_texture).unwrap();
+            let blended = read_depth(&ctx.device, &ctx.queue, &b.depth.as_ref().unwrap().texture).unwrap();
             let c = b.culling.as_ref().unwrap();
             let gpu_lists = c.read_lists(&ctx.device, &ctx.queue).unwrap();
             let frame = CulledFrame { depth: &opaque, width: W, height: H, camera: &cam, lights: &lights.packed };
@@ -197,6 +200,59 @@ fn methods_agree_on_blended_geometry() {
             DEFERRED_VS_REFERENCE,
         );
     }
+}
+
+/// Clusters of the whole frustum list every light of their volume, so blended geometry
+/// reads them: no blended depth, culling or grid exist, and the images match brute force
+/// with the same tolerances as the tiled lists above (the lists are conservative; what
+/// differs is only the methods' own error).
+#[test]
+fn frustum_clusters_serve_blended_geometry() {
+    let ctx = gpu();
+    let scene = three_panes(true);
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, &lights_for_panes()).unwrap();
+    let cam = camera(Vec3::new(0.5, 0.5, 4.0), Vec3::new(0.0, 0.0, -10.0));
+    let depth = opaque_depth(&sg, &lights, &cam);
+    // 16 px clusters, 16 slices from 1 m: a few slices over the panes' 3-10 m.
+    let clusters = ClusterOptions { tile_size: 16, slices: 16, first: 1.0, last: 60.0, geometry_only: false };
+    let cull = CullOptions { clusters: Some(clusters), ..Default::default() };
+    for msaa in [1, 4] {
+        let mut bf = forward(&sg, &lights, Method::BruteForce { cutoff: true }, msaa);
+        let reference = render_frame(ctx, &mut bf, &sg, &cam);
+        let s = ForwardSettings { method: Method::ForwardPlus, msaa, cull, ..Default::default() };
+        let mut fp = ForwardRenderer::new(ctx, &sg, &lights, W, H, s).expect("forward renderer");
+        let b = fp.blended().expect("blended path");
+        assert!(b.depth.is_none() && b.culling.is_none(), "no blended depth or lists with frustum clusters");
+        assert!(!fp.plan().has(Step::BlendedDepth) && !fp.plan().has(Step::BlendedCull));
+        assert!(fp.plan().has(Step::BlendedShade));
+        let f = render_frame(ctx, &mut fp, &sg, &cam);
+        assert_matches_reference_frame(
+            &format!("blended-forward-clusters-msaa{msaa}"),
+            W,
+            &reference,
+            &f,
+            FORWARD_VS_REFERENCE,
+        );
+        let s = DeferredSettings { msaa, cull, ..Default::default() };
+        let mut td = DeferredRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
+        assert!(td.blended().expect("blended path").depth.is_none());
+        let d = render_frame(ctx, &mut td, &sg, &cam);
+        let reference = reference.allow_gbuffer_normals(&depth, W, &cam, &lights.packed);
+        assert_matches_reference_frame(
+            &format!("blended-deferred-clusters-msaa{msaa}"),
+            W,
+            &reference,
+            &d,
+            DEFERRED_VS_REFERENCE,
+        );
+    }
+    // Geometry-only clusters have no lists where there is no opaque surface: the blended
+    // path keeps its own.
+    let only = CullOptions { clusters: Some(ClusterOptions { geometry_only: true, ..clusters }), ..Default::default() };
+    let s = ForwardSettings { method: Method::ForwardPlus, cull: only, ..Default::default() };
+    let fp = ForwardRenderer::new(ctx, &sg, &lights, W, H, s).expect("forward renderer");
+    assert!(fp.blended().unwrap().culling.is_some() && fp.plan().has(Step::BlendedDepth));
 }
 
 /// Two overlapping panes, red at z = -3 and blue at z = -5, alpha 0.6 each, lit alike:
@@ -404,7 +460,7 @@ fn blended_heat_map_colours_exactly_the_tiles_with_blended_lights() {
 
     // No blended geometry: no blended lists to show, a clear error (no panic).
     let plain = SceneGpu::new(&ctx.device, &ctx.queue, &pane_scene(true, &[])).unwrap();
-    let want = "the heat map of the blended lists needs alpha-blended geometry, and this scene has none";
+    let want = "the heat map of the blended lists needs blended lists of their own: this scene has no alpha-blended geometry";
     let s = ForwardSettings { heatmap: true, heatmap_of: of, ..Default::default() };
     let e = ForwardRenderer::new(ctx, &plain, &lights, W, H, s).err().expect("forward: an error").to_string();
     assert!(e.contains(want), "{e}");
@@ -447,7 +503,7 @@ fn the_blended_light_grid_grows_until_the_frame_fits() {
         assert!(status.header.pairs > first, "{} pairs fit the first {first} indices: nothing had to grow", status);
         assert!(status.complete() && c.grid.capacity() > first, "the blended grid did not grow: {status}");
         let opaque = r.read_depth(ctx).unwrap();
-        let blended = read_depth(&ctx.device, &ctx.queue, &b.depth_texture).unwrap();
+        let blended = read_depth(&ctx.device, &ctx.queue, &b.depth.as_ref().unwrap().texture).unwrap();
         let gpu_lists = c.read_lists(&ctx.device, &ctx.queue).unwrap();
         let frame = CulledFrame { depth: &opaque, width: W, height: H, camera: &cam, lights: &lights.packed };
         let config = c.options.to_config(lights.has_spots());

@@ -176,7 +176,7 @@ impl DeferredRenderer {
                 (features, common.shadows.as_ref()),
                 &mut memory,
             )?;
-            let blended = common.blended_path(device, scene, lights, settings.cull)?;
+            let blended = common.blended_path(device, scene, lights, settings.cull, Some(&shading.light_grid))?;
             let blended_grid = blended.as_ref().and_then(|b| b.culling.as_ref()).map(|c| &c.grid.grid);
             let heatmap = HeatmapPass::new(device, &shading.light_grid.grid, blended_grid, settings.heatmap)?;
             heatmap.set_of(settings.heatmap_of)?;
@@ -300,6 +300,9 @@ impl Renderer for DeferredRenderer {
     fn grow_light_grid(&mut self, ctx: &GpuContext, capacity: u32) {
         let grid = &mut self.shading.light_grid;
         grid.grow(&ctx.device, &ctx.queue, capacity);
+        if let Some(b) = &mut self.blended {
+            b.frame_grid_grew(&ctx.device, grid);
+        }
         for (category, bytes) in grid.memory().entries {
             self.common.memory.set(&category, bytes);
         }

@@ -210,7 +210,8 @@ impl ForwardRenderer {
                 light_loop,
                 (features, common.shadows.as_ref()),
             )?;
-            let blended = common.blended_path(device, scene, lights, settings.cull)?;
+            let blended =
+                common.blended_path(device, scene, lights, settings.cull, culling.as_ref().map(|c| &c.grid))?;
             let heatmap = match (&culling, plan.has(Step::Heatmap)) {
                 (Some(c), true) => {
                     let blended_grid = blended.as_ref().and_then(|b| b.culling.as_ref()).map(|c| &c.grid.grid);
@@ -347,6 +348,9 @@ impl Renderer for ForwardRenderer {
         if let Some(c) = &mut self.culling {
             c.grid.grow(&ctx.device, &ctx.queue, capacity);
             self.shading.rebind(&ctx.device, &c.grid);
+            if let Some(b) = &mut self.blended {
+                b.frame_grid_grew(&ctx.device, &c.grid);
+            }
             for (category, bytes) in c.grid.memory().entries {
                 self.common.memory.set(&category, bytes);
             }

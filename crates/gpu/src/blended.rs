@@ -22,6 +22,12 @@
 //!    resolved.
 //! 4. **Composite** (`blended_composite.wgsl`): `hdr = layer.rgb + (1 - layer.a) hdr`.
 //!
+//! With clusters of the whole frustum as the frame's light grid
+//! ([`Features::frustum_clusters`]) steps 1 and 2 do not exist: a cluster lists every light
+//! reaching its part of the frustum, surface or not, so step 3 reads the frame's own grid
+//! at the blended fragment's depth slice (Olsson et al.'s point that clusters serve
+//! transparency).
+//!
 //! With [`BlendMode::WeightedOit`] step 3 draws in instance order into an accumulation
 //! target (the layer: premultiplied colour and coverage times a depth weight, added) and
 //! a revealage target (multiplied by `1 - alpha`), and step 4 composites their ratio:
@@ -43,6 +49,7 @@ use crate::depth_prepass::{scene_pipeline, DepthPrepass, DepthTarget, DepthUse, 
 use crate::error::GpuError;
 use crate::features::{BlendMode, Features, Method};
 use crate::light_cull::{CullOptions, LightCulling};
+use crate::light_grid::LightGrid;
 use crate::lights_gpu::LightBuffers;
 use crate::lights_group::LightsGroup;
 use crate::memory::MemoryReport;
@@ -59,7 +66,8 @@ const FS: wgpu::ShaderStages = wgpu::ShaderStages::FRAGMENT;
 /// The bindings of the blended shading pass (`shaders/blended.wgsl`): the scene's groups,
 /// then group 3 as Forward+'s shading pass binds it: shading lights (0), the lighting
 /// uniform (5), spots (1), unless `BRUTE_FORCE` the blended light grid (2) and its indices
-/// (3), with `SHADOWS` the atlas (6), its sampler (7) and faces (8).
+/// (3) (with `CLUSTERED` the frame's clustered grid), with `SHADOWS` the atlas (6), its
+/// sampler (7) and faces (8).
 pub const BLENDED_BINDINGS: PassBindings = PassBindings {
     entry: "blended.wgsl",
     source: file!(),
@@ -102,13 +110,13 @@ pub const REVEALAGE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;
 
 /// The blended path's passes and resources.
 pub struct BlendedPath {
-    /// The blended depth buffer (tests read it back).
-    pub depth_texture: wgpu::Texture,
-    /// The nearest blended depth per sample (0 where none).
-    pub depth_view: wgpu::TextureView,
-    depth_pass: DepthPrepass,
-    /// The blended geometry's culling and light grid (tiled methods).
+    /// The blended depth (none when frustum clusters serve the blended geometry).
+    pub depth: Option<BlendedDepth>,
+    /// The blended geometry's culling and light grid (tiled methods, unless frustum
+    /// clusters serve it).
     pub culling: Option<LightCulling>,
+    /// The blended shading reads the frame's clustered grid (rebound when it grows).
+    reads_frame_grid: bool,
     pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
     lights_group: LightsGroup,
     empty_group: Option<wgpu::BindGroup>,
@@ -131,6 +139,15 @@ pub struct BlendedPath {
     pub memory: MemoryReport,
 }
 
+/// The blended geometry's own depth buffer and the pass drawing it (step 1).
+pub struct BlendedDepth {
+    /// The blended depth buffer (tests read it back).
+    pub texture: wgpu::Texture,
+    /// The nearest blended depth per sample (0 where none).
+    pub view: wgpu::TextureView,
+    pass: DepthPrepass,
+}
+
 /// What the blended path reads from the frame.
 pub struct BlendedInputs<'a> {
     /// The views (group 0).
@@ -147,6 +164,9 @@ pub struct BlendedInputs<'a> {
     pub opaque_depth: &'a wgpu::TextureView,
     /// The shadow atlas, when lights cast shadows.
     pub shadows: Option<&'a ShadowAtlas>,
+    /// The frame's light grid, read instead of lists of its own when it is frustum
+    /// clusters ([`Features::frustum_clusters`]).
+    pub frame_grid: Option<&'a LightGrid>,
 }
 
 impl BlendedPath {
@@ -175,9 +195,25 @@ impl BlendedPath {
         }
     }
 
+    /// Rebinds the frame's clustered grid after it grew (nothing when the path has lists of
+    /// its own).
+    pub fn frame_grid_grew(&mut self, device: &wgpu::Device, grid: &LightGrid) {
+        if self.reads_frame_grid {
+            self.lights_group.rebind(device, grid);
+        }
+    }
+
     /// Builds the blended path for `inp` (the features must have blended kinds).
     pub fn new(device: &wgpu::Device, inp: BlendedInputs<'_>) -> Result<Self, GpuError> {
-        let BlendedInputs { views, scene, lights, features, cull: (grid, options), opaque_depth, shadows } = inp;
+        let BlendedInputs { views, scene, lights, features, cull: (grid, options), opaque_depth, shadows, frame_grid } =
+            inp;
+        let frame_grid = match (features.frustum_clusters, frame_grid) {
+            (false, _) => None,
+            (true, Some(g)) => Some(g),
+            (true, None) => {
+                return Err(GpuError::Config("blended geometry over frustum clusters needs the frame's grid".into()))
+            }
+        };
         if !features.blended() {
             return Err(GpuError::Config("the blended path needs blended geometry".into()));
         }
@@ -187,21 +223,29 @@ impl BlendedPath {
         // COPY_SRC (single-sampled only: a multisampled texture cannot be copied): tests read
         // it back.
         let copy = if samples == 1 { U::COPY_SRC } else { U::empty() };
-        let depth_texture = texture_2d_msaa(
-            device,
-            "blended.depth",
-            size,
-            DEPTH_FORMAT,
-            samples,
-            U::RENDER_ATTACHMENT | U::TEXTURE_BINDING | copy,
-        );
-        let depth_view = depth_texture
-            .create_view(&wgpu::TextureViewDescriptor { label: Some("blended.depth.view"), ..Default::default() });
-        let target = DepthTarget { label: "blended.depth", format: DEPTH_FORMAT, samples };
-        let depth_pass = DepthPrepass::for_kinds(device, views, scene, (features, &features.blended_kinds), target)?;
-        let culling = match features.method {
-            Method::BruteForce { .. } => None,
-            _ => Some(LightCulling::blended(device, views, (opaque_depth, &depth_view), lights, grid, options)?),
+        let depth = match frame_grid {
+            Some(_) => None,
+            None => {
+                let texture = texture_2d_msaa(
+                    device,
+                    "blended.depth",
+                    size,
+                    DEPTH_FORMAT,
+                    samples,
+                    U::RENDER_ATTACHMENT | U::TEXTURE_BINDING | copy,
+                );
+                let view = texture.create_view(&wgpu::TextureViewDescriptor {
+                    label: Some("blended.depth.view"),
+                    ..Default::default()
+                });
+                let target = DepthTarget { label: "blended.depth", format: DEPTH_FORMAT, samples };
+                let pass = DepthPrepass::for_kinds(device, views, scene, (features, &features.blended_kinds), target)?;
+                Some(BlendedDepth { texture, view, pass })
+            }
+        };
+        let culling = match (features.method, &depth) {
+            (Method::BruteForce { .. }, _) | (_, None) => None,
+            (_, Some(d)) => Some(LightCulling::blended(device, views, (opaque_depth, &d.view), lights, grid, options)?),
         };
         // Shading pipelines.
         let mut defines = features.light_defines();
@@ -212,6 +256,9 @@ impl BlendedPath {
         if wboit {
             defines.push("WBOIT");
         }
+        if frame_grid.is_some() {
+            defines.push("CLUSTERED");
+        }
         if let Method::BruteForce { cutoff } = features.method {
             defines.push("BRUTE_FORCE");
             if !cutoff {
@@ -219,7 +266,7 @@ impl BlendedPath {
             }
         }
         let lights_layout = create_layout(device, "blended.lights_layout", BLENDED_BINDINGS.group(3), &defines);
-        let grid = culling.as_ref().map(|c| (&c.grid, false));
+        let grid = culling.as_ref().map(|c| &c.grid).or(frame_grid).map(|g| (g, false));
         let lights_group =
             LightsGroup::new(device, (lights_layout, "blended.lights"), lights, features.spot_lights, shadows, grid);
         let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -345,7 +392,9 @@ impl BlendedPath {
             .collect::<Vec<_>>();
         let mut memory = MemoryReport::default();
         let px = size.0 as u64 * size.1 as u64;
-        memory.add("blended.depth", px * samples as u64 * 4);
+        if depth.is_some() {
+            memory.add("blended.depth", px * samples as u64 * 4);
+        }
         let with_msaa = if samples > 1 { 1 + samples as u64 } else { 1 };
         memory.add("blended.layer", px * 8 * with_msaa);
         if wboit {
@@ -356,9 +405,8 @@ impl BlendedPath {
         }
         let order = Mutex::new(Vec::with_capacity(instances.len()));
         Ok(Self {
-            depth_texture,
-            depth_view,
-            depth_pass,
+            reads_frame_grid: frame_grid.is_some(),
+            depth,
             culling,
             pipelines,
             lights_group,
@@ -376,7 +424,8 @@ impl BlendedPath {
         })
     }
 
-    /// Step 1: the blended depth of view slot `view`.
+    /// Step 1: the blended depth of view slot `view` (nothing when frustum clusters serve
+    /// the blended geometry: the plan has no such step then).
     pub fn record_depth(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -384,13 +433,14 @@ impl BlendedPath {
         view: (&Views, u32),
         scene: &SceneGpu,
     ) {
+        let Some(depth) = &self.depth else { return };
         let t = timer.begin("blended.depth", encoder);
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("blended.depth"),
                 color_attachments: &[],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &self.depth_view,
+                    view: &depth.view,
                     depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
                     stencil_ops: None,
                 }),
@@ -398,7 +448,7 @@ impl BlendedPath {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            self.depth_pass.draw(&mut pass, view, scene, None);
+            depth.pass.draw(&mut pass, view, scene, None);
         }
         timer.end(encoder, t);
     }

@@ -109,6 +109,11 @@ pub struct Features {
     /// Shadow casters, when some light casts a shadow (None: no atlas, no shadow pass, no
     /// shadow variant).
     pub shadows: Option<Shadows>,
+    /// The light grid is clusters of the whole frustum (tiled methods, clustered layout
+    /// without the geometry-only option): its lists hold every light of every cluster,
+    /// surfaces or not, so blended geometry reads them and needs no depth or lists of its
+    /// own.
+    pub frustum_clusters: bool,
 }
 
 impl Features {
@@ -140,6 +145,7 @@ impl Features {
             aabb: tiled && cull.aabb,
             extra_targets: if method == Method::TiledDeferred { gbuffer_rts.saturating_sub(2) } else { 0 },
             shadows: (points + spots > 0).then_some(Shadows { points, spots, options: shadow }),
+            frustum_clusters: tiled && cull.clusters.is_some_and(|c| !c.geometry_only),
         }
     }
 

@@ -133,6 +133,7 @@ impl FrameCommon {
         scene: &SceneGpu,
         lights: &LightBuffers,
         cull: crate::light_cull::CullOptions,
+        frame_grid: Option<&crate::light_grid::LightGrid>,
     ) -> Result<Option<crate::blended::BlendedPath>, GpuError> {
         if !self.features.blended() {
             return Ok(None);
@@ -145,6 +146,7 @@ impl FrameCommon {
             cull: (self.grid, cull),
             opaque_depth: &self.targets.depth_view,
             shadows: self.shadows.as_ref(),
+            frame_grid,
         };
         crate::blended::BlendedPath::new(device, inputs).map(Some)
     }

@@ -90,10 +90,13 @@ impl FramePlan {
             }
         }
         // Blended geometry, over the opaque image, both methods alike.
+        // Frustum clusters already list every light a blended surface can see.
         if features.blended() {
-            steps.push(Step::BlendedDepth);
-            if features.method.is_tiled() {
-                steps.push(Step::BlendedCull);
+            if !features.frustum_clusters {
+                steps.push(Step::BlendedDepth);
+                if features.method.is_tiled() {
+                    steps.push(Step::BlendedCull);
+                }
             }
             steps.push(Step::BlendedShade);
         }
@@ -134,6 +137,7 @@ mod tests {
             aabb: false,
             extra_targets: 0,
             blended_kinds: vec![],
+            frustum_clusters: false,
             blend_mode: Default::default(),
             shadows: None,
         }
@@ -169,6 +173,11 @@ mod tests {
             blended(Method::BruteForce { cutoff: true }),
             [DepthPrepass, BruteForceShade, BlendedDepth, BlendedShade, Tonemap]
         );
+        // Frustum clusters serve blended geometry: no blended depth or lists.
+        let mut f = features(Method::ForwardPlus, 1);
+        f.blended_kinds = vec![DrawKind { masked: false, double_sided: true, blended: true }];
+        f.frustum_clusters = true;
+        assert_eq!(FramePlan::new(&f).steps(), [DepthPrepass, Cull, ForwardShade, BlendedShade, Tonemap, Heatmap]);
         assert!(!FramePlan::new(&features(Method::ForwardPlus, 1)).has(BlendedDepth));
     }
 

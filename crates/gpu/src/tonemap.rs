@@ -293,7 +293,10 @@ impl HeatmapPass {
     pub fn set_of(&self, of: HeatmapOf) -> Result<(), GpuError> {
         if of == HeatmapOf::Blended && self.blended_group.is_none() {
             return Err(GpuError::Config(
-                "the heat map of the blended lists needs alpha-blended geometry, and this scene has none".into(),
+                "the heat map of the blended lists needs blended lists of their own: this scene has no \
+                 alpha-blended geometry, or frustum clusters (--grid clustered without \
+                 --cluster-geometry-only) serve it, and the plain heat map shows those clusters"
+                    .into(),
             ));
         }
         self.blended.store(of == HeatmapOf::Blended, Ordering::Relaxed);

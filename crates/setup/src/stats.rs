@@ -192,12 +192,14 @@ pub fn blended_stats(ctx: &GpuContext, renderer: &dyn Renderer) -> Result<Option
     let Some(b) = renderer.blended() else {
         return Ok(None);
     };
-    let culling = match &b.culling {
-        None => None,
-        Some(c) => {
+    // Without lists of its own (brute force, or frustum clusters serving it) the blended
+    // geometry has no statistics of its own.
+    let culling = match (&b.culling, &b.depth) {
+        (None, _) | (_, None) => None,
+        (Some(c), Some(d)) => {
             let opaque = renderer.read_depth(ctx).context("reading the depth buffer back")?;
-            let blended = read_depth(&ctx.device, &ctx.queue, &b.depth_texture)
-                .context("reading the blended depth buffer back")?;
+            let blended =
+                read_depth(&ctx.device, &ctx.queue, &d.texture).context("reading the blended depth buffer back")?;
             let tested = depth_tested_blended(&opaque, &blended);
             let depth = (tested.as_slice(), renderer.targets().samples);
             Some(grid_stats(ctx, &c.grid, renderer.grid(), depth, &c.options)?)
