@@ -9,8 +9,13 @@ struct Tonemap {
     _pad2: f32,
 }
 
+// With AUTO_EXPOSURE the exposure is exposure.wgsl's, computed from this frame's image.
+// variants: AUTO_EXPOSURE
 @group(0) @binding(0) var hdr: texture_2d<f32>;
 @group(0) @binding(1) var<uniform> params: Tonemap;
+#ifdef AUTO_EXPOSURE
+@group(0) @binding(2) var<storage, read> auto_exposure: array<f32>;
+#endif
 
 @vertex
 fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
@@ -30,5 +35,10 @@ fn aces(x: vec3<f32>) -> vec3<f32> {
 @fragment
 fn fs_tonemap(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
     let c = textureLoad(hdr, vec2<i32>(pos.xy), 0).rgb;
-    return vec4<f32>(aces(c * params.exposure), 1.0);
+#ifdef AUTO_EXPOSURE
+    let e = auto_exposure[0];
+#else
+    let e = params.exposure;
+#endif
+    return vec4<f32>(aces(c * e), 1.0);
 }

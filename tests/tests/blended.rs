@@ -460,7 +460,8 @@ fn blended_heat_map_colours_exactly_the_tiles_with_blended_lights() {
 
     // No blended geometry: no blended lists to show, a clear error (no panic).
     let plain = SceneGpu::new(&ctx.device, &ctx.queue, &pane_scene(true, &[])).unwrap();
-    let want = "the heat map of the blended lists needs blended lists of their own: this scene has no alpha-blended geometry";
+    let want =
+        "the heat map of the blended lists needs blended lists of their own: this scene has no alpha-blended geometry";
     let s = ForwardSettings { heatmap: true, heatmap_of: of, ..Default::default() };
     let e = ForwardRenderer::new(ctx, &plain, &lights, W, H, s).err().expect("forward: an error").to_string();
     assert!(e.contains(want), "{e}");

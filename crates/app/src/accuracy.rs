@@ -138,6 +138,9 @@ pub fn header(axes: &[Axis]) -> Vec<String> {
 
 /// The brute-force, no-cutoff image of one scene, light set and screen.
 struct Reference {
+    /// The automatic exposure the reference got (None: the exposure is fixed); every
+    /// setting compared with it is tonemapped with it.
+    exposure: Option<f32>,
     hdr: Vec<[f32; 4]>,
     ldr: Vec<u8>,
     total_ms: f64,
@@ -230,7 +233,8 @@ fn render_reference(
     let (total_ms, passes) = pass_times(&m)?;
     let hdr = r.read_hdr(&prep.ctx).context("reading the reference back")?;
     let ldr = r.read_ldr(&prep.ctx).context("reading the reference back")?;
-    Ok(Reference { hdr, ldr, total_ms, passes })
+    let exposure = r.auto_exposure(&prep.ctx).context("reading the reference's exposure back")?;
+    Ok(Reference { exposure, hdr, ldr, total_ms, passes })
 }
 
 /// Culling quality of the frame just rendered: the CPU reference culler's lists for the
@@ -342,6 +346,16 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
             references.insert(rkey.clone(), r);
         }
         let reference = &references[&rkey];
+        // Every setting is tonemapped with the reference's exposure, so FLIP compares images,
+        // not exposures.
+        let fixed;
+        let pargs = match reference.exposure {
+            Some(exposure) => {
+                fixed = Settings { auto_exposure: false, exposure, ..pargs.clone() };
+                &fixed
+            }
+            None => pargs,
+        };
         p.reconfigure(pargs).with_context(|| what.clone())?;
         let mut renderer = p.renderer(false).with_context(|| what.clone())?;
         let m = bench::measure(p, renderer.as_mut(), args.warmup, args.frames).with_context(|| what.clone())?;

@@ -113,10 +113,18 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let blended = prep.blended_stats(renderer.as_ref())?;
     let edges = renderer.edge_pixels(&prep.ctx).context("reading the MSAA edge count back")?;
     let note = write_image(&prep, renderer.as_ref(), heatmap.is_some(), &out)?;
+    let exposure = renderer.auto_exposure(&prep.ctx).context("reading the exposure back")?;
     prep.check_gpu_errors()?;
 
     for (k, v) in prep.describe() {
         println!("{:<11} {v}", format!("{k}:"));
+    }
+    match exposure {
+        Some(e) => println!(
+            "exposure:   {e:.4}, automatic (the last frame's log-average luminance mapped to {}; --exposure fixes it)",
+            tiledlight_cull::exposure::AUTO_EXPOSURE_KEY
+        ),
+        None => println!("exposure:   {:.4}, fixed", prep.settings.exposure),
     }
     print!("{}", last_frame_times(&m));
     if let Some(s) = stats {

@@ -322,8 +322,9 @@ pub struct SceneArgs {
     /// from sample 0's makes the pixel an edge.
     #[arg(long, default_value_t = EdgeTest::default().normal_deg, value_name = "DEG")]
     pub edge_normal_deg: f32,
-    /// Exposure before tonemapping [default: 1; with lights on surfaces, the one that maps
-    /// their expected mean radiance (from k and the threshold) to middle grey].
+    /// A fixed exposure before tonemapping [default: automatic, from each frame's
+    /// log-average luminance, mapped to middle grey; `accuracy` and `shadow-accuracy` fix
+    /// the one their reference image gets, so every setting is tonemapped alike].
     #[arg(long, value_name = "E")]
     pub exposure: Option<f32>,
     /// Shadow-casting point lights: the N brightest point lights cast shadows (six cube
@@ -423,6 +424,7 @@ impl SceneArgs {
             placement,
             seed: self.seed,
             threshold: self.threshold,
+            auto_exposure: self.exposure.is_none(),
             grid_objects: self.grid_objects,
             density: self.density.into(),
             transparent_objects: self.transparent_objects,
@@ -522,7 +524,9 @@ mod tests {
     #[test]
     fn defaults_are_the_library_defaults() {
         assert_eq!(parse(&[]), SceneArgs::default());
-        assert_eq!(SceneArgs::default().settings().unwrap(), Settings::default());
+        // But the exposure: automatic on the command line unless given, fixed in the library
+        // (images compared across renderers need one exposure).
+        assert_eq!(SceneArgs::default().settings().unwrap(), Settings { auto_exposure: true, ..Settings::default() });
     }
 
     #[test]
@@ -609,6 +613,7 @@ mod tests {
             edge_distance: 0.25,
             edge_normal_deg: 30.0,
             exposure: 2.0,
+            auto_exposure: false,
             shadow_point_lights: 2,
             shadow_spot_lights: 1,
             shadow_size: 512,

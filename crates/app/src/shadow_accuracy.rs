@@ -512,8 +512,16 @@ pub fn run(args: &ShadowAccuracyArgs) -> Result<()> {
     );
     println!("resolution: {w}x{h}, brute force with the radius cutoff");
 
-    let base = ForwardSettings { ambient: Vec3::ZERO, ..a.forward_settings(false) };
+    // One fixed exposure for every configuration (the CPU tonemap below checks the GPU's):
+    // with automatic exposure, the one the reference image gets.
+    let mut base = ForwardSettings { ambient: Vec3::ZERO, auto_exposure: false, ..a.forward_settings(false) };
     let reference = reference(&prep, &casters, &tris, &base, args.ray_offset, threads)?;
+    let exposure = if a.auto_exposure {
+        tiledlight_cull::exposure::auto_exposure(reference.hdr.as_flattened())
+    } else {
+        a.exposure
+    };
+    base.exposure = exposure;
     let n = (w * h) as usize;
     let scored_pixels = reference.scored.iter().filter(|s| **s).count();
     let shadowed_share = if reference.unshadowed > 0.0 { 1.0 - reference.lit / reference.unshadowed } else { f64::NAN };
@@ -556,12 +564,12 @@ pub fn run(args: &ShadowAccuracyArgs) -> Result<()> {
         }
         let (vis, lost, leaked) = visibility_error(&rhdr, &s, &reference.scored);
         let e = HdrError::of(&rhdr, &s);
-        let (rl, sl) = (tonemap(&rhdr, a.exposure), tonemap(&s, a.exposure));
+        let (rl, sl) = (tonemap(&rhdr, exposure), tonemap(&s, exposure));
         let step = sl.iter().zip(&gpu_ldr).map(|(x, y)| x.abs_diff(*y)).max().unwrap_or(0);
         let map = flip(w, h, &rl, &sl);
         let fl = map.summary(PERCENTILE);
         heat.push(map.heat_rgb());
-        misplaced.push(misplaced_rgb(&rhdr, &s, a.exposure));
+        misplaced.push(misplaced_rgb(&rhdr, &s, exposure));
         if ci == 0 {
             ref_ldr = rl;
         }
@@ -625,7 +633,7 @@ pub fn run(args: &ShadowAccuracyArgs) -> Result<()> {
             scene_spot_lights: scene_spots,
             seed: a.seed,
             threshold: a.threshold,
-            exposure: a.exposure,
+            exposure,
             method: Method::BruteForce.name(),
             ambient: 0.0,
             ray_offset: args.ray_offset,

@@ -304,7 +304,8 @@ fn deferred_renders_and_benches() {
     gpu_run(&bench);
     let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let passes: Vec<&str> = v["passes"].as_array().unwrap().iter().map(|p| p["pass"].as_str().unwrap()).collect();
-    assert_eq!(passes, ["deferred.gbuffer", "deferred.cull_cells", "deferred.shade", "tonemap"]);
+    // The command line's exposure is automatic: its pass runs before the tonemap.
+    assert_eq!(passes, ["deferred.gbuffer", "deferred.cull_cells", "deferred.shade", "exposure", "tonemap"]);
 }
 
 /// Zero lights is a valid frame (ambient only), not an error.

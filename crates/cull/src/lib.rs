@@ -23,6 +23,7 @@ pub mod camera;
 pub mod cluster;
 pub mod depth_mask;
 pub mod estimate;
+pub mod exposure;
 pub mod grid;
 pub mod raycast;
 pub mod reference;

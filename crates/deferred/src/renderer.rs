@@ -41,6 +41,9 @@ pub struct DeferredSettings {
     pub gbuffer_rts: u32,
     /// Exposure before tonemapping.
     pub exposure: f32,
+    /// Compute the exposure from each frame's image instead (`exposure` unused; default
+    /// off: images compared across renderers need one fixed exposure).
+    pub auto_exposure: bool,
     /// Ambient radiance (times albedo).
     pub ambient: Vec3,
     /// Draw the lights-per-tile heat map over the image.
@@ -75,6 +78,7 @@ impl Default for DeferredSettings {
             cull: CullOptions::default(),
             gbuffer_rts: 2,
             exposure: 1.0,
+            auto_exposure: false,
             ambient: Vec3::splat(0.02),
             heatmap: false,
             heatmap_of: HeatmapOf::Opaque,
@@ -146,6 +150,7 @@ impl DeferredRenderer {
                 msaa_formats: &formats,
                 hdr_usage,
                 exposure: settings.exposure,
+                auto_exposure: settings.auto_exposure,
                 ambient: settings.ambient,
             },
         )?;
@@ -269,6 +274,9 @@ impl Renderer for DeferredRenderer {
     }
     fn set_exposure(&self, queue: &wgpu::Queue, exposure: f32) -> Result<(), GpuError> {
         self.common.tonemap.set_exposure(queue, exposure)
+    }
+    fn auto_exposure(&self, ctx: &GpuContext) -> Result<Option<f32>, GpuError> {
+        self.common.tonemap.read_exposure(&ctx.device, &ctx.queue)
     }
     fn heatmap(&self) -> Option<&HeatmapPass> {
         Some(&self.heatmap)

@@ -53,6 +53,9 @@ pub struct ForwardSettings {
     pub cull: CullOptions,
     /// Exposure before tonemapping.
     pub exposure: f32,
+    /// Compute the exposure from each frame's image instead (`exposure` unused; default
+    /// off: images compared across renderers need one fixed exposure).
+    pub auto_exposure: bool,
     /// Ambient radiance (times base colour), so unlit areas are not black.
     pub ambient: Vec3,
     /// Draw the lights-per-tile heat map over the image (Forward+ only).
@@ -80,6 +83,7 @@ impl Default for ForwardSettings {
             method: Method::ForwardPlus,
             cull: CullOptions::default(),
             exposure: 1.0,
+            auto_exposure: false,
             ambient: Vec3::splat(0.02),
             heatmap: false,
             heatmap_of: HeatmapOf::Opaque,
@@ -160,6 +164,7 @@ impl ForwardRenderer {
                 msaa_formats: &[DEPTH_FORMAT, HDR_FORMAT],
                 hdr_usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
                 exposure: settings.exposure,
+                auto_exposure: settings.auto_exposure,
                 ambient: settings.ambient,
             },
         )?;
@@ -316,6 +321,9 @@ impl Renderer for ForwardRenderer {
     }
     fn set_exposure(&self, queue: &wgpu::Queue, exposure: f32) -> Result<(), GpuError> {
         self.common.tonemap.set_exposure(queue, exposure)
+    }
+    fn auto_exposure(&self, ctx: &GpuContext) -> Result<Option<f32>, GpuError> {
+        self.common.tonemap.read_exposure(&ctx.device, &ctx.queue)
     }
     fn heatmap(&self) -> Option<&HeatmapPass> {
         self.heatmap.as_ref()

@@ -36,6 +36,8 @@ pub struct CommonSettings<'a> {
     pub hdr_usage: wgpu::TextureUsages,
     /// Exposure before tonemapping.
     pub exposure: f32,
+    /// The exposure is computed from each frame's image (`exposure` unused).
+    pub auto_exposure: bool,
     /// Ambient radiance (times base colour).
     pub ambient: Vec3,
 }
@@ -113,7 +115,7 @@ impl FrameCommon {
         }
         let lighting = LightBuffers::upload_lighting(device, &lighting_u);
         let targets = DisplayTargets::new(device, s.prefix, s.size, features.msaa, s.hdr_usage);
-        let tonemap = TonemapPass::new(device, &targets.hdr_view, s.exposure)?;
+        let tonemap = TonemapPass::new(device, &targets.hdr_view, s.size, (s.exposure, s.auto_exposure))?;
         let mut memory = MemoryReport::default();
         memory.extend(&scene.memory);
         memory.extend(&lights.memory);

@@ -48,6 +48,7 @@ pub fn binding_declarations() -> Vec<bindings::PassBindings> {
         light_assign::ASSIGN_BINDINGS,
         tonemap::TONEMAP_BINDINGS,
         tonemap::HEATMAP_BINDINGS,
+        tonemap::EXPOSURE_BINDINGS,
         blended::BLENDED_BINDINGS,
         blended::COMPOSITE_BINDINGS,
     ]

@@ -147,6 +147,9 @@ pub trait Renderer {
     );
     /// Sets the exposure of the next frames (the tonemap's own uniform: nothing is rebuilt).
     fn set_exposure(&self, queue: &wgpu::Queue, exposure: f32) -> Result<(), GpuError>;
+    /// The automatic exposure the last finished frame used (a read-back that waits for the
+    /// GPU); None when the exposure is fixed.
+    fn auto_exposure(&self, ctx: &GpuContext) -> Result<Option<f32>, GpuError>;
     /// The heat map pass (tiled methods): switch it with `HeatmapPass::set_enabled`
     /// between frames, nothing is rebuilt.
     fn heatmap(&self) -> Option<&HeatmapPass> {

@@ -1,5 +1,6 @@
 //! Display passes shared by both methods: tonemapping of the linear HDR image into an
-//! sRGB target, and the lights-per-tile heat map blended over it (of the opaque light grid,
+//! sRGB target (with a fixed exposure, or one computed from the frame's own image:
+//! [`AutoExposure`]), and the lights-per-tile heat map blended over it (of the opaque light grid,
 //! or of the blended geometry's own). Neither reads a view: the tonemap has its own
 //! parameters, the heat map a light grid. Bind groups are made
 //! once per target set, never per frame. Depends on wgpu and the rest of this crate's
@@ -12,7 +13,7 @@ use bytemuck::{Pod, Zeroable};
 use crate::bindings::{create_layout, Binding, PassBindings, PassGroup};
 use crate::error::GpuError;
 use crate::timer::GpuTimer;
-use crate::util::{buffer_init, pipeline_layout, shader_module};
+use crate::util::{buffer_init, buffer_zeroed, compute_pipeline_at, pipeline_layout, shader_module};
 
 /// Format of the HDR lighting target.
 pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
@@ -123,7 +124,7 @@ pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
 }
 
 /// The bindings of [`TonemapPass`] (`shaders/tonemap.wgsl`): group 0, the HDR image (0)
-/// and the parameters (1).
+/// and the parameters (1), with `AUTO_EXPOSURE` the computed exposure (2).
 pub const TONEMAP_BINDINGS: PassBindings = PassBindings {
     entry: "tonemap.wgsl",
     source: file!(),
@@ -132,9 +133,89 @@ pub const TONEMAP_BINDINGS: PassBindings = PassBindings {
         &[
             Binding::texture(0, wgpu::ShaderStages::FRAGMENT, wgpu::TextureSampleType::Float { filterable: false }),
             Binding::uniform(1, wgpu::ShaderStages::FRAGMENT),
+            Binding::storage(2, wgpu::ShaderStages::FRAGMENT).when(crate::bindings::Cond::Defined("AUTO_EXPOSURE")),
         ],
     )],
 };
+
+/// The bindings of [`AutoExposure`] (`shaders/exposure.wgsl`): the HDR image (0), the
+/// per-workgroup sums (1) and the exposure (2).
+pub const EXPOSURE_BINDINGS: PassBindings = PassBindings {
+    entry: "exposure.wgsl",
+    source: file!(),
+    groups: &[PassGroup::new(
+        0,
+        &[
+            Binding::texture(0, wgpu::ShaderStages::COMPUTE, wgpu::TextureSampleType::Float { filterable: false }),
+            Binding::storage_rw(1, wgpu::ShaderStages::COMPUTE),
+            Binding::storage_rw(2, wgpu::ShaderStages::COMPUTE),
+        ],
+    )],
+};
+
+/// Automatic exposure (`shaders/exposure.wgsl`; CPU twin
+/// `tiledlight_cull::exposure::auto_exposure`): two compute dispatches before the tonemap,
+/// a workgroup per 16 x 16 pixels summing log2 luminance, then one workgroup turning the
+/// sums into the exposure the tonemap reads. Exists only when the exposure is automatic.
+pub struct AutoExposure {
+    reduce: wgpu::ComputePipeline,
+    finish: wgpu::ComputePipeline,
+    group: wgpu::BindGroup,
+    groups: (u32, u32),
+    /// The exposure (one f32) the tonemap reads; COPY_SRC for [`TonemapPass::read_exposure`].
+    exposure: wgpu::Buffer,
+}
+
+impl AutoExposure {
+    fn new(device: &wgpu::Device, hdr: &wgpu::TextureView, size: (u32, u32)) -> Result<Self, GpuError> {
+        use tiledlight_cull::exposure::{AUTO_EXPOSURE_KEY, MAX_EXPOSURE, MIN_LUMINANCE};
+        let groups = (size.0.div_ceil(16), size.1.div_ceil(16));
+        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        let partials = buffer_zeroed(device, "exposure.partials", u64::from(groups.0 * groups.1) * 8, usage);
+        let exposure = buffer_zeroed(device, "exposure.value", 4, usage);
+        let layout = create_layout(device, "exposure.layout", EXPOSURE_BINDINGS.group(0), &[]);
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("exposure.bind_group"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(hdr) },
+                wgpu::BindGroupEntry { binding: 1, resource: partials.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: exposure.as_entire_binding() },
+            ],
+        });
+        let module = shader_module(device, EXPOSURE_BINDINGS.entry, &[])?;
+        let constants = [
+            ("KEY", f64::from(AUTO_EXPOSURE_KEY)),
+            ("MIN_LUMINANCE", f64::from(MIN_LUMINANCE)),
+            ("MAX_EXPOSURE", f64::from(MAX_EXPOSURE)),
+        ];
+        let pipeline =
+            |label: &str, entry: &str| compute_pipeline_at(device, (label, entry), &[&layout], &module, &constants);
+        Ok(Self {
+            reduce: pipeline("exposure.reduce", "reduce"),
+            finish: pipeline("exposure.finish", "finish"),
+            group,
+            groups,
+            exposure,
+        })
+    }
+
+    fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer) {
+        let t = timer.begin("exposure", encoder);
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("exposure"),
+                timestamp_writes: t.compute_writes(),
+            });
+            pass.set_bind_group(0, &self.group, &[]);
+            pass.set_pipeline(&self.reduce);
+            pass.dispatch_workgroups(self.groups.0, self.groups.1, 1);
+            pass.set_pipeline(&self.finish);
+            pass.dispatch_workgroups(1, 1, 1);
+        }
+        timer.end(encoder, t);
+    }
+}
 
 /// The bindings of [`HeatmapPass`] (`shaders/heatmap.wgsl`): group 0, the light grid (0).
 pub const HEATMAP_BINDINGS: PassBindings = PassBindings {
@@ -149,13 +230,24 @@ pub struct TonemapPass {
     pipeline: wgpu::RenderPipeline,
     params: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
+    /// The automatic exposure, when the exposure is not fixed.
+    auto: Option<AutoExposure>,
 }
 
 impl TonemapPass {
-    /// Builds the pipeline and the bind group reading `hdr`.
-    pub fn new(device: &wgpu::Device, hdr: &wgpu::TextureView, exposure: f32) -> Result<Self, GpuError> {
+    /// Builds the pipeline and the bind group reading `hdr` (`size` pixels), with the fixed
+    /// `exposure`, or with `auto` the exposure computed from each frame's image (`exposure`
+    /// is then only checked and kept).
+    pub fn new(
+        device: &wgpu::Device,
+        hdr: &wgpu::TextureView,
+        size: (u32, u32),
+        (exposure, auto): (f32, bool),
+    ) -> Result<Self, GpuError> {
         check_exposure(exposure)?;
-        let layout = create_layout(device, "tonemap.layout", TONEMAP_BINDINGS.group(0), &[]);
+        let auto = auto.then(|| AutoExposure::new(device, hdr, size)).transpose()?;
+        let defines: &[&str] = if auto.is_some() { &["AUTO_EXPOSURE"] } else { &[] };
+        let layout = create_layout(device, "tonemap.layout", TONEMAP_BINDINGS.group(0), defines);
         let u = TonemapUniforms { exposure, ..Default::default() };
         let params = buffer_init(
             device,
@@ -169,15 +261,32 @@ impl TonemapPass {
             entries: &[
                 wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(hdr) },
                 wgpu::BindGroupEntry { binding: 1, resource: params.as_entire_binding() },
-            ],
+            ]
+            .into_iter()
+            .chain(auto.as_ref().map(|a| wgpu::BindGroupEntry { binding: 2, resource: a.exposure.as_entire_binding() }))
+            .collect::<Vec<_>>(),
         });
-        let module = shader_module(device, TONEMAP_BINDINGS.entry, &[])?;
+        let module = shader_module(device, TONEMAP_BINDINGS.entry, defines)?;
         let pl = pipeline_layout(device, "tonemap.pipeline_layout", &[&layout]);
         Ok(Self {
             pipeline: fullscreen_pipeline(device, "tonemap", &module, "fs_tonemap", &pl, None),
             params,
             bind_group,
+            auto,
         })
+    }
+
+    /// Whether the exposure is computed from each frame's image.
+    pub fn is_auto(&self) -> bool {
+        self.auto.is_some()
+    }
+
+    /// The exposure the last finished frame used when it is automatic (a read-back that
+    /// waits for the GPU: for reports and tests, not per frame); None when fixed.
+    pub fn read_exposure(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Option<f32>, GpuError> {
+        let Some(a) = &self.auto else { return Ok(None) };
+        let v: Vec<f32> = crate::readback::read_buffer_range(device, queue, &a.exposure, 0, 4)?;
+        Ok(v.first().copied())
     }
 
     /// Sets the exposure of the next frames (a positive finite number).
@@ -187,8 +296,12 @@ impl TonemapPass {
         Ok(())
     }
 
-    /// Writes the tonemapped image to `target`.
+    /// Writes the tonemapped image to `target` (after computing the exposure, when it is
+    /// automatic).
     pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, target: &wgpu::TextureView) {
+        if let Some(a) = &self.auto {
+            a.record(encoder, timer);
+        }
         fullscreen_pass(
             encoder,
             timer,

@@ -348,9 +348,10 @@ impl Prepared {
         let l = &self.light_summary;
         let mut lights = format!("{} point, {} spot", l.point, l.spot);
         if let Some(p) = &self.surface_placement {
+            let exposure = if a.auto_exposure { "automatic".to_string() } else { format!("{:.3}", a.exposure) };
             lights.push_str(&format!(
-                " (point lights: {p}; seed {}, threshold {}, exposure {:.3})",
-                a.seed, a.threshold, a.exposure
+                " (point lights: {p}; seed {}, threshold {}, exposure {exposure})",
+                a.seed, a.threshold
             ));
         }
         match (l.from_file, l.random) {

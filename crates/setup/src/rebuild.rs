@@ -14,6 +14,7 @@
 //! | shadow tile size, filter, format (while some light casts a shadow; unused otherwise) | | | yes |
 //! | blend mode (while the scene may have blended geometry: transparent objects or a glTF file; unused otherwise) | | | yes |
 //! | exposure | | | no: `exposure` (the tonemap pass's uniform is rewritten) |
+//! | automatic exposure on/off | | yes | |
 //!
 //! Pure data: depends on [`crate::settings`] only.
 
@@ -97,11 +98,13 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || a.msaa != b.msaa
         || a.edge_distance != b.edge_distance
         || a.edge_normal_deg != b.edge_normal_deg
+        // Automatic exposure is a pass and a tonemap variant of its own.
+        || a.auto_exposure != b.auto_exposure
         // How shadows are drawn matters only while some light casts one.
         || (b.has_shadows() && a.shadow_options() != b.shadow_options())
         // So does how blended geometry is composited, while there may be some.
         || (b.may_blend() && a.blend_mode != b.blend_mode);
-    Rebuild { reload, camera, renderer, exposure: a.exposure != b.exposure }
+    Rebuild { reload, camera, renderer, exposure: !b.auto_exposure && a.exposure != b.exposure }
 }
 
 #[cfg(test)]
@@ -215,6 +218,8 @@ mod tests {
     fn exposure_rebuilds_nothing() {
         assert_eq!(with(|s| s.exposure = 2.0), Rebuild { exposure: true, ..Rebuild::default() });
         assert!(!with(|s| s.exposure = 2.0).renderer);
+        // Switching automatic exposure on or off rebuilds the renderer (its pass and variant).
+        assert!(with(|s| s.auto_exposure = true).renderer);
     }
 
     #[test]

@@ -236,6 +236,9 @@ pub struct Settings {
     pub edge_normal_deg: f32,
     /// Exposure before tonemapping.
     pub exposure: f32,
+    /// Compute the exposure from each frame's image (log-average luminance;
+    /// `tiledlight_cull::exposure`) instead of using `exposure`.
+    pub auto_exposure: bool,
     /// Shadow-casting point lights: the brightest point lights of the scene (0: no point
     /// light casts a shadow).
     pub shadow_point_lights: u32,
@@ -285,6 +288,7 @@ impl Default for Settings {
             edge_distance: EdgeTest::default().distance,
             edge_normal_deg: EdgeTest::default().normal_deg,
             exposure: 1.0,
+            auto_exposure: false,
             shadow_point_lights: 0,
             shadow_spot_lights: 0,
             shadow_size: ShadowOptions::default().tile_size,
@@ -477,6 +481,7 @@ impl Settings {
             method: self.method.method().unwrap_or(tiledlight_forward::Method::ForwardPlus),
             cull: self.cull_options(),
             exposure: self.exposure,
+            auto_exposure: self.auto_exposure,
             heatmap,
             msaa: self.msaa,
             shadows: self.shadow_options(),
@@ -491,6 +496,7 @@ impl Settings {
             cull: self.cull_options(),
             gbuffer_rts: self.gbuffer_rts,
             exposure: self.exposure,
+            auto_exposure: self.auto_exposure,
             heatmap,
             msaa: self.msaa,
             edge: EdgeTest { distance: self.edge_distance, normal_deg: self.edge_normal_deg },

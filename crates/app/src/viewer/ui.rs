@@ -452,6 +452,11 @@ fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'
         if s.effective_heatmap() {
             legend(ui, info.capacity);
         }
+        ui.checkbox(&mut s.setup.auto_exposure, "automatic exposure")
+            .on_hover_text("from each frame's log-average luminance, mapped to middle grey (a compute pass)");
+        ui.add_enabled_ui(!s.setup.auto_exposure, |ui| {
+            ui.add(egui::Slider::new(&mut s.setup.exposure, 1e-3..=1e3).logarithmic(true).text("exposure"))
+        });
     });
     egui::CollapsingHeader::new("Lights").default_open(true).show(ui, |ui| {
         let (mut points, mut spots) = s.setup.random_light_counts();
