@@ -2,7 +2,20 @@
 //! by a case-insensitive substring of its name from `WGPU_ADAPTER_NAME` (e.g. `llvmpipe`
 //! for lavapipe, `H100`), backends from `WGPU_BACKEND`. Only the features and limits the
 //! renderer needs are requested; timestamp queries are used when the adapter has them.
-//! Depends on wgpu.
+//!
+//! A headless instance on Vulkan is created without the window-system extensions
+//! (`VK_KHR_xlib_surface`, `VK_KHR_xcb_surface`, `VK_KHR_wayland_surface`): with them
+//! enabled, Mesa's implicit device-select layer connects to the Wayland compositor and the
+//! X server to find the display's GPU, and on a machine without `XDG_RUNTIME_DIR` libwayland
+//! prints `error: XDG_RUNTIME_DIR is invalid or not set in the environment.` before every
+//! headless run (see docs/RELIABILITY.md). A headless run never presents, so it needs none.
+//!
+//! Every device gets a device-lost callback ([`GpuContext::device_lost`]): a lost device
+//! ends a run with [`GpuError::DeviceLost`] naming wgpu's reason instead of a cascade of
+//! validation errors about invalid objects. Depends on wgpu (and its hal, for the headless
+//! Vulkan instance).
+
+use std::sync::{Arc, Mutex};
 
 use crate::error::GpuError;
 
@@ -20,6 +33,8 @@ pub struct GpuContext {
     pub info: wgpu::AdapterInfo,
     /// Whether GPU timestamps are available (per-pass timings).
     pub timestamps: bool,
+    /// Set by the device-lost callback: wgpu's reason and message.
+    lost: Arc<Mutex<Option<String>>>,
 }
 
 /// What the caller can ask of the device beyond the defaults.
@@ -39,12 +54,7 @@ fn adapter_name_filter() -> Option<String> {
 impl GpuContext {
     /// A device with no surface, for rendering to textures (tests, `render`, `bench`).
     pub fn headless(options: ContextOptions) -> Result<Self, GpuError> {
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-        if std::env::var("WGPU_BACKEND").is_err() {
-            // Vulkan, Metal and DX12 only: the GL backend lacks compute features we need.
-            desc.backends = wgpu::Backends::PRIMARY;
-        }
-        let instance = wgpu::Instance::new(desc);
+        let instance = headless_instance();
         let adapter = pollster::block_on(select_adapter(&instance, desc_backends()))?;
         Self::with_adapter(instance, adapter, options)
     }
@@ -118,7 +128,27 @@ impl GpuContext {
             trace: wgpu::Trace::Off,
         }))
         .map_err(|e| GpuError::Device { adapter: info.name.clone(), reason: e.to_string() })?;
-        Ok(Self { instance, adapter, device, queue, info, timestamps })
+        let lost = Arc::new(Mutex::new(None));
+        let sink = lost.clone();
+        device.set_device_lost_callback(move |reason, message| {
+            let why = match reason {
+                wgpu::DeviceLostReason::Destroyed => "destroyed by the program".to_string(),
+                wgpu::DeviceLostReason::Unknown => "reason unknown".to_string(),
+            };
+            let text = if message.trim().is_empty() { why } else { format!("{why}: {}", message.trim()) };
+            log::debug!("GPU device lost: {text}");
+            if let Ok(mut l) = sink.lock() {
+                l.get_or_insert(text);
+            }
+        });
+        Ok(Self { instance, adapter, device, queue, info, timestamps, lost })
+    }
+
+    /// [`GpuError::DeviceLost`] once the device was lost (wgpu calls the callback from a
+    /// poll or submit after the loss), else None.
+    pub fn device_lost(&self) -> Option<GpuError> {
+        let reason = self.lost.lock().ok()?.clone()?;
+        Some(GpuError::DeviceLost { reason })
     }
 
     /// One line naming the adapter, backend and driver.
@@ -142,10 +172,71 @@ impl GpuContext {
         let out = f();
         let val = pollster::block_on(scope_val.pop());
         let oom = pollster::block_on(scope_oom.pop());
-        if let Some(e) = val.or(oom) {
+        if let Some(lost) = self.device_lost() {
+            // Every call on a lost device fails validation: the loss is the news.
+            return Err(lost);
+        }
+        if oom.is_some() {
+            return Err(GpuError::OutOfMemory { context: context.to_string() });
+        }
+        if let Some(e) = val {
             return Err(GpuError::Wgpu { context: context.to_string(), message: e.to_string() });
         }
         Ok(out)
+    }
+}
+
+/// Vulkan's window-system instance extensions: a headless instance leaves them out.
+const WINDOW_SYSTEM_EXTENSIONS: [&std::ffi::CStr; 3] =
+    [c"VK_KHR_xlib_surface", c"VK_KHR_xcb_surface", c"VK_KHR_wayland_surface"];
+
+/// The instance of a headless run: `WGPU_BACKEND`'s backends, else Vulkan, Metal and DX12
+/// (the GL backend lacks compute features we need). Vulkan alone on a Unix window system
+/// gets an instance without the window-system extensions (see the module's doc).
+fn headless_instance() -> wgpu::Instance {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    if std::env::var("WGPU_BACKEND").is_err() {
+        desc.backends = wgpu::Backends::PRIMARY;
+    }
+    #[cfg(all(unix, not(target_os = "macos"), not(target_os = "ios"), not(target_os = "android")))]
+    {
+        // On these systems the primary backends compiled in are Vulkan alone; GL (asked for
+        // through WGPU_BACKEND) keeps wgpu's own instance.
+        let others = desc.backends - wgpu::Backends::PRIMARY;
+        if others.is_empty() && desc.backends.contains(wgpu::Backends::VULKAN) {
+            match vulkan_without_window_system(&desc) {
+                Ok(instance) => return instance,
+                Err(e) => log::debug!("headless Vulkan instance: {e}; using wgpu's own"),
+            }
+        }
+    }
+    wgpu::Instance::new(desc)
+}
+
+/// A Vulkan instance as wgpu makes it, minus [`WINDOW_SYSTEM_EXTENSIONS`].
+#[cfg(all(unix, not(target_os = "macos"), not(target_os = "ios"), not(target_os = "android")))]
+fn vulkan_without_window_system(desc: &wgpu::InstanceDescriptor) -> Result<wgpu::Instance, wgpu::hal::InstanceError> {
+    let hal_desc = wgpu::hal::InstanceDescriptor {
+        name: "tiledlight",
+        flags: desc.flags,
+        memory_budget_thresholds: desc.memory_budget_thresholds,
+        backend_options: desc.backend_options.clone(),
+        telemetry: None,
+        display: None,
+    };
+    let drop_wsi: Box<wgpu::hal::vulkan::CreateInstanceCallback<'_>> = Box::new(|args| {
+        args.extensions.retain(|e| !WINDOW_SYSTEM_EXTENSIONS.contains(e));
+    });
+    // SAFETY: the descriptor is wgpu's own for a display-less instance, and the hal
+    // instance is handed to wgpu whole. wgpu-hal asks callbacks not to remove extensions
+    // because it assumes that an available extension is enabled; for these three it uses
+    // them only to create a surface, and each `create_surface_from_*` first checks the
+    // instance's enabled list (so a surface asked of this instance is refused with an
+    // error). Checked against wgpu-hal 30.0.1 (wgpu is pinned in Cargo.toml); a headless
+    // context creates no surface.
+    unsafe {
+        let hal = wgpu::hal::vulkan::Instance::init_with_callback(&hal_desc, Some(drop_wsi))?;
+        Ok(wgpu::Instance::from_hal::<wgpu::hal::api::Vulkan>(hal))
     }
 }
 
