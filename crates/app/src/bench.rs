@@ -237,7 +237,7 @@ pub fn measure_moving(
             m.grid.extend(status);
             m.blended_grid.extend(blended);
         }
-        let step = || -> Result<()> {
+        let mut step = || -> Result<()> {
             if let Some(a) = animator.as_deref_mut() {
                 a.advance(&ctx.queue, &prep.lights, MOVE_STEP_S);
                 renderer.lights_moved(&ctx.queue, a.current()).context("moving the lights' shadows")?;

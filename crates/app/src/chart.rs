@@ -598,6 +598,18 @@ mod tests {
         line_chart(&path, &c).unwrap();
         let img = image::open(&path).unwrap();
         assert_eq!((img.width(), img.height()), SIZE);
+        // The incomplete point is ringed in the ring's red; without it, no such red.
+        let reds = |path: &Path| {
+            let img = image::open(path).unwrap().to_rgb8();
+            img.pixels().filter(|p| p.0 == [INCOMPLETE_RED.0, INCOMPLETE_RED.1, INCOMPLETE_RED.2]).count()
+        };
+        assert!(reds(&path) > 50, "no red ring");
+        let complete = LineChart {
+            series: vec![Series { incomplete: vec![], ..c.series[0].clone() }],
+            ..c.clone()
+        };
+        line_chart(&dir.join("complete.png"), &complete).unwrap();
+        assert_eq!(reds(&dir.join("complete.png")), 0);
         assert!(line_chart(&dir.join("c.svg"), &c).is_err());
         let empty = LineChart { series: vec![], ..c };
         assert!(line_chart(&path, &empty).is_err());
@@ -612,7 +624,7 @@ mod tests {
             note: Some("n".into()),
         };
         pareto_chart(&dir.join("p.png"), &pc).unwrap();
-        assert!(image::open(dir.join("p.png")).is_ok());
+        assert!(reds(&dir.join("p.png")) > 50, "no red ring on the Pareto chart");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

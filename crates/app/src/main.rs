@@ -131,6 +131,16 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    // Headless commands: no window-system probe by Mesa's device-select layer (it prints
+    // "error: XDG_RUNTIME_DIR ..." lines on machines without one). Here, before any thread.
+    let headless = match &cli.command {
+        Some(Command::View(_)) => false,
+        Some(_) => true,
+        None => !viewer::display_available(),
+    };
+    if headless {
+        tiledlight_gpu::skip_display_gpu_probe();
+    }
     let result = match &cli.command {
         Some(Command::Render(args)) => render::run(args),
         Some(Command::Bench(args)) => bench::run(args),

@@ -3,17 +3,13 @@
 //! for lavapipe, `H100`), backends from `WGPU_BACKEND`. Only the features and limits the
 //! renderer needs are requested; timestamp queries are used when the adapter has them.
 //!
-//! A headless instance on Vulkan is created without the window-system extensions
-//! (`VK_KHR_xlib_surface`, `VK_KHR_xcb_surface`, `VK_KHR_wayland_surface`): with them
-//! enabled, Mesa's implicit device-select layer connects to the Wayland compositor and the
-//! X server to find the display's GPU, and on a machine without `XDG_RUNTIME_DIR` libwayland
-//! prints `error: XDG_RUNTIME_DIR is invalid or not set in the environment.` before every
-//! headless run (see docs/RELIABILITY.md). A headless run never presents, so it needs none.
+//! Headless programs call [`skip_display_gpu_probe`] first, so that Mesa's device-select
+//! layer does not probe the window system (and print errors about it) to find the display's
+//! GPU (see docs/RELIABILITY.md).
 //!
 //! Every device gets a device-lost callback ([`GpuContext::device_lost`]): a lost device
 //! ends a run with [`GpuError::DeviceLost`] naming wgpu's reason instead of a cascade of
-//! validation errors about invalid objects. Depends on wgpu (and its hal, for the headless
-//! Vulkan instance).
+//! validation errors about invalid objects. Depends on wgpu.
 
 use std::sync::{Arc, Mutex};
 
@@ -186,58 +182,38 @@ impl GpuContext {
     }
 }
 
-/// Vulkan's window-system instance extensions: a headless instance leaves them out.
-const WINDOW_SYSTEM_EXTENSIONS: [&std::ffi::CStr; 3] =
-    [c"VK_KHR_xlib_surface", c"VK_KHR_xcb_surface", c"VK_KHR_wayland_surface"];
-
 /// The instance of a headless run: `WGPU_BACKEND`'s backends, else Vulkan, Metal and DX12
-/// (the GL backend lacks compute features we need). Vulkan alone on a Unix window system
-/// gets an instance without the window-system extensions (see the module's doc).
+/// (the GL backend lacks compute features we need).
 fn headless_instance() -> wgpu::Instance {
     let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
     if std::env::var("WGPU_BACKEND").is_err() {
         desc.backends = wgpu::Backends::PRIMARY;
     }
-    #[cfg(all(unix, not(target_os = "macos"), not(target_os = "ios"), not(target_os = "android")))]
-    {
-        // On these systems the primary backends compiled in are Vulkan alone; GL (asked for
-        // through WGPU_BACKEND) keeps wgpu's own instance.
-        let others = desc.backends - wgpu::Backends::PRIMARY;
-        if others.is_empty() && desc.backends.contains(wgpu::Backends::VULKAN) {
-            match vulkan_without_window_system(&desc) {
-                Ok(instance) => return instance,
-                Err(e) => log::debug!("headless Vulkan instance: {e}; using wgpu's own"),
-            }
-        }
-    }
     wgpu::Instance::new(desc)
 }
 
-/// A Vulkan instance as wgpu makes it, minus [`WINDOW_SYSTEM_EXTENSIONS`].
-#[cfg(all(unix, not(target_os = "macos"), not(target_os = "ios"), not(target_os = "android")))]
-fn vulkan_without_window_system(desc: &wgpu::InstanceDescriptor) -> Result<wgpu::Instance, wgpu::hal::InstanceError> {
-    let hal_desc = wgpu::hal::InstanceDescriptor {
-        name: "tiledlight",
-        flags: desc.flags,
-        memory_budget_thresholds: desc.memory_budget_thresholds,
-        backend_options: desc.backend_options.clone(),
-        telemetry: None,
-        display: None,
-    };
-    let drop_wsi: Box<wgpu::hal::vulkan::CreateInstanceCallback<'_>> = Box::new(|args| {
-        args.extensions.retain(|e| !WINDOW_SYSTEM_EXTENSIONS.contains(e));
-    });
-    // SAFETY: the descriptor is wgpu's own for a display-less instance, and the hal
-    // instance is handed to wgpu whole. wgpu-hal asks callbacks not to remove extensions
-    // because it assumes that an available extension is enabled; for these three it uses
-    // them only to create a surface, and each `create_surface_from_*` first checks the
-    // instance's enabled list (so a surface asked of this instance is refused with an
-    // error). Checked against wgpu-hal 30.0.1 (wgpu is pinned in Cargo.toml); a headless
-    // context creates no surface.
-    unsafe {
-        let hal = wgpu::hal::vulkan::Instance::init_with_callback(&hal_desc, Some(drop_wsi))?;
-        Ok(wgpu::Instance::from_hal::<wgpu::hal::api::Vulkan>(hal))
+/// Makes the headless runs of this process skip Mesa's device-select layer
+/// (`VK_LAYER_MESA_device_select`, an implicit Vulkan layer): wgpu enables the Vulkan
+/// window-system extensions whenever the driver has them, and the layer, seeing
+/// `VK_KHR_wayland_surface` enabled, connects to the Wayland compositor (and the X server)
+/// to find the display's GPU; without `XDG_RUNTIME_DIR`, libwayland prints
+/// `error: XDG_RUNTIME_DIR is invalid or not set in the environment.` for every instance.
+/// A headless run presents nothing and picks its adapter itself (`WGPU_ADAPTER_NAME`, or
+/// the high-performance one), so the layer's choice is not needed. Sets the layer's own
+/// switch, `NODEVICE_SELECT=1`, unless the user set it or chose a device through the
+/// layer (`MESA_VK_DEVICE_SELECT`). Returns whether it set it.
+///
+/// Call it at the start of `main`, before any other thread exists (it changes the
+/// process's environment, which the Vulkan loader reads when the instance is created).
+/// Leaving out the extensions instead would need wgpu-hal's unsafe instance callback, and
+/// the workspace forbids unsafe code.
+pub fn skip_display_gpu_probe() -> bool {
+    let user_chose = ["NODEVICE_SELECT", "MESA_VK_DEVICE_SELECT"].iter().any(|v| std::env::var_os(v).is_some());
+    if user_chose {
+        return false;
     }
+    std::env::set_var("NODEVICE_SELECT", "1");
+    true
 }
 
 fn desc_backends() -> wgpu::Backends {

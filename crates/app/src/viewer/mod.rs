@@ -105,10 +105,17 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     }
 }
 
+/// Whether plain `tiledlight` will try the viewer: a display is named (`DISPLAY` or
+/// `WAYLAND_DISPLAY`) and `TILEDLIGHT_HEADLESS` is unset.
+pub fn display_available() -> bool {
+    std::env::var_os("TILEDLIGHT_HEADLESS").is_none()
+        && ["DISPLAY", "WAYLAND_DISPLAY"].iter().any(|v| std::env::var_os(v).is_some_and(|s| !s.is_empty()))
+}
+
 /// Plain `tiledlight`: the viewer when a display is available, else the headless
 /// quickstart, with one line saying why.
 pub fn run_default() -> Result<()> {
-    let has_display = ["DISPLAY", "WAYLAND_DISPLAY"].iter().any(|v| std::env::var_os(v).is_some_and(|s| !s.is_empty()));
+    let has_display = display_available();
     let headless_line = |why: &str| {
         println!("{why}: rendering headless to out/ (run `tiledlight view` with a display for the viewer)");
     };
