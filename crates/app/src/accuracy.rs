@@ -550,7 +550,7 @@ fn report(
     let incomplete = points.iter().filter(|p| p.incomplete).count();
     let note = if incomplete > 0 {
         let s = if incomplete == 1 { "" } else { "s" };
-        format!("{note}; {incomplete} setting{s} ringed red: frames DROPPED lights (times of incomplete frames)")
+        format!("{note}; {incomplete} setting{s} ringed red: frames DROPPED lights")
     } else {
         note
     };

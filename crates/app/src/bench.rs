@@ -99,7 +99,8 @@ pub struct Measurement {
     /// Whether the device had timestamp queries.
     pub timestamps: bool,
     /// Light-grid headers of measured frames that came back (tiled methods; every other
-    /// frame or so, as the readback never waits).
+    /// frame or so, as the readback never waits; the last frame's, read after the timing,
+    /// when none came back).
     pub grid: Vec<GridStatus>,
     /// The same for the blended geometry's own light grid (tiled methods with blended
     /// geometry).
@@ -297,6 +298,19 @@ pub fn measure_moving(
         }
         ctx.device.poll(wgpu::PollType::wait_indefinitely()).context("waiting for the GPU")?;
         drain(&mut timer, &mut out, &mut finished, skip);
+    }
+    // Too few frames for a header to come back without waiting: the last frame's, read now
+    // (after the timing), so whether the frames dropped lights is always known.
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    if out.grid.is_empty() && frames > 0 {
+        if let Some(g) = renderer.light_grid() {
+            out.grid.push(g.status(device, queue).context("reading the light grid's header back")?);
+        }
+    }
+    if out.blended_grid.is_empty() && frames > 0 {
+        if let Some(c) = renderer.blended().and_then(|b| b.culling.as_ref()) {
+            out.blended_grid.push(c.grid.status(device, queue).context("reading the blended grid's header back")?);
+        }
     }
     Ok(out)
 }

@@ -604,10 +604,7 @@ mod tests {
             img.pixels().filter(|p| p.0 == [INCOMPLETE_RED.0, INCOMPLETE_RED.1, INCOMPLETE_RED.2]).count()
         };
         assert!(reds(&path) > 50, "no red ring");
-        let complete = LineChart {
-            series: vec![Series { incomplete: vec![], ..c.series[0].clone() }],
-            ..c.clone()
-        };
+        let complete = LineChart { series: vec![Series { incomplete: vec![], ..c.series[0].clone() }], ..c.clone() };
         line_chart(&dir.join("complete.png"), &complete).unwrap();
         assert_eq!(reds(&dir.join("complete.png")), 0);
         assert!(line_chart(&dir.join("c.svg"), &c).is_err());

@@ -141,8 +141,12 @@ impl Dropped {
         let mut parts = Vec::new();
         for (name, g) in [("", self.opaque), ("the blended geometry's lists: ", self.blended)] {
             let Some(g) = g.filter(|g| g.frames > 0) else { continue };
-            let mut p =
-                format!("{name}{} (list, light) pairs from {} lists", group_digits(g.pairs), group_digits(g.lists));
+            let mut p = format!(
+                "{name}{} (list, light) pairs from {} list{}",
+                group_digits(g.pairs),
+                group_digits(g.lists),
+                if g.lists == 1 { "" } else { "s" }
+            );
             if let Some((need, capacity)) = g.worst {
                 let cause = match budget {
                     Some(b) => format!("its fixed budget of {} indices (--grid-budget {b})", group_digits(b.into())),

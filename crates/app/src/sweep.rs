@@ -414,9 +414,7 @@ fn draw(
     }
     if incomplete > 0 {
         let s = if incomplete == 1 { "" } else { "s" };
-        let text = format!(
-            "{incomplete} point{s} ringed red: frames that DROPPED lights (light grid full), times of incomplete frames"
-        );
+        let text = format!("{incomplete} point{s} ringed red: frames DROPPED lights");
         note = Some(match note {
             Some(n) => format!("{n}; {text}"),
             None => text,
