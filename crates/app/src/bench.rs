@@ -321,8 +321,9 @@ static FRAMES_RENDERED: AtomicU64 = AtomicU64::new(0);
 /// Tests only: with `TILEDLIGHT_TEST_LOSE_DEVICE_AFTER=N`, destroys the device once the
 /// process has submitted N frames, as a driver reset would lose it (wgpu then calls the
 /// device-lost callback with the reason "destroyed"), so the message and the lab's resume
-/// hint can be checked on any GPU.
-fn lose_device_for_tests(ctx: &tiledlight_gpu::GpuContext) {
+/// hint can be checked on any GPU. The frame loop here and the viewer's call it after each
+/// submit.
+pub fn lose_device_for_tests(ctx: &tiledlight_gpu::GpuContext) {
     let n = FRAMES_RENDERED.fetch_add(1, Ordering::Relaxed) + 1;
     let after = std::env::var("TILEDLIGHT_TEST_LOSE_DEVICE_AFTER").ok().and_then(|v| v.parse::<u64>().ok());
     if after == Some(n) {

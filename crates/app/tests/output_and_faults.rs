@@ -264,4 +264,20 @@ fn requests_beyond_an_adapter_limit_name_the_limit_and_the_value() {
             && line.contains(", asked for 17179869180 bytes"),
         "{line}"
     );
+    // 5,000 point casters with 1024-texel faces: 16 rows of six faces a layer, 313 layers;
+    // the device is given WebGPU's 256 array layers (the renderer asks no more).
+    let line = fails(&[
+        "render",
+        "--width",
+        "64",
+        "--height",
+        "36",
+        "--lights",
+        "5000",
+        "--shadow-point-lights",
+        "5000",
+        "--shadow-size",
+        "1024",
+    ]);
+    assert!(line.contains("limit max_texture_array_layers = ") && line.contains("asked for 313 layers"), "{line}");
 }

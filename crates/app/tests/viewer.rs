@@ -230,3 +230,23 @@ fn a_full_light_grid_is_warned_of_in_the_panel() {
     assert!(stderr.contains("error: --strict: 1 warning above"), "{stderr}");
     assert!(dir.join("lit.png").exists(), "the screenshot is written before --strict fails");
 }
+
+/// A lost device (destroyed through the test hook after the 2nd frame, as a driver reset
+/// would lose it) ends the viewer with the loss named, exit 1.
+#[test]
+fn a_lost_device_ends_the_viewer_naming_it() {
+    let x = Xvfb::start();
+    let dir = scratch("lost");
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_tiledlight"));
+    cmd.args(["view", "--width", "320", "--height", "180", "--lights", "32", "--frames", "8"]);
+    cmd.current_dir(&dir).env("DISPLAY", &x.display).env_remove("WAYLAND_DISPLAY");
+    cmd.env("TILEDLIGHT_TEST_LOSE_DEVICE_AFTER", "2");
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        cmd.env("XDG_RUNTIME_DIR", std::env::temp_dir());
+    }
+    let out = cmd.output().expect("run the tiledlight binary");
+    let stderr = text(&out.stderr);
+    assert!(!out.status.success(), "the viewer went on after losing its device:\n{stderr}");
+    let last = stderr.lines().last().unwrap_or_default();
+    assert!(last.starts_with("error: the GPU device was lost (destroyed by the program)"), "{stderr}");
+}

@@ -699,6 +699,7 @@ impl Viewer {
         ctx.queue.submit(extra.into_iter().chain([encoder.finish()]));
         self.window.pre_present_notify();
         ctx.queue.present(frame);
+        crate::bench::lose_device_for_tests(ctx);
         self.timer.end_frame()?;
         ctx.device.poll(wgpu::PollType::Poll).context("polling the GPU")?;
         while let Some(times) = self.timer.finished_frame() {
