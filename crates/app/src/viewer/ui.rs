@@ -302,7 +302,14 @@ fn stats_section(ui: &mut egui::Ui, info: &Info<'_>) {
                 }
                 let total: f64 = st.passes.iter().map(|p| p.ms).sum();
                 ui.label(RichText::new("GPU total").strong());
-                ui.label(RichText::new(format!("{total:.3} ms")).strong());
+                // A frame that dropped lights did less than the whole frame's work.
+                match st.dropped {
+                    Some(_) => ui.colored_label(
+                        Color32::from_rgb(255, 60, 60),
+                        RichText::new(format!("{total:.3} ms * (incomplete frame)")).strong(),
+                    ),
+                    None => ui.label(RichText::new(format!("{total:.3} ms")).strong()),
+                };
                 ui.end_row();
             });
         } else {
