@@ -139,6 +139,8 @@ impl Dropped {
             return None;
         }
         let mut parts = Vec::new();
+        // What would help, from the first grid's cause.
+        let mut hint = None;
         for (name, g) in [("", self.opaque), ("the blended geometry's lists: ", self.blended)] {
             let Some(g) = g.filter(|g| g.frames > 0) else { continue };
             let mut p = format!(
@@ -148,14 +150,27 @@ impl Dropped {
                 if g.lists == 1 { "" } else { "s" }
             );
             if let Some((need, capacity)) = g.worst {
-                let cause = match budget {
-                    Some(b) => format!("its fixed budget of {} indices (--grid-budget {b})", group_digits(b.into())),
-                    None => format!(
-                        "{} indices, the most the device binds (limit max_storage_buffer_binding_size = {max_binding} bytes, asked for {} bytes)",
-                        group_digits(capacity.into()),
-                        u64::from(need) * 4
+                let (cause, help) = match budget {
+                    Some(b) => (
+                        format!("its fixed budget of {} indices (--grid-budget {b})", group_digits(b.into())),
+                        "a larger --grid-budget, or none",
+                    ),
+                    None if u64::from(capacity) >= max_binding / 4 => (
+                        format!(
+                            "{} indices, the most the device binds (limit max_storage_buffer_binding_size = \
+                             {max_binding} bytes, asked for {} bytes)",
+                            group_digits(capacity.into()),
+                            u64::from(need) * 4
+                        ),
+                        "fewer lights: --lights, smaller radii: a higher --threshold, or tighter lists: --grid clustered",
+                    ),
+                    // Grown for the next frame: only frames before the growth lost lights.
+                    None => (
+                        format!("{} indices, before it grew for the next frames", group_digits(capacity.into())),
+                        "warm-up frames (--warmup) let the grid grow before frames are measured",
                     ),
                 };
+                hint.get_or_insert(help);
                 p.push_str(&format!(" (a frame needed {} indices; the grid holds {cause})", group_digits(need.into())));
             }
             parts.push(p);
@@ -164,10 +179,10 @@ impl Dropped {
             Some(1) | None => String::new(),
             Some(n) => format!(" in {} of {n} frames read back", self.frames()),
         };
+        let hint = hint.map(|h| format!(" ({h})")).unwrap_or_default();
         Some(format!(
             "{subject}: light lists overflowed{frames}, DROPPED {}: the image is wrong where those lights are \
-             missing and a time of such a frame is of less work than the whole frame (fewer lights: --lights, \
-             smaller radii: a higher --threshold, or tighter lists: --grid clustered)",
+             missing and a time of such a frame is of less work than the whole frame{hint}",
             parts.join("; ")
         ))
     }
@@ -234,6 +249,9 @@ mod tests {
         assert!(w.contains("the blended geometry's lists: 2 (list, light) pairs from 3 lists"), "{w}");
         let w = Dropped::of(&[status(150, 100)], &[]).warning("the image", None, 400).unwrap();
         assert!(w.contains("limit max_storage_buffer_binding_size = 400 bytes, asked for 600 bytes"), "{w}");
+        // A grid below the device's limit was growing: the frames before it lost lights.
+        let w = Dropped::of(&[status(150, 100)], &[]).warning("the image", None, 4000).unwrap();
+        assert!(w.contains("the grid holds 100 indices, before it grew for the next frames"), "{w}");
         assert!(!w.contains("frames read back"), "one frame: {w}");
         assert_eq!(d.mark().unwrap(), "DROPPED lights in 2 of 3 frames read back");
     }
