@@ -20,9 +20,17 @@
 //!
 //! Output: a resumable CSV (one row per setting), a Pareto chart (time vs FLIP mean, the
 //! frontier drawn, the fastest setting under the target error ringed) and FLIP heat maps
-//! of the frontier's settings. May depend on [`crate::lab`], [`crate::bench`],
-//! [`crate::chart`], [`crate::scene_setup`], tiledlight-setup, tiledlight-cull and
-//! tiledlight-metrics.
+//! of the frontier's settings.
+//!
+//! A setting whose frames dropped lights (a light grid full, [`crate::dropped`]) gets a
+//! `warning:` line, the columns `dropped_frames`, `dropped_lights`, `dropped_lists` (over
+//! its measured frames read back; `overflowing_lists` is the compared frame's) and a red
+//! ring on the chart; `--strict` fails once the CSV and the chart are written. A lost device
+//! (or out of GPU memory) ends the run naming it; the settings measured so far stay in the
+//! CSV and the same command resumes after them.
+//!
+//! May depend on [`crate::lab`], [`crate::bench`], [`crate::chart`], [`crate::dropped`],
+//! [`crate::scene_setup`], tiledlight-setup, tiledlight-cull and tiledlight-metrics.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -37,6 +45,7 @@ use tiledlight_setup::{group_digits, Method, Prepared, Settings};
 
 use crate::bench::{self, MAX_FRAMES};
 use crate::chart::{self, ParetoChart, ParetoPoint};
+use crate::dropped;
 use crate::lab::{self, Axis, ResumableCsv};
 use crate::scene_setup::SceneArgs;
 
@@ -103,7 +112,7 @@ pub enum ReferenceArg {
 }
 
 const HEAD: [&str; 3] = ["adapter", "width", "height"];
-const TAIL: [&str; 21] = [
+const TAIL: [&str; 24] = [
     "total_ms",
     "passes",
     "psnr_db",
@@ -115,6 +124,9 @@ const TAIL: [&str; 21] = [
     "mean_lights_per_tile",
     "max_lights_per_tile",
     "overflowing_lists",
+    "dropped_frames",
+    "dropped_lights",
+    "dropped_lists",
     "false_positive_rate",
     "wasted_per_pixel",
     "evaluated_per_pixel",
@@ -318,19 +330,74 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
     let mut sorted: HashMap<String, SortedFrame> = HashMap::new();
     let mut heat: HashMap<Vec<String>, Vec<u8>> = HashMap::new();
     let mut adapter = String::new();
+    let mut warnings = 0;
     let pb = lab::progress(pending.len());
-    for &i in &pending {
+    for (done, &i) in pending.iter().enumerate() {
         let (point, pargs) = (&points[i], &all_args[i]);
         let what = lab::describe(&axes, point);
         pb.set_message(what.clone());
+        let mut state = RunState {
+            prep: &mut prep,
+            adapter: &mut adapter,
+            csv: &mut csv,
+            references: &mut references,
+            sorted: &mut sorted,
+            heat: &mut heat,
+            keep_sorted,
+        };
+        match measure_setting(&mut state, (point, pargs, &what), args, &out, &pb) {
+            Ok(Some(w)) => lab::warn(&pb, &mut warnings, &format!("{what}: {w}")),
+            Ok(None) => {}
+            Err(e) => {
+                pb.finish_and_clear();
+                let done = points.len() - pending.len() + done;
+                let progress = lab::Progress { point: &what, done, total: points.len(), csv: &out };
+                return Err(lab::interrupted(e, prep.as_ref(), &progress));
+            }
+        }
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    let rows = csv.read_all()?;
+    let summary = report(&chart_path, &diff_dir, &axes, &rows, &heat, args)?;
+    println!("{summary}");
+    println!("wrote {} and {}", out.display(), chart_path.display());
+    dropped::strict(args.scene.strict, warnings)
+}
+
+/// What the settings of a run share: the GPU, the CSV, the references and sorted frames
+/// rendered so far, the FLIP heat maps.
+struct RunState<'a> {
+    prep: &'a mut Option<Prepared>,
+    adapter: &'a mut String,
+    csv: &'a mut ResumableCsv,
+    references: &'a mut HashMap<String, Reference>,
+    sorted: &'a mut HashMap<String, SortedFrame>,
+    heat: &'a mut HashMap<Vec<String>, Vec<u8>>,
+    keep_sorted: bool,
+}
+
+/// Measures one setting and appends its row; returns the warning about its frames, if they
+/// dropped lights.
+fn measure_setting(
+    st: &mut RunState<'_>,
+    (point, pargs, what): (&lab::Point, &Settings, &String),
+    args: &AccuracyArgs,
+    out: &Path,
+    pb: &indicatif::ProgressBar,
+) -> Result<Option<String>> {
+    let what = what.clone();
+    let RunState { prep, adapter, csv, references, sorted, heat, keep_sorted } = st;
+    let keep_sorted = *keep_sorted;
+    {
         let p = match prep.as_mut() {
             Some(p) => p,
             None => {
                 let p = Prepared::new(pargs).with_context(|| what.clone())?;
-                adapter = p.ctx.info.name.clone();
+                **adapter = p.ctx.info.name.clone();
                 let size = [adapter.as_str(), &pargs.width.to_string(), &pargs.height.to_string()];
-                lab::check_same_setup(&csv.existing, [0, 1, 2], size, &out)?;
-                lab::say(&pb, format!("adapter:    {}", p.ctx.describe()));
+                lab::check_same_setup(&csv.existing, [0, 1, 2], size, out)?;
+                lab::say(pb, format!("adapter:    {}", p.ctx.describe()));
                 prep.insert(p)
             }
         };
@@ -342,7 +409,7 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
                 ReferenceArg::NoCutoff => "no cutoff",
                 ReferenceArg::Cutoff => "same cutoff",
             };
-            lab::say(&pb, format!("reference (brute force, {kind}): {:.3} ms", r.total_ms));
+            lab::say(pb, format!("reference (brute force, {kind}): {:.3} ms", r.total_ms));
             references.insert(rkey.clone(), r);
         }
         let reference = &references[&rkey];
@@ -360,6 +427,7 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
         let mut renderer = p.renderer(false).with_context(|| what.clone())?;
         let m = bench::measure(p, renderer.as_mut(), args.warmup, args.frames).with_context(|| what.clone())?;
         let (total, passes) = pass_times(&m).with_context(|| what.clone())?;
+        let dropped = m.dropped();
         let stats = p.culling_stats(renderer.as_ref())?;
         let edges = renderer.edge_pixels(&p.ctx).context("reading the MSAA edge count back")?;
         let depth = renderer.read_depth(&p.ctx).context("reading the depth buffer back")?;
@@ -408,6 +476,9 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
             opt(stats.as_ref().map(|s| f(s.mean_per_list, 3))),
             opt(stats.as_ref().map(|s| s.max_per_list.to_string())),
             opt(stats.as_ref().map(|s| s.overflowing.to_string())),
+        ]);
+        row.extend(dropped.csv());
+        row.extend([
             opt(q.map(|q| f(q.false_positive_rate, 6))),
             opt(q.map(|q| f(q.wasted_per_pixel, 4))),
             opt(q.map(|q| f(q.evaluated_per_pixel, 4))),
@@ -423,24 +494,20 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
         let vs = vs_sorted.map_or(String::new(), |(ms, v)| {
             format!("; vs sorted ({ms:.3} ms): FLIP mean {:.5} p99 {:.4}", v.mean, v.percentile)
         });
+        let mark = dropped.mark().map(|d| format!(" ({d}: incomplete frames)")).unwrap_or_default();
         lab::say(
-            &pb,
+            pb,
             format!(
-                "{what}: {total:.3} ms, FLIP mean {:.5} p99 {:.4}, PSNR {:.2} dB, energy lost {:.3}%{vs}",
+                "{what}: {total:.3} ms{mark}, FLIP mean {:.5} p99 {:.4}, PSNR {:.2} dB, energy lost {:.3}%{vs}",
                 fl.mean,
                 fl.percentile,
                 e.psnr_db,
                 100.0 * e.energy_lost
             ),
         );
-        pb.inc(1);
+        let max_binding = p.ctx.device.limits().max_storage_buffer_binding_size;
+        Ok(dropped.warning("the measured frames", p.settings.grid_pairs, max_binding))
     }
-    pb.finish_and_clear();
-    let rows = csv.read_all()?;
-    let summary = report(&chart_path, &diff_dir, &axes, &rows, &heat, args)?;
-    println!("{summary}");
-    println!("wrote {} and {}", out.display(), chart_path.display());
-    Ok(())
 }
 
 /// The CSV's rows as numbers by column name (NaN where empty or not a number).
@@ -540,6 +607,7 @@ fn report(
             },
             time: parse(r, "total_ms"),
             error: parse(r, "flip_mean"),
+            incomplete: parse(r, "dropped_frames") > 0.0,
         })
         .collect();
     let frontier = chart::pareto_frontier(&points);
@@ -554,6 +622,13 @@ fn report(
             points[i].error
         ),
         None => format!("no setting reaches FLIP mean < {}", args.target_flip),
+    };
+    let incomplete = points.iter().filter(|p| p.incomplete).count();
+    let note = if incomplete > 0 {
+        let s = if incomplete == 1 { "" } else { "s" };
+        format!("{note}; {incomplete} setting{s} ringed red: frames DROPPED lights")
+    } else {
+        note
     };
     let first = rows.first();
     let adapter = first.map(|r| r[0].clone()).unwrap_or_default();

@@ -19,9 +19,22 @@
 //! `blend_mode`, null without blended geometry); the blended passes are timed like the
 //! others (`blended.depth`, `blended.cull`, `blended.shade`, `blended.composite`).
 //!
-//! May depend on [`crate::scene_setup`], tiledlight-setup and tiledlight-gpu.
+//! Frames that dropped lights (a light grid full: see [`crate::dropped`]) are counted from
+//! the light-grid headers read back (the opaque grid's and the blended geometry's): the
+//! table marks the times as those of incomplete frames, the JSON has `dropped_frames`,
+//! `dropped_lights`, `dropped_lists` (and `blended_dropped_*`), a `warning:` line goes to
+//! stderr, and `--strict` makes it an error once the JSON is written.
+//!
+//! A lost device or an out-of-memory error ends the frame loop with the named error
+//! ([`tiledlight_gpu::GpuError::DeviceLost`], `OutOfMemory`), not with what failed after
+//! it. `TILEDLIGHT_TEST_LOSE_DEVICE_AFTER=N` (tests only) destroys the device after the
+//! N-th frame of the process, to check that path on any GPU.
+//!
+//! May depend on [`crate::scene_setup`], [`crate::dropped`], tiledlight-setup and
+//! tiledlight-gpu.
 
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use anyhow::{ensure, Context, Result};
@@ -34,6 +47,7 @@ use tiledlight_gpu::timer::{GpuTimer, PassTime};
 use tiledlight_setup::settings::blend_mode_description;
 use tiledlight_setup::{shadow_atlas_description, LightAnimator, Prepared};
 
+use crate::dropped::{self, Dropped};
 use crate::scene_setup::SceneArgs;
 
 /// How the CPU frame time is measured (printed and written to JSON).
@@ -85,13 +99,22 @@ pub struct Measurement {
     /// Whether the device had timestamp queries.
     pub timestamps: bool,
     /// Light-grid headers of measured frames that came back (tiled methods; every other
-    /// frame or so, as the readback never waits).
+    /// frame or so, as the readback never waits; the last frame's, read after the timing,
+    /// when none came back).
     pub grid: Vec<GridStatus>,
+    /// The same for the blended geometry's own light grid (tiled methods with blended
+    /// geometry).
+    pub blended_grid: Vec<GridStatus>,
     /// Per measured frame, the shadow faces it drew (empty without shadow casters).
     pub shadow_faces: Vec<u32>,
 }
 
 impl Measurement {
+    /// What the measured frames read back lost to a full light grid.
+    pub fn dropped(&self) -> Dropped {
+        Dropped::of(&self.grid, &self.blended_grid)
+    }
+
     /// One line on the measured frames' light grid: pairs, grid size, and any lights
     /// dropped because the grid was full (None for a method without one).
     pub fn grid_line(&self) -> Option<String> {
@@ -207,23 +230,31 @@ pub fn measure_moving(
     let ctx = &prep.ctx;
     let mut timer = GpuTimer::new(ctx).context("creating the GPU timer")?;
     let mut out = Measurement { timestamps: timer.enabled(), ..Default::default() };
-    let mut frame = |timer: &mut GpuTimer, renderer: &mut dyn Renderer, grid: Option<&mut Vec<GridStatus>>| {
-        // The last finished frame's light-grid header: grows the grid when it was too small.
-        if let (Some(status), Some(grid)) = (renderer.prepare(ctx), grid) {
-            grid.push(status);
+    let mut frame = |timer: &mut GpuTimer, renderer: &mut dyn Renderer, grids: Option<&mut Measurement>| {
+        // The last finished frame's light-grid headers: grow a grid that was too small.
+        let status = renderer.prepare(ctx);
+        let blended = renderer.blended_mut().and_then(|b| b.take_status());
+        if let Some(m) = grids {
+            m.grid.extend(status);
+            m.blended_grid.extend(blended);
         }
-        if let Some(a) = animator.as_deref_mut() {
-            a.advance(&ctx.queue, &prep.lights, MOVE_STEP_S);
-            renderer.lights_moved(&ctx.queue, a.current()).context("moving the lights' shadows")?;
-        }
-        let mut encoder =
-            ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bench.frame") });
-        renderer.record(&ctx.queue, &mut encoder, timer, &prep.scene_gpu, &prep.camera);
-        timer.resolve(&mut encoder);
-        ctx.queue.submit([encoder.finish()]);
-        timer.end_frame().context("ending a timed frame")?;
-        ctx.device.poll(wgpu::PollType::wait_indefinitely()).context("waiting for the GPU")?;
-        prep.check_gpu_errors()
+        let mut step = || -> Result<()> {
+            if let Some(a) = animator.as_deref_mut() {
+                a.advance(&ctx.queue, &prep.lights, MOVE_STEP_S);
+                renderer.lights_moved(&ctx.queue, a.current()).context("moving the lights' shadows")?;
+            }
+            let mut encoder =
+                ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bench.frame") });
+            renderer.record(&ctx.queue, &mut encoder, timer, &prep.scene_gpu, &prep.camera);
+            timer.resolve(&mut encoder);
+            ctx.queue.submit([encoder.finish()]);
+            timer.end_frame().context("ending a timed frame")?;
+            lose_device_for_tests(ctx);
+            ctx.device.poll(wgpu::PollType::wait_indefinitely()).context("waiting for the GPU")?;
+            prep.check_gpu_errors_while("rendering a frame")
+        };
+        // After a device loss whatever failed next is a consequence: name the loss.
+        step().map_err(|e| prep.device_lost().map_or(e, anyhow::Error::from))
     };
     // Warm-up: `warmup` frames, and at least MIN_WARMUP of them back to back, so a GPU
     // that idled (e.g. while the accuracy lab computed statistics on the CPU) has its
@@ -248,7 +279,10 @@ pub fn measure_moving(
     }
     for _ in 0..frames {
         let t0 = Instant::now();
-        frame(&mut timer, renderer, Some(&mut out.grid))?;
+        let mut grids = Measurement::default();
+        frame(&mut timer, renderer, Some(&mut grids))?;
+        out.grid.append(&mut grids.grid);
+        out.blended_grid.append(&mut grids.blended_grid);
         out.cpu_ms.push(t0.elapsed().as_secs_f64() * 1e3);
         if let Some(a) = renderer.shadow_atlas() {
             out.shadow_faces.push(a.faces_drawn_last_frame());
@@ -265,12 +299,47 @@ pub fn measure_moving(
         ctx.device.poll(wgpu::PollType::wait_indefinitely()).context("waiting for the GPU")?;
         drain(&mut timer, &mut out, &mut finished, skip);
     }
+    // Too few frames for a header to come back without waiting: the last frame's, read now
+    // (after the timing), so whether the frames dropped lights is always known.
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    if out.grid.is_empty() && frames > 0 {
+        if let Some(g) = renderer.light_grid() {
+            out.grid.push(g.status(device, queue).context("reading the light grid's header back")?);
+        }
+    }
+    if out.blended_grid.is_empty() && frames > 0 {
+        if let Some(c) = renderer.blended().and_then(|b| b.culling.as_ref()) {
+            out.blended_grid.push(c.grid.status(device, queue).context("reading the blended grid's header back")?);
+        }
+    }
     Ok(out)
 }
 
+/// Frames rendered by this process (the test hook's count).
+static FRAMES_RENDERED: AtomicU64 = AtomicU64::new(0);
+
+/// Tests only: with `TILEDLIGHT_TEST_LOSE_DEVICE_AFTER=N`, destroys the device once the
+/// process has submitted N frames, as a driver reset would lose it (wgpu then calls the
+/// device-lost callback with the reason "destroyed"), so the message and the lab's resume
+/// hint can be checked on any GPU. The frame loop here and the viewer's call it after each
+/// submit.
+pub fn lose_device_for_tests(ctx: &tiledlight_gpu::GpuContext) {
+    let n = FRAMES_RENDERED.fetch_add(1, Ordering::Relaxed) + 1;
+    let after = std::env::var("TILEDLIGHT_TEST_LOSE_DEVICE_AFTER").ok().and_then(|v| v.parse::<u64>().ok());
+    if after == Some(n) {
+        ctx.device.destroy();
+    }
+}
+
+/// The mark of the times of a run that dropped lights (table rows, report lines).
+pub const INCOMPLETE_MARK: &str = " *";
+
 /// The table of pass times: pass | median | min | max | frames, a "total GPU" row (sum of
-/// medians) and the CPU frame time.
+/// medians) and the CPU frame time. When a frame read back dropped lights, every time is
+/// marked ([`INCOMPLETE_MARK`]) and a footnote says so.
 pub fn table(m: &Measurement) -> String {
+    let dropped = m.dropped();
+    let mark = if dropped.any() { INCOMPLETE_MARK } else { "" };
     let mut s = String::new();
     if !m.timestamps {
         s.push_str("GPU pass times: not available (the adapter has no timestamp queries)\n");
@@ -280,17 +349,23 @@ pub fn table(m: &Measurement) -> String {
         for p in &passes {
             let t = p.summary;
             s.push_str(&format!(
-                "{:<22} {:>10.3} {:>10.3} {:>10.3} {:>7}\n",
+                "{:<22} {:>10.3} {:>10.3} {:>10.3} {:>7}{mark}\n",
                 p.pass, t.median_ms, t.min_ms, t.max_ms, t.frames
             ));
         }
         let total: f64 = passes.iter().map(|p| p.summary.median_ms).sum();
-        s.push_str(&format!("{:<22} {:>10.3}\n", "total GPU", total));
+        s.push_str(&format!("{:<22} {:>10.3}{mark}\n", "total GPU", total));
     }
     if let Some(c) = m.cpu() {
         s.push_str(&format!(
-            "{:<22} {:>10.3} {:>10.3} {:>10.3} {:>7}   ({CPU_TIME_MEANING})\n",
+            "{:<22} {:>10.3} {:>10.3} {:>10.3} {:>7}{mark}   ({CPU_TIME_MEANING})\n",
             "CPU frame", c.median_ms, c.min_ms, c.max_ms, c.frames
+        ));
+    }
+    if let Some(d) = dropped.mark() {
+        s.push_str(&format!(
+            "{}  times of INCOMPLETE frames: {d} (a light grid was full; see the warning)\n",
+            INCOMPLETE_MARK.trim()
         ));
     }
     if let Some(g) = m.grid_line() {
@@ -321,8 +396,20 @@ struct BenchJson {
     /// (list, light) pairs of the last measured frame read back (tiled methods).
     light_pairs: Option<u32>,
     /// Lights dropped because the light grid was full, summed over the measured frames
-    /// read back (0: every measured frame was complete).
+    /// read back (0: every measured frame was complete; null without a light grid).
     dropped_lights: Option<u64>,
+    /// Lists that lost lights, summed likewise.
+    dropped_lists: Option<u64>,
+    /// Measured frames read back that dropped lights (of either grid): their times are of
+    /// incomplete frames.
+    dropped_frames: Option<usize>,
+    /// Measured frames whose light-grid header was read back.
+    frames_read_back: Option<usize>,
+    /// The blended geometry's own lists: lights dropped, summed over the measured frames
+    /// read back (null without blended lists).
+    blended_dropped_lights: Option<u64>,
+    /// The blended geometry's lists that lost lights, summed likewise.
+    blended_dropped_lists: Option<u64>,
     /// Whether the lights moved before every frame (`--move-lights`).
     move_lights: bool,
     /// Shadow faces drawn per measured frame, smallest and largest (null without shadow
@@ -431,6 +518,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         println!("MSAA edges: {e} pixels ({:.2}%) shaded per sample", 100.0 * f64::from(e) / pixels);
     }
     println!("GPU memory:\n{}", renderer.memory());
+    let dropped = m.dropped();
     if let Some(path) = &args.json {
         let a = &prep.settings;
         let passes = m.passes();
@@ -477,7 +565,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             gpu_memory_total: renderer.memory().total(),
             edge_pixels,
             light_pairs: m.grid.last().map(|g| g.header.pairs),
-            dropped_lights: m.grid.last().map(|_| m.grid.iter().map(|g| u64::from(g.header.dropped_pairs)).sum()),
+            dropped_lights: dropped.opaque.map(|g| g.pairs),
+            dropped_lists: dropped.opaque.map(|g| g.lists),
+            dropped_frames: dropped.frames_read().map(|_| dropped.frames()),
+            frames_read_back: dropped.frames_read(),
+            blended_dropped_lights: dropped.blended.map(|g| g.pairs),
+            blended_dropped_lists: dropped.blended.map(|g| g.lists),
             move_lights: args.move_lights,
             shadow_faces_per_frame: m.shadow_faces_range().map(|(min, max)| MinMax { min, max }),
             shadow_atlas_bytes: atlas.map(|a| a.memory.total()),
@@ -489,7 +582,12 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))?;
         println!("wrote {}", path.display());
     }
-    Ok(())
+    let mut warnings = 0;
+    let max_binding = prep.ctx.device.limits().max_storage_buffer_binding_size;
+    if let Some(w) = dropped.warning("the measured frames", prep.settings.grid_pairs, max_binding) {
+        dropped::warn(&mut warnings, &w);
+    }
+    dropped::strict(args.scene.strict, warnings)
 }
 
 #[cfg(test)]
@@ -512,6 +610,7 @@ mod tests {
             cpu_ms: vec![5.0],
             timestamps: true,
             grid: Vec::new(),
+            blended_grid: Vec::new(),
             shadow_faces: Vec::new(),
         };
         let p = m.passes();

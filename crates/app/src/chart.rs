@@ -8,7 +8,11 @@
 //! Text uses DejaVu Sans embedded in the binary (`assets/fonts`, through plotters'
 //! ab_glyph backend), so charts render identically without system fonts. Log axes are
 //! drawn as linear axes over log10 of the values, with ticks at chosen values, which keeps
-//! one coordinate type for every chart. May depend on plotters and image only.
+//! one coordinate type for every chart.
+//!
+//! A point measured over frames that dropped lights (a light grid full: the time of an
+//! incomplete frame) is ringed in red, with a legend entry saying so, on both charts. May
+//! depend on plotters and image only.
 
 use std::path::Path;
 use std::sync::OnceLock;
@@ -54,7 +58,14 @@ pub struct Series {
     pub name: String,
     /// (x, y) points in x order.
     pub points: Vec<(f64, f64)>,
+    /// Points (also in `points`) whose frames dropped lights: ringed in red.
+    pub incomplete: Vec<(f64, f64)>,
 }
+
+/// The red of the incomplete-frame rings.
+const INCOMPLETE_RED: RGBColor = RGBColor(220, 0, 0);
+/// Their legend text.
+const INCOMPLETE_LABEL: &str = "ringed red: frames DROPPED lights (time of an incomplete frame)";
 
 /// How an axis maps values: linear, or log10 (values must be positive).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -306,6 +317,18 @@ pub fn line_chart(path: &Path, c: &LineChart) -> Result<()> {
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], col.stroke_width(3)));
             chart.draw_series(pts.iter().map(|&p| Circle::new(p, 5, col.filled()))).map_err(err)?;
         }
+        let rings: Vec<(f64, f64)> = c
+            .series
+            .iter()
+            .flat_map(|s| s.incomplete.iter().map(|&(x, y)| (c.x.scale.map(x), c.y.scale.map(y))))
+            .collect();
+        if !rings.is_empty() {
+            chart
+                .draw_series(rings.into_iter().map(|p| Circle::new(p, 11, INCOMPLETE_RED.stroke_width(3))))
+                .map_err(err)?
+                .label(INCOMPLETE_LABEL)
+                .legend(|(x, y)| Circle::new((x + 12, y), 8, INCOMPLETE_RED.stroke_width(3)));
+        }
         if let Some((x, label)) = &c.marker {
             let u = c.x.scale.map(*x);
             let grey = RGBColor(80, 80, 80);
@@ -446,6 +469,8 @@ pub struct ParetoPoint {
     pub time: f64,
     /// Error (y).
     pub error: f64,
+    /// Its frames dropped lights (a light grid full): ringed in red.
+    pub incomplete: bool,
 }
 
 /// Indices of the points on the Pareto frontier of (time, error), both to be minimised,
@@ -584,6 +609,14 @@ pub fn pareto_chart(path: &Path, c: &ParetoChart) -> Result<()> {
                 }))
                 .map_err(err)?;
         }
+        let rings: Vec<(f64, f64)> = pts.iter().filter(|p| p.incomplete).map(|p| map(p)).collect();
+        if !rings.is_empty() {
+            chart
+                .draw_series(rings.into_iter().map(|p| Circle::new(p, 11, INCOMPLETE_RED.stroke_width(3))))
+                .map_err(err)?
+                .label(INCOMPLETE_LABEL)
+                .legend(|(x, y)| Circle::new((x + 12, y), 8, INCOMPLETE_RED.stroke_width(3)));
+        }
         if let Some(i) = c.chosen.filter(|&i| i < c.points.len()) {
             let p = map(&c.points[i]);
             chart
@@ -607,7 +640,7 @@ mod tests {
     use super::*;
 
     fn p(t: f64, e: f64) -> ParetoPoint {
-        ParetoPoint { series: "s".into(), label: String::new(), time: t, error: e }
+        ParetoPoint { series: "s".into(), label: String::new(), time: t, error: e, incomplete: false }
     }
 
     #[test]
@@ -640,7 +673,11 @@ mod tests {
             subtitle: "s".into(),
             x: AxisSpec { label: "x".into(), scale: Scale::Log, ticks: Some(vec![10.0, 100.0]) },
             y: AxisSpec { label: "y".into(), scale: Scale::Linear, ticks: None },
-            series: vec![Series { name: "a".into(), points: vec![(10.0, 1.0), (100.0, 3.0)] }],
+            series: vec![Series {
+                name: "a".into(),
+                points: vec![(10.0, 1.0), (100.0, 3.0)],
+                incomplete: vec![(100.0, 3.0)],
+            }],
             marker: Some((30.0, "here".into())),
             note: Some("note".into()),
             categories: None,
@@ -648,6 +685,15 @@ mod tests {
         line_chart(&path, &c).unwrap();
         let img = image::open(&path).unwrap();
         assert_eq!((img.width(), img.height()), SIZE);
+        // The incomplete point is ringed in the ring's red; without it, no such red.
+        let reds = |path: &Path| {
+            let img = image::open(path).unwrap().to_rgb8();
+            img.pixels().filter(|p| p.0 == [INCOMPLETE_RED.0, INCOMPLETE_RED.1, INCOMPLETE_RED.2]).count()
+        };
+        assert!(reds(&path) > 50, "no red ring");
+        let complete = LineChart { series: vec![Series { incomplete: vec![], ..c.series[0].clone() }], ..c.clone() };
+        line_chart(&dir.join("complete.png"), &complete).unwrap();
+        assert_eq!(reds(&dir.join("complete.png")), 0);
         assert!(line_chart(&dir.join("c.svg"), &c).is_err());
         let empty = LineChart { series: vec![], ..c };
         assert!(line_chart(&path, &empty).is_err());
@@ -656,7 +702,7 @@ mod tests {
             subtitle: "s".into(),
             x_label: "ms".into(),
             y_label: "FLIP".into(),
-            points: vec![p(1.0, 0.5), p(2.0, 0.01), p(3.0, 0.02)],
+            points: vec![p(1.0, 0.5), p(2.0, 0.01), ParetoPoint { incomplete: true, ..p(3.0, 0.02) }],
             target: Some((0.01, "1%".into())),
             chosen: Some(1),
             note: Some("n".into()),
@@ -676,6 +722,7 @@ mod tests {
         assert!(img.pixels().any(|p| *p == image::Rgb([31, 119, 180])));
         let short = BarPanels { panels: vec![("a".into(), vec![1.0])], ..bars };
         assert!(bar_panels(&dir.join("b.png"), &short).is_err());
+        assert!(reds(&dir.join("p.png")) > 50, "no red ring on the Pareto chart");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

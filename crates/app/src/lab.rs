@@ -4,8 +4,13 @@
 //! progress bar.
 //!
 //! An axis is one entry of [`AXES`]: adding a setting to the lab (as MSAA and its edge
-//! thresholds were) is one more entry there and one more arm in [`apply`]. May depend on
-//! [`crate::scene_setup`].
+//! thresholds were) is one more entry there and one more arm in [`apply`].
+//!
+//! A run cut short by a fault of the GPU (a lost device, out of GPU memory) ends with the
+//! fault named, how many points the CSV already holds and that the same command resumes
+//! after them ([`interrupted`]): every point is appended and flushed as soon as it is
+//! measured, so nothing measured is lost. May depend on [`crate::scene_setup`],
+//! [`crate::dropped`], tiledlight-setup and tiledlight-gpu (the fault's error type).
 
 use std::collections::HashSet;
 use std::fs::OpenOptions;
@@ -456,6 +461,50 @@ pub fn say(pb: &ProgressBar, line: String) {
         println!("{line}");
     } else {
         pb.println(line);
+    }
+}
+
+/// Prints a `warning:` line on stderr above the progress bar and counts it.
+pub fn warn(pb: &ProgressBar, count: &mut usize, line: &str) {
+    pb.suspend(|| crate::dropped::warn(count, line));
+}
+
+/// Where a run stood when it stopped.
+pub struct Progress<'a> {
+    /// The point being measured ("lights=256 method=deferred").
+    pub point: &'a str,
+    /// Points in the CSV for this run (measured before, or by this run).
+    pub done: usize,
+    /// Points of the run.
+    pub total: usize,
+    /// The CSV.
+    pub csv: &'a Path,
+}
+
+/// The error that ends a run at `progress`: for a fault of the GPU (a lost device, out of
+/// GPU memory; `prep`'s device is asked too, as a lost device fails later calls with other
+/// errors), the fault named, the points kept and how to resume; other errors unchanged.
+pub fn interrupted(
+    e: anyhow::Error,
+    prep: Option<&tiledlight_setup::Prepared>,
+    progress: &Progress<'_>,
+) -> anyhow::Error {
+    use tiledlight_gpu::GpuError;
+    let fault = prep.and_then(|p| p.device_lost()).map(|lost| lost.to_string()).or_else(|| {
+        e.chain()
+            .filter_map(|c| c.downcast_ref::<GpuError>())
+            .find(|g| matches!(g, GpuError::DeviceLost { .. } | GpuError::OutOfMemory { .. }))
+            .map(|g| g.to_string())
+    });
+    match fault {
+        Some(fault) => anyhow::anyhow!(
+            "{fault} at point {}: {} of {} points are in {}; run the same command again to resume after them",
+            progress.point,
+            progress.done,
+            progress.total,
+            progress.csv.display()
+        ),
+        None => e,
     }
 }
 

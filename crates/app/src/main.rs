@@ -18,13 +18,17 @@
 //! Every subcommand builds its scene, lights, camera and renderer from the same flags
 //! ([`scene_setup`]), converted into tiledlight-setup's settings; that library crate
 //! builds them. Every failure ends with one `error: ...` line on stderr and a
-//! non-zero exit code (1 for run-time errors, 2 for unparsable flags); logging goes
-//! through env_logger (`RUST_LOG`). This module may depend on all the others.
+//! non-zero exit code (1 for run-time errors, 2 for unparsable flags); a result that is
+//! wrong in part (a frame that dropped lights: [`dropped`]) gets one `warning: ...` line,
+//! an error with `--strict` once the output files are written; a successful run prints
+//! no `error` line. Logging goes through env_logger (`RUST_LOG`). This module may depend
+//! on all the others.
 
 mod accuracy;
 mod bench;
 mod bookmark;
 mod chart;
+mod dropped;
 mod lab;
 mod legend;
 mod quickstart;
@@ -127,6 +131,16 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    // Headless commands: no window-system probe by Mesa's device-select layer (it prints
+    // "error: XDG_RUNTIME_DIR ..." lines on machines without one). Here, before any thread.
+    let headless = match &cli.command {
+        Some(Command::View(_)) => false,
+        Some(_) => true,
+        None => !viewer::display_available(),
+    };
+    if headless {
+        tiledlight_gpu::skip_display_gpu_probe();
+    }
     let result = match &cli.command {
         Some(Command::Render(args)) => render::run(args),
         Some(Command::Bench(args)) => bench::run(args),

@@ -4,7 +4,9 @@
 //! benchmark. Two renderers, one after the other: the heat map is drawn over the lit
 //! image, so the plain image needs a renderer without it.
 //!
-//! May depend on tiledlight-setup, [`crate::bench`] and [`crate::render`].
+//! A frame that dropped lights (a light grid full) gets a `warning:` line, as in `render`.
+//!
+//! May depend on tiledlight-setup, [`crate::bench`], [`crate::dropped`] and [`crate::render`].
 
 use std::path::Path;
 
@@ -12,6 +14,7 @@ use anyhow::Result;
 use tiledlight_setup::{Prepared, Settings};
 
 use crate::bench;
+use crate::dropped::{self, Dropped};
 use crate::render::write_image;
 
 /// Frames of the short benchmark (after a few warm-up frames).
@@ -38,6 +41,11 @@ pub fn run() -> Result<()> {
         }
         write_image(&prep, renderer.as_ref(), false, render_path)?;
         println!("GPU memory:\n{}", renderer.memory());
+        let max_binding = prep.ctx.device.limits().max_storage_buffer_binding_size;
+        let lost = Dropped::last_frame(&prep, renderer.as_ref())?;
+        if let Some(w) = lost.warning(&format!("the image {}", render_path.display()), None, max_binding) {
+            dropped::warn(&mut 0, &w);
+        }
     }
     // The first renderer is dropped: only one set of targets is alive at a time.
     let mut heat = prep.renderer(true)?;

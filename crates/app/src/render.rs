@@ -8,10 +8,12 @@
 //! scene has some, and the GPU memory the configuration allocated.
 //!
 //! The culling and blended statistics are tiledlight-setup's (`Prepared::culling_stats`,
-//! `Prepared::blended_stats`).
+//! `Prepared::blended_stats`). When the image's frame dropped lights (a light grid full),
+//! a `warning:` line on stderr says so and the frame's pass times are marked; `--strict`
+//! then fails after the PNG is written ([`crate::dropped`]).
 //!
 //! May depend on [`crate::scene_setup`], [`crate::bench`] (the frame loop),
-//! [`crate::legend`], tiledlight-setup and tiledlight-gpu.
+//! [`crate::dropped`], [`crate::legend`], tiledlight-setup and tiledlight-gpu.
 
 use std::path::{Path, PathBuf};
 
@@ -22,7 +24,8 @@ use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::tonemap::HeatmapOf;
 use tiledlight_setup::{shadow_atlas_description, Method, Prepared};
 
-use crate::bench::{self, Measurement};
+use crate::bench::{self, Measurement, INCOMPLETE_MARK};
+use crate::dropped::{self, Dropped};
 use crate::legend;
 use crate::scene_setup::{check_png_path, rgb_image, save_png, SceneArgs};
 
@@ -64,20 +67,28 @@ impl From<HeatmapArg> for HeatmapOf {
     }
 }
 
-/// The pass times of the last finished frame, one line each, plus their sum.
-pub fn last_frame_times(m: &Measurement) -> String {
+/// The pass times of the last finished frame, one line each, plus their sum; marked as
+/// times of an incomplete frame when `dropped` says the frame lost lights.
+pub fn last_frame_times(m: &Measurement, dropped: &Dropped) -> String {
     if !m.timestamps {
         return "GPU times:  not available (the adapter has no timestamp queries)\n".into();
     }
     let Some(frame) = m.gpu_frames.last() else {
         return "GPU times:  no frame's timestamps came back\n".into();
     };
+    let mark = if dropped.any() { INCOMPLETE_MARK } else { "" };
     let mut s = format!("GPU times (frame {} of {}):\n", m.gpu_frames.len(), m.cpu_ms.len());
     for p in frame {
-        s.push_str(&format!("  {:<22} {:>9.3} ms\n", p.label, p.ms));
+        s.push_str(&format!("  {:<22} {:>9.3} ms{mark}\n", p.label, p.ms));
     }
     let total: f64 = frame.iter().map(|p| p.ms).sum();
-    s.push_str(&format!("  {:<22} {:>9.3} ms\n", "total", total));
+    s.push_str(&format!("  {:<22} {:>9.3} ms{mark}\n", "total", total));
+    if dropped.any() {
+        s.push_str(&format!(
+            "  {}  times of an INCOMPLETE frame: its light lists DROPPED lights (see the warning)\n",
+            INCOMPLETE_MARK.trim()
+        ));
+    }
     s
 }
 
@@ -112,6 +123,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let stats = prep.culling_stats(renderer.as_ref())?;
     let blended = prep.blended_stats(renderer.as_ref())?;
     let edges = renderer.edge_pixels(&prep.ctx).context("reading the MSAA edge count back")?;
+    // The image is the last frame: what it lost is its own headers' (read back, stalling).
+    let dropped = Dropped::last_frame(&prep, renderer.as_ref())?;
     let note = write_image(&prep, renderer.as_ref(), heatmap.is_some(), &out)?;
     let exposure = renderer.auto_exposure(&prep.ctx).context("reading the exposure back")?;
     prep.check_gpu_errors()?;
@@ -126,7 +139,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         ),
         None => println!("exposure:   {:.4}, fixed", prep.settings.exposure),
     }
-    print!("{}", last_frame_times(&m));
+    print!("{}", last_frame_times(&m, &dropped));
     if let Some(s) = stats {
         println!("culling:    {s}");
     }
@@ -157,5 +170,10 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         None => "",
     };
     println!("wrote {}{what}", out.display());
-    Ok(())
+    let mut warnings = 0;
+    let max_binding = prep.ctx.device.limits().max_storage_buffer_binding_size;
+    if let Some(w) = dropped.warning(&format!("the image {}", out.display()), prep.settings.grid_pairs, max_binding) {
+        dropped::warn(&mut warnings, &w);
+    }
+    dropped::strict(args.scene.strict, warnings)
 }

@@ -352,6 +352,13 @@ pub struct SceneArgs {
     /// "save camera" button): eye, target, up, field of view, near and far plane.
     #[arg(long, value_name = "FILE")]
     pub camera: Option<PathBuf>,
+    /// Turn every warning (missing textures, unknown extensions, dropped lights...) into an error with a non-zero exit
+    #[arg(long)]
+    pub strict: bool,
+    /// Test only: a fixed light-grid budget of N (list, light) indices for the opaque and
+    /// the blended grid (the grid never grows; pairs beyond it are dropped, with a warning).
+    #[arg(long, value_name = "N", hide = true)]
+    pub grid_budget: Option<u32>,
 }
 
 impl Default for SceneArgs {
@@ -400,6 +407,8 @@ impl Default for SceneArgs {
             shadow_format: d.shadow_format.into(),
             blend_mode: d.blend_mode.into(),
             camera: None,
+            strict: false,
+            grid_budget: d.grid_pairs,
         }
     }
 }
@@ -433,6 +442,7 @@ impl SceneArgs {
             method: self.method.into(),
             tile_size: self.tile_size,
             capacity: self.capacity,
+            grid_pairs: self.grid_budget,
             aabb: self.aabb,
             half_z: self.half_z || self.grid == GridArg::HalfZ,
             depth_mask: self.grid == GridArg::DepthMask,
@@ -584,6 +594,8 @@ mod tests {
             "wboit",
             "--assign",
             "scatter",
+            "--grid-budget",
+            "77",
         ]);
         let s = a.settings().unwrap();
         let expected = Settings {
@@ -601,6 +613,7 @@ mod tests {
             method: Method::Deferred,
             tile_size: 8,
             capacity: Some(9),
+            grid_pairs: Some(77),
             aabb: true,
             half_z: true,
             depth_mask: false,

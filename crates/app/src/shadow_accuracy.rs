@@ -744,6 +744,8 @@ fn draw_chart(
             label: format!("{} {}", r.tile_size, r.format),
             time: r.shadow_frame_ms,
             error: r.visibility_error,
+            // Brute force: no light grid, nothing dropped.
+            incomplete: false,
         })
         .collect();
     let frontier = chart::pareto_frontier(&points);

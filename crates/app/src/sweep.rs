@@ -7,8 +7,16 @@
 //! `--preset figure9` is the comparison of AMD's sample (reference 000, Figure 9): Forward+
 //! vs Tiled Deferred over the light count, ~750k triangles, 4 G-buffer targets.
 //!
+//! A point whose measured frames dropped lights (a light grid full, [`crate::dropped`]) gets
+//! a `warning:` line, its CSV rows say how many (`dropped_frames`, `dropped_lights`,
+//! `dropped_lists`), and the chart rings it in red as the time of incomplete frames;
+//! `--strict` fails once the CSV and the chart are written. A lost device (or out of GPU
+//! memory) ends the run naming it; the points measured so far stay in the CSV and the same
+//! command resumes after them.
+//!
 //! May depend on [`crate::lab`], [`crate::bench`] (the frame loop), [`crate::chart`],
-//! [`crate::scene_setup`] and tiledlight-setup (the run, its culling statistics).
+//! [`crate::dropped`], [`crate::scene_setup`] and tiledlight-setup (the run, its culling
+//! statistics).
 
 use std::path::PathBuf;
 
@@ -18,6 +26,7 @@ use tiledlight_setup::{group_digits, Prepared, Settings};
 
 use crate::bench::{self, MAX_FRAMES};
 use crate::chart::{self, AxisSpec, LineChart, Scale, Series};
+use crate::dropped;
 use crate::lab::{self, Axis, ResumableCsv};
 use crate::scene_setup::SceneArgs;
 
@@ -92,8 +101,21 @@ pub struct SweepArgs {
 
 /// The columns before the axes and after them (per pass).
 const HEAD: [&str; 3] = ["adapter", "width", "height"];
-const TAIL: [&str; 8] =
-    ["triangles", "mean_lights_per_tile", "max_lights_per_tile", "pass", "median_ms", "min_ms", "max_ms", "frames"];
+/// `dropped_*`: over the point's measured frames whose light-grid headers were read back
+/// (opaque and blended grids together; empty for a method without a grid).
+const TAIL: [&str; 11] = [
+    "triangles",
+    "mean_lights_per_tile",
+    "max_lights_per_tile",
+    "pass",
+    "median_ms",
+    "min_ms",
+    "max_ms",
+    "frames",
+    "dropped_frames",
+    "dropped_lights",
+    "dropped_lists",
+];
 /// The pseudo-pass holding the sum of the pass medians.
 pub const TOTAL: &str = "total";
 
@@ -194,57 +216,27 @@ pub fn run(args: &SweepArgs) -> Result<()> {
     );
     let mut adapter = None;
     let mut prep: Option<Prepared> = None;
+    let mut warnings = 0;
     let pb = lab::progress(pending.len());
-    for &i in &pending {
+    for (done, &i) in pending.iter().enumerate() {
         let (point, pargs) = (&points[i], &all_args[i]);
         let what = lab::describe(&axes, point);
         pb.set_message(what.clone());
-        let p = match prep.as_mut() {
-            Some(p) => {
-                p.reconfigure(pargs).with_context(|| what.clone())?;
-                p
+        let measured = measure_point(&mut prep, &mut adapter, &mut csv, (point, pargs, &what), args, &out, &pb);
+        match measured {
+            Ok(Some(w)) => lab::warn(&pb, &mut warnings, &format!("{what}: {w}")),
+            Ok(None) => {}
+            Err(e) => {
+                pb.finish_and_clear();
+                let progress = lab::Progress {
+                    point: &what,
+                    done: points.len() - pending.len() + done,
+                    total: points.len(),
+                    csv: &out,
+                };
+                return Err(lab::interrupted(e, prep.as_ref(), &progress));
             }
-            None => {
-                let p = Prepared::new(pargs).with_context(|| what.clone())?;
-                let name = p.ctx.info.name.clone();
-                lab::check_same_setup(
-                    &csv.existing,
-                    [0, 1, 2],
-                    [&name, &pargs.width.to_string(), &pargs.height.to_string()],
-                    &out,
-                )?;
-                lab::say(&pb, format!("adapter:    {}", p.ctx.describe()));
-                adapter = Some(name);
-                prep.insert(p)
-            }
-        };
-        let mut renderer = p.renderer(false).with_context(|| what.clone())?;
-        let m = bench::measure(p, renderer.as_mut(), args.warmup, args.frames).with_context(|| what.clone())?;
-        ensure!(m.timestamps, "the adapter has no timestamp queries: a sweep needs GPU pass times");
-        let stats = p.culling_stats(renderer.as_ref())?;
-        let passes = m.passes();
-        ensure!(!passes.is_empty(), "{what}: no frame's timestamps came back");
-        let total: f64 = passes.iter().map(|ps| ps.summary.median_ms).sum();
-        let mut lead = vec![adapter.clone().unwrap_or_default(), pargs.width.to_string(), pargs.height.to_string()];
-        lead.extend(point.iter().cloned());
-        lead.push(p.scene_gpu.triangles.to_string());
-        lead.push(stats.as_ref().map(|s| format!("{:.2}", s.mean_per_list)).unwrap_or_default());
-        lead.push(stats.as_ref().map(|s| s.max_per_list.to_string()).unwrap_or_default());
-        let mut rows: Vec<Vec<String>> = passes
-            .iter()
-            .map(|ps| {
-                let s = ps.summary;
-                let mut r = lead.clone();
-                r.extend([ps.pass.clone(), ms(s.median_ms), ms(s.min_ms), ms(s.max_ms), s.frames.to_string()]);
-                r
-            })
-            .collect();
-        let frames = passes.iter().map(|ps| ps.summary.frames).min().unwrap_or(0);
-        let mut r = lead.clone();
-        r.extend([TOTAL.to_string(), ms(total), String::new(), String::new(), frames.to_string()]);
-        rows.push(r);
-        csv.append(&rows)?;
-        lab::say(&pb, format!("{what}: {total:.3} ms"));
+        }
         pb.inc(1);
     }
     pb.finish_and_clear();
@@ -254,7 +246,74 @@ pub fn run(args: &SweepArgs) -> Result<()> {
     if let Some(n) = note {
         println!("chart:      {n}");
     }
-    Ok(())
+    dropped::strict(args.scene.strict, warnings)
+}
+
+/// Measures one point and appends its rows to the CSV; returns the warning about its
+/// frames, if they dropped lights.
+fn measure_point(
+    prep: &mut Option<Prepared>,
+    adapter: &mut Option<String>,
+    csv: &mut ResumableCsv,
+    (point, pargs, what): (&lab::Point, &Settings, &String),
+    args: &SweepArgs,
+    out: &std::path::Path,
+    pb: &indicatif::ProgressBar,
+) -> Result<Option<String>> {
+    let what = what.clone();
+    let p = match prep.as_mut() {
+        Some(p) => {
+            p.reconfigure(pargs).with_context(|| what.clone())?;
+            p
+        }
+        None => {
+            let p = Prepared::new(pargs).with_context(|| what.clone())?;
+            let name = p.ctx.info.name.clone();
+            lab::check_same_setup(
+                &csv.existing,
+                [0, 1, 2],
+                [&name, &pargs.width.to_string(), &pargs.height.to_string()],
+                out,
+            )?;
+            lab::say(pb, format!("adapter:    {}", p.ctx.describe()));
+            *adapter = Some(name);
+            prep.insert(p)
+        }
+    };
+    let mut renderer = p.renderer(false).with_context(|| what.clone())?;
+    let m = bench::measure(p, renderer.as_mut(), args.warmup, args.frames).with_context(|| what.clone())?;
+    ensure!(m.timestamps, "the adapter has no timestamp queries: a sweep needs GPU pass times");
+    let stats = p.culling_stats(renderer.as_ref())?;
+    let passes = m.passes();
+    ensure!(!passes.is_empty(), "{what}: no frame's timestamps came back");
+    let total: f64 = passes.iter().map(|ps| ps.summary.median_ms).sum();
+    let mut lead = vec![adapter.clone().unwrap_or_default(), pargs.width.to_string(), pargs.height.to_string()];
+    lead.extend(point.iter().cloned());
+    lead.push(p.scene_gpu.triangles.to_string());
+    lead.push(stats.as_ref().map(|s| format!("{:.2}", s.mean_per_list)).unwrap_or_default());
+    lead.push(stats.as_ref().map(|s| s.max_per_list.to_string()).unwrap_or_default());
+    let mut rows: Vec<Vec<String>> = passes
+        .iter()
+        .map(|ps| {
+            let s = ps.summary;
+            let mut r = lead.clone();
+            r.extend([ps.pass.clone(), ms(s.median_ms), ms(s.min_ms), ms(s.max_ms), s.frames.to_string()]);
+            r
+        })
+        .collect();
+    let frames = passes.iter().map(|ps| ps.summary.frames).min().unwrap_or(0);
+    let mut r = lead.clone();
+    r.extend([TOTAL.to_string(), ms(total), String::new(), String::new(), frames.to_string()]);
+    rows.push(r);
+    let dropped = m.dropped();
+    for r in &mut rows {
+        r.extend(dropped.csv());
+    }
+    csv.append(&rows)?;
+    let mark = dropped.mark().map(|d| format!(" ({d}: incomplete frames)")).unwrap_or_default();
+    lab::say(pb, format!("{what}: {total:.3} ms{mark}"));
+    let max_binding = p.ctx.device.limits().max_storage_buffer_binding_size;
+    Ok(dropped.warning("the measured frames", p.settings.grid_pairs, max_binding))
 }
 
 fn ms(v: f64) -> String {
@@ -287,7 +346,7 @@ fn draw(
     args: &SweepArgs,
 ) -> Result<Option<String>> {
     let col = |name: &str| header(axes).iter().position(|h| h == name).expect("known column");
-    let (xc, pass, total) = (col(x_axis), col("pass"), col("median_ms"));
+    let (xc, pass, total, dropped) = (col(x_axis), col("pass"), col("median_ms"), col("dropped_frames"));
     let xi = axes.iter().position(|a| a.name == x_axis).expect("x is an axis");
     let numeric = lab::is_numeric_axis(x_axis);
     // Lines: one per combination of the other axes that have several values.
@@ -312,14 +371,23 @@ fn draw(
         if !x.is_finite() {
             continue; // a value of an older run's axis not swept now
         }
-        match series.iter_mut().find(|s| s.name == name) {
-            Some(s) => s.points.push((x, y)),
-            None => series.push(Series { name, points: vec![(x, y)] }),
+        let incomplete = r[dropped].parse::<u64>().is_ok_and(|n| n > 0);
+        let s = match series.iter().position(|s| s.name == name) {
+            Some(i) => &mut series[i],
+            None => {
+                series.push(Series { name, points: Vec::new(), incomplete: Vec::new() });
+                series.last_mut().expect("just pushed")
+            }
+        };
+        s.points.push((x, y));
+        if incomplete {
+            s.incomplete.push((x, y));
         }
     }
     for s in &mut series {
         s.points.sort_by(|a, b| a.0.total_cmp(&b.0));
     }
+    let incomplete = series.iter().map(|s| s.incomplete.len()).sum::<usize>();
     let xscale = if numeric {
         Scale::auto(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)), 8.0)
     } else {
@@ -343,6 +411,14 @@ fn draw(
             }
             Crossing::Unknown => {}
         }
+    }
+    if incomplete > 0 {
+        let s = if incomplete == 1 { "" } else { "s" };
+        let text = format!("{incomplete} point{s} ringed red: frames DROPPED lights");
+        note = Some(match note {
+            Some(n) => format!("{n}; {text}"),
+            None => text,
+        });
     }
     let first = totals.first();
     let adapter = first.map(|r| r[0].clone()).unwrap_or_default();
@@ -384,7 +460,7 @@ mod tests {
     use super::*;
 
     fn s(pts: &[(f64, f64)]) -> Series {
-        Series { name: String::new(), points: pts.to_vec() }
+        Series { name: String::new(), points: pts.to_vec(), incomplete: Vec::new() }
     }
 
     #[test]

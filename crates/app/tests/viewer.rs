@@ -192,3 +192,61 @@ fn bad_gltf_and_impossible_settings_show_errors_and_the_viewer_goes_on() {
         assert!(stdout.contains(needle), "no {needle:?} in:\n{stdout}\nstderr:\n{stderr}");
     }
 }
+
+/// A light grid that cannot grow (a fixed budget of 8 indices for 32 lights at 320x180)
+/// drops lights every frame: the panel shows a red warning, stderr gets one `warning:`
+/// line (not one per frame), and `--strict` makes the viewer exit 1 after its screenshot.
+#[test]
+fn a_full_light_grid_is_warned_of_in_the_panel() {
+    let x = Xvfb::start();
+    let dir = scratch("dropped");
+    let out = view(
+        &x,
+        &dir,
+        &["--grid-budget", "8", "--frames", "6", "--screenshot-ui", "ui.png", "--screenshot", "plain.png"],
+    );
+    let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
+    assert!(stdout.contains("viewer dropped: the frame: light lists overflowed, DROPPED"), "{stdout}\n{stderr}");
+    let warnings: Vec<&str> = stderr.lines().filter(|l| l.starts_with("warning: ")).collect();
+    assert_eq!(warnings.len(), 1, "one warning while it lasts:\n{stderr}");
+    assert!(warnings[0].contains("fixed budget of 8 indices (--grid-budget 8)"), "{stderr}");
+    // The warning's red (255, 60, 60) is in the window as shown, where the lit image has
+    // none (a light of that colour could be in the image itself).
+    let (ui, plain) = (rgb(&dir.join("ui.png")), rgb(&dir.join("plain.png")));
+    let warning_red = |p: &image::Rgb<u8>| p.0[0] > 200 && p.0[1].abs_diff(60) < 40 && p.0[2].abs_diff(60) < 40;
+    let red = ui.enumerate_pixels().filter(|(x, y, p)| warning_red(p) && !warning_red(plain.get_pixel(*x, *y))).count();
+    assert!(red > 50, "only {red} warning-red pixels: no warning in the panel?");
+
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_tiledlight"));
+    cmd.args(["view", "--width", "320", "--height", "180", "--lights", "32", "--grid-budget", "8"]);
+    cmd.args(["--frames", "3", "--strict", "--screenshot", "lit.png"]);
+    cmd.current_dir(&dir).env("DISPLAY", &x.display).env_remove("WAYLAND_DISPLAY");
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        cmd.env("XDG_RUNTIME_DIR", std::env::temp_dir());
+    }
+    let out = cmd.output().expect("run the tiledlight binary");
+    let stderr = text(&out.stderr);
+    assert!(!out.status.success(), "--strict exited 0:\n{stderr}");
+    assert!(stderr.contains("error: --strict: 1 warning above"), "{stderr}");
+    assert!(dir.join("lit.png").exists(), "the screenshot is written before --strict fails");
+}
+
+/// A lost device (destroyed through the test hook after the 2nd frame, as a driver reset
+/// would lose it) ends the viewer with the loss named, exit 1.
+#[test]
+fn a_lost_device_ends_the_viewer_naming_it() {
+    let x = Xvfb::start();
+    let dir = scratch("lost");
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_tiledlight"));
+    cmd.args(["view", "--width", "320", "--height", "180", "--lights", "32", "--frames", "8"]);
+    cmd.current_dir(&dir).env("DISPLAY", &x.display).env_remove("WAYLAND_DISPLAY");
+    cmd.env("TILEDLIGHT_TEST_LOSE_DEVICE_AFTER", "2");
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        cmd.env("XDG_RUNTIME_DIR", std::env::temp_dir());
+    }
+    let out = cmd.output().expect("run the tiledlight binary");
+    let stderr = text(&out.stderr);
+    assert!(!out.status.success(), "the viewer went on after losing its device:\n{stderr}");
+    let last = stderr.lines().last().unwrap_or_default();
+    assert!(last.starts_with("error: the GPU device was lost (destroyed by the program)"), "{stderr}");
+}

@@ -193,7 +193,7 @@ impl AtlasLayout {
         }
         if ROW_TILES * tile > max_side {
             return Err(CullError::InvalidShadow(format!(
-                "shadow tile {tile}: a row of six is {} texels, over this GPU's {max_side}",
+                "shadow tile {tile}: a row of six tiles: limit max_texture_dimension_2d = {max_side}, asked for {} texels",
                 ROW_TILES * tile
             )));
         }
@@ -202,9 +202,9 @@ impl AtlasLayout {
         let layers = rows.div_ceil(rows_per_layer as u64).max(1);
         if layers > max_layers as u64 {
             return Err(CullError::InvalidShadow(format!(
-                "{points} point + {spots} spot shadow casters need {rows} rows of {tile}-texel tiles \
-                 ({layers} layers of {rows_per_layer}); this GPU's atlas holds {max_layers} layers, \
-                 {} rows",
+                "{points} point + {spots} spot shadow casters need {rows} rows of {tile}-texel tiles, \
+                 {rows_per_layer} rows a layer (the atlas holds {} rows): limit max_texture_array_layers = \
+                 {max_layers} layers, asked for {layers} layers",
                 max_layers as u64 * rows_per_layer as u64
             )));
         }
@@ -489,8 +489,10 @@ mod tests {
     fn layout_rejects_what_does_not_fit_naming_the_numbers() {
         let e = AtlasLayout::new(1024, 1000, 0, 8192, 4).unwrap_err().to_string();
         assert!(e.contains("1000 point") && e.contains("4 layers") && e.contains("32 rows"), "{e}");
+        assert!(e.contains("limit max_texture_array_layers = 4 layers, asked for 125 layers"), "{e}");
         assert!(AtlasLayout::new(100, 1, 0, 8192, 4).unwrap_err().to_string().contains("128 to 1024"));
-        assert!(AtlasLayout::new(1024, 1, 0, 4096, 4).unwrap_err().to_string().contains("6144"));
+        let e = AtlasLayout::new(1024, 1, 0, 4096, 4).unwrap_err().to_string();
+        assert!(e.contains("limit max_texture_dimension_2d = 4096, asked for 6144 texels"), "{e}");
         assert!(ShadowFilter::from_size(4).is_err());
     }
 

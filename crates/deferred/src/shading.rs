@@ -217,10 +217,12 @@ impl DeferredShading {
         // With every option on, the pass reads 9 storage buffers (WebGPU guarantees 8).
         let storage_limit = device.limits().max_storage_buffers_per_shader_stage;
         if atlas.is_some() && storage_limit < 9 {
-            return Err(GpuError::Config(format!(
-                "Tiled Deferred with shadows binds up to 9 storage buffers in one compute stage; \
-                 this GPU allows {storage_limit}"
-            )));
+            return Err(GpuError::Limit {
+                what: "Tiled Deferred with shadows".into(),
+                name: "max_storage_buffers_per_shader_stage",
+                limit: storage_limit.into(),
+                asked: "9 storage buffers in one compute stage".into(),
+            });
         }
         if options.samples != samples {
             return Err(GpuError::Config(format!(

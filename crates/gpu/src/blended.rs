@@ -49,7 +49,7 @@ use crate::depth_prepass::{scene_pipeline, DepthPrepass, DepthTarget, DepthUse, 
 use crate::error::GpuError;
 use crate::features::{BlendMode, Features, Method};
 use crate::light_cull::{CullOptions, LightCulling};
-use crate::light_grid::LightGrid;
+use crate::light_grid::{GridStatus, LightGrid};
 use crate::lights_gpu::LightBuffers;
 use crate::lights_group::LightsGroup;
 use crate::memory::MemoryReport;
@@ -137,6 +137,9 @@ pub struct BlendedPath {
     order: Mutex<Vec<(f32, usize)>>,
     /// Bytes allocated (blended depth, layer; the grid's).
     pub memory: MemoryReport,
+    /// The blended grid's header last read by [`Self::grow_if_dropped`], until taken
+    /// ([`Self::take_status`]): what a frame loop reports as dropped blended lights.
+    polled: Option<GridStatus>,
 }
 
 /// The blended geometry's own depth buffer and the pass drawing it (step 1).
@@ -182,6 +185,7 @@ impl BlendedPath {
         let Some(c) = &mut self.culling else { return Ok(false) };
         let status = if wait { Some(c.grid.status(device, queue)?) } else { c.grid.poll_status() };
         let Some(status) = status else { return Ok(false) };
+        self.polled = Some(status);
         match c.grid.growth(status.needed()) {
             Some(capacity) if !status.complete() => {
                 c.grid.grow(device, queue, capacity);
@@ -421,7 +425,14 @@ impl BlendedPath {
             instances,
             order,
             memory,
+            polled: None,
         })
+    }
+
+    /// The blended light grid's header that [`Self::grow_if_dropped`] read last (a finished
+    /// frame's, before any growth), once: None when none was read since the last call.
+    pub fn take_status(&mut self) -> Option<GridStatus> {
+        self.polled.take()
     }
 
     /// Step 1: the blended depth of view slot `view` (nothing when frustum clusters serve

@@ -2,7 +2,16 @@
 //! by a case-insensitive substring of its name from `WGPU_ADAPTER_NAME` (e.g. `llvmpipe`
 //! for lavapipe, `H100`), backends from `WGPU_BACKEND`. Only the features and limits the
 //! renderer needs are requested; timestamp queries are used when the adapter has them.
-//! Depends on wgpu.
+//!
+//! Headless programs call [`skip_display_gpu_probe`] first, so that Mesa's device-select
+//! layer does not probe the window system (and print errors about it) to find the display's
+//! GPU (see docs/RELIABILITY.md).
+//!
+//! Every device gets a device-lost callback ([`GpuContext::device_lost`]): a lost device
+//! ends a run with [`GpuError::DeviceLost`] naming wgpu's reason instead of a cascade of
+//! validation errors about invalid objects. Depends on wgpu.
+
+use std::sync::{Arc, Mutex};
 
 use crate::error::GpuError;
 
@@ -20,6 +29,8 @@ pub struct GpuContext {
     pub info: wgpu::AdapterInfo,
     /// Whether GPU timestamps are available (per-pass timings).
     pub timestamps: bool,
+    /// Set by the device-lost callback: wgpu's reason and message.
+    lost: Arc<Mutex<Option<String>>>,
 }
 
 /// What the caller can ask of the device beyond the defaults.
@@ -39,12 +50,7 @@ fn adapter_name_filter() -> Option<String> {
 impl GpuContext {
     /// A device with no surface, for rendering to textures (tests, `render`, `bench`).
     pub fn headless(options: ContextOptions) -> Result<Self, GpuError> {
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-        if std::env::var("WGPU_BACKEND").is_err() {
-            // Vulkan, Metal and DX12 only: the GL backend lacks compute features we need.
-            desc.backends = wgpu::Backends::PRIMARY;
-        }
-        let instance = wgpu::Instance::new(desc);
+        let instance = headless_instance();
         let adapter = pollster::block_on(select_adapter(&instance, desc_backends()))?;
         Self::with_adapter(instance, adapter, options)
     }
@@ -118,7 +124,27 @@ impl GpuContext {
             trace: wgpu::Trace::Off,
         }))
         .map_err(|e| GpuError::Device { adapter: info.name.clone(), reason: e.to_string() })?;
-        Ok(Self { instance, adapter, device, queue, info, timestamps })
+        let lost = Arc::new(Mutex::new(None));
+        let sink = lost.clone();
+        device.set_device_lost_callback(move |reason, message| {
+            let why = match reason {
+                wgpu::DeviceLostReason::Destroyed => "destroyed by the program".to_string(),
+                wgpu::DeviceLostReason::Unknown => "reason unknown".to_string(),
+            };
+            let text = if message.trim().is_empty() { why } else { format!("{why}: {}", message.trim()) };
+            log::debug!("GPU device lost: {text}");
+            if let Ok(mut l) = sink.lock() {
+                l.get_or_insert(text);
+            }
+        });
+        Ok(Self { instance, adapter, device, queue, info, timestamps, lost })
+    }
+
+    /// [`GpuError::DeviceLost`] once the device was lost (wgpu calls the callback from a
+    /// poll or submit after the loss), else None.
+    pub fn device_lost(&self) -> Option<GpuError> {
+        let reason = self.lost.lock().ok()?.clone()?;
+        Some(GpuError::DeviceLost { reason })
     }
 
     /// One line naming the adapter, backend and driver.
@@ -142,11 +168,52 @@ impl GpuContext {
         let out = f();
         let val = pollster::block_on(scope_val.pop());
         let oom = pollster::block_on(scope_oom.pop());
-        if let Some(e) = val.or(oom) {
+        if let Some(lost) = self.device_lost() {
+            // Every call on a lost device fails validation: the loss is the news.
+            return Err(lost);
+        }
+        if oom.is_some() {
+            return Err(GpuError::OutOfMemory { context: context.to_string() });
+        }
+        if let Some(e) = val {
             return Err(GpuError::Wgpu { context: context.to_string(), message: e.to_string() });
         }
         Ok(out)
     }
+}
+
+/// The instance of a headless run: `WGPU_BACKEND`'s backends, else Vulkan, Metal and DX12
+/// (the GL backend lacks compute features we need).
+fn headless_instance() -> wgpu::Instance {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    if std::env::var("WGPU_BACKEND").is_err() {
+        desc.backends = wgpu::Backends::PRIMARY;
+    }
+    wgpu::Instance::new(desc)
+}
+
+/// Makes the headless runs of this process skip Mesa's device-select layer
+/// (`VK_LAYER_MESA_device_select`, an implicit Vulkan layer): wgpu enables the Vulkan
+/// window-system extensions whenever the driver has them, and the layer, seeing
+/// `VK_KHR_wayland_surface` enabled, connects to the Wayland compositor (and the X server)
+/// to find the display's GPU; without `XDG_RUNTIME_DIR`, libwayland prints
+/// `error: XDG_RUNTIME_DIR is invalid or not set in the environment.` for every instance.
+/// A headless run presents nothing and picks its adapter itself (`WGPU_ADAPTER_NAME`, or
+/// the high-performance one), so the layer's choice is not needed. Sets the layer's own
+/// switch, `NODEVICE_SELECT=1`, unless the user set it or chose a device through the
+/// layer (`MESA_VK_DEVICE_SELECT`). Returns whether it set it.
+///
+/// Call it at the start of `main`, before any other thread exists (it changes the
+/// process's environment, which the Vulkan loader reads when the instance is created).
+/// Leaving out the extensions instead would need wgpu-hal's unsafe instance callback, and
+/// the workspace forbids unsafe code.
+pub fn skip_display_gpu_probe() -> bool {
+    let user_chose = ["NODEVICE_SELECT", "MESA_VK_DEVICE_SELECT"].iter().any(|v| std::env::var_os(v).is_some());
+    if user_chose {
+        return false;
+    }
+    std::env::set_var("NODEVICE_SELECT", "1");
+    true
 }
 
 fn desc_backends() -> wgpu::Backends {

@@ -1,4 +1,9 @@
-//! The error type of the GPU layer: each variant says what failed and why.
+//! The error type of the GPU layer: each variant says what failed and why. A request
+//! beyond an adapter limit names the limit, its value and what was asked
+//! ([`GpuError::Limit`]); a lost device and an out-of-memory error have variants of their
+//! own ([`GpuError::DeviceLost`], [`GpuError::OutOfMemory`]), so a caller can tell a
+//! fault of the GPU from a mistake in the input (the lab keeps its results and says how to
+//! resume).
 
 /// Errors from device creation, shader loading and resource setup.
 #[derive(Debug, thiserror::Error)]
@@ -32,6 +37,32 @@ pub enum GpuError {
         context: String,
         /// wgpu's message.
         message: String,
+    },
+    /// A request beyond one of the device's limits: "the light grid needs 4,000,000 lists:
+    /// limit max_storage_buffer_binding_size = 134217728, asked for 32000056 bytes".
+    #[error("{what}: limit {name} = {limit}, asked for {asked}")]
+    Limit {
+        /// What needed it.
+        what: String,
+        /// The wgpu limit's name (`wgpu::Limits` field).
+        name: &'static str,
+        /// The device's value of the limit.
+        limit: u64,
+        /// What was asked for, with its unit.
+        asked: String,
+    },
+    /// The device was lost (driver reset, GPU removed, out of memory in the driver, or
+    /// `destroy` called): nothing more can be drawn with it.
+    #[error("the GPU device was lost ({reason})")]
+    DeviceLost {
+        /// wgpu's reason and message.
+        reason: String,
+    },
+    /// wgpu reported that the GPU is out of memory.
+    #[error("out of GPU memory while {context}")]
+    OutOfMemory {
+        /// What was being done.
+        context: String,
     },
     /// A configuration value is out of range.
     #[error("invalid configuration: {0}")]

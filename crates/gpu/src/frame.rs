@@ -79,9 +79,12 @@ impl FrameCommon {
         let (width, height) = s.size;
         let max_side = device.limits().max_texture_dimension_2d;
         if width > max_side || height > max_side {
-            return Err(GpuError::Config(format!(
-                "{width}x{height} exceeds this GPU's {max_side} pixel texture limit"
-            )));
+            return Err(GpuError::Limit {
+                what: format!("a {width}x{height} screen"),
+                name: "max_texture_dimension_2d",
+                limit: max_side.into(),
+                asked: format!("{} pixels", width.max(height)),
+            });
         }
         let grid = TileGrid::new(width, height, s.tile_size)?;
         let limits = device.limits();

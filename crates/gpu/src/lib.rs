@@ -33,7 +33,7 @@ pub mod tonemap;
 pub mod util;
 pub mod view;
 
-pub use context::{ContextOptions, GpuContext};
+pub use context::{skip_display_gpu_probe, ContextOptions, GpuContext};
 pub use error::GpuError;
 pub use wgpu;
 

@@ -111,12 +111,16 @@ impl CullOptions {
         }
         let wg_bytes = self.capacity * 4 * if self.half_z { 2 } else { 1 } + reserved;
         if wg_bytes > limits.max_compute_workgroup_storage_size {
-            return Err(GpuError::Config(format!(
-                "capacity {} needs {wg_bytes} bytes of workgroup memory{}; this device allows {}",
-                self.capacity,
-                if reserved > CULL_WORKGROUP_BYTES { " with the MSAA edge queue" } else { "" },
-                limits.max_compute_workgroup_storage_size
-            )));
+            return Err(GpuError::Limit {
+                what: format!(
+                    "a tile list of capacity {} in workgroup memory{}",
+                    self.capacity,
+                    if reserved > CULL_WORKGROUP_BYTES { " with the MSAA edge queue" } else { "" }
+                ),
+                name: "max_compute_workgroup_storage_size",
+                limit: limits.max_compute_workgroup_storage_size.into(),
+                asked: format!("{wg_bytes} bytes"),
+            });
         }
         Ok(())
     }
@@ -337,10 +341,12 @@ impl CoarseCulling {
         let n = cells.tile_count() as u64;
         let bytes = (n + n * capacity as u64) * 4;
         if bytes > device.limits().max_storage_buffer_binding_size {
-            return Err(GpuError::Config(format!(
-                "cell lists need {bytes} bytes ({n} cells x {capacity} lights); this device binds at most {}",
-                device.limits().max_storage_buffer_binding_size
-            )));
+            return Err(GpuError::Limit {
+                what: format!("the cell lists of two-level culling ({n} cells x {capacity} lights)"),
+                name: "max_storage_buffer_binding_size",
+                limit: device.limits().max_storage_buffer_binding_size,
+                asked: format!("{bytes} bytes"),
+            });
         }
         let lists = buffer_zeroed(device, "cull.cell_lists", bytes, usage);
         memory.add("cull.cell_lists", lists.size());

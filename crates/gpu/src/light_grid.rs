@@ -206,18 +206,23 @@ impl LightGrid {
         let lists = tiles.tile_count() as u64 * lists_per_tile as u64;
         let grid_bytes = HEADER_BYTES + lists * 8;
         if grid_bytes > max_binding {
-            return Err(GpuError::Config(format!(
-                "the light grid needs {grid_bytes} bytes for {lists} lists; this device binds at most {max_binding}"
-            )));
+            return Err(GpuError::Limit {
+                what: format!("the light grid of {lists} lists"),
+                name: "max_storage_buffer_binding_size",
+                limit: max_binding,
+                asked: format!("{grid_bytes} bytes"),
+            });
         }
         let max_capacity = (max_binding / 4).min(u32::MAX as u64) as u32;
         let capacity = match fixed_pairs {
             Some(0) => return Err(GpuError::Config("a fixed light-grid budget must hold at least one index".into())),
             Some(n) if n > max_capacity => {
-                return Err(GpuError::Config(format!(
-                    "a light-grid budget of {n} indices needs {} bytes; this device binds at most {max_binding}",
-                    n as u64 * 4
-                )))
+                return Err(GpuError::Limit {
+                    what: format!("a light-grid budget of {n} indices"),
+                    name: "max_storage_buffer_binding_size",
+                    limit: max_binding,
+                    asked: format!("{} bytes", n as u64 * 4),
+                })
             }
             Some(n) => n,
             None => initial_capacity(tiles.tile_count() as u64, num_lights).min(max_capacity as u64) as u32,

@@ -19,7 +19,7 @@ use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::tonemap::HeatmapOf;
-use tiledlight_gpu::{ContextOptions, GpuContext};
+use tiledlight_gpu::{ContextOptions, GpuContext, GpuError};
 use tiledlight_scene::{Aabb, CameraDesc, Light};
 
 use crate::camera::choose_camera;
@@ -67,7 +67,16 @@ pub struct Prepared {
     /// The scene's surfaces sampled by area, kept while lights are placed on them (new
     /// surface lights need no new scene).
     surfaces: Surfaces,
-    gpu_errors: Arc<Mutex<Vec<String>>>,
+    gpu_errors: Arc<Mutex<Vec<GpuFault>>>,
+}
+
+/// A GPU error wgpu raised outside an error scope.
+#[derive(Clone, Debug)]
+struct GpuFault {
+    /// wgpu said the GPU is out of memory.
+    oom: bool,
+    /// wgpu's message.
+    message: String,
 }
 
 /// Uploads the scene and its lights (with the settings' shadow casters).
@@ -125,8 +134,9 @@ impl Prepared {
         let sink = gpu_errors.clone();
         ctx.device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
             log::debug!("GPU error: {e}");
+            let oom = matches!(e, wgpu::Error::OutOfMemory { .. });
             if let Ok(mut v) = sink.lock() {
-                v.push(e.to_string());
+                v.push(GpuFault { oom, message: e.to_string() });
             }
         }));
         let (scene_gpu, lights) = upload(&ctx, &cpu, settings)?;
@@ -266,7 +276,9 @@ impl Prepared {
     /// Takes the GPU errors raised outside an error scope since the last call (the viewer
     /// shows them and goes on; `check_gpu_errors` ends a headless run instead).
     pub fn take_gpu_errors(&self) -> Vec<String> {
-        self.gpu_errors.lock().map(|mut v| std::mem::take(&mut *v)).unwrap_or_default()
+        let faults = self.gpu_errors.lock().map(|mut v| std::mem::take(&mut *v)).unwrap_or_default();
+        let line = |f: GpuFault| if f.oom { format!("out of GPU memory ({})", f.message) } else { f.message };
+        faults.into_iter().map(line).collect()
     }
 
     /// Builds a renderer for the settings' method, screen and culling options, with the
@@ -316,8 +328,9 @@ impl Prepared {
             )
             .map(|r| Box::new(r) as Box<dyn Renderer>),
         };
-        let r = r.with_context(|| format!("building the {} renderer at {}x{}", a.method.name(), a.width, a.height))?;
-        self.check_gpu_errors()?;
+        let what = format!("building the {} renderer at {}x{}", a.method.name(), a.width, a.height);
+        let r = r.with_context(|| what.clone())?;
+        self.check_gpu_errors_while(&what)?;
         Ok(r)
     }
 
@@ -333,13 +346,34 @@ impl Prepared {
         blended_stats(&self.ctx, renderer)
     }
 
-    /// Fails with the first GPU error wgpu raised outside an error scope, if any.
+    /// Fails when the device was lost ([`GpuError::DeviceLost`]) or wgpu raised an error
+    /// outside an error scope: out of memory first ([`GpuError::OutOfMemory`], "while
+    /// rendering"), else the first error.
     pub fn check_gpu_errors(&self) -> Result<()> {
+        self.check_gpu_errors_while("rendering")
+    }
+
+    /// [`Prepared::check_gpu_errors`], an out-of-memory error saying "while `doing`".
+    pub fn check_gpu_errors_while(&self, doing: &str) -> Result<()> {
+        // A lost device fails every later call with "invalid" errors: the loss is the news.
+        if let Some(lost) = self.ctx.device_lost() {
+            return Err(lost.into());
+        }
         let errors = self.gpu_errors.lock().map(|v| v.clone()).unwrap_or_default();
+        if let Some(f) = errors.iter().find(|f| f.oom) {
+            let context = format!("{doing} (wgpu: {})", f.message);
+            return Err(GpuError::OutOfMemory { context }.into());
+        }
         match errors.first() {
-            Some(e) => bail!("GPU error ({} in all): {e}", errors.len()),
+            Some(e) => bail!("GPU error ({} in all): {}", errors.len(), e.message),
             None => Ok(()),
         }
+    }
+
+    /// The device-lost error once the device was lost (a frame loop checks it when a
+    /// step fails, so the loss is named rather than its consequences).
+    pub fn device_lost(&self) -> Option<GpuError> {
+        self.ctx.device_lost()
     }
 
     /// The report lines about adapter, scene, lights, screen and method.

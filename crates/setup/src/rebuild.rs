@@ -10,7 +10,7 @@
 //! | seed, threshold, lights per surface point (same counts) | light data rewritten in place (renderers with shadows are told: `Renderer::lights_moved`) | | |
 //! | camera bookmark | | yes | |
 //! | width, height | | yes (aspect ratio) | yes |
-//! | method, tile size, capacity, culling tests, half-z, G-buffer targets, MSAA, edge test | | | yes |
+//! | method, tile size, capacity, light-grid budget, culling tests, half-z, G-buffer targets, MSAA, edge test | | | yes |
 //! | shadow tile size, filter, format (while some light casts a shadow; unused otherwise) | | | yes |
 //! | blend mode (while the scene may have blended geometry: transparent objects or a glTF file; unused otherwise) | | | yes |
 //! | exposure | | | no: `exposure` (the tonemap pass's uniform is rewritten) |
@@ -87,6 +87,7 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || a.method != b.method
         || a.tile_size != b.tile_size
         || a.capacity != b.capacity
+        || a.grid_pairs != b.grid_pairs
         || a.aabb != b.aabb
         || a.half_z != b.half_z
         || a.depth_mask != b.depth_mask

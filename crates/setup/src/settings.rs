@@ -208,6 +208,11 @@ pub struct Settings {
     /// None: the light count, up to what the GPU's workgroup memory holds (chosen when the
     /// lights are uploaded, see `Prepared`).
     pub capacity: Option<u32>,
+    /// A fixed light-grid budget, in (list, light) indices, for the opaque and the blended
+    /// grid: the grid never grows, and pairs beyond it are dropped (and reported). None:
+    /// sized from the frame's pairs and grown when a frame needs more. Tests force an
+    /// overflow with it (`--grid-budget`, a hidden flag).
+    pub grid_pairs: Option<u32>,
     /// Also test light spheres against each tile's view-space AABB.
     pub aabb: bool,
     /// Two lists per tile, split at the middle of its depth range.
@@ -276,6 +281,7 @@ impl Default for Settings {
             method: Method::ForwardPlus,
             tile_size: 16,
             capacity: None,
+            grid_pairs: None,
             aabb: false,
             half_z: false,
             depth_mask: false,
@@ -314,6 +320,7 @@ impl Settings {
         let side = 1..=MAX_SCREEN_SIDE;
         ensure!(side.contains(&self.width), "--width {}: must be between 1 and {MAX_SCREEN_SIDE} pixels", self.width);
         ensure!((2..=5).contains(&self.gbuffer_rts), "--gbuffer-rts {}: must be between 2 and 5", self.gbuffer_rts);
+        ensure!(self.grid_pairs != Some(0), "--grid-budget 0: the light grid must hold at least one index");
         ensure!(
             side.contains(&self.height),
             "--height {}: must be between 1 and {MAX_SCREEN_SIDE} pixels",
@@ -460,7 +467,7 @@ impl Settings {
             spot_cone: self.spot_cone,
             coarse: !self.flat_cull,
             samples: self.msaa,
-            grid_pairs: None,
+            grid_pairs: self.grid_pairs,
             depth_mask: self.depth_mask,
             scatter: self.scatter,
             clusters: self.clusters,

@@ -10,6 +10,12 @@
 //! Plain `tiledlight` opens the viewer when a display is available ([`run_default`]), and
 //! otherwise runs the headless quickstart, saying why in one line.
 //!
+//! Frames that drop lights because a light grid is full and cannot grow (a fixed budget,
+//! or the device's largest binding; a grid that can grow does so for the next frame) get
+//! a red warning at the top of the panel for as long as they last and one `warning:` line
+//! on stderr each time it starts; `--strict` makes the viewer exit with an error if any
+//! was given. A lost device ends the viewer with the loss named.
+//!
 //! May depend on every other module of the app.
 
 mod blit;
@@ -28,6 +34,7 @@ use clap::Args;
 use tiledlight_cull::bounds::{sphere_vs_frustum, to_view};
 use tiledlight_cull::tiles::TileFrustum;
 use tiledlight_cull::Camera;
+use tiledlight_gpu::light_grid::GridStatus;
 use tiledlight_gpu::readback::read_texture;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;
@@ -43,6 +50,7 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::window::{Window, WindowId};
 
 use crate::bookmark;
+use crate::dropped::{self, Dropped};
 use crate::render::write_image;
 use crate::scene_setup::{check_png_path, rgb_image, save_png, SceneArgs};
 use blit::{Blit, DisplayImage};
@@ -97,10 +105,17 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     }
 }
 
+/// Whether plain `tiledlight` will try the viewer: a display is named (`DISPLAY` or
+/// `WAYLAND_DISPLAY`) and `TILEDLIGHT_HEADLESS` is unset.
+pub fn display_available() -> bool {
+    std::env::var_os("TILEDLIGHT_HEADLESS").is_none()
+        && ["DISPLAY", "WAYLAND_DISPLAY"].iter().any(|v| std::env::var_os(v).is_some_and(|s| !s.is_empty()))
+}
+
 /// Plain `tiledlight`: the viewer when a display is available, else the headless
 /// quickstart, with one line saying why.
 pub fn run_default() -> Result<()> {
-    let has_display = ["DISPLAY", "WAYLAND_DISPLAY"].iter().any(|v| std::env::var_os(v).is_some_and(|s| !s.is_empty()));
+    let has_display = display_available();
     let headless_line = |why: &str| {
         println!("{why}: rendering headless to out/ (run `tiledlight view` with a display for the viewer)");
     };
@@ -149,7 +164,10 @@ fn run_viewer(args: &ViewArgs) -> Result<(), Failure> {
     event_loop.run_app(&mut app).map_err(|e| Failure::Other(e.into()))?;
     match app.failure {
         Some(f) => Err(f),
-        None => Ok(()),
+        None => {
+            let warnings = app.viewer.as_ref().map_or(0, |v| v.warnings);
+            dropped::strict(args.scene.strict, warnings).map_err(Failure::Other)
+        }
     }
 }
 
@@ -188,6 +206,8 @@ impl ApplicationHandler for App {
                 Ok(true) => event_loop.exit(),
                 Ok(false) => {}
                 Err(e) => {
+                    // After a device loss, whatever failed is a consequence: name the loss.
+                    let e = v.prep.device_lost().map_or(e, anyhow::Error::from);
                     self.failure = Some(Failure::Other(e));
                     event_loop.exit();
                 }
@@ -238,6 +258,12 @@ struct Viewer {
     last_frame: Instant,
     last_stats: Option<Instant>,
     minimized: bool,
+    /// The latest light-grid headers read back (opaque, blended).
+    grids: (Option<GridStatus>, Option<GridStatus>),
+    /// The frames drop lights now (the panel's warning is up).
+    dropping: bool,
+    /// `warning:` lines printed (for `--strict`).
+    warnings: usize,
 }
 
 /// The surface format: a plain (non-sRGB) 8-bit one, which egui expects (it blends in
@@ -361,6 +387,9 @@ impl Viewer {
             last_frame: Instant::now(),
             last_stats: None,
             minimized: false,
+            grids: (None, None),
+            dropping: false,
+            warnings: 0,
             prep,
         })
     }
@@ -530,6 +559,9 @@ impl Viewer {
         if self.minimized {
             return Ok(false);
         }
+        if let Some(lost) = self.prep.device_lost() {
+            return Err(lost.into());
+        }
         for e in self.prep.take_gpu_errors() {
             self.report(&anyhow::anyhow!("GPU: {e}"));
         }
@@ -625,9 +657,19 @@ impl Viewer {
             size_in_pixels: [self.config.width, self.config.height],
             pixels_per_point: ppp,
         };
-        // A finished frame's light-grid header, when its copy has arrived: the grid grows
-        // for the next frame if that one dropped lights (the statistics panel reports it).
-        self.renderer.prepare(ctx);
+        // A finished frame's light-grid headers, when their copies have arrived: a grid
+        // grows for the next frame if that one dropped lights; one that cannot is warned of.
+        let opaque = self.renderer.prepare(ctx);
+        let blended = self.renderer.blended_mut().and_then(|b| b.take_status());
+        self.grids = (opaque.or(self.grids.0), blended.or(self.grids.1));
+        let dropping = self.lasting_drops();
+        self.stats.dropped = dropping;
+        if let Some(w) = &self.stats.dropped {
+            if !self.dropping {
+                dropped::warn(&mut self.warnings, w);
+            }
+        }
+        self.dropping = self.stats.dropped.is_some();
         let mut encoder =
             ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("viewer.frame") });
         self.renderer.record(&ctx.queue, &mut encoder, &self.timer, &self.prep.scene_gpu, &camera);
@@ -657,6 +699,7 @@ impl Viewer {
         ctx.queue.submit(extra.into_iter().chain([encoder.finish()]));
         self.window.pre_present_notify();
         ctx.queue.present(frame);
+        crate::bench::lose_device_for_tests(ctx);
         self.timer.end_frame()?;
         ctx.device.poll(wgpu::PollType::Poll).context("polling the GPU")?;
         while let Some(times) = self.timer.finished_frame() {
@@ -692,6 +735,21 @@ impl Viewer {
             }
         }
         Ok(quit)
+    }
+
+    /// The warning about the latest frames' dropped lights, when a grid dropped some and
+    /// cannot grow to hold them (a grid that can has grown for the next frame already).
+    fn lasting_drops(&self) -> Option<String> {
+        let (opaque, blended) = self.grids;
+        let lasting = |s: Option<GridStatus>, capacity: Option<u32>| {
+            s.filter(|s| !s.complete() && capacity.is_some_and(|c| s.needed() > c))
+        };
+        let opaque = lasting(opaque, self.renderer.light_grid().map(|g| g.capacity()));
+        let blended_capacity = self.renderer.blended().and_then(|b| b.culling.as_ref()).map(|c| c.grid.capacity());
+        let blended = lasting(blended, blended_capacity);
+        let d = Dropped::of(opaque.as_slice(), blended.as_slice());
+        let max_binding = self.prep.ctx.device.limits().max_storage_buffer_binding_size;
+        d.warning("the frame", self.prep.settings.grid_pairs, max_binding)
     }
 
     /// Writes the window as shown (panel included), read back from `tex`.
@@ -731,6 +789,7 @@ impl Viewer {
             println!("viewer culling: {c}");
         }
         println!("viewer visible lights: {}", self.stats.visible_lights);
+        println!("viewer dropped: {}", self.stats.dropped.as_deref().unwrap_or("none"));
         println!("viewer error: {}", self.ui.error.as_deref().unwrap_or("none"));
     }
 }

@@ -86,6 +86,9 @@ pub struct Stats {
     pub timestamps: bool,
     /// Shadow faces the last frame drew (None without shadow casters).
     pub shadow_faces: Option<u32>,
+    /// The warning about lights the latest frames dropped (a light grid full and unable to
+    /// grow), shown in red at the top of the panel; None while frames are complete.
+    pub dropped: Option<String>,
 }
 
 impl Stats {
@@ -189,6 +192,9 @@ pub fn draw(
             }
             if let Some(n) = &st.notice {
                 ui.label(RichText::new(n).weak());
+            }
+            if let Some(d) = &info.stats.dropped {
+                ui.colored_label(Color32::from_rgb(255, 60, 60), RichText::new(format!("warning: {d}")).strong());
             }
             stats_section(ui, info);
             controls(ui, st, s, info);
@@ -296,7 +302,14 @@ fn stats_section(ui: &mut egui::Ui, info: &Info<'_>) {
                 }
                 let total: f64 = st.passes.iter().map(|p| p.ms).sum();
                 ui.label(RichText::new("GPU total").strong());
-                ui.label(RichText::new(format!("{total:.3} ms")).strong());
+                // A frame that dropped lights did less than the whole frame's work.
+                match st.dropped {
+                    Some(_) => ui.colored_label(
+                        Color32::from_rgb(255, 60, 60),
+                        RichText::new(format!("{total:.3} ms * (incomplete frame)")).strong(),
+                    ),
+                    None => ui.label(RichText::new(format!("{total:.3} ms")).strong()),
+                };
                 ui.end_row();
             });
         } else {

@@ -1,0 +1,264 @@
+//! No wrong image without a warning: what a run's frames lost to a full light grid (the
+//! opaque geometry's and the alpha-blended geometry's own), as the one `warning:` line a
+//! command prints on stderr ([`warn`]), the fields of bench's `--json` and the lab's CSV
+//! columns, the marks of tables and charts, and `--strict`, which makes any warning an
+//! error with a non-zero exit once the output files are written ([`strict`]).
+//!
+//! A light grid drops (list, light) pairs only when its index buffer is full and cannot
+//! grow: a fixed budget (the hidden `--grid-budget` flag) or the device's largest storage
+//! binding (`max_storage_buffer_binding_size`). Such a frame is wrong where lights were
+//! dropped, and its time is that of less work than the whole frame. The workgroup list
+//! (`--capacity`) drops nothing: longer lists are culled a second time into the grid.
+//!
+//! May depend on tiledlight-gpu (the grid's header, the renderer) and tiledlight-setup.
+
+use anyhow::{bail, Context, Result};
+use serde::Serialize;
+use tiledlight_gpu::light_grid::GridStatus;
+use tiledlight_gpu::targets::Renderer;
+use tiledlight_setup::{group_digits, Prepared};
+
+/// What one light grid lost over the frames whose header was read back.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct GridDrops {
+    /// Headers read back.
+    pub frames_read: usize,
+    /// Of them, the frames that dropped lights.
+    pub frames: usize,
+    /// (list, light) pairs dropped, summed over those frames.
+    pub pairs: u64,
+    /// Lists that lost lights, summed over those frames.
+    pub lists: u64,
+    /// Of the dropping frames, the largest need: (pairs found, indices the grid held).
+    #[serde(skip)]
+    pub worst: Option<(u32, u32)>,
+}
+
+impl GridDrops {
+    /// The drops of these headers (None without any: no grid, or none read back).
+    pub fn of(statuses: &[GridStatus]) -> Option<Self> {
+        if statuses.is_empty() {
+            return None;
+        }
+        let mut d = GridDrops { frames_read: statuses.len(), ..Default::default() };
+        for s in statuses.iter().filter(|s| !s.complete()) {
+            let h = &s.header;
+            d.frames += 1;
+            d.pairs += u64::from(h.dropped_pairs);
+            d.lists += u64::from(h.dropped_lists);
+            if d.worst.is_none_or(|(need, _)| h.pairs > need) {
+                d.worst = Some((h.pairs, h.capacity));
+            }
+        }
+        Some(d)
+    }
+}
+
+/// What the frames lost, per grid (None: the method has no such grid, or the scene no
+/// blended geometry).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Dropped {
+    /// The opaque geometry's light grid.
+    pub opaque: Option<GridDrops>,
+    /// The alpha-blended geometry's own light grid.
+    pub blended: Option<GridDrops>,
+}
+
+impl Dropped {
+    /// The drops of the opaque and the blended grid's headers.
+    pub fn of(opaque: &[GridStatus], blended: &[GridStatus]) -> Self {
+        Self { opaque: GridDrops::of(opaque), blended: GridDrops::of(blended) }
+    }
+
+    /// The last frame of `renderer` (its headers read back, stalling): what its image lost.
+    pub fn last_frame(prep: &Prepared, renderer: &dyn Renderer) -> Result<Self> {
+        let (device, queue) = (&prep.ctx.device, &prep.ctx.queue);
+        let opaque = match renderer.light_grid() {
+            Some(g) => vec![g.status(device, queue).context("reading the light grid's header back")?],
+            None => Vec::new(),
+        };
+        let blended = match renderer.blended().and_then(|b| b.culling.as_ref()) {
+            Some(c) => vec![c.grid.status(device, queue).context("reading the blended light grid's header back")?],
+            None => Vec::new(),
+        };
+        Ok(Self::of(&opaque, &blended))
+    }
+
+    fn grids(&self) -> impl Iterator<Item = &GridDrops> {
+        self.opaque.iter().chain(self.blended.iter())
+    }
+
+    /// True when some frame dropped lights.
+    pub fn any(&self) -> bool {
+        self.frames() > 0
+    }
+
+    /// Frames read back that dropped lights (of either grid: the larger count, as both
+    /// are read back from the same frames, though not always both).
+    pub fn frames(&self) -> usize {
+        self.grids().map(|g| g.frames).max().unwrap_or(0)
+    }
+
+    /// Frames whose header was read back (None for a method without a light grid).
+    pub fn frames_read(&self) -> Option<usize> {
+        self.grids().map(|g| g.frames_read).max()
+    }
+
+    /// Pairs dropped, both grids, summed over the frames.
+    pub fn pairs(&self) -> u64 {
+        self.grids().map(|g| g.pairs).sum()
+    }
+
+    /// Lists that lost lights, both grids, summed over the frames.
+    pub fn lists(&self) -> u64 {
+        self.grids().map(|g| g.lists).sum()
+    }
+
+    /// The CSV cells `dropped_frames`, `dropped_lights`, `dropped_lists` (empty for a
+    /// method without a light grid).
+    pub fn csv(&self) -> [String; 3] {
+        match self.frames_read() {
+            None => [String::new(), String::new(), String::new()],
+            Some(_) => [self.frames().to_string(), self.pairs().to_string(), self.lists().to_string()],
+        }
+    }
+
+    /// A short mark for a table or log line: "DROPPED lights in 3 of 5 frames" (None when
+    /// nothing was dropped).
+    pub fn mark(&self) -> Option<String> {
+        self.any().then(|| {
+            format!("DROPPED lights in {} of {} frames read back", self.frames(), self.frames_read().unwrap_or(0))
+        })
+    }
+
+    /// The warning (without "warning: ") about `subject` ("the image", "the measured
+    /// frames"), None when nothing was dropped. `budget`: the settings' fixed light-grid
+    /// budget; `max_binding`: the device's `max_storage_buffer_binding_size`.
+    pub fn warning(&self, subject: &str, budget: Option<u32>, max_binding: u64) -> Option<String> {
+        if !self.any() {
+            return None;
+        }
+        let mut parts = Vec::new();
+        // What would help, from the first grid's cause.
+        let mut hint = None;
+        for (name, g) in [("", self.opaque), ("the blended geometry's lists: ", self.blended)] {
+            let Some(g) = g.filter(|g| g.frames > 0) else { continue };
+            let mut p = format!(
+                "{name}{} (list, light) pairs from {} list{}",
+                group_digits(g.pairs),
+                group_digits(g.lists),
+                if g.lists == 1 { "" } else { "s" }
+            );
+            if let Some((need, capacity)) = g.worst {
+                let (cause, help) = match budget {
+                    Some(b) => (
+                        format!("its fixed budget of {} indices (--grid-budget {b})", group_digits(b.into())),
+                        "a larger --grid-budget, or none",
+                    ),
+                    None if u64::from(capacity) >= max_binding / 4 => (
+                        format!(
+                            "{} indices, the most the device binds (limit max_storage_buffer_binding_size = \
+                             {max_binding} bytes, asked for {} bytes)",
+                            group_digits(capacity.into()),
+                            u64::from(need) * 4
+                        ),
+                        "fewer lights: --lights, smaller radii: a higher --threshold, or tighter lists: --grid clustered",
+                    ),
+                    // Grown for the next frame: only frames before the growth lost lights.
+                    None => (
+                        format!("{} indices, before it grew for the next frames", group_digits(capacity.into())),
+                        "warm-up frames (--warmup) let the grid grow before frames are measured",
+                    ),
+                };
+                hint.get_or_insert(help);
+                p.push_str(&format!(" (a frame needed {} indices; the grid holds {cause})", group_digits(need.into())));
+            }
+            parts.push(p);
+        }
+        let frames = match self.frames_read() {
+            Some(1) | None => String::new(),
+            Some(n) => format!(" in {} of {n} frames read back", self.frames()),
+        };
+        let hint = hint.map(|h| format!(" ({h})")).unwrap_or_default();
+        Some(format!(
+            "{subject}: light lists overflowed{frames}, DROPPED {}: the image is wrong where those lights are \
+             missing and a time of such a frame is of less work than the whole frame{hint}",
+            parts.join("; ")
+        ))
+    }
+}
+
+/// Prints `line` as one `warning:` line on stderr and counts it.
+pub fn warn(count: &mut usize, line: &str) {
+    eprintln!("warning: {}", crate::one_line(line));
+    *count += 1;
+}
+
+/// `--strict`: after the output files are written, any warning of the run is an error.
+pub fn strict(strict: bool, warnings: usize) -> Result<()> {
+    if strict && warnings > 0 {
+        let s = if warnings == 1 { "" } else { "s" };
+        bail!("--strict: {warnings} warning{s} above (the output files were written)");
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tiledlight_gpu::light_grid::LightGridHeader;
+
+    fn status(pairs: u32, capacity: u32) -> GridStatus {
+        let dropped = pairs.saturating_sub(capacity);
+        GridStatus::from_gpu(LightGridHeader {
+            allocated: pairs,
+            pairs,
+            dropped_pairs: dropped,
+            dropped_lists: if dropped > 0 { 3 } else { 0 },
+            capacity,
+            ..Default::default()
+        })
+    }
+
+    #[test]
+    fn complete_frames_say_nothing() {
+        let d = Dropped::of(&[status(10, 100), status(20, 100)], &[]);
+        assert!(!d.any());
+        assert_eq!(d.warning("the image", None, 1 << 27), None);
+        assert_eq!(d.mark(), None);
+        assert_eq!(d.csv(), ["0", "0", "0"]);
+        // No grid at all (brute force): empty cells, not zeros.
+        assert_eq!(Dropped::of(&[], &[]).csv(), ["", "", ""]);
+    }
+
+    #[test]
+    fn dropping_frames_are_counted_and_named() {
+        let d = Dropped::of(&[status(150, 100), status(10, 100), status(130, 100)], &[status(7, 5)]);
+        assert!(d.any());
+        assert_eq!((d.frames(), d.frames_read(), d.pairs(), d.lists()), (2, Some(3), 50 + 30 + 2, 9));
+        assert_eq!(d.csv(), ["2", "82", "9"]);
+        let w = d.warning("the measured frames", Some(100), 1 << 27).unwrap();
+        assert!(w.starts_with("the measured frames: light lists overflowed in 2 of 3 frames read back"), "{w}");
+        assert!(w.contains("DROPPED 80 (list, light) pairs from 6 lists"), "{w}");
+        assert!(
+            w.contains(
+                "a frame needed 150 indices; the grid holds its fixed budget of 100 indices (--grid-budget 100)"
+            ),
+            "{w}"
+        );
+        assert!(w.contains("the blended geometry's lists: 2 (list, light) pairs from 3 lists"), "{w}");
+        let w = Dropped::of(&[status(150, 100)], &[]).warning("the image", None, 400).unwrap();
+        assert!(w.contains("limit max_storage_buffer_binding_size = 400 bytes, asked for 600 bytes"), "{w}");
+        // A grid below the device's limit was growing: the frames before it lost lights.
+        let w = Dropped::of(&[status(150, 100)], &[]).warning("the image", None, 4000).unwrap();
+        assert!(w.contains("the grid holds 100 indices, before it grew for the next frames"), "{w}");
+        assert!(!w.contains("frames read back"), "one frame: {w}");
+        assert_eq!(d.mark().unwrap(), "DROPPED lights in 2 of 3 frames read back");
+    }
+
+    #[test]
+    fn strict_fails_only_with_warnings() {
+        assert!(strict(true, 0).is_ok() && strict(false, 3).is_ok());
+        assert!(strict(true, 2).unwrap_err().to_string().contains("--strict: 2 warnings"));
+    }
+}
