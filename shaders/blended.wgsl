@@ -8,7 +8,10 @@
 // 2(2) 2013) nothing is sorted: each fragment adds its premultiplied colour and coverage,
 // weighted by its depth, to an accumulation target and multiplies the revealage target by
 // (1 - alpha); blended_composite.wgsl turns the two into the layer.
+// Materials as in the opaque passes (common/scene.wgsl material_sample, with its defines);
+// emission is part of the surface's colour, so it is weighted by coverage like the rest.
 // variants: SPOT_LIGHTS TEXTURES BRUTE_FORCE NO_CUTOFF SHADOWS WBOIT
+// variants: MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1
 #include "common/scene.wgsl"
 #include "common/shade.wgsl"
 
@@ -30,13 +33,8 @@
 #endif
 
 @vertex
-fn vs_main(
-    @builtin(instance_index) instance: u32,
-    @location(0) position: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) uv: vec2<f32>,
-) -> VertexOut {
-    return transform_vertex(instance, position, normal, uv);
+fn vs_main(v: VertexIn) -> VertexOut {
+    return transform_vertex(v);
 }
 
 #ifdef WBOIT
@@ -67,13 +65,11 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
 
 // The blended surface's premultiplied colour and coverage.
 fn shade_blended(in: VertexOut, front: bool) -> vec4<f32> {
-    let m = materials[in.material];
-    let base = material_color(m, in.uv);
-    let nn = normalize(in.normal);
-    let n = select(-nn, nn, front);
+    let ms = material_sample(in, front);
+    let n = ms.normal;
     let v = view_vector(in.world_pos);
-    let s = Surface(base.rgb, m.roughness, m.metallic);
-    var color = lighting.ambient * base.rgb;
+    let s = Surface(ms.base, ms.roughness, ms.metallic);
+    var color = unlit_term(lighting.ambient, ms);
 #ifdef BRUTE_FORCE
     for (var i = 0u; i < lighting.num_lights; i++) {
         color += shade_light(i, in.world_pos, n, v, s);
@@ -84,5 +80,5 @@ fn shade_blended(in: VertexOut, front: bool) -> vec4<f32> {
         color += shade_light(light_indices[list.first + i], in.world_pos, n, v, s);
     }
 #endif
-    return vec4<f32>(color * base.a, base.a);
+    return vec4<f32>(color * ms.alpha, ms.alpha);
 }

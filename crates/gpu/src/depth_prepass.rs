@@ -6,7 +6,7 @@
 use crate::bindings::PassBindings;
 use crate::error::GpuError;
 use crate::features::Features;
-use crate::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS, VERTEX_LAYOUTS};
+use crate::scene_gpu::{DrawKind, SceneGpu, POSITION_LAYOUT, SCENE_GROUPS};
 use crate::timer::GpuTimer;
 use crate::util::{pipeline_layout, shader_module};
 use crate::view::Views;
@@ -160,13 +160,19 @@ impl DepthPrepass {
         let mut pipelines = Vec::new();
         let samples = target.samples;
         let textures = scene.textures.as_ref().filter(|_| features.textures);
+        let layouts = scene.vertex_layouts();
         for &kind in kinds {
             let mut defines = Vec::new();
             let layout = if kind.masked {
                 defines.push("ALPHA_MASK");
                 match textures {
                     Some(t) => {
+                        // The alpha test reads the base colour slot only: its texture
+                        // coordinate set may be set 1.
                         defines.push("TEXTURES");
+                        if features.materials.uv1 {
+                            defines.push("UV1");
+                        }
                         pipeline_layout(
                             device,
                             "depth_prepass.masked.layout",
@@ -180,7 +186,7 @@ impl DepthPrepass {
             };
             let module = shader_module(device, DEPTH_PREPASS_BINDINGS.entry, &defines)?;
             let (vs, buffers): (&str, &[Option<wgpu::VertexBufferLayout<'_>>]) =
-                if kind.masked { ("vs_masked", &VERTEX_LAYOUTS) } else { ("vs_main", &VERTEX_LAYOUTS[..1]) };
+                if kind.masked { ("vs_masked", &layouts) } else { ("vs_main", &POSITION_LAYOUT) };
             let label = format!(
                 "{}{}{}{}",
                 target.label,
