@@ -12,6 +12,11 @@
 // emission is part of the surface's colour, so it is weighted by coverage like the rest.
 // variants: SPOT_LIGHTS TEXTURES BRUTE_FORCE NO_CUTOFF SHADOWS WBOIT
 // variants: MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1
+// requires: MR_TEXTURE TEXTURES
+// requires: NORMAL_MAP TEXTURES
+// requires: OCCLUSION TEXTURES
+// requires: UV1 TEXTURES
+// requires: NO_CUTOFF BRUTE_FORCE
 #include "common/scene.wgsl"
 #include "common/shade.wgsl"
 

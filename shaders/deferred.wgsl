@@ -28,6 +28,10 @@
 //
 // variants: SPOT_LIGHTS HALF_Z AABB SPOT_CONE COARSE EXTRA_RTS EXTRA_RTS_2 EXTRA_RTS_3 MSAA SHADOWS ASSIGNED CLUSTERED
 // variants: EMISSION
+// requires: EXTRA_RTS_2 EXTRA_RTS
+// requires: EXTRA_RTS_3 EXTRA_RTS_2
+// requires: CLUSTERED ASSIGNED
+// requires: SPOT_CONE SPOT_LIGHTS
 #ifdef ASSIGNED
 #include "common/depth_range.wgsl"
 #include "common/light_grid_rw.wgsl"

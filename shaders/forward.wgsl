@@ -6,6 +6,11 @@
 // The material defines (TEXTURES MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1) are common/scene.wgsl's.
 // variants: SPOT_LIGHTS TEXTURES HALF_Z BRUTE_FORCE NO_CUTOFF ALPHA_MASK SHADOWS
 // variants: MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1
+// requires: MR_TEXTURE TEXTURES
+// requires: NORMAL_MAP TEXTURES
+// requires: OCCLUSION TEXTURES
+// requires: UV1 TEXTURES
+// requires: NO_CUTOFF BRUTE_FORCE
 #include "common/scene.wgsl"
 #include "common/shade.wgsl"
 
