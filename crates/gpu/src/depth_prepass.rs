@@ -3,10 +3,10 @@
 //! (and the brute-force reference) start with it. Pipelines exist only for the draw kinds
 //! the scene has. Depends on wgpu, [`crate::scene_gpu`] and [`crate::view`].
 
-use crate::bindings::PassBindings;
+use crate::bindings::{Cond, PassBindings, PassGroup};
 use crate::error::GpuError;
 use crate::features::Features;
-use crate::scene_gpu::{DrawKind, SceneGpu, POSITION_LAYOUT, SCENE_GROUPS};
+use crate::scene_gpu::{DrawKind, SceneGpu, BASE_COLOR_BINDINGS, POSITION_LAYOUT, SCENE_GROUPS};
 use crate::timer::GpuTimer;
 use crate::util::{pipeline_layout, shader_module};
 use crate::view::Views;
@@ -105,10 +105,19 @@ pub fn scene_pipeline(device: &wgpu::Device, kind: DrawKind, d: &SceneDraw<'_>) 
 }
 
 /// The bindings of the depth pre-pass (`shaders/depth_prepass.wgsl`): the scene's groups,
-/// the material textures only in the masked pipelines of textured scenes. Its layouts are
-/// the views' and the scene's own.
-pub const DEPTH_PREPASS_BINDINGS: PassBindings =
-    PassBindings { entry: "depth_prepass.wgsl", source: file!(), groups: &SCENE_GROUPS };
+/// the material textures only in the masked pipelines of textured scenes, and of those only
+/// the base colour slot (the alpha test reads nothing else). Its layouts are the views' and
+/// the scene's own: the material bind groups it sets hold the scene's other slots too,
+/// which a pipeline layout may have unread.
+pub const DEPTH_PREPASS_BINDINGS: PassBindings = PassBindings {
+    entry: "depth_prepass.wgsl",
+    source: file!(),
+    groups: &[
+        SCENE_GROUPS[0],
+        SCENE_GROUPS[1],
+        PassGroup::new(2, BASE_COLOR_BINDINGS).when(Cond::Defined("TEXTURES")),
+    ],
+};
 
 /// The depth pre-pass pipelines.
 pub struct DepthPrepass {

@@ -305,6 +305,10 @@ pub const TEXTURE_BINDINGS: &[Binding] = &[
     Binding::sampler(9, FS, FILTERING).when(Cond::Defined("EMISSIVE")),
 ];
 
+/// The base colour slot of [`TEXTURE_BINDINGS`] alone (what the alpha test of the depth
+/// pre-pass reads).
+pub const BASE_COLOR_BINDINGS: &[Binding] = TEXTURE_BINDINGS.split_at(2).0;
+
 /// Groups 0 to 2 of a raster pass drawing the scene with `shaders/common/scene.wgsl`: the
 /// view, [`SCENE_BINDINGS`] and, when the shader is compiled with `TEXTURES`,
 /// [`TEXTURE_BINDINGS`].
