@@ -71,10 +71,7 @@ pub fn validate_shaders(root: &Path) -> Result<()> {
         let text = read(entry).with_context(|| format!("cannot read shaders/{entry}"))?;
         let variants = shader::variants_in(&text);
         if variants.len() > MAX_VARIANTS {
-            eprintln!(
-                "error: shaders/{entry}: {} variants declared, at most {MAX_VARIANTS}",
-                variants.len()
-            );
+            eprintln!("error: shaders/{entry}: {} variants declared, at most {MAX_VARIANTS}", variants.len());
             failures += 1;
             continue;
         }

@@ -112,11 +112,7 @@ pub fn scene_pipeline(device: &wgpu::Device, kind: DrawKind, d: &SceneDraw<'_>) 
 pub const DEPTH_PREPASS_BINDINGS: PassBindings = PassBindings {
     entry: "depth_prepass.wgsl",
     source: file!(),
-    groups: &[
-        SCENE_GROUPS[0],
-        SCENE_GROUPS[1],
-        PassGroup::new(2, BASE_COLOR_BINDINGS).when(Cond::Defined("TEXTURES")),
-    ],
+    groups: &[SCENE_GROUPS[0], SCENE_GROUPS[1], PassGroup::new(2, BASE_COLOR_BINDINGS).when(Cond::Defined("TEXTURES"))],
 };
 
 /// The depth pre-pass pipelines.
