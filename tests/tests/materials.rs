@@ -9,7 +9,11 @@
 //! twins (`tiledlight_cull::material`, `tiledlight_cull::brdf`) at the position rebuilt from
 //! the brute-force depth, within 3e-3 relative (floor 1e-3): the f16 HDR target rounds to
 //! 2^-11 relative, and the GPU interpolates what the CPU rebuilds from depth (about 1e-5
-//! apart), as in `heatmap_and_brdf.rs`'s BRDF test. Textures are sampled nearest and pixels
+//! apart), as in `heatmap_and_brdf.rs`'s BRDF test. sRGB texels are expected as ranges: a
+//! conforming GPU may decode byte b anywhere between the linear values of b - 0.5 and
+//! b + 0.5 (llvmpipe decodes 40 0.5% low and 90 0.6% high; `independent.rs` measured it),
+//! and shading grows with the albedo and the emission, so the GPU value must lie between
+//! the CPU values at the two ends, give or take the tolerance. Textures are sampled nearest and pixels
 //! within 3% of a texel edge are skipped (interpolated and rebuilt coordinates may pick
 //! different texels there). Forward+ and Tiled Deferred are then compared with brute force
 //! under the suite's tolerances (`tiledlight_tests::compare`: Forward+ sums the same lights
@@ -235,15 +239,24 @@ fn nearest_texel(uv: Vec2, (w, h): (u32, u32), wrap: (Wrap, Wrap)) -> Option<(u3
     Some((axis(uv.x, w, wrap.0)?, axis(uv.y, h, wrap.1)?))
 }
 
-/// A texel of `rgba` as linear values: `srgb` decodes the colour channels (alpha stays).
-fn texel(rgba: &[u8], w: u32, (x, y): (u32, u32), srgb: bool) -> Vec4 {
+/// A linear texel of `rgba` (data textures: no decoding).
+fn texel(rgba: &[u8], w: u32, (x, y): (u32, u32)) -> Vec4 {
     let i = ((y * w + x) * 4) as usize;
-    let c = |k: usize| f32::from(rgba[i + k]) / 255.0;
-    let d = |k: usize| if srgb { srgb_to_linear(c(k)) } else { c(k) };
-    Vec4::new(d(0), d(1), d(2), c(3))
+    Vec4::from_array([0, 1, 2, 3].map(|k| f32::from(rgba[i + k]) / 255.0))
+}
+
+/// The lowest and highest linear colour a GPU may decode sRGB texel (x, y) of `rgba` to:
+/// each byte b anywhere between b - 0.5 and b + 0.5.
+fn srgb_range(rgba: &[u8], w: u32, (x, y): (u32, u32)) -> [Vec3; 2] {
+    let i = ((y * w + x) * 4) as usize;
+    let decode = |o: f32| {
+        Vec3::from_array([0, 1, 2].map(|k| srgb_to_linear(((f32::from(rgba[i + k]) + o) / 255.0).clamp(0.0, 1.0))))
+    };
+    [decode(-0.5), decode(0.5)]
 }
 
 /// What the CPU says a quad point's surface is.
+#[derive(Clone, Copy)]
 struct Expected {
     albedo: Vec3,
     roughness: f32,
@@ -296,6 +309,14 @@ struct Checked {
     p: Vec3,
 }
 
+/// The ends of an expectation: equal unless an sRGB texel makes it a range
+/// ([`srgb_range`]); the shading grows from the first to the second.
+type Ends = [Expected; 2];
+
+fn exact(e: Expected) -> Ends {
+    [e, e]
+}
+
 /// One scene's three images.
 struct Frames {
     brute: Frame,
@@ -305,13 +326,14 @@ struct Frames {
 
 /// Renders `scene` lit by `lights` (ambient `ambient`) with brute force, Forward+ and Tiled
 /// Deferred; checks brute force against `expect` (per quad point: its position and set-0
-/// coordinates; None to skip) pixel by pixel and the tiled methods against brute force.
+/// coordinates; None to skip; else the two ends of the expected surface) pixel by pixel and
+/// the tiled methods against brute force.
 /// Returns the frames and the checked pixels.
 fn render_and_check(
     name: &str,
     scene: &Scene,
     (lights, ambient): (&[Light], Vec3),
-    expect: impl Fn(Vec3, Vec2) -> Option<Expected>,
+    expect: impl Fn(Vec3, Vec2) -> Option<Ends>,
 ) -> (Frames, Vec<Checked>) {
     let ctx = gpu();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, scene).unwrap();
@@ -329,16 +351,19 @@ fn render_and_check(
             let Some(pv) = pixel_view_position(&cam, W, H, x, y, depth[i]) else { continue };
             let p = (inv_view * pv.extend(1.0)).truncate();
             let uv = uv0_at(p.truncate());
-            let Some(e) = expect(p, uv) else { continue };
-            let want = shade_cpu(&e, p, cam.eye(), lights, ambient);
+            let Some([lo, hi]) = expect(p, uv) else { continue };
+            let (lo, hi) =
+                (shade_cpu(&lo, p, cam.eye(), lights, ambient), shade_cpu(&hi, p, cam.eye(), lights, ambient));
             for c in 0..3 {
-                let err = (brute.hdr[i][c] - want[c]).abs() / want[c].abs().max(1e-3);
+                let got = brute.hdr[i][c];
+                let outside = (lo[c].min(hi[c]) - got).max(got - lo[c].max(hi[c])).max(0.0);
+                let err = outside / got.abs().max(1e-3);
                 worst = worst.max(err);
                 assert!(
                     err <= 3e-3,
-                    "{name}: pixel ({x}, {y}) channel {c}: GPU {} CPU {} (uv {uv})",
-                    brute.hdr[i][c],
-                    want[c]
+                    "{name}: pixel ({x}, {y}) channel {c}: GPU {got}, CPU {} to {} (uv {uv})",
+                    lo[c],
+                    hi[c]
                 );
             }
             checked.push(Checked { i, uv, p });
@@ -396,14 +421,14 @@ fn normal_map_moves_the_lighting() {
         let rgba = map.concat();
         let (frames, checked) = render_and_check(&format!("normal-map-{k}"), &scene, (&[light], ambient), |_, uv| {
             let texel_at = nearest_texel(uv, (2, 1), (Wrap::Repeat, Wrap::Repeat))?;
-            let tx = texel(&rgba, 2, texel_at, false).truncate();
-            Some(Expected {
+            let tx = texel(&rgba, 2, texel_at).truncate();
+            Some(exact(Expected {
                 albedo: Vec3::splat(0.8),
                 roughness: 0.6,
                 metallic: 0.0,
                 normal: normal_from_map(Vec3::Z, Vec4::from(t), tx, 1.0),
                 ..Default::default()
-            })
+            }))
         });
         let left = mean_of(&frames.brute, &checked, |uv| uv.x < 0.5);
         let right = mean_of(&frames.brute, &checked, |uv| uv.x > 0.5);
@@ -429,9 +454,13 @@ fn metallic_roughness_and_occlusion_follow_the_cpu_brdf() {
     let ao = [[255u8, 0, 0, 255], [64, 0, 0, 255]].concat();
     let mr_tex = doc.texture(2, 1, &mr, (CLAMP, CLAMP));
     let ao_tex = doc.texture(1, 2, &ao, (CLAMP, CLAMP));
+    // An albedo the G-buffer's 8-bit sRGB target holds exactly (sRGB codes 230, 200, 160):
+    // an albedo between codes is Tiled Deferred's known ~0.5% error (tiledlight_tests::compare),
+    // which over a frame filled by one colour turns every pixel one LDR step off.
+    let albedo = Vec3::new(230.0, 200.0, 160.0).map(|c| srgb_to_linear(c / 255.0));
     let material = json!({
         "pbrMetallicRoughness": {
-            "baseColorFactor": [0.8, 0.6, 0.4, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.9,
+            "baseColorFactor": [albedo.x, albedo.y, albedo.z, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.9,
             "metallicRoughnessTexture": {"index": mr_tex}
         },
         "occlusionTexture": {"index": ao_tex, "strength": 0.8}
@@ -443,16 +472,10 @@ fn metallic_roughness_and_occlusion_follow_the_cpu_brdf() {
     ];
     let ambient = Vec3::splat(0.4);
     let (frames, checked) = render_and_check("mr-occlusion", &scene, (&lights, ambient), |_, uv| {
-        let m = texel(&mr, 2, nearest_texel(uv, (2, 1), (Wrap::ClampToEdge, Wrap::ClampToEdge))?, false);
-        let o = texel(&ao, 1, nearest_texel(uv, (1, 2), (Wrap::ClampToEdge, Wrap::ClampToEdge))?, false);
+        let m = texel(&mr, 2, nearest_texel(uv, (2, 1), (Wrap::ClampToEdge, Wrap::ClampToEdge))?);
+        let o = texel(&ao, 1, nearest_texel(uv, (1, 2), (Wrap::ClampToEdge, Wrap::ClampToEdge))?);
         let (roughness, metallic) = roughness_metallic(0.9, 1.0, m);
-        Some(Expected {
-            albedo: Vec3::new(0.8, 0.6, 0.4),
-            roughness,
-            metallic,
-            occlusion: occlusion(o.x, 0.8),
-            ..Default::default()
-        })
+        Some(exact(Expected { albedo, roughness, metallic, occlusion: occlusion(o.x, 0.8), ..Default::default() }))
     });
     // Occlusion darkens the bottom's ambient: compare top and bottom at mirrored heights
     // of the left (dielectric) half, where ambient x albedo dominates.
@@ -469,10 +492,9 @@ fn metallic_roughness_and_occlusion_follow_the_cpu_brdf() {
         let moved = cs
             .iter()
             .filter(|c| {
-                let o =
-                    texel(&ao, 1, nearest_texel(c.uv, (1, 2), (Wrap::ClampToEdge, Wrap::ClampToEdge)).unwrap(), false);
+                let o = texel(&ao, 1, nearest_texel(c.uv, (1, 2), (Wrap::ClampToEdge, Wrap::ClampToEdge)).unwrap());
                 let e = Expected {
-                    albedo: Vec3::new(0.8, 0.6, 0.4),
+                    albedo,
                     roughness: 0.9,
                     metallic: 1.0,
                     occlusion: occlusion(o.x, 0.8),
@@ -506,22 +528,30 @@ fn emissive_quad_lit_by_nothing() {
         "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 3.0}}
     });
     let scene = load(&doc.write(dir.path(), "emissive", prim, material, &["KHR_materials_emissive_strength"]));
-    let e = emission(Vec3::new(1.0, 0.5, 0.25), 3.0, texel(&em, 1, (0, 0), true).truncate());
+    let [lo, hi] = srgb_range(&em, 1, (0, 0)).map(|t| emission(Vec3::new(1.0, 0.5, 0.25), 3.0, t));
     let (frames, checked) = render_and_check("emissive", &scene, (&[], Vec3::ZERO), |_, _| {
-        Some(Expected { emission: e, albedo: Vec3::splat(0.5), ..Default::default() })
+        let e = |emission| Expected { emission, albedo: Vec3::splat(0.5), ..Default::default() };
+        Some([e(lo), e(hi)])
     });
     let aces = |x: f32| ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0);
-    let want_ldr = e.to_array().map(|c| (linear_to_srgb(aces(c)) * 255.0).round());
+    let ldr = |e: Vec3| e.to_array().map(|c| (linear_to_srgb(aces(c)) * 255.0).round());
+    let (ldr_lo, ldr_hi) = (ldr(lo), ldr(hi));
+    eprintln!("emission {lo} to {hi}: tonemapped {ldr_lo:?} to {ldr_hi:?}");
     for (method, f) in
         [("brute force", &frames.brute), ("Forward+", &frames.forward), ("Tiled Deferred", &frames.deferred)]
     {
         for &Checked { i, .. } in &checked {
             for c in 0..3 {
-                let got = f.ldr[i * 4 + c] as f32;
-                assert!((got - want_ldr[c]).abs() <= 1.0, "{method}: pixel {i} channel {c}: {got} vs {}", want_ldr[c]);
+                let got = f32::from(f.ldr[i * 4 + c]);
+                let (a, b) = (ldr_lo[c], ldr_hi[c]);
+                assert!(
+                    got >= a - 1.0 && got <= b + 1.0,
+                    "{method}: pixel {i} channel {c}: {got}, expected {a} to {b}"
+                );
                 // Tiled Deferred's emission passes through an f16 target: 2^-11 relative.
-                let rel = (f.hdr[i][c] - e[c]).abs() / e[c];
-                assert!(rel <= 3e-3, "{method}: pixel {i} channel {c}: HDR {} vs {}", f.hdr[i][c], e[c]);
+                let hdr = f.hdr[i][c];
+                let (a, b) = (lo[c] * (1.0 - 3e-3), hi[c] * (1.0 + 3e-3));
+                assert!(hdr >= a && hdr <= b, "{method}: pixel {i} channel {c}: HDR {hdr}, expected {a} to {b}");
             }
         }
     }
@@ -568,8 +598,8 @@ fn second_uv_set_texture_transform_and_wrap_modes_move_the_texture() {
                 Some(_) => Vec2::from(transform.apply(uv1_at(p.truncate()).to_array())),
                 None => uv0,
             };
-            let t = texel(&rgba, 2, nearest_texel(uv, (2, 2), wrap)?, true);
-            Some(Expected { albedo: t.truncate(), ..Default::default() })
+            let ends = srgb_range(&rgba, 2, nearest_texel(uv, (2, 2), wrap)?);
+            Some(ends.map(|albedo| Expected { albedo, ..Default::default() }))
         });
         images.push(frames.brute.hdr);
     }
@@ -634,7 +664,10 @@ fn quantized_mesh_renders_like_its_float_twin() {
     let fm = material(&mut f);
     let fprim = json!({"attributes": {"POSITION": p, "NORMAL": n, "TANGENT": t, "TEXCOORD_0": u0, "TEXCOORD_1": u1}, "indices": i});
     let float = load(&f.write(dir.path(), "float", fprim, fm, &["KHR_texture_transform"]));
-    assert_eq!(quantized.meshes, float.meshes, "dequantised attributes equal the float twin's");
+    let unnamed = |s: &Scene| {
+        s.meshes.iter().map(|m| tiledlight_scene::Mesh { name: String::new(), ..m.clone() }).collect::<Vec<_>>()
+    };
+    assert_eq!(unnamed(&quantized), unnamed(&float), "dequantised attributes equal the float twin's");
     assert_eq!(quantized.meshes[0].tangents[0], [1.0, 0.0, 0.0, -1.0]);
 
     let ctx = gpu();
@@ -689,12 +722,13 @@ fn scenes_without_material_maps_get_no_extra_paths() {
         assert_eq!(gbuffer, 64 * 48 * per_pixel, "{name}: G-buffer bytes ({per_pixel} a pixel besides depth)");
         let f = ForwardRenderer::new(ctx, &sg, &lights, 64, 48, ForwardSettings::default()).unwrap();
         assert_eq!(f.features().material_defines(), want.defines(), "{name}: Forward+ variant");
-        let bound = layout_entries(TEXTURE_BINDINGS, &want.defines()).len();
+        // Group 2 exists only with TEXTURES.
+        let bound = if want.textures { layout_entries(TEXTURE_BINDINGS, &want.defines()).len() } else { 0 };
         eprintln!("{name}: defines {:?}, {bound} texture bindings", want.defines());
         bound
     };
     let plain = scenes::floor_scene(0.5, 0.0, vec![]);
-    assert_eq!(check("floor", &plain, MaterialFeatures::default()), 2);
+    assert_eq!(check("floor", &plain, MaterialFeatures::default()), 0);
     let courtyard = scenes::courtyard();
     let textures_only = MaterialFeatures { textures: true, ..Default::default() };
     assert_eq!(check("courtyard", &courtyard, textures_only), 2, "base colour texture and sampler only");
@@ -724,5 +758,5 @@ fn scenes_without_material_maps_get_no_extra_paths() {
     let mut emissive = plain.clone();
     emissive.materials[0].emissive = [1.0, 0.0, 0.0];
     let emission_only = MaterialFeatures { emissive: true, ..Default::default() };
-    assert_eq!(check("emissive floor", &emissive, emission_only), 2);
+    assert_eq!(check("emissive floor", &emissive, emission_only), 0);
 }
