@@ -44,7 +44,7 @@ fn fs_masked(in: MaskedOut) {
 #else
     let uv1 = in.uv;
 #endif
-    if material_color(in.material, in.uv, uv1).a < materials[in.material].alpha_cutoff {
+    if material_color(in.material, uv_sets(in.uv, uv1)).a < materials[in.material].alpha_cutoff {
         discard;
     }
 }

@@ -73,26 +73,58 @@ struct Material {
 #endif
 #endif
 
-// The texture coordinates slot `slot` of material `mi` reads: its set, through its transform.
-fn slot_uv(mi: u32, slot: u32, uv0: vec2<f32>, uv1: vec2<f32>) -> vec2<f32> {
-    var uv = uv0;
+// A fragment's texture coordinate sets with their screen-space derivatives, taken from the
+// interpolated varyings themselves (call uv_sets in uniform control flow). Textures are
+// sampled with these gradients carried through each slot's transform (textureSampleGrad),
+// not with implicit derivatives of the transformed coordinates: those would difference
+// values read from the material buffer in helper invocations, which a GPU need not load
+// (llvmpipe returns zeros there, and the mip level went wrong).
+struct UvSets {
+    uv0: vec2<f32>,
+    dx0: vec2<f32>,
+    dy0: vec2<f32>,
+    uv1: vec2<f32>,
+    dx1: vec2<f32>,
+    dy1: vec2<f32>,
+}
+
+fn uv_sets(uv0: vec2<f32>, uv1: vec2<f32>) -> UvSets {
+#ifdef UV1
+    return UvSets(uv0, dpdx(uv0), dpdy(uv0), uv1, dpdx(uv1), dpdy(uv1));
+#else
+    let dx = dpdx(uv0);
+    let dy = dpdy(uv0);
+    return UvSets(uv0, dx, dy, uv0, dx, dy);
+#endif
+}
+
+// Samples `t` for slot `slot` of material `mi`: its coordinate set, through its transform
+// (the gradients through the transform's linear part).
+fn sample_slot(t: texture_2d<f32>, s: sampler, mi: u32, slot: u32, sets: UvSets) -> vec4<f32> {
+    var uv = sets.uv0;
+    var dx = sets.dx0;
+    var dy = sets.dy0;
 #ifdef UV1
     if ((materials[mi].uv1_sets >> slot) & 1u) != 0u {
-        uv = uv1;
+        uv = sets.uv1;
+        dx = sets.dx1;
+        dy = sets.dy1;
     }
 #endif
     let r0 = materials[mi].uv_rows[2u * slot];
     let r1 = materials[mi].uv_rows[2u * slot + 1u];
-    return vec2<f32>(dot(r0.xy, uv) + r0.z, dot(r1.xy, uv) + r1.z);
+    let tuv = vec2<f32>(dot(r0.xy, uv) + r0.z, dot(r1.xy, uv) + r1.z);
+    let tdx = vec2<f32>(dot(r0.xy, dx), dot(r1.xy, dx));
+    let tdy = vec2<f32>(dot(r0.xy, dy), dot(r1.xy, dy));
+    return textureSampleGrad(t, s, tuv, tdx, tdy);
 }
 
-// Base colour and alpha of material `mi` at texture coordinates `uv0` (set 0), `uv1` (set 1).
-fn material_color(mi: u32, uv0: vec2<f32>, uv1: vec2<f32>) -> vec4<f32> {
+// Base colour and alpha of material `mi` at a fragment's texture coordinates.
+fn material_color(mi: u32, sets: UvSets) -> vec4<f32> {
     var c = materials[mi].base_color;
 #ifdef TEXTURES
-    // Sampled unconditionally: textureSample needs uniform control flow (derivatives); a
-    // material without a texture has a white one.
-    c *= textureSample(base_color_texture, base_color_sampler, slot_uv(mi, SLOT_BASE, uv0, uv1));
+    // A material without a texture has a white one.
+    c *= sample_slot(base_color_texture, base_color_sampler, mi, SLOT_BASE, sets);
 #endif
     return c;
 }
@@ -204,8 +236,8 @@ struct MaterialSample {
 fn material_sample(in: VertexOut, front: bool) -> MaterialSample {
     let mi = in.material;
     let m = materials[mi];
-    let uv1 = fragment_uv1(in);
-    let base = material_color(mi, in.uv, uv1);
+    let sets = uv_sets(in.uv, fragment_uv1(in));
+    let base = material_color(mi, sets);
 #ifdef ALPHA_MASK
     if base.a < m.alpha_cutoff {
         discard;
@@ -221,24 +253,24 @@ fn material_sample(in: VertexOut, front: bool) -> MaterialSample {
     var n = normalize(in.normal);
 #ifdef MR_TEXTURE
     // glTF: roughness in green, metalness in blue (linear); white where there is none.
-    let mr = textureSample(metallic_roughness_texture, metallic_roughness_sampler, slot_uv(mi, SLOT_MR, in.uv, uv1));
+    let mr = sample_slot(metallic_roughness_texture, metallic_roughness_sampler, mi, SLOT_MR, sets);
     ms.roughness *= mr.g;
     ms.metallic *= mr.b;
 #endif
 #ifdef NORMAL_MAP
-    let nt = textureSample(normal_texture, normal_sampler, slot_uv(mi, SLOT_NORMAL, in.uv, uv1)).rgb;
+    let nt = sample_slot(normal_texture, normal_sampler, mi, SLOT_NORMAL, sets).rgb;
     if ((m.textures >> SLOT_NORMAL) & 1u) != 0u {
         n = perturb_normal(n, in.tangent, nt, m.normal_scale);
     }
 #endif
 #ifdef OCCLUSION
-    let o = textureSample(occlusion_texture, occlusion_sampler, slot_uv(mi, SLOT_OCCLUSION, in.uv, uv1)).r;
+    let o = sample_slot(occlusion_texture, occlusion_sampler, mi, SLOT_OCCLUSION, sets).r;
     ms.occlusion = 1.0 + m.occlusion_strength * (o - 1.0);
 #endif
 #ifdef EMISSIVE
     ms.emission = m.emissive;
 #ifdef TEXTURES
-    ms.emission *= textureSample(emissive_texture, emissive_sampler, slot_uv(mi, SLOT_EMISSIVE, in.uv, uv1)).rgb;
+    ms.emission *= sample_slot(emissive_texture, emissive_sampler, mi, SLOT_EMISSIVE, sets).rgb;
 #endif
 #endif
     ms.normal = select(-n, n, front);
