@@ -10,7 +10,15 @@
 // (1 - alpha); blended_composite.wgsl turns the two into the layer.
 // With CLUSTERED the list is the frame's own clustered grid's, at the fragment's depth slice
 // (clusters of the whole frustum list every light of their volume, surface or not).
+// Materials as in the opaque passes (common/scene.wgsl material_sample, with its defines);
+// emission is part of the surface's colour, so it is weighted by coverage like the rest.
 // variants: SPOT_LIGHTS TEXTURES BRUTE_FORCE NO_CUTOFF SHADOWS WBOIT CLUSTERED
+// variants: MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1
+// requires: MR_TEXTURE TEXTURES
+// requires: NORMAL_MAP TEXTURES
+// requires: OCCLUSION TEXTURES
+// requires: UV1 TEXTURES
+// requires: NO_CUTOFF BRUTE_FORCE
 #include "common/scene.wgsl"
 #include "common/shade.wgsl"
 
@@ -32,13 +40,8 @@
 #endif
 
 @vertex
-fn vs_main(
-    @builtin(instance_index) instance: u32,
-    @location(0) position: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) uv: vec2<f32>,
-) -> VertexOut {
-    return transform_vertex(instance, position, normal, uv);
+fn vs_main(v: VertexIn) -> VertexOut {
+    return transform_vertex(v);
 }
 
 #ifdef WBOIT
@@ -69,13 +72,11 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
 
 // The blended surface's premultiplied colour and coverage.
 fn shade_blended(in: VertexOut, front: bool) -> vec4<f32> {
-    let m = materials[in.material];
-    let base = material_color(m, in.uv);
-    let nn = normalize(in.normal);
-    let n = select(-nn, nn, front);
+    let ms = material_sample(in, front);
+    let n = ms.normal;
     let v = view_vector(in.world_pos);
-    let s = Surface(base.rgb, m.roughness, m.metallic);
-    var color = lighting.ambient * base.rgb;
+    let s = Surface(ms.base, ms.roughness, ms.metallic);
+    var color = unlit_term(lighting.ambient, ms);
 #ifdef BRUTE_FORCE
     for (var i = 0u; i < lighting.num_lights; i++) {
         color += shade_light(i, in.world_pos, n, v, s);
@@ -90,5 +91,5 @@ fn shade_blended(in: VertexOut, front: bool) -> vec4<f32> {
         color += shade_light(light_indices[list.first + i], in.world_pos, n, v, s);
     }
 #endif
-    return vec4<f32>(color * base.a, base.a);
+    return vec4<f32>(color * ms.alpha, ms.alpha);
 }

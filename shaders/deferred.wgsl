@@ -20,7 +20,18 @@
 // (common/light_grid_pixel.wgsl: its tile's, its half's with HALF_Z, its cluster's with
 // CLUSTERED).
 //
+// With EMISSION (a scene with emissive or occlusion-mapped materials) the G-buffer's
+// emission target holds each pixel's emission (rgb) and occlusion (alpha): the unlit part
+// is ambient x albedo x occlusion + emission, as Forward+ computes it (common/scene.wgsl
+// unlit_term). Normal maps and metallic-roughness textures need nothing here: the G-buffer
+// holds their result.
+//
 // variants: SPOT_LIGHTS HALF_Z AABB SPOT_CONE COARSE EXTRA_RTS EXTRA_RTS_2 EXTRA_RTS_3 MSAA SHADOWS ASSIGNED CLUSTERED
+// variants: EMISSION
+// requires: EXTRA_RTS_2 EXTRA_RTS
+// requires: EXTRA_RTS_3 EXTRA_RTS_2
+// requires: CLUSTERED ASSIGNED
+// requires: SPOT_CONE SPOT_LIGHTS
 #ifdef ASSIGNED
 #include "common/depth_range.wgsl"
 #include "common/light_grid_rw.wgsl"
@@ -52,6 +63,9 @@ alias GTexture = texture_2d<f32>;
 @group(1) @binding(11) var gbuffer_extra2: GTexture;
 #endif
 #endif
+#endif
+#ifdef EMISSION
+@group(1) @binding(18) var gbuffer_emission: GTexture;
 #endif
 @group(1) @binding(6) var<storage, read> shading_lights: array<ShadingLight>;
 #ifdef SPOT_LIGHTS
@@ -133,6 +147,8 @@ struct GSample {
     world: vec3<f32>,
     normal: vec3<f32>,
     surface: Surface,
+    // The unlit part of the colour: ambient x albedo (x occlusion) (+ emission).
+    unlit: vec3<f32>,
 }
 
 // `textureLoad(t, p, k)` reads mip level k of a plain texture and sample k of a
@@ -161,6 +177,12 @@ fn load_gsample(p: vec2<u32>, s: u32) -> GSample {
 #endif
     g.normal = normalize(nr.xyz);
     g.surface = Surface(albedo, nr.w, am.a);
+#ifdef EMISSION
+    let eo = textureLoad(gbuffer_emission, p, s);
+    g.unlit = lighting.ambient * albedo * eo.a + eo.rgb;
+#else
+    g.unlit = lighting.ambient * albedo;
+#endif
     return g;
 }
 
@@ -171,7 +193,7 @@ fn shade_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     let v = view_vector(g.world);
-    var color = lighting.ambient * g.surface.albedo;
+    var color = g.unlit;
     let l = pixel_list(p, g.dist);
     for (var i = 0u; i < l.count; i++) {
         color += shade_light(light_indices[l.first + i], g.world, g.normal, v, g.surface);
@@ -203,7 +225,7 @@ fn shade(g: GSample, t: TileCull, near: TileList, far: TileList) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     let v = view_vector(g.world);
-    var color = lighting.ambient * g.surface.albedo;
+    var color = g.unlit;
     var l = near;
 #ifdef HALF_Z
     if g.dist > half_z_split(t.near, t.far) {

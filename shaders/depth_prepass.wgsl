@@ -1,28 +1,50 @@
 // Depth pre-pass: reversed-Z depth of opaque geometry (no fragment stage), and a variant for
-// alpha-masked materials that samples alpha and discards.
-// variants: ALPHA_MASK TEXTURES
+// alpha-masked materials that samples alpha and discards (its base colour texture may read
+// texture coordinate set 1: UV1).
+// variants: ALPHA_MASK TEXTURES UV1
+// requires: TEXTURES ALPHA_MASK
+// requires: UV1 TEXTURES
 #include "common/scene.wgsl"
 
 #ifdef ALPHA_MASK
+struct MaskedIn {
+    @builtin(instance_index) instance: u32,
+    @location(0) position: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+#ifdef UV1
+    @location(4) uv1: vec2<f32>,
+#endif
+}
+
 struct MaskedOut {
     @invariant @builtin(position) clip: vec4<f32>,
     @location(0) uv: vec2<f32>,
     @location(1) @interpolate(flat) material: u32,
+#ifdef UV1
+    @location(2) uv1: vec2<f32>,
+#endif
 }
 
 @vertex
-fn vs_masked(@builtin(instance_index) instance: u32, @location(0) position: vec3<f32>, @location(2) uv: vec2<f32>) -> MaskedOut {
+fn vs_masked(v: MaskedIn) -> MaskedOut {
     var out: MaskedOut;
-    out.clip = transform_position(instance, position);
-    out.uv = uv;
-    out.material = instances[instance].material;
+    out.clip = transform_position(v.instance, v.position);
+    out.uv = v.uv;
+    out.material = instances[v.instance].material;
+#ifdef UV1
+    out.uv1 = v.uv1;
+#endif
     return out;
 }
 
 @fragment
 fn fs_masked(in: MaskedOut) {
-    let m = materials[in.material];
-    if material_color(m, in.uv).a < m.alpha_cutoff {
+#ifdef UV1
+    let uv1 = in.uv1;
+#else
+    let uv1 = in.uv;
+#endif
+    if material_color(in.material, uv_sets(in.uv, uv1)).a < materials[in.material].alpha_cutoff {
         discard;
     }
 }

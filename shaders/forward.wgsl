@@ -3,7 +3,14 @@
 // The depth test is Equal against the pre-pass, so each pixel is shaded once.
 // Alpha-masked draws (ALPHA_MASK) discard as the pre-pass did: depth Equal alone would let a
 // masked-out texel shade a coplanar surface behind it.
+// The material defines (TEXTURES MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1) are common/scene.wgsl's.
 // variants: SPOT_LIGHTS TEXTURES HALF_Z BRUTE_FORCE NO_CUTOFF ALPHA_MASK SHADOWS
+// variants: MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1
+// requires: MR_TEXTURE TEXTURES
+// requires: NORMAL_MAP TEXTURES
+// requires: OCCLUSION TEXTURES
+// requires: UV1 TEXTURES
+// requires: NO_CUTOFF BRUTE_FORCE
 #include "common/scene.wgsl"
 #include "common/shade.wgsl"
 
@@ -29,13 +36,8 @@
 #endif
 
 @vertex
-fn vs_main(
-    @builtin(instance_index) instance: u32,
-    @location(0) position: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) uv: vec2<f32>,
-) -> VertexOut {
-    return transform_vertex(instance, position, normal, uv);
+fn vs_main(v: VertexIn) -> VertexOut {
+    return transform_vertex(v);
 }
 
 @fragment
@@ -44,7 +46,7 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
     let n = ms.normal;
     let v = view_vector(in.world_pos);
     let s = Surface(ms.base, ms.roughness, ms.metallic);
-    var color = lighting.ambient * ms.base;
+    var color = unlit_term(lighting.ambient, ms);
 #ifdef BRUTE_FORCE
     for (var i = 0u; i < lighting.num_lights; i++) {
         color += shade_light(i, in.world_pos, n, v, s);

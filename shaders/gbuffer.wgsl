@@ -3,11 +3,20 @@
 //   target 1, Rgba16Float:    unit normal (already facing the viewer), roughness in alpha
 //   targets 2-4 (the stress knob, 3 to 5 targets in all), Rgba8Unorm: written white, and
 //   multiplied into the albedo when shading, so their bandwidth is real and the image unchanged.
+//   location 5, Rgba16Float, with EMISSION only (a scene with emissive or occlusion-mapped
+//     materials): linear emission in rgb, the occlusion factor in alpha; the deferred pass
+//     adds ambient x albedo x occlusion + emission (tiledlight_deferred::gbuffer says its cost).
+// Normal maps and metallic-roughness textures change only what targets 0 and 1 hold.
 // Alpha-masked materials discard below their cutoff (common/scene.wgsl material_sample).
 // With EXTRA_TEST_VALUES (tests only, tiledlight_deferred::DeferredSettings::test_gbuffer_values)
 // the extra targets hold known colours instead of white (crates/deferred/src/gbuffer.rs
 // EXTRA_TEST_VALUES: keep in step), so tests can prove each one is read and multiplied in.
-// variants: ALPHA_MASK TEXTURES EXTRA_TEST_VALUES
+// variants: ALPHA_MASK TEXTURES EXTRA_TEST_VALUES EMISSION
+// variants: MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1
+// requires: MR_TEXTURE TEXTURES
+// requires: NORMAL_MAP TEXTURES
+// requires: OCCLUSION TEXTURES
+// requires: UV1 TEXTURES
 #include "common/scene.wgsl"
 
 #ifdef EXTRA_TEST_VALUES
@@ -21,34 +30,36 @@ const EXTRA2 = vec4<f32>(1.0);
 #endif
 
 @vertex
-fn vs_main(
-    @builtin(instance_index) instance: u32,
-    @location(0) position: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) uv: vec2<f32>,
-) -> VertexOut {
-    return transform_vertex(instance, position, normal, uv);
+fn vs_main(v: VertexIn) -> VertexOut {
+    return transform_vertex(v);
 }
 
 struct Surfel {
     albedo_metallic: vec4<f32>,
     normal_roughness: vec4<f32>,
+    emission_occlusion: vec4<f32>,
 }
 
 fn surfel(in: VertexOut, front: bool) -> Surfel {
     let ms = material_sample(in, front);
-    return Surfel(vec4<f32>(ms.base, ms.metallic), vec4<f32>(ms.normal, ms.roughness));
+    return Surfel(vec4<f32>(ms.base, ms.metallic), vec4<f32>(ms.normal, ms.roughness), vec4<f32>(ms.emission, ms.occlusion));
 }
 
 struct Out2 {
     @location(0) albedo_metallic: vec4<f32>,
     @location(1) normal_roughness: vec4<f32>,
+#ifdef EMISSION
+    @location(5) emission_occlusion: vec4<f32>,
+#endif
 }
 
 struct Out3 {
     @location(0) albedo_metallic: vec4<f32>,
     @location(1) normal_roughness: vec4<f32>,
     @location(2) extra0: vec4<f32>,
+#ifdef EMISSION
+    @location(5) emission_occlusion: vec4<f32>,
+#endif
 }
 
 struct Out4 {
@@ -56,6 +67,9 @@ struct Out4 {
     @location(1) normal_roughness: vec4<f32>,
     @location(2) extra0: vec4<f32>,
     @location(3) extra1: vec4<f32>,
+#ifdef EMISSION
+    @location(5) emission_occlusion: vec4<f32>,
+#endif
 }
 
 struct Out5 {
@@ -64,28 +78,47 @@ struct Out5 {
     @location(2) extra0: vec4<f32>,
     @location(3) extra1: vec4<f32>,
     @location(4) extra2: vec4<f32>,
+#ifdef EMISSION
+    @location(5) emission_occlusion: vec4<f32>,
+#endif
 }
 
 @fragment
 fn fs_gbuffer2(in: VertexOut, @builtin(front_facing) front: bool) -> Out2 {
     let s = surfel(in, front);
+#ifdef EMISSION
+    return Out2(s.albedo_metallic, s.normal_roughness, s.emission_occlusion);
+#else
     return Out2(s.albedo_metallic, s.normal_roughness);
+#endif
 }
 
 @fragment
 fn fs_gbuffer3(in: VertexOut, @builtin(front_facing) front: bool) -> Out3 {
     let s = surfel(in, front);
+#ifdef EMISSION
+    return Out3(s.albedo_metallic, s.normal_roughness, EXTRA0, s.emission_occlusion);
+#else
     return Out3(s.albedo_metallic, s.normal_roughness, EXTRA0);
+#endif
 }
 
 @fragment
 fn fs_gbuffer4(in: VertexOut, @builtin(front_facing) front: bool) -> Out4 {
     let s = surfel(in, front);
+#ifdef EMISSION
+    return Out4(s.albedo_metallic, s.normal_roughness, EXTRA0, EXTRA1, s.emission_occlusion);
+#else
     return Out4(s.albedo_metallic, s.normal_roughness, EXTRA0, EXTRA1);
+#endif
 }
 
 @fragment
 fn fs_gbuffer5(in: VertexOut, @builtin(front_facing) front: bool) -> Out5 {
     let s = surfel(in, front);
+#ifdef EMISSION
+    return Out5(s.albedo_metallic, s.normal_roughness, EXTRA0, EXTRA1, EXTRA2, s.emission_occlusion);
+#else
     return Out5(s.albedo_metallic, s.normal_roughness, EXTRA0, EXTRA1, EXTRA2);
+#endif
 }

@@ -1,19 +1,52 @@
-// Scene geometry bindings and the shared vertex transform.
-// Keep in sync with crates/gpu/src/scene_gpu.rs (GpuInstance, GpuMaterial).
+// Scene geometry bindings, the shared vertex transform and the material model.
+// Keep in sync with crates/gpu/src/scene_gpu.rs (GpuInstance, GpuMaterial, MaterialFeatures);
+// the CPU twin of the material maths is crates/cull/src/material.rs.
+//
+// Material defines, each set only when some material of the scene needs it
+// (tiledlight_gpu::scene_gpu::MaterialFeatures):
+//   TEXTURES    group 2 exists: a material's base-colour texture and sampler (a white 1x1
+//               for materials without one), and the other texture slots below
+//   MR_TEXTURE  metallic-roughness textures (needs TEXTURES)
+//   NORMAL_MAP  normal maps and the tangent vertex attribute (needs TEXTURES)
+//   OCCLUSION   occlusion textures, scaling the ambient term (needs TEXTURES)
+//   EMISSIVE    emission factors; with TEXTURES also the emissive texture
+//   UV1         the second texture coordinate set (needs TEXTURES)
+// Without TEXTURES no texture is sampled and texture transforms are not applied (there is
+// nothing to transform). Materials without a texture in a slot the variant has get a neutral
+// 1x1 texture (white; a normal map is skipped by its flag bit instead).
 #include "common/view.wgsl"
 
 struct Instance {
     model: mat4x4<f32>,
     normal_matrix: mat3x3<f32>,
     material: u32,
+    // +1, or -1 when the model matrix mirrors: the bitangent flips with it.
+    det_sign: f32,
 }
+
+// Texture slots: bit k of Material.textures and Material.uv1_sets, rows 2k and 2k+1 of
+// Material.uv_rows.
+const SLOT_BASE: u32 = 0u;
+const SLOT_MR: u32 = 1u;
+const SLOT_NORMAL: u32 = 2u;
+const SLOT_OCCLUSION: u32 = 3u;
+const SLOT_EMISSIVE: u32 = 4u;
 
 struct Material {
     base_color: vec4<f32>,
+    // Linear emitted radiance: factor times KHR_materials_emissive_strength.
+    emissive: vec3<f32>,
     roughness: f32,
     metallic: f32,
     alpha_cutoff: f32,
-    has_texture: u32,
+    normal_scale: f32,
+    occlusion_strength: f32,
+    // Bit per slot: the material has a texture there.
+    textures: u32,
+    // Bit per slot: the slot reads texture coordinate set 1.
+    uv1_sets: u32,
+    // Per slot, KHR_texture_transform as two rows of a 2x3 matrix (xyz; w unused).
+    uv_rows: array<vec4<f32>, 10>,
 }
 
 @group(1) @binding(0) var<storage, read> instances: array<Instance>;
@@ -22,17 +55,93 @@ struct Material {
 #ifdef TEXTURES
 @group(2) @binding(0) var base_color_texture: texture_2d<f32>;
 @group(2) @binding(1) var base_color_sampler: sampler;
+#ifdef MR_TEXTURE
+@group(2) @binding(2) var metallic_roughness_texture: texture_2d<f32>;
+@group(2) @binding(3) var metallic_roughness_sampler: sampler;
+#endif
+#ifdef NORMAL_MAP
+@group(2) @binding(4) var normal_texture: texture_2d<f32>;
+@group(2) @binding(5) var normal_sampler: sampler;
+#endif
+#ifdef OCCLUSION
+@group(2) @binding(6) var occlusion_texture: texture_2d<f32>;
+@group(2) @binding(7) var occlusion_sampler: sampler;
+#endif
+#ifdef EMISSIVE
+@group(2) @binding(8) var emissive_texture: texture_2d<f32>;
+@group(2) @binding(9) var emissive_sampler: sampler;
+#endif
 #endif
 
-// Base colour and alpha of a material at `uv`.
-fn material_color(m: Material, uv: vec2<f32>) -> vec4<f32> {
-    var c = m.base_color;
+// A fragment's texture coordinate sets with their screen-space derivatives, taken from the
+// interpolated varyings themselves (call uv_sets in uniform control flow). Textures are
+// sampled with these gradients carried through each slot's transform (textureSampleGrad),
+// not with implicit derivatives of the transformed coordinates: those would difference
+// values read from the material buffer in helper invocations, which a GPU need not load
+// (llvmpipe returns zeros there, and the mip level went wrong).
+struct UvSets {
+    uv0: vec2<f32>,
+    dx0: vec2<f32>,
+    dy0: vec2<f32>,
+    uv1: vec2<f32>,
+    dx1: vec2<f32>,
+    dy1: vec2<f32>,
+}
+
+fn uv_sets(uv0: vec2<f32>, uv1: vec2<f32>) -> UvSets {
+#ifdef UV1
+    return UvSets(uv0, dpdx(uv0), dpdy(uv0), uv1, dpdx(uv1), dpdy(uv1));
+#else
+    let dx = dpdx(uv0);
+    let dy = dpdy(uv0);
+    return UvSets(uv0, dx, dy, uv0, dx, dy);
+#endif
+}
+
+// Samples `t` for slot `slot` of material `mi`: its coordinate set, through its transform
+// (the gradients through the transform's linear part).
+fn sample_slot(t: texture_2d<f32>, s: sampler, mi: u32, slot: u32, sets: UvSets) -> vec4<f32> {
+    var uv = sets.uv0;
+    var dx = sets.dx0;
+    var dy = sets.dy0;
+#ifdef UV1
+    if ((materials[mi].uv1_sets >> slot) & 1u) != 0u {
+        uv = sets.uv1;
+        dx = sets.dx1;
+        dy = sets.dy1;
+    }
+#endif
+    let r0 = materials[mi].uv_rows[2u * slot];
+    let r1 = materials[mi].uv_rows[2u * slot + 1u];
+    let tuv = vec2<f32>(dot(r0.xy, uv) + r0.z, dot(r1.xy, uv) + r1.z);
+    let tdx = vec2<f32>(dot(r0.xy, dx), dot(r1.xy, dx));
+    let tdy = vec2<f32>(dot(r0.xy, dy), dot(r1.xy, dy));
+    return textureSampleGrad(t, s, tuv, tdx, tdy);
+}
+
+// Base colour and alpha of material `mi` at a fragment's texture coordinates.
+fn material_color(mi: u32, sets: UvSets) -> vec4<f32> {
+    var c = materials[mi].base_color;
 #ifdef TEXTURES
-    // Sampled unconditionally: textureSample needs uniform control flow (derivatives).
-    let t = textureSample(base_color_texture, base_color_sampler, uv);
-    c *= select(vec4<f32>(1.0), t, m.has_texture != 0u);
+    // A material without a texture has a white one.
+    c *= sample_slot(base_color_texture, base_color_sampler, mi, SLOT_BASE, sets);
 #endif
     return c;
+}
+
+// The vertex attributes of the scene's raster passes (crates/gpu/src/scene_gpu.rs
+// vertex_layouts: one buffer each).
+struct VertexIn {
+    @builtin(instance_index) instance: u32,
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+#ifdef NORMAL_MAP
+    @location(3) tangent: vec4<f32>,
+#endif
+#ifdef UV1
+    @location(4) uv1: vec2<f32>,
+#endif
 }
 
 struct VertexOut {
@@ -44,17 +153,30 @@ struct VertexOut {
     @location(1) @interpolate(perspective, centroid) normal: vec3<f32>,
     @location(2) @interpolate(perspective, centroid) uv: vec2<f32>,
     @location(3) @interpolate(flat) material: u32,
+#ifdef NORMAL_MAP
+    // World-space tangent, bitangent sign in w (mirroring instances flip it).
+    @location(4) @interpolate(perspective, centroid) tangent: vec4<f32>,
+#endif
+#ifdef UV1
+    @location(5) @interpolate(perspective, centroid) uv1: vec2<f32>,
+#endif
 }
 
-fn transform_vertex(instance_index: u32, position: vec3<f32>, normal: vec3<f32>, uv: vec2<f32>) -> VertexOut {
-    let inst = instances[instance_index];
-    let world = inst.model * vec4<f32>(position, 1.0);
+fn transform_vertex(v: VertexIn) -> VertexOut {
+    let inst = instances[v.instance];
+    let world = inst.model * vec4<f32>(v.position, 1.0);
     var out: VertexOut;
     out.clip = view.world_to_clip * world;
     out.world_pos = world.xyz;
-    out.normal = inst.normal_matrix * normal;
-    out.uv = uv;
+    out.normal = inst.normal_matrix * v.normal;
+    out.uv = v.uv;
     out.material = inst.material;
+#ifdef NORMAL_MAP
+    out.tangent = vec4<f32>((inst.model * vec4<f32>(v.tangent.xyz, 0.0)).xyz, v.tangent.w * inst.det_sign);
+#endif
+#ifdef UV1
+    out.uv1 = v.uv1;
+#endif
     return out;
 }
 
@@ -64,26 +186,99 @@ fn transform_position(instance_index: u32, position: vec3<f32>) -> vec4<f32> {
     return view.world_to_clip * world;
 }
 
+// The texture coordinates of set 1 at a fragment (set 0 without UV1: nothing reads them).
+fn fragment_uv1(in: VertexOut) -> vec2<f32> {
+#ifdef UV1
+    return in.uv1;
+#else
+    return in.uv;
+#endif
+}
+
+// A tangent-space normal-map texel (linear RGB) turned into a world-space unit normal around
+// the interpolated normal `n_in` and tangent (CPU twin: tiledlight_cull::material::normal_from_map).
+fn perturb_normal(n_in: vec3<f32>, tangent: vec4<f32>, texel: vec3<f32>, scale: f32) -> vec3<f32> {
+    let n = normalize(n_in);
+    // Re-orthogonalise: interpolation bends the tangent off the normal's plane.
+    let t0 = tangent.xyz - n * dot(n, tangent.xyz);
+    let tl = length(t0);
+    if !(tl > 0.0) {
+        return n;
+    }
+    let t = t0 / tl;
+    let b = cross(n, t) * tangent.w;
+    let m = (texel * 2.0 - 1.0) * vec3<f32>(scale, scale, 1.0);
+    let p = t * m.x + b * m.y + n * m.z;
+    let pl = length(p);
+    if !(pl > 0.0) {
+        return n;
+    }
+    return p / pl;
+}
+
 // The material seen by a rasterised fragment, for the shading pass and the G-buffer alike.
 struct MaterialSample {
     base: vec3<f32>,
+    alpha: f32,
     roughness: f32,
     metallic: f32,
     // Unit normal facing the viewer: double-sided surfaces seen from behind are lit on
     // their back.
     normal: vec3<f32>,
+    // Scales the ambient term (1 without OCCLUSION).
+    occlusion: f32,
+    // Linear emitted radiance (0 without EMISSIVE).
+    emission: vec3<f32>,
 }
 
 // The material at fragment `in`. With ALPHA_MASK it discards below the material's cutoff,
 // as the depth pre-pass does: call it only from fragment entry points.
 fn material_sample(in: VertexOut, front: bool) -> MaterialSample {
-    let m = materials[in.material];
-    let base = material_color(m, in.uv);
+    let mi = in.material;
+    let m = materials[mi];
+    let sets = uv_sets(in.uv, fragment_uv1(in));
+    let base = material_color(mi, sets);
 #ifdef ALPHA_MASK
     if base.a < m.alpha_cutoff {
         discard;
     }
 #endif
-    let n = normalize(in.normal);
-    return MaterialSample(base.rgb, m.roughness, m.metallic, select(-n, n, front));
+    var ms: MaterialSample;
+    ms.base = base.rgb;
+    ms.alpha = base.a;
+    ms.roughness = m.roughness;
+    ms.metallic = m.metallic;
+    ms.occlusion = 1.0;
+    ms.emission = vec3<f32>(0.0);
+    var n = normalize(in.normal);
+#ifdef MR_TEXTURE
+    // glTF: roughness in green, metalness in blue (linear); white where there is none.
+    let mr = sample_slot(metallic_roughness_texture, metallic_roughness_sampler, mi, SLOT_MR, sets);
+    ms.roughness *= mr.g;
+    ms.metallic *= mr.b;
+#endif
+#ifdef NORMAL_MAP
+    let nt = sample_slot(normal_texture, normal_sampler, mi, SLOT_NORMAL, sets).rgb;
+    if ((m.textures >> SLOT_NORMAL) & 1u) != 0u {
+        n = perturb_normal(n, in.tangent, nt, m.normal_scale);
+    }
+#endif
+#ifdef OCCLUSION
+    let o = sample_slot(occlusion_texture, occlusion_sampler, mi, SLOT_OCCLUSION, sets).r;
+    ms.occlusion = 1.0 + m.occlusion_strength * (o - 1.0);
+#endif
+#ifdef EMISSIVE
+    ms.emission = m.emissive;
+#ifdef TEXTURES
+    ms.emission *= sample_slot(emissive_texture, emissive_sampler, mi, SLOT_EMISSIVE, sets).rgb;
+#endif
+#endif
+    ms.normal = select(-n, n, front);
+    return ms;
+}
+
+// The part of a fragment's colour that no light adds: ambient light on the base colour,
+// scaled by occlusion, plus emission (CPU twin: tiledlight_cull::material::unlit_term).
+fn unlit_term(ambient: vec3<f32>, ms: MaterialSample) -> vec3<f32> {
+    return ambient * ms.base * ms.occlusion + ms.emission;
 }

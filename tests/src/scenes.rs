@@ -6,6 +6,7 @@ use glam::{Mat4, Vec3};
 use tiledlight_cull::{Camera, Light};
 use tiledlight_scene::{
     default_scene, random_lights, Aabb, AlphaMode, DefaultSceneOptions, LightOptions, Material, Mesh, Scene, Texture,
+    TextureRef,
 };
 
 /// The built-in courtyard (no grid objects).
@@ -46,12 +47,13 @@ pub fn quad(name: &str, size: f32) -> Mesh {
         normals: vec![[0.0, 1.0, 0.0]; 4],
         uvs: vec![[0.0, 0.0], [0.0, 4.0], [4.0, 4.0], [4.0, 0.0]],
         indices: vec![0, 1, 2, 0, 2, 3],
+        ..Mesh::default()
     }
 }
 
 /// A unit cube, centred, faces wound counter-clockwise seen from outside.
 pub fn cube(name: &str) -> Mesh {
-    let mut m = Mesh { name: name.into(), positions: vec![], normals: vec![], uvs: vec![], indices: vec![] };
+    let mut m = Mesh { name: name.into(), ..Mesh::default() };
     for axis in 0..3 {
         for sign in [-1.0f32, 1.0] {
             let mut n = Vec3::ZERO;
@@ -76,11 +78,10 @@ pub fn material(name: &str, color: [f32; 4], roughness: f32, metallic: f32) -> M
     Material {
         name: name.into(),
         base_color: color,
-        base_color_texture: None,
         roughness,
         metallic,
         alpha_mode: AlphaMode::Opaque,
-        double_sided: false,
+        ..Material::default()
     }
 }
 
@@ -96,7 +97,7 @@ pub fn mixed_scene() -> Scene {
         }
     }
     let mut masked = material("screen", [1.0; 4], 0.6, 0.0);
-    masked.base_color_texture = Some(0);
+    masked.base_color_texture = Some(TextureRef::new(0));
     masked.alpha_mode = AlphaMode::Mask { cutoff: 0.5 };
     masked.double_sided = true;
     let mut panel = material("panel", [0.3, 0.8, 0.4, 1.0], 0.4, 0.0);
@@ -161,16 +162,10 @@ pub fn floor_scene(roughness: f32, metallic: f32, lights: Vec<Light>) -> Scene {
         normals: vec![[0.0, 1.0, 0.0]; 4],
         uvs: vec![[0.0, 0.0]; 4],
         indices: vec![0, 1, 2, 0, 2, 3],
+        ..Mesh::default()
     };
-    let mat = Material {
-        name: "m".into(),
-        base_color: [0.8, 0.6, 0.4, 1.0],
-        base_color_texture: None,
-        roughness,
-        metallic,
-        alpha_mode: AlphaMode::Opaque,
-        double_sided: false,
-    };
+    let mat =
+        Material { name: "m".into(), base_color: [0.8, 0.6, 0.4, 1.0], roughness, metallic, ..Material::default() };
     Scene {
         name: "floor".into(),
         meshes: vec![floor],

@@ -21,7 +21,7 @@ use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
 use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_scene::{Aabb, AlphaMode, Instance, Material, Mesh, Scene, Texture};
+use tiledlight_scene::{Aabb, AlphaMode, Instance, Material, Mesh, Scene, Texture, TextureRef};
 use tiledlight_tests::compare::render_frame;
 use tiledlight_tests::gpu;
 use tiledlight_tests::images::{linear_to_srgb, srgb_to_linear};
@@ -37,6 +37,7 @@ fn quad_xy() -> Mesh {
         normals: vec![[0.0, 0.0, 1.0]; 4],
         uvs: vec![[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]],
         indices: vec![0, 1, 2, 0, 2, 3],
+        ..Mesh::default()
     }
 }
 
@@ -44,11 +45,11 @@ fn plain_material(name: &str, color: [f32; 4], roughness: f32, double_sided: boo
     Material {
         name: name.into(),
         base_color: color,
-        base_color_texture: None,
         roughness,
         metallic: 0.0,
         alpha_mode: AlphaMode::Opaque,
         double_sided,
+        ..Material::default()
     }
 }
 
@@ -83,7 +84,7 @@ fn material_scene(lights: Vec<Light>) -> Scene {
         }
     }
     let mut masked = plain_material("masked", [0.9, 1.0, 0.8, 1.0], 0.5, true);
-    masked.base_color_texture = Some(0);
+    masked.base_color_texture = Some(TextureRef::new(0));
     masked.alpha_mode = AlphaMode::Mask { cutoff: CUTOFF };
     let turn = 0.35f32;
     let instances = vec![
@@ -511,6 +512,7 @@ fn tilted_plane(a: f32, b: f32) -> Scene {
         normals: vec![Vec3::new(-a, -b, 1.0).normalize().to_array(); 4],
         uvs: vec![[0.0, 0.0]; 4],
         indices: vec![0, 1, 2, 0, 2, 3],
+        ..Mesh::default()
     };
     Scene {
         name: "tilted".into(),

@@ -18,8 +18,11 @@ use tiledlight_gpu::shader::{self, ShaderSource};
 
 use crate::bindings::{compare_bindings, declarations, named_defines};
 
-/// More variants than this (2^12 combinations) is surely a mistake in the declaration.
-const MAX_VARIANTS: usize = 12;
+/// More defines than this in one entry file is surely a mistake in the declaration.
+const MAX_VARIANTS: usize = 16;
+/// More combinations than this (2^12) after the `// requires:` lines is too many to
+/// validate: rule some out (a define only ever set with another) or split the file.
+const MAX_COMBINATIONS: usize = 1 << 12;
 
 /// wgpu features whose shader capabilities the renderer's device has. Shaders are
 /// validated with exactly the naga capabilities wgpu enables for them, so a shader that
@@ -68,11 +71,7 @@ pub fn validate_shaders(root: &Path) -> Result<()> {
         let text = read(entry).with_context(|| format!("cannot read shaders/{entry}"))?;
         let variants = shader::variants_in(&text);
         if variants.len() > MAX_VARIANTS {
-            eprintln!(
-                "error: shaders/{entry}: {} variants declared (2^{} combinations), at most {MAX_VARIANTS}",
-                variants.len(),
-                variants.len()
-            );
+            eprintln!("error: shaders/{entry}: {} variants declared, at most {MAX_VARIANTS}", variants.len());
             failures += 1;
             continue;
         }
@@ -89,8 +88,24 @@ pub fn validate_shaders(root: &Path) -> Result<()> {
                 }
             }
         }
+        let requires = shader::requirements_in(&text);
+        for (a, b) in &requires {
+            if ![a, b].iter().all(|d| variants.contains(d)) {
+                eprintln!("error: shaders/{entry}: `// requires: {a} {b}` names a define that is not a variant");
+                failures += 1;
+            }
+        }
+        let combinations = shader::valid_combinations(&variants, &requires);
+        if combinations.len() > MAX_COMBINATIONS {
+            eprintln!(
+                "error: shaders/{entry}: {} variant combinations to validate, at most {MAX_COMBINATIONS} \
+                 (declare `// requires: A B` for a define A only ever set with B)",
+                combinations.len()
+            );
+            failures += 1;
+            continue;
+        }
         // The same error usually shows in many variants: report it once, with them all.
-        let combinations = shader::variant_combinations(&variants);
         let mut problems: Vec<(Problem, Vec<String>)> = Vec::new();
         let mut mismatches: Vec<(String, Vec<String>)> = Vec::new();
         for defines in &combinations {

@@ -13,6 +13,7 @@
 pub mod error;
 pub mod layout;
 pub mod light;
+pub mod material;
 
 pub use error::CullError;
 pub use light::{Light, LightKind};

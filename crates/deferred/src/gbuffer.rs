@@ -6,15 +6,23 @@
 //!   visibly at low roughness (d ln D / d theta peaks near 2 / alpha, alpha = roughness^2:
 //!   50 per radian at roughness 0.2), which would break the comparison with Forward+;
 //! - depth: `Depth32Float` (4 B), world position rebuilt from it;
-//! - the stress knob's extra targets: `Rgba8Unorm`, one texture each, written white.
+//! - the stress knob's extra targets: `Rgba8Unorm`, one texture each, written white;
+//! - emission + occlusion: `Rgba16Float` (8 B), only in a scene with emissive or
+//!   occlusion-mapped materials ([`MaterialFeatures::emission_target`]): emitted radiance
+//!   is HDR (emissive strength), and the shading adds `ambient x albedo x occlusion +
+//!   emission` from it. Normal maps and metallic-roughness textures add nothing: targets 0
+//!   and 1 hold their result.
 //!
-//! 16 bytes a pixel with 2 targets (33 MB at 1080p), plus 4 per extra target, times the MSAA
-//! sample count: every target is multisampled with MSAA. Pipelines exist per draw kind the
-//! scene has. Depends on tiledlight-gpu.
+//! 16 bytes a pixel with 2 targets (33 MB at 1080p), plus 4 per extra target and 8 with the
+//! emission target (24 B a pixel, 50 MB at 1080p), times the MSAA sample count: every target
+//! is multisampled with MSAA. Pipelines exist per draw kind the scene has. Depends on
+//! tiledlight-gpu.
 
 use tiledlight_gpu::bindings::PassBindings;
 use tiledlight_gpu::depth_prepass::{scene_pipeline, DepthUse, SceneDraw, DEPTH_FORMAT};
-use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS, VERTEX_LAYOUTS};
+#[cfg(doc)]
+use tiledlight_gpu::scene_gpu::MaterialFeatures;
+use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS};
 use tiledlight_gpu::targets::texture_2d_msaa;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::util::{pipeline_layout, shader_module};
@@ -27,6 +35,11 @@ pub const ALBEDO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSr
 pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// Format of the extra (stress) targets.
 pub const EXTRA_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+/// Format of the emission + occlusion target (scenes with emission or occlusion maps).
+pub const EMISSION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// The emission target's colour attachment (`@location` in `shaders/gbuffer.wgsl`): after
+/// the most targets the stress knob makes, so its location does not depend on it.
+pub const EMISSION_LOCATION: usize = 5;
 /// Test-only values of the extra targets 0, 1, 2 (RGB, 8-bit unorm, so stored exactly),
 /// written instead of white by the `EXTRA_TEST_VALUES` variant of `shaders/gbuffer.wgsl`
 /// (keep the two in step). Different per target and per channel, so a target read twice,
@@ -44,15 +57,25 @@ pub struct GBuffer {
     pub normal: wgpu::Texture,
     /// Extra white targets, one texture each (multisampled textures cannot be array layers).
     pub extra: Vec<wgpu::Texture>,
+    /// Emission (rgb) and occlusion (alpha), only for scenes that have either.
+    pub emission: Option<wgpu::Texture>,
     albedo_view: wgpu::TextureView,
     normal_view: wgpu::TextureView,
     extra_views: Vec<wgpu::TextureView>,
+    emission_view: Option<wgpu::TextureView>,
     samples: u32,
 }
 
 impl GBuffer {
-    /// Targets for `w` x `h` with `rts` render targets (2..=5) of `samples` samples each.
-    pub fn new(device: &wgpu::Device, w: u32, h: u32, rts: u32, samples: u32) -> Result<Self, GpuError> {
+    /// Targets for `w` x `h` with `rts` render targets (2..=5) of `samples` samples each,
+    /// and the emission target when `emission`.
+    pub fn new(
+        device: &wgpu::Device,
+        (w, h): (u32, u32),
+        rts: u32,
+        samples: u32,
+        emission: bool,
+    ) -> Result<Self, GpuError> {
         if !RT_RANGE.contains(&rts) {
             return Err(GpuError::Config(format!("G-buffer render targets {rts} must be in 2..=5")));
         }
@@ -66,13 +89,16 @@ impl GBuffer {
         let extra: Vec<wgpu::Texture> =
             (2..rts).map(|k| target(&format!("deferred.gbuffer.extra{}", k - 2), EXTRA_FORMAT)).collect();
         let extra_views = extra.iter().map(|t| view(t, "deferred.gbuffer.extra.view")).collect();
+        let emission = emission.then(|| target("deferred.gbuffer.emission", EMISSION_FORMAT));
         Ok(Self {
             albedo_view: view(&albedo, "deferred.gbuffer.albedo.view"),
             normal_view: view(&normal, "deferred.gbuffer.normal.view"),
+            emission_view: emission.as_ref().map(|t| view(t, "deferred.gbuffer.emission.view")),
             albedo,
             normal,
             extra,
             extra_views,
+            emission,
             samples,
         })
     }
@@ -90,7 +116,7 @@ impl GBuffer {
     /// Bytes of the colour targets (depth not included), every sample counted.
     pub fn bytes(&self) -> u64 {
         let px = self.albedo.width() as u64 * self.albedo.height() as u64 * self.samples as u64;
-        px * (4 + 8 + 4 * self.extra.len() as u64)
+        px * (4 + 8 + 4 * self.extra.len() as u64 + if self.emission.is_some() { 8 } else { 0 })
     }
 
     /// View of the albedo target.
@@ -105,10 +131,14 @@ impl GBuffer {
     pub fn extra_views(&self) -> &[wgpu::TextureView] {
         &self.extra_views
     }
+    /// View of the emission target, when the scene has one.
+    pub fn emission_view(&self) -> Option<&wgpu::TextureView> {
+        self.emission_view.as_ref()
+    }
 }
 
 /// The bindings of the G-buffer pass (`shaders/gbuffer.wgsl`): the scene's groups, the
-/// material textures with `TEXTURES`. Its layouts are the views' and the scene's own.
+/// material textures with `TEXTURES` (and the slots of the other material defines). Its layouts are the views' and the scene's own.
 pub const GBUFFER_BINDINGS: PassBindings =
     PassBindings { entry: "gbuffer.wgsl", source: file!(), groups: &SCENE_GROUPS };
 
@@ -147,6 +177,16 @@ impl GBufferPass {
                 write_mask: wgpu::ColorWrites::ALL,
             }));
         }
+        let emission = scene.material_features.emission_target();
+        if emission {
+            targets.resize(EMISSION_LOCATION, None);
+            targets.push(Some(wgpu::ColorTargetState {
+                format: EMISSION_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            }));
+        }
+        let layouts = scene.vertex_layouts();
         let fs = format!("fs_gbuffer{rts}");
         let mut pipelines = Vec::new();
         for kind in scene.opaque_kinds() {
@@ -154,8 +194,9 @@ impl GBufferPass {
             if kind.masked {
                 defines.push("ALPHA_MASK");
             }
-            if scene.textures.is_some() {
-                defines.push("TEXTURES");
+            defines.extend(scene.material_features.defines());
+            if emission {
+                defines.push("EMISSION");
             }
             if test_values {
                 defines.push("EXTRA_TEST_VALUES");
@@ -168,7 +209,7 @@ impl GBufferPass {
                     label: "deferred.gbuffer",
                     layout: &layout,
                     module: &module,
-                    vertex: ("vs_main", &VERTEX_LAYOUTS),
+                    vertex: ("vs_main", &layouts),
                     depth: DepthUse::Write,
                     samples,
                     fragment: Some((&fs, &targets)),
@@ -208,6 +249,10 @@ impl GBufferPass {
         };
         let mut attachments = vec![clear(&gbuffer.albedo_view), clear(&gbuffer.normal_view)];
         attachments.extend(gbuffer.extra_views.iter().map(clear));
+        if let Some(e) = &gbuffer.emission_view {
+            attachments.resize(EMISSION_LOCATION, None);
+            attachments.push(clear(e));
+        }
         let t = timer.begin("deferred.gbuffer", encoder);
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {

@@ -157,7 +157,8 @@ impl DeferredRenderer {
         let mut memory = common.memory.clone();
         ctx.checked("building the Tiled Deferred renderer", || {
             let (features, views, targets) = (&common.features, &common.views, &common.targets);
-            let gbuffer = GBuffer::new(device, width, height, settings.gbuffer_rts, features.msaa)?;
+            let emission = features.materials.emission_target();
+            let gbuffer = GBuffer::new(device, (width, height), settings.gbuffer_rts, features.msaa, emission)?;
             let gbuffer_pass = GBufferPass::new(
                 device,
                 views,

@@ -125,7 +125,7 @@ const fn hdr_storage_binding(binding: u32) -> Binding {
 /// spots (7) with `SPOT_LIGHTS` (or `SPOT_CONE`, which the pass sets only with spots);
 /// cells (8) with `COARSE`; with `MSAA` the sample texture (12), edge list (13) and
 /// resolve arguments (14); with `SHADOWS` the shadow atlas (15), its comparison sampler
-/// (16) and faces (17). Group 2: the light grid, with tile ranges only with `ASSIGNED`
+/// (16) and faces (17); with `EMISSION` the G-buffer's emission target (18). Group 2: the light grid, with tile ranges only with `ASSIGNED`
 /// (lists assigned light-centrically before the pass, read per pixel).
 pub const DEFERRED_BINDINGS: PassBindings = PassBindings {
     entry: "deferred.wgsl",
@@ -157,6 +157,7 @@ pub const DEFERRED_BINDINGS: PassBindings = PassBindings {
                 Binding::depth_array(15, CS).when(Cond::Defined("SHADOWS")),
                 Binding::sampler(16, CS, wgpu::SamplerBindingType::Comparison).when(Cond::Defined("SHADOWS")),
                 Binding::storage(17, CS).when(Cond::Defined("SHADOWS")),
+                gbuffer_binding(18).when(Cond::Defined("EMISSION")),
             ],
         ),
         PassGroup::new(2, &compute_bindings(Cond::Defined("ASSIGNED"))),
@@ -279,6 +280,10 @@ impl DeferredShading {
         for (view, (binding, define)) in gbuffer.extra_views().iter().zip(EXTRA_BINDINGS) {
             defines.push(define);
             bind.push(view_entry(binding, view));
+        }
+        if let Some(view) = gbuffer.emission_view() {
+            defines.push("EMISSION");
+            bind.push(view_entry(18, view));
         }
         defines.extend(features.light_defines());
         if let Some(spots) = lights.spots.as_ref().filter(|_| features.spot_lights) {

@@ -1,7 +1,8 @@
 //! The forward shading pass: re-draws the scene with depth test Equal against the pre-pass
 //! and, per fragment, sums the lights of its tile list (Forward+) or every light (the
 //! brute-force reference) with the shared BRDF into the `Rgba16Float` target. Shader
-//! variants are chosen from what the scene has (spot lights, textures) and the settings
+//! variants are chosen from what the scene has (spot lights, the material paths of
+//! `tiledlight_gpu::scene_gpu::MaterialFeatures`) and the settings
 //! (half-z, brute force, no cutoff), so unused features cost no code and no buffers.
 //! Bind groups: 0 view, 1 scene, 2 material texture (textured scenes only), 3 lights.
 //! Depends on tiledlight-gpu.
@@ -13,7 +14,7 @@ use tiledlight_gpu::light_cull::LightCulling;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::lights_group::LightsGroup;
-use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS, VERTEX_LAYOUTS};
+use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
@@ -91,9 +92,7 @@ impl ShadingPass {
     ) -> Result<Self, GpuError> {
         let samples = features.msaa;
         let mut defines: Vec<&str> = features.light_defines();
-        if features.textures {
-            defines.push("TEXTURES");
-        }
+        defines.extend(features.material_defines());
         let label = match light_loop {
             LightLoop::Tiled { half_z } => {
                 let c = culling.ok_or_else(|| GpuError::Config("tiled shading needs the culling pass".into()))?;
@@ -143,6 +142,7 @@ impl ShadingPass {
             "shade.pipeline_layout",
             &[&views.layout, &scene.layout, tex_layout, lights_group.layout()],
         );
+        let layouts = scene.vertex_layouts();
         let pipelines = features
             .draw_kinds
             .iter()
@@ -164,7 +164,7 @@ impl ShadingPass {
                         label,
                         layout: &pl,
                         module: &module,
-                        vertex: ("vs_main", &VERTEX_LAYOUTS),
+                        vertex: ("vs_main", &layouts),
                         depth: DepthUse::Equal,
                         samples,
                         fragment: Some(("fs_main", &target)),

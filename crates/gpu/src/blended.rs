@@ -54,7 +54,7 @@ use crate::lights_gpu::LightBuffers;
 use crate::lights_group::LightsGroup;
 use crate::memory::MemoryReport;
 use crate::plan::Step;
-use crate::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS, VERTEX_LAYOUTS};
+use crate::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS};
 use crate::shadow_atlas::ShadowAtlas;
 use crate::timer::GpuTimer;
 use crate::tonemap::HDR_FORMAT;
@@ -253,9 +253,7 @@ impl BlendedPath {
         };
         // Shading pipelines.
         let mut defines = features.light_defines();
-        if features.textures {
-            defines.push("TEXTURES");
-        }
+        defines.extend(features.material_defines());
         let wboit = features.blend_mode == BlendMode::WeightedOit;
         if wboit {
             defines.push("WBOIT");
@@ -320,6 +318,7 @@ impl BlendedPath {
         ];
         let target: &[Option<wgpu::ColorTargetState>] = if wboit { &target_oit } else { &target_over };
         let constants = features.light_constants();
+        let layouts = scene.vertex_layouts();
         let pipelines = features
             .blended_kinds
             .iter()
@@ -331,7 +330,7 @@ impl BlendedPath {
                         label: "blended.shade",
                         layout: &pl,
                         module: &module,
-                        vertex: ("vs_main", &VERTEX_LAYOUTS),
+                        vertex: ("vs_main", &layouts),
                         depth: DepthUse::Test,
                         samples,
                         fragment: Some(("fs_main", target)),

@@ -3,10 +3,10 @@
 //! (and the brute-force reference) start with it. Pipelines exist only for the draw kinds
 //! the scene has. Depends on wgpu, [`crate::scene_gpu`] and [`crate::view`].
 
-use crate::bindings::PassBindings;
+use crate::bindings::{Cond, PassBindings, PassGroup};
 use crate::error::GpuError;
 use crate::features::Features;
-use crate::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS, VERTEX_LAYOUTS};
+use crate::scene_gpu::{DrawKind, SceneGpu, BASE_COLOR_BINDINGS, POSITION_LAYOUT, SCENE_GROUPS};
 use crate::timer::GpuTimer;
 use crate::util::{pipeline_layout, shader_module};
 use crate::view::Views;
@@ -105,10 +105,15 @@ pub fn scene_pipeline(device: &wgpu::Device, kind: DrawKind, d: &SceneDraw<'_>) 
 }
 
 /// The bindings of the depth pre-pass (`shaders/depth_prepass.wgsl`): the scene's groups,
-/// the material textures only in the masked pipelines of textured scenes. Its layouts are
-/// the views' and the scene's own.
-pub const DEPTH_PREPASS_BINDINGS: PassBindings =
-    PassBindings { entry: "depth_prepass.wgsl", source: file!(), groups: &SCENE_GROUPS };
+/// the material textures only in the masked pipelines of textured scenes, and of those only
+/// the base colour slot (the alpha test reads nothing else). Its layouts are the views' and
+/// the scene's own: the material bind groups it sets hold the scene's other slots too,
+/// which a pipeline layout may have unread.
+pub const DEPTH_PREPASS_BINDINGS: PassBindings = PassBindings {
+    entry: "depth_prepass.wgsl",
+    source: file!(),
+    groups: &[SCENE_GROUPS[0], SCENE_GROUPS[1], PassGroup::new(2, BASE_COLOR_BINDINGS).when(Cond::Defined("TEXTURES"))],
+};
 
 /// The depth pre-pass pipelines.
 pub struct DepthPrepass {
@@ -160,13 +165,19 @@ impl DepthPrepass {
         let mut pipelines = Vec::new();
         let samples = target.samples;
         let textures = scene.textures.as_ref().filter(|_| features.textures);
+        let layouts = scene.vertex_layouts();
         for &kind in kinds {
             let mut defines = Vec::new();
             let layout = if kind.masked {
                 defines.push("ALPHA_MASK");
                 match textures {
                     Some(t) => {
+                        // The alpha test reads the base colour slot only: its texture
+                        // coordinate set may be set 1.
                         defines.push("TEXTURES");
+                        if features.materials.uv1 {
+                            defines.push("UV1");
+                        }
                         pipeline_layout(
                             device,
                             "depth_prepass.masked.layout",
@@ -180,7 +191,7 @@ impl DepthPrepass {
             };
             let module = shader_module(device, DEPTH_PREPASS_BINDINGS.entry, &defines)?;
             let (vs, buffers): (&str, &[Option<wgpu::VertexBufferLayout<'_>>]) =
-                if kind.masked { ("vs_masked", &VERTEX_LAYOUTS) } else { ("vs_main", &VERTEX_LAYOUTS[..1]) };
+                if kind.masked { ("vs_masked", &layouts) } else { ("vs_main", &POSITION_LAYOUT) };
             let label = format!(
                 "{}{}{}{}",
                 target.label,

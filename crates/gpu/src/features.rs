@@ -12,7 +12,7 @@
 
 use crate::light_cull::CullOptions;
 use crate::lights_gpu::LightBuffers;
-use crate::scene_gpu::{DrawKind, SceneGpu};
+use crate::scene_gpu::{DrawKind, MaterialFeatures, SceneGpu};
 use tiledlight_cull::shadow::ShadowOptions;
 
 /// How a frame is lit.
@@ -88,6 +88,10 @@ pub struct Features {
     pub spot_cone: bool,
     /// Some material has a texture: group 2 and the `TEXTURES` variants.
     pub textures: bool,
+    /// The material paths the drawn materials need (textures per slot, normal maps,
+    /// emission, the second UV set): their shader defines, bindings, vertex buffers and
+    /// (Tiled Deferred) the G-buffer's emission target.
+    pub materials: MaterialFeatures,
     /// The draw kinds (masked / double-sided) the scene has: one pipeline each.
     pub draw_kinds: Vec<DrawKind>,
     /// MSAA samples per pixel (1: none of the multisampled resources exist).
@@ -136,6 +140,7 @@ impl Features {
             spot_lights,
             spot_cone: tiled && cull.spot_cone && spot_lights,
             textures: scene.textures.is_some(),
+            materials: scene.material_features,
             draw_kinds: scene.opaque_kinds(),
             blended_kinds: scene.kinds().into_iter().filter(|k| k.blended).collect(),
             blend_mode: BlendMode::Sorted,
@@ -157,6 +162,12 @@ impl Features {
     /// Some draw is alpha-masked (masked pre-pass pipelines).
     pub fn masked(&self) -> bool {
         self.draw_kinds.iter().any(|k| k.masked)
+    }
+
+    /// The material defines of the scene's raster passes (`shaders/common/scene.wgsl`):
+    /// `TEXTURES`, `MR_TEXTURE`, `NORMAL_MAP`, `OCCLUSION`, `EMISSIVE`, `UV1`.
+    pub fn material_defines(&self) -> Vec<&'static str> {
+        self.materials.defines()
     }
 
     /// The shading defines every lighting shader shares: `SPOT_LIGHTS`, `SHADOWS`.
@@ -186,9 +197,7 @@ impl Features {
             Method::BruteForce { cutoff: false } => "brute force, no cutoff".to_string(),
         }];
         parts.push(if self.spot_lights { "points+spots" } else { "points" }.into());
-        if self.textures {
-            parts.push("textures".into());
-        }
+        parts.extend(self.materials.describe().into_iter().map(String::from));
         if self.masked() {
             parts.push("alpha-masked".into());
         }

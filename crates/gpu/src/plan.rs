@@ -130,6 +130,7 @@ mod tests {
             spot_lights: false,
             spot_cone: false,
             textures: false,
+            materials: Default::default(),
             draw_kinds: vec![DrawKind { masked: false, double_sided: false, blended: false }],
             msaa,
             half_z: false,

@@ -1,14 +1,18 @@
-//! A scene on the GPU: merged vertex and index buffers, per-instance transforms, materials,
-//! base-colour textures (only when some material has one), and the draw list grouped into
+//! A scene on the GPU: merged vertex and index buffers (tangents and the second UV set only
+//! when a material needs them), per-instance transforms, materials, material textures (only
+//! the slots some material uses: [`MaterialFeatures`]), and the draw list grouped into
 //! instanced draws per pipeline kind (opaque/alpha-masked x single/double-sided). Builds the
-//! scene bind groups (group 1: instances and materials; group 2: a material's texture).
-//! Depends on wgpu, tiledlight-scene and tiledlight-cull (layouts).
+//! scene bind groups (group 1: instances and materials; group 2: a material's textures and
+//! samplers). Depends on wgpu, image (mip levels), tiledlight-scene and tiledlight-cull
+//! (layouts).
 
 use std::ops::Range;
 
+use std::collections::HashMap;
+
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, Mat4};
-use tiledlight_scene::{AlphaMode, Scene};
+use tiledlight_scene::{AlphaMode, Filter, Material, Sampler, Scene, TextureRef, Wrap};
 
 use crate::bindings::{create_layout, Binding, Cond, PassGroup};
 use crate::error::GpuError;
@@ -27,26 +31,184 @@ pub struct GpuInstance {
     pub normal_matrix: [[f32; 4]; 3],
     /// Index into the material buffer.
     pub material: u32,
+    /// +1, or -1 when `model` mirrors (negative determinant): normal maps flip the
+    /// bitangent with it.
+    pub det_sign: f32,
     /// Padding to 16 bytes.
-    pub _pad: [u32; 3],
+    pub _pad: [u32; 2],
 }
 
-/// Material factors.
+/// Texture slots of a material, in the order of [`GpuMaterial::uv_rows`], the bits of
+/// [`GpuMaterial::textures`] and the bindings of [`TEXTURE_BINDINGS`] (slot k: texture
+/// `2k`, sampler `2k + 1`). Keep in step with `shaders/common/scene.wgsl` (`SLOT_*`).
+pub const TEXTURE_SLOTS: [&str; 5] = ["base colour", "metallic-roughness", "normal", "occlusion", "emissive"];
+
+/// Material factors, texture flags and texture transforms (224 bytes).
 ///
 /// Keep in sync with `shaders/common/scene.wgsl` (`Material`).
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
     /// Linear base colour and alpha.
     pub base_color: [f32; 4],
+    /// Linear emitted radiance: the emissive factor times its strength.
+    pub emissive: [f32; 3],
     /// Perceptual roughness.
     pub roughness: f32,
     /// Metalness.
     pub metallic: f32,
     /// Alpha below which masked materials discard (unused for others).
     pub alpha_cutoff: f32,
-    /// 1 when the base colour is multiplied by a texture.
-    pub has_texture: u32,
+    /// glTF `normalTexture.scale`.
+    pub normal_scale: f32,
+    /// glTF `occlusionTexture.strength`.
+    pub occlusion_strength: f32,
+    /// Bit k: the material has a texture in slot k ([`TEXTURE_SLOTS`]).
+    pub textures: u32,
+    /// Bit k: slot k reads texture coordinate set 1.
+    pub uv1_sets: u32,
+    /// Padding to 16 bytes.
+    pub _pad: [u32; 2],
+    /// Per slot, its texture transform as two rows of a 2x3 matrix (w unused): identity
+    /// for slots without one.
+    pub uv_rows: [[f32; 4]; 10],
+}
+
+impl GpuMaterial {
+    /// The GPU form of `m`.
+    pub fn new(m: &Material) -> Self {
+        let slots = material_slots(m);
+        let mut uv_rows = [[0.0; 4]; 10];
+        let (mut textures, mut uv1_sets) = (0, 0);
+        for (k, slot) in slots.iter().enumerate() {
+            let rows = slot.map(|t| t.transform.rows()).unwrap_or([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+            uv_rows[2 * k] = [rows[0][0], rows[0][1], rows[0][2], 0.0];
+            uv_rows[2 * k + 1] = [rows[1][0], rows[1][1], rows[1][2], 0.0];
+            if let Some(t) = slot {
+                textures |= 1 << k;
+                uv1_sets |= u32::from(t.tex_coord == 1) << k;
+            }
+        }
+        let e = m.emissive_strength;
+        Self {
+            base_color: m.base_color,
+            emissive: [m.emissive[0] * e, m.emissive[1] * e, m.emissive[2] * e],
+            roughness: m.roughness,
+            metallic: m.metallic,
+            alpha_cutoff: match m.alpha_mode {
+                AlphaMode::Mask { cutoff } => cutoff,
+                _ => 0.0,
+            },
+            normal_scale: m.normal_scale,
+            occlusion_strength: m.occlusion_strength,
+            textures,
+            uv1_sets,
+            _pad: [0; 2],
+            uv_rows,
+        }
+    }
+}
+
+/// A material's texture per slot of [`TEXTURE_SLOTS`].
+fn material_slots(m: &Material) -> [Option<&TextureRef>; 5] {
+    [
+        m.base_color_texture.as_ref(),
+        m.metallic_roughness_texture.as_ref(),
+        m.normal_texture.as_ref(),
+        m.occlusion_texture.as_ref(),
+        m.emissive_texture.as_ref(),
+    ]
+}
+
+/// Which material paths the scene's drawn materials need: each one a shader define
+/// (`shaders/common/scene.wgsl`), and the bindings, vertex buffers and G-buffer target that
+/// come with it. Nothing here is set for a material no instance draws.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MaterialFeatures {
+    /// Some material has a texture (`TEXTURES`: group 2 with the base colour slot, and the
+    /// texture transforms).
+    pub textures: bool,
+    /// Some material has a metallic-roughness texture (`MR_TEXTURE`).
+    pub metallic_roughness: bool,
+    /// Some material has a normal map (`NORMAL_MAP`: the normal slot and the tangent vertex buffer).
+    pub normal_map: bool,
+    /// Some material has an occlusion texture (`OCCLUSION`).
+    pub occlusion: bool,
+    /// Some material emits (`EMISSIVE`; with textures also the emissive slot).
+    pub emissive: bool,
+    /// Some texture reads texture coordinate set 1 (`UV1`: the second UV vertex buffer).
+    pub uv1: bool,
+}
+
+impl MaterialFeatures {
+    /// The features of the materials `scene`'s instances draw with.
+    pub fn of(scene: &Scene) -> Self {
+        let mut f = Self::default();
+        let mut used = vec![false; scene.materials.len()];
+        for inst in &scene.instances {
+            if let Some(u) = used.get_mut(inst.material) {
+                *u = true;
+            }
+        }
+        for (m, _) in scene.materials.iter().zip(used).filter(|(_, u)| *u) {
+            f.textures |= m.texture_refs().next().is_some();
+            f.metallic_roughness |= m.metallic_roughness_texture.is_some();
+            f.normal_map |= m.normal_texture.is_some();
+            f.occlusion |= m.occlusion_texture.is_some();
+            f.emissive |= m.is_emissive();
+            f.uv1 |= m.uses_uv1();
+        }
+        f
+    }
+
+    /// The shader defines of these features, in `shaders/common/scene.wgsl`'s order.
+    pub fn defines(&self) -> Vec<&'static str> {
+        [
+            (self.textures, "TEXTURES"),
+            (self.metallic_roughness, "MR_TEXTURE"),
+            (self.normal_map, "NORMAL_MAP"),
+            (self.occlusion, "OCCLUSION"),
+            (self.emissive, "EMISSIVE"),
+            (self.uv1, "UV1"),
+        ]
+        .into_iter()
+        .filter_map(|(on, d)| on.then_some(d))
+        .collect()
+    }
+
+    /// Whether Tiled Deferred's G-buffer needs its emission target (emission and occlusion
+    /// reach the deferred shading only through it).
+    pub fn emission_target(&self) -> bool {
+        self.emissive || self.occlusion
+    }
+
+    /// Whether slot `k` of [`TEXTURE_SLOTS`] is bound (base colour whenever there are
+    /// textures; emissive only when something emits).
+    fn slot_bound(&self, k: usize) -> bool {
+        self.textures
+            && match k {
+                0 => true,
+                1 => self.metallic_roughness,
+                2 => self.normal_map,
+                3 => self.occlusion,
+                _ => self.emissive,
+            }
+    }
+
+    /// The names of the features that are on, e.g. "normal maps, emission".
+    pub fn describe(&self) -> Vec<&'static str> {
+        [
+            (self.textures, "textures"),
+            (self.metallic_roughness, "metallic-roughness maps"),
+            (self.normal_map, "normal maps"),
+            (self.occlusion, "occlusion maps"),
+            (self.emissive, "emission"),
+            (self.uv1, "2 UV sets"),
+        ]
+        .into_iter()
+        .filter_map(|(on, d)| on.then_some(d))
+        .collect()
+    }
 }
 
 /// The pipeline kind a draw needs.
@@ -76,25 +238,44 @@ pub struct Draw {
     pub kind: DrawKind,
 }
 
-/// Vertex buffer layouts: positions (location 0), normals (1), uvs (2), one buffer each so
-/// the depth pre-pass reads positions only.
-pub const VERTEX_LAYOUTS: [Option<wgpu::VertexBufferLayout<'static>>; 3] = [
-    Some(wgpu::VertexBufferLayout {
-        array_stride: 12,
-        step_mode: wgpu::VertexStepMode::Vertex,
-        attributes: &wgpu::vertex_attr_array![0 => Float32x3],
-    }),
-    Some(wgpu::VertexBufferLayout {
-        array_stride: 12,
-        step_mode: wgpu::VertexStepMode::Vertex,
-        attributes: &wgpu::vertex_attr_array![1 => Float32x3],
-    }),
-    Some(wgpu::VertexBufferLayout {
-        array_stride: 8,
-        step_mode: wgpu::VertexStepMode::Vertex,
-        attributes: &wgpu::vertex_attr_array![2 => Float32x2],
-    }),
-];
+const POSITIONS: wgpu::VertexBufferLayout<'static> = wgpu::VertexBufferLayout {
+    array_stride: 12,
+    step_mode: wgpu::VertexStepMode::Vertex,
+    attributes: &wgpu::vertex_attr_array![0 => Float32x3],
+};
+
+/// Vertex buffer layouts: positions (location 0), normals (1), uvs (2), with
+/// [`MaterialFeatures::normal_map`] tangents (3), with [`MaterialFeatures::uv1`] the second
+/// uvs (4): one buffer (slot) each, so the depth pre-pass reads positions only and scenes
+/// without the optional attributes have no buffer for them (their slots are `None`).
+pub fn vertex_layouts(m: &MaterialFeatures) -> [Option<wgpu::VertexBufferLayout<'static>>; 5] {
+    [
+        Some(POSITIONS),
+        Some(wgpu::VertexBufferLayout {
+            array_stride: 12,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &wgpu::vertex_attr_array![1 => Float32x3],
+        }),
+        Some(wgpu::VertexBufferLayout {
+            array_stride: 8,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &wgpu::vertex_attr_array![2 => Float32x2],
+        }),
+        m.normal_map.then_some(wgpu::VertexBufferLayout {
+            array_stride: 16,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &wgpu::vertex_attr_array![3 => Float32x4],
+        }),
+        m.uv1.then_some(wgpu::VertexBufferLayout {
+            array_stride: 8,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &wgpu::vertex_attr_array![4 => Float32x2],
+        }),
+    ]
+}
+
+/// The positions-only vertex layout of depth-only draws.
+pub const POSITION_LAYOUT: [Option<wgpu::VertexBufferLayout<'static>>; 1] = [Some(POSITIONS)];
 
 /// Group 1 of the scene's raster passes: instances (0) and materials (1)
 /// (`shaders/common/scene.wgsl`).
@@ -103,12 +284,30 @@ pub const SCENE_BINDINGS: &[Binding] = &[
     Binding::storage(1, wgpu::ShaderStages::VERTEX_FRAGMENT),
 ];
 
-/// Group 2 of the scene's raster passes, for scenes with textures: a material's
-/// base-colour texture (0) and its sampler (1).
+const FLOAT: wgpu::TextureSampleType = wgpu::TextureSampleType::Float { filterable: true };
+const FILTERING: wgpu::SamplerBindingType = wgpu::SamplerBindingType::Filtering;
+const FS: wgpu::ShaderStages = wgpu::ShaderStages::FRAGMENT;
+
+/// Group 2 of the scene's raster passes, for scenes with textures (`TEXTURES`): per slot of
+/// [`TEXTURE_SLOTS`] a texture (`2k`) and its sampler (`2k + 1`): base colour (0, 1),
+/// metallic-roughness (2, 3) with `MR_TEXTURE`, normal (4, 5) with `NORMAL_MAP`,
+/// occlusion (6, 7) with `OCCLUSION`, emissive (8, 9) with `EMISSIVE`.
 pub const TEXTURE_BINDINGS: &[Binding] = &[
-    Binding::texture(0, wgpu::ShaderStages::FRAGMENT, wgpu::TextureSampleType::Float { filterable: true }),
-    Binding::sampler(1, wgpu::ShaderStages::FRAGMENT, wgpu::SamplerBindingType::Filtering),
+    Binding::texture(0, FS, FLOAT),
+    Binding::sampler(1, FS, FILTERING),
+    Binding::texture(2, FS, FLOAT).when(Cond::Defined("MR_TEXTURE")),
+    Binding::sampler(3, FS, FILTERING).when(Cond::Defined("MR_TEXTURE")),
+    Binding::texture(4, FS, FLOAT).when(Cond::Defined("NORMAL_MAP")),
+    Binding::sampler(5, FS, FILTERING).when(Cond::Defined("NORMAL_MAP")),
+    Binding::texture(6, FS, FLOAT).when(Cond::Defined("OCCLUSION")),
+    Binding::sampler(7, FS, FILTERING).when(Cond::Defined("OCCLUSION")),
+    Binding::texture(8, FS, FLOAT).when(Cond::Defined("EMISSIVE")),
+    Binding::sampler(9, FS, FILTERING).when(Cond::Defined("EMISSIVE")),
 ];
+
+/// The base colour slot of [`TEXTURE_BINDINGS`] alone (what the alpha test of the depth
+/// pre-pass reads).
+pub const BASE_COLOR_BINDINGS: &[Binding] = TEXTURE_BINDINGS.split_at(2).0;
 
 /// Groups 0 to 2 of a raster pass drawing the scene with `shaders/common/scene.wgsl`: the
 /// view, [`SCENE_BINDINGS`] and, when the shader is compiled with `TEXTURES`,
@@ -119,12 +318,15 @@ pub const SCENE_GROUPS: [PassGroup; 3] = [
     PassGroup::new(2, TEXTURE_BINDINGS).when(Cond::Defined("TEXTURES")),
 ];
 
-/// Base-colour textures: group 2, one bind group per material.
+/// Material textures: group 2, one bind group per material, with the slots
+/// [`MaterialFeatures`] says the scene uses.
 pub struct SceneTextures {
     /// Layout of group 2.
     pub layout: wgpu::BindGroupLayout,
-    /// Per material (materials without a texture get a 1x1 white one).
+    /// Per material (a slot without a texture gets a 1x1 white one).
     pub bind_groups: Vec<wgpu::BindGroup>,
+    /// The distinct samplers (one per distinct glTF sampler the materials use).
+    pub samplers: usize,
     _textures: Vec<wgpu::Texture>,
 }
 
@@ -136,13 +338,20 @@ pub struct SceneGpu {
     pub normals: wgpu::Buffer,
     /// Vertex uvs.
     pub uvs: wgpu::Buffer,
+    /// Vertex tangents, only with [`MaterialFeatures::normal_map`] (meshes without a normal
+    /// map hold zeros there: nothing reads them).
+    pub tangents: Option<wgpu::Buffer>,
+    /// The second uv set, only with [`MaterialFeatures::uv1`] (zeros for meshes without one).
+    pub uvs1: Option<wgpu::Buffer>,
+    /// The material paths the scene needs.
+    pub material_features: MaterialFeatures,
     /// Merged index buffer (u32).
     pub indices: wgpu::Buffer,
     /// Layout of group 1.
     pub layout: wgpu::BindGroupLayout,
     /// Group 1: instances and materials.
     pub bind_group: wgpu::BindGroup,
-    /// Group 2, present only when a material has a texture.
+    /// Group 2, present only when a drawn material has a texture.
     pub textures: Option<SceneTextures>,
     /// Draws sorted by kind.
     pub draws: Vec<Draw>,
@@ -166,8 +375,10 @@ impl SceneGpu {
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, scene: &Scene) -> Result<Self, GpuError> {
         scene.validate().map_err(|e| GpuError::Config(e.to_string()))?;
         let mut memory = MemoryReport::default();
+        let material_features = MaterialFeatures::of(scene);
         // Merge meshes.
         let (mut pos, mut nrm, mut uv, mut idx) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (mut tan, mut uv1) = (Vec::<[f32; 4]>::new(), Vec::<[f32; 2]>::new());
         let mut mesh_ranges = Vec::with_capacity(scene.meshes.len());
         for m in &scene.meshes {
             let base_vertex = pos.len() as i32;
@@ -175,6 +386,18 @@ impl SceneGpu {
             pos.extend_from_slice(&m.positions);
             nrm.extend_from_slice(&m.normals);
             uv.extend_from_slice(&m.uvs);
+            if material_features.normal_map {
+                match m.tangents.is_empty() {
+                    true => tan.resize(pos.len(), [0.0; 4]),
+                    false => tan.extend_from_slice(&m.tangents),
+                }
+            }
+            if material_features.uv1 {
+                match m.uvs1.is_empty() {
+                    true => uv1.resize(pos.len(), [0.0; 2]),
+                    false => uv1.extend_from_slice(&m.uvs1),
+                }
+            }
             idx.extend_from_slice(&m.indices);
             mesh_ranges.push((first..idx.len() as u32, base_vertex));
         }
@@ -182,8 +405,16 @@ impl SceneGpu {
         let positions = buffer_init(device, "scene.positions", bytemuck::cast_slice(&pos), vertex_usage);
         let normals = buffer_init(device, "scene.normals", bytemuck::cast_slice(&nrm), vertex_usage);
         let uvs = buffer_init(device, "scene.uvs", bytemuck::cast_slice(&uv), vertex_usage);
+        let tangents = material_features
+            .normal_map
+            .then(|| buffer_init(device, "scene.tangents", bytemuck::cast_slice(&tan), vertex_usage));
+        let uvs1 =
+            material_features.uv1.then(|| buffer_init(device, "scene.uvs1", bytemuck::cast_slice(&uv1), vertex_usage));
         let indices = buffer_init(device, "scene.indices", bytemuck::cast_slice(&idx), wgpu::BufferUsages::INDEX);
         memory.add("scene.vertices", (pos.len() * 12 + nrm.len() * 12 + uv.len() * 8) as u64);
+        if !tan.is_empty() || !uv1.is_empty() {
+            memory.add("scene.vertices.tangents+uv1", (tan.len() * 16 + uv1.len() * 8) as u64);
+        }
         memory.add("scene.indices", (idx.len() * 4) as u64);
 
         let kind_of = |mat: usize| {
@@ -208,7 +439,8 @@ impl SceneGpu {
                 model: inst.transform.to_cols_array_2d(),
                 normal_matrix: normal_matrix(&inst.transform),
                 material: inst.material as u32,
-                _pad: [0; 3],
+                det_sign: if inst.transform.determinant() < 0.0 { -1.0 } else { 1.0 },
+                _pad: [0; 2],
             });
             let (range, base_vertex) = mesh_ranges[inst.mesh].clone();
             triangles += (range.len() / 3) as u64;
@@ -240,24 +472,14 @@ impl SceneGpu {
                 (b.min, b.max)
             })
             .collect();
-        let gpu_materials: Vec<GpuMaterial> = scene
-            .materials
-            .iter()
-            .map(|m| GpuMaterial {
-                base_color: m.base_color,
-                roughness: m.roughness,
-                metallic: m.metallic,
-                alpha_cutoff: match m.alpha_mode {
-                    AlphaMode::Mask { cutoff } => cutoff,
-                    _ => 0.0,
-                },
-                has_texture: m.base_color_texture.is_some() as u32,
-            })
-            .collect();
+        let gpu_materials: Vec<GpuMaterial> = scene.materials.iter().map(GpuMaterial::new).collect();
         let storage = wgpu::BufferUsages::STORAGE;
         let instance_buf = buffer_init(device, "scene.instances", bytemuck::cast_slice(&gpu_instances), storage);
         let material_buf = buffer_init(device, "scene.materials", bytemuck::cast_slice(&gpu_materials), storage);
-        memory.add("scene.instances+materials", (gpu_instances.len() * 128 + gpu_materials.len() * 32) as u64);
+        memory.add(
+            "scene.instances+materials",
+            (gpu_instances.len() * size_of::<GpuInstance>() + gpu_materials.len() * size_of::<GpuMaterial>()) as u64,
+        );
         let layout = create_layout(device, "scene.layout", SCENE_BINDINGS, &[]);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("scene.bind_group"),
@@ -267,8 +489,8 @@ impl SceneGpu {
                 wgpu::BindGroupEntry { binding: 1, resource: material_buf.as_entire_binding() },
             ],
         });
-        let textures = if scene.materials.iter().any(|m| m.base_color_texture.is_some()) {
-            Some(upload_textures(device, queue, scene, &mut memory))
+        let textures = if material_features.textures {
+            Some(upload_textures(device, queue, scene, &material_features, &mut memory))
         } else {
             None
         };
@@ -276,6 +498,9 @@ impl SceneGpu {
             positions,
             normals,
             uvs,
+            tangents,
+            uvs1,
+            material_features,
             indices,
             layout,
             bind_group,
@@ -323,9 +548,26 @@ impl SceneGpu {
     /// Binds the vertex and index buffers every scene draw reads.
     pub fn bind_geometry(&self, pass: &mut wgpu::RenderPass<'_>) {
         pass.set_vertex_buffer(0, self.positions.slice(..));
+        self.bind_attributes(pass);
+        pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
+    }
+
+    /// Binds the vertex buffers past the positions: normals, uvs and, when the scene has
+    /// them, tangents and the second uvs (the slots of [`vertex_layouts`]).
+    fn bind_attributes(&self, pass: &mut wgpu::RenderPass<'_>) {
         pass.set_vertex_buffer(1, self.normals.slice(..));
         pass.set_vertex_buffer(2, self.uvs.slice(..));
-        pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
+        if let Some(t) = &self.tangents {
+            pass.set_vertex_buffer(3, t.slice(..));
+        }
+        if let Some(u) = &self.uvs1 {
+            pass.set_vertex_buffer(4, u.slice(..));
+        }
+    }
+
+    /// The vertex buffer layouts of this scene's shading draws ([`vertex_layouts`]).
+    pub fn vertex_layouts(&self) -> [Option<wgpu::VertexBufferLayout<'static>>; 5] {
+        vertex_layouts(&self.material_features)
     }
 
     /// True when some draw is alpha-masked.
@@ -356,8 +598,7 @@ impl SceneGpu {
     ) {
         pass.set_vertex_buffer(0, self.positions.slice(..));
         if with_attributes {
-            pass.set_vertex_buffer(1, self.normals.slice(..));
-            pass.set_vertex_buffer(2, self.uvs.slice(..));
+            self.bind_attributes(pass);
         }
         pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
         for d in self.draws.iter().filter(|d| d.kind == kind) {
@@ -408,24 +649,50 @@ fn mip_chain(width: u32, height: u32, rgba: &[u8]) -> Vec<(u32, u32, Vec<u8>)> {
     levels
 }
 
+fn address_mode(w: Wrap) -> wgpu::AddressMode {
+    match w {
+        Wrap::Repeat => wgpu::AddressMode::Repeat,
+        Wrap::MirroredRepeat => wgpu::AddressMode::MirrorRepeat,
+        Wrap::ClampToEdge => wgpu::AddressMode::ClampToEdge,
+    }
+}
+
+fn filter_mode(f: Filter) -> wgpu::FilterMode {
+    match f {
+        Filter::Nearest => wgpu::FilterMode::Nearest,
+        Filter::Linear => wgpu::FilterMode::Linear,
+    }
+}
+
+/// The wgpu sampler of a scene sampler. Without mipmapping (glTF's plain `NEAREST` and
+/// `LINEAR` minification) only mip 0 is read: the LOD is clamped to 0.
+fn sampler_descriptor(s: &Sampler) -> wgpu::SamplerDescriptor<'static> {
+    wgpu::SamplerDescriptor {
+        label: Some("scene.sampler"),
+        address_mode_u: address_mode(s.wrap_u),
+        address_mode_v: address_mode(s.wrap_v),
+        mag_filter: filter_mode(s.mag),
+        min_filter: filter_mode(s.min),
+        mipmap_filter: match s.mipmap {
+            Some(Filter::Linear) => wgpu::MipmapFilterMode::Linear,
+            _ => wgpu::MipmapFilterMode::Nearest,
+        },
+        lod_max_clamp: if s.mipmap.is_some() { 32.0 } else { 0.0 },
+        anisotropy_clamp: 1,
+        ..Default::default()
+    }
+}
+
 fn upload_textures(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     scene: &Scene,
+    features: &MaterialFeatures,
     memory: &mut MemoryReport,
 ) -> SceneTextures {
-    let layout = create_layout(device, "scene.texture_layout", TEXTURE_BINDINGS, &[]);
-    let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-        label: Some("scene.sampler"),
-        address_mode_u: wgpu::AddressMode::Repeat,
-        address_mode_v: wgpu::AddressMode::Repeat,
-        mag_filter: wgpu::FilterMode::Linear,
-        min_filter: wgpu::FilterMode::Linear,
-        mipmap_filter: wgpu::MipmapFilterMode::Linear,
-        anisotropy_clamp: 1,
-        ..Default::default()
-    });
-    let make = |label: &str, w: u32, h: u32, rgba: &[u8], memory: &mut MemoryReport| {
+    let defines = features.defines();
+    let layout = create_layout(device, "scene.texture_layout", TEXTURE_BINDINGS, &defines);
+    let make = |label: &str, w: u32, h: u32, rgba: &[u8], format, memory: &mut MemoryReport| {
         let levels = mip_chain(w, h, rgba);
         let tex = device.create_texture(&wgpu::TextureDescriptor {
             label: Some(label),
@@ -433,7 +700,7 @@ fn upload_textures(
             mip_level_count: levels.len() as u32,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba8UnormSrgb,
+            format,
             usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         });
@@ -453,45 +720,108 @@ fn upload_textures(
         }
         tex
     };
-    let mut textures: Vec<wgpu::Texture> = scene
-        .textures
-        .iter()
-        .map(|t| make(&format!("scene.texture.{}", t.name), t.width, t.height, &t.rgba8, memory))
-        .collect();
-    let white_index = textures.len();
-    textures.push(make("scene.texture.white", 1, 1, &[255; 4], memory));
-    let views: Vec<wgpu::TextureView> = textures.iter().map(|t| t.create_view(&Default::default())).collect();
+    // One GPU texture per (image, colour space) the bound slots use: colour slots (base
+    // colour, emissive) are sRGB, data slots (metallic-roughness, normal, occlusion) linear.
+    let srgb_slot = |k: usize| k == 0 || k == 4;
+    let mut textures: Vec<wgpu::Texture> = Vec::new();
+    let mut views: Vec<wgpu::TextureView> = Vec::new();
+    let mut by_image: HashMap<(usize, bool), usize> = HashMap::new();
+    let mut samplers: Vec<wgpu::Sampler> = Vec::new();
+    let mut by_sampler: HashMap<Sampler, usize> = HashMap::new();
+    let white = make("scene.texture.white", 1, 1, &[255; 4], wgpu::TextureFormat::Rgba8Unorm, memory);
+    let white_view = white.create_view(&Default::default());
+    let default_sampler = device.create_sampler(&sampler_descriptor(&Sampler::default()));
+    let mut slot_of = Vec::with_capacity(scene.materials.len());
+    for m in &scene.materials {
+        let mut bound = Vec::new();
+        for (k, slot) in material_slots(m).into_iter().enumerate() {
+            if !features.slot_bound(k) {
+                continue;
+            }
+            let Some(t) = slot else {
+                bound.push((k, None));
+                continue;
+            };
+            let srgb = srgb_slot(k);
+            let view = *by_image.entry((t.texture, srgb)).or_insert_with(|| {
+                let img = &scene.textures[t.texture];
+                let format = if srgb { wgpu::TextureFormat::Rgba8UnormSrgb } else { wgpu::TextureFormat::Rgba8Unorm };
+                let space = if srgb { "srgb" } else { "linear" };
+                let tex = make(
+                    &format!("scene.texture.{}.{space}", img.name),
+                    img.width,
+                    img.height,
+                    &img.rgba8,
+                    format,
+                    memory,
+                );
+                views.push(tex.create_view(&Default::default()));
+                textures.push(tex);
+                views.len() - 1
+            });
+            let sampler = *by_sampler.entry(t.sampler).or_insert_with(|| {
+                samplers.push(device.create_sampler(&sampler_descriptor(&t.sampler)));
+                samplers.len() - 1
+            });
+            bound.push((k, Some((view, sampler))));
+        }
+        slot_of.push(bound);
+    }
     let bind_groups = scene
         .materials
         .iter()
-        .map(|m| {
+        .zip(&slot_of)
+        .map(|(m, bound)| {
+            let mut entries = Vec::with_capacity(bound.len() * 2);
+            for &(k, slot) in bound {
+                let (view, sampler) = match slot {
+                    Some((v, s)) => (&views[v], &samplers[s]),
+                    None => (&white_view, &default_sampler),
+                };
+                let k = k as u32;
+                entries
+                    .push(wgpu::BindGroupEntry { binding: 2 * k, resource: wgpu::BindingResource::TextureView(view) });
+                entries.push(wgpu::BindGroupEntry {
+                    binding: 2 * k + 1,
+                    resource: wgpu::BindingResource::Sampler(sampler),
+                });
+            }
             device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some(&format!("scene.material.{}", m.name)),
                 layout: &layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: wgpu::BindingResource::TextureView(
-                            &views[m.base_color_texture.unwrap_or(white_index)],
-                        ),
-                    },
-                    wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(&sampler) },
-                ],
+                entries: &entries,
             })
         })
         .collect();
-    SceneTextures { layout, bind_groups, _textures: textures }
+    textures.push(white);
+    SceneTextures { layout, bind_groups, samplers: samplers.len(), _textures: textures }
 }
 
 /// Layouts of this module's GPU structs, for the xtask layout check.
 pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
     vec![
-        tiledlight_cull::struct_layout!(GpuInstance, "Instance", "common/scene.wgsl", [model, normal_matrix, material]),
+        tiledlight_cull::struct_layout!(
+            GpuInstance,
+            "Instance",
+            "common/scene.wgsl",
+            [model, normal_matrix, material, det_sign]
+        ),
         tiledlight_cull::struct_layout!(
             GpuMaterial,
             "Material",
             "common/scene.wgsl",
-            [base_color, roughness, metallic, alpha_cutoff, has_texture]
+            [
+                base_color,
+                emissive,
+                roughness,
+                metallic,
+                alpha_cutoff,
+                normal_scale,
+                occlusion_strength,
+                textures,
+                uv1_sets,
+                uv_rows
+            ]
         ),
     ]
 }

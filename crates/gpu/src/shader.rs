@@ -11,7 +11,10 @@
 //!   defines passed to [`preprocess`]. They must balance within each file.
 //!
 //! An entry file declares the defines it reacts to with a line `// variants: A B`;
-//! `cargo xtask validate-shaders` checks every combination of them.
+//! `cargo xtask validate-shaders` checks every combination of them, except those a
+//! `// requires: A B` line rules out (define A is only ever set together with B, e.g. the
+//! material maps with `TEXTURES`: [`valid_combinations`]). [`check_requirements`] refuses
+//! to build a variant outside that set, so every variant a pass builds was validated.
 //!
 //! Output line `n` always comes from exactly one source line: directives and lines of
 //! inactive branches become empty lines, and an `#include` line becomes an empty line
@@ -91,6 +94,19 @@ pub enum ShaderError {
         line: usize,
         /// `else` or `endif`.
         directive: &'static str,
+    },
+    /// A variant sets a define without the one a `// requires:` line says it needs (a
+    /// variant the validator never checked).
+    #[error("shaders/{file}: variant [{}] sets {define} without {required} (`// requires: {define} {required}`)", defines.join(" "))]
+    UnmetRequirement {
+        /// The entry file.
+        file: String,
+        /// The variant's defines.
+        defines: Vec<String>,
+        /// The define set.
+        define: String,
+        /// The define it needs.
+        required: String,
     },
     /// An `#ifdef`/`#ifndef` not closed by `#endif` before the end of its file.
     #[error("shaders/{file}:{line}: #ifdef/#ifndef is not closed by #endif before the end of the file")]
@@ -182,6 +198,53 @@ pub fn variants_in(source: &str) -> Vec<String> {
         }
     }
     out
+}
+
+/// The requirements declared by `// requires: A B` lines of `source` (each: A is set only
+/// together with B), in order. Only the file's own lines count, not its includes.
+pub fn requirements_in(source: &str) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    for line in source.lines() {
+        let Some(rest) = line.trim_start().strip_prefix("//") else {
+            continue;
+        };
+        let Some(names) = rest.trim_start().strip_prefix("requires:") else {
+            continue;
+        };
+        let names: Vec<&str> = names.split_whitespace().collect();
+        if let [a, b] = names[..] {
+            out.push((a.to_owned(), b.to_owned()));
+        }
+    }
+    out
+}
+
+/// The subsets of `variants` that meet `requires` (every pair (A, B): A only with B), in
+/// the order of [`variant_combinations`].
+pub fn valid_combinations<'a>(variants: &'a [String], requires: &[(String, String)]) -> Vec<Vec<&'a str>> {
+    variant_combinations(variants)
+        .into_iter()
+        .filter(|c| requires.iter().all(|(a, b)| !c.contains(&a.as_str()) || c.contains(&b.as_str())))
+        .collect()
+}
+
+/// Checks that `defines` meet the `// requires:` lines of embedded entry file `entry`:
+/// only those variants are validated by `cargo xtask validate-shaders`.
+pub fn check_requirements(entry: &str, defines: &[&str]) -> Result<(), ShaderError> {
+    let Some(text) = embedded(entry) else {
+        return Err(ShaderError::NotFound { file: entry.to_owned() });
+    };
+    for (a, b) in requirements_in(text) {
+        if defines.contains(&a.as_str()) && !defines.contains(&b.as_str()) {
+            return Err(ShaderError::UnmetRequirement {
+                file: entry.to_owned(),
+                defines: defines.iter().map(|d| d.to_string()).collect(),
+                define: a,
+                required: b,
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Every subset of `variants` (2^k of them), each in the order of `variants`; the
@@ -601,6 +664,19 @@ always";
     }
 
     #[test]
+    fn requirements_rule_out_combinations() {
+        let text = "// variants: A B C\n// requires: B A\n// requires: C B\n";
+        let req = requirements_in(text);
+        assert_eq!(req, [("B".to_owned(), "A".to_owned()), ("C".to_owned(), "B".to_owned())]);
+        let v = variants_in(text);
+        assert_eq!(valid_combinations(&v, &req), [vec![], vec!["A"], vec!["A", "B"], vec!["A", "B", "C"]]);
+        // Real entry files: every material map needs TEXTURES.
+        assert!(check_requirements("forward.wgsl", &["TEXTURES", "NORMAL_MAP"]).is_ok());
+        let e = check_requirements("forward.wgsl", &["NORMAL_MAP"]).unwrap_err().to_string();
+        assert!(e.contains("variant [NORMAL_MAP] sets NORMAL_MAP without TEXTURES"), "{e}");
+    }
+
+    #[test]
     fn combinations_cover_every_subset() {
         let v = vec!["A".to_owned(), "B".to_owned()];
         assert_eq!(variant_combinations(&v), [vec![], vec!["A"], vec!["B"], vec!["A", "B"]]);
@@ -621,7 +697,8 @@ always";
     fn embedded_entries_preprocess_in_every_variant() {
         for entry in entry_files() {
             let variants = variants(entry);
-            for defines in variant_combinations(&variants) {
+            let requires = requirements_in(embedded(entry).unwrap());
+            for defines in valid_combinations(&variants, &requires) {
                 if let Err(e) = preprocess(entry, &defines) {
                     panic!("{entry} with {defines:?}: {e}");
                 }

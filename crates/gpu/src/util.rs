@@ -32,6 +32,8 @@ pub fn buffer_zeroed(device: &wgpu::Device, label: &str, size: u64, usage: wgpu:
 
 /// A shader module from an embedded entry file with `defines`, validated by wgpu.
 pub fn shader_module(device: &wgpu::Device, entry: &str, defines: &[&str]) -> Result<wgpu::ShaderModule, GpuError> {
+    // Only the variants the validator checked (its `// requires:` lines).
+    shader::check_requirements(entry, defines)?;
     let src = shader::preprocess(entry, defines)?;
     let label = if defines.is_empty() { entry.to_string() } else { format!("{entry} [{}]", defines.join(" ")) };
     Ok(device.create_shader_module(wgpu::ShaderModuleDescriptor {

@@ -99,6 +99,7 @@ impl MeshBuilder {
             normals: self.normals,
             uvs: self.uvs,
             indices: self.indices,
+            ..Mesh::default()
         }
     }
 }

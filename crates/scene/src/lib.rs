@@ -9,11 +9,14 @@
 //! - [`random_lights`]: deterministic random point and spot lights;
 //! - [`SurfaceSampler`]: point lights on the scene's surfaces, their radius following
 //!   the count ([`surface_light_radius`]), for the million-light preset;
-//! - [`load_gltf`]: glTF 2.0 files (.gltf/.glb) with KHR_lights_punctual.
+//! - [`load_gltf`]: glTF 2.0 files (.gltf/.glb) with KHR_lights_punctual, metallic-roughness
+//!   materials in full (base colour, metallic-roughness, normal, occlusion and emissive
+//!   textures, KHR_materials_emissive_strength, KHR_texture_transform, two UV sets,
+//!   samplers) and KHR_mesh_quantization.
 //!
 //! Conventions (see the workspace's DESIGN.md): right-handed, Y up, metres, front faces
 //! counter-clockwise. Depends on tiledlight-cull (for [`Light`]), glam, gltf, image,
-//! rand and thiserror; no GPU dependency.
+//! bevy_mikktspace (tangents), rand and thiserror; no GPU dependency.
 
 mod error;
 mod geometry;
@@ -26,7 +29,10 @@ mod surface_lights;
 pub use error::SceneError;
 pub use lights::{random_lights, LightOptions, DEFAULT_INTENSITY_RANGE, DEFAULT_LIGHT_THRESHOLD, MAX_LIGHTS};
 pub use loader::load_gltf;
-pub use model::{Aabb, AlphaMode, CameraDesc, Instance, Material, Mesh, Scene, Texture};
+pub use model::{
+    Aabb, AlphaMode, CameraDesc, Filter, Instance, Material, Mesh, Sampler, Scene, Texture, TextureRef, UvTransform,
+    Wrap,
+};
 pub use procedural::{default_scene, shadow_box_scene, DefaultSceneOptions, GridDensity, MAX_GRID_OBJECTS};
 pub use surface_lights::{
     surface_irradiance_factor, surface_light_radius, SurfaceLightOptions, SurfaceLights, SurfaceSampler,

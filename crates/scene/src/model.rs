@@ -9,7 +9,8 @@ use tiledlight_cull::Light;
 use crate::error::SceneError;
 
 /// An indexed triangle list. Front faces wind counter-clockwise; normals are unit
-/// length; `normals` and `uvs` have one entry per position.
+/// length; `normals` and `uvs` have one entry per position; `uvs1` and `tangents` have
+/// one entry per position or none (only meshes whose material needs them carry them).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mesh {
     /// Name, for error messages and debugging.
@@ -18,8 +19,16 @@ pub struct Mesh {
     pub positions: Vec<[f32; 3]>,
     /// Object-space unit normals, one per position.
     pub normals: Vec<[f32; 3]>,
-    /// Texture coordinates, one per position.
+    /// Texture coordinates (glTF TEXCOORD_0), one per position.
     pub uvs: Vec<[f32; 2]>,
+    /// The second texture coordinate set (glTF TEXCOORD_1): one per position, or empty
+    /// when no texture of the mesh's material reads set 1.
+    pub uvs1: Vec<[f32; 2]>,
+    /// Object-space tangents (xyz unit, w = +1 or -1: the bitangent is
+    /// `w * cross(normal, tangent)`, glTF's convention): one per position, or empty when the
+    /// mesh's material has no normal map. Loaded from the file or generated with
+    /// MikkTSpace ([`Mesh::generate_tangents`]).
+    pub tangents: Vec<[f32; 4]>,
     /// Three indices per triangle, each below `positions.len()`.
     pub indices: Vec<u32>,
 }
@@ -28,6 +37,81 @@ impl Mesh {
     /// Number of triangles (`indices.len() / 3`).
     pub fn triangle_count(&self) -> u64 {
         (self.indices.len() / 3) as u64
+    }
+
+    /// The texture coordinates of set `set` (0 or 1; set 1 may be empty).
+    pub fn uv_set(&self, set: u32) -> &[[f32; 2]] {
+        if set == 1 {
+            &self.uvs1
+        } else {
+            &self.uvs
+        }
+    }
+
+    /// Fills [`Mesh::tangents`] with MikkTSpace tangents (the algorithm glTF names for
+    /// files without tangents, through the bevy_mikktspace crate) for texture coordinate
+    /// set `set`, the set the normal map is read with. Vertices the algorithm leaves
+    /// without a tangent (degenerate triangles with no neighbour to borrow from) get any
+    /// unit vector perpendicular to their normal. Errors when set `set` is missing.
+    pub fn generate_tangents(&mut self, set: u32) -> Result<(), String> {
+        let n = self.positions.len();
+        if self.uv_set(set).len() != n {
+            return Err(format!(
+                "mesh '{}': tangents need texture coordinate set {set}, which it does not have",
+                self.name
+            ));
+        }
+        struct Geo<'m> {
+            mesh: &'m Mesh,
+            set: u32,
+            out: Vec<Option<[f32; 4]>>,
+        }
+        impl Geo<'_> {
+            fn vertex(&self, face: usize, vert: usize) -> usize {
+                self.mesh.indices[face * 3 + vert] as usize
+            }
+        }
+        impl bevy_mikktspace::Geometry for Geo<'_> {
+            fn num_faces(&self) -> usize {
+                self.mesh.indices.len() / 3
+            }
+            fn num_vertices_of_face(&self, _face: usize) -> usize {
+                3
+            }
+            fn position(&self, face: usize, vert: usize) -> [f32; 3] {
+                self.mesh.positions[self.vertex(face, vert)]
+            }
+            fn normal(&self, face: usize, vert: usize) -> [f32; 3] {
+                self.mesh.normals[self.vertex(face, vert)]
+            }
+            fn tex_coord(&self, face: usize, vert: usize) -> [f32; 2] {
+                self.mesh.uv_set(self.set)[self.vertex(face, vert)]
+            }
+            fn set_tangent(&mut self, t: Option<bevy_mikktspace::TangentSpace>, face: usize, vert: usize) {
+                let v = self.vertex(face, vert);
+                // Welded vertices get the same value from every face; an indexed vertex
+                // shared by faces with different tangent spaces keeps the first.
+                if self.out[v].is_none() {
+                    self.out[v] = t.map(|t| t.tangent_encoded());
+                }
+            }
+        }
+        let mut geo = Geo { mesh: self, set, out: vec![None; n] };
+        bevy_mikktspace::generate_tangents(&mut geo)
+            .map_err(|e| format!("mesh '{}': MikkTSpace failed: {e:?}", self.name))?;
+        let out = geo.out;
+        self.tangents = out
+            .into_iter()
+            .zip(&self.normals)
+            .map(|(t, nrm)| match t {
+                Some(t) if t.iter().all(|c| c.is_finite()) && Vec3::new(t[0], t[1], t[2]).length() > 0.5 => t,
+                _ => {
+                    let nrm = Vec3::from_array(*nrm);
+                    nrm.any_orthonormal_vector().extend(1.0).to_array()
+                }
+            })
+            .collect();
+        Ok(())
     }
 
     /// Object-space bounds of the positions (empty for a mesh without vertices).
@@ -54,19 +138,153 @@ pub enum AlphaMode {
     Blend,
 }
 
-/// A metallic-roughness material.
+/// How texture coordinates outside [0, 1] are wrapped (glTF sampler `wrapS`/`wrapT`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Wrap {
+    /// Tiles the texture (glTF's default).
+    #[default]
+    Repeat,
+    /// Tiles it, every other copy mirrored.
+    MirroredRepeat,
+    /// Repeats the edge texels.
+    ClampToEdge,
+}
+
+/// A texture filter (glTF sampler `magFilter`/`minFilter`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Filter {
+    /// The nearest texel.
+    Nearest,
+    /// Bilinear.
+    #[default]
+    Linear,
+}
+
+/// How a texture is sampled (a glTF sampler). The default is what glTF leaves to the
+/// implementation when a texture has no sampler: repeat, trilinear.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Sampler {
+    /// Wrap along u (glTF `wrapS`).
+    pub wrap_u: Wrap,
+    /// Wrap along v (glTF `wrapT`).
+    pub wrap_v: Wrap,
+    /// Magnification filter.
+    pub mag: Filter,
+    /// Minification filter within a mip level.
+    pub min: Filter,
+    /// Filter between mip levels; `None` reads mip 0 only (glTF's `NEAREST`/`LINEAR`
+    /// minification filters, which have no mipmapping).
+    pub mipmap: Option<Filter>,
+}
+
+impl Default for Sampler {
+    fn default() -> Self {
+        Self {
+            wrap_u: Wrap::Repeat,
+            wrap_v: Wrap::Repeat,
+            mag: Filter::Linear,
+            min: Filter::Linear,
+            mipmap: Some(Filter::Linear),
+        }
+    }
+}
+
+/// A texture-coordinate transform (`KHR_texture_transform`): `uv' = T(offset) R(rotation)
+/// S(scale) uv`, with the extension's rotation direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UvTransform {
+    /// Added after rotation and scale.
+    pub offset: [f32; 2],
+    /// Radians, as the extension's matrix applies them (its README's GLSL).
+    pub rotation: f32,
+    /// Multiplies u and v first.
+    pub scale: [f32; 2],
+}
+
+impl Default for UvTransform {
+    fn default() -> Self {
+        Self { offset: [0.0; 2], rotation: 0.0, scale: [1.0; 2] }
+    }
+}
+
+impl UvTransform {
+    /// The transform as two rows of a 2x3 matrix: `u' = r0 . (u, v, 1)`,
+    /// `v' = r1 . (u, v, 1)` (the extension's `translation * rotation * scale`).
+    pub fn rows(&self) -> [[f32; 3]; 2] {
+        let (s, c) = self.rotation.sin_cos();
+        let [sx, sy] = self.scale;
+        let [ox, oy] = self.offset;
+        // The extension's GLSL `mat3(cos, sin, 0, -sin, cos, 0, 0, 0, 1)` is column-major:
+        // u' = cos u - sin v, v' = sin u + cos v.
+        [[c * sx, -s * sy, ox], [s * sx, c * sy, oy]]
+    }
+
+    /// Applies the transform to `uv`.
+    pub fn apply(&self, uv: [f32; 2]) -> [f32; 2] {
+        let [r0, r1] = self.rows();
+        [r0[0] * uv[0] + r0[1] * uv[1] + r0[2], r1[0] * uv[0] + r1[1] * uv[1] + r1[2]]
+    }
+
+    /// True for the identity.
+    pub fn is_identity(&self) -> bool {
+        *self == Self::default()
+    }
+}
+
+/// A material's use of a texture: which image, read how and with which coordinates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureRef {
+    /// Index into [`Scene::textures`].
+    pub texture: usize,
+    /// Texture coordinate set: 0 (`Mesh::uvs`) or 1 (`Mesh::uvs1`).
+    pub tex_coord: u32,
+    /// Wrap and filter modes.
+    pub sampler: Sampler,
+    /// `KHR_texture_transform` (identity without it).
+    pub transform: UvTransform,
+}
+
+impl TextureRef {
+    /// Texture `texture` read with set 0, the default sampler and no transform.
+    pub fn new(texture: usize) -> Self {
+        Self { texture, tex_coord: 0, sampler: Sampler::default(), transform: UvTransform::default() }
+    }
+}
+
+/// A metallic-roughness material (glTF's core material with `KHR_materials_emissive_strength`
+/// and `KHR_texture_transform`). Each texture multiplies its factor; colour textures
+/// (base colour, emissive) are sRGB, data textures (metallic-roughness, normal,
+/// occlusion) linear.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     /// Name, for error messages and debugging.
     pub name: String,
     /// Linear RGBA base colour factor (multiplies the texture when there is one).
     pub base_color: [f32; 4],
-    /// Index into [`Scene::textures`] of the sRGB base-colour texture, if any.
-    pub base_color_texture: Option<usize>,
+    /// The sRGB base-colour texture, if any.
+    pub base_color_texture: Option<TextureRef>,
     /// Perceptual roughness in [0, 1].
     pub roughness: f32,
     /// Metalness in [0, 1].
     pub metallic: f32,
+    /// Linear metallic-roughness texture: roughness in green, metalness in blue,
+    /// multiplying the factors.
+    pub metallic_roughness_texture: Option<TextureRef>,
+    /// Linear tangent-space normal map (needs [`Mesh::tangents`] on every mesh drawn
+    /// with this material).
+    pub normal_texture: Option<TextureRef>,
+    /// Scales the normal map's x and y (glTF `normalTexture.scale`).
+    pub normal_scale: f32,
+    /// Linear occlusion texture (red channel), applied to the ambient term only.
+    pub occlusion_texture: Option<TextureRef>,
+    /// `1 + strength * (texel - 1)`: 0 turns the occlusion off, 1 applies it fully.
+    pub occlusion_strength: f32,
+    /// Linear emitted radiance factor (glTF `emissiveFactor`, each in [0, 1]).
+    pub emissive: [f32; 3],
+    /// Multiplies `emissive` (`KHR_materials_emissive_strength`; 1 without it).
+    pub emissive_strength: f32,
+    /// sRGB emissive texture, multiplying the factor.
+    pub emissive_texture: Option<TextureRef>,
     /// How alpha is used.
     pub alpha_mode: AlphaMode,
     /// Whether back faces are drawn (and lit with the flipped normal).
@@ -74,7 +292,8 @@ pub struct Material {
 }
 
 impl Default for Material {
-    /// glTF's default material: white, fully metallic and rough, opaque, single-sided.
+    /// glTF's default material: white, fully metallic and rough, no textures, no
+    /// emission, opaque, single-sided.
     fn default() -> Self {
         Self {
             name: "default".to_owned(),
@@ -82,9 +301,43 @@ impl Default for Material {
             base_color_texture: None,
             roughness: 1.0,
             metallic: 1.0,
+            metallic_roughness_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
+            occlusion_texture: None,
+            occlusion_strength: 1.0,
+            emissive: [0.0; 3],
+            emissive_strength: 1.0,
+            emissive_texture: None,
             alpha_mode: AlphaMode::Opaque,
             double_sided: false,
         }
+    }
+}
+
+impl Material {
+    /// The material's textures with their slot names, in a fixed order (base colour,
+    /// metallic-roughness, normal, occlusion, emissive).
+    pub fn texture_refs(&self) -> impl Iterator<Item = (&'static str, &TextureRef)> + '_ {
+        [
+            ("base colour", &self.base_color_texture),
+            ("metallic-roughness", &self.metallic_roughness_texture),
+            ("normal", &self.normal_texture),
+            ("occlusion", &self.occlusion_texture),
+            ("emissive", &self.emissive_texture),
+        ]
+        .into_iter()
+        .filter_map(|(name, t)| t.as_ref().map(|t| (name, t)))
+    }
+
+    /// True when the material emits light (a non-zero emissive factor and strength).
+    pub fn is_emissive(&self) -> bool {
+        self.emissive_strength > 0.0 && self.emissive.iter().any(|&e| e > 0.0)
+    }
+
+    /// True when some texture reads texture coordinate set 1.
+    pub fn uses_uv1(&self) -> bool {
+        self.texture_refs().any(|(_, t)| t.tex_coord == 1)
     }
 }
 
@@ -97,7 +350,9 @@ pub struct Texture {
     pub width: u32,
     /// Height in pixels.
     pub height: u32,
-    /// sRGB-encoded RGBA8 texels, row-major, `width * height * 4` bytes.
+    /// RGBA8 texels as stored in the image, row-major, `width * height * 4` bytes: sRGB for
+    /// the colour textures that use them, linear for the data textures (the material slot
+    /// decides, see [`Material`]).
     pub rgba8: Vec<u8>,
 }
 
@@ -300,6 +555,7 @@ impl Scene {
                     inst.mesh, self.meshes[inst.mesh].name
                 )));
             }
+            self.validate_instance_attributes(i, inst)?;
         }
         // The same checks as every upload (`LightBuffers::new` runs them too), so a scene
         // that validates never fails there.
@@ -340,6 +596,26 @@ impl Scene {
         if let Some(v) = mesh.uvs.iter().position(|uv| !uv.iter().all(|c| c.is_finite())) {
             return Err(self.invalid(format!("mesh {i} '{name}': uv {v} is not finite ({:?})", mesh.uvs[v])));
         }
+        if !mesh.uvs1.is_empty() && mesh.uvs1.len() != n {
+            return Err(
+                self.invalid(format!("mesh {i} '{name}' has {n} positions but {} uvs of set 1", mesh.uvs1.len()))
+            );
+        }
+        if let Some(v) = mesh.uvs1.iter().position(|uv| !uv.iter().all(|c| c.is_finite())) {
+            return Err(self.invalid(format!("mesh {i} '{name}': uv1 {v} is not finite ({:?})", mesh.uvs1[v])));
+        }
+        if !mesh.tangents.is_empty() && mesh.tangents.len() != n {
+            return Err(
+                self.invalid(format!("mesh {i} '{name}' has {n} positions but {} tangents", mesh.tangents.len()))
+            );
+        }
+        for (v, t) in mesh.tangents.iter().enumerate() {
+            let len = Vec3::new(t[0], t[1], t[2]).length();
+            if !t.iter().all(|c| c.is_finite()) || (len - 1.0).abs() > NORMAL_LENGTH_TOLERANCE || t[3].abs() != 1.0 {
+                return Err(self
+                    .invalid(format!("mesh {i} '{name}': tangent {v} is {t:?}, not a unit vector with w = +1 or -1")));
+            }
+        }
         if !mesh.indices.len().is_multiple_of(3) {
             return Err(self.invalid(format!(
                 "mesh {i} '{name}' has {} indices, not a multiple of 3 (triangle lists only)",
@@ -377,13 +653,65 @@ impl Scene {
                 return Err(self.invalid(format!("material {i} '{name}' has alpha cutoff {cutoff}, not in [0, 1]")));
             }
         }
-        if let Some(t) = m.base_color_texture {
-            if t >= self.textures.len() {
+        let extra_finite = m.normal_scale.is_finite()
+            && m.occlusion_strength.is_finite()
+            && m.emissive_strength.is_finite()
+            && m.emissive.iter().all(|c| c.is_finite());
+        if !extra_finite {
+            return Err(self.invalid(format!(
+                "material {i} '{name}' has a non-finite factor (normal scale {}, occlusion strength {}, \
+                 emissive {:?}, emissive strength {})",
+                m.normal_scale, m.occlusion_strength, m.emissive, m.emissive_strength
+            )));
+        }
+        if !m.emissive.iter().all(|&c| in_unit(c)) || !in_unit(m.occlusion_strength) || m.emissive_strength < 0.0 {
+            return Err(self.invalid(format!(
+                "material {i} '{name}' has emissive {:?} (each in [0, 1]), emissive strength {} (>= 0) or \
+                 occlusion strength {} (in [0, 1]) out of range",
+                m.emissive, m.emissive_strength, m.occlusion_strength
+            )));
+        }
+        for (slot, t) in m.texture_refs() {
+            if t.texture >= self.textures.len() {
                 return Err(self.invalid(format!(
-                    "material {i} '{name}' uses texture {t} but there are {} textures",
+                    "material {i} '{name}' uses texture {} ({slot}) but there are {} textures",
+                    t.texture,
                     self.textures.len()
                 )));
             }
+            if t.tex_coord > 1 {
+                return Err(self.invalid(format!(
+                    "material {i} '{name}': the {slot} texture reads texture coordinate set {}, \
+                     but only sets 0 and 1 are supported",
+                    t.tex_coord
+                )));
+            }
+            let x = &t.transform;
+            if !(x.offset.iter().chain(&x.scale).all(|c| c.is_finite()) && x.rotation.is_finite()) {
+                return Err(self.invalid(format!(
+                    "material {i} '{name}': the {slot} texture has a non-finite texture transform {x:?}"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks that every instance's mesh has what its material reads: texture
+    /// coordinate set 1 when a texture uses it, tangents with a normal map.
+    fn validate_instance_attributes(&self, i: usize, inst: &Instance) -> Result<(), SceneError> {
+        let (mesh, m) = (&self.meshes[inst.mesh], &self.materials[inst.material]);
+        if m.uses_uv1() && mesh.uvs1.is_empty() {
+            return Err(self.invalid(format!(
+                "instance {i}: material '{}' reads texture coordinate set 1 but mesh '{}' has none",
+                m.name, mesh.name
+            )));
+        }
+        if m.normal_texture.is_some() && mesh.tangents.is_empty() {
+            return Err(self.invalid(format!(
+                "instance {i}: material '{}' has a normal map but mesh '{}' has no tangents \
+                 (Mesh::generate_tangents makes them)",
+                m.name, mesh.name
+            )));
         }
         Ok(())
     }
@@ -488,6 +816,7 @@ mod tests {
             normals: vec![[0.0, 0.0, 1.0]; 3],
             uvs: vec![[0.0, 0.0]; 3],
             indices: vec![0, 1, 2],
+            ..Mesh::default()
         };
         let mut scene = Scene {
             name: "test".into(),
@@ -560,9 +889,33 @@ mod tests {
         rejects(|s| s.materials[0].metallic = 1.5, "material 0 'default' has a factor outside [0, 1]");
         rejects(|s| s.materials[0].alpha_mode = AlphaMode::Mask { cutoff: f32::NAN }, "alpha cutoff NaN");
         rejects(
-            |s| s.materials[0].base_color_texture = Some(1),
-            "material 0 'default' uses texture 1 but there are 1 textures",
+            |s| s.materials[0].base_color_texture = Some(TextureRef::new(1)),
+            "material 0 'default' uses texture 1 (base colour) but there are 1 textures",
         );
+        rejects(
+            |s| s.materials[0].emissive_texture = Some(TextureRef { tex_coord: 2, ..TextureRef::new(0) }),
+            "the emissive texture reads texture coordinate set 2",
+        );
+        rejects(
+            |s| {
+                let mut t = TextureRef::new(0);
+                t.transform.rotation = f32::NAN;
+                s.materials[0].occlusion_texture = Some(t);
+            },
+            "the occlusion texture has a non-finite texture transform",
+        );
+        rejects(|s| s.materials[0].emissive = [2.0, 0.0, 0.0], "has emissive [2.0, 0.0, 0.0]");
+        rejects(|s| s.materials[0].emissive_strength = f32::INFINITY, "non-finite factor (normal scale");
+        rejects(
+            |s| s.materials[0].normal_texture = Some(TextureRef::new(0)),
+            "instance 0: material 'default' has a normal map but mesh 'tri' has no tangents",
+        );
+        rejects(
+            |s| s.materials[0].base_color_texture = Some(TextureRef { tex_coord: 1, ..TextureRef::new(0) }),
+            "instance 0: material 'default' reads texture coordinate set 1 but mesh 'tri' has none",
+        );
+        rejects(|s| s.meshes[0].uvs1 = vec![[0.0; 2]; 2], "3 positions but 2 uvs of set 1");
+        rejects(|s| s.meshes[0].tangents = vec![[1.0, 0.0, 0.0, 0.5]; 3], "tangent 0 is [1.0, 0.0, 0.0, 0.5]");
         rejects(
             |s| {
                 s.textures[0].rgba8.pop();
@@ -632,6 +985,59 @@ mod tests {
         assert_eq!(moved.min, Vec3::new(0.0, 0.0, 3.0));
         assert!(!e.transformed(&Mat4::IDENTITY).is_valid());
         assert!(!Aabb::new(Vec3::NAN, Vec3::ONE).is_valid());
+    }
+
+    fn quad_mesh(uv_of: impl Fn([f32; 3]) -> [f32; 2]) -> Mesh {
+        let positions = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
+        Mesh {
+            name: "quad".into(),
+            uvs: positions.iter().map(|&p| uv_of(p)).collect(),
+            positions,
+            normals: vec![[0.0, 0.0, 1.0]; 4],
+            indices: vec![0, 1, 2, 0, 2, 3],
+            ..Mesh::default()
+        }
+    }
+
+    #[test]
+    fn mikktspace_tangents_follow_the_uvs() {
+        // u along +x, v along +y: tangent +x, bitangent +y = cross(n, t), so w = +1.
+        let mut m = quad_mesh(|p| [p[0], p[1]]);
+        m.generate_tangents(0).unwrap();
+        for t in &m.tangents {
+            assert!((Vec3::new(t[0], t[1], t[2]) - Vec3::X).length() < 1e-5 && t[3] == 1.0, "{t:?}");
+        }
+        // v flipped (glTF images run down): the bitangent is -y, so w = -1.
+        let mut m = quad_mesh(|p| [p[0], 1.0 - p[1]]);
+        m.generate_tangents(0).unwrap();
+        assert!(m.tangents.iter().all(|t| (t[0] - 1.0).abs() < 1e-5 && t[3] == -1.0), "{:?}", m.tangents);
+        // u along -y (set 1): tangent -y.
+        let mut m = quad_mesh(|p| [p[0], p[1]]);
+        m.uvs1 = m.positions.iter().map(|p| [-p[1], p[0]]).collect();
+        m.generate_tangents(1).unwrap();
+        assert!(m.tangents.iter().all(|t| (t[1] + 1.0).abs() < 1e-5), "{:?}", m.tangents);
+        // Degenerate uvs leave no tangent space: any unit vector perpendicular to n.
+        let mut m = quad_mesh(|_| [0.5, 0.5]);
+        m.generate_tangents(0).unwrap();
+        for t in &m.tangents {
+            let t3 = Vec3::new(t[0], t[1], t[2]);
+            assert!((t3.length() - 1.0).abs() < 1e-5 && t3.z.abs() < 1e-5, "{t:?}");
+        }
+        let mut m = quad_mesh(|p| [p[0], p[1]]);
+        assert!(m.generate_tangents(1).unwrap_err().contains("texture coordinate set 1"));
+    }
+
+    #[test]
+    fn uv_transform_is_the_extensions_matrix() {
+        let t = UvTransform { offset: [0.5, 0.25], rotation: std::f32::consts::FRAC_PI_2, scale: [2.0, 3.0] };
+        // Scale (1, 0) -> (2, 0); rotate: u' = cos u - sin v = 0, v' = sin u + cos v = 2; offset.
+        let [u, v] = t.apply([1.0, 0.0]);
+        assert!((u - 0.5).abs() < 1e-6 && (v - 2.25).abs() < 1e-6, "{u} {v}");
+        // (0, 1) -> (0, 3) -> (-3, 0) -> (-2.5, 0.25).
+        let [u, v] = t.apply([0.0, 1.0]);
+        assert!((u + 2.5).abs() < 1e-6 && (v - 0.25).abs() < 1e-6, "{u} {v}");
+        assert!(UvTransform::default().is_identity() && !t.is_identity());
+        assert_eq!(UvTransform::default().apply([0.3, 0.7]), [0.3, 0.7]);
     }
 
     #[test]

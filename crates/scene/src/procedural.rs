@@ -17,7 +17,7 @@ use glam::{Mat4, Quat, Vec2, Vec3};
 
 use crate::error::SceneError;
 use crate::geometry::{add_arch_wall, add_banner, add_box, add_grid, add_lathe, add_uv_sphere, arc, MeshBuilder};
-use crate::model::{Aabb, AlphaMode, CameraDesc, Instance, Material, Mesh, Scene, Texture};
+use crate::model::{Aabb, AlphaMode, CameraDesc, Instance, Material, Mesh, Scene, Texture, TextureRef};
 
 /// The most grid objects the default scene lays out (TiledLighting11's slider maximum).
 pub const MAX_GRID_OBJECTS: u32 = 280;
@@ -127,17 +127,15 @@ fn material(name: &str, rgb: [f32; 3], roughness: f32, metallic: f32) -> Materia
     Material {
         name: name.to_owned(),
         base_color: [rgb[0], rgb[1], rgb[2], 1.0],
-        base_color_texture: None,
         roughness,
         metallic,
-        alpha_mode: AlphaMode::Opaque,
-        double_sided: false,
+        ..Material::default()
     }
 }
 
 fn materials() -> Vec<Material> {
     let mut m = vec![
-        Material { base_color_texture: Some(0), ..material("stone floor", [1.0, 1.0, 1.0], 0.8, 0.0) },
+        Material { base_color_texture: Some(TextureRef::new(0)), ..material("stone floor", [1.0, 1.0, 1.0], 0.8, 0.0) },
         material("plaster walls", [0.70, 0.62, 0.50], 0.9, 0.0),
         material("marble columns", [0.80, 0.78, 0.74], 0.35, 0.0),
         material("sandstone arches", [0.62, 0.55, 0.46], 0.7, 0.0),

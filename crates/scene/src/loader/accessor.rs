@@ -1,35 +1,63 @@
 //! Reading glTF accessors into plain vectors, with every offset, stride and count
 //! checked against the real buffer sizes (the gltf crate's reader trusts them, and
-//! panics or silently truncates on bad files). Handles strided views, normalised integer
-//! components and sparse accessors. Depends on the gltf crate only.
+//! panics or silently truncates on bad files). Handles strided views, normalised and
+//! quantised (`KHR_mesh_quantization`) integer components and sparse accessors. Depends
+//! on the gltf crate only.
 
 use gltf::accessor::{DataType, Dimensions};
 
-/// Reads `accessor` as `f32` values, `components` per element, flattened. Integer
-/// components are accepted only when `allow_normalized` and the accessor is
-/// normalised (glTF allows that for texture coordinates), and are mapped to [0, 1] or
-/// [-1, 1] as the specification says. Errors are plain messages naming the accessor.
+/// What an attribute holds, which decides the component types it may have: glTF's core
+/// types plus `KHR_mesh_quantization`'s (integers dequantised here, so the rest of the
+/// loader sees `f32`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Attr {
+    /// POSITION: float, or (quantised) any 8/16-bit integer, normalised or not.
+    Position,
+    /// NORMAL, TANGENT: float, or (quantised) normalised signed 8/16-bit integers.
+    Direction,
+    /// TEXCOORD_n: float, normalised unsigned 8/16-bit integers (core), or (quantised)
+    /// any 8/16-bit integer, normalised or not.
+    TexCoord,
+}
+
+/// Reads `accessor` as `f32` values, `dims` per element, flattened. Integer components
+/// allowed for `attr` are converted as the specification says: normalised unsigned to
+/// `c / max`, normalised signed to `max(c / max, -1)`, others to their value. Errors
+/// are plain messages naming the accessor.
 pub(crate) fn read_f32(
     accessor: &gltf::Accessor<'_>,
     buffers: &[Vec<u8>],
     dims: Dimensions,
-    allow_normalized: bool,
+    attr: Attr,
 ) -> Result<Vec<f32>, String> {
     let a = accessor.index();
     if accessor.dimensions() != dims {
         return Err(format!("accessor {a} has type {:?}, expected {dims:?}", accessor.dimensions()));
     }
     let ty = accessor.data_type();
+    let norm = accessor.normalized();
+    let small_int = matches!(ty, DataType::I8 | DataType::U8 | DataType::I16 | DataType::U16);
     let ok = ty == DataType::F32
-        || (allow_normalized && accessor.normalized() && matches!(ty, DataType::U8 | DataType::U16));
+        || match attr {
+            Attr::Position | Attr::TexCoord => small_int,
+            Attr::Direction => norm && matches!(ty, DataType::I8 | DataType::I16),
+        };
     if !ok {
-        let norm = if accessor.normalized() { "normalized " } else { "" };
-        return Err(format!("accessor {a} has {norm}component type {ty:?}, which is not supported here"));
+        let n = if norm { "normalized " } else { "" };
+        return Err(format!("accessor {a} has {n}component type {ty:?}, which is not supported here"));
     }
-    read_components(accessor, buffers, |bytes| match ty {
-        DataType::F32 => f32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]),
-        DataType::U8 => f32::from(bytes[0]) / 255.0,
-        _ => f32::from(u16::from_le_bytes([bytes[0], bytes[1]])) / 65535.0,
+    read_components(accessor, buffers, |b| match (ty, norm) {
+        (DataType::F32, _) => f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+        (DataType::U8, true) => f32::from(b[0]) / 255.0,
+        (DataType::U8, false) => f32::from(b[0]),
+        (DataType::I8, true) => (f32::from(b[0] as i8) / 127.0).max(-1.0),
+        (DataType::I8, false) => f32::from(b[0] as i8),
+        (DataType::U16, true) => f32::from(u16::from_le_bytes([b[0], b[1]])) / 65535.0,
+        (DataType::U16, false) => f32::from(u16::from_le_bytes([b[0], b[1]])),
+        (DataType::I16, true) => (f32::from(i16::from_le_bytes([b[0], b[1]])) / 32767.0).max(-1.0),
+        (DataType::I16, false) => f32::from(i16::from_le_bytes([b[0], b[1]])),
+        // Rejected above.
+        (DataType::U32, _) => f32::NAN,
     })
 }
 

@@ -1,6 +1,9 @@
 //! glTF 2.0 loading (.gltf with external or embedded buffers, and .glb) into a
-//! [`Scene`]: triangle meshes (strips and fans converted), the node hierarchy's
-//! transforms, metallic-roughness materials with base-colour textures (PNG/JPEG),
+//! [`Scene`]: triangle meshes (strips and fans converted, `KHR_mesh_quantization`
+//! attributes dequantised), the node hierarchy's transforms, metallic-roughness materials
+//! in full (base colour, metallic-roughness, normal, occlusion and emissive textures as
+//! PNG/JPEG, their samplers, texture coordinate sets 0 and 1, `KHR_texture_transform`,
+//! `KHR_materials_emissive_strength`; tangents from the file or MikkTSpace),
 //! KHR_lights_punctual point and spot lights, and the first perspective camera.
 //! Every problem becomes a [`SceneError`] naming the file and what is wrong; nothing in
 //! a malformed file may panic. Depends on the gltf and image crates, glam,
@@ -18,8 +21,16 @@ use gltf::mesh::{Mode, Semantic};
 use tiledlight_cull::Light;
 
 use crate::error::SceneError;
-use crate::model::{Aabb, AlphaMode, CameraDesc, Instance, Material, Mesh, Scene, Texture};
+use crate::model::{
+    Aabb, AlphaMode, CameraDesc, Filter, Instance, Material, Mesh, Sampler, Scene, Texture, TextureRef, UvTransform,
+    Wrap,
+};
+use accessor::Attr;
 use data::{load_buffers, resolve_uri, UriTarget};
+
+/// Extensions this loader reads beyond those the gltf crate validates (the crate
+/// rejects a file that lists one of these in `extensionsRequired`).
+pub const LOADER_EXTENSIONS: &[&str] = &["KHR_mesh_quantization"];
 
 /// Loads a glTF 2.0 file (`.gltf` or `.glb`) into a validated [`Scene`].
 ///
@@ -29,8 +40,9 @@ use data::{load_buffers, resolve_uri, UriTarget};
 /// instantiated; each primitive becomes a [`Mesh`] (mirrored instances get a copy with
 /// flipped winding). Missing normals are computed flat (as glTF requires), missing UVs
 /// are zero, non-indexed primitives get indices. Directional lights and lights that
-/// emit nothing are skipped: a tiled renderer has no use for them. Only TEXCOORD_0 is
-/// read, and texture samplers and transforms are ignored.
+/// emit nothing are skipped: a tiled renderer has no use for them. TEXCOORD_1 is read
+/// when a texture of the primitive's material uses it, TANGENT when the material has a
+/// normal map (generated with MikkTSpace when the file has none).
 ///
 /// Errors name the file and the problem: unreadable files, malformed JSON or GLB,
 /// missing or short buffers, unsupported primitive modes, out-of-range indices, NaN
@@ -44,7 +56,7 @@ pub fn load_gltf(path: &Path, threshold: f32) -> Result<Scene, SceneError> {
     }
     let bytes = std::fs::read(path).map_err(|source| SceneError::Io { path: path.to_owned(), source })?;
     let fail = |message: String| SceneError::Gltf { path: path.to_owned(), message };
-    let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| fail(describe_gltf_error(e)))?;
+    let gltf = parse(&bytes).map_err(|e| fail(describe_gltf_error(e)))?;
     let base = path.parent().unwrap_or(Path::new("."));
     let buffers = load_buffers(&gltf.document, base, gltf.blob.clone()).map_err(fail)?;
     let name = path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
@@ -75,6 +87,16 @@ pub fn load_gltf(path: &Path, threshold: f32) -> Result<Scene, SceneError> {
         other => other,
     })?;
     Ok(scene)
+}
+
+/// Parses and validates as `gltf::Gltf::from_slice` does, except that the extensions of
+/// [`LOADER_EXTENSIONS`] may be required.
+fn parse(bytes: &[u8]) -> Result<gltf::Gltf, gltf::Error> {
+    let mut g = gltf::Gltf::from_slice_without_validation(bytes)?;
+    let mut json = g.document.as_json().clone();
+    json.extensions_required.retain(|e| !LOADER_EXTENSIONS.contains(&e.as_str()));
+    g.document = gltf::Document::from_json(json)?;
+    Ok(g)
 }
 
 fn describe_gltf_error(e: gltf::Error) -> String {
@@ -159,6 +181,7 @@ impl Loader<'_> {
         let mirrored = world.determinant() < 0.0;
         let primitive_count = mesh.primitives().len();
         for prim in mesh.primitives() {
+            let material = self.material(&prim.material())?;
             let key = (mesh.index(), prim.index(), mirrored);
             let mesh_index = match self.mesh_cache.get(&key) {
                 Some(&i) => i,
@@ -167,7 +190,7 @@ impl Loader<'_> {
                     if primitive_count > 1 {
                         name = format!("{name} primitive {}", prim.index());
                     }
-                    let mut m = self.load_primitive(&prim, name.clone()).map_err(|e| {
+                    let mut m = self.load_primitive(&prim, name.clone(), material).map_err(|e| {
                         format!("mesh {} '{}' primitive {}: {e}", mesh.index(), mesh.name().unwrap_or(""), prim.index())
                     })?;
                     if mirrored {
@@ -184,15 +207,15 @@ impl Loader<'_> {
                     i
                 }
             };
-            let material = self.material(&prim.material())?;
             self.scene.instances.push(Instance { mesh: mesh_index, material, transform: world });
         }
         Ok(())
     }
 
-    fn load_primitive(&self, prim: &gltf::Primitive<'_>, name: String) -> Result<Mesh, String> {
+    /// Loads one primitive with the attributes its scene material `material` reads.
+    fn load_primitive(&self, prim: &gltf::Primitive<'_>, name: String, material: usize) -> Result<Mesh, String> {
         let pos_acc = prim.get(&Semantic::Positions).ok_or("has no POSITION attribute")?;
-        let flat = accessor::read_f32(&pos_acc, &self.buffers, Dimensions::Vec3, false)
+        let flat = accessor::read_f32(&pos_acc, &self.buffers, Dimensions::Vec3, Attr::Position)
             .map_err(|e| format!("POSITION: {e}"))?;
         let positions: Vec<[f32; 3]> = flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
         let n = positions.len();
@@ -201,7 +224,7 @@ impl Loader<'_> {
         }
         let normals = match prim.get(&Semantic::Normals) {
             Some(acc) => {
-                let flat = accessor::read_f32(&acc, &self.buffers, Dimensions::Vec3, false)
+                let flat = accessor::read_f32(&acc, &self.buffers, Dimensions::Vec3, Attr::Direction)
                     .map_err(|e| format!("NORMAL: {e}"))?;
                 if flat.len() != 3 * n {
                     return Err(format!("NORMAL has {} elements but POSITION has {n}", flat.len() / 3));
@@ -220,20 +243,21 @@ impl Loader<'_> {
             }
             None => None,
         };
-        let uvs = match prim.get(&Semantic::TexCoords(0)) {
-            Some(acc) => {
-                let flat = accessor::read_f32(&acc, &self.buffers, Dimensions::Vec2, true)
-                    .map_err(|e| format!("TEXCOORD_0: {e}"))?;
-                if flat.len() != 2 * n {
-                    return Err(format!("TEXCOORD_0 has {} elements but POSITION has {n}", flat.len() / 2));
-                }
-                if let Some(v) = flat.iter().position(|c| !c.is_finite()) {
-                    return Err(format!("TEXCOORD_0 {} is not finite", v / 2));
-                }
-                flat.chunks_exact(2).map(|c| [c[0], c[1]]).collect()
-            }
-            None => vec![[0.0, 0.0]; n],
+        let mat = &self.scene.materials[material];
+        let uvs = self.read_uvs(prim, 0, n)?.unwrap_or_else(|| vec![[0.0, 0.0]; n]);
+        let uvs1 = if mat.uses_uv1() {
+            self.read_uvs(prim, 1, n)?.ok_or("its material reads TEXCOORD_1, which it does not have")?
+        } else {
+            Vec::new()
         };
+        // Tangents only for a normal map, and only with the normals they belong to: with
+        // flat normals (no NORMAL) the file's tangents would not match, so they are
+        // generated after the normals.
+        let file_tangents = match (&mat.normal_texture, prim.get(&Semantic::Tangents), &normals) {
+            (Some(_), Some(acc), Some(_)) => Some(self.read_tangents(&acc, n)?),
+            _ => None,
+        };
+        let normal_map_set = mat.normal_texture.map(|t| t.tex_coord);
         let raw_indices = match prim.indices() {
             Some(acc) => accessor::read_indices(&acc, &self.buffers).map_err(|e| format!("indices: {e}"))?,
             None => (0..n as u32).collect(),
@@ -242,12 +266,53 @@ impl Loader<'_> {
             return Err(format!("index {k} is {} but there are only {n} vertices (out of range)", raw_indices[k]));
         }
         let indices = triangulate(prim.mode(), &raw_indices)?;
-        let mut mesh = Mesh { name, positions, normals: Vec::new(), uvs, indices };
+        let mut mesh = Mesh { name, positions, uvs, uvs1, indices, ..Mesh::default() };
         match normals {
             Some(normals) => mesh.normals = normals,
             None => flat_normals(&mut mesh),
         }
+        match (file_tangents, normal_map_set) {
+            (Some(t), _) => mesh.tangents = t,
+            (None, Some(set)) => mesh.generate_tangents(set)?,
+            (None, None) => {}
+        }
         Ok(mesh)
+    }
+
+    /// TEXCOORD_`set` as `n` finite pairs, or None when the primitive has no such set.
+    fn read_uvs(&self, prim: &gltf::Primitive<'_>, set: u32, n: usize) -> Result<Option<Vec<[f32; 2]>>, String> {
+        let Some(acc) = prim.get(&Semantic::TexCoords(set)) else {
+            return Ok(None);
+        };
+        let what = format!("TEXCOORD_{set}");
+        let flat = accessor::read_f32(&acc, &self.buffers, Dimensions::Vec2, Attr::TexCoord)
+            .map_err(|e| format!("{what}: {e}"))?;
+        if flat.len() != 2 * n {
+            return Err(format!("{what} has {} elements but POSITION has {n}", flat.len() / 2));
+        }
+        if let Some(v) = flat.iter().position(|c| !c.is_finite()) {
+            return Err(format!("{what} {} is not finite", v / 2));
+        }
+        Ok(Some(flat.chunks_exact(2).map(|c| [c[0], c[1]]).collect()))
+    }
+
+    /// TANGENT as `n` unit xyz vectors with w = +1 or -1 (normalised here: quantised and
+    /// exported tangents are only approximately unit; a zero one gets +x).
+    fn read_tangents(&self, acc: &gltf::Accessor<'_>, n: usize) -> Result<Vec<[f32; 4]>, String> {
+        let flat = accessor::read_f32(acc, &self.buffers, Dimensions::Vec4, Attr::Direction)
+            .map_err(|e| format!("TANGENT: {e}"))?;
+        if flat.len() != 4 * n {
+            return Err(format!("TANGENT has {} elements but POSITION has {n}", flat.len() / 4));
+        }
+        let mut out = Vec::with_capacity(n);
+        for (v, c) in flat.chunks_exact(4).enumerate() {
+            if !c.iter().all(|x| x.is_finite()) {
+                return Err(format!("TANGENT {v} is not finite ({c:?})"));
+            }
+            let t = Vec3::new(c[0], c[1], c[2]).normalize_or(Vec3::X);
+            out.push([t.x, t.y, t.z, if c[3] < 0.0 { -1.0 } else { 1.0 }]);
+        }
+        Ok(out)
     }
 
     fn material(&mut self, mat: &gltf::Material<'_>) -> Result<usize, String> {
@@ -260,9 +325,43 @@ impl Loader<'_> {
             (None, _) => "the default material".to_owned(),
         };
         let pbr = mat.pbr_metallic_roughness();
-        let base_color_texture = match pbr.base_color_texture() {
-            Some(info) => Some(self.texture(&info.texture().source()).map_err(|e| format!("{label}: {e}"))?),
-            None => None,
+        let with_label = |e: String| format!("{label}: {e}");
+        let info_ref = |this: &mut Self, info: Option<gltf::texture::Info<'_>>, slot: &str| match info {
+            Some(info) => {
+                let transform = info.texture_transform().map(|t| {
+                    (UvTransform { offset: t.offset(), rotation: t.rotation(), scale: t.scale() }, t.tex_coord())
+                });
+                this.texture_ref(&info.texture(), info.tex_coord(), transform)
+                    .map(Some)
+                    .map_err(|e| format!("{slot} texture: {e}"))
+            }
+            None => Ok(None),
+        };
+        let base_color_texture = info_ref(self, pbr.base_color_texture(), "base colour").map_err(with_label)?;
+        let metallic_roughness_texture =
+            info_ref(self, pbr.metallic_roughness_texture(), "metallic-roughness").map_err(with_label)?;
+        let emissive_texture = info_ref(self, mat.emissive_texture(), "emissive").map_err(with_label)?;
+        let (normal_texture, normal_scale) = match mat.normal_texture() {
+            Some(t) => {
+                let transform = raw_texture_transform(t.extension_value("KHR_texture_transform"))
+                    .map_err(|e| with_label(format!("normal texture: {e}")))?;
+                let r = self
+                    .texture_ref(&t.texture(), t.tex_coord(), transform)
+                    .map_err(|e| with_label(format!("normal texture: {e}")))?;
+                (Some(r), t.scale())
+            }
+            None => (None, 1.0),
+        };
+        let (occlusion_texture, occlusion_strength) = match mat.occlusion_texture() {
+            Some(t) => {
+                let transform = raw_texture_transform(t.extension_value("KHR_texture_transform"))
+                    .map_err(|e| with_label(format!("occlusion texture: {e}")))?;
+                let r = self
+                    .texture_ref(&t.texture(), t.tex_coord(), transform)
+                    .map_err(|e| with_label(format!("occlusion texture: {e}")))?;
+                (Some(r), t.strength())
+            }
+            None => (None, 1.0),
         };
         let alpha_mode = match mat.alpha_mode() {
             gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
@@ -280,12 +379,39 @@ impl Loader<'_> {
             base_color_texture,
             roughness: pbr.roughness_factor(),
             metallic: pbr.metallic_factor(),
+            metallic_roughness_texture,
+            normal_texture,
+            normal_scale,
+            occlusion_texture,
+            occlusion_strength,
+            emissive: mat.emissive_factor(),
+            emissive_strength: mat.emissive_strength().unwrap_or(1.0),
+            emissive_texture,
             alpha_mode,
             double_sided: mat.double_sided(),
         });
         let i = self.scene.materials.len() - 1;
         self.material_cache.insert(mat.index(), i);
         Ok(i)
+    }
+
+    /// A material's reference to `texture` read with set `tex_coord`, unless a
+    /// `KHR_texture_transform` (its transform and optional set override) says otherwise.
+    fn texture_ref(
+        &mut self,
+        texture: &gltf::texture::Texture<'_>,
+        tex_coord: u32,
+        transform: Option<(UvTransform, Option<u32>)>,
+    ) -> Result<TextureRef, String> {
+        let image = self.texture(&texture.source())?;
+        let (transform, set) = match transform {
+            Some((t, set)) => (t, set.unwrap_or(tex_coord)),
+            None => (UvTransform::default(), tex_coord),
+        };
+        if set > 1 {
+            return Err(format!("reads TEXCOORD_{set}; only TEXCOORD_0 and TEXCOORD_1 are supported"));
+        }
+        Ok(TextureRef { texture: image, tex_coord: set, sampler: sampler(&texture.sampler()), transform })
     }
 
     fn texture(&mut self, image: &gltf::Image<'_>) -> Result<usize, String> {
@@ -390,6 +516,41 @@ impl Loader<'_> {
     }
 }
 
+/// The scene sampler of a glTF sampler (the default sampler when the texture has none:
+/// repeat, trilinear).
+fn sampler(s: &gltf::texture::Sampler<'_>) -> Sampler {
+    use gltf::texture::{MagFilter, MinFilter, WrappingMode};
+    let wrap = |w| match w {
+        WrappingMode::Repeat => Wrap::Repeat,
+        WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
+        WrappingMode::ClampToEdge => Wrap::ClampToEdge,
+    };
+    let mag = match s.mag_filter() {
+        Some(MagFilter::Nearest) => Filter::Nearest,
+        _ => Filter::Linear,
+    };
+    let (min, mipmap) = match s.min_filter() {
+        Some(MinFilter::Nearest) => (Filter::Nearest, None),
+        Some(MinFilter::Linear) => (Filter::Linear, None),
+        Some(MinFilter::NearestMipmapNearest) => (Filter::Nearest, Some(Filter::Nearest)),
+        Some(MinFilter::LinearMipmapNearest) => (Filter::Linear, Some(Filter::Nearest)),
+        Some(MinFilter::NearestMipmapLinear) => (Filter::Nearest, Some(Filter::Linear)),
+        Some(MinFilter::LinearMipmapLinear) | None => (Filter::Linear, Some(Filter::Linear)),
+    };
+    Sampler { wrap_u: wrap(s.wrap_s()), wrap_v: wrap(s.wrap_t()), mag, min, mipmap }
+}
+
+/// A `KHR_texture_transform` given as raw JSON (normal and occlusion texture infos,
+/// which the gltf crate does not type): its transform and optional set override.
+fn raw_texture_transform(value: Option<&gltf::json::Value>) -> Result<Option<(UvTransform, Option<u32>)>, String> {
+    let Some(v) = value else {
+        return Ok(None);
+    };
+    let t: gltf::json::extensions::texture::TextureTransform =
+        gltf::json::deserialize::from_value(v.clone()).map_err(|e| format!("malformed KHR_texture_transform: {e}"))?;
+    Ok(Some((UvTransform { offset: t.offset.0, rotation: t.rotation.0, scale: t.scale.0 }, t.tex_coord)))
+}
+
 /// Converts `indices` of a primitive drawn with `mode` into a triangle list.
 /// Strips alternate their winding so every triangle keeps the first one's orientation;
 /// degenerate strip triangles (used to stitch strips) are dropped.
@@ -432,6 +593,7 @@ fn flat_normals(mesh: &mut Mesh) {
     let mut positions = Vec::with_capacity(mesh.indices.len());
     let mut normals = Vec::with_capacity(mesh.indices.len());
     let mut uvs = Vec::with_capacity(mesh.indices.len());
+    let mut uvs1 = Vec::with_capacity(if mesh.uvs1.is_empty() { 0 } else { mesh.indices.len() });
     for t in mesh.indices.chunks_exact(3) {
         let p = [t[0], t[1], t[2]].map(|i| Vec3::from_array(mesh.positions[i as usize]));
         // Degenerate triangles have no normal; they draw nothing, so any unit vector does.
@@ -440,12 +602,16 @@ fn flat_normals(mesh: &mut Mesh) {
             positions.push(mesh.positions[i as usize]);
             normals.push(n.to_array());
             uvs.push(mesh.uvs[i as usize]);
+            if let Some(uv) = mesh.uvs1.get(i as usize) {
+                uvs1.push(*uv);
+            }
         }
     }
     mesh.indices = (0..positions.len() as u32).collect();
     mesh.positions = positions;
     mesh.normals = normals;
     mesh.uvs = uvs;
+    mesh.uvs1 = uvs1;
 }
 
 #[cfg(test)]

@@ -11,7 +11,7 @@ use tiledlight_cull::LightKind;
 
 use super::load_gltf;
 use crate::error::SceneError;
-use crate::model::{AlphaMode, Material, Scene};
+use crate::model::{AlphaMode, Filter, Material, Sampler, Scene, TextureRef, UvTransform, Wrap};
 
 const F32: u32 = 5126;
 const U16: u32 = 5123;
@@ -402,11 +402,12 @@ fn materials_and_textures_external_png() {
         vec![Material {
             name: "painted".into(),
             base_color: [0.5, 0.25, 1.0, 0.75],
-            base_color_texture: Some(0),
+            base_color_texture: Some(TextureRef::new(0)),
             roughness: 0.7,
             metallic: 0.2,
             alpha_mode: AlphaMode::Mask { cutoff: 0.3 },
             double_sided: true,
+            ..Material::default()
         }]
     );
     assert!(scene.has_alpha_mask());
@@ -456,8 +457,8 @@ fn textures_embedded_in_glb_and_data_uri() {
     let texel = &scene.textures[1].rgba8[..4];
     assert!(texel[0].abs_diff(200) < 8 && texel[1].abs_diff(100) < 8 && texel[3] == 255, "{texel:?}");
     assert_eq!(scene.materials[0].alpha_mode, AlphaMode::Blend);
-    assert_eq!(scene.materials[0].base_color_texture, Some(0));
-    assert_eq!(scene.materials[1].base_color_texture, Some(1));
+    assert_eq!(scene.materials[0].base_color_texture, Some(TextureRef::new(0)));
+    assert_eq!(scene.materials[1].base_color_texture, Some(TextureRef::new(1)));
     assert!(scene.has_blend());
 }
 
@@ -754,4 +755,299 @@ fn sparse_accessors_patch_their_base() {
     // Flat normals unweld the vertices in index order (0, 1, 2).
     assert_eq!(m.positions, vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]]);
     assert_eq!(m.uvs, vec![[0.0, 0.0], [0.5, 0.25], [0.0, 0.0]]);
+}
+
+// ---- materials in full, texture coordinate sets, tangents, quantisation ----
+
+impl Bin {
+    /// An accessor over `bytes` (one element per `count`), with glTF's `componentType`,
+    /// `type` and `normalized`, and min/max when given (POSITION needs them).
+    fn raw(
+        &mut self,
+        bytes: &[u8],
+        (component, normalized): (u32, bool),
+        count: usize,
+        ty: &str,
+        minmax: Option<(Value, Value)>,
+    ) -> usize {
+        let view = self.view(bytes);
+        let mut acc = json!({"bufferView": view, "componentType": component, "count": count, "type": ty});
+        if normalized {
+            acc["normalized"] = json!(true);
+        }
+        if let Some((min, max)) = minmax {
+            acc["min"] = min;
+            acc["max"] = max;
+        }
+        self.accessors.push(acc);
+        self.accessors.len() - 1
+    }
+}
+
+const I8: u32 = 5120;
+const U8: u32 = 5121;
+const I16: u32 = 5122;
+
+/// A unit quad in the XY plane facing +Z: positions, normals, two UV sets (set 1 = set 0
+/// mirrored in u) and indices; tangents (+x, w = 1) when `tangents`.
+fn quad_prim(bin: &mut Bin, tangents: bool) -> Value {
+    let p = bin.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 0.0], "VEC3");
+    let n = bin.floats(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0], "VEC3");
+    let t0 = bin.floats(&[0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0], "VEC2");
+    let t1 = bin.floats(&[1.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0], "VEC2");
+    let i = bin.indices_u16(&[0, 1, 2, 0, 2, 3]);
+    let mut prim =
+        json!({"attributes": {"POSITION": p, "NORMAL": n, "TEXCOORD_0": t0, "TEXCOORD_1": t1}, "indices": i});
+    if tangents {
+        let bytes: Vec<u8> = [1.0f32, 0.0, 0.0, 1.0].repeat(4).iter().flat_map(|v| v.to_le_bytes()).collect();
+        prim["attributes"]["TANGENT"] = json!(bin.raw(&bytes, (F32, false), 4, "VEC4", None));
+    }
+    prim
+}
+
+/// One 2x2 PNG image per entry, as data URIs, and a texture per image with sampler `k`.
+fn images_and_textures(count: usize) -> (Value, Value) {
+    let (bytes, _) = png(2, 2);
+    let uri = format!("data:image/png;base64,{}", base64(&bytes));
+    let images: Vec<Value> = (0..count).map(|k| json!({"uri": uri, "name": format!("img{k}")})).collect();
+    let textures: Vec<Value> = (0..count).map(|k| json!({"source": k, "sampler": k % 2})).collect();
+    (json!(images), json!(textures))
+}
+
+#[test]
+fn metallic_roughness_materials_in_full() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let prim = quad_prim(&mut bin, true);
+    let (images, textures) = images_and_textures(5);
+    let root = bin.document(one_mesh_scene(
+        json!({"attributes": prim["attributes"], "indices": prim["indices"], "material": 0}),
+        json!({
+            "extensionsUsed": ["KHR_texture_transform", "KHR_materials_emissive_strength"],
+            "images": images,
+            "textures": textures,
+            "samplers": [
+                {"wrapS": 33071, "wrapT": 33648, "magFilter": 9728, "minFilter": 9729},
+                {"minFilter": 9986}
+            ],
+            "materials": [{
+                "name": "full",
+                "pbrMetallicRoughness": {
+                    "baseColorFactor": [0.5, 0.5, 0.5, 1.0],
+                    "baseColorTexture": {"index": 0, "extensions": {"KHR_texture_transform":
+                        {"offset": [0.5, 0.25], "rotation": 0.5, "scale": [2.0, 3.0]}}},
+                    "metallicRoughnessTexture": {"index": 1, "texCoord": 1},
+                    "metallicFactor": 0.25,
+                    "roughnessFactor": 0.75
+                },
+                "normalTexture": {"index": 2, "scale": 0.5, "extensions": {"KHR_texture_transform":
+                    {"scale": [4.0, 4.0], "texCoord": 1}}},
+                "occlusionTexture": {"index": 3, "strength": 0.8},
+                "emissiveTexture": {"index": 4},
+                "emissiveFactor": [1.0, 0.5, 0.25],
+                "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 6.0}}
+            }],
+        }),
+    ));
+    let path = write_gltf(dir.path(), "full", root, &bin.data);
+    let scene = load_gltf(&path, 0.1).unwrap();
+    let clamp_nearest = Sampler {
+        wrap_u: Wrap::ClampToEdge,
+        wrap_v: Wrap::MirroredRepeat,
+        mag: Filter::Nearest,
+        min: Filter::Linear,
+        mipmap: None,
+    };
+    let nearest_mip = Sampler { mipmap: Some(Filter::Linear), min: Filter::Nearest, ..Sampler::default() };
+    let r = |texture, tex_coord, sampler, transform| TextureRef { texture, tex_coord, sampler, transform };
+    let id = UvTransform::default();
+    let m = &scene.materials[0];
+    assert_eq!(
+        *m,
+        Material {
+            name: "full".into(),
+            base_color: [0.5, 0.5, 0.5, 1.0],
+            base_color_texture: Some(r(
+                0,
+                0,
+                clamp_nearest,
+                UvTransform { offset: [0.5, 0.25], rotation: 0.5, scale: [2.0, 3.0] }
+            )),
+            roughness: 0.75,
+            metallic: 0.25,
+            metallic_roughness_texture: Some(r(1, 1, nearest_mip, id)),
+            // Scene textures are numbered in the order the loader meets them: the
+            // texture infos of the core material first, then normal and occlusion.
+            normal_texture: Some(r(3, 1, clamp_nearest, UvTransform { scale: [4.0, 4.0], ..id })),
+            normal_scale: 0.5,
+            occlusion_texture: Some(r(4, 0, nearest_mip, id)),
+            occlusion_strength: 0.8,
+            emissive: [1.0, 0.5, 0.25],
+            emissive_strength: 6.0,
+            emissive_texture: Some(r(2, 0, clamp_nearest, id)),
+            ..Material::default()
+        }
+    );
+    let names: Vec<&str> = scene.textures.iter().map(|t| t.name.as_str()).collect();
+    assert_eq!(names, ["img0", "img1", "img4", "img2", "img3"]);
+    let mesh = &scene.meshes[0];
+    assert_eq!(mesh.uvs1, vec![[1.0, 1.0], [0.0, 1.0], [0.0, 0.0], [1.0, 0.0]], "TEXCOORD_1 is read");
+    assert_eq!(mesh.tangents, vec![[1.0, 0.0, 0.0, 1.0]; 4], "the file's tangents are kept");
+}
+
+#[test]
+fn tangents_are_generated_and_unused_attributes_skipped() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let prim = quad_prim(&mut bin, false);
+    let (images, textures) = images_and_textures(1);
+    let mut prims = Vec::new();
+    // Material 0: a normal map on set 0 and no tangents in the file; material 1: nothing.
+    for material in [0, 1] {
+        prims.push(json!({"attributes": prim["attributes"], "indices": prim["indices"], "material": material}));
+    }
+    let root = bin.document(json!({
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": prims}],
+        "images": images,
+        "textures": textures,
+        "samplers": [{}],
+        "materials": [{"normalTexture": {"index": 0}}, {}],
+    }));
+    let path = write_glb(dir.path(), "generated", root, &bin.data);
+    let scene = load_gltf(&path, 0.1).unwrap();
+    // u runs along +x, v (images run down) along -y: tangent +x, bitangent -y, so w = -1.
+    for t in &scene.meshes[0].tangents {
+        assert!((t[0] - 1.0).abs() < 1e-5 && t[1].abs() < 1e-5 && t[3] == -1.0, "{t:?}");
+    }
+    assert_eq!(scene.meshes[0].tangents.len(), 4);
+    assert!(scene.meshes[0].uvs1.is_empty(), "no texture reads set 1");
+    assert!(scene.meshes[1].tangents.is_empty(), "no normal map: no tangents");
+}
+
+/// The quad of `quad_prim` stored quantised (`KHR_mesh_quantization`): positions as
+/// normalised shorts, normals and tangents as normalised bytes, set 0 as plain unsigned
+/// bytes (scaled by a texture transform, as quantisers do), set 1 as normalised unsigned
+/// shorts; and its float twin holding the dequantised values.
+#[test]
+fn quantized_mesh_equals_its_float_twin() {
+    let dir = tempfile::tempdir().unwrap();
+    let positions: [[i16; 3]; 4] = [[-32767, -32767, 0], [32767, -32767, 0], [32767, 16384, 0], [-32767, 16384, 0]];
+    let normal: [i8; 3] = [0, 0, 127];
+    let tangent: [i8; 4] = [127, 0, 0, 127];
+    let uv0: [[u8; 2]; 4] = [[0, 4], [4, 4], [4, 0], [0, 0]];
+    let uv1: [[u16; 2]; 4] = [[65535, 65535], [0, 65535], [0, 0], [65535, 0]];
+    let le16 = |v: i16| v.to_le_bytes();
+    let mut q = Bin::default();
+    // Shorts padded to 4-byte elements (glTF's vertex attribute alignment).
+    let pos_bytes: Vec<u8> =
+        positions.iter().flat_map(|p| [le16(p[0]), le16(p[1]), le16(p[2]), [0, 0]].concat()).collect();
+    let minmax = Some((json!([-32767, -32767, 0]), json!([32767, 16384, 0])));
+    let pos_acc = q.raw(&pos_bytes, (I16, true), 4, "VEC3", minmax);
+    q.views[q.accessors[pos_acc]["bufferView"].as_u64().unwrap() as usize]["byteStride"] = json!(8);
+    let nrm_bytes: Vec<u8> = (0..4).flat_map(|_| [normal[0] as u8, normal[1] as u8, normal[2] as u8, 0]).collect();
+    let n = q.raw(&nrm_bytes, (I8, true), 4, "VEC3", None);
+    q.views[q.accessors[n]["bufferView"].as_u64().unwrap() as usize]["byteStride"] = json!(4);
+    let tan_bytes: Vec<u8> = (0..4).flat_map(|_| tangent.map(|c| c as u8)).collect();
+    let t = q.raw(&tan_bytes, (I8, true), 4, "VEC4", None);
+    let uv0_bytes: Vec<u8> = uv0.iter().flat_map(|u| [u[0], u[1], 0, 0]).collect();
+    let u0 = q.raw(&uv0_bytes, (U8, false), 4, "VEC2", None);
+    q.views[q.accessors[u0]["bufferView"].as_u64().unwrap() as usize]["byteStride"] = json!(4);
+    let uv1_bytes: Vec<u8> = uv1.iter().flat_map(|u| [u[0].to_le_bytes(), u[1].to_le_bytes()].concat()).collect();
+    let u1 = q.raw(&uv1_bytes, (5123, true), 4, "VEC2", None);
+    let i = q.indices_u16(&[0, 1, 2, 0, 2, 3]);
+    let attributes = json!({"POSITION": pos_acc, "NORMAL": n, "TANGENT": t, "TEXCOORD_0": u0, "TEXCOORD_1": u1});
+
+    // The float twin: the specification's dequantisation, in f32.
+    let mut f = Bin::default();
+    let fpos: Vec<f32> = positions.iter().flat_map(|p| p.map(|c| (f32::from(c) / 32767.0).max(-1.0))).collect();
+    let fp = f.floats(&fpos, "VEC3");
+    let fnrm: Vec<f32> = (0..4).flat_map(|_| normal.map(|c| (f32::from(c) / 127.0).max(-1.0))).collect();
+    let fnn = f.floats(&fnrm, "VEC3");
+    let ftan: Vec<f32> = (0..4).flat_map(|_| tangent.map(|c| (f32::from(c) / 127.0).max(-1.0))).collect();
+    let ftan_bytes: Vec<u8> = ftan.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let ft = f.raw(&ftan_bytes, (F32, false), 4, "VEC4", None);
+    let fu0: Vec<f32> = uv0.iter().flat_map(|u| u.map(f32::from)).collect();
+    let fu0 = f.floats(&fu0, "VEC2");
+    let fu1: Vec<f32> = uv1.iter().flat_map(|u| u.map(|c| f32::from(c) / 65535.0)).collect();
+    let fu1 = f.floats(&fu1, "VEC2");
+    let fi = f.indices_u16(&[0, 1, 2, 0, 2, 3]);
+    let f_attributes = json!({"POSITION": fp, "NORMAL": fnn, "TANGENT": ft, "TEXCOORD_0": fu0, "TEXCOORD_1": fu1});
+
+    let (images, textures) = images_and_textures(2);
+    let extra = |attributes: Value, indices: usize, quantized: bool| {
+        let mut root = one_mesh_scene(
+            json!({"attributes": attributes, "indices": indices, "material": 0}),
+            json!({
+                "images": images,
+                "textures": textures,
+                "samplers": [{}, {}],
+                "materials": [{
+                    "pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "extensions":
+                        {"KHR_texture_transform": {"scale": [0.25, 0.25]}}}},
+                    "normalTexture": {"index": 1, "texCoord": 1}
+                }],
+            }),
+        );
+        if quantized {
+            root["extensionsUsed"] = json!(["KHR_mesh_quantization", "KHR_texture_transform"]);
+            root["extensionsRequired"] = json!(["KHR_mesh_quantization"]);
+        }
+        root
+    };
+    let qpath = write_gltf(dir.path(), "quantized", q.document(extra(attributes, i, true)), &q.data);
+    let fpath = write_gltf(dir.path(), "float", f.document(extra(f_attributes, fi, false)), &f.data);
+    let quantized = load_gltf(&qpath, 0.1).unwrap();
+    let float = load_gltf(&fpath, 0.1).unwrap();
+    assert_eq!(quantized.meshes, float.meshes, "dequantised attributes equal the float twin's exactly");
+    assert_eq!(quantized.materials, float.materials);
+    assert_eq!(quantized.meshes[0].positions[0], [-1.0, -1.0, 0.0]);
+    assert_eq!(quantized.meshes[0].uvs[1], [4.0, 4.0], "plain integers keep their value");
+    assert_eq!(quantized.meshes[0].tangents[0], [1.0, 0.0, 0.0, 1.0]);
+}
+
+#[test]
+fn bad_material_attributes_fail_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let tri = bin.triangle();
+    let (images, textures) = images_and_textures(1);
+    let with_material = |material: Value| {
+        bin.document(one_mesh_scene(
+            json!({"attributes": tri["attributes"], "indices": tri["indices"], "material": 0}),
+            json!({"images": images, "textures": textures, "samplers": [{}], "materials": [material]}),
+        ))
+    };
+    let path = write_gltf(
+        dir.path(),
+        "set2",
+        with_material(json!({"emissiveTexture": {"index": 0, "texCoord": 2}})),
+        &bin.data,
+    );
+    assert_fails(&path, load_gltf(&path, 0.1), &["material 0", "emissive texture", "TEXCOORD_2"]);
+    let path = write_gltf(
+        dir.path(),
+        "noset1",
+        with_material(json!({"occlusionTexture": {"index": 0, "texCoord": 1}})),
+        &bin.data,
+    );
+    assert_fails(&path, load_gltf(&path, 0.1), &["mesh 0 'tri' primitive 0", "TEXCOORD_1"]);
+    let path = write_gltf(
+        dir.path(),
+        "badtransform",
+        with_material(
+            json!({"normalTexture": {"index": 0, "extensions": {"KHR_texture_transform": {"scale": "big"}}}}),
+        ),
+        &bin.data,
+    );
+    assert_fails(&path, load_gltf(&path, 0.1), &["normal texture", "malformed KHR_texture_transform"]);
+    // Normals as unsigned bytes are neither core glTF nor KHR_mesh_quantization.
+    let mut b2 = Bin::default();
+    let p = b2.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], "VEC3");
+    let n = b2.raw(&[0, 0, 255, 0, 0, 0, 255, 0, 0, 0, 255, 0], (U8, true), 3, "VEC3", None);
+    b2.views[b2.accessors[n]["bufferView"].as_u64().unwrap() as usize]["byteStride"] = json!(4);
+    let root = b2.document(one_mesh_scene(json!({"attributes": {"POSITION": p, "NORMAL": n}}), json!({})));
+    let path = write_gltf(dir.path(), "u8normals", root, &b2.data);
+    assert_fails(&path, load_gltf(&path, 0.1), &["NORMAL", "normalized component type U8, which is not supported"]);
 }
