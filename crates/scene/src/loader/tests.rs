@@ -645,15 +645,23 @@ fn missing_texture_image_file() {
         "materials": [{"name": "paint", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
     });
     let path = write_gltf(dir.path(), "notex", bin.document(one_mesh_scene(prim, extra)), &bin.data);
+    // `load_gltf` is strict: the warning is an error.
     assert_fails(
         &path,
         load_gltf(&path, 0.1),
-        &["material 0 'paint'", "image 0", "cannot read image file", "gone.png"],
+        &[
+            "strict loading",
+            "material 0 'paint'",
+            "base colour texture",
+            "image 0 ('gone.png')",
+            "cannot read",
+            "gone.png",
+        ],
     );
 
     // Present but not an image.
     fs::write(dir.path().join("gone.png"), b"definitely not a png").unwrap();
-    assert_fails(&path, load_gltf(&path, 0.1), &["image 0", "cannot decode image"]);
+    assert_fails(&path, load_gltf(&path, 0.1), &["image 0 ('gone.png')", "cannot decode image"]);
 }
 
 #[test]
@@ -755,3 +763,5 @@ fn sparse_accessors_patch_their_base() {
     assert_eq!(m.positions, vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]]);
     assert_eq!(m.uvs, vec![[0.0, 0.0], [0.5, 0.25], [0.0, 0.0]]);
 }
+
+mod hostile;
