@@ -1,6 +1,5 @@
 //! glTF extensions: which ones tiledlight reads ([`SUPPORTED_EXTENSIONS`]), the error for
-//! a file that requires another one, the warning for a file that merely uses one, and the
-//! gltf crate's validation with its own (different) list of required extensions taken out.
+//! a file that requires another one, and the warning for a file that merely uses one.
 //! Depends on the gltf crate only.
 
 /// The glTF extensions this loader reads. A file whose `extensionsRequired` names any
@@ -54,24 +53,4 @@ pub(crate) fn used_warning(root: &gltf::json::Root) -> Option<String> {
         quoted(&unknown),
         supported_list()
     ))
-}
-
-/// Validates `doc` as the gltf crate does, except for its check of `extensionsRequired`
-/// against the extensions the gltf crate parses: [`check_required`] decides that, with
-/// tiledlight's own list.
-pub(crate) fn validate(doc: &gltf::Document) -> Result<(), gltf::Error> {
-    use gltf::json::validation::Validate;
-    let root = doc.as_json();
-    let mut errors = Vec::new();
-    root.validate(root, gltf::json::Path::new, &mut |path, error| {
-        let path = path();
-        if !path.as_str().starts_with("extensionsRequired") {
-            errors.push((path, error));
-        }
-    });
-    if errors.is_empty() {
-        Ok(())
-    } else {
-        Err(gltf::Error::Validation(errors))
-    }
 }

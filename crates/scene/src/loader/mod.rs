@@ -18,6 +18,7 @@ mod accessor;
 mod data;
 mod extensions;
 mod options;
+mod validate;
 
 use std::borrow::Cow;
 use std::collections::HashMap;
@@ -88,11 +89,12 @@ pub fn load_gltf_with(path: &Path, options: &LoadOptions) -> Result<Loaded, Scen
 pub fn load_gltf_bytes(bytes: &[u8], path: &Path, options: &LoadOptions) -> Result<Loaded, SceneError> {
     check_threshold(path, options.threshold)?;
     let fail = |message: String| SceneError::Gltf { path: path.to_owned(), message };
+    check_glb_header(bytes).map_err(fail)?;
     let gltf::Gltf { document, blob } =
         gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| fail(describe_gltf_error(e)))?;
     // Before validation: the gltf crate's own list of required extensions is not ours.
     extensions::check_required(document.as_json()).map_err(fail)?;
-    extensions::validate(&document).map_err(|e| fail(describe_gltf_error(e)))?;
+    validate::validate(&document).map_err(|e| fail(describe_gltf_error(e)))?;
     let files = Files::new(path.parent().unwrap_or(Path::new(".")), options.allow_any_path);
     let buffers = load_buffers(&document, &files, blob).map_err(fail)?;
     let name = path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
@@ -143,6 +145,19 @@ fn check_threshold(path: &Path, threshold: f32) -> Result<(), SceneError> {
             "{}: light threshold {threshold} must be finite and positive",
             path.display()
         )));
+    }
+    Ok(())
+}
+
+/// Rejects a GLB header whose total length is shorter than the header itself: gltf 1.4.1
+/// subtracts the header size from it unchecked (a panic in builds with overflow checks,
+/// found by the mutation test).
+fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
+    if let Some(length) = bytes.strip_prefix(b"glTF").and_then(|rest| rest.get(4..8)) {
+        let length = u32::from_le_bytes([length[0], length[1], length[2], length[3]]);
+        if length < 12 {
+            return Err(format!("malformed GLB container: its header gives a total length of {length} bytes, less than the 12-byte header"));
+        }
     }
     Ok(())
 }
@@ -351,7 +366,7 @@ impl Loader<'_> {
         let out_bytes = out_vertices * VERTEX_BYTES + out_indices * 4;
         if out_bytes > self.budget {
             return Err(format!(
-                "the mesh takes {} ({out_vertices} vertices, {out_indices} indices), more than the {} left of the scene's memory limit (LoadLimits::scene_bytes)",
+                "the mesh takes {} for {out_vertices} vertices and {out_indices} indices, more than the {} left of the scene's memory limit (LoadLimits::scene_bytes)",
                 bytes_text(out_bytes),
                 bytes_text(self.budget)
             ));

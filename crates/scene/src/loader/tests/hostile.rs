@@ -477,3 +477,38 @@ fn the_scene_memory_limit_bounds_what_a_small_file_can_ask_for() {
         &["accessor 1 has no buffer view and 16777217 elements (at most 16777216 are accepted)"],
     );
 }
+
+#[test]
+fn a_position_naming_a_missing_accessor_is_an_error_not_a_panic() {
+    // gltf-json 1.4.1's validation indexes the accessors unchecked for POSITION.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("noacc.gltf");
+    let root = json!({
+        "asset": {"version": "2.0"},
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 5}}]}],
+        "nodes": [{"mesh": 0}],
+    });
+    write_json(&path, &root);
+    assert_fails(
+        &path,
+        load_gltf(&path, 0.1),
+        &["glTF does not validate", "meshes[0].primitives[0].attributes[\"POSITION\"]: Index out of bounds"],
+    );
+}
+
+#[test]
+fn a_glb_header_shorter_than_itself_is_an_error_not_a_panic() {
+    // gltf 1.4.1 subtracts 12 from the header's length unchecked.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("short.glb");
+    let mut bytes = b"glTF".to_vec();
+    bytes.extend_from_slice(&2u32.to_le_bytes());
+    bytes.extend_from_slice(&0u32.to_le_bytes());
+    bytes.extend_from_slice(&[0; 16]);
+    fs::write(&path, bytes).unwrap();
+    assert_fails(
+        &path,
+        load_gltf(&path, 0.1),
+        &["malformed GLB container: its header gives a total length of 0 bytes, less than the 12-byte header"],
+    );
+}
