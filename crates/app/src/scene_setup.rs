@@ -351,6 +351,14 @@ pub struct SceneArgs {
     /// "save camera" button): eye, target, up, field of view, near and far plane.
     #[arg(long, value_name = "FILE")]
     pub camera: Option<PathBuf>,
+    /// Turn every warning (missing textures, unknown extensions, dropped lights...) into an error with a non-zero exit
+    #[arg(long)]
+    pub strict: bool,
+    /// Read the buffer and image files a glTF file names wherever they point (absolute
+    /// paths, `../`, links leading out); without it only files inside the model's folder
+    /// are read, since a downloaded model may name any file on the machine.
+    #[arg(long)]
+    pub allow_any_path: bool,
 }
 
 impl Default for SceneArgs {
@@ -399,6 +407,8 @@ impl Default for SceneArgs {
             shadow_format: d.shadow_format.into(),
             blend_mode: d.blend_mode.into(),
             camera: None,
+            strict: d.strict,
+            allow_any_path: d.allow_any_path,
         }
     }
 }
@@ -456,6 +466,8 @@ impl SceneArgs {
             shadow_format: self.shadow_format.into(),
             blend_mode: self.blend_mode.into(),
             camera: None,
+            strict: self.strict,
+            allow_any_path: self.allow_any_path,
         }
     }
 
@@ -474,6 +486,14 @@ impl SceneArgs {
             settings.camera = Some(CameraBookmark { path: path.clone(), camera: bookmark::load(path)? });
         }
         Ok(settings)
+    }
+}
+
+/// Prints each warning of a scene's loading (`SceneCpu::warnings`,
+/// `Prepared::scene_warnings`) as a line starting `warning: ` on stderr.
+pub fn print_load_warnings(warnings: &[String]) {
+    for w in warnings {
+        eprintln!("warning: {w}");
     }
 }
 
@@ -616,6 +636,8 @@ mod tests {
             shadow_format: ShadowFormat::Depth32,
             blend_mode: BlendMode::WeightedOit,
             camera: None,
+            strict: false,
+            allow_any_path: false,
         };
         assert_eq!(s, expected);
         assert_eq!(parse(&["--grid-objects", "7"]).settings().unwrap().grid_objects, 7);

@@ -68,6 +68,8 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || a.transparent_objects != b.transparent_objects
         // A glTF file's own lights get their radii from the threshold when it is loaded.
         || (file_scene && a.threshold != b.threshold)
+        // How a glTF file is loaded: which files it may name, whether warnings fail it.
+        || (file_scene && (a.strict != b.strict || a.allow_any_path != b.allow_any_path))
         // The surfaces are sampled when the scene is loaded (kept while lights are on them).
         || a.placement.on_surfaces() != b.placement.on_surfaces();
     let reload = if scene {
