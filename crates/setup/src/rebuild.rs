@@ -4,7 +4,7 @@
 //!
 //! | changed | reload | camera | renderer |
 //! | --- | --- | --- | --- |
-//! | scene, grid objects, density, transparent objects (threshold of a glTF scene's own lights), lights on surfaces on/off | scene + all lights | yes | yes |
+//! | scene, grid objects, density, transparent objects (threshold, strict, allow-any-path of a glTF scene), lights on surfaces on/off | scene + all lights | yes | yes |
 //! | random point/spot light counts | new light buffers (bind groups and list capacity follow the count) | | yes |
 //! | shadow-casting point/spot light counts | new light buffers (the casters are ordered first) | | yes |
 //! | seed, threshold, lights per surface point (same counts) | light data rewritten in place (renderers with shadows are told: `Renderer::lights_moved`) | | |
@@ -256,6 +256,15 @@ mod tests {
     fn threshold_of_a_gltf_scene_reloads_it() {
         let gltf = Settings { scene: SceneSource::File("a.glb".into()), ..base() };
         assert_eq!(with_from(gltf, |s| s.threshold *= 2.0).reload, Reload::Scene);
+    }
+
+    #[test]
+    fn how_a_gltf_file_is_loaded_reloads_it() {
+        let gltf = Settings { scene: SceneSource::File("a.glb".into()), ..base() };
+        assert_eq!(with_from(gltf.clone(), |s| s.strict = true).reload, Reload::Scene);
+        assert_eq!(with_from(gltf, |s| s.allow_any_path = true).reload, Reload::Scene);
+        // The procedural scene reads no file: nothing to reload.
+        assert_eq!(with(|s| (s.strict, s.allow_any_path) = (true, true)), Rebuild::default());
     }
 
     #[test]
