@@ -331,6 +331,7 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
     let mut heat: HashMap<Vec<String>, Vec<u8>> = HashMap::new();
     let mut adapter = String::new();
     let mut warnings = 0;
+    let mut warned_scene = None;
     let pb = lab::progress(pending.len());
     for (done, &i) in pending.iter().enumerate() {
         let (point, pargs) = (&points[i], &all_args[i]);
@@ -424,6 +425,12 @@ fn measure_setting(
             None => pargs,
         };
         p.reconfigure(pargs).with_context(|| what.clone())?;
+        // The scene may have been loaded here, at the start or for the reference: show its
+        // warnings once per scene.
+        if warned_scene.as_ref() != Some(&pargs.scene) {
+            pb.suspend(|| crate::scene_setup::print_load_warnings(&p.scene_warnings));
+            warned_scene = Some(pargs.scene.clone());
+        }
         let mut renderer = p.renderer(false).with_context(|| what.clone())?;
         let m = bench::measure(p, renderer.as_mut(), args.warmup, args.frames).with_context(|| what.clone())?;
         let (total, passes) = pass_times(&m).with_context(|| what.clone())?;

@@ -494,6 +494,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         }
     }
     let prep = Prepared::new(&args.scene.settings()?)?;
+    crate::scene_setup::print_load_warnings(&prep.scene_warnings);
     for (k, v) in prep.describe() {
         println!("{:<11} {v}", format!("{k}:"));
     }

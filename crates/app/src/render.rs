@@ -118,6 +118,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         bail!("--heatmap needs --method forward-plus ({} has no tiles)", method.name());
     }
     let prep = Prepared::new(&args.scene.settings()?)?;
+    crate::scene_setup::print_load_warnings(&prep.scene_warnings);
     let mut renderer = prep.renderer_with_heatmap(heatmap)?;
     let m = bench::measure(&prep, renderer.as_mut(), 0, RENDER_FRAMES)?;
     let stats = prep.culling_stats(renderer.as_ref())?;

@@ -359,6 +359,11 @@ pub struct SceneArgs {
     /// the blended grid (the grid never grows; pairs beyond it are dropped, with a warning).
     #[arg(long, value_name = "N", hide = true)]
     pub grid_budget: Option<u32>,
+    /// Read the buffer and image files a glTF file names wherever they point (absolute
+    /// paths, `../`, links leading out); without it only files inside the model's folder
+    /// are read, since a downloaded model may name any file on the machine.
+    #[arg(long)]
+    pub allow_any_path: bool,
 }
 
 impl Default for SceneArgs {
@@ -407,8 +412,9 @@ impl Default for SceneArgs {
             shadow_format: d.shadow_format.into(),
             blend_mode: d.blend_mode.into(),
             camera: None,
-            strict: false,
+            strict: d.strict,
             grid_budget: d.grid_pairs,
+            allow_any_path: d.allow_any_path,
         }
     }
 }
@@ -468,6 +474,8 @@ impl SceneArgs {
             shadow_format: self.shadow_format.into(),
             blend_mode: self.blend_mode.into(),
             camera: None,
+            strict: self.strict,
+            allow_any_path: self.allow_any_path,
         }
     }
 
@@ -486,6 +494,14 @@ impl SceneArgs {
             settings.camera = Some(CameraBookmark { path: path.clone(), camera: bookmark::load(path)? });
         }
         Ok(settings)
+    }
+}
+
+/// Prints each warning of a scene's loading (`SceneCpu::warnings`,
+/// `Prepared::scene_warnings`) as a line starting `warning: ` on stderr.
+pub fn print_load_warnings(warnings: &[String]) {
+    for w in warnings {
+        eprintln!("warning: {w}");
     }
 }
 
@@ -634,6 +650,8 @@ mod tests {
             shadow_format: ShadowFormat::Depth32,
             blend_mode: BlendMode::WeightedOit,
             camera: None,
+            strict: false,
+            allow_any_path: false,
         };
         assert_eq!(s, expected);
         assert_eq!(parse(&["--grid-objects", "7"]).settings().unwrap().grid_objects, 7);

@@ -483,6 +483,7 @@ pub fn run(args: &ShadowAccuracyArgs) -> Result<()> {
 
     // The scene and its lights on the CPU; then only the casters are kept.
     let mut cpu = SceneCpu::load(&settings)?;
+    crate::scene_setup::print_load_warnings(&cpu.warnings);
     let counts = settings.shadow_casters();
     let casters = shadow_casters(&cpu.lights, counts).context("choosing the shadow casters")?;
     let t0 = Instant::now();

@@ -22,7 +22,7 @@ use std::path::PathBuf;
 
 use anyhow::{ensure, Context, Result};
 use clap::{Args, ValueEnum};
-use tiledlight_setup::{group_digits, Prepared, Settings};
+use tiledlight_setup::{group_digits, Prepared, Reload, Settings};
 
 use crate::bench::{self, MAX_FRAMES};
 use crate::chart::{self, AxisSpec, LineChart, Scale, Series};
@@ -263,11 +263,15 @@ fn measure_point(
     let what = what.clone();
     let p = match prep.as_mut() {
         Some(p) => {
-            p.reconfigure(pargs).with_context(|| what.clone())?;
+            let plan = p.reconfigure(pargs).with_context(|| what.clone())?;
+            if plan.reload == Reload::Scene {
+                pb.suspend(|| crate::scene_setup::print_load_warnings(&p.scene_warnings));
+            }
             p
         }
         None => {
             let p = Prepared::new(pargs).with_context(|| what.clone())?;
+            pb.suspend(|| crate::scene_setup::print_load_warnings(&p.scene_warnings));
             let name = p.ctx.info.name.clone();
             lab::check_same_setup(
                 &csv.existing,

@@ -286,6 +286,70 @@ fn render_gltf_with_its_own_and_random_lights() {
     );
 }
 
+/// A missing texture is a `warning:` line and the render goes on; `--strict` makes it an
+/// error. A buffer outside the model's folder is refused unless `--allow-any-path`.
+#[test]
+fn gltf_warnings_strict_and_file_confinement() {
+    let dir = scratch("gltf_warnings");
+    let models = dir.join("models");
+    std::fs::create_dir_all(&models).unwrap();
+    let quad = write_gltf(&models);
+    let mut doc: Value = serde_json::from_str(&std::fs::read_to_string(&quad).unwrap()).unwrap();
+    doc["images"] = serde_json::json!([{"uri": "gone.png"}]);
+    doc["textures"] = serde_json::json!([{"source": 0}]);
+    doc["materials"] =
+        serde_json::json!([{"name": "paint", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
+    doc["meshes"][0]["primitives"][0]["material"] = serde_json::json!(0);
+    let scene = models.join("textured.gltf");
+    std::fs::write(&scene, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let png = dir.join("w.png");
+    let args = [
+        "render",
+        "--scene",
+        scene.to_str().unwrap(),
+        "--width",
+        "64",
+        "--height",
+        "36",
+        "--out",
+        png.to_str().unwrap(),
+    ];
+
+    let out = gpu_run(&args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    let warnings: Vec<&str> = err.lines().filter(|l| l.starts_with("warning: ")).collect();
+    let expected = format!(
+        "warning: {}: material 0 'paint': its base colour texture cannot be used: image 0 ('gone.png'): cannot read '{}' (URI 'gone.png'): No such file or directory (os error 2); drawn with its base colour factor alone, as if the texture were white.",
+        scene.display(),
+        models.join("gone.png").display()
+    );
+    assert_eq!(warnings, [expected.as_str()], "stderr:\n{err}");
+    assert_eq!(image::image_dimensions(&png).unwrap(), (64, 36), "the render goes on");
+
+    let mut strict = args.to_vec();
+    strict.push("--strict");
+    let line = fails(&strict);
+    assert!(line.contains("strict loading turns warnings into errors: material 0 'paint'"), "{line}");
+    assert!(line.contains("textured.gltf") && line.contains("gone.png"), "{line}");
+
+    // The buffer one folder up: refused, naming the URI; read with --allow-any-path.
+    std::fs::rename(models.join("quad.bin"), dir.join("quad.bin")).unwrap();
+    doc["buffers"][0]["uri"] = serde_json::json!("../quad.bin");
+    doc.as_object_mut().unwrap().remove("materials");
+    doc["meshes"][0]["primitives"][0].as_object_mut().unwrap().remove("material");
+    std::fs::write(&scene, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let line = fails(&args);
+    assert!(
+        line.contains("buffer 0: URI '../quad.bin' names") && line.contains("outside the model's folder"),
+        "{line}"
+    );
+    assert!(line.contains("--allow-any-path"), "{line}");
+    let mut allowed = args.to_vec();
+    allowed.push("--allow-any-path");
+    let out = gpu_run(&allowed);
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("warning:"), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
 /// Tiled Deferred renders and benches through the same flags, with its own passes.
 #[test]
 fn deferred_renders_and_benches() {

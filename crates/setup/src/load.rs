@@ -12,8 +12,8 @@ use std::sync::Arc;
 use anyhow::{ensure, Context, Result};
 use tiledlight_cull::{Camera, LightKind};
 use tiledlight_scene::{
-    default_scene, load_gltf, random_lights, Aabb, DefaultSceneOptions, Light, LightOptions, Scene, SurfaceSampler,
-    DEFAULT_INTENSITY_RANGE, MAX_LIGHTS,
+    default_scene, load_gltf_with, random_lights, Aabb, DefaultSceneOptions, Light, LightOptions, LoadOptions, Scene,
+    SurfaceSampler, DEFAULT_INTENSITY_RANGE, MAX_LIGHTS,
 };
 
 use crate::camera::choose_camera;
@@ -87,17 +87,21 @@ pub struct SceneCpu {
     pub surfaces: Surfaces,
     /// How the surface lights were made (None unless there are some).
     pub surface_placement: Option<SurfacePlacement>,
+    /// What the scene was drawn despite (a missing texture, an unknown extension...): one
+    /// sentence each, naming the file. Callers show each one (the app as a `warning:`
+    /// line); empty for the default scene and with `strict` settings (those fail instead).
+    pub warnings: Vec<String>,
 }
 
 impl SceneCpu {
     /// Checks the settings and builds the scene, its lights and the camera.
     pub fn load(settings: &Settings) -> Result<Self> {
         settings.validate()?;
-        let (scene, file_lights) = load_scene(settings)?;
+        let (scene, file_lights, warnings) = load_scene(settings)?;
         let surfaces = surfaces_of(settings, &scene)?;
         let (lights, surface_placement) = build_lights(settings, &scene.bounds, surfaces.as_deref(), &scene.lights)?;
         let (camera, camera_source) = choose_camera(settings, scene.camera.as_ref(), &scene.bounds)?;
-        Ok(Self { scene, lights, file_lights, camera, camera_source, surfaces, surface_placement })
+        Ok(Self { scene, lights, file_lights, camera, camera_source, surfaces, surface_placement, warnings })
     }
 }
 
@@ -110,8 +114,9 @@ pub(crate) fn surfaces_of(settings: &Settings, scene: &Scene) -> Result<Surfaces
     Ok(Some(Arc::new(sampler)))
 }
 
-/// Loads or builds the scene; returns it with the number of lights it brought along.
-fn load_scene(settings: &Settings) -> Result<(Scene, usize)> {
+/// Loads or builds the scene; returns it with the number of lights it brought along and
+/// the loader's warnings.
+fn load_scene(settings: &Settings) -> Result<(Scene, usize, Vec<String>)> {
     match &settings.scene {
         SceneSource::Default => {
             let opts = DefaultSceneOptions {
@@ -120,12 +125,17 @@ fn load_scene(settings: &Settings) -> Result<(Scene, usize)> {
                 transparent_objects: settings.transparent_objects,
             };
             let scene = default_scene(&opts).context("building the default scene")?;
-            Ok((scene, 0))
+            Ok((scene, 0, Vec::new()))
         }
         SceneSource::File(path) => {
-            let scene = load_gltf(path, settings.threshold).context("loading the scene")?;
-            let n = scene.lights.len();
-            Ok((scene, n))
+            let options = LoadOptions {
+                strict: settings.strict,
+                allow_any_path: settings.allow_any_path,
+                ..LoadOptions::new(settings.threshold)
+            };
+            let loaded = load_gltf_with(path, &options).context("loading the scene")?;
+            let n = loaded.scene.lights.len();
+            Ok((loaded.scene, n, loaded.warnings))
         }
     }
 }

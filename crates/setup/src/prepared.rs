@@ -56,6 +56,9 @@ pub struct Prepared {
     pub file_lights: Vec<Light>,
     /// How the point lights were placed on the surfaces (None when they were not).
     pub surface_placement: Option<SurfacePlacement>,
+    /// The current scene's load warnings ([`SceneCpu::warnings`]): replaced when
+    /// [`Prepared::reconfigure`] reloads the scene, which callers should show then too.
+    pub scene_warnings: Vec<String>,
     /// Some material of the scene is alpha-blended (transparent grid objects, a glTF
     /// `BLEND` material): renderers draw it through their blended path.
     pub has_blend: bool,
@@ -156,6 +159,7 @@ impl Prepared {
             file_lights: cpu.scene.lights,
             scene_camera: cpu.scene.camera,
             surface_placement: cpu.surface_placement,
+            scene_warnings: cpu.warnings,
             surfaces: cpu.surfaces,
             gpu_errors,
         })
@@ -220,6 +224,7 @@ impl Prepared {
         self.file_lights = cpu.scene.lights;
         self.scene_camera = cpu.scene.camera;
         self.surface_placement = cpu.surface_placement;
+        self.scene_warnings = cpu.warnings;
         self.surfaces = cpu.surfaces;
         Ok(())
     }

@@ -4,7 +4,7 @@
 //!
 //! | changed | reload | camera | renderer |
 //! | --- | --- | --- | --- |
-//! | scene, grid objects, density, transparent objects (threshold of a glTF scene's own lights), lights on surfaces on/off | scene + all lights | yes | yes |
+//! | scene, grid objects, density, transparent objects (threshold, strict, allow-any-path of a glTF scene), lights on surfaces on/off | scene + all lights | yes | yes |
 //! | random point/spot light counts | new light buffers (bind groups and list capacity follow the count) | | yes |
 //! | shadow-casting point/spot light counts | new light buffers (the casters are ordered first) | | yes |
 //! | seed, threshold, lights per surface point (same counts) | light data rewritten in place (renderers with shadows are told: `Renderer::lights_moved`) | | |
@@ -69,6 +69,8 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || a.transparent_objects != b.transparent_objects
         // A glTF file's own lights get their radii from the threshold when it is loaded.
         || (file_scene && a.threshold != b.threshold)
+        // How a glTF file is loaded: which files it may name, whether warnings fail it.
+        || (file_scene && (a.strict != b.strict || a.allow_any_path != b.allow_any_path))
         // The surfaces are sampled when the scene is loaded (kept while lights are on them).
         || a.placement.on_surfaces() != b.placement.on_surfaces();
     let reload = if scene {
@@ -260,6 +262,15 @@ mod tests {
     fn threshold_of_a_gltf_scene_reloads_it() {
         let gltf = Settings { scene: SceneSource::File("a.glb".into()), ..base() };
         assert_eq!(with_from(gltf, |s| s.threshold *= 2.0).reload, Reload::Scene);
+    }
+
+    #[test]
+    fn how_a_gltf_file_is_loaded_reloads_it() {
+        let gltf = Settings { scene: SceneSource::File("a.glb".into()), ..base() };
+        assert_eq!(with_from(gltf.clone(), |s| s.strict = true).reload, Reload::Scene);
+        assert_eq!(with_from(gltf, |s| s.allow_any_path = true).reload, Reload::Scene);
+        // The procedural scene reads no file: nothing to reload.
+        assert_eq!(with(|s| (s.strict, s.allow_any_path) = (true, true)), Rebuild::default());
     }
 
     #[test]

@@ -261,6 +261,12 @@ pub struct Settings {
     pub blend_mode: BlendMode,
     /// A pinned camera; None: the scene's own camera, else one framing the scene.
     pub camera: Option<CameraBookmark>,
+    /// Every warning becomes an error: a glTF file that loads only with warnings (a
+    /// missing texture, an extension it is drawn without) fails to load.
+    pub strict: bool,
+    /// Read the buffer and image files a glTF file names wherever they are; off, only
+    /// files inside the model's folder are read.
+    pub allow_any_path: bool,
 }
 
 impl Default for Settings {
@@ -302,6 +308,8 @@ impl Default for Settings {
             shadow_format: ShadowOptions::default().format,
             blend_mode: BlendMode::default(),
             camera: None,
+            strict: false,
+            allow_any_path: false,
         }
     }
 }

@@ -158,6 +158,7 @@ fn run_viewer(args: &ViewArgs) -> Result<(), Failure> {
     // Flags and files first: a typo should not cost a window and a device.
     let setup = args.scene.settings().map_err(Failure::Other)?;
     let cpu = SceneCpu::load(&setup).map_err(Failure::Other)?;
+    crate::scene_setup::print_load_warnings(&cpu.warnings);
     let event_loop = EventLoop::new().map_err(|e| Failure::NoWindow(e.into()))?;
     event_loop.set_control_flow(ControlFlow::Poll);
     let mut app = App { args: args.clone(), script, cpu: Some((setup, cpu)), viewer: None, failure: None };
@@ -451,6 +452,9 @@ impl Viewer {
         }
         // Scene, lights and camera as the plan says (nothing changes when it fails).
         let rebuilt = self.prep.reconfigure(&new.setup)?;
+        if rebuilt.reload == Reload::Scene {
+            crate::scene_setup::print_load_warnings(&self.prep.scene_warnings);
+        }
         if rebuilt.reload == Reload::Scene || new.setup.camera != self.settings.setup.camera {
             self.home = home_rig(&self.prep);
             self.rig = self.home.clone();

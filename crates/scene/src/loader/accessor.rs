@@ -1,8 +1,9 @@
 //! Reading glTF accessors into plain vectors, with every offset, stride and count
 //! checked against the real buffer sizes (the gltf crate's reader trusts them, and
 //! panics or silently truncates on bad files). Handles strided views, normalised and
-//! quantised (`KHR_mesh_quantization`) integer components and sparse accessors. Depends
-//! on the gltf crate only.
+//! quantised (`KHR_mesh_quantization`) integer components and sparse accessors. Every read
+//! is charged to a byte budget before anything is allocated, so a hostile count cannot
+//! exhaust memory. Depends on the gltf crate only.
 
 use gltf::accessor::{DataType, Dimensions};
 
@@ -23,12 +24,14 @@ pub(crate) enum Attr {
 /// Reads `accessor` as `f32` values, `dims` per element, flattened. Integer components
 /// allowed for `attr` are converted as the specification says: normalised unsigned to
 /// `c / max`, normalised signed to `max(c / max, -1)`, others to their value. Errors
-/// are plain messages naming the accessor.
+/// are plain messages naming the accessor. The values' bytes are taken from `budget` (an
+/// error when they do not fit).
 pub(crate) fn read_f32(
     accessor: &gltf::Accessor<'_>,
     buffers: &[Vec<u8>],
     dims: Dimensions,
     attr: Attr,
+    budget: &mut u64,
 ) -> Result<Vec<f32>, String> {
     let a = accessor.index();
     if accessor.dimensions() != dims {
@@ -46,7 +49,7 @@ pub(crate) fn read_f32(
         let n = if norm { "normalized " } else { "" };
         return Err(format!("accessor {a} has {n}component type {ty:?}, which is not supported here"));
     }
-    read_components(accessor, buffers, |b| match (ty, norm) {
+    read_components(accessor, buffers, budget, |b| match (ty, norm) {
         (DataType::F32, _) => f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
         (DataType::U8, true) => f32::from(b[0]) / 255.0,
         (DataType::U8, false) => f32::from(b[0]),
@@ -62,7 +65,11 @@ pub(crate) fn read_f32(
 }
 
 /// Reads a scalar unsigned-integer accessor (vertex indices).
-pub(crate) fn read_indices(accessor: &gltf::Accessor<'_>, buffers: &[Vec<u8>]) -> Result<Vec<u32>, String> {
+pub(crate) fn read_indices(
+    accessor: &gltf::Accessor<'_>,
+    buffers: &[Vec<u8>],
+    budget: &mut u64,
+) -> Result<Vec<u32>, String> {
     let a = accessor.index();
     if accessor.dimensions() != Dimensions::Scalar {
         return Err(format!("index accessor {a} has type {:?}, expected Scalar", accessor.dimensions()));
@@ -71,7 +78,7 @@ pub(crate) fn read_indices(accessor: &gltf::Accessor<'_>, buffers: &[Vec<u8>]) -
     if !matches!(ty, DataType::U8 | DataType::U16 | DataType::U32) {
         return Err(format!("index accessor {a} has component type {ty:?}, expected an unsigned integer"));
     }
-    read_components(accessor, buffers, |bytes| match ty {
+    read_components(accessor, buffers, budget, |bytes| match ty {
         DataType::U8 => u32::from(bytes[0]),
         DataType::U16 => u32::from(u16::from_le_bytes([bytes[0], bytes[1]])),
         _ => u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]),
@@ -129,10 +136,12 @@ fn view_elements<'b>(
 }
 
 /// Decodes every component of `accessor` with `decode` (given the component's
-/// little-endian bytes), applying sparse substitutions.
+/// little-endian bytes), applying sparse substitutions. The output's bytes are taken from
+/// `budget` before it is allocated.
 fn read_components<T: Copy + Default>(
     accessor: &gltf::Accessor<'_>,
     buffers: &[Vec<u8>],
+    budget: &mut u64,
     decode: impl Fn(&[u8]) -> T,
 ) -> Result<Vec<T>, String> {
     let a = accessor.index();
@@ -142,29 +151,42 @@ fn read_components<T: Copy + Default>(
     let csize = component_size(accessor.data_type());
     let elem_size = comps * csize;
     let total = count.checked_mul(comps).ok_or_else(|| format!("{what}: count {count} is absurd"))?;
-    let mut out = Vec::new();
-    out.try_reserve_exact(total).map_err(|_| format!("{what}: count {count} is too large to load"))?;
-    match accessor.view() {
+    // Check the data is there before the output is allocated: a count alone costs nothing
+    // to write.
+    let view_bytes = match accessor.view() {
         Some(view) => {
             let stride = view.stride().unwrap_or(elem_size);
             if stride < elem_size {
                 return Err(format!("{what}: byteStride {stride} is smaller than the element size {elem_size}"));
             }
-            let bytes = view_elements(&view, buffers, accessor.offset(), count, stride, elem_size, &what)?;
+            Some((view_elements(&view, buffers, accessor.offset(), count, stride, elem_size, &what)?, stride))
+        }
+        None if count > MAX_VIEWLESS_ELEMENTS => {
+            return Err(format!(
+                "{what} has no buffer view and {count} elements (at most {MAX_VIEWLESS_ELEMENTS} are accepted)"
+            ));
+        }
+        None => None,
+    };
+    let out_bytes = (total as u64).saturating_mul(std::mem::size_of::<T>() as u64);
+    if out_bytes > *budget {
+        return Err(format!(
+            "{what}: {count} elements take {out_bytes} bytes, more than the {} bytes left of the scene's memory limit (LoadLimits::scene_bytes)",
+            *budget
+        ));
+    }
+    *budget -= out_bytes;
+    let mut out = Vec::new();
+    out.try_reserve_exact(total).map_err(|_| format!("{what}: count {count} is too large to load"))?;
+    match view_bytes {
+        Some((bytes, stride)) => {
             for e in 0..count {
                 let elem = &bytes[e * stride..e * stride + elem_size];
                 out.extend(elem.chunks_exact(csize).map(&decode));
             }
         }
         // No view: all zeros until sparse values replace some (glTF 3.6.2.3).
-        None => {
-            if count > MAX_VIEWLESS_ELEMENTS {
-                return Err(format!(
-                    "{what} has no buffer view and {count} elements (at most {MAX_VIEWLESS_ELEMENTS} are accepted)"
-                ));
-            }
-            out.resize(total, T::default());
-        }
+        None => out.resize(total, T::default()),
     }
     if let Some(sparse) = accessor.sparse() {
         let n = sparse.count();

@@ -646,15 +646,23 @@ fn missing_texture_image_file() {
         "materials": [{"name": "paint", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
     });
     let path = write_gltf(dir.path(), "notex", bin.document(one_mesh_scene(prim, extra)), &bin.data);
+    // `load_gltf` is strict: the warning is an error.
     assert_fails(
         &path,
         load_gltf(&path, 0.1),
-        &["material 0 'paint'", "image 0", "cannot read image file", "gone.png"],
+        &[
+            "strict loading",
+            "material 0 'paint'",
+            "base colour texture",
+            "image 0 ('gone.png')",
+            "cannot read",
+            "gone.png",
+        ],
     );
 
     // Present but not an image.
     fs::write(dir.path().join("gone.png"), b"definitely not a png").unwrap();
-    assert_fails(&path, load_gltf(&path, 0.1), &["image 0", "cannot decode image"]);
+    assert_fails(&path, load_gltf(&path, 0.1), &["image 0 ('gone.png')", "cannot decode image"]);
 }
 
 #[test]
@@ -1051,3 +1059,5 @@ fn bad_material_attributes_fail_cleanly() {
     let path = write_gltf(dir.path(), "u8normals", root, &b2.data);
     assert_fails(&path, load_gltf(&path, 0.1), &["NORMAL", "normalized component type U8, which is not supported"]);
 }
+
+mod hostile;
