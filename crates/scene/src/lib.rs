@@ -9,7 +9,10 @@
 //! - [`random_lights`]: deterministic random point and spot lights;
 //! - [`SurfaceSampler`]: point lights on the scene's surfaces, their radius following
 //!   the count ([`surface_light_radius`]), for the million-light preset;
-//! - [`load_gltf`]: glTF 2.0 files (.gltf/.glb) with KHR_lights_punctual.
+//! - [`load_gltf_with`] (and the strict [`load_gltf`], and [`load_gltf_bytes`] for bytes in
+//!   memory): glTF 2.0 files (.gltf/.glb) with KHR_lights_punctual, read as untrusted input
+//!   (files confined to the model's folder, [`LoadLimits`]), returning [`Loaded`] with the
+//!   warnings the scene was drawn despite.
 //!
 //! Conventions (see the workspace's DESIGN.md): right-handed, Y up, metres, front faces
 //! counter-clockwise. Depends on tiledlight-cull (for [`Light`]), glam, gltf, image,
