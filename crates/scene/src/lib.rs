@@ -9,10 +9,13 @@
 //! - [`random_lights`]: deterministic random point and spot lights;
 //! - [`SurfaceSampler`]: point lights on the scene's surfaces, their radius following
 //!   the count ([`surface_light_radius`]), for the million-light preset;
-//! - [`load_gltf`]: glTF 2.0 files (.gltf/.glb) with KHR_lights_punctual, metallic-roughness
+//! - [`load_gltf_with`] (and the strict [`load_gltf`], and [`load_gltf_bytes`] for bytes in
+//!   memory): glTF 2.0 files (.gltf/.glb) with KHR_lights_punctual, metallic-roughness
 //!   materials in full (base colour, metallic-roughness, normal, occlusion and emissive
 //!   textures, KHR_materials_emissive_strength, KHR_texture_transform, two UV sets,
-//!   samplers) and KHR_mesh_quantization.
+//!   samplers) and KHR_mesh_quantization, read as untrusted input (files confined to the
+//!   model's folder, [`LoadLimits`]), returning [`Loaded`] with the warnings the scene was
+//!   drawn despite.
 //!
 //! Conventions (see the workspace's DESIGN.md): right-handed, Y up, metres, front faces
 //! counter-clockwise. Depends on tiledlight-cull (for [`Light`]), glam, gltf, image,
