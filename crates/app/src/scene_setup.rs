@@ -231,8 +231,15 @@ pub struct SceneArgs {
     /// follows the count so that --lights-per-pixel lights reach a surface point on average
     /// (the threshold then sets their intensity: threshold * radius^2). Spot lights stay in
     /// the scene's bounds.
+    /// The default for a glTF scene (random lights then fit its size: their radius follows
+    /// its surface area and the count).
     #[arg(long)]
     pub lights_on_surfaces: bool,
+    /// Place a glTF scene's random point lights uniformly in its bounds instead, with radii
+    /// from the threshold alone (1.5-4 m at the default: the built-in courtyard's lights,
+    /// too large for a model of a few metres).
+    #[arg(long, conflicts_with_all = ["lights_on_surfaces", "lights_per_pixel", "light_preset"])]
+    pub lights_in_bounds: bool,
     /// Mean number of surface lights reaching a pixel's surface point, the radius dial of
     /// surface lights (implies --lights-on-surfaces) [default: 8].
     #[arg(long, value_name = "K")]
@@ -378,6 +385,7 @@ impl Default for SceneArgs {
             spot_lights: d.spot_lights,
             light_preset: None,
             lights_on_surfaces: d.placement.on_surfaces(),
+            lights_in_bounds: false,
             lights_per_pixel: None,
             seed: d.seed,
             threshold: d.threshold,
@@ -423,7 +431,15 @@ impl SceneArgs {
     /// The settings of these flags, the camera bookmark not read (`camera: None`).
     fn plain_settings(&self) -> Settings {
         let million = self.light_preset == Some(PresetArg::Million);
-        let placement = if self.lights_on_surfaces || million || self.lights_per_pixel.is_some() {
+        // A loaded scene may be 2 m or 200 m across: its random lights go on its surfaces,
+        // sized from its area, unless asked otherwise. The built-in courtyard keeps the
+        // sample's uniform lights (every benchmark here is measured with them).
+        let file = matches!(SceneSource::parse(&self.scene), SceneSource::File(_));
+        let placement = if self.lights_on_surfaces
+            || million
+            || self.lights_per_pixel.is_some()
+            || (file && !self.lights_in_bounds)
+        {
             LightPlacement::Surfaces { lights_per_point: self.lights_per_pixel.unwrap_or(DEFAULT_LIGHTS_PER_POINT) }
         } else {
             LightPlacement::Bounds

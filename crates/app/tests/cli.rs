@@ -270,9 +270,20 @@ fn render_gltf_with_its_own_and_random_lights() {
     assert_eq!(image::image_dimensions(&png).unwrap(), (64, 36));
 
     let mut more = base.to_vec();
-    more.extend(["--lights", "3", "--spot-lights", "2"]);
+    more.extend(["--lights", "3", "--spot-lights", "2", "--lights-in-bounds"]);
     let text = stdout(&gpu_run(&more));
     assert!(text.contains("4 point, 2 spot (1 from the glTF file + 5 random"), "{text}");
+
+    // By default a loaded scene's random lights fit it: on its surfaces (the 10 m quad:
+    // 100 m^2), one radius from its area and the count, r = sqrt(8 A / (pi N (1 - f^2)))
+    // = 2.61 m for 40 lights (f = 0.25), not the courtyard's 1.5-4 m anywhere in the box.
+    let mut fit = base.to_vec();
+    fit.extend(["--lights", "40"]);
+    let text = stdout(&gpu_run(&fit));
+    let lights = text.lines().find(|l| l.starts_with("lights:")).expect("a lights line");
+    assert!(lights.contains("40 on the surfaces (100 m^2"), "{lights}");
+    let r: f32 = lights.split("radius ").nth(1).and_then(|t| t.split(' ').next()).and_then(|v| v.parse().ok()).expect("radius");
+    assert!((r - 2.606).abs() < 0.01, "radius {r} m: {lights}");
 
     // The file's lights are counted when it loads: more casters than it has is an upload
     // error naming the flags and both numbers.
