@@ -331,7 +331,7 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
     let mut heat: HashMap<Vec<String>, Vec<u8>> = HashMap::new();
     let mut adapter = String::new();
     let mut warnings = 0;
-    let mut warned_scene = None;
+    let mut warned_scene: Option<tiledlight_setup::SceneSource> = None;
     let pb = lab::progress(pending.len());
     for (done, &i) in pending.iter().enumerate() {
         let (point, pargs) = (&points[i], &all_args[i]);
@@ -345,6 +345,7 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
             sorted: &mut sorted,
             heat: &mut heat,
             keep_sorted,
+            warned_scene: &mut warned_scene,
         };
         match measure_setting(&mut state, (point, pargs, &what), args, &out, &pb) {
             Ok(Some(w)) => lab::warn(&pb, &mut warnings, &format!("{what}: {w}")),
@@ -376,6 +377,8 @@ struct RunState<'a> {
     sorted: &'a mut HashMap<String, SortedFrame>,
     heat: &'a mut HashMap<Vec<String>, Vec<u8>>,
     keep_sorted: bool,
+    /// The scene whose load warnings were shown last (once per scene).
+    warned_scene: &'a mut Option<tiledlight_setup::SceneSource>,
 }
 
 /// Measures one setting and appends its row; returns the warning about its frames, if they
@@ -388,7 +391,7 @@ fn measure_setting(
     pb: &indicatif::ProgressBar,
 ) -> Result<Option<String>> {
     let what = what.clone();
-    let RunState { prep, adapter, csv, references, sorted, heat, keep_sorted } = st;
+    let RunState { prep, adapter, csv, references, sorted, heat, keep_sorted, warned_scene } = st;
     let keep_sorted = *keep_sorted;
     {
         let p = match prep.as_mut() {
@@ -429,7 +432,7 @@ fn measure_setting(
         // warnings once per scene.
         if warned_scene.as_ref() != Some(&pargs.scene) {
             pb.suspend(|| crate::scene_setup::print_load_warnings(&p.scene_warnings));
-            warned_scene = Some(pargs.scene.clone());
+            **warned_scene = Some(pargs.scene.clone());
         }
         let mut renderer = p.renderer(false).with_context(|| what.clone())?;
         let m = bench::measure(p, renderer.as_mut(), args.warmup, args.frames).with_context(|| what.clone())?;

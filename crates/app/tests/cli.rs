@@ -282,7 +282,8 @@ fn render_gltf_with_its_own_and_random_lights() {
     let text = stdout(&gpu_run(&fit));
     let lights = text.lines().find(|l| l.starts_with("lights:")).expect("a lights line");
     assert!(lights.contains("40 on the surfaces (100 m^2"), "{lights}");
-    let r: f32 = lights.split("radius ").nth(1).and_then(|t| t.split(' ').next()).and_then(|v| v.parse().ok()).expect("radius");
+    let r: f32 =
+        lights.split("radius ").nth(1).and_then(|t| t.split(' ').next()).and_then(|v| v.parse().ok()).expect("radius");
     assert!((r - 2.606).abs() < 0.01, "radius {r} m: {lights}");
 
     // The file's lights are counted when it loads: more casters than it has is an upload

@@ -5,12 +5,8 @@
 /// The glTF extensions this loader reads. A file whose `extensionsRequired` names any
 /// other fails to load; one whose `extensionsUsed` names another loads with a warning and
 /// is drawn without it. Add an extension here when the loader reads it.
-pub const SUPPORTED_EXTENSIONS: &[&str] = &[
-    "KHR_lights_punctual",
-    "KHR_materials_emissive_strength",
-    "KHR_mesh_quantization",
-    "KHR_texture_transform",
-];
+pub const SUPPORTED_EXTENSIONS: &[&str] =
+    &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_mesh_quantization", "KHR_texture_transform"];
 
 /// The extensions of `names` this loader cannot read, in file order, each once.
 fn unsupported(names: &[String]) -> Vec<&str> {
