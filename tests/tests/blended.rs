@@ -173,6 +173,18 @@ fn blended_lists_match_the_cpu_twin() {
 /// MSAA, both against brute force at 4x.
 #[test]
 fn methods_agree_on_blended_geometry() {
+    methods_match_brute_force("", CullOptions::default(), |_| {}, |_| {});
+}
+
+/// The three panes before the wall, Forward+ and Tiled Deferred with culling `cull`, each
+/// against brute force at 1x and 4x MSAA (images named `blended-{method}{name}-msaa{n}`);
+/// `check_fp` and `check_td` look at each renderer before it draws.
+fn methods_match_brute_force(
+    name: &str,
+    cull: CullOptions,
+    check_fp: impl Fn(&ForwardRenderer),
+    check_td: impl Fn(&DeferredRenderer),
+) {
     let ctx = gpu();
     let scene = three_panes(true);
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
@@ -185,20 +197,19 @@ fn methods_agree_on_blended_geometry() {
     for msaa in [1, 4] {
         let mut bf = forward(&sg, &lights, Method::BruteForce { cutoff: true }, msaa);
         let reference = render_frame(ctx, &mut bf, &sg, &cam);
-        let mut fp = forward(&sg, &lights, Method::ForwardPlus, msaa);
+        let s = ForwardSettings { method: Method::ForwardPlus, msaa, cull, ..Default::default() };
+        let mut fp = ForwardRenderer::new(ctx, &sg, &lights, W, H, s).expect("forward renderer");
+        check_fp(&fp);
         let f = render_frame(ctx, &mut fp, &sg, &cam);
-        assert_matches_reference_frame(&format!("blended-forward-msaa{msaa}"), W, &reference, &f, FORWARD_VS_REFERENCE);
-        let s = DeferredSettings { msaa, ..Default::default() };
+        let what = format!("blended-forward{name}-msaa{msaa}");
+        assert_matches_reference_frame(&what, W, &reference, &f, FORWARD_VS_REFERENCE);
+        let s = DeferredSettings { msaa, cull, ..Default::default() };
         let mut td = DeferredRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
+        check_td(&td);
         let d = render_frame(ctx, &mut td, &sg, &cam);
         let reference = reference.allow_gbuffer_normals(&depth, W, &cam, &lights.packed);
-        assert_matches_reference_frame(
-            &format!("blended-deferred-msaa{msaa}"),
-            W,
-            &reference,
-            &d,
-            DEFERRED_VS_REFERENCE,
-        );
+        let what = format!("blended-deferred{name}-msaa{msaa}");
+        assert_matches_reference_frame(&what, W, &reference, &d, DEFERRED_VS_REFERENCE);
     }
 }
 
@@ -208,45 +219,21 @@ fn methods_agree_on_blended_geometry() {
 /// differs is only the methods' own error).
 #[test]
 fn frustum_clusters_serve_blended_geometry() {
-    let ctx = gpu();
-    let scene = three_panes(true);
-    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
-    let lights = LightBuffers::new(&ctx.device, &lights_for_panes()).unwrap();
-    let cam = camera(Vec3::new(0.5, 0.5, 4.0), Vec3::new(0.0, 0.0, -10.0));
-    let depth = opaque_depth(&sg, &lights, &cam);
     // 16 px clusters, 16 slices from 1 m: a few slices over the panes' 3-10 m.
     let clusters = ClusterOptions { tile_size: 16, slices: 16, first: 1.0, last: 60.0, geometry_only: false };
     let cull = CullOptions { clusters: Some(clusters), ..Default::default() };
-    for msaa in [1, 4] {
-        let mut bf = forward(&sg, &lights, Method::BruteForce { cutoff: true }, msaa);
-        let reference = render_frame(ctx, &mut bf, &sg, &cam);
-        let s = ForwardSettings { method: Method::ForwardPlus, msaa, cull, ..Default::default() };
-        let mut fp = ForwardRenderer::new(ctx, &sg, &lights, W, H, s).expect("forward renderer");
+    let check_fp = |fp: &ForwardRenderer| {
         let b = fp.blended().expect("blended path");
         assert!(b.depth.is_none() && b.culling.is_none(), "no blended depth or lists with frustum clusters");
         assert!(!fp.plan().has(Step::BlendedDepth) && !fp.plan().has(Step::BlendedCull));
         assert!(fp.plan().has(Step::BlendedShade));
-        let f = render_frame(ctx, &mut fp, &sg, &cam);
-        assert_matches_reference_frame(
-            &format!("blended-forward-clusters-msaa{msaa}"),
-            W,
-            &reference,
-            &f,
-            FORWARD_VS_REFERENCE,
-        );
-        let s = DeferredSettings { msaa, cull, ..Default::default() };
-        let mut td = DeferredRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
-        assert!(td.blended().expect("blended path").depth.is_none());
-        let d = render_frame(ctx, &mut td, &sg, &cam);
-        let reference = reference.allow_gbuffer_normals(&depth, W, &cam, &lights.packed);
-        assert_matches_reference_frame(
-            &format!("blended-deferred-clusters-msaa{msaa}"),
-            W,
-            &reference,
-            &d,
-            DEFERRED_VS_REFERENCE,
-        );
-    }
+    };
+    let check_td = |td: &DeferredRenderer| assert!(td.blended().expect("blended path").depth.is_none());
+    methods_match_brute_force("-clusters", cull, check_fp, check_td);
+    let ctx = gpu();
+    let scene = three_panes(true);
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, &lights_for_panes()).unwrap();
     // Geometry-only clusters have no lists where there is no opaque surface: the blended
     // path keeps its own.
     let only = CullOptions { clusters: Some(ClusterOptions { geometry_only: true, ..clusters }), ..Default::default() };
