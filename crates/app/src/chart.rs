@@ -322,13 +322,7 @@ pub fn line_chart(path: &Path, c: &LineChart) -> Result<()> {
             .iter()
             .flat_map(|s| s.incomplete.iter().map(|&(x, y)| (c.x.scale.map(x), c.y.scale.map(y))))
             .collect();
-        if !rings.is_empty() {
-            chart
-                .draw_series(rings.into_iter().map(|p| Circle::new(p, 11, INCOMPLETE_RED.stroke_width(3))))
-                .map_err(err)?
-                .label(INCOMPLETE_LABEL)
-                .legend(|(x, y)| Circle::new((x + 12, y), 8, INCOMPLETE_RED.stroke_width(3)));
-        }
+        incomplete_rings(&mut chart, rings)?;
         if let Some((x, label)) = &c.marker {
             let u = c.x.scale.map(*x);
             let grey = RGBColor(80, 80, 80);
@@ -438,6 +432,22 @@ pub fn bar_panels(path: &Path, c: &BarPanels) -> Result<()> {
         }
         Ok(())
     })
+}
+
+/// Red rings around the points of frames that dropped lights, with their legend entry
+/// (nothing when there are none).
+fn incomplete_rings(
+    chart: &mut ChartContext<'_, BitMapBackend<'_>, Cartesian2d<Keyed, Keyed>>,
+    rings: Vec<(f64, f64)>,
+) -> Result<()> {
+    if !rings.is_empty() {
+        chart
+            .draw_series(rings.into_iter().map(|p| Circle::new(p, 11, INCOMPLETE_RED.stroke_width(3))))
+            .map_err(err)?
+            .label(INCOMPLETE_LABEL)
+            .legend(|(x, y)| Circle::new((x + 12, y), 8, INCOMPLETE_RED.stroke_width(3)));
+    }
+    Ok(())
 }
 
 /// Draws the title and subtitle at the top and returns the area below them.
@@ -610,13 +620,7 @@ pub fn pareto_chart(path: &Path, c: &ParetoChart) -> Result<()> {
                 .map_err(err)?;
         }
         let rings: Vec<(f64, f64)> = pts.iter().filter(|p| p.incomplete).map(|p| map(p)).collect();
-        if !rings.is_empty() {
-            chart
-                .draw_series(rings.into_iter().map(|p| Circle::new(p, 11, INCOMPLETE_RED.stroke_width(3))))
-                .map_err(err)?
-                .label(INCOMPLETE_LABEL)
-                .legend(|(x, y)| Circle::new((x + 12, y), 8, INCOMPLETE_RED.stroke_width(3)));
-        }
+        incomplete_rings(&mut chart, rings)?;
         if let Some(i) = c.chosen.filter(|&i| i < c.points.len()) {
             let p = map(&c.points[i]);
             chart
