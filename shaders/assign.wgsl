@@ -5,24 +5,25 @@
 //
 // 1. count_lights: a thread per light finds the light's tile rectangle (light_rect: the
 //    tiles whose four side planes the sphere passes, by binary search on the same planes
-//    the tile-centric kernel tests), tests each tile of it exactly as the tile-centric
-//    kernel would (common/tile_tests.wgsl; with CLUSTERED the light's depth slices instead
-//    of the tile's range) and counts the hits per list. A light covering more than
-//    BIG_TILES tiles is queued instead (one thread would hold up its warp).
-//    The rectangle is kept (light_rects) for the passes after it.
-// 2. count_big: a workgroup per huge light (more than HUGE_BLOCKS blocks), then a team of
-//    TEAM threads per big light, counts its tiles: a tile per thread at a time up to
-//    TEAM_TILES tiles, a block of 4 x 4 tiles per thread above.
+//    the tile-centric kernel tests; near_cap_rect for a sphere reaching the eye plane),
+//    tests each tile of it exactly as the tile-centric kernel would (common/tile_tests.wgsl;
+//    with CLUSTERED the light's depth slices instead of the tile's range) and counts the
+//    hits per list. A light covering more than BIG_TILES tiles is queued instead (one
+//    thread would hold up its warp). The rectangle is kept (light_rects) for the passes
+//    after it.
+// 2. count_big: the huge lights (more than HUGE_BLOCKS blocks; walk_huge), then a team of
+//    TEAM threads per big light, a tile per thread at a time.
 // The walks skip blocks of 4 x 4 tiles whose surfaces the sphere cannot reach in depth
-// (visit_block).
+// (visit_block, block_reached).
 // 3. allocate: a thread per list; a workgroup scan of 256 lists' counts and one atomic add
 //    on the grid's counter give each list its first index (the light grid's contract:
 //    common/light_grid.wgsl; a full index buffer drops and counts, never writes out of
 //    bounds); the count becomes the list's write cursor.
 // 4. write_lights and 5. write_big: the same walk, each hit written at its list's cursor.
 //
-// The lists hold the same lights as the tile-centric kernel's (order aside): the CPU twin
-// is tiledlight_cull's cull_tiles (and cull_clusters), the rectangle's light_tile_rect.
+// The lists hold the tile-centric kernel's lights (order aside) but for false positives of
+// lights reaching the eye plane outside near_cap_rect: the CPU twin is tiledlight_cull's
+// cull_tiles_scatter (and cull_clusters), the rectangle's light_tile_rect.
 // variants: HALF_Z AABB SPOT_CONE DEPTH_MASK CLUSTERED GEOMETRY_ONLY
 #include "common/tile_tests.wgsl"
 #include "common/light_grid_rw.wgsl"
@@ -30,9 +31,10 @@
 // Side of the grid's tiles in pixels.
 override TILE_SIZE: u32 = 16u;
 // A light whose rectangle holds more tiles than this goes to the big-light queue, and one
-// with more blocks than HUGE_BLOCKS to the huge-light queue.
-override BIG_TILES: u32 = 64u;
-override HUGE_BLOCKS: u32 = 128u;
+// with more blocks than HUGE_BLOCKS to the huge-light queue (crates/gpu/src/light_assign.rs
+// sets both).
+override BIG_TILES: u32 = 8u;
+override HUGE_BLOCKS: u32 = 32u;
 // Side of a block in tiles (tile_depth.wgsl keeps each block's depth range).
 const BLOCK: u32 = 4u;
 
@@ -110,7 +112,7 @@ struct TileRect {
 fn light_rect(c: vec3<f32>, r: f32) -> TileRect {
     let n = light_grid.header.tiles;
     if view.orthographic == 0u && c.z + r >= 0.0 {
-        return TileRect(vec2<u32>(0u), n);
+        return near_cap_rect(c, r);
     }
     // Columns passing the left plane are a prefix, the right plane's a suffix; rows (down
     // the screen) passing the top plane a prefix, the bottom plane's a suffix.
@@ -119,6 +121,70 @@ fn light_rect(c: vec3<f32>, r: f32) -> TileRect {
     let y_begin = plane_search(1u, n.y, true, 1.0, false, c, r);
     let y_end = plane_search(1u, n.y, false, -1.0, true, c, r);
     return TileRect(vec2<u32>(x_begin, y_begin), vec2<u32>(x_end, y_end));
+}
+
+// The tiles the part of a perspective sphere reaching the eye plane in front of the near
+// plane can cover (tiledlight_cull near_cap_rect): the projections of the eight corners of
+// the box c +- r cut at z <= -near bound it.
+fn near_cap_rect(c: vec3<f32>, r: f32) -> TileRect {
+    let n = light_grid.header.tiles;
+    let z_lo = c.z - r;
+    let z_hi = min(c.z + r, -view.depth_near);
+    if !(z_lo <= z_hi) {
+        return TileRect(vec2<u32>(0u), vec2<u32>(0u));
+    }
+    var lo = vec2<f32>(3.0e38);
+    var hi = vec2<f32>(-3.0e38);
+    var finite = true;
+    for (var corner = 0u; corner < 8u; corner++) {
+        let p = vec3<f32>(
+            select(c.x + r, c.x - r, (corner & 1u) == 0u),
+            select(c.y + r, c.y - r, (corner & 2u) == 0u),
+            select(z_hi, z_lo, (corner & 4u) == 0u),
+        );
+        let clip = view.view_to_clip * vec4<f32>(p, 1.0);
+        let ndc = clip.xy / clip.w;
+        // Not finite (NaN fails both tests; +-inf fails one).
+        finite = finite && abs(ndc.x) <= 3.0e38 && abs(ndc.y) <= 3.0e38;
+        lo = min(lo, ndc);
+        hi = max(hi, ndc);
+    }
+    if !finite {
+        return TileRect(vec2<u32>(0u), n);
+    }
+    // Columns whose right edge reaches lo.x and whose left edge stays below hi.x; rows (down
+    // the screen) whose bottom edge is at most hi.y and whose top edge reaches lo.y.
+    let x0 = ndc_search(0u, n.x, true, lo.x, false);
+    let x1 = ndc_search(0u, n.x, false, hi.x, true);
+    let y0 = ndc_search(1u, n.y, true, hi.y, true);
+    let y1 = ndc_search(1u, n.y, false, lo.y, false);
+    return TileRect(vec2<u32>(x0, y0), vec2<u32>(x1, y1));
+}
+
+// The first column (axis 0) or row (1) of `n` whose near (left, top) or far (right,
+// bottom: `far_edge`) edge's NDC passes `v`: columns' edges rise (>=, or > when
+// `strict`), rows' fall (<, or <= when `strict`), as near_cap_rect's predicates read.
+fn ndc_search(axis: u32, n: u32, far_edge: bool, v: f32, strict: bool) -> u32 {
+    var lo = 0u;
+    var hi = n;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        let e = edge_ndc(axis, mid, far_edge);
+        var found: bool;
+        if axis == 0u {
+            // x0: right edge >= lo.x; x1_end: left edge > hi.x.
+            found = select(e >= v, e > v, strict);
+        } else {
+            // y0: bottom edge <= hi.y; y1_end: top edge < lo.y.
+            found = select(e < v, e <= v, strict);
+        }
+        if found {
+            hi = mid;
+        } else {
+            lo = mid + 1u;
+        }
+    }
+    return lo;
 }
 
 // NDC of the near (left, top) or far (right, bottom) edge of tile column (`axis` 0) or
@@ -165,6 +231,8 @@ struct Walk {
     // The rectangle is the whole grid because the sphere reaches the eye plane (the plane
     // tests are not monotone there): each tile tests its side planes itself.
     planes: bool,
+    // The light reaches some tile (it has a rectangle).
+    reaches: bool,
 }
 
 // The side-plane part of sphere_vs_frustum for one tile.
@@ -178,8 +246,9 @@ fn side_planes_pass(tile: vec2<u32>, c: vec3<f32>, r: f32) -> bool {
     return true;
 }
 
-// Light `light` as the walks see it; `found`: its rectangle was found by count_lights.
-fn walk_of(light: u32, found: bool) -> Walk {
+// Light `light` as the walks see it, its rectangle not yet set (`reaches`: false when the
+// light reaches no tile, and then it has no rectangle).
+fn walk_base(light: u32) -> Walk {
     var k: Walk;
     k.light = light;
     let cl = cull_lights[light];
@@ -201,13 +270,14 @@ fn walk_of(light: u32, found: bool) -> Walk {
     );
 #endif
     k.planes = view.orthographic == 0u && k.c.z + k.r >= 0.0;
-    if found {
-        let p = light_rects[light];
-        k.rect = TileRect(vec2<u32>(p.x & 0xffffu, p.x >> 16u), vec2<u32>(p.y & 0xffffu, p.y >> 16u));
-    } else {
-        k.rect = light_rect(k.c, k.r);
-        light_rects[light] = vec2<u32>(k.rect.lo.x | (k.rect.lo.y << 16u), k.rect.hi.x | (k.rect.hi.y << 16u));
-    }
+    k.reaches = true;
+    return k;
+}
+
+// The walk `k` over the tiles of `rect`.
+fn with_rect(k0: Walk, rect: TileRect) -> Walk {
+    var k = k0;
+    k.rect = rect;
     if k.rect.lo.x < k.rect.hi.x && k.rect.lo.y < k.rect.hi.y {
         let e = k.rect.hi - k.rect.lo;
         k.tiles = e.x * e.y;
@@ -217,6 +287,30 @@ fn walk_of(light: u32, found: bool) -> Walk {
         k.blocks = b.x * b.y;
     }
     return k;
+}
+
+// The rectangle count_lights kept for `light`.
+fn stored_rect(light: u32) -> TileRect {
+    let p = light_rects[light];
+    return TileRect(vec2<u32>(p.x & 0xffffu, p.x >> 16u), vec2<u32>(p.y & 0xffffu, p.y >> 16u));
+}
+
+fn store_rect(light: u32, r: TileRect) {
+    light_rects[light] = vec2<u32>(r.lo.x | (r.lo.y << 16u), r.hi.x | (r.hi.y << 16u));
+}
+
+// Light `light` as the walks see it; `found`: its rectangle was found by count_lights.
+fn walk_of(light: u32, found: bool) -> Walk {
+    let k = walk_base(light);
+    if !k.reaches {
+        return k;
+    }
+    if found {
+        return with_rect(k, stored_rect(light));
+    }
+    let rect = light_rect(k.c, k.r);
+    store_rect(light, rect);
+    return with_rect(k, rect);
 }
 
 // A hit of the walk's light in list `l`: counted, or written at the list's cursor.
@@ -268,7 +362,7 @@ fn from_order_key(u: u32) -> f32 {
 // depth test would fail (the block's range is the min and max of its tiles' own values).
 // Most lights of a dense scene are hidden behind walls, so this saves most tile visits.
 fn visit_block(k: Walk, j: u32, write: bool) {
-    let block = k.block0 + vec2<u32>(j % k.blocks_x, j / k.blocks_x);
+    let block = block_at(k, j);
     if !block_reached(k, block) {
         return;
     }
@@ -279,6 +373,11 @@ fn visit_block(k: Walk, j: u32, write: bool) {
             visit(k, vec2<u32>(x, y), write);
         }
     }
+}
+
+// Block `j` (row-major within the rectangle's blocks) of the walk.
+fn block_at(k: Walk, j: u32) -> vec2<u32> {
+    return k.block0 + vec2<u32>(j % k.blocks_x, j / k.blocks_x);
 }
 
 // Whether the walk's sphere reaches the depth range of block `block`'s surfaces (always
@@ -373,39 +472,105 @@ fn walk_light(light: u32, write: bool) {
     }
 }
 
-// Steps 2 and 5: a whole workgroup per huge light, its blocks spread over 256 threads
-// (a light around the camera covers every tile: 32 threads would each walk hundreds of
-// tiles while the rest of the GPU waits); then a team of TEAM threads per big light (256 /
-// TEAM teams a workgroup).
-override TEAM: u32 = 32u;
-// A team spreads lights of at most this many tiles over tiles, larger ones over blocks.
-override TEAM_TILES: u32 = 256u;
-
-fn walk_big(group: u32, groups: u32, lidx: u32, write: bool) {
-    let huge = atomicLoad(&big_lights[1]);
-    for (var b = group; b < huge; b += groups) {
-        let k = walk_of(atomicLoad(&big_lights[arrayLength(&big_lights) - 1u - b]), true);
-        for (var j = lidx; j < k.blocks; j += 256u) {
-            visit_block(k, j, write);
+// The tiles of the walk's rectangle spread over `lanes` threads, one tile at a time (a
+// light of a few blocks spread by blocks would keep most lanes idle while a few walk 16
+// tiles each). The block test is a cached load.
+fn visit_tiles(k: Walk, lane: u32, lanes: u32, write: bool) {
+    let w = k.rect.hi.x - k.rect.lo.x;
+    for (var i = lane; i < k.tiles; i += lanes) {
+        let tile = k.rect.lo + vec2<u32>(i % w, i / w);
+        if block_reached(k, tile / BLOCK) {
+            visit(k, tile, write);
         }
     }
+}
+
+// Steps 2 and 5: the huge lights (walk_huge), then a team of TEAM threads per big light
+// (256 / TEAM teams a workgroup), its tiles spread over the lanes.
+override TEAM: u32 = 32u;
+// With more huge lights than workgroups, a light of more blocks than this gets a whole
+// workgroup (walk_huge_many).
+override WIDE_BLOCKS: u32 = 128u;
+
+fn walk_big(group: u32, groups: u32, lidx: u32, write: bool) {
+    walk_huge(group, groups, lidx, write);
     let queued = atomicLoad(&big_lights[0]);
     let teams = 256u / TEAM;
-    let lane = lidx % TEAM;
     for (var b = group * teams + lidx / TEAM; b < queued; b += groups * teams) {
-        let k = walk_of(atomicLoad(&big_lights[2u + b]), true);
-        if k.tiles <= TEAM_TILES {
-            // Spread over tiles, not blocks: a light of a few blocks would keep most lanes
-            // idle while a few walk 16 tiles each. The block test is a cached load.
-            let w = k.rect.hi.x - k.rect.lo.x;
-            for (var i = lane; i < k.tiles; i += TEAM) {
-                let tile = k.rect.lo + vec2<u32>(i % w, i / w);
-                if block_reached(k, tile / BLOCK) {
+        visit_tiles(walk_of(atomicLoad(&big_lights[2u + b]), true), lidx % TEAM, TEAM, write);
+    }
+}
+
+var<workgroup> wg_count: u32;
+var<workgroup> wg_reached: atomic<u32>;
+var<workgroup> wg_blocks: array<u32, 256>;
+
+// The huge lights share the workgroups: each gets `spread` of them (all of them for one
+// light around the camera, one each when there are more lights than workgroups), its
+// blocks cut into `spread` chunks. A workgroup tests up to 256 blocks of its chunk at once
+// (a thread a block), gathers those the light reaches in workgroup memory and spreads
+// their tiles over its threads: the blocks a light cannot reach cost one test, and no
+// thread walks a chain of tiles while the rest of the GPU waits.
+fn walk_huge(group: u32, groups: u32, lidx: u32, write: bool) {
+    if lidx == 0u {
+        wg_count = atomicLoad(&big_lights[1]);
+    }
+    let huge = workgroupUniformLoad(&wg_count);
+    let spread = groups / max(huge, 1u);
+    if spread == 0u {
+        walk_huge_many(group, groups, lidx, huge, write);
+        return;
+    }
+    // b < groups always: no product overflows.
+    for (var b = group; b < huge * spread; b += groups) {
+        let k = walk_of(atomicLoad(&big_lights[arrayLength(&big_lights) - 1u - b / spread]), true);
+        let per = (k.blocks + spread - 1u) / spread;
+        let lo = min((b % spread) * per, k.blocks);
+        let hi = min(lo + per, k.blocks);
+        if lidx == 0u {
+            wg_count = hi - lo;
+        }
+        let n = workgroupUniformLoad(&wg_count);
+        for (var r = 0u; r < n; r += 256u) {
+            if lidx == 0u {
+                atomicStore(&wg_reached, 0u);
+            }
+            workgroupBarrier();
+            let j = lo + r + lidx;
+            if j < hi && block_reached(k, block_at(k, j)) {
+                wg_blocks[atomicAdd(&wg_reached, 1u)] = j;
+            }
+            workgroupBarrier();
+            let m = atomicLoad(&wg_reached) * BLOCK * BLOCK;
+            for (var u = lidx; u < m; u += 256u) {
+                let tile = block_at(k, wg_blocks[u / (BLOCK * BLOCK)]) * BLOCK + vec2<u32>(u % BLOCK, (u / BLOCK) % BLOCK);
+                if all(tile >= k.rect.lo) && all(tile < k.rect.hi) {
                     visit(k, tile, write);
                 }
             }
-        } else {
-            for (var j = lane; j < k.blocks; j += TEAM) {
+            workgroupBarrier();
+        }
+    }
+}
+
+// More huge lights than the GPU has workgroups to spare: no barriers (a workgroup's
+// threads each walk on at their own pace, hiding each other's loads): a light of more than
+// WIDE_BLOCKS blocks by a whole workgroup, the rest by a team each, block by block.
+fn walk_huge_many(group: u32, groups: u32, lidx: u32, huge: u32, write: bool) {
+    let end = arrayLength(&big_lights) - 1u;
+    for (var b = group; b < huge; b += groups) {
+        let k = walk_of(atomicLoad(&big_lights[end - b]), true);
+        if k.blocks > WIDE_BLOCKS {
+            for (var j = lidx; j < k.blocks; j += 256u) {
+                visit_block(k, j, write);
+            }
+        }
+    }
+    let teams = 256u / TEAM;
+    for (var b = group * teams + lidx / TEAM; b < huge; b += groups * teams) {
+        let k = walk_of(atomicLoad(&big_lights[end - b]), true);
+        if k.blocks <= WIDE_BLOCKS {
+            for (var j = lidx % TEAM; j < k.blocks; j += TEAM) {
                 visit_block(k, j, write);
             }
         }

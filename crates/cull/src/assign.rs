@@ -12,14 +12,21 @@
 //! monotone over columns (rows). It is monotone for orthographic cameras (parallel planes)
 //! and for perspective ones while the sphere lies wholly in front of the eye plane
 //! (`c.z + r < 0`): every side plane passes through the eye, and the sphere then spans an
-//! interval of angles about it. A sphere reaching the eye plane gets the whole grid.
+//! interval of angles about it. A sphere reaching the eye plane gets the tiles its part
+//! beyond the near plane can cover ([`near_cap_rect`]): nothing nearer is drawn, so the
+//! tiles outside hold no surface it reaches, though their plane tests may pass (the
+//! per-tile test's false positives near the eye, which the gather keeps).
 //!
 //! [`light_tile_rect`]:
 //! 1. `!(r > 0)` (zero, negative or NaN): `None`. An infinite radius goes on and gets the
 //!    whole grid (every plane test passes), as the per-tile test keeps such a light in
 //!    every tile: the CPU culler's `inflate` makes one out of a centre beyond ~1e19 m,
 //!    where `|c|` overflows; the GPU never sees one.
-//! 2. Perspective and `c.z + r >= 0`: the whole grid.
+//! 2. Perspective and `c.z + r >= 0`: [`near_cap_rect`] (the box `c +- r` cut at
+//!    `z <= -near`, its eight corners projected; `None` when the sphere lies wholly nearer
+//!    than the near plane, the whole grid when a projection is not finite). Before it
+//!    (the whole grid) ~2,800 of the million-light preset's lights got every tile, 80% of
+//!    the 100,000-light bench's candidate tiles; after it 72.
 //! 3. A plane `p` passes when `dot(p.xyz, c) + p.w >= -r` (the negation of
 //!    `sphere_vs_frustum`'s rejection). With the planes built exactly as
 //!    [`crate::tiles::TileFrustum::from_parts`] builds them from [`TileGrid::tile_ndc`]:
@@ -35,7 +42,7 @@
 
 use glam::{Mat4, Vec3, Vec4};
 
-use crate::camera::{clip_edge_plane, Camera};
+use crate::camera::{clip_edge_plane, Camera, DepthParams};
 use crate::error::CullError;
 use crate::light::PackedLights;
 use crate::reference::{cull_setup, light_in_volume, tile_volumes, CullConfig, TileLists};
@@ -91,14 +98,14 @@ fn passes(p: Vec4, c: Vec3, r: f32) -> bool {
 /// The tiles whose four side planes the sphere (view-space centre `c`, radius `r`) passes,
 /// as an inclusive rectangle, or `None` when there are none (or `r` is not positive). The depth range of the tiles is not tested. See the module docs for
 /// the algorithm, which WGSL mirrors; `proj` and `orthographic` are the camera's.
-pub fn light_tile_rect(grid: &TileGrid, proj: &Mat4, orthographic: bool, c: Vec3, r: f32) -> Option<TileRect> {
+pub fn light_tile_rect(grid: &TileGrid, proj: &Mat4, dp: &DepthParams, c: Vec3, r: f32) -> Option<TileRect> {
     // Written as in WGSL (`!(r > 0.0)`), so NaN takes this branch.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     if !(r > 0.0) {
         return None;
     }
-    if !orthographic && c.z + r >= 0.0 {
-        return Some(TileRect::full(grid));
+    if !dp.orthographic && c.z + r >= 0.0 {
+        return near_cap_rect(grid, proj, dp.near, c, r);
     }
     // The edges as `tile_ndc` computes them: l, r depend on the column only, b, t on the row.
     let col = |i: u32| grid.tile_ndc(i, 0);
@@ -107,6 +114,11 @@ pub fn light_tile_rect(grid: &TileGrid, proj: &Mat4, orthographic: bool, c: Vec3
     let x1_end = lower_bound(grid.tiles_x, |i| !passes(clip_edge_plane(proj, 0, col(i).0, 1.0), c, r));
     let y0 = lower_bound(grid.tiles_y, |j| passes(clip_edge_plane(proj, 1, row(j).2, 1.0), c, r));
     let y1_end = lower_bound(grid.tiles_y, |j| !passes(clip_edge_plane(proj, 1, row(j).3, -1.0), c, r));
+    rect_of(grid, (x0, x1_end), (y0, y1_end))
+}
+
+/// Columns `x0..x1_end` and rows `y0..y1_end` as a rectangle, `None` when either is empty.
+fn rect_of(grid: &TileGrid, (x0, x1_end): (u32, u32), (y0, y1_end): (u32, u32)) -> Option<TileRect> {
     if x0 == grid.tiles_x || x1_end == 0 || y0 == grid.tiles_y || y1_end == 0 {
         return None;
     }
@@ -114,14 +126,53 @@ pub fn light_tile_rect(grid: &TileGrid, proj: &Mat4, orthographic: bool, c: Vec3
     (x0 <= x1 && y0 <= y1).then_some(TileRect { x0, x1, y0, y1 })
 }
 
+/// Step 2 of [`light_tile_rect`]: the tiles that the part of a perspective sphere reaching
+/// the eye plane in front of the near plane (nothing nearer is drawn) can cover. That part
+/// lies in the view-space box `c +- r` cut at `z <= -near`, whose eight corners are all in
+/// front of the eye, so their projections bound its NDC rectangle. `None` when the sphere
+/// lies wholly nearer than the near plane; the whole grid when a corner's projection is not
+/// finite (a centre or radius near f32's range).
+pub fn near_cap_rect(grid: &TileGrid, proj: &Mat4, near: f32, c: Vec3, r: f32) -> Option<TileRect> {
+    let z_lo = c.z - r;
+    let z_hi = (c.z + r).min(-near);
+    if !(z_lo <= z_hi) {
+        return None;
+    }
+    let (mut lo, mut hi) = (glam::Vec2::splat(f32::INFINITY), glam::Vec2::splat(f32::NEG_INFINITY));
+    let mut finite = true;
+    for corner in 0..8u32 {
+        let p = Vec3::new(
+            if corner & 1 == 0 { c.x - r } else { c.x + r },
+            if corner & 2 == 0 { c.y - r } else { c.y + r },
+            if corner & 4 == 0 { z_lo } else { z_hi },
+        );
+        let clip = *proj * p.extend(1.0);
+        let ndc = glam::Vec2::new(clip.x, clip.y) / clip.w;
+        finite &= ndc.is_finite();
+        lo = lo.min(ndc);
+        hi = hi.max(ndc);
+    }
+    if !finite {
+        return Some(TileRect::full(grid));
+    }
+    // Columns whose right edge reaches lo.x and whose left edge stays below hi.x; rows (down
+    // the screen) whose bottom edge is at most hi.y and whose top edge reaches lo.y.
+    let x0 = lower_bound(grid.tiles_x, |i| grid.tile_ndc(i, 0).1 >= lo.x);
+    let x1_end = lower_bound(grid.tiles_x, |i| grid.tile_ndc(i, 0).0 > hi.x);
+    let y0 = lower_bound(grid.tiles_y, |j| grid.tile_ndc(0, j).2 <= hi.y);
+    let y1_end = lower_bound(grid.tiles_y, |j| grid.tile_ndc(0, j).3 < lo.y);
+    rect_of(grid, (x0, x1_end), (y0, y1_end))
+}
+
 /// The light-centric twin of [`crate::reference::cull_tiles`]: same inputs, same per-tile
 /// test (side planes, depth range, AABB, cone, half-z, depth mask, two-level candidates),
 /// but each light only visits the tiles of its [`light_tile_rect`]. The lists come out
 /// ascending as light indices are visited in order.
 ///
-/// Equal to `cull_tiles` whenever the rectangle holds every tile whose side planes the
-/// light passes, which is every case except a tile whose plane test f32 decides against
-/// the monotone trend (within rounding of the boundary; none seen in the property tests).
+/// Equal to `cull_tiles` for every light wholly in front of the eye plane (the rectangle
+/// holds every tile whose side planes the light passes, up to f32 rounding at the
+/// boundary: none seen in the property tests); a light reaching the eye plane is missing
+/// from tiles outside its [`near_cap_rect`], where it can reach no surface.
 pub fn cull_tiles_scatter(
     depth: &[f32],
     width: u32,
@@ -132,12 +183,13 @@ pub fn cull_tiles_scatter(
 ) -> Result<TileLists, CullError> {
     let (grid, vls, cells) = cull_setup(depth, (width, height), camera, lights, config)?;
     let proj = camera.proj();
-    let ortho = camera.depth_params().orthographic;
+    let dp = camera.depth_params();
+    let ortho = dp.orthographic;
     let (volumes, masks, ranges) = tile_volumes(&grid, depth, camera, config);
     let per = config.lists_per_tile();
     let mut lists = vec![Vec::new(); grid.tile_count() * per];
     for (i, l) in vls.iter().enumerate() {
-        let Some(rect) = light_tile_rect(&grid, &proj, ortho, l.center, l.radius) else { continue };
+        let Some(rect) = light_tile_rect(&grid, &proj, &dp, l.center, l.radius) else { continue };
         for ty in rect.y0..=rect.y1 {
             for tx in rect.x0..=rect.x1 {
                 let t = (ty * grid.tiles_x + tx) as usize;

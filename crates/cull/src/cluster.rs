@@ -230,7 +230,7 @@ pub fn cull_clusters(
         if !(r > 0.0 && dist + r > 0.0) {
             continue;
         }
-        let Some(rect) = light_tile_rect(&grid, &proj, dp.orthographic, c, r) else { continue };
+        let Some(rect) = light_tile_rect(&grid, &proj, &dp, c, r) else { continue };
         let (lo, hi) = light_slices(cluster, dist, r);
         for ty in rect.y0..=rect.y1 {
             for tx in rect.x0..=rect.x1 {

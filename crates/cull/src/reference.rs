@@ -60,6 +60,11 @@ pub struct CullConfig {
     /// (of its own depth range) that hold a surface, and a light must overlap one of them
     /// ([`crate::depth_mask`]). One list per tile: not with `half_z`.
     pub depth_mask: bool,
+    /// Light-centric assignment's lists: each light visits only the tiles of its
+    /// [`crate::assign::light_tile_rect`], which for a light reaching the eye plane leaves
+    /// out tiles its part beyond the near plane cannot cover (the per-tile test's false
+    /// positives there); [`cull_tiles`] then runs [`crate::assign::cull_tiles_scatter`].
+    pub scatter: bool,
 }
 
 impl Default for CullConfig {
@@ -74,6 +79,7 @@ impl Default for CullConfig {
             inflate: 0.0,
             samples: 1,
             depth_mask: false,
+            scatter: false,
         }
     }
 }
@@ -288,6 +294,9 @@ pub fn cull_tiles(
     lights: &PackedLights,
     config: &CullConfig,
 ) -> Result<TileLists, CullError> {
+    if config.scatter {
+        return crate::assign::cull_tiles_scatter(depth, width, height, camera, lights, config);
+    }
     let (grid, vls, cells) = cull_setup(depth, (width, height), camera, lights, config)?;
     let masks = config.depth_mask.then(|| tile_depth_masks(depth, &grid, config.samples, camera));
     let bounds = |tx, ty| tile_depth_bounds_samples(&grid, depth, config.samples, tx, ty);

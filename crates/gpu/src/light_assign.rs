@@ -8,14 +8,15 @@
 //!    surfaces into the grid's tile ranges and, for 2.5D culling or clusters, its 32-bit
 //!    depth-occupancy mask.
 //! 2. **Count**: a thread per light finds its tile rectangle (binary searches on the same
-//!    side planes the tile-centric kernel tests), tests each tile of it with the
+//!    side planes the tile-centric kernel tests; a sphere reaching the eye plane, where
+//!    those tests are not monotone, gets the tiles its part beyond the near plane projects
+//!    to: `tiledlight_cull::assign::near_cap_rect`), tests each tile of it with the
 //!    tile-centric kernel's own code (`common/tile_tests.wgsl`; clusters: the light's depth
 //!    slices) and counts hits per list. It keeps the rectangle for the later passes. A
-//!    light covering more than [`BIG_TILES`] tiles is queued and counted by a team of
-//!    [`TEAM`] threads (one thread would stall its warp), tile by tile up to
-//!    [`TEAM_TILES`] tiles and block by block above; one covering more than
-//!    [`HUGE_BLOCKS`] blocks by a whole workgroup (at 32 blocks the H200 lost 25% at a
-//!    million lights: too many lights walked by 256 threads with a few blocks each).
+//!    light covering more than [`BIG_TILES`] tiles is queued and counted, in a second
+//!    dispatch, by a team of [`TEAM`] threads, tile by tile (one thread would stall its
+//!    warp); one covering more than [`HUGE_BLOCKS`] blocks by one or more whole workgroups
+//!    (see there).
 //! 3. **Allocate**: a thread per list; 256 lists' counts are scanned in workgroup memory and
 //!    allocated with one atomic add on the grid's counter (the light grid's contract: a
 //!    full index buffer drops and counts, never writes out of bounds).
@@ -28,9 +29,13 @@
 //! cost a block test instead of a test per tile. Clusters cannot skip so (an empty cluster
 //! still gets lights, which is what serves transparent geometry).
 //!
-//! The lists hold the same lights as the tile-centric kernel's (the order within a list
-//! differs): the CPU twin is `tiledlight_cull::cull_tiles` for tiles, half-z and 2.5D, and
-//! `tiledlight_cull`'s clusters for the clustered layout.
+//! The lists hold the tile-centric kernel's lights (the order within a list differs) except
+//! those of a light reaching the eye plane in tiles its part beyond the near plane cannot
+//! cover (false positives of the per-tile plane test, which the gather keeps): the CPU
+//! twin is `tiledlight_cull::cull_tiles_scatter` for tiles, half-z and 2.5D, and
+//! `tiledlight_cull`'s clusters (which use the same rectangle) for the clustered layout.
+//! On the H200 the eye-plane rectangle cut the million-light preset's assignment from 0.76
+//! to 0.22 ms: ~2,800 of its lights got the whole grid (docs/PERFORMANCE.md).
 //! Depends on wgpu, [`crate::light_cull`] (options, depth binding), [`crate::light_grid`],
 //! [`crate::lights_gpu`], [`crate::view`], [`crate::bindings`].
 
@@ -57,22 +62,24 @@ pub const BIG_TILES: u32 = 8;
 /// lights).
 pub const TEAM: u32 = 32;
 
-/// A team spreads a light of at most this many tiles over its lanes tile by tile, a larger
-/// one block by block: spread by blocks, a light of a few blocks keeps most lanes idle
-/// while a few walk 16 tiles each.
-pub const TEAM_TILES: u32 = 256;
-
 /// Most workgroups of the big-light passes, 256 / [`TEAM`] teams each (team `t` of the frame
 /// takes every `teams * groups`-th queued light); `record` dispatches about a team per light
 /// (at least 512 workgroups): on the H200 512 workgroups left half the GPU idle at 100,000
 /// lights and more (0.47 -> 0.17 ms with the rectangles kept and teams spread by tiles).
 const BIG_GROUPS: u32 = 4096;
 
-/// A light whose rectangle holds more blocks than this (2,048 tiles) is walked by a whole
-/// workgroup: a light around the camera covers every tile, and a team of 32 would walk
-/// hundreds each while the rest of the GPU waits (on the H200 such a tail cost 0.15 ms a
-/// walk at 1,024 lights).
-pub const HUGE_BLOCKS: u32 = 128;
+/// A light whose rectangle holds more blocks than this (512 tiles) is a huge light: while
+/// there are at most as many huge lights as workgroups, each gets `workgroups / huge` of
+/// them, which test its blocks a thread a block, gather the reached ones in workgroup
+/// memory and spread their tiles over their threads. On the H200 at 1,024 lights (a few
+/// hundred lights of 300-8,000 tiles) a team walking 16-64 tiles a lane cost 0.13 ms, this
+/// 0.09 (16 blocks: 0.13 again, too many huge lights for the workgroups; 128: 0.13).
+pub const HUGE_BLOCKS: u32 = 32;
+
+/// With more huge lights than workgroups, the barrier-free walk: a light of more blocks
+/// than this gets a whole workgroup, the others a team, block by block (gathering in
+/// workgroup memory costs three barriers a light, which a saturated GPU cannot hide).
+pub const WIDE_BLOCKS: u32 = 128;
 
 /// Side of a block in tiles: the walks skip blocks whose surfaces a light cannot reach in
 /// depth (`BLOCK` in `shaders/assign.wgsl` and `shaders/tile_depth.wgsl`).
@@ -296,8 +303,8 @@ impl LightAssign {
             ("TILE_SIZE", tiles.tile_size as f64),
             ("BIG_TILES", BIG_TILES as f64),
             ("HUGE_BLOCKS", HUGE_BLOCKS as f64),
+            ("WIDE_BLOCKS", WIDE_BLOCKS as f64),
             ("TEAM", TEAM as f64),
-            ("TEAM_TILES", TEAM_TILES as f64),
             ("GRID_GUARD", f64::from(u8::from(grid.needs_guard(lights.len())))),
         ];
         let groups = [&views.layout, &layout, grid.layout()];
@@ -323,10 +330,11 @@ impl LightAssign {
     }
 
     /// Records a frame's assignment into `grid` (the one it was built for), clearing the
-    /// grid's counters first, as four timed compute passes: `{label}.depth` (step 1),
-    /// `{label}.count` (2), `{label}.allocate` (3) and `{label}.write` (4), so the lab sees
-    /// where the time goes (a pass boundary costs what the barrier between two dispatches
-    /// costs anyway).
+    /// grid's counters first, as six timed compute passes: `{label}.depth` (step 1),
+    /// `{label}.count` and `{label}.count_big` (2: a thread per light, then the big and
+    /// huge lights), `{label}.allocate` (3), `{label}.write` and `{label}.write_big` (4),
+    /// so the lab sees where the time goes (a pass boundary costs what the barrier between
+    /// two dispatches costs anyway).
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -348,11 +356,19 @@ impl LightAssign {
         // a whole one): idle workgroups are not free (4,096 of them cost 0.03 ms a pass on
         // the H200 at 1,024 lights), too few leave huge lights waiting in line.
         let bg = self.lights.div_ceil(GROUP / TEAM).clamp(512, BIG_GROUPS);
-        let count = [(&self.count, per_light), (&self.count_big, (bg, 1))];
+        let count = [(&self.count, per_light)];
+        let count_big = [(&self.count_big, (bg, 1))];
         let allocate = [(&self.allocate, per_list)];
-        let write = [(&self.write, per_light), (&self.write_big, (bg, 1))];
-        let steps: [(&str, &[Dispatch<'_>]); 4] =
-            [("depth", &depth), ("count", &count), ("allocate", &allocate), ("write", &write)];
+        let write = [(&self.write, per_light)];
+        let write_big = [(&self.write_big, (bg, 1))];
+        let steps: [(&str, &[Dispatch<'_>]); 6] = [
+            ("depth", &depth),
+            ("count", &count),
+            ("count_big", &count_big),
+            ("allocate", &allocate),
+            ("write", &write),
+            ("write_big", &write_big),
+        ];
         for (step, dispatches) in steps {
             let name = format!("{label}.{step}");
             let t = timer.begin(&name, encoder);

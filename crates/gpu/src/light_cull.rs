@@ -210,6 +210,8 @@ impl CullOptions {
             inflate: 0.0,
             samples: self.samples,
             depth_mask: self.depth_mask,
+            // The clustered twin uses the same rectangles on its own.
+            scatter: self.scatter && self.clusters.is_none(),
         }
     }
 
