@@ -218,7 +218,9 @@ pub struct SceneArgs {
     /// lights are added to its own lights only when this or --spot-lights is given].
     #[arg(long, value_name = "N")]
     pub lights: Option<u64>,
-    /// Random spot lights [default: 0].
+    /// Random spot lights [default: 0]. A glTF scene's go near its surfaces, aimed at them
+    /// (never past the first geometry above), their radius following its area and the
+    /// count; the default scene's (and with --lights-in-bounds) go in the bounds.
     #[arg(long, value_name = "N")]
     pub spot_lights: Option<u64>,
     /// A named configuration: `million` is 1,000,000 point lights on the surfaces (see
@@ -235,9 +237,9 @@ pub struct SceneArgs {
     /// its surface area and the count).
     #[arg(long)]
     pub lights_on_surfaces: bool,
-    /// Place a glTF scene's random point lights uniformly in its bounds instead, with radii
-    /// from the threshold alone (1.5-4 m at the default: the built-in courtyard's lights,
-    /// too large for a model of a few metres).
+    /// Place a glTF scene's random point and spot lights uniformly in its bounds instead,
+    /// with radii fitted to the bounds and the count (8 lights reaching a surface point on
+    /// average; the built-in courtyard's keep TiledLighting11's 1.5-4 m).
     #[arg(long, conflicts_with_all = ["lights_on_surfaces", "lights_per_pixel", "light_preset"])]
     pub lights_in_bounds: bool,
     /// Mean number of surface lights reaching a pixel's surface point, the radius dial of
