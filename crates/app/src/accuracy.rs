@@ -170,7 +170,10 @@ fn reference_key(a: &Settings, reference: ReferenceArg) -> String {
     // With the cutoff the radii, so the threshold, shape the reference too; lights on
     // surfaces take their radius from k and their intensity from the threshold, so both
     // always shape it.
-    let threshold = if reference == ReferenceArg::Cutoff || a.placement.on_surfaces() {
+    // A loaded scene's random lights have radii fitted to it and intensities from the
+    // threshold, wherever they are placed.
+    let fitted = matches!(a.scene, tiledlight_setup::SceneSource::File(_));
+    let threshold = if reference == ReferenceArg::Cutoff || a.placement.on_surfaces() || fitted {
         format!("{}|{:?}|", a.threshold, a.placement)
     } else {
         String::new()
@@ -179,10 +182,11 @@ fn reference_key(a: &Settings, reference: ReferenceArg) -> String {
         if a.has_shadows() { format!("{:?}|{:?}", a.shadow_casters(), a.shadow_options()) } else { String::new() };
     threshold
         + &format!(
-            "{}|{}|{}|{:?}|{:?}|{:?}|{}|{}x{}|{}|{}|{shadows}",
+            "{}|{}|{}|{}|{:?}|{:?}|{:?}|{}|{}x{}|{}|{}|{shadows}",
             a.scene,
             a.grid_objects,
             a.transparent_objects,
+            a.emissive,
             a.density,
             a.lights,
             a.spot_lights,

@@ -467,6 +467,8 @@ struct ConfigJson {
     shadow_filter: u32,
     shadow_format: &'static str,
     transparent_objects: u32,
+    /// The default scene's banners glow (`--emissive`: the emission target exists).
+    emissive: bool,
     commit: String,
 }
 
@@ -557,6 +559,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 shadow_filter: a.shadow_filter,
                 shadow_format: a.shadow_format.name(),
                 transparent_objects: a.transparent_objects,
+                emissive: a.emissive,
                 commit: commit_hash(),
             },
             frames: args.frames,

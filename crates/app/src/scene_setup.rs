@@ -263,6 +263,10 @@ pub struct SceneArgs {
     /// blended on their own).
     #[arg(long, default_value_t = 0, value_name = "N")]
     pub transparent_objects: u32,
+    /// The default scene's banners glow in their colour (emissive materials: Tiled
+    /// Deferred's G-buffer gets its emission target; for measuring its cost).
+    #[arg(long)]
+    pub emissive: bool,
     /// Image width in pixels.
     #[arg(long, default_value_t = 1920, value_name = "W")]
     pub width: u32,
@@ -394,6 +398,7 @@ impl Default for SceneArgs {
             grid_objects: d.grid_objects,
             density: d.density.into(),
             transparent_objects: d.transparent_objects,
+            emissive: d.emissive,
             width: d.width,
             height: d.height,
             method: d.method.into(),
@@ -461,6 +466,7 @@ impl SceneArgs {
             grid_objects: self.grid_objects,
             density: self.density.into(),
             transparent_objects: self.transparent_objects,
+            emissive: self.emissive,
             width: self.width,
             height: self.height,
             method: self.method.into(),
@@ -642,6 +648,7 @@ mod tests {
             grid_objects: 0,
             density: GridDensity::High,
             transparent_objects: 0,
+            emissive: false,
             width: 64,
             height: 36,
             method: Method::Deferred,

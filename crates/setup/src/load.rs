@@ -218,6 +218,7 @@ fn load_scene(settings: &Settings) -> Result<(Scene, usize, Vec<String>)> {
                 grid_objects: settings.grid_objects,
                 density: settings.density,
                 transparent_objects: settings.transparent_objects,
+                emissive_banners: settings.emissive,
             };
             let scene = default_scene(&opts).context("building the default scene")?;
             Ok((scene, 0, Vec::new()))
@@ -490,6 +491,17 @@ mod tests {
             text.starts_with(" (1 from the glTF file + 80 random, seed 1, threshold 0.1; 80 uniform in the bounds"),
             "{text}"
         );
+    }
+
+    #[test]
+    fn emissive_banners_reach_the_default_scene() {
+        let s = Settings { width: 64, height: 36, lights: Some(4), ..Settings::default() };
+        assert!(!SceneCpu::load(&s).unwrap().scene.materials.iter().any(|m| m.is_emissive()));
+        let lit = SceneCpu::load(&Settings { emissive: true, ..s.clone() }).unwrap();
+        assert_eq!(lit.scene.materials.iter().filter(|m| m.is_emissive()).count(), 3);
+        let file = Settings { emissive: true, scene: SceneSource::File("a.glb".into()), ..s };
+        let e = format!("{:#}", SceneCpu::load(&file).err().unwrap());
+        assert!(e.contains("--emissive: the glowing banners exist only in the default scene"), "{e}");
     }
 
     #[test]
