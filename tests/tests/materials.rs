@@ -760,3 +760,75 @@ fn scenes_without_material_maps_get_no_extra_paths() {
     let emission_only = MaterialFeatures { emissive: true, ..Default::default() };
     assert_eq!(check("emissive floor", &emissive, emission_only), 0);
 }
+
+// ---- the README's normal-mapped asset ----
+
+/// Where the README's normal-mapped model lives (relative to the workspace root).
+const STUDS_ASSET: &str = "assets/normal-mapped/studs.gltf";
+
+/// Texels of the studs' normal map a side, and studs a side.
+const STUDS_TEXELS: u32 = 128;
+const STUDS_PER_SIDE: u32 = 4;
+
+/// The studs' tangent-space normal map: a `STUDS_PER_SIDE`^2 grid of round studs (each a
+/// spherical cap leaning up to 53 degrees at its rim) on a flat ground, RGBA8, glTF's
+/// convention (+X right, +Y up the image, +Z out of the surface).
+fn studs_normal_map() -> Vec<u8> {
+    let cell = (STUDS_TEXELS / STUDS_PER_SIDE) as f32;
+    let radius = 0.4 * cell;
+    let mut rgba = Vec::with_capacity((STUDS_TEXELS * STUDS_TEXELS * 4) as usize);
+    for y in 0..STUDS_TEXELS {
+        for x in 0..STUDS_TEXELS {
+            // Offset from the centre of the texel's cell, in texels; image rows run down.
+            let c = |t: u32| (t as f32 + 0.5) % cell - 0.5 * cell;
+            let d = Vec2::new(c(x), -c(y)) / radius;
+            let xy = if d.length() < 1.0 { 0.8 * d } else { Vec2::ZERO };
+            let n = Vec3::new(xy.x, xy.y, (1.0 - xy.length_squared()).sqrt());
+            let byte = |v: f32| ((v * 0.5 + 0.5) * 255.0).round() as u8;
+            rgba.extend([byte(n.x), byte(n.y), byte(n.z), 255]);
+        }
+    }
+    rgba
+}
+
+/// The README's normal-mapped model: a 2 m square facing +Z (the materials tests' quad),
+/// warm grey and fairly smooth, with [`studs_normal_map`] sampled linearly; no tangents in
+/// the file (MikkTSpace makes them). Written to `dir` as `studs.gltf`, everything embedded.
+fn studs_gltf(dir: &Path) -> PathBuf {
+    let mut doc = Doc::default();
+    let prim = quad(&mut doc, false);
+    let tex = doc.texture(STUDS_TEXELS, STUDS_TEXELS, &studs_normal_map(), (REPEAT, REPEAT));
+    // Linear filtering: the studs' rims are smooth, not texel steps.
+    doc.samplers[0] = json!({"magFilter": 9729, "minFilter": 9729, "wrapS": REPEAT, "wrapT": REPEAT});
+    let material = json!({
+        "name": "studded plate",
+        "pbrMetallicRoughness": {"baseColorFactor": [0.75, 0.72, 0.68, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.45},
+        "normalTexture": {"index": tex, "scale": 1.0}
+    });
+    doc.write(dir, "studs", prim, material, &[])
+}
+
+/// The asset in `assets/` is what [`studs_gltf`] writes (compared as loaded: geometry,
+/// material and the normal map's texels; PNG bytes may differ between encoder versions).
+/// `TILEDLIGHT_WRITE_ASSETS=1` writes it again. No GPU needed.
+#[test]
+fn the_readme_normal_mapped_asset_is_current() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let asset = root.join(STUDS_ASSET);
+    let dir = tempfile::tempdir().unwrap();
+    let made = studs_gltf(dir.path());
+    if std::env::var_os("TILEDLIGHT_WRITE_ASSETS").is_some() {
+        std::fs::create_dir_all(asset.parent().unwrap()).unwrap();
+        std::fs::copy(&made, &asset).unwrap();
+        eprintln!("wrote {}", asset.display());
+    }
+    let (expected, found) = (load(&made), load(&asset));
+    assert_eq!(found.meshes, expected.meshes, "{}: geometry differs", asset.display());
+    assert_eq!(found.materials, expected.materials, "{}: material differs", asset.display());
+    assert_eq!(found.textures, expected.textures, "{}: normal map differs", asset.display());
+    // The studs really lean: the map's texels span +-0.8 in x and y.
+    let m = studs_normal_map();
+    let xs: Vec<u8> = m.chunks_exact(4).map(|t| t[0]).collect();
+    assert!(xs.iter().min() < Some(&30) && xs.iter().max() > Some(&225), "{:?}", (xs.iter().min(), xs.iter().max()));
+    assert!(found.meshes[0].tangents.len() == 4, "MikkTSpace tangents for the normal map");
+}
