@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign emission
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -128,6 +128,23 @@ for set in $sets; do
     run "mp-$m-tiled" 10 --light-preset million --method $m --assign scatter
     run "m100k-$m-scatter" 20 --lights 100000 --threshold 1 --method $m --assign scatter
     run "m1k-$m-scatter" 50 --lights 1024 --method $m --assign scatter
+    ;;
+  emission)
+    # Issue 14: the cost of emission. The courtyard with and without its banners glowing
+    # (--emissive: the only change is three emissive materials), both methods: Tiled
+    # Deferred's G-buffer gains its emission target (8 B a sample), both shading paths
+    # the emission term. 1,024 and 16,384 lights; the Figure 9 scene with 4 G-buffer
+    # targets; and 4x MSAA (the target is multisampled too).
+    for m in forward-plus deferred; do
+      for n in 1024 16384; do
+        run "em-$m-$n-off" 50 --lights $n --method $m
+        run "em-$m-$n-on" 50 --lights $n --method $m --emissive
+      done
+      run "em-$m-fig9-off" 50 --lights 1024 --grid-objects 280 --density medium --method $m --gbuffer-rts 4
+      run "em-$m-fig9-on" 50 --lights 1024 --grid-objects 280 --density medium --method $m --gbuffer-rts 4 --emissive
+      run "em-$m-msaa4-off" 30 --lights 1024 --method $m --msaa 4
+      run "em-$m-msaa4-on" 30 --lights 1024 --method $m --msaa 4 --emissive
+    done
     ;;
   grid)
     # The light grid's A/B set (issue 10): the Figure 9 scene, both methods, 1,024 to

@@ -47,37 +47,13 @@ const H: u32 = 96;
 
 // ---- writing glTF files ----
 
-const F32: u32 = 5126;
-const U16: u32 = 5123;
-const I16: u32 = 5122;
-const I8: u32 = 5120;
-const U8: u32 = 5121;
-/// glTF sampler values.
-const NEAREST: u32 = 9728;
-const REPEAT: u32 = 10497;
-const CLAMP: u32 = 33071;
-const MIRROR: u32 = 33648;
+use tiledlight_gltf_writer::{png, png_data_uri, Buffer, CLAMP, I16, I8, LINEAR, MIRROR, NEAREST, REPEAT, U16, U8};
 
-fn base64(bytes: &[u8]) -> String {
-    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for chunk in bytes.chunks(3) {
-        let b = [chunk[0], *chunk.get(1).unwrap_or(&0), *chunk.get(2).unwrap_or(&0)];
-        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
-        for k in 0..4 {
-            out.push(if k <= chunk.len() { ALPHABET[((n >> (18 - 6 * k)) & 63) as usize] as char } else { '=' });
-        }
-    }
-    out
-}
-
-/// A glTF document under construction: one buffer, its views and accessors, images as
-/// PNG data URIs, textures and samplers.
+/// A glTF document under construction: one buffer (the shared test-support writer's), images
+/// as PNG data URIs, textures and samplers.
 #[derive(Default)]
 struct Doc {
-    bin: Vec<u8>,
-    views: Vec<Value>,
-    accessors: Vec<Value>,
+    buf: Buffer,
     images: Vec<Value>,
     textures: Vec<Value>,
     samplers: Vec<Value>,
@@ -85,59 +61,23 @@ struct Doc {
 
 impl Doc {
     /// An accessor over `bytes`, each element `stride` bytes apart.
-    fn accessor(
-        &mut self,
-        bytes: &[u8],
-        (component, normalized): (u32, bool),
-        (count, ty, stride): (usize, &str, usize),
-    ) -> usize {
-        while !self.bin.len().is_multiple_of(4) {
-            self.bin.push(0);
-        }
-        self.views
-            .push(json!({"buffer": 0, "byteOffset": self.bin.len(), "byteLength": bytes.len(), "byteStride": stride}));
-        self.bin.extend_from_slice(bytes);
-        let mut a = json!({"bufferView": self.views.len() - 1, "componentType": component, "count": count, "type": ty});
-        if normalized {
-            a["normalized"] = json!(true);
-        }
-        self.accessors.push(a);
-        self.accessors.len() - 1
+    fn accessor(&mut self, bytes: &[u8], component: (u32, bool), shape: (usize, &str, usize)) -> usize {
+        self.buf.accessor(bytes, component, shape)
     }
 
-    fn floats(&mut self, v: &[f32], ty: &str, comps: usize) -> usize {
-        let bytes: Vec<u8> = v.iter().flat_map(|x| x.to_le_bytes()).collect();
-        let a = self.accessor(&bytes, (F32, false), (v.len() / comps, ty, comps * 4));
-        if ty == "VEC3" {
-            let (mut min, mut max) = ([f32::MAX; 3], [f32::MIN; 3]);
-            for p in v.chunks_exact(3) {
-                for c in 0..3 {
-                    min[c] = min[c].min(p[c]);
-                    max[c] = max[c].max(p[c]);
-                }
-            }
-            self.accessors[a]["min"] = json!(min);
-            self.accessors[a]["max"] = json!(max);
-        }
-        a
+    /// A tightly packed float accessor of `ty`.
+    fn floats(&mut self, v: &[f32], ty: &str) -> usize {
+        self.buf.floats(v, ty)
     }
 
     fn indices(&mut self, v: &[u16]) -> usize {
-        let bytes: Vec<u8> = v.iter().flat_map(|x| x.to_le_bytes()).collect();
-        let a = self.accessor(&bytes, (U16, false), (v.len(), "SCALAR", 2));
-        // Index views have no stride.
-        let view = self.accessors[a]["bufferView"].as_u64().unwrap() as usize;
-        self.views[view].as_object_mut().unwrap().remove("byteStride");
-        a
+        self.buf.indices_u16(v)
     }
 
     /// A texture of `w` x `h` RGBA8 texels (a PNG image) read with a sampler of `wrap`
     /// (s, t) and nearest filtering; returns its index.
     fn texture(&mut self, w: u32, h: u32, rgba: &[u8], wrap: (u32, u32)) -> usize {
-        let img = image::RgbaImage::from_raw(w, h, rgba.to_vec()).unwrap();
-        let mut png = Vec::new();
-        img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).unwrap();
-        self.images.push(json!({"uri": format!("data:image/png;base64,{}", base64(&png))}));
+        self.images.push(json!({"uri": png_data_uri(&png(w, h, rgba))}));
         self.samplers.push(json!({"magFilter": NEAREST, "minFilter": NEAREST, "wrapS": wrap.0, "wrapT": wrap.1}));
         self.textures.push(json!({"source": self.images.len() - 1, "sampler": self.samplers.len() - 1}));
         self.textures.len() - 1
@@ -154,9 +94,9 @@ impl Doc {
             "nodes": [{"mesh": 0}],
             "meshes": [{"name": name, "primitives": [prim]}],
             "materials": [material],
-            "buffers": [{"byteLength": self.bin.len(), "uri": format!("data:application/octet-stream;base64,{}", base64(&self.bin))}],
-            "bufferViews": self.views,
-            "accessors": self.accessors,
+            "buffers": [{"byteLength": self.buf.data.len(), "uri": format!("data:application/octet-stream;base64,{}", tiledlight_gltf_writer::base64(&self.buf.data))}],
+            "bufferViews": self.buf.views,
+            "accessors": self.buf.accessors,
         });
         for (key, list) in [("images", self.images), ("textures", self.textures), ("samplers", self.samplers)] {
             if !list.is_empty() {
@@ -183,14 +123,14 @@ fn quad(doc: &mut Doc, uv1: bool) -> Value {
     let pos: Vec<f32> = corners.iter().flat_map(|c| [c[0], c[1], 0.0]).collect();
     let nrm: Vec<f32> = corners.iter().flat_map(|_| [0.0, 0.0, 1.0]).collect();
     let uv0: Vec<f32> = corners.iter().flat_map(|c| uv0_at(Vec2::from(*c)).to_array()).collect();
-    let p = doc.floats(&pos, "VEC3", 3);
-    let n = doc.floats(&nrm, "VEC3", 3);
-    let t = doc.floats(&uv0, "VEC2", 2);
+    let p = doc.floats(&pos, "VEC3");
+    let n = doc.floats(&nrm, "VEC3");
+    let t = doc.floats(&uv0, "VEC2");
     let i = doc.indices(&[0, 1, 2, 0, 2, 3]);
     let mut prim = json!({"attributes": {"POSITION": p, "NORMAL": n, "TEXCOORD_0": t}, "indices": i});
     if uv1 {
         let uv1: Vec<f32> = corners.iter().flat_map(|c| uv1_at(Vec2::from(*c)).to_array()).collect();
-        prim["attributes"]["TEXCOORD_1"] = json!(doc.floats(&uv1, "VEC2", 2));
+        prim["attributes"]["TEXCOORD_1"] = json!(doc.floats(&uv1, "VEC2"));
     }
     prim
 }
@@ -639,8 +579,8 @@ fn quantized_mesh_renders_like_its_float_twin() {
     let le = |v: i16| v.to_le_bytes();
     let pb: Vec<u8> = pos.iter().flat_map(|p| [le(p[0]), le(p[1]), le(p[2]), [0, 0]].concat()).collect();
     let p = q.accessor(&pb, (I16, true), (4, "VEC3", 8));
-    q.accessors[p]["min"] = json!([-32767, -32767, 0]);
-    q.accessors[p]["max"] = json!([32767, 32767, 0]);
+    q.buf.accessors[p]["min"] = json!([-32767, -32767, 0]);
+    q.buf.accessors[p]["max"] = json!([32767, 32767, 0]);
     let n = q.accessor(&[0, 0, 127, 0].repeat(4), (I8, true), (4, "VEC3", 4));
     let t = q.accessor(&[127, 0, 0, 129].repeat(4), (I8, true), (4, "VEC4", 4));
     let u0b: Vec<u8> = uv0.iter().flat_map(|u| [u[0], u[1], 0, 0]).collect();
@@ -655,11 +595,11 @@ fn quantized_mesh_renders_like_its_float_twin() {
     // Float twin: the specification's dequantisation in f32.
     let mut f = Doc::default();
     let fp: Vec<f32> = pos.iter().flat_map(|p| p.map(|c| (f32::from(c) / 32767.0).max(-1.0))).collect();
-    let p = f.floats(&fp, "VEC3", 3);
-    let n = f.floats(&[0.0, 0.0, 1.0].repeat(4), "VEC3", 3);
-    let t = f.floats(&[1.0, 0.0, 0.0, -1.0].repeat(4), "VEC4", 4);
-    let u0 = f.floats(&uv0.iter().flat_map(|u| u.map(f32::from)).collect::<Vec<_>>(), "VEC2", 2);
-    let u1 = f.floats(&uv1.iter().flat_map(|u| u.map(|c| f32::from(c) / 65535.0)).collect::<Vec<_>>(), "VEC2", 2);
+    let p = f.floats(&fp, "VEC3");
+    let n = f.floats(&[0.0, 0.0, 1.0].repeat(4), "VEC3");
+    let t = f.floats(&[1.0, 0.0, 0.0, -1.0].repeat(4), "VEC4");
+    let u0 = f.floats(&uv0.iter().flat_map(|u| u.map(f32::from)).collect::<Vec<_>>(), "VEC2");
+    let u1 = f.floats(&uv1.iter().flat_map(|u| u.map(|c| f32::from(c) / 65535.0)).collect::<Vec<_>>(), "VEC2");
     let i = f.indices(&[0, 1, 2, 0, 2, 3]);
     let fm = material(&mut f);
     let fprim = json!({"attributes": {"POSITION": p, "NORMAL": n, "TANGENT": t, "TEXCOORD_0": u0, "TEXCOORD_1": u1}, "indices": i});
@@ -759,4 +699,76 @@ fn scenes_without_material_maps_get_no_extra_paths() {
     emissive.materials[0].emissive = [1.0, 0.0, 0.0];
     let emission_only = MaterialFeatures { emissive: true, ..Default::default() };
     assert_eq!(check("emissive floor", &emissive, emission_only), 0);
+}
+
+// ---- the README's normal-mapped asset ----
+
+/// Where the README's normal-mapped model lives (relative to the workspace root).
+const STUDS_ASSET: &str = "assets/normal-mapped/studs.gltf";
+
+/// Texels of the studs' normal map a side, and studs a side.
+const STUDS_TEXELS: u32 = 128;
+const STUDS_PER_SIDE: u32 = 4;
+
+/// The studs' tangent-space normal map: a `STUDS_PER_SIDE`^2 grid of round studs (each a
+/// spherical cap leaning up to 53 degrees at its rim) on a flat ground, RGBA8, glTF's
+/// convention (+X right, +Y up the image, +Z out of the surface).
+fn studs_normal_map() -> Vec<u8> {
+    let cell = (STUDS_TEXELS / STUDS_PER_SIDE) as f32;
+    let radius = 0.4 * cell;
+    let mut rgba = Vec::with_capacity((STUDS_TEXELS * STUDS_TEXELS * 4) as usize);
+    for y in 0..STUDS_TEXELS {
+        for x in 0..STUDS_TEXELS {
+            // Offset from the centre of the texel's cell, in texels; image rows run down.
+            let c = |t: u32| (t as f32 + 0.5) % cell - 0.5 * cell;
+            let d = Vec2::new(c(x), -c(y)) / radius;
+            let xy = if d.length() < 1.0 { 0.8 * d } else { Vec2::ZERO };
+            let n = Vec3::new(xy.x, xy.y, (1.0 - xy.length_squared()).sqrt());
+            let byte = |v: f32| ((v * 0.5 + 0.5) * 255.0).round() as u8;
+            rgba.extend([byte(n.x), byte(n.y), byte(n.z), 255]);
+        }
+    }
+    rgba
+}
+
+/// The README's normal-mapped model: a 2 m square facing +Z (the materials tests' quad),
+/// warm grey and fairly smooth, with [`studs_normal_map`] sampled linearly; no tangents in
+/// the file (MikkTSpace makes them). Written to `dir` as `studs.gltf`, everything embedded.
+fn studs_gltf(dir: &Path) -> PathBuf {
+    let mut doc = Doc::default();
+    let prim = quad(&mut doc, false);
+    let tex = doc.texture(STUDS_TEXELS, STUDS_TEXELS, &studs_normal_map(), (REPEAT, REPEAT));
+    // Linear filtering: the studs' rims are smooth, not texel steps.
+    doc.samplers[0] = json!({"magFilter": LINEAR, "minFilter": LINEAR, "wrapS": REPEAT, "wrapT": REPEAT});
+    let material = json!({
+        "name": "studded plate",
+        "pbrMetallicRoughness": {"baseColorFactor": [0.75, 0.72, 0.68, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.45},
+        "normalTexture": {"index": tex, "scale": 1.0}
+    });
+    doc.write(dir, "studs", prim, material, &[])
+}
+
+/// The asset in `assets/` is what [`studs_gltf`] writes (compared as loaded: geometry,
+/// material and the normal map's texels; PNG bytes may differ between encoder versions).
+/// `TILEDLIGHT_WRITE_ASSETS=1` writes it again. No GPU needed.
+#[test]
+fn the_readme_normal_mapped_asset_is_current() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let asset = root.join(STUDS_ASSET);
+    let dir = tempfile::tempdir().unwrap();
+    let made = studs_gltf(dir.path());
+    if std::env::var_os("TILEDLIGHT_WRITE_ASSETS").is_some() {
+        std::fs::create_dir_all(asset.parent().unwrap()).unwrap();
+        std::fs::copy(&made, &asset).unwrap();
+        eprintln!("wrote {}", asset.display());
+    }
+    let (expected, found) = (load(&made), load(&asset));
+    assert_eq!(found.meshes, expected.meshes, "{}: geometry differs", asset.display());
+    assert_eq!(found.materials, expected.materials, "{}: material differs", asset.display());
+    assert_eq!(found.textures, expected.textures, "{}: normal map differs", asset.display());
+    // The studs really lean: the map's texels span +-0.8 in x and y.
+    let m = studs_normal_map();
+    let xs: Vec<u8> = m.chunks_exact(4).map(|t| t[0]).collect();
+    assert!(xs.iter().min() < Some(&30) && xs.iter().max() > Some(&225), "{:?}", (xs.iter().min(), xs.iter().max()));
+    assert!(found.meshes[0].tangents.len() == 4, "MikkTSpace tangents for the normal map");
 }

@@ -25,7 +25,8 @@
 //! A setting whose frames dropped lights (a light grid full, [`crate::dropped`]) gets a
 //! `warning:` line, the columns `dropped_frames`, `dropped_lights`, `dropped_lists` (over
 //! its measured frames read back; `overflowing_lists` is the compared frame's) and a red
-//! ring on the chart; `--strict` fails once the CSV and the chart are written. A lost device
+//! ring on the chart; `--strict` fails once the CSV and the chart are written. The column
+//! `load_warnings` holds the scene's load warnings (a missing texture...). A lost device
 //! (or out of GPU memory) ends the run naming it; the settings measured so far stay in the
 //! CSV and the same command resumes after them.
 //!
@@ -112,7 +113,7 @@ pub enum ReferenceArg {
 }
 
 const HEAD: [&str; 3] = ["adapter", "width", "height"];
-const TAIL: [&str; 24] = [
+const TAIL: [&str; 25] = [
     "total_ms",
     "passes",
     "psnr_db",
@@ -127,6 +128,7 @@ const TAIL: [&str; 24] = [
     "dropped_frames",
     "dropped_lights",
     "dropped_lists",
+    dropped::LOAD_WARNINGS_COLUMN,
     "false_positive_rate",
     "wasted_per_pixel",
     "evaluated_per_pixel",
@@ -168,7 +170,10 @@ fn reference_key(a: &Settings, reference: ReferenceArg) -> String {
     // With the cutoff the radii, so the threshold, shape the reference too; lights on
     // surfaces take their radius from k and their intensity from the threshold, so both
     // always shape it.
-    let threshold = if reference == ReferenceArg::Cutoff || a.placement.on_surfaces() {
+    // A loaded scene's random lights have radii fitted to it and intensities from the
+    // threshold, wherever they are placed.
+    let fitted = matches!(a.scene, tiledlight_setup::SceneSource::File(_));
+    let threshold = if reference == ReferenceArg::Cutoff || a.placement.on_surfaces() || fitted {
         format!("{}|{:?}|", a.threshold, a.placement)
     } else {
         String::new()
@@ -177,10 +182,11 @@ fn reference_key(a: &Settings, reference: ReferenceArg) -> String {
         if a.has_shadows() { format!("{:?}|{:?}", a.shadow_casters(), a.shadow_options()) } else { String::new() };
     threshold
         + &format!(
-            "{}|{}|{}|{:?}|{:?}|{:?}|{}|{}x{}|{}|{}|{shadows}",
+            "{}|{}|{}|{}|{:?}|{:?}|{:?}|{}|{}x{}|{}|{}|{shadows}",
             a.scene,
             a.grid_objects,
             a.transparent_objects,
+            a.emissive,
             a.density,
             a.lights,
             a.spot_lights,
@@ -488,6 +494,7 @@ fn measure_setting(
             opt(stats.as_ref().map(|s| s.overflowing.to_string())),
         ]);
         row.extend(dropped.csv());
+        row.push(dropped::load_warnings_cell(&p.scene_warnings));
         row.extend([
             opt(q.map(|q| f(q.false_positive_rate, 6))),
             opt(q.map(|q| f(q.wasted_per_pixel, 4))),

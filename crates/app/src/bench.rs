@@ -22,7 +22,8 @@
 //! Frames that dropped lights (a light grid full: see [`crate::dropped`]) are counted from
 //! the light-grid headers read back (the opaque grid's and the blended geometry's): the
 //! table marks the times as those of incomplete frames, the JSON has `dropped_frames`,
-//! `dropped_lights`, `dropped_lists` (and `blended_dropped_*`), a `warning:` line goes to
+//! `dropped_lights`, `dropped_lists` (and `blended_dropped_*`) and the scene's
+//! `load_warnings`, a `warning:` line goes to
 //! stderr, and `--strict` makes it an error once the JSON is written.
 //!
 //! A lost device or an out-of-memory error ends the frame loop with the named error
@@ -410,6 +411,9 @@ struct BenchJson {
     blended_dropped_lights: Option<u64>,
     /// The blended geometry's lists that lost lights, summed likewise.
     blended_dropped_lists: Option<u64>,
+    /// What the scene was drawn despite (a missing texture, an unknown extension...), one
+    /// sentence each naming the file, as the `warning:` lines say (empty: none).
+    load_warnings: Vec<String>,
     /// Whether the lights moved before every frame (`--move-lights`).
     move_lights: bool,
     /// Shadow faces drawn per measured frame, smallest and largest (null without shadow
@@ -463,6 +467,8 @@ struct ConfigJson {
     shadow_filter: u32,
     shadow_format: &'static str,
     transparent_objects: u32,
+    /// The default scene's banners glow (`--emissive`: the emission target exists).
+    emissive: bool,
     commit: String,
 }
 
@@ -553,6 +559,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 shadow_filter: a.shadow_filter,
                 shadow_format: a.shadow_format.name(),
                 transparent_objects: a.transparent_objects,
+                emissive: a.emissive,
                 commit: commit_hash(),
             },
             frames: args.frames,
@@ -572,6 +579,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             frames_read_back: dropped.frames_read(),
             blended_dropped_lights: dropped.blended.map(|g| g.pairs),
             blended_dropped_lists: dropped.blended.map(|g| g.lists),
+            load_warnings: prep.scene_warnings.clone(),
             move_lights: args.move_lights,
             shadow_faces_per_frame: m.shadow_faces_range().map(|(min, max)| MinMax { min, max }),
             shadow_atlas_bytes: atlas.map(|a| a.memory.total()),

@@ -2,7 +2,9 @@
 //! opaque geometry's and the alpha-blended geometry's own), as the one `warning:` line a
 //! command prints on stderr ([`warn`]), the fields of bench's `--json` and the lab's CSV
 //! columns, the marks of tables and charts, and `--strict`, which makes any warning an
-//! error with a non-zero exit once the output files are written ([`strict`]).
+//! error with a non-zero exit once the output files are written ([`strict`]). The scene's
+//! load warnings (a missing texture...) travel next to them as a field of their own
+//! ([`load_warnings_cell`]).
 //!
 //! A light grid drops (list, light) pairs only when its index buffer is full and cannot
 //! grow: a fixed budget (the hidden `--grid-budget` flag) or the device's largest storage
@@ -17,6 +19,15 @@ use serde::Serialize;
 use tiledlight_gpu::light_grid::GridStatus;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_setup::{group_digits, Prepared};
+
+/// The lab CSVs' column of the scene's load warnings, next to the `dropped_*` columns.
+pub const LOAD_WARNINGS_COLUMN: &str = "load_warnings";
+
+/// The [`LOAD_WARNINGS_COLUMN`] cell: the scene's load warnings (`Prepared::scene_warnings`,
+/// each printed as a `warning:` line when the scene loaded) joined by " | "; empty for none.
+pub fn load_warnings_cell(warnings: &[String]) -> String {
+    warnings.join(" | ")
+}
 
 /// What one light grid lost over the frames whose header was read back.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
@@ -206,6 +217,12 @@ pub fn strict(strict: bool, warnings: usize) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn load_warnings_share_one_cell() {
+        assert_eq!(load_warnings_cell(&[]), "");
+        assert_eq!(load_warnings_cell(&["a.gltf: x".into(), "a.gltf: y".into()]), "a.gltf: x | a.gltf: y");
+    }
     use tiledlight_gpu::light_grid::LightGridHeader;
 
     fn status(pairs: u32, capacity: u32) -> GridStatus {

@@ -218,7 +218,9 @@ pub struct SceneArgs {
     /// lights are added to its own lights only when this or --spot-lights is given].
     #[arg(long, value_name = "N")]
     pub lights: Option<u64>,
-    /// Random spot lights [default: 0].
+    /// Random spot lights [default: 0]. A glTF scene's go near its surfaces, aimed at them
+    /// (never past the first geometry above), their radius following its area and the
+    /// count; the default scene's (and with --lights-in-bounds) go in the bounds.
     #[arg(long, value_name = "N")]
     pub spot_lights: Option<u64>,
     /// A named configuration: `million` is 1,000,000 point lights on the surfaces (see
@@ -235,9 +237,9 @@ pub struct SceneArgs {
     /// its surface area and the count).
     #[arg(long)]
     pub lights_on_surfaces: bool,
-    /// Place a glTF scene's random point lights uniformly in its bounds instead, with radii
-    /// from the threshold alone (1.5-4 m at the default: the built-in courtyard's lights,
-    /// too large for a model of a few metres).
+    /// Place a glTF scene's random point and spot lights uniformly in its bounds instead,
+    /// with radii fitted to the bounds and the count (8 lights reaching a surface point on
+    /// average; the built-in courtyard's keep TiledLighting11's 1.5-4 m).
     #[arg(long, conflicts_with_all = ["lights_on_surfaces", "lights_per_pixel", "light_preset"])]
     pub lights_in_bounds: bool,
     /// Mean number of surface lights reaching a pixel's surface point, the radius dial of
@@ -261,6 +263,10 @@ pub struct SceneArgs {
     /// blended on their own).
     #[arg(long, default_value_t = 0, value_name = "N")]
     pub transparent_objects: u32,
+    /// The default scene's banners glow in their colour (emissive materials: Tiled
+    /// Deferred's G-buffer gets its emission target; for measuring its cost).
+    #[arg(long)]
+    pub emissive: bool,
     /// Image width in pixels.
     #[arg(long, default_value_t = 1920, value_name = "W")]
     pub width: u32,
@@ -392,6 +398,7 @@ impl Default for SceneArgs {
             grid_objects: d.grid_objects,
             density: d.density.into(),
             transparent_objects: d.transparent_objects,
+            emissive: d.emissive,
             width: d.width,
             height: d.height,
             method: d.method.into(),
@@ -459,6 +466,7 @@ impl SceneArgs {
             grid_objects: self.grid_objects,
             density: self.density.into(),
             transparent_objects: self.transparent_objects,
+            emissive: self.emissive,
             width: self.width,
             height: self.height,
             method: self.method.into(),
@@ -640,6 +648,7 @@ mod tests {
             grid_objects: 0,
             density: GridDensity::High,
             transparent_objects: 0,
+            emissive: false,
             width: 64,
             height: 36,
             method: Method::Deferred,

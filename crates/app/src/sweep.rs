@@ -9,7 +9,8 @@
 //!
 //! A point whose measured frames dropped lights (a light grid full, [`crate::dropped`]) gets
 //! a `warning:` line, its CSV rows say how many (`dropped_frames`, `dropped_lights`,
-//! `dropped_lists`), and the chart rings it in red as the time of incomplete frames;
+//! `dropped_lists`; the scene's load warnings in `load_warnings`), and the chart rings it
+//! in red as the time of incomplete frames;
 //! `--strict` fails once the CSV and the chart are written. A lost device (or out of GPU
 //! memory) ends the run naming it; the points measured so far stay in the CSV and the same
 //! command resumes after them.
@@ -102,8 +103,9 @@ pub struct SweepArgs {
 /// The columns before the axes and after them (per pass).
 const HEAD: [&str; 3] = ["adapter", "width", "height"];
 /// `dropped_*`: over the point's measured frames whose light-grid headers were read back
-/// (opaque and blended grids together; empty for a method without a grid).
-const TAIL: [&str; 11] = [
+/// (opaque and blended grids together; empty for a method without a grid);
+/// `load_warnings`: the scene's ([`dropped::load_warnings_cell`]).
+const TAIL: [&str; 12] = [
     "triangles",
     "mean_lights_per_tile",
     "max_lights_per_tile",
@@ -115,6 +117,7 @@ const TAIL: [&str; 11] = [
     "dropped_frames",
     "dropped_lights",
     "dropped_lists",
+    dropped::LOAD_WARNINGS_COLUMN,
 ];
 /// The pseudo-pass holding the sum of the pass medians.
 pub const TOTAL: &str = "total";
@@ -312,6 +315,7 @@ fn measure_point(
     let dropped = m.dropped();
     for r in &mut rows {
         r.extend(dropped.csv());
+        r.push(dropped::load_warnings_cell(&p.scene_warnings));
     }
     csv.append(&rows)?;
     let mark = dropped.mark().map(|d| format!(" ({d}: incomplete frames)")).unwrap_or_default();

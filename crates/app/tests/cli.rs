@@ -338,6 +338,25 @@ fn gltf_warnings_strict_and_file_confinement() {
     assert_eq!(warnings, [expected.as_str()], "stderr:\n{err}");
     assert_eq!(image::image_dimensions(&png).unwrap(), (64, 36), "the render goes on");
 
+    // The warning is a field of bench's JSON and a column of sweep's CSV too.
+    let json = dir.join("w.json");
+    let bench = ["bench", "--scene", scene.to_str().unwrap(), "--width", "64", "--height", "36"];
+    let mut b = bench.to_vec();
+    b.extend(["--frames", "2", "--warmup", "0", "--json", json.to_str().unwrap()]);
+    gpu_run(&b);
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let text = expected.strip_prefix("warning: ").unwrap();
+    assert_eq!(v["load_warnings"], serde_json::json!([text]), "{v}");
+    let csv_path = dir.join("w.csv");
+    let mut sweep = bench.to_vec();
+    sweep[0] = "sweep";
+    sweep.extend(["--axis", "lights=2", "--frames", "2", "--warmup", "0", "--out", csv_path.to_str().unwrap()]);
+    gpu_run(&sweep);
+    let mut r = csv::Reader::from_path(&csv_path).unwrap();
+    let col = r.headers().unwrap().iter().position(|h| h == "load_warnings").expect("a load_warnings column");
+    let rows: Vec<csv::StringRecord> = r.records().map(Result::unwrap).collect();
+    assert!(!rows.is_empty() && rows.iter().all(|row| &row[col] == text), "{rows:?}");
+
     let mut strict = args.to_vec();
     strict.push("--strict");
     let line = fails(&strict);

@@ -6,9 +6,11 @@
 //! - [`default_scene`]: a procedural Sponza-like courtyard (about 250k triangles) plus
 //!   TiledLighting11's grid objects, some of them alpha-blended glass;
 //! - [`shadow_box_scene`]: a cube on or above a floor, for the shadow tests;
-//! - [`random_lights`]: deterministic random point and spot lights;
+//! - [`random_lights`]: deterministic random point and spot lights, the courtyard's radii
+//!   or radii fitted to a box and the count ([`fitted_intensity_range`]);
 //! - [`SurfaceSampler`]: point lights on the scene's surfaces, their radius following
-//!   the count ([`surface_light_radius`]), for the million-light preset;
+//!   the count ([`surface_light_radius`]), for the million-light preset and loaded scenes;
+//!   spot lights near the surfaces aimed at them ([`SurfaceSampler::spot_lights`]);
 //! - [`load_gltf_with`] (and the strict [`load_gltf`], and [`load_gltf_bytes`] for bytes in
 //!   memory): glTF 2.0 files (.gltf/.glb) with KHR_lights_punctual, metallic-roughness
 //!   materials in full (base colour, metallic-roughness, normal, occlusion and emissive
@@ -30,7 +32,10 @@ mod procedural;
 mod surface_lights;
 
 pub use error::SceneError;
-pub use lights::{random_lights, LightOptions, DEFAULT_INTENSITY_RANGE, DEFAULT_LIGHT_THRESHOLD, MAX_LIGHTS};
+pub use lights::{
+    bounds_light_radius, fitted_intensity_range, mean_cube_radius, random_lights, LightOptions,
+    DEFAULT_INTENSITY_RANGE, DEFAULT_LIGHT_THRESHOLD, MAX_LIGHTS,
+};
 pub use loader::{
     load_gltf, load_gltf_bytes, load_gltf_with, LoadLimits, LoadOptions, Loaded, MAX_IMAGE_BYTES, MAX_SCENE_BYTES,
     MAX_TEXTURE_BYTES, MAX_WORLD_COORDINATE, SUPPORTED_EXTENSIONS,
@@ -41,7 +46,7 @@ pub use model::{
 };
 pub use procedural::{default_scene, shadow_box_scene, DefaultSceneOptions, GridDensity, MAX_GRID_OBJECTS};
 pub use surface_lights::{
-    surface_irradiance_factor, surface_light_radius, SurfaceLightOptions, SurfaceLights, SurfaceSampler,
-    DEFAULT_SURFACE_OFFSET,
+    surface_irradiance_factor, surface_light_radius, surface_spot_radius, SurfaceLightOptions, SurfaceLights,
+    SurfaceSampler, DEFAULT_SPOT_OFFSET, DEFAULT_SURFACE_OFFSET,
 };
 pub use tiledlight_cull::{Light, LightKind};

@@ -1,5 +1,7 @@
 //! Random light sets for the stress tests: point and spot lights uniform in a box, with
-//! saturated colours and intensities that give radii of a few metres. Deterministic per
+//! saturated colours and intensities that give radii of a few metres (the built-in
+//! courtyard's lights), or radii fitted to any box's size and the light count
+//! ([`fitted_intensity_range`]: the same draws, intensities scaled). Deterministic per
 //! seed; point and spot lights come from separate random streams so changing one count
 //! never changes the other kind. Depends on glam, rand, rand_pcg, tiledlight-cull and
 //! this crate's model and error modules.
@@ -28,6 +30,61 @@ pub const DEFAULT_INTENSITY_RANGE: (f32, f32) = (0.225, 1.6);
 /// Fraction of the bounds' size kept clear on each side, so lights sit inside the
 /// walls rather than in them.
 const BOUNDS_MARGIN: f32 = 0.05;
+
+/// Mean-cube radius of intensities uniform in `range` at `threshold`: the radius `r` with
+/// `r^3 = E[(I / threshold)^1.5]`, the one whose sphere volume is the lights' mean (so the
+/// mean number of lights reaching a point of a box they fill uniformly). 3.09 m for
+/// [`DEFAULT_INTENSITY_RANGE`] at [`DEFAULT_LIGHT_THRESHOLD`].
+pub fn mean_cube_radius(range: (f32, f32), threshold: f32) -> f32 {
+    let (a, b) = (f64::from(range.0), f64::from(range.1));
+    // E[I^1.5] for I uniform in [a, b]: (b^2.5 - a^2.5) / (2.5 (b - a)).
+    let mean = if b > a { (b.powf(2.5) - a.powf(2.5)) / (2.5 * (b - a)) } else { a.powf(1.5) };
+    (mean / f64::from(threshold).powf(1.5)).cbrt() as f32
+}
+
+/// The radius that puts `k` lights, on average, within reach of a surface point when
+/// `count` lights fill `bounds` (shrunk by [`random_lights`]' 5% margin) uniformly.
+///
+/// Derivation: the lights have density `s = count / V`. A surface point inside the box sees
+/// the lights in the half ball in front of it: `k = s * 2/3 pi r^3`, so
+/// `r = cbrt(3 k V / (2 pi count))`. A flat box (a floor, a façade) holds them in a slab
+/// thinner than `r`, where a point sees a disc of the slab instead: `k = count / A * pi r^2`
+/// with `A` the box's largest face, `r = sqrt(k A / (pi count))`; the larger of the two
+/// holds in both cases (at a thickness of `r` the disc gives 2/3 of the ball's count). Each
+/// side is counted as at least 1/1000 of the largest, so a box flat in one axis still gets
+/// a radius.
+///
+/// NaN for invalid or point-like bounds, no lights, or a `k` that is not finite and
+/// positive.
+pub fn bounds_light_radius(bounds: &Aabb, count: u32, k: f32) -> f32 {
+    let size = bounds.size().as_dvec3() * (1.0 - 2.0 * f64::from(BOUNDS_MARGIN));
+    let largest = size.max_element();
+    if !(bounds.is_valid() && largest > 0.0 && largest.is_finite() && count > 0 && k.is_finite() && k > 0.0) {
+        return f32::NAN;
+    }
+    let s = size.max(glam::DVec3::splat(largest * 1e-3));
+    let (n, k) = (f64::from(count), f64::from(k));
+    let volume = s.x * s.y * s.z;
+    let face = (s.x * s.y).max(s.y * s.z).max(s.x * s.z);
+    let ball = (3.0 * k * volume / (2.0 * std::f64::consts::PI * n)).cbrt();
+    let slab = (k * face / (std::f64::consts::PI * n)).sqrt();
+    ball.max(slab) as f32
+}
+
+/// The intensity range that makes [`random_lights`] fit `bounds`: [`DEFAULT_INTENSITY_RANGE`]
+/// scaled so that the lights' [`mean_cube_radius`] is [`bounds_light_radius`] of `bounds`,
+/// `count` and `k`. The same draws as the courtyard's lights (positions, colours, the
+/// spread of radii: 0.49 to 1.29 times that radius), only brighter or dimmer; intensities
+/// scale with `threshold`, so the radii do not depend on it. None when there is no such
+/// radius (see [`bounds_light_radius`]).
+pub fn fitted_intensity_range(bounds: &Aabb, count: u32, k: f32, threshold: f32) -> Option<(f32, f32)> {
+    let r = bounds_light_radius(bounds, count, k);
+    let unit = mean_cube_radius(DEFAULT_INTENSITY_RANGE, 1.0);
+    // Radii are sqrt(I / threshold): scaling I by c^2 * threshold scales them by c.
+    let scale = threshold * (r / unit).powi(2);
+    let range = (DEFAULT_INTENSITY_RANGE.0 * scale, DEFAULT_INTENSITY_RANGE.1 * scale);
+    (scale.is_finite() && scale > 0.0 && range.1.is_finite()).then_some(range)
+}
 
 /// Options of [`random_lights`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -245,6 +302,56 @@ mod tests {
         // A flat box (a plane scene) still works.
         let flat = Aabb::new(Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 1.0));
         assert_eq!(random_lights(&flat, &LightOptions { num_point: 10, ..none }).unwrap().len(), 10);
+    }
+
+    #[test]
+    fn fitted_radii_follow_the_size_and_the_count() {
+        let cube = |side: f32| Aabb::new(Vec3::ZERO, Vec3::splat(side));
+        let radii = |bounds: &Aabb, count: u32| {
+            let range = fitted_intensity_range(bounds, count, 8.0, DEFAULT_LIGHT_THRESHOLD).unwrap();
+            let opts = LightOptions { num_point: count, intensity_range: range, ..LightOptions::default() };
+            random_lights(bounds, &opts).unwrap().iter().map(|l| l.radius).collect::<Vec<_>>()
+        };
+        // A 2 m model and a 100 m scene: the same lights, radii 50 times as large.
+        let (small, large) = (radii(&cube(2.0), 1024), radii(&cube(100.0), 1024));
+        for (s, l) in small.iter().zip(&large) {
+            assert!((l / s - 50.0).abs() < 50.0 * 1e-4, "{s} vs {l}");
+        }
+        // The radii keep the courtyard's spread around the fitted radius (0.49 to 1.29 of it).
+        let r = bounds_light_radius(&cube(2.0), 1024, 8.0);
+        let (lo, hi) = small.iter().fold((f32::MAX, 0f32), |(a, b), &x| (a.min(x), b.max(x)));
+        assert!(lo >= 0.48 * r && hi <= 1.30 * r && hi > 1.2 * r && lo < 0.6 * r, "{lo}..{hi} around {r}");
+        // Their mean cube is the fitted radius, within the sampling error of 1024 draws (~3%).
+        let mean_cube = (small.iter().map(|x| f64::from(x.powi(3))).sum::<f64>() / small.len() as f64).cbrt();
+        assert!((mean_cube as f32 / r - 1.0).abs() < 0.03, "{mean_cube} vs {r}");
+        // Eight times the lights in the same box: half the radius (the ball formula).
+        let r8 = bounds_light_radius(&cube(2.0), 8 * 1024, 8.0);
+        assert!((r / r8 - 2.0).abs() < 1e-4, "{r} {r8}");
+        // The threshold sets intensities, not radii.
+        let dim = fitted_intensity_range(&cube(2.0), 1024, 8.0, 0.01).unwrap();
+        let bright = fitted_intensity_range(&cube(2.0), 1024, 8.0, 1.0).unwrap();
+        assert!((bright.1 / dim.1 - 100.0).abs() < 1e-2);
+        // k lights per point: the ball formula solved back.
+        let v = 1.8f64.powi(3);
+        let k = 1024.0 / v * 2.0 / 3.0 * std::f64::consts::PI * f64::from(r).powi(3);
+        assert!((k - 8.0).abs() < 1e-3, "k {k}");
+    }
+
+    #[test]
+    fn a_flat_box_gets_the_slab_radius_and_bad_boxes_none() {
+        // A 100 m x 100 m floor: the slab formula, k = n / A * pi r^2.
+        let floor = Aabb::new(Vec3::new(-50.0, 0.0, -50.0), Vec3::new(50.0, 0.0, 50.0));
+        let r = bounds_light_radius(&floor, 1000, 8.0);
+        let a = 90.0f64 * 90.0;
+        assert!((f64::from(r) - (8.0 * a / (std::f64::consts::PI * 1000.0)).sqrt()).abs() < 1e-3, "{r}");
+        assert!(bounds_light_radius(&Aabb::empty(), 10, 8.0).is_nan());
+        assert!(bounds_light_radius(&Aabb::new(Vec3::ONE, Vec3::ONE), 10, 8.0).is_nan());
+        assert!(bounds_light_radius(&floor, 0, 8.0).is_nan());
+        assert!(bounds_light_radius(&floor, 10, 0.0).is_nan());
+        assert_eq!(fitted_intensity_range(&Aabb::empty(), 10, 8.0, 0.1), None);
+        // The courtyard's own range: a mean-cube radius of 3.09 m.
+        let m = mean_cube_radius(DEFAULT_INTENSITY_RANGE, DEFAULT_LIGHT_THRESHOLD);
+        assert!((m - 3.093).abs() < 1e-3, "{m}");
     }
 
     #[test]

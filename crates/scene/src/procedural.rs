@@ -61,12 +61,17 @@ pub struct DefaultSceneOptions {
     /// How many of the grid objects are glass (an alpha-blended material, see
     /// [`default_scene`]), 0 to `grid_objects`; spread evenly over the grid.
     pub transparent_objects: u32,
+    /// The banners glow in their colour (an emissive factor equal to their base colour):
+    /// a scene with emission, so Tiled Deferred's G-buffer gets its emission target and
+    /// both methods their emission path, on the courtyard's geometry (the benchmark of that
+    /// cost: the same frame with and without it).
+    pub emissive_banners: bool,
 }
 
 impl Default for DefaultSceneOptions {
-    /// No grid objects, medium density, none transparent.
+    /// No grid objects, medium density, none transparent, no emission.
     fn default() -> Self {
-        Self { grid_objects: 0, density: GridDensity::Medium, transparent_objects: 0 }
+        Self { grid_objects: 0, density: GridDensity::Medium, transparent_objects: 0, emissive_banners: false }
     }
 }
 
@@ -508,6 +513,12 @@ pub fn default_scene(opts: &DefaultSceneOptions) -> Result<Scene, SceneError> {
     if opts.transparent_objects > 0 {
         materials.push(glass_material());
     }
+    if opts.emissive_banners {
+        for i in [M_FABRIC_RED, M_FABRIC_BLUE, M_FABRIC_GREEN] {
+            let [r, g, b, _] = materials[i].base_color;
+            materials[i].emissive = [r, g, b];
+        }
+    }
 
     let mut scene = Scene {
         name: "courtyard".to_owned(),
@@ -686,7 +697,12 @@ mod tests {
 
     #[test]
     fn default_scene_is_deterministic() {
-        let opts = DefaultSceneOptions { grid_objects: 17, density: GridDensity::Low, transparent_objects: 5 };
+        let opts = DefaultSceneOptions {
+            grid_objects: 17,
+            density: GridDensity::Low,
+            transparent_objects: 5,
+            ..Default::default()
+        };
         assert_eq!(default_scene(&opts).unwrap(), default_scene(&opts).unwrap());
     }
 
@@ -746,12 +762,42 @@ mod tests {
     }
 
     #[test]
+    fn emissive_banners_glow_in_their_colour_and_change_nothing_else() {
+        let plain = default_scene(&DefaultSceneOptions::default()).unwrap();
+        assert!(!plain.materials.iter().any(Material::is_emissive), "the courtyard emits nothing by default");
+        let lit = default_scene(&DefaultSceneOptions { emissive_banners: true, ..Default::default() }).unwrap();
+        lit.validate().unwrap();
+        let glowing: Vec<&str> = lit.materials.iter().filter(|m| m.is_emissive()).map(|m| m.name.as_str()).collect();
+        assert_eq!(glowing, ["red fabric", "blue fabric", "green fabric"]);
+        for m in lit.materials.iter().filter(|m| m.is_emissive()) {
+            assert_eq!(m.emissive, [m.base_color[0], m.base_color[1], m.base_color[2]], "{}", m.name);
+        }
+        // The banners are drawn: some instance uses each glowing material.
+        for i in [M_FABRIC_RED, M_FABRIC_BLUE, M_FABRIC_GREEN] {
+            assert!(lit.instances.iter().any(|inst| inst.material == i), "material {i} unused");
+        }
+        // Same geometry and bounds, the other materials alike.
+        assert_eq!(
+            (lit.meshes.len(), lit.instances.len(), lit.bounds),
+            (plain.meshes.len(), plain.instances.len(), plain.bounds)
+        );
+        let strip =
+            |s: &Scene| s.materials.iter().map(|m| Material { emissive: [0.0; 3], ..m.clone() }).collect::<Vec<_>>();
+        assert_eq!(strip(&lit), strip(&plain));
+    }
+
+    #[test]
     fn transparent_objects_are_glass_grid_objects() {
         let base =
             default_scene(&DefaultSceneOptions { grid_objects: 100, density: GridDensity::Low, ..Default::default() })
                 .unwrap();
         for (n, k) in [(0u32, 0u32), (1, 0), (1, 1), (7, 3), (10, 10), (100, 1), (100, 10), (280, 99), (280, 280)] {
-            let opts = DefaultSceneOptions { grid_objects: n, density: GridDensity::Low, transparent_objects: k };
+            let opts = DefaultSceneOptions {
+                grid_objects: n,
+                density: GridDensity::Low,
+                transparent_objects: k,
+                ..Default::default()
+            };
             let scene = default_scene(&opts).unwrap();
             scene.validate().unwrap();
             let (glass, grid) = blended_grid_instances(&scene);

@@ -5,6 +5,11 @@
 //! count so that the mean number of lights reaching a surface point stays at a target
 //! `k` however many lights there are ([`surface_light_radius`]).
 //!
+//! Spot lights of a loaded scene go near its surfaces too ([`SurfaceSampler::spot_lights`]):
+//! lifted off a sampled point, never past the first geometry above it, aimed back at the
+//! surface around that point, the radius following the count as for point lights
+//! ([`surface_spot_radius`]).
+//!
 //! Deterministic per seed; sampling is a CDF of triangle areas and a binary search per
 //! light (2^20 lights over a 250k-triangle scene take a fraction of a second in release).
 //! Depends on glam, rand, rand_pcg, tiledlight-cull ([`Light`]) and this crate's model,
@@ -28,6 +33,29 @@ pub const DEFAULT_SURFACE_OFFSET: f32 = 0.25;
 
 /// Stream tag of the surface lights (see `lights.rs`: streams differ in their increment).
 const SURFACE_STREAM: u64 = 0x0073_7572_6661_6365;
+
+/// Stream tag of the surface spot lights.
+const SURFACE_SPOT_STREAM: u64 = 0x7370_6f74_7375_7266;
+
+/// Default height of a surface spot light above its surface, as a fraction of its radius:
+/// high enough that its cone (15 to 45 degrees) lights a pool, not a dot; low enough that
+/// the pool stays inside its radius (the pool's edge is at most `0.5 r / cos 45 = 0.71 r`
+/// away).
+pub const DEFAULT_SPOT_OFFSET: f32 = 0.5;
+
+/// Outer half-angles of surface spot lights, degrees (the range [`crate::random_lights`]
+/// gives; inner = 0.7 * outer).
+const SPOT_OUTER_DEG: (f32, f32) = (15.0, 45.0);
+
+/// Most a surface spot light's axis leans away from its surface's normal, degrees.
+const SPOT_MAX_TILT_DEG: f32 = 30.0;
+
+/// Mean of `tan^2` of the outer half-angle, uniform over [`SPOT_OUTER_DEG`]:
+/// `(tan b - b - tan a + a) / (b - a)`, about 0.398.
+fn mean_tan_squared() -> f64 {
+    let (a, b) = (f64::from(SPOT_OUTER_DEG.0).to_radians(), f64::from(SPOT_OUTER_DEG.1).to_radians());
+    (b.tan() - b - a.tan() + a) / (b - a)
+}
 
 /// Options of [`SurfaceSampler::lights`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -98,6 +126,27 @@ pub fn surface_light_radius(area: f64, count: u32, k: f32, offset: f32) -> f32 {
     }
     let flat = 1.0 - f64::from(offset).powi(2);
     (f64::from(k) * area / (PI * f64::from(count) * flat)).sqrt() as f32
+}
+
+/// The radius of surface spot lights that puts `k` of their pools, on average, over a
+/// surface point when `count` of them are spread over `area` square metres, each
+/// `offset * radius` above its surface and aimed at it.
+///
+/// Derivation: a spot at height `h` aimed straight at a flat surface lights a disc of radius
+/// `h tan(outer)` (inside its radius while `offset <= 0.7`); with outer angles uniform in 15
+/// to 45 degrees the mean disc is `pi h^2 E[tan^2] = pi (offset r)^2 * 0.398`, so
+/// `k = count / area * pi offset^2 r^2 * 0.398` and
+/// `r = sqrt(k * area / (pi * count * offset^2 * 0.398))`. A tilted axis stretches the
+/// pool a little; a spot lowered to clear geometry above it lights a smaller one.
+///
+/// NaN for a non-positive or non-finite argument or `offset` outside `(0, 1)`.
+pub fn surface_spot_radius(area: f64, count: u32, k: f32, offset: f32) -> f32 {
+    let ok = area.is_finite() && area > 0.0 && count > 0 && k.is_finite() && k > 0.0 && offset > 0.0 && offset < 1.0;
+    if !ok {
+        return f32::NAN;
+    }
+    let pool = PI * f64::from(offset).powi(2) * mean_tan_squared();
+    (f64::from(k) * area / (f64::from(count) * pool)).sqrt() as f32
 }
 
 /// Mean irradiance on a flat surface covered by surface lights of colour 1, per light
@@ -220,6 +269,71 @@ impl SurfaceSampler {
             let (p, n, _) = self.sample(pick, u, v);
             let color = hue_color(rng.random::<f32>());
             lights.push(Light::point(p + lift * n, color, intensity, opts.threshold).map_err(wrap)?);
+        }
+        Ok(SurfaceLights { lights, radius, intensity, area })
+    }
+}
+
+impl SurfaceSampler {
+    /// `opts.count` spot lights near the surfaces, aimed at them: each at a point sampled by
+    /// area, lifted `opts.offset * radius` along its triangle's front normal but never more
+    /// than half way to the first geometry above it (so it is never inside a wall or an
+    /// object, however large the radius), its axis within 30 degrees of straight back at its
+    /// surface and hitting geometry within its radius (straight back when the leaning one
+    /// would miss: off the model's edge); outer half-angles 15 to 45 degrees, inner 0.7 of
+    /// outer; saturated hues as [`crate::random_lights`]; one radius,
+    /// [`surface_spot_radius`] of the total area, intensity `threshold * radius^2`.
+    ///
+    /// Builds a ray-casting hierarchy of the triangles for the clearance tests (a fraction
+    /// of a second for a few hundred thousand triangles in release).
+    ///
+    /// Errors, each naming the argument: as [`SurfaceSampler::lights`], and `offset` must be
+    /// in `(0, 1)`.
+    pub fn spot_lights(&self, opts: &SurfaceLightOptions) -> Result<SurfaceLights, SceneError> {
+        check(opts)?;
+        if opts.offset <= 0.0 {
+            return Err(SceneError::InvalidArgument(format!(
+                "surface spot lights: offset {} must be in (0, 1) (a fraction of the radius)",
+                opts.offset
+            )));
+        }
+        let area = self.area();
+        let radius = surface_spot_radius(area, opts.count, opts.lights_per_point, opts.offset);
+        let intensity = opts.threshold * radius * radius;
+        if !(radius.is_finite() && radius > 0.0 && intensity.is_finite() && intensity > 0.0) {
+            return Err(SceneError::InvalidArgument(format!(
+                "surface spot lights: radius {radius} m and intensity {intensity} from {} lights over {area} m^2 \
+                 with {} lights per point and threshold {} are not finite and positive",
+                opts.count, opts.lights_per_point, opts.threshold
+            )));
+        }
+        let bvh = tiledlight_cull::raycast::Triangles::new(self.triangles.clone());
+        let lift = opts.offset * radius;
+        let cos_max_tilt = SPOT_MAX_TILT_DEG.to_radians().cos();
+        let mut rng: Pcg64 = stream_rng(opts.seed, SURFACE_SPOT_STREAM);
+        let wrap = |e: tiledlight_cull::CullError| {
+            SceneError::InvalidArgument(format!("cannot build a surface spot light: {e}"))
+        };
+        let mut lights = Vec::with_capacity(opts.count as usize);
+        for _ in 0..opts.count {
+            let (pick, u, v) = (rng.random::<f64>(), rng.random::<f32>(), rng.random::<f32>());
+            let (p, n, _) = self.sample(pick, u, v);
+            // Start the clearance ray off the surface (it would hit its own triangle), by
+            // a step that is not lost to rounding far from the origin.
+            let step = (1e-4 * lift).max(4.0 * f32::EPSILON * p.abs().max_element());
+            let above = bvh.first_hit(p + step * n, n, 2.0 * lift).map_or(f32::INFINITY, |t| t + step);
+            let position = p + lift.min(0.5 * above) * n;
+            // Uniform over the cap of directions within 30 degrees of -n.
+            let cos_tilt = cos_max_tilt + (1.0 - cos_max_tilt) * rng.random::<f32>();
+            let sin_tilt = (1.0 - cos_tilt * cos_tilt).max(0.0).sqrt();
+            let azimuth = std::f32::consts::TAU * rng.random::<f32>();
+            let (t1, t2) = n.any_orthonormal_pair();
+            let leaning = -cos_tilt * n + sin_tilt * (azimuth.cos() * t1 + azimuth.sin() * t2);
+            let direction = if bvh.first_hit(position, leaning, radius).is_some() { leaning } else { -n };
+            let outer = (SPOT_OUTER_DEG.0 + (SPOT_OUTER_DEG.1 - SPOT_OUTER_DEG.0) * rng.random::<f32>()).to_radians();
+            let color = hue_color(rng.random::<f32>());
+            let light = Light::spot(position, direction, color, intensity, 0.7 * outer, outer, opts.threshold);
+            lights.push(light.map_err(wrap)?);
         }
         Ok(SurfaceLights { lights, radius, intensity, area })
     }
@@ -401,6 +515,92 @@ mod tests {
         // 2^20 lights is allowed.
         let max = s.lights(&SurfaceLightOptions { count: 1 << 20, ..o }).unwrap();
         assert_eq!(max.lights.len(), 1 << 20);
+    }
+
+    /// The 12 triangles of the box `min..max`, front faces outward (or inward: a room).
+    fn box_triangles(min: Vec3, max: Vec3, inward: bool) -> Vec<[Vec3; 3]> {
+        let (c, h) = ((min + max) * 0.5, (max - min) * 0.5);
+        let mut out = Vec::new();
+        for axis in 0..3 {
+            for sign in [-1.0f32, 1.0] {
+                let e = |i: usize| Vec3::AXES[i % 3];
+                let normal = e(axis) * sign * if inward { -1.0 } else { 1.0 };
+                let centre = c + e(axis) * sign * h[axis];
+                let (u, v) = (e(axis + 1) * h[(axis + 1) % 3], e(axis + 2) * h[(axis + 2) % 3]);
+                let q = [centre - u - v, centre + u - v, centre + u + v, centre - u + v];
+                for t in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
+                    let front = (t[1] - t[0]).cross(t[2] - t[0]).dot(normal) > 0.0;
+                    out.push(if front { t } else { [t[0], t[2], t[1]] });
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn spot_lights_stay_out_of_a_closed_box_s_walls_and_aim_at_geometry() {
+        use tiledlight_cull::raycast::Triangles;
+        use tiledlight_cull::LightKind;
+        // A 4 m room with 0.1 m walls: the inner box faces inward, the outer one outward.
+        let (inner, outer) = (2.0f32, 2.1f32);
+        let mut tris = box_triangles(Vec3::splat(-inner), Vec3::splat(inner), true);
+        tris.extend(box_triangles(Vec3::splat(-outer), Vec3::splat(outer), false));
+        let s = SurfaceSampler::new(tris.clone()).unwrap();
+        let bvh = Triangles::new(tris);
+        // 8 lights: a radius of ~25 m, far more than the room, so the lift must be cut; 3000:
+        // a radius under 1 m.
+        for count in [8, 3000] {
+            let opts = SurfaceLightOptions { count, offset: DEFAULT_SPOT_OFFSET, ..SurfaceLightOptions::default() };
+            let out = s.spot_lights(&opts).unwrap();
+            assert_eq!(out.lights.len(), count as usize);
+            println!("{count} spot lights: radius {:.3} m", out.radius);
+            let (mut in_room, mut lowered) = (0, 0);
+            for l in &out.lights {
+                let p = l.position;
+                let m = p.abs().max_element();
+                assert!(!(m > inner - 1e-4 && m < outer + 1e-4), "light at {p} in the walls (count {count})");
+                in_room += usize::from(m < inner);
+                let LightKind::Spot { direction, outer_angle, inner_angle } = l.kind else { panic!("not a spot") };
+                // Aimed at geometry within its radius.
+                let hit = bvh.first_hit(p, direction, l.radius);
+                assert!(hit.is_some(), "spot at {p} aims {direction} at nothing within {}", l.radius);
+                let deg = outer_angle.to_degrees();
+                assert!((15.0 - 1e-3..=45.0 + 1e-3).contains(&deg) && (inner_angle - 0.7 * outer_angle).abs() < 1e-6);
+                assert!((l.intensity - opts.threshold * out.radius * out.radius).abs() < 1e-4 * l.intensity);
+                // The lift is the offset's share of the radius, or half the way to the wall.
+                let lift = if m < inner { inner - m } else { m - outer };
+                lowered += usize::from(lift < 0.5 * out.radius - 1e-3);
+                assert!(lift <= 0.5 * out.radius + 1e-3, "lift {lift} of radius {}", out.radius);
+            }
+            // Inner faces hold 96 of 202 m^2: about half the lights are in the room.
+            assert!(in_room > 0 && in_room < count as usize, "{in_room} of {count} in the room");
+            if count == 8 {
+                // The room is 4 m across: every light inside it was lowered to at most 2 m.
+                assert!(lowered >= in_room, "{lowered} lowered, {in_room} in the room");
+            }
+        }
+    }
+
+    #[test]
+    fn spot_radii_follow_the_scene_s_size() {
+        // The same closed cube as a 2 m model and as a 100 m building.
+        let scene = |side: f32| SurfaceSampler::new(box_triangles(Vec3::ZERO, Vec3::splat(side), false)).unwrap();
+        let opts = SurfaceLightOptions { count: 256, offset: DEFAULT_SPOT_OFFSET, ..SurfaceLightOptions::default() };
+        let (small, large) = (scene(2.0).spot_lights(&opts).unwrap(), scene(100.0).spot_lights(&opts).unwrap());
+        assert!((large.radius / small.radius - 50.0).abs() < 50.0 * 1e-4, "{} {}", small.radius, large.radius);
+        for (a, b) in small.lights.iter().zip(&large.lights) {
+            assert!((b.position - 50.0 * a.position).length() < 1e-3 * 50.0, "{} vs {}", a.position, b.position);
+        }
+        // The formula: 256 spots, k = 8, offset 0.5, 24 m^2.
+        let expected = (8.0 * 24.0 / (256.0 * PI * 0.25 * mean_tan_squared())).sqrt();
+        assert!((f64::from(small.radius) - expected).abs() < 1e-5, "{} vs {expected}", small.radius);
+        assert!((mean_tan_squared() - 0.398).abs() < 1e-3, "{}", mean_tan_squared());
+        // Four times the spots: half the radius. Bad offsets are named.
+        assert!(
+            (surface_spot_radius(24.0, 256, 8.0, 0.5) / surface_spot_radius(24.0, 1024, 8.0, 0.5) - 2.0).abs() < 1e-5
+        );
+        let e = scene(2.0).spot_lights(&SurfaceLightOptions { offset: 0.0, ..opts }).unwrap_err().to_string();
+        assert!(e.contains("offset 0"), "{e}");
     }
 
     /// The estimate behind the million-light preset's `k`: the courtyard from its own

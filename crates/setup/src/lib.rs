@@ -38,7 +38,7 @@ pub mod stats;
 
 pub use animate::LightAnimator;
 pub use camera::{camera_from_desc, choose_camera, frame_bounds};
-pub use load::{LightSummary, SceneCpu, SurfacePlacement};
+pub use load::{BoundsFit, FittedLights, LightSummary, SceneCpu, SpotPlacement, SurfacePlacement};
 pub use prepared::Prepared;
 pub use rebuild::{rebuild_plan, Rebuild, Reload};
 pub use settings::{

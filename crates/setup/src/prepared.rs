@@ -23,7 +23,7 @@ use tiledlight_gpu::{ContextOptions, GpuContext, GpuError};
 use tiledlight_scene::{Aabb, CameraDesc, Light};
 
 use crate::camera::choose_camera;
-use crate::load::{build_lights, LightSummary, SceneCpu, SurfacePlacement, Surfaces};
+use crate::load::{build_lights, FittedLights, LightSummary, SceneCpu, SurfacePlacement, Surfaces};
 use crate::rebuild::{rebuild_plan, Rebuild, Reload};
 use crate::settings::{Method, Settings};
 use crate::stats::{blended_stats, culling_stats, group_digits, BlendedStats, CullingStats};
@@ -56,6 +56,8 @@ pub struct Prepared {
     pub file_lights: Vec<Light>,
     /// How the point lights were placed on the surfaces (None when they were not).
     pub surface_placement: Option<SurfacePlacement>,
+    /// How the other random lights of a loaded scene were fitted to it.
+    pub fitted: FittedLights,
     /// The current scene's load warnings ([`SceneCpu::warnings`]): replaced when
     /// [`Prepared::reconfigure`] reloads the scene, which callers should show then too.
     pub scene_warnings: Vec<String>,
@@ -159,6 +161,7 @@ impl Prepared {
             file_lights: cpu.scene.lights,
             scene_camera: cpu.scene.camera,
             surface_placement: cpu.surface_placement,
+            fitted: cpu.fitted,
             scene_warnings: cpu.warnings,
             surfaces: cpu.surfaces,
             gpu_errors,
@@ -224,6 +227,7 @@ impl Prepared {
         self.file_lights = cpu.scene.lights;
         self.scene_camera = cpu.scene.camera;
         self.surface_placement = cpu.surface_placement;
+        self.fitted = cpu.fitted;
         self.scene_warnings = cpu.warnings;
         self.surfaces = cpu.surfaces;
         Ok(())
@@ -236,7 +240,8 @@ impl Prepared {
     /// [`Reload::LightBuffers`] (renderers built before must be rebuilt). Nothing changes
     /// on error.
     fn replace_lights(&mut self, settings: &Settings, reload: Reload) -> Result<()> {
-        let (lights, placement) = build_lights(settings, &self.bounds, self.surfaces.as_deref(), &self.file_lights)?;
+        let built = build_lights(settings, &self.bounds, self.surfaces.as_deref(), &self.file_lights)?;
+        let lights = built.lights;
         let summary = LightSummary::of(&lights, self.file_lights.len());
         if reload == Reload::LightData {
             let same_shape = summary.point == self.light_summary.point && summary.spot == self.light_summary.spot;
@@ -274,7 +279,8 @@ impl Prepared {
             self.lights = upload_lights(&self.ctx, &lights, settings)?;
         }
         self.light_summary = summary;
-        self.surface_placement = placement;
+        self.surface_placement = built.surface_placement;
+        self.fitted = built.fitted;
         Ok(())
     }
 
@@ -386,22 +392,7 @@ impl Prepared {
         let a = &self.settings;
         let l = &self.light_summary;
         let mut lights = format!("{} point, {} spot", l.point, l.spot);
-        if let Some(p) = &self.surface_placement {
-            let exposure = if a.auto_exposure { "automatic".to_string() } else { format!("{:.3}", a.exposure) };
-            lights.push_str(&format!(
-                " (point lights: {p}; seed {}, threshold {}, exposure {exposure})",
-                a.seed, a.threshold
-            ));
-        }
-        match (l.from_file, l.random) {
-            (0, _) if self.surface_placement.is_some() => {}
-            (0, _) => lights.push_str(&format!(" (random, seed {}, threshold {})", a.seed, a.threshold)),
-            (f, 0) => lights.push_str(&format!(" (all {f} from the glTF file)")),
-            (f, r) => lights.push_str(&format!(
-                " ({f} from the glTF file + {r} random, seed {}, threshold {})",
-                a.seed, a.threshold
-            )),
-        }
+        lights.push_str(&lights_description(l, a, self.surface_placement.as_ref(), &self.fitted));
         let grid = tiledlight_cull::TileGrid::new(a.width, a.height, a.tile_size).ok();
         let mut res = format!("{}x{}", a.width, a.height);
         if let Some(g) = grid {
@@ -455,4 +446,34 @@ impl Prepared {
         }
         lines
     }
+}
+
+/// The parenthesis after the `lights:` counts: where the lights came from, and for
+/// random ones how they were chosen ("(random, seed 1, threshold 0.1)" for the courtyard's;
+/// with the placement and radii of each kind for a loaded scene's).
+pub(crate) fn lights_description(
+    l: &LightSummary,
+    a: &Settings,
+    surface: Option<&SurfacePlacement>,
+    fitted: &FittedLights,
+) -> String {
+    let source = match (l.from_file, l.random) {
+        (0, 0) => return String::new(),
+        (f, 0) => return format!(" (all {f} from the glTF file)"),
+        (0, _) => "random".to_string(),
+        (f, r) => format!("{f} from the glTF file + {r} random"),
+    };
+    let mut text = format!(" ({source}, seed {}, threshold {}", a.seed, a.threshold);
+    if let Some(p) = surface {
+        let exposure = if a.auto_exposure { "automatic".to_string() } else { format!("{:.3}", a.exposure) };
+        text.push_str(&format!(", exposure {exposure}; point lights: {p}"));
+    }
+    if let Some(s) = &fitted.spots {
+        text.push_str(&format!("; spot lights: {s}"));
+    }
+    if let Some(b) = &fitted.bounds {
+        text.push_str(&format!("; {b}"));
+    }
+    text.push(')');
+    text
 }

@@ -4,7 +4,7 @@
 //!
 //! | changed | reload | camera | renderer |
 //! | --- | --- | --- | --- |
-//! | scene, grid objects, density, transparent objects (threshold, strict, allow-any-path of a glTF scene), lights on surfaces on/off | scene + all lights | yes | yes |
+//! | scene, grid objects, density, transparent objects, emissive banners (threshold, strict, allow-any-path of a glTF scene), lights on surfaces on/off | scene + all lights | yes | yes |
 //! | random point/spot light counts | new light buffers (bind groups and list capacity follow the count) | | yes |
 //! | shadow-casting point/spot light counts | new light buffers (the casters are ordered first) | | yes |
 //! | seed, threshold, lights per surface point (same counts) | light data rewritten in place (renderers with shadows are told: `Renderer::lights_moved`) | | |
@@ -67,6 +67,7 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || a.grid_objects != b.grid_objects
         || a.density != b.density
         || a.transparent_objects != b.transparent_objects
+        || a.emissive != b.emissive
         // A glTF file's own lights get their radii from the threshold when it is loaded.
         || (file_scene && a.threshold != b.threshold)
         // How a glTF file is loaded: which files it may name, whether warnings fail it.

@@ -196,6 +196,9 @@ pub struct Settings {
     /// Grid objects drawn as alpha-blended glass spheres, 0 to `grid_objects` (the default
     /// scene only: a glTF file's `BLEND` materials are drawn blended on their own).
     pub transparent_objects: u32,
+    /// The default scene's banners glow (emissive materials: the G-buffer's emission
+    /// target and the emission path exist); the default scene only.
+    pub emissive: bool,
     /// Image width in pixels.
     pub width: u32,
     /// Image height in pixels.
@@ -282,6 +285,7 @@ impl Default for Settings {
             grid_objects: 0,
             density: GridDensity::Medium,
             transparent_objects: 0,
+            emissive: false,
             width: 1920,
             height: 1080,
             method: Method::ForwardPlus,
@@ -414,6 +418,11 @@ impl Settings {
                 self.transparent_objects
             ),
         }
+        ensure!(
+            !self.emissive || self.scene == SceneSource::Default,
+            "--emissive: the glowing banners exist only in the default scene (a glTF file's emissive materials \
+             glow on their own)"
+        );
         ensure!(
             TILE_SIZES.contains(&self.shadow_size),
             "--shadow-size {}: must be between {} and {} texels",

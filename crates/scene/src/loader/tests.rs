@@ -1,9 +1,10 @@
 //! glTF loader tests. Each test writes its own small glTF (JSON built with serde_json,
-//! binary buffers packed by hand) into a temporary directory, as .gltf with an external
-//! .bin, .gltf with a base64 data URI, or .glb.
+//! binary buffers packed with the shared test-support writer, tiledlight-gltf-writer) into
+//! a temporary directory, as .gltf with an external .bin, .gltf with a base64 data URI, or
+//! .glb.
 
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use glam::{Mat4, Vec3};
 use serde_json::{json, Value};
@@ -13,153 +14,7 @@ use super::load_gltf;
 use crate::error::SceneError;
 use crate::model::{AlphaMode, Filter, Material, Sampler, Scene, TextureRef, UvTransform, Wrap};
 
-const F32: u32 = 5126;
-const U16: u32 = 5123;
-const U32: u32 = 5125;
-
-/// A binary buffer with its buffer views and accessors, built up piece by piece.
-#[derive(Default)]
-struct Bin {
-    data: Vec<u8>,
-    views: Vec<Value>,
-    accessors: Vec<Value>,
-}
-
-impl Bin {
-    fn view(&mut self, bytes: &[u8]) -> usize {
-        while !self.data.len().is_multiple_of(4) {
-            self.data.push(0);
-        }
-        self.views.push(json!({"buffer": 0, "byteOffset": self.data.len(), "byteLength": bytes.len()}));
-        self.data.extend_from_slice(bytes);
-        self.views.len() - 1
-    }
-
-    fn floats(&mut self, values: &[f32], ty: &str) -> usize {
-        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
-        let view = self.view(&bytes);
-        let comps = match ty {
-            "VEC2" => 2,
-            "VEC3" => 3,
-            _ => 1,
-        };
-        let mut acc = json!({"bufferView": view, "componentType": F32, "count": values.len() / comps, "type": ty});
-        if ty == "VEC3" {
-            // POSITION accessors must carry min/max; NaNs are skipped (f32::min ignores them).
-            let mut min = [f32::MAX; 3];
-            let mut max = [f32::MIN; 3];
-            for v in values.chunks_exact(3) {
-                for c in 0..3 {
-                    min[c] = min[c].min(v[c]);
-                    max[c] = max[c].max(v[c]);
-                }
-            }
-            acc["min"] = json!(min);
-            acc["max"] = json!(max);
-        }
-        self.accessors.push(acc);
-        self.accessors.len() - 1
-    }
-
-    fn indices_u16(&mut self, values: &[u16]) -> usize {
-        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
-        let view = self.view(&bytes);
-        self.accessors.push(json!({"bufferView": view, "componentType": U16, "count": values.len(), "type": "SCALAR"}));
-        self.accessors.len() - 1
-    }
-
-    fn indices_u32(&mut self, values: &[u32]) -> usize {
-        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
-        let view = self.view(&bytes);
-        self.accessors.push(json!({"bufferView": view, "componentType": U32, "count": values.len(), "type": "SCALAR"}));
-        self.accessors.len() - 1
-    }
-
-    /// A unit right triangle in the XY plane facing +Z, with normals, UVs and indices.
-    fn triangle(&mut self) -> Value {
-        let p = self.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], "VEC3");
-        let n = self.floats(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0], "VEC3");
-        let t = self.floats(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0], "VEC2");
-        let i = self.indices_u16(&[0, 1, 2]);
-        json!({"attributes": {"POSITION": p, "NORMAL": n, "TEXCOORD_0": t}, "indices": i})
-    }
-
-    /// The document: asset, buffer, views and accessors, plus `extra`'s top-level keys.
-    fn document(&self, extra: Value) -> Value {
-        let mut root = json!({
-            "asset": {"version": "2.0"},
-            "buffers": [{"byteLength": self.data.len()}],
-            "bufferViews": self.views,
-            "accessors": self.accessors,
-        });
-        if let Value::Object(map) = extra {
-            for (k, v) in map {
-                root[k] = v;
-            }
-        }
-        root
-    }
-}
-
-/// Writes `name.gltf` with its buffer in `name.bin`.
-fn write_gltf(dir: &Path, name: &str, mut root: Value, bin: &[u8]) -> PathBuf {
-    root["buffers"][0]["uri"] = json!(format!("{name}.bin"));
-    fs::write(dir.join(format!("{name}.bin")), bin).unwrap();
-    let path = dir.join(format!("{name}.gltf"));
-    fs::write(&path, serde_json::to_vec_pretty(&root).unwrap()).unwrap();
-    path
-}
-
-fn base64(bytes: &[u8]) -> String {
-    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for chunk in bytes.chunks(3) {
-        let b = [chunk[0], *chunk.get(1).unwrap_or(&0), *chunk.get(2).unwrap_or(&0)];
-        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
-        for k in 0..4 {
-            if k <= chunk.len() {
-                out.push(ALPHABET[((n >> (18 - 6 * k)) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
-}
-
-/// Writes `name.gltf` with its buffer embedded as a base64 data URI.
-fn write_embedded(dir: &Path, name: &str, mut root: Value, bin: &[u8]) -> PathBuf {
-    root["buffers"][0]["uri"] = json!(format!("data:application/octet-stream;base64,{}", base64(bin)));
-    let path = dir.join(format!("{name}.gltf"));
-    fs::write(&path, serde_json::to_vec(&root).unwrap()).unwrap();
-    path
-}
-
-/// Writes `name.glb`: header, JSON chunk (space-padded), BIN chunk (zero-padded).
-fn write_glb(dir: &Path, name: &str, root: Value, bin: &[u8]) -> PathBuf {
-    let mut json_bytes = serde_json::to_vec(&root).unwrap();
-    while !json_bytes.len().is_multiple_of(4) {
-        json_bytes.push(b' ');
-    }
-    let mut bin = bin.to_vec();
-    while !bin.len().is_multiple_of(4) {
-        bin.push(0);
-    }
-    let total = 12 + 8 + json_bytes.len() + 8 + bin.len();
-    let mut out = Vec::new();
-    out.extend_from_slice(b"glTF");
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&(total as u32).to_le_bytes());
-    out.extend_from_slice(&(json_bytes.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&json_bytes);
-    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(&bin);
-    let path = dir.join(format!("{name}.glb"));
-    fs::write(&path, out).unwrap();
-    path
-}
+use tiledlight_gltf_writer::{base64, write_embedded, write_glb, write_gltf, Buffer as Bin, F32, I16, I8, U16, U8};
 
 fn png(width: u32, height: u32) -> (Vec<u8>, Vec<u8>) {
     let img = image::RgbaImage::from_fn(width, height, |x, y| {
@@ -766,35 +621,6 @@ fn sparse_accessors_patch_their_base() {
 }
 
 // ---- materials in full, texture coordinate sets, tangents, quantisation ----
-
-impl Bin {
-    /// An accessor over `bytes` (one element per `count`), with glTF's `componentType`,
-    /// `type` and `normalized`, and min/max when given (POSITION needs them).
-    fn raw(
-        &mut self,
-        bytes: &[u8],
-        (component, normalized): (u32, bool),
-        count: usize,
-        ty: &str,
-        minmax: Option<(Value, Value)>,
-    ) -> usize {
-        let view = self.view(bytes);
-        let mut acc = json!({"bufferView": view, "componentType": component, "count": count, "type": ty});
-        if normalized {
-            acc["normalized"] = json!(true);
-        }
-        if let Some((min, max)) = minmax {
-            acc["min"] = min;
-            acc["max"] = max;
-        }
-        self.accessors.push(acc);
-        self.accessors.len() - 1
-    }
-}
-
-const I8: u32 = 5120;
-const U8: u32 = 5121;
-const I16: u32 = 5122;
 
 /// A unit quad in the XY plane facing +Z: positions, normals, two UV sets (set 1 = set 0
 /// mirrored in u) and indices; tangents (+x, w = 1) when `tangents`.
