@@ -421,7 +421,7 @@ impl GpuVpl {
     }
 }
 
-/// One RSM face as the generation pass reads it. 160 bytes.
+/// One RSM face as the generation pass reads it. 144 bytes.
 ///
 /// Keep in sync with `shaders/vpl_generate.wgsl` (`RsmFace`); `cargo xtask validate-shaders` checks it.
 #[repr(C)]
@@ -451,15 +451,11 @@ pub struct GpuRsmFace {
     pub is_spot: u32,
     /// Top-left texel of the face's tile in the RSM atlas.
     pub origin: [u32; 2],
-    /// Atlas layer.
-    pub layer: u32,
-    /// Padding.
-    pub _pad: [u32; 3],
 }
 
 impl GpuRsmFace {
-    /// The face of `light` seen through `world_to_clip`, at `origin` of atlas layer `layer`.
-    pub fn new(light: &RsmLight, world_to_clip: &Mat4, origin: [u32; 2], layer: u32) -> Self {
+    /// The face of `light` seen through `world_to_clip`, at texel `origin` of the RSM atlas.
+    pub fn new(light: &RsmLight, world_to_clip: &Mat4, origin: [u32; 2]) -> Self {
         let (spot_direction, spot_scale, spot_offset) =
             light.spot.map_or(([0.0; 3], 0.0, 0.0), |(d, s, o)| (d.into(), s, o));
         Self {
@@ -475,8 +471,6 @@ impl GpuRsmFace {
             spot_offset,
             is_spot: light.spot.is_some() as u32,
             origin,
-            layer,
-            _pad: [0; 3],
         }
     }
 }
@@ -538,8 +532,7 @@ pub fn layouts() -> Vec<crate::layout::StructLayout> {
                 spot_scale,
                 spot_offset,
                 is_spot,
-                origin,
-                layer
+                origin
             ]
         ),
         crate::struct_layout!(
