@@ -8,7 +8,6 @@
 // twin is tiledlight_cull::vpl (texel_light, block_vpl, passes_thresholds): keep in step.
 #include "common/lights.wgsl"
 #include "common/vpl.wgsl"
-#include "common/brdf.wgsl"
 
 // One RSM face (crates/cull/src/vpl.rs, GpuRsmFace).
 struct RsmFace {

@@ -74,16 +74,26 @@ struct Run {
 }
 
 fn run(cfg: &VplConfig) -> Run {
+    run_with(cfg, &[spot()], (0, 1))
+}
+
+/// [`run`] with other lights and casters (points, spots).
+fn run_with(cfg: &VplConfig, lights: &[Light], casters: (u32, u32)) -> Run {
     let ctx = gpu();
     let (device, queue) = (&ctx.device, &ctx.queue);
     let scene = SceneGpu::new(device, queue, &wall_scene()).expect("scene");
-    let lights = LightBuffers::with_casters(device, &[spot()], (0, 1)).expect("lights");
+    let lights = LightBuffers::with_casters(device, lights, casters).expect("lights");
     let shadow = ShadowOptions::default();
     let features = Features::new(&scene, &lights, Method::ForwardPlus, &CullOptions::default(), (1, 2), shadow);
     let limits = device.limits();
-    let layout =
-        AtlasLayout::new(shadow.tile_size, 0, 1, limits.max_texture_dimension_2d, limits.max_texture_array_layers)
-            .expect("layout");
+    let layout = AtlasLayout::new(
+        shadow.tile_size,
+        casters.0,
+        casters.1,
+        limits.max_texture_dimension_2d,
+        limits.max_texture_array_layers,
+    )
+    .expect("layout");
     let views = Views::new(device, 1 + layout.faces());
     let atlas = ShadowAtlas::new(device, &views, &scene, &features, layout, shadow, 1).expect("atlas");
     atlas.update(queue, &views, &lights.packed).expect("atlas update");
@@ -273,4 +283,163 @@ fn bad_settings_are_errors_naming_the_setting() {
         &VplConfig { cap: u32::MAX, ..Default::default() },
     ));
     assert!(e.contains("cap"), "{e}");
+}
+
+#[test]
+fn a_point_casters_six_faces_make_vpls_as_the_twin_does() {
+    // A point light 1.5 m from the wall and 1.5 m above the floor, with the spot: seven
+    // faces, and every one sees the floor or the 10 m wall (+Y sees the wall's upper part).
+    let point = Light::point(Vec3::new(0.5, 1.5, 0.0), Vec3::new(1.0, 0.9, 0.7), 20.0, 0.01).expect("point");
+    let cfg = VplConfig::default();
+    let r = run_with(&cfg, &[point, spot()], (1, 1));
+    assert_eq!(r.faces.len(), 7);
+    let (cpu, all) = twin(&r.faces, &cfg);
+    let missing = match_sets(&r.vpls, &cpu.vpls, &all, &cfg, false);
+    assert_eq!(r.vpls.len() + missing.len(), cpu.vpls.len());
+    // Every face makes VPLs: the six cube faces and the spot's (face 6).
+    let with_vpls: Vec<usize> = (0..7)
+        .filter(|&f| vpl::generate(std::slice::from_ref(&r.faces[f]), &cfg).expect("twin").candidates > 0)
+        .collect();
+    assert_eq!(with_vpls, (0..7).collect::<Vec<_>>(), "faces with VPLs");
+    // A point face has no spot falloff: its VPLs' tint reaches the floor's albedo times the
+    // light's normalised colour (0.8 x (1, 0.9, 0.7)) under the light, window ~1.
+    let down = vpl::generate(std::slice::from_ref(&r.faces[3]), &cfg).expect("twin");
+    let brightest = down.vpls.iter().map(|v| v.tint.x).fold(0.0, f32::max);
+    assert!((brightest - 0.8).abs() < 0.01, "{brightest}");
+}
+
+/// `vpl_light` (shaders/common/vpl.wgsl) evaluated by a compute shader on cases around its
+/// singular points, against the twin's `vpl_intensity`. Tolerance: f32 square roots and
+/// divisions on both sides, 2e-4 of the value plus 1e-6 of the largest factor.
+#[test]
+fn wgsl_vpl_light_equals_the_twin() {
+    let ctx = gpu();
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let src = r#"
+#include "common/vpl.wgsl"
+struct Case { vpl: Vpl, x: vec3<f32>, physical: u32 }
+@group(0) @binding(0) var<storage, read> cases: array<Case>;
+@group(0) @binding(1) var<storage, read_write> out: array<vec4<f32>>;
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= arrayLength(&cases)) { return; }
+    let c = cases[id.x];
+    let r = vpl_light(c.vpl, c.x, c.physical != 0u, 0.1);
+    out[2u * id.x] = vec4<f32>(r.l, 0.0);
+    out[2u * id.x + 1u] = vec4<f32>(r.factor, 0.0);
+}
+"#;
+    let files = |p: &str| {
+        if p == "test_vpl_light.wgsl" {
+            Some(src.to_string())
+        } else {
+            tiledlight_gpu::shader::embedded(p).map(str::to_owned)
+        }
+    };
+    let text = tiledlight_gpu::shader::preprocess_with(&files, "test_vpl_light.wgsl", &[]).expect("preprocess").text;
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("test.vpl_light"),
+        source: wgpu::ShaderSource::Wgsl(text.into()),
+    });
+    // Cases: both models, at the VPL, behind it, in the clamp, inside and past the radius,
+    // grazing, and seeded random ones.
+    let v0 = Vpl {
+        position: Vec3::new(1.0, 2.0, 3.0),
+        normal: Vec3::Y,
+        flux: Vec3::new(2.0, 1.0, 0.5),
+        tint: Vec3::ZERO,
+        radius: 3.0,
+    };
+    let mut cases: Vec<(Vpl, Vec3)> = [
+        Vec3::ZERO,
+        Vec3::new(0.0, -1.0, 0.0),
+        Vec3::new(0.0, 0.05, 0.0),
+        Vec3::new(0.3, 1.0, -0.2),
+        Vec3::new(0.0, 2.999, 0.0),
+        Vec3::new(0.0, 3.0, 0.0),
+        Vec3::new(0.0, 5.0, 0.0),
+        Vec3::new(2.0, 1e-3, 0.0),
+    ]
+    .iter()
+    .map(|&d| (v0, v0.position + d))
+    .collect();
+    let mut seed = 0x2545_f491_u32;
+    let mut rnd = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 17;
+        seed ^= seed << 5;
+        seed as f32 / u32::MAX as f32
+    };
+    for _ in 0..200 {
+        let r: Vec<f32> = (0..13).map(|_| rnd() * 2.0 - 1.0).collect();
+        let r3 = |k: usize| Vec3::new(r[k], r[k + 1], r[k + 2]);
+        let v = Vpl {
+            position: r3(0) * 3.0,
+            normal: r3(3).normalize_or(Vec3::Y),
+            flux: (r3(6) + 1.0) * 5.0,
+            tint: Vec3::ZERO,
+            radius: 0.5 + 3.0 * r[12].abs(),
+        };
+        cases.push((v, r3(9) * 3.0));
+    }
+    let mut words: Vec<u32> = Vec::new();
+    let mut want = Vec::new();
+    for model in [vpl::VplShading::Sample, vpl::VplShading::Physical] {
+        for (v, x) in &cases {
+            let f = |a: Vec3| [a.x.to_bits(), a.y.to_bits(), a.z.to_bits()];
+            words.extend(f(v.position));
+            words.push(v.radius.to_bits());
+            words.extend(f(v.normal));
+            words.push(0);
+            words.extend(f(v.flux));
+            words.push(0);
+            words.extend(f(*x));
+            words.push(model.index());
+            want.push(vpl::vpl_intensity(v, *x, model, 0.1));
+        }
+    }
+    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+    let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+    let input = tiledlight_gpu::util::buffer_init(device, "test.vpl_light.cases", &bytes, usage);
+    let output = tiledlight_gpu::util::buffer_zeroed(device, "test.vpl_light.out", want.len() as u64 * 32, usage);
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("test.vpl_light"),
+        layout: None,
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("test.vpl_light"),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: input.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: output.as_entire_binding() },
+        ],
+    });
+    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("test.vpl_light") });
+    {
+        let mut pass = enc
+            .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("test.vpl_light"), timestamp_writes: None });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.dispatch_workgroups((want.len() as u32).div_ceil(64), 1, 1);
+    }
+    queue.submit([enc.finish()]);
+    let got: Vec<f32> = tiledlight_gpu::readback::read_buffer(device, queue, &output).expect("readback");
+    let largest = want.iter().map(|(_, f)| f.max_element()).fold(0.0, f32::max);
+    assert!(largest > 0.0);
+    let mut lit = 0;
+    for (i, (l, f)) in want.iter().enumerate() {
+        let gl = Vec3::new(got[8 * i], got[8 * i + 1], got[8 * i + 2]);
+        let gf = Vec3::new(got[8 * i + 4], got[8 * i + 5], got[8 * i + 6]);
+        assert!(gf.is_finite() && gl.is_finite(), "case {i}: {gl} {gf}");
+        assert!((gl - *l).length() < 1e-5, "case {i}: direction {gl} vs {l}");
+        let tol = 2e-4 * f.abs().max_element() + 1e-6 * largest;
+        assert!((gf - *f).abs().max_element() <= tol, "case {i}: factor {gf} vs {f}");
+        lit += (f.max_element() > 0.0) as u32;
+    }
+    // Both zero and non-zero cases were compared.
+    assert!(lit > 50 && (lit as usize) < want.len() - 50, "{lit} of {} lit", want.len());
 }

@@ -345,7 +345,8 @@ pub fn generate(faces: &[RsmFace], cfg: &VplConfig) -> Result<Generated, CullErr
 /// The light a VPL sends to a surface point `x`: the unit direction towards the VPL and
 /// the radiance-like factor that multiplies the shared BRDF times `n . l`
 /// (`crate::brdf::brdf_cos`), per `model`. Zero (never NaN) at the VPL itself, behind it,
-/// and (sample model) at and beyond its radius.
+/// and (sample model) at and beyond its radius. `vpl_light` in `shaders/common/vpl.wgsl`
+/// computes the same in f32.
 pub fn vpl_intensity(vpl: &Vpl, x: Vec3, model: VplShading, distance_clamp: f32) -> (Vec3, Vec3) {
     let to = vpl.position - x;
     let d2 = to.length_squared();
