@@ -4,13 +4,18 @@
 // Alpha-masked draws (ALPHA_MASK) discard as the pre-pass did: depth Equal alone would let a
 // masked-out texel shade a coplanar surface behind it.
 // The material defines (TEXTURES MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1) are common/scene.wgsl's.
+// With VPLS (brute force only so far: VPLs are not culled into the light grid yet) every
+// fragment also sums every virtual point light (tiledlight-vpl; common/vpl.wgsl vpl_light),
+// min(count, cap) of them, the count read from the GPU's generation counter.
 // variants: SPOT_LIGHTS TEXTURES HALF_Z BRUTE_FORCE NO_CUTOFF ALPHA_MASK SHADOWS
-// variants: MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1
+// variants: MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1 VPLS
 // requires: MR_TEXTURE TEXTURES
 // requires: NORMAL_MAP TEXTURES
 // requires: OCCLUSION TEXTURES
 // requires: UV1 TEXTURES
 // requires: NO_CUTOFF BRUTE_FORCE
+// requires: VPLS BRUTE_FORCE
+// requires: VPLS SHADOWS
 #include "common/scene.wgsl"
 #include "common/shade.wgsl"
 
@@ -24,6 +29,12 @@
 @group(3) @binding(6) var shadow_atlas: texture_depth_2d_array;
 @group(3) @binding(7) var shadow_sampler: sampler_comparison;
 @group(3) @binding(8) var<storage, read> shadow_faces: array<ShadowFace>;
+#endif
+#ifdef VPLS
+#include "common/vpl.wgsl"
+@group(3) @binding(9) var<storage, read> vpls: array<Vpl>;
+@group(3) @binding(10) var<uniform> vpl_shading: VplShading;
+@group(3) @binding(11) var<storage, read> vpl_count: u32;
 #endif
 #ifndef BRUTE_FORCE
 // The light grid the culling pass wrote (common/light_grid.wgsl).
@@ -55,6 +66,13 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
     let list = pixel_list(vec2<u32>(in.clip.xy), view_distance(in.clip.z));
     for (var i = 0u; i < list.count; i++) {
         color += shade_light(light_indices[list.first + i], in.world_pos, n, v, s);
+    }
+#endif
+#ifdef VPLS
+    let num_vpls = min(vpl_count, vpl_shading.cap);
+    for (var i = 0u; i < num_vpls; i++) {
+        let vl = vpl_light(vpls[i], in.world_pos, vpl_shading.model != 0u, vpl_shading.distance_clamp);
+        color += brdf_cos(n, v, vl.l, s) * vl.factor;
     }
 #endif
     return vec4<f32>(color, 1.0);

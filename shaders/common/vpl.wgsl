@@ -11,6 +11,15 @@ struct Vpl {
     _pad1: f32,
 }
 
+// How the shading passes read the VPLs (crates/cull/src/vpl.rs, GpuVplShading).
+struct VplShading {
+    cap: u32,
+    // 0: the sample's model, 1: the physical one.
+    model: u32,
+    distance_clamp: f32,
+    _pad: u32,
+}
+
 #include "common/brdf.wgsl"
 
 // The light a VPL sends to the surface point x (tiledlight_cull::vpl::vpl_intensity, keep in

@@ -443,3 +443,131 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     // Both zero and non-zero cases were compared.
     assert!(lit > 50 && (lit as usize) < want.len() - 50, "{lit} of {} lit", want.len());
 }
+
+// ---- VPL shading in the brute-force reference (Forward+ and Tiled Deferred: not yet) ----
+
+const W: u32 = 320;
+const H: u32 = 180;
+
+/// The camera looking at the wall's foot from the room's side.
+fn camera() -> tiledlight_cull::Camera {
+    tiledlight_cull::Camera::perspective(
+        Vec3::new(-3.0, 5.0, 6.0),
+        Vec3::new(0.5, 0.0, 0.0),
+        Vec3::Y,
+        55f32.to_radians(),
+        W as f32 / H as f32,
+        0.1,
+        None,
+    )
+    .expect("camera")
+}
+
+/// The spot of [`spot`] with a short reach (radius 7.7 m from threshold 0.5), so its VPLs
+/// (radius 3.9 m) cannot reach the far side of the floor.
+fn short_spot() -> Light {
+    let pos = Vec3::new(-1.0, 3.0, 0.0);
+    let dir = Vec3::new(2.0, 0.5, 0.0) - pos;
+    Light::spot(pos, dir, Vec3::ONE, 30.0, 30f32.to_radians(), 45f32.to_radians(), 0.5).expect("spot")
+}
+
+/// The brute-force HDR image of the wall scene lit by the short spot (a shadow caster),
+/// with `vpl`.
+fn brute_force(vpl: Option<VplConfig>) -> Vec<[f32; 4]> {
+    use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method as Fwd};
+    let ctx = gpu();
+    let scene = SceneGpu::new(&ctx.device, &ctx.queue, &wall_scene()).expect("scene");
+    let lights = LightBuffers::with_casters(&ctx.device, &[short_spot()], (0, 1)).expect("lights");
+    let s =
+        ForwardSettings { method: Fwd::BruteForce { cutoff: true }, ambient: Vec3::ZERO, vpl, ..Default::default() };
+    let mut r = ForwardRenderer::new(ctx, &scene, &lights, W, H, s).expect("brute force with VPLs");
+    assert_eq!(r.plan().has(tiledlight_gpu::plan::Step::Vpl), vpl.is_some(), "a VPL step exactly with --vpl");
+    assert_eq!(r.vpl().is_some(), vpl.is_some());
+    tiledlight_tests::compare::render_frame(ctx, &mut r, &scene, &camera()).hdr
+}
+
+/// The pixel a world point projects to.
+fn pixel_of(p: Vec3) -> usize {
+    let c = camera().view_proj() * p.extend(1.0);
+    let (x, y) = (c.x / c.w, c.y / c.w);
+    let (px, py) = (((x + 1.0) * 0.5 * W as f32) as usize, ((1.0 - y) * 0.5 * H as f32) as usize);
+    assert!(px < W as usize && py < H as usize, "{p} is off screen");
+    py * W as usize + px
+}
+
+#[test]
+fn red_wall_bleeds_onto_the_floor_near_it_and_not_far_away() {
+    let without = brute_force(None);
+    let with = brute_force(Some(VplConfig::default()));
+    // Near the wall (0.2-0.5 m from it, in the spot's light): the floor gains light, and
+    // more red than green or blue (the wall reflects 0.8 red, 0.05 green and blue).
+    let mut near = 0;
+    for x in [1.5f32, 1.65, 1.8] {
+        for z in [-0.6f32, -0.3, 0.0, 0.3, 0.6] {
+            let i = pixel_of(Vec3::new(x, 0.0, z));
+            let d: Vec<f32> = (0..3).map(|c| with[i][c] - without[i][c]).collect();
+            assert!(d[0] > 0.01 * without[i][0].max(1e-3), "({x}, {z}): red gain {d:?} over {:?}", without[i]);
+            assert!(d[0] > 4.0 * d[1] && d[0] > 4.0 * d[2], "({x}, {z}): the gain is red: {d:?}");
+            near += 1;
+        }
+    }
+    assert_eq!(near, 15);
+    // Far from the wall (beyond every wall VPL's 3.9 m radius; the floor's own VPLs light no
+    // coplanar floor): unchanged but for f16 rounding of the HDR target (2^-11 relative).
+    for x in [-3.0f32, -2.5] {
+        for z in [-1.0f32, 0.0, 1.0] {
+            let i = pixel_of(Vec3::new(x, 0.0, z));
+            for c in 0..3 {
+                let (a, b) = (with[i][c], without[i][c]);
+                assert!((a - b).abs() <= 5e-4 * b.abs() + 1e-6, "({x}, {z}) channel {c}: {a} vs {b}");
+            }
+        }
+    }
+}
+
+#[test]
+fn physical_model_converges_to_the_every_texel_reference_on_the_gpu() {
+    // The reference: one VPL per RSM texel, no thresholds, no cap in the way.
+    let physical = VplConfig { shading: vpl::VplShading::Physical, ..Default::default() };
+    let reference = brute_force(Some(VplConfig { block: 1, ..physical }));
+    let error = |cfg: VplConfig| -> f64 {
+        let img = brute_force(Some(cfg));
+        img.iter().zip(&reference).map(|(a, b)| (0..3).map(|c| (a[c] - b[c]).abs() as f64).sum::<f64>()).sum()
+    };
+    let total: f64 = reference.iter().map(|p| (p[0] + p[1] + p[2]) as f64).sum();
+    let by_block: Vec<f64> = [16, 8, 4, 2].iter().map(|&b| error(VplConfig { block: b, ..physical }) / total).collect();
+    for w in by_block.windows(2) {
+        assert!(w[1] < w[0], "the error must fall with the block size: {by_block:?}");
+    }
+    assert!(by_block[0] > 1e-3, "16x16 blocks must differ visibly: {by_block:?}");
+    let by_threshold: Vec<f64> = [0.3, 0.1, 0.03]
+        .iter()
+        .map(|&t| error(VplConfig { block: 1, brightness_threshold: t, ..physical }) / total)
+        .collect();
+    for w in by_threshold.windows(2) {
+        assert!(w[1] <= w[0], "the error must not grow as the threshold falls: {by_threshold:?}");
+    }
+    assert!(by_threshold[0] > by_threshold[2], "{by_threshold:?}");
+}
+
+#[test]
+fn vpls_are_refused_where_they_cannot_be_shaded_or_made() {
+    use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method as Fwd};
+    let ctx = gpu();
+    let scene = SceneGpu::new(&ctx.device, &ctx.queue, &wall_scene()).expect("scene");
+    let casters = LightBuffers::with_casters(&ctx.device, &[short_spot()], (0, 1)).expect("lights");
+    let plain = LightBuffers::new(&ctx.device, &[short_spot()]).expect("lights");
+    let vpl = Some(VplConfig::default());
+    let e = tiledlight_tests::err_text(ForwardRenderer::new(
+        ctx,
+        &scene,
+        &casters,
+        W,
+        H,
+        ForwardSettings { vpl, ..Default::default() },
+    ));
+    assert!(e.contains("brute-force") && e.contains("not implemented yet"), "{e}");
+    let bf = ForwardSettings { method: Fwd::BruteForce { cutoff: true }, vpl, ..Default::default() };
+    let e = tiledlight_tests::err_text(ForwardRenderer::new(ctx, &scene, &plain, W, H, bf));
+    assert!(e.contains("no light casts a shadow"), "{e}");
+}

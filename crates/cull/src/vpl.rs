@@ -513,10 +513,34 @@ impl GpuVplParams {
     }
 }
 
+/// How the shading passes read the VPLs. 16 bytes.
+///
+/// Keep in sync with `shaders/common/vpl.wgsl` (`VplShading`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuVplShading {
+    /// Most VPLs: the passes read `min(count, cap)`.
+    pub cap: u32,
+    /// [`VplShading::index`]: 0 sample, 1 physical.
+    pub model: u32,
+    /// The physical model's distance clamp.
+    pub distance_clamp: f32,
+    /// Padding.
+    pub _pad: u32,
+}
+
+impl GpuVplShading {
+    /// The uniform of `cfg`.
+    pub fn new(cfg: &VplConfig) -> Self {
+        Self { cap: cfg.cap, model: cfg.shading.index(), distance_clamp: cfg.distance_clamp, _pad: 0 }
+    }
+}
+
 /// Layouts of this module's GPU structs, for the xtask layout check.
 pub fn layouts() -> Vec<crate::layout::StructLayout> {
     vec![
         crate::struct_layout!(GpuVpl, "Vpl", "common/vpl.wgsl", [position, radius, normal, flux]),
+        crate::struct_layout!(GpuVplShading, "VplShading", "common/vpl.wgsl", [cap, model, distance_clamp]),
         crate::struct_layout!(
             GpuRsmFace,
             "RsmFace",

@@ -250,6 +250,9 @@ impl Renderer for DeferredRenderer {
         for step in c.plan.steps() {
             match step {
                 Step::ShadowMaps => c.record_shadows(encoder, timer, scene),
+                // VPLs are not shaded by Tiled Deferred yet: never in its plan (its
+                // features never set `vpl`).
+                Step::Vpl => {}
                 Step::GBuffer => {
                     self.gbuffer_pass.record(encoder, timer, view, scene, &self.gbuffer, &targets.depth_view)
                 }

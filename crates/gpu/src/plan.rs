@@ -5,6 +5,7 @@
 //!
 //! ```text
 //! shadows  shadow atlas: the faces of casters that moved (only when a light casts shadows)
+//! vpl      RSM + VPL generation of the casters that moved (only with `--vpl`)
 //! head     depth pre-pass (Forward+, brute force)      | G-buffer (Tiled Deferred)
 //! culling  cells + tiles -> light grid (Forward+)      | (Tiled Deferred culls in its shading pass)
 //!          or light-centric assignment (either method: tile depth, count, allocate, write)
@@ -25,6 +26,10 @@ use crate::features::{Features, Method};
 pub enum Step {
     /// The shadow faces of the casters that moved (`shadow.atlas`; only with shadows).
     ShadowMaps,
+    /// Virtual point lights (tiledlight-vpl): the casters' reflective shadow maps and the
+    /// VPLs generated from them, when the casters moved (`vpl.rsm`, `vpl.generate`; only
+    /// with `--vpl`).
+    Vpl,
     /// Depth of the opaque and masked geometry (`depth_prepass`).
     DepthPrepass,
     /// Tiled Deferred's G-buffer, with depth (`deferred.gbuffer`).
@@ -69,6 +74,10 @@ impl FramePlan {
         // Shadow maps first: every method's shading reads them.
         if features.shadows.is_some() {
             steps.push(Step::ShadowMaps);
+        }
+        // VPLs after the shadow faces whose views their RSM draws from.
+        if features.vpl {
+            steps.push(Step::Vpl);
         }
         // Head: what writes depth.
         match features.method {
@@ -141,6 +150,7 @@ mod tests {
             frustum_clusters: false,
             blend_mode: Default::default(),
             shadows: None,
+            vpl: false,
         }
     }
 
@@ -180,6 +190,16 @@ mod tests {
         f.frustum_clusters = true;
         assert_eq!(FramePlan::new(&f).steps(), [DepthPrepass, Cull, ForwardShade, BlendedShade, Tonemap, Heatmap]);
         assert!(!FramePlan::new(&features(Method::ForwardPlus, 1)).has(BlendedDepth));
+    }
+
+    #[test]
+    fn vpls_follow_the_shadow_maps_and_exist_only_when_asked_for() {
+        use Step::*;
+        let mut f = features(Method::BruteForce { cutoff: true }, 1);
+        f.shadows = Some(crate::features::Shadows { points: 0, spots: 1, options: Default::default() });
+        assert!(!FramePlan::new(&f).has(Vpl), "no --vpl, no VPL step");
+        f.vpl = true;
+        assert_eq!(FramePlan::new(&f).steps(), [ShadowMaps, Vpl, DepthPrepass, BruteForceShade, Tonemap]);
     }
 
     #[test]
