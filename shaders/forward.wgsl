@@ -4,9 +4,10 @@
 // Alpha-masked draws (ALPHA_MASK) discard as the pre-pass did: depth Equal alone would let a
 // masked-out texel shade a coplanar surface behind it.
 // The material defines (TEXTURES MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1) are common/scene.wgsl's.
-// With VPLS (brute force only so far: VPLs are not culled into the light grid yet) every
-// fragment also sums every virtual point light (tiledlight-vpl; common/vpl.wgsl vpl_light),
-// min(count, cap) of them, the count read from the GPU's generation counter.
+// With VPLS every fragment also sums the virtual point lights (tiledlight-vpl;
+// common/vpl.wgsl vpl_light): Forward+ those of its tile's list in the VPLs' own light grid
+// (one list per tile), brute force all min(count, cap) of them, the count read from the
+// GPU's generation counter.
 // variants: SPOT_LIGHTS TEXTURES HALF_Z BRUTE_FORCE NO_CUTOFF ALPHA_MASK SHADOWS
 // variants: MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1 VPLS
 // requires: MR_TEXTURE TEXTURES
@@ -14,7 +15,6 @@
 // requires: OCCLUSION TEXTURES
 // requires: UV1 TEXTURES
 // requires: NO_CUTOFF BRUTE_FORCE
-// requires: VPLS BRUTE_FORCE
 // requires: VPLS SHADOWS
 #include "common/scene.wgsl"
 #include "common/shade.wgsl"
@@ -35,6 +35,11 @@
 @group(3) @binding(9) var<storage, read> vpls: array<Vpl>;
 @group(3) @binding(10) var<uniform> vpl_shading: VplShading;
 @group(3) @binding(11) var<storage, read> vpl_count: u32;
+#ifndef BRUTE_FORCE
+#include "common/light_grid.wgsl"
+@group(3) @binding(12) var<storage, read> vpl_grid: LightGrid;
+@group(3) @binding(13) var<storage, read> vpl_indices: array<u32>;
+#endif
 #endif
 #ifndef BRUTE_FORCE
 // The light grid the culling pass wrote (common/light_grid.wgsl).
@@ -69,11 +74,21 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
     }
 #endif
 #ifdef VPLS
+    let physical = vpl_shading.model != 0u;
+#ifdef BRUTE_FORCE
     let num_vpls = min(vpl_count, vpl_shading.cap);
     for (var i = 0u; i < num_vpls; i++) {
-        let vl = vpl_light(vpls[i], in.world_pos, vpl_shading.model != 0u, vpl_shading.distance_clamp);
+        let vl = vpl_light(vpls[i], in.world_pos, physical, vpl_shading.distance_clamp);
         color += brdf_cos(n, v, vl.l, s) * vl.factor;
     }
+#else
+    let vtile = vec2<u32>(in.clip.xy) / vpl_grid.header.tile_size;
+    let vlist = light_list(vpl_grid.lists[vtile.y * vpl_grid.header.tiles.x + vtile.x], vpl_grid.header.capacity);
+    for (var i = 0u; i < vlist.count; i++) {
+        let vl = vpl_light(vpls[vpl_indices[vlist.first + i]], in.world_pos, physical, vpl_shading.distance_clamp);
+        color += brdf_cos(n, v, vl.l, s) * vl.factor;
+    }
+#endif
 #endif
     return vec4<f32>(color, 1.0);
 }

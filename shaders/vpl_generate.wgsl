@@ -46,6 +46,10 @@ struct VplParams {
 @group(0) @binding(5) var<storage, read_write> vpls: array<Vpl>;
 @group(0) @binding(6) var<storage, read_write> vpl_cull: array<CullLight>;
 @group(0) @binding(7) var<storage, read_write> vpl_count: atomic<u32>;
+// The VPLs' `Lighting` uniform (common/lights.wgsl) as words, for the culling pass: word 3
+// is num_lights, which becomes min(count, cap) as the largest stored index + 1 (zeroed with
+// the counter before the dispatch).
+@group(0) @binding(8) var<storage, read_write> vpl_lighting: array<atomic<u32>, 12>;
 
 struct TexelLight {
     flux: vec3<f32>,
@@ -121,6 +125,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (i >= params.cap) {
         return; // refused: counted, not stored
     }
+    atomicMax(&vpl_lighting[3], i + 1u);
     let position = pos / omega;
     vpls[i] = Vpl(position, face.vpl_radius, normalize(normal), 0.0, flux, 0.0);
     vpl_cull[i] = CullLight(position, face.vpl_radius);

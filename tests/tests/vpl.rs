@@ -471,19 +471,27 @@ fn short_spot() -> Light {
     Light::spot(pos, dir, Vec3::ONE, 30.0, 30f32.to_radians(), 45f32.to_radians(), 0.5).expect("spot")
 }
 
-/// The brute-force HDR image of the wall scene lit by the short spot (a shadow caster),
-/// with `vpl`.
-fn brute_force(vpl: Option<VplConfig>) -> Vec<[f32; 4]> {
-    use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method as Fwd};
+/// The wall scene lit by the short spot (a shadow caster) with `vpl`, rendered by `method`:
+/// the frame and the renderer (for its lists and buffers).
+fn render(
+    method: tiledlight_forward::Method,
+    vpl: Option<VplConfig>,
+) -> (tiledlight_tests::compare::Frame, tiledlight_forward::ForwardRenderer) {
+    use tiledlight_forward::{ForwardRenderer, ForwardSettings};
     let ctx = gpu();
     let scene = SceneGpu::new(&ctx.device, &ctx.queue, &wall_scene()).expect("scene");
     let lights = LightBuffers::with_casters(&ctx.device, &[short_spot()], (0, 1)).expect("lights");
-    let s =
-        ForwardSettings { method: Fwd::BruteForce { cutoff: true }, ambient: Vec3::ZERO, vpl, ..Default::default() };
-    let mut r = ForwardRenderer::new(ctx, &scene, &lights, W, H, s).expect("brute force with VPLs");
+    let s = ForwardSettings { method, ambient: Vec3::ZERO, vpl, ..Default::default() };
+    let mut r = ForwardRenderer::new(ctx, &scene, &lights, W, H, s).expect("renderer with VPLs");
     assert_eq!(r.plan().has(tiledlight_gpu::plan::Step::Vpl), vpl.is_some(), "a VPL step exactly with --vpl");
     assert_eq!(r.vpl().is_some(), vpl.is_some());
-    tiledlight_tests::compare::render_frame(ctx, &mut r, &scene, &camera()).hdr
+    let frame = tiledlight_tests::compare::render_frame(ctx, &mut r, &scene, &camera());
+    (frame, r)
+}
+
+/// The brute-force HDR image of [`render`].
+fn brute_force(vpl: Option<VplConfig>) -> Vec<[f32; 4]> {
+    render(tiledlight_forward::Method::BruteForce { cutoff: true }, vpl).0.hdr
 }
 
 /// The pixel a world point projects to.
@@ -551,23 +559,67 @@ fn physical_model_converges_to_the_every_texel_reference_on_the_gpu() {
 }
 
 #[test]
-fn vpls_are_refused_where_they_cannot_be_shaded_or_made() {
+fn no_vpl_no_cost_and_no_caster_no_vpls() {
     use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method as Fwd};
+    use tiledlight_gpu::targets::Renderer;
     let ctx = gpu();
     let scene = SceneGpu::new(&ctx.device, &ctx.queue, &wall_scene()).expect("scene");
     let casters = LightBuffers::with_casters(&ctx.device, &[short_spot()], (0, 1)).expect("lights");
     let plain = LightBuffers::new(&ctx.device, &[short_spot()]).expect("lights");
     let vpl = Some(VplConfig::default());
-    let e = tiledlight_tests::err_text(ForwardRenderer::new(
-        ctx,
-        &scene,
-        &casters,
-        W,
-        H,
-        ForwardSettings { vpl, ..Default::default() },
-    ));
-    assert!(e.contains("brute-force") && e.contains("not implemented yet"), "{e}");
+    // Without VPLs nothing of them exists: no step, no buffers, no variant.
+    let r = ForwardRenderer::new(ctx, &scene, &casters, W, H, ForwardSettings::default()).expect("renderer");
+    assert!(r.vpl().is_none() && r.vpl_culling().is_none());
+    assert!(!r.plan().has(tiledlight_gpu::plan::Step::Vpl) && !r.plan().has(tiledlight_gpu::plan::Step::VplCull));
+    assert!(!r.memory().entries.iter().any(|(c, _)| c.contains("vpl")), "{:?}", r.memory().entries);
     let bf = ForwardSettings { method: Fwd::BruteForce { cutoff: true }, vpl, ..Default::default() };
     let e = tiledlight_tests::err_text(ForwardRenderer::new(ctx, &scene, &plain, W, H, bf));
     assert!(e.contains("no light casts a shadow"), "{e}");
+}
+
+#[test]
+fn forward_plus_with_culled_vpls_equals_brute_force() {
+    use tiledlight_forward::Method as Fwd;
+    use tiledlight_tests::compare::{assert_matches_reference_frame, FORWARD_VS_REFERENCE};
+    // The sample model ends at the VPL's radius, so culling by the radius drops nothing:
+    // Forward+ must equal brute force within the tolerance of lights alone.
+    let vpl = Some(VplConfig::default());
+    let (reference, _) = render(Fwd::BruteForce { cutoff: true }, vpl);
+    let (actual, r) = render(Fwd::ForwardPlus, vpl);
+    assert!(r.plan().has(tiledlight_gpu::plan::Step::VplCull));
+    assert_matches_reference_frame("Forward+ with VPLs", W, &reference, &actual, FORWARD_VS_REFERENCE);
+    // And the VPLs changed the image (the comparison is not of two unlit frames).
+    let (plain, _) = render(Fwd::BruteForce { cutoff: true }, None);
+    let gain: f32 = reference.hdr.iter().zip(&plain.hdr).map(|(a, b)| a[0] - b[0]).sum();
+    assert!(gain > 1.0, "VPLs add red light: {gain}");
+}
+
+#[test]
+fn vpl_lists_equal_the_cpu_culler() {
+    use tiledlight_cull::light::{pack_lights, LightKind};
+    use tiledlight_gpu::diagnostics::Diagnostics;
+    use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
+    let ctx = gpu();
+    for cfg in [VplConfig::default(), VplConfig { block: 1, ..Default::default() }] {
+        let (_, r) = render(tiledlight_forward::Method::ForwardPlus, Some(cfg));
+        let depth = r.read_depth(ctx).expect("depth");
+        let spheres = r.vpl().expect("vpls").buffers.read_cull(&ctx.device, &ctx.queue).expect("spheres");
+        assert!(spheres.len() > 50, "{} VPLs", spheres.len());
+        let vpls: Vec<Light> = spheres
+            .iter()
+            .map(|c| {
+                Light::with_radius(c.center.into(), Vec3::ONE, 1.0, c.radius, LightKind::Point).expect("vpl light")
+            })
+            .collect();
+        let packed = pack_lights(&vpls);
+        let gpu_lists = r.vpl_culling().expect("vpl culling").read_lists(&ctx.device, &ctx.queue).expect("lists");
+        let config = r.settings().cull.to_config(false);
+        let cam = camera();
+        let frame = CulledFrame { depth: &depth, width: W, height: H, camera: &cam, lights: &packed };
+        let c = assert_lists_match(&format!("VPL lists, block {}", cfg.block), &frame, &gpu_lists, &config);
+        assert!(c.nonempty_lists > 20 && c.pairs > 1000, "{} lists, {} pairs", c.nonempty_lists, c.pairs);
+        // Culling removed VPLs (some tile lists fewer than all), and no list was cut short.
+        assert!(c.pairs < spheres.len() * c.nonempty_lists, "{} pairs, {} VPLs", c.pairs, spheres.len());
+        assert_eq!(gpu_lists.overflowing, 0, "the VPL grid holds every pair");
+    }
 }

@@ -252,7 +252,7 @@ impl Renderer for DeferredRenderer {
                 Step::ShadowMaps => c.record_shadows(encoder, timer, scene),
                 // VPLs are not shaded by Tiled Deferred yet: never in its plan (its
                 // features never set `vpl`).
-                Step::Vpl => {}
+                Step::Vpl | Step::VplCull => {}
                 Step::GBuffer => {
                     self.gbuffer_pass.record(encoder, timer, view, scene, &self.gbuffer, &targets.depth_view)
                 }

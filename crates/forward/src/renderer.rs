@@ -84,7 +84,8 @@ pub struct ForwardSettings {
     pub blend: BlendMode,
     /// Virtual point lights from the shadow casters' reflective shadow maps
     /// (tiledlight-vpl); `None` (the default): none of their passes, buffers or variants.
-    /// Only the brute-force reference shades them so far (an error with Forward+).
+    /// Forward+ culls them into a light grid of their own (one list per tile); brute force
+    /// shades every one.
     pub vpl: Option<VplConfig>,
 }
 
@@ -122,6 +123,8 @@ pub struct ForwardRenderer {
     hdr_msaa: Option<(wgpu::Texture, wgpu::TextureView)>,
     /// The VPLs (with `settings.vpl` only).
     vpl: Option<VplPath>,
+    /// Forward+'s culling of the VPLs into their own light grid (with `settings.vpl`).
+    vpl_culling: Option<LightCulling>,
 }
 
 impl Method {
@@ -131,6 +134,26 @@ impl Method {
             Method::ForwardPlus => features::Method::ForwardPlus,
             Method::BruteForce { cutoff } => features::Method::BruteForce { cutoff },
         }
+    }
+}
+
+/// The culling options of the VPLs' grid: the lights' tile size, tests and two-level
+/// setting, one list per tile (no half-z, clusters, 2.5D masks or light-centric
+/// assignment: the shading reads a tile's one list), no cone test (VPLs are points), and
+/// index room for up to 1024 VPLs a tile (the VPLs of one 32x32 RSM face at block 1; lists
+/// past it lose VPLs, counted in the grid's header as the lights' are, and the grid does not
+/// grow yet) within the largest storage binding.
+fn vpl_cull_options(cull: &CullOptions, grid: TileGrid, cap: u32, limits: &wgpu::Limits) -> CullOptions {
+    let most = (limits.max_storage_buffer_binding_size / 4).min(u32::MAX as u64);
+    let pairs = (grid.tile_count() as u64 * cap.min(1024) as u64).clamp(1024, most) as u32;
+    CullOptions {
+        half_z: false,
+        spot_cone: false,
+        depth_mask: false,
+        scatter: false,
+        clusters: None,
+        grid_pairs: Some(pairs),
+        ..*cull
     }
 }
 
@@ -157,20 +180,10 @@ impl ForwardRenderer {
         );
         features.blend_mode = settings.blend;
         features.vpl = settings.vpl.is_some();
-        if features.vpl {
-            if features.method.is_tiled() {
-                return Err(GpuError::Config(
-                    "VPLs are shaded only by the brute-force reference so far: their culling into the light \
-                     grid (Forward+, Tiled Deferred) is not implemented yet"
-                        .into(),
-                ));
-            }
-            if features.shadows.is_none() {
-                return Err(GpuError::Config(
-                    "VPLs are made from the shadow-casting lights' reflective shadow maps: no light casts a shadow"
-                        .into(),
-                ));
-            }
+        if features.vpl && features.shadows.is_none() {
+            return Err(GpuError::Config(
+                "VPLs are made from the shadow-casting lights' reflective shadow maps: no light casts a shadow".into(),
+            ));
         }
         if !features.method.is_tiled() {
             if settings.test_drop_light.is_some() {
@@ -241,9 +254,29 @@ impl ForwardRenderer {
                         bytemuck::bytes_of(&GpuVplShading::new(&cfg)),
                         wgpu::BufferUsages::UNIFORM,
                     );
-                    let bindings =
-                        VplBindings { vpls: path.buffers.vpls.clone(), shading, count: path.buffers.count.clone() };
-                    Some((path, bindings))
+                    // Forward+: the VPLs' own grid, culled by the same pass as the lights
+                    // (sphere and planes, one list per tile), their count from the GPU.
+                    let culling = plan
+                        .has(Step::VplCull)
+                        .then(|| {
+                            LightCulling::new(
+                                device,
+                                views,
+                                &targets.depth_view,
+                                &path.buffers.as_lights(),
+                                &path.buffers.lighting,
+                                common.grid,
+                                vpl_cull_options(&settings.cull, common.grid, cfg.cap, &device.limits()),
+                            )
+                        })
+                        .transpose()?;
+                    let bindings = VplBindings {
+                        vpls: path.buffers.vpls.clone(),
+                        shading,
+                        count: path.buffers.count.clone(),
+                        lists: culling.as_ref().map(|c| (c.grid.grid.clone(), c.grid.indices().clone())),
+                    };
+                    Some((path, bindings, culling))
                 }
                 _ => None,
             };
@@ -261,7 +294,7 @@ impl ForwardRenderer {
                 (features, common.shadows.as_ref()),
                 vpl.as_ref().map(|v| v.1.clone()),
             )?;
-            let vpl = vpl.map(|v| v.0);
+            let (vpl, vpl_culling) = vpl.map_or((None, None), |v| (Some(v.0), v.2));
             let blended =
                 common.blended_path(device, scene, lights, settings.cull, culling.as_ref().map(|c| &c.grid))?;
             let heatmap = match (&culling, plan.has(Step::Heatmap)) {
@@ -273,12 +306,18 @@ impl ForwardRenderer {
                 }
                 _ => None,
             };
-            Ok((prepass, culling, shading, heatmap, hdr_msaa, (blended, vpl)))
+            Ok((prepass, culling, shading, heatmap, hdr_msaa, (blended, vpl, vpl_culling)))
         })?
-        .map(|(prepass, culling, shading, heatmap, hdr_msaa, (blended, vpl))| {
-            let mut r = Self { settings, common, blended, prepass, culling, shading, heatmap, hdr_msaa, vpl };
+        .map(|(prepass, culling, shading, heatmap, hdr_msaa, (blended, vpl, vpl_culling))| {
+            let mut r =
+                Self { settings, common, blended, prepass, culling, shading, heatmap, hdr_msaa, vpl, vpl_culling };
             if let Some(v) = &r.vpl {
                 r.common.memory.extend(&v.memory);
+            }
+            if let Some(c) = &r.vpl_culling {
+                for (category, bytes) in c.memory.entries.iter() {
+                    r.common.memory.add(&format!("vpl.{category}"), *bytes);
+                }
             }
             if let Some(b) = &r.blended {
                 r.common.memory.extend(&b.memory);
@@ -309,6 +348,10 @@ impl ForwardRenderer {
     /// The VPLs (with `settings.vpl`).
     pub fn vpl(&self) -> Option<&VplPath> {
         self.vpl.as_ref()
+    }
+    /// The culling of the VPLs into their own grid (Forward+ with `settings.vpl`).
+    pub fn vpl_culling(&self) -> Option<&LightCulling> {
+        self.vpl_culling.as_ref()
     }
     /// What the frame models.
     pub fn features(&self) -> &Features {
@@ -345,6 +388,11 @@ impl Renderer for ForwardRenderer {
                 Step::Cull => {
                     if let Some(cull) = &self.culling {
                         cull.record(encoder, timer, view, "forward.cull");
+                    }
+                }
+                Step::VplCull => {
+                    if let Some(cull) = &self.vpl_culling {
+                        cull.record(encoder, timer, view, "forward.cull_vpls");
                     }
                 }
                 Step::ForwardShade | Step::BruteForceShade => {

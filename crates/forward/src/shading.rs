@@ -42,7 +42,8 @@ pub enum LightLoop {
 /// `SPOT_LIGHTS` the spots (1), unless `BRUTE_FORCE` the light grid (2) and its indices
 /// (3), with `HALF_Z` the tile ranges (4), with `SHADOWS` the shadow atlas (6), its
 /// comparison sampler (7) and faces (8), and with `VPLS` the VPLs (9), their shading
-/// uniform (10) and the generation's counter (11).
+/// uniform (10) and the generation's counter (11), and unless `BRUTE_FORCE` their light
+/// grid (12) and its indices (13).
 pub const FORWARD_BINDINGS: PassBindings = PassBindings {
     entry: "forward.wgsl",
     source: file!(),
@@ -67,6 +68,10 @@ pub const FORWARD_BINDINGS: PassBindings = PassBindings {
                 Binding::storage(9, wgpu::ShaderStages::FRAGMENT).when(Cond::Defined("VPLS")),
                 Binding::uniform(10, wgpu::ShaderStages::FRAGMENT).when(Cond::Defined("VPLS")),
                 Binding::storage(11, wgpu::ShaderStages::FRAGMENT).when(Cond::Defined("VPLS")),
+                Binding::storage(12, wgpu::ShaderStages::FRAGMENT)
+                    .when(Cond::All(&[Cond::Defined("VPLS"), Cond::NotDefined("BRUTE_FORCE")])),
+                Binding::storage(13, wgpu::ShaderStages::FRAGMENT)
+                    .when(Cond::All(&[Cond::Defined("VPLS"), Cond::NotDefined("BRUTE_FORCE")])),
             ],
         ),
     ],
@@ -99,6 +104,9 @@ impl ShadingPass {
         let samples = features.msaa;
         if features.vpl != vpls.is_some() {
             return Err(GpuError::Config("the VPL buffers must be given exactly when the features have VPLs".into()));
+        }
+        if vpls.as_ref().is_some_and(|v| v.lists.is_some() != matches!(light_loop, LightLoop::Tiled { .. })) {
+            return Err(GpuError::Config("the VPLs' light grid must be given exactly to tiled shading".into()));
         }
         let mut defines: Vec<&str> = features.light_defines();
         defines.extend(features.vpl_defines());

@@ -1,7 +1,7 @@
 //! The lights group (group 3) of the forward shading passes: Forward+, brute force and the
 //! blended geometry's shading bind the same lights the same way (shading lights 0, spots 1,
 //! light grid 2, its indices 3, tile ranges 4, lighting uniform 5, shadow atlas 6-8, VPLs
-//! 9-11). Built
+//! 9-13). Built
 //! once; [`LightsGroup::rebind`] makes the group again when the light grid's index buffer
 //! grew (a new buffer), the only thing in it that changes after creation. Depends on wgpu,
 //! [`crate::lights_gpu`], [`crate::light_grid`], [`crate::shadow_atlas`].
@@ -15,7 +15,8 @@ type ShadowBindings = (wgpu::TextureView, wgpu::Sampler, wgpu::Buffer);
 
 /// The virtual point lights a forward shading pass reads (`VPLS`, bindings 9-11): their
 /// shading data, the shading uniform (cap, model, distance clamp) and the generation's
-/// counter (tiledlight-vpl).
+/// counter (tiledlight-vpl); in a tiled pass also their light grid and its indices (12,
+/// 13).
 #[derive(Clone, Debug)]
 pub struct VplBindings {
     /// `array<Vpl>`.
@@ -24,6 +25,8 @@ pub struct VplBindings {
     pub shading: wgpu::Buffer,
     /// The candidates' counter (`min(count, cap)` VPLs exist).
     pub count: wgpu::Buffer,
+    /// The VPLs' light grid and its index buffer (tiled passes).
+    pub lists: Option<(wgpu::Buffer, wgpu::Buffer)>,
 }
 
 /// Group 3 of a forward shading pass and what it was made of.
@@ -103,6 +106,10 @@ impl Parts {
             bind.push(wgpu::BindGroupEntry { binding: 9, resource: v.vpls.as_entire_binding() });
             bind.push(wgpu::BindGroupEntry { binding: 10, resource: v.shading.as_entire_binding() });
             bind.push(wgpu::BindGroupEntry { binding: 11, resource: v.count.as_entire_binding() });
+            if let Some((grid, indices)) = &v.lists {
+                bind.push(wgpu::BindGroupEntry { binding: 12, resource: grid.as_entire_binding() });
+                bind.push(wgpu::BindGroupEntry { binding: 13, resource: indices.as_entire_binding() });
+            }
         }
         if let Some(g) = grid {
             bind.push(wgpu::BindGroupEntry { binding: 2, resource: g.grid.as_entire_binding() });

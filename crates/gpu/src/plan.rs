@@ -8,6 +8,7 @@
 //! vpl      RSM + VPL generation of the casters that moved (only with `--vpl`)
 //! head     depth pre-pass (Forward+, brute force)      | G-buffer (Tiled Deferred)
 //! culling  cells + tiles -> light grid (Forward+)      | (Tiled Deferred culls in its shading pass)
+//!          [VPLs -> their own light grid (Forward+, `--vpl`)]
 //!          or light-centric assignment (either method: tile depth, count, allocate, write)
 //! middle   forward shading (Forward+ / brute force)     | cull + shade, [MSAA resolve] (Tiled Deferred;
 //!                                                         shade only when the lists were assigned)
@@ -37,6 +38,9 @@ pub enum Step {
     /// Forward+'s culling into the light grid, two-level when the features say so
     /// (`forward.cull`).
     Cull,
+    /// Forward+'s culling of the VPLs into a light grid of their own, one list per tile
+    /// (`forward.cull_vpls`; only with `--vpl`).
+    VplCull,
     /// Forward shading of each fragment's grid list (`forward.shade`).
     ForwardShade,
     /// Every light for every fragment (`brute_force.shade`).
@@ -88,6 +92,9 @@ impl FramePlan {
         match features.method {
             Method::ForwardPlus => {
                 steps.push(Step::Cull);
+                if features.vpl {
+                    steps.push(Step::VplCull);
+                }
                 steps.push(Step::ForwardShade);
             }
             Method::BruteForce { .. } => steps.push(Step::BruteForceShade),
@@ -200,6 +207,11 @@ mod tests {
         assert!(!FramePlan::new(&f).has(Vpl), "no --vpl, no VPL step");
         f.vpl = true;
         assert_eq!(FramePlan::new(&f).steps(), [ShadowMaps, Vpl, DepthPrepass, BruteForceShade, Tonemap]);
+        f.method = Method::ForwardPlus;
+        assert_eq!(
+            FramePlan::new(&f).steps(),
+            [ShadowMaps, Vpl, DepthPrepass, Cull, VplCull, ForwardShade, Tonemap, Heatmap]
+        );
     }
 
     #[test]

@@ -11,9 +11,10 @@
 //! the app's `warning:` line). Depends on tiledlight-gpu, tiledlight-cull and
 //! [`crate::rsm`].
 
-use tiledlight_cull::light::GpuCullLight;
+use tiledlight_cull::light::{GpuCullLight, PackedLights};
 use tiledlight_cull::vpl::{GpuVpl, GpuVplParams};
 use tiledlight_gpu::bindings::{create_layout, Binding, PassBindings, PassGroup};
+use tiledlight_gpu::lights_gpu::{LightBuffers, LightingUniforms};
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::readback::read_buffer;
 use tiledlight_gpu::timer::GpuTimer;
@@ -39,6 +40,7 @@ pub const VPL_GENERATE_BINDINGS: PassBindings = PassBindings {
             Binding::storage_rw(5, C),
             Binding::storage_rw(6, C),
             Binding::storage_rw(7, C),
+            Binding::storage_rw(8, C),
         ],
     )],
 };
@@ -54,6 +56,9 @@ pub struct VplBuffers {
     pub cull: wgpu::Buffer,
     /// The candidates' counter (`atomic<u32>`): `min(count, cap)` VPLs exist.
     pub count: wgpu::Buffer,
+    /// The VPLs' `Lighting` uniform for the culling pass: zero but for `num_lights`, which
+    /// the generation sets to `min(count, cap)` on the GPU.
+    pub lighting: wgpu::Buffer,
     /// Most VPLs.
     pub cap: u32,
     /// Their bytes.
@@ -88,11 +93,36 @@ impl VplBuffers {
         let cull =
             buffer_zeroed(device, "vpl.cull", (cap as u64 * std::mem::size_of::<GpuCullLight>() as u64).max(16), usage);
         let count = buffer_zeroed(device, "vpl.count", 4, usage | wgpu::BufferUsages::COPY_DST);
+        let lighting = buffer_zeroed(
+            device,
+            "vpl.lighting",
+            std::mem::size_of::<LightingUniforms>() as u64,
+            usage | wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
         let mut memory = MemoryReport::default();
         memory.add("vpl.vpls", vpls.size());
         memory.add("vpl.cull", cull.size());
         memory.add("vpl.count", count.size());
-        Ok(Self { vpls, cull, count, cap, memory })
+        Ok(Self { vpls, cull, count, lighting, cap, memory })
+    }
+
+    /// The VPLs as a light set for `tiledlight_gpu`'s culling pass (`LightCulling`): their
+    /// culling spheres and shading buffer, no spots, and `cap` empty CPU entries standing
+    /// for the lights so that the pass sizes its lists for the cap. The real number of VPLs
+    /// is on the GPU only ([`Self::lighting`]), so the CPU data must never be read as lights.
+    pub fn as_lights(&self) -> LightBuffers {
+        let packed = PackedLights {
+            cull: vec![GpuCullLight::default(); self.cap as usize],
+            num_point: self.cap,
+            ..Default::default()
+        };
+        LightBuffers {
+            cull: self.cull.clone(),
+            shading: self.vpls.clone(),
+            spots: None,
+            packed,
+            memory: MemoryReport::default(),
+        }
     }
 
     /// Reads the counter back (a debug path: it waits for the GPU).
@@ -174,6 +204,7 @@ impl VplGenerate {
                 buf(5, &buffers.vpls),
                 buf(6, &buffers.cull),
                 buf(7, &buffers.count),
+                buf(8, &buffers.lighting),
             ],
         });
         let n = cfg.blocks_per_side().div_ceil(WORKGROUP);
@@ -183,6 +214,7 @@ impl VplGenerate {
     /// Zeroes the counter and makes the VPLs (`vpl.generate`).
     pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, buffers: &VplBuffers) {
         encoder.clear_buffer(&buffers.count, 0, None);
+        encoder.clear_buffer(&buffers.lighting, 0, None);
         if self.workgroups.2 == 0 {
             return;
         }
