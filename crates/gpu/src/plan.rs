@@ -8,7 +8,7 @@
 //! vpl      RSM + VPL generation of the casters that moved (only with `--vpl`)
 //! head     depth pre-pass (Forward+, brute force)      | G-buffer (Tiled Deferred)
 //! culling  cells + tiles -> light grid (Forward+)      | (Tiled Deferred culls in its shading pass)
-//!          [VPLs -> their own light grid (Forward+, `--vpl`)]
+//!          [VPLs -> their own light grid (either method, `--vpl`)]
 //!          or light-centric assignment (either method: tile depth, count, allocate, write)
 //! middle   forward shading (Forward+ / brute force)     | cull + shade, [MSAA resolve] (Tiled Deferred;
 //!                                                         shade only when the lists were assigned)
@@ -38,8 +38,8 @@ pub enum Step {
     /// Forward+'s culling into the light grid, two-level when the features say so
     /// (`forward.cull`).
     Cull,
-    /// Forward+'s culling of the VPLs into a light grid of their own, one list per tile
-    /// (`forward.cull_vpls`; only with `--vpl`).
+    /// The culling of the VPLs into a light grid of their own, one list per tile, by the
+    /// lights' culling pass (`forward.cull_vpls`, `deferred.cull_vpls`; only with `--vpl`).
     VplCull,
     /// Forward shading of each fragment's grid list (`forward.shade`).
     ForwardShade,
@@ -99,6 +99,9 @@ impl FramePlan {
             }
             Method::BruteForce { .. } => steps.push(Step::BruteForceShade),
             Method::TiledDeferred => {
+                if features.vpl {
+                    steps.push(Step::VplCull);
+                }
                 steps.push(Step::DeferredShade);
                 if features.msaa > 1 {
                     steps.push(Step::DeferredResolve);
@@ -212,6 +215,8 @@ mod tests {
             FramePlan::new(&f).steps(),
             [ShadowMaps, Vpl, DepthPrepass, Cull, VplCull, ForwardShade, Tonemap, Heatmap]
         );
+        f.method = Method::TiledDeferred;
+        assert_eq!(FramePlan::new(&f).steps(), [ShadowMaps, Vpl, GBuffer, VplCull, DeferredShade, Tonemap, Heatmap]);
     }
 
     #[test]
