@@ -372,6 +372,12 @@ impl Renderer for DeferredRenderer {
     fn blended_mut(&mut self) -> Option<&mut BlendedPath> {
         self.blended.as_mut()
     }
+    fn vpl_count(&self, ctx: &GpuContext) -> Result<Option<(u32, u32)>, GpuError> {
+        match self.vpl.as_ref().map(|v| &v.0) {
+            Some(v) => v.buffers.read_count(&ctx.device, &ctx.queue).map(|c| Some((c.kept, c.refused))),
+            None => Ok(None),
+        }
+    }
     fn lights_moved(&self, queue: &wgpu::Queue, lights: &PackedLights) -> Result<(), GpuError> {
         self.common.lights_moved(queue, lights)?;
         if let (Some((v, _)), Some(atlas)) = (&self.vpl, &self.common.shadows) {

@@ -436,6 +436,12 @@ impl Renderer for ForwardRenderer {
     fn blended_mut(&mut self) -> Option<&mut BlendedPath> {
         self.blended.as_mut()
     }
+    fn vpl_count(&self, ctx: &GpuContext) -> Result<Option<(u32, u32)>, GpuError> {
+        match self.vpl.as_ref() {
+            Some(v) => v.buffers.read_count(&ctx.device, &ctx.queue).map(|c| Some((c.kept, c.refused))),
+            None => Ok(None),
+        }
+    }
     fn lights_moved(&self, queue: &wgpu::Queue, lights: &PackedLights) -> Result<(), GpuError> {
         self.common.lights_moved(queue, lights)?;
         if let (Some(v), Some(atlas)) = (&self.vpl, &self.common.shadows) {

@@ -103,6 +103,7 @@ impl VplBuffers {
         memory.add("vpl.vpls", vpls.size());
         memory.add("vpl.cull", cull.size());
         memory.add("vpl.count", count.size());
+        memory.add("vpl.lighting", lighting.size());
         Ok(Self { vpls, cull, count, lighting, cap, memory })
     }
 
