@@ -30,7 +30,7 @@
 //!    - *physical* (Dachsbacher and Stamminger 2005): a Lambertian emitter of flux `F`,
 //!      radiant intensity `F/pi x max(0, n_vpl . -l)`, over `max(d^2, clamp^2)`. The clamp
 //!      removes the `1/d^2` singularity next to a VPL (and with it some energy: a bias).
-//! 5. **Reference** ([`reference_intensity`]): the physical model summed over every RSM
+//! 5. **Reference** ([`reference_irradiance`]): the physical model summed over every RSM
 //!    texel, with no blocks, thresholds, cap or radius cutoff.
 //!
 //! Depends on glam, bytemuck and [`crate::error`].
