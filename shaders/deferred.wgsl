@@ -27,7 +27,12 @@
 // holds their result.
 //
 // variants: SPOT_LIGHTS HALF_Z AABB SPOT_CONE COARSE EXTRA_RTS EXTRA_RTS_2 EXTRA_RTS_3 MSAA SHADOWS ASSIGNED CLUSTERED
-// variants: EMISSION
+// With VPLS each pixel also sums the virtual point lights of its tile's list in the VPLs'
+// own light grid (culled before this pass by the lights' culling pass; tiledlight-vpl,
+// common/vpl.wgsl vpl_light), as Forward+ does.
+//
+// variants: EMISSION VPLS
+// requires: VPLS SHADOWS
 // requires: EXTRA_RTS_2 EXTRA_RTS
 // requires: EXTRA_RTS_3 EXTRA_RTS_2
 // requires: CLUSTERED ASSIGNED
@@ -85,6 +90,14 @@ alias GTexture = texture_2d<f32>;
 @group(1) @binding(15) var shadow_atlas: texture_depth_2d_array;
 @group(1) @binding(16) var shadow_sampler: sampler_comparison;
 @group(1) @binding(17) var<storage, read> shadow_faces: array<ShadowFace>;
+#endif
+#ifdef VPLS
+#include "common/vpl.wgsl"
+#include "common/light_grid.wgsl"
+@group(1) @binding(19) var<storage, read> vpls: array<Vpl>;
+@group(1) @binding(20) var<uniform> vpl_shading: VplShading;
+@group(1) @binding(21) var<storage, read> vpl_grid: LightGrid;
+@group(1) @binding(22) var<storage, read> vpl_indices: array<u32>;
 #endif
 // The light grid (crates/gpu/src/light_grid.rs).
 @group(2) @binding(0) var<storage, read_write> light_grid: LightGridRw;
@@ -188,7 +201,7 @@ fn load_gsample(p: vec2<u32>, s: u32) -> GSample {
 
 #ifdef ASSIGNED
 // Linear HDR of one G-buffer sample of pixel `p`, lit by its list in the grid.
-fn shade_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
+fn shade_lights_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
     if g.sky {
         return vec3<f32>(0.0);
     }
@@ -259,10 +272,28 @@ var<private> p_tile: TileCull;
 var<private> p_near: TileList;
 var<private> p_far: TileList;
 
-fn shade_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
+fn shade_lights_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
     return shade(g, p_tile, p_near, p_far);
 }
 #endif
+
+// Linear HDR of one G-buffer sample of pixel `p`: its lights, and with VPLS its tile's VPLs.
+fn shade_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
+    var color = shade_lights_at(g, p);
+#ifdef VPLS
+    if !g.sky {
+        let v = view_vector(g.world);
+        let physical = vpl_shading.model != 0u;
+        let tile = p / vpl_grid.header.tile_size;
+        let l = light_list(vpl_grid.lists[tile.y * vpl_grid.header.tiles.x + tile.x], vpl_grid.header.capacity);
+        for (var i = 0u; i < l.count; i++) {
+            let vl = vpl_light(vpls[vpl_indices[l.first + i]], g.world, physical, vpl_shading.distance_clamp);
+            color += brdf_cos(g.normal, v, vl.l, g.surface) * vl.factor;
+        }
+    }
+#endif
+    return color;
+}
 
 #ifdef MSAA
 // A non-edge pixel's samples lie on one plane: its shading point is where the pixel-centre

@@ -4,13 +4,18 @@
 // Alpha-masked draws (ALPHA_MASK) discard as the pre-pass did: depth Equal alone would let a
 // masked-out texel shade a coplanar surface behind it.
 // The material defines (TEXTURES MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1) are common/scene.wgsl's.
+// With VPLS every fragment also sums the virtual point lights (tiledlight-vpl;
+// common/vpl.wgsl vpl_light): Forward+ those of its tile's list in the VPLs' own light grid
+// (one list per tile), brute force all min(count, cap) of them, the count read from the
+// GPU's generation counter.
 // variants: SPOT_LIGHTS TEXTURES HALF_Z BRUTE_FORCE NO_CUTOFF ALPHA_MASK SHADOWS
-// variants: MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1
+// variants: MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1 VPLS
 // requires: MR_TEXTURE TEXTURES
 // requires: NORMAL_MAP TEXTURES
 // requires: OCCLUSION TEXTURES
 // requires: UV1 TEXTURES
 // requires: NO_CUTOFF BRUTE_FORCE
+// requires: VPLS SHADOWS
 #include "common/scene.wgsl"
 #include "common/shade.wgsl"
 
@@ -24,6 +29,17 @@
 @group(3) @binding(6) var shadow_atlas: texture_depth_2d_array;
 @group(3) @binding(7) var shadow_sampler: sampler_comparison;
 @group(3) @binding(8) var<storage, read> shadow_faces: array<ShadowFace>;
+#endif
+#ifdef VPLS
+#include "common/vpl.wgsl"
+@group(3) @binding(9) var<storage, read> vpls: array<Vpl>;
+@group(3) @binding(10) var<uniform> vpl_shading: VplShading;
+@group(3) @binding(11) var<storage, read> vpl_count: u32;
+#ifndef BRUTE_FORCE
+#include "common/light_grid.wgsl"
+@group(3) @binding(12) var<storage, read> vpl_grid: LightGrid;
+@group(3) @binding(13) var<storage, read> vpl_indices: array<u32>;
+#endif
 #endif
 #ifndef BRUTE_FORCE
 // The light grid the culling pass wrote (common/light_grid.wgsl).
@@ -56,6 +72,23 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) ve
     for (var i = 0u; i < list.count; i++) {
         color += shade_light(light_indices[list.first + i], in.world_pos, n, v, s);
     }
+#endif
+#ifdef VPLS
+    let physical = vpl_shading.model != 0u;
+#ifdef BRUTE_FORCE
+    let num_vpls = min(vpl_count, vpl_shading.cap);
+    for (var i = 0u; i < num_vpls; i++) {
+        let vl = vpl_light(vpls[i], in.world_pos, physical, vpl_shading.distance_clamp);
+        color += brdf_cos(n, v, vl.l, s) * vl.factor;
+    }
+#else
+    let vtile = vec2<u32>(in.clip.xy) / vpl_grid.header.tile_size;
+    let vlist = light_list(vpl_grid.lists[vtile.y * vpl_grid.header.tiles.x + vtile.x], vpl_grid.header.capacity);
+    for (var i = 0u; i < vlist.count; i++) {
+        let vl = vpl_light(vpls[vpl_indices[vlist.first + i]], in.world_pos, physical, vpl_shading.distance_clamp);
+        color += brdf_cos(n, v, vl.l, s) * vl.factor;
+    }
+#endif
 #endif
     return vec4<f32>(color, 1.0);
 }

@@ -34,6 +34,7 @@ pub fn declarations() -> Vec<PassBindings> {
         tiledlight_deferred::shading::DEFERRED_RESOLVE_BINDINGS,
         blit::BLIT_BINDINGS,
     ]);
+    v.extend(tiledlight_vpl::binding_declarations());
     v
 }
 

@@ -202,7 +202,9 @@ pub fn validate_shaders(root: &Path) -> Result<()> {
 /// Every Rust struct shared with WGSL, grouped by the crate that defines it (named by
 /// its directory, for messages).
 fn layout_sources() -> Vec<(&'static str, Vec<StructLayout>)> {
-    vec![("crates/cull", tiledlight_cull::light::layouts()), ("crates/gpu", tiledlight_gpu::layouts())]
+    let mut cull = tiledlight_cull::light::layouts();
+    cull.extend(tiledlight_cull::vpl::layouts());
+    vec![("crates/cull", cull), ("crates/gpu", tiledlight_gpu::layouts())]
 }
 
 /// Every `*.wgsl` file under `dir`, relative to it with `/` separators, sorted.

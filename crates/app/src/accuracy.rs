@@ -180,6 +180,7 @@ fn reference_key(a: &Settings, reference: ReferenceArg) -> String {
     };
     let shadows =
         if a.has_shadows() { format!("{:?}|{:?}", a.shadow_casters(), a.shadow_options()) } else { String::new() };
+    let shadows = shadows + &reference_vpl(a).map(|v| format!("|vpl {v:?}")).unwrap_or_default();
     threshold
         + &format!(
             "{}|{}|{}|{}|{:?}|{:?}|{:?}|{}|{}x{}|{}|{}|{shadows}",
@@ -232,6 +233,26 @@ fn pass_times(m: &bench::Measurement) -> Result<(f64, String)> {
     Ok((total, text))
 }
 
+/// The VPLs of the reference of a setting with VPLs: one bounce from every texel of the
+/// setting's reflective shadow maps (block 1, no thresholds, a cap above the texels),
+/// shaded by the physical model, which the brute-force reference sums with no cutoff. The
+/// setting's own block, thresholds, cap, model and (tiled methods) culling are what its
+/// error measures. None without VPLs.
+fn reference_vpl(a: &Settings) -> Option<tiledlight_cull::vpl::VplConfig> {
+    a.vpl.map(|v| {
+        let (points, spots) = a.shadow_casters();
+        let texels = (6 * u64::from(points) + u64::from(spots)) * u64::from(v.rsm_size).pow(2);
+        tiledlight_cull::vpl::VplConfig {
+            block: 1,
+            colour_threshold: 0.0,
+            brightness_threshold: 0.0,
+            cap: texels.clamp(1, u64::from(tiledlight_cull::vpl::MAX_CAP)) as u32,
+            shading: tiledlight_cull::vpl::VplShading::Physical,
+            ..v
+        }
+    })
+}
+
 fn render_reference(
     prep: &mut Prepared,
     point_args: &Settings,
@@ -244,7 +265,8 @@ fn render_reference(
     };
     // Blended geometry in the reference is exact "over" (sorted back to front), whatever
     // the setting's blend mode.
-    let settings = Settings { method, blend_mode: BlendMode::Sorted, ..point_args.clone() };
+    let settings =
+        Settings { method, blend_mode: BlendMode::Sorted, vpl: reference_vpl(point_args), ..point_args.clone() };
     prep.reconfigure(&settings)?;
     let mut r = prep.renderer(false)?;
     let m = bench::measure(prep, r.as_mut(), 1, frames).context("rendering the brute-force reference")?;
@@ -720,6 +742,27 @@ mod tests {
         assert_eq!(key(&s), key(&oit), "the reference is always sorted");
         assert_ne!(key(&s), key(&Settings { transparent_objects: 20, ..s.clone() }));
         assert_eq!(key(&s), key(&Settings { threshold: 0.5, method: Method::Deferred, ..s.clone() }));
+    }
+
+    #[test]
+    fn the_vpl_reference_is_every_texel_of_the_settings_rsm() {
+        use tiledlight_cull::vpl::{VplConfig, VplShading};
+        let s = Settings { spot_lights: Some(8), shadow_spot_lights: 4, shadow_point_lights: 0, ..Settings::default() };
+        assert_eq!(reference_vpl(&s), None);
+        let with = |v: VplConfig| Settings { vpl: Some(v), ..s.clone() };
+        let r =
+            reference_vpl(&with(VplConfig { block: 4, brightness_threshold: 0.3, cap: 10, ..VplConfig::default() }))
+                .expect("a VPL reference");
+        assert_eq!((r.block, r.colour_threshold, r.brightness_threshold), (1, 0.0, 0.0));
+        assert_eq!((r.cap, r.shading), (4 * 32 * 32, VplShading::Physical));
+        let key = |s: &Settings| reference_key(s, ReferenceArg::NoCutoff);
+        // Block, thresholds, cap and model are what the setting's error measures; the RSM
+        // size makes another reference.
+        let a = with(VplConfig { block: 2, ..VplConfig::default() });
+        let b = with(VplConfig { block: 8, shading: VplShading::Physical, cap: 5, ..VplConfig::default() });
+        assert_eq!(key(&a), key(&b));
+        assert_ne!(key(&a), key(&with(VplConfig { rsm_size: 64, ..VplConfig::default() })));
+        assert_ne!(key(&a), key(&s), "VPLs change the reference");
     }
 
     #[test]

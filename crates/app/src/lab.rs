@@ -55,6 +55,13 @@ pub const AXES: &[(&str, &str)] = &[
     ("cluster-slices", "cluster depth slices, 1 to 32 (integer; ranges allowed)"),
     ("cluster-first", "far end of the first cluster slice, metres (number; ranges allowed)"),
     ("lights-per-pixel", "lights placed on surfaces, mean lights per surface point (number; ranges allowed)"),
+    ("vpl", "virtual point lights from the shadow casters: on | off"),
+    ("vpl-rsm-size", "VPLs: reflective shadow map texels per face side, 4..512 (integer; ranges allowed)"),
+    ("vpl-block", "VPLs: texels per side of one VPL's block, divides the RSM size (integer; ranges allowed)"),
+    ("vpl-colour-threshold", "VPLs: colour threshold, 0..1 (number; ranges allowed)"),
+    ("vpl-brightness-threshold", "VPLs: brightness threshold (number; ranges allowed)"),
+    ("vpl-cap", "VPLs: most VPLs (integer; ranges allowed)"),
+    ("vpl-shading", "VPLs: sample | physical"),
 ];
 
 /// One swept axis: its name (a key of [`AXES`]) and its values, in sweep order.
@@ -91,13 +98,25 @@ fn is_integer_axis(name: &str) -> bool {
             | "transparent-objects"
             | "cluster-tile"
             | "cluster-slices"
+            | "vpl-rsm-size"
+            | "vpl-block"
+            | "vpl-cap"
     )
 }
 
 /// Whether the axis's values are numbers (plotted on a numeric x axis).
 pub fn is_numeric_axis(name: &str) -> bool {
     is_integer_axis(name)
-        || matches!(name, "threshold" | "edge-distance" | "edge-normal-deg" | "cluster-first" | "lights-per-pixel")
+        || matches!(
+            name,
+            "threshold"
+                | "edge-distance"
+                | "edge-normal-deg"
+                | "cluster-first"
+                | "lights-per-pixel"
+                | "vpl-colour-threshold"
+                | "vpl-brightness-threshold"
+        )
 }
 
 /// Parses `NAME=VALUES`. VALUES is a comma-separated list, or for numeric axes a range
@@ -248,6 +267,23 @@ pub fn apply(args: &mut SceneArgs, name: &str, value: &str) -> Result<()> {
         }
         "aabb" => args.aabb = on_off(value)?,
         "half-z" => args.half_z = on_off(value)?,
+        // The VPL settings' axes apply with --vpl (or the vpl axis) on.
+        "vpl" => args.vpl.vpl = on_off(value)?,
+        "vpl-rsm-size" => args.vpl.vpl_rsm_size = small()?,
+        "vpl-block" => args.vpl.vpl_block = small()?,
+        "vpl-cap" => args.vpl.vpl_cap = small()?,
+        "vpl-colour-threshold" => {
+            args.vpl.vpl_colour_threshold =
+                value.parse().with_context(|| format!("vpl-colour-threshold '{value}': expected a number"))?
+        }
+        "vpl-brightness-threshold" => {
+            args.vpl.vpl_brightness_threshold =
+                value.parse().with_context(|| format!("vpl-brightness-threshold '{value}': expected a number"))?
+        }
+        "vpl-shading" => {
+            args.vpl.vpl_shading = crate::vpl_args::VplShadingArg::from_str(value, true)
+                .map_err(|e| anyhow::anyhow!("vpl-shading '{value}': {e}"))?
+        }
         "culling" => {
             (args.aabb, args.half_z) = match value {
                 "planes" => (false, false),
@@ -596,6 +632,30 @@ mod tests {
         assert_eq!(args.assign, AssignArg::Scatter);
         let e = format!("{:#}", parse_axis("grid=hexagonal").unwrap_err());
         assert!(e.contains("grid 'hexagonal'"), "{e}");
+    }
+
+    #[test]
+    fn vpl_settings_are_axes() {
+        let mut args = SceneArgs::default();
+        for (name, value) in [
+            ("vpl", "on"),
+            ("vpl-block", "4"),
+            ("vpl-rsm-size", "64"),
+            ("vpl-cap", "1000"),
+            ("vpl-colour-threshold", "0.5"),
+            ("vpl-brightness-threshold", "0.25"),
+            ("vpl-shading", "physical"),
+        ] {
+            apply(&mut args, name, value).unwrap();
+        }
+        let c = args.vpl.config().expect("--vpl on");
+        assert_eq!((c.block, c.rsm_size, c.cap), (4, 64, 1000));
+        assert_eq!((c.colour_threshold, c.brightness_threshold), (0.5, 0.25));
+        assert_eq!(c.shading, tiledlight_cull::vpl::VplShading::Physical);
+        assert_eq!(parse_axis("vpl-block=1..8").unwrap().values, ["1", "2", "4", "8"]);
+        assert!(is_numeric_axis("vpl-brightness-threshold") && !is_numeric_axis("vpl-shading"));
+        let e = format!("{:#}", apply(&mut args, "vpl-shading", "fancy").unwrap_err());
+        assert!(e.contains("vpl-shading 'fancy'"), "{e}");
     }
 
     #[test]

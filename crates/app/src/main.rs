@@ -37,6 +37,7 @@ mod scene_setup;
 mod shadow_accuracy;
 mod sweep;
 mod viewer;
+mod vpl_args;
 
 use std::process::ExitCode;
 

@@ -176,5 +176,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     if let Some(w) = dropped.warning(&format!("the image {}", out.display()), prep.settings.grid_pairs, max_binding) {
         dropped::warn(&mut warnings, &w);
     }
+    let what = format!("the image {}", out.display());
+    if let Some(w) = crate::vpl_args::refused_warning(renderer.as_ref(), &prep.ctx, &what)? {
+        dropped::warn(&mut warnings, &w);
+    }
     dropped::strict(args.scene.strict, warnings)
 }

@@ -377,6 +377,9 @@ pub struct SceneArgs {
     /// are read, since a downloaded model may name any file on the machine.
     #[arg(long)]
     pub allow_any_path: bool,
+    /// Virtual point lights (`--vpl` and its settings).
+    #[command(flatten)]
+    pub vpl: crate::vpl_args::VplArgs,
 }
 
 impl Default for SceneArgs {
@@ -430,6 +433,7 @@ impl Default for SceneArgs {
             strict: d.strict,
             grid_budget: d.grid_pairs,
             allow_any_path: d.allow_any_path,
+            vpl: crate::vpl_args::VplArgs::of(d.vpl),
         }
     }
 }
@@ -500,6 +504,7 @@ impl SceneArgs {
             camera: None,
             strict: self.strict,
             allow_any_path: self.allow_any_path,
+            vpl: self.vpl.config(),
         }
     }
 
@@ -674,6 +679,7 @@ mod tests {
             shadow_filter: 3,
             shadow_format: ShadowFormat::Depth32,
             blend_mode: BlendMode::WeightedOit,
+            vpl: None,
             camera: None,
             strict: false,
             allow_any_path: false,

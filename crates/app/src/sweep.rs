@@ -76,7 +76,8 @@ pub struct SweepArgs {
     /// every combination is measured. Names: lights, spot-lights, method, grid-objects,
     /// density, gbuffer-rts, tile-size, threshold, culling, aabb, half-z, seed, msaa,
     /// edge-distance, edge-normal-deg, shadow-point-lights, shadow-spot-lights, shadow-size,
-    /// shadow-filter, shadow-format, transparent-objects, blend-mode.
+    /// shadow-filter, shadow-format, transparent-objects, blend-mode, vpl, vpl-rsm-size,
+    /// vpl-block, vpl-colour-threshold, vpl-brightness-threshold, vpl-cap, vpl-shading.
     #[arg(long = "axis", value_name = "NAME=VALUES")]
     pub axes: Vec<String>,
     /// A named sweep; --axis replaces its axes of the same name.

@@ -15,6 +15,9 @@ pub enum CullError {
     /// A shadow setting is out of range or the casters do not fit the atlas.
     #[error("invalid shadow settings: {0}")]
     InvalidShadow(String),
+    /// A virtual-point-light setting is out of range (RSM size, block, thresholds, cap).
+    #[error("invalid VPL settings: {0}")]
+    InvalidVpl(String),
     /// A depth buffer does not match the screen.
     #[error("invalid depth buffer: {0}")]
     InvalidDepth(String),

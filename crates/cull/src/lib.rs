@@ -7,7 +7,9 @@
 //! lists ([`cluster`]), the light grid's packing ([`grid`]), the shadow atlas's layout, projections and lookup
 //! ([`shadow`]), and the CPU ray-cast visibility reference that shadow maps are compared
 //! with ([`raycast`]: triangles in a BVH, segment occlusion), and an estimate of the
-//! lights per tile for light counts the reference is too slow for ([`estimate`]).
+//! lights per tile for light counts the reference is too slow for ([`estimate`]), and the
+//! CPU twin of virtual point lights: generation from a reflective shadow map, the two
+//! shading models and the every-texel one-bounce reference ([`vpl`]).
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
 
 pub mod error;
@@ -30,6 +32,7 @@ pub mod raycast;
 pub mod reference;
 pub mod shadow;
 pub mod tiles;
+pub mod vpl;
 
 pub use camera::{Camera, DepthParams, Projection};
 pub use cluster::{cull_clusters, ClusterConfig};

@@ -7,20 +7,24 @@
 //! [`crate::gbuffer`], [`crate::shading`].
 
 use glam::Vec3;
+use tiledlight_cull::vpl::{GpuVplShading, VplConfig};
 use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
 use tiledlight_gpu::features::{Features, Method};
 use tiledlight_gpu::frame::{CommonSettings, FrameCommon};
-use tiledlight_gpu::light_cull::{CullOptions, DropLight, GpuTileLists};
+use tiledlight_gpu::light_cull::{CullOptions, DropLight, GpuTileLists, LightCulling};
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::lights_group::VplBindings;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::plan::{FramePlan, Step};
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::{DisplayTargets, Renderer};
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::{HeatmapOf, HeatmapPass};
+use tiledlight_gpu::util::buffer_init;
 use tiledlight_gpu::{GpuContext, GpuError};
+use tiledlight_vpl::VplPath;
 
 use crate::gbuffer::{GBuffer, GBufferPass};
 use crate::gbuffer::{ALBEDO_FORMAT, EXTRA_FORMAT, NORMAL_FORMAT};
@@ -70,6 +74,11 @@ pub struct DeferredSettings {
     pub shadows: ShadowOptions,
     /// How blended geometry is composited (used only when the scene has some).
     pub blend: BlendMode,
+    /// Virtual point lights from the shadow casters' reflective shadow maps
+    /// (tiledlight-vpl), culled into a light grid of their own after the G-buffer and shaded
+    /// by the cull-and-shade pass; `None` (the default): none of their passes, buffers or
+    /// variants.
+    pub vpl: Option<VplConfig>,
 }
 
 impl Default for DeferredSettings {
@@ -88,6 +97,7 @@ impl Default for DeferredSettings {
             test_gbuffer_values: false,
             shadows: ShadowOptions::default(),
             blend: BlendMode::Sorted,
+            vpl: None,
         }
     }
 }
@@ -103,6 +113,8 @@ pub struct DeferredRenderer {
     heatmap: HeatmapPass,
     /// Alpha-blended geometry's passes, the same as Forward+'s (only when the scene has some).
     blended: Option<BlendedPath>,
+    /// The VPLs and their culling (with `settings.vpl` only).
+    vpl: Option<(VplPath, LightCulling)>,
 }
 
 impl DeferredRenderer {
@@ -127,6 +139,12 @@ impl DeferredRenderer {
             settings.shadows,
         );
         features.blend_mode = settings.blend;
+        features.vpl = settings.vpl.is_some();
+        if features.vpl && features.shadows.is_none() {
+            return Err(GpuError::Config(
+                "VPLs are made from the shadow-casting lights' reflective shadow maps: no light casts a shadow".into(),
+            ));
+        }
         let mut formats = vec![DEPTH_FORMAT, ALBEDO_FORMAT, NORMAL_FORMAT];
         if features.extra_targets > 0 {
             formats.push(EXTRA_FORMAT);
@@ -168,6 +186,38 @@ impl DeferredRenderer {
                 settings.test_gbuffer_values,
             )?;
             memory.add("deferred.gbuffer", gbuffer.bytes());
+            let vpl = match (settings.vpl, common.shadows.as_ref()) {
+                (Some(cfg), Some(atlas)) => {
+                    let path = VplPath::new(device, &ctx.queue, (views, scene), atlas, &lights.packed, &cfg)?;
+                    let culling = LightCulling::new(
+                        device,
+                        views,
+                        &targets.depth_view,
+                        &path.buffers.as_lights(),
+                        &path.buffers.lighting,
+                        common.grid,
+                        tiledlight_vpl::cull_options(&settings.cull, common.grid, cfg.cap, &device.limits()),
+                    )?;
+                    let shading = buffer_init(
+                        device,
+                        "vpl.shading",
+                        bytemuck::bytes_of(&GpuVplShading::new(&cfg)),
+                        wgpu::BufferUsages::UNIFORM,
+                    );
+                    let bindings = VplBindings {
+                        vpls: path.buffers.vpls.clone(),
+                        shading,
+                        count: path.buffers.count.clone(),
+                        lists: Some((culling.grid.grid.clone(), culling.grid.indices().clone())),
+                    };
+                    memory.extend(&path.memory);
+                    for (category, bytes) in culling.memory.entries.iter() {
+                        memory.add(&format!("vpl.{category}"), *bytes);
+                    }
+                    Some((path, culling, bindings))
+                }
+                _ => None,
+            };
             let shading = DeferredShading::new(
                 device,
                 views,
@@ -181,7 +231,9 @@ impl DeferredRenderer {
                 settings.test_drop_light,
                 (features, common.shadows.as_ref()),
                 &mut memory,
+                vpl.as_ref().map(|v| &v.2),
             )?;
+            let vpl = vpl.map(|(p, c, _)| (p, c));
             let blended = common.blended_path(device, scene, lights, settings.cull, Some(&shading.light_grid))?;
             let blended_grid = blended.as_ref().and_then(|b| b.culling.as_ref()).map(|c| &c.grid.grid);
             let heatmap = HeatmapPass::new(device, &shading.light_grid.grid, blended_grid, settings.heatmap)?;
@@ -189,12 +241,12 @@ impl DeferredRenderer {
             if let Some(b) = &blended {
                 memory.extend(&b.memory);
             }
-            Ok((gbuffer_pass, gbuffer, shading, heatmap, blended))
+            Ok((gbuffer_pass, gbuffer, shading, heatmap, (blended, vpl)))
         })?
-        .map(|(gbuffer_pass, gbuffer, shading, heatmap, blended)| {
+        .map(|(gbuffer_pass, gbuffer, shading, heatmap, (blended, vpl))| {
             let mut common = common;
             common.memory = memory;
-            Self { settings, common, gbuffer_pass, gbuffer, shading, heatmap, blended }
+            Self { settings, common, gbuffer_pass, gbuffer, shading, heatmap, blended, vpl }
         })
     }
 
@@ -206,6 +258,16 @@ impl DeferredRenderer {
     /// The blended-geometry path (scenes with blended materials).
     pub fn blended(&self) -> Option<&BlendedPath> {
         self.blended.as_ref()
+    }
+
+    /// The VPLs (with `settings.vpl`).
+    pub fn vpl(&self) -> Option<&VplPath> {
+        self.vpl.as_ref().map(|v| &v.0)
+    }
+
+    /// The culling of the VPLs into their own grid (with `settings.vpl`).
+    pub fn vpl_culling(&self) -> Option<&LightCulling> {
+        self.vpl.as_ref().map(|v| &v.1)
     }
 
     /// The G-buffer.
@@ -250,6 +312,16 @@ impl Renderer for DeferredRenderer {
         for step in c.plan.steps() {
             match step {
                 Step::ShadowMaps => c.record_shadows(encoder, timer, scene),
+                Step::Vpl => {
+                    if let Some((v, _)) = &self.vpl {
+                        v.record(encoder, timer, &c.views, scene);
+                    }
+                }
+                Step::VplCull => {
+                    if let Some((_, cull)) = &self.vpl {
+                        cull.record(encoder, timer, view, "deferred.cull_vpls");
+                    }
+                }
                 Step::GBuffer => {
                     self.gbuffer_pass.record(encoder, timer, view, scene, &self.gbuffer, &targets.depth_view)
                 }
@@ -300,8 +372,18 @@ impl Renderer for DeferredRenderer {
     fn blended_mut(&mut self) -> Option<&mut BlendedPath> {
         self.blended.as_mut()
     }
+    fn vpl_count(&self, ctx: &GpuContext) -> Result<Option<(u32, u32)>, GpuError> {
+        match self.vpl.as_ref().map(|v| &v.0) {
+            Some(v) => v.buffers.read_count(&ctx.device, &ctx.queue).map(|c| Some((c.kept, c.refused))),
+            None => Ok(None),
+        }
+    }
     fn lights_moved(&self, queue: &wgpu::Queue, lights: &PackedLights) -> Result<(), GpuError> {
-        self.common.lights_moved(queue, lights)
+        self.common.lights_moved(queue, lights)?;
+        if let (Some((v, _)), Some(atlas)) = (&self.vpl, &self.common.shadows) {
+            v.update(queue, atlas, lights);
+        }
+        Ok(())
     }
     fn light_grid(&self) -> Option<&LightGrid> {
         Some(&self.shading.light_grid)

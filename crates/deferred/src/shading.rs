@@ -21,6 +21,7 @@ use tiledlight_gpu::light_assign::LightAssign;
 use tiledlight_gpu::light_cull::{CoarseCulling, CullOptions, DropLight, CULL_WORKGROUP_BYTES, DEPTH_BINDING};
 use tiledlight_gpu::light_grid::{compute_bindings, GpuTileLists, LightGrid};
 use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::lights_group::VplBindings;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::readback::read_buffer;
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
@@ -125,7 +126,8 @@ const fn hdr_storage_binding(binding: u32) -> Binding {
 /// spots (7) with `SPOT_LIGHTS` (or `SPOT_CONE`, which the pass sets only with spots);
 /// cells (8) with `COARSE`; with `MSAA` the sample texture (12), edge list (13) and
 /// resolve arguments (14); with `SHADOWS` the shadow atlas (15), its comparison sampler
-/// (16) and faces (17); with `EMISSION` the G-buffer's emission target (18). Group 2: the light grid, with tile ranges only with `ASSIGNED`
+/// (16) and faces (17); with `EMISSION` the G-buffer's emission target (18); with `VPLS`
+/// the VPLs (19), their shading uniform (20), their light grid (21) and its indices (22). Group 2: the light grid, with tile ranges only with `ASSIGNED`
 /// (lists assigned light-centrically before the pass, read per pixel).
 pub const DEFERRED_BINDINGS: PassBindings = PassBindings {
     entry: "deferred.wgsl",
@@ -158,6 +160,10 @@ pub const DEFERRED_BINDINGS: PassBindings = PassBindings {
                 Binding::sampler(16, CS, wgpu::SamplerBindingType::Comparison).when(Cond::Defined("SHADOWS")),
                 Binding::storage(17, CS).when(Cond::Defined("SHADOWS")),
                 gbuffer_binding(18).when(Cond::Defined("EMISSION")),
+                Binding::storage(19, CS).when(Cond::Defined("VPLS")),
+                Binding::uniform(20, CS).when(Cond::Defined("VPLS")),
+                Binding::storage(21, CS).when(Cond::Defined("VPLS")),
+                Binding::storage(22, CS).when(Cond::Defined("VPLS")),
             ],
         ),
         PassGroup::new(2, &compute_bindings(Cond::Defined("ASSIGNED"))),
@@ -206,7 +212,13 @@ impl DeferredShading {
         drop: Option<DropLight>,
         (features, atlas): (&Features, Option<&ShadowAtlas>),
         memory: &mut MemoryReport,
+        vpls: Option<&VplBindings>,
     ) -> Result<Self, GpuError> {
+        if features.vpl != vpls.is_some_and(|v| v.lists.is_some()) {
+            return Err(GpuError::Config(
+                "the VPL buffers and their light grid must be given exactly when the features have VPLs".into(),
+            ));
+        }
         // 2.5D lists are always assigned light-centrically here: the cull-and-shade kernel
         // has no 2.5D variant (its variants are at the validator's limit), and assignment
         // finds the same lists.
@@ -223,6 +235,15 @@ impl DeferredShading {
                 name: "max_storage_buffers_per_shader_stage",
                 limit: storage_limit.into(),
                 asked: "9 storage buffers in one compute stage".into(),
+            });
+        }
+        // VPLs add three storage buffers (VPLs, their grid and its indices) to the nine.
+        if vpls.is_some() && storage_limit < 12 {
+            return Err(GpuError::Limit {
+                what: "Tiled Deferred with VPLs".into(),
+                name: "max_storage_buffers_per_shader_stage",
+                limit: storage_limit.into(),
+                asked: "12 storage buffers in one compute stage".into(),
             });
         }
         if options.samples != samples {
@@ -288,6 +309,15 @@ impl DeferredShading {
         defines.extend(features.light_defines());
         if let Some(spots) = lights.spots.as_ref().filter(|_| features.spot_lights) {
             bind.push(wgpu::BindGroupEntry { binding: 7, resource: spots.as_entire_binding() });
+        }
+        defines.extend(features.vpl_defines());
+        if let Some(v) = vpls {
+            bind.push(wgpu::BindGroupEntry { binding: 19, resource: v.vpls.as_entire_binding() });
+            bind.push(wgpu::BindGroupEntry { binding: 20, resource: v.shading.as_entire_binding() });
+            if let Some((grid, indices)) = &v.lists {
+                bind.push(wgpu::BindGroupEntry { binding: 21, resource: grid.as_entire_binding() });
+                bind.push(wgpu::BindGroupEntry { binding: 22, resource: indices.as_entire_binding() });
+            }
         }
         if let Some(a) = atlas {
             bind.push(view_entry(15, &a.sample_view));

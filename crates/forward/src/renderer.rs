@@ -5,8 +5,10 @@
 //! linear HDR -> tonemap (-> heat map). With MSAA the pre-pass and shading pass are
 //! multisampled (hardware MSAA), culling bounds every sample's depth, and the shading pass
 //! resolves into the HDR image. Built once for a scene, light set, screen size and
-//! settings; `record` only writes the view and records passes. Depends on tiledlight-gpu
-//! and tiledlight-cull.
+//! settings; `record` only writes the view and records passes. With VPLs (brute force
+//! only so far) the casters' reflective shadow maps and VPL generation
+//! (tiledlight-vpl) follow the shadow maps, and the shading pass sums every VPL. Depends on
+//! tiledlight-gpu, tiledlight-vpl and tiledlight-cull.
 
 use glam::Vec3;
 use tiledlight_cull::light::PackedLights;
@@ -28,6 +30,11 @@ use tiledlight_gpu::targets::{texture_2d_msaa, DisplayTargets, Renderer};
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::{HeatmapOf, HeatmapPass, HDR_FORMAT};
 use tiledlight_gpu::{GpuContext, GpuError};
+
+use tiledlight_cull::vpl::{GpuVplShading, VplConfig};
+use tiledlight_gpu::lights_group::VplBindings;
+use tiledlight_gpu::util::buffer_init;
+use tiledlight_vpl::VplPath;
 
 use crate::shading::{LightLoop, ShadingPass};
 
@@ -75,6 +82,11 @@ pub struct ForwardSettings {
     pub shadows: ShadowOptions,
     /// How blended geometry is composited (used only when the scene has some).
     pub blend: BlendMode,
+    /// Virtual point lights from the shadow casters' reflective shadow maps
+    /// (tiledlight-vpl); `None` (the default): none of their passes, buffers or variants.
+    /// Forward+ culls them into a light grid of their own (one list per tile); brute force
+    /// shades every one.
+    pub vpl: Option<VplConfig>,
 }
 
 impl Default for ForwardSettings {
@@ -91,6 +103,7 @@ impl Default for ForwardSettings {
             test_drop_light: None,
             shadows: ShadowOptions::default(),
             blend: BlendMode::Sorted,
+            vpl: None,
         }
     }
 }
@@ -108,6 +121,10 @@ pub struct ForwardRenderer {
     heatmap: Option<HeatmapPass>,
     /// The multisampled HDR target the shading pass draws into and resolves (MSAA only).
     hdr_msaa: Option<(wgpu::Texture, wgpu::TextureView)>,
+    /// The VPLs (with `settings.vpl` only).
+    vpl: Option<VplPath>,
+    /// Forward+'s culling of the VPLs into their own light grid (with `settings.vpl`).
+    vpl_culling: Option<LightCulling>,
 }
 
 impl Method {
@@ -142,6 +159,12 @@ impl ForwardRenderer {
             settings.shadows,
         );
         features.blend_mode = settings.blend;
+        features.vpl = settings.vpl.is_some();
+        if features.vpl && features.shadows.is_none() {
+            return Err(GpuError::Config(
+                "VPLs are made from the shadow-casting lights' reflective shadow maps: no light casts a shadow".into(),
+            ));
+        }
         if !features.method.is_tiled() {
             if settings.test_drop_light.is_some() {
                 return Err(GpuError::Config(
@@ -202,6 +225,41 @@ impl ForwardRenderer {
                     )
                 })
                 .transpose()?;
+            let vpl = match (settings.vpl, common.shadows.as_ref()) {
+                (Some(cfg), Some(atlas)) => {
+                    let path = VplPath::new(device, &ctx.queue, (views, scene), atlas, &lights.packed, &cfg)?;
+                    let shading = buffer_init(
+                        device,
+                        "vpl.shading",
+                        bytemuck::bytes_of(&GpuVplShading::new(&cfg)),
+                        wgpu::BufferUsages::UNIFORM,
+                    );
+                    // Forward+: the VPLs' own grid, culled by the same pass as the lights
+                    // (sphere and planes, one list per tile), their count from the GPU.
+                    let culling = plan
+                        .has(Step::VplCull)
+                        .then(|| {
+                            LightCulling::new(
+                                device,
+                                views,
+                                &targets.depth_view,
+                                &path.buffers.as_lights(),
+                                &path.buffers.lighting,
+                                common.grid,
+                                tiledlight_vpl::cull_options(&settings.cull, common.grid, cfg.cap, &device.limits()),
+                            )
+                        })
+                        .transpose()?;
+                    let bindings = VplBindings {
+                        vpls: path.buffers.vpls.clone(),
+                        shading,
+                        count: path.buffers.count.clone(),
+                        lists: culling.as_ref().map(|c| (c.grid.grid.clone(), c.grid.indices().clone())),
+                    };
+                    Some((path, bindings, culling))
+                }
+                _ => None,
+            };
             let light_loop = match settings.method {
                 Method::ForwardPlus => LightLoop::Tiled { half_z: features.half_z },
                 Method::BruteForce { cutoff } => LightLoop::All { cutoff },
@@ -214,7 +272,9 @@ impl ForwardRenderer {
                 culling.as_ref(),
                 light_loop,
                 (features, common.shadows.as_ref()),
+                vpl.as_ref().map(|v| v.1.clone()),
             )?;
+            let (vpl, vpl_culling) = vpl.map_or((None, None), |v| (Some(v.0), v.2));
             let blended =
                 common.blended_path(device, scene, lights, settings.cull, culling.as_ref().map(|c| &c.grid))?;
             let heatmap = match (&culling, plan.has(Step::Heatmap)) {
@@ -226,10 +286,19 @@ impl ForwardRenderer {
                 }
                 _ => None,
             };
-            Ok((prepass, culling, shading, heatmap, hdr_msaa, blended))
+            Ok((prepass, culling, shading, heatmap, hdr_msaa, (blended, vpl, vpl_culling)))
         })?
-        .map(|(prepass, culling, shading, heatmap, hdr_msaa, blended)| {
-            let mut r = Self { settings, common, blended, prepass, culling, shading, heatmap, hdr_msaa };
+        .map(|(prepass, culling, shading, heatmap, hdr_msaa, (blended, vpl, vpl_culling))| {
+            let mut r =
+                Self { settings, common, blended, prepass, culling, shading, heatmap, hdr_msaa, vpl, vpl_culling };
+            if let Some(v) = &r.vpl {
+                r.common.memory.extend(&v.memory);
+            }
+            if let Some(c) = &r.vpl_culling {
+                for (category, bytes) in c.memory.entries.iter() {
+                    r.common.memory.add(&format!("vpl.{category}"), *bytes);
+                }
+            }
             if let Some(b) = &r.blended {
                 r.common.memory.extend(&b.memory);
             }
@@ -255,6 +324,14 @@ impl ForwardRenderer {
     /// The blended-geometry path (scenes with blended materials).
     pub fn blended(&self) -> Option<&BlendedPath> {
         self.blended.as_ref()
+    }
+    /// The VPLs (with `settings.vpl`).
+    pub fn vpl(&self) -> Option<&VplPath> {
+        self.vpl.as_ref()
+    }
+    /// The culling of the VPLs into their own grid (Forward+ with `settings.vpl`).
+    pub fn vpl_culling(&self) -> Option<&LightCulling> {
+        self.vpl_culling.as_ref()
     }
     /// What the frame models.
     pub fn features(&self) -> &Features {
@@ -282,10 +359,20 @@ impl Renderer for ForwardRenderer {
         for step in c.plan.steps() {
             match step {
                 Step::ShadowMaps => c.record_shadows(encoder, timer, scene),
+                Step::Vpl => {
+                    if let Some(v) = &self.vpl {
+                        v.record(encoder, timer, &c.views, scene);
+                    }
+                }
                 Step::DepthPrepass => self.prepass.record(encoder, timer, view, scene, &targets.depth_view),
                 Step::Cull => {
                     if let Some(cull) = &self.culling {
                         cull.record(encoder, timer, view, "forward.cull");
+                    }
+                }
+                Step::VplCull => {
+                    if let Some(cull) = &self.vpl_culling {
+                        cull.record(encoder, timer, view, "forward.cull_vpls");
                     }
                 }
                 Step::ForwardShade | Step::BruteForceShade => {
@@ -349,8 +436,18 @@ impl Renderer for ForwardRenderer {
     fn blended_mut(&mut self) -> Option<&mut BlendedPath> {
         self.blended.as_mut()
     }
+    fn vpl_count(&self, ctx: &GpuContext) -> Result<Option<(u32, u32)>, GpuError> {
+        match self.vpl.as_ref() {
+            Some(v) => v.buffers.read_count(&ctx.device, &ctx.queue).map(|c| Some((c.kept, c.refused))),
+            None => Ok(None),
+        }
+    }
     fn lights_moved(&self, queue: &wgpu::Queue, lights: &PackedLights) -> Result<(), GpuError> {
-        self.common.lights_moved(queue, lights)
+        self.common.lights_moved(queue, lights)?;
+        if let (Some(v), Some(atlas)) = (&self.vpl, &self.common.shadows) {
+            v.update(queue, atlas, lights);
+        }
+        Ok(())
     }
     fn grow_light_grid(&mut self, ctx: &GpuContext, capacity: u32) {
         if let Some(c) = &mut self.culling {

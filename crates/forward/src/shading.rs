@@ -13,7 +13,7 @@ use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_cull::LightCulling;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
-use tiledlight_gpu::lights_group::LightsGroup;
+use tiledlight_gpu::lights_group::{LightsGroup, VplBindings};
 use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::GpuTimer;
@@ -40,8 +40,10 @@ pub enum LightLoop {
 /// The bindings of the shading pass (`shaders/forward.wgsl`): the scene's groups 0 to 2,
 /// then group 3, the lights: shading lights (0), the lighting uniform (5), with
 /// `SPOT_LIGHTS` the spots (1), unless `BRUTE_FORCE` the light grid (2) and its indices
-/// (3), with `HALF_Z` the tile ranges (4), and with `SHADOWS` the shadow atlas (6), its
-/// comparison sampler (7) and faces (8).
+/// (3), with `HALF_Z` the tile ranges (4), with `SHADOWS` the shadow atlas (6), its
+/// comparison sampler (7) and faces (8), and with `VPLS` the VPLs (9), their shading
+/// uniform (10) and the generation's counter (11), and unless `BRUTE_FORCE` their light
+/// grid (12) and its indices (13).
 pub const FORWARD_BINDINGS: PassBindings = PassBindings {
     entry: "forward.wgsl",
     source: file!(),
@@ -63,6 +65,13 @@ pub const FORWARD_BINDINGS: PassBindings = PassBindings {
                 Binding::sampler(7, wgpu::ShaderStages::FRAGMENT, wgpu::SamplerBindingType::Comparison)
                     .when(Cond::Defined("SHADOWS")),
                 Binding::storage(8, wgpu::ShaderStages::FRAGMENT).when(Cond::Defined("SHADOWS")),
+                Binding::storage(9, wgpu::ShaderStages::FRAGMENT).when(Cond::Defined("VPLS")),
+                Binding::uniform(10, wgpu::ShaderStages::FRAGMENT).when(Cond::Defined("VPLS")),
+                Binding::storage(11, wgpu::ShaderStages::FRAGMENT).when(Cond::Defined("VPLS")),
+                Binding::storage(12, wgpu::ShaderStages::FRAGMENT)
+                    .when(Cond::All(&[Cond::Defined("VPLS"), Cond::NotDefined("BRUTE_FORCE")])),
+                Binding::storage(13, wgpu::ShaderStages::FRAGMENT)
+                    .when(Cond::All(&[Cond::Defined("VPLS"), Cond::NotDefined("BRUTE_FORCE")])),
             ],
         ),
     ],
@@ -80,7 +89,8 @@ pub struct ShadingPass {
 
 impl ShadingPass {
     /// Builds one pipeline per draw kind of `scene`. `culling` must be given for
-    /// [`LightLoop::Tiled`].
+    /// [`LightLoop::Tiled`], `vpls` exactly when the features have VPLs.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         device: &wgpu::Device,
         views: &Views,
@@ -89,9 +99,17 @@ impl ShadingPass {
         culling: Option<&LightCulling>,
         light_loop: LightLoop,
         (features, atlas): (&Features, Option<&ShadowAtlas>),
+        vpls: Option<VplBindings>,
     ) -> Result<Self, GpuError> {
         let samples = features.msaa;
+        if features.vpl != vpls.is_some() {
+            return Err(GpuError::Config("the VPL buffers must be given exactly when the features have VPLs".into()));
+        }
+        if vpls.as_ref().is_some_and(|v| v.lists.is_some() != matches!(light_loop, LightLoop::Tiled { .. })) {
+            return Err(GpuError::Config("the VPLs' light grid must be given exactly to tiled shading".into()));
+        }
         let mut defines: Vec<&str> = features.light_defines();
+        defines.extend(features.vpl_defines());
         defines.extend(features.material_defines());
         let label = match light_loop {
             LightLoop::Tiled { half_z } => {
@@ -130,6 +148,7 @@ impl ShadingPass {
             lights.has_spots(),
             atlas,
             grid,
+            vpls,
         );
         let constants = features.light_constants();
         let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {

@@ -269,8 +269,15 @@ impl BlendedPath {
         }
         let lights_layout = create_layout(device, "blended.lights_layout", BLENDED_BINDINGS.group(3), &defines);
         let grid = culling.as_ref().map(|c| &c.grid).or(frame_grid).map(|g| (g, false));
-        let lights_group =
-            LightsGroup::new(device, (lights_layout, "blended.lights"), lights, features.spot_lights, shadows, grid);
+        let lights_group = LightsGroup::new(
+            device,
+            (lights_layout, "blended.lights"),
+            lights,
+            features.spot_lights,
+            shadows,
+            grid,
+            None,
+        );
         let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("blended.empty_layout"),
             entries: &[],

@@ -118,6 +118,10 @@ pub struct Features {
     /// surfaces or not, so blended geometry reads them and needs no depth or lists of its
     /// own.
     pub frustum_clusters: bool,
+    /// Virtual point lights (`--vpl`, crate tiledlight-vpl): the RSM and generation step
+    /// and the `VPLS` shading variant. False from [`Features::new`]; the renderer sets it
+    /// from its settings (only the brute-force reference shades VPLs so far).
+    pub vpl: bool,
 }
 
 impl Features {
@@ -151,6 +155,7 @@ impl Features {
             extra_targets: if method == Method::TiledDeferred { gbuffer_rts.saturating_sub(2) } else { 0 },
             shadows: (points + spots > 0).then_some(Shadows { points, spots, options: shadow }),
             frustum_clusters: tiled && cull.clusters.is_some_and(|c| !c.geometry_only),
+            vpl: false,
         }
     }
 
@@ -180,6 +185,16 @@ impl Features {
             d.push("SHADOWS");
         }
         d
+    }
+
+    /// The forward shading pass's defines beyond [`Self::light_defines`]: `VPLS` with
+    /// virtual point lights (the blended path does not shade them, as TiledLighting11).
+    pub fn vpl_defines(&self) -> Vec<&'static str> {
+        if self.vpl {
+            vec!["VPLS"]
+        } else {
+            Vec::new()
+        }
     }
 
     /// The pipeline constants of the lighting shaders: the shadow filter's radius when
@@ -214,6 +229,9 @@ impl Features {
                 s.options.filter.size(),
                 s.options.format.name()
             ));
+        }
+        if self.vpl {
+            parts.push("virtual point lights".into());
         }
         if self.blended() {
             parts.push(match self.blend_mode {

@@ -1,6 +1,7 @@
 //! The lights group (group 3) of the forward shading passes: Forward+, brute force and the
 //! blended geometry's shading bind the same lights the same way (shading lights 0, spots 1,
-//! light grid 2, its indices 3, tile ranges 4, lighting uniform 5, shadow atlas 6-8). Built
+//! light grid 2, its indices 3, tile ranges 4, lighting uniform 5, shadow atlas 6-8, VPLs
+//! 9-13). Built
 //! once; [`LightsGroup::rebind`] makes the group again when the light grid's index buffer
 //! grew (a new buffer), the only thing in it that changes after creation. Depends on wgpu,
 //! [`crate::lights_gpu`], [`crate::light_grid`], [`crate::shadow_atlas`].
@@ -11,6 +12,22 @@ use crate::shadow_atlas::ShadowAtlas;
 
 /// The shadow atlas's sampled view, comparison sampler and face table.
 type ShadowBindings = (wgpu::TextureView, wgpu::Sampler, wgpu::Buffer);
+
+/// The virtual point lights a forward shading pass reads (`VPLS`, bindings 9-11): their
+/// shading data, the shading uniform (cap, model, distance clamp) and the generation's
+/// counter (tiledlight-vpl); in a tiled pass also their light grid and its indices (12,
+/// 13).
+#[derive(Clone, Debug)]
+pub struct VplBindings {
+    /// `array<Vpl>`.
+    pub vpls: wgpu::Buffer,
+    /// `VplShading` uniform.
+    pub shading: wgpu::Buffer,
+    /// The candidates' counter (`min(count, cap)` VPLs exist).
+    pub count: wgpu::Buffer,
+    /// The VPLs' light grid and its index buffer (tiled passes).
+    pub lists: Option<(wgpu::Buffer, wgpu::Buffer)>,
+}
 
 /// Group 3 of a forward shading pass and what it was made of.
 pub struct LightsGroup {
@@ -27,6 +44,7 @@ struct Parts {
     spots: Option<wgpu::Buffer>,
     lighting: wgpu::Buffer,
     shadows: Option<ShadowBindings>,
+    vpls: Option<VplBindings>,
     /// Bind the grid's tile ranges (half-z lookups).
     ranges: bool,
 }
@@ -34,7 +52,8 @@ struct Parts {
 impl LightsGroup {
     /// The group of `layout` (labelled `label`): `lights` and the lighting uniform, the
     /// spots when `spots`, the shadow `atlas` when there is one, and the light `grid` with
-    /// its tile ranges when the pair's flag says so (tiled passes).
+    /// its tile ranges when the pair's flag says so (tiled passes), and the VPLs when given.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         device: &wgpu::Device,
         (layout, label): (wgpu::BindGroupLayout, &'static str),
@@ -42,6 +61,7 @@ impl LightsGroup {
         spots: bool,
         atlas: Option<&ShadowAtlas>,
         grid: Option<(&LightGrid, bool)>,
+        vpls: Option<VplBindings>,
     ) -> Self {
         let parts = Parts {
             layout,
@@ -51,6 +71,7 @@ impl LightsGroup {
             lighting: lighting.clone(),
             shadows: atlas.map(|a| (a.sample_view.clone(), a.sampler.clone(), a.faces.clone())),
             ranges: grid.is_some_and(|g| g.1),
+            vpls,
         };
         let group = parts.make(device, grid.map(|g| g.0));
         Self { parts, group }
@@ -80,6 +101,15 @@ impl Parts {
             bind.push(wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(view) });
             bind.push(wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(sampler) });
             bind.push(wgpu::BindGroupEntry { binding: 8, resource: faces.as_entire_binding() });
+        }
+        if let Some(v) = &self.vpls {
+            bind.push(wgpu::BindGroupEntry { binding: 9, resource: v.vpls.as_entire_binding() });
+            bind.push(wgpu::BindGroupEntry { binding: 10, resource: v.shading.as_entire_binding() });
+            bind.push(wgpu::BindGroupEntry { binding: 11, resource: v.count.as_entire_binding() });
+            if let Some((grid, indices)) = &v.lists {
+                bind.push(wgpu::BindGroupEntry { binding: 12, resource: grid.as_entire_binding() });
+                bind.push(wgpu::BindGroupEntry { binding: 13, resource: indices.as_entire_binding() });
+            }
         }
         if let Some(g) = grid {
             bind.push(wgpu::BindGroupEntry { binding: 2, resource: g.grid.as_entire_binding() });

@@ -5,8 +5,10 @@
 //!
 //! ```text
 //! shadows  shadow atlas: the faces of casters that moved (only when a light casts shadows)
+//! vpl      RSM + VPL generation of the casters that moved (only with `--vpl`)
 //! head     depth pre-pass (Forward+, brute force)      | G-buffer (Tiled Deferred)
 //! culling  cells + tiles -> light grid (Forward+)      | (Tiled Deferred culls in its shading pass)
+//!          [VPLs -> their own light grid (either method, `--vpl`)]
 //!          or light-centric assignment (either method: tile depth, count, allocate, write)
 //! middle   forward shading (Forward+ / brute force)     | cull + shade, [MSAA resolve] (Tiled Deferred;
 //!                                                         shade only when the lists were assigned)
@@ -25,6 +27,10 @@ use crate::features::{Features, Method};
 pub enum Step {
     /// The shadow faces of the casters that moved (`shadow.atlas`; only with shadows).
     ShadowMaps,
+    /// Virtual point lights (tiledlight-vpl): the casters' reflective shadow maps and the
+    /// VPLs generated from them, when the casters moved (`vpl.rsm`, `vpl.generate`; only
+    /// with `--vpl`).
+    Vpl,
     /// Depth of the opaque and masked geometry (`depth_prepass`).
     DepthPrepass,
     /// Tiled Deferred's G-buffer, with depth (`deferred.gbuffer`).
@@ -32,6 +38,9 @@ pub enum Step {
     /// Forward+'s culling into the light grid, two-level when the features say so
     /// (`forward.cull`).
     Cull,
+    /// The culling of the VPLs into a light grid of their own, one list per tile, by the
+    /// lights' culling pass (`forward.cull_vpls`, `deferred.cull_vpls`; only with `--vpl`).
+    VplCull,
     /// Forward shading of each fragment's grid list (`forward.shade`).
     ForwardShade,
     /// Every light for every fragment (`brute_force.shade`).
@@ -70,6 +79,10 @@ impl FramePlan {
         if features.shadows.is_some() {
             steps.push(Step::ShadowMaps);
         }
+        // VPLs after the shadow faces whose views their RSM draws from.
+        if features.vpl {
+            steps.push(Step::Vpl);
+        }
         // Head: what writes depth.
         match features.method {
             Method::TiledDeferred => steps.push(Step::GBuffer),
@@ -79,10 +92,16 @@ impl FramePlan {
         match features.method {
             Method::ForwardPlus => {
                 steps.push(Step::Cull);
+                if features.vpl {
+                    steps.push(Step::VplCull);
+                }
                 steps.push(Step::ForwardShade);
             }
             Method::BruteForce { .. } => steps.push(Step::BruteForceShade),
             Method::TiledDeferred => {
+                if features.vpl {
+                    steps.push(Step::VplCull);
+                }
                 steps.push(Step::DeferredShade);
                 if features.msaa > 1 {
                     steps.push(Step::DeferredResolve);
@@ -141,6 +160,7 @@ mod tests {
             frustum_clusters: false,
             blend_mode: Default::default(),
             shadows: None,
+            vpl: false,
         }
     }
 
@@ -180,6 +200,23 @@ mod tests {
         f.frustum_clusters = true;
         assert_eq!(FramePlan::new(&f).steps(), [DepthPrepass, Cull, ForwardShade, BlendedShade, Tonemap, Heatmap]);
         assert!(!FramePlan::new(&features(Method::ForwardPlus, 1)).has(BlendedDepth));
+    }
+
+    #[test]
+    fn vpls_follow_the_shadow_maps_and_exist_only_when_asked_for() {
+        use Step::*;
+        let mut f = features(Method::BruteForce { cutoff: true }, 1);
+        f.shadows = Some(crate::features::Shadows { points: 0, spots: 1, options: Default::default() });
+        assert!(!FramePlan::new(&f).has(Vpl), "no --vpl, no VPL step");
+        f.vpl = true;
+        assert_eq!(FramePlan::new(&f).steps(), [ShadowMaps, Vpl, DepthPrepass, BruteForceShade, Tonemap]);
+        f.method = Method::ForwardPlus;
+        assert_eq!(
+            FramePlan::new(&f).steps(),
+            [ShadowMaps, Vpl, DepthPrepass, Cull, VplCull, ForwardShade, Tonemap, Heatmap]
+        );
+        f.method = Method::TiledDeferred;
+        assert_eq!(FramePlan::new(&f).steps(), [ShadowMaps, Vpl, GBuffer, VplCull, DeferredShade, Tonemap, Heatmap]);
     }
 
     #[test]

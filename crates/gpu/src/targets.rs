@@ -192,6 +192,11 @@ pub trait Renderer {
     fn shadow_atlas(&self) -> Option<&ShadowAtlas> {
         None
     }
+    /// With virtual point lights (tiledlight-vpl), the last generation's VPLs kept and
+    /// refused by the cap, read back (stalls the GPU: reports and tests, never a frame).
+    fn vpl_count(&self, _ctx: &GpuContext) -> Result<Option<(u32, u32)>, GpuError> {
+        Ok(None)
+    }
     /// The alpha-blended geometry's passes, when the scene has blended materials (reports
     /// read its instance count, light grid and memory through a `dyn Renderer`).
     fn blended(&self) -> Option<&BlendedPath> {

@@ -107,7 +107,9 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         // How shadows are drawn matters only while some light casts one.
         || (b.has_shadows() && a.shadow_options() != b.shadow_options())
         // So does how blended geometry is composited, while there may be some.
-        || (b.may_blend() && a.blend_mode != b.blend_mode);
+        || (b.may_blend() && a.blend_mode != b.blend_mode)
+        // VPLs are passes, buffers and a shading variant of their own.
+        || a.vpl != b.vpl;
     Rebuild { reload, camera, renderer, exposure: !b.auto_exposure && a.exposure != b.exposure }
 }
 
@@ -202,6 +204,15 @@ mod tests {
         assert_eq!(both, Rebuild { reload: Reload::LightBuffers, ..RENDERER });
         // New light data with the same casters: in place (the renderer is told, not rebuilt).
         assert_eq!(with_from(Settings { shadow_point_lights: 2, ..base() }, |s| s.seed = 4).reload, Reload::LightData);
+    }
+
+    #[test]
+    fn vpls_rebuild_the_renderer() {
+        let vpl = Some(tiledlight_cull::vpl::VplConfig::default());
+        let casters = Settings { spot_lights: Some(4), shadow_spot_lights: 2, ..base() };
+        assert_eq!(with_from(casters.clone(), |s| s.vpl = vpl), RENDERER);
+        let on = Settings { vpl, ..casters };
+        assert_eq!(with_from(on, |s| s.vpl = vpl.map(|v| tiledlight_cull::vpl::VplConfig { block: 4, ..v })), RENDERER);
     }
 
     #[test]

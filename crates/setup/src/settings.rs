@@ -18,6 +18,7 @@ use anyhow::{ensure, Result};
 use tiledlight_cull::reference::{DEFAULT_CAPACITY, MAX_CAPACITY};
 use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat, ShadowOptions, TILE_SIZES};
 use tiledlight_cull::tiles::MAX_SCREEN_SIDE;
+use tiledlight_cull::vpl::VplConfig;
 use tiledlight_deferred::shading::workgroup_bytes_besides_lists;
 use tiledlight_deferred::{DeferredSettings, EdgeTest};
 use tiledlight_forward::ForwardSettings;
@@ -262,6 +263,9 @@ pub struct Settings {
     /// blended order-independent transparency (unsorted, approximate). Used only when the
     /// scene has blended materials.
     pub blend_mode: BlendMode,
+    /// Virtual point lights from the shadow casters' reflective shadow maps (`--vpl` and
+    /// its settings; tiledlight-vpl); None: none of their passes or buffers.
+    pub vpl: Option<VplConfig>,
     /// A pinned camera; None: the scene's own camera, else one framing the scene.
     pub camera: Option<CameraBookmark>,
     /// Every warning becomes an error: a glTF file that loads only with warnings (a
@@ -311,6 +315,7 @@ impl Default for Settings {
             shadow_filter: ShadowOptions::default().filter.size(),
             shadow_format: ShadowOptions::default().format,
             blend_mode: BlendMode::default(),
+            vpl: None,
             camera: None,
             strict: false,
             allow_any_path: false,
@@ -430,6 +435,14 @@ impl Settings {
             TILE_SIZES.start(),
             TILE_SIZES.end()
         );
+        if let Some(v) = &self.vpl {
+            ensure!(
+                self.has_shadows(),
+                "--vpl: VPLs are made from the shadow-casting lights' reflective shadow maps; give \
+                 --shadow-spot-lights or --shadow-point-lights"
+            );
+            v.validate().map_err(|e| anyhow::anyhow!("--vpl: {e}"))?;
+        }
         ensure!(
             ShadowFilter::from_size(self.shadow_filter).is_ok(),
             "--shadow-filter {}: must be 1, 3 or 5 (taps per side)",
@@ -510,6 +523,7 @@ impl Settings {
             msaa: self.msaa,
             shadows: self.shadow_options(),
             blend: self.blend_mode,
+            vpl: self.vpl,
             ..ForwardSettings::default()
         }
     }
@@ -526,6 +540,7 @@ impl Settings {
             edge: EdgeTest { distance: self.edge_distance, normal_deg: self.edge_normal_deg },
             shadows: self.shadow_options(),
             blend: self.blend_mode,
+            vpl: self.vpl,
             ..DeferredSettings::default()
         }
     }
@@ -673,6 +688,18 @@ mod tests {
     fn defaults_are_valid() {
         Settings::default().validate().unwrap();
         assert_eq!(Settings::default().random_light_counts(), (1024, 0));
+    }
+
+    #[test]
+    fn vpls_need_casters_and_valid_settings() {
+        let vpl = Some(VplConfig::default());
+        assert!(err(Settings { vpl, ..small() }).contains("--shadow-spot-lights"));
+        let casters = Settings { spot_lights: Some(4), shadow_spot_lights: 2, ..small() };
+        Settings { vpl, ..casters.clone() }.validate().unwrap();
+        let bad = Some(VplConfig { block: 3, ..VplConfig::default() });
+        let e = err(Settings { vpl: bad, ..casters.clone() });
+        assert!(e.contains("--vpl") && e.contains("block 3"), "{e}");
+        assert_eq!(Settings { vpl, ..casters }.forward_settings(false).vpl, vpl);
     }
 
     #[test]

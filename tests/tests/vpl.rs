@@ -1,0 +1,679 @@
+//! Virtual point lights on the GPU (crates/vpl) against their CPU twin
+//! (`tiledlight_cull::vpl`), on lavapipe and real GPUs.
+//!
+//! A red wall (x = 2, facing -x) stands on a white floor; one shadow-casting spot light
+//! aims at their corner. The reflective shadow map is drawn by the GPU and read back; the
+//! CPU twin generates VPLs from that same RSM, and the GPU's VPL set must equal it
+//! (count, positions, normals, flux; compared as sets, the GPU appends in any order), with
+//! no thresholds, with each threshold biting, and with a cap below the candidates (the
+//! count stops at the cap, the refused count is the rest, every kept VPL is a candidate).
+//!
+//! Tolerances: the GPU and the CPU rebuild texel positions from the same depth and matrix
+//! in f32 (a few ulps of ~5 m, 1e-5 m), and decode the same 8-bit linear albedo, so a VPL's
+//! position must agree to 1e-4 m, its normal to 1e-4 and its flux to 1e-4 of its value
+//! (plus 1e-6 of the largest VPL's flux). A block whose tint lies within 1e-4 of a
+//! threshold (or of zero, at the rim of the spot's cone) may fall either side on either
+//! device: it may be missing from one set, and is counted as such.
+
+use glam::{Mat4, Vec3};
+use tiledlight_cull::shadow::{AtlasLayout, ShadowOptions};
+use tiledlight_cull::vpl::{self, GpuVpl, RsmFace, Vpl, VplConfig};
+use tiledlight_cull::Light;
+use tiledlight_gpu::features::{Features, Method};
+use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_gpu::shadow_atlas::ShadowAtlas;
+use tiledlight_gpu::timer::GpuTimer;
+use tiledlight_gpu::view::Views;
+use tiledlight_scene::{Instance, Scene};
+use tiledlight_tests::gpu;
+use tiledlight_tests::scenes::{material, quad};
+use tiledlight_vpl::VplPath;
+
+/// The red wall on the white floor.
+fn wall_scene() -> Scene {
+    let mut scene = Scene {
+        name: "red wall".into(),
+        meshes: vec![quad("plane", 10.0)],
+        materials: vec![
+            material("white", [0.8, 0.8, 0.8, 1.0], 0.8, 0.0),
+            material("red", [0.8, 0.05, 0.05, 1.0], 0.8, 0.0),
+        ],
+        instances: vec![
+            Instance { mesh: 0, material: 0, transform: Mat4::IDENTITY },
+            // +Y turned to -X, standing on the floor from y = 0 to 10.
+            Instance {
+                mesh: 0,
+                material: 1,
+                transform: Mat4::from_translation(Vec3::new(2.0, 5.0, 0.0))
+                    * Mat4::from_rotation_z(std::f32::consts::FRAC_PI_2),
+            },
+        ],
+        textures: Vec::new(),
+        lights: Vec::new(),
+        camera: None,
+        bounds: tiledlight_scene::Aabb::empty(),
+    };
+    scene.bounds = scene.compute_bounds();
+    scene
+}
+
+/// The spot aimed at the wall's foot.
+fn spot() -> Light {
+    let pos = Vec3::new(-1.0, 3.0, 0.0);
+    let dir = Vec3::new(2.0, 0.5, 0.0) - pos;
+    Light::spot(pos, dir, Vec3::ONE, 30.0, 30f32.to_radians(), 45f32.to_radians(), 0.01).expect("spot")
+}
+
+/// What one GPU run gives: the RSM as the twin reads it, the GPU's VPLs and its count.
+struct Run {
+    faces: Vec<RsmFace>,
+    vpls: Vec<GpuVpl>,
+    count: tiledlight_vpl::VplCount,
+}
+
+fn run(cfg: &VplConfig) -> Run {
+    run_with(cfg, &[spot()], (0, 1))
+}
+
+/// [`run`] with other lights and casters (points, spots).
+fn run_with(cfg: &VplConfig, lights: &[Light], casters: (u32, u32)) -> Run {
+    let ctx = gpu();
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let scene = SceneGpu::new(device, queue, &wall_scene()).expect("scene");
+    let lights = LightBuffers::with_casters(device, lights, casters).expect("lights");
+    let shadow = ShadowOptions::default();
+    let features = Features::new(&scene, &lights, Method::ForwardPlus, &CullOptions::default(), (1, 2), shadow);
+    let limits = device.limits();
+    let layout = AtlasLayout::new(
+        shadow.tile_size,
+        casters.0,
+        casters.1,
+        limits.max_texture_dimension_2d,
+        limits.max_texture_array_layers,
+    )
+    .expect("layout");
+    let views = Views::new(device, 1 + layout.faces());
+    let atlas = ShadowAtlas::new(device, &views, &scene, &features, layout, shadow, 1).expect("atlas");
+    atlas.update(queue, &views, &lights.packed).expect("atlas update");
+    let path = VplPath::new(device, queue, (&views, &scene), &atlas, &lights.packed, cfg).expect("vpl path");
+    let mut timer = GpuTimer::new(ctx).expect("timer");
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("test.vpl") });
+    atlas.record(&mut encoder, &timer, &views, &scene);
+    assert!(path.record(&mut encoder, &timer, &views, &scene), "a fresh path draws its RSM");
+    timer.resolve(&mut encoder);
+    queue.submit([encoder.finish()]);
+    timer.end_frame().expect("timer");
+    // A still frame keeps its VPLs: nothing recorded.
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("test.vpl.still") });
+    assert!(!path.record(&mut encoder, &timer, &views, &scene), "a still frame draws no RSM");
+    drop(encoder);
+    let faces = path.rsm.read_faces(device, queue, &atlas, &lights.packed).expect("rsm readback");
+    let count = path.buffers.read_count(device, queue).expect("count");
+    let vpls = path.buffers.read_vpls(device, queue).expect("vpls");
+    let cull = path.buffers.read_cull(device, queue).expect("cull spheres");
+    for (v, c) in vpls.iter().zip(&cull) {
+        assert_eq!((v.position, v.radius), (c.center, c.radius), "the culling sphere is the VPL's");
+    }
+    Run { faces, vpls, count }
+}
+
+/// The tint length and normalised largest channel of a CPU VPL, for the borderline test.
+fn borderline(v: &Vpl, cfg: &VplConfig) -> bool {
+    let len = v.tint.length();
+    let colour = v.tint.max_element() / len.max(f32::MIN_POSITIVE);
+    len < 1e-4 || (len - cfg.brightness_threshold).abs() < 1e-4 || (colour - cfg.colour_threshold).abs() < 1e-4
+}
+
+/// The CPU VPL in `cpu` (not yet `used`) that `g` equals within the tolerances.
+fn find(g: &Vpl, cpu: &[Vpl], used: &[bool], max_flux: f32) -> Option<usize> {
+    cpu.iter().enumerate().position(|(i, c)| {
+        !used[i]
+            && (c.position - g.position).length() < 1e-4
+            && (c.normal - g.normal).length() < 1e-4
+            && (c.flux - g.flux).abs().max_element() <= 1e-4 * c.flux.max_element() + 1e-6 * max_flux
+            && c.radius == g.radius
+    })
+}
+
+/// Matches the GPU's VPLs with the CPU's kept ones (`cpu`), order-independently. A GPU VPL
+/// matching none must be a borderline block of the twin's unthresholded set (`all`); the
+/// CPU VPLs left unmatched are returned, and each must be borderline unless `capped`.
+fn match_sets<'a>(gpu: &[GpuVpl], cpu: &'a [Vpl], all: &[Vpl], cfg: &VplConfig, capped: bool) -> Vec<&'a Vpl> {
+    let max_flux = all.iter().map(|v| v.flux.max_element()).fold(0.0, f32::max);
+    let mut used = vec![false; cpu.len()];
+    for g in gpu {
+        let g = g.to_vpl();
+        match find(&g, cpu, &used, max_flux) {
+            Some(i) => used[i] = true,
+            None => {
+                let extra = find(&g, all, &vec![false; all.len()], max_flux).map(|i| &all[i]);
+                assert!(
+                    extra.is_some_and(|v| borderline(v, cfg)),
+                    "GPU VPL {g:?} matches no CPU VPL kept; in the unthresholded set: {extra:?}"
+                );
+            }
+        }
+    }
+    let missing: Vec<&Vpl> = cpu.iter().zip(&used).filter(|(_, u)| !**u).map(|(v, _)| v).collect();
+    for v in missing.iter().filter(|_| !capped) {
+        assert!(borderline(v, cfg), "CPU VPL {v:?} is missing from the GPU's set");
+    }
+    missing
+}
+
+/// The twin's VPLs of `faces` with `cfg` and with no thresholds nor cap.
+fn twin(faces: &[RsmFace], cfg: &VplConfig) -> (vpl::Generated, Vec<Vpl>) {
+    let all = VplConfig { colour_threshold: 0.0, brightness_threshold: 0.0, cap: vpl::MAX_CAP, ..*cfg };
+    (vpl::generate(faces, cfg).expect("twin"), vpl::generate(faces, &all).expect("twin").vpls)
+}
+
+#[test]
+fn rsm_holds_the_wall_and_the_floor_seen_from_the_light() {
+    let r = run(&VplConfig::default());
+    assert_eq!(r.faces.len(), 1);
+    let texels: Vec<_> = r.faces[0].texels.iter().flatten().collect();
+    let (mut wall, mut floor) = (0, 0);
+    for t in &texels {
+        if t.normal.dot(Vec3::NEG_X) > 0.999 {
+            wall += 1;
+            assert!((t.position.x - 2.0).abs() < 1e-3, "a wall texel off the wall: {t:?}");
+            assert!(t.albedo.x > 0.75 && t.albedo.y < 0.06, "the wall is red (0.8, 0.05, 0.05): {t:?}");
+        } else if t.normal.dot(Vec3::Y) > 0.999 {
+            floor += 1;
+            assert!(t.position.y.abs() < 1e-3, "a floor texel off the floor: {t:?}");
+            // 0.8 through an 8-bit linear target: within half a step (0.002).
+            assert!((t.albedo - Vec3::splat(0.8)).abs().max_element() < 2.5e-3, "the floor is white 0.8: {t:?}");
+        } else {
+            panic!("a texel on neither plane: {t:?}");
+        }
+    }
+    // The spot's cone (and its shadow tile's border) shows both planes, the wall more.
+    assert!(wall > 200 && floor > 50, "wall {wall}, floor {floor} of {} texels", texels.len());
+}
+
+#[test]
+fn gpu_vpls_equal_the_cpu_twin_without_thresholds() {
+    let cfg = VplConfig::default();
+    let r = run(&cfg);
+    let (cpu, all) = twin(&r.faces, &cfg);
+    assert!(cpu.candidates > 100, "{}", cpu.candidates);
+    assert_eq!(r.count.refused, 0);
+    let missing = match_sets(&r.vpls, &cpu.vpls, &all, &cfg, false);
+    assert_eq!(r.vpls.len() + missing.len(), cpu.vpls.len(), "every GPU VPL matched one CPU VPL");
+    assert!(missing.len() <= 4, "{} borderline blocks at the cone's rim", missing.len());
+    // Block 1 (one VPL per texel) and 4 too.
+    for block in [1, 4] {
+        let cfg = VplConfig { block, ..cfg };
+        let r = run(&cfg);
+        let (cpu, all) = twin(&r.faces, &cfg);
+        let missing = match_sets(&r.vpls, &cpu.vpls, &all, &cfg, false);
+        assert_eq!(r.vpls.len() + missing.len(), cpu.vpls.len(), "block {block}");
+    }
+}
+
+#[test]
+fn gpu_thresholds_equal_the_cpu_twins() {
+    let base = VplConfig::default();
+    let all = vpl::generate(&run(&base).faces, &base).expect("twin").candidates;
+    // Colour: 0.9 keeps only the red wall's saturated blocks.
+    let cfg = VplConfig { colour_threshold: 0.9, ..base };
+    let r = run(&cfg);
+    let (cpu, unthresholded) = twin(&r.faces, &cfg);
+    assert!(cpu.candidates > 20 && cpu.candidates < all, "colour threshold kept {} of {all}", cpu.candidates);
+    assert!(cpu.vpls.iter().all(|v| v.normal.dot(Vec3::NEG_X) > 0.99), "only wall VPLs are saturated");
+    let missing = match_sets(&r.vpls, &cpu.vpls, &unthresholded, &cfg, false);
+    assert_eq!(r.vpls.len() + missing.len(), cpu.vpls.len());
+    // Brightness: the median tint length keeps about half.
+    let mut lens: Vec<f32> =
+        vpl::generate(&r.faces, &base).expect("twin").vpls.iter().map(|v| v.tint.length()).collect();
+    lens.sort_by(f32::total_cmp);
+    let cfg = VplConfig { brightness_threshold: lens[lens.len() / 2], ..base };
+    let r = run(&cfg);
+    let (cpu, unthresholded) = twin(&r.faces, &cfg);
+    assert!(cpu.candidates > all / 3 && cpu.candidates < 2 * all / 3, "brightness kept {} of {all}", cpu.candidates);
+    let missing = match_sets(&r.vpls, &cpu.vpls, &unthresholded, &cfg, false);
+    // GPU VPLs matched to kept CPU ones, plus borderline extras, minus borderline misses.
+    assert!(r.vpls.len().abs_diff(cpu.vpls.len()) <= 4, "GPU {} vs CPU {}", r.vpls.len(), cpu.vpls.len());
+    assert!(missing.len() <= 4);
+}
+
+#[test]
+fn the_cap_stops_the_count_and_counts_the_refused() {
+    let base = VplConfig::default();
+    let r = run(&base);
+    let cpu = vpl::generate(&r.faces, &base).expect("twin");
+    let cap = cpu.candidates / 3;
+    let cfg = VplConfig { cap, ..base };
+    let r = run(&cfg);
+    assert_eq!(r.count.kept, cap);
+    assert_eq!(r.vpls.len() as u32, cap);
+    // The refused count is the rest, to the borderline blocks either device may drop.
+    let d = (r.count.kept + r.count.refused).abs_diff(cpu.candidates);
+    assert!(d <= 4, "kept {} + refused {} vs {} candidates", r.count.kept, r.count.refused, cpu.candidates);
+    // Which `cap` of them the GPU kept depends on its threads' order: each is a candidate.
+    let missing = match_sets(&r.vpls, &cpu.vpls, &cpu.vpls, &cfg, true);
+    assert_eq!(missing.len() as u32, cpu.vpls.len() as u32 - cap);
+}
+
+#[test]
+fn bad_settings_are_errors_naming_the_setting() {
+    let ctx = gpu();
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let scene = SceneGpu::new(device, queue, &wall_scene()).expect("scene");
+    let lights = LightBuffers::with_casters(device, &[spot()], (0, 1)).expect("lights");
+    let shadow = ShadowOptions::default();
+    let features = Features::new(&scene, &lights, Method::ForwardPlus, &CullOptions::default(), (1, 2), shadow);
+    let limits = device.limits();
+    let layout =
+        AtlasLayout::new(shadow.tile_size, 0, 1, limits.max_texture_dimension_2d, limits.max_texture_array_layers)
+            .expect("layout");
+    let views = Views::new(device, 1 + layout.faces());
+    let atlas = ShadowAtlas::new(device, &views, &scene, &features, layout, shadow, 1).expect("atlas");
+    let bad = VplConfig { block: 3, ..Default::default() };
+    let e = tiledlight_tests::err_text(VplPath::new(device, queue, (&views, &scene), &atlas, &lights.packed, &bad));
+    assert!(e.contains("block 3"), "{e}");
+    let e = tiledlight_tests::err_text(VplPath::new(
+        device,
+        queue,
+        (&views, &scene),
+        &atlas,
+        &lights.packed,
+        &VplConfig { cap: u32::MAX, ..Default::default() },
+    ));
+    assert!(e.contains("cap"), "{e}");
+}
+
+#[test]
+fn a_point_casters_six_faces_make_vpls_as_the_twin_does() {
+    // A point light 1.5 m from the wall and 1.5 m above the floor, with the spot: seven
+    // faces, and every one sees the floor or the 10 m wall (+Y sees the wall's upper part).
+    let point = Light::point(Vec3::new(0.5, 1.5, 0.0), Vec3::new(1.0, 0.9, 0.7), 20.0, 0.01).expect("point");
+    let cfg = VplConfig::default();
+    let r = run_with(&cfg, &[point, spot()], (1, 1));
+    assert_eq!(r.faces.len(), 7);
+    let (cpu, all) = twin(&r.faces, &cfg);
+    let missing = match_sets(&r.vpls, &cpu.vpls, &all, &cfg, false);
+    assert_eq!(r.vpls.len() + missing.len(), cpu.vpls.len());
+    // Every face makes VPLs: the six cube faces and the spot's (face 6).
+    let with_vpls: Vec<usize> = (0..7)
+        .filter(|&f| vpl::generate(std::slice::from_ref(&r.faces[f]), &cfg).expect("twin").candidates > 0)
+        .collect();
+    assert_eq!(with_vpls, (0..7).collect::<Vec<_>>(), "faces with VPLs");
+    // A point face has no spot falloff: its VPLs' tint reaches the floor's albedo times the
+    // light's normalised colour (0.8 x (1, 0.9, 0.7)) under the light, window ~1.
+    let down = vpl::generate(std::slice::from_ref(&r.faces[3]), &cfg).expect("twin");
+    let brightest = down.vpls.iter().map(|v| v.tint.x).fold(0.0, f32::max);
+    assert!((brightest - 0.8).abs() < 0.01, "{brightest}");
+}
+
+/// `vpl_light` (shaders/common/vpl.wgsl) evaluated by a compute shader on cases around its
+/// singular points, against the twin's `vpl_intensity`. Tolerance: f32 square roots and
+/// divisions on both sides, 2e-4 of the value plus 1e-6 of the largest factor.
+#[test]
+fn wgsl_vpl_light_equals_the_twin() {
+    let ctx = gpu();
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let src = r#"
+#include "common/vpl.wgsl"
+struct Case { vpl: Vpl, x: vec3<f32>, physical: u32 }
+@group(0) @binding(0) var<storage, read> cases: array<Case>;
+@group(0) @binding(1) var<storage, read_write> out: array<vec4<f32>>;
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= arrayLength(&cases)) { return; }
+    let c = cases[id.x];
+    let r = vpl_light(c.vpl, c.x, c.physical != 0u, 0.1);
+    out[2u * id.x] = vec4<f32>(r.l, 0.0);
+    out[2u * id.x + 1u] = vec4<f32>(r.factor, 0.0);
+}
+"#;
+    let files = |p: &str| {
+        if p == "test_vpl_light.wgsl" {
+            Some(src.to_string())
+        } else {
+            tiledlight_gpu::shader::embedded(p).map(str::to_owned)
+        }
+    };
+    let text = tiledlight_gpu::shader::preprocess_with(&files, "test_vpl_light.wgsl", &[]).expect("preprocess").text;
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("test.vpl_light"),
+        source: wgpu::ShaderSource::Wgsl(text.into()),
+    });
+    // Cases: both models, at the VPL, behind it, in the clamp, inside and past the radius,
+    // grazing, and seeded random ones.
+    let v0 = Vpl {
+        position: Vec3::new(1.0, 2.0, 3.0),
+        normal: Vec3::Y,
+        flux: Vec3::new(2.0, 1.0, 0.5),
+        tint: Vec3::ZERO,
+        radius: 3.0,
+    };
+    let mut cases: Vec<(Vpl, Vec3)> = [
+        Vec3::ZERO,
+        Vec3::new(0.0, -1.0, 0.0),
+        Vec3::new(0.0, 0.05, 0.0),
+        Vec3::new(0.3, 1.0, -0.2),
+        Vec3::new(0.0, 2.999, 0.0),
+        Vec3::new(0.0, 3.0, 0.0),
+        Vec3::new(0.0, 5.0, 0.0),
+        Vec3::new(2.0, 1e-3, 0.0),
+    ]
+    .iter()
+    .map(|&d| (v0, v0.position + d))
+    .collect();
+    let mut seed = 0x2545_f491_u32;
+    let mut rnd = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 17;
+        seed ^= seed << 5;
+        seed as f32 / u32::MAX as f32
+    };
+    for _ in 0..200 {
+        let r: Vec<f32> = (0..13).map(|_| rnd() * 2.0 - 1.0).collect();
+        let r3 = |k: usize| Vec3::new(r[k], r[k + 1], r[k + 2]);
+        let v = Vpl {
+            position: r3(0) * 3.0,
+            normal: r3(3).normalize_or(Vec3::Y),
+            flux: (r3(6) + 1.0) * 5.0,
+            tint: Vec3::ZERO,
+            radius: 0.5 + 3.0 * r[12].abs(),
+        };
+        cases.push((v, r3(9) * 3.0));
+    }
+    let mut words: Vec<u32> = Vec::new();
+    let mut want = Vec::new();
+    for model in [vpl::VplShading::Sample, vpl::VplShading::Physical] {
+        for (v, x) in &cases {
+            let f = |a: Vec3| [a.x.to_bits(), a.y.to_bits(), a.z.to_bits()];
+            words.extend(f(v.position));
+            words.push(v.radius.to_bits());
+            words.extend(f(v.normal));
+            words.push(0);
+            words.extend(f(v.flux));
+            words.push(0);
+            words.extend(f(*x));
+            words.push(model.index());
+            want.push(vpl::vpl_intensity(v, *x, model, 0.1));
+        }
+    }
+    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+    let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+    let input = tiledlight_gpu::util::buffer_init(device, "test.vpl_light.cases", &bytes, usage);
+    let output = tiledlight_gpu::util::buffer_zeroed(device, "test.vpl_light.out", want.len() as u64 * 32, usage);
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("test.vpl_light"),
+        layout: None,
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("test.vpl_light"),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: input.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: output.as_entire_binding() },
+        ],
+    });
+    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("test.vpl_light") });
+    {
+        let mut pass = enc
+            .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("test.vpl_light"), timestamp_writes: None });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.dispatch_workgroups((want.len() as u32).div_ceil(64), 1, 1);
+    }
+    queue.submit([enc.finish()]);
+    let got: Vec<f32> = tiledlight_gpu::readback::read_buffer(device, queue, &output).expect("readback");
+    let largest = want.iter().map(|(_, f)| f.max_element()).fold(0.0, f32::max);
+    assert!(largest > 0.0);
+    let mut lit = 0;
+    for (i, (l, f)) in want.iter().enumerate() {
+        let gl = Vec3::new(got[8 * i], got[8 * i + 1], got[8 * i + 2]);
+        let gf = Vec3::new(got[8 * i + 4], got[8 * i + 5], got[8 * i + 6]);
+        assert!(gf.is_finite() && gl.is_finite(), "case {i}: {gl} {gf}");
+        assert!((gl - *l).length() < 1e-5, "case {i}: direction {gl} vs {l}");
+        let tol = 2e-4 * f.abs().max_element() + 1e-6 * largest;
+        assert!((gf - *f).abs().max_element() <= tol, "case {i}: factor {gf} vs {f}");
+        lit += (f.max_element() > 0.0) as u32;
+    }
+    // Both zero and non-zero cases were compared.
+    assert!(lit > 50 && (lit as usize) < want.len() - 50, "{lit} of {} lit", want.len());
+}
+
+// ---- VPL shading in the brute-force reference (Forward+ and Tiled Deferred: not yet) ----
+
+const W: u32 = 320;
+const H: u32 = 180;
+
+/// The camera looking at the wall's foot from the room's side.
+fn camera() -> tiledlight_cull::Camera {
+    tiledlight_cull::Camera::perspective(
+        Vec3::new(-3.0, 5.0, 6.0),
+        Vec3::new(0.5, 0.0, 0.0),
+        Vec3::Y,
+        55f32.to_radians(),
+        W as f32 / H as f32,
+        0.1,
+        None,
+    )
+    .expect("camera")
+}
+
+/// The spot of [`spot`] with a short reach (radius 7.7 m from threshold 0.5), so its VPLs
+/// (radius 3.9 m) cannot reach the far side of the floor.
+fn short_spot() -> Light {
+    let pos = Vec3::new(-1.0, 3.0, 0.0);
+    let dir = Vec3::new(2.0, 0.5, 0.0) - pos;
+    Light::spot(pos, dir, Vec3::ONE, 30.0, 30f32.to_radians(), 45f32.to_radians(), 0.5).expect("spot")
+}
+
+/// The wall scene lit by the short spot (a shadow caster) with `vpl`, rendered by `method`:
+/// the frame and the renderer (for its lists and buffers).
+fn render(
+    method: tiledlight_forward::Method,
+    vpl: Option<VplConfig>,
+) -> (tiledlight_tests::compare::Frame, tiledlight_forward::ForwardRenderer) {
+    use tiledlight_forward::{ForwardRenderer, ForwardSettings};
+    let ctx = gpu();
+    let scene = SceneGpu::new(&ctx.device, &ctx.queue, &wall_scene()).expect("scene");
+    let lights = LightBuffers::with_casters(&ctx.device, &[short_spot()], (0, 1)).expect("lights");
+    let s = ForwardSettings { method, ambient: Vec3::ZERO, vpl, ..Default::default() };
+    let mut r = ForwardRenderer::new(ctx, &scene, &lights, W, H, s).expect("renderer with VPLs");
+    assert_eq!(r.plan().has(tiledlight_gpu::plan::Step::Vpl), vpl.is_some(), "a VPL step exactly with --vpl");
+    assert_eq!(r.vpl().is_some(), vpl.is_some());
+    let frame = tiledlight_tests::compare::render_frame(ctx, &mut r, &scene, &camera());
+    (frame, r)
+}
+
+/// The brute-force HDR image of [`render`].
+fn brute_force(vpl: Option<VplConfig>) -> Vec<[f32; 4]> {
+    render(tiledlight_forward::Method::BruteForce { cutoff: true }, vpl).0.hdr
+}
+
+/// The pixel a world point projects to.
+fn pixel_of(p: Vec3) -> usize {
+    let c = camera().view_proj() * p.extend(1.0);
+    let (x, y) = (c.x / c.w, c.y / c.w);
+    let (px, py) = (((x + 1.0) * 0.5 * W as f32) as usize, ((1.0 - y) * 0.5 * H as f32) as usize);
+    assert!(px < W as usize && py < H as usize, "{p} is off screen");
+    py * W as usize + px
+}
+
+#[test]
+fn red_wall_bleeds_onto_the_floor_near_it_and_not_far_away() {
+    let without = brute_force(None);
+    let with = brute_force(Some(VplConfig::default()));
+    // Near the wall (0.2-0.5 m from it, in the spot's light): the floor gains light, and
+    // more red than green or blue (the wall reflects 0.8 red, 0.05 green and blue).
+    let mut near = 0;
+    for x in [1.5f32, 1.65, 1.8] {
+        for z in [-0.6f32, -0.3, 0.0, 0.3, 0.6] {
+            let i = pixel_of(Vec3::new(x, 0.0, z));
+            let d: Vec<f32> = (0..3).map(|c| with[i][c] - without[i][c]).collect();
+            assert!(d[0] > 0.01 * without[i][0].max(1e-3), "({x}, {z}): red gain {d:?} over {:?}", without[i]);
+            assert!(d[0] > 4.0 * d[1] && d[0] > 4.0 * d[2], "({x}, {z}): the gain is red: {d:?}");
+            near += 1;
+        }
+    }
+    assert_eq!(near, 15);
+    // Far from the wall (beyond every wall VPL's 3.9 m radius; the floor's own VPLs light no
+    // coplanar floor): unchanged but for f16 rounding of the HDR target (2^-11 relative).
+    for x in [-3.0f32, -2.5] {
+        for z in [-1.0f32, 0.0, 1.0] {
+            let i = pixel_of(Vec3::new(x, 0.0, z));
+            for c in 0..3 {
+                let (a, b) = (with[i][c], without[i][c]);
+                assert!((a - b).abs() <= 5e-4 * b.abs() + 1e-6, "({x}, {z}) channel {c}: {a} vs {b}");
+            }
+        }
+    }
+}
+
+#[test]
+fn physical_model_converges_to_the_every_texel_reference_on_the_gpu() {
+    // The reference: one VPL per RSM texel, no thresholds, no cap in the way.
+    let physical = VplConfig { shading: vpl::VplShading::Physical, ..Default::default() };
+    let reference = brute_force(Some(VplConfig { block: 1, ..physical }));
+    let error = |cfg: VplConfig| -> f64 {
+        let img = brute_force(Some(cfg));
+        img.iter().zip(&reference).map(|(a, b)| (0..3).map(|c| (a[c] - b[c]).abs() as f64).sum::<f64>()).sum()
+    };
+    let total: f64 = reference.iter().map(|p| (p[0] + p[1] + p[2]) as f64).sum();
+    let by_block: Vec<f64> = [16, 8, 4, 2].iter().map(|&b| error(VplConfig { block: b, ..physical }) / total).collect();
+    for w in by_block.windows(2) {
+        assert!(w[1] < w[0], "the error must fall with the block size: {by_block:?}");
+    }
+    assert!(by_block[0] > 1e-3, "16x16 blocks must differ visibly: {by_block:?}");
+    let by_threshold: Vec<f64> = [0.3, 0.1, 0.03]
+        .iter()
+        .map(|&t| error(VplConfig { block: 1, brightness_threshold: t, ..physical }) / total)
+        .collect();
+    for w in by_threshold.windows(2) {
+        assert!(w[1] <= w[0], "the error must not grow as the threshold falls: {by_threshold:?}");
+    }
+    assert!(by_threshold[0] > by_threshold[2], "{by_threshold:?}");
+}
+
+#[test]
+fn no_vpl_no_cost_and_no_caster_no_vpls() {
+    use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method as Fwd};
+    use tiledlight_gpu::targets::Renderer;
+    let ctx = gpu();
+    let scene = SceneGpu::new(&ctx.device, &ctx.queue, &wall_scene()).expect("scene");
+    let casters = LightBuffers::with_casters(&ctx.device, &[short_spot()], (0, 1)).expect("lights");
+    let plain = LightBuffers::new(&ctx.device, &[short_spot()]).expect("lights");
+    let vpl = Some(VplConfig::default());
+    // Without VPLs nothing of them exists: no step, no buffers, no variant.
+    let r = ForwardRenderer::new(ctx, &scene, &casters, W, H, ForwardSettings::default()).expect("renderer");
+    assert!(r.vpl().is_none() && r.vpl_culling().is_none());
+    assert!(!r.plan().has(tiledlight_gpu::plan::Step::Vpl) && !r.plan().has(tiledlight_gpu::plan::Step::VplCull));
+    assert!(!r.memory().entries.iter().any(|(c, _)| c.contains("vpl")), "{:?}", r.memory().entries);
+    let bf = ForwardSettings { method: Fwd::BruteForce { cutoff: true }, vpl, ..Default::default() };
+    let e = tiledlight_tests::err_text(ForwardRenderer::new(ctx, &scene, &plain, W, H, bf));
+    assert!(e.contains("no light casts a shadow"), "{e}");
+}
+
+#[test]
+fn forward_plus_with_culled_vpls_equals_brute_force() {
+    use tiledlight_forward::Method as Fwd;
+    use tiledlight_tests::compare::{assert_matches_reference_frame, FORWARD_VS_REFERENCE};
+    // The sample model ends at the VPL's radius, so culling by the radius drops nothing:
+    // Forward+ must equal brute force within the tolerance of lights alone.
+    let vpl = Some(VplConfig::default());
+    let (reference, _) = render(Fwd::BruteForce { cutoff: true }, vpl);
+    let (actual, r) = render(Fwd::ForwardPlus, vpl);
+    assert!(r.plan().has(tiledlight_gpu::plan::Step::VplCull));
+    assert_matches_reference_frame("Forward+ with VPLs", W, &reference, &actual, FORWARD_VS_REFERENCE);
+    // And the VPLs changed the image (the comparison is not of two unlit frames).
+    let (plain, _) = render(Fwd::BruteForce { cutoff: true }, None);
+    let gain: f32 = reference.hdr.iter().zip(&plain.hdr).map(|(a, b)| a[0] - b[0]).sum();
+    assert!(gain > 1.0, "VPLs add red light: {gain}");
+}
+
+#[test]
+fn vpl_lists_equal_the_cpu_culler() {
+    use tiledlight_cull::light::{pack_lights, LightKind};
+    use tiledlight_gpu::diagnostics::Diagnostics;
+    use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
+    let ctx = gpu();
+    for cfg in [VplConfig::default(), VplConfig { block: 1, ..Default::default() }] {
+        let (_, r) = render(tiledlight_forward::Method::ForwardPlus, Some(cfg));
+        let depth = r.read_depth(ctx).expect("depth");
+        let spheres = r.vpl().expect("vpls").buffers.read_cull(&ctx.device, &ctx.queue).expect("spheres");
+        assert!(spheres.len() > 50, "{} VPLs", spheres.len());
+        let vpls: Vec<Light> = spheres
+            .iter()
+            .map(|c| {
+                Light::with_radius(c.center.into(), Vec3::ONE, 1.0, c.radius, LightKind::Point).expect("vpl light")
+            })
+            .collect();
+        let packed = pack_lights(&vpls);
+        let gpu_lists = r.vpl_culling().expect("vpl culling").read_lists(&ctx.device, &ctx.queue).expect("lists");
+        let config = r.settings().cull.to_config(false);
+        let cam = camera();
+        let frame = CulledFrame { depth: &depth, width: W, height: H, camera: &cam, lights: &packed };
+        let c = assert_lists_match(&format!("VPL lists, block {}", cfg.block), &frame, &gpu_lists, &config);
+        assert!(c.nonempty_lists > 20 && c.pairs > 1000, "{} lists, {} pairs", c.nonempty_lists, c.pairs);
+        // Culling removed VPLs (some tile lists fewer than all), and no list was cut short.
+        assert!(c.pairs < spheres.len() * c.nonempty_lists, "{} pairs, {} VPLs", c.pairs, spheres.len());
+        assert_eq!(gpu_lists.overflowing, 0, "the VPL grid holds every pair");
+    }
+}
+
+#[test]
+fn tiled_deferred_with_vpls_equals_forward_plus_and_brute_force() {
+    use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
+    use tiledlight_tests::compare::{assert_matches_reference_frame, DEFERRED_VS_REFERENCE};
+    let ctx = gpu();
+    let vpl = Some(VplConfig::default());
+    let scene = SceneGpu::new(&ctx.device, &ctx.queue, &wall_scene()).expect("scene");
+    let lights = LightBuffers::with_casters(&ctx.device, &[short_spot()], (0, 1)).expect("lights");
+    let s = DeferredSettings { ambient: Vec3::ZERO, vpl, ..Default::default() };
+    let mut r = DeferredRenderer::new(ctx, &scene, &lights, W, H, s).expect("Tiled Deferred with VPLs");
+    let plan = r.plan();
+    assert!(plan.has(tiledlight_gpu::plan::Step::Vpl) && plan.has(tiledlight_gpu::plan::Step::VplCull));
+    let deferred = tiledlight_tests::compare::render_frame(ctx, &mut r, &scene, &camera());
+    let (forward, _) = render(tiledlight_forward::Method::ForwardPlus, vpl);
+    let (reference, _) = render(tiledlight_forward::Method::BruteForce { cutoff: true }, vpl);
+    assert_matches_reference_frame(
+        "Tiled Deferred with VPLs vs brute force",
+        W,
+        &reference,
+        &deferred,
+        DEFERRED_VS_REFERENCE,
+    );
+    // Forward+ and Tiled Deferred differ only by the G-buffer's 8-bit albedo and f16 normal
+    // (DEFERRED_VS_REFERENCE's reasons), not by their VPL lists, which are the same pass's.
+    assert_matches_reference_frame(
+        "Tiled Deferred vs Forward+ with VPLs",
+        W,
+        &forward,
+        &deferred,
+        DEFERRED_VS_REFERENCE,
+    );
+    // Both VPL grids hold the same lists: the same culling over the same depth. Compared
+    // by VPL position: each renderer appended its VPLs in its own GPU order.
+    let f = render(tiledlight_forward::Method::ForwardPlus, vpl).1;
+    let by_position = |lists: &tiledlight_gpu::light_cull::GpuTileLists,
+                       vpls: &[tiledlight_cull::light::GpuCullLight]| {
+        lists
+            .lists
+            .iter()
+            .map(|l| {
+                l.iter().map(|&i| vpls[i as usize].center.map(f32::to_bits)).collect::<std::collections::BTreeSet<_>>()
+            })
+            .collect::<Vec<_>>()
+    };
+    let read = |c: &tiledlight_gpu::light_cull::LightCulling| c.read_lists(&ctx.device, &ctx.queue).expect("lists");
+    let fl = read(f.vpl_culling().expect("F+"));
+    let dl = read(r.vpl_culling().expect("TD"));
+    let fv = f.vpl().expect("F+").buffers.read_cull(&ctx.device, &ctx.queue).expect("spheres");
+    let dv = r.vpl().expect("TD").buffers.read_cull(&ctx.device, &ctx.queue).expect("spheres");
+    assert_eq!(fv.len(), dv.len(), "VPL count");
+    assert_eq!(fl.counts, dl.counts, "VPLs per tile");
+    assert_eq!(by_position(&fl, &fv), by_position(&dl, &dv), "VPL lists");
+}
