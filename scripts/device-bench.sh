@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign emission
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign emission vpl
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -128,6 +128,19 @@ for set in $sets; do
     run "mp-$m-tiled" 10 --light-preset million --method $m --assign scatter
     run "m100k-$m-scatter" 20 --lights 100000 --threshold 1 --method $m --assign scatter
     run "m1k-$m-scatter" 50 --lights 1024 --method $m --assign scatter
+    ;;
+  vpl)
+    # Issue 15: VPLs on the courtyard with 64 spot lights (12 and 64 casting shadows and
+    # reflective shadow maps of 32x32 a face), both methods, lights moving (the RSM and
+    # generation passes run only after casters move): without VPLs, then 3,072 / 12,288
+    # VPLs (12 casters, blocks 2 and 1) and 65,535 (64 casters, block 1: the cap).
+    for m in forward-plus deferred; do
+      run "vpl-$m-off" 20 --spot-lights 64 --shadow-spot-lights 12 --method $m --move-lights
+      run "vpl-$m-12-b2" 20 --spot-lights 64 --shadow-spot-lights 12 --method $m --move-lights --vpl
+      run "vpl-$m-12-b1" 20 --spot-lights 64 --shadow-spot-lights 12 --method $m --move-lights --vpl --vpl-block 1
+      run "vpl-$m-64-off" 20 --spot-lights 64 --shadow-spot-lights 64 --method $m --move-lights
+      run "vpl-$m-64-b1" 20 --spot-lights 64 --shadow-spot-lights 64 --method $m --move-lights --vpl --vpl-block 1
+    done
     ;;
   emission)
     # Issue 14: the cost of emission. The courtyard with and without its banners glowing
