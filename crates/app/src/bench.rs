@@ -414,6 +414,9 @@ struct BenchJson {
     /// What the scene was drawn despite (a missing texture, an unknown extension...), one
     /// sentence each naming the file, as the `warning:` lines say (empty: none).
     load_warnings: Vec<String>,
+    /// VPLs the last frame made and those its cap refused (null without `--vpl`).
+    vpls_kept: Option<u32>,
+    vpls_refused: Option<u32>,
     /// Whether the lights moved before every frame (`--move-lights`).
     move_lights: bool,
     /// Shadow faces drawn per measured frame, smallest and largest (null without shadow
@@ -524,6 +527,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let pixels = f64::from(prep.settings.width) * f64::from(prep.settings.height);
         println!("MSAA edges: {e} pixels ({:.2}%) shaded per sample", 100.0 * f64::from(e) / pixels);
     }
+    let vpls = renderer.vpl_count(&prep.ctx).context("reading the VPL count back")?;
+    if let Some((kept, refused)) = vpls {
+        println!("VPLs: {kept} made in the last frame, {refused} refused by the cap (of {})", kept + refused);
+    }
     println!("GPU memory:\n{}", renderer.memory());
     let dropped = m.dropped();
     if let Some(path) = &args.json {
@@ -580,6 +587,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             blended_dropped_lights: dropped.blended.map(|g| g.pairs),
             blended_dropped_lists: dropped.blended.map(|g| g.lists),
             load_warnings: prep.scene_warnings.clone(),
+            vpls_kept: vpls.map(|v| v.0),
+            vpls_refused: vpls.map(|v| v.1),
             move_lights: args.move_lights,
             shadow_faces_per_frame: m.shadow_faces_range().map(|(min, max)| MinMax { min, max }),
             shadow_atlas_bytes: atlas.map(|a| a.memory.total()),

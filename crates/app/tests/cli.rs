@@ -529,3 +529,45 @@ fn culling_flags_change_the_frame() {
     assert!(!text.contains("cull.cell_lists"), "--flat-cull still builds the cell lists: {text}");
     assert_eq!(flat, planes, "--flat-cull finds the same lists");
 }
+
+/// `bench --vpl` reports the VPLs the last frame made and those the cap refused (a line, a
+/// `warning:` and JSON fields); without `--vpl` the fields are null. Two shadow-casting
+/// spots with 32x32 reflective shadow maps and 2x2 blocks give up to 512 candidates, so a
+/// cap of 10 refuses some (the lit floor and walls fill most blocks).
+#[test]
+fn bench_reports_vpls_made_and_refused() {
+    let dir = scratch("bench-vpl");
+    let json = dir.join("v.json");
+    let args = [
+        "--frames",
+        "2",
+        "--warmup",
+        "1",
+        "--spot-lights",
+        "2",
+        "--shadow-spot-lights",
+        "2",
+        "--vpl",
+        "--vpl-cap",
+        "10",
+        "--json",
+        json.to_str().unwrap(),
+    ];
+    let out = gpu_run(&with_tiny("bench", &args));
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).expect("valid JSON");
+    assert_eq!(v["vpls_kept"], 10, "{v}");
+    let refused = v["vpls_refused"].as_u64().expect("a refused count");
+    assert!(refused > 0, "{v}");
+    assert!(
+        stdout(&out).contains(&format!("VPLs: 10 made in the last frame, {refused} refused by the cap")),
+        "{}",
+        stdout(&out)
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains(&format!("refused {refused} of {} VPLs", 10 + refused)), "{err}");
+
+    let plain = dir.join("p.json");
+    gpu_run(&with_tiny("bench", &["--frames", "2", "--warmup", "1", "--json", plain.to_str().unwrap()]));
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&plain).unwrap()).expect("valid JSON");
+    assert!(v["vpls_kept"].is_null() && v["vpls_refused"].is_null(), "{v}");
+}

@@ -135,6 +135,8 @@ fn rect_of(grid: &TileGrid, (x0, x1_end): (u32, u32), (y0, y1_end): (u32, u32)) 
 pub fn near_cap_rect(grid: &TileGrid, proj: &Mat4, near: f32, c: Vec3, r: f32) -> Option<TileRect> {
     let z_lo = c.z - r;
     let z_hi = (c.z + r).min(-near);
+    // Written as in WGSL, so NaN takes this branch.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     if !(z_lo <= z_hi) {
         return None;
     }

@@ -133,7 +133,7 @@ fn check_cap(g: &TileGrid, camera: &Camera, c: Vec3, r: f32, rect: Option<TileRe
         }
     }
     for p in points {
-        if !(p.z < -near * (1.0 + 1e-3)) {
+        if p.z >= -near * (1.0 + 1e-3) {
             continue;
         }
         let clip = proj * p.extend(1.0);
