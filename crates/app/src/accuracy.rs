@@ -479,6 +479,7 @@ fn measure_setting(
         heat.insert(point.clone(), map.heat_rgb());
         // WBOIT against the sorted frame of the same settings: the sort's share alone.
         let glass = p.has_blended_geometry();
+        let vpls = crate::vpl_args::refused_warning(renderer.as_ref(), &p.ctx, "the measured frames")?;
         drop(renderer);
         let vs_sorted = match pargs.blend_mode {
             BlendMode::Sorted => {
@@ -545,7 +546,10 @@ fn measure_setting(
             ),
         );
         let max_binding = p.ctx.device.limits().max_storage_buffer_binding_size;
-        Ok(dropped.warning("the measured frames", p.settings.grid_pairs, max_binding))
+        Ok(crate::dropped::join_warnings(
+            dropped.warning("the measured frames", p.settings.grid_pairs, max_binding),
+            vpls,
+        ))
     }
 }
 

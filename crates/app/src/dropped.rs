@@ -205,6 +205,15 @@ pub fn warn(count: &mut usize, line: &str) {
     *count += 1;
 }
 
+/// One warning out of a point's dropped-lights warning and its refused-VPLs warning (the
+/// lab reports one warning a point).
+pub fn join_warnings(a: Option<String>, b: Option<String>) -> Option<String> {
+    match (a, b) {
+        (Some(a), Some(b)) => Some(format!("{a}; {b}")),
+        (a, b) => a.or(b),
+    }
+}
+
 /// `--strict`: after the output files are written, any warning of the run is an error.
 pub fn strict(strict: bool, warnings: usize) -> Result<()> {
     if strict && warnings > 0 {

@@ -322,7 +322,8 @@ fn measure_point(
     let mark = dropped.mark().map(|d| format!(" ({d}: incomplete frames)")).unwrap_or_default();
     lab::say(pb, format!("{what}: {total:.3} ms{mark}"));
     let max_binding = p.ctx.device.limits().max_storage_buffer_binding_size;
-    Ok(dropped.warning("the measured frames", p.settings.grid_pairs, max_binding))
+    let vpls = crate::vpl_args::refused_warning(renderer.as_ref(), &p.ctx, "the measured frames")?;
+    Ok(dropped::join_warnings(dropped.warning("the measured frames", p.settings.grid_pairs, max_binding), vpls))
 }
 
 fn ms(v: f64) -> String {

@@ -571,3 +571,32 @@ fn bench_reports_vpls_made_and_refused() {
     let v: Value = serde_json::from_str(&std::fs::read_to_string(&plain).unwrap()).expect("valid JSON");
     assert!(v["vpls_kept"].is_null() && v["vpls_refused"].is_null(), "{v}");
 }
+
+/// A sweep point whose VPLs the cap refused gets a `warning:` line naming them, as a point
+/// that dropped lights does.
+#[test]
+fn sweep_warns_of_refused_vpls() {
+    let dir = scratch("sweep-vpl");
+    let csv_path = dir.join("s.csv");
+    let args = [
+        "--spot-lights",
+        "2",
+        "--shadow-spot-lights",
+        "2",
+        "--vpl",
+        "--vpl-cap",
+        "10",
+        "--axis",
+        "lights=2",
+        "--frames",
+        "2",
+        "--warmup",
+        "0",
+        "--out",
+        csv_path.to_str().unwrap(),
+    ];
+    let out = gpu_run(&with_tiny("sweep", &args));
+    let err = String::from_utf8_lossy(&out.stderr);
+    let line = err.lines().find(|l| l.starts_with("warning:") && l.contains("the VPL cap (--vpl-cap 10) refused "));
+    assert!(line.is_some(), "no refused-VPL warning:\n{err}");
+}

@@ -231,6 +231,42 @@ fn a_full_light_grid_is_warned_of_in_the_panel() {
     assert!(dir.join("lit.png").exists(), "the screenshot is written before --strict fails");
 }
 
+/// VPLs in the viewer: the panel's statistics show how many the last frame made, and a cap
+/// smaller than the candidates gives one `warning:` line naming the refused (two
+/// shadow-casting spots, 32x32 reflective shadow maps, 2x2 blocks: up to 512 candidates;
+/// the viewer animates its lights, so the counts change from frame to frame).
+#[test]
+fn vpls_made_and_refused_are_shown() {
+    let x = Xvfb::start();
+    let dir = scratch("vpls");
+    let out = view(
+        &x,
+        &dir,
+        &[
+            "--spot-lights",
+            "2",
+            "--shadow-spot-lights",
+            "2",
+            "--vpl",
+            "--vpl-cap",
+            "10",
+            "--frames",
+            "4",
+            "--screenshot",
+            "v.png",
+        ],
+    );
+    let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
+    let line = stdout.lines().find(|l| l.starts_with("viewer VPLs: ")).unwrap_or_else(|| panic!("{stdout}\n{stderr}"));
+    assert!(line.starts_with("viewer VPLs: 10 made, "), "{line}");
+    let refused: u32 = line["viewer VPLs: 10 made, ".len()..].trim_end_matches(" refused").parse().expect("a count");
+    assert!(refused > 0, "{line}");
+    let warnings: Vec<&str> = stderr.lines().filter(|l| l.starts_with("warning: ") && l.contains("VPL cap")).collect();
+    assert_eq!(warnings.len(), 1, "one warning while it lasts:\n{stderr}");
+    // The warning is of the first frame refused, the line of the last (the lights move).
+    assert!(warnings[0].contains("the VPL cap (--vpl-cap 10) refused "), "{stderr}");
+}
+
 /// A lost device (destroyed through the test hook after the 2nd frame, as a driver reset
 /// would lose it) ends the viewer with the loss named, exit 1.
 #[test]

@@ -720,6 +720,20 @@ impl Viewer {
                 Ok(c) => self.stats.culling = c,
                 Err(e) => self.report(&e),
             }
+            // A frame whose VPLs the cap refused is warned of once while it lasts, as
+            // dropped lights are.
+            let refused_before = self.stats.vpls.is_some_and(|(_, r)| r > 0);
+            match self.renderer.vpl_count(&self.prep.ctx) {
+                Ok(v) => {
+                    if let (Some(w), false) =
+                        (v.and_then(|c| crate::vpl_args::refused_line("the frame", c)), refused_before)
+                    {
+                        dropped::warn(&mut self.warnings, &w);
+                    }
+                    self.stats.vpls = v;
+                }
+                Err(e) => self.report(&e.into()),
+            }
         }
 
         if let Some((path, tex)) = captured {
@@ -793,6 +807,9 @@ impl Viewer {
             println!("viewer culling: {c}");
         }
         println!("viewer visible lights: {}", self.stats.visible_lights);
+        if let Some((kept, refused)) = self.stats.vpls {
+            println!("viewer VPLs: {kept} made, {refused} refused");
+        }
         println!("viewer dropped: {}", self.stats.dropped.as_deref().unwrap_or("none"));
         println!("viewer error: {}", self.ui.error.as_deref().unwrap_or("none"));
     }

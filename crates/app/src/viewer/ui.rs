@@ -89,6 +89,9 @@ pub struct Stats {
     /// The warning about lights the latest frames dropped (a light grid full and unable to
     /// grow), shown in red at the top of the panel; None while frames are complete.
     pub dropped: Option<String>,
+    /// VPLs the last frame read back made and those the cap refused (None without VPLs),
+    /// refreshed with the culling statistics.
+    pub vpls: Option<(u32, u32)>,
 }
 
 impl Stats {
@@ -339,6 +342,15 @@ fn stats_section(ui: &mut egui::Ui, info: &Info<'_>) {
             ui.label(format!("shadow faces drawn last frame: {faces} of {}", a.layout.faces()));
             ui.label(format!("shadow atlas: {}", format_bytes(a.memory.total())))
                 .on_hover_text(atlas_layout_description(&a.layout, &a.options));
+        }
+        if let Some((kept, refused)) = st.vpls {
+            ui.label(format!("VPLs: {kept}"));
+            if refused > 0 {
+                ui.colored_label(
+                    Color32::from_rgb(255, 60, 60),
+                    format!("{refused} VPLs refused by the cap (--vpl-cap)"),
+                );
+            }
         }
         if let Some(b) = info.blended {
             ui.label(format!(
