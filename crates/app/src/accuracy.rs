@@ -26,7 +26,8 @@
 //! `warning:` line, the columns `dropped_frames`, `dropped_lights`, `dropped_lists` (over
 //! its measured frames read back; `overflowing_lists` is the compared frame's) and a red
 //! ring on the chart; `--strict` fails once the CSV and the chart are written. The column
-//! `load_warnings` holds the scene's load warnings (a missing texture...). A lost device
+//! `load_warnings` holds the scene's load warnings (a missing texture...), `vpls_refused`
+//! the VPLs the cap refused (with a `warning:` line). A lost device
 //! (or out of GPU memory) ends the run naming it; the settings measured so far stay in the
 //! CSV and the same command resumes after them.
 //!
@@ -113,7 +114,7 @@ pub enum ReferenceArg {
 }
 
 const HEAD: [&str; 3] = ["adapter", "width", "height"];
-const TAIL: [&str; 25] = [
+const TAIL: [&str; 26] = [
     "total_ms",
     "passes",
     "psnr_db",
@@ -129,6 +130,7 @@ const TAIL: [&str; 25] = [
     "dropped_lights",
     "dropped_lists",
     dropped::LOAD_WARNINGS_COLUMN,
+    dropped::VPLS_REFUSED_COLUMN,
     "false_positive_rate",
     "wasted_per_pixel",
     "evaluated_per_pixel",
@@ -479,7 +481,7 @@ fn measure_setting(
         heat.insert(point.clone(), map.heat_rgb());
         // WBOIT against the sorted frame of the same settings: the sort's share alone.
         let glass = p.has_blended_geometry();
-        let vpls = crate::vpl_args::refused_warning(renderer.as_ref(), &p.ctx, "the measured frames")?;
+        let vpls = renderer.vpl_count(&p.ctx).context("reading the VPL count back")?;
         drop(renderer);
         let vs_sorted = match pargs.blend_mode {
             BlendMode::Sorted => {
@@ -518,6 +520,7 @@ fn measure_setting(
         ]);
         row.extend(dropped.csv());
         row.push(dropped::load_warnings_cell(&p.scene_warnings));
+        row.push(dropped::vpls_refused_cell(vpls));
         row.extend([
             opt(q.map(|q| f(q.false_positive_rate, 6))),
             opt(q.map(|q| f(q.wasted_per_pixel, 4))),
@@ -546,9 +549,10 @@ fn measure_setting(
             ),
         );
         let max_binding = p.ctx.device.limits().max_storage_buffer_binding_size;
+        let refused = vpls.and_then(|c| crate::vpl_args::refused_line("the measured frames", c));
         Ok(crate::dropped::join_warnings(
             dropped.warning("the measured frames", p.settings.grid_pairs, max_binding),
-            vpls,
+            refused,
         ))
     }
 }

@@ -605,7 +605,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     if let Some(w) = dropped.warning("the measured frames", prep.settings.grid_pairs, max_binding) {
         dropped::warn(&mut warnings, &w);
     }
-    if let Some(w) = crate::vpl_args::refused_warning(renderer.as_ref(), &prep.ctx, "the measured frames")? {
+    if let Some(w) = vpls.and_then(|c| crate::vpl_args::refused_line("the measured frames", c)) {
         dropped::warn(&mut warnings, &w);
     }
     dropped::strict(args.scene.strict, warnings)

@@ -23,6 +23,15 @@ use tiledlight_setup::{group_digits, Prepared};
 /// The lab CSVs' column of the scene's load warnings, next to the `dropped_*` columns.
 pub const LOAD_WARNINGS_COLUMN: &str = "load_warnings";
 
+/// The lab CSVs' column of VPLs the cap refused in a point's last frame (empty without
+/// VPLs).
+pub const VPLS_REFUSED_COLUMN: &str = "vpls_refused";
+
+/// The [`VPLS_REFUSED_COLUMN`] cell of a frame's VPL count (made, refused).
+pub fn vpls_refused_cell(count: Option<(u32, u32)>) -> String {
+    count.map(|(_, refused)| refused.to_string()).unwrap_or_default()
+}
+
 /// The [`LOAD_WARNINGS_COLUMN`] cell: the scene's load warnings (`Prepared::scene_warnings`,
 /// each printed as a `warning:` line when the scene loaded) joined by " | "; empty for none.
 pub fn load_warnings_cell(warnings: &[String]) -> String {

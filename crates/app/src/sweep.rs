@@ -9,8 +9,9 @@
 //!
 //! A point whose measured frames dropped lights (a light grid full, [`crate::dropped`]) gets
 //! a `warning:` line, its CSV rows say how many (`dropped_frames`, `dropped_lights`,
-//! `dropped_lists`; the scene's load warnings in `load_warnings`), and the chart rings it
-//! in red as the time of incomplete frames;
+//! `dropped_lists`; the scene's load warnings in `load_warnings`; VPLs the cap refused in
+//! `vpls_refused`, with their own `warning:` line), and the chart rings it in red as the
+//! time of incomplete frames;
 //! `--strict` fails once the CSV and the chart are written. A lost device (or out of GPU
 //! memory) ends the run naming it; the points measured so far stay in the CSV and the same
 //! command resumes after them.
@@ -106,7 +107,7 @@ const HEAD: [&str; 3] = ["adapter", "width", "height"];
 /// `dropped_*`: over the point's measured frames whose light-grid headers were read back
 /// (opaque and blended grids together; empty for a method without a grid);
 /// `load_warnings`: the scene's ([`dropped::load_warnings_cell`]).
-const TAIL: [&str; 12] = [
+const TAIL: [&str; 13] = [
     "triangles",
     "mean_lights_per_tile",
     "max_lights_per_tile",
@@ -119,6 +120,7 @@ const TAIL: [&str; 12] = [
     "dropped_lights",
     "dropped_lists",
     dropped::LOAD_WARNINGS_COLUMN,
+    dropped::VPLS_REFUSED_COLUMN,
 ];
 /// The pseudo-pass holding the sum of the pass medians.
 pub const TOTAL: &str = "total";
@@ -314,16 +316,18 @@ fn measure_point(
     r.extend([TOTAL.to_string(), ms(total), String::new(), String::new(), frames.to_string()]);
     rows.push(r);
     let dropped = m.dropped();
+    let vpls = renderer.vpl_count(&p.ctx).context("reading the VPL count back")?;
     for r in &mut rows {
         r.extend(dropped.csv());
         r.push(dropped::load_warnings_cell(&p.scene_warnings));
+        r.push(dropped::vpls_refused_cell(vpls));
     }
     csv.append(&rows)?;
     let mark = dropped.mark().map(|d| format!(" ({d}: incomplete frames)")).unwrap_or_default();
     lab::say(pb, format!("{what}: {total:.3} ms{mark}"));
     let max_binding = p.ctx.device.limits().max_storage_buffer_binding_size;
-    let vpls = crate::vpl_args::refused_warning(renderer.as_ref(), &p.ctx, "the measured frames")?;
-    Ok(dropped::join_warnings(dropped.warning("the measured frames", p.settings.grid_pairs, max_binding), vpls))
+    let refused = vpls.and_then(|c| crate::vpl_args::refused_line("the measured frames", c));
+    Ok(dropped::join_warnings(dropped.warning("the measured frames", p.settings.grid_pairs, max_binding), refused))
 }
 
 fn ms(v: f64) -> String {

@@ -530,29 +530,19 @@ fn culling_flags_change_the_frame() {
     assert_eq!(flat, planes, "--flat-cull finds the same lists");
 }
 
+/// Two shadow-casting spots with VPLs and a cap of 10: 32x32 reflective shadow maps and
+/// 2x2 blocks give up to 512 candidates, so the cap refuses some (the lit floor and walls
+/// fill most blocks).
+const VPLS_CAPPED: [&str; 7] = ["--spot-lights", "2", "--shadow-spot-lights", "2", "--vpl", "--vpl-cap", "10"];
+
 /// `bench --vpl` reports the VPLs the last frame made and those the cap refused (a line, a
-/// `warning:` and JSON fields); without `--vpl` the fields are null. Two shadow-casting
-/// spots with 32x32 reflective shadow maps and 2x2 blocks give up to 512 candidates, so a
-/// cap of 10 refuses some (the lit floor and walls fill most blocks).
+/// `warning:` and JSON fields); without `--vpl` the fields are null.
 #[test]
 fn bench_reports_vpls_made_and_refused() {
     let dir = scratch("bench-vpl");
     let json = dir.join("v.json");
-    let args = [
-        "--frames",
-        "2",
-        "--warmup",
-        "1",
-        "--spot-lights",
-        "2",
-        "--shadow-spot-lights",
-        "2",
-        "--vpl",
-        "--vpl-cap",
-        "10",
-        "--json",
-        json.to_str().unwrap(),
-    ];
+    let mut args = VPLS_CAPPED.to_vec();
+    args.extend(["--frames", "2", "--warmup", "1", "--json", json.to_str().unwrap()]);
     let out = gpu_run(&with_tiny("bench", &args));
     let v: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).expect("valid JSON");
     assert_eq!(v["vpls_kept"], 10, "{v}");
@@ -578,25 +568,15 @@ fn bench_reports_vpls_made_and_refused() {
 fn sweep_warns_of_refused_vpls() {
     let dir = scratch("sweep-vpl");
     let csv_path = dir.join("s.csv");
-    let args = [
-        "--spot-lights",
-        "2",
-        "--shadow-spot-lights",
-        "2",
-        "--vpl",
-        "--vpl-cap",
-        "10",
-        "--axis",
-        "lights=2",
-        "--frames",
-        "2",
-        "--warmup",
-        "0",
-        "--out",
-        csv_path.to_str().unwrap(),
-    ];
+    let mut args = VPLS_CAPPED.to_vec();
+    args.extend(["--axis", "lights=2", "--frames", "2", "--warmup", "0", "--out", csv_path.to_str().unwrap()]);
     let out = gpu_run(&with_tiny("sweep", &args));
     let err = String::from_utf8_lossy(&out.stderr);
     let line = err.lines().find(|l| l.starts_with("warning:") && l.contains("the VPL cap (--vpl-cap 10) refused "));
     assert!(line.is_some(), "no refused-VPL warning:\n{err}");
+    // And the CSV's vpls_refused column holds the count on every row of the point.
+    let mut r = csv::Reader::from_path(&csv_path).unwrap();
+    let col = r.headers().unwrap().iter().position(|h| h == "vpls_refused").expect("a vpls_refused column");
+    let rows: Vec<csv::StringRecord> = r.records().map(Result::unwrap).collect();
+    assert!(!rows.is_empty() && rows.iter().all(|row| row[col].parse::<u32>().is_ok_and(|n| n > 0)), "{rows:?}");
 }
