@@ -7,7 +7,7 @@
 //! [`crate::gbuffer`], [`crate::shading`].
 
 use glam::Vec3;
-use tiledlight_cull::vpl::{GpuVplShading, VplConfig};
+use tiledlight_cull::vpl::VplConfig;
 use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
 use tiledlight_gpu::features::{Features, Method};
@@ -15,14 +15,12 @@ use tiledlight_gpu::frame::{CommonSettings, FrameCommon};
 use tiledlight_gpu::light_cull::{CullOptions, DropLight, GpuTileLists, LightCulling};
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
-use tiledlight_gpu::lights_group::VplBindings;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::plan::{FramePlan, Step};
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::{DisplayTargets, Renderer};
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::{HeatmapOf, HeatmapPass};
-use tiledlight_gpu::util::buffer_init;
 use tiledlight_gpu::{GpuContext, GpuError};
 use tiledlight_vpl::VplPath;
 
@@ -189,27 +187,8 @@ impl DeferredRenderer {
             let vpl = match (settings.vpl, common.shadows.as_ref()) {
                 (Some(cfg), Some(atlas)) => {
                     let path = VplPath::new(device, &ctx.queue, (views, scene), atlas, &lights.packed, &cfg)?;
-                    let culling = LightCulling::new(
-                        device,
-                        views,
-                        &targets.depth_view,
-                        &path.buffers.as_lights(),
-                        &path.buffers.lighting,
-                        common.grid,
-                        tiledlight_vpl::cull_options(&settings.cull, common.grid, cfg.cap, &device.limits()),
-                    )?;
-                    let shading = buffer_init(
-                        device,
-                        "vpl.shading",
-                        bytemuck::bytes_of(&GpuVplShading::new(&cfg)),
-                        wgpu::BufferUsages::UNIFORM,
-                    );
-                    let bindings = VplBindings {
-                        vpls: path.buffers.vpls.clone(),
-                        shading,
-                        count: path.buffers.count.clone(),
-                        lists: Some((culling.grid.grid.clone(), culling.grid.indices().clone())),
-                    };
+                    let culling = path.culling(device, views, &targets.depth_view, (common.grid, &settings.cull))?;
+                    let bindings = path.bindings(device, Some(&culling));
                     memory.extend(&path.memory);
                     for (category, bytes) in culling.memory.entries.iter() {
                         memory.add(&format!("vpl.{category}"), *bytes);

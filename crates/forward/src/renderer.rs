@@ -31,9 +31,7 @@ use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::{HeatmapOf, HeatmapPass, HDR_FORMAT};
 use tiledlight_gpu::{GpuContext, GpuError};
 
-use tiledlight_cull::vpl::{GpuVplShading, VplConfig};
-use tiledlight_gpu::lights_group::VplBindings;
-use tiledlight_gpu::util::buffer_init;
+use tiledlight_cull::vpl::VplConfig;
 use tiledlight_vpl::VplPath;
 
 use crate::shading::{LightLoop, ShadingPass};
@@ -228,34 +226,13 @@ impl ForwardRenderer {
             let vpl = match (settings.vpl, common.shadows.as_ref()) {
                 (Some(cfg), Some(atlas)) => {
                     let path = VplPath::new(device, &ctx.queue, (views, scene), atlas, &lights.packed, &cfg)?;
-                    let shading = buffer_init(
-                        device,
-                        "vpl.shading",
-                        bytemuck::bytes_of(&GpuVplShading::new(&cfg)),
-                        wgpu::BufferUsages::UNIFORM,
-                    );
                     // Forward+: the VPLs' own grid, culled by the same pass as the lights
                     // (sphere and planes, one list per tile), their count from the GPU.
                     let culling = plan
                         .has(Step::VplCull)
-                        .then(|| {
-                            LightCulling::new(
-                                device,
-                                views,
-                                &targets.depth_view,
-                                &path.buffers.as_lights(),
-                                &path.buffers.lighting,
-                                common.grid,
-                                tiledlight_vpl::cull_options(&settings.cull, common.grid, cfg.cap, &device.limits()),
-                            )
-                        })
+                        .then(|| path.culling(device, views, &targets.depth_view, (common.grid, &settings.cull)))
                         .transpose()?;
-                    let bindings = VplBindings {
-                        vpls: path.buffers.vpls.clone(),
-                        shading,
-                        count: path.buffers.count.clone(),
-                        lists: culling.as_ref().map(|c| (c.grid.grid.clone(), c.grid.indices().clone())),
-                    };
+                    let bindings = path.bindings(device, culling.as_ref());
                     Some((path, bindings, culling))
                 }
                 _ => None,

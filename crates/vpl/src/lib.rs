@@ -23,12 +23,15 @@ pub use rsm::{Rsm, RsmLayout};
 pub use tiledlight_cull::vpl::{VplConfig, VplShading};
 
 use tiledlight_cull::light::PackedLights;
+use tiledlight_cull::vpl::GpuVplShading;
 use tiledlight_cull::TileGrid;
-use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::light_cull::{CullOptions, LightCulling};
+use tiledlight_gpu::lights_group::VplBindings;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::GpuTimer;
+use tiledlight_gpu::util::buffer_init;
 use tiledlight_gpu::view::Views;
 use tiledlight_gpu::GpuError;
 
@@ -41,6 +44,7 @@ pub struct VplPath {
     generate: VplGenerate,
     /// RSM and VPL bytes.
     pub memory: MemoryReport,
+    config: VplConfig,
 }
 
 impl VplPath {
@@ -67,13 +71,43 @@ impl VplPath {
         let mut memory = MemoryReport::default();
         memory.extend(&rsm.memory);
         memory.extend(&buffers.memory);
-        Ok(Self { rsm, buffers, generate, memory })
+        Ok(Self { rsm, buffers, generate, memory, config: *config })
     }
 
     /// Takes the casters' new faces (after the atlas's own `update`): the next frame redraws
     /// the RSM and regenerates the VPLs.
     pub fn update(&self, queue: &wgpu::Queue, atlas: &ShadowAtlas, lights: &PackedLights) {
         self.rsm.update(queue, atlas, lights);
+    }
+
+    /// The culling pass of the VPLs into a light grid of their own ([`cull_options`] from
+    /// the lights' `cull`), reading `depth` over `grid`: the same pass as the lights'.
+    pub fn culling(
+        &self,
+        device: &wgpu::Device,
+        views: &Views,
+        depth: &wgpu::TextureView,
+        (grid, cull): (TileGrid, &CullOptions),
+    ) -> Result<LightCulling, GpuError> {
+        let options = cull_options(cull, grid, self.config.cap, &device.limits());
+        LightCulling::new(device, views, depth, &self.buffers.as_lights(), &self.buffers.lighting, grid, options)
+    }
+
+    /// What a shading pass binds of the VPLs: their buffers, a `VplShading` uniform of the
+    /// path's shading model, and the lists of `culling` (None: every VPL, brute force).
+    pub fn bindings(&self, device: &wgpu::Device, culling: Option<&LightCulling>) -> VplBindings {
+        let shading = buffer_init(
+            device,
+            "vpl.shading",
+            bytemuck::bytes_of(&GpuVplShading::new(&self.config)),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        VplBindings {
+            vpls: self.buffers.vpls.clone(),
+            shading,
+            count: self.buffers.count.clone(),
+            lists: culling.map(|c| (c.grid.grid.clone(), c.grid.indices().clone())),
+        }
     }
 
     /// Draws the RSM and generates the VPLs when the casters moved since the last frame
