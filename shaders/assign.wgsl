@@ -415,13 +415,23 @@ fn visit(k: Walk, tile: vec2<u32>, write: bool) {
         emit(t * slices + s, k.light, write);
     }
 #else
-    let range = tile_ranges[t];
+    visit_in(k, tile, tile_ranges[t], write, true);
+#endif
+}
+
+#ifndef CLUSTERED
+// Tile `tile` of the walk, its depth range `range` loaded. Without `planes_path` the walk
+// must not be a whole-grid one (k.planes): the team walks never get those (walk_light
+// queues them as huge), and leaving the tile-centric kernel's full test out of their code
+// made them faster (H200, 100,000 lights: 0.049 -> 0.045 ms).
+fn visit_in(k: Walk, tile: vec2<u32>, range: vec2<f32>, write: bool, planes_path: bool) {
+    let t = tile.y * light_grid.header.tiles.x + tile.x;
     if range.y < 0.0 {
         // No geometry in the tile: no list (as the tile-centric kernel).
         return;
     }
     var hit = vec2<bool>(false);
-    if k.planes {
+    if planes_path && k.planes {
         // The whole grid: the tile-centric kernel's test, planes included.
         hit = volume_hits(tile_volumes_at(tile, TILE_SIZE, range.x, range.y), k.light, k.c, k.r);
     } else {
@@ -441,8 +451,8 @@ fn visit(k: Walk, tile: vec2<u32>, write: bool) {
         emit(t * 2u + 1u, k.light, write);
     }
 #endif
-#endif
 }
+#endif
 
 // Steps 1 and 4: a thread per light; big lights are queued by the count pass and left to
 // the big-light passes by both.
@@ -451,7 +461,9 @@ fn walk_light(light: u32, write: bool) {
         return;
     }
     let k = walk_of(light, write);
-    if k.blocks > HUGE_BLOCKS {
+    // A whole-grid light (k.planes) of more than BIG_TILES tiles is walked as a huge one
+    // (see visit_in).
+    if k.blocks > HUGE_BLOCKS || (k.planes && k.tiles > BIG_TILES) {
         if !write {
             // The huge queue fills the buffer from its end, the big one from its start:
             // together they hold at most every light.
@@ -474,13 +486,26 @@ fn walk_light(light: u32, write: bool) {
 
 // The tiles of the walk's rectangle spread over `lanes` threads, one tile at a time (a
 // light of a few blocks spread by blocks would keep most lanes idle while a few walk 16
-// tiles each). The block test is a cached load.
+// tiles each).
 fn visit_tiles(k: Walk, lane: u32, lanes: u32, write: bool) {
     let w = k.rect.hi.x - k.rect.lo.x;
+    // The lane's tile within the rectangle, stepped without a division per tile.
+    var p = vec2<u32>(lane % w, lane / w);
+    let step = vec2<u32>(lanes % w, lanes / w);
     for (var i = lane; i < k.tiles; i += lanes) {
-        let tile = k.rect.lo + vec2<u32>(i % w, i / w);
-        if block_reached(k, tile / BLOCK) {
-            visit(k, tile, write);
+        let tile = k.rect.lo + p;
+#ifdef CLUSTERED
+        visit(k, tile, write);
+#else
+        // No block test: the tile's own depth test implies it (a block's range is the min
+        // and max of its tiles'), and a lane visits one tile of a block, so the test would
+        // cost a dependent load and save none (H200, 100,000 lights: 0.055 -> 0.049 ms).
+        visit_in(k, tile, tile_ranges[tile.y * light_grid.header.tiles.x + tile.x], write, false);
+#endif
+        p += step;
+        if p.x >= w {
+            p.x -= w;
+            p.y += 1u;
         }
     }
 }
@@ -640,3 +665,4 @@ fn allocate(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgrou
     // The write passes count again from 0: the cursor.
     atomicStore(&list_counts[l], 0u);
 }
+

@@ -53,9 +53,12 @@ use crate::view::Views;
 
 /// A light whose tile rectangle holds more tiles than this is walked by a team of [`TEAM`]
 /// threads instead of one (a thread's walk holds up its whole warp: on the H200 at a
-/// million lights, 64 cost 3.1 ms of assignment, most of it threads waiting on long walks;
-/// 4 or 2 cost more than 8 again: docs/PERFORMANCE.md).
-pub const BIG_TILES: u32 = 8;
+/// million lights, 64 cost 3.1 ms of assignment, most of it threads waiting on long walks).
+/// Once the team walks lost their block test and the whole-grid test (`visit_tiles`), 4
+/// beat 8 at 100,000 lights (0.151 -> 0.146 ms, the 0.15 target) for 5-8% more at
+/// a million (preset 0.212 -> 0.224 ms, uniform 0.387 -> 0.419; 6: 0.149 / 0.213 / 0.388):
+/// docs/PERFORMANCE.md.
+pub const BIG_TILES: u32 = 4;
 
 /// Threads of a team walking one big light (lanes of one warp on NVIDIA; on the H200 16 and 8
 /// were 10-40% slower from 1,024 to 100,000 lights, faster only for a million uniform
@@ -178,6 +181,13 @@ pub struct LightAssign {
 /// A pipeline and its workgroup counts (x, y).
 type Dispatch<'a> = (&'a wgpu::ComputePipeline, (u32, u32));
 
+/// Threads a side of the tile-depth workgroup for tiles of `tile_size` pixels (a divisor of
+/// it): 8 for 16-pixel tiles, each thread reading 2 x 2 pixels, which halved the shared
+/// atomics of the reduction (H200, 1080p: 0.015 -> 0.012 ms); 8 or 16 for the others.
+fn depth_threads(tile_size: u32) -> u32 {
+    (tile_size / 2).clamp(8, 16)
+}
+
 /// A dispatch of `n` workgroups, folded into two dimensions past the 65,535 limit (the
 /// kernels rebuild the index as `x + y * groups_x`).
 fn dispatch_size(n: u32) -> (u32, u32) {
@@ -248,7 +258,7 @@ impl LightAssign {
             entries: &entries,
         });
         let module = shader_module(device, TILE_DEPTH_BINDINGS.entry, &depth_defines)?;
-        let mut constants = vec![("TILE_SIZE", tiles.tile_size as f64), ("WG", tiles.tile_size.min(16) as f64)];
+        let mut constants = vec![("TILE_SIZE", tiles.tile_size as f64), ("WG", depth_threads(tiles.tile_size) as f64)];
         constants.extend(samples);
         let tile_depth =
             compute_pipeline(device, "tile_depth", &[&views.layout, &layout, grid.layout()], &module, &constants);
