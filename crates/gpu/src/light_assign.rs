@@ -15,8 +15,9 @@
 //!    slices) and counts hits per list. It keeps the rectangle for the later passes. A
 //!    light covering more than [`BIG_TILES`] tiles is queued and counted, in a second
 //!    dispatch, by a team of [`TEAM`] threads, tile by tile (one thread would stall its
-//!    warp); one covering more than [`HUGE_BLOCKS`] blocks by one or more whole workgroups
-//!    (see there).
+//!    warp); one covering more than [`HUGE_BLOCKS`] blocks, or reaching the eye plane with
+//!    more than [`BIG_TILES`] tiles (the only walks that need the per-tile plane test), by
+//!    one or more whole workgroups (see there).
 //! 3. **Allocate**: a thread per list; 256 lists' counts are scanned in workgroup memory and
 //!    allocated with one atomic add on the grid's counter (the light grid's contract: a
 //!    full index buffer drops and counts, never writes out of bounds).
