@@ -11,7 +11,7 @@
 # both resume from their CSV if rerun with the same $OUT.
 # The shadow step (shadow-accuracy: 13 shadow configurations at 960x540 against a CPU ray
 # cast of 12 + 12 casters, on every core) runs at its own resolution.
-# Usage: scripts/device-lab.sh [figure9] [accuracy] [deferred] [msaa] [shadows] [blended] [layouts] [layouts-surface] [blended-vs-sorted]
+# Usage: scripts/device-lab.sh [figure9] [accuracy] [deferred] [msaa] [shadows] [blended] [layouts] [layouts-surface] [blended-vs-sorted] [vpl]
 # (default: the first five)
 set -uo pipefail
 out=${OUT:-lab-out}
@@ -71,6 +71,16 @@ for s in $steps; do
       --axis threshold=0.05 --axis culling=planes --axis transparent-objects=50,140,280 \
       --axis blend-mode=sorted,wboit --frames 15 --out "$out/blended-vs-sorted.csv"
     ;;
+  vpl)
+    # Issue 15: the VPLs' error against the every-texel one-bounce reference (brute force,
+    # physical shading, every RSM texel a VPL, no thresholds, no cap, the same cutoff so
+    # that the lights' cutoff does not swamp it) over block size and shading model: the
+    # courtyard lit by 64 spot lights alone, 12 of them casting shadows and RSMs of 32x32,
+    # Tiled Deferred (its 8-bit albedo is the floor of the error: block 1 physical).
+    step 400 vpl accuracy --lights 0 --spot-lights 64 --shadow-spot-lights 12 --method deferred --vpl \
+      --reference cutoff --axis threshold=0.05 --axis culling=planes --axis vpl-block=1,2,4,8,16 \
+      --axis vpl-shading=sample,physical --frames 10 --warmup 4 --reference-frames 3 --out "$out/vpl.csv"
+    ;;
   accuracy)
     # Forward+: its image is the brute force's with the same cutoff, so the error is the
     # cutoff's alone and the culling tests change only the time.
@@ -96,7 +106,7 @@ for s in $steps; do
     RES="--width 960 --height 540" step 600 shadow-accuracy shadow-accuracy --frames 10 --warmup 3 \
       --out "$out/shadow-accuracy.json"
     ;;
-  *) echo "unknown step $s (figure9, accuracy, deferred, msaa, shadows, blended, blended-vs-sorted)" >&2; exit 2 ;;
+  *) echo "unknown step $s (figure9, accuracy, deferred, msaa, shadows, blended, layouts, layouts-surface, blended-vs-sorted, vpl)" >&2; exit 2 ;;
   esac
 done
 tar -czf "$out/lab.tar.gz" -C "$out" --exclude lab.tar.gz . && ls -la "$out"

@@ -240,6 +240,14 @@ fn pass_times(m: &bench::Measurement) -> Result<(f64, String)> {
 /// shaded by the physical model, which the brute-force reference sums with no cutoff. The
 /// setting's own block, thresholds, cap, model and (tiled methods) culling are what its
 /// error measures. None without VPLs.
+/// How the reference treats the lights' radii, as the output and the chart say it.
+fn reference_kind(r: ReferenceArg) -> &'static str {
+    match r {
+        ReferenceArg::NoCutoff => "no cutoff",
+        ReferenceArg::Cutoff => "same cutoff",
+    }
+}
+
 fn reference_vpl(a: &Settings) -> Option<tiledlight_cull::vpl::VplConfig> {
     a.vpl.map(|v| {
         let (points, spots) = a.shadow_casters();
@@ -439,10 +447,7 @@ fn measure_setting(
         if !references.contains_key(&rkey) {
             let r = render_reference(p, pargs, args.reference, args.reference_frames)
                 .with_context(|| format!("{what}: reference"))?;
-            let kind = match args.reference {
-                ReferenceArg::NoCutoff => "no cutoff",
-                ReferenceArg::Cutoff => "same cutoff",
-            };
+            let kind = reference_kind(args.reference);
             lab::say(pb, format!("reference (brute force, {kind}): {:.3} ms", r.total_ms));
             references.insert(rkey.clone(), r);
         }
@@ -687,11 +692,12 @@ fn report(
     let c = ParetoChart {
         title: format!("Speed vs accuracy: {adapter}, {res}"),
         subtitle: format!(
-            "{} scene, {lights} lights, {}{}{}; error vs brute force without cutoff; labels: intensity threshold T",
+            "{} scene, {lights} lights, {}{}{}; error vs brute force, {}; labels: intensity threshold T",
             s.scene,
             Method::from(s.method).name(),
             if fixed.is_empty() { "" } else { ", " },
-            fixed.join(", ")
+            fixed.join(", "),
+            reference_kind(args.reference)
         ),
         x_label: "GPU frame time, ms (sum of pass medians)".into(),
         y_label: "FLIP mean (tonemapped, vs reference)".into(),

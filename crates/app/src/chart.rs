@@ -28,7 +28,7 @@ const FAMILY: &str = "sans-serif";
 pub const SIZE: (u32, u32) = (1280, 800);
 
 /// Series colours (colour-blind-friendly order of the usual ten).
-const COLORS: [RGBColor; 8] = [
+const COLORS: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -37,6 +37,8 @@ const COLORS: [RGBColor; 8] = [
     RGBColor(140, 86, 75),
     RGBColor(227, 119, 194),
     RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
 ];
 
 /// The colour of series `i`.
