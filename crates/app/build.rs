@@ -1,17 +1,36 @@
 //! Records the git commit the binary is built from, so benchmark JSON written on another
 //! machine (without the repository) still names it. Empty when git is unavailable.
 
-fn main() {
-    let commit = std::process::Command::new("git")
-        .args(["rev-parse", "--short=12", "HEAD"])
+use std::process::Command;
+
+/// What `git args` prints, trimmed (None when git fails or is missing).
+fn git(args: &[&str]) -> Option<String> {
+    Command::new("git")
+        .args(args)
         .output()
         .ok()
         .filter(|o| o.status.success())
         .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
-        .unwrap_or_default();
-    // No "-dirty" mark: cargo reruns this only when HEAD or the index moves, so a mark
-    // would go stale with the next edit. Benchmarks are run from committed trees.
+}
+
+fn main() {
+    let commit = git(&["rev-parse", "--short=12", "HEAD"]).unwrap_or_default();
+    // No "-dirty" mark: cargo reruns this only when HEAD, the branch or the index moves,
+    // so a mark would go stale with the next edit. Benchmarks are run from committed trees.
     println!("cargo:rustc-env=TILEDLIGHT_COMMIT={commit}");
-    println!("cargo:rerun-if-changed=../../.git/HEAD");
-    println!("cargo:rerun-if-changed=../../.git/index");
+    // Watch the files a commit changes, found through git itself: in a worktree HEAD and
+    // the index live in the worktree's own git dir, the branch refs in the common one, and
+    // HEAD's file names the branch rather than the commit, so watching it alone (as
+    // `../../.git/HEAD` did) missed every commit on the same branch.
+    let (Some(dir), Some(common)) =
+        (git(&["rev-parse", "--absolute-git-dir"]), git(&["rev-parse", "--path-format=absolute", "--git-common-dir"]))
+    else {
+        return;
+    };
+    println!("cargo:rerun-if-changed={dir}/HEAD");
+    println!("cargo:rerun-if-changed={dir}/index");
+    println!("cargo:rerun-if-changed={common}/packed-refs");
+    if let Some(branch) = git(&["symbolic-ref", "-q", "HEAD"]) {
+        println!("cargo:rerun-if-changed={common}/{branch}");
+    }
 }
