@@ -89,6 +89,12 @@ pub struct AccuracyArgs {
     /// reference has the setting's MSAA.
     #[arg(long, value_enum, default_value_t = ReferenceArg::NoCutoff)]
     pub reference: ReferenceArg,
+    /// With VPLs: the reference's reflective shadow maps are this many times finer than
+    /// the setting's (every texel a VPL; at most 512 texels a side), so the error of the
+    /// RSM size itself is measured too (1: the setting's own RSM size, whose error is then
+    /// only block, thresholds, cap, model and culling).
+    #[arg(long, default_value_t = 1, value_name = "1|2|4|8")]
+    pub vpl_reference_scale: u32,
     /// The FLIP mean the recommendation must stay under.
     #[arg(long, default_value_t = 0.01, value_name = "E")]
     pub target_flip: f64,
@@ -168,7 +174,7 @@ struct Reference {
 /// the setting's shadows (casters, tile size, filter, format): the error is the method's,
 /// not the shadow map's, which the shadow axes' times are measured against. It draws the
 /// setting's transparent objects, always sorted (so the blend mode is not part of the key).
-fn reference_key(a: &Settings, reference: ReferenceArg) -> String {
+fn reference_key(a: &Settings, reference: ReferenceArg, vpl_scale: u32) -> String {
     // With the cutoff the radii, so the threshold, shape the reference too; lights on
     // surfaces take their radius from k and their intensity from the threshold, so both
     // always shape it.
@@ -182,7 +188,7 @@ fn reference_key(a: &Settings, reference: ReferenceArg) -> String {
     };
     let shadows =
         if a.has_shadows() { format!("{:?}|{:?}", a.shadow_casters(), a.shadow_options()) } else { String::new() };
-    let shadows = shadows + &reference_vpl(a).map(|v| format!("|vpl {v:?}")).unwrap_or_default();
+    let shadows = shadows + &reference_vpl(a, vpl_scale).map(|v| format!("|vpl {v:?}")).unwrap_or_default();
     threshold
         + &format!(
             "{}|{}|{}|{}|{:?}|{:?}|{:?}|{}|{}x{}|{}|{}|{shadows}",
@@ -236,15 +242,20 @@ fn pass_times(m: &bench::Measurement) -> Result<(f64, String)> {
 }
 
 /// The VPLs of the reference of a setting with VPLs: one bounce from every texel of the
-/// setting's reflective shadow maps (block 1, no thresholds, a cap above the texels),
-/// shaded by the physical model, which the brute-force reference sums with no cutoff. The
-/// setting's own block, thresholds, cap, model and (tiled methods) culling are what its
-/// error measures. None without VPLs.
-fn reference_vpl(a: &Settings) -> Option<tiledlight_cull::vpl::VplConfig> {
+/// setting's reflective shadow maps, or of ones `scale` times finer (at most
+/// [`tiledlight_cull::vpl::RSM_SIZES`]' largest; `--vpl-reference-scale`), block 1, no
+/// thresholds, a cap above the texels, shaded by the physical model, which the brute-force
+/// reference sums with no cutoff. The setting's own block, thresholds, cap, model and
+/// (tiled methods) culling are what its error measures, and with `scale` > 1 its RSM size
+/// too (a texel's flux is its solid angle's share, so finer RSMs converge to the same
+/// light). None without VPLs.
+fn reference_vpl(a: &Settings, scale: u32) -> Option<tiledlight_cull::vpl::VplConfig> {
     a.vpl.map(|v| {
         let (points, spots) = a.shadow_casters();
-        let texels = (6 * u64::from(points) + u64::from(spots)) * u64::from(v.rsm_size).pow(2);
+        let rsm_size = v.rsm_size.saturating_mul(scale.max(1)).min(*tiledlight_cull::vpl::RSM_SIZES.end());
+        let texels = (6 * u64::from(points) + u64::from(spots)) * u64::from(rsm_size).pow(2);
         tiledlight_cull::vpl::VplConfig {
+            rsm_size,
             block: 1,
             colour_threshold: 0.0,
             brightness_threshold: 0.0,
@@ -258,7 +269,7 @@ fn reference_vpl(a: &Settings) -> Option<tiledlight_cull::vpl::VplConfig> {
 fn render_reference(
     prep: &mut Prepared,
     point_args: &Settings,
-    reference: ReferenceArg,
+    (reference, vpl_scale): (ReferenceArg, u32),
     frames: u32,
 ) -> Result<Reference> {
     let method = match reference {
@@ -268,7 +279,7 @@ fn render_reference(
     // Blended geometry in the reference is exact "over" (sorted back to front), whatever
     // the setting's blend mode.
     let settings =
-        Settings { method, blend_mode: BlendMode::Sorted, vpl: reference_vpl(point_args), ..point_args.clone() };
+        Settings { method, blend_mode: BlendMode::Sorted, vpl: reference_vpl(point_args, vpl_scale), ..point_args.clone() };
     prep.reconfigure(&settings)?;
     let mut r = prep.renderer(false)?;
     let m = bench::measure(prep, r.as_mut(), 1, frames).context("rendering the brute-force reference")?;
@@ -277,6 +288,21 @@ fn render_reference(
     let ldr = r.read_ldr(&prep.ctx).context("reading the reference back")?;
     let exposure = r.auto_exposure(&prep.ctx).context("reading the reference's exposure back")?;
     Ok(Reference { exposure, hdr, ldr, total_ms, passes })
+}
+
+/// What the reference of a setting with VPLs sums, for the lab's output: "VPLs: every
+/// texel of 128x128 RSMs (4x the setting's 32), physical shading" (None without VPLs).
+fn reference_vpl_line(a: &Settings, scale: u32) -> Option<String> {
+    let (setting, reference) = (a.vpl?, reference_vpl(a, scale)?);
+    let n = reference.rsm_size;
+    let finer = match n / setting.rsm_size {
+        1 => "the setting's own".to_string(),
+        k if n == *tiledlight_cull::vpl::RSM_SIZES.end() && k < scale => {
+            format!("{k}x the setting's {}, capped at {n}", setting.rsm_size)
+        }
+        k => format!("{k}x the setting's {}", setting.rsm_size),
+    };
+    Some(format!("VPLs: every texel of {n}x{n} RSMs ({finer}), physical shading"))
 }
 
 /// Culling quality of the frame just rendered: the CPU reference culler's lists for the
@@ -317,6 +343,11 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
         (1..=MAX_FRAMES).contains(&args.reference_frames),
         "--reference-frames {}: must be between 1 and {MAX_FRAMES}",
         args.reference_frames
+    );
+    ensure!(
+        matches!(args.vpl_reference_scale, 1 | 2 | 4 | 8),
+        "--vpl-reference-scale {}: use 1, 2, 4 or 8",
+        args.vpl_reference_scale
     );
     ensure!(
         args.target_flip.is_finite() && args.target_flip > 0.0 && args.target_flip <= 1.0,
@@ -435,15 +466,16 @@ fn measure_setting(
                 prep.insert(p)
             }
         };
-        let rkey = reference_key(pargs, args.reference);
+        let rkey = reference_key(pargs, args.reference, args.vpl_reference_scale);
         if !references.contains_key(&rkey) {
-            let r = render_reference(p, pargs, args.reference, args.reference_frames)
+            let r = render_reference(p, pargs, (args.reference, args.vpl_reference_scale), args.reference_frames)
                 .with_context(|| format!("{what}: reference"))?;
             let kind = match args.reference {
                 ReferenceArg::NoCutoff => "no cutoff",
                 ReferenceArg::Cutoff => "same cutoff",
             };
-            lab::say(pb, format!("reference (brute force, {kind}): {:.3} ms", r.total_ms));
+            let vpls = reference_vpl_line(pargs, args.vpl_reference_scale).map(|l| format!("; {l}")).unwrap_or_default();
+            lab::say(pb, format!("reference (brute force, {kind}{vpls}): {:.3} ms", r.total_ms));
             references.insert(rkey.clone(), r);
         }
         let reference = &references[&rkey];
@@ -745,7 +777,7 @@ mod tests {
     #[test]
     fn the_reference_follows_the_transparent_objects_not_the_blend_mode() {
         let s = Settings { grid_objects: 50, transparent_objects: 10, ..Settings::default() };
-        let key = |s: &Settings| reference_key(s, ReferenceArg::NoCutoff);
+        let key = |s: &Settings| reference_key(s, ReferenceArg::NoCutoff, 1);
         let oit = Settings { blend_mode: BlendMode::WeightedOit, ..s.clone() };
         assert_eq!(key(&s), key(&oit), "the reference is always sorted");
         assert_ne!(key(&s), key(&Settings { transparent_objects: 20, ..s.clone() }));
@@ -756,14 +788,14 @@ mod tests {
     fn the_vpl_reference_is_every_texel_of_the_settings_rsm() {
         use tiledlight_cull::vpl::{VplConfig, VplShading};
         let s = Settings { spot_lights: Some(8), shadow_spot_lights: 4, shadow_point_lights: 0, ..Settings::default() };
-        assert_eq!(reference_vpl(&s), None);
+        assert_eq!(reference_vpl(&s, 1), None);
         let with = |v: VplConfig| Settings { vpl: Some(v), ..s.clone() };
         let r =
-            reference_vpl(&with(VplConfig { block: 4, brightness_threshold: 0.3, cap: 10, ..VplConfig::default() }))
+            reference_vpl(&with(VplConfig { block: 4, brightness_threshold: 0.3, cap: 10, ..VplConfig::default() }), 1)
                 .expect("a VPL reference");
         assert_eq!((r.block, r.colour_threshold, r.brightness_threshold), (1, 0.0, 0.0));
         assert_eq!((r.cap, r.shading), (4 * 32 * 32, VplShading::Physical));
-        let key = |s: &Settings| reference_key(s, ReferenceArg::NoCutoff);
+        let key = |s: &Settings| reference_key(s, ReferenceArg::NoCutoff, 1);
         // Block, thresholds, cap and model are what the setting's error measures; the RSM
         // size makes another reference.
         let a = with(VplConfig { block: 2, ..VplConfig::default() });
@@ -771,6 +803,37 @@ mod tests {
         assert_eq!(key(&a), key(&b));
         assert_ne!(key(&a), key(&with(VplConfig { rsm_size: 64, ..VplConfig::default() })));
         assert_ne!(key(&a), key(&s), "VPLs change the reference");
+        assert_eq!(reference_vpl_line(&a, 1).unwrap(), "VPLs: every texel of 32x32 RSMs (the setting's own), physical shading");
+    }
+
+    #[test]
+    fn a_finer_vpl_reference_scales_the_rsm_up_to_its_largest_size() {
+        use tiledlight_cull::vpl::{VplConfig, RSM_SIZES};
+        let s = Settings { spot_lights: Some(8), shadow_spot_lights: 4, shadow_point_lights: 1, ..Settings::default() };
+        let with = |v: VplConfig| Settings { vpl: Some(v), ..s.clone() };
+        let a = with(VplConfig { block: 4, ..VplConfig::default() });
+        let r = reference_vpl(&a, 4).expect("a VPL reference");
+        // 4x the default 32 texels, every texel of the 4 spot faces and 6 point faces a VPL.
+        assert_eq!((r.rsm_size, r.block, r.cap), (128, 1, 10 * 128 * 128));
+        r.validate().expect("a valid reference");
+        assert_eq!(
+            reference_vpl_line(&a, 4).unwrap(),
+            "VPLs: every texel of 128x128 RSMs (4x the setting's 32), physical shading"
+        );
+        // Capped at the largest RSM size, and said so.
+        let big = with(VplConfig { rsm_size: 256, ..VplConfig::default() });
+        assert_eq!(reference_vpl(&big, 8).unwrap().rsm_size, *RSM_SIZES.end());
+        assert_eq!(
+            reference_vpl_line(&big, 8).unwrap(),
+            "VPLs: every texel of 512x512 RSMs (2x the setting's 256, capped at 512), physical shading"
+        );
+        // Another scale is another reference; the setting's RSM size with scale 1 is the old one.
+        let key = |s: &Settings, k| reference_key(s, ReferenceArg::NoCutoff, k);
+        assert_ne!(key(&a, 1), key(&a, 4));
+        // A setting at 64 with scale 2 and one at 128 with scale 1 share the 128 reference.
+        let a64 = with(VplConfig { rsm_size: 64, ..VplConfig::default() });
+        let a128 = with(VplConfig { rsm_size: 128, ..VplConfig::default() });
+        assert_eq!(key(&a64, 2), key(&a128, 1));
     }
 
     #[test]
