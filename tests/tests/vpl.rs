@@ -698,7 +698,15 @@ fn tiled_renderers(
     (w, h): (u32, u32),
     vpl: Option<VplConfig>,
     heatmap_of: tiledlight_gpu::tonemap::HeatmapOf,
-) -> (SceneGpu, Vec<(&'static str, Box<dyn tiledlight_gpu::targets::Renderer>, Vec<tiledlight_cull::light::GpuCullLight>, CullOptions)>) {
+) -> (
+    SceneGpu,
+    Vec<(
+        &'static str,
+        Box<dyn tiledlight_gpu::targets::Renderer>,
+        Vec<tiledlight_cull::light::GpuCullLight>,
+        CullOptions,
+    )>,
+) {
     use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
     use tiledlight_forward::{ForwardRenderer, ForwardSettings};
     let ctx = gpu();
@@ -736,7 +744,14 @@ fn the_vpl_grid_counts_what_it_drops_and_nothing_when_every_pair_fits() {
         assert_eq!(g.capacity(), 12 * VPL_GRID_PER_TILE, "{name}: the budget");
         let st = g.status(&ctx.device, &ctx.queue).expect("header");
         let h = st.header;
-        eprintln!("{name}: {} VPLs, {} pairs for {} indices, dropped {} from {} lists", vpls.len(), h.pairs, h.capacity, h.dropped_pairs, h.dropped_lists);
+        eprintln!(
+            "{name}: {} VPLs, {} pairs for {} indices, dropped {} from {} lists",
+            vpls.len(),
+            h.pairs,
+            h.capacity,
+            h.dropped_pairs,
+            h.dropped_lists
+        );
         assert!(vpls.len() > 2000, "{name}: {} VPLs", vpls.len());
         assert!(!st.complete() && h.dropped_lists > 0, "{name}: the VPL grid must overflow: {st}");
         assert_eq!(h.dropped_pairs, h.pairs - h.capacity, "{name}: every pair past the budget is counted");
@@ -790,7 +805,10 @@ fn vpl_heat_map_shows_the_cpu_cullers_vpl_counts_in_both_methods() {
         let depth = r.read_depth(ctx).expect("depth");
         let vpls: Vec<tiledlight_cull::Light> = spheres
             .iter()
-            .map(|c| tiledlight_cull::Light::with_radius(c.center.into(), Vec3::ONE, 1.0, c.radius, LightKind::Point).expect("vpl"))
+            .map(|c| {
+                tiledlight_cull::Light::with_radius(c.center.into(), Vec3::ONE, 1.0, c.radius, LightKind::Point)
+                    .expect("vpl")
+            })
             .collect();
         let packed = pack_lights(&vpls);
         let gpu_lists = r.vpl_light_grid().expect("VPL grid").read_lists(&ctx.device, &ctx.queue).expect("lists");
@@ -885,7 +903,8 @@ fn rsm_faces_draw_only_their_instances_and_the_same_texels() {
     scene.instances.push(Instance {
         mesh: 0,
         material: 0,
-        transform: Mat4::from_translation(Vec3::new(-13.0, 5.0, 0.0)) * Mat4::from_rotation_z(-std::f32::consts::FRAC_PI_2),
+        transform: Mat4::from_translation(Vec3::new(-13.0, 5.0, 0.0))
+            * Mat4::from_rotation_z(-std::f32::consts::FRAC_PI_2),
     });
     scene.bounds = scene.compute_bounds();
     let far = run_in(&scene, &cfg, &[spot()], (0, 1));

@@ -652,6 +652,7 @@ mod tests {
             timestamps: true,
             grid: Vec::new(),
             blended_grid: Vec::new(),
+            vpl_grid: Vec::new(),
             shadow_faces: Vec::new(),
         };
         let p = m.passes();

@@ -331,7 +331,9 @@ mod tests {
         let w = d.warning("the image", None, 1 << 27).unwrap();
         assert!(w.contains("DROPPED the VPL lists: 4,240 (list, VPL) pairs from 3 lists"), "{w}");
         assert!(
-            w.contains("the grid holds its fixed budget of 245,760 indices (at most 1,024 VPLs a tile; it does not grow)"),
+            w.contains(
+                "the grid holds its fixed budget of 245,760 indices (at most 1,024 VPLs a tile; it does not grow)"
+            ),
             "{w}"
         );
         assert!(w.contains("(fewer VPLs a tile: a larger --vpl-block"), "{w}");

@@ -566,12 +566,14 @@ fn bench_reports_vpls_made_and_refused() {
 /// tiles of 64x36) are dropped VPLs, reported as dropped lights are: bench's JSON
 /// `vpl_dropped_lights`/`vpl_dropped_lists`, the times marked as of incomplete frames and a
 /// `warning:` naming the VPL lists and what lowers them; `render` warns of its image too.
-/// Two spots' 64x64 RSMs at block 1 make up to 8,192 VPLs over those 12 tiles. A cap of 10
-/// (at most 10 a tile) drops nothing and says nothing of VPL lists.
+/// Eight spots' 128x128 RSMs at block 1 make about 47,000 VPLs in the courtyard, over
+/// 60,000 (tile, VPL) pairs in those 12 tiles (two spots' 64x64 RSMs stayed within it). A
+/// cap of 10 (at most 10 a tile) drops nothing and says nothing of VPL lists.
 #[test]
 fn overflowing_vpl_lists_are_reported_as_dropped() {
     let dir = scratch("vpl-dropped");
-    let dense = ["--spot-lights", "2", "--shadow-spot-lights", "2", "--vpl", "--vpl-rsm-size", "64", "--vpl-block", "1"];
+    let dense =
+        ["--spot-lights", "8", "--shadow-spot-lights", "8", "--vpl", "--vpl-rsm-size", "128", "--vpl-block", "1"];
     let json = dir.join("d.json");
     let mut args = dense.to_vec();
     args.extend(["--frames", "3", "--warmup", "1", "--json", json.to_str().unwrap()]);

@@ -23,8 +23,8 @@ use tiledlight_gpu::tonemap::{heatmap_palette, heatmap_t, HeatmapOf, HEATMAP_OVE
 
 use super::camera_control::{CameraRig, Mode, Motion};
 use super::settings::{method_label, Settings, VplControl, METHODS, MSAA_CHOICES, VPL_BLOCKS, VPL_RSM_SIZES};
-use tiledlight_cull::vpl::VplShading;
 use crate::legend::label_values;
+use tiledlight_cull::vpl::VplShading;
 use tiledlight_scene::GridDensity;
 use tiledlight_setup::stats::atlas_layout_description;
 use tiledlight_setup::{CullingStats, LightSummary, Method, SceneSource};
@@ -664,7 +664,8 @@ fn vpl_controls(ui: &mut egui::Ui, s: &mut Settings, info: &Info<'_>) {
             if size != c.rsm_size {
                 s.set_vpl(VplControl::RsmSize(size));
                 if !size.is_multiple_of(block) || block > size {
-                    block = VPL_BLOCKS.iter().copied().filter(|&b| b <= size && size.is_multiple_of(b)).max().unwrap_or(1);
+                    block =
+                        VPL_BLOCKS.iter().copied().filter(|&b| b <= size && size.is_multiple_of(b)).max().unwrap_or(1);
                 }
             }
             let changes = [
