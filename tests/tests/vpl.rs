@@ -66,11 +66,13 @@ fn spot() -> Light {
     Light::spot(pos, dir, Vec3::ONE, 30.0, 30f32.to_radians(), 45f32.to_radians(), 0.01).expect("spot")
 }
 
-/// What one GPU run gives: the RSM as the twin reads it, the GPU's VPLs and its count.
+/// What one GPU run gives: the RSM as the twin reads it, the GPU's VPLs and its count,
+/// and what the RSM pass drew.
 struct Run {
     faces: Vec<RsmFace>,
     vpls: Vec<GpuVpl>,
     count: tiledlight_vpl::VplCount,
+    drawn: tiledlight_gpu::scene_gpu::DrawCount,
 }
 
 fn run(cfg: &VplConfig) -> Run {
@@ -79,9 +81,14 @@ fn run(cfg: &VplConfig) -> Run {
 
 /// [`run`] with other lights and casters (points, spots).
 fn run_with(cfg: &VplConfig, lights: &[Light], casters: (u32, u32)) -> Run {
+    run_in(&wall_scene(), cfg, lights, casters)
+}
+
+/// [`run_with`] in another scene.
+fn run_in(scene: &Scene, cfg: &VplConfig, lights: &[Light], casters: (u32, u32)) -> Run {
     let ctx = gpu();
     let (device, queue) = (&ctx.device, &ctx.queue);
-    let scene = SceneGpu::new(device, queue, &wall_scene()).expect("scene");
+    let scene = SceneGpu::new(device, queue, scene).expect("scene");
     let lights = LightBuffers::with_casters(device, lights, casters).expect("lights");
     let shadow = ShadowOptions::default();
     let features = Features::new(&scene, &lights, Method::ForwardPlus, &CullOptions::default(), (1, 2), shadow);
@@ -116,7 +123,7 @@ fn run_with(cfg: &VplConfig, lights: &[Light], casters: (u32, u32)) -> Run {
     for (v, c) in vpls.iter().zip(&cull) {
         assert_eq!((v.position, v.radius), (c.center, c.radius), "the culling sphere is the VPL's");
     }
-    Run { faces, vpls, count }
+    Run { faces, vpls, count, drawn: path.rsm.drawn_last() }
 }
 
 /// The tint length and normalised largest channel of a CPU VPL, for the borderline test.
@@ -451,12 +458,17 @@ const H: u32 = 180;
 
 /// The camera looking at the wall's foot from the room's side.
 fn camera() -> tiledlight_cull::Camera {
+    camera_for(W, H)
+}
+
+/// [`camera`] for a `w` x `h` screen.
+fn camera_for(w: u32, h: u32) -> tiledlight_cull::Camera {
     tiledlight_cull::Camera::perspective(
         Vec3::new(-3.0, 5.0, 6.0),
         Vec3::new(0.5, 0.0, 0.0),
         Vec3::Y,
         55f32.to_radians(),
-        W as f32 / H as f32,
+        w as f32 / h as f32,
         0.1,
         None,
     )
@@ -676,4 +688,237 @@ fn tiled_deferred_with_vpls_equals_forward_plus_and_brute_force() {
     assert_eq!(fv.len(), dv.len(), "VPL count");
     assert_eq!(fl.counts, dl.counts, "VPLs per tile");
     assert_eq!(by_position(&fl, &fv), by_position(&dl, &dv), "VPL lists");
+}
+
+/// Both tiled renderers of the wall scene lit by the short spot, `w` x `h`, with `vpl` and
+/// the heat map of `heatmap_of` (off until switched on): (name, renderer, the kept VPLs'
+/// culling spheres after one frame, the culling options).
+#[allow(clippy::type_complexity)]
+fn tiled_renderers(
+    (w, h): (u32, u32),
+    vpl: Option<VplConfig>,
+    heatmap_of: tiledlight_gpu::tonemap::HeatmapOf,
+) -> (
+    SceneGpu,
+    Vec<(
+        &'static str,
+        Box<dyn tiledlight_gpu::targets::Renderer>,
+        Vec<tiledlight_cull::light::GpuCullLight>,
+        CullOptions,
+    )>,
+) {
+    use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
+    use tiledlight_forward::{ForwardRenderer, ForwardSettings};
+    let ctx = gpu();
+    let scene = SceneGpu::new(&ctx.device, &ctx.queue, &wall_scene()).expect("scene");
+    let lights = LightBuffers::with_casters(&ctx.device, &[short_spot()], (0, 1)).expect("lights");
+    let cam = camera_for(w, h);
+    let fs = ForwardSettings { ambient: Vec3::ZERO, vpl, heatmap_of, ..Default::default() };
+    let mut f = ForwardRenderer::new(ctx, &scene, &lights, w, h, fs).expect("Forward+ with VPLs");
+    tiledlight_tests::compare::render_frame(ctx, &mut f, &scene, &cam);
+    let fv = f.vpl().map(|v| v.buffers.read_cull(&ctx.device, &ctx.queue).expect("spheres")).unwrap_or_default();
+    let ds = DeferredSettings { ambient: Vec3::ZERO, vpl, heatmap_of, ..Default::default() };
+    let mut d = DeferredRenderer::new(ctx, &scene, &lights, w, h, ds).expect("Tiled Deferred with VPLs");
+    tiledlight_tests::compare::render_frame(ctx, &mut d, &scene, &cam);
+    let dv = d.vpl().map(|v| v.buffers.read_cull(&ctx.device, &ctx.queue).expect("spheres")).unwrap_or_default();
+    let (fc, dc) = (f.settings().cull, d.settings().cull);
+    (scene, vec![("Forward+", Box::new(f), fv, fc), ("Tiled Deferred", Box::new(d), dv, dc)])
+}
+
+/// The VPLs' light grid has a fixed budget ([`tiledlight_cull::vpl::VPL_GRID_PER_TILE`]
+/// indices a tile) and never grows. At 64x48 (12 tiles, 12,288 indices) one spot's 64x64
+/// RSM at block 1 (about 3,000 VPLs of 3.9 m over a 5 m view) needs more: the grid's header
+/// counts the dropped pairs and lists in both methods (what the app reports as dropped),
+/// no list is stored past the budget, and the opaque grid lost nothing. With the default
+/// settings (a few hundred VPLs) the same frame drops nothing.
+#[test]
+fn the_vpl_grid_counts_what_it_drops_and_nothing_when_every_pair_fits() {
+    use tiledlight_cull::vpl::VPL_GRID_PER_TILE;
+    use tiledlight_gpu::tonemap::HeatmapOf;
+    let ctx = gpu();
+    let size = (64, 48);
+    let dense = VplConfig { rsm_size: 64, block: 1, ..Default::default() };
+    let (_scene, renderers) = tiled_renderers(size, Some(dense), HeatmapOf::Opaque);
+    for (name, r, vpls, _) in &renderers {
+        let g = r.vpl_light_grid().expect("a VPL grid");
+        assert_eq!(g.capacity(), 12 * VPL_GRID_PER_TILE, "{name}: the budget");
+        let st = g.status(&ctx.device, &ctx.queue).expect("header");
+        let h = st.header;
+        eprintln!(
+            "{name}: {} VPLs, {} pairs for {} indices, dropped {} from {} lists",
+            vpls.len(),
+            h.pairs,
+            h.capacity,
+            h.dropped_pairs,
+            h.dropped_lists
+        );
+        assert!(vpls.len() > 2000, "{name}: {} VPLs", vpls.len());
+        assert!(!st.complete() && h.dropped_lists > 0, "{name}: the VPL grid must overflow: {st}");
+        assert_eq!(h.dropped_pairs, h.pairs - h.capacity, "{name}: every pair past the budget is counted");
+        let lists = g.read_lists(&ctx.device, &ctx.queue).expect("lists");
+        let stored: usize = lists.lists.iter().map(Vec::len).sum();
+        assert_eq!(stored as u32, h.capacity, "{name}: the lists fill the budget and no more");
+        let cut = lists.lists.iter().zip(&lists.counts).filter(|(l, &c)| (l.len() as u32) < c).count();
+        assert_eq!(cut as u32, h.dropped_lists, "{name}: the lists cut short are those counted");
+        let opaque = r.light_grid().expect("a light grid").status(&ctx.device, &ctx.queue).expect("header");
+        assert!(opaque.complete(), "{name}: only the VPL grid overflowed: {opaque}");
+    }
+    let (_scene, renderers) = tiled_renderers(size, Some(VplConfig::default()), HeatmapOf::Opaque);
+    for (name, r, vpls, _) in &renderers {
+        let st = r.vpl_light_grid().expect("a VPL grid").status(&ctx.device, &ctx.queue).expect("header");
+        assert!(vpls.len() > 50 && st.header.pairs > 0, "{name}: {} VPLs, {st}", vpls.len());
+        assert!(st.complete() && st.header.dropped_lists == 0, "{name}: nothing dropped: {st}");
+    }
+}
+
+/// The heat map of the VPL lists (`HeatmapOf::Vpl`), Forward+ and Tiled Deferred: every
+/// pixel of a tile is the documented colour for the CPU culler's VPL count of that tile
+/// blended over the same frame without the heat map, within 2/255 (8-bit sRGB rounding of
+/// two images, as in heatmap_and_brdf.rs), and tiles no VPL reaches keep the plain frame
+/// within 1/255. Tiles where the GPU decided a VPL within float error of the tile's bounds
+/// differently (borderline, as `assert_lists_match` allows) are left out, and counted.
+/// The same pass switched to the opaque lists shows other colours, and asking for the VPL
+/// heat map without VPLs is an error that says so.
+#[test]
+fn vpl_heat_map_shows_the_cpu_cullers_vpl_counts_in_both_methods() {
+    use tiledlight_cull::light::{pack_lights, LightKind};
+    use tiledlight_gpu::diagnostics::Diagnostics;
+    use tiledlight_gpu::tonemap::HeatmapOf;
+    use tiledlight_tests::images::{documented_heat_colour, linear_to_srgb, srgb_to_linear};
+    use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
+    let ctx = gpu();
+    let cam = camera();
+    let (scene, renderers) = tiled_renderers((W, H), Some(VplConfig::default()), HeatmapOf::Vpl);
+    let linear = |px: &[u8]| Vec3::from_array(std::array::from_fn(|c| srgb_to_linear(px[c] as f32 / 255.0)));
+    for (name, mut r, spheres, cull) in renderers {
+        let ldr = |r: &mut dyn tiledlight_gpu::targets::Renderer| {
+            let mut timer = GpuTimer::new(ctx).expect("timer");
+            r.render_once(ctx, &mut timer, &scene, &cam).expect("frame");
+            r.read_ldr(ctx).expect("ldr")
+        };
+        let plain = ldr(r.as_mut());
+        let h = r.heatmap().expect("tiled methods have a heat map");
+        assert_eq!(h.of(), HeatmapOf::Vpl);
+        h.set_enabled(true);
+        let heat = ldr(r.as_mut());
+        // The CPU culler's VPL lists over the same depth and spheres.
+        let depth = r.read_depth(ctx).expect("depth");
+        let vpls: Vec<tiledlight_cull::Light> = spheres
+            .iter()
+            .map(|c| {
+                tiledlight_cull::Light::with_radius(c.center.into(), Vec3::ONE, 1.0, c.radius, LightKind::Point)
+                    .expect("vpl")
+            })
+            .collect();
+        let packed = pack_lights(&vpls);
+        let gpu_lists = r.vpl_light_grid().expect("VPL grid").read_lists(&ctx.device, &ctx.queue).expect("lists");
+        let frame = CulledFrame { depth: &depth, width: W, height: H, camera: &cam, lights: &packed };
+        let c = assert_lists_match(&format!("{name}: VPL lists"), &frame, &gpu_lists, &cull.to_config(false));
+        let g = r.grid();
+        let (mut coloured, mut untouched, mut borderline) = (0, 0, 0);
+        for ty in 0..g.tiles_y {
+            for tx in 0..g.tiles_x {
+                let t = (ty * g.tiles_x + tx) as usize;
+                let count = c.cpu.lists[t].len() as u32;
+                if gpu_lists.counts[t] != count {
+                    borderline += 1;
+                    continue;
+                }
+                let expected = documented_heat_colour(count, cull.capacity, false);
+                let (x0, x1, y0, y1) = g.tile_pixels(tx, ty);
+                for (x, y) in (y0..y1).flat_map(|y| (x0..x1).map(move |x| (x, y))) {
+                    let i = ((y * W + x) * 4) as usize;
+                    for ch in 0..3 {
+                        let got = heat[i + ch] as f32;
+                        let (want, tolerance) = match expected {
+                            None => (plain[i + ch] as f32, 1.0),
+                            Some((colour, alpha)) => {
+                                let under = linear(&plain[i..i + 3]);
+                                (linear_to_srgb(colour[ch] * alpha + under[ch] * (1.0 - alpha)) * 255.0, 2.0)
+                            }
+                        };
+                        assert!(
+                            (got - want).abs() <= tolerance,
+                            "{name}: tile ({tx}, {ty}) with {count} VPLs, pixel ({x}, {y}) channel {ch}: {got}, \
+                             expected {want:.1}"
+                        );
+                    }
+                }
+                if expected.is_some() {
+                    coloured += 1;
+                } else {
+                    untouched += 1;
+                }
+            }
+        }
+        eprintln!("{name}: VPL heat map colours {coloured} tiles, leaves {untouched}, {borderline} borderline");
+        assert!(coloured > 20, "{name}: the frame must have tiles with VPLs ({coloured})");
+        assert!(borderline <= c.borderline, "{name}: {borderline} tiles differ, {} borderline pairs", c.borderline);
+        // The opaque lists' heat map colours tiles differently (one light against up to
+        // hundreds of VPLs a tile).
+        r.heatmap().unwrap().set_of(HeatmapOf::Opaque).unwrap();
+        let opaque_heat = ldr(r.as_mut());
+        let differ = (0..g.tiles_x * g.tiles_y)
+            .filter(|&t| {
+                let (x0, x1, y0, y1) = g.tile_pixels(t % g.tiles_x, t / g.tiles_x);
+                let i = ((((y0 + y1) / 2) * W + (x0 + x1) / 2) * 4) as usize;
+                (0..3).any(|ch| opaque_heat[i + ch].abs_diff(heat[i + ch]) > 2)
+            })
+            .count();
+        assert!(differ > 20, "{name}: the VPL heat map differs from the opaque one in {differ} tiles");
+    }
+
+    // Without VPLs: no VPL lists to show, a clear error (no panic).
+    let (_, renderers) = tiled_renderers((W, H), None, HeatmapOf::Opaque);
+    for (name, r, _, _) in &renderers {
+        let h = r.heatmap().expect("a heat map");
+        assert!(!h.has(HeatmapOf::Vpl));
+        let e = h.set_of(HeatmapOf::Vpl).unwrap_err().to_string();
+        assert!(e.contains("the heat map of the VPL lists needs VPLs") && e.contains("--vpl"), "{name}: {e}");
+        assert_eq!(h.of(), HeatmapOf::Opaque, "{name}: a refused switch leaves the grid shown");
+    }
+    use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
+    use tiledlight_forward::{ForwardRenderer, ForwardSettings};
+    let lights = LightBuffers::with_casters(&ctx.device, &[short_spot()], (0, 1)).expect("lights");
+    let s = ForwardSettings { heatmap: true, heatmap_of: HeatmapOf::Vpl, ..Default::default() };
+    let e = tiledlight_tests::err_text(ForwardRenderer::new(ctx, &scene, &lights, W, H, s));
+    assert!(e.contains("VPLs are off (--vpl)"), "{e}");
+    let s = DeferredSettings { heatmap: true, heatmap_of: HeatmapOf::Vpl, ..Default::default() };
+    let e = tiledlight_tests::err_text(DeferredRenderer::new(ctx, &scene, &lights, W, H, s));
+    assert!(e.contains("VPLs are off (--vpl)"), "{e}");
+}
+
+/// The RSM pass draws into each face only the instances inside its frustum (the shadow
+/// atlas's per-face test), so the texels are those of drawing everything: the wall scene
+/// with a third quad behind the spot (out of its face) has the very RSM of the scene
+/// without it, texel for texel, and its face draws 2 instances, not 3. A point caster's
+/// six faces draw fewer than six times every instance (the faces looking up and away see
+/// nothing) and still make the twin's VPLs from that RSM.
+#[test]
+fn rsm_faces_draw_only_their_instances_and_the_same_texels() {
+    let cfg = VplConfig::default();
+    let base = run(&cfg);
+    let mut scene = wall_scene();
+    // A white quad standing 12 m behind the spot (which looks along +x from x = -1).
+    scene.instances.push(Instance {
+        mesh: 0,
+        material: 0,
+        transform: Mat4::from_translation(Vec3::new(-13.0, 5.0, 0.0))
+            * Mat4::from_rotation_z(-std::f32::consts::FRAC_PI_2),
+    });
+    scene.bounds = scene.compute_bounds();
+    let far = run_in(&scene, &cfg, &[spot()], (0, 1));
+    assert_eq!(base.drawn.instances, 2, "the floor and the wall are in the spot's face: {:?}", base.drawn);
+    assert_eq!(far.drawn.instances, 2, "the quad behind the spot is culled: {:?}", far.drawn);
+    assert_eq!(far.faces, base.faces, "the same texels as without the culled quad");
+    assert_eq!((far.count, far.vpls.len()), (base.count, base.vpls.len()));
+
+    let point = Light::point(Vec3::new(-1.0, 3.0, 0.0), Vec3::ONE, 30.0, 0.01).expect("point");
+    let p = run_in(&scene, &cfg, &[point], (1, 0));
+    assert_eq!(p.faces.len(), 6);
+    assert!(p.drawn.instances < 6 * 3 && p.drawn.instances >= 3, "six faces of 3 instances: {:?}", p.drawn);
+    let (cpu, all) = twin(&p.faces, &cfg);
+    let missing = match_sets(&p.vpls, &cpu.vpls, &all, &cfg, false);
+    assert_eq!(p.vpls.len() + missing.len(), cpu.vpls.len());
+    assert!(p.vpls.len() > 50, "{} VPLs", p.vpls.len());
 }

@@ -89,6 +89,13 @@ pub struct AccuracyArgs {
     /// reference has the setting's MSAA.
     #[arg(long, value_enum, default_value_t = ReferenceArg::NoCutoff)]
     pub reference: ReferenceArg,
+    /// With VPLs, the RSM size of the reference (every texel a VPL): `Nx` for N times the
+    /// setting's own (1x, 2x, 4x, 8x; at most 512 texels a side), or a size for every
+    /// setting (4..512), so that an RSM-size axis is measured against one reference and
+    /// the RSM size's own error shows. 1x: the setting's own RSM, whose error is then only
+    /// block, thresholds, cap, model and culling.
+    #[arg(long, default_value = "1x", value_name = "Nx|SIZE", value_parser = parse_vpl_reference)]
+    pub vpl_reference_rsm: VplReference,
     /// The FLIP mean the recommendation must stay under.
     #[arg(long, default_value_t = 0.01, value_name = "E")]
     pub target_flip: f64,
@@ -102,6 +109,41 @@ pub struct AccuracyArgs {
     /// without extension, plus "-flip"].
     #[arg(long, value_name = "DIR")]
     pub diff_dir: Option<PathBuf>,
+}
+
+/// The RSM size of the VPL reference (`--vpl-reference-rsm`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VplReference {
+    /// N times the setting's RSM size, at most the largest.
+    Scale(u32),
+    /// This size for every setting.
+    Size(u32),
+}
+
+impl VplReference {
+    /// The reference's RSM size for a setting's `rsm_size`.
+    fn rsm_size(self, rsm_size: u32) -> u32 {
+        let largest = *tiledlight_cull::vpl::RSM_SIZES.end();
+        match self {
+            VplReference::Scale(k) => rsm_size.saturating_mul(k).min(largest),
+            VplReference::Size(n) => n,
+        }
+    }
+}
+
+/// Parses `--vpl-reference-rsm`: "4x" or "128".
+fn parse_vpl_reference(v: &str) -> Result<VplReference, String> {
+    let sizes = tiledlight_cull::vpl::RSM_SIZES;
+    match v.strip_suffix('x') {
+        Some(k) => match k.parse() {
+            Ok(k @ (1 | 2 | 4 | 8)) => Ok(VplReference::Scale(k)),
+            _ => Err(format!("{v}: use 1x, 2x, 4x or 8x, or an RSM size")),
+        },
+        None => match v.parse() {
+            Ok(n) if sizes.contains(&n) => Ok(VplReference::Size(n)),
+            _ => Err(format!("{v}: use an RSM size {}..={}, or 1x, 2x, 4x or 8x", sizes.start(), sizes.end())),
+        },
+    }
 }
 
 /// What the settings are compared with.
@@ -168,7 +210,7 @@ struct Reference {
 /// the setting's shadows (casters, tile size, filter, format): the error is the method's,
 /// not the shadow map's, which the shadow axes' times are measured against. It draws the
 /// setting's transparent objects, always sorted (so the blend mode is not part of the key).
-fn reference_key(a: &Settings, reference: ReferenceArg) -> String {
+fn reference_key(a: &Settings, reference: ReferenceArg, vpl_ref: VplReference) -> String {
     // With the cutoff the radii, so the threshold, shape the reference too; lights on
     // surfaces take their radius from k and their intensity from the threshold, so both
     // always shape it.
@@ -182,7 +224,7 @@ fn reference_key(a: &Settings, reference: ReferenceArg) -> String {
     };
     let shadows =
         if a.has_shadows() { format!("{:?}|{:?}", a.shadow_casters(), a.shadow_options()) } else { String::new() };
-    let shadows = shadows + &reference_vpl(a).map(|v| format!("|vpl {v:?}")).unwrap_or_default();
+    let shadows = shadows + &reference_vpl(a, vpl_ref).map(|v| format!("|vpl {v:?}")).unwrap_or_default();
     threshold
         + &format!(
             "{}|{}|{}|{}|{:?}|{:?}|{:?}|{}|{}x{}|{}|{}|{shadows}",
@@ -236,10 +278,6 @@ fn pass_times(m: &bench::Measurement) -> Result<(f64, String)> {
 }
 
 /// The VPLs of the reference of a setting with VPLs: one bounce from every texel of the
-/// setting's reflective shadow maps (block 1, no thresholds, a cap above the texels),
-/// shaded by the physical model, which the brute-force reference sums with no cutoff. The
-/// setting's own block, thresholds, cap, model and (tiled methods) culling are what its
-/// error measures. None without VPLs.
 /// How the reference treats the lights' radii, as the output and the chart say it.
 fn reference_kind(r: ReferenceArg) -> &'static str {
     match r {
@@ -248,11 +286,21 @@ fn reference_kind(r: ReferenceArg) -> &'static str {
     }
 }
 
-fn reference_vpl(a: &Settings) -> Option<tiledlight_cull::vpl::VplConfig> {
+/// The VPLs of the reference of a setting with VPLs: one bounce from every texel of the
+/// setting's reflective shadow maps, or of ones of another size (`vpl_ref`,
+/// `--vpl-reference-rsm`: N times the setting's, at most 512, or one size), block 1, no
+/// thresholds, a cap above the texels, shaded by the physical model, which the brute-force
+/// reference sums with no cutoff. The setting's own block, thresholds, cap, model and
+/// (tiled methods) culling are what its error measures, and with a finer reference its RSM size
+/// too (a texel's flux is its solid angle's share, so finer RSMs converge to the same
+/// light). None without VPLs.
+fn reference_vpl(a: &Settings, vpl_ref: VplReference) -> Option<tiledlight_cull::vpl::VplConfig> {
     a.vpl.map(|v| {
         let (points, spots) = a.shadow_casters();
-        let texels = (6 * u64::from(points) + u64::from(spots)) * u64::from(v.rsm_size).pow(2);
+        let rsm_size = vpl_ref.rsm_size(v.rsm_size);
+        let texels = (6 * u64::from(points) + u64::from(spots)) * u64::from(rsm_size).pow(2);
         tiledlight_cull::vpl::VplConfig {
+            rsm_size,
             block: 1,
             colour_threshold: 0.0,
             brightness_threshold: 0.0,
@@ -266,7 +314,7 @@ fn reference_vpl(a: &Settings) -> Option<tiledlight_cull::vpl::VplConfig> {
 fn render_reference(
     prep: &mut Prepared,
     point_args: &Settings,
-    reference: ReferenceArg,
+    (reference, vpl_ref): (ReferenceArg, VplReference),
     frames: u32,
 ) -> Result<Reference> {
     let method = match reference {
@@ -275,8 +323,12 @@ fn render_reference(
     };
     // Blended geometry in the reference is exact "over" (sorted back to front), whatever
     // the setting's blend mode.
-    let settings =
-        Settings { method, blend_mode: BlendMode::Sorted, vpl: reference_vpl(point_args), ..point_args.clone() };
+    let settings = Settings {
+        method,
+        blend_mode: BlendMode::Sorted,
+        vpl: reference_vpl(point_args, vpl_ref),
+        ..point_args.clone()
+    };
     prep.reconfigure(&settings)?;
     let mut r = prep.renderer(false)?;
     let m = bench::measure(prep, r.as_mut(), 1, frames).context("rendering the brute-force reference")?;
@@ -285,6 +337,20 @@ fn render_reference(
     let ldr = r.read_ldr(&prep.ctx).context("reading the reference back")?;
     let exposure = r.auto_exposure(&prep.ctx).context("reading the reference's exposure back")?;
     Ok(Reference { exposure, hdr, ldr, total_ms, passes })
+}
+
+/// What the reference of a setting with VPLs sums, for the lab's output: "VPLs: every
+/// texel of 128x128 RSMs (4x the setting's 32), physical shading" (None without VPLs).
+fn reference_vpl_line(a: &Settings, vpl_ref: VplReference) -> Option<String> {
+    let (setting, reference) = (a.vpl?, reference_vpl(a, vpl_ref)?);
+    let (n, own) = (reference.rsm_size, setting.rsm_size);
+    let how = match vpl_ref {
+        _ if n == own => "the setting's own".to_string(),
+        VplReference::Scale(k) if n < own * k => format!("{k}x the setting's {own}, capped at {n}"),
+        VplReference::Scale(k) => format!("{k}x the setting's {own}"),
+        VplReference::Size(_) => format!("--vpl-reference-rsm {n}, for every setting"),
+    };
+    Some(format!("VPLs: every texel of {n}x{n} RSMs ({how}), physical shading"))
 }
 
 /// Culling quality of the frame just rendered: the CPU reference culler's lists for the
@@ -443,12 +509,13 @@ fn measure_setting(
                 prep.insert(p)
             }
         };
-        let rkey = reference_key(pargs, args.reference);
+        let rkey = reference_key(pargs, args.reference, args.vpl_reference_rsm);
         if !references.contains_key(&rkey) {
-            let r = render_reference(p, pargs, args.reference, args.reference_frames)
+            let r = render_reference(p, pargs, (args.reference, args.vpl_reference_rsm), args.reference_frames)
                 .with_context(|| format!("{what}: reference"))?;
             let kind = reference_kind(args.reference);
-            lab::say(pb, format!("reference (brute force, {kind}): {:.3} ms", r.total_ms));
+            let vpls = reference_vpl_line(pargs, args.vpl_reference_rsm).map(|l| format!("; {l}")).unwrap_or_default();
+            lab::say(pb, format!("reference (brute force, {kind}{vpls}): {:.3} ms", r.total_ms));
             references.insert(rkey.clone(), r);
         }
         let reference = &references[&rkey];
@@ -751,7 +818,7 @@ mod tests {
     #[test]
     fn the_reference_follows_the_transparent_objects_not_the_blend_mode() {
         let s = Settings { grid_objects: 50, transparent_objects: 10, ..Settings::default() };
-        let key = |s: &Settings| reference_key(s, ReferenceArg::NoCutoff);
+        let key = |s: &Settings| reference_key(s, ReferenceArg::NoCutoff, VplReference::Scale(1));
         let oit = Settings { blend_mode: BlendMode::WeightedOit, ..s.clone() };
         assert_eq!(key(&s), key(&oit), "the reference is always sorted");
         assert_ne!(key(&s), key(&Settings { transparent_objects: 20, ..s.clone() }));
@@ -762,14 +829,16 @@ mod tests {
     fn the_vpl_reference_is_every_texel_of_the_settings_rsm() {
         use tiledlight_cull::vpl::{VplConfig, VplShading};
         let s = Settings { spot_lights: Some(8), shadow_spot_lights: 4, shadow_point_lights: 0, ..Settings::default() };
-        assert_eq!(reference_vpl(&s), None);
+        assert_eq!(reference_vpl(&s, VplReference::Scale(1)), None);
         let with = |v: VplConfig| Settings { vpl: Some(v), ..s.clone() };
-        let r =
-            reference_vpl(&with(VplConfig { block: 4, brightness_threshold: 0.3, cap: 10, ..VplConfig::default() }))
-                .expect("a VPL reference");
+        let r = reference_vpl(
+            &with(VplConfig { block: 4, brightness_threshold: 0.3, cap: 10, ..VplConfig::default() }),
+            VplReference::Scale(1),
+        )
+        .expect("a VPL reference");
         assert_eq!((r.block, r.colour_threshold, r.brightness_threshold), (1, 0.0, 0.0));
         assert_eq!((r.cap, r.shading), (4 * 32 * 32, VplShading::Physical));
-        let key = |s: &Settings| reference_key(s, ReferenceArg::NoCutoff);
+        let key = |s: &Settings| reference_key(s, ReferenceArg::NoCutoff, VplReference::Scale(1));
         // Block, thresholds, cap and model are what the setting's error measures; the RSM
         // size makes another reference.
         let a = with(VplConfig { block: 2, ..VplConfig::default() });
@@ -777,6 +846,50 @@ mod tests {
         assert_eq!(key(&a), key(&b));
         assert_ne!(key(&a), key(&with(VplConfig { rsm_size: 64, ..VplConfig::default() })));
         assert_ne!(key(&a), key(&s), "VPLs change the reference");
+        assert_eq!(
+            reference_vpl_line(&a, VplReference::Scale(1)).unwrap(),
+            "VPLs: every texel of 32x32 RSMs (the setting's own), physical shading"
+        );
+    }
+
+    #[test]
+    fn a_finer_vpl_reference_scales_the_rsm_or_fixes_its_size() {
+        use tiledlight_cull::vpl::{VplConfig, RSM_SIZES};
+        let s = Settings { spot_lights: Some(8), shadow_spot_lights: 4, shadow_point_lights: 1, ..Settings::default() };
+        let with = |v: VplConfig| Settings { vpl: Some(v), ..s.clone() };
+        let a = with(VplConfig { block: 4, ..VplConfig::default() });
+        let x4 = VplReference::Scale(4);
+        let r = reference_vpl(&a, x4).expect("a VPL reference");
+        // 4x the default 32 texels, every texel of the 4 spot faces and 6 point faces a VPL.
+        assert_eq!((r.rsm_size, r.block, r.cap), (128, 1, 10 * 128 * 128));
+        r.validate().expect("a valid reference");
+        let line = reference_vpl_line(&a, x4).unwrap();
+        assert_eq!(line, "VPLs: every texel of 128x128 RSMs (4x the setting's 32), physical shading");
+        // Capped at the largest RSM size, and said so.
+        let big = with(VplConfig { rsm_size: 256, ..VplConfig::default() });
+        assert_eq!(reference_vpl(&big, VplReference::Scale(8)).unwrap().rsm_size, *RSM_SIZES.end());
+        assert_eq!(
+            reference_vpl_line(&big, VplReference::Scale(8)).unwrap(),
+            "VPLs: every texel of 512x512 RSMs (8x the setting's 256, capped at 512), physical shading"
+        );
+        let key = |s: &Settings, r| reference_key(s, ReferenceArg::NoCutoff, r);
+        assert_ne!(key(&a, VplReference::Scale(1)), key(&a, x4), "another scale, another reference");
+        // One size for every setting: an RSM-size axis shares one reference.
+        let a16 = with(VplConfig { rsm_size: 16, ..VplConfig::default() });
+        let a64 = with(VplConfig { rsm_size: 64, block: 8, ..VplConfig::default() });
+        let fixed = VplReference::Size(128);
+        assert_eq!(key(&a16, fixed), key(&a64, fixed));
+        assert_ne!(key(&a16, x4), key(&a64, x4), "scaled references follow the setting's size");
+        assert_eq!(
+            reference_vpl_line(&a16, fixed).unwrap(),
+            "VPLs: every texel of 128x128 RSMs (--vpl-reference-rsm 128, for every setting), physical shading"
+        );
+        // The flag's values.
+        assert_eq!(parse_vpl_reference("4x"), Ok(x4));
+        assert_eq!(parse_vpl_reference("256"), Ok(VplReference::Size(256)));
+        for bad in ["3x", "0x", "1024", "3", "fine"] {
+            assert!(parse_vpl_reference(bad).unwrap_err().starts_with(bad), "{bad}");
+        }
     }
 
     #[test]

@@ -20,9 +20,10 @@
 //! others (`blended.depth`, `blended.cull`, `blended.shade`, `blended.composite`).
 //!
 //! Frames that dropped lights (a light grid full: see [`crate::dropped`]) are counted from
-//! the light-grid headers read back (the opaque grid's and the blended geometry's): the
-//! table marks the times as those of incomplete frames, the JSON has `dropped_frames`,
-//! `dropped_lights`, `dropped_lists` (and `blended_dropped_*`) and the scene's
+//! the light-grid headers read back (the opaque grid's, the blended geometry's and the
+//! VPLs'): the table marks the times as those of incomplete frames, the JSON has
+//! `dropped_frames`, `dropped_lights`, `dropped_lists` (and `blended_dropped_*`,
+//! `vpl_dropped_*`) and the scene's
 //! `load_warnings`, a `warning:` line goes to
 //! stderr, and `--strict` makes it an error once the JSON is written.
 //!
@@ -106,6 +107,8 @@ pub struct Measurement {
     /// The same for the blended geometry's own light grid (tiled methods with blended
     /// geometry).
     pub blended_grid: Vec<GridStatus>,
+    /// The same for the VPLs' own light grid (tiled methods with `--vpl`).
+    pub vpl_grid: Vec<GridStatus>,
     /// Per measured frame, the shadow faces it drew (empty without shadow casters).
     pub shadow_faces: Vec<u32>,
 }
@@ -113,7 +116,7 @@ pub struct Measurement {
 impl Measurement {
     /// What the measured frames read back lost to a full light grid.
     pub fn dropped(&self) -> Dropped {
-        Dropped::of(&self.grid, &self.blended_grid)
+        Dropped::of(&self.grid, &self.blended_grid).with_vpl(&self.vpl_grid)
     }
 
     /// One line on the measured frames' light grid: pairs, grid size, and any lights
@@ -235,9 +238,13 @@ pub fn measure_moving(
         // The last finished frame's light-grid headers: grow a grid that was too small.
         let status = renderer.prepare(ctx);
         let blended = renderer.blended_mut().and_then(|b| b.take_status());
+        // The VPL grid's header is copied after its culling as the light grid's is; it
+        // never grows, so its status is only reported.
+        let vpl = renderer.vpl_light_grid().and_then(|g| g.poll_status());
         if let Some(m) = grids {
             m.grid.extend(status);
             m.blended_grid.extend(blended);
+            m.vpl_grid.extend(vpl);
         }
         let mut step = || -> Result<()> {
             if let Some(a) = animator.as_deref_mut() {
@@ -284,6 +291,7 @@ pub fn measure_moving(
         frame(&mut timer, renderer, Some(&mut grids))?;
         out.grid.append(&mut grids.grid);
         out.blended_grid.append(&mut grids.blended_grid);
+        out.vpl_grid.append(&mut grids.vpl_grid);
         out.cpu_ms.push(t0.elapsed().as_secs_f64() * 1e3);
         if let Some(a) = renderer.shadow_atlas() {
             out.shadow_faces.push(a.faces_drawn_last_frame());
@@ -311,6 +319,11 @@ pub fn measure_moving(
     if out.blended_grid.is_empty() && frames > 0 {
         if let Some(c) = renderer.blended().and_then(|b| b.culling.as_ref()) {
             out.blended_grid.push(c.grid.status(device, queue).context("reading the blended grid's header back")?);
+        }
+    }
+    if out.vpl_grid.is_empty() && frames > 0 {
+        if let Some(g) = renderer.vpl_light_grid() {
+            out.vpl_grid.push(g.status(device, queue).context("reading the VPL grid's header back")?);
         }
     }
     Ok(out)
@@ -401,7 +414,7 @@ struct BenchJson {
     dropped_lights: Option<u64>,
     /// Lists that lost lights, summed likewise.
     dropped_lists: Option<u64>,
-    /// Measured frames read back that dropped lights (of either grid): their times are of
+    /// Measured frames read back that dropped lights (of any grid): their times are of
     /// incomplete frames.
     dropped_frames: Option<usize>,
     /// Measured frames whose light-grid header was read back.
@@ -411,6 +424,11 @@ struct BenchJson {
     blended_dropped_lights: Option<u64>,
     /// The blended geometry's lists that lost lights, summed likewise.
     blended_dropped_lists: Option<u64>,
+    /// The VPLs' own lists (a fixed budget, `--vpl`): VPLs dropped, summed over the
+    /// measured frames read back (null without VPL lists).
+    vpl_dropped_lights: Option<u64>,
+    /// The VPL lists that lost VPLs, summed likewise.
+    vpl_dropped_lists: Option<u64>,
     /// What the scene was drawn despite (a missing texture, an unknown extension...), one
     /// sentence each naming the file, as the `warning:` lines say (empty: none).
     load_warnings: Vec<String>,
@@ -586,6 +604,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             frames_read_back: dropped.frames_read(),
             blended_dropped_lights: dropped.blended.map(|g| g.pairs),
             blended_dropped_lists: dropped.blended.map(|g| g.lists),
+            vpl_dropped_lights: dropped.vpl.map(|g| g.pairs),
+            vpl_dropped_lists: dropped.vpl.map(|g| g.lists),
             load_warnings: prep.scene_warnings.clone(),
             vpls_kept: vpls.map(|v| v.0),
             vpls_refused: vpls.map(|v| v.1),
@@ -632,6 +652,7 @@ mod tests {
             timestamps: true,
             grid: Vec::new(),
             blended_grid: Vec::new(),
+            vpl_grid: Vec::new(),
             shadow_faces: Vec::new(),
         };
         let p = m.passes();

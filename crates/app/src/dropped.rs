@@ -1,5 +1,5 @@
 //! No wrong image without a warning: what a run's frames lost to a full light grid (the
-//! opaque geometry's and the alpha-blended geometry's own), as the one `warning:` line a
+//! opaque geometry's, the alpha-blended geometry's own and the virtual point lights'), as the one `warning:` line a
 //! command prints on stderr ([`warn`]), the fields of bench's `--json` and the lab's CSV
 //! columns, the marks of tables and charts, and `--strict`, which makes any warning an
 //! error with a non-zero exit once the output files are written ([`strict`]). The scene's
@@ -11,11 +11,15 @@
 //! binding (`max_storage_buffer_binding_size`). Such a frame is wrong where lights were
 //! dropped, and its time is that of less work than the whole frame. The workgroup list
 //! (`--capacity`) drops nothing: longer lists are culled a second time into the grid.
+//! The VPLs' grid has a fixed budget of `VPL_GRID_PER_TILE` indices a tile (fewer with a
+//! lower `--vpl-cap`) and never grows: its drops are named apart, with what lowers them.
+//! The CSVs' `dropped_*` cells sum the grids; bench's JSON has each grid's own fields.
 //!
 //! May depend on tiledlight-gpu (the grid's header, the renderer) and tiledlight-setup.
 
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
+use tiledlight_cull::vpl::VPL_GRID_PER_TILE;
 use tiledlight_gpu::light_grid::GridStatus;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_setup::{group_digits, Prepared};
@@ -74,20 +78,27 @@ impl GridDrops {
     }
 }
 
-/// What the frames lost, per grid (None: the method has no such grid, or the scene no
-/// blended geometry).
+/// What the frames lost, per grid (None: the method has no such grid, the scene no
+/// blended geometry, or the settings no VPLs).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Dropped {
     /// The opaque geometry's light grid.
     pub opaque: Option<GridDrops>,
     /// The alpha-blended geometry's own light grid.
     pub blended: Option<GridDrops>,
+    /// The virtual point lights' own light grid (`--vpl`, tiled methods).
+    pub vpl: Option<GridDrops>,
 }
 
 impl Dropped {
     /// The drops of the opaque and the blended grid's headers.
     pub fn of(opaque: &[GridStatus], blended: &[GridStatus]) -> Self {
-        Self { opaque: GridDrops::of(opaque), blended: GridDrops::of(blended) }
+        Self { opaque: GridDrops::of(opaque), blended: GridDrops::of(blended), vpl: None }
+    }
+
+    /// The same, with the drops of the VPL grid's headers.
+    pub fn with_vpl(self, vpl: &[GridStatus]) -> Self {
+        Self { vpl: GridDrops::of(vpl), ..self }
     }
 
     /// The last frame of `renderer` (its headers read back, stalling): what its image lost.
@@ -101,11 +112,15 @@ impl Dropped {
             Some(c) => vec![c.grid.status(device, queue).context("reading the blended light grid's header back")?],
             None => Vec::new(),
         };
-        Ok(Self::of(&opaque, &blended))
+        let vpl = match renderer.vpl_light_grid() {
+            Some(g) => vec![g.status(device, queue).context("reading the VPL light grid's header back")?],
+            None => Vec::new(),
+        };
+        Ok(Self::of(&opaque, &blended).with_vpl(&vpl))
     }
 
     fn grids(&self) -> impl Iterator<Item = &GridDrops> {
-        self.opaque.iter().chain(self.blended.iter())
+        self.opaque.iter().chain(self.blended.iter()).chain(self.vpl.iter())
     }
 
     /// True when some frame dropped lights.
@@ -113,8 +128,8 @@ impl Dropped {
         self.frames() > 0
     }
 
-    /// Frames read back that dropped lights (of either grid: the larger count, as both
-    /// are read back from the same frames, though not always both).
+    /// Frames read back that dropped lights (of any grid: the largest count, as all are
+    /// read back from the same frames, though not always all).
     pub fn frames(&self) -> usize {
         self.grids().map(|g| g.frames).max().unwrap_or(0)
     }
@@ -124,18 +139,18 @@ impl Dropped {
         self.grids().map(|g| g.frames_read).max()
     }
 
-    /// Pairs dropped, both grids, summed over the frames.
+    /// Pairs dropped, every grid, summed over the frames.
     pub fn pairs(&self) -> u64 {
         self.grids().map(|g| g.pairs).sum()
     }
 
-    /// Lists that lost lights, both grids, summed over the frames.
+    /// Lists that lost lights, every grid, summed over the frames.
     pub fn lists(&self) -> u64 {
         self.grids().map(|g| g.lists).sum()
     }
 
-    /// The CSV cells `dropped_frames`, `dropped_lights`, `dropped_lists` (empty for a
-    /// method without a light grid).
+    /// The CSV cells `dropped_frames`, `dropped_lights`, `dropped_lists`, every grid's
+    /// together (empty for a method without a light grid).
     pub fn csv(&self) -> [String; 3] {
         match self.frames_read() {
             None => [String::new(), String::new(), String::new()],
@@ -161,16 +176,31 @@ impl Dropped {
         let mut parts = Vec::new();
         // What would help, from the first grid's cause.
         let mut hint = None;
-        for (name, g) in [("", self.opaque), ("the blended geometry's lists: ", self.blended)] {
+        let grids = [
+            ("", "light", self.opaque),
+            ("the blended geometry's lists: ", "light", self.blended),
+            ("the VPL lists: ", "VPL", self.vpl),
+        ];
+        for (name, what, g) in grids {
             let Some(g) = g.filter(|g| g.frames > 0) else { continue };
             let mut p = format!(
-                "{name}{} (list, light) pairs from {} list{}",
+                "{name}{} (list, {what}) pairs from {} list{}",
                 group_digits(g.pairs),
                 group_digits(g.lists),
                 if g.lists == 1 { "" } else { "s" }
             );
             if let Some((need, capacity)) = g.worst {
                 let (cause, help) = match budget {
+                    // The VPLs' grid has its own fixed budget and never grows.
+                    _ if what == "VPL" => (
+                        format!(
+                            "its fixed budget of {} indices (at most {} VPLs a tile; it does not grow)",
+                            group_digits(capacity.into()),
+                            group_digits(VPL_GRID_PER_TILE.into())
+                        ),
+                        "fewer VPLs a tile: a larger --vpl-block, a higher --vpl-colour-threshold or \
+                         --vpl-brightness-threshold, or a --vpl-cap of at most 1,024",
+                    ),
                     Some(b) => (
                         format!("its fixed budget of {} indices (--grid-budget {b})", group_digits(b.into())),
                         "a larger --grid-budget, or none",
@@ -289,6 +319,29 @@ mod tests {
         assert!(w.contains("the grid holds 100 indices, before it grew for the next frames"), "{w}");
         assert!(!w.contains("frames read back"), "one frame: {w}");
         assert_eq!(d.mark().unwrap(), "DROPPED lights in 2 of 3 frames read back");
+    }
+
+    #[test]
+    fn vpl_drops_are_named_apart_with_their_own_cause() {
+        // The VPL grid alone overflowed (a fixed budget of 240 tiles x 1,024).
+        let d = Dropped::of(&[status(10, 100)], &[]).with_vpl(&[status(250_000, 245_760)]);
+        assert!(d.any());
+        assert_eq!((d.frames(), d.pairs(), d.lists()), (1, 4_240, 3));
+        assert_eq!(d.csv(), ["1", "4240", "3"]);
+        let w = d.warning("the image", None, 1 << 27).unwrap();
+        assert!(w.contains("DROPPED the VPL lists: 4,240 (list, VPL) pairs from 3 lists"), "{w}");
+        assert!(
+            w.contains(
+                "the grid holds its fixed budget of 245,760 indices (at most 1,024 VPLs a tile; it does not grow)"
+            ),
+            "{w}"
+        );
+        assert!(w.contains("(fewer VPLs a tile: a larger --vpl-block"), "{w}");
+        assert!(!w.contains("--grid-budget"), "the lights' budget is not the VPLs': {w}");
+        // A complete VPL grid says nothing, and adds a frame read back, not a drop.
+        let d = Dropped::of(&[status(10, 100)], &[]).with_vpl(&[status(5, 245_760)]);
+        assert!(!d.any() && d.warning("the image", None, 1 << 27).is_none());
+        assert_eq!(d.csv(), ["0", "0", "0"]);
     }
 
     #[test]

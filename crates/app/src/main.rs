@@ -207,6 +207,9 @@ mod tests {
             (r.heatmap, r.out.as_deref()),
             (Some(render::HeatmapArg::Blended), Some(std::path::Path::new("x.png")))
         );
+        let cli = Cli::try_parse_from(["tiledlight", "render", "--heatmap", "vpl"]).unwrap();
+        let Some(Command::Render(r)) = cli.command else { panic!("not render") };
+        assert_eq!(r.heatmap, Some(render::HeatmapArg::Vpl));
         assert!(Cli::try_parse_from(["tiledlight", "render", "--heatmap", "transparent"]).is_err());
         let cli = Cli::try_parse_from(["tiledlight", "bench", "--frames", "3", "--json", "a.json"]).unwrap();
         let Some(Command::Bench(b)) = cli.command else { panic!("not bench") };

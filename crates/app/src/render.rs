@@ -40,8 +40,9 @@ pub struct RenderArgs {
     #[command(flatten)]
     pub scene: SceneArgs,
     /// Write the lights-per-tile heat map (with a legend) over the lit image: of the opaque
-    /// geometry's lists (`--heatmap` alone), or of the alpha-blended geometry's own lists
-    /// (`--heatmap blended`; tiles without blended geometry keep the image).
+    /// geometry's lists (`--heatmap` alone), of the alpha-blended geometry's own lists
+    /// (`--heatmap blended`; tiles without blended geometry keep the image), or of the
+    /// virtual point lights' own lists (`--heatmap vpl`; needs --vpl).
     #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "opaque", value_name = "LISTS")]
     pub heatmap: Option<HeatmapArg>,
     /// Output PNG [default: out/render.png, or out/heatmap.png with --heatmap].
@@ -56,6 +57,8 @@ pub enum HeatmapArg {
     Opaque,
     /// The alpha-blended geometry's own (needs blended geometry).
     Blended,
+    /// The virtual point lights' own (needs --vpl).
+    Vpl,
 }
 
 impl From<HeatmapArg> for HeatmapOf {
@@ -63,6 +66,7 @@ impl From<HeatmapArg> for HeatmapOf {
         match a {
             HeatmapArg::Opaque => HeatmapOf::Opaque,
             HeatmapArg::Blended => HeatmapOf::Blended,
+            HeatmapArg::Vpl => HeatmapOf::Vpl,
         }
     }
 }
@@ -168,6 +172,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let what = match heatmap {
         Some(HeatmapOf::Opaque) => " (heat map with legend)",
         Some(HeatmapOf::Blended) => " (heat map of the blended lists, with legend)",
+        Some(HeatmapOf::Vpl) => " (heat map of the VPL lists, with legend)",
         None => "",
     };
     println!("wrote {}{what}", out.display());

@@ -562,6 +562,51 @@ fn bench_reports_vpls_made_and_refused() {
     assert!(v["vpls_kept"].is_null() && v["vpls_refused"].is_null(), "{v}");
 }
 
+/// VPL lists past the VPL grid's fixed budget (1,024 indices a tile: 12,288 for the 12
+/// tiles of 64x36) are dropped VPLs, reported as dropped lights are: bench's JSON
+/// `vpl_dropped_lights`/`vpl_dropped_lists`, the times marked as of incomplete frames and a
+/// `warning:` naming the VPL lists and what lowers them; `render` warns of its image too.
+/// Eight spots' 128x128 RSMs at block 1 make about 47,000 VPLs in the courtyard, over
+/// 60,000 (tile, VPL) pairs in those 12 tiles (two spots' 64x64 RSMs stayed within it). A
+/// cap of 10 (at most 10 a tile) drops nothing and says nothing of VPL lists.
+#[test]
+fn overflowing_vpl_lists_are_reported_as_dropped() {
+    let dir = scratch("vpl-dropped");
+    let dense =
+        ["--spot-lights", "8", "--shadow-spot-lights", "8", "--vpl", "--vpl-rsm-size", "128", "--vpl-block", "1"];
+    let json = dir.join("d.json");
+    let mut args = dense.to_vec();
+    args.extend(["--frames", "3", "--warmup", "1", "--json", json.to_str().unwrap()]);
+    let out = gpu_run(&with_tiny("bench", &args));
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).expect("valid JSON");
+    let dropped = v["vpl_dropped_lights"].as_u64().expect("a VPL drop count");
+    assert!(dropped > 0 && v["vpl_dropped_lists"].as_u64().unwrap() > 0, "{v}");
+    assert!(v["dropped_frames"].as_u64().unwrap() > 0, "{v}");
+    assert_eq!(v["dropped_lights"], 0, "the lights' grid grows and lost nothing: {v}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    let w = err.lines().find(|l| l.starts_with("warning:") && l.contains("the VPL lists: "));
+    let w = w.unwrap_or_else(|| panic!("no VPL-list warning:\n{err}"));
+    assert!(w.contains("(list, VPL) pairs") && w.contains("at most 1,024 VPLs a tile"), "{w}");
+    assert!(w.contains("a larger --vpl-block"), "{w}");
+    assert!(stdout(&out).contains("INCOMPLETE"), "{}", stdout(&out));
+
+    let png = dir.join("d.png");
+    let mut args = dense.to_vec();
+    args.extend(["--out", png.to_str().unwrap()]);
+    let out = gpu_run(&with_tiny("render", &args));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.lines().any(|l| l.starts_with("warning: the image") && l.contains("the VPL lists: ")), "{err}");
+
+    let json = dir.join("c.json");
+    let mut args = VPLS_CAPPED.to_vec();
+    args.extend(["--frames", "2", "--warmup", "1", "--json", json.to_str().unwrap()]);
+    let out = gpu_run(&with_tiny("bench", &args));
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).expect("valid JSON");
+    assert_eq!((v["vpl_dropped_lights"].as_u64(), v["vpl_dropped_lists"].as_u64()), (Some(0), Some(0)), "{v}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("VPL lists") && !err.contains("DROPPED"), "{err}");
+}
+
 /// A sweep point whose VPLs the cap refused gets a `warning:` line naming them, as a point
 /// that dropped lights does.
 #[test]

@@ -410,3 +410,57 @@ fn shadow_accuracy_against_the_ray_cast() {
         assert_eq!((img.width(), img.height()), (160, 90), "{}", path.display());
     }
 }
+
+/// `--vpl-reference-rsm 64`: one every-texel VPL reference with 64x64 reflective shadow
+/// maps for both points of an RSM-size axis (16 and 32), named in the lab's reference
+/// line (rendered once: one line); the CSV holds both points with finite errors. A value
+/// that is neither a scale nor an RSM size is refused before any GPU work.
+#[test]
+fn accuracy_with_a_finer_vpl_reference() {
+    let dir = scratch("accuracy-vpl-ref");
+    let csv_path = dir.join("v.csv");
+    let out = gpu_run(&[
+        "accuracy",
+        "--width",
+        "64",
+        "--height",
+        "36",
+        "--lights",
+        "16",
+        "--spot-lights",
+        "2",
+        "--shadow-spot-lights",
+        "2",
+        "--vpl",
+        "--vpl-reference-rsm",
+        "64",
+        "--axis",
+        "threshold=0.1",
+        "--axis",
+        "culling=planes",
+        "--axis",
+        "vpl-rsm-size=16,32",
+        "--frames",
+        "1",
+        "--warmup",
+        "0",
+        "--reference-frames",
+        "1",
+        "--out",
+        csv_path.to_str().unwrap(),
+    ]);
+    let text = stdout(&out) + &String::from_utf8_lossy(&out.stderr);
+    let refs: Vec<&str> = text.lines().filter(|l| l.starts_with("reference (")).collect();
+    assert_eq!(refs.len(), 1, "one shared reference:\n{text}");
+    assert!(
+        refs[0]
+            .contains("VPLs: every texel of 64x64 RSMs (--vpl-reference-rsm 64, for every setting), physical shading"),
+        "{}",
+        refs[0]
+    );
+    let (_, rows) = read_csv(&csv_path);
+    assert_eq!(rows.len(), 2);
+    assert!(rows.iter().all(|r| num(r, "flip_mean").is_finite() && num(r, "psnr_db").is_finite()), "{rows:?}");
+    let err = fails(&["accuracy", "--vpl", "--vpl-reference-rsm", "3x"]);
+    assert!(err.contains("3x: use 1x, 2x, 4x or 8x"), "{err}");
+}

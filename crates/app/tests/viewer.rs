@@ -267,6 +267,45 @@ fn vpls_made_and_refused_are_shown() {
     assert!(warnings[0].contains("the VPL cap (--vpl-cap 10) refused "), "{stderr}");
 }
 
+/// The panel's VPL controls through the script (the same code): VPLs switched on with an
+/// RSM size, block, cap and shading model set, and the heat map of their lists shown;
+/// then, started with `--vpl`, switched off: no VPL is made and the heat map of the VPL
+/// lists falls back to the opaque lists.
+#[test]
+fn vpl_controls_switch_vpls_on_and_off() {
+    let x = Xvfb::start();
+    let dir = scratch("vpl-controls");
+    let casters = ["--spot-lights", "2", "--shadow-spot-lights", "2", "--frames", "4"];
+    let mut args = casters.to_vec();
+    args.extend([
+        "--script",
+        "vpl=on;vpl-rsm-size=16;vpl-block=1;vpl-cap=100;vpl-shading=physical;vpl-colour-threshold=0.1;heatmap=vpl",
+    ]);
+    let out = view(&x, &dir, &args);
+    let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(
+        stdout.contains(
+            "viewer VPL settings: RSM 16, block 1, colour threshold 0.1, brightness threshold 0, cap 100, physical shading"
+        ),
+        "{stdout}"
+    );
+    // 16x16 blocks of one texel on two faces: up to 512 candidates, 100 kept.
+    assert!(stdout.contains("viewer VPLs: 100 made, "), "{stdout}\n{stderr}");
+    assert!(stdout.contains("viewer heat map: vpl"), "{stdout}");
+    assert!(stdout.contains("viewer error: none"), "{stdout}");
+
+    let mut args = casters.to_vec();
+    args.extend(["--vpl", "--script", "heatmap=vpl;vpl=off"]);
+    let out = view(&x, &dir, &args);
+    let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(stdout.contains("viewer VPL settings: off"), "{stdout}");
+    assert!(!stdout.contains("viewer VPLs: "), "no VPLs once switched off: {stdout}");
+    assert!(stdout.contains("viewer heat map: opaque"), "{stdout}");
+    assert!(stdout.contains("viewer error: none"), "{stdout}");
+}
+
 /// A lost device (destroyed through the test hook after the 2nd frame, as a driver reset
 /// would lose it) ends the viewer with the loss named, exit 1.
 #[test]

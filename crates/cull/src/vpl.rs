@@ -50,6 +50,11 @@ pub const DEFAULT_BLOCK: u32 = 2;
 pub const DEFAULT_CAP: u32 = 65_535;
 /// Most VPLs accepted as a cap: 16 Mi VPLs of 48 + 16 bytes are 1 GiB.
 pub const MAX_CAP: u32 = 1 << 24;
+/// VPL indices the VPLs' light grid holds per tile (its whole budget is this times the
+/// tiles, or the cap times the tiles when the cap is lower): the VPLs of one 32 x 32 RSM
+/// face at block 1. The grid does not grow: lists past the budget lose VPLs, counted in
+/// its header and reported as dropped.
+pub const VPL_GRID_PER_TILE: u32 = 1024;
 /// Distance clamp of the physical model by default, metres: `1/d^2` is at most 100 next to
 /// a VPL.
 pub const DEFAULT_DISTANCE_CLAMP: f32 = 0.1;

@@ -20,7 +20,7 @@ use tiledlight_gpu::plan::{FramePlan, Step};
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::{DisplayTargets, Renderer};
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::tonemap::{HeatmapOf, HeatmapPass};
+use tiledlight_gpu::tonemap::{HeatmapGrids, HeatmapOf, HeatmapPass};
 use tiledlight_gpu::{GpuContext, GpuError};
 use tiledlight_vpl::VplPath;
 
@@ -51,8 +51,8 @@ pub struct DeferredSettings {
     /// Draw the lights-per-tile heat map over the image.
     pub heatmap: bool,
     /// Which light grid the heat map shows; [`HeatmapOf::Blended`] needs blended geometry
-    /// (an error otherwise, even with the heat map off: the setting asks for a grid the
-    /// frame does not have).
+    /// and [`HeatmapOf::Vpl`] needs `vpl` (an error otherwise, even with the heat map off:
+    /// the setting asks for a grid the frame does not have).
     pub heatmap_of: HeatmapOf,
     /// MSAA samples per pixel: 1, 2, 4 or 8 (as the adapter supports). Also sets
     /// `cull.samples`.
@@ -214,8 +214,12 @@ impl DeferredRenderer {
             )?;
             let vpl = vpl.map(|(p, c, _)| (p, c));
             let blended = common.blended_path(device, scene, lights, settings.cull, Some(&shading.light_grid))?;
-            let blended_grid = blended.as_ref().and_then(|b| b.culling.as_ref()).map(|c| &c.grid.grid);
-            let heatmap = HeatmapPass::new(device, &shading.light_grid.grid, blended_grid, settings.heatmap)?;
+            let grids = HeatmapGrids {
+                opaque: &shading.light_grid.grid,
+                blended: blended.as_ref().and_then(|b| b.culling.as_ref()).map(|c| &c.grid.grid),
+                vpl: vpl.as_ref().map(|v| &v.1.grid.grid),
+            };
+            let heatmap = HeatmapPass::new(device, grids, settings.heatmap)?;
             heatmap.set_of(settings.heatmap_of)?;
             if let Some(b) = &blended {
                 memory.extend(&b.memory);
@@ -366,6 +370,9 @@ impl Renderer for DeferredRenderer {
     }
     fn light_grid(&self) -> Option<&LightGrid> {
         Some(&self.shading.light_grid)
+    }
+    fn vpl_light_grid(&self) -> Option<&LightGrid> {
+        self.vpl.as_ref().map(|v| &v.1.grid)
     }
     fn grow_light_grid(&mut self, ctx: &GpuContext, capacity: u32) {
         let grid = &mut self.shading.light_grid;

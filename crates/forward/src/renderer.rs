@@ -28,7 +28,7 @@ use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::targets::{texture_2d_msaa, DisplayTargets, Renderer};
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::tonemap::{HeatmapOf, HeatmapPass, HDR_FORMAT};
+use tiledlight_gpu::tonemap::{HeatmapGrids, HeatmapOf, HeatmapPass, HDR_FORMAT};
 use tiledlight_gpu::{GpuContext, GpuError};
 
 use tiledlight_cull::vpl::VplConfig;
@@ -66,8 +66,8 @@ pub struct ForwardSettings {
     /// Draw the lights-per-tile heat map over the image (Forward+ only).
     pub heatmap: bool,
     /// Which light grid the heat map shows (Forward+ only); [`HeatmapOf::Blended`] needs
-    /// blended geometry (an error otherwise, even with the heat map off: the setting asks
-    /// for a grid the frame does not have).
+    /// blended geometry and [`HeatmapOf::Vpl`] needs `vpl` (an error otherwise, even with
+    /// the heat map off: the setting asks for a grid the frame does not have).
     pub heatmap_of: HeatmapOf,
     /// MSAA samples per pixel: 1, 2, 4 or 8 (as the adapter supports). Also sets
     /// `cull.samples`.
@@ -256,8 +256,12 @@ impl ForwardRenderer {
                 common.blended_path(device, scene, lights, settings.cull, culling.as_ref().map(|c| &c.grid))?;
             let heatmap = match (&culling, plan.has(Step::Heatmap)) {
                 (Some(c), true) => {
-                    let blended_grid = blended.as_ref().and_then(|b| b.culling.as_ref()).map(|c| &c.grid.grid);
-                    let h = HeatmapPass::new(device, &c.grid.grid, blended_grid, settings.heatmap)?;
+                    let grids = HeatmapGrids {
+                        opaque: &c.grid.grid,
+                        blended: blended.as_ref().and_then(|b| b.culling.as_ref()).map(|c| &c.grid.grid),
+                        vpl: vpl_culling.as_ref().map(|c| &c.grid.grid),
+                    };
+                    let h = HeatmapPass::new(device, grids, settings.heatmap)?;
                     h.set_of(settings.heatmap_of)?;
                     Some(h)
                 }
@@ -403,6 +407,9 @@ impl Renderer for ForwardRenderer {
     }
     fn light_grid(&self) -> Option<&LightGrid> {
         self.culling.as_ref().map(|c| &c.grid)
+    }
+    fn vpl_light_grid(&self) -> Option<&LightGrid> {
+        self.vpl_culling.as_ref().map(|c| &c.grid)
     }
     fn shadow_atlas(&self) -> Option<&ShadowAtlas> {
         self.common.shadows.as_ref()

@@ -588,14 +588,16 @@ impl SceneGpu {
     }
 
     /// As [`Self::record_draws`], drawing only the instances whose slot (instance-buffer
-    /// index) is set in `visible`, in runs of consecutive slots (all when None).
+    /// index) is set in `visible`, in runs of consecutive slots (all when None). Returns
+    /// what it recorded.
     pub fn record_draws_of(
         &self,
         pass: &mut wgpu::RenderPass<'_>,
         kind: DrawKind,
         (with_attributes, bind_textures): (bool, bool),
         visible: Option<&[bool]>,
-    ) {
+    ) -> DrawCount {
+        let mut count = DrawCount::default();
         pass.set_vertex_buffer(0, self.positions.slice(..));
         if with_attributes {
             self.bind_attributes(pass);
@@ -615,9 +617,28 @@ impl SceneGpu {
                 }
             }
             for r in runs {
+                count.calls += 1;
+                count.instances += r.len() as u32;
                 pass.draw_indexed(d.indices.clone(), d.base_vertex, r);
             }
         }
+        count
+    }
+}
+
+/// What [`SceneGpu::record_draws_of`] recorded: draw calls and the instances they draw.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DrawCount {
+    /// `draw_indexed` calls (one per run of consecutive visible instance slots).
+    pub calls: u32,
+    /// Instances drawn.
+    pub instances: u32,
+}
+
+impl std::ops::AddAssign for DrawCount {
+    fn add_assign(&mut self, o: Self) {
+        self.calls += o.calls;
+        self.instances += o.instances;
     }
 }
 

@@ -85,6 +85,9 @@ struct AtlasState {
     /// Per face, the instances (by instance slot) it draws: inside its frustum and, unless
     /// the frame has no radius cutoff, within the light's radius.
     visible: Vec<Vec<bool>>,
+    /// Per face, the instances inside its frustum, whatever their distance (what the VPLs'
+    /// reflective shadow maps draw: [`ShadowAtlas::faces_in_view`]).
+    in_view: Vec<Vec<bool>>,
     /// Per caster (points, then spots), the key its faces were computed for.
     keys: Vec<Option<CasterKey>>,
     /// Faces to draw in the next recorded frame.
@@ -230,6 +233,7 @@ impl ShadowAtlas {
         let state = AtlasState {
             matrices: vec![(glam::Mat4::IDENTITY, glam::Mat4::IDENTITY); faces_n],
             visible: vec![Vec::new(); faces_n],
+            in_view: vec![Vec::new(); faces_n],
             keys: vec![None; casters],
             dirty: vec![false; faces_n],
             drawn_last: 0,
@@ -321,18 +325,28 @@ impl ShadowAtlas {
                 state.matrices[face as usize] = (view, proj);
                 let m = proj * view;
                 let (radius, radius_cull) = (sh.radius, self.radius_cull);
+                let in_view: Vec<bool> = self.bounds.iter().map(|&b| shadow::box_in_face(&m, b)).collect();
                 state.visible[face as usize] = self
                     .bounds
                     .iter()
-                    .map(|&(lo, hi)| {
-                        let reaches = !radius_cull || (pos.clamp(lo, hi) - pos).length() <= radius;
-                        reaches && shadow::box_in_face(&m, (lo, hi))
-                    })
+                    .zip(&in_view)
+                    .map(|(&(lo, hi), &seen)| seen && (!radius_cull || (pos.clamp(lo, hi) - pos).length() <= radius))
                     .collect();
+                state.in_view[face as usize] = in_view;
                 state.dirty[face as usize] = true;
             }
         }
         Ok(())
+    }
+
+    /// Per face, the instances (by instance slot) inside its frustum as last computed by
+    /// [`Self::update`], at any distance from the light (the shadow pass itself also leaves
+    /// out those beyond the light's radius). The VPLs' reflective shadow maps draw these:
+    /// an instance out of a face's frustum writes no texel of it, so leaving it out changes
+    /// no texel, while one beyond the radius may still show (unlit) where nothing nearer
+    /// is, and such texels weigh in their VPL block's position and normal.
+    pub fn faces_in_view(&self) -> Vec<Vec<bool>> {
+        self.state.lock().expect("shadow atlas state").in_view.clone()
     }
 
     /// Face `face`'s world-to-view and view-to-clip matrices as last computed (tests

@@ -164,6 +164,12 @@ pub trait Renderer {
     /// The light grid the last frame was shaded with (tiled methods): lists, counts and
     /// its header, for statistics, the heat map and tests.
     fn light_grid(&self) -> Option<&LightGrid>;
+    /// The virtual point lights' own light grid (tiled methods with VPLs): one list a tile,
+    /// a fixed budget that never grows, so a frame can drop VPLs from lists; its header is
+    /// copied after each culling like the light grid's ([`LightGrid::poll_status`]).
+    fn vpl_light_grid(&self) -> Option<&LightGrid> {
+        None
+    }
     /// Grows the light grid's index buffer to `capacity` indices and binds it again
     /// wherever it is read (methods without a grid ignore it).
     fn grow_light_grid(&mut self, _ctx: &GpuContext, _capacity: u32) {}

@@ -1,12 +1,12 @@
 //! Display passes shared by both methods: tonemapping of the linear HDR image into an
 //! sRGB target (with a fixed exposure, or one computed from the frame's own image:
 //! [`AutoExposure`]), and the lights-per-tile heat map blended over it (of the opaque light grid,
-//! or of the blended geometry's own). Neither reads a view: the tonemap has its own
+//! of the blended geometry's own, or of the VPLs'). Neither reads a view: the tonemap has its own
 //! parameters, the heat map a light grid. Bind groups are made
 //! once per target set, never per frame. Depends on wgpu and the rest of this crate's
 //! utilities.
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 
 use bytemuck::{Pod, Zeroable};
 
@@ -331,43 +331,65 @@ pub enum HeatmapOf {
     /// The alpha-blended geometry's own grid (`blended.light_grid`): tiles without blended
     /// samples have an empty list, so they keep the image.
     Blended,
+    /// The virtual point lights' own grid (tiledlight-vpl, `--vpl`): VPLs per tile; tiles
+    /// no VPL reaches keep the image.
+    Vpl,
 }
 
 impl HeatmapOf {
-    /// "opaque" or "blended", as the command line and the viewer name it.
+    /// Every grid, in the order the command line and the viewer offer them.
+    pub const ALL: [HeatmapOf; 3] = [HeatmapOf::Opaque, HeatmapOf::Blended, HeatmapOf::Vpl];
+
+    /// "opaque", "blended" or "vpl", as the command line and the viewer name it.
     pub fn name(self) -> &'static str {
         match self {
             HeatmapOf::Opaque => "opaque",
             HeatmapOf::Blended => "blended",
+            HeatmapOf::Vpl => "vpl",
+        }
+    }
+
+    fn index(self) -> u8 {
+        match self {
+            HeatmapOf::Opaque => 0,
+            HeatmapOf::Blended => 1,
+            HeatmapOf::Vpl => 2,
         }
     }
 }
 
 /// Heat map of lights per tile, blended over the display target. It reads only a light
 /// grid (whose header says the tiling), so it can be switched on and off, and between the
-/// opaque and the blended grid, between frames without rebuilding anything
+/// opaque, the blended and the VPL grid, between frames without rebuilding anything
 /// ([`HeatmapPass::set_enabled`], [`HeatmapPass::set_of`]). The blended grid's bind group
-/// exists only when the frame has blended geometry; both grids share the pipeline (the
-/// same layout and shader).
+/// exists only when the frame has blended geometry, the VPL grid's only with VPLs; every
+/// grid shares the pipeline (the same layout and shader).
 pub struct HeatmapPass {
     pipeline: wgpu::RenderPipeline,
     bind_group: wgpu::BindGroup,
     blended_group: Option<wgpu::BindGroup>,
+    vpl_group: Option<wgpu::BindGroup>,
     enabled: AtomicBool,
-    /// Shows the blended grid (only ever true when `blended_group` exists).
-    blended: AtomicBool,
+    /// The grid shown ([`HeatmapOf::index`]; only ever one whose group exists).
+    shown: AtomicU8,
+}
+
+/// The light grids a heat map can show: the opaque geometry's, and the blended geometry's
+/// and the VPLs' when the frame has them (`LightGrid::grid`, which never changes size).
+#[derive(Clone, Copy)]
+pub struct HeatmapGrids<'a> {
+    /// The opaque geometry's grid.
+    pub opaque: &'a wgpu::Buffer,
+    /// The blended geometry's own grid.
+    pub blended: Option<&'a wgpu::Buffer>,
+    /// The VPLs' own grid.
+    pub vpl: Option<&'a wgpu::Buffer>,
 }
 
 impl HeatmapPass {
-    /// Builds the pipeline and the bind groups reading the light grids' lists
-    /// (`LightGrid::grid`, which never changes size): the opaque grid, and the blended
-    /// geometry's when the frame has one. Drawn when `enabled`, showing the opaque grid.
-    pub fn new(
-        device: &wgpu::Device,
-        light_grid: &wgpu::Buffer,
-        blended_grid: Option<&wgpu::Buffer>,
-        enabled: bool,
-    ) -> Result<Self, GpuError> {
+    /// Builds the pipeline and the bind groups reading the light grids' lists. Drawn when
+    /// `enabled`, showing the opaque grid.
+    pub fn new(device: &wgpu::Device, grids: HeatmapGrids<'_>, enabled: bool) -> Result<Self, GpuError> {
         let layout = create_layout(device, "heatmap.layout", HEATMAP_BINDINGS.group(0), &[]);
         let group = |label: &str, grid: &wgpu::Buffer| {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -376,8 +398,9 @@ impl HeatmapPass {
                 entries: &[wgpu::BindGroupEntry { binding: 0, resource: grid.as_entire_binding() }],
             })
         };
-        let bind_group = group("heatmap.bind_group", light_grid);
-        let blended_group = blended_grid.map(|g| group("heatmap.blended.bind_group", g));
+        let bind_group = group("heatmap.bind_group", grids.opaque);
+        let blended_group = grids.blended.map(|g| group("heatmap.blended.bind_group", g));
+        let vpl_group = grids.vpl.map(|g| group("heatmap.vpl.bind_group", g));
         let module = shader_module(device, HEATMAP_BINDINGS.entry, &[])?;
         let pl = pipeline_layout(device, "heatmap.pipeline_layout", &[&layout]);
         let pipeline =
@@ -386,8 +409,9 @@ impl HeatmapPass {
             pipeline,
             bind_group,
             blended_group,
+            vpl_group,
             enabled: AtomicBool::new(enabled),
-            blended: AtomicBool::new(false),
+            shown: AtomicU8::new(HeatmapOf::Opaque.index()),
         })
     }
 
@@ -402,32 +426,46 @@ impl HeatmapPass {
     }
 
     /// Shows grid `of` in the next frames. The blended grid is an error when the frame has
-    /// no blended geometry (there is no such grid), and the grid shown stays as it was.
+    /// no blended geometry, the VPL grid when it has no VPLs (there is no such grid), and
+    /// the grid shown stays as it was.
     pub fn set_of(&self, of: HeatmapOf) -> Result<(), GpuError> {
-        if of == HeatmapOf::Blended && self.blended_group.is_none() {
-            return Err(GpuError::Config(
-                "the heat map of the blended lists needs blended lists of their own: this scene has no \
-                 alpha-blended geometry, or frustum clusters (--grid clustered without \
-                 --cluster-geometry-only) serve it, and the plain heat map shows those clusters"
+        if !self.has(of) {
+            return Err(GpuError::Config(match of {
+                HeatmapOf::Vpl => "the heat map of the VPL lists needs VPLs culled into lists of their own: \
+                                   VPLs are off (--vpl), or the method has no tiles"
                     .into(),
-            ));
+                _ => "the heat map of the blended lists needs blended lists of their own: this scene has no \
+                      alpha-blended geometry, or frustum clusters (--grid clustered without \
+                      --cluster-geometry-only) serve it, and the plain heat map shows those clusters"
+                    .into(),
+            }));
         }
-        self.blended.store(of == HeatmapOf::Blended, Ordering::Relaxed);
+        self.shown.store(of.index(), Ordering::Relaxed);
         Ok(())
     }
 
     /// The grid shown.
     pub fn of(&self) -> HeatmapOf {
-        if self.blended.load(Ordering::Relaxed) {
-            HeatmapOf::Blended
-        } else {
-            HeatmapOf::Opaque
-        }
+        let i = self.shown.load(Ordering::Relaxed);
+        HeatmapOf::ALL.into_iter().find(|o| o.index() == i).unwrap_or_default()
+    }
+
+    /// Whether grid `of` can be shown (the frame has it).
+    pub fn has(&self, of: HeatmapOf) -> bool {
+        self.group(of).is_some()
     }
 
     /// Whether the blended grid can be shown (the frame has blended geometry).
     pub fn has_blended(&self) -> bool {
-        self.blended_group.is_some()
+        self.has(HeatmapOf::Blended)
+    }
+
+    fn group(&self, of: HeatmapOf) -> Option<&wgpu::BindGroup> {
+        match of {
+            HeatmapOf::Opaque => Some(&self.bind_group),
+            HeatmapOf::Blended => self.blended_group.as_ref(),
+            HeatmapOf::Vpl => self.vpl_group.as_ref(),
+        }
     }
 
     /// Blends the heat map of the chosen grid over `target` (nothing when disabled).
@@ -435,10 +473,7 @@ impl HeatmapPass {
         if !self.enabled() {
             return;
         }
-        let group = match (&self.blended_group, self.of()) {
-            (Some(g), HeatmapOf::Blended) => g,
-            _ => &self.bind_group,
-        };
+        let group = self.group(self.of()).unwrap_or(&self.bind_group);
         fullscreen_pass(encoder, timer, "heatmap", target, wgpu::LoadOp::Load, &self.pipeline, group);
     }
 }

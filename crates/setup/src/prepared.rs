@@ -306,7 +306,7 @@ impl Prepared {
 
     /// Builds a renderer for the settings' method, screen and culling options, drawing the
     /// heat map of grid `heatmap` when given. The blended lists' heat map needs a tiled
-    /// method and blended geometry.
+    /// method and blended geometry, the VPL lists' VPLs.
     pub fn renderer_with_heatmap(&self, heatmap: Option<HeatmapOf>) -> Result<Box<dyn Renderer>> {
         let a = &self.settings;
         if heatmap.is_some() && !a.method.is_tiled() {
@@ -316,6 +316,12 @@ impl Prepared {
             bail!(
                 "--heatmap blended shows the alpha-blended geometry's light lists, and this scene has no blended \
                  geometry (add --transparent-objects N, or a glTF scene with BLEND materials)"
+            );
+        }
+        if heatmap == Some(HeatmapOf::Vpl) && a.vpl.is_none() {
+            bail!(
+                "--heatmap vpl shows the virtual point lights' own light lists, and VPLs are off (add --vpl, \
+                 with shadow-casting lights: --shadow-spot-lights or --shadow-point-lights)"
             );
         }
         let of = heatmap.unwrap_or_default();

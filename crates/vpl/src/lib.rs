@@ -23,7 +23,7 @@ pub use rsm::{Rsm, RsmLayout};
 pub use tiledlight_cull::vpl::{VplConfig, VplShading};
 
 use tiledlight_cull::light::PackedLights;
-use tiledlight_cull::vpl::GpuVplShading;
+use tiledlight_cull::vpl::{GpuVplShading, VPL_GRID_PER_TILE};
 use tiledlight_cull::TileGrid;
 use tiledlight_gpu::light_cull::{CullOptions, LightCulling};
 use tiledlight_gpu::lights_group::VplBindings;
@@ -131,12 +131,13 @@ impl VplPath {
 /// The culling options of the VPLs' own light grid (either method): the lights' tile size, tests and two-level
 /// setting, one list per tile (no half-z, clusters, 2.5D masks or light-centric
 /// assignment: the shading reads a tile's one list), no cone test (VPLs are points), and
-/// index room for up to 1024 VPLs a tile (the VPLs of one 32x32 RSM face at block 1; lists
-/// past it lose VPLs, counted in the grid's header as the lights' are, and the grid does not
-/// grow yet) within the largest storage binding.
+/// index room for up to [`VPL_GRID_PER_TILE`] VPLs a tile on average (the VPLs of one 32x32
+/// RSM face at block 1; lists past it lose VPLs, counted in the grid's header as the lights'
+/// are and reported with them as dropped, and the grid does not grow) within the largest
+/// storage binding.
 pub fn cull_options(cull: &CullOptions, grid: TileGrid, cap: u32, limits: &wgpu::Limits) -> CullOptions {
     let most = (limits.max_storage_buffer_binding_size / 4).min(u32::MAX as u64);
-    let pairs = (grid.tile_count() as u64 * cap.min(1024) as u64).clamp(1024, most) as u32;
+    let pairs = (grid.tile_count() as u64 * cap.min(VPL_GRID_PER_TILE) as u64).clamp(1024, most) as u32;
     CullOptions {
         half_z: false,
         spot_cone: false,

@@ -12,9 +12,11 @@
 //! (`GpuRsmFace`: clip-to-world, the light, the face's solid-angle scale) is what the
 //! generation pass reads ([`crate::generate`]); `tiledlight_cull::vpl` is the CPU twin of
 //! both. The RSM is drawn only after the casters moved ([`Rsm::update`]), as the shadow
-//! faces are. Depends on tiledlight-gpu (views, scene, shadow atlas) and tiledlight-cull.
+//! faces are, and each face draws only the instances inside its frustum (the shadow
+//! atlas's per-face test, `ShadowAtlas::faces_in_view`; [`Rsm::drawn_last`] counts them). Depends on tiledlight-gpu (views, scene, shadow atlas) and tiledlight-cull.
 
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
 
 use glam::{Mat4, Vec3};
 use tiledlight_cull::light::PackedLights;
@@ -22,7 +24,7 @@ use tiledlight_cull::vpl::{GpuRsmFace, RsmFace, RsmLight, RsmTexel, VplConfig};
 use tiledlight_gpu::depth_prepass::{scene_pipeline, DepthUse, SceneDraw};
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::readback::{f16_to_f32, read_texture};
-use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu};
+use tiledlight_gpu::scene_gpu::{DrawCount, DrawKind, SceneGpu};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::util::{buffer_zeroed, pipeline_layout, shader_module, texture_2d};
@@ -137,6 +139,11 @@ pub struct Rsm {
     shadow_points: u32,
     /// Set by [`Self::update`], cleared by [`Self::record`].
     dirty: AtomicBool,
+    /// Per face, the instances inside its frustum (the shadow atlas's test, taken by
+    /// [`Self::update`]): a face draws only these.
+    in_view: Mutex<Vec<Vec<bool>>>,
+    /// What the last [`Self::record`] that drew recorded.
+    drawn: Mutex<DrawCount>,
     /// Texture and face-buffer bytes.
     pub memory: MemoryReport,
 }
@@ -236,6 +243,8 @@ impl Rsm {
             first_slot: atlas.first_slot(),
             shadow_points: atlas.layout.points,
             dirty: AtomicBool::new(false),
+            in_view: Mutex::new(Vec::new()),
+            drawn: Mutex::new(DrawCount::default()),
             memory,
         })
     }
@@ -265,7 +274,14 @@ impl Rsm {
         if !faces.is_empty() {
             queue.write_buffer(&self.faces, 0, bytemuck::cast_slice(&faces));
         }
+        *self.in_view.lock().expect("rsm visibility") = atlas.faces_in_view();
         self.dirty.store(true, Ordering::Relaxed);
+    }
+
+    /// Draw calls and instances the last drawing [`Self::record`] recorded, over every
+    /// face (each face draws only the instances inside its frustum).
+    pub fn drawn_last(&self) -> DrawCount {
+        *self.drawn.lock().expect("rsm draw count")
     }
 
     /// True when the next [`Self::record`] draws (the casters moved since the last one).
@@ -274,7 +290,9 @@ impl Rsm {
     }
 
     /// Draws every face from its view slot into its tile (`vpl.rsm`), when the casters
-    /// moved since the last call; returns whether it drew.
+    /// moved since the last call: per face only the instances inside its frustum (the
+    /// shadow atlas's per-face test, as the shadow pass culls; the same texels as drawing
+    /// all). Returns whether it drew.
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -315,16 +333,24 @@ impl Rsm {
                 pass.set_bind_group(2, g, &[]);
             }
             let s = self.layout.size;
+            let in_view = self.in_view.lock().expect("rsm visibility");
+            let mut drawn = DrawCount::default();
             for f in 0..self.layout.faces {
+                // Faces not yet updated (never, once `update` ran) draw everything.
+                let visible = in_view.get(f as usize).filter(|v| !v.is_empty()).map(Vec::as_slice);
+                if visible.is_some_and(|v| !v.contains(&true)) {
+                    continue;
+                }
                 let [x, y] = self.layout.origin(f);
                 pass.set_viewport(x as f32, y as f32, s as f32, s as f32, 0.0, 1.0);
                 pass.set_scissor_rect(x, y, s, s);
                 pass.set_bind_group(0, views.bind_group(), &views.offsets(self.first_slot + f));
                 for (kind, pipeline) in &self.pipelines {
                     pass.set_pipeline(pipeline);
-                    scene.record_draws(&mut pass, *kind, true, true);
+                    drawn += scene.record_draws_of(&mut pass, *kind, (true, true), visible);
                 }
             }
+            *self.drawn.lock().expect("rsm draw count") = drawn;
         }
         timer.end(encoder, t);
         true

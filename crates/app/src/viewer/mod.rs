@@ -259,8 +259,8 @@ struct Viewer {
     last_frame: Instant,
     last_stats: Option<Instant>,
     minimized: bool,
-    /// The latest light-grid headers read back (opaque, blended).
-    grids: (Option<GridStatus>, Option<GridStatus>),
+    /// The latest light-grid headers read back (opaque, blended, VPL).
+    grids: (Option<GridStatus>, Option<GridStatus>, Option<GridStatus>),
     /// The frames drop lights now (the panel's warning is up).
     dropping: bool,
     /// `warning:` lines printed (for `--strict`).
@@ -388,7 +388,7 @@ impl Viewer {
             last_frame: Instant::now(),
             last_stats: None,
             minimized: false,
-            grids: (None, None),
+            grids: (None, None, None),
             dropping: false,
             warnings: 0,
             prep,
@@ -433,10 +433,10 @@ impl Viewer {
     }
 
     /// The heat map a renderer for `s` is built with: the blended lists only when the scene
-    /// now loaded has blended geometry (the checkbox is kept for a scene that has some).
+    /// now loaded has blended geometry, the VPL lists only with VPLs (the choice is kept for
+    /// a scene or settings that have them).
     fn heatmap_of(&self, s: &Settings) -> Option<HeatmapOf> {
-        let blended = s.heatmap_blended && self.prep.has_blended_geometry();
-        s.effective_heatmap().then_some(if blended { HeatmapOf::Blended } else { HeatmapOf::Opaque })
+        s.effective_heatmap().then(|| s.shown_heatmap(self.prep.has_blended_geometry()))
     }
 
     fn try_apply(&mut self, new: &Settings) -> Result<()> {
@@ -479,9 +479,9 @@ impl Viewer {
             }
             if let Some(h) = self.renderer.heatmap() {
                 h.set_enabled(new.effective_heatmap());
-                // Blended only where the pass has the blended lists: no error to handle.
-                let blended = new.heatmap_blended && h.has_blended();
-                h.set_of(if blended { HeatmapOf::Blended } else { HeatmapOf::Opaque })?;
+                // Only lists the pass has: no error to handle.
+                let of = new.shown_heatmap(h.has_blended());
+                h.set_of(if h.has(of) { of } else { HeatmapOf::Opaque })?;
             }
         }
         if renderer_rebuilt || rebuilt.reload != Reload::Nothing {
@@ -662,10 +662,12 @@ impl Viewer {
             pixels_per_point: ppp,
         };
         // A finished frame's light-grid headers, when their copies have arrived: a grid
-        // grows for the next frame if that one dropped lights; one that cannot is warned of.
+        // grows for the next frame if that one dropped lights; one that cannot (the VPLs'
+        // never does) is warned of.
         let opaque = self.renderer.prepare(ctx);
         let blended = self.renderer.blended_mut().and_then(|b| b.take_status());
-        self.grids = (opaque.or(self.grids.0), blended.or(self.grids.1));
+        let vpl = self.renderer.vpl_light_grid().and_then(|g| g.poll_status());
+        self.grids = (opaque.or(self.grids.0), blended.or(self.grids.1), vpl.or(self.grids.2));
         let dropping = self.lasting_drops();
         self.stats.dropped = dropping;
         if let Some(w) = &self.stats.dropped {
@@ -758,14 +760,16 @@ impl Viewer {
     /// The warning about the latest frames' dropped lights, when a grid dropped some and
     /// cannot grow to hold them (a grid that can has grown for the next frame already).
     fn lasting_drops(&self) -> Option<String> {
-        let (opaque, blended) = self.grids;
+        let (opaque, blended, vpl) = self.grids;
         let lasting = |s: Option<GridStatus>, capacity: Option<u32>| {
             s.filter(|s| !s.complete() && capacity.is_some_and(|c| s.needed() > c))
         };
         let opaque = lasting(opaque, self.renderer.light_grid().map(|g| g.capacity()));
         let blended_capacity = self.renderer.blended().and_then(|b| b.culling.as_ref()).map(|c| c.grid.capacity());
         let blended = lasting(blended, blended_capacity);
-        let d = Dropped::of(opaque.as_slice(), blended.as_slice());
+        // The VPL grid never grows: whatever it dropped lasts.
+        let vpl = lasting(vpl, self.renderer.vpl_light_grid().map(|g| g.capacity()));
+        let d = Dropped::of(opaque.as_slice(), blended.as_slice()).with_vpl(vpl.as_slice());
         let max_binding = self.prep.ctx.device.limits().max_storage_buffer_binding_size;
         d.warning("the frame", self.prep.settings.grid_pairs, max_binding)
     }
@@ -810,6 +814,20 @@ impl Viewer {
         if let Some((kept, refused)) = self.stats.vpls {
             println!("viewer VPLs: {kept} made, {refused} refused");
         }
+        match &s.setup.vpl {
+            Some(c) => println!(
+                "viewer VPL settings: RSM {}, block {}, colour threshold {}, brightness threshold {}, cap {}, {} shading",
+                c.rsm_size,
+                c.block,
+                c.colour_threshold,
+                c.brightness_threshold,
+                c.cap,
+                c.shading.name()
+            ),
+            None => println!("viewer VPL settings: off"),
+        }
+        let heat = self.renderer.heatmap().filter(|h| h.enabled()).map_or("off", |h| h.of().name());
+        println!("viewer heat map: {heat}");
         println!("viewer dropped: {}", self.stats.dropped.as_deref().unwrap_or("none"));
         println!("viewer error: {}", self.ui.error.as_deref().unwrap_or("none"));
     }

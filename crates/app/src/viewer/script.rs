@@ -10,8 +10,9 @@ use anyhow::{bail, Context, Result};
 use clap::ValueEnum;
 
 use super::camera_control::Mode;
-use super::settings::Settings;
+use super::settings::{Settings, VplControl};
 use crate::scene_setup::{AssignArg, BlendModeArg, DensityArg, GridArg, MethodArg, ShadowFormatArg};
+use tiledlight_gpu::tonemap::HeatmapOf;
 use tiledlight_setup::SceneSource;
 
 /// One step of a script.
@@ -37,7 +38,8 @@ pub const KEYS: &str = "method, lights, spot-lights, threshold, seed, tile-size,
                         2.5d, clustered), assign (gather, scatter), aabb, spot-cone, \
                         grid-objects, density, gbuffer-rts, msaa, shadow-point-lights, shadow-spot-lights, \
                         shadow-size, shadow-filter, shadow-format, transparent-objects, blend-mode, \
-                        heatmap (on, off, blended), \
+                        heatmap (on, off, opaque, blended, vpl), vpl (on, off), vpl-rsm-size, vpl-block, \
+                        vpl-colour-threshold, vpl-brightness-threshold, vpl-cap, vpl-shading (sample, physical), \
                         animate, vsync, scene, camera, window, wait";
 
 /// Parses a script; an unknown key or a malformed action is an error naming it.
@@ -131,19 +133,30 @@ pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
         "aabb" => a.aabb = on_off(key, value)?,
         "spot-cone" => a.spot_cone = on_off(key, value)?,
         "scene" => a.scene = SceneSource::parse(value),
-        // on (the opaque lists), off, or blended (the blended geometry's lists).
+        // on (the opaque lists), off, or the lists to show: opaque, blended (the blended
+        // geometry's) or vpl (the VPLs').
         "heatmap" => {
-            (s.heatmap, s.heatmap_blended) = match value {
-                "blended" => (true, true),
-                "opaque" => (true, false),
-                _ => (
+            (s.heatmap, s.heatmap_of) = match HeatmapOf::ALL.into_iter().find(|o| o.name() == value) {
+                Some(of) => (true, of),
+                None => (
                     on_off(key, value).map_err(|_| {
-                        anyhow::anyhow!("--script: heatmap={value}: expected on, off, opaque or blended")
+                        anyhow::anyhow!("--script: heatmap={value}: expected on, off, opaque, blended or vpl")
                     })?,
-                    false,
+                    HeatmapOf::Opaque,
                 ),
             }
         }
+        "vpl" => s.set_vpl(VplControl::On(on_off(key, value)?)),
+        "vpl-rsm-size" => s.set_vpl(VplControl::RsmSize(number(key, value)?)),
+        "vpl-block" => s.set_vpl(VplControl::Block(number(key, value)?)),
+        "vpl-colour-threshold" => s.set_vpl(VplControl::ColourThreshold(number(key, value)?)),
+        "vpl-brightness-threshold" => s.set_vpl(VplControl::BrightnessThreshold(number(key, value)?)),
+        "vpl-cap" => s.set_vpl(VplControl::Cap(number(key, value)?)),
+        "vpl-shading" => s.set_vpl(VplControl::Shading(
+            crate::vpl_args::VplShadingArg::from_str(value, true)
+                .map_err(|e| anyhow::anyhow!("--script: vpl-shading={value}: {e}"))?
+                .into(),
+        )),
         "animate" => s.animate = on_off(key, value)?,
         "vsync" => s.vsync = on_off(key, value)?,
         _ => bail!("--script: unknown key '{key}' (keys: {KEYS})"),
@@ -170,9 +183,11 @@ mod tests {
         set(&mut s, "heatmap", "on").unwrap();
         assert_eq!((s.setup.method, s.heatmap), (tiledlight_setup::Method::BruteForce, true));
         set(&mut s, "heatmap", "blended").unwrap();
-        assert_eq!((s.heatmap, s.heatmap_blended), (true, true));
+        assert_eq!((s.heatmap, s.heatmap_of), (true, HeatmapOf::Blended));
+        set(&mut s, "heatmap", "vpl").unwrap();
+        assert_eq!((s.heatmap, s.heatmap_of), (true, HeatmapOf::Vpl));
         set(&mut s, "heatmap", "on").unwrap();
-        assert_eq!((s.heatmap, s.heatmap_blended), (true, false));
+        assert_eq!((s.heatmap, s.heatmap_of), (true, HeatmapOf::Opaque));
         for (k, v) in [
             ("shadow-point-lights", "8"),
             ("shadow-spot-lights", "4"),
@@ -202,13 +217,47 @@ mod tests {
     }
 
     #[test]
+    fn vpl_keys_set_the_panels_vpl_controls() {
+        use tiledlight_cull::vpl::{VplConfig, VplShading};
+        let mut s = Settings::new(Default::default());
+        set(&mut s, "vpl-block", "4").unwrap();
+        assert_eq!(s.setup.vpl, None, "a setting while VPLs are off keeps them off");
+        set(&mut s, "vpl", "on").unwrap();
+        for (k, v) in [
+            ("vpl-rsm-size", "64"),
+            ("vpl-colour-threshold", "0.2"),
+            ("vpl-brightness-threshold", "0.05"),
+            ("vpl-cap", "500"),
+            ("vpl-shading", "physical"),
+        ] {
+            set(&mut s, k, v).unwrap();
+        }
+        let want = VplConfig {
+            rsm_size: 64,
+            block: 4,
+            colour_threshold: 0.2,
+            brightness_threshold: 0.05,
+            cap: 500,
+            shading: VplShading::Physical,
+            ..VplConfig::default()
+        };
+        assert_eq!(s.setup.vpl, Some(want));
+        set(&mut s, "vpl", "off").unwrap();
+        assert_eq!((s.setup.vpl, s.vpl_config()), (None, want));
+        let e = |a: &str| format!("{:#}", parse(a).unwrap_err());
+        assert!(e("vpl=maybe").contains("vpl=maybe: expected on or off"));
+        assert!(e("vpl-cap=lots").contains("vpl-cap=lots: not a number"));
+        assert!(e("vpl-shading=fancy").contains("vpl-shading=fancy"));
+    }
+
+    #[test]
     fn bad_actions_are_named() {
         let e = |s: &str| format!("{:#}", parse(s).unwrap_err());
         assert!(e("method").contains("'method' is not key=value"));
         assert!(e("zoom=3").contains("unknown key 'zoom'"));
         assert!(e("lights=many").contains("lights=many: not a number"));
         assert!(e("method=fast").contains("method=fast"));
-        assert!(e("heatmap=maybe").contains("heatmap=maybe: expected on, off, opaque or blended"));
+        assert!(e("heatmap=maybe").contains("heatmap=maybe: expected on, off, opaque, blended or vpl"));
         assert!(e("shadow-size=big").contains("shadow-size=big: not a number"));
         assert!(e("shadow-format=d24").contains("shadow-format=d24"));
         assert!(e("transparent-objects=some").contains("transparent-objects=some: not a number"));

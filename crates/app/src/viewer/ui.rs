@@ -1,7 +1,8 @@
 //! The viewer's egui panel, help overlay and input: the controls of TiledLighting11's
 //! sample (method, light counts, threshold, tile size, half-z, grid objects, G-buffer
 //! targets, MSAA, heat map with legend, shadow-casting point and spot lights with the
-//! shadow tile size, filter and format, transparent grid objects and the blend mode),
+//! shadow tile size, filter and format, transparent grid objects and the blend mode,
+//! virtual point lights: on/off, RSM size, block, thresholds, cap, shading model),
 //! scene and camera controls, and the statistics (per-pass GPU times with a rolling
 //! graph, frame time, visible lights, lights per tile, lists that lost lights to a full
 //! light grid, shadow faces drawn and the shadow atlas, blended instances, GPU memory). Widgets edit a copy of the settings; the viewer applies
@@ -18,11 +19,12 @@ use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::memory::{format_bytes, MemoryReport};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::PassTime;
-use tiledlight_gpu::tonemap::{heatmap_palette, heatmap_t, HEATMAP_OVERFLOW};
+use tiledlight_gpu::tonemap::{heatmap_palette, heatmap_t, HeatmapOf, HEATMAP_OVERFLOW};
 
 use super::camera_control::{CameraRig, Mode, Motion};
-use super::settings::{method_label, Settings, METHODS, MSAA_CHOICES};
+use super::settings::{method_label, Settings, VplControl, METHODS, MSAA_CHOICES, VPL_BLOCKS, VPL_RSM_SIZES};
 use crate::legend::label_values;
+use tiledlight_cull::vpl::VplShading;
 use tiledlight_scene::GridDensity;
 use tiledlight_setup::stats::atlas_layout_description;
 use tiledlight_setup::{CullingStats, LightSummary, Method, SceneSource};
@@ -469,10 +471,21 @@ fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'
         ui.add_enabled_ui(tiled, |ui| {
             ui.checkbox(&mut s.heatmap, "heat map (lights per tile)").on_disabled_hover_text("needs a tiled method");
         });
-        ui.add_enabled_ui(tiled && s.heatmap && info.blended.is_some(), |ui| {
-            ui.checkbox(&mut s.heatmap_blended, "  of the blended geometry's lists")
-                .on_hover_text("the transparent geometry's own light lists; tiles without it keep the image")
-                .on_disabled_hover_text("needs the heat map and blended geometry (transparent objects)");
+        ui.add_enabled_ui(tiled && s.heatmap, |ui| {
+            ui.horizontal(|ui| {
+                ui.label("  of");
+                ui.radio_value(&mut s.heatmap_of, HeatmapOf::Opaque, "opaque");
+                ui.add_enabled_ui(info.blended.is_some(), |ui| {
+                    ui.radio_value(&mut s.heatmap_of, HeatmapOf::Blended, "blended")
+                        .on_hover_text("the transparent geometry's own light lists; tiles without it keep the image")
+                        .on_disabled_hover_text("needs blended geometry (transparent objects)");
+                });
+                ui.add_enabled_ui(s.setup.vpl.is_some(), |ui| {
+                    ui.radio_value(&mut s.heatmap_of, HeatmapOf::Vpl, "VPL")
+                        .on_hover_text("the virtual point lights' own lists: VPLs per tile")
+                        .on_disabled_hover_text("needs VPLs (the VPL section)");
+                });
+            });
         });
         if s.effective_heatmap() {
             legend(ui, info.capacity);
@@ -495,6 +508,7 @@ fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'
         ui.checkbox(&mut s.animate, "animate lights");
     });
     shadow_controls(ui, s, info);
+    vpl_controls(ui, s, info);
     egui::CollapsingHeader::new("Scene").default_open(false).show(ui, |ui| {
         let builtin = s.setup.scene == SceneSource::Default;
         ui.add_enabled_ui(builtin, |ui| {
@@ -593,6 +607,83 @@ fn shadow_controls(ui: &mut egui::Ui, s: &mut Settings, info: &Info<'_>) {
                 ui.radio_value(&mut sh.shadow_format, f, f.name());
             }
         });
+    });
+}
+
+/// The virtual point lights (AMD's sample has them too): on/off, RSM size, block size,
+/// colour and brightness thresholds, cap and shading model. Every control goes through
+/// [`Settings::set_vpl`] (as the script's `vpl*` keys do); a change rebuilds the renderer
+/// when applied, settings changed while VPLs are off are kept for when they are on.
+fn vpl_controls(ui: &mut egui::Ui, s: &mut Settings, info: &Info<'_>) {
+    egui::CollapsingHeader::new("Virtual point lights").default_open(false).show(ui, |ui| {
+        let casters = s.setup.shadow_point_lights + s.setup.shadow_spot_lights > 0;
+        let mut on = s.setup.vpl.is_some();
+        let c = s.vpl_config();
+        ui.add_enabled_ui(casters || on, |ui| {
+            ui.checkbox(&mut on, "VPLs (one-bounce indirect light)")
+                .on_hover_text("reflective shadow maps of the shadow-casting lights, one VPL per texel block")
+                .on_disabled_hover_text("needs shadow-casting lights (the Shadows section)");
+        });
+        if on != s.setup.vpl.is_some() {
+            s.set_vpl(VplControl::On(on));
+        }
+        ui.add_enabled_ui(on, |ui| {
+            let mut size = c.rsm_size;
+            egui::ComboBox::from_label("RSM size").selected_text(format!("{size}")).show_ui(ui, |ui| {
+                for n in VPL_RSM_SIZES {
+                    ui.selectable_value(&mut size, n, format!("{n}"));
+                }
+            });
+            let mut block = c.block;
+            ui.horizontal(|ui| {
+                ui.label("block");
+                for b in VPL_BLOCKS.iter().copied().filter(|&b| b <= size && size.is_multiple_of(b)) {
+                    ui.radio_value(&mut block, b, format!("{b}"));
+                }
+            })
+            .response
+            .on_hover_text("texels per side of the block one VPL stands for");
+            let mut colour = c.colour_threshold;
+            ui.add(egui::Slider::new(&mut colour, 0.0..=1.0).text("colour threshold"))
+                .on_hover_text("keep a VPL only when a channel of its normalised colour reaches this");
+            let mut brightness = c.brightness_threshold;
+            ui.add(egui::Slider::new(&mut brightness, 0.0..=2.0).text("brightness threshold"))
+                .on_hover_text("keep a VPL only when its colour's length exceeds this");
+            let mut cap = c.cap;
+            ui.add(egui::Slider::new(&mut cap, 1..=1 << 20).logarithmic(true).text("cap"))
+                .on_hover_text("most VPLs; the rest are refused and reported");
+            let mut shading = c.shading;
+            ui.horizontal(|ui| {
+                ui.label("shading");
+                ui.radio_value(&mut shading, VplShading::Sample, "sample")
+                    .on_hover_text("TiledLighting11's smoothstep to the VPL's radius, no inverse square");
+                ui.radio_value(&mut shading, VplShading::Physical, "physical")
+                    .on_hover_text("flux x cos x cos / d^2 (Dachsbacher and Stamminger 2005)");
+            });
+            // A smaller RSM takes the block down to one that divides it.
+            if size != c.rsm_size {
+                s.set_vpl(VplControl::RsmSize(size));
+                if !size.is_multiple_of(block) || block > size {
+                    block =
+                        VPL_BLOCKS.iter().copied().filter(|&b| b <= size && size.is_multiple_of(b)).max().unwrap_or(1);
+                }
+            }
+            let changes = [
+                (block != c.block, VplControl::Block(block)),
+                (colour != c.colour_threshold, VplControl::ColourThreshold(colour)),
+                (brightness != c.brightness_threshold, VplControl::BrightnessThreshold(brightness)),
+                (cap != c.cap, VplControl::Cap(cap)),
+                (shading != c.shading, VplControl::Shading(shading)),
+            ];
+            for (changed, control) in changes {
+                if changed {
+                    s.set_vpl(control);
+                }
+            }
+        });
+        if let Some((kept, refused)) = info.stats.vpls {
+            ui.label(format!("{kept} VPLs in the last frame, {refused} refused by the cap"));
+        }
     });
 }
 
