@@ -6,8 +6,9 @@
 
 use std::path::Path;
 
+use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_scene::{GridDensity, LightKind};
+use tiledlight_scene::{GridDensity, Light, LightKind};
 use tiledlight_setup::export::export;
 use tiledlight_setup::{LightPlacement, Method, Prepared, SceneCpu, SceneSource, Settings};
 use tiledlight_tests::images::{assert_flip, FlipThresholds};
@@ -15,13 +16,14 @@ use tiledlight_tests::images::{assert_flip, FlipThresholds};
 const W: u32 = 320;
 const H: u32 = 180;
 
-/// The image of the loaded file against the original's. Geometry, materials, texture
-/// texels and lights are bit-identical and the camera differs by float rounding of its
-/// matrix (about 1e-7 relative), so the images are expected to be equal; the thresholds
-/// only leave room for a pixel or two along an edge where that rounding moves a
-/// rasterised sample across a triangle edge: mean 1e-3 and 99.9th percentile 0.05 (a
-/// lost light or a wrong material gives a mean of several 1e-2).
-const SAME_IMAGE: FlipThresholds = FlipThresholds { mean: 1e-3, percentile: (0.999, 0.05) };
+/// The image of the loaded file against the original's. Positions, indices, materials,
+/// texels and lights are bit-identical; normals, spot directions and the camera differ by
+/// float rounding (the loader re-normalises them; about 1e-7 relative), which moves a
+/// pixel's value by a unit of the last 8-bit place here and there. Measured on lavapipe:
+/// FLIP mean 0.00000, 99.9th percentile 0.0009, max 0.006 (both methods). The thresholds
+/// (mean 1e-4, 99.9th percentile 0.02) leave room for other adapters' rounding; a lost
+/// light or a wrong material gives a mean of several 1e-2.
+const SAME_IMAGE: FlipThresholds = FlipThresholds { mean: 1e-4, percentile: (0.999, 0.02) };
 
 fn settings(method: Method) -> Settings {
     Settings {
@@ -78,8 +80,22 @@ fn exported_courtyard_loads_back_with_the_same_lights_camera_and_image() {
     let back = SceneCpu::load(&b).unwrap();
     assert!(back.warnings.is_empty(), "{:?}", back.warnings);
     assert_eq!((back.file_lights, back.camera_source.as_str()), (120, "the scene's camera"));
-    // Positions, colours, intensities, radii, spot directions and angles: bit for bit.
-    assert_eq!(back.lights, cpu.lights);
+    // Positions, colours, intensities, radii and spot angles bit for bit; spot directions
+    // within 1e-6 (the loader re-normalises the unit direction it reads exactly, which can
+    // move it by one ulp).
+    assert_eq!(back.lights.len(), cpu.lights.len());
+    for (i, (b, l)) in back.lights.iter().zip(&cpu.lights).enumerate() {
+        if let (LightKind::Spot { direction: db, .. }, LightKind::Spot { direction: dl, .. }) = (b.kind, l.kind) {
+            assert!((db - dl).abs().max_element() <= 1e-6, "light {i}: direction {db} vs {dl}");
+        }
+        let same_direction = match (b.kind, l.kind) {
+            (LightKind::Spot { inner_angle, outer_angle, .. }, LightKind::Spot { direction, .. }) => {
+                LightKind::Spot { direction, inner_angle, outer_angle }
+            }
+            (k, _) => k,
+        };
+        assert_eq!(Light { kind: same_direction, ..*b }, *l, "light {i}");
+    }
     // The camera: eye and view-projection within float rounding of the node matrix (the
     // inverse of the view, re-orthonormalised by the loader's look-at).
     assert!((back.camera.eye() - cpu.camera.eye()).length() < 1e-4, "{} vs {}", back.camera.eye(), cpu.camera.eye());

@@ -210,7 +210,7 @@ struct Run {
     points: usize,
     spots: usize,
     colours_relinearised: usize,
-    last_seen: Option<Instant>,
+    last_seen: Option<bevy::platform::time::Instant>,
     collecting: bool,
     /// Per frame (one diagnostics batch): (span path, GPU ms).
     gpu_frames: Vec<Vec<(String, f64)>>,
@@ -338,7 +338,7 @@ fn collect_gpu_times(store: Res<DiagnosticsStore>, mut run: ResMut<Run>) {
         if run.last_seen.is_some_and(|t| m.time <= t) {
             continue;
         }
-        newest = Some(newest.map_or(m.time, |t: Instant| t.max(m.time)));
+        newest = Some(newest.map_or(m.time, |t| t.max(m.time)));
         let name = path.trim_start_matches("render/").trim_end_matches("/elapsed_gpu").to_string();
         batch.push((name, m.value));
     }
