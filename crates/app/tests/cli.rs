@@ -586,7 +586,8 @@ fn export_writes_gltf_and_glb_with_the_lights_and_camera() {
     let dir = scratch("export");
     let gltf = dir.join("sub/court.gltf");
     // No GPU work: the scene, lights and camera are built on the CPU.
-    let out = tiledlight(&with_tiny("export", &["--spot-lights", "3", "--exposure", "2", "--out", gltf.to_str().unwrap()]));
+    let out =
+        tiledlight(&with_tiny("export", &["--spot-lights", "3", "--exposure", "2", "--out", gltf.to_str().unwrap()]));
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = stdout(&out);
     assert!(text.contains("16 point + 3 spot") && text.contains("wrote"), "{text}");

@@ -167,7 +167,12 @@ fn check_light(i: usize, l: &Light) -> Result<()> {
 /// The glTF JSON (its buffer without a URI) and the binary buffer of a scene, its lights
 /// and its camera, with the frame's extras. The scene is validated first; a NaN or
 /// infinity anywhere is an error naming where.
-pub fn gltf_document(scene: &Scene, lights: &[Light], camera: &Camera, frame: &FrameExtras) -> Result<(Value, Vec<u8>)> {
+pub fn gltf_document(
+    scene: &Scene,
+    lights: &[Light],
+    camera: &Camera,
+    frame: &FrameExtras,
+) -> Result<(Value, Vec<u8>)> {
     scene.validate().context("the scene cannot be exported")?;
     for (i, l) in lights.iter().enumerate() {
         check_light(i, l)?;
@@ -211,7 +216,8 @@ pub fn gltf_document(scene: &Scene, lights: &[Light], camera: &Camera, frame: &F
         }
         info
     };
-    let materials: Vec<Value> = scene.materials.iter().map(|m| material_json(m, &mut texture_info, &mut used)).collect();
+    let materials: Vec<Value> =
+        scene.materials.iter().map(|m| material_json(m, &mut texture_info, &mut used)).collect();
 
     // Geometry: each scene mesh's attributes once, its indices once per winding used.
     let mut attributes: HashMap<usize, Value> = HashMap::new();
@@ -351,7 +357,8 @@ fn material_json(
     texture_info: &mut impl FnMut(&TextureRef, &mut Extensions) -> Value,
     used: &mut Extensions,
 ) -> Value {
-    let mut pbr = json!({"baseColorFactor": m.base_color, "metallicFactor": m.metallic, "roughnessFactor": m.roughness});
+    let mut pbr =
+        json!({"baseColorFactor": m.base_color, "metallicFactor": m.metallic, "roughnessFactor": m.roughness});
     if let Some(t) = &m.base_color_texture {
         pbr["baseColorTexture"] = texture_info(t, used);
     }
@@ -426,7 +433,9 @@ fn null_number(v: &Value, path: &str) -> Option<String> {
     match v {
         Value::Null => Some(path.to_owned()),
         Value::Array(a) => a.iter().enumerate().find_map(|(i, x)| null_number(x, &format!("{path}[{i}]"))),
-        Value::Object(o) => o.iter().filter(|(k, _)| k.as_str() != "exposure").find_map(|(k, x)| null_number(x, &format!("{path}.{k}"))),
+        Value::Object(o) => {
+            o.iter().filter(|(k, _)| k.as_str() != "exposure").find_map(|(k, x)| null_number(x, &format!("{path}.{k}")))
+        }
         _ => None,
     }
 }
@@ -501,7 +510,8 @@ mod tests {
         assert!(e.starts_with("light 1 cannot be exported"), "{e}");
         let e = format!(
             "{:#}",
-            gltf_document(&scene, &[good], &camera(), &FrameExtras { exposure: Some(f32::NAN), ..frame() }).unwrap_err()
+            gltf_document(&scene, &[good], &camera(), &FrameExtras { exposure: Some(f32::NAN), ..frame() })
+                .unwrap_err()
         );
         assert!(e.contains("exposure"), "{e}");
         scene.meshes[0].positions[0][1] = f32::NAN;
@@ -515,7 +525,12 @@ mod tests {
 
     #[test]
     fn the_courtyard_comes_back_with_its_lights_materials_and_camera() {
-        let opts = DefaultSceneOptions { grid_objects: 6, transparent_objects: 2, emissive_banners: true, ..Default::default() };
+        let opts = DefaultSceneOptions {
+            grid_objects: 6,
+            transparent_objects: 2,
+            emissive_banners: true,
+            ..Default::default()
+        };
         let mut scene = tiledlight_scene::default_scene(&opts).unwrap();
         // A mirrored instance: its mesh must come back with the same winding.
         let mut mirrored = scene.instances[0].clone();
@@ -547,16 +562,21 @@ mod tests {
             let (ma, mb) = (&scene.meshes[a.mesh], &back.meshes[b.mesh]);
             assert!(ma.positions == mb.positions, "positions of {}", ma.name);
             assert!(ma.indices == mb.indices, "indices of {}", ma.name);
-            let dn = ma.normals.iter().zip(&mb.normals).map(|(x, y)| (Vec3::from(*x) - Vec3::from(*y)).abs().max_element());
+            let dn =
+                ma.normals.iter().zip(&mb.normals).map(|(x, y)| (Vec3::from(*x) - Vec3::from(*y)).abs().max_element());
             assert!(dn.fold(0f32, f32::max) <= 1e-6, "normals of {}", ma.name);
             let (pa, pb) = (&scene.materials[a.material], &back.materials[b.material]);
             assert_eq!(Material { name: String::new(), ..pa.clone() }, Material { name: String::new(), ..pb.clone() });
         }
-        assert_eq!(back.textures.iter().map(|t| &t.rgba8).collect::<Vec<_>>(), scene.textures.iter().map(|t| &t.rgba8).collect::<Vec<_>>());
+        assert_eq!(
+            back.textures.iter().map(|t| &t.rgba8).collect::<Vec<_>>(),
+            scene.textures.iter().map(|t| &t.rgba8).collect::<Vec<_>>()
+        );
         let cam = back.camera.expect("the camera comes back");
         let c = camera();
         assert!((cam.eye - c.eye()).length() < 1e-5, "{} vs {}", cam.eye, c.eye());
-        let back_view = Camera::perspective(cam.eye, cam.target, cam.up, cam.fov_y, 16.0 / 9.0, cam.near, cam.far).unwrap();
+        let back_view =
+            Camera::perspective(cam.eye, cam.target, cam.up, cam.fov_y, 16.0 / 9.0, cam.near, cam.far).unwrap();
         let d = (back_view.view_proj() - c.view_proj()).to_cols_array().iter().fold(0f32, |m, x| m.max(x.abs()));
         assert!(d < 1e-5, "view-projection differs by {d}");
         assert_eq!((cam.fov_y, cam.near, cam.far), (0.9, 0.1, None));

@@ -27,8 +27,8 @@
 //!        [--depth-prepass] [--name NAME] [--max-frames F]
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use bevy::app::{AppExit, ScheduleRunnerPlugin};
@@ -43,8 +43,8 @@ use bevy::prelude::*;
 use bevy::render::diagnostic::RenderDiagnosticsPlugin;
 use bevy::render::render_asset::RenderAssets;
 use bevy::render::render_resource::{
-    Buffer, BufferDescriptor, BufferUsages, CommandEncoderDescriptor, MapMode, PollType,
-    TexelCopyBufferInfo, TexelCopyBufferLayout, TextureFormat, TextureUsages,
+    Buffer, BufferDescriptor, BufferUsages, CommandEncoderDescriptor, MapMode, PollType, TexelCopyBufferInfo,
+    TexelCopyBufferLayout, TextureFormat, TextureUsages,
 };
 use bevy::render::renderer::{RenderAdapterInfo, RenderContext, RenderDevice, RenderGraph, RenderQueue};
 use bevy::render::settings::{RenderCreation, WgpuFeatures, WgpuSettings};
@@ -52,7 +52,7 @@ use bevy::render::view::Msaa;
 use bevy::render::{Extract, Render, RenderApp, RenderPlugin, RenderSystems};
 use bevy::window::ExitCondition;
 use crossbeam_channel::{Receiver, Sender};
-use serde_json::{json, Value};
+use serde_json::{Value, json};
 
 /// Frames after the measured ones during which late timestamp read-backs are still taken.
 const READBACK_LAG: u32 = 8;
@@ -443,11 +443,8 @@ fn report(
         frames.iter().map(|f| f.iter().filter(|(n, _)| !n.contains('/')).map(|p| p.1).sum()).collect();
     let mut cpu = run.cpu_ms.clone();
     // tiledlight's "total GPU": the sum of the passes' medians (top-level spans here).
-    let sum_of_medians: f64 = passes
-        .iter()
-        .filter(|(n, _)| !n.contains('/'))
-        .filter_map(|(_, v)| v["median_ms"].as_f64())
-        .sum();
+    let sum_of_medians: f64 =
+        passes.iter().filter(|(n, _)| !n.contains('/')).filter_map(|(_, v)| v["median_ms"].as_f64()).sum();
     json!({
         "renderer": "bevy",
         "bevy_version": "0.19.1",
@@ -547,11 +544,11 @@ fn image_copy_driver(
 ) {
     for c in copiers.iter().filter(|c| c.enabled()) {
         let Some(src) = images.get(&c.src_image) else { continue };
-        let mut encoder = ctx
-            .render_device()
-            .create_command_encoder(&CommandEncoderDescriptor { label: Some("bevy-peer copy") });
+        let mut encoder =
+            ctx.render_device().create_command_encoder(&CommandEncoderDescriptor { label: Some("bevy-peer copy") });
         let block = src.texture_descriptor.format.block_copy_size(None).expect("a colour format");
-        let padded = RenderDevice::align_copy_bytes_per_row(src.texture_descriptor.size.width as usize * block as usize);
+        let padded =
+            RenderDevice::align_copy_bytes_per_row(src.texture_descriptor.size.width as usize * block as usize);
         encoder.copy_texture_to_buffer(
             src.texture.as_image_copy(),
             TexelCopyBufferInfo {
