@@ -337,7 +337,7 @@ pub fn gltf_document(
         root["textures"] = json!(textures);
         root["samplers"] = json!(samplers);
     }
-    if let Some(path) = null_number(&root, "") {
+    if let Some(path) = null_number(&root) {
         // serde_json writes a NaN or infinite f32 as null: every number was checked above,
         // so this is a bug of this module, not of the input.
         bail!("internal: the exported glTF has a null at {path} (a number that is not finite)");
@@ -428,14 +428,17 @@ fn spot_matrix(position: Vec3, direction: Vec3) -> Mat4 {
     Mat4::from_cols(x.extend(0.0), y.extend(0.0), back.extend(0.0), position.extend(1.0))
 }
 
-/// The JSON path of the first null, if any (the only way a non-finite f32 shows up).
-fn null_number(v: &Value, path: &str) -> Option<String> {
+/// The JSON path of the first null, if any: the only way a non-finite f32 shows up
+/// (serde_json writes NaN and infinity as null). `exposure` is null on purpose when the
+/// exposure is automatic. The path is built on the way back, only when there is a null.
+fn null_number(v: &Value) -> Option<String> {
     match v {
-        Value::Null => Some(path.to_owned()),
-        Value::Array(a) => a.iter().enumerate().find_map(|(i, x)| null_number(x, &format!("{path}[{i}]"))),
-        Value::Object(o) => {
-            o.iter().filter(|(k, _)| k.as_str() != "exposure").find_map(|(k, x)| null_number(x, &format!("{path}.{k}")))
-        }
+        Value::Null => Some(String::new()),
+        Value::Array(a) => a.iter().enumerate().find_map(|(i, x)| null_number(x).map(|p| format!("[{i}]{p}"))),
+        Value::Object(o) => o
+            .iter()
+            .filter(|(k, _)| k.as_str() != "exposure")
+            .find_map(|(k, x)| null_number(x).map(|p| format!(".{k}{p}"))),
         _ => None,
     }
 }
@@ -489,6 +492,12 @@ mod tests {
             assert_eq!(m.transform_vector3(Vec3::NEG_Z), d);
             assert!((m.determinant() - 1.0).abs() < 1e-5, "a rotation: {}", m.determinant());
         }
+    }
+
+    #[test]
+    fn nulls_are_found_with_their_path() {
+        assert_eq!(null_number(&json!({"a": [1, {"b": null}]})), Some(".a[1].b".to_owned()));
+        assert_eq!(null_number(&json!({"exposure": null, "c": [1.5]})), None);
     }
 
     #[test]
