@@ -2,7 +2,10 @@
 # Issue 16: tiledlight and Bevy side by side on the device machine (one GPU, Vulkan, no
 # network), the same scene, lights and camera. Run from the repo root, in one call:
 #   .device/tiledlight  the stripped tiledlight binary (as for scripts/device-bench.sh)
-#   .device/bevy-peer   the stripped peer binary (peers/bevy/README.md builds it)
+#   .device/bevy-peer.gz  the stripped peer binary, gzipped (peers/bevy/README.md builds
+#                       it: 54 MiB stripped, 17 MiB gzipped, so that it travels with
+#                       tiledlight within the 64 MiB carry limit); a plain
+#                       .device/bevy-peer is used as it is
 #   .gl/*.deb           the Vulkan loader packages (as for scripts/device-bench.sh)
 # For each light count (COUNTS, default 1000 10000 100000) at WIDTHxHEIGHT (1920x1080),
 # the courtyard with uniform random point lights, threshold 0.1 * sqrt(N / 1000) (so
@@ -44,6 +47,9 @@ if [ "${DRY_RUN:-0}" != 1 ]; then
     export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
   fi
   command -v nvidia-smi >/dev/null && nvidia-smi --query-gpu=name,clocks.sm,clocks.max.sm,memory.total --format=csv,noheader | tee "$d/gpu.txt"
+  if [ ! -x "$bevy" ] && [ -f "$bevy.gz" ]; then
+    gunzip -c "$bevy.gz" > "$work/bevy-peer" && chmod +x "$work/bevy-peer" && bevy=$work/bevy-peer
+  fi
   for b in "$tl" "$bevy"; do [ -x "$b" ] || { echo "error: $b is missing or not executable" | tee -a "$log"; exit 1; }; done
 fi
 
