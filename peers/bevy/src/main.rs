@@ -6,7 +6,9 @@
 //! last frame as PNG into `--out`.
 //!
 //! What it changes from Bevy's defaults, and why (all printed in the JSON's `notes`):
-//! - the glTF camera renders into an image (no window), at `--width` x `--height`;
+//! - the glTF camera hands over to a camera of bevy-peer's at its transform and projection,
+//!   rendering into an image (no window) at `--width` x `--height` (the glTF camera itself,
+//!   re-targeted, rendered nothing);
 //! - light colours: Bevy 0.19's glTF loader reads `KHR_lights_punctual` colours as sRGB
 //!   (`Color::srgb_from_array`), the specification says linear: the colour is
 //!   re-read as linear so Bevy gets tiledlight's colour;
@@ -243,15 +245,22 @@ fn setup(
     commands.spawn(WorldAssetRoot(assets.load(GltfAssetLabel::Scene(0).from_asset(file))));
 }
 
+/// The camera bevy-peer renders with (placed where the glTF's camera is).
+#[derive(Component)]
+struct PeerCamera;
+
 /// The glTF's camera: render into the image, with tiledlight's exposure and ambient light.
 fn adopt_camera(
     mut commands: Commands,
     args: Res<Args>,
     mut run: ResMut<Run>,
-    cameras: Query<(Entity, Option<&GltfExtras>), Added<Camera3d>>,
+    mut cameras: Query<
+        (Option<&GltfExtras>, &Projection, &Transform, &mut Camera),
+        (Added<Camera3d>, Without<PeerCamera>),
+    >,
     mut ambient: ResMut<GlobalAmbientLight>,
 ) {
-    for (entity, extras) in &cameras {
+    for (extras, projection, transform, mut camera) in &mut cameras {
         if run.camera_ready {
             eprintln!("warning: the glTF has more than one camera: the first one renders");
             continue;
@@ -264,8 +273,19 @@ fn adopt_camera(
             (None, Some(e)) => (Some(e), "the file's extras.tiledlight.exposure".into()),
             (None, None) => (None, "Bevy's default (the file has no fixed exposure)".into()),
         };
-        let mut e = commands.entity(entity);
-        e.insert((RenderTarget::Image(run.target.clone().into()), Msaa::from_samples(args.msaa)));
+        // The glTF camera (a root node of the scene, so its transform is its world
+        // transform) hands over to a camera of our own that renders into the image, as in
+        // Bevy's headless_renderer example: the scene's camera, re-targeted where it
+        // stands, rendered nothing.
+        camera.is_active = false;
+        let mut e = commands.spawn((
+            Camera3d::default(),
+            projection.clone(),
+            *transform,
+            RenderTarget::Image(run.target.clone().into()),
+            Msaa::from_samples(args.msaa),
+            PeerCamera,
+        ));
         if let Some(x) = run.exposure {
             // Bevy multiplies radiance by 2^-ev100 / 1.2: pick ev100 so that this is x.
             e.insert(Exposure { ev100: (1.0 / (1.2 * x)).log2() });
