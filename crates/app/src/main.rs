@@ -11,6 +11,8 @@
 //! - `tiledlight shadow-accuracy ...`: the shadow maps' error against a CPU ray-cast
 //!   reference per atlas tile size, filter and format, with the atlas and shading times;
 //!   JSON + Pareto chart ([`shadow_accuracy`]);
+//! - `tiledlight export ...`: the scene, lights and camera as one glTF file for another
+//!   engine ([`export`]; the peer benchmark, `peers/bevy/`);
 //! - `tiledlight view ...`: the interactive viewer ([`viewer`]);
 //! - `tiledlight` alone: the viewer when a display is available, else the default scene at
 //!   1080p headless, image + heat map + short benchmark ([`quickstart`]).
@@ -29,6 +31,7 @@ mod bench;
 mod bookmark;
 mod chart;
 mod dropped;
+mod export;
 mod lab;
 mod legend;
 mod quickstart;
@@ -82,6 +85,10 @@ enum Command {
         mut_arg("height", |a| a.default_value(shadow_accuracy::DEFAULT_SIZE.1))
     )]
     ShadowAccuracy(shadow_accuracy::ShadowAccuracyArgs),
+    /// Write the scene, its lights (KHR_lights_punctual) and the camera that `render` with
+    /// the same flags draws as one glTF file (.gltf + .bin, or .glb) for another engine.
+    #[command(allow_negative_numbers = true)]
+    Export(export::ExportArgs),
     /// Open the interactive viewer: a window with the controls, camera and pass timings.
     #[command(allow_negative_numbers = true)]
     View(viewer::ViewArgs),
@@ -148,6 +155,7 @@ fn main() -> ExitCode {
         Some(Command::Sweep(args)) => sweep::run(args),
         Some(Command::Accuracy(args)) => accuracy::run(args),
         Some(Command::ShadowAccuracy(args)) => shadow_accuracy::run(args),
+        Some(Command::Export(args)) => export::run(args),
         Some(Command::View(args)) => viewer::run(args),
         None => viewer::run_default(),
     };
@@ -227,5 +235,9 @@ mod tests {
         let cli = Cli::try_parse_from(["tiledlight", "render"]).unwrap();
         let Some(Command::Render(r)) = cli.command else { panic!("not render") };
         assert_eq!(r.scene.width, 1920);
+        let cli = Cli::try_parse_from(["tiledlight", "export", "--lights", "7", "--out", "a.glb"]).unwrap();
+        let Some(Command::Export(x)) = cli.command else { panic!("not export") };
+        assert_eq!((x.scene.lights, x.out.as_path()), (Some(7), std::path::Path::new("a.glb")));
+        assert!(Cli::try_parse_from(["tiledlight", "export"]).is_err(), "--out is required");
     }
 }

@@ -625,3 +625,47 @@ fn sweep_warns_of_refused_vpls() {
     let rows: Vec<csv::StringRecord> = r.records().map(Result::unwrap).collect();
     assert!(!rows.is_empty() && rows.iter().all(|row| row[col].parse::<u32>().is_ok_and(|n| n > 0)), "{rows:?}");
 }
+
+#[test]
+fn export_writes_gltf_and_glb_with_the_lights_and_camera() {
+    let dir = scratch("export");
+    let gltf = dir.join("sub/court.gltf");
+    // No GPU work: the scene, lights and camera are built on the CPU.
+    let out =
+        tiledlight(&with_tiny("export", &["--spot-lights", "3", "--exposure", "2", "--out", gltf.to_str().unwrap()]));
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = stdout(&out);
+    assert!(text.contains("16 point + 3 spot") && text.contains("wrote"), "{text}");
+    let root: Value = serde_json::from_slice(&std::fs::read(&gltf).unwrap()).unwrap();
+    assert_eq!(root["buffers"][0]["uri"], "court.bin");
+    assert!(dir.join("sub/court.bin").is_file());
+    let lights = root["extensions"]["KHR_lights_punctual"]["lights"].as_array().unwrap();
+    assert_eq!(lights.len(), 19);
+    assert_eq!(lights.iter().filter(|l| l["type"] == "spot").count(), 3);
+    assert!(lights.iter().all(|l| l["range"].as_f64().unwrap() > 0.0));
+    let cam = root["nodes"].as_array().unwrap().iter().find(|n| n.get("camera").is_some()).unwrap();
+    assert_eq!(cam["extras"]["tiledlight"]["width"], 64);
+    assert_eq!(cam["extras"]["tiledlight"]["exposure"], 2.0);
+    assert_eq!(root["cameras"][0]["perspective"]["aspectRatio"].as_f64().unwrap() as f32, 64.0 / 36.0);
+
+    let glb = dir.join("court.glb");
+    let out = tiledlight(&with_tiny("export", &["--out", glb.to_str().unwrap()]));
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(stdout(&out).contains("automatic"), "no fixed exposure given: {}", stdout(&out));
+    let bytes = std::fs::read(&glb).unwrap();
+    assert_eq!(&bytes[..4], b"glTF");
+}
+
+#[test]
+fn export_bad_input_gives_one_clear_error_line() {
+    let dir = scratch("export-bad");
+    let line = fails(&["export", "--out", dir.join("a.obj").to_str().unwrap()]);
+    assert!(line.contains("only .gltf and .glb"), "{line}");
+    // A folder that cannot be made: its parent is a file.
+    std::fs::write(dir.join("file"), b"x").unwrap();
+    let line = fails(&with_tiny("export", &["--out", dir.join("file/a.gltf").to_str().unwrap()]));
+    assert!(line.contains("file/a.gltf") || line.contains("creating directory"), "{line}");
+    let line = fails(&with_tiny("export", &["--exposure", "NaN", "--out", dir.join("a.gltf").to_str().unwrap()]));
+    assert!(line.contains("--exposure"), "{line}");
+    assert!(!dir.join("a.gltf").exists(), "nothing written on bad input");
+}

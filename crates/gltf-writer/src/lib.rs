@@ -1,12 +1,15 @@
-//! tiledlight-gltf-writer: test support for writing small glTF 2.0 files by hand, shared by
-//! the glTF loader's tests (tiledlight-scene) and the GPU material tests (tiledlight-tests,
-//! which also write the README's normal-mapped asset with it).
+//! tiledlight-gltf-writer: writing glTF 2.0 files piece by piece. Used by the glTF loader's
+//! tests (tiledlight-scene), the GPU material tests (tiledlight-tests, which also write the
+//! README's normal-mapped asset with it) and `tiledlight export` (tiledlight-setup's
+//! `export`, a scene with its lights and camera for other engines).
 //!
 //! A [`Buffer`] collects binary data, its buffer views and accessors; [`Buffer::document`]
-//! makes the JSON root around them; [`write_gltf`] (external `.bin`), [`write_embedded`]
-//! (base64 data URI) and [`write_glb`] (binary container) write it. [`png`] encodes an RGBA8
-//! image for an image data URI ([`png_data_uri`]). Nothing is checked: tests write broken
-//! files on purpose. Panics on I/O errors (test support).
+//! makes the JSON root around them; [`save_gltf`] (external `.bin` beside the file) and
+//! [`save_glb`] (binary container) write it to a path and return I/O errors; the test
+//! helpers [`write_gltf`], [`write_embedded`] (base64 data URI) and [`write_glb`] write
+//! `name.gltf`/`name.glb` into a folder and panic on I/O errors. [`png`] encodes an RGBA8
+//! image (for an image data URI, [`png_data_uri`], or a buffer view). Nothing is checked:
+//! tests write broken files on purpose, and callers validate what they export.
 //!
 //! Depends on serde_json and image only (no tiledlight crate, so any of them may use it
 //! as a dev-dependency).
@@ -202,7 +205,8 @@ pub fn png_data_uri(png: &[u8]) -> String {
     format!("data:image/png;base64,{}", base64(png))
 }
 
-/// Writes `name.gltf` with its buffer in `name.bin` (pretty JSON).
+/// Writes `name.gltf` with its buffer in `name.bin` (pretty JSON). Panics on I/O errors
+/// (test support; [`save_gltf`] returns them).
 pub fn write_gltf(dir: &Path, name: &str, mut root: Value, bin: &[u8]) -> PathBuf {
     root["buffers"][0]["uri"] = json!(format!("{name}.bin"));
     fs::write(dir.join(format!("{name}.bin")), bin).unwrap();
@@ -219,9 +223,18 @@ pub fn write_embedded(dir: &Path, name: &str, mut root: Value, bin: &[u8]) -> Pa
     path
 }
 
-/// Writes `name.glb`: header, JSON chunk (space-padded), BIN chunk (zero-padded).
+/// Writes `name.glb`: header, JSON chunk (space-padded), BIN chunk (zero-padded). Panics
+/// on I/O errors (test support; [`save_glb`] returns them).
 pub fn write_glb(dir: &Path, name: &str, root: Value, bin: &[u8]) -> PathBuf {
-    let mut json_bytes = serde_json::to_vec(&root).unwrap();
+    let path = dir.join(format!("{name}.glb"));
+    fs::write(&path, glb_bytes(&root, bin)).unwrap();
+    path
+}
+
+/// The bytes of a `.glb` file: 12-byte header, JSON chunk (padded with spaces to 4
+/// bytes), BIN chunk (padded with zeros).
+pub fn glb_bytes(root: &Value, bin: &[u8]) -> Vec<u8> {
+    let mut json_bytes = serde_json::to_vec(root).expect("a serde_json Value always serialises");
     while !json_bytes.len().is_multiple_of(4) {
         json_bytes.push(b' ');
     }
@@ -230,7 +243,7 @@ pub fn write_glb(dir: &Path, name: &str, root: Value, bin: &[u8]) -> PathBuf {
         bin.push(0);
     }
     let total = 12 + 8 + json_bytes.len() + 8 + bin.len();
-    let mut out = Vec::new();
+    let mut out = Vec::with_capacity(total);
     out.extend_from_slice(b"glTF");
     out.extend_from_slice(&2u32.to_le_bytes());
     out.extend_from_slice(&(total as u32).to_le_bytes());
@@ -240,9 +253,43 @@ pub fn write_glb(dir: &Path, name: &str, root: Value, bin: &[u8]) -> PathBuf {
     out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
     out.extend_from_slice(b"BIN\0");
     out.extend_from_slice(&bin);
-    let path = dir.join(format!("{name}.glb"));
-    fs::write(&path, out).unwrap();
-    path
+    out
+}
+
+/// Writes `path` (a `.gltf`, compact JSON) with its buffer in a `.bin` file of the same
+/// stem beside it, which the JSON names by its file name (so the pair can be moved
+/// together). Returns the `.bin` file's path. An empty buffer gets no file and no URI.
+pub fn save_gltf(path: &Path, mut root: Value, bin: &[u8]) -> std::io::Result<PathBuf> {
+    let bin_path = path.with_extension("bin");
+    if !bin.is_empty() {
+        let name = bin_path.file_name().and_then(|n| n.to_str()).ok_or_else(|| {
+            std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("{}: not a UTF-8 file name", path.display()))
+        })?;
+        // A URI: characters outside the unreserved set would need percent-encoding.
+        root["buffers"][0]["uri"] = json!(uri_escape(name));
+        fs::write(&bin_path, bin)?;
+    }
+    fs::write(path, serde_json::to_vec(&root).expect("a serde_json Value always serialises"))?;
+    Ok(bin_path)
+}
+
+/// Writes `path` as a binary glTF ([`glb_bytes`]).
+pub fn save_glb(path: &Path, root: &Value, bin: &[u8]) -> std::io::Result<()> {
+    fs::write(path, glb_bytes(root, bin))
+}
+
+/// Percent-encodes what a relative URI may not hold as it is (RFC 3986 unreserved
+/// characters stay).
+fn uri_escape(name: &str) -> String {
+    let mut out = String::new();
+    for b in name.bytes() {
+        if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
+            out.push(b as char);
+        } else {
+            out.push_str(&format!("%{b:02X}"));
+        }
+    }
+    out
 }
 
 #[cfg(test)]
@@ -285,6 +332,22 @@ mod tests {
         assert_eq!(&bytes[..4], b"glTF");
         assert_eq!(u32::from_le_bytes(bytes[8..12].try_into().unwrap()) as usize, bytes.len());
         assert_eq!(bytes.len() % 4, 0);
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn saved_gltf_names_its_bin_and_errors_come_back() {
+        let dir = std::env::temp_dir().join(format!("gltf-writer-save-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        let mut b = Buffer::default();
+        b.indices_u16(&[0, 1, 2]);
+        let root = b.document(json!({}));
+        let bin = save_gltf(&dir.join("a b.gltf"), root.clone(), &b.data).unwrap();
+        assert_eq!(fs::read(&bin).unwrap(), b.data);
+        let written: Value = serde_json::from_slice(&fs::read(dir.join("a b.gltf")).unwrap()).unwrap();
+        assert_eq!(written["buffers"][0]["uri"], json!("a%20b.bin"));
+        assert!(save_gltf(&dir.join("missing/x.gltf"), root.clone(), &b.data).is_err());
+        assert!(save_glb(&dir.join("missing/x.glb"), &root, &b.data).is_err());
         fs::remove_dir_all(&dir).unwrap();
     }
 }

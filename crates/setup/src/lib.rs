@@ -20,16 +20,20 @@
 //! - [`stats`]: [`CullingStats`], [`culling_stats`], [`BlendedStats`], [`blended_stats`],
 //!   [`group_digits`], [`shadow_atlas_description`];
 //! - [`animate`]: [`LightAnimator`], the lights circling the scene (the viewer's animation,
-//!   `bench --move-lights`).
+//!   `bench --move-lights`);
+//! - [`export`]: the scene, its lights and camera as one glTF file for other engines
+//!   (`tiledlight export`; intensity units and what else is written in its docs).
 //!
 //! Layering: depends on tiledlight-cull, tiledlight-scene, tiledlight-gpu,
-//! tiledlight-forward and tiledlight-deferred (and wgpu, glam, anyhow); the app
+//! tiledlight-forward, tiledlight-deferred and tiledlight-gltf-writer (and wgpu, glam,
+//! anyhow, serde_json); the app
 //! (`tiledlight`) and the GPU tests depend on it, never the other way round. Errors are
 //! `anyhow` errors whose text is meant for the user as it is: settings errors name the
 //! app's flag (`--width 0: ...`).
 
 pub mod animate;
 pub mod camera;
+pub mod export;
 pub mod load;
 pub mod prepared;
 pub mod rebuild;

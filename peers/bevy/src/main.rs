@@ -1,0 +1,607 @@
+//! bevy-peer: renders a glTF file written by `tiledlight export` with Bevy's own glTF
+//! loader and default forward pipeline (clustered lights, GPU clustering where the
+//! adapter has compute), headless into an image, and prints per-pass and per-frame GPU
+//! times (Bevy's `RenderDiagnosticsPlugin`, timestamp queries) as JSON: medians over
+//! `--frames` frames after `--warmup`, plus the CPU frame time; writes the JSON and the
+//! last frame as PNG into `--out`.
+//!
+//! What it changes from Bevy's defaults, and why (all printed in the JSON's `notes`):
+//! - the glTF camera hands over to a camera of bevy-peer's at its transform and projection,
+//!   rendering into an image (no window) at `--width` x `--height` (the glTF camera itself,
+//!   re-targeted, rendered nothing);
+//! - light colours: Bevy 0.19's glTF loader reads `KHR_lights_punctual` colours as sRGB
+//!   (`Color::srgb_from_array`), the specification says linear: the colour is
+//!   re-read as linear so Bevy gets tiledlight's colour;
+//! - spot lights: the loader sets a spot's source radius to its range (a soft-light size
+//!   of metres); it is reset to 0 like point lights (punctual, as in tiledlight);
+//! - exposure and ambient light come from the camera node's `extras.tiledlight`
+//!   (tiledlight's fixed exposure; `--exposure` overrides it) so both renderers map the
+//!   same radiance to the same pixel value before tonemapping;
+//! - intensity needs no change: the loader turns candela into lumens (x 4 pi) and the
+//!   renderer back into candela (/ 4 pi); Bevy's range falloff is tiledlight's window
+//!   `saturate(1 - (d/r)^4)^2 / max(d^2, 1e-4)`.
+//! What stays Bevy's default unless a flag says otherwise: 4x MSAA (`--msaa`), the
+//! TonyMcMapface tonemapper (`--tonemapping aces` for ACES fitted), no depth prepass
+//! (`--depth-prepass`), clusters (`ClusterConfig::default()`: 4096 clusters, 24 Z slices).
+//!
+//! Usage: bevy-peer --gltf FILE --width W --height H --frames N --warmup M --out DIR
+//!        [--exposure E] [--msaa 1|2|4|8] [--tonemapping default|aces|none]
+//!        [--depth-prepass] [--name NAME] [--max-frames F]
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use bevy::app::{AppExit, ScheduleRunnerPlugin};
+use bevy::camera::{Exposure, RenderTarget};
+use bevy::core_pipeline::prepass::DepthPrepass;
+use bevy::core_pipeline::tonemapping::Tonemapping;
+use bevy::diagnostic::DiagnosticsStore;
+use bevy::gltf::GltfExtras;
+use bevy::image::TextureFormatPixelInfo;
+use bevy::light::cluster::GlobalClusterSettings;
+use bevy::prelude::*;
+use bevy::render::diagnostic::RenderDiagnosticsPlugin;
+use bevy::render::render_asset::RenderAssets;
+use bevy::render::render_resource::{
+    Buffer, BufferDescriptor, BufferUsages, CommandEncoderDescriptor, MapMode, PollType, TexelCopyBufferInfo,
+    TexelCopyBufferLayout, TextureFormat, TextureUsages,
+};
+use bevy::render::renderer::{RenderAdapterInfo, RenderContext, RenderDevice, RenderGraph, RenderQueue};
+use bevy::render::settings::{RenderCreation, WgpuFeatures, WgpuSettings};
+use bevy::render::view::Msaa;
+use bevy::render::{Extract, Render, RenderApp, RenderPlugin, RenderSystems};
+use bevy::window::ExitCondition;
+use crossbeam_channel::{Receiver, Sender};
+use serde_json::{Value, json};
+
+/// Frames after the measured ones during which late timestamp read-backs are still taken.
+const READBACK_LAG: u32 = 8;
+
+#[derive(Clone, Debug, Resource)]
+struct Args {
+    gltf: PathBuf,
+    width: u32,
+    height: u32,
+    frames: u32,
+    warmup: u32,
+    out: PathBuf,
+    exposure: Option<f32>,
+    msaa: u32,
+    tonemapping: String,
+    depth_prepass: bool,
+    name: String,
+    /// Give up (exit 1) when the scene has not loaded and rendered after this many frames.
+    max_frames: u32,
+}
+
+fn usage() -> ! {
+    eprintln!(
+        "usage: bevy-peer --gltf FILE --width W --height H --frames N --warmup M --out DIR \
+         [--exposure E] [--msaa 1|2|4|8] [--tonemapping default|aces|none] [--depth-prepass] \
+         [--name NAME] [--max-frames F]"
+    );
+    std::process::exit(2)
+}
+
+fn fail(msg: &str) -> ! {
+    eprintln!("error: {msg}");
+    std::process::exit(1)
+}
+
+fn parse_args() -> Args {
+    let mut a = Args {
+        gltf: PathBuf::new(),
+        width: 1920,
+        height: 1080,
+        frames: 100,
+        warmup: 20,
+        out: PathBuf::from("bevy-out"),
+        exposure: None,
+        msaa: 4,
+        tonemapping: "default".into(),
+        depth_prepass: false,
+        name: "bevy".into(),
+        max_frames: 2000,
+    };
+    let mut it = std::env::args().skip(1);
+    while let Some(flag) = it.next() {
+        if flag == "--depth-prepass" {
+            a.depth_prepass = true;
+            continue;
+        }
+        if flag == "--help" || flag == "-h" {
+            usage();
+        }
+        let Some(v) = it.next() else { usage() };
+        let num = |v: &str| v.parse::<u32>().unwrap_or_else(|_| fail(&format!("{flag} {v}: not a whole number")));
+        match flag.as_str() {
+            "--gltf" => a.gltf = PathBuf::from(v),
+            "--width" => a.width = num(&v),
+            "--height" => a.height = num(&v),
+            "--frames" => a.frames = num(&v),
+            "--warmup" => a.warmup = num(&v),
+            "--out" => a.out = PathBuf::from(v),
+            "--exposure" => {
+                let e: f32 = v.parse().unwrap_or_else(|_| fail(&format!("--exposure {v}: not a number")));
+                if !(e.is_finite() && e > 0.0) {
+                    fail(&format!("--exposure {v}: must be a positive number"));
+                }
+                a.exposure = Some(e);
+            }
+            "--msaa" => a.msaa = num(&v),
+            "--tonemapping" => a.tonemapping = v,
+            "--name" => a.name = v,
+            "--max-frames" => a.max_frames = num(&v),
+            _ => usage(),
+        }
+    }
+    if a.gltf.as_os_str().is_empty() {
+        usage();
+    }
+    if !a.gltf.is_file() {
+        fail(&format!("--gltf {}: no such file", a.gltf.display()));
+    }
+    if a.width == 0 || a.height == 0 || a.width > 8192 || a.height > 8192 {
+        fail(&format!("--width {} --height {}: each must be 1 to 8192", a.width, a.height));
+    }
+    if a.frames == 0 {
+        fail("--frames 0: at least one frame must be measured");
+    }
+    if ![1, 2, 4, 8].contains(&a.msaa) {
+        fail(&format!("--msaa {}: must be 1, 2, 4 or 8", a.msaa));
+    }
+    if !["default", "aces", "none"].contains(&a.tonemapping.as_str()) {
+        fail(&format!("--tonemapping {}: must be default, aces or none", a.tonemapping));
+    }
+    a.gltf = a.gltf.canonicalize().unwrap_or_else(|e| fail(&format!("--gltf {}: {e}", a.gltf.display())));
+    a
+}
+
+fn main() {
+    let args = parse_args();
+    std::fs::create_dir_all(&args.out).unwrap_or_else(|e| fail(&format!("--out {}: {e}", args.out.display())));
+    let asset_dir = args.gltf.parent().expect("a canonical file path has a parent").to_path_buf();
+    let wgpu = WgpuSettings {
+        // The timestamp features the render diagnostics need (Vulkan has them; Bevy
+        // also asks for every adapter feature by default).
+        features: WgpuFeatures::TIMESTAMP_QUERY | WgpuFeatures::TIMESTAMP_QUERY_INSIDE_ENCODERS,
+        ..default()
+    };
+    let (tx, rx) = crossbeam_channel::unbounded();
+    App::new()
+        .insert_resource(args.clone())
+        .insert_resource(ClearColor(Color::BLACK))
+        .insert_resource(Run::default())
+        .insert_resource(MainWorldReceiver(rx))
+        .add_plugins(
+            DefaultPlugins
+                .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
+                .set(AssetPlugin { file_path: asset_dir.to_string_lossy().into_owned(), ..default() })
+                .set(RenderPlugin {
+                    render_creation: RenderCreation::Automatic(Box::new(wgpu)),
+                    // Pipelines compile when first needed, inside the warm-up, not
+                    // asynchronously while frames without the meshes are being timed.
+                    synchronous_pipeline_compilation: true,
+                    ..default()
+                }),
+        )
+        .add_plugins(ScheduleRunnerPlugin::run_loop(Duration::ZERO))
+        .add_plugins(RenderDiagnosticsPlugin)
+        .add_plugins(ImageCopyPlugin { sender: tx })
+        .add_systems(Startup, setup)
+        // The diagnostics store takes a frame's spans in PreUpdate (when they came back).
+        .add_systems(Update, (adopt_camera, fix_point_lights, fix_spot_lights, collect_gpu_times))
+        .add_systems(PostUpdate, drive)
+        .run();
+}
+
+/// What the run has seen so far.
+#[derive(Default, Resource)]
+struct Run {
+    target: Handle<Image>,
+    copier_enabled: Arc<AtomicBool>,
+    camera_ready: bool,
+    frame: u32,
+    /// Frame at which the scene was ready (camera found, lights spawned).
+    ready_at: Option<u32>,
+    exposure: Option<f32>,
+    exposure_source: String,
+    ambient: Option<[f32; 3]>,
+    points: usize,
+    spots: usize,
+    colours_relinearised: usize,
+    last_seen: Option<bevy::platform::time::Instant>,
+    collecting: bool,
+    /// Per frame (one diagnostics batch): (span path, GPU ms).
+    gpu_frames: Vec<Vec<(String, f64)>>,
+    cpu_ms: Vec<f64>,
+    last_update: Option<Instant>,
+    png_requested: bool,
+}
+
+#[derive(Resource, Deref)]
+struct MainWorldReceiver(Receiver<Vec<u8>>);
+
+#[derive(Resource, Deref)]
+struct RenderWorldSender(Sender<Vec<u8>>);
+
+fn setup(
+    mut commands: Commands,
+    args: Res<Args>,
+    mut run: ResMut<Run>,
+    mut images: ResMut<Assets<Image>>,
+    assets: Res<AssetServer>,
+    device: Res<RenderDevice>,
+) {
+    let mut target = Image::new_target_texture(args.width, args.height, TextureFormat::Rgba8UnormSrgb, None);
+    target.texture_descriptor.usage |= TextureUsages::COPY_SRC;
+    run.target = images.add(target);
+    let copier = ImageCopier::new(run.target.clone(), args.width, args.height, &device);
+    run.copier_enabled = copier.enabled.clone();
+    commands.spawn(copier);
+    let file = args.gltf.file_name().expect("a file").to_string_lossy().into_owned();
+    commands.spawn(WorldAssetRoot(assets.load(GltfAssetLabel::Scene(0).from_asset(file))));
+}
+
+/// The camera bevy-peer renders with (placed where the glTF's camera is).
+#[derive(Component)]
+struct PeerCamera;
+
+/// The glTF's camera: render into the image, with tiledlight's exposure and ambient light.
+fn adopt_camera(
+    mut commands: Commands,
+    args: Res<Args>,
+    mut run: ResMut<Run>,
+    mut cameras: Query<
+        (Option<&GltfExtras>, &Projection, &Transform, &mut Camera),
+        (Added<Camera3d>, Without<PeerCamera>),
+    >,
+    mut ambient: ResMut<GlobalAmbientLight>,
+) {
+    for (extras, projection, transform, mut camera) in &mut cameras {
+        if run.camera_ready {
+            eprintln!("warning: the glTF has more than one camera: the first one renders");
+            continue;
+        }
+        let extras: Value = extras.and_then(|e| serde_json::from_str(&e.value).ok()).unwrap_or(Value::Null);
+        let t = &extras["tiledlight"];
+        let file_exposure = t["exposure"].as_f64().map(|e| e as f32);
+        (run.exposure, run.exposure_source) = match (args.exposure, file_exposure) {
+            (Some(e), _) => (Some(e), "--exposure".into()),
+            (None, Some(e)) => (Some(e), "the file's extras.tiledlight.exposure".into()),
+            (None, None) => (None, "Bevy's default (the file has no fixed exposure)".into()),
+        };
+        // The glTF camera (a root node of the scene, so its transform is its world
+        // transform) hands over to a camera of our own that renders into the image, as in
+        // Bevy's headless_renderer example: the scene's camera, re-targeted where it
+        // stands, rendered nothing.
+        camera.is_active = false;
+        let mut e = commands.spawn((
+            Camera3d::default(),
+            projection.clone(),
+            *transform,
+            RenderTarget::Image(run.target.clone().into()),
+            Msaa::from_samples(args.msaa),
+            PeerCamera,
+        ));
+        if let Some(x) = run.exposure {
+            // Bevy multiplies radiance by 2^-ev100 / 1.2: pick ev100 so that this is x.
+            e.insert(Exposure { ev100: (1.0 / (1.2 * x)).log2() });
+        }
+        match args.tonemapping.as_str() {
+            "aces" => {
+                e.insert(Tonemapping::AcesFitted);
+            }
+            "none" => {
+                e.insert(Tonemapping::None);
+            }
+            _ => {}
+        }
+        if args.depth_prepass {
+            e.insert(DepthPrepass);
+        }
+        if let Some(a) = t["ambient"].as_array() {
+            let c: Vec<f32> = a.iter().filter_map(|v| v.as_f64()).map(|v| v as f32).collect();
+            if c.len() == 3 {
+                let m = c[0].max(c[1]).max(c[2]);
+                if m > 0.0 {
+                    // Bevy's ambient radiance is colour x brightness (cd/m^2).
+                    ambient.color = Color::linear_rgb(c[0] / m, c[1] / m, c[2] / m);
+                    ambient.brightness = m;
+                } else {
+                    ambient.brightness = 0.0;
+                }
+                run.ambient = Some([c[0], c[1], c[2]]);
+            }
+        }
+        run.camera_ready = true;
+    }
+}
+
+/// Bevy's glTF loader stored the (linear) light colour as sRGB: read the same numbers as
+/// linear.
+fn relinearise(c: &mut Color) {
+    let s = c.to_srgba();
+    *c = Color::linear_rgba(s.red, s.green, s.blue, s.alpha);
+}
+
+fn fix_point_lights(mut run: ResMut<Run>, mut lights: Query<&mut PointLight, Added<PointLight>>) {
+    for mut l in &mut lights {
+        relinearise(&mut l.color);
+        l.radius = 0.0;
+        run.points += 1;
+        run.colours_relinearised += 1;
+    }
+}
+
+fn fix_spot_lights(mut run: ResMut<Run>, mut lights: Query<&mut SpotLight, Added<SpotLight>>) {
+    for mut l in &mut lights {
+        relinearise(&mut l.color);
+        l.radius = 0.0;
+        run.spots += 1;
+        run.colours_relinearised += 1;
+    }
+}
+
+/// Every new batch of render diagnostics (one frame's spans) while measuring.
+fn collect_gpu_times(store: Res<DiagnosticsStore>, mut run: ResMut<Run>) {
+    let mut batch = Vec::new();
+    let mut newest = run.last_seen;
+    for d in store.iter() {
+        let path = d.path().as_str();
+        if !path.starts_with("render/") || !path.ends_with("/elapsed_gpu") {
+            continue;
+        }
+        let Some(m) = d.measurement() else { continue };
+        if run.last_seen.is_some_and(|t| m.time <= t) {
+            continue;
+        }
+        newest = Some(newest.map_or(m.time, |t| t.max(m.time)));
+        let name = path.trim_start_matches("render/").trim_end_matches("/elapsed_gpu").to_string();
+        batch.push((name, m.value));
+    }
+    run.last_seen = newest;
+    if run.collecting && !batch.is_empty() {
+        run.gpu_frames.push(batch);
+    }
+}
+
+fn drive(
+    args: Res<Args>,
+    mut run: ResMut<Run>,
+    receiver: Res<MainWorldReceiver>,
+    lights: Query<(), Or<(With<PointLight>, With<SpotLight>)>>,
+    adapter: Option<Res<RenderAdapterInfo>>,
+    clusters: Option<Res<GlobalClusterSettings>>,
+    mut exit: MessageWriter<AppExit>,
+) {
+    let now = Instant::now();
+    run.frame += 1;
+    let frame = run.frame;
+    if run.ready_at.is_none() && run.camera_ready && !lights.is_empty() {
+        run.ready_at = Some(frame);
+    }
+    let Some(ready) = run.ready_at else {
+        if frame > args.max_frames {
+            fail(&format!("{}: the scene did not load within {} frames", args.gltf.display(), args.max_frames));
+        }
+        return;
+    };
+    let since = frame - ready;
+    if since > args.warmup && since <= args.warmup + args.frames {
+        if let Some(last) = run.last_update {
+            run.cpu_ms.push((now - last).as_secs_f64() * 1e3);
+        }
+        run.collecting = true;
+    }
+    run.last_update = Some(now);
+    let measured = since > args.warmup + args.frames + READBACK_LAG || run.gpu_frames.len() >= args.frames as usize;
+    if since > args.warmup + args.frames && measured && !run.png_requested {
+        run.collecting = false;
+        run.copier_enabled.store(true, Ordering::Relaxed);
+        run.png_requested = true;
+        return;
+    }
+    if run.png_requested {
+        let mut data = Vec::new();
+        while let Ok(d) = receiver.try_recv() {
+            data = d;
+        }
+        if data.is_empty() {
+            if since > args.warmup + args.frames + READBACK_LAG + 60 {
+                fail("the last frame's image never came back from the GPU");
+            }
+            return;
+        }
+        let png = args.out.join(format!("{}.png", args.name));
+        save_png(&png, args.width, args.height, &unpad(&data, args.width, args.height));
+        let json = report(&args, &run, adapter.as_deref(), clusters.as_deref(), lights.iter().count());
+        let path = args.out.join(format!("{}.json", args.name));
+        std::fs::write(&path, serde_json::to_vec_pretty(&json).expect("JSON"))
+            .unwrap_or_else(|e| fail(&format!("writing {}: {e}", path.display())));
+        println!("{}", serde_json::to_string_pretty(&json).expect("JSON"));
+        println!("wrote {} and {}", path.display(), png.display());
+        exit.write(AppExit::Success);
+    }
+}
+
+fn median(v: &mut [f64]) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(|a, b| a.total_cmp(b));
+    let n = v.len();
+    Some(if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) })
+}
+
+fn report(
+    args: &Args,
+    run: &Run,
+    adapter: Option<&RenderAdapterInfo>,
+    clusters: Option<&GlobalClusterSettings>,
+    lights: usize,
+) -> Value {
+    let frames: Vec<&Vec<(String, f64)>> = run.gpu_frames.iter().take(args.frames as usize).collect();
+    let mut names: Vec<String> = Vec::new();
+    for f in &frames {
+        for (n, _) in f.iter() {
+            if !names.contains(n) {
+                names.push(n.clone());
+            }
+        }
+    }
+    let mut passes = serde_json::Map::new();
+    for n in &names {
+        let mut v: Vec<f64> = frames.iter().filter_map(|f| f.iter().find(|(m, _)| m == n).map(|p| p.1)).collect();
+        let samples = v.len();
+        passes.insert(n.clone(), json!({"median_ms": median(&mut v), "frames": samples}));
+    }
+    // A frame's GPU time: the sum of its top-level spans (nested spans are inside them).
+    let mut totals: Vec<f64> =
+        frames.iter().map(|f| f.iter().filter(|(n, _)| !n.contains('/')).map(|p| p.1).sum()).collect();
+    let mut cpu = run.cpu_ms.clone();
+    // tiledlight's "total GPU": the sum of the passes' medians (top-level spans here).
+    let sum_of_medians: f64 =
+        passes.iter().filter(|(n, _)| !n.contains('/')).filter_map(|(_, v)| v["median_ms"].as_f64()).sum();
+    json!({
+        "renderer": "bevy",
+        "bevy_version": "0.19.1",
+        "name": args.name,
+        "adapter": adapter.map(|a| format!("{} ({:?}, {:?}, driver {})", a.name, a.backend, a.device_type, a.driver_info)),
+        "gltf": args.gltf.display().to_string(),
+        "width": args.width,
+        "height": args.height,
+        "msaa": args.msaa,
+        "tonemapping": if args.tonemapping == "default" { "tony_mc_mapface" } else { args.tonemapping.as_str() },
+        "depth_prepass": args.depth_prepass,
+        "gpu_clustering": clusters.map(|c| c.gpu_clustering.is_some()),
+        "point_lights": run.points,
+        "spot_lights": run.spots,
+        "lights_in_world": lights,
+        "exposure": run.exposure,
+        "exposure_source": run.exposure_source,
+        "ambient": run.ambient,
+        "warmup_frames": args.warmup,
+        "frames": args.frames,
+        "gpu_frames_measured": frames.len(),
+        "gpu_frame_ms_median": median(&mut totals),
+        "gpu_sum_of_top_level_pass_medians_ms": sum_of_medians,
+        "cpu_frame_ms_median": median(&mut cpu),
+        "passes": passes,
+        "notes": [
+            "gpu_frame_ms_median: the sum of the frame's top-level timed spans (Bevy's RenderDiagnosticsPlugin); untimed work between passes is not in it",
+            "cpu_frame_ms_median: wall-clock time between app updates (pipelined rendering: main and render world overlap)",
+            "light colours re-read as linear (Bevy 0.19's glTF loader reads them as sRGB); spot source radius set to 0 (the loader sets it to the range)",
+            "exposure: Bevy's Exposure with ev100 = log2(1 / (1.2 * exposure)), so radiance x exposure as in tiledlight",
+        ],
+    })
+}
+
+fn save_png(path: &Path, w: u32, h: u32, rgba: &[u8]) {
+    let file = std::fs::File::create(path).unwrap_or_else(|e| fail(&format!("writing {}: {e}", path.display())));
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
+    enc.set_color(png::ColorType::Rgba);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut writer = enc.write_header().unwrap_or_else(|e| fail(&format!("writing {}: {e}", path.display())));
+    writer.write_image_data(rgba).unwrap_or_else(|e| fail(&format!("writing {}: {e}", path.display())));
+}
+
+// ---- The last frame back to the CPU (Bevy's headless_renderer example, one copy only) ----
+
+struct ImageCopyPlugin {
+    sender: Sender<Vec<u8>>,
+}
+
+impl Plugin for ImageCopyPlugin {
+    fn build(&self, app: &mut App) {
+        app.sub_app_mut(RenderApp)
+            .insert_resource(RenderWorldSender(self.sender.clone()))
+            .add_systems(ExtractSchedule, image_copy_extract)
+            .add_systems(Render, receive_image_from_buffer.after(RenderSystems::Render))
+            .add_systems(RenderGraph, image_copy_driver);
+    }
+}
+
+#[derive(Clone, Default, Resource, Deref, DerefMut)]
+struct ImageCopiers(Vec<ImageCopier>);
+
+#[derive(Clone, Component)]
+struct ImageCopier {
+    buffer: Buffer,
+    enabled: Arc<AtomicBool>,
+    src_image: Handle<Image>,
+}
+
+impl ImageCopier {
+    fn new(src_image: Handle<Image>, width: u32, height: u32, device: &RenderDevice) -> Self {
+        let padded = RenderDevice::align_copy_bytes_per_row(width as usize * 4);
+        let buffer = device.create_buffer(&BufferDescriptor {
+            label: Some("bevy-peer readback"),
+            size: padded as u64 * height as u64,
+            usage: BufferUsages::MAP_READ | BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        // Disabled until the measured frames are over: the copy and its wait would be timed.
+        Self { buffer, src_image, enabled: Arc::new(AtomicBool::new(false)) }
+    }
+
+    fn enabled(&self) -> bool {
+        self.enabled.load(Ordering::Relaxed)
+    }
+}
+
+fn image_copy_extract(mut commands: Commands, copiers: Extract<Query<&ImageCopier>>) {
+    commands.insert_resource(ImageCopiers(copiers.iter().cloned().collect()));
+}
+
+fn image_copy_driver(
+    ctx: RenderContext,
+    copiers: Res<ImageCopiers>,
+    queue: Res<RenderQueue>,
+    images: Res<RenderAssets<bevy::render::texture::GpuImage>>,
+) {
+    for c in copiers.iter().filter(|c| c.enabled()) {
+        let Some(src) = images.get(&c.src_image) else { continue };
+        let mut encoder =
+            ctx.render_device().create_command_encoder(&CommandEncoderDescriptor { label: Some("bevy-peer copy") });
+        let block = src.texture_descriptor.format.block_copy_size(None).expect("a colour format");
+        let padded =
+            RenderDevice::align_copy_bytes_per_row(src.texture_descriptor.size.width as usize * block as usize);
+        encoder.copy_texture_to_buffer(
+            src.texture.as_image_copy(),
+            TexelCopyBufferInfo {
+                buffer: &c.buffer,
+                layout: TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded as u32), rows_per_image: None },
+            },
+            src.texture_descriptor.size,
+        );
+        queue.submit(std::iter::once(encoder.finish()));
+    }
+}
+
+fn receive_image_from_buffer(copiers: Res<ImageCopiers>, device: Res<RenderDevice>, sender: Res<RenderWorldSender>) {
+    for c in copiers.0.iter().filter(|c| c.enabled()) {
+        let slice = c.buffer.slice(..);
+        let (s, r) = crossbeam_channel::bounded(1);
+        slice.map_async(MapMode::Read, move |res| {
+            let _ = s.send(res);
+        });
+        device.poll(PollType::wait_indefinitely()).expect("polling the device for the image read-back");
+        match r.recv() {
+            Ok(Ok(())) => {}
+            _ => fail("mapping the image read-back buffer failed"),
+        }
+        let data = slice.get_mapped_range().to_vec();
+        c.buffer.unmap();
+        let _ = sender.send(data);
+    }
+}
+
+/// Strips the row padding of a read-back (rows aligned to 256 bytes).
+fn unpad(data: &[u8], width: u32, height: u32) -> Vec<u8> {
+    let row = width as usize * TextureFormat::Rgba8UnormSrgb.pixel_size().unwrap_or(4);
+    let padded = RenderDevice::align_copy_bytes_per_row(row);
+    data.chunks(padded).take(height as usize).flat_map(|r| &r[..row]).copied().collect()
+}
