@@ -18,8 +18,9 @@
 #   3. tiledlight bench + render: Forward+ (default tiled gather; 2.5D light-centric)
 #      and Tiled Deferred (tiled and 2.5D, light-centric: its best layouts in
 #      docs/PERFORMANCE.md); JSON + PNG.
-# Everything goes into $OUT/peer-bench.tar.gz (only 8 files come back from the device),
-# with $OUT/summary.txt (one line per run) and $OUT/log.txt beside it.
+# Each count's JSON and images go into $OUT/peer-N.tar.gz (the device returns at most 8
+# files of 16 MiB each), with $OUT/summary.txt (one line per run), $OUT/log.txt and
+# $OUT/gpu.txt beside them.
 # BIN= / BEVY= pick other binaries; FRAMES (50), WARMUP (20), COUNTS, WIDTH, HEIGHT.
 # DRY_RUN=1 prints the commands without running them (for checking here).
 set -uo pipefail
@@ -82,6 +83,8 @@ for n in $COUNTS; do
     --out "$d" --name "bevy-$n"
   x "bevy-matched-$n" 240 "$bevy" --gltf "$gltf" --width "$W" --height "$H" --frames "$FRAMES" --warmup "$WARMUP" \
     --out "$d" --name "bevy-matched-$n" --msaa 1 --tonemapping aces
+  resized=$(grep -c "Resizing the view clustering" "$log")
+  [ "$resized" -gt 0 ] && echo "  warning: Bevy resized its cluster lists ($resized warnings so far in log.txt): frames may have missed lights" | tee -a "$summary"
   for b in "bevy-$n" "bevy-matched-$n"; do
     [ -f "$d/$b.json" ] && echo "  $b: $(grep -E '"(gpu_frame_ms_median|gpu_sum_of_top_level_pass_medians_ms|cpu_frame_ms_median)"' "$d/$b.json" | tr -d ' \n')" | tee -a "$summary"
   done
@@ -94,10 +97,16 @@ for n in $COUNTS; do
     x "$name-png" 120 "$tl" render $scene --exposure "$e" $flags --out "$d/$name.png"
     [ -f "$d/$name.json" ] && echo "  $name: $(grep -E '"total_gpu_median_ms"' "$d/$name.json" | tr -d ' \n')" | tee -a "$summary"
   done
+  # One archive per count: the device returns files of at most 16 MiB, and a count's
+  # seven 1080p PNGs take 10-15 MiB.
+  if [ "${DRY_RUN:-0}" != 1 ]; then
+    rm -f "$d/tl-auto-$n.png"
+    tar -czf "$out/peer-$n.tar.gz" -C "$out" $(cd "$out" && ls -d peer/*-"$n".* 2>/dev/null) && rm -f "$d"/*-"$n".*
+  fi
 done
 
 if [ "${DRY_RUN:-0}" != 1 ]; then
-  cp "$summary" "$log" "$d/" 2>/dev/null
-  tar -czf "$out/peer-bench.tar.gz" -C "$out" peer && rm -rf "$d"
+  cp "$d/gpu.txt" "$out/" 2>/dev/null
+  rm -rf "$d"
   ls -l "$out"
 fi
