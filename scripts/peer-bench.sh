@@ -14,7 +14,8 @@
 # exposure of that light set, read from a `render`):
 #   1. tiledlight export -> peer/court-N.gltf (kept on the device, not in the tar: big);
 #   2. Bevy renders that file: its defaults (4x MSAA, TonyMcMapface, no prepass) and
-#      "matched" (MSAA off, ACES fitted, like tiledlight's frame); JSON + PNG;
+#      "matched" (MSAA off, ACES fitted, like tiledlight's frame), and matched with a
+#      depth prepass (as tiledlight's Forward+); JSON + PNG;
 #   3. tiledlight bench + render: Forward+ (default tiled gather; 2.5D light-centric)
 #      and Tiled Deferred (tiled and 2.5D, light-centric: its best layouts in
 #      docs/PERFORMANCE.md); JSON + PNG.
@@ -83,9 +84,20 @@ for n in $COUNTS; do
     --out "$d" --name "bevy-$n"
   x "bevy-matched-$n" 240 "$bevy" --gltf "$gltf" --width "$W" --height "$H" --frames "$FRAMES" --warmup "$WARMUP" \
     --out "$d" --name "bevy-matched-$n" --msaa 1 --tonemapping aces
-  resized=$(grep -c "Resizing the view clustering" "$log")
-  [ "$resized" -gt 0 ] && echo "  warning: Bevy resized its cluster lists ($resized warnings so far in log.txt): frames may have missed lights" | tee -a "$summary"
-  for b in "bevy-$n" "bevy-matched-$n"; do
+  # And matched with a depth prepass, as tiledlight's Forward+ has: Bevy's default draws
+  # without one, so the courtyard's overdraw is shaded.
+  x "bevy-prepass-$n" 240 "$bevy" --gltf "$gltf" --width "$W" --height "$H" --frames "$FRAMES" --warmup "$WARMUP" \
+    --out "$d" --name "bevy-prepass-$n" --msaa 1 --tonemapping aces --depth-prepass
+  # A clustering resize between "measuring" and "measured" means measured frames missed
+  # lights (bevy-peer's README).
+  for b in "bevy-$n" "bevy-matched-$n" "bevy-prepass-$n"; do
+    [ "${DRY_RUN:-0}" = 1 ] && continue
+    awk -v run="== $b:" 'index($0, run) == 1 { on = 1; next } /^== / { on = 0 }
+      on && /bevy-peer: measuring from/ { m = 1 } on && /bevy-peer: measured/ { m = 0 }
+      on && m && /Resizing the view clustering/ { bad = 1 } END { exit !bad }' "$log" &&
+      echo "  warning: $b: Bevy resized its cluster lists inside the measured frames (some missed lights)" | tee -a "$summary"
+  done
+  for b in "bevy-$n" "bevy-matched-$n" "bevy-prepass-$n"; do
     [ -f "$d/$b.json" ] && echo "  $b: $(grep -E '"(gpu_frame_ms_median|gpu_sum_of_top_level_pass_medians_ms|cpu_frame_ms_median)"' "$d/$b.json" | tr -d ' \n')" | tee -a "$summary"
   done
   # tiledlight: Forward+ and Tiled Deferred, each in its default and best layouts.

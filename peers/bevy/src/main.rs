@@ -74,13 +74,14 @@ struct Args {
     name: String,
     /// Give up (exit 1) when the scene has not loaded and rendered after this many frames.
     max_frames: u32,
-    /// Initial capacities of Bevy's GPU clustering lists (Z slices, light indices). Bevy
-    /// starts them small (1,024 and 65,536) and grows them after an overflow it reads back,
-    /// with "a few incorrect frames" (lights missing) meanwhile: at 100,000 lights that
-    /// happened 15 s into a run, inside the measured frames. Sized up front, every
-    /// measured frame is complete; capacity is memory, not a rendering setting.
-    z_slice_capacity: u32,
-    index_capacity: u32,
+    /// Initial capacities of Bevy's GPU clustering lists (Z slices, light indices); Bevy's
+    /// own (1,024 and 65,536) when not given. Bevy grows a list after reading an overflow
+    /// back, with "a few incorrect frames" (lights missing) meanwhile, so a run logs when
+    /// its measured frames start and end and `scripts/peer-bench.sh` checks that no resize
+    /// fell between them. Not sized generously by default: Bevy uploads a zeroed index
+    /// list of its full capacity from the CPU every frame (16M entries cost 117 ms a frame).
+    z_slice_capacity: Option<u32>,
+    index_capacity: Option<u32>,
 }
 
 fn usage() -> ! {
@@ -111,8 +112,8 @@ fn parse_args() -> Args {
         depth_prepass: false,
         name: "bevy".into(),
         max_frames: 2000,
-        z_slice_capacity: 1 << 18,
-        index_capacity: 1 << 24,
+        z_slice_capacity: None,
+        index_capacity: None,
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
@@ -143,8 +144,8 @@ fn parse_args() -> Args {
             "--tonemapping" => a.tonemapping = v,
             "--name" => a.name = v,
             "--max-frames" => a.max_frames = num(&v),
-            "--z-slice-capacity" => a.z_slice_capacity = num(&v),
-            "--index-capacity" => a.index_capacity = num(&v),
+            "--z-slice-capacity" => a.z_slice_capacity = Some(num(&v)),
+            "--index-capacity" => a.index_capacity = Some(num(&v)),
             _ => usage(),
         }
     }
@@ -248,8 +249,12 @@ fn setup(
     clusters: Option<ResMut<GlobalClusterSettings>>,
 ) {
     if let Some(gpu) = clusters.and_then(|c| c.into_inner().gpu_clustering.as_mut()) {
-        gpu.initial_z_slice_list_capacity = gpu.initial_z_slice_list_capacity.max(args.z_slice_capacity as usize);
-        gpu.initial_index_list_capacity = gpu.initial_index_list_capacity.max(args.index_capacity as usize);
+        if let Some(z) = args.z_slice_capacity {
+            gpu.initial_z_slice_list_capacity = z as usize;
+        }
+        if let Some(i) = args.index_capacity {
+            gpu.initial_index_list_capacity = i as usize;
+        }
     }
     let mut target = Image::new_target_texture(args.width, args.height, TextureFormat::Rgba8UnormSrgb, None);
     target.texture_descriptor.usage |= TextureUsages::COPY_SRC;
@@ -410,6 +415,10 @@ fn drive(
         if let Some(last) = run.last_update {
             run.cpu_ms.push((now - last).as_secs_f64() * 1e3);
         }
+        if !run.collecting {
+            // scripts/peer-bench.sh checks that no clustering resize is logged between these.
+            info!("bevy-peer: measuring from frame {frame}");
+        }
         run.collecting = true;
     }
     run.last_update = Some(now);
@@ -419,6 +428,7 @@ fn drive(
     let measured = run.gpu_frames.len() >= args.frames as usize || since > args.warmup + 20 * args.frames + READBACK_LAG;
     if since > args.warmup + args.frames && measured && !run.png_requested {
         run.collecting = false;
+        info!("bevy-peer: measured {} frames' GPU times by frame {frame}", run.gpu_frames.len());
         run.copier_enabled.store(true, Ordering::Relaxed);
         run.png_requested = true;
         return;
@@ -516,7 +526,7 @@ fn report(
         "notes": [
             "gpu_frame_ms_median: the sum of the frame's top-level timed spans (Bevy's RenderDiagnosticsPlugin); untimed work between passes is not in it",
             "cpu_frame_ms_median: wall-clock time between app updates; the render world waits for the GPU after each frame, so it includes the GPU time",
-            "Bevy's GPU clustering lists sized up front (gpu_clustering_initial_capacities): no resize, so no frame with missing lights, inside the measured frames",
+            "the log says when measuring starts and ends ('bevy-peer: measuring from frame', 'bevy-peer: measured'); a clustering resize warning between them means measured frames missed lights",
             "light colours re-read as linear (Bevy 0.19's glTF loader reads them as sRGB); spot source radius set to 0 (the loader sets it to the range)",
             "exposure: Bevy's Exposure with ev100 = log2(1 / (1.2 * exposure)), so radiance x exposure as in tiledlight",
         ],
