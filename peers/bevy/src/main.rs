@@ -422,10 +422,11 @@ fn drive(
         run.collecting = true;
     }
     run.last_update = Some(now);
-    // Bevy's diagnostics read a frame's timestamps back only when a readback buffer is
-    // free (about one frame in four here): measure until `frames` frames have times, or
-    // give up waiting after 20 times as many and report how many came.
-    let measured = run.gpu_frames.len() >= args.frames as usize || since > args.warmup + 20 * args.frames + READBACK_LAG;
+    // Measure until `frames` frames have GPU times (with `wait_for_gpu` every frame's
+    // arrive, a frame or two late), or give up after 20 times as many frames and report
+    // how many came.
+    let measured =
+        run.gpu_frames.len() >= args.frames as usize || since > args.warmup + 20 * args.frames + READBACK_LAG;
     if since > args.warmup + args.frames && measured && !run.png_requested {
         run.collecting = false;
         info!("bevy-peer: measured {} frames' GPU times by frame {frame}", run.gpu_frames.len());
