@@ -14,8 +14,9 @@
 # exposure of that light set, read from a `render`):
 #   1. tiledlight export -> peer/court-N.gltf (kept on the device, not in the tar: big);
 #   2. Bevy renders that file: its defaults (4x MSAA, TonyMcMapface, no prepass) and
-#      "matched" (MSAA off, ACES fitted, like tiledlight's frame), and matched with a
-#      depth prepass (as tiledlight's Forward+); JSON + PNG;
+#      "matched" (MSAA off, ACES fitted, like tiledlight's frame), matched with a depth
+#      prepass (as tiledlight's Forward+), and that with BEVY_CLUSTERS (65,536) clusters
+#      instead of Bevy's 4,096; JSON + PNG;
 #   3. tiledlight bench + render: Forward+ (default tiled gather; 2.5D light-centric)
 #      and Tiled Deferred (tiled and 2.5D, light-centric: its best layouts in
 #      docs/PERFORMANCE.md); JSON + PNG.
@@ -88,16 +89,20 @@ for n in $COUNTS; do
   # without one, so the courtyard's overdraw is shaded.
   x "bevy-prepass-$n" 240 "$bevy" --gltf "$gltf" --width "$W" --height "$H" --frames "$FRAMES" --warmup "$WARMUP" \
     --out "$d" --name "bevy-prepass-$n" --msaa 1 --tonemapping aces --depth-prepass
+  # And that with 16x Bevy's default cluster count (65,536: ~28 px clusters at 1080p
+  # instead of ~113 px), Bevy's one knob for many small lights.
+  x "bevy-clusters-$n" 240 "$bevy" --gltf "$gltf" --width "$W" --height "$H" --frames "$FRAMES" --warmup "$WARMUP" \
+    --out "$d" --name "bevy-clusters-$n" --msaa 1 --tonemapping aces --depth-prepass --clusters "${BEVY_CLUSTERS:-65536}"
   # A clustering resize between "measuring" and "measured" means measured frames missed
   # lights (bevy-peer's README).
-  for b in "bevy-$n" "bevy-matched-$n" "bevy-prepass-$n"; do
+  for b in "bevy-$n" "bevy-matched-$n" "bevy-prepass-$n" "bevy-clusters-$n"; do
     [ "${DRY_RUN:-0}" = 1 ] && continue
     awk -v run="== $b:" 'index($0, run) == 1 { on = 1; next } /^== / { on = 0 }
       on && /bevy-peer: measuring from/ { m = 1 } on && /bevy-peer: measured/ { m = 0 }
       on && m && /Resizing the view clustering/ { bad = 1 } END { exit !bad }' "$log" &&
       echo "  warning: $b: Bevy resized its cluster lists inside the measured frames (some missed lights)" | tee -a "$summary"
   done
-  for b in "bevy-$n" "bevy-matched-$n" "bevy-prepass-$n"; do
+  for b in "bevy-$n" "bevy-matched-$n" "bevy-prepass-$n" "bevy-clusters-$n"; do
     [ -f "$d/$b.json" ] && echo "  $b: $(grep -E '"(gpu_frame_ms_median|gpu_sum_of_top_level_pass_medians_ms|cpu_frame_ms_median)"' "$d/$b.json" | tr -d ' \n')" | tee -a "$summary"
   done
   # tiledlight: Forward+ and Tiled Deferred, each in its default and best layouts.

@@ -40,7 +40,7 @@ use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::diagnostic::DiagnosticsStore;
 use bevy::gltf::GltfExtras;
 use bevy::image::TextureFormatPixelInfo;
-use bevy::light::cluster::GlobalClusterSettings;
+use bevy::light::cluster::{ClusterConfig, Clusters, GlobalClusterSettings};
 use bevy::prelude::*;
 use bevy::render::diagnostic::RenderDiagnosticsPlugin;
 use bevy::render::render_asset::RenderAssets;
@@ -82,13 +82,16 @@ struct Args {
     /// list of its full capacity from the CPU every frame (16M entries cost 117 ms a frame).
     z_slice_capacity: Option<u32>,
     index_capacity: Option<u32>,
+    /// Bevy's `ClusterConfig::FixedZ` total (24 Z slices, square clusters); Bevy's 4,096
+    /// when not given. More clusters are smaller ones: shorter lists for small lights.
+    clusters: Option<u32>,
 }
 
 fn usage() -> ! {
     eprintln!(
         "usage: bevy-peer --gltf FILE --width W --height H --frames N --warmup M --out DIR \
          [--exposure E] [--msaa 1|2|4|8] [--tonemapping default|aces|none] [--depth-prepass] \
-         [--name NAME] [--max-frames F] [--z-slice-capacity N] [--index-capacity N]"
+         [--name NAME] [--max-frames F] [--z-slice-capacity N] [--index-capacity N] [--clusters TOTAL]"
     );
     std::process::exit(2)
 }
@@ -114,6 +117,7 @@ fn parse_args() -> Args {
         max_frames: 2000,
         z_slice_capacity: None,
         index_capacity: None,
+        clusters: None,
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
@@ -146,6 +150,7 @@ fn parse_args() -> Args {
             "--max-frames" => a.max_frames = num(&v),
             "--z-slice-capacity" => a.z_slice_capacity = Some(num(&v)),
             "--index-capacity" => a.index_capacity = Some(num(&v)),
+            "--clusters" => a.clusters = Some(num(&v)),
             _ => usage(),
         }
     }
@@ -231,6 +236,8 @@ struct Run {
     cpu_ms: Vec<f64>,
     last_update: Option<Instant>,
     png_requested: bool,
+    /// The camera's cluster grid as Bevy last sized it: (tile size px, dimensions).
+    clusters: Option<([u32; 2], [u32; 3])>,
 }
 
 #[derive(Resource, Deref)]
@@ -323,6 +330,12 @@ fn adopt_camera(
         if args.depth_prepass {
             e.insert(DepthPrepass);
         }
+        if let Some(total) = args.clusters {
+            let ClusterConfig::FixedZ { z_slices, z_config, dynamic_resizing, .. } = ClusterConfig::default() else {
+                unreachable!("Bevy's default cluster configuration is FixedZ")
+            };
+            e.insert(ClusterConfig::FixedZ { total, z_slices, z_config, dynamic_resizing });
+        }
         if let Some(a) = t["ambient"].as_array() {
             let c: Vec<f32> = a.iter().filter_map(|v| v.as_f64()).map(|v| v as f32).collect();
             if c.len() == 3 {
@@ -396,8 +409,12 @@ fn drive(
     lights: Query<(), Or<(With<PointLight>, With<SpotLight>)>>,
     adapter: Option<Res<RenderAdapterInfo>>,
     clusters: Option<Res<GlobalClusterSettings>>,
+    grids: Query<&Clusters, With<PeerCamera>>,
     mut exit: MessageWriter<AppExit>,
 ) {
+    if let Some(c) = grids.iter().next() {
+        run.clusters = Some((c.tile_size.to_array(), c.dimensions.to_array()));
+    }
     let now = Instant::now();
     run.frame += 1;
     let frame = run.frame;
@@ -507,6 +524,9 @@ fn report(
         "tonemapping": if args.tonemapping == "default" { "tony_mc_mapface" } else { args.tonemapping.as_str() },
         "depth_prepass": args.depth_prepass,
         "gpu_clustering": clusters.map(|c| c.gpu_clustering.is_some()),
+        "cluster_config_total": args.clusters.unwrap_or(4096),
+        "cluster_tile_px": run.clusters.map(|c| c.0),
+        "cluster_dimensions": run.clusters.map(|c| c.1),
         "gpu_clustering_initial_capacities": clusters.and_then(|c| c.gpu_clustering).map(|g| json!({
             "z_slice_list": g.initial_z_slice_list_capacity,
             "index_list": g.initial_index_list_capacity,
