@@ -16,7 +16,7 @@
 #   2. Bevy renders that file: its defaults (4x MSAA, TonyMcMapface, no prepass) and
 #      "matched" (MSAA off, ACES fitted, like tiledlight's frame), matched with a depth
 #      prepass (as tiledlight's Forward+), and that with BEVY_CLUSTERS (65,536) clusters
-#      instead of Bevy's 4,096; JSON + PNG;
+#      instead of Bevy's 4,096, not resized; JSON + PNG;
 #   3. tiledlight bench + render: Forward+ (default tiled gather; 2.5D light-centric)
 #      and Tiled Deferred (tiled and 2.5D, light-centric: its best layouts in
 #      docs/PERFORMANCE.md); JSON + PNG.
@@ -90,9 +90,10 @@ for n in $COUNTS; do
   x "bevy-prepass-$n" 240 "$bevy" --gltf "$gltf" --width "$W" --height "$H" --frames "$FRAMES" --warmup "$WARMUP" \
     --out "$d" --name "bevy-prepass-$n" --msaa 1 --tonemapping aces --depth-prepass
   # And that with 16x Bevy's default cluster count (65,536: ~28 px clusters at 1080p
-  # instead of ~113 px), Bevy's one knob for many small lights.
+  # instead of ~113 px) and the grid's dynamic resizing off (which otherwise coarsens the
+  # grid past 16,384 cluster-light pairs): Bevy's knobs for many small lights.
   x "bevy-clusters-$n" 240 "$bevy" --gltf "$gltf" --width "$W" --height "$H" --frames "$FRAMES" --warmup "$WARMUP" \
-    --out "$d" --name "bevy-clusters-$n" --msaa 1 --tonemapping aces --depth-prepass --clusters "${BEVY_CLUSTERS:-65536}"
+    --out "$d" --name "bevy-clusters-$n" --msaa 1 --tonemapping aces --depth-prepass --clusters "${BEVY_CLUSTERS:-65536}" --fixed-clusters
   # A clustering resize between "measuring" and "measured" means measured frames missed
   # lights (bevy-peer's README).
   for b in "bevy-$n" "bevy-matched-$n" "bevy-prepass-$n" "bevy-clusters-$n"; do

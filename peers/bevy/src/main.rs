@@ -85,13 +85,19 @@ struct Args {
     /// Bevy's `ClusterConfig::FixedZ` total (24 Z slices, square clusters); Bevy's 4,096
     /// when not given. More clusters are smaller ones: shorter lists for small lights.
     clusters: Option<u32>,
+    /// Turn off Bevy's dynamic resizing of the cluster grid. With it on (Bevy's default),
+    /// Bevy shrinks the grid in X and Y whenever last frame's (cluster, light) index count
+    /// passed `view_cluster_bindings_max_indices` (16,384, a uniform-buffer-era limit that
+    /// also holds with GPU clustering): at 100,000 lights a request for 65,536 clusters
+    /// became 12x7x24 (160 px clusters).
+    fixed_clusters: bool,
 }
 
 fn usage() -> ! {
     eprintln!(
         "usage: bevy-peer --gltf FILE --width W --height H --frames N --warmup M --out DIR \
          [--exposure E] [--msaa 1|2|4|8] [--tonemapping default|aces|none] [--depth-prepass] \
-         [--name NAME] [--max-frames F] [--z-slice-capacity N] [--index-capacity N] [--clusters TOTAL]"
+         [--name NAME] [--max-frames F] [--z-slice-capacity N] [--index-capacity N] [--clusters TOTAL] [--fixed-clusters]"
     );
     std::process::exit(2)
 }
@@ -118,11 +124,16 @@ fn parse_args() -> Args {
         z_slice_capacity: None,
         index_capacity: None,
         clusters: None,
+        fixed_clusters: false,
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
         if flag == "--depth-prepass" {
             a.depth_prepass = true;
+            continue;
+        }
+        if flag == "--fixed-clusters" {
+            a.fixed_clusters = true;
             continue;
         }
         if flag == "--help" || flag == "-h" {
@@ -330,11 +341,16 @@ fn adopt_camera(
         if args.depth_prepass {
             e.insert(DepthPrepass);
         }
-        if let Some(total) = args.clusters {
-            let ClusterConfig::FixedZ { z_slices, z_config, dynamic_resizing, .. } = ClusterConfig::default() else {
+        if args.clusters.is_some() || args.fixed_clusters {
+            let ClusterConfig::FixedZ { total, z_slices, z_config, dynamic_resizing } = ClusterConfig::default() else {
                 unreachable!("Bevy's default cluster configuration is FixedZ")
             };
-            e.insert(ClusterConfig::FixedZ { total, z_slices, z_config, dynamic_resizing });
+            e.insert(ClusterConfig::FixedZ {
+                total: args.clusters.unwrap_or(total),
+                z_slices,
+                z_config,
+                dynamic_resizing: dynamic_resizing && !args.fixed_clusters,
+            });
         }
         if let Some(a) = t["ambient"].as_array() {
             let c: Vec<f32> = a.iter().filter_map(|v| v.as_f64()).map(|v| v as f32).collect();
@@ -525,6 +541,7 @@ fn report(
         "depth_prepass": args.depth_prepass,
         "gpu_clustering": clusters.map(|c| c.gpu_clustering.is_some()),
         "cluster_config_total": args.clusters.unwrap_or(4096),
+        "cluster_dynamic_resizing": !args.fixed_clusters,
         "cluster_tile_px": run.clusters.map(|c| c.0),
         "cluster_dimensions": run.clusters.map(|c| c.1),
         "gpu_clustering_initial_capacities": clusters.and_then(|c| c.gpu_clustering).map(|g| json!({
