@@ -23,6 +23,7 @@
 # Each count's JSON and images go into $OUT/peer-N.tar.gz (the device returns at most 8
 # files of 16 MiB each), with $OUT/summary.txt (one line per run), $OUT/log.txt and
 # $OUT/gpu.txt beside them.
+# The report: for f in OUT/peer-*.tar.gz; do tar -xzf "$f" -C OUT; done; tiledlight peer-report OUT/peer
 # BIN= / BEVY= pick other binaries; FRAMES (50), WARMUP (20), COUNTS, WIDTH, HEIGHT.
 # DRY_RUN=1 prints the commands without running them (for checking here).
 set -uo pipefail

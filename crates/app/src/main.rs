@@ -13,6 +13,8 @@
 //!   JSON + Pareto chart ([`shadow_accuracy`]);
 //! - `tiledlight export ...`: the scene, lights and camera as one glTF file for another
 //!   engine ([`export`]; the peer benchmark, `peers/bevy/`);
+//! - `tiledlight peer-report DIR`: the peer benchmark's table, chart and FLIP comparison
+//!   ([`peer_report`]; `scripts/peer-bench.sh`);
 //! - `tiledlight view ...`: the interactive viewer ([`viewer`]);
 //! - `tiledlight` alone: the viewer when a display is available, else the default scene at
 //!   1080p headless, image + heat map + short benchmark ([`quickstart`]).
@@ -34,6 +36,7 @@ mod dropped;
 mod export;
 mod lab;
 mod legend;
+mod peer_report;
 mod quickstart;
 mod render;
 mod scene_setup;
@@ -89,6 +92,9 @@ enum Command {
     /// the same flags draws as one glTF file (.gltf + .bin, or .glb) for another engine.
     #[command(allow_negative_numbers = true)]
     Export(export::ExportArgs),
+    /// Report a peer benchmark (scripts/peer-bench.sh: tiledlight and Bevy on one exported
+    /// scene): frame-time table and chart, ratios, per-pass times, FLIP between the frames.
+    PeerReport(peer_report::PeerReportArgs),
     /// Open the interactive viewer: a window with the controls, camera and pass timings.
     #[command(allow_negative_numbers = true)]
     View(viewer::ViewArgs),
@@ -156,6 +162,7 @@ fn main() -> ExitCode {
         Some(Command::Accuracy(args)) => accuracy::run(args),
         Some(Command::ShadowAccuracy(args)) => shadow_accuracy::run(args),
         Some(Command::Export(args)) => export::run(args),
+        Some(Command::PeerReport(args)) => peer_report::run(args),
         Some(Command::View(args)) => viewer::run(args),
         None => viewer::run_default(),
     };

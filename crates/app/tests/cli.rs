@@ -669,3 +669,129 @@ fn export_bad_input_gives_one_clear_error_line() {
     assert!(line.contains("--exposure"), "{line}");
     assert!(!dir.join("a.gltf").exists(), "nothing written on bad input");
 }
+
+/// A peer benchmark result folder as `scripts/peer-bench.sh` leaves it, small: two light
+/// counts, every run's JSON with the keys the report reads, and 32x18 frames.
+fn write_peer_results(dir: &Path, broken_bevy_prepass: bool) {
+    let bevy = |ms: f64, measured: u32| {
+        serde_json::json!({
+            "adapter": "Test GPU", "bevy_version": "0.19.1", "frames": 50, "gpu_frames_measured": measured,
+            "gpu_frame_ms_median": ms,
+            "passes": {"clustering": {"median_ms": 0.5, "frames": measured}, "main_opaque_pass_3d": {"median_ms": ms - 0.5, "frames": measured}},
+        })
+    };
+    let tl = |ms: f64, dropped: u32| {
+        serde_json::json!({
+            "config": {"adapter": "Test GPU", "resolution": "32x18", "commit": "abc123"},
+            "total_gpu_median_ms": ms, "dropped_frames": dropped,
+            "passes": [{"pass": "forward.shade", "median_ms": ms}],
+        })
+    };
+    // (file prefix, ms at 1,000, ms at 10,000)
+    let runs = [
+        ("bevy", 40.0, 200.0),
+        ("bevy-matched", 30.0, 150.0),
+        ("bevy-prepass", 25.0, 130.0),
+        ("bevy-clusters", 18.0, 50.0),
+        ("tl-fp", 9.0, 20.0),
+        ("tl-fp-2.5d", 9.5, 16.0),
+        ("tl-td", 2.0, 2.5),
+        ("tl-td-2.5d", 2.2, 2.4),
+    ];
+    // Frames: a gradient; Bevy's is the same gradient darker (another tone curve), and
+    // at 10,000 lights tiledlight's deferred frame has a bright square Bevy's lacks.
+    let frame = |gain: f32, square: bool| {
+        image::RgbImage::from_fn(32, 18, |x, y| {
+            let v = ((x * 8 + y * 4) as f32 * gain) as u8;
+            if square && (8..16).contains(&x) && (4..12).contains(&y) {
+                image::Rgb([255, 255, 255])
+            } else {
+                image::Rgb([v, v / 2, 255 - v])
+            }
+        })
+    };
+    for (n, col) in [(1000, 1), (10000, 2)] {
+        for (i, (prefix, a, b)) in runs.iter().enumerate() {
+            let ms = if col == 1 { *a } else { *b };
+            let json = if prefix.starts_with("bevy") {
+                // Bevy's clusters run at 10,000 measured 40 of 50 frames: starred.
+                bevy(ms, if *prefix == "bevy-clusters" && n == 10000 { 40 } else { 50 })
+            } else {
+                // tiledlight's Forward+ at 10,000 dropped lights in 3 frames: starred.
+                tl(ms, if *prefix == "tl-fp" && n == 10000 { 3 } else { 0 })
+            };
+            let text = if broken_bevy_prepass && *prefix == "bevy-prepass" && n == 10000 {
+                "{ not json".to_string()
+            } else {
+                json.to_string()
+            };
+            std::fs::write(dir.join(format!("{prefix}-{n}.json")), text).unwrap();
+            let img = if prefix.starts_with("bevy") { frame(0.7, false) } else { frame(1.0, n == 10000 && i == 6) };
+            img.save(dir.join(format!("{prefix}-{n}.png"))).unwrap();
+        }
+    }
+}
+
+#[test]
+fn peer_report_tabulates_ratios_charts_and_compares_frames() {
+    let dir = scratch("peer-report");
+    write_peer_results(&dir, false);
+    let out_dir = dir.join("report");
+    let out = tiledlight(&["peer-report", dir.to_str().unwrap(), "--out", out_dir.to_str().unwrap()]);
+    assert!(out.status.success(), "{}{}", stdout(&out), String::from_utf8_lossy(&out.stderr));
+    let md = std::fs::read_to_string(out_dir.join("peer-report.md")).expect("the report");
+    assert_eq!(stdout(&out).lines().next(), md.lines().next(), "the report is also printed");
+    // Rows: Bevy's best over tiledlight's best Forward+ and best Tiled Deferred.
+    // 1,000: 18 / 9 = 2.00x, 18 / 2 = 9.00x; 10,000: 50 / 16 = 3.12x (3.125), 50 / 2.4 = 20.83x.
+    let row = |n: &str| {
+        md.lines().find(|l| l.starts_with(&format!("| {n} |"))).unwrap_or_else(|| panic!("no row {n}:\n{md}"))
+    };
+    assert!(row("1000").ends_with("| 2.00x | 9.00x |"), "{}", row("1000"));
+    assert!(row("10000").ends_with("| 3.12x | 20.83x |"), "{}", row("10000"));
+    // The starred runs and their footnotes.
+    assert!(row("10000").contains("50.00*"), "{}", row("10000"));
+    assert!(row("10000").contains("20.00*"), "{}", row("10000"));
+    assert!(md.contains("GPU times of 40 of 50 frames"), "{md}");
+    assert!(md.contains("3 frames dropped lights"), "{md}");
+    for needle in ["adapter: Test GPU", "tiledlight commit: abc123", "Bevy: 0.19.1", "main_opaque_pass_3d 39.50"] {
+        assert!(md.contains(needle), "no {needle:?} in:\n{md}");
+    }
+    // The chart.
+    let chart = out_dir.join("peer-frame-time.png");
+    assert_eq!(image::image_dimensions(&chart).expect("a chart PNG"), (1280, 800));
+    // FLIP: Bevy against itself is 0; Bevy against tiledlight is not (its frame is darker),
+    // and less so once the tone curves are matched; at 10,000 the square only
+    // tiledlight's deferred frame has stays after matching.
+    let flip = |n: &str, what: &str| -> (f64, f64) {
+        let l = md
+            .lines()
+            .find(|l| l.starts_with(&format!("| {n} | {what} |")))
+            .unwrap_or_else(|| panic!("no FLIP row {n} {what}:\n{md}"));
+        let cells: Vec<&str> = l.split('|').map(str::trim).collect();
+        (cells[3].parse().unwrap(), cells[5].parse().unwrap())
+    };
+    assert_eq!(flip("1000", "Bevy matched vs Bevy + prepass (same renderer)"), (0.0, 0.0));
+    let (raw, matched) = flip("1000", "Bevy (+ prepass) vs tiledlight Forward+");
+    assert!(raw > 0.02 && matched < raw, "raw {raw}, tone-matched {matched}");
+    let (_, square) = flip("10000", "Bevy (+ prepass) vs tiledlight Tiled Deferred");
+    assert!(square > matched + 0.01, "the square's error {square} vs {matched}");
+    let heat = out_dir.join("flip-bevy-prepass-vs-tl-fp-1000.png");
+    assert_eq!(image::image_dimensions(&heat).expect("a heat map"), (16, 9), "heat maps at half size");
+}
+
+#[test]
+fn peer_report_bad_input_gives_one_clear_error_line() {
+    let dir = scratch("peer-report-bad");
+    let line = fails(&["peer-report", dir.join("missing").to_str().unwrap()]);
+    assert!(line.contains("missing") && line.contains("no such folder"), "{line}");
+    let line = fails(&["peer-report", dir.to_str().unwrap()]);
+    assert!(line.contains("no peer benchmark results"), "{line}");
+    write_peer_results(&dir, true);
+    let line = fails(&["peer-report", dir.to_str().unwrap()]);
+    assert!(line.contains("bevy-prepass-10000.json") && line.contains("not JSON"), "{line}");
+    // Frames of two sizes.
+    write_peer_results(&dir, false);
+    image::RgbImage::new(8, 8).save(dir.join("tl-fp-1000.png")).unwrap();
+    let line = fails(&["peer-report", dir.to_str().unwrap()]);
+    assert!(line.contains("tl-fp-1000.png") && line.contains("one size"), "{line}");
+}
