@@ -343,7 +343,11 @@ fn chart(res: &Results, path: &Path, adapter: &str) -> Result<()> {
         }
     }
     let c = LineChart {
-        title: format!("tiledlight and Bevy, one scene: GPU frame time ({adapter})"),
+        // The adapter's name without the backend and driver, which the report lists.
+        title: format!(
+            "tiledlight and Bevy, one scene: GPU frame time, {}",
+            adapter.split(" (").next().unwrap_or(adapter)
+        ),
         subtitle: "courtyard, uniform random point lights, one exported glTF; median of the measured frames".into(),
         x: AxisSpec {
             label: "point lights".into(),
