@@ -135,3 +135,21 @@ pub fn documented_heat_colour(count: u32, capacity: u32, dropped: bool) -> Optio
     let (a, b) = (glam::Vec3::from(ANCHORS[k]), glam::Vec3::from(ANCHORS[k + 1]));
     Some((a + (b - a) * f, 0.6))
 }
+
+/// What each channel of a heat-map pixel should be, in 8-bit sRGB steps, with the
+/// tolerance in the same steps: `plain` (the frame's RGBA8 sRGB pixel without the heat
+/// map) where the tile is untouched (`expected` None: within 1, rounding), else the
+/// documented colour ([`documented_heat_colour`]) blended over it in linear space (within
+/// 2: the GPU blends and rounds the encoded value once more).
+pub fn expected_heat_pixel(expected: Option<(glam::Vec3, f32)>, plain: &[u8]) -> ([f32; 3], f32) {
+    match expected {
+        None => (std::array::from_fn(|c| plain[c] as f32), 1.0),
+        Some((colour, alpha)) => (
+            std::array::from_fn(|c| {
+                let under = srgb_to_linear(plain[c] as f32 / 255.0);
+                linear_to_srgb(colour[c] * alpha + under * (1.0 - alpha)) * 255.0
+            }),
+            2.0,
+        ),
+    }
+}
