@@ -153,3 +153,27 @@ pub fn expected_heat_pixel(expected: Option<(glam::Vec3, f32)>, plain: &[u8]) ->
         ),
     }
 }
+
+/// Asserts that every pixel of one tile (`x0, x1, y0, y1`, half-open) of the heat map
+/// `heat` is [`expected_heat_pixel`] of the same pixel of `plain` (both RGBA8 sRGB, `width`
+/// pixels a row); `what` names the tile and its count in the failure.
+pub fn assert_heat_tile(
+    heat: &[u8],
+    plain: &[u8],
+    width: u32,
+    (x0, x1, y0, y1): (u32, u32, u32, u32),
+    expected: Option<(glam::Vec3, f32)>,
+    what: &str,
+) {
+    for (x, y) in (y0..y1).flat_map(|y| (x0..x1).map(move |x| (x, y))) {
+        let i = ((y * width + x) * 4) as usize;
+        let (wants, tolerance) = expected_heat_pixel(expected, &plain[i..i + 3]);
+        for (ch, want) in wants.into_iter().enumerate() {
+            let got = heat[i + ch] as f32;
+            assert!(
+                (got - want).abs() <= tolerance,
+                "{what}, pixel ({x}, {y}) channel {ch}: {got}, expected {want:.1} (within {tolerance})"
+            );
+        }
+    }
+}

@@ -352,7 +352,7 @@ fn ldr_of(r: &mut dyn Renderer, sg: &SceneGpu, cam: &Camera) -> Vec<u8> {
 #[test]
 fn blended_heat_map_colours_exactly_the_tiles_with_blended_lights() {
     use tiledlight_gpu::tonemap::HeatmapOf;
-    use tiledlight_tests::images::{documented_heat_colour, expected_heat_pixel};
+    use tiledlight_tests::images::{assert_heat_tile, documented_heat_colour};
     let ctx = gpu();
     let scene = three_panes(true);
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
@@ -399,19 +399,8 @@ fn blended_heat_map_colours_exactly_the_tiles_with_blended_lights() {
                 let t = (ty * g.tiles_x + tx) as usize;
                 let count = blended.counts[t];
                 let expected = documented_heat_colour(count, capacity, blended.lists[t].len() < count as usize);
-                let (x0, x1, y0, y1) = g.tile_pixels(tx, ty);
-                for (x, y) in (y0..y1).flat_map(|y| (x0..x1).map(move |x| (x, y))) {
-                    let i = ((y * W + x) * 4) as usize;
-                    let (wants, tolerance) = expected_heat_pixel(expected, &plain[i..i + 3]);
-                    for (ch, want) in wants.into_iter().enumerate() {
-                        let got = heat[i + ch] as f32;
-                        assert!(
-                            (got - want).abs() <= tolerance,
-                            "{name}: tile ({tx}, {ty}) with {count} blended lights, pixel ({x}, {y}) channel {ch}: \
-                             {got}, expected {want:.1}"
-                        );
-                    }
-                }
+                let what = format!("{name}: tile ({tx}, {ty}) with {count} blended lights");
+                assert_heat_tile(&heat, &plain, W, g.tile_pixels(tx, ty), expected, &what);
                 if expected.is_some() {
                     coloured += 1;
                 } else {

@@ -784,7 +784,7 @@ fn vpl_heat_map_shows_the_cpu_cullers_vpl_counts_in_both_methods() {
     use tiledlight_cull::light::{pack_lights, LightKind};
     use tiledlight_gpu::diagnostics::Diagnostics;
     use tiledlight_gpu::tonemap::HeatmapOf;
-    use tiledlight_tests::images::{documented_heat_colour, expected_heat_pixel};
+    use tiledlight_tests::images::{assert_heat_tile, documented_heat_colour};
     use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
     let ctx = gpu();
     let cam = camera();
@@ -824,19 +824,8 @@ fn vpl_heat_map_shows_the_cpu_cullers_vpl_counts_in_both_methods() {
                     continue;
                 }
                 let expected = documented_heat_colour(count, cull.capacity, false);
-                let (x0, x1, y0, y1) = g.tile_pixels(tx, ty);
-                for (x, y) in (y0..y1).flat_map(|y| (x0..x1).map(move |x| (x, y))) {
-                    let i = ((y * W + x) * 4) as usize;
-                    let (wants, tolerance) = expected_heat_pixel(expected, &plain[i..i + 3]);
-                    for (ch, want) in wants.into_iter().enumerate() {
-                        let got = heat[i + ch] as f32;
-                        assert!(
-                            (got - want).abs() <= tolerance,
-                            "{name}: tile ({tx}, {ty}) with {count} VPLs, pixel ({x}, {y}) channel {ch}: {got}, \
-                             expected {want:.1}"
-                        );
-                    }
-                }
+                let what = format!("{name}: tile ({tx}, {ty}) with {count} VPLs");
+                assert_heat_tile(&heat, &plain, W, g.tile_pixels(tx, ty), expected, &what);
                 if expected.is_some() {
                     coloured += 1;
                 } else {
