@@ -420,3 +420,44 @@ pub fn run(args: &PeerReportArgs) -> Result<()> {
     println!("\nwrote {}, {} and {} FLIP heat maps", report.display(), chart_path.display(), rows.len());
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::match_histograms;
+
+    /// A 64x36 RGBA8 gradient with a different ramp per channel.
+    fn gradient() -> Vec<u8> {
+        (0..36u32)
+            .flat_map(|y| (0..64u32).flat_map(move |x| [(x * 4) as u8, (y * 7) as u8, ((x + y) * 2) as u8, 255]))
+            .collect()
+    }
+
+    #[test]
+    fn a_monotone_tone_curve_is_undone_and_a_moved_light_is_not() {
+        let reference = gradient();
+        // Another tone curve: darker, a gamma per channel (monotone, so the order of
+        // values and their histogram ranks are kept).
+        let curved: Vec<u8> = reference
+            .chunks_exact(4)
+            .flat_map(|p| {
+                let f = |v: u8, g: f32| ((v as f32 / 255.0).powf(g) * 200.0).round() as u8;
+                [f(p[0], 1.8), f(p[1], 0.7), f(p[2], 1.3), 255]
+            })
+            .collect();
+        let matched = match_histograms(&reference, &curved);
+        let worst = reference.iter().zip(&matched).map(|(a, b)| (*a as i32 - *b as i32).abs()).max().unwrap();
+        // Only values the curve merged (a 0..200 range holds fewer levels) stay apart.
+        assert!(worst <= 8, "a tone curve left {worst} levels of difference");
+        let flip = |t: &[u8]| tiledlight_metrics::flip(64, 36, &reference, t).summary(0.99).mean;
+        assert!(flip(&matched) < 0.25 * flip(&curved), "{} vs {}", flip(&matched), flip(&curved));
+        // The same image with its ramp mirrored (light in other places): the histograms
+        // are the same, so matching changes nothing and the error stays.
+        let moved: Vec<u8> = (0..36u32)
+            .flat_map(|y| {
+                (0..64u32).flat_map(move |x| [((63 - x) * 4) as u8, (y * 7) as u8, ((63 - x + y) * 2) as u8, 255])
+            })
+            .collect();
+        assert_eq!(match_histograms(&reference, &moved), moved);
+        assert!(flip(&moved) > 0.1, "{}", flip(&moved));
+    }
+}
