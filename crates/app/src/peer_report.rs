@@ -151,7 +151,47 @@ impl Results {
             }
             table.push(row);
         }
-        Ok(Self { counts, table })
+        let mut res = Self { counts, table };
+        res.flag_from_summary(dir)?;
+        Ok(res)
+    }
+
+    /// Marks the runs `scripts/peer-bench.sh`'s summary.txt (in DIR or the folder above it,
+    /// where the script leaves it) warns about ("  warning: bevy-prepass-1000: Bevy resized
+    /// its cluster lists inside the measured frames") or names as failed ("FAILED
+    /// (tl-fp-1000-png): exit 124"): their JSON alone does not show it.
+    fn flag_from_summary(&mut self, dir: &Path) -> Result<()> {
+        let Some(file) = [dir.join("summary.txt"), dir.join("../summary.txt")].into_iter().find(|f| f.is_file()) else {
+            return Ok(());
+        };
+        let text = std::fs::read_to_string(&file).with_context(|| format!("reading {}", file.display()))?;
+        for line in text.lines().map(str::trim) {
+            let (label, why) = if let Some(rest) = line.strip_prefix("warning: ") {
+                match rest.split_once(": ") {
+                    Some((label, why)) => (label, why.to_string()),
+                    None => continue,
+                }
+            } else if let Some(rest) = line.strip_prefix("FAILED (") {
+                match rest.split_once(')') {
+                    Some((label, why)) => (label, format!("failed{why}")),
+                    None => continue,
+                }
+            } else {
+                continue;
+            };
+            let label = label.strip_suffix("-png").unwrap_or(label);
+            let Some((prefix, n)) = label.rsplit_once('-') else { continue };
+            let (Some(r), Ok(n)) = (RUNS.iter().position(|r| r.0 == prefix), n.parse::<u64>()) else { continue };
+            let Some(i) = self.counts.iter().position(|&c| c == n) else { continue };
+            if let Some(run) = self.table[i][r].as_mut() {
+                let why = format!("{why} (summary.txt)");
+                run.flag = Some(match run.flag.take() {
+                    Some(before) => format!("{before}; {why}"),
+                    None => why,
+                });
+            }
+        }
+        Ok(())
     }
 
     /// The fastest run of `who` at count index `i`: (run index, ms).
@@ -245,6 +285,49 @@ fn load_rgba(path: &Path) -> Result<(u32, u32, Vec<u8>)> {
     Ok((img.width(), img.height(), img.into_raw()))
 }
 
+/// Mean Rec. 709 luma of an RGBA8 sRGB image's encoded values, 0..1.
+fn mean_luma(rgba: &[u8]) -> f64 {
+    let n = (rgba.len() / 4).max(1) as f64;
+    rgba.chunks_exact(4).map(|p| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64).sum::<f64>()
+        / (255.0 * n)
+}
+
+/// The mean luma table: one row per count, one column per run with a frame.
+fn luma_table(res: &Results, dir: &Path) -> Result<String> {
+    let mut md = String::new();
+    let mut rows = Vec::new();
+    let mut present = BTreeSet::new();
+    for &n in &res.counts {
+        let mut row = Vec::new();
+        for (r, (prefix, _, _)) in RUNS.iter().enumerate() {
+            let png = dir.join(format!("{prefix}-{n}.png"));
+            if png.exists() {
+                row.push(Some(mean_luma(&load_rgba(&png)?.2)));
+                present.insert(r);
+            } else {
+                row.push(None);
+            }
+        }
+        rows.push((n, row));
+    }
+    if present.is_empty() {
+        return Ok(md);
+    }
+    let _ = writeln!(
+        md,
+        "\nMean luma of the frames (Rec. 709 weights on the encoded sRGB values, 0..1): a difference in overall \
+         brightness raises FLIP on every pixel, even where the light falls alike.\n"
+    );
+    let head: Vec<&str> = present.iter().map(|&r| RUNS[r].1).collect();
+    let _ = writeln!(md, "| lights | {} |", head.join(" | "));
+    let _ = writeln!(md, "| ---: |{}", " ---: |".repeat(present.len()));
+    for (n, row) in rows {
+        let cells: Vec<String> = present.iter().map(|&r| row[r].map_or("-".into(), |v| format!("{v:.3}"))).collect();
+        let _ = writeln!(md, "| {n} | {} |", cells.join(" | "));
+    }
+    Ok(md)
+}
+
 /// One FLIP comparison: mean and 99th percentile as rendered, and mean after matching
 /// the test image's tone curve to the reference's.
 struct FlipRow {
@@ -325,7 +408,26 @@ fn flips(res: &Results, dir: &Path, out: &Path) -> Result<Vec<FlipRow>> {
     Ok(rows)
 }
 
+/// 1, 2 and 5 times each power of ten from below the smallest value to above the largest.
+fn ticks_125(values: &[f64]) -> Vec<f64> {
+    let (lo, hi) = values.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+    if !(lo.is_finite() && lo > 0.0) {
+        return vec![1.0];
+    }
+    let (d0, d1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    let ticks: Vec<f64> = (d0..=d1)
+        .flat_map(|d| [1.0, 2.0, 5.0].map(|m| m * 10f64.powi(d)))
+        .filter(|&t| t >= lo / 2.0 && t <= hi * 2.0)
+        .collect();
+    if ticks.is_empty() {
+        vec![lo]
+    } else {
+        ticks
+    }
+}
+
 fn chart(res: &Results, path: &Path, adapter: &str) -> Result<()> {
+    let times: Vec<f64> = res.table.iter().flatten().flatten().map(|r| r.ms).collect();
     let mut series = Vec::new();
     for (r, (_, label, _)) in RUNS.iter().enumerate() {
         let mut points = Vec::new();
@@ -354,7 +456,9 @@ fn chart(res: &Results, path: &Path, adapter: &str) -> Result<()> {
             scale: Scale::Log,
             ticks: Some(res.counts.iter().map(|&n| n as f64).collect()),
         },
-        y: AxisSpec { label: "GPU frame time, ms".into(), scale: Scale::Log, ticks: None },
+        // 1-2-5 ticks in every decade the times span: the automatic ones label decades only
+        // when the times span more than two, and Tiled Deferred's 2-3 ms would have none.
+        y: AxisSpec { label: "GPU frame time, ms".into(), scale: Scale::Log, ticks: Some(ticks_125(&times)) },
         series,
         marker: None,
         note: None,
@@ -411,6 +515,7 @@ pub fn run(args: &PeerReportArgs) -> Result<()> {
              Forward+ against Tiled Deferred is the floor of one renderer's two methods, Bevy against itself \
              (matched vs. with a prepass) the floor of the same frame."
         );
+        md.push_str(&luma_table(&res, &args.dir)?);
     }
     let chart_path = out.join("peer-frame-time.png");
     chart(&res, &chart_path, &adapter)?;

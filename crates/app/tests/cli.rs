@@ -736,6 +736,13 @@ fn write_peer_results(dir: &Path, broken_bevy_prepass: bool) {
 fn peer_report_tabulates_ratios_charts_and_compares_frames() {
     let dir = scratch("peer-report");
     write_peer_results(&dir, false);
+    // The script's summary: a Bevy run whose clusters grew while measured, a failed image.
+    std::fs::write(
+        dir.join("summary.txt"),
+        "N=1000 threshold=0.1 exposure=1\n  warning: bevy-matched-1000: Bevy resized its cluster lists inside the \
+         measured frames (some missed lights)\n   FAILED (tl-td-2.5d-10000-png): exit 124\n   FAILED (export-10000): exit 1\n",
+    )
+    .unwrap();
     let out_dir = dir.join("report");
     let out = tiledlight(&["peer-report", dir.to_str().unwrap(), "--out", out_dir.to_str().unwrap()]);
     assert!(out.status.success(), "{}{}", stdout(&out), String::from_utf8_lossy(&out.stderr));
@@ -753,6 +760,17 @@ fn peer_report_tabulates_ratios_charts_and_compares_frames() {
     assert!(row("10000").contains("20.00*"), "{}", row("10000"));
     assert!(md.contains("GPU times of 40 of 50 frames"), "{md}");
     assert!(md.contains("3 frames dropped lights"), "{md}");
+    assert!(row("1000").contains("30.00*"), "{}", row("1000"));
+    assert!(md.contains("Bevy resized its cluster lists inside the measured frames"), "{md}");
+    assert!(row("10000").contains("2.400*"), "{}", row("10000"));
+    assert!(md.contains("failed: exit 124 (summary.txt)"), "{md}");
+    // Mean luma: Bevy's test frames are the same gradient at 0.7 of the values.
+    let luma =
+        md.lines().skip_while(|l| !l.starts_with("Mean luma")).find(|l| l.starts_with("| 1000 |")).expect("a luma row");
+    let cells: Vec<f64> =
+        luma.split('|').map(str::trim).skip(2).filter(|c| !c.is_empty()).map(|c| c.parse().unwrap()).collect();
+    assert_eq!(cells.len(), 8, "{luma}");
+    assert!(cells[0] < 0.8 * cells[4] && cells[0] > 0.6 * cells[4], "{luma}");
     for needle in ["adapter: Test GPU", "tiledlight commit: abc123", "Bevy: 0.19.1", "main_opaque_pass_3d 39.50"] {
         assert!(md.contains(needle), "no {needle:?} in:\n{md}");
     }
