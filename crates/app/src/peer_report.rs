@@ -292,26 +292,15 @@ fn mean_luma(rgba: &[u8]) -> f64 {
         / (255.0 * n)
 }
 
+/// Mean luma of every run's frame at one light count (None: no frame).
+type LumaRow = (u64, [Option<f64>; RUNS.len()]);
+
 /// The mean luma table: one row per count, one column per run with a frame.
-fn luma_table(res: &Results, dir: &Path) -> Result<String> {
+fn luma_table(rows: &[LumaRow]) -> String {
     let mut md = String::new();
-    let mut rows = Vec::new();
-    let mut present = BTreeSet::new();
-    for &n in &res.counts {
-        let mut row = Vec::new();
-        for (r, (prefix, _, _)) in RUNS.iter().enumerate() {
-            let png = dir.join(format!("{prefix}-{n}.png"));
-            if png.exists() {
-                row.push(Some(mean_luma(&load_rgba(&png)?.2)));
-                present.insert(r);
-            } else {
-                row.push(None);
-            }
-        }
-        rows.push((n, row));
-    }
+    let present: Vec<usize> = (0..RUNS.len()).filter(|&r| rows.iter().any(|row| row.1[r].is_some())).collect();
     if present.is_empty() {
-        return Ok(md);
+        return md;
     }
     let _ = writeln!(
         md,
@@ -325,7 +314,7 @@ fn luma_table(res: &Results, dir: &Path) -> Result<String> {
         let cells: Vec<String> = present.iter().map(|&r| row[r].map_or("-".into(), |v| format!("{v:.3}"))).collect();
         let _ = writeln!(md, "| {n} | {} |", cells.join(" | "));
     }
-    Ok(md)
+    md
 }
 
 /// One FLIP comparison: mean and 99th percentile as rendered, and mean after matching
@@ -372,40 +361,45 @@ fn match_histograms(reference: &[u8], test: &[u8]) -> Vec<u8> {
     out
 }
 
-fn flips(res: &Results, dir: &Path, out: &Path) -> Result<Vec<FlipRow>> {
-    let mut rows = Vec::new();
+/// Per light count, every run's frame decoded once: its mean luma, and FLIP of the pairs
+/// in [`FLIP_PAIRS`] (heat maps written to `out`).
+fn compare_frames(res: &Results, dir: &Path, out: &Path) -> Result<(Vec<FlipRow>, Vec<LumaRow>)> {
+    let (mut rows, mut lumas) = (Vec::new(), Vec::new());
     for &n in &res.counts {
+        let path = |prefix: &str| dir.join(format!("{prefix}-{n}.png"));
+        let frames: Vec<Option<(u32, u32, Vec<u8>)>> = RUNS
+            .iter()
+            .map(|(prefix, _, _)| path(prefix).exists().then(|| load_rgba(&path(prefix))).transpose())
+            .collect::<Result<_>>()?;
+        lumas.push((n, std::array::from_fn(|r| frames[r].as_ref().map(|f| mean_luma(&f.2)))));
+        let frame = |prefix: &str| RUNS.iter().position(|r| r.0 == prefix).and_then(|r| frames[r].as_ref());
         for (a, b, what) in FLIP_PAIRS {
-            let (pa, pb) = (dir.join(format!("{a}-{n}.png")), dir.join(format!("{b}-{n}.png")));
-            if !pa.exists() || !pb.exists() {
-                continue;
-            }
-            let (wa, ha, ra) = load_rgba(&pa)?;
-            let (wb, hb, rb) = load_rgba(&pb)?;
+            let (Some((wa, ha, ra)), Some((wb, hb, rb))) = (frame(a), frame(b)) else { continue };
+            let (wa, ha) = (*wa, *ha);
             ensure!(
-                (wa, ha) == (wb, hb),
+                (wa, ha) == (*wb, *hb),
                 "{} is {wa}x{ha} but {} is {wb}x{hb}: FLIP compares images of one size",
-                pa.display(),
-                pb.display()
+                path(a).display(),
+                path(b).display()
             );
-            let map = tiledlight_metrics::flip(wa, ha, &ra, &rb);
+            let map = tiledlight_metrics::flip(wa, ha, ra, rb);
             let s = map.summary(0.99);
-            let matched = tiledlight_metrics::flip(wa, ha, &ra, &match_histograms(&ra, &rb)).summary(0.99);
+            let matched = tiledlight_metrics::flip(wa, ha, ra, &match_histograms(ra, rb)).summary(0.99);
             let heat = image::RgbImage::from_raw(wa, ha, map.heat_rgb()).context("building the FLIP heat map")?;
             let half = image::imageops::resize(&heat, (wa / 2).max(1), (ha / 2).max(1), image::imageops::Triangle);
-            let path = out.join(format!("flip-{a}-vs-{b}-{n}.png"));
-            crate::scene_setup::save_png(&path, &half)?;
+            let heat_path = out.join(format!("flip-{a}-vs-{b}-{n}.png"));
+            crate::scene_setup::save_png(&heat_path, &half)?;
             rows.push(FlipRow {
                 count: n,
                 what,
                 mean: s.mean,
                 p99: s.percentile,
                 matched_mean: matched.mean,
-                heat: path,
+                heat: heat_path,
             });
         }
     }
-    Ok(rows)
+    Ok((rows, lumas))
 }
 
 /// 1, 2 and 5 times each power of ten from below the smallest value to above the largest.
@@ -493,7 +487,7 @@ pub fn run(args: &PeerReportArgs) -> Result<()> {
         writeln!(md, "- Bevy: {}", res.field(Who::Bevy, &["bevy_version"]).unwrap_or_else(|| "not recorded".into()));
     let _ = writeln!(md, "- light counts: {:?}\n", res.counts);
     md.push_str(&tables(&res));
-    let rows = flips(&res, &args.dir, &out)?;
+    let (rows, lumas) = compare_frames(&res, &args.dir, &out)?;
     if !rows.is_empty() {
         let _ = writeln!(md, "\n## FLIP between the frames (0 = the same, 1 = as different as can be)\n");
         let _ = writeln!(md, "| lights | images | mean | 99th percentile | mean, tone curves matched | heat map |");
@@ -515,7 +509,7 @@ pub fn run(args: &PeerReportArgs) -> Result<()> {
              Forward+ against Tiled Deferred is the floor of one renderer's two methods, Bevy against itself \
              (matched vs. with a prepass) the floor of the same frame."
         );
-        md.push_str(&luma_table(&res, &args.dir)?);
+        md.push_str(&luma_table(&lumas));
     }
     let chart_path = out.join("peer-frame-time.png");
     chart(&res, &chart_path, &adapter)?;

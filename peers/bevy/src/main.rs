@@ -239,7 +239,6 @@ struct Run {
     ambient: Option<[f32; 3]>,
     points: usize,
     spots: usize,
-    colours_relinearised: usize,
     last_seen: Option<bevy::platform::time::Instant>,
     collecting: bool,
     /// Per frame (one diagnostics batch): (span path, GPU ms).
@@ -382,7 +381,6 @@ fn fix_point_lights(mut run: ResMut<Run>, mut lights: Query<&mut PointLight, Add
         relinearise(&mut l.color);
         l.radius = 0.0;
         run.points += 1;
-        run.colours_relinearised += 1;
     }
 }
 
@@ -391,7 +389,6 @@ fn fix_spot_lights(mut run: ResMut<Run>, mut lights: Query<&mut SpotLight, Added
         relinearise(&mut l.color);
         l.radius = 0.0;
         run.spots += 1;
-        run.colours_relinearised += 1;
     }
 }
 
