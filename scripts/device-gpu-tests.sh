@@ -60,6 +60,7 @@ run)
     export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
   fi
   export WGPU_ADAPTER_NAME=${WGPU_ADAPTER_NAME:-H200} WGPU_BACKEND=${WGPU_BACKEND:-vulkan}
+  # The seed the tests fall back to themselves (crates/cull/tests/common/seed.rs).
   export PROPTEST_RNG_SEED=${PROPTEST_RNG_SEED:-20261122}
   built_in=$(cat "$stage/built-in")
   if [ "$built_in" != "$root" ] && [ ! -e "$built_in" ]; then

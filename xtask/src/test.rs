@@ -72,6 +72,23 @@ impl AdapterChoice {
     }
 }
 
+/// Where the workspace's shared proptest configuration lives (see its module doc).
+const PROPTEST_SEED_FILE: &str = "crates/cull/tests/common/seed.rs";
+
+/// `DEFAULT_SEED` of [`PROPTEST_SEED_FILE`]: the seed every property test uses when
+/// `PROPTEST_RNG_SEED` is unset.
+fn default_proptest_seed(root: &Path) -> Result<u64> {
+    let path = root.join(PROPTEST_SEED_FILE);
+    let text = std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    parse_default_seed(&text).with_context(|| format!("no `pub const DEFAULT_SEED: u64 = N;` in {}", path.display()))
+}
+
+fn parse_default_seed(text: &str) -> Option<u64> {
+    let line = text.lines().find(|l| l.trim_start().starts_with("pub const DEFAULT_SEED: u64 ="))?;
+    let value = line.split('=').nth(1)?.trim().trim_end_matches(';').replace('_', "");
+    value.parse().ok()
+}
+
 /// Runs the whole test suite; `extra` goes to `cargo nextest run` / `cargo test`.
 pub fn test(root: &Path, extra: &[String]) -> Result<()> {
     let choice = AdapterChoice::new(|k| env::var(k).ok());
@@ -109,8 +126,13 @@ pub fn test(root: &Path, extra: &[String]) -> Result<()> {
     }
 
     // Property tests draw random cases; CI runs the same ones every time (a new random
-    // failure would turn an unrelated submission red). Set PROPTEST_RNG_SEED to explore.
-    let proptest_seed = env::var("PROPTEST_RNG_SEED").unwrap_or_else(|_| "20261122".to_owned());
+    // failure would turn an unrelated submission red). The seed is the one the tests
+    // themselves fall back to (`DEFAULT_SEED` of the shared proptest configuration), so
+    // plain `cargo test` draws the same cases. Set PROPTEST_RNG_SEED to explore.
+    let proptest_seed = match env::var("PROPTEST_RNG_SEED") {
+        Ok(s) => s,
+        Err(_) => default_proptest_seed(root)?.to_string(),
+    };
     println!("xtask: property tests use PROPTEST_RNG_SEED={proptest_seed}");
     let with_env = |mut cmd: Command| {
         for (k, v) in &choice.env {
@@ -332,6 +354,15 @@ fn icd_summary() -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_default_proptest_seed_is_read_from_the_shared_configuration() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        assert_eq!(default_proptest_seed(&root).unwrap(), 20_261_122);
+        assert_eq!(parse_default_seed("x\n    pub const DEFAULT_SEED: u64 = 7_0;\n"), Some(70));
+        assert_eq!(parse_default_seed("pub const OTHER: u64 = 1;"), None);
+        assert_eq!(parse_default_seed("pub const DEFAULT_SEED: u64 = seven;"), None);
+    }
 
     fn choice(vars: &[(&str, &str)]) -> AdapterChoice {
         AdapterChoice::new(|k| vars.iter().find(|(n, _)| *n == k).map(|(_, v)| v.to_string()))

@@ -95,6 +95,8 @@ mod tests {
     }
 
     proptest! {
+        #![proptest_config(crate::test_seed::proptest_config(256))]
+
         /// Any lists, any capacity (down to 0): the stored ranges are disjoint, inside the
         /// buffer, prefixes of their lists, and total min(pairs, capacity).
         #[test]

@@ -13,9 +13,15 @@
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
 
 pub mod error;
+
 pub mod layout;
 pub mod light;
 pub mod material;
+/// The workspace's shared proptest configuration (fixed seed unless `PROPTEST_RNG_SEED`),
+/// for the unit tests' property tests.
+#[cfg(test)]
+#[path = "../tests/common/seed.rs"]
+pub(crate) mod test_seed;
 
 pub use error::CullError;
 pub use light::{Light, LightKind};

@@ -996,6 +996,8 @@ mod tests {
     }
 
     proptest! {
+        #![proptest_config(crate::test_seed::proptest_config(256))]
+
         /// Tolerance zero: the BVH and the brute-force loop give identical booleans and
         /// identical f32 distances, for random segments and for segments through (or
         /// ending on) triangles' vertices, edges and interiors.

@@ -513,6 +513,8 @@ mod tests {
     }
 
     proptest! {
+        #![proptest_config(crate::test_seed::proptest_config(256))]
+
         /// The face guarantee: for every direction from a point light, at any distance,
         /// every texel an N x N filter reads (each tap's hardware 2x2 footprint) lies
         /// inside the chosen face's tile.
@@ -626,6 +628,8 @@ mod tests {
     }
 
     proptest! {
+        #![proptest_config(crate::test_seed::proptest_config(256))]
+
         /// No false negative: a box containing any point the face sees (in front of the
         /// near plane, inside the widened frustum) is kept.
         #[test]

@@ -26,13 +26,10 @@ use tiledlight_cull::reference::COARSE_SIZE;
 use tiledlight_cull::tiles::{TileFrustum, TileGrid};
 use tiledlight_cull::{cull_tiles, Camera, CullConfig};
 
-/// `cases` cases; `PROPTEST_CASES=n` overrides it for a longer hunt.
+/// `cases` cases from the workspace's fixed seed (`common::proptest_config`);
+/// `PROPTEST_CASES=n` runs more, `PROPTEST_RNG_SEED=s` others.
 fn cases(cases: u32) -> ProptestConfig {
-    if std::env::var_os("PROPTEST_CASES").is_some() {
-        ProptestConfig::default()
-    } else {
-        ProptestConfig::with_cases(cases)
-    }
+    common::proptest_config(cases)
 }
 
 /// Relative radius slack for decisions within float error: a fraction of `r + |c|`.

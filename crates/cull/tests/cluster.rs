@@ -18,13 +18,10 @@ use tiledlight_cull::reference::{list_quality, stats};
 use tiledlight_cull::tiles::TileFrustum;
 use tiledlight_cull::{cull_clusters, Camera, ClusterConfig, CullError, TileLists};
 
-/// `cases` cases; `PROPTEST_CASES=n` overrides it for a longer hunt.
+/// `cases` cases from the workspace's fixed seed (`common::proptest_config`);
+/// `PROPTEST_CASES=n` runs more, `PROPTEST_RNG_SEED=s` others.
 fn cases(cases: u32) -> ProptestConfig {
-    if std::env::var_os("PROPTEST_CASES").is_some() {
-        ProptestConfig::default()
-    } else {
-        ProptestConfig::with_cases(cases)
-    }
+    common::proptest_config(cases)
 }
 
 /// A random cluster layout over the ranges the GPU accepts.

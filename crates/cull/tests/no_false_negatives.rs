@@ -325,11 +325,7 @@ const CPU_ONLY_TILES: [u32; 4] = [1, 3, 13, 64];
 /// cases take ~3-5 s in the dev profile on 2 busy cores (MSAA cases cost up to 8x a
 /// single-sample one); 20,000 of them (~3 min) and 5,000 CPU-only ones ran clean.
 fn proptest_config(cases: u32) -> ProptestConfig {
-    if std::env::var_os("PROPTEST_CASES").is_some() {
-        ProptestConfig::default()
-    } else {
-        ProptestConfig::with_cases(cases)
-    }
+    common::proptest_config(cases)
 }
 
 proptest! {
@@ -697,4 +693,37 @@ fn log_uniform_stays_in_range() {
         let v = log_uniform(&mut r, 1e-4, 1e6);
         assert!((1e-4..=1e6).contains(&v), "{v}");
     }
+}
+
+/// The case proptest once saved for this file (`no_false_negatives.proptest-regressions`),
+/// written out: its seed no longer draws it since `Case` gained `blended` and `cluster` and
+/// `CullConfig` gained `samples` and `depth_mask` (a saved seed replays the *current*
+/// strategy). An orthographic camera with far 9.8e6 looking steeply down, 3 px tiles, depth
+/// within 1e-6 of 0 (surfaces near the far plane), 19 lights: the depth range's float
+/// error there is what the reference's orthographic depth bound exists for.
+#[test]
+fn saved_case_orthographic_far_plane_3px_tiles() {
+    let c = Case {
+        cam: CamSpec {
+            kind: CamKind::Ortho,
+            near: 1.0,
+            far: 9_770_554.0,
+            fov_deg: 1.0,
+            half_height: 0.212_827_61,
+            aspect: 1.0,
+            eye: Vec3::ZERO,
+            euler: Vec3::new(1.282_158, -1.413_824_3, 0.032_402_612),
+        },
+        width: 16,
+        height: 50,
+        config: CullConfig { tile_size: 3, capacity: 512, spot_cone: true, samples: 1, ..CullConfig::default() },
+        mode: DepthMode::NearZero,
+        n_lights: 19,
+        seed: 14_982_989_166_838_853_257,
+        blended: false,
+        cluster: None,
+    };
+    let (pairs, skipped) = run_case(&c).unwrap_or_else(|e| panic!("{e}"));
+    eprintln!("saved case: {pairs} (sample, light) pairs reached and listed, {skipped} skipped as unresolvable");
+    assert!(pairs > 0, "the saved case must reach some sample (it reached 3,992 pairs when written out)");
 }

@@ -289,7 +289,7 @@ fn arb_face(size: u32) -> impl Strategy<Value = RsmFace> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(64))]
+    #![proptest_config(crate::test_seed::proptest_config(64))]
 
     /// Whatever the RSM: finite VPLs, at most `cap` of them, kept + refused = candidates,
     /// and with no thresholds the flux of all blocks is the flux of all texels (a block

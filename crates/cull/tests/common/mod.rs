@@ -12,6 +12,10 @@ use rand_pcg::Pcg64;
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::{Camera, Light, LightKind};
 
+mod seed;
+#[allow(unused_imports)] // Each test binary uses a different part of this module.
+pub use seed::{proptest_config, DEFAULT_SEED};
+
 /// f32 machine epsilon (2^-23), the unit of every tolerance below.
 pub const EPS: f32 = f32::EPSILON;
 
