@@ -694,7 +694,7 @@ fn shrunk_failures_stay_fixed() {
     ];
     let mut pairs = 0;
     for (cam, (width, height, tile_size), mode, n_lights, seed) in cases {
-        for flags in 0..32 {
+        for flags in 0..64 {
             let bit = |k: u32| flags & (1 << k) != 0;
             if bit(1) && bit(4) {
                 continue; // half-z and 2.5D masks are alternatives
@@ -707,6 +707,7 @@ fn shrunk_failures_stay_fixed() {
                 // Two-level culling only where the tile divides the 64 px cells.
                 coarse: bit(3) && COARSE_SIZE.is_multiple_of(tile_size),
                 depth_mask: bit(4),
+                scatter: bit(5),
                 ..CullConfig::default()
             };
             let c = Case { cam, width, height, config, mode, n_lights, seed, blended: false, cluster: None };
