@@ -22,8 +22,8 @@
 //! the error everywhere (shrinking does the opposite).
 //!
 //! The comparison can fail: `tests/tests/negative.rs` feeds it GPU lists lacking one pair
-//! of the frame's dimmest light, and lists with one wrong index, for every layout and
-//! assignment, and requires it to name the pair.
+//! of the frame's dimmest light, and lists with one wrong index, for tiles gathered and
+//! scattered, half-z, 2.5D and clusters, and requires it to name the pair.
 
 use std::collections::BTreeSet;
 
