@@ -20,6 +20,10 @@
 //! Growing a light moves its sphere's surface out by the error and, for a spot, its apex
 //! back along the axis by error / sin(half-angle), which moves the cone's surface out by
 //! the error everywhere (shrinking does the opposite).
+//!
+//! The comparison can fail: `tests/tests/negative.rs` feeds it GPU lists lacking one pair
+//! of the frame's dimmest light, and lists with one wrong index, for tiles gathered and
+//! scattered, half-z, 2.5D and clusters, and requires it to name the pair.
 
 use std::collections::BTreeSet;
 

@@ -5,7 +5,11 @@
 //! or with a fixed budget truncated and counted as the CPU twin `tiledlight_cull::grid` says).
 //! Light-centric assignment (`CullOptions::scatter`, `tiledlight_gpu::light_assign`) runs
 //! the same cases: its lists must equal the same CPU culler's (the set, not the order), with
-//! lights covering more than `BIG_TILES` tiles (the big-light queue) among them.
+//! lights covering more than `BIG_TILES` tiles (the big-light queue) among them. The 2.5D
+//! and cluster masks the light-centric passes keep are compared sample by sample with the
+//! depth buffer (`mask_verdict`: each sample's bin, or its two bins within float error of
+//! an edge); a mask shifted by one bin in one tile fails it
+//! (`mask_check_rejects_one_tile_shifted_by_one_bin`).
 //!
 //! Tolerance: `tiledlight_tests::lists` (the shared comparison): a differing light is
 //! accepted only when the CPU culler agrees with the GPU once every light is grown or
@@ -114,10 +118,8 @@ fn check(case: &Case<'_>, options: CullOptions) -> Vec<f32> {
 }
 
 /// The GPU's per-tile masks (2.5D bins, or the cluster slices holding geometry) against
-/// the CPU twin's. A bit may differ only next to a bit the other side set: a sample within
-/// float error of a bin's edge (view distance, and for clusters the GPU's `log`) lands in
-/// the neighbouring bin. A mask the GPU did not compute (gather culling keeps its masks in
-/// workgroup memory) is checked through the lists alone.
+/// the CPU twin's ([`mask_verdict`]). A mask the GPU did not compute (gather culling keeps
+/// its masks in workgroup memory) is checked through the lists alone.
 fn check_masks(label: &str, culling: &LightCulling, frame: &CulledFrame<'_>, options: &CullOptions) {
     let ctx = gpu();
     let Some(gpu_masks) = culling.read_masks(&ctx.device, &ctx.queue).unwrap() else {
@@ -125,26 +127,114 @@ fn check_masks(label: &str, culling: &LightCulling, frame: &CulledFrame<'_>, opt
         return;
     };
     let grid = culling.grid.tiles;
+    let (equal, edge) = mask_verdict(&gpu_masks, frame, &grid, options).unwrap_or_else(|e| panic!("{label}: {e}"));
+    println!("{label}: masks {equal} equal, {edge} with a bin-edge sample");
+}
+
+/// Relative float error of a view distance as either side computes it: a few ulps of the
+/// distance and of the tile's near and far distances (`near / denom` on a perspective
+/// camera, `far - d (far - near)` on an orthographic one; the GPU may fuse). 8 ulps.
+const DISTANCE_ULPS: f32 = 8.0;
+
+/// Relative error of the GPU's `log` in a cluster's slice (WGSL: 3 ulps, or 2^-21 absolute
+/// near 1), as a relative error of the distance: 1e-5, far above both and far below a
+/// slice (the thinnest tested is 32 slices over 0.5..40 m: 14% of a distance).
+const SLICE_LOG_ERROR: f32 = 1e-5;
+
+/// Checks `gpu` masks (one per tile of `grid`) against the depth buffer of `frame`, sample
+/// by sample: each non-sky sample has the bins (slices) its view distance can fall in
+/// within float error (its own, and for 2.5D the tile range's, which sets the bins:
+/// [`DISTANCE_ULPS`]; for clusters the GPU's `log`: [`SLICE_LOG_ERROR`]), usually one, two
+/// when it lies within that error of an edge. A tile's mask must hold one of each sample's
+/// bins (no sample lost) and nothing outside their union (no bin without a sample). So a
+/// mask shifted by a bin fails in any tile with a sample away from an edge (the far
+/// sample, at the top of bin 31, always is: its bin has nowhere to shift), while a sample
+/// within rounding of an edge may land on either side. Returns the tiles equal to the CPU
+/// twin's masks and those differing within float error.
+fn mask_verdict(
+    gpu: &[u32],
+    frame: &CulledFrame<'_>,
+    grid: &tiledlight_cull::TileGrid,
+    options: &CullOptions,
+) -> Result<(usize, usize), String> {
+    use tiledlight_cull::depth_mask::{depth_bin, DEPTH_MASK_BINS};
+    use tiledlight_cull::tiles::{tile_depth_bounds_samples, tile_sample_spans};
+    let dp = frame.camera.depth_params();
+    let samples = options.samples;
     let cpu_masks = match &options.clusters {
-        Some(c) => tiledlight_cull::cluster::cluster_occupancy(frame.depth, &grid, options.samples, frame.camera, c),
-        None => tiledlight_cull::depth_mask::tile_depth_masks(frame.depth, &grid, options.samples, frame.camera),
+        Some(c) => tiledlight_cull::cluster::cluster_occupancy(frame.depth, grid, samples, frame.camera, c),
+        None => tiledlight_cull::depth_mask::tile_depth_masks(frame.depth, grid, samples, frame.camera),
     };
-    assert_eq!(gpu_masks.len(), cpu_masks.len(), "{label}: mask count");
-    let (mut equal, mut shifted) = (0, 0);
-    for (t, (&g, &c)) in gpu_masks.iter().zip(&cpu_masks).enumerate() {
-        if g == c {
-            equal += 1;
-            continue;
-        }
-        let near = |m: u32| m | (m << 1) | (m >> 1);
-        assert!(
-            (g & !c) & !near(c) == 0 && (c & !g) & !near(g) == 0,
-            "{label}: tile {t} mask GPU {g:#034b} CPU {c:#034b}: a bit differs away from any bin edge"
-        );
-        shifted += 1;
+    if gpu.len() != cpu_masks.len() {
+        return Err(format!("{} GPU masks, {} tiles", gpu.len(), cpu_masks.len()));
     }
-    assert!(cpu_masks.iter().any(|&m| m != 0), "{label}: every mask empty; the masks test nothing");
-    println!("{label}: masks {equal} equal, {shifted} with a bin-edge sample");
+    let bits = |lo: u32, hi: u32| (u32::MAX >> (31 - hi)) & (u32::MAX << lo);
+    let (mut equal, mut edge) = (0, 0);
+    for ty in 0..grid.tiles_y {
+        for tx in 0..grid.tiles_x {
+            let t = (ty * grid.tiles_x + tx) as usize;
+            let g = gpu[t];
+            let range = tile_depth_bounds_samples(grid, frame.depth, samples, tx, ty)
+                .map(|b| (dp.view_distance(b.max_depth), dp.view_distance(b.min_depth)));
+            let mut union = 0u32;
+            for span in tile_sample_spans(grid, samples, tx, ty) {
+                for (k, &d) in frame.depth[span.clone()].iter().enumerate() {
+                    if d <= 0.0 {
+                        continue;
+                    }
+                    let dist = dp.view_distance(d);
+                    let allowed = match (&options.clusters, range) {
+                        (Some(c), _) => {
+                            let e = SLICE_LOG_ERROR + DISTANCE_ULPS * f32::EPSILON;
+                            bits(c.slice_of(dist * (1.0 - e)), c.slice_of(dist * (1.0 + e)))
+                        }
+                        (None, Some((near, far))) => {
+                            let e = DISTANCE_ULPS * f32::EPSILON * (dist.abs() + near.abs() + far.abs());
+                            // The bin index moves by the distance's error and by the
+                            // range's (which scales every bin), each x 32 / (far - near).
+                            let b = |x: f32| depth_bin(x, near, far);
+                            if far > near {
+                                let slack = 3.0 * e;
+                                bits(b(dist - slack), b(dist + slack).max(b(dist - slack)))
+                            } else {
+                                1
+                            }
+                        }
+                        (None, None) => unreachable!("a non-sky sample in a tile without a range"),
+                    };
+                    if g & allowed == 0 {
+                        let s = span.start + k;
+                        return Err(format!(
+                            "tile {t} mask GPU {g:#034b} CPU {:#034b}: sample {} (pixel {}, distance {dist:e}) \
+                             falls in bins {allowed:#034b}, none of them set",
+                            cpu_masks[t],
+                            s % samples as usize,
+                            s / samples as usize
+                        ));
+                    }
+                    union |= allowed;
+                }
+            }
+            if g & !union != 0 {
+                return Err(format!(
+                    "tile {t} mask GPU {g:#034b} CPU {:#034b}: bins {:#034b} hold no sample, even within float \
+                     error (bins any sample may fall in: {union:#034b}; {} bins)",
+                    cpu_masks[t],
+                    g & !union,
+                    DEPTH_MASK_BINS
+                ));
+            }
+            if g == cpu_masks[t] {
+                equal += 1;
+            } else {
+                edge += 1;
+            }
+        }
+    }
+    if cpu_masks.iter().all(|&m| m == 0) {
+        return Err("every mask empty; the masks test nothing".into());
+    }
+    Ok((equal, edge))
 }
 
 /// The 2.5D and clustered layouts, gathered and scattered: every cluster tile size (past
@@ -414,5 +504,56 @@ fn lists_follow_a_moving_camera() {
             let head = gpu_lists.status.header;
             assert_eq!(head.dropped_pairs, 0, "{label}: {}", gpu_lists.status);
         }
+    }
+}
+
+/// The mask check ([`mask_verdict`]) rejects the GPU's masks with one tile's mask shifted
+/// by one bin (up, and down) or one slice for clusters, while the unbroken masks pass: for
+/// every tile with geometry in turn, on 2.5D and geometry-only cluster masks of the
+/// courtyard. (The old check let a bit differ wherever the other side set a neighbouring
+/// bit, which a mask shifted by one bin in every tile passed.) A tile whose every sample
+/// lies within float error of a bin edge could legitimately have either mask; the test
+/// prints how many tiles a shift got past (none, measured) and requires it of none.
+#[test]
+fn mask_check_rejects_one_tile_shifted_by_one_bin() {
+    let ctx = gpu();
+    let scene = scenes::courtyard();
+    let lights = scenes::lights(&scene, 256, 64, 7);
+    let (w, h) = (327, 183);
+    let camera = scenes::courtyard_camera(&scene, w, h);
+    let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, &lights).unwrap();
+    let clusters = ClusterOptions { tile_size: 16, slices: 24, geometry_only: true, ..Default::default() };
+    for options in [
+        CullOptions { depth_mask: true, scatter: true, ..Default::default() },
+        CullOptions { clusters: Some(clusters), ..Default::default() },
+    ] {
+        let settings = ForwardSettings { method: Method::ForwardPlus, cull: options, ..Default::default() };
+        let mut renderer = ForwardRenderer::new(ctx, &scene_gpu, &lights, w, h, settings).unwrap();
+        renderer.render_once(ctx, &mut GpuTimer::new(ctx).unwrap(), &scene_gpu, &camera).unwrap();
+        let depth = renderer.read_depth(ctx).unwrap();
+        let culling = renderer.culling().unwrap();
+        let masks = culling.read_masks(&ctx.device, &ctx.queue).unwrap().expect("assigned layouts keep their masks");
+        let frame = CulledFrame { depth: &depth, width: w, height: h, camera: &camera, lights: &lights.packed };
+        let grid = culling.grid.tiles;
+        let label = if options.depth_mask { "2.5D" } else { "clusters" };
+        mask_verdict(&masks, &frame, &grid, &options).unwrap_or_else(|e| panic!("{label}: unbroken masks: {e}"));
+        let (mut rejected, mut passed) = (0, Vec::new());
+        for (t, &m) in masks.iter().enumerate() {
+            if m == 0 {
+                continue;
+            }
+            for shifted in [m << 1, m >> 1] {
+                let mut broken = masks.clone();
+                broken[t] = shifted;
+                match mask_verdict(&broken, &frame, &grid, &options) {
+                    Err(_) => rejected += 1,
+                    Ok(_) => passed.push((t, m, shifted)),
+                }
+            }
+        }
+        println!("{label}: {rejected} one-tile shifts rejected, {} passed: {passed:x?}", passed.len());
+        assert!(rejected > 100, "{label}: only {rejected} shifts tried");
+        assert!(passed.is_empty(), "{label}: a mask shifted by one bin in one tile passed: {passed:x?}");
     }
 }

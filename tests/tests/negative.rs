@@ -7,6 +7,12 @@
 //!   of `forward_vs_reference.rs` and `deferred.rs` (`tiledlight_tests::compare`, same
 //!   functions, same tolerances) fail, for Forward+ and Tiled Deferred, while the same frame
 //!   without the hook passes: the thresholds bite on one missing light in one tile.
+//! - The shared list comparison (`tiledlight_tests::lists`) rejects GPU lists lacking one
+//!   pair of the frame's dimmest listed light (removed by the same hook for the tiled
+//!   gather; from the read-back lists for scatter, half-z, 2.5D and clusters), and lists
+//!   with one wrong light index.
+//! - The heat-map helper (`tiledlight_tests::images::assert_heat_tile`) rejects every
+//!   tile of a rendered heat map checked against its count plus or minus one.
 //! - The extra G-buffer targets written with known colours (the test-only
 //!   `EXTRA_TEST_VALUES` variant of `shaders/gbuffer.wgsl`) give the brute-force image of
 //!   the scene whose base colours are multiplied by the product of those colours.
@@ -288,4 +294,203 @@ fn gbuffer_extra_targets_are_read_and_multiplied() {
         let c = compare_with_reference(&format!("{rts} targets, white"), W, &reference, &white, DEFERRED_VS_REFERENCE);
         assert!(!c.passes() && !c.hdr_ok, "{rts} targets: the white image must fail the tinted reference: {c:?}");
     }
+}
+
+/// Per (list, light) pair of `cpu`'s lists, the light's estimated contribution to the
+/// pixels reading that list (as [`pick_drop`] estimates it: radiance x windowed attenuation
+/// x cosine with a normal from neighbouring depths), keyed by (list, light).
+fn pair_contributions(
+    depth: &[f32],
+    camera: &Camera,
+    lights: &PackedLights,
+    cpu: &TileLists,
+) -> std::collections::BTreeMap<(usize, u32), f32> {
+    let pos = view_positions(depth, camera);
+    let view = camera.view();
+    let dp = camera.depth_params();
+    let mut out = std::collections::BTreeMap::new();
+    for y in 0..H - 1 {
+        for x in 0..W - 1 {
+            let at = |x: u32, y: u32| pos[(y * W + x) as usize];
+            let (Some(p), Some(px), Some(py)) = (at(x, y), at(x + 1, y), at(x, y + 1)) else { continue };
+            let n = (px - p).cross(py - p).normalize_or_zero();
+            let n = if n.dot(-p) < 0.0 { -n } else { n };
+            let tile = cpu.grid.tile_of_pixel(x, y);
+            let list = cpu.list_index(tile, dp.view_distance(depth[(y * W + x) as usize]));
+            for &light in &cpu.lists[list] {
+                let sh = lights.shading[light as usize];
+                let to = (view * Vec3::from(sh.position).extend(1.0)).xyz() - p;
+                let d2 = to.length_squared();
+                let e = sh.radiance.iter().sum::<f32>()
+                    * windowed_attenuation(d2, sh.radius)
+                    * n.dot(to / d2.sqrt()).max(0.0);
+                *out.entry((list, light)).or_insert(0.0) += e;
+            }
+        }
+    }
+    out
+}
+
+/// The shared list comparison (`tiledlight_tests::lists::compare_lists`, and
+/// `compare_cluster_lists` for clusters) rejects GPU lists that lack one (list, light)
+/// pair of a *dim* light, the pair of the whole frame that contributes least (but more
+/// than nothing) to its pixels, and lists where one light index is replaced by a light the
+/// CPU culler does not list there even grown by float error; the unbroken lists pass. For
+/// the tiled gather, the pair is removed by the renderer itself (the `DropLight` hook), so
+/// the broken lists are real GPU output; for every other layout and assignment (scatter,
+/// half-z scatter, 2.5D scatter, clusters) it is removed from the read-back lists, with the
+/// list's count and the header's pair counter lowered to match (else the counters, not the
+/// missing pair, would fail the comparison). The image comparison with brute force is
+/// also run on the hooked frame and its verdict printed (not asserted): a dim light is
+/// what an image cannot see, and why the lists are compared exactly.
+#[test]
+fn list_comparison_rejects_a_dim_missing_pair_and_a_wrong_index() {
+    use tiledlight_gpu::light_cull::ClusterOptions;
+    use tiledlight_tests::lists::{compare_cluster_lists, compare_lists, perturbed_lights, CulledFrame};
+    let ctx = gpu();
+    let scene = scenes::mixed_scene();
+    let camera = scenes::mixed_camera(W, H);
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 300, 60, 11)).unwrap();
+    let d = CullOptions::default();
+    for (name, cull) in [
+        ("tiled-gather", d),
+        ("tiled-scatter", CullOptions { scatter: true, ..d }),
+        ("half-z-scatter", CullOptions { half_z: true, scatter: true, ..d }),
+        ("2.5d-scatter", CullOptions { depth_mask: true, scatter: true, ..d }),
+        ("clustered", CullOptions { clusters: Some(ClusterOptions::default()), ..d }),
+    ] {
+        let mut r =
+            ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { cull, ..Default::default() }).unwrap();
+        let plain_frame = render_frame(ctx, &mut r, &sg, &camera);
+        let depth = r.read_depth(ctx).unwrap();
+        let gpu_lists = r.culling().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
+        let frame = CulledFrame { depth: &depth, width: W, height: H, camera: &camera, lights: &lights.packed };
+        let config = cull.to_config(lights.has_spots());
+        let compare = |l: &tiledlight_gpu::light_cull::GpuTileLists| match &cull.clusters {
+            Some(c) => compare_cluster_lists(name, &frame, l, &config, c),
+            None => compare_lists(name, &frame, l, &config),
+        };
+        let ok = compare(&gpu_lists).unwrap_or_else(|e| panic!("{name}: the unbroken lists must pass: {e}"));
+        // The pairs no float error can move: listed by the CPU culler on lights shrunk by
+        // their float error (what the comparison accepts as borderline).
+        let shrunk = perturbed_lights(&camera, &lights.packed, -1.0);
+        let flat = tiledlight_cull::CullConfig { inflate: 0.0, ..config };
+        let firm = match &cull.clusters {
+            Some(c) => tiledlight_cull::cull_clusters(&depth, W, H, &camera, &shrunk, c, 1, 0.0),
+            None => cull_tiles(&depth, W, H, &camera, &shrunk, &flat),
+        }
+        .unwrap();
+        let contributions = pair_contributions(&depth, &camera, &lights.packed, &ok.cpu);
+        let brightest = contributions.values().fold(0.0f32, |a, &b| a.max(b));
+        let ((list, light), dim) = contributions
+            .iter()
+            .filter(|(&(list, light), &e)| e > 0.0 && firm.lists[list].contains(&light))
+            .min_by(|a, b| a.1.total_cmp(b.1))
+            .map(|(&k, &e)| (k, e))
+            .expect("a pair with some light");
+        eprintln!(
+            "{name}: dropping light {light} from list {list} ({} lights): estimated contribution {dim:.3e}, \
+             {:.2e} of the frame's brightest pair",
+            ok.cpu.lists[list].len(),
+            dim / brightest
+        );
+        let broken = if cull == d {
+            // The renderer drops it itself (list = tile without half-z or clusters).
+            let drop = DropLight { tile: list as u32, light };
+            let hooked = ForwardSettings { cull, test_drop_light: Some(drop), ..Default::default() };
+            let mut r = ForwardRenderer::new(ctx, &sg, &lights, W, H, hooked).unwrap();
+            let dropped_frame = render_frame(ctx, &mut r, &sg, &camera);
+            let reference = reference_frame(ctx, &sg, &lights, (W, H), &camera);
+            let verdict = |f: &Frame| compare_with_reference(name, W, &reference, f, FORWARD_VS_REFERENCE).passes();
+            eprintln!(
+                "{name}: image vs brute force passes without the drop: {}, with the dim light dropped: {}",
+                verdict(&plain_frame),
+                verdict(&dropped_frame)
+            );
+            r.culling().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap()
+        } else {
+            let mut b = gpu_lists.clone();
+            let at = b.lists[list].iter().position(|&l| l == light).expect("the GPU listed the pair");
+            b.lists[list].remove(at);
+            b.counts[list] -= 1;
+            b.pairs -= 1;
+            b
+        };
+        assert_eq!(broken.lists[list].len() + 1, gpu_lists.lists[list].len(), "{name}: one pair removed");
+        let e = compare(&broken).expect_err("a dim light's missing pair must fail the list comparison");
+        assert!(e.contains(&format!("list {list}: light {light} dropped by the GPU only")), "{name}: {e}");
+
+        // A wrong light index: the first light of the longest list replaced by the first
+        // light the CPU culler does not list there even with every light grown.
+        let grown = match &cull.clusters {
+            Some(c) => tiledlight_cull::cull_clusters(
+                &depth,
+                W,
+                H,
+                &camera,
+                &perturbed_lights(&camera, &lights.packed, 1.0),
+                c,
+                1,
+                0.0,
+            ),
+            None => cull_tiles(&depth, W, H, &camera, &perturbed_lights(&camera, &lights.packed, 1.0), &flat),
+        }
+        .unwrap();
+        let (list, _) = gpu_lists.lists.iter().enumerate().max_by_key(|(_, l)| l.len()).unwrap();
+        let wrong = (0..lights.packed.len() as u32).find(|l| !grown.lists[list].contains(l)).unwrap();
+        let mut b = gpu_lists.clone();
+        let was = b.lists[list][0];
+        b.lists[list][0] = wrong;
+        let e = compare(&b).expect_err("a wrong light index must fail the list comparison");
+        assert!(e.contains(&format!("list {list}: light {wrong} listed by the GPU only")), "{name}: {e}");
+        eprintln!("{name}: light {was} of list {list} replaced by {wrong}: rejected ({e:.80})");
+    }
+}
+
+/// The heat-map helper (`tiledlight_tests::images::assert_heat_tile`, which `vpl.rs` and
+/// `blended.rs` use) rejects a tile whose colour is checked against a count one off the
+/// true one, in each direction, for every tile of a Forward+ heat map whose count is below
+/// the workgroup capacity (16 here, so the log scale's steps are wide: counts at or past
+/// the capacity are all the same red, by the documented palette, and cannot be told
+/// apart); the true count passes every tile. A count of 1 checked as 0 expects the
+/// untouched pixel.
+#[test]
+fn heat_map_helper_rejects_a_wrong_count() {
+    use tiledlight_tests::images::{assert_heat_tile, documented_heat_colour};
+    let ctx = gpu();
+    let scene = scenes::mixed_scene();
+    let camera = scenes::mixed_camera(W, H);
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 60, 0, 4)).unwrap();
+    let cull = CullOptions { capacity: 16, ..Default::default() };
+    let mut plain =
+        ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { cull, ..Default::default() }).unwrap();
+    let base = render_frame(ctx, &mut plain, &sg, &camera).ldr;
+    let hs = ForwardSettings { cull, heatmap: true, ..Default::default() };
+    let mut heat_r = ForwardRenderer::new(ctx, &sg, &lights, W, H, hs).unwrap();
+    let heat = render_frame(ctx, &mut heat_r, &sg, &camera).ldr;
+    let counts = heat_r.culling().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap().counts;
+    let g = tiledlight_cull::TileGrid::new(W, H, cull.tile_size).unwrap();
+    let (mut checked, mut by_count) = (0, std::collections::BTreeSet::new());
+    for ty in 0..g.tiles_y {
+        for tx in 0..g.tiles_x {
+            let count = counts[(ty * g.tiles_x + tx) as usize];
+            let px = g.tile_pixels(tx, ty);
+            let what = format!("tile ({tx}, {ty}) count {count}");
+            assert_heat_tile(&heat, &base, W, px, documented_heat_colour(count, cull.capacity, false), &what);
+            if count == 0 || count >= cull.capacity {
+                continue;
+            }
+            for wrong in [count - 1, count + 1] {
+                let expected = documented_heat_colour(wrong, cull.capacity, false);
+                let r = std::panic::catch_unwind(|| assert_heat_tile(&heat, &base, W, px, expected, &what));
+                assert!(r.is_err(), "{what}: the heat-map check passed with count {wrong}");
+            }
+            checked += 1;
+            by_count.insert(count);
+        }
+    }
+    eprintln!("heat map: {checked} tiles rejected both wrong counts; counts {by_count:?}");
+    assert!(checked > 20 && by_count.len() > 5, "too few tiles below the capacity: {checked}, {by_count:?}");
 }

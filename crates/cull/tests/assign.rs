@@ -6,8 +6,10 @@
 //! - every tile whose side planes the sphere passes lies in the rectangle, and every tile
 //!   of the rectangle passes them, except decisions within float error (the sphere shrunk,
 //!   respectively grown, by `1e-5 * (r + |c|)` decides them the rectangle's way);
-//! - a perspective sphere reaching the eye plane gets a rectangle holding the tile of every
-//!   point of it beyond the near plane that lands on the screen (sampled);
+//! - a perspective sphere reaching the eye plane gets a rectangle holding every tile that
+//!   its part beyond the near plane reaches into by more than a sample's margin (1/16
+//!   pixel), the part's projected extent computed exactly in f64 (`cap_extent`: tangent
+//!   lines through the eye and the near-plane chord), every tile checked, edges included;
 //! - `cull_tiles_scatter` (and `cull_tiles` with `scatter`) equals `cull_tiles` for every
 //!   config switch and sample count but for pairs of lights reaching the eye plane in
 //!   tiles outside their near-plane rectangle.
@@ -80,7 +82,8 @@ fn check_rect(g: &TileGrid, camera: &Camera, c: Vec3, r: f32) -> Result<usize, T
     let dp = camera.depth_params();
     let rect = light_tile_rect(g, &camera.proj(), &dp, c, r);
     // Reaching the eye plane: the plane tests are not monotone; the rectangle bounds the
-    // part beyond the near plane instead (checked by sampling it), not the passing tiles.
+    // part beyond the near plane instead (checked against its exact extent), not the
+    // passing tiles.
     let cap = !dp.orthographic && c.z + r >= 0.0;
     if cap {
         check_cap(g, camera, c, r, rect)?;
@@ -109,48 +112,151 @@ fn check_rect(g: &TileGrid, camera: &Camera, c: Vec3, r: f32) -> Result<usize, T
     Ok(passing)
 }
 
-/// A sphere reaching the eye plane: every sampled point of it beyond the near plane that
-/// projects onto the screen lies in a tile of `rect` (the no-false-negative guarantee of
-/// the near-plane rectangle). Points within 1e-3 of a tile edge (in tiles) or of the sphere
-/// or near plane (relative) are skipped: there f32 may decide either way.
+/// The exact extent of `a / -z` over the part of the sphere (`c`, `r`) beyond the near
+/// plane, `a` being view-space x (`axis` 0) or y (1), in f64; `None` when that part is
+/// empty. `a / -z` depends on (a, z) only, and the ball cut at `z <= -near` projects onto
+/// the (a, z) plane as the disc of radius `r` about `(c.a, c.z)` cut at `z <= -near`. The
+/// ratio's level sets are lines through the origin (the eye), so its extremes over the cut
+/// disc lie where such a line is tangent to the circle (the tangent point beyond the near
+/// plane) or at the cut chord's ends (`z = -near`, where the ratio is `a / near`, linear
+/// in `a`); both kinds of candidate are computed and the valid ones compared.
+fn cap_extent(c: glam::DVec3, r: f64, near: f64, axis: usize) -> Option<(f64, f64)> {
+    let (a0, z0) = (if axis == 0 { c.x } else { c.y }, c.z);
+    if z0 - r > -near {
+        return None;
+    }
+    let mut cands = Vec::new();
+    // The chord at z = -near.
+    let h = r * r - (z0 + near) * (z0 + near);
+    if h >= 0.0 {
+        cands.push((a0 - h.sqrt()) / near);
+        cands.push((a0 + h.sqrt()) / near);
+    }
+    // Lines a + u z = 0 tangent to the circle: (z0^2 - r^2) u^2 + 2 a0 z0 u + a0^2 - r^2 = 0.
+    let (qa, qb, qc) = (z0 * z0 - r * r, 2.0 * a0 * z0, a0 * a0 - r * r);
+    let mut roots = Vec::new();
+    if qa.abs() > 1e-300 {
+        let disc = qb * qb - 4.0 * qa * qc;
+        if disc >= 0.0 {
+            roots.push((-qb + disc.sqrt()) / (2.0 * qa));
+            roots.push((-qb - disc.sqrt()) / (2.0 * qa));
+        }
+    } else if qb != 0.0 {
+        roots.push(-qc / qb);
+    }
+    for u in roots {
+        // The tangent point: the centre's foot on the line, whose normal is (1, u).
+        let t = (a0 + u * z0) / (1.0 + u * u);
+        let z = z0 - t * u;
+        if z <= -near {
+            cands.push(u);
+        }
+    }
+    // The cut disc is compact, beyond the eye: its extremes are among the candidates.
+    let lo = cands.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = cands.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    (lo <= hi).then_some((lo, hi))
+}
+
+/// Distance of the outermost sample of a pixel from the pixel's edge, in pixels: 1/16,
+/// 8x MSAA's standard positions (1x samples at the centre, 1/2).
+const SAMPLE_MARGIN_PX: f64 = 1.0 / 16.0;
+
+/// A sphere reaching the eye plane: the rectangle holds every tile that the part of the
+/// sphere beyond the near plane reaches into by more than [`SAMPLE_MARGIN_PX`] (where a
+/// sample of a drawn surface the light reaches can lie). The part's projected extent is
+/// computed exactly ([`cap_extent`], f64), not sampled, and every tile of the grid is
+/// checked, edge tiles and tiles the extent ends in included: nothing is skipped. The
+/// extent function is itself checked against points of the sphere (a Fibonacci sphere
+/// at three radii and the cut circle): none projects outside it.
 fn check_cap(g: &TileGrid, camera: &Camera, c: Vec3, r: f32, rect: Option<TileRect>) -> Result<(), TestCaseError> {
     if !(r.is_finite() && c.is_finite()) {
         return Ok(());
     }
-    let (proj, near) = (camera.proj(), camera.depth_params().near);
-    // A Fibonacci sphere of directions at three radii, and the centre.
-    let mut points = vec![c];
-    let n = 96;
+    let proj = camera.proj();
+    let near = f64::from(camera.depth_params().near);
+    let cd = c.as_dvec3();
+    let rd = f64::from(r);
+    let (Some(ex), Some(ey)) = (cap_extent(cd, rd, near, 0), cap_extent(cd, rd, near, 1)) else {
+        return Ok(());
+    };
+    // The camera's projection is glam's symmetric perspective: ndc = (P00 x / -z, P11 y / -z).
+    prop_assert!(
+        proj.x_axis.y == 0.0 && proj.x_axis.w == 0.0 && proj.y_axis.x == 0.0 && proj.y_axis.w == 0.0,
+        "not a symmetric perspective: {proj}"
+    );
+    prop_assert!(proj.z_axis.x == 0.0 && proj.z_axis.y == 0.0 && proj.z_axis.w == -1.0, "{proj}");
+    let (sx, sy) = (f64::from(proj.x_axis.x), f64::from(proj.y_axis.y));
+    let (lo_x, hi_x, lo_y, hi_y) = (ex.0 * sx, ex.1 * sx, ey.0 * sy, ey.1 * sy);
+    // The extent bounds every point of the part beyond the near plane (a check of
+    // `cap_extent`; 1e-9 relative for f64 rounding).
+    let n = 200;
+    let rim = (rd * rd - (cd.z + near).powi(2)).max(0.0).sqrt();
+    let mut points: Vec<glam::DVec3> = (0..64)
+        .map(|k| {
+            let a = k as f64 * std::f64::consts::TAU / 64.0;
+            glam::DVec3::new(cd.x + rim * a.cos(), cd.y + rim * a.sin(), -near)
+        })
+        .collect();
     for i in 0..n {
-        let z = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
-        let (s, phi) = ((1.0 - z * z).sqrt(), i as f32 * 2.399_963);
-        let d = Vec3::new(s * phi.cos(), s * phi.sin(), z);
-        for f in [0.25, 0.6, 0.999] {
-            points.push(c + d * (r * f));
+        let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+        let (s, phi) = ((1.0 - z * z).sqrt(), i as f64 * 2.399_963);
+        let d = glam::DVec3::new(s * phi.cos(), s * phi.sin(), z);
+        for f in [0.5, 1.0] {
+            points.push(cd + d * rd * f);
         }
     }
     for p in points {
-        if p.z >= -near * (1.0 + 1e-3) {
+        if p.z > -near || (p - cd).length() > rd * (1.0 + 1e-12) {
             continue;
         }
-        let clip = proj * p.extend(1.0);
-        let ndc = glam::Vec2::new(clip.x, clip.y) / clip.w;
-        if !(ndc.x.abs() < 1.0 && ndc.y.abs() < 1.0) {
-            continue;
-        }
-        let px = Vec3::new((ndc.x + 1.0) * 0.5 * g.width as f32, (1.0 - ndc.y) * 0.5 * g.height as f32, 0.0)
-            / g.tile_size as f32;
-        let (fx, fy) = (px.x.fract(), px.y.fract());
-        if fx.min(1.0 - fx) < 1e-3 || fy.min(1.0 - fy) < 1e-3 {
-            continue;
-        }
-        let (tx, ty) = ((px.x as u32).min(g.tiles_x - 1), (px.y as u32).min(g.tiles_y - 1));
+        let (u, v) = (p.x / -p.z, p.y / -p.z);
+        let tol = |e: (f64, f64)| 1e-9 * (e.0.abs().max(e.1.abs()) + 1.0);
         prop_assert!(
-            rect.is_some_and(|q| q.contains(tx, ty)),
-            "point {p} of light {c} r {r:e} projects to tile ({tx}, {ty}), outside {rect:?}"
+            u >= ex.0 - tol(ex) && u <= ex.1 + tol(ex) && v >= ey.0 - tol(ey) && v <= ey.1 + tol(ey),
+            "point {p} of light {c} r {r:e} projects to ({u}, {v}), outside the exact extent {ex:?} {ey:?}"
         );
     }
+    // Every tile the extent reaches into by more than a sample's margin.
+    let (w, h) = (f64::from(g.width), f64::from(g.height));
+    let (mx, my) = (2.0 * SAMPLE_MARGIN_PX / w, 2.0 * SAMPLE_MARGIN_PX / h);
+    for ty in 0..g.tiles_y {
+        let top = 1.0 - 2.0 * f64::from(ty * g.tile_size) / h;
+        let bottom = 1.0 - 2.0 * f64::from(((ty + 1) * g.tile_size).min(g.height)) / h;
+        if !(hi_y > bottom + my && lo_y < top - my) {
+            continue;
+        }
+        for tx in 0..g.tiles_x {
+            let left = 2.0 * f64::from(tx * g.tile_size) / w - 1.0;
+            let right = 2.0 * f64::from(((tx + 1) * g.tile_size).min(g.width)) / w - 1.0;
+            if !(hi_x > left + mx && lo_x < right - mx) {
+                continue;
+            }
+            prop_assert!(
+                rect.is_some_and(|q| q.contains(tx, ty)),
+                "light {c} r {r:e}: its part beyond the near plane covers NDC x {lo_x}..{hi_x}, y {lo_y}..{hi_y}, \
+                 reaching into tile ({tx}, {ty}), outside {rect:?}"
+            );
+        }
+    }
     Ok(())
+}
+
+/// The exact extent against closed forms: a sphere wholly beyond the near plane straight
+/// ahead spans `+-tan(asin(r / d))`; one centred on the near plane, its cut circle
+/// `(c.x +- r) / near`; one around the eye reaching past the near plane, at least the
+/// cut circle's.
+#[test]
+fn cap_extent_matches_closed_forms() {
+    let e = cap_extent(glam::DVec3::new(0.0, 0.0, -10.0), 1.0, 0.1, 0).unwrap();
+    let t = (1.0f64 / 10.0).asin().tan();
+    assert!((e.0 + t).abs() < 1e-12 && (e.1 - t).abs() < 1e-12, "{e:?} vs {t}");
+    let e = cap_extent(glam::DVec3::new(0.5, 0.0, -0.1), 1.0, 0.1, 0).unwrap();
+    assert!((e.0 + 5.0).abs() < 1e-12 && (e.1 - 15.0).abs() < 1e-12, "{e:?}");
+    let e = cap_extent(glam::DVec3::new(0.0, 0.0, 0.0), 1.0, 0.1, 1).unwrap();
+    let chord = (1.0f64 - 0.01).sqrt() / 0.1;
+    assert!((e.0 + chord).abs() < 1e-9 && (e.1 - chord).abs() < 1e-9, "{e:?} vs {chord}");
+    assert_eq!(cap_extent(glam::DVec3::new(0.0, 0.0, 2.0), 1.0, 0.1, 0), None);
 }
 
 /// Cameras at the extremes: the common strategy with near pinned to 1e-4 or the far plane
@@ -184,6 +290,42 @@ proptest! {
         let mut r = rng(seed);
         for (c, radius) in random_view_lights(&mut r, &camera, 8) {
             check_rect(&g, &camera, c, radius)?;
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(cases(256))]
+
+    /// Spheres reaching the eye plane only (centre within a radius of the eye, behind or
+    /// ahead of it, radius 1e-4..1e4): `near_cap_rect` holds every tile their part beyond
+    /// the near plane reaches into ([`check_cap`]: exact extent, every tile).
+    #[test]
+    fn near_cap_rect_holds_every_tile_the_cap_reaches(
+        cam in extreme_cam(),
+        (w, h) in (1u32..1200, 1u32..1200),
+        tile in prop::sample::select(vec![1u32, 3, 8, 16, 32, 64, 128]),
+        seed in any::<u64>(),
+    ) {
+        let mut tile = tile;
+        while w.div_ceil(tile) * h.div_ceil(tile) > 20_000 {
+            tile *= 2;
+        }
+        let g = grid(w, h, tile);
+        let camera = cam.camera();
+        prop_assume!(!camera.depth_params().orthographic);
+        let mut r = rng(seed);
+        let near = camera.depth_params().near;
+        for _ in 0..16 {
+            let radius = log_uniform(&mut r, near.max(1e-4), 1e4);
+            let c = Vec3::new(
+                r.random_range(-1.0..1.0) * radius,
+                r.random_range(-1.0..1.0) * radius,
+                r.random_range(-1.0..1.0) * radius,
+            );
+            let rect = near_cap_rect(&g, &camera.proj(), near, c, radius);
+            prop_assert_eq!(rect, light_tile_rect(&g, &camera.proj(), &camera.depth_params(), c, radius));
+            check_cap(&g, &camera, c, radius, rect)?;
         }
     }
 }

@@ -240,7 +240,7 @@ fn case_strategy(tiles: &'static [u32], samples: &'static [u32]) -> impl Strateg
     ];
     let tile = prop::sample::select(tiles);
     let samples = prop::sample::select(samples);
-    let flags = (any::<bool>(), any::<bool>(), any::<bool>(), any::<bool>(), any::<bool>());
+    let flags = (any::<bool>(), any::<bool>(), any::<bool>(), any::<bool>(), any::<bool>(), any::<bool>());
     (
         common::cam_strategy(common::exp10(-1.0, 1.0)),
         screen,
@@ -252,7 +252,16 @@ fn case_strategy(tiles: &'static [u32], samples: &'static [u32]) -> impl Strateg
         any::<u64>(),
     )
         .prop_map(
-            |(cam, (width, height), tile, samples, (aabb, half_z, spot_cone, coarse, mask), mode, n_lights, seed)| {
+            |(
+                cam,
+                (width, height),
+                tile,
+                samples,
+                (aabb, half_z, spot_cone, coarse, mask, scatter),
+                mode,
+                n_lights,
+                seed,
+            )| {
                 let large = width * height > 100_000;
                 // 1 and 3 px tiles on 1921x1081 would mean up to 2M lists per case: use 13 there.
                 let tile_size = if large && tile < 8 { 13 } else { tile };
@@ -272,6 +281,10 @@ fn case_strategy(tiles: &'static [u32], samples: &'static [u32]) -> impl Strateg
                     spot_cone,
                     coarse,
                     depth_mask,
+                    // Light-centric assignment (`assign::cull_tiles_scatter`): each light
+                    // visits only its `light_tile_rect`, `near_cap_rect` for spheres
+                    // reaching the eye plane.
+                    scatter,
                     ..CullConfig::default()
                 };
                 Case {
@@ -394,7 +407,7 @@ fn generator_produces_reaching_lights() {
     let mut r = rng(7);
     let mut cases_with_pairs = 0;
     let (mut spot_pairs, mut far_half_pairs, mut msaa_pairs, mut edge_pixels) = (0, 0, 0, 0);
-    let (mut skipped, mut sphere_skips, mut all_pairs) = (0, 0, 0);
+    let (mut skipped, mut sphere_skips, mut all_pairs, mut near_eye_scatter_pairs) = (0, 0, 0, 0);
     let n = 96;
     for i in 0..n {
         let cam = CamSpec::random(&mut r);
@@ -403,6 +416,8 @@ fn generator_produces_reaching_lights() {
             samples: GPU_SAMPLES[(i / 3) % 4],
             half_z: true,
             spot_cone: true,
+            // Every other case light-centric: its near-eye pairs are counted below.
+            scatter: i % 2 == 1,
             ..CullConfig::default()
         };
         let c = Case {
@@ -433,6 +448,16 @@ fn generator_produces_reaching_lights() {
             let p = sample_view_position(&c, &b.camera, k, d).unwrap();
             let reach = lights_reaching(&b.camera.view(), &b.packed, p, 0.0);
             spot_pairs += reach.iter().filter(|&&l| l >= b.packed.num_point).count();
+            if c.config.scatter && !dp.orthographic {
+                // Spheres reaching the eye plane: their scatter lists are `near_cap_rect`'s.
+                near_eye_scatter_pairs += reach
+                    .iter()
+                    .filter(|&&l| {
+                        let cl = b.packed.cull[l as usize];
+                        common::to_view(&b.camera.view(), Vec3::from(cl.center)).z + cl.radius >= 0.0
+                    })
+                    .count();
+            }
             sphere_skips +=
                 reach.iter().filter(|&&l| common::near_spot_sphere_surface(&b.camera, &b.packed, l, p)).count();
             if spp > 1 {
@@ -451,6 +476,8 @@ fn generator_produces_reaching_lights() {
     // reach) is a fifth of the cases; everything else should mostly be lit.
     assert!(cases_with_pairs >= n / 2, "only {cases_with_pairs} of {n} cases have a light reaching a sample");
     assert!(spot_pairs > 100, "only {spot_pairs} spot light/sample pairs");
+    eprintln!("{near_eye_scatter_pairs} pairs of spheres reaching the eye plane in light-centric cases");
+    assert!(near_eye_scatter_pairs > 10, "only {near_eye_scatter_pairs} near-eye pairs in scatter cases");
     assert!(far_half_pairs > 100, "only {far_half_pairs} pairs in far half-z lists");
     assert!(msaa_pairs > 1000, "only {msaa_pairs} pairs in multisampled cases");
     assert!(edge_pixels > 1000, "only {edge_pixels} pixels whose samples differ");
@@ -663,7 +690,7 @@ fn shrunk_failures_stay_fixed() {
     ];
     let mut pairs = 0;
     for (cam, (width, height, tile_size), mode, n_lights, seed) in cases {
-        for flags in 0..32 {
+        for flags in 0..64 {
             let bit = |k: u32| flags & (1 << k) != 0;
             if bit(1) && bit(4) {
                 continue; // half-z and 2.5D masks are alternatives
@@ -676,6 +703,7 @@ fn shrunk_failures_stay_fixed() {
                 // Two-level culling only where the tile divides the 64 px cells.
                 coarse: bit(3) && COARSE_SIZE.is_multiple_of(tile_size),
                 depth_mask: bit(4),
+                scatter: bit(5),
                 ..CullConfig::default()
             };
             let c = Case { cam, width, height, config, mode, n_lights, seed, blended: false, cluster: None };
