@@ -51,8 +51,9 @@
 //! spheres bring far more reaching pairs to check, 2.7 million in the 62 cases), but the
 //! cost varies widely between cases (257 cases of the old shape took 354 s, 251 with
 //! another seed 529 s); the H200 ran 1,001 cases of the old shape in 190 s.
-//! `PROPTEST_CASES=n` runs more; `PROPTEST_RNG_SEED=s` (CI sets it) makes the cases
-//! deterministic. Failures are saved to `gpu_properties.proptest-regressions` and replayed
+//! `PROPTEST_CASES=n` runs more; `PROPTEST_RNG_SEED=s` draws other cases (by default the
+//! workspace's fixed seed, `crates/cull/tests/common/seed.rs`, so plain `cargo test` and CI
+//! draw the same ones). Failures are saved to `gpu_properties.proptest-regressions` and replayed
 //! first. That file keeps seeds, which replay other cases once the strategy changes, so
 //! the case it held for the old shape (the world-scale spot cone decision described in
 //! `tiledlight_tests::lists`) is written out in `saved_cases` and runs first.
@@ -480,13 +481,13 @@ fn gpu_lists_match_cpu_and_miss_no_reaching_light() {
     let ctx = gpu();
     let supported = supported_samples(ctx);
     assert!(supported.contains(&1) && supported.contains(&4), "WebGPU guarantees 1x and 4x: {supported:?}");
-    let defaults = Config::default();
-    let cases = if std::env::var_os("PROPTEST_CASES").is_some() { defaults.cases } else { DEFAULT_CASES };
+    // The workspace's shared configuration: DEFAULT_CASES unless PROPTEST_CASES, the
+    // fixed seed unless PROPTEST_RNG_SEED (so plain `cargo test` draws CI's cases).
+    let defaults = cull_common::proptest_config(DEFAULT_CASES);
     // Shrinking re-renders every candidate: bounded so a failure reports in minutes.
     // Failures are saved next to this file (gpu_properties.proptest-regressions) and
     // replayed first on the next run.
     let config = Config {
-        cases,
         max_shrink_iters: 64,
         source_file: Some(file!()),
         failure_persistence: Some(Box::new(FileFailurePersistence::WithSource("proptest-regressions"))),
