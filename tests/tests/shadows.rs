@@ -329,6 +329,9 @@ fn compare_visibility(
             continue;
         }
         let miss = (x, y, *v);
+        if std::env::var_os("SHADOW_DEBUG").is_some() {
+            eprintln!("miss {x} {y} v {v} p {} n {} centre {centre}", s.position, s.normal);
+        }
         if !caster {
             t.lit_but_dark.push(miss);
             t.overlay[i * 4..i * 4 + 3].copy_from_slice(&[255, 0, 0]);
@@ -422,10 +425,45 @@ impl Case<'_> {
     }
 }
 
-/// Renders `case` with `variant` for each of `options` (each light alone, shadowed and
-/// not) and compares every light with the ray cast. Returns the failures as text (empty:
-/// passed), after printing each light's counts, border and margin.
-fn run_case(case: &Case, reference: &Reference<'_>, variant: Variant, options: &[ShadowOptions]) -> Vec<String> {
+/// A case rendered: the surfaces the pixels show, and per shadow option, per light, per
+/// pixel the light's visibility (shadowed over unshadowed radiance of that light alone;
+/// `None` where it is dimmer than [`DIM`]).
+struct Visibility {
+    surfaces: Vec<Option<Surface>>,
+    vis: Vec<Vec<Vec<Option<f32>>>>,
+}
+
+/// The pixels of `surfaces` whose eight neighbours lie on the same plane (normals within
+/// 2.6 degrees, positions within 1e-3 of their distance off it): with MSAA a pixel's samples may lie on several surfaces and the resolve
+/// averages their shading, while the 1x surface point describes one of them; at a crease
+/// (a box's edge) the other face's samples are judged by the wrong plane. Those pixels,
+/// and silhouettes (no surface point), are left out of the MSAA comparisons.
+fn single_surface_pixels(surfaces: &[Option<Surface>]) -> Vec<Option<Surface>> {
+    let (w, h) = (W as i64, H as i64);
+    (0..surfaces.len())
+        .map(|i| {
+            let s = surfaces[i]?;
+            let (x, y) = (i as i64 % w, i as i64 / w);
+            for (dx, dy) in [(-1, -1), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)] {
+                let (nx, ny) = (x + dx, y + dy);
+                if nx < 0 || ny < 0 || nx >= w || ny >= h {
+                    return None;
+                }
+                let n = surfaces[(ny * w + nx) as usize]?;
+                // Same orientation and the same plane (a floor behind a box's top edge
+                // has the top's normal).
+                let off_plane = (n.position - s.position).dot(s.normal).abs();
+                if n.normal.dot(s.normal) < 0.999 || off_plane > 1e-3 * (n.position - s.position).length() + 1e-4 {
+                    return None;
+                }
+            }
+            Some(s)
+        })
+        .collect()
+}
+
+/// Renders `case` with `variant` for each of `options`, each light alone, shadowed and not.
+fn render_case(case: &Case<'_>, variant: Variant, options: &[ShadowOptions]) -> Visibility {
     let ctx = gpu();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, case.scene).expect("scene");
     let with = LightBuffers::with_casters(&ctx.device, &case.lights, case.casters).expect("lights with casters");
@@ -443,22 +481,40 @@ fn run_case(case: &Case, reference: &Reference<'_>, variant: Variant, options: &
         render_frame(ctx, r.as_mut(), &sg, &case.camera);
         r.read_depth(ctx).expect("depth")
     };
-    let surfaces = surface_points(&case.camera, W, H, &depth);
+    let mut surfaces = surface_points(&case.camera, W, H, &depth);
+    if variant.msaa > 1 {
+        surfaces = single_surface_pixels(&surfaces);
+    }
     let full = {
         let mut r = renderer_for(variant, &sg, &without, ShadowOptions::default());
         per_light(r.as_mut(), &sg, &without, &case.camera)
     };
+    let vis = options
+        .iter()
+        .map(|&opts| {
+            let mut r = renderer_for(variant, &sg, &with, opts);
+            let shadowed = per_light(r.as_mut(), &sg, &with, &case.camera);
+            full.iter()
+                .zip(&shadowed)
+                .map(|(f, s)| f.iter().zip(s).map(|(&f, &s)| (f >= DIM).then(|| s / f)).collect())
+                .collect()
+        })
+        .collect();
+    Visibility { surfaces, vis }
+}
+
+/// Renders `case` with `variant` for each of `options` and compares every light with the
+/// ray cast. Returns the failures as text (empty: passed), after printing each light's
+/// counts, border and margin.
+fn run_case(case: &Case<'_>, reference: &Reference<'_>, variant: Variant, options: &[ShadowOptions]) -> Vec<String> {
+    let rendered = render_case(case, variant, options);
     let mut failures = Vec::new();
-    for &opts in options {
-        let mut r = renderer_for(variant, &sg, &with, opts);
-        let shadowed = per_light(r.as_mut(), &sg, &with, &case.camera);
-        for (i, light) in case.lights.iter().enumerate() {
-            let vis: Vec<Option<f32>> =
-                full[i].iter().zip(&shadowed[i]).map(|(&f, &s)| (f >= DIM).then(|| s / f)).collect();
+    for (&opts, per_light) in options.iter().zip(&rendered.vis) {
+        for (i, (light, vis)) in case.lights.iter().zip(per_light).enumerate() {
             let caster = case.is_caster(i);
-            let t = compare_visibility(reference, light, caster, &surfaces, &vis, opts);
+            let t = compare_visibility(reference, light, caster, &rendered.surfaces, vis, opts);
             let what = format!(
-                "{} light {i} ({}{}; {:?} {:?} {}x MSAA, {}x{} PCF, {} px, {})",
+                "{} light {i} ({}{}; {:?} {} {}x MSAA, {}x{} PCF, {} px, {})",
                 case.name,
                 if light.is_spot() { "spot" } else { "point" },
                 if caster { " caster" } else { "" },
@@ -471,7 +527,8 @@ fn run_case(case: &Case, reference: &Reference<'_>, variant: Variant, options: &
                 opts.format.name()
             );
             eprintln!(
-                "{what}: {} lit, {} shadowed; border {:.2}-{:.2} texels, margin {:.2} texels; wrong: {} lit-but-dark, {} shadowed-but-lit",
+                "{what}: {} lit, {} shadowed; border {:.2}-{:.2} texels, margin {:.2} texels; \
+                 wrong: {} lit-but-dark, {} shadowed-but-lit",
                 t.lit,
                 t.shadowed,
                 t.border.0,
@@ -489,9 +546,11 @@ fn run_case(case: &Case, reference: &Reference<'_>, variant: Variant, options: &
             }
             if !t.passed() || std::env::var_os("TILEDLIGHT_SHADOW_OVERLAYS").is_some() {
                 let file = format!(
-                    "shadows-{}-{i}-{:?}-{}-{}.png",
+                    "shadows-{}-{i}-{:?}-{}-{}x-{}-{}.png",
                     case.name,
                     variant.kind,
+                    layout_name(variant.cull),
+                    variant.msaa,
                     opts.filter.size(),
                     opts.format.name()
                 )
@@ -990,4 +1049,250 @@ fn many_casters_match_the_ray_cast_for_every_filter_and_format() {
     options.push(ShadowOptions { format: ShadowFormat::Depth32, tile_size: 512, ..Default::default() });
     options.push(ShadowOptions { format: ShadowFormat::Depth32, filter: ShadowFilter::Tap1, ..Default::default() });
     assert_case(&multi_case(&scene), &reference, Variant::of(Kind::BruteForce), &options);
+}
+
+/// The ray-cast comparison can fail: on the GPU's own visibility of the multi-caster case
+/// (5x5 PCF) broken on purpose, it rejects
+/// - one pixel flipped each way (a shadowed pixel, far from any edge, made fully lit; a lit
+///   one made dark): exactly that pixel;
+/// - the shadow shifted sideways by a few pixels (the smallest rejected shift printed and
+///   bounded);
+/// - a caster's visibility judged against another caster's ray cast (the shader reading
+///   another light's faces, simulated on the CPU);
+/// - a caster's visibility judged as a light without shadows (a non-caster that reads a
+///   shadow).
+#[test]
+fn ray_cast_comparison_rejects_broken_shadows() {
+    let scene = shadow_box_scene(0.5);
+    let reference = Reference::new(&scene);
+    let case = multi_case(&scene);
+    let opts = ShadowOptions::default();
+    let rendered = render_case(&case, Variant::of(Kind::BruteForce), &[opts]);
+    let surfaces = &rendered.surfaces;
+    let judge = |light: usize, caster: bool, vis: &[Option<f32>]| {
+        compare_visibility(&reference, &case.lights[light], caster, surfaces, vis, opts)
+    };
+    for light in [0, 3] {
+        let l = &case.lights[light];
+        let vis = &rendered.vis[0][light];
+        assert!(judge(light, true, vis).passed(), "light {light}: the unbroken input must pass");
+        // A pixel far from every edge in each state.
+        let certain = |want_lit: bool| {
+            (0..vis.len())
+                .find(|&i| {
+                    let (Some(s), Some(v)) = (surfaces[i], vis[i]) else { return false };
+                    let centre = reference.visible(l.position, s.position, s.normal);
+                    let face = face_of(l, s.position, opts);
+                    let b = border_texels(&face, l, s.position, s.normal, opts);
+                    centre == want_lit
+                        && (if want_lit { v >= LIT } else { v <= DARK })
+                        && reference.edge_distance(&face, l.position, s, centre, 2.0 * b).is_none()
+                })
+                .expect("a pixel far from the shadow's edges")
+        };
+        for (want_lit, flipped) in [(true, 0.0), (false, 1.0)] {
+            let i = certain(want_lit);
+            let mut broken = vis.clone();
+            broken[i] = Some(flipped);
+            let t = judge(light, true, &broken);
+            let wrong = if want_lit { &t.lit_but_dark } else { &t.shadowed_but_lit };
+            let other = if want_lit { &t.shadowed_but_lit } else { &t.lit_but_dark };
+            assert_eq!(wrong.len(), 1, "light {light}: one flipped pixel ({i}) must be rejected: {wrong:?}");
+            assert_eq!((wrong[0].0, wrong[0].1), (i as u32 % W, i as u32 / W));
+            assert!(other.is_empty());
+        }
+        // The whole image shifted right by k pixels: the shadow moves, its edges do not
+        // line up with the ray cast's any more.
+        let shifted = |k: usize| -> Vec<Option<f32>> {
+            (0..vis.len()).map(|i| if (i % W as usize) < k { None } else { vis[i - k] }).collect()
+        };
+        let first = (1..=8).find(|&k| !judge(light, true, &shifted(k)).passed());
+        eprintln!("light {light}: the smallest shift of the shadow rejected: {first:?} pixels");
+        // The border is 3.6-4.9 texels of 2.3-3.3 cm here, seen from 11-12 m where a pixel
+        // spans ~7.5 cm (about three texels), and the GPU's penumbra already uses all but
+        // ~1 texel of it (the printed margin): a shift of one or two pixels is past it.
+        assert!(first.is_some_and(|k| k <= 2), "light {light}: a shifted shadow passed ({first:?})");
+        // Another caster's shadow, and a shadow on a light that casts none.
+        let other = if light == 0 { 1 } else { 4 };
+        assert!(!judge(other, true, vis).passed(), "light {light}'s shadow judged as light {other}'s must fail");
+        assert!(!judge(light, false, vis).passed(), "light {light}'s shadow on a non-caster must fail");
+    }
+}
+
+/// Each light alone against the ray cast, 5x5 PCF, for the extremes: see each case.
+fn assert_extreme(case: &Case<'_>, reference: &Reference<'_>) {
+    assert_case(case, reference, Variant::of(Kind::BruteForce), &[ShadowOptions::default()]);
+}
+
+/// The multi-caster case seen by a camera with a 1e-4 m near plane and an infinite far
+/// plane (reversed-Z: the depth buffer holds `1e-4 / distance`, the surfaces are rebuilt
+/// from it).
+#[test]
+fn shadows_with_a_near_plane_of_1e_4_and_no_far_plane() {
+    let scene = shadow_box_scene(0.5);
+    let mut case = multi_case(&scene);
+    case.name = "near 1e-4";
+    case.camera = Camera::perspective(
+        Vec3::new(0.0, 9.0, 9.0),
+        Vec3::new(0.5, 0.0, 0.0),
+        Vec3::Y,
+        60f32.to_radians(),
+        W as f32 / H as f32,
+        1e-4,
+        None,
+    )
+    .expect("camera");
+    assert_extreme(&case, &Reference::new(&scene));
+}
+
+/// A point and a spot caster at the camera's eye (the spot along the view): every surface
+/// the camera sees, the light sees, so the ray cast shadows nothing and the GPU must not
+/// either (no acne, no near-plane clipping of what the light faces); a third caster
+/// elsewhere keeps the shadowed direction tested in the same frames.
+#[test]
+fn shadows_of_a_light_at_the_eye() {
+    let scene = shadow_box_scene(0.5);
+    let cam = box_camera();
+    let eye = cam.eye();
+    let target = Vec3::new(0.5, 0.0, 0.0);
+    let spot = Light::spot(eye, (target - eye).normalize(), Vec3::ONE, 400.0, 0.5, 0.7, 0.01).expect("spot");
+    let case = Case {
+        name: "at the eye",
+        scene: &scene,
+        lights: vec![point(eye, 300.0), point(Vec3::new(1.5, 6.0, 1.0), 200.0), spot],
+        casters: (2, 1),
+        camera: cam,
+        // The eye's lights shadow nothing the camera sees: no shadowed pixel to ask for.
+        min_counts: vec![(30000, 0), (15000, 300), (15000, 0)],
+    };
+    assert_extreme(&case, &Reference::new(&scene));
+}
+
+/// Casters inside an instance's bounds: a point and a spot light under a table (one
+/// instance: top and legs), the legs shadowing the floor around it. The shadow faces'
+/// near plane ignores the instance around the light (`shadow::nearest_bounds`), so it
+/// stays at 1% of the radius; every table surface lies beyond it here.
+#[test]
+fn shadows_of_lights_inside_an_instances_bounds() {
+    let scene = scenes::table_scene();
+    let under = Vec3::new(0.2, 1.0, -0.1);
+    let spot_pos = Vec3::new(-0.3, 1.3, 0.4);
+    let spot =
+        Light::spot(spot_pos, (Vec3::new(-4.0, 0.0, 3.0) - spot_pos).normalize(), Vec3::ONE, 60.0, 0.6, 0.9, 0.01)
+            .expect("spot");
+    let camera = Camera::perspective(
+        Vec3::new(5.0, 7.0, 9.0),
+        Vec3::new(-0.5, 0.0, 0.0),
+        Vec3::Y,
+        60f32.to_radians(),
+        W as f32 / H as f32,
+        0.1,
+        None,
+    )
+    .expect("camera");
+    let case = Case {
+        name: "inside bounds",
+        scene: &scene,
+        lights: vec![point(under, 60.0), spot],
+        casters: (1, 1),
+        camera,
+        min_counts: vec![(5000, 300), (3000, 300)],
+    };
+    let table = scene.instances[1].transform;
+    let bounds = scene.meshes[1].bounds().transformed(&table);
+    assert!(bounds.contains(under) && bounds.contains(spot_pos), "the lights must be inside the table's bounds");
+    assert_extreme(&case, &Reference::new(&scene));
+}
+
+/// Casters next to an occluder, far closer than 1% of their radius (141 m: 1.4 m): a point
+/// light 0.3 m from the box's side and a spot 0.2 m over its top, 0.2 m inside its front
+/// edge, aiming down past the edge (the box cuts off the half of the cone nearer it). The
+/// faces' near plane must come in short of the box (`shadow_near`), and 16-bit depth keep
+/// its resolution far away.
+#[test]
+fn shadows_of_lights_next_to_an_occluder() {
+    let scene = shadow_box_scene(0.5);
+    let spot_pos = Vec3::new(0.3, 2.7, 0.8);
+    let spot =
+        Light::spot(spot_pos, (Vec3::new(0.3, 0.0, 3.5) - spot_pos).normalize(), Vec3::ONE, 200.0, 0.5, 0.7, 0.01)
+            .expect("spot");
+    let case = Case {
+        name: "next to an occluder",
+        scene: &scene,
+        lights: vec![point(Vec3::new(1.3, 1.5, 0.0), 200.0), spot],
+        casters: (1, 1),
+        camera: box_camera(),
+        min_counts: vec![(5000, 300), (3000, 300)],
+    };
+    let radius = case.lights[0].radius;
+    assert!(0.3 < 0.01 * radius, "the point light must be within 1% of its radius ({radius} m) of the box");
+    assert_extreme(&case, &Reference::new(&scene));
+}
+
+/// Alpha-masked casters: a horizontal screen with a checker of holes over the floor, a
+/// point and a spot caster over it. The ray cast lets light through the holes exactly where
+/// the GPU's alpha test discards (`scenes::alpha_blocks`; nearest sampling), so the
+/// floor's checker of light and shadow must match in both directions; the same frames
+/// judged against a ray cast that treats the screen as solid must fail (the mask is what
+/// makes them agree).
+#[test]
+fn alpha_masked_casters_match_the_masked_ray_cast() {
+    let scene = scenes::masked_screen_scene();
+    let spot_pos = Vec3::new(-3.0, 6.0, 2.0);
+    let spot =
+        Light::spot(spot_pos, (Vec3::new(0.5, 0.0, -0.5) - spot_pos).normalize(), Vec3::ONE, 300.0, 0.5, 0.7, 0.01)
+            .expect("spot");
+    let case = Case {
+        name: "alpha mask",
+        scene: &scene,
+        lights: vec![point(Vec3::new(0.3, 5.0, 0.2), 200.0), spot],
+        casters: (1, 1),
+        camera: box_camera(),
+        min_counts: vec![(5000, 1000), (3000, 300)],
+    };
+    let masked = Reference::new(&scene);
+    assert_extreme(&case, &masked);
+    let solid = Reference { tris: Triangles::new(scene.world_triangles()), blocks: Box::new(|_, _, _| true) };
+    let opts = ShadowOptions::default();
+    let rendered = render_case(&case, Variant::of(Kind::BruteForce), &[opts]);
+    for (i, light) in case.lights.iter().enumerate() {
+        let t = compare_visibility(&solid, light, true, &rendered.surfaces, &rendered.vis[0][i], opts);
+        eprintln!("alpha mask light {i} against a solid screen: {} lit but dark", t.shadowed_but_lit.len());
+        assert!(t.shadowed_but_lit.len() > 200, "light {i}: the holes' light must contradict a solid screen");
+    }
+}
+
+/// The multi-caster case rendered with 4x MSAA by Forward+ and Tiled Deferred (the shading
+/// runs once per pixel away from edges; the surfaces are the 1x depth buffer's).
+#[test]
+fn shadows_with_msaa_4x_match_the_ray_cast() {
+    let scene = shadow_box_scene(0.5);
+    let reference = Reference::new(&scene);
+    let case = Case { name: "msaa", ..multi_case(&scene) };
+    for kind in [Kind::ForwardPlus, Kind::Deferred] {
+        let v = Variant { msaa: 4, ..Variant::of(kind) };
+        assert_case(&case, &reference, v, &[ShadowOptions::default()]);
+    }
+}
+
+/// The multi-caster case in each light-grid layout: 2.5D depth masks, clusters and
+/// light-centric (scatter) assignment, in Forward+ and Tiled Deferred.
+#[test]
+fn shadows_in_every_layout_match_the_ray_cast() {
+    let scene = shadow_box_scene(0.5);
+    let reference = Reference::new(&scene);
+    let d = CullOptions::default();
+    let layouts = [
+        CullOptions { depth_mask: true, ..d },
+        CullOptions { clusters: Some(ClusterOptions::default()), ..d },
+        CullOptions { scatter: true, ..d },
+    ];
+    let mut failures = Vec::new();
+    for cull in layouts {
+        for kind in [Kind::ForwardPlus, Kind::Deferred] {
+            let case = Case { name: "layout", ..multi_case(&scene) };
+            failures.extend(run_case(&case, &reference, Variant { kind, cull, msaa: 1 }, &[ShadowOptions::default()]));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
