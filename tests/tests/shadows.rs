@@ -1012,7 +1012,7 @@ fn multi_lights() -> Vec<Light> {
         |p: Vec3, at: Vec3, i: f32| Light::spot(p, (at - p).normalize(), Vec3::ONE, i, 0.45, 0.7, 0.01).expect("spot");
     vec![
         point(Vec3::new(1.5, 6.0, 1.0), 200.0),
-        point(Vec3::new(-3.0, 5.0, -2.0), 180.0),
+        point(Vec3::new(-4.5, 3.2, -2.5), 180.0),
         point(Vec3::new(3.5, 4.5, -3.0), 100.0),
         spot(Vec3::new(-3.0, 7.0, 2.0), Vec3::ZERO, 300.0),
         spot(Vec3::new(4.0, 6.0, 3.0), Vec3::new(-1.0, 0.0, -1.0), 280.0),
