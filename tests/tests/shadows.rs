@@ -203,17 +203,17 @@ const NORMAL_OFFSET_TEXELS: f32 = 1.0;
 /// - the rasterised silhouette: the shadow pass stores an occluder where it covers a texel's
 ///   centre, so the stored edge is within half a texel of the true one: `0.5`;
 /// - the normal offset: the lookup point moves `NORMAL_OFFSET_TEXELS x sin(theta)` on-axis
-///   texels along `n`; only the part across the ray moves it in the map (`sin(theta)` of
-///   it), and off the face's axis one world unit across the ray spans up to `1 / cos(phi)`
-///   times as many texels as on it (phi: the ray's angle to the axis; the map's texels shrink
-///   toward the face's corners as `cos^2 phi` radially): at most
-///   `NORMAL_OFFSET_TEXELS x sin(theta) / cos(phi)` texels.
+///   texels (`texel x w`, w the view depth) along `n`; only the part across the ray moves it
+///   in the map (`sin(theta)` of it), and across the ray at distance `w / cos(phi)` a world
+///   length `a` turns the ray by `a cos(phi) / w`, which moves the map point by up to
+///   `1 / cos^2(phi)` times that (phi: the ray's angle to the face's axis): at most
+///   `NORMAL_OFFSET_TEXELS x sin^2(theta) / cos(phi)` texels.
 fn border_texels(face: &Face, light: &Light, p: Vec3, n: Vec3, opts: ShadowOptions) -> f32 {
     let l = (light.position - p).normalize();
     let cos_t = n.dot(l).clamp(-1.0, 1.0);
     let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
     let cos_phi = (-l).dot(face.axis).max(1e-3);
-    opts.filter.radius() as f32 + 1.0 + 0.5 + NORMAL_OFFSET_TEXELS * sin_t / cos_phi
+    opts.filter.radius() as f32 + 1.0 + 0.5 + NORMAL_OFFSET_TEXELS * sin_t * sin_t / cos_phi
 }
 
 /// The CPU ray cast with the scene's alpha masks: a segment is blocked by a triangle where
