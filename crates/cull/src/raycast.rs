@@ -994,7 +994,7 @@ mod tests {
             tris[i][1].x = f32::NAN;
         }
         let bvh = Triangles::new(tris.clone());
-        let blocks = |i: usize, u: f32, v: f32| i % 2 == 0 || u + 0.5 * v < 0.4;
+        let blocks = |i: usize, u: f32, v: f32| i.is_multiple_of(2) || u + 0.5 * v < 0.4;
         let brute = |a: Vec3, b: Vec3| {
             let Some(ray) = Ray::segment(a, b, 1e-3) else { return false };
             tris.iter()
