@@ -544,14 +544,15 @@ fn run_case(case: &Case<'_>, reference: &Reference<'_>, variant: Variant, option
                 opts.tile_size,
                 opts.format.name()
             );
+            let penumbra = if t.margin.is_finite() {
+                format!("border {:.2}-{:.2} texels, margin {:.2} texels", t.border.0, t.border.1, t.margin)
+            } else {
+                "no penumbra pixel".to_string()
+            };
             eprintln!(
-                "{what}: {} lit, {} shadowed; border {:.2}-{:.2} texels, margin {:.2} texels; \
-                 wrong: {} lit-but-dark, {} shadowed-but-lit",
+                "{what}: {} lit, {} shadowed; {penumbra}; wrong: {} lit-but-dark, {} shadowed-but-lit",
                 t.lit,
                 t.shadowed,
-                t.border.0,
-                t.border.1,
-                t.margin,
                 t.lit_but_dark.len(),
                 t.shadowed_but_lit.len()
             );
