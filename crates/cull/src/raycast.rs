@@ -64,6 +64,9 @@ pub struct Triangles {
     nodes: Vec<Node>,
     /// Levels below the root (0 for a root leaf).
     depth: u32,
+    /// Per triangle in leaf order, its index in the list given to [`Triangles::new`]
+    /// (dropped non-finite triangles counted), for [`Triangles::occluded_where`].
+    ids: Vec<u32>,
 }
 
 /// A BVH node: a leaf when `count > 0` (triangles `first..first + count`), otherwise an
@@ -179,6 +182,12 @@ fn finite_triangle(t: &[Vec3; 3]) -> bool {
 ///   A segment lying in a triangle's plane is therefore not blocked by it.
 /// - NaN anywhere makes a comparison false, so it is a miss, never a panic.
 fn intersect(tri: &[Vec3; 3], ray: &Ray, t_hi: f64) -> Option<f64> {
+    intersect_uv(tri, ray, t_hi).map(|(t, _, _)| t)
+}
+
+/// [`intersect`] with the hit's barycentrics: `(t, u, v)`, the hit point being
+/// `tri[0] + u (tri[1] - tri[0]) + v (tri[2] - tri[0])`.
+fn intersect_uv(tri: &[Vec3; 3], ray: &Ray, t_hi: f64) -> Option<(f64, f64, f64)> {
     let v0 = tri[0].as_dvec3();
     let e1 = tri[1].as_dvec3() - v0;
     let e2 = tri[2].as_dvec3() - v0;
@@ -204,7 +213,7 @@ fn intersect(tri: &[Vec3; 3], ray: &Ray, t_hi: f64) -> Option<f64> {
         return None;
     }
     let t = e2.dot(q) * inv_det;
-    (t > ray.t_lo && t < t_hi).then_some(t)
+    (t > ray.t_lo && t < t_hi).then_some((t, u, v))
 }
 
 impl Triangles {
@@ -216,7 +225,8 @@ impl Triangles {
     ///
     /// With more than `u32::MAX` finite triangles.
     pub fn new(triangles: Vec<[Vec3; 3]>) -> Self {
-        let tris: Vec<[Vec3; 3]> = triangles.into_iter().filter(finite_triangle).collect();
+        let (kept, tris): (Vec<u32>, Vec<[Vec3; 3]>) =
+            triangles.into_iter().enumerate().filter(|(_, t)| finite_triangle(t)).map(|(i, t)| (i as u32, t)).unzip();
         let n = tris.len();
         assert!(u32::try_from(n).is_ok(), "Triangles::new: {n} triangles, at most u32::MAX supported");
         if n == 0 {
@@ -252,7 +262,8 @@ impl Triangles {
         }
         debug_assert!((depth as usize) < STACK - 1, "BVH depth {depth}");
         let tris = order.iter().map(|&i| tris[i as usize]).collect();
-        Self { tris, nodes, depth }
+        let ids = order.iter().map(|&i| kept[i as usize]).collect();
+        Self { tris, nodes, depth, ids }
     }
 
     /// Number of triangles kept (the finite ones).
@@ -284,7 +295,20 @@ impl Triangles {
         let Some(ray) = Ray::segment(from, to, eps) else {
             return false;
         };
-        self.any_hit(&ray)
+        self.any_hit(&ray, &|_, _, _| true)
+    }
+
+    /// [`Triangles::occluded`] where a hit blocks only if `blocks(index, u, v)` says so:
+    /// `index` is the triangle's position in the list given to [`Triangles::new`] and
+    /// `(u, v)` the hit's barycentrics (the point `t[0] + u (t[1] - t[0]) + v (t[2] - t[0])`).
+    /// An alpha-masked surface passes light through its holes this way (the shadow tests
+    /// look up the material's alpha at the hit's texture coordinates). Same segment, `eps`
+    /// and triangle rules as [`Triangles::occluded`]; `|_, _, _| true` gives its answer.
+    pub fn occluded_where(&self, from: Vec3, to: Vec3, eps: f32, blocks: &dyn Fn(usize, f32, f32) -> bool) -> bool {
+        let Some(ray) = Ray::segment(from, to, eps) else {
+            return false;
+        };
+        self.any_hit(&ray, blocks)
     }
 
     /// Distance from `origin` to the nearest triangle along `dir`, counting hits at
@@ -303,7 +327,7 @@ impl Triangles {
         &self.tris[n.first as usize..(n.first + n.count) as usize]
     }
 
-    fn any_hit(&self, ray: &Ray) -> bool {
+    fn any_hit(&self, ray: &Ray, blocks: &dyn Fn(usize, f32, f32) -> bool) -> bool {
         if self.nodes.is_empty() {
             return false;
         }
@@ -316,7 +340,12 @@ impl Triangles {
                 continue;
             }
             if node.is_leaf() {
-                if self.leaf_tris(node).iter().any(|t| intersect(t, ray, ray.t_hi).is_some()) {
+                let first = node.first as usize;
+                let hit = self.leaf_tris(node).iter().enumerate().any(|(k, t)| {
+                    intersect_uv(t, ray, ray.t_hi)
+                        .is_some_and(|(_, u, v)| blocks(self.ids[first + k] as usize, u as f32, v as f32))
+                });
+                if hit {
                     return true;
                 }
             } else {
@@ -941,6 +970,62 @@ mod tests {
         }
         // Not vacuous either way.
         assert!((200..1800).contains(&hits), "{hits} of 2000 occluded");
+    }
+
+    /// `occluded_where` against a loop over every triangle with the same predicate, with
+    /// non-finite triangles in the input (so leaf order, input order and the kept list all
+    /// differ): a predicate that depends on the input index and on the barycentrics (half
+    /// of each odd triangle lets light through) gives identical answers, and the always-true
+    /// predicate gives `occluded`'s.
+    #[test]
+    fn occluded_where_passes_the_input_index_and_barycentrics() {
+        let mut rng = Pcg64::seed_from_u64(11);
+        let mut tris: Vec<[Vec3; 3]> = (0..400)
+            .map(|_| {
+                let c =
+                    Vec3::new(rng.random_range(-5.0..5.0), rng.random_range(-5.0..5.0), rng.random_range(-5.0..5.0));
+                let mut corner = || {
+                    c + Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0))
+                };
+                [corner(), corner(), corner()]
+            })
+            .collect();
+        for i in [0, 17, 200] {
+            tris[i][1].x = f32::NAN;
+        }
+        let bvh = Triangles::new(tris.clone());
+        let blocks = |i: usize, u: f32, v: f32| i.is_multiple_of(2) || u + 0.5 * v < 0.4;
+        let brute = |a: Vec3, b: Vec3| {
+            let Some(ray) = Ray::segment(a, b, 1e-3) else { return false };
+            tris.iter()
+                .enumerate()
+                .filter(|(_, t)| finite_triangle(t))
+                .any(|(i, t)| intersect_uv(t, &ray, ray.t_hi).is_some_and(|(_, u, v)| blocks(i, u as f32, v as f32)))
+        };
+        let (mut differ, mut hits) = (0, 0);
+        for _ in 0..3000 {
+            let mut p =
+                || Vec3::new(rng.random_range(-7.0..7.0), rng.random_range(-7.0..7.0), rng.random_range(-7.0..7.0));
+            let (a, b) = (p(), p());
+            let masked = bvh.occluded_where(a, b, 1e-3, &blocks);
+            assert_eq!(masked, brute(a, b), "{a} -> {b}");
+            assert_eq!(bvh.occluded_where(a, b, 1e-3, &|_, _, _| true), bvh.occluded(a, b, 1e-3));
+            differ += usize::from(masked != bvh.occluded(a, b, 1e-3));
+            hits += usize::from(masked);
+        }
+        // The predicate mattered, and not everything is blocked.
+        assert!(differ > 50 && hits > 300 && hits < 2900, "{differ} changed by the predicate, {hits} blocked");
+        // A quad with a hole where u + v < 0.5 of its first triangle: a segment through
+        // the hole passes, one beside it is blocked.
+        let q = quad(0.0, 1.0);
+        let bvh = Triangles::new(q.clone());
+        let hole = |i: usize, u: f32, v: f32| !(i == 0 && u + v < 0.5);
+        let through = q[0][0] * 0.8 + q[0][1] * 0.1 + q[0][2] * 0.1;
+        let beside = q[0][0] * 0.1 + q[0][1] * 0.45 + q[0][2] * 0.45;
+        for (p, blocked) in [(through, false), (beside, true)] {
+            assert_eq!(bvh.occluded_where(p - Vec3::Y, p + Vec3::Y, 0.0, &hole), blocked, "{p}");
+            assert!(bvh.occluded(p - Vec3::Y, p + Vec3::Y, 0.0));
+        }
     }
 
     /// A point on triangle `t` at barycentrics (`u`, `v`), clamped into the triangle.
