@@ -20,6 +20,7 @@ pub mod material;
 pub use error::CullError;
 pub use light::{Light, LightKind};
 pub mod assign;
+pub mod blended_depth;
 pub mod bounds;
 pub mod brdf;
 pub mod camera;
