@@ -34,7 +34,7 @@ use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_scene::{AlphaMode, Instance, Scene};
 use tiledlight_tests::compare::{
-    assert_matches_reference_frame, render_frame, Frame, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE,
+    assert_matches_reference_frame, msaa_by_design, render_frame, Frame, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE,
 };
 use tiledlight_tests::lists::{assert_blended_lists_match, compare_blended_lists_independent, CulledFrame};
 use tiledlight_tests::{gpu, scenes};
@@ -665,7 +665,9 @@ fn panes_under_a_plate() -> Scene {
 /// brute force with the same shadow casters (the brightest point light and the spot) and
 /// VPLs, with compare.rs's tolerances (FORWARD_VS_REFERENCE: the same lookups and blending,
 /// summation order only; DEFERRED_VS_REFERENCE with the f16-normal allowance: its opaque
-/// layer's G-buffer). First, that the features are live on the panes: the plate's shadow
+/// layer's G-buffer; FLIP only where hardware MSAA and deferred sample a pixel
+/// differently by design, `compare::msaa_by_design`, as in `msaa.rs`: measured without
+/// it, 5.7e-2 at one 4x wall pixel by the floor that deferred shades per sample). First, that the features are live on the panes: the plate's shadow
 /// darkens the front pane (brute force with casters vs without), and the VPLs brighten part
 /// of the frame (with vs without VPLs).
 #[test]
@@ -706,7 +708,10 @@ fn blended_geometry_with_shadows_and_vpls_at_every_sample_count() {
     // One depth per pixel for Tiled Deferred's G-buffer-normal allowance.
     let depth = opaque_depth(&sg, &casting, &cam);
     for msaa in adapter_sample_counts() {
-        let reference = frame(&casting, bf, msaa, vpl);
+        let s = ForwardSettings { method: bf, msaa, shadows, vpl, ..Default::default() };
+        let mut b = ForwardRenderer::new(ctx, &sg, &casting, W, H, s).expect("brute force");
+        let reference = render_frame(ctx, &mut b, &sg, &cam);
+        let reference_depth = b.read_depth(ctx).unwrap();
         let fp = frame(&casting, Method::ForwardPlus, msaa, vpl);
         let what = format!("blended-shadows-vpls-forward-msaa{msaa}");
         assert_matches_reference_frame(&what, W, &reference, &fp, FORWARD_VS_REFERENCE);
@@ -715,6 +720,11 @@ fn blended_geometry_with_shadows_and_vpls_at_every_sample_count() {
         assert!(td.vpl().is_some() && td.plan().has(Step::BlendedShade));
         let d = render_frame(ctx, &mut td, &sg, &cam);
         let reference = reference.allow_gbuffer_normals(&depth, W, &cam, &casting.packed);
+        let edges = if msaa > 1 { td.shading().read_edge_list(&ctx.device, &ctx.queue).unwrap() } else { Vec::new() };
+        let depths = (&reference_depth[..], &td.read_depth(ctx).unwrap()[..]);
+        let (reference, forgiven) = reference.forgive_hdr(&msaa_by_design(W, depths, msaa, &edges));
+        eprintln!("{msaa}x: {forgiven} pixels compared by FLIP only ({} deferred edge pixels)", edges.len());
+        assert!(forgiven * 10 < (W * H) as usize, "{msaa}x: {forgiven} pixels forgiven");
         let what = format!("blended-shadows-vpls-deferred-msaa{msaa}");
         assert_matches_reference_frame(&what, W, &reference, &d, DEFERRED_VS_REFERENCE);
     }
