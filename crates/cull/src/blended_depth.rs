@@ -166,7 +166,7 @@ mod tests {
             .unwrap()
     }
 
-    /// A square facing the camera, 2 m wide at z = -3.
+    /// A square facing the camera, `2 half` wide at height `z`: 9 px wide at 7 m in [`camera`] at 64x36.
     fn square(z: f32, half: f32) -> Vec<[Vec3; 3]> {
         let c = |x: f32, y: f32| Vec3::new(x, y, z);
         vec![[c(-half, -half), c(half, -half), c(half, half)], [c(-half, -half), c(half, half), c(-half, half)]]
@@ -189,7 +189,7 @@ mod tests {
             }
         }
         let uncertain = (0..b.exact.len()).filter(|&i| (b.least[i] > 0.0) != (b.most[i] > 0.0)).count();
-        assert!(covered > 500 && uncertain < covered / 4, "{covered} covered, {uncertain} uncertain");
+        assert!(covered > 300 && uncertain < covered / 4, "{covered} covered, {uncertain} uncertain");
     }
 
     /// The nearer of two overlapping squares wins; a triangle through the near plane is
