@@ -103,7 +103,9 @@ pub fn raster_depth(
         for k in 0..3 {
             let c: DVec4 = vp * tri[k].as_dvec3().extend(1.0);
             let d = c.z / c.w;
-            if !(c.w > 0.0) || !(d <= 1.0) || !c.is_finite() {
+            // Written so NaN fails it.
+            let in_front = c.w > 0.0 && d <= 1.0 && c.is_finite();
+            if !in_front {
                 return Err(format!("triangle {t}: vertex {} is behind the eye or the near plane", tri[k]));
             }
             v[k] = DVec2::new((c.x / c.w + 1.0) * 0.5 * w, (1.0 - c.y / c.w) * 0.5 * h);
