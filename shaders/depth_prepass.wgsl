@@ -16,12 +16,16 @@ struct MaskedIn {
 #endif
 }
 
+// Texture coordinates at the centroid of the covered samples, as the shading and G-buffer
+// passes read them (common/scene.wgsl): with MSAA the pixel centre can lie outside a partly
+// covered triangle, and an alpha test there (extrapolated coordinates) decided the coverage
+// of the triangle's samples otherwise than Tiled Deferred's G-buffer pass did.
 struct MaskedOut {
     @invariant @builtin(position) clip: vec4<f32>,
-    @location(0) uv: vec2<f32>,
+    @location(0) @interpolate(perspective, centroid) uv: vec2<f32>,
     @location(1) @interpolate(flat) material: u32,
 #ifdef UV1
-    @location(2) uv1: vec2<f32>,
+    @location(2) @interpolate(perspective, centroid) uv1: vec2<f32>,
 #endif
 }
 

@@ -212,3 +212,93 @@ pub fn assert_matches_reference_frame(name: &str, w: u32, reference: &Frame, act
         unreachable!("assert_flip passed a comparison that failed");
     }
 }
+
+/// How far apart (relative view distance, via reversed-Z depth) two depth samples of one
+/// pixel may be before [`msaa_silhouettes`] counts the pixel as a silhouette: 2%, a step
+/// between two surfaces (one plane spans that much of its distance within a pixel only at
+/// grazing incidence, where excluding a pixel costs only coverage).
+pub const SILHOUETTE_STEP: f32 = 0.02;
+
+/// The pixels of a perspective MSAA depth buffer (`samples` values a pixel, as read back)
+/// whose samples mix sky and geometry, differ by more than [`SILHOUETTE_STEP`]
+/// (reversed-Z depth is inversely proportional to view distance), or (4 samples or more)
+/// do not lie on one plane: silhouettes and creases, where two triangles share the pixel.
+pub fn msaa_silhouettes(depth: &[f32], samples: u32) -> Vec<bool> {
+    depth
+        .chunks_exact(samples as usize)
+        .map(|s| {
+            let sky = s.iter().filter(|&&d| d <= 0.0).count();
+            let (lo, hi) = s.iter().fold((f32::INFINITY, 0.0f32), |(lo, hi), &d| (lo.min(d), hi.max(d)));
+            let step = (sky > 0 && sky < s.len()) || (sky == 0 && hi > lo * (1.0 + SILHOUETTE_STEP));
+            step || (sky == 0 && !coplanar(s))
+        })
+        .collect()
+}
+
+/// Whether a pixel's depth samples (at the standard positions, 4 or more) lie on one
+/// plane: reversed-Z depth is affine in screen space across a plane, so samples 0-2
+/// predict the others to f32 rounding (1e-4 relative, as `msaa.rs`'s depth-only edge
+/// detector). Two triangles meeting inside the pixel (a crease) break it; so do
+/// silhouettes. One or two samples always pass.
+fn coplanar(s: &[f32]) -> bool {
+    let Some(pos) = tiledlight_cull::blended_depth::standard_sample_positions(s.len() as u32) else { return true };
+    if s.len() < 4 {
+        return true;
+    }
+    let p = |i: usize| (f64::from(pos[i].0), f64::from(pos[i].1), f64::from(s[i]));
+    let ((x0, y0, d0), (x1, y1, d1), (x2, y2, d2)) = (p(0), p(1), p(2));
+    let (dx1, dy1, dd1, dx2, dy2, dd2) = (x1 - x0, y1 - y0, d1 - d0, x2 - x0, y2 - y0, d2 - d0);
+    let det = dx1 * dy2 - dx2 * dy1;
+    let b = (dd1 * dy2 - dd2 * dy1) / det;
+    let c = (dx1 * dd2 - dx2 * dd1) / det;
+    (3..s.len()).all(|i| {
+        let (x, y, d) = p(i);
+        (d0 + b * (x - x0) + c * (y - y0) - d).abs() <= 1e-4 * d.abs().max(d0.abs())
+    })
+}
+
+/// The pixels of a `w`-wide MSAA frame where hardware MSAA (brute force) and Tiled Deferred
+/// sample the pixel differently by design, so only FLIP compares them: silhouettes and
+/// creases of either depth buffer ([`msaa_silhouettes`]: hardware MSAA shades each partly
+/// covered triangle once at the pixel centre, outside the triangle, with its own normal;
+/// deferred each sample where it lies, or, under its edge test's thresholds, the whole
+/// pixel with sample 0's normal and material) and deferred's own edge pixels (`deferred_edges`, shaded per sample, where light
+/// varying within the pixel, a VPL at a crease, averages otherwise than its centre value).
+/// Elsewhere deferred shades once at the pixel centre on sample 0's plane, as hardware MSAA
+/// does.
+pub fn msaa_by_design(
+    w: u32,
+    (reference_depth, deferred_depth): (&[f32], &[f32]),
+    samples: u32,
+    deferred_edges: &[(u32, u32)],
+) -> Vec<bool> {
+    let mut mask = msaa_silhouettes(reference_depth, samples);
+    for (m, d) in mask.iter_mut().zip(msaa_silhouettes(deferred_depth, samples)) {
+        *m |= d;
+    }
+    for &(x, y) in deferred_edges {
+        mask[(y * w + x) as usize] = true;
+    }
+    mask
+}
+
+impl Frame {
+    /// Forgives the pixels of `mask` in the HDR comparison with this frame as the reference
+    /// (FLIP still covers them): for MSAA pixels where hardware MSAA (brute force) and Tiled
+    /// Deferred sample the pixel differently by design (the callers say which and why).
+    /// Returns the frame and the number of pixels forgiven.
+    pub fn forgive_hdr(mut self, mask: &[bool]) -> (Self, usize) {
+        assert_eq!(mask.len(), self.hdr.len(), "forgive_hdr: one flag a pixel");
+        if self.allowance.is_empty() {
+            self.allowance = vec![0.0; self.hdr.len()];
+        }
+        let mut n = 0;
+        for (a, &m) in self.allowance.iter_mut().zip(mask) {
+            if m {
+                *a = f32::MAX;
+                n += 1;
+            }
+        }
+        (self, n)
+    }
+}

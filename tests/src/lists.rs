@@ -298,3 +298,90 @@ fn check_and_print(label: &str, gpu: &GpuTileLists, c: ListComparison) -> ListCo
     );
     c
 }
+
+/// What [`compare_blended_lists_independent`] counted.
+#[derive(Clone, Debug)]
+pub struct BoundedComparison {
+    /// (list, light) pairs of the CPU lists from the exact raster.
+    pub pairs: usize,
+    /// Lists with a light the GPU must hold (the lower bound's non-empty lists).
+    pub certain_lists: usize,
+    /// Pairs the bounds leave open (in the upper bound, not the lower): silhouettes within
+    /// the raster's reach, or lights within float error.
+    pub open_pairs: usize,
+    /// GPU pairs that differ from the exact raster's lists (each inside the bounds).
+    pub off_exact: usize,
+}
+
+/// The GPU's blended lists against lists culled from a blended depth buffer rasterised
+/// independently on the CPU (`tiledlight_cull::blended_depth::raster_depth` of the blended
+/// instances' triangles, not the GPU's blended depth), depth-tested against `frame`'s
+/// opaque depth as the GPU's kernel does (`depth_tested_blended`).
+///
+/// The raster gives each sample a least and a most depth (coverage and depth a GPU
+/// rasterising within the raster's reach may produce), and the blended culler is monotone
+/// in both (more samples or nearer ones only widen a tile's range) and in the lights' size,
+/// so every list must hold the CPU list of the least depths with every light shrunk by its
+/// float error ([`perturbed_lights`]) and lie within the CPU list of the most depths with
+/// every light grown. Any other difference fails, naming the list and light. Truncated
+/// lists (a full grid) fail too: this check needs complete lists.
+pub fn compare_blended_lists_independent(
+    label: &str,
+    frame: &CulledFrame<'_>,
+    raster: &tiledlight_cull::blended_depth::DepthBounds,
+    gpu: &GpuTileLists,
+    config: &CullConfig,
+) -> Result<BoundedComparison, String> {
+    use tiledlight_cull::reference::{cull_tiles_blended, depth_tested_blended};
+    let fail = |msg: String| Err(format!("{label}: {msg}"));
+    let n = frame.depth.len();
+    if raster.exact.len() != n || raster.least.len() != n || raster.most.len() != n {
+        return fail(format!("the raster holds {} samples, the opaque depth {n}", raster.exact.len()));
+    }
+    let config = CullConfig { inflate: 0.0, ..*config };
+    let cull = |blended: &[f32], lights: &PackedLights| {
+        let tested = depth_tested_blended(frame.depth, blended);
+        cull_tiles_blended(frame.depth, &tested, frame.width, frame.height, frame.camera, lights, &config)
+            .map_err(|e| format!("{label}: CPU culler refused the frame: {e}"))
+    };
+    let exact = cull(&raster.exact, frame.lights)?;
+    let lower = cull(&raster.least, &perturbed_lights(frame.camera, frame.lights, -1.0))?;
+    let upper = cull(&raster.most, &perturbed_lights(frame.camera, frame.lights, 1.0))?;
+    if gpu.counts.len() != exact.lists.len() || gpu.lists.len() != exact.lists.len() {
+        return fail(format!("{} GPU lists, {} CPU lists", gpu.lists.len(), exact.lists.len()));
+    }
+    if gpu.overflowing > 0 {
+        return fail(format!("{} GPU lists were truncated (grid full): grow the grid first", gpu.overflowing));
+    }
+    let (mut pairs, mut certain_lists, mut open_pairs, mut off_exact) = (0, 0, 0, 0);
+    for (i, exact_list) in exact.lists.iter().enumerate() {
+        let gpu_set: BTreeSet<u32> = gpu.lists[i].iter().copied().collect();
+        if gpu_set.len() != gpu.lists[i].len() || gpu.counts[i] as usize != gpu_set.len() {
+            return fail(format!("list {i}: count {} for {:?}", gpu.counts[i], gpu.lists[i]));
+        }
+        let lo: BTreeSet<u32> = lower.lists[i].iter().copied().collect();
+        let hi: BTreeSet<u32> = upper.lists[i].iter().copied().collect();
+        let ex: BTreeSet<u32> = exact_list.iter().copied().collect();
+        if let Some(l) = lo.difference(&gpu_set).next() {
+            return fail(format!(
+                "list {i} lacks light {l}, which reaches the range of blended samples the raster says the \
+                 GPU must have drawn there (GPU {gpu_set:?}, at least {lo:?})"
+            ));
+        }
+        if let Some(l) = gpu_set.difference(&hi).next() {
+            return fail(format!(
+                "list {i} holds light {l}, which reaches no range the GPU's blended samples can have there \
+                 (GPU {gpu_set:?}, at most {hi:?})"
+            ));
+        }
+        pairs += ex.len();
+        certain_lists += usize::from(!lo.is_empty());
+        open_pairs += hi.len() - lo.len();
+        off_exact += gpu_set.symmetric_difference(&ex).count();
+    }
+    let counted: u64 = gpu.counts.iter().map(|&c| u64::from(c)).sum();
+    if counted != u64::from(gpu.pairs) {
+        return fail(format!("the grid header counts {} pairs, the lists {counted}", gpu.pairs));
+    }
+    Ok(BoundedComparison { pairs, certain_lists, open_pairs, off_exact })
+}

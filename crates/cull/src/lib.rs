@@ -26,6 +26,7 @@ pub(crate) mod test_seed;
 pub use error::CullError;
 pub use light::{Light, LightKind};
 pub mod assign;
+pub mod blended_depth;
 pub mod bounds;
 pub mod brdf;
 pub mod camera;
