@@ -86,11 +86,16 @@ fn run_with(cfg: &VplConfig, lights: &[Light], casters: (u32, u32)) -> Run {
 
 /// [`run_with`] in another scene.
 fn run_in(scene: &Scene, cfg: &VplConfig, lights: &[Light], casters: (u32, u32)) -> Run {
+    run_shadowed(scene, cfg, lights, casters, ShadowOptions::default())
+}
+
+/// [`run_in`] with other shadow-atlas options (the tile size sets how far the atlas widens
+/// each face's field of view).
+fn run_shadowed(scene: &Scene, cfg: &VplConfig, lights: &[Light], casters: (u32, u32), shadow: ShadowOptions) -> Run {
     let ctx = gpu();
     let (device, queue) = (&ctx.device, &ctx.queue);
     let scene = SceneGpu::new(device, queue, scene).expect("scene");
     let lights = LightBuffers::with_casters(device, lights, casters).expect("lights");
-    let shadow = ShadowOptions::default();
     let features = Features::new(&scene, &lights, Method::ForwardPlus, &CullOptions::default(), (1, 2), shadow);
     let limits = device.limits();
     let layout = AtlasLayout::new(
@@ -196,7 +201,7 @@ fn rsm_holds_the_wall_and_the_floor_seen_from_the_light() {
             panic!("a texel on neither plane: {t:?}");
         }
     }
-    // The spot's cone (and its shadow tile's border) shows both planes, the wall more.
+    // The spot's cone shows both planes, the wall more.
     assert!(wall > 200 && floor > 50, "wall {wall}, floor {floor} of {} texels", texels.len());
 }
 
@@ -903,4 +908,125 @@ fn rsm_faces_draw_only_their_instances_and_the_same_texels() {
     let missing = match_sets(&p.vpls, &cpu.vpls, &all, &cfg, false);
     assert_eq!(p.vpls.len() + missing.len(), cpu.vpls.len());
     assert!(p.vpls.len() > 50, "{} VPLs", p.vpls.len());
+}
+
+/// Two closed grey boxes (albedo 0.6, 4 m a side, inward-facing quads), centred at the
+/// origin and at x = 10 m.
+fn two_boxes() -> Scene {
+    use std::f32::consts::{FRAC_PI_2, PI};
+    let mut instances = Vec::new();
+    for centre in [Vec3::ZERO, Vec3::new(10.0, 0.0, 0.0)] {
+        // The quad faces +Y: each rotation turns +Y into the wall's inward normal.
+        let walls = [
+            (Vec3::new(0.0, -2.0, 0.0), Mat4::IDENTITY),
+            (Vec3::new(0.0, 2.0, 0.0), Mat4::from_rotation_x(PI)),
+            (Vec3::new(-2.0, 0.0, 0.0), Mat4::from_rotation_z(-FRAC_PI_2)),
+            (Vec3::new(2.0, 0.0, 0.0), Mat4::from_rotation_z(FRAC_PI_2)),
+            (Vec3::new(0.0, 0.0, -2.0), Mat4::from_rotation_x(FRAC_PI_2)),
+            (Vec3::new(0.0, 0.0, 2.0), Mat4::from_rotation_x(-FRAC_PI_2)),
+        ];
+        for (at, turn) in walls {
+            instances.push(Instance { mesh: 0, material: 0, transform: Mat4::from_translation(centre + at) * turn });
+        }
+    }
+    let mut scene = Scene {
+        name: "two grey boxes".into(),
+        meshes: vec![quad("plane", 4.0)],
+        // 0.6 is 153/255: the RSM's 8-bit linear albedo holds it exactly.
+        materials: vec![material("grey", [0.6, 0.6, 0.6, 1.0], 0.8, 0.0)],
+        instances,
+        textures: Vec::new(),
+        lights: Vec::new(),
+        camera: None,
+        bounds: tiledlight_scene::Aabb::empty(),
+    };
+    scene.bounds = scene.compute_bounds();
+    scene
+}
+
+/// The midpoint rule's sum of one cube face's solid angle over an `n` x `n` grid of its
+/// tangent plane `[-t, t]^2`: `sum of h^2 / (1 + x^2 + y^2)^(3/2)`, `h = 2t/n`. At `t = 1`
+/// the exact integral is 4 pi / 6; computed here in f64 from first principles.
+fn face_solid_angle_midpoint(n: u32, t: f64) -> f64 {
+    let h = 2.0 * t / n as f64;
+    let mut sum = 0.0;
+    for i in 0..n {
+        for j in 0..n {
+            let (x, y) = (-t + (i as f64 + 0.5) * h, -t + (j as f64 + 0.5) * h);
+            sum += h * h / (1.0 + x * x + y * y).powf(1.5);
+        }
+    }
+    sum
+}
+
+/// Energy of a point light's VPLs: two point casters of different colours and intensities,
+/// each at the centre of its own closed grey box. Every direction from a light meets its
+/// box once, so its VPLs' summed flux must be `albedo x radiance x 4 pi` (the window
+/// `(1 - (d/r)^4)^2` is 1 within 3e-10 at d <= 3.5 m, r = 1000 m). Exactly, the VPLs sum
+/// the midpoint rule of `cos^3 dA` over each face's `N x N` texels, which is 4 pi (1 +
+/// 2.4e-4) at N = 32 and 4 pi (1 + 6.0e-5) at N = 64 ([`face_solid_angle_midpoint`]);
+/// the test asserts that sum within 2e-4 (f32 sums of ~1,500 VPLs of similar size, 1e-5;
+/// texel directions from f32 depth and matrices, 1e-5), for both of the shadow atlas's
+/// tile sizes 256 and 128, and the VPLs made from each box's light must be inside it (a
+/// face reading another caster's light would move its flux between the boxes).
+///
+/// This caught a real bug: the RSM faces were drawn through the shadow atlas's widened
+/// projection (each face's field of view grown by the filter's border, so the six faces
+/// overlapped at the cube's seams), and the seams' flux was counted twice: +2.65% at
+/// shadow tile 256 and +5.36% at 128 with the 5x5 filter (GPU: +2.6% and +5.4%; the
+/// midpoint sum over the widened face predicts 1.0265 and 1.0536). The RSM now draws each
+/// face's own projection ([`tiledlight_vpl::rsm::rsm_view_proj`]).
+#[test]
+fn a_point_lights_vpls_carry_its_flux_once_in_a_closed_box() {
+    use tiledlight_cull::shadow::ShadowFilter;
+    let albedo = 0.6f64;
+    let lights = [
+        Light::with_radius(Vec3::ZERO, Vec3::new(1.0, 0.5, 0.25), 8.0, 1000.0, tiledlight_cull::LightKind::Point)
+            .expect("light a"),
+        Light::with_radius(
+            Vec3::new(10.0, 0.0, 0.0),
+            Vec3::new(0.2, 0.6, 1.0),
+            3.0,
+            1000.0,
+            tiledlight_cull::LightKind::Point,
+        )
+        .expect("light b"),
+    ];
+    let mut ratios = Vec::new();
+    for (rsm_size, tile) in [(32, 256), (32, 128), (64, 256)] {
+        let cfg = VplConfig { rsm_size, ..Default::default() };
+        let shadow = ShadowOptions { tile_size: tile, filter: ShadowFilter::Pcf5, ..Default::default() };
+        let r = run_shadowed(&two_boxes(), &cfg, &lights, (2, 0), shadow);
+        assert_eq!(r.faces.len(), 12);
+        assert_eq!(r.count.refused, 0);
+        let expected_per_radiance = albedo * 6.0 * face_solid_angle_midpoint(rsm_size, 1.0);
+        for (b, light) in lights.iter().enumerate() {
+            let centre = light.position;
+            let mine: Vec<&GpuVpl> =
+                r.vpls.iter().filter(|v| (Vec3::from(v.position) - centre).abs().max_element() < 2.5).collect();
+            let sum = mine.iter().fold(glam::DVec3::ZERO, |s, v| s + Vec3::from(v.flux).as_dvec3());
+            let radiance = (light.color * light.intensity).as_dvec3();
+            let ratio = sum / (radiance * expected_per_radiance);
+            let sphere = sum / (radiance * albedo * 4.0 * std::f64::consts::PI);
+            eprintln!(
+                "RSM {rsm_size}, shadow tile {tile}, box {b}: {} VPLs, flux / expected - 1 = {:.2e} (allowed 2e-4), \
+                 flux / (albedo x radiance x 4 pi) = {sphere:.5}",
+                mine.len(),
+                (ratio - 1.0).abs().max_element()
+            );
+            assert_eq!(mine.len() as u32, 6 * cfg.blocks_per_side().pow(2), "box {b}: one VPL per block of six faces");
+            ratios.push((rsm_size, tile, b, ratio));
+        }
+    }
+    // Every configuration printed first, then asserted.
+    for (rsm_size, tile, b, ratio) in ratios {
+        for c in 0..3 {
+            assert!(
+                (ratio[c] - 1.0).abs() < 2e-4,
+                "RSM {rsm_size}, shadow tile {tile}, box {b}, channel {c}: the VPLs carry {:.5} of the light's \
+                 reflected flux (the seams counted twice?)",
+                ratio[c]
+            );
+        }
+    }
 }
