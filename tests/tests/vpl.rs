@@ -1287,3 +1287,127 @@ fn physical_vpls_converge_to_an_independent_one_bounce_integral() {
     assert!((0.08..0.11).contains(&sample_ratio), "the sample model's bias moved: {sample_ratio} of the reference");
     eprintln!("{:.1} s in all", started.elapsed().as_secs_f32());
 }
+
+// ---- VPLs after a caster moves ----
+
+/// The VPLs' positions as a set of bit patterns (each renderer appends them in its own
+/// GPU order).
+fn vpl_positions(spheres: &[tiledlight_cull::light::GpuCullLight]) -> std::collections::BTreeSet<[u32; 3]> {
+    spheres.iter().map(|c| c.center.map(f32::to_bits)).collect()
+}
+
+/// One method's half of [`vpls_follow_a_moved_caster_in_both_methods`]: `make` builds the
+/// renderer for some lights, `spheres` reads its VPLs' culling spheres.
+fn follows_the_caster<R: tiledlight_gpu::targets::Renderer>(
+    name: &str,
+    make: impl Fn(&LightBuffers) -> R,
+    spheres: impl Fn(&R) -> Vec<tiledlight_cull::light::GpuCullLight>,
+) {
+    use tiledlight_tests::compare::{assert_matches_reference_frame, render_frame, FORWARD_VS_REFERENCE};
+    let ctx = gpu();
+    let scene = SceneGpu::new(&ctx.device, &ctx.queue, &wall_scene()).expect("scene");
+    let cam = camera();
+    let lights = LightBuffers::with_casters(&ctx.device, &[short_spot()], (0, 1)).expect("lights");
+    // The spot 1.5 m along +z, aimed at the wall's foot 1 m further along.
+    let moved_light = {
+        let pos = Vec3::new(-1.0, 3.0, 1.5);
+        let dir = Vec3::new(2.0, 0.5, 2.5) - pos;
+        Light::spot(pos, dir, Vec3::ONE, 30.0, 30f32.to_radians(), 45f32.to_radians(), 0.5).expect("spot")
+    };
+    let moved = LightBuffers::with_casters(&ctx.device, &[moved_light], (0, 1)).expect("moved lights");
+    // Fresh: a renderer made for the moved light.
+    let mut fresh = make(&moved);
+    let fresh_frame = render_frame(ctx, &mut fresh, &scene, &cam);
+    let fresh_vpls = vpl_positions(&spheres(&fresh));
+    // Moved: a renderer made for the first light, one frame, then the light moved as the
+    // app moves it (its buffers rewritten, then `lights_moved`).
+    let mut r = make(&lights);
+    render_frame(ctx, &mut r, &scene, &cam);
+    let first_vpls = vpl_positions(&spheres(&r));
+    let p = &moved.packed;
+    ctx.queue.write_buffer(&lights.cull, 0, bytemuck::cast_slice(&p.cull));
+    ctx.queue.write_buffer(&lights.shading, 0, bytemuck::cast_slice(&p.shading));
+    ctx.queue.write_buffer(lights.spots.as_ref().expect("a spot buffer"), 0, bytemuck::cast_slice(&p.spots));
+    r.lights_moved(&ctx.queue, p).expect("lights moved");
+    let moved_frame = render_frame(ctx, &mut r, &scene, &cam);
+    let moved_vpls = vpl_positions(&spheres(&r));
+    let common = first_vpls.intersection(&fresh_vpls).count();
+    eprintln!(
+        "{name}: {} VPLs before the move, {} after, {} fresh; {common} positions shared before and fresh",
+        first_vpls.len(),
+        moved_vpls.len(),
+        fresh_vpls.len()
+    );
+    assert!(first_vpls.len() > 50 && common < first_vpls.len() / 10, "{name}: the move must change the VPLs");
+    assert!(moved_vpls == fresh_vpls, "{name}: after the move the VPLs are not those of the moved light (stale?)");
+    // The image follows: the frame after the move is the fresh renderer's, within the
+    // tolerance of summing the same lights in another order (f32 sums, f16 HDR).
+    assert_matches_reference_frame(
+        &format!("{name}: moved vs fresh"),
+        W,
+        &fresh_frame,
+        &moved_frame,
+        FORWARD_VS_REFERENCE,
+    );
+}
+
+/// A moved caster takes its VPLs with it, in Forward+ and Tiled Deferred: after the light
+/// moves (its buffers rewritten and `Renderer::lights_moved`, as the viewer's animation
+/// does), the next frame's VPLs are exactly (as a set of positions, bit for bit) those of a
+/// renderer made for the moved light, which share under 10% of the first frame's, and its
+/// image is that renderer's within FORWARD_VS_REFERENCE (same lights summed in another
+/// order). Catches `lights_moved` not updating the VPL path (stale RSM and VPLs), and an
+/// RSM or generation that reads the old light.
+#[test]
+fn vpls_follow_a_moved_caster_in_both_methods() {
+    use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
+    use tiledlight_forward::{ForwardRenderer, ForwardSettings};
+    let ctx = gpu();
+    let vpl = Some(VplConfig::default());
+    let scene = SceneGpu::new(&ctx.device, &ctx.queue, &wall_scene()).expect("scene");
+    let read =
+        |v: Option<&VplPath>| v.expect("a VPL path").buffers.read_cull(&ctx.device, &ctx.queue).expect("spheres");
+    follows_the_caster(
+        "Forward+",
+        |l| {
+            let s = ForwardSettings { ambient: Vec3::ZERO, vpl, ..Default::default() };
+            ForwardRenderer::new(ctx, &scene, l, W, H, s).expect("Forward+ with VPLs")
+        },
+        |r| read(r.vpl()),
+    );
+    follows_the_caster(
+        "Tiled Deferred",
+        |l| {
+            let s = DeferredSettings { ambient: Vec3::ZERO, vpl, ..Default::default() };
+            DeferredRenderer::new(ctx, &scene, l, W, H, s).expect("Tiled Deferred with VPLs")
+        },
+        |r| read(r.vpl()),
+    );
+}
+
+/// The VPL set match ([`match_sets`]) rejects a set with one VPL moved: the GPU's VPLs of
+/// the wall scene match the twin's as they are (the control), and no longer when the
+/// brightest one (not a borderline block) is shifted by 3e-4 m along x (three times the
+/// position tolerance, and a thousandth of a texel's footprint), nor when its flux is 1e-3
+/// of itself too high (ten times the flux tolerance); the match must not find it among the
+/// unthresholded blocks either.
+#[test]
+fn the_vpl_set_match_rejects_one_moved_vpl() {
+    let cfg = VplConfig::default();
+    let r = run(&cfg);
+    let (cpu, all) = twin(&r.faces, &cfg);
+    let missing = match_sets(&r.vpls, &cpu.vpls, &all, &cfg, false);
+    assert_eq!(r.vpls.len() + missing.len(), cpu.vpls.len(), "the control matches");
+    let brightest = (0..r.vpls.len()).max_by(|&a, &b| r.vpls[a].flux[0].total_cmp(&r.vpls[b].flux[0])).expect("VPLs");
+    /// One deliberate break of the brightest GPU VPL.
+    type Break = (&'static str, fn(&mut GpuVpl));
+    let broken: [Break; 2] = [("moved 3e-4 m", |v| v.position[0] += 3e-4), ("flux 1e-3 high", |v| v.flux[0] *= 1.001)];
+    for (what, change) in broken {
+        let mut gpu = r.vpls.clone();
+        change(&mut gpu[brightest]);
+        let verdict = std::panic::catch_unwind(|| match_sets(&gpu, &cpu.vpls, &all, &cfg, false));
+        let message = verdict.err().and_then(|e| e.downcast::<String>().ok()).unwrap_or_default();
+        eprintln!("one VPL {what}: rejected with {message:?}");
+        assert!(message.contains("matches no CPU VPL kept"), "the set match accepted a VPL {what}");
+    }
+}
