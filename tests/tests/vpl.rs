@@ -944,87 +944,103 @@ fn two_boxes() -> Scene {
     scene
 }
 
-/// The midpoint rule's sum of one cube face's solid angle over an `n` x `n` grid of its
-/// tangent plane `[-t, t]^2`: `sum of h^2 / (1 + x^2 + y^2)^(3/2)`, `h = 2t/n`. At `t = 1`
-/// the exact integral is 4 pi / 6; computed here in f64 from first principles.
-fn face_solid_angle_midpoint(n: u32, t: f64) -> f64 {
+/// The midpoint rule's sum over one RSM face's `n` x `n` texels, its tangent plane
+/// `[-t, t]^2`, of the solid angle times the spot falloff `f`: `sum of h^2 / (1 + x^2 +
+/// y^2)^(3/2) x f(cos)`, `h = 2t/n`, `cos = 1 / sqrt(1 + x^2 + y^2)` from the face's axis.
+/// With `f = 1` and `t = 1` (a cube face) the exact integral is 4 pi / 6. Computed here in
+/// f64 from first principles.
+fn face_midpoint(n: u32, t: f64, f: impl Fn(f64) -> f64) -> f64 {
     let h = 2.0 * t / n as f64;
     let mut sum = 0.0;
     for i in 0..n {
         for j in 0..n {
             let (x, y) = (-t + (i as f64 + 0.5) * h, -t + (j as f64 + 0.5) * h);
-            sum += h * h / (1.0 + x * x + y * y).powf(1.5);
+            let q = 1.0 + x * x + y * y;
+            sum += h * h / q.powf(1.5) * f(1.0 / q.sqrt());
         }
     }
     sum
 }
 
-/// Energy of a point light's VPLs: two point casters of different colours and intensities,
-/// each at the centre of its own closed grey box. Every direction from a light meets its
-/// box once, so its VPLs' summed flux must be `albedo x radiance x 4 pi` (the window
-/// `(1 - (d/r)^4)^2` is 1 within 3e-10 at d <= 3.5 m, r = 1000 m). Exactly, the VPLs sum
-/// the midpoint rule of `cos^3 dA` over each face's `N x N` texels, which is 4 pi (1 +
-/// 2.4e-4) at N = 32 and 4 pi (1 + 6.0e-5) at N = 64 ([`face_solid_angle_midpoint`]);
-/// the test asserts that sum within 2e-4 (f32 sums of ~1,500 VPLs of similar size, 1e-5;
-/// texel directions from f32 depth and matrices, 1e-5), for both of the shadow atlas's
-/// tile sizes 256 and 128, and the VPLs made from each box's light must be inside it (a
-/// face reading another caster's light would move its flux between the boxes).
+/// Energy of a caster's VPLs: a point caster at the centre of one closed grey box and a
+/// spot caster (inner 20, outer 40 degrees) at the centre of the other, of different
+/// colours and intensities. Every direction from a light meets its box once, so its
+/// VPLs' summed flux must be `albedo x radiance x` the integral of the spot falloff over
+/// the sphere (4 pi for the point; `2 pi ((1 - cos inner) + (cos inner - cos outer) / 3)`
+/// for the spot's `saturate((cos - cos outer) / (cos inner - cos outer))^2`); the window
+/// `(1 - (d/r)^4)^2` is 1 within 3e-10 at d <= 3.5 m, r = 1000 m. Exactly, the VPLs sum the
+/// midpoint rule of that integral over each face's `N x N` texels ([`face_midpoint`]:
+/// 4 pi (1 + 2.4e-4) at N = 32 and 4 pi (1 + 6.0e-5) at N = 64 for the point), which the
+/// test asserts within 2e-5 (f32 sums of up to 6,144 VPLs of similar size, ~sqrt(n) x 6e-8
+/// = 5e-6; texel directions from f32 depth and matrices, 1e-6; measured at most 3.2e-7 on
+/// lavapipe), for both of the shadow atlas's tile sizes
+/// 256 and 128, and the VPLs made from each box's light must be inside it: a face that
+/// reads another caster's light (a wrong face index) moves flux between the boxes or
+/// loses the spot's falloff.
 ///
 /// This caught a real bug: the RSM faces were drawn through the shadow atlas's widened
 /// projection (each face's field of view grown by the filter's border, so the six faces
-/// overlapped at the cube's seams), and the seams' flux was counted twice: +2.65% at
-/// shadow tile 256 and +5.36% at 128 with the 5x5 filter (GPU: +2.6% and +5.4%; the
-/// midpoint sum over the widened face predicts 1.0265 and 1.0536). The RSM now draws each
-/// face's own projection ([`tiledlight_vpl::rsm::rsm_view_proj`]).
+/// overlapped at the cube's seams), and the seams' flux was counted twice: the point's
+/// VPLs carried 1.0265 of its reflected flux at shadow tile 256 and 1.0536 at 128 with the
+/// 5x5 filter (measured on lavapipe, as the midpoint sum over the widened faces predicts).
+/// The RSM now draws each face's own projection ([`tiledlight_vpl::rsm::rsm_view_proj`]).
 #[test]
-fn a_point_lights_vpls_carry_its_flux_once_in_a_closed_box() {
+fn a_casters_vpls_carry_its_flux_once_in_a_closed_box() {
     use tiledlight_cull::shadow::ShadowFilter;
     let albedo = 0.6f64;
+    let (inner, outer) = (20f32.to_radians(), 40f32.to_radians());
+    let spot_dir = Vec3::new(0.3, -1.0, 0.2).normalize();
     let lights = [
         Light::with_radius(Vec3::ZERO, Vec3::new(1.0, 0.5, 0.25), 8.0, 1000.0, tiledlight_cull::LightKind::Point)
-            .expect("light a"),
+            .expect("point"),
         Light::with_radius(
             Vec3::new(10.0, 0.0, 0.0),
             Vec3::new(0.2, 0.6, 1.0),
-            3.0,
+            30.0,
             1000.0,
-            tiledlight_cull::LightKind::Point,
+            Light::spot_kind(spot_dir, inner, outer).expect("spot kind"),
         )
-        .expect("light b"),
+        .expect("spot"),
     ];
+    let (ci, co) = (inner.cos() as f64, outer.cos() as f64);
+    let falloff = |c: f64| ((c - co) / (ci - co)).clamp(0.0, 1.0).powi(2);
+    let spot_sphere = 2.0 * std::f64::consts::PI * ((1.0 - ci) + (ci - co) / 3.0);
     let mut ratios = Vec::new();
     for (rsm_size, tile) in [(32, 256), (32, 128), (64, 256)] {
         let cfg = VplConfig { rsm_size, ..Default::default() };
         let shadow = ShadowOptions { tile_size: tile, filter: ShadowFilter::Pcf5, ..Default::default() };
-        let r = run_shadowed(&two_boxes(), &cfg, &lights, (2, 0), shadow);
-        assert_eq!(r.faces.len(), 12);
+        let r = run_shadowed(&two_boxes(), &cfg, &lights, (1, 1), shadow);
+        assert_eq!(r.faces.len(), 7);
         assert_eq!(r.count.refused, 0);
-        let expected_per_radiance = albedo * 6.0 * face_solid_angle_midpoint(rsm_size, 1.0);
+        let expected = [
+            (albedo * 6.0 * face_midpoint(rsm_size, 1.0, |_| 1.0), 4.0 * std::f64::consts::PI),
+            (albedo * face_midpoint(rsm_size, outer.tan() as f64, falloff), spot_sphere),
+        ];
         for (b, light) in lights.iter().enumerate() {
-            let centre = light.position;
             let mine: Vec<&GpuVpl> =
-                r.vpls.iter().filter(|v| (Vec3::from(v.position) - centre).abs().max_element() < 2.5).collect();
+                r.vpls.iter().filter(|v| (Vec3::from(v.position) - light.position).abs().max_element() < 2.5).collect();
             let sum = mine.iter().fold(glam::DVec3::ZERO, |s, v| s + Vec3::from(v.flux).as_dvec3());
             let radiance = (light.color * light.intensity).as_dvec3();
-            let ratio = sum / (radiance * expected_per_radiance);
-            let sphere = sum / (radiance * albedo * 4.0 * std::f64::consts::PI);
+            let ratio = sum / (radiance * expected[b].0);
+            let sphere = sum / (radiance * albedo * expected[b].1);
             eprintln!(
-                "RSM {rsm_size}, shadow tile {tile}, box {b}: {} VPLs, flux / expected - 1 = {:.2e} (allowed 2e-4), \
-                 flux / (albedo x radiance x 4 pi) = {sphere:.5}",
+                "RSM {rsm_size}, shadow tile {tile}, box {b}: {} VPLs, flux / expected - 1 = {:.2e} (allowed 2e-5), \
+                 flux / (albedo x radiance x the falloff's integral) = {sphere:.5}",
                 mine.len(),
                 (ratio - 1.0).abs().max_element()
             );
-            assert_eq!(mine.len() as u32, 6 * cfg.blocks_per_side().pow(2), "box {b}: one VPL per block of six faces");
             ratios.push((rsm_size, tile, b, ratio));
         }
+        let point_vpls = r.vpls.iter().filter(|v| Vec3::from(v.position).length() < 3.5).count() as u32;
+        assert_eq!(point_vpls, 6 * cfg.blocks_per_side().pow(2), "one VPL per block of the point's six faces");
     }
     // Every configuration printed first, then asserted.
     for (rsm_size, tile, b, ratio) in ratios {
         for c in 0..3 {
             assert!(
-                (ratio[c] - 1.0).abs() < 2e-4,
+                (ratio[c] - 1.0).abs() < 2e-5,
                 "RSM {rsm_size}, shadow tile {tile}, box {b}, channel {c}: the VPLs carry {:.5} of the light's \
-                 reflected flux (the seams counted twice?)",
+                 reflected flux (the seams counted twice? another light's face?)",
                 ratio[c]
             );
         }
