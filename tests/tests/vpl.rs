@@ -16,7 +16,8 @@
 //!   reads another caster's light);
 //! - *one bounce*: the physical model against a CPU integral over the lit surfaces with
 //!   ray-cast visibility, sharing no code with the VPL crates (within 0.04% at block 1,
-//!   N = 32 and 64; with an occluder, within 2%); the sample model's bias stated (0.094);
+//!   N = 32 and 64; with an occluder, within 2%, its shadow edge's rasterisation); the
+//!   sample model's bias stated (0.094);
 //! - *motion*: after a caster moves (`Renderer::lights_moved`) both methods' VPLs and
 //!   images are a fresh renderer's (catches a stale VPL path);
 //! - *negative*: the set match rejects one VPL moved by 3e-4 m or 0.1% brighter.
@@ -1224,12 +1225,14 @@ fn ref_render(occluder: bool, vpl: Option<VplConfig>, (w, h): (u32, u32)) -> Vec
 ///   normals and HDR add 1e-3. Asserted below 0.5% at N = 32 and 64 (measured 0.03% and
 ///   0.04%).
 /// - *With the occluder*: its RSM footprint (and so the wall's shadow) is rasterised to
-///   whole texels: it is 12, 24 and 49 texels across at N = 32, 64, 128, so its area is
-///   uncertain by about one texel a side (8%, 4%, 2%), and the shadow removes ~27% of the
-///   bounce: about 2%, 1% and 0.5% of the result. Asserted below 3% at N = 32 and 64
-///   (measured 0.76% low and 1.96% high: the N = 64 figure is above this estimate, not
-///   explained), with every receiver's ratio within 1% of the mean (measured 0.2% and
-///   0.4%: the error is a uniform energy offset, not a local one).
+///   whole texels by their centres: n = 12 and 24 texels across at N = 32 and 64
+///   (computed in the test from its size and distance), so its area is uncertain by up to
+///   half a texel at each edge, 2/n + 1/n^2 of it, and the shadow removes a share of the
+///   bounce (computed from the two references: 0.26). Asserted below 0.5% plus that share
+///   of 2/n + 1/n^2: 5.0% and 2.7% (measured 0.76% low and 1.96% high, and 2.7% low and
+///   1.4% high with the widened RSM faces of before the fix: the error follows how the
+///   occluder's edges fall on the texel grid), with every receiver's ratio within 1% of
+///   the mean (measured 0.2% and 0.4%: a uniform energy offset, not a local one).
 ///
 /// The sample model (TiledLighting11's smoothstep over the VPL's 3.9 m radius, no inverse
 /// square; the defaults N = 32, block 2) is biased by design: measured at 0.094 of the
@@ -1264,6 +1267,9 @@ fn physical_vpls_converge_to_an_independent_one_bounce_integral() {
     assert!(receivers.len() >= 60, "{} receivers", receivers.len());
     let physical = VplConfig { shading: vpl::VplShading::Physical, block: 1, ..Default::default() };
     let mut sample_ratio = 0.0;
+    // The reference's total over the receivers without the occluder: the share of the
+    // bounce its shadow removes is 1 - (total with it) / this.
+    let mut unoccluded_total = 0.0;
     for occluder in [false, true] {
         let tris = Triangles::new(ref_scene(occluder).world_triangles());
         let t = std::time::Instant::now();
@@ -1303,11 +1309,27 @@ fn physical_vpls_converge_to_an_independent_one_bounce_integral() {
             "{what}, physical, block 1: N = 32 error {e32:.4} (ratio {r32:.4}, spread {s32:.4}), \
              N = 64 error {e64:.4} (ratio {r64:.4}, spread {s64:.4})"
         );
-        let allowed = if occluder { 0.03 } else { 0.005 };
-        assert!(e32 < allowed, "{what}: physical model at N = 32, block 1: error {e32} (allowed {allowed})");
-        assert!(e64 < allowed, "{what}: physical model at N = 64, block 1: error {e64} (allowed {allowed})");
+        // 0.5% for the point-VPL approximation, f16 normals and HDR; with the occluder, its
+        // rasterised footprint's area error (up to half a texel at each edge: 2/n of its
+        // area, n texels across) times the share of the bounce its shadow removes.
+        let allowed = |n: u32| {
+            if !occluder {
+                return 0.005;
+            }
+            let (pos, target, ..) = REF_SPOT;
+            let depth = (Vec3::new(0.5, 2.75, 0.0) - pos).dot((target - pos).normalize());
+            let across = n as f32 * (0.8 / depth) / (2.0 * 35f32.to_radians().tan());
+            let share = 1.0 - total / unoccluded_total;
+            let a = 0.005 + share * (2.0 / across + 1.0 / (across * across)) as f64;
+            eprintln!("{what}: at N = {n} the occluder is {across:.1} texels across, its shadow removes {share:.3} of the bounce: allowed {a:.4}");
+            a
+        };
+        let (a32, a64) = (allowed(32), allowed(64));
+        assert!(e32 < a32, "{what}: physical model at N = 32, block 1: error {e32} (allowed {a32})");
+        assert!(e64 < a64, "{what}: physical model at N = 64, block 1: error {e64} (allowed {a64})");
         assert!(s32 < 0.01 && s64 < 0.01, "{what}: the error varies over the receivers: {s32}, {s64}");
         if !occluder {
+            unoccluded_total = total;
             let (_, rs, _) = measure(VplConfig::default());
             eprintln!("{what}: sample model (N = 32, block 2): {rs:.4} of the reference (asserted 0.08..0.11)");
             sample_ratio = rs;
