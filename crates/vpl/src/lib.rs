@@ -2,8 +2,8 @@
 //! TiledLighting11 makes it ("Virtual Point Lights", reference 000, Figure 6).
 //!
 //! - [`rsm`]: reflective shadow maps of the shadow-casting lights (every shadow face, drawn
-//!   again from the shadow atlas's own view slots by the G-buffer's shader into depth,
-//!   albedo and normal atlases).
+//!   again from the light through the face proper, not the atlas's widened field of view,
+//!   by the G-buffer's shader into depth, albedo and normal atlases).
 //! - [`generate`]: the compute pass making one VPL per texel block above two thresholds,
 //!   appended with an atomic counter up to a cap, and the VPL buffers (shading data,
 //!   culling spheres, the counter) that culling and shading read with no CPU readback.
@@ -50,11 +50,14 @@ pub struct VplPath {
 impl VplPath {
     /// The path for the casters of `atlas` with `config`, made current for `lights` (the
     /// atlas must have been updated with them): the next [`Self::record`] draws the RSM and
-    /// generates. Errors when there is no caster to make VPLs from.
+    /// generates. The frame's views are not used: the RSM draws from views of its own (each
+    /// face's own projection, not the atlas's widened one: [`rsm::rsm_view_proj`]); the
+    /// parameter keeps the renderers' calls as they are. Errors when there is no caster to
+    /// make VPLs from.
     pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        (views, scene): (&Views, &SceneGpu),
+        (_frame_views, scene): (&Views, &SceneGpu),
         atlas: &ShadowAtlas,
         lights: &PackedLights,
         config: &VplConfig,
@@ -64,7 +67,7 @@ impl VplPath {
                 "VPLs are made from the shadow-casting lights' reflective shadow maps: no light casts a shadow".into(),
             ));
         }
-        let rsm = Rsm::new(device, views, scene, atlas, config)?;
+        let rsm = Rsm::new(device, scene, atlas, config)?;
         let buffers = VplBuffers::new(device, config.cap)?;
         let generate = VplGenerate::new(device, &rsm, &buffers)?;
         rsm.update(queue, atlas, lights);
@@ -112,15 +115,16 @@ impl VplPath {
 
     /// Draws the RSM and generates the VPLs when the casters moved since the last frame
     /// (`vpl.rsm`, `vpl.generate`); a still frame keeps the VPLs it has. Returns whether it
-    /// recorded anything.
+    /// recorded anything. The frame's views are not used (the RSM has its own, as in
+    /// [`Self::new`]).
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         timer: &GpuTimer,
-        views: &Views,
+        _frame_views: &Views,
         scene: &SceneGpu,
     ) -> bool {
-        if !self.rsm.record(encoder, timer, views, scene) {
+        if !self.rsm.record(encoder, timer, scene) {
             return false;
         }
         self.generate.record(encoder, timer, &self.buffers);

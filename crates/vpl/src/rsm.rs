@@ -1,19 +1,26 @@
 //! Reflective shadow maps (RSMs; Dachsbacher and Stamminger 2005): every face of the
-//! shadow atlas (a spot caster's one face, a point caster's six) drawn again from the same
-//! view slot, into tiles of `rsm_size` texels (32 by default, as TiledLighting11) of three
+//! shadow atlas (a spot caster's one face, a point caster's six) drawn again from the
+//! light, into tiles of `rsm_size` texels (32 by default, as TiledLighting11) of three
 //! atlases: depth (`Depth32Float`, reversed-Z, the texel's world position), albedo +
 //! metallic (8-bit linear: [`RSM_ALBEDO_FORMAT`] says why) and normal + roughness, written
 //! by the G-buffer's own shader
 //! (`shaders/gbuffer.wgsl`, `fs_gbuffer2`, the scene's material paths and draw kinds), so
 //! an RSM texel is exactly what Tiled Deferred's G-buffer would hold seen from the light.
 //!
+//! Each face is drawn through its own view slot ([`rsm_view_proj`]): the shadow face's view
+//! with the face proper's field of view (a cube face's 90 degrees, a spot's outer cone),
+//! not the atlas's, which is widened for the filter's border. Through the widened one a
+//! point light's six faces overlapped at the cube's seams and counted that flux twice.
+//!
 //! One 2D texture per target, faces in a grid of tiles (`RsmLayout`): at 32 texels an
 //! 8192-texel texture holds 65,536 faces, so no array layers are needed. The faces buffer
 //! (`GpuRsmFace`: clip-to-world, the light, the face's solid-angle scale) is what the
 //! generation pass reads ([`crate::generate`]); `tiledlight_cull::vpl` is the CPU twin of
 //! both. The RSM is drawn only after the casters moved ([`Rsm::update`]), as the shadow
-//! faces are, and each face draws only the instances inside its frustum (the shadow
-//! atlas's per-face test, `ShadowAtlas::faces_in_view`; [`Rsm::drawn_last`] counts them). Depends on tiledlight-gpu (views, scene, shadow atlas) and tiledlight-cull.
+//! faces are, and each face draws only the instances inside its shadow face's frustum
+//! (which holds the RSM face's: the shadow atlas's per-face test,
+//! `ShadowAtlas::faces_in_view`; [`Rsm::drawn_last`] counts them). Depends on
+//! tiledlight-gpu (views, scene, shadow atlas) and tiledlight-cull.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
@@ -28,7 +35,7 @@ use tiledlight_gpu::scene_gpu::{DrawCount, DrawKind, SceneGpu};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::util::{buffer_zeroed, pipeline_layout, shader_module, texture_2d};
-use tiledlight_gpu::view::Views;
+use tiledlight_gpu::view::{ViewUniforms, Views};
 use tiledlight_gpu::GpuError;
 
 /// Depth format of the RSM (world positions are rebuilt from it: 32-bit float).
@@ -84,9 +91,41 @@ impl RsmLayout {
     }
 }
 
+/// The index in `lights` of the light behind shadow face `face` of an atlas with `points`
+/// point casters (six faces each, first), the spot casters' one face each after them.
+pub fn face_light_index(lights: &PackedLights, points: u32, face: u32) -> usize {
+    if face < 6 * points {
+        (face / 6) as usize
+    } else {
+        (lights.num_point + face - 6 * points) as usize
+    }
+}
+
+/// The view and projection an RSM face is drawn through: the shadow face's `view`, and its
+/// `proj` narrowed back from the atlas's widened field of view to the face proper (a cube
+/// face's 90 degrees; a spot's outer cone), with the same near plane.
+///
+/// The shadow atlas widens each face so that its filter's border ring holds real depth
+/// (`tiledlight_cull::shadow::widened_tan`). An RSM drawn through that projection sees
+/// beyond its face: a point light's six faces overlap at the cube's seams, and the flux of
+/// the overlap was counted twice (+2.65% of a point light's reflected flux at shadow tile
+/// 256, +5.36% at 128, with the 5x5 filter). Through the face proper the six faces tile
+/// the sphere of directions exactly, and every RSM texel of a spot is inside its face.
+pub fn rsm_view_proj(lights: &PackedLights, points: u32, face: u32, (view, proj): (Mat4, Mat4)) -> (Mat4, Mat4) {
+    let index = face_light_index(lights, points, face);
+    let tan_half = if index >= lights.num_point as usize {
+        let s = &lights.spots[index - lights.num_point as usize];
+        s.sin_outer / s.cos_outer
+    } else {
+        1.0
+    };
+    // The atlas's projection: reversed-Z, infinite far plane, square; w_axis.z is the near plane.
+    (view, Mat4::perspective_infinite_reverse_rh(2.0 * tan_half.atan(), 1.0, proj.w_axis.z))
+}
+
 /// The light behind shadow face `face` of an atlas with `points` point casters, as the RSM
-/// sees it through the face's `view` and `proj`: its index in `lights` and the twin's
-/// [`RsmLight`].
+/// sees it through the face's RSM `view` and `proj` ([`rsm_view_proj`]): its index in
+/// `lights` and the twin's [`RsmLight`].
 pub fn face_light(
     lights: &PackedLights,
     points: u32,
@@ -94,7 +133,7 @@ pub fn face_light(
     (view, proj): (Mat4, Mat4),
     cfg: &VplConfig,
 ) -> (usize, RsmLight) {
-    let index = if face < 6 * points { (face / 6) as usize } else { (lights.num_point + face - 6 * points) as usize };
+    let index = face_light_index(lights, points, face);
     let sh = &lights.shading[index];
     let spot = (index >= lights.num_point as usize).then(|| {
         let s = &lights.spots[index - lights.num_point as usize];
@@ -133,9 +172,11 @@ pub struct Rsm {
     pub normal_view: wgpu::TextureView,
     /// The faces (`array<RsmFace>`).
     pub faces: wgpu::Buffer,
+    /// One view slot per face: the face's own projection ([`rsm_view_proj`]), not the
+    /// shadow atlas's widened one.
+    views: Views,
     pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
     empty_group: Option<wgpu::BindGroup>,
-    first_slot: u32,
     shadow_points: u32,
     /// Set by [`Self::update`], cleared by [`Self::record`].
     dirty: AtomicBool,
@@ -149,11 +190,10 @@ pub struct Rsm {
 }
 
 impl Rsm {
-    /// The RSM of every face of `atlas`, drawn from the atlas's view slots. Draws nothing
-    /// until [`Self::update`].
+    /// The RSM of every face of `atlas`, drawn from view slots of its own (one per face,
+    /// [`rsm_view_proj`]). Draws nothing until [`Self::update`].
     pub fn new(
         device: &wgpu::Device,
-        views: &Views,
         scene: &SceneGpu,
         atlas: &ShadowAtlas,
         config: &VplConfig,
@@ -178,6 +218,7 @@ impl Rsm {
             faces_n.max(1) as u64 * std::mem::size_of::<GpuRsmFace>() as u64,
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         );
+        let views = Views::new(device, faces_n);
 
         // The G-buffer's pipelines, for the RSM's targets (two, no emission: a VPL reflects
         // the light it receives, not what the surface emits).
@@ -228,6 +269,7 @@ impl Rsm {
         let texels = size.0 as u64 * size.1 as u64;
         memory.add("vpl.rsm (depth+albedo+normal)", texels * (4 + 4 + 8));
         memory.add("vpl.rsm.faces", faces.size());
+        memory.add("vpl.rsm.views", views.slots() as u64 * std::mem::size_of::<ViewUniforms>() as u64);
         Ok(Self {
             layout,
             config: *config,
@@ -238,9 +280,9 @@ impl Rsm {
             albedo,
             normal,
             faces,
+            views,
             pipelines,
             empty_group,
-            first_slot: atlas.first_slot(),
             shadow_points: atlas.layout.points,
             dirty: AtomicBool::new(false),
             in_view: Mutex::new(Vec::new()),
@@ -250,26 +292,31 @@ impl Rsm {
     }
 
     /// The lights behind the faces, as last computed by `atlas` (call after the atlas's
-    /// own `update`): per face, the light's index and the twin's [`RsmLight`] and the
-    /// face's world-to-clip matrix.
-    pub fn face_lights(&self, atlas: &ShadowAtlas, lights: &PackedLights) -> Vec<(usize, RsmLight, Mat4)> {
+    /// own `update`): per face, the light's index, the twin's [`RsmLight`] and the face's
+    /// RSM view and projection ([`rsm_view_proj`]).
+    pub fn face_lights(&self, atlas: &ShadowAtlas, lights: &PackedLights) -> Vec<(usize, RsmLight, (Mat4, Mat4))> {
         (0..self.layout.faces)
             .map(|f| {
-                let (view, proj) = atlas.face_view_proj(f);
-                let (i, l) = face_light(lights, self.shadow_points, f, (view, proj), &self.config);
-                (i, l, proj * view)
+                let vp = rsm_view_proj(lights, self.shadow_points, f, atlas.face_view_proj(f));
+                let (i, l) = face_light(lights, self.shadow_points, f, vp, &self.config);
+                (i, l, vp)
             })
             .collect()
     }
 
     /// Takes the casters' current faces from `atlas` (after its own `update` with the same
-    /// `lights`): writes the faces buffer; the next [`Self::record`] redraws the RSM.
+    /// `lights`): writes the faces buffer and the faces' views; the next [`Self::record`]
+    /// redraws the RSM.
     pub fn update(&self, queue: &wgpu::Queue, atlas: &ShadowAtlas, lights: &PackedLights) {
+        let s = self.layout.size;
         let faces: Vec<GpuRsmFace> = self
             .face_lights(atlas, lights)
             .iter()
             .enumerate()
-            .map(|(f, (_, light, m))| GpuRsmFace::new(light, m, self.layout.origin(f as u32)))
+            .map(|(f, (_, light, (view, proj)))| {
+                self.views.write(queue, f as u32, &ViewUniforms::from_matrices(*view, *proj, proj.w_axis.z, (s, s)));
+                GpuRsmFace::new(light, &(*proj * *view), self.layout.origin(f as u32))
+            })
             .collect();
         if !faces.is_empty() {
             queue.write_buffer(&self.faces, 0, bytemuck::cast_slice(&faces));
@@ -290,16 +337,11 @@ impl Rsm {
     }
 
     /// Draws every face from its view slot into its tile (`vpl.rsm`), when the casters
-    /// moved since the last call: per face only the instances inside its frustum (the
-    /// shadow atlas's per-face test, as the shadow pass culls; the same texels as drawing
-    /// all). Returns whether it drew.
-    pub fn record(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: &GpuTimer,
-        views: &Views,
-        scene: &SceneGpu,
-    ) -> bool {
+    /// moved since the last call: per face only the instances inside its shadow face's
+    /// frustum (the shadow atlas's per-face test, as the shadow pass culls; that frustum
+    /// holds the RSM face's narrower one, so the texels are those of drawing all).
+    /// Returns whether it drew.
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, scene: &SceneGpu) -> bool {
         if !self.dirty.swap(false, Ordering::Relaxed) {
             return false;
         }
@@ -344,7 +386,7 @@ impl Rsm {
                 let [x, y] = self.layout.origin(f);
                 pass.set_viewport(x as f32, y as f32, s as f32, s as f32, 0.0, 1.0);
                 pass.set_scissor_rect(x, y, s, s);
-                pass.set_bind_group(0, views.bind_group(), &views.offsets(self.first_slot + f));
+                pass.set_bind_group(0, self.views.bind_group(), &self.views.offsets(f));
                 for (kind, pipeline) in &self.pipelines {
                     pass.set_pipeline(pipeline);
                     drawn += scene.record_draws_of(&mut pass, *kind, (true, true), visible);
@@ -377,8 +419,8 @@ impl Rsm {
             .face_lights(atlas, lights)
             .into_iter()
             .enumerate()
-            .map(|(f, (_, light, m))| {
-                let inv = m.inverse();
+            .map(|(f, (_, light, (view, proj)))| {
+                let inv = (proj * view).inverse();
                 let [ox, oy] = self.layout.origin(f as u32);
                 let mut texels = Vec::with_capacity((s * s) as usize);
                 for ty in 0..s {
