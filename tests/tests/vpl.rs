@@ -123,17 +123,17 @@ fn run_shadowed(scene: &Scene, cfg: &VplConfig, lights: &[Light], casters: (u32,
     let views = Views::new(device, 1 + layout.faces());
     let atlas = ShadowAtlas::new(device, &views, &scene, &features, layout, shadow, 1).expect("atlas");
     atlas.update(queue, &views, &lights.packed).expect("atlas update");
-    let path = VplPath::new(device, queue, (&views, &scene), &atlas, &lights.packed, cfg).expect("vpl path");
+    let path = VplPath::new(device, queue, &scene, &atlas, &lights.packed, cfg).expect("vpl path");
     let mut timer = GpuTimer::new(ctx).expect("timer");
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("test.vpl") });
     atlas.record(&mut encoder, &timer, &views, &scene);
-    assert!(path.record(&mut encoder, &timer, &views, &scene), "a fresh path draws its RSM");
+    assert!(path.record(&mut encoder, &timer, &scene), "a fresh path draws its RSM");
     timer.resolve(&mut encoder);
     queue.submit([encoder.finish()]);
     timer.end_frame().expect("timer");
     // A still frame keeps its VPLs: nothing recorded.
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("test.vpl.still") });
-    assert!(!path.record(&mut encoder, &timer, &views, &scene), "a still frame draws no RSM");
+    assert!(!path.record(&mut encoder, &timer, &scene), "a still frame draws no RSM");
     drop(encoder);
     let faces = path.rsm.read_faces(device, queue, &atlas, &lights.packed).expect("rsm readback");
     let count = path.buffers.read_count(device, queue).expect("count");

@@ -17,12 +17,6 @@ pub mod error;
 pub mod layout;
 pub mod light;
 pub mod material;
-/// The workspace's shared proptest configuration (fixed seed unless `PROPTEST_RNG_SEED`),
-/// for the unit tests' property tests.
-#[cfg(test)]
-#[path = "../tests/common/seed.rs"]
-pub(crate) mod test_seed;
-
 pub use error::CullError;
 pub use light::{Light, LightKind};
 pub mod assign;
@@ -45,3 +39,34 @@ pub use camera::{Camera, DepthParams, Projection};
 pub use cluster::{cull_clusters, ClusterConfig};
 pub use reference::{cull_tiles, cull_tiles_blended, CullConfig, TileLists};
 pub use tiles::TileGrid;
+
+/// The workspace's shared proptest configuration (fixed seed unless `PROPTEST_RNG_SEED`),
+/// for the unit tests' property tests.
+#[cfg(test)]
+#[path = "../tests/common/seed.rs"]
+pub(crate) mod test_seed;
+
+#[cfg(test)]
+mod test_seed_tests {
+    //! The shared proptest configuration (tested here once, not in every test binary that
+    //! includes it).
+    use crate::test_seed::*;
+    use proptest::test_runner::{Config, RngSeed};
+
+    #[test]
+    fn unset_variables_give_the_fixed_seed_and_the_asked_cases() {
+        let c = config_from(17, |_| false);
+        assert_eq!(c.cases, 17);
+        assert!(matches!(c.rng_seed, RngSeed::Fixed(DEFAULT_SEED)), "{:?}", c.rng_seed);
+    }
+
+    #[test]
+    fn set_variables_are_left_to_proptest() {
+        // With both variables "set", the values come from proptest's own reading of the
+        // environment (here: whatever the process has), never from the defaults above.
+        let c = config_from(17, |_| true);
+        let d = Config::default();
+        assert_eq!(c.cases, d.cases);
+        assert_eq!(format!("{:?}", c.rng_seed), format!("{:?}", d.rng_seed));
+    }
+}

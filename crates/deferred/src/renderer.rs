@@ -186,7 +186,7 @@ impl DeferredRenderer {
             memory.add("deferred.gbuffer", gbuffer.bytes());
             let vpl = match (settings.vpl, common.shadows.as_ref()) {
                 (Some(cfg), Some(atlas)) => {
-                    let path = VplPath::new(device, &ctx.queue, (views, scene), atlas, &lights.packed, &cfg)?;
+                    let path = VplPath::new(device, &ctx.queue, scene, atlas, &lights.packed, &cfg)?;
                     let culling = path.culling(device, views, &targets.depth_view, (common.grid, &settings.cull))?;
                     let bindings = path.bindings(device, Some(&culling));
                     memory.extend(&path.memory);
@@ -297,7 +297,7 @@ impl Renderer for DeferredRenderer {
                 Step::ShadowMaps => c.record_shadows(encoder, timer, scene),
                 Step::Vpl => {
                     if let Some((v, _)) = &self.vpl {
-                        v.record(encoder, timer, &c.views, scene);
+                        v.record(encoder, timer, scene);
                     }
                 }
                 Step::VplCull => {

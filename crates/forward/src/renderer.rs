@@ -225,7 +225,7 @@ impl ForwardRenderer {
                 .transpose()?;
             let vpl = match (settings.vpl, common.shadows.as_ref()) {
                 (Some(cfg), Some(atlas)) => {
-                    let path = VplPath::new(device, &ctx.queue, (views, scene), atlas, &lights.packed, &cfg)?;
+                    let path = VplPath::new(device, &ctx.queue, scene, atlas, &lights.packed, &cfg)?;
                     // Forward+: the VPLs' own grid, culled by the same pass as the lights
                     // (sphere and planes, one list per tile), their count from the GPU.
                     let culling = plan
@@ -342,7 +342,7 @@ impl Renderer for ForwardRenderer {
                 Step::ShadowMaps => c.record_shadows(encoder, timer, scene),
                 Step::Vpl => {
                     if let Some(v) = &self.vpl {
-                        v.record(encoder, timer, &c.views, scene);
+                        v.record(encoder, timer, scene);
                     }
                 }
                 Step::DepthPrepass => self.prepass.record(encoder, timer, view, scene, &targets.depth_view),

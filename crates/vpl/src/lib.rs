@@ -50,14 +50,13 @@ pub struct VplPath {
 impl VplPath {
     /// The path for the casters of `atlas` with `config`, made current for `lights` (the
     /// atlas must have been updated with them): the next [`Self::record`] draws the RSM and
-    /// generates. The frame's views are not used: the RSM draws from views of its own (each
-    /// face's own projection, not the atlas's widened one: [`rsm::rsm_view_proj`]); the
-    /// parameter keeps the renderers' calls as they are. Errors when there is no caster to
-    /// make VPLs from.
+    /// generates. The RSM draws from views of its own (each face's own projection, not the
+    /// atlas's widened one: [`rsm::rsm_view_proj`]), so it takes none of the frame's. Errors
+    /// when there is no caster to make VPLs from.
     pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        (_frame_views, scene): (&Views, &SceneGpu),
+        scene: &SceneGpu,
         atlas: &ShadowAtlas,
         lights: &PackedLights,
         config: &VplConfig,
@@ -115,15 +114,8 @@ impl VplPath {
 
     /// Draws the RSM and generates the VPLs when the casters moved since the last frame
     /// (`vpl.rsm`, `vpl.generate`); a still frame keeps the VPLs it has. Returns whether it
-    /// recorded anything. The frame's views are not used (the RSM has its own, as in
-    /// [`Self::new`]).
-    pub fn record(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: &GpuTimer,
-        _frame_views: &Views,
-        scene: &SceneGpu,
-    ) -> bool {
+    /// recorded anything. The RSM draws from views of its own (see [`Self::new`]).
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, scene: &SceneGpu) -> bool {
         if !self.rsm.record(encoder, timer, scene) {
             return false;
         }

@@ -31,25 +31,3 @@ pub fn config_from(cases: u32, set: impl Fn(&str) -> bool) -> Config {
     }
     c
 }
-
-#[cfg(test)]
-mod seed_tests {
-    use super::*;
-
-    #[test]
-    fn unset_variables_give_the_fixed_seed_and_the_asked_cases() {
-        let c = config_from(17, |_| false);
-        assert_eq!(c.cases, 17);
-        assert!(matches!(c.rng_seed, RngSeed::Fixed(DEFAULT_SEED)), "{:?}", c.rng_seed);
-    }
-
-    #[test]
-    fn set_variables_are_left_to_proptest() {
-        // With both variables "set", the values come from proptest's own reading of the
-        // environment (here: whatever the process has), never from the defaults above.
-        let c = config_from(17, |_| true);
-        let d = Config::default();
-        assert_eq!(c.cases, d.cases);
-        assert_eq!(format!("{:?}", c.rng_seed), format!("{:?}", d.rng_seed));
-    }
-}
