@@ -298,12 +298,12 @@ fn bad_settings_are_errors_naming_the_setting() {
     let views = Views::new(device, 1 + layout.faces());
     let atlas = ShadowAtlas::new(device, &views, &scene, &features, layout, shadow, 1).expect("atlas");
     let bad = VplConfig { block: 3, ..Default::default() };
-    let e = tiledlight_tests::err_text(VplPath::new(device, queue, (&views, &scene), &atlas, &lights.packed, &bad));
+    let e = tiledlight_tests::err_text(VplPath::new(device, queue, &scene, &atlas, &lights.packed, &bad));
     assert!(e.contains("block 3"), "{e}");
     let e = tiledlight_tests::err_text(VplPath::new(
         device,
         queue,
-        (&views, &scene),
+        &scene,
         &atlas,
         &lights.packed,
         &VplConfig { cap: u32::MAX, ..Default::default() },
