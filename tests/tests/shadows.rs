@@ -833,7 +833,7 @@ fn shadows_darken_only_what_a_caster_cannot_see() {
     let r = render_pair(Kind::BruteForce, &scene, &light_list, (3, 2), opts, &cam);
     // The casters in the packed order: the lights as the GPU holds them.
     let casters: Vec<Light> = shadow_casters(&light_list, (3, 2)).unwrap();
-    let mut darkened = 0;
+    let (mut darkened, mut seen) = (0, Vec::new());
     for (i, s) in surface_points(&cam, W, H, &r.depth).into_iter().enumerate() {
         let Some(s) = s else { continue };
         let full = lum(r.unshadowed.hdr[i]);
@@ -847,9 +847,32 @@ fn shadows_darken_only_what_a_caster_cannot_see() {
             !reference.visible(c.position, s.position, s.normal)
                 || reference.edge_distance(&face, c.position, s, true, b).is_some()
         });
-        assert!(hidden, "pixel ({}, {}) darkened by shadows but every caster sees it", i as u32 % W, i as u32 / W);
+        if !hidden {
+            // Per caster: its border and how far away (texels, searched to 4x the border)
+            // its visibility changes, to tell a border too narrow from a wrong shadow.
+            let detail: Vec<String> = casters
+                .iter()
+                .map(|c| {
+                    let face = face_of(c, s.position, opts);
+                    let b = border_texels(&face, c, s.position, s.normal, opts);
+                    format!(
+                        "border {b:.2}, change at {:?}",
+                        reference.edge_distance(&face, c.position, s, true, 4.0 * b)
+                    )
+                })
+                .collect();
+            seen.push(format!(
+                "({}, {}) at {:?}, visibility {:.4}: {}",
+                i as u32 % W,
+                i as u32 / W,
+                s.position,
+                lum(r.shadowed.hdr[i]) / full,
+                detail.join("; ")
+            ));
+        }
     }
-    eprintln!("{darkened} pixels darkened by shadows, each hidden from some caster");
+    eprintln!("{darkened} pixels darkened by shadows, {} of them seen by every caster", seen.len());
+    assert!(seen.is_empty(), "darkened by shadows but every caster sees them:\n{}", seen.join("\n"));
     assert!(darkened > 500, "shadows must darken part of the frame ({darkened} pixels)");
 }
 
