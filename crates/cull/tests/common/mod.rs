@@ -260,22 +260,8 @@ fn centre(x: u32, y: u32) -> (f32, f32) {
 /// pixel's top-left corner: the CPU copy of `sample_position` in `shaders/deferred.wgsl`,
 /// where Tiled Deferred shades each sample. 1 sample: the pixel centre.
 pub fn sample_positions(samples: u32) -> &'static [(f32, f32)] {
-    match samples {
-        1 => &[(0.5, 0.5)],
-        2 => &[(0.75, 0.75), (0.25, 0.25)],
-        4 => &[(0.375, 0.125), (0.875, 0.375), (0.125, 0.625), (0.625, 0.875)],
-        8 => &[
-            (0.5625, 0.3125),
-            (0.4375, 0.6875),
-            (0.8125, 0.5625),
-            (0.3125, 0.1875),
-            (0.1875, 0.8125),
-            (0.0625, 0.4375),
-            (0.6875, 0.9375),
-            (0.9375, 0.0625),
-        ],
-        _ => panic!("{samples} samples: the GPU accepts 1, 2, 4 or 8"),
-    }
+    tiledlight_cull::blended_depth::standard_sample_positions(samples)
+        .unwrap_or_else(|| panic!("{samples} samples: the GPU accepts 1, 2, 4 or 8"))
 }
 
 /// A random multisampled depth buffer: `samples` values per pixel, pixel-major (the layout
