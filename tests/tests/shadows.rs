@@ -934,11 +934,73 @@ fn only_moved_casters_are_redrawn() {
     }
 }
 
-/// The shadow pass's CPU twin: each texel of each face holds the reversed-Z depth
-/// (`near / view depth`) of the first surface hit by the ray from the light through the
-/// texel's centre, or 0 where the ray hits nothing. Compared where the texel's 3x3
-/// neighbourhood agrees (no silhouette edge crosses it, where coverage decides), within
-/// 2 quanta of 16-bit depth (rounding of both sides).
+/// The ray cast's depth for every texel of one atlas face (`tile` x `tile`, row-major):
+/// the reversed-Z depth (`near / view depth`) of the first surface hit by the ray from the
+/// light through the texel's centre, or 0 where the ray hits nothing or only geometry
+/// nearer than the near plane (clipped).
+fn face_ray_cast_depth(tris: &Triangles, light: &Light, (view, proj): (Mat4, Mat4), tile: u32) -> Vec<f32> {
+    let inv = (proj * view).inverse();
+    let near = proj.w_axis.z;
+    let axis = view.inverse().transform_vector3(Vec3::NEG_Z);
+    (0..tile * tile)
+        .map(|i| {
+            let (u, v) = (i % tile, i / tile);
+            let ndc = ((u as f32 + 0.5) / tile as f32 * 2.0 - 1.0, 1.0 - (v as f32 + 0.5) / tile as f32 * 2.0);
+            let far = inv.project_point3(Vec3::new(ndc.0, ndc.1, 0.5));
+            let ray = (far - light.position).normalize();
+            match tris.first_hit(light.position, ray, 1e4) {
+                Some(t) if t * ray.dot(axis) >= near => near / (t * ray.dot(axis)),
+                _ => 0.0,
+            }
+        })
+        .collect()
+}
+
+/// Whether the ray cast's depth around texel (u, v) of a face (`expected`, `tile` wide) is
+/// flat: its 3x3 neighbourhood within 4 quanta of 16-bit depth plus 2% (no silhouette
+/// edge crosses it, where coverage rather than depth decides the texel).
+fn flat_texel(expected: &[f32], tile: u32, u: u32, v: u32) -> bool {
+    let at = |u: u32, v: u32| expected[(v * tile + u) as usize];
+    let e = at(u, v);
+    (v - 1..=v + 1).all(|y| (u - 1..=u + 1).all(|x| (at(x, y) - e).abs() < 4.0 / 65535.0 + e * 0.02))
+}
+
+/// Texels of one face where the atlas differs from the ray cast: (u, v, got, expected).
+type AtlasMiss = (u32, u32, f32, f32);
+
+/// Compares the atlas layer `texels` (`width` wide) inside `rect` with `expected` (from
+/// [`face_ray_cast_depth`]) where the texel's 3x3 neighbourhood agrees (no silhouette edge
+/// crosses it, where coverage decides), within 2 quanta of 16-bit depth (rounding of both
+/// sides). Returns the texels compared and those that differ.
+fn compare_atlas_face(
+    texels: &[f32],
+    width: usize,
+    rect: tiledlight_cull::shadow::FaceRect,
+    expected: &[f32],
+    tile: u32,
+) -> (usize, Vec<AtlasMiss>) {
+    let (mut compared, mut wrong) = (0, Vec::new());
+    for v in 1..tile - 1 {
+        for u in 1..tile - 1 {
+            if !flat_texel(expected, tile, u, v) {
+                continue;
+            }
+            let e = expected[(v * tile + u) as usize];
+            compared += 1;
+            let got = texels[(rect.y + v) as usize * width + (rect.x + u) as usize];
+            if (got - e).abs() > 2.0 / 65535.0 {
+                wrong.push((u, v, got, e));
+            }
+        }
+    }
+    (compared, wrong)
+}
+
+/// The shadow pass's CPU twin: each texel of each face holds the ray cast's depth
+/// ([`face_ray_cast_depth`]), compared by [`compare_atlas_face`]. The comparison can fail:
+/// the same atlas with two compared texels flipped (one emptied, one filled at the near
+/// plane) is rejected at exactly those texels, and a face read one
+/// texel row off (a wrong tile offset) is rejected outright.
 #[test]
 fn atlas_texels_hold_the_ray_cast_depth() {
     let ctx = gpu();
@@ -960,47 +1022,48 @@ fn atlas_texels_hold_the_ray_cast_depth() {
     let tile = opts.tile_size;
     let mut faces: Vec<(u32, Light)> = (0..6).map(|f| (layout.point_face(0, f), light_list[0])).collect();
     faces.push((layout.spot_face(0), spot_light));
+    let expected: Vec<Vec<f32>> = faces
+        .iter()
+        .map(|&(face, light)| face_ray_cast_depth(&tris, &light, atlas.face_view_proj(face), tile))
+        .collect();
     let (mut compared, mut wrong) = (0, Vec::new());
-    for (face, light) in faces {
-        let (view, proj) = atlas.face_view_proj(face);
-        let rect = layout.rect(face);
-        let inv = (proj * view).inverse();
-        // The near plane the atlas chose: depth = near / view depth.
-        let near = proj.w_axis.z;
-        let expected = |u: i64, v: i64| -> f32 {
-            let ndc = ((u as f32 + 0.5) / tile as f32 * 2.0 - 1.0, 1.0 - (v as f32 + 0.5) / tile as f32 * 2.0);
-            let far = inv.project_point3(Vec3::new(ndc.0, ndc.1, 0.5));
-            let ray = (far - light.position).normalize();
-            let axis = view.inverse().transform_vector3(Vec3::NEG_Z);
-            match tris.first_hit(light.position, ray, 1e4) {
-                // Geometry nearer than the near plane is clipped.
-                Some(t) if t * ray.dot(axis) >= near => near / (t * ray.dot(axis)),
-                _ => 0.0,
-            }
-        };
-        for v in 1..tile as i64 - 1 {
-            for u in 1..tile as i64 - 1 {
-                let e = expected(u, v);
-                let flat = (-1..=1)
-                    .all(|dv| (-1..=1).all(|du| ((expected(u + du, v + dv) - e).abs()) < 4.0 / 65535.0 + e * 0.02));
-                if !flat {
-                    continue;
-                }
-                compared += 1;
-                let got = texels[(rect.y as usize + v as usize) * width + rect.x as usize + u as usize];
-                if (got - e).abs() > 2.0 / 65535.0 {
-                    wrong.push((face, u, v, got, e));
-                }
-            }
-        }
+    for (&(face, _), e) in faces.iter().zip(&expected) {
+        let (c, w) = compare_atlas_face(&texels, width, layout.rect(face), e, tile);
+        compared += c;
+        wrong.extend(w.into_iter().map(|m| (face, m)));
     }
     eprintln!("atlas: {compared} texels compared, {} wrong", wrong.len());
     assert!(compared > 40_000, "too few texels compared: {compared}");
     assert!(
         wrong.is_empty(),
-        "atlas texels differ from the ray cast (face, u, v, got, expected): {:?}",
+        "atlas texels differ from the ray cast (face, (u, v, got, expected)): {:?}",
         &wrong[..wrong.len().min(10)]
     );
+
+    // Negative: the spot face with one occluder texel emptied and another filled at the
+    // near plane (depth 1).
+    let (face, e) = (faces[6].0, &expected[6]);
+    let rect = layout.rect(face);
+    let index = |(u, v): (u32, u32)| (rect.y + v) as usize * width + (rect.x + u) as usize;
+    let mut flat_hits = (tile / 4..3 * tile / 4)
+        .flat_map(|v| (tile / 4..3 * tile / 4).map(move |u| (u, v)))
+        .filter(|&(u, v)| e[(v * tile + u) as usize] > 0.0 && flat_texel(e, tile, u, v));
+    let (emptied, filled) = (flat_hits.next().expect("a flat texel"), flat_hits.nth(40).expect("another"));
+    let mut flipped = texels.clone();
+    flipped[index(emptied)] = 0.0;
+    flipped[index(filled)] = 1.0;
+    let (_, caught) = compare_atlas_face(&flipped, width, rect, e, tile);
+    let mut caught: Vec<(u32, u32)> = caught.iter().map(|m| (m.0, m.1)).collect();
+    caught.sort_by_key(|&(u, v)| (v, u));
+    eprintln!("atlas negative: flipped {emptied:?} and {filled:?}, rejected {caught:?}");
+    let mut want = vec![emptied, filled];
+    want.sort_by_key(|&(u, v)| (v, u));
+    assert_eq!(caught, want, "each flipped texel, and only it, must be rejected");
+    // Negative: the face read one texel row lower (a wrong tile offset).
+    let shifted = tiledlight_cull::shadow::FaceRect { y: rect.y + 1, ..rect };
+    let (c, off) = compare_atlas_face(&texels, width, shifted, e, tile);
+    eprintln!("atlas negative: a face read one row off: {} of {c} texels rejected", off.len());
+    assert!(off.len() * 100 > c, "a face read one row off must be rejected ({} of {c})", off.len());
 }
 
 #[test]
