@@ -35,7 +35,8 @@
 //! - **Only what moved.** A still frame draws no shadow face; moving one light redraws only
 //!   its faces (counted, not timed).
 //! - **The atlas itself** (the shadow pass's CPU twin): every texel of every face holds the
-//!   depth of the first surface a ray through the texel centre meets.
+//!   depth of the first surface a ray through the texel centre meets; that comparison
+//!   rejects one flipped texel and a face read one row off.
 //! - **Bad input**: more casters than the atlas or the scene holds, wide spot cones.
 //!
 //! Ambient is zero, so a pixel's visibility is its shadowed radiance over its unshadowed
