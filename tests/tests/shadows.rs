@@ -37,6 +37,8 @@
 //! - **The atlas itself** (the shadow pass's CPU twin): every texel of every face holds the
 //!   depth of the first surface a ray through the texel centre meets; that comparison
 //!   rejects one flipped texel and a face read one row off.
+//! - **Peter-panning**: a plate hovering 0.8 texel over the floor shadows it (a bias grown
+//!   past the design's half texel on axis lets light under it).
 //! - **Bad input**: more casters than the atlas or the scene holds, wide spot cones.
 //!
 //! Ambient is zero, so a pixel's visibility is its shadowed radiance over its unshadowed
@@ -1412,4 +1414,74 @@ fn shadows_in_every_layout_match_the_ray_cast() {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Peter-panning: the depth bias must stay below what a thin occluder close to its receiver
+/// needs. A spot 30 m over the floor pointing straight down (128 px tile, one tap, 32-bit
+/// depth: quantisation is micrometres there, so only the bias decides) and a plate hovering
+/// over the floor by 0.8 of a shadow texel at the floor (the texel from the face's own
+/// geometry, `face_of`: 0.41 m). The design's bias for a receiver facing the light on the
+/// face's axis is half a texel (slope 0: `tiledlight_cull::shadow`'s slope-scaled bias),
+/// and the normal offset lifts the lookup by `sin(theta)` texels, under 0.01 texel within
+/// 0.25 m of the axis: the floor under the plate's middle (the tap and its 2x2 footprint
+/// inside the plate) must be dark. A bias grown past 0.8 texel (doubled, say) lets the
+/// light under the plate. The camera looks under the plate from 8 degrees over the floor
+/// (steeper than the ray cast's surface reconstruction needs at its 20 degree field).
+#[test]
+fn a_plate_hovering_a_texel_over_the_floor_shadows_it() {
+    let light = Light::spot(Vec3::new(0.0, 30.0, 0.0), Vec3::NEG_Y, Vec3::ONE, 900.0, 0.5, 0.7, 0.01).expect("spot");
+    let opts = ShadowOptions {
+        format: ShadowFormat::Depth32,
+        tile_size: 128,
+        filter: ShadowFilter::Tap1,
+        ..Default::default()
+    };
+    let texel = {
+        let face = face_of(&light, Vec3::ZERO, opts);
+        face.texel * (Vec3::ZERO - light.position).dot(face.axis)
+    };
+    let h = 0.8 * texel;
+    let mut scene = scenes::floor_scene(0.8, 0.0, vec![]);
+    // The plate reaches two texels past the checked region (0.25 m): the tap's footprint.
+    let half = 0.25 + 2.0 * texel;
+    scene.meshes.push(scenes::quad("plate", 2.0 * half));
+    scene.instances.push(tiledlight_scene::Instance {
+        mesh: 1,
+        material: 0,
+        transform: Mat4::from_translation(Vec3::new(0.0, h, 0.0)),
+    });
+    scene.bounds = scene.compute_bounds();
+    scene.bounds.max.y = 31.0;
+    let reference = Reference::new(&scene);
+    let cam = Camera::perspective(
+        Vec3::new(0.0, 0.84, 6.0),
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::Y,
+        20f32.to_radians(),
+        W as f32 / H as f32,
+        0.01,
+        None,
+    )
+    .expect("camera");
+    let r = render_pair(Kind::BruteForce, &scene, &[light], (0, 1), opts, &cam);
+    let (mut under, mut leaks) = (0, Vec::new());
+    for (i, s) in surface_points(&cam, W, H, &r.depth).into_iter().enumerate() {
+        let Some(s) = s else { continue };
+        let full = lum(r.unshadowed.hdr[i]);
+        if full < DIM || s.position.y.abs() > 0.25 * h || s.position.x.abs() > 0.25 || s.position.z.abs() > 0.25 {
+            continue;
+        }
+        assert!(!reference.visible(light.position, s.position, s.normal), "the plate hides {:?}", s.position);
+        under += 1;
+        let v = lum(r.shadowed.hdr[i]) / full;
+        if v > DARK {
+            leaks.push((i as u32 % W, i as u32 / W, v));
+        }
+    }
+    eprintln!(
+        "hovering plate {h:.3} m (0.8 of a {texel:.3} m texel): {under} floor pixels under it, {} lit",
+        leaks.len()
+    );
+    assert!(under > 200, "the floor under the plate must be in view ({under} pixels)");
+    assert!(leaks.is_empty(), "light under the plate (x, y, visibility): {:?}", &leaks[..leaks.len().min(10)]);
 }
