@@ -1430,12 +1430,7 @@ fn shadows_in_every_layout_match_the_ray_cast() {
 #[test]
 fn a_plate_hovering_a_texel_over_the_floor_shadows_it() {
     let light = Light::spot(Vec3::new(0.0, 30.0, 0.0), Vec3::NEG_Y, Vec3::ONE, 900.0, 0.5, 0.7, 0.01).expect("spot");
-    let opts = ShadowOptions {
-        format: ShadowFormat::Depth32,
-        tile_size: 128,
-        filter: ShadowFilter::Tap1,
-        ..Default::default()
-    };
+    let opts = ShadowOptions { format: ShadowFormat::Depth32, tile_size: 128, filter: ShadowFilter::Tap1 };
     let texel = {
         let face = face_of(&light, Vec3::ZERO, opts);
         face.texel * (Vec3::ZERO - light.position).dot(face.axis)
