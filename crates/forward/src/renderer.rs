@@ -5,9 +5,10 @@
 //! linear HDR -> tonemap (-> heat map). With MSAA the pre-pass and shading pass are
 //! multisampled (hardware MSAA), culling bounds every sample's depth, and the shading pass
 //! resolves into the HDR image. Built once for a scene, light set, screen size and
-//! settings; `record` only writes the view and records passes. With VPLs (brute force
-//! only so far) the casters' reflective shadow maps and VPL generation
-//! (tiledlight-vpl) follow the shadow maps, and the shading pass sums every VPL. Depends on
+//! settings; `record` only writes the view and records passes. With VPLs the casters'
+//! reflective shadow maps and VPL generation (tiledlight-vpl) follow the shadow maps; the
+//! VPLs are culled into a light grid of their own (Forward+) and the shading pass reads
+//! their lists (brute force sums every VPL). Depends on
 //! tiledlight-gpu, tiledlight-vpl and tiledlight-cull.
 
 use glam::Vec3;

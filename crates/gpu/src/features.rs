@@ -5,9 +5,8 @@
 //!
 //! "Model only what the scene requires": a spot buffer, the spot-cone test, texture bind
 //! groups, masked pipelines, multisampled targets, the heat map pass exist only when this
-//! value says the scene or the settings need them. Features the renderer does not have
-//! yet (blended geometry, shadow casters, VPLs) are listed with what the scene asks for,
-//! so a frame can say what it leaves out. Depends on [`crate::scene_gpu`],
+//! value says the scene or the settings need them: blended geometry, shadow casters and
+//! VPLs included, each with its passes, buffers and variants only when asked for. Depends on [`crate::scene_gpu`],
 //! [`crate::lights_gpu`] and [`crate::light_cull`] (the culling options).
 
 use crate::light_cull::CullOptions;
@@ -119,8 +118,8 @@ pub struct Features {
     /// own.
     pub frustum_clusters: bool,
     /// Virtual point lights (`--vpl`, crate tiledlight-vpl): the RSM and generation step
-    /// and the `VPLS` shading variant. False from [`Features::new`]; the renderer sets it
-    /// from its settings (only the brute-force reference shades VPLs so far).
+    /// and the `VPLS` shading variant, in every method. False from [`Features::new`]; the
+    /// renderer sets it from its settings.
     pub vpl: bool,
 }
 

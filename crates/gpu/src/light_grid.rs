@@ -1,8 +1,8 @@
 //! The light grid: the one contract for "which lights may touch this pixel" between the
 //! culling layouts and every shading path (`shaders/common/light_grid.wgsl`).
 //!
-//! 1. The layout (tiles now; half-z's two lists a tile; clusters and 2.5D masks later) fixes
-//!    the number of lists. Per list the grid holds `(first, count)`: the list's light
+//! 1. The layout (tiles; half-z's two lists a tile; 2.5D masks; clusters) fixes the number
+//!    of lists. Per list the grid holds `(first, count)`: the list's light
 //!    indices are `indices[first .. first + count]` of one global buffer.
 //! 2. Each frame the culling kernel allocates every list's indices with one atomic add on
 //!    the frame's counter, so the index buffer is sized from the real number of (list,

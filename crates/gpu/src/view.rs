@@ -3,8 +3,8 @@
 //!
 //! The uniforms of all views live in one buffer, one slot each, and the bind group is
 //! bound with the slot's dynamic offset (as Bevy binds its view uniform), so any scene
-//! pipeline can draw any view: the main camera (slot [`MAIN_VIEW`]) now, shadow faces and
-//! RSM views next, without new pipelines or bind groups. Culling parameters live with the
+//! pipeline can draw any view: the main camera (slot [`MAIN_VIEW`]), shadow faces and RSM
+//! faces, without new pipelines or bind groups. Culling parameters live with the
 //! light grid ([`crate::light_grid`]), the light counts and ambient with the lights
 //! ([`crate::lights_gpu::LightingUniforms`]), the exposure with the tonemap pass.
 //! Depends on wgpu, tiledlight-cull and [`crate::bindings`].
