@@ -237,10 +237,12 @@ pub fn msaa_silhouettes(depth: &[f32], samples: u32) -> Vec<bool> {
 
 /// Whether a pixel's depth samples (at the standard positions, 4 or more) lie on one
 /// plane: reversed-Z depth is affine in screen space across a plane, so samples 0-2
-/// predict the others to f32 rounding (1e-4 relative, as `msaa.rs`'s depth-only edge
-/// detector). Two triangles meeting inside the pixel (a crease) break it; so do
-/// silhouettes. One or two samples always pass.
-fn coplanar(s: &[f32]) -> bool {
+/// predict the others to f32 rounding (1e-4 relative; `msaa.rs`'s depth-only edge
+/// detector uses it too). Two triangles meeting inside the pixel (a crease) break it; so do
+/// silhouettes. One or two samples always pass. The sample positions are the standard ones
+/// (`tiledlight_cull::blended_depth::standard_sample_positions`), which
+/// `independent.rs` measures on the adapter.
+pub fn coplanar(s: &[f32]) -> bool {
     let Some(pos) = tiledlight_cull::blended_depth::standard_sample_positions(s.len() as u32) else { return true };
     if s.len() < 4 {
         return true;
@@ -300,5 +302,25 @@ impl Frame {
             }
         }
         (self, n)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A plane's 4x samples pass; one sample moved off it by 0.1% (a crease, a second
+    /// triangle) fails, and so does a step between surfaces in the silhouette mask.
+    #[test]
+    fn coplanar_accepts_a_plane_and_rejects_a_crease() {
+        let pos = tiledlight_cull::blended_depth::standard_sample_positions(4).unwrap();
+        let plane: Vec<f32> = pos.iter().map(|&(x, y)| 0.3 + 0.001 * x - 0.002 * y).collect();
+        assert!(coplanar(&plane));
+        let mut crease = plane.clone();
+        crease[3] *= 1.001;
+        assert!(!coplanar(&crease));
+        let mut step = plane.clone();
+        step[1] *= 1.05;
+        assert_eq!(msaa_silhouettes(&[plane, crease, step].concat(), 4), vec![false, true, true]);
     }
 }

@@ -104,37 +104,16 @@ fn msaa_culling_matches_cpu_reference() {
 }
 
 /// Pixels where the 4x depth samples do not lie on one plane (a silhouette, a crease, or
-/// sky next to a surface), grown by `grow` pixels. Reversed-Z depth is affine in screen
-/// space across a plane, so samples 0-2 at the standard 4x positions predict sample 3
-/// exactly on a planar surface: an independent, depth-only edge detector.
+/// sky next to a surface), grown by `grow` pixels: an independent, depth-only edge
+/// detector (`compare::coplanar`: reversed-Z depth is affine in screen space across a
+/// plane, so samples 0-2 at the standard positions predict the others).
 fn depth_edges(depth: &[f32], (w, h): (u32, u32), grow: i32) -> Vec<bool> {
     let mut edge = vec![false; (w * h) as usize];
     for (i, s) in depth.chunks_exact(4).enumerate() {
         let sky = s.iter().filter(|&&d| d <= 0.0).count();
-        if sky > 0 {
-            edge[i] = sky < 4;
-            continue;
-        }
-        let predicted = plane_depth(s, POS[3]);
-        edge[i] = (predicted - s[3] as f64).abs() > 1e-4 * (s[0] as f64).max(s[3] as f64);
+        edge[i] = if sky > 0 { sky < 4 } else { !tiledlight_tests::compare::coplanar(s) };
     }
     grow_mask(&edge, (w, h), grow)
-}
-
-/// The standard 4x sample positions (the Vulkan specification's table; measured on the
-/// adapter by tests/independent.rs `msaa_4x_sample_positions_are_vulkan_standard`), in pixels from the pixel's corner.
-const POS: [(f64, f64); 4] = [(0.375, 0.125), (0.875, 0.375), (0.125, 0.625), (0.625, 0.875)];
-
-/// Depth at `at` (pixels from the pixel's corner) of the plane through 4x samples 0, 1, 2.
-fn plane_depth(s: &[f32], at: (f64, f64)) -> f64 {
-    // d = d0 + b (x - x0) + c (y - y0) (Cramer's rule).
-    let (x0, y0, d0) = (POS[0].0, POS[0].1, s[0] as f64);
-    let (dx1, dy1, dd1) = (POS[1].0 - x0, POS[1].1 - y0, s[1] as f64 - d0);
-    let (dx2, dy2, dd2) = (POS[2].0 - x0, POS[2].1 - y0, s[2] as f64 - d0);
-    let det = dx1 * dy2 - dx2 * dy1;
-    let b = (dd1 * dy2 - dd2 * dy1) / det;
-    let c = (dx1 * dd2 - dx2 * dd1) / det;
-    d0 + b * (at.0 - x0) + c * (at.1 - y0)
 }
 
 /// `mask` dilated by `grow` pixels (a square).

@@ -355,12 +355,6 @@ impl ShadowAtlas {
         self.state.lock().expect("shadow atlas state").matrices[face as usize]
     }
 
-    /// The view slot of face 0 (face `f` is drawn from slot `first_slot() + f`; the VPLs'
-    /// reflective shadow maps draw from the same views).
-    pub fn first_slot(&self) -> u32 {
-        self.first_slot
-    }
-
     /// Faces drawn by the last recorded frame (0 for a still frame after the first).
     pub fn faces_drawn_last_frame(&self) -> u32 {
         self.state.lock().expect("shadow atlas state").drawn_last
