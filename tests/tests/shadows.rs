@@ -252,6 +252,12 @@ impl<'a> Reference<'a> {
         Self { tris: Triangles::new(scene.world_triangles()), blocks: Box::new(scenes::alpha_blocks(scene)) }
     }
 
+    /// The ray cast with every triangle solid, alpha-masked ones too: an upper bound on
+    /// what can occlude.
+    fn solid(scene: &Scene) -> Self {
+        Self { tris: Triangles::new(scene.world_triangles()), blocks: Box::new(|_, _, _| true) }
+    }
+
     /// Whether the light at `light` reaches surface point `q` with normal `n` (the segment
     /// starts 1 mm off the surface and ends 1 mm short of the light).
     fn visible(&self, light: Vec3, q: Vec3, n: Vec3) -> bool {
@@ -622,6 +628,11 @@ fn box_camera() -> Camera {
     .expect("camera")
 }
 
+/// A white spot at `pos` aimed at `at`, cone 0.5-0.7 rad, cut off at 0.01.
+fn spot_at(pos: Vec3, at: Vec3, intensity: f32) -> Light {
+    Light::spot(pos, (at - pos).normalize(), Vec3::ONE, intensity, 0.5, 0.7, 0.01).expect("spot")
+}
+
 fn point(pos: Vec3, intensity: f32) -> Light {
     Light::point(pos, Vec3::ONE, intensity, 0.01).expect("light")
 }
@@ -840,7 +851,7 @@ fn methods_agree_with_shadows() {
 #[test]
 fn shadows_darken_only_what_a_caster_cannot_see() {
     let scene = scenes::mixed_scene();
-    let reference = Reference { tris: Triangles::new(scene.world_triangles()), blocks: Box::new(|_, _, _| true) };
+    let reference = Reference::solid(&scene);
     let light_list = bright_mixed_lights();
     let cam = scenes::mixed_camera(W, H);
     let opts = ShadowOptions::default();
@@ -1274,7 +1285,7 @@ fn shadows_of_a_light_at_the_eye() {
     let cam = box_camera();
     let eye = cam.eye();
     let target = Vec3::new(0.5, 0.0, 0.0);
-    let spot = Light::spot(eye, (target - eye).normalize(), Vec3::ONE, 400.0, 0.5, 0.7, 0.01).expect("spot");
+    let spot = spot_at(eye, target, 400.0);
     let case = Case {
         name: "at the eye",
         scene: &scene,
@@ -1332,9 +1343,7 @@ fn shadows_of_lights_inside_an_instances_bounds() {
 fn shadows_of_lights_next_to_an_occluder() {
     let scene = shadow_box_scene(0.5);
     let spot_pos = Vec3::new(0.3, 2.7, 0.8);
-    let spot =
-        Light::spot(spot_pos, (Vec3::new(0.3, 0.0, 3.5) - spot_pos).normalize(), Vec3::ONE, 200.0, 0.5, 0.7, 0.01)
-            .expect("spot");
+    let spot = spot_at(spot_pos, Vec3::new(0.3, 0.0, 3.5), 200.0);
     let case = Case {
         name: "next to an occluder",
         scene: &scene,
@@ -1358,9 +1367,7 @@ fn shadows_of_lights_next_to_an_occluder() {
 fn alpha_masked_casters_match_the_masked_ray_cast() {
     let scene = scenes::masked_screen_scene();
     let spot_pos = Vec3::new(-3.0, 6.0, 2.0);
-    let spot =
-        Light::spot(spot_pos, (Vec3::new(0.5, 0.0, -0.5) - spot_pos).normalize(), Vec3::ONE, 300.0, 0.5, 0.7, 0.01)
-            .expect("spot");
+    let spot = spot_at(spot_pos, Vec3::new(0.5, 0.0, -0.5), 300.0);
     let case = Case {
         name: "alpha mask",
         scene: &scene,
@@ -1371,7 +1378,7 @@ fn alpha_masked_casters_match_the_masked_ray_cast() {
     };
     let masked = Reference::new(&scene);
     assert_extreme(&case, &masked);
-    let solid = Reference { tris: Triangles::new(scene.world_triangles()), blocks: Box::new(|_, _, _| true) };
+    let solid = Reference::solid(&scene);
     let opts = ShadowOptions::default();
     let rendered = render_case(&case, Variant::of(Kind::BruteForce), &[opts]);
     for (i, light) in case.lights.iter().enumerate() {
