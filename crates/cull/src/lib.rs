@@ -9,7 +9,9 @@
 //! with ([`raycast`]: triangles in a BVH, segment occlusion), and an estimate of the
 //! lights per tile for light counts the reference is too slow for ([`estimate`]), and the
 //! CPU twin of virtual point lights: generation from a reflective shadow map, the two
-//! shading models and the every-texel one-bounce reference ([`vpl`]).
+//! shading models and the every-texel one-bounce reference ([`vpl`]); and an independent
+//! raster of a depth buffer with the bounds a GPU's snapping allows ([`blended_depth`],
+//! what the blended lists are checked against).
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
 
 pub mod error;
