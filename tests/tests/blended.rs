@@ -490,23 +490,6 @@ fn the_blended_light_grid_grows_until_the_frame_fits() {
     }
 }
 
-/// The sample counts both methods' targets support on this adapter (`check_msaa` over
-/// Forward+'s and Tiled Deferred's multisampled formats); lavapipe has 1x and 4x.
-fn adapter_sample_counts() -> Vec<u32> {
-    use tiledlight_deferred::gbuffer::{ALBEDO_FORMAT, NORMAL_FORMAT};
-    use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
-    use tiledlight_gpu::tonemap::HDR_FORMAT;
-    let formats = [DEPTH_FORMAT, HDR_FORMAT, ALBEDO_FORMAT, NORMAL_FORMAT];
-    let counts: Vec<u32> =
-        [1, 2, 4, 8].into_iter().filter(|&n| tiledlight_gpu::targets::check_msaa(gpu(), n, &formats).is_ok()).collect();
-    for n in [2, 4, 8] {
-        if !counts.contains(&n) {
-            eprintln!("MSAA {n}x: not supported by this adapter ({}), not rendered", gpu().info.name);
-        }
-    }
-    counts
-}
-
 /// The triangles of `scene`'s alpha-blended instances, in world space.
 fn blended_triangles(scene: &Scene) -> Vec<[Vec3; 3]> {
     let mut only = scene.clone();
@@ -576,7 +559,7 @@ fn blended_lists_of(
 #[test]
 fn blended_lists_match_an_independent_raster() {
     let ctx = gpu();
-    let counts = adapter_sample_counts();
+    let counts = tiledlight_tests::adapter_sample_counts(gpu());
     let lights = LightBuffers::new(&ctx.device, &lights_with_front_light()).unwrap();
     let cam = camera(Vec3::new(0.5, 0.5, 4.0), Vec3::new(0.0, 0.0, -10.0));
     for wall in [true, false] {
@@ -707,7 +690,7 @@ fn blended_geometry_with_shadows_and_vpls_at_every_sample_count() {
     assert!(brighter > 1000, "VPLs must light part of the frame ({brighter} pixels)");
     // One depth per pixel for Tiled Deferred's G-buffer-normal allowance.
     let depth = opaque_depth(&sg, &casting, &cam);
-    for msaa in adapter_sample_counts() {
+    for msaa in tiledlight_tests::adapter_sample_counts(gpu()) {
         let s = ForwardSettings { method: bf, msaa, shadows, vpl, ..Default::default() };
         let mut b = ForwardRenderer::new(ctx, &sg, &casting, W, H, s).expect("brute force");
         let reference = render_frame(ctx, &mut b, &sg, &cam);

@@ -72,17 +72,13 @@ use rand::Rng;
 use tiledlight_cull::reference::lights_reaching;
 use tiledlight_cull::tiles::{pixel_to_ndc_x, pixel_to_ndc_y};
 use tiledlight_cull::{Camera, CullConfig};
-use tiledlight_deferred::gbuffer::{ALBEDO_FORMAT, NORMAL_FORMAT};
 use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
 use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
-use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
 use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::light_cull::{ClusterOptions, CullOptions, GpuTileLists};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::check_msaa;
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::GpuContext;
 use tiledlight_scene::{Aabb, Instance, Scene};
 use tiledlight_tests::lists::{compare_cluster_lists, compare_lists, CulledFrame};
@@ -104,12 +100,6 @@ struct Case {
     background: bool,
     n_lights: usize,
     seed: u64,
-}
-
-/// The sample counts both renderers' targets support on this adapter.
-fn supported_samples(ctx: &GpuContext) -> Vec<u32> {
-    let formats = [DEPTH_FORMAT, HDR_FORMAT, ALBEDO_FORMAT, NORMAL_FORMAT];
-    [1, 2, 4, 8].into_iter().filter(|&s| check_msaa(ctx, s, &formats).is_ok()).collect()
 }
 
 /// Half the visible height at view distance `d`.
@@ -479,7 +469,7 @@ fn saved_cases() -> Vec<(&'static str, Case)> {
 #[test]
 fn gpu_lists_match_cpu_and_miss_no_reaching_light() {
     let ctx = gpu();
-    let supported = supported_samples(ctx);
+    let supported = tiledlight_tests::adapter_sample_counts(ctx);
     assert!(supported.contains(&1) && supported.contains(&4), "WebGPU guarantees 1x and 4x: {supported:?}");
     // The workspace's shared configuration: DEFAULT_CASES unless PROPTEST_CASES, the
     // fixed seed unless PROPTEST_RNG_SEED (so plain `cargo test` draws CI's cases).

@@ -10,18 +10,14 @@
 
 use glam::{Mat4, Vec3};
 use tiledlight_cull::Camera;
-use tiledlight_deferred::gbuffer::{ALBEDO_FORMAT, NORMAL_FORMAT};
 use tiledlight_deferred::{DeferredRenderer, DeferredSettings, EdgeTest};
 use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
-use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
 use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::check_msaa;
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::GpuContext;
 use tiledlight_scene::Scene;
 use tiledlight_tests::compare::{
@@ -402,20 +398,6 @@ fn edge_test_is_scale_independent() {
     assert!(n > 0 && n <= 2 * W, "grazing floor: {n} edge pixels, expected only the horizon's");
 }
 
-/// The sample counts both methods' targets can multisample on this adapter
-/// (`targets::check_msaa` over Forward+'s and Tiled Deferred's formats), with each count
-/// of 2, 4 and 8 it lacks printed (never skipped silently). lavapipe: 1x and 4x.
-fn adapter_sample_counts(ctx: &GpuContext) -> Vec<u32> {
-    let formats = [DEPTH_FORMAT, HDR_FORMAT, ALBEDO_FORMAT, NORMAL_FORMAT];
-    let counts: Vec<u32> = [1, 2, 4, 8].into_iter().filter(|&n| check_msaa(ctx, n, &formats).is_ok()).collect();
-    for n in [2, 4, 8] {
-        if !counts.contains(&n) {
-            eprintln!("MSAA {n}x: the adapter ({}) lacks it: not rendered here", ctx.info.name);
-        }
-    }
-    counts
-}
-
 /// At every sample count the adapter has (lavapipe: 1x and 4x; the H200 run,
 /// scripts/device-gpu-tests.sh, adds 2x and 8x), both methods must build (a refusal fails)
 /// and match brute force at the same count in linear HDR and FLIP with compare.rs's
@@ -447,7 +429,7 @@ fn every_sample_count_matches_brute_force_in_hdr() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let full_sg = SceneGpu::new(&ctx.device, &ctx.queue, &full).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights_in_slab(&scene, 3.5, 4.0, 100, 20, 1)).unwrap();
-    let counts = adapter_sample_counts(ctx);
+    let counts = tiledlight_tests::adapter_sample_counts(ctx);
     assert!(counts.contains(&1) && counts.contains(&4), "WebGPU guarantees 1x and 4x: {counts:?}");
     let bf = ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() };
     // One depth per pixel for the f16-normal allowance.
@@ -536,7 +518,7 @@ fn unsupported_sample_counts_are_refused_clearly() {
         .err()
         .expect("3 samples refused");
     assert!(e.to_string().contains("must be 1, 2, 4 or 8"), "{e}");
-    let has = adapter_sample_counts(ctx);
+    let has = tiledlight_tests::adapter_sample_counts(ctx);
     for msaa in [2, 4, 8] {
         let f = ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { msaa, ..Default::default() });
         let d = DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings { msaa, ..Default::default() });
