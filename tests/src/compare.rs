@@ -9,11 +9,9 @@ use tiledlight_cull::brdf::windowed_attenuation;
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::Camera;
-use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
-use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;
 
@@ -73,7 +71,7 @@ impl Frame {
 }
 
 /// Renders one frame with `r` and reads both images back.
-pub fn render_frame(ctx: &GpuContext, r: &mut dyn Renderer, scene: &SceneGpu, camera: &Camera) -> Frame {
+pub fn render_frame(ctx: &GpuContext, r: &mut FrameRenderer, scene: &SceneGpu, camera: &Camera) -> Frame {
     let mut timer = GpuTimer::new(ctx).expect("timer");
     r.render_once(ctx, &mut timer, scene, camera).expect("render");
     Frame { hdr: r.read_hdr(ctx).expect("read HDR"), ldr: r.read_ldr(ctx).expect("read LDR"), allowance: Vec::new() }
@@ -88,8 +86,8 @@ pub fn reference_frame(
     (w, h): (u32, u32),
     camera: &Camera,
 ) -> Frame {
-    let settings = ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() };
-    let mut r = ForwardRenderer::new(ctx, scene, lights, w, h, settings).expect("brute-force renderer");
+    let settings = FrameSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() };
+    let mut r = FrameRenderer::new(ctx, scene, lights, w, h, settings).expect("brute-force renderer");
     render_frame(ctx, &mut r, scene, camera)
 }
 

@@ -5,9 +5,8 @@
 use glam::Vec3;
 use tiledlight_cull::reference::MAX_CAPACITY;
 use tiledlight_cull::Light;
-use tiledlight_deferred::{DeferredRenderer, DeferredSettings, EdgeTest};
-use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
-use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_deferred::EdgeTest;
+use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::{LightBuffers, MAX_LIGHTS};
 use tiledlight_gpu::scene_gpu::SceneGpu;
@@ -21,33 +20,33 @@ fn renderer_rejects_bad_settings_with_reasons() {
     let scene = scenes::mixed_scene();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 16, 0, 1)).unwrap();
-    let new = |w, h, s: ForwardSettings| ForwardRenderer::new(ctx, &sg, &lights, w, h, s).map(|_| ());
-    let d = ForwardSettings::default();
+    let new = |w, h, s: FrameSettings| FrameRenderer::new(ctx, &sg, &lights, w, h, s).map(|_| ());
+    let d = FrameSettings::default();
     let e = err_text(new(0, 180, d));
     assert!(e.contains("0x180") && e.contains("no pixels"), "{e}");
     let e = err_text(new(320, 0, d));
     assert!(e.contains("no pixels"), "{e}");
     let e = err_text(new(100_000, 10, d));
     assert!(e.contains("100000"), "{e}");
-    let e = err_text(new(64, 64, ForwardSettings { cull: CullOptions { tile_size: 7, ..Default::default() }, ..d }));
+    let e = err_text(new(64, 64, FrameSettings { cull: CullOptions { tile_size: 7, ..Default::default() }, ..d }));
     assert!(e.contains("tile size 7"), "{e}");
-    let e = err_text(new(64, 64, ForwardSettings { cull: CullOptions { capacity: 0, ..Default::default() }, ..d }));
+    let e = err_text(new(64, 64, FrameSettings { cull: CullOptions { capacity: 0, ..Default::default() }, ..d }));
     assert!(e.contains("capacity 0"), "{e}");
     // 2048 indices x 2 lists x 4 bytes is 16 KiB of workgroup memory, over WebGPU's default
     // limit: a device asking for only that (as on a GPU that has no more) refuses it; the
     // default device asks for 32 KiB where the adapter has it, and takes it.
-    let half_z_2048 = ForwardSettings { cull: CullOptions { capacity: 2048, half_z: true, ..Default::default() }, ..d };
+    let half_z_2048 = FrameSettings { cull: CullOptions { capacity: 2048, half_z: true, ..Default::default() }, ..d };
     let small = GpuContext::headless(ContextOptions { workgroup_memory_cap: Some(16384), ..Default::default() })
         .expect("adapter");
     assert_eq!(small.device.limits().max_compute_workgroup_storage_size, 16384);
     let small_scene = SceneGpu::new(&small.device, &small.queue, &scene).unwrap();
     let small_lights = LightBuffers::new(&small.device, &scenes::lights(&scene, 16, 0, 1)).unwrap();
-    let e = err_text(ForwardRenderer::new(&small, &small_scene, &small_lights, 64, 64, half_z_2048));
+    let e = err_text(FrameRenderer::new(&small, &small_scene, &small_lights, 64, 64, half_z_2048));
     assert!(e.contains("workgroup memory") && e.contains("16384"), "{e}");
     if ctx.device.limits().max_compute_workgroup_storage_size >= 2048 * 2 * 4 + 16 {
         new(64, 64, half_z_2048).expect("fits 32 KiB of workgroup memory");
     }
-    let e = err_text(new(64, 64, ForwardSettings { method: Method::BruteForce { cutoff: true }, heatmap: true, ..d }));
+    let e = err_text(new(64, 64, FrameSettings { method: Method::BruteForce { cutoff: true }, heatmap: true, ..d }));
     assert!(e.contains("heat map"), "{e}");
 }
 
@@ -66,10 +65,10 @@ fn absurd_light_counts_are_refused() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let none = LightBuffers::new(&ctx.device, &[]).unwrap();
     for method in [Method::ForwardPlus, Method::BruteForce { cutoff: true }] {
-        let settings = ForwardSettings { method, ..Default::default() };
+        let settings = FrameSettings { method, ..Default::default() };
         let ambient = settings.ambient;
         assert!(ambient.min_element() > 0.0, "the default ambient light is not black");
-        let mut r = ForwardRenderer::new(ctx, &sg, &none, 64, 36, settings).unwrap();
+        let mut r = FrameRenderer::new(ctx, &sg, &none, 64, 36, settings).unwrap();
         let mut timer = GpuTimer::new(ctx).unwrap();
         r.render_once(ctx, &mut timer, &sg, &scenes::mixed_camera(64, 36)).unwrap();
         let hdr = r.read_hdr(ctx).unwrap();
@@ -115,7 +114,7 @@ fn renders_without_timestamp_queries() {
     let scene = scenes::mixed_scene();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 64, 8, 2)).unwrap();
-    let mut r = ForwardRenderer::new(&ctx, &sg, &lights, 64, 36, ForwardSettings::default()).unwrap();
+    let mut r = FrameRenderer::new(&ctx, &sg, &lights, 64, 36, FrameSettings::default()).unwrap();
     let mut timer = GpuTimer::new(&ctx).unwrap();
     assert!(!timer.enabled());
     for _ in 0..3 {
@@ -138,8 +137,7 @@ fn every_pass_is_timed_when_timestamps_exist() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 64, 0, 2)).unwrap();
     let mut r =
-        ForwardRenderer::new(ctx, &sg, &lights, 64, 36, ForwardSettings { heatmap: true, ..Default::default() })
-            .unwrap();
+        FrameRenderer::new(ctx, &sg, &lights, 64, 36, FrameSettings { heatmap: true, ..Default::default() }).unwrap();
     let mut timer = GpuTimer::new(ctx).unwrap();
     let mut frames = Vec::new();
     for _ in 0..6 {
@@ -164,18 +162,23 @@ fn deferred_rejects_bad_settings_with_reasons() {
     let scene = scenes::mixed_scene();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 16, 4, 1)).unwrap();
-    let new = |s: DeferredSettings| DeferredRenderer::new(ctx, &sg, &lights, 64, 64, s).map(|_| ());
-    let d = DeferredSettings::default();
-    let cull = |c: CullOptions| DeferredSettings { cull: c, ..d };
+    let new = |s: FrameSettings| FrameRenderer::new(ctx, &sg, &lights, 64, 64, s).map(|_| ());
+    let d = FrameSettings::of(Method::TiledDeferred);
+    let cull = |c: CullOptions| FrameSettings { method: Method::TiledDeferred, cull: c, ..d };
     let e = err_text(new(cull(CullOptions { tile_size: 7, ..Default::default() })));
     assert!(e.contains("tile size 7") && e.contains("8, 16 or 32"), "{e}");
     let e = err_text(new(cull(CullOptions { capacity: 0, ..Default::default() })));
     assert!(e.contains("capacity 0"), "{e}");
     let e = err_text(new(cull(CullOptions { capacity: MAX_CAPACITY + 1, ..Default::default() })));
     assert!(e.contains(&format!("capacity {}", MAX_CAPACITY + 1)) && e.contains(&format!("{MAX_CAPACITY}")), "{e}");
-    let e = err_text(new(DeferredSettings { msaa: 3, ..d }));
+    let e = err_text(new(FrameSettings { method: Method::TiledDeferred, msaa: 3, ..d }));
     assert!(e.contains("MSAA 3x") && e.contains("1, 2, 4 or 8"), "{e}");
-    let e = err_text(new(DeferredSettings { msaa: 4, edge: EdgeTest { distance: f32::NAN, ..d.edge }, ..d }));
+    let e = err_text(new(FrameSettings {
+        method: Method::TiledDeferred,
+        msaa: 4,
+        edge: EdgeTest { distance: f32::NAN, ..d.edge },
+        ..d
+    }));
     assert!(e.contains("edge distance"), "{e}");
 
     // 2043 indices x 2 lists x 4 bytes + 40 bytes (depth range, counts, grid writer) is
@@ -188,14 +191,14 @@ fn deferred_rejects_bad_settings_with_reasons() {
     let small_scene = SceneGpu::new(&small.device, &small.queue, &scene).unwrap();
     let small_lights = LightBuffers::new(&small.device, &scenes::lights(&scene, 16, 4, 1)).unwrap();
     let full = cull(CullOptions { capacity: 2043, half_z: true, ..Default::default() });
-    DeferredRenderer::new(&small, &small_scene, &small_lights, 64, 64, full).expect("2043 x 2 lists fit 16 KiB");
-    let e = err_text(DeferredRenderer::new(
+    FrameRenderer::new(&small, &small_scene, &small_lights, 64, 64, full).expect("2043 x 2 lists fit 16 KiB");
+    let e = err_text(FrameRenderer::new(
         &small,
         &small_scene,
         &small_lights,
         64,
         64,
-        DeferredSettings { msaa: 4, ..full },
+        FrameSettings { method: Method::TiledDeferred, msaa: 4, ..full },
     ));
     assert!(
         e.contains("capacity 2043") && e.contains("17416") && e.contains("MSAA edge queue") && e.contains("16384"),

@@ -22,15 +22,12 @@
 use glam::{Mat4, Vec3};
 use tiledlight_cull::blended_depth::raster_depth;
 use tiledlight_cull::{Camera, Light};
-use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
-use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
-use tiledlight_gpu::diagnostics::Diagnostics;
+use tiledlight_frame::{DeferredFrame, Diagnostics, FrameRenderer, FrameSettings, Method, Renderer};
 use tiledlight_gpu::light_cull::{ClusterOptions, CullOptions};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::plan::Step;
 use tiledlight_gpu::readback::read_depth;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_scene::{AlphaMode, Instance, Scene};
 use tiledlight_tests::compare::{
@@ -79,9 +76,9 @@ fn camera(eye: Vec3, target: Vec3) -> Camera {
     Camera::perspective(eye, target, Vec3::Y, 50f32.to_radians(), W as f32 / H as f32, 0.1, None).expect("camera")
 }
 
-fn forward(scene: &SceneGpu, lights: &LightBuffers, method: Method, msaa: u32) -> ForwardRenderer {
-    let s = ForwardSettings { method, msaa, ..Default::default() };
-    ForwardRenderer::new(gpu(), scene, lights, W, H, s).expect("forward renderer")
+fn forward(scene: &SceneGpu, lights: &LightBuffers, method: Method, msaa: u32) -> FrameRenderer {
+    let s = FrameSettings { method, msaa, ..Default::default() };
+    FrameRenderer::new(gpu(), scene, lights, W, H, s).expect("forward renderer")
 }
 
 /// A pane 7 m before the wall, and a light 0.6 m before the pane whose radius (1.5 m)
@@ -102,9 +99,9 @@ fn a_light_reaching_only_the_pane_lights_it() {
     // The centre pixel sees the pane over the wall: its tile's opaque list lacks the light
     // (culled against the wall), its blended list has it.
     let tile = (H / 2 / 16) * W.div_ceil(16) + W / 2 / 16;
-    let opaque = r.culling().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
+    let opaque = r.read_lists(ctx).unwrap();
     assert!(opaque.lists[tile as usize].is_empty(), "the wall's list must not hold the light");
-    let blended = r.blended().unwrap().culling.as_ref().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
+    let blended = r.outputs().blended.unwrap().culling.as_ref().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
     assert_eq!(blended.lists[tile as usize], vec![0], "the pane's list holds the light");
     let mut r = forward(&sg, &dark, Method::ForwardPlus, 1);
     let without = render_frame(ctx, &mut r, &sg, &cam);
@@ -161,7 +158,7 @@ fn blended_lists_match_the_cpu_twin() {
             let mut r = forward(&sg, &lights, Method::ForwardPlus, msaa);
             let mut timer = GpuTimer::new(ctx).unwrap();
             r.render_once(ctx, &mut timer, &sg, &cam).unwrap();
-            let b = r.blended().expect("blended path");
+            let b = r.outputs().blended.expect("blended path");
             let opaque = r.read_depth(ctx).unwrap();
             let blended = read_depth(&ctx.device, &ctx.queue, &b.depth.as_ref().unwrap().texture).unwrap();
             let c = b.culling.as_ref().unwrap();
@@ -191,8 +188,8 @@ fn methods_agree_on_blended_geometry() {
 fn methods_match_brute_force(
     name: &str,
     cull: CullOptions,
-    check_fp: impl Fn(&ForwardRenderer),
-    check_td: impl Fn(&DeferredRenderer),
+    check_fp: impl Fn(&FrameRenderer),
+    check_td: impl Fn(&FrameRenderer),
 ) {
     let ctx = gpu();
     let scene = three_panes(true);
@@ -206,14 +203,14 @@ fn methods_match_brute_force(
     for msaa in [1, 4] {
         let mut bf = forward(&sg, &lights, Method::BruteForce { cutoff: true }, msaa);
         let reference = render_frame(ctx, &mut bf, &sg, &cam);
-        let s = ForwardSettings { method: Method::ForwardPlus, msaa, cull, ..Default::default() };
-        let mut fp = ForwardRenderer::new(ctx, &sg, &lights, W, H, s).expect("forward renderer");
+        let s = FrameSettings { method: Method::ForwardPlus, msaa, cull, ..Default::default() };
+        let mut fp = FrameRenderer::new(ctx, &sg, &lights, W, H, s).expect("forward renderer");
         check_fp(&fp);
         let f = render_frame(ctx, &mut fp, &sg, &cam);
         let what = format!("blended-forward{name}-msaa{msaa}");
         assert_matches_reference_frame(&what, W, &reference, &f, FORWARD_VS_REFERENCE);
-        let s = DeferredSettings { msaa, cull, ..Default::default() };
-        let mut td = DeferredRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
+        let s = FrameSettings { method: Method::TiledDeferred, msaa, cull, ..Default::default() };
+        let mut td = FrameRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
         check_td(&td);
         let d = render_frame(ctx, &mut td, &sg, &cam);
         let reference = reference.allow_gbuffer_normals(&depth, W, &cam, &lights.packed);
@@ -231,13 +228,13 @@ fn frustum_clusters_serve_blended_geometry() {
     // 16 px clusters, 16 slices from 1 m: a few slices over the panes' 3-10 m.
     let clusters = ClusterOptions { tile_size: 16, slices: 16, first: 1.0, last: 60.0, geometry_only: false };
     let cull = CullOptions { clusters: Some(clusters), ..Default::default() };
-    let check_fp = |fp: &ForwardRenderer| {
-        let b = fp.blended().expect("blended path");
+    let check_fp = |fp: &FrameRenderer| {
+        let b = fp.outputs().blended.expect("blended path");
         assert!(b.depth.is_none() && b.culling.is_none(), "no blended depth or lists with frustum clusters");
         assert!(!fp.plan().has(Step::BlendedDepth) && !fp.plan().has(Step::BlendedCull));
         assert!(fp.plan().has(Step::BlendedShade));
     };
-    let check_td = |td: &DeferredRenderer| assert!(td.blended().expect("blended path").depth.is_none());
+    let check_td = |td: &FrameRenderer| assert!(td.outputs().blended.expect("blended path").depth.is_none());
     methods_match_brute_force("-clusters", cull, check_fp, check_td);
     let ctx = gpu();
     let scene = three_panes(true);
@@ -246,9 +243,9 @@ fn frustum_clusters_serve_blended_geometry() {
     // Geometry-only clusters have no lists where there is no opaque surface: the blended
     // path keeps its own.
     let only = CullOptions { clusters: Some(ClusterOptions { geometry_only: true, ..clusters }), ..Default::default() };
-    let s = ForwardSettings { method: Method::ForwardPlus, cull: only, ..Default::default() };
-    let fp = ForwardRenderer::new(ctx, &sg, &lights, W, H, s).expect("forward renderer");
-    assert!(fp.blended().unwrap().culling.is_some() && fp.plan().has(Step::BlendedDepth));
+    let s = FrameSettings { method: Method::ForwardPlus, cull: only, ..Default::default() };
+    let fp = FrameRenderer::new(ctx, &sg, &lights, W, H, s).expect("forward renderer");
+    assert!(fp.outputs().blended.unwrap().culling.is_some() && fp.plan().has(Step::BlendedDepth));
 }
 
 /// Two overlapping panes, red at z = -3 and blue at z = -5, alpha 0.6 each, lit alike:
@@ -293,10 +290,10 @@ fn no_blended_geometry_no_blended_path() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 8, 2, 1)).unwrap();
     let f = forward(&sg, &lights, Method::ForwardPlus, 1);
-    assert!(f.blended().is_none() && !f.plan().has(Step::BlendedDepth));
+    assert!(f.outputs().blended.is_none() && !f.plan().has(Step::BlendedDepth));
     assert!(f.memory().entries.iter().all(|(c, _)| !c.starts_with("blended")));
-    let d = DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings::default()).unwrap();
-    assert!(d.blended().is_none() && !d.plan().has(Step::BlendedShade));
+    let d = FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings::of(Method::TiledDeferred)).unwrap();
+    assert!(d.outputs().blended.is_none() && !d.plan().has(Step::BlendedShade));
     assert!(d.memory().entries.iter().all(|(c, _)| !c.starts_with("blended")));
     // And with blended materials, every part is reported.
     let panes = SceneGpu::new(&ctx.device, &ctx.queue, &three_panes(true)).unwrap();
@@ -322,8 +319,8 @@ fn weighted_oit_approximates_the_sorted_result() {
     let lights = LightBuffers::new(&ctx.device, &lights_for_panes()).unwrap();
     let cam = camera(Vec3::new(0.5, 0.5, 4.0), Vec3::new(0.0, 0.0, -10.0));
     let frame = |blend, method| {
-        let s = ForwardSettings { method, blend, ..Default::default() };
-        let mut r = ForwardRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
+        let s = FrameSettings { method, blend, ..Default::default() };
+        let mut r = FrameRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
         render_frame(ctx, &mut r, &sg, &cam)
     };
     let sorted = frame(BlendMode::Sorted, Method::ForwardPlus);
@@ -333,8 +330,8 @@ fn weighted_oit_approximates_the_sorted_result() {
     eprintln!("weighted blended OIT vs sorted: FLIP mean {:.4}, p99 {:.4}", r.mean, r.percentile);
     assert!(r.mean > 1e-4, "weighted blended OIT must change the image (FLIP mean {})", r.mean);
     // Tiled Deferred and brute force run the same blended code.
-    let s = DeferredSettings { blend: BlendMode::WeightedOit, ..Default::default() };
-    let mut td = DeferredRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
+    let s = FrameSettings { method: Method::TiledDeferred, blend: BlendMode::WeightedOit, ..Default::default() };
+    let mut td = FrameRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
     let d = render_frame(ctx, &mut td, &sg, &cam);
     let bf = frame(BlendMode::WeightedOit, Method::BruteForce { cutoff: true });
     assert_matches_reference_frame("blended-wboit-forward", W, &bf, &oit, FORWARD_VS_REFERENCE);
@@ -343,7 +340,7 @@ fn weighted_oit_approximates_the_sorted_result() {
 }
 
 /// Reads the display image of one frame of `r`.
-fn ldr_of(r: &mut dyn Renderer, sg: &SceneGpu, cam: &Camera) -> Vec<u8> {
+fn ldr_of(r: &mut FrameRenderer, sg: &SceneGpu, cam: &Camera) -> Vec<u8> {
     let ctx = gpu();
     let mut timer = GpuTimer::new(ctx).unwrap();
     r.render_once(ctx, &mut timer, sg, cam).unwrap();
@@ -368,40 +365,36 @@ fn blended_heat_map_colours_exactly_the_tiles_with_blended_lights() {
     let lights = LightBuffers::new(&ctx.device, &lights_for_panes()).unwrap();
     let cam = camera(Vec3::new(0.5, 0.5, 4.0), Vec3::new(0.0, 0.0, -10.0));
     let of = HeatmapOf::Blended;
-    let renderers: Vec<(&str, Box<dyn Renderer>)> = vec![
+    let renderers: Vec<(&str, FrameRenderer)> = vec![
         (
             "forward",
-            Box::new(
-                ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { heatmap_of: of, ..Default::default() })
-                    .unwrap(),
-            ),
+            FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings { heatmap_of: of, ..Default::default() })
+                .unwrap(),
         ),
         (
             "deferred",
-            Box::new(
-                DeferredRenderer::new(
-                    ctx,
-                    &sg,
-                    &lights,
-                    W,
-                    H,
-                    DeferredSettings { heatmap_of: of, ..Default::default() },
-                )
-                .unwrap(),
-            ),
+            FrameRenderer::new(
+                ctx,
+                &sg,
+                &lights,
+                W,
+                H,
+                FrameSettings { method: Method::TiledDeferred, heatmap_of: of, ..Default::default() },
+            )
+            .unwrap(),
         ),
     ];
     for (name, mut r) in renderers {
-        let plain = ldr_of(r.as_mut(), &sg, &cam);
+        let plain = ldr_of(&mut r, &sg, &cam);
         let h = r.heatmap().expect("tiled methods have a heat map");
         assert_eq!(h.of(), HeatmapOf::Blended);
         h.set_enabled(true);
         // Rendering needs the renderer mutably: the pass is looked up again below.
-        let heat = ldr_of(r.as_mut(), &sg, &cam);
-        let c = r.blended().unwrap().culling.as_ref().unwrap();
+        let heat = ldr_of(&mut r, &sg, &cam);
+        let c = r.outputs().blended.unwrap().culling.as_ref().unwrap();
         let blended = c.read_lists(&ctx.device, &ctx.queue).unwrap();
         let capacity = c.options.capacity;
-        let g = r.grid();
+        let g = r.outputs().grid;
         let (mut coloured, mut untouched) = (0, 0);
         for ty in 0..g.tiles_y {
             for tx in 0..g.tiles_x {
@@ -422,8 +415,8 @@ fn blended_heat_map_colours_exactly_the_tiles_with_blended_lights() {
         // The same pass, switched to the opaque lists: tiles without blended lights that
         // the opaque heat map colours (the wall and floor) change now.
         r.heatmap().unwrap().set_of(HeatmapOf::Opaque).unwrap();
-        let opaque_heat = ldr_of(r.as_mut(), &sg, &cam);
-        let opaque = r.light_grid().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
+        let opaque_heat = ldr_of(&mut r, &sg, &cam);
+        let opaque = r.outputs().light_grid.unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
         let lists_per_tile = opaque.counts.len() / blended.counts.len();
         let wall_only = (0..blended.counts.len())
             .filter(|&t| blended.counts[t] == 0 && opaque.counts[t * lists_per_tile] > 0)
@@ -440,11 +433,11 @@ fn blended_heat_map_colours_exactly_the_tiles_with_blended_lights() {
     let plain = SceneGpu::new(&ctx.device, &ctx.queue, &pane_scene(true, &[])).unwrap();
     let want =
         "the heat map of the blended lists needs blended lists of their own: this scene has no alpha-blended geometry";
-    let s = ForwardSettings { heatmap: true, heatmap_of: of, ..Default::default() };
-    let e = ForwardRenderer::new(ctx, &plain, &lights, W, H, s).err().expect("forward: an error").to_string();
+    let s = FrameSettings { heatmap: true, heatmap_of: of, ..Default::default() };
+    let e = FrameRenderer::new(ctx, &plain, &lights, W, H, s).err().expect("forward: an error").to_string();
     assert!(e.contains(want), "{e}");
-    let s = DeferredSettings { heatmap: true, heatmap_of: of, ..Default::default() };
-    let e = DeferredRenderer::new(ctx, &plain, &lights, W, H, s).err().expect("deferred: an error").to_string();
+    let s = FrameSettings { method: Method::TiledDeferred, heatmap: true, heatmap_of: of, ..Default::default() };
+    let e = FrameRenderer::new(ctx, &plain, &lights, W, H, s).err().expect("deferred: an error").to_string();
     assert!(e.contains(want), "{e}");
     let r = forward(&plain, &lights, Method::ForwardPlus, 1);
     let h = r.heatmap().unwrap();
@@ -469,14 +462,13 @@ fn the_blended_light_grid_grows_until_the_frame_fits() {
     }
     let lights = LightBuffers::new(&ctx.device, &lights).unwrap();
     let cam = camera(Vec3::new(0.5, 0.5, 4.0), Vec3::new(0.0, 0.0, -10.0));
-    let deferred = DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings::default()).unwrap();
-    let renderers: [Box<dyn Renderer>; 2] =
-        [Box::new(forward(&sg, &lights, Method::ForwardPlus, 1)), Box::new(deferred)];
+    let deferred = FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings::of(Method::TiledDeferred)).unwrap();
+    let renderers: [FrameRenderer; 2] = [forward(&sg, &lights, Method::ForwardPlus, 1), deferred];
     for mut r in renderers {
-        let first = r.blended().unwrap().culling.as_ref().unwrap().grid.capacity();
+        let first = r.outputs().blended.unwrap().culling.as_ref().unwrap().grid.capacity();
         let mut timer = GpuTimer::new(ctx).unwrap();
         r.render_once(ctx, &mut timer, &sg, &cam).unwrap();
-        let b = r.blended().unwrap();
+        let b = r.outputs().blended.unwrap();
         let c = b.culling.as_ref().unwrap();
         let status = c.grid.status(&ctx.device, &ctx.queue).unwrap();
         assert!(status.header.pairs > first, "{} pairs fit the first {first} indices: nothing had to grow", status);
@@ -524,10 +516,17 @@ fn blended_lists_of(
     msaa: u32,
 ) -> Vec<(&'static str, Vec<f32>, tiledlight_gpu::light_cull::GpuTileLists, tiledlight_cull::CullConfig)> {
     let ctx = gpu();
-    let d = DeferredRenderer::new(ctx, sg, lights, W, H, DeferredSettings { msaa, ..Default::default() })
-        .expect("deferred renderer");
-    let renderers: [(&str, Box<dyn Renderer>); 2] =
-        [("forward", Box::new(forward(sg, lights, Method::ForwardPlus, msaa))), ("deferred", Box::new(d))];
+    let d = FrameRenderer::new(
+        ctx,
+        sg,
+        lights,
+        W,
+        H,
+        FrameSettings { method: Method::TiledDeferred, msaa, ..Default::default() },
+    )
+    .expect("deferred renderer");
+    let renderers: [(&str, FrameRenderer); 2] =
+        [("forward", forward(sg, lights, Method::ForwardPlus, msaa)), ("deferred", d)];
     renderers
         .into_iter()
         .map(|(name, mut r)| {
@@ -535,7 +534,7 @@ fn blended_lists_of(
             r.render_once(ctx, &mut timer, sg, cam).unwrap();
             let opaque = r.read_depth(ctx).unwrap();
             assert_eq!(opaque.len(), (W * H * msaa) as usize, "{name}: {msaa} depth samples a pixel");
-            let c = r.blended().expect("blended path").culling.as_ref().expect("blended lists");
+            let c = r.outputs().blended.expect("blended path").culling.as_ref().expect("blended lists");
             let lists = c.read_lists(&ctx.device, &ctx.queue).unwrap();
             (name, opaque, lists, c.options.to_config(lights.has_spots()))
         })
@@ -668,8 +667,8 @@ fn blended_geometry_with_shadows_and_vpls_at_every_sample_count() {
     let vpl = Some(VplConfig::default());
     let bf = Method::BruteForce { cutoff: true };
     let frame = |lights: &LightBuffers, method, msaa, vpl| {
-        let s = ForwardSettings { method, msaa, shadows, vpl, ..Default::default() };
-        let mut r = ForwardRenderer::new(ctx, &sg, lights, W, H, s).expect("forward renderer");
+        let s = FrameSettings { method, msaa, shadows, vpl, ..Default::default() };
+        let mut r = FrameRenderer::new(ctx, &sg, lights, W, H, s).expect("forward renderer");
         render_frame(ctx, &mut r, &sg, &cam)
     };
     // The features are live: the shadow on the front pane, light from the VPLs.
@@ -691,19 +690,27 @@ fn blended_geometry_with_shadows_and_vpls_at_every_sample_count() {
     // One depth per pixel for Tiled Deferred's G-buffer-normal allowance.
     let depth = opaque_depth(&sg, &casting, &cam);
     for msaa in tiledlight_tests::adapter_sample_counts(gpu()) {
-        let s = ForwardSettings { method: bf, msaa, shadows, vpl, ..Default::default() };
-        let mut b = ForwardRenderer::new(ctx, &sg, &casting, W, H, s).expect("brute force");
+        let s = FrameSettings { method: bf, msaa, shadows, vpl, ..Default::default() };
+        let mut b = FrameRenderer::new(ctx, &sg, &casting, W, H, s).expect("brute force");
         let reference = render_frame(ctx, &mut b, &sg, &cam);
         let reference_depth = b.read_depth(ctx).unwrap();
         let fp = frame(&casting, Method::ForwardPlus, msaa, vpl);
         let what = format!("blended-shadows-vpls-forward-msaa{msaa}");
         assert_matches_reference_frame(&what, W, &reference, &fp, FORWARD_VS_REFERENCE);
-        let s = DeferredSettings { msaa, shadows, vpl, ..Default::default() };
-        let mut td = DeferredRenderer::new(ctx, &sg, &casting, W, H, s).expect("deferred renderer");
-        assert!(td.vpl().is_some() && td.plan().has(Step::BlendedShade));
+        let s = FrameSettings { method: Method::TiledDeferred, msaa, shadows, vpl, ..Default::default() };
+        let mut td = FrameRenderer::new(ctx, &sg, &casting, W, H, s).expect("deferred renderer");
+        assert!(td.vpls().map(|v| &v.path).is_some() && td.plan().has(Step::BlendedShade));
         let d = render_frame(ctx, &mut td, &sg, &cam);
         let reference = reference.allow_gbuffer_normals(&depth, W, &cam, &casting.packed);
-        let edges = if msaa > 1 { td.shading().read_edge_list(&ctx.device, &ctx.queue).unwrap() } else { Vec::new() };
+        let edges = if msaa > 1 {
+            td.passes::<DeferredFrame>()
+                .expect("Tiled Deferred")
+                .shading()
+                .read_edge_list(&ctx.device, &ctx.queue)
+                .unwrap()
+        } else {
+            Vec::new()
+        };
         let depths = (&reference_depth[..], &td.read_depth(ctx).unwrap()[..]);
         let (reference, forgiven) = reference.forgive_hdr(&msaa_by_design(W, depths, msaa, &edges));
         eprintln!("{msaa}x: {forgiven} pixels compared by FLIP only ({} deferred edge pixels)", edges.len());

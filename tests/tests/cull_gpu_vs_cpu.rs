@@ -19,13 +19,11 @@
 
 use tiledlight_cull::Camera;
 use tiledlight_cull::Light;
-use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
-use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_frame::{Diagnostics as _, ForwardFrame, FrameRenderer, FrameSettings, Method, Renderer as _};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::light_cull::{ClusterOptions, LightCulling};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::Renderer as _;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_scene::Scene;
 use tiledlight_tests::lists::{assert_cluster_lists_match, assert_lists_match, CulledFrame};
@@ -45,12 +43,12 @@ fn check(case: &Case<'_>, options: CullOptions) -> Vec<f32> {
     let ctx = gpu();
     let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, case.scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, case.lights).unwrap();
-    let settings = ForwardSettings { method: Method::ForwardPlus, cull: options, ..Default::default() };
-    let mut renderer = ForwardRenderer::new(ctx, &scene_gpu, &lights, case.width, case.height, settings).unwrap();
+    let settings = FrameSettings { method: Method::ForwardPlus, cull: options, ..Default::default() };
+    let mut renderer = FrameRenderer::new(ctx, &scene_gpu, &lights, case.width, case.height, settings).unwrap();
     let mut timer = GpuTimer::new(ctx).unwrap();
     renderer.render_once(ctx, &mut timer, &scene_gpu, &case.camera).unwrap();
     let depth = renderer.read_depth(ctx).unwrap();
-    let gpu_lists = renderer.culling().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
+    let gpu_lists = renderer.read_lists(ctx).unwrap();
 
     let config = options.to_config(lights.has_spots());
     let label = format!(
@@ -78,7 +76,7 @@ fn check(case: &Case<'_>, options: CullOptions) -> Vec<f32> {
         Some(cluster) => assert_cluster_lists_match(&label, &frame, &gpu_lists, &config, cluster),
         None => assert_lists_match(&label, &frame, &gpu_lists, &config),
     };
-    check_masks(&label, renderer.culling().unwrap(), &frame, &options);
+    check_masks(&label, renderer.passes::<ForwardFrame>().and_then(ForwardFrame::culling).unwrap(), &frame, &options);
     // The GPU's pair counter (reported by `render` and the lab) is the sum of the true list
     // counts; a counter that missed half-z's far lists or the overflowing ones fails here.
     let gpu_total: u64 = gpu_lists.counts.iter().map(|&n| n as u64).sum();
@@ -431,10 +429,10 @@ fn spilled_lists(case: &Case<'_>, options: CullOptions) -> u32 {
     let ctx = gpu();
     let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, case.scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, case.lights).unwrap();
-    let settings = ForwardSettings { method: Method::ForwardPlus, cull: options, ..Default::default() };
-    let mut renderer = ForwardRenderer::new(ctx, &scene_gpu, &lights, case.width, case.height, settings).unwrap();
+    let settings = FrameSettings { method: Method::ForwardPlus, cull: options, ..Default::default() };
+    let mut renderer = FrameRenderer::new(ctx, &scene_gpu, &lights, case.width, case.height, settings).unwrap();
     renderer.render_once(ctx, &mut GpuTimer::new(ctx).unwrap(), &scene_gpu, &case.camera).unwrap();
-    renderer.light_grid().unwrap().status(&ctx.device, &ctx.queue).unwrap().header.spilled_lists
+    renderer.outputs().light_grid.unwrap().status(&ctx.device, &ctx.queue).unwrap().header.spilled_lists
 }
 
 /// More lights reach a 64x64 cell than it stores (COARSE_CAPACITY): those cells' tiles
@@ -480,8 +478,8 @@ fn lists_follow_a_moving_camera() {
         CullOptions { half_z: true, capacity: 16, ..Default::default() },
         CullOptions { scatter: true, ..Default::default() },
     ] {
-        let settings = ForwardSettings { method: Method::ForwardPlus, cull: options, ..Default::default() };
-        let mut renderer = ForwardRenderer::new(ctx, &scene_gpu, &light_buffers, w, h, settings).unwrap();
+        let settings = FrameSettings { method: Method::ForwardPlus, cull: options, ..Default::default() };
+        let mut renderer = FrameRenderer::new(ctx, &scene_gpu, &light_buffers, w, h, settings).unwrap();
         let mut timer = GpuTimer::new(ctx).unwrap();
         let near = Camera::perspective(
             glam::Vec3::new(2.0, 1.5, 3.0),
@@ -497,7 +495,7 @@ fn lists_follow_a_moving_camera() {
         for (i, camera) in [&far, &far, &near, &far, &near].into_iter().enumerate() {
             renderer.render_once(ctx, &mut timer, &scene_gpu, camera).unwrap();
             let depth = renderer.read_depth(ctx).unwrap();
-            let gpu_lists = renderer.culling().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
+            let gpu_lists = renderer.read_lists(ctx).unwrap();
             let frame = CulledFrame { depth: &depth, width: w, height: h, camera, lights: &light_buffers.packed };
             let label = format!("frame {i} half-z {}", options.half_z);
             assert_lists_match(&label, &frame, &gpu_lists, &options.to_config(false));
@@ -528,11 +526,11 @@ fn mask_check_rejects_one_tile_shifted_by_one_bin() {
         CullOptions { depth_mask: true, scatter: true, ..Default::default() },
         CullOptions { clusters: Some(clusters), ..Default::default() },
     ] {
-        let settings = ForwardSettings { method: Method::ForwardPlus, cull: options, ..Default::default() };
-        let mut renderer = ForwardRenderer::new(ctx, &scene_gpu, &lights, w, h, settings).unwrap();
+        let settings = FrameSettings { method: Method::ForwardPlus, cull: options, ..Default::default() };
+        let mut renderer = FrameRenderer::new(ctx, &scene_gpu, &lights, w, h, settings).unwrap();
         renderer.render_once(ctx, &mut GpuTimer::new(ctx).unwrap(), &scene_gpu, &camera).unwrap();
         let depth = renderer.read_depth(ctx).unwrap();
-        let culling = renderer.culling().unwrap();
+        let culling = renderer.passes::<ForwardFrame>().and_then(ForwardFrame::culling).unwrap();
         let masks = culling.read_masks(&ctx.device, &ctx.queue).unwrap().expect("assigned layouts keep their masks");
         let frame = CulledFrame { depth: &depth, width: w, height: h, camera: &camera, lights: &lights.packed };
         let grid = culling.grid.tiles;

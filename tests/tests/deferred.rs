@@ -6,13 +6,10 @@
 //! relative, FLIP mean 0.015, p99 0.05) and the reasons for them (8-bit sRGB albedo, f16
 //! normal, positions rebuilt from depth); deferred vs Forward+ uses its FLIP limits.
 
-use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
-use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
-use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_frame::{DeferredFrame, Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;
 use tiledlight_tests::compare::{assert_matches_reference_frame, render_frame, DEFERRED_VS_REFERENCE};
@@ -25,7 +22,7 @@ const H: u32 = 180;
 
 fn frame(
     ctx: &GpuContext,
-    r: &mut dyn Renderer,
+    r: &mut FrameRenderer,
     scene: &SceneGpu,
     camera: &tiledlight_cull::Camera,
 ) -> (Vec<[f32; 4]>, Vec<u8>) {
@@ -45,13 +42,13 @@ fn compare_with_forward(
     let ctx = gpu();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(scene, n_point, n_spot, 21)).unwrap();
-    let mut bf = ForwardRenderer::new(
+    let mut bf = FrameRenderer::new(
         ctx,
         &sg,
         &lights,
         W,
         H,
-        ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() },
+        FrameSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() },
     )
     .unwrap();
     // The G-buffer's f16 normal moves grazing lights (tiledlight_tests::compare::Frame::allow_gbuffer_normals).
@@ -62,11 +59,17 @@ fn compare_with_forward(
         &lights.packed,
     );
     let mut forward =
-        ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { cull, ..Default::default() }).unwrap();
+        FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings { cull, ..Default::default() }).unwrap();
     let forward = render_frame(ctx, &mut forward, &sg, &camera);
-    let mut deferred =
-        DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings { cull, gbuffer_rts: 3, ..Default::default() })
-            .unwrap();
+    let mut deferred = FrameRenderer::new(
+        ctx,
+        &sg,
+        &lights,
+        W,
+        H,
+        FrameSettings { method: Method::TiledDeferred, cull, gbuffer_rts: 3, ..Default::default() },
+    )
+    .unwrap();
     let deferred = render_frame(ctx, &mut deferred, &sg, &camera);
     let lit = reference.hdr.iter().filter(|p| p[0] + p[1] + p[2] > 0.1).count();
     assert!(lit * 4 > reference.hdr.len(), "{name}: frame mostly unlit; the comparison would test nothing");
@@ -109,16 +112,16 @@ fn gbuffer_targets_do_not_change_the_image() {
     let camera = scenes::mixed_camera(W, H);
     let images: Vec<Vec<[f32; 4]>> = (2..=5)
         .map(|rts| {
-            let mut r = DeferredRenderer::new(
+            let mut r = FrameRenderer::new(
                 ctx,
                 &sg,
                 &lights,
                 W,
                 H,
-                DeferredSettings { gbuffer_rts: rts, ..Default::default() },
+                FrameSettings { method: Method::TiledDeferred, gbuffer_rts: rts, ..Default::default() },
             )
             .unwrap();
-            assert_eq!(r.gbuffer().rts(), rts);
+            assert_eq!(r.passes::<DeferredFrame>().expect("Tiled Deferred").gbuffer().rts(), rts);
             frame(ctx, &mut r, &sg, &camera).0
         })
         .collect();
@@ -140,9 +143,16 @@ fn gbuffer_targets_do_not_change_the_image() {
             }
         }
     }
-    let e = DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings { gbuffer_rts: 6, ..Default::default() })
-        .err()
-        .expect("6 targets refused");
+    let e = FrameRenderer::new(
+        ctx,
+        &sg,
+        &lights,
+        W,
+        H,
+        FrameSettings { method: Method::TiledDeferred, gbuffer_rts: 6, ..Default::default() },
+    )
+    .err()
+    .expect("6 targets refused");
     assert!(e.to_string().contains("2..=5"), "{e}");
 }
 
@@ -164,13 +174,13 @@ fn deferred_lists_equal_cpu_reference() {
         CullOptions::default(),
         CullOptions { tile_size: 32, half_z: true, aabb: true, spot_cone: true, coarse: false, ..Default::default() },
     ] {
-        let mut r = DeferredRenderer::new(
+        let mut r = FrameRenderer::new(
             ctx,
             &sg,
             &lights,
             w,
             h,
-            DeferredSettings { cull, heatmap: true, ..Default::default() },
+            FrameSettings { method: Method::TiledDeferred, cull, heatmap: true, ..Default::default() },
         )
         .unwrap();
         let mut timer = GpuTimer::new(ctx).unwrap();
@@ -188,8 +198,15 @@ fn deferred_lists_equal_cpu_reference() {
         // counts, or not drawn (the old check, "some blue pixel", passed on random light
         // colours alone).
         let heat = r.read_ldr(ctx).unwrap();
-        let mut plain =
-            DeferredRenderer::new(ctx, &sg, &lights, w, h, DeferredSettings { cull, ..Default::default() }).unwrap();
+        let mut plain = FrameRenderer::new(
+            ctx,
+            &sg,
+            &lights,
+            w,
+            h,
+            FrameSettings { method: Method::TiledDeferred, cull, ..Default::default() },
+        )
+        .unwrap();
         plain.render_once(ctx, &mut timer, &sg, &camera).unwrap();
         let base = plain.read_ldr(ctx).unwrap();
         let per_tile = if cull.half_z { 2 } else { 1 };

@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_frame::Diagnostics as _;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_scene::{GridDensity, Light, LightKind};
 use tiledlight_setup::export::export;
@@ -106,7 +106,7 @@ fn exported_courtyard_loads_back_with_the_same_lights_camera_and_image() {
     assert_eq!(back.scene.triangle_count(), cpu.scene.triangle_count());
 
     // One device for both scenes: reconfigure loads the file on the same context.
-    for method in [Method::ForwardPlus, Method::Deferred] {
+    for method in [Method::ForwardPlus, Method::TiledDeferred] {
         let (a, b) = (Settings { method, ..a.clone() }, Settings { method, ..b.clone() });
         let mut prep = Prepared::new(&a).unwrap();
         let original = render(&prep);

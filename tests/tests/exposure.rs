@@ -12,18 +12,16 @@
 use glam::Vec3;
 use tiledlight_cull::exposure::auto_exposure;
 use tiledlight_cull::Camera;
-use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
-use tiledlight_forward::{ForwardRenderer, ForwardSettings};
+use tiledlight_frame::{FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::Renderer;
 use tiledlight_tests::compare::render_frame;
 use tiledlight_tests::{gpu, scenes};
 
 const W: u32 = 320;
 const H: u32 = 180;
 
-fn check(name: &str, auto: &mut dyn Renderer, fixed: impl Fn(f32) -> Box<dyn Renderer>, sg: &SceneGpu, cam: &Camera) {
+fn check(name: &str, auto: &mut FrameRenderer, fixed: impl Fn(f32) -> FrameRenderer, sg: &SceneGpu, cam: &Camera) {
     let ctx = gpu();
     let f = render_frame(ctx, auto, sg, cam);
     let gpu_e = auto.auto_exposure(ctx).unwrap().expect("automatic exposure");
@@ -34,7 +32,7 @@ fn check(name: &str, auto: &mut dyn Renderer, fixed: impl Fn(f32) -> Box<dyn Ren
     assert!((gpu_e - 1.0).abs() > 0.5, "{name}: exposure {gpu_e} did not adapt");
     let mut r = fixed(gpu_e);
     assert_eq!(r.auto_exposure(ctx).unwrap(), None, "{name}: a fixed exposure has no exposure pass");
-    let g = render_frame(ctx, r.as_mut(), sg, cam);
+    let g = render_frame(ctx, &mut r, sg, cam);
     let worst = f.ldr.iter().zip(&g.ldr).map(|(a, b)| a.abs_diff(*b)).max().unwrap_or(0);
     assert!(worst <= 1, "{name}: the automatic image differs from the fixed one by {worst} steps");
 }
@@ -46,18 +44,18 @@ fn automatic_exposure_matches_the_cpu_twin_in_both_methods() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 1024, 0, 7)).unwrap();
     let cam = scenes::courtyard_camera(&scene, W, H);
-    let s = ForwardSettings { auto_exposure: true, ..Default::default() };
-    let mut fp = ForwardRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
-    let fixed = |exposure| -> Box<dyn Renderer> {
-        let s = ForwardSettings { exposure, ..Default::default() };
-        Box::new(ForwardRenderer::new(ctx, &sg, &lights, W, H, s).unwrap())
+    let s = FrameSettings { auto_exposure: true, ..Default::default() };
+    let mut fp = FrameRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
+    let fixed = |exposure| -> FrameRenderer {
+        let s = FrameSettings { exposure, ..Default::default() };
+        FrameRenderer::new(ctx, &sg, &lights, W, H, s).unwrap()
     };
     check("forward", &mut fp, fixed, &sg, &cam);
-    let s = DeferredSettings { auto_exposure: true, ..Default::default() };
-    let mut td = DeferredRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
-    let fixed = |exposure| -> Box<dyn Renderer> {
-        let s = DeferredSettings { exposure, ..Default::default() };
-        Box::new(DeferredRenderer::new(ctx, &sg, &lights, W, H, s).unwrap())
+    let s = FrameSettings { method: Method::TiledDeferred, auto_exposure: true, ..Default::default() };
+    let mut td = FrameRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
+    let fixed = |exposure| -> FrameRenderer {
+        let s = FrameSettings { method: Method::TiledDeferred, exposure, ..Default::default() };
+        FrameRenderer::new(ctx, &sg, &lights, W, H, s).unwrap()
     };
     check("deferred", &mut td, fixed, &sg, &cam);
 }
@@ -72,8 +70,8 @@ fn an_unlit_view_keeps_exposure_one() {
     let b = scene.compute_bounds();
     let eye = Vec3::new(b.center().x, b.max.y + 50.0, b.center().z);
     let cam = Camera::perspective(eye, eye + Vec3::Y, Vec3::Z, 1.0, W as f32 / H as f32, 0.1, None).unwrap();
-    let s = ForwardSettings { auto_exposure: true, ..Default::default() };
-    let mut fp = ForwardRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
+    let s = FrameSettings { auto_exposure: true, ..Default::default() };
+    let mut fp = FrameRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
     let f = render_frame(ctx, &mut fp, &sg, &cam);
     assert!(f.hdr.iter().all(|p| p[0] + p[1] + p[2] == 0.0), "the view must see only sky");
     assert_eq!(fp.auto_exposure(ctx).unwrap(), Some(1.0));

@@ -6,7 +6,7 @@
 //! mean 1e-3, p99 1e-2) and the reasons for them.
 
 use tiledlight_cull::Camera;
-use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
+use tiledlight_frame::{FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
@@ -24,9 +24,9 @@ fn render(
     scene: &SceneGpu,
     lights: &LightBuffers,
     camera: &Camera,
-    settings: ForwardSettings,
+    settings: FrameSettings,
 ) -> Frame {
-    let mut r = ForwardRenderer::new(ctx, scene, lights, W, H, settings).unwrap();
+    let mut r = FrameRenderer::new(ctx, scene, lights, W, H, settings).unwrap();
     tiledlight_tests::compare::render_frame(ctx, &mut r, scene, camera)
 }
 
@@ -40,14 +40,14 @@ fn compare(name: &str, scene: &Scene, n_point: u32, n_spot: u32, camera: &Camera
         &scene_gpu,
         &lights,
         camera,
-        ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() },
+        FrameSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() },
     );
     let tiled = render(
         ctx,
         &scene_gpu,
         &lights,
         camera,
-        ForwardSettings { method: Method::ForwardPlus, cull, ..Default::default() },
+        FrameSettings { method: Method::ForwardPlus, cull, ..Default::default() },
     );
     // The frame must be lit: a black or ambient-only image would pass trivially.
     let lit = reference.hdr.iter().filter(|p| p[0] + p[1] + p[2] > 0.1).count();
@@ -97,7 +97,7 @@ fn mixed_scene_matches_stored_reference() {
     let scene = scenes::mixed_scene();
     let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 200, 40, 42)).unwrap();
-    let frame = render(ctx, &scene_gpu, &lights, &scenes::mixed_camera(W, H), ForwardSettings::default());
+    let frame = render(ctx, &scene_gpu, &lights, &scenes::mixed_camera(W, H), FrameSettings::default());
     tiledlight_tests::images::assert_matches_reference(
         "forward-mixed",
         W,

@@ -72,9 +72,7 @@ use rand::Rng;
 use tiledlight_cull::reference::lights_reaching;
 use tiledlight_cull::tiles::{pixel_to_ndc_x, pixel_to_ndc_y};
 use tiledlight_cull::{Camera, CullConfig};
-use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
-use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
-use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::light_cull::{ClusterOptions, CullOptions, GpuTileLists};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
@@ -339,16 +337,16 @@ fn run_case(ctx: &GpuContext, supported: &[u32], c: &Case, totals: &mut Totals) 
     let mut timer = GpuTimer::new(ctx).map_err(|e| fail("timer", e))?;
     let (w, h) = (c.width, c.height);
 
-    let settings = ForwardSettings { method: Method::ForwardPlus, cull: c.cull, msaa: samples, ..Default::default() };
-    let mut f = ForwardRenderer::new(ctx, &sg, &lights, w, h, settings).map_err(|e| fail("Forward+ renderer", e))?;
+    let settings = FrameSettings { method: Method::ForwardPlus, cull: c.cull, msaa: samples, ..Default::default() };
+    let mut f = FrameRenderer::new(ctx, &sg, &lights, w, h, settings).map_err(|e| fail("Forward+ renderer", e))?;
     f.render_once(ctx, &mut timer, &sg, &camera).map_err(|e| fail("Forward+ frame", e))?;
     let depth = f.read_depth(ctx).map_err(|e| fail("Forward+ depth", e))?;
-    let lists = f.culling().expect("Forward+ culls").read_lists(&ctx.device, &ctx.queue);
+    let lists = f.read_lists(ctx);
     let lists = lists.map_err(|e| fail("Forward+ lists", e))?;
     let mut reached = check_method("Forward+", c, &camera, &lights, &depth, &lists, &config, totals)?;
 
-    let settings = DeferredSettings { cull: c.cull, msaa: samples, ..Default::default() };
-    let mut d = DeferredRenderer::new(ctx, &sg, &lights, w, h, settings).map_err(|e| fail("deferred renderer", e))?;
+    let settings = FrameSettings { method: Method::TiledDeferred, cull: c.cull, msaa: samples, ..Default::default() };
+    let mut d = FrameRenderer::new(ctx, &sg, &lights, w, h, settings).map_err(|e| fail("deferred renderer", e))?;
     d.render_once(ctx, &mut timer, &sg, &camera).map_err(|e| fail("deferred frame", e))?;
     let depth = d.read_depth(ctx).map_err(|e| fail("deferred depth", e))?;
     let lists = d.read_lists(ctx).map_err(|e| fail("deferred lists", e))?;

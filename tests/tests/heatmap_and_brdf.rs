@@ -6,8 +6,7 @@ use tiledlight_cull::brdf::{brdf_cos, spot_falloff, windowed_attenuation, Surfac
 use tiledlight_cull::light::spot_scale_offset;
 use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::{cull_tiles, Light, LightKind};
-use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
-use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
@@ -42,27 +41,21 @@ fn heatmap_shows_reference_counts() {
     let cull = CullOptions { capacity: 48, grid_pairs: Some(6_000), ..Default::default() };
     let mut timer = GpuTimer::new(ctx).unwrap();
     let mut plain =
-        ForwardRenderer::new(ctx, &scene_gpu, &lights, w, h, ForwardSettings { cull, ..Default::default() }).unwrap();
+        FrameRenderer::new(ctx, &scene_gpu, &lights, w, h, FrameSettings { cull, ..Default::default() }).unwrap();
     plain.render_once(ctx, &mut timer, &scene_gpu, &camera).unwrap();
     let base = plain.read_ldr(ctx).unwrap();
     let depth = plain.read_depth(ctx).unwrap();
-    let mut heat = ForwardRenderer::new(
-        ctx,
-        &scene_gpu,
-        &lights,
-        w,
-        h,
-        ForwardSettings { cull, heatmap: true, ..Default::default() },
-    )
-    .unwrap();
+    let mut heat =
+        FrameRenderer::new(ctx, &scene_gpu, &lights, w, h, FrameSettings { cull, heatmap: true, ..Default::default() })
+            .unwrap();
     heat.render_once(ctx, &mut timer, &scene_gpu, &camera).unwrap();
     let img = heat.read_ldr(ctx).unwrap();
     assert_eq!(heat.read_depth(ctx).unwrap(), depth, "the same frame: the same depth");
 
     let cpu = cull_tiles(&depth, w, h, &camera, &lights.packed, &cull.to_config(false)).unwrap();
     // Lists that lost lights in either frame (they are allocated in a different order).
-    let truncated = |r: &ForwardRenderer| {
-        let l = r.culling().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
+    let truncated = |r: &FrameRenderer| {
+        let l = r.read_lists(ctx).unwrap();
         l.lists.iter().zip(&l.counts).map(|(s, &c)| s.len() < c as usize).collect::<Vec<bool>>()
     };
     let (lost_plain, lost_heat) = (truncated(&plain), truncated(&heat));
@@ -186,13 +179,13 @@ fn gpu_brdf_matches_cpu_twin() {
         let scene = scenes::floor_scene(roughness, metallic, vec![point, spot]);
         let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
         let lights = LightBuffers::new(&ctx.device, &scene.lights).unwrap();
-        let mut r = ForwardRenderer::new(
+        let mut r = FrameRenderer::new(
             ctx,
             &scene_gpu,
             &lights,
             w,
             h,
-            ForwardSettings { method: Method::BruteForce { cutoff: true }, ambient, ..Default::default() },
+            FrameSettings { method: Method::BruteForce { cutoff: true }, ambient, ..Default::default() },
         )
         .unwrap();
         let mut timer = GpuTimer::new(ctx).unwrap();

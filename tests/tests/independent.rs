@@ -16,9 +16,7 @@ use tiledlight_cull::light::spot_scale_offset;
 use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::tiles::{pixel_to_ndc_x, pixel_to_ndc_y};
 use tiledlight_cull::{Camera, Light, LightKind};
-use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
-use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
-use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_scene::{Aabb, AlphaMode, Instance, Material, Mesh, Scene, Texture, TextureRef};
@@ -365,22 +363,28 @@ fn materials_match_cpu_ray_cast() {
         }
         eprintln!("{name}: worst relative excess {:.2e} at ({}, {})", worst.0, worst.1 as u32 % w, worst.1 as u32 / w);
     };
-    let mut brute = ForwardRenderer::new(
+    let mut brute = FrameRenderer::new(
         ctx,
         &sg,
         &lb,
         w,
         h,
-        ForwardSettings { method: Method::BruteForce { cutoff: true }, ambient: AMBIENT, ..Default::default() },
+        FrameSettings { method: Method::BruteForce { cutoff: true }, ambient: AMBIENT, ..Default::default() },
     )
     .unwrap();
     check("brute force", &render_frame(ctx, &mut brute, &sg, &camera).hdr, false, 3e-3, 1e-3);
     let mut fwd =
-        ForwardRenderer::new(ctx, &sg, &lb, w, h, ForwardSettings { ambient: AMBIENT, ..Default::default() }).unwrap();
+        FrameRenderer::new(ctx, &sg, &lb, w, h, FrameSettings { ambient: AMBIENT, ..Default::default() }).unwrap();
     check("forward+", &render_frame(ctx, &mut fwd, &sg, &camera).hdr, false, 3e-3, 1e-3);
-    let mut def =
-        DeferredRenderer::new(ctx, &sg, &lb, w, h, DeferredSettings { ambient: AMBIENT, ..Default::default() })
-            .unwrap();
+    let mut def = FrameRenderer::new(
+        ctx,
+        &sg,
+        &lb,
+        w,
+        h,
+        FrameSettings { method: Method::TiledDeferred, ambient: AMBIENT, ..Default::default() },
+    )
+    .unwrap();
     check("deferred", &render_frame(ctx, &mut def, &sg, &camera).hdr, true, 5e-3, 1e-3);
 }
 
@@ -414,13 +418,13 @@ fn no_cutoff_matches_unwindowed_cpu_twin() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lb = LightBuffers::new(&ctx.device, &lights).unwrap();
     let render = |cutoff: bool| {
-        let mut r = ForwardRenderer::new(
+        let mut r = FrameRenderer::new(
             ctx,
             &sg,
             &lb,
             w,
             h,
-            ForwardSettings { method: Method::BruteForce { cutoff }, ambient: AMBIENT, ..Default::default() },
+            FrameSettings { method: Method::BruteForce { cutoff }, ambient: AMBIENT, ..Default::default() },
         )
         .unwrap();
         let f = render_frame(ctx, &mut r, &sg, &camera);
@@ -555,13 +559,13 @@ fn msaa_4x_sample_positions_are_vulkan_standard() {
     for &(a, b) in &planes {
         let scene = tilted_plane(a, b);
         let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
-        let mut r = ForwardRenderer::new(
+        let mut r = FrameRenderer::new(
             ctx,
             &sg,
             &lb,
             w,
             h,
-            ForwardSettings { method: Method::BruteForce { cutoff: true }, msaa: 4, ..Default::default() },
+            FrameSettings { method: Method::BruteForce { cutoff: true }, msaa: 4, ..Default::default() },
         )
         .unwrap();
         render_frame(ctx, &mut r, &sg, &camera);

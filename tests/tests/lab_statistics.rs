@@ -9,8 +9,7 @@
 
 use tiledlight_cull::reference::{list_quality, stats, tile_ranges};
 use tiledlight_cull::{cull_tiles, TileLists};
-use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
-use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
@@ -34,8 +33,8 @@ fn renderer(
     lights: &LightBuffers,
     method: Method,
     cull: CullOptions,
-) -> ForwardRenderer {
-    ForwardRenderer::new(ctx, scene, lights, W, H, ForwardSettings { method, cull, ..Default::default() }).unwrap()
+) -> FrameRenderer {
+    FrameRenderer::new(ctx, scene, lights, W, H, FrameSettings { method, cull, ..Default::default() }).unwrap()
 }
 
 #[test]
@@ -54,7 +53,7 @@ fn gpu_lists_give_the_cpu_false_positive_rate_and_wasted_evaluations() {
         let mut r = renderer(ctx, &scene_gpu, &lights, Method::ForwardPlus, options);
         r.render_once(ctx, &mut timer, &scene_gpu, &camera).unwrap();
         let depth = r.read_depth(ctx).unwrap();
-        let gpu_lists = r.culling().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
+        let gpu_lists = r.read_lists(ctx).unwrap();
         assert_eq!(gpu_lists.overflowing, 0, "the test needs complete lists");
         let config = options.to_config(false);
         let cpu = cull_tiles(&depth, W, H, &camera, &lights.packed, &config).unwrap();

@@ -23,14 +23,11 @@ use tiledlight_cull::brdf::{brdf_cos, spot_falloff, windowed_attenuation, Surfac
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::Camera;
-use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
-use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
-use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_frame::{DeferredFrame, Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::light_cull::{ClusterOptions, CullOptions};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::readback::read_buffer;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::Renderer;
 use tiledlight_scene::{SurfaceLightOptions, SurfaceSampler};
 use tiledlight_tests::compare::{
     assert_matches_reference_frame, reference_frame, render_frame, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE,
@@ -73,19 +70,19 @@ fn every_layout_matches_brute_force_in_both_methods() {
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 1600, 400, 21)).unwrap();
     let cam = scenes::mixed_camera(W, H);
     let reference = reference_frame(ctx, &sg, &lights, (W, H), &cam);
-    let mut fp = ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings::default()).unwrap();
+    let mut fp = FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings::default()).unwrap();
     let depth = {
         render_frame(ctx, &mut fp, &sg, &cam);
         fp.read_depth(ctx).unwrap()
     };
     let deferred_reference = reference.clone().allow_gbuffer_normals(&depth, W, &cam, &lights.packed);
     for (name, cull) in layouts() {
-        let s = ForwardSettings { method: Method::ForwardPlus, cull, ..Default::default() };
-        let mut r = ForwardRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
+        let s = FrameSettings { method: Method::ForwardPlus, cull, ..Default::default() };
+        let mut r = FrameRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
         let f = render_frame(ctx, &mut r, &sg, &cam);
         assert_matches_reference_frame(&format!("layout-{name}-forward"), W, &reference, &f, FORWARD_VS_REFERENCE);
-        let s = DeferredSettings { cull, ..Default::default() };
-        let mut r = DeferredRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
+        let s = FrameSettings { method: Method::TiledDeferred, cull, ..Default::default() };
+        let mut r = FrameRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
         let d = render_frame(ctx, &mut r, &sg, &cam);
         assert_matches_reference_frame(
             &format!("layout-{name}-deferred"),
@@ -129,7 +126,7 @@ fn sampled_pixels(w: u32, h: u32) -> Vec<(u32, u32)> {
 /// xyz, roughness. The G-buffer textures cannot be copied (no `COPY_SRC`: they never leave
 /// the GPU in production), so a small compute kernel copies them, built per call (a test
 /// path).
-fn read_gbuffer(r: &DeferredRenderer, (w, h): (u32, u32)) -> Vec<f32> {
+fn read_gbuffer(r: &FrameRenderer, (w, h): (u32, u32)) -> Vec<f32> {
     const SRC: &str = "
         @group(0) @binding(0) var albedo: texture_2d<f32>;
         @group(0) @binding(1) var normal: texture_2d<f32>;
@@ -144,7 +141,7 @@ fn read_gbuffer(r: &DeferredRenderer, (w, h): (u32, u32)) -> Vec<f32> {
         }";
     let ctx = gpu();
     let device = &ctx.device;
-    let g = r.gbuffer();
+    let g = r.passes::<DeferredFrame>().expect("Tiled Deferred").gbuffer();
     assert_eq!(g.samples(), 1, "read_gbuffer reads single-sampled G-buffers");
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("test.read_gbuffer"),
@@ -196,7 +193,7 @@ fn read_gbuffer(r: &DeferredRenderer, (w, h): (u32, u32)) -> Vec<f32> {
 /// ([`read_gbuffer`]) and its position from the depth buffer, as the shader rebuilds
 /// them. `None` for sky pixels.
 fn brute_force_pixels(
-    r: &DeferredRenderer,
+    r: &FrameRenderer,
     depth: &[f32],
     (w, h): (u32, u32),
     camera: &Camera,
@@ -276,10 +273,10 @@ fn a_million_lights_match_the_cpu_twins_and_brute_force() {
         ("clustered", CullOptions { clusters: Some(SMALL_CLUSTERS), ..d }),
     ] {
         let start = Instant::now();
-        let settings = DeferredSettings { cull, ..Default::default() };
-        let mut r = DeferredRenderer::new(ctx, &sg, &lights, w, h, settings).unwrap();
+        let settings = FrameSettings { method: Method::TiledDeferred, cull, ..Default::default() };
+        let mut r = FrameRenderer::new(ctx, &sg, &lights, w, h, settings).unwrap();
         let f = render_frame(ctx, &mut r, &sg, &cam);
-        let grid = r.light_grid().unwrap();
+        let grid = r.outputs().light_grid.unwrap();
         let status = grid.status(&ctx.device, &ctx.queue).unwrap();
         let longest = grid.read_counts(&ctx.device, &ctx.queue).unwrap().into_iter().max().unwrap_or(0);
         println!("{name}: {status}; longest list {longest}; rendered in {:.1} s", start.elapsed().as_secs_f64());

@@ -23,13 +23,10 @@
 //! list (the lists are checked exactly above), and is left to the G-buffer's own work; the
 //! deferred tests hold the HDR limit at 1,024 lights.
 
-use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
-use tiledlight_forward::{ForwardRenderer, ForwardSettings};
-use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method, Renderer};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::Renderer;
 use tiledlight_tests::compare::{
     assert_matches_reference_frame, reference_frame, render_frame, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE,
 };
@@ -57,12 +54,12 @@ fn sixty_five_thousand_lights_drop_nothing_and_match_brute_force() {
 
     // The default workgroup list (512) and the automatic grid, as a user gets them.
     let cull = CullOptions::default();
-    let check_grid = |label: &str, r: &dyn Renderer| {
-        let status = r.light_grid().unwrap().status(&ctx.device, &ctx.queue).unwrap();
+    let check_grid = |label: &str, r: &FrameRenderer| {
+        let status = r.outputs().light_grid.unwrap().status(&ctx.device, &ctx.queue).unwrap();
         let h = status.header;
         eprintln!("{label}: {status}");
         assert_eq!((h.dropped_pairs, h.dropped_lists), (0, 0), "{label}: dropped lights: {status}");
-        let longest = r.light_grid().unwrap().read_counts(&ctx.device, &ctx.queue).unwrap().into_iter().max();
+        let longest = r.outputs().light_grid.unwrap().read_counts(&ctx.device, &ctx.queue).unwrap().into_iter().max();
         assert!(
             longest.unwrap_or(0) > 2048,
             "{label}: no list is longer than the old 2,048-light ceiling ({longest:?}): the case proves nothing"
@@ -70,14 +67,20 @@ fn sixty_five_thousand_lights_drop_nothing_and_match_brute_force() {
         assert!(h.spilled_lists > 0, "{label}: no list passed the workgroup list");
     };
 
-    let mut fwd =
-        ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { cull, ..Default::default() }).unwrap();
+    let mut fwd = FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings { cull, ..Default::default() }).unwrap();
     let forward = render_frame(ctx, &mut fwd, &sg, &camera);
     check_grid("Forward+", &fwd);
     assert_matches_reference_frame("many-lights-forward", W, &reference, &forward, FORWARD_VS_REFERENCE);
 
-    let mut def =
-        DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings { cull, ..Default::default() }).unwrap();
+    let mut def = FrameRenderer::new(
+        ctx,
+        &sg,
+        &lights,
+        W,
+        H,
+        FrameSettings { method: Method::TiledDeferred, cull, ..Default::default() },
+    )
+    .unwrap();
     let deferred = render_frame(ctx, &mut def, &sg, &camera);
     check_grid("Tiled Deferred", &def);
     let depth = def.read_depth(ctx).unwrap();

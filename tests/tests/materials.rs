@@ -28,13 +28,10 @@ use tiledlight_cull::brdf::{brdf_cos, windowed_attenuation, Surface};
 use tiledlight_cull::material::{emission, normal_from_map, occlusion, roughness_metallic, unlit_term};
 use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::{Camera, Light};
-use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
-use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
+use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::bindings::layout_entries;
-use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::{MaterialFeatures, SceneGpu, TEXTURE_BINDINGS};
-use tiledlight_gpu::targets::Renderer as _;
 use tiledlight_scene::{load_gltf, Scene, UvTransform, Wrap};
 use tiledlight_tests::compare::{
     assert_matches_reference_frame, render_frame, Frame, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE,
@@ -279,8 +276,8 @@ fn render_and_check(
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, scene).unwrap();
     let lb = LightBuffers::new(&ctx.device, lights).unwrap();
     let cam = camera();
-    let fs = |method| ForwardSettings { method, ambient, ..Default::default() };
-    let mut bf = ForwardRenderer::new(ctx, &sg, &lb, W, H, fs(Method::BruteForce { cutoff: true })).unwrap();
+    let fs = |method| FrameSettings { method, ambient, ..Default::default() };
+    let mut bf = FrameRenderer::new(ctx, &sg, &lb, W, H, fs(Method::BruteForce { cutoff: true })).unwrap();
     let brute = render_frame(ctx, &mut bf, &sg, &cam);
     let depth = bf.read_depth(ctx).unwrap();
     let inv_view = cam.view().inverse();
@@ -311,11 +308,11 @@ fn render_and_check(
     }
     eprintln!("{name}: brute force vs CPU, {} pixels, worst relative error {worst:.2e}", checked.len());
     assert!(checked.len() > (W * H / 8) as usize, "{name}: too few pixels checked ({})", checked.len());
-    let mut forward = ForwardRenderer::new(ctx, &sg, &lb, W, H, fs(Method::ForwardPlus)).unwrap();
+    let mut forward = FrameRenderer::new(ctx, &sg, &lb, W, H, fs(Method::ForwardPlus)).unwrap();
     let forward = render_frame(ctx, &mut forward, &sg, &cam);
     assert_matches_reference_frame(&format!("{name}-forward"), W, &brute, &forward, FORWARD_VS_REFERENCE);
-    let ds = DeferredSettings { ambient, ..Default::default() };
-    let mut dr = DeferredRenderer::new(ctx, &sg, &lb, W, H, ds).unwrap();
+    let ds = FrameSettings { method: Method::TiledDeferred, ambient, ..Default::default() };
+    let mut dr = FrameRenderer::new(ctx, &sg, &lb, W, H, ds).unwrap();
     let deferred = render_frame(ctx, &mut dr, &sg, &cam);
     let reference = brute.clone().allow_gbuffer_normals(&depth, W, &cam, &lb.packed);
     assert_matches_reference_frame(&format!("{name}-deferred"), W, &reference, &deferred, DEFERRED_VS_REFERENCE);
@@ -617,11 +614,11 @@ fn quantized_mesh_renders_like_its_float_twin() {
     let render = |scene: &Scene, deferred: bool, method: Method| {
         let sg = SceneGpu::new(&ctx.device, &ctx.queue, scene).unwrap();
         let frame = if deferred {
-            let mut r = DeferredRenderer::new(ctx, &sg, &lb, W, H, DeferredSettings::default()).unwrap();
+            let mut r = FrameRenderer::new(ctx, &sg, &lb, W, H, FrameSettings::of(Method::TiledDeferred)).unwrap();
             render_frame(ctx, &mut r, &sg, &cam)
         } else {
             let mut r =
-                ForwardRenderer::new(ctx, &sg, &lb, W, H, ForwardSettings { method, ..Default::default() }).unwrap();
+                FrameRenderer::new(ctx, &sg, &lb, W, H, FrameSettings { method, ..Default::default() }).unwrap();
             render_frame(ctx, &mut r, &sg, &cam)
         };
         frame.hdr
@@ -655,12 +652,12 @@ fn scenes_without_material_maps_get_no_extra_paths() {
         assert_eq!(sg.tangents.is_some(), want.normal_map, "{name}: tangent buffer");
         assert_eq!(sg.uvs1.is_some(), want.uv1, "{name}: second uv buffer");
         assert_eq!(sg.textures.is_some(), want.textures, "{name}: group 2");
-        let d = DeferredRenderer::new(ctx, &sg, &lights, 64, 48, DeferredSettings::default()).unwrap();
+        let d = FrameRenderer::new(ctx, &sg, &lights, 64, 48, FrameSettings::of(Method::TiledDeferred)).unwrap();
         assert_eq!(d.features().materials, want, "{name}: the renderer's features");
         let gbuffer = d.memory().get("deferred.gbuffer");
         let per_pixel = if want.emission_target() { 20 } else { 12 };
         assert_eq!(gbuffer, 64 * 48 * per_pixel, "{name}: G-buffer bytes ({per_pixel} a pixel besides depth)");
-        let f = ForwardRenderer::new(ctx, &sg, &lights, 64, 48, ForwardSettings::default()).unwrap();
+        let f = FrameRenderer::new(ctx, &sg, &lights, 64, 48, FrameSettings::default()).unwrap();
         assert_eq!(f.features().material_defines(), want.defines(), "{name}: Forward+ variant");
         // Group 2 exists only with TEXTURES.
         let bound = if want.textures { layout_entries(TEXTURE_BINDINGS, &want.defines()).len() } else { 0 };

@@ -10,13 +10,11 @@
 
 use glam::{Mat4, Vec3};
 use tiledlight_cull::Camera;
-use tiledlight_deferred::{DeferredRenderer, DeferredSettings, EdgeTest};
-use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
-use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_deferred::EdgeTest;
+use tiledlight_frame::{DeferredFrame, Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;
 use tiledlight_scene::Scene;
@@ -30,30 +28,18 @@ use tiledlight_tests::{gpu, scenes};
 const W: u32 = 320;
 const H: u32 = 180;
 
-fn render(ctx: &GpuContext, r: &mut dyn Renderer, scene: &SceneGpu, camera: &Camera) -> Vec<u8> {
+fn render(ctx: &GpuContext, r: &mut FrameRenderer, scene: &SceneGpu, camera: &Camera) -> Vec<u8> {
     let mut timer = GpuTimer::new(ctx).unwrap();
     r.render_once(ctx, &mut timer, scene, camera).unwrap();
     r.read_ldr(ctx).unwrap()
 }
 
-fn forward(
-    ctx: &GpuContext,
-    sg: &SceneGpu,
-    l: &LightBuffers,
-    (w, h): (u32, u32),
-    s: ForwardSettings,
-) -> ForwardRenderer {
-    ForwardRenderer::new(ctx, sg, l, w, h, s).unwrap()
+fn forward(ctx: &GpuContext, sg: &SceneGpu, l: &LightBuffers, (w, h): (u32, u32), s: FrameSettings) -> FrameRenderer {
+    FrameRenderer::new(ctx, sg, l, w, h, s).unwrap()
 }
 
-fn deferred(
-    ctx: &GpuContext,
-    sg: &SceneGpu,
-    l: &LightBuffers,
-    (w, h): (u32, u32),
-    s: DeferredSettings,
-) -> DeferredRenderer {
-    DeferredRenderer::new(ctx, sg, l, w, h, s).unwrap()
+fn deferred(ctx: &GpuContext, sg: &SceneGpu, l: &LightBuffers, (w, h): (u32, u32), s: FrameSettings) -> FrameRenderer {
+    FrameRenderer::new(ctx, sg, l, w, h, s).unwrap()
 }
 
 /// The GPU lists of a 4x frame equal the CPU reference run on the same depth samples, list
@@ -74,7 +60,7 @@ fn msaa_culling_matches_cpu_reference() {
         CullOptions { tile_size: 32, half_z: true, aabb: true, spot_cone: true, coarse: false, ..Default::default() },
         CullOptions { tile_size: 8, half_z: true, ..Default::default() },
     ] {
-        let mut f = forward(ctx, &sg, &lights, (w, h), ForwardSettings { cull, msaa: 4, ..Default::default() });
+        let mut f = forward(ctx, &sg, &lights, (w, h), FrameSettings { cull, msaa: 4, ..Default::default() });
         render(ctx, &mut f, &sg, &camera);
         let depth = f.read_depth(ctx).unwrap();
         assert_eq!(depth.len(), (w * h * 4) as usize, "4 depth samples a pixel");
@@ -82,12 +68,12 @@ fn msaa_culling_matches_cpu_reference() {
         assert!(depth.chunks_exact(4).any(|s| s[0] != s[3]), "some pixel's samples differ");
         let opts = CullOptions { samples: 4, ..cull };
         let config = opts.to_config(true);
-        let gpu_lists = f.culling().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
+        let gpu_lists = f.read_lists(ctx).unwrap();
         let frame = CulledFrame { depth: &depth, width: w, height: h, camera: &camera, lights: &lights.packed };
         let c = assert_lists_match(&format!("forward+ {opts:?}"), &frame, &gpu_lists, &config);
         assert!(c.pairs > 0, "lights reach the tiles");
 
-        let settings = DeferredSettings { cull, msaa: 4, ..Default::default() };
+        let settings = FrameSettings { method: Method::TiledDeferred, cull, msaa: 4, ..Default::default() };
         let mut d = deferred(ctx, &sg, &lights, (w, h), settings);
         render(ctx, &mut d, &sg, &camera);
         let depth = d.read_depth(ctx).unwrap();
@@ -134,9 +120,11 @@ fn grow_mask(mask: &[bool], (w, h): (u32, u32), grow: i32) -> Vec<bool> {
 }
 
 /// Tiled Deferred's edge pixels of its last frame as a mask.
-fn deferred_edges(ctx: &GpuContext, d: &DeferredRenderer, (w, h): (u32, u32)) -> Vec<bool> {
+fn deferred_edges(ctx: &GpuContext, d: &FrameRenderer, (w, h): (u32, u32)) -> Vec<bool> {
     let mut mask = vec![false; (w * h) as usize];
-    for (x, y) in d.shading().read_edge_list(&ctx.device, &ctx.queue).unwrap() {
+    for (x, y) in
+        d.passes::<DeferredFrame>().expect("Tiled Deferred").shading().read_edge_list(&ctx.device, &ctx.queue).unwrap()
+    {
         mask[(y * w + x) as usize] = true;
     }
     mask
@@ -167,11 +155,17 @@ fn deferred_msaa_matches_forward_msaa() {
     let cull = CullOptions { tile_size: 8, half_z: true, aabb: true, spot_cone: true, ..Default::default() };
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights_in_slab(&scene, 3.5, 4.0, 300, 100, 21)).unwrap();
-    let bf = ForwardSettings { method: Method::BruteForce { cutoff: true }, msaa: 4, ..Default::default() };
+    let bf = FrameSettings { method: Method::BruteForce { cutoff: true }, msaa: 4, ..Default::default() };
     let reference = render(ctx, &mut forward(ctx, &sg, &lights, (W, H), bf), &sg, &camera);
-    let mut f = forward(ctx, &sg, &lights, (W, H), ForwardSettings { cull, msaa: 4, ..Default::default() });
+    let mut f = forward(ctx, &sg, &lights, (W, H), FrameSettings { cull, msaa: 4, ..Default::default() });
     let fwd = render(ctx, &mut f, &sg, &camera);
-    let mut d = deferred(ctx, &sg, &lights, (W, H), DeferredSettings { cull, msaa: 4, ..Default::default() });
+    let mut d = deferred(
+        ctx,
+        &sg,
+        &lights,
+        (W, H),
+        FrameSettings { method: Method::TiledDeferred, cull, msaa: 4, ..Default::default() },
+    );
     let def = render(ctx, &mut d, &sg, &camera);
     assert!(d.edge_pixels(ctx).unwrap().is_some_and(|n| n > 0), "the frame has edge pixels");
     let exact = FlipThresholds { mean: 1e-3, percentile: (0.99, 1e-2) };
@@ -196,13 +190,19 @@ fn deferred_msaa_parts_match_their_references() {
     let camera = scenes::courtyard_camera(&scene, W, H);
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 1024, 0, 21)).unwrap();
-    let hdr = |r: &mut dyn Renderer, camera: &Camera| {
+    let hdr = |r: &mut FrameRenderer, camera: &Camera| {
         render(ctx, r, &sg, camera);
         r.read_hdr(ctx).unwrap()
     };
-    let bf = ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() };
-    let fwd = hdr(&mut forward(ctx, &sg, &lights, (W, H), ForwardSettings { msaa: 4, ..Default::default() }), &camera);
-    let mut d = deferred(ctx, &sg, &lights, (W, H), DeferredSettings { msaa: 4, ..Default::default() });
+    let bf = FrameSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() };
+    let fwd = hdr(&mut forward(ctx, &sg, &lights, (W, H), FrameSettings { msaa: 4, ..Default::default() }), &camera);
+    let mut d = deferred(
+        ctx,
+        &sg,
+        &lights,
+        (W, H),
+        FrameSettings { method: Method::TiledDeferred, msaa: 4, ..Default::default() },
+    );
     let def = hdr(&mut d, &camera);
 
     let edges = deferred_edges(ctx, &d, (W, H));
@@ -276,11 +276,18 @@ fn msaa_changes_only_edge_pixels() {
     let camera = scenes::mixed_camera(W, H);
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights_in_slab(&scene, 3.5, 4.0, 200, 50, 5)).unwrap();
-    let f1 = render(ctx, &mut forward(ctx, &sg, &lights, (W, H), ForwardSettings::default()), &sg, &camera);
-    let mut f = forward(ctx, &sg, &lights, (W, H), ForwardSettings { msaa: 4, ..Default::default() });
+    let f1 = render(ctx, &mut forward(ctx, &sg, &lights, (W, H), FrameSettings::default()), &sg, &camera);
+    let mut f = forward(ctx, &sg, &lights, (W, H), FrameSettings { msaa: 4, ..Default::default() });
     let f4 = render(ctx, &mut f, &sg, &camera);
-    let d1 = render(ctx, &mut deferred(ctx, &sg, &lights, (W, H), DeferredSettings::default()), &sg, &camera);
-    let mut d = deferred(ctx, &sg, &lights, (W, H), DeferredSettings { msaa: 4, ..Default::default() });
+    let d1 =
+        render(ctx, &mut deferred(ctx, &sg, &lights, (W, H), FrameSettings::of(Method::TiledDeferred)), &sg, &camera);
+    let mut d = deferred(
+        ctx,
+        &sg,
+        &lights,
+        (W, H),
+        FrameSettings { method: Method::TiledDeferred, msaa: 4, ..Default::default() },
+    );
     let d4 = render(ctx, &mut d, &sg, &camera);
     // Both methods against the independent depth-only detector (never the edge test's own
     // list: a deferred pass that blurred or re-shaded flat pixels it had itself flagged
@@ -335,7 +342,13 @@ fn scaled(scene: &Scene, k: f32) -> Scene {
 fn edge_pixels(ctx: &GpuContext, scene: &Scene, camera: &Camera, edge: EdgeTest) -> (u32, Vec<f32>) {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(scene, 16, 0, 2)).unwrap();
-    let mut d = deferred(ctx, &sg, &lights, (W, H), DeferredSettings { msaa: 4, edge, ..Default::default() });
+    let mut d = deferred(
+        ctx,
+        &sg,
+        &lights,
+        (W, H),
+        FrameSettings { method: Method::TiledDeferred, msaa: 4, edge, ..Default::default() },
+    );
     render(ctx, &mut d, &sg, camera);
     (d.edge_pixels(ctx).unwrap().expect("MSAA deferred counts edges"), d.read_depth(ctx).unwrap())
 }
@@ -431,7 +444,7 @@ fn every_sample_count_matches_brute_force_in_hdr() {
     let lights = LightBuffers::new(&ctx.device, &scenes::lights_in_slab(&scene, 3.5, 4.0, 100, 20, 1)).unwrap();
     let counts = tiledlight_tests::adapter_sample_counts(ctx);
     assert!(counts.contains(&1) && counts.contains(&4), "WebGPU guarantees 1x and 4x: {counts:?}");
-    let bf = ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() };
+    let bf = FrameSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() };
     // One depth per pixel for the f16-normal allowance.
     let mut one = forward(ctx, &sg, &lights, (W, H), bf);
     render(ctx, &mut one, &sg, &camera);
@@ -442,9 +455,16 @@ fn every_sample_count_matches_brute_force_in_hdr() {
         // depths (invariant positions; both alpha-test at the centroid of the covered
         // samples: the pre-pass once tested at the pixel centre, outside a partly covered
         // triangle, and left 4x samples empty that deferred filled).
-        let mut b = forward(ctx, &full_sg, &lights, (W, H), ForwardSettings { msaa, ..bf });
+        let mut b = forward(ctx, &full_sg, &lights, (W, H), FrameSettings { msaa, ..bf });
         render(ctx, &mut b, &full_sg, &camera);
-        let d = DeferredRenderer::new(ctx, &full_sg, &lights, W, H, DeferredSettings { msaa, ..Default::default() });
+        let d = FrameRenderer::new(
+            ctx,
+            &full_sg,
+            &lights,
+            W,
+            H,
+            FrameSettings { method: Method::TiledDeferred, msaa, ..Default::default() },
+        );
         let mut d = d.unwrap_or_else(|e| panic!("Tiled Deferred refused {msaa}x, which the adapter has: {e}"));
         render(ctx, &mut d, &full_sg, &camera);
         let (bd, dd) = (b.read_depth(ctx).unwrap(), d.read_depth(ctx).unwrap());
@@ -452,18 +472,33 @@ fn every_sample_count_matches_brute_force_in_hdr() {
         eprintln!("{msaa}x: {differ} of {} depth samples differ between brute force and Tiled Deferred", bd.len());
         assert_eq!(differ, 0, "{msaa}x: brute force and Tiled Deferred cover different depth samples");
 
-        let mut b = forward(ctx, &sg, &lights, (W, H), ForwardSettings { msaa, ..bf });
+        let mut b = forward(ctx, &sg, &lights, (W, H), FrameSettings { msaa, ..bf });
         let reference = render_frame(ctx, &mut b, &sg, &camera);
-        let f = ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { msaa, ..Default::default() });
+        let f = FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings { msaa, ..Default::default() });
         let mut f = f.unwrap_or_else(|e| panic!("Forward+ refused {msaa}x, which the adapter has: {e}"));
         let fwd = render_frame(ctx, &mut f, &sg, &camera);
         let name = format!("msaa{msaa}-forward-vs-reference");
         assert_matches_reference_frame(&name, W, &reference, &fwd, FORWARD_VS_REFERENCE);
-        let d = DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings { msaa, ..Default::default() });
+        let d = FrameRenderer::new(
+            ctx,
+            &sg,
+            &lights,
+            W,
+            H,
+            FrameSettings { method: Method::TiledDeferred, msaa, ..Default::default() },
+        );
         let mut d = d.unwrap_or_else(|e| panic!("Tiled Deferred refused {msaa}x, which the adapter has: {e}"));
         let def = render_frame(ctx, &mut d, &sg, &camera);
         let reference = reference.allow_gbuffer_normals(&depth, W, &camera, &lights.packed);
-        let edges = if msaa > 1 { d.shading().read_edge_list(&ctx.device, &ctx.queue).unwrap() } else { Vec::new() };
+        let edges = if msaa > 1 {
+            d.passes::<DeferredFrame>()
+                .expect("Tiled Deferred")
+                .shading()
+                .read_edge_list(&ctx.device, &ctx.queue)
+                .unwrap()
+        } else {
+            Vec::new()
+        };
         let depths = (&b.read_depth(ctx).unwrap()[..], &d.read_depth(ctx).unwrap()[..]);
         let (reference, forgiven) = reference.forgive_hdr(&msaa_by_design(W, depths, msaa, &edges));
         eprintln!("{msaa}x: {forgiven} pixels compared by FLIP only ({} deferred edge pixels)", edges.len());
@@ -514,14 +549,28 @@ fn unsupported_sample_counts_are_refused_clearly() {
     let scene = scenes::mixed_scene();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights_in_slab(&scene, 3.5, 4.0, 100, 20, 1)).unwrap();
-    let e = DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings { msaa: 3, ..Default::default() })
-        .err()
-        .expect("3 samples refused");
+    let e = FrameRenderer::new(
+        ctx,
+        &sg,
+        &lights,
+        W,
+        H,
+        FrameSettings { method: Method::TiledDeferred, msaa: 3, ..Default::default() },
+    )
+    .err()
+    .expect("3 samples refused");
     assert!(e.to_string().contains("must be 1, 2, 4 or 8"), "{e}");
     let has = tiledlight_tests::adapter_sample_counts(ctx);
     for msaa in [2, 4, 8] {
-        let f = ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { msaa, ..Default::default() });
-        let d = DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings { msaa, ..Default::default() });
+        let f = FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings { msaa, ..Default::default() });
+        let d = FrameRenderer::new(
+            ctx,
+            &sg,
+            &lights,
+            W,
+            H,
+            FrameSettings { method: Method::TiledDeferred, msaa, ..Default::default() },
+        );
         if has.contains(&msaa) {
             // The adapter has the count: a refusal is a failure, never a skip.
             if let Err(e) = f {

@@ -23,13 +23,10 @@ use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::{cull_tiles, Camera, TileLists};
 use tiledlight_deferred::gbuffer::EXTRA_TEST_VALUES;
-use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
-use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
-use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method, Renderer};
 use tiledlight_gpu::light_cull::{CullOptions, DropLight};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::Renderer;
 use tiledlight_tests::compare::{
     compare_with_reference, reference_frame, render_frame, Comparison, Frame, Tolerance, DEFERRED_VS_REFERENCE,
     FORWARD_VS_REFERENCE,
@@ -124,8 +121,7 @@ fn one_dropped_light_fails_the_reference_comparisons() {
     let cull = CullOptions::default();
     let reference = reference_frame(ctx, &sg, &lights, (W, H), &camera);
 
-    let mut plain =
-        ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { cull, ..Default::default() }).unwrap();
+    let mut plain = FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings { cull, ..Default::default() }).unwrap();
     let plain_frame = render_frame(ctx, &mut plain, &sg, &camera);
     let depth = plain.read_depth(ctx).unwrap();
     let cpu = cull_tiles(&depth, W, H, &camera, &lights.packed, &cull.to_config(false)).unwrap();
@@ -139,13 +135,13 @@ fn one_dropped_light_fails_the_reference_comparisons() {
     );
 
     // Forward+: the hook removes exactly that light from exactly that list.
-    let mut dropped = ForwardRenderer::new(
+    let mut dropped = FrameRenderer::new(
         ctx,
         &sg,
         &lights,
         W,
         H,
-        ForwardSettings { cull, test_drop_light: Some(drop), ..Default::default() },
+        FrameSettings { cull, test_drop_light: Some(drop), ..Default::default() },
     )
     .unwrap();
     let dropped_frame = render_frame(ctx, &mut dropped, &sg, &camera);
@@ -153,8 +149,8 @@ fn one_dropped_light_fails_the_reference_comparisons() {
         l.sort_unstable();
         l
     };
-    let plain_lists = plain.culling().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
-    let dropped_lists = dropped.culling().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
+    let plain_lists = plain.read_lists(ctx).unwrap();
+    let dropped_lists = dropped.read_lists(ctx).unwrap();
     for (i, (p, d)) in plain_lists.lists.iter().zip(&dropped_lists.lists).enumerate() {
         let mut want = sorted(p.clone());
         if i == tile {
@@ -175,14 +171,20 @@ fn one_dropped_light_fails_the_reference_comparisons() {
     );
 
     // Tiled Deferred: the same drop in its own culling.
-    let settings = DeferredSettings { cull, gbuffer_rts: 3, ..Default::default() };
-    let mut plain = DeferredRenderer::new(ctx, &sg, &lights, W, H, settings).unwrap();
+    let settings = FrameSettings { method: Method::TiledDeferred, cull, gbuffer_rts: 3, ..Default::default() };
+    let mut plain = FrameRenderer::new(ctx, &sg, &lights, W, H, settings).unwrap();
     let plain_frame = render_frame(ctx, &mut plain, &sg, &camera);
-    let mut dropped =
-        DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings { test_drop_light: Some(drop), ..settings })
-            .unwrap();
+    let mut dropped = FrameRenderer::new(
+        ctx,
+        &sg,
+        &lights,
+        W,
+        H,
+        FrameSettings { method: Method::TiledDeferred, test_drop_light: Some(drop), ..settings },
+    )
+    .unwrap();
     let dropped_frame = render_frame(ctx, &mut dropped, &sg, &camera);
-    let counts = dropped.light_grid().unwrap().read_counts(&ctx.device, &ctx.queue).unwrap();
+    let counts = dropped.outputs().light_grid.unwrap().read_counts(&ctx.device, &ctx.queue).unwrap();
     assert_eq!(counts[tile] as usize + 1, cpu.lists[tile].len(), "deferred: the tile's count lost one light");
     // The same reference, with the G-buffer normal's allowance (compare::Frame::allow_gbuffer_normals).
     let reference = reference.allow_gbuffer_normals(&depth, W, &camera, &lights.packed);
@@ -198,24 +200,28 @@ fn drop_light_hook_rejects_what_does_not_exist() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 10, 0, 1)).unwrap();
     let (w, h) = (64, 48);
-    let err = |s: ForwardSettings| ForwardRenderer::new(ctx, &sg, &lights, w, h, s).err().expect("refused").to_string();
-    let e = err(ForwardSettings { test_drop_light: Some(DropLight { tile: 12, light: 0 }), ..Default::default() });
+    let err = |s: FrameSettings| FrameRenderer::new(ctx, &sg, &lights, w, h, s).err().expect("refused").to_string();
+    let e = err(FrameSettings { test_drop_light: Some(DropLight { tile: 12, light: 0 }), ..Default::default() });
     assert!(e.contains("tile 12") && e.contains("12 tiles"), "{e}");
-    let e = err(ForwardSettings { test_drop_light: Some(DropLight { tile: 0, light: 10 }), ..Default::default() });
+    let e = err(FrameSettings { test_drop_light: Some(DropLight { tile: 0, light: 10 }), ..Default::default() });
     assert!(e.contains("light 10") && e.contains("10 lights"), "{e}");
-    let e = err(ForwardSettings {
+    let e = err(FrameSettings {
         method: Method::BruteForce { cutoff: true },
         test_drop_light: Some(DropLight { tile: 0, light: 0 }),
         ..Default::default()
     });
     assert!(e.contains("brute force"), "{e}");
-    let e = DeferredRenderer::new(
+    let e = FrameRenderer::new(
         ctx,
         &sg,
         &lights,
         w,
         h,
-        DeferredSettings { test_drop_light: Some(DropLight { tile: 0, light: 99 }), ..Default::default() },
+        FrameSettings {
+            method: Method::TiledDeferred,
+            test_drop_light: Some(DropLight { tile: 0, light: 99 }),
+            ..Default::default()
+        },
     )
     .err()
     .expect("refused")
@@ -243,9 +249,15 @@ fn gbuffer_extra_targets_are_read_and_multiplied() {
     let light_list = scenes::lights(&scene, 200, 20, 3);
     let lights = LightBuffers::new(&ctx.device, &light_list).unwrap();
     let camera = scenes::mixed_camera(W, H);
-    let mut white =
-        DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings { gbuffer_rts: 5, ..Default::default() })
-            .unwrap();
+    let mut white = FrameRenderer::new(
+        ctx,
+        &sg,
+        &lights,
+        W,
+        H,
+        FrameSettings { method: Method::TiledDeferred, gbuffer_rts: 5, ..Default::default() },
+    )
+    .unwrap();
     let white = render_frame(ctx, &mut white, &sg, &camera);
     for rts in 3..=5u32 {
         let product = extra_product(rts as usize - 2);
@@ -256,13 +268,13 @@ fn gbuffer_extra_targets_are_read_and_multiplied() {
             }
         }
         let tinted_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &tinted).unwrap();
-        let mut bf = ForwardRenderer::new(
+        let mut bf = FrameRenderer::new(
             ctx,
             &tinted_gpu,
             &lights,
             W,
             H,
-            ForwardSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() },
+            FrameSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() },
         )
         .unwrap();
         let reference = render_frame(ctx, &mut bf, &tinted_gpu, &camera).allow_gbuffer_normals(
@@ -271,13 +283,18 @@ fn gbuffer_extra_targets_are_read_and_multiplied() {
             &camera,
             &lights.packed,
         );
-        let mut r = DeferredRenderer::new(
+        let mut r = FrameRenderer::new(
             ctx,
             &sg,
             &lights,
             W,
             H,
-            DeferredSettings { gbuffer_rts: rts, test_gbuffer_values: true, ..Default::default() },
+            FrameSettings {
+                method: Method::TiledDeferred,
+                gbuffer_rts: rts,
+                test_gbuffer_values: true,
+                ..Default::default()
+            },
         )
         .unwrap();
         let tested = render_frame(ctx, &mut r, &sg, &camera);
@@ -360,11 +377,10 @@ fn list_comparison_rejects_a_dim_missing_pair_and_a_wrong_index() {
         ("2.5d-scatter", CullOptions { depth_mask: true, scatter: true, ..d }),
         ("clustered", CullOptions { clusters: Some(ClusterOptions::default()), ..d }),
     ] {
-        let mut r =
-            ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { cull, ..Default::default() }).unwrap();
+        let mut r = FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings { cull, ..Default::default() }).unwrap();
         let plain_frame = render_frame(ctx, &mut r, &sg, &camera);
         let depth = r.read_depth(ctx).unwrap();
-        let gpu_lists = r.culling().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap();
+        let gpu_lists = r.read_lists(ctx).unwrap();
         let frame = CulledFrame { depth: &depth, width: W, height: H, camera: &camera, lights: &lights.packed };
         let config = cull.to_config(lights.has_spots());
         let compare = |l: &tiledlight_gpu::light_cull::GpuTileLists| match &cull.clusters {
@@ -398,8 +414,8 @@ fn list_comparison_rejects_a_dim_missing_pair_and_a_wrong_index() {
         let broken = if cull == d {
             // The renderer drops it itself (list = tile without half-z or clusters).
             let drop = DropLight { tile: list as u32, light };
-            let hooked = ForwardSettings { cull, test_drop_light: Some(drop), ..Default::default() };
-            let mut r = ForwardRenderer::new(ctx, &sg, &lights, W, H, hooked).unwrap();
+            let hooked = FrameSettings { cull, test_drop_light: Some(drop), ..Default::default() };
+            let mut r = FrameRenderer::new(ctx, &sg, &lights, W, H, hooked).unwrap();
             let dropped_frame = render_frame(ctx, &mut r, &sg, &camera);
             let reference = reference_frame(ctx, &sg, &lights, (W, H), &camera);
             let verdict = |f: &Frame| compare_with_reference(name, W, &reference, f, FORWARD_VS_REFERENCE).passes();
@@ -408,7 +424,7 @@ fn list_comparison_rejects_a_dim_missing_pair_and_a_wrong_index() {
                 verdict(&plain_frame),
                 verdict(&dropped_frame)
             );
-            r.culling().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap()
+            r.read_lists(ctx).unwrap()
         } else {
             let mut b = gpu_lists.clone();
             let at = b.lists[list].iter().position(|&l| l == light).expect("the GPU listed the pair");
@@ -464,13 +480,12 @@ fn heat_map_helper_rejects_a_wrong_count() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 60, 0, 4)).unwrap();
     let cull = CullOptions { capacity: 16, ..Default::default() };
-    let mut plain =
-        ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings { cull, ..Default::default() }).unwrap();
+    let mut plain = FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings { cull, ..Default::default() }).unwrap();
     let base = render_frame(ctx, &mut plain, &sg, &camera).ldr;
-    let hs = ForwardSettings { cull, heatmap: true, ..Default::default() };
-    let mut heat_r = ForwardRenderer::new(ctx, &sg, &lights, W, H, hs).unwrap();
+    let hs = FrameSettings { cull, heatmap: true, ..Default::default() };
+    let mut heat_r = FrameRenderer::new(ctx, &sg, &lights, W, H, hs).unwrap();
     let heat = render_frame(ctx, &mut heat_r, &sg, &camera).ldr;
-    let counts = heat_r.culling().unwrap().read_lists(&ctx.device, &ctx.queue).unwrap().counts;
+    let counts = heat_r.read_lists(ctx).unwrap().counts;
     let g = tiledlight_cull::TileGrid::new(W, H, cull.tile_size).unwrap();
     let (mut checked, mut by_count) = (0, std::collections::BTreeSet::new());
     for ty in 0..g.tiles_y {

@@ -49,13 +49,10 @@ use tiledlight_cull::light::shadow_casters;
 use tiledlight_cull::raycast::{surface_points, SurfacePoint as Surface, Triangles};
 use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat, ShadowOptions};
 use tiledlight_cull::{Camera, Light};
-use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
-use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
-use tiledlight_gpu::diagnostics::Diagnostics;
+use tiledlight_frame::{Diagnostics, FrameRenderer, FrameSettings, Method, Renderer};
 use tiledlight_gpu::light_cull::{ClusterOptions, CullOptions};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_scene::{shadow_box_scene, Scene};
 use tiledlight_tests::compare::{assert_matches_reference_frame, render_frame, Frame, FORWARD_VS_REFERENCE};
@@ -72,7 +69,7 @@ enum Kind {
     Deferred,
 }
 
-fn renderer(kind: Kind, scene: &SceneGpu, lights: &LightBuffers, shadows: ShadowOptions) -> Box<dyn Renderer> {
+fn renderer(kind: Kind, scene: &SceneGpu, lights: &LightBuffers, shadows: ShadowOptions) -> FrameRenderer {
     renderer_for(Variant { kind, cull: CullOptions::default(), msaa: 1 }, scene, lights, shadows)
 }
 
@@ -90,19 +87,26 @@ impl Variant {
     }
 }
 
-fn renderer_for(v: Variant, scene: &SceneGpu, lights: &LightBuffers, shadows: ShadowOptions) -> Box<dyn Renderer> {
+fn renderer_for(v: Variant, scene: &SceneGpu, lights: &LightBuffers, shadows: ShadowOptions) -> FrameRenderer {
     let ctx = gpu();
     let (cull, msaa) = (v.cull, v.msaa);
     match v.kind {
         Kind::BruteForce | Kind::ForwardPlus => {
             let method =
                 if v.kind == Kind::BruteForce { Method::BruteForce { cutoff: true } } else { Method::ForwardPlus };
-            let s = ForwardSettings { method, shadows, cull, msaa, ambient: Vec3::ZERO, ..Default::default() };
-            Box::new(ForwardRenderer::new(ctx, scene, lights, W, H, s).expect("forward renderer"))
+            let s = FrameSettings { method, shadows, cull, msaa, ambient: Vec3::ZERO, ..Default::default() };
+            FrameRenderer::new(ctx, scene, lights, W, H, s).expect("forward renderer")
         }
         Kind::Deferred => {
-            let s = DeferredSettings { shadows, cull, msaa, ambient: Vec3::ZERO, ..Default::default() };
-            Box::new(DeferredRenderer::new(ctx, scene, lights, W, H, s).expect("deferred renderer"))
+            let s = FrameSettings {
+                method: Method::TiledDeferred,
+                shadows,
+                cull,
+                msaa,
+                ambient: Vec3::ZERO,
+                ..Default::default()
+            };
+            FrameRenderer::new(ctx, scene, lights, W, H, s).expect("deferred renderer")
         }
     }
 }
@@ -127,10 +131,10 @@ fn render_pair(
     let with = LightBuffers::with_casters(&ctx.device, lights, casters).expect("lights with casters");
     let without = LightBuffers::new(&ctx.device, lights).expect("lights");
     let mut r = renderer(kind, &sg, &with, opts);
-    let shadowed = render_frame(ctx, r.as_mut(), &sg, cam);
+    let shadowed = render_frame(ctx, &mut r, &sg, cam);
     let depth = r.read_depth(ctx).expect("depth");
     let mut r = renderer(kind, &sg, &without, opts);
-    let unshadowed = render_frame(ctx, r.as_mut(), &sg, cam);
+    let unshadowed = render_frame(ctx, &mut r, &sg, cam);
     Rendered { shadowed, unshadowed, depth }
 }
 
@@ -391,7 +395,7 @@ fn compare_visibility(
 /// (Distinct colours would isolate only three lights, one per channel; zeroing isolates any
 /// number, and a still shadow atlas — no caster moved — proves the shadows are the same
 /// ones every frame: asserted.)
-fn per_light(r: &mut dyn Renderer, sg: &SceneGpu, lb: &LightBuffers, cam: &Camera) -> Vec<Vec<f32>> {
+fn per_light(r: &mut FrameRenderer, sg: &SceneGpu, lb: &LightBuffers, cam: &Camera) -> Vec<Vec<f32>> {
     let ctx = gpu();
     let mut out = Vec::new();
     for i in 0..lb.packed.len() {
@@ -404,7 +408,7 @@ fn per_light(r: &mut dyn Renderer, sg: &SceneGpu, lb: &LightBuffers, cam: &Camer
         ctx.queue.write_buffer(&lb.shading, 0, &shading_bytes(&p.shading));
         r.lights_moved(&ctx.queue, &p).expect("lights moved");
         let f = render_frame(ctx, r, sg, cam);
-        if let (Some(a), true) = (r.shadow_atlas(), i > 0) {
+        if let (Some(a), true) = (r.outputs().shadow_atlas, i > 0) {
             assert_eq!(a.faces_drawn_last_frame(), 0, "light {i}: a radiance change redrew shadow faces");
         }
         out.push(f.hdr.iter().map(|p| lum(*p)).collect());
@@ -505,7 +509,7 @@ fn render_case(case: &Case<'_>, variant: Variant, options: &[ShadowOptions]) -> 
     // centre away from geometric edges, where `surface_points` has none).
     let depth = {
         let mut r = renderer_for(Variant::of(Kind::BruteForce), &sg, &without, ShadowOptions::default());
-        render_frame(ctx, r.as_mut(), &sg, &case.camera);
+        render_frame(ctx, &mut r, &sg, &case.camera);
         r.read_depth(ctx).expect("depth")
     };
     let mut surfaces = surface_points(&case.camera, W, H, &depth);
@@ -514,13 +518,13 @@ fn render_case(case: &Case<'_>, variant: Variant, options: &[ShadowOptions]) -> 
     }
     let full = {
         let mut r = renderer_for(variant, &sg, &without, ShadowOptions::default());
-        per_light(r.as_mut(), &sg, &without, &case.camera)
+        per_light(&mut r, &sg, &without, &case.camera)
     };
     let vis = options
         .iter()
         .map(|&opts| {
             let mut r = renderer_for(variant, &sg, &with, opts);
-            let shadowed = per_light(r.as_mut(), &sg, &with, &case.camera);
+            let shadowed = per_light(&mut r, &sg, &with, &case.camera);
             full.iter()
                 .zip(&shadowed)
                 .map(|(f, s)| f.iter().zip(s).map(|(&f, &s)| (f >= DIM).then(|| s / f)).collect())
@@ -823,7 +827,7 @@ fn methods_agree_with_shadows() {
     let opts = ShadowOptions::default();
     let frame = |kind| {
         let mut r = renderer(kind, &sg, &lights, opts);
-        render_frame(ctx, r.as_mut(), &sg, &cam)
+        render_frame(ctx, &mut r, &sg, &cam)
     };
     let reference = frame(Kind::BruteForce);
     assert_matches_reference_frame("shadows-forward", W, &reference, &frame(Kind::ForwardPlus), FORWARD_VS_REFERENCE);
@@ -927,9 +931,9 @@ fn only_moved_casters_are_redrawn() {
     for kind in [Kind::ForwardPlus, Kind::Deferred] {
         let mut r = renderer(kind, &sg, &lights, ShadowOptions::default());
         let mut timer = GpuTimer::new(ctx).unwrap();
-        let mut drawn = |r: &mut Box<dyn Renderer>| {
+        let mut drawn = |r: &mut FrameRenderer| {
             r.render_once(ctx, &mut timer, &sg, &cam).unwrap();
-            r.shadow_atlas().expect("atlas").faces_drawn_last_frame()
+            r.outputs().shadow_atlas.expect("atlas").faces_drawn_last_frame()
         };
         assert_eq!(drawn(&mut r), 3 * 6 + 2, "{kind:?}: the first frame draws every face");
         assert_eq!(drawn(&mut r), 0, "{kind:?}: a still frame draws none");
@@ -1029,7 +1033,7 @@ fn atlas_texels_hold_the_ray_cast_depth() {
     let mut r = renderer(Kind::ForwardPlus, &sg, &lights, opts);
     let mut timer = GpuTimer::new(ctx).unwrap();
     r.render_once(ctx, &mut timer, &sg, &box_camera()).unwrap();
-    let atlas = r.shadow_atlas().expect("atlas");
+    let atlas = r.outputs().shadow_atlas.expect("atlas");
     let layout = atlas.layout;
     let texels = atlas.read_layer(&ctx.device, &ctx.queue, 0).unwrap();
     let width = layout.width() as usize;
@@ -1103,15 +1107,18 @@ fn bad_shadow_input_is_named() {
     let many = scenes::lights(&scene, n, 0, 2);
     let lights = LightBuffers::with_casters(&ctx.device, &many, (n, 0)).unwrap();
     let opts = ShadowOptions { tile_size: 1024, ..Default::default() };
-    let s = ForwardSettings { shadows: opts, ..Default::default() };
-    let e = err_text(ForwardRenderer::new(ctx, &sg, &lights, W, H, s));
+    let s = FrameSettings { shadows: opts, ..Default::default() };
+    let e = err_text(FrameRenderer::new(ctx, &sg, &lights, W, H, s));
     assert!(e.contains(&format!("{n} point")) && e.contains(&format!("{max_layers} layers")), "{e}");
     // Tile sizes out of range.
     let lights = LightBuffers::with_casters(&ctx.device, &few, (1, 0)).unwrap();
     for tile in [64, 2048] {
-        let s =
-            DeferredSettings { shadows: ShadowOptions { tile_size: tile, ..Default::default() }, ..Default::default() };
-        let e = err_text(DeferredRenderer::new(ctx, &sg, &lights, W, H, s));
+        let s = FrameSettings {
+            method: Method::TiledDeferred,
+            shadows: ShadowOptions { tile_size: tile, ..Default::default() },
+            ..Default::default()
+        };
+        let e = err_text(FrameRenderer::new(ctx, &sg, &lights, W, H, s));
         assert!(e.contains(&format!("shadow tile {tile}")) && e.contains("128 to 1024"), "{e}");
     }
 }
@@ -1123,12 +1130,12 @@ fn no_casters_no_shadow_path() {
     let scene = scenes::mixed_scene();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 8, 2, 1)).unwrap();
-    let f = ForwardRenderer::new(ctx, &sg, &lights, W, H, ForwardSettings::default()).unwrap();
-    assert!(f.shadow_atlas().is_none() && f.features().shadows.is_none());
+    let f = FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings::default()).unwrap();
+    assert!(f.outputs().shadow_atlas.is_none() && f.features().shadows.is_none());
     assert!(!f.plan().has(tiledlight_gpu::plan::Step::ShadowMaps));
     assert!(f.memory().entries.iter().all(|(c, _)| !c.starts_with("shadow")));
-    let d = DeferredRenderer::new(ctx, &sg, &lights, W, H, DeferredSettings::default()).unwrap();
-    assert!(d.shadow_atlas().is_none());
+    let d = FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings::of(Method::TiledDeferred)).unwrap();
+    assert!(d.outputs().shadow_atlas.is_none());
 }
 
 /// Three point lights (the first two cast shadows) and three spots (the first two cast)

@@ -33,6 +33,7 @@ use glam::{Mat4, Vec3};
 use tiledlight_cull::shadow::{AtlasLayout, ShadowOptions};
 use tiledlight_cull::vpl::{self, GpuVpl, RsmFace, Vpl, VplConfig};
 use tiledlight_cull::Light;
+use tiledlight_frame::{FrameRenderer, FrameSettings};
 use tiledlight_gpu::features::{Features, Method};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
@@ -110,7 +111,14 @@ fn run_shadowed(scene: &Scene, cfg: &VplConfig, lights: &[Light], casters: (u32,
     let (device, queue) = (&ctx.device, &ctx.queue);
     let scene = SceneGpu::new(device, queue, scene).expect("scene");
     let lights = LightBuffers::with_casters(device, lights, casters).expect("lights");
-    let features = Features::new(&scene, &lights, Method::ForwardPlus, &CullOptions::default(), (1, 2), shadow);
+    let features = Features::new(
+        &scene,
+        &lights,
+        Method::ForwardPlus,
+        &CullOptions::default(),
+        (1, 2),
+        (shadow, Default::default(), false),
+    );
     let limits = device.limits();
     let layout = AtlasLayout::new(
         shadow.tile_size,
@@ -290,7 +298,14 @@ fn bad_settings_are_errors_naming_the_setting() {
     let scene = SceneGpu::new(device, queue, &wall_scene()).expect("scene");
     let lights = LightBuffers::with_casters(device, &[spot()], (0, 1)).expect("lights");
     let shadow = ShadowOptions::default();
-    let features = Features::new(&scene, &lights, Method::ForwardPlus, &CullOptions::default(), (1, 2), shadow);
+    let features = Features::new(
+        &scene,
+        &lights,
+        Method::ForwardPlus,
+        &CullOptions::default(),
+        (1, 2),
+        (shadow, Default::default(), false),
+    );
     let limits = device.limits();
     let layout =
         AtlasLayout::new(shadow.tile_size, 0, 1, limits.max_texture_dimension_2d, limits.max_texture_array_layers)
@@ -504,25 +519,21 @@ fn short_spot() -> Light {
 
 /// The wall scene lit by the short spot (a shadow caster) with `vpl`, rendered by `method`:
 /// the frame and the renderer (for its lists and buffers).
-fn render(
-    method: tiledlight_forward::Method,
-    vpl: Option<VplConfig>,
-) -> (tiledlight_tests::compare::Frame, tiledlight_forward::ForwardRenderer) {
-    use tiledlight_forward::{ForwardRenderer, ForwardSettings};
+fn render(method: Method, vpl: Option<VplConfig>) -> (tiledlight_tests::compare::Frame, FrameRenderer) {
     let ctx = gpu();
     let scene = SceneGpu::new(&ctx.device, &ctx.queue, &wall_scene()).expect("scene");
     let lights = LightBuffers::with_casters(&ctx.device, &[short_spot()], (0, 1)).expect("lights");
-    let s = ForwardSettings { method, ambient: Vec3::ZERO, vpl, ..Default::default() };
-    let mut r = ForwardRenderer::new(ctx, &scene, &lights, W, H, s).expect("renderer with VPLs");
+    let s = FrameSettings { method, ambient: Vec3::ZERO, vpl, ..Default::default() };
+    let mut r = FrameRenderer::new(ctx, &scene, &lights, W, H, s).expect("renderer with VPLs");
     assert_eq!(r.plan().has(tiledlight_gpu::plan::Step::Vpl), vpl.is_some(), "a VPL step exactly with --vpl");
-    assert_eq!(r.vpl().is_some(), vpl.is_some());
+    assert_eq!(r.vpls().map(|v| &v.path).is_some(), vpl.is_some());
     let frame = tiledlight_tests::compare::render_frame(ctx, &mut r, &scene, &camera());
     (frame, r)
 }
 
 /// The brute-force HDR image of [`render`].
 fn brute_force(vpl: Option<VplConfig>) -> Vec<[f32; 4]> {
-    render(tiledlight_forward::Method::BruteForce { cutoff: true }, vpl).0.hdr
+    render(Method::BruteForce { cutoff: true }, vpl).0.hdr
 }
 
 /// The pixel a world point projects to.
@@ -591,26 +602,26 @@ fn physical_model_converges_to_the_every_texel_reference_on_the_gpu() {
 
 #[test]
 fn no_vpl_no_cost_and_no_caster_no_vpls() {
-    use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method as Fwd};
-    use tiledlight_gpu::targets::Renderer;
+    use tiledlight_frame::Method as Fwd;
+
     let ctx = gpu();
     let scene = SceneGpu::new(&ctx.device, &ctx.queue, &wall_scene()).expect("scene");
     let casters = LightBuffers::with_casters(&ctx.device, &[short_spot()], (0, 1)).expect("lights");
     let plain = LightBuffers::new(&ctx.device, &[short_spot()]).expect("lights");
     let vpl = Some(VplConfig::default());
     // Without VPLs nothing of them exists: no step, no buffers, no variant.
-    let r = ForwardRenderer::new(ctx, &scene, &casters, W, H, ForwardSettings::default()).expect("renderer");
-    assert!(r.vpl().is_none() && r.vpl_culling().is_none());
+    let r = FrameRenderer::new(ctx, &scene, &casters, W, H, FrameSettings::default()).expect("renderer");
+    assert!(r.vpls().map(|v| &v.path).is_none() && r.vpls().and_then(|v| v.culling.as_ref()).is_none());
     assert!(!r.plan().has(tiledlight_gpu::plan::Step::Vpl) && !r.plan().has(tiledlight_gpu::plan::Step::VplCull));
     assert!(!r.memory().entries.iter().any(|(c, _)| c.contains("vpl")), "{:?}", r.memory().entries);
-    let bf = ForwardSettings { method: Fwd::BruteForce { cutoff: true }, vpl, ..Default::default() };
-    let e = tiledlight_tests::err_text(ForwardRenderer::new(ctx, &scene, &plain, W, H, bf));
+    let bf = FrameSettings { method: Fwd::BruteForce { cutoff: true }, vpl, ..Default::default() };
+    let e = tiledlight_tests::err_text(FrameRenderer::new(ctx, &scene, &plain, W, H, bf));
     assert!(e.contains("no light casts a shadow"), "{e}");
 }
 
 #[test]
 fn forward_plus_with_culled_vpls_equals_brute_force() {
-    use tiledlight_forward::Method as Fwd;
+    use tiledlight_frame::Method as Fwd;
     use tiledlight_tests::compare::{assert_matches_reference_frame, FORWARD_VS_REFERENCE};
     // The sample model ends at the VPL's radius, so culling by the radius drops nothing:
     // Forward+ must equal brute force within the tolerance of lights alone.
@@ -628,13 +639,14 @@ fn forward_plus_with_culled_vpls_equals_brute_force() {
 #[test]
 fn vpl_lists_equal_the_cpu_culler() {
     use tiledlight_cull::light::{pack_lights, LightKind};
-    use tiledlight_gpu::diagnostics::Diagnostics;
+    use tiledlight_frame::Diagnostics;
     use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
     let ctx = gpu();
     for cfg in [VplConfig::default(), VplConfig { block: 1, ..Default::default() }] {
-        let (_, r) = render(tiledlight_forward::Method::ForwardPlus, Some(cfg));
+        let (_, r) = render(Method::ForwardPlus, Some(cfg));
         let depth = r.read_depth(ctx).expect("depth");
-        let spheres = r.vpl().expect("vpls").buffers.read_cull(&ctx.device, &ctx.queue).expect("spheres");
+        let spheres =
+            r.vpls().map(|v| &v.path).expect("vpls").buffers.read_cull(&ctx.device, &ctx.queue).expect("spheres");
         assert!(spheres.len() > 50, "{} VPLs", spheres.len());
         let vpls: Vec<Light> = spheres
             .iter()
@@ -643,7 +655,12 @@ fn vpl_lists_equal_the_cpu_culler() {
             })
             .collect();
         let packed = pack_lights(&vpls);
-        let gpu_lists = r.vpl_culling().expect("vpl culling").read_lists(&ctx.device, &ctx.queue).expect("lists");
+        let gpu_lists = r
+            .vpls()
+            .and_then(|v| v.culling.as_ref())
+            .expect("vpl culling")
+            .read_lists(&ctx.device, &ctx.queue)
+            .expect("lists");
         let config = r.settings().cull.to_config(false);
         let cam = camera();
         let frame = CulledFrame { depth: &depth, width: W, height: H, camera: &cam, lights: &packed };
@@ -657,19 +674,18 @@ fn vpl_lists_equal_the_cpu_culler() {
 
 #[test]
 fn tiled_deferred_with_vpls_equals_forward_plus_and_brute_force() {
-    use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
     use tiledlight_tests::compare::{assert_matches_reference_frame, DEFERRED_VS_REFERENCE};
     let ctx = gpu();
     let vpl = Some(VplConfig::default());
     let scene = SceneGpu::new(&ctx.device, &ctx.queue, &wall_scene()).expect("scene");
     let lights = LightBuffers::with_casters(&ctx.device, &[short_spot()], (0, 1)).expect("lights");
-    let s = DeferredSettings { ambient: Vec3::ZERO, vpl, ..Default::default() };
-    let mut r = DeferredRenderer::new(ctx, &scene, &lights, W, H, s).expect("Tiled Deferred with VPLs");
+    let s = FrameSettings { method: Method::TiledDeferred, ambient: Vec3::ZERO, vpl, ..Default::default() };
+    let mut r = FrameRenderer::new(ctx, &scene, &lights, W, H, s).expect("Tiled Deferred with VPLs");
     let plan = r.plan();
     assert!(plan.has(tiledlight_gpu::plan::Step::Vpl) && plan.has(tiledlight_gpu::plan::Step::VplCull));
     let deferred = tiledlight_tests::compare::render_frame(ctx, &mut r, &scene, &camera());
-    let (forward, _) = render(tiledlight_forward::Method::ForwardPlus, vpl);
-    let (reference, _) = render(tiledlight_forward::Method::BruteForce { cutoff: true }, vpl);
+    let (forward, _) = render(Method::ForwardPlus, vpl);
+    let (reference, _) = render(Method::BruteForce { cutoff: true }, vpl);
     assert_matches_reference_frame(
         "Tiled Deferred with VPLs vs brute force",
         W,
@@ -688,7 +704,7 @@ fn tiled_deferred_with_vpls_equals_forward_plus_and_brute_force() {
     );
     // Both VPL grids hold the same lists: the same culling over the same depth. Compared
     // by VPL position: each renderer appended its VPLs in its own GPU order.
-    let f = render(tiledlight_forward::Method::ForwardPlus, vpl).1;
+    let f = render(Method::ForwardPlus, vpl).1;
     let by_position = |lists: &tiledlight_gpu::light_cull::GpuTileLists,
                        vpls: &[tiledlight_cull::light::GpuCullLight]| {
         lists
@@ -700,10 +716,10 @@ fn tiled_deferred_with_vpls_equals_forward_plus_and_brute_force() {
             .collect::<Vec<_>>()
     };
     let read = |c: &tiledlight_gpu::light_cull::LightCulling| c.read_lists(&ctx.device, &ctx.queue).expect("lists");
-    let fl = read(f.vpl_culling().expect("F+"));
-    let dl = read(r.vpl_culling().expect("TD"));
-    let fv = f.vpl().expect("F+").buffers.read_cull(&ctx.device, &ctx.queue).expect("spheres");
-    let dv = r.vpl().expect("TD").buffers.read_cull(&ctx.device, &ctx.queue).expect("spheres");
+    let fl = read(f.vpls().and_then(|v| v.culling.as_ref()).expect("F+"));
+    let dl = read(r.vpls().and_then(|v| v.culling.as_ref()).expect("TD"));
+    let fv = f.vpls().map(|v| &v.path).expect("F+").buffers.read_cull(&ctx.device, &ctx.queue).expect("spheres");
+    let dv = r.vpls().map(|v| &v.path).expect("TD").buffers.read_cull(&ctx.device, &ctx.queue).expect("spheres");
     assert_eq!(fv.len(), dv.len(), "VPL count");
     assert_eq!(fl.counts, dl.counts, "VPLs per tile");
     assert_eq!(by_position(&fl, &fv), by_position(&dl, &dv), "VPL lists");
@@ -717,31 +733,30 @@ fn tiled_renderers(
     (w, h): (u32, u32),
     vpl: Option<VplConfig>,
     heatmap_of: tiledlight_gpu::tonemap::HeatmapOf,
-) -> (
-    SceneGpu,
-    Vec<(
-        &'static str,
-        Box<dyn tiledlight_gpu::targets::Renderer>,
-        Vec<tiledlight_cull::light::GpuCullLight>,
-        CullOptions,
-    )>,
-) {
-    use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
-    use tiledlight_forward::{ForwardRenderer, ForwardSettings};
+) -> (SceneGpu, Vec<(&'static str, FrameRenderer, Vec<tiledlight_cull::light::GpuCullLight>, CullOptions)>) {
     let ctx = gpu();
     let scene = SceneGpu::new(&ctx.device, &ctx.queue, &wall_scene()).expect("scene");
     let lights = LightBuffers::with_casters(&ctx.device, &[short_spot()], (0, 1)).expect("lights");
     let cam = camera_for(w, h);
-    let fs = ForwardSettings { ambient: Vec3::ZERO, vpl, heatmap_of, ..Default::default() };
-    let mut f = ForwardRenderer::new(ctx, &scene, &lights, w, h, fs).expect("Forward+ with VPLs");
+    let fs = FrameSettings { ambient: Vec3::ZERO, vpl, heatmap_of, ..Default::default() };
+    let mut f = FrameRenderer::new(ctx, &scene, &lights, w, h, fs).expect("Forward+ with VPLs");
     tiledlight_tests::compare::render_frame(ctx, &mut f, &scene, &cam);
-    let fv = f.vpl().map(|v| v.buffers.read_cull(&ctx.device, &ctx.queue).expect("spheres")).unwrap_or_default();
-    let ds = DeferredSettings { ambient: Vec3::ZERO, vpl, heatmap_of, ..Default::default() };
-    let mut d = DeferredRenderer::new(ctx, &scene, &lights, w, h, ds).expect("Tiled Deferred with VPLs");
+    let fv = f
+        .vpls()
+        .map(|v| &v.path)
+        .map(|v| v.buffers.read_cull(&ctx.device, &ctx.queue).expect("spheres"))
+        .unwrap_or_default();
+    let ds =
+        FrameSettings { method: Method::TiledDeferred, ambient: Vec3::ZERO, vpl, heatmap_of, ..Default::default() };
+    let mut d = FrameRenderer::new(ctx, &scene, &lights, w, h, ds).expect("Tiled Deferred with VPLs");
     tiledlight_tests::compare::render_frame(ctx, &mut d, &scene, &cam);
-    let dv = d.vpl().map(|v| v.buffers.read_cull(&ctx.device, &ctx.queue).expect("spheres")).unwrap_or_default();
+    let dv = d
+        .vpls()
+        .map(|v| &v.path)
+        .map(|v| v.buffers.read_cull(&ctx.device, &ctx.queue).expect("spheres"))
+        .unwrap_or_default();
     let (fc, dc) = (f.settings().cull, d.settings().cull);
-    (scene, vec![("Forward+", Box::new(f), fv, fc), ("Tiled Deferred", Box::new(d), dv, dc)])
+    (scene, vec![("Forward+", f, fv, fc), ("Tiled Deferred", d, dv, dc)])
 }
 
 /// The VPLs' light grid has a fixed budget ([`tiledlight_cull::vpl::VPL_GRID_PER_TILE`]
@@ -759,7 +774,7 @@ fn the_vpl_grid_counts_what_it_drops_and_nothing_when_every_pair_fits() {
     let dense = VplConfig { rsm_size: 64, block: 1, ..Default::default() };
     let (_scene, renderers) = tiled_renderers(size, Some(dense), HeatmapOf::Opaque);
     for (name, r, vpls, _) in &renderers {
-        let g = r.vpl_light_grid().expect("a VPL grid");
+        let g = r.outputs().vpl_light_grid.expect("a VPL grid");
         assert_eq!(g.capacity(), 12 * VPL_GRID_PER_TILE, "{name}: the budget");
         let st = g.status(&ctx.device, &ctx.queue).expect("header");
         let h = st.header;
@@ -779,12 +794,12 @@ fn the_vpl_grid_counts_what_it_drops_and_nothing_when_every_pair_fits() {
         assert_eq!(stored as u32, h.capacity, "{name}: the lists fill the budget and no more");
         let cut = lists.lists.iter().zip(&lists.counts).filter(|(l, &c)| (l.len() as u32) < c).count();
         assert_eq!(cut as u32, h.dropped_lists, "{name}: the lists cut short are those counted");
-        let opaque = r.light_grid().expect("a light grid").status(&ctx.device, &ctx.queue).expect("header");
+        let opaque = r.outputs().light_grid.expect("a light grid").status(&ctx.device, &ctx.queue).expect("header");
         assert!(opaque.complete(), "{name}: only the VPL grid overflowed: {opaque}");
     }
     let (_scene, renderers) = tiled_renderers(size, Some(VplConfig::default()), HeatmapOf::Opaque);
     for (name, r, vpls, _) in &renderers {
-        let st = r.vpl_light_grid().expect("a VPL grid").status(&ctx.device, &ctx.queue).expect("header");
+        let st = r.outputs().vpl_light_grid.expect("a VPL grid").status(&ctx.device, &ctx.queue).expect("header");
         assert!(vpls.len() > 50 && st.header.pairs > 0, "{name}: {} VPLs, {st}", vpls.len());
         assert!(st.complete() && st.header.dropped_lists == 0, "{name}: nothing dropped: {st}");
     }
@@ -801,7 +816,7 @@ fn the_vpl_grid_counts_what_it_drops_and_nothing_when_every_pair_fits() {
 #[test]
 fn vpl_heat_map_shows_the_cpu_cullers_vpl_counts_in_both_methods() {
     use tiledlight_cull::light::{pack_lights, LightKind};
-    use tiledlight_gpu::diagnostics::Diagnostics;
+    use tiledlight_frame::Diagnostics;
     use tiledlight_gpu::tonemap::HeatmapOf;
     use tiledlight_tests::images::{assert_heat_tile, documented_heat_colour};
     use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
@@ -809,16 +824,16 @@ fn vpl_heat_map_shows_the_cpu_cullers_vpl_counts_in_both_methods() {
     let cam = camera();
     let (scene, renderers) = tiled_renderers((W, H), Some(VplConfig::default()), HeatmapOf::Vpl);
     for (name, mut r, spheres, cull) in renderers {
-        let ldr = |r: &mut dyn tiledlight_gpu::targets::Renderer| {
+        let ldr = |r: &mut dyn tiledlight_frame::Renderer| {
             let mut timer = GpuTimer::new(ctx).expect("timer");
             r.render_once(ctx, &mut timer, &scene, &cam).expect("frame");
             r.read_ldr(ctx).expect("ldr")
         };
-        let plain = ldr(r.as_mut());
+        let plain = ldr(&mut r);
         let h = r.heatmap().expect("tiled methods have a heat map");
         assert_eq!(h.of(), HeatmapOf::Vpl);
         h.set_enabled(true);
-        let heat = ldr(r.as_mut());
+        let heat = ldr(&mut r);
         // The CPU culler's VPL lists over the same depth and spheres.
         let depth = r.read_depth(ctx).expect("depth");
         let vpls: Vec<tiledlight_cull::Light> = spheres
@@ -829,10 +844,11 @@ fn vpl_heat_map_shows_the_cpu_cullers_vpl_counts_in_both_methods() {
             })
             .collect();
         let packed = pack_lights(&vpls);
-        let gpu_lists = r.vpl_light_grid().expect("VPL grid").read_lists(&ctx.device, &ctx.queue).expect("lists");
+        let gpu_lists =
+            r.outputs().vpl_light_grid.expect("VPL grid").read_lists(&ctx.device, &ctx.queue).expect("lists");
         let frame = CulledFrame { depth: &depth, width: W, height: H, camera: &cam, lights: &packed };
         let c = assert_lists_match(&format!("{name}: VPL lists"), &frame, &gpu_lists, &cull.to_config(false));
-        let g = r.grid();
+        let g = r.outputs().grid;
         let (mut coloured, mut untouched, mut borderline) = (0, 0, 0);
         for ty in 0..g.tiles_y {
             for tx in 0..g.tiles_x {
@@ -858,7 +874,7 @@ fn vpl_heat_map_shows_the_cpu_cullers_vpl_counts_in_both_methods() {
         // The opaque lists' heat map colours tiles differently (one light against up to
         // hundreds of VPLs a tile).
         r.heatmap().unwrap().set_of(HeatmapOf::Opaque).unwrap();
-        let opaque_heat = ldr(r.as_mut());
+        let opaque_heat = ldr(&mut r);
         let differ = (0..g.tiles_x * g.tiles_y)
             .filter(|&t| {
                 let (x0, x1, y0, y1) = g.tile_pixels(t % g.tiles_x, t / g.tiles_x);
@@ -878,14 +894,17 @@ fn vpl_heat_map_shows_the_cpu_cullers_vpl_counts_in_both_methods() {
         assert!(e.contains("the heat map of the VPL lists needs VPLs") && e.contains("--vpl"), "{name}: {e}");
         assert_eq!(h.of(), HeatmapOf::Opaque, "{name}: a refused switch leaves the grid shown");
     }
-    use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
-    use tiledlight_forward::{ForwardRenderer, ForwardSettings};
     let lights = LightBuffers::with_casters(&ctx.device, &[short_spot()], (0, 1)).expect("lights");
-    let s = ForwardSettings { heatmap: true, heatmap_of: HeatmapOf::Vpl, ..Default::default() };
-    let e = tiledlight_tests::err_text(ForwardRenderer::new(ctx, &scene, &lights, W, H, s));
+    let s = FrameSettings { heatmap: true, heatmap_of: HeatmapOf::Vpl, ..Default::default() };
+    let e = tiledlight_tests::err_text(FrameRenderer::new(ctx, &scene, &lights, W, H, s));
     assert!(e.contains("VPLs are off (--vpl)"), "{e}");
-    let s = DeferredSettings { heatmap: true, heatmap_of: HeatmapOf::Vpl, ..Default::default() };
-    let e = tiledlight_tests::err_text(DeferredRenderer::new(ctx, &scene, &lights, W, H, s));
+    let s = FrameSettings {
+        method: Method::TiledDeferred,
+        heatmap: true,
+        heatmap_of: HeatmapOf::Vpl,
+        ..Default::default()
+    };
+    let e = tiledlight_tests::err_text(FrameRenderer::new(ctx, &scene, &lights, W, H, s));
     assert!(e.contains("VPLs are off (--vpl)"), "{e}");
 }
 
@@ -1195,13 +1214,13 @@ fn one_bounce(cells: &[LitCell], x: Vec3, n: Vec3, v: Vec3, tris: &tiledlight_cu
 /// Brute force's HDR image of [`ref_scene`] lit by [`ref_spot`] (a shadow caster), `w` x
 /// `h`, with `vpl`.
 fn ref_render(occluder: bool, vpl: Option<VplConfig>, (w, h): (u32, u32)) -> Vec<[f32; 4]> {
-    use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
+    use tiledlight_frame::{FrameRenderer, FrameSettings, Method};
     let ctx = gpu();
     let scene = SceneGpu::new(&ctx.device, &ctx.queue, &ref_scene(occluder)).expect("scene");
     let lights = LightBuffers::with_casters(&ctx.device, &[ref_spot()], (0, 1)).expect("lights");
     let s =
-        ForwardSettings { method: Method::BruteForce { cutoff: true }, ambient: Vec3::ZERO, vpl, ..Default::default() };
-    let mut r = ForwardRenderer::new(ctx, &scene, &lights, w, h, s).expect("brute force with VPLs");
+        FrameSettings { method: Method::BruteForce { cutoff: true }, ambient: Vec3::ZERO, vpl, ..Default::default() };
+    let mut r = FrameRenderer::new(ctx, &scene, &lights, w, h, s).expect("brute force with VPLs");
     tiledlight_tests::compare::render_frame(ctx, &mut r, &scene, &camera_for(w, h)).hdr
 }
 
@@ -1349,10 +1368,10 @@ fn vpl_positions(spheres: &[tiledlight_cull::light::GpuCullLight]) -> std::colle
 
 /// One method's half of [`vpls_follow_a_moved_caster_in_both_methods`]: `make` builds the
 /// renderer for some lights, `spheres` reads its VPLs' culling spheres.
-fn follows_the_caster<R: tiledlight_gpu::targets::Renderer>(
+fn follows_the_caster(
     name: &str,
-    make: impl Fn(&LightBuffers) -> R,
-    spheres: impl Fn(&R) -> Vec<tiledlight_cull::light::GpuCullLight>,
+    make: impl Fn(&LightBuffers) -> FrameRenderer,
+    spheres: impl Fn(&FrameRenderer) -> Vec<tiledlight_cull::light::GpuCullLight>,
 ) {
     use tiledlight_tests::compare::{assert_matches_reference_frame, render_frame, FORWARD_VS_REFERENCE};
     let ctx = gpu();
@@ -1411,8 +1430,6 @@ fn follows_the_caster<R: tiledlight_gpu::targets::Renderer>(
 /// RSM or generation that reads the old light.
 #[test]
 fn vpls_follow_a_moved_caster_in_both_methods() {
-    use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
-    use tiledlight_forward::{ForwardRenderer, ForwardSettings};
     let ctx = gpu();
     let vpl = Some(VplConfig::default());
     let scene = SceneGpu::new(&ctx.device, &ctx.queue, &wall_scene()).expect("scene");
@@ -1421,18 +1438,18 @@ fn vpls_follow_a_moved_caster_in_both_methods() {
     follows_the_caster(
         "Forward+",
         |l| {
-            let s = ForwardSettings { ambient: Vec3::ZERO, vpl, ..Default::default() };
-            ForwardRenderer::new(ctx, &scene, l, W, H, s).expect("Forward+ with VPLs")
+            let s = FrameSettings { ambient: Vec3::ZERO, vpl, ..Default::default() };
+            FrameRenderer::new(ctx, &scene, l, W, H, s).expect("Forward+ with VPLs")
         },
-        |r| read(r.vpl()),
+        |r| read(r.vpls().map(|v| &v.path)),
     );
     follows_the_caster(
         "Tiled Deferred",
         |l| {
-            let s = DeferredSettings { ambient: Vec3::ZERO, vpl, ..Default::default() };
-            DeferredRenderer::new(ctx, &scene, l, W, H, s).expect("Tiled Deferred with VPLs")
+            let s = FrameSettings { method: Method::TiledDeferred, ambient: Vec3::ZERO, vpl, ..Default::default() };
+            FrameRenderer::new(ctx, &scene, l, W, H, s).expect("Tiled Deferred with VPLs")
         },
-        |r| read(r.vpl()),
+        |r| read(r.vpls().map(|v| &v.path)),
     );
 }
 

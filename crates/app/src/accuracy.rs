@@ -36,7 +36,7 @@
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_frame::Diagnostics as _;
 use tiledlight_gpu::features::BlendMode;
 
 use anyhow::{ensure, Context, Result};
@@ -260,7 +260,7 @@ fn sorted_key(a: &Settings) -> String {
 fn render_sorted(prep: &mut Prepared, a: &Settings, warmup: u32, frames: u32) -> Result<SortedFrame> {
     prep.reconfigure(&Settings { blend_mode: BlendMode::Sorted, ..a.clone() })?;
     let mut r = prep.renderer(false)?;
-    let m = bench::measure(prep, r.as_mut(), warmup, frames).context("rendering the sorted frame")?;
+    let m = bench::measure(prep, &mut r, warmup, frames).context("rendering the sorted frame")?;
     let (total_ms, _) = pass_times(&m)?;
     let ldr = r.read_ldr(&prep.ctx).context("reading the sorted frame back")?;
     prep.check_gpu_errors()?;
@@ -318,8 +318,8 @@ fn render_reference(
     frames: u32,
 ) -> Result<Reference> {
     let method = match reference {
-        ReferenceArg::NoCutoff => Method::BruteForceNoCutoff,
-        ReferenceArg::Cutoff => Method::BruteForce,
+        ReferenceArg::NoCutoff => Method::BruteForce { cutoff: false },
+        ReferenceArg::Cutoff => Method::BruteForce { cutoff: true },
     };
     // Blended geometry in the reference is exact "over" (sorted back to front), whatever
     // the setting's blend mode.
@@ -331,7 +331,7 @@ fn render_reference(
     };
     prep.reconfigure(&settings)?;
     let mut r = prep.renderer(false)?;
-    let m = bench::measure(prep, r.as_mut(), 1, frames).context("rendering the brute-force reference")?;
+    let m = bench::measure(prep, &mut r, 1, frames).context("rendering the brute-force reference")?;
     let (total_ms, passes) = pass_times(&m)?;
     let hdr = r.read_hdr(&prep.ctx).context("reading the reference back")?;
     let ldr = r.read_ldr(&prep.ctx).context("reading the reference back")?;
@@ -404,7 +404,7 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
     let all_args: Vec<Settings> =
         points.iter().map(|p| lab::args_at(&args.scene, &axes, p).and_then(|a| a.settings())).collect::<Result<_>>()?;
     ensure!(
-        all_args.iter().all(|a| a.method != Method::BruteForceNoCutoff),
+        all_args.iter().all(|a| a.method != Method::BruteForce { cutoff: false }),
         "method brute-force-no-cutoff is the reference itself: leave it out of the settings"
     );
     let out = args.out.clone().unwrap_or_else(|| PathBuf::from("out/accuracy.csv"));
@@ -537,10 +537,10 @@ fn measure_setting(
             **warned_scene = Some(pargs.scene.clone());
         }
         let mut renderer = p.renderer(false).with_context(|| what.clone())?;
-        let m = bench::measure(p, renderer.as_mut(), args.warmup, args.frames).with_context(|| what.clone())?;
+        let m = bench::measure(p, &mut renderer, args.warmup, args.frames).with_context(|| what.clone())?;
         let (total, passes) = pass_times(&m).with_context(|| what.clone())?;
         let dropped = m.dropped();
-        let stats = p.culling_stats(renderer.as_ref())?;
+        let stats = p.culling_stats(&renderer)?;
         let edges = renderer.edge_pixels(&p.ctx).context("reading the MSAA edge count back")?;
         let depth = renderer.read_depth(&p.ctx).context("reading the depth buffer back")?;
         let hdr = renderer.read_hdr(&p.ctx).context("reading the image back")?;
@@ -822,7 +822,7 @@ mod tests {
         let oit = Settings { blend_mode: BlendMode::WeightedOit, ..s.clone() };
         assert_eq!(key(&s), key(&oit), "the reference is always sorted");
         assert_ne!(key(&s), key(&Settings { transparent_objects: 20, ..s.clone() }));
-        assert_eq!(key(&s), key(&Settings { threshold: 0.5, method: Method::Deferred, ..s.clone() }));
+        assert_eq!(key(&s), key(&Settings { threshold: 0.5, method: Method::TiledDeferred, ..s.clone() }));
     }
 
     #[test]
@@ -900,7 +900,7 @@ mod tests {
         // Unlike the reference, the cutoff, method and culling are the setting's own.
         for other in [
             Settings { threshold: 0.5, ..oit.clone() },
-            Settings { method: Method::Deferred, ..oit.clone() },
+            Settings { method: Method::TiledDeferred, ..oit.clone() },
             Settings { half_z: true, ..oit.clone() },
             Settings { transparent_objects: 20, ..oit.clone() },
         ] {

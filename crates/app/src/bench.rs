@@ -42,8 +42,8 @@ use std::time::Instant;
 use anyhow::{ensure, Context, Result};
 use clap::Args;
 use serde::Serialize;
+use tiledlight_frame::{FrameRenderer, Renderer};
 use tiledlight_gpu::light_grid::GridStatus;
-use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::{GpuTimer, PassTime};
 
 use tiledlight_setup::settings::blend_mode_description;
@@ -218,7 +218,7 @@ impl Measurement {
 /// Renders `warmup` frames (and more until [`MIN_WARMUP`] has passed), then `frames`
 /// frames through `renderer`, each submitted and waited for, and collects the measured
 /// frames' pass times and CPU wall times. The lights stay still.
-pub fn measure(prep: &Prepared, renderer: &mut dyn Renderer, warmup: u32, frames: u32) -> Result<Measurement> {
+pub fn measure(prep: &Prepared, renderer: &mut FrameRenderer, warmup: u32, frames: u32) -> Result<Measurement> {
     measure_moving(prep, renderer, warmup, frames, None)
 }
 
@@ -226,7 +226,7 @@ pub fn measure(prep: &Prepared, renderer: &mut dyn Renderer, warmup: u32, frames
 /// [`MOVE_STEP_S`] before every frame, when it is given.
 pub fn measure_moving(
     prep: &Prepared,
-    renderer: &mut dyn Renderer,
+    renderer: &mut FrameRenderer,
     warmup: u32,
     frames: u32,
     mut animator: Option<&mut LightAnimator>,
@@ -234,13 +234,13 @@ pub fn measure_moving(
     let ctx = &prep.ctx;
     let mut timer = GpuTimer::new(ctx).context("creating the GPU timer")?;
     let mut out = Measurement { timestamps: timer.enabled(), ..Default::default() };
-    let mut frame = |timer: &mut GpuTimer, renderer: &mut dyn Renderer, grids: Option<&mut Measurement>| {
+    let mut frame = |timer: &mut GpuTimer, renderer: &mut FrameRenderer, grids: Option<&mut Measurement>| {
         // The last finished frame's light-grid headers: grow a grid that was too small.
-        let status = renderer.prepare(ctx);
-        let blended = renderer.blended_mut().and_then(|b| b.take_status());
-        // The VPL grid's header is copied after its culling as the light grid's is; it
-        // never grows, so its status is only reported.
-        let vpl = renderer.vpl_light_grid().and_then(|g| g.poll_status());
+        // (Never waits: it cannot fail on a read-back.) The VPL grid's header is copied
+        // after its culling as the light grid's is; it never grows, so its status is only
+        // reported.
+        let between = renderer.between_frames(ctx, false).unwrap_or_default();
+        let (status, blended, vpl) = (between.status, between.blended, between.vpl);
         if let Some(m) = grids {
             m.grid.extend(status);
             m.blended_grid.extend(blended);
@@ -293,7 +293,7 @@ pub fn measure_moving(
         out.blended_grid.append(&mut grids.blended_grid);
         out.vpl_grid.append(&mut grids.vpl_grid);
         out.cpu_ms.push(t0.elapsed().as_secs_f64() * 1e3);
-        if let Some(a) = renderer.shadow_atlas() {
+        if let Some(a) = renderer.outputs().shadow_atlas {
             out.shadow_faces.push(a.faces_drawn_last_frame());
         }
         // The timestamp readback is mapped after the submit; the next poll delivers it.
@@ -312,17 +312,17 @@ pub fn measure_moving(
     // (after the timing), so whether the frames dropped lights is always known.
     let (device, queue) = (&ctx.device, &ctx.queue);
     if out.grid.is_empty() && frames > 0 {
-        if let Some(g) = renderer.light_grid() {
+        if let Some(g) = renderer.outputs().light_grid {
             out.grid.push(g.status(device, queue).context("reading the light grid's header back")?);
         }
     }
     if out.blended_grid.is_empty() && frames > 0 {
-        if let Some(c) = renderer.blended().and_then(|b| b.culling.as_ref()) {
+        if let Some(c) = renderer.outputs().blended.and_then(|b| b.culling.as_ref()) {
             out.blended_grid.push(c.grid.status(device, queue).context("reading the blended grid's header back")?);
         }
     }
     if out.vpl_grid.is_empty() && frames > 0 {
-        if let Some(g) = renderer.vpl_light_grid() {
+        if let Some(g) = renderer.outputs().vpl_light_grid {
             out.vpl_grid.push(g.status(device, queue).context("reading the VPL grid's header back")?);
         }
     }
@@ -529,13 +529,13 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let motion = if args.move_lights { "lights moved before every frame (--move-lights)" } else { "lights still" };
     println!("frames:     {} warm-up + {} measured, {motion}", args.warmup, args.frames);
     let mut animator = args.move_lights.then(|| LightAnimator::new(&prep.lights.packed, prep.bounds.center()));
-    let m = measure_moving(&prep, renderer.as_mut(), args.warmup, args.frames, animator.as_mut())?;
+    let m = measure_moving(&prep, &mut renderer, args.warmup, args.frames, animator.as_mut())?;
     print!("{}", table(&m));
-    let atlas = renderer.shadow_atlas();
+    let atlas = renderer.outputs().shadow_atlas;
     if let Some(a) = atlas {
         println!("shadow map: {}", shadow_atlas_description(a));
     }
-    let blended = renderer.blended();
+    let blended = renderer.outputs().blended;
     if let Some(b) = blended {
         let s = if b.instance_count() == 1 { "" } else { "s" };
         println!("blend path: {} instance{s}, {}", b.instance_count(), blend_mode_description(b.mode()));

@@ -20,8 +20,8 @@
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use tiledlight_cull::vpl::VPL_GRID_PER_TILE;
+use tiledlight_frame::{FrameRenderer, Renderer};
 use tiledlight_gpu::light_grid::GridStatus;
-use tiledlight_gpu::targets::Renderer;
 use tiledlight_setup::{group_digits, Prepared};
 
 /// The lab CSVs' column of the scene's load warnings, next to the `dropped_*` columns.
@@ -102,17 +102,17 @@ impl Dropped {
     }
 
     /// The last frame of `renderer` (its headers read back, stalling): what its image lost.
-    pub fn last_frame(prep: &Prepared, renderer: &dyn Renderer) -> Result<Self> {
+    pub fn last_frame(prep: &Prepared, renderer: &FrameRenderer) -> Result<Self> {
         let (device, queue) = (&prep.ctx.device, &prep.ctx.queue);
-        let opaque = match renderer.light_grid() {
+        let opaque = match renderer.outputs().light_grid {
             Some(g) => vec![g.status(device, queue).context("reading the light grid's header back")?],
             None => Vec::new(),
         };
-        let blended = match renderer.blended().and_then(|b| b.culling.as_ref()) {
+        let blended = match renderer.outputs().blended.and_then(|b| b.culling.as_ref()) {
             Some(c) => vec![c.grid.status(device, queue).context("reading the blended light grid's header back")?],
             None => Vec::new(),
         };
-        let vpl = match renderer.vpl_light_grid() {
+        let vpl = match renderer.outputs().vpl_light_grid {
             Some(g) => vec![g.status(device, queue).context("reading the VPL light grid's header back")?],
             None => Vec::new(),
         };

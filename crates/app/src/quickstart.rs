@@ -34,23 +34,23 @@ pub fn run() -> Result<()> {
     {
         let mut renderer = prep.renderer(false)?;
         println!("benchmark:  {WARMUP} warm-up + {FRAMES} measured frames");
-        let m = bench::measure(&prep, renderer.as_mut(), WARMUP, FRAMES)?;
+        let m = bench::measure(&prep, &mut renderer, WARMUP, FRAMES)?;
         print!("{}", bench::table(&m));
-        if let Some(s) = prep.culling_stats(renderer.as_ref())? {
+        if let Some(s) = prep.culling_stats(&renderer)? {
             println!("culling:    {s}");
         }
-        write_image(&prep, renderer.as_ref(), false, render_path)?;
+        write_image(&prep, &renderer, false, render_path)?;
         println!("GPU memory:\n{}", renderer.memory());
         let max_binding = prep.ctx.device.limits().max_storage_buffer_binding_size;
-        let lost = Dropped::last_frame(&prep, renderer.as_ref())?;
+        let lost = Dropped::last_frame(&prep, &renderer)?;
         if let Some(w) = lost.warning(&format!("the image {}", render_path.display()), None, max_binding) {
             dropped::warn(&mut 0, &w);
         }
     }
     // The first renderer is dropped: only one set of targets is alive at a time.
     let mut heat = prep.renderer(true)?;
-    bench::measure(&prep, heat.as_mut(), 0, 1)?;
-    let note = write_image(&prep, heat.as_ref(), true, heatmap_path)?;
+    bench::measure(&prep, &mut heat, 0, 1)?;
+    let note = write_image(&prep, &heat, true, heatmap_path)?;
     prep.check_gpu_errors()?;
     if let Some(n) = note {
         println!("note:       {n}");

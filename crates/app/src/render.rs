@@ -19,8 +19,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use tiledlight_gpu::diagnostics::Diagnostics as _;
-use tiledlight_gpu::targets::Renderer;
+use tiledlight_frame::Diagnostics as _;
+use tiledlight_frame::{FrameRenderer, Renderer};
 use tiledlight_gpu::tonemap::HeatmapOf;
 use tiledlight_setup::{shadow_atlas_description, Method, Prepared};
 
@@ -98,7 +98,7 @@ pub fn last_frame_times(m: &Measurement, dropped: &Dropped) -> String {
 
 /// Reads the renderer's image, adds the legend for a heat map, and writes the PNG.
 /// Returns a note when the legend did not fit.
-pub fn write_image(prep: &Prepared, renderer: &dyn Renderer, heatmap: bool, path: &Path) -> Result<Option<String>> {
+pub fn write_image(prep: &Prepared, renderer: &FrameRenderer, heatmap: bool, path: &Path) -> Result<Option<String>> {
     let ldr = renderer.read_ldr(&prep.ctx).context("reading the image back")?;
     let mut img = rgb_image(prep.settings.width, prep.settings.height, &ldr)?;
     let mut note = None;
@@ -124,13 +124,13 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let prep = Prepared::new(&args.scene.settings()?)?;
     crate::scene_setup::print_load_warnings(&prep.scene_warnings);
     let mut renderer = prep.renderer_with_heatmap(heatmap)?;
-    let m = bench::measure(&prep, renderer.as_mut(), 0, RENDER_FRAMES)?;
-    let stats = prep.culling_stats(renderer.as_ref())?;
-    let blended = prep.blended_stats(renderer.as_ref())?;
+    let m = bench::measure(&prep, &mut renderer, 0, RENDER_FRAMES)?;
+    let stats = prep.culling_stats(&renderer)?;
+    let blended = prep.blended_stats(&renderer)?;
     let edges = renderer.edge_pixels(&prep.ctx).context("reading the MSAA edge count back")?;
     // The image is the last frame: what it lost is its own headers' (read back, stalling).
-    let dropped = Dropped::last_frame(&prep, renderer.as_ref())?;
-    let note = write_image(&prep, renderer.as_ref(), heatmap.is_some(), &out)?;
+    let dropped = Dropped::last_frame(&prep, &renderer)?;
+    let note = write_image(&prep, &renderer, heatmap.is_some(), &out)?;
     let exposure = renderer.auto_exposure(&prep.ctx).context("reading the exposure back")?;
     prep.check_gpu_errors()?;
 
@@ -158,7 +158,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             100.0 * e as f64 / pixels as f64
         );
     }
-    if let Some(a) = renderer.shadow_atlas() {
+    if let Some(a) = renderer.outputs().shadow_atlas {
         println!(
             "shadow map: {} faces drawn by the last frame (of {RENDER_FRAMES}; still lights' faces are drawn by the first); {}",
             a.faces_drawn_last_frame(),
@@ -182,7 +182,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         dropped::warn(&mut warnings, &w);
     }
     let what = format!("the image {}", out.display());
-    if let Some(w) = crate::vpl_args::refused_warning(renderer.as_ref(), &prep.ctx, &what)? {
+    if let Some(w) = crate::vpl_args::refused_warning(&renderer, &prep.ctx, &what)? {
         dropped::warn(&mut warnings, &w);
     }
     dropped::strict(args.scene.strict, warnings)

@@ -38,9 +38,9 @@ impl From<MethodArg> for Method {
     fn from(m: MethodArg) -> Self {
         match m {
             MethodArg::ForwardPlus => Method::ForwardPlus,
-            MethodArg::BruteForce => Method::BruteForce,
-            MethodArg::BruteForceNoCutoff => Method::BruteForceNoCutoff,
-            MethodArg::Deferred => Method::Deferred,
+            MethodArg::BruteForce => Method::BruteForce { cutoff: true },
+            MethodArg::BruteForceNoCutoff => Method::BruteForce { cutoff: false },
+            MethodArg::Deferred => Method::TiledDeferred,
         }
     }
 }
@@ -49,9 +49,9 @@ impl From<Method> for MethodArg {
     fn from(m: Method) -> Self {
         match m {
             Method::ForwardPlus => MethodArg::ForwardPlus,
-            Method::BruteForce => MethodArg::BruteForce,
-            Method::BruteForceNoCutoff => MethodArg::BruteForceNoCutoff,
-            Method::Deferred => MethodArg::Deferred,
+            Method::BruteForce { cutoff: true } => MethodArg::BruteForce,
+            Method::BruteForce { cutoff: false } => MethodArg::BruteForceNoCutoff,
+            Method::TiledDeferred => MethodArg::Deferred,
         }
     }
 }
@@ -656,7 +656,7 @@ mod tests {
             emissive: false,
             width: 64,
             height: 36,
-            method: Method::Deferred,
+            method: Method::TiledDeferred,
             tile_size: 8,
             capacity: Some(9),
             grid_pairs: Some(77),

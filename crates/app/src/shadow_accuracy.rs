@@ -44,10 +44,10 @@ use tiledlight_cull::light::shadow_casters;
 use tiledlight_cull::raycast::{surface_points, SurfacePoint, Triangles};
 use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat, ShadowOptions, TILE_SIZES};
 use tiledlight_cull::Light;
-use tiledlight_forward::{ForwardRenderer, ForwardSettings};
-use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_frame::Diagnostics as _;
+use tiledlight_frame::Renderer;
+use tiledlight_frame::{FrameRenderer, FrameSettings};
 use tiledlight_gpu::lights_gpu::LightBuffers;
-use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::{ContextOptions, GpuContext};
 use tiledlight_metrics::{flip, luminance, HdrError};
@@ -165,7 +165,7 @@ pub fn settings_of(args: &ShadowAccuracyArgs) -> Result<Settings> {
     }
     ensure!(scene.msaa == 1, "--msaa {}: shadow-accuracy scores pixel centres, MSAA must be 1", scene.msaa);
     let mut settings = scene.settings()?;
-    settings.method = Method::BruteForce;
+    settings.method = Method::BruteForce { cutoff: true };
     Ok(settings)
 }
 
@@ -284,7 +284,7 @@ fn reference(
     prep: &Prepared,
     casters: &[Light],
     tris: &Triangles,
-    base: &ForwardSettings,
+    base: &FrameSettings,
     offset: f32,
     threads: usize,
 ) -> Result<Reference> {
@@ -303,12 +303,12 @@ fn reference(
         render_s: 0.0,
     };
     let mut points: Vec<Option<SurfacePoint>> = Vec::new();
-    let settings = ForwardSettings { shadows: ShadowOptions::default(), ..*base };
+    let settings = FrameSettings { shadows: ShadowOptions::default(), ..*base };
     for (k, light) in casters.iter().enumerate() {
         let t0 = Instant::now();
         let lights = LightBuffers::new(&ctx.device, std::slice::from_ref(light))
             .with_context(|| format!("uploading caster {k} alone"))?;
-        let mut r = ForwardRenderer::new(ctx, &prep.scene_gpu, &lights, w, h, settings)
+        let mut r = FrameRenderer::new(ctx, &prep.scene_gpu, &lights, w, h, settings)
             .with_context(|| format!("building the renderer of caster {k} alone"))?;
         r.render_once(ctx, &mut timer, &prep.scene_gpu, &prep.camera)
             .with_context(|| format!("rendering caster {k} alone"))?;
@@ -515,7 +515,7 @@ pub fn run(args: &ShadowAccuracyArgs) -> Result<()> {
 
     // One fixed exposure for every configuration (the CPU tonemap below checks the GPU's):
     // with automatic exposure, the one the reference image gets.
-    let mut base = ForwardSettings { ambient: Vec3::ZERO, auto_exposure: false, ..a.forward_settings(false) };
+    let mut base = FrameSettings { ambient: Vec3::ZERO, auto_exposure: false, ..a.frame_settings(false) };
     let reference = reference(&prep, &casters, &tris, &base, args.ray_offset, threads)?;
     let exposure = if a.auto_exposure {
         tiledlight_cull::exposure::auto_exposure(reference.hdr.as_flattened())
@@ -546,8 +546,8 @@ pub fn run(args: &ShadowAccuracyArgs) -> Result<()> {
     for (ci, opts) in configs.iter().enumerate() {
         let what = format!("{} ({})", specs[ci], shadow_options_description(opts));
         pb.set_message(what.clone());
-        let settings = ForwardSettings { shadows: *opts, ..base };
-        let mut r = ForwardRenderer::new(&prep.ctx, &prep.scene_gpu, &prep.lights, w, h, settings)
+        let settings = FrameSettings { shadows: *opts, ..base };
+        let mut r = FrameRenderer::new(&prep.ctx, &prep.scene_gpu, &prep.lights, w, h, settings)
             .with_context(|| format!("{what}: building the renderer"))?;
         // The first frame draws every face, with the lights where the reference has them.
         let mut timer = GpuTimer::new(&prep.ctx).context("creating the GPU timer")?;
@@ -555,7 +555,7 @@ pub fn run(args: &ShadowAccuracyArgs) -> Result<()> {
         let s = r.read_hdr(&prep.ctx).context("reading the image back")?;
         let gpu_ldr = r.read_ldr(&prep.ctx).context("reading the image back")?;
         prep.check_gpu_errors()?;
-        let atlas = r.shadow_atlas().context("internal: a renderer with casters has no shadow atlas")?;
+        let atlas = r.outputs().shadow_atlas.context("internal: a renderer with casters has no shadow atlas")?;
         let faces = atlas.layout.faces();
         let (atlas_bytes, atlas_line) = (atlas.memory.total(), tiledlight_setup::shadow_atlas_description(atlas));
         // Unscored pixels: the reference is the image itself.
@@ -635,7 +635,7 @@ pub fn run(args: &ShadowAccuracyArgs) -> Result<()> {
             seed: a.seed,
             threshold: a.threshold,
             exposure,
-            method: Method::BruteForce.name(),
+            method: Method::BruteForce { cutoff: true }.name(),
             ambient: 0.0,
             ray_offset: args.ray_offset,
             frames: args.frames,

@@ -291,9 +291,9 @@ fn measure_point(
         }
     };
     let mut renderer = p.renderer(false).with_context(|| what.clone())?;
-    let m = bench::measure(p, renderer.as_mut(), args.warmup, args.frames).with_context(|| what.clone())?;
+    let m = bench::measure(p, &mut renderer, args.warmup, args.frames).with_context(|| what.clone())?;
     ensure!(m.timestamps, "the adapter has no timestamp queries: a sweep needs GPU pass times");
-    let stats = p.culling_stats(renderer.as_ref())?;
+    let stats = p.culling_stats(&renderer)?;
     let passes = m.passes();
     ensure!(!passes.is_empty(), "{what}: no frame's timestamps came back");
     let total: f64 = passes.iter().map(|ps| ps.summary.median_ms).sum();

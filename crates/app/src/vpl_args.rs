@@ -6,7 +6,7 @@
 
 use clap::{Args, ValueEnum};
 use tiledlight_cull::vpl::{VplConfig, VplShading, DEFAULT_BLOCK, DEFAULT_CAP, DEFAULT_RSM_SIZE};
-use tiledlight_gpu::targets::Renderer;
+use tiledlight_frame::FrameRenderer;
 use tiledlight_gpu::GpuContext;
 
 /// How VPLs light a surface.
@@ -94,7 +94,7 @@ impl VplArgs {
 
 /// The `warning:` line for VPLs the cap refused in the last frame of `renderer` (None:
 /// none refused, or no VPLs). Reads the count back: call after the frames, not in them.
-pub fn refused_warning(renderer: &dyn Renderer, ctx: &GpuContext, what: &str) -> anyhow::Result<Option<String>> {
+pub fn refused_warning(renderer: &FrameRenderer, ctx: &GpuContext, what: &str) -> anyhow::Result<Option<String>> {
     Ok(renderer.vpl_count(ctx)?.and_then(|count| refused_line(what, count)))
 }
 

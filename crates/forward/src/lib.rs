@@ -1,9 +1,7 @@
-//! tiledlight-forward: the Forward+ renderer (depth pre-pass, tiled light culling, forward
-//! shading of each tile's list), the brute-force reference renderer (every light for every
-//! pixel, with or without the radius cutoff) and the heat-map view of lights per tile.
-//! Depends on tiledlight-gpu (passes, buffers) and tiledlight-cull (camera, grid).
+//! tiledlight-forward: the forward shading pass of Forward+ (each fragment's tile list) and
+//! of the brute-force reference (every light for every fragment, with or without the
+//! radius cutoff). Its frame (depth pre-pass, culling, this pass) is
+//! `tiledlight_frame::forward_plus`. Depends on tiledlight-gpu (passes, buffers),
+//! tiledlight-vpl's bindings and tiledlight-cull.
 
-pub mod renderer;
 pub mod shading;
-
-pub use renderer::{ForwardRenderer, ForwardSettings, Method};

@@ -14,10 +14,11 @@ use crate::lights_gpu::LightBuffers;
 use crate::scene_gpu::{DrawKind, MaterialFeatures, SceneGpu};
 use tiledlight_cull::shadow::ShadowOptions;
 
-/// How a frame is lit.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// How a frame is lit: the one method type of every crate (settings, renderers, reports).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Method {
     /// Depth pre-pass, tiled culling, forward shading of each tile's list.
+    #[default]
     ForwardPlus,
     /// G-buffer, then one compute pass that culls each tile and shades it.
     TiledDeferred,
@@ -30,9 +31,35 @@ pub enum Method {
 }
 
 impl Method {
+    /// Every method, in the order reports list them.
+    pub const ALL: [Method; 4] = [
+        Method::ForwardPlus,
+        Method::BruteForce { cutoff: true },
+        Method::BruteForce { cutoff: false },
+        Method::TiledDeferred,
+    ];
+
     /// True for the methods with tiles (culling, light grid, heat map).
     pub fn is_tiled(self) -> bool {
         !matches!(self, Method::BruteForce { .. })
+    }
+
+    /// The flag value, for the command line, reports and JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::ForwardPlus => "forward-plus",
+            Method::BruteForce { cutoff: true } => "brute-force",
+            Method::BruteForce { cutoff: false } => "brute-force-no-cutoff",
+            Method::TiledDeferred => "deferred",
+        }
+    }
+
+    /// The method of flag value `name` ([`Method::name`]).
+    pub fn from_name(name: &str) -> Result<Self, String> {
+        Self::ALL.into_iter().find(|m| m.name() == name).ok_or_else(|| {
+            let names: Vec<&str> = Self::ALL.iter().map(|m| m.name()).collect();
+            format!("method {name:?}: use one of {}", names.join(", "))
+        })
     }
 }
 
@@ -106,8 +133,7 @@ pub struct Features {
     /// The blended draw kinds (empty: no blended geometry, so no blended depth, lists,
     /// pipelines or layer exist).
     pub blended_kinds: Vec<DrawKind>,
-    /// How blended geometry is composited (used only with blended kinds; the renderers set
-    /// it from their settings).
+    /// How blended geometry is composited (used only with blended kinds).
     pub blend_mode: BlendMode,
     /// Shadow casters, when some light casts a shadow (None: no atlas, no shadow pass, no
     /// shadow variant).
@@ -118,22 +144,22 @@ pub struct Features {
     /// own.
     pub frustum_clusters: bool,
     /// Virtual point lights (`--vpl`, crate tiledlight-vpl): the RSM and generation step
-    /// and the `VPLS` shading variant, in every method. False from [`Features::new`]; the
-    /// renderer sets it from its settings.
+    /// and the `VPLS` shading variant, in every method.
     pub vpl: bool,
 }
 
 impl Features {
     /// The features of `scene` lit by `lights` with `method`, culling options `cull`,
-    /// `msaa` samples, (Tiled Deferred) `gbuffer_rts` G-buffer targets, and shadows drawn
-    /// with `shadow` for the casters `lights` were packed with.
+    /// `msaa` samples, (Tiled Deferred) `gbuffer_rts` G-buffer targets, shadows drawn
+    /// with `shadow` for the casters `lights` were packed with, blended geometry composited
+    /// by `blend_mode`, and virtual point lights when `vpl`.
     pub fn new(
         scene: &SceneGpu,
         lights: &LightBuffers,
         method: Method,
         cull: &CullOptions,
         (msaa, gbuffer_rts): (u32, u32),
-        shadow: ShadowOptions,
+        (shadow, blend_mode, vpl): (ShadowOptions, BlendMode, bool),
     ) -> Self {
         let (points, spots) = (lights.packed.shadow_points, lights.packed.shadow_spots);
         let tiled = method.is_tiled();
@@ -146,7 +172,7 @@ impl Features {
             materials: scene.material_features,
             draw_kinds: scene.opaque_kinds(),
             blended_kinds: scene.kinds().into_iter().filter(|k| k.blended).collect(),
-            blend_mode: BlendMode::Sorted,
+            blend_mode,
             msaa,
             half_z: tiled && cull.half_z,
             coarse: tiled && cull.coarse,
@@ -154,7 +180,7 @@ impl Features {
             extra_targets: if method == Method::TiledDeferred { gbuffer_rts.saturating_sub(2) } else { 0 },
             shadows: (points + spots > 0).then_some(Shadows { points, spots, options: shadow }),
             frustum_clusters: tiled && cull.clusters.is_some_and(|c| !c.geometry_only),
-            vpl: false,
+            vpl,
         }
     }
 

@@ -93,7 +93,7 @@ impl FrameExtras {
             width: settings.width,
             height: settings.height,
             exposure: (!settings.auto_exposure).then_some(settings.exposure),
-            ambient: settings.forward_settings(false).ambient,
+            ambient: settings.frame_settings(false).ambient,
         }
     }
 }

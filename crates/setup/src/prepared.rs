@@ -12,12 +12,10 @@ use std::sync::{Arc, Mutex};
 use anyhow::{bail, ensure, Context, Result};
 use tiledlight_cull::light::try_pack_lights_with_casters;
 use tiledlight_cull::Camera;
-use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
-use tiledlight_forward::{ForwardRenderer, ForwardSettings};
+use tiledlight_frame::{FrameRenderer, FrameSettings};
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::tonemap::HeatmapOf;
 use tiledlight_gpu::{ContextOptions, GpuContext, GpuError};
 use tiledlight_scene::{Aabb, CameraDesc, Light};
@@ -294,7 +292,7 @@ impl Prepared {
 
     /// Builds a renderer for the settings' method, screen and culling options, with the
     /// heat map of the opaque lists when `heatmap` ([`Prepared::renderer_with_heatmap`]).
-    pub fn renderer(&self, heatmap: bool) -> Result<Box<dyn Renderer>> {
+    pub fn renderer(&self, heatmap: bool) -> Result<FrameRenderer> {
         self.renderer_with_heatmap(heatmap.then_some(HeatmapOf::Opaque))
     }
 
@@ -307,7 +305,7 @@ impl Prepared {
     /// Builds a renderer for the settings' method, screen and culling options, drawing the
     /// heat map of grid `heatmap` when given. The blended lists' heat map needs a tiled
     /// method and blended geometry, the VPL lists' VPLs.
-    pub fn renderer_with_heatmap(&self, heatmap: Option<HeatmapOf>) -> Result<Box<dyn Renderer>> {
+    pub fn renderer_with_heatmap(&self, heatmap: Option<HeatmapOf>) -> Result<FrameRenderer> {
         let a = &self.settings;
         if heatmap.is_some() && !a.method.is_tiled() {
             bail!("--heatmap needs a tiled method, forward-plus or deferred ({} has no tiles)", a.method.name());
@@ -325,26 +323,14 @@ impl Prepared {
             );
         }
         let of = heatmap.unwrap_or_default();
-        let r: Result<Box<dyn Renderer>, _> = match a.method {
-            Method::Deferred => DeferredRenderer::new(
-                &self.ctx,
-                &self.scene_gpu,
-                &self.lights,
-                a.width,
-                a.height,
-                DeferredSettings { heatmap_of: of, ..a.deferred_settings(heatmap.is_some()) },
-            )
-            .map(|r| Box::new(r) as Box<dyn Renderer>),
-            _ => ForwardRenderer::new(
-                &self.ctx,
-                &self.scene_gpu,
-                &self.lights,
-                a.width,
-                a.height,
-                ForwardSettings { heatmap_of: of, ..a.forward_settings(heatmap.is_some()) },
-            )
-            .map(|r| Box::new(r) as Box<dyn Renderer>),
-        };
+        let r = FrameRenderer::new(
+            &self.ctx,
+            &self.scene_gpu,
+            &self.lights,
+            a.width,
+            a.height,
+            FrameSettings { heatmap_of: of, ..a.frame_settings(heatmap.is_some()) },
+        );
         let what = format!("building the {} renderer at {}x{}", a.method.name(), a.width, a.height);
         let r = r.with_context(|| what.clone())?;
         self.check_gpu_errors_while(&what)?;
@@ -353,13 +339,13 @@ impl Prepared {
 
     /// The culling statistics of the last frame `renderer` (built by this run) drew:
     /// [`culling_stats`] with this run's device and culling options.
-    pub fn culling_stats(&self, renderer: &dyn Renderer) -> Result<Option<CullingStats>> {
+    pub fn culling_stats(&self, renderer: &FrameRenderer) -> Result<Option<CullingStats>> {
         culling_stats(&self.ctx, renderer, &self.settings.cull_options())
     }
 
     /// The blended geometry of the last frame `renderer` (built by this run) drew:
     /// [`blended_stats`] with this run's device; None without blended geometry.
-    pub fn blended_stats(&self, renderer: &dyn Renderer) -> Result<Option<BlendedStats>> {
+    pub fn blended_stats(&self, renderer: &FrameRenderer) -> Result<Option<BlendedStats>> {
         blended_stats(&self.ctx, renderer)
     }
 
@@ -412,14 +398,14 @@ impl Prepared {
         }
         let method = match a.method {
             Method::ForwardPlus => format!("forward-plus ({})", a.culling_description()),
-            Method::Deferred => {
+            Method::TiledDeferred => {
                 format!("deferred ({}, {} G-buffer targets)", a.culling_description(), a.gbuffer_rts)
             }
             m => format!("{} (every light for every pixel)", m.name()),
         };
         if a.msaa > 1 {
             res.push_str(&format!(", MSAA {}x", a.msaa));
-            if a.method == Method::Deferred {
+            if a.method == Method::TiledDeferred {
                 res.push_str(&format!(
                     " (edge test: {} of the view distance off the tangent plane, or normals {} deg apart)",
                     a.edge_distance, a.edge_normal_deg

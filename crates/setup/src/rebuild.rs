@@ -161,7 +161,7 @@ mod tests {
     #[test]
     fn renderer_settings_rebuild_only_the_renderer() {
         for f in [
-            (|s: &mut Settings| s.method = Method::Deferred) as fn(&mut Settings),
+            (|s: &mut Settings| s.method = Method::TiledDeferred) as fn(&mut Settings),
             |s| s.tile_size = 32,
             |s| s.capacity = Some(64),
             |s| s.aabb = true,

@@ -20,9 +20,10 @@ use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat, ShadowOptions, TILE_SI
 use tiledlight_cull::tiles::MAX_SCREEN_SIDE;
 use tiledlight_cull::vpl::VplConfig;
 use tiledlight_deferred::shading::workgroup_bytes_besides_lists;
-use tiledlight_deferred::{DeferredSettings, EdgeTest};
-use tiledlight_forward::ForwardSettings;
+use tiledlight_deferred::EdgeTest;
+use tiledlight_frame::FrameSettings;
 use tiledlight_gpu::features::BlendMode;
+pub use tiledlight_gpu::features::Method;
 use tiledlight_gpu::light_assign::CLUSTER_TILE_SIZES;
 use tiledlight_gpu::light_cull::{ClusterOptions, CullOptions, CULL_WORKGROUP_BYTES};
 use tiledlight_scene::{
@@ -82,51 +83,6 @@ pub fn surface_exposure(lights_per_point: f32, threshold: f32) -> f32 {
     let irradiance = surface_irradiance_factor(DEFAULT_SURFACE_OFFSET) * lights_per_point * threshold * 0.5;
     let radiance = ASSUMED_ALBEDO / std::f32::consts::PI * irradiance;
     SURFACE_EXPOSURE_TARGET / radiance
-}
-
-/// Which renderer draws the frame.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum Method {
-    /// Depth pre-pass, tiled light culling, forward shading of each tile's list.
-    #[default]
-    ForwardPlus,
-    /// Every light for every pixel, with the radius cutoff (the reference for culling).
-    BruteForce,
-    /// Every light for every pixel, plain inverse-square (the reference for the cutoff).
-    BruteForceNoCutoff,
-    /// G-buffer pass, then one compute pass that culls each tile's lights and shades it.
-    Deferred,
-}
-
-impl Method {
-    /// Every method.
-    pub const ALL: [Method; 4] =
-        [Method::ForwardPlus, Method::BruteForce, Method::BruteForceNoCutoff, Method::Deferred];
-
-    /// The forward renderer's method (None for Tiled Deferred).
-    pub fn method(self) -> Option<tiledlight_forward::Method> {
-        match self {
-            Method::ForwardPlus => Some(tiledlight_forward::Method::ForwardPlus),
-            Method::BruteForce => Some(tiledlight_forward::Method::BruteForce { cutoff: true }),
-            Method::BruteForceNoCutoff => Some(tiledlight_forward::Method::BruteForce { cutoff: false }),
-            Method::Deferred => None,
-        }
-    }
-
-    /// The flag value, for reports and JSON.
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::ForwardPlus => "forward-plus",
-            Method::BruteForce => "brute-force",
-            Method::BruteForceNoCutoff => "brute-force-no-cutoff",
-            Method::Deferred => "deferred",
-        }
-    }
-
-    /// True for the methods that cull lights per tile.
-    pub fn is_tiled(self) -> bool {
-        matches!(self, Method::ForwardPlus | Method::Deferred)
-    }
 }
 
 /// Where the scene comes from.
@@ -507,30 +463,15 @@ impl Settings {
     /// Workgroup memory the method's culling kernel needs besides its lists (bytes).
     pub fn reserved_workgroup_bytes(&self) -> u32 {
         match self.method {
-            Method::Deferred => workgroup_bytes_besides_lists(self.tile_size, self.msaa),
+            Method::TiledDeferred => workgroup_bytes_besides_lists(self.tile_size, self.msaa),
             _ => CULL_WORKGROUP_BYTES,
         }
     }
 
-    /// The forward renderer's settings (`heatmap` only for the tiled method).
-    pub fn forward_settings(&self, heatmap: bool) -> ForwardSettings {
-        ForwardSettings {
-            method: self.method.method().unwrap_or(tiledlight_forward::Method::ForwardPlus),
-            cull: self.cull_options(),
-            exposure: self.exposure,
-            auto_exposure: self.auto_exposure,
-            heatmap,
-            msaa: self.msaa,
-            shadows: self.shadow_options(),
-            blend: self.blend_mode,
-            vpl: self.vpl,
-            ..ForwardSettings::default()
-        }
-    }
-
-    /// The Tiled Deferred renderer's settings.
-    pub fn deferred_settings(&self, heatmap: bool) -> DeferredSettings {
-        DeferredSettings {
+    /// The frame renderer's settings (`heatmap` only for a tiled method).
+    pub fn frame_settings(&self, heatmap: bool) -> FrameSettings {
+        FrameSettings {
+            method: self.method,
             cull: self.cull_options(),
             gbuffer_rts: self.gbuffer_rts,
             exposure: self.exposure,
@@ -541,7 +482,7 @@ impl Settings {
             shadows: self.shadow_options(),
             blend: self.blend_mode,
             vpl: self.vpl,
-            ..DeferredSettings::default()
+            ..FrameSettings::default()
         }
     }
 
@@ -699,7 +640,7 @@ mod tests {
         let bad = Some(VplConfig { block: 3, ..VplConfig::default() });
         let e = err(Settings { vpl: bad, ..casters.clone() });
         assert!(e.contains("--vpl") && e.contains("block 3"), "{e}");
-        assert_eq!(Settings { vpl, ..casters }.forward_settings(false).vpl, vpl);
+        assert_eq!(Settings { vpl, ..casters }.frame_settings(false).vpl, vpl);
     }
 
     #[test]
@@ -781,17 +722,17 @@ mod tests {
     #[test]
     fn renderer_settings_follow_the_settings() {
         let s = Settings {
-            method: Method::BruteForceNoCutoff,
+            method: Method::BruteForce { cutoff: false },
             capacity: Some(99),
             half_z: true,
             flat_cull: true,
             msaa: 4,
             ..small()
         };
-        let f = s.forward_settings(false);
-        assert_eq!(f.method, tiledlight_forward::Method::BruteForce { cutoff: false });
+        let f = s.frame_settings(false);
+        assert_eq!(f.method, Method::BruteForce { cutoff: false });
         assert_eq!((f.cull.capacity, f.cull.half_z, f.cull.coarse, f.cull.samples, f.msaa), (99, true, false, 4, 4));
-        let d = Settings { gbuffer_rts: 4, edge_distance: 0.5, ..s.clone() }.deferred_settings(true);
+        let d = Settings { gbuffer_rts: 4, edge_distance: 0.5, ..s.clone() }.frame_settings(true);
         assert_eq!((d.gbuffer_rts, d.edge.distance, d.heatmap), (4, 0.5, true));
         assert_eq!(
             Settings { aabb: true, ..s }.culling_description(),
@@ -800,7 +741,7 @@ mod tests {
         assert_eq!((f.shadows, d.shadows), (ShadowOptions::default(), ShadowOptions::default()));
         let sh = Settings { shadow_size: 512, shadow_filter: 3, shadow_format: ShadowFormat::Depth32, ..small() };
         let want = ShadowOptions { tile_size: 512, filter: ShadowFilter::Pcf3, format: ShadowFormat::Depth32 };
-        assert_eq!((sh.forward_settings(false).shadows, sh.deferred_settings(false).shadows), (want, want));
+        assert_eq!((sh.frame_settings(false).shadows, sh.frame_settings(false).shadows), (want, want));
         // Shadows are mentioned only when some light casts one.
         assert_eq!(sh.shadow_description(), None);
         let one = Settings { shadow_spot_lights: 1, shadow_filter: 1, ..sh };
@@ -812,7 +753,7 @@ mod tests {
         assert_eq!((f.blend, d.blend), (BlendMode::Sorted, BlendMode::Sorted));
         let oit = Settings { blend_mode: BlendMode::WeightedOit, ..small() };
         assert_eq!(
-            (oit.forward_settings(false).blend, oit.deferred_settings(false).blend),
+            (oit.frame_settings(false).blend, oit.frame_settings(false).blend),
             (BlendMode::WeightedOit, BlendMode::WeightedOit)
         );
         assert_eq!(oit.blend_description(false), None);

@@ -15,14 +15,14 @@ use tiledlight_cull::reference::depth_tested_blended;
 use tiledlight_cull::shadow::{AtlasLayout, ShadowOptions};
 use tiledlight_cull::tiles::tile_depth_bounds_samples;
 use tiledlight_cull::TileGrid;
-use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_frame::Diagnostics as _;
+use tiledlight_frame::FrameRenderer;
 use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::memory::format_bytes;
 use tiledlight_gpu::readback::read_depth;
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
-use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::GpuContext;
 
 use crate::settings::{blend_mode_description, shadow_options_description};
@@ -98,12 +98,16 @@ impl CullingStats {
 /// Reads the last frame's lists and depth back and computes the statistics (None for a
 /// renderer without culling). `renderer` was built on `ctx` with the culling `options`
 /// (tile size, capacity, half-z) given here.
-pub fn culling_stats(ctx: &GpuContext, renderer: &dyn Renderer, options: &CullOptions) -> Result<Option<CullingStats>> {
-    let Some(grid) = renderer.light_grid() else {
+pub fn culling_stats(
+    ctx: &GpuContext,
+    renderer: &FrameRenderer,
+    options: &CullOptions,
+) -> Result<Option<CullingStats>> {
+    let Some(grid) = renderer.outputs().light_grid else {
         return Ok(None);
     };
     let depth = renderer.read_depth(ctx).context("reading the depth buffer back")?;
-    let depth = (depth.as_slice(), renderer.targets().samples);
+    let depth = (depth.as_slice(), renderer.outputs().targets.samples);
     // The grid's own tiles: a clustered grid's differ from the renderer's shading tiles.
     grid_stats(ctx, grid, grid.tiles, depth, options).map(Some)
 }
@@ -188,8 +192,8 @@ impl std::fmt::Display for BlendedStats {
 /// scene has none. Its light lists are read back with the opaque and the blended depth;
 /// the tiles counted are those with a blended sample in front of the opaque depth (the
 /// blended culling's own test, `tiledlight_cull::reference::depth_tested_blended`).
-pub fn blended_stats(ctx: &GpuContext, renderer: &dyn Renderer) -> Result<Option<BlendedStats>> {
-    let Some(b) = renderer.blended() else {
+pub fn blended_stats(ctx: &GpuContext, renderer: &FrameRenderer) -> Result<Option<BlendedStats>> {
+    let Some(b) = renderer.outputs().blended else {
         return Ok(None);
     };
     // Without lists of its own (brute force, or frustum clusters serving it) the blended
@@ -201,8 +205,8 @@ pub fn blended_stats(ctx: &GpuContext, renderer: &dyn Renderer) -> Result<Option
             let blended =
                 read_depth(&ctx.device, &ctx.queue, &d.texture).context("reading the blended depth buffer back")?;
             let tested = depth_tested_blended(&opaque, &blended);
-            let depth = (tested.as_slice(), renderer.targets().samples);
-            Some(grid_stats(ctx, &c.grid, renderer.grid(), depth, &c.options)?)
+            let depth = (tested.as_slice(), renderer.outputs().targets.samples);
+            Some(grid_stats(ctx, &c.grid, renderer.outputs().grid, depth, &c.options)?)
         }
     };
     Ok(Some(BlendedStats { instances: b.instance_count(), mode: b.mode(), culling, memory: b.memory.total() }))

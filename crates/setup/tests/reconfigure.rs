@@ -10,7 +10,7 @@
 
 use tiledlight_cull::light::try_pack_lights_with_casters;
 use tiledlight_cull::shadow::ShadowFormat;
-use tiledlight_gpu::diagnostics::Diagnostics as _;
+use tiledlight_frame::Diagnostics as _;
 use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_scene::GridDensity;
@@ -82,17 +82,17 @@ fn reconfigure_rebuilds_what_the_plan_says_and_ends_where_a_fresh_load_would() {
     let seed_2 = before.read_hdr(&prep.ctx).unwrap();
     assert_ne!(seed_1, seed_2, "other lights, another image");
     assert_same_frame(&prep.ctx, "light data in place", &seed_2, &fresh.read_hdr(&prep.ctx).unwrap());
-    let stats = prep.culling_stats(fresh.as_ref()).unwrap().expect("Forward+ culls");
+    let stats = prep.culling_stats(&fresh).unwrap().expect("Forward+ culls");
     assert!(stats.tiles_with_geometry > 0 && stats.pairs > 0, "{stats}");
     drop((before, fresh));
 
     let steps = [
         Settings { lights: Some(20), spot_lights: Some(6), ..s1.clone() },
-        Settings { lights: Some(20), spot_lights: Some(6), method: Method::Deferred, width: 80, ..s1.clone() },
+        Settings { lights: Some(20), spot_lights: Some(6), method: Method::TiledDeferred, width: 80, ..s1.clone() },
         Settings {
             lights: Some(20),
             spot_lights: Some(6),
-            method: Method::Deferred,
+            method: Method::TiledDeferred,
             width: 80,
             grid_objects: 4,
             density: GridDensity::Low,
@@ -137,14 +137,14 @@ fn shadow_casters_follow_the_settings_through_reconfigure() {
     let mut prep = Prepared::new(&s0).unwrap();
     assert_matches_a_fresh_load(&prep, &s0);
     let mut timer = GpuTimer::new(&prep.ctx).unwrap();
-    let faces = |r: &dyn tiledlight_gpu::targets::Renderer| r.shadow_atlas().map(|a| a.faces_drawn_last_frame());
+    let faces = |r: &dyn tiledlight_frame::Renderer| r.outputs().shadow_atlas.map(|a| a.faces_drawn_last_frame());
 
     // The first frame draws every face (2 x 6 + 1), a still one none.
     let mut before = prep.renderer(false).unwrap();
     before.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
-    assert_eq!(faces(before.as_ref()), Some(13));
+    assert_eq!(faces(&before), Some(13));
     before.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
-    assert_eq!(faces(before.as_ref()), Some(0));
+    assert_eq!(faces(&before), Some(0));
 
     // New light data, the same casters: in place; told, the renderer redraws every caster
     // and draws what a fresh renderer draws.
@@ -153,7 +153,7 @@ fn shadow_casters_follow_the_settings_through_reconfigure() {
     assert_matches_a_fresh_load(&prep, &s1);
     before.lights_moved(&prep.ctx.queue, &prep.lights.packed).unwrap();
     before.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
-    assert_eq!(faces(before.as_ref()), Some(13));
+    assert_eq!(faces(&before), Some(13));
     let mut fresh = prep.renderer(false).unwrap();
     fresh.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
     assert_same_frame(
@@ -171,21 +171,21 @@ fn shadow_casters_follow_the_settings_through_reconfigure() {
     assert_matches_a_fresh_load(&prep, &s2);
     let mut r = prep.renderer(false).unwrap();
     r.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
-    assert_eq!(faces(r.as_ref()), Some(4));
+    assert_eq!(faces(&r), Some(4));
     drop(r);
 
     // How they are drawn: the renderer only.
     let s3 = Settings { shadow_size: 256, shadow_filter: 1, shadow_format: ShadowFormat::Depth32, ..s2.clone() };
     assert_eq!(prep.reconfigure(&s3).unwrap(), Rebuild { renderer: true, ..Rebuild::default() });
     let r = prep.renderer(false).unwrap();
-    let atlas = r.shadow_atlas().expect("spots cast shadows");
+    let atlas = r.outputs().shadow_atlas.expect("spots cast shadows");
     assert_eq!((atlas.layout.tile, atlas.options.format), (256, ShadowFormat::Depth32));
     drop(r);
 
     // No casters: no atlas.
     let s4 = Settings { shadow_spot_lights: 0, ..s3 };
     assert_eq!(prep.reconfigure(&s4).unwrap().reload, Reload::LightBuffers);
-    assert!(prep.renderer(false).unwrap().shadow_atlas().is_none());
+    assert!(prep.renderer(false).unwrap().outputs().shadow_atlas.is_none());
     prep.check_gpu_errors().unwrap();
 }
 
@@ -197,8 +197,8 @@ fn transparent_objects_and_the_blend_mode_follow_the_settings_through_reconfigur
     let mut r = prep.renderer(false).unwrap();
     r.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
     // No transparent objects: no blended path, no report line.
-    assert!(!prep.has_blend && r.blended().is_none());
-    assert_eq!(prep.blended_stats(r.as_ref()).unwrap(), None);
+    assert!(!prep.has_blend && r.outputs().blended.is_none());
+    assert_eq!(prep.blended_stats(&r).unwrap(), None);
     assert!(prep.describe().iter().all(|(k, _)| k != "blended"));
     drop(r);
 
@@ -212,7 +212,7 @@ fn transparent_objects_and_the_blend_mode_follow_the_settings_through_reconfigur
     assert_eq!(line, "10 transparent grid objects (glass), sorted back to front, --blend-mode sorted");
     let mut r = prep.renderer(false).unwrap();
     r.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
-    let b = prep.blended_stats(r.as_ref()).unwrap().expect("blended geometry");
+    let b = prep.blended_stats(&r).unwrap().expect("blended geometry");
     assert_eq!((b.instances, b.mode), (10, BlendMode::Sorted));
     let lists = b.culling.as_ref().expect("Forward+ culls the blended geometry");
     assert_eq!(lists.lists_per_tile, 1);
@@ -226,18 +226,18 @@ fn transparent_objects_and_the_blend_mode_follow_the_settings_through_reconfigur
     assert_eq!(prep.reconfigure(&s2).unwrap(), Rebuild { renderer: true, ..Rebuild::default() });
     let mut r = prep.renderer(false).unwrap();
     r.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
-    let b = prep.blended_stats(r.as_ref()).unwrap().expect("blended geometry");
+    let b = prep.blended_stats(&r).unwrap().expect("blended geometry");
     assert_eq!((b.instances, b.mode), (10, BlendMode::WeightedOit));
     assert_ne!(r.read_hdr(&prep.ctx).unwrap(), sorted, "another way of compositing, another image");
     drop(r);
 
     // Tiled Deferred culls its own blended lists too; brute force has none.
-    for (method, lists) in [(Method::Deferred, true), (Method::BruteForce, false)] {
+    for (method, lists) in [(Method::TiledDeferred, true), (Method::BruteForce { cutoff: true }, false)] {
         let s = Settings { method, ..s2.clone() };
         assert_eq!(prep.reconfigure(&s).unwrap(), Rebuild { renderer: true, ..Rebuild::default() });
         let mut r = prep.renderer(false).unwrap();
         r.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
-        let b = prep.blended_stats(r.as_ref()).unwrap().expect("blended geometry");
+        let b = prep.blended_stats(&r).unwrap().expect("blended geometry");
         assert_eq!((b.instances, b.culling.is_some()), (10, lists), "{method:?}: {b}");
     }
 

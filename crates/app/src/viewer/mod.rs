@@ -34,9 +34,9 @@ use clap::Args;
 use tiledlight_cull::bounds::{sphere_vs_frustum, to_view};
 use tiledlight_cull::tiles::TileFrustum;
 use tiledlight_cull::Camera;
+use tiledlight_frame::{FrameRenderer, Renderer};
 use tiledlight_gpu::light_grid::GridStatus;
 use tiledlight_gpu::readback::read_texture;
-use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::HeatmapOf;
 use tiledlight_gpu::{ContextOptions, GpuContext};
@@ -234,7 +234,7 @@ struct Viewer {
     surface: wgpu::Surface<'static>,
     config: wgpu::SurfaceConfiguration,
     prep: Prepared,
-    renderer: Box<dyn Renderer>,
+    renderer: FrameRenderer,
     blit: Blit,
     display: DisplayImage,
     timer: GpuTimer,
@@ -535,7 +535,7 @@ impl Viewer {
             Command::Screenshot => {
                 let path = (1..).map(|n| PathBuf::from(format!("out/screenshot-{n}.png"))).find(|p| !p.exists());
                 if let Some(path) = path {
-                    match write_image(&self.prep, self.renderer.as_ref(), self.settings.effective_heatmap(), &path) {
+                    match write_image(&self.prep, &self.renderer, self.settings.effective_heatmap(), &path) {
                         Ok(_) => self.ui.notice = Some(format!("wrote {}", path.display())),
                         Err(e) => self.report(&e),
                     }
@@ -583,8 +583,8 @@ impl Viewer {
             lights: &self.prep.light_summary,
             memory: self.renderer.memory(),
             capacity: self.prep.settings.capacity(),
-            shadow_atlas: self.renderer.shadow_atlas(),
-            blended: self.renderer.blended(),
+            shadow_atlas: self.renderer.outputs().shadow_atlas,
+            blended: self.renderer.outputs().blended,
             size: (self.prep.settings.width, self.prep.settings.height),
             stats: &self.stats,
         };
@@ -664,9 +664,9 @@ impl Viewer {
         // A finished frame's light-grid headers, when their copies have arrived: a grid
         // grows for the next frame if that one dropped lights; one that cannot (the VPLs'
         // never does) is warned of.
-        let opaque = self.renderer.prepare(ctx);
-        let blended = self.renderer.blended_mut().and_then(|b| b.take_status());
-        let vpl = self.renderer.vpl_light_grid().and_then(|g| g.poll_status());
+        // (Never waits: it cannot fail on a read-back.)
+        let between = self.renderer.between_frames(ctx, false).unwrap_or_default();
+        let (opaque, blended, vpl) = (between.status, between.blended, between.vpl);
         self.grids = (opaque.or(self.grids.0), blended.or(self.grids.1), vpl.or(self.grids.2));
         let dropping = self.lasting_drops();
         self.stats.dropped = dropping;
@@ -680,7 +680,7 @@ impl Viewer {
             ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("viewer.frame") });
         self.renderer.record(&ctx.queue, &mut encoder, &self.timer, &self.prep.scene_gpu, &camera);
         let extra = self.egui_renderer.update_buffers(&ctx.device, &ctx.queue, &mut encoder, &paint, &screen);
-        let ldr = &self.renderer.targets().ldr;
+        let ldr = &self.renderer.outputs().targets.ldr;
         self.blit.record(&mut encoder, Some(&self.timer), ldr, &self.display, &target_srgb);
         let t = self.timer.begin("viewer.ui", &mut encoder);
         draw_ui(&self.egui_renderer, &mut encoder, &target, t.render_writes(), &paint, &screen);
@@ -712,13 +712,13 @@ impl Viewer {
             self.stats.passes = times;
         }
         self.stats.push_frame(dt * 1e3);
-        self.stats.shadow_faces = self.renderer.shadow_atlas().map(|a| a.faces_drawn_last_frame());
+        self.stats.shadow_faces = self.renderer.outputs().shadow_atlas.map(|a| a.faces_drawn_last_frame());
         self.frames += 1;
 
         if self.last_stats.is_none_or(|t| t.elapsed() >= STATS_PERIOD) || scripted_end {
             self.last_stats = Some(Instant::now());
             self.stats.visible_lights = self.visible_lights(&camera);
-            match self.prep.culling_stats(self.renderer.as_ref()) {
+            match self.prep.culling_stats(&self.renderer) {
                 Ok(c) => self.stats.culling = c,
                 Err(e) => self.report(&e),
             }
@@ -743,7 +743,7 @@ impl Viewer {
         }
         if scripted_end {
             if let Some(path) = self.screenshot.take() {
-                write_image(&self.prep, self.renderer.as_ref(), self.settings.effective_heatmap(), &path)?;
+                write_image(&self.prep, &self.renderer, self.settings.effective_heatmap(), &path)?;
                 println!("wrote {}", path.display());
             }
             self.print_state();
@@ -764,11 +764,12 @@ impl Viewer {
         let lasting = |s: Option<GridStatus>, capacity: Option<u32>| {
             s.filter(|s| !s.complete() && capacity.is_some_and(|c| s.needed() > c))
         };
-        let opaque = lasting(opaque, self.renderer.light_grid().map(|g| g.capacity()));
-        let blended_capacity = self.renderer.blended().and_then(|b| b.culling.as_ref()).map(|c| c.grid.capacity());
+        let opaque = lasting(opaque, self.renderer.outputs().light_grid.map(|g| g.capacity()));
+        let blended_capacity =
+            self.renderer.outputs().blended.and_then(|b| b.culling.as_ref()).map(|c| c.grid.capacity());
         let blended = lasting(blended, blended_capacity);
         // The VPL grid never grows: whatever it dropped lasts.
-        let vpl = lasting(vpl, self.renderer.vpl_light_grid().map(|g| g.capacity()));
+        let vpl = lasting(vpl, self.renderer.outputs().vpl_light_grid.map(|g| g.capacity()));
         let d = Dropped::of(opaque.as_slice(), blended.as_slice()).with_vpl(vpl.as_slice());
         let max_binding = self.prep.ctx.device.limits().max_storage_buffer_binding_size;
         d.warning("the frame", self.prep.settings.grid_pairs, max_binding)
@@ -796,7 +797,7 @@ impl Viewer {
         println!("viewer scene: {}", self.prep.scene_name);
         println!("viewer size: {}x{}", self.prep.settings.width, self.prep.settings.height);
         println!("viewer msaa: {}x", self.prep.settings.msaa);
-        if let Some(a) = self.renderer.shadow_atlas() {
+        if let Some(a) = self.renderer.outputs().shadow_atlas {
             let (points, spots) = self.prep.settings.shadow_casters();
             println!(
                 "viewer shadows: {points} point + {spots} spot casters, {} faces drawn by the last frame; {}",
@@ -804,7 +805,7 @@ impl Viewer {
                 shadow_atlas_description(a)
             );
         }
-        if let Some(b) = self.renderer.blended() {
+        if let Some(b) = self.renderer.outputs().blended {
             println!("viewer blended: {} instances, {}", b.instance_count(), blend_mode_description(b.mode()));
         }
         if let Some(c) = &self.stats.culling {

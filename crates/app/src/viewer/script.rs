@@ -181,7 +181,7 @@ mod tests {
         set(&mut s, "scene", "x.gltf").unwrap();
         assert_eq!(s.setup.scene, SceneSource::File("x.gltf".into()));
         set(&mut s, "heatmap", "on").unwrap();
-        assert_eq!((s.setup.method, s.heatmap), (tiledlight_setup::Method::BruteForce, true));
+        assert_eq!((s.setup.method, s.heatmap), (tiledlight_setup::Method::BruteForce { cutoff: true }, true));
         set(&mut s, "heatmap", "blended").unwrap();
         assert_eq!((s.heatmap, s.heatmap_of), (true, HeatmapOf::Blended));
         set(&mut s, "heatmap", "vpl").unwrap();

@@ -150,9 +150,9 @@ pub fn plan(old: &Settings, new: &Settings) -> Plan {
 /// The methods in the panel's order, with their labels.
 pub const METHODS: [(Method, &str); 4] = [
     (Method::ForwardPlus, "Forward+"),
-    (Method::Deferred, "Tiled Deferred"),
-    (Method::BruteForce, "Brute force"),
-    (Method::BruteForceNoCutoff, "Brute force, no cutoff"),
+    (Method::TiledDeferred, "Tiled Deferred"),
+    (Method::BruteForce { cutoff: true }, "Brute force"),
+    (Method::BruteForce { cutoff: false }, "Brute force, no cutoff"),
 ];
 
 /// The panel's label of a method.
@@ -194,7 +194,7 @@ mod tests {
         assert_eq!((p.setup.reload, p.renderer), (Reload::LightData, false));
         let p = with(|s| s.setup.lights = Some(7));
         assert_eq!((p.setup.reload, p.renderer), (Reload::LightBuffers, true));
-        let p = with(|s| s.setup.method = Method::Deferred);
+        let p = with(|s| s.setup.method = Method::TiledDeferred);
         assert_eq!((p.setup.reload, p.renderer, p.surface), (Reload::Nothing, true, false));
         let p = with(|s| s.setup.grid_objects = 10);
         assert_eq!((p.setup.reload, p.renderer), (Reload::Scene, true));
@@ -233,8 +233,8 @@ mod tests {
         assert_eq!(on.setup.vpl, Some(d), "switched on: the default settings");
         let p = plan(&casters, &on);
         assert!(p.renderer, "VPLs on: a new renderer: {p:?}");
-        assert_eq!(on.setup.forward_settings(false).vpl, Some(d));
-        assert_eq!(on.setup.deferred_settings(false).vpl, Some(d));
+        assert_eq!(on.setup.frame_settings(false).vpl, Some(d));
+        assert_eq!(on.setup.frame_settings(false).vpl, Some(d));
         for (control, want) in cases {
             let mut s = on.clone();
             s.set_vpl(control);
@@ -256,7 +256,7 @@ mod tests {
         let before = s.clone();
         s.set_vpl(VplControl::On(false));
         assert_eq!(s.setup.vpl, None);
-        assert_eq!((s.setup.forward_settings(false).vpl, s.setup.deferred_settings(false).vpl), (None, None));
+        assert_eq!((s.setup.frame_settings(false).vpl, s.setup.frame_settings(false).vpl), (None, None));
         assert!(plan(&before, &s).renderer);
         assert_eq!(s.vpl_config().block, 8);
         // The panel's choices are settings the twin accepts with the default block.
@@ -271,7 +271,7 @@ mod tests {
     #[test]
     fn heat_map_of_an_untiled_method_changes_nothing() {
         let mut old = base();
-        old.setup.method = Method::BruteForce;
+        old.setup.method = Method::BruteForce { cutoff: true };
         let mut new = old.clone();
         new.heatmap = true;
         assert!(plan(&old, &new).is_empty());

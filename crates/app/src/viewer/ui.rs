@@ -447,7 +447,7 @@ fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'
             ui.checkbox(&mut two_level, "two-level culling (64 px cells)");
             s.setup.flat_cull = !two_level;
         });
-        ui.add_enabled(s.setup.method == Method::Deferred, |ui: &mut egui::Ui| {
+        ui.add_enabled(s.setup.method == Method::TiledDeferred, |ui: &mut egui::Ui| {
             ui.add(egui::Slider::new(&mut s.setup.gbuffer_rts, 2..=5).text("G-buffer RTs"))
         });
         egui::ComboBox::from_label("MSAA")
@@ -459,7 +459,7 @@ fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'
             })
             .response
             .on_hover_text("2x and 8x only where the GPU has them (an error says so otherwise)");
-        ui.add_enabled_ui(s.setup.method == Method::Deferred && s.setup.msaa > 1, |ui| {
+        ui.add_enabled_ui(s.setup.method == Method::TiledDeferred && s.setup.msaa > 1, |ui| {
             ui.add(
                 egui::Slider::new(&mut s.setup.edge_distance, 0.0..=0.05)
                     .logarithmic(true)

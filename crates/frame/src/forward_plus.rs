@@ -1,0 +1,156 @@
+//! The frame of Forward+ and of the brute-force reference: their middle steps, between the
+//! shared ones ([`crate::shared`]), with the handles each reads and writes.
+//!
+//! ```text
+//! DepthPrepass  scene                        -> Depth
+//! Cull          Depth, lights                -> Lists (Forward+ only)
+//! [VplCull]     Depth, VPLs                  -> VPL Lists (shared step, Forward+ with VPLs)
+//! Shade         Depth, Lists, VPL Lists,     -> Hdr (with MSAA: drawn multisampled and
+//!               shadow atlas                          resolved into Hdr)
+//! ```
+//!
+//! Brute force has no culling: its shading loops over every light (with or without the
+//! radius cutoff). Depends on tiledlight-gpu (depth pre-pass, culling) and
+//! tiledlight-forward (the shading pass).
+
+use std::any::Any;
+
+use tiledlight_forward::shading::{LightLoop, ShadingPass};
+use tiledlight_gpu::depth_prepass::{DepthPrepass, DEPTH_FORMAT};
+use tiledlight_gpu::features::{Features, Method};
+use tiledlight_gpu::light_cull::LightCulling;
+use tiledlight_gpu::light_grid::LightGrid;
+use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::memory::MemoryReport;
+use tiledlight_gpu::plan::Step;
+use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_gpu::targets::texture_2d_msaa;
+use tiledlight_gpu::tonemap::HDR_FORMAT;
+use tiledlight_gpu::{GpuContext, GpuError};
+
+use crate::handles::{Depth, Hdr, Lists, Rec};
+use crate::method::MethodFrame;
+use crate::settings::FrameSettings;
+use crate::shared::{SharedSteps, TargetNeeds};
+
+/// The display targets Forward+ needs: depth and HDR drawn multisampled by render passes.
+pub fn targets(_: &Features) -> TargetNeeds {
+    TargetNeeds {
+        prefix: "forward",
+        msaa_formats: vec![DEPTH_FORMAT, HDR_FORMAT],
+        hdr_usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+    }
+}
+
+/// Forward+'s (or brute force's) passes.
+pub struct ForwardFrame {
+    prepass: DepthPrepass,
+    /// Forward+ only.
+    culling: Option<LightCulling>,
+    shading: ShadingPass,
+    /// The multisampled HDR target the shading pass draws into and resolves (MSAA only).
+    hdr_msaa: Option<(wgpu::Texture, wgpu::TextureView)>,
+}
+
+impl ForwardFrame {
+    /// Builds the passes over the shared steps' views, targets, shadows and VPLs.
+    pub fn new(
+        ctx: &GpuContext,
+        shared: &SharedSteps,
+        (scene, lights): (&SceneGpu, &LightBuffers),
+        settings: &FrameSettings,
+        memory: &mut MemoryReport,
+    ) -> Result<Self, GpuError> {
+        let device = &ctx.device;
+        let (features, views, targets) = (&shared.features, &shared.views, &shared.targets);
+        let hdr_msaa = (features.msaa > 1).then(|| {
+            let t = texture_2d_msaa(
+                device,
+                "forward.hdr_msaa",
+                (targets.hdr.width(), targets.hdr.height()),
+                HDR_FORMAT,
+                features.msaa,
+                wgpu::TextureUsages::RENDER_ATTACHMENT,
+            );
+            let v = t.create_view(&wgpu::TextureViewDescriptor {
+                label: Some("forward.hdr_msaa.view"),
+                ..Default::default()
+            });
+            memory.add("forward.hdr_msaa", t.width() as u64 * t.height() as u64 * features.msaa as u64 * 8);
+            (t, v)
+        });
+        let prepass = DepthPrepass::new(device, views, scene, features)?;
+        let culling = shared
+            .plan
+            .has(Step::Cull)
+            .then(|| {
+                LightCulling::with_drop_light(
+                    device,
+                    views,
+                    &targets.depth_view,
+                    (lights, &shared.lighting),
+                    shared.grid,
+                    settings.cull,
+                    settings.test_drop_light,
+                )
+            })
+            .transpose()?;
+        if let Some(c) = &culling {
+            memory.extend(&c.memory);
+        }
+        let light_loop = match settings.method {
+            Method::BruteForce { cutoff } => LightLoop::All { cutoff },
+            _ => LightLoop::Tiled { half_z: features.half_z },
+        };
+        let shading = ShadingPass::new(
+            device,
+            views,
+            scene,
+            (lights, &shared.lighting),
+            culling.as_ref(),
+            light_loop,
+            (features, shared.shadows.as_ref()),
+            shared.vpls.as_ref().map(|v| v.bindings.clone()),
+        )?;
+        Ok(Self { prepass, culling, shading, hdr_msaa })
+    }
+
+    /// The culling pass (Forward+ only).
+    pub fn culling(&self) -> Option<&LightCulling> {
+        self.culling.as_ref()
+    }
+}
+
+impl MethodFrame for ForwardFrame {
+    fn record(&self, rec: &mut Rec<'_>, shared: &SharedSteps, depth: Depth<'_>, hdr: Hdr<'_>) {
+        rec.step(Step::DepthPrepass);
+        self.prepass.record(rec.encoder, rec.timer, rec.view, rec.scene, depth.view);
+        if let Some(cull) = &self.culling {
+            rec.step(Step::Cull);
+            cull.record(rec.encoder, rec.timer, rec.view, "forward.cull");
+        }
+        shared.record_vpl_cull(rec, depth);
+        rec.step(if self.culling.is_some() { Step::ForwardShade } else { Step::BruteForceShade });
+        // With MSAA the pass draws the multisampled target and resolves it into the HDR image.
+        let (target, resolve) = match &self.hdr_msaa {
+            Some((_, v)) => (v, Some(hdr.view)),
+            None => (hdr.view, None),
+        };
+        self.shading.record(rec.encoder, rec.timer, rec.view, rec.scene, target, resolve, depth.view);
+    }
+
+    fn lists(&self) -> Option<Lists<'_>> {
+        self.culling.as_ref().map(|c| Lists { grid: &c.grid })
+    }
+
+    fn grow_lists(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, capacity: u32) -> Option<&LightGrid> {
+        let c = self.culling.as_mut()?;
+        c.grid.grow(device, queue, capacity);
+        self.shading.rebind(device, &c.grid);
+        Some(&c.grid)
+    }
+
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+}

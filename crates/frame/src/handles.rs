@@ -1,0 +1,104 @@
+//! Typed handles to what one step of a frame writes and a later one reads: the depth
+//! buffer, the linear HDR image, the display image and the light grids. A step's
+//! constructor and `record` take the handles it reads, so each method's frame function
+//! shows its data flow in its types (`docs/ARCHITECTURE.md` has the table). [`Rec`] is
+//! what every step records into, and checks (debug builds) that the steps come in the
+//! order of the frame plan. Depends on tiledlight-gpu.
+
+use std::cell::Cell;
+
+use tiledlight_gpu::light_grid::LightGrid;
+use tiledlight_gpu::plan::{FramePlan, Step};
+use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_gpu::targets::DisplayTargets;
+use tiledlight_gpu::timer::GpuTimer;
+use tiledlight_gpu::view::Views;
+
+/// The frame's reversed-Z depth of opaque and masked geometry, `samples` values a pixel
+/// (written by the method's head step: depth pre-pass or G-buffer).
+#[derive(Clone, Copy)]
+pub struct Depth<'a> {
+    /// The depth attachment's view.
+    pub view: &'a wgpu::TextureView,
+    /// MSAA samples per pixel.
+    pub samples: u32,
+}
+
+/// The frame's linear HDR radiance, one resolved value a pixel (written by the method's
+/// shading, then blended geometry composites over it; the tonemap reads it).
+#[derive(Clone, Copy)]
+pub struct Hdr<'a> {
+    /// The HDR image's view.
+    pub view: &'a wgpu::TextureView,
+}
+
+/// The tonemapped display image (written by the tonemap, then the heat map over it).
+#[derive(Clone, Copy)]
+pub struct Ldr<'a> {
+    /// The display image's view.
+    pub view: &'a wgpu::TextureView,
+}
+
+/// A light grid: per list `(first, count)`, the indices and the header (written by a
+/// culling step, read by shading, blended geometry and the heat map).
+#[derive(Clone, Copy)]
+pub struct Lists<'a> {
+    /// The grid.
+    pub grid: &'a LightGrid,
+}
+
+/// The handles of a frame's display targets.
+pub fn target_handles(t: &DisplayTargets) -> (Depth<'_>, Hdr<'_>, Ldr<'_>) {
+    (Depth { view: &t.depth_view, samples: t.samples }, Hdr { view: &t.hdr_view }, Ldr { view: &t.ldr_view })
+}
+
+/// What every step of one frame records into: the encoder, the timer, the main view and
+/// the scene; [`Rec::step`] names each step as it is recorded.
+pub struct Rec<'a> {
+    /// The frame's command encoder.
+    pub encoder: &'a mut wgpu::CommandEncoder,
+    /// The GPU timer (one query pair a pass).
+    pub timer: &'a GpuTimer,
+    /// The camera's view slot.
+    pub view: (&'a Views, u32),
+    /// The scene's buffers and draws.
+    pub scene: &'a SceneGpu,
+    plan: &'a FramePlan,
+    next: Cell<usize>,
+}
+
+impl<'a> Rec<'a> {
+    /// A recorder of one frame of `plan`.
+    pub fn new(
+        encoder: &'a mut wgpu::CommandEncoder,
+        timer: &'a GpuTimer,
+        view: (&'a Views, u32),
+        scene: &'a SceneGpu,
+        plan: &'a FramePlan,
+    ) -> Self {
+        Self { encoder, timer, view, scene, plan, next: Cell::new(0) }
+    }
+
+    /// Marks `step` as recorded next. Debug builds (every test) check that it is the plan's
+    /// next step: the frame functions and the plan can never disagree unnoticed.
+    pub fn step(&self, step: Step) {
+        let i = self.next.get();
+        debug_assert_eq!(
+            self.plan.steps().get(i),
+            Some(&step),
+            "step {i} of the frame recorded {step:?}; the plan says {:?}",
+            self.plan.steps()
+        );
+        self.next.set(i + 1);
+    }
+
+    /// Checks (debug builds) that every step of the plan was recorded.
+    pub fn finish(self) {
+        debug_assert_eq!(
+            self.next.get(),
+            self.plan.steps().len(),
+            "the frame skipped steps of {:?}",
+            self.plan.steps()
+        );
+    }
+}

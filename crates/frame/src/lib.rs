@@ -1,0 +1,38 @@
+//! tiledlight-frame: one frame of any method. The frame owns the steps every method shares
+//! and builds and records them once ([`shared`]: shadows, VPLs and their culling, blended
+//! geometry, exposure and tonemap, heat map); each method is one frame function
+//! ([`forward_plus`]: Forward+ and the brute-force reference; [`tiled_deferred`]) that
+//! contributes its middle steps and passes typed handles ([`handles`]: depth, HDR, light
+//! lists) between them. One [`FrameSettings`] for every method, one [`Method`], one
+//! [`FrameRenderer`] behind the small [`Renderer`] trait (recording and named outputs);
+//! read-backs and statistics are [`diagnostics`].
+//!
+//! The whole frame, in [`FrameRenderer::record`]:
+//!
+//! ```text
+//! shared   ShadowMaps, Vpl                          (only with shadows / --vpl)
+//! method   head -> Depth; culling -> Lists; [VplCull, shared]; shading -> Hdr
+//! shared   Blended* (Depth, Hdr, Lists)             (only with blended geometry)
+//!          Tonemap (Hdr -> Ldr), Heatmap (Lists -> Ldr)
+//! ```
+//!
+//! The order is the frame plan's (`tiledlight_gpu::plan`): debug builds check every frame
+//! against it. Depends on tiledlight-gpu, tiledlight-vpl, tiledlight-forward and
+//! tiledlight-deferred (their passes); nothing below depends on it.
+
+pub mod diagnostics;
+pub mod forward_plus;
+pub mod handles;
+pub mod method;
+pub mod renderer;
+pub mod settings;
+pub mod shared;
+pub mod tiled_deferred;
+
+pub use diagnostics::Diagnostics;
+pub use forward_plus::ForwardFrame;
+pub use method::MethodFrame;
+pub use renderer::{BetweenFrames, FrameRenderer, Outputs, Renderer};
+pub use settings::FrameSettings;
+pub use tiled_deferred::DeferredFrame;
+pub use tiledlight_gpu::features::Method;

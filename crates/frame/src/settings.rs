@@ -1,0 +1,90 @@
+//! [`FrameSettings`]: every setting of a frame, for every method, in one value (the method,
+//! its culling, MSAA, exposure, shadows, blended geometry, VPLs, the heat map, and the
+//! three knobs only Tiled Deferred reads). What the scene itself requires is decided from
+//! it and the scene once, in [`tiledlight_gpu::features::Features`]. Depends on
+//! tiledlight-gpu (option types), tiledlight-cull (shadow and VPL options) and
+//! tiledlight-deferred (its edge test's thresholds).
+
+use glam::Vec3;
+use tiledlight_cull::shadow::ShadowOptions;
+use tiledlight_cull::vpl::VplConfig;
+use tiledlight_deferred::EdgeTest;
+use tiledlight_gpu::features::{BlendMode, Method};
+use tiledlight_gpu::light_cull::{CullOptions, DropLight};
+use tiledlight_gpu::tonemap::HeatmapOf;
+
+/// How a frame is drawn: built into a renderer once ([`crate::FrameRenderer::new`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameSettings {
+    /// Forward+, Tiled Deferred or brute force.
+    pub method: Method,
+    /// Culling options (tile size, capacity, tests, layout); the tile size also sets the
+    /// heat map's. `cull.samples` is set from `msaa`.
+    pub cull: CullOptions,
+    /// MSAA samples per pixel: 1, 2, 4 or 8 (as the adapter supports).
+    pub msaa: u32,
+    /// Exposure before tonemapping.
+    pub exposure: f32,
+    /// Compute the exposure from each frame's image instead (`exposure` unused; default
+    /// off: images compared across renderers need one fixed exposure).
+    pub auto_exposure: bool,
+    /// Ambient radiance (times base colour), so unlit areas are not black.
+    pub ambient: Vec3,
+    /// Draw the lights-per-tile heat map over the image (tiled methods).
+    pub heatmap: bool,
+    /// Which light grid the heat map shows (tiled methods); [`HeatmapOf::Blended`] needs
+    /// blended geometry and [`HeatmapOf::Vpl`] needs `vpl` (an error otherwise, even with
+    /// the heat map off: the setting asks for a grid the frame does not have).
+    pub heatmap_of: HeatmapOf,
+    /// How shadows are drawn (tile size, filter, format); used only when the lights were
+    /// uploaded with shadow casters (`LightBuffers::with_casters`).
+    pub shadows: ShadowOptions,
+    /// How blended geometry is composited (used only when the scene has some).
+    pub blend: BlendMode,
+    /// Virtual point lights from the shadow casters' reflective shadow maps
+    /// (tiledlight-vpl); `None` (the default): none of their passes, buffers or variants.
+    /// Tiled methods cull them into a light grid of their own (one list per tile); brute
+    /// force shades every one.
+    pub vpl: Option<VplConfig>,
+    /// Tiled Deferred: G-buffer render targets, 2..=5 (extra ones are written white and
+    /// read back: the sample's bandwidth stress knob). Other methods ignore it.
+    pub gbuffer_rts: u32,
+    /// Tiled Deferred with MSAA: the edge test's thresholds. Other methods ignore it.
+    pub edge: EdgeTest,
+    /// Test-only: leave one light out of one tile's list (tiled methods; see
+    /// [`DropLight`]). `None` by default; production never sets it.
+    pub test_drop_light: Option<DropLight>,
+    /// Test-only (Tiled Deferred): the extra G-buffer targets hold
+    /// `tiledlight_deferred::gbuffer::EXTRA_TEST_VALUES` instead of white, so tests can
+    /// prove the shading pass reads and multiplies each of them. `false` by default.
+    pub test_gbuffer_values: bool,
+}
+
+impl Default for FrameSettings {
+    fn default() -> Self {
+        Self {
+            method: Method::ForwardPlus,
+            cull: CullOptions::default(),
+            msaa: 1,
+            exposure: 1.0,
+            auto_exposure: false,
+            ambient: Vec3::splat(0.02),
+            heatmap: false,
+            heatmap_of: HeatmapOf::Opaque,
+            shadows: ShadowOptions::default(),
+            blend: BlendMode::Sorted,
+            vpl: None,
+            gbuffer_rts: 2,
+            edge: EdgeTest::default(),
+            test_drop_light: None,
+            test_gbuffer_values: false,
+        }
+    }
+}
+
+impl FrameSettings {
+    /// The defaults with `method`.
+    pub fn of(method: Method) -> Self {
+        Self { method, ..Self::default() }
+    }
+}
