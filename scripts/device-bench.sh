@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign emission vpl
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign emission vpl reshape
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -91,6 +91,19 @@ for set in $sets; do
             --transparent-objects $t --blend-mode $mode
         done
       done
+    done
+    ;;
+  reshape)
+    # Issue 27's before/after (A/B with BIN= and PREFIX=): the Figure 9 scene (280 medium grid
+    # objects; 4 G-buffer targets) at 1,024, 4,096 and 16,384 lights, both methods, and the
+    # million-light preset, both methods, gathered and assigned light-centrically.
+    for n in 1024 4096 16384; do
+      run "f9-fp-$n" 50 --lights $n --grid-objects 280 --density medium
+      run "f9-td-$n" 50 --lights $n --grid-objects 280 --density medium --method deferred --gbuffer-rts 4
+    done
+    for m in forward-plus deferred; do
+      run "mp-$m-gather" 10 --light-preset million --method $m
+      run "mp-$m-tiled" 10 --light-preset million --method $m --assign scatter
     done
     ;;
   million)
