@@ -24,8 +24,8 @@ use tiledlight_cull::blended_depth::raster_depth;
 use tiledlight_cull::{Camera, Light};
 use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
 use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
+use tiledlight_gpu::culling::{ClusterOptions, CullOptions};
 use tiledlight_gpu::diagnostics::Diagnostics;
-use tiledlight_gpu::light_cull::{ClusterOptions, CullOptions};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::plan::Step;
 use tiledlight_gpu::readback::read_depth;
@@ -522,7 +522,7 @@ fn blended_lists_of(
     lights: &LightBuffers,
     cam: &Camera,
     msaa: u32,
-) -> Vec<(&'static str, Vec<f32>, tiledlight_gpu::light_cull::GpuTileLists, tiledlight_cull::CullConfig)> {
+) -> Vec<(&'static str, Vec<f32>, tiledlight_gpu::culling::GpuTileLists, tiledlight_cull::CullConfig)> {
     let ctx = gpu();
     let d = DeferredRenderer::new(ctx, sg, lights, W, H, DeferredSettings { msaa, ..Default::default() })
         .expect("deferred renderer");

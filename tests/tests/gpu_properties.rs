@@ -74,8 +74,8 @@ use tiledlight_cull::tiles::{pixel_to_ndc_x, pixel_to_ndc_y};
 use tiledlight_cull::{Camera, CullConfig};
 use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
 use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
+use tiledlight_gpu::culling::{ClusterOptions, CullOptions, GpuTileLists};
 use tiledlight_gpu::diagnostics::Diagnostics as _;
-use tiledlight_gpu::light_cull::{ClusterOptions, CullOptions, GpuTileLists};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
@@ -373,7 +373,7 @@ fn run_case(ctx: &GpuContext, supported: &[u32], c: &Case, totals: &mut Totals) 
 /// `geometry_only`.
 fn cluster_strategy() -> impl Strategy<Value = ClusterOptions> {
     (
-        prop::sample::select(tiledlight_gpu::light_assign::CLUSTER_TILE_SIZES.to_vec()),
+        prop::sample::select(tiledlight_gpu::culling::CLUSTER_TILE_SIZES.to_vec()),
         1u32..=32,
         cull_common::exp10(-3.0, 3.0),
         cull_common::exp10(0.0044, 6.0),

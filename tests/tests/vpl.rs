@@ -33,8 +33,8 @@ use glam::{Mat4, Vec3};
 use tiledlight_cull::shadow::{AtlasLayout, ShadowOptions};
 use tiledlight_cull::vpl::{self, GpuVpl, RsmFace, Vpl, VplConfig};
 use tiledlight_cull::Light;
+use tiledlight_gpu::culling::CullOptions;
 use tiledlight_gpu::features::{Features, Method};
-use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
@@ -689,8 +689,7 @@ fn tiled_deferred_with_vpls_equals_forward_plus_and_brute_force() {
     // Both VPL grids hold the same lists: the same culling over the same depth. Compared
     // by VPL position: each renderer appended its VPLs in its own GPU order.
     let f = render(tiledlight_forward::Method::ForwardPlus, vpl).1;
-    let by_position = |lists: &tiledlight_gpu::light_cull::GpuTileLists,
-                       vpls: &[tiledlight_cull::light::GpuCullLight]| {
+    let by_position = |lists: &tiledlight_gpu::culling::GpuTileLists, vpls: &[tiledlight_cull::light::GpuCullLight]| {
         lists
             .lists
             .iter()
@@ -699,7 +698,7 @@ fn tiled_deferred_with_vpls_equals_forward_plus_and_brute_force() {
             })
             .collect::<Vec<_>>()
     };
-    let read = |c: &tiledlight_gpu::light_cull::LightCulling| c.read_lists(&ctx.device, &ctx.queue).expect("lists");
+    let read = |c: &tiledlight_gpu::culling::LightCulling| c.read_lists(&ctx.device, &ctx.queue).expect("lists");
     let fl = read(f.vpl_culling().expect("F+"));
     let dl = read(r.vpl_culling().expect("TD"));
     let fv = f.vpl().expect("F+").buffers.read_cull(&ctx.device, &ctx.queue).expect("spheres");

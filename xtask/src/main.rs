@@ -4,6 +4,9 @@
 //!   combination, parse and validate it with naga, compare each variant's bindings with
 //!   its pass's Rust declaration (`tiledlight_gpu::bindings`), and check that the Rust
 //!   structs shared with WGSL have the same size and field offsets as their WGSL twins.
+//! - `circles [DIR]`: the module import graph of every crate and the WGSL `#include` graph
+//!   of `shaders/` (of this workspace, or the one at `DIR`) must have no circles (also run
+//!   by `validate-shaders`).
 //! - `test [ARGS...]`: check that a Vulkan adapter (lavapipe by default) exists, run
 //!   `validate-shaders`, then every workspace test with GPU tests one at a time; `ARGS`
 //!   go to `cargo nextest run` (or `cargo test` when nextest is missing).
@@ -13,6 +16,7 @@
 //! declarations and the Rust struct layouts), naga (validation) and wgpu (the adapter probe).
 
 mod bindings;
+mod circles;
 mod lint;
 mod shaders;
 mod test;
@@ -26,7 +30,8 @@ const USAGE: &str = "\
 usage: cargo xtask <task>
 
 tasks:
-  validate-shaders   validate every WGSL entry file and variant with naga, check Rust/WGSL bindings and struct layouts
+  validate-shaders   validate every WGSL entry file and variant with naga, check Rust/WGSL bindings and struct layouts, then `circles`
+  circles [DIR]      fail on any circle in the module import graphs of the crates or the WGSL #include graph
   test [ARGS...]     check for a Vulkan adapter, validate shaders, run all tests (ARGS go to cargo nextest run / cargo test)
   lint               cargo fmt --check and cargo clippy -D warnings over the workspace";
 
@@ -52,8 +57,14 @@ fn run(args: &[String]) -> Result<()> {
             if !rest.is_empty() {
                 bail!("validate-shaders takes no arguments, got {rest:?}");
             }
-            shaders::validate_shaders(&root)
+            shaders::validate_shaders(&root)?;
+            circles::check(&root)
         }
+        "circles" => match rest {
+            [] => circles::check(&root),
+            [other] => circles::check(Path::new(other)),
+            _ => bail!("circles takes at most one argument (a workspace directory), got {rest:?}"),
+        },
         "test" => test::test(&root, rest),
         "lint" => {
             if !rest.is_empty() {

@@ -9,10 +9,10 @@
 use glam::Vec3;
 use tiledlight_cull::vpl::VplConfig;
 use tiledlight_cull::{Camera, TileGrid};
+use tiledlight_gpu::culling::{CullOptions, DropLight, GpuTileLists, LightCulling};
 use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
 use tiledlight_gpu::features::{Features, Method};
 use tiledlight_gpu::frame::{CommonSettings, FrameCommon};
-use tiledlight_gpu::light_cull::{CullOptions, DropLight, GpuTileLists, LightCulling};
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;

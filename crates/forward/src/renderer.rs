@@ -20,7 +20,7 @@ use tiledlight_gpu::depth_prepass::{DepthPrepass, DEPTH_FORMAT};
 use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::features::{self, Features};
 use tiledlight_gpu::frame::{CommonSettings, FrameCommon};
-use tiledlight_gpu::light_cull::{CullOptions, DropLight, LightCulling};
+use tiledlight_gpu::culling::{CullOptions, DropLight, LightCulling};
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;

@@ -137,7 +137,7 @@ impl FrameCommon {
         device: &wgpu::Device,
         scene: &SceneGpu,
         lights: &LightBuffers,
-        cull: crate::light_cull::CullOptions,
+        cull: crate::culling::CullOptions,
         frame_grid: Option<&crate::light_grid::LightGrid>,
     ) -> Result<Option<crate::blended::BlendedPath>, GpuError> {
         if !self.features.blended() {

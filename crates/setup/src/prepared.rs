@@ -14,7 +14,7 @@ use tiledlight_cull::light::try_pack_lights_with_casters;
 use tiledlight_cull::Camera;
 use tiledlight_deferred::{DeferredRenderer, DeferredSettings};
 use tiledlight_forward::{ForwardRenderer, ForwardSettings};
-use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::culling::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::Renderer;

@@ -11,13 +11,13 @@
 //! atlas layout) and [`crate::settings`]'s descriptions.
 
 use anyhow::{Context, Result};
-use tiledlight_cull::reference::depth_tested_blended;
 use tiledlight_cull::shadow::{AtlasLayout, ShadowOptions};
 use tiledlight_cull::tiles::tile_depth_bounds_samples;
+use tiledlight_cull::volumes::depth_tested_blended;
 use tiledlight_cull::TileGrid;
+use tiledlight_gpu::culling::CullOptions;
 use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::features::BlendMode;
-use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::memory::format_bytes;
 use tiledlight_gpu::readback::read_depth;
@@ -187,7 +187,7 @@ impl std::fmt::Display for BlendedStats {
 /// The blended geometry of the last frame `renderer` (built on `ctx`) drew: None when its
 /// scene has none. Its light lists are read back with the opaque and the blended depth;
 /// the tiles counted are those with a blended sample in front of the opaque depth (the
-/// blended culling's own test, `tiledlight_cull::reference::depth_tested_blended`).
+/// blended culling's own test, `tiledlight_cull::volumes::depth_tested_blended`).
 pub fn blended_stats(ctx: &GpuContext, renderer: &dyn Renderer) -> Result<Option<BlendedStats>> {
     let Some(b) = renderer.blended() else {
         return Ok(None);
