@@ -9,8 +9,10 @@
 //!   that defines it. Re-exports are followed (`crate::Camera` re-exported by `lib.rs` from
 //!   `camera.rs` is an edge to `camera.rs`, not to `lib.rs`), so a facade's `pub use` of
 //!   its children is an edge down and a child naming the facade's own items is an edge up.
-//!   A `mod` declaration is no edge. Nodes are files: an inline `mod tests { .. }` belongs to
-//!   its file.
+//!   A `mod` declaration is no edge. Nodes are files: an inline module belongs to its file.
+//!   Code under `#[cfg(test)]` (a `mod`, `use`, `fn` or `impl`) is left out: unit tests may
+//!   reach into any module of their crate (a registry test calling the crate root's list of
+//!   every pass), which is no dependency of the crate itself.
 //! - **WGSL**: every `#include "path"` line of a file under `shaders/` (inside `#ifdef`s or
 //!   not) is an edge from that file to `shaders/path`.
 //!
@@ -547,6 +549,22 @@ enum Scope {
     Module(usize),
     /// Any other block (fn body, impl, struct, expression).
     Block,
+    /// Code compiled only for unit tests (`#[cfg(test)]`): not part of the crate's graph.
+    Test,
+}
+
+/// Whether `toks[i..]` starts with `# [ cfg ( test ) ]`.
+fn is_cfg_test(toks: &[Tok], i: usize) -> bool {
+    let want = [
+        Tok::Punct('#'),
+        Tok::Punct('['),
+        Tok::Ident("cfg".into()),
+        Tok::Punct('('),
+        Tok::Ident("test".into()),
+        Tok::Punct(')'),
+        Tok::Punct(']'),
+    ];
+    toks.len() >= i + want.len() && toks[i..i + want.len()] == want
 }
 
 fn ident(t: Option<&Tok>) -> Option<&str> {
@@ -572,16 +590,63 @@ fn parse_tokens(
             .rev()
             .find_map(|s| match s {
                 Scope::Module(m) => Some(*m),
-                Scope::Block => None,
+                Scope::Block | Scope::Test => None,
             })
             .unwrap_or(file_module)
     };
     // Top level of a module (not inside a block): where items are declared.
     let at_module_level = |scopes: &[Scope]| matches!(scopes.last(), None | Some(Scope::Module(_)));
     let mut macro_export = false;
+    // After `#[cfg(test)]`: the next item is test-only (a `mod`, `use`, `fn` or `impl`).
+    let mut test_item = false;
     let mut i = 0;
     while i < toks.len() {
         let here = current(&scopes);
+        if scopes.iter().any(|s| matches!(s, Scope::Test)) {
+            match &toks[i] {
+                Tok::Punct('{') => scopes.push(Scope::Block),
+                Tok::Punct('}') => {
+                    scopes.pop();
+                }
+                _ => {}
+            }
+            i += 1;
+            continue;
+        }
+        if is_cfg_test(toks, i) {
+            test_item = true;
+            i += 7;
+            continue;
+        }
+        if test_item && toks[i] == Tok::Punct('#') && toks.get(i + 1) == Some(&Tok::Punct('[')) {
+            // Another attribute of the same item (`#[path = ".."]`).
+            i = toks[i..].iter().position(|t| *t == Tok::Punct(']')).map_or(toks.len(), |p| i + p + 1);
+            continue;
+        }
+        if test_item {
+            match ident(toks.get(i)) {
+                Some("use") => {
+                    test_item = false;
+                    i = toks[i..].iter().position(|t| *t == Tok::Punct(';')).map_or(toks.len(), |p| i + p + 1);
+                    continue;
+                }
+                Some("mod" | "fn" | "impl") => {
+                    test_item = false;
+                    // Up to the item's `;` (a `mod x;` not loaded) or into its block.
+                    let end = toks[i..]
+                        .iter()
+                        .position(|t| matches!(t, Tok::Punct(';') | Tok::Punct('{')))
+                        .map_or(toks.len(), |p| i + p);
+                    if toks.get(end) == Some(&Tok::Punct('{')) {
+                        scopes.push(Scope::Test);
+                    }
+                    i = end + 1;
+                    continue;
+                }
+                Some("pub" | "crate" | "async" | "unsafe" | "const") | None => {}
+                Some(_) => test_item = false,
+            }
+        }
         match &toks[i] {
             Tok::Punct('{') => {
                 scopes.push(Scope::Block);
@@ -932,7 +997,11 @@ mod tests {
                     "pub mod culling;\npub mod camera;\npub mod layout;\npub use camera::Camera;\n\
                      pub use culling::{Options, Tile};\n",
                 ),
-                ("src/camera.rs", "pub struct Camera;\n#[cfg(test)]\nmod tests;\n"),
+                (
+                    "src/camera.rs",
+                    "pub struct Camera;\n#[cfg(test)]\n#[path = \"camera/tests.rs\"]\nmod tests;\n\
+                     #[cfg(test)]\nfn helper() { crate::culling::tile::make(); }\n",
+                ),
                 ("src/camera/tests.rs", "use super::*;\n"),
                 (
                     "src/layout.rs",
@@ -963,7 +1032,9 @@ mod tests {
         assert!(edge("src/culling/options.rs", "src/layout.rs"));
         assert!(edge("src/culling/tile.rs", "src/culling/options.rs"));
         assert!(edge("src/culling/mod.rs", "src/culling/tile.rs"));
-        assert!(edge("src/camera/tests.rs", "src/camera.rs"));
+        assert!(!edge("src/camera.rs", "src/culling/tile.rs"));
+        // Unit tests are no part of the graph.
+        assert!(!g.nodes.iter().any(|n| n == "src/camera/tests.rs"), "{:?}", g.nodes);
         // The comment and the string are no edge.
         assert!(!edge("src/culling/mod.rs", "src/camera.rs"));
     }

@@ -18,7 +18,8 @@ use std::process::{Command, Stdio};
 
 use anyhow::{bail, Context as _, Result};
 
-use crate::{cargo, circles, describe, run_status, shaders};
+use crate::process::{cargo, describe, run_status};
+use crate::{circles, shaders};
 
 /// The package holding the GPU integration tests (directory `tests/`).
 const GPU_TEST_PACKAGE: &str = "tiledlight-tests";
