@@ -20,8 +20,7 @@
 use tiledlight_cull::Camera;
 use tiledlight_cull::Light;
 use tiledlight_forward::{ForwardRenderer, ForwardSettings, Method};
-use tiledlight_gpu::culling::CullOptions;
-use tiledlight_gpu::culling::{ClusterOptions, LightCulling};
+use tiledlight_gpu::culling::{ClusterOptions, CullOptions, LightCulling};
 use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;

@@ -22,8 +22,7 @@ use tiledlight_cull::vpl::VplConfig;
 use tiledlight_deferred::shading::workgroup_bytes_besides_lists;
 use tiledlight_deferred::{DeferredSettings, EdgeTest};
 use tiledlight_forward::ForwardSettings;
-use tiledlight_gpu::culling::CLUSTER_TILE_SIZES;
-use tiledlight_gpu::culling::{ClusterOptions, CullOptions, CULL_WORKGROUP_BYTES};
+use tiledlight_gpu::culling::{ClusterOptions, CullOptions, CLUSTER_TILE_SIZES, CULL_WORKGROUP_BYTES};
 use tiledlight_gpu::features::BlendMode;
 use tiledlight_scene::{
     surface_irradiance_factor, CameraDesc, GridDensity, SurfaceLightOptions, DEFAULT_LIGHT_THRESHOLD,
