@@ -666,7 +666,7 @@ fn parse_tokens(
             Tok::Ident(kw) if kw == "use" => {
                 let end = toks[i..].iter().position(|t| *t == Tok::Punct(';')).map_or(toks.len(), |p| i + p);
                 let mut entries = Vec::new();
-                use_tree(&toks[i + 1..end], &mut Vec::new(), &mut entries);
+                use_tree(&toks[i + 1..end], &[], &mut entries);
                 for (path, binding) in entries {
                     if path.first().is_some_and(|s| s.is_empty()) {
                         continue; // `::std::...`: another crate.
@@ -781,7 +781,7 @@ enum UseBinding {
 
 /// Expands a `use` tree (the tokens between `use` and `;`) into full paths, each with what
 /// it binds. A leading `::` gives an empty first segment. `pub`/`pub(crate)` are skipped.
-fn use_tree(toks: &[Tok], prefix: &mut Vec<String>, out: &mut Vec<(Vec<String>, UseBinding)>) {
+fn use_tree(toks: &[Tok], prefix: &[String], out: &mut Vec<(Vec<String>, UseBinding)>) {
     // Split at top-level commas.
     let mut depth = 0;
     let mut start = 0;
@@ -799,7 +799,7 @@ fn use_tree(toks: &[Tok], prefix: &mut Vec<String>, out: &mut Vec<(Vec<String>, 
     }
     parts.push(&toks[start..]);
     for part in parts {
-        let mut path = prefix.clone();
+        let mut path = prefix.to_vec();
         let mut k = 0;
         if k < part.len() && part[k] == Tok::Path {
             path.push(String::new());
@@ -823,7 +823,7 @@ fn use_tree(toks: &[Tok], prefix: &mut Vec<String>, out: &mut Vec<(Vec<String>, 
                 }
                 Tok::Punct('{') => {
                     let close = part.iter().rposition(|t| *t == Tok::Punct('}')).unwrap_or(part.len());
-                    use_tree(&part[k + 1..close], &mut path, out);
+                    use_tree(&part[k + 1..close], &path, out);
                     path.clear();
                     break;
                 }
@@ -1061,7 +1061,7 @@ mod tests {
         let end = toks.iter().position(|t| *t == Tok::Punct(';')).unwrap();
         let start = toks.iter().position(|t| *t == Tok::Ident("use".into())).unwrap();
         let mut out = Vec::new();
-        use_tree(&toks[start + 1..end], &mut Vec::new(), &mut out);
+        use_tree(&toks[start + 1..end], &[], &mut out);
         let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>();
         assert_eq!(
             out,
