@@ -2,7 +2,7 @@
 //! every light (or, two-level, every light its 64x64-pixel cell kept) is tested against the
 //! tile's volume ([`crate::volumes`]). Also the lists of alpha-blended geometry
 //! ([`cull_tiles_blended`]), the same loop over the blended bounds, and the set-up every
-//! tile culler shares ([`cull_setup`]: checks, grid, view-space lights, coarse cells).
+//! tile culler shares (`cull_setup`: checks, grid, view-space lights, coarse cells).
 //! Depends on [`crate::volumes`], [`crate::lists`], [`crate::tiles`], [`crate::bounds`],
 //! [`crate::depth_mask`], [`crate::camera`], [`crate::light`].
 
@@ -34,7 +34,7 @@ pub fn cull_tiles_gather(
     Ok(cull_with_bounds(grid, camera, &vls, config, cells.as_ref(), masks.as_deref(), bounds))
 }
 
-/// Culls `lights` for the alpha-blended geometry of a frame: as [`cull_tiles`] (same side
+/// Culls `lights` for the alpha-blended geometry of a frame: as [`crate::cull_tiles`] (same side
 /// planes, depth-range, AABB and spot-cone tests), but each tile's volume runs from its
 /// nearest blended surface to the farthest opaque surface behind its blended samples
 /// ([`blended_tile_bounds`]). Tiles without blended geometry get an empty list and a

@@ -3,7 +3,7 @@
 //! Cameras (reversed-Z perspective with finite or infinite far, orthographic), lights
 //! and their GPU packing, tile frusta, the bounding tests, windowed attenuation and the
 //! shared BRDF, the CPU reference culler that every GPU kernel is compared with
-//! ([`reference`], the dispatch at the top; below it the tile-centric [`gather`], the
+//! ([`mod@reference`], the dispatch at the top; below it the tile-centric [`gather`], the
 //! light-centric [`assign`] with its tile rectangle, the tile [`volumes`] and per-volume
 //! test they share, and the [`lists`] they fill), 2.5D depth masks ([`depth_mask`]), clustered
 //! lists ([`cluster`]), the light grid's packing ([`grid`]), the shadow atlas's layout, projections and lookup

@@ -52,7 +52,7 @@ pub struct CullConfig {
     /// Light-centric assignment's lists: each light visits only the tiles of its
     /// [`crate::assign::light_tile_rect`], which for a light reaching the eye plane leaves
     /// out tiles its part beyond the near plane cannot cover (the per-tile test's false
-    /// positives there); [`cull_tiles`] then runs [`crate::assign::cull_tiles_scatter`].
+    /// positives there); [`crate::cull_tiles`] then runs [`crate::assign::cull_tiles_scatter`].
     pub scatter: bool,
 }
 
@@ -129,7 +129,7 @@ pub struct TileLists {
     /// `capacity` of them, in no particular order).
     pub lists: Vec<Vec<u32>>,
     /// Per tile, the view-distance range of its surfaces (None for all-sky tiles). For
-    /// blended lists ([`cull_tiles_blended`]): from the nearest blended surface to the
+    /// blended lists ([`crate::cull_tiles_blended`]): from the nearest blended surface to the
     /// farthest opaque one behind it (`f32::INFINITY` where that is sky under an infinite
     /// far plane), None for tiles without blended geometry.
     pub ranges: Vec<Option<(f32, f32)>>,

@@ -1,5 +1,5 @@
 //! Tile volumes and the per-volume light test shared by every CPU culler: the depth
-//! buffer's checks, the lights in view space ([`ViewLight`]), each tile's frustum (its two
+//! buffer's checks, the lights in view space (`ViewLight`), each tile's frustum (its two
 //! half-z halves) over its depth bounds, the bounds of blended geometry, and the test of one
 //! light against one volume (side planes and depth range, AABB, spot cone, 2.5D mask).
 //! Depends on [`crate::lists`] (the options), [`crate::tiles`] (frusta, bounds),
@@ -167,7 +167,7 @@ pub fn blended_tile_bounds(
 /// depth where it lies in front of the opaque one, else 0 (nothing blended). The GPU draws
 /// blended depth without that test (a multisampled opaque buffer cannot be copied into the
 /// blended one) and its kernel makes the same comparison per sample, so the GPU's lists are
-/// [`cull_tiles_blended`] of this buffer.
+/// [`crate::cull_tiles_blended`] of this buffer.
 pub fn depth_tested_blended(opaque: &[f32], blended: &[f32]) -> Vec<f32> {
     opaque.iter().zip(blended).map(|(&o, &b)| if b > o { b } else { 0.0 }).collect()
 }

@@ -178,7 +178,7 @@ fn coarse_constants(capacity: u32) -> [(&'static str, f64); 2] {
     [("CELL", COARSE_SIZE as f64), ("COARSE_CAPACITY", capacity as f64)]
 }
 
-/// The bindings of [`LightCulling`] (`shaders/cull.wgsl`). Group 1: depth (0), bounding
+/// The bindings of [`super::LightCulling`] (`shaders/cull.wgsl`). Group 1: depth (0), bounding
 /// spheres (1), the lighting uniform (9), with `SPOT_CONE` the shading lights (6) and spots
 /// (7), with `COARSE` the cell lists (8), with `BLENDED` the blended depth (10). Group 2:
 /// the light grid, with tile ranges under `HALF_Z`.
