@@ -1,4 +1,4 @@
-// Light-centric assignment (crates/gpu/src/light_assign.rs): each light scatters itself into
+// Light-centric assignment (crates/gpu/src/culling/scatter.rs): each light scatters itself into
 // the lists of the tiles (or clusters) it covers, so the cost grows with lights + pairs,
 // not lights x tiles. After the tile-depth pass (tile_depth.wgsl) has written each tile's
 // depth range (and mask), one frame runs, in order:
@@ -31,7 +31,7 @@
 // Side of the grid's tiles in pixels.
 override TILE_SIZE: u32 = 16u;
 // A light whose rectangle holds more tiles than this goes to the big-light queue, and one
-// with more blocks than HUGE_BLOCKS to the huge-light queue (crates/gpu/src/light_assign.rs
+// with more blocks than HUGE_BLOCKS to the huge-light queue (crates/gpu/src/culling/scatter.rs
 // sets both).
 override BIG_TILES: u32 = 8u;
 override HUGE_BLOCKS: u32 = 32u;

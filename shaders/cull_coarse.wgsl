@@ -9,7 +9,7 @@
 #include "common/depth_range.wgsl"
 
 // Cell side in pixels and the indices a cell stores (keep in step with
-// tiledlight_cull::reference::{COARSE_SIZE, COARSE_CAPACITY}: set by the pipeline).
+// tiledlight_cull::lists::{COARSE_SIZE, COARSE_CAPACITY}: set by the pipeline).
 override CELL: u32 = 64u;
 override COARSE_CAPACITY: u32 = 8192u;
 const WG: u32 = 16u;

@@ -1,4 +1,4 @@
-// Light-centric assignment, step 1 (crates/gpu/src/light_assign.rs): one workgroup per tile
+// Light-centric assignment, step 1 (crates/gpu/src/culling/scatter.rs): one workgroup per tile
 // of the light grid reduces the view-distance range of the tile's surfaces into the grid's
 // tile ranges ((-1, -1) for a tile without geometry) and, with DEPTH_MASK (2.5D) or
 // CLUSTERED, its 32-bit depth-occupancy mask (common/depth_mask.wgsl: the 2.5D bins of

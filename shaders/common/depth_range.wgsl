@@ -4,7 +4,7 @@
 // With BLENDED (the blended geometry's lists) a second buffer holds the nearest blended
 // depth (cleared to 0): only samples where it is in front of the opaque depth count, and
 // the range runs from that blended depth to the opaque depth behind it (0, infinitely far,
-// over the sky). CPU twin: tiledlight_cull::reference::blended_tile_bounds.
+// over the sky). CPU twin: tiledlight_cull::volumes::blended_tile_bounds.
 // With MSAA the buffer is multisampled (SAMPLES per pixel, set by the pipeline) and the
 // range covers every sample, so a light reaching any sample stays in the tile's list.
 // The CPU reference is tiledlight_cull::tiles::tile_depth_bounds_samples.

@@ -2,7 +2,7 @@
 // transparency): the list of its tile, with HALF_Z the near or far half's, with CLUSTERED
 // its depth slice's. The including file declares `light_grid`, `light_indices` (common/light_grid.wgsl) and, with HALF_Z,
 // `tile_ranges: array<vec2<f32>>` (near and far view distance per tile).
-// CPU twin: tiledlight_cull::reference::TileLists::list_index.
+// CPU twin: tiledlight_cull::lists::TileLists::list_index.
 #include "common/light_grid.wgsl"
 
 // The list a pixel at window position `pixel` and view distance `dist` uses.

@@ -22,7 +22,7 @@ override WG: u32 = 16u;
 override CAPACITY: u32 = 512u;
 
 #ifdef DROP_LIGHT
-// Test-only (tiledlight_gpu::light_cull::DropLight, never set in production): tile DROP_TILE
+// Test-only (tiledlight_gpu::culling::DropLight, never set in production): tile DROP_TILE
 // leaves light DROP_INDEX out of its lists, so tests can prove the image comparisons with
 // the brute-force reference fail when one light is missing from one tile.
 override DROP_TILE: u32 = 0u;
@@ -30,7 +30,7 @@ override DROP_INDEX: u32 = 0u;
 #endif
 
 #ifdef COARSE
-// Cell side and the indices a cell stores (tiledlight_cull::reference::{COARSE_SIZE, COARSE_CAPACITY}).
+// Cell side and the indices a cell stores (tiledlight_cull::lists::{COARSE_SIZE, COARSE_CAPACITY}).
 override CELL: u32 = 64u;
 override COARSE_CAPACITY: u32 = 8192u;
 #endif

@@ -39,7 +39,7 @@ fn extra_tests(v: TileVolume, light: u32, c: vec3<f32>, r: f32) -> bool {
     return true;
 }
 
-// The distance where half-z splits a tile's range (tiledlight_cull::reference::half_z_split).
+// The distance where half-z splits a tile's range (tiledlight_cull::lists::half_z_split).
 fn half_z_split(near: f32, far: f32) -> f32 {
     return 0.5 * (near + far);
 }

@@ -31,7 +31,7 @@ use glam::Vec3;
 use tiledlight_cull::bounds::to_view;
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::{cull_clusters, cull_tiles, Camera, ClusterConfig, CullConfig, TileLists};
-use tiledlight_gpu::light_cull::GpuTileLists;
+use tiledlight_gpu::culling::GpuTileLists;
 
 /// The relative part of a light's float error, as a fraction of `radius + |view centre|`.
 pub const INFLATE: f32 = 1e-5;
@@ -184,14 +184,14 @@ fn compare_lists_with(
     twin: Twin<'_>,
 ) -> Result<ListComparison, String> {
     let tested = match twin {
-        Twin::Blended(b) => Some(tiledlight_cull::reference::depth_tested_blended(frame.depth, b)),
+        Twin::Blended(b) => Some(tiledlight_cull::volumes::depth_tested_blended(frame.depth, b)),
         _ => None,
     };
     let cull = |lights: &PackedLights| {
         let config = CullConfig { inflate: 0.0, ..*config };
         let (depth, w, h, cam) = (frame.depth, frame.width, frame.height, frame.camera);
         match (&tested, &twin) {
-            (Some(b), _) => tiledlight_cull::reference::cull_tiles_blended(depth, b, w, h, cam, lights, &config),
+            (Some(b), _) => tiledlight_cull::cull_tiles_blended(depth, b, w, h, cam, lights, &config),
             (None, Twin::Clusters(c)) => cull_clusters(depth, w, h, cam, lights, c, config.samples, 0.0),
             (None, _) => cull_tiles(depth, w, h, cam, lights, &config),
         }
@@ -332,7 +332,8 @@ pub fn compare_blended_lists_independent(
     gpu: &GpuTileLists,
     config: &CullConfig,
 ) -> Result<BoundedComparison, String> {
-    use tiledlight_cull::reference::{cull_tiles_blended, depth_tested_blended};
+    use tiledlight_cull::cull_tiles_blended;
+    use tiledlight_cull::volumes::depth_tested_blended;
     let fail = |msg: String| Err(format!("{label}: {msg}"));
     let n = frame.depth.len();
     if raster.exact.len() != n || raster.least.len() != n || raster.most.len() != n {

@@ -3,11 +3,11 @@
 //! (Forward+ and Tiled Deferred), and a device without timestamp queries (the renderer runs, untimed).
 
 use glam::Vec3;
-use tiledlight_cull::reference::MAX_CAPACITY;
+use tiledlight_cull::lists::MAX_CAPACITY;
 use tiledlight_cull::Light;
 use tiledlight_deferred::EdgeTest;
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
-use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::culling::CullOptions;
 use tiledlight_gpu::lights_gpu::{LightBuffers, MAX_LIGHTS};
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;

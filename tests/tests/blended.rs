@@ -22,8 +22,8 @@
 use glam::{Mat4, Vec3};
 use tiledlight_cull::blended_depth::raster_depth;
 use tiledlight_cull::{Camera, Light};
-use tiledlight_frame::{DeferredFrame, Diagnostics, FrameRenderer, FrameSettings, Method, Renderer};
-use tiledlight_gpu::light_cull::{ClusterOptions, CullOptions};
+use tiledlight_frame::{DeferredFrame, Diagnostics, FrameRenderer, FrameSettings, Method};
+use tiledlight_gpu::culling::{ClusterOptions, CullOptions};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::plan::Step;
 use tiledlight_gpu::readback::read_depth;
@@ -514,7 +514,7 @@ fn blended_lists_of(
     lights: &LightBuffers,
     cam: &Camera,
     msaa: u32,
-) -> Vec<(&'static str, Vec<f32>, tiledlight_gpu::light_cull::GpuTileLists, tiledlight_cull::CullConfig)> {
+) -> Vec<(&'static str, Vec<f32>, tiledlight_gpu::culling::GpuTileLists, tiledlight_cull::CullConfig)> {
     let ctx = gpu();
     let d = FrameRenderer::new(
         ctx,

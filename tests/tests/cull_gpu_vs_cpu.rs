@@ -3,7 +3,7 @@
 //! an extreme camera, every tile size and every test option; lists longer than the
 //! kernel's workgroup list (culled twice) and a light grid too small for the frame (grown,
 //! or with a fixed budget truncated and counted as the CPU twin `tiledlight_cull::grid` says).
-//! Light-centric assignment (`CullOptions::scatter`, `tiledlight_gpu::light_assign`) runs
+//! Light-centric assignment (`CullOptions::scatter`, `tiledlight_gpu::culling::scatter`) runs
 //! the same cases: its lists must equal the same CPU culler's (the set, not the order), with
 //! lights covering more than `BIG_TILES` tiles (the big-light queue) among them. The 2.5D
 //! and cluster masks the light-centric passes keep are compared sample by sample with the
@@ -19,9 +19,9 @@
 
 use tiledlight_cull::Camera;
 use tiledlight_cull::Light;
-use tiledlight_frame::{Diagnostics as _, ForwardFrame, FrameRenderer, FrameSettings, Method, Renderer as _};
-use tiledlight_gpu::light_cull::CullOptions;
-use tiledlight_gpu::light_cull::{ClusterOptions, LightCulling};
+use tiledlight_frame::{Diagnostics as _, ForwardFrame, FrameRenderer, FrameSettings, Method};
+use tiledlight_gpu::culling::CullOptions;
+use tiledlight_gpu::culling::{ClusterOptions, LightCulling};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
@@ -441,7 +441,7 @@ fn spilled_lists(case: &Case<'_>, options: CullOptions) -> u32 {
 fn coarse_cell_overflow_falls_back_to_every_light() {
     let scene = scenes::mixed_scene();
     // Radii of 40 m: every light reaches every cell of the 20 m room.
-    let mut lights = scenes::lights(&scene, tiledlight_cull::reference::COARSE_CAPACITY + 1500, 0, 8);
+    let mut lights = scenes::lights(&scene, tiledlight_cull::lists::COARSE_CAPACITY + 1500, 0, 8);
     for l in &mut lights {
         l.radius = 40.0;
     }
@@ -458,7 +458,7 @@ fn coarse_cell_overflow_falls_back_to_every_light() {
     // Every light covers the whole screen: all of them go through the big-light queue.
     check(&case, CullOptions { scatter: true, ..Default::default() });
     let packed = tiledlight_cull::light::pack_lights(&tiledlight_cull::light::order_points_first(&lights));
-    let (_, cells) = tiledlight_cull::reference::coarse_cells(&depth, w, h, &case.camera, &packed).unwrap();
+    let (_, cells) = tiledlight_cull::gather::coarse_cells(&depth, w, h, &case.camera, &packed).unwrap();
     assert!(cells.iter().any(Option::is_none), "no cell overflowed: the fallback path went untested");
 }
 

@@ -7,7 +7,7 @@
 //! normal, positions rebuilt from depth); deferred vs Forward+ uses its FLIP limits.
 
 use tiledlight_frame::{DeferredFrame, Diagnostics as _, FrameRenderer, FrameSettings, Method};
-use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::culling::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;

@@ -73,7 +73,7 @@ use tiledlight_cull::reference::lights_reaching;
 use tiledlight_cull::tiles::{pixel_to_ndc_x, pixel_to_ndc_y};
 use tiledlight_cull::{Camera, CullConfig};
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
-use tiledlight_gpu::light_cull::{ClusterOptions, CullOptions, GpuTileLists};
+use tiledlight_gpu::culling::{ClusterOptions, CullOptions, GpuTileLists};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
@@ -371,7 +371,7 @@ fn run_case(ctx: &GpuContext, supported: &[u32], c: &Case, totals: &mut Totals) 
 /// `geometry_only`.
 fn cluster_strategy() -> impl Strategy<Value = ClusterOptions> {
     (
-        prop::sample::select(tiledlight_gpu::light_assign::CLUSTER_TILE_SIZES.to_vec()),
+        prop::sample::select(tiledlight_gpu::culling::CLUSTER_TILE_SIZES.to_vec()),
         1u32..=32,
         cull_common::exp10(-3.0, 3.0),
         cull_common::exp10(0.0044, 6.0),

@@ -7,7 +7,7 @@ use tiledlight_cull::light::spot_scale_offset;
 use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::{cull_tiles, Light, LightKind};
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
-use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::culling::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;

@@ -23,8 +23,8 @@
 //! list (the lists are checked exactly above), and is left to the G-buffer's own work; the
 //! deferred tests hold the HDR limit at 1,024 lights.
 
-use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method, Renderer};
-use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
+use tiledlight_gpu::culling::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_tests::compare::{

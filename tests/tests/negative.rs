@@ -23,8 +23,8 @@ use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::{cull_tiles, Camera, TileLists};
 use tiledlight_deferred::gbuffer::EXTRA_TEST_VALUES;
-use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method, Renderer};
-use tiledlight_gpu::light_cull::{CullOptions, DropLight};
+use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
+use tiledlight_gpu::culling::{CullOptions, DropLight};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_tests::compare::{
@@ -362,7 +362,7 @@ fn pair_contributions(
 /// what an image cannot see, and why the lists are compared exactly.
 #[test]
 fn list_comparison_rejects_a_dim_missing_pair_and_a_wrong_index() {
-    use tiledlight_gpu::light_cull::ClusterOptions;
+    use tiledlight_gpu::culling::ClusterOptions;
     use tiledlight_tests::lists::{compare_cluster_lists, compare_lists, perturbed_lights, CulledFrame};
     let ctx = gpu();
     let scene = scenes::mixed_scene();
@@ -383,7 +383,7 @@ fn list_comparison_rejects_a_dim_missing_pair_and_a_wrong_index() {
         let gpu_lists = r.read_lists(ctx).unwrap();
         let frame = CulledFrame { depth: &depth, width: W, height: H, camera: &camera, lights: &lights.packed };
         let config = cull.to_config(lights.has_spots());
-        let compare = |l: &tiledlight_gpu::light_cull::GpuTileLists| match &cull.clusters {
+        let compare = |l: &tiledlight_gpu::culling::GpuTileLists| match &cull.clusters {
             Some(c) => compare_cluster_lists(name, &frame, l, &config, c),
             None => compare_lists(name, &frame, l, &config),
         };

@@ -34,8 +34,8 @@ use tiledlight_cull::shadow::{AtlasLayout, ShadowOptions};
 use tiledlight_cull::vpl::{self, GpuVpl, RsmFace, Vpl, VplConfig};
 use tiledlight_cull::Light;
 use tiledlight_frame::{FrameRenderer, FrameSettings};
+use tiledlight_gpu::culling::CullOptions;
 use tiledlight_gpu::features::{Features, Method};
-use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
@@ -705,8 +705,7 @@ fn tiled_deferred_with_vpls_equals_forward_plus_and_brute_force() {
     // Both VPL grids hold the same lists: the same culling over the same depth. Compared
     // by VPL position: each renderer appended its VPLs in its own GPU order.
     let f = render(Method::ForwardPlus, vpl).1;
-    let by_position = |lists: &tiledlight_gpu::light_cull::GpuTileLists,
-                       vpls: &[tiledlight_cull::light::GpuCullLight]| {
+    let by_position = |lists: &tiledlight_gpu::culling::GpuTileLists, vpls: &[tiledlight_cull::light::GpuCullLight]| {
         lists
             .lists
             .iter()
@@ -715,7 +714,7 @@ fn tiled_deferred_with_vpls_equals_forward_plus_and_brute_force() {
             })
             .collect::<Vec<_>>()
     };
-    let read = |c: &tiledlight_gpu::light_cull::LightCulling| c.read_lists(&ctx.device, &ctx.queue).expect("lists");
+    let read = |c: &tiledlight_gpu::culling::LightCulling| c.read_lists(&ctx.device, &ctx.queue).expect("lists");
     let fl = read(f.vpls().and_then(|v| v.culling.as_ref()).expect("F+"));
     let dl = read(r.vpls().and_then(|v| v.culling.as_ref()).expect("TD"));
     let fv = f.vpls().map(|v| &v.path).expect("F+").buffers.read_cull(&ctx.device, &ctx.queue).expect("spheres");

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use anyhow::{bail, Result};
 
-use crate::{cargo, run_status};
+use crate::process::{cargo, run_status};
 
 /// Runs `cargo fmt --all --check` and `cargo clippy --workspace --all-targets -D warnings`.
 pub fn lint(root: &Path) -> Result<()> {

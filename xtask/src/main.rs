@@ -4,6 +4,9 @@
 //!   combination, parse and validate it with naga, compare each variant's bindings with
 //!   its pass's Rust declaration (`tiledlight_gpu::bindings`), and check that the Rust
 //!   structs shared with WGSL have the same size and field offsets as their WGSL twins.
+//! - `circles [DIR]`: the module import graph of every crate and the WGSL `#include` graph
+//!   of `shaders/` (of this workspace, or the one at `DIR`) must have no circles (also run
+//!   by `validate-shaders`).
 //! - `test [ARGS...]`: check that a Vulkan adapter (lavapipe by default) exists, run
 //!   `validate-shaders`, then every workspace test with GPU tests one at a time; `ARGS`
 //!   go to `cargo nextest run` (or `cargo test` when nextest is missing).
@@ -13,20 +16,23 @@
 //! declarations and the Rust struct layouts), naga (validation) and wgpu (the adapter probe).
 
 mod bindings;
+mod circles;
 mod lint;
+mod process;
 mod shaders;
 mod test;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, ExitCode};
+use std::process::ExitCode;
 
-use anyhow::{bail, Context as _, Result};
+use anyhow::{bail, Result};
 
 const USAGE: &str = "\
 usage: cargo xtask <task>
 
 tasks:
-  validate-shaders   validate every WGSL entry file and variant with naga, check Rust/WGSL bindings and struct layouts
+  validate-shaders   validate every WGSL entry file and variant with naga, check Rust/WGSL bindings and struct layouts, then `circles`
+  circles [DIR]      fail on any circle in the module import graphs of the crates or the WGSL #include graph
   test [ARGS...]     check for a Vulkan adapter, validate shaders, run all tests (ARGS go to cargo nextest run / cargo test)
   lint               cargo fmt --check and cargo clippy -D warnings over the workspace";
 
@@ -52,8 +58,14 @@ fn run(args: &[String]) -> Result<()> {
             if !rest.is_empty() {
                 bail!("validate-shaders takes no arguments, got {rest:?}");
             }
-            shaders::validate_shaders(&root)
+            shaders::validate_shaders(&root)?;
+            circles::check(&root)
         }
+        "circles" => match rest {
+            [] => circles::check(&root),
+            [other] => circles::check(Path::new(other)),
+            _ => bail!("circles takes at most one argument (a workspace directory), got {rest:?}"),
+        },
         "test" => test::test(&root, rest),
         "lint" => {
             if !rest.is_empty() {
@@ -75,51 +87,4 @@ fn run(args: &[String]) -> Result<()> {
 /// The workspace root: xtask lives one directory below it.
 fn workspace_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("xtask is inside the workspace").to_path_buf()
-}
-
-/// A `cargo` command run at the workspace root, with the cargo that runs xtask.
-fn cargo(root: &Path) -> Command {
-    // `cargo run` sets CARGO to its own binary, so the same toolchain builds the tests.
-    let mut cmd = Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()));
-    cmd.current_dir(root);
-    cmd
-}
-
-/// Runs `cmd`, echoing it first; Ok(true) when it exits successfully.
-fn run_status(cmd: &mut Command) -> Result<bool> {
-    let shown = describe(cmd);
-    println!("xtask: running {shown}");
-    let status = cmd.status().with_context(|| format!("cannot start {shown}"))?;
-    if !status.success() {
-        eprintln!("xtask: {shown} failed ({status})");
-    }
-    Ok(status.success())
-}
-
-/// `cmd` as a shell-like line, for messages.
-fn describe(cmd: &Command) -> String {
-    let program = Path::new(cmd.get_program()).file_name().unwrap_or(cmd.get_program()).to_string_lossy().into_owned();
-    std::iter::once(program).chain(cmd.get_args().map(|a| quote(&a.to_string_lossy()))).collect::<Vec<_>>().join(" ")
-}
-
-/// `arg` quoted for a shell when it needs to be, so echoed commands can be pasted.
-fn quote(arg: &str) -> String {
-    let plain = !arg.is_empty() && arg.chars().all(|c| c.is_ascii_alphanumeric() || "-_=./:,+@%".contains(c));
-    if plain {
-        arg.to_owned()
-    } else {
-        format!("'{}'", arg.replace('\'', r"'\''"))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn commands_are_echoed_pasteably() {
-        let mut cmd = Command::new("/usr/bin/cargo");
-        cmd.args(["nextest", "run", "-E", "package(x)", "it's"]);
-        assert_eq!(describe(&cmd), r"cargo nextest run -E 'package(x)' 'it'\''s'");
-    }
 }

@@ -3,7 +3,7 @@
 //! 1. Picks the adapter GPU tests use (`WGPU_ADAPTER_NAME`, default `llvmpipe`, i.e.
 //!    lavapipe on Vulkan) and checks with wgpu that such an adapter exists. A missing
 //!    adapter fails the run: GPU tests are never skipped.
-//! 2. Runs `validate-shaders`, `cargo doc --no-deps --workspace` with rustdoc warnings
+//! 2. Runs `validate-shaders`, `circles`, `cargo doc --no-deps --workspace` with rustdoc warnings
 //!    denied, and the examples (`EXAMPLES`).
 //! 3. Runs every workspace test: `cargo nextest run` when installed (GPU tests one at a
 //!    time through the `gpu` test group of `.config/nextest.toml`) plus the doc tests,
@@ -18,7 +18,8 @@ use std::process::{Command, Stdio};
 
 use anyhow::{bail, Context as _, Result};
 
-use crate::{cargo, describe, run_status, shaders};
+use crate::process::{cargo, describe, run_status};
+use crate::{circles, shaders};
 
 /// The package holding the GPU integration tests (directory `tests/`).
 const GPU_TEST_PACKAGE: &str = "tiledlight-tests";
@@ -106,6 +107,10 @@ pub fn test(root: &Path, extra: &[String]) -> Result<()> {
     if let Err(e) = shaders::validate_shaders(root) {
         eprintln!("error: {e:#}");
         failed.push("validate-shaders");
+    }
+    if let Err(e) = circles::check(root) {
+        eprintln!("error: {e:#}");
+        failed.push("circles");
     }
     // The API docs build without a warning (a broken intra-doc link, stray HTML in a doc
     // comment): the crates are meant to be read and reused.

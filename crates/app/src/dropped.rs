@@ -20,7 +20,7 @@
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use tiledlight_cull::vpl::VPL_GRID_PER_TILE;
-use tiledlight_frame::{FrameRenderer, Renderer};
+use tiledlight_frame::FrameRenderer;
 use tiledlight_gpu::light_grid::GridStatus;
 use tiledlight_setup::{group_digits, Prepared};
 

@@ -36,6 +36,7 @@ mod dropped;
 mod export;
 mod lab;
 mod legend;
+mod messages;
 mod peer_report;
 mod quickstart;
 mod render;
@@ -48,6 +49,8 @@ mod vpl_args;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+
+use messages::{error_line, one_line};
 
 /// Forward+ and Tiled Deferred lighting with thousands of lights: an interactive viewer,
 /// headless renders and benchmarks. With no subcommand: opens the viewer when a display is
@@ -98,30 +101,6 @@ enum Command {
     /// Open the interactive viewer: a window with the controls, camera and pass timings.
     #[command(allow_negative_numbers = true)]
     View(viewer::ViewArgs),
-}
-
-/// Makes a possibly multi-line message (wgpu validation errors, clap's usage hints) one
-/// line, so every failure is a single `error:` line.
-fn one_line(msg: &str) -> String {
-    msg.lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" ")
-}
-
-/// The error and its causes on one line, "context: cause: cause", leaving out a cause
-/// whose text the line already holds (some errors print their source in their own
-/// message, which anyhow's `{:#}` would repeat).
-fn error_line(e: &anyhow::Error) -> String {
-    let mut line = String::new();
-    for cause in e.chain() {
-        let text = one_line(&cause.to_string());
-        if line.contains(&text) {
-            continue;
-        }
-        if !line.is_empty() {
-            line.push_str(": ");
-        }
-        line.push_str(&text);
-    }
-    line
 }
 
 fn main() -> ExitCode {

@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use tiledlight_frame::Diagnostics as _;
-use tiledlight_frame::{FrameRenderer, Renderer};
+use tiledlight_frame::FrameRenderer;
 use tiledlight_gpu::tonemap::HeatmapOf;
 use tiledlight_setup::{shadow_atlas_description, Method, Prepared};
 

@@ -13,8 +13,8 @@ use anyhow::{ensure, Context, Result};
 use clap::{Args, ValueEnum};
 use tiledlight_cull::shadow::ShadowFormat;
 use tiledlight_deferred::EdgeTest;
+use tiledlight_gpu::culling::ClusterOptions;
 use tiledlight_gpu::features::BlendMode;
-use tiledlight_gpu::light_cull::ClusterOptions;
 use tiledlight_scene::{GridDensity, DEFAULT_LIGHT_THRESHOLD};
 use tiledlight_setup::{
     surface_exposure, CameraBookmark, LightPlacement, Method, SceneSource, Settings, DEFAULT_LIGHTS_PER_POINT,

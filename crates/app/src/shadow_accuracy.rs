@@ -45,7 +45,6 @@ use tiledlight_cull::raycast::{surface_points, SurfacePoint, Triangles};
 use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat, ShadowOptions, TILE_SIZES};
 use tiledlight_cull::Light;
 use tiledlight_frame::Diagnostics as _;
-use tiledlight_frame::Renderer;
 use tiledlight_frame::{FrameRenderer, FrameSettings};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::timer::GpuTimer;

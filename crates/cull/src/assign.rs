@@ -3,8 +3,9 @@
 //! [`cull_tiles_scatter`], the CPU twin of a culler that walks each light over its
 //! rectangle instead of each tile over every light. The GPU side (WGSL) mirrors
 //! [`light_tile_rect`] operation for operation. Depends on [`crate::camera`]
-//! (`clip_edge_plane`), [`crate::tiles`] (the tile NDC edges) and [`crate::reference`] (the
-//! per-tile test the scatter culler reuses).
+//! (`clip_edge_plane`), [`crate::tiles`] (the tile NDC edges), [`crate::volumes`] (the
+//! per-tile test the scatter culler reuses), [`crate::gather`] (the shared set-up) and
+//! [`crate::lists`].
 //!
 //! A tile's side planes are separable: its left and right planes depend only on its
 //! column, its bottom and top planes only on its row. So the tiles passing all four planes
@@ -44,9 +45,11 @@ use glam::{Mat4, Vec3, Vec4};
 
 use crate::camera::{clip_edge_plane, Camera, DepthParams};
 use crate::error::CullError;
+use crate::gather::cull_setup;
 use crate::light::PackedLights;
-use crate::reference::{cull_setup, light_in_volume, tile_volumes, CullConfig, TileLists};
+use crate::lists::{CullConfig, TileLists};
 use crate::tiles::TileGrid;
+use crate::volumes::{light_in_volume, tile_volumes};
 
 /// An inclusive rectangle of tiles: columns `x0..=x1`, rows `y0..=y1` (row 0 at the top).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -189,7 +192,7 @@ pub fn near_cap_rect(grid: &TileGrid, proj: &Mat4, near: f32, c: Vec3, r: f32) -
     rect_of(grid, (x0, x1_end), (y0, y1_end))
 }
 
-/// The light-centric twin of [`crate::reference::cull_tiles`]: same inputs, same per-tile
+/// The light-centric twin of [`crate::gather::cull_tiles_gather`]: same inputs, same per-tile
 /// test (side planes, depth range, AABB, cone, half-z, depth mask, two-level candidates),
 /// but each light only visits the tiles of its [`light_tile_rect`]. The lists come out
 /// ascending as light indices are visited in order.

@@ -3,9 +3,10 @@
 //! `[0, first)` (as Bevy and Filament do: exponential slicing from the near plane would
 //! spend most slices in the first metres). Lists are built light-centrically: each light
 //! visits the tiles of its [`light_tile_rect`] times the slices its depth span reaches.
-//! The GPU side mirrors [`ClusterConfig::slice_of`] and the assignment in f32. Depends on
-//! [`crate::assign`] (the tile rectangle), [`crate::camera`], [`crate::tiles`] and
-//! [`crate::reference`] (view-space lights, depth checks, [`TileLists`]).
+//! The GPU side mirrors [`ClusterConfig::slice_of`] and the assignment in f32. The layout
+//! itself ([`ClusterConfig`]) is in [`crate::lists`] with the other layouts. Depends on
+//! [`crate::assign`] (the tile rectangle), [`crate::camera`], [`crate::tiles`],
+//! [`crate::volumes`] (view-space lights, depth checks) and [`crate::lists`].
 //!
 //! 1. `scale = (slices - 1) / ln(last / first)` (0 with one slice).
 //! 2. [`ClusterConfig::slice_of`]: distances below `first` (0, negative, NaN included) are
@@ -36,112 +37,9 @@ use crate::assign::light_tile_rect;
 use crate::camera::{clip_edge_plane, Camera};
 use crate::error::CullError;
 use crate::light::PackedLights;
-use crate::reference::{check_depth_samples, view_lights, CullConfig, TileLists};
+use crate::lists::{ClusterConfig, CullConfig, TileLists};
 use crate::tiles::{tile_depth_bounds_samples, tile_sample_spans, TileGrid};
-
-/// Largest number of depth slices (one bit each in the occupancy mask).
-pub const MAX_SLICES: u32 = 32;
-
-/// The cluster layout: tile size, depth slices and where they start and end.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ClusterConfig {
-    /// Tile side in pixels, 8..=512.
-    pub tile_size: u32,
-    /// Depth slices, 1..=32.
-    pub slices: u32,
-    /// Far end of slice 0 (metres, > 0): slice 0 is `[0, first)`.
-    pub first: f32,
-    /// End of the exponential slices (metres, > `first`); the last slice runs on to infinity.
-    pub last: f32,
-    /// Keep a light only in slices that hold a surface of the tile (its occupancy mask).
-    pub geometry_only: bool,
-}
-
-impl Default for ClusterConfig {
-    /// 64 px tiles, 16 slices, first slice 5 m, exponential slices to 500 m.
-    fn default() -> Self {
-        Self { tile_size: 64, slices: 16, first: 5.0, last: 500.0, geometry_only: false }
-    }
-}
-
-impl ClusterConfig {
-    /// Checks the ranges (and that `ln(last / first)` is positive in f32, so `scale` is
-    /// finite).
-    pub fn validate(&self) -> Result<(), CullError> {
-        let bad = |m: String| Err(CullError::InvalidSize(m));
-        if !(8..=512).contains(&self.tile_size) {
-            return bad(format!("cluster tile size {} must be in 8..=512", self.tile_size));
-        }
-        if !(1..=MAX_SLICES).contains(&self.slices) {
-            return bad(format!("{} cluster slices: must be in 1..={MAX_SLICES}", self.slices));
-        }
-        if !(self.first.is_finite() && self.first > 0.0) {
-            return bad(format!("first slice end {} must be finite and positive", self.first));
-        }
-        if !(self.last.is_finite() && self.last > self.first) {
-            return bad(format!("last slice end {} must be finite and beyond first {}", self.last, self.first));
-        }
-        let scale = self.scale();
-        if self.slices > 1 && !(scale.is_finite() && scale > 0.0) {
-            return bad(format!(
-                "last {} / first {} is too close to 1 for {} slices (scale {scale})",
-                self.last, self.first, self.slices
-            ));
-        }
-        Ok(())
-    }
-
-    /// Exponential slices per unit of `ln(d / first)`: `(slices - 1) / ln(last / first)`,
-    /// 0 with one slice.
-    pub fn scale(&self) -> f32 {
-        if self.slices == 1 {
-            0.0
-        } else {
-            (self.slices - 1) as f32 / (self.last / self.first).ln()
-        }
-    }
-
-    /// The slice of view distance `d`: 0 below `first` (and for 0, negative or NaN
-    /// distances), else `1 + min(ln(d / first) * scale, slices - 2)` truncated; monotone
-    /// non-decreasing in `d`, `slices - 1` for `d = inf`.
-    pub fn slice_of(&self, d: f32) -> u32 {
-        // Written as in WGSL, so NaN takes this branch.
-        #[allow(clippy::neg_cmp_op_on_partial_ord)]
-        if self.slices == 1 || !(d >= self.first) {
-            return 0;
-        }
-        // d >= first, so d / first >= 1 and x >= 0 (inf for d = inf, clamped below).
-        let x = (d / self.first).ln() * self.scale();
-        1 + x.min((self.slices - 2) as f32) as u32
-    }
-
-    /// The view-distance range `[start, end)` of slice `s`, for documentation and
-    /// statistics (assignment uses [`Self::slice_of`] only): slice 0 is `[0, first)`, slice
-    /// `s >= 1` is `[first * q^((s - 1) / (S - 1)), first * q^(s / (S - 1)))` with
-    /// `q = last / first`, and the last slice ends at infinity.
-    pub fn slice_range(&self, s: u32) -> (f32, f32) {
-        let n = self.slices;
-        let at = |k: u32| self.first * (self.last / self.first).powf(k as f32 / (n - 1) as f32);
-        let start = if s == 0 { 0.0 } else { at(s - 1) };
-        let end = if s + 1 >= n {
-            f32::INFINITY
-        } else if s == 0 {
-            self.first
-        } else {
-            at(s)
-        };
-        (start, end)
-    }
-
-    /// The tile grid of a `width` x `height` screen (the screen checked as
-    /// [`TileGrid::new`] checks it; tiles may be larger than its 64 px limit).
-    pub fn grid(&self, width: u32, height: u32) -> Result<TileGrid, CullError> {
-        self.validate()?;
-        TileGrid::new(width, height, 1)?;
-        let ts = self.tile_size;
-        Ok(TileGrid { width, height, tile_size: ts, tiles_x: width.div_ceil(ts), tiles_y: height.div_ceil(ts) })
-    }
-}
+use crate::volumes::{check_depth_samples, view_lights};
 
 /// Per tile (row-major), the slices holding a non-sky sample: bit `slice_of(view
 /// distance)` of every sample with depth > 0; 0 for all-sky tiles. `depth` as the culler

@@ -181,7 +181,8 @@ pub fn estimate_lights_per_tile(
 mod tests {
     use super::*;
     use crate::light::try_pack_lights;
-    use crate::reference::{cull_tiles, CullConfig};
+    use crate::lists::CullConfig;
+    use crate::reference::cull_tiles;
     use rand::{Rng, SeedableRng};
     use rand_pcg::Pcg64;
 

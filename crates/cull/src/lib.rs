@@ -2,8 +2,10 @@
 //!
 //! Cameras (reversed-Z perspective with finite or infinite far, orthographic), lights
 //! and their GPU packing, tile frusta, the bounding tests, windowed attenuation and the
-//! shared BRDF, the CPU reference culler that every GPU kernel is compared with, the
-//! light-centric tile rectangle ([`assign`]), 2.5D depth masks ([`depth_mask`]), clustered
+//! shared BRDF, the CPU reference culler that every GPU kernel is compared with
+//! ([`mod@reference`], the dispatch at the top; below it the tile-centric [`gather`], the
+//! light-centric [`assign`] with its tile rectangle, the tile [`volumes`] and per-volume
+//! test they share, and the [`lists`] they fill), 2.5D depth masks ([`depth_mask`]), clustered
 //! lists ([`cluster`]), the light grid's packing ([`grid`]), the shadow atlas's layout, projections and lookup
 //! ([`shadow`]), and the CPU ray-cast visibility reference that shadow maps are compared
 //! with ([`raycast`]: triangles in a BVH, segment occlusion), and an estimate of the
@@ -18,6 +20,7 @@ pub mod error;
 
 pub mod layout;
 pub mod light;
+pub mod lists;
 pub mod material;
 pub use error::CullError;
 pub use light::{Light, LightKind};
@@ -30,16 +33,20 @@ pub mod cluster;
 pub mod depth_mask;
 pub mod estimate;
 pub mod exposure;
+pub mod gather;
 pub mod grid;
 pub mod raycast;
 pub mod reference;
 pub mod shadow;
 pub mod tiles;
+pub mod volumes;
 pub mod vpl;
 
 pub use camera::{Camera, DepthParams, Projection};
-pub use cluster::{cull_clusters, ClusterConfig};
-pub use reference::{cull_tiles, cull_tiles_blended, CullConfig, TileLists};
+pub use cluster::cull_clusters;
+pub use gather::cull_tiles_blended;
+pub use lists::{ClusterConfig, CullConfig, TileLists};
+pub use reference::cull_tiles;
 pub use tiles::TileGrid;
 
 /// The workspace's shared proptest configuration (fixed seed unless `PROPTEST_RNG_SEED`),

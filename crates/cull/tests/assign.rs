@@ -24,7 +24,7 @@ use tiledlight_cull::assign::{cull_tiles_scatter, light_tile_rect, lower_bound, 
 use tiledlight_cull::bounds::sphere_vs_frustum;
 use tiledlight_cull::camera::view_point_at;
 use tiledlight_cull::light::{order_points_first, pack_lights};
-use tiledlight_cull::reference::COARSE_SIZE;
+use tiledlight_cull::lists::COARSE_SIZE;
 use tiledlight_cull::tiles::{TileFrustum, TileGrid};
 use tiledlight_cull::{cull_tiles, Camera, CullConfig};
 

@@ -13,7 +13,8 @@ use common::{axis_camera, point_light, rng, CamSpec, DEPTH_MODES};
 use glam::Vec3;
 use rand::Rng;
 use tiledlight_cull::light::{order_points_first, pack_lights, PackedLights};
-use tiledlight_cull::reference::{blended_tile_bounds, pixel_view_position};
+use tiledlight_cull::reference::pixel_view_position;
+use tiledlight_cull::volumes::blended_tile_bounds;
 use tiledlight_cull::{cull_tiles, cull_tiles_blended, Camera, CullConfig, CullError, Light, TileGrid, TileLists};
 
 /// The screen of the hand-built frames: 64x32 px, 16 px tiles, so 4x2 tiles.

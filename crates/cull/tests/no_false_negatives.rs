@@ -35,7 +35,8 @@ use glam::Vec3;
 use proptest::prelude::*;
 use rand::Rng;
 use tiledlight_cull::light::{order_points_first, pack_lights, PackedLights};
-use tiledlight_cull::reference::{lights_reaching, COARSE_SIZE};
+use tiledlight_cull::lists::COARSE_SIZE;
+use tiledlight_cull::reference::lights_reaching;
 use tiledlight_cull::tiles::{pixel_to_ndc_x, pixel_to_ndc_y};
 use tiledlight_cull::{cull_clusters, cull_tiles, cull_tiles_blended, Camera, ClusterConfig, CullConfig, TileLists};
 

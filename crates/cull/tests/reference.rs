@@ -12,10 +12,11 @@ mod common;
 use common::{axis_camera, point_light as point, rng, CamKind, CamSpec, DepthMode, DEPTH_MODES, EPS};
 use glam::Vec3;
 use rand::Rng;
+use tiledlight_cull::gather::coarse_cells;
 use tiledlight_cull::light::{order_points_first, pack_lights, PackedLights};
+use tiledlight_cull::lists::{half_z_split, COARSE_CAPACITY, COARSE_SIZE, MAX_CAPACITY};
 use tiledlight_cull::reference::{
-    coarse_cells, false_positive_rate, half_z_split, lights_reaching, list_quality, pixel_view_position, stats,
-    tile_ranges, CullStats, COARSE_CAPACITY, COARSE_SIZE, MAX_CAPACITY,
+    false_positive_rate, lights_reaching, list_quality, pixel_view_position, stats, tile_ranges, CullStats,
 };
 use tiledlight_cull::{cull_tiles, Camera, CullConfig, CullError, Light, TileLists};
 

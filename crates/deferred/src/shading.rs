@@ -16,9 +16,10 @@
 
 use tiledlight_cull::TileGrid;
 use tiledlight_gpu::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
+use tiledlight_gpu::culling::{
+    CoarseCulling, CullOptions, DropLight, LightAssign, CULL_WORKGROUP_BYTES, DEPTH_BINDING,
+};
 use tiledlight_gpu::features::Features;
-use tiledlight_gpu::light_assign::LightAssign;
-use tiledlight_gpu::light_cull::{CoarseCulling, CullOptions, DropLight, CULL_WORKGROUP_BYTES, DEPTH_BINDING};
 use tiledlight_gpu::light_grid::{compute_bindings, GpuTileLists, LightGrid};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::lights_group::VplBindings;

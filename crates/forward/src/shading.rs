@@ -8,9 +8,9 @@
 //! Depends on tiledlight-gpu.
 
 use tiledlight_gpu::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
+use tiledlight_gpu::culling::LightCulling;
 use tiledlight_gpu::depth_prepass::{scene_pipeline, DepthUse, SceneDraw, DEPTH_FORMAT};
 use tiledlight_gpu::features::Features;
-use tiledlight_gpu::light_cull::LightCulling;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::lights_group::{LightsGroup, VplBindings};

@@ -8,7 +8,7 @@
 //! tiledlight-gpu's readback.
 
 use tiledlight_cull::Camera;
-use tiledlight_gpu::light_cull::GpuTileLists;
+use tiledlight_gpu::culling::GpuTileLists;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::readback::{read_depth, read_hdr, read_texture};
 use tiledlight_gpu::scene_gpu::SceneGpu;

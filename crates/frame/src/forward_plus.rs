@@ -16,9 +16,9 @@
 use std::any::Any;
 
 use tiledlight_forward::shading::{LightLoop, ShadingPass};
+use tiledlight_gpu::culling::LightCulling;
 use tiledlight_gpu::depth_prepass::{DepthPrepass, DEPTH_FORMAT};
 use tiledlight_gpu::features::{Features, Method};
-use tiledlight_gpu::light_cull::LightCulling;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;

@@ -9,8 +9,8 @@ use glam::Vec3;
 use tiledlight_cull::shadow::ShadowOptions;
 use tiledlight_cull::vpl::VplConfig;
 use tiledlight_deferred::EdgeTest;
+use tiledlight_gpu::culling::{CullOptions, DropLight};
 use tiledlight_gpu::features::{BlendMode, Method};
-use tiledlight_gpu::light_cull::{CullOptions, DropLight};
 use tiledlight_gpu::tonemap::HeatmapOf;
 
 /// How a frame is drawn: built into a renderer once ([`crate::FrameRenderer::new`]).

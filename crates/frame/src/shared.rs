@@ -16,8 +16,8 @@
 use tiledlight_cull::shadow::AtlasLayout;
 use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::blended::{BlendedInputs, BlendedPath};
+use tiledlight_gpu::culling::LightCulling;
 use tiledlight_gpu::features::Features;
-use tiledlight_gpu::light_cull::LightCulling;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::lights_group::VplBindings;
 use tiledlight_gpu::memory::MemoryReport;

@@ -12,7 +12,7 @@
 //! 2. **Culling** (tiled methods): `LightCulling::blended` into a light grid of its own, one
 //!    list per tile: the range runs from the nearest blended depth to the farthest opaque
 //!    depth behind a blended sample (infinitely far over the sky); a tile without blended
-//!    samples gets an empty list. CPU twin: `tiledlight_cull::reference::cull_tiles_blended`.
+//!    samples gets an empty list. CPU twin: `tiledlight_cull::cull_tiles_blended`.
 //! 3. **Shading** (`blended.wgsl`): each blended instance drawn alone, back to front by the
 //!    view depth of its bounds' centre (sorted on the CPU each frame; triangles within an
 //!    instance and intersecting instances are not sorted), lit from both sides with the
@@ -36,7 +36,7 @@
 //!    layer's samples are averaged before compositing, which differs from per-sample
 //!    compositing only where the opaque colour varies inside a pixel.
 //!
-//! Depends on [`crate::depth_prepass`], [`crate::light_cull`], [`crate::scene_gpu`],
+//! Depends on [`crate::depth_prepass`], [`crate::culling`], [`crate::scene_gpu`],
 //! [`crate::shadow_atlas`], [`crate::features`], [`crate::view`].
 
 use std::sync::Mutex;
@@ -45,10 +45,10 @@ use glam::{Mat4, Vec3};
 use tiledlight_cull::{Camera, TileGrid};
 
 use crate::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
+use crate::culling::{CullOptions, LightCulling};
 use crate::depth_prepass::{scene_pipeline, DepthPrepass, DepthTarget, DepthUse, SceneDraw, DEPTH_FORMAT};
 use crate::error::GpuError;
 use crate::features::{BlendMode, Features, Method};
-use crate::light_cull::{CullOptions, LightCulling};
 use crate::light_grid::{GridStatus, LightGrid};
 use crate::lights_gpu::LightBuffers;
 use crate::lights_group::LightsGroup;

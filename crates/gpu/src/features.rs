@@ -7,9 +7,9 @@
 //! groups, masked pipelines, multisampled targets, the heat map pass exist only when this
 //! value says the scene or the settings need them: blended geometry, shadow casters and
 //! VPLs included, each with its passes, buffers and variants only when asked for. Depends on [`crate::scene_gpu`],
-//! [`crate::lights_gpu`] and [`crate::light_cull`] (the culling options).
+//! [`crate::lights_gpu`] and [`crate::culling`] (the culling options).
 
-use crate::light_cull::CullOptions;
+use crate::culling::CullOptions;
 use crate::lights_gpu::LightBuffers;
 use crate::scene_gpu::{DrawKind, MaterialFeatures, SceneGpu};
 use tiledlight_cull::shadow::ShadowOptions;

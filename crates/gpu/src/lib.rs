@@ -4,18 +4,18 @@
 //! and variants ([`shader`], shaders embedded from `shaders/`), bind group layouts declared
 //! once as data and checked against the WGSL ([`bindings`]), GPU timers ([`timer`]),
 //! readback ([`readback`]), scene and light buffers ([`scene_gpu`], [`lights_gpu`]), and the
-//! passes both methods share: the depth pre-pass ([`depth_prepass`]), tiled light culling
-//! ([`light_cull`]) into the light grid ([`light_grid`]), the shadow atlas ([`shadow_atlas`]), the blended-geometry path ([`blended`]) and tonemapping ([`tonemap`]). Depends on wgpu, tiledlight-cull and
+//! passes both methods share: the depth pre-pass ([`depth_prepass`]), light culling by
+//! technique ([`culling`]: tile gather, light-centric scatter, clusters) into the light grid
+//! ([`light_grid`]), the shadow atlas ([`shadow_atlas`]), the blended-geometry path ([`blended`]) and tonemapping ([`tonemap`]). Depends on wgpu, tiledlight-cull and
 //! tiledlight-scene; never on a renderer crate.
 
 pub mod bindings;
 pub mod blended;
 pub mod context;
+pub mod culling;
 pub mod depth_prepass;
 pub mod error;
 pub mod features;
-pub mod light_assign;
-pub mod light_cull;
 pub mod light_grid;
 pub mod lights_gpu;
 pub mod lights_group;
@@ -40,10 +40,10 @@ pub use wgpu;
 pub fn binding_declarations() -> Vec<bindings::PassBindings> {
     vec![
         depth_prepass::DEPTH_PREPASS_BINDINGS,
-        light_cull::CULL_BINDINGS,
-        light_cull::CULL_COARSE_BINDINGS,
-        light_assign::TILE_DEPTH_BINDINGS,
-        light_assign::ASSIGN_BINDINGS,
+        culling::tile::CULL_BINDINGS,
+        culling::tile::CULL_COARSE_BINDINGS,
+        culling::scatter::TILE_DEPTH_BINDINGS,
+        culling::scatter::ASSIGN_BINDINGS,
         tonemap::TONEMAP_BINDINGS,
         tonemap::HEATMAP_BINDINGS,
         tonemap::EXPOSURE_BINDINGS,

@@ -15,9 +15,10 @@
 //!
 //! The buffers are built once per screen; only the index buffer is re-created when it grows
 //! (with the one bind group that holds it here, and the shading pass's that reads it).
-//! Depends on wgpu, [`crate::light_cull`] for the options, [`crate::readback`] and [`crate::bindings`].
+//! Depends on wgpu, [`crate::readback`] and [`crate::bindings`]; the culling techniques
+//! ([`crate::culling`]) fill it and own its budget, never the other way round.
 //!
-//! [`CullOptions::grid_pairs`]: crate::light_cull::CullOptions::grid_pairs
+//! [`CullOptions::grid_pairs`]: crate::culling::CullOptions::grid_pairs
 
 use std::sync::atomic::{AtomicU8, Ordering};
 use std::sync::Arc;

@@ -13,7 +13,7 @@ use anyhow::{bail, ensure, Context, Result};
 use tiledlight_cull::light::try_pack_lights_with_casters;
 use tiledlight_cull::Camera;
 use tiledlight_frame::{FrameRenderer, FrameSettings};
-use tiledlight_gpu::light_cull::CullOptions;
+use tiledlight_gpu::culling::CullOptions;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::tonemap::HeatmapOf;

@@ -15,17 +15,17 @@ use std::fmt;
 use std::path::PathBuf;
 
 use anyhow::{ensure, Result};
-use tiledlight_cull::reference::{DEFAULT_CAPACITY, MAX_CAPACITY};
+use tiledlight_cull::lists::{DEFAULT_CAPACITY, MAX_CAPACITY};
 use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat, ShadowOptions, TILE_SIZES};
 use tiledlight_cull::tiles::MAX_SCREEN_SIDE;
 use tiledlight_cull::vpl::VplConfig;
 use tiledlight_deferred::shading::workgroup_bytes_besides_lists;
 use tiledlight_deferred::EdgeTest;
 use tiledlight_frame::FrameSettings;
+use tiledlight_gpu::culling::CLUSTER_TILE_SIZES;
+use tiledlight_gpu::culling::{ClusterOptions, CullOptions, CULL_WORKGROUP_BYTES};
 use tiledlight_gpu::features::BlendMode;
 pub use tiledlight_gpu::features::Method;
-use tiledlight_gpu::light_assign::CLUSTER_TILE_SIZES;
-use tiledlight_gpu::light_cull::{ClusterOptions, CullOptions, CULL_WORKGROUP_BYTES};
 use tiledlight_scene::{
     surface_irradiance_factor, CameraDesc, GridDensity, SurfaceLightOptions, DEFAULT_LIGHT_THRESHOLD,
     DEFAULT_SURFACE_OFFSET, MAX_GRID_OBJECTS, MAX_LIGHTS,

@@ -11,14 +11,14 @@
 //! atlas layout) and [`crate::settings`]'s descriptions.
 
 use anyhow::{Context, Result};
-use tiledlight_cull::reference::depth_tested_blended;
 use tiledlight_cull::shadow::{AtlasLayout, ShadowOptions};
 use tiledlight_cull::tiles::tile_depth_bounds_samples;
+use tiledlight_cull::volumes::depth_tested_blended;
 use tiledlight_cull::TileGrid;
 use tiledlight_frame::Diagnostics as _;
 use tiledlight_frame::FrameRenderer;
+use tiledlight_gpu::culling::CullOptions;
 use tiledlight_gpu::features::BlendMode;
-use tiledlight_gpu::light_cull::CullOptions;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::memory::format_bytes;
 use tiledlight_gpu::readback::read_depth;

@@ -25,7 +25,7 @@ pub use tiledlight_cull::vpl::{VplConfig, VplShading};
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::vpl::{GpuVplShading, VPL_GRID_PER_TILE};
 use tiledlight_cull::TileGrid;
-use tiledlight_gpu::light_cull::{CullOptions, LightCulling};
+use tiledlight_gpu::culling::{CullOptions, LightCulling};
 use tiledlight_gpu::lights_group::VplBindings;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::scene_gpu::SceneGpu;

@@ -1,7 +1,7 @@
 //! Light-centric assignment: each light scatters itself into the lists of the tiles (or
 //! clusters) it covers, so a frame's cost grows with lights + (list, light) pairs rather
 //! than lights x tiles, which is what a million lights needs (the tile-centric kernel,
-//! [`crate::light_cull`], tests every light in every tile or cell). The steps of a frame,
+//! [`super::tile`], tests every light in every tile or cell). The steps of a frame,
 //! all in one compute pass (`shaders/tile_depth.wgsl`, `shaders/assign.wgsl`):
 //!
 //! 1. **Tile depth**: a workgroup per grid tile writes the view-distance range of its
@@ -37,20 +37,23 @@
 //! `tiledlight_cull`'s clusters (which use the same rectangle) for the clustered layout.
 //! On the H200 the eye-plane rectangle cut the million-light preset's assignment from 0.76
 //! to 0.22 ms: ~2,800 of its lights got the whole grid (docs/PERFORMANCE.md).
-//! Depends on wgpu, [`crate::light_cull`] (options, depth binding), [`crate::light_grid`],
-//! [`crate::lights_gpu`], [`crate::view`], [`crate::bindings`].
+//! Depends on wgpu, [`super::options`] (options, depth binding), [`super::clusters`] (the
+//! clustered variant), [`crate::light_grid`], [`crate::lights_gpu`], [`crate::view`],
+//! [`crate::bindings`].
 
 use tiledlight_cull::TileGrid;
 
 use crate::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
 use crate::error::GpuError;
-use crate::light_cull::{CullOptions, DEPTH_BINDING};
 use crate::light_grid::{compute_bindings, LightGrid};
 use crate::lights_gpu::LightBuffers;
 use crate::memory::MemoryReport;
 use crate::timer::GpuTimer;
 use crate::util::{buffer_zeroed, compute_pipeline, compute_pipeline_at, shader_module};
 use crate::view::Views;
+
+use super::clusters::assign_defines;
+use super::options::{CullOptions, DEPTH_BINDING};
 
 /// A light whose tile rectangle holds more tiles than this is walked by a team of [`TEAM`]
 /// threads instead of one (a thread's walk holds up its whole warp: on the H200 at a
@@ -91,18 +94,6 @@ const BLOCK: u32 = 4;
 
 /// Threads of the per-light and per-list workgroups (`shaders/assign.wgsl`).
 const GROUP: u32 = 256;
-
-/// The clustered layout (Olsson, Billeter, Assarsson 2012), shared with the CPU twin:
-/// screen tiles times depth slices, slice 0 from the eye to `first` (exponential slicing
-/// would crowd the near plane: with near 0.1 and 24 slices, 10 fall within 5 m, so Bevy and
-/// Filament start at 5 m), then exponential slices to `last`, the last reaching to
-/// infinity. On the GPU the tile side must be 8, 16, 32, 64, 128 or 256 pixels
-/// ([`CullOptions::validate`]).
-pub use tiledlight_cull::ClusterConfig as ClusterOptions;
-
-/// Cluster tile sides the tile-depth pass can reduce (a multiple of its 8 or 16 threads a
-/// side).
-pub const CLUSTER_TILE_SIZES: [u32; 6] = [8, 16, 32, 64, 128, 256];
 
 /// The bindings of the tile-depth pass (`shaders/tile_depth.wgsl`). Group 1: depth (0), the
 /// tile masks it writes (3, for 2.5D or clusters), the blocks' depth ranges (4, tiles). Group 2: the light grid, tile ranges
@@ -267,11 +258,8 @@ impl LightAssign {
         // Steps 2-4: count, allocate, write.
         let spot_cone = options.spot_cone && lights.has_spots() && clusters.is_none();
         let mut defines = Vec::new();
-        if let Some(c) = clusters {
-            defines.push("CLUSTERED");
-            if c.geometry_only {
-                defines.push("GEOMETRY_ONLY");
-            }
+        if let Some(c) = &clusters {
+            defines.extend(assign_defines(c));
         } else {
             if options.half_z {
                 defines.push("HALF_Z");
