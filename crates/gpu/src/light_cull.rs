@@ -18,7 +18,8 @@ use crate::light_grid::{GridLayout, LightGrid};
 use crate::lights_gpu::LightBuffers;
 use crate::memory::MemoryReport;
 use crate::timer::GpuTimer;
-use crate::util::{buffer_zeroed, compute_pipeline, shader_module};
+use crate::util::{buffer_zeroed, compute_pipeline, keyed_module};
+use crate::variants::{CullCoarseKey, CullKey, CullTests, ShaderKey};
 use crate::view::Views;
 
 /// Options of the culling pass (mirrors `tiledlight_cull::CullConfig`).
@@ -125,28 +126,16 @@ impl CullOptions {
         Ok(())
     }
 
-    /// The defines of the culling code (`common/tile_cull.wgsl`) for these options on a
-    /// scene with or without spot lights, plus the test hook's.
-    pub fn cull_defines(&self, has_spots: bool, drop: Option<DropLight>) -> Vec<&'static str> {
-        let mut defines = Vec::new();
-        if self.aabb {
-            defines.push("AABB");
+    /// The light tests of the culling code (`common/tile_cull.wgsl`) for these options on a
+    /// scene with or without spot lights (the spot-cone test only with spots).
+    pub fn tests(&self, has_spots: bool) -> CullTests {
+        CullTests {
+            aabb: self.aabb,
+            half_z: self.half_z,
+            spot_cone: self.spot_cone && has_spots,
+            coarse: self.coarse,
+            depth_mask: self.depth_mask,
         }
-        if self.half_z {
-            defines.push("HALF_Z");
-        }
-        if self.spot_cone && has_spots {
-            defines.push("SPOT_CONE");
-        }
-        if self.coarse {
-            defines.push("COARSE");
-        }
-        if self.depth_mask {
-            defines.push("DEPTH_MASK");
-        }
-        defines.extend(self.depth_variant().0);
-        defines.extend(DropLight::variant(drop).0);
-        defines
     }
 
     /// The override constants of the culling code: tile and workgroup size, capacity, the
@@ -226,13 +215,13 @@ impl CullOptions {
         num_lights.clamp(1, MAX_CAPACITY.min(fits).max(1))
     }
 
-    /// The depth-range defines and override constants every kernel reading the depth
-    /// buffer needs (`shaders/common/depth_range.wgsl`).
-    pub fn depth_variant(&self) -> (Option<&'static str>, Option<(&'static str, f64)>) {
+    /// Whether every kernel reading the depth buffer has its `MSAA` variant
+    /// (`shaders/common/depth_range.wgsl`), and its override constant.
+    pub fn depth_variant(&self) -> (bool, Option<(&'static str, f64)>) {
         if self.samples > 1 {
-            (Some("MSAA"), Some(("SAMPLES", self.samples as f64)))
+            (true, Some(("SAMPLES", self.samples as f64)))
         } else {
-            (None, None)
+            (false, None)
         }
     }
 
@@ -291,12 +280,12 @@ impl DropLight {
         Ok(())
     }
 
-    /// The define and override constants of the hook, to add to a kernel that includes
-    /// `common/tile_cull.wgsl`.
-    pub fn variant(drop: Option<DropLight>) -> (Option<&'static str>, Vec<(&'static str, f64)>) {
+    /// Whether a kernel that includes `common/tile_cull.wgsl` has its `DROP_LIGHT` variant,
+    /// and the hook's override constants.
+    pub fn variant(drop: Option<DropLight>) -> (bool, Vec<(&'static str, f64)>) {
         match drop {
-            Some(d) => (Some("DROP_LIGHT"), vec![("DROP_TILE", d.tile as f64), ("DROP_INDEX", d.light as f64)]),
-            None => (None, Vec::new()),
+            Some(d) => (true, vec![("DROP_TILE", d.tile as f64), ("DROP_INDEX", d.light as f64)]),
+            None => (false, Vec::new()),
         }
     }
 }
@@ -353,8 +342,8 @@ impl CoarseCulling {
         let lists = buffer_zeroed(device, "cull.cell_lists", bytes, usage);
         memory.add("cull.cell_lists", lists.size());
         let (msaa, samples) = options.depth_variant();
-        let defines: Vec<&str> = msaa.into_iter().collect();
-        let layout = create_layout(device, "cull_coarse.layout", CULL_COARSE_BINDINGS.group(1), &defines);
+        let key = CullCoarseKey { msaa };
+        let layout = create_layout(device, "cull_coarse.layout", CULL_COARSE_BINDINGS.group(1), &key.defines());
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cull_coarse.bind_group"),
             layout: &layout,
@@ -365,7 +354,7 @@ impl CoarseCulling {
                 wgpu::BindGroupEntry { binding: 3, resource: lighting.as_entire_binding() },
             ],
         });
-        let module = shader_module(device, CULL_COARSE_BINDINGS.entry, &defines)?;
+        let module = keyed_module(device, &key)?;
         let mut constants = coarse_constants(capacity).to_vec();
         constants.extend(samples);
         let pipeline = compute_pipeline(device, "cull_coarse", &[&views.layout, &layout], &module, &constants);
@@ -543,14 +532,19 @@ impl LightCulling {
             return Ok(Self { kernel: CullKernel::Scatter(assign), grid: light_grid, options, memory });
         }
         let spot_cone = options.spot_cone && lights.has_spots();
-        let mut defines = options.cull_defines(lights.has_spots(), drop);
+        let key = CullKey {
+            tests: options.tests(lights.has_spots()),
+            msaa: options.depth_variant().0,
+            blended: blended.is_some(),
+            drop_light: DropLight::variant(drop).0,
+        };
+        let defines = key.defines();
         let mut bind = vec![
             wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(depth) },
             wgpu::BindGroupEntry { binding: 1, resource: lights.cull.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 9, resource: lighting.as_entire_binding() },
         ];
         if let Some(b) = blended {
-            defines.push("BLENDED");
             bind.push(wgpu::BindGroupEntry { binding: 10, resource: wgpu::BindingResource::TextureView(b) });
         }
         if let (true, Some(spots)) = (spot_cone, &lights.spots) {
@@ -572,7 +566,7 @@ impl LightCulling {
             layout: &layout,
             entries: &bind,
         });
-        let module = shader_module(device, CULL_BINDINGS.entry, &defines)?;
+        let module = keyed_module(device, &key)?;
         let constants = options.cull_constants(coarse.as_ref(), drop, (&light_grid, lights.len()));
         let pipeline =
             compute_pipeline(device, prefix, &[&views.layout, &layout, light_grid.layout()], &module, &constants);
