@@ -2,8 +2,6 @@
 // alpha-masked materials that samples alpha and discards (its base colour texture may read
 // texture coordinate set 1: UV1).
 // variants: ALPHA_MASK TEXTURES UV1
-// requires: TEXTURES ALPHA_MASK
-// requires: UV1 TEXTURES
 #include "common/scene.wgsl"
 
 #ifdef ALPHA_MASK

@@ -13,10 +13,6 @@
 // EXTRA_TEST_VALUES: keep in step), so tests can prove each one is read and multiplied in.
 // variants: ALPHA_MASK TEXTURES EXTRA_TEST_VALUES EMISSION
 // variants: MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1
-// requires: MR_TEXTURE TEXTURES
-// requires: NORMAL_MAP TEXTURES
-// requires: OCCLUSION TEXTURES
-// requires: UV1 TEXTURES
 #include "common/scene.wgsl"
 
 #ifdef EXTRA_TEST_VALUES

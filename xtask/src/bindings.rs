@@ -29,8 +29,12 @@ pub fn declarations() -> Vec<PassBindings> {
     let mut v = tiledlight_gpu::binding_declarations();
     v.extend([
         tiledlight_forward::shading::FORWARD_BINDINGS,
+        tiledlight_forward::shading::FORWARD_CLUSTERED_BINDINGS,
+        tiledlight_forward::shading::BRUTE_FORCE_BINDINGS,
         tiledlight_deferred::gbuffer::GBUFFER_BINDINGS,
         tiledlight_deferred::shading::DEFERRED_BINDINGS,
+        tiledlight_deferred::shading::DEFERRED_MSAA_BINDINGS,
+        tiledlight_deferred::shading::DEFERRED_ASSIGNED_BINDINGS,
         tiledlight_deferred::shading::DEFERRED_RESOLVE_BINDINGS,
         blit::BLIT_BINDINGS,
     ]);
@@ -38,8 +42,10 @@ pub fn declarations() -> Vec<PassBindings> {
     v
 }
 
-/// Every define a condition of `pass` names (to check the entry file declares them as
-/// variants: a condition on a define that is never set would never be checked present).
+/// Every define a condition of `pass` names (to check some entry file declares it: a
+/// condition on a define no file declares is a misspelling, never checked present). A
+/// group shared by several entry files (the lights group) may name a define one of them
+/// never sets: there the condition never holds, as naga's reflection confirms.
 pub fn named_defines(pass: &PassBindings) -> Vec<&'static str> {
     fn walk(c: &Cond, out: &mut Vec<&'static str>) {
         match c {

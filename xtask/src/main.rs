@@ -1,7 +1,7 @@
 //! Project tasks, run as `cargo xtask <task>` (alias in `.cargo/config.toml`):
 //!
-//! - `validate-shaders`: preprocess every entry WGSL file of `shaders/` in every variant
-//!   combination, parse and validate it with naga, compare each variant's bindings with
+//! - `validate-shaders`: preprocess every entry WGSL file of `shaders/` in every value of
+//!   its variant key (`tiledlight_gpu::variants`), parse and validate it with naga, compare each variant's bindings with
 //!   its pass's Rust declaration (`tiledlight_gpu::bindings`), and check that the Rust
 //!   structs shared with WGSL have the same size and field offsets as their WGSL twins.
 //! - `circles [DIR]`: the module import graph of every crate and the WGSL `#include` graph

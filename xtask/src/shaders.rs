@@ -1,6 +1,8 @@
 //! `cargo xtask validate-shaders`: naga validation of every WGSL entry file in every
-//! variant combination, the Rust/WGSL bindings check of every variant (see
-//! [`crate::bindings`]) and the Rust/WGSL struct layout check.
+//! value of its key type (`tiledlight_gpu::variants`: exactly the variants the passes can
+//! build, not every combination of flags), the Rust/WGSL bindings check of every variant
+//! (see [`crate::bindings`]) and the Rust/WGSL struct layout check. Prints each entry
+//! file's count of validated variants.
 //!
 //! Reads `shaders/` from disk (not the table embedded in tiledlight-gpu, which is only as
 //! fresh as the last build), preprocesses with `tiledlight_gpu::shader`, and reports
@@ -20,9 +22,9 @@ use crate::bindings::{compare_bindings, declarations, named_defines};
 
 /// More defines than this in one entry file is surely a mistake in the declaration.
 const MAX_VARIANTS: usize = 16;
-/// More combinations than this (2^12) after the `// requires:` lines is too many to
-/// validate: rule some out (a define only ever set with another) or split the file.
-const MAX_COMBINATIONS: usize = 1 << 12;
+/// More key values than this in one entry file is too many to validate (and a sign the
+/// file holds kernels that should be files of their own).
+const MAX_KEY_VALUES: usize = 1024;
 
 /// wgpu features whose shader capabilities the renderer's device has. Shaders are
 /// validated with exactly the naga capabilities wgpu enables for them, so a shader that
@@ -67,6 +69,21 @@ pub fn validate_shaders(root: &Path) -> Result<()> {
         }
     }
 
+    let spaces = tiledlight_gpu::variants::key_spaces();
+    for (entry, _) in &spaces {
+        if !entries.iter().any(|e| e == entry) {
+            eprintln!("error: tiledlight_gpu::variants: a key type names shaders/{entry}, which is no entry file");
+            failures += 1;
+        }
+    }
+    // Every define some entry file declares (a binding condition must name one of them).
+    let mut all_declared: Vec<String> = Vec::new();
+    for &entry in &entries {
+        let text = read(entry).with_context(|| format!("cannot read shaders/{entry}"))?;
+        all_declared.extend(shader::variants_in(&text));
+    }
+    let mut counts: Vec<(String, usize)> = Vec::new();
+
     for &entry in &entries {
         let text = read(entry).with_context(|| format!("cannot read shaders/{entry}"))?;
         let variants = shader::variants_in(&text);
@@ -78,40 +95,61 @@ pub fn validate_shaders(root: &Path) -> Result<()> {
         let pass = passes.iter().find(|p| p.entry == entry.as_str());
         if let Some(pass) = pass {
             for define in named_defines(pass) {
-                if !variants.iter().any(|v| v == define) {
+                if !all_declared.iter().any(|v| v == define) {
                     eprintln!(
-                        "error: {}: a binding of shaders/{entry} depends on {define}, which is not one of its \
-                         `// variants:` (so no variant checks it)",
+                        "error: {}: a binding of shaders/{entry} depends on {define}, which no entry file declares \
+                         in its `// variants:`",
                         pass.source
                     );
                     failures += 1;
                 }
             }
         }
-        let requires = shader::requirements_in(&text);
-        for (a, b) in &requires {
-            if ![a, b].iter().all(|d| variants.contains(d)) {
-                eprintln!("error: shaders/{entry}: `// requires: {a} {b}` names a define that is not a variant");
+        let tested = tested_defines(&read, entry);
+        for v in &variants {
+            if !tested.contains(v) {
+                eprintln!(
+                    "error: shaders/{entry}: declares {v}, which neither it nor its includes test (#ifdef/#ifndef)"
+                );
                 failures += 1;
             }
         }
-        let combinations = shader::valid_combinations(&variants, &requires);
-        if combinations.len() > MAX_COMBINATIONS {
+        let values: Vec<Vec<&str>> = match spaces.iter().find(|(e, _)| e == entry) {
+            Some((_, v)) => v.clone(),
+            None if variants.is_empty() => vec![Vec::new()],
+            None => {
+                eprintln!(
+                    "error: shaders/{entry}: declares variants but no key type of tiledlight_gpu::variants lists its values"
+                );
+                failures += 1;
+                continue;
+            }
+        };
+        for v in &variants {
+            if !values.iter().any(|d| d.contains(&v.as_str())) {
+                eprintln!("error: shaders/{entry}: declares {v}, which no value of its key sets");
+                failures += 1;
+            }
+        }
+        if values.len() > MAX_KEY_VALUES {
             eprintln!(
-                "error: shaders/{entry}: {} variant combinations to validate, at most {MAX_COMBINATIONS} \
-                 (declare `// requires: A B` for a define A only ever set with B)",
-                combinations.len()
+                "error: shaders/{entry}: {} key values to validate, at most {MAX_KEY_VALUES} (split the file's kernels)",
+                values.len()
             );
             failures += 1;
             continue;
         }
+        counts.push((entry.clone(), values.len()));
         // The same error usually shows in many variants: report it once, with them all.
         let mut problems: Vec<(Problem, Vec<String>)> = Vec::new();
         let mut mismatches: Vec<(String, Vec<String>)> = Vec::new();
-        for defines in &combinations {
+        for defines in &values {
             variants_checked += 1;
             let variant = format!("[{}]", defines.join(" "));
-            match compile(&read, entry, defines) {
+            let compiled = shader::check_declared(entry, &text, defines)
+                .map_err(Problem::from)
+                .and_then(|()| compile(&read, entry, defines));
+            match compiled {
                 Err(p) => match problems.iter_mut().find(|(q, _)| *q == p) {
                     Some((_, in_variants)) => in_variants.push(variant),
                     None => problems.push((p, vec![variant])),
@@ -130,7 +168,7 @@ pub fn validate_shaders(root: &Path) -> Result<()> {
             }
         }
         for (mismatch, in_variants) in mismatches {
-            let variants = if in_variants.len() == combinations.len() && in_variants.len() > 1 {
+            let variants = if in_variants.len() == values.len() && in_variants.len() > 1 {
                 format!("all {} variants", in_variants.len())
             } else if in_variants.len() > LISTED_VARIANTS {
                 format!(
@@ -146,8 +184,14 @@ pub fn validate_shaders(root: &Path) -> Result<()> {
             failures += 1;
         }
         for (problem, in_variants) in problems {
-            let context = if in_variants.len() == combinations.len() && in_variants.len() > 1 {
+            let context = if in_variants.len() == values.len() && in_variants.len() > 1 {
                 format!("shaders/{entry}, all {} variants", in_variants.len())
+            } else if in_variants.len() > LISTED_VARIANTS {
+                format!(
+                    "shaders/{entry} {} and {} more variants",
+                    in_variants[..LISTED_VARIANTS].join(" "),
+                    in_variants.len() - LISTED_VARIANTS
+                )
             } else {
                 format!("shaders/{entry} {}", in_variants.join(" "))
             };
@@ -185,8 +229,11 @@ pub fn validate_shaders(root: &Path) -> Result<()> {
     if failures > 0 {
         bail!("shader validation failed: {failures} problem(s), see above");
     }
+    for (entry, n) in &counts {
+        println!("xtask: shaders/{entry}: {n} variant(s)");
+    }
     println!(
-        "xtask: validated {variants_checked} variant(s) of {} WGSL entry file(s); {layouts_checked} Rust/WGSL struct layout(s) match",
+        "xtask: validated {variants_checked} variant(s) (key values) of {} WGSL entry file(s); {layouts_checked} Rust/WGSL struct layout(s) match",
         entries.len()
     );
     let undeclared: Vec<&str> =
@@ -227,6 +274,41 @@ fn scan(dir: &Path) -> Result<Vec<String>> {
     walk(dir, "", &mut out)?;
     out.sort();
     Ok(out)
+}
+
+/// Every define an `#ifdef`/`#ifndef` of `entry` or of any file it includes (in any
+/// branch) tests.
+fn tested_defines(read: Reader<'_>, entry: &str) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    let mut seen: Vec<String> = Vec::new();
+    let mut todo = vec![entry.to_owned()];
+    while let Some(file) = todo.pop() {
+        if seen.contains(&file) {
+            continue;
+        }
+        seen.push(file.clone());
+        let Some(text) = read(&file) else { continue };
+        for line in text.lines() {
+            let line = line.trim();
+            let mut words = line.split_whitespace();
+            match words.next() {
+                Some("#ifdef" | "#ifndef") => {
+                    if let Some(name) = words.next() {
+                        if !out.iter().any(|o| o == name) {
+                            out.push(name.to_owned());
+                        }
+                    }
+                }
+                Some("#include") => {
+                    if let Some(path) = words.next() {
+                        todo.push(path.trim_matches('"').to_owned());
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+    out
 }
 
 /// One error, at its original file:line, without saying which entry and variant it
@@ -473,7 +555,7 @@ mod tests {
                 "@group(3) @binding(4): not declared in Rust, tile_ranges: var<storage, read> in the WGSL",
             ]
         );
-        let deferred = tiledlight_deferred::shading::DEFERRED_BINDINGS;
+        let deferred = tiledlight_deferred::shading::DEFERRED_MSAA_BINDINGS;
         let (module, info) = compile(&read, deferred.entry, &["MSAA"]).unwrap();
         assert_eq!(compare_bindings(&deferred, &["MSAA"], &module, &info), Vec::<String>::new());
         let got = compare_bindings(&deferred, &[], &module, &info);

@@ -25,7 +25,8 @@ use tiledlight_gpu::scene_gpu::MaterialFeatures;
 use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS};
 use tiledlight_gpu::targets::texture_2d_msaa;
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::util::{pipeline_layout, shader_module};
+use tiledlight_gpu::util::{keyed_module, pipeline_layout};
+use tiledlight_gpu::variants::{GBufferKey, MaterialKey};
 use tiledlight_gpu::view::Views;
 use tiledlight_gpu::GpuError;
 
@@ -190,18 +191,13 @@ impl GBufferPass {
         let fs = format!("fs_gbuffer{rts}");
         let mut pipelines = Vec::new();
         for kind in scene.opaque_kinds() {
-            let mut defines = Vec::new();
-            if kind.masked {
-                defines.push("ALPHA_MASK");
-            }
-            defines.extend(scene.material_features.defines());
-            if emission {
-                defines.push("EMISSION");
-            }
-            if test_values {
-                defines.push("EXTRA_TEST_VALUES");
-            }
-            let module = shader_module(device, GBUFFER_BINDINGS.entry, &defines)?;
+            let key = GBufferKey {
+                alpha_mask: kind.masked,
+                materials: MaterialKey::of(&scene.material_features),
+                emission,
+                extra_test_values: test_values,
+            };
+            let module = keyed_module(device, &key)?;
             let p = scene_pipeline(
                 device,
                 kind,

@@ -1,7 +1,10 @@
-//! Tiled Deferred's one compute pass (`shaders/deferred.wgsl`): per tile, the same culling
-//! as Forward+ (`shaders/common/tile_cull.wgsl`, after the shared 64x64-cell pass when
-//! two-level culling is on) into workgroup memory, then every pixel of the tile shaded from
-//! the G-buffer with that list, into the HDR storage texture.
+//! Tiled Deferred's one compute pass (`shaders/deferred.wgsl`, with MSAA
+//! `shaders/deferred_msaa.wgsl`): per tile, the same culling as Forward+
+//! (`shaders/common/tile_cull.wgsl`, after the shared 64x64-cell pass when two-level
+//! culling is on) into workgroup memory, then every pixel of the tile shaded from the
+//! G-buffer with that list, into the HDR storage texture. With lists assigned
+//! light-centrically before it, the pass is `shaders/deferred_assigned.wgsl`, which only
+//! looks each pixel's list up. The variant is a [`DeferredKey`].
 //!
 //! With MSAA it also runs the edge test ([`EdgeTest`]): edge pixels are queued in workgroup
 //! memory and their other samples shaded by all of the tile's threads into an oversized
@@ -29,7 +32,8 @@ use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::targets::texture_2d;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
-use tiledlight_gpu::util::{buffer_zeroed, compute_pipeline, shader_module};
+use tiledlight_gpu::util::{buffer_zeroed, compute_pipeline, keyed_module, shader_module};
+use tiledlight_gpu::variants::{DeferredKey, DeferredLists, ShaderKey, Shadowing};
 use tiledlight_gpu::view::Views;
 use tiledlight_gpu::GpuError;
 
@@ -121,53 +125,70 @@ const fn hdr_storage_binding(binding: u32) -> Binding {
     Binding::storage_texture(binding, CS, HDR_FORMAT, wgpu::StorageTextureAccess::WriteOnly)
 }
 
-/// The bindings of [`DeferredShading`] (`shaders/deferred.wgsl`). Group 1: depth (0),
-/// bounding spheres (1), the lighting uniform (2), albedo (3), normal (4), shading lights
-/// (6), the HDR output (9); the extra targets (5, 10, 11) with `EXTRA_RTS`, `_2`, `_3`;
-/// spots (7) with `SPOT_LIGHTS` (or `SPOT_CONE`, which the pass sets only with spots);
-/// cells (8) with `COARSE`; with `MSAA` the sample texture (12), edge list (13) and
-/// resolve arguments (14); with `SHADOWS` the shadow atlas (15), its comparison sampler
-/// (16) and faces (17); with `EMISSION` the G-buffer's emission target (18); with `VPLS`
-/// the VPLs (19), their shading uniform (20), their light grid (21) and its indices (22). Group 2: the light grid, with tile ranges only with `ASSIGNED`
-/// (lists assigned light-centrically before the pass, read per pixel).
+/// Group 1 of every Tiled Deferred kernel: depth (0), bounding spheres (1), the lighting
+/// uniform (2), albedo (3), normal (4), shading lights (6), the HDR output (9); the extra
+/// targets (5, 10, 11) with `EXTRA_RTS`, `_2`, `_3`; spots (7) with `SPOT_LIGHTS` (or
+/// `SPOT_CONE`, which the pass sets only with spots); cells (8) with `COARSE`; with `MSAA`
+/// the sample texture (12), edge list (13) and resolve arguments (14); with `SHADOWS` the
+/// shadow atlas (15), its comparison sampler (16) and faces (17); with `EMISSION` the
+/// G-buffer's emission target (18); with `VPLS` the VPLs (19), their shading uniform (20),
+/// their light grid (21) and its indices (22). The shadow and VPL numbers are those of the
+/// forward passes' lights group (`tiledlight_gpu::lights_group::LIGHTS_GROUP`).
+const DEFERRED_GROUP: &[Binding] = &[
+    DEPTH_BINDING,
+    Binding::storage(1, CS),
+    Binding::uniform(2, CS),
+    gbuffer_binding(3),
+    gbuffer_binding(4),
+    Binding::storage(6, CS),
+    hdr_storage_binding(9),
+    gbuffer_binding(5).when(Cond::Defined("EXTRA_RTS")),
+    gbuffer_binding(10).when(Cond::All(&[Cond::Defined("EXTRA_RTS"), Cond::Defined("EXTRA_RTS_2")])),
+    gbuffer_binding(11).when(Cond::All(&[
+        Cond::Defined("EXTRA_RTS"),
+        Cond::Defined("EXTRA_RTS_2"),
+        Cond::Defined("EXTRA_RTS_3"),
+    ])),
+    Binding::storage(7, CS).when(Cond::Any(&[Cond::Defined("SPOT_LIGHTS"), Cond::Defined("SPOT_CONE")])),
+    Binding::storage(8, CS).when(Cond::Defined("COARSE")),
+    hdr_storage_binding(12).when(Cond::Defined("MSAA")),
+    Binding::storage_rw(13, CS).when(Cond::Defined("MSAA")),
+    Binding::storage_rw(14, CS).when(Cond::Defined("MSAA")),
+    Binding::depth_array(15, CS).when(Cond::Defined("SHADOWS")),
+    Binding::sampler(16, CS, wgpu::SamplerBindingType::Comparison).when(Cond::Defined("SHADOWS")),
+    Binding::storage(17, CS).when(Cond::Defined("SHADOWS")),
+    gbuffer_binding(18).when(Cond::Defined("EMISSION")),
+    Binding::storage(19, CS).when(Cond::Defined("VPLS")),
+    Binding::uniform(20, CS).when(Cond::Defined("VPLS")),
+    Binding::storage(21, CS).when(Cond::Defined("VPLS")),
+    Binding::storage(22, CS).when(Cond::Defined("VPLS")),
+];
+
+/// The bindings of [`DeferredShading`]'s cull-and-shade kernel (`shaders/deferred.wgsl`):
+/// group 1 as [`DEFERRED_GROUP`], group 2 the light grid it writes (no tile ranges).
 pub const DEFERRED_BINDINGS: PassBindings = PassBindings {
     entry: "deferred.wgsl",
     source: file!(),
     groups: &[
         PassGroup::new(0, tiledlight_gpu::view::BINDINGS),
-        PassGroup::new(
-            1,
-            &[
-                DEPTH_BINDING,
-                Binding::storage(1, CS),
-                Binding::uniform(2, CS),
-                gbuffer_binding(3),
-                gbuffer_binding(4),
-                Binding::storage(6, CS),
-                hdr_storage_binding(9),
-                gbuffer_binding(5).when(Cond::Defined("EXTRA_RTS")),
-                gbuffer_binding(10).when(Cond::All(&[Cond::Defined("EXTRA_RTS"), Cond::Defined("EXTRA_RTS_2")])),
-                gbuffer_binding(11).when(Cond::All(&[
-                    Cond::Defined("EXTRA_RTS"),
-                    Cond::Defined("EXTRA_RTS_2"),
-                    Cond::Defined("EXTRA_RTS_3"),
-                ])),
-                Binding::storage(7, CS).when(Cond::Any(&[Cond::Defined("SPOT_LIGHTS"), Cond::Defined("SPOT_CONE")])),
-                Binding::storage(8, CS).when(Cond::Defined("COARSE")),
-                hdr_storage_binding(12).when(Cond::Defined("MSAA")),
-                Binding::storage_rw(13, CS).when(Cond::Defined("MSAA")),
-                Binding::storage_rw(14, CS).when(Cond::Defined("MSAA")),
-                Binding::depth_array(15, CS).when(Cond::Defined("SHADOWS")),
-                Binding::sampler(16, CS, wgpu::SamplerBindingType::Comparison).when(Cond::Defined("SHADOWS")),
-                Binding::storage(17, CS).when(Cond::Defined("SHADOWS")),
-                gbuffer_binding(18).when(Cond::Defined("EMISSION")),
-                Binding::storage(19, CS).when(Cond::Defined("VPLS")),
-                Binding::uniform(20, CS).when(Cond::Defined("VPLS")),
-                Binding::storage(21, CS).when(Cond::Defined("VPLS")),
-                Binding::storage(22, CS).when(Cond::Defined("VPLS")),
-            ],
-        ),
-        PassGroup::new(2, &compute_bindings(Cond::Defined("ASSIGNED"))),
+        PassGroup::new(1, DEFERRED_GROUP),
+        PassGroup::new(2, &compute_bindings(Cond::Never)),
+    ],
+};
+
+/// [`DEFERRED_BINDINGS`] for the MSAA cull-and-shade kernel (`shaders/deferred_msaa.wgsl`).
+pub const DEFERRED_MSAA_BINDINGS: PassBindings = PassBindings { entry: "deferred_msaa.wgsl", ..DEFERRED_BINDINGS };
+
+/// The bindings of the kernel shading lists assigned before it
+/// (`shaders/deferred_assigned.wgsl`): group 1 as [`DEFERRED_GROUP`], group 2 the light
+/// grid with its tile ranges (read per pixel).
+pub const DEFERRED_ASSIGNED_BINDINGS: PassBindings = PassBindings {
+    entry: "deferred_assigned.wgsl",
+    source: file!(),
+    groups: &[
+        PassGroup::new(0, tiledlight_gpu::view::BINDINGS),
+        PassGroup::new(1, DEFERRED_GROUP),
+        PassGroup::new(2, &compute_bindings(Cond::Always)),
     ],
 };
 
@@ -191,9 +212,9 @@ fn view_entry(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_
     wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) }
 }
 
-/// Bindings of the extra G-buffer targets and their defines, in order (as declared in
-/// [`DEFERRED_BINDINGS`], which `cargo xtask validate-shaders` checks against shaders/deferred.wgsl).
-const EXTRA_BINDINGS: [(u32, &str); 3] = [(5, "EXTRA_RTS"), (10, "EXTRA_RTS_2"), (11, "EXTRA_RTS_3")];
+/// Bindings of the extra G-buffer targets, in order (as declared in [`DEFERRED_GROUP`],
+/// which `cargo xtask validate-shaders` checks against the kernels).
+const EXTRA_BINDINGS: [u32; 3] = [5, 10, 11];
 
 impl DeferredShading {
     /// Builds the pipeline and bindings for `grid`, reading `depth` and `gbuffer` (both of
@@ -277,18 +298,23 @@ impl DeferredShading {
         } else {
             None
         };
-        let mut defines = if assigned {
+        let lists = if assigned {
             // The pass only looks lists up: the layout's defines, none of the tests'.
-            let mut d = vec!["ASSIGNED"];
-            d.extend(options.depth_variant().0);
-            if options.clusters.is_some() {
-                d.push("CLUSTERED");
-            } else if options.half_z {
-                d.push("HALF_Z");
+            DeferredLists::Assigned {
+                half_z: options.clusters.is_none() && options.half_z,
+                clustered: options.clusters.is_some(),
             }
-            d
         } else {
-            options.cull_defines(features.spot_lights, drop)
+            DeferredLists::Culled { tests: options.tests(features.spot_lights), drop_light: DropLight::variant(drop).0 }
+        };
+        let key = DeferredKey {
+            lists,
+            spots: features.spot_lights,
+            shadowing: Shadowing::of(features.shadows.is_some(), features.vpl)
+                .ok_or_else(|| GpuError::Config("VPLs need shadow casters".into()))?,
+            msaa: options.depth_variant().0,
+            extra_targets: gbuffer.extra_views().len() as u32,
+            emission: gbuffer.emission_view().is_some(),
         };
         let mut bind = vec![
             view_entry(0, depth),
@@ -299,19 +325,15 @@ impl DeferredShading {
             wgpu::BindGroupEntry { binding: 6, resource: lights.shading.as_entire_binding() },
             view_entry(9, hdr),
         ];
-        for (view, (binding, define)) in gbuffer.extra_views().iter().zip(EXTRA_BINDINGS) {
-            defines.push(define);
+        for (view, binding) in gbuffer.extra_views().iter().zip(EXTRA_BINDINGS) {
             bind.push(view_entry(binding, view));
         }
         if let Some(view) = gbuffer.emission_view() {
-            defines.push("EMISSION");
             bind.push(view_entry(18, view));
         }
-        defines.extend(features.light_defines());
         if let Some(spots) = lights.spots.as_ref().filter(|_| features.spot_lights) {
             bind.push(wgpu::BindGroupEntry { binding: 7, resource: spots.as_entire_binding() });
         }
-        defines.extend(features.vpl_defines());
         if let Some(v) = vpls {
             bind.push(wgpu::BindGroupEntry { binding: 19, resource: v.vpls.as_entire_binding() });
             bind.push(wgpu::BindGroupEntry { binding: 20, resource: v.shading.as_entire_binding() });
@@ -374,13 +396,13 @@ impl DeferredShading {
             bind.push(wgpu::BindGroupEntry { binding: 13, resource: edge_list.as_entire_binding() });
             bind.push(wgpu::BindGroupEntry { binding: 14, resource: edge_args.as_entire_binding() });
         }
-        let layout = create_layout(device, "deferred.layout", DEFERRED_BINDINGS.group(1), &defines);
+        let layout = create_layout(device, "deferred.layout", DEFERRED_GROUP, &key.defines());
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("deferred.bind_group"),
             layout: &layout,
             entries: &bind,
         });
-        let module = shader_module(device, DEFERRED_BINDINGS.entry, &defines)?;
+        let module = keyed_module(device, &key)?;
         let mut constants = if assigned {
             let mut c = vec![("TILE_SIZE", options.tile_size as f64), ("WG", options.tile_size.min(16) as f64)];
             c.extend(options.depth_variant().1);

@@ -7,18 +7,19 @@
 //! Bind groups: 0 view, 1 scene, 2 material texture (textured scenes only), 3 lights.
 //! Depends on tiledlight-gpu.
 
-use tiledlight_gpu::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
+use tiledlight_gpu::bindings::{create_layout, PassBindings, PassGroup};
 use tiledlight_gpu::culling::LightCulling;
 use tiledlight_gpu::depth_prepass::{scene_pipeline, DepthUse, SceneDraw, DEPTH_FORMAT};
 use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
-use tiledlight_gpu::lights_group::{LightsGroup, VplBindings};
+use tiledlight_gpu::lights_group::{LightsGroup, VplBindings, LIGHTS_GROUP};
 use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
-use tiledlight_gpu::util::{pipeline_layout, shader_module};
+use tiledlight_gpu::util::{keyed_module, pipeline_layout};
+use tiledlight_gpu::variants::{ForwardKey, LightLoopKey, MaterialKey, ShaderKey, Shadowing};
 use tiledlight_gpu::view::Views;
 use tiledlight_gpu::GpuError;
 
@@ -37,45 +38,21 @@ pub enum LightLoop {
     },
 }
 
-/// The bindings of the shading pass (`shaders/forward.wgsl`): the scene's groups 0 to 2,
-/// then group 3, the lights: shading lights (0), the lighting uniform (5), with
-/// `SPOT_LIGHTS` the spots (1), unless `BRUTE_FORCE` the light grid (2) and its indices
-/// (3), with `HALF_Z` the tile ranges (4), with `SHADOWS` the shadow atlas (6), its
-/// comparison sampler (7) and faces (8), and with `VPLS` the VPLs (9), their shading
-/// uniform (10) and the generation's counter (11), and unless `BRUTE_FORCE` their light
-/// grid (12) and its indices (13).
+/// The bindings of the shading pass (`shaders/forward.wgsl`, Forward+ over tile lists): the
+/// scene's groups 0 to 2, then group 3, the lights ([`LIGHTS_GROUP`], declared once for
+/// every forward shading entry in `shaders/common/lights_group.wgsl`).
 pub const FORWARD_BINDINGS: PassBindings = PassBindings {
     entry: "forward.wgsl",
     source: file!(),
-    groups: &[
-        SCENE_GROUPS[0],
-        SCENE_GROUPS[1],
-        SCENE_GROUPS[2],
-        PassGroup::new(
-            3,
-            &[
-                Binding::storage(0, wgpu::ShaderStages::FRAGMENT),
-                Binding::uniform(5, wgpu::ShaderStages::FRAGMENT),
-                Binding::storage(1, wgpu::ShaderStages::FRAGMENT).when(Cond::Defined("SPOT_LIGHTS")),
-                Binding::storage(2, wgpu::ShaderStages::FRAGMENT).when(Cond::NotDefined("BRUTE_FORCE")),
-                Binding::storage(3, wgpu::ShaderStages::FRAGMENT).when(Cond::NotDefined("BRUTE_FORCE")),
-                Binding::storage(4, wgpu::ShaderStages::FRAGMENT)
-                    .when(Cond::All(&[Cond::Defined("HALF_Z"), Cond::NotDefined("BRUTE_FORCE")])),
-                Binding::depth_array(6, wgpu::ShaderStages::FRAGMENT).when(Cond::Defined("SHADOWS")),
-                Binding::sampler(7, wgpu::ShaderStages::FRAGMENT, wgpu::SamplerBindingType::Comparison)
-                    .when(Cond::Defined("SHADOWS")),
-                Binding::storage(8, wgpu::ShaderStages::FRAGMENT).when(Cond::Defined("SHADOWS")),
-                Binding::storage(9, wgpu::ShaderStages::FRAGMENT).when(Cond::Defined("VPLS")),
-                Binding::uniform(10, wgpu::ShaderStages::FRAGMENT).when(Cond::Defined("VPLS")),
-                Binding::storage(11, wgpu::ShaderStages::FRAGMENT).when(Cond::Defined("VPLS")),
-                Binding::storage(12, wgpu::ShaderStages::FRAGMENT)
-                    .when(Cond::All(&[Cond::Defined("VPLS"), Cond::NotDefined("BRUTE_FORCE")])),
-                Binding::storage(13, wgpu::ShaderStages::FRAGMENT)
-                    .when(Cond::All(&[Cond::Defined("VPLS"), Cond::NotDefined("BRUTE_FORCE")])),
-            ],
-        ),
-    ],
+    groups: &[SCENE_GROUPS[0], SCENE_GROUPS[1], SCENE_GROUPS[2], PassGroup::new(3, LIGHTS_GROUP)],
 };
+
+/// [`FORWARD_BINDINGS`] for the Forward+ entry over clusters (`shaders/forward_clustered.wgsl`).
+pub const FORWARD_CLUSTERED_BINDINGS: PassBindings =
+    PassBindings { entry: "forward_clustered.wgsl", ..FORWARD_BINDINGS };
+
+/// [`FORWARD_BINDINGS`] for the brute-force reference's entry (`shaders/brute_force.wgsl`).
+pub const BRUTE_FORCE_BINDINGS: PassBindings = PassBindings { entry: "brute_force.wgsl", ..FORWARD_BINDINGS };
 
 /// The shading pass's pipelines and light bind group.
 pub struct ShadingPass {
@@ -108,31 +85,31 @@ impl ShadingPass {
         if vpls.as_ref().is_some_and(|v| v.lists.is_some() != matches!(light_loop, LightLoop::Tiled { .. })) {
             return Err(GpuError::Config("the VPLs' light grid must be given exactly to tiled shading".into()));
         }
-        let mut defines: Vec<&str> = features.light_defines();
-        defines.extend(features.vpl_defines());
-        defines.extend(features.material_defines());
-        let label = match light_loop {
+        let shadowing = Shadowing::of(features.shadows.is_some(), features.vpl)
+            .ok_or_else(|| GpuError::Config("VPLs need shadow casters".into()))?;
+        let (lights_key, label) = match light_loop {
             LightLoop::Tiled { half_z } => {
                 let c = culling.ok_or_else(|| GpuError::Config("tiled shading needs the culling pass".into()))?;
                 if c.options.half_z != half_z {
                     return Err(GpuError::Config("half-z must match between culling and shading".into()));
                 }
-                if half_z {
-                    defines.push("HALF_Z");
-                }
-                if c.options.clusters.is_some() {
-                    defines.push("CLUSTERED");
-                }
-                "forward.shade"
+                let key = if c.options.clusters.is_some() {
+                    LightLoopKey::Clusters
+                } else {
+                    LightLoopKey::TileLists { half_z }
+                };
+                (key, "forward.shade")
             }
-            LightLoop::All { cutoff } => {
-                defines.push("BRUTE_FORCE");
-                if !cutoff {
-                    defines.push("NO_CUTOFF");
-                }
-                "brute_force.shade"
-            }
+            LightLoop::All { cutoff } => (LightLoopKey::Every { cutoff }, "brute_force.shade"),
         };
+        let key = ForwardKey {
+            spots: features.spot_lights,
+            shadowing,
+            materials: MaterialKey::of(&features.materials),
+            lights: lights_key,
+            alpha_mask: false,
+        };
+        let defines = key.defines();
         let lights_layout = create_layout(device, "shade.lights_layout", FORWARD_BINDINGS.group(3), &defines);
         if features.shadows.is_some() != atlas.is_some() {
             return Err(GpuError::Config("the shadow atlas must exist exactly when the features have shadows".into()));
@@ -166,11 +143,7 @@ impl ShadingPass {
             .draw_kinds
             .iter()
             .map(|&kind| {
-                let mut kind_defines = defines.clone();
-                if kind.masked {
-                    kind_defines.push("ALPHA_MASK");
-                }
-                let module = shader_module(device, FORWARD_BINDINGS.entry, &kind_defines)?;
+                let module = keyed_module(device, &ForwardKey { alpha_mask: kind.masked, ..key })?;
                 let target = [Some(wgpu::ColorTargetState {
                     format: HDR_FORMAT,
                     blend: None,

@@ -14,7 +14,8 @@
 //! 5. `LightCulling` culls the lights against that depth buffer, tile by tile, into the
 //!    light grid: per 16x16 tile `(first, count)` into one buffer of light indices.
 //! 6. The engine's own fragment shader shades the mesh with the grid: it binds
-//!    `light_grid` and `light_indices` as `shaders/forward.wgsl` does and reuses
+//!    `light_grid` and `light_indices` as `shaders/forward.wgsl` does (its group 3,
+//!    `shaders/common/lights_group.wgsl`) and reuses
 //!    tiledlight's `common/light_grid_pixel.wgsl` (`pixel_list`) and `common/shade.wgsl`
 //!    (`shade_light`: the shared BRDF and attenuation) through the WGSL preprocessor,
 //!    with the entry file kept in this program ([`SHADER`]).
@@ -68,7 +69,7 @@ const SHADER: &str = r#"
 
 // What common/shade.wgsl and common/light_grid_pixel.wgsl expect the including file to
 // declare: the lights' shading data and the light grid (common/light_grid.wgsl), bound
-// like shaders/forward.wgsl binds them (there at group 3).
+// like the forward shading entries bind them (there at group 3: shaders/common/lights_group.wgsl).
 @group(1) @binding(0) var<storage, read> shading_lights: array<ShadingLight>;
 @group(1) @binding(1) var<storage, read> light_grid: LightGrid;
 @group(1) @binding(2) var<storage, read> light_indices: array<u32>;

@@ -51,45 +51,32 @@ use crate::error::GpuError;
 use crate::features::{BlendMode, Features, Method};
 use crate::light_grid::{GridStatus, LightGrid};
 use crate::lights_gpu::LightBuffers;
-use crate::lights_group::LightsGroup;
+use crate::lights_group::{LightsGroup, LIGHTS_GROUP};
 use crate::memory::MemoryReport;
 use crate::plan::Step;
 use crate::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS};
 use crate::shadow_atlas::ShadowAtlas;
 use crate::timer::GpuTimer;
 use crate::tonemap::HDR_FORMAT;
-use crate::util::{pipeline_layout, shader_module, texture_2d_msaa};
+use crate::util::{keyed_module, pipeline_layout, texture_2d_msaa};
+use crate::variants::{BlendedKey, CompositeKey, LightLoopKey, MaterialKey, ShaderKey};
 use crate::view::Views;
 
 const FS: wgpu::ShaderStages = wgpu::ShaderStages::FRAGMENT;
 
-/// The bindings of the blended shading pass (`shaders/blended.wgsl`): the scene's groups,
-/// then group 3 as Forward+'s shading pass binds it: shading lights (0), the lighting
-/// uniform (5), spots (1), unless `BRUTE_FORCE` the blended light grid (2) and its indices
-/// (3) (with `CLUSTERED` the frame's clustered grid), with `SHADOWS` the atlas (6), its
-/// sampler (7) and faces (8).
+/// The bindings of the blended shading pass (`shaders/blended.wgsl`, over lists): the
+/// scene's groups, then group 3 as Forward+'s shading pass binds it ([`LIGHTS_GROUP`]):
+/// shading lights, the lighting uniform, spots, unless `BRUTE_FORCE` the blended light grid
+/// and its indices (with `CLUSTERED` the frame's clustered grid), with `SHADOWS` the atlas.
 pub const BLENDED_BINDINGS: PassBindings = PassBindings {
     entry: "blended.wgsl",
     source: file!(),
-    groups: &[
-        SCENE_GROUPS[0],
-        SCENE_GROUPS[1],
-        SCENE_GROUPS[2],
-        PassGroup::new(
-            3,
-            &[
-                Binding::storage(0, FS),
-                Binding::uniform(5, FS),
-                Binding::storage(1, FS).when(Cond::Defined("SPOT_LIGHTS")),
-                Binding::storage(2, FS).when(Cond::NotDefined("BRUTE_FORCE")),
-                Binding::storage(3, FS).when(Cond::NotDefined("BRUTE_FORCE")),
-                Binding::depth_array(6, FS).when(Cond::Defined("SHADOWS")),
-                Binding::sampler(7, FS, wgpu::SamplerBindingType::Comparison).when(Cond::Defined("SHADOWS")),
-                Binding::storage(8, FS).when(Cond::Defined("SHADOWS")),
-            ],
-        ),
-    ],
+    groups: &[SCENE_GROUPS[0], SCENE_GROUPS[1], SCENE_GROUPS[2], PassGroup::new(3, LIGHTS_GROUP)],
 };
+
+/// [`BLENDED_BINDINGS`] for the entry over every light (`shaders/blended_brute_force.wgsl`).
+pub const BLENDED_BRUTE_FORCE_BINDINGS: PassBindings =
+    PassBindings { entry: "blended_brute_force.wgsl", ..BLENDED_BINDINGS };
 
 /// The bindings of the composite (`shaders/blended_composite.wgsl`): the layer (0), and
 /// with `WBOIT` the revealage (1).
@@ -252,21 +239,20 @@ impl BlendedPath {
             (_, Some(d)) => Some(LightCulling::blended(device, views, (opaque_depth, &d.view), lights, grid, options)?),
         };
         // Shading pipelines.
-        let mut defines = features.light_defines();
-        defines.extend(features.material_defines());
         let wboit = features.blend_mode == BlendMode::WeightedOit;
-        if wboit {
-            defines.push("WBOIT");
-        }
-        if frame_grid.is_some() {
-            defines.push("CLUSTERED");
-        }
-        if let Method::BruteForce { cutoff } = features.method {
-            defines.push("BRUTE_FORCE");
-            if !cutoff {
-                defines.push("NO_CUTOFF");
-            }
-        }
+        let lights_key = match (features.method, frame_grid) {
+            (Method::BruteForce { cutoff }, _) => LightLoopKey::Every { cutoff },
+            (_, Some(_)) => LightLoopKey::Clusters,
+            (_, None) => LightLoopKey::TileLists { half_z: false },
+        };
+        let key = BlendedKey {
+            spots: features.spot_lights,
+            shadows: features.shadows.is_some(),
+            materials: MaterialKey::of(&features.materials),
+            lights: lights_key,
+            wboit,
+        };
+        let defines = key.defines();
         let lights_layout = create_layout(device, "blended.lights_layout", BLENDED_BINDINGS.group(3), &defines);
         let grid = culling.as_ref().map(|c| &c.grid).or(frame_grid).map(|g| (g, false));
         let lights_group = LightsGroup::new(
@@ -288,7 +274,7 @@ impl BlendedPath {
             "blended.shade.layout",
             &[&views.layout, &scene.layout, tex_layout, lights_group.layout()],
         );
-        let module = shader_module(device, BLENDED_BINDINGS.entry, &defines)?;
+        let module = keyed_module(device, &key)?;
         // Premultiplied "over": dst = src + (1 - src.a) dst, for colour and coverage alike.
         let over = wgpu::BlendComponent {
             src_factor: wgpu::BlendFactor::One,
@@ -622,8 +608,8 @@ fn composite_pipeline(
     layer: &wgpu::TextureView,
     revealage: Option<&wgpu::TextureView>,
 ) -> Result<(wgpu::RenderPipeline, wgpu::BindGroup), GpuError> {
-    let defines: &[&str] = if revealage.is_some() { &["WBOIT"] } else { &[] };
-    let layout = create_layout(device, "blended.composite.layout", COMPOSITE_BINDINGS.group(0), defines);
+    let key = CompositeKey { wboit: revealage.is_some() };
+    let layout = create_layout(device, "blended.composite.layout", COMPOSITE_BINDINGS.group(0), &key.defines());
     let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(layer) }];
     if let Some(r) = revealage {
         entries.push(wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(r) });
@@ -633,7 +619,7 @@ fn composite_pipeline(
         layout: &layout,
         entries: &entries,
     });
-    let module = shader_module(device, COMPOSITE_BINDINGS.entry, defines)?;
+    let module = keyed_module(device, &key)?;
     let pl = pipeline_layout(device, "blended.composite.pipeline_layout", &[&layout]);
     // hdr.rgb = layer.rgb + (1 - layer.a) hdr.rgb; the HDR image's alpha is kept.
     let blend = wgpu::BlendState {

@@ -8,7 +8,8 @@ use crate::error::GpuError;
 use crate::features::Features;
 use crate::scene_gpu::{DrawKind, SceneGpu, BASE_COLOR_BINDINGS, POSITION_LAYOUT, SCENE_GROUPS};
 use crate::timer::GpuTimer;
-use crate::util::{pipeline_layout, shader_module};
+use crate::util::{keyed_module, pipeline_layout};
+use crate::variants::DepthPrepassKey;
 use crate::view::Views;
 
 /// Depth format of every depth buffer (reversed-Z: clear 0, compare GreaterEqual when writing, Equal when shading after the pre-pass).
@@ -167,29 +168,30 @@ impl DepthPrepass {
         let textures = scene.textures.as_ref().filter(|_| features.textures);
         let layouts = scene.vertex_layouts();
         for &kind in kinds {
-            let mut defines = Vec::new();
-            let layout = if kind.masked {
-                defines.push("ALPHA_MASK");
+            let (key, layout) = if kind.masked {
                 match textures {
-                    Some(t) => {
+                    Some(t) => (
                         // The alpha test reads the base colour slot only: its texture
                         // coordinate set may be set 1.
-                        defines.push("TEXTURES");
-                        if features.materials.uv1 {
-                            defines.push("UV1");
-                        }
+                        DepthPrepassKey::MaskedTextured { uv1: features.materials.uv1 },
                         pipeline_layout(
                             device,
                             "depth_prepass.masked.layout",
                             &[&views.layout, &scene.layout, &t.layout],
-                        )
-                    }
-                    None => pipeline_layout(device, "depth_prepass.masked.layout", &[&views.layout, &scene.layout]),
+                        ),
+                    ),
+                    None => (
+                        DepthPrepassKey::Masked,
+                        pipeline_layout(device, "depth_prepass.masked.layout", &[&views.layout, &scene.layout]),
+                    ),
                 }
             } else {
-                pipeline_layout(device, "depth_prepass.layout", &[&views.layout, &scene.layout])
+                (
+                    DepthPrepassKey::Opaque,
+                    pipeline_layout(device, "depth_prepass.layout", &[&views.layout, &scene.layout]),
+                )
             };
-            let module = shader_module(device, DEPTH_PREPASS_BINDINGS.entry, &defines)?;
+            let module = keyed_module(device, &key)?;
             let (vs, buffers): (&str, &[Option<wgpu::VertexBufferLayout<'_>>]) =
                 if kind.masked { ("vs_masked", &layouts) } else { ("vs_main", &POSITION_LAYOUT) };
             let label = format!(

@@ -195,31 +195,10 @@ impl Features {
     }
 
     /// The material defines of the scene's raster passes (`shaders/common/scene.wgsl`):
-    /// `TEXTURES`, `MR_TEXTURE`, `NORMAL_MAP`, `OCCLUSION`, `EMISSIVE`, `UV1`.
+    /// `TEXTURES`, `MR_TEXTURE`, `NORMAL_MAP`, `OCCLUSION`, `EMISSIVE`, `UV1`; those of
+    /// [`crate::variants::MaterialKey::of`] the materials, which the passes' keys hold.
     pub fn material_defines(&self) -> Vec<&'static str> {
-        self.materials.defines()
-    }
-
-    /// The shading defines every lighting shader shares: `SPOT_LIGHTS`, `SHADOWS`.
-    pub fn light_defines(&self) -> Vec<&'static str> {
-        let mut d = Vec::new();
-        if self.spot_lights {
-            d.push("SPOT_LIGHTS");
-        }
-        if self.shadows.is_some() {
-            d.push("SHADOWS");
-        }
-        d
-    }
-
-    /// The forward shading pass's defines beyond [`Self::light_defines`]: `VPLS` with
-    /// virtual point lights (the blended path does not shade them, as TiledLighting11).
-    pub fn vpl_defines(&self) -> Vec<&'static str> {
-        if self.vpl {
-            vec!["VPLS"]
-        } else {
-            Vec::new()
-        }
+        crate::variants::MaterialKey::of(&self.materials).defines()
     }
 
     /// The pipeline constants of the lighting shaders: the shadow filter's radius when

@@ -29,6 +29,7 @@ pub mod targets;
 pub mod timer;
 pub mod tonemap;
 pub mod util;
+pub mod variants;
 pub mod view;
 
 pub use context::{skip_display_gpu_probe, ContextOptions, GpuContext};
@@ -48,6 +49,7 @@ pub fn binding_declarations() -> Vec<bindings::PassBindings> {
         tonemap::HEATMAP_BINDINGS,
         tonemap::EXPOSURE_BINDINGS,
         blended::BLENDED_BINDINGS,
+        blended::BLENDED_BRUTE_FORCE_BINDINGS,
         blended::COMPOSITE_BINDINGS,
     ]
 }

@@ -158,7 +158,7 @@ pub struct GridLayout {
     pub slicing: Option<(f32, f32)>,
 }
 
-/// The culling kernels' group (group 2 of `shaders/cull.wgsl` and `shaders/deferred.wgsl`),
+/// The culling kernels' group (group 2 of `shaders/cull.wgsl` and Tiled Deferred's kernels),
 /// all read-write: the grid (0), the indices (1) and, when `ranges` holds, the per-tile
 /// depth ranges (2). The culling pass has ranges with `HALF_Z`, Tiled Deferred never.
 pub const fn compute_bindings(ranges: Cond) -> [Binding; 3] {

@@ -1,22 +1,49 @@
 //! The lights group (group 3) of the forward shading passes: Forward+, brute force and the
 //! blended geometry's shading bind the same lights the same way (shading lights 0, spots 1,
-//! light grid 2, its indices 3, tile ranges 4, lighting uniform 5, shadow atlas 6-8, VPLs
-//! 9-13). Built
+//! light grid 2, its indices 3, tile ranges 4, lighting uniform 5, shadow atlas 15-17, VPLs
+//! 19-23; the shadow and VPL numbers are Tiled Deferred's too), declared once in WGSL
+//! (`shaders/common/lights_group.wgsl`) and once in Rust ([`LIGHTS_GROUP`]). Built
 //! once; [`LightsGroup::rebind`] makes the group again when the light grid's index buffer
 //! grew (a new buffer), the only thing in it that changes after creation. Depends on wgpu,
 //! [`crate::lights_gpu`], [`crate::light_grid`], [`crate::shadow_atlas`].
 
+use crate::bindings::{Binding, Cond};
 use crate::light_grid::LightGrid;
 use crate::lights_gpu::LightBuffers;
 use crate::shadow_atlas::ShadowAtlas;
 
+const FS: wgpu::ShaderStages = wgpu::ShaderStages::FRAGMENT;
+
+/// The bindings of group 3 (`shaders/common/lights_group.wgsl`): shading lights (0), the
+/// lighting uniform (5), with `SPOT_LIGHTS` the spots (1), unless `BRUTE_FORCE` the light
+/// grid (2) and its indices (3), with `HALF_Z` the tile ranges (4), with `SHADOWS` the
+/// shadow atlas (15), its comparison sampler (16) and faces (17), and with `VPLS` the VPLs
+/// (19), their shading uniform (20) and the generation's counter (23), and unless
+/// `BRUTE_FORCE` their light grid (21) and its indices (22).
+pub const LIGHTS_GROUP: &[Binding] = &[
+    Binding::storage(0, FS),
+    Binding::uniform(5, FS),
+    Binding::storage(1, FS).when(Cond::Defined("SPOT_LIGHTS")),
+    Binding::storage(2, FS).when(Cond::NotDefined("BRUTE_FORCE")),
+    Binding::storage(3, FS).when(Cond::NotDefined("BRUTE_FORCE")),
+    Binding::storage(4, FS).when(Cond::All(&[Cond::Defined("HALF_Z"), Cond::NotDefined("BRUTE_FORCE")])),
+    Binding::depth_array(15, FS).when(Cond::Defined("SHADOWS")),
+    Binding::sampler(16, FS, wgpu::SamplerBindingType::Comparison).when(Cond::Defined("SHADOWS")),
+    Binding::storage(17, FS).when(Cond::Defined("SHADOWS")),
+    Binding::storage(19, FS).when(Cond::Defined("VPLS")),
+    Binding::uniform(20, FS).when(Cond::Defined("VPLS")),
+    Binding::storage(23, FS).when(Cond::Defined("VPLS")),
+    Binding::storage(21, FS).when(Cond::All(&[Cond::Defined("VPLS"), Cond::NotDefined("BRUTE_FORCE")])),
+    Binding::storage(22, FS).when(Cond::All(&[Cond::Defined("VPLS"), Cond::NotDefined("BRUTE_FORCE")])),
+];
+
 /// The shadow atlas's sampled view, comparison sampler and face table.
 type ShadowBindings = (wgpu::TextureView, wgpu::Sampler, wgpu::Buffer);
 
-/// The virtual point lights a forward shading pass reads (`VPLS`, bindings 9-11): their
-/// shading data, the shading uniform (cap, model, distance clamp) and the generation's
-/// counter (tiledlight-vpl); in a tiled pass also their light grid and its indices (12,
-/// 13).
+/// The virtual point lights a forward shading pass reads (`VPLS`, bindings 19, 20, 23):
+/// their shading data, the shading uniform (cap, model, distance clamp) and the
+/// generation's counter (tiledlight-vpl); in a tiled pass also their light grid and its
+/// indices (21, 22). Tiled Deferred binds the same at the same numbers of its group 1.
 #[derive(Clone, Debug)]
 pub struct VplBindings {
     /// `array<Vpl>`.
@@ -98,17 +125,17 @@ impl Parts {
             bind.push(wgpu::BindGroupEntry { binding: 1, resource: s.as_entire_binding() });
         }
         if let Some((view, sampler, faces)) = &self.shadows {
-            bind.push(wgpu::BindGroupEntry { binding: 6, resource: wgpu::BindingResource::TextureView(view) });
-            bind.push(wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(sampler) });
-            bind.push(wgpu::BindGroupEntry { binding: 8, resource: faces.as_entire_binding() });
+            bind.push(wgpu::BindGroupEntry { binding: 15, resource: wgpu::BindingResource::TextureView(view) });
+            bind.push(wgpu::BindGroupEntry { binding: 16, resource: wgpu::BindingResource::Sampler(sampler) });
+            bind.push(wgpu::BindGroupEntry { binding: 17, resource: faces.as_entire_binding() });
         }
         if let Some(v) = &self.vpls {
-            bind.push(wgpu::BindGroupEntry { binding: 9, resource: v.vpls.as_entire_binding() });
-            bind.push(wgpu::BindGroupEntry { binding: 10, resource: v.shading.as_entire_binding() });
-            bind.push(wgpu::BindGroupEntry { binding: 11, resource: v.count.as_entire_binding() });
+            bind.push(wgpu::BindGroupEntry { binding: 19, resource: v.vpls.as_entire_binding() });
+            bind.push(wgpu::BindGroupEntry { binding: 20, resource: v.shading.as_entire_binding() });
+            bind.push(wgpu::BindGroupEntry { binding: 23, resource: v.count.as_entire_binding() });
             if let Some((grid, indices)) = &v.lists {
-                bind.push(wgpu::BindGroupEntry { binding: 12, resource: grid.as_entire_binding() });
-                bind.push(wgpu::BindGroupEntry { binding: 13, resource: indices.as_entire_binding() });
+                bind.push(wgpu::BindGroupEntry { binding: 21, resource: grid.as_entire_binding() });
+                bind.push(wgpu::BindGroupEntry { binding: 22, resource: indices.as_entire_binding() });
             }
         }
         if let Some(g) = grid {

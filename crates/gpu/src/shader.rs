@@ -11,10 +11,10 @@
 //!   defines passed to [`preprocess`]. They must balance within each file.
 //!
 //! An entry file declares the defines it reacts to with a line `// variants: A B`;
-//! `cargo xtask validate-shaders` checks every combination of them, except those a
-//! `// requires: A B` line rules out (define A is only ever set together with B, e.g. the
-//! material maps with `TEXTURES`: [`valid_combinations`]). [`check_requirements`] refuses
-//! to build a variant outside that set, so every variant a pass builds was validated.
+//! [`preprocess`] refuses any other define ([`ShaderError::UndeclaredDefine`]: a misspelled
+//! define, or a flag the file never tests). Which combinations exist is not the file's
+//! business: each entry's key type in [`crate::variants`] lists exactly the buildable
+//! variants, and `cargo xtask validate-shaders` validates every one of them.
 //!
 //! Output line `n` always comes from exactly one source line: directives and lines of
 //! inactive branches become empty lines, and an `#include` line becomes an empty line
@@ -95,18 +95,16 @@ pub enum ShaderError {
         /// `else` or `endif`.
         directive: &'static str,
     },
-    /// A variant sets a define without the one a `// requires:` line says it needs (a
-    /// variant the validator never checked).
-    #[error("shaders/{file}: variant [{}] sets {define} without {required} (`// requires: {define} {required}`)", defines.join(" "))]
-    UnmetRequirement {
+    /// A define the entry file does not declare in its `// variants:` lines (misspelled,
+    /// or a flag the file never tests).
+    #[error("shaders/{file}: define {define} is not one of its `// variants:` ({})", declared.join(" "))]
+    UndeclaredDefine {
         /// The entry file.
         file: String,
-        /// The variant's defines.
-        defines: Vec<String>,
-        /// The define set.
+        /// The define passed.
         define: String,
-        /// The define it needs.
-        required: String,
+        /// The defines the file declares.
+        declared: Vec<String>,
     },
     /// An `#ifdef`/`#ifndef` not closed by `#endif` before the end of its file.
     #[error("shaders/{file}:{line}: #ifdef/#ifndef is not closed by #endif before the end of the file")]
@@ -200,66 +198,21 @@ pub fn variants_in(source: &str) -> Vec<String> {
     out
 }
 
-/// The requirements declared by `// requires: A B` lines of `source` (each: A is set only
-/// together with B), in order. Only the file's own lines count, not its includes.
-pub fn requirements_in(source: &str) -> Vec<(String, String)> {
-    let mut out = Vec::new();
-    for line in source.lines() {
-        let Some(rest) = line.trim_start().strip_prefix("//") else {
-            continue;
-        };
-        let Some(names) = rest.trim_start().strip_prefix("requires:") else {
-            continue;
-        };
-        let names: Vec<&str> = names.split_whitespace().collect();
-        if let [a, b] = names[..] {
-            out.push((a.to_owned(), b.to_owned()));
-        }
+/// Checks that every define of `defines` is declared by a `// variants:` line of entry
+/// file `entry`, whose text is `text`.
+pub fn check_declared(entry: &str, text: &str, defines: &[&str]) -> Result<(), ShaderError> {
+    let declared = variants_in(text);
+    match defines.iter().find(|d| !declared.iter().any(|v| v == *d)) {
+        Some(d) => Err(ShaderError::UndeclaredDefine { file: entry.to_owned(), define: d.to_string(), declared }),
+        None => Ok(()),
     }
-    out
 }
 
-/// The subsets of `variants` that meet `requires` (every pair (A, B): A only with B), in
-/// the order of [`variant_combinations`].
-pub fn valid_combinations<'a>(variants: &'a [String], requires: &[(String, String)]) -> Vec<Vec<&'a str>> {
-    variant_combinations(variants)
-        .into_iter()
-        .filter(|c| requires.iter().all(|(a, b)| !c.contains(&a.as_str()) || c.contains(&b.as_str())))
-        .collect()
-}
-
-/// Checks that `defines` meet the `// requires:` lines of embedded entry file `entry`:
-/// only those variants are validated by `cargo xtask validate-shaders`.
-pub fn check_requirements(entry: &str, defines: &[&str]) -> Result<(), ShaderError> {
-    let Some(text) = embedded(entry) else {
-        return Err(ShaderError::NotFound { file: entry.to_owned() });
-    };
-    for (a, b) in requirements_in(text) {
-        if defines.contains(&a.as_str()) && !defines.contains(&b.as_str()) {
-            return Err(ShaderError::UnmetRequirement {
-                file: entry.to_owned(),
-                defines: defines.iter().map(|d| d.to_string()).collect(),
-                define: a,
-                required: b,
-            });
-        }
-    }
-    Ok(())
-}
-
-/// Every subset of `variants` (2^k of them), each in the order of `variants`; the
-/// first is empty, the last has them all.
-pub fn variant_combinations(variants: &[String]) -> Vec<Vec<&str>> {
-    assert!(variants.len() < 32, "too many variants: {}", variants.len());
-    (0u32..1 << variants.len())
-        .map(|mask| {
-            variants.iter().enumerate().filter(|(i, _)| mask & (1 << i) != 0).map(|(_, v)| v.as_str()).collect()
-        })
-        .collect()
-}
-
-/// Preprocesses embedded entry file `entry` (relative to `shaders/`) with `defines` set.
+/// Preprocesses embedded entry file `entry` (relative to `shaders/`) with `defines` set,
+/// each of which the file must declare ([`check_declared`]).
 pub fn preprocess(entry: &str, defines: &[&str]) -> Result<ShaderSource, ShaderError> {
+    let text = embedded(entry).ok_or_else(|| ShaderError::NotFound { file: entry.to_owned() })?;
+    check_declared(entry, text, defines)?;
     preprocess_with(&|path| embedded(path).map(str::to_owned), entry, defines)
 }
 
@@ -664,23 +617,28 @@ always";
     }
 
     #[test]
-    fn requirements_rule_out_combinations() {
-        let text = "// variants: A B C\n// requires: B A\n// requires: C B\n";
-        let req = requirements_in(text);
-        assert_eq!(req, [("B".to_owned(), "A".to_owned()), ("C".to_owned(), "B".to_owned())]);
-        let v = variants_in(text);
-        assert_eq!(valid_combinations(&v, &req), [vec![], vec!["A"], vec!["A", "B"], vec!["A", "B", "C"]]);
-        // Real entry files: every material map needs TEXTURES.
-        assert!(check_requirements("forward.wgsl", &["TEXTURES", "NORMAL_MAP"]).is_ok());
-        let e = check_requirements("forward.wgsl", &["NORMAL_MAP"]).unwrap_err().to_string();
-        assert!(e.contains("variant [NORMAL_MAP] sets NORMAL_MAP without TEXTURES"), "{e}");
-    }
-
-    #[test]
-    fn combinations_cover_every_subset() {
-        let v = vec!["A".to_owned(), "B".to_owned()];
-        assert_eq!(variant_combinations(&v), [vec![], vec!["A"], vec!["B"], vec!["A", "B"]]);
-        assert_eq!(variant_combinations(&[]), [Vec::<&str>::new()]);
+    fn undeclared_defines_are_refused() {
+        // A misspelled define of a real entry file: refused, naming the file and define.
+        let e = preprocess("forward.wgsl", &["SPOT_LIGHT"]).unwrap_err();
+        assert!(matches!(&e, ShaderError::UndeclaredDefine { define, .. } if define == "SPOT_LIGHT"), "{e}");
+        assert!(e.to_string().starts_with("shaders/forward.wgsl: define SPOT_LIGHT is not one of its `// variants:`"));
+        // A flag an include tests but this entry never sets (forward.wgsl's lists are not
+        // clusters: forward_clustered.wgsl is that kernel).
+        assert!(matches!(preprocess("forward.wgsl", &["CLUSTERED"]), Err(ShaderError::UndeclaredDefine { .. })));
+        assert!(preprocess("forward_clustered.wgsl", &["CLUSTERED"]).is_ok());
+        assert!(preprocess("forward.wgsl", &["SPOT_LIGHTS", "HALF_Z"]).is_ok());
+        // An entry without variants takes no define.
+        assert!(matches!(preprocess("heatmap.wgsl", &["MSAA"]), Err(ShaderError::UndeclaredDefine { .. })));
+        let text = "// variants: A B\nfn f() {}";
+        assert!(check_declared("e.wgsl", text, &["B", "A"]).is_ok());
+        assert_eq!(
+            check_declared("e.wgsl", text, &["A", "C"]).unwrap_err(),
+            ShaderError::UndeclaredDefine {
+                file: "e.wgsl".into(),
+                define: "C".into(),
+                declared: vec!["A".into(), "B".into()]
+            }
+        );
     }
 
     #[test]
@@ -694,11 +652,11 @@ always";
     }
 
     #[test]
-    fn embedded_entries_preprocess_in_every_variant() {
+    fn embedded_entries_preprocess_in_every_key_value() {
+        let spaces = crate::variants::key_spaces();
         for entry in entry_files() {
-            let variants = variants(entry);
-            let requires = requirements_in(embedded(entry).unwrap());
-            for defines in valid_combinations(&variants, &requires) {
+            let values = spaces.iter().find(|(e, _)| *e == entry).map_or(vec![vec![]], |(_, v)| v.clone());
+            for defines in values {
                 if let Err(e) = preprocess(entry, &defines) {
                     panic!("{entry} with {defines:?}: {e}");
                 }

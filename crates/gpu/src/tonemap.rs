@@ -13,7 +13,8 @@ use bytemuck::{Pod, Zeroable};
 use crate::bindings::{create_layout, Binding, PassBindings, PassGroup};
 use crate::error::GpuError;
 use crate::timer::GpuTimer;
-use crate::util::{buffer_init, buffer_zeroed, compute_pipeline_at, pipeline_layout, shader_module};
+use crate::util::{buffer_init, buffer_zeroed, compute_pipeline_at, keyed_module, pipeline_layout, shader_module};
+use crate::variants::{ShaderKey, TonemapKey};
 
 /// Format of the HDR lighting target.
 pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
@@ -246,8 +247,8 @@ impl TonemapPass {
     ) -> Result<Self, GpuError> {
         check_exposure(exposure)?;
         let auto = auto.then(|| AutoExposure::new(device, hdr, size)).transpose()?;
-        let defines: &[&str] = if auto.is_some() { &["AUTO_EXPOSURE"] } else { &[] };
-        let layout = create_layout(device, "tonemap.layout", TONEMAP_BINDINGS.group(0), defines);
+        let key = TonemapKey { auto_exposure: auto.is_some() };
+        let layout = create_layout(device, "tonemap.layout", TONEMAP_BINDINGS.group(0), &key.defines());
         let u = TonemapUniforms { exposure, ..Default::default() };
         let params = buffer_init(
             device,
@@ -266,7 +267,7 @@ impl TonemapPass {
             .chain(auto.as_ref().map(|a| wgpu::BindGroupEntry { binding: 2, resource: a.exposure.as_entire_binding() }))
             .collect::<Vec<_>>(),
         });
-        let module = shader_module(device, TONEMAP_BINDINGS.entry, defines)?;
+        let module = keyed_module(device, &key)?;
         let pl = pipeline_layout(device, "tonemap.pipeline_layout", &[&layout]);
         Ok(Self {
             pipeline: fullscreen_pipeline(device, "tonemap", &module, "fs_tonemap", &pl, None),

@@ -1,10 +1,11 @@
 //! Small helpers for creating labelled buffers and pipelines the same way everywhere.
-//! Depends on wgpu and the shader loader.
+//! Depends on wgpu, the shader loader and the variant keys.
 
 use wgpu::util::DeviceExt;
 
 use crate::error::GpuError;
 use crate::shader;
+use crate::variants::ShaderKey;
 
 /// A labelled buffer initialised with `contents`; an empty slice gets a 16-byte buffer
 /// because wgpu rejects zero-sized bindings (callers avoid binding it when unused).
@@ -30,16 +31,28 @@ pub fn buffer_zeroed(device: &wgpu::Device, label: &str, size: u64, usage: wgpu:
     })
 }
 
-/// A shader module from an embedded entry file with `defines`, validated by wgpu.
+/// A shader module from an embedded entry file with `defines` (each declared by the file's
+/// `// variants:` lines, or an error), validated by wgpu. Passes whose shader has variants
+/// build through [`keyed_module`]; this is for entry files without any.
 pub fn shader_module(device: &wgpu::Device, entry: &str, defines: &[&str]) -> Result<wgpu::ShaderModule, GpuError> {
-    // Only the variants the validator checked (its `// requires:` lines).
-    shader::check_requirements(entry, defines)?;
     let src = shader::preprocess(entry, defines)?;
     let label = if defines.is_empty() { entry.to_string() } else { format!("{entry} [{}]", defines.join(" ")) };
     Ok(device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some(&label),
         source: wgpu::ShaderSource::Wgsl(src.text.into()),
     }))
+}
+
+/// The shader module of variant `key` (its entry file and defines). A value outside the
+/// key's space (one `cargo xtask validate-shaders` never validated) is an error.
+pub fn keyed_module(device: &wgpu::Device, key: &dyn ShaderKey) -> Result<wgpu::ShaderModule, GpuError> {
+    if !key.is_valid() {
+        return Err(GpuError::Config(format!(
+            "{key:?} is not a variant of shaders/{} (crates/gpu/src/variants.rs)",
+            key.entry()
+        )));
+    }
+    shader_module(device, key.entry(), &key.defines())
 }
 
 /// Pipeline-layout entry list helper: every group in order, `None` for none.

@@ -34,7 +34,8 @@ use tiledlight_gpu::readback::{f16_to_f32, read_texture};
 use tiledlight_gpu::scene_gpu::{DrawCount, DrawKind, SceneGpu};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::util::{buffer_zeroed, pipeline_layout, shader_module, texture_2d};
+use tiledlight_gpu::util::{buffer_zeroed, keyed_module, pipeline_layout, texture_2d};
+use tiledlight_gpu::variants::{GBufferKey, MaterialKey};
 use tiledlight_gpu::view::{ViewUniforms, Views};
 use tiledlight_gpu::GpuError;
 
@@ -235,12 +236,13 @@ impl Rsm {
         let vertex_layouts = scene.vertex_layouts();
         let mut pipelines = Vec::new();
         for kind in scene.opaque_kinds() {
-            let mut defines = Vec::new();
-            if kind.masked {
-                defines.push("ALPHA_MASK");
-            }
-            defines.extend(scene.material_features.defines());
-            let module = shader_module(device, "gbuffer.wgsl", &defines)?;
+            let key = GBufferKey {
+                alpha_mask: kind.masked,
+                materials: MaterialKey::of(&scene.material_features),
+                emission: false,
+                extra_test_values: false,
+            };
+            let module = keyed_module(device, &key)?;
             let p = scene_pipeline(
                 device,
                 kind,

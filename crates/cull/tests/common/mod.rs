@@ -257,7 +257,7 @@ fn centre(x: u32, y: u32) -> (f32, f32) {
 }
 
 /// The standard MSAA sample positions (Vulkan, D3D and Metal agree), in pixels from the
-/// pixel's top-left corner: the CPU copy of `sample_position` in `shaders/deferred.wgsl`,
+/// pixel's top-left corner: the CPU copy of `sample_position` in `shaders/common/deferred_shade.wgsl`,
 /// where Tiled Deferred shades each sample. 1 sample: the pixel centre.
 pub fn sample_positions(samples: u32) -> &'static [(f32, f32)] {
     tiledlight_cull::blended_depth::standard_sample_positions(samples)

@@ -29,13 +29,3 @@ pub(super) fn check_on_gpu(c: &ClusterOptions) -> Result<(), GpuError> {
     }
     Ok(())
 }
-
-/// The defines of the assignment kernels (`shaders/assign.wgsl`) for clusters: `CLUSTERED`,
-/// and `GEOMETRY_ONLY` when a light joins only the slices holding a surface.
-pub(super) fn assign_defines(c: &ClusterOptions) -> Vec<&'static str> {
-    let mut defines = vec!["CLUSTERED"];
-    if c.geometry_only {
-        defines.push("GEOMETRY_ONLY");
-    }
-    defines
-}

@@ -164,13 +164,13 @@ impl CullOptions {
         num_lights.clamp(1, MAX_CAPACITY.min(fits).max(1))
     }
 
-    /// The depth-range defines and override constants every kernel reading the depth
-    /// buffer needs (`shaders/common/depth_range.wgsl`).
-    pub fn depth_variant(&self) -> (Option<&'static str>, Option<(&'static str, f64)>) {
+    /// Whether every kernel reading the depth buffer has its `MSAA` variant
+    /// (`shaders/common/depth_range.wgsl`), and its override constant.
+    pub fn depth_variant(&self) -> (bool, Option<(&'static str, f64)>) {
         if self.samples > 1 {
-            (Some("MSAA"), Some(("SAMPLES", self.samples as f64)))
+            (true, Some(("SAMPLES", self.samples as f64)))
         } else {
-            (None, None)
+            (false, None)
         }
     }
 
@@ -229,12 +229,12 @@ impl DropLight {
         Ok(())
     }
 
-    /// The define and override constants of the hook, to add to a kernel that includes
-    /// `common/tile_cull.wgsl`.
-    pub fn variant(drop: Option<DropLight>) -> (Option<&'static str>, Vec<(&'static str, f64)>) {
+    /// Whether a kernel that includes `common/tile_cull.wgsl` has its `DROP_LIGHT` variant,
+    /// and the hook's override constants.
+    pub fn variant(drop: Option<DropLight>) -> (bool, Vec<(&'static str, f64)>) {
         match drop {
-            Some(d) => (Some("DROP_LIGHT"), vec![("DROP_TILE", d.tile as f64), ("DROP_INDEX", d.light as f64)]),
-            None => (None, Vec::new()),
+            Some(d) => (true, vec![("DROP_TILE", d.tile as f64), ("DROP_INDEX", d.light as f64)]),
+            None => (false, Vec::new()),
         }
     }
 }

@@ -49,10 +49,10 @@ use crate::light_grid::{compute_bindings, LightGrid};
 use crate::lights_gpu::LightBuffers;
 use crate::memory::MemoryReport;
 use crate::timer::GpuTimer;
-use crate::util::{buffer_zeroed, compute_pipeline, compute_pipeline_at, shader_module};
+use crate::util::{buffer_zeroed, compute_pipeline, compute_pipeline_at, keyed_module};
+use crate::variants::{AssignKey, CullTests, ShaderKey, TileDepthKey, TileDepthOutput};
 use crate::view::Views;
 
-use super::clusters::assign_defines;
 use super::options::{CullOptions, DEPTH_BINDING};
 
 /// A light whose tile rectangle holds more tiles than this is walked by a team of [`TEAM`]
@@ -229,13 +229,15 @@ impl LightAssign {
 
         // Step 1: tile depth (and masks).
         let (msaa, samples) = options.depth_variant();
-        let mut depth_defines: Vec<&str> = msaa.into_iter().collect();
-        if clusters.is_some() {
-            depth_defines.push("CLUSTERED");
+        let output = if clusters.is_some() {
+            TileDepthOutput::Clusters
         } else if depth_mask {
-            depth_defines.push("DEPTH_MASK");
-        }
-        let layout = create_layout(device, "tile_depth.layout", TILE_DEPTH_BINDINGS.group(1), &depth_defines);
+            TileDepthOutput::DepthMask
+        } else {
+            TileDepthOutput::Ranges
+        };
+        let depth_key = TileDepthKey { msaa, output };
+        let layout = create_layout(device, "tile_depth.layout", TILE_DEPTH_BINDINGS.group(1), &depth_key.defines());
         let mut entries =
             vec![wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(depth) }];
         if let Some(m) = &masks {
@@ -249,7 +251,7 @@ impl LightAssign {
             layout: &layout,
             entries: &entries,
         });
-        let module = shader_module(device, TILE_DEPTH_BINDINGS.entry, &depth_defines)?;
+        let module = keyed_module(device, &depth_key)?;
         let mut constants = vec![("TILE_SIZE", tiles.tile_size as f64), ("WG", depth_threads(tiles.tile_size) as f64)];
         constants.extend(samples);
         let tile_depth =
@@ -257,23 +259,17 @@ impl LightAssign {
 
         // Steps 2-4: count, allocate, write.
         let spot_cone = options.spot_cone && lights.has_spots() && clusters.is_none();
-        let mut defines = Vec::new();
-        if let Some(c) = &clusters {
-            defines.extend(assign_defines(c));
-        } else {
-            if options.half_z {
-                defines.push("HALF_Z");
-            }
-            if options.aabb {
-                defines.push("AABB");
-            }
-            if spot_cone {
-                defines.push("SPOT_CONE");
-            }
-            if depth_mask {
-                defines.push("DEPTH_MASK");
-            }
-        }
+        let key = match clusters {
+            Some(c) => AssignKey::Clusters { geometry_only: c.geometry_only },
+            None => AssignKey::Tiles(CullTests {
+                half_z: options.half_z,
+                aabb: options.aabb,
+                spot_cone,
+                depth_mask,
+                coarse: false,
+            }),
+        };
+        let defines = key.defines();
         let layout = create_layout(device, "assign.layout", ASSIGN_BINDINGS.group(1), &defines);
         let mut entries = vec![
             wgpu::BindGroupEntry { binding: 1, resource: lights.cull.as_entire_binding() },
@@ -297,7 +293,7 @@ impl LightAssign {
             layout: &layout,
             entries: &entries,
         });
-        let module = shader_module(device, ASSIGN_BINDINGS.entry, &defines)?;
+        let module = keyed_module(device, &key)?;
         let constants = [
             ("TILE_SIZE", tiles.tile_size as f64),
             ("BIG_TILES", BIG_TILES as f64),

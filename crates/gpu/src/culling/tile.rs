@@ -6,7 +6,7 @@
 //! while the grid has room. Two-level culling first culls lights per 64x64-pixel cell
 //! ([`CoarseCulling`]). The CPU reference is `tiledlight_cull::gather` (through
 //! `tiledlight_cull::cull_tiles`). Also the gather code's defines and override constants
-//! ([`CullOptions::cull_defines`], [`CullOptions::cull_constants`]), which Tiled
+//! ([`CullOptions::tests`], [`CullOptions::cull_constants`]), which Tiled
 //! Deferred's fused cull-and-shade kernel uses too.
 //! Depends on wgpu, [`super::options`], [`crate::view`], [`crate::light_grid`],
 //! [`crate::lights_gpu`].
@@ -20,35 +20,24 @@ use crate::light_grid::LightGrid;
 use crate::lights_gpu::LightBuffers;
 use crate::memory::MemoryReport;
 use crate::timer::GpuTimer;
-use crate::util::{buffer_zeroed, compute_pipeline, shader_module};
+use crate::util::{buffer_zeroed, compute_pipeline, keyed_module};
+use crate::variants::{CullCoarseKey, CullKey, CullTests, ShaderKey};
 use crate::view::Views;
 
 use super::options::{CullOptions, DropLight, DEPTH_BINDING};
 
 /// The gather kernel's variant of [`CullOptions`].
 impl CullOptions {
-    /// The defines of the culling code (`common/tile_cull.wgsl`) for these options on a
-    /// scene with or without spot lights, plus the test hook's.
-    pub fn cull_defines(&self, has_spots: bool, drop: Option<DropLight>) -> Vec<&'static str> {
-        let mut defines = Vec::new();
-        if self.aabb {
-            defines.push("AABB");
+    /// The light tests of the culling code (`common/tile_cull.wgsl`) for these options on a
+    /// scene with or without spot lights (the spot-cone test only with spots).
+    pub fn tests(&self, has_spots: bool) -> CullTests {
+        CullTests {
+            aabb: self.aabb,
+            half_z: self.half_z,
+            spot_cone: self.spot_cone && has_spots,
+            coarse: self.coarse,
+            depth_mask: self.depth_mask,
         }
-        if self.half_z {
-            defines.push("HALF_Z");
-        }
-        if self.spot_cone && has_spots {
-            defines.push("SPOT_CONE");
-        }
-        if self.coarse {
-            defines.push("COARSE");
-        }
-        if self.depth_mask {
-            defines.push("DEPTH_MASK");
-        }
-        defines.extend(self.depth_variant().0);
-        defines.extend(DropLight::variant(drop).0);
-        defines
     }
 
     /// The override constants of the culling code: tile and workgroup size, capacity, the
@@ -122,8 +111,8 @@ impl CoarseCulling {
         let lists = buffer_zeroed(device, "cull.cell_lists", bytes, usage);
         memory.add("cull.cell_lists", lists.size());
         let (msaa, samples) = options.depth_variant();
-        let defines: Vec<&str> = msaa.into_iter().collect();
-        let layout = create_layout(device, "cull_coarse.layout", CULL_COARSE_BINDINGS.group(1), &defines);
+        let key = CullCoarseKey { msaa };
+        let layout = create_layout(device, "cull_coarse.layout", CULL_COARSE_BINDINGS.group(1), &key.defines());
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cull_coarse.bind_group"),
             layout: &layout,
@@ -134,7 +123,7 @@ impl CoarseCulling {
                 wgpu::BindGroupEntry { binding: 3, resource: lighting.as_entire_binding() },
             ],
         });
-        let module = shader_module(device, CULL_COARSE_BINDINGS.entry, &defines)?;
+        let module = keyed_module(device, &key)?;
         let mut constants = coarse_constants(capacity).to_vec();
         constants.extend(samples);
         let pipeline = compute_pipeline(device, "cull_coarse", &[&views.layout, &layout], &module, &constants);
@@ -230,14 +219,19 @@ impl Gather {
         memory: &mut MemoryReport,
     ) -> Result<Self, GpuError> {
         let spot_cone = options.spot_cone && lights.has_spots();
-        let mut defines = options.cull_defines(lights.has_spots(), drop);
+        let key = CullKey {
+            tests: options.tests(lights.has_spots()),
+            msaa: options.depth_variant().0,
+            blended: blended.is_some(),
+            drop_light: DropLight::variant(drop).0,
+        };
+        let defines = key.defines();
         let mut bind = vec![
             wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(depth) },
             wgpu::BindGroupEntry { binding: 1, resource: lights.cull.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 9, resource: lighting.as_entire_binding() },
         ];
         if let Some(b) = blended {
-            defines.push("BLENDED");
             bind.push(wgpu::BindGroupEntry { binding: 10, resource: wgpu::BindingResource::TextureView(b) });
         }
         if let (true, Some(spots)) = (spot_cone, &lights.spots) {
@@ -258,7 +252,7 @@ impl Gather {
             layout: &layout,
             entries: &bind,
         });
-        let module = shader_module(device, CULL_BINDINGS.entry, &defines)?;
+        let module = keyed_module(device, &key)?;
         let constants = options.cull_constants(coarse.as_ref(), drop, (light_grid, lights.len()));
         let pipeline =
             compute_pipeline(device, prefix, &[&views.layout, &layout, light_grid.layout()], &module, &constants);

@@ -1,0 +1,880 @@
+//! Typed shader variants: one key type per entry shader (or family of entry files sharing
+//! one body), whose values are exactly the variants a pass can build. A pass makes its key
+//! from the features and options it was given and builds its module from it
+//! ([`crate::util::keyed_module`]); the key derives the entry file and the defines, and
+//! refuses a value outside its space ([`ShaderKey::is_valid`]). `cargo xtask
+//! validate-shaders` validates every value of every key ([`key_spaces`]), not every
+//! combination of flags, and prints each entry file's count.
+//!
+//! Pure data (std only, plus [`MaterialFeatures`] for the conversion): no device needed,
+//! so xtask and tests enumerate the spaces without one.
+
+use std::fmt;
+
+use crate::scene_gpu::MaterialFeatures;
+
+/// A shader variant: an entry file and the defines it is compiled with.
+pub trait ShaderKey: fmt::Debug {
+    /// The entry file, relative to `shaders/`.
+    fn entry(&self) -> &'static str;
+    /// The defines of this variant, in a fixed order.
+    fn defines(&self) -> Vec<&'static str>;
+    /// Whether this value is one of the key's buildable (and so validated) variants.
+    fn is_valid(&self) -> bool;
+}
+
+/// Every value of each key type, grouped by entry file: what `cargo xtask
+/// validate-shaders` validates (entry file, the define lists of its variants). Entry files
+/// not listed have no variants (one, without defines).
+pub fn key_spaces() -> Vec<(&'static str, Vec<Vec<&'static str>>)> {
+    let mut out: Vec<(&'static str, Vec<Vec<&'static str>>)> = Vec::new();
+    let mut add = |keys: Vec<Box<dyn ShaderKey>>| {
+        for k in keys {
+            debug_assert!(k.is_valid(), "{k:?}");
+            let entry = k.entry();
+            match out.iter_mut().find(|(e, _)| *e == entry) {
+                Some((_, v)) => v.push(k.defines()),
+                None => out.push((entry, vec![k.defines()])),
+            }
+        }
+    };
+    fn boxed<K: ShaderKey + 'static>(v: Vec<K>) -> Vec<Box<dyn ShaderKey>> {
+        v.into_iter().map(|k| Box::new(k) as Box<dyn ShaderKey>).collect()
+    }
+    add(boxed(ForwardKey::all()));
+    add(boxed(BlendedKey::all()));
+    add(boxed(CompositeKey::all()));
+    add(boxed(DepthPrepassKey::all()));
+    add(boxed(GBufferKey::all()));
+    add(boxed(DeferredKey::all()));
+    add(boxed(CullKey::all()));
+    add(boxed(CullCoarseKey::all()));
+    add(boxed(TileDepthKey::all()));
+    add(boxed(AssignKey::all()));
+    add(boxed(TonemapKey::all()));
+    out
+}
+
+/// Both values of a bool, for enumerating.
+const BOOLS: [bool; 2] = [false, true];
+
+/// Pushes `define` when `on`.
+fn flag(out: &mut Vec<&'static str>, on: bool, define: &'static str) {
+    if on {
+        out.push(define);
+    }
+}
+
+/// The texture maps beside the base colour (`shaders/common/scene.wgsl`): each needs
+/// `TEXTURES`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct TextureMaps {
+    /// `MR_TEXTURE`.
+    pub metallic_roughness: bool,
+    /// `NORMAL_MAP`.
+    pub normal_map: bool,
+    /// `OCCLUSION`.
+    pub occlusion: bool,
+    /// `UV1`: some texture reads the second coordinate set.
+    pub uv1: bool,
+}
+
+/// The material paths of a scene pass (`shaders/common/scene.wgsl`): textures with their
+/// maps, and emission (a factor, times the emissive texture with textures).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct MaterialKey {
+    /// `TEXTURES` and the maps, or no textures at all.
+    pub textures: Option<TextureMaps>,
+    /// `EMISSIVE`.
+    pub emissive: bool,
+}
+
+impl MaterialKey {
+    /// The key of the scene's material features (maps only with textures).
+    pub fn of(f: &MaterialFeatures) -> Self {
+        Self {
+            textures: f.textures.then_some(TextureMaps {
+                metallic_roughness: f.metallic_roughness,
+                normal_map: f.normal_map,
+                occlusion: f.occlusion,
+                uv1: f.uv1,
+            }),
+            emissive: f.emissive,
+        }
+    }
+
+    /// Every value (34).
+    pub fn all() -> Vec<Self> {
+        let mut maps = vec![None];
+        for metallic_roughness in BOOLS {
+            for normal_map in BOOLS {
+                for occlusion in BOOLS {
+                    for uv1 in BOOLS {
+                        maps.push(Some(TextureMaps { metallic_roughness, normal_map, occlusion, uv1 }));
+                    }
+                }
+            }
+        }
+        maps.into_iter().flat_map(|textures| BOOLS.map(|emissive| Self { textures, emissive })).collect()
+    }
+
+    /// The defines, in `scene.wgsl`'s order: `TEXTURES MR_TEXTURE NORMAL_MAP OCCLUSION
+    /// EMISSIVE UV1`.
+    pub fn defines(&self) -> Vec<&'static str> {
+        let mut d = Vec::new();
+        let m = self.textures.unwrap_or_default();
+        flag(&mut d, self.textures.is_some(), "TEXTURES");
+        flag(&mut d, m.metallic_roughness, "MR_TEXTURE");
+        flag(&mut d, m.normal_map, "NORMAL_MAP");
+        flag(&mut d, m.occlusion, "OCCLUSION");
+        flag(&mut d, self.emissive, "EMISSIVE");
+        flag(&mut d, m.uv1, "UV1");
+        d
+    }
+}
+
+/// Shadows and the virtual point lights made from them (`SHADOWS`, `VPLS`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Shadowing {
+    /// No shadow casters.
+    #[default]
+    Off,
+    /// `SHADOWS`.
+    Shadows,
+    /// `SHADOWS VPLS`: VPLs come from the casters' reflective shadow maps.
+    ShadowsAndVpls,
+}
+
+impl Shadowing {
+    /// Every value.
+    pub const ALL: [Self; 3] = [Self::Off, Self::Shadows, Self::ShadowsAndVpls];
+
+    /// The value for shadows and VPLs (None: VPLs without shadows, which no pass builds).
+    pub fn of(shadows: bool, vpls: bool) -> Option<Self> {
+        match (shadows, vpls) {
+            (false, false) => Some(Self::Off),
+            (true, false) => Some(Self::Shadows),
+            (true, true) => Some(Self::ShadowsAndVpls),
+            (false, true) => None,
+        }
+    }
+
+    fn defines(self, d: &mut Vec<&'static str>) {
+        flag(d, self != Self::Off, "SHADOWS");
+        flag(d, self == Self::ShadowsAndVpls, "VPLS");
+    }
+}
+
+/// The light loop of a forward shading pass, which picks its entry file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum LightLoopKey {
+    /// Its tile's list in the light grid (`forward.wgsl`, `blended.wgsl`); with `half_z`
+    /// its half's (Forward+ only).
+    TileLists {
+        /// `HALF_Z`.
+        half_z: bool,
+    },
+    /// Its cluster's list (`CLUSTERED`: `forward_clustered.wgsl`, `blended.wgsl`).
+    Clusters,
+    /// Every light (`BRUTE_FORCE`: `brute_force.wgsl`, `blended_brute_force.wgsl`); without
+    /// `cutoff` plain inverse-square (`NO_CUTOFF`).
+    Every {
+        /// The windowed falloff with its radius cutoff.
+        cutoff: bool,
+    },
+}
+
+impl LightLoopKey {
+    /// Every value (with half-z ones only when `half_z` may be set).
+    fn all(half_z: bool) -> Vec<Self> {
+        let mut v = vec![Self::TileLists { half_z: false }];
+        if half_z {
+            v.push(Self::TileLists { half_z: true });
+        }
+        v.extend([Self::Clusters, Self::Every { cutoff: true }, Self::Every { cutoff: false }]);
+        v
+    }
+
+    fn defines(self, d: &mut Vec<&'static str>) {
+        match self {
+            Self::TileLists { half_z } => flag(d, half_z, "HALF_Z"),
+            Self::Clusters => d.push("CLUSTERED"),
+            Self::Every { cutoff } => {
+                d.push("BRUTE_FORCE");
+                flag(d, !cutoff, "NO_CUTOFF");
+            }
+        }
+    }
+}
+
+/// The forward shading pass (`forward.wgsl`, `forward_clustered.wgsl`, `brute_force.wgsl`,
+/// one per light loop; body `common/forward_shade.wgsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ForwardKey {
+    /// `SPOT_LIGHTS`.
+    pub spots: bool,
+    /// `SHADOWS`, `VPLS`.
+    pub shadowing: Shadowing,
+    /// The material paths.
+    pub materials: MaterialKey,
+    /// The light loop (the entry file).
+    pub lights: LightLoopKey,
+    /// `ALPHA_MASK`: the masked draw kind's pipeline.
+    pub alpha_mask: bool,
+}
+
+impl ForwardKey {
+    /// Every value.
+    pub fn all() -> Vec<Self> {
+        let mut v = Vec::new();
+        for lights in LightLoopKey::all(true) {
+            for spots in BOOLS {
+                for shadowing in Shadowing::ALL {
+                    for materials in MaterialKey::all() {
+                        for alpha_mask in BOOLS {
+                            v.push(Self { spots, shadowing, materials, lights, alpha_mask });
+                        }
+                    }
+                }
+            }
+        }
+        v
+    }
+}
+
+impl ShaderKey for ForwardKey {
+    fn entry(&self) -> &'static str {
+        match self.lights {
+            LightLoopKey::TileLists { .. } => "forward.wgsl",
+            LightLoopKey::Clusters => "forward_clustered.wgsl",
+            LightLoopKey::Every { .. } => "brute_force.wgsl",
+        }
+    }
+
+    fn defines(&self) -> Vec<&'static str> {
+        let mut d = Vec::new();
+        flag(&mut d, self.spots, "SPOT_LIGHTS");
+        self.shadowing.defines(&mut d);
+        d.extend(self.materials.defines());
+        self.lights.defines(&mut d);
+        flag(&mut d, self.alpha_mask, "ALPHA_MASK");
+        d
+    }
+
+    fn is_valid(&self) -> bool {
+        true
+    }
+}
+
+/// The blended shading pass (`blended.wgsl` over lists, `blended_brute_force.wgsl` over
+/// every light; body `common/blended_shade.wgsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct BlendedKey {
+    /// `SPOT_LIGHTS`.
+    pub spots: bool,
+    /// `SHADOWS` (blended geometry does not shade VPLs).
+    pub shadows: bool,
+    /// The material paths.
+    pub materials: MaterialKey,
+    /// The light loop: no half-z lists (one list per tile).
+    pub lights: LightLoopKey,
+    /// `WBOIT`: weighted blended order-independent transparency.
+    pub wboit: bool,
+}
+
+impl BlendedKey {
+    /// Every value.
+    pub fn all() -> Vec<Self> {
+        let mut v = Vec::new();
+        for lights in LightLoopKey::all(false) {
+            for spots in BOOLS {
+                for shadows in BOOLS {
+                    for materials in MaterialKey::all() {
+                        for wboit in BOOLS {
+                            v.push(Self { spots, shadows, materials, lights, wboit });
+                        }
+                    }
+                }
+            }
+        }
+        v
+    }
+}
+
+impl ShaderKey for BlendedKey {
+    fn entry(&self) -> &'static str {
+        match self.lights {
+            LightLoopKey::Every { .. } => "blended_brute_force.wgsl",
+            _ => "blended.wgsl",
+        }
+    }
+
+    fn defines(&self) -> Vec<&'static str> {
+        let mut d = Vec::new();
+        flag(&mut d, self.spots, "SPOT_LIGHTS");
+        flag(&mut d, self.shadows, "SHADOWS");
+        d.extend(self.materials.defines());
+        flag(&mut d, self.wboit, "WBOIT");
+        self.lights.defines(&mut d);
+        d
+    }
+
+    fn is_valid(&self) -> bool {
+        !matches!(self.lights, LightLoopKey::TileLists { half_z: true })
+    }
+}
+
+/// The blended layer's composite (`blended_composite.wgsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct CompositeKey {
+    /// `WBOIT`: the layer is accumulation and revealage.
+    pub wboit: bool,
+}
+
+impl CompositeKey {
+    /// Every value.
+    pub fn all() -> Vec<Self> {
+        BOOLS.map(|wboit| Self { wboit }).to_vec()
+    }
+}
+
+impl ShaderKey for CompositeKey {
+    fn entry(&self) -> &'static str {
+        "blended_composite.wgsl"
+    }
+    fn defines(&self) -> Vec<&'static str> {
+        if self.wboit {
+            vec!["WBOIT"]
+        } else {
+            Vec::new()
+        }
+    }
+    fn is_valid(&self) -> bool {
+        true
+    }
+}
+
+/// The depth pre-pass (`depth_prepass.wgsl`): only the masked pipeline samples (the base
+/// colour's alpha), so only it has textures and their coordinate set.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum DepthPrepassKey {
+    /// Opaque: positions only.
+    #[default]
+    Opaque,
+    /// `ALPHA_MASK` on the materials' factors (no textures in the scene).
+    Masked,
+    /// `ALPHA_MASK TEXTURES`, with `UV1` when some texture reads the second set.
+    MaskedTextured {
+        /// `UV1`.
+        uv1: bool,
+    },
+}
+
+impl DepthPrepassKey {
+    /// Every value.
+    pub fn all() -> Vec<Self> {
+        vec![Self::Opaque, Self::Masked, Self::MaskedTextured { uv1: false }, Self::MaskedTextured { uv1: true }]
+    }
+}
+
+impl ShaderKey for DepthPrepassKey {
+    fn entry(&self) -> &'static str {
+        "depth_prepass.wgsl"
+    }
+    fn defines(&self) -> Vec<&'static str> {
+        match self {
+            Self::Opaque => Vec::new(),
+            Self::Masked => vec!["ALPHA_MASK"],
+            Self::MaskedTextured { uv1: false } => vec!["ALPHA_MASK", "TEXTURES"],
+            Self::MaskedTextured { uv1: true } => vec!["ALPHA_MASK", "TEXTURES", "UV1"],
+        }
+    }
+    fn is_valid(&self) -> bool {
+        true
+    }
+}
+
+/// The G-buffer pass (`gbuffer.wgsl`; also the VPLs' reflective shadow maps).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct GBufferKey {
+    /// `ALPHA_MASK`.
+    pub alpha_mask: bool,
+    /// The material paths.
+    pub materials: MaterialKey,
+    /// `EMISSION`: the emission target is written.
+    pub emission: bool,
+    /// `EXTRA_TEST_VALUES`: the extra targets get test values (tests only).
+    pub extra_test_values: bool,
+}
+
+impl GBufferKey {
+    /// Every value.
+    pub fn all() -> Vec<Self> {
+        let mut v = Vec::new();
+        for alpha_mask in BOOLS {
+            for materials in MaterialKey::all() {
+                for emission in BOOLS {
+                    for extra_test_values in BOOLS {
+                        v.push(Self { alpha_mask, materials, emission, extra_test_values });
+                    }
+                }
+            }
+        }
+        v
+    }
+}
+
+impl ShaderKey for GBufferKey {
+    fn entry(&self) -> &'static str {
+        "gbuffer.wgsl"
+    }
+    fn defines(&self) -> Vec<&'static str> {
+        let mut d = Vec::new();
+        flag(&mut d, self.alpha_mask, "ALPHA_MASK");
+        d.extend(self.materials.defines());
+        flag(&mut d, self.emission, "EMISSION");
+        flag(&mut d, self.extra_test_values, "EXTRA_TEST_VALUES");
+        d
+    }
+    fn is_valid(&self) -> bool {
+        true
+    }
+}
+
+/// The per-tile light tests of the tile culling code (`shaders/common/tile_cull.wgsl`,
+/// `common/tile_tests.wgsl`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct CullTests {
+    /// `AABB`: the view-space box test.
+    pub aabb: bool,
+    /// `HALF_Z`: two lists per tile.
+    pub half_z: bool,
+    /// `SPOT_CONE`: spot cones against tiles.
+    pub spot_cone: bool,
+    /// `COARSE`: candidates from the 64x64-pixel cells.
+    pub coarse: bool,
+    /// `DEPTH_MASK`: 2.5D culling (not with half-z).
+    pub depth_mask: bool,
+}
+
+impl CullTests {
+    /// Every value (`depth_mask` only when it may be set; never with half-z).
+    fn all(depth_mask: bool) -> Vec<Self> {
+        let mut v = Vec::new();
+        for aabb in BOOLS {
+            for half_z in BOOLS {
+                for spot_cone in BOOLS {
+                    for coarse in BOOLS {
+                        for dm in BOOLS {
+                            let t = Self { aabb, half_z, spot_cone, coarse, depth_mask: dm };
+                            if (!dm || depth_mask) && t.is_valid() {
+                                v.push(t);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        v
+    }
+
+    fn is_valid(&self) -> bool {
+        !(self.depth_mask && self.half_z)
+    }
+
+    fn defines(self, d: &mut Vec<&'static str>) {
+        flag(d, self.aabb, "AABB");
+        flag(d, self.half_z, "HALF_Z");
+        flag(d, self.spot_cone, "SPOT_CONE");
+        flag(d, self.coarse, "COARSE");
+        flag(d, self.depth_mask, "DEPTH_MASK");
+    }
+}
+
+/// The tile culling pass (`cull.wgsl`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct CullKey {
+    /// The light tests.
+    pub tests: CullTests,
+    /// `MSAA`: the depth buffer is multisampled.
+    pub msaa: bool,
+    /// `BLENDED`: the blended geometry's culling (sphere and planes only, one list).
+    pub blended: bool,
+    /// `DROP_LIGHT`: the test hook.
+    pub drop_light: bool,
+}
+
+impl CullKey {
+    /// Every value.
+    pub fn all() -> Vec<Self> {
+        let mut v = Vec::new();
+        for tests in CullTests::all(true) {
+            for msaa in BOOLS {
+                for drop_light in BOOLS {
+                    v.push(Self { tests, msaa, blended: false, drop_light });
+                }
+            }
+        }
+        v.extend(BOOLS.map(|msaa| Self { tests: CullTests::default(), msaa, blended: true, drop_light: false }));
+        v
+    }
+}
+
+impl ShaderKey for CullKey {
+    fn entry(&self) -> &'static str {
+        "cull.wgsl"
+    }
+    fn defines(&self) -> Vec<&'static str> {
+        let mut d = Vec::new();
+        self.tests.defines(&mut d);
+        flag(&mut d, self.msaa, "MSAA");
+        flag(&mut d, self.drop_light, "DROP_LIGHT");
+        flag(&mut d, self.blended, "BLENDED");
+        d
+    }
+    fn is_valid(&self) -> bool {
+        self.tests.is_valid() && (!self.blended || (self.tests == CullTests::default() && !self.drop_light))
+    }
+}
+
+/// The 64x64-pixel cell pass of two-level culling (`cull_coarse.wgsl`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct CullCoarseKey {
+    /// `MSAA`.
+    pub msaa: bool,
+}
+
+impl CullCoarseKey {
+    /// Every value.
+    pub fn all() -> Vec<Self> {
+        BOOLS.map(|msaa| Self { msaa }).to_vec()
+    }
+}
+
+impl ShaderKey for CullCoarseKey {
+    fn entry(&self) -> &'static str {
+        "cull_coarse.wgsl"
+    }
+    fn defines(&self) -> Vec<&'static str> {
+        if self.msaa {
+            vec!["MSAA"]
+        } else {
+            Vec::new()
+        }
+    }
+    fn is_valid(&self) -> bool {
+        true
+    }
+}
+
+/// What the tile depth step of light-centric assignment writes besides the ranges.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum TileDepthOutput {
+    /// Ranges only.
+    #[default]
+    Ranges,
+    /// `DEPTH_MASK`: the 2.5D masks.
+    DepthMask,
+    /// `CLUSTERED`: the cluster occupancy masks.
+    Clusters,
+}
+
+/// The tile depth step of light-centric assignment (`tile_depth.wgsl`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct TileDepthKey {
+    /// `MSAA`.
+    pub msaa: bool,
+    /// The masks written.
+    pub output: TileDepthOutput,
+}
+
+impl TileDepthKey {
+    /// Every value.
+    pub fn all() -> Vec<Self> {
+        let outputs = [TileDepthOutput::Ranges, TileDepthOutput::DepthMask, TileDepthOutput::Clusters];
+        BOOLS.into_iter().flat_map(|msaa| outputs.map(|output| Self { msaa, output })).collect()
+    }
+}
+
+impl ShaderKey for TileDepthKey {
+    fn entry(&self) -> &'static str {
+        "tile_depth.wgsl"
+    }
+    fn defines(&self) -> Vec<&'static str> {
+        let mut d = Vec::new();
+        flag(&mut d, self.msaa, "MSAA");
+        flag(&mut d, self.output == TileDepthOutput::DepthMask, "DEPTH_MASK");
+        flag(&mut d, self.output == TileDepthOutput::Clusters, "CLUSTERED");
+        d
+    }
+    fn is_valid(&self) -> bool {
+        true
+    }
+}
+
+/// Light-centric assignment (`assign.wgsl`): tile lists with their tests, or clusters.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum AssignKey {
+    /// Tile lists: `HALF_Z`, `AABB`, `SPOT_CONE`, `DEPTH_MASK` as in [`CullTests`] (no
+    /// two-level culling).
+    Tiles(CullTests),
+    /// `CLUSTERED`, with `GEOMETRY_ONLY` when only clusters holding geometry get lists.
+    Clusters {
+        /// `GEOMETRY_ONLY`.
+        geometry_only: bool,
+    },
+}
+
+impl AssignKey {
+    /// Every value.
+    pub fn all() -> Vec<Self> {
+        let mut v: Vec<Self> = CullTests::all(true).into_iter().filter(|t| !t.coarse).map(Self::Tiles).collect();
+        v.extend(BOOLS.map(|geometry_only| Self::Clusters { geometry_only }));
+        v
+    }
+}
+
+impl ShaderKey for AssignKey {
+    fn entry(&self) -> &'static str {
+        "assign.wgsl"
+    }
+    fn defines(&self) -> Vec<&'static str> {
+        let mut d = Vec::new();
+        match *self {
+            Self::Tiles(t) => {
+                flag(&mut d, t.half_z, "HALF_Z");
+                flag(&mut d, t.aabb, "AABB");
+                flag(&mut d, t.spot_cone, "SPOT_CONE");
+                flag(&mut d, t.depth_mask, "DEPTH_MASK");
+            }
+            Self::Clusters { geometry_only } => {
+                d.push("CLUSTERED");
+                flag(&mut d, geometry_only, "GEOMETRY_ONLY");
+            }
+        }
+        d
+    }
+    fn is_valid(&self) -> bool {
+        match self {
+            Self::Tiles(t) => t.is_valid() && !t.coarse,
+            Self::Clusters { .. } => true,
+        }
+    }
+}
+
+/// How Tiled Deferred's shading pass gets its lists, which picks its kernel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum DeferredLists {
+    /// Culled per tile by the pass itself (`deferred.wgsl`, with MSAA
+    /// `deferred_msaa.wgsl`): the light tests (no 2.5D: those lists are assigned) and the
+    /// drop-light test hook (`DROP_LIGHT`).
+    Culled {
+        /// The light tests.
+        tests: CullTests,
+        /// `DROP_LIGHT`: validated (and so built) only with one sample and without shadows,
+        /// VPLs and emission, to keep the kernel's variants few.
+        drop_light: bool,
+    },
+    /// Assigned light-centrically before the pass (`deferred_assigned.wgsl`): tile lists
+    /// (with half-z) or clusters.
+    Assigned {
+        /// `HALF_Z`.
+        half_z: bool,
+        /// `CLUSTERED`.
+        clustered: bool,
+    },
+}
+
+/// Tiled Deferred's shading pass (`deferred.wgsl`, `deferred_msaa.wgsl`,
+/// `deferred_assigned.wgsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct DeferredKey {
+    /// Where the lists come from (the kernel).
+    pub lists: DeferredLists,
+    /// `SPOT_LIGHTS`.
+    pub spots: bool,
+    /// `SHADOWS`, `VPLS`.
+    pub shadowing: Shadowing,
+    /// `MSAA`: the G-buffer is multisampled.
+    pub msaa: bool,
+    /// The stress knob's extra G-buffer targets, 0 to 3 (`EXTRA_RTS`, `_2`, `_3`).
+    pub extra_targets: u32,
+    /// `EMISSION`: the G-buffer's emission target.
+    pub emission: bool,
+}
+
+impl DeferredKey {
+    /// Every value.
+    pub fn all() -> Vec<Self> {
+        let mut lists: Vec<DeferredLists> = CullTests::all(false)
+            .into_iter()
+            .flat_map(|tests| BOOLS.map(|drop_light| DeferredLists::Culled { tests, drop_light }))
+            .collect();
+        lists.extend(
+            [(false, false), (true, false), (false, true)]
+                .map(|(half_z, clustered)| DeferredLists::Assigned { half_z, clustered }),
+        );
+        let mut v = Vec::new();
+        for lists in lists {
+            for spots in BOOLS {
+                for shadowing in Shadowing::ALL {
+                    for msaa in BOOLS {
+                        for extra_targets in 0..=3 {
+                            for emission in BOOLS {
+                                let k = Self { lists, spots, shadowing, msaa, extra_targets, emission };
+                                if k.is_valid() {
+                                    v.push(k);
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        v
+    }
+}
+
+impl ShaderKey for DeferredKey {
+    fn entry(&self) -> &'static str {
+        match (self.lists, self.msaa) {
+            (DeferredLists::Assigned { .. }, _) => "deferred_assigned.wgsl",
+            (DeferredLists::Culled { .. }, false) => "deferred.wgsl",
+            (DeferredLists::Culled { .. }, true) => "deferred_msaa.wgsl",
+        }
+    }
+
+    fn defines(&self) -> Vec<&'static str> {
+        let mut d = Vec::new();
+        match self.lists {
+            DeferredLists::Culled { tests, drop_light } => {
+                tests.defines(&mut d);
+                flag(&mut d, drop_light, "DROP_LIGHT");
+            }
+            DeferredLists::Assigned { half_z, clustered } => {
+                flag(&mut d, half_z, "HALF_Z");
+                flag(&mut d, clustered, "CLUSTERED");
+            }
+        }
+        flag(&mut d, self.msaa, "MSAA");
+        flag(&mut d, self.extra_targets >= 1, "EXTRA_RTS");
+        flag(&mut d, self.extra_targets >= 2, "EXTRA_RTS_2");
+        flag(&mut d, self.extra_targets >= 3, "EXTRA_RTS_3");
+        flag(&mut d, self.emission, "EMISSION");
+        flag(&mut d, self.spots, "SPOT_LIGHTS");
+        self.shadowing.defines(&mut d);
+        d
+    }
+
+    fn is_valid(&self) -> bool {
+        let lists = match self.lists {
+            DeferredLists::Culled { tests, drop_light } => {
+                tests.is_valid()
+                    && !tests.depth_mask
+                    && (self.spots || !tests.spot_cone)
+                    && (!drop_light || (!self.msaa && self.shadowing == Shadowing::Off && !self.emission))
+            }
+            DeferredLists::Assigned { half_z, clustered } => !(half_z && clustered),
+        };
+        lists && self.extra_targets <= 3
+    }
+}
+
+/// The tonemap pass (`tonemap.wgsl`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct TonemapKey {
+    /// `AUTO_EXPOSURE`: the exposure is read from the adaptation buffer.
+    pub auto_exposure: bool,
+}
+
+impl TonemapKey {
+    /// Every value.
+    pub fn all() -> Vec<Self> {
+        BOOLS.map(|auto_exposure| Self { auto_exposure }).to_vec()
+    }
+}
+
+impl ShaderKey for TonemapKey {
+    fn entry(&self) -> &'static str {
+        "tonemap.wgsl"
+    }
+    fn defines(&self) -> Vec<&'static str> {
+        if self.auto_exposure {
+            vec!["AUTO_EXPOSURE"]
+        } else {
+            Vec::new()
+        }
+    }
+    fn is_valid(&self) -> bool {
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shader;
+
+    #[test]
+    fn every_key_value_is_valid_distinct_and_declared() {
+        for (entry, values) in key_spaces() {
+            let declared = shader::variants(entry);
+            assert!(shader::embedded(entry).is_some(), "{entry}");
+            for d in &values {
+                for define in d {
+                    assert!(declared.iter().any(|v| v == define), "{entry}: {define} not declared");
+                }
+            }
+            let mut sorted: Vec<Vec<&str>> = values
+                .iter()
+                .map(|d| {
+                    let mut d = d.clone();
+                    d.sort();
+                    d
+                })
+                .collect();
+            sorted.sort();
+            sorted.dedup();
+            assert_eq!(sorted.len(), values.len(), "{entry}: two key values with the same defines");
+            assert!(values.len() <= 1024, "{entry}: {} variants", values.len());
+        }
+    }
+
+    #[test]
+    fn key_space_counts() {
+        let count = |e: &str| key_spaces().into_iter().find(|(x, _)| *x == e).map_or(0, |(_, v)| v.len());
+        assert_eq!(MaterialKey::all().len(), 34);
+        assert_eq!(count("forward.wgsl"), 816);
+        assert_eq!(count("forward_clustered.wgsl"), 408);
+        assert_eq!(count("brute_force.wgsl"), 816);
+        assert_eq!(count("blended.wgsl"), 544);
+        assert_eq!(count("deferred.wgsl"), 672);
+        assert_eq!(count("deferred_msaa.wgsl"), 576);
+        assert_eq!(count("deferred_assigned.wgsl"), 288);
+    }
+
+    #[test]
+    fn material_key_follows_the_features() {
+        let f = MaterialFeatures { textures: true, normal_map: true, emissive: true, ..Default::default() };
+        assert_eq!(MaterialKey::of(&f).defines(), f.defines());
+        assert_eq!(MaterialKey::of(&MaterialFeatures::default()).defines(), Vec::<&str>::new());
+    }
+
+    #[test]
+    fn invalid_values_are_refused() {
+        let k = DeferredKey {
+            lists: DeferredLists::Culled { tests: CullTests::default(), drop_light: true },
+            spots: false,
+            shadowing: Shadowing::Shadows,
+            msaa: false,
+            extra_targets: 0,
+            emission: false,
+        };
+        assert!(!k.is_valid());
+        assert!(!CullKey {
+            tests: CullTests { half_z: true, depth_mask: true, ..Default::default() },
+            ..Default::default()
+        }
+        .is_valid());
+    }
+}
