@@ -241,7 +241,7 @@ fn save(
         root.present().map_err(|e| anyhow!("drawing the chart: {e}"))?;
     }
     let img = image::RgbImage::from_raw(SIZE.0, SIZE.1, buf).context("building the chart image")?;
-    crate::scene_setup::save_png(path, &img)
+    crate::output::save_png(path, &img)
 }
 
 fn err<E: std::fmt::Display>(e: E) -> anyhow::Error {
