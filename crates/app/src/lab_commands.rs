@@ -40,8 +40,12 @@ pub struct BenchArgs {
 impl BenchArgs {
     /// Runs `tiledlight bench`.
     pub fn run(&self) -> Result<()> {
-        let job =
-            bench::Bench { frames: self.frames, warmup: self.warmup, json: self.json.clone(), move_lights: self.move_lights };
+        let job = bench::Bench {
+            frames: self.frames,
+            warmup: self.warmup,
+            json: self.json.clone(),
+            move_lights: self.move_lights,
+        };
         bench::run(&self.scene, &job)
     }
 }

@@ -13,9 +13,9 @@ use std::path::Path;
 use anyhow::Result;
 use tiledlight_setup::{Prepared, Settings};
 
+use crate::render::write_image;
 use tiledlight_lab::bench;
 use tiledlight_lab::dropped::{self, Dropped};
-use crate::render::write_image;
 
 /// Frames of the short benchmark (after a few warm-up frames).
 const FRAMES: u32 = 30;

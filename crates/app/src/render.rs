@@ -24,10 +24,10 @@ use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::tonemap::HeatmapOf;
 use tiledlight_setup::{shadow_atlas_description, Method, Prepared};
 
+use crate::scene_setup::SceneArgs;
 use tiledlight_lab::bench::{self, Measurement, INCOMPLETE_MARK};
 use tiledlight_lab::dropped::{self, Dropped};
 use tiledlight_lab::legend;
-use crate::scene_setup::SceneArgs;
 use tiledlight_lab::output::{check_png_path, rgb_image, save_png};
 
 /// Frames rendered before the image is read back: the pass times reported are the last

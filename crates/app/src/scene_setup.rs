@@ -8,15 +8,15 @@
 
 use std::path::PathBuf;
 
-use tiledlight_setup::bookmark;
 use anyhow::{bail, Context, Result};
-use tiledlight_lab::axes::{on_off, Flags};
 use clap::{Args, ValueEnum};
 use tiledlight_cull::shadow::ShadowFormat;
 use tiledlight_deferred::EdgeTest;
 use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::light_cull::ClusterOptions;
+use tiledlight_lab::axes::{on_off, Flags};
 use tiledlight_scene::{GridDensity, DEFAULT_LIGHT_THRESHOLD};
+use tiledlight_setup::bookmark;
 use tiledlight_setup::{
     surface_exposure, CameraBookmark, LightPlacement, Method, SceneSource, Settings, DEFAULT_LIGHTS_PER_POINT,
     MILLION_LIGHTS,
@@ -522,14 +522,14 @@ impl SceneArgs {
     }
 }
 
-
 /// The lab's axes set these flags (`sweep`/`accuracy --axis NAME=VALUES`): an axis's name
 /// is its flag's.
 impl Flags for SceneArgs {
     fn set_axis(&mut self, name: &str, value: &str) -> Result<()> {
         let args = self;
-        let int =
-            || -> Result<u64> { value.parse::<u64>().with_context(|| format!("{name} '{value}': expected an integer")) };
+        let int = || -> Result<u64> {
+            value.parse::<u64>().with_context(|| format!("{name} '{value}': expected an integer"))
+        };
         let small = || -> Result<u32> {
             let n = int()?;
             u32::try_from(n).with_context(|| format!("{name} {n}: too large"))
@@ -543,7 +543,8 @@ impl Flags for SceneArgs {
             "tile-size" => args.tile_size = small()?,
             "msaa" => args.msaa = small()?,
             "edge-distance" => {
-                args.edge_distance = value.parse().with_context(|| format!("edge-distance '{value}': expected a number"))?
+                args.edge_distance =
+                    value.parse().with_context(|| format!("edge-distance '{value}': expected a number"))?
             }
             "edge-normal-deg" => {
                 args.edge_normal_deg =
@@ -556,15 +557,16 @@ impl Flags for SceneArgs {
                 args.method = MethodArg::from_str(value, true).map_err(|e| anyhow::anyhow!("method '{value}': {e}"))?
             }
             "density" => {
-                args.density = DensityArg::from_str(value, true).map_err(|e| anyhow::anyhow!("density '{value}': {e}"))?
+                args.density =
+                    DensityArg::from_str(value, true).map_err(|e| anyhow::anyhow!("density '{value}': {e}"))?
             }
             "shadow-point-lights" => args.shadow_point_lights = small()?,
             "shadow-spot-lights" => args.shadow_spot_lights = small()?,
             "shadow-size" => args.shadow_size = small()?,
             "shadow-filter" => args.shadow_filter = small()?,
             "shadow-format" => {
-                args.shadow_format =
-                    ShadowFormatArg::from_str(value, true).map_err(|e| anyhow::anyhow!("shadow-format '{value}': {e}"))?
+                args.shadow_format = ShadowFormatArg::from_str(value, true)
+                    .map_err(|e| anyhow::anyhow!("shadow-format '{value}': {e}"))?
             }
             "transparent-objects" => args.transparent_objects = small()?,
             "blend-mode" => {
@@ -582,7 +584,8 @@ impl Flags for SceneArgs {
             "cluster-tile" => args.cluster_tile = small()?,
             "cluster-slices" => args.cluster_slices = small()?,
             "cluster-first" => {
-                args.cluster_first = value.parse().with_context(|| format!("cluster-first '{value}': expected a number"))?
+                args.cluster_first =
+                    value.parse().with_context(|| format!("cluster-first '{value}': expected a number"))?
             }
             "lights-per-pixel" => {
                 args.lights_per_pixel =
@@ -849,10 +852,16 @@ mod tests {
     // The lab's axes on these flags (tiledlight-lab's `axes` with `Flags for SceneArgs`).
     #[test]
     fn ranges_and_lists() {
-        assert_eq!(axes::parse_axis::<SceneArgs>("lights=64..1000").unwrap().values, ["64", "128", "256", "512", "1000"]);
+        assert_eq!(
+            axes::parse_axis::<SceneArgs>("lights=64..1000").unwrap().values,
+            ["64", "128", "256", "512", "1000"]
+        );
         assert_eq!(axes::parse_axis::<SceneArgs>("lights=64..65536:4").unwrap().values, ["64", "645", "6502", "65536"]);
         assert_eq!(axes::parse_axis::<SceneArgs>("threshold=0.4..0.05").unwrap().values, ["0.4", "0.2", "0.1", "0.05"]);
-        assert_eq!(axes::parse_axis::<SceneArgs>("method=forward-plus, deferred").unwrap().values, ["forward-plus", "deferred"]);
+        assert_eq!(
+            axes::parse_axis::<SceneArgs>("method=forward-plus, deferred").unwrap().values,
+            ["forward-plus", "deferred"]
+        );
         assert_eq!(axes::parse_axis::<SceneArgs>("culling=planes,aabb+half-z").unwrap().values.len(), 2);
     }
 
@@ -878,13 +887,19 @@ mod tests {
 
     #[test]
     fn points_are_the_product() {
-        let axes = vec![axes::parse_axis::<SceneArgs>("lights=1,2").unwrap(), axes::parse_axis::<SceneArgs>("method=forward-plus,deferred").unwrap()];
+        let axes = vec![
+            axes::parse_axis::<SceneArgs>("lights=1,2").unwrap(),
+            axes::parse_axis::<SceneArgs>("method=forward-plus,deferred").unwrap(),
+        ];
         let p = axes::points(&axes).unwrap();
         assert_eq!(p.len(), 4);
         assert_eq!(p[1], ["1", "deferred"]);
         let a = axes::args_at(&SceneArgs::default(), &axes, &p[3]).unwrap();
         assert_eq!((a.lights, a.method), (Some(2), MethodArg::Deferred));
-        let merged = axes::merge_axes(axes.clone(), vec![axes::parse_axis::<SceneArgs>("lights=8").unwrap(), axes::parse_axis::<SceneArgs>("seed=3").unwrap()]);
+        let merged = axes::merge_axes(
+            axes.clone(),
+            vec![axes::parse_axis::<SceneArgs>("lights=8").unwrap(), axes::parse_axis::<SceneArgs>("seed=3").unwrap()],
+        );
         assert_eq!(merged.iter().map(|a| a.values.len()).collect::<Vec<_>>(), [1, 2, 1]);
         assert!(axes::points(&[axes[0].clone(), axes[0].clone()]).is_err());
     }
@@ -918,7 +933,9 @@ mod tests {
         let a = axes::parse_axis::<SceneArgs>("grid=tiled,half-z,2.5d,clustered").unwrap();
         assert_eq!(a.values.len(), 4);
         assert!(axes::parse_axis::<SceneArgs>("assign=gather,scatter").is_ok());
-        assert!(axes::parse_axis::<SceneArgs>("cluster-slices=8..32").is_ok() && axes::is_numeric_axis("cluster-first"));
+        assert!(
+            axes::parse_axis::<SceneArgs>("cluster-slices=8..32").is_ok() && axes::is_numeric_axis("cluster-first")
+        );
         let mut args = SceneArgs { half_z: true, ..SceneArgs::default() };
         axes::apply(&mut args, "grid", "2.5d").unwrap();
         assert_eq!((args.grid, args.half_z), (GridArg::DepthMask, false));

@@ -61,9 +61,8 @@ fn main() -> Result<()> {
     // library settings' own ranges (tile-size=12 would fail now, not mid-run).
     let axes = vec![axes::parse_axis::<Small>("lights=64..256")?, axes::parse_axis::<Small>("tile-size=8,16,32")?];
     let points = axes::points(&axes)?;
-    let header: Vec<String> = ["lights", "tile-size", "pass", "median_ms", "min_ms", "max_ms", "frames"]
-        .map(String::from)
-        .to_vec();
+    let header: Vec<String> =
+        ["lights", "tile-size", "pass", "median_ms", "min_ms", "max_ms", "frames"].map(String::from).to_vec();
     // A point is done once its last row (the "total" pass) is in the file.
     let mut csv = ResumableCsv::open(&out, &header, &[0, 1], Some((2, "total")))?;
     let mut prep: Option<Prepared> = None;

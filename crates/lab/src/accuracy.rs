@@ -44,10 +44,10 @@ use tiledlight_cull::reference::{cull_tiles, list_quality, ListQuality};
 use tiledlight_metrics::{flip, HdrError};
 use tiledlight_setup::{group_digits, Method, Prepared, Settings};
 
+use crate::axes::{self, Axis, Flags, ResumableCsv};
 use crate::bench::{self, MAX_FRAMES};
 use crate::chart::{self, ParetoChart, ParetoPoint};
 use crate::dropped;
-use crate::axes::{self, Axis, Flags, ResumableCsv};
 
 /// The settings measured when no `--axis` is given: thirteen thresholds, about halving
 /// (radii from 0.5x to 32x the default 0.1's; at 1e-4 every light of the default scene

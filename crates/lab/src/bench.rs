@@ -50,15 +50,15 @@ use tiledlight_cull::Camera;
 use tiledlight_gpu::diagnostics::Diagnostics as _;
 use tiledlight_gpu::light_grid::GridStatus;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::{GpuContext, GpuError};
 use tiledlight_gpu::targets::Renderer;
 use tiledlight_gpu::timer::{GpuTimer, PassTime};
+use tiledlight_gpu::{GpuContext, GpuError};
 
 use tiledlight_setup::settings::blend_mode_description;
 use tiledlight_setup::{shadow_atlas_description, LightAnimator, Prepared};
 
-use crate::dropped::{self, Dropped};
 use crate::axes::Flags;
+use crate::dropped::{self, Dropped};
 
 /// How the CPU frame time is measured (printed and written to JSON).
 pub const CPU_TIME_MEANING: &str = "wall time of record + submit + wait for the GPU, per frame (frames serialised)";

@@ -264,7 +264,11 @@ pub fn strict(strict: bool, warnings: usize) -> Result<()> {
 
 /// The `warning:` line for VPLs the cap refused in the last frame of `renderer` (None:
 /// none refused, or no VPLs). Reads the count back: call after the frames, not in them.
-pub fn refused_warning(renderer: &dyn Renderer, ctx: &tiledlight_gpu::GpuContext, what: &str) -> anyhow::Result<Option<String>> {
+pub fn refused_warning(
+    renderer: &dyn Renderer,
+    ctx: &tiledlight_gpu::GpuContext,
+    what: &str,
+) -> anyhow::Result<Option<String>> {
     Ok(renderer.vpl_count(ctx)?.and_then(|count| refused_line(what, count)))
 }
 

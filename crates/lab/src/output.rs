@@ -48,7 +48,6 @@ pub fn check_png_path(path: &Path) -> Result<()> {
     Ok(())
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -339,7 +339,9 @@ fn compare_frames(res: &Results, dir: &Path, out: &Path) -> Result<(Vec<FlipRow>
             );
             let map = tiledlight_metrics::flip(wa, ha, ra, rb);
             let s = map.summary(0.99);
-            let matched = tiledlight_metrics::flip(wa, ha, ra, &tiledlight_metrics::histogram::match_histograms(ra, rb)).summary(0.99);
+            let matched =
+                tiledlight_metrics::flip(wa, ha, ra, &tiledlight_metrics::histogram::match_histograms(ra, rb))
+                    .summary(0.99);
             let heat = image::RgbImage::from_raw(wa, ha, map.heat_rgb()).context("building the FLIP heat map")?;
             let half = image::imageops::resize(&heat, (wa / 2).max(1), (ha / 2).max(1), image::imageops::Triangle);
             let heat_path = out.join(format!("flip-{a}-vs-{b}-{n}.png"));
@@ -420,10 +422,7 @@ fn chart(res: &Results, path: &Path, adapter: &str) -> Result<()> {
 /// and heat maps to `out` (default: `dir`).
 pub fn run(dir: &Path, out: Option<&Path>) -> Result<()> {
     if !dir.is_dir() {
-        bail!(
-            "{}: no such folder (unpack scripts/peer-bench.sh's peer-N.tar.gz archives into one)",
-            dir.display()
-        );
+        bail!("{}: no such folder (unpack scripts/peer-bench.sh's peer-N.tar.gz archives into one)", dir.display());
     }
     let out = out.unwrap_or(dir).to_path_buf();
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;

@@ -57,9 +57,9 @@ use tiledlight_setup::settings::shadow_options_description;
 use tiledlight_setup::{group_digits, LightAnimator, Method, Prepared, SceneCpu, Settings};
 
 use crate::accuracy::PERCENTILE;
+use crate::axes::{self, Flags};
 use crate::bench::{self, CastersJson, ConfigJson, PassSummary, ShadowRunJson, MAX_FRAMES};
 use crate::chart::{self, ParetoChart, ParetoPoint};
-use crate::axes::{self, Flags};
 
 /// The configurations measured when no `--config` is given: every tile size times every
 /// filter with 16-bit depth, and 32-bit depth at the largest tile and filter.
@@ -457,7 +457,8 @@ pub fn run<F: Flags>(scene: &F, args: &ShadowAccuracy) -> Result<()> {
         let mut r = ForwardRenderer::new(&prep.ctx, &prep.scene_gpu, &prep.lights, w, h, settings)
             .with_context(|| format!("{what}: building the renderer"))?;
         // The first frame draws every face, with the lights where the reference has them.
-        let frame = bench::render_frame(&prep.ctx, &mut r, &prep.scene_gpu, &prep.camera).with_context(|| what.clone())?;
+        let frame =
+            bench::render_frame(&prep.ctx, &mut r, &prep.scene_gpu, &prep.camera).with_context(|| what.clone())?;
         let (s, gpu_ldr) = (frame.hdr, frame.ldr);
         prep.check_gpu_errors()?;
         let atlas = r.shadow_atlas().context("internal: a renderer with casters has no shadow atlas")?;

@@ -25,10 +25,10 @@ use std::path::PathBuf;
 use anyhow::{ensure, Context, Result};
 use tiledlight_setup::{group_digits, Prepared, Reload, Settings};
 
+use crate::axes::{self, Axis, Flags, ResumableCsv};
 use crate::bench::{self, MAX_FRAMES};
 use crate::chart::{self, AxisSpec, LineChart, Scale, Series};
 use crate::dropped;
-use crate::axes::{self, Axis, Flags, ResumableCsv};
 
 /// Named sweeps.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -49,15 +49,15 @@ use winit::event::WindowEvent;
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::window::{Window, WindowId};
 
-use tiledlight_setup::bookmark;
-use tiledlight_lab::dropped::{self, Dropped};
 use crate::render::write_image;
 use crate::scene_setup::SceneArgs;
-use tiledlight_lab::output::{check_png_path, rgb_image, save_png};
 use blit::{Blit, DisplayImage};
 use camera_control::CameraRig;
 use script::Action;
 use settings::{plan, Settings};
+use tiledlight_lab::dropped::{self, Dropped};
+use tiledlight_lab::output::{check_png_path, rgb_image, save_png};
+use tiledlight_setup::bookmark;
 use ui::{Command, Info, Stats, UiState};
 
 /// How often the culling statistics (a GPU readback) are refreshed.
