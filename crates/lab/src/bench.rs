@@ -37,8 +37,8 @@
 //! recording (`Renderer::prepare`, `record`, `render_once`) besides shadow-accuracy's
 //! per-caster renderer.
 //!
-//! May depend on [`crate::axes`] (the flags), [`crate::dropped`], tiledlight-setup and
-//! tiledlight-gpu.
+//! May depend on [`crate::axes`] (the flags), [`crate::dropped`], [`crate::output`],
+//! tiledlight-setup and tiledlight-gpu.
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};

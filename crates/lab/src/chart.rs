@@ -12,7 +12,7 @@
 //!
 //! A point measured over frames that dropped lights (a light grid full: the time of an
 //! incomplete frame) is ringed in red, with a legend entry saying so, on both charts. May
-//! depend on plotters and image only.
+//! depend on plotters, image and [`crate::output`] (PNG output) only.
 
 use std::path::Path;
 use std::sync::OnceLock;

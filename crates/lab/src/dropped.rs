@@ -15,7 +15,8 @@
 //! lower `--vpl-cap`) and never grows: its drops are named apart, with what lowers them.
 //! The CSVs' `dropped_*` cells sum the grids; bench's JSON has each grid's own fields.
 //!
-//! May depend on tiledlight-gpu (the grid's header, the renderer) and tiledlight-setup.
+//! May depend on [`crate::output`], tiledlight-gpu (the grid's header, the renderer) and
+//! tiledlight-setup.
 
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
