@@ -599,7 +599,7 @@ pub struct RendererJson {
     pub emissive: bool,
 }
 
-/// The commit the binary was built from (`TILEDLIGHT_COMMIT`, set by build.rs), else
+/// The commit the lab was built from (`TILEDLIGHT_COMMIT`, set by its build.rs), else
 /// `git rev-parse HEAD` of the working directory, else "unknown".
 pub fn commit_hash() -> String {
     if let Some(c) = option_env!("TILEDLIGHT_COMMIT").filter(|c| !c.is_empty()) {
@@ -770,5 +770,80 @@ mod tests {
         assert!(table(&still).contains("shadows:    0 shadow faces drawn per measured frame"));
         let moving = Measurement { shadow_faces: vec![52, 48, 52], ..m };
         assert_eq!(moving.shadow_line().unwrap(), "48 to 52 shadow faces drawn per measured frame");
+    }
+
+    #[test]
+    fn each_report_keeps_its_config_fields_in_their_order() {
+        let common = ConfigJson {
+            adapter: "a".into(),
+            resolution: "2x1".into(),
+            width: 2,
+            height: 1,
+            scene: "default".into(),
+            triangles: 3,
+            casters: None,
+            lights: None,
+            seed: 1,
+            threshold: 0.5,
+            exposure: None,
+            method: "brute-force",
+            shadow_run: None,
+            renderer: None,
+            commit: "c".into(),
+        };
+        let keys = |c: &ConfigJson| -> Vec<String> {
+            let text = serde_json::to_string(c).unwrap();
+            let v: serde_json::Map<String, serde_json::Value> = serde_json::from_str(&text).unwrap();
+            // serde_json's map is sorted unless preserve_order: read the order from the text.
+            let mut k: Vec<(usize, String)> =
+                v.keys().map(|k| (text.find(&format!("\"{k}\":")).unwrap(), k.clone())).collect();
+            k.sort();
+            k.into_iter().map(|(_, k)| k).collect()
+        };
+        let bench = ConfigJson {
+            lights: Some(LightsJson { instances: 1, point_lights: 2, spot_lights: 0 }),
+            renderer: Some(RendererJson {
+                tile_size: 16,
+                capacity: 8,
+                aabb: false,
+                half_z: false,
+                spot_cone: false,
+                coarse: true,
+                gbuffer_rts: 2,
+                msaa: 1,
+                edge_distance: 0.1,
+                edge_normal_deg: 30.0,
+                shadow_point_lights: 0,
+                shadow_spot_lights: 0,
+                shadow_size: 256,
+                shadow_filter: 5,
+                shadow_format: "d16",
+                transparent_objects: 0,
+                emissive: false,
+            }),
+            ..common.clone()
+        };
+        // The fields and order of bench's `config` before the two schemas became one.
+        let bench_keys = "adapter resolution width height scene triangles instances point_lights spot_lights seed \
+             threshold method tile_size capacity aabb half_z spot_cone coarse gbuffer_rts msaa edge_distance \
+             edge_normal_deg shadow_point_lights shadow_spot_lights shadow_size shadow_filter shadow_format \
+             transparent_objects emissive commit";
+        assert_eq!(keys(&bench).join(" "), bench_keys.split_whitespace().collect::<Vec<_>>().join(" "));
+        let shadow = ConfigJson {
+            casters: Some(CastersJson {
+                camera: "x".into(),
+                point_casters: 1,
+                spot_casters: 1,
+                scene_point_lights: 4,
+                scene_spot_lights: 4,
+            }),
+            exposure: Some(1.0),
+            shadow_run: Some(ShadowRunJson { ambient: 0.0, ray_offset: 1e-3, frames: 2, warmup: 1 }),
+            ..common
+        };
+        // ...and shadow-accuracy's.
+        let shadow_keys = "adapter resolution width height scene triangles camera point_casters spot_casters \
+             scene_point_lights scene_spot_lights seed threshold exposure method ambient ray_offset frames warmup commit";
+        assert_eq!(keys(&shadow).join(" "), shadow_keys.split_whitespace().collect::<Vec<_>>().join(" "));
     }
 }
