@@ -1,7 +1,7 @@
 //! tiledlight-lab: the measurement lab as a library, used by the app (`tiledlight bench`,
 //! `sweep`, `accuracy`, `shadow-accuracy`, `peer-report`, `render`) and by the GPU tests.
 //!
-//! - [`bench`]: the frame loop ([`bench::measure`], [`bench::measure_moving`],
+//! - [`mod@bench`]: the frame loop ([`bench::measure`], [`bench::measure_moving`],
 //!   [`bench::render_frame`]), per-pass timing summaries, the table, the bench report's
 //!   JSON schema ([`bench::ConfigJson`], shared with shadow-accuracy) and `bench` itself;
 //! - [`axes`]: the settings a run varies ([`axes::Axis`], applied to any [`axes::Flags`]),
