@@ -9,10 +9,9 @@ use tiledlight_cull::brdf::windowed_attenuation;
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::Camera;
-use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
+use tiledlight_frame::{FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;
 
 use crate::images::{assert_flip, max_relative_error, save_png, FlipResult, FlipThresholds};
@@ -70,11 +69,11 @@ impl Frame {
     }
 }
 
-/// Renders one frame with `r` and reads both images back.
+/// Renders one frame with `r` and reads both images back, through the lab's frame loop
+/// (`tiledlight_lab::bench::render_frame`, the frame `render` and shadow-accuracy use).
 pub fn render_frame(ctx: &GpuContext, r: &mut FrameRenderer, scene: &SceneGpu, camera: &Camera) -> Frame {
-    let mut timer = GpuTimer::new(ctx).expect("timer");
-    r.render_once(ctx, &mut timer, scene, camera).expect("render");
-    Frame { hdr: r.read_hdr(ctx).expect("read HDR"), ldr: r.read_ldr(ctx).expect("read LDR"), allowance: Vec::new() }
+    let f = tiledlight_lab::bench::render_frame(ctx, r, scene, camera).expect("render");
+    Frame { hdr: f.hdr, ldr: f.ldr, allowance: Vec::new() }
 }
 
 /// Renders the brute-force reference (same BRDF, radius cutoff on) of `scene` lit by

@@ -25,7 +25,8 @@ use crate::{circles, shaders};
 const GPU_TEST_PACKAGE: &str = "tiledlight-tests";
 
 /// (package, example) of every example `cargo xtask test` runs.
-const EXAMPLES: [(&str, &str); 2] = [("tiledlight-cull", "cull_a_floor"), ("tiledlight-gpu", "light_grid")];
+const EXAMPLES: [(&str, &str); 3] =
+    [("tiledlight-cull", "cull_a_floor"), ("tiledlight-gpu", "light_grid"), ("tiledlight-lab", "lights_by_tile")];
 
 /// lavapipe's adapter name starts with this (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)").
 const DEFAULT_ADAPTER: &str = "llvmpipe";

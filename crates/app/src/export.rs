@@ -15,7 +15,8 @@ use clap::Args;
 use tiledlight_setup::export::{export, ExportFormat, FrameExtras};
 use tiledlight_setup::SceneCpu;
 
-use crate::scene_setup::{print_load_warnings, SceneArgs};
+use crate::scene_setup::SceneArgs;
+use tiledlight_lab::output::print_load_warnings;
 
 /// Flags of `tiledlight export`.
 #[derive(Args, Clone, Debug)]

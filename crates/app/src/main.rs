@@ -2,53 +2,48 @@
 //!
 //! - `tiledlight render ...`: one image (or heat map) of a configuration, with a report
 //!   ([`render`]);
-//! - `tiledlight bench ...`: per-pass GPU times over many frames, optionally as JSON
-//!   ([`mod@bench`]);
-//! - `tiledlight sweep ...`: per-pass GPU times over a grid of settings, CSV + chart
-//!   ([`sweep`], on [`lab`] and [`chart`]);
+//! - `tiledlight bench ...`: per-pass GPU times over many frames, optionally as JSON;
+//! - `tiledlight sweep ...`: per-pass GPU times over a grid of settings, CSV + chart;
 //! - `tiledlight accuracy ...`: time and image error against the brute-force reference per
-//!   setting, CSV + Pareto chart + FLIP heat maps ([`accuracy`]);
+//!   setting, CSV + Pareto chart + FLIP heat maps;
 //! - `tiledlight shadow-accuracy ...`: the shadow maps' error against a CPU ray-cast
 //!   reference per atlas tile size, filter and format, with the atlas and shading times;
-//!   JSON + Pareto chart ([`shadow_accuracy`]);
+//!   JSON + Pareto chart;
 //! - `tiledlight export ...`: the scene, lights and camera as one glTF file for another
 //!   engine ([`export`]; the peer benchmark, `peers/bevy/`);
 //! - `tiledlight peer-report DIR`: the peer benchmark's table, chart and FLIP comparison
-//!   ([`peer_report`]; `scripts/peer-bench.sh`);
+//!   (`scripts/peer-bench.sh`);
 //! - `tiledlight view ...`: the interactive viewer ([`viewer`]);
 //! - `tiledlight` alone: the viewer when a display is available, else the default scene at
 //!   1080p headless, image + heat map + short benchmark ([`quickstart`]).
+//!
+//! The measurement lab's subcommands (bench, sweep, accuracy, shadow-accuracy,
+//! peer-report) are tiledlight-lab's runs; this crate has their flags
+//! ([`lab_commands`]), converted into the lab's plain run structs.
 //!
 //! Every subcommand builds its scene, lights, camera and renderer from the same flags
 //! ([`scene_setup`]), converted into tiledlight-setup's settings; that library crate
 //! builds them. Every failure ends with one `error: ...` line on stderr and a
 //! non-zero exit code (1 for run-time errors, 2 for unparsable flags); a result that is
-//! wrong in part (a frame that dropped lights: [`dropped`]) gets one `warning: ...` line,
+//! wrong in part (a frame that dropped lights: tiledlight-lab's `dropped`) gets one `warning: ...` line,
 //! an error with `--strict` once the output files are written; a successful run prints
 //! no `error` line. Logging goes through env_logger (`RUST_LOG`). This module may depend
 //! on all the others.
 
-mod accuracy;
-mod bench;
-mod bookmark;
-mod chart;
-mod dropped;
 mod export;
-mod lab;
-mod legend;
+mod lab_commands;
 mod messages;
-mod peer_report;
 mod quickstart;
 mod render;
 mod scene_setup;
-mod shadow_accuracy;
-mod sweep;
 mod viewer;
 mod vpl_args;
 
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use lab_commands::{AccuracyArgs, BenchArgs, PeerReportArgs, ShadowAccuracyArgs, SweepArgs};
+use tiledlight_lab::shadow_accuracy;
 
 use messages::{error_line, one_line};
 
@@ -71,16 +66,16 @@ enum Command {
     Render(render::RenderArgs),
     /// Time every pass over many frames; print a table and optionally write JSON.
     #[command(allow_negative_numbers = true)]
-    Bench(bench::BenchArgs),
+    Bench(BenchArgs),
     /// Measure per-pass GPU time over a grid of settings (--axis NAME=VALUES, or --preset
     /// figure9); write a resumable CSV and a chart.
     #[command(allow_negative_numbers = true)]
-    Sweep(sweep::SweepArgs),
+    Sweep(SweepArgs),
     /// Measure the speed/accuracy trade: per setting, GPU time, image error against the
     /// brute-force reference without cutoff, and culling statistics; CSV, Pareto chart and
     /// FLIP heat maps.
     #[command(allow_negative_numbers = true)]
-    Accuracy(accuracy::AccuracyArgs),
+    Accuracy(AccuracyArgs),
     /// Measure the shadow maps' own error: only the shadow casters lit, brute force, each
     /// shadow configuration (atlas tile size x filter x format) against a CPU ray-cast
     /// reference, with the atlas and shading pass times; table, JSON and Pareto chart.
@@ -90,14 +85,14 @@ enum Command {
         mut_arg("width", |a| a.default_value(shadow_accuracy::DEFAULT_SIZE.0)),
         mut_arg("height", |a| a.default_value(shadow_accuracy::DEFAULT_SIZE.1))
     )]
-    ShadowAccuracy(shadow_accuracy::ShadowAccuracyArgs),
+    ShadowAccuracy(ShadowAccuracyArgs),
     /// Write the scene, its lights (KHR_lights_punctual) and the camera that `render` with
     /// the same flags draws as one glTF file (.gltf + .bin, or .glb) for another engine.
     #[command(allow_negative_numbers = true)]
     Export(export::ExportArgs),
     /// Report a peer benchmark (scripts/peer-bench.sh: tiledlight and Bevy on one exported
     /// scene): frame-time table and chart, ratios, per-pass times, FLIP between the frames.
-    PeerReport(peer_report::PeerReportArgs),
+    PeerReport(PeerReportArgs),
     /// Open the interactive viewer: a window with the controls, camera and pass timings.
     #[command(allow_negative_numbers = true)]
     View(viewer::ViewArgs),
@@ -136,12 +131,12 @@ fn main() -> ExitCode {
     }
     let result = match &cli.command {
         Some(Command::Render(args)) => render::run(args),
-        Some(Command::Bench(args)) => bench::run(args),
-        Some(Command::Sweep(args)) => sweep::run(args),
-        Some(Command::Accuracy(args)) => accuracy::run(args),
-        Some(Command::ShadowAccuracy(args)) => shadow_accuracy::run(args),
+        Some(Command::Bench(args)) => args.run(),
+        Some(Command::Sweep(args)) => args.run(),
+        Some(Command::Accuracy(args)) => args.run(),
+        Some(Command::ShadowAccuracy(args)) => args.run(),
         Some(Command::Export(args)) => export::run(args),
-        Some(Command::PeerReport(args)) => peer_report::run(args),
+        Some(Command::PeerReport(args)) => args.run(),
         Some(Command::View(args)) => viewer::run(args),
         None => viewer::run_default(),
     };

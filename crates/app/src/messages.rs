@@ -1,13 +1,9 @@
 //! One-line messages: every failure of the command line is a single `error:` line, every
 //! partial result a single `warning:` line, whatever the error's text (wgpu validation
 //! errors and clap's usage hints span lines). Used by the subcommands and the viewer.
-//! Depends on anyhow only.
+//! Depends on anyhow and tiledlight-lab (whose `output::one_line` the lab shares).
 
-/// Makes a possibly multi-line message (wgpu validation errors, clap's usage hints) one
-/// line, so every failure is a single `error:` line.
-pub fn one_line(msg: &str) -> String {
-    msg.lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join(" ")
-}
+pub use tiledlight_lab::output::one_line;
 
 /// The error and its causes on one line, "context: cause: cause", leaving out a cause
 /// whose text the line already holds (some errors print their source in their own

@@ -6,16 +6,16 @@
 //!
 //! A frame that dropped lights (a light grid full) gets a `warning:` line, as in `render`.
 //!
-//! May depend on tiledlight-setup, [`crate::bench`], [`crate::dropped`] and [`crate::render`].
+//! May depend on tiledlight-setup, tiledlight-lab and [`crate::render`].
 
 use std::path::Path;
 
 use anyhow::Result;
 use tiledlight_setup::{Prepared, Settings};
 
-use crate::bench;
-use crate::dropped::{self, Dropped};
 use crate::render::write_image;
+use tiledlight_lab::bench;
+use tiledlight_lab::dropped::{self, Dropped};
 
 /// Frames of the short benchmark (after a few warm-up frames).
 const FRAMES: u32 = 30;

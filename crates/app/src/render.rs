@@ -10,10 +10,10 @@
 //! The culling and blended statistics are tiledlight-setup's (`Prepared::culling_stats`,
 //! `Prepared::blended_stats`). When the image's frame dropped lights (a light grid full),
 //! a `warning:` line on stderr says so and the frame's pass times are marked; `--strict`
-//! then fails after the PNG is written ([`crate::dropped`]).
+//! then fails after the PNG is written (tiledlight-lab's `dropped`).
 //!
-//! May depend on [`crate::scene_setup`], [`crate::bench`] (the frame loop),
-//! [`crate::dropped`], [`crate::legend`], tiledlight-setup and tiledlight-gpu.
+//! May depend on [`crate::scene_setup`], tiledlight-lab (the frame loop, dropped work, the
+//! legend, PNG output), tiledlight-setup and tiledlight-gpu.
 
 use std::path::{Path, PathBuf};
 
@@ -24,10 +24,11 @@ use tiledlight_frame::FrameRenderer;
 use tiledlight_gpu::tonemap::HeatmapOf;
 use tiledlight_setup::{shadow_atlas_description, Method, Prepared};
 
-use crate::bench::{self, Measurement, INCOMPLETE_MARK};
-use crate::dropped::{self, Dropped};
-use crate::legend;
-use crate::scene_setup::{check_png_path, rgb_image, save_png, SceneArgs};
+use crate::scene_setup::SceneArgs;
+use tiledlight_lab::bench::{self, Measurement, INCOMPLETE_MARK};
+use tiledlight_lab::dropped::{self, Dropped};
+use tiledlight_lab::legend;
+use tiledlight_lab::output::{check_png_path, rgb_image, save_png};
 
 /// Frames rendered before the image is read back: the pass times reported are the last
 /// finished one's, after the first frame's one-off costs.
@@ -122,7 +123,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         bail!("--heatmap needs --method forward-plus ({} has no tiles)", method.name());
     }
     let prep = Prepared::new(&args.scene.settings()?)?;
-    crate::scene_setup::print_load_warnings(&prep.scene_warnings);
+    tiledlight_lab::output::print_load_warnings(&prep.scene_warnings);
     let mut renderer = prep.renderer_with_heatmap(heatmap)?;
     let m = bench::measure(&prep, &mut renderer, 0, RENDER_FRAMES)?;
     let stats = prep.culling_stats(&renderer)?;
@@ -182,7 +183,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         dropped::warn(&mut warnings, &w);
     }
     let what = format!("the image {}", out.display());
-    if let Some(w) = crate::vpl_args::refused_warning(&renderer, &prep.ctx, &what)? {
+    if let Some(w) = tiledlight_lab::dropped::refused_warning(&renderer, &prep.ctx, &what)? {
         dropped::warn(&mut warnings, &w);
     }
     dropped::strict(args.scene.strict, warnings)

@@ -4,18 +4,19 @@
 //! PNG output helpers the subcommands use.
 //!
 //! May depend on tiledlight-setup, tiledlight-scene, tiledlight-deferred (flag defaults),
-//! tiledlight-gpu (the blend mode) and [`crate::bookmark`]; the subcommand modules depend on it.
+//! tiledlight-gpu (the blend mode) and tiledlight-setup (its `bookmark` file format); the subcommand modules depend on it.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use crate::bookmark;
-use anyhow::{ensure, Context, Result};
+use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use tiledlight_cull::shadow::ShadowFormat;
 use tiledlight_deferred::EdgeTest;
 use tiledlight_gpu::culling::ClusterOptions;
 use tiledlight_gpu::features::BlendMode;
+use tiledlight_lab::axes::{on_off, Flags};
 use tiledlight_scene::{GridDensity, DEFAULT_LIGHT_THRESHOLD};
+use tiledlight_setup::bookmark;
 use tiledlight_setup::{
     surface_exposure, CameraBookmark, LightPlacement, Method, SceneSource, Settings, DEFAULT_LIGHTS_PER_POINT,
     MILLION_LIGHTS,
@@ -439,8 +440,9 @@ impl Default for SceneArgs {
 }
 
 impl SceneArgs {
-    /// The settings of these flags, the camera bookmark not read (`camera: None`).
-    fn plain_settings(&self) -> Settings {
+    /// The settings of these flags, unchecked (`Flags::validate` checks them), the
+    /// camera bookmark not read (`camera: None`).
+    pub fn plain_settings(&self) -> Settings {
         let million = self.light_preset == Some(PresetArg::Million);
         // A loaded scene may be 2 m or 200 m across: its random lights go on its surfaces,
         // sized from its area, unless asked otherwise. The built-in courtyard keeps the
@@ -508,12 +510,6 @@ impl SceneArgs {
         }
     }
 
-    /// Checks every flag's range ([`Settings::validate`]); the error names the flag, its
-    /// value and the limit. Reads no file.
-    pub fn validate(&self) -> Result<()> {
-        self.plain_settings().validate()
-    }
-
     /// The library settings of these flags: checked first, then the `--camera` bookmark
     /// read, so a typo in a flag is reported before a file problem.
     pub fn settings(&self) -> Result<Settings> {
@@ -526,54 +522,135 @@ impl SceneArgs {
     }
 }
 
-/// Prints each warning of a scene's loading (`SceneCpu::warnings`,
-/// `Prepared::scene_warnings`) as a line starting `warning: ` on stderr.
-pub fn print_load_warnings(warnings: &[String]) {
-    for w in warnings {
-        eprintln!("warning: {w}");
+/// The lab's axes set these flags (`sweep`/`accuracy --axis NAME=VALUES`): an axis's name
+/// is its flag's.
+impl Flags for SceneArgs {
+    fn set_axis(&mut self, name: &str, value: &str) -> Result<()> {
+        let args = self;
+        let int = || -> Result<u64> {
+            value.parse::<u64>().with_context(|| format!("{name} '{value}': expected an integer"))
+        };
+        let small = || -> Result<u32> {
+            let n = int()?;
+            u32::try_from(n).with_context(|| format!("{name} {n}: too large"))
+        };
+        match name {
+            "lights" => args.lights = Some(int()?),
+            "spot-lights" => args.spot_lights = Some(int()?),
+            "seed" => args.seed = int()?,
+            "grid-objects" => args.grid_objects = small()?,
+            "gbuffer-rts" => args.gbuffer_rts = small()?,
+            "tile-size" => args.tile_size = small()?,
+            "msaa" => args.msaa = small()?,
+            "edge-distance" => {
+                args.edge_distance =
+                    value.parse().with_context(|| format!("edge-distance '{value}': expected a number"))?
+            }
+            "edge-normal-deg" => {
+                args.edge_normal_deg =
+                    value.parse().with_context(|| format!("edge-normal-deg '{value}': expected a number"))?
+            }
+            "threshold" => {
+                args.threshold = value.parse().with_context(|| format!("threshold '{value}': expected a number"))?
+            }
+            "method" => {
+                args.method = MethodArg::from_str(value, true).map_err(|e| anyhow::anyhow!("method '{value}': {e}"))?
+            }
+            "density" => {
+                args.density =
+                    DensityArg::from_str(value, true).map_err(|e| anyhow::anyhow!("density '{value}': {e}"))?
+            }
+            "shadow-point-lights" => args.shadow_point_lights = small()?,
+            "shadow-spot-lights" => args.shadow_spot_lights = small()?,
+            "shadow-size" => args.shadow_size = small()?,
+            "shadow-filter" => args.shadow_filter = small()?,
+            "shadow-format" => {
+                args.shadow_format = ShadowFormatArg::from_str(value, true)
+                    .map_err(|e| anyhow::anyhow!("shadow-format '{value}': {e}"))?
+            }
+            "transparent-objects" => args.transparent_objects = small()?,
+            "blend-mode" => {
+                args.blend_mode =
+                    BlendModeArg::from_str(value, true).map_err(|e| anyhow::anyhow!("blend-mode '{value}': {e}"))?
+            }
+            "grid" => {
+                args.grid = GridArg::from_str(value, true).map_err(|e| anyhow::anyhow!("grid '{value}': {e}"))?;
+                // The layout is the axis's alone: --half-z on the command line would fight it.
+                args.half_z = false;
+            }
+            "assign" => {
+                args.assign = AssignArg::from_str(value, true).map_err(|e| anyhow::anyhow!("assign '{value}': {e}"))?
+            }
+            "cluster-tile" => args.cluster_tile = small()?,
+            "cluster-slices" => args.cluster_slices = small()?,
+            "cluster-first" => {
+                args.cluster_first =
+                    value.parse().with_context(|| format!("cluster-first '{value}': expected a number"))?
+            }
+            "lights-per-pixel" => {
+                args.lights_per_pixel =
+                    Some(value.parse().with_context(|| format!("lights-per-pixel '{value}': expected a number"))?)
+            }
+            "aabb" => args.aabb = on_off(value)?,
+            "half-z" => args.half_z = on_off(value)?,
+            // The VPL settings' axes apply with --vpl (or the vpl axis) on.
+            "vpl" => args.vpl.vpl = on_off(value)?,
+            "vpl-rsm-size" => args.vpl.vpl_rsm_size = small()?,
+            "vpl-block" => args.vpl.vpl_block = small()?,
+            "vpl-cap" => args.vpl.vpl_cap = small()?,
+            "vpl-colour-threshold" => {
+                args.vpl.vpl_colour_threshold =
+                    value.parse().with_context(|| format!("vpl-colour-threshold '{value}': expected a number"))?
+            }
+            "vpl-brightness-threshold" => {
+                args.vpl.vpl_brightness_threshold =
+                    value.parse().with_context(|| format!("vpl-brightness-threshold '{value}': expected a number"))?
+            }
+            "vpl-shading" => {
+                args.vpl.vpl_shading = crate::vpl_args::VplShadingArg::from_str(value, true)
+                    .map_err(|e| anyhow::anyhow!("vpl-shading '{value}': {e}"))?
+            }
+            "culling" => {
+                (args.aabb, args.half_z) = match value {
+                    "planes" => (false, false),
+                    "aabb" => (true, false),
+                    "half-z" => (false, true),
+                    "aabb+half-z" => (true, true),
+                    _ => bail!("culling '{value}': expected planes, aabb, half-z or aabb+half-z"),
+                }
+            }
+            _ => bail!("unknown axis '{name}'"),
+        }
+        Ok(())
     }
-}
 
-/// An RGB image from tightly packed RGBA8 pixels.
-pub fn rgb_image(width: u32, height: u32, rgba: &[u8]) -> Result<image::RgbImage> {
-    ensure!(
-        rgba.len() == width as usize * height as usize * 4,
-        "image readback has {} bytes, expected {width}x{height}x4",
-        rgba.len()
-    );
-    let rgb: Vec<u8> = rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
-    image::RgbImage::from_raw(width, height, rgb).context("building the output image")
-}
-
-/// Saves `img` as PNG at `path` (which must end in .png), creating its directory.
-pub fn save_png(path: &Path, img: &image::RgbImage) -> Result<()> {
-    check_png_path(path)?;
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating directory {}", dir.display()))?;
+    fn plain(&self) -> Settings {
+        self.plain_settings()
     }
-    img.save_with_format(path, image::ImageFormat::Png).with_context(|| format!("writing {}", path.display()))
-}
 
-/// Output paths must be PNG files: checked before rendering so a typo costs no time.
-pub fn check_png_path(path: &Path) -> Result<()> {
-    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-    ensure!(ext.as_deref() == Some("png"), "--out {}: only .png output is supported", path.display());
-    Ok(())
+    fn settings(&self) -> Result<Settings> {
+        SceneArgs::settings(self)
+    }
+
+    fn scene_label(&self) -> String {
+        self.scene.clone()
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use clap::Parser;
+    use tiledlight_lab::axes;
 
     #[derive(Parser)]
-    struct Flags {
+    struct Cli {
         #[command(flatten)]
         scene: SceneArgs,
     }
 
     fn parse(flags: &[&str]) -> SceneArgs {
-        Flags::try_parse_from(std::iter::once("x").chain(flags.iter().copied())).unwrap().scene
+        Cli::try_parse_from(std::iter::once("x").chain(flags.iter().copied())).unwrap().scene
     }
 
     #[test]
@@ -745,7 +822,7 @@ mod tests {
         let s = parse(&["--lights-on-surfaces", "--threshold", "0.2"]).settings().unwrap();
         assert_eq!((s.lights, s.placement), (None, LightPlacement::SURFACES));
         assert_eq!(s.exposure, surface_exposure(DEFAULT_LIGHTS_PER_POINT, 0.2));
-        assert!(Flags::try_parse_from(["x", "--light-preset", "billion"]).is_err());
+        assert!(Cli::try_parse_from(["x", "--light-preset", "billion"]).is_err());
         let e = format!("{:#}", parse(&["--lights-per-pixel", "0"]).settings().unwrap_err());
         assert!(e.starts_with("--lights-per-pixel 0:"), "{e}");
     }
@@ -762,13 +839,166 @@ mod tests {
         assert_eq!(e(&["--shadow-size", "100"]), "--shadow-size 100: must be between 128 and 1024 texels");
         assert!(e(&["--shadow-filter", "4"]).starts_with("--shadow-filter 4:"));
         assert!(e(&["--lights", "3", "--shadow-point-lights", "4"]).starts_with("--shadow-point-lights 4:"));
-        let bad_format = Flags::try_parse_from(["x", "--shadow-format", "d24"]);
+        let bad_format = Cli::try_parse_from(["x", "--shadow-format", "d24"]);
         assert!(bad_format.is_err());
         assert_eq!(
             e(&["--grid-objects", "10", "--transparent-objects", "11"]),
             "--transparent-objects 11: must be between 0 and the grid objects (--grid-objects 10)"
         );
         assert!(e(&["--scene", "a.glb", "--transparent-objects", "1"]).starts_with("--transparent-objects 1:"));
-        assert!(Flags::try_parse_from(["x", "--blend-mode", "additive"]).is_err());
+        assert!(Cli::try_parse_from(["x", "--blend-mode", "additive"]).is_err());
+    }
+
+    // The lab's axes on these flags (tiledlight-lab's `axes` with `Flags for SceneArgs`).
+    #[test]
+    fn ranges_and_lists() {
+        assert_eq!(
+            axes::parse_axis::<SceneArgs>("lights=64..1000").unwrap().values,
+            ["64", "128", "256", "512", "1000"]
+        );
+        assert_eq!(axes::parse_axis::<SceneArgs>("lights=64..65536:4").unwrap().values, ["64", "645", "6502", "65536"]);
+        assert_eq!(axes::parse_axis::<SceneArgs>("threshold=0.4..0.05").unwrap().values, ["0.4", "0.2", "0.1", "0.05"]);
+        assert_eq!(
+            axes::parse_axis::<SceneArgs>("method=forward-plus, deferred").unwrap().values,
+            ["forward-plus", "deferred"]
+        );
+        assert_eq!(axes::parse_axis::<SceneArgs>("culling=planes,aabb+half-z").unwrap().values.len(), 2);
+    }
+
+    #[test]
+    fn bad_axes_are_clear_errors() {
+        let e = |s: &str| format!("{:#}", axes::parse_axis::<SceneArgs>(s).unwrap_err());
+        assert!(e("colour=1,2").contains("unknown axis 'colour'"), "{}", e("colour=1,2"));
+        assert!(e("lights=").contains("empty sweep"));
+        assert!(e("lights").contains("NAME=VALUES"));
+        assert!(e("method=forward").contains("method 'forward'"));
+        assert!(e("method=a..b").contains("numeric"));
+        assert!(e("lights=0..8").contains("positive"));
+        assert!(e("lights=99999999999").contains("--lights"), "{}", e("lights=99999999999"));
+        assert!(e("tile-size=12").contains("--tile-size 12"));
+        assert!(e("threshold=-1").contains("--threshold"));
+        assert!(e("lights=1,1").contains("twice"));
+        assert!(e("lights=1..1e9:100000").contains("step count"));
+        assert!(e("shadow-size=100").contains("--shadow-size 100"), "{}", e("shadow-size=100"));
+        assert!(e("shadow-filter=2").contains("--shadow-filter 2"));
+        assert!(e("shadow-format=d24").contains("shadow-format 'd24'"));
+        assert!(axes::points(&[]).is_err());
+    }
+
+    #[test]
+    fn points_are_the_product() {
+        let axes = vec![
+            axes::parse_axis::<SceneArgs>("lights=1,2").unwrap(),
+            axes::parse_axis::<SceneArgs>("method=forward-plus,deferred").unwrap(),
+        ];
+        let p = axes::points(&axes).unwrap();
+        assert_eq!(p.len(), 4);
+        assert_eq!(p[1], ["1", "deferred"]);
+        let a = axes::args_at(&SceneArgs::default(), &axes, &p[3]).unwrap();
+        assert_eq!((a.lights, a.method), (Some(2), MethodArg::Deferred));
+        let merged = axes::merge_axes(
+            axes.clone(),
+            vec![axes::parse_axis::<SceneArgs>("lights=8").unwrap(), axes::parse_axis::<SceneArgs>("seed=3").unwrap()],
+        );
+        assert_eq!(merged.iter().map(|a| a.values.len()).collect::<Vec<_>>(), [1, 2, 1]);
+        assert!(axes::points(&[axes[0].clone(), axes[0].clone()]).is_err());
+    }
+
+    #[test]
+    fn shadows_are_axes() {
+        // Spot casters parse before the spot lights they need are known...
+        let axes = vec![
+            axes::parse_axis::<SceneArgs>("shadow-spot-lights=1..8").unwrap(),
+            axes::parse_axis::<SceneArgs>("shadow-size=128,1024").unwrap(),
+            axes::parse_axis::<SceneArgs>("shadow-filter=1,5").unwrap(),
+            axes::parse_axis::<SceneArgs>("shadow-format=d16,d32").unwrap(),
+            axes::parse_axis::<SceneArgs>("shadow-point-lights=2").unwrap(),
+        ];
+        assert_eq!(axes[0].values, ["1", "2", "4", "8"]);
+        let p = axes::points(&axes).unwrap();
+        assert_eq!(p.len(), 4 * 2 * 2 * 2);
+        let base = SceneArgs { spot_lights: Some(8), ..SceneArgs::default() };
+        let a = axes::args_at(&base, &axes, &p[p.len() - 1]).unwrap();
+        assert_eq!(
+            (a.shadow_spot_lights, a.shadow_size, a.shadow_filter, a.shadow_format, a.shadow_point_lights),
+            (8, 1024, 5, ShadowFormatArg::D32, 2)
+        );
+        // ...and are checked against them with the point's settings.
+        let e = format!("{:#}", axes::args_at(&SceneArgs::default(), &axes, &p[0]).unwrap_err());
+        assert!(e.contains("--shadow-spot-lights 1: more than the scene's 0 spot lights"), "{e}");
+    }
+
+    #[test]
+    fn layouts_and_assignment_are_axes() {
+        let a = axes::parse_axis::<SceneArgs>("grid=tiled,half-z,2.5d,clustered").unwrap();
+        assert_eq!(a.values.len(), 4);
+        assert!(axes::parse_axis::<SceneArgs>("assign=gather,scatter").is_ok());
+        assert!(
+            axes::parse_axis::<SceneArgs>("cluster-slices=8..32").is_ok() && axes::is_numeric_axis("cluster-first")
+        );
+        let mut args = SceneArgs { half_z: true, ..SceneArgs::default() };
+        axes::apply(&mut args, "grid", "2.5d").unwrap();
+        assert_eq!((args.grid, args.half_z), (GridArg::DepthMask, false));
+        axes::apply(&mut args, "assign", "scatter").unwrap();
+        assert_eq!(args.assign, AssignArg::Scatter);
+        let e = format!("{:#}", axes::parse_axis::<SceneArgs>("grid=hexagonal").unwrap_err());
+        assert!(e.contains("grid 'hexagonal'"), "{e}");
+    }
+
+    #[test]
+    fn vpl_settings_are_axes() {
+        let mut args = SceneArgs::default();
+        for (name, value) in [
+            ("vpl", "on"),
+            ("vpl-block", "4"),
+            ("vpl-rsm-size", "64"),
+            ("vpl-cap", "1000"),
+            ("vpl-colour-threshold", "0.5"),
+            ("vpl-brightness-threshold", "0.25"),
+            ("vpl-shading", "physical"),
+        ] {
+            axes::apply(&mut args, name, value).unwrap();
+        }
+        let c = args.vpl.config().expect("--vpl on");
+        assert_eq!((c.block, c.rsm_size, c.cap), (4, 64, 1000));
+        assert_eq!((c.colour_threshold, c.brightness_threshold), (0.5, 0.25));
+        assert_eq!(c.shading, tiledlight_cull::vpl::VplShading::Physical);
+        assert_eq!(axes::parse_axis::<SceneArgs>("vpl-block=1..8").unwrap().values, ["1", "2", "4", "8"]);
+        assert!(axes::is_numeric_axis("vpl-brightness-threshold") && !axes::is_numeric_axis("vpl-shading"));
+        let e = format!("{:#}", axes::apply(&mut args, "vpl-shading", "fancy").unwrap_err());
+        assert!(e.contains("vpl-shading 'fancy'"), "{e}");
+    }
+
+    #[test]
+    fn blended_geometry_is_an_axis() {
+        let axes = vec![
+            axes::parse_axis::<SceneArgs>("transparent-objects=0,10,50,280").unwrap(),
+            axes::parse_axis::<SceneArgs>("blend-mode=sorted,wboit").unwrap(),
+        ];
+        assert!(axes::is_numeric_axis("transparent-objects") && !axes::is_numeric_axis("blend-mode"));
+        assert_eq!(axes::parse_axis::<SceneArgs>("transparent-objects=10..40").unwrap().values, ["10", "20", "40"]);
+        let p = axes::points(&axes).unwrap();
+        assert_eq!(p.len(), 8);
+        // The count parses before the grid objects it needs are known...
+        let base = SceneArgs { grid_objects: 280, ..SceneArgs::default() };
+        let a = axes::args_at(&base, &axes, &p[p.len() - 1]).unwrap();
+        assert_eq!((a.transparent_objects, a.blend_mode), (280, BlendModeArg::Wboit));
+        // ...and is checked against them with the point's settings.
+        let e = format!("{:#}", axes::args_at(&SceneArgs { grid_objects: 50, ..base }, &axes, &p[6]).unwrap_err());
+        assert!(
+            e.contains("--transparent-objects 280: must be between 0 and the grid objects (--grid-objects 50)"),
+            "{e}"
+        );
+        let e = format!("{:#}", axes::parse_axis::<SceneArgs>("blend-mode=additive").unwrap_err());
+        assert!(e.contains("blend-mode 'additive'"), "{e}");
+    }
+
+    #[test]
+    fn preset_axes_are_valid() {
+        let axes = tiledlight_lab::sweep::Preset::Figure9.axes::<SceneArgs>();
+        assert_eq!(axes::points(&axes).unwrap().len(), 26);
+        assert!(axes[0].values.contains(&"1792".to_string()));
+        assert_eq!(tiledlight_lab::sweep::chart_x_axis(&axes, None).unwrap(), "lights");
+        assert!(tiledlight_lab::sweep::chart_x_axis(&axes, Some("colour")).is_err());
     }
 }

@@ -6,8 +6,6 @@
 
 use clap::{Args, ValueEnum};
 use tiledlight_cull::vpl::{VplConfig, VplShading, DEFAULT_BLOCK, DEFAULT_CAP, DEFAULT_RSM_SIZE};
-use tiledlight_frame::FrameRenderer;
-use tiledlight_gpu::GpuContext;
 
 /// How VPLs light a surface.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -90,24 +88,6 @@ impl VplArgs {
             vpl_shading: c.shading.into(),
         }
     }
-}
-
-/// The `warning:` line for VPLs the cap refused in the last frame of `renderer` (None:
-/// none refused, or no VPLs). Reads the count back: call after the frames, not in them.
-pub fn refused_warning(renderer: &FrameRenderer, ctx: &GpuContext, what: &str) -> anyhow::Result<Option<String>> {
-    Ok(renderer.vpl_count(ctx)?.and_then(|count| refused_line(what, count)))
-}
-
-/// The `warning:` line for a frame (`what`) that made `kept` VPLs and refused `refused`
-/// (None when none were refused).
-pub fn refused_line(what: &str, (kept, refused): (u32, u32)) -> Option<String> {
-    (refused > 0).then(|| {
-        format!(
-            "{what}: the VPL cap (--vpl-cap {kept}) refused {refused} of {} VPLs; their light is missing \
-             (raise --vpl-cap, --vpl-block or a --vpl-*-threshold)",
-            kept + refused
-        )
-    })
 }
 
 #[cfg(test)]

@@ -6,8 +6,16 @@
 //! - [`HdrError`]: errors on the linear HDR images themselves (PSNR, the largest error) and
 //!   the energy (summed luminance) one image loses against the other.
 //!
-//! The app's accuracy lab and the GPU tests both measure with these. Depends on nv-flip
-//! only; no GPU, no other tiledlight crate.
+//! Beside them, the CPU image helpers the labs use: [`tonemap`] (the twin of the GPU's
+//! ACES tonemap), [`histogram`] (matching one image's tone curve to another's before
+//! FLIP) and [`visibility`] (the light a shadowed image misplaces against an exact one).
+//!
+//! The measurement lab (tiledlight-lab) and the GPU tests both measure with these.
+//! Depends on nv-flip only; no GPU, no other tiledlight crate.
+
+pub mod histogram;
+pub mod tonemap;
+pub mod visibility;
 
 /// Summary of a FLIP error map.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -22,7 +22,9 @@
 //! - [`animate`]: [`LightAnimator`], the lights circling the scene (the viewer's animation,
 //!   `bench --move-lights`);
 //! - [`export`]: the scene, its lights and camera as one glTF file for other engines
-//!   (`tiledlight export`; intensity units and what else is written in its docs).
+//!   (`tiledlight export`; intensity units and what else is written in its docs);
+//! - [`bookmark`]: the camera bookmark file format (`--camera FILE`, the viewer's "save
+//!   camera"), read and written (files, no GPU).
 //!
 //! Layering: depends on tiledlight-cull, tiledlight-scene, tiledlight-gpu,
 //! tiledlight-forward, tiledlight-deferred and tiledlight-gltf-writer (and wgpu, glam,
@@ -32,6 +34,7 @@
 //! app's flag (`--width 0: ...`).
 
 pub mod animate;
+pub mod bookmark;
 pub mod camera;
 pub mod export;
 pub mod load;

@@ -49,14 +49,15 @@ use winit::event::WindowEvent;
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::window::{Window, WindowId};
 
-use crate::bookmark;
-use crate::dropped::{self, Dropped};
 use crate::render::write_image;
-use crate::scene_setup::{check_png_path, rgb_image, save_png, SceneArgs};
+use crate::scene_setup::SceneArgs;
 use blit::{Blit, DisplayImage};
 use camera_control::CameraRig;
 use script::Action;
 use settings::{plan, Settings};
+use tiledlight_lab::dropped::{self, Dropped};
+use tiledlight_lab::output::{check_png_path, rgb_image, save_png};
+use tiledlight_setup::bookmark;
 use ui::{Command, Info, Stats, UiState};
 
 /// How often the culling statistics (a GPU readback) are refreshed.
@@ -158,7 +159,7 @@ fn run_viewer(args: &ViewArgs) -> Result<(), Failure> {
     // Flags and files first: a typo should not cost a window and a device.
     let setup = args.scene.settings().map_err(Failure::Other)?;
     let cpu = SceneCpu::load(&setup).map_err(Failure::Other)?;
-    crate::scene_setup::print_load_warnings(&cpu.warnings);
+    tiledlight_lab::output::print_load_warnings(&cpu.warnings);
     let event_loop = EventLoop::new().map_err(|e| Failure::NoWindow(e.into()))?;
     event_loop.set_control_flow(ControlFlow::Poll);
     let mut app = App { args: args.clone(), script, cpu: Some((setup, cpu)), viewer: None, failure: None };
@@ -453,7 +454,7 @@ impl Viewer {
         // Scene, lights and camera as the plan says (nothing changes when it fails).
         let rebuilt = self.prep.reconfigure(&new.setup)?;
         if rebuilt.reload == Reload::Scene {
-            crate::scene_setup::print_load_warnings(&self.prep.scene_warnings);
+            tiledlight_lab::output::print_load_warnings(&self.prep.scene_warnings);
         }
         if rebuilt.reload == Reload::Scene || new.setup.camera != self.settings.setup.camera {
             self.home = home_rig(&self.prep);
@@ -705,7 +706,7 @@ impl Viewer {
         ctx.queue.submit(extra.into_iter().chain([encoder.finish()]));
         self.window.pre_present_notify();
         ctx.queue.present(frame);
-        crate::bench::lose_device_for_tests(ctx);
+        tiledlight_lab::bench::lose_device_for_tests(ctx);
         self.timer.end_frame()?;
         ctx.device.poll(wgpu::PollType::Poll).context("polling the GPU")?;
         while let Some(times) = self.timer.finished_frame() {
@@ -728,7 +729,7 @@ impl Viewer {
             match self.renderer.vpl_count(&self.prep.ctx) {
                 Ok(v) => {
                     if let (Some(w), false) =
-                        (v.and_then(|c| crate::vpl_args::refused_line("the frame", c)), refused_before)
+                        (v.and_then(|c| tiledlight_lab::dropped::refused_line("the frame", c)), refused_before)
                     {
                         dropped::warn(&mut self.warnings, &w);
                     }

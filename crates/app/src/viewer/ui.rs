@@ -23,8 +23,8 @@ use tiledlight_gpu::tonemap::{heatmap_palette, heatmap_t, HeatmapOf, HEATMAP_OVE
 
 use super::camera_control::{CameraRig, Mode, Motion};
 use super::settings::{method_label, Settings, VplControl, METHODS, MSAA_CHOICES, VPL_BLOCKS, VPL_RSM_SIZES};
-use crate::legend::label_values;
 use tiledlight_cull::vpl::VplShading;
+use tiledlight_lab::legend::label_values;
 use tiledlight_scene::GridDensity;
 use tiledlight_setup::stats::atlas_layout_description;
 use tiledlight_setup::{CullingStats, LightSummary, Method, SceneSource};

@@ -32,25 +32,32 @@
 //! it. `TILEDLIGHT_TEST_LOSE_DEVICE_AFTER=N` (tests only) destroys the device after the
 //! N-th frame of the process, to check that path on any GPU.
 //!
-//! May depend on [`crate::scene_setup`], [`crate::dropped`], tiledlight-setup and
-//! tiledlight-gpu.
+//! [`render_frame`] is the frame loop of one frame with its images read back (the GPU
+//! tests compare those). The loops here are the lab's only callers of the renderer's
+//! recording (`Renderer::prepare`, `record`, `render_once`) besides shadow-accuracy's
+//! per-caster renderer.
+//!
+//! May depend on [`crate::axes`] (the flags), [`crate::dropped`], [`crate::output`],
+//! tiledlight-setup and tiledlight-gpu.
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use anyhow::{ensure, Context, Result};
-use clap::Args;
 use serde::Serialize;
-use tiledlight_frame::{FrameRenderer, Renderer};
+use tiledlight_cull::Camera;
+use tiledlight_frame::{Diagnostics as _, FrameRenderer, Renderer};
 use tiledlight_gpu::light_grid::GridStatus;
+use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::{GpuTimer, PassTime};
+use tiledlight_gpu::{GpuContext, GpuError};
 
 use tiledlight_setup::settings::blend_mode_description;
 use tiledlight_setup::{shadow_atlas_description, LightAnimator, Prepared};
 
+use crate::axes::Flags;
 use crate::dropped::{self, Dropped};
-use crate::scene_setup::SceneArgs;
 
 /// How the CPU frame time is measured (printed and written to JSON).
 pub const CPU_TIME_MEANING: &str = "wall time of record + submit + wait for the GPU, per frame (frames serialised)";
@@ -68,26 +75,16 @@ pub const MIN_WARMUP: std::time::Duration = std::time::Duration::from_millis(500
 /// 60 frames per second, whatever the frame rate (so runs move them alike).
 pub const MOVE_STEP_S: f32 = 1.0 / 60.0;
 
-/// Flags of `tiledlight bench`.
-#[derive(Args, Clone, Debug)]
-pub struct BenchArgs {
-    /// Scene, lights, screen and renderer.
-    #[command(flatten)]
-    pub scene: SceneArgs,
+/// A `bench` run: the frames and where the JSON goes (the app's `bench` flags).
+#[derive(Clone, Debug)]
+pub struct Bench {
     /// Measured frames.
-    #[arg(long, default_value_t = 200, value_name = "N")]
     pub frames: u32,
-    /// Frames rendered before measuring (pipeline warm-up, caches, clocks).
-    #[arg(long, default_value_t = 20, value_name = "N")]
+    /// Frames rendered before measuring.
     pub warmup: u32,
-    /// Also write the results as JSON to FILE.
-    #[arg(long, value_name = "FILE")]
+    /// Also write the results as JSON here.
     pub json: Option<PathBuf>,
-    /// Move the lights before every frame (warm-up and measured), as the viewer's animation
-    /// does: the shadow faces of every caster are drawn again each frame, so the shadow
-    /// pass is measured with moving lights (without it, still lights' faces are drawn once,
-    /// before the measured frames).
-    #[arg(long)]
+    /// Move the lights before every frame (`--move-lights`).
     pub move_lights: bool,
 }
 
@@ -329,6 +326,29 @@ pub fn measure_moving(
     Ok(out)
 }
 
+/// The images of one frame: linear HDR and the tonemapped sRGB image (RGBA8), row-major.
+#[derive(Clone, Debug)]
+pub struct FrameImages {
+    /// Linear HDR.
+    pub hdr: Vec<[f32; 4]>,
+    /// Tonemapped sRGB, RGBA8.
+    pub ldr: Vec<u8>,
+}
+
+/// Records, submits and waits for one frame of `renderer` (growing a light grid that was
+/// too small and rendering again, as `Diagnostics::render_once` does) and reads both its
+/// images back: a single render, the GPU tests' frame and shadow-accuracy's.
+pub fn render_frame(
+    ctx: &GpuContext,
+    renderer: &mut FrameRenderer,
+    scene: &SceneGpu,
+    camera: &Camera,
+) -> Result<FrameImages, GpuError> {
+    let mut timer = GpuTimer::new(ctx)?;
+    renderer.render_once(ctx, &mut timer, scene, camera)?;
+    Ok(FrameImages { hdr: renderer.read_hdr(ctx)?, ldr: renderer.read_ldr(ctx)? })
+}
+
 /// Frames rendered by this process (the test hook's count).
 static FRAMES_RENDERED: AtomicU64 = AtomicU64::new(0);
 
@@ -337,7 +357,7 @@ static FRAMES_RENDERED: AtomicU64 = AtomicU64::new(0);
 /// device-lost callback with the reason "destroyed"), so the message and the lab's resume
 /// hint can be checked on any GPU. The frame loop here and the viewer's call it after each
 /// submit.
-pub fn lose_device_for_tests(ctx: &tiledlight_gpu::GpuContext) {
+pub fn lose_device_for_tests(ctx: &GpuContext) {
     let n = FRAMES_RENDERED.fetch_add(1, Ordering::Relaxed) + 1;
     let after = std::env::var("TILEDLIGHT_TEST_LOSE_DEVICE_AFTER").ok().and_then(|v| v.parse::<u64>().ok());
     if after == Some(n) {
@@ -458,42 +478,127 @@ struct MinMax {
     max: u32,
 }
 
-#[derive(Serialize)]
-struct ConfigJson {
-    adapter: String,
-    resolution: String,
-    width: u32,
-    height: u32,
-    scene: String,
-    triangles: u64,
-    instances: usize,
-    point_lights: usize,
-    spot_lights: usize,
-    seed: u64,
-    threshold: f32,
-    method: &'static str,
-    tile_size: u32,
-    capacity: u32,
-    aabb: bool,
-    half_z: bool,
-    spot_cone: bool,
-    coarse: bool,
-    gbuffer_rts: u32,
-    msaa: u32,
-    edge_distance: f32,
-    edge_normal_deg: f32,
-    shadow_point_lights: u32,
-    shadow_spot_lights: u32,
-    shadow_size: u32,
-    shadow_filter: u32,
-    shadow_format: &'static str,
-    transparent_objects: u32,
-    /// The default scene's banners glow (`--emissive`: the emission target exists).
-    emissive: bool,
-    commit: String,
+/// The `config` block of the lab's JSON reports (`bench --json`, shadow-accuracy's): what
+/// was measured, where. Each report fills the parts it has; an absent part writes nothing,
+/// so each report's JSON keeps its own fields in its own order.
+#[derive(Clone, Debug, Serialize)]
+pub struct ConfigJson {
+    /// The adapter, as `GpuContext::describe` names it.
+    pub adapter: String,
+    /// "WxH".
+    pub resolution: String,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// The scene's name.
+    pub scene: String,
+    /// Triangles drawn.
+    pub triangles: u64,
+    /// Shadow-accuracy: the camera and the casters.
+    #[serde(flatten)]
+    pub casters: Option<CastersJson>,
+    /// Bench: instances and lights.
+    #[serde(flatten)]
+    pub lights: Option<LightsJson>,
+    /// Seed of the random lights.
+    pub seed: u64,
+    /// Light intensity threshold.
+    pub threshold: f32,
+    /// Shadow-accuracy: the one exposure of every configuration.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub exposure: Option<f32>,
+    /// The method's name.
+    pub method: &'static str,
+    /// Shadow-accuracy: the reference's and the timing's parameters.
+    #[serde(flatten)]
+    pub shadow_run: Option<ShadowRunJson>,
+    /// Bench: the renderer's settings.
+    #[serde(flatten)]
+    pub renderer: Option<RendererJson>,
+    /// The commit ([`commit_hash`]).
+    pub commit: String,
 }
 
-/// The commit the binary was built from (`TILEDLIGHT_COMMIT`, set by build.rs), else
+impl ConfigJson {
+    /// The parts every report has, of `prep`; the others absent.
+    pub fn of(prep: &Prepared) -> Self {
+        let a = &prep.settings;
+        Self {
+            adapter: prep.ctx.describe(),
+            resolution: format!("{}x{}", a.width, a.height),
+            width: a.width,
+            height: a.height,
+            scene: prep.scene_name.clone(),
+            triangles: prep.scene_gpu.triangles,
+            casters: None,
+            lights: None,
+            seed: a.seed,
+            threshold: a.threshold,
+            exposure: None,
+            method: a.method.name(),
+            shadow_run: None,
+            renderer: None,
+            commit: commit_hash(),
+        }
+    }
+}
+
+/// Bench's instances and lights ([`ConfigJson::lights`]).
+#[derive(Clone, Debug, Serialize)]
+#[allow(missing_docs)]
+pub struct LightsJson {
+    pub instances: usize,
+    pub point_lights: usize,
+    pub spot_lights: usize,
+}
+
+/// Shadow-accuracy's camera and casters ([`ConfigJson::casters`]).
+#[derive(Clone, Debug, Serialize)]
+#[allow(missing_docs)]
+pub struct CastersJson {
+    pub camera: String,
+    pub point_casters: u32,
+    pub spot_casters: u32,
+    pub scene_point_lights: u64,
+    pub scene_spot_lights: u64,
+}
+
+/// Shadow-accuracy's run parameters ([`ConfigJson::shadow_run`]).
+#[derive(Clone, Debug, Serialize)]
+#[allow(missing_docs)]
+pub struct ShadowRunJson {
+    pub ambient: f32,
+    pub ray_offset: f32,
+    pub frames: u32,
+    pub warmup: u32,
+}
+
+/// Bench's renderer settings ([`ConfigJson::renderer`]).
+#[derive(Clone, Debug, Serialize)]
+#[allow(missing_docs)]
+pub struct RendererJson {
+    pub tile_size: u32,
+    pub capacity: u32,
+    pub aabb: bool,
+    pub half_z: bool,
+    pub spot_cone: bool,
+    pub coarse: bool,
+    pub gbuffer_rts: u32,
+    pub msaa: u32,
+    pub edge_distance: f32,
+    pub edge_normal_deg: f32,
+    pub shadow_point_lights: u32,
+    pub shadow_spot_lights: u32,
+    pub shadow_size: u32,
+    pub shadow_filter: u32,
+    pub shadow_format: &'static str,
+    pub transparent_objects: u32,
+    /// The default scene's banners glow (`--emissive`: the emission target exists).
+    pub emissive: bool,
+}
+
+/// The commit the lab was built from (`TILEDLIGHT_COMMIT`, set by its build.rs), else
 /// `git rev-parse HEAD` of the working directory, else "unknown".
 pub fn commit_hash() -> String {
     if let Some(c) = option_env!("TILEDLIGHT_COMMIT").filter(|c| !c.is_empty()) {
@@ -511,7 +616,7 @@ pub fn commit_hash() -> String {
 }
 
 /// Runs `tiledlight bench`.
-pub fn run(args: &BenchArgs) -> Result<()> {
+pub fn run<F: Flags>(scene: &F, args: &Bench) -> Result<()> {
     ensure!((1..=MAX_FRAMES).contains(&args.frames), "--frames {}: must be between 1 and {MAX_FRAMES}", args.frames);
     ensure!(args.warmup <= MAX_FRAMES, "--warmup {}: must be at most {MAX_FRAMES}", args.warmup);
     if let Some(p) = &args.json {
@@ -520,8 +625,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             std::fs::create_dir_all(dir).with_context(|| format!("creating directory {}", dir.display()))?;
         }
     }
-    let prep = Prepared::new(&args.scene.settings()?)?;
-    crate::scene_setup::print_load_warnings(&prep.scene_warnings);
+    let prep = Prepared::new(&scene.settings()?)?;
+    crate::output::print_load_warnings(&prep.scene_warnings);
     for (k, v) in prep.describe() {
         println!("{:<11} {v}", format!("{k}:"));
     }
@@ -556,36 +661,31 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let passes = m.passes();
         let json = BenchJson {
             config: ConfigJson {
-                adapter: prep.ctx.describe(),
-                resolution: format!("{}x{}", a.width, a.height),
-                width: a.width,
-                height: a.height,
-                scene: prep.scene_name.clone(),
-                triangles: prep.scene_gpu.triangles,
-                instances: prep.instances,
-                point_lights: prep.light_summary.point,
-                spot_lights: prep.light_summary.spot,
-                seed: a.seed,
-                threshold: a.threshold,
-                method: a.method.name(),
-                tile_size: a.tile_size,
-                capacity: a.capacity(),
-                aabb: a.aabb,
-                half_z: a.half_z,
-                spot_cone: a.spot_cone,
-                coarse: !a.flat_cull,
-                gbuffer_rts: a.gbuffer_rts,
-                msaa: a.msaa,
-                edge_distance: a.edge_distance,
-                edge_normal_deg: a.edge_normal_deg,
-                shadow_point_lights: a.shadow_point_lights,
-                shadow_spot_lights: a.shadow_spot_lights,
-                shadow_size: a.shadow_size,
-                shadow_filter: a.shadow_filter,
-                shadow_format: a.shadow_format.name(),
-                transparent_objects: a.transparent_objects,
-                emissive: a.emissive,
-                commit: commit_hash(),
+                lights: Some(LightsJson {
+                    instances: prep.instances,
+                    point_lights: prep.light_summary.point,
+                    spot_lights: prep.light_summary.spot,
+                }),
+                renderer: Some(RendererJson {
+                    tile_size: a.tile_size,
+                    capacity: a.capacity(),
+                    aabb: a.aabb,
+                    half_z: a.half_z,
+                    spot_cone: a.spot_cone,
+                    coarse: !a.flat_cull,
+                    gbuffer_rts: a.gbuffer_rts,
+                    msaa: a.msaa,
+                    edge_distance: a.edge_distance,
+                    edge_normal_deg: a.edge_normal_deg,
+                    shadow_point_lights: a.shadow_point_lights,
+                    shadow_spot_lights: a.shadow_spot_lights,
+                    shadow_size: a.shadow_size,
+                    shadow_filter: a.shadow_filter,
+                    shadow_format: a.shadow_format.name(),
+                    transparent_objects: a.transparent_objects,
+                    emissive: a.emissive,
+                }),
+                ..ConfigJson::of(&prep)
             },
             frames: args.frames,
             warmup: args.warmup,
@@ -625,10 +725,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     if let Some(w) = dropped.warning("the measured frames", prep.settings.grid_pairs, max_binding) {
         dropped::warn(&mut warnings, &w);
     }
-    if let Some(w) = vpls.and_then(|c| crate::vpl_args::refused_line("the measured frames", c)) {
+    if let Some(w) = vpls.and_then(|c| crate::dropped::refused_line("the measured frames", c)) {
         dropped::warn(&mut warnings, &w);
     }
-    dropped::strict(args.scene.strict, warnings)
+    dropped::strict(prep.settings.strict, warnings)
 }
 
 #[cfg(test)]
@@ -669,5 +769,80 @@ mod tests {
         assert!(table(&still).contains("shadows:    0 shadow faces drawn per measured frame"));
         let moving = Measurement { shadow_faces: vec![52, 48, 52], ..m };
         assert_eq!(moving.shadow_line().unwrap(), "48 to 52 shadow faces drawn per measured frame");
+    }
+
+    #[test]
+    fn each_report_keeps_its_config_fields_in_their_order() {
+        let common = ConfigJson {
+            adapter: "a".into(),
+            resolution: "2x1".into(),
+            width: 2,
+            height: 1,
+            scene: "default".into(),
+            triangles: 3,
+            casters: None,
+            lights: None,
+            seed: 1,
+            threshold: 0.5,
+            exposure: None,
+            method: "brute-force",
+            shadow_run: None,
+            renderer: None,
+            commit: "c".into(),
+        };
+        let keys = |c: &ConfigJson| -> Vec<String> {
+            let text = serde_json::to_string(c).unwrap();
+            let v: serde_json::Map<String, serde_json::Value> = serde_json::from_str(&text).unwrap();
+            // serde_json's map is sorted unless preserve_order: read the order from the text.
+            let mut k: Vec<(usize, String)> =
+                v.keys().map(|k| (text.find(&format!("\"{k}\":")).unwrap(), k.clone())).collect();
+            k.sort();
+            k.into_iter().map(|(_, k)| k).collect()
+        };
+        let bench = ConfigJson {
+            lights: Some(LightsJson { instances: 1, point_lights: 2, spot_lights: 0 }),
+            renderer: Some(RendererJson {
+                tile_size: 16,
+                capacity: 8,
+                aabb: false,
+                half_z: false,
+                spot_cone: false,
+                coarse: true,
+                gbuffer_rts: 2,
+                msaa: 1,
+                edge_distance: 0.1,
+                edge_normal_deg: 30.0,
+                shadow_point_lights: 0,
+                shadow_spot_lights: 0,
+                shadow_size: 256,
+                shadow_filter: 5,
+                shadow_format: "d16",
+                transparent_objects: 0,
+                emissive: false,
+            }),
+            ..common.clone()
+        };
+        // The fields and order of bench's `config` before the two schemas became one.
+        let bench_keys = "adapter resolution width height scene triangles instances point_lights spot_lights seed \
+             threshold method tile_size capacity aabb half_z spot_cone coarse gbuffer_rts msaa edge_distance \
+             edge_normal_deg shadow_point_lights shadow_spot_lights shadow_size shadow_filter shadow_format \
+             transparent_objects emissive commit";
+        assert_eq!(keys(&bench).join(" "), bench_keys.split_whitespace().collect::<Vec<_>>().join(" "));
+        let shadow = ConfigJson {
+            casters: Some(CastersJson {
+                camera: "x".into(),
+                point_casters: 1,
+                spot_casters: 1,
+                scene_point_lights: 4,
+                scene_spot_lights: 4,
+            }),
+            exposure: Some(1.0),
+            shadow_run: Some(ShadowRunJson { ambient: 0.0, ray_offset: 1e-3, frames: 2, warmup: 1 }),
+            ..common
+        };
+        // ...and shadow-accuracy's.
+        let shadow_keys = "adapter resolution width height scene triangles camera point_casters spot_casters \
+             scene_point_lights scene_spot_lights seed threshold exposure method ambient ray_offset frames warmup commit";
+        assert_eq!(keys(&shadow).join(" "), shadow_keys.split_whitespace().collect::<Vec<_>>().join(" "));
     }
 }

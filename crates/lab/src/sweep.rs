@@ -16,24 +16,22 @@
 //! memory) ends the run naming it; the points measured so far stay in the CSV and the same
 //! command resumes after them.
 //!
-//! May depend on [`crate::lab`], [`crate::bench`] (the frame loop), [`crate::chart`],
-//! [`crate::dropped`], [`crate::scene_setup`] and tiledlight-setup (the run, its culling
+//! May depend on [`crate::axes`], [`crate::bench`] (the frame loop), [`crate::chart`],
+//! [`crate::dropped`], [`crate::output`] and tiledlight-setup (the run, its culling
 //! statistics).
 
 use std::path::PathBuf;
 
 use anyhow::{ensure, Context, Result};
-use clap::{Args, ValueEnum};
 use tiledlight_setup::{group_digits, Prepared, Reload, Settings};
 
+use crate::axes::{self, Axis, Flags, ResumableCsv};
 use crate::bench::{self, MAX_FRAMES};
 use crate::chart::{self, AxisSpec, LineChart, Scale, Series};
 use crate::dropped;
-use crate::lab::{self, Axis, ResumableCsv};
-use crate::scene_setup::SceneArgs;
 
 /// Named sweeps.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Preset {
     /// AMD's Figure 9: frame time vs light count (32 to 16,384, denser around the
     /// sample's 1,792-light crossover; down to 32 because on an H100 the crossover lies
@@ -45,8 +43,8 @@ pub enum Preset {
 impl Preset {
     /// The preset's axes (the light count first: lights are rebuilt per light count, the
     /// renderer per method).
-    pub fn axes(self) -> Vec<Axis> {
-        let a = |spec: &str| lab::parse_axis(spec).expect("preset axes are valid");
+    pub fn axes<F: Flags>(self) -> Vec<Axis> {
+        let a = |spec: &str| axes::parse_axis::<F>(spec).expect("preset axes are valid");
         match self {
             Preset::Figure9 => vec![
                 a("lights=32,64,128,256,512,1024,1536,1792,2048,3072,4096,8192,16384"),
@@ -66,39 +64,22 @@ impl Preset {
     }
 }
 
-/// Flags of `tiledlight sweep`.
-#[derive(Args, Clone, Debug)]
-pub struct SweepArgs {
-    /// Scene, lights, screen and renderer: the settings every point starts from.
-    #[command(flatten)]
-    pub scene: SceneArgs,
-    /// An axis to vary, NAME=VALUES: a list (method=forward-plus,deferred), a doubling range
-    /// (lights=64..65536) or N log-spaced values (lights=64..65536:9). Repeat for more axes;
-    /// every combination is measured. Names: lights, spot-lights, method, grid-objects,
-    /// density, gbuffer-rts, tile-size, threshold, culling, aabb, half-z, seed, msaa,
-    /// edge-distance, edge-normal-deg, shadow-point-lights, shadow-spot-lights, shadow-size,
-    /// shadow-filter, shadow-format, transparent-objects, blend-mode, vpl, vpl-rsm-size,
-    /// vpl-block, vpl-colour-threshold, vpl-brightness-threshold, vpl-cap, vpl-shading.
-    #[arg(long = "axis", value_name = "NAME=VALUES")]
+/// A sweep (the app's `sweep` flags besides the scene's).
+#[derive(Clone, Debug)]
+pub struct Sweep {
+    /// Axes, `NAME=VALUES` each ([`axes::parse_axis`]).
     pub axes: Vec<String>,
-    /// A named sweep; --axis replaces its axes of the same name.
-    #[arg(long, value_enum)]
+    /// A named sweep; `axes` replace its axes of the same name.
     pub preset: Option<Preset>,
-    /// Measured frames per point (the median of each pass is recorded).
-    #[arg(long, default_value_t = 30, value_name = "N")]
+    /// Measured frames per point.
     pub frames: u32,
     /// Frames rendered before measuring each point.
-    #[arg(long, default_value_t = 10, value_name = "N")]
     pub warmup: u32,
-    /// CSV output; an existing file with the same columns is resumed (points already in it
-    /// are skipped) [default: out/sweep.csv, or out/PRESET.csv].
-    #[arg(long, value_name = "FILE.csv")]
+    /// CSV output [default: out/sweep.csv, or out/PRESET.csv].
     pub out: Option<PathBuf>,
     /// Chart output [default: the CSV path with .png].
-    #[arg(long, value_name = "FILE.png")]
     pub chart: Option<PathBuf>,
     /// The axis on the chart's x [default: the first numeric axis with several values].
-    #[arg(long, value_name = "AXIS")]
     pub x: Option<String>,
 }
 
@@ -186,26 +167,26 @@ pub fn crossing(a: &Series, b: &Series, scale: Scale) -> Crossing {
 }
 
 /// Runs `tiledlight sweep`.
-pub fn run(args: &SweepArgs) -> Result<()> {
+pub fn run<F: Flags>(scene: &F, args: &Sweep) -> Result<()> {
     ensure!((1..=MAX_FRAMES).contains(&args.frames), "--frames {}: must be between 1 and {MAX_FRAMES}", args.frames);
     ensure!(args.warmup <= MAX_FRAMES, "--warmup {}: must be at most {MAX_FRAMES}", args.warmup);
-    let given: Vec<Axis> = args.axes.iter().map(|s| lab::parse_axis(s)).collect::<Result<_>>()?;
+    let given: Vec<Axis> = args.axes.iter().map(|s| axes::parse_axis::<F>(s)).collect::<Result<_>>()?;
     let axes = match args.preset {
-        Some(p) => lab::merge_axes(p.axes(), given),
+        Some(p) => axes::merge_axes(p.axes::<F>(), given),
         None => given,
     };
-    let points = lab::points(&axes)?;
+    let points = axes::points(&axes)?;
     let x_axis = chart_x_axis(&axes, args.x.as_deref())?;
     let out = args
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("out/{}.csv", args.preset.map(Preset::name).unwrap_or("sweep"))));
-    let chart_path = args.chart.clone().unwrap_or_else(|| lab::sibling(&out, "png"));
+    let chart_path = args.chart.clone().unwrap_or_else(|| axes::sibling(&out, "png"));
     let ext = chart_path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     ensure!(ext.as_deref() == Some("png"), "--chart {}: only .png charts are supported", chart_path.display());
     // Every point's flags are checked before the first is measured.
     let all_args: Vec<Settings> =
-        points.iter().map(|p| lab::args_at(&args.scene, &axes, p).and_then(|a| a.settings())).collect::<Result<_>>()?;
+        points.iter().map(|p| axes::args_at(scene, &axes, p).and_then(|a| a.settings())).collect::<Result<_>>()?;
 
     let head = header(&axes);
     let n_axes = axes.len();
@@ -223,36 +204,36 @@ pub fn run(args: &SweepArgs) -> Result<()> {
     let mut adapter = None;
     let mut prep: Option<Prepared> = None;
     let mut warnings = 0;
-    let pb = lab::progress(pending.len());
+    let pb = axes::progress(pending.len());
     for (done, &i) in pending.iter().enumerate() {
         let (point, pargs) = (&points[i], &all_args[i]);
-        let what = lab::describe(&axes, point);
+        let what = axes::describe(&axes, point);
         pb.set_message(what.clone());
         let measured = measure_point(&mut prep, &mut adapter, &mut csv, (point, pargs, &what), args, &out, &pb);
         match measured {
-            Ok(Some(w)) => lab::warn(&pb, &mut warnings, &format!("{what}: {w}")),
+            Ok(Some(w)) => axes::warn(&pb, &mut warnings, &format!("{what}: {w}")),
             Ok(None) => {}
             Err(e) => {
                 pb.finish_and_clear();
-                let progress = lab::Progress {
+                let progress = axes::Progress {
                     point: &what,
                     done: points.len() - pending.len() + done,
                     total: points.len(),
                     csv: &out,
                 };
-                return Err(lab::interrupted(e, prep.as_ref(), &progress));
+                return Err(axes::interrupted(e, prep.as_ref(), &progress));
             }
         }
         pb.inc(1);
     }
     pb.finish_and_clear();
     let rows = csv.read_all()?;
-    let note = draw(&chart_path, &axes, &x_axis, &rows, args)?;
+    let note = draw(&chart_path, &axes, &x_axis, &rows, (&scene.scene_label(), args))?;
     println!("wrote {} and {}", out.display(), chart_path.display());
     if let Some(n) = note {
         println!("chart:      {n}");
     }
-    dropped::strict(args.scene.strict, warnings)
+    dropped::strict(all_args.iter().any(|a| a.strict), warnings)
 }
 
 /// Measures one point and appends its rows to the CSV; returns the warning about its
@@ -261,8 +242,8 @@ fn measure_point(
     prep: &mut Option<Prepared>,
     adapter: &mut Option<String>,
     csv: &mut ResumableCsv,
-    (point, pargs, what): (&lab::Point, &Settings, &String),
-    args: &SweepArgs,
+    (point, pargs, what): (&axes::Point, &Settings, &String),
+    args: &Sweep,
     out: &std::path::Path,
     pb: &indicatif::ProgressBar,
 ) -> Result<Option<String>> {
@@ -271,21 +252,21 @@ fn measure_point(
         Some(p) => {
             let plan = p.reconfigure(pargs).with_context(|| what.clone())?;
             if plan.reload == Reload::Scene {
-                pb.suspend(|| crate::scene_setup::print_load_warnings(&p.scene_warnings));
+                pb.suspend(|| crate::output::print_load_warnings(&p.scene_warnings));
             }
             p
         }
         None => {
             let p = Prepared::new(pargs).with_context(|| what.clone())?;
-            pb.suspend(|| crate::scene_setup::print_load_warnings(&p.scene_warnings));
+            pb.suspend(|| crate::output::print_load_warnings(&p.scene_warnings));
             let name = p.ctx.info.name.clone();
-            lab::check_same_setup(
+            axes::check_same_setup(
                 &csv.existing,
                 [0, 1, 2],
                 [&name, &pargs.width.to_string(), &pargs.height.to_string()],
                 out,
             )?;
-            lab::say(pb, format!("adapter:    {}", p.ctx.describe()));
+            axes::say(pb, format!("adapter:    {}", p.ctx.describe()));
             *adapter = Some(name);
             prep.insert(p)
         }
@@ -324,9 +305,9 @@ fn measure_point(
     }
     csv.append(&rows)?;
     let mark = dropped.mark().map(|d| format!(" ({d}: incomplete frames)")).unwrap_or_default();
-    lab::say(pb, format!("{what}: {total:.3} ms{mark}"));
+    axes::say(pb, format!("{what}: {total:.3} ms{mark}"));
     let max_binding = p.ctx.device.limits().max_storage_buffer_binding_size;
-    let refused = vpls.and_then(|c| crate::vpl_args::refused_line("the measured frames", c));
+    let refused = vpls.and_then(|c| crate::dropped::refused_line("the measured frames", c));
     Ok(dropped::join_warnings(dropped.warning("the measured frames", p.settings.grid_pairs, max_binding), refused))
 }
 
@@ -336,7 +317,7 @@ fn ms(v: f64) -> String {
 
 /// The axis on the chart's x: `--x`, else the first numeric axis with several values,
 /// else the first with several values, else the first.
-fn chart_x_axis(axes: &[Axis], x: Option<&str>) -> Result<String> {
+pub fn chart_x_axis(axes: &[Axis], x: Option<&str>) -> Result<String> {
     if let Some(x) = x {
         ensure!(axes.iter().any(|a| a.name == x), "--x {x}: not one of the swept axes");
         return Ok(x.to_string());
@@ -345,7 +326,7 @@ fn chart_x_axis(axes: &[Axis], x: Option<&str>) -> Result<String> {
     let pick = axes
         .iter()
         .filter(multi)
-        .find(|a| lab::is_numeric_axis(&a.name))
+        .find(|a| axes::is_numeric_axis(&a.name))
         .or_else(|| axes.iter().find(multi))
         .or(axes.first());
     Ok(pick.map(|a| a.name.clone()).unwrap_or_default())
@@ -357,12 +338,12 @@ fn draw(
     axes: &[Axis],
     x_axis: &str,
     rows: &[Vec<String>],
-    args: &SweepArgs,
+    (scene, args): (&str, &Sweep),
 ) -> Result<Option<String>> {
     let col = |name: &str| header(axes).iter().position(|h| h == name).expect("known column");
     let (xc, pass, total, dropped) = (col(x_axis), col("pass"), col("median_ms"), col("dropped_frames"));
     let xi = axes.iter().position(|a| a.name == x_axis).expect("x is an axis");
-    let numeric = lab::is_numeric_axis(x_axis);
+    let numeric = axes::is_numeric_axis(x_axis);
     // Lines: one per combination of the other axes that have several values.
     let others: Vec<usize> = (0..axes.len()).filter(|&i| i != xi && axes[i].values.len() > 1).collect();
     let fixed: Vec<String> = axes
@@ -443,7 +424,7 @@ fn draw(
         title: format!("Frame time vs {x_axis}: {adapter}, {res}"),
         subtitle: format!(
             "{} scene, {tris} triangles{}{}; per pass the median of {} frames after {} warm-up",
-            args.scene.scene,
+            scene,
             if fixed.is_empty() { "" } else { ", " },
             fixed.join(", "),
             args.frames,
@@ -489,14 +470,5 @@ mod tests {
         let c = s(&[(1.0, 0.5), (2.0, 0.5), (4.0, 0.5)]);
         assert_eq!(crossing(&a, &c, Scale::Linear), Crossing::None { lower: 1 });
         assert_eq!(crossing(&a, &s(&[(9.0, 1.0)]), Scale::Linear), Crossing::Unknown);
-    }
-
-    #[test]
-    fn preset_axes_are_valid() {
-        let axes = Preset::Figure9.axes();
-        assert_eq!(lab::points(&axes).unwrap().len(), 26);
-        assert!(axes[0].values.contains(&"1792".to_string()));
-        assert_eq!(chart_x_axis(&axes, None).unwrap(), "lights");
-        assert!(chart_x_axis(&axes, Some("colour")).is_err());
     }
 }

@@ -22,22 +22,22 @@
 //!   error `sum |L(S) - L(R)| / sum L(R)` over the scored pixels (L = Rec. 709 luminance:
 //!   the share of the casters' light that is misplaced), split into light lost (`S` darker)
 //!   and leaked (`S` brighter); PSNR on linear HDR and FLIP on the images tonemapped on the
-//!   CPU with the GPU's curve ([`tonemap`]), as the accuracy lab measures. Then the lights
+//!   CPU with the GPU's curve (tiledlight-metrics' `tonemap`), as the accuracy lab measures. Then the lights
 //!   move before every frame (`bench --move-lights`' animation), so every face is drawn
 //!   every frame, and the median GPU time of the atlas pass (`shadow.atlas*`) and of the
 //!   shading pass over `--frames` frames is recorded.
 //!
 //! Output: a table on stdout, JSON (`--out`), a Pareto chart (time vs visibility error,
 //! `--chart`), the reference image, and for the frontier's configurations the FLIP heat
-//! maps and pictures of the misplaced light ([`misplaced_rgb`]) (`--diff-dir`). May depend on [`crate::accuracy`], [`crate::bench`],
-//! [`crate::chart`], [`crate::lab`], [`crate::scene_setup`], tiledlight-setup,
+//! maps and pictures of the misplaced light (tiledlight-metrics' `visibility::misplaced_rgb`)
+//! (`--diff-dir`). May depend on [`crate::accuracy`], [`crate::bench`],
+//! [`crate::chart`], [`crate::axes`], [`crate::output`], tiledlight-setup,
 //! tiledlight-gpu, tiledlight-forward, tiledlight-cull and tiledlight-metrics.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, ensure, Context, Result};
-use clap::Args;
 use glam::Vec3;
 use serde::Serialize;
 use tiledlight_cull::light::shadow_casters;
@@ -49,15 +49,16 @@ use tiledlight_frame::{FrameRenderer, FrameSettings};
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::{ContextOptions, GpuContext};
+use tiledlight_metrics::tonemap::tonemap;
+use tiledlight_metrics::visibility::{misplaced_rgb, visibility_error};
 use tiledlight_metrics::{flip, luminance, HdrError};
 use tiledlight_setup::settings::shadow_options_description;
 use tiledlight_setup::{group_digits, LightAnimator, Method, Prepared, SceneCpu, Settings};
 
 use crate::accuracy::PERCENTILE;
-use crate::bench::{self, PassSummary, MAX_FRAMES};
+use crate::axes::{self, Flags};
+use crate::bench::{self, CastersJson, ConfigJson, PassSummary, ShadowRunJson, MAX_FRAMES};
 use crate::chart::{self, ParetoChart, ParetoPoint};
-use crate::lab;
-use crate::scene_setup::SceneArgs;
 
 /// The configurations measured when no `--config` is given: every tile size times every
 /// filter with 16-bit depth, and 32-bit depth at the largest tile and filter.
@@ -90,41 +91,23 @@ pub const DEFAULT_SPOT_LIGHTS: u64 = 128;
 /// must stay affordable.
 pub const DEFAULT_SIZE: (&str, &str) = ("960", "540");
 
-/// Flags of `tiledlight shadow-accuracy`.
-#[derive(Args, Clone, Debug)]
-pub struct ShadowAccuracyArgs {
-    /// Scene, lights and screen [default here: 960x540, 12 point + 12 spot casters, 128
-    /// spot lights]. Only the casters are lit; the method is brute force and MSAA must be
-    /// 1; --shadow-size/--shadow-filter/--shadow-format are replaced by --config.
-    #[command(flatten)]
-    pub scene: SceneArgs,
-    /// A shadow configuration to measure, `TILExFILTER[:FORMAT]` (e.g. 512x3, 1024x5:d32;
-    /// FORMAT d16 or d32, default d16); repeat for several [default: 128, 256, 512 and
-    /// 1024 times 1, 3 and 5 with d16, and 1024x5:d32].
-    #[arg(long = "config", value_name = "TILExFILTER[:FORMAT]")]
+/// A shadow-accuracy run (the app's `shadow-accuracy` flags besides the scene's).
+#[derive(Clone, Debug)]
+pub struct ShadowAccuracy {
+    /// Shadow configurations, `TILExFILTER[:FORMAT]` each [default: [`DEFAULT_CONFIGS`]].
     pub configs: Vec<String>,
-    /// Measured frames per configuration (the lights move before each, so every shadow
-    /// face is drawn in each).
-    #[arg(long, default_value_t = 20, value_name = "N")]
+    /// Measured frames per configuration.
     pub frames: u32,
     /// Frames rendered before measuring each configuration.
-    #[arg(long, default_value_t = 5, value_name = "N")]
     pub warmup: u32,
-    /// The reference's ray offset: a ray from a surface point starts this fraction of its
-    /// distance to the light off the surface, along the normal (and stops as far short of
-    /// the light), so the surface does not shadow itself.
-    #[arg(long, default_value_t = 1e-3, value_name = "F")]
+    /// The reference's ray offset (a fraction of the distance to the light).
     pub ray_offset: f32,
     /// JSON output [default: out/shadow-accuracy.json].
-    #[arg(long, value_name = "FILE.json")]
     pub out: Option<PathBuf>,
     /// Pareto chart [default: the JSON path with .png].
-    #[arg(long, value_name = "FILE.png")]
     pub chart: Option<PathBuf>,
-    /// Directory of the reference image (tonemapped), and of the FLIP heat maps and the
-    /// misplaced light (red: lost, green: leaked) of the frontier's configurations
-    /// [default: the JSON path without extension, plus "-images"].
-    #[arg(long, value_name = "DIR")]
+    /// Directory of the reference image and the frontier's pictures [default: the JSON
+    /// path without extension, plus "-images"].
     pub diff_dir: Option<PathBuf>,
 }
 
@@ -152,30 +135,23 @@ pub fn parse_config(spec: &str) -> Result<ShadowOptions> {
     Ok(ShadowOptions { tile_size: tile, filter, format })
 }
 
-/// The settings of a run: `args` with this command's defaults (casters, spot lights; the
-/// resolution's is clap's, see `main.rs`) and brute force.
-pub fn settings_of(args: &ShadowAccuracyArgs) -> Result<Settings> {
-    let mut scene = args.scene.clone();
-    if (scene.shadow_point_lights, scene.shadow_spot_lights) == (0, 0) {
-        (scene.shadow_point_lights, scene.shadow_spot_lights) = DEFAULT_CASTERS;
+/// The settings of a run: `scene` with this command's defaults (casters, spot lights; the
+/// resolution's is the app's) and brute force.
+pub fn settings_of<F: Flags>(scene: &F) -> Result<Settings> {
+    let mut scene = scene.clone();
+    let plain = scene.plain();
+    if (plain.shadow_point_lights, plain.shadow_spot_lights) == (0, 0) {
+        scene.set_axis("shadow-point-lights", &DEFAULT_CASTERS.0.to_string())?;
+        scene.set_axis("shadow-spot-lights", &DEFAULT_CASTERS.1.to_string())?;
     }
-    if scene.spot_lights.is_none() && scene.shadow_spot_lights > 0 {
-        scene.spot_lights = Some(DEFAULT_SPOT_LIGHTS);
+    let plain = scene.plain();
+    if plain.spot_lights.is_none() && plain.shadow_spot_lights > 0 {
+        scene.set_axis("spot-lights", &DEFAULT_SPOT_LIGHTS.to_string())?;
     }
-    ensure!(scene.msaa == 1, "--msaa {}: shadow-accuracy scores pixel centres, MSAA must be 1", scene.msaa);
+    ensure!(plain.msaa == 1, "--msaa {}: shadow-accuracy scores pixel centres, MSAA must be 1", plain.msaa);
     let mut settings = scene.settings()?;
     settings.method = Method::BruteForce { cutoff: true };
     Ok(settings)
-}
-
-/// The ACES filmic fit and sRGB encoding of `shaders/tonemap.wgsl` on the CPU: linear HDR
-/// (times `exposure`) to RGBA8 sRGB, as the GPU's tonemap pass writes it (to rounding:
-/// the run reports the largest difference from the GPU's image).
-pub fn tonemap(hdr: &[[f32; 4]], exposure: f32) -> Vec<u8> {
-    let aces = |x: f32| ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0);
-    let srgb = |c: f32| if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
-    let byte = |c: f32| (srgb(aces(c * exposure)) * 255.0).round().clamp(0.0, 255.0) as u8;
-    hdr.iter().flat_map(|p| [byte(p[0]), byte(p[1]), byte(p[2]), 255]).collect()
 }
 
 /// Visibility of `light` from each surface point marked in `todo` (true = the light is
@@ -215,51 +191,6 @@ pub fn ray_cast_visibility(
         seen[i] = v;
     }
     seen
-}
-
-/// The visibility error of `test` against `reference` over the pixels in `scored`:
-/// (misplaced, lost, leaked) luminance, each over the reference's luminance there.
-pub fn visibility_error(reference: &[[f32; 4]], test: &[[f32; 4]], scored: &[bool]) -> (f64, f64, f64) {
-    let (mut total, mut lost, mut leaked) = (0.0f64, 0.0f64, 0.0f64);
-    for ((r, t), &s) in reference.iter().zip(test).zip(scored) {
-        if !s {
-            continue;
-        }
-        let (lr, lt) = (luminance(r), luminance(t));
-        total += lr;
-        if lt < lr {
-            lost += lr - lt;
-        } else {
-            leaked += lt - lr;
-        }
-    }
-    if total <= 0.0 {
-        return (f64::NAN, f64::NAN, f64::NAN);
-    }
-    ((lost + leaked) / total, lost / total, leaked / total)
-}
-
-/// A picture of where `test` misplaces light against `reference` (RGB8): the reference's
-/// tonemapped luminance in dim grey, light lost (test darker) in red and light leaked
-/// (test brighter) in green, with brightness `sqrt(|difference| / largest difference)` so
-/// that small differences show.
-pub fn misplaced_rgb(reference: &[[f32; 4]], test: &[[f32; 4]], exposure: f32) -> Vec<u8> {
-    let grey: Vec<[f32; 4]> = reference.iter().map(|p| [luminance(p) as f32; 4]).collect();
-    let base = tonemap(&grey, exposure);
-    let diff: Vec<f64> = reference.iter().zip(test).map(|(r, t)| luminance(t) - luminance(r)).collect();
-    let largest = diff.iter().fold(0.0f64, |m, d| m.max(d.abs())).max(f64::MIN_POSITIVE);
-    let level = |d: f64| ((d / largest).sqrt() * 255.0).round() as u8;
-    diff.iter()
-        .enumerate()
-        .flat_map(|(i, &d)| {
-            let b = base[i * 4] / 3;
-            if d < 0.0 {
-                [b.max(level(-d)), b, b]
-            } else {
-                [b, b.max(level(d)), b]
-            }
-        })
-        .collect()
 }
 
 /// The ray-cast reference of one scene, caster set and camera.
@@ -389,30 +320,6 @@ pub struct Row {
 }
 
 #[derive(Serialize)]
-struct ConfigJson {
-    adapter: String,
-    resolution: String,
-    width: u32,
-    height: u32,
-    scene: String,
-    triangles: u64,
-    camera: String,
-    point_casters: u32,
-    spot_casters: u32,
-    scene_point_lights: u64,
-    scene_spot_lights: u64,
-    seed: u64,
-    threshold: f32,
-    exposure: f32,
-    method: &'static str,
-    ambient: f32,
-    ray_offset: f32,
-    frames: u32,
-    warmup: u32,
-    commit: String,
-}
-
-#[derive(Serialize)]
 struct ReferenceJson {
     /// Pixels with a surface point (scored).
     scored_pixels: usize,
@@ -446,7 +353,7 @@ fn median(m: &bench::Measurement, pred: impl Fn(&str) -> bool) -> f64 {
 }
 
 /// Runs `tiledlight shadow-accuracy`.
-pub fn run(args: &ShadowAccuracyArgs) -> Result<()> {
+pub fn run<F: Flags>(scene: &F, args: &ShadowAccuracy) -> Result<()> {
     ensure!((1..=MAX_FRAMES).contains(&args.frames), "--frames {}: must be between 1 and {MAX_FRAMES}", args.frames);
     ensure!(args.warmup <= MAX_FRAMES, "--warmup {}: must be at most {MAX_FRAMES}", args.warmup);
     ensure!(
@@ -465,9 +372,9 @@ pub fn run(args: &ShadowAccuracyArgs) -> Result<()> {
             bail!("--config {}: given twice", specs[i]);
         }
     }
-    let settings = settings_of(args)?;
+    let settings = settings_of(scene)?;
     let out = args.out.clone().unwrap_or_else(|| PathBuf::from("out/shadow-accuracy.json"));
-    let chart_path = args.chart.clone().unwrap_or_else(|| lab::sibling(&out, "png"));
+    let chart_path = args.chart.clone().unwrap_or_else(|| axes::sibling(&out, "png"));
     let ext = chart_path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     ensure!(ext.as_deref() == Some("png"), "--chart {}: only .png charts are supported", chart_path.display());
     let image_dir = args.diff_dir.clone().unwrap_or_else(|| {
@@ -482,7 +389,7 @@ pub fn run(args: &ShadowAccuracyArgs) -> Result<()> {
 
     // The scene and its lights on the CPU; then only the casters are kept.
     let mut cpu = SceneCpu::load(&settings)?;
-    crate::scene_setup::print_load_warnings(&cpu.warnings);
+    crate::output::print_load_warnings(&cpu.warnings);
     let counts = settings.shadow_casters();
     let casters = shadow_casters(&cpu.lights, counts).context("choosing the shadow casters")?;
     let t0 = Instant::now();
@@ -541,7 +448,7 @@ pub fn run(args: &ShadowAccuracyArgs) -> Result<()> {
     let mut heat: Vec<Vec<u8>> = Vec::new();
     let mut misplaced: Vec<Vec<u8>> = Vec::new();
     let mut ref_ldr = Vec::new();
-    let pb = lab::progress(configs.len());
+    let pb = axes::progress(configs.len());
     for (ci, opts) in configs.iter().enumerate() {
         let what = format!("{} ({})", specs[ci], shadow_options_description(opts));
         pb.set_message(what.clone());
@@ -549,10 +456,9 @@ pub fn run(args: &ShadowAccuracyArgs) -> Result<()> {
         let mut r = FrameRenderer::new(&prep.ctx, &prep.scene_gpu, &prep.lights, w, h, settings)
             .with_context(|| format!("{what}: building the renderer"))?;
         // The first frame draws every face, with the lights where the reference has them.
-        let mut timer = GpuTimer::new(&prep.ctx).context("creating the GPU timer")?;
-        r.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).with_context(|| what.clone())?;
-        let s = r.read_hdr(&prep.ctx).context("reading the image back")?;
-        let gpu_ldr = r.read_ldr(&prep.ctx).context("reading the image back")?;
+        let frame =
+            bench::render_frame(&prep.ctx, &mut r, &prep.scene_gpu, &prep.camera).with_context(|| what.clone())?;
+        let (s, gpu_ldr) = (frame.hdr, frame.ldr);
         prep.check_gpu_errors()?;
         let atlas = r.outputs().shadow_atlas.context("internal: a renderer with casters has no shadow atlas")?;
         let faces = atlas.layout.faces();
@@ -605,7 +511,7 @@ pub fn run(args: &ShadowAccuracyArgs) -> Result<()> {
             flip_max: f64::from(fl.max),
             tonemap_max_step: step,
         };
-        lab::say(
+        axes::say(
             &pb,
             format!(
                 "{what}: atlas {atlas_ms:.3} ms + shade {shade_ms:.3} ms; visibility error {:.5} (lost {:.5}, leaked {:.5}), FLIP mean {:.5}, PSNR {:.2} dB",
@@ -620,26 +526,21 @@ pub fn run(args: &ShadowAccuracyArgs) -> Result<()> {
 
     let json = Json {
         config: ConfigJson {
-            adapter: prep.ctx.describe(),
-            resolution: format!("{w}x{h}"),
-            width: w,
-            height: h,
-            scene: prep.scene_name.clone(),
-            triangles: prep.scene_gpu.triangles,
-            camera: prep.camera_source.clone(),
-            point_casters: counts.0,
-            spot_casters: counts.1,
-            scene_point_lights: scene_points,
-            scene_spot_lights: scene_spots,
-            seed: a.seed,
-            threshold: a.threshold,
-            exposure,
-            method: Method::BruteForce { cutoff: true }.name(),
-            ambient: 0.0,
-            ray_offset: args.ray_offset,
-            frames: args.frames,
-            warmup: args.warmup,
-            commit: bench::commit_hash(),
+            casters: Some(CastersJson {
+                camera: prep.camera_source.clone(),
+                point_casters: counts.0,
+                spot_casters: counts.1,
+                scene_point_lights: scene_points,
+                scene_spot_lights: scene_spots,
+            }),
+            exposure: Some(exposure),
+            shadow_run: Some(ShadowRunJson {
+                ambient: 0.0,
+                ray_offset: args.ray_offset,
+                frames: args.frames,
+                warmup: args.warmup,
+            }),
+            ..ConfigJson::of(&prep)
         },
         reference: ReferenceJson {
             scored_pixels,
@@ -658,15 +559,15 @@ pub fn run(args: &ShadowAccuracyArgs) -> Result<()> {
     let text = serde_json::to_string_pretty(&json).context("encoding the results as JSON")?;
     std::fs::write(&out, text + "\n").with_context(|| format!("writing {}", out.display()))?;
 
-    let frontier = draw_chart(&chart_path, &rows, &prep, counts, args)?;
+    let frontier = draw_chart(&chart_path, &rows, &prep, counts, (&scene.scene_label(), args))?;
     let rgb: Vec<u8> = ref_ldr.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
     let img = image::RgbImage::from_raw(w, h, rgb).context("building the reference image")?;
-    crate::scene_setup::save_png(&image_dir.join("reference.png"), &img)?;
+    crate::output::save_png(&image_dir.join("reference.png"), &img)?;
     for &i in &frontier {
         let name = format!("{}x{}-{}.png", rows[i].tile_size, rows[i].filter, rows[i].format);
         for (kind, rgb) in [("flip", &heat[i]), ("misplaced", &misplaced[i])] {
             let img = image::RgbImage::from_raw(w, h, rgb.clone()).context("building a heat map image")?;
-            crate::scene_setup::save_png(&image_dir.join(format!("{kind}-{name}")), &img)?;
+            crate::output::save_png(&image_dir.join(format!("{kind}-{name}")), &img)?;
         }
     }
     let describe = |r: &Row| format!("{}x{}:{}", r.tile_size, r.filter, r.format);
@@ -735,7 +636,7 @@ fn draw_chart(
     rows: &[Row],
     prep: &Prepared,
     counts: (u32, u32),
-    args: &ShadowAccuracyArgs,
+    (scene, args): (&str, &ShadowAccuracy),
 ) -> Result<Vec<usize>> {
     let points: Vec<ParetoPoint> = rows
         .iter()
@@ -767,7 +668,7 @@ fn draw_chart(
         title: format!("Shadow maps vs ray cast: {}, {}x{}", prep.ctx.info.name, a.width, a.height),
         subtitle: format!(
             "{} scene, {} point + {} spot casters lit alone, brute force, lights moving (every face drawn); ray offset {}; labels: tile px, format",
-            args.scene.scene, counts.0, counts.1, args.ray_offset
+            scene, counts.0, counts.1, args.ray_offset
         ),
         x_label: "GPU ms: shadow atlas + shading (medians)".into(),
         y_label: "visibility error (share of the casters' light misplaced)".into(),
@@ -799,29 +700,6 @@ mod tests {
         for s in DEFAULT_CONFIGS {
             parse_config(s).unwrap();
         }
-    }
-
-    #[test]
-    fn tonemap_matches_the_curve() {
-        let px = tonemap(&[[0.0, 1.0, 100.0, 1.0], [0.18, 0.5, 2.0, 1.0]], 1.0);
-        // aces(1) = 2.54 / 3.16 = 0.8038 -> sRGB 0.9082 -> 232; aces(100) clamps to 1.
-        assert_eq!(&px[..4], &[0, 232, 255, 255]);
-        // aces(0.18) = 0.2669 -> sRGB 0.5535 -> 141.
-        assert_eq!(px[4], 141);
-        assert!(px[5] < px[6]);
-    }
-
-    #[test]
-    fn visibility_error_splits_lost_and_leaked() {
-        let r = vec![[1.0, 1.0, 1.0, 1.0]; 4];
-        let mut s = r.clone();
-        s[0] = [0.0, 0.0, 0.0, 1.0];
-        s[1] = [1.5, 1.5, 1.5, 1.0];
-        let (v, lost, leaked) = visibility_error(&r, &s, &[true; 4]);
-        assert!((v - 0.375).abs() < 1e-12 && (lost - 0.25).abs() < 1e-12 && (leaked - 0.125).abs() < 1e-12);
-        let (v, ..) = visibility_error(&r, &s, &[false, false, true, true]);
-        assert_eq!(v, 0.0, "unscored pixels do not count");
-        assert!(visibility_error(&r, &s, &[false; 4]).0.is_nan());
     }
 
     #[test]

@@ -1,26 +1,54 @@
-//! What the measurement lab's two subcommands (`sweep`, `accuracy`) share: the axes a
-//! run varies (`--axis NAME=VALUES`), parsed and applied to [`SceneArgs`]; the points of a
+//! What the measurement lab's two sweeping runs ([`crate::sweep`], [`crate::accuracy`])
+//! share: the axes a run varies (`--axis NAME=VALUES`), parsed and applied to the run's
+//! [`Flags`] (the app's scene flags, or a program's own settings type); the points of a
 //! run (the product of its axes); the resumable CSV file that records them; and the
 //! progress bar.
 //!
 //! An axis is one entry of [`AXES`]: adding a setting to the lab (as MSAA and its edge
-//! thresholds were) is one more entry there and one more arm in [`apply`].
+//! thresholds were) is one more entry there and one more arm in the app's
+//! [`Flags::set_axis`] (`crates/app/src/lab_commands.rs`).
 //!
 //! A run cut short by a fault of the GPU (a lost device, out of GPU memory) ends with the
 //! fault named, how many points the CSV already holds and that the same command resumes
 //! after them ([`interrupted`]): every point is appended and flushed as soon as it is
-//! measured, so nothing measured is lost. May depend on [`crate::scene_setup`],
-//! [`crate::dropped`], tiledlight-setup and tiledlight-gpu (the fault's error type).
+//! measured, so nothing measured is lost. May depend on [`crate::dropped`],
+//! tiledlight-setup and tiledlight-gpu (the fault's error type).
 
 use std::collections::HashSet;
 use std::fs::OpenOptions;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, ensure, Context, Result};
-use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
+use tiledlight_setup::Settings;
 
-use crate::scene_setup::{AssignArg, BlendModeArg, DensityArg, GridArg, MethodArg, SceneArgs, ShadowFormatArg};
+/// The settings a lab run starts from and varies, as the command line states them: the
+/// app's scene flags, or a program's own type. An axis sets one value by name; the
+/// settings are built from the whole once every axis of a point is applied (so an axis
+/// that depends on another, e.g. the spot casters on the spot lights, is checked then).
+pub trait Flags: Clone + Default {
+    /// Sets axis `name` (a name of [`AXES`]) to `value`, checking only its syntax (an
+    /// error names the axis and the value, e.g. "method 'forward': ..."). A name this type
+    /// does not handle is an error.
+    fn set_axis(&mut self, name: &str, value: &str) -> Result<()>;
+    /// The settings these flags state, unchecked, reading no file.
+    fn plain(&self) -> Settings;
+    /// Checks every value's range, reading no file; an error names the flag first
+    /// (`--tile-size 12: ...`), as [`Settings::validate`] does.
+    fn validate(&self) -> Result<()> {
+        self.plain().validate()
+    }
+    /// The library settings: checked, then any file they name read.
+    fn settings(&self) -> Result<Settings> {
+        let settings = self.plain();
+        settings.validate()?;
+        Ok(settings)
+    }
+    /// The scene as the user named it (charts' subtitles).
+    fn scene_label(&self) -> String {
+        self.plain().scene.to_string()
+    }
+}
 
 /// The most points one run may have (a guard against a typo that would run for days).
 pub const MAX_POINTS: usize = 10_000;
@@ -81,7 +109,8 @@ fn known(name: &str) -> Result<()> {
     bail!("unknown axis '{name}': expected one of {}", names.join(", "))
 }
 
-fn is_integer_axis(name: &str) -> bool {
+/// Whether the axis's values are integers.
+pub fn is_integer_axis(name: &str) -> bool {
     matches!(
         name,
         "lights"
@@ -122,7 +151,7 @@ pub fn is_numeric_axis(name: &str) -> bool {
 /// Parses `NAME=VALUES`. VALUES is a comma-separated list, or for numeric axes a range
 /// `A..B` (A, 2A, 4A, ... up to B, B included; halving when B < A) or `A..B:N` (N values
 /// evenly spaced on a log scale, integers rounded).
-pub fn parse_axis(spec: &str) -> Result<Axis> {
+pub fn parse_axis<F: Flags>(spec: &str) -> Result<Axis> {
     let (name, values) = spec.split_once('=').with_context(|| format!("--axis {spec}: expected NAME=VALUES"))?;
     let name = name.trim();
     known(name).with_context(|| format!("--axis {spec}"))?;
@@ -136,7 +165,7 @@ pub fn parse_axis(spec: &str) -> Result<Axis> {
     };
     for v in &list {
         // Check every value now, not after an hour of measuring the ones before it.
-        apply(&mut SceneArgs::default(), name, v).with_context(|| format!("--axis {spec}"))?;
+        apply(&mut F::default(), name, v).with_context(|| format!("--axis {spec}"))?;
     }
     let mut seen = HashSet::new();
     if let Some(d) = list.iter().find(|v| !seen.insert(v.as_str())) {
@@ -194,7 +223,8 @@ pub fn format_number(x: f64) -> String {
     format!("{v}")
 }
 
-fn on_off(v: &str) -> Result<bool> {
+/// An on/off value: on, true, yes, 1 or off, false, no, 0.
+pub fn on_off(v: &str) -> Result<bool> {
     match v {
         "on" | "true" | "yes" | "1" => Ok(true),
         "off" | "false" | "no" | "0" => Ok(false),
@@ -202,99 +232,11 @@ fn on_off(v: &str) -> Result<bool> {
     }
 }
 
-/// Sets axis `name` of `args` to `value`. The ranges are checked by
-/// [`SceneArgs::validate`] when the point runs; here only the syntax.
-pub fn apply(args: &mut SceneArgs, name: &str, value: &str) -> Result<()> {
-    let int =
-        || -> Result<u64> { value.parse::<u64>().with_context(|| format!("{name} '{value}': expected an integer")) };
-    let small = || -> Result<u32> {
-        let n = int()?;
-        u32::try_from(n).with_context(|| format!("{name} {n}: too large"))
-    };
-    match name {
-        "lights" => args.lights = Some(int()?),
-        "spot-lights" => args.spot_lights = Some(int()?),
-        "seed" => args.seed = int()?,
-        "grid-objects" => args.grid_objects = small()?,
-        "gbuffer-rts" => args.gbuffer_rts = small()?,
-        "tile-size" => args.tile_size = small()?,
-        "msaa" => args.msaa = small()?,
-        "edge-distance" => {
-            args.edge_distance = value.parse().with_context(|| format!("edge-distance '{value}': expected a number"))?
-        }
-        "edge-normal-deg" => {
-            args.edge_normal_deg =
-                value.parse().with_context(|| format!("edge-normal-deg '{value}': expected a number"))?
-        }
-        "threshold" => {
-            args.threshold = value.parse().with_context(|| format!("threshold '{value}': expected a number"))?
-        }
-        "method" => {
-            args.method = MethodArg::from_str(value, true).map_err(|e| anyhow::anyhow!("method '{value}': {e}"))?
-        }
-        "density" => {
-            args.density = DensityArg::from_str(value, true).map_err(|e| anyhow::anyhow!("density '{value}': {e}"))?
-        }
-        "shadow-point-lights" => args.shadow_point_lights = small()?,
-        "shadow-spot-lights" => args.shadow_spot_lights = small()?,
-        "shadow-size" => args.shadow_size = small()?,
-        "shadow-filter" => args.shadow_filter = small()?,
-        "shadow-format" => {
-            args.shadow_format =
-                ShadowFormatArg::from_str(value, true).map_err(|e| anyhow::anyhow!("shadow-format '{value}': {e}"))?
-        }
-        "transparent-objects" => args.transparent_objects = small()?,
-        "blend-mode" => {
-            args.blend_mode =
-                BlendModeArg::from_str(value, true).map_err(|e| anyhow::anyhow!("blend-mode '{value}': {e}"))?
-        }
-        "grid" => {
-            args.grid = GridArg::from_str(value, true).map_err(|e| anyhow::anyhow!("grid '{value}': {e}"))?;
-            // The layout is the axis's alone: --half-z on the command line would fight it.
-            args.half_z = false;
-        }
-        "assign" => {
-            args.assign = AssignArg::from_str(value, true).map_err(|e| anyhow::anyhow!("assign '{value}': {e}"))?
-        }
-        "cluster-tile" => args.cluster_tile = small()?,
-        "cluster-slices" => args.cluster_slices = small()?,
-        "cluster-first" => {
-            args.cluster_first = value.parse().with_context(|| format!("cluster-first '{value}': expected a number"))?
-        }
-        "lights-per-pixel" => {
-            args.lights_per_pixel =
-                Some(value.parse().with_context(|| format!("lights-per-pixel '{value}': expected a number"))?)
-        }
-        "aabb" => args.aabb = on_off(value)?,
-        "half-z" => args.half_z = on_off(value)?,
-        // The VPL settings' axes apply with --vpl (or the vpl axis) on.
-        "vpl" => args.vpl.vpl = on_off(value)?,
-        "vpl-rsm-size" => args.vpl.vpl_rsm_size = small()?,
-        "vpl-block" => args.vpl.vpl_block = small()?,
-        "vpl-cap" => args.vpl.vpl_cap = small()?,
-        "vpl-colour-threshold" => {
-            args.vpl.vpl_colour_threshold =
-                value.parse().with_context(|| format!("vpl-colour-threshold '{value}': expected a number"))?
-        }
-        "vpl-brightness-threshold" => {
-            args.vpl.vpl_brightness_threshold =
-                value.parse().with_context(|| format!("vpl-brightness-threshold '{value}': expected a number"))?
-        }
-        "vpl-shading" => {
-            args.vpl.vpl_shading = crate::vpl_args::VplShadingArg::from_str(value, true)
-                .map_err(|e| anyhow::anyhow!("vpl-shading '{value}': {e}"))?
-        }
-        "culling" => {
-            (args.aabb, args.half_z) = match value {
-                "planes" => (false, false),
-                "aabb" => (true, false),
-                "half-z" => (false, true),
-                "aabb+half-z" => (true, true),
-                _ => bail!("culling '{value}': expected planes, aabb, half-z or aabb+half-z"),
-            }
-        }
-        _ => known(name)?,
-    }
+/// Sets axis `name` of `args` to `value` ([`Flags::set_axis`]) and checks the value's
+/// own range; the other values are checked by [`Flags::validate`] when the point runs.
+pub fn apply<F: Flags>(args: &mut F, name: &str, value: &str) -> Result<()> {
+    known(name)?;
+    args.set_axis(name, value)?;
     if matches!(name, "shadow-point-lights" | "shadow-spot-lights" | "transparent-objects") {
         // Their only limit is the scene's lights of that kind (the grid objects), which
         // other axes and flags set: checked with the point's whole settings ([`args_at`]).
@@ -332,7 +274,7 @@ pub fn points(axes: &[Axis]) -> Result<Vec<Point>> {
 }
 
 /// `base` with the point's values applied.
-pub fn args_at(base: &SceneArgs, axes: &[Axis], point: &Point) -> Result<SceneArgs> {
+pub fn args_at<F: Flags>(base: &F, axes: &[Axis], point: &Point) -> Result<F> {
     let mut args = base.clone();
     for (a, v) in axes.iter().zip(point) {
         apply(&mut args, &a.name, v)?;
@@ -553,133 +495,43 @@ pub fn sibling(path: &Path, ext: &str) -> PathBuf {
 mod tests {
     use super::*;
 
-    #[test]
-    fn ranges_and_lists() {
-        assert_eq!(parse_axis("lights=64..1000").unwrap().values, ["64", "128", "256", "512", "1000"]);
-        assert_eq!(parse_axis("lights=64..65536:4").unwrap().values, ["64", "645", "6502", "65536"]);
-        assert_eq!(parse_axis("threshold=0.4..0.05").unwrap().values, ["0.4", "0.2", "0.1", "0.05"]);
-        assert_eq!(parse_axis("method=forward-plus, deferred").unwrap().values, ["forward-plus", "deferred"]);
-        assert_eq!(parse_axis("culling=planes,aabb+half-z").unwrap().values.len(), 2);
+    /// A program's own flags: a light count and a tile size, as the lab's example has.
+    #[derive(Clone, Debug, Default, PartialEq)]
+    struct Two {
+        lights: u64,
+        tile: u32,
+    }
+
+    impl Flags for Two {
+        fn set_axis(&mut self, name: &str, value: &str) -> Result<()> {
+            match name {
+                "lights" => self.lights = value.parse().with_context(|| format!("lights '{value}'"))?,
+                "tile-size" => self.tile = value.parse().with_context(|| format!("tile-size '{value}'"))?,
+                _ => bail!("axis '{name}' is not one of this program's"),
+            }
+            Ok(())
+        }
+        fn plain(&self) -> Settings {
+            let d = Settings::default();
+            Settings { lights: Some(self.lights), tile_size: if self.tile == 0 { d.tile_size } else { self.tile }, ..d }
+        }
     }
 
     #[test]
-    fn bad_axes_are_clear_errors() {
-        let e = |s: &str| format!("{:#}", parse_axis(s).unwrap_err());
-        assert!(e("colour=1,2").contains("unknown axis 'colour'"), "{}", e("colour=1,2"));
-        assert!(e("lights=").contains("empty sweep"));
-        assert!(e("lights").contains("NAME=VALUES"));
-        assert!(e("method=forward").contains("method 'forward'"));
-        assert!(e("method=a..b").contains("numeric"));
-        assert!(e("lights=0..8").contains("positive"));
-        assert!(e("lights=99999999999").contains("--lights"), "{}", e("lights=99999999999"));
-        assert!(e("tile-size=12").contains("--tile-size 12"));
-        assert!(e("threshold=-1").contains("--threshold"));
-        assert!(e("lights=1,1").contains("twice"));
-        assert!(e("lights=1..1e9:100000").contains("step count"));
-        assert!(e("shadow-size=100").contains("--shadow-size 100"), "{}", e("shadow-size=100"));
-        assert!(e("shadow-filter=2").contains("--shadow-filter 2"));
-        assert!(e("shadow-format=d24").contains("shadow-format 'd24'"));
-        assert!(points(&[]).is_err());
-    }
-
-    #[test]
-    fn points_are_the_product() {
-        let axes = vec![parse_axis("lights=1,2").unwrap(), parse_axis("method=forward-plus,deferred").unwrap()];
+    fn any_flags_type_takes_axes() {
+        assert_eq!(parse_axis::<Two>("lights=64..1000").unwrap().values, ["64", "128", "256", "512", "1000"]);
+        assert_eq!(parse_axis::<Two>("lights=64..65536:4").unwrap().values, ["64", "645", "6502", "65536"]);
+        let e = |s: &str| format!("{:#}", parse_axis::<Two>(s).unwrap_err());
+        // The range is the library settings' check.
+        assert!(e("tile-size=12").contains("--tile-size 12"), "{}", e("tile-size=12"));
+        assert!(e("seed=3").contains("not one of this program's"), "{}", e("seed=3"));
+        assert!(e("colour=1").contains("unknown axis 'colour'"));
+        let axes = vec![parse_axis::<Two>("lights=1,2").unwrap(), parse_axis::<Two>("tile-size=8,32").unwrap()];
         let p = points(&axes).unwrap();
         assert_eq!(p.len(), 4);
-        assert_eq!(p[1], ["1", "deferred"]);
-        let a = args_at(&SceneArgs::default(), &axes, &p[3]).unwrap();
-        assert_eq!((a.lights, a.method), (Some(2), MethodArg::Deferred));
-        let merged = merge_axes(axes.clone(), vec![parse_axis("lights=8").unwrap(), parse_axis("seed=3").unwrap()]);
-        assert_eq!(merged.iter().map(|a| a.values.len()).collect::<Vec<_>>(), [1, 2, 1]);
-        assert!(points(&[axes[0].clone(), axes[0].clone()]).is_err());
-    }
-
-    #[test]
-    fn shadows_are_axes() {
-        // Spot casters parse before the spot lights they need are known...
-        let axes = vec![
-            parse_axis("shadow-spot-lights=1..8").unwrap(),
-            parse_axis("shadow-size=128,1024").unwrap(),
-            parse_axis("shadow-filter=1,5").unwrap(),
-            parse_axis("shadow-format=d16,d32").unwrap(),
-            parse_axis("shadow-point-lights=2").unwrap(),
-        ];
-        assert_eq!(axes[0].values, ["1", "2", "4", "8"]);
-        let p = points(&axes).unwrap();
-        assert_eq!(p.len(), 4 * 2 * 2 * 2);
-        let base = SceneArgs { spot_lights: Some(8), ..SceneArgs::default() };
-        let a = args_at(&base, &axes, &p[p.len() - 1]).unwrap();
-        assert_eq!(
-            (a.shadow_spot_lights, a.shadow_size, a.shadow_filter, a.shadow_format, a.shadow_point_lights),
-            (8, 1024, 5, ShadowFormatArg::D32, 2)
-        );
-        // ...and are checked against them with the point's settings.
-        let e = format!("{:#}", args_at(&SceneArgs::default(), &axes, &p[0]).unwrap_err());
-        assert!(e.contains("--shadow-spot-lights 1: more than the scene's 0 spot lights"), "{e}");
-    }
-
-    #[test]
-    fn layouts_and_assignment_are_axes() {
-        let a = parse_axis("grid=tiled,half-z,2.5d,clustered").unwrap();
-        assert_eq!(a.values.len(), 4);
-        assert!(parse_axis("assign=gather,scatter").is_ok());
-        assert!(parse_axis("cluster-slices=8..32").is_ok() && is_numeric_axis("cluster-first"));
-        let mut args = SceneArgs { half_z: true, ..SceneArgs::default() };
-        apply(&mut args, "grid", "2.5d").unwrap();
-        assert_eq!((args.grid, args.half_z), (GridArg::DepthMask, false));
-        apply(&mut args, "assign", "scatter").unwrap();
-        assert_eq!(args.assign, AssignArg::Scatter);
-        let e = format!("{:#}", parse_axis("grid=hexagonal").unwrap_err());
-        assert!(e.contains("grid 'hexagonal'"), "{e}");
-    }
-
-    #[test]
-    fn vpl_settings_are_axes() {
-        let mut args = SceneArgs::default();
-        for (name, value) in [
-            ("vpl", "on"),
-            ("vpl-block", "4"),
-            ("vpl-rsm-size", "64"),
-            ("vpl-cap", "1000"),
-            ("vpl-colour-threshold", "0.5"),
-            ("vpl-brightness-threshold", "0.25"),
-            ("vpl-shading", "physical"),
-        ] {
-            apply(&mut args, name, value).unwrap();
-        }
-        let c = args.vpl.config().expect("--vpl on");
-        assert_eq!((c.block, c.rsm_size, c.cap), (4, 64, 1000));
-        assert_eq!((c.colour_threshold, c.brightness_threshold), (0.5, 0.25));
-        assert_eq!(c.shading, tiledlight_cull::vpl::VplShading::Physical);
-        assert_eq!(parse_axis("vpl-block=1..8").unwrap().values, ["1", "2", "4", "8"]);
-        assert!(is_numeric_axis("vpl-brightness-threshold") && !is_numeric_axis("vpl-shading"));
-        let e = format!("{:#}", apply(&mut args, "vpl-shading", "fancy").unwrap_err());
-        assert!(e.contains("vpl-shading 'fancy'"), "{e}");
-    }
-
-    #[test]
-    fn blended_geometry_is_an_axis() {
-        let axes = vec![
-            parse_axis("transparent-objects=0,10,50,280").unwrap(),
-            parse_axis("blend-mode=sorted,wboit").unwrap(),
-        ];
-        assert!(is_numeric_axis("transparent-objects") && !is_numeric_axis("blend-mode"));
-        assert_eq!(parse_axis("transparent-objects=10..40").unwrap().values, ["10", "20", "40"]);
-        let p = points(&axes).unwrap();
-        assert_eq!(p.len(), 8);
-        // The count parses before the grid objects it needs are known...
-        let base = SceneArgs { grid_objects: 280, ..SceneArgs::default() };
-        let a = args_at(&base, &axes, &p[p.len() - 1]).unwrap();
-        assert_eq!((a.transparent_objects, a.blend_mode), (280, BlendModeArg::Wboit));
-        // ...and is checked against them with the point's settings.
-        let e = format!("{:#}", args_at(&SceneArgs { grid_objects: 50, ..base }, &axes, &p[6]).unwrap_err());
-        assert!(
-            e.contains("--transparent-objects 280: must be between 0 and the grid objects (--grid-objects 50)"),
-            "{e}"
-        );
-        let e = format!("{:#}", parse_axis("blend-mode=additive").unwrap_err());
-        assert!(e.contains("blend-mode 'additive'"), "{e}");
+        assert_eq!(args_at(&Two::default(), &axes, &p[3]).unwrap(), Two { lights: 2, tile: 32 });
+        assert_eq!(describe(&axes, &p[1]), "lights=1 tile-size=32");
+        assert_eq!(args_at(&Two::default(), &axes, &p[2]).unwrap().settings().unwrap().tile_size, 8);
     }
 
     #[test]

@@ -1,5 +1,5 @@
-//! Records the git commit the binary is built from, so benchmark JSON written on another
-//! machine (without the repository) still names it. Empty when git is unavailable.
+//! Records the git commit the lab is built from (`bench::commit_hash`), so benchmark JSON
+//! written on another machine (without the repository) still names it. Empty when git is unavailable.
 
 use std::process::Command;
 

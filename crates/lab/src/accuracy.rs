@@ -31,8 +31,8 @@
 //! (or out of GPU memory) ends the run naming it; the settings measured so far stay in the
 //! CSV and the same command resumes after them.
 //!
-//! May depend on [`crate::lab`], [`crate::bench`], [`crate::chart`], [`crate::dropped`],
-//! [`crate::scene_setup`], tiledlight-setup, tiledlight-cull and tiledlight-metrics.
+//! May depend on [`crate::axes`], [`crate::bench`], [`crate::chart`], [`crate::dropped`],
+//! [`crate::output`], tiledlight-setup, tiledlight-cull and tiledlight-metrics.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -40,16 +40,14 @@ use tiledlight_frame::Diagnostics as _;
 use tiledlight_gpu::features::BlendMode;
 
 use anyhow::{ensure, Context, Result};
-use clap::Args;
 use tiledlight_cull::reference::{cull_tiles, list_quality, ListQuality};
 use tiledlight_metrics::{flip, HdrError};
 use tiledlight_setup::{group_digits, Method, Prepared, Settings};
 
+use crate::axes::{self, Axis, Flags, ResumableCsv};
 use crate::bench::{self, MAX_FRAMES};
 use crate::chart::{self, ParetoChart, ParetoPoint};
 use crate::dropped;
-use crate::lab::{self, Axis, ResumableCsv};
-use crate::scene_setup::SceneArgs;
 
 /// The settings measured when no `--axis` is given: thirteen thresholds, about halving
 /// (radii from 0.5x to 32x the default 0.1's; at 1e-4 every light of the default scene
@@ -62,52 +60,28 @@ pub const DEFAULT_AXES: [&str; 2] = [
 /// The FLIP percentile recorded besides the mean.
 pub const PERCENTILE: f32 = 0.99;
 
-/// Flags of `tiledlight accuracy`.
-#[derive(Args, Clone, Debug)]
-pub struct AccuracyArgs {
-    /// Scene, lights, screen and renderer: the settings every point starts from.
-    #[command(flatten)]
-    pub scene: SceneArgs,
-    /// A setting to vary, NAME=VALUES (as for `sweep`) [default: threshold=0.4,0.2,...,0.0001
-    /// (13 values) and culling=planes,aabb,half-z]. Given axes replace default ones of the same name
-    /// and add to the others.
-    #[arg(long = "axis", value_name = "NAME=VALUES")]
+/// An accuracy run (the app's `accuracy` flags besides the scene's).
+#[derive(Clone, Debug)]
+pub struct Accuracy {
+    /// Axes, `NAME=VALUES` each; they replace [`DEFAULT_AXES`] of the same name.
     pub axes: Vec<String>,
     /// Measured frames per setting.
-    #[arg(long, default_value_t = 20, value_name = "N")]
     pub frames: u32,
     /// Frames rendered before measuring each setting.
-    #[arg(long, default_value_t = 5, value_name = "N")]
     pub warmup: u32,
-    /// Measured frames of the brute-force reference (slow: every light for every pixel).
-    #[arg(long, default_value_t = 3, value_name = "N")]
+    /// Measured frames of the brute-force reference.
     pub reference_frames: u32,
-    /// The reference: `no-cutoff` (brute force, plain inverse-square: what the radius
-    /// cutoff costs is part of the error) or `cutoff` (brute force with the same radii:
-    /// the error is only what the method's other approximations cost, e.g. the G-buffer's
-    /// 8-bit albedo or the MSAA edge test, which the cutoff's error would swamp). The
-    /// reference has the setting's MSAA.
-    #[arg(long, value_enum, default_value_t = ReferenceArg::NoCutoff)]
-    pub reference: ReferenceArg,
-    /// With VPLs, the RSM size of the reference (every texel a VPL): `Nx` for N times the
-    /// setting's own (1x, 2x, 4x, 8x; at most 512 texels a side), or a size for every
-    /// setting (4..512), so that an RSM-size axis is measured against one reference and
-    /// the RSM size's own error shows. 1x: the setting's own RSM, whose error is then only
-    /// block, thresholds, cap, model and culling.
-    #[arg(long, default_value = "1x", value_name = "Nx|SIZE", value_parser = parse_vpl_reference)]
+    /// The reference's radius cutoff.
+    pub reference: ReferenceKind,
+    /// With VPLs, the RSM size of the reference.
     pub vpl_reference_rsm: VplReference,
     /// The FLIP mean the recommendation must stay under.
-    #[arg(long, default_value_t = 0.01, value_name = "E")]
     pub target_flip: f64,
-    /// CSV output, resumed when it exists with the same columns [default: out/accuracy.csv].
-    #[arg(long, value_name = "FILE.csv")]
+    /// CSV output [default: out/accuracy.csv].
     pub out: Option<PathBuf>,
     /// Pareto chart [default: the CSV path with .png].
-    #[arg(long, value_name = "FILE.png")]
     pub chart: Option<PathBuf>,
-    /// Directory of the FLIP heat maps of the frontier's settings [default: the CSV path
-    /// without extension, plus "-flip"].
-    #[arg(long, value_name = "DIR")]
+    /// Directory of the FLIP heat maps [default: the CSV path without extension + "-flip"].
     pub diff_dir: Option<PathBuf>,
 }
 
@@ -132,7 +106,7 @@ impl VplReference {
 }
 
 /// Parses `--vpl-reference-rsm`: "4x" or "128".
-fn parse_vpl_reference(v: &str) -> Result<VplReference, String> {
+pub fn parse_vpl_reference(v: &str) -> Result<VplReference, String> {
     let sizes = tiledlight_cull::vpl::RSM_SIZES;
     match v.strip_suffix('x') {
         Some(k) => match k.parse() {
@@ -147,8 +121,8 @@ fn parse_vpl_reference(v: &str) -> Result<VplReference, String> {
 }
 
 /// What the settings are compared with.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum ReferenceArg {
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReferenceKind {
     /// Brute force without the radius cutoff.
     NoCutoff,
     /// Brute force with the same radius cutoff as the setting.
@@ -210,14 +184,14 @@ struct Reference {
 /// the setting's shadows (casters, tile size, filter, format): the error is the method's,
 /// not the shadow map's, which the shadow axes' times are measured against. It draws the
 /// setting's transparent objects, always sorted (so the blend mode is not part of the key).
-fn reference_key(a: &Settings, reference: ReferenceArg, vpl_ref: VplReference) -> String {
+fn reference_key(a: &Settings, reference: ReferenceKind, vpl_ref: VplReference) -> String {
     // With the cutoff the radii, so the threshold, shape the reference too; lights on
     // surfaces take their radius from k and their intensity from the threshold, so both
     // always shape it.
     // A loaded scene's random lights have radii fitted to it and intensities from the
     // threshold, wherever they are placed.
     let fitted = matches!(a.scene, tiledlight_setup::SceneSource::File(_));
-    let threshold = if reference == ReferenceArg::Cutoff || a.placement.on_surfaces() || fitted {
+    let threshold = if reference == ReferenceKind::Cutoff || a.placement.on_surfaces() || fitted {
         format!("{}|{:?}|", a.threshold, a.placement)
     } else {
         String::new()
@@ -279,10 +253,10 @@ fn pass_times(m: &bench::Measurement) -> Result<(f64, String)> {
 
 /// The VPLs of the reference of a setting with VPLs: one bounce from every texel of the
 /// How the reference treats the lights' radii, as the output and the chart say it.
-fn reference_kind(r: ReferenceArg) -> &'static str {
+fn reference_kind(r: ReferenceKind) -> &'static str {
     match r {
-        ReferenceArg::NoCutoff => "no cutoff",
-        ReferenceArg::Cutoff => "same cutoff",
+        ReferenceKind::NoCutoff => "no cutoff",
+        ReferenceKind::Cutoff => "same cutoff",
     }
 }
 
@@ -314,12 +288,12 @@ fn reference_vpl(a: &Settings, vpl_ref: VplReference) -> Option<tiledlight_cull:
 fn render_reference(
     prep: &mut Prepared,
     point_args: &Settings,
-    (reference, vpl_ref): (ReferenceArg, VplReference),
+    (reference, vpl_ref): (ReferenceKind, VplReference),
     frames: u32,
 ) -> Result<Reference> {
     let method = match reference {
-        ReferenceArg::NoCutoff => Method::BruteForce { cutoff: false },
-        ReferenceArg::Cutoff => Method::BruteForce { cutoff: true },
+        ReferenceKind::NoCutoff => Method::BruteForce { cutoff: false },
+        ReferenceKind::Cutoff => Method::BruteForce { cutoff: true },
     };
     // Blended geometry in the reference is exact "over" (sorted back to front), whatever
     // the setting's blend mode.
@@ -384,7 +358,7 @@ fn f(v: f64, digits: usize) -> String {
 }
 
 /// Runs `tiledlight accuracy`.
-pub fn run(args: &AccuracyArgs) -> Result<()> {
+pub fn run<F: Flags>(scene: &F, args: &Accuracy) -> Result<()> {
     ensure!((1..=MAX_FRAMES).contains(&args.frames), "--frames {}: must be between 1 and {MAX_FRAMES}", args.frames);
     ensure!(args.warmup <= MAX_FRAMES, "--warmup {}: must be at most {MAX_FRAMES}", args.warmup);
     ensure!(
@@ -397,18 +371,18 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
         "--target-flip {}: must be in (0, 1]",
         args.target_flip
     );
-    let defaults: Vec<Axis> = DEFAULT_AXES.iter().map(|s| lab::parse_axis(s)).collect::<Result<_>>()?;
-    let given: Vec<Axis> = args.axes.iter().map(|s| lab::parse_axis(s)).collect::<Result<_>>()?;
-    let axes = lab::merge_axes(defaults, given);
-    let points = lab::points(&axes)?;
+    let defaults: Vec<Axis> = DEFAULT_AXES.iter().map(|s| axes::parse_axis::<F>(s)).collect::<Result<_>>()?;
+    let given: Vec<Axis> = args.axes.iter().map(|s| axes::parse_axis::<F>(s)).collect::<Result<_>>()?;
+    let axes = axes::merge_axes(defaults, given);
+    let points = axes::points(&axes)?;
     let all_args: Vec<Settings> =
-        points.iter().map(|p| lab::args_at(&args.scene, &axes, p).and_then(|a| a.settings())).collect::<Result<_>>()?;
+        points.iter().map(|p| axes::args_at(scene, &axes, p).and_then(|a| a.settings())).collect::<Result<_>>()?;
     ensure!(
         all_args.iter().all(|a| a.method != Method::BruteForce { cutoff: false }),
         "method brute-force-no-cutoff is the reference itself: leave it out of the settings"
     );
     let out = args.out.clone().unwrap_or_else(|| PathBuf::from("out/accuracy.csv"));
-    let chart_path = args.chart.clone().unwrap_or_else(|| lab::sibling(&out, "png"));
+    let chart_path = args.chart.clone().unwrap_or_else(|| axes::sibling(&out, "png"));
     let ext = chart_path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     ensure!(ext.as_deref() == Some("png"), "--chart {}: only .png charts are supported", chart_path.display());
     let diff_dir = args.diff_dir.clone().unwrap_or_else(|| {
@@ -436,10 +410,10 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
     let mut adapter = String::new();
     let mut warnings = 0;
     let mut warned_scene: Option<tiledlight_setup::SceneSource> = None;
-    let pb = lab::progress(pending.len());
+    let pb = axes::progress(pending.len());
     for (done, &i) in pending.iter().enumerate() {
         let (point, pargs) = (&points[i], &all_args[i]);
-        let what = lab::describe(&axes, point);
+        let what = axes::describe(&axes, point);
         pb.set_message(what.clone());
         let mut state = RunState {
             prep: &mut prep,
@@ -452,23 +426,24 @@ pub fn run(args: &AccuracyArgs) -> Result<()> {
             warned_scene: &mut warned_scene,
         };
         match measure_setting(&mut state, (point, pargs, &what), args, &out, &pb) {
-            Ok(Some(w)) => lab::warn(&pb, &mut warnings, &format!("{what}: {w}")),
+            Ok(Some(w)) => axes::warn(&pb, &mut warnings, &format!("{what}: {w}")),
             Ok(None) => {}
             Err(e) => {
                 pb.finish_and_clear();
                 let done = points.len() - pending.len() + done;
-                let progress = lab::Progress { point: &what, done, total: points.len(), csv: &out };
-                return Err(lab::interrupted(e, prep.as_ref(), &progress));
+                let progress = axes::Progress { point: &what, done, total: points.len(), csv: &out };
+                return Err(axes::interrupted(e, prep.as_ref(), &progress));
             }
         }
         pb.inc(1);
     }
     pb.finish_and_clear();
     let rows = csv.read_all()?;
-    let summary = report(&chart_path, &diff_dir, &axes, &rows, &heat, args)?;
+    let base = (scene.scene_label(), scene.plain().method);
+    let summary = report(&chart_path, &diff_dir, &axes, &rows, &heat, (args, base))?;
     println!("{summary}");
     println!("wrote {} and {}", out.display(), chart_path.display());
-    dropped::strict(args.scene.strict, warnings)
+    dropped::strict(all_args.iter().any(|a| a.strict), warnings)
 }
 
 /// What the settings of a run share: the GPU, the CSV, the references and sorted frames
@@ -489,8 +464,8 @@ struct RunState<'a> {
 /// dropped lights.
 fn measure_setting(
     st: &mut RunState<'_>,
-    (point, pargs, what): (&lab::Point, &Settings, &String),
-    args: &AccuracyArgs,
+    (point, pargs, what): (&axes::Point, &Settings, &String),
+    args: &Accuracy,
     out: &Path,
     pb: &indicatif::ProgressBar,
 ) -> Result<Option<String>> {
@@ -504,8 +479,8 @@ fn measure_setting(
                 let p = Prepared::new(pargs).with_context(|| what.clone())?;
                 **adapter = p.ctx.info.name.clone();
                 let size = [adapter.as_str(), &pargs.width.to_string(), &pargs.height.to_string()];
-                lab::check_same_setup(&csv.existing, [0, 1, 2], size, out)?;
-                lab::say(pb, format!("adapter:    {}", p.ctx.describe()));
+                axes::check_same_setup(&csv.existing, [0, 1, 2], size, out)?;
+                axes::say(pb, format!("adapter:    {}", p.ctx.describe()));
                 prep.insert(p)
             }
         };
@@ -515,7 +490,7 @@ fn measure_setting(
                 .with_context(|| format!("{what}: reference"))?;
             let kind = reference_kind(args.reference);
             let vpls = reference_vpl_line(pargs, args.vpl_reference_rsm).map(|l| format!("; {l}")).unwrap_or_default();
-            lab::say(pb, format!("reference (brute force, {kind}{vpls}): {:.3} ms", r.total_ms));
+            axes::say(pb, format!("reference (brute force, {kind}{vpls}): {:.3} ms", r.total_ms));
             references.insert(rkey.clone(), r);
         }
         let reference = &references[&rkey];
@@ -533,7 +508,7 @@ fn measure_setting(
         // The scene may have been loaded here, at the start or for the reference: show its
         // warnings once per scene.
         if warned_scene.as_ref() != Some(&pargs.scene) {
-            pb.suspend(|| crate::scene_setup::print_load_warnings(&p.scene_warnings));
+            pb.suspend(|| crate::output::print_load_warnings(&p.scene_warnings));
             **warned_scene = Some(pargs.scene.clone());
         }
         let mut renderer = p.renderer(false).with_context(|| what.clone())?;
@@ -610,7 +585,7 @@ fn measure_setting(
             format!("; vs sorted ({ms:.3} ms): FLIP mean {:.5} p99 {:.4}", v.mean, v.percentile)
         });
         let mark = dropped.mark().map(|d| format!(" ({d}: incomplete frames)")).unwrap_or_default();
-        lab::say(
+        axes::say(
             pb,
             format!(
                 "{what}: {total:.3} ms{mark}, FLIP mean {:.5} p99 {:.4}, PSNR {:.2} dB, energy lost {:.3}%{vs}",
@@ -621,7 +596,7 @@ fn measure_setting(
             ),
         );
         let max_binding = p.ctx.device.limits().max_storage_buffer_binding_size;
-        let refused = vpls.and_then(|c| crate::vpl_args::refused_line("the measured frames", c));
+        let refused = vpls.and_then(|c| crate::dropped::refused_line("the measured frames", c));
         Ok(crate::dropped::join_warnings(
             dropped.warning("the measured frames", p.settings.grid_pairs, max_binding),
             refused,
@@ -699,7 +674,7 @@ fn report(
     axes: &[Axis],
     rows: &[Vec<String>],
     heat: &HashMap<Vec<String>, Vec<u8>>,
-    args: &AccuracyArgs,
+    (args, (scene, method)): (&Accuracy, (String, Method)),
 ) -> Result<String> {
     let head = header(axes);
     let col = |name: &str| head.iter().position(|h| h == name).expect("known column");
@@ -731,7 +706,7 @@ fn report(
         .collect();
     let frontier = chart::pareto_frontier(&points);
     let chosen = frontier.iter().copied().find(|&i| points[i].error < args.target_flip);
-    let describe = |i: usize| lab::describe(axes, &rows[i][n..n + axes.len()].to_vec());
+    let describe = |i: usize| axes::describe(axes, &rows[i][n..n + axes.len()].to_vec());
     let note = match chosen {
         Some(i) => format!(
             "fastest under FLIP mean {}: {} at {:.3} ms (FLIP mean {:.4})",
@@ -755,13 +730,12 @@ fn report(
     let lights = first.map(|r| group_digits(r[col("lights")].parse().unwrap_or(0))).unwrap_or_default();
     let fixed: Vec<String> =
         axes.iter().filter(|a| a.values.len() == 1).map(|a| format!("{}={}", a.name, a.values[0])).collect();
-    let s = &args.scene;
     let c = ParetoChart {
         title: format!("Speed vs accuracy: {adapter}, {res}"),
         subtitle: format!(
             "{} scene, {lights} lights, {}{}{}; error vs brute force, {}; labels: intensity threshold T",
-            s.scene,
-            Method::from(s.method).name(),
+            scene,
+            method.name(),
             if fixed.is_empty() { "" } else { ", " },
             fixed.join(", "),
             reference_kind(args.reference)
@@ -794,7 +768,7 @@ fn report(
         let Some(rgb) = heat.get(&key) else { continue };
         let name = format!("flip-{}.png", describe(i).replace(' ', "_").replace(['=', '+'], "-"));
         let img = image::RgbImage::from_raw(w, h, rgb.clone()).context("building a heat map image")?;
-        crate::scene_setup::save_png(&diff_dir.join(name), &img)?;
+        crate::output::save_png(&diff_dir.join(name), &img)?;
         wrote += 1;
     }
     let mut out = culling.map_or(String::new(), |line| format!("{line}\n"));
@@ -818,7 +792,7 @@ mod tests {
     #[test]
     fn the_reference_follows_the_transparent_objects_not_the_blend_mode() {
         let s = Settings { grid_objects: 50, transparent_objects: 10, ..Settings::default() };
-        let key = |s: &Settings| reference_key(s, ReferenceArg::NoCutoff, VplReference::Scale(1));
+        let key = |s: &Settings| reference_key(s, ReferenceKind::NoCutoff, VplReference::Scale(1));
         let oit = Settings { blend_mode: BlendMode::WeightedOit, ..s.clone() };
         assert_eq!(key(&s), key(&oit), "the reference is always sorted");
         assert_ne!(key(&s), key(&Settings { transparent_objects: 20, ..s.clone() }));
@@ -838,7 +812,7 @@ mod tests {
         .expect("a VPL reference");
         assert_eq!((r.block, r.colour_threshold, r.brightness_threshold), (1, 0.0, 0.0));
         assert_eq!((r.cap, r.shading), (4 * 32 * 32, VplShading::Physical));
-        let key = |s: &Settings| reference_key(s, ReferenceArg::NoCutoff, VplReference::Scale(1));
+        let key = |s: &Settings| reference_key(s, ReferenceKind::NoCutoff, VplReference::Scale(1));
         // Block, thresholds, cap and model are what the setting's error measures; the RSM
         // size makes another reference.
         let a = with(VplConfig { block: 2, ..VplConfig::default() });
@@ -872,7 +846,7 @@ mod tests {
             reference_vpl_line(&big, VplReference::Scale(8)).unwrap(),
             "VPLs: every texel of 512x512 RSMs (8x the setting's 256, capped at 512), physical shading"
         );
-        let key = |s: &Settings, r| reference_key(s, ReferenceArg::NoCutoff, r);
+        let key = |s: &Settings, r| reference_key(s, ReferenceKind::NoCutoff, r);
         assert_ne!(key(&a, VplReference::Scale(1)), key(&a, x4), "another scale, another reference");
         // One size for every setting: an RSM-size axis shares one reference.
         let a16 = with(VplConfig { rsm_size: 16, ..VplConfig::default() });
@@ -910,7 +884,7 @@ mod tests {
 
     #[test]
     fn the_vs_sorted_columns_follow_the_reference_ones() {
-        let axes = [lab::parse_axis("blend-mode=sorted,wboit").unwrap()];
+        let axes = [Axis { name: "blend-mode".into(), values: vec!["sorted".into(), "wboit".into()] }];
         let h = header(&axes);
         let at = |c: &str| h.iter().position(|x| x == c).unwrap_or_else(|| panic!("no column {c}"));
         assert_eq!(h[HEAD.len()], "blend-mode");

@@ -15,7 +15,8 @@
 //! lower `--vpl-cap`) and never grows: its drops are named apart, with what lowers them.
 //! The CSVs' `dropped_*` cells sum the grids; bench's JSON has each grid's own fields.
 //!
-//! May depend on tiledlight-gpu (the grid's header, the renderer) and tiledlight-setup.
+//! May depend on [`crate::output`], tiledlight-gpu (the grid's header, the renderer) and
+//! tiledlight-setup.
 
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
@@ -240,7 +241,7 @@ impl Dropped {
 
 /// Prints `line` as one `warning:` line on stderr and counts it.
 pub fn warn(count: &mut usize, line: &str) {
-    eprintln!("warning: {}", crate::one_line(line));
+    eprintln!("warning: {}", crate::output::one_line(line));
     *count += 1;
 }
 
@@ -260,6 +261,28 @@ pub fn strict(strict: bool, warnings: usize) -> Result<()> {
         bail!("--strict: {warnings} warning{s} above (the output files were written)");
     }
     Ok(())
+}
+
+/// The `warning:` line for VPLs the cap refused in the last frame of `renderer` (None:
+/// none refused, or no VPLs). Reads the count back: call after the frames, not in them.
+pub fn refused_warning(
+    renderer: &FrameRenderer,
+    ctx: &tiledlight_gpu::GpuContext,
+    what: &str,
+) -> anyhow::Result<Option<String>> {
+    Ok(renderer.vpl_count(ctx)?.and_then(|count| refused_line(what, count)))
+}
+
+/// The `warning:` line for a frame (`what`) that made `kept` VPLs and refused `refused`
+/// (None when none were refused).
+pub fn refused_line(what: &str, (kept, refused): (u32, u32)) -> Option<String> {
+    (refused > 0).then(|| {
+        format!(
+            "{what}: the VPL cap (--vpl-cap {kept}) refused {refused} of {} VPLs; their light is missing \
+             (raise --vpl-cap, --vpl-block or a --vpl-*-threshold)",
+            kept + refused
+        )
+    })
 }
 
 #[cfg(test)]

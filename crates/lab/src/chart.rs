@@ -12,7 +12,7 @@
 //!
 //! A point measured over frames that dropped lights (a light grid full: the time of an
 //! incomplete frame) is ringed in red, with a legend entry saying so, on both charts. May
-//! depend on plotters and image only.
+//! depend on plotters, image and [`crate::output`] (PNG output) only.
 
 use std::path::Path;
 use std::sync::OnceLock;
@@ -241,7 +241,7 @@ fn save(
         root.present().map_err(|e| anyhow!("drawing the chart: {e}"))?;
     }
     let img = image::RgbImage::from_raw(SIZE.0, SIZE.1, buf).context("building the chart image")?;
-    crate::scene_setup::save_png(path, &img)
+    crate::output::save_png(path, &img)
 }
 
 fn err<E: std::fmt::Display>(e: E) -> anyhow::Error {

@@ -11,7 +11,7 @@
 //!    two BRDFs differ, so this shows both light the same places, not that they are equal;
 //!    Bevy against Bevy (matched vs. with a prepass) is the baseline of the same renderer.
 //!
-//! No GPU. May depend on [`crate::chart`], [`crate::scene_setup`], tiledlight-metrics,
+//! No GPU. May depend on [`crate::chart`], [`crate::output`], tiledlight-metrics,
 //! image and serde_json.
 
 use std::collections::BTreeSet;
@@ -19,21 +19,9 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, ensure, Context, Result};
-use clap::Args;
 use serde_json::Value;
 
 use crate::chart::{self, AxisSpec, LineChart, Scale, Series};
-
-/// Flags of `tiledlight peer-report`.
-#[derive(Args, Clone, Debug)]
-pub struct PeerReportArgs {
-    /// The folder with the peer benchmark's JSON and PNG files (`bevy-N.json`,
-    /// `tl-fp-N.json`, ...: `scripts/peer-bench.sh`'s archives unpacked).
-    pub dir: PathBuf,
-    /// Where the report, chart and heat maps go (default: DIR).
-    #[arg(long, value_name = "DIR")]
-    pub out: Option<PathBuf>,
-}
 
 /// Which renderer a run is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -328,39 +316,6 @@ struct FlipRow {
     heat: PathBuf,
 }
 
-/// `test` with each colour channel remapped so that its histogram is `reference`'s (each
-/// value goes to the reference value at the same cumulative share of pixels). A monotone
-/// change of tone curve, exposure or per-channel gain (the renderers' tonemappers differ)
-/// disappears; where the light falls does not: a FLIP after this compares places.
-fn match_histograms(reference: &[u8], test: &[u8]) -> Vec<u8> {
-    let mut out = test.to_vec();
-    for c in 0..3 {
-        let cdf = |img: &[u8]| {
-            let mut h = [0u64; 256];
-            for p in img.chunks_exact(4) {
-                h[p[c] as usize] += 1;
-            }
-            let mut acc = 0;
-            h.map(|n| {
-                acc += n;
-                acc
-            })
-        };
-        let (cr, ct) = (cdf(reference), cdf(test));
-        let (nr, nt) = (cr[255].max(1) as f64, ct[255].max(1) as f64);
-        let map: Vec<u8> = (0..256)
-            .map(|v| {
-                let share = ct[v] as f64 / nt;
-                cr.iter().position(|&n| n as f64 / nr >= share - 1e-12).unwrap_or(255) as u8
-            })
-            .collect();
-        for p in out.chunks_exact_mut(4) {
-            p[c] = map[p[c] as usize];
-        }
-    }
-    out
-}
-
 /// Per light count, every run's frame decoded once: its mean luma, and FLIP of the pairs
 /// in [`FLIP_PAIRS`] (heat maps written to `out`).
 fn compare_frames(res: &Results, dir: &Path, out: &Path) -> Result<(Vec<FlipRow>, Vec<LumaRow>)> {
@@ -384,11 +339,13 @@ fn compare_frames(res: &Results, dir: &Path, out: &Path) -> Result<(Vec<FlipRow>
             );
             let map = tiledlight_metrics::flip(wa, ha, ra, rb);
             let s = map.summary(0.99);
-            let matched = tiledlight_metrics::flip(wa, ha, ra, &match_histograms(ra, rb)).summary(0.99);
+            let matched =
+                tiledlight_metrics::flip(wa, ha, ra, &tiledlight_metrics::histogram::match_histograms(ra, rb))
+                    .summary(0.99);
             let heat = image::RgbImage::from_raw(wa, ha, map.heat_rgb()).context("building the FLIP heat map")?;
             let half = image::imageops::resize(&heat, (wa / 2).max(1), (ha / 2).max(1), image::imageops::Triangle);
             let heat_path = out.join(format!("flip-{a}-vs-{b}-{n}.png"));
-            crate::scene_setup::save_png(&heat_path, &half)?;
+            crate::output::save_png(&heat_path, &half)?;
             rows.push(FlipRow {
                 count: n,
                 what,
@@ -461,17 +418,15 @@ fn chart(res: &Results, path: &Path, adapter: &str) -> Result<()> {
     chart::line_chart(path, &c)
 }
 
-/// Runs `tiledlight peer-report`.
-pub fn run(args: &PeerReportArgs) -> Result<()> {
-    if !args.dir.is_dir() {
-        bail!(
-            "{}: no such folder (unpack scripts/peer-bench.sh's peer-N.tar.gz archives into one)",
-            args.dir.display()
-        );
+/// Runs `tiledlight peer-report DIR [--out OUT]`: reads `dir`, writes the report, chart
+/// and heat maps to `out` (default: `dir`).
+pub fn run(dir: &Path, out: Option<&Path>) -> Result<()> {
+    if !dir.is_dir() {
+        bail!("{}: no such folder (unpack scripts/peer-bench.sh's peer-N.tar.gz archives into one)", dir.display());
     }
-    let out = args.out.clone().unwrap_or_else(|| args.dir.clone());
+    let out = out.unwrap_or(dir).to_path_buf();
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-    let res = Results::read(&args.dir)?;
+    let res = Results::read(dir)?;
     let adapter = res.field(Who::Bevy, &["adapter"]).or_else(|| res.field(Who::ForwardPlus, &["config", "adapter"]));
     let adapter = adapter.unwrap_or_else(|| "adapter not recorded".into());
     let mut md = String::from("# Peer benchmark: tiledlight and Bevy on one scene\n\n");
@@ -487,7 +442,7 @@ pub fn run(args: &PeerReportArgs) -> Result<()> {
         writeln!(md, "- Bevy: {}", res.field(Who::Bevy, &["bevy_version"]).unwrap_or_else(|| "not recorded".into()));
     let _ = writeln!(md, "- light counts: {:?}\n", res.counts);
     md.push_str(&tables(&res));
-    let (rows, lumas) = compare_frames(&res, &args.dir, &out)?;
+    let (rows, lumas) = compare_frames(&res, dir, &out)?;
     if !rows.is_empty() {
         let _ = writeln!(md, "\n## FLIP between the frames (0 = the same, 1 = as different as can be)\n");
         let _ = writeln!(md, "| lights | images | mean | 99th percentile | mean, tone curves matched | heat map |");
@@ -518,45 +473,4 @@ pub fn run(args: &PeerReportArgs) -> Result<()> {
     print!("{md}");
     println!("\nwrote {}, {} and {} FLIP heat maps", report.display(), chart_path.display(), rows.len());
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::match_histograms;
-
-    /// A 64x36 RGBA8 gradient with a different ramp per channel.
-    fn gradient() -> Vec<u8> {
-        (0..36u32)
-            .flat_map(|y| (0..64u32).flat_map(move |x| [(x * 4) as u8, (y * 7) as u8, ((x + y) * 2) as u8, 255]))
-            .collect()
-    }
-
-    #[test]
-    fn a_monotone_tone_curve_is_undone_and_a_moved_light_is_not() {
-        let reference = gradient();
-        // Another tone curve: darker, a gamma per channel (monotone, so the order of
-        // values and their histogram ranks are kept).
-        let curved: Vec<u8> = reference
-            .chunks_exact(4)
-            .flat_map(|p| {
-                let f = |v: u8, g: f32| ((v as f32 / 255.0).powf(g) * 200.0).round() as u8;
-                [f(p[0], 1.8), f(p[1], 0.7), f(p[2], 1.3), 255]
-            })
-            .collect();
-        let matched = match_histograms(&reference, &curved);
-        let worst = reference.iter().zip(&matched).map(|(a, b)| (*a as i32 - *b as i32).abs()).max().unwrap();
-        // Only values the curve merged (a 0..200 range holds fewer levels) stay apart.
-        assert!(worst <= 8, "a tone curve left {worst} levels of difference");
-        let flip = |t: &[u8]| tiledlight_metrics::flip(64, 36, &reference, t).summary(0.99).mean;
-        assert!(flip(&matched) < 0.25 * flip(&curved), "{} vs {}", flip(&matched), flip(&curved));
-        // The same image with its ramp mirrored (light in other places): the histograms
-        // are the same, so matching changes nothing and the error stays.
-        let moved: Vec<u8> = (0..36u32)
-            .flat_map(|y| {
-                (0..64u32).flat_map(move |x| [((63 - x) * 4) as u8, (y * 7) as u8, ((63 - x + y) * 2) as u8, 255])
-            })
-            .collect();
-        assert_eq!(match_histograms(&reference, &moved), moved);
-        assert!(flip(&moved) > 0.1, "{}", flip(&moved));
-    }
 }

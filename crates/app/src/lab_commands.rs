@@ -1,0 +1,267 @@
+//! The flags of the measurement lab's subcommands (`bench`, `sweep`, `accuracy`,
+//! `shadow-accuracy`, `peer-report`) and their conversion into tiledlight-lab's plain run
+//! structs; the runs themselves are the lab's. The scene flags reach the lab as
+//! [`SceneArgs`], which implements the lab's `Flags` (in [`crate::scene_setup`]).
+//!
+//! May depend on [`crate::scene_setup`] and tiledlight-lab.
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+use clap::{Args, ValueEnum};
+use tiledlight_lab::accuracy::{self, ReferenceKind, VplReference};
+use tiledlight_lab::{bench, peer_report, shadow_accuracy, sweep};
+
+use crate::scene_setup::SceneArgs;
+
+/// Flags of `tiledlight bench`.
+#[derive(Args, Clone, Debug)]
+pub struct BenchArgs {
+    /// Scene, lights, screen and renderer.
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Measured frames.
+    #[arg(long, default_value_t = 200, value_name = "N")]
+    pub frames: u32,
+    /// Frames rendered before measuring (pipeline warm-up, caches, clocks).
+    #[arg(long, default_value_t = 20, value_name = "N")]
+    pub warmup: u32,
+    /// Also write the results as JSON to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Move the lights before every frame (warm-up and measured), as the viewer's animation
+    /// does: the shadow faces of every caster are drawn again each frame, so the shadow
+    /// pass is measured with moving lights (without it, still lights' faces are drawn once,
+    /// before the measured frames).
+    #[arg(long)]
+    pub move_lights: bool,
+}
+
+impl BenchArgs {
+    /// Runs `tiledlight bench`.
+    pub fn run(&self) -> Result<()> {
+        let job = bench::Bench {
+            frames: self.frames,
+            warmup: self.warmup,
+            json: self.json.clone(),
+            move_lights: self.move_lights,
+        };
+        bench::run(&self.scene, &job)
+    }
+}
+
+/// Named sweeps (`--preset`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PresetArg {
+    /// AMD's Figure 9: frame time vs light count (32 to 16,384, denser around the
+    /// sample's 1,792-light crossover; down to 32 because on an H100 the crossover lies
+    /// below 256), Forward+ and Tiled Deferred, the default scene plus 280 medium grid
+    /// objects (748,980 triangles), 4 G-buffer targets.
+    Figure9,
+}
+
+/// Flags of `tiledlight sweep`.
+#[derive(Args, Clone, Debug)]
+pub struct SweepArgs {
+    /// Scene, lights, screen and renderer: the settings every point starts from.
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// An axis to vary, NAME=VALUES: a list (method=forward-plus,deferred), a doubling range
+    /// (lights=64..65536) or N log-spaced values (lights=64..65536:9). Repeat for more axes;
+    /// every combination is measured. Names: lights, spot-lights, method, grid-objects,
+    /// density, gbuffer-rts, tile-size, threshold, culling, aabb, half-z, seed, msaa,
+    /// edge-distance, edge-normal-deg, shadow-point-lights, shadow-spot-lights, shadow-size,
+    /// shadow-filter, shadow-format, transparent-objects, blend-mode, vpl, vpl-rsm-size,
+    /// vpl-block, vpl-colour-threshold, vpl-brightness-threshold, vpl-cap, vpl-shading.
+    #[arg(long = "axis", value_name = "NAME=VALUES")]
+    pub axes: Vec<String>,
+    /// A named sweep; --axis replaces its axes of the same name.
+    #[arg(long, value_enum)]
+    pub preset: Option<PresetArg>,
+    /// Measured frames per point (the median of each pass is recorded).
+    #[arg(long, default_value_t = 30, value_name = "N")]
+    pub frames: u32,
+    /// Frames rendered before measuring each point.
+    #[arg(long, default_value_t = 10, value_name = "N")]
+    pub warmup: u32,
+    /// CSV output; an existing file with the same columns is resumed (points already in it
+    /// are skipped) [default: out/sweep.csv, or out/PRESET.csv].
+    #[arg(long, value_name = "FILE.csv")]
+    pub out: Option<PathBuf>,
+    /// Chart output [default: the CSV path with .png].
+    #[arg(long, value_name = "FILE.png")]
+    pub chart: Option<PathBuf>,
+    /// The axis on the chart's x [default: the first numeric axis with several values].
+    #[arg(long, value_name = "AXIS")]
+    pub x: Option<String>,
+}
+
+impl SweepArgs {
+    /// Runs `tiledlight sweep`.
+    pub fn run(&self) -> Result<()> {
+        let job = sweep::Sweep {
+            axes: self.axes.clone(),
+            preset: self.preset.map(|p| match p {
+                PresetArg::Figure9 => sweep::Preset::Figure9,
+            }),
+            frames: self.frames,
+            warmup: self.warmup,
+            out: self.out.clone(),
+            chart: self.chart.clone(),
+            x: self.x.clone(),
+        };
+        sweep::run(&self.scene, &job)
+    }
+}
+
+/// Flags of `tiledlight accuracy`.
+#[derive(Args, Clone, Debug)]
+pub struct AccuracyArgs {
+    /// Scene, lights, screen and renderer: the settings every point starts from.
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// A setting to vary, NAME=VALUES (as for `sweep`) [default: threshold=0.4,0.2,...,0.0001
+    /// (13 values) and culling=planes,aabb,half-z]. Given axes replace default ones of the same name
+    /// and add to the others.
+    #[arg(long = "axis", value_name = "NAME=VALUES")]
+    pub axes: Vec<String>,
+    /// Measured frames per setting.
+    #[arg(long, default_value_t = 20, value_name = "N")]
+    pub frames: u32,
+    /// Frames rendered before measuring each setting.
+    #[arg(long, default_value_t = 5, value_name = "N")]
+    pub warmup: u32,
+    /// Measured frames of the brute-force reference (slow: every light for every pixel).
+    #[arg(long, default_value_t = 3, value_name = "N")]
+    pub reference_frames: u32,
+    /// The reference: `no-cutoff` (brute force, plain inverse-square: what the radius
+    /// cutoff costs is part of the error) or `cutoff` (brute force with the same radii:
+    /// the error is only what the method's other approximations cost, e.g. the G-buffer's
+    /// 8-bit albedo or the MSAA edge test, which the cutoff's error would swamp). The
+    /// reference has the setting's MSAA.
+    #[arg(long, value_enum, default_value_t = ReferenceArg::NoCutoff)]
+    pub reference: ReferenceArg,
+    /// With VPLs, the RSM size of the reference (every texel a VPL): `Nx` for N times the
+    /// setting's own (1x, 2x, 4x, 8x; at most 512 texels a side), or a size for every
+    /// setting (4..512), so that an RSM-size axis is measured against one reference and
+    /// the RSM size's own error shows. 1x: the setting's own RSM, whose error is then only
+    /// block, thresholds, cap, model and culling.
+    #[arg(long, default_value = "1x", value_name = "Nx|SIZE", value_parser = accuracy::parse_vpl_reference)]
+    pub vpl_reference_rsm: VplReference,
+    /// The FLIP mean the recommendation must stay under.
+    #[arg(long, default_value_t = 0.01, value_name = "E")]
+    pub target_flip: f64,
+    /// CSV output, resumed when it exists with the same columns [default: out/accuracy.csv].
+    #[arg(long, value_name = "FILE.csv")]
+    pub out: Option<PathBuf>,
+    /// Pareto chart [default: the CSV path with .png].
+    #[arg(long, value_name = "FILE.png")]
+    pub chart: Option<PathBuf>,
+    /// Directory of the FLIP heat maps of the frontier's settings [default: the CSV path
+    /// without extension, plus "-flip"].
+    #[arg(long, value_name = "DIR")]
+    pub diff_dir: Option<PathBuf>,
+}
+
+/// What the settings are compared with (`--reference`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ReferenceArg {
+    /// Brute force without the radius cutoff.
+    NoCutoff,
+    /// Brute force with the same radius cutoff as the setting.
+    Cutoff,
+}
+
+impl AccuracyArgs {
+    /// Runs `tiledlight accuracy`.
+    pub fn run(&self) -> Result<()> {
+        let job = accuracy::Accuracy {
+            axes: self.axes.clone(),
+            frames: self.frames,
+            warmup: self.warmup,
+            reference_frames: self.reference_frames,
+            reference: match self.reference {
+                ReferenceArg::NoCutoff => ReferenceKind::NoCutoff,
+                ReferenceArg::Cutoff => ReferenceKind::Cutoff,
+            },
+            vpl_reference_rsm: self.vpl_reference_rsm,
+            target_flip: self.target_flip,
+            out: self.out.clone(),
+            chart: self.chart.clone(),
+            diff_dir: self.diff_dir.clone(),
+        };
+        accuracy::run(&self.scene, &job)
+    }
+}
+
+/// Flags of `tiledlight shadow-accuracy`.
+#[derive(Args, Clone, Debug)]
+pub struct ShadowAccuracyArgs {
+    /// Scene, lights and screen [default here: 960x540, 12 point + 12 spot casters, 128
+    /// spot lights]. Only the casters are lit; the method is brute force and MSAA must be
+    /// 1; --shadow-size/--shadow-filter/--shadow-format are replaced by --config.
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// A shadow configuration to measure, `TILExFILTER[:FORMAT]` (e.g. 512x3, 1024x5:d32;
+    /// FORMAT d16 or d32, default d16); repeat for several [default: 128, 256, 512 and
+    /// 1024 times 1, 3 and 5 with d16, and 1024x5:d32].
+    #[arg(long = "config", value_name = "TILExFILTER[:FORMAT]")]
+    pub configs: Vec<String>,
+    /// Measured frames per configuration (the lights move before each, so every shadow
+    /// face is drawn in each).
+    #[arg(long, default_value_t = 20, value_name = "N")]
+    pub frames: u32,
+    /// Frames rendered before measuring each configuration.
+    #[arg(long, default_value_t = 5, value_name = "N")]
+    pub warmup: u32,
+    /// The reference's ray offset: a ray from a surface point starts this fraction of its
+    /// distance to the light off the surface, along the normal (and stops as far short of
+    /// the light), so the surface does not shadow itself.
+    #[arg(long, default_value_t = 1e-3, value_name = "F")]
+    pub ray_offset: f32,
+    /// JSON output [default: out/shadow-accuracy.json].
+    #[arg(long, value_name = "FILE.json")]
+    pub out: Option<PathBuf>,
+    /// Pareto chart [default: the JSON path with .png].
+    #[arg(long, value_name = "FILE.png")]
+    pub chart: Option<PathBuf>,
+    /// Directory of the reference image (tonemapped), and of the FLIP heat maps and the
+    /// misplaced light (red: lost, green: leaked) of the frontier's configurations
+    /// [default: the JSON path without extension, plus "-images"].
+    #[arg(long, value_name = "DIR")]
+    pub diff_dir: Option<PathBuf>,
+}
+
+impl ShadowAccuracyArgs {
+    /// Runs `tiledlight shadow-accuracy`.
+    pub fn run(&self) -> Result<()> {
+        let job = shadow_accuracy::ShadowAccuracy {
+            configs: self.configs.clone(),
+            frames: self.frames,
+            warmup: self.warmup,
+            ray_offset: self.ray_offset,
+            out: self.out.clone(),
+            chart: self.chart.clone(),
+            diff_dir: self.diff_dir.clone(),
+        };
+        shadow_accuracy::run(&self.scene, &job)
+    }
+}
+
+/// Flags of `tiledlight peer-report`.
+#[derive(Args, Clone, Debug)]
+pub struct PeerReportArgs {
+    /// The folder with the peer benchmark's JSON and PNG files (`bevy-N.json`,
+    /// `tl-fp-N.json`, ...: `scripts/peer-bench.sh`'s archives unpacked).
+    pub dir: PathBuf,
+    /// Where the report, chart and heat maps go (default: DIR).
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+}
+
+impl PeerReportArgs {
+    /// Runs `tiledlight peer-report`.
+    pub fn run(&self) -> Result<()> {
+        peer_report::run(&self.dir, self.out.as_deref())
+    }
+}
