@@ -19,13 +19,14 @@
 //! tiledlight-gpu.
 
 use tiledlight_gpu::bindings::PassBindings;
-use tiledlight_gpu::depth_prepass::{scene_pipeline, DepthUse, SceneDraw, DEPTH_FORMAT};
+use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
 #[cfg(doc)]
 use tiledlight_gpu::scene_gpu::MaterialFeatures;
-use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS};
+use tiledlight_gpu::scene_gpu::{SceneGpu, SCENE_GROUPS};
+use tiledlight_gpu::scene_raster::{begin_pass, cleared, DepthUse, RasterTargets, SceneRaster};
 use tiledlight_gpu::targets::texture_2d_msaa;
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::util::{keyed_module, pipeline_layout};
+use tiledlight_gpu::util::keyed_module;
 use tiledlight_gpu::variants::{GBufferKey, MaterialKey};
 use tiledlight_gpu::view::Views;
 use tiledlight_gpu::GpuError;
@@ -145,8 +146,8 @@ pub const GBUFFER_BINDINGS: PassBindings =
 
 /// The G-buffer pass's pipelines.
 pub struct GBufferPass {
-    pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
-    empty_group: Option<wgpu::BindGroup>,
+    /// Pipelines per draw kind and the scene's groups.
+    raster: SceneRaster,
 }
 
 impl GBufferPass {
@@ -161,12 +162,6 @@ impl GBufferPass {
         samples: u32,
         test_values: bool,
     ) -> Result<Self, GpuError> {
-        let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("deferred.gbuffer.empty_layout"),
-            entries: &[],
-        });
-        let tex_layout = scene.textures.as_ref().map_or(&empty, |t| &t.layout);
-        let layout = pipeline_layout(device, "deferred.gbuffer.layout", &[&views.layout, &scene.layout, tex_layout]);
         let mut targets = vec![
             Some(wgpu::ColorTargetState { format: ALBEDO_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL }),
             Some(wgpu::ColorTargetState { format: NORMAL_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL }),
@@ -187,42 +182,27 @@ impl GBufferPass {
                 write_mask: wgpu::ColorWrites::ALL,
             }));
         }
-        let layouts = scene.vertex_layouts();
         let fs = format!("fs_gbuffer{rts}");
-        let mut pipelines = Vec::new();
-        for kind in scene.opaque_kinds() {
-            let key = GBufferKey {
-                alpha_mask: kind.masked,
-                materials: MaterialKey::of(&scene.material_features),
-                emission,
-                extra_test_values: test_values,
-            };
-            let module = keyed_module(device, &key)?;
-            let p = scene_pipeline(
-                device,
-                kind,
-                &SceneDraw {
-                    label: "deferred.gbuffer",
-                    layout: &layout,
-                    module: &module,
-                    vertex: ("vs_main", &layouts),
-                    depth: DepthUse::Write,
-                    samples,
-                    fragment: Some((&fs, &targets)),
-                    depth_format: DEPTH_FORMAT,
-                    constants: &[],
-                },
-            );
-            pipelines.push((kind, p));
-        }
-        let empty_group = scene.textures.is_none().then(|| {
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("deferred.gbuffer.empty"),
-                layout: &empty,
-                entries: &[],
-            })
-        });
-        Ok(Self { pipelines, empty_group })
+        let materials = MaterialKey::of(&scene.material_features);
+        let raster = SceneRaster::materials(
+            device,
+            "deferred.gbuffer",
+            (views, scene),
+            &[],
+            &scene.opaque_kinds(),
+            |kind| {
+                let key = GBufferKey { alpha_mask: kind.masked, materials, emission, extra_test_values: test_values };
+                keyed_module(device, &key)
+            },
+            &RasterTargets {
+                depth: DepthUse::Write,
+                depth_format: DEPTH_FORMAT,
+                samples,
+                fragment: (&fs, &targets),
+                constants: &[],
+            },
+        )?;
+        Ok(Self { raster })
     }
 
     /// Clears and fills the G-buffer and `depth` with the scene seen from view slot `view`.
@@ -235,14 +215,7 @@ impl GBufferPass {
         gbuffer: &GBuffer,
         depth: &wgpu::TextureView,
     ) {
-        let clear = |view| {
-            Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
-            })
-        };
+        let clear = |view| cleared(view, None, wgpu::Color::BLACK);
         let mut attachments = vec![clear(&gbuffer.albedo_view), clear(&gbuffer.normal_view)];
         attachments.extend(gbuffer.extra_views.iter().map(clear));
         if let Some(e) = &gbuffer.emission_view {
@@ -251,27 +224,15 @@ impl GBufferPass {
         }
         let t = timer.begin("deferred.gbuffer", encoder);
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("deferred.gbuffer"),
-                color_attachments: &attachments,
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: depth,
-                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: t.render_writes(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
-            pass.set_bind_group(1, &scene.bind_group, &[]);
-            if let Some(g) = &self.empty_group {
-                pass.set_bind_group(2, g, &[]);
-            }
-            for (kind, pipeline) in &self.pipelines {
-                pass.set_pipeline(pipeline);
-                scene.record_draws(&mut pass, *kind, true, true);
-            }
+            let mut pass = begin_pass(
+                encoder,
+                "deferred.gbuffer",
+                &attachments,
+                (depth, wgpu::LoadOp::Clear(0.0)),
+                t.render_writes(),
+            );
+            self.raster.bind(&mut pass, Some((views, view)), scene);
+            self.raster.draw(&mut pass, scene, None);
         }
         timer.end(encoder, t);
     }

@@ -9,16 +9,17 @@
 
 use tiledlight_gpu::bindings::{create_layout, PassBindings, PassGroup};
 use tiledlight_gpu::culling::LightCulling;
-use tiledlight_gpu::depth_prepass::{scene_pipeline, DepthUse, SceneDraw, DEPTH_FORMAT};
+use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
 use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::lights_group::{LightsGroup, VplBindings, LIGHTS_GROUP};
-use tiledlight_gpu::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS};
+use tiledlight_gpu::scene_gpu::{SceneGpu, SCENE_GROUPS};
+use tiledlight_gpu::scene_raster::{begin_pass, cleared, DepthUse, RasterTargets, SceneRaster};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
-use tiledlight_gpu::util::{keyed_module, pipeline_layout};
+use tiledlight_gpu::util::keyed_module;
 use tiledlight_gpu::variants::{ForwardKey, LightLoopKey, MaterialKey, ShaderKey, Shadowing};
 use tiledlight_gpu::view::Views;
 use tiledlight_gpu::GpuError;
@@ -56,11 +57,10 @@ pub const BRUTE_FORCE_BINDINGS: PassBindings = PassBindings { entry: "brute_forc
 
 /// The shading pass's pipelines and light bind group.
 pub struct ShadingPass {
-    pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
+    /// Pipelines per draw kind and the scene's groups 0-2.
+    raster: SceneRaster,
     /// Group 3: the lights, the light grid, the shadow atlas.
     lights: LightsGroup,
-    /// Stands in for group 2 when the scene has no textures.
-    empty_group: Option<wgpu::BindGroup>,
     label: &'static str,
 }
 
@@ -127,54 +127,24 @@ impl ShadingPass {
             grid,
             vpls,
         );
-        let constants = features.light_constants();
-        let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("shade.empty_layout"),
-            entries: &[],
-        });
-        let tex_layout = scene.textures.as_ref().map_or(&empty, |t| &t.layout);
-        let pl = pipeline_layout(
+        let target =
+            [Some(wgpu::ColorTargetState { format: HDR_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL })];
+        let raster = SceneRaster::materials(
             device,
-            "shade.pipeline_layout",
-            &[&views.layout, &scene.layout, tex_layout, lights_group.layout()],
-        );
-        let layouts = scene.vertex_layouts();
-        let pipelines = features
-            .draw_kinds
-            .iter()
-            .map(|&kind| {
-                let module = keyed_module(device, &ForwardKey { alpha_mask: kind.masked, ..key })?;
-                let target = [Some(wgpu::ColorTargetState {
-                    format: HDR_FORMAT,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })];
-                let p = scene_pipeline(
-                    device,
-                    kind,
-                    &SceneDraw {
-                        label,
-                        layout: &pl,
-                        module: &module,
-                        vertex: ("vs_main", &layouts),
-                        depth: DepthUse::Equal,
-                        samples,
-                        fragment: Some(("fs_main", &target)),
-                        depth_format: DEPTH_FORMAT,
-                        constants: &constants,
-                    },
-                );
-                Ok((kind, p))
-            })
-            .collect::<Result<Vec<_>, GpuError>>()?;
-        let empty_group = scene.textures.is_none().then(|| {
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("shade.empty"),
-                layout: &empty,
-                entries: &[],
-            })
-        });
-        Ok(Self { pipelines, lights: lights_group, empty_group, label })
+            label,
+            (views, scene),
+            &[lights_group.layout()],
+            &features.draw_kinds,
+            |kind| keyed_module(device, &ForwardKey { alpha_mask: kind.masked, ..key }),
+            &RasterTargets {
+                depth: DepthUse::Equal,
+                depth_format: DEPTH_FORMAT,
+                samples,
+                fragment: ("fs_main", &target),
+                constants: &features.light_constants(),
+            },
+        )?;
+        Ok(Self { raster, lights: lights_group, label })
     }
 
     /// Binds the light grid again after it grew (its index buffer is a new one).
@@ -197,37 +167,11 @@ impl ShadingPass {
     ) {
         let t = timer.begin(self.label, encoder);
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some(self.label),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: hdr,
-                    depth_slice: None,
-                    resolve_target: resolve,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        // The samples are needed only for the resolve.
-                        store: if resolve.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store },
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: depth,
-                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: t.render_writes(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
-            pass.set_bind_group(1, &scene.bind_group, &[]);
-            if let Some(g) = &self.empty_group {
-                pass.set_bind_group(2, g, &[]);
-            }
+            let hdr = cleared(hdr, resolve, wgpu::Color::BLACK);
+            let mut pass = begin_pass(encoder, self.label, &[hdr], (depth, wgpu::LoadOp::Load), t.render_writes());
+            self.raster.bind(&mut pass, Some((views, view)), scene);
             pass.set_bind_group(3, &self.lights.group, &[]);
-            for (kind, pipeline) in &self.pipelines {
-                pass.set_pipeline(pipeline);
-                scene.record_draws(&mut pass, *kind, true, true);
-            }
+            self.raster.draw(&mut pass, scene, None);
         }
         timer.end(encoder, t);
     }

@@ -46,7 +46,7 @@ use tiledlight_cull::{Camera, TileGrid};
 
 use crate::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
 use crate::culling::{CullOptions, LightCulling};
-use crate::depth_prepass::{scene_pipeline, DepthPrepass, DepthTarget, DepthUse, SceneDraw, DEPTH_FORMAT};
+use crate::depth_prepass::{DepthPrepass, DepthTarget, DEPTH_FORMAT};
 use crate::error::GpuError;
 use crate::features::{BlendMode, Features, Method};
 use crate::light_grid::{GridStatus, LightGrid};
@@ -55,6 +55,7 @@ use crate::lights_group::{LightsGroup, LIGHTS_GROUP};
 use crate::memory::MemoryReport;
 use crate::plan::Step;
 use crate::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS};
+use crate::scene_raster::{begin_pass, cleared, DepthUse, RasterTargets, SceneRaster};
 use crate::shadow_atlas::ShadowAtlas;
 use crate::timer::GpuTimer;
 use crate::tonemap::HDR_FORMAT;
@@ -104,9 +105,9 @@ pub struct BlendedPath {
     pub culling: Option<LightCulling>,
     /// The blended shading reads the frame's clustered grid (rebound when it grows).
     reads_frame_grid: bool,
-    pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
+    /// The shading's pipelines per blended draw kind and the scene's groups.
+    raster: SceneRaster,
     lights_group: LightsGroup,
-    empty_group: Option<wgpu::BindGroup>,
     /// The transparent layer (resolved), premultiplied; with weighted blended OIT, its
     /// accumulation target.
     pub layer: wgpu::Texture,
@@ -264,16 +265,6 @@ impl BlendedPath {
             grid,
             None,
         );
-        let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("blended.empty_layout"),
-            entries: &[],
-        });
-        let tex_layout = scene.textures.as_ref().map_or(&empty, |t| &t.layout);
-        let pl = pipeline_layout(
-            device,
-            "blended.shade.layout",
-            &[&views.layout, &scene.layout, tex_layout, lights_group.layout()],
-        );
         let module = keyed_module(device, &key)?;
         // Premultiplied "over": dst = src + (1 - src.a) dst, for colour and coverage alike.
         let over = wgpu::BlendComponent {
@@ -310,37 +301,22 @@ impl BlendedPath {
             }),
         ];
         let target: &[Option<wgpu::ColorTargetState>] = if wboit { &target_oit } else { &target_over };
-        let constants = features.light_constants();
-        let layouts = scene.vertex_layouts();
-        let pipelines = features
-            .blended_kinds
-            .iter()
-            .map(|&kind| {
-                let p = scene_pipeline(
-                    device,
-                    kind,
-                    &SceneDraw {
-                        label: "blended.shade",
-                        layout: &pl,
-                        module: &module,
-                        vertex: ("vs_main", &layouts),
-                        depth: DepthUse::Test,
-                        samples,
-                        fragment: Some(("fs_main", target)),
-                        depth_format: DEPTH_FORMAT,
-                        constants: &constants,
-                    },
-                );
-                (kind, p)
-            })
-            .collect();
-        let empty_group = scene.textures.is_none().then(|| {
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("blended.empty"),
-                layout: &empty,
-                entries: &[],
-            })
-        });
+        // One shader for every kind (its alpha is blended, not tested).
+        let raster = SceneRaster::materials(
+            device,
+            "blended.shade",
+            (views, scene),
+            &[lights_group.layout()],
+            &features.blended_kinds,
+            |_| Ok(module.clone()),
+            &RasterTargets {
+                depth: DepthUse::Test,
+                depth_format: DEPTH_FORMAT,
+                samples,
+                fragment: ("fs_main", target),
+                constants: &features.light_constants(),
+            },
+        )?;
         // The layer.
         let layer =
             texture_2d_msaa(device, "blended.layer", size, HDR_FORMAT, 1, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING);
@@ -404,9 +380,8 @@ impl BlendedPath {
             reads_frame_grid: frame_grid.is_some(),
             depth,
             culling,
-            pipelines,
+            raster,
             lights_group,
-            empty_group,
             layer,
             layer_view,
             layer_msaa,
@@ -439,18 +414,8 @@ impl BlendedPath {
         let Some(depth) = &self.depth else { return };
         let t = timer.begin("blended.depth", encoder);
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("blended.depth"),
-                color_attachments: &[],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &depth.view,
-                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: t.render_writes(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let target = (&depth.view, wgpu::LoadOp::Clear(0.0));
+            let mut pass = begin_pass(encoder, "blended.depth", &[], target, t.render_writes());
             depth.pass.draw(&mut pass, view, scene, None);
         }
         timer.end(encoder, t);
@@ -486,50 +451,20 @@ impl BlendedPath {
         }
         let t = timer.begin("blended.shade", encoder);
         {
-            // A target and its resolve (MSAA), cleared to `clear`.
-            fn attach<'a>(
-                view: &'a wgpu::TextureView,
-                resolve: Option<&'a wgpu::TextureView>,
-                clear: wgpu::Color,
-            ) -> Option<wgpu::RenderPassColorAttachment<'a>> {
-                Some(wgpu::RenderPassColorAttachment {
-                    view,
-                    depth_slice: None,
-                    resolve_target: resolve,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(clear),
-                        store: if resolve.is_some() { wgpu::StoreOp::Discard } else { wgpu::StoreOp::Store },
-                    },
-                })
-            }
             let layer = match &self.layer_msaa {
-                Some((_, v)) => attach(v, Some(&self.layer_view), wgpu::Color::TRANSPARENT),
-                None => attach(&self.layer_view, None, wgpu::Color::TRANSPARENT),
+                Some((_, v)) => cleared(v, Some(&self.layer_view), wgpu::Color::TRANSPARENT),
+                None => cleared(&self.layer_view, None, wgpu::Color::TRANSPARENT),
             };
             // Revealage starts at 1: nothing covers the opaque image yet.
             let reveal = self.revealage.as_ref().map(|(v, ms)| match ms {
-                Some(m) => attach(m, Some(v), wgpu::Color::WHITE),
-                None => attach(v, None, wgpu::Color::WHITE),
+                Some(m) => cleared(m, Some(v), wgpu::Color::WHITE),
+                None => cleared(v, None, wgpu::Color::WHITE),
             });
             let colors = [layer, reveal.flatten()];
             let n = if self.revealage.is_some() { 2 } else { 1 };
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("blended.shade"),
-                color_attachments: &colors[..n],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: opaque_depth,
-                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: t.render_writes(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
-            pass.set_bind_group(1, &scene.bind_group, &[]);
-            if let Some(g) = &self.empty_group {
-                pass.set_bind_group(2, g, &[]);
-            }
+            let target = (opaque_depth, wgpu::LoadOp::Load);
+            let mut pass = begin_pass(encoder, "blended.shade", &colors[..n], target, t.render_writes());
+            self.raster.bind(&mut pass, Some((views, view)), scene);
             pass.set_bind_group(3, &self.lights_group.group, &[]);
             scene.bind_geometry(&mut pass);
             let mut current: Option<DrawKind> = None;
@@ -537,7 +472,7 @@ impl BlendedPath {
                 let (slot, draw, _) = self.instances[i];
                 let kind = scene.draws[draw].kind;
                 if current != Some(kind) {
-                    if let Some((_, p)) = self.pipelines.iter().find(|(k, _)| *k == kind) {
+                    if let Some(p) = self.raster.pipeline(kind) {
                         pass.set_pipeline(p);
                     }
                     current = Some(kind);

@@ -1,12 +1,13 @@
 //! The depth pre-pass: reversed-Z `Depth32Float` of the scene's geometry, depth-only for
 //! opaque materials and with an alpha-test fragment stage for masked ones. Both methods
 //! (and the brute-force reference) start with it. Pipelines exist only for the draw kinds
-//! the scene has. Depends on wgpu, [`crate::scene_gpu`] and [`crate::view`].
+//! the scene has. Depends on wgpu, [`crate::scene_gpu`], [`crate::scene_raster`] and [`crate::view`].
 
 use crate::bindings::{Cond, PassBindings, PassGroup};
 use crate::error::GpuError;
 use crate::features::Features;
 use crate::scene_gpu::{DrawKind, SceneGpu, BASE_COLOR_BINDINGS, POSITION_LAYOUT, SCENE_GROUPS};
+use crate::scene_raster::{begin_pass, scene_pipeline, DepthUse, SceneDraw, SceneInputs, SceneRaster};
 use crate::timer::GpuTimer;
 use crate::util::{keyed_module, pipeline_layout};
 use crate::variants::DepthPrepassKey;
@@ -14,96 +15,6 @@ use crate::view::Views;
 
 /// Depth format of every depth buffer (reversed-Z: clear 0, compare GreaterEqual when writing, Equal when shading after the pre-pass).
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-
-/// Primitive state for a draw kind: back faces culled unless double-sided.
-pub fn primitive_state(kind: DrawKind) -> wgpu::PrimitiveState {
-    wgpu::PrimitiveState {
-        topology: wgpu::PrimitiveTopology::TriangleList,
-        front_face: wgpu::FrontFace::Ccw,
-        cull_mode: if kind.double_sided { None } else { Some(wgpu::Face::Back) },
-        ..Default::default()
-    }
-}
-
-/// How a scene pass uses the depth buffer.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum DepthUse {
-    /// Writes depth, compare GreaterEqual (pre-pass, G-buffer, shadow faces).
-    Write,
-    /// Tests Equal against the pre-pass without writing (Forward+ shading: each pixel once).
-    Equal,
-    /// Tests GreaterEqual without writing (blended geometry in front of the opaque depth).
-    Test,
-}
-
-/// How a pass draws the scene's geometry: what [`scene_pipeline`] needs besides the draw kind.
-pub struct SceneDraw<'a> {
-    /// Pipeline label.
-    pub label: &'a str,
-    /// Pipeline layout.
-    pub layout: &'a wgpu::PipelineLayout,
-    /// The shader module holding both stages.
-    pub module: &'a wgpu::ShaderModule,
-    /// Vertex entry point and the vertex buffers it reads.
-    pub vertex: (&'a str, &'a [Option<wgpu::VertexBufferLayout<'a>>]),
-    /// How the pass uses depth.
-    pub depth: DepthUse,
-    /// MSAA samples.
-    pub samples: u32,
-    /// Fragment entry point and colour targets (None: depth only).
-    pub fragment: Option<(&'a str, &'a [Option<wgpu::ColorTargetState>])>,
-    /// Depth format ([`DEPTH_FORMAT`] except for shadow maps).
-    pub depth_format: wgpu::TextureFormat,
-    /// Pipeline-overridable constants (`override` in the WGSL).
-    pub constants: &'a [(&'a str, f64)],
-}
-
-/// A render pipeline drawing the scene's `kind` of draws into `d.depth_format` (reversed-Z).
-pub fn scene_pipeline(device: &wgpu::Device, kind: DrawKind, d: &SceneDraw<'_>) -> wgpu::RenderPipeline {
-    // Writing passes keep the last of several fragments at exactly the same depth
-    // (GreaterEqual), as the Equal-tested shading pass after a pre-pass does (every such
-    // fragment passes Equal and the last one's colour stays). With Greater the G-buffer kept
-    // the first: where two surfaces meet at exactly the pixel centre's depth (measured on
-    // the H200: one pixel of the courtyard at 320x180) Tiled Deferred then shaded another
-    // surface than Forward+ and brute force.
-    let compare = match d.depth {
-        DepthUse::Write | DepthUse::Test => wgpu::CompareFunction::GreaterEqual,
-        DepthUse::Equal => wgpu::CompareFunction::Equal,
-    };
-    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some(d.label),
-        layout: Some(d.layout),
-        vertex: wgpu::VertexState {
-            module: d.module,
-            entry_point: Some(d.vertex.0),
-            compilation_options: wgpu::PipelineCompilationOptions {
-                constants: d.constants,
-                zero_initialize_workgroup_memory: false,
-            },
-            buffers: d.vertex.1,
-        },
-        primitive: primitive_state(kind),
-        depth_stencil: Some(wgpu::DepthStencilState {
-            format: d.depth_format,
-            depth_write_enabled: Some(d.depth == DepthUse::Write),
-            depth_compare: Some(compare),
-            stencil: Default::default(),
-            bias: Default::default(),
-        }),
-        multisample: wgpu::MultisampleState { count: d.samples, ..Default::default() },
-        fragment: d.fragment.map(|(fs, targets)| wgpu::FragmentState {
-            module: d.module,
-            entry_point: Some(fs),
-            compilation_options: wgpu::PipelineCompilationOptions {
-                constants: d.constants,
-                zero_initialize_workgroup_memory: false,
-            },
-            targets,
-        }),
-        multiview_mask: None,
-        cache: None,
-    })
-}
 
 /// The bindings of the depth pre-pass (`shaders/depth_prepass.wgsl`): the scene's groups,
 /// the material textures only in the masked pipelines of textured scenes, and of those only
@@ -118,7 +29,7 @@ pub const DEPTH_PREPASS_BINDINGS: PassBindings = PassBindings {
 
 /// The depth pre-pass pipelines.
 pub struct DepthPrepass {
-    pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
+    raster: SceneRaster,
     label: &'static str,
 }
 
@@ -218,7 +129,7 @@ impl DepthPrepass {
             );
             pipelines.push((kind, pipeline));
         }
-        Ok(Self { pipelines, label: target.label })
+        Ok(Self { raster: SceneRaster::from_pipelines(pipelines, SceneInputs::DepthOnly), label: target.label })
     }
 
     /// Draws the scene seen from view slot `view` into the pass's depth attachment: the
@@ -230,12 +141,8 @@ impl DepthPrepass {
         scene: &SceneGpu,
         visible: Option<&[bool]>,
     ) {
-        pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
-        pass.set_bind_group(1, &scene.bind_group, &[]);
-        for (kind, pipeline) in &self.pipelines {
-            pass.set_pipeline(pipeline);
-            scene.record_draws_of(pass, *kind, (kind.masked, kind.masked), visible);
-        }
+        self.raster.bind(pass, Some((views, view)), scene);
+        self.raster.draw(pass, scene, visible);
     }
 
     /// Clears `depth` to 0 (far, reversed-Z) and draws the scene seen from view slot `view` into it.
@@ -249,18 +156,7 @@ impl DepthPrepass {
     ) {
         let t = timer.begin(self.label, encoder);
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some(self.label),
-                color_attachments: &[],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: depth,
-                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: t.render_writes(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = begin_pass(encoder, self.label, &[], (depth, wgpu::LoadOp::Clear(0.0)), t.render_writes());
             self.draw(&mut pass, (views, view), scene, None);
         }
         timer.end(encoder, t);

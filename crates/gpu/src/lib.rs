@@ -23,6 +23,7 @@ pub mod memory;
 pub mod plan;
 pub mod readback;
 pub mod scene_gpu;
+pub mod scene_raster;
 pub mod shader;
 pub mod shadow_atlas;
 pub mod targets;

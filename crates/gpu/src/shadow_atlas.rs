@@ -28,6 +28,7 @@ use crate::features::Features;
 use crate::memory::MemoryReport;
 use crate::readback::read_texture_layer;
 use crate::scene_gpu::SceneGpu;
+use crate::scene_raster::begin_pass;
 use crate::timer::GpuTimer;
 use crate::util::{buffer_zeroed, shader_module};
 use crate::view::{ViewUniforms, Views};
@@ -378,21 +379,8 @@ impl ShadowAtlas {
             let label = if layer == 0 { "shadow.atlas".to_string() } else { format!("shadow.atlas.layer{layer}") };
             let t = timer.begin(&label, encoder);
             {
-                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some(&label),
-                    color_attachments: &[],
-                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                        view: target,
-                        depth_ops: Some(wgpu::Operations {
-                            load: if all { wgpu::LoadOp::Clear(0.0) } else { wgpu::LoadOp::Load },
-                            store: wgpu::StoreOp::Store,
-                        }),
-                        stencil_ops: None,
-                    }),
-                    timestamp_writes: t.render_writes(),
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
+                let load = if all { wgpu::LoadOp::Clear(0.0) } else { wgpu::LoadOp::Load };
+                let mut pass = begin_pass(encoder, &label, &[], (target, load), t.render_writes());
                 for &f in &faces {
                     let r = l.rect(f);
                     pass.set_viewport(r.x as f32, r.y as f32, r.size as f32, r.size as f32, 0.0, 1.0);

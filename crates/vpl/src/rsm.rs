@@ -28,13 +28,13 @@ use std::sync::Mutex;
 use glam::{Mat4, Vec3};
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::vpl::{GpuRsmFace, RsmFace, RsmLight, RsmTexel, VplConfig};
-use tiledlight_gpu::depth_prepass::{scene_pipeline, DepthUse, SceneDraw};
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::readback::{f16_to_f32, read_texture};
-use tiledlight_gpu::scene_gpu::{DrawCount, DrawKind, SceneGpu};
+use tiledlight_gpu::scene_gpu::{DrawCount, SceneGpu};
+use tiledlight_gpu::scene_raster::{begin_pass, cleared, DepthUse, RasterTargets, SceneRaster};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::util::{buffer_zeroed, keyed_module, pipeline_layout, texture_2d};
+use tiledlight_gpu::util::{buffer_zeroed, keyed_module, texture_2d};
 use tiledlight_gpu::variants::{GBufferKey, MaterialKey};
 use tiledlight_gpu::view::{ViewUniforms, Views};
 use tiledlight_gpu::GpuError;
@@ -176,8 +176,8 @@ pub struct Rsm {
     /// One view slot per face: the face's own projection ([`rsm_view_proj`]), not the
     /// shadow atlas's widened one.
     views: Views,
-    pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>,
-    empty_group: Option<wgpu::BindGroup>,
+    /// Pipelines per draw kind and the scene's groups (the G-buffer's shaders).
+    raster: SceneRaster,
     shadow_points: u32,
     /// Set by [`Self::update`], cleared by [`Self::record`].
     dirty: AtomicBool,
@@ -223,50 +223,29 @@ impl Rsm {
 
         // The G-buffer's pipelines, for the RSM's targets (two, no emission: a VPL reflects
         // the light it receives, not what the surface emits).
-        let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("vpl.rsm.empty_layout"),
-            entries: &[],
-        });
-        let tex_layout = scene.textures.as_ref().map_or(&empty, |t| &t.layout);
-        let pl = pipeline_layout(device, "vpl.rsm.layout", &[&views.layout, &scene.layout, tex_layout]);
         let targets = [
             Some(wgpu::ColorTargetState { format: RSM_ALBEDO_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL }),
             Some(wgpu::ColorTargetState { format: RSM_NORMAL_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL }),
         ];
-        let vertex_layouts = scene.vertex_layouts();
-        let mut pipelines = Vec::new();
-        for kind in scene.opaque_kinds() {
-            let key = GBufferKey {
-                alpha_mask: kind.masked,
-                materials: MaterialKey::of(&scene.material_features),
-                emission: false,
-                extra_test_values: false,
-            };
-            let module = keyed_module(device, &key)?;
-            let p = scene_pipeline(
-                device,
-                kind,
-                &SceneDraw {
-                    label: "vpl.rsm",
-                    layout: &pl,
-                    module: &module,
-                    vertex: ("vs_main", &vertex_layouts),
-                    depth: DepthUse::Write,
-                    samples: 1,
-                    fragment: Some(("fs_gbuffer2", &targets)),
-                    depth_format: RSM_DEPTH_FORMAT,
-                    constants: &[],
-                },
-            );
-            pipelines.push((kind, p));
-        }
-        let empty_group = scene.textures.is_none().then(|| {
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("vpl.rsm.empty"),
-                layout: &empty,
-                entries: &[],
-            })
-        });
+        let materials = MaterialKey::of(&scene.material_features);
+        let raster = SceneRaster::materials(
+            device,
+            "vpl.rsm",
+            (&views, scene),
+            &[],
+            &scene.opaque_kinds(),
+            |kind| {
+                let key = GBufferKey { alpha_mask: kind.masked, materials, emission: false, extra_test_values: false };
+                keyed_module(device, &key)
+            },
+            &RasterTargets {
+                depth: DepthUse::Write,
+                depth_format: RSM_DEPTH_FORMAT,
+                samples: 1,
+                fragment: ("fs_gbuffer2", &targets),
+                constants: &[],
+            },
+        )?;
         let mut memory = MemoryReport::default();
         let texels = size.0 as u64 * size.1 as u64;
         memory.add("vpl.rsm (depth+albedo+normal)", texels * (4 + 4 + 8));
@@ -283,8 +262,7 @@ impl Rsm {
             normal,
             faces,
             views,
-            pipelines,
-            empty_group,
+            raster,
             shadow_points: atlas.layout.points,
             dirty: AtomicBool::new(false),
             in_view: Mutex::new(Vec::new()),
@@ -347,35 +325,14 @@ impl Rsm {
         if !self.dirty.swap(false, Ordering::Relaxed) {
             return false;
         }
-        let clear = |view| {
-            Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                    store: wgpu::StoreOp::Store,
-                },
-            })
-        };
+        let clear = |view| cleared(view, None, wgpu::Color::TRANSPARENT);
         let t = timer.begin("vpl.rsm", encoder);
         {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("vpl.rsm"),
-                color_attachments: &[clear(&self.albedo_view), clear(&self.normal_view)],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &self.depth_view,
-                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: t.render_writes(),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_bind_group(1, &scene.bind_group, &[]);
-            if let Some(g) = &self.empty_group {
-                pass.set_bind_group(2, g, &[]);
-            }
+            let colors = [clear(&self.albedo_view), clear(&self.normal_view)];
+            let depth = (&self.depth_view, wgpu::LoadOp::Clear(0.0));
+            let mut pass = begin_pass(encoder, "vpl.rsm", &colors, depth, t.render_writes());
+            // Group 0 is set per face below.
+            self.raster.bind(&mut pass, None, scene);
             let s = self.layout.size;
             let in_view = self.in_view.lock().expect("rsm visibility");
             let mut drawn = DrawCount::default();
@@ -389,10 +346,7 @@ impl Rsm {
                 pass.set_viewport(x as f32, y as f32, s as f32, s as f32, 0.0, 1.0);
                 pass.set_scissor_rect(x, y, s, s);
                 pass.set_bind_group(0, self.views.bind_group(), &self.views.offsets(f));
-                for (kind, pipeline) in &self.pipelines {
-                    pass.set_pipeline(pipeline);
-                    drawn += scene.record_draws_of(&mut pass, *kind, (true, true), visible);
-                }
+                drawn += self.raster.draw(&mut pass, scene, visible);
             }
             *self.drawn.lock().expect("rsm draw count") = drawn;
         }
