@@ -10,7 +10,7 @@ use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::Camera;
 use tiledlight_frame::{FrameRenderer, FrameSettings, Method};
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::GpuContext;
 

@@ -8,7 +8,7 @@ use tiledlight_cull::Light;
 use tiledlight_deferred::EdgeTest;
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::culling::CullOptions;
-use tiledlight_gpu::lights_gpu::{LightBuffers, MAX_LIGHTS};
+use tiledlight_gpu::light_buffers::{LightBuffers, MAX_LIGHTS};
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::{ContextOptions, GpuContext};

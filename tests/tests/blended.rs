@@ -24,7 +24,7 @@ use tiledlight_cull::blended_depth::raster_depth;
 use tiledlight_cull::{Camera, Light};
 use tiledlight_frame::{DeferredFrame, Diagnostics, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::culling::{ClusterOptions, CullOptions};
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::plan::Step;
 use tiledlight_gpu::readback::read_depth;
 use tiledlight_gpu::scene_gpu::SceneGpu;
@@ -357,7 +357,7 @@ fn ldr_of(r: &mut FrameRenderer, sg: &SceneGpu, cam: &Camera) -> Vec<u8> {
 /// blended heat map of a scene without blended geometry is an error that says so.
 #[test]
 fn blended_heat_map_colours_exactly_the_tiles_with_blended_lights() {
-    use tiledlight_gpu::tonemap::HeatmapOf;
+    use tiledlight_gpu::heatmap::HeatmapOf;
     use tiledlight_tests::images::{assert_heat_tile, documented_heat_colour};
     let ctx = gpu();
     let scene = three_panes(true);

@@ -22,7 +22,7 @@ use tiledlight_cull::Light;
 use tiledlight_frame::{Diagnostics as _, ForwardFrame, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::culling::CullOptions;
 use tiledlight_gpu::culling::{ClusterOptions, LightCulling};
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_scene::Scene;

@@ -1,4 +1,4 @@
-//! Automatic exposure (`tiledlight_gpu::tonemap::AutoExposure`, `shaders/exposure.wgsl`)
+//! Automatic exposure (`tiledlight_gpu::exposure::AutoExposure`, `shaders/exposure.wgsl`)
 //! against its CPU twin (`tiledlight_cull::exposure::auto_exposure`) on the frame's own HDR
 //! image, in both methods:
 //! - the GPU's exposure equals the CPU twin's within 1e-3 relative (the GPU sums log2 in
@@ -13,7 +13,7 @@ use glam::Vec3;
 use tiledlight_cull::exposure::auto_exposure;
 use tiledlight_cull::Camera;
 use tiledlight_frame::{FrameRenderer, FrameSettings, Method};
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_tests::compare::render_frame;
 use tiledlight_tests::{gpu, scenes};

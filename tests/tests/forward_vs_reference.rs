@@ -8,7 +8,7 @@
 use tiledlight_cull::Camera;
 use tiledlight_frame::{FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::culling::CullOptions;
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::GpuContext;
 use tiledlight_scene::Scene;

@@ -74,7 +74,7 @@ use tiledlight_cull::tiles::{pixel_to_ndc_x, pixel_to_ndc_y};
 use tiledlight_cull::{Camera, CullConfig};
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::culling::{ClusterOptions, CullOptions, GpuTileLists};
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;

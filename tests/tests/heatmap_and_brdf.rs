@@ -8,10 +8,10 @@ use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::{cull_tiles, Light, LightKind};
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::culling::CullOptions;
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::heatmap::{heatmap_palette, heatmap_t, HEATMAP_ALPHA, HEATMAP_OVERFLOW};
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::tonemap::{heatmap_palette, heatmap_t, HEATMAP_ALPHA, HEATMAP_OVERFLOW};
 use tiledlight_tests::images::{documented_heat_colour, linear_to_srgb, srgb_to_linear};
 use tiledlight_tests::{gpu, scenes};
 

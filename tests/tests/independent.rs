@@ -17,7 +17,7 @@ use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::tiles::{pixel_to_ndc_x, pixel_to_ndc_y};
 use tiledlight_cull::{Camera, Light, LightKind};
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_scene::{Aabb, AlphaMode, Instance, Material, Mesh, Scene, Texture, TextureRef};
 use tiledlight_tests::compare::render_frame;

@@ -11,7 +11,7 @@ use tiledlight_cull::reference::{list_quality, stats, tile_ranges};
 use tiledlight_cull::{cull_tiles, TileLists};
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::culling::CullOptions;
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;

@@ -25,7 +25,7 @@ use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::Camera;
 use tiledlight_frame::{DeferredFrame, Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::culling::{ClusterOptions, CullOptions};
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::readback::read_buffer;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_scene::{SurfaceLightOptions, SurfaceSampler};

@@ -7,7 +7,7 @@
 
 use glam::Vec3;
 use tiledlight_cull::{Light, LightKind};
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_tests::{err_text, gpu};
 
 /// Catches an upload that skips validation (it would return Ok), validates after

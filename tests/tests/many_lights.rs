@@ -25,7 +25,7 @@
 
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::culling::CullOptions;
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_tests::compare::{
     assert_matches_reference_frame, reference_frame, render_frame, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE,

@@ -30,7 +30,7 @@ use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::{Camera, Light};
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::bindings::layout_entries;
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::{MaterialFeatures, SceneGpu, TEXTURE_BINDINGS};
 use tiledlight_scene::{load_gltf, Scene, UvTransform, Wrap};
 use tiledlight_tests::compare::{

@@ -25,7 +25,7 @@ use tiledlight_cull::{cull_tiles, Camera, TileLists};
 use tiledlight_deferred::gbuffer::EXTRA_TEST_VALUES;
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::culling::{CullOptions, DropLight};
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_tests::compare::{
     compare_with_reference, reference_frame, render_frame, Comparison, Frame, Tolerance, DEFERRED_VS_REFERENCE,

@@ -51,7 +51,7 @@ use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat, ShadowOptions};
 use tiledlight_cull::{Camera, Light};
 use tiledlight_frame::{Diagnostics, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::culling::{ClusterOptions, CullOptions};
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_scene::{shadow_box_scene, Scene};

@@ -36,7 +36,7 @@ use tiledlight_cull::Light;
 use tiledlight_frame::{FrameRenderer, FrameSettings};
 use tiledlight_gpu::culling::CullOptions;
 use tiledlight_gpu::features::{Features, Method};
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::GpuTimer;
@@ -731,7 +731,7 @@ fn tiled_deferred_with_vpls_equals_forward_plus_and_brute_force() {
 fn tiled_renderers(
     (w, h): (u32, u32),
     vpl: Option<VplConfig>,
-    heatmap_of: tiledlight_gpu::tonemap::HeatmapOf,
+    heatmap_of: tiledlight_gpu::heatmap::HeatmapOf,
 ) -> (SceneGpu, Vec<(&'static str, FrameRenderer, Vec<tiledlight_cull::light::GpuCullLight>, CullOptions)>) {
     let ctx = gpu();
     let scene = SceneGpu::new(&ctx.device, &ctx.queue, &wall_scene()).expect("scene");
@@ -767,7 +767,7 @@ fn tiled_renderers(
 #[test]
 fn the_vpl_grid_counts_what_it_drops_and_nothing_when_every_pair_fits() {
     use tiledlight_cull::vpl::VPL_GRID_PER_TILE;
-    use tiledlight_gpu::tonemap::HeatmapOf;
+    use tiledlight_gpu::heatmap::HeatmapOf;
     let ctx = gpu();
     let size = (64, 48);
     let dense = VplConfig { rsm_size: 64, block: 1, ..Default::default() };
@@ -816,7 +816,7 @@ fn the_vpl_grid_counts_what_it_drops_and_nothing_when_every_pair_fits() {
 fn vpl_heat_map_shows_the_cpu_cullers_vpl_counts_in_both_methods() {
     use tiledlight_cull::light::{pack_lights, LightKind};
     use tiledlight_frame::Diagnostics;
-    use tiledlight_gpu::tonemap::HeatmapOf;
+    use tiledlight_gpu::heatmap::HeatmapOf;
     use tiledlight_tests::images::{assert_heat_tile, documented_heat_colour};
     use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
     let ctx = gpu();

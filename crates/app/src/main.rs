@@ -187,7 +187,7 @@ mod tests {
         .unwrap();
         let Some(Command::Render(r)) = cli.command else { panic!("not render") };
         assert_eq!(r.scene.lights, Some(5));
-        assert_eq!(r.scene.method, scene_setup::MethodArg::BruteForceNoCutoff);
+        assert_eq!(r.scene.method, tiledlight_setup::Method::BruteForce { cutoff: false });
         assert_eq!(r.scene.tile_size, 32);
         assert_eq!(r.heatmap, Some(render::HeatmapArg::Opaque));
         let cli = Cli::try_parse_from(["tiledlight", "render", "--heatmap", "blended", "--out", "x.png"]).unwrap();

@@ -21,8 +21,8 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use tiledlight_frame::Diagnostics as _;
 use tiledlight_frame::FrameRenderer;
-use tiledlight_gpu::tonemap::HeatmapOf;
-use tiledlight_setup::{shadow_atlas_description, Method, Prepared};
+use tiledlight_gpu::heatmap::HeatmapOf;
+use tiledlight_setup::{shadow_atlas_description, Prepared};
 
 use crate::scene_setup::SceneArgs;
 use tiledlight_lab::bench::{self, Measurement, INCOMPLETE_MARK};
@@ -117,7 +117,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from(if args.heatmap.is_some() { "out/heatmap.png" } else { "out/render.png" }));
     check_png_path(&out)?;
-    let method = Method::from(args.scene.method);
+    let method = args.scene.method;
     let heatmap = args.heatmap.map(HeatmapOf::from);
     if heatmap.is_some() && !method.is_tiled() {
         bail!("--heatmap needs --method forward-plus ({} has no tiles)", method.name());

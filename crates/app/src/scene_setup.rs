@@ -22,41 +22,6 @@ use tiledlight_setup::{
     MILLION_LIGHTS,
 };
 
-/// Which renderer draws the frame.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum MethodArg {
-    /// Depth pre-pass, tiled light culling, forward shading of each tile's list.
-    ForwardPlus,
-    /// Every light for every pixel, with the radius cutoff (the reference for culling).
-    BruteForce,
-    /// Every light for every pixel, plain inverse-square (the reference for the cutoff).
-    BruteForceNoCutoff,
-    /// G-buffer pass, then one compute pass that culls each tile's lights and shades it.
-    Deferred,
-}
-
-impl From<MethodArg> for Method {
-    fn from(m: MethodArg) -> Self {
-        match m {
-            MethodArg::ForwardPlus => Method::ForwardPlus,
-            MethodArg::BruteForce => Method::BruteForce { cutoff: true },
-            MethodArg::BruteForceNoCutoff => Method::BruteForce { cutoff: false },
-            MethodArg::Deferred => Method::TiledDeferred,
-        }
-    }
-}
-
-impl From<Method> for MethodArg {
-    fn from(m: Method) -> Self {
-        match m {
-            Method::ForwardPlus => MethodArg::ForwardPlus,
-            Method::BruteForce { cutoff: true } => MethodArg::BruteForce,
-            Method::BruteForce { cutoff: false } => MethodArg::BruteForceNoCutoff,
-            Method::TiledDeferred => MethodArg::Deferred,
-        }
-    }
-}
-
 /// Tessellation of the default scene's grid objects.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum DensityArg {
@@ -275,8 +240,8 @@ pub struct SceneArgs {
     #[arg(long, default_value_t = 1080, value_name = "H")]
     pub height: u32,
     /// Renderer.
-    #[arg(long, value_enum, default_value_t = MethodArg::ForwardPlus)]
-    pub method: MethodArg,
+    #[arg(long, value_enum, default_value_t = Method::ForwardPlus)]
+    pub method: Method,
     /// Tile side in pixels: 8, 16 or 32.
     #[arg(long, default_value_t = 16, value_name = "8|16|32")]
     pub tile_size: u32,
@@ -405,7 +370,7 @@ impl Default for SceneArgs {
             emissive: d.emissive,
             width: d.width,
             height: d.height,
-            method: d.method.into(),
+            method: d.method,
             tile_size: d.tile_size,
             capacity: d.capacity,
             aabb: d.aabb,
@@ -475,7 +440,7 @@ impl SceneArgs {
             emissive: self.emissive,
             width: self.width,
             height: self.height,
-            method: self.method.into(),
+            method: self.method,
             tile_size: self.tile_size,
             capacity: self.capacity,
             grid_pairs: self.grid_budget,
@@ -554,7 +519,7 @@ impl Flags for SceneArgs {
                 args.threshold = value.parse().with_context(|| format!("threshold '{value}': expected a number"))?
             }
             "method" => {
-                args.method = MethodArg::from_str(value, true).map_err(|e| anyhow::anyhow!("method '{value}': {e}"))?
+                args.method = Method::from_str(value, true).map_err(|e| anyhow::anyhow!("method '{value}': {e}"))?
             }
             "density" => {
                 args.density =
@@ -895,7 +860,7 @@ mod tests {
         assert_eq!(p.len(), 4);
         assert_eq!(p[1], ["1", "deferred"]);
         let a = axes::args_at(&SceneArgs::default(), &axes, &p[3]).unwrap();
-        assert_eq!((a.lights, a.method), (Some(2), MethodArg::Deferred));
+        assert_eq!((a.lights, a.method), (Some(2), Method::TiledDeferred));
         let merged = axes::merge_axes(
             axes.clone(),
             vec![axes::parse_axis::<SceneArgs>("lights=8").unwrap(), axes::parse_axis::<SceneArgs>("seed=3").unwrap()],

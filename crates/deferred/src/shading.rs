@@ -23,8 +23,8 @@ use tiledlight_gpu::culling::{
     CoarseCulling, CullOptions, DropLight, LightAssign, CULL_WORKGROUP_BYTES, DEPTH_BINDING,
 };
 use tiledlight_gpu::features::Features;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::{compute_bindings, GpuTileLists, LightGrid};
-use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::lights_group::VplBindings;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::readback::read_buffer;

@@ -8,15 +8,15 @@ use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::blended::BlendedPath;
 use tiledlight_gpu::features::{Features, Method};
+use tiledlight_gpu::heatmap::HeatmapPass;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::{GridStatus, LightGrid};
-use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::plan::FramePlan;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::targets::DisplayTargets;
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::tonemap::HeatmapPass;
 use tiledlight_gpu::{GpuContext, GpuError};
 
 use crate::handles::{target_handles, Rec};

@@ -11,7 +11,7 @@ use tiledlight_cull::vpl::VplConfig;
 use tiledlight_deferred::EdgeTest;
 use tiledlight_gpu::culling::{CullOptions, DropLight};
 use tiledlight_gpu::features::{BlendMode, Method};
-use tiledlight_gpu::tonemap::HeatmapOf;
+use tiledlight_gpu::heatmap::HeatmapOf;
 
 /// How a frame is drawn: built into a renderer once ([`crate::FrameRenderer::new`]).
 #[derive(Clone, Copy, Debug, PartialEq)]

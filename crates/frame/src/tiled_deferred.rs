@@ -19,8 +19,8 @@ use tiledlight_deferred::gbuffer::{GBuffer, GBufferPass, ALBEDO_FORMAT, EXTRA_FO
 use tiledlight_deferred::shading::DeferredShading;
 use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
 use tiledlight_gpu::features::Features;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::LightGrid;
-use tiledlight_gpu::lights_gpu::LightBuffers;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::plan::Step;
 use tiledlight_gpu::scene_gpu::SceneGpu;

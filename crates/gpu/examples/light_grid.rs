@@ -42,7 +42,7 @@ use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::reference::{lights_reaching, pixel_view_position};
 use tiledlight_cull::{cull_tiles, Camera, CullConfig, Light, Projection, TileGrid};
 use tiledlight_gpu::culling::{CullOptions, GpuTileLists, LightCulling, CULL_WORKGROUP_BYTES};
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::readback::{read_depth, read_texture};
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::view::{ViewUniforms, Views, MAIN_VIEW};

@@ -7,10 +7,10 @@
 //! groups, masked pipelines, multisampled targets, the heat map pass exist only when this
 //! value says the scene or the settings need them: blended geometry, shadow casters and
 //! VPLs included, each with its passes, buffers and variants only when asked for. Depends on [`crate::scene_gpu`],
-//! [`crate::lights_gpu`] and [`crate::culling`] (the culling options).
+//! [`crate::light_buffers`] and [`crate::culling`] (the culling options).
 
 use crate::culling::CullOptions;
-use crate::lights_gpu::LightBuffers;
+use crate::light_buffers::LightBuffers;
 use crate::scene_gpu::{DrawKind, MaterialFeatures, SceneGpu};
 use tiledlight_cull::shadow::ShadowOptions;
 
@@ -54,12 +54,49 @@ impl Method {
         }
     }
 
+    /// The name people read (the viewer's panel, charts).
+    pub fn label(self) -> &'static str {
+        match self {
+            Method::ForwardPlus => "Forward+",
+            Method::BruteForce { cutoff: true } => "Brute force",
+            Method::BruteForce { cutoff: false } => "Brute force, no cutoff",
+            Method::TiledDeferred => "Tiled Deferred",
+        }
+    }
+
+    /// What the method does, in one line (the command line's help).
+    pub fn summary(self) -> &'static str {
+        match self {
+            Method::ForwardPlus => "Depth pre-pass, tiled light culling, forward shading of each tile's list",
+            Method::BruteForce { cutoff: true } => {
+                "Every light for every pixel, with the radius cutoff (the reference for culling)"
+            }
+            Method::BruteForce { cutoff: false } => {
+                "Every light for every pixel, plain inverse-square (the reference for the cutoff)"
+            }
+            Method::TiledDeferred => "G-buffer pass, then one compute pass that culls each tile's lights and shades it",
+        }
+    }
+
     /// The method of flag value `name` ([`Method::name`]).
     pub fn from_name(name: &str) -> Result<Self, String> {
         Self::ALL.into_iter().find(|m| m.name() == name).ok_or_else(|| {
             let names: Vec<&str> = Self::ALL.iter().map(|m| m.name()).collect();
             format!("method {name:?}: use one of {}", names.join(", "))
         })
+    }
+}
+
+/// `--method` on a command line (feature `clap`): the values are [`Method::name`], their
+/// help [`Method::summary`], so a new method needs no second enum.
+#[cfg(feature = "clap")]
+impl clap::ValueEnum for Method {
+    fn value_variants<'a>() -> &'a [Self] {
+        &Self::ALL
+    }
+
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        Some(clap::builder::PossibleValue::new(self.name()).help(self.summary()))
     }
 }
 

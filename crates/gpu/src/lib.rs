@@ -3,7 +3,7 @@
 //! Device creation with adapter selection by name ([`context`]), WGSL loading with includes
 //! and variants ([`shader`], shaders embedded from `shaders/`), bind group layouts declared
 //! once as data and checked against the WGSL ([`bindings`]), GPU timers ([`timer`]),
-//! readback ([`readback`]), scene and light buffers ([`scene_gpu`], [`lights_gpu`]), and the
+//! readback ([`readback`]), scene and light buffers ([`scene_gpu`], [`light_buffers`]), and the
 //! passes both methods share: the depth pre-pass ([`depth_prepass`]), light culling by
 //! technique ([`culling`]: tile gather, light-centric scatter, clusters) into the light grid
 //! ([`light_grid`]), the shadow atlas ([`shadow_atlas`]), the blended-geometry path ([`blended`]) and tonemapping ([`tonemap`]). Depends on wgpu, tiledlight-cull and
@@ -15,9 +15,11 @@ pub mod context;
 pub mod culling;
 pub mod depth_prepass;
 pub mod error;
+pub mod exposure;
 pub mod features;
+pub mod heatmap;
+pub mod light_buffers;
 pub mod light_grid;
-pub mod lights_gpu;
 pub mod lights_group;
 pub mod memory;
 pub mod plan;
@@ -47,8 +49,8 @@ pub fn binding_declarations() -> Vec<bindings::PassBindings> {
         culling::scatter::TILE_DEPTH_BINDINGS,
         culling::scatter::ASSIGN_BINDINGS,
         tonemap::TONEMAP_BINDINGS,
-        tonemap::HEATMAP_BINDINGS,
-        tonemap::EXPOSURE_BINDINGS,
+        heatmap::HEATMAP_BINDINGS,
+        exposure::EXPOSURE_BINDINGS,
         blended::BLENDED_BINDINGS,
         blended::BLENDED_BRUTE_FORCE_BINDINGS,
         blended::COMPOSITE_BINDINGS,
@@ -60,7 +62,7 @@ pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
     let mut v = view::layouts();
     v.extend(scene_gpu::layouts());
     v.extend(light_grid::layouts());
-    v.extend(lights_gpu::layouts());
+    v.extend(light_buffers::layouts());
     v.extend(tonemap::layouts());
     v.extend(shadow_atlas::layouts());
     v

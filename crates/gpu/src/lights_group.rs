@@ -5,11 +5,11 @@
 //! (`shaders/common/lights_group.wgsl`) and once in Rust ([`LIGHTS_GROUP`]). Built
 //! once; [`LightsGroup::rebind`] makes the group again when the light grid's index buffer
 //! grew (a new buffer), the only thing in it that changes after creation. Depends on wgpu,
-//! [`crate::lights_gpu`], [`crate::light_grid`], [`crate::shadow_atlas`].
+//! [`crate::light_buffers`], [`crate::light_grid`], [`crate::shadow_atlas`].
 
 use crate::bindings::{Binding, Cond};
+use crate::light_buffers::LightBuffers;
 use crate::light_grid::LightGrid;
-use crate::lights_gpu::LightBuffers;
 use crate::shadow_atlas::ShadowAtlas;
 
 const FS: wgpu::ShaderStages = wgpu::ShaderStages::FRAGMENT;

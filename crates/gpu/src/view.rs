@@ -6,7 +6,7 @@
 //! pipeline can draw any view: the main camera (slot [`MAIN_VIEW`]), shadow faces and RSM
 //! faces, without new pipelines or bind groups. Culling parameters live with the
 //! light grid ([`crate::light_grid`]), the light counts and ambient with the lights
-//! ([`crate::lights_gpu::LightingUniforms`]), the exposure with the tonemap pass.
+//! ([`crate::light_buffers::LightingUniforms`]), the exposure with the tonemap pass.
 //! Depends on wgpu, tiledlight-cull and [`crate::bindings`].
 
 use bytemuck::{Pod, Zeroable};

@@ -5,11 +5,11 @@
 //! (digits and the few capitals needed) scaled 1x to 3x with the image, so no font crate
 //! is needed.
 //!
-//! Depends on `image` only; the palette is `tiledlight_gpu::tonemap::heatmap_palette`, the shader's CPU twin.
+//! Depends on `image` only; the palette is `tiledlight_gpu::heatmap::heatmap_palette`, the shader's CPU twin.
 
 use image::{Rgb, RgbImage};
 
-pub use tiledlight_gpu::tonemap::{heatmap_palette as palette, heatmap_t as palette_t, HEATMAP_OVERFLOW as OVERFLOW};
+pub use tiledlight_gpu::heatmap::{heatmap_palette as palette, heatmap_t as palette_t, HEATMAP_OVERFLOW as OVERFLOW};
 
 /// sRGB encoding of a linear value, as the `Rgba8UnormSrgb` target the heat map is drawn
 /// into applies it.

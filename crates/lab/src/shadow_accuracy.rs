@@ -46,7 +46,7 @@ use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat, ShadowOptions, TILE_SI
 use tiledlight_cull::Light;
 use tiledlight_frame::Diagnostics as _;
 use tiledlight_frame::{FrameRenderer, FrameSettings};
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::{ContextOptions, GpuContext};
 use tiledlight_metrics::tonemap::tonemap;

@@ -9,7 +9,7 @@
 
 use glam::{Quat, Vec3};
 use tiledlight_cull::light::PackedLights;
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::light_buffers::LightBuffers;
 
 /// Angular speed range of the lights, radians per second.
 const SPEED: (f32, f32) = (0.15, 0.6);

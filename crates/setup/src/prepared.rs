@@ -14,9 +14,9 @@ use tiledlight_cull::light::try_pack_lights_with_casters;
 use tiledlight_cull::Camera;
 use tiledlight_frame::{FrameRenderer, FrameSettings};
 use tiledlight_gpu::culling::CullOptions;
-use tiledlight_gpu::lights_gpu::LightBuffers;
+use tiledlight_gpu::heatmap::HeatmapOf;
+use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::tonemap::HeatmapOf;
 use tiledlight_gpu::{ContextOptions, GpuContext, GpuError};
 use tiledlight_scene::{Aabb, CameraDesc, Light};
 

@@ -14,7 +14,7 @@
 use tiledlight_cull::light::{GpuCullLight, PackedLights};
 use tiledlight_cull::vpl::{GpuVpl, GpuVplParams};
 use tiledlight_gpu::bindings::{create_layout, Binding, PassBindings, PassGroup};
-use tiledlight_gpu::lights_gpu::{LightBuffers, LightingUniforms};
+use tiledlight_gpu::light_buffers::{LightBuffers, LightingUniforms};
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::readback::read_buffer;
 use tiledlight_gpu::timer::GpuTimer;

@@ -35,10 +35,10 @@ use tiledlight_cull::bounds::{sphere_vs_frustum, to_view};
 use tiledlight_cull::tiles::TileFrustum;
 use tiledlight_cull::Camera;
 use tiledlight_frame::{FrameRenderer, Renderer};
+use tiledlight_gpu::heatmap::HeatmapOf;
 use tiledlight_gpu::light_grid::GridStatus;
 use tiledlight_gpu::readback::read_texture;
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::tonemap::HeatmapOf;
 use tiledlight_gpu::{ContextOptions, GpuContext};
 use tiledlight_setup::settings::blend_mode_description;
 use tiledlight_setup::{

@@ -11,8 +11,8 @@ use clap::ValueEnum;
 
 use super::camera_control::Mode;
 use super::settings::{Settings, VplControl};
-use crate::scene_setup::{AssignArg, BlendModeArg, DensityArg, GridArg, MethodArg, ShadowFormatArg};
-use tiledlight_gpu::tonemap::HeatmapOf;
+use crate::scene_setup::{AssignArg, BlendModeArg, DensityArg, GridArg, ShadowFormatArg};
+use tiledlight_gpu::heatmap::HeatmapOf;
 use tiledlight_setup::SceneSource;
 
 /// One step of a script.
@@ -93,8 +93,8 @@ pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
     let a = &mut s.setup;
     match key {
         "method" => {
-            a.method =
-                MethodArg::from_str(value, true).map_err(|e| anyhow::anyhow!("--script: method={value}: {e}"))?.into()
+            a.method = <tiledlight_setup::Method as ValueEnum>::from_str(value, true)
+                .map_err(|e| anyhow::anyhow!("--script: method={value}: {e}"))?
         }
         "lights" => a.lights = Some(number(key, value)?),
         "spot-lights" => a.spot_lights = Some(number(key, value)?),

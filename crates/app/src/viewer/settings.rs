@@ -17,7 +17,7 @@
 //! Pure data (no GPU): depends on tiledlight-setup and tiledlight-gpu's `HeatmapOf`.
 
 use tiledlight_cull::vpl::{VplConfig, VplShading};
-use tiledlight_gpu::tonemap::HeatmapOf;
+use tiledlight_gpu::heatmap::HeatmapOf;
 use tiledlight_setup::{rebuild_plan, Method, Rebuild};
 
 /// MSAA sample counts offered in the panel (the MSAA work wires them to the renderers).
@@ -147,18 +147,13 @@ pub fn plan(old: &Settings, new: &Settings) -> Plan {
     }
 }
 
-/// The methods in the panel's order, with their labels.
-pub const METHODS: [(Method, &str); 4] = [
-    (Method::ForwardPlus, "Forward+"),
-    (Method::TiledDeferred, "Tiled Deferred"),
-    (Method::BruteForce { cutoff: true }, "Brute force"),
-    (Method::BruteForce { cutoff: false }, "Brute force, no cutoff"),
+/// The methods in the panel's order (and the order the method key cycles through).
+pub const METHODS: [Method; 4] = [
+    Method::ForwardPlus,
+    Method::TiledDeferred,
+    Method::BruteForce { cutoff: true },
+    Method::BruteForce { cutoff: false },
 ];
-
-/// The panel's label of a method.
-pub fn method_label(m: Method) -> &'static str {
-    METHODS.iter().find(|(x, _)| *x == m).map_or("?", |(_, l)| l)
-}
 
 #[cfg(test)]
 mod tests {

@@ -16,13 +16,13 @@ use egui::{Color32, RichText};
 use tiledlight_cull::shadow::ShadowFormat;
 use tiledlight_gpu::blended::BlendedPath;
 use tiledlight_gpu::features::BlendMode;
+use tiledlight_gpu::heatmap::{heatmap_palette, heatmap_t, HeatmapOf, HEATMAP_OVERFLOW};
 use tiledlight_gpu::memory::{format_bytes, MemoryReport};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::PassTime;
-use tiledlight_gpu::tonemap::{heatmap_palette, heatmap_t, HeatmapOf, HEATMAP_OVERFLOW};
 
 use super::camera_control::{CameraRig, Mode, Motion};
-use super::settings::{method_label, Settings, VplControl, METHODS, MSAA_CHOICES, VPL_BLOCKS, VPL_RSM_SIZES};
+use super::settings::{Settings, VplControl, METHODS, MSAA_CHOICES, VPL_BLOCKS, VPL_RSM_SIZES};
 use tiledlight_cull::vpl::VplShading;
 use tiledlight_lab::legend::label_values;
 use tiledlight_scene::GridDensity;
@@ -267,8 +267,8 @@ fn input(
                 s.animate = !s.animate;
             }
             if pressed(Key::M) {
-                let i = METHODS.iter().position(|(m, _)| *m == s.setup.method).unwrap_or(0);
-                s.setup.method = METHODS[(i + 1) % METHODS.len()].0;
+                let i = METHODS.iter().position(|m| *m == s.setup.method).unwrap_or(0);
+                s.setup.method = METHODS[(i + 1) % METHODS.len()];
             }
         });
     }
@@ -404,9 +404,9 @@ fn graph(ui: &mut egui::Ui, st: &Stats) {
 
 fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'_>) {
     egui::CollapsingHeader::new("Method and culling").default_open(true).show(ui, |ui| {
-        egui::ComboBox::from_label("method").selected_text(method_label(s.setup.method)).show_ui(ui, |ui| {
-            for (m, label) in METHODS {
-                ui.selectable_value(&mut s.setup.method, m, label);
+        egui::ComboBox::from_label("method").selected_text(s.setup.method.label()).show_ui(ui, |ui| {
+            for m in METHODS {
+                ui.selectable_value(&mut s.setup.method, m, m.label());
             }
         });
         let tiled = s.setup.method.is_tiled();

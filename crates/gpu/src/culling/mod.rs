@@ -15,7 +15,7 @@
 //! The modules depend downwards only: `options` on `clusters`; `tile` and `scatter` on
 //! `options`; this façade on all of them (`cargo xtask circles` checks there is no circle).
 //! The CPU twins are in `tiledlight_cull` (`gather`, `assign`, `cluster`).
-//! Depends on wgpu, [`crate::light_grid`], [`crate::lights_gpu`], [`crate::view`],
+//! Depends on wgpu, [`crate::light_grid`], [`crate::light_buffers`], [`crate::view`],
 //! [`crate::bindings`].
 
 pub mod clusters;
@@ -26,8 +26,8 @@ pub mod tile;
 use tiledlight_cull::TileGrid;
 
 use crate::error::GpuError;
+use crate::light_buffers::LightBuffers;
 use crate::light_grid::LightGrid;
-use crate::lights_gpu::LightBuffers;
 use crate::memory::MemoryReport;
 use crate::timer::GpuTimer;
 use crate::view::Views;

@@ -38,15 +38,15 @@
 //! On the H200 the eye-plane rectangle cut the million-light preset's assignment from 0.76
 //! to 0.22 ms: ~2,800 of its lights got the whole grid (docs/PERFORMANCE.md).
 //! Depends on wgpu, [`super::options`] (options, depth binding), [`super::clusters`] (the
-//! clustered variant), [`crate::light_grid`], [`crate::lights_gpu`], [`crate::view`],
+//! clustered variant), [`crate::light_grid`], [`crate::light_buffers`], [`crate::view`],
 //! [`crate::bindings`].
 
 use tiledlight_cull::TileGrid;
 
 use crate::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
 use crate::error::GpuError;
+use crate::light_buffers::LightBuffers;
 use crate::light_grid::{compute_bindings, LightGrid};
-use crate::lights_gpu::LightBuffers;
 use crate::memory::MemoryReport;
 use crate::timer::GpuTimer;
 use crate::util::{buffer_zeroed, compute_pipeline, compute_pipeline_at, keyed_module};

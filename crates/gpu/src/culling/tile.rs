@@ -9,15 +9,15 @@
 //! ([`CullOptions::tests`], [`CullOptions::cull_constants`]), which Tiled
 //! Deferred's fused cull-and-shade kernel uses too.
 //! Depends on wgpu, [`super::options`], [`crate::view`], [`crate::light_grid`],
-//! [`crate::lights_gpu`].
+//! [`crate::light_buffers`].
 
 use tiledlight_cull::lists::{COARSE_CAPACITY, COARSE_SIZE};
 use tiledlight_cull::TileGrid;
 
 use crate::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
 use crate::error::GpuError;
+use crate::light_buffers::LightBuffers;
 use crate::light_grid::LightGrid;
-use crate::lights_gpu::LightBuffers;
 use crate::memory::MemoryReport;
 use crate::timer::GpuTimer;
 use crate::util::{buffer_zeroed, compute_pipeline, keyed_module};
