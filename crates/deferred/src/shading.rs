@@ -134,7 +134,7 @@ const fn hdr_storage_binding(binding: u32) -> Binding {
 /// G-buffer's emission target (18); with `VPLS` the VPLs (19), their shading uniform (20),
 /// their light grid (21) and its indices (22). The shadow and VPL numbers are those of the
 /// forward passes' lights group (`tiledlight_gpu::lights_group::LIGHTS_GROUP`).
-const DEFERRED_GROUP: &[Binding] = &[
+pub const DEFERRED_GROUP: &[Binding] = &[
     DEPTH_BINDING,
     Binding::storage(1, CS),
     Binding::uniform(2, CS),

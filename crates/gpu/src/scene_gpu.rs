@@ -18,6 +18,7 @@ use crate::bindings::{create_layout, Binding, Cond, PassGroup};
 use crate::error::GpuError;
 use crate::memory::MemoryReport;
 use crate::util::buffer_init;
+use crate::variants::{MaterialKey, TextureMaps};
 
 /// One instance's transforms and material.
 ///
@@ -138,6 +139,23 @@ pub struct MaterialFeatures {
     pub emissive: bool,
     /// Some texture reads texture coordinate set 1 (`UV1`: the second UV vertex buffer).
     pub uv1: bool,
+}
+
+/// The scene's material paths as the shader key's (`MaterialKey` is pure data in
+/// [`crate::variants`]; the conversion lives here so that module imports nothing of this one).
+impl MaterialKey {
+    /// The key of the scene's material features (maps only with textures).
+    pub fn of(f: &MaterialFeatures) -> Self {
+        Self {
+            textures: f.textures.then_some(TextureMaps {
+                metallic_roughness: f.metallic_roughness,
+                normal_map: f.normal_map,
+                occlusion: f.occlusion,
+                uv1: f.uv1,
+            }),
+            emissive: f.emissive,
+        }
+    }
 }
 
 impl MaterialFeatures {
@@ -849,7 +867,14 @@ pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
 
 #[cfg(test)]
 mod tests {
-    use super::visible_runs;
+    use super::{visible_runs, MaterialFeatures};
+
+    #[test]
+    fn material_key_follows_the_features() {
+        let f = MaterialFeatures { textures: true, normal_map: true, emissive: true, ..Default::default() };
+        assert_eq!(crate::variants::MaterialKey::of(&f).defines(), f.defines());
+        assert_eq!(crate::variants::MaterialKey::of(&MaterialFeatures::default()).defines(), Vec::<&str>::new());
+    }
 
     #[test]
     fn runs_of_visible_slots() {

@@ -61,7 +61,7 @@ pub struct SceneDraw<'a> {
     pub samples: u32,
     /// Fragment entry point and colour targets (None: depth only).
     pub fragment: Option<(&'a str, &'a [Option<wgpu::ColorTargetState>])>,
-    /// Depth format ([`DEPTH_FORMAT`] except for shadow maps).
+    /// Depth format ([`crate::depth_prepass::DEPTH_FORMAT`] except for shadow maps).
     pub depth_format: wgpu::TextureFormat,
     /// Pipeline-overridable constants (`override` in the WGSL).
     pub constants: &'a [(&'a str, f64)],

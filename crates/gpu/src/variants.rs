@@ -6,12 +6,11 @@
 //! validate-shaders` validates every value of every key ([`key_spaces`]), not every
 //! combination of flags, and prints each entry file's count.
 //!
-//! Pure data (std only, plus [`MaterialFeatures`] for the conversion): no device needed,
-//! so xtask and tests enumerate the spaces without one.
+//! Pure data (std only; the scene's conversion, `MaterialKey::of`, lives beside
+//! `MaterialFeatures` in [`crate::scene_gpu`], which imports this module): no device
+//! needed, so xtask and tests enumerate the spaces without one.
 
 use std::fmt;
-
-use crate::scene_gpu::MaterialFeatures;
 
 /// A shader variant: an entry file and the defines it is compiled with.
 pub trait ShaderKey: fmt::Debug {
@@ -90,19 +89,6 @@ pub struct MaterialKey {
 }
 
 impl MaterialKey {
-    /// The key of the scene's material features (maps only with textures).
-    pub fn of(f: &MaterialFeatures) -> Self {
-        Self {
-            textures: f.textures.then_some(TextureMaps {
-                metallic_roughness: f.metallic_roughness,
-                normal_map: f.normal_map,
-                occlusion: f.occlusion,
-                uv1: f.uv1,
-            }),
-            emissive: f.emissive,
-        }
-    }
-
     /// Every value (34).
     pub fn all() -> Vec<Self> {
         let mut maps = vec![None];
@@ -851,13 +837,6 @@ mod tests {
         assert_eq!(count("deferred.wgsl"), 672);
         assert_eq!(count("deferred_msaa.wgsl"), 576);
         assert_eq!(count("deferred_assigned.wgsl"), 288);
-    }
-
-    #[test]
-    fn material_key_follows_the_features() {
-        let f = MaterialFeatures { textures: true, normal_map: true, emissive: true, ..Default::default() };
-        assert_eq!(MaterialKey::of(&f).defines(), f.defines());
-        assert_eq!(MaterialKey::of(&MaterialFeatures::default()).defines(), Vec::<&str>::new());
     }
 
     #[test]
