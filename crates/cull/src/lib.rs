@@ -13,7 +13,9 @@
 //! CPU twin of virtual point lights: generation from a reflective shadow map, the two
 //! shading models and the every-texel one-bounce reference ([`vpl`]); and an independent
 //! raster of a depth buffer with the bounds a GPU's snapping allows ([`blended_depth`],
-//! what the blended lists are checked against).
+//! what the blended lists are checked against); and the visibility buffer's twin: its IDs,
+//! perspective-correct barycentrics with their screen derivatives, and mip levels
+//! ([`visibility`]).
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
 
 pub mod error;
@@ -39,6 +41,7 @@ pub mod raycast;
 pub mod reference;
 pub mod shadow;
 pub mod tiles;
+pub mod visibility;
 pub mod volumes;
 pub mod vpl;
 
