@@ -170,7 +170,8 @@ pub fn barycentrics(clip: [Vec4; 3], ndc: Vec2, size: (u32, u32)) -> Option<Bary
 }
 
 /// The smallest share of the pixel's weight sum a neighbour's may have before its
-/// weights count as unbounded (see [`neighbour_step`]).
+/// weights count as unbounded: its sum is kept at least this share, so derivatives stay
+/// finite where the neighbour's ray misses the triangle's plane.
 pub const NEIGHBOUR_SUM_FLOOR: f32 = 1e-6;
 
 /// The weights' change to a neighbour pixel whose unnormalised weights are `u + d`
