@@ -190,6 +190,76 @@ fn neighbour_step(u: Vec3, sum: f32, d: Vec3, d_sum: f32) -> Vec3 {
     (d * sum - u * d_sum) / (sum * next)
 }
 
+/// f32's unit roundoff times the few operations each quantity of [`barycentrics`] passes
+/// through (a GPU that fuses a multiply and an add rounds less, never more).
+const GAMMA: f32 = 8.0 * f32::EPSILON;
+
+/// Relative error allowed per division: Vulkan lets a GPU's f32 division be 2.5 ulp off.
+const DIVISION: f32 = 3.0 * f32::EPSILON;
+
+/// The unnormalised weights at `q` (`(x, y, 1)` a point, `(dx, dy, 0)` a step) as
+/// [`barycentrics`] computes them, with each one's and their sum's rounding bound: a row
+/// entry is a difference of two products of inputs or edges (an edge carries one rounding
+/// of its own size), a weight a three-term dot product, weight 0 the sum minus the others.
+struct Weights {
+    u: Vec3,
+    sum: f32,
+    err_u: Vec3,
+    err_sum: f32,
+}
+
+fn weights(clip: [Vec4; 3], q: Vec3) -> Weights {
+    let [c0, c1, c2] = clip.map(|c| Vec3::new(c.x, c.y, c.w));
+    let (e1, e2) = (c1 - c0, c2 - c0);
+    let (n, a, b) = (e1.cross(e2), e2.cross(c0), c0.cross(e1));
+    let cross_abs = |a: Vec3, b: Vec3| Vec3::new(a.y * b.z + a.z * b.y, a.z * b.x + a.x * b.z, a.x * b.y + a.y * b.x);
+    let qa = q.abs();
+    let (u1, u2, sum) = (a.dot(q), b.dot(q), n.dot(q));
+    let err_sum = GAMMA * cross_abs(e1.abs(), e2.abs()).dot(qa);
+    let err_1 = GAMMA * cross_abs(e2.abs(), c0.abs()).dot(qa);
+    let err_2 = GAMMA * cross_abs(c0.abs(), e1.abs()).dot(qa);
+    let u0 = sum - u1 - u2;
+    let err_0 = err_sum + err_1 + err_2 + GAMMA * (sum.abs() + u1.abs() + u2.abs());
+    Weights { u: Vec3::new(u0, u1, u2), sum, err_u: Vec3::new(err_0, err_1, err_2), err_sum }
+}
+
+/// Bounds on the f32 rounding error of [`barycentrics`] for the same inputs, per
+/// component (a forward error analysis of its operations, evaluated for this case), so
+/// a result can be checked against an exact one with the tolerance its conditioning
+/// earns: tight for a triangle seen face-on, loose for a sliver. None where the weights'
+/// sum is within its own rounding of zero (the pixel's ray in the triangle's plane as far
+/// as f32 can tell: f32 decides nothing there). A derivative's bound is infinite where
+/// the neighbour's sum is (or is past) zero as far as f32 can tell, or under
+/// [`NEIGHBOUR_SUM_FLOOR`] of the pixel's: there it is unbounded by design.
+pub fn rounding_bound(clip: [Vec4; 3], ndc: Vec2, size: (u32, u32)) -> Option<Barycentrics> {
+    let p = weights(clip, ndc.extend(1.0));
+    let s = p.sum.abs();
+    if s <= 2.0 * p.err_sum {
+        return None;
+    }
+    let rel_sum = p.err_sum / (s - p.err_sum);
+    let lambda = p.u / p.sum;
+    let tol_l = p.err_u / (s - p.err_sum) + lambda.abs() * (rel_sum + DIVISION);
+    let derivative = |q: Vec3| {
+        let d = weights(clip, q);
+        let s_next = (p.sum + d.sum) * p.sum.signum();
+        let err_next = p.err_sum + d.err_sum;
+        if s_next <= 2.0 * err_next || s_next <= s * NEIGHBOUR_SUM_FLOOR * 2.0 {
+            return Vec3::INFINITY;
+        }
+        let step = (d.u * p.sum - p.u * d.sum) / (p.sum * s_next * p.sum.signum());
+        let num = (d.u * p.sum).abs() + (p.u * d.sum).abs();
+        let num_err = d.err_u * s + d.u.abs() * p.err_sum + p.err_u * d.sum.abs() + p.u.abs() * d.err_sum + num * GAMMA;
+        let rel_den = rel_sum + err_next / (s_next - err_next);
+        num_err / (s * s_next) * (1.0 + rel_den) + step.abs() * (rel_den + DIVISION)
+    };
+    Some(Barycentrics {
+        lambda: tol_l,
+        ddx: derivative(Vec3::new(2.0 / size.0 as f32, 0.0, 0.0)),
+        ddy: derivative(Vec3::new(0.0, -2.0 / size.1 as f32, 0.0)),
+    })
+}
+
 /// The f64 reference of [`barycentrics`], by another route: the pixel's ray through the
 /// NDC point, intersected in clip space with the triangle's plane, and the intersection's
 /// barycentrics from the sub-triangle areas; at the pixel and one pixel right and down.
