@@ -4,12 +4,14 @@
 //! skipping, when none exists); [`scenes`] builds small test scenes, cameras and lights;
 //! [`compare`] holds the comparisons with the brute-force reference as functions (their
 //! tolerances stated once); [`lists`] compares GPU per-tile light lists with the CPU
-//! reference culler; [`images`] compares images with nv-flip (mean and percentile thresholds) and writes
+//! reference culler; [`kernels`] runs a WGSL function over test cases for its twin test;
+//! [`images`] compares images with nv-flip (mean and percentile thresholds) and writes
 //! `-actual.png` / `-difference.png` next to the test output on failure. Depends on every
 //! tiledlight crate; nothing depends on it.
 
 pub mod compare;
 pub mod images;
+pub mod kernels;
 pub mod lists;
 pub mod scenes;
 

@@ -19,6 +19,7 @@ use glam::{DVec3, Vec2, Vec3, Vec4};
 use tiledlight_cull::visibility::{barycentrics, barycentrics_f64, pixel_ndc, rounding_bound, Barycentrics};
 use tiledlight_cull::Camera;
 use tiledlight_tests::gpu;
+use tiledlight_tests::kernels::{run_cases, test_module};
 
 /// One case: the triangle's clip-space vertices, the pixel centre's NDC, the target size.
 struct Case {
@@ -117,20 +118,6 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 
 /// Runs `vis_barycentrics` on the GPU for every case: (lambda, ddx, ddy, valid).
 fn run_gpu(cases: &[Case]) -> Vec<(Vec3, Vec3, Vec3, bool)> {
-    let ctx = gpu();
-    let (device, queue) = (&ctx.device, &ctx.queue);
-    let files = |p: &str| {
-        if p == "test_visibility.wgsl" {
-            Some(SHADER.to_string())
-        } else {
-            tiledlight_gpu::shader::embedded(p).map(str::to_owned)
-        }
-    };
-    let text = tiledlight_gpu::shader::preprocess_with(&files, "test_visibility.wgsl", &[]).expect("preprocess").text;
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("test.visibility"),
-        source: wgpu::ShaderSource::Wgsl(text.into()),
-    });
     let mut floats: Vec<f32> = Vec::new();
     for c in cases {
         for v in c.clip {
@@ -138,38 +125,8 @@ fn run_gpu(cases: &[Case]) -> Vec<(Vec3, Vec3, Vec3, bool)> {
         }
         floats.extend([c.ndc.x, c.ndc.y, c.size.0 as f32, c.size.1 as f32]);
     }
-    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
-    let input =
-        tiledlight_gpu::util::buffer_init(device, "test.visibility.cases", bytemuck::cast_slice(&floats), usage);
-    let output = tiledlight_gpu::util::buffer_zeroed(device, "test.visibility.out", cases.len() as u64 * 48, usage);
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("test.visibility"),
-        layout: None,
-        module: &module,
-        entry_point: Some("main"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("test.visibility"),
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: input.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 1, resource: output.as_entire_binding() },
-        ],
-    });
-    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("test.visibility") });
-    {
-        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("test.visibility"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bind, &[]);
-        pass.dispatch_workgroups((cases.len() as u32).div_ceil(64), 1, 1);
-    }
-    queue.submit([enc.finish()]);
-    let got: Vec<f32> = tiledlight_gpu::readback::read_buffer(device, queue, &output).expect("readback");
+    let input = bytemuck::cast_slice(&floats);
+    let got = run_cases(gpu(), "test_visibility.wgsl", SHADER, input, cases.len() as u32, cases.len() as u64 * 48);
     (0..cases.len())
         .map(|i| {
             let v = |k: usize| Vec3::new(got[12 * i + 4 * k], got[12 * i + 4 * k + 1], got[12 * i + 4 * k + 2]);
@@ -395,18 +352,7 @@ fn explicit_gradients_choose_the_hardware_mip_level() {
     });
     let target_view = target.create_view(&wgpu::TextureViewDescriptor::default());
     let shader = MIP_SHADER.replace("TARGET_SIZE", &format!("vec2<u32>({w}u, {h}u)"));
-    let files = |p: &str| {
-        if p == "test_mip.wgsl" {
-            Some(shader.clone())
-        } else {
-            tiledlight_gpu::shader::embedded(p).map(str::to_owned)
-        }
-    };
-    let text = tiledlight_gpu::shader::preprocess_with(&files, "test_mip.wgsl", &[]).expect("preprocess").text;
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("test.mip"),
-        source: wgpu::ShaderSource::Wgsl(text.into()),
-    });
+    let module = test_module(ctx, "test_mip.wgsl", &shader);
     let out = tiledlight_gpu::util::buffer_zeroed(device, "test.mip.out", (w * h * 32) as u64, storage);
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("test.mip.layout"),

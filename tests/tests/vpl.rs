@@ -43,6 +43,7 @@ use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::view::Views;
 use tiledlight_scene::{Instance, Scene};
 use tiledlight_tests::gpu;
+use tiledlight_tests::kernels::run_cases;
 use tiledlight_tests::scenes::{material, quad};
 use tiledlight_vpl::VplPath;
 
@@ -355,7 +356,6 @@ fn a_point_casters_six_faces_make_vpls_as_the_twin_does() {
 #[test]
 fn wgsl_vpl_light_equals_the_twin() {
     let ctx = gpu();
-    let (device, queue) = (&ctx.device, &ctx.queue);
     let src = r#"
 #include "common/vpl.wgsl"
 struct Case { vpl: Vpl, x: vec3<f32>, physical: u32 }
@@ -370,18 +370,6 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     out[2u * id.x + 1u] = vec4<f32>(r.factor, 0.0);
 }
 "#;
-    let files = |p: &str| {
-        if p == "test_vpl_light.wgsl" {
-            Some(src.to_string())
-        } else {
-            tiledlight_gpu::shader::embedded(p).map(str::to_owned)
-        }
-    };
-    let text = tiledlight_gpu::shader::preprocess_with(&files, "test_vpl_light.wgsl", &[]).expect("preprocess").text;
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("test.vpl_light"),
-        source: wgpu::ShaderSource::Wgsl(text.into()),
-    });
     // Cases: both models, at the VPL, behind it, in the clamp, inside and past the radius,
     // grazing, and seeded random ones.
     let v0 = Vpl {
@@ -439,36 +427,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             want.push(vpl::vpl_intensity(v, *x, model, 0.1));
         }
     }
-    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
     let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
-    let input = tiledlight_gpu::util::buffer_init(device, "test.vpl_light.cases", &bytes, usage);
-    let output = tiledlight_gpu::util::buffer_zeroed(device, "test.vpl_light.out", want.len() as u64 * 32, usage);
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("test.vpl_light"),
-        layout: None,
-        module: &module,
-        entry_point: Some("main"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("test.vpl_light"),
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: input.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 1, resource: output.as_entire_binding() },
-        ],
-    });
-    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("test.vpl_light") });
-    {
-        let mut pass = enc
-            .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("test.vpl_light"), timestamp_writes: None });
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bind, &[]);
-        pass.dispatch_workgroups((want.len() as u32).div_ceil(64), 1, 1);
-    }
-    queue.submit([enc.finish()]);
-    let got: Vec<f32> = tiledlight_gpu::readback::read_buffer(device, queue, &output).expect("readback");
+    let got = run_cases(ctx, "test_vpl_light.wgsl", src, &bytes, want.len() as u32, want.len() as u64 * 32);
     let largest = want.iter().map(|(_, f)| f.max_element()).fold(0.0, f32::max);
     assert!(largest > 0.0);
     let mut lit = 0;
