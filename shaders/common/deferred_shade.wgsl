@@ -30,14 +30,18 @@
 #include "common/light_grid_rw.wgsl"
 #include "common/shade.wgsl"
 
+@group(1) @binding(1) var<storage, read> cull_lights: array<CullLight>;
+@group(1) @binding(2) var<uniform> lighting: Lighting;
+#ifdef VISIBILITY
+// The visibility buffer's surface instead of a G-buffer.
+#include "common/visibility_surface.wgsl"
+#else
 #ifdef MSAA
 alias GTexture = texture_multisampled_2d<f32>;
 #else
 alias GTexture = texture_2d<f32>;
 #endif
 
-@group(1) @binding(1) var<storage, read> cull_lights: array<CullLight>;
-@group(1) @binding(2) var<uniform> lighting: Lighting;
 @group(1) @binding(3) var gbuffer_albedo: GTexture;
 @group(1) @binding(4) var gbuffer_normal: GTexture;
 #ifdef EXTRA_RTS
@@ -51,6 +55,7 @@ alias GTexture = texture_2d<f32>;
 #endif
 #ifdef EMISSION
 @group(1) @binding(18) var gbuffer_emission: GTexture;
+#endif
 #endif
 @group(1) @binding(6) var<storage, read> shading_lights: array<ShadingLight>;
 #ifdef SPOT_LIGHTS
@@ -79,9 +84,15 @@ alias GTexture = texture_2d<f32>;
 @group(1) @binding(21) var<storage, read> vpl_grid: LightGrid;
 @group(1) @binding(22) var<storage, read> vpl_indices: array<u32>;
 #endif
-// The light grid (crates/gpu/src/light_grid.rs).
+// The light grid (crates/gpu/src/light_grid.rs); group 3 in the visibility kernels, whose
+// group 2 is the material textures (common/scene.wgsl).
+#ifdef VISIBILITY
+@group(3) @binding(0) var<storage, read_write> light_grid: LightGridRw;
+@group(3) @binding(1) var<storage, read_write> light_indices: array<u32>;
+#else
 @group(2) @binding(0) var<storage, read_write> light_grid: LightGridRw;
 @group(2) @binding(1) var<storage, read_write> light_indices: array<u32>;
+#endif
 
 #ifdef MSAA
 // Texels per pixel of `samples_out` across and down (SAMPLES_X * SAMPLES_Y = SAMPLES).
@@ -137,12 +148,17 @@ struct GSample {
     surface: Surface,
     // The unlit part of the colour: ambient x albedo (x occlusion) (+ emission).
     unlit: vec3<f32>,
+    // This dispatch shades the sample (always with a G-buffer; the visibility kernels of a
+    // textured scene shade one material per dispatch).
+    owned: bool,
 }
 
+#ifndef VISIBILITY
 // `textureLoad(t, p, k)` reads mip level k of a plain texture and sample k of a
 // multisampled one: with k = s (0 without MSAA) the same code serves both.
 fn load_gsample(p: vec2<u32>, s: u32) -> GSample {
     var g: GSample;
+    g.owned = true;
     let d = load_depth(p, s);
     g.sky = d <= 0.0;
     if g.sky {
@@ -174,6 +190,12 @@ fn load_gsample(p: vec2<u32>, s: u32) -> GSample {
     return g;
 }
 
+// Every pixel is this dispatch's (the visibility kernels' differs).
+fn pixel_owned(p: vec2<u32>) -> bool {
+    return true;
+}
+#endif
+
 // Linear HDR of one G-buffer sample of pixel `p`: its lights, and with VPLS its tile's VPLs.
 fn shade_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
     var color = shade_lights_at(g, p);
@@ -193,6 +215,7 @@ fn shade_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
 }
 
 #ifdef MSAA
+#ifndef VISIBILITY
 // A non-edge pixel's samples lie on one plane: its shading point is where the pixel-centre
 // ray meets that plane (sample 0's tangent plane), the point Forward+ and the no-MSAA path
 // shade, rather than sample 0's own position up to 0.4 px away.
@@ -243,6 +266,7 @@ fn is_edge(p: vec2<u32>, g0: GSample) -> bool {
     return false;
 }
 #endif
+#endif
 
 // Shades the pixels of the workgroup's tile (TILE_SIZE^2, WG x WG threads) into the HDR
 // output; with MSAA, queues the tile's edge pixels and shades their other samples.
@@ -256,13 +280,23 @@ fn shade_tile_pixels(wid: vec3<u32>, lid: vec3<u32>, lidx: u32) {
                 let g0 = load_gsample(p, 0u);
 #ifdef MSAA
                 if is_edge(p, g0) {
-                    wg_edges[atomicAdd(&wg_edge_count, 1u)] = p.x | (p.y << 16u);
-                    textureStore(samples_out, sample_texel(p, 0u), vec4<f32>(shade_at(g0, p), 1.0));
+                    // Queued by every dispatch that owns one of its samples (so with
+                    // several materials the resolve may average a pixel twice, alike).
+                    if pixel_owned(p) {
+                        wg_edges[atomicAdd(&wg_edge_count, 1u)] = p.x | (p.y << 16u);
+                    }
+                    if g0.owned {
+                        textureStore(samples_out, sample_texel(p, 0u), vec4<f32>(shade_at(g0, p), 1.0));
+                    }
                     continue;
                 }
-                textureStore(output, p, vec4<f32>(shade_at(at_pixel_centre(p, g0), p), 1.0));
+                if g0.owned {
+                    textureStore(output, p, vec4<f32>(shade_at(at_pixel_centre(p, g0), p), 1.0));
+                }
 #else
-                textureStore(output, p, vec4<f32>(shade_at(g0, p), 1.0));
+                if g0.owned {
+                    textureStore(output, p, vec4<f32>(shade_at(g0, p), 1.0));
+                }
 #endif
             }
         }
@@ -290,7 +324,10 @@ fn shade_tile_pixels(wid: vec3<u32>, lid: vec3<u32>, lidx: u32) {
         let packed = wg_edges[k / per_pixel];
         let p = vec2<u32>(packed & 0xffffu, packed >> 16u);
         let s = 1u + k % per_pixel;
-        textureStore(samples_out, sample_texel(p, s), vec4<f32>(shade_at(load_gsample(p, s), p), 1.0));
+        let g = load_gsample(p, s);
+        if g.owned {
+            textureStore(samples_out, sample_texel(p, s), vec4<f32>(shade_at(g, p), 1.0));
+        }
     }
 #endif
 }

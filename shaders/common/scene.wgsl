@@ -22,6 +22,10 @@ struct Instance {
     material: u32,
     // +1, or -1 when the model matrix mirrors: the bitangent flips with it.
     det_sign: f32,
+    // Its mesh in the merged index and vertex buffers (the visibility buffer's compute pass
+    // fetches a triangle's vertices with them).
+    first_index: u32,
+    base_vertex: i32,
 }
 
 // Texture slots: bit k of Material.textures and Material.uv1_sets, rows 2k and 2k+1 of
@@ -49,8 +53,15 @@ struct Material {
     uv_rows: array<vec4<f32>, 10>,
 }
 
+#ifdef VISIBILITY
+// The visibility buffer's compute pass: its group 1 holds the lights, so the scene's
+// buffers come after them (common/visibility_surface.wgsl).
+@group(1) @binding(24) var<storage, read> instances: array<Instance>;
+@group(1) @binding(25) var<storage, read> materials: array<Material>;
+#else
 @group(1) @binding(0) var<storage, read> instances: array<Instance>;
 @group(1) @binding(1) var<storage, read> materials: array<Material>;
+#endif
 
 #ifdef TEXTURES
 @group(2) @binding(0) var base_color_texture: texture_2d<f32>;
@@ -235,14 +246,28 @@ struct MaterialSample {
 // as the depth pre-pass does: call it only from fragment entry points.
 fn material_sample(in: VertexOut, front: bool) -> MaterialSample {
     let mi = in.material;
-    let m = materials[mi];
     let sets = uv_sets(in.uv, fragment_uv1(in));
     let base = material_color(mi, sets);
 #ifdef ALPHA_MASK
-    if base.a < m.alpha_cutoff {
+    if base.a < materials[mi].alpha_cutoff {
         discard;
     }
 #endif
+#ifdef NORMAL_MAP
+    let tangent = in.tangent;
+#else
+    let tangent = vec4<f32>(0.0);
+#endif
+    return material_at(mi, sets, base, in.normal, tangent, front);
+}
+
+// Material `mi` at texture coordinates `sets` (with their screen-space gradients), whose
+// base colour and alpha are `base` (material_color), around the interpolated normal `n_in`
+// and, with NORMAL_MAP, tangent (bitangent sign in w), seen from the front or the back. The
+// raster passes' fragments (material_sample) and the visibility buffer's compute pass
+// (common/visibility_surface.wgsl) evaluate materials alike through it.
+fn material_at(mi: u32, sets: UvSets, base: vec4<f32>, n_in: vec3<f32>, tangent: vec4<f32>, front: bool) -> MaterialSample {
+    let m = materials[mi];
     var ms: MaterialSample;
     ms.base = base.rgb;
     ms.alpha = base.a;
@@ -250,7 +275,7 @@ fn material_sample(in: VertexOut, front: bool) -> MaterialSample {
     ms.metallic = m.metallic;
     ms.occlusion = 1.0;
     ms.emission = vec3<f32>(0.0);
-    var n = normalize(in.normal);
+    var n = normalize(n_in);
 #ifdef MR_TEXTURE
     // glTF: roughness in green, metalness in blue (linear); white where there is none.
     let mr = sample_slot(metallic_roughness_texture, metallic_roughness_sampler, mi, SLOT_MR, sets);
@@ -260,7 +285,7 @@ fn material_sample(in: VertexOut, front: bool) -> MaterialSample {
 #ifdef NORMAL_MAP
     let nt = sample_slot(normal_texture, normal_sampler, mi, SLOT_NORMAL, sets).rgb;
     if ((m.textures >> SLOT_NORMAL) & 1u) != 0u {
-        n = perturb_normal(n, in.tangent, nt, m.normal_scale);
+        n = perturb_normal(n, tangent, nt, m.normal_scale);
     }
 #endif
 #ifdef OCCLUSION

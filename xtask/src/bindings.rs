@@ -36,6 +36,8 @@ pub fn declarations() -> Vec<PassBindings> {
         tiledlight_deferred::shading::DEFERRED_MSAA_BINDINGS,
         tiledlight_deferred::shading::DEFERRED_ASSIGNED_BINDINGS,
         tiledlight_deferred::shading::DEFERRED_RESOLVE_BINDINGS,
+        tiledlight_visibility::shading::VISIBILITY_BINDINGS,
+        tiledlight_visibility::shading::VISIBILITY_MSAA_BINDINGS,
         blit::BLIT_BINDINGS,
     ]);
     v.extend(tiledlight_vpl::binding_declarations());

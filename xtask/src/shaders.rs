@@ -29,9 +29,10 @@ const MAX_KEY_VALUES: usize = 1024;
 /// wgpu features whose shader capabilities the renderer's device has. Shaders are
 /// validated with exactly the naga capabilities wgpu enables for them, so a shader that
 /// validates here also loads on the device. `tiledlight_gpu::context` requests only
-/// `TIMESTAMP_QUERY`, which adds no shader capability; keep both in step when the
+/// `TIMESTAMP_QUERY`, which adds no shader capability, and `PRIMITIVE_INDEX` (the
+/// visibility buffer's raster) where the adapter has it; keep both in step when the
 /// renderer starts requesting e.g. `SUBGROUP` or `IMMEDIATES` (lavapipe has both).
-pub const FEATURES: wgpu::Features = wgpu::Features::TIMESTAMP_QUERY;
+pub const FEATURES: wgpu::Features = wgpu::Features::TIMESTAMP_QUERY.union(wgpu::Features::PRIMITIVE_INDEX);
 
 /// The naga capabilities wgpu gives a device with [`FEATURES`] on an adapter with full
 /// downlevel support (lavapipe has it).

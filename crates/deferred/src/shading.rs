@@ -89,14 +89,123 @@ pub fn workgroup_bytes_besides_lists(tile_size: u32, samples: u32) -> u32 {
     CULL_WORKGROUP_BYTES + if samples > 1 { 8 + 4 * tile_size * tile_size } else { 0 }
 }
 
-/// MSAA-only resources: sample texture, edge list and the resolve.
-struct Msaa {
+/// MSAA-only resources of a compute pass that shades edge pixels per sample (Tiled
+/// Deferred, the visibility buffer): the oversized sample texture (12), the frame's edge
+/// list (13) and the resolve's indirect arguments with the edge count (14), and the resolve
+/// (`shaders/deferred_resolve.wgsl`) that averages each listed pixel's samples into the HDR
+/// image.
+pub struct EdgeSamples {
     /// Kept with the views and bind groups that read and write it.
     _samples_texture: wgpu::Texture,
+    samples_view: wgpu::TextureView,
     edge_list: wgpu::Buffer,
     edge_args: wgpu::Buffer,
     resolve: wgpu::ComputePipeline,
     resolve_group: wgpu::BindGroup,
+    label: &'static str,
+}
+
+impl EdgeSamples {
+    /// The resources for a `grid`-sized screen of `samples` samples a pixel resolving into
+    /// `hdr`, labelled and reported under `prefix` (`deferred`, `visibility`).
+    pub fn new(
+        device: &wgpu::Device,
+        prefix: &'static str,
+        grid: &TileGrid,
+        samples: u32,
+        hdr: &wgpu::TextureView,
+        memory: &mut MemoryReport,
+    ) -> Result<Self, GpuError> {
+        let (sx, sy) = sample_grid(samples);
+        let (w, h) = (grid.width, grid.height);
+        use wgpu::TextureUsages as U;
+        let tex = texture_2d(
+            device,
+            &format!("{prefix}.msaa_samples"),
+            (w * sx, h * sy),
+            HDR_FORMAT,
+            U::STORAGE_BINDING | U::TEXTURE_BINDING,
+        );
+        let pixels = w as u64 * h as u64;
+        // COPY_SRC: tests and statistics read the edge pixels back.
+        let edge_list = buffer_zeroed(
+            device,
+            &format!("{prefix}.edge_list"),
+            pixels * 4,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        );
+        let edge_args = buffer_zeroed(
+            device,
+            &format!("{prefix}.edge_args"),
+            16,
+            wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::INDIRECT
+                | wgpu::BufferUsages::COPY_DST
+                | wgpu::BufferUsages::COPY_SRC,
+        );
+        memory.add(&format!("{prefix}.msaa_samples"), pixels * samples as u64 * 8);
+        memory.add(&format!("{prefix}.edge_list"), edge_list.size() + edge_args.size());
+        let samples_view = tex.create_view(&wgpu::TextureViewDescriptor {
+            label: Some(&format!("{prefix}.msaa_samples.view")),
+            ..Default::default()
+        });
+        let (resolve, resolve_group) = resolve_pipeline(device, samples, &samples_view, &edge_list, &edge_args, hdr)?;
+        let label = if prefix == "deferred" { "deferred.resolve" } else { "visibility.resolve" };
+        Ok(Self { _samples_texture: tex, samples_view, edge_list, edge_args, resolve, resolve_group, label })
+    }
+
+    /// The shading pass's group-1 entries: sample texture (12), edge list (13), arguments (14).
+    pub fn entries(&self) -> [wgpu::BindGroupEntry<'_>; 3] {
+        [
+            view_entry(12, &self.samples_view),
+            wgpu::BindGroupEntry { binding: 13, resource: self.edge_list.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 14, resource: self.edge_args.as_entire_binding() },
+        ]
+    }
+
+    /// The shading kernel's constants for the edge machinery.
+    pub fn constants(samples: u32, edge: EdgeTest, tile_size: u32) -> [(&'static str, f64); 4] {
+        [
+            ("SAMPLES_X", sample_grid(samples).0 as f64),
+            ("EDGE_DISTANCE", edge.distance as f64),
+            ("EDGE_COS", (edge.normal_deg as f64).to_radians().cos()),
+            ("TILE_PIXELS", (tile_size * tile_size) as f64),
+        ]
+    }
+
+    /// Zeroes the edge count and the resolve's dispatch (before the shading pass).
+    pub fn record_clear(&self, encoder: &mut wgpu::CommandEncoder) {
+        encoder.clear_buffer(&self.edge_args, 0, None);
+    }
+
+    /// Records the resolve of the shading pass's edge pixels (an indirect dispatch sized by
+    /// that pass).
+    pub fn record_resolve(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer) {
+        let t = timer.begin(self.label, encoder);
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(self.label),
+                timestamp_writes: t.compute_writes(),
+            });
+            pass.set_pipeline(&self.resolve);
+            pass.set_bind_group(0, &self.resolve_group, &[]);
+            pass.dispatch_workgroups_indirect(&self.edge_args, 0);
+        }
+        timer.end(encoder, t);
+    }
+
+    /// Edge pixels of the last frame (stalls the GPU).
+    pub fn read_edge_pixels(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<u32, GpuError> {
+        let args: Vec<u32> = read_buffer(device, queue, &self.edge_args)?;
+        Ok(args[3])
+    }
+
+    /// The last frame's edge pixels (stalls the GPU), in no particular order.
+    pub fn read_edge_list(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Vec<(u32, u32)>, GpuError> {
+        let n = self.read_edge_pixels(device, queue)? as usize;
+        let list: Vec<u32> = read_buffer(device, queue, &self.edge_list)?;
+        Ok(list[..n.min(list.len())].iter().map(|&p| (p & 0xffff, p >> 16)).collect())
+    }
 }
 
 /// The cull-and-shade pass.
@@ -106,7 +215,7 @@ pub struct DeferredShading {
     coarse: Option<CoarseCulling>,
     /// Light-centric assignment, run before the pass (which then only shades).
     assign: Option<LightAssign>,
-    msaa: Option<Msaa>,
+    msaa: Option<EdgeSamples>,
     grid: TileGrid,
     /// The lists every tile was shaded with.
     pub light_grid: LightGrid,
@@ -208,7 +317,8 @@ pub const DEFERRED_RESOLVE_BINDINGS: PassBindings = PassBindings {
     )],
 };
 
-fn view_entry(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
+/// A texture view at `binding`.
+pub fn view_entry(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
     wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) }
 }
 
@@ -355,46 +465,9 @@ impl DeferredShading {
         if let Some(c) = &coarse {
             bind.push(wgpu::BindGroupEntry { binding: 8, resource: c.lists.as_entire_binding() });
         }
-        let (sx, sy) = sample_grid(samples);
-        let msaa_buffers = (samples > 1).then(|| {
-            let (w, h) = (grid.width, grid.height);
-            use wgpu::TextureUsages as U;
-            let tex = texture_2d(
-                device,
-                "deferred.msaa_samples",
-                (w * sx, h * sy),
-                HDR_FORMAT,
-                U::STORAGE_BINDING | U::TEXTURE_BINDING,
-            );
-            let pixels = w as u64 * h as u64;
-            // COPY_SRC: tests and statistics read the edge pixels back.
-            let edge_list = buffer_zeroed(
-                device,
-                "deferred.edge_list",
-                pixels * 4,
-                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            );
-            let edge_args = buffer_zeroed(
-                device,
-                "deferred.edge_args",
-                16,
-                wgpu::BufferUsages::STORAGE
-                    | wgpu::BufferUsages::INDIRECT
-                    | wgpu::BufferUsages::COPY_DST
-                    | wgpu::BufferUsages::COPY_SRC,
-            );
-            memory.add("deferred.msaa_samples", pixels * samples as u64 * 8);
-            memory.add("deferred.edge_list", edge_list.size() + edge_args.size());
-            let view = tex.create_view(&wgpu::TextureViewDescriptor {
-                label: Some("deferred.msaa_samples.view"),
-                ..Default::default()
-            });
-            (tex, view, edge_list, edge_args)
-        });
-        if let Some((_, view, edge_list, edge_args)) = &msaa_buffers {
-            bind.push(view_entry(12, view));
-            bind.push(wgpu::BindGroupEntry { binding: 13, resource: edge_list.as_entire_binding() });
-            bind.push(wgpu::BindGroupEntry { binding: 14, resource: edge_args.as_entire_binding() });
+        let msaa = (samples > 1).then(|| EdgeSamples::new(device, "deferred", &grid, samples, hdr, memory)).transpose()?;
+        if let Some(m) = &msaa {
+            bind.extend(m.entries());
         }
         let layout = create_layout(device, "deferred.layout", DEFERRED_GROUP, &key.defines());
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -412,10 +485,7 @@ impl DeferredShading {
         };
         constants.extend(features.light_constants());
         if samples > 1 {
-            constants.push(("SAMPLES_X", sx as f64));
-            constants.push(("EDGE_DISTANCE", edge.distance as f64));
-            constants.push(("EDGE_COS", (edge.normal_deg as f64).to_radians().cos()));
-            constants.push(("TILE_PIXELS", (options.tile_size * options.tile_size) as f64));
+            constants.extend(EdgeSamples::constants(samples, edge, options.tile_size));
         }
         let pipeline = compute_pipeline(
             device,
@@ -424,13 +494,6 @@ impl DeferredShading {
             &module,
             &constants,
         );
-        let msaa = match msaa_buffers {
-            Some((samples_texture, view, edge_list, edge_args)) => {
-                let (resolve, resolve_group) = resolve_pipeline(device, samples, &view, &edge_list, &edge_args, hdr)?;
-                Some(Msaa { _samples_texture: samples_texture, edge_list, edge_args, resolve, resolve_group })
-            }
-            None => None,
-        };
         Ok(Self { pipeline, bind_group, coarse, assign, msaa, grid, light_grid })
     }
 
@@ -455,7 +518,7 @@ impl DeferredShading {
             timer.end(encoder, t);
         }
         if let Some(m) = &self.msaa {
-            encoder.clear_buffer(&m.edge_args, 0, None);
+            m.record_clear(encoder);
         }
         let t = timer.begin("deferred.shade", encoder);
         {
@@ -479,17 +542,7 @@ impl DeferredShading {
     /// dispatch sized by that pass; nothing without MSAA).
     pub fn record_resolve(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer) {
         if let Some(m) = &self.msaa {
-            let t = timer.begin("deferred.resolve", encoder);
-            {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("deferred.resolve"),
-                    timestamp_writes: t.compute_writes(),
-                });
-                pass.set_pipeline(&m.resolve);
-                pass.set_bind_group(0, &m.resolve_group, &[]);
-                pass.dispatch_workgroups_indirect(&m.edge_args, 0);
-            }
-            timer.end(encoder, t);
+            m.record_resolve(encoder, timer);
         }
     }
 
@@ -500,17 +553,12 @@ impl DeferredShading {
 
     /// Edge pixels of the last frame (MSAA only; stalls the GPU).
     pub fn read_edge_pixels(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Option<u32>, GpuError> {
-        let Some(m) = &self.msaa else { return Ok(None) };
-        let args: Vec<u32> = read_buffer(device, queue, &m.edge_args)?;
-        Ok(Some(args[3]))
+        self.msaa.as_ref().map(|m| m.read_edge_pixels(device, queue)).transpose()
     }
 
     /// The last frame's edge pixels (MSAA only; stalls the GPU), in no particular order.
     pub fn read_edge_list(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Vec<(u32, u32)>, GpuError> {
-        let (Some(m), Some(n)) = (&self.msaa, self.read_edge_pixels(device, queue)?) else { return Ok(Vec::new()) };
-        let n = n as usize;
-        let list: Vec<u32> = read_buffer(device, queue, &m.edge_list)?;
-        Ok(list[..n.min(list.len())].iter().map(|&p| (p & 0xffff, p >> 16)).collect())
+        self.msaa.as_ref().map_or(Ok(Vec::new()), |m| m.read_edge_list(device, queue))
     }
 }
 

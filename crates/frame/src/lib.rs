@@ -1,7 +1,8 @@
 //! tiledlight-frame: one frame of any method. The frame owns the steps every method shares
 //! and builds and records them once ([`shared`]: shadows, VPLs and their culling, blended
 //! geometry, exposure and tonemap, heat map); each method is one frame function
-//! ([`forward_plus`]: Forward+ and the brute-force reference; [`tiled_deferred`]) that
+//! ([`forward_plus`]: Forward+ and the brute-force reference; [`tiled_deferred`];
+//! [`visibility`]: the visibility buffer) that
 //! contributes its middle steps and passes typed handles ([`handles`]: depth, HDR, light
 //! lists) between them. One [`FrameSettings`] for every method, one [`Method`], one
 //! [`FrameRenderer`] behind the small [`Renderer`] trait (recording and named outputs);
@@ -17,8 +18,8 @@
 //! ```
 //!
 //! The order is the frame plan's (`tiledlight_gpu::plan`): debug builds check every frame
-//! against it. Depends on tiledlight-gpu, tiledlight-vpl, tiledlight-forward and
-//! tiledlight-deferred (their passes); nothing below depends on it.
+//! against it. Depends on tiledlight-gpu, tiledlight-vpl, tiledlight-forward,
+//! tiledlight-deferred and tiledlight-visibility (their passes); nothing below depends on it.
 
 pub mod diagnostics;
 pub mod forward_plus;
@@ -28,6 +29,7 @@ pub mod renderer;
 pub mod settings;
 pub mod shared;
 pub mod tiled_deferred;
+pub mod visibility;
 
 pub use diagnostics::Diagnostics;
 pub use forward_plus::ForwardFrame;
@@ -36,3 +38,4 @@ pub use renderer::{BetweenFrames, FrameRenderer, Outputs, Renderer};
 pub use settings::FrameSettings;
 pub use tiled_deferred::DeferredFrame;
 pub use tiledlight_gpu::features::Method;
+pub use visibility::VisibilityFrame;

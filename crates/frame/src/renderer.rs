@@ -23,7 +23,7 @@ use crate::handles::{target_handles, Rec};
 use crate::method::MethodFrame;
 use crate::settings::FrameSettings;
 use crate::shared::{SharedSteps, Vpls};
-use crate::{forward_plus, tiled_deferred};
+use crate::{forward_plus, tiled_deferred, visibility};
 
 /// What a renderer's last frame left to read, by name.
 #[derive(Clone, Copy)]
@@ -141,6 +141,11 @@ impl FrameRenderer {
                 tiled_deferred::targets(&features),
                 |c, sh, sl, st, m| Ok(Box::new(tiled_deferred::DeferredFrame::new(c, sh, sl, st, m)?)),
                 "building the Tiled Deferred renderer",
+            ),
+            Method::Visibility => (
+                visibility::targets(&features),
+                |c, sh, sl, st, m| Ok(Box::new(visibility::VisibilityFrame::new(c, sh, sl, st, m)?)),
+                "building the visibility-buffer renderer",
             ),
         };
         let mut shared = SharedSteps::new(ctx, scene, lights, features, (s, (width, height)), needs)?;

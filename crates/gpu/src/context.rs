@@ -94,6 +94,11 @@ impl GpuContext {
         if features.contains(wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES) {
             required_features |= wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES;
         }
+        // The visibility buffer's raster pass writes @builtin(primitive_index); without it
+        // that method is refused by name (tiledlight_frame::visibility).
+        if features.contains(wgpu::Features::PRIMITIVE_INDEX) {
+            required_features |= wgpu::Features::PRIMITIVE_INDEX;
+        }
         let supported = adapter.limits();
         // WebGPU defaults, plus large storage buffers: per-tile lists at 4K with big
         // capacities and 1M lights exceed the default 128 MiB binding.
@@ -109,7 +114,9 @@ impl GpuContext {
             // queue takes its share. 32 KiB where the adapter has it (most desktop GPUs).
             // Tiled Deferred with shadows, MSAA, spots and two-level culling binds 9 storage
             // buffers in its compute stage (WebGPU guarantees 8).
-            max_storage_buffers_per_shader_stage: supported.max_storage_buffers_per_shader_stage.min(16),
+            // The visibility buffer's pass adds the scene's instances, materials, indices and
+            // up to five vertex streams: 21 with everything on.
+            max_storage_buffers_per_shader_stage: supported.max_storage_buffers_per_shader_stage.min(24),
             max_compute_workgroup_storage_size: supported
                 .max_compute_workgroup_storage_size
                 .min(options.workgroup_memory_cap.unwrap_or(32768).clamp(16384, 32768)),

@@ -7,10 +7,21 @@ use crate::bindings::{Cond, PassBindings, PassGroup};
 use crate::error::GpuError;
 use crate::features::Features;
 use crate::scene_gpu::{DrawKind, SceneGpu, BASE_COLOR_BINDINGS, POSITION_LAYOUT, SCENE_GROUPS};
-use crate::scene_raster::{begin_pass, scene_pipeline, DepthUse, SceneDraw, SceneInputs, SceneRaster};
+use crate::scene_raster::{begin_pass, cleared, scene_pipeline, DepthUse, SceneDraw, SceneInputs, SceneRaster};
 use crate::timer::GpuTimer;
 use crate::util::{keyed_module, pipeline_layout};
-use crate::variants::DepthPrepassKey;
+use crate::variants::{DepthPrepassKey, VisibilityRasterKey};
+
+/// Format of the visibility buffer's IDs.
+pub const ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
+
+/// The depth and ID raster's variant (the same three shapes in both entry files).
+#[derive(Clone, Copy)]
+enum RasterKey {
+    Opaque,
+    Masked,
+    MaskedTextured { uv1: bool },
+}
 use crate::view::Views;
 
 /// Depth format of every depth buffer (reversed-Z: clear 0, compare GreaterEqual when writing, Equal when shading after the pre-pass).
@@ -26,6 +37,11 @@ pub const DEPTH_PREPASS_BINDINGS: PassBindings = PassBindings {
     source: file!(),
     groups: &[SCENE_GROUPS[0], SCENE_GROUPS[1], PassGroup::new(2, BASE_COLOR_BINDINGS).when(Cond::Defined("TEXTURES"))],
 };
+
+/// The bindings of the visibility buffer's raster pass (`shaders/visibility_raster.wgsl`):
+/// those of the depth pre-pass.
+pub const VISIBILITY_RASTER_BINDINGS: PassBindings =
+    PassBindings { entry: "visibility_raster.wgsl", ..DEPTH_PREPASS_BINDINGS };
 
 /// The depth pre-pass pipelines.
 pub struct DepthPrepass {
@@ -74,6 +90,46 @@ impl DepthPrepass {
         (features, kinds): (&Features, &[DrawKind]),
         target: DepthTarget,
     ) -> Result<Self, GpuError> {
+        Self::build(device, views, scene, (features, kinds), target, None)
+    }
+
+    /// The visibility buffer's raster pass (`shaders/visibility_raster.wgsl`): the depth
+    /// pre-pass's draws, each fragment also writing its `R32Uint` ID, `(instance <<
+    /// triangle_bits) | triangle` ([`tiledlight_cull::visibility::IdLayout`]). Needs
+    /// `wgpu::Features::PRIMITIVE_INDEX`.
+    pub fn with_ids(
+        device: &wgpu::Device,
+        views: &Views,
+        scene: &SceneGpu,
+        features: &Features,
+        triangle_bits: u32,
+    ) -> Result<Self, GpuError> {
+        if !device.features().contains(wgpu::Features::PRIMITIVE_INDEX) {
+            return Err(GpuError::Config(
+                "the visibility buffer's triangle IDs need wgpu's PRIMITIVE_INDEX feature (Vulkan: geometryShader), \
+                 which this device was not created with"
+                    .into(),
+            ));
+        }
+        let target = DepthTarget { label: "visibility.raster", format: DEPTH_FORMAT, samples: features.msaa };
+        Self::build(device, views, scene, (features, &features.draw_kinds), target, Some(triangle_bits))
+    }
+
+    fn build(
+        device: &wgpu::Device,
+        views: &Views,
+        scene: &SceneGpu,
+        (features, kinds): (&Features, &[DrawKind]),
+        target: DepthTarget,
+        ids: Option<u32>,
+    ) -> Result<Self, GpuError> {
+        let id_target = [Some(wgpu::ColorTargetState {
+            format: ID_FORMAT,
+            blend: None,
+            write_mask: wgpu::ColorWrites::ALL,
+        })];
+        let constants = ids.map(|bits| [("TRIANGLE_BITS", bits as f64)]);
+        let constants: &[(&str, f64)] = constants.as_ref().map_or(&[], |c| &c[..]);
         let mut pipelines = Vec::new();
         let samples = target.samples;
         let textures = scene.textures.as_ref().filter(|_| features.textures);
@@ -84,7 +140,7 @@ impl DepthPrepass {
                     Some(t) => (
                         // The alpha test reads the base colour slot only: its texture
                         // coordinate set may be set 1.
-                        DepthPrepassKey::MaskedTextured { uv1: features.materials.uv1 },
+                        RasterKey::MaskedTextured { uv1: features.materials.uv1 },
                         pipeline_layout(
                             device,
                             "depth_prepass.masked.layout",
@@ -92,17 +148,25 @@ impl DepthPrepass {
                         ),
                     ),
                     None => (
-                        DepthPrepassKey::Masked,
+                        RasterKey::Masked,
                         pipeline_layout(device, "depth_prepass.masked.layout", &[&views.layout, &scene.layout]),
                     ),
                 }
             } else {
-                (
-                    DepthPrepassKey::Opaque,
-                    pipeline_layout(device, "depth_prepass.layout", &[&views.layout, &scene.layout]),
-                )
+                (RasterKey::Opaque, pipeline_layout(device, "depth_prepass.layout", &[&views.layout, &scene.layout]))
             };
-            let module = keyed_module(device, &key)?;
+            let module = match (ids, key) {
+                (None, RasterKey::Opaque) => keyed_module(device, &DepthPrepassKey::Opaque)?,
+                (None, RasterKey::Masked) => keyed_module(device, &DepthPrepassKey::Masked)?,
+                (None, RasterKey::MaskedTextured { uv1 }) => {
+                    keyed_module(device, &DepthPrepassKey::MaskedTextured { uv1 })?
+                }
+                (Some(_), RasterKey::Opaque) => keyed_module(device, &VisibilityRasterKey::Opaque)?,
+                (Some(_), RasterKey::Masked) => keyed_module(device, &VisibilityRasterKey::Masked)?,
+                (Some(_), RasterKey::MaskedTextured { uv1 }) => {
+                    keyed_module(device, &VisibilityRasterKey::MaskedTextured { uv1 })?
+                }
+            };
             let (vs, buffers): (&str, &[Option<wgpu::VertexBufferLayout<'_>>]) =
                 if kind.masked { ("vs_masked", &layouts) } else { ("vs_main", &POSITION_LAYOUT) };
             let label = format!(
@@ -122,9 +186,12 @@ impl DepthPrepass {
                     vertex: (vs, buffers),
                     depth: DepthUse::Write,
                     samples,
-                    fragment: kind.masked.then_some(("fs_masked", &[][..])),
+                    fragment: match ids {
+                        Some(_) => Some((if kind.masked { "fs_masked" } else { "fs_main" }, &id_target[..])),
+                        None => kind.masked.then_some(("fs_masked", &[][..])),
+                    },
                     depth_format: target.format,
-                    constants: &[],
+                    constants,
                 },
             );
             pipelines.push((kind, pipeline));
@@ -143,6 +210,27 @@ impl DepthPrepass {
     ) {
         self.raster.bind(pass, Some((views, view)), scene);
         self.raster.draw(pass, scene, visible);
+    }
+
+    /// Clears `depth` to 0 and `ids` to [`tiledlight_cull::visibility::NO_TRIANGLE`] and
+    /// draws the scene's depth and IDs (a pass built by [`Self::with_ids`]).
+    pub fn record_with_ids(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: &GpuTimer,
+        (views, view): (&Views, u32),
+        scene: &SceneGpu,
+        (depth, ids): (&wgpu::TextureView, &wgpu::TextureView),
+    ) {
+        let t = timer.begin(self.label, encoder);
+        {
+            let no_triangle = f64::from(tiledlight_cull::visibility::NO_TRIANGLE);
+            let clear = wgpu::Color { r: no_triangle, g: 0.0, b: 0.0, a: 0.0 };
+            let colors = [cleared(ids, None, clear)];
+            let mut pass = begin_pass(encoder, self.label, &colors, (depth, wgpu::LoadOp::Clear(0.0)), t.render_writes());
+            self.draw(&mut pass, (views, view), scene, None);
+        }
+        timer.end(encoder, t);
     }
 
     /// Clears `depth` to 0 (far, reversed-Z) and draws the scene seen from view slot `view` into it.

@@ -22,6 +22,9 @@ pub enum Method {
     ForwardPlus,
     /// G-buffer, then one compute pass that culls each tile and shades it.
     TiledDeferred,
+    /// Depth and triangle IDs, tiled culling, then one compute pass that rebuilds each
+    /// pixel's surface from its triangle and shades it (the visibility buffer).
+    Visibility,
     /// Depth pre-pass, then every light for every pixel (the reference). `cutoff: false`
     /// drops the radius window (plain inverse-square).
     BruteForce {
@@ -32,11 +35,12 @@ pub enum Method {
 
 impl Method {
     /// Every method, in the order reports list them.
-    pub const ALL: [Method; 4] = [
+    pub const ALL: [Method; 5] = [
         Method::ForwardPlus,
         Method::BruteForce { cutoff: true },
         Method::BruteForce { cutoff: false },
         Method::TiledDeferred,
+        Method::Visibility,
     ];
 
     /// True for the methods with tiles (culling, light grid, heat map).
@@ -51,6 +55,7 @@ impl Method {
             Method::BruteForce { cutoff: true } => "brute-force",
             Method::BruteForce { cutoff: false } => "brute-force-no-cutoff",
             Method::TiledDeferred => "deferred",
+            Method::Visibility => "visibility",
         }
     }
 
@@ -61,6 +66,7 @@ impl Method {
             Method::BruteForce { cutoff: true } => "Brute force",
             Method::BruteForce { cutoff: false } => "Brute force, no cutoff",
             Method::TiledDeferred => "Tiled Deferred",
+            Method::Visibility => "Visibility buffer",
         }
     }
 
@@ -75,6 +81,10 @@ impl Method {
                 "Every light for every pixel, plain inverse-square (the reference for the cutoff)"
             }
             Method::TiledDeferred => "G-buffer pass, then one compute pass that culls each tile's lights and shades it",
+            Method::Visibility => {
+                "Depth and triangle IDs, tiled light culling, then one compute pass that rebuilds each pixel's \
+                 surface from its triangle and shades it"
+            }
         }
     }
 
@@ -249,6 +259,7 @@ impl Features {
         let mut parts = vec![match self.method {
             Method::ForwardPlus => "Forward+".to_string(),
             Method::TiledDeferred => "Tiled Deferred".to_string(),
+            Method::Visibility => "visibility buffer".to_string(),
             Method::BruteForce { cutoff: true } => "brute force".to_string(),
             Method::BruteForce { cutoff: false } => "brute force, no cutoff".to_string(),
         }];

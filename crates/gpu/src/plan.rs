@@ -51,6 +51,13 @@ pub enum Step {
     DeferredShade,
     /// Averages the per-sample shading of MSAA edge pixels (`deferred.resolve`).
     DeferredResolve,
+    /// The visibility buffer's depth and triangle IDs (`visibility.raster`).
+    VisibilityRaster,
+    /// The visibility buffer's material-and-lights pass over the light grid
+    /// (`visibility.shade`; one dispatch per material of a textured scene).
+    VisibilityShade,
+    /// Its MSAA edge pixels averaged (`visibility.resolve`).
+    VisibilityResolve,
     /// Depth of the blended geometry, in its own buffer (`blended.depth`; only with blended
     /// geometry).
     BlendedDepth,
@@ -86,6 +93,7 @@ impl FramePlan {
         // Head: what writes depth.
         match features.method {
             Method::TiledDeferred => steps.push(Step::GBuffer),
+            Method::Visibility => steps.push(Step::VisibilityRaster),
             Method::ForwardPlus | Method::BruteForce { .. } => steps.push(Step::DepthPrepass),
         }
         // Culling and the method's middle.
@@ -105,6 +113,16 @@ impl FramePlan {
                 steps.push(Step::DeferredShade);
                 if features.msaa > 1 {
                     steps.push(Step::DeferredResolve);
+                }
+            }
+            Method::Visibility => {
+                steps.push(Step::Cull);
+                if features.vpl {
+                    steps.push(Step::VplCull);
+                }
+                steps.push(Step::VisibilityShade);
+                if features.msaa > 1 {
+                    steps.push(Step::VisibilityResolve);
                 }
             }
         }

@@ -35,8 +35,11 @@ pub struct GpuInstance {
     /// +1, or -1 when `model` mirrors (negative determinant): normal maps flip the
     /// bitangent with it.
     pub det_sign: f32,
-    /// Padding to 16 bytes.
-    pub _pad: [u32; 2],
+    /// Its mesh's first index in the merged index buffer (the visibility buffer's compute
+    /// pass fetches triangles with it).
+    pub first_index: u32,
+    /// Added to its mesh's indices (the merged vertex buffers).
+    pub base_vertex: i32,
 }
 
 /// Texture slots of a material, in the order of [`GpuMaterial::uv_rows`], the bits of
@@ -304,7 +307,8 @@ pub const SCENE_BINDINGS: &[Binding] = &[
 
 const FLOAT: wgpu::TextureSampleType = wgpu::TextureSampleType::Float { filterable: true };
 const FILTERING: wgpu::SamplerBindingType = wgpu::SamplerBindingType::Filtering;
-const FS: wgpu::ShaderStages = wgpu::ShaderStages::FRAGMENT;
+/// Fragment stages sample the textures, and the visibility buffer's compute pass.
+const FS: wgpu::ShaderStages = wgpu::ShaderStages::FRAGMENT.union(wgpu::ShaderStages::COMPUTE);
 
 /// Group 2 of the scene's raster passes, for scenes with textures (`TEXTURES`): per slot of
 /// [`TEXTURE_SLOTS`] a texture (`2k`) and its sampler (`2k + 1`): base colour (0, 1),
@@ -375,6 +379,12 @@ pub struct SceneGpu {
     pub draws: Vec<Draw>,
     /// Triangles drawn per frame.
     pub triangles: u64,
+    /// Triangles of the largest mesh an instance draws (the visibility buffer's ID split).
+    pub max_triangles: u32,
+    /// The instance buffer (group 1, binding 0).
+    pub instances: wgpu::Buffer,
+    /// The material buffer (group 1, binding 1).
+    pub materials: wgpu::Buffer,
     /// World-space bounds of each instance (min, max), in the order of the instance buffer
     /// (what the draws' instance ranges index): shadow faces cull instances with them and
     /// place their near plane just short of the nearest one.
@@ -419,7 +429,8 @@ impl SceneGpu {
             idx.extend_from_slice(&m.indices);
             mesh_ranges.push((first..idx.len() as u32, base_vertex));
         }
-        let vertex_usage = wgpu::BufferUsages::VERTEX;
+        // STORAGE too: the visibility buffer's compute pass fetches triangles from them.
+        let vertex_usage = wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE;
         let positions = buffer_init(device, "scene.positions", bytemuck::cast_slice(&pos), vertex_usage);
         let normals = buffer_init(device, "scene.normals", bytemuck::cast_slice(&nrm), vertex_usage);
         let uvs = buffer_init(device, "scene.uvs", bytemuck::cast_slice(&uv), vertex_usage);
@@ -428,7 +439,7 @@ impl SceneGpu {
             .then(|| buffer_init(device, "scene.tangents", bytemuck::cast_slice(&tan), vertex_usage));
         let uvs1 =
             material_features.uv1.then(|| buffer_init(device, "scene.uvs1", bytemuck::cast_slice(&uv1), vertex_usage));
-        let indices = buffer_init(device, "scene.indices", bytemuck::cast_slice(&idx), wgpu::BufferUsages::INDEX);
+        let indices = buffer_init(device, "scene.indices", bytemuck::cast_slice(&idx), wgpu::BufferUsages::INDEX | wgpu::BufferUsages::STORAGE);
         memory.add("scene.vertices", (pos.len() * 12 + nrm.len() * 12 + uv.len() * 8) as u64);
         if !tan.is_empty() || !uv1.is_empty() {
             memory.add("scene.vertices.tangents+uv1", (tan.len() * 16 + uv1.len() * 8) as u64);
@@ -451,6 +462,7 @@ impl SceneGpu {
         let mut gpu_instances = Vec::with_capacity(order.len());
         let mut draws: Vec<Draw> = Vec::new();
         let mut triangles = 0u64;
+        let mut max_triangles = 0u32;
         for (slot, &i) in order.iter().enumerate() {
             let inst = &scene.instances[i];
             gpu_instances.push(GpuInstance {
@@ -458,9 +470,11 @@ impl SceneGpu {
                 normal_matrix: normal_matrix(&inst.transform),
                 material: inst.material as u32,
                 det_sign: if inst.transform.determinant() < 0.0 { -1.0 } else { 1.0 },
-                _pad: [0; 2],
+                first_index: mesh_ranges[inst.mesh].0.start,
+                base_vertex: mesh_ranges[inst.mesh].1,
             });
             let (range, base_vertex) = mesh_ranges[inst.mesh].clone();
+            max_triangles = max_triangles.max((range.len() / 3) as u32);
             triangles += (range.len() / 3) as u64;
             let slot = slot as u32;
             match draws.last_mut() {
@@ -525,6 +539,9 @@ impl SceneGpu {
             textures,
             draws,
             triangles,
+            max_triangles,
+            instances: instance_buf,
+            materials: material_buf,
             instance_bounds,
             memory,
         })
@@ -843,7 +860,7 @@ pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
             GpuInstance,
             "Instance",
             "common/scene.wgsl",
-            [model, normal_matrix, material, det_sign]
+            [model, normal_matrix, material, det_sign, first_index, base_vertex]
         ),
         tiledlight_cull::struct_layout!(
             GpuMaterial,

@@ -51,6 +51,8 @@ pub fn key_spaces() -> Vec<(&'static str, Vec<Vec<&'static str>>)> {
     add(boxed(TileDepthKey::all()));
     add(boxed(AssignKey::all()));
     add(boxed(TonemapKey::all()));
+    add(boxed(VisibilityRasterKey::all()));
+    add(boxed(VisibilityKey::all()));
     out
 }
 
@@ -766,6 +768,128 @@ impl ShaderKey for DeferredKey {
     }
 }
 
+/// The visibility buffer's raster pass (`visibility_raster.wgsl`): depth and IDs; only the
+/// masked pipeline samples (the base colour's alpha), as in the depth pre-pass.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum VisibilityRasterKey {
+    /// Opaque: positions only.
+    #[default]
+    Opaque,
+    /// `ALPHA_MASK` on the materials' factors (no textures in the scene).
+    Masked,
+    /// `ALPHA_MASK TEXTURES`, with `UV1` when some texture reads the second set.
+    MaskedTextured {
+        /// `UV1`.
+        uv1: bool,
+    },
+}
+
+impl VisibilityRasterKey {
+    /// Every value.
+    pub fn all() -> Vec<Self> {
+        vec![Self::Opaque, Self::Masked, Self::MaskedTextured { uv1: false }, Self::MaskedTextured { uv1: true }]
+    }
+}
+
+impl ShaderKey for VisibilityRasterKey {
+    fn entry(&self) -> &'static str {
+        "visibility_raster.wgsl"
+    }
+    fn defines(&self) -> Vec<&'static str> {
+        match self {
+            Self::Opaque => Vec::new(),
+            Self::Masked => vec!["ALPHA_MASK"],
+            Self::MaskedTextured { uv1: false } => vec!["ALPHA_MASK", "TEXTURES"],
+            Self::MaskedTextured { uv1: true } => vec!["ALPHA_MASK", "TEXTURES", "UV1"],
+        }
+    }
+    fn is_valid(&self) -> bool {
+        true
+    }
+}
+
+/// How the visibility buffer's pass looks a pixel's list up in the light grid (written
+/// before it by the culling pass or the assignment).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum GridLookup {
+    /// Its tile's list.
+    #[default]
+    Tile,
+    /// `HALF_Z`: its tile half's.
+    HalfZ,
+    /// `CLUSTERED`: its cluster's.
+    Clustered,
+}
+
+impl GridLookup {
+    /// Every value.
+    pub const ALL: [Self; 3] = [Self::Tile, Self::HalfZ, Self::Clustered];
+
+    fn defines(self, d: &mut Vec<&'static str>) {
+        flag(d, self == Self::HalfZ, "HALF_Z");
+        flag(d, self == Self::Clustered, "CLUSTERED");
+    }
+}
+
+/// The visibility buffer's material-and-lights pass (`visibility.wgsl`, with MSAA
+/// `visibility_msaa.wgsl`; body `common/assigned_shade.wgsl` with `VISIBILITY`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct VisibilityKey {
+    /// The list lookup.
+    pub lookup: GridLookup,
+    /// `SPOT_LIGHTS`.
+    pub spots: bool,
+    /// `SHADOWS`, `VPLS`.
+    pub shadowing: Shadowing,
+    /// `MSAA`: IDs and depth are multisampled.
+    pub msaa: bool,
+    /// The material paths.
+    pub materials: MaterialKey,
+}
+
+impl VisibilityKey {
+    /// Every value.
+    pub fn all() -> Vec<Self> {
+        let mut v = Vec::new();
+        for lookup in GridLookup::ALL {
+            for spots in BOOLS {
+                for shadowing in Shadowing::ALL {
+                    for msaa in BOOLS {
+                        for materials in MaterialKey::all() {
+                            v.push(Self { lookup, spots, shadowing, msaa, materials });
+                        }
+                    }
+                }
+            }
+        }
+        v
+    }
+}
+
+impl ShaderKey for VisibilityKey {
+    fn entry(&self) -> &'static str {
+        if self.msaa {
+            "visibility_msaa.wgsl"
+        } else {
+            "visibility.wgsl"
+        }
+    }
+
+    fn defines(&self) -> Vec<&'static str> {
+        let mut d = vec!["VISIBILITY"];
+        flag(&mut d, self.msaa, "MSAA");
+        flag(&mut d, self.spots, "SPOT_LIGHTS");
+        self.lookup.defines(&mut d);
+        self.shadowing.defines(&mut d);
+        d.extend(self.materials.defines());
+        d
+    }
+
+    fn is_valid(&self) -> bool {
+        true
+    }
+}
+
 /// The tonemap pass (`tonemap.wgsl`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct TonemapKey {
@@ -837,6 +961,10 @@ mod tests {
         assert_eq!(count("deferred.wgsl"), 672);
         assert_eq!(count("deferred_msaa.wgsl"), 576);
         assert_eq!(count("deferred_assigned.wgsl"), 288);
+        // 3 lookups x spots x 3 shadowings x 34 material paths, per sample mode.
+        assert_eq!(count("visibility.wgsl"), 612);
+        assert_eq!(count("visibility_msaa.wgsl"), 612);
+        assert_eq!(count("visibility_raster.wgsl"), 4);
     }
 
     #[test]

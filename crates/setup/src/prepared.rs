@@ -401,10 +401,14 @@ impl Prepared {
             Method::TiledDeferred => {
                 format!("deferred ({}, {} G-buffer targets)", a.culling_description(), a.gbuffer_rts)
             }
+            Method::Visibility => format!("visibility ({}, 32-bit triangle IDs)", a.culling_description()),
             m => format!("{} (every light for every pixel)", m.name()),
         };
         if a.msaa > 1 {
             res.push_str(&format!(", MSAA {}x", a.msaa));
+            if a.method == Method::Visibility {
+                res.push_str(" (edge test: samples with different triangle IDs)");
+            }
             if a.method == Method::TiledDeferred {
                 res.push_str(&format!(
                     " (edge test: {} of the view distance off the tangent plane, or normals {} deg apart)",

@@ -148,9 +148,10 @@ pub fn plan(old: &Settings, new: &Settings) -> Plan {
 }
 
 /// The methods in the panel's order (and the order the method key cycles through).
-pub const METHODS: [Method; 4] = [
+pub const METHODS: [Method; 5] = [
     Method::ForwardPlus,
     Method::TiledDeferred,
+    Method::Visibility,
     Method::BruteForce { cutoff: true },
     Method::BruteForce { cutoff: false },
 ];

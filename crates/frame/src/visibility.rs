@@ -1,0 +1,150 @@
+//! The frame of the visibility buffer: its middle steps, between the shared ones
+//! ([`crate::shared`]), with the handles each reads and writes.
+//!
+//! ```text
+//! VisibilityRaster   scene                     -> Depth, IDs (R32Uint per sample)
+//! Cull               Depth, lights             -> Lists (Forward+'s culling pass: every
+//!                                                        layout, test and assignment)
+//! [VplCull]          Depth, VPLs               -> VPL Lists (shared step, with VPLs)
+//! VisibilityShade    IDs, scene buffers,       -> Hdr (one compute pass; one dispatch per
+//!                    Lists, VPL Lists, atlas           material of a textured scene)
+//! [VisibilityResolve] per-sample shading       -> Hdr (MSAA only: edge pixels averaged)
+//! ```
+//!
+//! No G-buffer and no forward shading pipeline exist for this method. Depends on
+//! tiledlight-gpu (culling) and tiledlight-visibility (raster and shading passes).
+
+use std::any::Any;
+
+use tiledlight_gpu::culling::LightCulling;
+use tiledlight_gpu::depth_prepass::{DEPTH_FORMAT, ID_FORMAT};
+use tiledlight_gpu::features::Features;
+use tiledlight_gpu::light_buffers::LightBuffers;
+use tiledlight_gpu::light_grid::LightGrid;
+use tiledlight_gpu::memory::MemoryReport;
+use tiledlight_gpu::plan::Step;
+use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_gpu::tonemap::HDR_FORMAT;
+use tiledlight_gpu::{GpuContext, GpuError};
+use tiledlight_visibility::raster::VisibilityRaster;
+use tiledlight_visibility::shading::VisibilityShading;
+
+use crate::handles::{Depth, Hdr, Lists, Rec};
+use crate::method::MethodFrame;
+use crate::settings::FrameSettings;
+use crate::shared::{SharedSteps, TargetNeeds};
+
+/// The display targets the visibility buffer needs: depth and IDs multisampled, the HDR
+/// image written by compute (and, with blended geometry, composited onto by a render pass).
+pub fn targets(features: &Features) -> TargetNeeds {
+    let mut msaa_formats = vec![DEPTH_FORMAT, ID_FORMAT];
+    let mut hdr_usage = wgpu::TextureUsages::STORAGE_BINDING;
+    if features.blended() {
+        msaa_formats.push(HDR_FORMAT);
+        hdr_usage |= wgpu::TextureUsages::RENDER_ATTACHMENT;
+    }
+    TargetNeeds { prefix: "visibility", msaa_formats, hdr_usage }
+}
+
+/// The visibility buffer's passes.
+pub struct VisibilityFrame {
+    raster: VisibilityRaster,
+    culling: LightCulling,
+    shading: VisibilityShading,
+}
+
+impl VisibilityFrame {
+    /// Builds the passes over the shared steps' views, targets, shadows and VPLs. An adapter
+    /// without primitive IDs is refused by name.
+    pub fn new(
+        ctx: &GpuContext,
+        shared: &SharedSteps,
+        (scene, lights): (&SceneGpu, &LightBuffers),
+        settings: &FrameSettings,
+        memory: &mut MemoryReport,
+    ) -> Result<Self, GpuError> {
+        if !ctx.device.features().contains(wgpu::Features::PRIMITIVE_INDEX) {
+            return Err(GpuError::Unsupported {
+                adapter: ctx.info.name.clone(),
+                what: "the visibility buffer: its raster pass writes each fragment's triangle \
+                       (wgpu feature PRIMITIVE_INDEX, Vulkan geometryShader)"
+                    .into(),
+            });
+        }
+        let device = &ctx.device;
+        let (features, views, targets) = (&shared.features, &shared.views, &shared.targets);
+        let size = (targets.hdr.width(), targets.hdr.height());
+        let raster = VisibilityRaster::new(device, views, scene, features, size, memory)?;
+        let culling = LightCulling::with_drop_light(
+            device,
+            views,
+            &targets.depth_view,
+            (lights, &shared.lighting),
+            shared.grid,
+            settings.cull,
+            settings.test_drop_light,
+        )?;
+        memory.extend(&culling.memory);
+        let shading = VisibilityShading::new(
+            device,
+            views,
+            (&targets.depth_view, &raster),
+            &targets.hdr_view,
+            (scene, lights, &shared.lighting),
+            (&culling, shared.grid, settings.edge),
+            (features, shared.shadows.as_ref()),
+            memory,
+            shared.vpls.as_ref().map(|v| &v.bindings),
+        )?;
+        Ok(Self { raster, culling, shading })
+    }
+
+    /// The raster pass (its ID layout).
+    pub fn raster(&self) -> &VisibilityRaster {
+        &self.raster
+    }
+
+    /// The culling pass.
+    pub fn culling(&self) -> &LightCulling {
+        &self.culling
+    }
+
+    /// The material-and-lights pass.
+    pub fn shading(&self) -> &VisibilityShading {
+        &self.shading
+    }
+}
+
+impl MethodFrame for VisibilityFrame {
+    fn record(&self, rec: &mut Rec<'_>, shared: &SharedSteps, depth: Depth<'_>, _hdr: Hdr<'_>) {
+        rec.step(Step::VisibilityRaster);
+        self.raster.record(rec.encoder, rec.timer, rec.view, rec.scene, depth.view);
+        rec.step(Step::Cull);
+        self.culling.record(rec.encoder, rec.timer, rec.view, "visibility.cull");
+        shared.record_vpl_cull(rec, depth);
+        rec.step(Step::VisibilityShade);
+        self.shading.record(rec.encoder, rec.timer, rec.view, rec.scene, &self.culling.grid);
+        if depth.samples > 1 {
+            rec.step(Step::VisibilityResolve);
+            self.shading.record_resolve(rec.encoder, rec.timer);
+        }
+    }
+
+    fn lists(&self) -> Option<Lists<'_>> {
+        Some(Lists { grid: &self.culling.grid })
+    }
+
+    fn grow_lists(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, capacity: u32) -> Option<&LightGrid> {
+        // The shading pass binds the grid's group at record time: nothing to rebind.
+        self.culling.grid.grow(device, queue, capacity);
+        Some(&self.culling.grid)
+    }
+
+    fn edge_pixels(&self, ctx: &GpuContext) -> Result<Option<u32>, GpuError> {
+        self.shading.read_edge_pixels(&ctx.device, &ctx.queue)
+    }
+
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+}

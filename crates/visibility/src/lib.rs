@@ -1,0 +1,12 @@
+//! tiledlight-visibility: the third method, the visibility buffer (Burns and Hunt 2013; its
+//! frame is `tiledlight_frame::visibility`). The raster pass ([`raster`]) writes depth and
+//! one 32-bit ID per sample naming an instance and a triangle; one compute pass
+//! ([`shading`]) rebuilds each sample's surface from the ID (the triangle's vertices,
+//! perspective-correct barycentrics with analytic derivatives, the full glTF material with
+//! textures sampled by explicit gradients) and lights it with the same light grid, BRDF,
+//! shadows and VPLs as the other methods. No G-buffer and no forward shading pipeline
+//! exist for it. Depends on tiledlight-gpu (passes, buffers, the culling) and
+//! tiledlight-deferred (the MSAA edge machinery it shares with Tiled Deferred).
+
+pub mod raster;
+pub mod shading;

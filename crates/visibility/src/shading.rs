@@ -1,0 +1,363 @@
+//! The visibility buffer's material-and-lights pass (`shaders/visibility.wgsl`, with MSAA
+//! `shaders/visibility_msaa.wgsl`; body `shaders/common/assigned_shade.wgsl` over
+//! `shaders/common/visibility_surface.wgsl`):
+//!
+//! 1. The light grid is written before it by the lights' culling pass, the same pass and
+//!    contract as Forward+'s (`tiledlight_gpu::culling::LightCulling`: every layout, test
+//!    and assignment), culled against the visibility buffer's depth.
+//! 2. One workgroup per 16x16 tile; each thread reads its pixels' IDs, fetches the
+//!    triangle's three vertices from the scene's index and vertex buffers, transforms them
+//!    as the raster pass did, and computes perspective-correct barycentrics with their
+//!    one-pixel steps (`shaders/common/visibility.wgsl`, CPU twin
+//!    `tiledlight_cull::visibility`).
+//! 3. The material is evaluated as every raster pass evaluates it (`material_at` in
+//!    `shaders/common/scene.wgsl`), textures sampled with explicit gradients taken at the
+//!    2x2 quad's first pixel (the hardware's coarse derivatives, measured equal).
+//! 4. The pixel's list is looked up in the grid (its tile's, half's or cluster's) and lit
+//!    with the shared BRDF, shadows and the VPLs' own grid, into the HDR storage image.
+//! 5. With MSAA a pixel whose samples share one ID is shaded once at its centre; any two
+//!    IDs make it an edge pixel, shaded per sample and resolved by Tiled Deferred's resolve
+//!    ([`EdgeSamples`]).
+//!
+//! A textured scene's materials each have their own texture bind group (group 2), and a
+//! compute kernel cannot pick one per pixel without non-uniform binding arrays (which
+//! lavapipe lacks), so there the pass runs once per opaque material, each dispatch shading
+//! only the samples of its material (the first also the sky), selected by a dynamic offset
+//! into a small uniform array. Untextured scenes run it once. Depends on tiledlight-gpu
+//! and tiledlight-deferred.
+
+use tiledlight_cull::TileGrid;
+use tiledlight_deferred::shading::{view_entry, EdgeSamples, EdgeTest};
+use tiledlight_gpu::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
+use tiledlight_gpu::culling::{LightCulling, DEPTH_BINDING};
+use tiledlight_gpu::features::Features;
+use tiledlight_gpu::light_buffers::LightBuffers;
+use tiledlight_gpu::light_grid::{compute_bindings, LightGrid};
+use tiledlight_gpu::lights_group::VplBindings;
+use tiledlight_gpu::memory::MemoryReport;
+use tiledlight_gpu::scene_gpu::{SceneGpu, TEXTURE_BINDINGS};
+use tiledlight_gpu::shadow_atlas::ShadowAtlas;
+use tiledlight_gpu::timer::GpuTimer;
+use tiledlight_gpu::tonemap::HDR_FORMAT;
+use tiledlight_gpu::util::{buffer_init, compute_pipeline, keyed_module};
+use tiledlight_gpu::variants::{GridLookup, MaterialKey, ShaderKey, Shadowing, VisibilityKey};
+use tiledlight_gpu::view::Views;
+use tiledlight_gpu::GpuError;
+
+use crate::raster::VisibilityRaster;
+
+const CS: wgpu::ShaderStages = wgpu::ShaderStages::COMPUTE;
+
+/// Stride of the per-material uniforms (`VisClass`): wgpu's dynamic-offset alignment.
+const CLASS_STRIDE: u64 = 256;
+
+/// Group 1 of the visibility kernels: depth (0), bounding spheres (1), the lighting uniform
+/// (2), the IDs (3, multisampled with `MSAA`), shading lights (6), the HDR output (9); spots
+/// (7) with `SPOT_LIGHTS`; with `MSAA` the sample texture (12), edge list (13) and resolve
+/// arguments (14); with `SHADOWS` the atlas (15), its sampler (16) and faces (17); with
+/// `VPLS` the VPLs (19), their uniform (20), grid (21) and indices (22) (the numbers of
+/// Tiled Deferred's group); then the scene: instances (24), materials (25), indices (26),
+/// positions (27), normals (28), uvs (29), tangents (30) with `NORMAL_MAP`, second uvs (31)
+/// with `UV1`, and with `TEXTURES` the dispatch's material (32, dynamic offset).
+pub const VISIBILITY_GROUP: &[Binding] = &[
+    DEPTH_BINDING,
+    Binding::storage(1, CS),
+    Binding::uniform(2, CS),
+    Binding::texture(3, CS, wgpu::TextureSampleType::Uint).multisampled_when(Cond::Defined("MSAA")),
+    Binding::storage(6, CS),
+    Binding::storage_texture(9, CS, HDR_FORMAT, wgpu::StorageTextureAccess::WriteOnly),
+    Binding::storage(7, CS).when(Cond::Defined("SPOT_LIGHTS")),
+    Binding::storage_texture(12, CS, HDR_FORMAT, wgpu::StorageTextureAccess::WriteOnly).when(Cond::Defined("MSAA")),
+    Binding::storage_rw(13, CS).when(Cond::Defined("MSAA")),
+    Binding::storage_rw(14, CS).when(Cond::Defined("MSAA")),
+    Binding::depth_array(15, CS).when(Cond::Defined("SHADOWS")),
+    Binding::sampler(16, CS, wgpu::SamplerBindingType::Comparison).when(Cond::Defined("SHADOWS")),
+    Binding::storage(17, CS).when(Cond::Defined("SHADOWS")),
+    Binding::storage(19, CS).when(Cond::Defined("VPLS")),
+    Binding::uniform(20, CS).when(Cond::Defined("VPLS")),
+    Binding::storage(21, CS).when(Cond::Defined("VPLS")),
+    Binding::storage(22, CS).when(Cond::Defined("VPLS")),
+    Binding::storage(24, CS),
+    Binding::storage(25, CS),
+    Binding::storage(26, CS),
+    Binding::storage(27, CS),
+    Binding::storage(28, CS),
+    Binding::storage(29, CS),
+    Binding::storage(30, CS).when(Cond::Defined("NORMAL_MAP")),
+    Binding::storage(31, CS).when(Cond::Defined("UV1")),
+    Binding::uniform(32, CS).dynamic_offset(16).when(Cond::Defined("TEXTURES")),
+];
+
+/// The bindings of the visibility kernel (`shaders/visibility.wgsl`): the view (0),
+/// [`VISIBILITY_GROUP`] (1), the material textures (2) with `TEXTURES`, and the light grid
+/// with its tile ranges (3; the ranges are read only with `HALF_Z`).
+pub const VISIBILITY_BINDINGS: PassBindings = PassBindings {
+    entry: "visibility.wgsl",
+    source: file!(),
+    groups: &[
+        PassGroup::new(0, tiledlight_gpu::view::BINDINGS),
+        PassGroup::new(1, VISIBILITY_GROUP),
+        PassGroup::new(2, TEXTURE_BINDINGS).when(Cond::Defined("TEXTURES")),
+        PassGroup::new(3, &compute_bindings(Cond::Always)),
+    ],
+};
+
+/// [`VISIBILITY_BINDINGS`] for the MSAA kernel (`shaders/visibility_msaa.wgsl`).
+pub const VISIBILITY_MSAA_BINDINGS: PassBindings =
+    PassBindings { entry: "visibility_msaa.wgsl", ..VISIBILITY_BINDINGS };
+
+/// One dispatch of the pass: the material it shades (textured scenes) and its offset into
+/// the uniform array.
+struct Class {
+    material: usize,
+    offset: u32,
+}
+
+/// The material-and-lights pass.
+pub struct VisibilityShading {
+    pipeline: wgpu::ComputePipeline,
+    bind_group: wgpu::BindGroup,
+    /// Group 2 for untextured scenes (an empty group).
+    empty_group: Option<wgpu::BindGroup>,
+    /// One per dispatch (one dispatch without textures).
+    classes: Vec<Class>,
+    _class_buffer: Option<wgpu::Buffer>,
+    msaa: Option<EdgeSamples>,
+    tiles: (u32, u32),
+}
+
+/// The list lookup that reads what `culling` writes.
+fn lookup(culling: &LightCulling) -> GridLookup {
+    if culling.options.clusters.is_some() {
+        GridLookup::Clustered
+    } else if culling.options.half_z {
+        GridLookup::HalfZ
+    } else {
+        GridLookup::Tile
+    }
+}
+
+impl VisibilityShading {
+    /// Builds the pass over `raster`'s IDs and `depth`, writing `hdr`, with the lists of
+    /// `culling` (built over the same depth).
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        device: &wgpu::Device,
+        views: &Views,
+        (depth, raster): (&wgpu::TextureView, &VisibilityRaster),
+        hdr: &wgpu::TextureView,
+        (scene, lights, lighting): (&SceneGpu, &LightBuffers, &wgpu::Buffer),
+        (culling, grid, edge): (&LightCulling, TileGrid, EdgeTest),
+        (features, atlas): (&Features, Option<&ShadowAtlas>),
+        memory: &mut MemoryReport,
+        vpls: Option<&VplBindings>,
+    ) -> Result<Self, GpuError> {
+        if features.vpl != vpls.is_some_and(|v| v.lists.is_some()) {
+            return Err(GpuError::Config(
+                "the VPL buffers and their light grid must be given exactly when the features have VPLs".into(),
+            ));
+        }
+        if features.shadows.is_some() != atlas.is_some() {
+            return Err(GpuError::Config("the shadow atlas must exist exactly when the features have shadows".into()));
+        }
+        edge.validate()?;
+        let samples = features.msaa;
+        let textures = scene.textures.as_ref().filter(|_| features.textures);
+        let key = VisibilityKey {
+            lookup: lookup(culling),
+            spots: features.spot_lights,
+            shadowing: Shadowing::of(features.shadows.is_some(), features.vpl)
+                .ok_or_else(|| GpuError::Config("VPLs need shadow casters".into()))?,
+            msaa: samples > 1,
+            materials: MaterialKey::of(&features.materials),
+        };
+        let defines = key.defines();
+        // Storage buffers in the one compute stage: every option on reads 21.
+        let storage = VISIBILITY_BINDINGS
+            .resolve(&defines)
+            .into_iter()
+            .filter(|(_, e)| matches!(e.ty, wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { .. }, .. }))
+            .count() as u32;
+        let limit = device.limits().max_storage_buffers_per_shader_stage;
+        if storage > limit {
+            return Err(GpuError::Limit {
+                what: "the visibility buffer's material-and-lights pass".into(),
+                name: "max_storage_buffers_per_shader_stage",
+                limit: limit.into(),
+                asked: format!("{storage} storage buffers in one compute stage"),
+            });
+        }
+        let mut bind = vec![
+            view_entry(0, depth),
+            wgpu::BindGroupEntry { binding: 1, resource: lights.cull.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 2, resource: lighting.as_entire_binding() },
+            view_entry(3, &raster.ids_view),
+            wgpu::BindGroupEntry { binding: 6, resource: lights.shading.as_entire_binding() },
+            view_entry(9, hdr),
+            wgpu::BindGroupEntry { binding: 24, resource: scene.instances.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 25, resource: scene.materials.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 26, resource: scene.indices.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 27, resource: scene.positions.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 28, resource: scene.normals.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 29, resource: scene.uvs.as_entire_binding() },
+        ];
+        if features.materials.normal_map {
+            let t = scene.tangents.as_ref().ok_or_else(|| GpuError::Config("normal maps need tangents".into()))?;
+            bind.push(wgpu::BindGroupEntry { binding: 30, resource: t.as_entire_binding() });
+        }
+        if features.materials.uv1 {
+            let u = scene.uvs1.as_ref().ok_or_else(|| GpuError::Config("UV1 needs the second uv set".into()))?;
+            bind.push(wgpu::BindGroupEntry { binding: 31, resource: u.as_entire_binding() });
+        }
+        if let Some(spots) = lights.spots.as_ref().filter(|_| features.spot_lights) {
+            bind.push(wgpu::BindGroupEntry { binding: 7, resource: spots.as_entire_binding() });
+        }
+        if let Some(v) = vpls {
+            bind.push(wgpu::BindGroupEntry { binding: 19, resource: v.vpls.as_entire_binding() });
+            bind.push(wgpu::BindGroupEntry { binding: 20, resource: v.shading.as_entire_binding() });
+            if let Some((grid, indices)) = &v.lists {
+                bind.push(wgpu::BindGroupEntry { binding: 21, resource: grid.as_entire_binding() });
+                bind.push(wgpu::BindGroupEntry { binding: 22, resource: indices.as_entire_binding() });
+            }
+        }
+        if let Some(a) = atlas {
+            bind.push(view_entry(15, &a.sample_view));
+            bind.push(wgpu::BindGroupEntry { binding: 16, resource: wgpu::BindingResource::Sampler(&a.sampler) });
+            bind.push(wgpu::BindGroupEntry { binding: 17, resource: a.faces.as_entire_binding() });
+        }
+        let msaa =
+            (samples > 1).then(|| EdgeSamples::new(device, "visibility", &grid, samples, hdr, memory)).transpose()?;
+        if let Some(m) = &msaa {
+            bind.extend(m.entries());
+        }
+        // Textured scenes: one dispatch per opaque material, the first also writing the sky.
+        let (classes, class_buffer) = if textures.is_some() {
+            let mut materials: Vec<usize> =
+                scene.draws.iter().filter(|d| !d.kind.blended).map(|d| d.material).collect();
+            materials.sort_unstable();
+            materials.dedup();
+            let mut data = vec![0u8; materials.len().max(1) * CLASS_STRIDE as usize];
+            for (k, &m) in materials.iter().enumerate() {
+                let at = k * CLASS_STRIDE as usize;
+                data[at..at + 8].copy_from_slice(bytemuck::cast_slice(&[m as u32, u32::from(k == 0)]));
+            }
+            let buffer = buffer_init(device, "visibility.classes", &data, wgpu::BufferUsages::UNIFORM);
+            memory.add("visibility.classes", buffer.size());
+            let classes = materials
+                .iter()
+                .enumerate()
+                .map(|(k, &material)| Class { material, offset: (k as u64 * CLASS_STRIDE) as u32 })
+                .collect();
+            (classes, Some(buffer))
+        } else {
+            (vec![Class { material: 0, offset: 0 }], None)
+        };
+        if let Some(b) = &class_buffer {
+            bind.push(wgpu::BindGroupEntry {
+                binding: 32,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: b,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(16),
+                }),
+            });
+        }
+        let layout = create_layout(device, "visibility.layout", VISIBILITY_GROUP, &defines);
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("visibility.bind_group"),
+            layout: &layout,
+            entries: &bind,
+        });
+        let empty_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("visibility.no_textures.layout"),
+            entries: &[],
+        });
+        let empty_group = textures.is_none().then(|| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("visibility.no_textures"),
+                layout: &empty_layout,
+                entries: &[],
+            })
+        });
+        let texture_layout = textures.map_or(&empty_layout, |t| &t.layout);
+        let module = keyed_module(device, &key)?;
+        let tile = culling.options.tile_size;
+        let mut constants = vec![
+            ("TILE_SIZE", tile as f64),
+            ("WG", tile.min(16) as f64),
+            ("TRIANGLE_BITS", raster.layout.triangle_bits as f64),
+        ];
+        if samples > 1 {
+            constants.push(("SAMPLES", samples as f64));
+            constants.extend(EdgeSamples::constants(samples, edge, tile));
+        }
+        constants.extend(features.light_constants());
+        let pipeline = compute_pipeline(
+            device,
+            "visibility.shade",
+            &[&views.layout, &layout, texture_layout, culling.grid.layout()],
+            &module,
+            &constants,
+        );
+        let tiles = (grid.width.div_ceil(tile), grid.height.div_ceil(tile));
+        Ok(Self { pipeline, bind_group, empty_group, classes, _class_buffer: class_buffer, msaa, tiles })
+    }
+
+    /// Records the pass (one dispatch per material of a textured scene) with the lists of
+    /// `light_grid` (the culling pass's, recorded before).
+    pub fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: &GpuTimer,
+        (views, view): (&Views, u32),
+        scene: &SceneGpu,
+        light_grid: &LightGrid,
+    ) {
+        if let Some(m) = &self.msaa {
+            m.record_clear(encoder);
+        }
+        let t = timer.begin("visibility.shade", encoder);
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("visibility.shade"),
+                timestamp_writes: t.compute_writes(),
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
+            pass.set_bind_group(3, light_grid.bind_group(), &[]);
+            for class in &self.classes {
+                match (&self.empty_group, &scene.textures) {
+                    (Some(empty), _) => {
+                        pass.set_bind_group(1, &self.bind_group, &[]);
+                        pass.set_bind_group(2, empty, &[]);
+                    }
+                    (None, Some(t)) => {
+                        pass.set_bind_group(1, &self.bind_group, &[class.offset]);
+                        pass.set_bind_group(2, &t.bind_groups[class.material], &[]);
+                    }
+                    (None, None) => unreachable!("a textured pass without the scene's textures"),
+                }
+                pass.dispatch_workgroups(self.tiles.0, self.tiles.1, 1);
+            }
+        }
+        timer.end(encoder, t);
+    }
+
+    /// Records the MSAA resolve of the edge pixels (nothing without MSAA).
+    pub fn record_resolve(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer) {
+        if let Some(m) = &self.msaa {
+            m.record_resolve(encoder, timer);
+        }
+    }
+
+    /// Dispatches a frame makes (one per material of a textured scene, else one).
+    pub fn dispatches(&self) -> usize {
+        self.classes.len()
+    }
+
+    /// Pixels of the last frame queued for per-sample shading (MSAA only; stalls the GPU).
+    /// With several materials a pixel is counted once per material among its samples.
+    pub fn read_edge_pixels(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Option<u32>, GpuError> {
+        self.msaa.as_ref().map(|m| m.read_edge_pixels(device, queue)).transpose()
+    }
+}
