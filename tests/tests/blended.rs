@@ -31,7 +31,8 @@ use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_scene::{AlphaMode, Instance, Scene};
 use tiledlight_tests::compare::{
-    assert_matches_reference_frame, msaa_by_design, render_frame, Frame, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE,
+    assert_matches_reference_frame, assert_matches_reference_msaa, msaa_by_design, render_frame, Frame,
+    DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE, VISIBILITY_VS_REFERENCE,
 };
 use tiledlight_tests::lists::{assert_blended_lists_match, compare_blended_lists_independent, CulledFrame};
 use tiledlight_tests::{gpu, scenes};
@@ -717,5 +718,32 @@ fn blended_geometry_with_shadows_and_vpls_at_every_sample_count() {
         assert!(forgiven * 10 < (W * H) as usize, "{msaa}x: {forgiven} pixels forgiven");
         let what = format!("blended-shadows-vpls-deferred-msaa{msaa}");
         assert_matches_reference_frame(&what, W, &reference, &d, DEFERRED_VS_REFERENCE);
+        // The visibility buffer: blended geometry through the same forward path after its
+        // compute shading, shadows and VPLs from the same atlas and grid.
+        let s = FrameSettings { method: Method::Visibility, msaa, shadows, vpl, ..Default::default() };
+        let mut vr = FrameRenderer::new(ctx, &sg, &casting, W, H, s).expect("visibility renderer");
+        assert!(vr.vpls().is_some() && vr.plan().has(Step::BlendedShade));
+        let v = render_frame(ctx, &mut vr, &sg, &cam);
+        let edges = if msaa > 1 {
+            vr.passes::<tiledlight_frame::VisibilityFrame>()
+                .expect("visibility buffer")
+                .shading()
+                .read_edge_list(&ctx.device, &ctx.queue)
+                .unwrap()
+        } else {
+            Vec::new()
+        };
+        let s = FrameSettings { method: bf, msaa, shadows, vpl, ..Default::default() };
+        let mut b = FrameRenderer::new(ctx, &sg, &casting, W, H, s).expect("brute force");
+        let reference = render_frame(ctx, &mut b, &sg, &cam);
+        let depths = (&reference_depth[..], &vr.read_depth(ctx).unwrap()[..]);
+        let (reference, forgiven) = reference.forgive_hdr(&msaa_by_design(W, depths, msaa, &edges));
+        assert!(forgiven * 10 < (W * H) as usize, "{msaa}x: {forgiven} pixels forgiven");
+        let what = format!("blended-shadows-vpls-visibility-msaa{msaa}");
+        if msaa == 1 {
+            assert_matches_reference_frame(&what, W, &reference, &v, VISIBILITY_VS_REFERENCE);
+        } else {
+            assert_matches_reference_msaa(&what, W, &reference, &v, VISIBILITY_VS_REFERENCE);
+        }
     }
 }

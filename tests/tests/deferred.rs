@@ -1,4 +1,5 @@
-//! Tiled Deferred against Forward+ and the brute-force reference on the same frame, the
+//! Tiled Deferred and the visibility buffer against Forward+ and the brute-force reference
+//! on the same frame (the visibility buffer at `VISIBILITY_VS_REFERENCE`, Forward+'s), the
 //! G-buffer stress knob (2 vs 5 targets: the same image), and its per-tile light lists
 //! against the CPU reference culler.
 //!
@@ -12,7 +13,10 @@ use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;
-use tiledlight_tests::compare::{assert_matches_reference_frame, render_frame, DEFERRED_VS_REFERENCE};
+use tiledlight_tests::compare::{
+    assert_matches_reference_frame, render_frame, Frame, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE,
+    VISIBILITY_VS_REFERENCE,
+};
 use tiledlight_tests::images::{assert_flip, documented_heat_colour, linear_to_srgb, srgb_to_linear};
 use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
 use tiledlight_tests::{gpu, scenes};
@@ -81,6 +85,27 @@ fn compare_with_forward(
         DEFERRED_VS_REFERENCE,
     );
     assert_flip(&format!("{name}-deferred-vs-forward"), W, H, &forward.ldr, &deferred.ldr, DEFERRED_VS_REFERENCE.flip);
+    // The visibility buffer: the same lists as Forward+ (its culling pass), no G-buffer.
+    let mut vis = FrameRenderer::new(
+        ctx,
+        &sg,
+        &lights,
+        W,
+        H,
+        FrameSettings { method: Method::Visibility, cull, ..Default::default() },
+    )
+    .unwrap();
+    let vis = render_frame(ctx, &mut vis, &sg, &camera);
+    let plain_reference = Frame { allowance: Vec::new(), ..reference };
+    assert_matches_reference_frame(
+        &format!("{name}-visibility-vs-reference"),
+        W,
+        &plain_reference,
+        &vis,
+        VISIBILITY_VS_REFERENCE,
+    );
+    assert_flip(&format!("{name}-visibility-vs-forward"), W, H, &forward.ldr, &vis.ldr, FORWARD_VS_REFERENCE.flip);
+    assert_flip(&format!("{name}-visibility-vs-deferred"), W, H, &deferred.ldr, &vis.ldr, DEFERRED_VS_REFERENCE.flip);
 }
 
 #[test]

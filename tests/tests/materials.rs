@@ -35,6 +35,7 @@ use tiledlight_gpu::scene_gpu::{MaterialFeatures, SceneGpu, TEXTURE_BINDINGS};
 use tiledlight_scene::{load_gltf, Scene, UvTransform, Wrap};
 use tiledlight_tests::compare::{
     assert_matches_reference_frame, render_frame, Frame, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE,
+    VISIBILITY_VS_REFERENCE,
 };
 use tiledlight_tests::images::{linear_to_srgb, srgb_to_linear};
 use tiledlight_tests::{gpu, scenes};
@@ -261,8 +262,9 @@ struct Frames {
     deferred: Frame,
 }
 
-/// Renders `scene` lit by `lights` (ambient `ambient`) with brute force, Forward+ and Tiled
-/// Deferred; checks brute force against `expect` (per quad point: its position and set-0
+/// Renders `scene` lit by `lights` (ambient `ambient`) with brute force, Forward+, Tiled
+/// Deferred and the visibility buffer (its material evaluated in compute from
+/// reconstructed attributes, textures by explicit gradients); checks brute force against `expect` (per quad point: its position and set-0
 /// coordinates; None to skip; else the two ends of the expected surface) pixel by pixel and
 /// the tiled methods against brute force.
 /// Returns the frames and the checked pixels.
@@ -316,6 +318,10 @@ fn render_and_check(
     let deferred = render_frame(ctx, &mut dr, &sg, &cam);
     let reference = brute.clone().allow_gbuffer_normals(&depth, W, &cam, &lb.packed);
     assert_matches_reference_frame(&format!("{name}-deferred"), W, &reference, &deferred, DEFERRED_VS_REFERENCE);
+    let vs = FrameSettings { method: Method::Visibility, ambient, ..Default::default() };
+    let mut vr = FrameRenderer::new(ctx, &sg, &lb, W, H, vs).unwrap();
+    let visibility = render_frame(ctx, &mut vr, &sg, &cam);
+    assert_matches_reference_frame(&format!("{name}-visibility"), W, &brute, &visibility, VISIBILITY_VS_REFERENCE);
     (Frames { brute, forward, deferred }, checked)
 }
 

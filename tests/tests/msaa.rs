@@ -1,4 +1,4 @@
-//! MSAA in both methods: culling over every depth sample against the CPU reference,
+//! MSAA in every method (the visibility buffer in `check_visibility_msaa`): culling over every depth sample against the CPU reference,
 //! Tiled Deferred's edge-test MSAA against Forward+'s hardware MSAA and the brute-force
 //! reference (both at 4x), MSAA 1x vs 4x differing only at geometric edges, the edge test's
 //! edge-pixel fraction and its independence of the scene's scale, both methods against
@@ -19,7 +19,8 @@ use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;
 use tiledlight_scene::Scene;
 use tiledlight_tests::compare::{
-    assert_matches_reference_frame, compare_with_reference, render_frame, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE,
+    assert_matches_reference_frame, assert_matches_reference_msaa, render_frame, DEFERRED_VS_REFERENCE,
+    FORWARD_VS_REFERENCE,
 };
 use tiledlight_tests::images::{assert_flip, max_relative_error, save_png, FlipThresholds};
 use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
@@ -511,31 +512,64 @@ fn every_sample_count_matches_brute_force_in_hdr() {
             // shades each at the centroid of its own samples, and deferred the whole pixel at
             // its centre: the depth cannot show those pixels (one plane), and a light whose
             // shading varies within the pixel makes them differ (measured at 4x on lavapipe:
-            // 16 of the 56,838 pixels compared, worst 6.7e-2). So at most 0.05% of them (29
-            // pixels) may exceed DEFERRED_VS_REFERENCE's HDR limit, by at most 3x; a light
-            // missing from a tile changes every pixel of it that the light reaches.
-            let t = DEFERRED_VS_REFERENCE;
-            let c = compare_with_reference(&name, W, &reference, &def, t);
-            let errors: Vec<f32> = (0..reference.hdr.len())
-                .map(|i| {
-                    (0..3)
-                        .map(|ch| {
-                            let (e, a) = (reference.hdr[i][ch], def.hdr[i][ch]);
-                            ((a - e).abs() - reference.allowance[i]).max(0.0) / e.abs().max(t.hdr_floor)
-                        })
-                        .fold(0.0f32, f32::max)
-                })
-                .collect();
-            let over = errors.iter().filter(|&&e| e > t.hdr_rel).count();
-            let compared = (W * H) as usize - forgiven;
-            eprintln!("{name}: {over} of {compared} compared pixels beyond {} (worst {:.2e})", t.hdr_rel, c.hdr_error);
-            assert!(c.flip_ok, "{name}: FLIP {:?} beyond {:?}", c.flip, t.flip);
-            assert!(over * 2000 <= compared, "{name}: {over} pixels beyond the HDR limit");
-            assert!(c.hdr_error <= 3.0 * t.hdr_rel, "{name}: HDR error {} at pixel {}", c.hdr_error, c.hdr_at);
+            // 16 of the 56,838 pixels compared, worst 6.7e-2): compare::assert_matches_reference_msaa.
+            assert_matches_reference_msaa(&name, W, &reference, &def, DEFERRED_VS_REFERENCE);
         }
         if msaa > 1 {
             assert!(!edges.is_empty(), "{msaa}x: Tiled Deferred found no edge pixels");
         }
+        check_visibility_msaa(ctx, (&sg, &full_sg), &lights, &camera, (msaa, &b));
+    }
+}
+
+/// The visibility buffer at `msaa` samples against brute force's frame `b` at the same count
+/// (see `every_sample_count_matches_brute_force_in_hdr`): its raster covers the same depth
+/// samples as the pre-pass (the full scene, masked screen included); the image matches at
+/// Forward+'s limits except where the two sample a pixel differently by design
+/// (`msaa_by_design` with its own edge pixels, those whose samples hold different IDs,
+/// shaded per sample, where hardware MSAA shades each triangle once at the pixel centre).
+fn check_visibility_msaa(
+    ctx: &GpuContext,
+    (sg, full_sg): (&SceneGpu, &SceneGpu),
+    lights: &LightBuffers,
+    camera: &Camera,
+    (msaa, b): (u32, &FrameRenderer),
+) {
+    use tiledlight_frame::VisibilityFrame;
+    use tiledlight_tests::compare::{assert_matches_reference_msaa, msaa_by_design, VISIBILITY_VS_REFERENCE};
+    let s = FrameSettings { method: Method::Visibility, msaa, ..Default::default() };
+    let v = FrameRenderer::new(ctx, full_sg, lights, W, H, s);
+    let mut v = v.unwrap_or_else(|e| panic!("the visibility buffer refused {msaa}x, which the adapter has: {e}"));
+    render(ctx, &mut v, full_sg, camera);
+    let bs = FrameSettings { method: Method::BruteForce { cutoff: true }, msaa, ..Default::default() };
+    let mut bfull = forward(ctx, full_sg, lights, (W, H), bs);
+    render(ctx, &mut bfull, full_sg, camera);
+    let (bd, vd) = (bfull.read_depth(ctx).unwrap(), v.read_depth(ctx).unwrap());
+    let differ = bd.iter().zip(&vd).filter(|(x, y)| x.to_bits() != y.to_bits()).count();
+    assert_eq!(differ, 0, "{msaa}x: brute force and the visibility buffer cover different depth samples");
+
+    let mut b2 = forward(ctx, sg, lights, (W, H), bs);
+    let reference = render_frame(ctx, &mut b2, sg, camera);
+    let mut v = FrameRenderer::new(ctx, sg, lights, W, H, s).unwrap();
+    let vis = render_frame(ctx, &mut v, sg, camera);
+    let edges = v
+        .passes::<VisibilityFrame>()
+        .expect("visibility buffer")
+        .shading()
+        .read_edge_list(&ctx.device, &ctx.queue)
+        .unwrap();
+    let depths = (&b.read_depth(ctx).unwrap()[..], &v.read_depth(ctx).unwrap()[..]);
+    let (reference, forgiven) = reference.forgive_hdr(&msaa_by_design(W, depths, msaa, &edges));
+    eprintln!("{msaa}x visibility: {forgiven} pixels compared by FLIP only ({} edge pixels)", edges.len());
+    assert!(forgiven * 10 < (W * H) as usize, "{msaa}x: {forgiven} pixels forgiven: the HDR check sees too little");
+    let name = format!("msaa{msaa}-visibility-vs-reference");
+    if msaa == 1 {
+        assert_matches_reference_frame(&name, W, &reference, &vis, VISIBILITY_VS_REFERENCE);
+    } else {
+        assert_matches_reference_msaa(&name, W, &reference, &vis, VISIBILITY_VS_REFERENCE);
+    }
+    if msaa > 1 {
+        assert!(!edges.is_empty(), "{msaa}x: the visibility buffer found no edge pixels");
     }
 }
 

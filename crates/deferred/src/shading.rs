@@ -465,7 +465,8 @@ impl DeferredShading {
         if let Some(c) = &coarse {
             bind.push(wgpu::BindGroupEntry { binding: 8, resource: c.lists.as_entire_binding() });
         }
-        let msaa = (samples > 1).then(|| EdgeSamples::new(device, "deferred", &grid, samples, hdr, memory)).transpose()?;
+        let msaa =
+            (samples > 1).then(|| EdgeSamples::new(device, "deferred", &grid, samples, hdr, memory)).transpose()?;
         if let Some(m) = &msaa {
             bind.extend(m.entries());
         }

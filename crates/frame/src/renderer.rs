@@ -113,6 +113,9 @@ impl FrameRenderer {
                 "VPLs are made from the shadow-casting lights' reflective shadow maps: no light casts a shadow".into(),
             ));
         }
+        if s.test_wrong_id.is_some() && s.method != Method::Visibility {
+            return Err(GpuError::Config("the wrong-ID test hook needs the visibility method".into()));
+        }
         if !s.method.is_tiled() {
             if s.test_drop_light.is_some() {
                 return Err(GpuError::Config(

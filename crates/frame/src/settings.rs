@@ -1,6 +1,6 @@
 //! [`FrameSettings`]: every setting of a frame, for every method, in one value (the method,
 //! its culling, MSAA, exposure, shadows, blended geometry, VPLs, the heat map, and the
-//! three knobs only Tiled Deferred reads). What the scene itself requires is decided from
+//! knobs only Tiled Deferred or the visibility buffer reads). What the scene itself requires is decided from
 //! it and the scene once, in [`tiledlight_gpu::features::Features`]. Depends on
 //! tiledlight-gpu (option types), tiledlight-cull (shadow and VPL options) and
 //! tiledlight-deferred (its edge test's thresholds).
@@ -58,6 +58,10 @@ pub struct FrameSettings {
     /// `tiledlight_deferred::gbuffer::EXTRA_TEST_VALUES` instead of white, so tests can
     /// prove the shading pass reads and multiplies each of them. `false` by default.
     pub test_gbuffer_values: bool,
+    /// Test-only (visibility buffer, one sample): after the raster pass the ID at this
+    /// pixel is overwritten with instance 0's triangle 0 (a valid but wrong triangle), so
+    /// tests can prove a comparison catches one wrong ID. `None` by default.
+    pub test_wrong_id: Option<(u32, u32)>,
 }
 
 impl Default for FrameSettings {
@@ -78,6 +82,7 @@ impl Default for FrameSettings {
             edge: EdgeTest::default(),
             test_drop_light: None,
             test_gbuffer_values: false,
+            test_wrong_id: None,
         }
     }
 }

@@ -74,7 +74,7 @@ impl VisibilityFrame {
         let device = &ctx.device;
         let (features, views, targets) = (&shared.features, &shared.views, &shared.targets);
         let size = (targets.hdr.width(), targets.hdr.height());
-        let raster = VisibilityRaster::new(device, views, scene, features, size, memory)?;
+        let raster = VisibilityRaster::new(device, views, scene, features, (size, settings.test_wrong_id), memory)?;
         let culling = LightCulling::with_drop_light(
             device,
             views,

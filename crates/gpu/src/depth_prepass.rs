@@ -123,11 +123,8 @@ impl DepthPrepass {
         target: DepthTarget,
         ids: Option<u32>,
     ) -> Result<Self, GpuError> {
-        let id_target = [Some(wgpu::ColorTargetState {
-            format: ID_FORMAT,
-            blend: None,
-            write_mask: wgpu::ColorWrites::ALL,
-        })];
+        let id_target =
+            [Some(wgpu::ColorTargetState { format: ID_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL })];
         let constants = ids.map(|bits| [("TRIANGLE_BITS", bits as f64)]);
         let constants: &[(&str, f64)] = constants.as_ref().map_or(&[], |c| &c[..]);
         let mut pipelines = Vec::new();
@@ -227,7 +224,8 @@ impl DepthPrepass {
             let no_triangle = f64::from(tiledlight_cull::visibility::NO_TRIANGLE);
             let clear = wgpu::Color { r: no_triangle, g: 0.0, b: 0.0, a: 0.0 };
             let colors = [cleared(ids, None, clear)];
-            let mut pass = begin_pass(encoder, self.label, &colors, (depth, wgpu::LoadOp::Clear(0.0)), t.render_writes());
+            let mut pass =
+                begin_pass(encoder, self.label, &colors, (depth, wgpu::LoadOp::Clear(0.0)), t.render_writes());
             self.draw(&mut pass, (views, view), scene, None);
         }
         timer.end(encoder, t);

@@ -439,7 +439,12 @@ impl SceneGpu {
             .then(|| buffer_init(device, "scene.tangents", bytemuck::cast_slice(&tan), vertex_usage));
         let uvs1 =
             material_features.uv1.then(|| buffer_init(device, "scene.uvs1", bytemuck::cast_slice(&uv1), vertex_usage));
-        let indices = buffer_init(device, "scene.indices", bytemuck::cast_slice(&idx), wgpu::BufferUsages::INDEX | wgpu::BufferUsages::STORAGE);
+        let indices = buffer_init(
+            device,
+            "scene.indices",
+            bytemuck::cast_slice(&idx),
+            wgpu::BufferUsages::INDEX | wgpu::BufferUsages::STORAGE,
+        );
         memory.add("scene.vertices", (pos.len() * 12 + nrm.len() * 12 + uv.len() * 8) as u64);
         if !tan.is_empty() || !uv1.is_empty() {
             memory.add("scene.vertices.tangents+uv1", (tan.len() * 16 + uv1.len() * 8) as u64);

@@ -176,7 +176,9 @@ impl VisibilityShading {
         let storage = VISIBILITY_BINDINGS
             .resolve(&defines)
             .into_iter()
-            .filter(|(_, e)| matches!(e.ty, wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { .. }, .. }))
+            .filter(|(_, e)| {
+                matches!(e.ty, wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { .. }, .. })
+            })
             .count() as u32;
         let limit = device.limits().max_storage_buffers_per_shader_stage;
         if storage > limit {
@@ -359,5 +361,11 @@ impl VisibilityShading {
     /// With several materials a pixel is counted once per material among its samples.
     pub fn read_edge_pixels(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Option<u32>, GpuError> {
         self.msaa.as_ref().map(|m| m.read_edge_pixels(device, queue)).transpose()
+    }
+
+    /// The last frame's edge pixels (MSAA only; stalls the GPU), in no particular order
+    /// (with several materials a pixel may be listed once per material among its samples).
+    pub fn read_edge_list(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Vec<(u32, u32)>, GpuError> {
+        self.msaa.as_ref().map_or(Ok(Vec::new()), |m| m.read_edge_list(device, queue))
     }
 }

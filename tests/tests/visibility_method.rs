@@ -1,0 +1,210 @@
+//! The visibility buffer as a method (issue 28): what it models, its lists, its layouts and
+//! the negative test of its comparison. Its images against brute force, Forward+ and Tiled
+//! Deferred are in the suites that compare the other methods, at
+//! `tiledlight_tests::compare::VISIBILITY_VS_REFERENCE` (Forward+'s limits): `deferred.rs`
+//! (courtyard; mixed scene with spots, half-z, AABB, 8 px tiles), `materials.rs` (normal,
+//! metallic-roughness, occlusion and emissive maps, the second uv set, texture transforms,
+//! wrap modes, quantised meshes), `msaa.rs` (every sample count the adapter has, the
+//! masked screen's depth samples) and `blended.rs` (blended geometry, shadows and VPLs,
+//! each sample count). The reconstruction's arithmetic is `visibility.rs`.
+
+use tiledlight_cull::Camera;
+use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method, VisibilityFrame};
+use tiledlight_gpu::culling::{ClusterOptions, CullOptions};
+use tiledlight_gpu::light_buffers::LightBuffers;
+use tiledlight_gpu::plan::Step;
+use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_gpu::timer::GpuTimer;
+use tiledlight_gpu::GpuContext;
+use tiledlight_tests::compare::{
+    assert_matches_reference_frame, compare_with_reference, render_frame, Frame, VISIBILITY_VS_REFERENCE,
+};
+use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
+use tiledlight_tests::{gpu, scenes};
+
+const W: u32 = 320;
+const H: u32 = 180;
+
+fn renderer(ctx: &GpuContext, sg: &SceneGpu, lights: &LightBuffers, s: FrameSettings) -> FrameRenderer {
+    FrameRenderer::new(ctx, sg, lights, W, H, s).unwrap_or_else(|e| panic!("{:?}: {e}", s.method))
+}
+
+fn brute_force(ctx: &GpuContext, sg: &SceneGpu, lights: &LightBuffers, camera: &Camera, cull: CullOptions) -> Frame {
+    let s = FrameSettings { method: Method::BruteForce { cutoff: true }, cull, ..Default::default() };
+    render_frame(ctx, &mut renderer(ctx, sg, lights, s), sg, camera)
+}
+
+/// Every light-grid layout and assignment the culling pass writes is read correctly: the
+/// image matches brute force at Forward+'s limits, and the lists it was shaded with equal
+/// the CPU reference culler's (the same pass as Forward+, over the visibility buffer's
+/// depth). The mixed scene has spots, five materials (one dispatch each: it is textured), a
+/// masked double-sided screen and a double-sided panel seen from both sides.
+#[test]
+fn every_layout_matches_reference_and_cpu_lists() {
+    let ctx = gpu();
+    let scene = scenes::mixed_scene();
+    let camera = scenes::mixed_camera(W, H);
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 300, 100, 21)).unwrap();
+    let layouts = [
+        ("tiles", CullOptions::default()),
+        (
+            "half-z-aabb-cone-8px",
+            CullOptions { tile_size: 8, half_z: true, aabb: true, spot_cone: true, ..Default::default() },
+        ),
+        ("2.5d", CullOptions { depth_mask: true, ..Default::default() }),
+        ("scatter", CullOptions { scatter: true, ..Default::default() }),
+        ("clustered", CullOptions { clusters: Some(ClusterOptions::default()), ..Default::default() }),
+    ];
+    let reference = brute_force(ctx, &sg, &lights, &camera, CullOptions::default());
+    for (name, cull) in layouts {
+        let mut v =
+            renderer(ctx, &sg, &lights, FrameSettings { method: Method::Visibility, cull, ..Default::default() });
+        let frame = render_frame(ctx, &mut v, &sg, &camera);
+        assert_eq!(v.passes::<VisibilityFrame>().expect("visibility").shading().dispatches(), 5, "one per material");
+        assert_matches_reference_frame(
+            &format!("visibility-{name}-vs-reference"),
+            W,
+            &reference,
+            &frame,
+            VISIBILITY_VS_REFERENCE,
+        );
+        if cull.clusters.is_none() {
+            let depth = v.read_depth(ctx).unwrap();
+            let lists = v.read_lists(ctx).unwrap();
+            let f = CulledFrame { depth: &depth, width: W, height: H, camera: &camera, lights: &lights.packed };
+            let c = assert_lists_match(&format!("visibility {name}"), &f, &lists, &cull.to_config(true));
+            assert!(c.pairs > 0, "{name}: lights reach the tiles");
+        }
+    }
+}
+
+/// The comparison catches one wrong triangle ID: the same frame with one pixel's ID
+/// replaced by another valid triangle's (instance 0's triangle 0, the floor's far corner;
+/// the test hook `FrameSettings::test_wrong_id`) fails against brute force, at that pixel,
+/// while the frame without it passes. The pixel is on a box, not the floor.
+#[test]
+fn one_wrong_triangle_id_is_caught() {
+    let ctx = gpu();
+    let scene = scenes::mixed_scene();
+    let camera = scenes::mixed_camera(W, H);
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 300, 100, 21)).unwrap();
+    let reference = brute_force(ctx, &sg, &lights, &camera, CullOptions::default());
+    let s = FrameSettings { method: Method::Visibility, ..Default::default() };
+    let good = render_frame(ctx, &mut renderer(ctx, &sg, &lights, s), &sg, &camera);
+    assert!(compare_with_reference("visibility-good", W, &reference, &good, VISIBILITY_VS_REFERENCE).passes());
+    // A pixel of a box (the boxes stand at x -6..6, z -3..-1; the camera looks from the corner).
+    let box_centre = camera.view_proj() * glam::Vec4::new(-1.2, 0.75, -1.0, 1.0);
+    let (x, y) = (
+        ((box_centre.x / box_centre.w + 1.0) * 0.5 * W as f32) as u32,
+        ((1.0 - box_centre.y / box_centre.w) * 0.5 * H as f32) as u32,
+    );
+    let wrong = FrameSettings { test_wrong_id: Some((x, y)), ..s };
+    let bad = render_frame(ctx, &mut renderer(ctx, &sg, &lights, wrong), &sg, &camera);
+    let i = (y * W + x) as usize;
+    eprintln!(
+        "pixel ({x}, {y}): reference {:?}, right ID {:?}, wrong ID {:?}",
+        reference.hdr[i], good.hdr[i], bad.hdr[i]
+    );
+    let differing = good.hdr.iter().zip(&bad.hdr).filter(|(a, b)| a != b).count();
+    assert_eq!(differing, 1, "the hook changes exactly the one pixel");
+    let c = compare_with_reference("visibility-wrong-id", W, &reference, &bad, VISIBILITY_VS_REFERENCE);
+    assert!(!c.passes(), "one wrong triangle ID must fail the comparison");
+    assert_eq!(c.hdr_at, i, "the worst pixel is the wrong one");
+    // The hook is refused where it cannot work.
+    let e = FrameRenderer::new(
+        ctx,
+        &sg,
+        &lights,
+        W,
+        H,
+        FrameSettings { test_wrong_id: Some((0, 0)), ..Default::default() },
+    );
+    assert!(e.err().expect("Forward+ refuses the hook").to_string().contains("visibility"));
+    let e = FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings { test_wrong_id: Some((W, 0)), ..s });
+    assert!(e.err().expect("a pixel off screen is refused").to_string().contains("320x180"));
+}
+
+/// Only what the method needs: its plan has the ID raster and no pre-pass, G-buffer or
+/// forward shading; memory holds the ID target (4 bytes a sample) and no G-buffer or
+/// multisampled HDR target; the per-material uniforms exist only in a textured scene, and
+/// an untextured scene runs one dispatch.
+#[test]
+fn models_only_what_it_needs() {
+    let ctx = gpu();
+    let textured = scenes::mixed_scene();
+    let mut plain = textured.clone();
+    plain.instances.retain(|i| plain.materials[i.material].base_color_texture.is_none());
+    for (scene, dispatches) in [(&textured, 5), (&plain, 1)] {
+        let sg = SceneGpu::new(&ctx.device, &ctx.queue, scene).unwrap();
+        let lights = LightBuffers::new(&ctx.device, &scenes::lights(scene, 50, 10, 3)).unwrap();
+        for msaa in [1, 4] {
+            let s = FrameSettings { method: Method::Visibility, msaa, ..Default::default() };
+            let r = renderer(ctx, &sg, &lights, s);
+            let plan = r.plan();
+            assert!(plan.has(Step::VisibilityRaster) && plan.has(Step::Cull) && plan.has(Step::VisibilityShade));
+            assert_eq!(plan.has(Step::VisibilityResolve), msaa > 1);
+            for step in [Step::DepthPrepass, Step::GBuffer, Step::ForwardShade, Step::DeferredShade] {
+                assert!(!plan.has(step), "{step:?} in the visibility buffer's plan");
+            }
+            let memory = r.outputs().memory;
+            assert_eq!(memory.get("visibility.ids"), u64::from(W * H * msaa * 4));
+            assert_eq!(memory.get("visibility.classes") > 0, dispatches > 1);
+            for (category, _) in &memory.entries {
+                assert!(
+                    !category.starts_with("deferred.") && !category.starts_with("forward."),
+                    "{category} allocated for the visibility buffer"
+                );
+            }
+            assert_eq!(r.passes::<VisibilityFrame>().expect("visibility").shading().dispatches(), dispatches);
+        }
+    }
+}
+
+/// The IDs split per scene: the mixed scene's 9 instances take 4 bits and its largest mesh
+/// (the cube, 12 triangles) 4; the raster's IDs read back name only real (instance,
+/// triangle) pairs or the clear value, and cover exactly the pixels with depth.
+#[test]
+fn ids_name_real_triangles_where_there_is_depth() {
+    let ctx = gpu();
+    let scene = scenes::mixed_scene();
+    let camera = scenes::mixed_camera(W, H);
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 50, 10, 3)).unwrap();
+    let mut r = renderer(ctx, &sg, &lights, FrameSettings { method: Method::Visibility, ..Default::default() });
+    let mut timer = GpuTimer::new(ctx).unwrap();
+    r.render_once(ctx, &mut timer, &sg, &camera).unwrap();
+    let vf = r.passes::<VisibilityFrame>().expect("visibility");
+    let layout = vf.raster().layout;
+    assert_eq!((layout.triangle_bits, layout.instances, layout.max_triangles), (4, 9, 12));
+    let ids = vf.raster().read_ids(&ctx.device, &ctx.queue).unwrap();
+    let depth = r.read_depth(ctx).unwrap();
+    let mut covered = 0;
+    for (i, (&id, &d)) in ids.iter().zip(&depth).enumerate() {
+        match layout.unpack(id) {
+            None => assert!(d <= 0.0, "pixel {i}: depth {d} without a triangle"),
+            Some((instance, triangle)) => {
+                assert!(d > 0.0, "pixel {i}: triangle ({instance}, {triangle}) without depth");
+                let mesh = scene.instances[sg_instance_mesh(&sg, &scene, instance)].mesh;
+                assert!((triangle as usize) < scene.meshes[mesh].indices.len() / 3, "pixel {i}: triangle {triangle}");
+                covered += 1;
+            }
+        }
+    }
+    assert!(covered > (W * H / 2) as usize, "{covered} pixels covered");
+}
+
+/// The scene instance drawn at instance-buffer slot `slot` (SceneGpu sorts instances by draw
+/// kind and material): the one whose bounds the slot has.
+fn sg_instance_mesh(sg: &SceneGpu, scene: &tiledlight_scene::Scene, slot: u32) -> usize {
+    let (lo, hi) = sg.instance_bounds[slot as usize];
+    scene
+        .instances
+        .iter()
+        .position(|inst| {
+            let b = scene.meshes[inst.mesh].bounds().transformed(&inst.transform);
+            b.min == lo && b.max == hi
+        })
+        .expect("an instance with the slot's bounds")
+}
