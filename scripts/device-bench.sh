@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign emission vpl reshape
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign emission vpl reshape visibility
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -22,7 +22,7 @@ run() { # name frames args...
   local name=$prefix$1 frames=$2; shift 2
   echo "== $name: $*" | tee -a "$out/log.txt"
   timeout 300 "$bin" bench --width 1920 --height 1080 --frames "$frames" --warmup 20 --json "$out/$name.json" "$@" 2>&1 \
-    | tee -a "$out/log.txt" | grep -E "^(depth|forward|brute|deferred|tonemap|shadow|blended|total|error|MSAA|light grid)"
+    | tee -a "$out/log.txt" | grep -E "^(depth|forward|brute|deferred|visibility|cull|tonemap|shadow|blended|total|error|MSAA|light grid)"
 }
 sets=${*:-core cull scale methods msaa}
 for set in $sets; do
@@ -104,6 +104,26 @@ for set in $sets; do
     for m in forward-plus deferred; do
       run "mp-$m-gather" 10 --light-preset million --method $m
       run "mp-$m-tiled" 10 --light-preset million --method $m --assign scatter
+    done
+    ;;
+  visibility)
+    # Issue 28: the three methods side by side. The Figure 9 scene (280 medium grid objects;
+    # Tiled Deferred with 4 G-buffer targets) at 1,024 / 4,096 / 16,384 lights, the courtyard
+    # at 1,024, the million preset (gathered and assigned), and 4x MSAA on the Figure 9 scene.
+    for n in 1024 4096 16384; do
+      run "v-f9-fp-$n" 50 --lights $n --grid-objects 280 --density medium
+      run "v-f9-td-$n" 50 --lights $n --grid-objects 280 --density medium --method deferred --gbuffer-rts 4
+      run "v-f9-vb-$n" 50 --lights $n --grid-objects 280 --density medium --method visibility
+    done
+    for m in forward-plus deferred visibility; do
+      run "v-court-$m" 50 --lights 1024 --method $m
+      run "v-mp-$m-gather" 10 --light-preset million --method $m
+      run "v-mp-$m-scatter" 10 --light-preset million --method $m --assign scatter
+    done
+    for n in 1024 4096; do
+      run "v-msaa4-fp-$n" 30 --lights $n --grid-objects 280 --density medium --msaa 4
+      run "v-msaa4-td-$n" 30 --lights $n --grid-objects 280 --density medium --method deferred --gbuffer-rts 4 --msaa 4
+      run "v-msaa4-vb-$n" 30 --lights $n --grid-objects 280 --density medium --method visibility --msaa 4
     done
     ;;
   million)

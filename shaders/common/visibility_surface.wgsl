@@ -9,9 +9,10 @@
 // takes (measured on lavapipe and the H200: tests/tests/visibility.rs). The material is
 // common/scene.wgsl's material_at, as every raster pass evaluates it.
 //
-// With TEXTURES a dispatch shades one material (its textures at group 2, its index in
-// vis_class): a sample of another material is not this dispatch's (`owned` false), and
-// the sky belongs to the dispatch with `owns_sky`. Without textures one dispatch shades all.
+// With TEXTURES a dispatch shades one textured material (its textures at group 2, its index
+// in vis_class) or every untextured one: a sample of another material is not this
+// dispatch's (`owned` false), and the sky belongs to the dispatch with `owns_sky`. Without
+// textures one dispatch shades all.
 // Included by common/deferred_shade.wgsl with VISIBILITY; bindings in
 // crates/visibility/src/shading.rs (VISIBILITY_GROUP).
 #include "common/scene.wgsl"
@@ -35,13 +36,14 @@
 @group(1) @binding(31) var<storage, read> vis_uvs1: array<vec2<f32>>;
 #endif
 #ifdef TEXTURES
-// The material a dispatch shades (one dispatch per material of a textured scene, by
-// dynamic offset), and whether it also writes the sky.
+// What a dispatch shades (by dynamic offset): one textured material, or (`untextured`)
+// every material without a texture, whose bind groups all hold the same white textures;
+// and whether it also writes the sky.
 struct VisClass {
     material: u32,
     owns_sky: u32,
+    untextured: u32,
     _pad0: u32,
-    _pad1: u32,
 }
 @group(1) @binding(32) var<uniform> vis_class: VisClass;
 #endif
@@ -70,7 +72,11 @@ fn vis_owned(id: u32) -> bool {
     if id == VIS_NO_TRIANGLE {
         return vis_class.owns_sky != 0u;
     }
-    return instances[vis_instance(id)].material == vis_class.material;
+    let mi = instances[vis_instance(id)].material;
+    if vis_class.untextured != 0u {
+        return materials[mi].textures == 0u;
+    }
+    return mi == vis_class.material;
 #else
     return true;
 #endif

@@ -385,6 +385,8 @@ pub struct SceneGpu {
     pub instances: wgpu::Buffer,
     /// The material buffer (group 1, binding 1).
     pub materials: wgpu::Buffer,
+    /// Per material, its texture slots' bits ([`GpuMaterial::textures`]).
+    pub material_textures: Vec<u32>,
     /// World-space bounds of each instance (min, max), in the order of the instance buffer
     /// (what the draws' instance ranges index): shadow faces cull instances with them and
     /// place their near plane just short of the nearest one.
@@ -547,6 +549,7 @@ impl SceneGpu {
             max_triangles,
             instances: instance_buf,
             materials: material_buf,
+            material_textures: gpu_materials.iter().map(|m| m.textures).collect(),
             instance_bounds,
             memory,
         })
@@ -608,6 +611,11 @@ impl SceneGpu {
     /// The vertex buffer layouts of this scene's shading draws ([`vertex_layouts`]).
     pub fn vertex_layouts(&self) -> [Option<wgpu::VertexBufferLayout<'static>>; 5] {
         vertex_layouts(&self.material_features)
+    }
+
+    /// True when material `m` has a texture in some slot (its bind group is not all white).
+    pub fn material_has_textures(&self, m: usize) -> bool {
+        self.material_textures.get(m).is_some_and(|&bits| bits != 0)
     }
 
     /// True when some draw is alpha-masked.

@@ -21,9 +21,10 @@
 //!
 //! A textured scene's materials each have their own texture bind group (group 2), and a
 //! compute kernel cannot pick one per pixel without non-uniform binding arrays (which
-//! lavapipe lacks), so there the pass runs once per opaque material, each dispatch shading
-//! only the samples of its material (the first also the sky), selected by a dynamic offset
-//! into a small uniform array. Untextured scenes run it once. Depends on tiledlight-gpu
+//! lavapipe lacks), so there the pass runs once per opaque textured material and once for
+//! all untextured ones (whose bind groups hold the same white textures), each dispatch
+//! shading only the samples of its class (the first also the sky), selected by a dynamic
+//! offset into a small uniform array. Untextured scenes run it once. Depends on tiledlight-gpu
 //! and tiledlight-deferred.
 
 use tiledlight_cull::TileGrid;
@@ -232,23 +233,32 @@ impl VisibilityShading {
         if let Some(m) = &msaa {
             bind.extend(m.entries());
         }
-        // Textured scenes: one dispatch per opaque material, the first also writing the sky.
+        // Textured scenes: one dispatch per opaque textured material and one for all the
+        // untextured ones (their bind groups hold the same white textures), the first also
+        // writing the sky.
         let (classes, class_buffer) = if textures.is_some() {
             let mut materials: Vec<usize> =
                 scene.draws.iter().filter(|d| !d.kind.blended).map(|d| d.material).collect();
             materials.sort_unstable();
             materials.dedup();
-            let mut data = vec![0u8; materials.len().max(1) * CLASS_STRIDE as usize];
-            for (k, &m) in materials.iter().enumerate() {
+            let (textured, plain): (Vec<usize>, Vec<usize>) =
+                materials.into_iter().partition(|&m| scene.material_has_textures(m));
+            let mut classes: Vec<(usize, bool)> = textured.into_iter().map(|m| (m, false)).collect();
+            if let Some(&m) = plain.first() {
+                classes.push((m, true));
+            }
+            let mut data = vec![0u8; classes.len().max(1) * CLASS_STRIDE as usize];
+            for (k, &(m, untextured)) in classes.iter().enumerate() {
                 let at = k * CLASS_STRIDE as usize;
-                data[at..at + 8].copy_from_slice(bytemuck::cast_slice(&[m as u32, u32::from(k == 0)]));
+                let class = [m as u32, u32::from(k == 0), u32::from(untextured)];
+                data[at..at + 12].copy_from_slice(bytemuck::cast_slice(&class));
             }
             let buffer = buffer_init(device, "visibility.classes", &data, wgpu::BufferUsages::UNIFORM);
             memory.add("visibility.classes", buffer.size());
-            let classes = materials
+            let classes = classes
                 .iter()
                 .enumerate()
-                .map(|(k, &material)| Class { material, offset: (k as u64 * CLASS_STRIDE) as u32 })
+                .map(|(k, &(material, _))| Class { material, offset: (k as u64 * CLASS_STRIDE) as u32 })
                 .collect();
             (classes, Some(buffer))
         } else {
@@ -352,7 +362,8 @@ impl VisibilityShading {
         }
     }
 
-    /// Dispatches a frame makes (one per material of a textured scene, else one).
+    /// Dispatches a frame makes (one per textured material and one for the untextured ones
+    /// in a textured scene, else one).
     pub fn dispatches(&self) -> usize {
         self.classes.len()
     }
