@@ -14,8 +14,8 @@ use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;
 use tiledlight_tests::compare::{
-    assert_matches_reference_frame, render_frame, Frame, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE,
-    VISIBILITY_VS_REFERENCE,
+    assert_matches_reference_frame, render_frame, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE,
+    RASTER_POSITION_ERROR_PX, VISIBILITY_VS_REFERENCE,
 };
 use tiledlight_tests::images::{assert_flip, documented_heat_colour, linear_to_srgb, srgb_to_linear};
 use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
@@ -56,12 +56,9 @@ fn compare_with_forward(
     )
     .unwrap();
     // The G-buffer's f16 normal moves grazing lights (tiledlight_tests::compare::Frame::allow_gbuffer_normals).
-    let reference = render_frame(ctx, &mut bf, &sg, &camera).allow_gbuffer_normals(
-        &bf.read_depth(ctx).unwrap(),
-        W,
-        &camera,
-        &lights.packed,
-    );
+    let plain_reference = render_frame(ctx, &mut bf, &sg, &camera);
+    let depth = bf.read_depth(ctx).unwrap();
+    let reference = plain_reference.clone().allow_gbuffer_normals(&depth, W, &camera, &lights.packed);
     let mut forward =
         FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings { cull, ..Default::default() }).unwrap();
     let forward = render_frame(ctx, &mut forward, &sg, &camera);
@@ -96,7 +93,8 @@ fn compare_with_forward(
     )
     .unwrap();
     let vis = render_frame(ctx, &mut vis, &sg, &camera);
-    let plain_reference = Frame { allowance: Vec::new(), ..reference };
+    let plain_reference =
+        plain_reference.allow_position_error(&depth, W, (&camera, &lights.packed), RASTER_POSITION_ERROR_PX);
     assert_matches_reference_frame(
         &format!("{name}-visibility-vs-reference"),
         W,

@@ -518,7 +518,7 @@ fn every_sample_count_matches_brute_force_in_hdr() {
         if msaa > 1 {
             assert!(!edges.is_empty(), "{msaa}x: Tiled Deferred found no edge pixels");
         }
-        check_visibility_msaa(ctx, (&sg, &full_sg), &lights, &camera, (msaa, &b));
+        check_visibility_msaa(ctx, (&sg, &full_sg), &lights, &camera, (msaa, &b, &depth));
     }
 }
 
@@ -533,10 +533,12 @@ fn check_visibility_msaa(
     (sg, full_sg): (&SceneGpu, &SceneGpu),
     lights: &LightBuffers,
     camera: &Camera,
-    (msaa, b): (u32, &FrameRenderer),
+    (msaa, b, depth): (u32, &FrameRenderer, &[f32]),
 ) {
     use tiledlight_frame::VisibilityFrame;
-    use tiledlight_tests::compare::{assert_matches_reference_msaa, msaa_by_design, VISIBILITY_VS_REFERENCE};
+    use tiledlight_tests::compare::{
+        assert_matches_reference_msaa, msaa_by_design, RASTER_POSITION_ERROR_PX, VISIBILITY_VS_REFERENCE,
+    };
     let s = FrameSettings { method: Method::Visibility, msaa, ..Default::default() };
     let v = FrameRenderer::new(ctx, full_sg, lights, W, H, s);
     let mut v = v.unwrap_or_else(|e| panic!("the visibility buffer refused {msaa}x, which the adapter has: {e}"));
@@ -549,7 +551,12 @@ fn check_visibility_msaa(
     assert_eq!(differ, 0, "{msaa}x: brute force and the visibility buffer cover different depth samples");
 
     let mut b2 = forward(ctx, sg, lights, (W, H), bs);
-    let reference = render_frame(ctx, &mut b2, sg, camera);
+    let reference = render_frame(ctx, &mut b2, sg, camera).allow_position_error(
+        depth,
+        W,
+        (camera, &lights.packed),
+        RASTER_POSITION_ERROR_PX,
+    );
     let mut v = FrameRenderer::new(ctx, sg, lights, W, H, s).unwrap();
     let vis = render_frame(ctx, &mut v, sg, camera);
     let edges = v

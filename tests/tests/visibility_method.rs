@@ -17,7 +17,8 @@ use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;
 use tiledlight_tests::compare::{
-    assert_matches_reference_frame, compare_with_reference, render_frame, Frame, VISIBILITY_VS_REFERENCE,
+    assert_matches_reference_frame, compare_with_reference, render_frame, Frame, RASTER_POSITION_ERROR_PX,
+    VISIBILITY_VS_REFERENCE,
 };
 use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
 use tiledlight_tests::{gpu, scenes};
@@ -29,9 +30,14 @@ fn renderer(ctx: &GpuContext, sg: &SceneGpu, lights: &LightBuffers, s: FrameSett
     FrameRenderer::new(ctx, sg, lights, W, H, s).unwrap_or_else(|e| panic!("{:?}: {e}", s.method))
 }
 
+/// Brute force's frame, with the allowance for the rasteriser's interpolated surface point
+/// (`Frame::allow_position_error`).
 fn brute_force(ctx: &GpuContext, sg: &SceneGpu, lights: &LightBuffers, camera: &Camera, cull: CullOptions) -> Frame {
     let s = FrameSettings { method: Method::BruteForce { cutoff: true }, cull, ..Default::default() };
-    render_frame(ctx, &mut renderer(ctx, sg, lights, s), sg, camera)
+    let mut r = renderer(ctx, sg, lights, s);
+    let frame = render_frame(ctx, &mut r, sg, camera);
+    let depth = r.read_depth(ctx).unwrap();
+    frame.allow_position_error(&depth, W, (camera, &lights.packed), RASTER_POSITION_ERROR_PX)
 }
 
 /// Every light-grid layout and assignment the culling pass writes is read correctly: the
