@@ -183,16 +183,21 @@ pub const FORWARD_VS_REFERENCE: Tolerance =
     Tolerance { hdr_rel: 4e-3, hdr_floor: 1e-3, flip: FlipThresholds { mean: 1e-3, percentile: (0.99, 1e-2) } };
 
 /// The visibility buffer vs the brute-force reference (same BRDF, cutoff and light grid as
-/// Forward+; nothing quantised between its raster and its shading): its attributes are
-/// interpolated analytically on the triangle as given, while the rasteriser interpolates
-/// them over vertex positions snapped to its sub-pixel grid (Vulkan's subPixelPrecisionBits,
-/// 8 on lavapipe and the H200: up to 1/512 px a vertex). On untextured surfaces that moves
-/// nothing visible (measured on the mixed scene: max relative HDR error 9.7e-4, inside
-/// Forward+'s 4e-3); on a magnified high-contrast texture it shifts the bilinear blend
-/// (measured: 5.0e-3 on the mixed scene's 16x16 checker, at its cells' edges; FLIP mean
-/// 5e-5). Limits: HDR 1e-2 relative (floor 1e-3), FLIP Forward+'s (mean 1e-3, p99 1e-2); a
-/// missing light (typically >5% of a lit pixel) or a wrong triangle fails.
-pub const VISIBILITY_VS_REFERENCE: Tolerance = Tolerance { hdr_rel: 1e-2, ..FORWARD_VS_REFERENCE };
+/// Forward+; nothing quantised between its raster and its shading), compared with the
+/// reference's position allowance ([`Frame::allow_position_error`]) and a few outliers
+/// ([`VISIBILITY_OUTLIERS`]): its attributes are interpolated analytically on the triangle
+/// as given, while the rasteriser interpolates them over vertex positions snapped to its
+/// sub-pixel grid (8 bits on lavapipe and the H200) with precision the API leaves open.
+/// HDR: on a magnified high-contrast texture that shifts the bilinear blend (measured on
+/// lavapipe: 5.0e-3 on the mixed scene's 16x16 checker, at its cells' edges; untextured
+/// surfaces 9.7e-4), so 1e-2 relative (floor 1e-3). FLIP: measured vis vs brute force,
+/// mean / p99, lavapipe courtyard 0.0003 / 0.0049, H200 courtyard 0.0015 / 0.0103 and mixed
+/// scene 0.0007 / 0.0077 (the H200's brute force strays from lavapipe's where the
+/// visibility buffer does not: see `VISIBILITY_OUTLIERS`), so mean 3e-3, p99 2e-2. A
+/// missing light (typically >5% of a lit pixel, over a whole tile) or a wrong triangle
+/// fails.
+pub const VISIBILITY_VS_REFERENCE: Tolerance =
+    Tolerance { hdr_rel: 1e-2, hdr_floor: 1e-3, flip: FlipThresholds { mean: 3e-3, percentile: (0.99, 2e-2) } };
 
 /// Tiled Deferred vs the brute-force reference (same BRDF and cutoff): the G-buffer stores
 /// the albedo in 8-bit sRGB, as real deferred renderers do: half an sRGB step is about 1%
@@ -386,15 +391,90 @@ pub fn pixel_errors(reference: &Frame, actual: &Frame, t: Tolerance) -> Vec<f32>
         .collect()
 }
 
-/// An MSAA frame against hardware MSAA (brute force) where a few non-edge pixels may differ
-/// by design: FLIP within `t`, at most 0.05% of the compared pixels (those not forgiven)
-/// beyond `t`'s HDR limit, and none beyond 3x it. Hardware MSAA's shading of a fully covered
-/// pixel and a compute method's centre shading differ where the light is discontinuous
-/// within the pixel or two coplanar triangles share it (measured on lavapipe at 4x: Tiled
-/// Deferred, 16 pixels, worst 6.7e-2 against its 3e-2; the visibility buffer, 8 pixels along
+/// How many pixels of a comparison may exceed its HDR limit, and by how much at most.
+#[derive(Clone, Copy, Debug)]
+pub struct Outliers {
+    /// Largest share of the compared (not forgiven) pixels beyond the limit.
+    pub share: f32,
+    /// No pixel beyond this multiple of the limit.
+    pub factor: f32,
+}
+
+/// Hardware MSAA (brute force) against a method that shades a fully covered pixel once at
+/// its centre: the two differ by design where the light is discontinuous within the pixel
+/// or two coplanar triangles share it (measured on lavapipe at 4x: Tiled Deferred, 16
+/// pixels of 56,838, worst 6.7e-2 against its 3e-2; the visibility buffer, 8 pixels along
 /// the blended scene's floor crease, worst 1.56e-2 against 1e-2, at the values Tiled
-/// Deferred has there). A light missing from a tile changes every pixel of it that the light
-/// reaches and fails. Returns the comparison; panics with the numbers otherwise.
+/// Deferred has there). 0.05% of the pixels, at most 3x the limit.
+pub const MSAA_OUTLIERS: Outliers = Outliers { share: 1.0 / 2000.0, factor: 3.0 };
+
+/// The visibility buffer against a rasterised reference: pixels where the reference's own
+/// surface point strays past the allowance of [`Frame::allow_position_error`] next to a
+/// close light. On the H200 brute force differs from lavapipe's brute force and from both
+/// adapters' visibility buffers at such pixels (courtyard (66, 13): 21%; mixed scene
+/// (308, 87): 3.3%, 2.0% after the allowance; the visibility buffer matches lavapipe's
+/// brute force at both to 1e-3). 0.05% of the pixels (29 at 320x180), at most 25x the
+/// limit: one wrong triangle ID is off by 5x its pixel (507x the limit) and a missing light
+/// darkens a whole tile (256 pixels) and fails.
+pub const VISIBILITY_OUTLIERS: Outliers = Outliers { share: 1.0 / 2000.0, factor: 25.0 };
+
+/// Compares as [`compare_with_reference`] and counts the pixels beyond `t`'s HDR limit:
+/// passes when FLIP is within `t`, at most `o.share` of the compared pixels (those not
+/// forgiven) exceed the limit, and none exceeds `o.factor` times it. Returns the comparison,
+/// the count and the verdict.
+pub fn compare_with_outliers(
+    name: &str,
+    w: u32,
+    (reference, actual): (&Frame, &Frame),
+    t: Tolerance,
+    o: Outliers,
+) -> (Comparison, usize, bool) {
+    let c = compare_with_reference(name, w, reference, actual, t);
+    let errors = pixel_errors(reference, actual, t);
+    let forgiven = reference.allowance.iter().filter(|&&a| a == f32::MAX).count();
+    let over = errors.iter().filter(|&&e| e > t.hdr_rel).count();
+    let compared = reference.hdr.len() - forgiven;
+    eprintln!("{name}: {over} of {compared} compared pixels beyond {} (worst {:.2e})", t.hdr_rel, c.hdr_error);
+    let ok = c.flip_ok && over as f32 <= o.share * compared as f32 && c.hdr_error <= o.factor * t.hdr_rel;
+    (c, over, ok)
+}
+
+/// [`compare_with_outliers`], panicking with the numbers (and writing the images) when it
+/// fails.
+pub fn assert_matches_with_outliers(
+    name: &str,
+    w: u32,
+    (reference, actual): (&Frame, &Frame),
+    t: Tolerance,
+    o: Outliers,
+) -> Comparison {
+    let (c, over, ok) = compare_with_outliers(name, w, (reference, actual), t, o);
+    if !ok {
+        let h = (reference.hdr.len() / w as usize) as u32;
+        if !c.flip_ok {
+            assert_flip(name, w, h, &reference.ldr, &actual.ldr, t.flip);
+            unreachable!("assert_flip passed a comparison that failed");
+        }
+        let dir = crate::output_dir();
+        save_png(&dir.join(format!("{name}-actual.png")), w, h, &actual.ldr);
+        save_png(&dir.join(format!("{name}-expected.png")), w, h, &reference.ldr);
+        panic!(
+            "{name}: {over} pixels beyond the HDR limit {} (at most {} of the compared), worst {} at pixel ({}, {}) \
+             (at most {}); images in {}",
+            t.hdr_rel,
+            o.share,
+            c.hdr_error,
+            c.hdr_at as u32 % w,
+            c.hdr_at as u32 / w,
+            o.factor * t.hdr_rel,
+            dir.display()
+        );
+    }
+    c
+}
+
+/// An MSAA frame against hardware MSAA: [`assert_matches_with_outliers`] with
+/// [`MSAA_OUTLIERS`].
 pub fn assert_matches_reference_msaa(
     name: &str,
     w: u32,
@@ -402,34 +482,19 @@ pub fn assert_matches_reference_msaa(
     actual: &Frame,
     t: Tolerance,
 ) -> Comparison {
-    let c = compare_with_reference(name, w, reference, actual, t);
-    let errors = pixel_errors(reference, actual, t);
-    let forgiven = reference.allowance.iter().filter(|&&a| a == f32::MAX).count();
-    let over = errors.iter().filter(|&&e| e > t.hdr_rel).count();
-    let compared = reference.hdr.len() - forgiven;
-    eprintln!("{name}: {over} of {compared} compared pixels beyond {} (worst {:.2e})", t.hdr_rel, c.hdr_error);
-    let h = (reference.hdr.len() / w as usize) as u32;
-    if !c.flip_ok {
-        assert_flip(name, w, h, &reference.ldr, &actual.ldr, t.flip);
-        unreachable!("assert_flip passed a comparison that failed");
-    }
-    if over * 2000 > compared || c.hdr_error > 3.0 * t.hdr_rel {
-        let dir = crate::output_dir();
-        save_png(&dir.join(format!("{name}-actual.png")), w, h, &actual.ldr);
-        save_png(&dir.join(format!("{name}-expected.png")), w, h, &reference.ldr);
-        panic!(
-            "{name}: {over} of {compared} pixels beyond the HDR limit {} (at most {}), worst {} at pixel ({}, {}) (at \
-             most {}); images in {}",
-            t.hdr_rel,
-            compared / 2000,
-            c.hdr_error,
-            c.hdr_at as u32 % w,
-            c.hdr_at as u32 / w,
-            3.0 * t.hdr_rel,
-            dir.display()
-        );
-    }
-    c
+    assert_matches_with_outliers(name, w, (reference, actual), t, MSAA_OUTLIERS)
+}
+
+/// The visibility buffer against a rasterised reference (with its position allowance):
+/// [`assert_matches_with_outliers`] with [`VISIBILITY_VS_REFERENCE`] and
+/// [`VISIBILITY_OUTLIERS`] (which also covers MSAA's by-design pixels).
+pub fn assert_visibility_matches(name: &str, w: u32, reference: &Frame, actual: &Frame) -> Comparison {
+    assert_matches_with_outliers(name, w, (reference, actual), VISIBILITY_VS_REFERENCE, VISIBILITY_OUTLIERS)
+}
+
+/// The verdict of [`assert_visibility_matches`] without panicking (negative tests).
+pub fn visibility_matches(name: &str, w: u32, reference: &Frame, actual: &Frame) -> bool {
+    compare_with_outliers(name, w, (reference, actual), VISIBILITY_VS_REFERENCE, VISIBILITY_OUTLIERS).2
 }
 
 impl Frame {

@@ -31,8 +31,8 @@ use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_scene::{AlphaMode, Instance, Scene};
 use tiledlight_tests::compare::{
-    assert_matches_reference_frame, assert_matches_reference_msaa, msaa_by_design, render_frame, Frame,
-    DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE, RASTER_POSITION_ERROR_PX, VISIBILITY_VS_REFERENCE,
+    assert_matches_reference_frame, assert_visibility_matches, msaa_by_design, render_frame, Frame,
+    DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE, RASTER_POSITION_ERROR_PX,
 };
 use tiledlight_tests::lists::{assert_blended_lists_match, compare_blended_lists_independent, CulledFrame};
 use tiledlight_tests::{gpu, scenes};
@@ -745,10 +745,6 @@ fn blended_geometry_with_shadows_and_vpls_at_every_sample_count() {
         let (reference, forgiven) = reference.forgive_hdr(&msaa_by_design(W, depths, msaa, &edges));
         assert!(forgiven * 10 < (W * H) as usize, "{msaa}x: {forgiven} pixels forgiven");
         let what = format!("blended-shadows-vpls-visibility-msaa{msaa}");
-        if msaa == 1 {
-            assert_matches_reference_frame(&what, W, &reference, &v, VISIBILITY_VS_REFERENCE);
-        } else {
-            assert_matches_reference_msaa(&what, W, &reference, &v, VISIBILITY_VS_REFERENCE);
-        }
+        assert_visibility_matches(&what, W, &reference, &v);
     }
 }

@@ -1,5 +1,5 @@
 //! Tiled Deferred and the visibility buffer against Forward+ and the brute-force reference
-//! on the same frame (the visibility buffer at `VISIBILITY_VS_REFERENCE`, Forward+'s), the
+//! on the same frame (the visibility buffer by `compare::assert_visibility_matches`), the
 //! G-buffer stress knob (2 vs 5 targets: the same image), and its per-tile light lists
 //! against the CPU reference culler.
 //!
@@ -14,8 +14,8 @@ use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;
 use tiledlight_tests::compare::{
-    assert_matches_reference_frame, render_frame, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE,
-    RASTER_POSITION_ERROR_PX, VISIBILITY_VS_REFERENCE,
+    assert_matches_reference_frame, assert_visibility_matches, render_frame, DEFERRED_VS_REFERENCE,
+    FORWARD_VS_REFERENCE, RASTER_POSITION_ERROR_PX,
 };
 use tiledlight_tests::images::{assert_flip, documented_heat_colour, linear_to_srgb, srgb_to_linear};
 use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
@@ -95,13 +95,7 @@ fn compare_with_forward(
     let vis = render_frame(ctx, &mut vis, &sg, &camera);
     let plain_reference =
         plain_reference.allow_position_error(&depth, W, (&camera, &lights.packed), RASTER_POSITION_ERROR_PX);
-    assert_matches_reference_frame(
-        &format!("{name}-visibility-vs-reference"),
-        W,
-        &plain_reference,
-        &vis,
-        VISIBILITY_VS_REFERENCE,
-    );
+    assert_visibility_matches(&format!("{name}-visibility-vs-reference"), W, &plain_reference, &vis);
     assert_flip(&format!("{name}-visibility-vs-forward"), W, H, &forward.ldr, &vis.ldr, FORWARD_VS_REFERENCE.flip);
     assert_flip(&format!("{name}-visibility-vs-deferred"), W, H, &deferred.ldr, &vis.ldr, DEFERRED_VS_REFERENCE.flip);
 }

@@ -34,8 +34,8 @@ use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::{MaterialFeatures, SceneGpu, TEXTURE_BINDINGS};
 use tiledlight_scene::{load_gltf, Scene, UvTransform, Wrap};
 use tiledlight_tests::compare::{
-    assert_matches_reference_frame, render_frame, Frame, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE,
-    RASTER_POSITION_ERROR_PX, VISIBILITY_VS_REFERENCE,
+    assert_matches_reference_frame, assert_visibility_matches, render_frame, Frame, DEFERRED_VS_REFERENCE,
+    FORWARD_VS_REFERENCE, RASTER_POSITION_ERROR_PX,
 };
 use tiledlight_tests::images::{linear_to_srgb, srgb_to_linear};
 use tiledlight_tests::{gpu, scenes};
@@ -322,7 +322,7 @@ fn render_and_check(
     let mut vr = FrameRenderer::new(ctx, &sg, &lb, W, H, vs).unwrap();
     let visibility = render_frame(ctx, &mut vr, &sg, &cam);
     let shifted = brute.clone().allow_position_error(&depth, W, (&cam, &lb.packed), RASTER_POSITION_ERROR_PX);
-    assert_matches_reference_frame(&format!("{name}-visibility"), W, &shifted, &visibility, VISIBILITY_VS_REFERENCE);
+    assert_visibility_matches(&format!("{name}-visibility"), W, &shifted, &visibility);
     (Frames { brute, forward, deferred }, checked)
 }
 

@@ -536,9 +536,7 @@ fn check_visibility_msaa(
     (msaa, b, depth): (u32, &FrameRenderer, &[f32]),
 ) {
     use tiledlight_frame::VisibilityFrame;
-    use tiledlight_tests::compare::{
-        assert_matches_reference_msaa, msaa_by_design, RASTER_POSITION_ERROR_PX, VISIBILITY_VS_REFERENCE,
-    };
+    use tiledlight_tests::compare::{assert_visibility_matches, msaa_by_design, RASTER_POSITION_ERROR_PX};
     let s = FrameSettings { method: Method::Visibility, msaa, ..Default::default() };
     let v = FrameRenderer::new(ctx, full_sg, lights, W, H, s);
     let mut v = v.unwrap_or_else(|e| panic!("the visibility buffer refused {msaa}x, which the adapter has: {e}"));
@@ -569,12 +567,7 @@ fn check_visibility_msaa(
     let (reference, forgiven) = reference.forgive_hdr(&msaa_by_design(W, depths, msaa, &edges));
     eprintln!("{msaa}x visibility: {forgiven} pixels compared by FLIP only ({} edge pixels)", edges.len());
     assert!(forgiven * 10 < (W * H) as usize, "{msaa}x: {forgiven} pixels forgiven: the HDR check sees too little");
-    let name = format!("msaa{msaa}-visibility-vs-reference");
-    if msaa == 1 {
-        assert_matches_reference_frame(&name, W, &reference, &vis, VISIBILITY_VS_REFERENCE);
-    } else {
-        assert_matches_reference_msaa(&name, W, &reference, &vis, VISIBILITY_VS_REFERENCE);
-    }
+    assert_visibility_matches(&format!("msaa{msaa}-visibility-vs-reference"), W, &reference, &vis);
     if msaa > 1 {
         assert!(!edges.is_empty(), "{msaa}x: the visibility buffer found no edge pixels");
     }
