@@ -409,14 +409,29 @@ pub struct Outliers {
 pub const MSAA_OUTLIERS: Outliers = Outliers { share: 1.0 / 2000.0, factor: 3.0 };
 
 /// The visibility buffer against a rasterised reference: pixels where the reference's own
-/// surface point strays past the allowance of [`Frame::allow_position_error`] next to a
-/// close light. On the H200 brute force differs from lavapipe's brute force and from both
-/// adapters' visibility buffers at such pixels (courtyard (66, 13): 21%; mixed scene
-/// (308, 87): 3.3%, 2.0% after the allowance; the visibility buffer matches lavapipe's
-/// brute force at both to 1e-3). 0.05% of the pixels (29 at 320x180), at most 25x the
-/// limit: one wrong triangle ID is off by 5x its pixel (507x the limit) and a missing light
-/// darkens a whole tile (256 pixels) and fails.
-pub const VISIBILITY_OUTLIERS: Outliers = Outliers { share: 1.0 / 2000.0, factor: 25.0 };
+/// surface point strays past the allowance of [`Frame::allow_position_error`]. On the H200
+/// every rasterised method (brute force, Forward+, Tiled Deferred) agrees with the others
+/// and differs from lavapipe's brute force at such pixels, while the visibility buffer
+/// matches lavapipe's brute force on both adapters (courtyard (66, 13): 21% on the H200,
+/// 1e-3 on lavapipe; (230, 33): 12%; mixed scene (308, 87): 3.3%): the H200's interpolated
+/// surface point, not the reconstruction, moves. After the allowance, measured on the H200
+/// at 320x180: courtyard 39 and 31 pixels (0.068%, 0.054%) beyond 1e-2, worst 0.104; mixed
+/// scene 1, 1.96e-2; lavapipe none. So on hardware rasterisers 0.2% of the pixels (115 at
+/// 320x180), at most 25x the limit (one wrong triangle ID is off by 5x its pixel, 507x the
+/// limit; the dropped-light test's light by 99.5%); on lavapipe, whose rasteriser agrees,
+/// none ([`visibility_outliers`]).
+pub const VISIBILITY_OUTLIERS: Outliers = Outliers { share: 1.0 / 500.0, factor: 25.0 };
+
+/// The outliers a visibility comparison allows on this adapter: on lavapipe none, or with
+/// MSAA ([`msaa`]) hardware MSAA's by-design pixels ([`MSAA_OUTLIERS`]); on hardware
+/// rasterisers [`VISIBILITY_OUTLIERS`], which holds both.
+pub fn visibility_outliers(msaa: bool) -> Outliers {
+    match (crate::is_lavapipe(crate::gpu()), msaa) {
+        (true, false) => Outliers { share: 0.0, factor: 1.0 },
+        (true, true) => MSAA_OUTLIERS,
+        (false, _) => VISIBILITY_OUTLIERS,
+    }
+}
 
 /// Compares as [`compare_with_reference`] and counts the pixels beyond `t`'s HDR limit:
 /// passes when FLIP is within `t`, at most `o.share` of the compared pixels (those not
@@ -486,15 +501,15 @@ pub fn assert_matches_reference_msaa(
 }
 
 /// The visibility buffer against a rasterised reference (with its position allowance):
-/// [`assert_matches_with_outliers`] with [`VISIBILITY_VS_REFERENCE`] and
-/// [`VISIBILITY_OUTLIERS`] (which also covers MSAA's by-design pixels).
-pub fn assert_visibility_matches(name: &str, w: u32, reference: &Frame, actual: &Frame) -> Comparison {
-    assert_matches_with_outliers(name, w, (reference, actual), VISIBILITY_VS_REFERENCE, VISIBILITY_OUTLIERS)
+/// [`assert_matches_with_outliers`] with [`VISIBILITY_VS_REFERENCE`] and this adapter's
+/// [`visibility_outliers`].
+pub fn assert_visibility_matches(name: &str, w: u32, (reference, actual): (&Frame, &Frame), msaa: bool) -> Comparison {
+    assert_matches_with_outliers(name, w, (reference, actual), VISIBILITY_VS_REFERENCE, visibility_outliers(msaa))
 }
 
 /// The verdict of [`assert_visibility_matches`] without panicking (negative tests).
 pub fn visibility_matches(name: &str, w: u32, reference: &Frame, actual: &Frame) -> bool {
-    compare_with_outliers(name, w, (reference, actual), VISIBILITY_VS_REFERENCE, VISIBILITY_OUTLIERS).2
+    compare_with_outliers(name, w, (reference, actual), VISIBILITY_VS_REFERENCE, visibility_outliers(false)).2
 }
 
 impl Frame {

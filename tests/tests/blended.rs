@@ -745,6 +745,6 @@ fn blended_geometry_with_shadows_and_vpls_at_every_sample_count() {
         let (reference, forgiven) = reference.forgive_hdr(&msaa_by_design(W, depths, msaa, &edges));
         assert!(forgiven * 10 < (W * H) as usize, "{msaa}x: {forgiven} pixels forgiven");
         let what = format!("blended-shadows-vpls-visibility-msaa{msaa}");
-        assert_visibility_matches(&what, W, &reference, &v);
+        assert_visibility_matches(&what, W, (&reference, &v), msaa > 1);
     }
 }

@@ -95,7 +95,7 @@ fn compare_with_forward(
     let vis = render_frame(ctx, &mut vis, &sg, &camera);
     let plain_reference =
         plain_reference.allow_position_error(&depth, W, (&camera, &lights.packed), RASTER_POSITION_ERROR_PX);
-    assert_visibility_matches(&format!("{name}-visibility-vs-reference"), W, &plain_reference, &vis);
+    assert_visibility_matches(&format!("{name}-visibility-vs-reference"), W, (&plain_reference, &vis), false);
     assert_flip(&format!("{name}-visibility-vs-forward"), W, H, &forward.ldr, &vis.ldr, FORWARD_VS_REFERENCE.flip);
     assert_flip(&format!("{name}-visibility-vs-deferred"), W, H, &deferred.ldr, &vis.ldr, DEFERRED_VS_REFERENCE.flip);
 }

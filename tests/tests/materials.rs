@@ -322,7 +322,7 @@ fn render_and_check(
     let mut vr = FrameRenderer::new(ctx, &sg, &lb, W, H, vs).unwrap();
     let visibility = render_frame(ctx, &mut vr, &sg, &cam);
     let shifted = brute.clone().allow_position_error(&depth, W, (&cam, &lb.packed), RASTER_POSITION_ERROR_PX);
-    assert_visibility_matches(&format!("{name}-visibility"), W, &shifted, &visibility);
+    assert_visibility_matches(&format!("{name}-visibility"), W, (&shifted, &visibility), false);
     (Frames { brute, forward, deferred }, checked)
 }
 

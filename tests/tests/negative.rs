@@ -226,6 +226,7 @@ fn one_dropped_light_fails_the_reference_comparisons() {
         visibility_matches("visibility without the hook", W, &reference, &plain_frame),
         "must pass without the hook"
     );
+    // Even with the outliers a hardware rasteriser is allowed (the strictest case).
     let (c, over, ok) = compare_with_outliers(
         "visibility with one light dropped",
         W,
@@ -234,7 +235,6 @@ fn one_dropped_light_fails_the_reference_comparisons() {
         VISIBILITY_OUTLIERS,
     );
     assert!(!ok && c.flip_ok, "visibility: the HDR check must see the missing light ({over} pixels, {c:?})");
-    assert!(over as f32 > VISIBILITY_OUTLIERS.share * (W * H) as f32, "more pixels than outliers: {over}");
 }
 
 /// The drop-light hook refuses a tile or light that does not exist (it would silently drop

@@ -70,7 +70,7 @@ fn every_layout_matches_reference_and_cpu_lists() {
         let frame = render_frame(ctx, &mut v, &sg, &camera);
         let dispatches = v.passes::<VisibilityFrame>().expect("visibility").shading().dispatches();
         assert_eq!(dispatches, 2, "the textured screen's, and one for the four untextured materials");
-        assert_visibility_matches(&format!("visibility-{name}-vs-reference"), W, &reference, &frame);
+        assert_visibility_matches(&format!("visibility-{name}-vs-reference"), W, (&reference, &frame), false);
         if cull.clusters.is_none() {
             let depth = v.read_depth(ctx).unwrap();
             let lists = v.read_lists(ctx).unwrap();
@@ -109,7 +109,11 @@ fn one_wrong_triangle_id_is_caught() {
         "pixel ({x}, {y}): reference {:?}, right ID {:?}, wrong ID {:?}",
         reference.hdr[i], good.hdr[i], bad.hdr[i]
     );
-    let differing = good.hdr.iter().zip(&bad.hdr).filter(|(a, b)| a != b).count();
+    // Beyond one f16 step: on a parallel GPU the lights' order in a list, and so the last
+    // bit of a sum, changes from run to run.
+    let step =
+        |a: &[f32; 4], b: &[f32; 4]| (0..3).any(|c| (a[c] - b[c]).abs() > a[c].abs().max(b[c].abs()) * 2f32.powi(-10));
+    let differing = good.hdr.iter().zip(&bad.hdr).filter(|(a, b)| step(a, b)).count();
     assert_eq!(differing, 1, "the hook changes exactly the one pixel");
     assert!(!visibility_matches("visibility-wrong-id", W, &reference, &bad), "one wrong triangle ID must fail");
     let c = compare_with_reference("visibility-wrong-id", W, &reference, &bad, VISIBILITY_VS_REFERENCE);
