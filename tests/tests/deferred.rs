@@ -15,7 +15,7 @@ use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;
 use tiledlight_tests::compare::{
     assert_matches_reference_frame, assert_visibility_matches, render_frame, DEFERRED_VS_REFERENCE,
-    FORWARD_VS_REFERENCE, RASTER_POSITION_ERROR_PX,
+    RASTER_POSITION_ERROR_PX, VISIBILITY_VS_REFERENCE,
 };
 use tiledlight_tests::images::{assert_flip, documented_heat_colour, linear_to_srgb, srgb_to_linear};
 use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
@@ -96,7 +96,7 @@ fn compare_with_forward(
     let plain_reference =
         plain_reference.allow_position_error(&depth, W, (&camera, &lights.packed), RASTER_POSITION_ERROR_PX);
     assert_visibility_matches(&format!("{name}-visibility-vs-reference"), W, (&plain_reference, &vis), false);
-    assert_flip(&format!("{name}-visibility-vs-forward"), W, H, &forward.ldr, &vis.ldr, FORWARD_VS_REFERENCE.flip);
+    assert_flip(&format!("{name}-visibility-vs-forward"), W, H, &forward.ldr, &vis.ldr, VISIBILITY_VS_REFERENCE.flip);
     assert_flip(&format!("{name}-visibility-vs-deferred"), W, H, &deferred.ldr, &vis.ldr, DEFERRED_VS_REFERENCE.flip);
 }
 
