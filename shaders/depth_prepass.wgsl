@@ -1,8 +1,27 @@
 // Depth pre-pass: reversed-Z depth of opaque geometry (no fragment stage), and a variant for
 // alpha-masked materials that samples alpha and discards (its base colour texture may read
 // texture coordinate set 1: UV1).
-// variants: ALPHA_MASK TEXTURES UV1
+//
+// With IDS it is the visibility buffer's raster pass (issue 28): every fragment also writes
+// its R32Uint ID, (instance << TRIANGLE_BITS) | triangle, the triangle counted within its
+// instance's draw (@builtin(primitive_index), wgpu's PRIMITIVE_INDEX feature); the split
+// is tiledlight_cull::visibility::IdLayout, chosen per scene. Masked materials test alpha
+// here with the hardware's derivatives, so the compute pass never sees a masked-out texel.
+// variants: ALPHA_MASK TEXTURES UV1 IDS
+#ifdef IDS
+enable primitive_index;
+#endif
 #include "common/scene.wgsl"
+
+#ifdef IDS
+// Low bits of an ID holding the triangle (IdLayout::triangle_bits; 32 when the scene has one
+// instance, whose index is then 0).
+override TRIANGLE_BITS: u32 = 16u;
+
+fn pack_id(instance: u32, triangle: u32) -> u32 {
+    return select(instance << TRIANGLE_BITS, 0u, TRIANGLE_BITS >= 32u) | triangle;
+}
+#endif
 
 #ifdef ALPHA_MASK
 struct MaskedIn {
@@ -25,6 +44,9 @@ struct MaskedOut {
 #ifdef UV1
     @location(2) @interpolate(perspective, centroid) uv1: vec2<f32>,
 #endif
+#ifdef IDS
+    @location(3) @interpolate(flat) instance: u32,
+#endif
 }
 
 @vertex
@@ -36,11 +58,13 @@ fn vs_masked(v: MaskedIn) -> MaskedOut {
 #ifdef UV1
     out.uv1 = v.uv1;
 #endif
+#ifdef IDS
+    out.instance = v.instance;
+#endif
     return out;
 }
 
-@fragment
-fn fs_masked(in: MaskedOut) {
+fn alpha_test(in: MaskedOut) {
 #ifdef UV1
     let uv1 = in.uv1;
 #else
@@ -50,13 +74,40 @@ fn fs_masked(in: MaskedOut) {
         discard;
     }
 }
+
+#ifdef IDS
+@fragment
+fn fs_masked(in: MaskedOut, @builtin(primitive_index) triangle: u32) -> @location(0) u32 {
+    alpha_test(in);
+    return pack_id(in.instance, triangle);
+}
+#else
+@fragment
+fn fs_masked(in: MaskedOut) {
+    alpha_test(in);
+}
+#endif
 #else
 struct DepthOut {
     @invariant @builtin(position) clip: vec4<f32>,
+#ifdef IDS
+    @location(0) @interpolate(flat) instance: u32,
+#endif
 }
 
 @vertex
 fn vs_main(@builtin(instance_index) instance: u32, @location(0) position: vec3<f32>) -> DepthOut {
+#ifdef IDS
+    return DepthOut(transform_position(instance, position), instance);
+#else
     return DepthOut(transform_position(instance, position));
+#endif
 }
+
+#ifdef IDS
+@fragment
+fn fs_main(in: DepthOut, @builtin(primitive_index) triangle: u32) -> @location(0) u32 {
+    return pack_id(in.instance, triangle);
+}
+#endif
 #endif

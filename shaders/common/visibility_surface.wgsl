@@ -1,5 +1,5 @@
 // The visibility buffer's surface (issue 28), what the G-buffer gives Tiled Deferred: per
-// sample, the ID written by visibility_raster.wgsl names an instance and a triangle of its
+// sample, the ID written by depth_prepass.wgsl with IDS names an instance and a triangle of its
 // mesh; the triangle's three vertices are fetched from the scene's vertex and index buffers
 // (storage-readable), transformed as the raster pass transformed them, and intersected with
 // the sample's ray by perspective-correct barycentrics (common/visibility.wgsl), which
@@ -48,7 +48,7 @@ struct VisClass {
 @group(1) @binding(32) var<uniform> vis_class: VisClass;
 #endif
 
-// Low bits of an ID holding the triangle (visibility_raster.wgsl; IdLayout::triangle_bits).
+// Low bits of an ID holding the triangle (depth_prepass.wgsl with IDS; IdLayout::triangle_bits).
 override TRIANGLE_BITS: u32 = 16u;
 // The clear value: no triangle (tiledlight_cull::visibility::NO_TRIANGLE).
 const VIS_NO_TRIANGLE: u32 = 0xffffffffu;

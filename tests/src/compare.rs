@@ -423,7 +423,7 @@ pub const MSAA_OUTLIERS: Outliers = Outliers { share: 1.0 / 2000.0, factor: 3.0 
 pub const VISIBILITY_OUTLIERS: Outliers = Outliers { share: 1.0 / 500.0, factor: 25.0 };
 
 /// The outliers a visibility comparison allows on this adapter: on lavapipe none, or with
-/// MSAA ([`msaa`]) hardware MSAA's by-design pixels ([`MSAA_OUTLIERS`]); on hardware
+/// MSAA (`msaa`) hardware MSAA's by-design pixels ([`MSAA_OUTLIERS`]); on hardware
 /// rasterisers [`VISIBILITY_OUTLIERS`], which holds both.
 pub fn visibility_outliers(msaa: bool) -> Outliers {
     match (crate::is_lavapipe(crate::gpu()), msaa) {

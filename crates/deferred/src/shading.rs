@@ -441,22 +441,7 @@ impl DeferredShading {
         if let Some(view) = gbuffer.emission_view() {
             bind.push(view_entry(18, view));
         }
-        if let Some(spots) = lights.spots.as_ref().filter(|_| features.spot_lights) {
-            bind.push(wgpu::BindGroupEntry { binding: 7, resource: spots.as_entire_binding() });
-        }
-        if let Some(v) = vpls {
-            bind.push(wgpu::BindGroupEntry { binding: 19, resource: v.vpls.as_entire_binding() });
-            bind.push(wgpu::BindGroupEntry { binding: 20, resource: v.shading.as_entire_binding() });
-            if let Some((grid, indices)) = &v.lists {
-                bind.push(wgpu::BindGroupEntry { binding: 21, resource: grid.as_entire_binding() });
-                bind.push(wgpu::BindGroupEntry { binding: 22, resource: indices.as_entire_binding() });
-            }
-        }
-        if let Some(a) = atlas {
-            bind.push(view_entry(15, &a.sample_view));
-            bind.push(wgpu::BindGroupEntry { binding: 16, resource: wgpu::BindingResource::Sampler(&a.sampler) });
-            bind.push(wgpu::BindGroupEntry { binding: 17, resource: a.faces.as_entire_binding() });
-        }
+        bind.extend(light_entries(lights, features, atlas, vpls));
         let coarse = if options.coarse && !assigned {
             Some(CoarseCulling::new(device, views, depth, lights, lighting, &grid, &options, memory)?)
         } else {
@@ -561,6 +546,36 @@ impl DeferredShading {
     pub fn read_edge_list(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Vec<(u32, u32)>, GpuError> {
         self.msaa.as_ref().map_or(Ok(Vec::new()), |m| m.read_edge_list(device, queue))
     }
+}
+
+/// The group-1 entries of the lights every compute shading pass binds beside its surface
+/// (Tiled Deferred, the visibility buffer): spots (7) when the features have them, the
+/// shadow atlas, its sampler and faces (15-17), the VPLs, their uniform, grid and indices
+/// (19-22), as [`DEFERRED_GROUP`] numbers them.
+pub fn light_entries<'a>(
+    lights: &'a LightBuffers,
+    features: &Features,
+    atlas: Option<&'a ShadowAtlas>,
+    vpls: Option<&'a VplBindings>,
+) -> Vec<wgpu::BindGroupEntry<'a>> {
+    let mut bind = Vec::new();
+    if let Some(spots) = lights.spots.as_ref().filter(|_| features.spot_lights) {
+        bind.push(wgpu::BindGroupEntry { binding: 7, resource: spots.as_entire_binding() });
+    }
+    if let Some(v) = vpls {
+        bind.push(wgpu::BindGroupEntry { binding: 19, resource: v.vpls.as_entire_binding() });
+        bind.push(wgpu::BindGroupEntry { binding: 20, resource: v.shading.as_entire_binding() });
+        if let Some((grid, indices)) = &v.lists {
+            bind.push(wgpu::BindGroupEntry { binding: 21, resource: grid.as_entire_binding() });
+            bind.push(wgpu::BindGroupEntry { binding: 22, resource: indices.as_entire_binding() });
+        }
+    }
+    if let Some(a) = atlas {
+        bind.push(view_entry(15, &a.sample_view));
+        bind.push(wgpu::BindGroupEntry { binding: 16, resource: wgpu::BindingResource::Sampler(&a.sampler) });
+        bind.push(wgpu::BindGroupEntry { binding: 17, resource: a.faces.as_entire_binding() });
+    }
+    bind
 }
 
 /// The resolve's pipeline and bind group: averages edge pixels' samples into `hdr`.

@@ -15,13 +15,6 @@ use crate::variants::{DepthPrepassKey, VisibilityRasterKey};
 /// Format of the visibility buffer's IDs.
 pub const ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
 
-/// The depth and ID raster's variant (the same three shapes in both entry files).
-#[derive(Clone, Copy)]
-enum RasterKey {
-    Opaque,
-    Masked,
-    MaskedTextured { uv1: bool },
-}
 use crate::view::Views;
 
 /// Depth format of every depth buffer (reversed-Z: clear 0, compare GreaterEqual when writing, Equal when shading after the pre-pass).
@@ -37,11 +30,6 @@ pub const DEPTH_PREPASS_BINDINGS: PassBindings = PassBindings {
     source: file!(),
     groups: &[SCENE_GROUPS[0], SCENE_GROUPS[1], PassGroup::new(2, BASE_COLOR_BINDINGS).when(Cond::Defined("TEXTURES"))],
 };
-
-/// The bindings of the visibility buffer's raster pass (`shaders/visibility_raster.wgsl`):
-/// those of the depth pre-pass.
-pub const VISIBILITY_RASTER_BINDINGS: PassBindings =
-    PassBindings { entry: "visibility_raster.wgsl", ..DEPTH_PREPASS_BINDINGS };
 
 /// The depth pre-pass pipelines.
 pub struct DepthPrepass {
@@ -93,8 +81,8 @@ impl DepthPrepass {
         Self::build(device, views, scene, (features, kinds), target, None)
     }
 
-    /// The visibility buffer's raster pass (`shaders/visibility_raster.wgsl`): the depth
-    /// pre-pass's draws, each fragment also writing its `R32Uint` ID, `(instance <<
+    /// The visibility buffer's raster pass (`shaders/depth_prepass.wgsl` with `IDS`): the
+    /// depth pre-pass's draws, each fragment also writing its `R32Uint` ID, `(instance <<
     /// triangle_bits) | triangle` ([`tiledlight_cull::visibility::IdLayout`]). Needs
     /// `wgpu::Features::PRIMITIVE_INDEX`.
     pub fn with_ids(
@@ -137,7 +125,7 @@ impl DepthPrepass {
                     Some(t) => (
                         // The alpha test reads the base colour slot only: its texture
                         // coordinate set may be set 1.
-                        RasterKey::MaskedTextured { uv1: features.materials.uv1 },
+                        DepthPrepassKey::MaskedTextured { uv1: features.materials.uv1 },
                         pipeline_layout(
                             device,
                             "depth_prepass.masked.layout",
@@ -145,24 +133,19 @@ impl DepthPrepass {
                         ),
                     ),
                     None => (
-                        RasterKey::Masked,
+                        DepthPrepassKey::Masked,
                         pipeline_layout(device, "depth_prepass.masked.layout", &[&views.layout, &scene.layout]),
                     ),
                 }
             } else {
-                (RasterKey::Opaque, pipeline_layout(device, "depth_prepass.layout", &[&views.layout, &scene.layout]))
+                (
+                    DepthPrepassKey::Opaque,
+                    pipeline_layout(device, "depth_prepass.layout", &[&views.layout, &scene.layout]),
+                )
             };
-            let module = match (ids, key) {
-                (None, RasterKey::Opaque) => keyed_module(device, &DepthPrepassKey::Opaque)?,
-                (None, RasterKey::Masked) => keyed_module(device, &DepthPrepassKey::Masked)?,
-                (None, RasterKey::MaskedTextured { uv1 }) => {
-                    keyed_module(device, &DepthPrepassKey::MaskedTextured { uv1 })?
-                }
-                (Some(_), RasterKey::Opaque) => keyed_module(device, &VisibilityRasterKey::Opaque)?,
-                (Some(_), RasterKey::Masked) => keyed_module(device, &VisibilityRasterKey::Masked)?,
-                (Some(_), RasterKey::MaskedTextured { uv1 }) => {
-                    keyed_module(device, &VisibilityRasterKey::MaskedTextured { uv1 })?
-                }
+            let module = match ids {
+                None => keyed_module(device, &key)?,
+                Some(_) => keyed_module(device, &VisibilityRasterKey(key))?,
             };
             let (vs, buffers): (&str, &[Option<wgpu::VertexBufferLayout<'_>>]) =
                 if kind.masked { ("vs_masked", &layouts) } else { ("vs_main", &POSITION_LAYOUT) };

@@ -44,7 +44,6 @@ pub use wgpu;
 pub fn binding_declarations() -> Vec<bindings::PassBindings> {
     vec![
         depth_prepass::DEPTH_PREPASS_BINDINGS,
-        depth_prepass::VISIBILITY_RASTER_BINDINGS,
         culling::tile::CULL_BINDINGS,
         culling::tile::CULL_COARSE_BINDINGS,
         culling::scatter::TILE_DEPTH_BINDINGS,

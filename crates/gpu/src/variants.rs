@@ -768,43 +768,29 @@ impl ShaderKey for DeferredKey {
     }
 }
 
-/// The visibility buffer's raster pass (`visibility_raster.wgsl`): depth and IDs; only the
-/// masked pipeline samples (the base colour's alpha), as in the depth pre-pass.
+/// The visibility buffer's raster pass: the depth pre-pass (`depth_prepass.wgsl`) of the
+/// same shape with `IDS`, every fragment writing its triangle's ID.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum VisibilityRasterKey {
-    /// Opaque: positions only.
-    #[default]
-    Opaque,
-    /// `ALPHA_MASK` on the materials' factors (no textures in the scene).
-    Masked,
-    /// `ALPHA_MASK TEXTURES`, with `UV1` when some texture reads the second set.
-    MaskedTextured {
-        /// `UV1`.
-        uv1: bool,
-    },
-}
+pub struct VisibilityRasterKey(pub DepthPrepassKey);
 
 impl VisibilityRasterKey {
     /// Every value.
     pub fn all() -> Vec<Self> {
-        vec![Self::Opaque, Self::Masked, Self::MaskedTextured { uv1: false }, Self::MaskedTextured { uv1: true }]
+        DepthPrepassKey::all().into_iter().map(Self).collect()
     }
 }
 
 impl ShaderKey for VisibilityRasterKey {
     fn entry(&self) -> &'static str {
-        "visibility_raster.wgsl"
+        self.0.entry()
     }
     fn defines(&self) -> Vec<&'static str> {
-        match self {
-            Self::Opaque => Vec::new(),
-            Self::Masked => vec!["ALPHA_MASK"],
-            Self::MaskedTextured { uv1: false } => vec!["ALPHA_MASK", "TEXTURES"],
-            Self::MaskedTextured { uv1: true } => vec!["ALPHA_MASK", "TEXTURES", "UV1"],
-        }
+        let mut d = self.0.defines();
+        d.push("IDS");
+        d
     }
     fn is_valid(&self) -> bool {
-        true
+        self.0.is_valid()
     }
 }
 
@@ -964,7 +950,7 @@ mod tests {
         // 3 lookups x spots x 3 shadowings x 34 material paths, per sample mode.
         assert_eq!(count("visibility.wgsl"), 612);
         assert_eq!(count("visibility_msaa.wgsl"), 612);
-        assert_eq!(count("visibility_raster.wgsl"), 4);
+        assert_eq!(count("depth_prepass.wgsl"), 8);
     }
 
     #[test]

@@ -1,7 +1,7 @@
 //! The visibility buffer's raster pass: the scene's opaque and masked draws into the
 //! frame's depth and an `R32Uint` ID target of the same samples, through the depth
 //! pre-pass's pipelines with a fragment stage writing `(instance << triangle_bits) |
-//! triangle` (`shaders/visibility_raster.wgsl`). The split is
+//! triangle` (`shaders/depth_prepass.wgsl` with `IDS`). The split is
 //! [`tiledlight_cull::visibility::IdLayout`], chosen from the scene's instance count and its
 //! largest mesh; a scene past 32 bits is refused with the bits it needs. Depends on
 //! tiledlight-gpu.

@@ -28,7 +28,7 @@
 //! and tiledlight-deferred.
 
 use tiledlight_cull::TileGrid;
-use tiledlight_deferred::shading::{view_entry, EdgeSamples, EdgeTest};
+use tiledlight_deferred::shading::{light_entries, view_entry, EdgeSamples, EdgeTest};
 use tiledlight_gpu::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
 use tiledlight_gpu::culling::{LightCulling, DEPTH_BINDING};
 use tiledlight_gpu::features::Features;
@@ -212,22 +212,7 @@ impl VisibilityShading {
             let u = scene.uvs1.as_ref().ok_or_else(|| GpuError::Config("UV1 needs the second uv set".into()))?;
             bind.push(wgpu::BindGroupEntry { binding: 31, resource: u.as_entire_binding() });
         }
-        if let Some(spots) = lights.spots.as_ref().filter(|_| features.spot_lights) {
-            bind.push(wgpu::BindGroupEntry { binding: 7, resource: spots.as_entire_binding() });
-        }
-        if let Some(v) = vpls {
-            bind.push(wgpu::BindGroupEntry { binding: 19, resource: v.vpls.as_entire_binding() });
-            bind.push(wgpu::BindGroupEntry { binding: 20, resource: v.shading.as_entire_binding() });
-            if let Some((grid, indices)) = &v.lists {
-                bind.push(wgpu::BindGroupEntry { binding: 21, resource: grid.as_entire_binding() });
-                bind.push(wgpu::BindGroupEntry { binding: 22, resource: indices.as_entire_binding() });
-            }
-        }
-        if let Some(a) = atlas {
-            bind.push(view_entry(15, &a.sample_view));
-            bind.push(wgpu::BindGroupEntry { binding: 16, resource: wgpu::BindingResource::Sampler(&a.sampler) });
-            bind.push(wgpu::BindGroupEntry { binding: 17, resource: a.faces.as_entire_binding() });
-        }
+        bind.extend(light_entries(lights, features, atlas, vpls));
         let msaa =
             (samples > 1).then(|| EdgeSamples::new(device, "visibility", &grid, samples, hdr, memory)).transpose()?;
         if let Some(m) = &msaa {
