@@ -1,6 +1,10 @@
 // Tiled Deferred's shading, shared by its kernels (the tile cull-and-shade kernel,
 // common/deferred_tile.wgsl behind deferred.wgsl and deferred_msaa.wgsl, and the
-// assigned-list kernel, deferred_assigned.wgsl): group 1 (the G-buffer, the lights, the HDR
+// assigned-list kernel, common/assigned_shade.wgsl behind deferred_assigned.wgsl) and by the
+// visibility buffer's (visibility.wgsl, visibility_msaa.wgsl): with VISIBILITY the surface
+// comes from the triangle IDs instead of a G-buffer (common/visibility_surface.wgsl defines
+// load_gsample, is_edge, at_pixel_centre and pixel_owned; a sample another dispatch owns is
+// skipped) and the light grid is group 3. Group 1 (the G-buffer, the lights, the HDR
 // output, shadows, VPLs; crates/deferred/src/shading.rs), the light grid (group 2, written
 // by the tile kernel, read by both), one G-buffer sample's loading and shading (the
 // including kernel defines `shade_lights_at`, its light loop), and the tile's pixel loop

@@ -15,7 +15,8 @@
 //! raster of a depth buffer with the bounds a GPU's snapping allows ([`blended_depth`],
 //! what the blended lists are checked against); and the visibility buffer's twin: its IDs,
 //! perspective-correct barycentrics with their screen derivatives, and mip levels
-//! ([`visibility`]).
+//! ([`visibility`]); and the rules of its compute rasteriser: clipping, 1/256-px snapping,
+//! the top-left rule, depth, and the 64-bit (depth, ID) resolve ([`raster`]).
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
 
 pub mod error;
@@ -37,6 +38,7 @@ pub mod estimate;
 pub mod exposure;
 pub mod gather;
 pub mod grid;
+pub mod raster;
 pub mod raycast;
 pub mod reference;
 pub mod shadow;
