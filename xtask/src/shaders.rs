@@ -29,10 +29,14 @@ const MAX_KEY_VALUES: usize = 1024;
 /// wgpu features whose shader capabilities the renderer's device has. Shaders are
 /// validated with exactly the naga capabilities wgpu enables for them, so a shader that
 /// validates here also loads on the device. `tiledlight_gpu::context` requests only
-/// `TIMESTAMP_QUERY`, which adds no shader capability, and `PRIMITIVE_INDEX` (the
-/// visibility buffer's raster) where the adapter has it; keep both in step when the
+/// `TIMESTAMP_QUERY`, which adds no shader capability, and where the adapter has them
+/// `PRIMITIVE_INDEX` (the visibility buffer's raster) and `SHADER_INT64` with
+/// `SHADER_INT64_ATOMIC_MIN_MAX` (its compute rasteriser); keep both in step when the
 /// renderer starts requesting e.g. `SUBGROUP` or `IMMEDIATES` (lavapipe has both).
-pub const FEATURES: wgpu::Features = wgpu::Features::TIMESTAMP_QUERY.union(wgpu::Features::PRIMITIVE_INDEX);
+pub const FEATURES: wgpu::Features = wgpu::Features::TIMESTAMP_QUERY
+    .union(wgpu::Features::PRIMITIVE_INDEX)
+    .union(wgpu::Features::SHADER_INT64)
+    .union(wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX);
 
 /// The naga capabilities wgpu gives a device with [`FEATURES`] on an adapter with full
 /// downlevel support (lavapipe has it).

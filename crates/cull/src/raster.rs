@@ -9,7 +9,7 @@
 //!    Hodgman leaves is fanned from its first vertex.
 //! 2. **Window coordinates** (f32): `((x/w + 1) W/2, (1 - y/w) H/2)`, y down, depth `z/w`.
 //! 3. **Snap** to the sub-pixel grid: 1/256 px ([`SUBPIXEL_BITS`], the hardware's on
-//!    lavapipe and the H200), rounded to nearest, in i64.
+//!    lavapipe and the H200), rounded to nearest with ties to even (WGSL's `round`), in i64.
 //! 4. **Set up**: the signed area (i64, exact). Zero: nothing drawn. Counter-clockwise in
 //!    NDC (y up) is the front face, as wgpu's `FrontFace::Ccw` says; with [`Cull::Back`]
 //!    back faces are dropped. The vertices are then ordered so the area is positive.
@@ -23,6 +23,7 @@
 //!    nearer surface at the larger depth, and a positive f32's bits order as its value. A tie
 //!    in depth goes to the larger ID, deterministically (hardware keeps the later draw).
 //!
+//! The WGSL is `shaders/common/compute_raster.wgsl`, the same operations in the same order.
 //! Depends on glam and [`crate::visibility`] (the clear value).
 
 use glam::Vec4;
@@ -145,7 +146,7 @@ fn snap(v: Vec4, (w, h): (u32, u32)) -> Snapped {
     let (nx, ny) = (v.x / v.w, v.y / v.w);
     let wx = (nx + 1.0) * 0.5 * w as f32;
     let wy = (1.0 - ny) * 0.5 * h as f32;
-    Snapped { x: (wx * scale).round() as i64, y: (wy * scale).round() as i64, depth: v.z / v.w }
+    Snapped { x: (wx * scale).round_ties_even() as i64, y: (wy * scale).round_ties_even() as i64, depth: v.z / v.w }
 }
 
 /// Calls `emit` for every pixel of a `size` target that triangle `clip` covers (the

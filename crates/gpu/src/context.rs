@@ -99,6 +99,12 @@ impl GpuContext {
         if features.contains(wgpu::Features::PRIMITIVE_INDEX) {
             required_features |= wgpu::Features::PRIMITIVE_INDEX;
         }
+        // The visibility buffer's compute rasteriser (issue 29): 64-bit integers and 64-bit
+        // atomic max, where the adapter has both (lavapipe and the H200 do).
+        let int64 = wgpu::Features::SHADER_INT64 | wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX;
+        if features.contains(int64) {
+            required_features |= int64;
+        }
         let supported = adapter.limits();
         // WebGPU defaults, plus large storage buffers: per-tile lists at 4K with big
         // capacities and 1M lights exceed the default 128 MiB binding.

@@ -1,0 +1,186 @@
+// The visibility buffer's compute rasteriser (issue 29): one triangle's coverage, depth and
+// packed (depth, ID) texels, by the rules of its CPU twin tiledlight_cull::raster (same
+// operations in the same order; tests/tests/compute_raster.rs compares them):
+// homogeneous clipping against the near plane z <= w, the far plane z >= 0 and a guard
+// band |x|, |y| <= 64 w; window coordinates snapped to 1/256 px (round half to even, as
+// Rust's round_ties_even); exact i64 edge functions with the top-left rule at pixel
+// centres; depth z/w interpolated affinely in f32; texels (depth bits << 32) | ID, resolved
+// by the includer's atomicMax. Needs wgpu's SHADER_INT64 (and the includer
+// SHADER_INT64_ATOMIC_MIN_MAX). The includer defines
+// `fn raster_emit(x: u32, y: u32, texel: u64)`.
+
+const RASTER_SUBPIXEL: f32 = 256.0;
+const RASTER_ONE: i64 = 256li;
+const RASTER_GUARD: f32 = 64.0;
+
+// Vertex v's side of clip plane k (>= 0 inside): near, far, then the guard band.
+fn raster_plane(v: vec4<f32>, k: u32) -> f32 {
+    switch k {
+        case 0u: { return v.w - v.z; }
+        case 1u: { return v.z; }
+        case 2u: { return RASTER_GUARD * v.w - v.x; }
+        case 3u: { return RASTER_GUARD * v.w + v.x; }
+        case 4u: { return RASTER_GUARD * v.w - v.y; }
+        default: { return RASTER_GUARD * v.w + v.y; }
+    }
+}
+
+// A convex polygon: a triangle clipped by six planes has at most nine vertices.
+struct RasterPoly {
+    v: array<vec4<f32>, 9>,
+    n: u32,
+}
+
+fn raster_clip(c0: vec4<f32>, c1: vec4<f32>, c2: vec4<f32>) -> RasterPoly {
+    var p: RasterPoly;
+    p.v[0] = c0;
+    p.v[1] = c1;
+    p.v[2] = c2;
+    p.n = 3u;
+    var inside = true;
+    for (var k = 0u; k < 6u; k++) {
+        if raster_plane(c0, k) < 0.0 || raster_plane(c1, k) < 0.0 || raster_plane(c2, k) < 0.0 {
+            inside = false;
+        }
+    }
+    if inside {
+        return p;
+    }
+    for (var k = 0u; k < 6u; k++) {
+        if p.n == 0u {
+            break;
+        }
+        var out: RasterPoly;
+        out.n = 0u;
+        for (var i = 0u; i < p.n; i++) {
+            let a = p.v[i];
+            let b = p.v[(i + 1u) % p.n];
+            let da = raster_plane(a, k);
+            let db = raster_plane(b, k);
+            if da >= 0.0 {
+                out.v[out.n] = a;
+                out.n += 1u;
+            }
+            if (da >= 0.0) != (db >= 0.0) {
+                let t = da / (da - db);
+                out.v[out.n] = a + (b - a) * t;
+                out.n += 1u;
+            }
+        }
+        p = out;
+    }
+    return p;
+}
+
+// A window-space vertex: x and y in 1/256 px, depth.
+struct RasterVertex {
+    x: i64,
+    y: i64,
+    depth: f32,
+}
+
+fn raster_snap(v: vec4<f32>, size: vec2<u32>) -> RasterVertex {
+    let nx = v.x / v.w;
+    let ny = v.y / v.w;
+    let wx = (nx + 1.0) * 0.5 * f32(size.x);
+    let wy = (1.0 - ny) * 0.5 * f32(size.y);
+    return RasterVertex(i64(round(wx * RASTER_SUBPIXEL)), i64(round(wy * RASTER_SUBPIXEL)), v.z / v.w);
+}
+
+fn raster_area(a: RasterVertex, b: RasterVertex, c: RasterVertex) -> i64 {
+    return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+}
+
+// Edge a -> b of a positive-area triangle (window y down) is a top or a left edge.
+fn raster_top_left(a: RasterVertex, b: RasterVertex) -> bool {
+    let dx = b.x - a.x;
+    let dy = b.y - a.y;
+    return (dy == 0li && dx > 0li) || dy < 0li;
+}
+
+fn raster_edge(a: RasterVertex, b: RasterVertex, px: i64, py: i64) -> i64 {
+    return (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x);
+}
+
+// floor(m / RASTER_ONE) for any sign.
+fn raster_floor_div(m: i64) -> i64 {
+    let q = m / RASTER_ONE;
+    return select(q, q - 1li, m < 0li && q * RASTER_ONE != m);
+}
+
+fn raster_fill(a: RasterVertex, b: RasterVertex, c: RasterVertex, size: vec2<u32>, id: u32) {
+    let ab = raster_area(a, b, c);
+    if ab == 0li {
+        return;
+    }
+    var v0 = a;
+    var v1 = b;
+    var v2 = c;
+    var area = ab;
+    if ab < 0li {
+        v1 = c;
+        v2 = b;
+        area = -ab;
+    }
+    let half = RASTER_ONE / 2li;
+    let x0 = max(raster_floor_div(min(min(v0.x, v1.x), v2.x) - half), 0li);
+    let x1 = min(raster_floor_div(max(max(v0.x, v1.x), v2.x) - half), i64(size.x) - 1li);
+    let y0 = max(raster_floor_div(min(min(v0.y, v1.y), v2.y) - half), 0li);
+    let y1 = min(raster_floor_div(max(max(v0.y, v1.y), v2.y) - half), i64(size.y) - 1li);
+    let own0 = raster_top_left(v1, v2);
+    let own1 = raster_top_left(v2, v0);
+    let own2 = raster_top_left(v0, v1);
+    let inv = 1.0 / f32(area);
+    for (var py = y0; py <= y1; py++) {
+        for (var px = x0; px <= x1; px++) {
+            let cx = px * RASTER_ONE + half;
+            let cy = py * RASTER_ONE + half;
+            let e0 = raster_edge(v1, v2, cx, cy);
+            let e1 = raster_edge(v2, v0, cx, cy);
+            let e2 = raster_edge(v0, v1, cx, cy);
+            let in0 = e0 > 0li || (e0 == 0li && own0);
+            let in1 = e1 > 0li || (e1 == 0li && own1);
+            let in2 = e2 > 0li || (e2 == 0li && own2);
+            if in0 && in1 && in2 {
+                let depth = (f32(e0) * inv) * v0.depth + (f32(e1) * inv) * v1.depth + (f32(e2) * inv) * v2.depth;
+                let texel = (u64(bitcast<u32>(max(depth, 0.0))) << 32u) | u64(id);
+                raster_emit(u32(px), u32(py), texel);
+            }
+        }
+    }
+}
+
+// No NaN or infinity in v.
+fn raster_finite(v: vec4<f32>) -> bool {
+    return all(v == v) && all(abs(v) <= vec4<f32>(3.4028235e38));
+}
+
+// Rasterises triangle (c0, c1, c2) (clip space) with `id` on a `size` target; with
+// `cull_back` drops it when it faces away (clockwise in NDC).
+fn raster_triangle(c0: vec4<f32>, c1: vec4<f32>, c2: vec4<f32>, size: vec2<u32>, cull_back: bool, id: u32) {
+    if !(raster_finite(c0) && raster_finite(c1) && raster_finite(c2)) || size.x == 0u || size.y == 0u {
+        return;
+    }
+    let p = raster_clip(c0, c1, c2);
+    if p.n < 3u {
+        return;
+    }
+    var s: array<RasterVertex, 9>;
+    for (var i = 0u; i < p.n; i++) {
+        s[i] = raster_snap(p.v[i], size);
+    }
+    var total = 0li;
+    for (var i = 1u; i + 1u < p.n; i++) {
+        total += raster_area(s[0], s[i], s[i + 1u]);
+    }
+    if total == 0li {
+        return;
+    }
+    // Window y points down: counter-clockwise in NDC is a negative area here.
+    if cull_back && total > 0li {
+        return;
+    }
+    for (var i = 1u; i + 1u < p.n; i++) {
+        raster_fill(s[0], s[i], s[i + 1u], size, id);
+    }
+}
