@@ -19,10 +19,14 @@
 //!   model's folder, [`LoadLimits`]), returning [`Loaded`] with the warnings the scene was
 //!   drawn despite.
 //!
+//! - [`clusters`]: a mesh's triangles reordered into clusters of at most 128 with their
+//!   bounds (Morton order of centroids), for the compute rasteriser's per-cluster culling.
+//!
 //! Conventions (see the workspace's DESIGN.md): right-handed, Y up, metres, front faces
 //! counter-clockwise. Depends on tiledlight-cull (for [`Light`]), glam, gltf, image,
 //! bevy_mikktspace (tangents), rand and thiserror; no GPU dependency.
 
+pub mod clusters;
 mod error;
 mod geometry;
 mod lights;
