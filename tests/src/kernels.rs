@@ -1,6 +1,7 @@
 //! Running a WGSL function on the GPU for its twin test: a test shader that includes the
 //! function from `shaders/` ([`test_module`]), and a one-dispatch kernel over an input and
-//! an output buffer ([`run_cases`]). Depends on tiledlight-gpu and wgpu.
+//! an output buffer ([`run_cases`]), and the small seeded generator the twin tests draw
+//! their cases with ([`Rng`]). Depends on tiledlight-gpu and wgpu.
 
 use tiledlight_gpu::GpuContext;
 
@@ -56,4 +57,26 @@ pub fn run_cases(ctx: &GpuContext, name: &str, source: &str, input: &[u8], cases
     }
     queue.submit([enc.finish()]);
     tiledlight_gpu::readback::read_buffer(device, queue, &output).expect("readback")
+}
+
+/// A xorshift generator of f32s in [0, 1): the twin tests' cases, reproducible from the
+/// seed (no dependency on the cull crate's test helpers).
+pub struct Rng(pub u32);
+
+impl Rng {
+    /// The next value in [0, 1).
+    pub fn unit(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 17;
+        self.0 ^= self.0 << 5;
+        (self.0 >> 8) as f32 / (1u32 << 24) as f32
+    }
+    /// Uniform in [lo, hi).
+    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.unit()
+    }
+    /// Log-uniform in [lo, hi) (both positive).
+    pub fn log(&mut self, lo: f32, hi: f32) -> f32 {
+        (lo.ln() + (hi.ln() - lo.ln()) * self.unit()).exp()
+    }
 }

@@ -19,25 +19,10 @@
 use glam::{Mat4, Vec3, Vec4};
 use tiledlight_cull::raster::{pack, rasterize, unpack, Cull, Raster, CLEAR};
 use tiledlight_tests::gpu;
-use tiledlight_tests::kernels::run_cases;
+use tiledlight_tests::kernels::{run_cases, Rng};
 
 const W: u32 = 97;
 const H: u32 = 61;
-
-/// A xorshift generator in [0, 1).
-struct Rng(u32);
-
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 17;
-        self.0 ^= self.0 << 5;
-        (self.0 >> 8) as f32 / (1u32 << 24) as f32
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.next()
-    }
-}
 
 /// `n` triangles of mixed kinds (clip space), seen by a reversed-Z camera with an infinite
 /// far plane, and whether each is back-face culled.
@@ -50,7 +35,7 @@ fn triangles(n: usize, seed: u32) -> Vec<([Vec4; 3], bool)> {
     let at = |x: f32, y: f32, d: f32| Vec3::new(x * half * aspect * d, y * half * d, -d);
     (0..n)
         .map(|i| {
-            let d = 0.2 + 20.0 * r.next() * r.next();
+            let d = 0.2 + 20.0 * r.unit() * r.unit();
             let (x, y) = (r.range(-1.2, 1.2), r.range(-1.2, 1.2));
             let view = match i % 6 {
                 // Ordinary.
@@ -62,7 +47,7 @@ fn triangles(n: usize, seed: u32) -> Vec<([Vec4; 3], bool)> {
                 // Sliver.
                 2 => {
                     let (a, b) = (at(x, y, d), at(x + r.range(-1.0, 1.0), y + r.range(-1.0, 1.0), d));
-                    [a, b, a.lerp(b, r.next()) + Vec3::new(0.0, 1e-3 * d * r.next(), 0.0)]
+                    [a, b, a.lerp(b, r.unit()) + Vec3::new(0.0, 1e-3 * d * r.unit(), 0.0)]
                 }
                 // Sub-pixel.
                 3 => {
@@ -73,13 +58,13 @@ fn triangles(n: usize, seed: u32) -> Vec<([Vec4; 3], bool)> {
                 // Crossing the near plane or the eye plane.
                 4 => {
                     let mut v = [at(x, y, d), at(x + r.range(-0.6, 0.6), y, d), at(x, y + r.range(-0.6, 0.6), d)];
-                    v[0].z = if r.next() < 0.5 { -near * r.next() } else { r.range(0.0, d) };
+                    v[0].z = if r.unit() < 0.5 { -near * r.unit() } else { r.range(0.0, d) };
                     v
                 }
                 // Past the guard band.
                 _ => [at(x, y, d), at(x + r.range(-150.0, 150.0), y, d), at(x, y + r.range(-150.0, 150.0), d)],
             };
-            (view.map(|p| proj * p.extend(1.0)), r.next() < 0.5)
+            (view.map(|p| proj * p.extend(1.0)), r.unit() < 0.5)
         })
         .collect()
 }

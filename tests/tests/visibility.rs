@@ -19,31 +19,13 @@ use glam::{DVec3, Vec2, Vec3, Vec4};
 use tiledlight_cull::visibility::{barycentrics, barycentrics_f64, pixel_ndc, rounding_bound, Barycentrics};
 use tiledlight_cull::Camera;
 use tiledlight_tests::gpu;
-use tiledlight_tests::kernels::{run_cases, test_module};
+use tiledlight_tests::kernels::{run_cases, test_module, Rng};
 
 /// One case: the triangle's clip-space vertices, the pixel centre's NDC, the target size.
 struct Case {
     clip: [Vec4; 3],
     ndc: Vec2,
     size: (u32, u32),
-}
-
-/// A xorshift generator in [0, 1) (no dependency on the cull crate's test helpers).
-struct Rng(u32);
-
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 17;
-        self.0 ^= self.0 << 5;
-        (self.0 >> 8) as f32 / (1u32 << 24) as f32
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.next()
-    }
-    fn log(&mut self, lo: f32, hi: f32) -> f32 {
-        (lo.ln() + (hi.ln() - lo.ln()) * self.next()).exp()
-    }
 }
 
 fn cases() -> Vec<Case> {
@@ -54,7 +36,7 @@ fn cases() -> Vec<Case> {
         let eye = Vec3::new(rng.range(-50.0, 50.0), rng.range(-50.0, 50.0), rng.range(-50.0, 50.0));
         let look = Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)).normalize_or(Vec3::X);
         let near = rng.log(1e-3, 1.0);
-        let far = if rng.next() < 0.5 { None } else { Some(near * rng.log(1e2, 1e6)) };
+        let far = if rng.unit() < 0.5 { None } else { Some(near * rng.log(1e2, 1e6)) };
         let aspect = rng.log(0.3, 3.0);
         let Ok(camera) =
             Camera::perspective(eye, eye + look, Vec3::Y, rng.range(10.0, 150.0).to_radians(), aspect, near, far)
@@ -62,7 +44,7 @@ fn cases() -> Vec<Case> {
             continue;
         };
         let size = (rng.log(1.0, 4096.0) as u32, rng.log(1.0, 4096.0) as u32);
-        let pixel = ((rng.next() * size.0 as f32) as u32, (rng.next() * size.1 as f32) as u32);
+        let pixel = ((rng.unit() * size.0 as f32) as u32, (rng.unit() * size.1 as f32) as u32);
         let ndc = pixel_ndc(pixel, size);
         // A point on the pixel's ray, and a triangle around it in view space.
         let dist = match kind {
