@@ -7,7 +7,11 @@
 // instance's draw (@builtin(primitive_index), wgpu's PRIMITIVE_INDEX feature); the split
 // is tiledlight_cull::visibility::IdLayout, chosen per scene. Masked materials test alpha
 // here with the hardware's derivatives, so the compute pass never sees a masked-out texel.
-// variants: ALPHA_MASK TEXTURES UV1 IDS
+// With ATOMIC (and IDS, ALPHA_MASK) it draws the alpha-masked instances for the visibility
+// buffer's compute raster (visibility_raster.wgsl): no depth test; each fragment that
+// passes the alpha test resolves its (depth bits << 32) | ID texel into the raster's
+// buffer by atomicMax, as the compute pass does.
+// variants: ALPHA_MASK TEXTURES UV1 IDS ATOMIC
 #ifdef IDS
 enable primitive_index;
 #endif
@@ -20,6 +24,22 @@ override TRIANGLE_BITS: u32 = 16u;
 
 fn pack_id(instance: u32, triangle: u32) -> u32 {
     return select(instance << TRIANGLE_BITS, 0u, TRIANGLE_BITS >= 32u) | triangle;
+}
+#endif
+
+#ifdef ATOMIC
+// The compute raster's texels (after the material textures, when the scene has them).
+#ifdef TEXTURES
+@group(3) @binding(0) var<storage, read_write> raster_texels: array<atomic<u64>>;
+#else
+@group(2) @binding(0) var<storage, read_write> raster_texels: array<atomic<u64>>;
+#endif
+
+// Resolves ID `id` at fragment `clip` into the texels; returns `id`.
+fn resolve_id(clip: vec4<f32>, id: u32) -> u32 {
+    let texel = (u64(bitcast<u32>(max(clip.z, 0.0))) << 32u) | u64(id);
+    atomicMax(&raster_texels[u32(clip.y) * view.screen.x + u32(clip.x)], texel);
+    return id;
 }
 #endif
 
@@ -79,7 +99,11 @@ fn alpha_test(in: MaskedOut) {
 @fragment
 fn fs_masked(in: MaskedOut, @builtin(primitive_index) triangle: u32) -> @location(0) u32 {
     alpha_test(in);
+#ifdef ATOMIC
+    return resolve_id(in.clip, pack_id(in.instance, triangle));
+#else
     return pack_id(in.instance, triangle);
+#endif
 }
 #else
 @fragment

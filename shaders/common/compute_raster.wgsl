@@ -155,32 +155,60 @@ fn raster_finite(v: vec4<f32>) -> bool {
     return all(v == v) && all(abs(v) <= vec4<f32>(3.4028235e38));
 }
 
-// Rasterises triangle (c0, c1, c2) (clip space) with `id` on a `size` target; with
+// A triangle set up for filling: its clipped polygon in window coordinates (a fan from
+// vertex 0), empty (n = 0) when nothing of it is drawn.
+struct RasterSetup {
+    s: array<RasterVertex, 9>,
+    n: u32,
+}
+
+// Clips, snaps and culls triangle (c0, c1, c2) (clip space) on a `size` target; with
 // `cull_back` drops it when it faces away (clockwise in NDC).
-fn raster_triangle(c0: vec4<f32>, c1: vec4<f32>, c2: vec4<f32>, size: vec2<u32>, cull_back: bool, id: u32) {
+fn raster_setup(c0: vec4<f32>, c1: vec4<f32>, c2: vec4<f32>, size: vec2<u32>, cull_back: bool) -> RasterSetup {
+    var out: RasterSetup;
+    out.n = 0u;
     if !(raster_finite(c0) && raster_finite(c1) && raster_finite(c2)) || size.x == 0u || size.y == 0u {
-        return;
+        return out;
     }
     let p = raster_clip(c0, c1, c2);
     if p.n < 3u {
-        return;
+        return out;
     }
-    var s: array<RasterVertex, 9>;
     for (var i = 0u; i < p.n; i++) {
-        s[i] = raster_snap(p.v[i], size);
+        out.s[i] = raster_snap(p.v[i], size);
     }
     var total = 0li;
     for (var i = 1u; i + 1u < p.n; i++) {
-        total += raster_area(s[0], s[i], s[i + 1u]);
-    }
-    if total == 0li {
-        return;
+        total += raster_area(out.s[0], out.s[i], out.s[i + 1u]);
     }
     // Window y points down: counter-clockwise in NDC is a negative area here.
-    if cull_back && total > 0li {
-        return;
+    if total == 0li || (cull_back && total > 0li) {
+        return out;
     }
-    for (var i = 1u; i + 1u < p.n; i++) {
-        raster_fill(s[0], s[i], s[i + 1u], size, id);
+    out.n = p.n;
+    return out;
+}
+
+// The pixels a set-up triangle's bounds span: (columns, rows).
+fn raster_span(t: RasterSetup) -> vec2<i64> {
+    var lo = vec2<i64>(t.s[0].x, t.s[0].y);
+    var hi = lo;
+    for (var i = 1u; i < t.n; i++) {
+        lo = min(lo, vec2<i64>(t.s[i].x, t.s[i].y));
+        hi = max(hi, vec2<i64>(t.s[i].x, t.s[i].y));
     }
+    return (hi - lo) / vec2<i64>(RASTER_ONE) + vec2<i64>(1li);
+}
+
+// Fills a set-up triangle with `id`.
+fn raster_fill_setup(t: RasterSetup, size: vec2<u32>, id: u32) {
+    for (var i = 1u; i + 1u < t.n; i++) {
+        raster_fill(t.s[0], t.s[i], t.s[i + 1u], size, id);
+    }
+}
+
+// Rasterises triangle (c0, c1, c2) (clip space) with `id` on a `size` target; with
+// `cull_back` drops it when it faces away (clockwise in NDC).
+fn raster_triangle(c0: vec4<f32>, c1: vec4<f32>, c2: vec4<f32>, size: vec2<u32>, cull_back: bool, id: u32) {
+    raster_fill_setup(raster_setup(c0, c1, c2, size, cull_back), size, id);
 }

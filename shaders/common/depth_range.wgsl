@@ -8,18 +8,20 @@
 // With MSAA the buffer is multisampled (SAMPLES per pixel, set by the pipeline) and the
 // range covers every sample, so a light reaching any sample stays in the tile's list.
 // The CPU reference is tiledlight_cull::tiles::tile_depth_bounds_samples.
+// Declared as unfilterable float textures, not depth textures: a Depth32Float view binds
+// there as well as the R32Float depth the visibility buffer's compute raster writes.
 #include "common/view.wgsl"
 
 #ifdef MSAA
 override SAMPLES: u32 = 4u;
-@group(1) @binding(0) var depth_texture: texture_depth_multisampled_2d;
+@group(1) @binding(0) var depth_texture: texture_multisampled_2d<f32>;
 #ifdef BLENDED
-@group(1) @binding(10) var blended_depth_texture: texture_depth_multisampled_2d;
+@group(1) @binding(10) var blended_depth_texture: texture_multisampled_2d<f32>;
 #endif
 #else
-@group(1) @binding(0) var depth_texture: texture_depth_2d;
+@group(1) @binding(0) var depth_texture: texture_2d<f32>;
 #ifdef BLENDED
-@group(1) @binding(10) var blended_depth_texture: texture_depth_2d;
+@group(1) @binding(10) var blended_depth_texture: texture_2d<f32>;
 #endif
 #endif
 
@@ -29,9 +31,9 @@ var<workgroup> wg_max_depth: atomic<u32>;
 // Depth of sample `s` of pixel `p` (s is 0 without MSAA).
 fn load_depth(p: vec2<u32>, s: u32) -> f32 {
 #ifdef MSAA
-    return textureLoad(depth_texture, p, s);
+    return textureLoad(depth_texture, p, s).x;
 #else
-    return textureLoad(depth_texture, p, 0);
+    return textureLoad(depth_texture, p, 0).x;
 #endif
 }
 
@@ -40,11 +42,11 @@ fn load_depth(p: vec2<u32>, s: u32) -> f32 {
 // the opaque one there: min takes the opaque depth, max the blended one.
 fn grow_blended(r: vec4<f32>, p: vec2<u32>, s: u32) -> vec4<f32> {
 #ifdef MSAA
-    let o = textureLoad(depth_texture, p, s);
-    let b = textureLoad(blended_depth_texture, p, s);
+    let o = textureLoad(depth_texture, p, s).x;
+    let b = textureLoad(blended_depth_texture, p, s).x;
 #else
-    let o = textureLoad(depth_texture, p, 0);
-    let b = textureLoad(blended_depth_texture, p, 0);
+    let o = textureLoad(depth_texture, p, 0).x;
+    let b = textureLoad(blended_depth_texture, p, 0).x;
 #endif
     // x: min, y: max, z: 1 when any sample counted.
     return select(r, vec4<f32>(min(r.x, o), max(r.y, b), 1.0, 0.0), b > o);
@@ -60,17 +62,17 @@ fn grow_range(r: vec2<f32>, d: f32) -> vec2<f32> {
 // Min (x) and max (y) non-sky depth of pixel `p`'s samples (3.4e38, 0 when all are sky).
 fn sample_range(p: vec2<u32>) -> vec2<f32> {
     var r = vec2<f32>(3.4e38, 0.0);
-    r = grow_range(r, textureLoad(depth_texture, p, 0));
-    r = grow_range(r, textureLoad(depth_texture, p, 1));
+    r = grow_range(r, textureLoad(depth_texture, p, 0).x);
+    r = grow_range(r, textureLoad(depth_texture, p, 1).x);
     if SAMPLES > 2u {
-        r = grow_range(r, textureLoad(depth_texture, p, 2));
-        r = grow_range(r, textureLoad(depth_texture, p, 3));
+        r = grow_range(r, textureLoad(depth_texture, p, 2).x);
+        r = grow_range(r, textureLoad(depth_texture, p, 3).x);
     }
     if SAMPLES > 4u {
-        r = grow_range(r, textureLoad(depth_texture, p, 4));
-        r = grow_range(r, textureLoad(depth_texture, p, 5));
-        r = grow_range(r, textureLoad(depth_texture, p, 6));
-        r = grow_range(r, textureLoad(depth_texture, p, 7));
+        r = grow_range(r, textureLoad(depth_texture, p, 4).x);
+        r = grow_range(r, textureLoad(depth_texture, p, 5).x);
+        r = grow_range(r, textureLoad(depth_texture, p, 6).x);
+        r = grow_range(r, textureLoad(depth_texture, p, 7).x);
     }
     return r;
 }
@@ -117,7 +119,7 @@ fn region_depth_range(origin: vec2<u32>, size: u32, threads: u32, lid: vec2<u32>
                 lo = min(lo, r.x);
                 hi = max(hi, r.y);
 #else
-                let d = textureLoad(depth_texture, p, 0);
+                let d = textureLoad(depth_texture, p, 0).x;
                 // Sky (depth 0, the clear value) is no surface.
                 if d > 0.0 {
                     lo = min(lo, d);

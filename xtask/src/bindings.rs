@@ -38,6 +38,9 @@ pub fn declarations() -> Vec<PassBindings> {
         tiledlight_deferred::shading::DEFERRED_RESOLVE_BINDINGS,
         tiledlight_visibility::shading::VISIBILITY_BINDINGS,
         tiledlight_visibility::shading::VISIBILITY_MSAA_BINDINGS,
+        tiledlight_visibility::compute_raster::COMPUTE_RASTER_BINDINGS,
+        tiledlight_visibility::compute_raster::LARGE_BINDINGS,
+        tiledlight_visibility::raster::DEPTH_COPY_BINDINGS,
         blit::BLIT_BINDINGS,
     ]);
     v.extend(tiledlight_vpl::binding_declarations());

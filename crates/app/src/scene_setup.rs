@@ -18,7 +18,7 @@ use tiledlight_lab::axes::{on_off, Flags};
 use tiledlight_scene::{GridDensity, DEFAULT_LIGHT_THRESHOLD};
 use tiledlight_setup::bookmark;
 use tiledlight_setup::{
-    surface_exposure, CameraBookmark, LightPlacement, Method, SceneSource, Settings, DEFAULT_LIGHTS_PER_POINT,
+    surface_exposure, CameraBookmark, ComputeRasterOptions, LightPlacement, Method, Raster, SceneSource, Settings, DEFAULT_LIGHTS_PER_POINT,
     MILLION_LIGHTS,
 };
 
@@ -289,6 +289,14 @@ pub struct SceneArgs {
     /// and read back (the sample's bandwidth stress knob; the image does not change).
     #[arg(long, default_value_t = 2, value_name = "2..5")]
     pub gbuffer_rts: u32,
+    /// The visibility buffer's raster (--method visibility): auto picks compute on a
+    /// discrete GPU with 64-bit atomics at one sample a pixel, else hardware.
+    #[arg(long, value_enum, default_value_t = Raster::Auto)]
+    pub raster: Raster,
+    /// The compute raster hands triangles whose bounds span more pixels than this (either
+    /// way) to the hardware raster.
+    #[arg(long, default_value_t = ComputeRasterOptions::default().large_px, value_name = "PX")]
+    pub raster_large_px: u32,
     /// MSAA samples per pixel: 1 (off), 2, 4 or 8 (2 and 8 where the GPU has them). Forward+
     /// and brute force use hardware MSAA; Tiled Deferred shades edge pixels per sample.
     #[arg(long, default_value_t = 1, value_name = "1|2|4|8")]
@@ -385,6 +393,8 @@ impl Default for SceneArgs {
             spot_cone: d.spot_cone,
             flat_cull: d.flat_cull,
             gbuffer_rts: d.gbuffer_rts,
+            raster: d.raster,
+            raster_large_px: d.raster_large_px,
             msaa: d.msaa,
             edge_distance: d.edge_distance,
             edge_normal_deg: d.edge_normal_deg,
@@ -458,6 +468,8 @@ impl SceneArgs {
             spot_cone: self.spot_cone,
             flat_cull: self.flat_cull,
             gbuffer_rts: self.gbuffer_rts,
+            raster: self.raster,
+            raster_large_px: self.raster_large_px,
             msaa: self.msaa,
             edge_distance: self.edge_distance,
             edge_normal_deg: self.edge_normal_deg,
@@ -505,6 +517,10 @@ impl Flags for SceneArgs {
             "seed" => args.seed = int()?,
             "grid-objects" => args.grid_objects = small()?,
             "gbuffer-rts" => args.gbuffer_rts = small()?,
+            "raster-large-px" => args.raster_large_px = small()?,
+            "raster" => {
+                args.raster = Raster::from_str(value, true).map_err(|e| anyhow::anyhow!("raster '{value}': {e}"))?
+            }
             "tile-size" => args.tile_size = small()?,
             "msaa" => args.msaa = small()?,
             "edge-distance" => {

@@ -39,6 +39,7 @@ pub fn targets(_: &Features) -> TargetNeeds {
         prefix: "forward",
         msaa_formats: vec![DEPTH_FORMAT, HDR_FORMAT],
         hdr_usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+        depth: None,
     }
 }
 

@@ -7,7 +7,7 @@
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::blended::BlendedPath;
-use tiledlight_gpu::features::{Features, Method};
+use tiledlight_gpu::features::{Features, Method, Raster};
 use tiledlight_gpu::heatmap::HeatmapPass;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::{GridStatus, LightGrid};
@@ -99,6 +99,14 @@ impl FrameRenderer {
     ) -> Result<Self, GpuError> {
         let mut settings = settings;
         settings.cull.samples = settings.msaa;
+        if settings.method == Method::Visibility {
+            settings.raster = settings.raster.pick(ctx.info.device_type, ctx.device.features(), settings.msaa);
+        } else if settings.raster == Raster::Compute {
+            return Err(GpuError::Config(format!(
+                "the compute raster draws the visibility buffer only, not {}",
+                settings.method.label()
+            )));
+        }
         let s = &settings;
         let features = Features::new(
             scene,
@@ -146,7 +154,7 @@ impl FrameRenderer {
                 "building the Tiled Deferred renderer",
             ),
             Method::Visibility => (
-                visibility::targets(&features),
+                visibility::targets(&features, s.raster),
                 |c, sh, sl, st, m| Ok(Box::new(visibility::VisibilityFrame::new(c, sh, sl, st, m)?)),
                 "building the visibility-buffer renderer",
             ),

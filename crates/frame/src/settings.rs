@@ -10,7 +10,8 @@ use tiledlight_cull::shadow::ShadowOptions;
 use tiledlight_cull::vpl::VplConfig;
 use tiledlight_deferred::EdgeTest;
 use tiledlight_gpu::culling::{CullOptions, DropLight};
-use tiledlight_gpu::features::{BlendMode, Method};
+use tiledlight_gpu::features::{BlendMode, Method, Raster};
+use tiledlight_visibility::compute_raster::ComputeRasterOptions;
 use tiledlight_gpu::heatmap::HeatmapOf;
 
 /// How a frame is drawn: built into a renderer once ([`crate::FrameRenderer::new`]).
@@ -58,6 +59,11 @@ pub struct FrameSettings {
     /// `tiledlight_deferred::gbuffer::EXTRA_TEST_VALUES` instead of white, so tests can
     /// prove the shading pass reads and multiplies each of them. `false` by default.
     pub test_gbuffer_values: bool,
+    /// The visibility buffer's raster: [`Raster::Auto`] (the default) picks per adapter
+    /// ([`Raster::pick`]); [`crate::FrameRenderer::settings`] reports the one built.
+    pub raster: Raster,
+    /// The compute raster's split with the hardware (large triangles).
+    pub compute_raster: ComputeRasterOptions,
     /// Test-only (visibility buffer, one sample): after the raster pass the ID at this
     /// pixel is overwritten with instance 0's triangle 0 (a valid but wrong triangle), so
     /// tests can prove a comparison catches one wrong ID. `None` by default.
@@ -83,6 +89,8 @@ impl Default for FrameSettings {
             test_drop_light: None,
             test_gbuffer_values: false,
             test_wrong_id: None,
+            raster: Raster::Auto,
+            compute_raster: ComputeRasterOptions::default(),
         }
     }
 }

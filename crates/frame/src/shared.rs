@@ -43,6 +43,8 @@ pub struct TargetNeeds {
     pub msaa_formats: Vec<wgpu::TextureFormat>,
     /// How the method writes the HDR image (render attachment or storage).
     pub hdr_usage: wgpu::TextureUsages,
+    /// Another depth target than the `Depth32Float` attachment: its format and usage.
+    pub depth: Option<(wgpu::TextureFormat, wgpu::TextureUsages)>,
 }
 
 /// The VPLs of a frame: the RSM and generation, their culling (tiled methods) and what a
@@ -139,7 +141,7 @@ impl SharedSteps {
             lighting_u.shadow_depth_bias = a.options.format.depth_bias();
         }
         let lighting = LightBuffers::upload_lighting(device, &lighting_u);
-        let targets = DisplayTargets::new(device, needs.prefix, size, features.msaa, needs.hdr_usage);
+        let targets = DisplayTargets::with_depth(device, needs.prefix, size, features.msaa, needs.hdr_usage, needs.depth);
         let tonemap = TonemapPass::new(device, &targets.hdr_view, size, (settings.exposure, settings.auto_exposure))?;
         let mut memory = MemoryReport::default();
         memory.extend(&scene.memory);

@@ -45,7 +45,7 @@ pub fn targets(features: &Features) -> TargetNeeds {
         msaa_formats.push(HDR_FORMAT);
         hdr_usage |= wgpu::TextureUsages::RENDER_ATTACHMENT;
     }
-    TargetNeeds { prefix: "deferred", msaa_formats, hdr_usage }
+    TargetNeeds { prefix: "deferred", msaa_formats, hdr_usage, depth: None }
 }
 
 /// Tiled Deferred's passes and G-buffer.

@@ -26,7 +26,8 @@ use tiledlight_gpu::plan::Step;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::{GpuContext, GpuError};
-use tiledlight_visibility::raster::VisibilityRaster;
+use tiledlight_gpu::features::Raster;
+use tiledlight_visibility::raster::{depth_target, VisibilityRaster};
 use tiledlight_visibility::shading::VisibilityShading;
 
 use crate::handles::{Depth, Hdr, Lists, Rec};
@@ -35,15 +36,17 @@ use crate::settings::FrameSettings;
 use crate::shared::{SharedSteps, TargetNeeds};
 
 /// The display targets the visibility buffer needs: depth and IDs multisampled, the HDR
-/// image written by compute (and, with blended geometry, composited onto by a render pass).
-pub fn targets(features: &Features) -> TargetNeeds {
+/// image written by compute (and, with blended geometry, composited onto by a render pass);
+/// with the compute raster (`raster`) an `R32Float` depth it writes from compute, unless
+/// blended passes need the depth attachment.
+pub fn targets(features: &Features, raster: Raster) -> TargetNeeds {
     let mut msaa_formats = vec![DEPTH_FORMAT, ID_FORMAT];
     let mut hdr_usage = wgpu::TextureUsages::STORAGE_BINDING;
     if features.blended() {
         msaa_formats.push(HDR_FORMAT);
         hdr_usage |= wgpu::TextureUsages::RENDER_ATTACHMENT;
     }
-    TargetNeeds { prefix: "visibility", msaa_formats, hdr_usage }
+    TargetNeeds { prefix: "visibility", msaa_formats, hdr_usage, depth: depth_target(raster, features.blended()) }
 }
 
 /// The visibility buffer's passes.
@@ -74,7 +77,15 @@ impl VisibilityFrame {
         let device = &ctx.device;
         let (features, views, targets) = (&shared.features, &shared.views, &shared.targets);
         let size = (targets.hdr.width(), targets.hdr.height());
-        let raster = VisibilityRaster::new(device, views, scene, features, (size, settings.test_wrong_id), memory)?;
+        let raster = VisibilityRaster::new(
+            device,
+            views,
+            scene,
+            features,
+            (size, settings.test_wrong_id),
+            (settings.raster, settings.compute_raster, &targets.depth_view),
+            memory,
+        )?;
         let culling = LightCulling::with_drop_light(
             device,
             views,

@@ -3,14 +3,14 @@
 //! (and the brute-force reference) start with it. Pipelines exist only for the draw kinds
 //! the scene has. Depends on wgpu, [`crate::scene_gpu`], [`crate::scene_raster`] and [`crate::view`].
 
-use crate::bindings::{Cond, PassBindings, PassGroup};
+use crate::bindings::{Binding, Cond, PassBindings, PassGroup};
 use crate::error::GpuError;
 use crate::features::Features;
 use crate::scene_gpu::{DrawKind, SceneGpu, BASE_COLOR_BINDINGS, POSITION_LAYOUT, SCENE_GROUPS};
 use crate::scene_raster::{begin_pass, cleared, scene_pipeline, DepthUse, SceneDraw, SceneInputs, SceneRaster};
 use crate::timer::GpuTimer;
 use crate::util::{keyed_module, pipeline_layout};
-use crate::variants::{DepthPrepassKey, VisibilityRasterKey};
+use crate::variants::{AtomicIdsKey, DepthPrepassKey, VisibilityRasterKey};
 
 /// Format of the visibility buffer's IDs.
 pub const ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
@@ -28,8 +28,17 @@ pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 pub const DEPTH_PREPASS_BINDINGS: PassBindings = PassBindings {
     entry: "depth_prepass.wgsl",
     source: file!(),
-    groups: &[SCENE_GROUPS[0], SCENE_GROUPS[1], PassGroup::new(2, BASE_COLOR_BINDINGS).when(Cond::Defined("TEXTURES"))],
+    groups: &[
+        SCENE_GROUPS[0],
+        SCENE_GROUPS[1],
+        PassGroup::new(2, BASE_COLOR_BINDINGS).when(Cond::Defined("TEXTURES")),
+        PassGroup::new(2, ATOMIC_TEXELS).when(Cond::All(&[Cond::Defined("ATOMIC"), Cond::NotDefined("TEXTURES")])),
+        PassGroup::new(3, ATOMIC_TEXELS).when(Cond::All(&[Cond::Defined("ATOMIC"), Cond::Defined("TEXTURES")])),
+    ],
 };
+
+/// With `ATOMIC`: the compute raster's 64-bit texels, written by the fragment stage.
+pub const ATOMIC_TEXELS: &[Binding] = &[Binding::storage_rw(0, wgpu::ShaderStages::FRAGMENT)];
 
 /// The depth pre-pass pipelines.
 pub struct DepthPrepass {
@@ -100,7 +109,24 @@ impl DepthPrepass {
             ));
         }
         let target = DepthTarget { label: "visibility.raster", format: DEPTH_FORMAT, samples: features.msaa };
-        Self::build(device, views, scene, (features, &features.draw_kinds), target, Some(triangle_bits))
+        Self::build(device, views, scene, (features, &features.draw_kinds), target, Some((triangle_bits, None)))
+    }
+
+    /// The alpha-masked draws of the visibility buffer's compute raster (`IDS ATOMIC`): no
+    /// depth attachment; each fragment passing the alpha test resolves its (depth, ID)
+    /// texel into the buffer bound with `texels` (at group 2, or 3 after the material
+    /// textures) by `atomicMax`. The pass attaches the ID target with writes masked (a
+    /// render pass needs an attachment). Opaque kinds are the compute pass's: none here.
+    pub fn with_atomic_ids(
+        device: &wgpu::Device,
+        views: &Views,
+        scene: &SceneGpu,
+        features: &Features,
+        (triangle_bits, texels): (u32, &wgpu::BindGroupLayout),
+    ) -> Result<Self, GpuError> {
+        let kinds: Vec<DrawKind> = features.draw_kinds.iter().copied().filter(|k| k.masked && !k.blended).collect();
+        let target = DepthTarget { label: "visibility.raster.masked", format: DEPTH_FORMAT, samples: 1 };
+        Self::build(device, views, scene, (features, &kinds), target, Some((triangle_bits, Some(texels))))
     }
 
     fn build(
@@ -109,11 +135,12 @@ impl DepthPrepass {
         scene: &SceneGpu,
         (features, kinds): (&Features, &[DrawKind]),
         target: DepthTarget,
-        ids: Option<u32>,
+        ids: Option<(u32, Option<&wgpu::BindGroupLayout>)>,
     ) -> Result<Self, GpuError> {
-        let id_target =
-            [Some(wgpu::ColorTargetState { format: ID_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL })];
-        let constants = ids.map(|bits| [("TRIANGLE_BITS", bits as f64)]);
+        let atomic = ids.and_then(|(_, t)| t);
+        let write_mask = if atomic.is_some() { wgpu::ColorWrites::empty() } else { wgpu::ColorWrites::ALL };
+        let id_target = [Some(wgpu::ColorTargetState { format: ID_FORMAT, blend: None, write_mask })];
+        let constants = ids.map(|(bits, _)| [("TRIANGLE_BITS", bits as f64)]);
         let constants: &[(&str, f64)] = constants.as_ref().map_or(&[], |c| &c[..]);
         let mut pipelines = Vec::new();
         let samples = target.samples;
@@ -129,12 +156,16 @@ impl DepthPrepass {
                         pipeline_layout(
                             device,
                             "depth_prepass.masked.layout",
-                            &[&views.layout, &scene.layout, &t.layout],
+                            &[&[&views.layout, &scene.layout, &t.layout][..], atomic.as_slice()].concat(),
                         ),
                     ),
                     None => (
                         DepthPrepassKey::Masked,
-                        pipeline_layout(device, "depth_prepass.masked.layout", &[&views.layout, &scene.layout]),
+                        pipeline_layout(
+                            device,
+                            "depth_prepass.masked.layout",
+                            &[&[&views.layout, &scene.layout][..], atomic.as_slice()].concat(),
+                        ),
                     ),
                 }
             } else {
@@ -145,7 +176,8 @@ impl DepthPrepass {
             };
             let module = match ids {
                 None => keyed_module(device, &key)?,
-                Some(_) => keyed_module(device, &VisibilityRasterKey(key))?,
+                Some((_, None)) => keyed_module(device, &VisibilityRasterKey(key))?,
+                Some((_, Some(_))) => keyed_module(device, &AtomicIdsKey(key))?,
             };
             let (vs, buffers): (&str, &[Option<wgpu::VertexBufferLayout<'_>>]) =
                 if kind.masked { ("vs_masked", &layouts) } else { ("vs_main", &POSITION_LAYOUT) };
@@ -164,7 +196,7 @@ impl DepthPrepass {
                     layout: &layout,
                     module: &module,
                     vertex: (vs, buffers),
-                    depth: DepthUse::Write,
+                    depth: if atomic.is_some() { DepthUse::None } else { DepthUse::Write },
                     samples,
                     fragment: match ids {
                         Some(_) => Some((if kind.masked { "fs_masked" } else { "fs_main" }, &id_target[..])),

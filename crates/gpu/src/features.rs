@@ -110,6 +110,78 @@ impl clap::ValueEnum for Method {
     }
 }
 
+/// Which rasteriser draws the visibility buffer's depth and triangle IDs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Raster {
+    /// The faster of the two on this adapter's class, where the compute raster can run:
+    /// [`Raster::pick`].
+    #[default]
+    Auto,
+    /// The hardware raster (the depth pre-pass's pipelines writing IDs).
+    Hardware,
+    /// The compute raster (64-bit atomics; one sample a pixel).
+    Compute,
+}
+
+impl Raster {
+    /// Every value, in the order the command line lists them.
+    pub const ALL: [Raster; 3] = [Raster::Auto, Raster::Hardware, Raster::Compute];
+
+    /// The flag value.
+    pub fn name(self) -> &'static str {
+        match self {
+            Raster::Auto => "auto",
+            Raster::Hardware => "hardware",
+            Raster::Compute => "compute",
+        }
+    }
+
+    /// What it does, in one line (the command line's help).
+    pub fn summary(self) -> &'static str {
+        match self {
+            Raster::Auto => "The faster on this adapter class where it can run (measured: docs/PERFORMANCE.md)",
+            Raster::Hardware => "The hardware raster: depth pre-pass pipelines writing triangle IDs (any MSAA)",
+            Raster::Compute => {
+                "Compute: 64-bit atomicMax of (depth, ID) per pixel, large triangles and masked materials                  by the hardware (one sample a pixel; needs 64-bit buffer atomics)"
+            }
+        }
+    }
+
+    /// The value of flag value `name`.
+    pub fn from_name(name: &str) -> Result<Self, String> {
+        Self::ALL.into_iter().find(|m| m.name() == name).ok_or_else(|| {
+            let names: Vec<&str> = Self::ALL.iter().map(|m| m.name()).collect();
+            format!("raster {name:?}: use one of {}", names.join(", "))
+        })
+    }
+
+    /// [`Raster::Auto`] made concrete for an adapter of `device_type` whose device has
+    /// `features`, drawing `msaa` samples: the compute raster where it can run (64-bit
+    /// buffer atomics, one sample) and was measured faster (a discrete GPU: the H200,
+    /// docs/PERFORMANCE.md), else the hardware raster (lavapipe's compute raster is the
+    /// slower there). An explicit choice is kept as it is.
+    pub fn pick(self, device_type: wgpu::DeviceType, features: wgpu::Features, msaa: u32) -> Raster {
+        let can = features.contains(wgpu::Features::SHADER_INT64 | wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX);
+        match self {
+            Raster::Auto if can && msaa == 1 && device_type == wgpu::DeviceType::DiscreteGpu => Raster::Compute,
+            Raster::Auto => Raster::Hardware,
+            r => r,
+        }
+    }
+}
+
+/// `--raster` on a command line (feature `clap`).
+#[cfg(feature = "clap")]
+impl clap::ValueEnum for Raster {
+    fn value_variants<'a>() -> &'a [Self] {
+        &Self::ALL
+    }
+
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        Some(clap::builder::PossibleValue::new(self.name()).help(self.summary()))
+    }
+}
+
 /// Shadow-casting lights: the atlas, its pass, the `SHADOWS` shading variant.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Shadows {

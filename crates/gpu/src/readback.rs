@@ -94,14 +94,20 @@ pub fn read_texture_layer(
     Ok(out)
 }
 
-/// Reads a `Depth32Float` texture as f32 values, row-major; a multisampled one gives
+/// Reads a `Depth32Float` (or `R32Float`) texture as f32 values, row-major; a multisampled one gives
 /// `sample_count` values per pixel, pixel-major (the layout of
 /// `tiledlight_cull::CullConfig::samples`).
 pub fn read_depth(device: &wgpu::Device, queue: &wgpu::Queue, texture: &wgpu::Texture) -> Result<Vec<f32>, GpuError> {
     if texture.sample_count() > 1 {
         return read_depth_samples(device, queue, texture);
     }
-    let bytes = read_texture(device, queue, texture, wgpu::TextureAspect::DepthOnly, 4)?;
+    // The compute raster's depth is an R32Float colour texture.
+    let aspect = if texture.format().is_depth_stencil_format() {
+        wgpu::TextureAspect::DepthOnly
+    } else {
+        wgpu::TextureAspect::All
+    };
+    let bytes = read_texture(device, queue, texture, aspect, 4)?;
     Ok(bytemuck::pod_collect_to_vec(&bytes))
 }
 

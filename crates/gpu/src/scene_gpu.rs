@@ -12,6 +12,7 @@ use std::collections::HashMap;
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, Mat4};
+use tiledlight_scene::clusters::{cluster_mesh, cluster_mesh_in_order, Cluster, CLUSTER_TRIANGLES};
 use tiledlight_scene::{AlphaMode, Filter, Material, Sampler, Scene, TextureRef, Wrap};
 
 use crate::bindings::{create_layout, Binding, Cond, PassGroup};
@@ -257,6 +258,8 @@ pub struct Draw {
     pub material: usize,
     /// Pipeline kind.
     pub kind: DrawKind,
+    /// Its mesh's clusters in [`SceneGpu::clusters`].
+    pub clusters: Range<u32>,
 }
 
 const POSITIONS: wgpu::VertexBufferLayout<'static> = wgpu::VertexBufferLayout {
@@ -381,6 +384,14 @@ pub struct SceneGpu {
     pub triangles: u64,
     /// Triangles of the largest mesh an instance draws (the visibility buffer's ID split).
     pub max_triangles: u32,
+    /// Every mesh's clusters of at most [`CLUSTER_TRIANGLES`] triangles, in mesh order
+    /// ([`Draw::clusters`] ranges into it; `first_triangle` counts from the mesh's first
+    /// index). The index buffer holds each opaque or masked mesh in its clusters' order
+    /// ([`tiledlight_scene::clusters`]), for every method alike, so a triangle's index
+    /// within its draw (the visibility buffer's ID) is the same in the hardware and the
+    /// compute raster. Meshes drawn with a blended material keep their own order (blending
+    /// within a mesh follows it). CPU only: the compute raster uploads what it culls.
+    pub clusters: Vec<Cluster>,
     /// The instance buffer (group 1, binding 0).
     pub instances: wgpu::Buffer,
     /// The material buffer (group 1, binding 1).
@@ -410,7 +421,13 @@ impl SceneGpu {
         let (mut pos, mut nrm, mut uv, mut idx) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let (mut tan, mut uv1) = (Vec::<[f32; 4]>::new(), Vec::<[f32; 2]>::new());
         let mut mesh_ranges = Vec::with_capacity(scene.meshes.len());
-        for m in &scene.meshes {
+        let mut mesh_clusters = Vec::with_capacity(scene.meshes.len());
+        let mut clusters = Vec::new();
+        let mut blended_mesh = vec![false; scene.meshes.len()];
+        for inst in &scene.instances {
+            blended_mesh[inst.mesh] |= matches!(scene.materials[inst.material].alpha_mode, AlphaMode::Blend);
+        }
+        for (mi, m) in scene.meshes.iter().enumerate() {
             let base_vertex = pos.len() as i32;
             let first = idx.len() as u32;
             pos.extend_from_slice(&m.positions);
@@ -428,7 +445,14 @@ impl SceneGpu {
                     false => uv1.extend_from_slice(&m.uvs1),
                 }
             }
-            idx.extend_from_slice(&m.indices);
+            let c = match blended_mesh[mi] {
+                true => cluster_mesh_in_order(m, CLUSTER_TRIANGLES),
+                false => cluster_mesh(m, CLUSTER_TRIANGLES),
+            };
+            let start = clusters.len() as u32;
+            clusters.extend_from_slice(&c.clusters);
+            mesh_clusters.push(start..clusters.len() as u32);
+            idx.extend_from_slice(&c.indices);
             mesh_ranges.push((first..idx.len() as u32, base_vertex));
         }
         // STORAGE too: the visibility buffer's compute pass fetches triangles from them.
@@ -499,6 +523,7 @@ impl SceneGpu {
                     instances: slot..slot + 1,
                     material: inst.material,
                     kind: kind_of(inst.material),
+                    clusters: mesh_clusters[inst.mesh].clone(),
                 }),
             }
         }
@@ -547,6 +572,7 @@ impl SceneGpu {
             draws,
             triangles,
             max_triangles,
+            clusters,
             instances: instance_buf,
             materials: material_buf,
             material_textures: gpu_materials.iter().map(|m| m.textures).collect(),

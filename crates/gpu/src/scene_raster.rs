@@ -43,6 +43,8 @@ pub enum DepthUse {
     Equal,
     /// Tests GreaterEqual without writing (blended geometry in front of the opaque depth).
     Test,
+    /// No depth attachment (the compute raster's hardware half resolves depth itself).
+    None,
 }
 
 /// How a pass draws the scene's geometry: what [`scene_pipeline`] needs besides the draw kind.
@@ -76,7 +78,7 @@ pub fn scene_pipeline(device: &wgpu::Device, kind: DrawKind, d: &SceneDraw<'_>) 
     // the H200: one pixel of the courtyard at 320x180) Tiled Deferred then shaded another
     // surface than Forward+ and brute force.
     let compare = match d.depth {
-        DepthUse::Write | DepthUse::Test => wgpu::CompareFunction::GreaterEqual,
+        DepthUse::Write | DepthUse::Test | DepthUse::None => wgpu::CompareFunction::GreaterEqual,
         DepthUse::Equal => wgpu::CompareFunction::Equal,
     };
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -92,7 +94,7 @@ pub fn scene_pipeline(device: &wgpu::Device, kind: DrawKind, d: &SceneDraw<'_>) 
             buffers: d.vertex.1,
         },
         primitive: primitive_state(kind),
-        depth_stencil: Some(wgpu::DepthStencilState {
+        depth_stencil: (d.depth != DepthUse::None).then(|| wgpu::DepthStencilState {
             format: d.depth_format,
             depth_write_enabled: Some(d.depth == DepthUse::Write),
             depth_compare: Some(compare),

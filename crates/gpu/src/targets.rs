@@ -78,16 +78,31 @@ impl DisplayTargets {
         samples: u32,
         hdr_usage: wgpu::TextureUsages,
     ) -> Self {
+        Self::with_depth(device, prefix, (w, h), samples, hdr_usage, None)
+    }
+
+    /// [`Self::new`] with another depth target: `depth` gives its format and usage (the
+    /// visibility buffer's compute raster writes an `R32Float` depth from compute), or None
+    /// for the `Depth32Float` render attachment.
+    pub fn with_depth(
+        device: &wgpu::Device,
+        prefix: &str,
+        (w, h): (u32, u32),
+        samples: u32,
+        hdr_usage: wgpu::TextureUsages,
+        depth: Option<(wgpu::TextureFormat, wgpu::TextureUsages)>,
+    ) -> Self {
         use wgpu::TextureUsages as U;
         // A multisampled texture cannot be copied: read_depth uses a kernel for it.
         let copy = if samples == 1 { U::COPY_SRC } else { U::empty() };
+        let (depth_format, depth_usage) = depth.unwrap_or((DEPTH_FORMAT, U::RENDER_ATTACHMENT));
         let depth = texture_2d_msaa(
             device,
             &format!("{prefix}.depth"),
             (w, h),
-            DEPTH_FORMAT,
+            depth_format,
             samples,
-            U::RENDER_ATTACHMENT | U::TEXTURE_BINDING | copy,
+            depth_usage | U::TEXTURE_BINDING | copy,
         );
         let hdr = texture_2d(
             device,

@@ -52,6 +52,8 @@ pub fn key_spaces() -> Vec<(&'static str, Vec<Vec<&'static str>>)> {
     add(boxed(AssignKey::all()));
     add(boxed(TonemapKey::all()));
     add(boxed(VisibilityRasterKey::all()));
+    add(boxed(AtomicIdsKey::all()));
+    add(boxed(vec![ComputeRasterKey::Clusters, ComputeRasterKey::Large]));
     add(boxed(VisibilityKey::all()));
     out
 }
@@ -791,6 +793,60 @@ impl ShaderKey for VisibilityRasterKey {
     }
     fn is_valid(&self) -> bool {
         self.0.is_valid()
+    }
+}
+
+/// The alpha-masked draws of the visibility buffer's compute raster
+/// (`depth_prepass.wgsl` with `IDS ATOMIC`): a masked [`DepthPrepassKey`] whose fragments
+/// resolve their ID into the raster's 64-bit texels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct AtomicIdsKey(pub DepthPrepassKey);
+
+impl AtomicIdsKey {
+    /// Every value.
+    pub fn all() -> Vec<Self> {
+        DepthPrepassKey::all().into_iter().map(Self).filter(|k| k.is_valid()).collect()
+    }
+}
+
+impl ShaderKey for AtomicIdsKey {
+    fn entry(&self) -> &'static str {
+        self.0.entry()
+    }
+    fn defines(&self) -> Vec<&'static str> {
+        let mut d = self.0.defines();
+        d.extend(["IDS", "ATOMIC"]);
+        d
+    }
+    fn is_valid(&self) -> bool {
+        self.0 != DepthPrepassKey::Opaque
+    }
+}
+
+/// The visibility buffer's compute raster: its compute kernels
+/// (`visibility_raster.wgsl`) or its hardware half for large triangles
+/// (`visibility_raster_large.wgsl`); both read the scene's buffers at the visibility
+/// group's numbers (`VISIBILITY`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ComputeRasterKey {
+    /// `visibility_raster.wgsl`.
+    Clusters,
+    /// `visibility_raster_large.wgsl`.
+    Large,
+}
+
+impl ShaderKey for ComputeRasterKey {
+    fn entry(&self) -> &'static str {
+        match self {
+            Self::Clusters => "visibility_raster.wgsl",
+            Self::Large => "visibility_raster_large.wgsl",
+        }
+    }
+    fn defines(&self) -> Vec<&'static str> {
+        vec!["VISIBILITY"]
+    }
+    fn is_valid(&self) -> bool {
+        true
     }
 }
 

@@ -57,7 +57,9 @@ pub const MAX_POINTS: usize = 10_000;
 pub const AXES: &[(&str, &str)] = &[
     ("lights", "random point lights (integer; ranges allowed)"),
     ("spot-lights", "random spot lights (integer; ranges allowed)"),
-    ("method", "forward-plus | deferred | brute-force | brute-force-no-cutoff"),
+    ("method", "forward-plus | deferred | visibility | brute-force | brute-force-no-cutoff"),
+    ("raster", "visibility buffer raster: auto | hardware | compute"),
+    ("raster-large-px", "compute raster: triangles spanning more pixels go to the hardware (integer; ranges allowed)"),
     ("grid-objects", "grid objects of the default scene, 0..280 (integer; ranges allowed)"),
     ("density", "grid object tessellation: low | medium | high"),
     ("gbuffer-rts", "Tiled Deferred G-buffer targets, 2..5"),
@@ -117,6 +119,7 @@ pub fn is_integer_axis(name: &str) -> bool {
             | "spot-lights"
             | "grid-objects"
             | "gbuffer-rts"
+            | "raster-large-px"
             | "tile-size"
             | "seed"
             | "msaa"

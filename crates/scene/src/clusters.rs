@@ -63,11 +63,26 @@ pub fn cluster_mesh(mesh: &Mesh, max_triangles: u32) -> Clustered {
         tris.iter().enumerate().map(|(k, t)| (morton((pos(t[0]) + pos(t[1]) + pos(t[2])) / 3.0, &bounds), k)).collect();
     // Stable by triangle index within one code: deterministic.
     order.sort_unstable();
+    runs(mesh, &tris, order.into_iter().map(|(_, k)| k), max)
+}
+
+/// Splits `mesh` into clusters of at most `max_triangles` (at least 1) consecutive
+/// triangles of its own order (its index buffer unchanged): for meshes whose triangle
+/// order matters (blended geometry composites in it).
+pub fn cluster_mesh_in_order(mesh: &Mesh, max_triangles: u32) -> Clustered {
+    let tris: Vec<[u32; 3]> = mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+    runs(mesh, &tris, 0..tris.len(), max_triangles.max(1) as usize)
+}
+
+/// The triangles `tris` of `mesh` in `order`, cut into runs of `max`.
+fn runs(mesh: &Mesh, tris: &[[u32; 3]], order: impl Iterator<Item = usize>, max: usize) -> Clustered {
+    let pos = |i: u32| Vec3::from(mesh.positions[i as usize]);
+    let order: Vec<usize> = order.collect();
     let mut indices = Vec::with_capacity(mesh.indices.len());
     let mut clusters = Vec::with_capacity(order.len().div_ceil(max));
     for (c, run) in order.chunks(max).enumerate() {
         let mut b = Aabb::empty();
-        for &(_, k) in run {
+        for &k in run {
             indices.extend_from_slice(&tris[k]);
             for &i in &tris[k] {
                 b.min = b.min.min(pos(i));
@@ -135,6 +150,21 @@ mod tests {
             }
         }
         assert_eq!(next as usize, n);
+    }
+
+    /// In order: the index buffer unchanged, runs of the maximum, bounds holding them.
+    #[test]
+    fn clusters_in_order_keep_the_index_buffer() {
+        let m = grid(9);
+        let c = cluster_mesh_in_order(&m, 50);
+        assert_eq!(c.indices, m.indices);
+        assert_eq!(c.clusters.iter().map(|c| c.triangles).collect::<Vec<_>>(), vec![50, 50, 50, 12]);
+        for cl in &c.clusters {
+            for t in cl.first_triangle..cl.first_triangle + cl.triangles {
+                let p = Vec3::from(m.positions[m.indices[(t * 3) as usize] as usize]);
+                assert!(p.cmpge(cl.bounds.min).all() && p.cmple(cl.bounds.max).all());
+            }
+        }
     }
 
     /// Spatially compact: on a 64 x 64 grid (8,192 triangles, 64 clusters of 128, each

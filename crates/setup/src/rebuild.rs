@@ -99,6 +99,8 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || a.spot_cone != b.spot_cone
         || a.flat_cull != b.flat_cull
         || a.gbuffer_rts != b.gbuffer_rts
+        || a.raster != b.raster
+        || a.raster_large_px != b.raster_large_px
         || a.msaa != b.msaa
         || a.edge_distance != b.edge_distance
         || a.edge_normal_deg != b.edge_normal_deg

@@ -25,7 +25,8 @@ use tiledlight_frame::FrameSettings;
 use tiledlight_gpu::culling::CLUSTER_TILE_SIZES;
 use tiledlight_gpu::culling::{ClusterOptions, CullOptions, CULL_WORKGROUP_BYTES};
 use tiledlight_gpu::features::BlendMode;
-pub use tiledlight_gpu::features::Method;
+pub use tiledlight_gpu::features::{Method, Raster};
+pub use tiledlight_visibility::compute_raster::ComputeRasterOptions;
 use tiledlight_scene::{
     surface_irradiance_factor, CameraDesc, GridDensity, SurfaceLightOptions, DEFAULT_LIGHT_THRESHOLD,
     DEFAULT_SURFACE_OFFSET, MAX_GRID_OBJECTS, MAX_LIGHTS,
@@ -193,6 +194,11 @@ pub struct Settings {
     pub flat_cull: bool,
     /// Tiled Deferred's G-buffer render targets, 2 to 5.
     pub gbuffer_rts: u32,
+    /// The visibility buffer's raster: auto (per adapter), hardware or compute.
+    pub raster: Raster,
+    /// The compute raster hands a triangle whose bounds span more pixels than this (either
+    /// way) to the hardware.
+    pub raster_large_px: u32,
     /// MSAA samples per pixel: 1 (off), 2, 4 or 8.
     pub msaa: u32,
     /// Tiled Deferred's MSAA edge test: off-plane distance / view distance.
@@ -260,6 +266,8 @@ impl Default for Settings {
             spot_cone: false,
             flat_cull: false,
             gbuffer_rts: 2,
+            raster: Raster::Auto,
+            raster_large_px: ComputeRasterOptions::default().large_px,
             msaa: 1,
             edge_distance: EdgeTest::default().distance,
             edge_normal_deg: EdgeTest::default().normal_deg,
@@ -293,6 +301,19 @@ impl Settings {
         let side = 1..=MAX_SCREEN_SIDE;
         ensure!(side.contains(&self.width), "--width {}: must be between 1 and {MAX_SCREEN_SIDE} pixels", self.width);
         ensure!((2..=5).contains(&self.gbuffer_rts), "--gbuffer-rts {}: must be between 2 and 5", self.gbuffer_rts);
+        ensure!(self.raster_large_px >= 1, "--raster-large-px 0: a triangle spans at least one pixel");
+        if self.raster == Raster::Compute {
+            ensure!(
+                self.method == Method::Visibility,
+                "--raster compute: the compute raster draws the visibility buffer only (--method visibility), not {}",
+                self.method.name()
+            );
+            ensure!(
+                self.msaa == 1,
+                "--raster compute draws one sample a pixel: --msaa {} needs --raster hardware",
+                self.msaa
+            );
+        }
         ensure!(self.grid_pairs != Some(0), "--grid-budget 0: the light grid must hold at least one index");
         ensure!(
             side.contains(&self.height),
@@ -474,6 +495,8 @@ impl Settings {
             method: self.method,
             cull: self.cull_options(),
             gbuffer_rts: self.gbuffer_rts,
+            raster: self.raster,
+            compute_raster: ComputeRasterOptions { large_px: self.raster_large_px },
             exposure: self.exposure,
             auto_exposure: self.auto_exposure,
             heatmap,

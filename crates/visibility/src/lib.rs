@@ -5,8 +5,10 @@
 //! perspective-correct barycentrics with analytic derivatives, the full glTF material with
 //! textures sampled by explicit gradients) and lights it with the same light grid, BRDF,
 //! shadows and VPLs as the other methods. No G-buffer and no forward shading pipeline
-//! exist for it. Depends on tiledlight-gpu (passes, buffers, the culling) and
+//! exist for it. The raster has two paths: the hardware's and a compute raster
+//! ([`compute_raster`], issue 29). Depends on tiledlight-gpu (passes, buffers, the culling) and
 //! tiledlight-deferred (the MSAA edge machinery it shares with Tiled Deferred).
 
+pub mod compute_raster;
 pub mod raster;
 pub mod shading;

@@ -246,8 +246,10 @@ impl DropLight {
 pub const CULL_WORKGROUP_BYTES: u32 = 40;
 
 /// The depth texture a culling kernel reads at group 1 binding 0
-/// (`shaders/common/depth_range.wgsl`): multisampled with `MSAA`.
-pub const DEPTH_BINDING: Binding = Binding::texture(0, wgpu::ShaderStages::COMPUTE, wgpu::TextureSampleType::Depth)
+/// (`shaders/common/depth_range.wgsl`): multisampled with `MSAA`; unfilterable float, so
+/// a `Depth32Float` view and the compute raster's `R32Float` depth both bind.
+pub const DEPTH_BINDING: Binding =
+    Binding::texture(0, wgpu::ShaderStages::COMPUTE, wgpu::TextureSampleType::Float { filterable: false })
     .multisampled_when(Cond::Defined("MSAA"));
 
 #[cfg(test)]

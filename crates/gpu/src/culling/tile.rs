@@ -185,7 +185,7 @@ pub const CULL_BINDINGS: PassBindings = PassBindings {
                 Binding::storage(6, wgpu::ShaderStages::COMPUTE).when(Cond::Defined("SPOT_CONE")),
                 Binding::storage(7, wgpu::ShaderStages::COMPUTE).when(Cond::Defined("SPOT_CONE")),
                 Binding::storage(8, wgpu::ShaderStages::COMPUTE).when(Cond::Defined("COARSE")),
-                Binding::texture(10, wgpu::ShaderStages::COMPUTE, wgpu::TextureSampleType::Depth)
+                Binding::texture(10, wgpu::ShaderStages::COMPUTE, wgpu::TextureSampleType::Float { filterable: false })
                     .multisampled_when(Cond::Defined("MSAA"))
                     .when(Cond::Defined("BLENDED")),
             ],
