@@ -75,3 +75,16 @@ pub fn err_text<T>(r: Result<T, impl std::fmt::Display>) -> String {
         Err(e) => e.to_string(),
     }
 }
+
+/// The visibility buffer's rasters a test draws at `msaa` samples, named explicitly (the
+/// default, `Raster::Auto`, picks one per adapter: a test of both must not depend on it):
+/// the hardware's at every count, the compute raster at one sample (it draws one; the
+/// adapter must have its 64-bit atomics, or the test fails naming them).
+pub fn visibility_rasters(msaa: u32) -> Vec<tiledlight_gpu::features::Raster> {
+    use tiledlight_gpu::features::Raster;
+    if msaa == 1 {
+        vec![Raster::Hardware, Raster::Compute]
+    } else {
+        vec![Raster::Hardware]
+    }
+}

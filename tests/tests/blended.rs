@@ -35,7 +35,7 @@ use tiledlight_tests::compare::{
     DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE, RASTER_POSITION_ERROR_PX,
 };
 use tiledlight_tests::lists::{assert_blended_lists_match, compare_blended_lists_independent, CulledFrame};
-use tiledlight_tests::{gpu, scenes};
+use tiledlight_tests::{gpu, scenes, visibility_rasters};
 
 const W: u32 = 320;
 const H: u32 = 180;
@@ -719,32 +719,34 @@ fn blended_geometry_with_shadows_and_vpls_at_every_sample_count() {
         let what = format!("blended-shadows-vpls-deferred-msaa{msaa}");
         assert_matches_reference_frame(&what, W, &reference, &d, DEFERRED_VS_REFERENCE);
         // The visibility buffer: blended geometry through the same forward path after its
-        // compute shading, shadows and VPLs from the same atlas and grid.
-        let s = FrameSettings { method: Method::Visibility, msaa, shadows, vpl, ..Default::default() };
-        let mut vr = FrameRenderer::new(ctx, &sg, &casting, W, H, s).expect("visibility renderer");
-        assert!(vr.vpls().is_some() && vr.plan().has(Step::BlendedShade));
-        let v = render_frame(ctx, &mut vr, &sg, &cam);
-        let edges = if msaa > 1 {
-            vr.passes::<tiledlight_frame::VisibilityFrame>()
-                .expect("visibility buffer")
-                .shading()
-                .read_edge_list(&ctx.device, &ctx.queue)
-                .unwrap()
-        } else {
-            Vec::new()
-        };
-        let s = FrameSettings { method: bf, msaa, shadows, vpl, ..Default::default() };
-        let mut b = FrameRenderer::new(ctx, &sg, &casting, W, H, s).expect("brute force");
-        let reference = render_frame(ctx, &mut b, &sg, &cam).allow_position_error(
-            &depth,
-            W,
-            (&cam, &casting.packed),
-            RASTER_POSITION_ERROR_PX,
-        );
-        let depths = (&reference_depth[..], &vr.read_depth(ctx).unwrap()[..]);
-        let (reference, forgiven) = reference.forgive_hdr(&msaa_by_design(W, depths, msaa, &edges));
-        assert!(forgiven * 10 < (W * H) as usize, "{msaa}x: {forgiven} pixels forgiven");
-        let what = format!("blended-shadows-vpls-visibility-msaa{msaa}");
-        assert_visibility_matches(&what, W, (&reference, &v), msaa > 1);
+        // compute shading, shadows and VPLs from the same atlas and grid; each raster.
+        for raster in visibility_rasters(msaa) {
+            let s = FrameSettings { method: Method::Visibility, msaa, shadows, vpl, raster, ..Default::default() };
+            let mut vr = FrameRenderer::new(ctx, &sg, &casting, W, H, s).expect("visibility renderer");
+            assert!(vr.vpls().is_some() && vr.plan().has(Step::BlendedShade));
+            let v = render_frame(ctx, &mut vr, &sg, &cam);
+            let edges = if msaa > 1 {
+                vr.passes::<tiledlight_frame::VisibilityFrame>()
+                    .expect("visibility buffer")
+                    .shading()
+                    .read_edge_list(&ctx.device, &ctx.queue)
+                    .unwrap()
+            } else {
+                Vec::new()
+            };
+            let s = FrameSettings { method: bf, msaa, shadows, vpl, ..Default::default() };
+            let mut b = FrameRenderer::new(ctx, &sg, &casting, W, H, s).expect("brute force");
+            let reference = render_frame(ctx, &mut b, &sg, &cam).allow_position_error(
+                &depth,
+                W,
+                (&cam, &casting.packed),
+                RASTER_POSITION_ERROR_PX,
+            );
+            let depths = (&reference_depth[..], &vr.read_depth(ctx).unwrap()[..]);
+            let (reference, forgiven) = reference.forgive_hdr(&msaa_by_design(W, depths, msaa, &edges));
+            assert!(forgiven * 10 < (W * H) as usize, "{msaa}x: {forgiven} pixels forgiven");
+            let what = format!("blended-shadows-vpls-visibility-{}-msaa{msaa}", raster.name());
+            assert_visibility_matches(&what, W, (&reference, &v), msaa > 1);
+        }
     }
 }

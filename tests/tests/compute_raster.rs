@@ -16,10 +16,18 @@
 //! `SHADER_INT64_ATOMIC_MIN_MAX` (Vulkan `shaderInt64`, `shaderBufferInt64Atomics`): lavapipe
 //! and the H200 have both, and the test fails, naming them, on an adapter without them.
 
-use glam::{Mat4, Vec3, Vec4};
+use glam::{DVec3, Mat4, Vec3, Vec4};
 use tiledlight_cull::raster::{pack, rasterize, unpack, Cull, Raster, CLEAR};
+use tiledlight_cull::visibility::{IdLayout, NO_TRIANGLE};
+use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method, VisibilityFrame};
+use tiledlight_gpu::features::Raster as RasterPath;
+use tiledlight_gpu::light_buffers::LightBuffers;
+use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_scene::AlphaMode;
+use tiledlight_tests::compare::render_frame;
 use tiledlight_tests::gpu;
 use tiledlight_tests::kernels::{run_cases, Rng};
+use tiledlight_visibility::compute_raster::ComputeRasterOptions;
 
 const W: u32 = 97;
 const H: u32 = 61;
@@ -191,4 +199,228 @@ fn compare(gpu: &[u64], cpu: &[u64], at: &[Vec<(f32, u32)>]) -> Result<(usize, u
         }
     }
     Ok((covered, depth_off, ties))
+}
+
+// ---- The whole raster pass on a scene ----
+
+/// Per triangle of the GPU scene (instance slot, triangle within its mesh in cluster order),
+/// its clip-space vertices as the vertex stage computes them (`world_to_clip * (model * p)`),
+/// whether its back faces are culled, and the ID it is drawn with.
+struct SceneTriangles {
+    tris: Vec<([Vec4; 3], Cull, u32)>,
+}
+
+impl SceneTriangles {
+    fn new(scene: &tiledlight_scene::Scene, sg: &SceneGpu, camera: &tiledlight_cull::Camera) -> Self {
+        let clustered = tiledlight_scene::clusters::cluster_scene(scene);
+        let layout = IdLayout::for_scene(sg.instance_order.len() as u32, sg.max_triangles).unwrap();
+        let vp = camera.view_proj();
+        let mut tris = Vec::new();
+        for (slot, &i) in sg.instance_order.iter().enumerate() {
+            let inst = &scene.instances[i];
+            let material = &scene.materials[inst.material];
+            if !matches!(material.alpha_mode, AlphaMode::Opaque) {
+                continue;
+            }
+            let mesh = &scene.meshes[inst.mesh];
+            let cull = if material.double_sided { Cull::None } else { Cull::Back };
+            for (t, idx) in clustered[inst.mesh].indices.chunks_exact(3).enumerate() {
+                let clip =
+                    [0, 1, 2].map(|k| vp * (inst.transform * Vec3::from(mesh.positions[idx[k] as usize]).extend(1.0)));
+                tris.push((clip, cull, layout.pack(slot as u32, t as u32)));
+            }
+        }
+        Self { tris }
+    }
+
+    /// The twin's texels of every triangle, and per pixel every fragment (depth, ID).
+    fn twin(&self, (w, h): (u32, u32)) -> (Vec<u64>, Vec<Vec<(f32, u32)>>) {
+        let mut r = Raster::new(w, h);
+        let mut at = vec![Vec::new(); (w * h) as usize];
+        for &(clip, cull, id) in &self.tris {
+            r.draw(clip, id, cull);
+            rasterize(clip, (w, h), cull, |f| at[(f.y * w + f.x) as usize].push((f.depth, id)));
+        }
+        (r.texels, at)
+    }
+
+    /// Whether the centre of pixel `(x, y)` lies within `eps` pixels of an edge of
+    /// triangle `id`, or the pixel is near a place where it crosses the eye plane (its
+    /// coverage there is decided by arithmetic, not geometry): the edge functions in f64,
+    /// in homogeneous 2D (Olano and Greer), at the centre shifted by `eps` each way.
+    fn near_edge(&self, id: u32, (x, y): (u32, u32), (w, h): (u32, u32), eps: f64) -> bool {
+        let Some(&(clip, _, _)) = self.tris.iter().find(|t| t.2 == id) else { return false };
+        let v = clip.map(|c| DVec3::new(c.x as f64, c.y as f64, c.w as f64));
+        let det = v[0].dot(v[1].cross(v[2]));
+        let inside = |px: f64, py: f64| {
+            let p = DVec3::new(px / w as f64 * 2.0 - 1.0, 1.0 - py / h as f64 * 2.0, 1.0);
+            let e = [v[1].cross(v[2]).dot(p), v[2].cross(v[0]).dot(p), v[0].cross(v[1]).dot(p)];
+            e.iter().all(|&e| e * det.signum() > 0.0)
+        };
+        let (cx, cy) = (x as f64 + 0.5, y as f64 + 0.5);
+        let c = inside(cx, cy);
+        [(eps, 0.0), (-eps, 0.0), (0.0, eps), (0.0, -eps)].iter().any(|&(dx, dy)| inside(cx + dx, cy + dy) != c)
+    }
+}
+
+impl SceneTriangles {
+    /// How far triangle `id`'s interpolated depth may move when its vertices move by `eps`
+    /// pixels (the snap step a rounding difference in the vertex transform can cost): its
+    /// screen-space depth gradient's length times `3 eps` (each vertex's move shifts the
+    /// interpolated plane by at most its barycentric share, at most one, of `eps` along the
+    /// gradient), in f64 from the projected vertices. A triangle crossing the eye plane has
+    /// no such plane on screen: 1e-4 of its depth.
+    fn depth_slack(&self, id: u32, depth: f32, (w, h): (u32, u32), eps: f64) -> f64 {
+        let Some(&(clip, _, _)) = self.tris.iter().find(|t| t.2 == id) else { return 0.0 };
+        if clip.iter().any(|c| c.w <= 0.0) {
+            return 1e-4 * depth as f64;
+        }
+        let p = clip.map(|c| {
+            let (x, y, z, cw) = (c.x as f64, c.y as f64, c.z as f64, c.w as f64);
+            DVec3::new((x / cw + 1.0) * 0.5 * w as f64, (1.0 - y / cw) * 0.5 * h as f64, z / cw)
+        });
+        let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+        let n = e1.cross(e2);
+        if n.z.abs() < 1e-12 {
+            return 1e-4 * depth as f64;
+        }
+        // The plane z = z0 + gx (x - x0) + gy (y - y0): (gx, gy) = -(n.x, n.y) / n.z.
+        let g = (n.x * n.x + n.y * n.y).sqrt() / n.z.abs();
+        3.0 * eps * g
+    }
+}
+
+/// How two rasters' (depth, ID) differ pixel by pixel.
+#[derive(Debug, Default)]
+struct Differences {
+    /// Pixels with something drawn (in the first).
+    covered: usize,
+    /// Same triangle, depth within MAX_ULPS or within what a snap step moves it
+    /// ([`SceneTriangles::depth_slack`]).
+    depth_off: usize,
+    /// Different triangles, both there within MAX_ULPS (or the two slacks) of each other.
+    ties: usize,
+    /// Different coverage where the pixel centre lies within the snap quantum of an edge of
+    /// one of the two triangles.
+    edges: usize,
+}
+
+/// Compares rasters `a` and `b` (depth, ID per pixel) with the scene's triangles and the
+/// twin's fragments `at`; `eps` (pixels): how near an edge a coverage difference may be.
+fn compare_scene(
+    a: (&[f32], &[u32]),
+    b: (&[f32], &[u32]),
+    (tris, at): (&SceneTriangles, &[Vec<(f32, u32)>]),
+    size: (u32, u32),
+    eps: f64,
+) -> Result<Differences, String> {
+    let mut d = Differences::default();
+    for p in 0..a.0.len() {
+        let (x, y) = (p as u32 % size.0, p as u32 / size.0);
+        let ((ad, ai), (bd, bi)) = ((a.0[p], a.1[p]), (b.0[p], b.1[p]));
+        if ai != NO_TRIANGLE {
+            d.covered += 1;
+        }
+        if ai == bi {
+            let slack = if ai == NO_TRIANGLE { 0.0 } else { tris.depth_slack(ai, ad, size, eps) };
+            if ulps(ad, bd) > MAX_ULPS && ((ad - bd).abs() as f64) > slack {
+                return Err(format!(
+                    "pixel ({x}, {y}): triangle {ai:#x} at depth {ad} vs {bd} ({} ulps)",
+                    ulps(ad, bd)
+                ));
+            }
+            d.depth_off += usize::from(ad != bd);
+            continue;
+        }
+        let frag = |id: u32| at[p].iter().find(|f| f.1 == id).map(|f| f.0);
+        let close = |x: f32, y: f32, slack: f64| ulps(x, y) <= MAX_ULPS || ((x - y).abs() as f64) <= slack;
+        let tie = match (frag(ai), frag(bi)) {
+            (Some(da), Some(db)) => {
+                let slack = tris.depth_slack(ai, ad, size, eps) + tris.depth_slack(bi, bd, size, eps);
+                close(da, db, slack) && close(ad, bd, slack)
+            }
+            _ => false,
+        };
+        if tie {
+            d.ties += 1;
+        } else if [ai, bi].iter().any(|&id| id != NO_TRIANGLE && tris.near_edge(id, (x, y), size, eps)) {
+            d.edges += 1;
+        } else {
+            return Err(format!(
+                "pixel ({x}, {y}): triangle {ai:#x} at {ad} vs {bi:#x} at {bd}: not a tie, not at an edge"
+            ));
+        }
+    }
+    Ok(d)
+}
+
+const SW: u32 = 320;
+const SH: u32 = 180;
+
+/// The courtyard drawn by the visibility buffer with `raster` (and the compute raster's
+/// `large_px`): its (depth, ID) per pixel.
+fn scene_raster(
+    ctx: &tiledlight_gpu::GpuContext,
+    (sg, lights, camera): (&SceneGpu, &LightBuffers, &tiledlight_cull::Camera),
+    raster: RasterPath,
+    large_px: u32,
+) -> (Vec<f32>, Vec<u32>) {
+    let s = FrameSettings {
+        method: Method::Visibility,
+        raster,
+        compute_raster: ComputeRasterOptions { large_px },
+        ..Default::default()
+    };
+    let mut r = FrameRenderer::new(ctx, sg, lights, SW, SH, s).unwrap_or_else(|e| panic!("{raster:?}: {e}"));
+    assert_eq!(r.settings().raster, raster);
+    render_frame(ctx, &mut r, sg, camera);
+    let ids = r.passes::<VisibilityFrame>().unwrap().raster().read_ids(&ctx.device, &ctx.queue).unwrap();
+    (r.read_depth(ctx).unwrap(), ids)
+}
+
+/// The compute raster on a whole scene (the courtyard, 320x180), pixel by pixel:
+/// - every triangle by compute (`large_px` past the screen) against the CPU twin drawing the
+///   same triangles: equal but for depths within MAX_ULPS, ties, and coverage at pixels
+///   whose centre lies within 1/128 px of an edge (the GPU's vertex transform may contract
+///   a multiply-add the CPU rounds twice, moving a vertex by a snap step);
+/// - the default split (large triangles by the hardware) against every triangle by compute,
+///   and against the hardware raster: the same, the hardware snapping its vertices from
+///   its own viewport arithmetic.
+///
+/// Each count is printed; edge pixels must stay under 0.5% of the covered ones.
+#[test]
+fn compute_raster_matches_twin_and_hardware_on_a_scene() {
+    let ctx = gpu();
+    let scene = tiledlight_tests::scenes::courtyard();
+    let camera = tiledlight_tests::scenes::courtyard_camera(&scene, SW, SH);
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, &tiledlight_tests::scenes::lights(&scene, 16, 0, 1)).unwrap();
+    let tris = SceneTriangles::new(&scene, &sg, &camera);
+    let (twin, at) = tris.twin((SW, SH));
+    let twin_depth: Vec<f32> = twin.iter().map(|&t| unpack(t).0).collect();
+    let twin_ids: Vec<u32> = twin.iter().map(|&t| unpack(t).1).collect();
+    let inputs = (&sg, &lights, &camera);
+    let all_compute = scene_raster(ctx, inputs, RasterPath::Compute, u32::MAX);
+    let split = scene_raster(ctx, inputs, RasterPath::Compute, ComputeRasterOptions::default().large_px);
+    let hardware = scene_raster(ctx, inputs, RasterPath::Hardware, 0);
+    let eps = 2.0 / 256.0;
+    let pairs = [
+        ("all-compute vs twin", (&all_compute.0[..], &all_compute.1[..]), (&twin_depth[..], &twin_ids[..])),
+        ("split vs all-compute", (&split.0[..], &split.1[..]), (&all_compute.0[..], &all_compute.1[..])),
+        ("hardware vs split", (&hardware.0[..], &hardware.1[..]), (&split.0[..], &split.1[..])),
+    ];
+    for (what, a, b) in pairs {
+        let d = compare_scene(a, b, (&tris, &at), (SW, SH), eps).unwrap_or_else(|e| panic!("{what}: {e}"));
+        eprintln!("{what}: {d:?}");
+        assert!(d.covered > (SW * SH / 2) as usize, "{what}: too little drawn to test");
+        assert!(d.edges * 200 < d.covered, "{what}: {} edge pixels differ, more than 0.5%", d.edges);
+    }
+    // The comparison's teeth: one pixel given another triangle far from its edges fails.
+    let mut wrong = all_compute.1.clone();
+    let p = (SH / 2 * SW + SW / 2) as usize;
+    wrong[p] = tris.tris.iter().map(|t| t.2).find(|&id| id != wrong[p] && at[p].iter().all(|f| f.1 != id)).unwrap();
+    assert!(
+        compare_scene((&all_compute.0, &wrong), (&twin_depth, &twin_ids), (&tris, &at), (SW, SH), eps).is_err(),
+        "a wrong triangle in the middle of the screen must be caught"
+    );
 }

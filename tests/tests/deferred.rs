@@ -14,7 +14,7 @@ use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;
 use tiledlight_tests::compare::{
-    assert_matches_reference_frame, assert_visibility_matches, render_frame, DEFERRED_VS_REFERENCE,
+    assert_matches_reference_frame, assert_visibility_matches, render_frame, visibility_frames, DEFERRED_VS_REFERENCE,
     RASTER_POSITION_ERROR_PX, VISIBILITY_VS_REFERENCE,
 };
 use tiledlight_tests::images::{assert_flip, documented_heat_colour, linear_to_srgb, srgb_to_linear};
@@ -82,22 +82,18 @@ fn compare_with_forward(
         DEFERRED_VS_REFERENCE,
     );
     assert_flip(&format!("{name}-deferred-vs-forward"), W, H, &forward.ldr, &deferred.ldr, DEFERRED_VS_REFERENCE.flip);
-    // The visibility buffer: the same lists as Forward+ (its culling pass), no G-buffer.
-    let mut vis = FrameRenderer::new(
-        ctx,
-        &sg,
-        &lights,
-        W,
-        H,
-        FrameSettings { method: Method::Visibility, cull, ..Default::default() },
-    )
-    .unwrap();
-    let vis = render_frame(ctx, &mut vis, &sg, &camera);
+    // The visibility buffer: the same lists as Forward+ (its culling pass), no G-buffer;
+    // drawn by each raster.
     let plain_reference =
         plain_reference.allow_position_error(&depth, W, (&camera, &lights.packed), RASTER_POSITION_ERROR_PX);
-    assert_visibility_matches(&format!("{name}-visibility-vs-reference"), W, (&plain_reference, &vis), false);
-    assert_flip(&format!("{name}-visibility-vs-forward"), W, H, &forward.ldr, &vis.ldr, VISIBILITY_VS_REFERENCE.flip);
-    assert_flip(&format!("{name}-visibility-vs-deferred"), W, H, &deferred.ldr, &vis.ldr, DEFERRED_VS_REFERENCE.flip);
+    let s = FrameSettings { method: Method::Visibility, cull, ..Default::default() };
+    for (raster, vis, ties) in visibility_frames(ctx, (&sg, &lights, &camera), (W, H), s) {
+        let name = format!("{name}-visibility-{}", raster.name());
+        let reference = plain_reference.clone().forgive_hdr(&ties).0;
+        assert_visibility_matches(&format!("{name}-vs-reference"), W, (&reference, &vis), false);
+        assert_flip(&format!("{name}-vs-forward"), W, H, &forward.ldr, &vis.ldr, VISIBILITY_VS_REFERENCE.flip);
+        assert_flip(&format!("{name}-vs-deferred"), W, H, &deferred.ldr, &vis.ldr, DEFERRED_VS_REFERENCE.flip);
+    }
 }
 
 #[test]

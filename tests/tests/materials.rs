@@ -34,8 +34,8 @@ use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::{MaterialFeatures, SceneGpu, TEXTURE_BINDINGS};
 use tiledlight_scene::{load_gltf, Scene, UvTransform, Wrap};
 use tiledlight_tests::compare::{
-    assert_matches_reference_frame, assert_visibility_matches, render_frame, Frame, DEFERRED_VS_REFERENCE,
-    FORWARD_VS_REFERENCE, RASTER_POSITION_ERROR_PX,
+    assert_matches_reference_frame, assert_visibility_matches, render_frame, visibility_frames, Frame,
+    DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE, RASTER_POSITION_ERROR_PX,
 };
 use tiledlight_tests::images::{linear_to_srgb, srgb_to_linear};
 use tiledlight_tests::{gpu, scenes};
@@ -318,11 +318,12 @@ fn render_and_check(
     let deferred = render_frame(ctx, &mut dr, &sg, &cam);
     let reference = brute.clone().allow_gbuffer_normals(&depth, W, &cam, &lb.packed);
     assert_matches_reference_frame(&format!("{name}-deferred"), W, &reference, &deferred, DEFERRED_VS_REFERENCE);
-    let vs = FrameSettings { method: Method::Visibility, ambient, ..Default::default() };
-    let mut vr = FrameRenderer::new(ctx, &sg, &lb, W, H, vs).unwrap();
-    let visibility = render_frame(ctx, &mut vr, &sg, &cam);
     let shifted = brute.clone().allow_position_error(&depth, W, (&cam, &lb.packed), RASTER_POSITION_ERROR_PX);
-    assert_visibility_matches(&format!("{name}-visibility"), W, (&shifted, &visibility), false);
+    let vs = FrameSettings { method: Method::Visibility, ambient, ..Default::default() };
+    for (raster, visibility, ties) in visibility_frames(ctx, (&sg, &lb, &cam), (W, H), vs) {
+        let reference = shifted.clone().forgive_hdr(&ties).0;
+        assert_visibility_matches(&format!("{name}-visibility-{}", raster.name()), W, (&reference, &visibility), false);
+    }
     (Frames { brute, forward, deferred }, checked)
 }
 

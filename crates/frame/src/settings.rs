@@ -11,8 +11,8 @@ use tiledlight_cull::vpl::VplConfig;
 use tiledlight_deferred::EdgeTest;
 use tiledlight_gpu::culling::{CullOptions, DropLight};
 use tiledlight_gpu::features::{BlendMode, Method, Raster};
-use tiledlight_visibility::compute_raster::ComputeRasterOptions;
 use tiledlight_gpu::heatmap::HeatmapOf;
+use tiledlight_visibility::compute_raster::ComputeRasterOptions;
 
 /// How a frame is drawn: built into a renderer once ([`crate::FrameRenderer::new`]).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -141,7 +141,8 @@ impl SharedSteps {
             lighting_u.shadow_depth_bias = a.options.format.depth_bias();
         }
         let lighting = LightBuffers::upload_lighting(device, &lighting_u);
-        let targets = DisplayTargets::with_depth(device, needs.prefix, size, features.msaa, needs.hdr_usage, needs.depth);
+        let targets =
+            DisplayTargets::with_depth(device, needs.prefix, size, features.msaa, needs.hdr_usage, needs.depth);
         let tonemap = TonemapPass::new(device, &targets.hdr_view, size, (settings.exposure, settings.auto_exposure))?;
         let mut memory = MemoryReport::default();
         memory.extend(&scene.memory);

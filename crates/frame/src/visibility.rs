@@ -19,6 +19,7 @@ use std::any::Any;
 use tiledlight_gpu::culling::LightCulling;
 use tiledlight_gpu::depth_prepass::{DEPTH_FORMAT, ID_FORMAT};
 use tiledlight_gpu::features::Features;
+use tiledlight_gpu::features::Raster;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::memory::MemoryReport;
@@ -26,7 +27,6 @@ use tiledlight_gpu::plan::Step;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::{GpuContext, GpuError};
-use tiledlight_gpu::features::Raster;
 use tiledlight_visibility::raster::{depth_target, VisibilityRaster};
 use tiledlight_visibility::shading::VisibilityShading;
 

@@ -12,7 +12,7 @@ use std::collections::HashMap;
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, Mat4};
-use tiledlight_scene::clusters::{cluster_mesh, cluster_mesh_in_order, Cluster, CLUSTER_TRIANGLES};
+use tiledlight_scene::clusters::{cluster_scene, Cluster};
 use tiledlight_scene::{AlphaMode, Filter, Material, Sampler, Scene, TextureRef, Wrap};
 
 use crate::bindings::{create_layout, Binding, Cond, PassGroup};
@@ -384,14 +384,16 @@ pub struct SceneGpu {
     pub triangles: u64,
     /// Triangles of the largest mesh an instance draws (the visibility buffer's ID split).
     pub max_triangles: u32,
-    /// Every mesh's clusters of at most [`CLUSTER_TRIANGLES`] triangles, in mesh order
+    /// Every mesh's clusters of at most `CLUSTER_TRIANGLES` (128) triangles, in mesh order
     /// ([`Draw::clusters`] ranges into it; `first_triangle` counts from the mesh's first
     /// index). The index buffer holds each opaque or masked mesh in its clusters' order
-    /// ([`tiledlight_scene::clusters`]), for every method alike, so a triangle's index
+    /// ([`tiledlight_scene::clusters::cluster_scene`]), for every method alike, so a triangle's index
     /// within its draw (the visibility buffer's ID) is the same in the hardware and the
     /// compute raster. Meshes drawn with a blended material keep their own order (blending
     /// within a mesh follows it). CPU only: the compute raster uploads what it culls.
     pub clusters: Vec<Cluster>,
+    /// The scene's instance index at each slot of the instance buffer (sorted by draw).
+    pub instance_order: Vec<usize>,
     /// The instance buffer (group 1, binding 0).
     pub instances: wgpu::Buffer,
     /// The material buffer (group 1, binding 1).
@@ -423,11 +425,7 @@ impl SceneGpu {
         let mut mesh_ranges = Vec::with_capacity(scene.meshes.len());
         let mut mesh_clusters = Vec::with_capacity(scene.meshes.len());
         let mut clusters = Vec::new();
-        let mut blended_mesh = vec![false; scene.meshes.len()];
-        for inst in &scene.instances {
-            blended_mesh[inst.mesh] |= matches!(scene.materials[inst.material].alpha_mode, AlphaMode::Blend);
-        }
-        for (mi, m) in scene.meshes.iter().enumerate() {
+        for (m, c) in scene.meshes.iter().zip(cluster_scene(scene)) {
             let base_vertex = pos.len() as i32;
             let first = idx.len() as u32;
             pos.extend_from_slice(&m.positions);
@@ -445,10 +443,6 @@ impl SceneGpu {
                     false => uv1.extend_from_slice(&m.uvs1),
                 }
             }
-            let c = match blended_mesh[mi] {
-                true => cluster_mesh_in_order(m, CLUSTER_TRIANGLES),
-                false => cluster_mesh(m, CLUSTER_TRIANGLES),
-            };
             let start = clusters.len() as u32;
             clusters.extend_from_slice(&c.clusters);
             mesh_clusters.push(start..clusters.len() as u32);
@@ -573,6 +567,7 @@ impl SceneGpu {
             triangles,
             max_triangles,
             clusters,
+            instance_order: order,
             instances: instance_buf,
             materials: material_buf,
             material_textures: gpu_materials.iter().map(|m| m.textures).collect(),

@@ -9,7 +9,7 @@
 
 use glam::Vec3;
 
-use crate::model::{Aabb, Mesh};
+use crate::model::{Aabb, AlphaMode, Mesh, Scene};
 
 /// The compute rasteriser's cluster size: at most this many triangles a cluster.
 pub const CLUSTER_TRIANGLES: u32 = 128;
@@ -51,6 +51,23 @@ fn morton(p: Vec3, b: &Aabb) -> u64 {
     let extent = (b.max - b.min).max(Vec3::splat(f32::MIN_POSITIVE));
     let q = ((p - b.min) / extent).clamp(Vec3::ZERO, Vec3::ONE) * ((1u32 << 21) - 1) as f32;
     spread(q.x as u64) | (spread(q.y as u64) << 1) | (spread(q.z as u64) << 2)
+}
+
+/// Every mesh of `scene` in clusters of [`CLUSTER_TRIANGLES`], as the GPU scene draws it:
+/// reordered along the Morton curve ([`cluster_mesh`]), except a mesh some instance draws
+/// with a blended material, which keeps its order ([`cluster_mesh_in_order`]: blending
+/// within a mesh follows it).
+pub fn cluster_scene(scene: &Scene) -> Vec<Clustered> {
+    let mut blended = vec![false; scene.meshes.len()];
+    for inst in &scene.instances {
+        blended[inst.mesh] |= matches!(scene.materials[inst.material].alpha_mode, AlphaMode::Blend);
+    }
+    scene
+        .meshes
+        .iter()
+        .zip(blended)
+        .map(|(m, b)| if b { cluster_mesh_in_order(m, CLUSTER_TRIANGLES) } else { cluster_mesh(m, CLUSTER_TRIANGLES) })
+        .collect()
 }
 
 /// Splits `mesh` into clusters of at most `max_triangles` (at least 1) triangles.

@@ -26,11 +26,11 @@ use tiledlight_gpu::culling::CLUSTER_TILE_SIZES;
 use tiledlight_gpu::culling::{ClusterOptions, CullOptions, CULL_WORKGROUP_BYTES};
 use tiledlight_gpu::features::BlendMode;
 pub use tiledlight_gpu::features::{Method, Raster};
-pub use tiledlight_visibility::compute_raster::ComputeRasterOptions;
 use tiledlight_scene::{
     surface_irradiance_factor, CameraDesc, GridDensity, SurfaceLightOptions, DEFAULT_LIGHT_THRESHOLD,
     DEFAULT_SURFACE_OFFSET, MAX_GRID_OBJECTS, MAX_LIGHTS,
 };
+pub use tiledlight_visibility::compute_raster::ComputeRasterOptions;
 
 /// Random point lights of the default scene when [`Settings::lights`] is not given.
 pub const DEFAULT_POINT_LIGHTS: u64 = 1024;

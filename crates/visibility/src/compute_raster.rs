@@ -289,7 +289,8 @@ impl ComputeRaster {
         });
         let large_module = keyed_module(device, &ComputeRasterKey::Large)?;
         let constants = [("TRIANGLE_BITS", f64::from(layout.triangle_bits))];
-        let options = wgpu::PipelineCompilationOptions { constants: &constants, zero_initialize_workgroup_memory: false };
+        let options =
+            wgpu::PipelineCompilationOptions { constants: &constants, zero_initialize_workgroup_memory: false };
         let large = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("visibility.compute_raster.large"),
             layout: Some(&pipeline_layout(
@@ -322,7 +323,8 @@ impl ComputeRaster {
         });
         let masked = if features.draw_kinds.iter().any(|k| k.masked && !k.blended) {
             let texels_layout = create_layout(device, "visibility.compute_raster.masked.layout", ATOMIC_TEXELS, &[]);
-            let pass = DepthPrepass::with_atomic_ids(device, views, scene, features, (layout.triangle_bits, &texels_layout))?;
+            let pass =
+                DepthPrepass::with_atomic_ids(device, views, scene, features, (layout.triangle_bits, &texels_layout))?;
             let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("visibility.compute_raster.masked.group"),
                 layout: &texels_layout,

@@ -250,7 +250,7 @@ pub const CULL_WORKGROUP_BYTES: u32 = 40;
 /// a `Depth32Float` view and the compute raster's `R32Float` depth both bind.
 pub const DEPTH_BINDING: Binding =
     Binding::texture(0, wgpu::ShaderStages::COMPUTE, wgpu::TextureSampleType::Float { filterable: false })
-    .multisampled_when(Cond::Defined("MSAA"));
+        .multisampled_when(Cond::Defined("MSAA"));
 
 #[cfg(test)]
 mod tests {
