@@ -424,3 +424,37 @@ fn compute_raster_matches_twin_and_hardware_on_a_scene() {
         "a wrong triangle in the middle of the screen must be caught"
     );
 }
+
+/// Every frame starts clean: the finalize kernel resets the texels and empties the large
+/// list for the next frame (no clear pass runs). A renderer that drew the courtyard from
+/// one camera and then from another gives, for the second, the depth and IDs of a fresh
+/// renderer drawing only the second, bit for bit (the same kernels on the same inputs).
+#[test]
+fn each_frame_forgets_the_last() {
+    let ctx = gpu();
+    let scene = tiledlight_tests::scenes::courtyard();
+    let first = tiledlight_tests::scenes::courtyard_camera(&scene, SW, SH);
+    let second = tiledlight_cull::Camera::from_view(
+        glam::Mat4::look_at_rh(Vec3::new(0.0, 3.0, 8.0), Vec3::new(0.0, 2.0, 0.0), Vec3::Y),
+        first.projection(),
+    )
+    .unwrap();
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, &tiledlight_tests::scenes::lights(&scene, 16, 0, 1)).unwrap();
+    let s = FrameSettings { method: Method::Visibility, raster: RasterPath::Compute, ..Default::default() };
+    let read = |r: &FrameRenderer| {
+        let ids = r.passes::<VisibilityFrame>().unwrap().raster().read_ids(&ctx.device, &ctx.queue).unwrap();
+        (r.read_depth(ctx).unwrap(), ids)
+    };
+    let mut twice = FrameRenderer::new(ctx, &sg, &lights, SW, SH, s).unwrap();
+    render_frame(ctx, &mut twice, &sg, &first);
+    let after_first = read(&twice);
+    render_frame(ctx, &mut twice, &sg, &second);
+    let mut fresh = FrameRenderer::new(ctx, &sg, &lights, SW, SH, s).unwrap();
+    render_frame(ctx, &mut fresh, &sg, &second);
+    let (a, b) = (read(&twice), read(&fresh));
+    assert_ne!(after_first.1, b.1, "the two cameras must see different triangles for this to test anything");
+    let differ = a.1.iter().zip(&b.1).filter(|(x, y)| x != y).count();
+    assert_eq!(differ, 0, "{differ} pixels keep IDs of the frame before");
+    assert!(a.0.iter().zip(&b.0).all(|(x, y)| x.to_bits() == y.to_bits()), "depths differ");
+}

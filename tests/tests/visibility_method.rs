@@ -11,17 +11,19 @@
 use tiledlight_cull::Camera;
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method, VisibilityFrame};
 use tiledlight_gpu::culling::{ClusterOptions, CullOptions};
+use tiledlight_gpu::features::Raster;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::plan::Step;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;
+use tiledlight_gpu::{ContextOptions, GpuError};
 use tiledlight_tests::compare::{
     assert_visibility_matches, compare_with_reference, render_frame, visibility_matches, Frame,
     RASTER_POSITION_ERROR_PX, VISIBILITY_VS_REFERENCE,
 };
 use tiledlight_tests::lists::{assert_lists_match, CulledFrame};
-use tiledlight_tests::{gpu, scenes};
+use tiledlight_tests::{gpu, scenes, visibility_rasters};
 
 const W: u32 = 320;
 const H: u32 = 180;
@@ -64,9 +66,12 @@ fn every_layout_matches_reference_and_cpu_lists() {
         ("clustered", CullOptions { clusters: Some(ClusterOptions::default()), ..Default::default() }),
     ];
     let reference = brute_force(ctx, &sg, &lights, &camera, CullOptions::default());
-    for (name, cull) in layouts {
-        let mut v =
-            renderer(ctx, &sg, &lights, FrameSettings { method: Method::Visibility, cull, ..Default::default() });
+    for ((name, cull), raster) in
+        layouts.into_iter().flat_map(|l| visibility_rasters(1).into_iter().map(move |r| (l, r)))
+    {
+        let name = format!("{name}-{}", raster.name());
+        let s = FrameSettings { method: Method::Visibility, cull, raster, ..Default::default() };
+        let mut v = renderer(ctx, &sg, &lights, s);
         let frame = render_frame(ctx, &mut v, &sg, &camera);
         let dispatches = v.passes::<VisibilityFrame>().expect("visibility").shading().dispatches();
         assert_eq!(dispatches, 2, "the textured screen's, and one for the four untextured materials");
@@ -93,8 +98,21 @@ fn one_wrong_triangle_id_is_caught() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 300, 100, 21)).unwrap();
     let reference = brute_force(ctx, &sg, &lights, &camera, CullOptions::default());
-    let s = FrameSettings { method: Method::Visibility, ..Default::default() };
-    let good = render_frame(ctx, &mut renderer(ctx, &sg, &lights, s), &sg, &camera);
+    for raster in visibility_rasters(1) {
+        one_wrong_id(ctx, (&sg, &lights, &camera), &reference, raster);
+    }
+}
+
+/// [`one_wrong_triangle_id_is_caught`] with `raster`.
+fn one_wrong_id(
+    ctx: &GpuContext,
+    (sg, lights, camera): (&SceneGpu, &LightBuffers, &Camera),
+    reference: &Frame,
+    raster: Raster,
+) {
+    let (sg, lights, camera, reference) = (sg, lights, camera, reference.clone());
+    let s = FrameSettings { method: Method::Visibility, raster, ..Default::default() };
+    let good = render_frame(ctx, &mut renderer(ctx, sg, lights, s), sg, camera);
     assert!(visibility_matches("visibility-good", W, &reference, &good), "the right IDs must pass");
     // A pixel of a box (the boxes stand at x -6..6, z -3..-1; the camera looks from the corner).
     let box_centre = camera.view_proj() * glam::Vec4::new(-1.2, 0.75, -1.0, 1.0);
@@ -103,7 +121,7 @@ fn one_wrong_triangle_id_is_caught() {
         ((1.0 - box_centre.y / box_centre.w) * 0.5 * H as f32) as u32,
     );
     let wrong = FrameSettings { test_wrong_id: Some((x, y)), ..s };
-    let bad = render_frame(ctx, &mut renderer(ctx, &sg, &lights, wrong), &sg, &camera);
+    let bad = render_frame(ctx, &mut renderer(ctx, sg, lights, wrong), sg, camera);
     let i = (y * W + x) as usize;
     eprintln!(
         "pixel ({x}, {y}): reference {:?}, right ID {:?}, wrong ID {:?}",
@@ -119,22 +137,17 @@ fn one_wrong_triangle_id_is_caught() {
     let c = compare_with_reference("visibility-wrong-id", W, &reference, &bad, VISIBILITY_VS_REFERENCE);
     assert_eq!(c.hdr_at, i, "the worst pixel is the wrong one");
     // The hook is refused where it cannot work.
-    let e = FrameRenderer::new(
-        ctx,
-        &sg,
-        &lights,
-        W,
-        H,
-        FrameSettings { test_wrong_id: Some((0, 0)), ..Default::default() },
-    );
+    let e =
+        FrameRenderer::new(ctx, sg, lights, W, H, FrameSettings { test_wrong_id: Some((0, 0)), ..Default::default() });
     assert!(e.err().expect("Forward+ refuses the hook").to_string().contains("visibility"));
-    let e = FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings { test_wrong_id: Some((W, 0)), ..s });
+    let e = FrameRenderer::new(ctx, sg, lights, W, H, FrameSettings { test_wrong_id: Some((W, 0)), ..s });
     assert!(e.err().expect("a pixel off screen is refused").to_string().contains("320x180"));
 }
 
 /// Only what the method needs: its plan has the ID raster and no pre-pass, G-buffer or
 /// forward shading; memory holds the ID target (4 bytes a sample) and no G-buffer or
-/// multisampled HDR target; the per-class uniforms exist only in a textured scene (two
+/// multisampled HDR target; the compute raster's texels and its R32Float depth target only
+/// with it; the per-class uniforms exist only in a textured scene (two
 /// dispatches in the mixed scene: its textured screen, then its untextured materials), and
 /// an untextured scene runs one dispatch.
 #[test]
@@ -146,8 +159,8 @@ fn models_only_what_it_needs() {
     for (scene, dispatches) in [(&textured, 2), (&plain, 1)] {
         let sg = SceneGpu::new(&ctx.device, &ctx.queue, scene).unwrap();
         let lights = LightBuffers::new(&ctx.device, &scenes::lights(scene, 50, 10, 3)).unwrap();
-        for msaa in [1, 4] {
-            let s = FrameSettings { method: Method::Visibility, msaa, ..Default::default() };
+        for (msaa, raster) in [(1, Raster::Hardware), (4, Raster::Hardware), (1, Raster::Compute)] {
+            let s = FrameSettings { method: Method::Visibility, msaa, raster, ..Default::default() };
             let r = renderer(ctx, &sg, &lights, s);
             let plan = r.plan();
             assert!(plan.has(Step::VisibilityRaster) && plan.has(Step::Cull) && plan.has(Step::VisibilityShade));
@@ -157,6 +170,14 @@ fn models_only_what_it_needs() {
             }
             let memory = r.outputs().memory;
             assert_eq!(memory.get("visibility.ids"), u64::from(W * H * msaa * 4));
+            // The compute raster's texels (8 bytes a pixel) only with it; its own R32Float
+            // depth only with blended geometry (none here: it writes the frame's).
+            let compute = raster == Raster::Compute;
+            assert_eq!(memory.get("visibility.compute_raster.texels"), if compute { u64::from(W * H * 8) } else { 0 });
+            assert_eq!(memory.get("visibility.compute_depth"), 0);
+            assert_eq!(r.passes::<VisibilityFrame>().expect("visibility").raster().compute().is_some(), compute);
+            let depth_format = r.outputs().targets.depth.format();
+            assert_eq!(depth_format == wgpu::TextureFormat::R32Float, compute, "{depth_format:?}");
             assert_eq!(memory.get("visibility.classes") > 0, dispatches > 1);
             for (category, _) in &memory.entries {
                 assert!(
@@ -193,7 +214,7 @@ fn ids_name_real_triangles_where_there_is_depth() {
             None => assert!(d <= 0.0, "pixel {i}: depth {d} without a triangle"),
             Some((instance, triangle)) => {
                 assert!(d > 0.0, "pixel {i}: triangle ({instance}, {triangle}) without depth");
-                let mesh = scene.instances[sg_instance_mesh(&sg, &scene, instance)].mesh;
+                let mesh = scene.instances[sg.instance_order[instance as usize]].mesh;
                 assert!((triangle as usize) < scene.meshes[mesh].indices.len() / 3, "pixel {i}: triangle {triangle}");
                 covered += 1;
             }
@@ -202,16 +223,39 @@ fn ids_name_real_triangles_where_there_is_depth() {
     assert!(covered > (W * H / 2) as usize, "{covered} pixels covered");
 }
 
-/// The scene instance drawn at instance-buffer slot `slot` (SceneGpu sorts instances by draw
-/// kind and material): the one whose bounds the slot has.
-fn sg_instance_mesh(sg: &SceneGpu, scene: &tiledlight_scene::Scene, slot: u32) -> usize {
-    let (lo, hi) = sg.instance_bounds[slot as usize];
-    scene
-        .instances
-        .iter()
-        .position(|inst| {
-            let b = scene.meshes[inst.mesh].bounds().transformed(&inst.transform);
-            b.min == lo && b.max == hi
-        })
-        .expect("an instance with the slot's bounds")
+/// The compute raster where it cannot run: MSAA is refused by name (it draws one sample),
+/// as is Forward+ with it; on a device without 64-bit buffer atomics (lavapipe and the H200
+/// have them: the device is made without) it is refused naming the feature, and the
+/// default (`Raster::Auto`) draws with the hardware raster there, as it does on a CPU
+/// adapter and with MSAA.
+#[test]
+fn the_compute_raster_refuses_what_it_cannot_draw() {
+    let ctx = gpu();
+    let scene = scenes::mixed_scene();
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 20, 0, 3)).unwrap();
+    let compute = FrameSettings { method: Method::Visibility, raster: Raster::Compute, ..Default::default() };
+    let e = FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings { msaa: 4, ..compute }).err().expect("MSAA");
+    assert!(e.to_string().contains("one sample a pixel") && e.to_string().contains("4x MSAA"), "{e}");
+    let e = FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings { method: Method::ForwardPlus, ..compute });
+    assert!(e.err().expect("Forward+").to_string().contains("visibility buffer only"));
+    let auto = FrameSettings { method: Method::Visibility, msaa: 4, ..Default::default() };
+    assert_eq!(renderer(ctx, &sg, &lights, auto).settings().raster, Raster::Hardware, "Auto with MSAA");
+    let expected =
+        if ctx.info.device_type == wgpu::DeviceType::DiscreteGpu { Raster::Compute } else { Raster::Hardware };
+    let auto = FrameSettings { method: Method::Visibility, ..Default::default() };
+    assert_eq!(renderer(ctx, &sg, &lights, auto).settings().raster, expected, "Auto on {:?}", ctx.info.device_type);
+    // A device without the atomics.
+    let without = wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX;
+    let small = GpuContext::headless(ContextOptions { without_features: without, ..Default::default() }).unwrap();
+    assert!(!small.device.features().contains(without));
+    let sg = SceneGpu::new(&small.device, &small.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&small.device, &scenes::lights(&scene, 20, 0, 3)).unwrap();
+    let e: GpuError = FrameRenderer::new(&small, &sg, &lights, W, H, compute).err().expect("no atomics");
+    assert!(
+        e.to_string().contains("SHADER_INT64_ATOMIC_MIN_MAX") && e.to_string().contains("--raster hardware"),
+        "{e}"
+    );
+    let r = FrameRenderer::new(&small, &sg, &lights, W, H, auto).expect("Auto without the atomics");
+    assert_eq!(r.settings().raster, Raster::Hardware);
 }

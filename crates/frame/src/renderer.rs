@@ -101,6 +101,9 @@ impl FrameRenderer {
         settings.cull.samples = settings.msaa;
         if settings.method == Method::Visibility {
             settings.raster = settings.raster.pick(ctx.info.device_type, ctx.device.features(), settings.msaa);
+            if settings.raster == Raster::Compute {
+                tiledlight_visibility::compute_raster::check_support(ctx.device.features(), settings.msaa)?;
+            }
         } else if settings.raster == Raster::Compute {
             return Err(GpuError::Config(format!(
                 "the compute raster draws the visibility buffer only, not {}",

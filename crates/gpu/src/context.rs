@@ -41,6 +41,9 @@ pub struct ContextOptions {
     /// Ask for at most this much workgroup memory (bytes; at least WebGPU's 16 KiB is
     /// always asked for): to see what a GPU with less does (tests).
     pub workgroup_memory_cap: Option<u32>,
+    /// Optional features the device is created without even where the adapter has them:
+    /// to see the error a GPU without them gets (tests).
+    pub without_features: wgpu::Features,
 }
 
 fn adapter_name_filter() -> Option<String> {
@@ -105,6 +108,7 @@ impl GpuContext {
         if features.contains(int64) {
             required_features |= int64;
         }
+        required_features = required_features.difference(options.without_features);
         let supported = adapter.limits();
         // WebGPU defaults, plus large storage buffers: per-tile lists at 4K with big
         // capacities and 1M lights exceed the default 128 MiB binding.

@@ -49,6 +49,24 @@ pub const COMPUTE_DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Fl
 pub const COMPUTE_RASTER_FEATURES: wgpu::Features =
     wgpu::Features::SHADER_INT64.union(wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX);
 
+/// Whether the compute raster can draw on a device with `features` at `msaa` samples: an
+/// error naming what is missing otherwise (checked before any target is made).
+pub fn check_support(features: wgpu::Features, msaa: u32) -> Result<(), GpuError> {
+    let missing = COMPUTE_RASTER_FEATURES.difference(features);
+    if !missing.is_empty() {
+        return Err(GpuError::Config(format!(
+            "the compute raster resolves 64-bit (depth, ID) texels with atomicMax: it needs wgpu's {missing:?} \
+             (Vulkan shaderInt64, shaderBufferInt64Atomics), which this device lacks; use --raster hardware"
+        )));
+    }
+    if msaa > 1 {
+        return Err(GpuError::Config(format!(
+            "the compute raster draws one sample a pixel, not {msaa}x MSAA; use --raster hardware for MSAA"
+        )));
+    }
+    Ok(())
+}
+
 /// Group 1 of the compute kernels (`visibility_raster.wgsl`): the scene's instances (24),
 /// materials (25), indices (26) and positions (27) at the visibility group's numbers; the
 /// parameters (40), entries (41), clusters (42), texels as atomics (43) and as words (44),
@@ -177,19 +195,7 @@ impl ComputeRaster {
         (depth, ids): (&wgpu::TextureView, &wgpu::TextureView),
         memory: &mut MemoryReport,
     ) -> Result<Self, GpuError> {
-        let missing = COMPUTE_RASTER_FEATURES - device.features();
-        if !missing.is_empty() {
-            return Err(GpuError::Config(format!(
-                "the compute raster resolves 64-bit (depth, ID) texels with atomicMax: it needs wgpu's {missing:?} \
-                 (Vulkan shaderInt64, shaderBufferInt64Atomics), which this device lacks; use --raster hardware"
-            )));
-        }
-        if features.msaa > 1 {
-            return Err(GpuError::Config(format!(
-                "the compute raster draws one sample a pixel, not {}x MSAA; use --raster hardware for MSAA",
-                features.msaa
-            )));
-        }
+        check_support(device.features(), features.msaa)?;
         // Every opaque draw's instances times its mesh's clusters.
         let mut entries = Vec::new();
         let mut triangles = 0u64;
