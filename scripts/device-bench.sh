@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign emission vpl reshape visibility
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign emission vpl reshape visibility raster
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -125,6 +125,33 @@ for set in $sets; do
       run "v-msaa4-td-$n" 30 --lights $n --grid-objects 280 --density medium --method deferred --gbuffer-rts 4 --msaa 4
       run "v-msaa4-vb-$n" 30 --lights $n --grid-objects 280 --density medium --method visibility --msaa 4
     done
+    ;;
+  raster)
+    # Issue 29: the visibility buffer's hardware and compute rasters. The Figure 9 scene
+    # (280 medium grid objects) at 1,024 / 4,096 / 16,384 lights with all three methods; the
+    # compute raster's large-triangle split at 4,096; the courtyard; 17 / 70 / 280 grid
+    # objects (1 : 4 : 16) to see raster time against triangles; the million preset.
+    for n in 1024 4096 16384; do
+      run "r-f9-fp-$n" 50 --lights $n --grid-objects 280 --density medium
+      run "r-f9-td-$n" 50 --lights $n --grid-objects 280 --density medium --method deferred --gbuffer-rts 4
+      run "r-f9-hw-$n" 50 --lights $n --grid-objects 280 --density medium --method visibility --raster hardware
+      run "r-f9-cs-$n" 50 --lights $n --grid-objects 280 --density medium --method visibility --raster compute
+    done
+    for px in 8 16 64 100000; do
+      run "r-f9-cs-4096-l$px" 50 --lights 4096 --grid-objects 280 --density medium --method visibility \
+        --raster compute --raster-large-px $px
+    done
+    for r in hardware compute; do
+      run "r-court-$r" 50 --lights 1024 --method visibility --raster $r
+      for g in 17 70 280; do
+        run "r-g$g-$r" 50 --lights 1024 --grid-objects $g --density medium --method visibility --raster $r
+      done
+      run "r-mp-$r-gather" 10 --light-preset million --method visibility --raster $r
+      run "r-mp-$r-scatter" 10 --light-preset million --method visibility --raster $r --assign scatter
+    done
+    run "r-court-fp" 50 --lights 1024
+    run "r-court-td" 50 --lights 1024 --method deferred
+    run "r-mp-td-scatter" 10 --light-preset million --method deferred --assign scatter
     ;;
   million)
     # Issue 13: a million lights on the courtyard (threshold 10: ~115 lights a tile), both
