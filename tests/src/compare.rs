@@ -533,52 +533,6 @@ impl Frame {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn flat(v: f32, n: usize) -> Frame {
-        Frame { hdr: vec![[v, v, v, 1.0]; n], ldr: vec![128; n * 4], allowance: Vec::new() }
-    }
-
-    /// The MSAA comparison passes a few pixels a little off and rejects a frame with one
-    /// pixel far off, or with too many a little off (a tile missing a light).
-    #[test]
-    fn msaa_comparison_rejects_far_or_many_pixels() {
-        let t = FORWARD_VS_REFERENCE;
-        let (w, n) = (100u32, 10_000usize);
-        let reference = flat(0.5, n);
-        let mut few = flat(0.5, n);
-        few.hdr[7] = [0.505, 0.5, 0.5, 1.0];
-        assert_matches_reference_msaa("few", w, &reference, &few, t);
-        let mut far = flat(0.5, n);
-        far.hdr[7] = [0.6, 0.5, 0.5, 1.0];
-        let r = std::panic::catch_unwind(|| assert_matches_reference_msaa("far", w, &reference, &far, t));
-        assert!(r.is_err(), "one pixel 20% off must fail");
-        let mut many = flat(0.5, n);
-        for p in many.hdr.iter_mut().take(16) {
-            p[0] = 0.505;
-        }
-        let r = std::panic::catch_unwind(|| assert_matches_reference_msaa("many", w, &reference, &many, t));
-        assert!(r.is_err(), "16 pixels of 10,000 beyond the limit must fail");
-    }
-
-    /// A plane's 4x samples pass; one sample moved off it by 0.1% (a crease, a second
-    /// triangle) fails, and so does a step between surfaces in the silhouette mask.
-    #[test]
-    fn coplanar_accepts_a_plane_and_rejects_a_crease() {
-        let pos = tiledlight_cull::blended_depth::standard_sample_positions(4).unwrap();
-        let plane: Vec<f32> = pos.iter().map(|&(x, y)| 0.3 + 0.001 * x - 0.002 * y).collect();
-        assert!(coplanar(&plane));
-        let mut crease = plane.clone();
-        crease[3] *= 1.001;
-        assert!(!coplanar(&crease));
-        let mut step = plane.clone();
-        step[1] *= 1.05;
-        assert_eq!(msaa_silhouettes(&[plane, crease, step].concat(), 4), vec![false, true, true]);
-    }
-}
-
 /// The visibility buffer's frames with settings `s` (its `raster` replaced) drawn by each
 /// raster at its sample count ([`crate::visibility_rasters`]), with, per frame, the pixels
 /// where it kept another triangle than the hardware raster at a depth equal within
@@ -632,3 +586,49 @@ pub fn visibility_frames(
 /// vertex transforms' rounding moves a depth by up to ~1e-5 relative on surfaces seen at
 /// grazing angles (`tests/tests/compute_raster.rs` bounds it per triangle).
 pub const RASTER_TIE_DEPTH: f32 = 1e-4;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn flat(v: f32, n: usize) -> Frame {
+        Frame { hdr: vec![[v, v, v, 1.0]; n], ldr: vec![128; n * 4], allowance: Vec::new() }
+    }
+
+    /// The MSAA comparison passes a few pixels a little off and rejects a frame with one
+    /// pixel far off, or with too many a little off (a tile missing a light).
+    #[test]
+    fn msaa_comparison_rejects_far_or_many_pixels() {
+        let t = FORWARD_VS_REFERENCE;
+        let (w, n) = (100u32, 10_000usize);
+        let reference = flat(0.5, n);
+        let mut few = flat(0.5, n);
+        few.hdr[7] = [0.505, 0.5, 0.5, 1.0];
+        assert_matches_reference_msaa("few", w, &reference, &few, t);
+        let mut far = flat(0.5, n);
+        far.hdr[7] = [0.6, 0.5, 0.5, 1.0];
+        let r = std::panic::catch_unwind(|| assert_matches_reference_msaa("far", w, &reference, &far, t));
+        assert!(r.is_err(), "one pixel 20% off must fail");
+        let mut many = flat(0.5, n);
+        for p in many.hdr.iter_mut().take(16) {
+            p[0] = 0.505;
+        }
+        let r = std::panic::catch_unwind(|| assert_matches_reference_msaa("many", w, &reference, &many, t));
+        assert!(r.is_err(), "16 pixels of 10,000 beyond the limit must fail");
+    }
+
+    /// A plane's 4x samples pass; one sample moved off it by 0.1% (a crease, a second
+    /// triangle) fails, and so does a step between surfaces in the silhouette mask.
+    #[test]
+    fn coplanar_accepts_a_plane_and_rejects_a_crease() {
+        let pos = tiledlight_cull::blended_depth::standard_sample_positions(4).unwrap();
+        let plane: Vec<f32> = pos.iter().map(|&(x, y)| 0.3 + 0.001 * x - 0.002 * y).collect();
+        assert!(coplanar(&plane));
+        let mut crease = plane.clone();
+        crease[3] *= 1.001;
+        assert!(!coplanar(&crease));
+        let mut step = plane.clone();
+        step[1] *= 1.05;
+        assert_eq!(msaa_silhouettes(&[plane, crease, step].concat(), 4), vec![false, true, true]);
+    }
+}

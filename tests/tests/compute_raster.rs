@@ -315,7 +315,7 @@ fn compare_scene(
     eps: f64,
 ) -> Result<Differences, String> {
     let mut d = Differences::default();
-    for p in 0..a.0.len() {
+    for (p, frags) in at.iter().enumerate().take(a.0.len()) {
         let (x, y) = (p as u32 % size.0, p as u32 / size.0);
         let ((ad, ai), (bd, bi)) = ((a.0[p], a.1[p]), (b.0[p], b.1[p]));
         if ai != NO_TRIANGLE {
@@ -332,7 +332,7 @@ fn compare_scene(
             d.depth_off += usize::from(ad != bd);
             continue;
         }
-        let frag = |id: u32| at[p].iter().find(|f| f.1 == id).map(|f| f.0);
+        let frag = |id: u32| frags.iter().find(|f| f.1 == id).map(|f| f.0);
         let close = |x: f32, y: f32, slack: f64| ulps(x, y) <= MAX_ULPS || ((x - y).abs() as f64) <= slack;
         let tie = match (frag(ai), frag(bi)) {
             (Some(da), Some(db)) => {

@@ -45,7 +45,7 @@ struct DepthCopy {
 /// How the raster is drawn.
 enum Path {
     Hardware(DepthPrepass),
-    Compute(ComputeRaster, Option<DepthCopy>),
+    Compute(Box<ComputeRaster>, Option<DepthCopy>),
 }
 
 /// The raster pass and its ID target.
@@ -149,7 +149,7 @@ impl VisibilityRaster {
                 Some((c, _)) => Some(c?),
                 None => None,
             };
-            Path::Compute(raster, copy)
+            Path::Compute(Box::new(raster), copy)
         } else {
             Path::Hardware(DepthPrepass::with_ids(device, views, scene, features, layout.triangle_bits)?)
         };
