@@ -28,8 +28,8 @@ struct Entry {
     cluster: u32,
 }
 
-// tiledlight_scene::clusters::Cluster: object-space bounds, first triangle (counted from
-// the mesh's first index) and triangle count.
+// tiledlight_scene::clusters::Cluster: object-space bounds, first slot of cluster_order
+// (counted from the mesh's first triangle) and triangle count.
 struct Cluster {
     bounds_min: vec3<f32>,
     first: u32,
@@ -74,6 +74,9 @@ struct LargeArgs {
 @group(1) @binding(46) var<storage, read_write> large_args: LargeArgs;
 @group(1) @binding(47) var depth_out: texture_storage_2d<r32float, write>;
 @group(1) @binding(48) var ids_out: texture_storage_2d<r32uint, write>;
+// Per triangle of the merged index buffer in cluster order, its index within its mesh
+// (SceneGpu::cluster_triangles): the index buffer keeps each mesh's own order.
+@group(1) @binding(50) var<storage, read> cluster_order: array<u32>;
 
 // The clear value: depth 0 (infinitely far), no triangle (tiledlight_cull::raster::CLEAR).
 const VIS_NO_TRIANGLE: u32 = 0xffffffffu;
@@ -119,22 +122,42 @@ fn cs_clusters(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_i
         return;
     }
     let inst = instances[entry.instance];
-    let triangle = cluster.first + lane;
+    let triangle = cluster_order[inst.first_index / 3u + cluster.first + lane];
     let base = inst.first_index + 3u * triangle;
     let c0 = transform_position(entry.instance, vertex_position(vis_indices[base], inst.base_vertex));
     let c1 = transform_position(entry.instance, vertex_position(vis_indices[base + 1u], inst.base_vertex));
     let c2 = transform_position(entry.instance, vertex_position(vis_indices[base + 2u], inst.base_vertex));
-    let t = raster_setup(c0, c1, c2, view.screen, (entry.cluster & 0x80000000u) != 0u);
+    let cull_back = (entry.cluster & 0x80000000u) != 0u;
+    let id = select(entry.instance << params.triangle_bits, 0u, params.triangle_bits >= 32u) | triangle;
+    let large_px = vec2<i64>(i64(params.large_px));
+    // Most triangles need no clipping: three snapped vertices, no polygon arrays.
+    if raster_finite(c0) && raster_finite(c1) && raster_finite(c2) && raster_inside(c0, c1, c2) {
+        let t = raster_setup_inside(c0, c1, c2, view.screen, cull_back);
+        if !t.drawn {
+            return;
+        }
+        if any(raster_span_tri(t) > large_px) {
+            hand_to_hardware(entry.instance, triangle);
+            return;
+        }
+        raster_fill(t.a, t.b, t.c, view.screen, id);
+        return;
+    }
+    let t = raster_setup(c0, c1, c2, view.screen, cull_back);
     if t.n == 0u {
         return;
     }
-    if any(raster_span(t) > vec2<i64>(i64(params.large_px))) {
-        let slot = atomicAdd(&large_args.vertex_count, 3u) / 3u;
-        large[slot] = Large(entry.instance, triangle);
+    if any(raster_span(t) > large_px) {
+        hand_to_hardware(entry.instance, triangle);
         return;
     }
-    let id = select(entry.instance << params.triangle_bits, 0u, params.triangle_bits >= 32u) | triangle;
     raster_fill_setup(t, view.screen, id);
+}
+
+// Appends a triangle to the large list (the hardware draws it).
+fn hand_to_hardware(instance: u32, triangle: u32) {
+    let slot = atomicAdd(&large_args.vertex_count, 3u) / 3u;
+    large[slot] = Large(instance, triangle);
 }
 
 @compute @workgroup_size(8, 8)

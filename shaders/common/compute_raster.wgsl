@@ -31,19 +31,24 @@ struct RasterPoly {
     n: u32,
 }
 
+// Whether every vertex lies inside all six clip planes (then clipping keeps the triangle as
+// it is).
+fn raster_inside(c0: vec4<f32>, c1: vec4<f32>, c2: vec4<f32>) -> bool {
+    for (var k = 0u; k < 6u; k++) {
+        if raster_plane(c0, k) < 0.0 || raster_plane(c1, k) < 0.0 || raster_plane(c2, k) < 0.0 {
+            return false;
+        }
+    }
+    return true;
+}
+
 fn raster_clip(c0: vec4<f32>, c1: vec4<f32>, c2: vec4<f32>) -> RasterPoly {
     var p: RasterPoly;
     p.v[0] = c0;
     p.v[1] = c1;
     p.v[2] = c2;
     p.n = 3u;
-    var inside = true;
-    for (var k = 0u; k < 6u; k++) {
-        if raster_plane(c0, k) < 0.0 || raster_plane(c1, k) < 0.0 || raster_plane(c2, k) < 0.0 {
-            inside = false;
-        }
-    }
-    if inside {
+    if raster_inside(c0, c1, c2) {
         return p;
     }
     for (var k = 0u; k < 6u; k++) {
@@ -131,13 +136,20 @@ fn raster_fill(a: RasterVertex, b: RasterVertex, c: RasterVertex, size: vec2<u32
     let own1 = raster_top_left(v2, v0);
     let own2 = raster_top_left(v0, v1);
     let inv = 1.0 / f32(area);
+    // The edge functions are linear in the sample point: stepped by exact i64 additions
+    // from the first pixel's values, equal to evaluating raster_edge at every pixel.
+    let cx0 = x0 * RASTER_ONE + half;
+    let cy0 = y0 * RASTER_ONE + half;
+    var r0 = raster_edge(v1, v2, cx0, cy0);
+    var r1 = raster_edge(v2, v0, cx0, cy0);
+    var r2 = raster_edge(v0, v1, cx0, cy0);
+    let sx = vec3<i64>(v1.y - v2.y, v2.y - v0.y, v0.y - v1.y) * RASTER_ONE;
+    let sy = vec3<i64>(v2.x - v1.x, v0.x - v2.x, v1.x - v0.x) * RASTER_ONE;
     for (var py = y0; py <= y1; py++) {
+        var e0 = r0;
+        var e1 = r1;
+        var e2 = r2;
         for (var px = x0; px <= x1; px++) {
-            let cx = px * RASTER_ONE + half;
-            let cy = py * RASTER_ONE + half;
-            let e0 = raster_edge(v1, v2, cx, cy);
-            let e1 = raster_edge(v2, v0, cx, cy);
-            let e2 = raster_edge(v0, v1, cx, cy);
             let in0 = e0 > 0li || (e0 == 0li && own0);
             let in1 = e1 > 0li || (e1 == 0li && own1);
             let in2 = e2 > 0li || (e2 == 0li && own2);
@@ -146,13 +158,45 @@ fn raster_fill(a: RasterVertex, b: RasterVertex, c: RasterVertex, size: vec2<u32
                 let texel = (u64(bitcast<u32>(max(depth, 0.0))) << 32u) | u64(id);
                 raster_emit(u32(px), u32(py), texel);
             }
+            e0 += sx.x;
+            e1 += sx.y;
+            e2 += sx.z;
         }
+        r0 += sy.x;
+        r1 += sy.y;
+        r2 += sy.z;
     }
 }
 
 // No NaN or infinity in v.
 fn raster_finite(v: vec4<f32>) -> bool {
     return all(v == v) && all(abs(v) <= vec4<f32>(3.4028235e38));
+}
+
+// A triangle inside every clip plane, snapped: what most triangles are, without the
+// clipped polygon's nine-vertex arrays (the same result as raster_setup's general path).
+struct RasterTri {
+    a: RasterVertex,
+    b: RasterVertex,
+    c: RasterVertex,
+    // False when nothing is drawn (zero area, or a back face culled).
+    drawn: bool,
+}
+
+// raster_setup for a triangle with raster_inside(c0, c1, c2) and finite vertices.
+fn raster_setup_inside(c0: vec4<f32>, c1: vec4<f32>, c2: vec4<f32>, size: vec2<u32>, cull_back: bool) -> RasterTri {
+    let a = raster_snap(c0, size);
+    let b = raster_snap(c1, size);
+    let c = raster_snap(c2, size);
+    let area = raster_area(a, b, c);
+    return RasterTri(a, b, c, area != 0li && !(cull_back && area > 0li));
+}
+
+// The pixels a snapped triangle's bounds span: (columns, rows).
+fn raster_span_tri(t: RasterTri) -> vec2<i64> {
+    let lo = min(min(vec2<i64>(t.a.x, t.a.y), vec2<i64>(t.b.x, t.b.y)), vec2<i64>(t.c.x, t.c.y));
+    let hi = max(max(vec2<i64>(t.a.x, t.a.y), vec2<i64>(t.b.x, t.b.y)), vec2<i64>(t.c.x, t.c.y));
+    return (hi - lo) / vec2<i64>(RASTER_ONE) + vec2<i64>(1li);
 }
 
 // A triangle set up for filling: its clipped polygon in window coordinates (a fan from
@@ -210,5 +254,12 @@ fn raster_fill_setup(t: RasterSetup, size: vec2<u32>, id: u32) {
 // Rasterises triangle (c0, c1, c2) (clip space) with `id` on a `size` target; with
 // `cull_back` drops it when it faces away (clockwise in NDC).
 fn raster_triangle(c0: vec4<f32>, c1: vec4<f32>, c2: vec4<f32>, size: vec2<u32>, cull_back: bool, id: u32) {
+    if raster_finite(c0) && raster_finite(c1) && raster_finite(c2) && raster_inside(c0, c1, c2) {
+        let t = raster_setup_inside(c0, c1, c2, size, cull_back);
+        if t.drawn && size.x > 0u && size.y > 0u {
+            raster_fill(t.a, t.b, t.c, size, id);
+        }
+        return;
+    }
     raster_fill_setup(raster_setup(c0, c1, c2, size, cull_back), size, id);
 }

@@ -203,7 +203,7 @@ fn compare(gpu: &[u64], cpu: &[u64], at: &[Vec<(f32, u32)>]) -> Result<(usize, u
 
 // ---- The whole raster pass on a scene ----
 
-/// Per triangle of the GPU scene (instance slot, triangle within its mesh in cluster order),
+/// Per triangle of the GPU scene (instance slot, triangle within its mesh),
 /// its clip-space vertices as the vertex stage computes them (`world_to_clip * (model * p)`),
 /// whether its back faces are culled, and the ID it is drawn with.
 struct SceneTriangles {
@@ -212,7 +212,6 @@ struct SceneTriangles {
 
 impl SceneTriangles {
     fn new(scene: &tiledlight_scene::Scene, sg: &SceneGpu, camera: &tiledlight_cull::Camera) -> Self {
-        let clustered = tiledlight_scene::clusters::cluster_scene(scene);
         let layout = IdLayout::for_scene(sg.instance_order.len() as u32, sg.max_triangles).unwrap();
         let vp = camera.view_proj();
         let mut tris = Vec::new();
@@ -224,7 +223,7 @@ impl SceneTriangles {
             }
             let mesh = &scene.meshes[inst.mesh];
             let cull = if material.double_sided { Cull::None } else { Cull::Back };
-            for (t, idx) in clustered[inst.mesh].indices.chunks_exact(3).enumerate() {
+            for (t, idx) in mesh.indices.chunks_exact(3).enumerate() {
                 let clip =
                     [0, 1, 2].map(|k| vp * (inst.transform * Vec3::from(mesh.positions[idx[k] as usize]).extend(1.0)));
                 tris.push((clip, cull, layout.pack(slot as u32, t as u32)));

@@ -9,7 +9,7 @@
 
 use glam::Vec3;
 
-use crate::model::{Aabb, AlphaMode, Mesh, Scene};
+use crate::model::{Aabb, Mesh, Scene};
 
 /// The compute rasteriser's cluster size: at most this many triangles a cluster.
 pub const CLUSTER_TRIANGLES: u32 = 128;
@@ -31,6 +31,9 @@ pub struct Clustered {
     /// Three indices per triangle, a permutation of the mesh's triangles (each keeps its
     /// vertex order, so its winding).
     pub indices: Vec<u32>,
+    /// Per reordered triangle, its index in the mesh's own order (`indices` is the mesh's
+    /// index buffer permuted by it).
+    pub order: Vec<u32>,
     /// The clusters, in order, covering every triangle once.
     pub clusters: Vec<Cluster>,
 }
@@ -53,21 +56,12 @@ fn morton(p: Vec3, b: &Aabb) -> u64 {
     spread(q.x as u64) | (spread(q.y as u64) << 1) | (spread(q.z as u64) << 2)
 }
 
-/// Every mesh of `scene` in clusters of [`CLUSTER_TRIANGLES`], as the GPU scene draws it:
-/// reordered along the Morton curve ([`cluster_mesh`]), except a mesh some instance draws
-/// with a blended material, which keeps its order ([`cluster_mesh_in_order`]: blending
-/// within a mesh follows it).
+/// Every mesh of `scene` in clusters of [`CLUSTER_TRIANGLES`] ([`cluster_mesh`]), in mesh
+/// order: what the compute raster culls. The GPU scene keeps each mesh's own index order
+/// (the hardware raster's vertex reuse depends on it, and blending within a mesh follows
+/// it); a cluster names its triangles through [`Clustered::order`].
 pub fn cluster_scene(scene: &Scene) -> Vec<Clustered> {
-    let mut blended = vec![false; scene.meshes.len()];
-    for inst in &scene.instances {
-        blended[inst.mesh] |= matches!(scene.materials[inst.material].alpha_mode, AlphaMode::Blend);
-    }
-    scene
-        .meshes
-        .iter()
-        .zip(blended)
-        .map(|(m, b)| if b { cluster_mesh_in_order(m, CLUSTER_TRIANGLES) } else { cluster_mesh(m, CLUSTER_TRIANGLES) })
-        .collect()
+    scene.meshes.iter().map(|m| cluster_mesh(m, CLUSTER_TRIANGLES)).collect()
 }
 
 /// Splits `mesh` into clusters of at most `max_triangles` (at least 1) triangles.
@@ -83,20 +77,13 @@ pub fn cluster_mesh(mesh: &Mesh, max_triangles: u32) -> Clustered {
     runs(mesh, &tris, order.into_iter().map(|(_, k)| k), max)
 }
 
-/// Splits `mesh` into clusters of at most `max_triangles` (at least 1) consecutive
-/// triangles of its own order (its index buffer unchanged): for meshes whose triangle
-/// order matters (blended geometry composites in it).
-pub fn cluster_mesh_in_order(mesh: &Mesh, max_triangles: u32) -> Clustered {
-    let tris: Vec<[u32; 3]> = mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
-    runs(mesh, &tris, 0..tris.len(), max_triangles.max(1) as usize)
-}
-
 /// The triangles `tris` of `mesh` in `order`, cut into runs of `max`.
 fn runs(mesh: &Mesh, tris: &[[u32; 3]], order: impl Iterator<Item = usize>, max: usize) -> Clustered {
     let pos = |i: u32| Vec3::from(mesh.positions[i as usize]);
     let order: Vec<usize> = order.collect();
     let mut indices = Vec::with_capacity(mesh.indices.len());
     let mut clusters = Vec::with_capacity(order.len().div_ceil(max));
+    let triangle_order = order.iter().map(|&k| k as u32).collect();
     for (c, run) in order.chunks(max).enumerate() {
         let mut b = Aabb::empty();
         for &k in run {
@@ -108,7 +95,7 @@ fn runs(mesh: &Mesh, tris: &[[u32; 3]], order: impl Iterator<Item = usize>, max:
         }
         clusters.push(Cluster { first_triangle: (c * max) as u32, triangles: run.len() as u32, bounds: b });
     }
-    Clustered { indices, clusters }
+    Clustered { indices, order: triangle_order, clusters }
 }
 
 #[cfg(test)]
@@ -169,19 +156,18 @@ mod tests {
         assert_eq!(next as usize, n);
     }
 
-    /// In order: the index buffer unchanged, runs of the maximum, bounds holding them.
+    /// The order names each reordered triangle's place in the mesh: the mesh's triangle
+    /// there is the reordered one, and every place appears once.
     #[test]
-    fn clusters_in_order_keep_the_index_buffer() {
+    fn order_maps_back_to_the_mesh() {
         let m = grid(9);
-        let c = cluster_mesh_in_order(&m, 50);
-        assert_eq!(c.indices, m.indices);
-        assert_eq!(c.clusters.iter().map(|c| c.triangles).collect::<Vec<_>>(), vec![50, 50, 50, 12]);
-        for cl in &c.clusters {
-            for t in cl.first_triangle..cl.first_triangle + cl.triangles {
-                let p = Vec3::from(m.positions[m.indices[(t * 3) as usize] as usize]);
-                assert!(p.cmpge(cl.bounds.min).all() && p.cmple(cl.bounds.max).all());
-            }
+        let c = cluster_mesh(&m, 50);
+        let mut seen = vec![false; m.indices.len() / 3];
+        for (slot, &t) in c.order.iter().enumerate() {
+            assert_eq!(c.indices[slot * 3..slot * 3 + 3], m.indices[t as usize * 3..t as usize * 3 + 3]);
+            assert!(!std::mem::replace(&mut seen[t as usize], true), "triangle {t} twice");
         }
+        assert!(seen.iter().all(|&s| s));
     }
 
     /// Spatially compact: on a 64 x 64 grid (8,192 triangles, 64 clusters of 128, each

@@ -70,7 +70,8 @@ pub fn check_support(features: wgpu::Features, msaa: u32) -> Result<(), GpuError
 /// Group 1 of the compute kernels (`visibility_raster.wgsl`): the scene's instances (24),
 /// materials (25), indices (26) and positions (27) at the visibility group's numbers; the
 /// parameters (40), entries (41), clusters (42), texels as atomics (43) and as words (44),
-/// the large list (45) and its draw arguments (46), the depth (47) and ID (48) outputs.
+/// the large list (45) and its draw arguments (46), the depth (47) and ID (48) outputs,
+/// the clusters' triangle order (50, [`SceneGpu::cluster_triangles`]).
 pub const COMPUTE_RASTER_GROUP: &[Binding] = &[
     Binding::storage(24, CS),
     Binding::storage(25, CS),
@@ -85,6 +86,7 @@ pub const COMPUTE_RASTER_GROUP: &[Binding] = &[
     Binding::storage_rw(46, CS),
     Binding::storage_texture(47, CS, COMPUTE_DEPTH_FORMAT, wgpu::StorageTextureAccess::WriteOnly),
     Binding::storage_texture(48, CS, ID_FORMAT, wgpu::StorageTextureAccess::WriteOnly),
+    Binding::storage(50, CS),
 ];
 
 /// The compute kernels' bindings: the view (0) and [`COMPUTE_RASTER_GROUP`] (1).
@@ -232,6 +234,12 @@ impl ComputeRaster {
             buffer_init(device, "visibility.compute_raster.entries", bytemuck::cast_slice(&entries), U::STORAGE);
         let cluster_buf =
             buffer_init(device, "visibility.compute_raster.clusters", bytemuck::cast_slice(&clusters), U::STORAGE);
+        let order_buf = buffer_init(
+            device,
+            "visibility.compute_raster.order",
+            bytemuck::cast_slice(&scene.cluster_triangles),
+            U::STORAGE,
+        );
         let pixels = size.0 as usize * size.1 as usize;
         // Cleared once here; the finalize kernel clears them after each frame.
         let clear: Vec<u64> = vec![tiledlight_cull::raster::CLEAR; pixels];
@@ -251,7 +259,10 @@ impl ComputeRaster {
         );
         memory.add("visibility.compute_raster.texels", pixels as u64 * 8);
         memory.add("visibility.compute_raster.large", large_buf.size());
-        memory.add("visibility.compute_raster.clusters", (entries.len() * 8 + clusters.len() * 32) as u64);
+        memory.add(
+            "visibility.compute_raster.clusters",
+            (entries.len() * 8 + clusters.len() * 32 + scene.cluster_triangles.len() * 4) as u64,
+        );
 
         let compute_layout = create_layout(device, "visibility.compute_raster.layout", COMPUTE_RASTER_GROUP, &[]);
         let compute_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -271,6 +282,7 @@ impl ComputeRaster {
                 buf(46, &large_args),
                 wgpu::BindGroupEntry { binding: 47, resource: wgpu::BindingResource::TextureView(depth) },
                 wgpu::BindGroupEntry { binding: 48, resource: wgpu::BindingResource::TextureView(ids) },
+                buf(50, &order_buf),
             ],
         });
         let module = keyed_module(device, &ComputeRasterKey::Clusters)?;

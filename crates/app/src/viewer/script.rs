@@ -102,6 +102,11 @@ pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
         "seed" => a.seed = number(key, value)?,
         "tile-size" => a.tile_size = number(key, value)?,
         "gbuffer-rts" => a.gbuffer_rts = number(key, value)?,
+        "raster" => {
+            a.raster = <tiledlight_setup::Raster as ValueEnum>::from_str(value, true)
+                .map_err(|e| anyhow::anyhow!("--script: raster={value}: {e}"))?
+        }
+        "raster-large-px" => a.raster_large_px = number(key, value)?,
         "msaa" => a.msaa = number(key, value)?,
         "grid-objects" => a.grid_objects = number(key, value)?,
         "density" => {

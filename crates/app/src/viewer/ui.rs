@@ -27,7 +27,7 @@ use tiledlight_cull::vpl::VplShading;
 use tiledlight_lab::legend::label_values;
 use tiledlight_scene::GridDensity;
 use tiledlight_setup::stats::atlas_layout_description;
-use tiledlight_setup::{CullingStats, LightSummary, Method, SceneSource};
+use tiledlight_setup::{CullingStats, LightSummary, Method, Raster, SceneSource};
 
 use crate::scene_setup::GridArg;
 
@@ -449,6 +449,17 @@ fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'
         });
         ui.add_enabled(s.setup.method == Method::TiledDeferred, |ui: &mut egui::Ui| {
             ui.add(egui::Slider::new(&mut s.setup.gbuffer_rts, 2..=5).text("G-buffer RTs"))
+        });
+        ui.add_enabled_ui(s.setup.method == Method::Visibility, |ui| {
+            egui::ComboBox::from_label("raster")
+                .selected_text(s.setup.raster.name())
+                .show_ui(ui, |ui| {
+                    for r in Raster::ALL {
+                        ui.selectable_value(&mut s.setup.raster, r, r.name()).on_hover_text(r.summary());
+                    }
+                })
+                .response
+                .on_hover_text("the visibility buffer's raster; compute: one sample a pixel, 64-bit atomics");
         });
         egui::ComboBox::from_label("MSAA")
             .selected_text(format!("{}x", s.setup.msaa))
