@@ -137,9 +137,11 @@ for set in $sets; do
       run "r-f9-hw-$n" 50 --lights $n --grid-objects 280 --density medium --method visibility --raster hardware
       run "r-f9-cs-$n" 50 --lights $n --grid-objects 280 --density medium --method visibility --raster compute
     done
-    for px in 8 16 64 100000; do
-      run "r-f9-cs-4096-l$px" 50 --lights 4096 --grid-objects 280 --density medium --method visibility \
-        --raster compute --raster-large-px $px
+    for large in compute hardware; do
+      for px in 8 16 32 64 100000; do
+        run "r-f9-cs-4096-$large-l$px" 50 --lights 4096 --grid-objects 280 --density medium --method visibility \
+          --raster compute --raster-large $large --raster-large-px $px
+      done
     done
     for r in hardware compute; do
       run "r-court-$r" 50 --lights 1024 --method visibility --raster $r

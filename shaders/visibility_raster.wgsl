@@ -13,7 +13,8 @@
 //    the entry's top bit), and fills it when its bounds span at most LARGE_PX pixels each
 //    way; a larger one is appended to the large list for the hardware
 //    (visibility_raster_large.wgsl: the raster does it faster than one thread would).
-// 2. (the hardware) large triangles and alpha-masked instances, atomicMax from fragments.
+// 2. (the hardware) large triangles and alpha-masked instances, atomicMax from fragments;
+//    or the large triangles by compute (cs_large below) and only the masked by the hardware.
 // 3. cs_finalize: per pixel, the texel's depth to an R32Float texture and its ID to the
 //    R32Uint ID texture (what the culling and shading passes read), then the texel back to
 //    the clear value and the large list emptied, ready for the next frame.
@@ -158,6 +159,34 @@ fn cs_clusters(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_i
 fn hand_to_hardware(instance: u32, triangle: u32) {
     let slot = atomicAdd(&large_args.vertex_count, 3u) / 3u;
     large[slot] = Large(instance, triangle);
+}
+
+// Workgroups of cs_large (crates/visibility/src/compute_raster.rs LARGE_GROUPS): each takes
+// every LARGE_GROUPS-th large triangle.
+const LARGE_GROUPS: u32 = 1024u;
+const LARGE_LANES: u32 = 256u;
+
+// 2'. With large triangles by compute: a workgroup a large triangle (LARGE_GROUPS of them
+// looping over the list), its 256 lanes sharing the triangle's pixels (raster_fill_strided:
+// the same rules and values as one thread's fill). Back faces were culled when listed.
+@compute @workgroup_size(256)
+fn cs_large(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
+    let count = atomicLoad(&large_args.vertex_count) / 3u;
+    for (var t = wg.x; t < count; t += LARGE_GROUPS) {
+        let l = large[t];
+        let inst = instances[l.instance];
+        let base = inst.first_index + 3u * l.triangle;
+        let c0 = transform_position(l.instance, vertex_position(vis_indices[base], inst.base_vertex));
+        let c1 = transform_position(l.instance, vertex_position(vis_indices[base + 1u], inst.base_vertex));
+        let c2 = transform_position(l.instance, vertex_position(vis_indices[base + 2u], inst.base_vertex));
+        let id = select(l.instance << params.triangle_bits, 0u, params.triangle_bits >= 32u) | l.triangle;
+        if raster_inside(c0, c1, c2) {
+            let s = raster_setup_inside(c0, c1, c2, view.screen, false);
+            raster_fill_strided(s.a, s.b, s.c, view.screen, id, lane, LARGE_LANES);
+        } else {
+            raster_fill_setup_strided(raster_setup(c0, c1, c2, view.screen, false), view.screen, id, lane, LARGE_LANES);
+        }
+    }
 }
 
 @compute @workgroup_size(8, 8)

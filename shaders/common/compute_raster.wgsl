@@ -113,58 +113,106 @@ fn raster_floor_div(m: i64) -> i64 {
     return select(q, q - 1li, m < 0li && q * RASTER_ONE != m);
 }
 
-fn raster_fill(a: RasterVertex, b: RasterVertex, c: RasterVertex, size: vec2<u32>, id: u32) {
+// A triangle ready to fill: its vertices ordered to a positive area, which of its edges
+// own the pixels on them (top-left), 1 / area, and the pixels its bounds cover on screen.
+struct RasterFill {
+    v0: RasterVertex,
+    v1: RasterVertex,
+    v2: RasterVertex,
+    own: vec3<bool>,
+    inv: f32,
+    lo: vec2<i64>,
+    hi: vec2<i64>,
+    // False for a zero area (nothing drawn).
+    drawn: bool,
+}
+
+fn raster_prepare(a: RasterVertex, b: RasterVertex, c: RasterVertex, size: vec2<u32>) -> RasterFill {
+    var f: RasterFill;
     let ab = raster_area(a, b, c);
-    if ab == 0li {
-        return;
-    }
-    var v0 = a;
-    var v1 = b;
-    var v2 = c;
+    f.drawn = ab != 0li;
+    f.v0 = a;
+    f.v1 = b;
+    f.v2 = c;
     var area = ab;
     if ab < 0li {
-        v1 = c;
-        v2 = b;
+        f.v1 = c;
+        f.v2 = b;
         area = -ab;
     }
     let half = RASTER_ONE / 2li;
-    let x0 = max(raster_floor_div(min(min(v0.x, v1.x), v2.x) - half), 0li);
-    let x1 = min(raster_floor_div(max(max(v0.x, v1.x), v2.x) - half), i64(size.x) - 1li);
-    let y0 = max(raster_floor_div(min(min(v0.y, v1.y), v2.y) - half), 0li);
-    let y1 = min(raster_floor_div(max(max(v0.y, v1.y), v2.y) - half), i64(size.y) - 1li);
-    let own0 = raster_top_left(v1, v2);
-    let own1 = raster_top_left(v2, v0);
-    let own2 = raster_top_left(v0, v1);
-    let inv = 1.0 / f32(area);
+    f.lo = max(
+        vec2<i64>(
+            raster_floor_div(min(min(f.v0.x, f.v1.x), f.v2.x) - half),
+            raster_floor_div(min(min(f.v0.y, f.v1.y), f.v2.y) - half)
+        ),
+        vec2<i64>(0li)
+    );
+    f.hi = min(
+        vec2<i64>(
+            raster_floor_div(max(max(f.v0.x, f.v1.x), f.v2.x) - half),
+            raster_floor_div(max(max(f.v0.y, f.v1.y), f.v2.y) - half)
+        ),
+        vec2<i64>(size) - vec2<i64>(1li)
+    );
+    f.own = vec3<bool>(raster_top_left(f.v1, f.v2), raster_top_left(f.v2, f.v0), raster_top_left(f.v0, f.v1));
+    f.inv = 1.0 / f32(select(area, 1li, area == 0li));
+    return f;
+}
+
+// Pixel (px, py) with edge values e (raster_edge of the three edges at its centre):
+// covered by the top-left rule, then its texel emitted.
+fn raster_cover(f: RasterFill, e: vec3<i64>, px: i64, py: i64, id: u32) {
+    let inside = (e > vec3<i64>(0li)) | ((e == vec3<i64>(0li)) & f.own);
+    if all(inside) {
+        let depth = (f32(e.x) * f.inv) * f.v0.depth + (f32(e.y) * f.inv) * f.v1.depth + (f32(e.z) * f.inv) * f.v2.depth;
+        let texel = (u64(bitcast<u32>(max(depth, 0.0))) << 32u) | u64(id);
+        raster_emit(u32(px), u32(py), texel);
+    }
+}
+
+// The edge values at the centre of pixel (px, py).
+fn raster_edges(f: RasterFill, px: i64, py: i64) -> vec3<i64> {
+    let cx = px * RASTER_ONE + RASTER_ONE / 2li;
+    let cy = py * RASTER_ONE + RASTER_ONE / 2li;
+    return vec3<i64>(raster_edge(f.v1, f.v2, cx, cy), raster_edge(f.v2, f.v0, cx, cy), raster_edge(f.v0, f.v1, cx, cy));
+}
+
+// Fills a snapped triangle, one thread.
+fn raster_fill(a: RasterVertex, b: RasterVertex, c: RasterVertex, size: vec2<u32>, id: u32) {
+    let f = raster_prepare(a, b, c, size);
+    if !f.drawn {
+        return;
+    }
     // The edge functions are linear in the sample point: stepped by exact i64 additions
-    // from the first pixel's values, equal to evaluating raster_edge at every pixel.
-    let cx0 = x0 * RASTER_ONE + half;
-    let cy0 = y0 * RASTER_ONE + half;
-    var r0 = raster_edge(v1, v2, cx0, cy0);
-    var r1 = raster_edge(v2, v0, cx0, cy0);
-    var r2 = raster_edge(v0, v1, cx0, cy0);
-    let sx = vec3<i64>(v1.y - v2.y, v2.y - v0.y, v0.y - v1.y) * RASTER_ONE;
-    let sy = vec3<i64>(v2.x - v1.x, v0.x - v2.x, v1.x - v0.x) * RASTER_ONE;
-    for (var py = y0; py <= y1; py++) {
-        var e0 = r0;
-        var e1 = r1;
-        var e2 = r2;
-        for (var px = x0; px <= x1; px++) {
-            let in0 = e0 > 0li || (e0 == 0li && own0);
-            let in1 = e1 > 0li || (e1 == 0li && own1);
-            let in2 = e2 > 0li || (e2 == 0li && own2);
-            if in0 && in1 && in2 {
-                let depth = (f32(e0) * inv) * v0.depth + (f32(e1) * inv) * v1.depth + (f32(e2) * inv) * v2.depth;
-                let texel = (u64(bitcast<u32>(max(depth, 0.0))) << 32u) | u64(id);
-                raster_emit(u32(px), u32(py), texel);
-            }
-            e0 += sx.x;
-            e1 += sx.y;
-            e2 += sx.z;
+    // from the first pixel's values, equal to evaluating raster_edges at every pixel.
+    var row = raster_edges(f, f.lo.x, f.lo.y);
+    let sx = vec3<i64>(f.v1.y - f.v2.y, f.v2.y - f.v0.y, f.v0.y - f.v1.y) * RASTER_ONE;
+    let sy = vec3<i64>(f.v2.x - f.v1.x, f.v0.x - f.v2.x, f.v1.x - f.v0.x) * RASTER_ONE;
+    for (var py = f.lo.y; py <= f.hi.y; py++) {
+        var e = row;
+        for (var px = f.lo.x; px <= f.hi.x; px++) {
+            raster_cover(f, e, px, py, id);
+            e += sx;
         }
-        r0 += sy.x;
-        r1 += sy.y;
-        r2 += sy.z;
+        row += sy;
+    }
+}
+
+// Fills a snapped triangle with `stride` threads of a workgroup, this one `lane`: pixel k
+// of its bounds (row-major) by lane k mod stride. The same edge values and depths as
+// raster_fill.
+fn raster_fill_strided(a: RasterVertex, b: RasterVertex, c: RasterVertex, size: vec2<u32>, id: u32, lane: u32, stride: u32) {
+    let f = raster_prepare(a, b, c, size);
+    if !f.drawn || any(f.hi < f.lo) {
+        return;
+    }
+    let width = u32(f.hi.x - f.lo.x) + 1u;
+    let pixels = width * (u32(f.hi.y - f.lo.y) + 1u);
+    for (var k = lane; k < pixels; k += stride) {
+        let px = f.lo.x + i64(k % width);
+        let py = f.lo.y + i64(k / width);
+        raster_cover(f, raster_edges(f, px, py), px, py, id);
     }
 }
 
@@ -248,6 +296,13 @@ fn raster_span(t: RasterSetup) -> vec2<i64> {
 fn raster_fill_setup(t: RasterSetup, size: vec2<u32>, id: u32) {
     for (var i = 1u; i + 1u < t.n; i++) {
         raster_fill(t.s[0], t.s[i], t.s[i + 1u], size, id);
+    }
+}
+
+// Fills a set-up triangle with `id` by `stride` threads (raster_fill_strided).
+fn raster_fill_setup_strided(t: RasterSetup, size: vec2<u32>, id: u32, lane: u32, stride: u32) {
+    for (var i = 1u; i + 1u < t.n; i++) {
+        raster_fill_strided(t.s[0], t.s[i], t.s[i + 1u], size, id, lane, stride);
     }
 }
 

@@ -27,7 +27,7 @@ use tiledlight_scene::AlphaMode;
 use tiledlight_tests::compare::render_frame;
 use tiledlight_tests::gpu;
 use tiledlight_tests::kernels::{run_cases, Rng};
-use tiledlight_visibility::compute_raster::ComputeRasterOptions;
+use tiledlight_visibility::compute_raster::{ComputeRasterOptions, LargeRaster};
 
 const W: u32 = 97;
 const H: u32 = 61;
@@ -362,14 +362,9 @@ fn scene_raster(
     ctx: &tiledlight_gpu::GpuContext,
     (sg, lights, camera): (&SceneGpu, &LightBuffers, &tiledlight_cull::Camera),
     raster: RasterPath,
-    large_px: u32,
+    compute_raster: ComputeRasterOptions,
 ) -> (Vec<f32>, Vec<u32>) {
-    let s = FrameSettings {
-        method: Method::Visibility,
-        raster,
-        compute_raster: ComputeRasterOptions { large_px },
-        ..Default::default()
-    };
+    let s = FrameSettings { method: Method::Visibility, raster, compute_raster, ..Default::default() };
     let mut r = FrameRenderer::new(ctx, sg, lights, SW, SH, s).unwrap_or_else(|e| panic!("{raster:?}: {e}"));
     assert_eq!(r.settings().raster, raster);
     render_frame(ctx, &mut r, sg, camera);
@@ -378,13 +373,13 @@ fn scene_raster(
 }
 
 /// The compute raster on a whole scene (the courtyard, 320x180), pixel by pixel:
-/// - every triangle by compute (`large_px` past the screen) against the CPU twin drawing the
-///   same triangles: equal but for depths within MAX_ULPS, ties, and coverage at pixels
-///   whose centre lies within 1/128 px of an edge (the GPU's vertex transform may contract
-///   a multiply-add the CPU rounds twice, moving a vertex by a snap step);
-/// - the default split (large triangles by the hardware) against every triangle by compute,
-///   and against the hardware raster: the same, the hardware snapping its vertices from
-///   its own viewport arithmetic.
+/// - every triangle by one thread (`large_px` past the screen), and the default (large
+///   triangles by a workgroup each), against the CPU twin drawing the same triangles:
+///   equal but for depths within MAX_ULPS or a snap step's slack, ties, and coverage at
+///   pixels whose centre lies within 1/128 px of an edge (the GPU's vertex transform may
+///   contract a multiply-add the CPU rounds twice, moving a vertex by a snap step);
+/// - large triangles by the hardware, and the hardware raster, against the default: the
+///   same, the hardware snapping its vertices from its own viewport arithmetic.
 ///
 /// Each count is printed; edge pixels must stay under 0.5% of the covered ones.
 #[test]
@@ -399,14 +394,17 @@ fn compute_raster_matches_twin_and_hardware_on_a_scene() {
     let twin_depth: Vec<f32> = twin.iter().map(|&t| unpack(t).0).collect();
     let twin_ids: Vec<u32> = twin.iter().map(|&t| unpack(t).1).collect();
     let inputs = (&sg, &lights, &camera);
-    let all_compute = scene_raster(ctx, inputs, RasterPath::Compute, u32::MAX);
-    let split = scene_raster(ctx, inputs, RasterPath::Compute, ComputeRasterOptions::default().large_px);
-    let hardware = scene_raster(ctx, inputs, RasterPath::Hardware, 0);
+    let options = |large_px, large| ComputeRasterOptions { large_px, large };
+    let all_compute = scene_raster(ctx, inputs, RasterPath::Compute, options(u32::MAX, LargeRaster::Compute));
+    let split = scene_raster(ctx, inputs, RasterPath::Compute, ComputeRasterOptions::default());
+    let split_hw = scene_raster(ctx, inputs, RasterPath::Compute, options(32, LargeRaster::Hardware));
+    let hardware = scene_raster(ctx, inputs, RasterPath::Hardware, ComputeRasterOptions::default());
     let eps = 2.0 / 256.0;
     let pairs = [
         ("all-compute vs twin", (&all_compute.0[..], &all_compute.1[..]), (&twin_depth[..], &twin_ids[..])),
-        ("split vs all-compute", (&split.0[..], &split.1[..]), (&all_compute.0[..], &all_compute.1[..])),
-        ("hardware vs split", (&hardware.0[..], &hardware.1[..]), (&split.0[..], &split.1[..])),
+        ("large by compute vs twin", (&split.0[..], &split.1[..]), (&twin_depth[..], &twin_ids[..])),
+        ("large by hardware vs large by compute", (&split_hw.0[..], &split_hw.1[..]), (&split.0[..], &split.1[..])),
+        ("hardware vs large by compute", (&hardware.0[..], &hardware.1[..]), (&split.0[..], &split.1[..])),
     ];
     for (what, a, b) in pairs {
         let d = compare_scene(a, b, (&tris, &at), (SW, SH), eps).unwrap_or_else(|e| panic!("{what}: {e}"));

@@ -18,8 +18,8 @@ use tiledlight_lab::axes::{on_off, Flags};
 use tiledlight_scene::{GridDensity, DEFAULT_LIGHT_THRESHOLD};
 use tiledlight_setup::bookmark;
 use tiledlight_setup::{
-    surface_exposure, CameraBookmark, ComputeRasterOptions, LightPlacement, Method, Raster, SceneSource, Settings,
-    DEFAULT_LIGHTS_PER_POINT, MILLION_LIGHTS,
+    surface_exposure, CameraBookmark, ComputeRasterOptions, LargeRaster, LightPlacement, Method, Raster, SceneSource,
+    Settings, DEFAULT_LIGHTS_PER_POINT, MILLION_LIGHTS,
 };
 
 /// Tessellation of the default scene's grid objects.
@@ -76,6 +76,33 @@ impl From<ShadowFormat> for ShadowFormatArg {
         match f {
             ShadowFormat::Depth16 => ShadowFormatArg::D16,
             ShadowFormat::Depth32 => ShadowFormatArg::D32,
+        }
+    }
+}
+
+/// Who draws the compute raster's large triangles (`--raster-large`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum LargeRasterArg {
+    /// A compute workgroup per large triangle.
+    Compute,
+    /// The hardware raster, by one indirect draw.
+    Hardware,
+}
+
+impl From<LargeRasterArg> for LargeRaster {
+    fn from(m: LargeRasterArg) -> Self {
+        match m {
+            LargeRasterArg::Compute => LargeRaster::Compute,
+            LargeRasterArg::Hardware => LargeRaster::Hardware,
+        }
+    }
+}
+
+impl From<LargeRaster> for LargeRasterArg {
+    fn from(m: LargeRaster) -> Self {
+        match m {
+            LargeRaster::Compute => LargeRasterArg::Compute,
+            LargeRaster::Hardware => LargeRasterArg::Hardware,
         }
     }
 }
@@ -297,6 +324,10 @@ pub struct SceneArgs {
     /// way) to the hardware raster.
     #[arg(long, default_value_t = ComputeRasterOptions::default().large_px, value_name = "PX")]
     pub raster_large_px: u32,
+    /// Who draws the compute raster's large triangles: compute (a workgroup a triangle) or
+    /// the hardware raster (one indirect draw).
+    #[arg(long, value_enum, default_value_t = LargeRasterArg::Compute)]
+    pub raster_large: LargeRasterArg,
     /// MSAA samples per pixel: 1 (off), 2, 4 or 8 (2 and 8 where the GPU has them). Forward+
     /// and brute force use hardware MSAA; Tiled Deferred shades edge pixels per sample.
     #[arg(long, default_value_t = 1, value_name = "1|2|4|8")]
@@ -395,6 +426,7 @@ impl Default for SceneArgs {
             gbuffer_rts: d.gbuffer_rts,
             raster: d.raster,
             raster_large_px: d.raster_large_px,
+            raster_large: d.raster_large.into(),
             msaa: d.msaa,
             edge_distance: d.edge_distance,
             edge_normal_deg: d.edge_normal_deg,
@@ -470,6 +502,7 @@ impl SceneArgs {
             gbuffer_rts: self.gbuffer_rts,
             raster: self.raster,
             raster_large_px: self.raster_large_px,
+            raster_large: self.raster_large.into(),
             msaa: self.msaa,
             edge_distance: self.edge_distance,
             edge_normal_deg: self.edge_normal_deg,
@@ -518,6 +551,10 @@ impl Flags for SceneArgs {
             "grid-objects" => args.grid_objects = small()?,
             "gbuffer-rts" => args.gbuffer_rts = small()?,
             "raster-large-px" => args.raster_large_px = small()?,
+            "raster-large" => {
+                args.raster_large =
+                    LargeRasterArg::from_str(value, true).map_err(|e| anyhow::anyhow!("raster-large '{value}': {e}"))?
+            }
             "raster" => {
                 args.raster = Raster::from_str(value, true).map_err(|e| anyhow::anyhow!("raster '{value}': {e}"))?
             }
@@ -677,6 +714,8 @@ mod tests {
             "hardware",
             "--raster-large-px",
             "48",
+            "--raster-large",
+            "hardware",
             "--msaa",
             "4",
             "--edge-distance",
@@ -732,6 +771,7 @@ mod tests {
             gbuffer_rts: 3,
             raster: Raster::Hardware,
             raster_large_px: 48,
+            raster_large: LargeRaster::Hardware,
             msaa: 4,
             edge_distance: 0.25,
             edge_normal_deg: 30.0,

@@ -101,6 +101,7 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || a.gbuffer_rts != b.gbuffer_rts
         || a.raster != b.raster
         || a.raster_large_px != b.raster_large_px
+        || a.raster_large != b.raster_large
         || a.msaa != b.msaa
         || a.edge_distance != b.edge_distance
         || a.edge_normal_deg != b.edge_normal_deg

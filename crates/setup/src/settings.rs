@@ -30,7 +30,7 @@ use tiledlight_scene::{
     surface_irradiance_factor, CameraDesc, GridDensity, SurfaceLightOptions, DEFAULT_LIGHT_THRESHOLD,
     DEFAULT_SURFACE_OFFSET, MAX_GRID_OBJECTS, MAX_LIGHTS,
 };
-pub use tiledlight_visibility::compute_raster::ComputeRasterOptions;
+pub use tiledlight_visibility::compute_raster::{ComputeRasterOptions, LargeRaster};
 
 /// Random point lights of the default scene when [`Settings::lights`] is not given.
 pub const DEFAULT_POINT_LIGHTS: u64 = 1024;
@@ -199,6 +199,8 @@ pub struct Settings {
     /// The compute raster hands a triangle whose bounds span more pixels than this (either
     /// way) to the hardware.
     pub raster_large_px: u32,
+    /// Who draws the compute raster's large triangles: compute or the hardware.
+    pub raster_large: LargeRaster,
     /// MSAA samples per pixel: 1 (off), 2, 4 or 8.
     pub msaa: u32,
     /// Tiled Deferred's MSAA edge test: off-plane distance / view distance.
@@ -268,6 +270,7 @@ impl Default for Settings {
             gbuffer_rts: 2,
             raster: Raster::Auto,
             raster_large_px: ComputeRasterOptions::default().large_px,
+            raster_large: ComputeRasterOptions::default().large,
             msaa: 1,
             edge_distance: EdgeTest::default().distance,
             edge_normal_deg: EdgeTest::default().normal_deg,
@@ -496,7 +499,7 @@ impl Settings {
             cull: self.cull_options(),
             gbuffer_rts: self.gbuffer_rts,
             raster: self.raster,
-            compute_raster: ComputeRasterOptions { large_px: self.raster_large_px },
+            compute_raster: ComputeRasterOptions { large_px: self.raster_large_px, large: self.raster_large },
             exposure: self.exposure,
             auto_exposure: self.auto_exposure,
             heatmap,

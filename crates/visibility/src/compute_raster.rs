@@ -9,13 +9,15 @@
 //!    (per cluster; an instance off screen loses all its clusters there); each lane then
 //!    sets up one triangle (clip, snap, cull back faces of single-sided materials) and
 //!    fills it, unless its bounds span more than [`ComputeRasterOptions::large_px`] pixels
-//!    either way: those go to a list for the hardware.
-//! 2. **Hardware** (`visibility_raster_large.wgsl`, and `depth_prepass.wgsl` with `IDS
-//!    ATOMIC`): the large triangles by one indirect draw, and the alpha-masked instances
-//!    (their alpha test with the hardware's derivatives), each fragment resolving its
-//!    texel by the same `atomicMax`. Only with something to draw: the masked pipelines
-//!    exist only in scenes with masked materials.
-//! 3. **Finalize** (`cs_finalize`): per pixel, the depth to the frame's `R32Float` depth
+//!    either way: those go to the large list.
+//! 2. **Large triangles** ([`LargeRaster`]): by compute (`cs_large`, the default: a
+//!    workgroup per triangle, 256 lanes sharing its pixels by the same rules), or by the
+//!    hardware (`visibility_raster_large.wgsl`, one indirect draw).
+//! 3. **Hardware** (`depth_prepass.wgsl` with `IDS ATOMIC`, and the large triangles when
+//!    the hardware draws them): the alpha-masked instances (their alpha test with the
+//!    hardware's derivatives), each fragment resolving its texel by the same `atomicMax`.
+//!    The pass exists only with something to draw.
+//! 4. **Finalize** (`cs_finalize`): per pixel, the depth to the frame's `R32Float` depth
 //!    target and the ID to the ID target (what culling and shading read, as they read the
 //!    hardware raster's), the texel back to the clear value and the large list emptied,
 //!    so no clear pass runs.
@@ -115,19 +117,48 @@ pub const LARGE_BINDINGS: PassBindings = PassBindings {
     groups: &[PassGroup::new(0, tiledlight_gpu::view::BINDINGS), PassGroup::new(1, LARGE_GROUP)],
 };
 
-/// How the compute raster splits work with the hardware.
+/// Who draws the compute raster's large triangles.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum LargeRaster {
+    /// A compute workgroup per triangle, its lanes sharing the pixels (`cs_large`).
+    #[default]
+    Compute,
+    /// The hardware raster, by one indirect draw (`visibility_raster_large.wgsl`).
+    Hardware,
+}
+
+impl LargeRaster {
+    /// Both, in the order the command line lists them.
+    pub const ALL: [LargeRaster; 2] = [LargeRaster::Compute, LargeRaster::Hardware];
+
+    /// The flag value.
+    pub fn name(self) -> &'static str {
+        match self {
+            LargeRaster::Compute => "compute",
+            LargeRaster::Hardware => "hardware",
+        }
+    }
+}
+
+/// How the compute raster splits its work.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ComputeRasterOptions {
     /// A triangle whose clipped bounds span more than this many pixels (columns or rows)
-    /// is drawn by the hardware; `u32::MAX`: every opaque triangle by compute.
+    /// is large: drawn by `large`, not one thread; `u32::MAX`: none is.
     pub large_px: u32,
+    /// Who draws the large triangles.
+    pub large: LargeRaster,
 }
 
 impl Default for ComputeRasterOptions {
+    /// 32 px, by compute: the fastest measured on the H200 (docs/PERFORMANCE.md).
     fn default() -> Self {
-        Self { large_px: 32 }
+        Self { large_px: 32, large: LargeRaster::Compute }
     }
 }
+
+/// Workgroups of the large-triangle kernel (`LARGE_GROUPS` in the WGSL).
+const LARGE_GROUPS: u32 = 1024;
 
 /// An (instance, cluster) pair (`Entry` in the WGSL).
 #[repr(C)]
@@ -169,10 +200,12 @@ fn buf(binding: u32, b: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
 /// The compute raster's passes and buffers.
 pub struct ComputeRaster {
     clusters: wgpu::ComputePipeline,
+    /// The large triangles by compute (with [`LargeRaster::Compute`]).
+    large_compute: Option<wgpu::ComputePipeline>,
     finalize: wgpu::ComputePipeline,
-    large: wgpu::RenderPipeline,
+    /// The large triangles by the hardware (with [`LargeRaster::Hardware`]) and its group.
+    large: Option<(wgpu::RenderPipeline, wgpu::BindGroup)>,
     compute_group: wgpu::BindGroup,
-    large_group: wgpu::BindGroup,
     /// The masked instances' pipelines and the texels' group for them.
     masked: Option<(DepthPrepass, wgpu::BindGroup, u32)>,
     large_args: wgpu::Buffer,
@@ -291,54 +324,62 @@ impl ComputeRaster {
             compute_pipeline_at(device, ("visibility.compute_raster.clusters", "cs_clusters"), &groups, &module, &[]);
         let finalize =
             compute_pipeline_at(device, ("visibility.compute_raster.finalize", "cs_finalize"), &groups, &module, &[]);
+        let large_compute = (options.large == LargeRaster::Compute).then(|| {
+            compute_pipeline_at(device, ("visibility.compute_raster.large_compute", "cs_large"), &groups, &module, &[])
+        });
 
-        let large_layout = create_layout(device, "visibility.compute_raster.large.layout", LARGE_GROUP, &[]);
-        let large_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("visibility.compute_raster.large.group"),
-            layout: &large_layout,
-            entries: &[
-                buf(24, &scene.instances),
-                buf(25, &scene.materials),
-                buf(26, &scene.indices),
-                buf(27, &scene.positions),
-                buf(43, &texels),
-                buf(49, &large_buf),
-            ],
-        });
-        let large_module = keyed_module(device, &ComputeRasterKey::Large)?;
-        let constants = [("TRIANGLE_BITS", f64::from(layout.triangle_bits))];
-        let options =
-            wgpu::PipelineCompilationOptions { constants: &constants, zero_initialize_workgroup_memory: false };
-        let large = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("visibility.compute_raster.large"),
-            layout: Some(&pipeline_layout(
-                device,
-                "visibility.compute_raster.large.pipeline_layout",
-                &[&views.layout, &large_layout],
-            )),
-            vertex: wgpu::VertexState {
-                module: &large_module,
-                entry_point: Some("vs_large"),
-                compilation_options: options.clone(),
-                buffers: &[],
-            },
-            // The compute pass culled back faces already.
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &large_module,
-                entry_point: Some("fs_large"),
-                compilation_options: options,
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: ID_FORMAT,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::empty(),
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let large = (options.large == LargeRaster::Hardware)
+            .then(|| -> Result<_, GpuError> {
+                let large_layout = create_layout(device, "visibility.compute_raster.large.layout", LARGE_GROUP, &[]);
+                let large_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("visibility.compute_raster.large.group"),
+                    layout: &large_layout,
+                    entries: &[
+                        buf(24, &scene.instances),
+                        buf(25, &scene.materials),
+                        buf(26, &scene.indices),
+                        buf(27, &scene.positions),
+                        buf(43, &texels),
+                        buf(49, &large_buf),
+                    ],
+                });
+                let large_module = keyed_module(device, &ComputeRasterKey::Large)?;
+                let constants = [("TRIANGLE_BITS", f64::from(layout.triangle_bits))];
+                let options =
+                    wgpu::PipelineCompilationOptions { constants: &constants, zero_initialize_workgroup_memory: false };
+                let large = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                    label: Some("visibility.compute_raster.large"),
+                    layout: Some(&pipeline_layout(
+                        device,
+                        "visibility.compute_raster.large.pipeline_layout",
+                        &[&views.layout, &large_layout],
+                    )),
+                    vertex: wgpu::VertexState {
+                        module: &large_module,
+                        entry_point: Some("vs_large"),
+                        compilation_options: options.clone(),
+                        buffers: &[],
+                    },
+                    // The compute pass culled back faces already.
+                    primitive: wgpu::PrimitiveState::default(),
+                    depth_stencil: None,
+                    multisample: wgpu::MultisampleState::default(),
+                    fragment: Some(wgpu::FragmentState {
+                        module: &large_module,
+                        entry_point: Some("fs_large"),
+                        compilation_options: options,
+                        targets: &[Some(wgpu::ColorTargetState {
+                            format: ID_FORMAT,
+                            blend: None,
+                            write_mask: wgpu::ColorWrites::empty(),
+                        })],
+                    }),
+                    multiview_mask: None,
+                    cache: None,
+                });
+                Ok((large, large_group))
+            })
+            .transpose()?;
         let masked = if features.draw_kinds.iter().any(|k| k.masked && !k.blended) {
             let texels_layout = create_layout(device, "visibility.compute_raster.masked.layout", ATOMIC_TEXELS, &[]);
             let pass =
@@ -354,10 +395,10 @@ impl ComputeRaster {
         };
         Ok(Self {
             clusters: clusters_pipeline,
+            large_compute,
             finalize,
             large,
             compute_group,
-            large_group,
             masked,
             large_args,
             dispatch,
@@ -389,6 +430,24 @@ impl ComputeRaster {
             pass.dispatch_workgroups(self.dispatch.0, self.dispatch.1, 1);
         }
         timer.end(encoder, t);
+        if let Some(large) = &self.large_compute {
+            let t = timer.begin("visibility.raster.large", encoder);
+            {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("visibility.raster.large"),
+                    timestamp_writes: t.compute_writes(),
+                });
+                pass.set_pipeline(large);
+                pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
+                pass.set_bind_group(1, &self.compute_group, &[]);
+                pass.dispatch_workgroups(LARGE_GROUPS, 1, 1);
+            }
+            timer.end(encoder, t);
+            if self.masked.is_none() {
+                // Nothing left for the hardware.
+                return self.record_finalize(encoder, timer, (views, view));
+            }
+        }
         let t = timer.begin("visibility.raster.hardware", encoder);
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -404,16 +463,23 @@ impl ComputeRaster {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_pipeline(&self.large);
-            pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
-            pass.set_bind_group(1, &self.large_group, &[]);
-            pass.draw_indirect(&self.large_args, 0);
+            if let Some((large, group)) = &self.large {
+                pass.set_pipeline(large);
+                pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
+                pass.set_bind_group(1, group, &[]);
+                pass.draw_indirect(&self.large_args, 0);
+            }
             if let Some((masked, group, index)) = &self.masked {
                 pass.set_bind_group(*index, group, &[]);
                 masked.draw(&mut pass, (views, view), scene, None);
             }
         }
         timer.end(encoder, t);
+        self.record_finalize(encoder, timer, (views, view));
+    }
+
+    /// Step 3: the texels to the depth and ID targets, reset for the next frame.
+    fn record_finalize(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, (views, view): (&Views, u32)) {
         let t = timer.begin("visibility.raster.finalize", encoder);
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
