@@ -66,6 +66,25 @@ impl GpuTimer {
         self.profiler.end_query(encoder, t.0);
     }
 
+    /// One timed compute pass labelled `label`: begins it with its timestamps, lets
+    /// `record` fill it, ends it and its timing.
+    pub fn compute_pass(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        label: &str,
+        record: impl FnOnce(&mut wgpu::ComputePass<'_>),
+    ) {
+        let t = self.begin(label, encoder);
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(label),
+                timestamp_writes: t.compute_writes(),
+            });
+            record(&mut pass);
+        }
+        self.end(encoder, t);
+    }
+
     /// Resolves this frame's queries; call once at the end of the frame's last encoder.
     pub fn resolve(&mut self, encoder: &mut wgpu::CommandEncoder) {
         self.profiler.resolve_queries(encoder);

@@ -418,31 +418,19 @@ impl ComputeRaster {
         scene: &SceneGpu,
         ids: &wgpu::TextureView,
     ) {
-        let t = timer.begin("visibility.raster.compute", encoder);
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("visibility.raster.compute"),
-                timestamp_writes: t.compute_writes(),
-            });
+        timer.compute_pass(encoder, "visibility.raster.compute", |pass| {
             pass.set_pipeline(&self.clusters);
             pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
             pass.set_bind_group(1, &self.compute_group, &[]);
             pass.dispatch_workgroups(self.dispatch.0, self.dispatch.1, 1);
-        }
-        timer.end(encoder, t);
+        });
         if let Some(large) = &self.large_compute {
-            let t = timer.begin("visibility.raster.large", encoder);
-            {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("visibility.raster.large"),
-                    timestamp_writes: t.compute_writes(),
-                });
+            timer.compute_pass(encoder, "visibility.raster.large", |pass| {
                 pass.set_pipeline(large);
                 pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
                 pass.set_bind_group(1, &self.compute_group, &[]);
                 pass.dispatch_workgroups(LARGE_GROUPS, 1, 1);
-            }
-            timer.end(encoder, t);
+            });
             if self.masked.is_none() {
                 // Nothing left for the hardware.
                 return self.record_finalize(encoder, timer, (views, view));
@@ -480,17 +468,11 @@ impl ComputeRaster {
 
     /// Step 3: the texels to the depth and ID targets, reset for the next frame.
     fn record_finalize(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, (views, view): (&Views, u32)) {
-        let t = timer.begin("visibility.raster.finalize", encoder);
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("visibility.raster.finalize"),
-                timestamp_writes: t.compute_writes(),
-            });
+        timer.compute_pass(encoder, "visibility.raster.finalize", |pass| {
             pass.set_pipeline(&self.finalize);
             pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
             pass.set_bind_group(1, &self.compute_group, &[]);
             pass.dispatch_workgroups(self.screen.0.div_ceil(8), self.screen.1.div_ceil(8), 1);
-        }
-        timer.end(encoder, t);
+        });
     }
 }
