@@ -160,16 +160,32 @@ fn raster_prepare(a: RasterVertex, b: RasterVertex, c: RasterVertex, size: vec2<
     return f;
 }
 
-// Pixel (px, py) with edge values e (raster_edge of the three edges at its centre):
-// covered by the top-left rule, then its texel emitted.
-fn raster_cover(f: RasterFill, e: vec3<i64>, px: i64, py: i64, id: u32) {
-    let inside = (e > vec3<i64>(0li)) | ((e == vec3<i64>(0li)) & f.own);
-    if all(inside) {
-        let depth = (f32(e.x) * f.inv) * f.v0.depth + (f32(e.y) * f.inv) * f.v1.depth + (f32(e.z) * f.inv) * f.v2.depth;
+// Pixel (px, py), covered (`inside`, by the top-left rule) or not, with its edge values
+// `e` as f32: its texel emitted when covered.
+fn raster_cover_at(f: RasterFill, inside: bool, e: vec3<f32>, px: i64, py: i64, id: u32) {
+    if inside {
+        let depth = (e.x * f.inv) * f.v0.depth + (e.y * f.inv) * f.v1.depth + (e.z * f.inv) * f.v2.depth;
         let texel = (u64(bitcast<u32>(max(depth, 0.0))) << 32u) | u64(id);
         raster_emit(u32(px), u32(py), texel);
     }
 }
+
+// Pixel (px, py) with edge values e (raster_edge of the three edges at its centre).
+fn raster_cover(f: RasterFill, e: vec3<i64>, px: i64, py: i64, id: u32) {
+    let inside = all((e > vec3<i64>(0li)) | ((e == vec3<i64>(0li)) & f.own));
+    raster_cover_at(f, inside, vec3<f32>(f32(e.x), f32(e.y), f32(e.z)), px, py, id);
+}
+
+// raster_cover with the edge values in i32 (raster_fill's small triangles): the same
+// integers, so the same coverage and the same f32 conversions.
+fn raster_cover32(f: RasterFill, e: vec3<i32>, px: i64, py: i64, id: u32) {
+    let inside = all((e > vec3<i32>(0)) | ((e == vec3<i32>(0)) & f.own));
+    raster_cover_at(f, inside, vec3<f32>(e), px, py, id);
+}
+
+// Sub-pixel spread of a triangle's vertices below which its edge values fit an i32 at
+// every pixel centre of its bounds: |e| <= 2 S (S + 256) < 2^31 for S < 32,000; 64 px.
+const RASTER_I32_SPAN: i64 = 16384li;
 
 // The edge values at the centre of pixel (px, py).
 fn raster_edges(f: RasterFill, px: i64, py: i64) -> vec3<i64> {
@@ -184,11 +200,28 @@ fn raster_fill(a: RasterVertex, b: RasterVertex, c: RasterVertex, size: vec2<u32
     if !f.drawn {
         return;
     }
-    // The edge functions are linear in the sample point: stepped by exact i64 additions
-    // from the first pixel's values, equal to evaluating raster_edges at every pixel.
+    // The edge functions are linear in the sample point: stepped by exact integer
+    // additions from the first pixel's values, equal to evaluating raster_edges at every
+    // pixel; in i32 (native on GPUs, where i64 is emulated) when the values fit.
     var row = raster_edges(f, f.lo.x, f.lo.y);
     let sx = vec3<i64>(f.v1.y - f.v2.y, f.v2.y - f.v0.y, f.v0.y - f.v1.y) * RASTER_ONE;
     let sy = vec3<i64>(f.v2.x - f.v1.x, f.v0.x - f.v2.x, f.v1.x - f.v0.x) * RASTER_ONE;
+    let vlo = min(min(vec2<i64>(f.v0.x, f.v0.y), vec2<i64>(f.v1.x, f.v1.y)), vec2<i64>(f.v2.x, f.v2.y));
+    let vhi = max(max(vec2<i64>(f.v0.x, f.v0.y), vec2<i64>(f.v1.x, f.v1.y)), vec2<i64>(f.v2.x, f.v2.y));
+    if all(vhi - vlo < vec2<i64>(RASTER_I32_SPAN)) {
+        var row32 = vec3<i32>(row);
+        let sx32 = vec3<i32>(sx);
+        let sy32 = vec3<i32>(sy);
+        for (var py = f.lo.y; py <= f.hi.y; py++) {
+            var e = row32;
+            for (var px = f.lo.x; px <= f.hi.x; px++) {
+                raster_cover32(f, e, px, py, id);
+                e += sx32;
+            }
+            row32 += sy32;
+        }
+        return;
+    }
     for (var py = f.lo.y; py <= f.hi.y; py++) {
         var e = row;
         for (var px = f.lo.x; px <= f.hi.x; px++) {
