@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign emission vpl reshape visibility raster
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign emission vpl reshape visibility raster raster-short
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -154,6 +154,22 @@ for set in $sets; do
     run "r-court-fp" 50 --lights 1024
     run "r-court-td" 50 --lights 1024 --method deferred
     run "r-mp-td-scatter" 10 --light-preset million --method deferred --assign scatter
+    ;;
+  raster-short)
+    # Issue 29, the compute raster only: the Figure 9 scene at three light counts, its
+    # large-triangle split, the courtyard and grid scaling, the million preset assigned.
+    for n in 1024 4096 16384; do
+      run "rs-f9-cs-$n" 50 --lights $n --grid-objects 280 --density medium --method visibility --raster compute
+    done
+    for px in 16 64; do
+      run "rs-f9-cs-4096-l$px" 50 --lights 4096 --grid-objects 280 --density medium --method visibility \
+        --raster compute --raster-large-px $px
+    done
+    run "rs-court-cs" 50 --lights 1024 --method visibility --raster compute
+    for g in 17 70; do
+      run "rs-g$g-cs" 50 --lights 1024 --grid-objects $g --density medium --method visibility --raster compute
+    done
+    run "rs-mp-cs-scatter" 10 --light-preset million --method visibility --raster compute --assign scatter
     ;;
   million)
     # Issue 13: a million lights on the courtyard (threshold 10: ~115 lights a tile), both
