@@ -566,7 +566,7 @@ mod tests {
         let got = compare_bindings(&deferred, &[], &module, &info);
         assert!(
             got.contains(
-                &"@group(1) @binding(0): texture_depth_2d in Rust, depth_texture: texture_depth_multisampled_2d in the WGSL"
+                &"@group(1) @binding(0): texture_2d<f32> in Rust, depth_texture: texture_multisampled_2d<f32> in the WGSL"
                     .to_string()
             ),
             "{got:?}"

@@ -1006,7 +1006,9 @@ mod tests {
         // 3 lookups x spots x 3 shadowings x 34 material paths, per sample mode.
         assert_eq!(count("visibility.wgsl"), 612);
         assert_eq!(count("visibility_msaa.wgsl"), 612);
-        assert_eq!(count("depth_prepass.wgsl"), 8);
+        // 4 pre-pass and 4 ID-raster variants, and 3 masked ones resolving IDs with atomics
+        // (the compute raster's masked draws).
+        assert_eq!(count("depth_prepass.wgsl"), 11);
     }
 
     #[test]
