@@ -10,11 +10,12 @@
 //    buffers, transforms them as the hardware raster's vertex stage does
 //    (common/scene.wgsl transform_position), clips, snaps and culls them
 //    (common/compute_raster.wgsl raster_setup; back faces only for single-sided materials,
-//    the entry's top bit), and fills it when its bounds span at most LARGE_PX pixels each
-//    way; a larger one is appended to the large list for the hardware
-//    (visibility_raster_large.wgsl: the raster does it faster than one thread would).
-// 2. (the hardware) large triangles and alpha-masked instances, atomicMax from fragments;
-//    or the large triangles by compute (cs_large below) and only the masked by the hardware.
+//    the entry's top bit), and fills it when its bounds span at most params.large_px
+//    pixels each way; a larger one is appended to the large list (one thread would take
+//    too long over its pixels).
+// 2. The large list: cs_large below (a workgroup a triangle, the default) or the hardware
+//    (visibility_raster_large.wgsl); alpha-masked instances by the hardware
+//    (depth_prepass.wgsl with IDS ATOMIC), atomicMax from fragments.
 // 3. cs_finalize: per pixel, the texel's depth to an R32Float texture and its ID to the
 //    R32Uint ID texture (what the culling and shading passes read), then the texel back to
 //    the clear value and the large list emptied, ready for the next frame.
@@ -138,7 +139,7 @@ fn cs_clusters(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_i
             return;
         }
         if any(raster_span_tri(t) > large_px) {
-            hand_to_hardware(entry.instance, triangle);
+            append_large(entry.instance, triangle);
             return;
         }
         raster_fill(t.a, t.b, t.c, view.screen, id);
@@ -149,14 +150,14 @@ fn cs_clusters(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_i
         return;
     }
     if any(raster_span(t) > large_px) {
-        hand_to_hardware(entry.instance, triangle);
+        append_large(entry.instance, triangle);
         return;
     }
     raster_fill_setup(t, view.screen, id);
 }
 
-// Appends a triangle to the large list (the hardware draws it).
-fn hand_to_hardware(instance: u32, triangle: u32) {
+// Appends a triangle to the large list (cs_large or the hardware draws it).
+fn append_large(instance: u32, triangle: u32) {
     let slot = atomicAdd(&large_args.vertex_count, 3u) / 3u;
     large[slot] = Large(instance, triangle);
 }

@@ -317,10 +317,8 @@ pub const DEFERRED_RESOLVE_BINDINGS: PassBindings = PassBindings {
     )],
 };
 
-/// A texture view at `binding`.
-pub fn view_entry(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) }
-}
+/// A texture view at `binding` (re-exported: the visibility buffer imports it from here).
+pub use tiledlight_gpu::util::view_entry;
 
 /// Bindings of the extra G-buffer targets, in order (as declared in [`DEFERRED_GROUP`],
 /// which `cargo xtask validate-shaders` checks against the kernels).

@@ -104,7 +104,7 @@ impl GpuContext {
         }
         // The visibility buffer's compute rasteriser (issue 29): 64-bit integers and 64-bit
         // atomic max, where the adapter has both (lavapipe and the H200 do).
-        let int64 = wgpu::Features::SHADER_INT64 | wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX;
+        let int64 = crate::features::COMPUTE_RASTER_FEATURES;
         if features.contains(int64) {
             required_features |= int64;
         }

@@ -110,6 +110,11 @@ impl clap::ValueEnum for Method {
     }
 }
 
+/// The wgpu features the visibility buffer's compute raster needs (64-bit integers and
+/// 64-bit atomic max on storage buffers).
+pub const COMPUTE_RASTER_FEATURES: wgpu::Features =
+    wgpu::Features::SHADER_INT64.union(wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX);
+
 /// Which rasteriser draws the visibility buffer's depth and triangle IDs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Raster {
@@ -161,7 +166,7 @@ impl Raster {
     /// docs/PERFORMANCE.md), else the hardware raster (lavapipe's compute raster is the
     /// slower there). An explicit choice is kept as it is.
     pub fn pick(self, device_type: wgpu::DeviceType, features: wgpu::Features, msaa: u32) -> Raster {
-        let can = features.contains(wgpu::Features::SHADER_INT64 | wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX);
+        let can = features.contains(COMPUTE_RASTER_FEATURES);
         match self {
             Raster::Auto if can && msaa == 1 && device_type == wgpu::DeviceType::DiscreteGpu => Raster::Compute,
             Raster::Auto => Raster::Hardware,

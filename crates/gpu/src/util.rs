@@ -55,6 +55,16 @@ pub fn keyed_module(device: &wgpu::Device, key: &dyn ShaderKey) -> Result<wgpu::
     shader_module(device, key.entry(), &key.defines())
 }
 
+/// A bind group entry: all of buffer `buffer` at `binding`.
+pub fn buffer_entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
+}
+
+/// A bind group entry: texture view `view` at `binding`.
+pub fn view_entry(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) }
+}
+
 /// Pipeline-layout entry list helper: every group in order, `None` for none.
 pub fn pipeline_layout(device: &wgpu::Device, label: &str, groups: &[&wgpu::BindGroupLayout]) -> wgpu::PipelineLayout {
     let groups: Vec<Option<&wgpu::BindGroupLayout>> = groups.iter().map(|g| Some(*g)).collect();

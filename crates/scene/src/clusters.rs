@@ -1,8 +1,8 @@
 //! A mesh split into clusters (meshlets) of at most a fixed number of triangles, each with
-//! its bounds: what the compute rasteriser (issue 29) will cull per cluster on the GPU.
+//! its bounds: what the compute rasteriser (issue 29) culls per cluster on the GPU.
 //! The triangles are ordered along a Morton (Z-order) curve of their centroids in the
-//! mesh's bounds and cut into consecutive runs, so a cluster is a contiguous range of the
-//! reordered index buffer and spatially compact (not the minimal-bounds optimum a
+//! mesh's bounds and cut into consecutive runs, so a cluster is a contiguous range of that
+//! order (the mesh's index buffer is left as it is) and spatially compact (not the minimal-bounds optimum a
 //! meshoptimizer-style builder finds: the order is one sort, deterministic, and good enough
 //! for frustum and bounds culling; measured in the tests on a grid mesh). Depends on the
 //! scene model and glam.
@@ -17,7 +17,7 @@ pub const CLUSTER_TRIANGLES: u32 = 128;
 /// One cluster: a range of the reordered triangles and their bounds.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cluster {
-    /// First triangle (of the reordered index buffer).
+    /// First slot of [`Clustered::order`] it holds.
     pub first_triangle: u32,
     /// Triangles, 1 to the cluster size.
     pub triangles: u32,
@@ -25,14 +25,11 @@ pub struct Cluster {
     pub bounds: Aabb,
 }
 
-/// A mesh's triangles reordered into clusters.
+/// A mesh's triangles in clusters: the mesh's index buffer stays as it is (each triangle
+/// keeps its vertex order, so its winding); the clusters name its triangles.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Clustered {
-    /// Three indices per triangle, a permutation of the mesh's triangles (each keeps its
-    /// vertex order, so its winding).
-    pub indices: Vec<u32>,
-    /// Per reordered triangle, its index in the mesh's own order (`indices` is the mesh's
-    /// index buffer permuted by it).
+    /// The mesh's triangles in cluster order: per slot, the triangle's index in the mesh.
     pub order: Vec<u32>,
     /// The clusters, in order, covering every triangle once.
     pub clusters: Vec<Cluster>,
@@ -81,13 +78,11 @@ pub fn cluster_mesh(mesh: &Mesh, max_triangles: u32) -> Clustered {
 fn runs(mesh: &Mesh, tris: &[[u32; 3]], order: impl Iterator<Item = usize>, max: usize) -> Clustered {
     let pos = |i: u32| Vec3::from(mesh.positions[i as usize]);
     let order: Vec<usize> = order.collect();
-    let mut indices = Vec::with_capacity(mesh.indices.len());
     let mut clusters = Vec::with_capacity(order.len().div_ceil(max));
     let triangle_order = order.iter().map(|&k| k as u32).collect();
     for (c, run) in order.chunks(max).enumerate() {
         let mut b = Aabb::empty();
         for &k in run {
-            indices.extend_from_slice(&tris[k]);
             for &i in &tris[k] {
                 b.min = b.min.min(pos(i));
                 b.max = b.max.max(pos(i));
@@ -95,7 +90,7 @@ fn runs(mesh: &Mesh, tris: &[[u32; 3]], order: impl Iterator<Item = usize>, max:
         }
         clusters.push(Cluster { first_triangle: (c * max) as u32, triangles: run.len() as u32, bounds: b });
     }
-    Clustered { indices, order: triangle_order, clusters }
+    Clustered { order: triangle_order, clusters }
 }
 
 #[cfg(test)]
@@ -128,7 +123,7 @@ mod tests {
         m
     }
 
-    /// Every triangle lands in exactly one cluster with its vertex order; clusters hold at
+    /// Every triangle lands in exactly one cluster; clusters hold at
     /// most the maximum and are as few as it allows; bounds hold their triangles.
     #[test]
     fn clusters_partition_the_triangles() {
@@ -136,11 +131,11 @@ mod tests {
         let c = cluster_mesh(&m, CLUSTER_TRIANGLES);
         let n = m.indices.len() / 3;
         assert_eq!(c.clusters.len(), n.div_ceil(CLUSTER_TRIANGLES as usize));
-        let mut a: Vec<[u32; 3]> = m.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
-        let mut b: Vec<[u32; 3]> = c.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
-        a.sort_unstable();
-        b.sort_unstable();
-        assert_eq!(a, b, "a permutation of the triangles, each with its winding");
+        let mut seen = vec![false; n];
+        for &t in &c.order {
+            assert!(!std::mem::replace(&mut seen[t as usize], true), "triangle {t} twice");
+        }
+        assert!(seen.iter().all(|&s| s), "every triangle once");
         let mut next = 0;
         for cl in &c.clusters {
             assert_eq!(cl.first_triangle, next);
@@ -148,26 +143,13 @@ mod tests {
             next += cl.triangles;
             for t in cl.first_triangle..cl.first_triangle + cl.triangles {
                 for k in 0..3 {
-                    let p = Vec3::from(m.positions[c.indices[(t * 3 + k) as usize] as usize]);
+                    let i = m.indices[(c.order[t as usize] * 3 + k) as usize];
+                    let p = Vec3::from(m.positions[i as usize]);
                     assert!(p.cmpge(cl.bounds.min).all() && p.cmple(cl.bounds.max).all());
                 }
             }
         }
         assert_eq!(next as usize, n);
-    }
-
-    /// The order names each reordered triangle's place in the mesh: the mesh's triangle
-    /// there is the reordered one, and every place appears once.
-    #[test]
-    fn order_maps_back_to_the_mesh() {
-        let m = grid(9);
-        let c = cluster_mesh(&m, 50);
-        let mut seen = vec![false; m.indices.len() / 3];
-        for (slot, &t) in c.order.iter().enumerate() {
-            assert_eq!(c.indices[slot * 3..slot * 3 + 3], m.indices[t as usize * 3..t as usize * 3 + 3]);
-            assert!(!std::mem::replace(&mut seen[t as usize], true), "triangle {t} twice");
-        }
-        assert!(seen.iter().all(|&s| s));
     }
 
     /// Spatially compact: on a 64 x 64 grid (8,192 triangles, 64 clusters of 128, each

@@ -34,7 +34,9 @@ use tiledlight_gpu::features::Features;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::util::{buffer_init, compute_pipeline_at, keyed_module, pipeline_layout};
+use tiledlight_gpu::util::{
+    buffer_entry as buf, buffer_init, compute_pipeline_at, keyed_module, pipeline_layout, view_entry,
+};
 use tiledlight_gpu::variants::ComputeRasterKey;
 use tiledlight_gpu::view::Views;
 use tiledlight_gpu::GpuError;
@@ -47,9 +49,7 @@ const FS: wgpu::ShaderStages = wgpu::ShaderStages::FRAGMENT;
 /// and shading passes as they read a `Depth32Float` target.
 pub const COMPUTE_DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 
-/// The wgpu features the compute raster needs.
-pub const COMPUTE_RASTER_FEATURES: wgpu::Features =
-    wgpu::Features::SHADER_INT64.union(wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX);
+pub use tiledlight_gpu::features::COMPUTE_RASTER_FEATURES;
 
 /// Whether the compute raster can draw on a device with `features` at `msaa` samples: an
 /// error naming what is missing otherwise (checked before any target is made).
@@ -192,11 +192,6 @@ struct RasterParams {
 /// Workgroups per row of the clusters' 2D dispatch (below every adapter's 65,535).
 const GROUPS_X: u32 = 32_768;
 
-/// Group entry `binding`: all of buffer `b`.
-fn buf(binding: u32, b: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }
-}
-
 /// The compute raster's passes and buffers.
 pub struct ComputeRaster {
     clusters: wgpu::ComputePipeline,
@@ -211,10 +206,6 @@ pub struct ComputeRaster {
     large_args: wgpu::Buffer,
     dispatch: (u32, u32),
     screen: (u32, u32),
-    /// (Instance, cluster) pairs drawn by compute.
-    pub entries: u32,
-    /// Triangles those hold.
-    pub triangles: u64,
 }
 
 impl ComputeRaster {
@@ -288,7 +279,7 @@ impl ComputeRaster {
             device,
             "visibility.compute_raster.large_args",
             bytemuck::cast_slice(&[0u32, 1, 0, 0]),
-            U::STORAGE | U::INDIRECT,
+            U::STORAGE | if options.large == LargeRaster::Hardware { U::INDIRECT } else { U::empty() },
         );
         memory.add("visibility.compute_raster.texels", pixels as u64 * 8);
         memory.add("visibility.compute_raster.large", large_buf.size());
@@ -313,8 +304,8 @@ impl ComputeRaster {
                 buf(44, &texels),
                 buf(45, &large_buf),
                 buf(46, &large_args),
-                wgpu::BindGroupEntry { binding: 47, resource: wgpu::BindingResource::TextureView(depth) },
-                wgpu::BindGroupEntry { binding: 48, resource: wgpu::BindingResource::TextureView(ids) },
+                view_entry(47, depth),
+                view_entry(48, ids),
                 buf(50, &order_buf),
             ],
         });
@@ -403,8 +394,6 @@ impl ComputeRaster {
             large_args,
             dispatch,
             screen: size,
-            entries: n,
-            triangles,
         })
     }
 

@@ -17,7 +17,7 @@ use tiledlight_gpu::readback::read_texture;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::texture_2d_msaa;
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::util::{buffer_init, pipeline_layout, shader_module, texture_2d};
+use tiledlight_gpu::util::{buffer_init, pipeline_layout, shader_module, texture_2d, view_entry};
 use tiledlight_gpu::view::Views;
 use tiledlight_gpu::GpuError;
 
@@ -39,7 +39,8 @@ pub const DEPTH_COPY_BINDINGS: PassBindings = PassBindings {
 struct DepthCopy {
     pipeline: wgpu::RenderPipeline,
     group: wgpu::BindGroup,
-    _depth: wgpu::Texture,
+    /// What the compute raster writes (its texture is kept alive by the view).
+    view: wgpu::TextureView,
 }
 
 /// How the raster is drawn.
@@ -134,8 +135,8 @@ impl VisibilityRaster {
         let ids_view =
             ids.create_view(&wgpu::TextureViewDescriptor { label: Some("visibility.ids.view"), ..Default::default() });
         let path = if compute {
-            let copy = features.blended().then(|| depth_copy(device, size, memory));
-            let raster_depth = copy.as_ref().map_or(depth, |(_, view)| view);
+            let copy = features.blended().then(|| depth_copy(device, size, memory)).transpose()?;
+            let raster_depth = copy.as_ref().map_or(depth, |c| &c.view);
             let raster = ComputeRaster::new(
                 device,
                 views,
@@ -145,23 +146,11 @@ impl VisibilityRaster {
                 (raster_depth, &ids_view),
                 memory,
             )?;
-            let copy = match copy {
-                Some((c, _)) => Some(c?),
-                None => None,
-            };
             Path::Compute(Box::new(raster), copy)
         } else {
             Path::Hardware(DepthPrepass::with_ids(device, views, scene, features, layout.triangle_bits)?)
         };
         Ok(Self { path, ids, wrong_id, ids_view, layout })
-    }
-
-    /// Which raster draws (never [`Raster::Auto`]).
-    pub fn raster(&self) -> Raster {
-        match self.path {
-            Path::Hardware(_) => Raster::Hardware,
-            Path::Compute(..) => Raster::Compute,
-        }
     }
 
     /// The compute raster (with [`Raster::Compute`]).
@@ -237,12 +226,8 @@ impl VisibilityRaster {
     }
 }
 
-/// The depth copy's texture (the compute raster's `R32Float` depth), its view and pipeline.
-fn depth_copy(
-    device: &wgpu::Device,
-    size: (u32, u32),
-    memory: &mut MemoryReport,
-) -> (Result<DepthCopy, GpuError>, wgpu::TextureView) {
+/// The depth copy: its texture (the compute raster's `R32Float` depth), view and pipeline.
+fn depth_copy(device: &wgpu::Device, size: (u32, u32), memory: &mut MemoryReport) -> Result<DepthCopy, GpuError> {
     use wgpu::TextureUsages as U;
     let depth = texture_2d(
         device,
@@ -256,42 +241,39 @@ fn depth_copy(
         label: Some("visibility.compute_depth.view"),
         ..Default::default()
     });
-    let copy = (|| {
-        let layout = create_layout(device, "visibility.depth_copy.layout", DEPTH_COPY_BINDINGS.groups[0].bindings, &[]);
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("visibility.depth_copy.group"),
-            layout: &layout,
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) }],
-        });
-        let module = shader_module(device, DEPTH_COPY_BINDINGS.entry, &[])?;
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("visibility.depth_copy"),
-            layout: Some(&pipeline_layout(device, "visibility.depth_copy.pipeline_layout", &[&layout])),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_fullscreen"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Always),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &[],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
-        Ok(DepthCopy { pipeline, group, _depth: depth })
-    })();
-    (copy, view)
+    let layout = create_layout(device, "visibility.depth_copy.layout", DEPTH_COPY_BINDINGS.groups[0].bindings, &[]);
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("visibility.depth_copy.group"),
+        layout: &layout,
+        entries: &[view_entry(0, &view)],
+    });
+    let module = shader_module(device, DEPTH_COPY_BINDINGS.entry, &[])?;
+    let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("visibility.depth_copy"),
+        layout: Some(&pipeline_layout(device, "visibility.depth_copy.pipeline_layout", &[&layout])),
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some("vs_fullscreen"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Always),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some("fs_main"),
+            compilation_options: Default::default(),
+            targets: &[],
+        }),
+        multiview_mask: None,
+        cache: None,
+    });
+    Ok(DepthCopy { pipeline, group, view })
 }

@@ -187,12 +187,7 @@ impl VplGenerate {
         let layout = create_layout(device, "vpl.generate.layout", VPL_GENERATE_BINDINGS.group(0), &[]);
         let module = shader_module(device, VPL_GENERATE_BINDINGS.entry, &[])?;
         let pipeline = compute_pipeline(device, "vpl.generate", &[&layout], &module, &[]);
-        fn tex(binding: u32, v: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
-            wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(v) }
-        }
-        fn buf(binding: u32, b: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-            wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }
-        }
+        use tiledlight_gpu::util::{buffer_entry as buf, view_entry as tex};
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("vpl.generate.bind_group"),
             layout: &layout,
