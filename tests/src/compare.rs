@@ -563,13 +563,7 @@ pub fn visibility_frames(
                 None => hardware_ids = Some((depth, ids)),
                 Some((hd, hi)) => {
                     let none = tiledlight_cull::visibility::NO_TRIANGLE;
-                    for p in 0..ties.len() {
-                        let (a, b) = (hd[p], depth[p]);
-                        ties[p] = hi[p] != ids[p]
-                            && hi[p] != none
-                            && ids[p] != none
-                            && (a - b).abs() <= RASTER_TIE_DEPTH * a.max(b);
-                    }
+                    ties = raster_ties((hd, hi), (&depth, &ids));
                     let (n, covered) =
                         (ties.iter().filter(|&&t| t).count(), ids.iter().filter(|&&i| i != none).count());
                     eprintln!("{} raster: {n} pixels tie with the hardware's at another triangle", raster.name());
@@ -580,6 +574,23 @@ pub fn visibility_frames(
         out.push((raster, frame, ties));
     }
     out
+}
+
+/// The pixels where raster `b` kept another triangle than raster `a` (depth, ID per pixel)
+/// at a depth within [`RASTER_TIE_DEPTH`] of `a`'s, neither being the clear value. Only the
+/// depth is checked, not that both triangles lie there: a wrong ID at an unchanged depth
+/// passes here, which the raster-level comparison (`tests/tests/compute_raster.rs`, with
+/// every fragment of every triangle) rejects.
+pub fn raster_ties((ad, ai): (&[f32], &[u32]), (bd, bi): (&[f32], &[u32])) -> Vec<bool> {
+    let none = tiledlight_cull::visibility::NO_TRIANGLE;
+    (0..ad.len())
+        .map(|p| {
+            ai[p] != bi[p]
+                && ai[p] != none
+                && bi[p] != none
+                && (ad[p] - bd[p]).abs() <= RASTER_TIE_DEPTH * ad[p].max(bd[p])
+        })
+        .collect()
 }
 
 /// Two rasters' depths at a pixel tie when within this fraction of each other: the
@@ -593,6 +604,16 @@ mod tests {
 
     fn flat(v: f32, n: usize) -> Frame {
         Frame { hdr: vec![[v, v, v, 1.0]; n], ldr: vec![128; n * 4], allowance: Vec::new() }
+    }
+
+    /// Ties: another triangle at the same depth only; another triangle at another depth,
+    /// the same triangle, or a pixel either raster left empty is none.
+    #[test]
+    fn raster_ties_are_only_other_triangles_at_the_same_depth() {
+        let none = tiledlight_cull::visibility::NO_TRIANGLE;
+        let a = ([0.5f32, 0.5, 0.5, 0.5, 0.0], [1u32, 1, 1, 1, none]);
+        let b = ([0.5f32 * (1.0 + 1e-6), 0.4, 0.5, 0.0, 0.5], [2u32, 2, 1, none, 3]);
+        assert_eq!(raster_ties((&a.0, &a.1), (&b.0, &b.1)), [true, false, false, false, false]);
     }
 
     /// The MSAA comparison passes a few pixels a little off and rejects a frame with one

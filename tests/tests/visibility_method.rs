@@ -110,10 +110,9 @@ fn one_wrong_id(
     reference: &Frame,
     raster: Raster,
 ) {
-    let (sg, lights, camera, reference) = (sg, lights, camera, reference.clone());
     let s = FrameSettings { method: Method::Visibility, raster, ..Default::default() };
     let good = render_frame(ctx, &mut renderer(ctx, sg, lights, s), sg, camera);
-    assert!(visibility_matches("visibility-good", W, &reference, &good), "the right IDs must pass");
+    assert!(visibility_matches("visibility-good", W, reference, &good), "the right IDs must pass");
     // A pixel of a box (the boxes stand at x -6..6, z -3..-1; the camera looks from the corner).
     let box_centre = camera.view_proj() * glam::Vec4::new(-1.2, 0.75, -1.0, 1.0);
     let (x, y) = (
@@ -133,8 +132,8 @@ fn one_wrong_id(
         |a: &[f32; 4], b: &[f32; 4]| (0..3).any(|c| (a[c] - b[c]).abs() > a[c].abs().max(b[c].abs()) * 2f32.powi(-10));
     let differing = good.hdr.iter().zip(&bad.hdr).filter(|(a, b)| step(a, b)).count();
     assert_eq!(differing, 1, "the hook changes exactly the one pixel");
-    assert!(!visibility_matches("visibility-wrong-id", W, &reference, &bad), "one wrong triangle ID must fail");
-    let c = compare_with_reference("visibility-wrong-id", W, &reference, &bad, VISIBILITY_VS_REFERENCE);
+    assert!(!visibility_matches("visibility-wrong-id", W, reference, &bad), "one wrong triangle ID must fail");
+    let c = compare_with_reference("visibility-wrong-id", W, reference, &bad, VISIBILITY_VS_REFERENCE);
     assert_eq!(c.hdr_at, i, "the worst pixel is the wrong one");
     // The hook is refused where it cannot work.
     let e =
