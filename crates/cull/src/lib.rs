@@ -16,7 +16,9 @@
 //! what the blended lists are checked against); and the visibility buffer's twin: its IDs,
 //! perspective-correct barycentrics with their screen derivatives, and mip levels
 //! ([`visibility`]); and the rules of its compute rasteriser: clipping, 1/256-px snapping,
-//! the top-left rule, depth, and the 64-bit (depth, ID) resolve ([`raster`]).
+//! the top-left rule, depth, and the 64-bit (depth, ID) resolve ([`raster`]); and the
+//! traced reference's shadow rays in f32 as its GPU kernel casts them: the flattened
+//! hierarchy, watertight triangle test and alpha masks ([`trace`]).
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
 
 pub mod error;
@@ -43,6 +45,7 @@ pub mod raycast;
 pub mod reference;
 pub mod shadow;
 pub mod tiles;
+pub mod trace;
 pub mod visibility;
 pub mod volumes;
 pub mod vpl;

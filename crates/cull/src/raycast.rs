@@ -72,16 +72,16 @@ pub struct Triangles {
 /// A BVH node: a leaf when `count > 0` (triangles `first..first + count`), otherwise an
 /// interior node whose children are `first` and `first + 1`.
 #[derive(Clone, Copy, Debug, Default)]
-struct Node {
+pub(crate) struct Node {
     /// Padded bounds (see [`PAD`]).
-    lo: Vec3,
-    hi: Vec3,
-    first: u32,
-    count: u32,
+    pub(crate) lo: Vec3,
+    pub(crate) hi: Vec3,
+    pub(crate) first: u32,
+    pub(crate) count: u32,
 }
 
 impl Node {
-    fn is_leaf(&self) -> bool {
+    pub(crate) fn is_leaf(&self) -> bool {
         self.count > 0
     }
 }
@@ -216,6 +216,38 @@ fn intersect_uv(tri: &[Vec3; 3], ray: &Ray, t_hi: f64) -> Option<(f64, f64, f64)
     (t > ray.t_lo && t < t_hi).then_some((t, u, v))
 }
 
+/// Whether the segment `ray` crosses triangle `tri` within `tol` of deciding otherwise
+/// ([`Triangles::grazing`]).
+fn grazes(tri: &[Vec3; 3], ray: &Ray, tol: f64) -> bool {
+    let v0 = tri[0].as_dvec3();
+    let e1 = tri[1].as_dvec3() - v0;
+    let e2 = tri[2].as_dvec3() - v0;
+    let p = ray.d.cross(e2);
+    let det = e1.dot(p);
+    let n = e1.cross(e2);
+    let scale = ray.d_len2 * n.length_squared();
+    if !(scale > 0.0) {
+        return false;
+    }
+    let sin2 = det * det / scale;
+    if sin2 <= tol * tol {
+        // Edge-on within tol: grazing if the segment comes near the triangle at all.
+        let to_plane = |q: DVec3| (q - v0).dot(n).abs() / n.length();
+        let size = e1.length().max(e2.length());
+        return to_plane(ray.o + ray.d * ray.t_lo).min(to_plane(ray.o + ray.d * ray.t_hi)) <= size;
+    }
+    let inv_det = 1.0 / det;
+    let s = ray.o - v0;
+    let u = s.dot(p) * inv_det;
+    let q = s.cross(e1);
+    let v = ray.d.dot(q) * inv_det;
+    let t = e2.dot(q) * inv_det;
+    let inside_by = u.min(v).min(1.0 - u - v);
+    let within_by = (t - ray.t_lo).min(ray.t_hi - t);
+    // Inside by less than tol on one test and not clearly out on the other.
+    (inside_by.abs() <= tol && within_by >= -tol) || (within_by.abs() <= tol && inside_by >= -tol)
+}
+
 impl Triangles {
     /// Builds the BVH (binned SAH, 16 bins per axis, median splits past depth 64) over
     /// `triangles`. Drops triangles with a NaN or infinite coordinate. About a second
@@ -321,6 +353,26 @@ impl Triangles {
     pub fn first_hit(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<f32> {
         let ray = Ray::half_line(origin, dir, t_max)?;
         self.closest_hit(&ray).map(|t| t as f32)
+    }
+
+    /// The hierarchy as built: nodes (node 0 the root), triangles in leaf order and their
+    /// indices in the input ([`crate::trace::FlatBvh`] flattens it for the GPU).
+    pub(crate) fn parts(&self) -> (&[Node], &[[Vec3; 3]], &[u32]) {
+        (&self.nodes, &self.tris, &self.ids)
+    }
+
+    /// True when the segment's answer could change if some triangle moved by a little:
+    /// some triangle is crossed within `tol` (in barycentric units) of its boundary, seen
+    /// within `tol` radians of edge-on, or hit within `tol` of either end of the open
+    /// interval `(eps, len - eps)` (in units of the segment). Answers differing between two
+    /// exact-enough tests (this f64 one and the GPU's f32 watertight one) are allowed only
+    /// for such grazing segments (`tests/tests/traced.rs`). A loop over every triangle:
+    /// for tests.
+    pub fn grazing(&self, from: Vec3, to: Vec3, eps: f32, tol: f64) -> bool {
+        let Some(ray) = Ray::segment(from, to, eps) else {
+            return false;
+        };
+        self.tris.iter().any(|t| grazes(t, &ray, tol))
     }
 
     fn leaf_tris(&self, n: &Node) -> &[[Vec3; 3]] {
