@@ -25,6 +25,9 @@
 // Forward+ computes it (common/scene.wgsl unlit_term). Normal maps and metallic-roughness
 // textures need nothing here: the G-buffer holds their result.
 //
+// With TRACED (the traced reference, common/traced_shade.wgsl) there is no light grid and
+// every VPL is summed, as brute force sums them.
+//
 // With VPLS each pixel also sums the virtual point lights of its tile's list in the VPLs'
 // own light grid (culled before this pass by the lights' culling pass; tiledlight-vpl,
 // common/vpl.wgsl vpl_light), as Forward+ does. The shadow atlas (15-17) and the VPLs
@@ -82,17 +85,24 @@ alias GTexture = texture_2d<f32>;
 #endif
 #ifdef VPLS
 #include "common/vpl.wgsl"
-#include "common/light_grid.wgsl"
 @group(1) @binding(19) var<storage, read> vpls: array<Vpl>;
 @group(1) @binding(20) var<uniform> vpl_shading: VplShading;
+#ifdef TRACED
+// The traced reference sums every VPL, as brute force does: the generation's counter.
+@group(1) @binding(23) var<storage, read> vpl_count: u32;
+#else
+#include "common/light_grid.wgsl"
 @group(1) @binding(21) var<storage, read> vpl_grid: LightGrid;
 @group(1) @binding(22) var<storage, read> vpl_indices: array<u32>;
 #endif
+#endif
 // The light grid (crates/gpu/src/light_grid.rs); group 3 in the visibility kernels, whose
-// group 2 is the material textures (common/scene.wgsl).
+// group 2 is the material textures (common/scene.wgsl). The traced reference has none.
 #ifdef VISIBILITY
+#ifndef TRACED
 @group(3) @binding(0) var<storage, read_write> light_grid: LightGridRw;
 @group(3) @binding(1) var<storage, read_write> light_indices: array<u32>;
+#endif
 #else
 @group(2) @binding(0) var<storage, read_write> light_grid: LightGridRw;
 @group(2) @binding(1) var<storage, read_write> light_indices: array<u32>;
@@ -207,12 +217,20 @@ fn shade_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
     if !g.sky {
         let v = view_vector(g.world);
         let physical = vpl_shading.model != 0u;
+#ifdef TRACED
+        let num_vpls = min(vpl_count, vpl_shading.cap);
+        for (var i = 0u; i < num_vpls; i++) {
+            let vl = vpl_light(vpls[i], g.world, physical, vpl_shading.distance_clamp);
+            color += brdf_cos(g.normal, v, vl.l, g.surface) * vl.factor;
+        }
+#else
         let tile = p / vpl_grid.header.tile_size;
         let l = light_list(vpl_grid.lists[tile.y * vpl_grid.header.tiles.x + tile.x], vpl_grid.header.capacity);
         for (var i = 0u; i < l.count; i++) {
             let vl = vpl_light(vpls[vpl_indices[l.first + i]], g.world, physical, vpl_shading.distance_clamp);
             color += brdf_cos(g.normal, v, vl.l, g.surface) * vl.factor;
         }
+#endif
     }
 #endif
     return color;

@@ -29,6 +29,13 @@ fn shade_light(i: u32, p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, s: Surface) -> 
         atten *= spot_falloff(dot(-l, spot.direction), spot.angle_scale, spot.angle_offset);
     }
 #endif
+#ifdef TRACED
+    // Every light's visibility is a shadow ray (common/traced_shade.wgsl), cast only where
+    // the light would add something.
+    if atten > 0.0 && dot(n, l) > 0.0 {
+        atten *= traced_visibility(p, n, light.position);
+    }
+#endif
 #ifdef SHADOWS
     if casts_shadow(i) && atten > 0.0 && dot(n, l) > 0.0 {
         atten *= shadow_visibility(i, light.position, p, n, l);

@@ -22,7 +22,7 @@ use clap::Args;
 use tiledlight_frame::Diagnostics as _;
 use tiledlight_frame::FrameRenderer;
 use tiledlight_gpu::heatmap::HeatmapOf;
-use tiledlight_setup::{shadow_atlas_description, Prepared};
+use tiledlight_setup::{shadow_atlas_description, Prepared, Settings};
 
 use crate::scene_setup::SceneArgs;
 use tiledlight_lab::bench::{self, Measurement, INCOMPLETE_MARK};
@@ -122,7 +122,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     if heatmap.is_some() && !method.is_tiled() {
         bail!("--heatmap needs --method forward-plus ({} has no tiles)", method.name());
     }
-    let prep = Prepared::new(&args.scene.settings()?)?;
+    // A traced reference's frame takes seconds: its bands report their progress.
+    let prep = Prepared::new(&Settings { traced_progress: true, ..args.scene.settings()? })?;
     tiledlight_lab::output::print_load_warnings(&prep.scene_warnings);
     let mut renderer = prep.renderer_with_heatmap(heatmap)?;
     let m = bench::measure(&prep, &mut renderer, 0, RENDER_FRAMES)?;

@@ -517,6 +517,7 @@ impl SceneArgs {
             strict: self.strict,
             allow_any_path: self.allow_any_path,
             vpl: self.vpl.config(),
+            traced_progress: false,
         }
     }
 

@@ -99,7 +99,7 @@ impl FrameRenderer {
     ) -> Result<Self, GpuError> {
         let mut settings = settings;
         settings.cull.samples = settings.msaa;
-        if settings.method == Method::Visibility {
+        if settings.method.uses_visibility_buffer() {
             settings.raster = settings.raster.pick(ctx.info.device_type, ctx.device.features(), settings.msaa);
             if settings.raster == Raster::Compute {
                 tiledlight_visibility::compute_raster::check_support(ctx.device.features(), settings.msaa)?;
@@ -160,6 +160,11 @@ impl FrameRenderer {
                 visibility::targets(&features, s.raster),
                 |c, sh, sl, st, m| Ok(Box::new(visibility::VisibilityFrame::new(c, sh, sl, st, m)?)),
                 "building the visibility-buffer renderer",
+            ),
+            Method::TracedReference => (
+                visibility::targets(&features, s.raster),
+                |c, sh, sl, st, m| Ok(Box::new(visibility::VisibilityFrame::new(c, sh, sl, st, m)?)),
+                "building the traced reference",
             ),
         };
         let mut shared = SharedSteps::new(ctx, scene, lights, features, (s, (width, height)), needs)?;

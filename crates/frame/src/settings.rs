@@ -68,6 +68,10 @@ pub struct FrameSettings {
     /// pixel is overwritten with instance 0's triangle 0 (a valid but wrong triangle), so
     /// tests can prove a comparison catches one wrong ID. `None` by default.
     pub test_wrong_id: Option<(u32, u32)>,
+    /// The traced reference submits each band of its frame on its own and prints its
+    /// progress on stderr (renders of a second or more); untimed. Off by default (one timed
+    /// submission, as benchmarks need).
+    pub traced_progress: bool,
 }
 
 impl Default for FrameSettings {
@@ -91,6 +95,7 @@ impl Default for FrameSettings {
             test_wrong_id: None,
             raster: Raster::Auto,
             compute_raster: ComputeRasterOptions::default(),
+            traced_progress: false,
         }
     }
 }

@@ -11,14 +11,24 @@
 //! [VisibilityResolve] per-sample shading       -> Hdr (MSAA only: edge pixels averaged)
 //! ```
 //!
-//! No G-buffer and no forward shading pipeline exist for this method. Depends on
-//! tiledlight-gpu (culling) and tiledlight-visibility (raster and shading passes).
+//! No G-buffer and no forward shading pipeline exist for this method.
+//!
+//! The traced reference is this frame without culling:
+//!
+//! ```text
+//! VisibilityRaster   scene                     -> Depth, IDs
+//! TracedShade        IDs, scene buffers, BVH,  -> Hdr (every light, a shadow ray each; in
+//!                    every VPL                          bands of tile rows)
+//! [VisibilityResolve] per-sample shading       -> Hdr (MSAA only)
+//! ```
+//!
+//! Depends on tiledlight-gpu (culling) and tiledlight-visibility (raster and shading passes).
 
 use std::any::Any;
 
 use tiledlight_gpu::culling::LightCulling;
 use tiledlight_gpu::depth_prepass::{DEPTH_FORMAT, ID_FORMAT};
-use tiledlight_gpu::features::Features;
+use tiledlight_gpu::features::{Features, Method};
 use tiledlight_gpu::features::Raster;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::LightGrid;
@@ -28,7 +38,7 @@ use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::{GpuContext, GpuError};
 use tiledlight_visibility::raster::{depth_target, VisibilityRaster};
-use tiledlight_visibility::shading::VisibilityShading;
+use tiledlight_visibility::shading::{ShadeLights, VisibilityShading};
 
 use crate::handles::{Depth, Hdr, Lists, Rec};
 use crate::method::MethodFrame;
@@ -49,11 +59,14 @@ pub fn targets(features: &Features, raster: Raster) -> TargetNeeds {
     TargetNeeds { prefix: "visibility", msaa_formats, hdr_usage, depth: depth_target(raster, features.blended()) }
 }
 
-/// The visibility buffer's passes.
+/// The visibility buffer's passes (or the traced reference's).
 pub struct VisibilityFrame {
     raster: VisibilityRaster,
-    culling: LightCulling,
+    /// The light grid's culling (None: the traced reference).
+    culling: Option<LightCulling>,
     shading: VisibilityShading,
+    /// The traced reference with progress: the device and queue its bands are submitted to.
+    progress: Option<(wgpu::Device, wgpu::Queue)>,
 }
 
 impl VisibilityFrame {
@@ -86,28 +99,45 @@ impl VisibilityFrame {
             (settings.raster, settings.compute_raster, &targets.depth_view),
             memory,
         )?;
-        let culling = LightCulling::with_drop_light(
-            device,
-            views,
-            &targets.depth_view,
-            (lights, &shared.lighting),
-            shared.grid,
-            settings.cull,
-            settings.test_drop_light,
-        )?;
-        memory.extend(&culling.memory);
+        let traced = settings.method == Method::TracedReference;
+        let culling = (!traced)
+            .then(|| {
+                LightCulling::with_drop_light(
+                    device,
+                    views,
+                    &targets.depth_view,
+                    (lights, &shared.lighting),
+                    shared.grid,
+                    settings.cull,
+                    settings.test_drop_light,
+                )
+            })
+            .transpose()?;
+        let shade = match &culling {
+            Some(c) => {
+                memory.extend(&c.memory);
+                ShadeLights::Lists(c)
+            }
+            None => ShadeLights::Traced(scene.trace.as_ref().ok_or_else(|| {
+                GpuError::Config(
+                    "the traced reference needs the scene's BVH: build it with SceneGpu::add_trace before the renderer"
+                        .into(),
+                )
+            })?),
+        };
         let shading = VisibilityShading::new(
             device,
             views,
             (&targets.depth_view, &raster),
             &targets.hdr_view,
             (scene, lights, &shared.lighting),
-            (&culling, shared.grid, settings.edge),
+            (shade, shared.grid, settings.edge),
             (features, shared.shadows.as_ref()),
             memory,
             shared.vpls.as_ref().map(|v| &v.bindings),
         )?;
-        Ok(Self { raster, culling, shading })
+        let progress = (traced && settings.traced_progress).then(|| (ctx.device.clone(), ctx.queue.clone()));
+        Ok(Self { raster, culling, shading, progress })
     }
 
     /// The raster pass (its ID layout).
@@ -115,9 +145,9 @@ impl VisibilityFrame {
         &self.raster
     }
 
-    /// The culling pass.
-    pub fn culling(&self) -> &LightCulling {
-        &self.culling
+    /// The culling pass (None for the traced reference).
+    pub fn culling(&self) -> Option<&LightCulling> {
+        self.culling.as_ref()
     }
 
     /// The material-and-lights pass.
@@ -130,11 +160,43 @@ impl MethodFrame for VisibilityFrame {
     fn record(&self, rec: &mut Rec<'_>, shared: &SharedSteps, depth: Depth<'_>, _hdr: Hdr<'_>) {
         rec.step(Step::VisibilityRaster);
         self.raster.record(rec.encoder, rec.timer, rec.view, rec.scene, depth.view);
-        rec.step(Step::Cull);
-        self.culling.record(rec.encoder, rec.timer, rec.view, "visibility.cull");
-        shared.record_vpl_cull(rec, depth);
-        rec.step(Step::VisibilityShade);
-        self.shading.record(rec.encoder, rec.timer, rec.view, rec.scene, &self.culling.grid);
+        match &self.culling {
+            Some(culling) => {
+                rec.step(Step::Cull);
+                culling.record(rec.encoder, rec.timer, rec.view, "visibility.cull");
+                shared.record_vpl_cull(rec, depth);
+                rec.step(Step::VisibilityShade);
+                self.shading.record(rec.encoder, rec.timer, rec.view, rec.scene, &culling.grid);
+            }
+            None => {
+                rec.step(Step::TracedShade);
+                match &self.progress {
+                    Some((device, queue)) => {
+                        let start = std::time::Instant::now();
+                        let mut flush = |encoder: &mut wgpu::CommandEncoder, band: u32, bands: u32| {
+                            let done = std::mem::replace(
+                                encoder,
+                                device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                                    label: Some("traced.band"),
+                                }),
+                            );
+                            queue.submit([done.finish()]);
+                            // Progress is only known once the band is done.
+                            let _ = device.poll(wgpu::PollType::wait_indefinitely());
+                            eprint!(
+                                "\rtraced reference: band {band}/{bands} ({:.1} s)",
+                                start.elapsed().as_secs_f64()
+                            );
+                            if band == bands {
+                                eprintln!();
+                            }
+                        };
+                        self.shading.record_traced(rec.encoder, rec.timer, rec.view, rec.scene, Some(&mut flush));
+                    }
+                    None => self.shading.record_traced(rec.encoder, rec.timer, rec.view, rec.scene, None),
+                }
+            }
+        }
         if depth.samples > 1 {
             rec.step(Step::VisibilityResolve);
             self.shading.record_resolve(rec.encoder, rec.timer);
@@ -142,13 +204,14 @@ impl MethodFrame for VisibilityFrame {
     }
 
     fn lists(&self) -> Option<Lists<'_>> {
-        Some(Lists { grid: &self.culling.grid })
+        self.culling.as_ref().map(|c| Lists { grid: &c.grid })
     }
 
     fn grow_lists(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, capacity: u32) -> Option<&LightGrid> {
         // The shading pass binds the grid's group at record time: nothing to rebind.
-        self.culling.grid.grow(device, queue, capacity);
-        Some(&self.culling.grid)
+        let culling = self.culling.as_mut()?;
+        culling.grid.grow(device, queue, capacity);
+        Some(&culling.grid)
     }
 
     fn edge_pixels(&self, ctx: &GpuContext) -> Result<Option<u32>, GpuError> {

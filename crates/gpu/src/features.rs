@@ -31,21 +31,36 @@ pub enum Method {
         /// Keep the windowed falloff with its radius cutoff.
         cutoff: bool,
     },
+    /// The truth to measure against: the visibility buffer's surface lit by every light
+    /// with no cutoff, each light's share multiplied by a shadow ray through the scene's
+    /// BVH (no shadow maps). Seconds a frame, not milliseconds.
+    TracedReference,
 }
 
 impl Method {
     /// Every method, in the order reports list them.
-    pub const ALL: [Method; 5] = [
+    pub const ALL: [Method; 6] = [
         Method::ForwardPlus,
         Method::BruteForce { cutoff: true },
         Method::BruteForce { cutoff: false },
         Method::TiledDeferred,
         Method::Visibility,
+        Method::TracedReference,
     ];
 
     /// True for the methods with tiles (culling, light grid, heat map).
     pub fn is_tiled(self) -> bool {
-        !matches!(self, Method::BruteForce { .. })
+        !matches!(self, Method::BruteForce { .. } | Method::TracedReference)
+    }
+
+    /// True for the methods whose surface is the visibility buffer's (its raster).
+    pub fn uses_visibility_buffer(self) -> bool {
+        matches!(self, Method::Visibility | Method::TracedReference)
+    }
+
+    /// True for the references (every light, no tiles): brute force and the traced one.
+    pub fn is_reference(self) -> bool {
+        !self.is_tiled()
     }
 
     /// The flag value, for the command line, reports and JSON.
@@ -56,6 +71,7 @@ impl Method {
             Method::BruteForce { cutoff: false } => "brute-force-no-cutoff",
             Method::TiledDeferred => "deferred",
             Method::Visibility => "visibility",
+            Method::TracedReference => "traced-reference",
         }
     }
 
@@ -67,6 +83,7 @@ impl Method {
             Method::BruteForce { cutoff: false } => "Brute force, no cutoff",
             Method::TiledDeferred => "Tiled Deferred",
             Method::Visibility => "Visibility buffer",
+            Method::TracedReference => "Traced reference",
         }
     }
 
@@ -84,6 +101,10 @@ impl Method {
             Method::Visibility => {
                 "Depth and triangle IDs, tiled light culling, then one compute pass that rebuilds each pixel's \
                  surface from its triangle and shades it"
+            }
+            Method::TracedReference => {
+                "Every light for every pixel, no cutoff, each shadowed by a ray through the scene's BVH (the truth; \
+                 seconds a frame)"
             }
         }
     }
@@ -302,7 +323,10 @@ impl Features {
             coarse: tiled && cull.coarse,
             aabb: tiled && cull.aabb,
             extra_targets: if method == Method::TiledDeferred { gbuffer_rts.saturating_sub(2) } else { 0 },
-            shadows: (points + spots > 0).then_some(Shadows { points, spots, options: shadow }),
+            // The traced reference's shadows are rays: its atlas exists only for the VPLs'
+            // reflective shadow maps.
+            shadows: (points + spots > 0 && (method != Method::TracedReference || vpl))
+                .then_some(Shadows { points, spots, options: shadow }),
             frustum_clusters: tiled && cull.clusters.is_some_and(|c| !c.geometry_only),
             vpl,
         }
@@ -339,6 +363,7 @@ impl Features {
             Method::Visibility => "visibility buffer".to_string(),
             Method::BruteForce { cutoff: true } => "brute force".to_string(),
             Method::BruteForce { cutoff: false } => "brute force, no cutoff".to_string(),
+            Method::TracedReference => "traced reference (every light, a shadow ray each)".to_string(),
         }];
         parts.push(if self.spot_lights { "points+spots" } else { "points" }.into());
         parts.extend(self.materials.describe().into_iter().map(String::from));

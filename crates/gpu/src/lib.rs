@@ -6,11 +6,13 @@
 //! readback ([`readback`]), scene and light buffers ([`scene_gpu`], [`light_buffers`]), and the
 //! passes both methods share: the depth pre-pass ([`depth_prepass`]), light culling by
 //! technique ([`culling`]: tile gather, light-centric scatter, clusters) into the light grid
-//! ([`light_grid`]), the shadow atlas ([`shadow_atlas`]), the blended-geometry path ([`blended`]) and tonemapping ([`tonemap`]). Depends on wgpu, tiledlight-cull and
+//! ([`light_grid`]), the shadow atlas ([`shadow_atlas`]), the blended-geometry path ([`blended`]), tonemapping ([`tonemap`]) and the traced
+//! reference's BVH ([`bvh`]). Depends on wgpu, tiledlight-cull and
 //! tiledlight-scene; never on a renderer crate.
 
 pub mod bindings;
 pub mod blended;
+pub mod bvh;
 pub mod context;
 pub mod culling;
 pub mod depth_prepass;
@@ -54,6 +56,7 @@ pub fn binding_declarations() -> Vec<bindings::PassBindings> {
         blended::BLENDED_BINDINGS,
         blended::BLENDED_BRUTE_FORCE_BINDINGS,
         blended::COMPOSITE_BINDINGS,
+        bvh::TRACE_RAYS_BINDINGS,
     ]
 }
 
@@ -65,5 +68,6 @@ pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
     v.extend(light_buffers::layouts());
     v.extend(tonemap::layouts());
     v.extend(shadow_atlas::layouts());
+    v.extend(bvh::layouts());
     v
 }

@@ -58,6 +58,9 @@ pub enum Step {
     VisibilityShade,
     /// Its MSAA edge pixels averaged (`visibility.resolve`).
     VisibilityResolve,
+    /// The traced reference's every-light pass with a shadow ray per light over the
+    /// visibility buffer (`traced.shade`, in bands of tile rows).
+    TracedShade,
     /// Depth of the blended geometry, in its own buffer (`blended.depth`; only with blended
     /// geometry).
     BlendedDepth,
@@ -93,7 +96,7 @@ impl FramePlan {
         // Head: what writes depth.
         match features.method {
             Method::TiledDeferred => steps.push(Step::GBuffer),
-            Method::Visibility => steps.push(Step::VisibilityRaster),
+            Method::Visibility | Method::TracedReference => steps.push(Step::VisibilityRaster),
             Method::ForwardPlus | Method::BruteForce { .. } => steps.push(Step::DepthPrepass),
         }
         // Culling and the method's middle.
@@ -113,6 +116,12 @@ impl FramePlan {
                 steps.push(Step::DeferredShade);
                 if features.msaa > 1 {
                     steps.push(Step::DeferredResolve);
+                }
+            }
+            Method::TracedReference => {
+                steps.push(Step::TracedShade);
+                if features.msaa > 1 {
+                    steps.push(Step::VisibilityResolve);
                 }
             }
             Method::Visibility => {
@@ -189,6 +198,8 @@ mod tests {
         assert_eq!(plan(Method::ForwardPlus, 1), [DepthPrepass, Cull, ForwardShade, Tonemap, Heatmap]);
         assert_eq!(plan(Method::BruteForce { cutoff: true }, 4), [DepthPrepass, BruteForceShade, Tonemap]);
         assert_eq!(plan(Method::TiledDeferred, 1), [GBuffer, DeferredShade, Tonemap, Heatmap]);
+        assert_eq!(plan(Method::TracedReference, 1), [VisibilityRaster, TracedShade, Tonemap]);
+        assert_eq!(plan(Method::TracedReference, 4), [VisibilityRaster, TracedShade, VisibilityResolve, Tonemap]);
         assert_eq!(plan(Method::TiledDeferred, 4), [GBuffer, DeferredShade, DeferredResolve, Tonemap, Heatmap]);
     }
 

@@ -406,6 +406,9 @@ pub struct SceneGpu {
     /// (what the draws' instance ranges index): shadow faces cull instances with them and
     /// place their near plane just short of the nearest one.
     pub instance_bounds: Vec<(glam::Vec3, glam::Vec3)>,
+    /// The casting geometry's BVH for the traced reference's shadow rays: built only by
+    /// [`SceneGpu::add_trace`] (a second a million triangles on the CPU), None otherwise.
+    pub trace: Option<crate::bvh::GpuBvh>,
     /// Bytes allocated.
     pub memory: MemoryReport,
 }
@@ -416,6 +419,17 @@ fn normal_matrix(m: &Mat4) -> [[f32; 4]; 3] {
 }
 
 impl SceneGpu {
+    /// Builds and uploads the BVH of `scene` (the scene this was uploaded from) for the
+    /// traced reference, unless it is there already; its bytes join [`Self::memory`].
+    pub fn add_trace(&mut self, device: &wgpu::Device, scene: &Scene) -> Result<(), GpuError> {
+        if self.trace.is_none() {
+            let bvh = crate::bvh::GpuBvh::of_scene(device, scene)?;
+            self.memory.extend(&bvh.memory);
+            self.trace = Some(bvh);
+        }
+        Ok(())
+    }
+
     /// Uploads `scene` (validated first).
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, scene: &Scene) -> Result<Self, GpuError> {
         scene.validate().map_err(|e| GpuError::Config(e.to_string()))?;
@@ -580,6 +594,7 @@ impl SceneGpu {
             materials: material_buf,
             material_textures: gpu_materials.iter().map(|m| m.textures).collect(),
             instance_bounds,
+            trace: None,
             memory,
         })
     }

@@ -250,7 +250,10 @@ impl ShadowAtlas {
             depth,
             clear,
             bounds: scene.instance_bounds.clone(),
-            radius_cull: features.method != crate::features::Method::BruteForce { cutoff: false },
+            radius_cull: !matches!(
+                features.method,
+                crate::features::Method::BruteForce { cutoff: false } | crate::features::Method::TracedReference
+            ),
             first_slot,
             state: Mutex::new(state),
             memory,

@@ -55,6 +55,8 @@ pub fn key_spaces() -> Vec<(&'static str, Vec<Vec<&'static str>>)> {
     add(boxed(AtomicIdsKey::all()));
     add(boxed(vec![ComputeRasterKey::Clusters, ComputeRasterKey::Large]));
     add(boxed(VisibilityKey::all()));
+    add(boxed(TracedKey::all()));
+    add(boxed(vec![TraceRaysKey { masks: false }, TraceRaysKey { masks: true }]));
     out
 }
 
@@ -932,6 +934,91 @@ impl ShaderKey for VisibilityKey {
     }
 }
 
+/// The traced reference's material-and-lights pass (`traced.wgsl`, with MSAA
+/// `traced_msaa.wgsl`): the visibility buffer's surface, every light, each with a shadow
+/// ray (`shaders/common/trace.wgsl`). No shadow maps (`SHADOWS` is never set: the rays
+/// replace them) and no light grid.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct TracedKey {
+    /// `SPOT_LIGHTS`.
+    pub spots: bool,
+    /// `VPLS`: every VPL is added, unshadowed, as brute force adds them.
+    pub vpls: bool,
+    /// `MSAA`.
+    pub msaa: bool,
+    /// `TRACE_MASKS`: some casting material is alpha-masked.
+    pub masks: bool,
+    /// The material paths.
+    pub materials: MaterialKey,
+}
+
+impl TracedKey {
+    /// Every value.
+    pub fn all() -> Vec<Self> {
+        let mut v = Vec::new();
+        for spots in BOOLS {
+            for vpls in BOOLS {
+                for msaa in BOOLS {
+                    for masks in BOOLS {
+                        for materials in MaterialKey::all() {
+                            v.push(Self { spots, vpls, msaa, masks, materials });
+                        }
+                    }
+                }
+            }
+        }
+        v
+    }
+}
+
+impl ShaderKey for TracedKey {
+    fn entry(&self) -> &'static str {
+        if self.msaa {
+            "traced_msaa.wgsl"
+        } else {
+            "traced.wgsl"
+        }
+    }
+
+    fn defines(&self) -> Vec<&'static str> {
+        let mut d = vec!["VISIBILITY", "TRACED", "NO_CUTOFF"];
+        flag(&mut d, self.msaa, "MSAA");
+        flag(&mut d, self.spots, "SPOT_LIGHTS");
+        flag(&mut d, self.vpls, "VPLS");
+        flag(&mut d, self.masks, "TRACE_MASKS");
+        d.extend(self.materials.defines());
+        d
+    }
+
+    fn is_valid(&self) -> bool {
+        true
+    }
+}
+
+/// The shadow-ray kernel of the traced reference's twin test (`trace_rays.wgsl`): one
+/// segment a thread, its answer out.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct TraceRaysKey {
+    /// `TRACE_MASKS`.
+    pub masks: bool,
+}
+
+impl ShaderKey for TraceRaysKey {
+    fn entry(&self) -> &'static str {
+        "trace_rays.wgsl"
+    }
+
+    fn defines(&self) -> Vec<&'static str> {
+        let mut d = Vec::new();
+        flag(&mut d, self.masks, "TRACE_MASKS");
+        d
+    }
+
+    fn is_valid(&self) -> bool {
+        true
+    }
+}
+
 /// The tonemap pass (`tonemap.wgsl`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct TonemapKey {
@@ -1005,6 +1092,9 @@ mod tests {
         assert_eq!(count("deferred_assigned.wgsl"), 288);
         // 3 lookups x spots x 3 shadowings x 34 material paths, per sample mode.
         assert_eq!(count("visibility.wgsl"), 612);
+        assert_eq!(count("traced.wgsl"), 8 * 34);
+        assert_eq!(count("traced_msaa.wgsl"), 8 * 34);
+        assert_eq!(count("trace_rays.wgsl"), 2);
         assert_eq!(count("visibility_msaa.wgsl"), 612);
         // 4 pre-pass and 4 ID-raster variants, and 3 masked ones resolving IDs with atomics
         // (the compute raster's masked draws).

@@ -19,6 +19,8 @@
 //!   model's folder, [`LoadLimits`]), returning [`Loaded`] with the warnings the scene was
 //!   drawn despite.
 //!
+//! - [`trace`]: the geometry the traced reference's shadow rays see (casting instances in a
+//!   BVH, flattened for the GPU, with the masked materials' alpha masks).
 //! - [`clusters`]: a mesh's triangles reordered into clusters of at most 128 with their
 //!   bounds (Morton order of centroids), for the compute rasteriser's per-cluster culling.
 //!
@@ -34,6 +36,7 @@ mod loader;
 mod model;
 mod procedural;
 mod surface_lights;
+pub mod trace;
 
 pub use error::SceneError;
 pub use lights::{

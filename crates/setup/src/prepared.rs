@@ -84,8 +84,14 @@ struct GpuFault {
 
 /// Uploads the scene and its lights (with the settings' shadow casters).
 fn upload(ctx: &GpuContext, cpu: &SceneCpu, settings: &Settings) -> Result<(SceneGpu, LightBuffers)> {
-    let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &cpu.scene)
+    let mut scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &cpu.scene)
         .with_context(|| format!("uploading scene '{}'", cpu.scene.name))?;
+    // The traced reference's BVH only when it is asked for (a second a million triangles).
+    if settings.method == Method::TracedReference {
+        scene_gpu
+            .add_trace(&ctx.device, &cpu.scene)
+            .with_context(|| format!("building the BVH of scene '{}' for the traced reference", cpu.scene.name))?;
+    }
     let lights = upload_lights(ctx, &cpu.lights, settings)?;
     Ok((scene_gpu, lights))
 }
@@ -186,7 +192,11 @@ impl Prepared {
     pub fn reconfigure(&mut self, settings: &Settings) -> Result<Rebuild> {
         settings.validate()?;
         let plan = rebuild_plan(&self.requested, settings);
+        // The traced reference needs the scene's BVH, built from the scene on the CPU,
+        // which is not kept: the scene is loaded again once.
+        let needs_trace = settings.method == Method::TracedReference && self.scene_gpu.trace.is_none();
         match plan.reload {
+            _ if needs_trace => self.replace_scene(settings, SceneCpu::load(settings)?)?,
             Reload::Scene => self.replace_scene(settings, SceneCpu::load(settings)?)?,
             reload => {
                 let camera = if plan.camera {
@@ -402,6 +412,14 @@ impl Prepared {
                 format!("deferred ({}, {} G-buffer targets)", a.culling_description(), a.gbuffer_rts)
             }
             Method::Visibility => format!("visibility ({}, 32-bit triangle IDs)", a.culling_description()),
+            Method::TracedReference => match &self.scene_gpu.trace {
+                Some(t) => format!(
+                    "traced-reference (every light, no cutoff, a shadow ray each through a BVH of {} triangles, \
+                     {} nodes, depth {}, built in {:.2} s)",
+                    t.triangle_count, t.node_count, t.depth, t.build_seconds
+                ),
+                None => "traced-reference".into(),
+            },
             m => format!("{} (every light for every pixel)", m.name()),
         };
         if a.msaa > 1 {

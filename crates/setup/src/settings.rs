@@ -201,6 +201,9 @@ pub struct Settings {
     pub raster_large_px: u32,
     /// Who draws the compute raster's large triangles: compute or the hardware.
     pub raster_large: LargeRaster,
+    /// The traced reference submits its frame band by band and prints its progress on
+    /// stderr (`render`, `accuracy`); off for benchmarks, which time one submission.
+    pub traced_progress: bool,
     /// MSAA samples per pixel: 1 (off), 2, 4 or 8.
     pub msaa: u32,
     /// Tiled Deferred's MSAA edge test: off-plane distance / view distance.
@@ -271,6 +274,7 @@ impl Default for Settings {
             raster: Raster::Auto,
             raster_large_px: ComputeRasterOptions::default().large_px,
             raster_large: ComputeRasterOptions::default().large,
+            traced_progress: false,
             msaa: 1,
             edge_distance: EdgeTest::default().distance,
             edge_normal_deg: EdgeTest::default().normal_deg,
@@ -307,8 +311,9 @@ impl Settings {
         ensure!(self.raster_large_px >= 1, "--raster-large-px 0: a triangle spans at least one pixel");
         if self.raster == Raster::Compute {
             ensure!(
-                self.method == Method::Visibility,
-                "--raster compute: the compute raster draws the visibility buffer only (--method visibility), not {}",
+                self.method.uses_visibility_buffer(),
+                "--raster compute: the compute raster draws the visibility buffer only (--method visibility or \
+                 traced-reference), not {}",
                 self.method.name()
             );
             ensure!(
@@ -508,6 +513,7 @@ impl Settings {
             shadows: self.shadow_options(),
             blend: self.blend_mode,
             vpl: self.vpl,
+            traced_progress: self.traced_progress,
             ..FrameSettings::default()
         }
     }

@@ -24,12 +24,20 @@
 //! lavapipe lacks), so there the pass runs once per opaque textured material and once for
 //! all untextured ones (whose bind groups hold the same white textures), each dispatch
 //! shading only the samples of its class (the first also the sky), selected by a dynamic
-//! offset into a small uniform array. Untextured scenes run it once. Depends on tiledlight-gpu
-//! and tiledlight-deferred.
+//! offset into a small uniform array. Untextured scenes run it once.
+//!
+//! The traced reference ([`ShadeLights::Traced`], `shaders/traced.wgsl`,
+//! `shaders/traced_msaa.wgsl`, body `shaders/common/traced_shade.wgsl`) is the same pass
+//! with another light loop: no light grid; every light, no cutoff, each light's share
+//! multiplied by a shadow ray through the scene's BVH (`tiledlight_gpu::bvh`). A frame costs
+//! seconds, so it is dispatched in bands of tile rows (each at most [`TRACED_BAND_PAIRS`]
+//! pixel-light pairs), which [`VisibilityShading::record_traced`] can submit one by one to
+//! report progress. Depends on tiledlight-gpu and tiledlight-deferred.
 
 use tiledlight_cull::TileGrid;
 use tiledlight_deferred::shading::{light_entries, view_entry, EdgeSamples, EdgeTest};
 use tiledlight_gpu::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
+use tiledlight_gpu::bvh::GpuBvh;
 use tiledlight_gpu::culling::{LightCulling, DEPTH_BINDING};
 use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_buffers::LightBuffers;
@@ -40,8 +48,9 @@ use tiledlight_gpu::scene_gpu::{SceneGpu, TEXTURE_BINDINGS};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
-use tiledlight_gpu::util::{buffer_init, compute_pipeline, keyed_module};
-use tiledlight_gpu::variants::{GridLookup, MaterialKey, ShaderKey, Shadowing, VisibilityKey};
+use tiledlight_gpu::readback::read_buffer;
+use tiledlight_gpu::util::{buffer_entry, buffer_init, buffer_zeroed, compute_pipeline, keyed_module};
+use tiledlight_gpu::variants::{GridLookup, MaterialKey, ShaderKey, Shadowing, TracedKey, VisibilityKey};
 use tiledlight_gpu::view::Views;
 use tiledlight_gpu::GpuError;
 
@@ -49,8 +58,14 @@ use crate::raster::VisibilityRaster;
 
 const CS: wgpu::ShaderStages = wgpu::ShaderStages::COMPUTE;
 
-/// Stride of the per-material uniforms (`VisClass`): wgpu's dynamic-offset alignment.
+/// Stride of the per-material uniforms (`VisClass`) and of the traced bands' uniforms:
+/// wgpu's dynamic-offset alignment.
 const CLASS_STRIDE: u64 = 256;
+
+/// Pixel-light pairs (samples counted as pixels with MSAA) one band of the traced
+/// reference covers at most: 2^28, about 0.1 s on the H200, so progress comes often and no
+/// single dispatch runs for long.
+pub const TRACED_BAND_PAIRS: u64 = 1 << 28;
 
 /// Group 1 of the visibility kernels: depth (0), bounding spheres (1), the lighting uniform
 /// (2), the IDs (3, multisampled with `MSAA`), shading lights (6), the HDR output (9); spots
@@ -59,7 +74,10 @@ const CLASS_STRIDE: u64 = 256;
 /// `VPLS` the VPLs (19), their uniform (20), grid (21) and indices (22) (the numbers of
 /// Tiled Deferred's group); then the scene: instances (24), materials (25), indices (26),
 /// positions (27), normals (28), uvs (29), tangents (30) with `NORMAL_MAP`, second uvs (31)
-/// with `UV1`, and with `TEXTURES` the dispatch's material (32, dynamic offset).
+/// with `UV1`, and with `TEXTURES` the dispatch's material (32, dynamic offset). The traced
+/// reference (`TRACED`) has no VPL grid (21, 22) but the VPL counter (23), and the BVH's
+/// nodes (33), triangles (34), with `TRACE_MASKS` its masks (35-37), its band (38, dynamic
+/// offset) and ray count (39).
 pub const VISIBILITY_GROUP: &[Binding] = &[
     DEPTH_BINDING,
     Binding::storage(1, CS),
@@ -76,8 +94,9 @@ pub const VISIBILITY_GROUP: &[Binding] = &[
     Binding::storage(17, CS).when(Cond::Defined("SHADOWS")),
     Binding::storage(19, CS).when(Cond::Defined("VPLS")),
     Binding::uniform(20, CS).when(Cond::Defined("VPLS")),
-    Binding::storage(21, CS).when(Cond::Defined("VPLS")),
-    Binding::storage(22, CS).when(Cond::Defined("VPLS")),
+    Binding::storage(21, CS).when(Cond::All(&[Cond::Defined("VPLS"), Cond::NotDefined("TRACED")])),
+    Binding::storage(22, CS).when(Cond::All(&[Cond::Defined("VPLS"), Cond::NotDefined("TRACED")])),
+    Binding::storage(23, CS).when(Cond::All(&[Cond::Defined("VPLS"), Cond::Defined("TRACED")])),
     Binding::storage(24, CS),
     Binding::storage(25, CS),
     Binding::storage(26, CS),
@@ -87,7 +106,21 @@ pub const VISIBILITY_GROUP: &[Binding] = &[
     Binding::storage(30, CS).when(Cond::Defined("NORMAL_MAP")),
     Binding::storage(31, CS).when(Cond::Defined("UV1")),
     Binding::uniform(32, CS).dynamic_offset(16).when(Cond::Defined("TEXTURES")),
+    TRACE[0],
+    TRACE[1],
+    TRACE[2],
+    TRACE[3],
+    TRACE[4],
+    Binding::uniform(38, CS).dynamic_offset(16).when(Cond::Defined("TRACED")),
+    Binding::storage_rw(39, CS).when(Cond::Defined("TRACED")),
 ];
+
+/// The traced reference's hierarchy (33-37), only with `TRACED`.
+const TRACE: [Binding; 5] = {
+    let t = tiledlight_gpu::bvh::trace_bindings(33);
+    let traced = Cond::Defined("TRACED");
+    [t[0].when(traced), t[1].when(traced), t[2], t[3], t[4]]
+};
 
 /// The bindings of the visibility kernel (`shaders/visibility.wgsl`): the view (0),
 /// [`VISIBILITY_GROUP`] (1), the material textures (2) with `TEXTURES`, and the light grid
@@ -107,6 +140,43 @@ pub const VISIBILITY_BINDINGS: PassBindings = PassBindings {
 pub const VISIBILITY_MSAA_BINDINGS: PassBindings =
     PassBindings { entry: "visibility_msaa.wgsl", ..VISIBILITY_BINDINGS };
 
+/// The bindings of the traced reference (`shaders/traced.wgsl`): the view (0),
+/// [`VISIBILITY_GROUP`] (1) and the material textures (2) with `TEXTURES`; no light grid.
+pub const TRACED_BINDINGS: PassBindings = PassBindings {
+    entry: "traced.wgsl",
+    source: file!(),
+    groups: &[
+        PassGroup::new(0, tiledlight_gpu::view::BINDINGS),
+        PassGroup::new(1, VISIBILITY_GROUP),
+        PassGroup::new(2, TEXTURE_BINDINGS).when(Cond::Defined("TEXTURES")),
+    ],
+};
+
+/// [`TRACED_BINDINGS`] for the MSAA kernel (`shaders/traced_msaa.wgsl`).
+pub const TRACED_MSAA_BINDINGS: PassBindings = PassBindings { entry: "traced_msaa.wgsl", ..TRACED_BINDINGS };
+
+/// Where each pixel's lights come from.
+#[derive(Clone, Copy)]
+pub enum ShadeLights<'a> {
+    /// Its list in the light grid `culling` writes (the visibility buffer).
+    Lists(&'a LightCulling),
+    /// Every light, no cutoff, each with a shadow ray through the scene's hierarchy (the
+    /// traced reference).
+    Traced(&'a GpuBvh),
+}
+
+/// The traced reference's bands and ray count.
+struct Traced {
+    /// One `TracedBand` a band, [`CLASS_STRIDE`] apart.
+    _bands_buffer: wgpu::Buffer,
+    /// Tile rows a band.
+    rows: u32,
+    /// Bands of the frame.
+    bands: u32,
+    /// The frame's rays, a 64-bit count in two words (cleared at the start of each frame).
+    stats: wgpu::Buffer,
+}
+
 /// One dispatch of the pass: the material it shades (textured scenes) and its offset into
 /// the uniform array.
 struct Class {
@@ -125,6 +195,8 @@ pub struct VisibilityShading {
     _class_buffer: Option<wgpu::Buffer>,
     msaa: Option<EdgeSamples>,
     tiles: (u32, u32),
+    /// The traced reference's bands (None for the light grid's pass).
+    traced: Option<Traced>,
 }
 
 /// The list lookup that reads what `culling` writes.
@@ -139,8 +211,8 @@ fn lookup(culling: &LightCulling) -> GridLookup {
 }
 
 impl VisibilityShading {
-    /// Builds the pass over `raster`'s IDs and `depth`, writing `hdr`, with the lists of
-    /// `culling` (built over the same depth).
+    /// Builds the pass over `raster`'s IDs and `depth`, writing `hdr`, with the lights of
+    /// `shade` (a grid built over the same depth, or every light traced).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         device: &wgpu::Device,
@@ -148,14 +220,18 @@ impl VisibilityShading {
         (depth, raster): (&wgpu::TextureView, &VisibilityRaster),
         hdr: &wgpu::TextureView,
         (scene, lights, lighting): (&SceneGpu, &LightBuffers, &wgpu::Buffer),
-        (culling, grid, edge): (&LightCulling, TileGrid, EdgeTest),
+        (shade, grid, edge): (ShadeLights<'_>, TileGrid, EdgeTest),
         (features, atlas): (&Features, Option<&ShadowAtlas>),
         memory: &mut MemoryReport,
         vpls: Option<&VplBindings>,
     ) -> Result<Self, GpuError> {
-        if features.vpl != vpls.is_some_and(|v| v.lists.is_some()) {
+        let traced = matches!(shade, ShadeLights::Traced(_));
+        // The grid's pass reads the VPLs' grid; the traced one every VPL.
+        if features.vpl != vpls.is_some_and(|v| v.lists.is_some() != traced) {
             return Err(GpuError::Config(
-                "the VPL buffers and their light grid must be given exactly when the features have VPLs".into(),
+                "the VPL buffers (with their light grid unless traced) must be given exactly when the features have \
+                 VPLs"
+                    .into(),
             ));
         }
         if features.shadows.is_some() != atlas.is_some() {
@@ -164,17 +240,35 @@ impl VisibilityShading {
         edge.validate()?;
         let samples = features.msaa;
         let textures = scene.textures.as_ref().filter(|_| features.textures);
-        let key = VisibilityKey {
-            lookup: lookup(culling),
-            spots: features.spot_lights,
-            shadowing: Shadowing::of(features.shadows.is_some(), features.vpl)
-                .ok_or_else(|| GpuError::Config("VPLs need shadow casters".into()))?,
-            msaa: samples > 1,
-            materials: MaterialKey::of(&features.materials),
+        let materials = MaterialKey::of(&features.materials);
+        let (key, bindings, tile): (Box<dyn ShaderKey>, PassBindings, u32) = match shade {
+            ShadeLights::Lists(culling) => (
+                Box::new(VisibilityKey {
+                    lookup: lookup(culling),
+                    spots: features.spot_lights,
+                    shadowing: Shadowing::of(features.shadows.is_some(), features.vpl)
+                        .ok_or_else(|| GpuError::Config("VPLs need shadow casters".into()))?,
+                    msaa: samples > 1,
+                    materials,
+                }),
+                VISIBILITY_BINDINGS,
+                culling.options.tile_size,
+            ),
+            ShadeLights::Traced(bvh) => (
+                Box::new(TracedKey {
+                    spots: features.spot_lights,
+                    vpls: features.vpl,
+                    msaa: samples > 1,
+                    masks: bvh.masks.is_some(),
+                    materials,
+                }),
+                TRACED_BINDINGS,
+                16,
+            ),
         };
         let defines = key.defines();
         // Storage buffers in the one compute stage: every option on reads 21.
-        let storage = VISIBILITY_BINDINGS
+        let storage = bindings
             .resolve(&defines)
             .into_iter()
             .filter(|(_, e)| {
@@ -212,7 +306,49 @@ impl VisibilityShading {
             let u = scene.uvs1.as_ref().ok_or_else(|| GpuError::Config("UV1 needs the second uv set".into()))?;
             bind.push(wgpu::BindGroupEntry { binding: 31, resource: u.as_entire_binding() });
         }
-        bind.extend(light_entries(lights, features, atlas, vpls));
+        // The traced kernel reads no shadow map (its atlas, with VPLs, serves their RSM).
+        bind.extend(light_entries(lights, features, atlas.filter(|_| !traced), vpls));
+        let traced_state = match shade {
+            ShadeLights::Lists(_) => None,
+            ShadeLights::Traced(bvh) => {
+                bind.extend(bvh.entries(33));
+                if let Some(v) = vpls {
+                    bind.push(buffer_entry(23, &v.count));
+                }
+                // Bands of tile rows, each at most TRACED_BAND_PAIRS pixel-light pairs.
+                let rows_total = grid.height.div_ceil(tile);
+                let pairs_per_row =
+                    (u64::from(grid.width) * u64::from(tile) * u64::from(samples) * lights.packed.len().max(1) as u64)
+                        .max(1);
+                let rows = (TRACED_BAND_PAIRS / pairs_per_row).clamp(1, u64::from(rows_total.max(1))) as u32;
+                let bands = rows_total.max(1).div_ceil(rows);
+                let mut data = vec![0u8; bands as usize * CLASS_STRIDE as usize];
+                for b in 0..bands as usize {
+                    let first = (b as u32) * rows;
+                    data[b * CLASS_STRIDE as usize..b * CLASS_STRIDE as usize + 4].copy_from_slice(&first.to_le_bytes());
+                }
+                let bands_buffer = buffer_init(device, "traced.bands", &data, wgpu::BufferUsages::UNIFORM);
+                let stats = buffer_zeroed(
+                    device,
+                    "traced.stats",
+                    8,
+                    wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                );
+                memory.add("traced.bands", bands_buffer.size());
+                Some(Traced { _bands_buffer: bands_buffer, rows, bands, stats })
+            }
+        };
+        if let Some(t) = &traced_state {
+            bind.push(wgpu::BindGroupEntry {
+                binding: 38,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &t._bands_buffer,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(16),
+                }),
+            });
+            bind.push(buffer_entry(39, &t.stats));
+        }
         let msaa =
             (samples > 1).then(|| EdgeSamples::new(device, "visibility", &grid, samples, hdr, memory)).transpose()?;
         if let Some(m) = &msaa {
@@ -277,8 +413,7 @@ impl VisibilityShading {
             })
         });
         let texture_layout = textures.map_or(&empty_layout, |t| &t.layout);
-        let module = keyed_module(device, &key)?;
-        let tile = culling.options.tile_size;
+        let module = keyed_module(device, key.as_ref())?;
         let mut constants = vec![
             ("TILE_SIZE", tile as f64),
             ("WG", tile.min(16) as f64),
@@ -288,16 +423,33 @@ impl VisibilityShading {
             constants.push(("SAMPLES", samples as f64));
             constants.extend(EdgeSamples::constants(samples, edge, tile));
         }
-        constants.extend(features.light_constants());
-        let pipeline = compute_pipeline(
-            device,
-            "visibility.shade",
-            &[&views.layout, &layout, texture_layout, culling.grid.layout()],
-            &module,
-            &constants,
-        );
+        let pipeline = match shade {
+            ShadeLights::Lists(culling) => {
+                constants.extend(features.light_constants());
+                compute_pipeline(
+                    device,
+                    "visibility.shade",
+                    &[&views.layout, &layout, texture_layout, culling.grid.layout()],
+                    &module,
+                    &constants,
+                )
+            }
+            ShadeLights::Traced(_) => {
+                constants.push(("TRACE_EPS", f64::from(tiledlight_cull::trace::SURFACE_EPS)));
+                compute_pipeline(device, "traced.shade", &[&views.layout, &layout, texture_layout], &module, &constants)
+            }
+        };
         let tiles = (grid.width.div_ceil(tile), grid.height.div_ceil(tile));
-        Ok(Self { pipeline, bind_group, empty_group, classes, _class_buffer: class_buffer, msaa, tiles })
+        Ok(Self {
+            pipeline,
+            bind_group,
+            empty_group,
+            classes,
+            _class_buffer: class_buffer,
+            msaa,
+            tiles,
+            traced: traced_state,
+        })
     }
 
     /// Records the pass (one dispatch per material of a textured scene) with the lists of
@@ -319,25 +471,97 @@ impl VisibilityShading {
                 label: Some("visibility.shade"),
                 timestamp_writes: t.compute_writes(),
             });
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
             pass.set_bind_group(3, light_grid.bind_group(), &[]);
-            for class in &self.classes {
-                match (&self.empty_group, &scene.textures) {
-                    (Some(empty), _) => {
-                        pass.set_bind_group(1, &self.bind_group, &[]);
-                        pass.set_bind_group(2, empty, &[]);
-                    }
-                    (None, Some(t)) => {
-                        pass.set_bind_group(1, &self.bind_group, &[class.offset]);
-                        pass.set_bind_group(2, &t.bind_groups[class.material], &[]);
-                    }
-                    (None, None) => unreachable!("a textured pass without the scene's textures"),
-                }
-                pass.dispatch_workgroups(self.tiles.0, self.tiles.1, 1);
-            }
+            self.dispatch(&mut pass, (views, view), scene, None);
         }
         timer.end(encoder, t);
+    }
+
+    /// Records the traced reference's pass, band after band. With `flush`, each band is
+    /// its own compute pass (untimed) followed by `flush(encoder, band, bands)`, which may
+    /// submit what the encoder holds and report progress; without, one timed pass holds
+    /// every band.
+    pub fn record_traced(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: &GpuTimer,
+        (views, view): (&Views, u32),
+        scene: &SceneGpu,
+        flush: Option<&mut dyn FnMut(&mut wgpu::CommandEncoder, u32, u32)>,
+    ) {
+        let Some(traced) = &self.traced else { return };
+        if let Some(m) = &self.msaa {
+            m.record_clear(encoder);
+        }
+        encoder.clear_buffer(&traced.stats, 0, None);
+        match flush {
+            None => {
+                let t = timer.begin("traced.shade", encoder);
+                {
+                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some("traced.shade"),
+                        timestamp_writes: t.compute_writes(),
+                    });
+                    for band in 0..traced.bands {
+                        self.dispatch(&mut pass, (views, view), scene, Some(band));
+                    }
+                }
+                timer.end(encoder, t);
+            }
+            Some(flush) => {
+                for band in 0..traced.bands {
+                    {
+                        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                            label: Some("traced.shade"),
+                            timestamp_writes: None,
+                        });
+                        self.dispatch(&mut pass, (views, view), scene, Some(band));
+                    }
+                    flush(encoder, band + 1, traced.bands);
+                }
+            }
+        }
+    }
+
+    /// The dispatches of one pass (or, traced, of one band): one per material class.
+    fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>, (views, view): (&Views, u32), scene: &SceneGpu, band: Option<u32>) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
+        let rows = match (&self.traced, band) {
+            (Some(t), Some(b)) => t.rows.min(self.tiles.1 - (b * t.rows).min(self.tiles.1)),
+            _ => self.tiles.1,
+        };
+        let band_offset = band.map(|b| (u64::from(b) * CLASS_STRIDE) as u32);
+        for class in &self.classes {
+            match (&self.empty_group, &scene.textures) {
+                (Some(empty), _) => {
+                    let offsets: Vec<u32> = band_offset.into_iter().collect();
+                    pass.set_bind_group(1, &self.bind_group, &offsets);
+                    pass.set_bind_group(2, empty, &[]);
+                }
+                (None, Some(t)) => {
+                    let offsets: Vec<u32> = std::iter::once(class.offset).chain(band_offset).collect();
+                    pass.set_bind_group(1, &self.bind_group, &offsets);
+                    pass.set_bind_group(2, &t.bind_groups[class.material], &[]);
+                }
+                (None, None) => unreachable!("a textured pass without the scene's textures"),
+            }
+            if rows > 0 {
+                pass.dispatch_workgroups(self.tiles.0, rows, 1);
+            }
+        }
+    }
+
+    /// Rays the last traced frame cast (stalls the GPU); None for the light grid's pass.
+    pub fn read_traced_rays(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Option<u64>, GpuError> {
+        let Some(t) = &self.traced else { return Ok(None) };
+        let words: Vec<u32> = read_buffer(device, queue, &t.stats)?;
+        Ok(Some(u64::from(words[0]) | u64::from(words[1]) << 32))
+    }
+
+    /// Bands a traced frame is cast in (None for the light grid's pass).
+    pub fn traced_bands(&self) -> Option<u32> {
+        self.traced.as_ref().map(|t| t.bands)
     }
 
     /// Records the MSAA resolve of the edge pixels (nothing without MSAA).

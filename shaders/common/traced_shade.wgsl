@@ -1,0 +1,79 @@
+// The traced reference's kernel body (traced.wgsl, traced_msaa.wgsl; issue 30): the
+// visibility buffer's surface and MSAA machinery (common/deferred_shade.wgsl with
+// VISIBILITY), and a light loop over every light with no cutoff (NO_CUTOFF) whose shadows
+// are rays (common/shade.wgsl with TRACED calls traced_visibility), not shadow maps.
+//
+// A frame is cast in bands of tile rows, one dispatch each (crates/visibility/src/
+// shading.rs, Traced): `traced_band.first_row` (a dynamic offset) says where this dispatch
+// starts, so a long render can be submitted band by band and report its progress. Each
+// workgroup adds the rays its threads cast to `trace_stats` (a 64-bit count in two words).
+#include "common/deferred_shade.wgsl"
+#include "common/trace.wgsl"
+
+override TILE_SIZE: u32 = 16u;
+override WG: u32 = 16u;
+// The ray's ends are moved off the surface and off the light by this share of the
+// point's largest coordinate plus 1 m (tiledlight_cull::trace::SURFACE_EPS): a few hundred
+// f32 steps of the reconstructed position, so a surface never shadows itself.
+override TRACE_EPS: f32 = 0.000244140625;
+
+@group(1) @binding(33) var<storage, read> trace_nodes: array<TraceNode>;
+@group(1) @binding(34) var<storage, read> trace_tris: array<vec4<f32>>;
+#ifdef TRACE_MASKS
+@group(1) @binding(35) var<storage, read> trace_uvs: array<vec2<f32>>;
+@group(1) @binding(36) var<storage, read> trace_mask_slots: array<vec4<u32>>;
+@group(1) @binding(37) var<storage, read> trace_mask_bits: array<u32>;
+#endif
+struct TracedBand {
+    first_row: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+@group(1) @binding(38) var<uniform> traced_band: TracedBand;
+// Rays cast: low word, high word.
+@group(1) @binding(39) var<storage, read_write> trace_stats: array<atomic<u32>, 2>;
+
+var<workgroup> wg_rays: atomic<u32>;
+
+// Visibility (0 or 1) of the light at `light_pos` from surface point `p` with normal `n`
+// (the light is on the normal's side): the segment from p, lifted along n, to the light.
+fn traced_visibility(p: vec3<f32>, n: vec3<f32>, light_pos: vec3<f32>) -> f32 {
+    let a = abs(p);
+    let eps = TRACE_EPS * (max(a.x, max(a.y, a.z)) + 1.0);
+    return select(1.0, 0.0, trace_occluded(p + n * eps, light_pos, eps));
+}
+
+// Linear HDR of one surface sample: every light, each shadowed by its ray.
+fn shade_lights_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
+    if g.sky {
+        return vec3<f32>(0.0);
+    }
+    let v = view_vector(g.world);
+    var color = g.unlit;
+    for (var i = 0u; i < lighting.num_lights; i++) {
+        color += shade_light(i, g.world, g.normal, v, g.surface);
+    }
+    return color;
+}
+
+@compute @workgroup_size(WG, WG)
+fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>, @builtin(local_invocation_index) lidx: u32) {
+    if lidx == 0u {
+        atomicStore(&wg_rays, 0u);
+#ifdef MSAA
+        atomicStore(&wg_edge_count, 0u);
+#endif
+    }
+    workgroupBarrier();
+    shade_tile_pixels(vec3<u32>(wid.x, wid.y + traced_band.first_row, 0u), lid, lidx);
+    atomicAdd(&wg_rays, trace_ray_count);
+    workgroupBarrier();
+    if lidx == 0u {
+        let n = atomicLoad(&wg_rays);
+        let before = atomicAdd(&trace_stats[0], n);
+        if before + n < before {
+            atomicAdd(&trace_stats[1], 1u);
+        }
+    }
+}
