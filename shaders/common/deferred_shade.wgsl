@@ -34,7 +34,9 @@
 // (19-22) have the binding numbers of the forward passes' lights group
 // (common/lights_group.wgsl).
 #include "common/depth_range.wgsl"
+#ifndef TRACED
 #include "common/light_grid_rw.wgsl"
+#endif
 #include "common/shade.wgsl"
 
 @group(1) @binding(1) var<storage, read> cull_lights: array<CullLight>;

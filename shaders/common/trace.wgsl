@@ -9,26 +9,7 @@
 // texture transform), `trace_mask_slots: array<vec4<u32>>` (width, height, wrap, first word)
 // and `trace_mask_bits: array<u32>` (crates/gpu/src/bvh.rs).
 
-// The traversal stack: the deepest tree the builder makes has 96 levels
-// (tiledlight_cull::trace::TRACE_STACK).
-const TRACE_STACK: u32 = 96u;
-const TRACE_NO_CHILD: u32 = 0xffffffffu;
-const TRACE_NO_MASK: u32 = 0xffffffffu;
-// The box test's far bound is kept this much wider (tiledlight_cull::trace::FAR_GROW).
-const TRACE_FAR_GROW: f32 = 1.0000004768371582;
-
-// Both children of a node: a child with count > 0 is a leaf of triangles link..link+count,
-// with count 0 node `link` (or nothing when link is TRACE_NO_CHILD).
-struct TraceNode {
-    a_lo: vec3<f32>,
-    a_link: u32,
-    a_hi: vec3<f32>,
-    a_count: u32,
-    b_lo: vec3<f32>,
-    b_link: u32,
-    b_hi: vec3<f32>,
-    b_count: u32,
-}
+#include "common/trace_types.wgsl"
 
 struct TraceRay {
     o: vec3<f32>,
@@ -50,10 +31,10 @@ fn trace_inv(c: f32) -> f32 {
     return select(1.0 / c, 1e30, c == 0.0);
 }
 
-// The segment from -> to with eps world units cut off each end.
-fn trace_ray(from: vec3<f32>, to: vec3<f32>, eps: f32) -> TraceRay {
+// The segment p0 -> p1 with eps world units cut off each end.
+fn trace_ray(p0: vec3<f32>, p1: vec3<f32>, eps: f32) -> TraceRay {
     var r: TraceRay;
-    let d = to - from;
+    let d = p1 - p0;
     let len = length(d);
     let e = max(eps, 0.0);
     r.valid = len > 2.0 * e;
@@ -77,7 +58,7 @@ fn trace_ray(from: vec3<f32>, to: vec3<f32>, eps: f32) -> TraceRay {
     }
     r.k = vec3<u32>(kx, ky, kz);
     r.s = vec3<f32>(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
-    r.o = from;
+    r.o = p0;
     r.inv_d = vec3<f32>(trace_inv(d.x), trace_inv(d.y), trace_inv(d.z));
     r.t_lo = cut;
     r.t_hi = 1.0 - cut;
@@ -181,9 +162,9 @@ fn trace_blocks(t: u32, u: f32, v: f32) -> bool {
 }
 #endif
 
-// Whether some triangle blocks the segment from -> to (eps off each end).
-fn trace_occluded(from: vec3<f32>, to: vec3<f32>, eps: f32) -> bool {
-    let r = trace_ray(from, to, eps);
+// Whether some triangle blocks the segment p0 -> p1 (eps off each end).
+fn trace_occluded(p0: vec3<f32>, p1: vec3<f32>, eps: f32) -> bool {
+    let r = trace_ray(p0, p1, eps);
     if !r.valid || arrayLength(&trace_nodes) == 0u {
         return false;
     }

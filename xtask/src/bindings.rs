@@ -38,6 +38,8 @@ pub fn declarations() -> Vec<PassBindings> {
         tiledlight_deferred::shading::DEFERRED_RESOLVE_BINDINGS,
         tiledlight_visibility::shading::VISIBILITY_BINDINGS,
         tiledlight_visibility::shading::VISIBILITY_MSAA_BINDINGS,
+        tiledlight_visibility::shading::TRACED_BINDINGS,
+        tiledlight_visibility::shading::TRACED_MSAA_BINDINGS,
         tiledlight_visibility::compute_raster::COMPUTE_RASTER_BINDINGS,
         tiledlight_visibility::compute_raster::LARGE_BINDINGS,
         tiledlight_visibility::raster::DEPTH_COPY_BINDINGS,

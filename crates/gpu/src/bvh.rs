@@ -238,7 +238,7 @@ pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
     vec![tiledlight_cull::struct_layout!(
         FlatNode,
         "TraceNode",
-        "common/trace.wgsl",
+        "common/trace_types.wgsl",
         [a_lo, a_link, a_hi, a_count, b_lo, b_link, b_hi, b_count]
     )]
 }
