@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign emission vpl reshape visibility raster raster-short
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign emission vpl reshape visibility raster raster-short traced
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -23,6 +23,13 @@ run() { # name frames args...
   echo "== $name: $*" | tee -a "$out/log.txt"
   timeout 300 "$bin" bench --width 1920 --height 1080 --frames "$frames" --warmup 20 --json "$out/$name.json" "$@" 2>&1 \
     | tee -a "$out/log.txt" | grep -E "^(depth|forward|brute|deferred|visibility|cull|tonemap|shadow|blended|total|error|MSAA|light grid)"
+}
+# The traced reference: seconds a frame, so 1 warm-up frame and 2 timed ones.
+run_traced() { # name args...
+  local name=$prefix$1; shift
+  echo "== $name: $*" | tee -a "$out/log.txt"
+  timeout 500 "$bin" bench --width 1920 --height 1080 --frames 2 --warmup 1 --json "$out/$name.json" "$@" 2>&1 \
+    | tee -a "$out/log.txt" | grep -E "^(visibility|traced|tonemap|total|error|rays)"
 }
 sets=${*:-core cull scale methods msaa}
 for set in $sets; do
@@ -154,6 +161,13 @@ for set in $sets; do
     run "r-court-fp" 50 --lights 1024
     run "r-court-td" 50 --lights 1024 --method deferred
     run "r-mp-td-scatter" 10 --light-preset million --method deferred --assign scatter
+    ;;
+  traced)
+    # Issue 30: the traced reference, courtyard and Figure 9 scene, 1,024 and 16,384 lights.
+    run_traced tr-court-1024 --lights 1024 --method traced-reference
+    run_traced tr-f9-1024 --lights 1024 --grid-objects 280 --density medium --method traced-reference
+    run_traced tr-court-16384 --lights 16384 --method traced-reference
+    run_traced tr-f9-16384 --lights 16384 --grid-objects 280 --density medium --method traced-reference
     ;;
   raster-short)
     # Issue 29, the compute raster only: the Figure 9 scene at three light counts, its

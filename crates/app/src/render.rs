@@ -126,7 +126,12 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let prep = Prepared::new(&Settings { traced_progress: true, ..args.scene.settings()? })?;
     tiledlight_lab::output::print_load_warnings(&prep.scene_warnings);
     let mut renderer = prep.renderer_with_heatmap(heatmap)?;
-    let m = bench::measure(&prep, &mut renderer, 0, RENDER_FRAMES)?;
+    // The traced reference's frame takes seconds: one is enough (nothing in it carries
+    // over between frames).
+    let traced = prep.settings.method == tiledlight_gpu::features::Method::TracedReference;
+    let start = std::time::Instant::now();
+    let m = bench::measure(&prep, &mut renderer, 0, if traced { 1 } else { RENDER_FRAMES })?;
+    let seconds = start.elapsed().as_secs_f64();
     let stats = prep.culling_stats(&renderer)?;
     let blended = prep.blended_stats(&renderer)?;
     let edges = renderer.edge_pixels(&prep.ctx).context("reading the MSAA edge count back")?;
@@ -166,6 +171,16 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             a.faces_drawn_last_frame(),
             shadow_atlas_description(a)
         );
+    }
+    if let Some(v) = renderer.passes::<tiledlight_frame::VisibilityFrame>() {
+        if let Some(rays) = v.shading().read_traced_rays(&prep.ctx.device, &prep.ctx.queue)? {
+            println!(
+                "rays:       {rays} shadow rays in {:.2} s wall ({:.1} M rays/s; {} bands)",
+                seconds,
+                rays as f64 / seconds / 1e6,
+                v.shading().traced_bands().unwrap_or(1)
+            );
+        }
     }
     println!("GPU memory:\n{}", renderer.memory());
     if let Some(n) = note {
