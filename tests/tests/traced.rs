@@ -145,10 +145,17 @@ fn gpu_rays_match_the_cpu_ray_cast() {
         let random = |all: &[bool]| all.iter().step_by(2).copied().collect::<Vec<bool>>();
         let graze_random = |i: usize| grazing(2 * i);
         let v_random = judge(&random(&got), &random(&exact), graze_random);
+        let t_random = judge(&random(&got), &random(&twin), graze_random);
         let v = judge(&got, &exact, grazing);
         let t = judge(&got, &twin, grazing);
-        eprintln!("case {case}: vs f64 {v:?} (random segments {v_random:?}); vs f32 twin {t:?}");
-        assert!(v.wrong == 0 && t.wrong == 0 && v_random.passes() && t.passes(), "case {case}: {v:?} / {t:?}");
+        eprintln!("case {case}: vs f64 {v:?} (random segments {v_random:?}); vs f32 twin {t:?} (random {t_random:?})");
+        // The twin is the kernel's operations in order, but a GPU may fuse a multiply and
+        // an add where the CPU rounds twice (the H200 does: 292 of the 2000 segments built
+        // through vertices and edges differ, all grazing; lavapipe 0).
+        assert!(
+            v.wrong == 0 && t.wrong == 0 && v_random.passes() && t_random.passes(),
+            "case {case}: {v:?} / {t:?}"
+        );
         assert!(v.blocked > 100 && v.blocked < v.rays - 100, "case {case}: a test that blocks all or nothing: {v:?}");
         total.wrong += v.wrong;
         total.grazing += v.grazing;
