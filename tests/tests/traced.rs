@@ -152,10 +152,7 @@ fn gpu_rays_match_the_cpu_ray_cast() {
         // The twin is the kernel's operations in order, but a GPU may fuse a multiply and
         // an add where the CPU rounds twice (the H200 does: 292 of the 2000 segments built
         // through vertices and edges differ, all grazing; lavapipe 0).
-        assert!(
-            v.wrong == 0 && t.wrong == 0 && v_random.passes() && t_random.passes(),
-            "case {case}: {v:?} / {t:?}"
-        );
+        assert!(v.wrong == 0 && t.wrong == 0 && v_random.passes() && t_random.passes(), "case {case}: {v:?} / {t:?}");
         assert!(v.blocked > 100 && v.blocked < v.rays - 100, "case {case}: a test that blocks all or nothing: {v:?}");
         total.wrong += v.wrong;
         total.grazing += v.grazing;
@@ -291,8 +288,16 @@ fn box_lights() -> Vec<Light> {
 }
 
 fn box_camera() -> Camera {
-    Camera::perspective(Vec3::new(4.0, 4.0, 6.0), Vec3::new(0.0, 0.5, 0.0), Vec3::Y, 50f32.to_radians(), W as f32 / H as f32, 0.1, None)
-        .expect("camera")
+    Camera::perspective(
+        Vec3::new(4.0, 4.0, 6.0),
+        Vec3::new(0.0, 0.5, 0.0),
+        Vec3::Y,
+        50f32.to_radians(),
+        W as f32 / H as f32,
+        0.1,
+        None,
+    )
+    .expect("camera")
 }
 
 /// Pixels whose surface point sees some light differently from a neighbour's (by the f64

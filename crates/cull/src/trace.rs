@@ -299,11 +299,8 @@ pub fn watertight(tri: &[Vec3; 3], o: Vec3, k: [usize; 3], s: Vec3, range: (f32,
     }
     let t = u * (s.z * a[kz]) + v * (s.z * b[kz]) + w * (s.z * c[kz]);
     // t / det inside the range, without dividing: the comparisons flip with det's sign.
-    let inside = if det > 0.0 {
-        t > range.0 * det && t < range.1 * det
-    } else {
-        t < range.0 * det && t > range.1 * det
-    };
+    let inside =
+        if det > 0.0 { t > range.0 * det && t < range.1 * det } else { t < range.0 * det && t > range.1 * det };
     inside.then(|| (v / det, w / det))
 }
 
@@ -347,7 +344,12 @@ pub struct Masks {
 impl Masks {
     /// Adds a mask of `width` x `height` texels where `texel_blocks(x, y)` says which block;
     /// returns its slot. A 0-texel mask blocks nowhere.
-    pub fn add(&mut self, (width, height): (u32, u32), wrap: (MaskWrap, MaskWrap), texel_blocks: impl Fn(u32, u32) -> bool) -> u32 {
+    pub fn add(
+        &mut self,
+        (width, height): (u32, u32),
+        wrap: (MaskWrap, MaskWrap),
+        texel_blocks: impl Fn(u32, u32) -> bool,
+    ) -> u32 {
         let first_word = self.bits.len() as u32;
         let n = width as usize * height as usize;
         let mut bits = vec![0u32; n.div_ceil(32)];
@@ -427,7 +429,8 @@ mod tests {
     fn check(flat: &FlatBvh) {
         let mut seen = vec![0u32; flat.triangles.len()];
         for n in &flat.nodes {
-            for (lo, hi, link, count) in [(n.a_lo, n.a_hi, n.a_link, n.a_count), (n.b_lo, n.b_hi, n.b_link, n.b_count)] {
+            for (lo, hi, link, count) in [(n.a_lo, n.a_hi, n.a_link, n.a_count), (n.b_lo, n.b_hi, n.b_link, n.b_count)]
+            {
                 if count > 0 {
                     for t in link..link + count {
                         seen[t as usize] += 1;

@@ -28,8 +28,8 @@ use std::any::Any;
 
 use tiledlight_gpu::culling::LightCulling;
 use tiledlight_gpu::depth_prepass::{DEPTH_FORMAT, ID_FORMAT};
-use tiledlight_gpu::features::{Features, Method};
 use tiledlight_gpu::features::Raster;
+use tiledlight_gpu::features::{Features, Method};
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::memory::MemoryReport;
@@ -183,10 +183,7 @@ impl MethodFrame for VisibilityFrame {
                             queue.submit([done.finish()]);
                             // Progress is only known once the band is done.
                             let _ = device.poll(wgpu::PollType::wait_indefinitely());
-                            eprint!(
-                                "\rtraced reference: band {band}/{bands} ({:.1} s)",
-                                start.elapsed().as_secs_f64()
-                            );
+                            eprint!("\rtraced reference: band {band}/{bands} ({:.1} s)", start.elapsed().as_secs_f64());
                             if band == bands {
                                 eprintln!();
                             }

@@ -108,9 +108,8 @@ impl GpuBvh {
                 asked: format!("{tri_bytes} bytes ({} triangles)", flat.triangles.len()),
             });
         }
-        let slot_of = |leaf: usize| -> u32 {
-            geometry.masks.as_ref().map_or(NO_MASK, |m| m.slots[flat.ids[leaf] as usize])
-        };
+        let slot_of =
+            |leaf: usize| -> u32 { geometry.masks.as_ref().map_or(NO_MASK, |m| m.slots[flat.ids[leaf] as usize]) };
         let vertices: Vec<TraceVertex> = flat
             .triangles
             .iter()
@@ -127,11 +126,8 @@ impl GpuBvh {
         memory.add("trace.nodes", nodes.size());
         memory.add("trace.triangles", triangles.size());
         let masks = geometry.masks.as_ref().map(|m| {
-            let uvs: Vec<[f32; 2]> = flat
-                .ids
-                .iter()
-                .flat_map(|&id| m.uvs[id as usize].map(|uv| uv.to_array()))
-                .collect();
+            let uvs: Vec<[f32; 2]> =
+                flat.ids.iter().flat_map(|&id| m.uvs[id as usize].map(|uv| uv.to_array())).collect();
             let b = MaskBuffers {
                 uvs: buffer_init(device, "trace.uvs", bytemuck::cast_slice(&uvs), usage),
                 slots: buffer_init(device, "trace.mask_slots", bytemuck::cast_slice(&m.masks.slots), usage),
@@ -156,7 +152,11 @@ impl GpuBvh {
     pub fn entries(&self, base: u32) -> Vec<wgpu::BindGroupEntry<'_>> {
         let mut e = vec![buffer_entry(base, &self.nodes), buffer_entry(base + 1, &self.triangles)];
         if let Some(m) = &self.masks {
-            e.extend([buffer_entry(base + 2, &m.uvs), buffer_entry(base + 3, &m.slots), buffer_entry(base + 4, &m.bits)]);
+            e.extend([
+                buffer_entry(base + 2, &m.uvs),
+                buffer_entry(base + 3, &m.slots),
+                buffer_entry(base + 4, &m.bits),
+            ]);
         }
         e
     }
@@ -196,7 +196,8 @@ impl RayQueries {
         }
         let data: Vec<[f32; 4]> =
             segments.iter().flat_map(|(a, b, eps)| [a.extend(*eps).to_array(), b.extend(0.0).to_array()]).collect();
-        let input = buffer_init(device, "trace_rays.segments", bytemuck::cast_slice(&data), wgpu::BufferUsages::STORAGE);
+        let input =
+            buffer_init(device, "trace_rays.segments", bytemuck::cast_slice(&data), wgpu::BufferUsages::STORAGE);
         let n = segments.len() as u64;
         let output = buffer_zeroed(
             device,

@@ -325,8 +325,11 @@ impl Features {
             extra_targets: if method == Method::TiledDeferred { gbuffer_rts.saturating_sub(2) } else { 0 },
             // The traced reference's shadows are rays: its atlas exists only for the VPLs'
             // reflective shadow maps.
-            shadows: (points + spots > 0 && (method != Method::TracedReference || vpl))
-                .then_some(Shadows { points, spots, options: shadow }),
+            shadows: (points + spots > 0 && (method != Method::TracedReference || vpl)).then_some(Shadows {
+                points,
+                spots,
+                options: shadow,
+            }),
             frustum_clusters: tiled && cull.clusters.is_some_and(|c| !c.geometry_only),
             vpl,
         }

@@ -79,7 +79,11 @@ impl TraceGeometry {
                     any_mask = true;
                     *material_slot[inst.material].get_or_insert_with(|| {
                         let base = mat.base_color[3];
-                        match mat.base_color_texture.as_ref().and_then(|t| scene.textures.get(t.texture).map(|x| (t, x))) {
+                        match mat
+                            .base_color_texture
+                            .as_ref()
+                            .and_then(|t| scene.textures.get(t.texture).map(|x| (t, x)))
+                        {
                             Some((tr, tex)) => masks.masks.add(
                                 (tex.width, tex.height),
                                 (mask_wrap(tr.sampler.wrap_u), mask_wrap(tr.sampler.wrap_v)),

@@ -44,11 +44,11 @@ use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::{compute_bindings, LightGrid};
 use tiledlight_gpu::lights_group::VplBindings;
 use tiledlight_gpu::memory::MemoryReport;
+use tiledlight_gpu::readback::read_buffer;
 use tiledlight_gpu::scene_gpu::{SceneGpu, TEXTURE_BINDINGS};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
-use tiledlight_gpu::readback::read_buffer;
 use tiledlight_gpu::util::{buffer_entry, buffer_init, buffer_zeroed, compute_pipeline, keyed_module};
 use tiledlight_gpu::variants::{GridLookup, MaterialKey, ShaderKey, Shadowing, TracedKey, VisibilityKey};
 use tiledlight_gpu::view::Views;
@@ -325,7 +325,8 @@ impl VisibilityShading {
                 let mut data = vec![0u8; bands as usize * CLASS_STRIDE as usize];
                 for b in 0..bands as usize {
                     let first = (b as u32) * rows;
-                    data[b * CLASS_STRIDE as usize..b * CLASS_STRIDE as usize + 4].copy_from_slice(&first.to_le_bytes());
+                    data[b * CLASS_STRIDE as usize..b * CLASS_STRIDE as usize + 4]
+                        .copy_from_slice(&first.to_le_bytes());
                 }
                 let bands_buffer = buffer_init(device, "traced.bands", &data, wgpu::BufferUsages::UNIFORM);
                 let stats = buffer_zeroed(
@@ -524,7 +525,13 @@ impl VisibilityShading {
     }
 
     /// The dispatches of one pass (or, traced, of one band): one per material class.
-    fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>, (views, view): (&Views, u32), scene: &SceneGpu, band: Option<u32>) {
+    fn dispatch(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        (views, view): (&Views, u32),
+        scene: &SceneGpu,
+        band: Option<u32>,
+    ) {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
         let rows = match (&self.traced, band) {
