@@ -170,6 +170,9 @@ pub enum ReferenceArg {
     NoCutoff,
     /// Brute force with the same radius cutoff as the setting.
     Cutoff,
+    /// The traced reference: every light, no cutoff, each shadowed by a ray (the truth
+    /// that unshadowed lights, shadow maps and the cutoff are measured against).
+    Traced,
 }
 
 impl AccuracyArgs {
@@ -183,6 +186,7 @@ impl AccuracyArgs {
             reference: match self.reference {
                 ReferenceArg::NoCutoff => ReferenceKind::NoCutoff,
                 ReferenceArg::Cutoff => ReferenceKind::Cutoff,
+                ReferenceArg::Traced => ReferenceKind::Traced,
             },
             vpl_reference_rsm: self.vpl_reference_rsm,
             target_flip: self.target_flip,

@@ -127,6 +127,10 @@ pub enum ReferenceKind {
     NoCutoff,
     /// Brute force with the same radius cutoff as the setting.
     Cutoff,
+    /// The traced reference (`--method traced-reference`): every light, no cutoff, a
+    /// shadow ray each, so unshadowed lights and shadow maps are measured against the light
+    /// that really arrives.
+    Traced,
 }
 
 const HEAD: [&str; 3] = ["adapter", "width", "height"];
@@ -257,6 +261,7 @@ fn reference_kind(r: ReferenceKind) -> &'static str {
     match r {
         ReferenceKind::NoCutoff => "no cutoff",
         ReferenceKind::Cutoff => "same cutoff",
+        ReferenceKind::Traced => "traced (no cutoff, a shadow ray per light)",
     }
 }
 
@@ -294,6 +299,7 @@ fn render_reference(
     let method = match reference {
         ReferenceKind::NoCutoff => Method::BruteForce { cutoff: false },
         ReferenceKind::Cutoff => Method::BruteForce { cutoff: true },
+        ReferenceKind::Traced => Method::TracedReference,
     };
     // Blended geometry in the reference is exact "over" (sorted back to front), whatever
     // the setting's blend mode.
