@@ -173,7 +173,7 @@ fn gpu_rays_honour_alpha_masks() {
     let kernel = RayQueries::new(&ctx.device, &bvh).expect("kernel");
     let mut rng = Pcg64::seed_from_u64(31);
     let b = scene.bounds;
-    let (lo, hi) = (Vec3::from(b.min), Vec3::from(b.max));
+    let (lo, hi) = (b.min, b.max);
     let mut p = || {
         Vec3::new(rng.random_range(lo.x..hi.x), rng.random_range(lo.y..hi.y), rng.random_range(lo.z - 3.0..hi.z + 3.0))
     };
@@ -263,7 +263,8 @@ fn an_open_plane_equals_brute_force() {
     // MSAA (traced_msaa.wgsl) is built and runs, but is not compared here: on lavapipe 140
     // pixels outside the edge list differ from hardware MSAA by up to 3.4% (limit 1%), a
     // cause not found yet (issue 30's closing note); the comparison is not loosened.
-    for msaa in [1] {
+    {
+        let msaa = 1;
         let t = traced(ctx, &scene, &lights, &camera, msaa);
         let (reference, depth) = brute_force(ctx, &scene, &lb, &camera, msaa);
         let (reference, forgiven) = reference.forgive_hdr(&msaa_by_design(W, (&depth, &t.depth), msaa, &t.edges));
@@ -312,7 +313,7 @@ fn shadow_borders(scene: &Scene, lights: &[Light], camera: &Camera, depth: &[f32
                 .iter()
                 .map(|l| {
                     let eps = tiledlight_cull::trace::surface_eps(s.position);
-                    !geometry.occluded(s.position + s.normal * eps, l.position.into(), eps)
+                    !geometry.occluded(s.position + s.normal * eps, l.position, eps)
                 })
                 .collect(),
             None => Vec::new(),

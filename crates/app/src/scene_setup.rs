@@ -785,6 +785,7 @@ mod tests {
             shadow_format: ShadowFormat::Depth32,
             blend_mode: BlendMode::WeightedOit,
             vpl: None,
+            traced_progress: false,
             camera: None,
             strict: false,
             allow_any_path: false,

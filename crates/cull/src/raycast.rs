@@ -226,7 +226,9 @@ fn grazes(tri: &[Vec3; 3], ray: &Ray, tol: f64) -> bool {
     let det = e1.dot(p);
     let n = e1.cross(e2);
     let scale = ray.d_len2 * n.length_squared();
-    if !(scale > 0.0) {
+    // Written so NaN fails it (a zero-area triangle or a zero-length segment).
+    let measurable = scale > 0.0;
+    if !measurable {
         return false;
     }
     let sin2 = det * det / scale;

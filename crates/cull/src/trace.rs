@@ -275,7 +275,7 @@ impl TraceRay {
 
 /// Woop, Benthin and Wald's watertight ray-triangle test in f32: the barycentrics `(u, v)`
 /// (weights of the second and third vertices) when the ray from `o` sheared by `s` along
-/// axes `k` (see [`TraceRay`]) crosses the triangle at a parameter in the open interval
+/// axes `k` (see `TraceRay`) crosses the triangle at a parameter in the open interval
 /// `range`. Two-sided; edges count as inside; a zero-area or edge-on triangle (determinant
 /// 0) misses.
 pub fn watertight(tri: &[Vec3; 3], o: Vec3, k: [usize; 3], s: Vec3, range: (f32, f32)) -> Option<(f32, f32)> {
@@ -515,10 +515,10 @@ mod tests {
         let tris: Vec<[Vec3; 3]> = (0..7).map(|k| [centre, ring[k], ring[(k + 1) % 7]]).collect();
         let flat = FlatBvh::new(&Triangles::new(tris.clone()));
         let mut rays = 0;
-        for k in 0..7 {
+        for &rim in &ring {
             // Up to, not including, the rim vertex (the fan's own boundary).
             for s in 0..64 {
-                let on_edge = centre.lerp(ring[k], s as f32 / 64.0);
+                let on_edge = centre.lerp(rim, s as f32 / 64.0);
                 for tilt in [-0.7f32, -0.01, 0.0, 0.3] {
                     let d = Vec3::new(tilt, 1.0, 0.37 * tilt);
                     let (hit, _) = flat.occluded(on_edge - d, on_edge + d * 1.3, 0.0, &|_, _, _| true);

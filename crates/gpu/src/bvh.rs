@@ -100,11 +100,11 @@ impl GpuBvh {
         let usage = wgpu::BufferUsages::STORAGE;
         let limit = device.limits().max_storage_buffer_binding_size;
         let tri_bytes = flat.triangles.len() as u64 * 48;
-        if tri_bytes > u64::from(limit) {
+        if tri_bytes > limit {
             return Err(GpuError::Limit {
                 what: "the traced reference's triangles".into(),
                 name: "max_storage_buffer_binding_size",
-                limit: limit.into(),
+                limit,
                 asked: format!("{tri_bytes} bytes ({} triangles)", flat.triangles.len()),
             });
         }

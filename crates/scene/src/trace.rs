@@ -157,7 +157,7 @@ mod tests {
         assert_eq!(g.bvh.len() as u64 + blended, scene.world_triangles().len() as u64);
         assert_eq!(g.flat.triangles.len(), g.bvh.len());
         let b = scene.bounds;
-        let (lo, hi) = (Vec3::from(b.min), Vec3::from(b.max));
+        let (lo, hi) = (b.min, b.max);
         let above = hi.y + 1.0;
         assert!(!g.occluded(Vec3::new(lo.x, above, lo.z), Vec3::new(hi.x, above, hi.z), 0.0));
         // Straight through the whole scene at mid height, corner to corner: walls block.

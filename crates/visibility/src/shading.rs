@@ -165,6 +165,10 @@ pub enum ShadeLights<'a> {
     Traced(&'a GpuBvh),
 }
 
+/// What [`VisibilityShading::record_traced`] calls after each band: `(encoder, band done
+/// (1-based), bands)`.
+pub type BandFlush<'a> = dyn FnMut(&mut wgpu::CommandEncoder, u32, u32) + 'a;
+
 /// The traced reference's bands and ray count.
 struct Traced {
     /// One `TracedBand` a band, [`CLASS_STRIDE`] apart.
@@ -488,7 +492,7 @@ impl VisibilityShading {
         timer: &GpuTimer,
         (views, view): (&Views, u32),
         scene: &SceneGpu,
-        flush: Option<&mut dyn FnMut(&mut wgpu::CommandEncoder, u32, u32)>,
+        flush: Option<&mut BandFlush<'_>>,
     ) {
         let Some(traced) = &self.traced else { return };
         if let Some(m) = &self.msaa {
