@@ -32,6 +32,7 @@ use tiledlight_scene::{shadow_box_scene, Scene};
 use tiledlight_tests::compare::{
     assert_visibility_matches, msaa_by_design, render_frame, Frame, RASTER_POSITION_ERROR_PX,
 };
+use tiledlight_tests::images::assert_flip;
 use tiledlight_tests::{gpu, scenes};
 
 const W: u32 = 320;
@@ -226,14 +227,20 @@ fn traced(ctx: &GpuContext, scene: &Scene, lights: &[Light], camera: &Camera, ms
     Traced { frame, rays, edges, depth: r.read_depth(ctx).unwrap() }
 }
 
-/// Brute force without cutoff (its frame with the raster's position allowance, its depth).
+/// Brute force without cutoff: its frame (at 1x with the raster's position allowance,
+/// which reads one depth a pixel) and its depth.
 fn brute_force(ctx: &GpuContext, scene: &Scene, lb: &LightBuffers, camera: &Camera, msaa: u32) -> (Frame, Vec<f32>) {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, scene).unwrap();
     let s = FrameSettings { method: Method::BruteForce { cutoff: false }, msaa, ..Default::default() };
     let mut r = FrameRenderer::new(ctx, &sg, lb, W, H, s).expect("brute force");
     let frame = render_frame(ctx, &mut r, &sg, camera);
     let depth = r.read_depth(ctx).unwrap();
-    (frame.allow_position_error(&depth, W, (camera, &lb.packed), RASTER_POSITION_ERROR_PX), depth)
+    let frame = if msaa == 1 {
+        frame.allow_position_error(&depth, W, (camera, &lb.packed), RASTER_POSITION_ERROR_PX)
+    } else {
+        frame
+    };
+    (frame, depth)
 }
 
 fn floor_lights() -> Vec<Light> {
@@ -248,11 +255,16 @@ fn floor_lights() -> Vec<Light> {
 }
 
 /// Nothing occludes an open plane: the traced image equals brute force without cutoff at
-/// the visibility buffer's limits (its surface is the visibility buffer's), with and
-/// without MSAA (where, as for `--method visibility`, pixels whose samples hold different
-/// triangles are shaded per sample while hardware MSAA shades each triangle once at the
-/// centre: those are compared by FLIP only, `msaa_by_design`); every lit pixel cast at most
-/// one ray per light.
+/// the visibility buffer's limits (its surface is the visibility buffer's); every lit pixel
+/// cast at most one ray per light.
+///
+/// With 4x MSAA (`traced_msaa.wgsl`): every pixel away from its edge list and silhouettes
+/// (`msaa_by_design`) equals the traced 1x image to f16 (4e-3 relative: it is shaded once,
+/// at the centre, as at 1x), and the whole image matches brute force's hardware MSAA by
+/// FLIP at the visibility buffer's limits. Its HDR is not compared with hardware MSAA
+/// pixel by pixel: on lavapipe brute force's 4x image differs from its own 1x by about 1%
+/// along a line of pixels of the open floor far from any edge, where the traced and the
+/// visibility buffer's 4x images equal their 1x exactly (measured while writing this test).
 #[test]
 fn an_open_plane_equals_brute_force() {
     let ctx = gpu();
@@ -260,21 +272,30 @@ fn an_open_plane_equals_brute_force() {
     let scene = scenes::floor_scene(0.5, 0.0, vec![]);
     let camera = scenes::floor_camera(W, H);
     let lb = LightBuffers::new(&ctx.device, &lights).unwrap();
-    // MSAA (traced_msaa.wgsl) is built and runs, but is not compared here: on lavapipe 140
-    // pixels outside the edge list differ from hardware MSAA by up to 3.4% (limit 1%), a
-    // cause not found yet (issue 30's closing note); the comparison is not loosened.
-    {
-        let msaa = 1;
-        let t = traced(ctx, &scene, &lights, &camera, msaa);
-        let (reference, depth) = brute_force(ctx, &scene, &lb, &camera, msaa);
-        let (reference, forgiven) = reference.forgive_hdr(&msaa_by_design(W, (&depth, &t.depth), msaa, &t.edges));
-        assert!(forgiven * 10 < (W * H) as usize, "{msaa}x: {forgiven} pixels forgiven");
-        assert_visibility_matches(&format!("traced_open_plane_{msaa}x"), W, (&reference, &t.frame), msaa > 1);
-        let rays = t.rays;
-        let pairs = u64::from(W * H) * lights.len() as u64 * u64::from(msaa);
-        eprintln!("{msaa}x: {rays} rays for {pairs} pixel-light pairs");
-        assert!(rays > 0 && rays <= pairs, "{rays} rays");
-    }
+    let one = traced(ctx, &scene, &lights, &camera, 1);
+    let (reference, _) = brute_force(ctx, &scene, &lb, &camera, 1);
+    assert_visibility_matches("traced_open_plane_1x", W, (&reference, &one.frame), false);
+    let pairs = u64::from(W * H) * lights.len() as u64;
+    eprintln!("1x: {} rays for {pairs} pixel-light pairs", one.rays);
+    assert!(one.rays > pairs / 4 && one.rays <= pairs, "{} rays", one.rays);
+
+    let four = traced(ctx, &scene, &lights, &camera, 4);
+    let (reference4, depth4) = brute_force(ctx, &scene, &lb, &camera, 4);
+    let by_design = msaa_by_design(W, (&depth4, &four.depth), 4, &four.edges);
+    let n_design = by_design.iter().filter(|&&m| m).count();
+    assert!(n_design * 10 < (W * H) as usize && !four.edges.is_empty(), "{n_design} pixels by design");
+    let off = differing(&one.frame, &four.frame, &by_design, 4e-3);
+    eprintln!("4x: {} edge pixels, {n_design} by design; {off} others differ from 1x", four.edges.len());
+    assert_eq!(off, 0, "4x away from edges must equal 1x");
+    assert_flip(
+        "traced_open_plane_4x",
+        W,
+        H,
+        &reference4.ldr,
+        &four.frame.ldr,
+        tiledlight_tests::compare::VISIBILITY_VS_REFERENCE.flip,
+    );
+    assert!(four.rays > one.rays, "per-sample shading of edge pixels casts more rays");
 }
 
 /// Two points and a spot around the shadow box's cube.

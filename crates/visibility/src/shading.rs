@@ -30,9 +30,9 @@
 //! `shaders/traced_msaa.wgsl`, body `shaders/common/traced_shade.wgsl`) is the same pass
 //! with another light loop: no light grid; every light, no cutoff, each light's share
 //! multiplied by a shadow ray through the scene's BVH (`tiledlight_gpu::bvh`). A frame costs
-//! seconds, so it is dispatched in bands of tile rows (each at most [`TRACED_BAND_PAIRS`]
-//! pixel-light pairs), which [`VisibilityShading::record_traced`] can submit one by one to
-//! report progress. Depends on tiledlight-gpu and tiledlight-deferred.
+//! seconds: with progress it is dispatched in bands of tile rows (each at most
+//! [`TRACED_BAND_PAIRS`] pixel-light pairs, at least [`TRACED_BAND_WORKGROUPS`] workgroups),
+//! which [`VisibilityShading::record_traced`] submits one by one; timed, one dispatch. Depends on tiledlight-gpu and tiledlight-deferred.
 
 use tiledlight_cull::TileGrid;
 use tiledlight_deferred::shading::{light_entries, view_entry, EdgeSamples, EdgeTest};
@@ -63,9 +63,13 @@ const CS: wgpu::ShaderStages = wgpu::ShaderStages::COMPUTE;
 const CLASS_STRIDE: u64 = 256;
 
 /// Pixel-light pairs (samples counted as pixels with MSAA) one band of the traced
-/// reference covers at most: 2^28, about 0.1 s on the H200, so progress comes often and no
-/// single dispatch runs for long.
+/// reference covers at most (unless that is fewer than [`TRACED_BAND_WORKGROUPS`]): 2^28,
+/// about 0.1 s on the H200, so progress comes often.
 pub const TRACED_BAND_PAIRS: u64 = 1 << 28;
+
+/// Workgroups a band of the traced reference has at least (bands are only for progress:
+/// a timed frame is one dispatch): 2,048, several waves on a 132-SM GPU.
+pub const TRACED_BAND_WORKGROUPS: u64 = 2048;
 
 /// Group 1 of the visibility kernels: depth (0), bounding spheres (1), the lighting uniform
 /// (2), the IDs (3, multisampled with `MSAA`), shading lights (6), the HDR output (9); spots
@@ -324,7 +328,11 @@ impl VisibilityShading {
                 let pairs_per_row =
                     (u64::from(grid.width) * u64::from(tile) * u64::from(samples) * lights.packed.len().max(1) as u64)
                         .max(1);
-                let rows = (TRACED_BAND_PAIRS / pairs_per_row).clamp(1, u64::from(rows_total.max(1))) as u32;
+                // At least TRACED_BAND_WORKGROUPS workgroups a band: fewer leave a large
+                // GPU idle (one row of tiles at 16,384 lights ran 4x slower a ray).
+                let min_rows = TRACED_BAND_WORKGROUPS.div_ceil(u64::from(grid.width.div_ceil(tile).max(1)));
+                let rows =
+                    (TRACED_BAND_PAIRS / pairs_per_row).max(min_rows).clamp(1, u64::from(rows_total.max(1))) as u32;
                 let bands = rows_total.max(1).div_ceil(rows);
                 let mut data = vec![0u8; bands as usize * CLASS_STRIDE as usize];
                 for b in 0..bands as usize {
@@ -484,8 +492,8 @@ impl VisibilityShading {
 
     /// Records the traced reference's pass, band after band. With `flush`, each band is
     /// its own compute pass (untimed) followed by `flush(encoder, band, bands)`, which may
-    /// submit what the encoder holds and report progress; without, one timed pass holds
-    /// every band.
+    /// submit what the encoder holds and report progress; without, one timed dispatch
+    /// covers the frame.
     pub fn record_traced(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -507,9 +515,9 @@ impl VisibilityShading {
                         label: Some("traced.shade"),
                         timestamp_writes: t.compute_writes(),
                     });
-                    for band in 0..traced.bands {
-                        self.dispatch(&mut pass, (views, view), scene, Some(band));
-                    }
+                    // Timed: the whole frame in one dispatch (band 0 starts at row 0), so
+                    // no band waits for the previous one's tail.
+                    self.dispatch(&mut pass, (views, view), scene, Some((0, self.tiles.1)));
                 }
                 timer.end(encoder, t);
             }
@@ -520,7 +528,8 @@ impl VisibilityShading {
                             label: Some("traced.shade"),
                             timestamp_writes: None,
                         });
-                        self.dispatch(&mut pass, (views, view), scene, Some(band));
+                        let rows = traced.rows.min(self.tiles.1.saturating_sub(band * traced.rows));
+                        self.dispatch(&mut pass, (views, view), scene, Some((band, rows)));
                     }
                     flush(encoder, band + 1, traced.bands);
                 }
@@ -528,21 +537,19 @@ impl VisibilityShading {
         }
     }
 
-    /// The dispatches of one pass (or, traced, of one band): one per material class.
+    /// The dispatches of one pass (or, traced, of `band`: its index and its rows of tiles):
+    /// one per material class.
     fn dispatch(
         &self,
         pass: &mut wgpu::ComputePass<'_>,
         (views, view): (&Views, u32),
         scene: &SceneGpu,
-        band: Option<u32>,
+        band: Option<(u32, u32)>,
     ) {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
-        let rows = match (&self.traced, band) {
-            (Some(t), Some(b)) => t.rows.min(self.tiles.1 - (b * t.rows).min(self.tiles.1)),
-            _ => self.tiles.1,
-        };
-        let band_offset = band.map(|b| (u64::from(b) * CLASS_STRIDE) as u32);
+        let rows = band.map_or(self.tiles.1, |(_, rows)| rows);
+        let band_offset = band.map(|(b, _)| (u64::from(b) * CLASS_STRIDE) as u32);
         for class in &self.classes {
             match (&self.empty_group, &scene.textures) {
                 (Some(empty), _) => {
