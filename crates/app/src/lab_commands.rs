@@ -151,6 +151,11 @@ pub struct AccuracyArgs {
     /// The FLIP mean the recommendation must stay under.
     #[arg(long, default_value_t = 0.01, value_name = "E")]
     pub target_flip: f64,
+    /// The error budget: change one axis at a time from the base (each axis's first value)
+    /// instead of trying every combination, one chart curve per axis; with `--reference
+    /// traced` each setting's error against the truth splits by cause.
+    #[arg(long)]
+    pub budget: bool,
     /// CSV output, resumed when it exists with the same columns [default: out/accuracy.csv].
     #[arg(long, value_name = "FILE.csv")]
     pub out: Option<PathBuf>,
@@ -190,6 +195,7 @@ impl AccuracyArgs {
             },
             vpl_reference_rsm: self.vpl_reference_rsm,
             target_flip: self.target_flip,
+            budget: self.budget,
             out: self.out.clone(),
             chart: self.chart.clone(),
             diff_dir: self.diff_dir.clone(),

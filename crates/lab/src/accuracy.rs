@@ -57,6 +57,9 @@ pub const DEFAULT_AXES: [&str; 2] = [
     "culling=planes,aabb,half-z",
 ];
 
+/// The FLIP means whose cheapest setting every run prints (issue 30: an error budget).
+pub const CHEAPEST_WITHIN: [f64; 3] = [0.01, 0.02, 0.05];
+
 /// The FLIP percentile recorded besides the mean.
 pub const PERCENTILE: f32 = 0.99;
 
@@ -77,6 +80,9 @@ pub struct Accuracy {
     pub vpl_reference_rsm: VplReference,
     /// The FLIP mean the recommendation must stay under.
     pub target_flip: f64,
+    /// The error budget: change one axis at a time from the base (every axis's first
+    /// value) instead of the cross product, and chart one curve per axis (dial).
+    pub budget: bool,
     /// CSV output [default: out/accuracy.csv].
     pub out: Option<PathBuf>,
     /// Pareto chart [default: the CSV path with .png].
@@ -259,8 +265,8 @@ fn pass_times(m: &bench::Measurement) -> Result<(f64, String)> {
 /// How the reference treats the lights' radii, as the output and the chart say it.
 fn reference_kind(r: ReferenceKind) -> &'static str {
     match r {
-        ReferenceKind::NoCutoff => "no cutoff",
-        ReferenceKind::Cutoff => "same cutoff",
+        ReferenceKind::NoCutoff => "brute force, no cutoff",
+        ReferenceKind::Cutoff => "brute force, same cutoff",
         ReferenceKind::Traced => "traced (no cutoff, a shadow ray per light)",
     }
 }
@@ -380,7 +386,7 @@ pub fn run<F: Flags>(scene: &F, args: &Accuracy) -> Result<()> {
     let defaults: Vec<Axis> = DEFAULT_AXES.iter().map(|s| axes::parse_axis::<F>(s)).collect::<Result<_>>()?;
     let given: Vec<Axis> = args.axes.iter().map(|s| axes::parse_axis::<F>(s)).collect::<Result<_>>()?;
     let axes = axes::merge_axes(defaults, given);
-    let points = axes::points(&axes)?;
+    let points = if args.budget { axes::points_one_at_a_time(&axes)? } else { axes::points(&axes)? };
     let all_args: Vec<Settings> =
         points.iter().map(|p| axes::args_at(scene, &axes, p).and_then(|a| a.settings())).collect::<Result<_>>()?;
     ensure!(
@@ -496,7 +502,7 @@ fn measure_setting(
                 .with_context(|| format!("{what}: reference"))?;
             let kind = reference_kind(args.reference);
             let vpls = reference_vpl_line(pargs, args.vpl_reference_rsm).map(|l| format!("; {l}")).unwrap_or_default();
-            axes::say(pb, format!("reference (brute force, {kind}{vpls}): {:.3} ms", r.total_ms));
+            axes::say(pb, format!("reference ({kind}{vpls}): {:.3} ms", r.total_ms));
             references.insert(rkey.clone(), r);
         }
         let reference = &references[&rkey];
@@ -693,7 +699,13 @@ fn report(
     let points: Vec<ParetoPoint> = rows
         .iter()
         .map(|r| ParetoPoint {
-            series: {
+            series: if args.budget {
+                // One curve per dial: the axis this setting changed from the base.
+                match axes::changed_axis(axes, &r[n..n + axes.len()]) {
+                    Some(k) => axes[k].name.clone(),
+                    None => "base".into(),
+                }
+            } else {
                 let s = series_axes.iter().map(|&i| r[n + i].clone()).collect::<Vec<_>>().join(", ");
                 if s.is_empty() {
                     "settings".into()
@@ -723,6 +735,21 @@ fn report(
         ),
         None => format!("no setting reaches FLIP mean < {}", args.target_flip),
     };
+    // The cheapest setting within each of the usual error budgets (on the frontier: the
+    // fastest below each).
+    let budgets: Vec<String> = CHEAPEST_WITHIN
+        .iter()
+        .map(|&eps| match frontier.iter().copied().find(|&i| points[i].error < eps) {
+            Some(i) => format!(
+                "cheapest within FLIP {eps}: {} at {:.3} ms (FLIP mean {:.4})",
+                describe(i),
+                points[i].time,
+                points[i].error
+            ),
+            None => format!("cheapest within FLIP {eps}: none"),
+        })
+        .collect();
+    let note = format!("{note}\n{}", budgets.join("\n"));
     let incomplete = points.iter().filter(|p| p.incomplete).count();
     let note = if incomplete > 0 {
         let s = if incomplete == 1 { "" } else { "s" };
@@ -739,7 +766,7 @@ fn report(
     let c = ParetoChart {
         title: format!("Speed vs accuracy: {adapter}, {res}"),
         subtitle: format!(
-            "{} scene, {lights} lights, {}{}{}; error vs brute force, {}; labels: intensity threshold T",
+            "{} scene, {lights} lights, {}{}{}; error vs the reference ({}); labels: intensity threshold T",
             scene,
             method.name(),
             if fixed.is_empty() { "" } else { ", " },

@@ -277,6 +277,34 @@ pub fn points(axes: &[Axis]) -> Result<Vec<Point>> {
     Ok(out)
 }
 
+/// The error budget's points: the base (every axis at its first value), then each axis's
+/// other values with every other axis at its first (one dial changed at a time), so each
+/// setting's error differs from the base's by one cause. Same checks as [`points`].
+pub fn points_one_at_a_time(axes: &[Axis]) -> Result<Vec<Point>> {
+    ensure!(!axes.is_empty(), "nothing to sweep: give at least one --axis NAME=VALUES");
+    let mut names = HashSet::new();
+    for a in axes {
+        ensure!(names.insert(a.name.as_str()), "axis '{}' is given twice", a.name);
+    }
+    let base: Point = axes.iter().map(|a| a.values[0].clone()).collect();
+    let mut out = vec![base.clone()];
+    for (k, a) in axes.iter().enumerate() {
+        for v in &a.values[1..] {
+            let mut p = base.clone();
+            p[k] = v.clone();
+            out.push(p);
+        }
+    }
+    ensure!(out.len() <= MAX_POINTS, "{} points: at most {MAX_POINTS} per run (fewer values per axis)", out.len());
+    Ok(out)
+}
+
+/// The axis in which `point` differs from the base of [`points_one_at_a_time`] (None: the
+/// base itself).
+pub fn changed_axis(axes: &[Axis], point: &[String]) -> Option<usize> {
+    axes.iter().zip(point).position(|(a, v)| *v != a.values[0])
+}
+
 /// `base` with the point's values applied.
 pub fn args_at<F: Flags>(base: &F, axes: &[Axis], point: &Point) -> Result<F> {
     let mut args = base.clone();
