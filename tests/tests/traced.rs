@@ -9,7 +9,8 @@
 //!   rays); and against the f32 twin (`tiledlight_cull::trace`), same rule. A hierarchy that
 //!   lost a leaf is rejected (negative test).
 //! - An open plane: traced equals brute force without cutoff at the visibility buffer's
-//!   limits (nothing to occlude; the same surface reconstruction as `--method visibility`).
+//!   limits (nothing to occlude; the same surface reconstruction as `--method visibility`);
+//!   with 4x MSAA it equals its own 1x away from edge pixels, and brute force's by FLIP.
 //! - Every light a caster: traced equals brute force with shadow maps except near shadow
 //!   borders (where the maps' filter and bias blur what the rays cut sharply).
 //!
