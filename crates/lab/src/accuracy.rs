@@ -749,7 +749,6 @@ fn report(
             None => format!("cheapest within FLIP {eps}: none"),
         })
         .collect();
-    let note = format!("{note}\n{}", budgets.join("\n"));
     let incomplete = points.iter().filter(|p| p.incomplete).count();
     let note = if incomplete > 0 {
         let s = if incomplete == 1 { "" } else { "s" };
@@ -815,6 +814,9 @@ fn report(
         out.push_str(&format!("heat maps:  {wrote} in {}\n", diff_dir.display()));
     }
     out.push_str(&format!("result:     {note}"));
+    for b in &budgets {
+        out.push_str(&format!("\n{b}"));
+    }
     Ok(out)
 }
 
