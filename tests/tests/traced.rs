@@ -406,3 +406,17 @@ fn every_caster_matches_shadow_maps_except_at_borders() {
     let bad = differing(&reference, &unshadowed, &border, 0.05);
     assert!(bad > 100, "an image without shadows must fail the comparison ({bad} pixels differ)");
 }
+
+/// Bad input: the traced reference over a scene whose BVH was never built is refused by
+/// name (not a panic, not an image without shadows).
+#[test]
+fn a_scene_without_its_bvh_is_refused() {
+    let ctx = gpu();
+    let scene = scenes::floor_scene(0.5, 0.0, vec![]);
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    assert!(sg.trace.is_none(), "the BVH is built only when asked for");
+    let lb = LightBuffers::new(&ctx.device, &floor_lights()).unwrap();
+    let s = FrameSettings { method: Method::TracedReference, ..Default::default() };
+    let err = tiledlight_tests::err_text(FrameRenderer::new(ctx, &sg, &lb, W, H, s));
+    assert!(err.contains("BVH") && err.contains("add_trace"), "{err}");
+}

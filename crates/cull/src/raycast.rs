@@ -666,7 +666,7 @@ pub fn surface_points(camera: &Camera, width: u32, height: u32, depth: &[f32]) -
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use proptest::prelude::*;
     use rand::{Rng, SeedableRng};
@@ -1088,12 +1088,13 @@ mod tests {
         t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v
     }
 
-    fn vec3(range: f32) -> impl Strategy<Value = Vec3> {
+    /// A point in `[-range, range]^3` (also `trace`'s tests).
+    pub(crate) fn vec3(range: f32) -> impl Strategy<Value = Vec3> {
         (-range..range, -range..range, -range..range).prop_map(|(x, y, z)| Vec3::new(x, y, z))
     }
 
     /// Triangles with corners within `spread` of a centre in `[-range, range]^3`.
-    fn soup(range: f32, spread: f32, max: usize) -> impl Strategy<Value = Vec<[Vec3; 3]>> {
+    pub(crate) fn soup(range: f32, spread: f32, max: usize) -> impl Strategy<Value = Vec<[Vec3; 3]>> {
         prop::collection::vec((vec3(range), vec3(spread), vec3(spread), vec3(spread)), 0..max)
             .prop_map(|v| v.into_iter().map(|(c, a, b, d)| [c + a, c + b, c + d]).collect())
     }

@@ -408,16 +408,8 @@ pub fn wrap_texel(c: f32, n: u32, mode: u32) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::raycast::tests::{soup, vec3};
     use proptest::prelude::*;
-
-    fn vec3(range: f32) -> impl Strategy<Value = Vec3> {
-        (-range..range, -range..range, -range..range).prop_map(|(x, y, z)| Vec3::new(x, y, z))
-    }
-
-    fn soup(range: f32, spread: f32, max: usize) -> impl Strategy<Value = Vec<[Vec3; 3]>> {
-        prop::collection::vec((vec3(range), vec3(spread), vec3(spread), vec3(spread)), 0..max)
-            .prop_map(|v| v.into_iter().map(|(c, a, b, d)| [c + a, c + b, c + d]).collect())
-    }
 
     /// Barycentric tolerance of a disagreement with the f64 reference: the f32 test's
     /// edge functions carry a relative error of a few 1e-7 of the triangle's size seen
