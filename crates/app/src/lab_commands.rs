@@ -153,7 +153,8 @@ pub struct AccuracyArgs {
     pub target_flip: f64,
     /// The error budget: change one axis at a time from the base (each axis's first value)
     /// instead of trying every combination, one chart curve per axis; with `--reference
-    /// traced` each setting's error against the truth splits by cause.
+    /// traced` each setting's error against the truth splits by cause. Only the given axes
+    /// (no default threshold and culling axes: the flags' own values are the base's).
     #[arg(long)]
     pub budget: bool,
     /// CSV output, resumed when it exists with the same columns [default: out/accuracy.csv].

@@ -525,4 +525,30 @@ fn accuracy_budget_against_the_traced_reference() {
     assert!((num(aabb, "flip_mean") - num(base, "flip_mean")).abs() < 1e-3, "the layout changed the image");
     assert!(num(coarse, "flip_mean") > num(base, "flip_mean"), "a coarser cutoff must cost accuracy");
     assert_png(&dir.join("budget.png"));
+
+    // Without a threshold axis the flags' --threshold is the base's (no default axes are
+    // added to a budget): one dial, two settings.
+    let csv2 = dir.join("budget2.csv");
+    let mut args = vec![
+        "accuracy",
+        "--lights",
+        "12",
+        "--threshold",
+        "0.02",
+        "--reference",
+        "traced",
+        "--budget",
+        "--axis",
+        "shadow-point-lights=0,12",
+        "--reference-frames",
+        "1",
+        "--out",
+        csv2.to_str().unwrap(),
+    ];
+    args.extend(SMALL);
+    let out = stdout(&gpu_run(&args));
+    assert!(out.contains("2 settings"), "{out}");
+    let (header, rows) = read_csv(&csv2);
+    assert!(!header.iter().any(|h| h == "threshold" || h == "culling"), "{header:?}");
+    assert_eq!(rows.len(), 2);
 }

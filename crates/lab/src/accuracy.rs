@@ -81,7 +81,9 @@ pub struct Accuracy {
     /// The FLIP mean the recommendation must stay under.
     pub target_flip: f64,
     /// The error budget: change one axis at a time from the base (every axis's first
-    /// value) instead of the cross product, and chart one curve per axis (dial).
+    /// value) instead of the cross product, and chart one curve per axis (dial). Only the
+    /// given axes: the defaults ([`DEFAULT_AXES`]) are not added, so the flags' own
+    /// threshold and culling are the base's unless an axis says otherwise.
     pub budget: bool,
     /// CSV output [default: out/accuracy.csv].
     pub out: Option<PathBuf>,
@@ -383,7 +385,14 @@ pub fn run<F: Flags>(scene: &F, args: &Accuracy) -> Result<()> {
         "--target-flip {}: must be in (0, 1]",
         args.target_flip
     );
-    let defaults: Vec<Axis> = DEFAULT_AXES.iter().map(|s| axes::parse_axis::<F>(s)).collect::<Result<_>>()?;
+    // The budget changes one dial at a time from the flags' own setting: the default
+    // threshold and culling axes would replace the flags' --threshold with their first
+    // value, so only the given axes count there.
+    let defaults: Vec<Axis> = if args.budget {
+        Vec::new()
+    } else {
+        DEFAULT_AXES.iter().map(|s| axes::parse_axis::<F>(s)).collect::<Result<_>>()?
+    };
     let given: Vec<Axis> = args.axes.iter().map(|s| axes::parse_axis::<F>(s)).collect::<Result<_>>()?;
     let axes = axes::merge_axes(defaults, given);
     let points = if args.budget { axes::points_one_at_a_time(&axes)? } else { axes::points(&axes)? };
