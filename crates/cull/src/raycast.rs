@@ -170,6 +170,28 @@ fn finite_triangle(t: &[Vec3; 3]) -> bool {
     t.iter().all(|v| v.is_finite())
 }
 
+/// What Möller–Trumbore computes of a triangle and a ray before any test: the first
+/// vertex, the two edges from it, `p = d x e2`, the determinant `e1 . p` and the normal
+/// `e1 x e2` (shared by [`intersect_uv`] and [`grazes`]).
+struct Setup {
+    v0: DVec3,
+    e1: DVec3,
+    e2: DVec3,
+    p: DVec3,
+    det: f64,
+    n: DVec3,
+}
+
+impl Setup {
+    fn new(tri: &[Vec3; 3], ray: &Ray) -> Self {
+        let v0 = tri[0].as_dvec3();
+        let e1 = tri[1].as_dvec3() - v0;
+        let e2 = tri[2].as_dvec3() - v0;
+        let p = ray.d.cross(e2);
+        Self { v0, e1, e2, p, det: e1.dot(p), n: e1.cross(e2) }
+    }
+}
+
 /// Möller–Trumbore in f64, two-sided: the hit parameter `t` in the open interval
 /// `(ray.t_lo, t_hi)`, or `None`.
 ///
@@ -188,12 +210,7 @@ fn intersect(tri: &[Vec3; 3], ray: &Ray, t_hi: f64) -> Option<f64> {
 /// [`intersect`] with the hit's barycentrics: `(t, u, v)`, the hit point being
 /// `tri[0] + u (tri[1] - tri[0]) + v (tri[2] - tri[0])`.
 fn intersect_uv(tri: &[Vec3; 3], ray: &Ray, t_hi: f64) -> Option<(f64, f64, f64)> {
-    let v0 = tri[0].as_dvec3();
-    let e1 = tri[1].as_dvec3() - v0;
-    let e2 = tri[2].as_dvec3() - v0;
-    let p = ray.d.cross(e2);
-    let det = e1.dot(p);
-    let n = e1.cross(e2);
+    let Setup { v0, e1, e2, p, det, n } = Setup::new(tri, ray);
     // det = d . (e2 x e1) = -d . n, so det^2 = |d|^2 |n|^2 sin^2(angle to the plane).
     // Written so NaN fails it.
     let crosses = det * det > PARALLEL * PARALLEL * ray.d_len2 * n.length_squared();
@@ -219,12 +236,7 @@ fn intersect_uv(tri: &[Vec3; 3], ray: &Ray, t_hi: f64) -> Option<(f64, f64, f64)
 /// Whether the segment `ray` crosses triangle `tri` within `tol` of deciding otherwise
 /// ([`Triangles::grazing`]).
 fn grazes(tri: &[Vec3; 3], ray: &Ray, tol: f64) -> bool {
-    let v0 = tri[0].as_dvec3();
-    let e1 = tri[1].as_dvec3() - v0;
-    let e2 = tri[2].as_dvec3() - v0;
-    let p = ray.d.cross(e2);
-    let det = e1.dot(p);
-    let n = e1.cross(e2);
+    let Setup { v0, e1, e2, p, det, n } = Setup::new(tri, ray);
     let scale = ray.d_len2 * n.length_squared();
     // Written so NaN fails it (a zero-area triangle or a zero-length segment).
     let measurable = scale > 0.0;

@@ -182,7 +182,9 @@ impl MethodFrame for VisibilityFrame {
                             );
                             queue.submit([done.finish()]);
                             // Progress is only known once the band is done.
-                            let _ = device.poll(wgpu::PollType::wait_indefinitely());
+                            if let Err(e) = device.poll(wgpu::PollType::wait_indefinitely()) {
+                                eprintln!("\ntraced reference: waiting for band {band}: {e}");
+                            }
                             eprint!("\rtraced reference: band {band}/{bands} ({:.1} s)", start.elapsed().as_secs_f64());
                             if band == bands {
                                 eprintln!();

@@ -176,7 +176,7 @@ pub type BandFlush<'a> = dyn FnMut(&mut wgpu::CommandEncoder, u32, u32) + 'a;
 /// The traced reference's bands and ray count.
 struct Traced {
     /// One `TracedBand` a band, [`CLASS_STRIDE`] apart.
-    _bands_buffer: wgpu::Buffer,
+    bands_buffer: wgpu::Buffer,
     /// Tile rows a band.
     rows: u32,
     /// Bands of the frame.
@@ -348,14 +348,14 @@ impl VisibilityShading {
                     wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
                 );
                 memory.add("traced.bands", bands_buffer.size());
-                Some(Traced { _bands_buffer: bands_buffer, rows, bands, stats })
+                Some(Traced { bands_buffer, rows, bands, stats })
             }
         };
         if let Some(t) = &traced_state {
             bind.push(wgpu::BindGroupEntry {
                 binding: 38,
                 resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: &t._bands_buffer,
+                    buffer: &t.bands_buffer,
                     offset: 0,
                     size: wgpu::BufferSize::new(16),
                 }),
