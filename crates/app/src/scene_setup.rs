@@ -18,6 +18,7 @@ use tiledlight_lab::axes::{on_off, Flags};
 use tiledlight_scene::{GridDensity, DEFAULT_LIGHT_THRESHOLD};
 use tiledlight_setup::bookmark;
 use tiledlight_setup::{
+    CasterChoice,
     surface_exposure, CameraBookmark, ComputeRasterOptions, LargeRaster, LightPlacement, Method, Raster, SceneSource,
     Settings, DEFAULT_LIGHTS_PER_POINT, MILLION_LIGHTS,
 };
@@ -49,6 +50,34 @@ impl From<GridDensity> for DensityArg {
             GridDensity::Low => DensityArg::Low,
             GridDensity::Medium => DensityArg::Medium,
             GridDensity::High => DensityArg::High,
+        }
+    }
+}
+
+/// How the shadow casters of each kind are chosen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum CastersByArg {
+    /// The brightest (intensity times the largest colour channel).
+    Brightness,
+    /// The largest contributions to the frame: each light's arrival at the surfaces it
+    /// reaches on screen, estimated on the GPU from one frame's depth and light grid.
+    Contribution,
+}
+
+impl From<CastersByArg> for CasterChoice {
+    fn from(c: CastersByArg) -> Self {
+        match c {
+            CastersByArg::Brightness => CasterChoice::Brightness,
+            CastersByArg::Contribution => CasterChoice::Contribution,
+        }
+    }
+}
+
+impl From<CasterChoice> for CastersByArg {
+    fn from(c: CasterChoice) -> Self {
+        match c {
+            CasterChoice::Brightness => CastersByArg::Brightness,
+            CasterChoice::Contribution => CastersByArg::Contribution,
         }
     }
 }
@@ -352,6 +381,11 @@ pub struct SceneArgs {
     /// Shadow-casting spot lights: the N brightest spot lights cast shadows (one face each).
     #[arg(long, default_value_t = 0, value_name = "N")]
     pub shadow_spot_lights: u32,
+    /// How the shadow casters of each kind are chosen: the brightest, or the largest
+    /// contributions to the frame (estimated on the GPU from one frame's depth and light
+    /// grid, for the camera the lights are made with).
+    #[arg(long, value_enum, default_value_t = CastersByArg::Brightness)]
+    pub casters_by: CastersByArg,
     /// Texels per side of each shadow face, 128 to 1024.
     #[arg(long, default_value_t = 256, value_name = "128..1024")]
     pub shadow_size: u32,
@@ -433,6 +467,7 @@ impl Default for SceneArgs {
             exposure: None,
             shadow_point_lights: d.shadow_point_lights,
             shadow_spot_lights: d.shadow_spot_lights,
+            casters_by: d.casters_by.into(),
             shadow_size: d.shadow_size,
             shadow_filter: d.shadow_filter,
             shadow_format: d.shadow_format.into(),
@@ -509,6 +544,7 @@ impl SceneArgs {
             exposure,
             shadow_point_lights: self.shadow_point_lights,
             shadow_spot_lights: self.shadow_spot_lights,
+            casters_by: self.casters_by.into(),
             shadow_size: self.shadow_size,
             shadow_filter: self.shadow_filter,
             shadow_format: self.shadow_format.into(),
@@ -581,6 +617,10 @@ impl Flags for SceneArgs {
             }
             "shadow-point-lights" => args.shadow_point_lights = small()?,
             "shadow-spot-lights" => args.shadow_spot_lights = small()?,
+            "casters-by" => {
+                args.casters_by =
+                    CastersByArg::from_str(value, true).map_err(|e| anyhow::anyhow!("casters-by '{value}': {e}"))?
+            }
             "shadow-size" => args.shadow_size = small()?,
             "shadow-filter" => args.shadow_filter = small()?,
             "shadow-format" => {
@@ -731,6 +771,8 @@ mod tests {
             "2",
             "--shadow-spot-lights",
             "1",
+            "--casters-by",
+            "contribution",
             "--shadow-size",
             "512",
             "--shadow-filter",
@@ -780,6 +822,7 @@ mod tests {
             auto_exposure: false,
             shadow_point_lights: 2,
             shadow_spot_lights: 1,
+            casters_by: CasterChoice::Contribution,
             shadow_size: 512,
             shadow_filter: 3,
             shadow_format: ShadowFormat::Depth32,

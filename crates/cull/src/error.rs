@@ -21,4 +21,7 @@ pub enum CullError {
     /// A depth buffer does not match the screen.
     #[error("invalid depth buffer: {0}")]
     InvalidDepth(String),
+    /// The inputs of the contribution estimate ([`crate::contribution`]) do not match.
+    #[error("invalid contribution estimate input: {0}")]
+    InvalidEstimate(String),
 }

@@ -18,7 +18,9 @@
 //! ([`visibility`]); and the rules of its compute rasteriser: clipping, 1/256-px snapping,
 //! the top-left rule, depth, and the 64-bit (depth, ID) resolve ([`raster`]); and the
 //! traced reference's shadow rays in f32 as its GPU kernel casts them: the flattened
-//! hierarchy, watertight triangle test and alpha masks ([`trace`]).
+//! hierarchy, watertight triangle test and alpha masks ([`trace`]); and each light's
+//! contribution to a frame, which picks shadow casters by what they light on screen
+//! ([`contribution`]).
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
 
 pub mod error;
@@ -35,6 +37,7 @@ pub mod bounds;
 pub mod brdf;
 pub mod camera;
 pub mod cluster;
+pub mod contribution;
 pub mod depth_mask;
 pub mod estimate;
 pub mod exposure;

@@ -344,7 +344,28 @@ pub fn try_pack_lights(lights: &[Light]) -> Result<PackedLights, CullError> {
 /// than [`crate::shadow::MAX_SHADOW_SPOT_ANGLE`] are never chosen. Asking for more casters
 /// than there are (eligible) lights of a kind is an error naming both numbers.
 pub fn try_pack_lights_with_casters(lights: &[Light], casters: (u32, u32)) -> Result<PackedLights, CullError> {
-    let out = order_with_casters(lights, casters)?;
+    try_pack_lights_ranked(lights, casters, CasterRank::Brightest)
+}
+
+/// How the shadow casters of each kind are chosen.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CasterRank<'a> {
+    /// The brightest: intensity times the largest colour channel.
+    Brightest,
+    /// The highest scores, one per light in the order of the `lights` given (e.g. each
+    /// light's contribution to the frame, [`crate::contribution`]).
+    Scores(&'a [u64]),
+}
+
+/// [`try_pack_lights_with_casters`] with the casters of each kind chosen by `rank` (ties
+/// keep the input order; spots too wide to cast are never chosen). A score list of
+/// another length than `lights` is an error naming both.
+pub fn try_pack_lights_ranked(
+    lights: &[Light],
+    casters: (u32, u32),
+    rank: CasterRank<'_>,
+) -> Result<PackedLights, CullError> {
+    let out = order_with_casters(lights, casters, rank)?;
     let mut packed = pack_lights(&out);
     packed.shadow_points = casters.0;
     packed.shadow_spots = casters.1;
@@ -355,19 +376,35 @@ pub fn try_pack_lights_with_casters(lights: &[Light], casters: (u32, u32)) -> Re
 /// order they are packed: the `casters.0` point casters, then the `casters.1` spot
 /// casters (the first lights of each kind on the GPU). Same validation and errors.
 pub fn shadow_casters(lights: &[Light], casters: (u32, u32)) -> Result<Vec<Light>, CullError> {
-    let ordered = order_with_casters(lights, casters)?;
+    let ordered = order_with_casters(lights, casters, CasterRank::Brightest)?;
     let num_point = ordered.iter().filter(|l| !l.is_spot()).count();
     let points = &ordered[..casters.0 as usize];
     let spots = &ordered[num_point..num_point + casters.1 as usize];
     Ok(points.iter().chain(spots).copied().collect())
 }
 
-/// `lights` validated and ordered as [`try_pack_lights_with_casters`] packs them: points
+/// `lights` validated and ordered as [`try_pack_lights_ranked`] packs them: points
 /// first, the casters first within each kind (in input order), then the others.
-fn order_with_casters(lights: &[Light], casters: (u32, u32)) -> Result<Vec<Light>, CullError> {
+fn order_with_casters(lights: &[Light], casters: (u32, u32), rank: CasterRank<'_>) -> Result<Vec<Light>, CullError> {
     validate_lights(lights)?;
-    let ordered = order_points_first(lights);
-    let num_point = ordered.iter().filter(|l| !l.is_spot()).count();
+    // Each light with its score (brightness, or the given score), then ordered points
+    // first as the lights are (a stable partition, so the scores follow their lights).
+    let scored: Vec<(Light, f64)> = match rank {
+        CasterRank::Brightest => lights.iter().map(|l| (*l, (l.intensity * l.color.max_element()) as f64)).collect(),
+        CasterRank::Scores(s) if s.len() == lights.len() => {
+            lights.iter().zip(s).map(|(l, &v)| (*l, v as f64)).collect()
+        }
+        CasterRank::Scores(s) => {
+            return Err(CullError::InvalidShadow(format!(
+                "{} caster scores for {} lights",
+                s.len(),
+                lights.len()
+            )))
+        }
+    };
+    let mut ordered: Vec<(Light, f64)> = scored.iter().copied().filter(|(l, _)| !l.is_spot()).collect();
+    ordered.extend(scored.iter().copied().filter(|(l, _)| l.is_spot()));
+    let num_point = ordered.iter().filter(|(l, _)| !l.is_spot()).count();
     let (points, spots) = ordered.split_at(num_point);
     let wide = |l: &Light| match l.kind {
         LightKind::Spot { outer_angle, .. } => outer_angle > crate::shadow::MAX_SHADOW_SPOT_ANGLE,
@@ -375,7 +412,7 @@ fn order_with_casters(lights: &[Light], casters: (u32, u32)) -> Result<Vec<Light
     };
     let mut out = Vec::with_capacity(ordered.len());
     for (kind, group, n) in [("point", points, casters.0), ("spot", spots, casters.1)] {
-        let eligible = group.iter().filter(|l| !wide(l)).count();
+        let eligible = group.iter().filter(|(l, _)| !wide(l)).count();
         if n as usize > eligible {
             let narrow = if kind == "spot" && eligible < group.len() {
                 format!(
@@ -391,18 +428,17 @@ fn order_with_casters(lights: &[Light], casters: (u32, u32)) -> Result<Vec<Light
                 group.len()
             )));
         }
-        let brightness = |l: &Light| l.intensity * l.color.max_element();
-        let mut idx: Vec<usize> = (0..group.len()).filter(|&i| !wide(&group[i])).collect();
-        // Brightest first; the sort is stable, so ties keep the input order.
-        idx.sort_by(|&a, &b| brightness(&group[b]).total_cmp(&brightness(&group[a])));
+        let mut idx: Vec<usize> = (0..group.len()).filter(|&i| !wide(&group[i].0)).collect();
+        // Highest score first; the sort is stable, so ties keep the input order.
+        idx.sort_by(|&a, &b| group[b].1.total_cmp(&group[a].1));
         idx.truncate(n as usize);
         idx.sort_unstable();
         let mut chosen = vec![false; group.len()];
         for &i in &idx {
             chosen[i] = true;
-            out.push(group[i]);
+            out.push(group[i].0);
         }
-        out.extend(group.iter().zip(&chosen).filter(|(_, &c)| !c).map(|(l, _)| *l));
+        out.extend(group.iter().zip(&chosen).filter(|(_, &c)| !c).map(|(l, _)| l.0));
     }
     Ok(out)
 }
@@ -618,6 +654,28 @@ mod tests {
         assert_eq!(packed_casters.to_vec(), positions);
         assert!(shadow_casters(&lights, (5, 0)).is_err(), "more casters than point lights");
         assert!(shadow_casters(&lights, (0, 0)).unwrap().is_empty());
+    }
+
+    #[test]
+    fn casters_by_score_follow_the_scores_not_the_brightness() {
+        let p = |i: f32| Light::point(Vec3::splat(i), Vec3::ONE, i, 0.01).unwrap();
+        let s = |i: f32| Light::spot(Vec3::splat(i), Vec3::NEG_Y, Vec3::ONE, i, 0.1, 0.3, 0.01).unwrap();
+        let lights = [s(1.0), p(1.0), p(3.0), s(5.0), p(2.0), s(4.0), p(0.5)];
+        // The dimmest point and the dimmest spot score highest.
+        let scores = [9, 1, 2, 1, 3, 0, 7];
+        let packed = try_pack_lights_ranked(&lights, (2, 1), CasterRank::Scores(&scores)).unwrap();
+        let np = packed.num_point as usize;
+        let x = |i: usize| packed.shading[i].position[0];
+        // Points 0.5 (score 7) and 2 (score 3), in input order; then spot 1 (score 9).
+        assert_eq!([x(0), x(1), x(np)], [2.0, 0.5, 1.0]);
+        // Ties keep the input order: equal scores pick the first lights of each kind.
+        let tied = try_pack_lights_ranked(&lights, (1, 1), CasterRank::Scores(&[0; 7])).unwrap();
+        assert_eq!([tied.shading[0].position[0], tied.shading[np].position[0]], [1.0, 1.0]);
+        // Brightest-first is the same as the unranked packing.
+        let b = try_pack_lights_ranked(&lights, (2, 1), CasterRank::Brightest).unwrap();
+        assert_eq!(b.shading, try_pack_lights_with_casters(&lights, (2, 1)).unwrap().shading);
+        let e = try_pack_lights_ranked(&lights, (1, 0), CasterRank::Scores(&[1, 2])).unwrap_err();
+        assert!(e.to_string().contains("2 caster scores for 7 lights"), "{e}");
     }
 
     #[test]

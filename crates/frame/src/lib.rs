@@ -6,7 +6,8 @@
 //! contributes its middle steps and passes typed handles ([`handles`]: depth, HDR, light
 //! lists) between them. One [`FrameSettings`] for every method, one [`Method`], one
 //! [`FrameRenderer`] behind the small [`Renderer`] trait (recording and named outputs);
-//! read-backs and statistics are [`diagnostics`].
+//! read-backs and statistics are [`diagnostics`]; shadow casters chosen by their
+//! contribution to a frame are [`caster_rank`] (a setup step that renders one).
 //!
 //! The whole frame, in [`FrameRenderer::record`]:
 //!
@@ -21,6 +22,7 @@
 //! against it. Depends on tiledlight-gpu, tiledlight-vpl, tiledlight-forward,
 //! tiledlight-deferred and tiledlight-visibility (their passes); nothing below depends on it.
 
+pub mod caster_rank;
 pub mod diagnostics;
 pub mod forward_plus;
 pub mod handles;

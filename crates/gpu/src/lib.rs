@@ -6,14 +6,16 @@
 //! readback ([`readback`]), scene and light buffers ([`scene_gpu`], [`light_buffers`]), and the
 //! passes both methods share: the depth pre-pass ([`depth_prepass`]), light culling by
 //! technique ([`culling`]: tile gather, light-centric scatter, clusters) into the light grid
-//! ([`light_grid`]), the shadow atlas ([`shadow_atlas`]), the blended-geometry path ([`blended`]), tonemapping ([`tonemap`]) and the traced
-//! reference's BVH ([`bvh`]). Depends on wgpu, tiledlight-cull and
+//! ([`light_grid`]), the shadow atlas ([`shadow_atlas`]), the blended-geometry path ([`blended`]), tonemapping ([`tonemap`]), the traced
+//! reference's BVH ([`bvh`]) and each light's contribution to a frame ([`contribution`],
+//! which picks shadow casters by what they light). Depends on wgpu, tiledlight-cull and
 //! tiledlight-scene; never on a renderer crate.
 
 pub mod bindings;
 pub mod blended;
 pub mod bvh;
 pub mod context;
+pub mod contribution;
 pub mod culling;
 pub mod depth_prepass;
 pub mod error;
@@ -57,6 +59,7 @@ pub fn binding_declarations() -> Vec<bindings::PassBindings> {
         blended::BLENDED_BRUTE_FORCE_BINDINGS,
         blended::COMPOSITE_BINDINGS,
         bvh::TRACE_RAYS_BINDINGS,
+        contribution::CONTRIBUTION_BINDINGS,
     ]
 }
 

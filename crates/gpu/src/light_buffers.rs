@@ -5,7 +5,7 @@
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
-use tiledlight_cull::light::{try_pack_lights_with_casters, PackedLights};
+use tiledlight_cull::light::{try_pack_lights_ranked, CasterRank, PackedLights};
 use tiledlight_cull::Light;
 
 use crate::error::GpuError;
@@ -87,13 +87,24 @@ impl LightBuffers {
     /// ([`tiledlight_cull::light::try_pack_lights_with_casters`]). More casters than lights
     /// of a kind is an error naming both numbers.
     pub fn with_casters(device: &wgpu::Device, lights: &[Light], casters: (u32, u32)) -> Result<Self, GpuError> {
+        Self::ranked(device, lights, casters, CasterRank::Brightest)
+    }
+
+    /// As [`Self::with_casters`], the casters of each kind chosen by `rank`
+    /// ([`tiledlight_cull::light::try_pack_lights_ranked`]).
+    pub fn ranked(
+        device: &wgpu::Device,
+        lights: &[Light],
+        casters: (u32, u32),
+        rank: CasterRank<'_>,
+    ) -> Result<Self, GpuError> {
         if lights.len() > MAX_LIGHTS {
             return Err(GpuError::Config(format!(
                 "{} lights requested; at most {MAX_LIGHTS} are supported",
                 lights.len()
             )));
         }
-        let packed = try_pack_lights_with_casters(lights, casters)?;
+        let packed = try_pack_lights_ranked(lights, casters, rank)?;
         let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
         // A light-less scene still binds one zeroed element: bindings must cover the
         // shader's struct size, and the loops never read it (num_lights is 0).

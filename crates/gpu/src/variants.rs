@@ -57,6 +57,7 @@ pub fn key_spaces() -> Vec<(&'static str, Vec<Vec<&'static str>>)> {
     add(boxed(VisibilityKey::all()));
     add(boxed(TracedKey::all()));
     add(boxed(vec![TraceRaysKey { masks: false }, TraceRaysKey { masks: true }]));
+    add(boxed(BOOLS.map(|spots| ContributionKey { spots }).to_vec()));
     out
 }
 
@@ -1011,6 +1012,29 @@ impl ShaderKey for TraceRaysKey {
     fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
         flag(&mut d, self.masks, "TRACE_MASKS");
+        d
+    }
+
+    fn is_valid(&self) -> bool {
+        true
+    }
+}
+
+/// The contribution estimate (`light_contribution.wgsl`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct ContributionKey {
+    /// `SPOTS`: the lights include spots (their cone falloff).
+    pub spots: bool,
+}
+
+impl ShaderKey for ContributionKey {
+    fn entry(&self) -> &'static str {
+        "light_contribution.wgsl"
+    }
+
+    fn defines(&self) -> Vec<&'static str> {
+        let mut d = Vec::new();
+        flag(&mut d, self.spots, "SPOTS");
         d
     }
 

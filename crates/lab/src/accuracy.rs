@@ -208,8 +208,15 @@ fn reference_key(a: &Settings, reference: ReferenceKind, vpl_ref: VplReference) 
     } else {
         String::new()
     };
-    let shadows =
-        if a.has_shadows() { format!("{:?}|{:?}", a.shadow_casters(), a.shadow_options()) } else { String::new() };
+    // The traced reference draws no shadow map (its rays are the shadows) unless VPLs need
+    // the casters' reflective shadow maps: then the casters and how they are chosen shape
+    // it; the brute-force references draw the setting's shadows.
+    let casters_shape_it = a.has_shadows() && (reference != ReferenceKind::Traced || a.vpl.is_some());
+    let shadows = if casters_shape_it {
+        format!("{:?}|{:?}|{:?}", a.shadow_casters(), a.casters_by, a.shadow_options())
+    } else {
+        String::new()
+    };
     let shadows = shadows + &reference_vpl(a, vpl_ref).map(|v| format!("|vpl {v:?}")).unwrap_or_default();
     threshold
         + &format!(
@@ -709,11 +716,9 @@ fn report(
         .iter()
         .map(|r| ParetoPoint {
             series: if args.budget {
-                // One curve per dial: the axis this setting changed from the base.
-                match axes::changed_axis(axes, &r[n..n + axes.len()]) {
-                    Some(k) => axes[k].name.clone(),
-                    None => "base".into(),
-                }
+                // One curve per dial: the axis this setting changed from the base (the
+                // caster counts once per way of choosing them).
+                axes::budget_series(axes, &r[n..n + axes.len()])
             } else {
                 let s = series_axes.iter().map(|&i| r[n + i].clone()).collect::<Vec<_>>().join(", ");
                 if s.is_empty() {

@@ -75,6 +75,7 @@ pub const AXES: &[(&str, &str)] = &[
     ("edge-normal-deg", "Tiled Deferred MSAA edge test: normal angle in degrees (number; ranges allowed)"),
     ("shadow-point-lights", "shadow-casting point lights, the brightest (integer; ranges allowed)"),
     ("shadow-spot-lights", "shadow-casting spot lights, the brightest (integer; ranges allowed)"),
+    ("casters-by", "how the shadow casters are chosen: brightness | contribution"),
     ("shadow-size", "shadow tile size in texels: 128 | 256 | 512 | 1024 (integer)"),
     ("shadow-filter", "shadow filter taps per side: 1 | 3 | 5"),
     ("shadow-format", "shadow atlas depth format: d16 | d32"),
@@ -277,9 +278,18 @@ pub fn points(axes: &[Axis]) -> Result<Vec<Point>> {
     Ok(out)
 }
 
+/// Axes of the error budget swept again under each other value of [`CHOICE_AXIS`]: the
+/// caster counts, whose curve is the point of choosing casters one way or another.
+const CHOSEN_COUNTS: [&str; 2] = ["shadow-point-lights", "shadow-spot-lights"];
+
+/// The axis that says how the casters of [`CHOSEN_COUNTS`] are chosen.
+const CHOICE_AXIS: &str = "casters-by";
+
 /// The error budget's points: the base (every axis at its first value), then each axis's
 /// other values with every other axis at its first (one dial changed at a time), so each
-/// setting's error differs from the base's by one cause. Same checks as [`points`].
+/// setting's error differs from the base's by one cause. The caster counts are also swept
+/// under each other value of `casters-by` (two dials: how many casters, chosen how), so the
+/// chart has a caster curve per choice. Same checks as [`points`].
 pub fn points_one_at_a_time(axes: &[Axis]) -> Result<Vec<Point>> {
     ensure!(!axes.is_empty(), "nothing to sweep: give at least one --axis NAME=VALUES");
     let mut names = HashSet::new();
@@ -295,14 +305,37 @@ pub fn points_one_at_a_time(axes: &[Axis]) -> Result<Vec<Point>> {
             out.push(p);
         }
     }
+    if let Some(c) = axes.iter().position(|a| a.name == CHOICE_AXIS) {
+        for choice in &axes[c].values[1..] {
+            for (k, a) in axes.iter().enumerate().filter(|(_, a)| CHOSEN_COUNTS.contains(&a.name.as_str())) {
+                for v in &a.values[1..] {
+                    let mut p = base.clone();
+                    (p[k], p[c]) = (v.clone(), choice.clone());
+                    out.push(p);
+                }
+            }
+        }
+    }
     ensure!(out.len() <= MAX_POINTS, "{} points: at most {MAX_POINTS} per run (fewer values per axis)", out.len());
     Ok(out)
 }
 
-/// The axis in which `point` differs from the base of [`points_one_at_a_time`] (None: the
-/// base itself).
-pub fn changed_axis(axes: &[Axis], point: &[String]) -> Option<usize> {
-    axes.iter().zip(point).position(|(a, v)| *v != a.values[0])
+/// The curve of the error budget's chart that `point` of [`points_one_at_a_time`] belongs
+/// to: "base", the axis it changed ("threshold"), or a caster count with its choice
+/// ("shadow-point-lights, casters-by=contribution"); a changed `casters-by` is named with
+/// its value.
+pub fn budget_series(axes: &[Axis], point: &[String]) -> String {
+    let changed: Vec<String> = axes
+        .iter()
+        .zip(point)
+        .filter(|(a, v)| **v != a.values[0])
+        .map(|(a, v)| if a.name == CHOICE_AXIS { format!("{}={v}", a.name) } else { a.name.clone() })
+        .collect();
+    if changed.is_empty() {
+        "base".into()
+    } else {
+        changed.join(", ")
+    }
 }
 
 /// `base` with the point's values applied.
@@ -585,6 +618,33 @@ mod tests {
         let e = ResumableCsv::open(&path, &other, &[0], None).err().unwrap();
         assert!(e.to_string().contains("other columns"), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn the_budget_sweeps_caster_counts_once_per_choice() {
+        let axis = |name: &str, v: &[&str]| Axis { name: name.into(), values: v.iter().map(|s| s.to_string()).collect() };
+        let axes = vec![
+            axis("threshold", &["0.01", "0.1"]),
+            axis("shadow-point-lights", &["4", "0", "16"]),
+            axis("casters-by", &["brightness", "contribution"]),
+        ];
+        let p = points_one_at_a_time(&axes).unwrap();
+        let series: Vec<String> = p.iter().map(|p| budget_series(&axes, p)).collect();
+        assert_eq!(
+            series,
+            [
+                "base",
+                "threshold",
+                "shadow-point-lights",
+                "shadow-point-lights",
+                "casters-by=contribution",
+                "shadow-point-lights, casters-by=contribution",
+                "shadow-point-lights, casters-by=contribution",
+            ]
+        );
+        assert_eq!(p[5], ["0.01", "0", "contribution"]);
+        // Without a choice axis: one dial at a time only.
+        assert_eq!(points_one_at_a_time(&axes[..2]).unwrap().len(), 4);
     }
 
     #[test]

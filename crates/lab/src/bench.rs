@@ -590,6 +590,8 @@ pub struct RendererJson {
     pub edge_normal_deg: f32,
     pub shadow_point_lights: u32,
     pub shadow_spot_lights: u32,
+    /// How the casters were chosen: "brightness" or "contribution".
+    pub casters_by: &'static str,
     pub shadow_size: u32,
     pub shadow_filter: u32,
     pub shadow_format: &'static str,
@@ -679,6 +681,7 @@ pub fn run<F: Flags>(scene: &F, args: &Bench) -> Result<()> {
                     edge_normal_deg: a.edge_normal_deg,
                     shadow_point_lights: a.shadow_point_lights,
                     shadow_spot_lights: a.shadow_spot_lights,
+                    casters_by: a.casters_by.name(),
                     shadow_size: a.shadow_size,
                     shadow_filter: a.shadow_filter,
                     shadow_format: a.shadow_format.name(),
@@ -814,6 +817,7 @@ mod tests {
                 edge_normal_deg: 30.0,
                 shadow_point_lights: 0,
                 shadow_spot_lights: 0,
+                casters_by: "brightness",
                 shadow_size: 256,
                 shadow_filter: 5,
                 shadow_format: "d16",
@@ -825,7 +829,7 @@ mod tests {
         // The fields and order of bench's `config` before the two schemas became one.
         let bench_keys = "adapter resolution width height scene triangles instances point_lights spot_lights seed \
              threshold method tile_size capacity aabb half_z spot_cone coarse gbuffer_rts msaa edge_distance \
-             edge_normal_deg shadow_point_lights shadow_spot_lights shadow_size shadow_filter shadow_format \
+             edge_normal_deg shadow_point_lights shadow_spot_lights casters_by shadow_size shadow_filter shadow_format \
              transparent_objects emissive commit";
         assert_eq!(keys(&bench).join(" "), bench_keys.split_whitespace().collect::<Vec<_>>().join(" "));
         let shadow = ConfigJson {

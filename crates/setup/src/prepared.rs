@@ -10,8 +10,9 @@
 use std::sync::{Arc, Mutex};
 
 use anyhow::{bail, ensure, Context, Result};
-use tiledlight_cull::light::try_pack_lights_with_casters;
+use tiledlight_cull::light::{try_pack_lights_ranked, CasterRank};
 use tiledlight_cull::Camera;
+use tiledlight_frame::caster_rank::contribution_scores;
 use tiledlight_frame::{FrameRenderer, FrameSettings};
 use tiledlight_gpu::culling::CullOptions;
 use tiledlight_gpu::heatmap::HeatmapOf;
@@ -23,7 +24,7 @@ use tiledlight_scene::{Aabb, CameraDesc, Light};
 use crate::camera::choose_camera;
 use crate::load::{build_lights, FittedLights, LightSummary, SceneCpu, SurfacePlacement, Surfaces};
 use crate::rebuild::{rebuild_plan, Rebuild, Reload};
-use crate::settings::{Method, Settings};
+use crate::settings::{CasterChoice, Method, Settings};
 use crate::stats::{blended_stats, culling_stats, group_digits, BlendedStats, CullingStats};
 
 /// Everything a run needs before a renderer exists: the GPU, the uploaded scene and
@@ -92,7 +93,7 @@ fn upload(ctx: &GpuContext, cpu: &SceneCpu, settings: &Settings) -> Result<(Scen
             .add_trace(&ctx.device, &cpu.scene)
             .with_context(|| format!("building the BVH of scene '{}' for the traced reference", cpu.scene.name))?;
     }
-    let lights = upload_lights(ctx, &cpu.lights, settings)?;
+    let lights = upload_lights(ctx, &scene_gpu, (&cpu.lights, &cpu.camera), settings)?;
     Ok((scene_gpu, lights))
 }
 
@@ -107,10 +108,34 @@ fn lights_context(settings: &Settings) -> String {
     }
 }
 
-/// Uploads `lights` into new buffers, the brightest of each kind casting shadows as the
-/// settings ask.
-fn upload_lights(ctx: &GpuContext, lights: &[Light], settings: &Settings) -> Result<LightBuffers> {
-    LightBuffers::with_casters(&ctx.device, lights, settings.shadow_casters()).with_context(|| lights_context(settings))
+/// Uploads `lights` into new buffers, the casters of each kind chosen as the settings ask
+/// ([`caster_scores`]).
+fn upload_lights(
+    ctx: &GpuContext,
+    scene: &SceneGpu,
+    (lights, camera): (&[Light], &Camera),
+    settings: &Settings,
+) -> Result<LightBuffers> {
+    let scores = caster_scores(ctx, scene, (lights, camera), settings)?;
+    let rank = scores.as_deref().map_or(CasterRank::Brightest, CasterRank::Scores);
+    LightBuffers::ranked(&ctx.device, lights, settings.shadow_casters(), rank).with_context(|| lights_context(settings))
+}
+
+/// With casters chosen by contribution, each light's contribution to a frame of `camera`
+/// at the settings' size (`tiledlight_frame::caster_rank`); None when the casters are the
+/// brightest or there are none (no frame is rendered then).
+fn caster_scores(
+    ctx: &GpuContext,
+    scene: &SceneGpu,
+    (lights, camera): (&[Light], &Camera),
+    settings: &Settings,
+) -> Result<Option<Vec<u64>>> {
+    if settings.casters_by != CasterChoice::Contribution || !settings.has_shadows() {
+        return Ok(None);
+    }
+    let scores = contribution_scores(ctx, scene, lights, camera, (settings.width, settings.height))
+        .context("choosing the shadow casters by their contribution to the frame (--casters-by contribution)")?;
+    Ok(Some(scores))
 }
 
 /// `settings` with the per-list capacity chosen for `lights` lights when it has none
@@ -205,7 +230,9 @@ impl Prepared {
                     None
                 };
                 if reload != Reload::Nothing {
-                    self.replace_lights(settings, reload)?;
+                    // The new camera: casters chosen by contribution are ranked from it.
+                    let cam = camera.as_ref().map_or(self.camera, |(c, _)| *c);
+                    self.replace_lights(settings, reload, &cam)?;
                 }
                 if let Some((camera, source)) = camera {
                     (self.camera, self.camera_source) = (camera, source);
@@ -247,7 +274,7 @@ impl Prepared {
     /// casters must be told, `Renderer::lights_moved`), into new buffers for
     /// [`Reload::LightBuffers`] (renderers built before must be rebuilt). Nothing changes
     /// on error.
-    fn replace_lights(&mut self, settings: &Settings, reload: Reload) -> Result<()> {
+    fn replace_lights(&mut self, settings: &Settings, reload: Reload, camera: &Camera) -> Result<()> {
         let built = build_lights(settings, &self.bounds, self.surfaces.as_deref(), &self.file_lights)?;
         let lights = built.lights;
         let summary = LightSummary::of(&lights, self.file_lights.len());
@@ -261,9 +288,11 @@ impl Prepared {
                 self.light_summary.point,
                 self.light_summary.spot
             );
-            // Validated and ordered like every upload (`LightBuffers::with_casters` does the
-            // same): the casters are the brightest of the new lights.
-            let packed = try_pack_lights_with_casters(&lights, settings.shadow_casters())
+            // Validated and ordered like every upload (`upload_lights` does the same): the
+            // casters chosen among the new lights as the settings ask.
+            let scores = caster_scores(&self.ctx, &self.scene_gpu, (&lights, camera), settings)?;
+            let rank = scores.as_deref().map_or(CasterRank::Brightest, CasterRank::Scores);
+            let packed = try_pack_lights_ranked(&lights, settings.shadow_casters(), rank)
                 .with_context(|| lights_context(settings))?;
             let (old, new) = (&self.lights.packed, &packed);
             ensure!(
@@ -284,7 +313,7 @@ impl Prepared {
             }
             self.lights.packed = packed;
         } else {
-            self.lights = upload_lights(&self.ctx, &lights, settings)?;
+            self.lights = upload_lights(&self.ctx, &self.scene_gpu, (&lights, camera), settings)?;
         }
         self.light_summary = summary;
         self.surface_placement = built.surface_placement;

@@ -7,7 +7,7 @@
 //! | scene, grid objects, density, transparent objects, emissive banners (threshold, strict, allow-any-path of a glTF scene), lights on surfaces on/off | scene + all lights | yes | yes |
 //! | random point/spot light counts | new light buffers (bind groups and list capacity follow the count) | | yes |
 //! | shadow-casting point/spot light counts | new light buffers (the casters are ordered first) | | yes |
-//! | seed, threshold, lights per surface point (same counts) | light data rewritten in place (renderers with shadows are told: `Renderer::lights_moved`) | | |
+//! | seed, threshold, lights per surface point (same counts); how casters are chosen (while some light casts a shadow); with casters chosen by contribution, the camera or screen | light data rewritten in place (renderers with shadows are told: `Renderer::lights_moved`) | | |
 //! | camera bookmark | | yes | |
 //! | width, height | | yes (aspect ratio) | yes |
 //! | method, tile size, capacity, light-grid budget, culling tests, half-z, G-buffer targets, MSAA, edge test | | | yes |
@@ -18,7 +18,7 @@
 //!
 //! Pure data: depends on [`crate::settings`] only.
 
-use crate::settings::{SceneSource, Settings};
+use crate::settings::{CasterChoice, SceneSource, Settings};
 
 /// What is loaded or generated again, from the least to the most work.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -74,17 +74,21 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || (file_scene && (a.strict != b.strict || a.allow_any_path != b.allow_any_path))
         // The surfaces are sampled when the scene is loaded (kept while lights are on them).
         || a.placement.on_surfaces() != b.placement.on_surfaces();
+    let screen = a.width != b.width || a.height != b.height;
+    let camera = scene || screen || a.camera != b.camera;
+    // Casters chosen by contribution are ranked from a frame of the camera: a new choice,
+    // camera or screen chooses them again (same counts: the light data is rewritten).
+    let by_contribution = b.has_shadows() && b.casters_by == CasterChoice::Contribution;
+    let recast = b.has_shadows() && (a.casters_by != b.casters_by || (by_contribution && camera));
     let reload = if scene {
         Reload::Scene
     } else if a.random_light_counts() != b.random_light_counts() || a.shadow_casters() != b.shadow_casters() {
         Reload::LightBuffers
-    } else if a.seed != b.seed || a.threshold != b.threshold || a.placement != b.placement {
+    } else if a.seed != b.seed || a.threshold != b.threshold || a.placement != b.placement || recast {
         Reload::LightData
     } else {
         Reload::Nothing
     };
-    let screen = a.width != b.width || a.height != b.height;
-    let camera = scene || screen || a.camera != b.camera;
     let renderer = reload >= Reload::LightBuffers
         || screen
         || a.method != b.method
@@ -207,6 +211,21 @@ mod tests {
         assert_eq!(both, Rebuild { reload: Reload::LightBuffers, ..RENDERER });
         // New light data with the same casters: in place (the renderer is told, not rebuilt).
         assert_eq!(with_from(Settings { shadow_point_lights: 2, ..base() }, |s| s.seed = 4).reload, Reload::LightData);
+    }
+
+    #[test]
+    fn the_caster_choice_rewrites_the_light_data_while_lights_cast_shadows() {
+        let by = |c| move |s: &mut Settings| s.casters_by = c;
+        let shadowed = Settings { shadow_point_lights: 2, ..base() };
+        let data = with_from(shadowed.clone(), by(CasterChoice::Contribution));
+        assert_eq!((data.reload, data.renderer), (Reload::LightData, false));
+        assert!(with(by(CasterChoice::Contribution)).is_nothing(), "no casters: nothing to choose");
+        // By contribution, a new camera or screen ranks the lights again.
+        let ranked = Settings { casters_by: CasterChoice::Contribution, ..shadowed.clone() };
+        let moved = with_from(ranked.clone(), |s| s.width = 640);
+        assert_eq!((moved.reload, moved.camera), (Reload::LightData, true));
+        // Brightest-first does not depend on the camera.
+        assert_eq!(with_from(shadowed, |s| s.width = 640).reload, Reload::Nothing);
     }
 
     #[test]

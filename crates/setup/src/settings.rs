@@ -86,6 +86,37 @@ pub fn surface_exposure(lights_per_point: f32, threshold: f32) -> f32 {
     SURFACE_EXPOSURE_TARGET / radiance
 }
 
+/// How the shadow casters of each kind are chosen among the lights.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum CasterChoice {
+    /// The brightest: intensity times the largest colour channel.
+    #[default]
+    Brightness,
+    /// The largest contributions to the frame: each light's brightness-weighted arrival
+    /// at the surfaces it reaches on screen, estimated on the GPU from a frame's depth and
+    /// light grid (`tiledlight_frame::caster_rank`) for the camera when the lights are
+    /// made.
+    Contribution,
+}
+
+impl CasterChoice {
+    /// The flag's value: "brightness" or "contribution".
+    pub fn name(self) -> &'static str {
+        match self {
+            CasterChoice::Brightness => "brightness",
+            CasterChoice::Contribution => "contribution",
+        }
+    }
+
+    /// How a report says it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            CasterChoice::Brightness => "the brightest of each kind",
+            CasterChoice::Contribution => "the largest contributions to the frame of each kind",
+        }
+    }
+}
+
 /// Where the scene comes from.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub enum SceneSource {
@@ -220,6 +251,8 @@ pub struct Settings {
     pub shadow_point_lights: u32,
     /// Shadow-casting spot lights: the brightest spot lights of the scene.
     pub shadow_spot_lights: u32,
+    /// How the casters of each kind are chosen (brightest, or by contribution to the frame).
+    pub casters_by: CasterChoice,
     /// Texels per side of each shadow face's atlas tile, 128 to 1024.
     pub shadow_size: u32,
     /// Shadow filter: taps per side of the percentage-closer filter, 1, 3 or 5.
@@ -282,6 +315,7 @@ impl Default for Settings {
             auto_exposure: false,
             shadow_point_lights: 0,
             shadow_spot_lights: 0,
+            casters_by: CasterChoice::Brightness,
             shadow_size: ShadowOptions::default().tile_size,
             shadow_filter: ShadowOptions::default().filter.size(),
             shadow_format: ShadowOptions::default().format,
@@ -543,9 +577,10 @@ impl Settings {
     pub fn shadow_description(&self) -> Option<String> {
         self.has_shadows().then(|| {
             format!(
-                "{} point + {} spot casters (the brightest of each kind), {}",
+                "{} point + {} spot casters ({}), {}",
                 self.shadow_point_lights,
                 self.shadow_spot_lights,
+                self.casters_by.describe(),
                 shadow_options_description(&self.shadow_options())
             )
         })

@@ -11,7 +11,7 @@ use clap::ValueEnum;
 
 use super::camera_control::Mode;
 use super::settings::{Settings, VplControl};
-use crate::scene_setup::{AssignArg, BlendModeArg, DensityArg, GridArg, ShadowFormatArg};
+use crate::scene_setup::{AssignArg, BlendModeArg, CastersByArg, DensityArg, GridArg, ShadowFormatArg};
 use tiledlight_gpu::heatmap::HeatmapOf;
 use tiledlight_setup::SceneSource;
 
@@ -37,6 +37,7 @@ pub enum Action {
 pub const KEYS: &str = "method, lights, spot-lights, threshold, seed, tile-size, half-z, grid (tiled, half-z, \
                         2.5d, clustered), assign (gather, scatter), aabb, spot-cone, \
                         grid-objects, density, gbuffer-rts, msaa, shadow-point-lights, shadow-spot-lights, \
+                        casters-by (brightness, contribution), \
                         shadow-size, shadow-filter, shadow-format, transparent-objects, blend-mode, \
                         heatmap (on, off, opaque, blended, vpl), vpl (on, off), vpl-rsm-size, vpl-block, \
                         vpl-colour-threshold, vpl-brightness-threshold, vpl-cap, vpl-shading (sample, physical), \
@@ -115,6 +116,11 @@ pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
         }
         "shadow-point-lights" => a.shadow_point_lights = number(key, value)?,
         "shadow-spot-lights" => a.shadow_spot_lights = number(key, value)?,
+        "casters-by" => {
+            a.casters_by = CastersByArg::from_str(value, true)
+                .map_err(|e| anyhow::anyhow!("--script: casters-by={value}: {e}"))?
+                .into()
+        }
         "shadow-size" => a.shadow_size = number(key, value)?,
         "shadow-filter" => a.shadow_filter = number(key, value)?,
         "shadow-format" => {

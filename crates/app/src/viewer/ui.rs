@@ -27,7 +27,7 @@ use tiledlight_cull::vpl::VplShading;
 use tiledlight_lab::legend::label_values;
 use tiledlight_scene::GridDensity;
 use tiledlight_setup::stats::atlas_layout_description;
-use tiledlight_setup::{CullingStats, LightSummary, Method, Raster, SceneSource};
+use tiledlight_setup::{CasterChoice, CullingStats, LightSummary, Method, Raster, SceneSource};
 
 use crate::scene_setup::GridArg;
 
@@ -600,6 +600,16 @@ fn shadow_controls(ui: &mut egui::Ui, s: &mut Settings, info: &Info<'_>) {
             .on_hover_text("the brightest point lights cast shadows: six cube faces each in the shadow atlas");
         ui.add(egui::Slider::new(&mut sh.shadow_spot_lights, 0..=max_spots).text("shadow spot lights"))
             .on_hover_text("the brightest spot lights cast shadows: one face each");
+        ui.horizontal(|ui| {
+            ui.label("casters by");
+            ui.radio_value(&mut sh.casters_by, CasterChoice::Brightness, "brightness")
+                .on_hover_text("the brightest lights of each kind cast the shadows");
+            ui.radio_value(&mut sh.casters_by, CasterChoice::Contribution, "contribution").on_hover_text(
+                "the lights that pour the most light onto what the camera sees, estimated from one frame \
+                 when the lights are made (chosen again when the lights or this choice change, not when \
+                 the camera moves)",
+            );
+        });
         ui.horizontal(|ui| {
             ui.label("tile size");
             for t in SHADOW_SIZES {
