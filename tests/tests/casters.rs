@@ -77,7 +77,7 @@ fn run(ctx: &GpuContext, scene: &tiledlight_scene::Scene, lights: &[Light], came
         ContributionInputs { depth: &out.targets.depth_view, lights: &lb, lighting: &r.shared().lighting, grid };
     let kernel = LightContribution::new(&ctx.device, &r.shared().views, inputs).unwrap();
     let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("test") });
-    kernel.record(&mut encoder, r.shared().main_view());
+    kernel.record(&mut encoder, &timer, r.shared().main_view());
     ctx.queue.submit([encoder.finish()]);
     let gpu = kernel.read(&ctx.device, &ctx.queue, lb.len()).unwrap();
     let lists = r.read_lists(ctx).unwrap();
@@ -143,7 +143,12 @@ fn casters_by_contribution_are_the_highest_scores() {
     let mut lights = scenes::lights(&scene, 0, 24, 3);
     lights.extend(scenes::lights(&scene, 64, 0, 4));
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
-    let scores = contribution_scores(ctx, &sg, &lights, &camera, (W, H)).unwrap();
+    let ranking = contribution_scores(ctx, &sg, &lights, &camera, (W, H)).unwrap();
+    // The ranking's GPU cost: the passes the estimate reads, and the estimate itself.
+    let labels: Vec<&str> = ranking.passes.iter().map(|p| p.label.as_str()).collect();
+    assert!(ctx.timestamps, "lavapipe and the H200 have timestamp queries");
+    assert_eq!(labels, ["depth_prepass", "forward.cull", "contribution"], "{:?}", ranking.describe_cost());
+    let scores = ranking.scores;
     assert_eq!(scores.len(), lights.len());
     // The kernel's own run packs points first: map its scores by light position.
     let r = run(ctx, &scene, &lights, &camera);
@@ -169,4 +174,23 @@ fn casters_by_contribution_are_the_highest_scores() {
         packed.shading[..casters.0 as usize],
         "on the courtyard the largest contributions are not the brightest lights"
     );
+}
+
+/// Lights so wide that the ranking's first light grid (32 indices a tile) overflows: the
+/// ranking grows it and scores every pair, as a full frame grown the same way does.
+#[test]
+fn a_grid_that_must_grow_ranks_every_pair() {
+    use tiledlight_scene::{random_lights, LightOptions};
+    let ctx = gpu();
+    let scene = scenes::courtyard();
+    let camera = scenes::courtyard_camera(&scene, W, H);
+    let opts = LightOptions { num_point: 200, seed: 5, threshold: 1e-4, ..Default::default() };
+    let lights = random_lights(&scene.bounds, &opts).unwrap();
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let ranking = contribution_scores(ctx, &sg, &lights, &camera, (W, H)).unwrap();
+    let r = run(ctx, &scene, &lights, &camera);
+    let found: u64 = pairs(&r.lists, lights.len()).iter().sum();
+    assert!(found > 32 * r.grid.tile_count() as u64, "the first grid must overflow: {found} pairs");
+    // Points only: the packed order is the input order.
+    assert_eq!(ranking.scores, r.gpu);
 }

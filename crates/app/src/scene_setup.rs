@@ -18,9 +18,8 @@ use tiledlight_lab::axes::{on_off, Flags};
 use tiledlight_scene::{GridDensity, DEFAULT_LIGHT_THRESHOLD};
 use tiledlight_setup::bookmark;
 use tiledlight_setup::{
-    CasterChoice,
-    surface_exposure, CameraBookmark, ComputeRasterOptions, LargeRaster, LightPlacement, Method, Raster, SceneSource,
-    Settings, DEFAULT_LIGHTS_PER_POINT, MILLION_LIGHTS,
+    surface_exposure, CameraBookmark, CasterChoice, ComputeRasterOptions, LargeRaster, LightPlacement, Method, Raster,
+    SceneSource, Settings, DEFAULT_LIGHTS_PER_POINT, MILLION_LIGHTS,
 };
 
 /// Tessellation of the default scene's grid objects.

@@ -551,4 +551,38 @@ fn accuracy_budget_against_the_traced_reference() {
     let (header, rows) = read_csv(&csv2);
     assert!(!header.iter().any(|h| h == "threshold" || h == "culling"), "{header:?}");
     assert_eq!(rows.len(), 2);
+
+    // How the casters are chosen is a dial of its own, and the caster counts are swept
+    // again under each choice: (2, 0) casters x (brightness, contribution).
+    let csv3 = dir.join("budget3.csv");
+    let mut args = vec![
+        "accuracy",
+        "--lights",
+        "12",
+        "--threshold",
+        "0.02",
+        "--reference",
+        "traced",
+        "--budget",
+        "--axis",
+        "shadow-point-lights=2,0",
+        "--axis",
+        "casters-by=brightness,contribution",
+        "--reference-frames",
+        "1",
+        "--out",
+        csv3.to_str().unwrap(),
+    ];
+    args.extend(SMALL);
+    let out = stdout(&gpu_run(&args));
+    assert!(out.contains("4 settings"), "{out}");
+    let (_, rows) = read_csv(&csv3);
+    let at = |n: &str, by: &str| {
+        rows.iter()
+            .find(|r| r["shadow-point-lights"] == n && r["casters-by"] == by)
+            .unwrap_or_else(|| panic!("row {n} {by}"))
+    };
+    // Without casters the choice changes nothing: the same image.
+    assert_eq!(at("0", "brightness")["flip_mean"], at("0", "contribution")["flip_mean"]);
+    assert!(num(at("2", "contribution"), "psnr_db").is_finite());
 }

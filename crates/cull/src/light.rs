@@ -395,11 +395,7 @@ fn order_with_casters(lights: &[Light], casters: (u32, u32), rank: CasterRank<'_
             lights.iter().zip(s).map(|(l, &v)| (*l, v as f64)).collect()
         }
         CasterRank::Scores(s) => {
-            return Err(CullError::InvalidShadow(format!(
-                "{} caster scores for {} lights",
-                s.len(),
-                lights.len()
-            )))
+            return Err(CullError::InvalidShadow(format!("{} caster scores for {} lights", s.len(), lights.len())))
         }
     };
     let mut ordered: Vec<(Light, f64)> = scored.iter().copied().filter(|(l, _)| !l.is_spot()).collect();

@@ -120,6 +120,22 @@ impl ForwardFrame {
     pub fn culling(&self) -> Option<&LightCulling> {
         self.culling.as_ref()
     }
+
+    /// Records the frame's head alone, outside a frame plan: the depth pre-pass into
+    /// `depth` and (Forward+) the culling, for a step that reads only the depth and the
+    /// lists (the caster ranking, [`crate::caster_rank`]).
+    pub fn record_head(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: &tiledlight_gpu::timer::GpuTimer,
+        view: (&tiledlight_gpu::view::Views, u32),
+        (scene, depth): (&SceneGpu, &wgpu::TextureView),
+    ) {
+        self.prepass.record(encoder, timer, view, scene, depth);
+        if let Some(cull) = &self.culling {
+            cull.record(encoder, timer, view, "forward.cull");
+        }
+    }
 }
 
 impl MethodFrame for ForwardFrame {

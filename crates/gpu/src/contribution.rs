@@ -13,6 +13,7 @@ use crate::error::GpuError;
 use crate::light_buffers::LightBuffers;
 use crate::light_grid::LightGrid;
 use crate::readback::read_buffer;
+use crate::timer::GpuTimer;
 use crate::util::{buffer_entry, buffer_init, buffer_zeroed, compute_pipeline, keyed_module};
 use crate::variants::{ContributionKey, ShaderKey};
 use crate::view::Views;
@@ -104,7 +105,16 @@ impl LightContribution {
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
         );
         let bind_group = Self::group(device, &layout, (&params, &scores), inputs);
-        Ok(Self { pipeline, layout, bind_group, params, scores, scale, tiles: (g.tiles.tiles_x, g.tiles.tiles_y), spots: key.spots })
+        Ok(Self {
+            pipeline,
+            layout,
+            bind_group,
+            params,
+            scores,
+            scale,
+            tiles: (g.tiles.tiles_x, g.tiles.tiles_y),
+            spots: key.spots,
+        })
     }
 
     fn group(
@@ -141,14 +151,20 @@ impl LightContribution {
 
     /// Records the clearing of the scores and the kernel (one workgroup a tile) for view
     /// slot `view`, after the culling that filled the grid.
-    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, (views, view): (&Views, u32)) {
+    pub fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &GpuTimer, (views, view): (&Views, u32)) {
         encoder.clear_buffer(&self.scores, 0, None);
-        let mut pass = encoder
-            .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("contribution"), timestamp_writes: None });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
-        pass.set_bind_group(1, &self.bind_group, &[]);
-        pass.dispatch_workgroups(self.tiles.0, self.tiles.1, 1);
+        let t = timer.begin("contribution", encoder);
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("contribution"),
+                timestamp_writes: t.compute_writes(),
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
+            pass.set_bind_group(1, &self.bind_group, &[]);
+            pass.dispatch_workgroups(self.tiles.0, self.tiles.1, 1);
+        }
+        timer.end(encoder, t);
     }
 
     /// Each light's score (packed order) from the last recorded and submitted run.

@@ -622,7 +622,8 @@ mod tests {
 
     #[test]
     fn the_budget_sweeps_caster_counts_once_per_choice() {
-        let axis = |name: &str, v: &[&str]| Axis { name: name.into(), values: v.iter().map(|s| s.to_string()).collect() };
+        let axis =
+            |name: &str, v: &[&str]| Axis { name: name.into(), values: v.iter().map(|s| s.to_string()).collect() };
         let axes = vec![
             axis("threshold", &["0.01", "0.1"]),
             axis("shadow-point-lights", &["4", "0", "16"]),

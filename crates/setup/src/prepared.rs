@@ -12,7 +12,7 @@ use std::sync::{Arc, Mutex};
 use anyhow::{bail, ensure, Context, Result};
 use tiledlight_cull::light::{try_pack_lights_ranked, CasterRank};
 use tiledlight_cull::Camera;
-use tiledlight_frame::caster_rank::contribution_scores;
+use tiledlight_frame::caster_rank::{contribution_scores, CasterRanking};
 use tiledlight_frame::{FrameRenderer, FrameSettings};
 use tiledlight_gpu::culling::CullOptions;
 use tiledlight_gpu::heatmap::HeatmapOf;
@@ -60,6 +60,9 @@ pub struct Prepared {
     /// The current scene's load warnings ([`SceneCpu::warnings`]): replaced when
     /// [`Prepared::reconfigure`] reloads the scene, which callers should show then too.
     pub scene_warnings: Vec<String>,
+    /// With casters chosen by contribution: the scores they were chosen by and the ranking's
+    /// GPU cost (None otherwise).
+    pub caster_ranking: Option<CasterRanking>,
     /// Some material of the scene is alpha-blended (transparent grid objects, a glTF
     /// `BLEND` material): renderers draw it through their blended path.
     pub has_blend: bool,
@@ -83,8 +86,13 @@ struct GpuFault {
     message: String,
 }
 
-/// Uploads the scene and its lights (with the settings' shadow casters).
-fn upload(ctx: &GpuContext, cpu: &SceneCpu, settings: &Settings) -> Result<(SceneGpu, LightBuffers)> {
+/// Uploads the scene and its lights (with the settings' shadow casters, and the ranking
+/// that chose them by contribution).
+fn upload(
+    ctx: &GpuContext,
+    cpu: &SceneCpu,
+    settings: &Settings,
+) -> Result<(SceneGpu, LightBuffers, Option<CasterRanking>)> {
     let mut scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &cpu.scene)
         .with_context(|| format!("uploading scene '{}'", cpu.scene.name))?;
     // The traced reference's BVH only when it is asked for (a second a million triangles).
@@ -93,8 +101,8 @@ fn upload(ctx: &GpuContext, cpu: &SceneCpu, settings: &Settings) -> Result<(Scen
             .add_trace(&ctx.device, &cpu.scene)
             .with_context(|| format!("building the BVH of scene '{}' for the traced reference", cpu.scene.name))?;
     }
-    let lights = upload_lights(ctx, &scene_gpu, (&cpu.lights, &cpu.camera), settings)?;
-    Ok((scene_gpu, lights))
+    let (lights, ranking) = upload_lights(ctx, &scene_gpu, (&cpu.lights, &cpu.camera), settings)?;
+    Ok((scene_gpu, lights, ranking))
 }
 
 /// What an upload of the lights is called in its errors: the caster flags are named when
@@ -115,27 +123,29 @@ fn upload_lights(
     scene: &SceneGpu,
     (lights, camera): (&[Light], &Camera),
     settings: &Settings,
-) -> Result<LightBuffers> {
-    let scores = caster_scores(ctx, scene, (lights, camera), settings)?;
-    let rank = scores.as_deref().map_or(CasterRank::Brightest, CasterRank::Scores);
-    LightBuffers::ranked(&ctx.device, lights, settings.shadow_casters(), rank).with_context(|| lights_context(settings))
+) -> Result<(LightBuffers, Option<CasterRanking>)> {
+    let ranking = caster_ranking(ctx, scene, (lights, camera), settings)?;
+    let rank = ranking.as_ref().map_or(CasterRank::Brightest, |r| CasterRank::Scores(&r.scores));
+    let buffers = LightBuffers::ranked(&ctx.device, lights, settings.shadow_casters(), rank)
+        .with_context(|| lights_context(settings))?;
+    Ok((buffers, ranking))
 }
 
 /// With casters chosen by contribution, each light's contribution to a frame of `camera`
 /// at the settings' size (`tiledlight_frame::caster_rank`); None when the casters are the
 /// brightest or there are none (no frame is rendered then).
-fn caster_scores(
+fn caster_ranking(
     ctx: &GpuContext,
     scene: &SceneGpu,
     (lights, camera): (&[Light], &Camera),
     settings: &Settings,
-) -> Result<Option<Vec<u64>>> {
+) -> Result<Option<CasterRanking>> {
     if settings.casters_by != CasterChoice::Contribution || !settings.has_shadows() {
         return Ok(None);
     }
-    let scores = contribution_scores(ctx, scene, lights, camera, (settings.width, settings.height))
+    let ranking = contribution_scores(ctx, scene, lights, camera, (settings.width, settings.height))
         .context("choosing the shadow casters by their contribution to the frame (--casters-by contribution)")?;
-    Ok(Some(scores))
+    Ok(Some(ranking))
 }
 
 /// `settings` with the per-list capacity chosen for `lights` lights when it has none
@@ -173,8 +183,9 @@ impl Prepared {
                 v.push(GpuFault { oom, message: e.to_string() });
             }
         }));
-        let (scene_gpu, lights) = upload(&ctx, &cpu, settings)?;
+        let (scene_gpu, lights, caster_ranking) = upload(&ctx, &cpu, settings)?;
         Ok(Self {
+            caster_ranking,
             settings: with_capacity(settings, lights.len(), &ctx.device.limits()),
             requested: settings.clone(),
             ctx,
@@ -248,7 +259,8 @@ impl Prepared {
     /// Replaces the scene and lights by a newly loaded one (with its camera). Nothing
     /// changes when the upload fails.
     fn replace_scene(&mut self, settings: &Settings, cpu: SceneCpu) -> Result<()> {
-        let (scene_gpu, lights) = upload(&self.ctx, &cpu, settings)?;
+        let (scene_gpu, lights, caster_ranking) = upload(&self.ctx, &cpu, settings)?;
+        self.caster_ranking = caster_ranking;
         self.settings = with_capacity(settings, lights.len(), &self.ctx.device.limits());
         self.scene_name = cpu.scene.name.clone();
         self.instances = cpu.scene.instances.len();
@@ -290,8 +302,8 @@ impl Prepared {
             );
             // Validated and ordered like every upload (`upload_lights` does the same): the
             // casters chosen among the new lights as the settings ask.
-            let scores = caster_scores(&self.ctx, &self.scene_gpu, (&lights, camera), settings)?;
-            let rank = scores.as_deref().map_or(CasterRank::Brightest, CasterRank::Scores);
+            let ranking = caster_ranking(&self.ctx, &self.scene_gpu, (&lights, camera), settings)?;
+            let rank = ranking.as_ref().map_or(CasterRank::Brightest, |r| CasterRank::Scores(&r.scores));
             let packed = try_pack_lights_ranked(&lights, settings.shadow_casters(), rank)
                 .with_context(|| lights_context(settings))?;
             let (old, new) = (&self.lights.packed, &packed);
@@ -312,8 +324,10 @@ impl Prepared {
                 }
             }
             self.lights.packed = packed;
+            self.caster_ranking = ranking;
         } else {
-            self.lights = upload_lights(&self.ctx, &self.scene_gpu, (&lights, camera), settings)?;
+            (self.lights, self.caster_ranking) =
+                upload_lights(&self.ctx, &self.scene_gpu, (&lights, camera), settings)?;
         }
         self.light_summary = summary;
         self.surface_placement = built.surface_placement;
@@ -480,7 +494,10 @@ impl Prepared {
             ("method".into(), method),
         ];
         // Only when some light casts a shadow.
-        if let Some(shadows) = a.shadow_description() {
+        if let Some(mut shadows) = a.shadow_description() {
+            if let Some(cost) = self.caster_ranking.as_ref().and_then(CasterRanking::describe_cost) {
+                shadows.push_str(&format!("; casters ranked in {cost}"));
+            }
             lines.push(("shadows".into(), shadows));
         }
         // Only when the scene has blended geometry.

@@ -112,7 +112,7 @@ impl CasterChoice {
     pub fn describe(self) -> &'static str {
         match self {
             CasterChoice::Brightness => "the brightest of each kind",
-            CasterChoice::Contribution => "the largest contributions to the frame of each kind",
+            CasterChoice::Contribution => "the largest contributors to the frame of each kind",
         }
     }
 }

@@ -8,18 +8,26 @@
 //! Transparent grid objects reload the scene and bring the blended path; the blend mode
 //! rebuilds only the renderer.
 
-use tiledlight_cull::light::try_pack_lights_with_casters;
+use tiledlight_cull::light::{try_pack_lights_ranked, CasterRank};
 use tiledlight_cull::shadow::ShadowFormat;
+use tiledlight_frame::caster_rank::contribution_scores;
 use tiledlight_frame::Diagnostics as _;
 use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_scene::GridDensity;
-use tiledlight_setup::{rebuild_plan, Method, Prepared, Rebuild, Reload, SceneCpu, SceneSource, Settings};
+use tiledlight_setup::{
+    rebuild_plan, CasterChoice, Method, Prepared, Rebuild, Reload, SceneCpu, SceneSource, Settings,
+};
 
 /// The run holds what loading `s` from scratch gives.
 fn assert_matches_a_fresh_load(prep: &Prepared, s: &Settings) {
     let cpu = SceneCpu::load(s).unwrap();
-    let packed = try_pack_lights_with_casters(&cpu.lights, s.shadow_casters()).unwrap();
+    // Casters by contribution: ranked from a frame of the fresh load's camera.
+    let scores = (s.casters_by == CasterChoice::Contribution && s.has_shadows()).then(|| {
+        contribution_scores(&prep.ctx, &prep.scene_gpu, &cpu.lights, &cpu.camera, (s.width, s.height)).unwrap().scores
+    });
+    let rank = scores.as_deref().map_or(CasterRank::Brightest, CasterRank::Scores);
+    let packed = try_pack_lights_ranked(&cpu.lights, s.shadow_casters(), rank).unwrap();
     let bytes = |p: &tiledlight_cull::light::PackedLights| {
         let mut b: Vec<u8> = bytemuck::cast_slice(&p.cull).to_vec();
         b.extend_from_slice(bytemuck::cast_slice(&p.shading));
@@ -163,6 +171,20 @@ fn shadow_casters_follow_the_settings_through_reconfigure() {
         &fresh.read_hdr(&prep.ctx).unwrap(),
     );
     drop((before, fresh));
+
+    // Casters chosen by their contribution to the frame: ranked from a frame of the
+    // camera, the light data rewritten in place (same counts).
+    let by = Settings { casters_by: CasterChoice::Contribution, ..s1.clone() };
+    let brightest = prep.lights.packed.shading[..2].to_vec();
+    assert_eq!(prep.reconfigure(&by).unwrap().reload, Reload::LightData);
+    assert_matches_a_fresh_load(&prep, &by);
+    assert_ne!(prep.lights.packed.shading[..2], brightest, "here the largest contributions are not the brightest");
+    // A new screen ranks them again (the same as a fresh load at that size).
+    let wider = Settings { width: 96, ..by.clone() };
+    assert_eq!(prep.reconfigure(&wider).unwrap().reload, Reload::LightData);
+    assert_matches_a_fresh_load(&prep, &wider);
+    assert_eq!(prep.reconfigure(&s1).unwrap().reload, Reload::LightData);
+    assert_matches_a_fresh_load(&prep, &s1);
 
     // Other casters: new light buffers and a renderer with another atlas.
     let s2 = Settings { shadow_point_lights: 0, shadow_spot_lights: 4, ..s1.clone() };
