@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign emission vpl reshape visibility raster raster-short traced
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign emission vpl reshape visibility raster raster-short traced casters ranking
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -184,6 +184,36 @@ for set in $sets; do
       run "rs-g$g-cs" 50 --lights 1024 --grid-objects $g --density medium --method visibility --raster compute
     done
     run "rs-mp-cs-scatter" 10 --light-preset million --method visibility --raster compute --assign scatter
+    ;;
+  casters)
+    # Issue 30: the error budget against the traced truth at its best cutoff (threshold
+    # 0.0015), with casters chosen brightest-first and by contribution, spot casters, MSAA
+    # and VPLs, on both scenes (1,024 point + 256 spot lights, Forward+). Each run's CSV,
+    # chart and printout under $out/<scene>-budget.*; its heat maps stay in /tmp.
+    for scene in court f9; do
+      extra=()
+      [ "$scene" = f9 ] && extra=(--grid-objects 280 --density medium)
+      echo "== budget-$scene" | tee -a "$out/log.txt"
+      timeout 280 "$bin" accuracy --width 1920 --height 1080 --lights 1024 --spot-lights 256 "${extra[@]}" \
+        --threshold 0.0015 --reference traced --budget --frames 3 --warmup 1 --reference-frames 1 \
+        --axis shadow-point-lights=16,0,64,256 --axis shadow-spot-lights=0,16,64 \
+        --axis casters-by=brightness,contribution --axis msaa=1,4 --axis vpl=off,on \
+        --out "/tmp/budget-$scene/budget.csv" >"$out/$scene-budget.txt" 2>&1
+      echo "exit $?" >>"$out/$scene-budget.txt"
+      cp "/tmp/budget-$scene/budget.csv" "$out/$scene-budget.csv" 2>/dev/null
+      cp "/tmp/budget-$scene/budget.png" "$out/$scene-budget.png" 2>/dev/null
+    done
+    ;;
+  ranking)
+    # Issue 30: what ranking the casters by contribution costs (the shadows line).
+    for n in 1024 16384; do
+      for extra in "" "--grid-objects 280 --density medium"; do
+        echo "== ranking $n $extra" | tee -a "$out/log.txt"
+        # shellcheck disable=SC2086
+        timeout 120 "$bin" render --width 1920 --height 1080 --lights $n --shadow-point-lights 64 \
+          --casters-by contribution $extra --out /tmp/ranking.png 2>&1 | tee -a "$out/log.txt" | grep -E "^(shadows|error)"
+      done
+    done
     ;;
   million)
     # Issue 13: a million lights on the courtyard (threshold 10: ~115 lights a tile), both

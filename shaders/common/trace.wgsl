@@ -162,6 +162,18 @@ fn trace_blocks(t: u32, u: f32, v: f32) -> bool {
 }
 #endif
 
+// Whether a leaf's triangles first .. first + count block the ray (the first hit that is
+// not masked away ends the search: a shadow ray needs no nearest hit).
+fn trace_leaf_blocks(r: TraceRay, first: u32, count: u32) -> bool {
+    for (var t = first; t < first + count; t++) {
+        let h = trace_watertight(r, t);
+        if h.x != 0.0 && trace_blocks(t, h.y, h.z) {
+            return true;
+        }
+    }
+    return false;
+}
+
 // Whether some triangle blocks the segment p0 -> p1 (eps off each end).
 fn trace_occluded(p0: vec3<f32>, p1: vec3<f32>, eps: f32) -> bool {
     let r = trace_ray(p0, p1, eps);
@@ -176,28 +188,19 @@ fn trace_occluded(p0: vec3<f32>, p1: vec3<f32>, eps: f32) -> bool {
         let n = trace_nodes[node];
         var next_a = TRACE_NO_CHILD;
         var next_b = TRACE_NO_CHILD;
+        // Each child: an inner node to visit next, or a leaf tested on the spot.
         if n.a_link != TRACE_NO_CHILD && trace_enters(r, n.a_lo, n.a_hi) {
             if n.a_count == 0u {
                 next_a = n.a_link;
-            } else {
-                for (var t = n.a_link; t < n.a_link + n.a_count; t++) {
-                    let h = trace_watertight(r, t);
-                    if h.x != 0.0 && trace_blocks(t, h.y, h.z) {
-                        return true;
-                    }
-                }
+            } else if trace_leaf_blocks(r, n.a_link, n.a_count) {
+                return true;
             }
         }
         if n.b_link != TRACE_NO_CHILD && trace_enters(r, n.b_lo, n.b_hi) {
             if n.b_count == 0u {
                 next_b = n.b_link;
-            } else {
-                for (var t = n.b_link; t < n.b_link + n.b_count; t++) {
-                    let h = trace_watertight(r, t);
-                    if h.x != 0.0 && trace_blocks(t, h.y, h.z) {
-                        return true;
-                    }
-                }
+            } else if trace_leaf_blocks(r, n.b_link, n.b_count) {
+                return true;
             }
         }
         if next_a != TRACE_NO_CHILD && next_b != TRACE_NO_CHILD {
