@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign emission vpl reshape visibility raster raster-short traced casters ranking
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign emission vpl reshape visibility raster raster-short traced casters casters-curve ranking
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -202,6 +202,22 @@ for set in $sets; do
       echo "exit $?" >>"$out/$scene-budget.txt"
       cp "/tmp/budget-$scene/budget.csv" "$out/$scene-budget.csv" 2>/dev/null
       cp "/tmp/budget-$scene/budget.png" "$out/$scene-budget.png" 2>/dev/null
+    done
+    ;;
+  casters-curve)
+    # Issue 30: point casters by brightness and by contribution, 0 to 512, at the same
+    # base (3 warm-up frames: the light grid has grown before frames are measured).
+    for scene in court f9; do
+      extra=()
+      [ "$scene" = f9 ] && extra=(--grid-objects 280 --density medium)
+      echo "== curve-$scene" | tee -a "$out/log.txt"
+      timeout 280 "$bin" accuracy --width 1920 --height 1080 --lights 1024 --spot-lights 256 "${extra[@]}" \
+        --threshold 0.0015 --reference traced --budget --frames 3 --warmup 3 --reference-frames 1 \
+        --axis shadow-point-lights=16,0,4,64,256,512 --axis casters-by=brightness,contribution \
+        --out "/tmp/curve-$scene/curve.csv" >"$out/$scene-curve.txt" 2>&1
+      echo "exit $?" >>"$out/$scene-curve.txt"
+      cp "/tmp/curve-$scene/curve.csv" "$out/$scene-curve.csv" 2>/dev/null
+      cp "/tmp/curve-$scene/curve.png" "$out/$scene-curve.png" 2>/dev/null
     done
     ;;
   ranking)

@@ -629,9 +629,10 @@ pub fn pareto_chart(path: &Path, c: &ParetoChart) -> Result<()> {
                 .draw_series(std::iter::once(Circle::new(p, 14, RGBColor(200, 30, 30).stroke_width(3))))
                 .map_err(err)?;
         }
+        let mapped: Vec<(f64, f64)> = pts.iter().map(|p| map(p)).collect();
         chart
             .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
+            .position(emptiest_corner(&mapped, (x0, x1), (y0, y1)))
             .label_font((FAMILY, 18))
             .background_style(WHITE.mix(0.85))
             .border_style(RGBColor(160, 160, 160))
@@ -641,9 +642,37 @@ pub fn pareto_chart(path: &Path, c: &ParetoChart) -> Result<()> {
     })
 }
 
+/// The corner of the plot (`x` and `y` spans, in plotted units) whose quarter holds the
+/// fewest of `points`, for the legend: a legend over the points fades them (the error
+/// budget's points all sit near the top of a log axis that reaches down to the target).
+/// Ties keep the upper right, then the lower right.
+fn emptiest_corner(points: &[(f64, f64)], (x0, x1): (f64, f64), (y0, y1): (f64, f64)) -> SeriesLabelPosition {
+    let (xm, ym) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
+    let count =
+        |right: bool, upper: bool| points.iter().filter(|(x, y)| (*x >= xm) == right && (*y >= ym) == upper).count();
+    [
+        (SeriesLabelPosition::UpperRight, count(true, true)),
+        (SeriesLabelPosition::LowerRight, count(true, false)),
+        (SeriesLabelPosition::UpperLeft, count(false, true)),
+        (SeriesLabelPosition::LowerLeft, count(false, false)),
+    ]
+    .into_iter()
+    .min_by_key(|(_, n)| *n)
+    .map(|(c, _)| c)
+    .unwrap_or(SeriesLabelPosition::UpperRight)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_legend_goes_where_the_points_are_not() {
+        let corner = |pts: &[(f64, f64)]| format!("{:?}", emptiest_corner(pts, (0.0, 10.0), (0.0, 10.0)));
+        assert_eq!(corner(&[]), "UpperRight");
+        assert_eq!(corner(&[(9.0, 9.0), (8.0, 7.0), (1.0, 1.0)]), "LowerRight");
+        assert_eq!(corner(&[(9.0, 9.0), (8.0, 2.0), (1.0, 9.0), (2.0, 1.0), (7.0, 8.0), (6.0, 1.0)]), "UpperLeft");
+    }
 
     fn p(t: f64, e: f64) -> ParetoPoint {
         ParetoPoint { series: "s".into(), label: String::new(), time: t, error: e, incomplete: false }
