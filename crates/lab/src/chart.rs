@@ -572,16 +572,24 @@ pub fn pareto_chart(path: &Path, c: &ParetoChart) -> Result<()> {
             .draw()
             .map_err(err)?;
         let map = |p: &ParetoPoint| (xsc.map(p.time), ysc.map(p.error));
+        let mapped: Vec<(f64, f64)> = pts.iter().map(|p| map(p)).collect();
+        let legend_at = emptiest_corner(&mapped, (x0, x1), (y0, y1));
         if let Some((t, label)) = &c.target {
             let u = ysc.map(*t);
             let red = RGBColor(200, 30, 30);
             chart
                 .draw_series(DashedLineSeries::new(vec![(x0, u), (x1, u)], 10, 6, red.stroke_width(2)))
                 .map_err(err)?;
+            // On the right, unless the legend sits in the lower right (over the line).
+            let label_x = if matches!(legend_at, SeriesLabelPosition::LowerRight) {
+                x0 + (x1 - x0) * 0.02
+            } else {
+                x1 - (x1 - x0) * 0.3
+            };
             chart
                 .draw_series(std::iter::once(Text::new(
                     label.clone(),
-                    (x1 - (x1 - x0) * 0.3, u + (y1 - y0) * 0.03),
+                    (label_x, u + (y1 - y0) * 0.03),
                     (FAMILY, 18).into_font().color(&red),
                 )))
                 .map_err(err)?;
@@ -629,10 +637,9 @@ pub fn pareto_chart(path: &Path, c: &ParetoChart) -> Result<()> {
                 .draw_series(std::iter::once(Circle::new(p, 14, RGBColor(200, 30, 30).stroke_width(3))))
                 .map_err(err)?;
         }
-        let mapped: Vec<(f64, f64)> = pts.iter().map(|p| map(p)).collect();
         chart
             .configure_series_labels()
-            .position(emptiest_corner(&mapped, (x0, x1), (y0, y1)))
+            .position(legend_at)
             .label_font((FAMILY, 18))
             .background_style(WHITE.mix(0.85))
             .border_style(RGBColor(160, 160, 160))
