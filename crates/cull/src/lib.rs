@@ -20,7 +20,8 @@
 //! traced reference's shadow rays in f32 as its GPU kernel casts them: the flattened
 //! hierarchy, watertight triangle test and alpha masks ([`trace`]); and each light's
 //! contribution to a frame, which picks shadow casters by what they light on screen
-//! ([`contribution`]).
+//! ([`contribution`]); and unit normals in two fixed-point numbers, the octahedral map
+//! with its error bound ([`octahedral`]).
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
 
 pub mod error;
@@ -43,6 +44,7 @@ pub mod estimate;
 pub mod exposure;
 pub mod gather;
 pub mod grid;
+pub mod octahedral;
 pub mod raster;
 pub mod raycast;
 pub mod reference;
