@@ -528,25 +528,7 @@ fn accuracy_budget_against_the_traced_reference() {
 
     // Without a threshold axis the flags' --threshold is the base's (no default axes are
     // added to a budget): one dial, two settings.
-    let csv2 = dir.join("budget2.csv");
-    let mut args = vec![
-        "accuracy",
-        "--lights",
-        "12",
-        "--threshold",
-        "0.02",
-        "--reference",
-        "traced",
-        "--budget",
-        "--axis",
-        "shadow-point-lights=0,12",
-        "--reference-frames",
-        "1",
-        "--out",
-        csv2.to_str().unwrap(),
-    ];
-    args.extend(SMALL);
-    let out = stdout(&gpu_run(&args));
+    let (out, csv2) = traced_budget(&dir, "budget2", &["shadow-point-lights=0,12"]);
     assert!(out.contains("2 settings"), "{out}");
     let (header, rows) = read_csv(&csv2);
     assert!(!header.iter().any(|h| h == "threshold" || h == "culling"), "{header:?}");
@@ -554,27 +536,8 @@ fn accuracy_budget_against_the_traced_reference() {
 
     // How the casters are chosen is a dial of its own, and the caster counts are swept
     // again under each choice: (2, 0) casters x (brightness, contribution).
-    let csv3 = dir.join("budget3.csv");
-    let mut args = vec![
-        "accuracy",
-        "--lights",
-        "12",
-        "--threshold",
-        "0.02",
-        "--reference",
-        "traced",
-        "--budget",
-        "--axis",
-        "shadow-point-lights=2,0",
-        "--axis",
-        "casters-by=brightness,contribution",
-        "--reference-frames",
-        "1",
-        "--out",
-        csv3.to_str().unwrap(),
-    ];
-    args.extend(SMALL);
-    let out = stdout(&gpu_run(&args));
+    let (out, csv3) =
+        traced_budget(&dir, "budget3", &["shadow-point-lights=2,0", "casters-by=brightness,contribution"]);
     assert!(out.contains("4 settings"), "{out}");
     let (_, rows) = read_csv(&csv3);
     let at = |n: &str, by: &str| {
@@ -585,4 +548,17 @@ fn accuracy_budget_against_the_traced_reference() {
     // Without casters the choice changes nothing: the same image.
     assert_eq!(at("0", "brightness")["flip_mean"], at("0", "contribution")["flip_mean"]);
     assert!(num(at("2", "contribution"), "psnr_db").is_finite());
+}
+
+/// An error budget against the traced reference (12 lights, threshold 0.02, small screen)
+/// over `axes`, written to `dir/NAME.csv`: its printout and the CSV's path.
+fn traced_budget(dir: &std::path::Path, name: &str, axes: &[&str]) -> (String, std::path::PathBuf) {
+    let csv = dir.join(format!("{name}.csv"));
+    let mut args = vec!["accuracy", "--lights", "12", "--threshold", "0.02", "--reference", "traced", "--budget"];
+    for a in axes {
+        args.extend(["--axis", a]);
+    }
+    args.extend(["--reference-frames", "1", "--out", csv.to_str().unwrap()]);
+    args.extend(SMALL);
+    (stdout(&gpu_run(&args)), csv)
 }
