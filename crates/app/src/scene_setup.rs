@@ -691,7 +691,7 @@ impl Flags for SceneArgs {
     }
 
     fn scene_label(&self) -> String {
-        self.scene.clone()
+        tiledlight_lab::axes::scene_phrase(&self.scene, self.grid_objects)
     }
 }
 

@@ -271,6 +271,9 @@ fn pass_times(m: &bench::Measurement) -> Result<(f64, String)> {
 }
 
 /// The VPLs of the reference of a setting with VPLs: one bounce from every texel of the
+/// The Pareto chart's subtitle's end when its points are labelled by threshold.
+const THRESHOLD_LABELS: &str = "; labels: intensity threshold T";
+
 /// How the reference treats the lights' radii, as the output and the chart say it.
 fn reference_kind(r: ReferenceKind) -> &'static str {
     match r {
@@ -685,7 +688,7 @@ fn culling_chart(
         &path,
         &chart::BarPanels {
             title: title.replace("Speed vs accuracy", "Culling statistics per setting"),
-            subtitle: subtitle.replace("; labels: intensity threshold T", ""),
+            subtitle: subtitle.replace(THRESHOLD_LABELS, ""),
             note: Some(line.trim_start_matches("culling:").trim().to_string()),
             settings,
             panels,
@@ -779,12 +782,14 @@ fn report(
     let c = ParetoChart {
         title: format!("Speed vs accuracy: {adapter}, {res}"),
         subtitle: format!(
-            "{} scene, {lights} lights, {}{}{}; error vs the reference ({}); labels: intensity threshold T",
+            "{}, {lights} lights, {}{}{}; error vs the reference ({}){}",
             scene,
             method.name(),
             if fixed.is_empty() { "" } else { ", " },
             fixed.join(", "),
-            reference_kind(args.reference)
+            reference_kind(args.reference),
+            // The points are labelled only with a threshold axis.
+            if threshold.is_some() { THRESHOLD_LABELS } else { "" }
         ),
         x_label: "GPU frame time, ms (sum of pass medians)".into(),
         y_label: "FLIP mean (tonemapped, vs reference)".into(),

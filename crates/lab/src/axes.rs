@@ -44,9 +44,20 @@ pub trait Flags: Clone + Default {
         settings.validate()?;
         Ok(settings)
     }
-    /// The scene as the user named it (charts' subtitles).
+    /// The scene as the user named it, for charts' subtitles: "default scene", "default
+    /// scene + 280 grid objects" (the Figure 9 scene), or the file's path and " scene".
     fn scene_label(&self) -> String {
-        self.plain().scene.to_string()
+        let s = self.plain();
+        scene_phrase(&s.scene.to_string(), s.grid_objects)
+    }
+}
+
+/// "default scene", or with grid objects "default scene + 280 grid objects" (the Figure 9
+/// scene): a chart subtitle's scene, from the scene's name as the user gave it.
+pub fn scene_phrase(name: &str, grid_objects: u32) -> String {
+    match grid_objects {
+        0 => format!("{name} scene"),
+        n => format!("{name} scene + {n} grid objects"),
     }
 }
 

@@ -675,7 +675,7 @@ fn draw_chart(
     let c = ParetoChart {
         title: format!("Shadow maps vs ray cast: {}, {}x{}", prep.ctx.info.name, a.width, a.height),
         subtitle: format!(
-            "{} scene, {} point + {} spot casters lit alone, brute force, lights moving (every face drawn); ray offset {}; labels: tile px, format",
+            "{}, {} point + {} spot casters lit alone, brute force, lights moving (every face drawn); ray offset {}; labels: tile px, format",
             scene, counts.0, counts.1, args.ray_offset
         ),
         x_label: "GPU ms: shadow atlas + shading (medians)".into(),

@@ -423,7 +423,7 @@ fn draw(
     let chart = LineChart {
         title: format!("Frame time vs {x_axis}: {adapter}, {res}"),
         subtitle: format!(
-            "{} scene, {tris} triangles{}{}; per pass the median of {} frames after {} warm-up",
+            "{}, {tris} triangles{}{}; per pass the median of {} frames after {} warm-up",
             scene,
             if fixed.is_empty() { "" } else { ", " },
             fixed.join(", "),
