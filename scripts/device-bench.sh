@@ -31,6 +31,24 @@ run_traced() { # name args...
   timeout 500 "$bin" bench --width 1920 --height 1080 --frames 2 --warmup 1 --json "$out/$name.json" "$@" 2>&1 \
     | tee -a "$out/log.txt" | grep -E "^(visibility|traced|tonemap|total|error|rays)"
 }
+# An error budget against the traced truth (issue 30) on both scenes, 1,024 point + 256
+# spot lights, threshold 0.0015, Forward+: each scene's CSV, chart and printout under
+# $out/<scene>-NAME.*; its heat maps stay in /tmp.
+run_budget() { # name warmup axes...
+  local name=$1 warmup=$2; shift 2
+  local scene extra
+  for scene in court f9; do
+    extra=()
+    [ "$scene" = f9 ] && extra=(--grid-objects 280 --density medium)
+    echo "== $name-$scene" | tee -a "$out/log.txt"
+    timeout 280 "$bin" accuracy --width 1920 --height 1080 --lights 1024 --spot-lights 256 "${extra[@]}" \
+      --threshold 0.0015 --reference traced --budget --frames 3 --warmup "$warmup" --reference-frames 1 \
+      "$@" --out "/tmp/$name-$scene/$name.csv" >"$out/$scene-$name.txt" 2>&1
+    echo "exit $?" >>"$out/$scene-$name.txt"
+    cp "/tmp/$name-$scene/$name.csv" "$out/$scene-$name.csv" 2>/dev/null
+    cp "/tmp/$name-$scene/$name.png" "$out/$scene-$name.png" 2>/dev/null
+  done
+}
 sets=${*:-core cull scale methods msaa}
 for set in $sets; do
   case $set in
@@ -188,37 +206,14 @@ for set in $sets; do
   casters)
     # Issue 30: the error budget against the traced truth at its best cutoff (threshold
     # 0.0015), with casters chosen brightest-first and by contribution, spot casters, MSAA
-    # and VPLs, on both scenes (1,024 point + 256 spot lights, Forward+). Each run's CSV,
-    # chart and printout under $out/<scene>-budget.*; its heat maps stay in /tmp.
-    for scene in court f9; do
-      extra=()
-      [ "$scene" = f9 ] && extra=(--grid-objects 280 --density medium)
-      echo "== budget-$scene" | tee -a "$out/log.txt"
-      timeout 280 "$bin" accuracy --width 1920 --height 1080 --lights 1024 --spot-lights 256 "${extra[@]}" \
-        --threshold 0.0015 --reference traced --budget --frames 3 --warmup 1 --reference-frames 1 \
-        --axis shadow-point-lights=16,0,64,256 --axis shadow-spot-lights=0,16,64 \
-        --axis casters-by=brightness,contribution --axis msaa=1,4 --axis vpl=off,on \
-        --out "/tmp/budget-$scene/budget.csv" >"$out/$scene-budget.txt" 2>&1
-      echo "exit $?" >>"$out/$scene-budget.txt"
-      cp "/tmp/budget-$scene/budget.csv" "$out/$scene-budget.csv" 2>/dev/null
-      cp "/tmp/budget-$scene/budget.png" "$out/$scene-budget.png" 2>/dev/null
-    done
+    # and VPLs (1 warm-up frame: the runs recorded in docs/ACCURACY.md).
+    run_budget budget 1 --axis shadow-point-lights=16,0,64,256 --axis shadow-spot-lights=0,16,64 \
+      --axis casters-by=brightness,contribution --axis msaa=1,4 --axis vpl=off,on
     ;;
   casters-curve)
     # Issue 30: point casters by brightness and by contribution, 0 to 512, at the same
     # base (3 warm-up frames: the light grid has grown before frames are measured).
-    for scene in court f9; do
-      extra=()
-      [ "$scene" = f9 ] && extra=(--grid-objects 280 --density medium)
-      echo "== curve-$scene" | tee -a "$out/log.txt"
-      timeout 280 "$bin" accuracy --width 1920 --height 1080 --lights 1024 --spot-lights 256 "${extra[@]}" \
-        --threshold 0.0015 --reference traced --budget --frames 3 --warmup 3 --reference-frames 1 \
-        --axis shadow-point-lights=16,0,4,64,256,512 --axis casters-by=brightness,contribution \
-        --out "/tmp/curve-$scene/curve.csv" >"$out/$scene-curve.txt" 2>&1
-      echo "exit $?" >>"$out/$scene-curve.txt"
-      cp "/tmp/curve-$scene/curve.csv" "$out/$scene-curve.csv" 2>/dev/null
-      cp "/tmp/curve-$scene/curve.png" "$out/$scene-curve.png" 2>/dev/null
-    done
+    run_budget curve 3 --axis shadow-point-lights=16,0,4,64,256,512 --axis casters-by=brightness,contribution
     ;;
   ranking)
     # Issue 30: what ranking the casters by contribution costs (the shadows line).

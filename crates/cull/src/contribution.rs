@@ -18,7 +18,8 @@
 //!
 //! One list per tile (the plain tiled layout): the estimate is a setup step that builds
 //! its own grid, the same for every method, so every method shades the same casters.
-//! Depends on this crate's camera, tiles, light and brdf modules.
+//! Depends on this crate's camera, tiles, light, brdf and reference (the pixel's point)
+//! modules.
 
 use glam::{Mat4, Vec3};
 
@@ -26,7 +27,8 @@ use crate::brdf::{spot_falloff, windowed_attenuation, LIGHT_SIZE_SQ};
 use crate::camera::Camera;
 use crate::error::CullError;
 use crate::light::PackedLights;
-use crate::tiles::{pixel_to_ndc_x, pixel_to_ndc_y, TileGrid};
+use crate::reference::pixel_view_position;
+use crate::tiles::TileGrid;
 
 /// The largest f32 below 2^32: a pair's quantised value saturates there.
 pub const PAIR_MAX: f32 = 4_294_967_040.0;
@@ -54,18 +56,12 @@ fn brightness(l: &crate::light::GpuShadingLight) -> f32 {
 /// The world position of every pixel's surface at its centre (None for sky), row-major:
 /// step 1, as the GPU kernel reconstructs it.
 pub fn surface_points(camera: &Camera, depth: &[f32], grid: &TileGrid) -> Vec<Option<Vec3>> {
-    let params = camera.depth_params();
     let to_world: Mat4 = camera.view().inverse();
     let (w, h) = (grid.width, grid.height);
     (0..h)
         .flat_map(|y| (0..w).map(move |x| (x, y)))
         .map(|(x, y)| {
-            let d = depth[(y * w + x) as usize];
-            (d > 0.0).then(|| {
-                let dist = params.view_distance(d);
-                let ndc = (pixel_to_ndc_x(x as f32 + 0.5, w), pixel_to_ndc_y(y as f32 + 0.5, h));
-                to_world.transform_point3(camera.view_point_at(ndc.0, ndc.1, dist))
-            })
+            pixel_view_position(camera, w, h, x, y, depth[(y * w + x) as usize]).map(|p| to_world.transform_point3(p))
         })
         .collect()
 }
@@ -167,6 +163,7 @@ pub fn scores_in_input_order(lights: &[crate::Light], packed_scores: &[u64]) -> 
 mod tests {
     use super::*;
     use crate::light::{try_pack_lights, Light};
+    use crate::tiles::{pixel_to_ndc_x, pixel_to_ndc_y};
 
     fn camera(w: u32, h: u32) -> Camera {
         Camera::perspective(Vec3::new(0.0, 1.0, 4.0), Vec3::ZERO, Vec3::Y, 1.0, w as f32 / h as f32, 0.1, Some(100.0))

@@ -70,22 +70,8 @@ fn check(name: &str, (max, mean): (f64, f64), bound: f64) -> Result<(), String> 
 /// The f16-per-component normal (today's G-buffer: xyz in `Rgba16Float`, normalised when
 /// read).
 fn f16_xyz(n: Vec3) -> Vec3 {
-    Vec3::new(half_round(n.x), half_round(n.y), half_round(n.z)).normalize()
-}
-
-/// `c` rounded to the nearest f16 (round to nearest even on the 10-bit mantissa), for
-/// `|c| <= 1`.
-fn half_round(c: f32) -> f32 {
-    if c == 0.0 {
-        return c;
-    }
-    let e = c.abs().log2().floor().max(-14.0);
-    let step = 2f32.powf(e - 10.0);
-    let q = c / step;
-    let r = q.round();
-    // Ties to even.
-    let r = if (q - q.trunc()).abs() == 0.5 && r % 2.0 != 0.0 { r - q.signum() } else { r };
-    r * step
+    let h = |c: f32| half::f16::from_f32(c).to_f32();
+    Vec3::new(h(n.x), h(n.y), h(n.z)).normalize()
 }
 
 #[test]

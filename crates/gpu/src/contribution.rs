@@ -65,18 +65,16 @@ pub struct ContributionInputs<'a> {
 /// The contribution kernel, its score buffer and its bind group.
 pub struct LightContribution {
     pipeline: wgpu::ComputePipeline,
-    layout: wgpu::BindGroupLayout,
     bind_group: wgpu::BindGroup,
-    params: wgpu::Buffer,
     scores: wgpu::Buffer,
     /// Units per brightness-weighted attenuation sum, as the CPU twin takes it.
     pub scale: f32,
     tiles: (u32, u32),
-    spots: bool,
 }
 
 impl LightContribution {
-    /// Builds the kernel for `inputs`. A grid of another tile size or with several lists a
+    /// Builds the kernel for `inputs` (built after the grid has its final size: a grid that
+    /// grows afterwards needs a new kernel). A grid of another tile size or with several lists a
     /// tile (half-z, clusters) is an error naming it: the kernel reads one list a tile.
     pub fn new(device: &wgpu::Device, views: &Views, inputs: ContributionInputs<'_>) -> Result<Self, GpuError> {
         let g = inputs.grid;
@@ -105,16 +103,8 @@ impl LightContribution {
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
         );
         let bind_group = Self::group(device, &layout, (&params, &scores), inputs);
-        Ok(Self {
-            pipeline,
-            layout,
-            bind_group,
-            params,
-            scores,
-            scale,
-            tiles: (g.tiles.tiles_x, g.tiles.tiles_y),
-            spots: key.spots,
-        })
+        // The bind group keeps the parameter buffer alive.
+        Ok(Self { pipeline, bind_group, scores, scale, tiles: (g.tiles.tiles_x, g.tiles.tiles_y) })
     }
 
     fn group(
@@ -140,13 +130,6 @@ impl LightContribution {
             layout,
             entries: &entries,
         })
-    }
-
-    /// Binds `inputs` again (after the grid grew: its index buffer is new). The lights
-    /// must be the ones it was built for (same spots and scale).
-    pub fn rebind(&mut self, device: &wgpu::Device, inputs: ContributionInputs<'_>) {
-        debug_assert_eq!(self.spots, inputs.lights.has_spots());
-        self.bind_group = Self::group(device, &self.layout, (&self.params, &self.scores), inputs);
     }
 
     /// Records the clearing of the scores and the kernel (one workgroup a tile) for view
