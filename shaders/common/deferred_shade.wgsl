@@ -45,14 +45,17 @@
 // The visibility buffer's surface instead of a G-buffer.
 #include "common/visibility_surface.wgsl"
 #else
+#include "common/gbuffer_texel.wgsl"
 #ifdef MSAA
 alias GTexture = texture_multisampled_2d<f32>;
+alias GSurfaceTexture = texture_multisampled_2d<u32>;
 #else
 alias GTexture = texture_2d<f32>;
+alias GSurfaceTexture = texture_2d<u32>;
 #endif
 
-@group(1) @binding(3) var gbuffer_albedo: GTexture;
-@group(1) @binding(4) var gbuffer_normal: GTexture;
+// The packed surface (common/gbuffer_texel.wgsl).
+@group(1) @binding(3) var gbuffer_surface: GSurfaceTexture;
 #ifdef EXTRA_RTS
 @group(1) @binding(5) var gbuffer_extra0: GTexture;
 #ifdef EXTRA_RTS_2
@@ -183,9 +186,8 @@ fn load_gsample(p: vec2<u32>, s: u32) -> GSample {
     g.dist = view_distance(d);
     let view_pos = view_point_at(pixel_to_ndc(vec2<f32>(p) + sample_position(s)), g.dist);
     g.world = (view.view_to_world * vec4<f32>(view_pos, 1.0)).xyz;
-    let am = textureLoad(gbuffer_albedo, p, s);
-    let nr = textureLoad(gbuffer_normal, p, s);
-    var albedo = am.rgb;
+    let t = unpack_gtexel(textureLoad(gbuffer_surface, p, s));
+    var albedo = t.base;
 #ifdef EXTRA_RTS
     albedo *= textureLoad(gbuffer_extra0, p, s).rgb;
 #ifdef EXTRA_RTS_2
@@ -195,8 +197,8 @@ fn load_gsample(p: vec2<u32>, s: u32) -> GSample {
 #endif
 #endif
 #endif
-    g.normal = normalize(nr.xyz);
-    g.surface = Surface(albedo, nr.w, am.a);
+    g.normal = t.normal;
+    g.surface = Surface(albedo, t.roughness, t.metallic);
 #ifdef EMISSION
     let eo = textureLoad(gbuffer_emission, p, s);
     g.unlit = lighting.ambient * albedo * eo.a + eo.rgb;

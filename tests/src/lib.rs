@@ -54,10 +54,10 @@ pub fn is_lavapipe(ctx: &GpuContext) -> bool {
 /// (`targets::check_msaa` over the depth, HDR and Tiled Deferred G-buffer formats), each
 /// count of 2, 4 and 8 it lacks printed (never skipped silently). lavapipe: 1x and 4x.
 pub fn adapter_sample_counts(ctx: &GpuContext) -> Vec<u32> {
-    use tiledlight_deferred::gbuffer::{ALBEDO_FORMAT, NORMAL_FORMAT};
+    use tiledlight_deferred::gbuffer::SURFACE_FORMAT;
     use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
     use tiledlight_gpu::tonemap::HDR_FORMAT;
-    let formats = [DEPTH_FORMAT, HDR_FORMAT, ALBEDO_FORMAT, NORMAL_FORMAT];
+    let formats = [DEPTH_FORMAT, HDR_FORMAT, SURFACE_FORMAT];
     let counts: Vec<u32> =
         [1, 2, 4, 8].into_iter().filter(|&n| tiledlight_gpu::targets::check_msaa(ctx, n, &formats).is_ok()).collect();
     for n in [2, 4, 8] {

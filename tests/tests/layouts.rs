@@ -121,23 +121,20 @@ fn sampled_pixels(w: u32, h: u32) -> Vec<(u32, u32)> {
     (0..9).flat_map(|j| (0..16).map(move |i| ((2 * i + 1) * w / 32, (2 * j + 1) * h / 18))).collect()
 }
 
-/// Reads a single-sampled G-buffer as the deferred shader does (`textureLoad`, the albedo
-/// decoded from sRGB by the texture unit): 8 floats a pixel, albedo rgb, metallic, normal
-/// xyz, roughness. The G-buffer textures cannot be copied (no `COPY_SRC`: they never leave
-/// the GPU in production), so a small compute kernel copies them, built per call (a test
-/// path).
+/// Reads a single-sampled G-buffer's packed surface texels and decodes them with the CPU
+/// twin ([`tiledlight_cull::gbuffer::unpack`]; the GPU's decoder is tested against it in
+/// `gbuffer_texel.rs`): 8 floats a pixel, albedo rgb, metallic, normal xyz, roughness. The
+/// G-buffer textures cannot be copied (no `COPY_SRC`: they never leave the GPU in
+/// production), so a small compute kernel copies them, built per call (a test path).
 fn read_gbuffer(r: &FrameRenderer, (w, h): (u32, u32)) -> Vec<f32> {
     const SRC: &str = "
-        @group(0) @binding(0) var albedo: texture_2d<f32>;
-        @group(0) @binding(1) var normal: texture_2d<f32>;
-        @group(0) @binding(2) var<storage, read_write> out: array<vec4<f32>>;
+        @group(0) @binding(0) var surface: texture_2d<u32>;
+        @group(0) @binding(1) var<storage, read_write> out: array<vec4<u32>>;
         @compute @workgroup_size(8, 8)
         fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-            let size = textureDimensions(albedo);
+            let size = textureDimensions(surface);
             if id.x >= size.x || id.y >= size.y { return; }
-            let i = 2u * (id.y * size.x + id.x);
-            out[i] = textureLoad(albedo, id.xy, 0);
-            out[i + 1u] = textureLoad(normal, id.xy, 0);
+            out[id.y * size.x + id.x] = textureLoad(surface, id.xy, 0);
         }";
     let ctx = gpu();
     let device = &ctx.device;
@@ -157,7 +154,7 @@ fn read_gbuffer(r: &FrameRenderer, (w, h): (u32, u32)) -> Vec<f32> {
     });
     let out = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("test.read_gbuffer.out"),
-        size: u64::from(w) * u64::from(h) * 32,
+        size: u64::from(w) * u64::from(h) * 16,
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
         mapped_at_creation: false,
     });
@@ -165,9 +162,8 @@ fn read_gbuffer(r: &FrameRenderer, (w, h): (u32, u32)) -> Vec<f32> {
         label: Some("test.read_gbuffer"),
         layout: &pipeline.get_bind_group_layout(0),
         entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(g.albedo_view()) },
-            wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(g.normal_view()) },
-            wgpu::BindGroupEntry { binding: 2, resource: out.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(g.surface_view()) },
+            wgpu::BindGroupEntry { binding: 1, resource: out.as_entire_binding() },
         ],
     });
     let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("test.read_gbuffer") });
@@ -181,7 +177,14 @@ fn read_gbuffer(r: &FrameRenderer, (w, h): (u32, u32)) -> Vec<f32> {
         pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
     }
     ctx.queue.submit([enc.finish()]);
-    read_buffer(device, &ctx.queue, &out).unwrap()
+    let texels: Vec<u32> = read_buffer(device, &ctx.queue, &out).unwrap();
+    texels
+        .chunks_exact(4)
+        .flat_map(|c| {
+            let t = tiledlight_cull::gbuffer::unpack([c[0], c[1], c[2], c[3]]);
+            [t.base.x, t.base.y, t.base.z, t.metallic, t.normal.x, t.normal.y, t.normal.z, t.roughness]
+        })
+        .collect()
 }
 
 /// Each sampled pixel's HDR as Tiled Deferred's shading of its G-buffer surface would be

@@ -21,7 +21,8 @@
 //! hierarchy, watertight triangle test and alpha masks ([`trace`]); and each light's
 //! contribution to a frame, which picks shadow casters by what they light on screen
 //! ([`contribution`]); and unit normals in two fixed-point numbers, the octahedral map
-//! with its error bound ([`octahedral`]).
+//! with its error bound ([`octahedral`]), and the compact G-buffer texel that packs a
+//! surface sample into 64 bits ([`gbuffer`]).
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
 
 pub mod error;
@@ -43,6 +44,7 @@ pub mod depth_mask;
 pub mod estimate;
 pub mod exposure;
 pub mod gather;
+pub mod gbuffer;
 pub mod grid;
 pub mod octahedral;
 pub mod raster;

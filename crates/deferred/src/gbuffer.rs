@@ -1,28 +1,29 @@
 //! The G-buffer pass: the scene drawn once into what the shared BRDF needs per pixel, with
-//! reversed-Z depth. Formats, chosen for the comparison with Forward+ to hold:
-//! - albedo + metallic: `Rgba8UnormSrgb` (4 B): base colours come from 8-bit sRGB textures
-//!   and factors, so 8-bit sRGB loses little;
-//! - normal + roughness: `Rgba16Float` (8 B): an 8-bit or 10-bit normal moves GGX highlights
-//!   visibly at low roughness (d ln D / d theta peaks near 2 / alpha, alpha = roughness^2:
-//!   50 per radian at roughness 0.2), which would break the comparison with Forward+;
+//! reversed-Z depth. Layout (issue 31), each field's precision in `docs/ARCHITECTURE.md`:
+//! - the surface: one `Rgba16Uint` target (8 B) packing the octahedral normal (2 x 14
+//!   bits, at most 0.0151 degrees off), the sRGB base colour (8 bits a channel), roughness
+//!   (8 bits) and metallic (4 bits), as [`tiledlight_cull::gbuffer`] (its CPU twin) lays
+//!   out. One target, because on the H200 each colour target of this pass costs about as
+//!   much as doubling one's bytes (`docs/PERFORMANCE.md`, the stress knob); integer, because
+//!   the fields are bit-packed (`Rgba16Uint` multisamples; 32-bit-channel formats do not);
 //! - depth: `Depth32Float` (4 B), world position rebuilt from it;
 //! - the stress knob's extra targets: `Rgba8Unorm`, one texture each, written white;
-//! - emission + occlusion: `Rgba16Float` (8 B), only in a scene with emissive or
-//!   occlusion-mapped materials ([`MaterialFeatures::emission_target`]): emitted radiance
-//!   is HDR (emissive strength), and the shading adds `ambient x albedo x occlusion +
-//!   emission` from it. Normal maps and metallic-roughness textures add nothing: targets 0
-//!   and 1 hold their result.
+//! - emission (+ occlusion): only in a scene with emissive or occlusion-mapped materials
+//!   ([`MaterialFeatures::emission_target`]). Emitted radiance is HDR (emissive
+//!   strength): `Rg11b10Ufloat` (4 B: 6-bit mantissas for red and green, 5 for blue, so
+//!   within 1/128 and 1/64 of the value; 6.1e-5 to 65,024) where the device can render to
+//!   it and nothing is occlusion-mapped; otherwise `Rgba16Float` (8 B), occlusion in alpha.
+//!   The shading adds `ambient x albedo x occlusion + emission` from it.
 //!
-//! 16 bytes a pixel with 2 targets (33 MB at 1080p), plus 4 per extra target and 8 with the
-//! emission target (24 B a pixel, 50 MB at 1080p), times the MSAA sample count: every target
-//! is multisampled with MSAA. Pipelines exist per draw kind the scene has. Depends on
-//! tiledlight-gpu.
+//! 12 bytes a pixel with no extra target (25 MB at 1080p), plus 4 per extra target and 4
+//! or 8 with the emission target, times the MSAA sample count: every target is
+//! multisampled with MSAA. Pipelines exist per draw kind the scene has. Depends on
+//! tiledlight-gpu and tiledlight-cull.
 
+use tiledlight_cull::gbuffer::TEXEL_BYTES;
 use tiledlight_gpu::bindings::PassBindings;
 use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
-#[cfg(doc)]
-use tiledlight_gpu::scene_gpu::MaterialFeatures;
-use tiledlight_gpu::scene_gpu::{SceneGpu, SCENE_GROUPS};
+use tiledlight_gpu::scene_gpu::{MaterialFeatures, SceneGpu, SCENE_GROUPS};
 use tiledlight_gpu::scene_raster::{begin_pass, cleared, DepthUse, RasterTargets, SceneRaster};
 use tiledlight_gpu::targets::texture_2d_msaa;
 use tiledlight_gpu::timer::GpuTimer;
@@ -31,17 +32,30 @@ use tiledlight_gpu::variants::{GBufferKey, MaterialKey};
 use tiledlight_gpu::view::Views;
 use tiledlight_gpu::GpuError;
 
-/// Format of target 0 (albedo, metallic).
-pub const ALBEDO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
-/// Format of target 1 (normal, roughness).
-pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// Format of target 0, the packed surface ([`tiledlight_cull::gbuffer`]).
+pub const SURFACE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Uint;
 /// Format of the extra (stress) targets.
 pub const EXTRA_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
-/// Format of the emission + occlusion target (scenes with emission or occlusion maps).
+/// Format of the emission target when something is occlusion-mapped (occlusion in alpha)
+/// or the device cannot render to [`EMISSION_FORMAT_SMALL`].
 pub const EMISSION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// Format of the emission target of a scene that emits and has no occlusion maps, on a
+/// device with `RG11B10UFLOAT_RENDERABLE` (4 B instead of 8; reads back alpha 1, no
+/// occlusion).
+pub const EMISSION_FORMAT_SMALL: wgpu::TextureFormat = wgpu::TextureFormat::Rg11b10Ufloat;
 /// The emission target's colour attachment (`@location` in `shaders/gbuffer.wgsl`): after
 /// the most targets the stress knob makes, so its location does not depend on it.
-pub const EMISSION_LOCATION: usize = 5;
+pub const EMISSION_LOCATION: usize = 4;
+
+/// The emission target's format for a scene with `materials`' features on `device`, or
+/// none when nothing emits or is occlusion-mapped.
+pub fn emission_format(device: &wgpu::Device, materials: &MaterialFeatures) -> Option<wgpu::TextureFormat> {
+    if !materials.emission_target() {
+        return None;
+    }
+    let small = !materials.occlusion && device.features().contains(wgpu::Features::RG11B10UFLOAT_RENDERABLE);
+    Some(if small { EMISSION_FORMAT_SMALL } else { EMISSION_FORMAT })
+}
 /// Test-only values of the extra targets 0, 1, 2 (RGB, 8-bit unorm, so stored exactly),
 /// written instead of white by the `EXTRA_TEST_VALUES` variant of `shaders/gbuffer.wgsl`
 /// (keep the two in step). Different per target and per channel, so a target read twice,
@@ -53,30 +67,28 @@ pub const RT_RANGE: std::ops::RangeInclusive<u32> = 2..=5;
 
 /// The G-buffer textures of one screen size.
 pub struct GBuffer {
-    /// Albedo and metallic.
-    pub albedo: wgpu::Texture,
-    /// Normal and roughness.
-    pub normal: wgpu::Texture,
+    /// The packed surface (normal, base colour, roughness, metallic).
+    pub surface: wgpu::Texture,
     /// Extra white targets, one texture each (multisampled textures cannot be array layers).
     pub extra: Vec<wgpu::Texture>,
     /// Emission (rgb) and occlusion (alpha), only for scenes that have either.
     pub emission: Option<wgpu::Texture>,
-    albedo_view: wgpu::TextureView,
-    normal_view: wgpu::TextureView,
+    surface_view: wgpu::TextureView,
     extra_views: Vec<wgpu::TextureView>,
     emission_view: Option<wgpu::TextureView>,
     samples: u32,
 }
 
 impl GBuffer {
-    /// Targets for `w` x `h` with `rts` render targets (2..=5) of `samples` samples each,
-    /// and the emission target when `emission`.
+    /// Targets for `w` x `h` with the stress knob at `rts` (2..=5: `rts - 2` extra targets)
+    /// of `samples` samples each, and the emission target in `emission`'s format if any
+    /// ([`emission_format`]).
     pub fn new(
         device: &wgpu::Device,
         (w, h): (u32, u32),
         rts: u32,
         samples: u32,
-        emission: bool,
+        emission: Option<wgpu::TextureFormat>,
     ) -> Result<Self, GpuError> {
         if !RT_RANGE.contains(&rts) {
             return Err(GpuError::Config(format!("G-buffer render targets {rts} must be in 2..=5")));
@@ -86,18 +98,15 @@ impl GBuffer {
         let view = |t: &wgpu::Texture, label: &str| {
             t.create_view(&wgpu::TextureViewDescriptor { label: Some(label), ..Default::default() })
         };
-        let albedo = target("deferred.gbuffer.albedo", ALBEDO_FORMAT);
-        let normal = target("deferred.gbuffer.normal", NORMAL_FORMAT);
+        let surface = target("deferred.gbuffer.surface", SURFACE_FORMAT);
         let extra: Vec<wgpu::Texture> =
             (2..rts).map(|k| target(&format!("deferred.gbuffer.extra{}", k - 2), EXTRA_FORMAT)).collect();
         let extra_views = extra.iter().map(|t| view(t, "deferred.gbuffer.extra.view")).collect();
-        let emission = emission.then(|| target("deferred.gbuffer.emission", EMISSION_FORMAT));
+        let emission = emission.map(|format| target("deferred.gbuffer.emission", format));
         Ok(Self {
-            albedo_view: view(&albedo, "deferred.gbuffer.albedo.view"),
-            normal_view: view(&normal, "deferred.gbuffer.normal.view"),
+            surface_view: view(&surface, "deferred.gbuffer.surface.view"),
             emission_view: emission.as_ref().map(|t| view(t, "deferred.gbuffer.emission.view")),
-            albedo,
-            normal,
+            surface,
             extra,
             extra_views,
             emission,
@@ -105,7 +114,7 @@ impl GBuffer {
         })
     }
 
-    /// Number of render targets.
+    /// The stress knob's setting (`2 +` the extra targets), as the sample counts it.
     pub fn rts(&self) -> u32 {
         2 + self.extra.len() as u32
     }
@@ -115,19 +124,21 @@ impl GBuffer {
         self.samples
     }
 
-    /// Bytes of the colour targets (depth not included), every sample counted.
-    pub fn bytes(&self) -> u64 {
-        let px = self.albedo.width() as u64 * self.albedo.height() as u64 * self.samples as u64;
-        px * (4 + 8 + 4 * self.extra.len() as u64 + if self.emission.is_some() { 8 } else { 0 })
+    /// Bytes of one sample of the colour targets (depth not included).
+    pub fn bytes_per_sample(&self) -> u64 {
+        let emission = self.emission.as_ref().map_or(0, |t| t.format().block_copy_size(None).unwrap_or(0));
+        TEXEL_BYTES + 4 * self.extra.len() as u64 + u64::from(emission)
     }
 
-    /// View of the albedo target.
-    pub fn albedo_view(&self) -> &wgpu::TextureView {
-        &self.albedo_view
+    /// Bytes of the colour targets (depth not included), every sample counted.
+    pub fn bytes(&self) -> u64 {
+        let px = self.surface.width() as u64 * self.surface.height() as u64 * self.samples as u64;
+        px * self.bytes_per_sample()
     }
-    /// View of the normal target.
-    pub fn normal_view(&self) -> &wgpu::TextureView {
-        &self.normal_view
+
+    /// View of the packed surface target.
+    pub fn surface_view(&self) -> &wgpu::TextureView {
+        &self.surface_view
     }
     /// Views of the extra targets, in order.
     pub fn extra_views(&self) -> &[wgpu::TextureView] {
@@ -162,10 +173,11 @@ impl GBufferPass {
         samples: u32,
         test_values: bool,
     ) -> Result<Self, GpuError> {
-        let mut targets = vec![
-            Some(wgpu::ColorTargetState { format: ALBEDO_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL }),
-            Some(wgpu::ColorTargetState { format: NORMAL_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL }),
-        ];
+        let mut targets = vec![Some(wgpu::ColorTargetState {
+            format: SURFACE_FORMAT,
+            blend: None,
+            write_mask: wgpu::ColorWrites::ALL,
+        })];
         for _ in 2..rts {
             targets.push(Some(wgpu::ColorTargetState {
                 format: EXTRA_FORMAT,
@@ -173,15 +185,12 @@ impl GBufferPass {
                 write_mask: wgpu::ColorWrites::ALL,
             }));
         }
-        let emission = scene.material_features.emission_target();
-        if emission {
+        let emission_format = emission_format(device, &scene.material_features);
+        if let Some(format) = emission_format {
             targets.resize(EMISSION_LOCATION, None);
-            targets.push(Some(wgpu::ColorTargetState {
-                format: EMISSION_FORMAT,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            }));
+            targets.push(Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL }));
         }
+        let emission = emission_format.is_some();
         let fs = format!("fs_gbuffer{rts}");
         let materials = MaterialKey::of(&scene.material_features);
         let raster = SceneRaster::materials(
@@ -216,7 +225,7 @@ impl GBufferPass {
         depth: &wgpu::TextureView,
     ) {
         let clear = |view| cleared(view, None, wgpu::Color::BLACK);
-        let mut attachments = vec![clear(&gbuffer.albedo_view), clear(&gbuffer.normal_view)];
+        let mut attachments = vec![clear(&gbuffer.surface_view)];
         attachments.extend(gbuffer.extra_views.iter().map(clear));
         if let Some(e) = &gbuffer.emission_view {
             attachments.resize(EMISSION_LOCATION, None);

@@ -2,7 +2,7 @@
 //! ([`crate::shared`]), with the handles each reads and writes.
 //!
 //! ```text
-//! GBuffer        scene                       -> Depth, G-buffer (albedo, normal, [emission], [extra])
+//! GBuffer        scene                       -> Depth, G-buffer (surface, [extra], [emission])
 //! [VplCull]      Depth, VPLs                 -> VPL Lists (shared step, with VPLs)
 //! DeferredShade  Depth, G-buffer, lights,    -> Lists, Hdr (one compute pass culls each tile
 //!                VPL Lists, shadow atlas               and shades it; with light-centric
@@ -15,7 +15,7 @@
 
 use std::any::Any;
 
-use tiledlight_deferred::gbuffer::{GBuffer, GBufferPass, ALBEDO_FORMAT, EXTRA_FORMAT, NORMAL_FORMAT};
+use tiledlight_deferred::gbuffer::{emission_format, GBuffer, GBufferPass, EXTRA_FORMAT, SURFACE_FORMAT};
 use tiledlight_deferred::shading::DeferredShading;
 use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
 use tiledlight_gpu::features::Features;
@@ -36,7 +36,7 @@ use crate::shared::{SharedSteps, TargetNeeds};
 /// image written by compute (and, with blended geometry, composited onto by a render
 /// pass: then the transparent layer is a multisampled HDR target too).
 pub fn targets(features: &Features) -> TargetNeeds {
-    let mut msaa_formats = vec![DEPTH_FORMAT, ALBEDO_FORMAT, NORMAL_FORMAT];
+    let mut msaa_formats = vec![DEPTH_FORMAT, SURFACE_FORMAT];
     if features.extra_targets > 0 {
         msaa_formats.push(EXTRA_FORMAT);
     }
@@ -68,7 +68,7 @@ impl DeferredFrame {
         let device = &ctx.device;
         let (features, views, targets) = (&shared.features, &shared.views, &shared.targets);
         let size = (targets.hdr.width(), targets.hdr.height());
-        let emission = features.materials.emission_target();
+        let emission = emission_format(device, &features.materials);
         let gbuffer = GBuffer::new(device, size, settings.gbuffer_rts, features.msaa, emission)?;
         let gbuffer_pass =
             GBufferPass::new(device, views, scene, settings.gbuffer_rts, features.msaa, settings.test_gbuffer_values)?;

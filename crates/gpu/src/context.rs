@@ -97,6 +97,11 @@ impl GpuContext {
         if features.contains(wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES) {
             required_features |= wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES;
         }
+        // Tiled Deferred's emission target in 4 bytes instead of 8 (tiledlight_deferred::gbuffer
+        // emission_format); without it the target stays Rgba16Float.
+        if features.contains(wgpu::Features::RG11B10UFLOAT_RENDERABLE) {
+            required_features |= wgpu::Features::RG11B10UFLOAT_RENDERABLE;
+        }
         // The visibility buffer's raster pass writes @builtin(primitive_index); without it
         // that method is refused by name (tiledlight_frame::visibility).
         if features.contains(wgpu::Features::PRIMITIVE_INDEX) {

@@ -1,0 +1,74 @@
+// Tiled Deferred's compact G-buffer texel: a surface sample in one Rgba16Uint texel.
+// CPU twin and bit layout: crates/cull/src/gbuffer.rs (keep the two in step).
+//   x: metallic bits 1-0 in 15-14, the octahedral normal's u code (14 bits, offset) in 13-0
+//   y: metallic bits 3-2 in 15-14, the v code in 13-0
+//   z: base red (sRGB, 8 bits) in 15-8, green in 7-0
+//   w: base blue in 15-8, perceptual roughness (8 bits) in 7-0
+
+const GB_NORMAL_MAX: f32 = 8191.0;   // 2^13 - 1
+const GB_NORMAL_OFFSET: i32 = 8192;  // 2^13
+const GB_METALLIC_MAX: f32 = 15.0;   // 4 bits
+
+struct GTexel {
+    base: vec3<f32>,
+    metallic: f32,
+    normal: vec3<f32>,
+    roughness: f32,
+}
+
+// The lower half's fold (its own inverse): (1 - |v|, 1 - |u|) with the signs of (u, v).
+fn oct_fold(p: vec2<f32>) -> vec2<f32> {
+    let sign = select(vec2<f32>(-1.0), vec2<f32>(1.0), p >= vec2<f32>(0.0));
+    return (vec2<f32>(1.0) - abs(p.yx)) * sign;
+}
+
+// The point of the square [-1, 1]^2 a direction maps to (+Z's, the origin, for a zero one).
+fn oct_map(n: vec3<f32>) -> vec2<f32> {
+    let a = abs(n);
+    let m = max(a.x, max(a.y, a.z));
+    if !(m > 0.0) {
+        return vec2<f32>(0.0);
+    }
+    let s = n / m;
+    let p = s.xy / (abs(s.x) + abs(s.y) + abs(s.z));
+    return select(p, oct_fold(p), s.z < 0.0);
+}
+
+fn oct_unmap(p: vec2<f32>) -> vec3<f32> {
+    let z = 1.0 - abs(p.x) - abs(p.y);
+    let xy = select(p, oct_fold(p), z < 0.0);
+    return normalize(vec3<f32>(xy, z));
+}
+
+fn unorm_code(c: f32, max_code: f32) -> u32 {
+    return u32(floor(0.5 + max_code * saturate(c)));
+}
+
+fn linear_to_srgb(c: vec3<f32>) -> vec3<f32> {
+    let x = saturate(c);
+    return select(1.055 * pow(x, vec3<f32>(1.0 / 2.4)) - 0.055, 12.92 * x, x <= vec3<f32>(0.0031308));
+}
+
+fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
+    return select(pow((c + 0.055) / 1.055, vec3<f32>(2.4)), c / 12.92, c <= vec3<f32>(0.04045));
+}
+
+fn pack_gtexel(t: GTexel) -> vec4<u32> {
+    let o = oct_map(t.normal);
+    let q = vec2<u32>(vec2<i32>(floor(0.5 + GB_NORMAL_MAX * clamp(o, vec2<f32>(-1.0), vec2<f32>(1.0)))) + GB_NORMAL_OFFSET);
+    let m = unorm_code(t.metallic, GB_METALLIC_MAX);
+    let srgb = linear_to_srgb(t.base);
+    let c = vec3<u32>(floor(0.5 + 255.0 * srgb));
+    return vec4<u32>(q.x | ((m & 3u) << 14u), q.y | ((m >> 2u) << 14u), (c.r << 8u) | c.g, (c.b << 8u) | unorm_code(t.roughness, 255.0));
+}
+
+fn unpack_gtexel(p: vec4<u32>) -> GTexel {
+    let q = vec2<f32>(vec2<i32>(p.xy & vec2<u32>(0x3fffu)) - GB_NORMAL_OFFSET);
+    var t: GTexel;
+    t.normal = oct_unmap(max(q / GB_NORMAL_MAX, vec2<f32>(-1.0)));
+    t.metallic = f32(((p.x >> 14u) & 3u) | (((p.y >> 14u) & 3u) << 2u)) / GB_METALLIC_MAX;
+    let c = vec3<f32>(vec3<u32>(p.z >> 8u, p.z, p.w >> 8u) & vec3<u32>(0xffu)) / 255.0;
+    t.base = srgb_to_linear(c);
+    t.roughness = f32(p.w & 0xffu) / 255.0;
+    return t;
+}
