@@ -116,3 +116,17 @@ fn fs_gbuffer5(in: VertexOut, @builtin(front_facing) front: bool) -> Out5 {
     return Out5(s.surface, EXTRA0, EXTRA1, EXTRA2);
 #endif
 }
+
+// The reflective shadow map's texel (tiledlight_vpl::rsm): the same material sample,
+// unpacked, into its two float targets (albedo + metallic, normal + roughness), since the
+// VPL generation pass filters and sums them rather than shading them once.
+struct RsmOut {
+    @location(0) albedo_metallic: vec4<f32>,
+    @location(1) normal_roughness: vec4<f32>,
+}
+
+@fragment
+fn fs_rsm(in: VertexOut, @builtin(front_facing) front: bool) -> RsmOut {
+    let ms = material_sample(in, front);
+    return RsmOut(vec4<f32>(ms.base, ms.metallic), vec4<f32>(ms.normal, ms.roughness));
+}

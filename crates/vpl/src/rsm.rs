@@ -4,7 +4,7 @@
 //! atlases: depth (`Depth32Float`, reversed-Z, the texel's world position), albedo +
 //! metallic (8-bit linear: [`RSM_ALBEDO_FORMAT`] says why) and normal + roughness, written
 //! by the G-buffer's own shader
-//! (`shaders/gbuffer.wgsl`, `fs_gbuffer2`, the scene's material paths and draw kinds), so
+//! (`shaders/gbuffer.wgsl`, `fs_rsm`: the material sample unpacked, the scene's material paths and draw kinds), so
 //! an RSM texel is exactly what Tiled Deferred's G-buffer would hold seen from the light.
 //!
 //! Each face is drawn through its own view slot ([`rsm_view_proj`]): the shadow face's view
@@ -242,7 +242,7 @@ impl Rsm {
                 depth: DepthUse::Write,
                 depth_format: RSM_DEPTH_FORMAT,
                 samples: 1,
-                fragment: ("fs_gbuffer2", &targets),
+                fragment: ("fs_rsm", &targets),
                 constants: &[],
             },
         )?;
