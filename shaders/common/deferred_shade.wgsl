@@ -54,8 +54,12 @@ alias GTexture = texture_2d<f32>;
 alias GSurfaceTexture = texture_2d<u32>;
 #endif
 
-// The packed surface (common/gbuffer_texel.wgsl).
+// The packed surface (common/gbuffer_texel.wgsl) and its base colour's decoding table:
+// every 8-bit sRGB code in a 256 x 1 Rgba8UnormSrgb texture, so the base colour decodes
+// through the texture unit exactly as the material textures did (tiledlight_deferred::gbuffer
+// GBuffer::srgb_lut_view says why).
 @group(1) @binding(3) var gbuffer_surface: GSurfaceTexture;
+@group(1) @binding(4) var gbuffer_srgb_lut: texture_2d<f32>;
 #ifdef EXTRA_RTS
 @group(1) @binding(5) var gbuffer_extra0: GTexture;
 #ifdef EXTRA_RTS_2
@@ -186,8 +190,14 @@ fn load_gsample(p: vec2<u32>, s: u32) -> GSample {
     g.dist = view_distance(d);
     let view_pos = view_point_at(pixel_to_ndc(vec2<f32>(p) + sample_position(s)), g.dist);
     g.world = (view.view_to_world * vec4<f32>(view_pos, 1.0)).xyz;
-    let t = unpack_gtexel(textureLoad(gbuffer_surface, p, s));
-    var albedo = t.base;
+    let packed = textureLoad(gbuffer_surface, p, s);
+    let t = unpack_gtexel(packed);
+    let codes = gtexel_base_codes(packed);
+    var albedo = vec3<f32>(
+        textureLoad(gbuffer_srgb_lut, vec2<u32>(codes.r, 0u), 0).r,
+        textureLoad(gbuffer_srgb_lut, vec2<u32>(codes.g, 0u), 0).r,
+        textureLoad(gbuffer_srgb_lut, vec2<u32>(codes.b, 0u), 0).r,
+    );
 #ifdef EXTRA_RTS
     albedo *= textureLoad(gbuffer_extra0, p, s).rgb;
 #ifdef EXTRA_RTS_2

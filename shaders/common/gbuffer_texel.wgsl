@@ -62,12 +62,19 @@ fn pack_gtexel(t: GTexel) -> vec4<u32> {
     return vec4<u32>(q.x | ((m & 3u) << 14u), q.y | ((m >> 2u) << 14u), (c.r << 8u) | c.g, (c.b << 8u) | unorm_code(t.roughness, 255.0));
 }
 
+// The base colour's three 8-bit sRGB codes (the Tiled Deferred shading decodes them through
+// a table the texture unit reads, common/deferred_shade.wgsl).
+fn gtexel_base_codes(p: vec4<u32>) -> vec3<u32> {
+    return vec3<u32>(p.z >> 8u, p.z, p.w >> 8u) & vec3<u32>(0xffu);
+}
+
+// The texel's fields, the base colour decoded by the sRGB formula.
 fn unpack_gtexel(p: vec4<u32>) -> GTexel {
     let q = vec2<f32>(vec2<i32>(p.xy & vec2<u32>(0x3fffu)) - GB_NORMAL_OFFSET);
     var t: GTexel;
     t.normal = oct_unmap(max(q / GB_NORMAL_MAX, vec2<f32>(-1.0)));
     t.metallic = f32(((p.x >> 14u) & 3u) | (((p.y >> 14u) & 3u) << 2u)) / GB_METALLIC_MAX;
-    let c = vec3<f32>(vec3<u32>(p.z >> 8u, p.z, p.w >> 8u) & vec3<u32>(0xffu)) / 255.0;
+    let c = vec3<f32>(gtexel_base_codes(p)) / 255.0;
     t.base = srgb_to_linear(c);
     t.roughness = f32(p.w & 0xffu) / 255.0;
     return t;

@@ -162,3 +162,87 @@ fn the_comparison_rejects_a_twin_with_swapped_channels() {
     };
     assert!(!mismatches(&cases, &rows, shifted).is_empty(), "a shifted metallic bit passed");
 }
+
+/// The texture unit's sRGB decode (what every renderer's base colour textures go through)
+/// against the IEC 61966-2-1 formula that the texel's decoder computes: a 256 x 1
+/// `Rgba8UnormSrgb` texture holding every code, read with `textureLoad`. The old G-buffer
+/// (an `Rgba8UnormSrgb` target) round-tripped through the adapter's own conversions; the
+/// packed one decodes by the formula, so where the adapter's decode strays from it, Tiled
+/// Deferred's base colour differs from the other methods' by that much. Printed and
+/// bounded per adapter: lavapipe approximates (see `LAVAPIPE_SRGB_DECODE_ERROR`); a GPU
+/// with exact tables must agree to 1e-5 relative.
+#[test]
+fn the_texture_units_srgb_decode_against_the_formula() {
+    let ctx = gpu();
+    let device = &ctx.device;
+    let codes: Vec<u8> = (0..=255u8).flat_map(|k| [k, k, k, 255]).collect();
+    let tex = wgpu::util::DeviceExt::create_texture_with_data(
+        device,
+        &ctx.queue,
+        &wgpu::TextureDescriptor {
+            label: Some("test.srgb_codes"),
+            size: wgpu::Extent3d { width: 256, height: 1, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba8UnormSrgb,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        },
+        wgpu::util::TextureDataOrder::LayerMajor,
+        &codes,
+    );
+    let src = "
+        @group(0) @binding(0) var codes: texture_2d<f32>;
+        @group(0) @binding(1) var<storage, read_write> out: array<f32>;
+        @compute @workgroup_size(64)
+        fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+            out[id.x] = textureLoad(codes, vec2<u32>(id.x, 0u), 0).r;
+        }";
+    let module = tiledlight_tests::kernels::test_module(ctx, "test.srgb_decode", src);
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("test.srgb_decode"),
+        layout: None,
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let out = tiledlight_gpu::util::buffer_zeroed(
+        device,
+        "test.srgb_decode.out",
+        256 * 4,
+        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+    );
+    let view = tex.create_view(&Default::default());
+    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("test.srgb_decode"),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
+            wgpu::BindGroupEntry { binding: 1, resource: out.as_entire_binding() },
+        ],
+    });
+    let mut enc = device.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.dispatch_workgroups(4, 1, 1);
+    }
+    ctx.queue.submit([enc.finish()]);
+    let got: Vec<f32> = tiledlight_gpu::readback::read_buffer(device, &ctx.queue, &out).unwrap();
+    let (mut worst, mut at) = (0.0f32, 0);
+    for (k, &g) in got.iter().enumerate() {
+        let want = tiledlight_cull::gbuffer::srgb_to_linear(k as f32 / 255.0);
+        let rel = (g - want).abs() / want.max(1e-30);
+        if k > 0 && rel > worst {
+            (worst, at) = (rel, k);
+        }
+        assert_eq!(g == 0.0, k == 0, "code {k} decodes to {g}");
+    }
+    eprintln!("{}: sRGB decode vs the formula: worst relative {worst:.3e} at code {at}", ctx.info.name);
+    let bound =
+        if tiledlight_tests::is_lavapipe(ctx) { tiledlight_tests::compare::LAVAPIPE_SRGB_DECODE_ERROR } else { 1e-5 };
+    assert!(worst <= bound, "the adapter's sRGB decode strays {worst:e} from the formula (bound {bound:e})");
+}

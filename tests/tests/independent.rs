@@ -237,11 +237,16 @@ fn shade(hit: &Hit, eye: Vec3, lights: &[Light]) -> Vec3 {
     c
 }
 
-/// The range of albedos the G-buffer's 8-bit sRGB target may hold for albedos in
-/// `(lo, hi)`: the code below `lo` to the code above `hi` (the GPU may round either way).
+/// The range of albedos Tiled Deferred may shade with for albedos in `(lo, hi)`: its packed
+/// G-buffer stores the 8-bit sRGB code (`tiledlight_cull::gbuffer`), the code below `lo` to
+/// the code above `hi` (rounding either way), and decodes it through the texture unit (an
+/// `Rgba8UnormSrgb` table), which may read a code as anything from code - 0.5 to code + 0.5,
+/// as for the material textures.
 fn gbuffer_albedo_range((lo, hi): (Vec3, Vec3)) -> (Vec3, Vec3) {
-    let code = |c: f32, round: fn(f32) -> f32| srgb_to_linear(round(linear_to_srgb(c) * 255.0) / 255.0);
-    (lo.to_array().map(|c| code(c, f32::floor)).into(), hi.to_array().map(|c| code(c, f32::ceil)).into())
+    let code = |c: f32, round: fn(f32) -> f32, half: f32| {
+        srgb_to_linear(((round(linear_to_srgb(c) * 255.0) + half) / 255.0).clamp(0.0, 1.0))
+    };
+    (lo.to_array().map(|c| code(c, f32::floor, -0.5)).into(), hi.to_array().map(|c| code(c, f32::ceil, 0.5)).into())
 }
 
 /// Textured, alpha-masked, double-sided (front and back) and plain materials: brute force,

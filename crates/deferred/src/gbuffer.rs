@@ -74,6 +74,7 @@ pub struct GBuffer {
     /// Emission (rgb) and occlusion (alpha), only for scenes that have either.
     pub emission: Option<wgpu::Texture>,
     surface_view: wgpu::TextureView,
+    srgb_lut_view: wgpu::TextureView,
     extra_views: Vec<wgpu::TextureView>,
     emission_view: Option<wgpu::TextureView>,
     samples: u32,
@@ -84,7 +85,7 @@ impl GBuffer {
     /// of `samples` samples each, and the emission target in `emission`'s format if any
     /// ([`emission_format`]).
     pub fn new(
-        device: &wgpu::Device,
+        (device, queue): (&wgpu::Device, &wgpu::Queue),
         (w, h): (u32, u32),
         rts: u32,
         samples: u32,
@@ -103,7 +104,24 @@ impl GBuffer {
             (2..rts).map(|k| target(&format!("deferred.gbuffer.extra{}", k - 2), EXTRA_FORMAT)).collect();
         let extra_views = extra.iter().map(|t| view(t, "deferred.gbuffer.extra.view")).collect();
         let emission = emission.map(|format| target("deferred.gbuffer.emission", format));
+        let srgb_lut = wgpu::util::DeviceExt::create_texture_with_data(
+            device,
+            queue,
+            &wgpu::TextureDescriptor {
+                label: Some("deferred.gbuffer.srgb_lut"),
+                size: wgpu::Extent3d { width: 256, height: 1, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba8UnormSrgb,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            },
+            wgpu::util::TextureDataOrder::LayerMajor,
+            &(0..=255u8).flat_map(|k| [k, k, k, 255]).collect::<Vec<u8>>(),
+        );
         Ok(Self {
+            srgb_lut_view: view(&srgb_lut, "deferred.gbuffer.srgb_lut.view"),
             surface_view: view(&surface, "deferred.gbuffer.surface.view"),
             emission_view: emission.as_ref().map(|t| view(t, "deferred.gbuffer.emission.view")),
             surface,
@@ -136,6 +154,15 @@ impl GBuffer {
         px * self.bytes_per_sample()
     }
 
+    /// The base colour's decoding table: a 256 x 1 `Rgba8UnormSrgb` texture holding every
+    /// code, so the shading decodes a texel's 8-bit sRGB base colour through the texture
+    /// unit, exactly as the material textures it came from were decoded (an adapter's sRGB
+    /// decode may stray from the formula: lavapipe's by 2.5% at code 5), and the packed
+    /// G-buffer round-trips a texture's colour exactly, as an `Rgba8UnormSrgb` target did.
+    pub fn srgb_lut_view(&self) -> &wgpu::TextureView {
+        &self.srgb_lut_view
+    }
+
     /// View of the packed surface target.
     pub fn surface_view(&self) -> &wgpu::TextureView {
         &self.surface_view
@@ -144,6 +171,11 @@ impl GBuffer {
     pub fn extra_views(&self) -> &[wgpu::TextureView] {
         &self.extra_views
     }
+    /// The emission target's format, when the scene has one.
+    pub fn emission_format(&self) -> Option<wgpu::TextureFormat> {
+        self.emission.as_ref().map(|t| t.format())
+    }
+
     /// View of the emission target, when the scene has one.
     pub fn emission_view(&self) -> Option<&wgpu::TextureView> {
         self.emission_view.as_ref()

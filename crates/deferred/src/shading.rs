@@ -235,7 +235,7 @@ const fn hdr_storage_binding(binding: u32) -> Binding {
 }
 
 /// Group 1 of every Tiled Deferred kernel: depth (0), bounding spheres (1), the lighting
-/// uniform (2), the packed surface (3, `Rgba16Uint`), shading lights (6), the HDR output (9); the extra
+/// uniform (2), the packed surface (3, `Rgba16Uint`) and its sRGB table (4), shading lights (6), the HDR output (9); the extra
 /// targets (5, 10, 11) with `EXTRA_RTS`, `_2`, `_3`; spots (7) with `SPOT_LIGHTS` (or
 /// `SPOT_CONE`, which the pass sets only with spots); cells (8) with `COARSE`; with `MSAA`
 /// the sample texture (12), edge list (13) and resolve arguments (14); with `SHADOWS` the
@@ -248,6 +248,7 @@ pub const DEFERRED_GROUP: &[Binding] = &[
     Binding::storage(1, CS),
     Binding::uniform(2, CS),
     Binding::texture(3, CS, wgpu::TextureSampleType::Uint).multisampled_when(Cond::Defined("MSAA")),
+    Binding::texture(4, CS, wgpu::TextureSampleType::Float { filterable: false }),
     Binding::storage(6, CS),
     hdr_storage_binding(9),
     gbuffer_binding(5).when(Cond::Defined("EXTRA_RTS")),
@@ -428,6 +429,7 @@ impl DeferredShading {
             wgpu::BindGroupEntry { binding: 1, resource: lights.cull.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 2, resource: lighting.as_entire_binding() },
             view_entry(3, gbuffer.surface_view()),
+            view_entry(4, gbuffer.srgb_lut_view()),
             wgpu::BindGroupEntry { binding: 6, resource: lights.shading.as_entire_binding() },
             view_entry(9, hdr),
         ];

@@ -69,7 +69,7 @@ impl DeferredFrame {
         let (features, views, targets) = (&shared.features, &shared.views, &shared.targets);
         let size = (targets.hdr.width(), targets.hdr.height());
         let emission = emission_format(device, &features.materials);
-        let gbuffer = GBuffer::new(device, size, settings.gbuffer_rts, features.msaa, emission)?;
+        let gbuffer = GBuffer::new((device, &ctx.queue), size, settings.gbuffer_rts, features.msaa, emission)?;
         let gbuffer_pass =
             GBufferPass::new(device, views, scene, settings.gbuffer_rts, features.msaa, settings.test_gbuffer_values)?;
         memory.add("deferred.gbuffer", gbuffer.bytes());
