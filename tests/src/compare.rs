@@ -29,20 +29,25 @@ pub struct Frame {
     pub allowance: Vec<f32>,
 }
 
-/// How far an f16 G-buffer normal's rounding can move `n.l` (half an ulp, 2^-12, per
-/// component below 1, so at most sqrt(3) 2^-12 = 4.2e-4; 2^-11 with margin).
-pub const F16_NORMAL_ERROR: f32 = 1.0 / 2048.0;
+/// How far the packed G-buffer normal's rounding can move `n.l`: the normal turns by at
+/// most [`tiledlight_cull::gbuffer::max_normal_error`] (2.64e-4 rad, 0.0151 degrees: 14-bit
+/// octahedral coordinates), and a unit vector turned by `e` changes its dot product with
+/// another by at most `e`. The f16 xyz normal it replaced needed 4.9e-4 (2^-11).
+pub fn gbuffer_normal_error() -> f32 {
+    tiledlight_cull::gbuffer::max_normal_error() as f32
+}
 
 impl Frame {
-    /// Adds, per pixel, what Tiled Deferred's f16 normal may legitimately change: each
+    /// Adds, per pixel, what Tiled Deferred's packed normal may legitimately change: each
     /// light's diffuse term is `radiance x attenuation x albedo / pi x n.l`, and the rounded
-    /// normal moves `n.l` by up to [`F16_NORMAL_ERROR`], so up to `radiance x attenuation /
-    /// pi x F16_NORMAL_ERROR` (albedo at most 1, spot falloff at most 1) a light. Relative to
-    /// the pixel that is small except for lights at grazing incidence: measured on the H200,
-    /// a courtyard pixel whose brightest light arrives at `n.l` = 0.0036 moved 3.1%, and the
-    /// CPU BRDF fed that pixel's G-buffer normal gives the deferred value to 1e-4. A light
-    /// missing from a pixel is far outside this allowance (it is a light's whole
-    /// contribution, the allowance 5e-4 / n.l of it).
+    /// normal moves `n.l` by up to [`gbuffer_normal_error`], so up to `radiance x
+    /// attenuation / pi x gbuffer_normal_error()` (albedo at most 1, spot falloff at most
+    /// 1) a light. Relative to the pixel that is small except for lights at grazing
+    /// incidence: measured on the H200 with the f16 normal (2^-11), a courtyard pixel whose
+    /// brightest light arrives at `n.l` = 0.0036 moved 3.1%, and the CPU BRDF fed that
+    /// pixel's G-buffer normal gives the deferred value to 1e-4. A light missing from a
+    /// pixel is far outside this allowance (it is a light's whole contribution, the
+    /// allowance 2.6e-4 / n.l of it).
     pub fn allow_gbuffer_normals(mut self, depth: &[f32], w: u32, camera: &Camera, lights: &PackedLights) -> Self {
         let h = (self.hdr.len() / w as usize) as u32;
         let inv_view = camera.view().inverse();
@@ -62,7 +67,7 @@ impl Frame {
                         Vec3::from(l.radiance).max_element() * windowed_attenuation(d2, l.radius)
                     })
                     .sum();
-                sum / std::f32::consts::PI * F16_NORMAL_ERROR
+                sum / std::f32::consts::PI * gbuffer_normal_error()
             })
             .collect();
         self
@@ -220,14 +225,14 @@ pub const LAVAPIPE_SRGB_DECODE_ERROR: f32 = 3e-2;
 /// Tiled Deferred vs the brute-force reference (same BRDF and cutoff): the G-buffer stores
 /// the albedo in 8-bit sRGB, as real deferred renderers do: half an sRGB step is about 1%
 /// of the linear value in mid-dark tones (sRGB 100/255), so lit pixels differ by up to
-/// ~1.5% everywhere. Measured on the courtyard: max relative HDR error 1.3e-2, FLIP mean
-/// 0.0104 (p99 0.031); with an f16 albedo instead (tried, not kept: 4 more bytes a pixel)
-/// 6.3e-3 and 0.0023, the rest coming from the f16 normal (~5e-4 rad moves GGX highlights
-/// by ~2.5% at roughness 0.2) and positions rebuilt from depth. Limits: HDR 3e-2 relative
+/// ~1.5% everywhere. Measured on the courtyard (with the f16 normal this layout replaced):
+/// max relative HDR error 1.3e-2, FLIP mean 0.0104 (p99 0.031); with an f16 albedo instead
+/// (tried, not kept: 4 more bytes a pixel) 6.3e-3 and 0.0023, the rest coming from the
+/// normal, roughness (8 bits) and positions rebuilt from depth. Limits: HDR 3e-2 relative
 /// (floor 1e-2), FLIP mean 0.015 and p99 0.05; a missing light changes a lit pixel by well
-/// over 5% and fails. The f16 normal's effect on lights at grazing incidence (where `n.l`
-/// is tiny, a 4e-4 shift is many percent) is not a relative error: a reference for Tiled
-/// Deferred carries it per pixel ([`Frame::allow_gbuffer_normals`]).
+/// over 5% and fails. The packed normal's effect on lights at grazing incidence (where
+/// `n.l` is tiny, a 2.6e-4 shift is many percent) is not a relative error: a reference for
+/// Tiled Deferred carries it per pixel ([`Frame::allow_gbuffer_normals`]).
 pub const DEFERRED_VS_REFERENCE: Tolerance =
     Tolerance { hdr_rel: 3e-2, hdr_floor: 1e-2, flip: FlipThresholds { mean: 0.015, percentile: (0.99, 0.05) } };
 
@@ -272,6 +277,26 @@ pub fn compare_with_reference(name: &str, w: u32, reference: &Frame, actual: &Fr
         }
         worst
     };
+    if !reference.allowance.is_empty() {
+        // The margin: how much the allowance forgave (the worst error without it, and the
+        // pixels it was needed for).
+        let (bare, bare_at) = max_relative_error(&reference.hdr, &actual.hdr, t.hdr_floor);
+        let needed = (0..reference.hdr.len())
+            .filter(|&i| {
+                (0..3).any(|c| {
+                    let d = (actual.hdr[i][c] - reference.hdr[i][c]).abs();
+                    d / reference.hdr[i][c].abs().max(t.hdr_floor) > t.hdr_rel
+                })
+            })
+            .count();
+        eprintln!(
+            "{name}: without the per-pixel allowance the worst error would be {bare:.2e} at ({}, {}); {needed} \
+             pixel(s) need the allowance (limit {:.0e})",
+            bare_at as u32 % w,
+            bare_at as u32 / w,
+            t.hdr_rel
+        );
+    }
     let h = (reference.hdr.len() / w as usize) as u32;
     let map = tiledlight_metrics::flip(w, h, &reference.ldr, &actual.ldr);
     let flip = map.summary(t.flip.percentile.0);

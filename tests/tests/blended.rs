@@ -175,7 +175,7 @@ fn blended_lists_match_the_cpu_twin() {
 
 /// Forward+ against brute force with the same blended layer: the lists are conservative and
 /// the blending the same code, so FORWARD_VS_REFERENCE holds (summation order only). Tiled
-/// Deferred's opaque layer is its own (8-bit albedo, f16 normals:
+/// Deferred's opaque layer is its own (8-bit albedo, packed normals:
 /// DEFERRED_VS_REFERENCE's reasons); its blended layer is the same forward code. With 4x
 /// MSAA, both against brute force at 4x.
 #[test]
@@ -198,7 +198,7 @@ fn methods_match_brute_force(
     let lights = LightBuffers::new(&ctx.device, &lights_for_panes()).unwrap();
     let cam = camera(Vec3::new(0.5, 0.5, 4.0), Vec3::new(0.0, 0.0, -10.0));
     // One depth per pixel for Tiled Deferred's G-buffer-normal allowance (the opaque layer's
-    // f16 normals move grazing lights: compare::Frame::allow_gbuffer_normals; measured on
+    // packed normals move grazing lights: compare::Frame::allow_gbuffer_normals; measured on
     // the H200 at 4x MSAA, a floor pixel 3.1e-2 off without it).
     let depth = opaque_depth(&sg, &lights, &cam);
     for msaa in [1, 4] {

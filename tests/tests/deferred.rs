@@ -55,7 +55,7 @@ fn compare_with_forward(
         FrameSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() },
     )
     .unwrap();
-    // The G-buffer's f16 normal moves grazing lights (tiledlight_tests::compare::Frame::allow_gbuffer_normals).
+    // The G-buffer's packed normal moves grazing lights (tiledlight_tests::compare::Frame::allow_gbuffer_normals).
     let plain_reference = render_frame(ctx, &mut bf, &sg, &camera);
     let depth = bf.read_depth(ctx).unwrap();
     let reference = plain_reference.clone().allow_gbuffer_normals(&depth, W, &camera, &lights.packed);

@@ -266,7 +266,7 @@ fn gbuffer_albedo_range((lo, hi): (Vec3, Vec3)) -> (Vec3, Vec3) {
 /// max(value, floor): brute force and Forward+ 3e-3 (floor 1e-3), as heatmap_and_brdf.rs's
 /// BRDF test: the f16 target rounds to 2^-11 relative, and the GPU interpolates position,
 /// normal and uv where the CPU intersects the ray exactly (~1e-5 apart); measured 9.7e-4 on
-/// lavapipe. Tiled Deferred 5e-3 (floor 1e-3): also the f16 G-buffer normal (up to ~7e-4
+/// lavapipe. Tiled Deferred 5e-3 (floor 1e-3): also the packed G-buffer normal (up to ~7e-4
 /// rad off) and the position rebuilt from depth; measured 2.4e-3 on lavapipe.
 ///
 /// Catches: texture not applied or sampled at the wrong uv (v flipped: the kept blocks swap

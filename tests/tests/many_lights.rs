@@ -18,7 +18,7 @@
 //! by FLIP (`DEFERRED_VS_REFERENCE`'s limits). Its HDR pixels are not held to
 //! `DEFERRED_VS_REFERENCE` here: with 65,536 random lights one pixel on the H200 sits 9%
 //! below brute force (478 vs 435, green) under a light millimetres from a glossy surface,
-//! where the f16 G-buffer normal moves a sharp GGX lobe by more than the diffuse-only
+//! where the packed G-buffer normal moves a sharp GGX lobe by more than the diffuse-only
 //! allowance of `Frame::allow_gbuffer_normals` covers. That is G-buffer precision, not a
 //! list (the lists are checked exactly above), and is left to the G-buffer's own work; the
 //! deferred tests hold the HDR limit at 1,024 lights.

@@ -17,7 +17,7 @@
 //! within 3% of a texel edge are skipped (interpolated and rebuilt coordinates may pick
 //! different texels there). Forward+ and Tiled Deferred are then compared with brute force
 //! under the suite's tolerances (`tiledlight_tests::compare`: Forward+ sums the same lights
-//! in another order; Tiled Deferred stores an 8-bit sRGB albedo, an f16 normal and, for
+//! in another order; Tiled Deferred stores an 8-bit sRGB albedo, a packed 14-bit octahedral normal and, for
 //! emission and occlusion, an f16 emission target).
 
 use std::path::{Path, PathBuf};

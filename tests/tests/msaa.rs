@@ -417,7 +417,7 @@ fn edge_test_is_scale_independent() {
 /// and match brute force at the same count in linear HDR and FLIP with compare.rs's
 /// tolerances, as the 1x tests do: Forward+ with FORWARD_VS_REFERENCE (hardware MSAA in
 /// both, the same fragments; summation order only), Tiled Deferred with
-/// DEFERRED_VS_REFERENCE and the f16-normal allowance (its 8-bit albedo and f16 normal),
+/// DEFERRED_VS_REFERENCE and the normal allowance (its 8-bit albedo and packed normal),
 /// except that where the two sample a pixel differently by design only FLIP applies
 /// (`compare::msaa_by_design`: silhouettes, where hardware MSAA shades a partly covered
 /// triangle at the pixel centre, outside it, and deferred's per-sample edge pixels;

@@ -813,7 +813,7 @@ fn contact_shadow_starts_at_the_box() {
 /// Several casters of both kinds, an alpha-masked screen, unshadowed lights too: Forward+
 /// must equal brute force with the same shadows within the usual tolerance (the lookups are
 /// the same code on the same data; only the summation order differs); Tiled Deferred
-/// rebuilds positions from depth and stores f16 normals, so its lookups move by a fraction
+/// rebuilds positions from depth and stores packed (14-bit octahedral) normals, so its lookups move by a fraction
 /// of a texel: compared by FLIP only, the limits stated below.
 #[test]
 fn methods_agree_with_shadows() {

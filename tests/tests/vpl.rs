@@ -653,7 +653,7 @@ fn tiled_deferred_with_vpls_equals_forward_plus_and_brute_force() {
         &deferred,
         DEFERRED_VS_REFERENCE,
     );
-    // Forward+ and Tiled Deferred differ only by the G-buffer's 8-bit albedo and f16 normal
+    // Forward+ and Tiled Deferred differ only by the G-buffer's 8-bit albedo and packed normal
     // (DEFERRED_VS_REFERENCE's reasons), not by their VPL lists, which are the same pass's.
     assert_matches_reference_frame(
         "Tiled Deferred vs Forward+ with VPLs",
@@ -1287,7 +1287,7 @@ fn physical_vpls_converge_to_an_independent_one_bounce_integral() {
             "{what}, physical, block 1: N = 32 error {e32:.4} (ratio {r32:.4}, spread {s32:.4}), \
              N = 64 error {e64:.4} (ratio {r64:.4}, spread {s64:.4})"
         );
-        // 0.5% for the point-VPL approximation, f16 normals and HDR; with the occluder, its
+        // 0.5% for the point-VPL approximation, packed normals and HDR; with the occluder, its
         // rasterised footprint's area error (up to half a texel at each edge: 2/n of its
         // area, n texels across) times the share of the bounce its shadow removes.
         let allowed = |n: u32| {
