@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign emission vpl reshape visibility raster raster-short traced casters casters-curve ranking
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer emission vpl reshape visibility raster raster-short traced casters casters-curve ranking
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -278,6 +278,20 @@ for set in $sets; do
       run "vpl-$m-64-b1-rsm64" 20 --spot-lights 64 --shadow-spot-lights 64 --method $m --move-lights --vpl --vpl-block 1 \
         --vpl-rsm-size 64
     done
+    ;;
+  gbuffer)
+    # Issue 31: the packed G-buffer (one Rgba16Uint target, emission in Rg11b10Ufloat).
+    # Tiled Deferred on the Figure 9 scene at 4,096 lights with the stress knob at 2 to 5
+    # (0 to 3 extra targets), with emission at 4; the courtyard at 1,024 lights with and
+    # without emission, and at 4x MSAA. Compare with docs/PERFORMANCE.md's 294cf49 figures.
+    for rts in 2 3 4 5; do
+      run "gb-fig9-4096-rts$rts" 50 --lights 4096 --grid-objects 280 --density medium --method deferred --gbuffer-rts $rts
+    done
+    run gb-fig9-4096-rts4-em 50 --lights 4096 --grid-objects 280 --density medium --method deferred --gbuffer-rts 4 --emissive
+    run gb-court-1024 50 --lights 1024 --method deferred
+    run gb-court-1024-em 50 --lights 1024 --method deferred --emissive
+    run gb-court-msaa4 30 --lights 1024 --method deferred --msaa 4
+    run gb-court-msaa4-em 30 --lights 1024 --method deferred --msaa 4 --emissive
     ;;
   emission)
     # Issue 14: the cost of emission. The courtyard with and without its banners glowing

@@ -4,6 +4,10 @@ const PI: f32 = 3.14159265358979;
 // Squared emitter size (1 cm): keeps 1/d^2 finite at the light.
 const LIGHT_SIZE_SQ: f32 = 1e-4;
 const MIN_ROUGHNESS: f32 = 0.045;
+// F0 of every dielectric.
+const DIELECTRIC_F0: f32 = 0.04;
+// Ashikhmin and Shirley's diffuse normalisation 28 / (23 pi).
+const DIFFUSE_SCALE: f32 = 0.387507687528093;
 
 fn windowed_attenuation(dist_sq: f32, radius: f32) -> f32 {
     let x = dist_sq / (radius * radius);
@@ -26,7 +30,16 @@ struct Surface {
     metallic: f32,
 }
 
-// BRDF times cosine: Lambert diffuse + GGX with height-correlated Smith visibility and
+// Ashikhmin and Shirley's 1 - (1 - x/2)^5 as x/2 (1 + q + q^2 + q^3 + q^4), q = 1 - x/2:
+// no f32 cancellation at grazing angles (tiledlight_cull::brdf::diffuse_falloff).
+fn diffuse_falloff(x: f32) -> f32 {
+    let q = 1.0 - 0.5 * x;
+    return 0.5 * x * (1.0 + q * (1.0 + q * (1.0 + q * (1.0 + q))));
+}
+
+// BRDF times cosine: Ashikhmin-Shirley diffuse (2000, eq. 5: 28 / (23 pi) R_d (1 - R_s)
+// (1 - (1 - n.l/2)^5) (1 - (1 - n.v/2)^5), R_d = albedo (1 - metallic), R_s = F0; energy-
+// conserving with the specular lobe) + GGX with height-correlated Smith visibility and
 // Schlick Fresnel. n, v, l are unit vectors pointing away from the surface.
 fn brdf_cos(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, s: Surface) -> vec3<f32> {
     let n_dot_l = saturate(dot(n, l));
@@ -53,8 +66,9 @@ fn brdf_cos(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, s: Surface) -> vec3<f32> {
     let gv = n_dot_l * sqrt(n_dot_v * n_dot_v * (1.0 - a2) + a2);
     let gl = n_dot_v * sqrt(n_dot_l * n_dot_l * (1.0 - a2) + a2);
     let vis = 0.5 / (gv + gl);
-    let f0 = mix(vec3<f32>(0.04), s.albedo, s.metallic);
+    let f0 = mix(vec3<f32>(DIELECTRIC_F0), s.albedo, s.metallic);
     let f = f0 + (vec3<f32>(1.0) - f0) * pow(1.0 - v_dot_h, 5.0);
-    let diffuse = s.albedo * ((1.0 - s.metallic) / PI);
+    let diffuse = s.albedo * (1.0 - s.metallic) * (vec3<f32>(1.0) - f0)
+        * (DIFFUSE_SCALE * diffuse_falloff(n_dot_l) * diffuse_falloff(n_dot_v));
     return (diffuse + f * (d * vis)) * n_dot_l;
 }

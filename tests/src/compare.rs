@@ -5,7 +5,7 @@
 //! The thresholds live here once, with the reasons for them.
 
 use glam::Vec3;
-use tiledlight_cull::brdf::windowed_attenuation;
+use tiledlight_cull::brdf::{windowed_attenuation, MAX_DIFFUSE_COS, MAX_DIFFUSE_LIGHT_SLOPE, MAX_DIFFUSE_SLOPE};
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::Camera;
@@ -39,15 +39,17 @@ pub fn gbuffer_normal_error() -> f32 {
 
 impl Frame {
     /// Adds, per pixel, what Tiled Deferred's packed normal may legitimately change: each
-    /// light's diffuse term is `radiance x attenuation x albedo / pi x n.l`, and the rounded
-    /// normal moves `n.l` by up to [`gbuffer_normal_error`], so up to `radiance x
-    /// attenuation / pi x gbuffer_normal_error()` (albedo at most 1, spot falloff at most
-    /// 1) a light. Relative to the pixel that is small except for lights at grazing
-    /// incidence: measured on the H200 with the f16 normal (2^-11), a courtyard pixel whose
-    /// brightest light arrives at `n.l` = 0.0036 moved 3.1%, and the CPU BRDF fed that
-    /// pixel's G-buffer normal gives the deferred value to 1e-4. A light missing from a
-    /// pixel is far outside this allowance (it is a light's whole contribution, the
-    /// allowance 2.6e-4 / n.l of it).
+    /// light's diffuse term is `radiance x attenuation x diffuse(n.l, n.v) x n.l`, and the
+    /// rounded normal moves `n.l` and `n.v` by up to [`gbuffer_normal_error`], so up to
+    /// `radiance x attenuation x MAX_DIFFUSE_SLOPE x gbuffer_normal_error()` a light
+    /// (`tiledlight_cull::brdf::MAX_DIFFUSE_SLOPE` holds for every albedo and metallic; spot
+    /// falloff at most 1). Relative to the pixel that is small except for lights at grazing
+    /// incidence: measured on the H200 (with the f16 normal, 2^-11, and the former Lambert
+    /// diffuse), a courtyard pixel whose brightest light arrives at `n.l` = 0.0036 moved
+    /// 3.1%, and the CPU BRDF fed that pixel's G-buffer normal gives the deferred value to
+    /// 1e-4. A light missing from a pixel is far outside this allowance unless it arrives at
+    /// grazing incidence (the allowance is 7e-4 of a light's contribution head-on and about
+    /// 2.6e-4 / n.l^2 of it at small n.l, where the diffuse term falls as n.l^2).
     pub fn allow_gbuffer_normals(mut self, depth: &[f32], w: u32, camera: &Camera, lights: &PackedLights) -> Self {
         let h = (self.hdr.len() / w as usize) as u32;
         let inv_view = camera.view().inverse();
@@ -67,7 +69,7 @@ impl Frame {
                         Vec3::from(l.radiance).max_element() * windowed_attenuation(d2, l.radius)
                     })
                     .sum();
-                sum / std::f32::consts::PI * gbuffer_normal_error()
+                sum * MAX_DIFFUSE_SLOPE * gbuffer_normal_error()
             })
             .collect();
         self
@@ -93,9 +95,14 @@ impl Frame {
     /// lavapipe's brute force and both adapters' visibility buffers agree to 1e-3. The
     /// footprint is the smallest distance from the pixel's point to a neighbour's (its own
     /// surface, grazing angles included); per light reaching the point, the allowance is its
-    /// radiance times the change of its attenuation over that distance plus the turn of
-    /// `n.l`, over pi (a diffuse BRDF). A wrong triangle or a missing light changes a pixel
-    /// by a whole light's contribution and stays far outside it.
+    /// radiance times: the change of its attenuation over that distance times
+    /// `MAX_DIFFUSE_COS` (the diffuse term times `n.l` at most), plus its attenuation times
+    /// the turn of `l` (moving `n.l` by up to `delta / d`) times `MAX_DIFFUSE_LIGHT_SLOPE`
+    /// and the turn of `v` (moving `n.v` by up to `delta` over the eye's distance; 0 in
+    /// truth for an orthographic camera) times `MAX_DIFFUSE_SLOPE` (bounds of the diffuse
+    /// term's value and slopes, `tiledlight_cull::brdf`; Lambert's `1/pi` served for all
+    /// three before the diffuse term depended on the view). A wrong triangle or a missing
+    /// light changes a pixel by a whole light's contribution and stays far outside it.
     pub fn allow_position_error(
         mut self,
         depth: &[f32],
@@ -105,6 +112,7 @@ impl Frame {
     ) -> Self {
         let h = (self.hdr.len() / w as usize) as u32;
         let inv_view = camera.view().inverse();
+        let eye = camera.eye();
         let world = |x: u32, y: u32| {
             let i = (y * w + x) as usize;
             pixel_view_position(camera, w, h, x, y, depth[i]).map(|v| (inv_view * v.extend(1.0)).truncate())
@@ -126,6 +134,7 @@ impl Frame {
                 continue;
             }
             let delta = eps_px * footprint;
+            let turn_v = (delta / (p - eye).length().max(1e-6)).min(1.0);
             let sum: f32 = lights
                 .shading
                 .iter()
@@ -137,10 +146,13 @@ impl Frame {
                     let at = |r: f32| windowed_attenuation(r * r, l.radius);
                     let near = at((d - delta).max(d * 0.5).max(1e-6));
                     let change = (near - at(d)).abs().max((at(d + delta) - at(d)).abs());
-                    Vec3::from(l.radiance).max_element() * (change + at(d) * (delta / d.max(1e-6)).min(1.0))
+                    let turn_l = (delta / d.max(1e-6)).min(1.0);
+                    Vec3::from(l.radiance).max_element()
+                        * (change * MAX_DIFFUSE_COS
+                            + at(d) * (turn_l * MAX_DIFFUSE_LIGHT_SLOPE + turn_v * MAX_DIFFUSE_SLOPE))
                 })
                 .sum();
-            self.allowance[i] = self.allowance[i].max(sum / std::f32::consts::PI);
+            self.allowance[i] = self.allowance[i].max(sum);
         }
         self
     }

@@ -23,6 +23,12 @@
 //!    does not depend on the surfel's normal. Its *tint* (the same without the light's
 //!    intensity and the solid angle: `albedo x colour x window x spot`, in [0, 1]) is what
 //!    the thresholds look at, so they do not depend on RSM size, block size or intensity.
+//!    This first bounce stays Lambertian although the renderers' diffuse term is
+//!    Ashikhmin-Shirley's ([`crate::brdf::diffuse`]): a VPL is a diffuse point emitter, and
+//!    the Ashikhmin-Shirley weighting belongs to the receiving surface, which the shared
+//!    BRDF applies when it shades the VPL's light (that weighting at the texel would scale
+//!    its flux by `(1 - F0) (1 - (1 - n.l/2)^5)`, the term's directional albedo: 0.93 for
+//!    light arriving head-on, falling to 0 at grazing incidence).
 //! 3. **Generation** ([`generate`]). One VPL per `block x block` texels (AMD: 2x2): flux
 //!    summed (energy kept whatever the block), position and tint the solid-angle-weighted
 //!    means, normal the normalised weighted sum. Kept when a channel of its normalised tint
