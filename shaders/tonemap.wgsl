@@ -1,5 +1,6 @@
 // Tonemapping for display: exposure, the ACES filmic fit (Narkowicz 2015), and the sRGB
-// encoding done by the Rgba8UnormSrgb target. A full-screen triangle reads the HDR image.
+// encoding, in a compute pass (a thread a pixel): the display image is Rgba8Unorm (sRGB
+// formats cannot be storage textures), so the shader encodes and the bytes are sRGB.
 // The pass's own parameters (crates/gpu/src/tonemap.rs, TonemapUniforms): written when
 // they change, so changing the exposure rebuilds nothing.
 struct Tonemap {
@@ -9,6 +10,8 @@ struct Tonemap {
     _pad2: f32,
 }
 
+#include "common/srgb.wgsl"
+
 // With AUTO_EXPOSURE the exposure is exposure.wgsl's, computed from this frame's image.
 // variants: AUTO_EXPOSURE
 @group(0) @binding(0) var hdr: texture_2d<f32>;
@@ -16,12 +19,7 @@ struct Tonemap {
 #ifdef AUTO_EXPOSURE
 @group(0) @binding(2) var<storage, read> auto_exposure: array<f32>;
 #endif
-
-@vertex
-fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
-    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
-    return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
-}
+@group(0) @binding(3) var ldr: texture_storage_2d<rgba8unorm, write>;
 
 fn aces(x: vec3<f32>) -> vec3<f32> {
     let a = 2.51;
@@ -32,13 +30,17 @@ fn aces(x: vec3<f32>) -> vec3<f32> {
     return saturate((x * (a * x + b)) / (x * (c * x + d) + e));
 }
 
-@fragment
-fn fs_tonemap(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
-    let c = textureLoad(hdr, vec2<i32>(pos.xy), 0).rgb;
+@compute @workgroup_size(8, 8)
+fn cs_tonemap(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = textureDimensions(hdr);
+    if id.x >= size.x || id.y >= size.y {
+        return;
+    }
+    let c = textureLoad(hdr, id.xy, 0).rgb;
 #ifdef AUTO_EXPOSURE
     let e = auto_exposure[0];
 #else
     let e = params.exposure;
 #endif
-    return vec4<f32>(aces(c * e), 1.0);
+    textureStore(ldr, id.xy, vec4<f32>(linear_to_srgb(aces(c * e)), 1.0));
 }

@@ -5,6 +5,8 @@
 //   z: base red (sRGB, 8 bits) in 15-8, green in 7-0
 //   w: base blue in 15-8, perceptual roughness (8 bits) in 7-0
 
+#include "common/srgb.wgsl"
+
 const GB_NORMAL_MAX: f32 = 8191.0;   // 2^13 - 1
 const GB_NORMAL_OFFSET: i32 = 8192;  // 2^13
 const GB_METALLIC_MAX: f32 = 15.0;   // 4 bits
@@ -42,15 +44,6 @@ fn oct_unmap(p: vec2<f32>) -> vec3<f32> {
 
 fn unorm_code(c: f32, max_code: f32) -> u32 {
     return u32(floor(0.5 + max_code * saturate(c)));
-}
-
-fn linear_to_srgb(c: vec3<f32>) -> vec3<f32> {
-    let x = saturate(c);
-    return select(1.055 * pow(x, vec3<f32>(1.0 / 2.4)) - 0.055, 12.92 * x, x <= vec3<f32>(0.0031308));
-}
-
-fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
-    return select(pow((c + 0.055) / 1.055, vec3<f32>(2.4)), c / 12.92, c <= vec3<f32>(0.04045));
 }
 
 fn pack_gtexel(t: GTexel) -> vec4<u32> {

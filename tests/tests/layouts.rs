@@ -123,18 +123,26 @@ fn sampled_pixels(w: u32, h: u32) -> Vec<(u32, u32)> {
 
 /// Reads a single-sampled G-buffer's packed surface texels and decodes them with the CPU
 /// twin ([`tiledlight_cull::gbuffer::unpack`]; the GPU's decoder is tested against it in
-/// `gbuffer_texel.rs`): 8 floats a pixel, albedo rgb, metallic, normal xyz, roughness. The
+/// `gbuffer_texel.rs`), the base colour as the shading decodes it, through the G-buffer's
+/// sRGB table read by the texture unit: 8 floats a pixel, albedo rgb, metallic, normal
+/// xyz, roughness. The
 /// G-buffer textures cannot be copied (no `COPY_SRC`: they never leave the GPU in
 /// production), so a small compute kernel copies them, built per call (a test path).
 fn read_gbuffer(r: &FrameRenderer, (w, h): (u32, u32)) -> Vec<f32> {
     const SRC: &str = "
         @group(0) @binding(0) var surface: texture_2d<u32>;
         @group(0) @binding(1) var<storage, read_write> out: array<vec4<u32>>;
+        @group(0) @binding(2) var srgb_lut: texture_2d<f32>;
         @compute @workgroup_size(8, 8)
         fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             let size = textureDimensions(surface);
             if id.x >= size.x || id.y >= size.y { return; }
-            out[id.y * size.x + id.x] = textureLoad(surface, id.xy, 0);
+            let p = textureLoad(surface, id.xy, 0);
+            let i = 2u * (id.y * size.x + id.x);
+            out[i] = p;
+            let codes = vec3<u32>(p.z >> 8u, p.z, p.w >> 8u) & vec3<u32>(0xffu);
+            out[i + 1u] = bitcast<vec4<u32>>(vec4<f32>(textureLoad(srgb_lut, vec2<u32>(codes.r, 0u), 0).r,
+                textureLoad(srgb_lut, vec2<u32>(codes.g, 0u), 0).r, textureLoad(srgb_lut, vec2<u32>(codes.b, 0u), 0).r, 0.0));
         }";
     let ctx = gpu();
     let device = &ctx.device;
@@ -154,7 +162,7 @@ fn read_gbuffer(r: &FrameRenderer, (w, h): (u32, u32)) -> Vec<f32> {
     });
     let out = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("test.read_gbuffer.out"),
-        size: u64::from(w) * u64::from(h) * 16,
+        size: u64::from(w) * u64::from(h) * 32,
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
         mapped_at_creation: false,
     });
@@ -164,6 +172,7 @@ fn read_gbuffer(r: &FrameRenderer, (w, h): (u32, u32)) -> Vec<f32> {
         entries: &[
             wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(g.surface_view()) },
             wgpu::BindGroupEntry { binding: 1, resource: out.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(g.srgb_lut_view()) },
         ],
     });
     let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("test.read_gbuffer") });
@@ -179,10 +188,11 @@ fn read_gbuffer(r: &FrameRenderer, (w, h): (u32, u32)) -> Vec<f32> {
     ctx.queue.submit([enc.finish()]);
     let texels: Vec<u32> = read_buffer(device, &ctx.queue, &out).unwrap();
     texels
-        .chunks_exact(4)
+        .chunks_exact(8)
         .flat_map(|c| {
             let t = tiledlight_cull::gbuffer::unpack([c[0], c[1], c[2], c[3]]);
-            [t.base.x, t.base.y, t.base.z, t.metallic, t.normal.x, t.normal.y, t.normal.z, t.roughness]
+            let base = [c[4], c[5], c[6]].map(f32::from_bits);
+            [base[0], base[1], base[2], t.metallic, t.normal.x, t.normal.y, t.normal.z, t.roughness]
         })
         .collect()
 }
@@ -351,3 +361,4 @@ fn a_million_lights_match_the_cpu_twins_and_brute_force() {
         assert!(differing * 100 <= first.1.ldr.len(), "{} vs {name}: {differing} values differ", first.0);
     }
 }
+

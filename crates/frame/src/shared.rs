@@ -143,7 +143,12 @@ impl SharedSteps {
         let lighting = LightBuffers::upload_lighting(device, &lighting_u);
         let targets =
             DisplayTargets::with_depth(device, needs.prefix, size, features.msaa, needs.hdr_usage, needs.depth);
-        let tonemap = TonemapPass::new(device, &targets.hdr_view, size, (settings.exposure, settings.auto_exposure))?;
+        let tonemap = TonemapPass::new(
+            device,
+            (&targets.hdr_view, &targets.ldr_storage_view),
+            size,
+            (settings.exposure, settings.auto_exposure),
+        )?;
         let mut memory = MemoryReport::default();
         memory.extend(&scene.memory);
         memory.extend(&lights.memory);
@@ -286,7 +291,8 @@ impl SharedSteps {
     /// HDR to display (with the automatic exposure's passes when on), then the heat map.
     pub fn record_tail(&self, rec: &mut Rec<'_>, _hdr: Hdr<'_>, ldr: Ldr<'_>) {
         rec.step(Step::Tonemap);
-        self.tonemap.record(rec.encoder, rec.timer, ldr.view);
+        // The tonemap writes the display image it was built over (`ldr`'s texture).
+        self.tonemap.record(rec.encoder, rec.timer);
         if let Some(h) = &self.heatmap {
             rec.step(Step::Heatmap);
             h.record(rec.encoder, rec.timer, ldr.view);

@@ -5,7 +5,7 @@
 use crate::context::GpuContext;
 use crate::depth_prepass::DEPTH_FORMAT;
 use crate::error::GpuError;
-use crate::tonemap::{HDR_FORMAT, LDR_FORMAT};
+use crate::tonemap::HDR_FORMAT;
 
 pub use crate::util::{texture_2d, texture_2d_msaa};
 
@@ -55,14 +55,16 @@ pub struct DisplayTargets {
     pub depth: wgpu::Texture,
     /// Linear HDR lighting.
     pub hdr: wgpu::Texture,
-    /// Tonemapped sRGB image.
+    /// Tonemapped sRGB image (`Rgba8Unorm` holding sRGB-encoded bytes).
     pub ldr: wgpu::Texture,
     /// View of `depth`.
     pub depth_view: wgpu::TextureView,
     /// View of `hdr`.
     pub hdr_view: wgpu::TextureView,
-    /// View of `ldr`.
+    /// The `Rgba8UnormSrgb` view of `ldr` (render passes: the heat map's blending).
     pub ldr_view: wgpu::TextureView,
+    /// The plain `Rgba8Unorm` view of `ldr` the compute tonemap writes.
+    pub ldr_storage_view: wgpu::TextureView,
     /// MSAA samples per pixel of `depth` (the HDR and display images are resolved).
     pub samples: u32,
 }
@@ -111,7 +113,14 @@ impl DisplayTargets {
             HDR_FORMAT,
             hdr_usage | U::TEXTURE_BINDING | U::COPY_SRC,
         );
-        let ldr = texture_2d(device, &format!("{prefix}.ldr"), (w, h), LDR_FORMAT, U::RENDER_ATTACHMENT | U::COPY_SRC);
+        // Written by the compute tonemap (storage, raw sRGB bytes), blended onto by the heat
+        // map and read back: the render passes use its sRGB view.
+        let ldr = crate::tonemap::ldr_texture(
+            device,
+            &format!("{prefix}.ldr"),
+            (w, h),
+            U::STORAGE_BINDING | U::RENDER_ATTACHMENT | U::COPY_SRC,
+        );
         Self {
             depth_view: depth.create_view(&wgpu::TextureViewDescriptor {
                 label: Some(&format!("{prefix}.depth.view")),
@@ -121,8 +130,9 @@ impl DisplayTargets {
                 label: Some(&format!("{prefix}.hdr.view")),
                 ..Default::default()
             }),
-            ldr_view: ldr.create_view(&wgpu::TextureViewDescriptor {
-                label: Some(&format!("{prefix}.ldr.view")),
+            ldr_view: crate::tonemap::ldr_srgb_view(&ldr, &format!("{prefix}.ldr.view")),
+            ldr_storage_view: ldr.create_view(&wgpu::TextureViewDescriptor {
+                label: Some(&format!("{prefix}.ldr.storage_view")),
                 ..Default::default()
             }),
             depth,

@@ -9,7 +9,6 @@
 use anyhow::Result;
 use tiledlight_gpu::bindings::{create_layout, Binding, PassBindings, PassGroup};
 use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::tonemap::LDR_FORMAT;
 use tiledlight_gpu::util::{pipeline_layout, shader_module};
 
 /// The bindings of the blit (`shaders/viewer_blit.wgsl`): group 0, the display image (0)
@@ -77,14 +76,15 @@ impl Blit {
 
     /// The sampled texture a renderer's `ldr` target of `size` is copied into.
     pub fn display_image(&self, device: &wgpu::Device, size: (u32, u32)) -> DisplayImage {
-        let texture = tiledlight_gpu::targets::texture_2d(
+        // The renderer's display image's format (copied as is), sampled through its sRGB
+        // view so the filtering and the sRGB swapchain see linear values.
+        let texture = tiledlight_gpu::tonemap::ldr_texture(
             device,
             "viewer.display",
             size,
-            LDR_FORMAT,
             wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
         );
-        let view = texture.create_view(&Default::default());
+        let view = tiledlight_gpu::tonemap::ldr_srgb_view(&texture, "viewer.display.view");
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("viewer.blit.bind_group"),
             layout: &self.layout,
