@@ -292,6 +292,8 @@ for set in $sets; do
     run gb-court-1024-em 50 --lights 1024 --method deferred --emissive
     run gb-court-msaa4 30 --lights 1024 --method deferred --msaa 4
     run gb-court-msaa4-em 30 --lights 1024 --method deferred --msaa 4 --emissive
+    # The compute tonemap (and the diffuse change) in Forward+ too.
+    run gb-fp-1024 50 --lights 1024
     ;;
   emission)
     # Issue 14: the cost of emission. The courtyard with and without its banners glowing

@@ -148,6 +148,21 @@ impl GBuffer {
         TEXEL_BYTES + 4 * self.extra.len() as u64 + u64::from(emission)
     }
 
+    /// What a sample holds, for the memory report: e.g. "8 B a sample: surface 8" or
+    /// "16 B a sample: surface 8 + 2 extra x 4 + emission Rg11b10Ufloat 4", times the
+    /// samples (depth besides).
+    pub fn describe(&self) -> String {
+        let mut parts = vec![format!("surface {TEXEL_BYTES}")];
+        if !self.extra.is_empty() {
+            parts.push(format!("{} extra x 4", self.extra.len()));
+        }
+        if let Some(t) = &self.emission {
+            parts.push(format!("emission {:?} {}", t.format(), t.format().block_copy_size(None).unwrap_or(0)));
+        }
+        let samples = if self.samples > 1 { format!(", {} samples", self.samples) } else { String::new() };
+        format!("{} B a sample: {}{samples}", self.bytes_per_sample(), parts.join(" + "))
+    }
+
     /// Bytes of the colour targets (depth not included), every sample counted.
     pub fn bytes(&self) -> u64 {
         let px = self.surface.width() as u64 * self.surface.height() as u64 * self.samples as u64;

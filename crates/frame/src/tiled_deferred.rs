@@ -73,6 +73,7 @@ impl DeferredFrame {
         let gbuffer_pass =
             GBufferPass::new(device, views, scene, settings.gbuffer_rts, features.msaa, settings.test_gbuffer_values)?;
         memory.add("deferred.gbuffer", gbuffer.bytes());
+        memory.note("deferred.gbuffer", gbuffer.describe());
         let shading = DeferredShading::new(
             device,
             views,

@@ -8,6 +8,9 @@ use std::fmt;
 pub struct MemoryReport {
     /// (category, bytes), in the order they were added.
     pub entries: Vec<(String, u64)>,
+    /// (category, text): what a category's bytes are made of, printed after its line
+    /// (e.g. the G-buffer's bytes a sample).
+    pub notes: Vec<(String, String)>,
 }
 
 impl MemoryReport {
@@ -27,10 +30,19 @@ impl MemoryReport {
         }
     }
 
-    /// Appends every entry of `other`.
+    /// Sets the note printed after `category`'s line.
+    pub fn note(&mut self, category: &str, text: impl Into<String>) {
+        self.notes.retain(|(c, _)| c != category);
+        self.notes.push((category.to_string(), text.into()));
+    }
+
+    /// Appends every entry (and note) of `other`.
     pub fn extend(&mut self, other: &MemoryReport) {
         for (c, b) in &other.entries {
             self.add(c, *b);
+        }
+        for (c, t) in &other.notes {
+            self.note(c, t.clone());
         }
     }
 
@@ -64,7 +76,10 @@ pub fn format_bytes(b: u64) -> String {
 impl fmt::Display for MemoryReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         for (c, b) in &self.entries {
-            writeln!(f, "  {c:<28} {:>12}", format_bytes(*b))?;
+            match self.notes.iter().find(|(n, _)| n == c) {
+                Some((_, t)) => writeln!(f, "  {c:<28} {:>12}  ({t})", format_bytes(*b))?,
+                None => writeln!(f, "  {c:<28} {:>12}", format_bytes(*b))?,
+            }
         }
         write!(f, "  {:<28} {:>12}", "total", format_bytes(self.total()))
     }
@@ -83,5 +98,8 @@ mod tests {
         assert_eq!(m.get("a"), 11);
         assert_eq!(m.total(), 16);
         assert_eq!(format_bytes(1536), "1.50 KiB");
+        m.note("b", "5 B a sample");
+        let text = m.to_string();
+        assert!(text.contains("(5 B a sample)") && !text.lines().next().unwrap().contains('('), "{text}");
     }
 }
