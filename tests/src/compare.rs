@@ -76,6 +76,20 @@ impl Frame {
     }
 }
 
+impl Frame {
+    /// Raises the per-pixel allowance to `extra` where that is larger (e.g.
+    /// [`crate::gbuffer::surface_allowance`] on top of [`Frame::allow_gbuffer_normals`]).
+    pub fn with_allowance(mut self, extra: &[f32]) -> Self {
+        if self.allowance.is_empty() {
+            self.allowance = vec![0.0; self.hdr.len()];
+        }
+        for (a, &e) in self.allowance.iter_mut().zip(extra) {
+            *a = a.max(e);
+        }
+        self
+    }
+}
+
 /// How far (as a fraction of a pixel's footprint on its surface) the rasteriser's
 /// interpolated surface point may sit from the exact one that the visibility buffer
 /// rebuilds ([`Frame::allow_position_error`]): one step of the sub-pixel grid the

@@ -10,6 +10,7 @@
 //! tiledlight crate; nothing depends on it.
 
 pub mod compare;
+pub mod gbuffer;
 pub mod images;
 pub mod kernels;
 pub mod lists;

@@ -23,15 +23,15 @@ use tiledlight_cull::brdf::{brdf_cos, spot_falloff, windowed_attenuation, Surfac
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::Camera;
-use tiledlight_frame::{DeferredFrame, Diagnostics as _, FrameRenderer, FrameSettings, Method};
+use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::culling::{ClusterOptions, CullOptions};
 use tiledlight_gpu::light_buffers::LightBuffers;
-use tiledlight_gpu::readback::read_buffer;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_scene::{SurfaceLightOptions, SurfaceSampler};
 use tiledlight_tests::compare::{
     assert_matches_reference_frame, reference_frame, render_frame, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE,
 };
+use tiledlight_tests::gbuffer::read_gbuffer;
 use tiledlight_tests::lists::{assert_cluster_lists_match, assert_lists_match, CulledFrame};
 use tiledlight_tests::{gpu, scenes};
 
@@ -121,89 +121,13 @@ fn sampled_pixels(w: u32, h: u32) -> Vec<(u32, u32)> {
     (0..9).flat_map(|j| (0..16).map(move |i| ((2 * i + 1) * w / 32, (2 * j + 1) * h / 18))).collect()
 }
 
-/// Reads a single-sampled G-buffer's packed surface texels and decodes them with the CPU
-/// twin ([`tiledlight_cull::gbuffer::unpack`]; the GPU's decoder is tested against it in
-/// `gbuffer_texel.rs`), the base colour as the shading decodes it, through the G-buffer's
-/// sRGB table read by the texture unit: 8 floats a pixel, albedo rgb, metallic, normal
-/// xyz, roughness. The
-/// G-buffer textures cannot be copied (no `COPY_SRC`: they never leave the GPU in
-/// production), so a small compute kernel copies them, built per call (a test path).
-fn read_gbuffer(r: &FrameRenderer, (w, h): (u32, u32)) -> Vec<f32> {
-    const SRC: &str = "
-        @group(0) @binding(0) var surface: texture_2d<u32>;
-        @group(0) @binding(1) var<storage, read_write> out: array<vec4<u32>>;
-        @group(0) @binding(2) var srgb_lut: texture_2d<f32>;
-        @compute @workgroup_size(8, 8)
-        fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-            let size = textureDimensions(surface);
-            if id.x >= size.x || id.y >= size.y { return; }
-            let p = textureLoad(surface, id.xy, 0);
-            let i = 2u * (id.y * size.x + id.x);
-            out[i] = p;
-            let codes = vec3<u32>(p.z >> 8u, p.z, p.w >> 8u) & vec3<u32>(0xffu);
-            out[i + 1u] = bitcast<vec4<u32>>(vec4<f32>(textureLoad(srgb_lut, vec2<u32>(codes.r, 0u), 0).r,
-                textureLoad(srgb_lut, vec2<u32>(codes.g, 0u), 0).r, textureLoad(srgb_lut, vec2<u32>(codes.b, 0u), 0).r, 0.0));
-        }";
-    let ctx = gpu();
-    let device = &ctx.device;
-    let g = r.passes::<DeferredFrame>().expect("Tiled Deferred").gbuffer();
-    assert_eq!(g.samples(), 1, "read_gbuffer reads single-sampled G-buffers");
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("test.read_gbuffer"),
-        source: wgpu::ShaderSource::Wgsl(SRC.into()),
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("test.read_gbuffer"),
-        layout: None,
-        module: &module,
-        entry_point: Some("main"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    let out = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("test.read_gbuffer.out"),
-        size: u64::from(w) * u64::from(h) * 32,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("test.read_gbuffer"),
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(g.surface_view()) },
-            wgpu::BindGroupEntry { binding: 1, resource: out.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(g.srgb_lut_view()) },
-        ],
-    });
-    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("test.read_gbuffer") });
-    {
-        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("test.read_gbuffer"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bind, &[]);
-        pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
-    }
-    ctx.queue.submit([enc.finish()]);
-    let texels: Vec<u32> = read_buffer(device, &ctx.queue, &out).unwrap();
-    texels
-        .chunks_exact(8)
-        .flat_map(|c| {
-            let t = tiledlight_cull::gbuffer::unpack([c[0], c[1], c[2], c[3]]);
-            let base = [c[4], c[5], c[6]].map(f32::from_bits);
-            [base[0], base[1], base[2], t.metallic, t.normal.x, t.normal.y, t.normal.z, t.roughness]
-        })
-        .collect()
-}
-
 /// Each sampled pixel's HDR as Tiled Deferred's shading of its G-buffer surface would be
 /// with EVERY light (no list: the brute force lavapipe cannot loop on the GPU, where one
 /// invocation stops after 65,535 loop iterations), computed on the CPU with the shared BRDF
 /// twin (`tiledlight_cull::brdf`), the shading of `shaders/common/shade.wgsl` written out:
 /// radiance x windowed attenuation (zero at and past the radius) x spot falloff x
 /// `brdf_cos`, plus ambient x albedo. The surface is read from the frame's G-buffer
-/// ([`read_gbuffer`]) and its position from the depth buffer, as the shader rebuilds
+/// (`tiledlight_tests::gbuffer::read_gbuffer`) and its position from the depth buffer, as the shader rebuilds
 /// them. `None` for sky pixels.
 fn brute_force_pixels(
     r: &FrameRenderer,
@@ -213,7 +137,7 @@ fn brute_force_pixels(
     lights: &PackedLights,
     ambient: Vec3,
 ) -> Vec<((u32, u32), Option<Vec3>)> {
-    let gb = read_gbuffer(r, (w, h));
+    let gb = read_gbuffer(gpu(), r, (w, h));
     let inv_view = camera.view().inverse();
     sampled_pixels(w, h)
         .into_iter()
@@ -361,4 +285,3 @@ fn a_million_lights_match_the_cpu_twins_and_brute_force() {
         assert!(differing * 100 <= first.1.ldr.len(), "{} vs {name}: {differing} values differ", first.0);
     }
 }
-

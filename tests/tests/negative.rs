@@ -32,6 +32,7 @@ use tiledlight_tests::compare::{
     Frame, Tolerance, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE, RASTER_POSITION_ERROR_PX, VISIBILITY_OUTLIERS,
     VISIBILITY_VS_REFERENCE,
 };
+use tiledlight_tests::gbuffer::{read_gbuffer, surface_allowance};
 use tiledlight_tests::{gpu, scenes};
 
 const W: u32 = 320;
@@ -187,9 +188,14 @@ fn one_dropped_light_fails_the_reference_comparisons() {
     let dropped_frame = render_frame(ctx, &mut dropped, &sg, &camera);
     let counts = dropped.outputs().light_grid.unwrap().read_counts(&ctx.device, &ctx.queue).unwrap();
     assert_eq!(counts[tile] as usize + 1, cpu.lists[tile].len(), "deferred: the tile's count lost one light");
-    // The same reference, with the G-buffer normal's allowance (compare::Frame::allow_gbuffer_normals).
+    // The same reference, with the G-buffer's allowances: the normal's for diffuse light
+    // (compare::Frame::allow_gbuffer_normals) and the surface's, which covers the specular
+    // lobe of lights at grazing incidence (tiledlight_tests::gbuffer::surface_allowance).
     let plain_reference = reference.clone();
-    let reference = reference.allow_gbuffer_normals(&depth, W, &camera, &lights.packed);
+    let gbuffer = read_gbuffer(ctx, &plain, (W, H));
+    let reference = reference
+        .allow_gbuffer_normals(&depth, W, &camera, &lights.packed)
+        .with_allowance(&surface_allowance(&gbuffer, &depth, W, &camera, &lights.packed));
     assert_only_the_drop_fails("deferred", DEFERRED_VS_REFERENCE, &reference, &plain_frame, &dropped_frame);
 
     // The visibility buffer: Forward+'s culling with the same drop; the reference with the

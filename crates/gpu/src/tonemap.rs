@@ -30,7 +30,12 @@ pub const LDR_VIEW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm
 /// its sRGB-encoded bytes) that render passes and samplers see through an
 /// `Rgba8UnormSrgb` view ([`LDR_VIEW_FORMAT`]), so blending and sampling
 /// stay in linear light.
-pub fn ldr_texture(device: &wgpu::Device, label: &str, (w, h): (u32, u32), usage: wgpu::TextureUsages) -> wgpu::Texture {
+pub fn ldr_texture(
+    device: &wgpu::Device,
+    label: &str,
+    (w, h): (u32, u32),
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
     device.create_texture(&wgpu::TextureDescriptor {
         label: Some(label),
         size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
@@ -218,13 +223,7 @@ impl TonemapPass {
             compilation_options: Default::default(),
             cache: None,
         });
-        Ok(Self {
-            pipeline,
-            size,
-            params,
-            bind_group,
-            auto,
-        })
+        Ok(Self { pipeline, size, params, bind_group, auto })
     }
 
     /// Whether the exposure is computed from each frame's image.
@@ -254,8 +253,10 @@ impl TonemapPass {
             a.record(encoder, timer);
         }
         let t = timer.begin("tonemap", encoder);
-        let mut pass = encoder
-            .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("tonemap"), timestamp_writes: t.compute_writes() });
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("tonemap"),
+            timestamp_writes: t.compute_writes(),
+        });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.dispatch_workgroups(self.size.0.div_ceil(TONEMAP_WG), self.size.1.div_ceil(TONEMAP_WG), 1);
