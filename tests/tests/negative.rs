@@ -221,8 +221,10 @@ fn one_dropped_light_fails_the_reference_comparisons() {
     let mut sorted = lit.clone();
     sorted.sort_by(f32::total_cmp);
     let q = |f: f64| sorted[((sorted.len() - 1) as f64 * f) as usize];
-    // Measured on lavapipe: median 2.4e-3 of the pixel, p90 1.1e-2, p99 8.9e-2 (pixels lit
-    // mostly by lights a few centimetres away); the dropped light is still 99.5% of its pixel.
+    // Measured on lavapipe: median 2.6e-3 of the pixel, p90 8.4e-3, p99 3.1e-2 (pixels lit
+    // mostly by lights a few centimetres away; with the Lambert diffuse term and bounds that
+    // did not use the pixel, 2.4e-3, 1.1e-2, 8.9e-2); the dropped light is still 99.5% of
+    // its pixel.
     eprintln!("position allowance / pixel: median {:.2e}, p90 {:.2e}, p99 {:.2e}", q(0.5), q(0.9), q(0.99));
     assert!(q(0.5) < 0.5 * VISIBILITY_VS_REFERENCE.hdr_rel, "the position allowance swamps the limit");
     assert!(over * 8 < lit.len(), "the position allowance passes the limit in over 1/8 of the lit pixels");

@@ -2,7 +2,7 @@
 //! windowed inverse-square attenuation, the spot falloff and the BRDF: GGX specular plus
 //! Ashikhmin and Shirley's energy-conserving diffuse term ([`diffuse`]), and the bounds on
 //! that diffuse term the image comparisons' allowances use ([`MAX_DIFFUSE_COS`],
-//! [`MAX_DIFFUSE_LIGHT_SLOPE`], [`MAX_DIFFUSE_SLOPE`]). Tests use it to check GPU pixels.
+//! [`MAX_DIFFUSE_LIGHT_SLOPE`], [`MAX_DIFFUSE_LIGHT_SLOPE_PER_SQRT`], [`MAX_DIFFUSE_SLOPE`]). Tests use it to check GPU pixels.
 //! Depends on glam only.
 
 use glam::Vec3;
@@ -82,6 +82,18 @@ pub const MAX_DIFFUSE_LIGHT_SLOPE: f32 = DIFFUSE_SCALE * MAX_DIFFUSE_WEIGHT * (9
 /// The same argument bounds any perturbation that moves `n.l` and `n.v` each by at most
 /// `e` (an unnormalised or rounded normal): the change is at most `MAX_DIFFUSE_SLOPE x e`.
 pub const MAX_DIFFUSE_SLOPE: f32 = DIFFUSE_SCALE * MAX_DIFFUSE_WEIGHT * (155.0 / 64.0);
+
+/// The largest ratio of `dT/d(n.l)` to `sqrt(T)`, `T = diffuse(n.l, n.v) x n.l`, over
+/// every albedo and metallic in [0, 1] and every geometry: with the names of
+/// [`MAX_DIFFUSE_SLOPE`] and `w = albedo (1 - metallic) (1 - F0) <= 0.96`,
+/// `(dT/d(n.l))^2 / T = 28 / (23 pi) w g(n.v) a^2 / (n.l g(n.l))`, and `a(x)^2 <= 10 x
+/// g(x)` on [0, 1]: with `u = x/2`, `10 x g - a^2 = u^3 (400 - 1500 u + 2800 u^2 - 3200 u^3 +
+/// 2360 u^4 - 1105 u^5 + 300 u^6 - 36 u^7)`, whose bracket is at least 67.4 on [0, 1/2]
+/// (at u = 1/2; 400 at 0), equality in the limit `x -> 0` (`a ~ 5x`, `x g ~ 5x^2 / 2`). So
+/// `sqrt(10 x 28 / (23 pi) x 0.96 x 31/32)` = 1.8984. Where `T` is small (light at grazing
+/// incidence, view at grazing angles) its slope is small too: a change of `n.l` by `t`
+/// moves `T` by at most `K t sqrt(T)`, far below `MAX_DIFFUSE_LIGHT_SLOPE x t` there.
+pub const MAX_DIFFUSE_LIGHT_SLOPE_PER_SQRT: f32 = 1.898_373_4;
 
 /// Ashikhmin and Shirley's `g(x) = 1 - (1 - x/2)^5`, written as `x/2 (1 + q + q^2 + q^3 +
 /// q^4)` with `q = 1 - x/2` (`1 - q^5` factored): every term positive, so no f32
@@ -250,7 +262,32 @@ mod tests {
         }
     }
 
-    /// [`MAX_DIFFUSE_SLOPE`] as the brief states it, per radian of an actual rotation of the
+    /// [`MAX_DIFFUSE_LIGHT_SLOPE_PER_SQRT`]: its value is the formula of its doc; steps of
+    /// `n.l` by 1/256 of itself, from 1e-3 to 1 and `n.v` over [0, 1], never change `T` by more
+    /// than `K sqrt(T(end of step))` per unit (mean value theorem; T grows with `n.l`), and
+    /// reach 90% of it (near `n.l` = 0).
+    #[test]
+    fn diffuse_light_slope_per_sqrt_holds_and_is_tight() {
+        let k = (10.0 * f64::from(DIFFUSE_SCALE) * 0.96 * 31.0 / 32.0).sqrt();
+        assert!((f64::from(MAX_DIFFUSE_LIGHT_SLOPE_PER_SQRT) / k - 1.0).abs() < 1e-6, "{k}");
+        let mut worst = 0.0f32;
+        for i in 0..=300 {
+            let x = 1e-3 * 1000f32.powf(i as f32 / 300.0);
+            let h = x / 256.0;
+            for j in 0..=64 {
+                let y = j as f32 / 64.0;
+                let (t0, t1) = (white_t(x, y), white_t(x + h, y));
+                let q = (t1 - t0) / h;
+                assert!(q <= MAX_DIFFUSE_LIGHT_SLOPE_PER_SQRT * t1.sqrt() * 1.001, "n.l {x} n.v {y}: {q}");
+                if t0 > 0.0 {
+                    worst = worst.max(q / t0.sqrt());
+                }
+            }
+        }
+        assert!(worst >= 0.9 * MAX_DIFFUSE_LIGHT_SLOPE_PER_SQRT, "largest slope / sqrt(T) {worst}");
+    }
+
+    /// [`MAX_DIFFUSE_SLOPE`] as its doc states it, per radian of an actual rotation of the
     /// normal: for normals over the hemisphere, light and view directions including grazing
     /// ones, and rotations by 0.01 rad about several axes, the white dielectric's diffuse
     /// term times the cosine changes by at most the bound times the angle; and some rotation
