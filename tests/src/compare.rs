@@ -276,10 +276,9 @@ pub const DEFERRED_SMALL_EMISSION_VS_REFERENCE: Tolerance =
 
 /// How far lavapipe's sRGB texture decode strays from the IEC 61966-2-1 formula, relative
 /// (measured by `gbuffer_texel.rs`, the_texture_units_srgb_decode_against_the_formula:
-/// 2.54e-2 at code 5, Mesa 22.3.6;
-/// GPUs with exact tables agree to 1e-5). Tiled Deferred's packed base colour decodes by the
-/// formula, the other methods through the texture unit, so on lavapipe a textured pixel
-/// differs by up to this much more.
+/// 2.54e-2 at code 5, Mesa 22.3.6; the H200's 5.4e-3 at code 7).
+/// Tiled Deferred's packed base colour therefore decodes through a table the texture unit
+/// reads, as the other methods' textures do, not by the formula.
 pub const LAVAPIPE_SRGB_DECODE_ERROR: f32 = 3e-2;
 
 /// Tiled Deferred vs the brute-force reference (same BRDF and cutoff): the G-buffer stores

@@ -7,7 +7,8 @@
 //! one where the value sits within float rounding of a code boundary (the GPU's division
 //! and `pow` are not the CPU's to the last bit: WGSL allows `pow` a few ulp); roughness and
 //! metallic codes are multiplies and adds of exact inputs, so they must be equal. Decoding
-//! the same bits must agree to 2e-6 (normal) and 1e-5 (base colour, `pow` again). A
+//! the same bits must agree to 2e-6 (normal), 1e-6 (metallic, roughness: a division) and
+//! 1e-5 (base colour, `pow` again). A
 //! negative test proves the comparison rejects a twin with its channels swapped.
 
 use glam::Vec3;
@@ -103,10 +104,12 @@ fn mismatches(cases: &[SurfaceTexel], gpu_rows: &[u32], cpu_pack: impl Fn(&Surfa
         let u = unpack(g);
         let gpu_base = Vec3::new(f(0), f(1), f(2));
         let gpu_normal = Vec3::new(f(4), f(5), f(6));
+        // Metallic and roughness are a code over 15 or 255: WGSL's division may be 2.5 ulp
+        // off (the H200's is: 0.40000004 for 6/15), so 1e-6.
         if (gpu_base - u.base).abs().max_element() > 1e-5
             || (gpu_normal - u.normal).abs().max_element() > 2e-6
-            || f(3) != u.metallic
-            || f(7) != u.roughness
+            || (f(3) - u.metallic).abs() > 1e-6
+            || (f(7) - u.roughness).abs() > 1e-6
         {
             bad.push(format!("case {i}: decoded GPU {gpu_base} {} {gpu_normal} {} CPU {u:?}", f(3), f(7)));
         }
@@ -168,9 +171,10 @@ fn the_comparison_rejects_a_twin_with_swapped_channels() {
 /// `Rgba8UnormSrgb` texture holding every code, read with `textureLoad`. The old G-buffer
 /// (an `Rgba8UnormSrgb` target) round-tripped through the adapter's own conversions; the
 /// packed one decodes by the formula, so where the adapter's decode strays from it, Tiled
-/// Deferred's base colour differs from the other methods' by that much. Printed and
-/// bounded per adapter: lavapipe approximates (see `LAVAPIPE_SRGB_DECODE_ERROR`); a GPU
-/// with exact tables must agree to 1e-5 relative.
+/// Deferred's base colour would differ from the other methods' by that much (so it decodes
+/// through a table the texture unit reads instead). Printed and bounded per adapter:
+/// lavapipe approximates (see `LAVAPIPE_SRGB_DECODE_ERROR`); the H200 strays 5.4e-3 at
+/// code 7 (linear 0.0021; Vulkan leaves sRGB conversion some latitude), so 1e-2 elsewhere.
 #[test]
 fn the_texture_units_srgb_decode_against_the_formula() {
     let ctx = gpu();
@@ -243,6 +247,6 @@ fn the_texture_units_srgb_decode_against_the_formula() {
     }
     eprintln!("{}: sRGB decode vs the formula: worst relative {worst:.3e} at code {at}", ctx.info.name);
     let bound =
-        if tiledlight_tests::is_lavapipe(ctx) { tiledlight_tests::compare::LAVAPIPE_SRGB_DECODE_ERROR } else { 1e-5 };
+        if tiledlight_tests::is_lavapipe(ctx) { tiledlight_tests::compare::LAVAPIPE_SRGB_DECODE_ERROR } else { 1e-2 };
     assert!(worst <= bound, "the adapter's sRGB decode strays {worst:e} from the formula (bound {bound:e})");
 }
