@@ -179,23 +179,7 @@ fn the_comparison_rejects_a_twin_with_swapped_channels() {
 fn the_texture_units_srgb_decode_against_the_formula() {
     let ctx = gpu();
     let device = &ctx.device;
-    let codes: Vec<u8> = (0..=255u8).flat_map(|k| [k, k, k, 255]).collect();
-    let tex = wgpu::util::DeviceExt::create_texture_with_data(
-        device,
-        &ctx.queue,
-        &wgpu::TextureDescriptor {
-            label: Some("test.srgb_codes"),
-            size: wgpu::Extent3d { width: 256, height: 1, depth_or_array_layers: 1 },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba8UnormSrgb,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        },
-        wgpu::util::TextureDataOrder::LayerMajor,
-        &codes,
-    );
+    let tex = tiledlight_deferred::gbuffer::srgb_code_table(device, &ctx.queue, "test.srgb_codes");
     let src = "
         @group(0) @binding(0) var codes: texture_2d<f32>;
         @group(0) @binding(1) var<storage, read_write> out: array<f32>;

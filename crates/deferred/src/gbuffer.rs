@@ -65,6 +65,28 @@ pub const EXTRA_TEST_VALUES: [[u8; 3]; 3] = [[204, 153, 230], [179, 230, 128], [
 /// Fewest and most G-buffer render targets (the sample's slider).
 pub const RT_RANGE: std::ops::RangeInclusive<u32> = 2..=5;
 
+/// A 256 x 1 `Rgba8UnormSrgb` texture holding every 8-bit code (texel k is (k, k, k, 255)):
+/// read with `textureLoad`, it gives the adapter's own sRGB decode of each code (the
+/// G-buffer's base colour table, [`GBuffer::srgb_lut_view`]; tests measure the decode with it).
+pub fn srgb_code_table(device: &wgpu::Device, queue: &wgpu::Queue, label: &str) -> wgpu::Texture {
+    wgpu::util::DeviceExt::create_texture_with_data(
+        device,
+        queue,
+        &wgpu::TextureDescriptor {
+            label: Some(label),
+            size: wgpu::Extent3d { width: 256, height: 1, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba8UnormSrgb,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        },
+        wgpu::util::TextureDataOrder::LayerMajor,
+        &(0..=255u8).flat_map(|k| [k, k, k, 255]).collect::<Vec<u8>>(),
+    )
+}
+
 /// The G-buffer textures of one screen size.
 pub struct GBuffer {
     /// The packed surface (normal, base colour, roughness, metallic).
@@ -104,22 +126,7 @@ impl GBuffer {
             (2..rts).map(|k| target(&format!("deferred.gbuffer.extra{}", k - 2), EXTRA_FORMAT)).collect();
         let extra_views = extra.iter().map(|t| view(t, "deferred.gbuffer.extra.view")).collect();
         let emission = emission.map(|format| target("deferred.gbuffer.emission", format));
-        let srgb_lut = wgpu::util::DeviceExt::create_texture_with_data(
-            device,
-            queue,
-            &wgpu::TextureDescriptor {
-                label: Some("deferred.gbuffer.srgb_lut"),
-                size: wgpu::Extent3d { width: 256, height: 1, depth_or_array_layers: 1 },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::Rgba8UnormSrgb,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING,
-                view_formats: &[],
-            },
-            wgpu::util::TextureDataOrder::LayerMajor,
-            &(0..=255u8).flat_map(|k| [k, k, k, 255]).collect::<Vec<u8>>(),
-        );
+        let srgb_lut = srgb_code_table(device, queue, "deferred.gbuffer.srgb_lut");
         Ok(Self {
             srgb_lut_view: view(&srgb_lut, "deferred.gbuffer.srgb_lut.view"),
             surface_view: view(&surface, "deferred.gbuffer.surface.view"),
