@@ -213,6 +213,17 @@ pub const GBUFFER_BINDINGS: PassBindings =
 pub struct GBufferPass {
     /// Pipelines per draw kind and the scene's groups.
     raster: SceneRaster,
+    /// With an emission target and materials that neither emit nor are occlusion-mapped:
+    /// their pipelines (the emission target's write mask empty) and the instance slots
+    /// they draw, then the slots the full pipelines draw (see [`GBufferPass::record`]).
+    quiet: Option<QuietDraws>,
+}
+
+/// The draws that leave the emission target alone.
+struct QuietDraws {
+    raster: SceneRaster,
+    quiet_slots: Vec<bool>,
+    loud_slots: Vec<bool>,
 }
 
 impl GBufferPass {
@@ -247,25 +258,50 @@ impl GBufferPass {
         let emission = emission_format.is_some();
         let fs = format!("fs_gbuffer{rts}");
         let materials = MaterialKey::of(&scene.material_features);
-        let raster = SceneRaster::materials(
-            device,
-            "deferred.gbuffer",
-            (views, scene),
-            &[],
-            &scene.opaque_kinds(),
-            |kind| {
-                let key = GBufferKey { alpha_mask: kind.masked, materials, emission, extra_test_values: test_values };
-                keyed_module(device, &key)
-            },
-            &RasterTargets {
-                depth: DepthUse::Write,
-                depth_format: DEPTH_FORMAT,
-                samples,
-                fragment: (&fs, &targets),
-                constants: &[],
-            },
-        )?;
-        Ok(Self { raster })
+        let build = |label: &str, targets: &[Option<wgpu::ColorTargetState>]| {
+            SceneRaster::materials(
+                device,
+                label,
+                (views, scene),
+                &[],
+                &scene.opaque_kinds(),
+                |kind| {
+                    let key =
+                        GBufferKey { alpha_mask: kind.masked, materials, emission, extra_test_values: test_values };
+                    keyed_module(device, &key)
+                },
+                &RasterTargets {
+                    depth: DepthUse::Write,
+                    depth_format: DEPTH_FORMAT,
+                    samples,
+                    fragment: (&fs, targets),
+                    constants: &[],
+                },
+            )
+        };
+        let raster = build("deferred.gbuffer", &targets)?;
+        // Slots of instances whose material writes the emission target, and of the others.
+        let slots = scene.draws.iter().map(|d| d.instances.end).max().unwrap_or(0) as usize;
+        let mut loud_slots = vec![false; slots];
+        for d in &scene.draws {
+            for slot in d.instances.clone() {
+                loud_slots[slot as usize] = scene.material_unlit.get(d.material).copied().unwrap_or(true);
+            }
+        }
+        let quiet = if emission && loud_slots.iter().any(|&l| !l) {
+            let mut masked = targets.clone();
+            if let Some(Some(t)) = masked.get_mut(EMISSION_LOCATION) {
+                t.write_mask = wgpu::ColorWrites::empty();
+            }
+            Some(QuietDraws {
+                raster: build("deferred.gbuffer.quiet", &masked)?,
+                quiet_slots: loud_slots.iter().map(|&l| !l).collect(),
+                loud_slots,
+            })
+        } else {
+            None
+        };
+        Ok(Self { raster, quiet })
     }
 
     /// Clears and fills the G-buffer and `depth` with the scene seen from view slot `view`.
@@ -294,8 +330,25 @@ impl GBufferPass {
                 (depth, wgpu::LoadOp::Clear(0.0)),
                 t.render_writes(),
             );
-            self.raster.bind(&mut pass, Some((views, view)), scene);
-            self.raster.draw(&mut pass, scene, None);
+            match &self.quiet {
+                // The materials that leave the emission target at its clear value (no
+                // emission, occlusion 1) draw first, with its writes masked: a fragment that
+                // exports nothing to a target may cost less. Then the rest, depth-tested
+                // against the quiet ones: an emitting surface behind a quiet one fails the
+                // test, so no hidden surface's emission is left under a nearer quiet one
+                // (drawn the other way round it would be: tests/tests/deferred.rs
+                // emission_of_a_hidden_surface_never_shows_through catches that).
+                Some(q) => {
+                    q.raster.bind(&mut pass, Some((views, view)), scene);
+                    q.raster.draw(&mut pass, scene, Some(&q.quiet_slots));
+                    self.raster.bind(&mut pass, Some((views, view)), scene);
+                    self.raster.draw(&mut pass, scene, Some(&q.loud_slots));
+                }
+                None => {
+                    self.raster.bind(&mut pass, Some((views, view)), scene);
+                    self.raster.draw(&mut pass, scene, None);
+                }
+            }
         }
         timer.end(encoder, t);
     }

@@ -402,6 +402,9 @@ pub struct SceneGpu {
     pub materials: wgpu::Buffer,
     /// Per material, its texture slots' bits ([`GpuMaterial::textures`]).
     pub material_textures: Vec<u32>,
+    /// Per material: whether it emits or is occlusion-mapped, i.e. writes Tiled Deferred's
+    /// emission target (every other material leaves it at its clear value).
+    pub material_unlit: Vec<bool>,
     /// World-space bounds of each instance (min, max), in the order of the instance buffer
     /// (what the draws' instance ranges index): shadow faces cull instances with them and
     /// place their near plane just short of the nearest one.
@@ -593,6 +596,7 @@ impl SceneGpu {
             instances: instance_buf,
             materials: material_buf,
             material_textures: gpu_materials.iter().map(|m| m.textures).collect(),
+            material_unlit: scene.materials.iter().map(|m| m.is_emissive() || m.occlusion_texture.is_some()).collect(),
             instance_bounds,
             trace: None,
             memory,
