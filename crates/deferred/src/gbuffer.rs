@@ -13,7 +13,8 @@
 //!   strength): `Rg11b10Ufloat` (4 B: 6-bit mantissas for red and green, 5 for blue, so
 //!   within 1/128 and 1/64 of the value; 6.1e-5 to 65,024) where the device can render to
 //!   it and nothing is occlusion-mapped; otherwise `Rgba16Float` (8 B), occlusion in alpha.
-//!   The shading adds `ambient x albedo x occlusion + emission` from it.
+//!   The shading adds `ambient x albedo x occlusion + emission` from it. Only materials
+//!   that emit or are occlusion-mapped write it ([`GBufferPass::record`] says how and why).
 //!
 //! 12 bytes a pixel with no extra target (25 MB at 1080p), plus 4 per extra target and 4
 //! or 8 with the emission target, times the MSAA sample count: every target is
