@@ -30,22 +30,8 @@ pub const LDR_VIEW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm
 /// its sRGB-encoded bytes) that render passes and samplers see through an
 /// `Rgba8UnormSrgb` view ([`LDR_VIEW_FORMAT`]), so blending and sampling
 /// stay in linear light.
-pub fn ldr_texture(
-    device: &wgpu::Device,
-    label: &str,
-    (w, h): (u32, u32),
-    usage: wgpu::TextureUsages,
-) -> wgpu::Texture {
-    device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: LDR_FORMAT,
-        usage,
-        view_formats: &[LDR_VIEW_FORMAT],
-    })
+pub fn ldr_texture(device: &wgpu::Device, label: &str, size: (u32, u32), usage: wgpu::TextureUsages) -> wgpu::Texture {
+    crate::util::texture_2d_viewed_as(device, label, size, (LDR_FORMAT, 1), usage, &[LDR_VIEW_FORMAT])
 }
 
 /// The `Rgba8UnormSrgb` view of a display image made by [`ldr_texture`].

@@ -121,10 +121,23 @@ pub fn texture_2d(
 pub fn texture_2d_msaa(
     device: &wgpu::Device,
     label: &str,
-    (w, h): (u32, u32),
+    size: (u32, u32),
     format: wgpu::TextureFormat,
     samples: u32,
     usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    texture_2d_viewed_as(device, label, size, (format, samples), usage, &[])
+}
+
+/// A labelled 2D texture of `samples` samples per texel that views may also see as one of
+/// `view_formats` (e.g. the sRGB twin of its format).
+pub fn texture_2d_viewed_as(
+    device: &wgpu::Device,
+    label: &str,
+    (w, h): (u32, u32),
+    (format, samples): (wgpu::TextureFormat, u32),
+    usage: wgpu::TextureUsages,
+    view_formats: &[wgpu::TextureFormat],
 ) -> wgpu::Texture {
     device.create_texture(&wgpu::TextureDescriptor {
         label: Some(label),
@@ -134,6 +147,6 @@ pub fn texture_2d_msaa(
         dimension: wgpu::TextureDimension::D2,
         format,
         usage,
-        view_formats: &[],
+        view_formats,
     })
 }
