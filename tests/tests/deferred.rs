@@ -270,22 +270,15 @@ fn deferred_lists_equal_cpu_reference() {
 #[test]
 fn emission_of_a_hidden_surface_never_shows_through() {
     use glam::{Mat4, Vec3};
-    use tiledlight_scene::{Material, Mesh};
+    use tiledlight_scene::Material;
     let ctx = gpu();
     let mut scene = scenes::floor_scene(0.8, 0.0, vec![]);
     scene.materials[0].emissive = [0.5, 0.3, 0.1];
     scene.materials[0].emissive_strength = 1.0;
-    let plate = Mesh {
-        name: "plate".into(),
-        positions: vec![[-1.5, 1.0, -1.5], [-1.5, 1.0, 1.5], [1.5, 1.0, 1.5], [1.5, 1.0, -1.5]],
-        normals: vec![[0.0, 1.0, 0.0]; 4],
-        uvs: vec![[0.0, 0.0]; 4],
-        indices: vec![0, 1, 2, 0, 2, 3],
-        ..Mesh::default()
-    };
-    scene.meshes.push(plate);
+    scene.meshes.push(scenes::quad("plate", 3.0));
     scene.materials.push(Material { name: "plate".into(), base_color: [0.2, 0.4, 0.6, 1.0], ..Material::default() });
-    scene.instances.push(tiledlight_scene::Instance { mesh: 1, material: 1, transform: Mat4::IDENTITY });
+    let transform = Mat4::from_translation(Vec3::Y);
+    scene.instances.push(tiledlight_scene::Instance { mesh: 1, material: 1, transform });
     let camera = scenes::floor_camera(W, H);
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     assert_eq!(sg.material_unlit, vec![true, false]);
