@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer emission vpl reshape visibility raster raster-short traced casters casters-curve ranking
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order emission vpl reshape visibility raster raster-short traced casters casters-curve ranking
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -294,6 +294,25 @@ for set in $sets; do
     run gb-court-msaa4-em 30 --lights 1024 --method deferred --msaa 4 --emissive
     # The compute tonemap (and the diffuse change) in Forward+ too.
     run gb-fp-1024 50 --lights 1024
+    ;;
+  order)
+    # Issue 31: the depth pre-pass and the G-buffer drawn nearest first against the
+    # instance buffer's order (--draw-order). Tiled Deferred on the Figure 9 scene at 4,096
+    # lights with the stress knob at 2 and 4, with emission; the courtyard with and without
+    # emission and at 4x MSAA; Forward+ (its pre-pass) on both scenes.
+    for o in submission front-to-back; do
+      for rts in 2 4; do
+        run "do-$o-fig9-4096-rts$rts" 50 --lights 4096 --grid-objects 280 --density medium --method deferred \
+          --gbuffer-rts $rts --draw-order $o
+      done
+      run "do-$o-fig9-4096-rts4-em" 50 --lights 4096 --grid-objects 280 --density medium --method deferred \
+        --gbuffer-rts 4 --emissive --draw-order $o
+      run "do-$o-court-1024" 50 --lights 1024 --method deferred --draw-order $o
+      run "do-$o-court-1024-em" 50 --lights 1024 --method deferred --emissive --draw-order $o
+      run "do-$o-court-msaa4" 30 --lights 1024 --method deferred --msaa 4 --draw-order $o
+      run "do-$o-fp-fig9-4096" 50 --lights 4096 --grid-objects 280 --density medium --draw-order $o
+      run "do-$o-fp-court-1024" 50 --lights 1024 --draw-order $o
+    done
     ;;
   emission)
     # Issue 14: the cost of emission. The courtyard with and without its banners glowing

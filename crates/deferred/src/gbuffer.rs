@@ -24,6 +24,7 @@
 use tiledlight_cull::gbuffer::TEXEL_BYTES;
 use tiledlight_gpu::bindings::PassBindings;
 use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
+use tiledlight_gpu::draw_order::DrawOrder;
 use tiledlight_gpu::scene_gpu::{MaterialFeatures, SceneGpu, SCENE_GROUPS};
 use tiledlight_gpu::scene_raster::{begin_pass, cleared, DepthUse, RasterTargets, SceneRaster};
 use tiledlight_gpu::targets::texture_2d_msaa;
@@ -305,13 +306,15 @@ impl GBufferPass {
         Ok(Self { raster, quiet })
     }
 
-    /// Clears and fills the G-buffer and `depth` with the scene seen from view slot `view`.
+    /// Clears and fills the G-buffer and `depth` with the scene seen from view slot `view`,
+    /// drawn in `order` (the instance buffer's when None; nearest first exports fewer hidden
+    /// fragments, [`tiledlight_gpu::draw_order`]).
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         timer: &GpuTimer,
         (views, view): (&Views, u32),
-        scene: &SceneGpu,
+        (scene, order): (&SceneGpu, Option<&DrawOrder>),
         gbuffer: &GBuffer,
         depth: &wgpu::TextureView,
     ) {
@@ -341,13 +344,13 @@ impl GBufferPass {
                 // emission_of_a_hidden_surface_never_shows_through catches that).
                 Some(q) => {
                     q.raster.bind(&mut pass, Some((views, view)), scene);
-                    q.raster.draw(&mut pass, scene, Some(&q.quiet_slots));
+                    q.raster.draw(&mut pass, scene, Some(&q.quiet_slots), order);
                     self.raster.bind(&mut pass, Some((views, view)), scene);
-                    self.raster.draw(&mut pass, scene, Some(&q.loud_slots));
+                    self.raster.draw(&mut pass, scene, Some(&q.loud_slots), order);
                 }
                 None => {
                     self.raster.bind(&mut pass, Some((views, view)), scene);
-                    self.raster.draw(&mut pass, scene, None);
+                    self.raster.draw(&mut pass, scene, None, order);
                 }
             }
         }

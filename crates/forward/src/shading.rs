@@ -171,7 +171,7 @@ impl ShadingPass {
             let mut pass = begin_pass(encoder, self.label, &[hdr], (depth, wgpu::LoadOp::Load), t.render_writes());
             self.raster.bind(&mut pass, Some((views, view)), scene);
             pass.set_bind_group(3, &self.lights.group, &[]);
-            self.raster.draw(&mut pass, scene, None);
+            self.raster.draw(&mut pass, scene, None, None);
         }
         timer.end(encoder, t);
     }

@@ -131,7 +131,8 @@ impl ForwardFrame {
         view: (&tiledlight_gpu::view::Views, u32),
         (scene, depth): (&SceneGpu, &wgpu::TextureView),
     ) {
-        self.prepass.record(encoder, timer, view, scene, depth);
+        // The instance buffer's order: the ranking runs once, its cost is not measured.
+        self.prepass.record(encoder, timer, view, (scene, None), depth);
         if let Some(cull) = &self.culling {
             cull.record(encoder, timer, view, "forward.cull");
         }
@@ -141,7 +142,7 @@ impl ForwardFrame {
 impl MethodFrame for ForwardFrame {
     fn record(&self, rec: &mut Rec<'_>, shared: &SharedSteps, depth: Depth<'_>, hdr: Hdr<'_>) {
         rec.step(Step::DepthPrepass);
-        self.prepass.record(rec.encoder, rec.timer, rec.view, rec.scene, depth.view);
+        self.prepass.record(rec.encoder, rec.timer, rec.view, (rec.scene, rec.order), depth.view);
         if let Some(cull) = &self.culling {
             rec.step(Step::Cull);
             cull.record(rec.encoder, rec.timer, rec.view, "forward.cull");

@@ -7,6 +7,7 @@
 
 use std::cell::Cell;
 
+use tiledlight_gpu::draw_order::DrawOrder;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::plan::{FramePlan, Step};
 use tiledlight_gpu::scene_gpu::SceneGpu;
@@ -63,6 +64,9 @@ pub struct Rec<'a> {
     pub view: (&'a Views, u32),
     /// The scene's buffers and draws.
     pub scene: &'a SceneGpu,
+    /// The order the head step (depth pre-pass or G-buffer) draws the scene in; None:
+    /// the instance buffer's ([`FrameSettings::draw_order`](crate::FrameSettings::draw_order)).
+    pub order: Option<&'a DrawOrder>,
     plan: &'a FramePlan,
     next: Cell<usize>,
 }
@@ -73,10 +77,10 @@ impl<'a> Rec<'a> {
         encoder: &'a mut wgpu::CommandEncoder,
         timer: &'a GpuTimer,
         view: (&'a Views, u32),
-        scene: &'a SceneGpu,
+        (scene, order): (&'a SceneGpu, Option<&'a DrawOrder>),
         plan: &'a FramePlan,
     ) -> Self {
-        Self { encoder, timer, view, scene, plan, next: Cell::new(0) }
+        Self { encoder, timer, view, scene, order, plan, next: Cell::new(0) }
     }
 
     /// Marks `step` as recorded next. Debug builds (every test) check that it is the plan's

@@ -4,9 +4,13 @@
 //! Diagnostics (read-backs, statistics) are [`crate::diagnostics`]. Depends on the rest of
 //! this crate.
 
+use std::cell::RefCell;
+
+use glam::Vec3;
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::blended::BlendedPath;
+use tiledlight_gpu::draw_order::{DrawOrder, DrawOrderMode};
 use tiledlight_gpu::features::{Features, Method, Raster};
 use tiledlight_gpu::heatmap::HeatmapPass;
 use tiledlight_gpu::light_buffers::LightBuffers;
@@ -84,6 +88,9 @@ pub struct FrameRenderer {
     settings: FrameSettings,
     shared: SharedSteps,
     method: Box<dyn MethodFrame>,
+    /// With [`DrawOrderMode::FrontToBack`]: the eye the order was last sorted for, and
+    /// that order (sorted again only when the eye moves).
+    order: RefCell<Option<(Vec3, DrawOrder)>>,
 }
 
 impl FrameRenderer {
@@ -177,7 +184,7 @@ impl FrameRenderer {
             shared.finish(&ctx.device, (scene, lights), s, method.lists())?;
             Ok::<_, GpuError>(method)
         })??;
-        Ok(Self { settings, shared, method })
+        Ok(Self { settings, shared, method, order: RefCell::new(None) })
     }
 
     /// The settings it was built with (`cull.samples` set from `msaa`).
@@ -268,7 +275,18 @@ impl Renderer for FrameRenderer {
         let f = &self.shared;
         f.write_view(queue, camera);
         let (depth, hdr, ldr) = target_handles(&f.targets);
-        let mut rec = Rec::new(encoder, timer, f.main_view(), scene, &f.plan);
+        let mut cached = self.order.borrow_mut();
+        if self.settings.draw_order == DrawOrderMode::FrontToBack {
+            let eye = camera.eye();
+            if cached.as_ref().is_none_or(|(e, _)| *e != eye) {
+                *cached = Some((eye, scene.front_to_back(eye)));
+            }
+        }
+        let order = match self.settings.draw_order {
+            DrawOrderMode::FrontToBack => cached.as_ref().map(|(_, o)| o),
+            DrawOrderMode::Submission => None,
+        };
+        let mut rec = Rec::new(encoder, timer, f.main_view(), (scene, order), &f.plan);
         f.record_shadows(&mut rec);
         f.record_vpls(&mut rec);
         self.method.record(&mut rec, f, depth, hdr);

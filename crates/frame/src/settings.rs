@@ -10,6 +10,7 @@ use tiledlight_cull::shadow::ShadowOptions;
 use tiledlight_cull::vpl::VplConfig;
 use tiledlight_deferred::EdgeTest;
 use tiledlight_gpu::culling::{CullOptions, DropLight};
+use tiledlight_gpu::draw_order::DrawOrderMode;
 use tiledlight_gpu::features::{BlendMode, Method, Raster};
 use tiledlight_gpu::heatmap::HeatmapOf;
 use tiledlight_visibility::compute_raster::ComputeRasterOptions;
@@ -47,6 +48,10 @@ pub struct FrameSettings {
     /// Tiled methods cull them into a light grid of their own (one list per tile); brute
     /// force shades every one.
     pub vpl: Option<VplConfig>,
+    /// The order the depth pre-pass and the G-buffer draw the scene in: nearest first
+    /// (the default; sorted again when the eye moves) or the instance buffer's
+    /// ([`tiledlight_gpu::draw_order`]). Images differ only where two surfaces tie in depth.
+    pub draw_order: DrawOrderMode,
     /// Tiled Deferred: G-buffer render targets, 2..=5 (extra ones are written white and
     /// read back: the sample's bandwidth stress knob). Other methods ignore it.
     pub gbuffer_rts: u32,
@@ -88,6 +93,7 @@ impl Default for FrameSettings {
             shadows: ShadowOptions::default(),
             blend: BlendMode::Sorted,
             vpl: None,
+            draw_order: DrawOrderMode::FrontToBack,
             gbuffer_rts: 2,
             edge: EdgeTest::default(),
             test_drop_light: None,

@@ -106,7 +106,7 @@ impl DeferredFrame {
 impl MethodFrame for DeferredFrame {
     fn record(&self, rec: &mut Rec<'_>, shared: &SharedSteps, depth: Depth<'_>, _hdr: Hdr<'_>) {
         rec.step(Step::GBuffer);
-        self.gbuffer_pass.record(rec.encoder, rec.timer, rec.view, rec.scene, &self.gbuffer, depth.view);
+        self.gbuffer_pass.record(rec.encoder, rec.timer, rec.view, (rec.scene, rec.order), &self.gbuffer, depth.view);
         shared.record_vpl_cull(rec, depth);
         // The pass was built over the frame's depth, G-buffer and HDR image.
         rec.step(Step::DeferredShade);

@@ -419,7 +419,7 @@ impl BlendedPath {
         {
             let target = (&depth.view, wgpu::LoadOp::Clear(0.0));
             let mut pass = begin_pass(encoder, "blended.depth", &[], target, t.render_writes());
-            depth.pass.draw(&mut pass, view, scene, None);
+            depth.pass.draw(&mut pass, view, scene, None, None);
         }
         timer.end(encoder, t);
     }

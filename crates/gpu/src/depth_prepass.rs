@@ -4,6 +4,7 @@
 //! the scene has. Depends on wgpu, [`crate::scene_gpu`], [`crate::scene_raster`] and [`crate::view`].
 
 use crate::bindings::{Binding, Cond, PassBindings, PassGroup};
+use crate::draw_order::DrawOrder;
 use crate::error::GpuError;
 use crate::features::Features;
 use crate::scene_gpu::{DrawKind, SceneGpu, BASE_COLOR_BINDINGS, POSITION_LAYOUT, SCENE_GROUPS};
@@ -212,16 +213,18 @@ impl DepthPrepass {
     }
 
     /// Draws the scene seen from view slot `view` into the pass's depth attachment: the
-    /// instances set in `visible` (by instance slot), or all.
+    /// instances set in `visible` (by instance slot), or all, in `order` (the instance
+    /// buffer's when None).
     pub fn draw(
         &self,
         pass: &mut wgpu::RenderPass<'_>,
         (views, view): (&Views, u32),
         scene: &SceneGpu,
         visible: Option<&[bool]>,
+        order: Option<&DrawOrder>,
     ) {
         self.raster.bind(pass, Some((views, view)), scene);
-        self.raster.draw(pass, scene, visible);
+        self.raster.draw(pass, scene, visible, order);
     }
 
     /// Clears `depth` to 0 and `ids` to [`tiledlight_cull::visibility::NO_TRIANGLE`] and
@@ -241,24 +244,28 @@ impl DepthPrepass {
             let colors = [cleared(ids, None, clear)];
             let mut pass =
                 begin_pass(encoder, self.label, &colors, (depth, wgpu::LoadOp::Clear(0.0)), t.render_writes());
-            self.draw(&mut pass, (views, view), scene, None);
+            // The instance buffer's order: where two surfaces tie in depth the later
+            // draw keeps the pixel, and the compute raster's rule (the larger ID) matches
+            // that order only (`crate::draw_order`).
+            self.draw(&mut pass, (views, view), scene, None, None);
         }
         timer.end(encoder, t);
     }
 
-    /// Clears `depth` to 0 (far, reversed-Z) and draws the scene seen from view slot `view` into it.
+    /// Clears `depth` to 0 (far, reversed-Z) and draws the scene seen from view slot `view`
+    /// into it, in `order` (the instance buffer's when None).
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         timer: &GpuTimer,
         (views, view): (&Views, u32),
-        scene: &SceneGpu,
+        (scene, order): (&SceneGpu, Option<&DrawOrder>),
         depth: &wgpu::TextureView,
     ) {
         let t = timer.begin(self.label, encoder);
         {
             let mut pass = begin_pass(encoder, self.label, &[], (depth, wgpu::LoadOp::Clear(0.0)), t.render_writes());
-            self.draw(&mut pass, (views, view), scene, None);
+            self.draw(&mut pass, (views, view), scene, None, order);
         }
         timer.end(encoder, t);
     }

@@ -4,7 +4,8 @@
 //! and variants ([`shader`], shaders embedded from `shaders/`), bind group layouts declared
 //! once as data and checked against the WGSL ([`bindings`]), GPU timers ([`timer`]),
 //! readback ([`readback`]), scene and light buffers ([`scene_gpu`], [`light_buffers`]), and the
-//! passes both methods share: the depth pre-pass ([`depth_prepass`]), light culling by
+//! passes both methods share: the depth pre-pass ([`depth_prepass`]) and the order it and
+//! the G-buffer draw in ([`draw_order`]), light culling by
 //! technique ([`culling`]: tile gather, light-centric scatter, clusters) into the light grid
 //! ([`light_grid`]), the shadow atlas ([`shadow_atlas`]), the blended-geometry path ([`blended`]), tonemapping ([`tonemap`]), the traced
 //! reference's BVH ([`bvh`]) and each light's contribution to a frame ([`contribution`],
@@ -18,6 +19,7 @@ pub mod context;
 pub mod contribution;
 pub mod culling;
 pub mod depth_prepass;
+pub mod draw_order;
 pub mod error;
 pub mod exposure;
 pub mod features;

@@ -16,6 +16,7 @@ use tiledlight_scene::clusters::{cluster_scene, Cluster};
 use tiledlight_scene::{AlphaMode, Filter, Material, Sampler, Scene, TextureRef, Wrap};
 
 use crate::bindings::{create_layout, Binding, Cond, PassGroup};
+use crate::draw_order::DrawOrder;
 use crate::error::GpuError;
 use crate::memory::MemoryReport;
 use crate::util::buffer_init;
@@ -409,6 +410,9 @@ pub struct SceneGpu {
     /// (what the draws' instance ranges index): shadow faces cull instances with them and
     /// place their near plane just short of the nearest one.
     pub instance_bounds: Vec<(glam::Vec3, glam::Vec3)>,
+    /// The instance buffer's own draw order ([`DrawOrder::submission`]): what a pass
+    /// draws in when it is given no other order.
+    pub submission: DrawOrder,
     /// The casting geometry's BVH for the traced reference's shadow rays: built only by
     /// [`SceneGpu::add_trace`] (a second a million triangles on the CPU), None otherwise.
     pub trace: Option<crate::bvh::GpuBvh>,
@@ -576,6 +580,7 @@ impl SceneGpu {
         } else {
             None
         };
+        let submission = DrawOrder::submission(&draws.iter().map(|d| d.instances.clone()).collect::<Vec<_>>());
         Ok(Self {
             positions,
             normals,
@@ -597,10 +602,21 @@ impl SceneGpu {
             materials: material_buf,
             material_textures: gpu_materials.iter().map(|m| m.textures).collect(),
             material_unlit: scene.materials.iter().map(|m| m.is_emissive() || m.occlusion_texture.is_some()).collect(),
+            submission,
             instance_bounds,
             trace: None,
             memory,
         })
+    }
+
+    /// The draws' instance slot ranges, in draw order.
+    pub fn draw_slot_ranges(&self) -> Vec<Range<u32>> {
+        self.draws.iter().map(|d| d.instances.clone()).collect()
+    }
+
+    /// The order that draws the instances nearest `eye` first ([`DrawOrder::front_to_back`]).
+    pub fn front_to_back(&self, eye: glam::Vec3) -> DrawOrder {
+        DrawOrder::front_to_back(&self.draw_slot_ranges(), &self.instance_bounds, eye)
     }
 
     /// The pipeline kinds this scene's draws need (blended ones last).
@@ -680,30 +696,30 @@ impl SceneGpu {
         with_attributes: bool,
         bind_textures: bool,
     ) {
-        self.record_draws_of(pass, kind, (with_attributes, bind_textures), None);
+        self.record_draws_of(pass, kind, (with_attributes, bind_textures), None, None);
     }
 
-    /// As [`Self::record_draws`], drawing only the instances whose slot (instance-buffer
-    /// index) is set in `visible`, in runs of consecutive slots (all when None). Returns
-    /// what it recorded.
+    /// As [`Self::record_draws`], in `order` (the instance buffer's, [`Self::submission`],
+    /// when None), drawing only the instances whose slot (instance-buffer index) is set in
+    /// `visible` (all when None), in runs of consecutive slots ([`DrawOrder::runs`]).
+    /// Returns what it recorded.
     pub fn record_draws_of(
         &self,
         pass: &mut wgpu::RenderPass<'_>,
         kind: DrawKind,
         (with_attributes, bind_textures): (bool, bool),
         visible: Option<&[bool]>,
+        order: Option<&DrawOrder>,
     ) -> DrawCount {
+        let order = order.unwrap_or(&self.submission);
         let mut count = DrawCount::default();
         pass.set_vertex_buffer(0, self.positions.slice(..));
         if with_attributes {
             self.bind_attributes(pass);
         }
         pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
-        for d in self.draws.iter().filter(|d| d.kind == kind) {
-            let runs = match visible {
-                None => vec![d.instances.clone()],
-                Some(v) => visible_runs(d.instances.clone(), v),
-            };
+        for d in order.draws().iter().map(|&d| &self.draws[d as usize]).filter(|d| d.kind == kind) {
+            let runs = order.runs(d.instances.clone(), visible);
             if runs.is_empty() {
                 continue;
             }
@@ -736,21 +752,6 @@ impl std::ops::AddAssign for DrawCount {
         self.calls += o.calls;
         self.instances += o.instances;
     }
-}
-
-/// The runs of consecutive slots of `slots` set in `visible`.
-fn visible_runs(slots: Range<u32>, visible: &[bool]) -> Vec<Range<u32>> {
-    let mut runs: Vec<Range<u32>> = Vec::new();
-    for s in slots {
-        if !visible[s as usize] {
-            continue;
-        }
-        match runs.last_mut() {
-            Some(r) if r.end == s => r.end += 1,
-            _ => runs.push(s..s + 1),
-        }
-    }
-    runs
 }
 
 fn mip_chain(width: u32, height: u32, rgba: &[u8]) -> Vec<(u32, u32, Vec<u8>)> {
@@ -945,7 +946,7 @@ pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
 
 #[cfg(test)]
 mod tests {
-    use super::{visible_runs, MaterialFeatures};
+    use super::{DrawOrder, MaterialFeatures};
 
     #[test]
     fn material_key_follows_the_features() {
@@ -957,8 +958,9 @@ mod tests {
     #[test]
     fn runs_of_visible_slots() {
         let v = [true, true, false, true, false, false, true];
-        assert_eq!(visible_runs(0..7, &v), vec![0..2, 3..4, 6..7]);
-        assert_eq!(visible_runs(2..3, &v), vec![]);
-        assert_eq!(visible_runs(1..4, &v), vec![1..2, 3..4]);
+        let o = DrawOrder::submission(&[0..7]);
+        assert_eq!(o.runs(0..7, Some(&v)), vec![0..2, 3..4, 6..7]);
+        assert_eq!(o.runs(2..3, Some(&v)), vec![]);
+        assert_eq!(o.runs(1..4, Some(&v)), vec![1..2, 3..4]);
     }
 }

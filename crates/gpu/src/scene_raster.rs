@@ -19,6 +19,7 @@
 //! A pass's own groups (the lights at group 3) are set by the pass after [`SceneRaster::bind`].
 //! Depends on wgpu, [`crate::scene_gpu`], [`crate::view`] and [`crate::util`].
 
+use crate::draw_order::DrawOrder;
 use crate::error::GpuError;
 use crate::scene_gpu::{DrawCount, DrawKind, SceneGpu};
 use crate::util::pipeline_layout;
@@ -217,8 +218,15 @@ impl SceneRaster {
     }
 
     /// Records the draws of every kind with its pipeline, only the instances set in
-    /// `visible` (by instance slot) or all; returns what it recorded.
-    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, scene: &SceneGpu, visible: Option<&[bool]>) -> DrawCount {
+    /// `visible` (by instance slot) or all, each kind in `order` (the instance buffer's
+    /// when None); returns what it recorded.
+    pub fn draw(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        scene: &SceneGpu,
+        visible: Option<&[bool]>,
+        order: Option<&DrawOrder>,
+    ) -> DrawCount {
         let mut drawn = DrawCount::default();
         for (kind, pipeline) in &self.pipelines {
             pass.set_pipeline(pipeline);
@@ -226,7 +234,7 @@ impl SceneRaster {
                 SceneInputs::Materials => (true, true),
                 SceneInputs::DepthOnly => (kind.masked, kind.masked),
             };
-            drawn += scene.record_draws_of(pass, *kind, inputs, visible);
+            drawn += scene.record_draws_of(pass, *kind, inputs, visible, order);
         }
         drawn
     }

@@ -392,7 +392,13 @@ impl ShadowAtlas {
                         pass.set_pipeline(&self.clear);
                         pass.draw(0..3, 0..1);
                     }
-                    self.depth.draw(&mut pass, (views, self.first_slot + f), scene, Some(&state.visible[f as usize]));
+                    self.depth.draw(
+                        &mut pass,
+                        (views, self.first_slot + f),
+                        scene,
+                        Some(&state.visible[f as usize]),
+                        None,
+                    );
                     state.dirty[f as usize] = false;
                 }
             }

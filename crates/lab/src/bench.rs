@@ -585,6 +585,8 @@ pub struct RendererJson {
     pub spot_cone: bool,
     pub coarse: bool,
     pub gbuffer_rts: u32,
+    /// The depth pre-pass's and G-buffer's draw order: "front-to-back" or "submission".
+    pub draw_order: &'static str,
     pub msaa: u32,
     pub edge_distance: f32,
     pub edge_normal_deg: f32,
@@ -676,6 +678,7 @@ pub fn run<F: Flags>(scene: &F, args: &Bench) -> Result<()> {
                     spot_cone: a.spot_cone,
                     coarse: !a.flat_cull,
                     gbuffer_rts: a.gbuffer_rts,
+                    draw_order: a.draw_order.label(),
                     msaa: a.msaa,
                     edge_distance: a.edge_distance,
                     edge_normal_deg: a.edge_normal_deg,
@@ -812,6 +815,7 @@ mod tests {
                 spot_cone: false,
                 coarse: true,
                 gbuffer_rts: 2,
+                draw_order: "front-to-back",
                 msaa: 1,
                 edge_distance: 0.1,
                 edge_normal_deg: 30.0,
@@ -828,7 +832,7 @@ mod tests {
         };
         // The fields and order of bench's `config` before the two schemas became one.
         let bench_keys = "adapter resolution width height scene triangles instances point_lights spot_lights seed \
-             threshold method tile_size capacity aabb half_z spot_cone coarse gbuffer_rts msaa edge_distance \
+             threshold method tile_size capacity aabb half_z spot_cone coarse gbuffer_rts draw_order msaa edge_distance \
              edge_normal_deg shadow_point_lights shadow_spot_lights casters_by shadow_size shadow_filter shadow_format \
              transparent_objects emissive commit";
         assert_eq!(keys(&bench).join(" "), bench_keys.split_whitespace().collect::<Vec<_>>().join(" "));

@@ -452,7 +452,12 @@ impl Prepared {
         let method = match a.method {
             Method::ForwardPlus => format!("forward-plus ({})", a.culling_description()),
             Method::TiledDeferred => {
-                format!("deferred ({}, {} G-buffer targets)", a.culling_description(), a.gbuffer_rts)
+                format!(
+                    "deferred ({}, {} G-buffer targets, drawn {})",
+                    a.culling_description(),
+                    a.gbuffer_rts,
+                    a.draw_order.label()
+                )
             }
             Method::Visibility => format!("visibility ({}, 32-bit triangle IDs)", a.culling_description()),
             Method::TracedReference => match &self.scene_gpu.trace {

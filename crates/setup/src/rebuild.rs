@@ -103,6 +103,7 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || a.spot_cone != b.spot_cone
         || a.flat_cull != b.flat_cull
         || a.gbuffer_rts != b.gbuffer_rts
+        || a.draw_order != b.draw_order
         || a.raster != b.raster
         || a.raster_large_px != b.raster_large_px
         || a.raster_large != b.raster_large

@@ -24,6 +24,7 @@ use tiledlight_deferred::EdgeTest;
 use tiledlight_frame::FrameSettings;
 use tiledlight_gpu::culling::CLUSTER_TILE_SIZES;
 use tiledlight_gpu::culling::{ClusterOptions, CullOptions, CULL_WORKGROUP_BYTES};
+pub use tiledlight_gpu::draw_order::DrawOrderMode;
 use tiledlight_gpu::features::BlendMode;
 pub use tiledlight_gpu::features::{Method, Raster};
 use tiledlight_scene::{
@@ -225,6 +226,8 @@ pub struct Settings {
     pub flat_cull: bool,
     /// Tiled Deferred's G-buffer render targets, 2 to 5.
     pub gbuffer_rts: u32,
+    /// The order the depth pre-pass and the G-buffer draw the scene in.
+    pub draw_order: DrawOrderMode,
     /// The visibility buffer's raster: auto (per adapter), hardware or compute.
     pub raster: Raster,
     /// The compute raster hands a triangle whose bounds span more pixels than this (either
@@ -304,6 +307,7 @@ impl Default for Settings {
             spot_cone: false,
             flat_cull: false,
             gbuffer_rts: 2,
+            draw_order: DrawOrderMode::FrontToBack,
             raster: Raster::Auto,
             raster_large_px: ComputeRasterOptions::default().large_px,
             raster_large: ComputeRasterOptions::default().large,
@@ -537,6 +541,7 @@ impl Settings {
             method: self.method,
             cull: self.cull_options(),
             gbuffer_rts: self.gbuffer_rts,
+            draw_order: self.draw_order,
             raster: self.raster,
             compute_raster: ComputeRasterOptions { large_px: self.raster_large_px, large: self.raster_large },
             exposure: self.exposure,

@@ -448,7 +448,7 @@ impl ComputeRaster {
             }
             if let Some((masked, group, index)) = &self.masked {
                 pass.set_bind_group(*index, group, &[]);
-                masked.draw(&mut pass, (views, view), scene, None);
+                masked.draw(&mut pass, (views, view), scene, None, None);
             }
         }
         timer.end(encoder, t);

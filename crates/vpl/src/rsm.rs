@@ -346,7 +346,7 @@ impl Rsm {
                 pass.set_viewport(x as f32, y as f32, s as f32, s as f32, 0.0, 1.0);
                 pass.set_scissor_rect(x, y, s, s);
                 pass.set_bind_group(0, self.views.bind_group(), &self.views.offsets(f));
-                drawn += self.raster.draw(&mut pass, scene, visible);
+                drawn += self.raster.draw(&mut pass, scene, visible, None);
             }
             *self.drawn.lock().expect("rsm draw count") = drawn;
         }

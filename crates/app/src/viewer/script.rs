@@ -103,6 +103,9 @@ pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
         "seed" => a.seed = number(key, value)?,
         "tile-size" => a.tile_size = number(key, value)?,
         "gbuffer-rts" => a.gbuffer_rts = number(key, value)?,
+        "draw-order" => {
+            a.draw_order = tiledlight_setup::DrawOrderMode::parse(value).map_err(|e| anyhow::anyhow!("--script: {e}"))?
+        }
         "raster" => {
             a.raster = <tiledlight_setup::Raster as ValueEnum>::from_str(value, true)
                 .map_err(|e| anyhow::anyhow!("--script: raster={value}: {e}"))?

@@ -15,6 +15,7 @@ use std::collections::VecDeque;
 use egui::{Color32, RichText};
 use tiledlight_cull::shadow::ShadowFormat;
 use tiledlight_gpu::blended::BlendedPath;
+use tiledlight_gpu::draw_order::DrawOrderMode;
 use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::heatmap::{heatmap_palette, heatmap_t, HeatmapOf, HEATMAP_OVERFLOW};
 use tiledlight_gpu::memory::{format_bytes, MemoryReport};
@@ -450,6 +451,10 @@ fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'
         ui.add_enabled(s.setup.method == Method::TiledDeferred, |ui: &mut egui::Ui| {
             ui.add(egui::Slider::new(&mut s.setup.gbuffer_rts, 2..=5).text("G-buffer RTs"))
         });
+        let mut sorted = s.setup.draw_order == DrawOrderMode::FrontToBack;
+        ui.checkbox(&mut sorted, "draw nearest first")
+            .on_hover_text("depth pre-pass and G-buffer: hidden fragments fail the early depth test");
+        s.setup.draw_order = if sorted { DrawOrderMode::FrontToBack } else { DrawOrderMode::Submission };
         ui.add_enabled_ui(s.setup.method == Method::Visibility, |ui| {
             egui::ComboBox::from_label("raster")
                 .selected_text(s.setup.raster.name())
