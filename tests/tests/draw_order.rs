@@ -126,9 +126,7 @@ fn the_gbuffer_draws_in_the_frames_order() {
     let red = ambient * Vec3::new(0.8, 0.1, 0.1);
     let green = ambient * Vec3::new(0.1, 0.8, 0.1);
     let near = |p: Vec3, want: Vec3| ((p - want).abs() / want).max_element() < 3e-2;
-    for (order, want, name) in
-        [(DrawOrderMode::Submission, green, "green"), (DrawOrderMode::FrontToBack, red, "red")]
-    {
+    for (order, want, name) in [(DrawOrderMode::Submission, green, "green"), (DrawOrderMode::FrontToBack, red, "red")] {
         for p in centre(order) {
             assert!(near(p, want), "{}: centre pixel {p}, expected the {name} plate {want}", order.label());
         }

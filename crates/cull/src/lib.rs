@@ -22,7 +22,8 @@
 //! contribution to a frame, which picks shadow casters by what they light on screen
 //! ([`contribution`]); and unit normals in two fixed-point numbers, the octahedral map
 //! with its error bound ([`octahedral`]), and the compact G-buffer texel that packs a
-//! surface sample into 64 bits ([`gbuffer`]).
+//! surface sample into 64 bits ([`gbuffer`]); and the order the depth pre-pass and the
+//! G-buffer draw instances in, nearest first ([`draw_order`]).
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
 
 pub mod error;
@@ -41,6 +42,7 @@ pub mod camera;
 pub mod cluster;
 pub mod contribution;
 pub mod depth_mask;
+pub mod draw_order;
 pub mod estimate;
 pub mod exposure;
 pub mod gather;

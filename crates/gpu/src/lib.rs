@@ -12,6 +12,9 @@
 //! which picks shadow casters by what they light). Depends on wgpu, tiledlight-cull and
 //! tiledlight-scene; never on a renderer crate.
 
+/// The draw order of the depth pre-pass and the G-buffer: CPU logic, in tiledlight-cull.
+pub use tiledlight_cull::draw_order;
+
 pub mod bindings;
 pub mod blended;
 pub mod bvh;
@@ -19,7 +22,6 @@ pub mod context;
 pub mod contribution;
 pub mod culling;
 pub mod depth_prepass;
-pub mod draw_order;
 pub mod error;
 pub mod exposure;
 pub mod features;

@@ -958,7 +958,8 @@ mod tests {
     #[test]
     fn runs_of_visible_slots() {
         let v = [true, true, false, true, false, false, true];
-        let o = DrawOrder::submission(&[0..7]);
+        let one_draw = vec![std::ops::Range { start: 0, end: 7 }];
+        let o = DrawOrder::submission(&one_draw);
         assert_eq!(o.runs(0..7, Some(&v)), vec![0..2, 3..4, 6..7]);
         assert_eq!(o.runs(2..3, Some(&v)), vec![]);
         assert_eq!(o.runs(1..4, Some(&v)), vec![1..2, 3..4]);

@@ -104,7 +104,8 @@ pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
         "tile-size" => a.tile_size = number(key, value)?,
         "gbuffer-rts" => a.gbuffer_rts = number(key, value)?,
         "draw-order" => {
-            a.draw_order = tiledlight_setup::DrawOrderMode::parse(value).map_err(|e| anyhow::anyhow!("--script: {e}"))?
+            a.draw_order =
+                tiledlight_setup::DrawOrderMode::parse(value).map_err(|e| anyhow::anyhow!("--script: {e}"))?
         }
         "raster" => {
             a.raster = <tiledlight_setup::Raster as ValueEnum>::from_str(value, true)

@@ -127,11 +127,13 @@ pub fn load_gltf_bytes(bytes: &[u8], path: &Path, options: &LoadOptions) -> Resu
         mesh_cache: HashMap::new(),
         material_cache: HashMap::new(),
         texture_cache: HashMap::new(),
+        unusable_images: Vec::new(),
     };
     if let Some(w) = extensions::used_warning(document.as_json()) {
         loader.warn(w);
     }
     loader.load_nodes().map_err(fail)?;
+    loader.unusable_image_warnings();
     let mut scene = loader.scene;
     scene.bounds = scene.compute_bounds();
     scene.validate().map_err(|e| match e {
@@ -199,6 +201,25 @@ struct Loader<'a> {
     material_cache: HashMap<Option<usize>, usize>,
     /// glTF image index to scene texture, or why it cannot be used.
     texture_cache: HashMap<usize, Result<usize, ReadError>>,
+    /// The images that cannot be used, in the order first met: why, and each material
+    /// slot that wanted it ("material 0 'paint' (base colour)"). One warning each, made
+    /// at the end ([`Loader::unusable_image_warnings`]): a model with its texture folder
+    /// missing says so once a file, not once a material and slot.
+    unusable_images: Vec<UnusableImage>,
+}
+
+/// An image no material can use, and who wanted it.
+struct UnusableImage {
+    /// The glTF image index.
+    index: usize,
+    /// What is wrong, naming the image ([`ReadError::Failed`]'s message).
+    problem: String,
+    /// Each material and slot that uses it, in the order met.
+    users: Vec<String>,
+    /// Some user is a base colour slot (drawn as if the texture were white).
+    base_colour: bool,
+    /// Some user is another slot (drawn with its factors alone).
+    other: bool,
 }
 
 fn node_label(node: &gltf::Node<'_>) -> String {
@@ -215,6 +236,29 @@ impl Loader<'_> {
     /// loading turns every warning into an error. Every such problem goes through here.
     fn warn(&mut self, message: String) {
         self.warnings.push(message);
+    }
+
+    /// One warning per unusable image, naming every material and slot drawn without
+    /// it, then (with more than one) their count.
+    fn unusable_image_warnings(&mut self) {
+        let images = std::mem::take(&mut self.unusable_images);
+        for i in &images {
+            let drawn = match (i.base_colour, i.other) {
+                (true, false) => "drawn with the base colour factor alone, as if the texture were white",
+                (false, true) => "drawn without it (the factors alone)",
+                _ => "drawn without it (the factors alone; a base colour as if the texture were white)",
+            };
+            let n = i.users.len();
+            let users = if n == 1 { "1 material slot".to_string() } else { format!("{n} material slots") };
+            self.warn(format!("{}; {users} {drawn}: {}.", i.problem, i.users.join(", ")));
+        }
+        if images.len() > 1 {
+            let slots: usize = images.iter().map(|i| i.users.len()).sum();
+            self.warn(format!(
+                "{} images cannot be used (listed above); {slots} material slots are drawn without theirs.",
+                images.len()
+            ));
+        }
     }
 
     /// Walks the chosen scene depth-first in document order, composing transforms.
@@ -526,33 +570,41 @@ impl Loader<'_> {
                 "{material}: {slot} texture: reads TEXCOORD_{set}; only TEXCOORD_0 and TEXCOORD_1 are supported"
             ));
         }
-        let fallback = match slot {
-            "base colour" => "drawn with its base colour factor alone, as if the texture were white",
-            _ => "drawn without it (its factors alone)",
-        };
-        let Some(image) = self.material_texture(material, slot, &texture.source(), fallback)? else {
+        let Some(image) = self.material_texture(material, slot, &texture.source())? else {
             return Ok(None);
         };
         Ok(Some(TextureRef { texture: image, tex_coord: set, sampler: sampler(&texture.sampler()), transform }))
     }
 
     /// The scene texture for `material`'s `slot` ("base colour", "normal"...), or None when
-    /// its image is missing or cannot be decoded: then a warning names the material, the
-    /// slot, the image and why, and says what is drawn instead (`fallback`, a clause such
-    /// as "drawn with its base colour factor alone"). A file the rules refuse to read
-    /// (outside the model's folder, not a regular file) stays an error.
+    /// its image is missing or cannot be decoded: then the material and slot join the
+    /// image's one warning, which names the image, why, and what is drawn instead
+    /// ([`Self::unusable_image_warnings`]). A file the rules refuse to read (outside the
+    /// model's folder, not a regular file) stays an error.
     fn material_texture(
         &mut self,
         material: &str,
         slot: &str,
         image: &gltf::Image<'_>,
-        fallback: &str,
     ) -> Result<Option<usize>, String> {
         match self.texture(image) {
             Ok(t) => Ok(Some(t)),
             Err(ReadError::Refused(m)) => Err(format!("{material}: {slot} texture: {m}")),
-            Err(ReadError::Failed(m)) => {
-                self.warn(format!("{material}: its {slot} texture cannot be used: {m}; {fallback}."));
+            Err(ReadError::Failed(problem)) => {
+                let index = image.index();
+                let at = match self.unusable_images.iter().position(|i| i.index == index) {
+                    Some(at) => at,
+                    None => {
+                        let (base_colour, other) = (false, false);
+                        self.unusable_images.push(UnusableImage { index, problem, users: vec![], base_colour, other });
+                        self.unusable_images.len() - 1
+                    }
+                };
+                let i = &mut self.unusable_images[at];
+                i.users.push(format!("{material} ({slot})"));
+                let base = slot == "base colour";
+                i.base_colour |= base;
+                i.other |= !base;
                 Ok(None)
             }
         }

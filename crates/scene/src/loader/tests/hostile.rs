@@ -351,22 +351,19 @@ fn missing_and_broken_textures_warn_and_fall_back_to_the_factor() {
     let loaded = load_gltf_with(&path, &lenient()).unwrap();
     let file = path.display();
     let gone = dir.path().join("gone.png");
+    // One line per image, naming every material slot drawn without it, then the count.
     assert_eq!(
         loaded.warnings,
         vec![
             format!(
-                "{file}: material 0 'paint': its base colour texture cannot be used: image 0 ('gone.png'): cannot read '{}' (URI 'gone.png'): No such file or directory (os error 2); drawn with its base colour factor alone, as if the texture were white.",
+                "{file}: image 0 ('gone.png'): cannot read '{}' (URI 'gone.png'): No such file or directory (os error 2); 2 material slots drawn with the base colour factor alone, as if the texture were white: material 0 'paint' (base colour), material 2 'trim' (base colour).",
                 gone.display()
             ),
             format!(
-                "{file}: material 1 'wall': its base colour texture cannot be used: image 1 'bricks': cannot decode image: {}; drawn with its base colour factor alone, as if the texture were white.",
+                "{file}: image 1 'bricks': cannot decode image: {}; 1 material slot drawn with the base colour factor alone, as if the texture were white: material 1 'wall' (base colour).",
                 image::load_from_memory(b"\x89PNG not really").err().unwrap()
             ),
-            // Each material using the missing image is named.
-            format!(
-                "{file}: material 2 'trim': its base colour texture cannot be used: image 0 ('gone.png'): cannot read '{}' (URI 'gone.png'): No such file or directory (os error 2); drawn with its base colour factor alone, as if the texture were white.",
-                gone.display()
-            ),
+            format!("{file}: 2 images cannot be used (listed above); 3 material slots are drawn without theirs."),
         ]
     );
     let m = &loaded.scene.materials;
@@ -379,7 +376,12 @@ fn missing_and_broken_textures_warn_and_fall_back_to_the_factor() {
     assert_fails(
         &path,
         scene_of(load_gltf_with(&path, &strict())),
-        &["strict loading turns warnings into errors: material 0 'paint'", "material 1 'wall'", "material 2 'trim'"],
+        &[
+            "strict loading turns warnings into errors: image 0 ('gone.png')",
+            "material 0 'paint' (base colour)",
+            "material 1 'wall' (base colour)",
+            "material 2 'trim' (base colour)",
+        ],
     );
 }
 
@@ -407,7 +409,7 @@ fn images_beyond_the_limits_are_dropped_with_a_warning() {
     let w = load_gltf_with(&path, &small_file).unwrap().warnings;
     assert_eq!(w.len(), 1);
     let expected = format!(
-        "image 0 ('t.png'): '{}' (URI 't.png') is {} bytes, more than the 40 bytes allowed; drawn with",
+        "image 0 ('t.png'): '{}' (URI 't.png') is {} bytes, more than the 40 bytes allowed; 1 material slot drawn",
         dir.path().join("t.png").display(),
         bytes.len()
     );

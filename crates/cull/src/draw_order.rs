@@ -1,5 +1,6 @@
 //! The order a raster pass draws the scene's instances in ([`DrawOrder`]), and the setting
-//! that picks it ([`DrawOrderMode`]). CPU only; depends on glam.
+//! that picks it ([`DrawOrderMode`]). CPU only; depends on glam. tiledlight-gpu re-exports
+//! it (`SceneGpu::front_to_back` and `SceneGpu::record_draws_of` use it).
 //!
 //! A pass that writes depth and colour exports every fragment that passes the depth test
 //! when it is drawn, even one a later, nearer fragment covers. Drawn nearest first, most
@@ -91,24 +92,31 @@ impl DrawOrder {
     /// (bounds or eye not finite) sorts last, deterministically.
     pub fn front_to_back(draws: &[Range<u32>], bounds: &[(Vec3, Vec3)], eye: Vec3) -> Self {
         let mut order = Self::submission(draws);
+        // The squared distance's bits, then the slot, in one u64 a slot: a non-negative f32's
+        // bits order as its value (NaN made infinite), so integer order is (distance, slot)
+        // order, a total one, and integers sort fast (`benches/draw_order.rs`, 2-core CI
+        // machine: 100,000 instances 1.0 ms, 3.6 ms with float comparisons; the Figure 9
+        // scene's 434 instances 4.6 us).
         let key = |slot: u32| {
             let (lo, hi) = bounds[slot as usize];
-            let d = ((lo + hi) * 0.5).distance(eye);
-            if d.is_nan() {
-                f32::INFINITY
-            } else {
-                d
-            }
+            let d = ((lo + hi) * 0.5).distance_squared(eye);
+            let d = if d.is_nan() { f32::INFINITY } else { d.max(0.0) };
+            (u64::from(d.to_bits()) << 32) | u64::from(slot)
         };
-        let mut nearest = vec![f32::INFINITY; draws.len()];
+        let mut keyed: Vec<u64> = Vec::new();
+        let mut nearest = vec![u64::MAX; draws.len()];
         for (d, r) in draws.iter().enumerate() {
-            let s = &mut order.slots[r.start as usize..r.end as usize];
-            s.sort_by(|a, b| key(*a).total_cmp(&key(*b)).then(a.cmp(b)));
-            if let Some(&first) = s.first() {
-                nearest[d] = key(first);
+            keyed.clear();
+            keyed.extend(r.clone().map(key));
+            keyed.sort_unstable();
+            for (slot, k) in order.slots[r.start as usize..r.end as usize].iter_mut().zip(&keyed) {
+                *slot = *k as u32;
+            }
+            if let Some(&first) = keyed.first() {
+                nearest[d] = first >> 32;
             }
         }
-        order.draws.sort_by(|a, b| nearest[*a as usize].total_cmp(&nearest[*b as usize]).then(a.cmp(b)));
+        order.draws.sort_unstable_by_key(|&d| (nearest[d as usize], d));
         order
     }
 
@@ -187,7 +195,8 @@ mod tests {
     #[test]
     fn non_finite_bounds_sort_last() {
         let bounds = [(Vec3::splat(f32::NAN), Vec3::ZERO), at(3.0), at(1.0)];
-        let o = DrawOrder::front_to_back(&[0..3], &bounds, Vec3::ZERO);
+        let one_draw = vec![Range { start: 0, end: 3 }];
+        let o = DrawOrder::front_to_back(&one_draw, &bounds, Vec3::ZERO);
         assert_eq!(o.runs(0..3, None), vec![2..3, 1..2, 0..1]);
     }
 
