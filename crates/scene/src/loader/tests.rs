@@ -508,7 +508,7 @@ fn missing_texture_image_file() {
         &[
             "strict loading",
             "material 0 'paint'",
-            "base colour texture",
+            "material 0 'paint' (base colour)",
             "image 0 ('gone.png')",
             "cannot read",
             "gone.png",

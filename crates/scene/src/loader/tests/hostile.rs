@@ -387,6 +387,48 @@ fn missing_and_broken_textures_warn_and_fall_back_to_the_factor() {
 
 // ---- memory limits ----
 
+/// One image wanted by a base colour and a normal slot: one warning naming both slots and
+/// both fallbacks; an image only a normal slot wants: the factors-alone wording.
+#[test]
+fn an_unusable_image_warns_once_for_every_slot_that_wants_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let mut prim = bin.triangle();
+    prim["material"] = json!(0);
+    let mut p1 = prim.clone();
+    p1["material"] = json!(1);
+    let root = bin.document(json!({
+        "images": [{"uri": "shared.png"}, {"uri": "bumps.png"}],
+        "textures": [{"source": 0}, {"source": 1}],
+        "materials": [
+            {"name": "a", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}, "normalTexture": {"index": 0}},
+            {"name": "b", "normalTexture": {"index": 1}}
+        ],
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [prim, p1]}],
+    }));
+    let path = write_gltf(dir.path(), "slots", root, &bin.data);
+    let w = load_gltf_with(&path, &lenient()).unwrap().warnings;
+    assert_eq!(w.len(), 3, "{w:#?}");
+    assert!(w[0].contains("image 0 ('shared.png')"), "{}", w[0]);
+    assert!(
+        w[0].ends_with(
+            "2 material slots drawn without it (the factors alone; a base colour as if the texture were white): \
+             material 0 'a' (base colour), material 0 'a' (normal)."
+        ),
+        "{}",
+        w[0]
+    );
+    assert!(
+        w[1].contains("image 1 ('bumps.png')")
+            && w[1].ends_with("1 material slot drawn without it (the factors alone): material 1 'b' (normal)."),
+        "{}",
+        w[1]
+    );
+    assert!(w[2].ends_with("2 images cannot be used (listed above); 3 material slots are drawn without theirs."));
+}
+
 #[test]
 fn images_beyond_the_limits_are_dropped_with_a_warning() {
     let dir = tempfile::tempdir().unwrap();
