@@ -75,6 +75,7 @@ pub const AXES: &[(&str, &str)] = &[
     ("grid-objects", "grid objects of the default scene, 0..280 (integer; ranges allowed)"),
     ("density", "grid object tessellation: low | medium | high"),
     ("gbuffer-rts", "Tiled Deferred G-buffer targets, 2..5"),
+    ("draw-order", "depth pre-pass and G-buffer draw order: front-to-back | submission"),
     ("tile-size", "8 | 16 | 32"),
     ("threshold", "light intensity threshold, the radius dial (number; ranges allowed)"),
     ("culling", "culling tests: planes | aabb | half-z | aabb+half-z"),
