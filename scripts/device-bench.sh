@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order emission vpl reshape visibility raster raster-short traced casters casters-curve ranking
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced casters casters-curve ranking
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -294,6 +294,24 @@ for set in $sets; do
     run gb-court-msaa4-em 30 --lights 1024 --method deferred --msaa 4 --emissive
     # The compute tonemap (and the diffuse change) in Forward+ too.
     run gb-fp-1024 50 --lights 1024
+    ;;
+  summary)
+    # docs/PERFORMANCE.md's summary (scripts/perf-summary.py): every method on the standard
+    # scenes at the current commit. The Figure 9 scene (courtyard + 280 medium grid
+    # objects) at 1,024 / 4,096 / 16,384 lights, the courtyard at 1,024, 4x MSAA at 4,096,
+    # the million-light preset assigned light-centrically; default settings otherwise
+    # (Tiled Deferred's G-buffer without stress targets). Then the Figure 9 sweep (its
+    # crossover chart), 20 frames a point.
+    for m in forward-plus deferred visibility; do
+      for n in 1024 4096 16384; do run "sum-f9-$m-$n" 50 --lights $n --grid-objects 280 --density medium --method $m; done
+      run "sum-court-$m-1024" 50 --lights 1024 --method $m
+      run "sum-mp-$m" 10 --light-preset million --method $m --assign scatter
+    done
+    for m in forward-plus deferred visibility; do
+      run "sum-msaa4-$m-4096" 30 --lights 4096 --grid-objects 280 --density medium --method $m --msaa 4
+    done
+    timeout 400 "$bin" sweep --preset figure9 --frames 20 --warmup 5 --width 1920 --height 1080 \
+      --out "$out/figure9.csv" >>"$out/log.txt" 2>&1
     ;;
   order)
     # Issue 31: the depth pre-pass and the G-buffer drawn nearest first against the

@@ -69,7 +69,7 @@ pub struct SweepArgs {
     /// An axis to vary, NAME=VALUES: a list (method=forward-plus,deferred), a doubling range
     /// (lights=64..65536) or N log-spaced values (lights=64..65536:9). Repeat for more axes;
     /// every combination is measured. Names: lights, spot-lights, method, grid-objects,
-    /// density, gbuffer-rts, tile-size, threshold, culling, aabb, half-z, seed, msaa,
+    /// density, gbuffer-rts, draw-order, tile-size, threshold, culling, aabb, half-z, seed, msaa,
     /// edge-distance, edge-normal-deg, shadow-point-lights, shadow-spot-lights, shadow-size,
     /// shadow-filter, shadow-format, transparent-objects, blend-mode, vpl, vpl-rsm-size,
     /// vpl-block, vpl-colour-threshold, vpl-brightness-threshold, vpl-cap, vpl-shading.

@@ -100,7 +100,8 @@ enum Command {
 
 fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
-    let cli = match Cli::try_parse() {
+    // `--demo NAME` stands for flags of its own, put in before the user's.
+    let cli = match Cli::try_parse_from(scene_setup::expand_demo(std::env::args_os().collect())) {
         Ok(cli) => cli,
         Err(e) if !e.use_stderr() => {
             // --help and --version: clap prints them as it always does.
@@ -157,6 +158,36 @@ mod tests {
     #[test]
     fn cli_is_consistent() {
         Cli::command().debug_assert();
+    }
+
+    /// The manual (`docs/USAGE.md`) names every flag of every subcommand (hidden test hooks
+    /// aside).
+    #[test]
+    fn usage_documents_every_flag() {
+        let usage = include_str!("../../../docs/USAGE.md");
+        let mut missing = Vec::new();
+        for sub in Cli::command().get_subcommands() {
+            for a in sub.get_arguments() {
+                // Hidden flags are test hooks, not the manual's business.
+                let Some(long) = a.get_long().filter(|_| !a.is_hide_set()) else { continue };
+                if !matches!(long, "help" | "version") && !usage.contains(&format!("--{long}")) {
+                    missing.push(format!("{} --{long}", sub.get_name()));
+                }
+            }
+        }
+        assert!(missing.is_empty(), "docs/USAGE.md never mentions {missing:?}");
+    }
+
+    /// `--demo` works through the real parser: its flags, then the user's.
+    #[test]
+    fn a_demo_parses_with_the_users_flags_winning() {
+        let argv = ["tiledlight", "render", "--demo", "shadows", "--grid-objects", "8"].map(std::ffi::OsString::from);
+        let cli = Cli::try_parse_from(scene_setup::expand_demo(argv.to_vec())).unwrap();
+        let Some(Command::Render(r)) = cli.command else { panic!("not render") };
+        assert_eq!((r.scene.lights, r.scene.grid_objects, r.scene.shadow_point_lights), (Some(0), 8, 6));
+        assert_eq!(r.scene.demo.as_deref(), Some("shadows"));
+        let e = Cli::try_parse_from(["tiledlight", "render", "--demo", "sparkles"]).unwrap_err().to_string();
+        assert!(e.contains("sparkles") && e.contains("shadows"), "{e}");
     }
 
     #[test]

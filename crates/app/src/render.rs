@@ -112,13 +112,16 @@ pub fn write_image(prep: &Prepared, renderer: &FrameRenderer, heatmap: bool, pat
 
 /// Runs `tiledlight render`.
 pub fn run(args: &RenderArgs) -> Result<()> {
+    // The heatmap and clusters demos show the heat map unless asked for another.
+    let demo = args.scene.demo.as_deref().and_then(|n| tiledlight_setup::demo::parse(n).ok());
+    let heatmap_arg = args.heatmap.or(demo.filter(|d| d.shows_heatmap()).map(|_| HeatmapArg::Opaque));
     let out = args
         .out
         .clone()
-        .unwrap_or_else(|| PathBuf::from(if args.heatmap.is_some() { "out/heatmap.png" } else { "out/render.png" }));
+        .unwrap_or_else(|| PathBuf::from(if heatmap_arg.is_some() { "out/heatmap.png" } else { "out/render.png" }));
     check_png_path(&out)?;
     let method = args.scene.method;
-    let heatmap = args.heatmap.map(HeatmapOf::from);
+    let heatmap = heatmap_arg.map(HeatmapOf::from);
     if heatmap.is_some() && !method.is_tiled() {
         bail!("--heatmap needs --method forward-plus ({} has no tiles)", method.name());
     }

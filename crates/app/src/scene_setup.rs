@@ -254,6 +254,36 @@ pub enum PresetArg {
     Million,
 }
 
+/// The `--demo` names, as [`Demo::name`] gives them (a unit test checks they match).
+pub const DEMO_NAMES: [&str; 6] = ["shadows", "vpl", "glass", "million", "heatmap", "clusters"];
+
+/// `args` with the flags of its `--demo NAME` (if any) put right after the subcommand,
+/// leaving out each flag the command line gives itself, so the user's own win. Only for
+/// the subcommands that take the scene flags; anything else is returned as it is (clap
+/// then reports an unknown demo or a misplaced flag).
+pub fn expand_demo(args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
+    let text: Vec<String> = args.iter().map(|a| a.to_string_lossy().into_owned()).collect();
+    let takes_scene_flags = ["render", "bench", "sweep", "accuracy", "export", "view", "shadow-accuracy"];
+    if !text.get(1).is_some_and(|c| takes_scene_flags.contains(&c.as_str())) {
+        return args;
+    }
+    let name = text.iter().enumerate().find_map(|(i, a)| match a.strip_prefix("--demo=") {
+        Some(v) => Some(v.to_string()),
+        None if a == "--demo" => text.get(i + 1).cloned(),
+        None => None,
+    });
+    let Some(demo) = name.and_then(|n| tiledlight_setup::demo::parse(&n).ok()) else { return args };
+    let given = |flag: &str| text.iter().any(|a| a == flag || a.starts_with(&format!("{flag}=")));
+    let mut out: Vec<std::ffi::OsString> = args[..2].to_vec();
+    for pair in demo.flags().chunks(2) {
+        if !given(pair[0]) {
+            out.extend(pair.iter().map(std::ffi::OsString::from));
+        }
+    }
+    out.extend_from_slice(&args[2..]);
+    out
+}
+
 /// Scene, lights, screen and renderer flags shared by `render` and `bench`.
 ///
 /// Numbers are parsed wide (u64 light counts) and range-checked in [`SceneArgs::validate`],
@@ -263,6 +293,12 @@ pub struct SceneArgs {
     /// `default` (the procedural courtyard) or a glTF file (.gltf or .glb).
     #[arg(long, default_value = "default", value_name = "default|FILE")]
     pub scene: String,
+    /// A demo setup of the courtyard that makes one feature obvious: shadows, vpl (add
+    /// --vpl for the bounce), glass, million, heatmap, clusters. It stands for a few flags
+    /// (any given on the command line wins) and places its own lights, camera and props
+    /// (docs/USAGE.md, "Demos").
+    #[arg(long, value_name = "NAME", value_parser = clap::builder::PossibleValuesParser::new(DEMO_NAMES))]
+    pub demo: Option<String>,
     /// Random point lights [default: 1024 for the default scene; for a glTF file, random
     /// lights are added to its own lights only when this or --spot-lights is given].
     #[arg(long, value_name = "N")]
@@ -461,6 +497,7 @@ impl Default for SceneArgs {
         let c = d.clusters.unwrap_or_default();
         Self {
             scene: d.scene.to_string(),
+            demo: d.demo.map(|x| x.name().to_string()),
             lights: d.lights,
             spot_lights: d.spot_lights,
             light_preset: None,
@@ -538,6 +575,8 @@ impl SceneArgs {
         });
         Settings {
             scene: SceneSource::parse(&self.scene),
+            // Clap accepts only the names of DEMO_NAMES.
+            demo: self.demo.as_deref().and_then(|n| tiledlight_setup::demo::parse(n).ok()),
             lights: self.lights.or(million.then_some(MILLION_LIGHTS)),
             spot_lights: self.spot_lights,
             placement,
@@ -746,6 +785,40 @@ mod tests {
         scene: SceneArgs,
     }
 
+    #[test]
+    fn demo_names_are_the_library_demos() {
+        let names: Vec<&str> = tiledlight_setup::Demo::ALL.iter().map(|d| d.name()).collect();
+        assert_eq!(names, DEMO_NAMES);
+    }
+
+    /// `--demo` puts its flags after the subcommand, leaving out those the user gives, so
+    /// the user's win; other subcommands and unknown demos are left to clap.
+    #[test]
+    fn a_demo_expands_into_its_flags_and_the_users_win() {
+        let os = |v: &[&str]| v.iter().map(std::ffi::OsString::from).collect::<Vec<_>>();
+        let got = expand_demo(os(&["tiledlight", "render", "--demo", "shadows", "--grid-objects", "8"]));
+        let mut want = vec!["tiledlight", "render", "--lights", "0"];
+        want.extend(["--shadow-point-lights", "6", "--shadow-size", "1024", "--shadow-filter", "5"]);
+        want.extend(["--demo", "shadows", "--grid-objects", "8"]);
+        assert_eq!(got, os(&want));
+        let got = expand_demo(os(&["tiledlight", "bench", "--demo=million", "--width", "64"]));
+        assert_eq!(got, os(&["tiledlight", "bench", "--light-preset", "million", "--demo=million", "--width", "64"]));
+        for unchanged in [
+            &["tiledlight", "peer-report", "--demo", "shadows"][..],
+            &["tiledlight", "render", "--demo", "sparkles"],
+            &["tiledlight", "render", "--lights", "3"],
+            &["tiledlight"],
+        ] {
+            assert_eq!(expand_demo(os(unchanged)), os(unchanged));
+        }
+        // Parsed: the demo's settings, the user's flag, the courtyard dressed by the loader.
+        let s = parse(&["--lights", "0", "--grid-objects", "60", "--demo", "shadows"]).plain_settings();
+        assert_eq!((s.demo, s.lights, s.grid_objects), (Some(tiledlight_setup::Demo::Shadows), Some(0), 60));
+        let s = Settings { scene: SceneSource::File("a.gltf".into()), ..s };
+        let e = s.validate().unwrap_err().to_string();
+        assert!(e.contains("--demo shadows dresses the built-in courtyard"), "{e}");
+    }
+
     fn parse(flags: &[&str]) -> SceneArgs {
         Cli::try_parse_from(std::iter::once("x").chain(flags.iter().copied())).unwrap().scene
     }
@@ -828,6 +901,7 @@ mod tests {
         ]);
         let s = a.settings().unwrap();
         let expected = Settings {
+            demo: None,
             scene: SceneSource::File("a.glb".into()),
             lights: Some(3),
             spot_lights: Some(4),

@@ -4,7 +4,6 @@
 //! the scene has. Depends on wgpu, [`crate::scene_gpu`], [`crate::scene_raster`] and [`crate::view`].
 
 use crate::bindings::{Binding, Cond, PassBindings, PassGroup};
-use crate::draw_order::DrawOrder;
 use crate::error::GpuError;
 use crate::features::Features;
 use crate::scene_gpu::{DrawKind, SceneGpu, BASE_COLOR_BINDINGS, POSITION_LAYOUT, SCENE_GROUPS};
@@ -12,6 +11,7 @@ use crate::scene_raster::{begin_pass, cleared, scene_pipeline, DepthUse, SceneDr
 use crate::timer::GpuTimer;
 use crate::util::{keyed_module, pipeline_layout};
 use crate::variants::{AtomicIdsKey, DepthPrepassKey, VisibilityRasterKey};
+use tiledlight_cull::draw_order::DrawOrder;
 
 /// Format of the visibility buffer's IDs.
 pub const ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;

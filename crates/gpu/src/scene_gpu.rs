@@ -16,11 +16,11 @@ use tiledlight_scene::clusters::{cluster_scene, Cluster};
 use tiledlight_scene::{AlphaMode, Filter, Material, Sampler, Scene, TextureRef, Wrap};
 
 use crate::bindings::{create_layout, Binding, Cond, PassGroup};
-use crate::draw_order::DrawOrder;
 use crate::error::GpuError;
 use crate::memory::MemoryReport;
 use crate::util::buffer_init;
 use crate::variants::{MaterialKey, TextureMaps};
+use tiledlight_cull::draw_order::DrawOrder;
 
 /// One instance's transforms and material.
 ///

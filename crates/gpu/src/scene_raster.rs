@@ -19,11 +19,11 @@
 //! A pass's own groups (the lights at group 3) are set by the pass after [`SceneRaster::bind`].
 //! Depends on wgpu, [`crate::scene_gpu`], [`crate::view`] and [`crate::util`].
 
-use crate::draw_order::DrawOrder;
 use crate::error::GpuError;
 use crate::scene_gpu::{DrawCount, DrawKind, SceneGpu};
 use crate::util::pipeline_layout;
 use crate::view::Views;
+use tiledlight_cull::draw_order::DrawOrder;
 
 /// Primitive state for a draw kind: back faces culled unless double-sided.
 pub fn primitive_state(kind: DrawKind) -> wgpu::PrimitiveState {

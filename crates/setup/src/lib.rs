@@ -36,6 +36,7 @@
 pub mod animate;
 pub mod bookmark;
 pub mod camera;
+pub mod demo;
 pub mod export;
 pub mod load;
 pub mod prepared;
@@ -45,6 +46,7 @@ pub mod stats;
 
 pub use animate::LightAnimator;
 pub use camera::{camera_from_desc, choose_camera, frame_bounds};
+pub use demo::Demo;
 pub use load::{BoundsFit, FittedLights, LightSummary, SceneCpu, SpotPlacement, SurfacePlacement};
 pub use prepared::Prepared;
 pub use rebuild::{rebuild_plan, Rebuild, Reload};

@@ -184,7 +184,10 @@ impl SceneCpu {
         settings.validate()?;
         let (scene, file_lights, warnings) = load_scene(settings)?;
         let surfaces = surfaces_of(settings, &scene)?;
-        let built = build_lights(settings, &scene.bounds, surfaces.as_deref(), &scene.lights)?;
+        let mut built = build_lights(settings, &scene.bounds, surfaces.as_deref(), &scene.lights)?;
+        if let Some(demo) = settings.demo {
+            demo.recolour(&mut built.lights[file_lights..], (scene.bounds.min, scene.bounds.max));
+        }
         let (camera, camera_source) = choose_camera(settings, scene.camera.as_ref(), &scene.bounds)?;
         Ok(Self {
             scene,
@@ -220,8 +223,13 @@ fn load_scene(settings: &Settings) -> Result<(Scene, usize, Vec<String>)> {
                 transparent_objects: settings.transparent_objects,
                 emissive_banners: settings.emissive,
             };
-            let scene = default_scene(&opts).context("building the default scene")?;
-            Ok((scene, 0, Vec::new()))
+            let mut scene = default_scene(&opts).context("building the default scene")?;
+            if let Some(demo) = settings.demo {
+                demo.dress(&mut scene).with_context(|| format!("dressing the courtyard for --demo {}", demo.name()))?;
+            }
+            // A demo's own lights count as the scene's (they come first, as a file's).
+            let n = scene.lights.len();
+            Ok((scene, n, Vec::new()))
         }
         SceneSource::File(path) => {
             let options = LoadOptions {

@@ -64,6 +64,8 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
     let (a, b) = (old, new);
     let file_scene = matches!(b.scene, SceneSource::File(_));
     let scene = a.scene != b.scene
+        // A demo places its own lights, camera and props when the scene is built.
+        || a.demo != b.demo
         || a.grid_objects != b.grid_objects
         || a.density != b.density
         || a.transparent_objects != b.transparent_objects

@@ -168,6 +168,9 @@ pub struct CameraBookmark {
 pub struct Settings {
     /// The procedural courtyard or a glTF file (.gltf or .glb).
     pub scene: SceneSource,
+    /// A demo setup dressing the courtyard (its lights, camera and props;
+    /// [`crate::demo`]); its flags are the app's business. None: the plain courtyard.
+    pub demo: Option<crate::demo::Demo>,
     /// Random point lights [default: 1024 for the default scene; for a glTF file, random
     /// lights are added to its own lights only when this or `spot_lights` is given].
     pub lights: Option<u64>,
@@ -284,6 +287,7 @@ impl Default for Settings {
     fn default() -> Self {
         Self {
             scene: SceneSource::Default,
+            demo: None,
             lights: None,
             spot_lights: None,
             placement: LightPlacement::Bounds,
@@ -343,6 +347,13 @@ impl Settings {
 
     /// Checks every setting's range; the error names the flag, its value and the limit.
     pub fn validate(&self) -> Result<()> {
+        if let (Some(d), SceneSource::File(path)) = (self.demo, &self.scene) {
+            anyhow::bail!(
+                "--demo {} dresses the built-in courtyard; it cannot be used with --scene {}",
+                d.name(),
+                path.display()
+            );
+        }
         let side = 1..=MAX_SCREEN_SIDE;
         ensure!(side.contains(&self.width), "--width {}: must be between 1 and {MAX_SCREEN_SIDE} pixels", self.width);
         ensure!((2..=5).contains(&self.gbuffer_rts), "--gbuffer-rts {}: must be between 2 and 5", self.gbuffer_rts);

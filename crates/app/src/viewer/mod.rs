@@ -76,7 +76,7 @@ pub struct ViewArgs {
     #[arg(long, value_name = "N")]
     pub frames: Option<u32>,
     /// Actions applied one per frame through the panel's code, e.g.
-    /// "method=deferred;lights=300;heatmap=on;wait=5" (keys: see the README).
+    /// "method=deferred;lights=300;heatmap=on;wait=5" (keys: docs/USAGE.md, "Viewer").
     #[arg(long, value_name = "ACTIONS")]
     pub script: Option<String>,
     /// When exiting after --frames: save the lit image (no UI) to this PNG.

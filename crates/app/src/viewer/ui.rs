@@ -39,7 +39,7 @@ pub const MAX_PANEL_CASTERS: usize = 128;
 /// The shadow tile sizes the panel offers (texels per side).
 pub const SHADOW_SIZES: [u32; 4] = [128, 256, 512, 1024];
 
-/// Key bindings, as the help overlay (F1) and the README list them.
+/// Key bindings, as the help overlay (F1) and docs/USAGE.md list them.
 pub const KEYS: [(&str, &str); 15] = [
     ("W A S D", "fly forward / left / back / right"),
     ("Q / E", "fly down / up"),
@@ -773,11 +773,11 @@ mod tests {
     use super::*;
 
     #[test]
-    fn readme_lists_every_key() {
-        let readme = include_str!("../../../../README.md");
+    fn usage_lists_every_key() {
+        let usage = include_str!("../../../../docs/USAGE.md");
         for (k, what) in KEYS {
             let row = format!("| {k} | {what} |");
-            assert!(readme.contains(&row), "README.md has no row {row:?}");
+            assert!(usage.contains(&row), "docs/USAGE.md has no row {row:?}");
         }
     }
 
