@@ -23,8 +23,9 @@ use tiledlight_scene::{CameraDesc, Instance, Material, Mesh, Scene, DEFAULT_LIGH
 pub enum Demo {
     /// Column and sphere shadows on the floor from six bright casters, nothing else lit.
     Shadows,
-    /// One shadow-casting spot on a red panel; with `--vpl` the panel's red bounce lights
-    /// the floor in front of it (render it with and without).
+    /// One shadow-casting spot on a red panel and the floor before it, at a fixed exposure;
+    /// with `--vpl` their bounce lights the walls, columns and urns around (render it with
+    /// and without).
     Vpl,
     /// Glass spheres (blended, lit from both sides) among opaque ones over a lit floor.
     Glass,
@@ -58,7 +59,7 @@ impl Demo {
     pub fn summary(self) -> &'static str {
         match self {
             Demo::Shadows => "six bright shadow casters among the columns and 60 spheres, nothing else lit",
-            Demo::Vpl => "one spot on a red panel, low ambient; add --vpl for the red bounce on the floor",
+            Demo::Vpl => "one spot on a red panel and the floor before it, fixed exposure; add --vpl for the bounce",
             Demo::Glass => "30 glass spheres among 30 opaque ones over a floor lit by 512 lights",
             Demo::Million => "a million lights on the surfaces, hues varying smoothly along the courtyard",
             Demo::Heatmap => "4,096 lights over the Figure 9 scene with the lights-per-tile heat map",
@@ -81,7 +82,7 @@ impl Demo {
                 "--shadow-filter",
                 "5",
             ],
-            Demo::Vpl => &["--lights", "0", "--shadow-spot-lights", "1", "--shadow-size", "1024"],
+            Demo::Vpl => &["--lights", "0", "--shadow-spot-lights", "1", "--shadow-size", "1024", "--exposure", "0.35"],
             Demo::Glass => {
                 &["--lights", "512", "--grid-objects", "60", "--transparent-objects", "30", "--density", "high"]
             }
@@ -90,6 +91,15 @@ impl Demo {
             Demo::Clusters => {
                 &["--lights", "4096", "--grid-objects", "280", "--transparent-objects", "40", "--grid", "clustered"]
             }
+        }
+    }
+
+    /// The point and spot lights [`Self::dress`] places (before any random ones).
+    pub fn light_counts(self) -> (u64, u64) {
+        match self {
+            Demo::Shadows => (6, 0),
+            Demo::Vpl => (0, 1),
+            _ => (0, 0),
         }
     }
 
@@ -133,10 +143,12 @@ impl Demo {
                 });
                 let at = Mat4::from_translation(Vec3::new(0.0, 0.0, -4.0));
                 scene.instances.push(Instance { mesh, material, transform: at });
-                // One white spot from above and in front, its cone on the panel alone.
+                // One white spot from above and in front: the panel and the floor before it.
                 let apex = Vec3::new(0.0, 5.0, 4.0);
                 let dir = (Vec3::new(0.0, 1.75, -4.0) - apex).normalize();
-                let spot = Light::spot(apex, dir, Vec3::ONE, 900.0, 0.25, 0.32, t).context("demo spot")?;
+                // A 45-degree cone: narrower spots make next to no VPL light (on lavapipe a
+                // 12-degree cone's bounce was invisible; see the stop-40 note).
+                let spot = Light::spot(apex, dir, Vec3::ONE, 900.0, 0.6, 0.785, t).context("demo spot")?;
                 scene.lights.push(spot);
                 scene.camera = Some(camera(Vec3::new(4.5, 2.2, 5.0), Vec3::new(-0.5, 0.6, -3.0)));
             }
@@ -224,6 +236,8 @@ mod tests {
             d.dress(&mut s).unwrap();
             s.validate().unwrap();
             let lights = s.lights.len();
+            let spots = s.lights.iter().filter(|l| matches!(l.kind, LightKind::Spot { .. })).count() as u64;
+            assert_eq!(d.light_counts(), (lights as u64 - spots, spots), "{}", d.name());
             match d {
                 Demo::Shadows => assert_eq!(lights, 6),
                 Demo::Vpl => {

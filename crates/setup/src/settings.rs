@@ -484,15 +484,22 @@ impl Settings {
         );
         // The default scene's lights are all random, so their counts are known here; a glTF
         // file's own lights are counted when it is loaded (the upload checks the casters).
+        // A demo's own lights (the dressing) come on top of the random ones.
         if self.scene == SceneSource::Default {
+            let (demo_points, demo_spots) = self.demo.map_or((0, 0), |d| d.light_counts());
             let casters = [
-                ("--shadow-point-lights", self.shadow_point_lights, "point", "--lights", points),
-                ("--shadow-spot-lights", self.shadow_spot_lights, "spot", "--spot-lights", spots),
+                ("--shadow-point-lights", self.shadow_point_lights, "point", "--lights", points, demo_points),
+                ("--shadow-spot-lights", self.shadow_spot_lights, "spot", "--spot-lights", spots, demo_spots),
             ];
-            for (flag, n, kind, count_flag, count) in casters {
+            for (flag, n, kind, count_flag, random, own) in casters {
+                let count = random + own;
+                let demo = match self.demo {
+                    Some(d) if own > 0 => format!(" and --demo {}'s {own}", d.name()),
+                    _ => String::new(),
+                };
                 ensure!(
                     u64::from(n) <= count,
-                    "{flag} {n}: more than the scene's {count} {kind} lights ({count_flag} {count})"
+                    "{flag} {n}: more than the scene's {count} {kind} lights ({count_flag} {random}{demo})"
                 );
             }
         }
