@@ -522,11 +522,16 @@ pub(crate) fn lights_description(
     surface: Option<&SurfacePlacement>,
     fitted: &FittedLights,
 ) -> String {
+    // A demo's own lights stand where a file's would.
+    let own = match a.demo {
+        Some(d) => format!("placed by --demo {}", d.name()),
+        None => "from the glTF file".to_string(),
+    };
     let source = match (l.from_file, l.random) {
         (0, 0) => return String::new(),
-        (f, 0) => return format!(" (all {f} from the glTF file)"),
+        (f, 0) => return format!(" (all {f} {own})"),
         (0, _) => "random".to_string(),
-        (f, r) => format!("{f} from the glTF file + {r} random"),
+        (f, r) => format!("{f} {own} + {r} random"),
     };
     let mut text = format!(" ({source}, seed {}, threshold {}", a.seed, a.threshold);
     if let Some(p) = surface {
