@@ -66,7 +66,45 @@ def table(folder):
         fp = row[0]["total_gpu_median_ms"] if row[0] else None
         ratio = lambda r: f"{r['total_gpu_median_ms'] / fp:.3f}" if r and fp else "-"
         out.append(f"| {label} | " + " | ".join(cell(r) for r in row) + f" | {ratio(row[1])} | {ratio(row[2])} |")
+    out += ["", floors(runs)]
     return "\n".join(out) + "\n"
+
+
+# The arithmetic floor of a shading pass (docs/PERFORMANCE.md, DESIGN.md's anchors): every
+# pixel evaluates every light of its tile's list at ~120 flop, at the Hopper chip's ~56
+# TFLOP/s of fp32 FMA (measured on the H100; the H200 is the same chip).
+FLOP_PER_LIGHT = 120.0
+FLOPS = 56e12
+
+
+def floors(runs):
+    """How far each method's shading pass is from its arithmetic floor (Figure 9 rows)."""
+    out = [
+        "Shading passes against their arithmetic floor (pixels x the tile lists' mean length x "
+        f"{FLOP_PER_LIGHT:.0f} flop at {FLOPS / 1e12:.0f} TFLOP/s; lists from bench's light pairs):",
+        "",
+        "| scene | method | shading pass | ms | floor ms | x floor |",
+        "| --- | --- | --- | ---: | ---: | ---: |",
+    ]
+    for key, label in ROWS[:3]:
+        for m, name in METHODS:
+            run = runs.get(key.format(m=m))
+            if not run or not run.get("light_pairs"):
+                continue
+            cfg = run["config"]
+            w, h = cfg["width"], cfg["height"]
+            tile = cfg.get("tile_size", 16)
+            tiles = -(-w // tile) * -(-h // tile)
+            per_pixel = run["light_pairs"] / tiles
+            floor_ms = w * h * per_pixel * FLOP_PER_LIGHT / FLOPS * 1e3
+            shade = [p for p in run["passes"] if "shade" in p["pass"]]
+            if not shade:
+                continue
+            p = max(shade, key=lambda p: p["median_ms"])
+            out.append(
+                f"| {label} | {name} | {p['pass']} | {p['median_ms']:.3f} | {floor_ms:.3f} | {p['median_ms'] / floor_ms:.1f} |"
+            )
+    return "\n".join(out)
 
 
 def main():
