@@ -254,7 +254,7 @@ pub enum PresetArg {
     Million,
 }
 
-/// The `--demo` names, as [`Demo::name`] gives them (a unit test checks they match).
+/// The `--demo` names, as [`tiledlight_setup::Demo::name`] gives them (a unit test checks they match).
 pub const DEMO_NAMES: [&str; 6] = ["shadows", "vpl", "glass", "million", "heatmap", "clusters"];
 
 /// `args` with the flags of its `--demo NAME` (if any) put right after the subcommand,

@@ -82,7 +82,20 @@ impl Demo {
                 "--shadow-filter",
                 "5",
             ],
-            Demo::Vpl => &["--lights", "0", "--shadow-spot-lights", "1", "--shadow-size", "1024", "--exposure", "0.35"],
+            // Physical VPL shading (Dachsbacher and Stamminger's inverse square): the
+            // sample's smoothstep falloff spreads the bounce too thinly to see here.
+            Demo::Vpl => &[
+                "--lights",
+                "0",
+                "--shadow-spot-lights",
+                "1",
+                "--shadow-size",
+                "1024",
+                "--exposure",
+                "0.35",
+                "--vpl-shading",
+                "physical",
+            ],
             Demo::Glass => {
                 &["--lights", "512", "--grid-objects", "60", "--transparent-objects", "30", "--density", "high"]
             }
