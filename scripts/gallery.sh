@@ -53,7 +53,7 @@ thumbs)
     echo "scaled to 640x360 by \`scripts/gallery.sh thumbs\`. Each picture and the command that made it:"
     echo
     while IFS='|' read -r name command; do
-      echo "- \`$name.png\`: \`$command\`"
+      echo "- \`$name.png\`: \`${command% }\`"
     done <"$src/index.txt"
   } >docs/gallery/COMMANDS.md
   ;;
