@@ -15,13 +15,7 @@ case $cmd in
 render)
   out=${OUT:-gallery-out}
   mkdir -p "$out"
-  if ls .gl/*.deb >/dev/null 2>&1; then
-    for f in .gl/*.deb; do dpkg -x "$f" /; done
-    ldconfig
-  fi
-  if [ -f /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json ]; then
-    export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-  fi
+  . "$(dirname "$0")/device-env.sh"
   bin=${BIN:-./.device/tiledlight}
   nvidia-smi --query-gpu=name,driver_version --format=csv,noheader >"$out/gpu.txt" 2>/dev/null
   shot() { # name args...
