@@ -23,9 +23,9 @@ use tiledlight_scene::{CameraDesc, Instance, Material, Mesh, Scene, DEFAULT_LIGH
 pub enum Demo {
     /// Column and sphere shadows on the floor from six bright casters, nothing else lit.
     Shadows,
-    /// One shadow-casting spot on a red panel and the floor before it, at a fixed exposure;
-    /// with `--vpl` their bounce lights the walls, columns and urns around (render it with
-    /// and without).
+    /// One shadow-casting spot on a red panel, nothing else lit, at a fixed exposure; with
+    /// `--vpl` the panel's red bounce lights the floor and the arches (render it with and
+    /// without).
     Vpl,
     /// Glass spheres (blended, lit from both sides) among opaque ones over a lit floor.
     Glass,
@@ -59,7 +59,7 @@ impl Demo {
     pub fn summary(self) -> &'static str {
         match self {
             Demo::Shadows => "six bright shadow casters among the columns and 60 spheres, nothing else lit",
-            Demo::Vpl => "one spot on a red panel and the floor before it, fixed exposure; add --vpl for the bounce",
+            Demo::Vpl => "one spot on a red panel, nothing else lit; add --vpl for its red bounce on the floor",
             Demo::Glass => "30 glass spheres among 30 opaque ones over a floor lit by 512 lights",
             Demo::Million => "a million lights on the surfaces, hues varying smoothly along the courtyard",
             Demo::Heatmap => "4,096 lights over the Figure 9 scene with the lights-per-tile heat map",
@@ -92,7 +92,7 @@ impl Demo {
                 "--shadow-size",
                 "1024",
                 "--exposure",
-                "0.35",
+                "0.7",
                 "--vpl-shading",
                 "physical",
             ],
@@ -152,16 +152,17 @@ impl Demo {
                     name: "red panel".into(),
                     base_color: [0.9, 0.08, 0.05, 1.0],
                     roughness: 0.9,
+                    // Dielectric: glTF's default metallic is 1, and a metal has no diffuse
+                    // albedo, so its RSM texels would carry no flux and make no VPL light.
+                    metallic: 0.0,
                     ..Material::default()
                 });
                 let at = Mat4::from_translation(Vec3::new(0.0, 0.0, -4.0));
                 scene.instances.push(Instance { mesh, material, transform: at });
-                // One white spot from above and in front: the panel and the floor before it.
+                // One white spot from above and in front, its cone on the panel alone.
                 let apex = Vec3::new(0.0, 5.0, 4.0);
                 let dir = (Vec3::new(0.0, 1.75, -4.0) - apex).normalize();
-                // A 45-degree cone: narrower spots make next to no VPL light (on lavapipe a
-                // 12-degree cone's bounce was invisible; see the stop-40 note).
-                let spot = Light::spot(apex, dir, Vec3::ONE, 900.0, 0.6, 0.785, t).context("demo spot")?;
+                let spot = Light::spot(apex, dir, Vec3::ONE, 900.0, SPOT_INNER, SPOT_OUTER, t).context("demo spot")?;
                 scene.lights.push(spot);
                 scene.camera = Some(camera(Vec3::new(4.5, 2.2, 5.0), Vec3::new(-0.5, 0.6, -3.0)));
             }
@@ -188,6 +189,11 @@ impl Demo {
         }
     }
 }
+
+/// The VPL demo's spot: half-angles (radians) of its full-intensity core and its edge (a
+/// 12-degree cone: on the panel, not the floor).
+const SPOT_INNER: f32 = 0.16;
+const SPOT_OUTER: f32 = 0.21;
 
 /// A fully saturated colour of hue `h` (0..1: red, yellow, green, cyan, blue, magenta),
 /// its largest component 1 (as the generated lights' colours).
