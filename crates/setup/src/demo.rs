@@ -262,6 +262,10 @@ mod tests {
                 Demo::Vpl => {
                     assert_eq!((lights, s.instances.len()), (1, instances + 1));
                     assert!(matches!(s.lights[0].kind, LightKind::Spot { .. }));
+                    // A dielectric panel: a metal has no diffuse albedo, so its RSM texels
+                    // would carry no flux and the demo would show no bounce at all.
+                    let panel = &s.materials[s.instances.last().unwrap().material];
+                    assert_eq!((panel.metallic, panel.base_color[0]), (0.0, 0.9));
                     // The panel is inside the spot's reach: its centre within the radius.
                     let l = &s.lights[0];
                     assert!(l.position.distance(Vec3::new(0.0, 1.75, -4.0)) < l.radius);
