@@ -98,10 +98,16 @@ enum Command {
     View(viewer::ViewArgs),
 }
 
+/// Whether subcommand `name` has the `--demo` flag (the scene flags).
+fn takes_demo(name: &str) -> bool {
+    use clap::CommandFactory;
+    Cli::command().find_subcommand(name).is_some_and(|c| c.get_arguments().any(|a| a.get_id() == "demo"))
+}
+
 fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     // `--demo NAME` stands for flags of its own, put in before the user's.
-    let cli = match Cli::try_parse_from(scene_setup::expand_demo(std::env::args_os().collect())) {
+    let cli = match Cli::try_parse_from(scene_setup::expand_demo(std::env::args_os().collect(), takes_demo)) {
         Ok(cli) => cli,
         Err(e) if !e.use_stderr() => {
             // --help and --version: clap prints them as it always does.
@@ -182,7 +188,8 @@ mod tests {
     #[test]
     fn a_demo_parses_with_the_users_flags_winning() {
         let argv = ["tiledlight", "render", "--demo", "shadows", "--grid-objects", "8"].map(std::ffi::OsString::from);
-        let cli = Cli::try_parse_from(scene_setup::expand_demo(argv.to_vec())).unwrap();
+        let cli = Cli::try_parse_from(scene_setup::expand_demo(argv.to_vec(), takes_demo)).unwrap();
+        assert!(takes_demo("render") && takes_demo("view") && !takes_demo("peer-report") && !takes_demo("x"));
         let Some(Command::Render(r)) = cli.command else { panic!("not render") };
         assert_eq!((r.scene.lights, r.scene.grid_objects, r.scene.shadow_point_lights), (Some(0), 8, 6));
         assert_eq!(r.scene.demo.as_deref(), Some("shadows"));

@@ -254,17 +254,14 @@ pub enum PresetArg {
     Million,
 }
 
-/// The `--demo` names, as [`tiledlight_setup::Demo::name`] gives them (a unit test checks they match).
-pub const DEMO_NAMES: [&str; 6] = ["shadows", "vpl", "glass", "million", "heatmap", "clusters"];
-
 /// `args` with the flags of its `--demo NAME` (if any) put right after the subcommand,
 /// leaving out each flag the command line gives itself, so the user's own win. Only for
-/// the subcommands that take the scene flags; anything else is returned as it is (clap
-/// then reports an unknown demo or a misplaced flag).
-pub fn expand_demo(args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
+/// a subcommand that `takes_demo` (the app asks its own clap command which have the
+/// flag); anything else is returned as it is (clap then reports an unknown demo or a
+/// misplaced flag).
+pub fn expand_demo(args: Vec<std::ffi::OsString>, takes_demo: impl Fn(&str) -> bool) -> Vec<std::ffi::OsString> {
     let text: Vec<String> = args.iter().map(|a| a.to_string_lossy().into_owned()).collect();
-    let takes_scene_flags = ["render", "bench", "sweep", "accuracy", "export", "view", "shadow-accuracy"];
-    if !text.get(1).is_some_and(|c| takes_scene_flags.contains(&c.as_str())) {
+    if !text.get(1).is_some_and(|c| takes_demo(c)) {
         return args;
     }
     let name = text.iter().enumerate().find_map(|(i, a)| match a.strip_prefix("--demo=") {
@@ -297,7 +294,7 @@ pub struct SceneArgs {
     /// --vpl for the bounce), glass, million, heatmap, clusters. It stands for a few flags
     /// (any given on the command line wins) and places its own lights, camera and props
     /// (docs/USAGE.md, "Demos").
-    #[arg(long, value_name = "NAME", value_parser = clap::builder::PossibleValuesParser::new(DEMO_NAMES))]
+    #[arg(long, value_name = "NAME", value_parser = clap::builder::PossibleValuesParser::new(tiledlight_setup::Demo::ALL.map(|d| d.name())))]
     pub demo: Option<String>,
     /// Random point lights [default: 1024 for the default scene; for a glTF file, random
     /// lights are added to its own lights only when this or --spot-lights is given].
@@ -575,7 +572,7 @@ impl SceneArgs {
         });
         Settings {
             scene: SceneSource::parse(&self.scene),
-            // Clap accepts only the names of DEMO_NAMES.
+            // Clap accepts only the names of Demo::ALL.
             demo: self.demo.as_deref().and_then(|n| tiledlight_setup::demo::parse(n).ok()),
             lights: self.lights.or(million.then_some(MILLION_LIGHTS)),
             spot_lights: self.spot_lights,
@@ -785,10 +782,13 @@ mod tests {
         scene: SceneArgs,
     }
 
+    /// The command line's draw-order names are the library's labels (the bench JSON's).
     #[test]
-    fn demo_names_are_the_library_demos() {
-        let names: Vec<&str> = tiledlight_setup::Demo::ALL.iter().map(|d| d.name()).collect();
-        assert_eq!(names, DEMO_NAMES);
+    fn draw_order_names_are_the_library_labels() {
+        for arg in DrawOrderArg::value_variants() {
+            let name = arg.to_possible_value().unwrap().get_name().to_string();
+            assert_eq!(name, DrawOrderMode::from(*arg).label());
+        }
     }
 
     /// `--demo` puts its flags after the subcommand, leaving out those the user gives, so
@@ -796,12 +796,13 @@ mod tests {
     #[test]
     fn a_demo_expands_into_its_flags_and_the_users_win() {
         let os = |v: &[&str]| v.iter().map(std::ffi::OsString::from).collect::<Vec<_>>();
-        let got = expand_demo(os(&["tiledlight", "render", "--demo", "shadows", "--grid-objects", "8"]));
+        let scene_cmd = |c: &str| c == "render" || c == "bench";
+        let got = expand_demo(os(&["tiledlight", "render", "--demo", "shadows", "--grid-objects", "8"]), scene_cmd);
         let mut want = vec!["tiledlight", "render", "--lights", "0"];
         want.extend(["--shadow-point-lights", "6", "--shadow-size", "1024", "--shadow-filter", "5"]);
         want.extend(["--demo", "shadows", "--grid-objects", "8"]);
         assert_eq!(got, os(&want));
-        let got = expand_demo(os(&["tiledlight", "bench", "--demo=million", "--width", "64"]));
+        let got = expand_demo(os(&["tiledlight", "bench", "--demo=million", "--width", "64"]), scene_cmd);
         assert_eq!(got, os(&["tiledlight", "bench", "--light-preset", "million", "--demo=million", "--width", "64"]));
         for unchanged in [
             &["tiledlight", "peer-report", "--demo", "shadows"][..],
@@ -809,7 +810,7 @@ mod tests {
             &["tiledlight", "render", "--lights", "3"],
             &["tiledlight"],
         ] {
-            assert_eq!(expand_demo(os(unchanged)), os(unchanged));
+            assert_eq!(expand_demo(os(unchanged), scene_cmd), os(unchanged));
         }
         // Parsed: the demo's settings, the user's flag, the courtyard dressed by the loader.
         let s = parse(&["--lights", "0", "--grid-objects", "60", "--demo", "shadows"]).plain_settings();

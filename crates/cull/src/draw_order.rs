@@ -49,23 +49,12 @@ pub enum DrawOrderMode {
 }
 
 impl DrawOrderMode {
-    /// Every mode, in the order help texts list them.
-    pub const ALL: [Self; 2] = [Self::FrontToBack, Self::Submission];
-
-    /// The command-line name.
+    /// The name the command line and the reports use.
     pub fn label(self) -> &'static str {
         match self {
             Self::FrontToBack => "front-to-back",
             Self::Submission => "submission",
         }
-    }
-
-    /// The mode named `s` ([`Self::label`]), or an error listing the names.
-    pub fn parse(s: &str) -> Result<Self, String> {
-        Self::ALL.into_iter().find(|m| m.label() == s).ok_or_else(|| {
-            let names: Vec<_> = Self::ALL.iter().map(|m| m.label()).collect();
-            format!("unknown draw order {s:?}: expected one of {}", names.join(", "))
-        })
     }
 }
 
@@ -198,13 +187,5 @@ mod tests {
         let one_draw = vec![Range { start: 0, end: 3 }];
         let o = DrawOrder::front_to_back(&one_draw, &bounds, Vec3::ZERO);
         assert_eq!(o.runs(0..3, None), vec![2..3, 1..2, 0..1]);
-    }
-
-    #[test]
-    fn mode_names_round_trip() {
-        for m in DrawOrderMode::ALL {
-            assert_eq!(DrawOrderMode::parse(m.label()), Ok(m));
-        }
-        assert!(DrawOrderMode::parse("nearest").unwrap_err().contains("front-to-back, submission"));
     }
 }

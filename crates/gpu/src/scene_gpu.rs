@@ -580,7 +580,7 @@ impl SceneGpu {
         } else {
             None
         };
-        let submission = DrawOrder::submission(&draws.iter().map(|d| d.instances.clone()).collect::<Vec<_>>());
+        let submission = DrawOrder::submission(&slot_ranges(&draws));
         Ok(Self {
             positions,
             normals,
@@ -609,14 +609,9 @@ impl SceneGpu {
         })
     }
 
-    /// The draws' instance slot ranges, in draw order.
-    pub fn draw_slot_ranges(&self) -> Vec<Range<u32>> {
-        self.draws.iter().map(|d| d.instances.clone()).collect()
-    }
-
     /// The order that draws the instances nearest `eye` first ([`DrawOrder::front_to_back`]).
     pub fn front_to_back(&self, eye: glam::Vec3) -> DrawOrder {
-        DrawOrder::front_to_back(&self.draw_slot_ranges(), &self.instance_bounds, eye)
+        DrawOrder::front_to_back(&slot_ranges(&self.draws), &self.instance_bounds, eye)
     }
 
     /// The pipeline kinds this scene's draws need (blended ones last).
@@ -736,6 +731,11 @@ impl SceneGpu {
         }
         count
     }
+}
+
+/// Each draw's instance slot range, in draw order (what a [`DrawOrder`] is made over).
+fn slot_ranges(draws: &[Draw]) -> Vec<Range<u32>> {
+    draws.iter().map(|d| d.instances.clone()).collect()
 }
 
 /// What [`SceneGpu::record_draws_of`] recorded: draw calls and the instances they draw.

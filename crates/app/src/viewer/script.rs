@@ -11,7 +11,7 @@ use clap::ValueEnum;
 
 use super::camera_control::Mode;
 use super::settings::{Settings, VplControl};
-use crate::scene_setup::{AssignArg, BlendModeArg, CastersByArg, DensityArg, GridArg, ShadowFormatArg};
+use crate::scene_setup::{AssignArg, BlendModeArg, CastersByArg, DensityArg, DrawOrderArg, GridArg, ShadowFormatArg};
 use tiledlight_gpu::heatmap::HeatmapOf;
 use tiledlight_setup::SceneSource;
 
@@ -104,8 +104,9 @@ pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
         "tile-size" => a.tile_size = number(key, value)?,
         "gbuffer-rts" => a.gbuffer_rts = number(key, value)?,
         "draw-order" => {
-            a.draw_order =
-                tiledlight_setup::DrawOrderMode::parse(value).map_err(|e| anyhow::anyhow!("--script: {e}"))?
+            a.draw_order = DrawOrderArg::from_str(value, true)
+                .map_err(|e| anyhow::anyhow!("--script: draw-order={value}: {e}"))?
+                .into()
         }
         "raster" => {
             a.raster = <tiledlight_setup::Raster as ValueEnum>::from_str(value, true)

@@ -214,12 +214,9 @@ struct UnusableImage {
     index: usize,
     /// What is wrong, naming the image ([`ReadError::Failed`]'s message).
     problem: String,
-    /// Each material and slot that uses it, in the order met.
-    users: Vec<String>,
-    /// Some user is a base colour slot (drawn as if the texture were white).
-    base_colour: bool,
-    /// Some user is another slot (drawn with its factors alone).
-    other: bool,
+    /// Each material ("material 0 'paint'") and slot ("base colour") that uses it, in the
+    /// order met.
+    users: Vec<(String, String)>,
 }
 
 fn node_label(node: &gltf::Node<'_>) -> String {
@@ -243,14 +240,17 @@ impl Loader<'_> {
     fn unusable_image_warnings(&mut self) {
         let images = std::mem::take(&mut self.unusable_images);
         for i in &images {
-            let drawn = match (i.base_colour, i.other) {
+            let base_colour = i.users.iter().any(|(_, slot)| slot == "base colour");
+            let other = i.users.iter().any(|(_, slot)| slot != "base colour");
+            let drawn = match (base_colour, other) {
                 (true, false) => "drawn with the base colour factor alone, as if the texture were white",
                 (false, true) => "drawn without it (the factors alone)",
                 _ => "drawn without it (the factors alone; a base colour as if the texture were white)",
             };
             let n = i.users.len();
             let users = if n == 1 { "1 material slot".to_string() } else { format!("{n} material slots") };
-            self.warn(format!("{}; {users} {drawn}: {}.", i.problem, i.users.join(", ")));
+            let named: Vec<String> = i.users.iter().map(|(material, slot)| format!("{material} ({slot})")).collect();
+            self.warn(format!("{}; {users} {drawn}: {}.", i.problem, named.join(", ")));
         }
         if images.len() > 1 {
             let slots: usize = images.iter().map(|i| i.users.len()).sum();
@@ -595,16 +595,11 @@ impl Loader<'_> {
                 let at = match self.unusable_images.iter().position(|i| i.index == index) {
                     Some(at) => at,
                     None => {
-                        let (base_colour, other) = (false, false);
-                        self.unusable_images.push(UnusableImage { index, problem, users: vec![], base_colour, other });
+                        self.unusable_images.push(UnusableImage { index, problem, users: vec![] });
                         self.unusable_images.len() - 1
                     }
                 };
-                let i = &mut self.unusable_images[at];
-                i.users.push(format!("{material} ({slot})"));
-                let base = slot == "base colour";
-                i.base_colour |= base;
-                i.other |= !base;
+                self.unusable_images[at].users.push((material.to_string(), slot.to_string()));
                 Ok(None)
             }
         }
