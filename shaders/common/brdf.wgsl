@@ -8,6 +8,11 @@ const MIN_ROUGHNESS: f32 = 0.045;
 const DIELECTRIC_F0: f32 = 0.04;
 // Ashikhmin and Shirley's diffuse normalisation 28 / (23 pi).
 const DIFFUSE_SCALE: f32 = 0.387507687528093;
+// The early-outs' ablation (`--no-early-outs`, pipeline constant false): a light beyond
+// its radius or behind the surface is evaluated in full and then discarded (`select`), as
+// a renderer that skips nothing does; the image does not change. True (the default, never
+// passed) compiles the early returns and nothing else.
+override EARLY_OUTS: bool = true;
 
 fn windowed_attenuation(dist_sq: f32, radius: f32) -> f32 {
     let x = dist_sq / (radius * radius);
@@ -43,7 +48,7 @@ fn diffuse_falloff(x: f32) -> f32 {
 // Schlick Fresnel. n, v, l are unit vectors pointing away from the surface.
 fn brdf_cos(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, s: Surface) -> vec3<f32> {
     let n_dot_l = saturate(dot(n, l));
-    if n_dot_l <= 0.0 {
+    if EARLY_OUTS && n_dot_l <= 0.0 {
         return vec3<f32>(0.0);
     }
     let n_dot_v = max(dot(n, v), 1e-4);
@@ -70,5 +75,11 @@ fn brdf_cos(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, s: Surface) -> vec3<f32> {
     let f = f0 + (vec3<f32>(1.0) - f0) * pow(1.0 - v_dot_h, 5.0);
     let diffuse = s.albedo * (1.0 - s.metallic) * (vec3<f32>(1.0) - f0)
         * (DIFFUSE_SCALE * diffuse_falloff(n_dot_l) * diffuse_falloff(n_dot_v));
-    return (diffuse + f * (d * vis)) * n_dot_l;
+    let value = (diffuse + f * (d * vis)) * n_dot_l;
+    if EARLY_OUTS {
+        return value;
+    }
+    // Behind the surface the terms may be infinite (h = 0 when l = -v); the select drops
+    // them, NaN included.
+    return select(value, vec3<f32>(0.0), n_dot_l <= 0.0);
 }

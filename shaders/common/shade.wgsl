@@ -17,7 +17,8 @@ fn shade_light(i: u32, p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, s: Surface) -> 
 #ifdef NO_CUTOFF
     var atten = unwindowed_attenuation(d2);
 #else
-    if d2 >= light.radius * light.radius {
+    let in_range = d2 < light.radius * light.radius;
+    if EARLY_OUTS && !in_range {
         return vec3<f32>(0.0);
     }
     var atten = windowed_attenuation(d2, light.radius);
@@ -41,5 +42,13 @@ fn shade_light(i: u32, p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, s: Surface) -> 
         atten *= shadow_visibility(i, light.position, p, n, l);
     }
 #endif
-    return light.radiance * (atten * brdf_cos(n, v, l, s));
+    let c = light.radiance * (atten * brdf_cos(n, v, l, s));
+#ifndef NO_CUTOFF
+    if !EARLY_OUTS {
+        // The early-outs' ablation (common/brdf.wgsl): beyond the radius the window is 0
+        // but the BRDF may not be finite.
+        return select(c, vec3<f32>(0.0), !in_range);
+    }
+#endif
+    return c;
 }

@@ -287,8 +287,9 @@ pub fn expand_demo(args: Vec<std::ffi::OsString>, takes_demo: impl Fn(&str) -> b
 /// so an absurd value gets a message naming the flag and its limit.
 #[derive(Args, Clone, Debug, PartialEq)]
 pub struct SceneArgs {
-    /// `default` (the procedural courtyard) or a glTF file (.gltf or .glb).
-    #[arg(long, default_value = "default", value_name = "default|FILE")]
+    /// `default` (the procedural courtyard), `bevy-many-lights` (Bevy's many_lights stress
+    /// test rebuilt: 100,000 lights of 0.3 m on a sphere) or a glTF file (.gltf or .glb).
+    #[arg(long, default_value = "default", value_name = "default|bevy-many-lights|FILE")]
     pub scene: String,
     /// A demo setup of the courtyard that makes one feature obvious: shadows, vpl (add
     /// --vpl for the bounce), glass, million, heatmap, clusters. It stands for a few flags
@@ -410,6 +411,12 @@ pub struct SceneArgs {
     /// measure what sorting saves). Images differ only where two surfaces tie in depth.
     #[arg(long, value_enum, default_value_t = DrawOrderArg::FrontToBack)]
     pub draw_order: DrawOrderArg,
+    /// An ablation: shade every light a list holds in full, without returning early for a
+    /// light beyond its radius or behind the surface (the result is discarded, so the
+    /// image is the same). Measures what the early-outs save, e.g. against a renderer
+    /// that has none.
+    #[arg(long)]
+    pub no_early_outs: bool,
     /// The visibility buffer's raster (--method visibility): auto picks compute on a
     /// discrete GPU with 64-bit atomics at one sample a pixel, else hardware.
     #[arg(long, value_enum, default_value_t = Raster::Auto)]
@@ -525,6 +532,7 @@ impl Default for SceneArgs {
             flat_cull: d.flat_cull,
             gbuffer_rts: d.gbuffer_rts,
             draw_order: d.draw_order.into(),
+            no_early_outs: !d.early_outs,
             raster: d.raster,
             raster_large_px: d.raster_large_px,
             raster_large: d.raster_large.into(),
@@ -605,6 +613,7 @@ impl SceneArgs {
             flat_cull: self.flat_cull,
             gbuffer_rts: self.gbuffer_rts,
             draw_order: self.draw_order.into(),
+            early_outs: !self.no_early_outs,
             raster: self.raster,
             raster_large_px: self.raster_large_px,
             raster_large: self.raster_large.into(),
@@ -865,6 +874,7 @@ mod tests {
             "3",
             "--draw-order",
             "submission",
+            "--no-early-outs",
             "--raster",
             "hardware",
             "--raster-large-px",
@@ -928,6 +938,7 @@ mod tests {
             flat_cull: true,
             gbuffer_rts: 3,
             draw_order: DrawOrderMode::Submission,
+            early_outs: false,
             raster: Raster::Hardware,
             raster_large_px: 48,
             raster_large: LargeRaster::Hardware,

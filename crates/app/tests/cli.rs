@@ -79,6 +79,13 @@ fn bench_writes_json_with_every_pass() {
             assert!(p["frames"].as_u64().unwrap() >= 1, "{name}");
         }
         assert!(v["total_gpu_median_ms"].as_f64().unwrap().is_finite());
+        // The frame's first-to-last span holds every pass, each frame: at least the
+        // longest pass's median (the same frames' medians).
+        let span = &v["frame_gpu_first_to_last"];
+        assert!(span["frames"].as_u64().unwrap() >= 1, "{v}");
+        let longest = passes.iter().map(|p| p["median_ms"].as_f64().unwrap()).fold(0.0, f64::max);
+        assert!(span["median_ms"].as_f64().unwrap() >= longest, "{span} vs the longest pass {longest}");
+        assert!(text.contains("GPU frame"), "{text}");
     }
     // No light casts a shadow: no shadow numbers, and no shadow line in the report.
     assert!(v["shadow_faces_per_frame"].is_null() && v["shadow_atlas_bytes"].is_null(), "{v}");

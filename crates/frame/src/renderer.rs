@@ -118,7 +118,7 @@ impl FrameRenderer {
             )));
         }
         let s = &settings;
-        let features = Features::new(
+        let mut features = Features::new(
             scene,
             lights,
             s.method,
@@ -126,6 +126,7 @@ impl FrameRenderer {
             (s.msaa, s.gbuffer_rts),
             (s.shadows, s.blend, s.vpl.is_some()),
         );
+        features.early_outs = s.early_outs;
         if features.vpl && features.shadows.is_none() {
             return Err(GpuError::Config(
                 "VPLs are made from the shadow-casting lights' reflective shadow maps: no light casts a shadow".into(),

@@ -52,6 +52,9 @@ pub struct FrameSettings {
     /// (the default; sorted again when the eye moves) or the instance buffer's
     /// ([`tiledlight_gpu::draw_order`]). Images differ only where two surfaces tie in depth.
     pub draw_order: DrawOrderMode,
+    /// The shading's early-outs (true, the default); false is the ablation that evaluates
+    /// every listed light in full ([`tiledlight_gpu::features::Features::early_outs`]).
+    pub early_outs: bool,
     /// Tiled Deferred: G-buffer render targets, 2..=5 (extra ones are written white and
     /// read back: the sample's bandwidth stress knob). Other methods ignore it.
     pub gbuffer_rts: u32,
@@ -94,6 +97,7 @@ impl Default for FrameSettings {
             blend: BlendMode::Sorted,
             vpl: None,
             draw_order: DrawOrderMode::FrontToBack,
+            early_outs: true,
             gbuffer_rts: 2,
             edge: EdgeTest::default(),
             test_drop_light: None,

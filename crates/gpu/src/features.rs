@@ -291,6 +291,12 @@ pub struct Features {
     /// Virtual point lights (`--vpl`, crate tiledlight-vpl): the RSM and generation step
     /// and the `VPLS` shading variant, in every method.
     pub vpl: bool,
+    /// The shading's early-outs: a light beyond its radius or behind the surface returns
+    /// at once (true, the default). False is an ablation (`--no-early-outs`): every light
+    /// a list holds is evaluated in full and its result discarded, as a renderer without
+    /// them pays; the image is the same (the `EARLY_OUTS` pipeline constant,
+    /// `shaders/common/brdf.wgsl`).
+    pub early_outs: bool,
 }
 
 impl Features {
@@ -332,6 +338,7 @@ impl Features {
             }),
             frustum_clusters: tiled && cull.clusters.is_some_and(|c| !c.geometry_only),
             vpl,
+            early_outs: true,
         }
     }
 
@@ -353,9 +360,16 @@ impl Features {
     }
 
     /// The pipeline constants of the lighting shaders: the shadow filter's radius when
-    /// shadows exist (`SHADOW_RADIUS` is declared only in the `SHADOWS` variant).
+    /// shadows exist (`SHADOW_RADIUS` is declared only in the `SHADOWS` variant), and
+    /// `EARLY_OUTS` false for the early-outs' ablation (declared in every lighting shader;
+    /// left at its default otherwise).
     pub fn light_constants(&self) -> Vec<(&'static str, f64)> {
-        self.shadows.map(|s| vec![("SHADOW_RADIUS", s.options.filter.radius() as f64)]).unwrap_or_default()
+        let mut c: Vec<(&'static str, f64)> =
+            self.shadows.map(|s| vec![("SHADOW_RADIUS", s.options.filter.radius() as f64)]).unwrap_or_default();
+        if !self.early_outs {
+            c.push(("EARLY_OUTS", 0.0));
+        }
+        c
     }
 
     /// One line of what the frame models, e.g. "Forward+, points+spots, textures, MSAA 4x".

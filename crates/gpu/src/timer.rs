@@ -97,10 +97,21 @@ impl GpuTimer {
 
     /// The pass times of the oldest finished frame, if one is ready.
     pub fn finished_frame(&mut self) -> Option<Vec<PassTime>> {
+        self.finished_frame_and_span().map(|(passes, _)| passes)
+    }
+
+    /// The pass times of the oldest finished frame and its span: milliseconds from the
+    /// first timed pass's start to the last one's end, so the untimed work and the gaps
+    /// between passes are in it (None without a timed pass).
+    pub fn finished_frame_and_span(&mut self) -> Option<(Vec<PassTime>, Option<f64>)> {
         let results = self.profiler.process_finished_frame(self.period)?;
         let mut out = Vec::new();
         flatten(&results, &mut out);
-        Some(out)
+        let times = results.iter().filter_map(|r| r.time.clone());
+        let span = times.fold(None, |acc: Option<(f64, f64)>, t| {
+            Some(acc.map_or((t.start, t.end), |(s, e)| (s.min(t.start), e.max(t.end))))
+        });
+        Some((out, span.map(|(s, e)| (e - s) * 1000.0)))
     }
 }
 

@@ -95,6 +95,9 @@ pub struct Measurement {
     pub gpu_frames: Vec<Vec<PassTime>>,
     /// Per measured frame, its CPU wall time in milliseconds.
     pub cpu_ms: Vec<f64>,
+    /// Per measured frame whose timestamps came back, the GPU milliseconds from its first
+    /// timed pass's start to its last one's end (gaps and untimed work included).
+    pub gpu_span_ms: Vec<f64>,
     /// Whether the device had timestamp queries.
     pub timestamps: bool,
     /// Light-grid headers of measured frames that came back (tiled methods; every other
@@ -269,9 +272,10 @@ pub fn measure_moving(
     let mut skip = 0u32;
     let mut finished = 0u32;
     let drain = |timer: &mut GpuTimer, out: &mut Measurement, finished: &mut u32, skip: u32| {
-        while let Some(f) = timer.finished_frame() {
+        while let Some((f, span)) = timer.finished_frame_and_span() {
             if *finished >= skip {
                 out.gpu_frames.push(f);
+                out.gpu_span_ms.extend(span);
             }
             *finished += 1;
         }
@@ -389,6 +393,12 @@ pub fn table(m: &Measurement) -> String {
         }
         let total: f64 = passes.iter().map(|p| p.summary.median_ms).sum();
         s.push_str(&format!("{:<22} {:>10.3}{mark}\n", "total GPU", total));
+        if let Some(t) = Summary::of(&m.gpu_span_ms) {
+            s.push_str(&format!(
+                "{:<22} {:>10.3} {:>10.3} {:>10.3} {:>7}{mark}   (first pass's start to last pass's end: gaps included)\n",
+                "GPU frame", t.median_ms, t.min_ms, t.max_ms, t.frames
+            ));
+        }
     }
     if let Some(c) = m.cpu() {
         s.push_str(&format!(
@@ -420,6 +430,9 @@ struct BenchJson {
     timestamps: bool,
     passes: Vec<PassSummary>,
     total_gpu_median_ms: Option<f64>,
+    /// The frame's GPU time from its first timed pass's start to its last one's end: the
+    /// passes plus the gaps and untimed work between them (null without timestamps).
+    frame_gpu_first_to_last: Option<Summary>,
     cpu_frame: Option<Summary>,
     cpu_frame_measure: &'static str,
     /// GPU memory allocated, bytes per category.
@@ -587,6 +600,8 @@ pub struct RendererJson {
     pub gbuffer_rts: u32,
     /// The depth pre-pass's and G-buffer's draw order: "front-to-back" or "submission".
     pub draw_order: &'static str,
+    /// The shading's early-outs (false: the `--no-early-outs` ablation).
+    pub early_outs: bool,
     pub msaa: u32,
     pub edge_distance: f32,
     pub edge_normal_deg: f32,
@@ -679,6 +694,7 @@ pub fn run<F: Flags>(scene: &F, args: &Bench) -> Result<()> {
                     coarse: !a.flat_cull,
                     gbuffer_rts: a.gbuffer_rts,
                     draw_order: a.draw_order.label(),
+                    early_outs: a.early_outs,
                     msaa: a.msaa,
                     edge_distance: a.edge_distance,
                     edge_normal_deg: a.edge_normal_deg,
@@ -698,6 +714,7 @@ pub fn run<F: Flags>(scene: &F, args: &Bench) -> Result<()> {
             timestamps: m.timestamps,
             total_gpu_median_ms: m.timestamps.then(|| passes.iter().map(|p| p.summary.median_ms).sum()),
             passes,
+            frame_gpu_first_to_last: Summary::of(&m.gpu_span_ms),
             cpu_frame: m.cpu(),
             cpu_frame_measure: CPU_TIME_MEANING,
             gpu_memory: renderer.memory().entries.clone(),
@@ -755,6 +772,7 @@ mod tests {
         let m = Measurement {
             gpu_frames: vec![f(1.0, 2.0), f(3.0, 4.0)],
             cpu_ms: vec![5.0],
+            gpu_span_ms: vec![3.5, 7.5],
             timestamps: true,
             grid: Vec::new(),
             blended_grid: Vec::new(),
@@ -768,6 +786,7 @@ mod tests {
         let t = table(&m);
         assert!(t.contains("total GPU"), "{t}");
         assert!(t.contains("CPU frame"), "{t}");
+        assert!(t.contains("GPU frame                   5.500      3.500      7.500       2"), "{t}");
         assert!(!t.contains("shadow"), "no shadow line without casters: {t}");
         assert_eq!(m.shadow_line(), None);
         let still = Measurement { shadow_faces: vec![0, 0, 0], ..m.clone() };
@@ -816,6 +835,7 @@ mod tests {
                 coarse: true,
                 gbuffer_rts: 2,
                 draw_order: "front-to-back",
+                early_outs: true,
                 msaa: 1,
                 edge_distance: 0.1,
                 edge_normal_deg: 30.0,
@@ -832,7 +852,7 @@ mod tests {
         };
         // The fields and order of bench's `config` before the two schemas became one.
         let bench_keys = "adapter resolution width height scene triangles instances point_lights spot_lights seed \
-             threshold method tile_size capacity aabb half_z spot_cone coarse gbuffer_rts draw_order msaa edge_distance \
+             threshold method tile_size capacity aabb half_z spot_cone coarse gbuffer_rts draw_order early_outs msaa edge_distance \
              edge_normal_deg shadow_point_lights shadow_spot_lights casters_by shadow_size shadow_filter shadow_format \
              transparent_objects emissive commit";
         assert_eq!(keys(&bench).join(" "), bench_keys.split_whitespace().collect::<Vec<_>>().join(" "));

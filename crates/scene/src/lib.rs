@@ -6,6 +6,8 @@
 //! - [`default_scene`]: a procedural Sponza-like courtyard (about 250k triangles) plus
 //!   TiledLighting11's grid objects, some of them alpha-blended glass;
 //! - [`shadow_box_scene`]: a cube on or above a floor, for the shadow tests;
+//! - [`peer`]: other engines' benchmark scenes rebuilt (Bevy's `many_lights`), for the
+//!   peer benchmark;
 //! - [`random_lights`]: deterministic random point and spot lights, the courtyard's radii
 //!   or radii fitted to a box and the count ([`fitted_intensity_range`]);
 //! - [`SurfaceSampler`]: point lights on the scene's surfaces, their radius following
@@ -34,6 +36,7 @@ mod geometry;
 mod lights;
 mod loader;
 mod model;
+pub mod peer;
 mod procedural;
 mod surface_lights;
 pub mod trace;

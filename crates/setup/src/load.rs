@@ -231,6 +231,11 @@ fn load_scene(settings: &Settings) -> Result<(Scene, usize, Vec<String>)> {
             let n = scene.lights.len();
             Ok((scene, n, Vec::new()))
         }
+        SceneSource::Peer(p) => {
+            let scene = p.build();
+            let n = scene.lights.len();
+            Ok((scene, n, Vec::new()))
+        }
         SceneSource::File(path) => {
             let options = LoadOptions {
                 strict: settings.strict,

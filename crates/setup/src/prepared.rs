@@ -470,6 +470,11 @@ impl Prepared {
             },
             m => format!("{} (every light for every pixel)", m.name()),
         };
+        let method = if a.early_outs {
+            method
+        } else {
+            format!("{method}; ABLATION --no-early-outs: every listed light shaded in full, none skipped")
+        };
         if a.msaa > 1 {
             res.push_str(&format!(", MSAA {}x", a.msaa));
             if a.method == Method::Visibility {
@@ -523,9 +528,10 @@ pub(crate) fn lights_description(
     fitted: &FittedLights,
 ) -> String {
     // A demo's own lights stand where a file's would.
-    let own = match a.demo {
-        Some(d) => format!("placed by --demo {}", d.name()),
-        None => "from the glTF file".to_string(),
+    let own = match (a.demo, &a.scene) {
+        (Some(d), _) => format!("placed by --demo {}", d.name()),
+        (None, crate::SceneSource::Peer(p)) => format!("of {}", p.name()),
+        (None, _) => "from the glTF file".to_string(),
     };
     let source = match (l.from_file, l.random) {
         (0, 0) => return String::new(),

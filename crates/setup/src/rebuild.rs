@@ -106,6 +106,7 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || a.flat_cull != b.flat_cull
         || a.gbuffer_rts != b.gbuffer_rts
         || a.draw_order != b.draw_order
+        || a.early_outs != b.early_outs
         || a.raster != b.raster
         || a.raster_large_px != b.raster_large_px
         || a.raster_large != b.raster_large

@@ -126,13 +126,45 @@ pub enum SceneSource {
     Default,
     /// A glTF file.
     File(PathBuf),
+    /// Another engine's benchmark scene, rebuilt (its own lights and camera).
+    Peer(PeerScene),
+}
+
+/// The other engines' benchmark scenes `--scene` names (tiledlight-scene's `peer`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum PeerScene {
+    /// Bevy 0.19's `many_lights`: 100,000 lights of 0.3 m range on a 50 m sphere seen
+    /// from inside (`--scene bevy-many-lights`).
+    BevyManyLights,
+}
+
+impl PeerScene {
+    /// Every peer scene.
+    pub const ALL: [PeerScene; 1] = [PeerScene::BevyManyLights];
+
+    /// The `--scene` value.
+    pub fn name(self) -> &'static str {
+        match self {
+            PeerScene::BevyManyLights => "bevy-many-lights",
+        }
+    }
+
+    /// The scene, its lights and camera.
+    pub fn build(self) -> tiledlight_scene::Scene {
+        match self {
+            PeerScene::BevyManyLights => tiledlight_scene::peer::bevy_many_lights(),
+        }
+    }
 }
 
 impl SceneSource {
-    /// The source a `--scene` value names: `default` (any case) or a glTF file.
+    /// The source a `--scene` value names: `default` (any case), a peer scene's name
+    /// (`bevy-many-lights`, any case) or a glTF file.
     pub fn parse(value: &str) -> Self {
         if value.eq_ignore_ascii_case("default") {
             SceneSource::Default
+        } else if let Some(p) = PeerScene::ALL.into_iter().find(|p| value.eq_ignore_ascii_case(p.name())) {
+            SceneSource::Peer(p)
         } else {
             SceneSource::File(PathBuf::from(value))
         }
@@ -145,6 +177,7 @@ impl fmt::Display for SceneSource {
         match self {
             SceneSource::Default => f.write_str("default"),
             SceneSource::File(path) => write!(f, "{}", path.display()),
+            SceneSource::Peer(p) => f.write_str(p.name()),
         }
     }
 }
@@ -231,6 +264,8 @@ pub struct Settings {
     pub gbuffer_rts: u32,
     /// The order the depth pre-pass and the G-buffer draw the scene in.
     pub draw_order: DrawOrderMode,
+    /// The shading's early-outs (true); false is the ablation `--no-early-outs`.
+    pub early_outs: bool,
     /// The visibility buffer's raster: auto (per adapter), hardware or compute.
     pub raster: Raster,
     /// The compute raster hands a triangle whose bounds span more pixels than this (either
@@ -312,6 +347,7 @@ impl Default for Settings {
             flat_cull: false,
             gbuffer_rts: 2,
             draw_order: DrawOrderMode::FrontToBack,
+            early_outs: true,
             raster: Raster::Auto,
             raster_large_px: ComputeRasterOptions::default().large_px,
             raster_large: ComputeRasterOptions::default().large,
@@ -341,17 +377,17 @@ impl Settings {
     pub fn random_light_counts(&self) -> (u64, u64) {
         match self.scene {
             SceneSource::Default => (self.lights.unwrap_or(DEFAULT_POINT_LIGHTS), self.spot_lights.unwrap_or(0)),
-            SceneSource::File(_) => (self.lights.unwrap_or(0), self.spot_lights.unwrap_or(0)),
+            SceneSource::File(_) | SceneSource::Peer(_) => (self.lights.unwrap_or(0), self.spot_lights.unwrap_or(0)),
         }
     }
 
     /// Checks every setting's range; the error names the flag, its value and the limit.
     pub fn validate(&self) -> Result<()> {
-        if let (Some(d), SceneSource::File(path)) = (self.demo, &self.scene) {
+        if let Some(d) = self.demo.filter(|_| self.scene != SceneSource::Default) {
             anyhow::bail!(
                 "--demo {} dresses the built-in courtyard; it cannot be used with --scene {}",
                 d.name(),
-                path.display()
+                self.scene
             );
         }
         let side = 1..=MAX_SCREEN_SIDE;
@@ -450,7 +486,7 @@ impl Settings {
                 self.transparent_objects,
                 self.grid_objects
             ),
-            SceneSource::File(_) => ensure!(
+            SceneSource::File(_) | SceneSource::Peer(_) => ensure!(
                 self.transparent_objects == 0,
                 "--transparent-objects {}: transparent grid objects exist only in the default scene (a glTF \
                  file's BLEND materials are drawn blended on their own)",
@@ -502,6 +538,14 @@ impl Settings {
                     "{flag} {n}: more than the scene's {count} {kind} lights ({count_flag} {random}{demo})"
                 );
             }
+        }
+        if let SceneSource::Peer(p) = self.scene {
+            ensure!(
+                self.grid_objects == 0,
+                "--grid-objects {}: grid objects exist only in the default scene (--scene {} has its own)",
+                self.grid_objects,
+                p.name()
+            );
         }
         if let SceneSource::File(path) = &self.scene {
             let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
@@ -560,6 +604,7 @@ impl Settings {
             cull: self.cull_options(),
             gbuffer_rts: self.gbuffer_rts,
             draw_order: self.draw_order,
+            early_outs: self.early_outs,
             raster: self.raster,
             compute_raster: ComputeRasterOptions { large_px: self.raster_large_px, large: self.raster_large },
             exposure: self.exposure,

@@ -35,12 +35,13 @@ use std::time::{Duration, Instant};
 
 use bevy::app::{AppExit, ScheduleRunnerPlugin};
 use bevy::camera::{Exposure, RenderTarget};
-use bevy::core_pipeline::prepass::DepthPrepass;
+use bevy::core_pipeline::prepass::{DeferredPrepass, DepthPrepass};
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::diagnostic::DiagnosticsStore;
 use bevy::gltf::GltfExtras;
 use bevy::image::TextureFormatPixelInfo;
-use bevy::light::cluster::{ClusterConfig, Clusters, GlobalClusterSettings};
+use bevy::light::cluster::{ClusterConfig, ClusterFarZMode, ClusterZConfig, Clusters, GlobalClusterSettings};
+use bevy::pbr::DefaultOpaqueRendererMethod;
 use bevy::prelude::*;
 use bevy::render::diagnostic::RenderDiagnosticsPlugin;
 use bevy::render::render_asset::RenderAssets;
@@ -48,7 +49,9 @@ use bevy::render::render_resource::{
     Buffer, BufferDescriptor, BufferUsages, CommandEncoderDescriptor, MapMode, PollType, TexelCopyBufferInfo,
     TexelCopyBufferLayout, TextureFormat, TextureUsages,
 };
-use bevy::render::renderer::{RenderAdapterInfo, RenderContext, RenderDevice, RenderGraph, RenderQueue};
+use bevy::render::renderer::{
+    RenderAdapterInfo, RenderContext, RenderDevice, RenderGraph, RenderGraphSystems, RenderQueue,
+};
 use bevy::render::settings::{RenderCreation, WgpuFeatures, WgpuSettings};
 use bevy::render::view::Msaa;
 use bevy::render::{Extract, Render, RenderApp, RenderPlugin, RenderSystems};
@@ -91,15 +94,41 @@ struct Args {
     /// also holds with GPU clustering): at 100,000 lights a request for 65,536 clusters
     /// became 12x7x24 (160 px clusters).
     fixed_clusters: bool,
+    /// Bevy's `ClusterConfig::XYZ` with clusters of about this many pixels (the grid is
+    /// ceil(width / px) x ceil(height / px) x `--z-slices`); overrides `--clusters`.
+    cluster_px: Option<u32>,
+    /// Z slices of the grid (Bevy's default 24).
+    z_slices: Option<u32>,
+    /// Far end of the first Z slice, metres (Bevy's default 5).
+    first_slice_depth: Option<f32>,
+    /// The far end of the last slice: Bevy's default `MaxClusterableObjectRange` (None) or
+    /// a constant depth in metres.
+    far_z: Option<f32>,
+    /// `GlobalClusterSettings::view_cluster_bindings_max_indices`: the (cluster, light)
+    /// index count past which dynamic resizing coarsens the grid (Bevy: 16,384).
+    max_indices: Option<u32>,
+    /// Bevy's deferred renderer (`DefaultOpaqueRendererMethod::deferred()`, the camera
+    /// with `DeferredPrepass` and `DepthPrepass`) instead of its forward one.
+    deferred: bool,
 }
 
 fn usage() -> ! {
     eprintln!(
         "usage: bevy-peer --gltf FILE --width W --height H --frames N --warmup M --out DIR \
          [--exposure E] [--msaa 1|2|4|8] [--tonemapping default|aces|none] [--depth-prepass] \
-         [--name NAME] [--max-frames F] [--z-slice-capacity N] [--index-capacity N] [--clusters TOTAL] [--fixed-clusters]"
+         [--name NAME] [--max-frames F] [--z-slice-capacity N] [--index-capacity N] [--clusters TOTAL] \
+         [--cluster-px P] [--z-slices S] [--first-slice-depth M] [--far-z max|M] [--max-indices N] \
+         [--fixed-clusters] [--deferred]"
     );
     std::process::exit(2)
+}
+
+/// A finite number above zero, or exit 1 naming the flag.
+fn positive(flag: &str, v: &str) -> f32 {
+    match v.parse::<f32>() {
+        Ok(x) if x.is_finite() && x > 0.0 => x,
+        _ => fail(&format!("{flag} {v}: must be a positive number")),
+    }
 }
 
 fn fail(msg: &str) -> ! {
@@ -125,6 +154,12 @@ fn parse_args() -> Args {
         index_capacity: None,
         clusters: None,
         fixed_clusters: false,
+        cluster_px: None,
+        z_slices: None,
+        first_slice_depth: None,
+        far_z: None,
+        max_indices: None,
+        deferred: false,
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
@@ -134,6 +169,10 @@ fn parse_args() -> Args {
         }
         if flag == "--fixed-clusters" {
             a.fixed_clusters = true;
+            continue;
+        }
+        if flag == "--deferred" {
+            a.deferred = true;
             continue;
         }
         if flag == "--help" || flag == "-h" {
@@ -148,13 +187,7 @@ fn parse_args() -> Args {
             "--frames" => a.frames = num(&v),
             "--warmup" => a.warmup = num(&v),
             "--out" => a.out = PathBuf::from(v),
-            "--exposure" => {
-                let e: f32 = v.parse().unwrap_or_else(|_| fail(&format!("--exposure {v}: not a number")));
-                if !(e.is_finite() && e > 0.0) {
-                    fail(&format!("--exposure {v}: must be a positive number"));
-                }
-                a.exposure = Some(e);
-            }
+            "--exposure" => a.exposure = Some(positive(&flag, &v)),
             "--msaa" => a.msaa = num(&v),
             "--tonemapping" => a.tonemapping = v,
             "--name" => a.name = v,
@@ -162,6 +195,11 @@ fn parse_args() -> Args {
             "--z-slice-capacity" => a.z_slice_capacity = Some(num(&v)),
             "--index-capacity" => a.index_capacity = Some(num(&v)),
             "--clusters" => a.clusters = Some(num(&v)),
+            "--cluster-px" => a.cluster_px = Some(num(&v)),
+            "--z-slices" => a.z_slices = Some(num(&v)),
+            "--first-slice-depth" => a.first_slice_depth = Some(positive(&flag, &v)),
+            "--far-z" => a.far_z = if v == "max" { None } else { Some(positive(&flag, &v)) },
+            "--max-indices" => a.max_indices = Some(num(&v)),
             _ => usage(),
         }
     }
@@ -183,6 +221,15 @@ fn parse_args() -> Args {
     if !["default", "aces", "none"].contains(&a.tonemapping.as_str()) {
         fail(&format!("--tonemapping {}: must be default, aces or none", a.tonemapping));
     }
+    if a.deferred && a.msaa != 1 {
+        fail("--deferred: Bevy's deferred renderer has no MSAA; give --msaa 1");
+    }
+    if a.cluster_px == Some(0) || a.z_slices == Some(0) {
+        fail("--cluster-px and --z-slices must be at least 1");
+    }
+    if a.max_indices == Some(0) {
+        fail("--max-indices 0: must be at least 1");
+    }
     a.gltf = a.gltf.canonicalize().unwrap_or_else(|e| fail(&format!("--gltf {}: {e}", a.gltf.display())));
     a
 }
@@ -192,17 +239,26 @@ fn main() {
     std::fs::create_dir_all(&args.out).unwrap_or_else(|e| fail(&format!("--out {}: {e}", args.out.display())));
     let asset_dir = args.gltf.parent().expect("a canonical file path has a parent").to_path_buf();
     let wgpu = WgpuSettings {
-        // The timestamp features the render diagnostics need (Vulkan has them; Bevy
-        // also asks for every adapter feature by default).
+        // The timestamp features the render diagnostics and the frame timer need (Vulkan
+        // has them; Bevy also asks for every adapter feature by default).
         features: WgpuFeatures::TIMESTAMP_QUERY | WgpuFeatures::TIMESTAMP_QUERY_INSIDE_ENCODERS,
+        // Bevy's render diagnostics also run a pipeline-statistics query around every
+        // pass when the adapter has them; tiledlight runs none, so neither does the peer.
+        disabled_features: Some(WgpuFeatures::PIPELINE_STATISTICS_QUERY),
         ..default()
     };
     let (tx, rx) = crossbeam_channel::unbounded();
-    App::new()
-        .insert_resource(args.clone())
+    let (timer_tx, timer_rx) = crossbeam_channel::unbounded();
+    let mut app = App::new();
+    if args.deferred {
+        // Every StandardMaterial (the glTF's, `OpaqueRendererMethod::Auto`) goes deferred.
+        app.insert_resource(DefaultOpaqueRendererMethod::deferred());
+    }
+    app.insert_resource(args.clone())
         .insert_resource(ClearColor(Color::BLACK))
         .insert_resource(Run::default())
         .insert_resource(MainWorldReceiver(rx))
+        .insert_resource(TimerReceiver(timer_rx))
         .add_plugins(
             DefaultPlugins
                 .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
@@ -218,9 +274,10 @@ fn main() {
         .add_plugins(ScheduleRunnerPlugin::run_loop(Duration::ZERO))
         .add_plugins(RenderDiagnosticsPlugin)
         .add_plugins(ImageCopyPlugin { sender: tx })
+        .add_plugins(FrameTimerPlugin { sender: timer_tx })
         .add_systems(Startup, setup)
         // The diagnostics store takes a frame's spans in PreUpdate (when they came back).
-        .add_systems(Update, (adopt_camera, fix_point_lights, fix_spot_lights, collect_gpu_times))
+        .add_systems(Update, (adopt_camera, fix_point_lights, fix_spot_lights, collect_gpu_times, collect_timers))
         .add_systems(PostUpdate, drive)
         .run();
 }
@@ -248,6 +305,12 @@ struct Run {
     png_requested: bool,
     /// The camera's cluster grid as Bevy last sized it: (tile size px, dimensions).
     clusters: Option<([u32; 2], [u32; 3])>,
+    /// Per measured frame: GPU ms from the first to the last command of the frame's
+    /// command buffers (bevy-peer's own timestamps, [`FrameTimerPlugin`]).
+    frame_gpu_ms: Vec<f64>,
+    /// Per measured frame: CPU ms of the render world's prepare phase, where Bevy builds and
+    /// writes its per-frame buffers (lights, cluster lists, mesh data).
+    prepare_cpu_ms: Vec<f64>,
 }
 
 #[derive(Resource, Deref)]
@@ -265,7 +328,15 @@ fn setup(
     device: Res<RenderDevice>,
     clusters: Option<ResMut<GlobalClusterSettings>>,
 ) {
-    if let Some(gpu) = clusters.and_then(|c| c.into_inner().gpu_clustering.as_mut()) {
+    let clusters = clusters.map(|c| c.into_inner());
+    let clusters = match (clusters, args.max_indices) {
+        (Some(c), Some(n)) => {
+            c.view_cluster_bindings_max_indices = n as usize;
+            Some(c)
+        }
+        (c, _) => c,
+    };
+    if let Some(gpu) = clusters.and_then(|c| c.gpu_clustering.as_mut()) {
         if let Some(z) = args.z_slice_capacity {
             gpu.initial_z_slice_list_capacity = z as usize;
         }
@@ -337,20 +408,13 @@ fn adopt_camera(
             }
             _ => {}
         }
-        if args.depth_prepass {
+        if args.depth_prepass || args.deferred {
             e.insert(DepthPrepass);
         }
-        if args.clusters.is_some() || args.fixed_clusters {
-            let ClusterConfig::FixedZ { total, z_slices, z_config, dynamic_resizing } = ClusterConfig::default() else {
-                unreachable!("Bevy's default cluster configuration is FixedZ")
-            };
-            e.insert(ClusterConfig::FixedZ {
-                total: args.clusters.unwrap_or(total),
-                z_slices,
-                z_config,
-                dynamic_resizing: dynamic_resizing && !args.fixed_clusters,
-            });
+        if args.deferred {
+            e.insert(DeferredPrepass);
         }
+        e.insert(cluster_config(&args));
         if let Some(a) = t["ambient"].as_array() {
             let c: Vec<f32> = a.iter().filter_map(|v| v.as_f64()).map(|v| v as f32).collect();
             if c.len() == 3 {
@@ -366,6 +430,29 @@ fn adopt_camera(
             }
         }
         run.camera_ready = true;
+    }
+}
+
+/// The camera's cluster grid: Bevy's default (`FixedZ`, 4,096 clusters, 24 slices, first
+/// slice to 5 m, far end at the farthest light's range, resizing on) changed only where a
+/// flag says so.
+fn cluster_config(args: &Args) -> ClusterConfig {
+    let ClusterConfig::FixedZ { total, z_slices, z_config, dynamic_resizing } = ClusterConfig::default() else {
+        unreachable!("Bevy's default cluster configuration is FixedZ")
+    };
+    let z_slices = args.z_slices.unwrap_or(z_slices);
+    let z_config = ClusterZConfig {
+        first_slice_depth: args.first_slice_depth.unwrap_or(z_config.first_slice_depth),
+        far_z_mode: args.far_z.map_or(z_config.far_z_mode, ClusterFarZMode::Constant),
+    };
+    let dynamic_resizing = dynamic_resizing && !args.fixed_clusters;
+    match args.cluster_px {
+        Some(px) => ClusterConfig::XYZ {
+            dimensions: UVec3::new(args.width.div_ceil(px), args.height.div_ceil(px), z_slices),
+            z_config,
+            dynamic_resizing,
+        },
+        None => ClusterConfig::FixedZ { total: args.clusters.unwrap_or(total), z_slices, z_config, dynamic_resizing },
     }
 }
 
@@ -412,6 +499,19 @@ fn collect_gpu_times(store: Res<DiagnosticsStore>, mut run: ResMut<Run>) {
     run.last_seen = newest;
     if run.collecting && !batch.is_empty() {
         run.gpu_frames.push(batch);
+    }
+}
+
+/// The frame timer's and prepare clock's readings (render world) while measuring.
+fn collect_timers(receiver: Res<TimerReceiver>, mut run: ResMut<Run>) {
+    while let Ok(t) = receiver.try_recv() {
+        if !run.collecting {
+            continue;
+        }
+        match t {
+            Timing::FrameGpu(ms) => run.frame_gpu_ms.push(ms),
+            Timing::PrepareCpu(ms) => run.prepare_cpu_ms.push(ms),
+        }
     }
 }
 
@@ -522,6 +622,17 @@ fn report(
     let mut totals: Vec<f64> =
         frames.iter().map(|f| f.iter().filter(|(n, _)| !n.contains('/')).map(|p| p.1).sum()).collect();
     let mut cpu = run.cpu_ms.clone();
+    let spread = |v: &[f64]| {
+        let mut v: Vec<f64> = v.iter().take(args.frames as usize).copied().collect();
+        let n = v.len();
+        let min = v.iter().copied().fold(f64::INFINITY, f64::min);
+        let max = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        json!({"median_ms": median(&mut v), "min_ms": (n > 0).then_some(min), "max_ms": (n > 0).then_some(max), "frames": n})
+    };
+    let z = match cluster_config(args) {
+        ClusterConfig::FixedZ { z_config, .. } | ClusterConfig::XYZ { z_config, .. } => z_config,
+        _ => unreachable!("bevy-peer configures FixedZ or XYZ"),
+    };
     // tiledlight's "total GPU": the sum of the passes' medians (top-level spans here).
     let sum_of_medians: f64 =
         passes.iter().filter(|(n, _)| !n.contains('/')).filter_map(|(_, v)| v["median_ms"].as_f64()).sum();
@@ -537,8 +648,22 @@ fn report(
         "tonemapping": if args.tonemapping == "default" { "tony_mc_mapface" } else { args.tonemapping.as_str() },
         "depth_prepass": args.depth_prepass,
         "gpu_clustering": clusters.map(|c| c.gpu_clustering.is_some()),
+        "method": if args.deferred { "deferred" } else { "forward" },
+        "pipeline_statistics_queries": "disabled (WgpuSettings.disabled_features)",
+        "cluster_config": match cluster_config(args) {
+            ClusterConfig::XYZ { dimensions, .. } => json!({"mode": "xyz", "cluster_px": args.cluster_px, "requested_dimensions": dimensions.to_array()}),
+            ClusterConfig::FixedZ { total, .. } => json!({"mode": "fixed_z", "total": total}),
+            _ => Value::Null,
+        },
+        "cluster_z_slices": args.z_slices.unwrap_or(24),
+        "cluster_first_slice_depth_m": z.first_slice_depth,
+        "cluster_far_z": match z.far_z_mode {
+            ClusterFarZMode::MaxClusterableObjectRange => json!("max_clusterable_object_range"),
+            ClusterFarZMode::Constant(m) => json!(m),
+        },
         "cluster_config_total": args.clusters.unwrap_or(4096),
         "cluster_dynamic_resizing": !args.fixed_clusters,
+        "view_cluster_bindings_max_indices": clusters.map(|c| c.view_cluster_bindings_max_indices),
         "cluster_tile_px": run.clusters.map(|c| c.0),
         "cluster_dimensions": run.clusters.map(|c| c.1),
         "gpu_clustering_initial_capacities": clusters.and_then(|c| c.gpu_clustering).map(|g| json!({
@@ -554,13 +679,18 @@ fn report(
         "warmup_frames": args.warmup,
         "frames": args.frames,
         "gpu_frames_measured": frames.len(),
-        "gpu_frame_ms_median": median(&mut totals),
+        "gpu_frame_ms_median": median(&mut totals.clone()),
+        "gpu_frame_spans_sum": spread(&totals),
+        "frame_gpu_first_to_last": spread(&run.frame_gpu_ms),
+        "prepare_cpu": spread(&run.prepare_cpu_ms),
         "gpu_sum_of_top_level_pass_medians_ms": sum_of_medians,
         "cpu_frame_ms_median": median(&mut cpu),
         "passes": passes,
         "notes": [
             "gpu_frame_ms_median: the sum of the frame's top-level timed spans (Bevy's RenderDiagnosticsPlugin); untimed work between passes is not in it",
             "cpu_frame_ms_median: wall-clock time between app updates; the render world waits for the GPU after each frame, so it includes the GPU time",
+            "frame_gpu_first_to_last: GPU time from a timestamp before the frame's first command to one after its last (bevy-peer's own query set, written in the RenderGraph schedule's Begin set and after its Render set): every pass plus the untimed work and gaps between them",
+            "prepare_cpu: CPU time of the render world's Prepare set (RenderSystems::Prepare), where Bevy builds its per-frame buffers and queues their uploads (queue.write_buffer: lights, cluster lists including a zeroed index list of its full capacity, mesh data); the GPU copies of those uploads run at the head of the frame's submission, before the frame timer's first timestamp",
             "the log says when measuring starts and ends ('bevy-peer: measuring from frame', 'bevy-peer: measured'); a clustering resize warning between them means measured frames missed lights",
             "light colours re-read as linear (Bevy 0.19's glTF loader reads them as sRGB); spot source radius set to 0 (the loader sets it to the range)",
             "exposure: Bevy's Exposure with ev100 = log2(1 / (1.2 * exposure)), so radiance x exposure as in tiledlight",
@@ -683,4 +813,126 @@ fn unpad(data: &[u8], width: u32, height: u32) -> Vec<u8> {
     let row = width as usize * TextureFormat::Rgba8UnormSrgb.pixel_size().unwrap_or(4);
     let padded = RenderDevice::align_copy_bytes_per_row(row);
     data.chunks(padded).take(height as usize).flat_map(|r| &r[..row]).copied().collect()
+}
+
+// ---- The frame timer: first to last command of a frame, and the prepare phase's CPU time ----
+
+/// One reading sent from the render world to the main world.
+enum Timing {
+    FrameGpu(f64),
+    PrepareCpu(f64),
+}
+
+#[derive(Resource, Deref)]
+struct TimerReceiver(Receiver<Timing>);
+
+struct FrameTimerPlugin {
+    sender: Sender<Timing>,
+}
+
+impl Plugin for FrameTimerPlugin {
+    fn build(&self, app: &mut App) {
+        app.sub_app_mut(RenderApp)
+            .insert_resource(TimerSender(self.sender.clone()))
+            .add_systems(
+                Render,
+                (
+                    (create_frame_timer, prepare_clock_start)
+                        .after(RenderSystems::PhaseSort)
+                        .before(RenderSystems::Prepare),
+                    prepare_clock_stop.after(RenderSystems::Prepare).before(RenderSystems::Render),
+                    read_frame_timer.after(wait_for_gpu).before(receive_image_from_buffer),
+                ),
+            )
+            .add_systems(
+                RenderGraph,
+                (
+                    frame_timer_begin.in_set(RenderGraphSystems::Begin),
+                    frame_timer_end.after(RenderGraphSystems::Render).before(RenderGraphSystems::Submit),
+                ),
+            );
+    }
+}
+
+#[derive(Resource, Deref)]
+struct TimerSender(Sender<Timing>);
+
+/// Two timestamps per frame, resolved and copied into a buffer read after the frame.
+#[derive(Resource)]
+struct FrameTimer {
+    queries: wgpu::QuerySet,
+    resolved: Buffer,
+    readback: Buffer,
+    period_ns: f32,
+}
+
+#[derive(Resource)]
+struct PrepareClock(Instant);
+
+fn create_frame_timer(mut commands: Commands, timer: Option<Res<FrameTimer>>, device: Res<RenderDevice>, queue: Res<RenderQueue>) {
+    if timer.is_some() {
+        return;
+    }
+    let queries = device.wgpu_device().create_query_set(&wgpu::QuerySetDescriptor {
+        label: Some("bevy-peer frame timer"),
+        ty: wgpu::QueryType::Timestamp,
+        count: 2,
+    });
+    let buffer = |label, usage| device.create_buffer(&BufferDescriptor { label: Some(label), size: 16, usage, mapped_at_creation: false });
+    commands.insert_resource(FrameTimer {
+        queries,
+        resolved: buffer("bevy-peer frame timer resolve", BufferUsages::QUERY_RESOLVE | BufferUsages::COPY_SRC),
+        readback: buffer("bevy-peer frame timer readback", BufferUsages::MAP_READ | BufferUsages::COPY_DST),
+        period_ns: queue.get_timestamp_period(),
+    });
+}
+
+fn prepare_clock_start(mut commands: Commands) {
+    commands.insert_resource(PrepareClock(Instant::now()));
+}
+
+fn prepare_clock_stop(clock: Option<Res<PrepareClock>>, sender: Res<TimerSender>) {
+    if let Some(c) = clock {
+        let _ = sender.send(Timing::PrepareCpu(c.0.elapsed().as_secs_f64() * 1e3));
+    }
+}
+
+/// The frame's first command: runs before every camera's schedule (RenderGraph's Begin).
+fn frame_timer_begin(mut ctx: RenderContext, timer: Option<Res<FrameTimer>>) {
+    if let Some(t) = timer {
+        ctx.command_encoder().write_timestamp(&t.queries, 0);
+    }
+}
+
+/// The frame's last command: after every camera's schedule, before the submit.
+fn frame_timer_end(mut ctx: RenderContext, timer: Option<Res<FrameTimer>>) {
+    if let Some(t) = timer {
+        let encoder = ctx.command_encoder();
+        encoder.write_timestamp(&t.queries, 1);
+        encoder.resolve_query_set(&t.queries, 0..2, &t.resolved, 0);
+        encoder.copy_buffer_to_buffer(&t.resolved, 0, &t.readback, 0, 16);
+    }
+}
+
+/// After `wait_for_gpu`: the frame's two timestamps, as milliseconds, to the main world.
+fn read_frame_timer(timer: Option<Res<FrameTimer>>, device: Res<RenderDevice>, sender: Res<TimerSender>) {
+    let Some(t) = timer else { return };
+    let slice = t.readback.slice(..);
+    let (s, r) = crossbeam_channel::bounded(1);
+    slice.map_async(MapMode::Read, move |res| {
+        let _ = s.send(res);
+    });
+    device.poll(PollType::wait_indefinitely()).expect("polling the device for the frame timer");
+    if !matches!(r.recv(), Ok(Ok(()))) {
+        fail("mapping the frame timer's read-back buffer failed");
+    }
+    let ticks: Vec<u64> = {
+        let data = slice.get_mapped_range();
+        data.chunks_exact(8).map(|c| u64::from_le_bytes(c.try_into().expect("8 bytes"))).collect()
+    };
+    t.readback.unmap();
+    // A frame whose timestamps were not both written reads as zeros: not sent.
+    if ticks[0] != 0 && ticks[1] > ticks[0] {
+        let _ = sender.send(Timing::FrameGpu((ticks[1] - ticks[0]) as f64 * f64::from(t.period_ns) * 1e-6));
+    }
 }

@@ -359,6 +359,7 @@ impl Viewer {
         let scene_path = match &prep.settings.scene {
             SceneSource::Default => String::new(),
             SceneSource::File(path) => path.display().to_string(),
+            SceneSource::Peer(p) => p.name().to_string(),
         };
         log::info!("viewer: {} on {}", prep.scene_name, prep.ctx.describe());
         Ok(Self {
