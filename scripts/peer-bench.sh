@@ -1,131 +1,276 @@
 #!/usr/bin/env bash
-# Issue 16: tiledlight and Bevy side by side on the device machine (one GPU, Vulkan, no
-# network), the same scene, lights and camera. Run from the repo root, in one call:
-#   .device/tiledlight  the stripped tiledlight binary (as for scripts/device-bench.sh)
-#   .device/bevy-peer.gz  the stripped peer binary, gzipped (peers/bevy/README.md builds
-#                       it: 54 MiB stripped, 17 MiB gzipped, so that it travels with
-#                       tiledlight within the 64 MiB carry limit); a plain
-#                       .device/bevy-peer is used as it is
-#   .gl/*.deb           the Vulkan loader packages (as for scripts/device-bench.sh)
-# For each light count (COUNTS, default 1000 10000 100000) at WIDTHxHEIGHT (1920x1080),
-# the courtyard with uniform random point lights, threshold 0.1 * sqrt(N / 1000) (so
-# ~ the same lights a tile at every count: 0.1, 0.316, 1.0; 100,000 at threshold 1 is
-# docs/PERFORMANCE.md's), one fixed exposure for every renderer (tiledlight's automatic
-# exposure of that light set, read from a `render`):
-#   1. tiledlight export -> peer/court-N.gltf (kept on the device, not in the tar: big);
-#   2. Bevy renders that file: its defaults (4x MSAA, TonyMcMapface, no prepass) and
-#      "matched" (MSAA off, ACES fitted, like tiledlight's frame), matched with a depth
-#      prepass (as tiledlight's Forward+), and that with BEVY_CLUSTERS (65,536) clusters
-#      instead of Bevy's 4,096, not resized; JSON + PNG;
-#   3. tiledlight bench + render: Forward+ (default tiled gather; 2.5D light-centric)
-#      and Tiled Deferred (tiled and 2.5D, light-centric: its best layouts in
-#      docs/PERFORMANCE.md); JSON + PNG.
-# Each count's JSON and images go into $OUT/peer-N.tar.gz (the device returns at most 8
-# files of 16 MiB each), with $OUT/summary.txt (one line per run), $OUT/log.txt and
-# $OUT/gpu.txt beside them.
+# The peer benchmark (issues 16 and 32): tiledlight and Bevy (peers/bevy, bevy-peer) on the
+# device machine, one GPU, Vulkan, the same exported glTF for both. Run from the repo root:
+#   .device/tiledlight      the stripped tiledlight binary (as for scripts/device-bench.sh)
+#   .device/bevy-peer.gz    the stripped peer binary, gzipped (peers/bevy/README.md builds it:
+#                           it travels beside tiledlight within the 64 MiB carry limit); a
+#                           plain .device/bevy-peer is used as it is
+#   .gl/*.deb               the Vulkan loader packages (scripts/device-env.sh)
+#
+# Scenes (SCENES): court-N is the courtyard with N uniform random point lights (threshold
+# 0.1 * sqrt(N / 1000): about the same lights per tile at every count), the dense case;
+# many-lights is Bevy's own stress test (`--scene bevy-many-lights`: 100,000 lights of
+# 0.3 m on a 50 m sphere), the sparse one. Each scene gets one fixed exposure for every
+# renderer (tiledlight's automatic exposure of it, read from a `render`) and is exported
+# once (`tiledlight export`) for Bevy.
+#
+# PHASE=sweep (one call) tunes Bevy's cluster grid per scene, forward renderer matched to
+# tiledlight's frame (no MSAA, ACES fitted, depth prepass), dynamic resizing on with
+# view_cluster_bindings_max_indices raised to MAX_INDICES:
+#   1. clusters of 16 and 28 px, 16/24/32/48 Z slices (Bevy's default Z config: first
+#      slice to 5 m, far end at the farthest light's range);
+#   2. on the fastest of those, the first slice to 2 m, and the far end fixed at the
+#      scene's depth (FAR_court, FAR_many);
+#   the fastest of all goes into $OUT/grids.txt ("scene px slices first_slice far ms");
+#   plus Bevy as shipped (its defaults: 4x MSAA, TonyMcMapface, 4,096 clusters), once.
+# PHASE=final (one call per scene group) runs every configuration of each scene, REPEATS
+# (3) times, interleaved (each repeat starts one configuration later), with the grids the
+# sweep found (GRIDS, a committed grids.txt):
+#   bevy-fwd-default / bevy-fwd-tuned    Bevy forward, matched, its default / the tuned grid
+#   bevy-def-default / bevy-def-tuned    Bevy deferred (DeferredPrepass), likewise
+#   tl-fp, tl-fp-2.5d, tl-td             tiledlight Forward+ (tiled; 2.5D light-centric) and
+#                                        Tiled Deferred (light-centric)
+#   tl-fp-noeo, tl-td-noeo               the same without the shading's early-outs
+#                                        (--no-early-outs: the per-light-cost ablation)
+# Every run's JSON is NAME = SCENE.CONFIG.rK.json; the first repeat also keeps its frame
+# (SCENE.CONFIG.png) for FLIP. Before and after every run the GPU's SM and memory clocks,
+# temperature and power go into $OUT/clocks.csv. Each scene's results are archived into
+# $OUT/peer-SCENE.tar.gz (the device returns at most 8 files of 16 MiB each), beside
+# $OUT/summary.txt (one line per run), $OUT/log.txt and $OUT/gpu.txt.
 # The report: for f in OUT/peer-*.tar.gz; do tar -xzf "$f" -C OUT; done; tiledlight peer-report OUT/peer
-# BIN= / BEVY= pick other binaries; FRAMES (50), WARMUP (20), COUNTS, WIDTH, HEIGHT.
+# BIN= / BEVY= pick other binaries; WIDTH, HEIGHT (1920x1080); FRAMES/WARMUP (30/15; the
+# heavy Bevy runs, whose frames take over 0.5 s, HEAVY_FRAMES/HEAVY_WARMUP: 6/6).
 # DRY_RUN=1 prints the commands without running them (for checking here).
 set -uo pipefail
 out=${OUT:-peer-out}
-mkdir -p "$out/peer"
 d=$out/peer
+mkdir -p "$d"
 work=${WORK:-$(mktemp -d)}
 tl=${BIN:-./.device/tiledlight}
 bevy=${BEVY:-./.device/bevy-peer}
 W=${WIDTH:-1920}
 H=${HEIGHT:-1080}
-FRAMES=${FRAMES:-50}
-WARMUP=${WARMUP:-20}
-COUNTS=${COUNTS:-"1000 10000 100000"}
+PHASE=${PHASE:-final}
+SCENES=${SCENES:-"court-1000 court-10000 court-100000 many-lights"}
+REPEATS=${REPEATS:-3}
+GRIDS=${GRIDS:-docs/results/h200-peer-sweep/grids.txt}
+MAX_INDICES=${MAX_INDICES:-16777216}
+FRAMES=${FRAMES:-30}
+WARMUP=${WARMUP:-15}
+HEAVY_FRAMES=${HEAVY_FRAMES:-6}
+HEAVY_WARMUP=${HEAVY_WARMUP:-6}
+# The far end of the last Z slice when fixed: the courtyard's far wall seen from its
+# camera (36 m), the sphere's radius plus a light's range (50.3 m).
+FAR_court=36
+FAR_many=50.3
+dry=${DRY_RUN:-0}
 log=$out/log.txt
 summary=$out/summary.txt
-: > "$summary"
+clocks=$out/clocks.csv
+: >"$summary"
+[ -f "$clocks" ] || echo "run,when,sm_mhz,mem_mhz,temp_c,power_w" >"$clocks"
 
-if [ "${DRY_RUN:-0}" != 1 ]; then
-  if ls .gl/*.deb >/dev/null 2>&1; then
-    for f in .gl/*.deb; do dpkg -x "$f" /; done
-    ldconfig
-  fi
-  if [ -f /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json ]; then
-    export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-  fi
-  command -v nvidia-smi >/dev/null && nvidia-smi --query-gpu=name,clocks.sm,clocks.max.sm,memory.total --format=csv,noheader | tee "$d/gpu.txt"
+if [ "$dry" != 1 ]; then
+  . "$(dirname "$0")/device-env.sh"
+  command -v nvidia-smi >/dev/null && nvidia-smi --query-gpu=name,clocks.sm,clocks.max.sm,memory.total --format=csv,noheader | tee "$out/gpu.txt"
   if [ ! -x "$bevy" ] && [ -f "$bevy.gz" ]; then
-    gunzip -c "$bevy.gz" > "$work/bevy-peer" && chmod +x "$work/bevy-peer" && bevy=$work/bevy-peer
+    gunzip -c "$bevy.gz" >"$work/bevy-peer" && chmod +x "$work/bevy-peer" && bevy=$work/bevy-peer
   fi
   for b in "$tl" "$bevy"; do [ -x "$b" ] || { echo "error: $b is missing or not executable" | tee -a "$log"; exit 1; }; done
 fi
 
+clock() { # run when: one clocks.csv line
+  [ "$dry" = 1 ] && return 0
+  local c
+  c=$(nvidia-smi --query-gpu=clocks.sm,clocks.mem,temperature.gpu,power.draw --format=csv,noheader,nounits 2>/dev/null | head -1 | tr -d ' ')
+  echo "$1,$2,${c:-,,,}" >>"$clocks"
+}
+
 x() { # label timeout command... : runs (or prints) one command, logging it
-  local label=$1 limit=$2; shift 2
+  local label=$1 limit=$2
+  shift 2
   echo "== $label: $*" | tee -a "$log"
-  if [ "${DRY_RUN:-0}" = 1 ]; then return 0; fi
-  timeout "$limit" "$@" >> "$log" 2>&1
+  [ "$dry" = 1 ] && return 0
+  clock "$label" before
+  timeout "$limit" "$@" >>"$log" 2>&1
   local rc=$?
+  clock "$label" after
   [ $rc -ne 0 ] && echo "   FAILED ($label): exit $rc" | tee -a "$log" "$summary"
   return $rc
 }
 
-for n in $COUNTS; do
-  t=$(awk -v n="$n" 'BEGIN { printf "%.4g", 0.1 * sqrt(n / 1000) }')
-  scene="--lights $n --threshold $t --width $W --height $H"
-  # tiledlight's automatic exposure of this light set, then fixed for every renderer.
-  e=1
-  if x "exposure-$n" 120 "$tl" render $scene --out "$d/tl-auto-$n.png"; then
-    if [ "${DRY_RUN:-0}" != 1 ]; then
-      found=$(grep -E '^exposure: ' "$log" | tail -1 | sed -E 's/^exposure: +([0-9.eE+-]+),.*/\1/')
-      [ -n "$found" ] && e=$found
-    fi
-  fi
-  echo "N=$n threshold=$t exposure=$e" | tee -a "$summary"
-  gltf=$work/court-$n.gltf
-  x "export-$n" 120 "$tl" export $scene --exposure "$e" --out "$gltf" || continue
-  # Bevy: its defaults, then matched to tiledlight's frame (no MSAA, ACES).
-  x "bevy-$n" 240 "$bevy" --gltf "$gltf" --width "$W" --height "$H" --frames "$FRAMES" --warmup "$WARMUP" \
-    --out "$d" --name "bevy-$n"
-  x "bevy-matched-$n" 240 "$bevy" --gltf "$gltf" --width "$W" --height "$H" --frames "$FRAMES" --warmup "$WARMUP" \
-    --out "$d" --name "bevy-matched-$n" --msaa 1 --tonemapping aces
-  # And matched with a depth prepass, as tiledlight's Forward+ has: Bevy's default draws
-  # without one, so the courtyard's overdraw is shaded.
-  x "bevy-prepass-$n" 240 "$bevy" --gltf "$gltf" --width "$W" --height "$H" --frames "$FRAMES" --warmup "$WARMUP" \
-    --out "$d" --name "bevy-prepass-$n" --msaa 1 --tonemapping aces --depth-prepass
-  # And that with 16x Bevy's default cluster count (65,536: ~28 px clusters at 1080p
-  # instead of ~113 px) and the grid's dynamic resizing off (which otherwise coarsens the
-  # grid past 16,384 cluster-light pairs): Bevy's knobs for many small lights.
-  x "bevy-clusters-$n" 240 "$bevy" --gltf "$gltf" --width "$W" --height "$H" --frames "$FRAMES" --warmup "$WARMUP" \
-    --out "$d" --name "bevy-clusters-$n" --msaa 1 --tonemapping aces --depth-prepass --clusters "${BEVY_CLUSTERS:-65536}" --fixed-clusters
-  # A clustering resize between "measuring" and "measured" means measured frames missed
-  # lights (bevy-peer's README).
-  for b in "bevy-$n" "bevy-matched-$n" "bevy-prepass-$n" "bevy-clusters-$n"; do
-    [ "${DRY_RUN:-0}" = 1 ] && continue
-    awk -v run="== $b:" 'index($0, run) == 1 { on = 1; next } /^== / { on = 0 }
-      on && /bevy-peer: measuring from/ { m = 1 } on && /bevy-peer: measured/ { m = 0 }
-      on && m && /Resizing the view clustering/ { bad = 1 } END { exit !bad }' "$log" &&
-      echo "  warning: $b: Bevy resized its cluster lists inside the measured frames (some missed lights)" | tee -a "$summary"
-  done
-  for b in "bevy-$n" "bevy-matched-$n" "bevy-prepass-$n" "bevy-clusters-$n"; do
-    [ -f "$d/$b.json" ] && echo "  $b: $(grep -E '"(gpu_frame_ms_median|gpu_sum_of_top_level_pass_medians_ms|cpu_frame_ms_median)"' "$d/$b.json" | tr -d ' \n')" | tee -a "$summary"
-  done
-  # tiledlight: Forward+ and Tiled Deferred, each in its default and best layouts.
-  for cfg in "fp:--method forward-plus" "fp-2.5d:--method forward-plus --assign scatter --grid 2.5d" \
-    "td:--method deferred --assign scatter" "td-2.5d:--method deferred --assign scatter --grid 2.5d"; do
-    name=tl-${cfg%%:*}-$n
-    flags=${cfg#*:}
-    x "$name" 240 "$tl" bench $scene --exposure "$e" $flags --frames "$FRAMES" --warmup "$WARMUP" --json "$d/$name.json"
-    x "$name-png" 120 "$tl" render $scene --exposure "$e" $flags --out "$d/$name.png"
-    [ -f "$d/$name.json" ] && echo "  $name: $(grep -E '"total_gpu_median_ms"' "$d/$name.json" | tr -d ' \n')" | tee -a "$summary"
-  done
-  # One archive per count: the device returns files of at most 16 MiB, and a count's
-  # seven 1080p PNGs take 10-15 MiB.
-  if [ "${DRY_RUN:-0}" != 1 ]; then
-    rm -f "$d/tl-auto-$n.png"
-    tar -czf "$out/peer-$n.tar.gz" -C "$out" $(cd "$out" && ls -d peer/*-"$n".* 2>/dev/null) && rm -f "$d"/*-"$n".*
-  fi
-done
+scene_flags() { # scene: tiledlight's scene flags
+  case $1 in
+    court-*)
+      local n=${1#court-}
+      echo "--lights $n --threshold $(awk -v n="$n" 'BEGIN { printf "%.4g", 0.1 * sqrt(n / 1000) }')"
+      ;;
+    many-lights) echo "--scene bevy-many-lights" ;;
+    *) echo "error: unknown scene $1" >&2; exit 2 ;;
+  esac
+}
 
-if [ "${DRY_RUN:-0}" != 1 ]; then
-  cp "$d/gpu.txt" "$out/" 2>/dev/null
+far_of() { case $1 in court-*) echo "$FAR_court" ;; *) echo "$FAR_many" ;; esac; }
+
+# A scene whose Bevy frames at Bevy's default grid take over half a second.
+heavy() { case $1 in court-100000 | many-lights) return 0 ;; *) return 1 ;; esac; }
+
+exposure_of() { cat "$work/$1.exposure" 2>/dev/null || echo 1; }
+
+prepare() { # scene: fixed exposure, glTF for Bevy
+  local s=$1 flags e=1
+  flags=$(scene_flags "$s")
+  # shellcheck disable=SC2086
+  if x "$s.exposure" 180 "$tl" render $flags --width "$W" --height "$H" --out "$work/$s-auto.png" && [ "$dry" != 1 ]; then
+    local found
+    found=$(grep -E '^exposure: ' "$log" | tail -1 | sed -E 's/^exposure: +([0-9.eE+-]+),.*/\1/')
+    [ -n "$found" ] && e=$found
+  fi
+  echo "$e" >"$work/$s.exposure"
+  echo "$s: $flags, exposure $e" | tee -a "$summary"
+  # shellcheck disable=SC2086
+  x "$s.export" 180 "$tl" export $flags --width "$W" --height "$H" --exposure "$e" --out "$work/$s.gltf"
+}
+
+resized() { # label: did Bevy resize its cluster lists inside the measured frames?
+  awk -v run="== $1:" 'index($0, run) == 1 { on = 1; next } /^== / { on = 0 }
+    on && /bevy-peer: measuring from/ { m = 1 } on && /bevy-peer: measured/ { m = 0 }
+    on && m && /Resizing the view clustering/ { bad = 1 } END { exit !bad }' "$log"
+}
+
+bevy_run() { # name scene frames warmup flags...
+  local name=$1 s=$2 f=$3 w=$4
+  shift 4
+  x "$name" 300 "$bevy" --gltf "$work/$s.gltf" --width "$W" --height "$H" --frames "$f" --warmup "$w" \
+    --max-frames 4000 --out "$d" --name "$name" "$@"
+  [ "$dry" = 1 ] && return 0
+  resized "$name" && echo "  warning: $name: Bevy resized its cluster lists inside the measured frames (some missed lights)" | tee -a "$summary"
+  [ -f "$d/$name.json" ] && echo "  $name: $(grep -E '"gpu_frame_ms_median"' "$d/$name.json" | tr -d ' \n')" | tee -a "$summary"
+}
+
+tl_run() { # name scene png flags...
+  local name=$1 s=$2 png=$3 flags
+  shift 3
+  flags=$(scene_flags "$s")
+  # shellcheck disable=SC2086
+  x "$name" 300 "$tl" bench $flags --width "$W" --height "$H" --exposure "$(exposure_of "$s")" \
+    --frames "$FRAMES" --warmup "$WARMUP" --json "$d/$name.json" "$@"
+  [ -f "$d/$name.json" ] && echo "  $name: $(grep -E '"total_gpu_median_ms"' "$d/$name.json" | tr -d ' \n')" | tee -a "$summary"
+  if [ -n "$png" ]; then
+    # shellcheck disable=SC2086
+    x "$name-png" 180 "$tl" render $flags --width "$W" --height "$H" --exposure "$(exposure_of "$s")" --out "$png" "$@"
+  fi
+}
+
+MATCHED=(--msaa 1 --tonemapping aces --depth-prepass)
+DEFERRED=(--msaa 1 --tonemapping aces --deferred)
+
+median_of() { grep -E '"gpu_frame_ms_median"' "$1" 2>/dev/null | head -1 | sed -E 's/.*: *([0-9.eE+-]+).*/\1/'; }
+
+sweep() { # scene
+  local s=$1 f=$FRAMES w=$WARMUP best="" best_ms=""
+  heavy "$s" && f=$HEAVY_FRAMES w=$HEAVY_WARMUP
+  bevy_run "$s.bevy-shipped.r1" "$s" "$f" "$w"
+  try() { # tag flags...: one grid; remembers the fastest complete one
+    local tag=$1
+    shift
+    bevy_run "$s.sweep-$tag.r1" "$s" "$f" "$w" "${MATCHED[@]}" --max-indices "$MAX_INDICES" "$@"
+    [ "$dry" = 1 ] && return 0
+    resized "$s.sweep-$tag.r1" && return 0
+    local ms
+    ms=$(median_of "$d/$s.sweep-$tag.r1.json")
+    [ -z "$ms" ] && return 0
+    if [ -z "$best_ms" ] || awk -v a="$ms" -v b="$best_ms" 'BEGIN { exit !(a < b) }'; then
+      best_ms=$ms
+      best="$*"
+    fi
+  }
+  for px in 16 28; do
+    for z in 16 24 32 48; do
+      try "px$px-z$z" --cluster-px "$px" --z-slices "$z" --first-slice-depth 5 --far-z max
+    done
+  done
+  [ "$dry" = 1 ] && best="--cluster-px 16 --z-slices 24 --first-slice-depth 5 --far-z max"
+  local grid
+  grid=$(echo "$best" | sed -E 's/--first-slice-depth [^ ]+ --far-z [^ ]+//')
+  local gtag
+  gtag=$(echo "$grid" | awk '{ print "px" $2 "-z" $4 }')
+  # shellcheck disable=SC2086
+  try "$gtag-first2" $grid --first-slice-depth 2 --far-z max
+  # shellcheck disable=SC2086
+  try "$gtag-far$(far_of "$s")" $grid --first-slice-depth 5 --far-z "$(far_of "$s")"
+  # "scene px slices first_slice far ms"
+  echo "$s $(echo "$best" | awk '{ print $2, $4, $6, $8 }') ${best_ms:-?}" | tee -a "$out/grids.txt" "$summary"
+}
+
+grid_flags() { # scene: the tuned grid's bevy-peer flags, from GRIDS
+  local line
+  line=$(grep -E "^$1 " "$GRIDS" 2>/dev/null | tail -1)
+  if [ -z "$line" ]; then
+    echo "error: no grid for $1 in $GRIDS (run PHASE=sweep first)" >&2
+    return 1
+  fi
+  echo "$line" | awk -v m="$MAX_INDICES" '{ print "--cluster-px", $2, "--z-slices", $3, "--first-slice-depth", $4, "--far-z", $5, "--max-indices", m }'
+}
+
+CONFIGS=(bevy-fwd-default bevy-fwd-tuned bevy-def-default bevy-def-tuned tl-fp tl-fp-2.5d tl-td tl-fp-noeo tl-td-noeo)
+
+final_run() { # scene config repeat
+  local s=$1 c=$2 k=$3 name=$1.$2.r$3 f=$FRAMES w=$WARMUP png="" grid
+  [ "$k" = 1 ] && png="$d/$s.$c.png"
+  case $c in
+    bevy-*-default) heavy "$s" && f=$HEAVY_FRAMES w=$HEAVY_WARMUP ;;
+  esac
+  case $c in
+    bevy-*-tuned) grid=$(grid_flags "$s") || return 1 ;;
+  esac
+  case $c in
+    # shellcheck disable=SC2086
+    bevy-fwd-default) bevy_run "$name" "$s" "$f" "$w" "${MATCHED[@]}" ;;
+    # shellcheck disable=SC2086
+    bevy-fwd-tuned) bevy_run "$name" "$s" "$f" "$w" "${MATCHED[@]}" $grid ;;
+    bevy-def-default) bevy_run "$name" "$s" "$f" "$w" "${DEFERRED[@]}" ;;
+    # shellcheck disable=SC2086
+    bevy-def-tuned) bevy_run "$name" "$s" "$f" "$w" "${DEFERRED[@]}" $grid ;;
+    tl-fp) tl_run "$name" "$s" "$png" --method forward-plus ;;
+    tl-fp-2.5d) tl_run "$name" "$s" "$png" --method forward-plus --assign scatter --grid 2.5d ;;
+    tl-td) tl_run "$name" "$s" "$png" --method deferred --assign scatter ;;
+    tl-fp-noeo) tl_run "$name" "$s" "" --method forward-plus --no-early-outs ;;
+    tl-td-noeo) tl_run "$name" "$s" "" --method deferred --assign scatter --no-early-outs ;;
+  esac
+  # Bevy writes its frame every run: keep the first repeat's only.
+  if [ "$dry" != 1 ] && [ -f "$d/$name.png" ]; then
+    if [ "$k" = 1 ]; then mv "$d/$name.png" "$d/$s.$c.png"; else rm -f "$d/$name.png"; fi
+  fi
+}
+
+for s in $SCENES; do prepare "$s"; done
+case $PHASE in
+  sweep)
+    : >"$out/grids.txt"
+    for s in $SCENES; do sweep "$s"; done
+    ;;
+  final)
+    n=${#CONFIGS[@]}
+    for k in $(seq 1 "$REPEATS"); do
+      for s in $SCENES; do
+        for i in $(seq 0 $((n - 1))); do
+          final_run "$s" "${CONFIGS[$(((i + k - 1) % n))]}" "$k"
+        done
+      done
+    done
+    ;;
+  *)
+    echo "error: PHASE=$PHASE: sweep or final" >&2
+    exit 2
+    ;;
+esac
+
+if [ "$dry" != 1 ]; then
+  for s in $SCENES; do
+    files=$(cd "$out" && ls -d peer/"$s".* 2>/dev/null)
+    [ -n "$files" ] && tar -czf "$out/peer-$s.tar.gz" -C "$out" $files && (cd "$out" && rm -f $files)
+  done
   rm -rf "$d"
   ls -l "$out"
 fi

@@ -28,6 +28,9 @@
 //!        [--exposure E] [--msaa 1|2|4|8] [--tonemapping default|aces|none]
 //!        [--depth-prepass] [--name NAME] [--max-frames F]
 
+// The report's json! literal has more fields than the default limit expands.
+#![recursion_limit = "256"]
+
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -619,7 +622,7 @@ fn report(
         passes.insert(n.clone(), json!({"median_ms": median(&mut v), "frames": samples}));
     }
     // A frame's GPU time: the sum of its top-level spans (nested spans are inside them).
-    let mut totals: Vec<f64> =
+    let totals: Vec<f64> =
         frames.iter().map(|f| f.iter().filter(|(n, _)| !n.contains('/')).map(|p| p.1).sum()).collect();
     let mut cpu = run.cpu_ms.clone();
     let spread = |v: &[f64]| {
