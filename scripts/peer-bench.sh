@@ -27,7 +27,8 @@
 # (3) times, interleaved (each repeat starts one configuration later), with the grids the
 # sweep found (GRIDS, a committed grids.txt):
 #   bevy-fwd-default / bevy-fwd-tuned    Bevy forward, matched, its default / the tuned grid
-#   bevy-def-default / bevy-def-tuned    Bevy deferred (DeferredPrepass), likewise
+#   bevy-def-tuned                       Bevy deferred (DeferredPrepass) on the tuned grid
+#                                        (the clustering is the forward one's)
 #   tl-fp, tl-fp-2.5d, tl-td             tiledlight Forward+ (tiled; 2.5D light-centric) and
 #                                        Tiled Deferred (light-centric)
 #   tl-fp-noeo, tl-td-noeo               the same without the shading's early-outs
@@ -213,7 +214,7 @@ grid_flags() { # scene: the tuned grid's bevy-peer flags, from GRIDS
   echo "$line" | awk -v m="$MAX_INDICES" '{ print "--cluster-px", $2, "--z-slices", $3, "--first-slice-depth", $4, "--far-z", $5, "--max-indices", m }'
 }
 
-CONFIGS=(bevy-fwd-default bevy-fwd-tuned bevy-def-default bevy-def-tuned tl-fp tl-fp-2.5d tl-td tl-fp-noeo tl-td-noeo)
+CONFIGS=(bevy-fwd-default bevy-fwd-tuned bevy-def-tuned tl-fp tl-fp-2.5d tl-td tl-fp-noeo tl-td-noeo)
 
 final_run() { # scene config repeat
   local s=$1 c=$2 k=$3 name=$1.$2.r$3 f=$FRAMES w=$WARMUP png="" grid
@@ -229,7 +230,6 @@ final_run() { # scene config repeat
     bevy-fwd-default) bevy_run "$name" "$s" "$f" "$w" "${MATCHED[@]}" ;;
     # shellcheck disable=SC2086
     bevy-fwd-tuned) bevy_run "$name" "$s" "$f" "$w" "${MATCHED[@]}" $grid ;;
-    bevy-def-default) bevy_run "$name" "$s" "$f" "$w" "${DEFERRED[@]}" ;;
     # shellcheck disable=SC2086
     bevy-def-tuned) bevy_run "$name" "$s" "$f" "$w" "${DEFERRED[@]}" $grid ;;
     tl-fp) tl_run "$name" "$s" "$png" --method forward-plus ;;
@@ -244,33 +244,35 @@ final_run() { # scene config repeat
   fi
 }
 
-for s in $SCENES; do prepare "$s"; done
-case $PHASE in
-  sweep)
-    : >"$out/grids.txt"
-    for s in $SCENES; do sweep "$s"; done
-    ;;
-  final)
-    n=${#CONFIGS[@]}
+archive() { # scene: its results into one archive as soon as it is done (a call cut short
+  # keeps the scenes finished before)
+  [ "$dry" = 1 ] && return 0
+  local files
+  files=$(cd "$out" && ls -d peer/"$1".* 2>/dev/null)
+  # shellcheck disable=SC2086
+  [ -n "$files" ] && tar -czf "$out/peer-$1.tar.gz" -C "$out" $files && (cd "$out" && rm -f $files)
+}
+
+case $PHASE in sweep | final) ;; *)
+  echo "error: PHASE=$PHASE: sweep or final" >&2
+  exit 2
+  ;;
+esac
+[ "$PHASE" = sweep ] && : >"$out/grids.txt"
+n=${#CONFIGS[@]}
+for s in $SCENES; do
+  prepare "$s"
+  if [ "$PHASE" = sweep ]; then
+    sweep "$s"
+  else
+    # Repeat k runs the configurations from the k-th on, wrapping round: every
+    # configuration is measured early, in the middle and late of the scene's runs.
     for k in $(seq 1 "$REPEATS"); do
-      for s in $SCENES; do
-        for i in $(seq 0 $((n - 1))); do
-          final_run "$s" "${CONFIGS[$(((i + k - 1) % n))]}" "$k"
-        done
+      for i in $(seq 0 $((n - 1))); do
+        final_run "$s" "${CONFIGS[$(((i + k - 1) % n))]}" "$k"
       done
     done
-    ;;
-  *)
-    echo "error: PHASE=$PHASE: sweep or final" >&2
-    exit 2
-    ;;
-esac
-
-if [ "$dry" != 1 ]; then
-  for s in $SCENES; do
-    files=$(cd "$out" && ls -d peer/"$s".* 2>/dev/null)
-    [ -n "$files" ] && tar -czf "$out/peer-$s.tar.gz" -C "$out" $files && (cd "$out" && rm -f $files)
-  done
-  rm -rf "$d"
-  ls -l "$out"
-fi
+  fi
+  archive "$s"
+done
+[ "$dry" != 1 ] && rm -rf "$d" && ls -l "$out"

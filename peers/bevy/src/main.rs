@@ -1,9 +1,12 @@
 //! bevy-peer: renders a glTF file written by `tiledlight export` with Bevy's own glTF
-//! loader and default forward pipeline (clustered lights, GPU clustering where the
-//! adapter has compute), headless into an image, and prints per-pass and per-frame GPU
-//! times (Bevy's `RenderDiagnosticsPlugin`, timestamp queries) as JSON: medians over
-//! `--frames` frames after `--warmup`, plus the CPU frame time; writes the JSON and the
-//! last frame as PNG into `--out`.
+//! loader, its forward renderer (clustered lights, GPU clustering where the adapter has
+//! compute) or its deferred one (`--deferred`), headless into an image, and prints GPU
+//! times as JSON: per pass (Bevy's `RenderDiagnosticsPlugin`, timestamp queries), the
+//! whole frame from its first command to its last (bevy-peer's own two timestamps, which
+//! also hold the passes Bevy leaves untimed, e.g. the deferred lighting pass), the CPU time
+//! of Bevy's prepare phase (where its per-frame uploads are built and queued), and the CPU
+//! frame time; medians with min and max over `--frames` frames after `--warmup`. Writes
+//! the JSON and the last frame as PNG into `--out`.
 //!
 //! What it changes from Bevy's defaults, and why (all printed in the JSON's `notes`):
 //! - the glTF camera hands over to a camera of bevy-peer's at its transform and projection,
@@ -19,14 +22,20 @@
 //!   same radiance to the same pixel value before tonemapping;
 //! - intensity needs no change: the loader turns candela into lumens (x 4 pi) and the
 //!   renderer back into candela (/ 4 pi); Bevy's range falloff is tiledlight's window
-//!   `saturate(1 - (d/r)^4)^2 / max(d^2, 1e-4)`.
+//!   `saturate(1 - (d/r)^4)^2 / max(d^2, 1e-4)`;
+//! - pipeline-statistics queries are off (`WgpuSettings::disabled_features`): Bevy's
+//!   diagnostics would otherwise run one around every pass, which tiledlight does not.
 //! What stays Bevy's default unless a flag says otherwise: 4x MSAA (`--msaa`), the
 //! TonyMcMapface tonemapper (`--tonemapping aces` for ACES fitted), no depth prepass
-//! (`--depth-prepass`), clusters (`ClusterConfig::default()`: 4096 clusters, 24 Z slices).
+//! (`--depth-prepass`), forward rendering (`--deferred`), and the cluster grid
+//! (`ClusterConfig::default()`: 4,096 clusters in 24 Z slices, the first to 5 m, the last
+//! to the farthest light's range, resized when the index count passes 16,384); the grid
+//! flags are `--clusters TOTAL`, `--cluster-px P`, `--z-slices S`, `--first-slice-depth M`,
+//! `--far-z max|M`, `--max-indices N`, `--fixed-clusters`.
 //!
 //! Usage: bevy-peer --gltf FILE --width W --height H --frames N --warmup M --out DIR
 //!        [--exposure E] [--msaa 1|2|4|8] [--tonemapping default|aces|none]
-//!        [--depth-prepass] [--name NAME] [--max-frames F]
+//!        [--depth-prepass] [--deferred] [--name NAME] [--max-frames F] [grid flags]
 
 // The report's json! literal has more fields than the default limit expands.
 #![recursion_limit = "256"]
