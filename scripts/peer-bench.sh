@@ -17,12 +17,13 @@
 # PHASE=sweep (one call) tunes Bevy's cluster grid per scene, forward renderer matched to
 # tiledlight's frame (no MSAA, ACES fitted, depth prepass), dynamic resizing on with
 # view_cluster_bindings_max_indices raised to MAX_INDICES:
-#   1. clusters of 16 and 28 px, 16/24/32/48 Z slices (Bevy's default Z config: first
-#      slice to 5 m, far end at the farthest light's range);
-#   2. on the fastest of those, the first slice to 2 m, and the far end fixed at the
-#      scene's depth (FAR_court, FAR_many);
+#   1. clusters of SWEEP_PX (16 and 28) px, SWEEP_Z (16/24/32/48) Z slices (Bevy's default
+#      Z config: first slice to 5 m, far end at the farthest light's range);
+#   2. on the fastest of those, the first slice to FIRST_DEPTHS (2) m, and the far end
+#      fixed at the scene's depth (FAR_court, FAR_many);
 #   the fastest of all goes into $OUT/grids.txt ("scene px slices first_slice far ms");
-#   plus Bevy as shipped (its defaults: 4x MSAA, TonyMcMapface, 4,096 clusters), once.
+#   plus Bevy as shipped (its defaults: 4x MSAA, TonyMcMapface, 4,096 clusters), once
+#   (SHIPPED=0: not).
 # PHASE=final (one call per scene group) runs every configuration of each scene, REPEATS
 # (3) times, interleaved (each repeat starts one configuration later), with the grids the
 # sweep found (GRIDS, a committed grids.txt):
@@ -56,6 +57,9 @@ SCENES=${SCENES:-"court-1000 court-10000 court-100000 many-lights"}
 REPEATS=${REPEATS:-3}
 GRIDS=${GRIDS:-docs/results/h200-peer-sweep/grids.txt}
 MAX_INDICES=${MAX_INDICES:-16777216}
+SWEEP_PX=${SWEEP_PX:-"16 28"}
+SWEEP_Z=${SWEEP_Z:-"16 24 32 48"}
+FIRST_DEPTHS=${FIRST_DEPTHS:-2}
 FRAMES=${FRAMES:-30}
 WARMUP=${WARMUP:-15}
 HEAVY_FRAMES=${HEAVY_FRAMES:-6}
@@ -171,12 +175,14 @@ median_of() { grep -E '"gpu_frame_ms_median"' "$1" 2>/dev/null | head -1 | sed -
 sweep() { # scene
   local s=$1 f=$FRAMES w=$WARMUP best="" best_ms=""
   heavy "$s" && f=$HEAVY_FRAMES w=$HEAVY_WARMUP
-  bevy_run "$s.bevy-shipped.r1" "$s" "$f" "$w"
+  [ "${SHIPPED:-1}" = 1 ] && bevy_run "$s.bevy-shipped.r1" "$s" "$f" "$w"
   try() { # tag flags...: one grid; remembers the fastest complete one
     local tag=$1
     shift
     bevy_run "$s.sweep-$tag.r1" "$s" "$f" "$w" "${MATCHED[@]}" --max-indices "$MAX_INDICES" "$@"
     [ "$dry" = 1 ] && return 0
+    # The sweep's frames are not compared (the final runs' are): the archive stays small.
+    rm -f "$d/$s.sweep-$tag.r1.png"
     resized "$s.sweep-$tag.r1" && return 0
     local ms
     ms=$(median_of "$d/$s.sweep-$tag.r1.json")
@@ -186,8 +192,8 @@ sweep() { # scene
       best="$*"
     fi
   }
-  for px in 16 28; do
-    for z in 16 24 32 48; do
+  for px in $SWEEP_PX; do
+    for z in $SWEEP_Z; do
       try "px$px-z$z" --cluster-px "$px" --z-slices "$z" --first-slice-depth 5 --far-z max
     done
   done
@@ -196,8 +202,11 @@ sweep() { # scene
   grid=$(echo "$best" | sed -E 's/--first-slice-depth [^ ]+ --far-z [^ ]+//')
   local gtag
   gtag=$(echo "$grid" | awk '{ print "px" $2 "-z" $4 }')
-  # shellcheck disable=SC2086
-  try "$gtag-first2" $grid --first-slice-depth 2 --far-z max
+  local first
+  for first in $FIRST_DEPTHS; do
+    # shellcheck disable=SC2086
+    try "$gtag-first$first" $grid --first-slice-depth "$first" --far-z max
+  done
   # shellcheck disable=SC2086
   try "$gtag-far$(far_of "$s")" $grid --first-slice-depth 5 --far-z "$(far_of "$s")"
   # "scene px slices first_slice far ms"
