@@ -224,6 +224,8 @@ grid_flags() { # scene: the tuned grid's bevy-peer flags, from GRIDS
 }
 
 CONFIGS=(bevy-fwd-default bevy-fwd-tuned bevy-def-tuned tl-fp tl-fp-2.5d tl-td tl-fp-noeo tl-td-noeo)
+# ONLY="a b": run only these configurations (a call that must add some to an earlier one).
+if [ -n "${ONLY:-}" ]; then read -r -a CONFIGS <<<"$ONLY"; fi
 
 final_run() { # scene config repeat
   local s=$1 c=$2 k=$3 name=$1.$2.r$3 f=$FRAMES w=$WARMUP png="" grid
