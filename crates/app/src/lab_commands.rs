@@ -262,8 +262,8 @@ impl ShadowAccuracyArgs {
 /// Flags of `tiledlight peer-report`.
 #[derive(Args, Clone, Debug)]
 pub struct PeerReportArgs {
-    /// The folder with the peer benchmark's JSON and PNG files (`bevy-N.json`,
-    /// `tl-fp-N.json`, ...: `scripts/peer-bench.sh`'s archives unpacked).
+    /// The folder with the peer benchmark's JSON and PNG files (`SCENE.CONFIG.rK.json`,
+    /// `SCENE.CONFIG.png`: `scripts/peer-bench.sh`'s archives unpacked).
     pub dir: PathBuf,
     /// Where the report, chart and heat maps go (default: DIR).
     #[arg(long, value_name = "DIR")]

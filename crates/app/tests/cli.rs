@@ -678,36 +678,40 @@ fn export_bad_input_gives_one_clear_error_line() {
     assert!(!dir.join("a.gltf").exists(), "nothing written on bad input");
 }
 
-/// A peer benchmark result folder as `scripts/peer-bench.sh` leaves it, small: two light
-/// counts, every run's JSON with the keys the report reads, and 32x18 frames.
-fn write_peer_results(dir: &Path, broken_bevy_prepass: bool) {
-    let bevy = |ms: f64, measured: u32| {
+/// A peer benchmark result folder as `scripts/peer-bench.sh` (`PHASE=final`) leaves it,
+/// small: two scenes, three repeats of each configuration (the median is the middle one),
+/// every run's JSON with the keys the report reads, the first repeat's 32x18 frames, and
+/// the script's clocks.csv.
+fn write_peer_results(dir: &Path, broken: Option<&str>) {
+    let bevy = |ms: f64, timed: f64, measured: u32| {
         serde_json::json!({
             "adapter": "Test GPU", "bevy_version": "0.19.1", "frames": 50, "gpu_frames_measured": measured,
-            "gpu_frame_ms_median": ms,
-            "passes": {"clustering": {"median_ms": 0.5, "frames": measured}, "main_opaque_pass_3d": {"median_ms": ms - 0.5, "frames": measured}},
+            "gpu_frame_ms_median": timed, "frame_gpu_first_to_last": {"median_ms": ms},
+            "prepare_cpu": {"median_ms": 4.5}, "cpu_frame_ms_median": ms + 6.0,
+            "passes": {"clustering": {"median_ms": 0.5, "frames": measured}, "main_opaque_pass_3d": {"median_ms": timed - 0.5, "frames": measured}},
         })
     };
     let tl = |ms: f64, dropped: u32| {
         serde_json::json!({
             "config": {"adapter": "Test GPU", "resolution": "32x18", "commit": "abc123"},
-            "total_gpu_median_ms": ms, "dropped_frames": dropped,
-            "passes": [{"pass": "forward.shade", "median_ms": ms}],
+            "total_gpu_median_ms": ms - 0.01, "frame_gpu_first_to_last": {"median_ms": ms}, "dropped_frames": dropped,
+            "cpu_frame": {"median_ms": ms + 1.0},
+            "passes": [{"pass": "deferred.shade", "median_ms": ms / 4.0}, {"pass": "tonemap", "median_ms": 0.02}],
         })
     };
-    // (file prefix, ms at 1,000, ms at 10,000)
+    // (configuration, ms on court-1000, ms on court-10000); Bevy's deferred frame holds an
+    // untimed pass: its timed spans are a quarter of its frame.
     let runs = [
-        ("bevy", 40.0, 200.0),
-        ("bevy-matched", 30.0, 150.0),
-        ("bevy-prepass", 25.0, 130.0),
-        ("bevy-clusters", 18.0, 50.0),
+        ("bevy-fwd-default", 40.0, 200.0),
+        ("bevy-fwd-tuned", 18.0, 50.0),
+        ("bevy-def-tuned", 12.0, 30.0),
         ("tl-fp", 9.0, 20.0),
         ("tl-fp-2.5d", 9.5, 16.0),
         ("tl-td", 2.0, 2.5),
-        ("tl-td-2.5d", 2.2, 2.4),
+        ("tl-fp-noeo", 13.5, 40.0),
     ];
     // Frames: a gradient; Bevy's is the same gradient darker (another tone curve), and
-    // at 10,000 lights tiledlight's deferred frame has a bright square Bevy's lacks.
+    // on court-10000 tiledlight's deferred frame has a bright square the others lack.
     let frame = |gain: f32, square: bool| {
         image::RgbImage::from_fn(32, 18, |x, y| {
             let v = ((x * 8 + y * 4) as f32 * gain) as u8;
@@ -718,37 +722,50 @@ fn write_peer_results(dir: &Path, broken_bevy_prepass: bool) {
             }
         })
     };
-    for (n, col) in [(1000, 1), (10000, 2)] {
-        for (i, (prefix, a, b)) in runs.iter().enumerate() {
-            let ms = if col == 1 { *a } else { *b };
-            let json = if prefix.starts_with("bevy") {
-                // Bevy's clusters run at 10,000 measured 40 of 50 frames: starred.
-                bevy(ms, if *prefix == "bevy-clusters" && n == 10000 { 40 } else { 50 })
-            } else {
-                // tiledlight's Forward+ at 10,000 dropped lights in 3 frames: starred.
-                tl(ms, if *prefix == "tl-fp" && n == 10000 { 3 } else { 0 })
-            };
-            let text = if broken_bevy_prepass && *prefix == "bevy-prepass" && n == 10000 {
-                "{ not json".to_string()
-            } else {
-                json.to_string()
-            };
-            std::fs::write(dir.join(format!("{prefix}-{n}.json")), text).unwrap();
-            let img = if prefix.starts_with("bevy") { frame(0.7, false) } else { frame(1.0, n == 10000 && i == 6) };
-            img.save(dir.join(format!("{prefix}-{n}.png"))).unwrap();
+    for (scene, col) in [("court-1000", 1), ("court-10000", 2)] {
+        for (config, a, b) in runs {
+            let base = if col == 1 { a } else { b };
+            for (k, scale) in [(1, 1.0), (2, 1.02), (3, 0.97)] {
+                let ms = base * scale;
+                let json = if config.starts_with("bevy") {
+                    let timed = if config == "bevy-def-tuned" { ms / 4.0 } else { ms - 0.5 };
+                    // Bevy's tuned forward run on court-10000, repeat 2, measured 40 of 50 frames.
+                    bevy(ms, timed, if config == "bevy-fwd-tuned" && col == 2 && k == 2 { 40 } else { 50 })
+                } else {
+                    // tiledlight's Forward+ on court-10000, repeat 1, dropped lights in 3 frames.
+                    tl(ms, if config == "tl-fp" && col == 2 && k == 1 { 3 } else { 0 })
+                };
+                let name = format!("{scene}.{config}.r{k}");
+                let text = if broken == Some(name.as_str()) { "{ not json".to_string() } else { json.to_string() };
+                std::fs::write(dir.join(format!("{name}.json")), text).unwrap();
+            }
+            if !config.ends_with("noeo") {
+                let img = if config.starts_with("bevy") {
+                    frame(0.7, false)
+                } else {
+                    frame(1.0, col == 2 && config == "tl-td")
+                };
+                img.save(dir.join(format!("{scene}.{config}.png"))).unwrap();
+            }
         }
     }
+    std::fs::write(
+        dir.join("clocks.csv"),
+        "run,when,sm_mhz,mem_mhz,temp_c,power_w\nx,before,1500,3201,38,80\nx,after,1980,3201,40,200\ny,after,1200,3201,39,90\n",
+    )
+    .unwrap();
 }
 
 #[test]
 fn peer_report_tabulates_ratios_charts_and_compares_frames() {
     let dir = scratch("peer-report");
-    write_peer_results(&dir, false);
+    write_peer_results(&dir, None);
     // The script's summary: a Bevy run whose clusters grew while measured, a failed image.
     std::fs::write(
         dir.join("summary.txt"),
-        "N=1000 threshold=0.1 exposure=1\n  warning: bevy-matched-1000: Bevy resized its cluster lists inside the \
-         measured frames (some missed lights)\n   FAILED (tl-td-2.5d-10000-png): exit 124\n   FAILED (export-10000): exit 1\n",
+        "court-1000: --lights 1000, exposure 1\n  warning: court-1000.bevy-fwd-default.r1: Bevy resized its cluster \
+         lists inside the measured frames (some missed lights)\n   FAILED (court-10000.tl-td.r3-png): exit 124\n   \
+         FAILED (court-10000.export): exit 1\n",
     )
     .unwrap();
     let out_dir = dir.join("report");
@@ -756,52 +773,66 @@ fn peer_report_tabulates_ratios_charts_and_compares_frames() {
     assert!(out.status.success(), "{}{}", stdout(&out), String::from_utf8_lossy(&out.stderr));
     let md = std::fs::read_to_string(out_dir.join("peer-report.md")).expect("the report");
     assert_eq!(stdout(&out).lines().next(), md.lines().next(), "the report is also printed");
-    // Rows: Bevy's best over tiledlight's best Forward+ and best Tiled Deferred.
-    // 1,000: 18 / 9 = 2.00x, 18 / 2 = 9.00x; 10,000: 50 / 16 = 3.12x (3.125), 50 / 2.4 = 20.83x.
-    let row = |n: &str| {
-        md.lines().find(|l| l.starts_with(&format!("| {n} |"))).unwrap_or_else(|| panic!("no row {n}:\n{md}"))
-    };
-    assert!(row("1000").ends_with("| 2.00x | 9.00x |"), "{}", row("1000"));
-    assert!(row("10000").ends_with("| 3.12x | 20.83x |"), "{}", row("10000"));
+    let rows = |scene: &str| -> Vec<&str> { md.lines().filter(|l| l.starts_with(&format!("| {scene} |"))).collect() };
+    // Frame times: the median of the three repeats with their spread.
+    let times = rows("court-1000")[0];
+    assert!(times.contains("| 18.00 [17.46 - 18.36] |"), "{times}");
+    // Ratios on court-1000: Bevy forward best 18 / Forward+ best 9 = 2.00x; Bevy deferred
+    // 12 / Tiled Deferred 2 = 6.00x; Forward+ without / with early-outs 13.5 / 9 = 1.50x;
+    // Bevy forward / Forward+ without them 18 / 13.5 = 1.33x; no Tiled Deferred ablation;
+    // Bevy's default grid / tuned 40 / 18 = 2.22x. court-10000: 50 / 16 = 3.12x (3.125),
+    // 30 / 2.5 = 12.00x, 40 / 20 = 2.00x, 50 / 40 = 1.25x, 200 / 50 = 4.00x.
+    assert_eq!(rows("court-1000")[1], "| court-1000 | 2.00x | 6.00x | 1.50x | 1.33x | - | 2.22x |", "{md}");
+    assert_eq!(rows("court-10000")[1], "| court-10000 | 3.12x | 12.00x | 2.00x | 1.25x | - | 4.00x |", "{md}");
+    // The deferred breakdown: Bevy's frame 12, its timed spans 3, untimed 9; tiledlight's
+    // deferred.shade 2 / 4.
+    assert_eq!(rows("court-1000")[2], "| court-1000 | Bevy deferred, tuned grid | 12.00 | 3.000 | 9.000 | 0.500 |");
+    // Bevy on the CPU.
+    assert_eq!(rows("court-1000")[3], "| court-1000 | Bevy forward, default grid | 40.00 | 4.500 | 46.00 |");
     // The starred runs and their footnotes.
-    assert!(row("10000").contains("50.00*"), "{}", row("10000"));
-    assert!(row("10000").contains("20.00*"), "{}", row("10000"));
-    assert!(md.contains("GPU times of 40 of 50 frames"), "{md}");
-    assert!(md.contains("3 frames dropped lights"), "{md}");
-    assert!(row("1000").contains("30.00*"), "{}", row("1000"));
-    assert!(md.contains("Bevy resized its cluster lists inside the measured frames"), "{md}");
-    assert!(row("10000").contains("2.400*"), "{}", row("10000"));
-    assert!(md.contains("failed: exit 124 (summary.txt)"), "{md}");
-    // Mean luma: Bevy's test frames are the same gradient at 0.7 of the values.
-    let luma =
-        md.lines().skip_while(|l| !l.starts_with("Mean luma")).find(|l| l.starts_with("| 1000 |")).expect("a luma row");
-    let cells: Vec<f64> =
-        luma.split('|').map(str::trim).skip(2).filter(|c| !c.is_empty()).map(|c| c.parse().unwrap()).collect();
-    assert_eq!(cells.len(), 8, "{luma}");
-    assert!(cells[0] < 0.8 * cells[4] && cells[0] > 0.6 * cells[4], "{luma}");
-    for needle in ["adapter: Test GPU", "tiledlight commit: abc123", "Bevy: 0.19.1", "main_opaque_pass_3d 39.50"] {
+    let times10 = rows("court-10000")[0];
+    assert!(times10.contains("50.00 [48.50 - 51.00] *"), "{times10}");
+    assert!(md.contains("Bevy forward, tuned grid on court-10000: repeat 2: GPU times of 40 of 50 frames"), "{md}");
+    assert!(md.contains("tiledlight Forward+ on court-10000: repeat 1: 3 frames dropped lights"), "{md}");
+    assert!(md.contains("repeat 1: Bevy resized its cluster lists inside the measured frames"), "{md}");
+    assert!(md.contains("repeat 3: failed: exit 124 (summary.txt)"), "{md}");
+    // The clocks.
+    assert!(md.contains("SM clock 1200 - 1980 MHz (1 readings after a run below 1,900 MHz)"), "{md}");
+    for needle in ["adapter: Test GPU", "tiledlight commit: abc123", "Bevy: 0.19.1", "main_opaque_pass_3d 39.00"] {
         assert!(md.contains(needle), "no {needle:?} in:\n{md}");
     }
+    // Mean luma: Bevy's test frames are the same gradient at 0.7 of the values.
+    let luma = md
+        .lines()
+        .skip_while(|l| !l.starts_with("Mean luma"))
+        .find(|l| l.starts_with("| court-1000 |"))
+        .expect("a luma row");
+    let cells: Vec<f64> =
+        luma.split('|').map(str::trim).skip(2).filter(|c| !c.is_empty()).map(|c| c.parse().unwrap()).collect();
+    assert_eq!(cells.len(), 6, "{luma}");
+    assert!(cells[0] < 0.8 * cells[3] && cells[0] > 0.6 * cells[3], "{luma}");
     // The chart.
     let chart = out_dir.join("peer-frame-time.png");
     assert_eq!(image::image_dimensions(&chart).expect("a chart PNG"), (1280, 800));
-    // FLIP: Bevy against itself is 0; Bevy against tiledlight is not (its frame is darker),
-    // and less so once the tone curves are matched; at 10,000 the square only
-    // tiledlight's deferred frame has stays after matching.
-    let flip = |n: &str, what: &str| -> (f64, f64) {
+    // FLIP against tiledlight's Forward+: Bevy's frame is darker, less so once the tone
+    // curves are matched; the square only tiledlight's deferred frame has on court-10000
+    // stays after matching.
+    let flip = |scene: &str, what: &str| -> (f64, f64) {
         let l = md
             .lines()
-            .find(|l| l.starts_with(&format!("| {n} | {what} |")))
-            .unwrap_or_else(|| panic!("no FLIP row {n} {what}:\n{md}"));
+            .find(|l| l.starts_with(&format!("| {scene} | tiledlight Forward+ vs {what} |")))
+            .unwrap_or_else(|| panic!("no FLIP row {scene} {what}:\n{md}"));
         let cells: Vec<&str> = l.split('|').map(str::trim).collect();
         (cells[3].parse().unwrap(), cells[5].parse().unwrap())
     };
-    assert_eq!(flip("1000", "Bevy matched vs Bevy + prepass (same renderer)"), (0.0, 0.0));
-    let (raw, matched) = flip("1000", "Bevy (+ prepass) vs tiledlight Forward+");
-    assert!(raw > 0.02 && matched < raw, "raw {raw}, tone-matched {matched}");
-    let (_, square) = flip("10000", "Bevy (+ prepass) vs tiledlight Tiled Deferred");
-    assert!(square > matched + 0.01, "the square's error {square} vs {matched}");
-    let heat = out_dir.join("flip-bevy-prepass-vs-tl-fp-1000.png");
+    for bevy in ["Bevy forward, default grid", "Bevy forward, tuned grid", "Bevy deferred, tuned grid"] {
+        let (raw, matched) = flip("court-1000", bevy);
+        assert!(raw > 0.02 && matched < raw, "{bevy}: raw {raw}, tone-matched {matched}");
+    }
+    assert_eq!(flip("court-1000", "tiledlight Tiled Deferred"), (0.0, 0.0));
+    let (_, square) = flip("court-10000", "tiledlight Tiled Deferred");
+    assert!(square > 0.01, "the square's error {square}");
+    let heat = out_dir.join("flip-court-1000-tl-fp-vs-bevy-fwd-tuned.png");
     assert_eq!(image::image_dimensions(&heat).expect("a heat map"), (16, 9), "heat maps at half size");
 }
 
@@ -812,12 +843,17 @@ fn peer_report_bad_input_gives_one_clear_error_line() {
     assert!(line.contains("missing") && line.contains("no such folder"), "{line}");
     let line = fails(&["peer-report", dir.to_str().unwrap()]);
     assert!(line.contains("no peer benchmark results"), "{line}");
-    write_peer_results(&dir, true);
+    write_peer_results(&dir, Some("court-10000.bevy-def-tuned.r2"));
     let line = fails(&["peer-report", dir.to_str().unwrap()]);
-    assert!(line.contains("bevy-prepass-10000.json") && line.contains("not JSON"), "{line}");
+    assert!(line.contains("court-10000.bevy-def-tuned.r2.json") && line.contains("not JSON"), "{line}");
+    // A JSON from before the frame timer.
+    write_peer_results(&dir, None);
+    std::fs::write(dir.join("court-1000.tl-td.r2.json"), r#"{"total_gpu_median_ms": 2.0, "passes": []}"#).unwrap();
+    let line = fails(&["peer-report", dir.to_str().unwrap()]);
+    assert!(line.contains("court-1000.tl-td.r2.json") && line.contains("frame_gpu_first_to_last"), "{line}");
     // Frames of two sizes.
-    write_peer_results(&dir, false);
-    image::RgbImage::new(8, 8).save(dir.join("tl-fp-1000.png")).unwrap();
+    write_peer_results(&dir, None);
+    image::RgbImage::new(8, 8).save(dir.join("court-1000.bevy-fwd-tuned.png")).unwrap();
     let line = fails(&["peer-report", dir.to_str().unwrap()]);
-    assert!(line.contains("tl-fp-1000.png") && line.contains("one size"), "{line}");
+    assert!(line.contains("court-1000.bevy-fwd-tuned.png") && line.contains("one size"), "{line}");
 }

@@ -1,20 +1,38 @@
-//! `tiledlight peer-report DIR`: the report of a peer benchmark (`scripts/peer-bench.sh`,
-//! tiledlight and Bevy on one exported scene; `peers/bevy/README.md`). Reads the folder the
-//! script's per-count archives unpack to and writes, into `--out` (default: DIR):
+//! `tiledlight peer-report DIR`: the report of a peer benchmark (`scripts/peer-bench.sh`
+//! with `PHASE=final`: tiledlight and Bevy on the same exported scenes;
+//! `peers/bevy/README.md`). Reads the folder its archives unpack to: one JSON per run,
+//! `SCENE.CONFIG.rK.json` (configuration CONFIG of scene SCENE, repeat K), one frame per
+//! scene and configuration, `SCENE.CONFIG.png` (the first repeat's), and the script's
+//! `clocks.csv` and `summary.txt` from DIR or the folder above. Writes into `--out`
+//! (default: DIR):
 //!
-//! 1. `peer-report.md` (also printed): GPU frame time per light count and run, the ratios of
-//!    Bevy's best run to tiledlight's best Forward+ and best Tiled Deferred, per-pass
-//!    medians, the adapter and versions; a run that dropped lights (tiledlight) or measured
-//!    fewer frames than asked (Bevy) is starred with a footnote;
-//! 2. `peer-frame-time.png`: frame time against light count, one line per run (log axes);
-//! 3. FLIP of Bevy's frames against tiledlight's (`flip-*.png` heat maps at half size): the
-//!    two BRDFs differ, so this shows both light the same places, not that they are equal;
-//!    Bevy against Bevy (matched vs. with a prepass) is the baseline of the same renderer.
+//! 1. `peer-report.md` (also printed):
+//!    1. per scene and configuration, the GPU frame time from the frame's first command to
+//!       its last: each run's median, then the median over the repeats with their spread.
+//!       Both sides' timers hold the untimed passes (Bevy's deferred lighting pass has no
+//!       diagnostics span of its own), so this, not the sum of the pass times, is compared;
+//!    2. the ratios: Bevy's forward renderer against tiledlight's Forward+ (both shade in
+//!       fragment shaders: like for like), Bevy's deferred against Tiled Deferred (a
+//!       fragment lighting pass against a compute one, with the breakdown beside it), the
+//!       early-outs' ablation (tiledlight without them against with them, and Bevy against
+//!       tiledlight without them), and what tuning Bevy's cluster grid gained;
+//!    3. Bevy's prepare phase on the CPU (its per-frame uploads) and CPU frame time;
+//!    4. per-pass medians of each configuration's first repeat;
+//!    5. the GPU's clocks, temperature and power around the runs (`clocks.csv`);
+//!    6. a run that dropped lights (tiledlight), measured fewer frames than asked or
+//!       resized its cluster lists while measured (Bevy), or failed (`summary.txt`) is
+//!       starred with a footnote;
+//! 2. `peer-frame-time.png`: frame time against light count over the `court-N` scenes, one
+//!    line per configuration (log axes);
+//! 3. FLIP of every Bevy frame against tiledlight's Forward+ frame of its scene
+//!    (`flip-*.png` heat maps at half size), and tiledlight's Forward+ against its Tiled
+//!    Deferred (the floor of one renderer's two methods): the BRDFs differ, so this shows
+//!    that both light the same places, not that they are equal.
 //!
 //! No GPU. May depend on [`crate::chart`], [`crate::output`], tiledlight-metrics,
 //! image and serde_json.
 
-use std::collections::BTreeSet;
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -23,42 +41,82 @@ use serde_json::Value;
 
 use crate::chart::{self, AxisSpec, LineChart, Scale, Series};
 
-/// Which renderer a run is.
+/// What a configuration is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Who {
-    Bevy,
+    BevyForward,
+    BevyDeferred,
     ForwardPlus,
     Deferred,
+    ForwardPlusAblation,
+    DeferredAblation,
 }
 
-/// The runs `scripts/peer-bench.sh` makes, by file prefix, in table order.
-const RUNS: [(&str, &str, Who); 8] = [
-    ("bevy", "Bevy default (4x MSAA, TonyMcMapface)", Who::Bevy),
-    ("bevy-matched", "Bevy matched (no MSAA, ACES)", Who::Bevy),
-    ("bevy-prepass", "Bevy matched + depth prepass", Who::Bevy),
-    ("bevy-clusters", "Bevy + prepass, 65,536 fixed clusters", Who::Bevy),
+impl Who {
+    fn is_bevy(self) -> bool {
+        matches!(self, Who::BevyForward | Who::BevyDeferred)
+    }
+}
+
+/// The configurations `scripts/peer-bench.sh` runs, in table order: (name, label, kind).
+/// Others found in the folder are reported after these, by their names.
+const KNOWN: [(&str, &str, Who); 8] = [
+    ("bevy-fwd-default", "Bevy forward, default grid", Who::BevyForward),
+    ("bevy-fwd-tuned", "Bevy forward, tuned grid", Who::BevyForward),
+    ("bevy-def-tuned", "Bevy deferred, tuned grid", Who::BevyDeferred),
     ("tl-fp", "tiledlight Forward+", Who::ForwardPlus),
     ("tl-fp-2.5d", "tiledlight Forward+ 2.5D", Who::ForwardPlus),
     ("tl-td", "tiledlight Tiled Deferred", Who::Deferred),
-    ("tl-td-2.5d", "tiledlight Tiled Deferred 2.5D", Who::Deferred),
+    ("tl-fp-noeo", "tiledlight Forward+, no early-outs", Who::ForwardPlusAblation),
+    ("tl-td-noeo", "tiledlight Tiled Deferred, no early-outs", Who::DeferredAblation),
 ];
 
-/// Image pairs compared by FLIP: (reference run, test run, what it shows).
-const FLIP_PAIRS: [(&str, &str, &str); 4] = [
-    ("bevy-prepass", "tl-fp", "Bevy (+ prepass) vs tiledlight Forward+"),
-    ("bevy-prepass", "tl-td", "Bevy (+ prepass) vs tiledlight Tiled Deferred"),
-    ("tl-fp", "tl-td", "tiledlight Forward+ vs Tiled Deferred"),
-    ("bevy-matched", "bevy-prepass", "Bevy matched vs Bevy + prepass (same renderer)"),
-];
+/// A configuration: its name, label and kind (by its name for one not in [`KNOWN`]).
+#[derive(Clone, Debug, PartialEq)]
+struct Config {
+    name: String,
+    label: String,
+    who: Who,
+}
 
-/// One run at one light count.
+impl Config {
+    fn of(name: &str) -> Self {
+        match KNOWN.iter().find(|k| k.0 == name) {
+            Some(&(n, label, who)) => Self { name: n.into(), label: label.into(), who },
+            None => {
+                let who = match name {
+                    n if n.starts_with("bevy-def") => Who::BevyDeferred,
+                    n if n.starts_with("bevy") => Who::BevyForward,
+                    n if n.starts_with("tl-td") && n.ends_with("noeo") => Who::DeferredAblation,
+                    n if n.starts_with("tl-td") => Who::Deferred,
+                    n if n.ends_with("noeo") => Who::ForwardPlusAblation,
+                    _ => Who::ForwardPlus,
+                };
+                Self { name: name.into(), label: name.into(), who }
+            }
+        }
+    }
+
+    fn order(&self) -> usize {
+        KNOWN.iter().position(|k| k.0 == self.name).unwrap_or(KNOWN.len())
+    }
+}
+
+/// One run (one repeat of a configuration on a scene).
 #[derive(Clone, Debug)]
 struct Run {
-    /// GPU frame time, ms.
-    ms: f64,
+    /// GPU ms from the frame's first command to its last (median over the run's frames).
+    frame_ms: f64,
+    /// The sum of the pass times (Bevy: median over frames of the frame's timed spans;
+    /// tiledlight: the sum of the passes' medians).
+    passes_ms: f64,
     /// Per pass (name, median ms).
     passes: Vec<(String, f64)>,
-    /// Why this run's time is suspect (dropped lights, frames missing), if it is.
+    /// Bevy: CPU ms of the render world's prepare phase (median).
+    prepare_cpu_ms: Option<f64>,
+    /// CPU ms a frame (median).
+    cpu_frame_ms: Option<f64>,
+    /// Why this run's time is suspect, if it is.
     flag: Option<String>,
     json: Value,
 }
@@ -70,7 +128,14 @@ fn number(v: &Value, key: &str, file: &Path) -> Result<f64> {
 fn read_run(file: &Path, who: Who) -> Result<Run> {
     let text = std::fs::read_to_string(file).with_context(|| format!("reading {}", file.display()))?;
     let json: Value = serde_json::from_str(&text).with_context(|| format!("{}: not JSON", file.display()))?;
-    let (ms, passes, flag) = if who == Who::Bevy {
+    let frame_ms = json["frame_gpu_first_to_last"]["median_ms"].as_f64().with_context(|| {
+        format!(
+            "{}: no \"frame_gpu_first_to_last\" median: run it again with today's {}",
+            file.display(),
+            if who.is_bevy() { "bevy-peer" } else { "tiledlight bench" }
+        )
+    })?;
+    let (passes_ms, passes, flag, prepare_cpu_ms, cpu_frame_ms) = if who.is_bevy() {
         let ms = number(&json, "gpu_frame_ms_median", file)?;
         let passes = json["passes"].as_object().with_context(|| format!("{}: no \"passes\" object", file.display()))?;
         let passes =
@@ -80,7 +145,7 @@ fn read_run(file: &Path, who: Who) -> Result<Run> {
             (Some(g), Some(a)) if g < a => Some(format!("GPU times of {g} of {a} frames")),
             _ => None,
         };
-        (ms, passes, flag)
+        (ms, passes, flag, json["prepare_cpu"]["median_ms"].as_f64(), json["cpu_frame_ms_median"].as_f64())
     } else {
         let ms = number(&json, "total_gpu_median_ms", file)?;
         let passes = json["passes"].as_array().with_context(|| format!("{}: no \"passes\" list", file.display()))?;
@@ -93,61 +158,118 @@ fn read_run(file: &Path, who: Who) -> Result<Run> {
             .collect::<Result<_>>()?;
         let dropped = json["dropped_frames"].as_u64().unwrap_or(0);
         let flag = (dropped > 0).then(|| format!("{dropped} frames dropped lights"));
-        (ms, passes, flag)
+        (ms, passes, flag, None, json["cpu_frame"]["median_ms"].as_f64())
     };
-    ensure!(ms.is_finite() && ms > 0.0, "{}: frame time {ms} ms is not a positive number", file.display());
-    Ok(Run { ms, passes, flag, json })
-}
-
-/// The light counts present: N of every `PREFIX-N.json` of a known run.
-fn light_counts(dir: &Path) -> Result<Vec<u64>> {
-    let entries = std::fs::read_dir(dir).with_context(|| format!("reading the folder {}", dir.display()))?;
-    let mut counts = BTreeSet::new();
-    for e in entries {
-        let name = e.with_context(|| format!("reading the folder {}", dir.display()))?.file_name();
-        let Some(stem) = name.to_str().and_then(|n| n.strip_suffix(".json")) else { continue };
-        let Some((prefix, n)) = stem.rsplit_once('-') else { continue };
-        if RUNS.iter().any(|r| r.0 == prefix) {
-            if let Ok(n) = n.parse::<u64>() {
-                counts.insert(n);
-            }
-        }
-    }
     ensure!(
-        !counts.is_empty(),
-        "{}: no peer benchmark results (bevy-N.json, tl-fp-N.json, ...): unpack scripts/peer-bench.sh's peer-N.tar.gz here",
-        dir.display()
+        frame_ms.is_finite() && frame_ms > 0.0 && passes_ms.is_finite() && passes_ms > 0.0,
+        "{}: frame time {frame_ms} ms (passes {passes_ms} ms) is not a positive number",
+        file.display()
     );
-    Ok(counts.into_iter().collect())
+    Ok(Run { frame_ms, passes_ms, passes, prepare_cpu_ms, cpu_frame_ms, flag, json })
 }
 
-/// Every run at every count: `table[count][run]`.
+/// Median of `v` (sorted in place); mean of the middle two for an even count.
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Every repeat of one configuration on one scene, in repeat order.
+#[derive(Clone, Debug, Default)]
+struct Cell {
+    runs: Vec<(u32, Run)>,
+}
+
+impl Cell {
+    fn values(&self, f: impl Fn(&Run) -> Option<f64>) -> Vec<f64> {
+        self.runs.iter().filter_map(|(_, r)| f(r)).collect()
+    }
+    /// Median over the repeats of `f`.
+    fn median_of(&self, f: impl Fn(&Run) -> Option<f64>) -> Option<f64> {
+        let mut v = self.values(f);
+        (!v.is_empty()).then(|| median(&mut v))
+    }
+    fn frame_ms(&self) -> f64 {
+        self.median_of(|r| Some(r.frame_ms)).expect("a cell has a run")
+    }
+    /// The repeats' smallest and largest frame time.
+    fn spread(&self) -> (f64, f64) {
+        let v = self.values(|r| Some(r.frame_ms));
+        (v.iter().copied().fold(f64::INFINITY, f64::min), v.iter().copied().fold(0.0, f64::max))
+    }
+    fn flags(&self) -> Vec<String> {
+        self.runs.iter().filter_map(|(k, r)| r.flag.as_ref().map(|f| format!("repeat {k}: {f}"))).collect()
+    }
+    fn first(&self) -> &Run {
+        &self.runs[0].1
+    }
+}
+
+/// Every run found: `cells[(scene, config)]`.
 struct Results {
-    counts: Vec<u64>,
-    table: Vec<Vec<Option<Run>>>,
+    scenes: Vec<String>,
+    configs: Vec<Config>,
+    cells: BTreeMap<(String, String), Cell>,
+}
+
+/// Scenes in report order: `court-N` by N, then the others by name.
+fn scene_key(s: &str) -> (u8, u64, String) {
+    match s.strip_prefix("court-").and_then(|n| n.parse::<u64>().ok()) {
+        Some(n) => (0, n, String::new()),
+        None => (1, 0, s.to_string()),
+    }
 }
 
 impl Results {
     fn read(dir: &Path) -> Result<Self> {
-        let counts = light_counts(dir)?;
-        let mut table = Vec::new();
-        for &n in &counts {
-            let mut row = Vec::new();
-            for (prefix, _, who) in RUNS {
-                let file = dir.join(format!("{prefix}-{n}.json"));
-                row.push(if file.exists() { Some(read_run(&file, who)?) } else { None });
-            }
-            table.push(row);
+        let entries = std::fs::read_dir(dir).with_context(|| format!("reading the folder {}", dir.display()))?;
+        let mut found = Vec::new();
+        for e in entries {
+            let name = e.with_context(|| format!("reading the folder {}", dir.display()))?.file_name();
+            let Some(stem) = name.to_str().and_then(|n| n.strip_suffix(".json")) else { continue };
+            // SCENE.CONFIG.rK: the scene has no dot; the configuration may ("tl-fp-2.5d").
+            let Some((rest, rep)) = stem.rsplit_once(".r") else { continue };
+            let Ok(rep) = rep.parse::<u32>() else { continue };
+            let Some((scene, config)) = rest.split_once('.') else { continue };
+            found.push((scene.to_string(), config.to_string(), rep, dir.join(&name)));
         }
-        let mut res = Self { counts, table };
+        ensure!(
+            !found.is_empty(),
+            "{}: no peer benchmark results (SCENE.CONFIG.rK.json): unpack scripts/peer-bench.sh's peer-SCENE.tar.gz \
+             archives here",
+            dir.display()
+        );
+        found.sort_by(|a, b| (scene_key(&a.0), &a.1, a.2).cmp(&(scene_key(&b.0), &b.1, b.2)));
+        let mut res = Self { scenes: Vec::new(), configs: Vec::new(), cells: BTreeMap::new() };
+        for (scene, config, rep, file) in found {
+            let c = Config::of(&config);
+            let run = read_run(&file, c.who)?;
+            if !res.scenes.contains(&scene) {
+                res.scenes.push(scene.clone());
+            }
+            if !res.configs.contains(&c) {
+                res.configs.push(c);
+            }
+            res.cells.entry((scene, config)).or_default().runs.push((rep, run));
+        }
+        res.configs.sort_by_key(|c| (c.order(), c.name.clone()));
         res.flag_from_summary(dir)?;
         Ok(res)
     }
 
-    /// Marks the runs `scripts/peer-bench.sh`'s summary.txt (in DIR or the folder above it,
-    /// where the script leaves it) warns about ("  warning: bevy-prepass-1000: Bevy resized
-    /// its cluster lists inside the measured frames") or names as failed ("FAILED
-    /// (tl-fp-1000-png): exit 124"): their JSON alone does not show it.
+    fn cell(&self, scene: &str, config: &str) -> Option<&Cell> {
+        self.cells.get(&(scene.to_string(), config.to_string()))
+    }
+
+    /// Marks the runs `scripts/peer-bench.sh`'s summary.txt (in DIR or the folder above it)
+    /// warns about ("  warning: court-1000.bevy-fwd-default.r1: Bevy resized its cluster
+    /// lists inside the measured frames") or names as failed ("FAILED
+    /// (court-1000.tl-fp.r1-png): exit 124"): their JSON alone does not show it.
     fn flag_from_summary(&mut self, dir: &Path) -> Result<()> {
         let Some(file) = [dir.join("summary.txt"), dir.join("../summary.txt")].into_iter().find(|f| f.is_file()) else {
             return Ok(());
@@ -168,10 +290,10 @@ impl Results {
                 continue;
             };
             let label = label.strip_suffix("-png").unwrap_or(label);
-            let Some((prefix, n)) = label.rsplit_once('-') else { continue };
-            let (Some(r), Ok(n)) = (RUNS.iter().position(|r| r.0 == prefix), n.parse::<u64>()) else { continue };
-            let Some(i) = self.counts.iter().position(|&c| c == n) else { continue };
-            if let Some(run) = self.table[i][r].as_mut() {
+            let Some((rest, rep)) = label.rsplit_once(".r") else { continue };
+            let (Ok(rep), Some((scene, config))) = (rep.parse::<u32>(), rest.split_once('.')) else { continue };
+            let Some(cell) = self.cells.get_mut(&(scene.to_string(), config.to_string())) else { continue };
+            if let Some((_, run)) = cell.runs.iter_mut().find(|(k, _)| *k == rep) {
                 let why = format!("{why} (summary.txt)");
                 run.flag = Some(match run.flag.take() {
                     Some(before) => format!("{before}; {why}"),
@@ -182,20 +304,20 @@ impl Results {
         Ok(())
     }
 
-    /// The fastest run of `who` at count index `i`: (run index, ms).
-    fn best(&self, i: usize, who: Who) -> Option<(usize, f64)> {
-        (0..RUNS.len())
-            .filter(|&r| RUNS[r].2 == who)
-            .filter_map(|r| self.table[i][r].as_ref().map(|x| (r, x.ms)))
+    /// The fastest configuration of `who` on `scene`: (config, median frame ms).
+    fn best(&self, scene: &str, who: Who) -> Option<(&Config, f64)> {
+        self.configs
+            .iter()
+            .filter(|c| c.who == who)
+            .filter_map(|c| self.cell(scene, &c.name).map(|cell| (c, cell.frame_ms())))
             .min_by(|a, b| a.1.total_cmp(&b.1))
     }
 
-    /// The first present run's JSON field, as text.
-    fn field(&self, who: Who, path: &[&str]) -> Option<String> {
-        self.table.iter().flatten().enumerate().find_map(|(k, r)| {
-            let r = r.as_ref()?;
-            (RUNS[k % RUNS.len()].2 == who).then_some(())?;
-            let mut v = &r.json;
+    /// The first run's JSON field of a configuration of `bevy` (or not), as text.
+    fn field(&self, bevy: bool, path: &[&str]) -> Option<String> {
+        self.cells.iter().find_map(|((_, config), cell)| {
+            (Config::of(config).who.is_bevy() == bevy).then_some(())?;
+            let mut v = &cell.first().json;
             for p in path {
                 v = &v[*p];
             }
@@ -218,53 +340,189 @@ fn ms(v: f64) -> String {
     }
 }
 
-/// The markdown report (without the FLIP table) and the footnotes' count.
+fn ratio(a: Option<f64>, b: Option<f64>) -> String {
+    match (a, b) {
+        (Some(a), Some(b)) => format!("{:.2}x", a / b),
+        _ => "-".into(),
+    }
+}
+
+/// The frame-time table, the ratios, the deferred breakdown, Bevy's CPU side and the
+/// per-pass table.
 fn tables(res: &Results) -> String {
     let mut md = String::new();
-    let present: Vec<usize> = (0..RUNS.len()).filter(|&r| res.table.iter().any(|row| row[r].is_some())).collect();
-    let _ = writeln!(md, "## GPU frame time, ms (median)\n");
-    let head: Vec<&str> = present.iter().map(|&r| RUNS[r].1).collect();
-    let _ =
-        writeln!(md, "| lights | {} | Bevy best / Forward+ best | Bevy best / Tiled Deferred best |", head.join(" | "));
-    let _ = writeln!(md, "| ---: |{} ---: | ---: |", " ---: |".repeat(present.len()));
     let mut notes = Vec::new();
-    for (i, &n) in res.counts.iter().enumerate() {
+    let _ = writeln!(
+        md,
+        "## GPU frame time, ms: first command to last, median over the repeats [fastest - slowest repeat]\n"
+    );
+    let head: Vec<&str> = res.configs.iter().map(|c| c.label.as_str()).collect();
+    let _ = writeln!(md, "| scene | {} |", head.join(" | "));
+    let _ = writeln!(md, "| --- |{}", " ---: |".repeat(res.configs.len()));
+    for s in &res.scenes {
         let mut cells = Vec::new();
-        for &r in &present {
-            cells.push(match &res.table[i][r] {
+        for c in &res.configs {
+            cells.push(match res.cell(s, &c.name) {
                 None => "-".to_string(),
-                Some(run) => match &run.flag {
-                    None => ms(run.ms),
-                    Some(why) => {
-                        notes.push(format!("{} at {n} lights: {why}", RUNS[r].1));
-                        format!("{}*{}", ms(run.ms), notes.len())
+                Some(cell) => {
+                    let (lo, hi) = cell.spread();
+                    let mut text = format!("{} [{} - {}]", ms(cell.frame_ms()), ms(lo), ms(hi));
+                    let flags = cell.flags();
+                    if !flags.is_empty() {
+                        notes.push(format!("{} on {s}: {}", c.label, flags.join("; ")));
+                        text.push_str(&format!(" *{}", notes.len()));
                     }
-                },
+                    if cell.runs.len() < 3 {
+                        text.push_str(&format!(
+                            " ({} repeat{})",
+                            cell.runs.len(),
+                            if cell.runs.len() == 1 { "" } else { "s" }
+                        ));
+                    }
+                    text
+                }
             });
         }
-        let bevy = res.best(i, Who::Bevy);
-        let ratio = |who| match (bevy, res.best(i, who)) {
-            (Some((_, b)), Some((_, t))) => format!("{:.2}x", b / t),
-            _ => "-".to_string(),
-        };
-        let _ =
-            writeln!(md, "| {n} | {} | {} | {} |", cells.join(" | "), ratio(Who::ForwardPlus), ratio(Who::Deferred));
+        let _ = writeln!(md, "| {s} | {} |", cells.join(" | "));
     }
     for (k, note) in notes.iter().enumerate() {
         let _ = writeln!(md, "\n*{}: {note}", k + 1);
     }
-    let _ = writeln!(md, "\n## Per pass, ms (median)\n");
-    let _ = writeln!(md, "| lights | run | passes |");
-    let _ = writeln!(md, "| ---: | --- | --- |");
-    for (i, &n) in res.counts.iter().enumerate() {
-        for &r in &present {
-            if let Some(run) = &res.table[i][r] {
-                let p: Vec<String> = run.passes.iter().map(|(k, v)| format!("{k} {}", ms(*v))).collect();
-                let _ = writeln!(md, "| {n} | {} | {} |", RUNS[r].1, p.join(", "));
+
+    let _ = writeln!(md, "\n## Ratios (frame times above)\n");
+    let _ = writeln!(
+        md,
+        "| scene | Bevy forward best / Forward+ best (both fragment-shaded) | Bevy deferred best / Tiled Deferred \
+         best (fragment vs compute lighting) | Forward+ without / with early-outs | Bevy forward best / Forward+ \
+         without early-outs | Tiled Deferred without / with early-outs | Bevy forward: default / tuned grid |"
+    );
+    let _ = writeln!(md, "| --- | ---: | ---: | ---: | ---: | ---: | ---: |");
+    for s in &res.scenes {
+        let best = |w| res.best(s, w).map(|b| b.1);
+        let of = |name: &str| res.cell(s, name).map(Cell::frame_ms);
+        let _ = writeln!(
+            md,
+            "| {s} | {} | {} | {} | {} | {} | {} |",
+            ratio(best(Who::BevyForward), best(Who::ForwardPlus)),
+            ratio(best(Who::BevyDeferred), best(Who::Deferred)),
+            ratio(of("tl-fp-noeo"), of("tl-fp")),
+            ratio(best(Who::BevyForward), of("tl-fp-noeo")),
+            ratio(of("tl-td-noeo"), of("tl-td")),
+            ratio(of("bevy-fwd-default"), of("bevy-fwd-tuned")),
+        );
+    }
+
+    // Bevy's deferred lighting is a fullscreen fragment pass without a diagnostics span:
+    // the frame timer minus the timed spans is it and the gaps.
+    let deferred: Vec<&Config> = res.configs.iter().filter(|c| c.who == Who::BevyDeferred).collect();
+    if !deferred.is_empty() {
+        let _ = writeln!(md, "\n## Deferred lighting: a fragment pass (Bevy) against a compute pass (tiledlight)\n");
+        let _ = writeln!(
+            md,
+            "| scene | run | frame | timed passes | untimed (Bevy: its lighting pass and the gaps) | tiledlight \
+             `deferred.shade` |"
+        );
+        let _ = writeln!(md, "| --- | --- | ---: | ---: | ---: | ---: |");
+        for s in &res.scenes {
+            let td = res.cell(s, "tl-td");
+            let shade =
+                td.and_then(|c| c.median_of(|r| r.passes.iter().find(|(n, _)| n == "deferred.shade").map(|p| p.1)));
+            for c in &deferred {
+                let Some(cell) = res.cell(s, &c.name) else { continue };
+                let timed = cell.median_of(|r| Some(r.passes_ms)).unwrap_or(0.0);
+                let _ = writeln!(
+                    md,
+                    "| {s} | {} | {} | {} | {} | {} |",
+                    c.label,
+                    ms(cell.frame_ms()),
+                    ms(timed),
+                    ms(cell.frame_ms() - timed),
+                    shade.map_or("-".into(), ms)
+                );
+            }
+        }
+    }
+
+    let bevy: Vec<&Config> = res.configs.iter().filter(|c| c.who.is_bevy()).collect();
+    if !bevy.is_empty() {
+        let _ = writeln!(md, "\n## Bevy on the CPU: the prepare phase (its per-frame uploads) and the frame\n");
+        let _ = writeln!(md, "| scene | run | GPU frame | prepare phase, CPU | CPU frame |");
+        let _ = writeln!(md, "| --- | --- | ---: | ---: | ---: |");
+        for s in &res.scenes {
+            for c in &bevy {
+                let Some(cell) = res.cell(s, &c.name) else { continue };
+                let opt = |v: Option<f64>| v.map_or("-".into(), ms);
+                let _ = writeln!(
+                    md,
+                    "| {s} | {} | {} | {} | {} |",
+                    c.label,
+                    ms(cell.frame_ms()),
+                    opt(cell.median_of(|r| r.prepare_cpu_ms)),
+                    opt(cell.median_of(|r| r.cpu_frame_ms)),
+                );
+            }
+        }
+    }
+
+    let _ = writeln!(md, "\n## Per pass, ms (median; the first repeat)\n");
+    let _ = writeln!(md, "| scene | run | passes |");
+    let _ = writeln!(md, "| --- | --- | --- |");
+    for s in &res.scenes {
+        for c in &res.configs {
+            if let Some(cell) = res.cell(s, &c.name) {
+                let p: Vec<String> = cell.first().passes.iter().map(|(k, v)| format!("{k} {}", ms(*v))).collect();
+                let _ = writeln!(md, "| {s} | {} | {} |", c.label, p.join(", "));
             }
         }
     }
     md
+}
+
+/// The GPU's clocks around the runs (`clocks.csv` in DIR or the folder above): the range
+/// of each column over every reading. None without the file.
+fn clocks(dir: &Path) -> Result<Option<String>> {
+    let Some(file) = [dir.join("clocks.csv"), dir.join("../clocks.csv")].into_iter().find(|f| f.is_file()) else {
+        return Ok(None);
+    };
+    let text = std::fs::read_to_string(&file).with_context(|| format!("reading {}", file.display()))?;
+    // run,when,sm_mhz,mem_mhz,temp_c,power_w
+    let mut cols: [Vec<f64>; 4] = Default::default();
+    let mut below = 0;
+    let mut readings = 0;
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        if f.len() != 6 {
+            continue;
+        }
+        let v: Vec<Option<f64>> = f[2..].iter().map(|x| x.trim().parse().ok()).collect();
+        for (c, x) in cols.iter_mut().zip(&v) {
+            c.extend(*x);
+        }
+        readings += 1;
+        if f[1] == "after" && v[0].is_some_and(|sm| sm < 1900.0) {
+            below += 1;
+        }
+    }
+    if readings == 0 {
+        return Ok(None);
+    }
+    let range = |v: &[f64]| {
+        let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        if v.is_empty() {
+            "-".to_string()
+        } else {
+            format!("{lo} - {hi}")
+        }
+    };
+    Ok(Some(format!(
+        "- GPU around the runs ({readings} readings of nvidia-smi, before and after each run): SM clock {} MHz \
+         ({below} readings after a run below 1,900 MHz), memory clock {} MHz, {} C, {} W\n",
+        range(&cols[0]),
+        range(&cols[1]),
+        range(&cols[2]),
+        range(&cols[3])
+    )))
 }
 
 /// Decodes a PNG as RGBA8.
@@ -280,77 +538,55 @@ fn mean_luma(rgba: &[u8]) -> f64 {
         / (255.0 * n)
 }
 
-/// Mean luma of every run's frame at one light count (None: no frame).
-type LumaRow = (u64, [Option<f64>; RUNS.len()]);
-
-/// The mean luma table: one row per count, one column per run with a frame.
-fn luma_table(rows: &[LumaRow]) -> String {
-    let mut md = String::new();
-    let present: Vec<usize> = (0..RUNS.len()).filter(|&r| rows.iter().any(|row| row.1[r].is_some())).collect();
-    if present.is_empty() {
-        return md;
-    }
-    let _ = writeln!(
-        md,
-        "\nMean luma of the frames (Rec. 709 weights on the encoded sRGB values, 0..1): a difference in overall \
-         brightness raises FLIP on every pixel, even where the light falls alike.\n"
-    );
-    let head: Vec<&str> = present.iter().map(|&r| RUNS[r].1).collect();
-    let _ = writeln!(md, "| lights | {} |", head.join(" | "));
-    let _ = writeln!(md, "| ---: |{}", " ---: |".repeat(present.len()));
-    for (n, row) in rows {
-        let cells: Vec<String> = present.iter().map(|&r| row[r].map_or("-".into(), |v| format!("{v:.3}"))).collect();
-        let _ = writeln!(md, "| {n} | {} |", cells.join(" | "));
-    }
-    md
-}
-
 /// One FLIP comparison: mean and 99th percentile as rendered, and mean after matching
 /// the test image's tone curve to the reference's.
 struct FlipRow {
-    count: u64,
-    what: &'static str,
+    scene: String,
+    what: String,
     mean: f32,
     p99: f32,
     matched_mean: f32,
     heat: PathBuf,
 }
 
-/// Per light count, every run's frame decoded once: its mean luma, and FLIP of the pairs
-/// in [`FLIP_PAIRS`] (heat maps written to `out`).
-fn compare_frames(res: &Results, dir: &Path, out: &Path) -> Result<(Vec<FlipRow>, Vec<LumaRow>)> {
+/// Per scene, every configuration's frame decoded once: its mean luma, and FLIP of every
+/// Bevy frame and of Tiled Deferred's against Forward+'s (heat maps written to `out`).
+fn compare_frames(res: &Results, dir: &Path, out: &Path) -> Result<(Vec<FlipRow>, Vec<(String, Vec<Option<f64>>)>)> {
     let (mut rows, mut lumas) = (Vec::new(), Vec::new());
-    for &n in &res.counts {
-        let path = |prefix: &str| dir.join(format!("{prefix}-{n}.png"));
-        let frames: Vec<Option<(u32, u32, Vec<u8>)>> = RUNS
+    for s in &res.scenes {
+        let path = |c: &str| dir.join(format!("{s}.{c}.png"));
+        let frames: Vec<Option<(u32, u32, Vec<u8>)>> = res
+            .configs
             .iter()
-            .map(|(prefix, _, _)| path(prefix).exists().then(|| load_rgba(&path(prefix))).transpose())
+            .map(|c| path(&c.name).exists().then(|| load_rgba(&path(&c.name))).transpose())
             .collect::<Result<_>>()?;
-        lumas.push((n, std::array::from_fn(|r| frames[r].as_ref().map(|f| mean_luma(&f.2)))));
-        let frame = |prefix: &str| RUNS.iter().position(|r| r.0 == prefix).and_then(|r| frames[r].as_ref());
-        for (a, b, what) in FLIP_PAIRS {
-            let (Some((wa, ha, ra)), Some((wb, hb, rb))) = (frame(a), frame(b)) else { continue };
-            let (wa, ha) = (*wa, *ha);
+        lumas.push((s.clone(), frames.iter().map(|f| f.as_ref().map(|f| mean_luma(&f.2))).collect()));
+        let frame = |name: &str| res.configs.iter().position(|c| c.name == name).and_then(|i| frames[i].as_ref());
+        let Some(reference) = frame("tl-fp") else { continue };
+        let tests = res.configs.iter().filter(|c| c.who.is_bevy() || c.name == "tl-td");
+        for c in tests {
+            let Some((wb, hb, rb)) = frame(&c.name) else { continue };
+            let (wa, ha, ra) = reference;
             ensure!(
-                (wa, ha) == (*wb, *hb),
+                (*wa, *ha) == (*wb, *hb),
                 "{} is {wa}x{ha} but {} is {wb}x{hb}: FLIP compares images of one size",
-                path(a).display(),
-                path(b).display()
+                path("tl-fp").display(),
+                path(&c.name).display()
             );
-            let map = tiledlight_metrics::flip(wa, ha, ra, rb);
-            let s = map.summary(0.99);
+            let map = tiledlight_metrics::flip(*wa, *ha, ra, rb);
+            let stats = map.summary(0.99);
             let matched =
-                tiledlight_metrics::flip(wa, ha, ra, &tiledlight_metrics::histogram::match_histograms(ra, rb))
+                tiledlight_metrics::flip(*wa, *ha, ra, &tiledlight_metrics::histogram::match_histograms(ra, rb))
                     .summary(0.99);
-            let heat = image::RgbImage::from_raw(wa, ha, map.heat_rgb()).context("building the FLIP heat map")?;
+            let heat = image::RgbImage::from_raw(*wa, *ha, map.heat_rgb()).context("building the FLIP heat map")?;
             let half = image::imageops::resize(&heat, (wa / 2).max(1), (ha / 2).max(1), image::imageops::Triangle);
-            let heat_path = out.join(format!("flip-{a}-vs-{b}-{n}.png"));
+            let heat_path = out.join(format!("flip-{s}-tl-fp-vs-{}.png", c.name));
             crate::output::save_png(&heat_path, &half)?;
             rows.push(FlipRow {
-                count: n,
-                what,
-                mean: s.mean,
-                p99: s.percentile,
+                scene: s.clone(),
+                what: format!("tiledlight Forward+ vs {}", c.label),
+                mean: stats.mean,
+                p99: stats.percentile,
                 matched_mean: matched.mean,
                 heat: heat_path,
             });
@@ -377,22 +613,32 @@ fn ticks_125(values: &[f64]) -> Vec<f64> {
     }
 }
 
-fn chart(res: &Results, path: &Path, adapter: &str) -> Result<()> {
-    let times: Vec<f64> = res.table.iter().flatten().flatten().map(|r| r.ms).collect();
+/// Frame time against light count over the `court-N` scenes (None: fewer than two).
+fn chart(res: &Results, path: &Path, adapter: &str) -> Result<bool> {
+    let courts: Vec<(&String, u64)> = res
+        .scenes
+        .iter()
+        .filter_map(|s| s.strip_prefix("court-").and_then(|n| n.parse().ok()).map(|n| (s, n)))
+        .collect();
+    if courts.len() < 2 {
+        return Ok(false);
+    }
     let mut series = Vec::new();
-    for (r, (_, label, _)) in RUNS.iter().enumerate() {
+    let mut times = Vec::new();
+    for c in &res.configs {
         let mut points = Vec::new();
         let mut incomplete = Vec::new();
-        for (i, &n) in res.counts.iter().enumerate() {
-            if let Some(run) = &res.table[i][r] {
-                points.push((n as f64, run.ms));
-                if run.flag.is_some() {
-                    incomplete.push((n as f64, run.ms));
+        for &(s, n) in &courts {
+            if let Some(cell) = res.cell(s, &c.name) {
+                points.push((n as f64, cell.frame_ms()));
+                times.push(cell.frame_ms());
+                if !cell.flags().is_empty() {
+                    incomplete.push((n as f64, cell.frame_ms()));
                 }
             }
         }
         if !points.is_empty() {
-            series.push(Series { name: label.to_string(), points, incomplete });
+            series.push(Series { name: c.label.clone(), points, incomplete });
         }
     }
     let c = LineChart {
@@ -401,11 +647,13 @@ fn chart(res: &Results, path: &Path, adapter: &str) -> Result<()> {
             "tiledlight and Bevy, one scene: GPU frame time, {}",
             adapter.split(" (").next().unwrap_or(adapter)
         ),
-        subtitle: "courtyard, uniform random point lights, one exported glTF; median of the measured frames".into(),
+        subtitle: "courtyard, uniform random point lights, one exported glTF; first command to last, median of the \
+                   repeats"
+            .into(),
         x: AxisSpec {
             label: "point lights".into(),
             scale: Scale::Log,
-            ticks: Some(res.counts.iter().map(|&n| n as f64).collect()),
+            ticks: Some(courts.iter().map(|&(_, n)| n as f64).collect()),
         },
         // 1-2-5 ticks in every decade the times span: the automatic ones label decades only
         // when the times span more than two, and Tiled Deferred's 2-3 ms would have none.
@@ -415,62 +663,80 @@ fn chart(res: &Results, path: &Path, adapter: &str) -> Result<()> {
         note: None,
         categories: None,
     };
-    chart::line_chart(path, &c)
+    chart::line_chart(path, &c)?;
+    Ok(true)
 }
 
 /// Runs `tiledlight peer-report DIR [--out OUT]`: reads `dir`, writes the report, chart
 /// and heat maps to `out` (default: `dir`).
 pub fn run(dir: &Path, out: Option<&Path>) -> Result<()> {
     if !dir.is_dir() {
-        bail!("{}: no such folder (unpack scripts/peer-bench.sh's peer-N.tar.gz archives into one)", dir.display());
+        bail!("{}: no such folder (unpack scripts/peer-bench.sh's peer-SCENE.tar.gz archives into one)", dir.display());
     }
     let out = out.unwrap_or(dir).to_path_buf();
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let res = Results::read(dir)?;
-    let adapter = res.field(Who::Bevy, &["adapter"]).or_else(|| res.field(Who::ForwardPlus, &["config", "adapter"]));
+    let adapter = res.field(true, &["adapter"]).or_else(|| res.field(false, &["config", "adapter"]));
     let adapter = adapter.unwrap_or_else(|| "adapter not recorded".into());
-    let mut md = String::from("# Peer benchmark: tiledlight and Bevy on one scene\n\n");
-    let size = res.field(Who::ForwardPlus, &["config", "resolution"]).unwrap_or_else(|| "?".into());
+    let mut md = String::from("# Peer benchmark: tiledlight and Bevy on the same scenes\n\n");
+    let size = res.field(false, &["config", "resolution"]).unwrap_or_else(|| "?".into());
     let _ = writeln!(md, "- adapter: {adapter}");
     let _ = writeln!(md, "- resolution: {size}");
     let _ = writeln!(
         md,
         "- tiledlight commit: {}",
-        res.field(Who::ForwardPlus, &["config", "commit"]).unwrap_or_else(|| "not recorded".into())
+        res.field(false, &["config", "commit"]).unwrap_or_else(|| "not recorded".into())
     );
-    let _ =
-        writeln!(md, "- Bevy: {}", res.field(Who::Bevy, &["bevy_version"]).unwrap_or_else(|| "not recorded".into()));
-    let _ = writeln!(md, "- light counts: {:?}\n", res.counts);
+    let _ = writeln!(md, "- Bevy: {}", res.field(true, &["bevy_version"]).unwrap_or_else(|| "not recorded".into()));
+    let repeats = res.cells.values().map(|c| c.runs.len()).max().unwrap_or(0);
+    let _ = writeln!(md, "- scenes: {}; up to {repeats} repeats of each configuration", res.scenes.join(", "));
+    if let Some(line) = clocks(dir)? {
+        md.push_str(&line);
+    }
+    md.push('\n');
     md.push_str(&tables(&res));
     let (rows, lumas) = compare_frames(&res, dir, &out)?;
     if !rows.is_empty() {
         let _ = writeln!(md, "\n## FLIP between the frames (0 = the same, 1 = as different as can be)\n");
-        let _ = writeln!(md, "| lights | images | mean | 99th percentile | mean, tone curves matched | heat map |");
-        let _ = writeln!(md, "| ---: | --- | ---: | ---: | ---: | --- |");
+        let _ = writeln!(md, "| scene | images | mean | 99th percentile | mean, tone curves matched | heat map |");
+        let _ = writeln!(md, "| --- | --- | ---: | ---: | ---: | --- |");
         for r in &rows {
             let heat = r.heat.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
             let _ = writeln!(
                 md,
                 "| {} | {} | {:.4} | {:.4} | {:.4} | {heat} |",
-                r.count, r.what, r.mean, r.p99, r.matched_mean
+                r.scene, r.what, r.mean, r.p99, r.matched_mean
             );
         }
         let _ = writeln!(
             md,
-            "\nThe renderers' BRDFs, spot falloffs and tonemappers differ (Bevy's Filament BRDF and ACES fit against \
-             tiledlight's), so FLIP between them shows whether both light the same places, not equality. \
-             \"Tone curves matched\" remaps the second image's channels to the first's histograms (a monotone \
-             per-channel curve: exposure, tonemapper, gain) before FLIP, so what remains is where the light falls. \
-             Forward+ against Tiled Deferred is the floor of one renderer's two methods, Bevy against itself \
-             (matched vs. with a prepass) the floor of the same frame."
+            "\nThe renderers' BRDFs and tonemappers differ (Bevy's Filament BRDF and ACES fit against tiledlight's), \
+             so FLIP between them shows whether both light the same places, not equality. \"Tone curves matched\" \
+             remaps the second image's channels to the first's histograms (a monotone per-channel curve: exposure, \
+             tonemapper, gain) before FLIP, so what remains is where the light falls. Forward+ against Tiled \
+             Deferred is the floor of one renderer's two methods."
         );
-        md.push_str(&luma_table(&lumas));
+        let present: Vec<usize> = (0..res.configs.len()).filter(|&i| lumas.iter().any(|l| l.1[i].is_some())).collect();
+        let _ = writeln!(
+            md,
+            "\nMean luma of the frames (Rec. 709 weights on the encoded sRGB values, 0..1): a difference in overall \
+             brightness raises FLIP on every pixel, even where the light falls alike.\n"
+        );
+        let head: Vec<&str> = present.iter().map(|&i| res.configs[i].label.as_str()).collect();
+        let _ = writeln!(md, "| scene | {} |", head.join(" | "));
+        let _ = writeln!(md, "| --- |{}", " ---: |".repeat(present.len()));
+        for (s, row) in &lumas {
+            let cells: Vec<String> =
+                present.iter().map(|&i| row[i].map_or("-".into(), |v| format!("{v:.3}"))).collect();
+            let _ = writeln!(md, "| {s} | {} |", cells.join(" | "));
+        }
     }
     let chart_path = out.join("peer-frame-time.png");
-    chart(&res, &chart_path, &adapter)?;
+    let charted = chart(&res, &chart_path, &adapter)?;
     let report = out.join("peer-report.md");
     std::fs::write(&report, &md).with_context(|| format!("writing {}", report.display()))?;
     print!("{md}");
-    println!("\nwrote {}, {} and {} FLIP heat maps", report.display(), chart_path.display(), rows.len());
+    let chart_note = if charted { format!(", {}", chart_path.display()) } else { String::new() };
+    println!("\nwrote {}{chart_note} and {} FLIP heat maps", report.display(), rows.len());
     Ok(())
 }
