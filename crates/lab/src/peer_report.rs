@@ -549,9 +549,12 @@ struct FlipRow {
     heat: PathBuf,
 }
 
+/// Per scene, the mean luma of each configuration's frame (None: no frame).
+type LumaRow = (String, Vec<Option<f64>>);
+
 /// Per scene, every configuration's frame decoded once: its mean luma, and FLIP of every
 /// Bevy frame and of Tiled Deferred's against Forward+'s (heat maps written to `out`).
-fn compare_frames(res: &Results, dir: &Path, out: &Path) -> Result<(Vec<FlipRow>, Vec<(String, Vec<Option<f64>>)>)> {
+fn compare_frames(res: &Results, dir: &Path, out: &Path) -> Result<(Vec<FlipRow>, Vec<LumaRow>)> {
     let (mut rows, mut lumas) = (Vec::new(), Vec::new());
     for s in &res.scenes {
         let path = |c: &str| dir.join(format!("{s}.{c}.png"));
