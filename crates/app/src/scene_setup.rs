@@ -734,6 +734,7 @@ impl Flags for SceneArgs {
                     Some(value.parse().with_context(|| format!("lights-per-pixel '{value}': expected a number"))?)
             }
             "aabb" => args.aabb = on_off(value)?,
+            "early-outs" => args.no_early_outs = !on_off(value)?,
             "half-z" => args.half_z = on_off(value)?,
             // The VPL settings' axes apply with --vpl (or the vpl axis) on.
             "vpl" => args.vpl.vpl = on_off(value)?,
@@ -1190,6 +1191,18 @@ mod tests {
         );
         let e = format!("{:#}", axes::parse_axis::<SceneArgs>("blend-mode=additive").unwrap_err());
         assert!(e.contains("blend-mode 'additive'"), "{e}");
+    }
+
+    #[test]
+    fn the_early_outs_are_an_axis() {
+        let axes = vec![axes::parse_axis::<SceneArgs>("early-outs=on,off").unwrap()];
+        let p = axes::points(&axes).unwrap();
+        let settings = |i: usize| axes::args_at(&SceneArgs::default(), &axes, &p[i]).unwrap().settings().unwrap();
+        assert!(settings(0).early_outs);
+        assert!(!settings(1).early_outs);
+        assert!(!settings(1).frame_settings(false).early_outs, "the ablation reaches the frame");
+        let e = format!("{:#}", axes::parse_axis::<SceneArgs>("early-outs=sometimes").unwrap_err());
+        assert!(e.contains("early-outs"), "{e}");
     }
 
     #[test]

@@ -76,6 +76,7 @@ pub const AXES: &[(&str, &str)] = &[
     ("density", "grid object tessellation: low | medium | high"),
     ("gbuffer-rts", "Tiled Deferred G-buffer targets, 2..5"),
     ("draw-order", "depth pre-pass and G-buffer draw order: front-to-back | submission"),
+    ("early-outs", "the shading's early-outs: on | off (off is the ablation: the same image, every light in full)"),
     ("tile-size", "8 | 16 | 32"),
     ("threshold", "light intensity threshold, the radius dial (number; ranges allowed)"),
     ("culling", "culling tests: planes | aabb | half-z | aabb+half-z"),

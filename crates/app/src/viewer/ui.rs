@@ -455,6 +455,9 @@ fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'
         ui.checkbox(&mut sorted, "draw nearest first")
             .on_hover_text("depth pre-pass and G-buffer: hidden fragments fail the early depth test");
         s.setup.draw_order = if sorted { DrawOrderMode::FrontToBack } else { DrawOrderMode::Submission };
+        ui.checkbox(&mut s.setup.early_outs, "shading early-outs").on_hover_text(
+            "skip a light beyond its radius or behind the surface; off shades every listed light in full (same image)",
+        );
         ui.add_enabled_ui(s.setup.method == Method::Visibility, |ui| {
             egui::ComboBox::from_label("raster")
                 .selected_text(s.setup.raster.name())
