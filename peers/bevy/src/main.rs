@@ -53,7 +53,7 @@ use bevy::diagnostic::DiagnosticsStore;
 use bevy::gltf::GltfExtras;
 use bevy::image::TextureFormatPixelInfo;
 use bevy::light::cluster::{ClusterConfig, ClusterFarZMode, ClusterZConfig, Clusters, GlobalClusterSettings};
-use bevy::pbr::DefaultOpaqueRendererMethod;
+use bevy::pbr::{DefaultOpaqueRendererMethod, ViewClusterBindings};
 use bevy::prelude::*;
 use bevy::render::diagnostic::RenderDiagnosticsPlugin;
 use bevy::render::render_asset::RenderAssets;
@@ -323,6 +323,10 @@ struct Run {
     /// Per measured frame: CPU ms of the render world's prepare phase, where Bevy builds and
     /// writes its per-frame buffers (lights, cluster lists, mesh data).
     prepare_cpu_ms: Vec<f64>,
+    /// Per measured frame: bytes of the cluster index list Bevy uploaded.
+    index_list_bytes: Vec<f64>,
+    /// The upload copy's calibration: (bytes, GPU ms).
+    upload_copy: Option<(u64, f64)>,
 }
 
 #[derive(Resource, Deref)]
@@ -516,13 +520,18 @@ fn collect_gpu_times(store: Res<DiagnosticsStore>, mut run: ResMut<Run>) {
 
 /// The frame timer's and prepare clock's readings (render world) while measuring.
 fn collect_timers(receiver: Res<TimerReceiver>, mut run: ResMut<Run>) {
+    absorb_timers(&receiver, &mut run);
+}
+
+/// Takes every reading that came: per-frame ones while measuring, the upload copy's always.
+fn absorb_timers(receiver: &TimerReceiver, run: &mut Run) {
     while let Ok(t) = receiver.try_recv() {
-        if !run.collecting {
-            continue;
-        }
         match t {
+            Timing::UploadCopyGpu { bytes, ms } => run.upload_copy = Some((bytes, ms)),
+            _ if !run.collecting => {}
             Timing::FrameGpu(ms) => run.frame_gpu_ms.push(ms),
             Timing::PrepareCpu(ms) => run.prepare_cpu_ms.push(ms),
+            Timing::IndexListBytes(b) => run.index_list_bytes.push(b as f64),
         }
     }
 }
@@ -535,6 +544,7 @@ fn drive(
     adapter: Option<Res<RenderAdapterInfo>>,
     clusters: Option<Res<GlobalClusterSettings>>,
     grids: Query<&Clusters, With<PeerCamera>>,
+    timers: Res<TimerReceiver>,
     mut exit: MessageWriter<AppExit>,
 ) {
     if let Some(c) = grids.iter().next() {
@@ -587,6 +597,8 @@ fn drive(
             }
             return;
         }
+        // The upload copy's calibration was sent just before the frame's image.
+        absorb_timers(&timers, &mut run);
         let png = args.out.join(format!("{}.png", args.name));
         save_png(&png, args.width, args.height, &unpad(&data, args.width, args.height));
         let json = report(&args, &run, adapter.as_deref(), clusters.as_deref(), lights.iter().count());
@@ -695,6 +707,8 @@ fn report(
         "gpu_frame_spans_sum": spread(&totals),
         "frame_gpu_first_to_last": spread(&run.frame_gpu_ms),
         "prepare_cpu": spread(&run.prepare_cpu_ms),
+        "cluster_index_list_bytes_median": median(&mut run.index_list_bytes.clone()),
+        "upload_copy_gpu": run.upload_copy.map(|(bytes, ms)| json!({"bytes": bytes, "ms": ms})),
         "gpu_sum_of_top_level_pass_medians_ms": sum_of_medians,
         "cpu_frame_ms_median": median(&mut cpu),
         "passes": passes,
@@ -702,6 +716,7 @@ fn report(
             "gpu_frame_ms_median: the sum of the frame's top-level timed spans (Bevy's RenderDiagnosticsPlugin); untimed work between passes is not in it",
             "cpu_frame_ms_median: wall-clock time between app updates; the render world waits for the GPU after each frame, so it includes the GPU time",
             "frame_gpu_first_to_last: GPU time from a timestamp before the frame's first command to one after its last (bevy-peer's own query set, written in the RenderGraph schedule's Begin set and after its Render set): every pass plus the untimed work and gaps between them",
+            "upload_copy_gpu: GPU time of one copy of the cluster index list's bytes (its median size while measured) from a host-visible buffer into a device buffer, timed with two timestamps after the measured frames, median of 5: what the zeroed index list Bevy uploads every frame costs the GPU, outside every other timer",
             "prepare_cpu: CPU time of the render world's Prepare set (RenderSystems::Prepare), where Bevy builds its per-frame buffers and queues their uploads (queue.write_buffer: lights, cluster lists including a zeroed index list of its full capacity, mesh data); the GPU copies of those uploads run at the head of the frame's submission, before the frame timer's first timestamp",
             "the log says when measuring starts and ends ('bevy-peer: measuring from frame', 'bevy-peer: measured'); a clustering resize warning between them means measured frames missed lights",
             "light colours re-read as linear (Bevy 0.19's glTF loader reads them as sRGB); spot source radius set to 0 (the loader sets it to the range)",
@@ -833,6 +848,11 @@ fn unpad(data: &[u8], width: u32, height: u32) -> Vec<u8> {
 enum Timing {
     FrameGpu(f64),
     PrepareCpu(f64),
+    /// Bytes of the view's cluster index list Bevy uploads (zeroed) this frame.
+    IndexListBytes(u64),
+    /// GPU ms of one copy of the index list's bytes from host-visible memory into a device
+    /// buffer (the copy `queue.write_buffer` makes), timed once after the measured frames.
+    UploadCopyGpu { bytes: u64, ms: f64 },
 }
 
 #[derive(Resource, Deref)]
@@ -846,6 +866,7 @@ impl Plugin for FrameTimerPlugin {
     fn build(&self, app: &mut App) {
         app.sub_app_mut(RenderApp)
             .insert_resource(TimerSender(self.sender.clone()))
+            .init_resource::<UploadSize>()
             .add_systems(
                 Render,
                 (
@@ -854,6 +875,8 @@ impl Plugin for FrameTimerPlugin {
                         .before(RenderSystems::Prepare),
                     prepare_clock_stop.after(RenderSystems::Prepare).before(RenderSystems::Render),
                     read_frame_timer.after(wait_for_gpu).before(receive_image_from_buffer),
+                    index_list_size.after(RenderSystems::Prepare).before(RenderSystems::Render),
+                    time_upload_copy.after(read_frame_timer).before(receive_image_from_buffer),
                 ),
             )
             .add_systems(
@@ -929,6 +952,14 @@ fn frame_timer_end(mut ctx: RenderContext, timer: Option<Res<FrameTimer>>) {
 /// After `wait_for_gpu`: the frame's two timestamps, as milliseconds, to the main world.
 fn read_frame_timer(timer: Option<Res<FrameTimer>>, device: Res<RenderDevice>, sender: Res<TimerSender>) {
     let Some(t) = timer else { return };
+    if let Some(ms) = read_timestamps(&t, &device) {
+        let _ = sender.send(Timing::FrameGpu(ms));
+    }
+}
+
+/// Waits for the GPU, then reads the timer's two resolved timestamps: their distance in
+/// milliseconds (None when they were not both written).
+fn read_timestamps(t: &FrameTimer, device: &RenderDevice) -> Option<f64> {
     let slice = t.readback.slice(..);
     let (s, r) = crossbeam_channel::bounded(1);
     slice.map_async(MapMode::Read, move |res| {
@@ -943,8 +974,67 @@ fn read_frame_timer(timer: Option<Res<FrameTimer>>, device: Res<RenderDevice>, s
         data.chunks_exact(8).map(|c| u64::from_le_bytes(c.try_into().expect("8 bytes"))).collect()
     };
     t.readback.unmap();
-    // A frame whose timestamps were not both written reads as zeros: not sent.
-    if ticks[0] != 0 && ticks[1] > ticks[0] {
-        let _ = sender.send(Timing::FrameGpu((ticks[1] - ticks[0]) as f64 * f64::from(t.period_ns) * 1e-6));
+    // Timestamps not both written read as zeros.
+    (ticks[0] != 0 && ticks[1] > ticks[0]).then(|| (ticks[1] - ticks[0]) as f64 * f64::from(t.period_ns) * 1e-6)
+}
+
+/// The cluster index list's bytes this frame (the zeroed list Bevy uploads in full).
+fn index_list_size(views: Query<&ViewClusterBindings>, sender: Res<TimerSender>, mut last: ResMut<UploadSize>) {
+    let bytes: u64 = views.iter().map(|v| v.n_indices() as u64 * 4).sum();
+    last.0 = bytes;
+    let _ = sender.send(Timing::IndexListBytes(bytes));
+}
+
+/// The last frame's index-list bytes, for the copy's calibration.
+#[derive(Default, Resource)]
+struct UploadSize(u64);
+
+/// Once, when the measured frames are over (the image copy is enabled): the GPU time of
+/// copying the index list's bytes from a host-visible buffer into a device buffer, which
+/// is the copy `queue.write_buffer` records at the head of every frame's submission.
+/// Median of 5 copies, each between two timestamps.
+fn time_upload_copy(
+    copiers: Res<ImageCopiers>,
+    timer: Option<Res<FrameTimer>>,
+    size: Res<UploadSize>,
+    device: Res<RenderDevice>,
+    queue: Res<RenderQueue>,
+    sender: Res<TimerSender>,
+    mut done: Local<bool>,
+) {
+    let Some(t) = timer else { return };
+    if *done || !copiers.iter().any(|c| c.enabled()) || size.0 == 0 {
+        return;
+    }
+    *done = true;
+    let bytes = size.0.next_multiple_of(4);
+    let staging = device.create_buffer(&BufferDescriptor {
+        label: Some("bevy-peer upload calibration source"),
+        size: bytes,
+        usage: BufferUsages::MAP_WRITE | BufferUsages::COPY_SRC,
+        mapped_at_creation: true,
+    });
+    staging.unmap();
+    let target = device.create_buffer(&BufferDescriptor {
+        label: Some("bevy-peer upload calibration target"),
+        size: bytes,
+        usage: BufferUsages::COPY_DST | BufferUsages::STORAGE,
+        mapped_at_creation: false,
+    });
+    let mut times = Vec::new();
+    for _ in 0..5 {
+        let mut e = device.create_command_encoder(&CommandEncoderDescriptor { label: Some("bevy-peer upload calibration") });
+        e.write_timestamp(&t.queries, 0);
+        e.copy_buffer_to_buffer(&staging, 0, &target, 0, bytes);
+        e.write_timestamp(&t.queries, 1);
+        e.resolve_query_set(&t.queries, 0..2, &t.resolved, 0);
+        e.copy_buffer_to_buffer(&t.resolved, 0, &t.readback, 0, 16);
+        queue.submit(std::iter::once(e.finish()));
+        if let Some(ms) = read_timestamps(&t, &device) {
+            times.push(ms);
+        }
+    }
+    if !times.is_empty() {
+        let _ = sender.send(Timing::UploadCopyGpu { bytes, ms: median(&mut times).expect("not empty") });
     }
 }
