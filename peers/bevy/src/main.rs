@@ -4,8 +4,9 @@
 //! times as JSON: per pass (Bevy's `RenderDiagnosticsPlugin`, timestamp queries), the
 //! whole frame from its first command to its last (bevy-peer's own two timestamps, which
 //! also hold the passes Bevy leaves untimed, e.g. the deferred lighting pass), the CPU time
-//! of Bevy's prepare phase (where its per-frame uploads are built and queued), and the CPU
-//! frame time; medians with min and max over `--frames` frames after `--warmup`. Writes
+//! of Bevy's prepare phase (where its per-frame uploads are built and queued), the GPU time
+//! of one copy of its cluster index list's bytes (the upload's copy, timed apart once), and
+//! the CPU frame time; medians with min and max over `--frames` frames after `--warmup`. Writes
 //! the JSON and the last frame as PNG into `--out`.
 //!
 //! What it changes from Bevy's defaults, and why (all printed in the JSON's `notes`):
