@@ -43,7 +43,7 @@ pub mod trace;
 
 pub use error::SceneError;
 pub use lights::{
-    bounds_light_radius, fitted_intensity_range, mean_cube_radius, random_lights, LightOptions,
+    bounds_light_radius, fitted_intensity_range, hue_color, mean_cube_radius, random_lights, LightOptions,
     DEFAULT_INTENSITY_RANGE, DEFAULT_LIGHT_THRESHOLD, MAX_LIGHTS,
 };
 pub use loader::{

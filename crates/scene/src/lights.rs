@@ -136,8 +136,9 @@ pub(crate) fn stream_rng(seed: u64, stream: u64) -> Pcg64 {
     Pcg64::from_seed(bytes)
 }
 
-/// A fully saturated colour of hue `h` in [0, 1) with its largest component 1.
-pub(crate) fn hue_color(h: f32) -> Vec3 {
+/// A fully saturated colour of hue `h` in [0, 1) (red, yellow, green, cyan, blue,
+/// magenta) with its largest component 1: the random lights' colours.
+pub fn hue_color(h: f32) -> Vec3 {
     let x = h.rem_euclid(1.0) * 6.0;
     let f = |n: f32| {
         let k = (n + x) % 6.0;

@@ -11,8 +11,8 @@
 //! 3. 100,000 point lights of range 0.3 m and 1,000 lm (Bevy's unit; 1000 / 4 pi cd here,
 //!    which is what Bevy renders: it divides lumens by 4 pi) on a Fibonacci spiral over
 //!    the sphere of radius 50 (the example's spiral, epsilon 0.36), each of a fully
-//!    saturated hue (`Color::hsl(h, 1, 0.5)`; random in Bevy, hashed from the light's
-//!    index here so the scene is the same every run);
+//!    saturated hue (`Color::hsl(h, 1, 0.5)`, an sRGB colour, made linear here; random in
+//!    Bevy, from a fixed random stream here so the scene is the same every run);
 //! 4. Bevy's default camera: at the origin looking down -Z, 45 degree vertical field of
 //!    view, near 0.1 m (the example turns it slowly; the benchmark holds it still).
 //!
@@ -26,8 +26,11 @@
 //! Depends on this crate's model and geometry, tiledlight-cull (lights) and glam.
 
 use glam::{Mat4, Vec3};
+use rand::Rng;
+use tiledlight_cull::gbuffer::srgb_to_linear;
 
 use crate::geometry::{add_box, MeshBuilder};
+use crate::lights::{hue_color, stream_rng};
 use crate::model::{Aabb, CameraDesc, Instance, Material, Mesh, Scene};
 use crate::{Light, LightKind};
 
@@ -43,6 +46,8 @@ pub const MANY_LIGHTS_LUMENS: f32 = 1000.0;
 const ICO_SEGMENTS: u32 = 10;
 /// The example's Fibonacci-spiral offset.
 const SPIRAL_EPSILON: f64 = 0.36;
+/// The random stream of the lights' hues.
+const HUE_STREAM: u64 = 0x6d61_6e79_6875_6573;
 
 /// Bevy 0.19's `many_lights` stress test (module docs): 2,012 triangles, 100,000 lights
 /// and its camera.
@@ -107,6 +112,7 @@ fn many_lights_lights() -> Vec<Light> {
     let golden_ratio = 0.5 * (1.0 + 5f64.sqrt());
     let n = MANY_LIGHTS_COUNT;
     let candela = MANY_LIGHTS_LUMENS / (4.0 * std::f32::consts::PI);
+    let mut rng = stream_rng(0, HUE_STREAM);
     (0..n)
         .map(|i| {
             let theta = std::f64::consts::TAU * (i as f64 / golden_ratio);
@@ -114,36 +120,12 @@ fn many_lights_lights() -> Vec<Light> {
             let (st, ct) = theta.sin_cos();
             let (sp, cp) = phi.sin_cos();
             let p = Vec3::new((ct * sp) as f32, (st * sp) as f32, cp as f32) * MANY_LIGHTS_RADIUS;
-            Light::with_radius(p, saturated_hue(hash_unit(i as u32)), candela, MANY_LIGHTS_RANGE, LightKind::Point)
+            // HSL with saturation 1 and lightness 0.5 is HSV with saturation and value 1.
+            let color = hue_color(rng.random::<f32>()).map(srgb_to_linear);
+            Light::with_radius(p, color, candela, MANY_LIGHTS_RANGE, LightKind::Point)
                 .expect("the many_lights lights are finite, positive and in range")
         })
         .collect()
-}
-
-/// A hash of `i` to [0, 1) (PCG's output permutation): the hue of light `i`.
-fn hash_unit(i: u32) -> f32 {
-    let state = i.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
-    let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277_803_737);
-    let h = (word >> 22) ^ word;
-    (h >> 8) as f32 / (1u32 << 24) as f32
-}
-
-/// `Color::hsl(360 h, 1, 0.5)` (an sRGB colour) as linear RGB.
-fn saturated_hue(h: f32) -> Vec3 {
-    let k = |n: f32| {
-        let k = (n + h * 12.0) % 12.0;
-        // HSL with s = 1, l = 0.5: l - a max(-1, min(k - 3, 9 - k, 1)), a = 0.5.
-        0.5 - 0.5 * (k - 3.0).min(9.0 - k).clamp(-1.0, 1.0)
-    };
-    Vec3::new(srgb_to_linear(k(0.0)), srgb_to_linear(k(8.0)), srgb_to_linear(k(4.0)))
-}
-
-fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
 }
 
 /// The icosahedron's 12 corners (unit length) and 20 faces, wound counter-clockwise seen
