@@ -683,17 +683,18 @@ fn export_bad_input_gives_one_clear_error_line() {
 /// every run's JSON with the keys the report reads, the first repeat's 32x18 frames, and
 /// the script's clocks.csv.
 fn write_peer_results(dir: &Path, broken: Option<&str>) {
-    let bevy = |ms: f64, timed: f64, measured: u32| {
+    let bevy = |method: &str, ms: f64, timed: f64, measured: u32| {
         serde_json::json!({
+            "renderer": "bevy", "method": method,
             "adapter": "Test GPU", "bevy_version": "0.19.1", "frames": 50, "gpu_frames_measured": measured,
             "gpu_frame_ms_median": timed, "frame_gpu_first_to_last": {"median_ms": ms},
             "prepare_cpu": {"median_ms": 4.5}, "cpu_frame_ms_median": ms + 6.0,
             "passes": {"clustering": {"median_ms": 0.5, "frames": measured}, "main_opaque_pass_3d": {"median_ms": timed - 0.5, "frames": measured}},
         })
     };
-    let tl = |ms: f64, dropped: u32| {
+    let tl = |method: &str, early_outs: bool, ms: f64, dropped: u32| {
         serde_json::json!({
-            "config": {"adapter": "Test GPU", "resolution": "32x18", "commit": "abc123"},
+            "config": {"adapter": "Test GPU", "resolution": "32x18", "commit": "abc123", "method": method, "early_outs": early_outs},
             "total_gpu_median_ms": ms - 0.01, "frame_gpu_first_to_last": {"median_ms": ms}, "dropped_frames": dropped,
             "cpu_frame": {"median_ms": ms + 1.0},
             "passes": [{"pass": "deferred.shade", "median_ms": ms / 4.0}, {"pass": "tonemap", "median_ms": 0.02}],
@@ -709,6 +710,7 @@ fn write_peer_results(dir: &Path, broken: Option<&str>) {
         ("tl-fp-2.5d", 9.5, 16.0),
         ("tl-td", 2.0, 2.5),
         ("tl-fp-noeo", 13.5, 40.0),
+        ("tl-td-noeo", 2.2, 3.0),
     ];
     // Frames: a gradient; Bevy's is the same gradient darker (another tone curve), and
     // on court-10000 tiledlight's deferred frame has a bright square the others lack.
@@ -728,12 +730,19 @@ fn write_peer_results(dir: &Path, broken: Option<&str>) {
             for (k, scale) in [(1, 1.0), (2, 1.02), (3, 0.97)] {
                 let ms = base * scale;
                 let json = if config.starts_with("bevy") {
-                    let timed = if config == "bevy-def-tuned" { ms / 4.0 } else { ms - 0.5 };
+                    let deferred = config == "bevy-def-tuned";
+                    let (method, timed) = if deferred { ("deferred", ms / 4.0) } else { ("forward", ms - 0.5) };
                     // Bevy's tuned forward run on court-10000, repeat 2, measured 40 of 50 frames.
-                    bevy(ms, timed, if config == "bevy-fwd-tuned" && col == 2 && k == 2 { 40 } else { 50 })
+                    bevy(method, ms, timed, if config == "bevy-fwd-tuned" && col == 2 && k == 2 { 40 } else { 50 })
                 } else {
+                    let method = if config.starts_with("tl-td") { "deferred" } else { "forward-plus" };
                     // tiledlight's Forward+ on court-10000, repeat 1, dropped lights in 3 frames.
-                    tl(ms, if config == "tl-fp" && col == 2 && k == 1 { 3 } else { 0 })
+                    tl(
+                        method,
+                        !config.ends_with("noeo"),
+                        ms,
+                        if config == "tl-fp" && col == 2 && k == 1 { 3 } else { 0 },
+                    )
                 };
                 let name = format!("{scene}.{config}.r{k}");
                 let text = if broken == Some(name.as_str()) { "{ not json".to_string() } else { json.to_string() };
@@ -779,11 +788,12 @@ fn peer_report_tabulates_ratios_charts_and_compares_frames() {
     assert!(times.contains("| 18.00 [17.46 - 18.36] |"), "{times}");
     // Ratios on court-1000: Bevy forward best 18 / Forward+ best 9 = 2.00x; Bevy deferred
     // 12 / Tiled Deferred 2 = 6.00x; Forward+ without / with early-outs 13.5 / 9 = 1.50x;
-    // Bevy forward / Forward+ without them 18 / 13.5 = 1.33x; no Tiled Deferred ablation;
-    // Bevy's default grid / tuned 40 / 18 = 2.22x. court-10000: 50 / 16 = 3.12x (3.125),
-    // 30 / 2.5 = 12.00x, 40 / 20 = 2.00x, 50 / 40 = 1.25x, 200 / 50 = 4.00x.
-    assert_eq!(rows("court-1000")[1], "| court-1000 | 2.00x | 6.00x | 1.50x | 1.33x | - | 2.22x |", "{md}");
-    assert_eq!(rows("court-10000")[1], "| court-10000 | 3.12x | 12.00x | 2.00x | 1.25x | - | 4.00x |", "{md}");
+    // Bevy forward / Forward+ without them 18 / 13.5 = 1.33x; Tiled Deferred without / with
+    // 2.2 / 2 = 1.10x; Bevy's default grid / tuned 40 / 18 = 2.22x. court-10000: 50 / 16 =
+    // 3.12x (3.125), 30 / 2.5 = 12.00x, 40 / 20 = 2.00x, 50 / 40 = 1.25x, 3 / 2.5 = 1.20x,
+    // 200 / 50 = 4.00x.
+    assert_eq!(rows("court-1000")[1], "| court-1000 | 2.00x | 6.00x | 1.50x | 1.33x | 1.10x | 2.22x |", "{md}");
+    assert_eq!(rows("court-10000")[1], "| court-10000 | 3.12x | 12.00x | 2.00x | 1.25x | 1.20x | 4.00x |", "{md}");
     // The deferred breakdown: Bevy's frame 12, its timed spans 3, untimed 9; tiledlight's
     // deferred.shade 2 / 4.
     assert_eq!(rows("court-1000")[2], "| court-1000 | Bevy deferred, tuned grid | 12.00 | 3.000 | 9.000 | 0.500 |");
@@ -797,7 +807,7 @@ fn peer_report_tabulates_ratios_charts_and_compares_frames() {
     assert!(md.contains("repeat 1: Bevy resized its cluster lists inside the measured frames"), "{md}");
     assert!(md.contains("repeat 3: failed: exit 124 (summary.txt)"), "{md}");
     // The clocks.
-    assert!(md.contains("SM clock 1200 - 1980 MHz (1 readings after a run below 1,900 MHz)"), "{md}");
+    assert!(md.contains("SM clock 1200 - 1980 MHz (1 of 2 readings after a run below the highest)"), "{md}");
     for needle in ["adapter: Test GPU", "tiledlight commit: abc123", "Bevy: 0.19.1", "main_opaque_pass_3d 39.00"] {
         assert!(md.contains(needle), "no {needle:?} in:\n{md}");
     }
@@ -846,9 +856,27 @@ fn peer_report_bad_input_gives_one_clear_error_line() {
     write_peer_results(&dir, Some("court-10000.bevy-def-tuned.r2"));
     let line = fails(&["peer-report", dir.to_str().unwrap()]);
     assert!(line.contains("court-10000.bevy-def-tuned.r2.json") && line.contains("not JSON"), "{line}");
+    // A run of a method the report does not compare, and runs of one configuration that
+    // disagree on what they are.
+    write_peer_results(&dir, None);
+    let json = |method: &str| {
+        serde_json::json!({"config": {"method": method}, "frame_gpu_first_to_last": {"median_ms": 2.0},
+            "total_gpu_median_ms": 2.0, "passes": []})
+        .to_string()
+    };
+    std::fs::write(dir.join("court-1000.tl-td.r2.json"), json("visibility")).unwrap();
+    let line = fails(&["peer-report", dir.to_str().unwrap()]);
+    assert!(line.contains("court-1000.tl-td.r2.json") && line.contains("\"visibility\""), "{line}");
+    std::fs::write(dir.join("court-1000.tl-td.r2.json"), json("forward-plus")).unwrap();
+    let line = fails(&["peer-report", dir.to_str().unwrap()]);
+    assert!(line.contains("court-1000.tl-td.r2.json") && line.contains("the other runs of tl-td"), "{line}");
     // A JSON from before the frame timer.
     write_peer_results(&dir, None);
-    std::fs::write(dir.join("court-1000.tl-td.r2.json"), r#"{"total_gpu_median_ms": 2.0, "passes": []}"#).unwrap();
+    std::fs::write(
+        dir.join("court-1000.tl-td.r2.json"),
+        r#"{"config": {"method": "deferred"}, "total_gpu_median_ms": 2.0, "passes": []}"#,
+    )
+    .unwrap();
     let line = fails(&["peer-report", dir.to_str().unwrap()]);
     assert!(line.contains("court-1000.tl-td.r2.json") && line.contains("frame_gpu_first_to_last"), "{line}");
     // Frames of two sizes.

@@ -39,6 +39,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, ensure, Context, Result};
 use serde_json::Value;
 
+use crate::bench::Summary;
 use crate::chart::{self, AxisSpec, LineChart, Scale, Series};
 
 /// What a configuration is.
@@ -58,20 +59,42 @@ impl Who {
     }
 }
 
-/// The configurations `scripts/peer-bench.sh` runs, in table order: (name, label, kind).
+impl Who {
+    /// What a run's JSON says it is: bevy-peer's `renderer` and `method`, or tiledlight
+    /// bench's `config.method` and `config.early_outs`.
+    fn of_json(json: &Value, file: &Path) -> Result<Self> {
+        if json["renderer"] == "bevy" {
+            return Ok(if json["method"] == "deferred" { Who::BevyDeferred } else { Who::BevyForward });
+        }
+        let early_outs = json["config"]["early_outs"].as_bool().unwrap_or(true);
+        match (json["config"]["method"].as_str(), early_outs) {
+            (Some("forward-plus"), true) => Ok(Who::ForwardPlus),
+            (Some("forward-plus"), false) => Ok(Who::ForwardPlusAblation),
+            (Some("deferred"), true) => Ok(Who::Deferred),
+            (Some("deferred"), false) => Ok(Who::DeferredAblation),
+            (m, _) => bail!(
+                "{}: neither a bevy-peer run nor a tiledlight Forward+ or Tiled Deferred bench (config.method {m:?})",
+                file.display()
+            ),
+        }
+    }
+}
+
+/// The configurations `scripts/peer-bench.sh` runs, in table order: (name, label).
 /// Others found in the folder are reported after these, by their names.
-const KNOWN: [(&str, &str, Who); 8] = [
-    ("bevy-fwd-default", "Bevy forward, default grid", Who::BevyForward),
-    ("bevy-fwd-tuned", "Bevy forward, tuned grid", Who::BevyForward),
-    ("bevy-def-tuned", "Bevy deferred, tuned grid", Who::BevyDeferred),
-    ("tl-fp", "tiledlight Forward+", Who::ForwardPlus),
-    ("tl-fp-2.5d", "tiledlight Forward+ 2.5D", Who::ForwardPlus),
-    ("tl-td", "tiledlight Tiled Deferred", Who::Deferred),
-    ("tl-fp-noeo", "tiledlight Forward+, no early-outs", Who::ForwardPlusAblation),
-    ("tl-td-noeo", "tiledlight Tiled Deferred, no early-outs", Who::DeferredAblation),
+const KNOWN: [(&str, &str); 8] = [
+    ("bevy-fwd-default", "Bevy forward, default grid"),
+    ("bevy-fwd-tuned", "Bevy forward, tuned grid"),
+    ("bevy-def-tuned", "Bevy deferred, tuned grid"),
+    ("tl-fp", "tiledlight Forward+"),
+    ("tl-fp-2.5d", "tiledlight Forward+ 2.5D"),
+    ("tl-td", "tiledlight Tiled Deferred"),
+    ("tl-fp-noeo", "tiledlight Forward+, no early-outs"),
+    ("tl-td-noeo", "tiledlight Tiled Deferred, no early-outs"),
 ];
 
-/// A configuration: its name, label and kind (by its name for one not in [`KNOWN`]).
+/// A configuration: its name, its label ([`KNOWN`]'s, else its name) and its kind (from
+/// its runs' JSON).
 #[derive(Clone, Debug, PartialEq)]
 struct Config {
     name: String,
@@ -80,21 +103,9 @@ struct Config {
 }
 
 impl Config {
-    fn of(name: &str) -> Self {
-        match KNOWN.iter().find(|k| k.0 == name) {
-            Some(&(n, label, who)) => Self { name: n.into(), label: label.into(), who },
-            None => {
-                let who = match name {
-                    n if n.starts_with("bevy-def") => Who::BevyDeferred,
-                    n if n.starts_with("bevy") => Who::BevyForward,
-                    n if n.starts_with("tl-td") && n.ends_with("noeo") => Who::DeferredAblation,
-                    n if n.starts_with("tl-td") => Who::Deferred,
-                    n if n.ends_with("noeo") => Who::ForwardPlusAblation,
-                    _ => Who::ForwardPlus,
-                };
-                Self { name: name.into(), label: name.into(), who }
-            }
-        }
+    fn new(name: &str, who: Who) -> Self {
+        let label = KNOWN.iter().find(|k| k.0 == name).map_or(name, |k| k.1);
+        Self { name: name.into(), label: label.into(), who }
     }
 
     fn order(&self) -> usize {
@@ -125,9 +136,11 @@ fn number(v: &Value, key: &str, file: &Path) -> Result<f64> {
     v[key].as_f64().with_context(|| format!("{}: no number \"{key}\"", file.display()))
 }
 
-fn read_run(file: &Path, who: Who) -> Result<Run> {
+/// One run's JSON: what it is and what it measured.
+fn read_run(file: &Path) -> Result<(Who, Run)> {
     let text = std::fs::read_to_string(file).with_context(|| format!("reading {}", file.display()))?;
     let json: Value = serde_json::from_str(&text).with_context(|| format!("{}: not JSON", file.display()))?;
+    let who = Who::of_json(&json, file)?;
     let frame_ms = json["frame_gpu_first_to_last"]["median_ms"].as_f64().with_context(|| {
         format!(
             "{}: no \"frame_gpu_first_to_last\" median: run it again with today's {}",
@@ -165,18 +178,7 @@ fn read_run(file: &Path, who: Who) -> Result<Run> {
         "{}: frame time {frame_ms} ms (passes {passes_ms} ms) is not a positive number",
         file.display()
     );
-    Ok(Run { frame_ms, passes_ms, passes, prepare_cpu_ms, cpu_frame_ms, flag, json })
-}
-
-/// Median of `v` (sorted in place); mean of the middle two for an even count.
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
+    Ok((who, Run { frame_ms, passes_ms, passes, prepare_cpu_ms, cpu_frame_ms, flag, json }))
 }
 
 /// Every repeat of one configuration on one scene, in repeat order.
@@ -186,21 +188,20 @@ struct Cell {
 }
 
 impl Cell {
-    fn values(&self, f: impl Fn(&Run) -> Option<f64>) -> Vec<f64> {
-        self.runs.iter().filter_map(|(_, r)| f(r)).collect()
+    /// Median, smallest and largest over the repeats of `f` (None: no repeat has it).
+    fn summary_of(&self, f: impl Fn(&Run) -> Option<f64>) -> Option<Summary> {
+        Summary::of(&self.runs.iter().filter_map(|(_, r)| f(r)).collect::<Vec<_>>())
     }
     /// Median over the repeats of `f`.
     fn median_of(&self, f: impl Fn(&Run) -> Option<f64>) -> Option<f64> {
-        let mut v = self.values(f);
-        (!v.is_empty()).then(|| median(&mut v))
+        self.summary_of(f).map(|s| s.median_ms)
+    }
+    /// The frame time over the repeats.
+    fn frame(&self) -> Summary {
+        self.summary_of(|r| Some(r.frame_ms)).expect("a cell has a run")
     }
     fn frame_ms(&self) -> f64 {
-        self.median_of(|r| Some(r.frame_ms)).expect("a cell has a run")
-    }
-    /// The repeats' smallest and largest frame time.
-    fn spread(&self) -> (f64, f64) {
-        let v = self.values(|r| Some(r.frame_ms));
-        (v.iter().copied().fold(f64::INFINITY, f64::min), v.iter().copied().fold(0.0, f64::max))
+        self.frame().median_ms
     }
     fn flags(&self) -> Vec<String> {
         self.runs.iter().filter_map(|(k, r)| r.flag.as_ref().map(|f| format!("repeat {k}: {f}"))).collect()
@@ -247,13 +248,18 @@ impl Results {
         found.sort_by(|a, b| (scene_key(&a.0), &a.1, a.2).cmp(&(scene_key(&b.0), &b.1, b.2)));
         let mut res = Self { scenes: Vec::new(), configs: Vec::new(), cells: BTreeMap::new() };
         for (scene, config, rep, file) in found {
-            let c = Config::of(&config);
-            let run = read_run(&file, c.who)?;
+            let (who, run) = read_run(&file)?;
             if !res.scenes.contains(&scene) {
                 res.scenes.push(scene.clone());
             }
-            if !res.configs.contains(&c) {
-                res.configs.push(c);
+            match res.configs.iter().find(|c| c.name == config) {
+                None => res.configs.push(Config::new(&config, who)),
+                Some(c) => ensure!(
+                    c.who == who,
+                    "{}: a {who:?} run, but the other runs of {config} are {:?}",
+                    file.display(),
+                    c.who
+                ),
             }
             res.cells.entry((scene, config)).or_default().runs.push((rep, run));
         }
@@ -316,7 +322,7 @@ impl Results {
     /// The first run's JSON field of a configuration of `bevy` (or not), as text.
     fn field(&self, bevy: bool, path: &[&str]) -> Option<String> {
         self.cells.iter().find_map(|((_, config), cell)| {
-            (Config::of(config).who.is_bevy() == bevy).then_some(())?;
+            self.configs.iter().find(|c| c.name == *config).filter(|c| c.who.is_bevy() == bevy)?;
             let mut v = &cell.first().json;
             for p in path {
                 v = &v[*p];
@@ -365,8 +371,8 @@ fn tables(res: &Results) -> String {
             cells.push(match res.cell(s, &c.name) {
                 None => "-".to_string(),
                 Some(cell) => {
-                    let (lo, hi) = cell.spread();
-                    let mut text = format!("{} [{} - {}]", ms(cell.frame_ms()), ms(lo), ms(hi));
+                    let f = cell.frame();
+                    let mut text = format!("{} [{} - {}]", ms(f.median_ms), ms(f.min_ms), ms(f.max_ms));
                     let flags = cell.flags();
                     if !flags.is_empty() {
                         notes.push(format!("{} on {s}: {}", c.label, flags.join("; ")));
@@ -487,7 +493,7 @@ fn clocks(dir: &Path) -> Result<Option<String>> {
     let text = std::fs::read_to_string(&file).with_context(|| format!("reading {}", file.display()))?;
     // run,when,sm_mhz,mem_mhz,temp_c,power_w
     let mut cols: [Vec<f64>; 4] = Default::default();
-    let mut below = 0;
+    let mut after_sm = Vec::new();
     let mut readings = 0;
     for line in text.lines().skip(1) {
         let f: Vec<&str> = line.split(',').collect();
@@ -499,13 +505,17 @@ fn clocks(dir: &Path) -> Result<Option<String>> {
             c.extend(*x);
         }
         readings += 1;
-        if f[1] == "after" && v[0].is_some_and(|sm| sm < 1900.0) {
-            below += 1;
+        if f[1] == "after" {
+            after_sm.extend(v[0]);
         }
     }
     if readings == 0 {
         return Ok(None);
     }
+    // Readings after a run below the highest SM clock seen: the GPU idling down, or a
+    // run that did not hold the boost clock.
+    let top = cols[0].iter().copied().fold(0.0, f64::max);
+    let below = after_sm.iter().filter(|&&sm| sm < top).count();
     let range = |v: &[f64]| {
         let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
         let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
@@ -517,8 +527,9 @@ fn clocks(dir: &Path) -> Result<Option<String>> {
     };
     Ok(Some(format!(
         "- GPU around the runs ({readings} readings of nvidia-smi, before and after each run): SM clock {} MHz \
-         ({below} readings after a run below 1,900 MHz), memory clock {} MHz, {} C, {} W\n",
+         ({below} of {} readings after a run below the highest), memory clock {} MHz, {} C, {} W\n",
         range(&cols[0]),
+        after_sm.len(),
         range(&cols[1]),
         range(&cols[2]),
         range(&cols[3])
