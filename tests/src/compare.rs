@@ -700,9 +700,46 @@ pub fn raster_ties((ad, ai): (&[f32], &[u32]), (bd, bi): (&[f32], &[u32])) -> Ve
 /// grazing angles (`tests/tests/compute_raster.rs` bounds it per triangle).
 pub const RASTER_TIE_DEPTH: f32 = 1e-4;
 
+/// Whether two HDR pixels are the same image's: equal in every colour channel when
+/// `exact` (lavapipe runs a frame the same way every time), else within one f16 step of
+/// the larger (a parallel GPU changes the order of a list's lights, so the last bit of a
+/// sum, from run to run). A NaN is the same as nothing.
+pub fn same_hdr_pixel(a: &[f32; 4], b: &[f32; 4], exact: bool) -> bool {
+    (0..3).all(|c| {
+        let step = if exact { 0.0 } else { a[c].abs().max(b[c].abs()) * 2f32.powi(-10) };
+        (a[c] - b[c]).abs() <= step
+    })
+}
+
+/// Asserts two HDR images (`w` pixels wide) are the same by [`same_hdr_pixel`], naming
+/// `what` and the first pixel that differs.
+pub fn assert_same_hdr(a: &[[f32; 4]], b: &[[f32; 4]], w: u32, exact: bool, what: &str) {
+    assert_eq!(a.len(), b.len(), "{what}: the images differ in size");
+    if let Some(i) = a.iter().zip(b).position(|(p, q)| !same_hdr_pixel(p, q, exact)) {
+        panic!("{what}: pixel ({}, {}) differs: {:?} vs {:?}", i as u32 % w, i as u32 / w, a[i], b[i]);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// One f16 step apart passes only off lavapipe; two steps, a NaN or another size never.
+    #[test]
+    fn same_hdr_rejects_a_changed_pixel() {
+        let a = [[1.0, 2.0, 4.0, 1.0]; 3];
+        let mut b = a;
+        b[1][2] = 4.0 * (1.0 + 2f32.powi(-11));
+        assert!(same_hdr_pixel(&a[1], &b[1], false) && !same_hdr_pixel(&a[1], &b[1], true));
+        assert_same_hdr(&a, &b, 3, false, "one step");
+        b[1][2] = 4.0 * (1.0 + 2f32.powi(-8));
+        assert!(!same_hdr_pixel(&a[1], &b[1], false));
+        let e = std::panic::catch_unwind(|| assert_same_hdr(&a, &b, 3, false, "two steps")).unwrap_err();
+        assert!(e.downcast_ref::<String>().is_some_and(|m| m.contains("two steps: pixel (1, 0) differs")));
+        b[1][2] = f32::NAN;
+        assert!(!same_hdr_pixel(&a[1], &b[1], false));
+        assert!(std::panic::catch_unwind(|| assert_same_hdr(&a, &a[..2], 3, true, "size")).is_err());
+    }
 
     fn flat(v: f32, n: usize) -> Frame {
         Frame { hdr: vec![[v, v, v, 1.0]; n], ldr: vec![128; n * 4], allowance: Vec::new() }

@@ -20,28 +20,17 @@ use tiledlight_frame::{FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_scene::{default_scene, DefaultSceneOptions};
-use tiledlight_tests::compare::render_frame;
+use tiledlight_tests::compare::{assert_same_hdr, render_frame};
 use tiledlight_tests::{gpu, scenes};
 
 const W: u32 = 320;
 const H: u32 = 180;
 
-/// Asserts `a` and `b` are the same HDR image: bit for bit when `exact`, else within one
-/// f16 step; and finite.
+/// Asserts `a` and `b` are the same HDR image ([`assert_same_hdr`]), and finite (NaN
+/// already fails the comparison; an infinity in both would not).
 fn assert_same(a: &[[f32; 4]], b: &[[f32; 4]], exact: bool, what: &str) {
-    assert_eq!(a.len(), b.len());
-    for (i, (p, q)) in a.iter().zip(b).enumerate() {
-        for c in 0..3 {
-            assert!(p[c].is_finite() && q[c].is_finite(), "{what}: pixel {i} is not finite: {p:?} vs {q:?}");
-            let step = if exact { 0.0 } else { p[c].abs().max(q[c].abs()) * 2f32.powi(-10) };
-            assert!(
-                (p[c] - q[c]).abs() <= step,
-                "{what}: pixel ({}, {}) differs: {p:?} vs {q:?}",
-                i as u32 % W,
-                i as u32 / W
-            );
-        }
-    }
+    assert_same_hdr(a, b, W, exact, what);
+    assert!(a.iter().chain(b).all(|p| p[..3].iter().all(|c| c.is_finite())), "{what}: a pixel is not finite");
 }
 
 #[test]
