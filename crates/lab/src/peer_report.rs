@@ -627,7 +627,8 @@ fn ticks_125(values: &[f64]) -> Vec<f64> {
     }
 }
 
-/// Frame time against light count over the `court-N` scenes (None: fewer than two).
+/// Frame time against light count over the `court-N` scenes, written to `path`; false
+/// (nothing written) with fewer than two of them.
 fn chart(res: &Results, path: &Path, adapter: &str) -> Result<bool> {
     let courts: Vec<(&String, u64)> = res
         .scenes
