@@ -42,6 +42,19 @@ fn diffuse_falloff(x: f32) -> f32 {
     return 0.5 * x * (1.0 + q * (1.0 + q * (1.0 + q * (1.0 + q))));
 }
 
+// The GGX normal distribution for unit n and h, a2 = alpha^2; 0 where n.h <= 0 (the chi+
+// factor: without it h -> -n, met when the eye is behind the shading surface, made the
+// denominator vanish). Never above 1 / (pi a2). Twin: tiledlight_cull::brdf::ggx_ndf.
+fn ggx_ndf(n: vec3<f32>, h: vec3<f32>, a2: f32) -> f32 {
+    let n_dot_h = dot(n, h);
+    // 1 - n.h^2 (1 - a^2) as n.h^2 a^2 + |n x h|^2: no f32 cancellation near the peak
+    // (tiledlight_cull::brdf::ggx_ndf says why).
+    let n_cross_h = cross(n, h);
+    let dd = n_dot_h * n_dot_h * a2 + dot(n_cross_h, n_cross_h);
+    // select, not an early return: dd may be 0 where n.h <= 0, and the quotient is dropped.
+    return select(0.0, a2 / (PI * dd * dd), n_dot_h > 0.0);
+}
+
 // BRDF times cosine: Ashikhmin-Shirley diffuse (2000, eq. 5: 28 / (23 pi) R_d (1 - R_s)
 // (1 - (1 - n.l/2)^5) (1 - (1 - n.v/2)^5), R_d = albedo (1 - metallic), R_s = F0; energy-
 // conserving with the specular lobe) + GGX with height-correlated Smith visibility and
@@ -58,16 +71,11 @@ fn brdf_cos(n: vec3<f32>, v: vec3<f32>, l: vec3<f32>, s: Surface) -> vec3<f32> {
     if hl > 0.0 {
         h = hv / hl;
     }
-    let n_dot_h = saturate(dot(n, h));
     let v_dot_h = saturate(dot(v, h));
     let rough = clamp(s.roughness, MIN_ROUGHNESS, 1.0);
     let a = rough * rough;
     let a2 = a * a;
-    // 1 - n.h^2 (1 - a^2) as n.h^2 a^2 + |n x h|^2: no f32 cancellation near the peak
-    // (tiledlight_cull::brdf::brdf_cos says why).
-    let n_cross_h = cross(n, h);
-    let dd = n_dot_h * n_dot_h * a2 + dot(n_cross_h, n_cross_h);
-    let d = a2 / (PI * dd * dd);
+    let d = ggx_ndf(n, h, a2);
     let gv = n_dot_l * sqrt(n_dot_v * n_dot_v * (1.0 - a2) + a2);
     let gl = n_dot_v * sqrt(n_dot_l * n_dot_l * (1.0 - a2) + a2);
     let vis = 0.5 / (gv + gl);

@@ -7,6 +7,8 @@
 //!   percents off);
 //! - the tonemapped image equals the one a fixed exposure of that value gives (to one
 //!   8-bit step: the two exposures agree to 1e-3);
+//! - the GPU's tonemapped image equals the CPU tonemap twin (`tiledlight_metrics::tonemap`)
+//!   of its HDR image to one 8-bit step;
 //! - an unlit view (only sky) keeps exposure 1, and a fixed exposure has no exposure pass.
 
 use glam::Vec3;
@@ -35,6 +37,15 @@ fn check(name: &str, auto: &mut FrameRenderer, fixed: impl Fn(f32) -> FrameRende
     let g = render_frame(ctx, &mut r, sg, cam);
     let worst = f.ldr.iter().zip(&g.ldr).map(|(a, b)| a.abs_diff(*b)).max().unwrap_or(0);
     assert!(worst <= 1, "{name}: the automatic image differs from the fixed one by {worst} steps");
+    // The tonemap itself against its CPU twin (the comparison above shares the GPU's curve
+    // on both sides, so it cannot see a wrong ACES coefficient or sRGB encode): one 8-bit
+    // step, for f32 rounding of the curve and `pow` near a rounding boundary.
+    let twin = tiledlight_metrics::tonemap::tonemap(&g.hdr, gpu_e);
+    let (worst, at) =
+        g.ldr.iter().zip(&twin).enumerate().map(|(i, (a, b))| (a.abs_diff(*b), i)).max().unwrap_or((0, 0));
+    assert!(worst <= 1, "{name}: the GPU tonemap differs from its CPU twin by {worst} steps at byte {at}");
+    let distinct: std::collections::BTreeSet<u8> = twin.iter().copied().collect();
+    assert!(distinct.len() > 100, "{name}: the image must span the curve ({} distinct values)", distinct.len());
 }
 
 #[test]

@@ -236,3 +236,105 @@ fn gpu_brdf_matches_cpu_twin() {
         assert!(checked > (w * h / 3) as usize, "the floor must cover the frame");
     }
 }
+
+/// `brdf_cos` and `ggx_ndf` of `shaders/common/brdf.wgsl`, run in a compute kernel, against
+/// their CPU twins over random directions (the eye behind the surface in half of them) and
+/// mirrored pairs whose half vector lies within 0.3 rad of `n` (the NDF's peak) or of `-n`
+/// (its former singularity), at roughness from below the clamp to 1; and every GPU value
+/// at or below the physical bound (`ggx_peak`, `brdf_cos_bound`): the WGSL had the
+/// singularity as well as the twin, so the bound is asserted on both sides.
+///
+/// Tolerance 2e-4 relative plus 1e-6 of the bound: the two sides normalise `h`, take
+/// square roots and the fifth power in different orders (a few ulps each), and near the
+/// peak the NDF's `1/dd^2` doubles a relative error in `dd`.
+#[test]
+fn wgsl_brdf_equals_its_twin_and_stays_under_the_ggx_peak() {
+    use tiledlight_cull::brdf::{brdf_cos_bound, ggx_ndf, ggx_peak, MIN_ROUGHNESS};
+    use tiledlight_tests::kernels::{run_cases, Rng};
+    let src = r#"
+#include "common/brdf.wgsl"
+struct Case { n: vec4<f32>, v: vec4<f32>, l: vec4<f32>, albedo: vec4<f32> }
+@group(0) @binding(0) var<storage, read> cases: array<Case>;
+@group(0) @binding(1) var<storage, read_write> out: array<vec4<f32>>;
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= arrayLength(&cases)) { return; }
+    let c = cases[id.x];
+    let s = Surface(c.albedo.xyz, c.n.w, c.v.w);
+    let rough = clamp(c.n.w, MIN_ROUGHNESS, 1.0);
+    let h = normalize(c.v.xyz + c.l.xyz);
+    out[id.x] = vec4<f32>(brdf_cos(c.n.xyz, c.v.xyz, c.l.xyz, s), ggx_ndf(c.n.xyz, h, rough * rough * rough * rough));
+}
+"#;
+    let mut rng = Rng(0x5eed_b2df);
+    let dir = |rng: &mut Rng| loop {
+        let d = Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+        if let Some(d) = d.try_normalize() {
+            break d;
+        }
+    };
+    // (n, v, l, roughness, metallic, albedo)
+    let mut cases: Vec<(Vec3, Vec3, Vec3, f32, f32, Vec3)> = Vec::new();
+    let roughness = [0.0, MIN_ROUGHNESS, 0.1, 0.35, 0.7, 1.0];
+    for i in 0..3000 {
+        let n = dir(&mut rng);
+        let r = roughness[i % roughness.len()];
+        let metallic = [0.0, 1.0, 0.5][i % 3];
+        let albedo = Vec3::new(rng.range(0.0, 1.0), rng.range(0.0, 1.0), rng.range(0.0, 1.0));
+        if i % 2 == 0 {
+            cases.push((n, dir(&mut rng), dir(&mut rng), r, metallic, albedo));
+            continue;
+        }
+        // A mirrored pair: h within 0.3 rad of -n (every other one) or n, l above the horizon.
+        let Some(side) = dir(&mut rng).cross(n).try_normalize() else { continue };
+        let axis = if i % 4 == 1 { -n } else { n };
+        let angle = rng.range(0.0, 0.3);
+        let h = (axis * angle.cos() + side * angle.sin()).normalize();
+        let lift = rng.log(1e-4, 1.0);
+        let l = (side * (1.0 - lift * lift).sqrt() + n * lift).normalize();
+        let v = (2.0 * l.dot(h) * h - l).normalize();
+        cases.push((n, v, l, r, metallic, albedo));
+    }
+    let words: Vec<f32> = cases
+        .iter()
+        .flat_map(|&(n, v, l, r, m, a)| [n.x, n.y, n.z, r, v.x, v.y, v.z, m, l.x, l.y, l.z, 0.0, a.x, a.y, a.z, 0.0])
+        .collect();
+    let got = run_cases(
+        gpu(),
+        "test_brdf_bound.wgsl",
+        src,
+        bytemuck::cast_slice(&words),
+        cases.len() as u32,
+        cases.len() as u64 * 16,
+    );
+    let (mut behind, mut near_minus_n, mut lit) = (0, 0, 0);
+    for (i, &(n, v, l, r, metallic, albedo)) in cases.iter().enumerate() {
+        let s = Surface { albedo, roughness: r, metallic };
+        let want = brdf_cos(n, v, l, &s);
+        let rc = r.clamp(MIN_ROUGHNESS, 1.0);
+        let a2 = rc * rc * rc * rc;
+        let h = (v + l).normalize();
+        let want_d = ggx_ndf(n, h, a2);
+        let gpu_value = Vec3::new(got[4 * i], got[4 * i + 1], got[4 * i + 2]);
+        let gpu_d = got[4 * i + 3];
+        let bound = brdf_cos_bound(r);
+        let at = format!("case {i}: n {n} v {v} l {l} roughness {r} metallic {metallic}");
+        assert!(gpu_value.is_finite() && gpu_d.is_finite(), "{at}: GPU {gpu_value} D {gpu_d}");
+        assert!(
+            gpu_value.max_element() <= bound * (1.0 + 1e-5),
+            "{at}: GPU brdf_cos {gpu_value} above the bound {bound}"
+        );
+        assert!(gpu_d <= ggx_peak(a2) * (1.0 + 1e-5), "{at}: GPU D {gpu_d} above the peak {}", ggx_peak(a2));
+        let tol = 2e-4 * want.max_element() + 1e-6 * bound;
+        assert!((gpu_value - want).abs().max_element() <= tol, "{at}: GPU {gpu_value} CPU {want}");
+        assert!((gpu_d - want_d).abs() <= 2e-4 * want_d + 1e-6 * ggx_peak(a2), "{at}: GPU D {gpu_d} CPU {want_d}");
+        behind += (n.dot(v) < 0.0 && n.dot(l) > 0.0) as u32;
+        near_minus_n += (n.dot(h) < -0.95 && n.dot(l) > 0.0) as u32;
+        lit += (want.max_element() > 0.0) as u32;
+    }
+    eprintln!(
+        "{} cases: {behind} with the eye behind the surface, {near_minus_n} with h near -n, {lit} lit",
+        cases.len()
+    );
+    assert!(behind > 500 && near_minus_n > 300 && lit > 1000, "the cases must reach the singularity's configuration");
+}

@@ -11,6 +11,8 @@
 //!   `validate-shaders`, then every workspace test with GPU tests one at a time; `ARGS`
 //!   go to `cargo nextest run` (or `cargo test` when nextest is missing).
 //! - `lint`: `cargo fmt --check` and `cargo clippy -D warnings` over the workspace.
+//! - `mutants`: apply each realistic bug of `xtask/mutants/*.toml` to a scratch copy and run
+//!   the tests named for it; a surviving mutant is a missing test (`mutants.rs`).
 //!
 //! Depends on the workspace's own crates (for the shader preprocessor, the bindings
 //! declarations and the Rust struct layouts), naga (validation) and wgpu (the adapter probe).
@@ -18,6 +20,7 @@
 mod bindings;
 mod circles;
 mod lint;
+mod mutants;
 mod process;
 mod shaders;
 mod test;
@@ -34,7 +37,10 @@ tasks:
   validate-shaders   validate every WGSL entry file and variant with naga, check Rust/WGSL bindings and struct layouts, then `circles`
   circles [DIR]      fail on any circle in the module import graphs of the crates or the WGSL #include graph
   test [ARGS...]     check for a Vulkan adapter, validate shaders, run all tests (ARGS go to cargo nextest run / cargo test)
-  lint               cargo fmt --check and cargo clippy -D warnings over the workspace";
+  lint               cargo fmt --check and cargo clippy -D warnings over the workspace
+  mutants [--list] [--only A,B] [--changed REV] [--timeout S]
+                     apply each mutant of xtask/mutants/*.toml to a scratch copy and run the tests
+                     that must catch it; fails on a survivor (not part of `test`: minutes per mutant)";
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -67,6 +73,7 @@ fn run(args: &[String]) -> Result<()> {
             _ => bail!("circles takes at most one argument (a workspace directory), got {rest:?}"),
         },
         "test" => test::test(&root, rest),
+        "mutants" => mutants::mutants(&root, rest),
         "lint" => {
             if !rest.is_empty() {
                 bail!("lint takes no arguments, got {rest:?}");

@@ -36,19 +36,19 @@ const VULKAN_PACKAGES: [&str; 2] = ["mesa-vulkan-drivers", "libvulkan1"];
 
 /// Which adapter the GPU tests must use, and the environment that tells them.
 #[derive(Debug, PartialEq, Eq)]
-struct AdapterChoice {
+pub(crate) struct AdapterChoice {
     /// Case-insensitive substring of the adapter name, as `WGPU_ADAPTER_NAME` means it.
     name: String,
     /// `WGPU_BACKEND` value (comma list), when one applies.
     backend: Option<String>,
     /// Variables to set for the child processes (only those not already set).
-    env: Vec<(&'static str, String)>,
+    pub(crate) env: Vec<(&'static str, String)>,
 }
 
 impl AdapterChoice {
     /// From `WGPU_ADAPTER_NAME` and `WGPU_BACKEND` (`get` reads the environment). Without
     /// an adapter name, lavapipe on Vulkan.
-    fn new(get: impl Fn(&str) -> Option<String>) -> Self {
+    pub(crate) fn new(get: impl Fn(&str) -> Option<String>) -> Self {
         let get = |key: &str| get(key).filter(|v| !v.trim().is_empty());
         let mut env = Vec::new();
         let name = get("WGPU_ADAPTER_NAME").unwrap_or_else(|| {
@@ -79,7 +79,7 @@ const PROPTEST_SEED_FILE: &str = "crates/cull/tests/common/seed.rs";
 
 /// `DEFAULT_SEED` of [`PROPTEST_SEED_FILE`]: the seed every property test uses when
 /// `PROPTEST_RNG_SEED` is unset.
-fn default_proptest_seed(root: &Path) -> Result<u64> {
+pub(crate) fn default_proptest_seed(root: &Path) -> Result<u64> {
     let path = root.join(PROPTEST_SEED_FILE);
     let text = std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
     parse_default_seed(&text).with_context(|| format!("no `pub const DEFAULT_SEED: u64 = N;` in {}", path.display()))

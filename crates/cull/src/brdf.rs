@@ -121,6 +121,44 @@ fn diffuse_with_f0(albedo: Vec3, metallic: f32, f0: Vec3, n_dot_l: f32, n_dot_v:
     albedo * (1.0 - metallic) * (Vec3::ONE - f0) * (DIFFUSE_SCALE * diffuse_falloff(n_dot_l) * diffuse_falloff(n_dot_v))
 }
 
+/// The GGX (Trowbridge-Reitz) normal distribution `D(h)` for unit normal `n`, unit half
+/// vector `h` and `a2 = alpha^2`: `a2 / (pi (1 - n.h^2 (1 - a2))^2)` where `n.h > 0`, and 0
+/// where `n.h <= 0` (the chi+ factor of Walter et al. 2007, eq. 33: no microfacet faces
+/// away from the macro-surface). Never above its peak [`ggx_peak`] `1 / (pi a2)`.
+///
+/// The chi+ factor matters where the eye is behind the shading surface (`n.v < 0`: smooth-
+/// shaded silhouettes, normal maps) and the light nearly opposite it, so that `h` tends to
+/// `-n`: a clamped `n.h` of 0 with `|n x h| -> 0` made the denominator vanish and `D` grow
+/// without bound (3,300 where the lobe's peak is 3, the error budget's worst pixel).
+pub fn ggx_ndf(n: Vec3, h: Vec3, a2: f32) -> f32 {
+    let n_dot_h = n.dot(h);
+    if n_dot_h <= 0.0 {
+        return 0.0;
+    }
+    // 1 - n.h^2 (1 - a^2), written as n.h^2 a^2 + |n x h|^2 (Lagrange's identity): near the
+    // peak n.h is within an ulp of 1 and the first form cancels in f32, which made a white
+    // metal reflect 2% more light than it receives at the roughness clamp.
+    let n_cross_h = n.cross(h);
+    let dd = n_dot_h * n_dot_h * a2 + n_cross_h.length_squared();
+    a2 / (std::f32::consts::PI * dd * dd)
+}
+
+/// The peak of [`ggx_ndf`], at `h = n`: `1 / (pi a2)`.
+pub fn ggx_peak(a2: f32) -> f32 {
+    1.0 / (std::f32::consts::PI * a2)
+}
+
+/// An upper bound of every channel of [`brdf_cos`] for perceptual roughness `roughness`
+/// and any unit `n`, `v`, `l` (the eye behind the surface included): the diffuse term is
+/// at most `DIFFUSE_SCALE` (its falloffs are at most 1), Fresnel at most 1, the NDF at most
+/// [`ggx_peak`], and the visibility term times `n.l`, `0.5 n.l / (n.l sqrt(n.v^2 (1 - a2) +
+/// a2) + n.v sqrt(..))`, at most `0.5 / a`. So `brdf_cos <= DIFFUSE_SCALE + 1 / (2 pi a^3)`.
+pub fn brdf_cos_bound(roughness: f32) -> f32 {
+    let rough = roughness.clamp(MIN_ROUGHNESS, 1.0);
+    let a = rough * rough;
+    DIFFUSE_SCALE + ggx_peak(a * a) * 0.5 / a
+}
+
 /// Surface parameters the BRDF needs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Surface {
@@ -143,17 +181,11 @@ pub fn brdf_cos(n: Vec3, v: Vec3, l: Vec3, s: &Surface) -> Vec3 {
     }
     let n_dot_v = n.dot(v).max(1e-4);
     let h = (v + l).normalize_or_zero();
-    let n_dot_h = n.dot(h).clamp(0.0, 1.0);
     let v_dot_h = v.dot(h).clamp(0.0, 1.0);
     let rough = s.roughness.clamp(MIN_ROUGHNESS, 1.0);
     let a = rough * rough;
     let a2 = a * a;
-    // The NDF's 1 - n.h^2 (1 - a^2), written as n.h^2 a^2 + |n x h|^2 (Lagrange's identity):
-    // near the peak n.h is within an ulp of 1 and the first form cancels in f32, which made a
-    // white metal reflect 2% more light than it receives at the roughness clamp.
-    let n_cross_h = n.cross(h);
-    let dd = n_dot_h * n_dot_h * a2 + n_cross_h.length_squared();
-    let d = a2 / (std::f32::consts::PI * dd * dd);
+    let d = ggx_ndf(n, h, a2);
     let gv = n_dot_l * (n_dot_v * n_dot_v * (1.0 - a2) + a2).sqrt();
     let gl = n_dot_v * (n_dot_l * n_dot_l * (1.0 - a2) + a2).sqrt();
     let vis = 0.5 / (gv + gl);
