@@ -15,6 +15,7 @@ pub mod images;
 pub mod kernels;
 pub mod lists;
 pub mod scenes;
+pub mod textured;
 
 use tiledlight_gpu::{ContextOptions, GpuContext};
 
