@@ -219,6 +219,8 @@ pub struct DeferredShading {
     grid: TileGrid,
     /// The lists every tile was shaded with.
     pub light_grid: LightGrid,
+    /// The pipeline constants the pass was built with ([`Self::constants`]).
+    constants: Vec<(String, f64)>,
 }
 
 const CS: wgpu::ShaderStages = wgpu::ShaderStages::COMPUTE;
@@ -478,7 +480,14 @@ impl DeferredShading {
             &module,
             &constants,
         );
-        Ok(Self { pipeline, bind_group, coarse, assign, msaa, grid, light_grid })
+        let constants = constants.iter().map(|&(k, v)| (k.to_string(), v)).collect();
+        Ok(Self { pipeline, bind_group, coarse, assign, msaa, grid, light_grid, constants })
+    }
+
+    /// The pipeline constants the cull-and-shade pipeline was built with (tests: a setting
+    /// that must not change the image, the early-outs' ablation, took effect).
+    pub fn constants(&self) -> &[(String, f64)] {
+        &self.constants
     }
 
     /// Records the cell pass (two-level culling) and the cull-and-shade dispatch (the MSAA

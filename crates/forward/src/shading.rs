@@ -147,6 +147,12 @@ impl ShadingPass {
         Ok(Self { raster, lights: lights_group, label })
     }
 
+    /// The pipeline constants its pipelines were built with (tests: a setting that must
+    /// not change the image took effect).
+    pub fn constants(&self) -> &[(String, f64)] {
+        self.raster.constants()
+    }
+
     /// Binds the light grid again after it grew (its index buffer is a new one).
     pub fn rebind(&mut self, device: &wgpu::Device, grid: &LightGrid) {
         self.lights.rebind(device, grid);

@@ -121,6 +121,16 @@ impl ForwardFrame {
         self.culling.as_ref()
     }
 
+    /// The depth pre-pass.
+    pub fn prepass(&self) -> &DepthPrepass {
+        &self.prepass
+    }
+
+    /// The shading pass (forward or brute force).
+    pub fn shading(&self) -> &ShadingPass {
+        &self.shading
+    }
+
     /// Records the frame's head alone, outside a frame plan: the depth pre-pass into
     /// `depth` and (Forward+) the culling, for a step that reads only the depth and the
     /// lists (the caster ranking, [`crate::caster_rank`]).

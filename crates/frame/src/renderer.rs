@@ -91,6 +91,8 @@ pub struct FrameRenderer {
     /// With [`DrawOrderMode::FrontToBack`]: the eye the order was last sorted for, and
     /// that order (sorted again only when the eye moves).
     order: RefCell<Option<(Vec3, DrawOrder)>>,
+    /// The last recorded frame's head step was given that order ([`Self::last_draw_order`]).
+    order_given: std::cell::Cell<bool>,
 }
 
 impl FrameRenderer {
@@ -185,7 +187,7 @@ impl FrameRenderer {
             shared.finish(&ctx.device, (scene, lights), s, method.lists())?;
             Ok::<_, GpuError>(method)
         })??;
-        Ok(Self { settings, shared, method, order: RefCell::new(None) })
+        Ok(Self { settings, shared, method, order: RefCell::new(None), order_given: Default::default() })
     }
 
     /// The settings it was built with (`cull.samples` set from `msaa`).
@@ -258,6 +260,18 @@ impl FrameRenderer {
         }
     }
 
+    /// The draw order the last recorded frame gave its depth pre-pass or G-buffer, with the
+    /// eye it was sorted for; None when it gave none (the instance buffer's order). Tests
+    /// read it to see that `FrameSettings::draw_order` took effect (it changes no pixel
+    /// but where surfaces tie).
+    pub fn last_draw_order(&self) -> Option<(Vec3, DrawOrder)> {
+        if self.order_given.get() {
+            self.order.borrow().clone()
+        } else {
+            None
+        }
+    }
+
     /// The method's frame (diagnostics).
     pub(crate) fn method(&self) -> &dyn MethodFrame {
         self.method.as_ref()
@@ -287,6 +301,7 @@ impl Renderer for FrameRenderer {
             DrawOrderMode::FrontToBack => cached.as_ref().map(|(_, o)| o),
             DrawOrderMode::Submission => None,
         };
+        self.order_given.set(order.is_some());
         let mut rec = Rec::new(encoder, timer, f.main_view(), (scene, order), &f.plan);
         f.record_shadows(&mut rec);
         f.record_vpls(&mut rec);

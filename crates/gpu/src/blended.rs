@@ -533,6 +533,12 @@ impl BlendedPath {
         self.instances.len()
     }
 
+    /// The pipeline constants the blended shading's pipelines were built with (tests: a
+    /// setting that must not change the image, the early-outs' ablation, took effect).
+    pub fn constants(&self) -> &[(String, f64)] {
+        self.raster.constants()
+    }
+
     /// How the layer is composited (the renderer's settings' `blend`).
     pub fn mode(&self) -> BlendMode {
         self.mode

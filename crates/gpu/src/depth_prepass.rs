@@ -6,7 +6,7 @@
 use crate::bindings::{Binding, Cond, PassBindings, PassGroup};
 use crate::error::GpuError;
 use crate::features::Features;
-use crate::scene_gpu::{DrawKind, SceneGpu, BASE_COLOR_BINDINGS, POSITION_LAYOUT, SCENE_GROUPS};
+use crate::scene_gpu::{DrawCount, DrawKind, SceneGpu, BASE_COLOR_BINDINGS, POSITION_LAYOUT, SCENE_GROUPS};
 use crate::scene_raster::{begin_pass, cleared, scene_pipeline, DepthUse, SceneDraw, SceneInputs, SceneRaster};
 use crate::timer::GpuTimer;
 use crate::util::{keyed_module, pipeline_layout};
@@ -45,6 +45,8 @@ pub const ATOMIC_TEXELS: &[Binding] = &[Binding::storage_rw(0, wgpu::ShaderStage
 pub struct DepthPrepass {
     raster: SceneRaster,
     label: &'static str,
+    /// What the last [`Self::record`] drew ([`Self::drawn_last`]).
+    drawn: std::sync::Mutex<DrawCount>,
 }
 
 /// What a depth-only drawing of the scene writes: the pre-pass's depth buffer or a shadow
@@ -209,7 +211,11 @@ impl DepthPrepass {
             );
             pipelines.push((kind, pipeline));
         }
-        Ok(Self { raster: SceneRaster::from_pipelines(pipelines, SceneInputs::DepthOnly), label: target.label })
+        Ok(Self {
+            raster: SceneRaster::from_pipelines(pipelines, SceneInputs::DepthOnly),
+            label: target.label,
+            drawn: std::sync::Mutex::new(DrawCount::default()),
+        })
     }
 
     /// Draws the scene seen from view slot `view` into the pass's depth attachment: the
@@ -222,9 +228,9 @@ impl DepthPrepass {
         scene: &SceneGpu,
         visible: Option<&[bool]>,
         order: Option<&DrawOrder>,
-    ) {
+    ) -> DrawCount {
         self.raster.bind(pass, Some((views, view)), scene);
-        self.raster.draw(pass, scene, visible, order);
+        self.raster.draw(pass, scene, visible, order)
     }
 
     /// Clears `depth` to 0 and `ids` to [`tiledlight_cull::visibility::NO_TRIANGLE`] and
@@ -265,8 +271,17 @@ impl DepthPrepass {
         let t = timer.begin(self.label, encoder);
         {
             let mut pass = begin_pass(encoder, self.label, &[], (depth, wgpu::LoadOp::Clear(0.0)), t.render_writes());
-            self.draw(&mut pass, (views, view), scene, None, order);
+            let drawn = self.draw(&mut pass, (views, view), scene, None, order);
+            *self.drawn.lock().expect("pre-pass draw count") = drawn;
         }
         timer.end(encoder, t);
+    }
+
+    /// The draw calls and instances the last [`Self::record`] recorded. A sorted order
+    /// breaks a draw's instances into more runs (one call each) than the instance buffer's
+    /// order, so tests see from it that the pass drew in the order it was given (the
+    /// image cannot show it: `--draw-order` changes no pixel).
+    pub fn drawn_last(&self) -> DrawCount {
+        *self.drawn.lock().expect("pre-pass draw count")
     }
 }

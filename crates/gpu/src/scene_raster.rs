@@ -148,6 +148,8 @@ pub struct SceneRaster {
     /// Group 2 for a scene without textures (the pass's layout declares it empty).
     empty_group: Option<wgpu::BindGroup>,
     inputs: SceneInputs,
+    /// The pipeline constants every pipeline was built with ([`Self::constants`]).
+    constants: Vec<(String, f64)>,
 }
 
 impl SceneRaster {
@@ -196,13 +198,21 @@ impl SceneRaster {
                 entries: &[],
             })
         });
-        Ok(Self { pipelines, empty_group, inputs: SceneInputs::Materials })
+        let constants = targets.constants.iter().map(|&(k, v)| (k.to_string(), v)).collect();
+        Ok(Self { pipelines, empty_group, inputs: SceneInputs::Materials, constants })
     }
 
     /// A pass whose pipelines the caller built (one per kind; their layouts have no group 2
     /// or the scene's textures), drawing with `inputs`.
     pub fn from_pipelines(pipelines: Vec<(DrawKind, wgpu::RenderPipeline)>, inputs: SceneInputs) -> Self {
-        Self { pipelines, empty_group: None, inputs }
+        Self { pipelines, empty_group: None, inputs, constants: Vec::new() }
+    }
+
+    /// The pipeline constants [`Self::materials`] built every pipeline with (empty for
+    /// [`Self::from_pipelines`]). Tests read it to see that a setting which must not change
+    /// the image (the early-outs' ablation) reached the pipelines.
+    pub fn constants(&self) -> &[(String, f64)] {
+        &self.constants
     }
 
     /// Sets group 0 to view slot `view` (None: the caller sets it, e.g. per face), group 1

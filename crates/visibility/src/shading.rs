@@ -205,6 +205,8 @@ pub struct VisibilityShading {
     tiles: (u32, u32),
     /// The traced reference's bands (None for the light grid's pass).
     traced: Option<Traced>,
+    /// The pipeline constants the pass was built with ([`Self::constants`]).
+    constants: Vec<(String, f64)>,
 }
 
 /// The list lookup that reads what `culling` writes.
@@ -453,7 +455,9 @@ impl VisibilityShading {
             }
         };
         let tiles = (grid.width.div_ceil(tile), grid.height.div_ceil(tile));
+        let constants = constants.iter().map(|&(k, v)| (k.to_string(), v)).collect();
         Ok(Self {
+            constants,
             pipeline,
             bind_group,
             empty_group,
@@ -463,6 +467,12 @@ impl VisibilityShading {
             tiles,
             traced: traced_state,
         })
+    }
+
+    /// The pipeline constants the shading pipeline was built with (tests: a setting that
+    /// must not change the image, the early-outs' ablation, took effect).
+    pub fn constants(&self) -> &[(String, f64)] {
+        &self.constants
     }
 
     /// Records the pass (one dispatch per material of a textured scene) with the lists of
