@@ -67,6 +67,8 @@ pub struct LightContribution {
     pipeline: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
     scores: wgpu::Buffer,
+    /// The parameters uniform (`scale`), rewritten only by [`Self::set_scale`].
+    params: wgpu::Buffer,
     /// Units per brightness-weighted attenuation sum, as the CPU twin takes it.
     pub scale: f32,
     tiles: (u32, u32),
@@ -94,7 +96,7 @@ impl LightContribution {
             device,
             "contribution.params",
             bytemuck::cast_slice(&[scale, 0.0, 0.0, 0.0]),
-            wgpu::BufferUsages::UNIFORM,
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         );
         let scores = buffer_zeroed(
             device,
@@ -103,8 +105,16 @@ impl LightContribution {
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
         );
         let bind_group = Self::group(device, &layout, (&params, &scores), inputs);
-        // The bind group keeps the parameter buffer alive.
-        Ok(Self { pipeline, bind_group, scores, scale, tiles: (g.tiles.tiles_x, g.tiles.tiles_y) })
+        Ok(Self { pipeline, bind_group, scores, params, scale, tiles: (g.tiles.tiles_x, g.tiles.tiles_y) })
+    }
+
+    /// Test-only: quantises with `scale` units per brightness-weighted sum instead of
+    /// [`pair_scale`]'s, from the next recorded run on. Under `pair_scale` no (tile, light)
+    /// pair can reach the `u32` range by design, so the kernel's saturation and its 64-bit
+    /// carry are only reachable with a larger scale (tests/tests/boundaries.rs).
+    pub fn set_scale(&mut self, queue: &wgpu::Queue, scale: f32) {
+        self.scale = scale;
+        queue.write_buffer(&self.params, 0, bytemuck::cast_slice(&[scale, 0.0, 0.0, 0.0]));
     }
 
     fn group(
