@@ -46,7 +46,7 @@ use tiledlight_gpu::draw_order::DrawOrderMode;
 use tiledlight_gpu::features::Raster;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_scene::{Instance, Material, Scene};
+use tiledlight_scene::{random_lights, Aabb, Instance, LightOptions, Material, Scene, DEFAULT_INTENSITY_RANGE};
 use tiledlight_tests::compare::{assert_matches_reference_frame, assert_same_hdr, render_frame, FORWARD_VS_REFERENCE};
 use tiledlight_tests::{gpu, is_lavapipe, scenes};
 
@@ -60,8 +60,28 @@ fn camera(eye: Vec3, target: Vec3, up: Vec3) -> Camera {
     Camera::perspective(eye, target, up, 55f32.to_radians(), W as f32 / H as f32, 0.1, None).expect("camera")
 }
 
+/// Lights in the slab between heights `y0` and `y1` over `scene`'s footprint, four times
+/// the default intensities (radii 3 m to 8 m): with tens of lights, the default radii
+/// leave most of a 160x90 frame of the walled scene unlit, and an unlit pixel tests no
+/// light state.
+fn bright_lights(scene: &Scene, (y0, y1): (f32, f32), n_point: u32, n_spot: u32, seed: u64) -> Vec<Light> {
+    let b = &scene.bounds;
+    let slab = Aabb::new(Vec3::new(b.min.x, y0, b.min.z), Vec3::new(b.max.x, y1, b.max.z));
+    let (lo, hi) = DEFAULT_INTENSITY_RANGE;
+    let options = LightOptions {
+        num_point: n_point,
+        num_spot: n_spot,
+        seed,
+        intensity_range: (4.0 * lo, 4.0 * hi),
+        ..Default::default()
+    };
+    random_lights(&slab, &options).expect("lights")
+}
+
 /// `lights` turned by `angle` about the vertical axis through the origin (positions and
-/// spot directions): how each frame moves them.
+/// spot directions): how each frame moves them. The carried renderers start from
+/// `moved(base, 0)` too: renormalising a spot direction can move its last bit, and frame
+/// 0's carried and fresh lights must be the same bits.
 fn moved(lights: &[Light], angle: f32) -> Vec<Light> {
     let rot = Quat::from_rotation_y(angle);
     lights
@@ -137,9 +157,9 @@ fn the_compute_raster_starts_every_frame_clean() {
     let ctx = gpu();
     let scene = walled_scene();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
-    let base = scenes::lights_in_slab(&scene, 2.0, 4.0, 24, 8, 43);
+    let base = bright_lights(&scene, (2.0, 4.0), 24, 8, 43);
     let settings = FrameSettings { method: Method::Visibility, raster: Raster::Compute, ..Default::default() };
-    let mut carried_lights = LightBuffers::new(&ctx.device, &base).unwrap();
+    let mut carried_lights = LightBuffers::new(&ctx.device, &moved(&base, 0.0)).unwrap();
     let mut carried = FrameRenderer::new(ctx, &sg, &carried_lights, W, H, settings).unwrap();
     assert_eq!(carried.settings().raster, Raster::Compute);
     let read = |r: &FrameRenderer| {
@@ -165,10 +185,17 @@ fn the_compute_raster_starts_every_frame_clean() {
         assert_same_frame(&a.hdr, &b.hdr, &what);
         seen.push(b_ids);
     }
-    // Each camera must see other triangles than the one before, or nothing is carried.
+    // Each camera must see other triangles than the one before over a good part of the
+    // frame (a third; the floor's large triangles stay in view from the first two eyes),
+    // or a kept texel or large triangle would hardly show.
     for k in 1..FRAMES {
         let changed = seen[k].iter().zip(&seen[k - 1]).filter(|(x, y)| x != y).count();
-        assert!(changed * 2 > seen[k].len(), "frames {} and {k} see mostly the same triangles", k - 1);
+        assert!(
+            changed * 3 > seen[k].len(),
+            "frames {} and {k} see mostly the same triangles ({changed} of {} pixels changed)",
+            k - 1,
+            seen[k].len()
+        );
     }
 }
 
@@ -212,7 +239,7 @@ fn the_draw_order_is_sorted_again_when_the_eye_moves() {
     let eyes = [Vec3::new(0.0, 10.0, 0.0), Vec3::new(4.5, 10.0, 0.0), Vec3::new(-0.5, 10.0, 0.5)];
     let cam = |eye: Vec3| camera(eye, eye * Vec3::new(1.0, 0.0, 1.0), -Vec3::Z);
     let front_to_back = settings(DrawOrderMode::FrontToBack);
-    let mut carried_lights = LightBuffers::new(&ctx.device, &base).unwrap();
+    let mut carried_lights = LightBuffers::new(&ctx.device, &moved(&base, 0.0)).unwrap();
     let mut carried = FrameRenderer::new(ctx, &sg, &carried_lights, W, H, front_to_back).unwrap();
     for (k, &eye) in eyes.iter().enumerate() {
         let now = LightBuffers::new(&ctx.device, &moved(&base, 0.5 * k as f32)).unwrap();
@@ -243,7 +270,7 @@ fn shadows_and_vpls_follow_lights_that_move_every_frame() {
     let ctx = gpu();
     let scene = walled_scene();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
-    let base = scenes::lights_in_slab(&scene, 2.0, 4.0, 10, 6, 7);
+    let base = bright_lights(&scene, (2.0, 4.0), 10, 6, 7);
     let casters = (2, 2);
     let cams = walled_cameras();
     for method in [Method::ForwardPlus, Method::TiledDeferred] {
@@ -253,7 +280,7 @@ fn shadows_and_vpls_follow_lights_that_move_every_frame() {
             vpl: Some(VplConfig::default()),
             ..Default::default()
         };
-        let mut carried_lights = LightBuffers::with_casters(&ctx.device, &base, casters).unwrap();
+        let mut carried_lights = LightBuffers::with_casters(&ctx.device, &moved(&base, 0.0), casters).unwrap();
         let mut carried = FrameRenderer::new(ctx, &sg, &carried_lights, W, H, settings).unwrap();
         for (k, cam) in cams.iter().enumerate() {
             let now = LightBuffers::with_casters(&ctx.device, &moved(&base, 0.35 * k as f32), casters).unwrap();

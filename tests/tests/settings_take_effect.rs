@@ -101,7 +101,7 @@ fn the_early_outs_ablation_reaches_every_lighting_pipeline() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights =
         LightBuffers::with_casters(&ctx.device, &scenes::lights_in_slab(&scene, 2.0, 4.0, 8, 4, 3), (1, 0)).unwrap();
-    let shadows = ShadowOptions { tile_size: 64, ..Default::default() };
+    let shadows = ShadowOptions { tile_size: 128, ..Default::default() };
     let radius = f64::from(shadows.filter.radius());
     for method in [Method::ForwardPlus, Method::TiledDeferred, Method::Visibility, Method::BruteForce { cutoff: true }]
     {

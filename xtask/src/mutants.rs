@@ -62,6 +62,8 @@ pub struct Mutant {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct ListFile {
+    // A list may hold only comments (candidates not yet verified).
+    #[serde(default)]
     mutant: Vec<Mutant>,
 }
 
@@ -302,10 +304,11 @@ fn run_tests(
         for (k, v) in env {
             cmd.env(k, v);
         }
-        if nextest {
-            cmd.args(["nextest", "run", "--no-fail-fast", "--package", package]);
-        } else {
-            cmd.args(["test", "--no-fail-fast", "--package", package]);
+        cmd.args(if nextest { &["nextest", "run"][..] } else { &["test"][..] });
+        cmd.args(["--package", package]);
+        // A mutant is caught by any failing test; nextest refuses the flag with --no-run.
+        if !build_only {
+            cmd.arg("--no-fail-fast");
         }
         if binary == "lib" {
             cmd.arg("--lib");

@@ -103,7 +103,8 @@ fn flat() -> (Camera, TileGrid, Vec<f32>) {
 #[test]
 fn saturated_pairs_store_u32_max_and_sum_past_2_32_without_wrapping() {
     let (cam, grid, depth) = flat();
-    let light = Light::point(Vec3::new(0.0, 0.5, 0.0), Vec3::ONE, 1.0, 50.0).unwrap();
+    // Intensity 50, threshold 0.01: a 70 m radius covers the whole floor.
+    let light = Light::point(Vec3::new(0.0, 0.5, 0.0), Vec3::ONE, 50.0, 0.01).unwrap();
     let packed = try_pack_lights(&[light, light]).unwrap();
     let lists = vec![vec![0, 1]; grid.tile_count()];
     let at = |scale: f32| light_scores(&cam, &depth, (&grid, &lists), &packed, scale).unwrap();
