@@ -126,7 +126,7 @@ fn triangles() -> Vec<Tri> {
     // the compute raster's interpolated depth is exactly 0.5 (asserted below). `a` is drawn,
     // then `b` overlapping it, then `a` again: the duplicate wins over both where it covers.
     let a = [(44.5, 40.5), (52.5, 40.5), (44.5, 48.5)];
-    let b = [(48.5, 40.5), (56.5, 40.5), (48.5, 48.5)];
+    let b = [(46.5, 40.5), (54.5, 40.5), (46.5, 48.5)];
     for v in [a, b, a] {
         t.push(Tri { v, z: -1.0, group: Group::Tie });
     }
