@@ -31,13 +31,16 @@ stage)
   for p in /.gl/ /.device/; do grep -qxF "$p" .git/info/exclude 2>/dev/null || echo "$p" >>.git/info/exclude; done
   bash ../shared/tools/device-prep.sh --no-build >/dev/null
   rm -rf "$stage" && mkdir -p "$stage/bin"
-  # Every test binary of the GPU package: one per file of tests/tests.
-  cargo test -p tiledlight-tests --no-run --message-format=json 2>/dev/null |
+  # Every test binary of the GPU package: one per file of tests/tests. Built with the
+  # whole workspace selected, as `cargo xtask test` builds it (a `-p` build resolves other
+  # dependency features and rebuilds them).
+  cargo test --workspace --no-run --message-format=json 2>/dev/null |
     python3 -c '
 import json, sys
 for line in sys.stdin:
     m = json.loads(line)
-    if m.get("reason") == "compiler-artifact" and m.get("executable") and m["target"]["kind"] == ["test"]:
+    if (m.get("reason") == "compiler-artifact" and m.get("executable") and m["target"]["kind"] == ["test"]
+            and "#tiledlight-tests@" in m["package_id"]):
         print(m["target"]["name"], m["executable"])
 ' | while read -r name exe; do
     strip -o "$stage/bin/$name" "$exe"
