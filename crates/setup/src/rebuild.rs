@@ -129,7 +129,11 @@ mod tests {
     use super::*;
     use crate::settings::{CameraBookmark, Method};
     use glam::Vec3;
+    use tiledlight_cull::draw_order::DrawOrderMode;
     use tiledlight_cull::shadow::ShadowFormat;
+    use tiledlight_gpu::culling::ClusterOptions;
+    use tiledlight_gpu::features::Raster;
+    use tiledlight_visibility::compute_raster::LargeRaster;
     use tiledlight_gpu::features::BlendMode;
     use tiledlight_scene::{CameraDesc, GridDensity};
 
@@ -183,6 +187,15 @@ mod tests {
             |s| s.msaa = 4,
             |s| s.edge_distance = 0.01,
             |s| s.edge_normal_deg = 20.0,
+            |s| s.grid_pairs = Some(1 << 20),
+            |s| s.depth_mask = true,
+            |s| s.scatter = true,
+            |s| s.clusters = Some(ClusterOptions::default()),
+            |s| s.draw_order = DrawOrderMode::Submission,
+            |s| s.early_outs = false,
+            |s| s.raster = Raster::Compute,
+            |s| s.raster_large_px = 4096,
+            |s| s.raster_large = LargeRaster::Hardware,
         ] {
             assert_eq!(with(f), RENDERER);
         }
