@@ -11,7 +11,7 @@
 # both resume from their CSV if rerun with the same $OUT.
 # The shadow step (shadow-accuracy: 13 shadow configurations at 960x540 against a CPU ray
 # cast of 12 + 12 casters, on every core) runs at its own resolution.
-# Usage: scripts/device-lab.sh [figure9] [accuracy] [deferred] [msaa] [shadows] [blended] [layouts] [layouts-surface] [blended-vs-sorted] [vpl]
+# Usage: scripts/device-lab.sh [figure9] [accuracy] [deferred] [msaa] [shadows] [blended] [layouts] [layouts-surface] [blended-vs-sorted] [vpl] [budget]
 # (default: the first five)
 set -uo pipefail
 out=${OUT:-lab-out}
@@ -65,6 +65,20 @@ for s in $steps; do
       --axis threshold=0.05 --axis culling=planes --axis transparent-objects=50,140,280 \
       --axis blend-mode=sorted,wboit --frames 15 --out "$out/blended-vs-sorted.csv"
     ;;
+  budget)
+    # Issue 44: the error budget against the traced truth for every method (method is a
+    # dial), on the courtyard and the Figure 9 scene: 1,024 point + 256 spot lights at the
+    # cutoff's best threshold (0.0015), base Forward+ with 16 point casters brightest-first;
+    # each row's worst pixel is explained (worst_* columns). BUDGET_SCENES picks the scenes.
+    for sc in ${BUDGET_SCENES:-court f9}; do
+      extra=""
+      [ "$sc" = f9 ] && extra="--grid-objects 280 --density medium"
+      # shellcheck disable=SC2086 # extra holds flags.
+      step 580 "budget-$sc" accuracy --lights 1024 --spot-lights 256 --threshold 0.0015 --shadow-point-lights 16 \
+        $extra --reference traced --budget --axis method=forward-plus,deferred,visibility \
+        --axis shadow-point-lights=16,0,64 --frames 5 --warmup 3 --reference-frames 3 --out "$out/budget-$sc.csv"
+    done
+    ;;
   vpl)
     # Issue 15: the VPLs' error against the every-texel one-bounce reference (brute force,
     # physical shading, every RSM texel a VPL, no thresholds, no cap, the same cutoff so
@@ -100,7 +114,7 @@ for s in $steps; do
     RES="--width 960 --height 540" step 600 shadow-accuracy shadow-accuracy --frames 10 --warmup 3 \
       --out "$out/shadow-accuracy.json"
     ;;
-  *) echo "unknown step $s (figure9, accuracy, deferred, msaa, shadows, blended, layouts, layouts-surface, blended-vs-sorted, vpl)" >&2; exit 2 ;;
+  *) echo "unknown step $s (figure9, accuracy, deferred, msaa, shadows, blended, layouts, layouts-surface, blended-vs-sorted, vpl, budget)" >&2; exit 2 ;;
   esac
 done
 tar -czf "$out/lab.tar.gz" -C "$out" --exclude lab.tar.gz . && ls -la "$out"

@@ -12,10 +12,14 @@
 
 override TILE_SIZE: u32 = 16u;
 override WG: u32 = 16u;
-// The ray's ends are moved off the surface and off the light by this share of the
-// point's largest coordinate plus 1 m (tiledlight_cull::trace::SURFACE_EPS): a few hundred
-// f32 steps of the reconstructed position, so a surface never shadows itself.
+// The ray's ends are moved off the surface and off the light by TRACE_EPS of the point's
+// largest coordinate, bounded by the scene's size TRACE_SCALE, plus 1 m, and TRACE_POSITION_EPS
+// of that coordinate for the reconstructed position's rounding
+// (tiledlight_cull::trace::surface_eps): a surface never shadows itself, and a scene far
+// from the origin keeps its contact shadows.
 override TRACE_EPS: f32 = 0.000244140625;
+override TRACE_POSITION_EPS: f32 = 0.0000019073486328125;
+override TRACE_SCALE: f32;
 
 @group(1) @binding(33) var<storage, read> trace_nodes: array<TraceNode>;
 @group(1) @binding(34) var<storage, read> trace_tris: array<vec4<f32>>;
@@ -40,7 +44,8 @@ var<workgroup> wg_rays: atomic<u32>;
 // (the light is on the normal's side): the segment from p, lifted along n, to the light.
 fn traced_visibility(p: vec3<f32>, n: vec3<f32>, light_pos: vec3<f32>) -> f32 {
     let a = abs(p);
-    let eps = TRACE_EPS * (max(a.x, max(a.y, a.z)) + 1.0);
+    let m = max(a.x, max(a.y, a.z));
+    let eps = TRACE_EPS * (min(m, TRACE_SCALE) + 1.0) + TRACE_POSITION_EPS * m;
     return select(1.0, 0.0, trace_occluded(p + n * eps, light_pos, eps));
 }
 

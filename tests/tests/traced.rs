@@ -22,7 +22,9 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use tiledlight_cull::raycast::Triangles;
 use tiledlight_cull::trace::{FlatBvh, NO_CHILD};
-use tiledlight_cull::{Camera, Light};
+use tiledlight_cull::brdf::{brdf_cos, spot_falloff, unwindowed_attenuation, Surface};
+use tiledlight_cull::light::spot_scale_offset;
+use tiledlight_cull::{Camera, Light, LightKind};
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method, VisibilityFrame};
 use tiledlight_gpu::bvh::{GpuBvh, RayQueries};
 use tiledlight_gpu::light_buffers::LightBuffers;
@@ -114,7 +116,8 @@ fn random_segments(rng: &mut Pcg64, tris: &[[Vec3; 3]], origin: Vec3, spread: f3
 }
 
 fn cast(ctx: &GpuContext, flat: &FlatBvh, segments: &[(Vec3, Vec3, f32)]) -> Vec<bool> {
-    let geometry = TraceGeometry { bvh: Triangles::default(), flat: flat.clone(), masks: None };
+    let scale = tiledlight_cull::trace::scene_scale(&flat.triangles);
+    let geometry = TraceGeometry { bvh: Triangles::default(), flat: flat.clone(), masks: None, scale };
     let bvh = GpuBvh::new(&ctx.device, &geometry).expect("upload");
     RayQueries::new(&ctx.device, &bvh).expect("kernel").cast(&ctx.device, &ctx.queue, &bvh, segments).expect("cast")
 }
@@ -216,11 +219,16 @@ struct Traced {
 }
 
 fn traced(ctx: &GpuContext, scene: &Scene, lights: &[Light], camera: &Camera, msaa: u32) -> Traced {
+    traced_sized(ctx, scene, lights, camera, (W, H), msaa)
+}
+
+/// [`traced`] at `size`.
+fn traced_sized(ctx: &GpuContext, scene: &Scene, lights: &[Light], camera: &Camera, size: (u32, u32), msaa: u32) -> Traced {
     let mut sg = SceneGpu::new(&ctx.device, &ctx.queue, scene).unwrap();
     sg.add_trace(&ctx.device, scene).unwrap();
     let lb = LightBuffers::new(&ctx.device, lights).unwrap();
     let s = FrameSettings { method: Method::TracedReference, msaa, ..Default::default() };
-    let mut r = FrameRenderer::new(ctx, &sg, &lb, W, H, s).expect("traced reference");
+    let mut r = FrameRenderer::new(ctx, &sg, &lb, size.0, size.1, s).expect("traced reference");
     let frame = render_frame(ctx, &mut r, &sg, camera);
     let shading = r.passes::<VisibilityFrame>().expect("the traced reference is a visibility frame").shading();
     let rays = shading.read_traced_rays(&ctx.device, &ctx.queue).unwrap().expect("a ray count");
@@ -334,7 +342,7 @@ fn shadow_borders(scene: &Scene, lights: &[Light], camera: &Camera, depth: &[f32
             Some(s) => lights
                 .iter()
                 .map(|l| {
-                    let eps = tiledlight_cull::trace::surface_eps(s.position);
+                    let eps = geometry.eps(s.position);
                     !geometry.occluded(s.position + s.normal * eps, l.position, eps)
                 })
                 .collect(),
@@ -375,17 +383,25 @@ fn differing(reference: &Frame, actual: &Frame, border: &[bool], rel: f32) -> us
         .count()
 }
 
-/// Every light a caster: the traced image equals brute force with shadow maps (no cutoff,
-/// the default filter) except within 3 pixels of a shadow border (the maps' filter and bias
-/// blur what the rays cut sharply); elsewhere within 5% (away from borders every PCF tap
-/// agrees, and the surfaces differ only by the raster's interpolation). The negative test:
-/// a traced image of the floor alone (no cube to cast shadows) fails the same comparison.
-#[test]
-fn every_caster_matches_shadow_maps_except_at_borders() {
-    let ctx = gpu();
-    let scene = shadow_box_scene(0.5);
-    let lights = box_lights();
-    let camera = box_camera();
+/// The shadow box moved by `offset` (its instances, the lights and the camera alike).
+fn moved_box(offset: Vec3) -> (Scene, Vec<Light>, Camera) {
+    let mut scene = shadow_box_scene(0.5);
+    for inst in &mut scene.instances {
+        inst.transform = glam::Mat4::from_translation(offset) * inst.transform;
+    }
+    scene.bounds = scene.compute_bounds();
+    let lights = box_lights().into_iter().map(|l| Light { position: l.position + offset, ..l }).collect();
+    let c = box_camera();
+    let eye = c.eye() + offset;
+    let camera = Camera::perspective(eye, Vec3::new(0.0, 0.5, 0.0) + offset, Vec3::Y, 50f32.to_radians(), W as f32 / H as f32, 0.1, None)
+        .expect("camera");
+    (scene, lights, camera)
+}
+
+/// The traced image and brute force with every light a shadow caster, of the shadow box
+/// moved by `offset`: (reference, traced, the shadow borders grown by 3 pixels).
+fn casters_and_rays(ctx: &GpuContext, offset: Vec3) -> (Frame, Frame, Vec<bool>, Scene, Vec<Light>, Camera) {
+    let (scene, lights, camera) = moved_box(offset);
     let frame = traced(ctx, &scene, &lights, &camera, 1).frame;
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lb = LightBuffers::with_casters(&ctx.device, &lights, (2, 1)).unwrap();
@@ -394,6 +410,18 @@ fn every_caster_matches_shadow_maps_except_at_borders() {
     let reference = render_frame(ctx, &mut r, &sg, &camera);
     let depth = r.read_depth(ctx).unwrap();
     let border = shadow_borders(&scene, &lights, &camera, &depth, 3);
+    (reference, frame, border, scene, lights, camera)
+}
+
+/// Every light a caster: the traced image equals brute force with shadow maps (no cutoff,
+/// the default filter) except within 3 pixels of a shadow border (the maps' filter and bias
+/// blur what the rays cut sharply); elsewhere within 5% (away from borders every PCF tap
+/// agrees, and the surfaces differ only by the raster's interpolation). The negative test:
+/// a traced image of the floor alone (no cube to cast shadows) fails the same comparison.
+#[test]
+fn every_caster_matches_shadow_maps_except_at_borders() {
+    let ctx = gpu();
+    let (reference, frame, border, scene, lights, camera) = casters_and_rays(ctx, Vec3::ZERO);
     let n_border = border.iter().filter(|&&b| b).count();
     let bad = differing(&reference, &frame, &border, 0.05);
     eprintln!("{n_border} border pixels of {}; {bad} others differ by more than 5%", W * H);
@@ -405,6 +433,25 @@ fn every_caster_matches_shadow_maps_except_at_borders() {
     let unshadowed = traced(ctx, &floor_only, &lights, &camera, 1).frame;
     let bad = differing(&reference, &unshadowed, &border, 0.05);
     assert!(bad > 100, "an image without shadows must fail the comparison ({bad} pixels differ)");
+}
+
+/// Far from the origin (10 km out on x and z, where an f32 step is 1 mm) the traced image
+/// keeps its shadows: the same comparison with the shadow maps as at the origin. The ray's
+/// offset is bounded by the scene's size (`tiledlight_cull::trace::surface_eps`); when it
+/// grew with the distance from the origin, 2^-12 of 10^4 m lifted every floor point 2.4 m,
+/// over the hovering box's shadow, and this comparison failed (issue 44).
+#[test]
+fn far_from_the_origin_the_rays_keep_their_shadows() {
+    let ctx = gpu();
+    let offset = Vec3::new(1.0e4, 0.0, 1.0e4);
+    let (reference, frame, border, scene, _, _) = casters_and_rays(ctx, offset);
+    let n_border = border.iter().filter(|&&b| b).count();
+    let bad = differing(&reference, &frame, &border, 0.05);
+    eprintln!("10 km out: {n_border} border pixels of {}; {bad} others differ by more than 5%", W * H);
+    assert!(n_border > 50 && n_border < (W * H / 2) as usize, "{n_border} border pixels");
+    // The offset is bounded by the scene's size (the box's 20 m floor), not its distance.
+    assert!(TraceGeometry::of(&scene).scale < 25.0, "the scene's size, not its distance");
+    assert_eq!(bad, 0, "traced vs shadow maps outside the borders, 10 km from the origin");
 }
 
 /// Bad input: the traced reference over a scene whose BVH was never built is refused by
@@ -419,4 +466,267 @@ fn a_scene_without_its_bvh_is_refused() {
     let s = FrameSettings { method: Method::TracedReference, ..Default::default() };
     let err = tiledlight_tests::err_text(FrameRenderer::new(ctx, &sg, &lb, W, H, s));
     assert!(err.contains("BVH") && err.contains("add_trace"), "{err}");
+}
+
+// ---------------------------------------------------------------------------------------
+// The truth image by image, against a CPU renderer that shares nothing with it (issue 44).
+
+/// The independent check's size: small, since the CPU casts a ray per pixel and light.
+const IW: u32 = 160;
+const IH: u32 = 90;
+
+/// HDR tolerance of the independent check, relative to max(value, 1e-3): lavapipe's f16
+/// targets round toward zero (a step of 2^-10 = 9.8e-4 relative), the GPU evaluates the
+/// BRDF in f32 in another order than the CPU twin (~1e-6) and at a surface point
+/// interpolated by the visibility buffer, not the CPU's f64 ray hit (~1e-6 m apart: a
+/// change of ~1e-6 relative in the falloff of a light metres away); 3x the f16 step.
+const INDEPENDENT_REL: f32 = 3e-3;
+
+/// How far (metres) the GPU's reconstructed surface point may lie from the CPU's f64 hit,
+/// as a share of its distance from the origin: a few f32 steps (2^-24 relative each) of
+/// each coordinate through the visibility buffer's interpolation; 2^-16 leaves 256 steps.
+/// A shadow ray whose answer could change within this distance is *ambiguous*: grazing an
+/// occluder's edge (`Triangles::grazing`, in barycentric units of the occluder: this
+/// distance over its 0.6 m size or more) or crossing the screen within it of a mask cell's
+/// edge. Its light may count or not; nothing else is excluded, no shadow border.
+const POSITION_SLACK: f32 = 1.0 / 65536.0;
+
+/// The masked screen scene (20 m floor, a 4 m checker screen of 1 m cells 2 m up) with a
+/// 0.6 m box on the floor; two point lights above the screen and one under it beside the
+/// box, a spot above the screen. The camera looks straight down from under the screen
+/// (1.8 m up, 90 degrees vertical), so it sees the floor and the box only, and every shadow
+/// on them: the screen's cells, the box's, the spot's cone.
+fn independent_scene() -> (Scene, Vec<Light>, Camera) {
+    let mut scene = scenes::masked_screen_scene();
+    scene.meshes.push(scenes::cube("box"));
+    scene.materials.push(scenes::material("box", [0.35, 0.5, 0.8, 1.0], 0.4, 0.0));
+    scene.instances.push(tiledlight_scene::Instance {
+        mesh: scene.meshes.len() - 1,
+        material: scene.materials.len() - 1,
+        transform: glam::Mat4::from_translation(Vec3::new(0.9, 0.3, 0.35)) * glam::Mat4::from_scale(Vec3::splat(0.6)),
+    });
+    scene.bounds = scene.compute_bounds();
+    scene.bounds.max.y = scene.bounds.max.y.max(6.0);
+    scene.validate().expect("valid");
+    let spot_pos = Vec3::new(1.6, 4.5, -1.2);
+    let lights = vec![
+        Light::point(Vec3::new(0.35, 4.5, 0.15), Vec3::new(1.0, 0.9, 0.8), 30.0, 0.01).unwrap(),
+        Light::point(Vec3::new(-1.3, 3.2, 0.8), Vec3::new(0.7, 0.8, 1.0), 15.0, 0.01).unwrap(),
+        Light::point(Vec3::new(-0.6, 1.2, -0.3), Vec3::new(1.0, 0.7, 0.5), 4.0, 0.01).unwrap(),
+        Light::spot(spot_pos, (Vec3::new(0.2, 0.0, 0.3) - spot_pos).normalize(), Vec3::ONE, 40.0, 0.3, 0.45, 0.01)
+            .unwrap(),
+    ];
+    let camera = Camera::perspective(
+        Vec3::new(0.0, 1.8, 0.0),
+        Vec3::ZERO,
+        Vec3::NEG_Z,
+        90f32.to_radians(),
+        IW as f32 / IH as f32,
+        0.1,
+        None,
+    )
+    .unwrap();
+    (scene, lights, camera)
+}
+
+/// The nearest triangle the ray `o + t d` (f64) crosses, two-sided: (t, triangle index).
+/// Möller and Trumbore in f64, written here so that nothing is shared with the ray cast.
+fn nearest_hit(tris: &[[Vec3; 3]], o: glam::DVec3, d: glam::DVec3) -> Option<(f64, usize)> {
+    let mut best: Option<(f64, usize)> = None;
+    for (i, t) in tris.iter().enumerate() {
+        let [a, b, c] = t.map(|v| v.as_dvec3());
+        let (e1, e2) = (b - a, c - a);
+        let p = d.cross(e2);
+        let det = e1.dot(p);
+        if det.abs() < 1e-12 {
+            continue;
+        }
+        let s = o - a;
+        let u = s.dot(p) / det;
+        let q = s.cross(e1);
+        let v = d.dot(q) / det;
+        let t = e2.dot(q) / det;
+        if u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0 && best.is_none_or(|(bt, _)| t < bt) {
+            best = Some((t, i));
+        }
+    }
+    best
+}
+
+/// The CPU image of the independent check: per pixel (None where the pixel centre's ray
+/// and its corners' see different triangles' planes: a geometric edge, where the raster's
+/// coverage may go either way), the lowest and highest HDR value a correct truth may have
+/// (they differ only by the lights whose shadow ray is ambiguous), and how many pixels had
+/// an ambiguous ray and how many a shadowed one.
+struct CpuTruth {
+    range: Vec<Option<(Vec3, Vec3)>>,
+    ambiguous: usize,
+    shadowed: usize,
+}
+
+fn cpu_truth(scene: &Scene, lights: &[Light], camera: &Camera) -> CpuTruth {
+    use glam::Vec4Swizzles;
+    let tris = scene.world_triangles();
+    let occluders = Triangles::new(tris.clone());
+    let blocks = scenes::alpha_blocks(scene);
+    // Which instance each world triangle belongs to (world_triangles' order).
+    let owner: Vec<usize> = scene
+        .instances
+        .iter()
+        .enumerate()
+        .flat_map(|(k, inst)| std::iter::repeat_n(k, scene.meshes[inst.mesh].indices.len() / 3))
+        .collect();
+    let inv_view = camera.view().inverse();
+    let eye = camera.eye();
+    let ray = |sx: f64, sy: f64| {
+        let ndc = (sx / f64::from(IW) * 2.0 - 1.0, 1.0 - sy / f64::from(IH) * 2.0);
+        let dv = camera.view_point_at(ndc.0 as f32, ndc.1 as f32, 1.0);
+        (inv_view * dv.extend(0.0)).xyz().as_dvec3().normalize()
+    };
+    let plane_of = |i: usize| {
+        let [a, b, c] = tris[i];
+        ((b - a).cross(c - a)).normalize()
+    };
+    let (mut ambiguous, mut shadowed) = (0, 0);
+    let mut range = Vec::with_capacity((IW * IH) as usize);
+    for y in 0..IH {
+        for x in 0..IW {
+            let (cx, cy) = (f64::from(x) + 0.5, f64::from(y) + 0.5);
+            let Some((t, tri)) = nearest_hit(&tris, eye.as_dvec3(), ray(cx, cy)) else {
+                range.push(None);
+                continue;
+            };
+            let same_plane = [(-0.5, -0.5), (0.5, -0.5), (-0.5, 0.5), (0.5, 0.5)].iter().all(|(dx, dy)| {
+                nearest_hit(&tris, eye.as_dvec3(), ray(cx + dx, cy + dy))
+                    .is_some_and(|(_, j)| owner[j] == owner[tri] && plane_of(j).dot(plane_of(tri)) > 0.9999)
+            });
+            if !same_plane {
+                range.push(None);
+                continue;
+            }
+            let p = (eye.as_dvec3() + ray(cx, cy) * t).as_vec3();
+            let mut n = plane_of(tri);
+            if n.dot(eye - p) < 0.0 {
+                n = -n;
+            }
+            let inst = &scene.instances[owner[tri]];
+            let m = &scene.materials[inst.material];
+            let surface = Surface {
+                albedo: Vec3::from_slice(&m.base_color[..3]),
+                roughness: m.roughness,
+                metallic: m.metallic,
+            };
+            let v = (eye - p).normalize();
+            let mut lo = Vec3::splat(0.02) * surface.albedo;
+            let mut hi = lo;
+            let (mut any_ambiguous, mut any_shadowed) = (false, false);
+            for l in lights {
+                let to = l.position - p;
+                let d2 = to.length_squared();
+                let dir = to / d2.sqrt();
+                let mut k = l.color * l.intensity * unwindowed_attenuation(d2);
+                if let LightKind::Spot { direction, inner_angle, outer_angle } = l.kind {
+                    let (scale, offset) = spot_scale_offset(inner_angle, outer_angle);
+                    k *= spot_falloff((-dir).dot(direction), scale, offset);
+                }
+                let c = k * brdf_cos(n, v, dir, &surface);
+                if c.max_element() <= 0.0 {
+                    continue;
+                }
+                // The ray as the truth casts it: lifted off the surface, stopping short of
+                // the light (the offset is a property of the truth, not something shared).
+                let eps = tiledlight_cull::trace::surface_eps(p, 20.0);
+                let from = p + n * eps;
+                let slack = POSITION_SLACK * (p.abs().max_element() + 1.0);
+                let blocked = occluders.occluded_where(from, l.position, eps, &blocks);
+                let grazing = occluders.grazing(from, l.position, eps, f64::from(slack / 0.6));
+                let on_cell_edge = crosses_cell_edge(from, l.position, slack);
+                if grazing || on_cell_edge {
+                    any_ambiguous = true;
+                    hi += c;
+                } else if blocked {
+                    any_shadowed = true;
+                } else {
+                    lo += c;
+                    hi += c;
+                }
+            }
+            ambiguous += usize::from(any_ambiguous);
+            shadowed += usize::from(any_shadowed);
+            range.push(Some((lo, hi)));
+        }
+    }
+    CpuTruth { range, ambiguous, shadowed }
+}
+
+/// Whether the segment crosses the screen's plane (y = 2, |x|, |z| <= 2) within `slack`
+/// of one of its 1 m cells' edges (where the mask's answer turns).
+fn crosses_cell_edge(from: Vec3, to: Vec3, slack: f32) -> bool {
+    let (a, b) = (from.as_dvec3(), to.as_dvec3());
+    if (a.y - 2.0) * (b.y - 2.0) > 0.0 || a.y == b.y {
+        return false;
+    }
+    let p = a + (b - a) * ((2.0 - a.y) / (b.y - a.y));
+    let near_edge = |c: f64| (c - c.round()).abs() <= f64::from(slack);
+    p.x.abs() <= 2.0 + f64::from(slack) && p.z.abs() <= 2.0 + f64::from(slack) && (near_edge(p.x) || near_edge(p.z))
+}
+
+/// Pixels of `hdr` outside the CPU's range (widened by [`INDEPENDENT_REL`]), and the
+/// pixels compared.
+fn outside_truth(truth: &CpuTruth, hdr: &[[f32; 4]]) -> (usize, usize) {
+    let (mut bad, mut compared) = (0, 0);
+    for (r, px) in truth.range.iter().zip(hdr) {
+        let Some((lo, hi)) = r else { continue };
+        compared += 1;
+        let ok = (0..3).all(|c| {
+            let tol = INDEPENDENT_REL * hi[c].abs().max(1e-3);
+            px[c] >= lo[c] - tol && px[c] <= hi[c] + tol
+        });
+        bad += usize::from(!ok);
+    }
+    (bad, compared)
+}
+
+/// The truth (the traced reference) against a CPU renderer that shares nothing with it:
+/// the primary rays by an f64 Möller-Trumbore written here, every light's visibility by
+/// the f64 ray cast (`Triangles::occluded_where`) with the test harness's own alpha test
+/// (`scenes::alpha_blocks`), and the CPU BRDF twin, at 160x90 on a scene with occluders
+/// (the box, the screen), a mask (the screen's holes) and a spot; no shadow border
+/// excluded. A light whose ray is ambiguous within the f32 position slack may count or
+/// not (the pixel's range); every other pixel must be within [`INDEPENDENT_REL`]. The
+/// negative test: the truth of the scene without its screen (every cell's shadow missing)
+/// fails the same comparison.
+#[test]
+fn the_truth_matches_an_independent_cpu_renderer() {
+    let ctx = gpu();
+    let (scene, lights, camera) = independent_scene();
+    let truth = cpu_truth(&scene, &lights, &camera);
+    let gpu_truth = traced_sized(ctx, &scene, &lights, &camera, (IW, IH), 1).frame;
+    let (bad, compared) = outside_truth(&truth, &gpu_truth.hdr);
+    eprintln!(
+        "{compared} of {} pixels compared ({} shadowed by some light, {} with an ambiguous ray); {bad} outside",
+        IW * IH,
+        truth.shadowed,
+        truth.ambiguous
+    );
+    // The scene exercises what the test is named after: most pixels compared, many in
+    // some shadow, few ambiguous.
+    assert!(compared * 10 > (IW * IH * 9) as usize, "{compared} compared");
+    assert!(truth.shadowed * 5 > compared, "{} shadowed pixels", truth.shadowed);
+    assert!(truth.ambiguous * 50 < compared, "{} ambiguous pixels", truth.ambiguous);
+    if bad > 0 {
+        let first = truth
+            .range
+            .iter()
+            .zip(&gpu_truth.hdr)
+            .enumerate()
+            .find(|(_, (r, px))| r.is_some() && outside_truth(&CpuTruth { range: vec![**r], ambiguous: 0, shadowed: 0 }, &[**px]).0 > 0)
+            .map(|(i, (r, px))| format!("pixel ({}, {}): GPU {px:?}, CPU range {r:?}", i as u32 % IW, i as u32 / IW));
+        panic!("{bad} pixels outside the CPU truth; first {first:?}");
+    }
+    // Negative: without the screen the cells' shadows are gone.
+    let open = Scene { instances: vec![scene.instances[0].clone(), scene.instances[2].clone()], ..scene.clone() };
+    let unmasked = traced_sized(ctx, &open, &lights, &camera, (IW, IH), 1).frame;
+    let (bad, _) = outside_truth(&truth, &unmasked.hdr);
+    assert!(bad > 500, "a truth without the screen's shadows must fail ({bad} pixels outside)");
 }

@@ -525,6 +525,25 @@ fn accuracy_budget_against_the_traced_reference() {
     assert!((num(aabb, "flip_mean") - num(base, "flip_mean")).abs() < 1e-3, "the layout changed the image");
     assert!(num(coarse, "flip_mean") > num(base, "flip_mean"), "a coarser cutoff must cost accuracy");
     assert_png(&dir.join("budget.png"));
+    // Every row explains its worst pixel (issue 44): on the image, both HDR values (three
+    // channels each), the pixel's largest lights (at most 3) with the truth's ray for
+    // each, and the printout says so too.
+    for r in &rows {
+        let (x, y) = (num(r, "worst_x"), num(r, "worst_y"));
+        assert!((0.0..320.0).contains(&x) && (0.0..180.0).contains(&y), "worst pixel ({x}, {y}) off the image");
+        for c in ["worst_reference", "worst_setting"] {
+            let rgb: Vec<f64> = r[c].split(' ').map(|v| v.parse().expect("a number")).collect();
+            assert!(rgb.len() == 3 && rgb.iter().all(|v| v.is_finite()), "{c} = {}", r[c]);
+        }
+        let lights: Vec<&str> = r["worst_lights"].split("; ").filter(|l| !l.is_empty()).collect();
+        assert!((1..=3).contains(&lights.len()), "{}", r["worst_lights"]);
+        assert!(lights.iter().all(|l| l.ends_with("visible") || l.ends_with("shadowed")), "{lights:?}");
+    }
+    // The worst difference is where the setting and the reference differ most: its two
+    // values differ (by the largest channel difference, max_error times the peak).
+    let differ = |r: &HashMap<String, String>| r["worst_reference"] != r["worst_setting"];
+    assert!(rows.iter().all(differ));
+    assert!(out.contains("worst pixel ("), "{out}");
 
     // Without a threshold axis the flags' --threshold is the base's (no default axes are
     // added to a budget): one dial, two settings.

@@ -636,9 +636,36 @@ pub struct SurfacePoint {
 /// # Panics
 /// When `depth` does not hold `width * height` values (a caller bug).
 pub fn surface_points(camera: &Camera, width: u32, height: u32, depth: &[f32]) -> Vec<Option<SurfacePoint>> {
-    let (w, h) = (width as i64, height as i64);
-    assert_eq!(depth.len() as i64, w * h, "surface_points: the depth buffer must hold {width}x{height} values");
+    assert_eq!(
+        depth.len() as u64,
+        u64::from(width) * u64::from(height),
+        "surface_points: the depth buffer must hold {width}x{height} values"
+    );
     let to_world = camera.view().inverse();
+    (0..height).flat_map(|y| (0..width).map(move |x| (x, y))).map(|(x, y)| at(camera, &to_world, (width, height, depth), x, y)).collect()
+}
+
+/// The surface pixel (`x`, `y`) shows, as [`surface_points`] finds it (the same
+/// neighbours, the same silhouette rule), for one pixel: what the lab's worst-pixel
+/// attribution needs without reconstructing a whole 1080p frame. None outside the screen.
+///
+/// # Panics
+/// When `depth` does not hold `width * height` values (a caller bug).
+pub fn surface_point(camera: &Camera, width: u32, height: u32, depth: &[f32], x: u32, y: u32) -> Option<SurfacePoint> {
+    assert_eq!(
+        depth.len() as u64,
+        u64::from(width) * u64::from(height),
+        "surface_point: the depth buffer must hold {width}x{height} values"
+    );
+    if x >= width || y >= height {
+        return None;
+    }
+    at(camera, &camera.view().inverse(), (width, height, depth), x, y)
+}
+
+/// One pixel of [`surface_points`]; `to_world` is the inverse of the camera's view.
+fn at(camera: &Camera, to_world: &glam::Mat4, (width, height, depth): (u32, u32, &[f32]), x: u32, y: u32) -> Option<SurfacePoint> {
+    let (w, h) = (i64::from(width), i64::from(height));
     let pos = |x: i64, y: i64| -> Option<Vec3> {
         if x < 0 || y < 0 || x >= w || y >= h {
             return None;
@@ -647,34 +674,27 @@ pub fn surface_points(camera: &Camera, width: u32, height: u32, depth: &[f32]) -
         let ndc = ((x as f32 + 0.5) / width as f32 * 2.0 - 1.0, 1.0 - (y as f32 + 0.5) / height as f32 * 2.0);
         camera.unproject_view(ndc.0, ndc.1, d).map(|v| to_world.transform_point3(v))
     };
+    let (x, y) = (i64::from(x), i64::from(y));
     let eye = camera.eye();
-    let mut out = Vec::with_capacity(depth.len());
-    for y in 0..h {
-        for x in 0..w {
-            let s = pos(x, y).and_then(|p| {
-                let pick = |a: Option<Vec3>, b: Option<Vec3>| -> Option<Vec3> {
-                    let da = a.map(|a| a - p);
-                    let db = b.map(|b| p - b);
-                    match (da, db) {
-                        (Some(a), Some(b)) => Some(if a.length() < b.length() { a } else { b }),
-                        (a, b) => a.or(b),
-                    }
-                };
-                let dx = pick(pos(x + 1, y), pos(x - 1, y))?;
-                let dy = pick(pos(x, y + 1), pos(x, y - 1))?;
-                let n = dx.cross(dy).normalize_or_zero();
-                // A silhouette: the differences are far longer than a pixel's footprint.
-                let footprint = (p - eye).length() * 4.0 / height as f32;
-                if n == Vec3::ZERO || dx.length() > footprint || dy.length() > footprint {
-                    return None;
-                }
-                let n = if n.dot(eye - p) < 0.0 { -n } else { n };
-                Some(SurfacePoint { position: p, normal: n })
-            });
-            out.push(s);
+    let p = pos(x, y)?;
+    let pick = |a: Option<Vec3>, b: Option<Vec3>| -> Option<Vec3> {
+        let da = a.map(|a| a - p);
+        let db = b.map(|b| p - b);
+        match (da, db) {
+            (Some(a), Some(b)) => Some(if a.length() < b.length() { a } else { b }),
+            (a, b) => a.or(b),
         }
+    };
+    let dx = pick(pos(x + 1, y), pos(x - 1, y))?;
+    let dy = pick(pos(x, y + 1), pos(x, y - 1))?;
+    let n = dx.cross(dy).normalize_or_zero();
+    // A silhouette: the differences are far longer than a pixel's footprint.
+    let footprint = (p - eye).length() * 4.0 / height as f32;
+    if n == Vec3::ZERO || dx.length() > footprint || dy.length() > footprint {
+        return None;
     }
-    out
+    let n = if n.dot(eye - p) < 0.0 { -n } else { n };
+    Some(SurfacePoint { position: p, normal: n })
 }
 
 #[cfg(test)]
@@ -832,6 +852,32 @@ pub(crate) mod tests {
         let points = surface_points(&cam, w, h, &ledge);
         assert!((0..h as usize).all(|y| points[y * w as usize + 16].is_none()), "a 1-pixel ledge is a silhouette");
         assert!(points[5 * w as usize + 10].is_some());
+    }
+
+    /// One pixel's surface ([`surface_point`], the lab's worst-pixel attribution) is the
+    /// whole frame's at that pixel, on a step, a ledge and the screen's edges; off the
+    /// screen there is none.
+    #[test]
+    fn one_pixels_surface_is_the_frames() {
+        let (w, h) = (32u32, 24u32);
+        let cam =
+            crate::Camera::perspective(Vec3::new(0.0, 10.0, 0.01), Vec3::ZERO, Vec3::Y, 0.5, 1.3, 0.1, None).unwrap();
+        let (low, high) = (plane_depth(&cam, w, h, 0.0), plane_depth(&cam, w, h, 5.0));
+        let mut silhouettes = 0;
+        for split in [|i: usize, w: usize| i % w < 16, |i: usize, w: usize| i % w == 16] {
+            let depth: Vec<f32> =
+                (0..(w * h) as usize).map(|i| if split(i, w as usize) { high[i] } else { low[i] }).collect();
+            let frame = surface_points(&cam, w, h, &depth);
+            assert!(frame.iter().any(Option::is_some));
+            silhouettes += frame.iter().filter(|s| s.is_none()).count();
+            for (i, want) in frame.iter().enumerate() {
+                let (x, y) = (i as u32 % w, i as u32 / w);
+                assert_eq!(surface_point(&cam, w, h, &depth, x, y), *want, "pixel ({x}, {y})");
+            }
+            assert_eq!(surface_point(&cam, w, h, &depth, w, 0), None);
+            assert_eq!(surface_point(&cam, w, h, &depth, 0, h), None);
+        }
+        assert!(silhouettes >= h as usize, "the ledge's column has no surface");
     }
 
     #[test]

@@ -44,15 +44,42 @@ pub const NO_CHILD: u32 = u32::MAX;
 pub const NO_MASK: u32 = u32::MAX;
 
 /// How far a shadow ray's ends are moved off the surface (along its normal) and off the
-/// light, as a share of the point's largest coordinate plus 1 m ([`surface_eps`]): 2^-12,
-/// a few hundred f32 steps of a reconstructed position (about 8 mm at 30 m from the origin,
-/// 0.24 mm near it), so a surface never shadows itself; `TRACE_EPS` in
+/// light, as a share of the scene's scale ([`surface_eps`]): 2^-12 of the point's largest
+/// coordinate plus 1 m, that coordinate bounded by the scene's size, so a surface never
+/// shadows itself (about 8 mm at 30 m from the origin, 0.24 mm near it); `TRACE_EPS` in
 /// `shaders/common/traced_shade.wgsl`.
 pub const SURFACE_EPS: f32 = 1.0 / 4096.0;
 
-/// The offset of a shadow ray from surface point `p` ([`SURFACE_EPS`]).
-pub fn surface_eps(p: Vec3) -> f32 {
-    SURFACE_EPS * (p.abs().max_element() + 1.0)
+/// The share of the point's largest coordinate added to the offset for the rounding of a
+/// reconstructed position (2^-19: 16 f32 steps of that coordinate). Without the bound
+/// by the scene's size the offset was `2^-12 (max |p| + 1)`: 244 m at 10^6 m from the
+/// origin, 2.4 m at 10^4 m (a floor point lifted above a 2 m box never saw its shadow);
+/// with it, 2 m and 2 cm there, which f32 positions (an f32 step is 6 cm at 10^6 m) need.
+/// `TRACE_POSITION_EPS` in `shaders/common/traced_shade.wgsl`.
+pub const POSITION_EPS: f32 = 1.0 / 524_288.0;
+
+/// The offset of a shadow ray from surface point `p` in a scene of size `scale` (the
+/// largest side of its shadow geometry's bounds, [`scene_scale`]):
+/// `SURFACE_EPS (min(max |p|, scale) + 1) + POSITION_EPS max |p|`.
+pub fn surface_eps(p: Vec3, scale: f32) -> f32 {
+    let m = p.abs().max_element();
+    SURFACE_EPS * (m.min(scale) + 1.0) + POSITION_EPS * m
+}
+
+/// The scale [`surface_eps`] bounds a point's coordinate by: the largest side of the
+/// triangles' bounding box (0 without triangles; a triangle with a non-finite vertex is
+/// skipped, as the hierarchy skips it).
+pub fn scene_scale(triangles: &[[Vec3; 3]]) -> f32 {
+    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    for v in triangles.iter().filter(|t| t.iter().all(|v| v.is_finite())).flatten() {
+        lo = lo.min(*v);
+        hi = hi.max(*v);
+    }
+    if lo.x > hi.x {
+        0.0
+    } else {
+        (hi - lo).max_element()
+    }
 }
 
 /// The far bound's widening in the box test: `1 + 2^-21`, four f32 steps at 1 (Ize 2013
@@ -437,6 +464,26 @@ mod tests {
         }
         assert!(seen.iter().all(|&s| s == 1));
         assert!((flat.depth as usize) < TRACE_STACK);
+    }
+
+    /// The offset by hand: near the origin 2^-12 (|p| + 1) plus the rounding term; far from
+    /// it bounded by the scene's size, yet never under 16 f32 steps of the coordinate (the
+    /// reconstructed position's rounding); the scale of a box and of nothing.
+    #[test]
+    fn the_offset_is_bounded_by_the_scene_not_the_origin() {
+        let near = surface_eps(Vec3::new(3.0, -30.0, 1.0), 100.0);
+        assert!((near - (31.0 / 4096.0 + 30.0 / 524_288.0)).abs() < 1e-9, "{near}");
+        // 10^4 m out in a 20 m scene: 21 / 4096 + 10^4 / 2^19 = 5.1 mm + 19 mm (was 2.4 m).
+        let far = surface_eps(Vec3::new(1.0e4, 0.0, 5.0), 20.0);
+        assert!((far - (21.0 / 4096.0 + 1.0e4 / 524_288.0)).abs() < 1e-6, "{far}");
+        assert!(far < 0.03);
+        // 10^6 m out: about 2 m, and 32 f32 steps of the coordinate (0.0625 m each).
+        let very = surface_eps(Vec3::new(0.0, 1.0e6, 0.0), 20.0);
+        assert!(very > 16.0 * 0.0625 && very < 2.0, "{very}");
+        let tri = [Vec3::new(-1.0, 0.0, 2.0), Vec3::new(4.0, 1.0, 2.0), Vec3::new(0.0, 0.5, -7.0)];
+        let nan = [Vec3::NAN, Vec3::ZERO, Vec3::splat(50.0)];
+        assert_eq!(scene_scale(&[tri, nan]), 9.0);
+        assert_eq!(scene_scale(&[]), 0.0);
     }
 
     proptest! {

@@ -71,6 +71,8 @@ pub struct GpuBvh {
     pub depth: u32,
     /// Seconds the CPU took to build and flatten it.
     pub build_seconds: f64,
+    /// The scene's size the rays' offset is bounded by ([`TraceGeometry::scale`]).
+    pub scale: f32,
     /// Its buffers' bytes.
     pub memory: MemoryReport,
 }
@@ -144,6 +146,7 @@ impl GpuBvh {
             node_count: flat.nodes.len() as u32,
             depth: flat.depth,
             build_seconds: 0.0,
+            scale: geometry.scale,
             memory,
         })
     }

@@ -42,12 +42,14 @@ use tiledlight_gpu::features::BlendMode;
 use anyhow::{ensure, Context, Result};
 use tiledlight_cull::reference::{cull_tiles, list_quality, ListQuality};
 use tiledlight_metrics::{flip, HdrError};
-use tiledlight_setup::{group_digits, Method, Prepared, Settings};
+use tiledlight_scene::trace::TraceGeometry;
+use tiledlight_setup::{group_digits, rebuild_plan, Method, Prepared, Reload, Settings};
 
 use crate::axes::{self, Axis, Flags, ResumableCsv};
 use crate::bench::{self, MAX_FRAMES};
 use crate::chart::{self, ParetoChart, ParetoPoint};
 use crate::dropped;
+use crate::worst;
 
 /// The settings measured when no `--axis` is given: thirteen thresholds, about halving
 /// (radii from 0.5x to 32x the default 0.1's; at 1e-4 every light of the default scene
@@ -142,7 +144,7 @@ pub enum ReferenceKind {
 }
 
 const HEAD: [&str; 3] = ["adapter", "width", "height"];
-const TAIL: [&str; 26] = [
+const TAIL: [&str; 31] = [
     "total_ms",
     "passes",
     "psnr_db",
@@ -169,6 +171,11 @@ const TAIL: [&str; 26] = [
     "sorted_ms",
     "vs_sorted_flip_mean",
     "vs_sorted_flip_p99",
+    worst::COLUMNS[0],
+    worst::COLUMNS[1],
+    worst::COLUMNS[2],
+    worst::COLUMNS[3],
+    worst::COLUMNS[4],
 ];
 
 /// The CSV header of a run over `axes`.
@@ -441,6 +448,7 @@ pub fn run<F: Flags>(scene: &F, args: &Accuracy) -> Result<()> {
     let mut adapter = String::new();
     let mut warnings = 0;
     let mut warned_scene: Option<tiledlight_setup::SceneSource> = None;
+    let mut geometry: Option<(Settings, TraceGeometry)> = None;
     let pb = axes::progress(pending.len());
     for (done, &i) in pending.iter().enumerate() {
         let (point, pargs) = (&points[i], &all_args[i]);
@@ -455,6 +463,7 @@ pub fn run<F: Flags>(scene: &F, args: &Accuracy) -> Result<()> {
             heat: &mut heat,
             keep_sorted,
             warned_scene: &mut warned_scene,
+            geometry: &mut geometry,
         };
         match measure_setting(&mut state, (point, pargs, &what), args, &out, &pb) {
             Ok(Some(w)) => axes::warn(&pb, &mut warnings, &format!("{what}: {w}")),
@@ -489,6 +498,9 @@ struct RunState<'a> {
     keep_sorted: bool,
     /// The scene whose load warnings were shown last (once per scene).
     warned_scene: &'a mut Option<tiledlight_setup::SceneSource>,
+    /// The shadow rays' geometry of the scene, and the settings it was built for: the
+    /// worst pixels' lights are checked against it ([`worst`]).
+    geometry: &'a mut Option<(Settings, TraceGeometry)>,
 }
 
 /// Measures one setting and appends its row; returns the warning about its frames, if they
@@ -501,7 +513,7 @@ fn measure_setting(
     pb: &indicatif::ProgressBar,
 ) -> Result<Option<String>> {
     let what = what.clone();
-    let RunState { prep, adapter, csv, references, sorted, heat, keep_sorted, warned_scene } = st;
+    let RunState { prep, adapter, csv, references, sorted, heat, keep_sorted, warned_scene, geometry } = st;
     let keep_sorted = *keep_sorted;
     {
         let p = match prep.as_mut() {
@@ -554,6 +566,8 @@ fn measure_setting(
         p.check_gpu_errors()?;
         let q = quality(p, &depth)?;
         let e = HdrError::of(&reference.hdr, &hdr);
+        let worst = explain_worst(p, pargs, geometry, (&depth, e.worst_pixel), (&reference.hdr, &hdr))
+            .with_context(|| format!("{what}: explaining the worst pixel"))?;
         let map = flip(pargs.width, pargs.height, &reference.ldr, &ldr);
         let fl = map.summary(PERCENTILE);
         heat.insert(point.clone(), map.heat_rgb());
@@ -611,6 +625,7 @@ fn measure_setting(
             opt(vs_sorted.as_ref().map(|v| f(f64::from(v.1.mean), 6))),
             opt(vs_sorted.as_ref().map(|v| f(f64::from(v.1.percentile), 6))),
         ]);
+        row.extend(worst.as_ref().map_or_else(|| std::array::from_fn(|_| String::new()), worst::WorstPixel::csv));
         csv.append(&[row])?;
         let vs = vs_sorted.map_or(String::new(), |(ms, v)| {
             format!("; vs sorted ({ms:.3} ms): FLIP mean {:.5} p99 {:.4}", v.mean, v.percentile)
@@ -626,6 +641,9 @@ fn measure_setting(
                 100.0 * e.energy_lost
             ),
         );
+        if let Some(w) = &worst {
+            axes::say(pb, format!("  {}", w.line()));
+        }
         let max_binding = p.ctx.device.limits().max_storage_buffer_binding_size;
         let refused = vpls.and_then(|c| crate::dropped::refused_line("the measured frames", c));
         Ok(crate::dropped::join_warnings(
@@ -633,6 +651,36 @@ fn measure_setting(
             refused,
         ))
     }
+}
+
+/// The worst pixel of a setting explained ([`worst::attribute`]): the first depth sample of
+/// each pixel (MSAA), the setting's camera and lights, the scene's shadow geometry (built
+/// again only when the scene changes). None when the images are identical.
+fn explain_worst(
+    p: &Prepared,
+    pargs: &Settings,
+    geometry: &mut Option<(Settings, TraceGeometry)>,
+    (depth, pixel): (&[f32], Option<usize>),
+    (reference, setting): (&[[f32; 4]], &[[f32; 4]]),
+) -> Result<Option<worst::WorstPixel>> {
+    let Some(pixel) = pixel else { return Ok(None) };
+    let stale = geometry.as_ref().is_none_or(|(built, _)| rebuild_plan(built, pargs).reload == Reload::Scene);
+    if stale {
+        let scene = tiledlight_setup::load::scene_of(pargs).context("loading the scene for its shadow geometry")?;
+        *geometry = Some((pargs.clone(), TraceGeometry::of(&scene)));
+    }
+    let pixels = pargs.width as usize * pargs.height as usize;
+    let samples = (depth.len() / pixels.max(1)).max(1);
+    let first: Vec<f32> = depth.iter().step_by(samples).copied().collect();
+    ensure!(first.len() == pixels, "a depth buffer of {} values for {pixels} pixels", depth.len());
+    let frame = worst::Frame {
+        camera: &p.camera,
+        size: (pargs.width, pargs.height),
+        depth: &first,
+        lights: &p.lights.packed,
+        geometry: geometry.as_ref().map(|(_, g)| g),
+    };
+    Ok(worst::attribute(&frame, pixel, reference, setting))
 }
 
 /// The CSV's rows as numbers by column name (NaN where empty or not a number).
@@ -740,32 +788,59 @@ fn report(
         })
         .collect();
     let frontier = chart::pareto_frontier(&points);
-    let chosen = frontier.iter().copied().find(|&i| points[i].error < args.target_flip);
+    // The reference is a setting too: exact (error 0) at its own time. A setting slower
+    // than its reference is dominated by it and never recommended (at the lowest
+    // thresholds Forward+ was measured slower than the traced truth).
+    let reference_ms: Vec<f64> = rows.iter().map(|r| parse(r, "reference_ms")).collect();
+    let slower: Vec<bool> = points.iter().zip(&reference_ms).map(|(p, &r)| r.is_finite() && p.time >= r).collect();
+    let candidates: Vec<usize> = frontier.iter().copied().filter(|&i| !slower[i]).collect();
+    let chosen = candidates.iter().copied().find(|&i| points[i].error < args.target_flip);
     let describe = |i: usize| axes::describe(axes, &rows[i][n..n + axes.len()].to_vec());
-    let note = match chosen {
-        Some(i) => format!(
+    let fastest_reference = reference_ms.iter().copied().filter(|t| t.is_finite()).min_by(f64::total_cmp);
+    let kind = reference_kind(args.reference);
+    let note = match (chosen, fastest_reference) {
+        (Some(i), _) => format!(
             "fastest under FLIP mean {}: {} at {:.3} ms (FLIP mean {:.4})",
             args.target_flip,
             describe(i),
             points[i].time,
             points[i].error
         ),
-        None => format!("no setting reaches FLIP mean < {}", args.target_flip),
+        (None, Some(t)) => {
+            format!("no setting faster than the reference reaches FLIP mean < {}: the reference ({kind}) itself, {t:.3} ms", args.target_flip)
+        }
+        (None, None) => format!("no setting reaches FLIP mean < {}", args.target_flip),
     };
     // The cheapest setting within each of the usual error budgets (on the frontier: the
-    // fastest below each).
+    // fastest below each), or the reference where no faster setting is within it.
     let budgets: Vec<String> = CHEAPEST_WITHIN
         .iter()
-        .map(|&eps| match frontier.iter().copied().find(|&i| points[i].error < eps) {
-            Some(i) => format!(
+        .map(|&eps| match (candidates.iter().copied().find(|&i| points[i].error < eps), fastest_reference) {
+            (Some(i), _) => format!(
                 "cheapest within FLIP {eps}: {} at {:.3} ms (FLIP mean {:.4})",
                 describe(i),
                 points[i].time,
                 points[i].error
             ),
-            None => format!("cheapest within FLIP {eps}: none"),
+            (None, Some(t)) => format!("cheapest within FLIP {eps}: the reference itself ({kind}, {t:.3} ms); no faster setting"),
+            (None, None) => format!("cheapest within FLIP {eps}: none"),
         })
         .collect();
+    let dominated = slower.iter().filter(|&&s| s).count();
+    let note = if dominated > 0 {
+        let s = if dominated == 1 { "" } else { "s" };
+        format!("{note}; {dominated} setting{s} slower than the reference")
+    } else {
+        note
+    };
+    // One diamond per distinct reference time (a run can hold several references: MSAA,
+    // VPLs, blended geometry each get their own).
+    let mut references: Vec<(f64, String)> = Vec::new();
+    for &t in reference_ms.iter().filter(|t| t.is_finite()) {
+        if !references.iter().any(|(u, _)| (u - t).abs() <= 1e-6 * t.abs().max(1.0)) {
+            references.push((t, format!("reference: {t:.1} ms")));
+        }
+    }
     let incomplete = points.iter().filter(|p| p.incomplete).count();
     let note = if incomplete > 0 {
         let s = if incomplete == 1 { "" } else { "s" };
@@ -797,6 +872,7 @@ fn report(
         target: Some((args.target_flip, format!("target: FLIP mean {}", args.target_flip))),
         chosen,
         note: Some(note.clone()),
+        references,
     };
     chart::pareto_chart(chart_path, &c)?;
     // Bars are labelled by the axes that vary (the fixed ones are in the subtitle).
@@ -943,6 +1019,9 @@ mod tests {
         let at = |c: &str| h.iter().position(|x| x == c).unwrap_or_else(|| panic!("no column {c}"));
         assert_eq!(h[HEAD.len()], "blend-mode");
         assert!(at("total_ms") < at("sorted_ms") && at("sorted_ms") + 1 == at("vs_sorted_flip_mean"));
-        assert_eq!((at("vs_sorted_flip_p99"), h.len()), (h.len() - 1, HEAD.len() + 1 + TAIL.len()));
+        assert_eq!(h.len(), HEAD.len() + 1 + TAIL.len());
+        // The worst pixel's columns close the row.
+        assert_eq!(at("vs_sorted_flip_p99") + 1, at(worst::COLUMNS[0]));
+        assert_eq!(&h[h.len() - worst::COLUMNS.len()..], worst::COLUMNS);
     }
 }

@@ -487,10 +487,13 @@ pub struct ParetoPoint {
 
 /// Indices of the points on the Pareto frontier of (time, error), both to be minimised,
 /// in time order: each is faster than every point with at most its error. Points with a
-/// non-finite coordinate are never on it.
+/// non-finite coordinate are never on it, nor are incomplete ones (frames that dropped
+/// lights: their time is of less work and their error of a partial image, so they are
+/// never recommended).
 pub fn pareto_frontier(points: &[ParetoPoint]) -> Vec<usize> {
-    let mut idx: Vec<usize> =
-        (0..points.len()).filter(|&i| points[i].time.is_finite() && points[i].error.is_finite()).collect();
+    let mut idx: Vec<usize> = (0..points.len())
+        .filter(|&i| points[i].time.is_finite() && points[i].error.is_finite() && !points[i].incomplete)
+        .collect();
     idx.sort_by(|&a, &b| points[a].time.total_cmp(&points[b].time).then(points[a].error.total_cmp(&points[b].error)));
     let mut out = Vec::new();
     let mut best = f64::INFINITY;
@@ -522,6 +525,11 @@ pub struct ParetoChart {
     pub chosen: Option<usize>,
     /// A note printed under the subtitle (e.g. the recommendation).
     pub note: Option<String>,
+    /// The references the errors are measured against, as points of their own: (time,
+    /// label). Their error is 0, which a log axis cannot show, so each is drawn as a
+    /// black diamond on the bottom edge with a dashed vertical line at its time: a setting
+    /// right of the line is slower than the reference it approximates.
+    pub references: Vec<(f64, String)>,
 }
 
 /// Draws `c` to the PNG `path`: points coloured by series, the frontier's labelled, the frontier as a
@@ -529,8 +537,9 @@ pub struct ParetoChart {
 pub fn pareto_chart(path: &Path, c: &ParetoChart) -> Result<()> {
     let pts: Vec<&ParetoPoint> = c.points.iter().filter(|p| p.time.is_finite() && p.error.is_finite()).collect();
     ensure!(!pts.is_empty(), "chart {}: no finite points to draw", path.display());
-    let xsc = Scale::auto(pts.iter().map(|p| p.time), 10.0);
-    let xs: Vec<f64> = pts.iter().map(|p| p.time).collect();
+    let refs: Vec<&(f64, String)> = c.references.iter().filter(|r| r.0.is_finite() && r.0 > 0.0).collect();
+    let xsc = Scale::auto(pts.iter().map(|p| p.time).chain(refs.iter().map(|r| r.0)), 10.0);
+    let xs: Vec<f64> = pts.iter().map(|p| p.time).chain(refs.iter().map(|r| r.0)).collect();
     let mut ys: Vec<f64> = pts.iter().map(|p| p.error).collect();
     if let Some((t, _)) = c.target {
         ys.push(t);
@@ -591,6 +600,32 @@ pub fn pareto_chart(path: &Path, c: &ParetoChart) -> Result<()> {
                     label.clone(),
                     (label_x, u + (y1 - y0) * 0.03),
                     (FAMILY, 18).into_font().color(&red),
+                )))
+                .map_err(err)?;
+        }
+        // The references: error 0 sits below any log axis, so on the bottom edge, with a
+        // line up through the chart at their time.
+        let black = RGBColor(0, 0, 0);
+        for (k, (t, label)) in refs.iter().enumerate() {
+            let u = xsc.map(*t);
+            chart
+                .draw_series(DashedLineSeries::new(vec![(u, y0), (u, y1)], 6, 6, black.stroke_width(1)))
+                .map_err(err)?;
+            let size = 9;
+            let diamond = move |(x, y): (i32, i32)| {
+                Polygon::new(vec![(x, y - size), (x + size, y), (x, y + size), (x - size, y)], black.filled())
+            };
+            let series = chart
+                .draw_series(std::iter::once(EmptyElement::at((u, y0)) + diamond((0, 0))))
+                .map_err(err)?;
+            if k == 0 {
+                series.label("reference (error 0)").legend(move |(x, y)| diamond((x + 12, y)));
+            }
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    label.clone(),
+                    (u + (x1 - x0) * 0.008, y0 + (y1 - y0) * (0.04 + 0.05 * k as f64)),
+                    (FAMILY, 16).into_font().color(&black),
                 )))
                 .map_err(err)?;
         }
@@ -690,6 +725,11 @@ mod tests {
         let pts = [p(3.0, 0.1), p(1.0, 0.5), p(2.0, 0.6), p(2.0, 0.2), p(4.0, 0.1), p(f64::NAN, 0.0)];
         assert_eq!(pareto_frontier(&pts), [1, 3, 0]);
         assert!(pareto_frontier(&[]).is_empty());
+        // A faster, better setting whose frames dropped lights is never on it (nor
+        // recommended): the frontier is what it was without it.
+        let mut with_dropped = pts.to_vec();
+        with_dropped.push(ParetoPoint { incomplete: true, ..p(0.5, 0.01) });
+        assert_eq!(pareto_frontier(&with_dropped), [1, 3, 0]);
     }
 
     #[test]
@@ -748,9 +788,18 @@ mod tests {
             target: Some((0.01, "1%".into())),
             chosen: Some(1),
             note: Some("n".into()),
+            references: vec![(2.5, "truth: 2.5 ms".into())],
         };
         pareto_chart(&dir.join("p.png"), &pc).unwrap();
         assert!(image::open(dir.join("p.png")).is_ok());
+        // The reference's diamond is black; the chart without it has no black blob that big.
+        let black = |path: &Path| {
+            let img = image::open(path).unwrap().to_rgb8();
+            img.pixels().filter(|p| p.0 == [0, 0, 0]).count()
+        };
+        let without = ParetoChart { references: vec![], ..pc.clone() };
+        pareto_chart(&dir.join("p0.png"), &without).unwrap();
+        assert!(black(&dir.join("p.png")) > black(&dir.join("p0.png")) + 100, "no reference marker");
         let bars = BarPanels {
             title: "t".into(),
             subtitle: "s".into(),

@@ -13,6 +13,7 @@
 //! - [`peer_report`]: the peer benchmark's tables, chart and FLIP comparison;
 //! - [`chart`] (line, bar and Pareto charts), [`legend`] (the heat map's legend);
 //! - [`dropped`]: accounting of the work a full light grid dropped, and the warnings;
+//! - [`worst`]: a setting's worst pixel explained (where, both values, its largest lights);
 //! - [`output`]: one-line messages, load warnings and PNG output.
 //!
 //! The CPU image helpers the labs use (the ACES tonemap twin, histogram matching, the
@@ -22,7 +23,8 @@
 //! (`sweep::Sweep`, `accuracy::Accuracy`, ...) and implements [`axes::Flags`] for its
 //! scene flags. Depends on tiledlight-setup (the run), tiledlight-gpu (the renderer trait,
 //! timer, grids), tiledlight-forward (shadow-accuracy's renderer), tiledlight-cull (CPU
-//! culling and ray cast), tiledlight-metrics; never on the app. Errors are `anyhow` errors
+//! culling and ray cast), tiledlight-scene (the shadow rays' geometry), tiledlight-metrics;
+//! never on the app. Errors are `anyhow` errors
 //! whose text is meant for the user (they name the app's flags).
 
 pub mod accuracy;
@@ -35,3 +37,4 @@ pub mod output;
 pub mod peer_report;
 pub mod shadow_accuracy;
 pub mod sweep;
+pub mod worst;

@@ -684,6 +684,8 @@ fn draw_chart(
         target: None,
         chosen: best,
         note,
+        // The ray cast runs on the CPU: no GPU time to compare with.
+        references: Vec::new(),
     };
     chart::pareto_chart(path, &c)?;
     Ok(frontier)

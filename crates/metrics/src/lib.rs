@@ -84,6 +84,9 @@ pub struct HdrError {
     /// `(E_ref - E_test) / E_ref` with `E` the summed luminance: the share of the
     /// reference's light the test image does not have (negative if it has more).
     pub energy_lost: f64,
+    /// The pixel (index into the images) whose channel difference is [`HdrError::max_error`]:
+    /// the first such pixel in row-major order; None when the images are identical.
+    pub worst_pixel: Option<usize>,
 }
 
 /// The percentile of the reference's channel values that PSNR uses as its peak. HDR has no
@@ -110,13 +113,17 @@ impl HdrError {
         assert_eq!(reference.len(), test.len(), "HDR images of different sizes");
         let peak = hdr_peak(reference);
         let (mut sq, mut max) = (0.0f64, 0.0f64);
+        let mut worst_pixel = None;
         let (mut e_ref, mut e_test) = (0.0f64, 0.0f64);
-        for (r, t) in reference.iter().zip(test) {
+        for (i, (r, t)) in reference.iter().zip(test).enumerate() {
             for c in 0..3 {
                 let d = (f64::from(t[c]) - f64::from(r[c])).abs();
                 let d = if d.is_finite() { d } else { f64::INFINITY };
                 sq += d * d;
-                max = max.max(d);
+                if d > max {
+                    max = d;
+                    worst_pixel = Some(i);
+                }
             }
             e_ref += luminance(r);
             e_test += luminance(t);
@@ -124,7 +131,7 @@ impl HdrError {
         let mse = sq / (3 * reference.len().max(1)) as f64;
         let psnr_db = if mse == 0.0 { f64::INFINITY } else { 10.0 * (peak * peak / mse).log10() };
         let energy_lost = if e_ref > 0.0 { (e_ref - e_test) / e_ref } else { 0.0 };
-        Self { psnr_db, max_error: max / peak, energy_lost }
+        Self { psnr_db, max_error: max / peak, energy_lost, worst_pixel }
     }
 }
 
@@ -136,7 +143,7 @@ mod tests {
     fn identical_images_have_no_error() {
         let img = vec![[0.5, 0.25, 1.0, 1.0]; 64];
         let e = HdrError::of(&img, &img);
-        assert_eq!((e.psnr_db, e.max_error, e.energy_lost), (f64::INFINITY, 0.0, 0.0));
+        assert_eq!((e.psnr_db, e.max_error, e.energy_lost, e.worst_pixel), (f64::INFINITY, 0.0, 0.0, None));
         let ldr = vec![128u8; 8 * 8 * 4];
         let f = flip(8, 8, &ldr, &ldr).summary(0.99);
         assert!(f.mean == 0.0 && f.max < 1e-6, "{f:?}");
@@ -152,8 +159,17 @@ mod tests {
         assert!((e.psnr_db - 10.0 * (1.0 / 0.00025f64).log10()).abs() < 1e-9, "{e:?}");
         assert!((e.max_error - 0.5).abs() < 1e-12);
         assert!((e.energy_lost - 0.5 / 1000.0).abs() < 1e-9);
+        assert_eq!(e.worst_pixel, Some(3));
+        // A smaller difference elsewhere, before and after, does not move the worst pixel;
+        // a NaN anywhere is the worst.
+        test[1] = [0.9, 1.0, 1.0, 1.0];
+        test[7] = [1.0, 1.0, 1.2, 1.0];
+        assert_eq!(HdrError::of(&reference, &test).worst_pixel, Some(3));
+        test[9] = [1.0, 1.0, 1.7, 1.0];
+        assert_eq!(HdrError::of(&reference, &test).worst_pixel, Some(9));
         test[3] = [f32::NAN, 0.0, 0.0, 1.0];
-        assert_eq!(HdrError::of(&reference, &test).max_error, f64::INFINITY);
+        let e = HdrError::of(&reference, &test);
+        assert_eq!((e.max_error, e.worst_pixel), (f64::INFINITY, Some(3)));
     }
 
     #[test]

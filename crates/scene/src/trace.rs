@@ -49,6 +49,9 @@ pub struct TraceGeometry {
     pub flat: FlatBvh,
     /// The masks, when some instance's material is alpha-masked.
     pub masks: Option<TraceMasks>,
+    /// The scene's size as the rays' offset bounds it (`tiledlight_cull::trace::scene_scale`
+    /// of these triangles).
+    pub scale: f32,
 }
 
 fn mask_wrap(w: Wrap) -> MaskWrap {
@@ -119,14 +122,20 @@ impl TraceGeometry {
                 masks.uvs.push([uv(tri[0]), uv(tri[1]), uv(tri[2])]);
             }
         }
+        let scale = tiledlight_cull::trace::scene_scale(&tris);
         let bvh = Triangles::new(tris);
         let flat = FlatBvh::new(&bvh);
-        Self { bvh, flat, masks: any_mask.then_some(masks) }
+        Self { bvh, flat, masks: any_mask.then_some(masks), scale }
     }
 
     /// Whether world triangle `id` blocks at barycentrics `(u, v)` (always, without masks).
     pub fn blocks(&self, id: u32, u: f32, v: f32) -> bool {
         self.masks.as_ref().is_none_or(|m| m.blocks(id, u, v))
+    }
+
+    /// The shadow ray's offset at `p` in this scene (`tiledlight_cull::trace::surface_eps`).
+    pub fn eps(&self, p: Vec3) -> f32 {
+        tiledlight_cull::trace::surface_eps(p, self.scale)
     }
 
     /// The f64 reference's answer for the segment, masks honoured.

@@ -212,6 +212,13 @@ pub(crate) fn surfaces_of(settings: &Settings, scene: &Scene) -> Result<Surfaces
     Ok(Some(Arc::new(sampler)))
 }
 
+/// The scene `settings` draw, without lights or camera (nor the load warnings, which
+/// [`SceneCpu::load`] reports): what the lab casts its CPU shadow rays against when it
+/// explains a worst pixel.
+pub fn scene_of(settings: &Settings) -> Result<Scene> {
+    Ok(load_scene(settings)?.0)
+}
+
 /// Loads or builds the scene; returns it with the number of lights it brought along and
 /// the loader's warnings.
 fn load_scene(settings: &Settings) -> Result<(Scene, usize, Vec<String>)> {

@@ -449,8 +449,12 @@ impl VisibilityShading {
                     &constants,
                 )
             }
-            ShadeLights::Traced(_) => {
-                constants.push(("TRACE_EPS", f64::from(tiledlight_cull::trace::SURFACE_EPS)));
+            ShadeLights::Traced(bvh) => {
+                constants.extend([
+                    ("TRACE_EPS", f64::from(tiledlight_cull::trace::SURFACE_EPS)),
+                    ("TRACE_POSITION_EPS", f64::from(tiledlight_cull::trace::POSITION_EPS)),
+                    ("TRACE_SCALE", f64::from(bvh.scale)),
+                ]);
                 compute_pipeline(device, "traced.shade", &[&views.layout, &layout, texture_layout], &module, &constants)
             }
         };
