@@ -149,9 +149,12 @@ fn edge_mask_from_ids(ids: &[u32]) -> Vec<bool> {
     ids.chunks_exact(SAMPLES as usize).map(|s| s.iter().any(|&id| id != s[0])).collect()
 }
 
+/// Pixel coordinates (x, y).
+type Pixels = Vec<(u32, u32)>;
+
 /// The pixels where `gpu` (the queued edge list, possibly with repeats) and the rule's
 /// `mask` differ, and the pixels queued more than once.
-fn mask_differences(edges: &[(u32, u32)], mask: &[bool]) -> (Vec<(u32, u32)>, Vec<(u32, u32)>) {
+fn mask_differences(edges: &[(u32, u32)], mask: &[bool]) -> (Pixels, Pixels) {
     let mut queued = vec![0u32; mask.len()];
     for &(x, y) in edges {
         queued[(y * W + x) as usize] += 1;

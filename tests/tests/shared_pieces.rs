@@ -239,7 +239,7 @@ fn composite_mismatches(
             let (want, tol) = expected_pixel(panes, ex, ey, bg, model);
             let got = Vec3::from_slice(&hdr[i][..3]);
             let err = (got - want).abs().max_element();
-            if !(err <= tol) {
+            if err.is_nan() || err > tol {
                 bad.push(format!("({x}, {y}): GPU {got} expected {want} (error {err:.3e}, tolerance {tol:.3e})"));
             }
         }
@@ -696,7 +696,7 @@ fn material_mismatches(scene: &Scene, cases: &[Case], rows: &[[f32; 16]], readin
         let (want, tol) = expected_material(scene, case, reading, adapter);
         for (k, field) in FIELDS.iter().enumerate() {
             let err = (row[k] as f64 - want[k]).abs();
-            if !(err <= tol[k]) {
+            if err.is_nan() || err > tol[k] {
                 bad.push(format!(
                     "case {i} ({case:?}): {field} GPU {} expected {} (error {err:.3e}, tolerance {:.3e})",
                     row[k], want[k], tol[k]

@@ -20,10 +20,10 @@
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
-use tiledlight_cull::raycast::Triangles;
-use tiledlight_cull::trace::{FlatBvh, NO_CHILD};
 use tiledlight_cull::brdf::{brdf_cos, spot_falloff, unwindowed_attenuation, Surface};
 use tiledlight_cull::light::spot_scale_offset;
+use tiledlight_cull::raycast::Triangles;
+use tiledlight_cull::trace::{FlatBvh, NO_CHILD};
 use tiledlight_cull::{Camera, Light, LightKind};
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method, VisibilityFrame};
 use tiledlight_gpu::bvh::{GpuBvh, RayQueries};
@@ -223,7 +223,14 @@ fn traced(ctx: &GpuContext, scene: &Scene, lights: &[Light], camera: &Camera, ms
 }
 
 /// [`traced`] at `size`.
-fn traced_sized(ctx: &GpuContext, scene: &Scene, lights: &[Light], camera: &Camera, size: (u32, u32), msaa: u32) -> Traced {
+fn traced_sized(
+    ctx: &GpuContext,
+    scene: &Scene,
+    lights: &[Light],
+    camera: &Camera,
+    size: (u32, u32),
+    msaa: u32,
+) -> Traced {
     let mut sg = SceneGpu::new(&ctx.device, &ctx.queue, scene).unwrap();
     sg.add_trace(&ctx.device, scene).unwrap();
     let lb = LightBuffers::new(&ctx.device, lights).unwrap();
@@ -393,8 +400,16 @@ fn moved_box(offset: Vec3) -> (Scene, Vec<Light>, Camera) {
     let lights = box_lights().into_iter().map(|l| Light { position: l.position + offset, ..l }).collect();
     let c = box_camera();
     let eye = c.eye() + offset;
-    let camera = Camera::perspective(eye, Vec3::new(0.0, 0.5, 0.0) + offset, Vec3::Y, 50f32.to_radians(), W as f32 / H as f32, 0.1, None)
-        .expect("camera");
+    let camera = Camera::perspective(
+        eye,
+        Vec3::new(0.0, 0.5, 0.0) + offset,
+        Vec3::Y,
+        50f32.to_radians(),
+        W as f32 / H as f32,
+        0.1,
+        None,
+    )
+    .expect("camera");
     (scene, lights, camera)
 }
 
@@ -611,11 +626,8 @@ fn cpu_truth(scene: &Scene, lights: &[Light], camera: &Camera) -> CpuTruth {
             }
             let inst = &scene.instances[owner[tri]];
             let m = &scene.materials[inst.material];
-            let surface = Surface {
-                albedo: Vec3::from_slice(&m.base_color[..3]),
-                roughness: m.roughness,
-                metallic: m.metallic,
-            };
+            let surface =
+                Surface { albedo: Vec3::from_slice(&m.base_color[..3]), roughness: m.roughness, metallic: m.metallic };
             let v = (eye - p).normalize();
             let mut lo = Vec3::splat(0.02) * surface.albedo;
             let mut hi = lo;
@@ -720,7 +732,9 @@ fn the_truth_matches_an_independent_cpu_renderer() {
             .iter()
             .zip(&gpu_truth.hdr)
             .enumerate()
-            .find(|(_, (r, px))| r.is_some() && outside_truth(&CpuTruth { range: vec![**r], ambiguous: 0, shadowed: 0 }, &[**px]).0 > 0)
+            .find(|(_, (r, px))| {
+                r.is_some() && outside_truth(&CpuTruth { range: vec![**r], ambiguous: 0, shadowed: 0 }, &[**px]).0 > 0
+            })
             .map(|(i, (r, px))| format!("pixel ({}, {}): GPU {px:?}, CPU range {r:?}", i as u32 % IW, i as u32 / IW));
         panic!("{bad} pixels outside the CPU truth; first {first:?}");
     }

@@ -573,9 +573,9 @@ fn mask_keeps(x: f32, z: f32, wrap: (Wrap, Wrap)) -> Option<bool> {
 /// sampler wrapping u and v by `wrap`): kept texels red, dropped ones blue with alpha 0.
 fn wrap_scene(wrap: (Wrap, Wrap)) -> Scene {
     let mut tex = Vec::with_capacity(MASK * MASK * 4);
-    for y in 0..MASK {
-        for x in 0..MASK {
-            tex.extend(if COL[x] != ROW[y] { [220, 40, 40, 255] } else { [40, 40, 220, 0] });
+    for row in &ROW[..MASK] {
+        for col in &COL[..MASK] {
+            tex.extend(if col != row { [220, 40, 40, 255] } else { [40, 40, 220, 0] });
         }
     }
     let mut screen = tiledlight_tests::scenes::material("screen", [1.0; 4], 0.6, 0.0);

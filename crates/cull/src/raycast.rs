@@ -642,7 +642,10 @@ pub fn surface_points(camera: &Camera, width: u32, height: u32, depth: &[f32]) -
         "surface_points: the depth buffer must hold {width}x{height} values"
     );
     let to_world = camera.view().inverse();
-    (0..height).flat_map(|y| (0..width).map(move |x| (x, y))).map(|(x, y)| at(camera, &to_world, (width, height, depth), x, y)).collect()
+    (0..height)
+        .flat_map(|y| (0..width).map(move |x| (x, y)))
+        .map(|(x, y)| at(camera, &to_world, (width, height, depth), x, y))
+        .collect()
 }
 
 /// The surface pixel (`x`, `y`) shows, as [`surface_points`] finds it (the same
@@ -664,7 +667,13 @@ pub fn surface_point(camera: &Camera, width: u32, height: u32, depth: &[f32], x:
 }
 
 /// One pixel of [`surface_points`]; `to_world` is the inverse of the camera's view.
-fn at(camera: &Camera, to_world: &glam::Mat4, (width, height, depth): (u32, u32, &[f32]), x: u32, y: u32) -> Option<SurfacePoint> {
+fn at(
+    camera: &Camera,
+    to_world: &glam::Mat4,
+    (width, height, depth): (u32, u32, &[f32]),
+    x: u32,
+    y: u32,
+) -> Option<SurfacePoint> {
     let (w, h) = (i64::from(width), i64::from(height));
     let pos = |x: i64, y: i64| -> Option<Vec3> {
         if x < 0 || y < 0 || x >= w || y >= h {

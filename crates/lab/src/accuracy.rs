@@ -778,7 +778,9 @@ fn report(
                     s
                 }
             },
+            // A budget's point by the value its dial changed, others by their threshold.
             label: match threshold {
+                _ if args.budget => axes::budget_label(axes, &r[n..n + axes.len()]),
                 Some(t) => format!("T={}", r[n + t]),
                 None => String::new(),
             },
@@ -807,7 +809,7 @@ fn report(
             points[i].error
         ),
         (None, Some(t)) => {
-            format!("no setting faster than the reference reaches FLIP mean < {}: the reference ({kind}) itself, {t:.3} ms", args.target_flip)
+            format!("no faster setting reaches FLIP mean < {}: the reference itself ({t:.1} ms)", args.target_flip)
         }
         (None, None) => format!("no setting reaches FLIP mean < {}", args.target_flip),
     };
@@ -822,14 +824,16 @@ fn report(
                 points[i].time,
                 points[i].error
             ),
-            (None, Some(t)) => format!("cheapest within FLIP {eps}: the reference itself ({kind}, {t:.3} ms); no faster setting"),
+            (None, Some(t)) => {
+                format!("cheapest within FLIP {eps}: the reference itself ({kind}, {t:.3} ms); no faster setting")
+            }
             (None, None) => format!("cheapest within FLIP {eps}: none"),
         })
         .collect();
     let dominated = slower.iter().filter(|&&s| s).count();
     let note = if dominated > 0 {
         let s = if dominated == 1 { "" } else { "s" };
-        format!("{note}; {dominated} setting{s} slower than the reference")
+        format!("{note}; {dominated} setting{s} slower than it")
     } else {
         note
     };
@@ -863,8 +867,8 @@ fn report(
             if fixed.is_empty() { "" } else { ", " },
             fixed.join(", "),
             reference_kind(args.reference),
-            // The points are labelled only with a threshold axis.
-            if threshold.is_some() { THRESHOLD_LABELS } else { "" }
+            // The points are labelled by threshold only outside a budget, with a threshold axis.
+            if threshold.is_some() && !args.budget { THRESHOLD_LABELS } else { "" }
         ),
         x_label: "GPU frame time, ms (sum of pass medians)".into(),
         y_label: "FLIP mean (tonemapped, vs reference)".into(),
@@ -899,11 +903,12 @@ fn report(
         wrote += 1;
     }
     let mut out = culling.map_or(String::new(), |line| format!("{line}\n"));
+    // The frontier without the settings the reference beats (slower than it, and exact).
     out += &format!(
         "frontier:   {} of {} settings: {}\n",
-        frontier.len(),
+        candidates.len(),
         rows.len(),
-        frontier.iter().map(|&i| describe(i)).collect::<Vec<_>>().join("; ")
+        candidates.iter().map(|&i| describe(i)).collect::<Vec<_>>().join("; ")
     );
     if wrote > 0 {
         out.push_str(&format!("heat maps:  {wrote} in {}\n", diff_dir.display()));

@@ -351,6 +351,18 @@ pub fn budget_series(axes: &[Axis], point: &[String]) -> String {
     }
 }
 
+/// The label of an error budget's point on its chart: the values it changed from the base
+/// ("deferred", "64"; "base" for the base), so points of one dial can be told apart.
+pub fn budget_label(axes: &[Axis], point: &[String]) -> String {
+    let changed: Vec<&str> =
+        axes.iter().zip(point).filter(|(a, v)| **v != a.values[0]).map(|(_, v)| v.as_str()).collect();
+    if changed.is_empty() {
+        "base".into()
+    } else {
+        changed.join(", ")
+    }
+}
+
 /// `base` with the point's values applied.
 pub fn args_at<F: Flags>(base: &F, axes: &[Axis], point: &Point) -> Result<F> {
     let mut args = base.clone();
@@ -644,6 +656,9 @@ mod tests {
         ];
         let p = points_one_at_a_time(&axes).unwrap();
         let series: Vec<String> = p.iter().map(|p| budget_series(&axes, p)).collect();
+        let labels: Vec<String> = p.iter().map(|p| budget_label(&axes, p)).collect();
+        assert_eq!(labels[0], "base");
+        assert!(labels[1..].iter().all(|l| l != "base" && !l.is_empty()), "{labels:?}");
         assert_eq!(
             series,
             [

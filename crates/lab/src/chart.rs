@@ -547,7 +547,10 @@ pub fn pareto_chart(path: &Path, c: &ParetoChart) -> Result<()> {
     // A zero error (an image identical to the reference) cannot go on a log axis: auto
     // falls back to linear then.
     let ysc = Scale::auto(ys.iter().copied(), 10.0);
-    let frontier = pareto_frontier(&c.points);
+    // A setting slower than a reference (exact at its time) is dominated by it.
+    let fastest_reference = refs.iter().map(|r| r.0).min_by(f64::total_cmp).unwrap_or(f64::INFINITY);
+    let frontier: Vec<usize> =
+        pareto_frontier(&c.points).into_iter().filter(|&i| c.points[i].time < fastest_reference).collect();
     let mut names: Vec<&str> = Vec::new();
     for p in &c.points {
         if !names.contains(&p.series.as_str()) {
@@ -581,7 +584,9 @@ pub fn pareto_chart(path: &Path, c: &ParetoChart) -> Result<()> {
             .draw()
             .map_err(err)?;
         let map = |p: &ParetoPoint| (xsc.map(p.time), ysc.map(p.error));
-        let mapped: Vec<(f64, f64)> = pts.iter().map(|p| map(p)).collect();
+        // The references' diamonds and labels sit on the bottom edge: the legend avoids them.
+        let mapped: Vec<(f64, f64)> =
+            pts.iter().map(|p| map(p)).chain(refs.iter().map(|r| (xsc.map(r.0), y0))).collect();
         let legend_at = emptiest_corner(&mapped, (x0, x1), (y0, y1));
         if let Some((t, label)) = &c.target {
             let u = ysc.map(*t);
@@ -615,16 +620,18 @@ pub fn pareto_chart(path: &Path, c: &ParetoChart) -> Result<()> {
             let diamond = move |(x, y): (i32, i32)| {
                 Polygon::new(vec![(x, y - size), (x + size, y), (x, y + size), (x - size, y)], black.filled())
             };
-            let series = chart
-                .draw_series(std::iter::once(EmptyElement::at((u, y0)) + diamond((0, 0))))
-                .map_err(err)?;
+            let series =
+                chart.draw_series(std::iter::once(EmptyElement::at((u, y0)) + diamond((0, 0)))).map_err(err)?;
             if k == 0 {
                 series.label("reference (error 0)").legend(move |(x, y)| diamond((x + 12, y)));
             }
+            // Right of the line, or left of it in the plot's right quarter (the label is
+            // about a fifth of the plot wide).
+            let lx = if u > x0 + (x1 - x0) * 0.75 { u - (x1 - x0) * 0.2 } else { u + (x1 - x0) * 0.008 };
             chart
                 .draw_series(std::iter::once(Text::new(
                     label.clone(),
-                    (u + (x1 - x0) * 0.008, y0 + (y1 - y0) * (0.04 + 0.05 * k as f64)),
+                    (lx, y0 + (y1 - y0) * (0.04 + 0.05 * k as f64)),
                     (FAMILY, 16).into_font().color(&black),
                 )))
                 .map_err(err)?;
@@ -657,10 +664,13 @@ pub fn pareto_chart(path: &Path, c: &ParetoChart) -> Result<()> {
             // labelling every point would print them on top of each other.
             let on_frontier: Vec<&&ParetoPoint> =
                 mine.iter().filter(|p| frontier.iter().any(|&i| std::ptr::eq(&c.points[i], **p))).collect();
+            // Alternate heights along the frontier: neighbours of one error overlap otherwise.
             chart
                 .draw_series(on_frontier.iter().map(|p| {
                     let (u, v) = map(p);
-                    Text::new(p.label.clone(), (u + (x1 - x0) * 0.008, v + (y1 - y0) * 0.025), (FAMILY, 15).into_font())
+                    let k = frontier.iter().position(|&i| std::ptr::eq(&c.points[i], **p)).unwrap_or(0);
+                    let up = if k % 2 == 0 { 0.025 } else { -0.04 };
+                    Text::new(p.label.clone(), (u + (x1 - x0) * 0.008, v + (y1 - y0) * up), (FAMILY, 15).into_font())
                 }))
                 .map_err(err)?;
         }

@@ -176,7 +176,10 @@ impl LightShare {
             Some(false) => ", shadowed",
             None => "",
         };
-        format!("#{} {kind}{caster}: {:.4e} unshadowed, {:.4e} windowed{ray}", self.index, self.unshadowed, self.windowed)
+        format!(
+            "#{} {kind}{caster}: {:.4e} unshadowed, {:.4e} windowed{ray}",
+            self.index, self.unshadowed, self.windowed
+        )
     }
 }
 
@@ -306,9 +309,16 @@ mod tests {
         // The shadow box scene: a floor at y = 0 and a 2 m box on the origin. The camera
         // looks down at the floor 6 m beside it.
         let (w, h) = (16u32, 12u32);
-        let cam =
-            Camera::perspective(Vec3::new(6.0, 10.0, 0.001), Vec3::new(6.0, 0.0, 0.0), Vec3::Y, 0.8, 16.0 / 12.0, 0.1, None)
-                .unwrap();
+        let cam = Camera::perspective(
+            Vec3::new(6.0, 10.0, 0.001),
+            Vec3::new(6.0, 0.0, 0.0),
+            Vec3::Y,
+            0.8,
+            16.0 / 12.0,
+            0.1,
+            None,
+        )
+        .unwrap();
         let depth = floor_depth(&cam, w, h);
         let pixel = (6 * w + 8) as usize;
         let p = surface_point(&cam, w, h, &depth, 8, 6).expect("the floor").position;

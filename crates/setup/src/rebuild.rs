@@ -132,10 +132,10 @@ mod tests {
     use tiledlight_cull::draw_order::DrawOrderMode;
     use tiledlight_cull::shadow::ShadowFormat;
     use tiledlight_gpu::culling::ClusterOptions;
-    use tiledlight_gpu::features::Raster;
-    use tiledlight_visibility::compute_raster::LargeRaster;
     use tiledlight_gpu::features::BlendMode;
+    use tiledlight_gpu::features::Raster;
     use tiledlight_scene::{CameraDesc, GridDensity};
+    use tiledlight_visibility::compute_raster::LargeRaster;
 
     fn base() -> Settings {
         Settings { width: 320, height: 180, ..Settings::default() }
