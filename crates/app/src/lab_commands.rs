@@ -1,4 +1,4 @@
-//! The flags of the measurement lab's subcommands (`bench`, `sweep`, `accuracy`,
+//! The flags of the measurement lab's subcommands (`bench`, `sweep`, `accuracy`, `tune`,
 //! `shadow-accuracy`, `peer-report`) and their conversion into tiledlight-lab's plain run
 //! structs; the runs themselves are the lab's. The scene flags reach the lab as
 //! [`SceneArgs`], which implements the lab's `Flags` (in [`crate::scene_setup`]).
@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::{Args, ValueEnum};
 use tiledlight_lab::accuracy::{self, ReferenceKind, VplReference};
-use tiledlight_lab::{bench, peer_report, shadow_accuracy, sweep};
+use tiledlight_lab::{bench, peer_report, shadow_accuracy, sweep, tune};
 
 use crate::scene_setup::SceneArgs;
 
@@ -202,6 +202,109 @@ impl AccuracyArgs {
             diff_dir: self.diff_dir.clone(),
         };
         accuracy::run(&self.scene, &job)
+    }
+}
+
+/// Flags of `tiledlight tune`.
+#[derive(Args, Clone, Debug)]
+pub struct TuneArgs {
+    /// Scene, lights and screen: what is tuned for (the dials' values replace these flags'
+    /// own).
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// The FLIP mean (against the traced truth) the setting must stay under.
+    #[arg(long, value_name = "E")]
+    pub target_flip: f64,
+    /// Also keep FLIP's 99th percentile under this.
+    #[arg(long, value_name = "P")]
+    pub target_p99: Option<f64>,
+    /// Also keep the worst pixel's HDR error (relative to the truth's 99.9th-percentile
+    /// value, the accuracy CSV's `max_error`) under this.
+    #[arg(long, value_name = "W")]
+    pub max_worst: Option<f64>,
+    /// A dial to search, NAME=VALUES (axis names as for `sweep`), the first value where the
+    /// search starts [default: method=deferred,visibility,forward-plus;
+    /// threshold=0.0015,...; shadow-point-lights=16,0,64,256; casters-by; shadow-size;
+    /// shadow-filter; aabb; msaa].
+    #[arg(long = "dial", value_name = "NAME=VALUES")]
+    pub dials: Vec<String>,
+    /// Measured frames per candidate (the time is their median).
+    #[arg(long, default_value_t = 10, value_name = "N")]
+    pub frames: u32,
+    /// Frames rendered before measuring each candidate.
+    #[arg(long, default_value_t = 3, value_name = "N")]
+    pub warmup: u32,
+    /// Measured frames of the truth.
+    #[arg(long, default_value_t = 2, value_name = "N")]
+    pub reference_frames: u32,
+    /// Most passes over the dials.
+    #[arg(long, default_value_t = 3, value_name = "N")]
+    pub passes: u32,
+    /// CSV of every candidate, resumed when it exists with the same dials [default:
+    /// out/tune.csv].
+    #[arg(long, value_name = "FILE.csv")]
+    pub out: Option<PathBuf>,
+}
+
+/// `tune`'s own flags that take a value (left out of the reproducing command lines).
+const TUNE_FLAGS: [&str; 9] = [
+    "--target-flip",
+    "--target-p99",
+    "--max-worst",
+    "--dial",
+    "--frames",
+    "--warmup",
+    "--reference-frames",
+    "--passes",
+    "--out",
+];
+
+/// The scene flags of a `tune` command line (`args`, after the subcommand) without the
+/// tuner's own flags and without the flags the dials set (`dials`: their names).
+pub fn scene_flags(args: &[String], dials: &[String]) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < args.len() {
+        let a = &args[i];
+        let name = a.split('=').next().unwrap_or(a);
+        let dial = name.strip_prefix("--").is_some_and(|n| dials.iter().any(|d| d == n));
+        if TUNE_FLAGS.contains(&name) || dial {
+            // The value is the next argument unless given as --flag=value, or the flag is
+            // a bare switch (a dial like --aabb: the next argument is another flag).
+            let takes_next = !a.contains('=') && args.get(i + 1).is_some_and(|n| !n.starts_with("--"));
+            i += if takes_next { 2 } else { 1 };
+            continue;
+        }
+        out.push(a.clone());
+        i += 1;
+    }
+    out
+}
+
+impl TuneArgs {
+    /// Runs `tiledlight tune`; `cli` is the command line after `tune`, for the commands
+    /// that reproduce the answer.
+    pub fn run(&self, cli: &[String]) -> Result<()> {
+        let job = tune::Tune {
+            constraints: tune::Constraints { flip: self.target_flip, p99: self.target_p99, worst: self.max_worst },
+            dials: self.dials.clone(),
+            frames: self.frames,
+            warmup: self.warmup,
+            reference_frames: self.reference_frames,
+            passes: self.passes,
+            out: self.out.clone(),
+        };
+        let answer = tune::run(&self.scene, &job)?;
+        println!("result:     {}", answer.summary());
+        let names: Vec<String> = answer.dials.iter().map(|d| d.name.clone()).collect();
+        let scene = scene_flags(cli, &names).join(" ");
+        let sep = if scene.is_empty() { "" } else { " " };
+        let render = tune::render_flags(&answer.dials, &answer.point).join(" ");
+        let axes: Vec<String> =
+            answer.dials.iter().zip(&answer.point).map(|(d, v)| format!("--axis {}={v}", d.name)).collect();
+        println!("render it:  tiledlight render{sep}{scene} {render}");
+        println!("measure it: tiledlight accuracy{sep}{scene} --reference traced {}", axes.join(" "));
+        Ok(())
     }
 }
 

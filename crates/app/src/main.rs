@@ -42,7 +42,7 @@ mod vpl_args;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use lab_commands::{AccuracyArgs, BenchArgs, PeerReportArgs, ShadowAccuracyArgs, SweepArgs};
+use lab_commands::{AccuracyArgs, BenchArgs, PeerReportArgs, ShadowAccuracyArgs, SweepArgs, TuneArgs};
 use tiledlight_lab::shadow_accuracy;
 
 use messages::{error_line, one_line};
@@ -76,6 +76,12 @@ enum Command {
     /// FLIP heat maps.
     #[command(allow_negative_numbers = true)]
     Accuracy(AccuracyArgs),
+    /// Find the fastest setting within an error budget: coordinate descent over dials
+    /// (method, threshold, casters, shadow atlas, culling, MSAA), each candidate measured
+    /// against the traced truth; prints the setting, its time and errors, and the command
+    /// lines that render it and measure it again.
+    #[command(allow_negative_numbers = true)]
+    Tune(TuneArgs),
     /// Measure the shadow maps' own error: only the shadow casters lit, brute force, each
     /// shadow configuration (atlas tile size x filter x format) against a CPU ray-cast
     /// reference, with the atlas and shading pass times; table, JSON and Pareto chart.
@@ -141,6 +147,12 @@ fn main() -> ExitCode {
         Some(Command::Bench(args)) => args.run(),
         Some(Command::Sweep(args)) => args.run(),
         Some(Command::Accuracy(args)) => args.run(),
+        Some(Command::Tune(args)) => {
+            // The command line after the subcommand, for the commands that reproduce the answer.
+            let all: Vec<String> = std::env::args().collect();
+            let after = all.iter().position(|a| a == "tune").map_or(all.len(), |i| i + 1);
+            args.run(&all[after..])
+        }
         Some(Command::ShadowAccuracy(args)) => args.run(),
         Some(Command::Export(args)) => export::run(args),
         Some(Command::PeerReport(args)) => args.run(),

@@ -581,3 +581,74 @@ fn traced_budget(dir: &std::path::Path, name: &str, axes: &[&str]) -> (String, s
     args.extend(SMALL);
     (stdout(&gpu_run(&args)), csv)
 }
+
+/// The dials of the tuner's test: two methods, two thresholds, no casters or all 12.
+const TUNE_DIALS: [&str; 6] =
+    ["--dial", "method=deferred,forward-plus", "--dial", "threshold=0.2,0.02", "--dial", "shadow-point-lights=0,12"];
+
+/// Runs `tune` over [`TUNE_DIALS`] at 160x96 with `target` as the FLIP budget, into `csv`:
+/// its printout, and the answer's row of the CSV when it met the budget.
+fn tune(csv: &Path, target: &str) -> (String, Option<HashMap<String, String>>) {
+    let mut args = vec!["tune", "--lights", "12", "--target-flip", target, "--reference-frames", "1"];
+    args.extend(TUNE_DIALS);
+    args.extend(["--out", csv.to_str().unwrap()]);
+    args.extend(SMALL);
+    let out = stdout(&gpu_run(&args));
+    let measure = out.lines().find_map(|l| l.strip_prefix("measure it: ")).unwrap_or_else(|| panic!("{out}"));
+    let chosen: HashMap<&str, &str> = measure
+        .split(' ')
+        .filter_map(|w| w.split_once('='))
+        .filter(|(k, _)| ["method", "threshold", "shadow-point-lights"].contains(k))
+        .collect();
+    assert_eq!(chosen.len(), 3, "{measure}");
+    let (_, rows) = read_csv(csv);
+    let row = rows
+        .into_iter()
+        .find(|r| chosen.iter().all(|(k, v)| r[*k] == *v))
+        .unwrap_or_else(|| panic!("the answer {chosen:?} is not in the CSV"));
+    let met = out.contains("result:     fastest within the budget:");
+    (out, met.then_some(row))
+}
+
+/// `tiledlight tune` on lavapipe (12 lights, 160x96, the traced truth): a loose budget is
+/// met by a setting that really meets it (FLIP under the target, no dropped frame, faster
+/// than the truth), and the command it prints renders; a budget tighter than that answer's
+/// own FLIP never returns a faster setting (it returns a slower one that meets it, or says
+/// no setting faster than the truth does). Bad budgets are refused by name.
+#[test]
+fn tune_finds_a_setting_within_the_budget_and_a_tighter_one_is_never_faster() {
+    let dir = scratch("tune");
+    let csv = dir.join("tune.csv");
+    let (out, loose) = tune(&csv, "0.5");
+    let loose = loose.unwrap_or_else(|| panic!("FLIP 0.5 must be met: {out}"));
+    assert!(num(&loose, "flip_mean") < 0.5, "{loose:?}");
+    assert_eq!(num(&loose, "dropped_frames"), 0.0);
+    assert!(num(&loose, "total_ms") < num(&loose, "reference_ms"));
+    assert!(
+        num(&loose, "frame_min_ms") <= num(&loose, "total_ms")
+            && num(&loose, "total_ms") <= num(&loose, "frame_max_ms")
+    );
+    // The printed command renders the answer.
+    let render = out.lines().find_map(|l| l.strip_prefix("render it:  tiledlight ")).expect("a render command");
+    let png = dir.join("answer.png");
+    let mut args: Vec<&str> = render.split(' ').collect();
+    args.extend(["--out", png.to_str().unwrap()]);
+    gpu_run(&args);
+    assert_png(&png);
+
+    let tighter = loose["flip_mean"].clone();
+    let (out, tight) = tune(&csv, &tighter);
+    match tight {
+        Some(row) => {
+            assert!(num(&row, "flip_mean") < num(&loose, "flip_mean"), "{row:?}");
+            assert!(num(&row, "total_ms") >= num(&loose, "total_ms"), "a tighter budget answered faster: {out}");
+        }
+        None => assert!(out.contains("no setting faster than the truth meets the budget"), "{out}"),
+    }
+    for (bad, needle) in [("0", "--target-flip 0: must be in (0, 1]"), ("1.5", "--target-flip 1.5")] {
+        let mut args = vec!["tune", "--target-flip", bad];
+        args.extend(SMALL);
+        let err = fails(&args);
+        assert!(err.contains(needle), "{err}");
+    }
+}

@@ -144,9 +144,11 @@ pub enum ReferenceKind {
 }
 
 const HEAD: [&str; 3] = ["adapter", "width", "height"];
-const TAIL: [&str; 31] = [
+const TAIL: [&str; 33] = [
     "total_ms",
     "passes",
+    "frame_min_ms",
+    "frame_max_ms",
     "psnr_db",
     "flip_mean",
     "flip_p99",
@@ -265,6 +267,13 @@ fn render_sorted(prep: &mut Prepared, a: &Settings, warmup: u32, frames: u32) ->
     let ldr = r.read_ldr(&prep.ctx).context("reading the sorted frame back")?;
     prep.check_gpu_errors()?;
     Ok(SortedFrame { ldr, total_ms })
+}
+
+/// The fastest and slowest measured frame (the sum of its timed passes): the spread of the
+/// median `total_ms` sums.
+fn frame_spread(m: &bench::Measurement) -> (f64, f64) {
+    let totals = m.gpu_frames.iter().map(|f| f.iter().map(|p| p.ms).sum::<f64>());
+    totals.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| (lo.min(t), hi.max(t)))
 }
 
 /// "depth_prepass=0.592;forward.cull=0.043" and their sum.
@@ -390,13 +399,7 @@ fn f(v: f64, digits: usize) -> String {
 
 /// Runs `tiledlight accuracy`.
 pub fn run<F: Flags>(scene: &F, args: &Accuracy) -> Result<()> {
-    ensure!((1..=MAX_FRAMES).contains(&args.frames), "--frames {}: must be between 1 and {MAX_FRAMES}", args.frames);
-    ensure!(args.warmup <= MAX_FRAMES, "--warmup {}: must be at most {MAX_FRAMES}", args.warmup);
-    ensure!(
-        (1..=MAX_FRAMES).contains(&args.reference_frames),
-        "--reference-frames {}: must be between 1 and {MAX_FRAMES}",
-        args.reference_frames
-    );
+    check_frames(args)?;
     ensure!(
         args.target_flip.is_finite() && args.target_flip > 0.0 && args.target_flip <= 1.0,
         "--target-flip {}: must be in (0, 1]",
@@ -428,62 +431,126 @@ pub fn run<F: Flags>(scene: &F, args: &Accuracy) -> Result<()> {
         out.with_file_name(format!("{stem}-flip"))
     });
 
-    let head = header(&axes);
-    let key: Vec<usize> = (HEAD.len()..HEAD.len() + axes.len()).collect();
-    let mut csv = ResumableCsv::open(&out, &head, &key, None)?;
-    let pending: Vec<usize> = (0..points.len()).filter(|&i| !csv.is_done(&points[i])).collect();
+    let keep_sorted = all_args.iter().any(|a| a.blend_mode == BlendMode::WeightedOit);
+    let mut session = Session::open(&out, &axes, keep_sorted)?;
+    let pending = points.iter().filter(|p| !session.csv.is_done(p)).count();
     println!(
         "accuracy:   {} settings ({}), {} already in {}",
         points.len(),
         axes.iter().map(|a| format!("{} x{}", a.name, a.values.len())).collect::<Vec<_>>().join(", "),
-        points.len() - pending.len(),
+        points.len() - pending,
         out.display()
     );
-    let mut prep: Option<Prepared> = None;
-    let mut references: HashMap<String, Reference> = HashMap::new();
-    // Sorted frames of the run's sorted points, kept only when it has WBOIT points too.
-    let keep_sorted = all_args.iter().any(|a| a.blend_mode == BlendMode::WeightedOit);
-    let mut sorted: HashMap<String, SortedFrame> = HashMap::new();
-    let mut heat: HashMap<Vec<String>, Vec<u8>> = HashMap::new();
-    let mut adapter = String::new();
-    let mut warnings = 0;
-    let mut warned_scene: Option<tiledlight_setup::SceneSource> = None;
-    let mut geometry: Option<(Settings, TraceGeometry)> = None;
-    let pb = axes::progress(pending.len());
-    for (done, &i) in pending.iter().enumerate() {
-        let (point, pargs) = (&points[i], &all_args[i]);
-        let what = axes::describe(&axes, point);
-        pb.set_message(what.clone());
-        let mut state = RunState {
-            prep: &mut prep,
-            adapter: &mut adapter,
-            csv: &mut csv,
-            references: &mut references,
-            sorted: &mut sorted,
-            heat: &mut heat,
-            keep_sorted,
-            warned_scene: &mut warned_scene,
-            geometry: &mut geometry,
-        };
-        match measure_setting(&mut state, (point, pargs, &what), args, &out, &pb) {
-            Ok(Some(w)) => axes::warn(&pb, &mut warnings, &format!("{what}: {w}")),
-            Ok(None) => {}
-            Err(e) => {
-                pb.finish_and_clear();
-                let done = points.len() - pending.len() + done;
-                let progress = axes::Progress { point: &what, done, total: points.len(), csv: &out };
-                return Err(axes::interrupted(e, prep.as_ref(), &progress));
-            }
-        }
-        pb.inc(1);
-    }
-    pb.finish_and_clear();
+    session.measure(&axes, (&points, &all_args), args, &out)?;
+    let csv = &session.csv;
+    let heat = &session.heat;
+    let warnings = session.warnings;
     let rows = csv.read_all()?;
     let base = (scene.scene_label(), scene.plain().method);
-    let summary = report(&chart_path, &diff_dir, &axes, &rows, &heat, (args, base))?;
+    let summary = report(&chart_path, &diff_dir, &axes, &rows, heat, (args, base))?;
     println!("{summary}");
     println!("wrote {} and {}", out.display(), chart_path.display());
     dropped::strict(all_args.iter().any(|a| a.strict), warnings)
+}
+
+/// Checks the frame counts of `args` (an error names the flag).
+pub(crate) fn check_frames(args: &Accuracy) -> Result<()> {
+    ensure!((1..=MAX_FRAMES).contains(&args.frames), "--frames {}: must be between 1 and {MAX_FRAMES}", args.frames);
+    ensure!(args.warmup <= MAX_FRAMES, "--warmup {}: must be at most {MAX_FRAMES}", args.warmup);
+    ensure!(
+        (1..=MAX_FRAMES).contains(&args.reference_frames),
+        "--reference-frames {}: must be between 1 and {MAX_FRAMES}",
+        args.reference_frames
+    );
+    Ok(())
+}
+
+/// Columns after the axes' in [`header`].
+pub(crate) fn tail_len() -> usize {
+    TAIL.len()
+}
+
+/// An accuracy run's state across the settings it measures: the GPU, the CSV, the
+/// references and sorted frames rendered so far (each rendered once: the truth is reused
+/// by every setting that shares its key), the FLIP heat maps, the warnings given. The
+/// tuner ([`crate::tune`]) keeps one across its rounds.
+pub(crate) struct Session {
+    prep: Option<Prepared>,
+    adapter: String,
+    /// The resumable CSV of every setting measured.
+    pub(crate) csv: ResumableCsv,
+    references: HashMap<String, Reference>,
+    sorted: HashMap<String, SortedFrame>,
+    /// FLIP heat maps (RGB) by point.
+    pub(crate) heat: HashMap<Vec<String>, Vec<u8>>,
+    keep_sorted: bool,
+    warned_scene: Option<tiledlight_setup::SceneSource>,
+    geometry: Option<(Settings, TraceGeometry)>,
+    /// Settings whose frames dropped work (`warning:` lines given).
+    pub(crate) warnings: usize,
+}
+
+impl Session {
+    /// Opens the CSV at `out` for `axes` (resuming what it holds). `keep_sorted`: keep the
+    /// sorted frames of sorted points for WBOIT points to compare with.
+    pub(crate) fn open(out: &Path, axes: &[Axis], keep_sorted: bool) -> Result<Self> {
+        let head = header(axes);
+        let key: Vec<usize> = (HEAD.len()..HEAD.len() + axes.len()).collect();
+        Ok(Self {
+            prep: None,
+            adapter: String::new(),
+            csv: ResumableCsv::open(out, &head, &key, None)?,
+            references: HashMap::new(),
+            sorted: HashMap::new(),
+            heat: HashMap::new(),
+            keep_sorted,
+            warned_scene: None,
+            geometry: None,
+            warnings: 0,
+        })
+    }
+
+    /// Measures the `points` (with their settings) not yet in the CSV, with a progress bar;
+    /// an error names the point and how far the run got (the CSV keeps what was measured).
+    pub(crate) fn measure(
+        &mut self,
+        axes: &[Axis],
+        (points, all_args): (&[axes::Point], &[Settings]),
+        args: &Accuracy,
+        out: &Path,
+    ) -> Result<()> {
+        let pending: Vec<usize> = (0..points.len()).filter(|&i| !self.csv.is_done(&points[i])).collect();
+        let pb = axes::progress(pending.len());
+        for (done, &i) in pending.iter().enumerate() {
+            let (point, pargs) = (&points[i], &all_args[i]);
+            let what = axes::describe(axes, point);
+            pb.set_message(what.clone());
+            let mut state = RunState {
+                prep: &mut self.prep,
+                adapter: &mut self.adapter,
+                csv: &mut self.csv,
+                references: &mut self.references,
+                sorted: &mut self.sorted,
+                heat: &mut self.heat,
+                keep_sorted: self.keep_sorted,
+                warned_scene: &mut self.warned_scene,
+                geometry: &mut self.geometry,
+            };
+            match measure_setting(&mut state, (point, pargs, &what), args, out, &pb) {
+                Ok(Some(w)) => axes::warn(&pb, &mut self.warnings, &format!("{what}: {w}")),
+                Ok(None) => {}
+                Err(e) => {
+                    pb.finish_and_clear();
+                    let done = points.len() - pending.len() + done;
+                    let progress = axes::Progress { point: &what, done, total: points.len(), csv: out };
+                    return Err(axes::interrupted(e, self.prep.as_ref(), &progress));
+                }
+            }
+            pb.inc(1);
+        }
+        pb.finish_and_clear();
+        Ok(())
+    }
 }
 
 /// What the settings of a run share: the GPU, the CSV, the references and sorted frames
@@ -557,6 +624,7 @@ fn measure_setting(
         let mut renderer = p.renderer(false).with_context(|| what.clone())?;
         let m = bench::measure(p, &mut renderer, args.warmup, args.frames).with_context(|| what.clone())?;
         let (total, passes) = pass_times(&m).with_context(|| what.clone())?;
+        let spread = frame_spread(&m);
         let dropped = m.dropped();
         let stats = p.culling_stats(&renderer)?;
         let edges = renderer.edge_pixels(&p.ctx).context("reading the MSAA edge count back")?;
@@ -600,6 +668,8 @@ fn measure_setting(
         row.extend([
             f(total, 4),
             passes,
+            f(spread.0, 4),
+            f(spread.1, 4),
             f(e.psnr_db, 3),
             f(f64::from(fl.mean), 6),
             f(f64::from(fl.percentile), 6),

@@ -13,6 +13,7 @@
 //! - [`peer_report`]: the peer benchmark's tables, chart and FLIP comparison;
 //! - [`chart`] (line, bar and Pareto charts), [`legend`] (the heat map's legend);
 //! - [`dropped`]: accounting of the work a full light grid dropped, and the warnings;
+//! - [`tune`]: the fastest setting within an error budget (`tiledlight tune`);
 //! - [`worst`]: a setting's worst pixel explained (where, both values, its largest lights);
 //! - [`output`]: one-line messages, load warnings and PNG output.
 //!
@@ -37,4 +38,5 @@ pub mod output;
 pub mod peer_report;
 pub mod shadow_accuracy;
 pub mod sweep;
+pub mod tune;
 pub mod worst;

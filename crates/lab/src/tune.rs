@@ -1,0 +1,356 @@
+//! `tiledlight tune`: the fastest setting within an error budget, measured against the
+//! traced truth (issue 44). The question a user brings: "which method and which dials give
+//! me FLIP under E on my scene, fastest?"
+//!
+//! 1. **Dials**: `--dial NAME=VALUES` (axes of [`crate::axes::AXES`]), or
+//!    [`DEFAULT_DIALS`]. The first value of each dial is where the search starts.
+//! 2. **Constraints** ([`Constraints`]): FLIP mean under the target, and optionally its
+//!    99th percentile and the worst pixel's HDR error (`max_error`) under theirs; frames that
+//!    dropped lights never qualify (their time is of less work), nor does a setting slower
+//!    than the truth (the truth is exact: the answer is then the truth itself).
+//! 3. **Coordinate descent**: for each dial in turn, every value with the other dials at
+//!    the current setting is measured (accuracy's session: one truth per scene, camera and
+//!    light set, reused by every candidate; candidates already in the CSV are not measured
+//!    again, so a rerun resumes). The current setting moves to the fastest candidate that
+//!    meets every constraint; while none does, to the one with the lowest FLIP mean
+//!    ([`pick`]). Passes over the dials repeat until one changes nothing (at most
+//!    `passes`).
+//! 4. **Answer**: the fastest setting meeting the budget among every candidate in the CSV
+//!    (so a tighter budget over the same CSV never answers faster), else where the descent
+//!    ended; its time (the median of the measured frames, with the fastest and slowest
+//!    frame), its errors, and two command lines: one that renders it and one that measures
+//!    it again. One CSV per scene, camera and light set: its rows are compared as one.
+//!
+//! Coordinate descent finds a local optimum: dials that only pay together (more casters
+//! *and* a tighter threshold) can be missed; list such a pair's values on one dial's
+//! neighbour by running again from that start. Depends on [`crate::accuracy`] and
+//! [`crate::axes`].
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+use anyhow::{ensure, Context, Result};
+use tiledlight_setup::Settings;
+
+use crate::accuracy::{self, Accuracy, ReferenceKind, Session, VplReference};
+use crate::axes::{self, Axis, Flags, Point};
+
+/// The dials searched when none is given: the method, the radius cutoff, the casters and
+/// their choice, the shadow atlas, the culling test, MSAA. The first value of each is the
+/// start (the defaults of a user who has not tuned anything yet, at a threshold where the
+/// cutoff's lost light and the unshadowed lights' added light roughly balance).
+pub const DEFAULT_DIALS: [&str; 8] = [
+    "method=deferred,visibility,forward-plus",
+    "threshold=0.0015,0.003,0.00625,0.025,0.1,0.0006",
+    "shadow-point-lights=16,0,64,256",
+    "casters-by=contribution,brightness",
+    "shadow-size=512,256,1024",
+    "shadow-filter=3,1,5",
+    "aabb=on,off",
+    "msaa=1,4",
+];
+
+/// What a setting must meet.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Constraints {
+    /// FLIP mean below this.
+    pub flip: f64,
+    /// FLIP's 99th percentile below this.
+    pub p99: Option<f64>,
+    /// The worst pixel's HDR error (`max_error`, relative to the reference's peak) below this.
+    pub worst: Option<f64>,
+}
+
+/// A tuning run (the app's `tune` flags besides the scene's).
+#[derive(Clone, Debug)]
+pub struct Tune {
+    /// What the answer must meet.
+    pub constraints: Constraints,
+    /// Dials, `NAME=VALUES` each (empty: [`DEFAULT_DIALS`]).
+    pub dials: Vec<String>,
+    /// Measured frames per candidate.
+    pub frames: u32,
+    /// Frames rendered before measuring each candidate.
+    pub warmup: u32,
+    /// Measured frames of the truth.
+    pub reference_frames: u32,
+    /// Most passes over the dials.
+    pub passes: u32,
+    /// CSV of every candidate measured [default: out/tune.csv]; a rerun resumes from it.
+    pub out: Option<PathBuf>,
+}
+
+/// One measured candidate, as [`pick`] judges it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Candidate {
+    /// Median GPU frame time (sum of the passes' medians), ms.
+    pub time: f64,
+    /// The truth's time, ms.
+    pub reference_time: f64,
+    /// FLIP mean, p99 and the worst pixel's HDR error against the truth.
+    pub flip: f64,
+    /// FLIP's 99th percentile.
+    pub p99: f64,
+    /// `max_error`.
+    pub worst: f64,
+    /// Its frames dropped lights.
+    pub incomplete: bool,
+}
+
+impl Candidate {
+    /// Whether it meets `c` (and is complete and faster than the truth).
+    pub fn meets(&self, c: &Constraints) -> bool {
+        !self.incomplete
+            && self.time < self.reference_time
+            && self.flip < c.flip
+            && c.p99.is_none_or(|p| self.p99 < p)
+            && c.worst.is_none_or(|w| self.worst < w)
+    }
+}
+
+/// The candidate to move to: the fastest that meets `c`; while none does, the one with the
+/// lowest FLIP mean (ties: the faster). None for no candidates. NaN errors never win.
+pub fn pick(candidates: &[Candidate], c: &Constraints) -> Option<usize> {
+    let feasible = (0..candidates.len()).filter(|&i| candidates[i].meets(c));
+    if let Some(i) = feasible.min_by(|&a, &b| candidates[a].time.total_cmp(&candidates[b].time)) {
+        return Some(i);
+    }
+    (0..candidates.len()).filter(|&i| candidates[i].flip.is_finite() && candidates[i].time.is_finite()).min_by(
+        |&a, &b| {
+            let (x, y) = (&candidates[a], &candidates[b]);
+            x.flip.total_cmp(&y.flip).then(x.time.total_cmp(&y.time))
+        },
+    )
+}
+
+/// The flags that render `point` of `dials` (`--method deferred --threshold 0.003 ...`;
+/// on/off dials as a bare flag when on, nothing when off).
+pub fn render_flags(dials: &[Axis], point: &[String]) -> Vec<String> {
+    let mut out = Vec::new();
+    for (a, v) in dials.iter().zip(point) {
+        match v.as_str() {
+            "on" => out.push(format!("--{}", a.name)),
+            "off" => {}
+            _ => out.extend([format!("--{}", a.name), v.clone()]),
+        }
+    }
+    out
+}
+
+/// What [`run`] found.
+#[derive(Clone, Debug)]
+pub struct Answer {
+    /// The dials.
+    pub dials: Vec<Axis>,
+    /// The chosen setting (one value per dial).
+    pub point: Point,
+    /// It meets the constraints (else it is the closest found, and the truth is the answer).
+    pub meets: bool,
+    /// Its CSV row, by column.
+    pub row: HashMap<String, String>,
+    /// Candidates measured in all (the CSV's rows).
+    pub measured: usize,
+}
+
+/// A row's number (NaN when empty).
+fn num(row: &HashMap<String, String>, col: &str) -> f64 {
+    row.get(col).and_then(|v| v.parse().ok()).unwrap_or(f64::NAN)
+}
+
+fn candidate(row: &HashMap<String, String>) -> Candidate {
+    Candidate {
+        time: num(row, "total_ms"),
+        reference_time: num(row, "reference_ms"),
+        flip: num(row, "flip_mean"),
+        p99: num(row, "flip_p99"),
+        worst: num(row, "max_error"),
+        incomplete: num(row, "dropped_frames") > 0.0,
+    }
+}
+
+/// Runs the search (module doc) and prints its progress and answer.
+pub fn run<F: Flags>(scene: &F, t: &Tune) -> Result<Answer> {
+    let c = &t.constraints;
+    ensure!(c.flip.is_finite() && c.flip > 0.0 && c.flip <= 1.0, "--target-flip {}: must be in (0, 1]", c.flip);
+    if let Some(p) = c.p99 {
+        ensure!(p.is_finite() && p > 0.0 && p <= 1.0, "--target-p99 {p}: must be in (0, 1]");
+    }
+    if let Some(w) = c.worst {
+        ensure!(w.is_finite() && w > 0.0, "--max-worst {w}: must be a positive number");
+    }
+    ensure!((1..=20).contains(&t.passes), "--passes {}: must be between 1 and 20", t.passes);
+    let specs: Vec<String> =
+        if t.dials.is_empty() { DEFAULT_DIALS.iter().map(|s| s.to_string()).collect() } else { t.dials.clone() };
+    let dials: Vec<Axis> = specs.iter().map(|s| axes::parse_axis::<F>(s)).collect::<Result<_>>()?;
+    let mut names = std::collections::HashSet::new();
+    for d in &dials {
+        ensure!(names.insert(d.name.as_str()), "dial '{}' is given twice", d.name);
+    }
+    let out = t.out.clone().unwrap_or_else(|| PathBuf::from("out/tune.csv"));
+    let args = Accuracy {
+        axes: specs.clone(),
+        frames: t.frames,
+        warmup: t.warmup,
+        reference_frames: t.reference_frames,
+        reference: ReferenceKind::Traced,
+        vpl_reference_rsm: VplReference::Scale(1),
+        target_flip: c.flip,
+        budget: false,
+        out: Some(out.clone()),
+        chart: None,
+        diff_dir: None,
+    };
+    accuracy::check_frames(&args)?;
+    let mut session = Session::open(&out, &dials, false)?;
+    let head = accuracy::header(&dials);
+    let by_point = |session: &Session| -> Result<HashMap<Point, HashMap<String, String>>> {
+        let rows = session.csv.read_all()?;
+        let first = head.len() - accuracy::tail_len() - dials.len();
+        Ok(rows
+            .into_iter()
+            .map(|r| {
+                let key = r[first..first + dials.len()].to_vec();
+                (key, head.iter().cloned().zip(r).collect())
+            })
+            .collect())
+    };
+    println!(
+        "tune:       {} dials ({}), FLIP mean < {}{}{}; against the traced truth; {} already in {}",
+        dials.len(),
+        dials.iter().map(|a| format!("{} x{}", a.name, a.values.len())).collect::<Vec<_>>().join(", "),
+        c.flip,
+        c.p99.map(|p| format!(", p99 < {p}")).unwrap_or_default(),
+        c.worst.map(|w| format!(", worst pixel < {w}")).unwrap_or_default(),
+        session.csv.existing.len(),
+        out.display()
+    );
+    let mut current: Point = dials.iter().map(|d| d.values[0].clone()).collect();
+    for pass in 1..=t.passes {
+        let mut changed = false;
+        for (k, dial) in dials.iter().enumerate() {
+            let points: Vec<Point> = dial
+                .values
+                .iter()
+                .map(|v| {
+                    let mut p = current.clone();
+                    p[k] = v.clone();
+                    p
+                })
+                .collect();
+            let settings: Vec<Settings> = points
+                .iter()
+                .map(|p| axes::args_at(scene, &dials, p).and_then(|a| a.settings()))
+                .collect::<Result<_>>()?;
+            session.measure(&dials, (&points, &settings), &args, &out)?;
+            let rows = by_point(&session)?;
+            let cands: Vec<Candidate> = points
+                .iter()
+                .map(|p| rows.get(p).map(candidate).context("a measured candidate is missing from the CSV"))
+                .collect::<Result<_>>()?;
+            let Some(best) = pick(&cands, c) else { continue };
+            if points[best] != current {
+                let b = &cands[best];
+                println!(
+                    "pass {pass}, {}: {} -> {} ({:.3} ms, FLIP mean {:.4}{})",
+                    dial.name,
+                    current[k],
+                    points[best][k],
+                    b.time,
+                    b.flip,
+                    if b.meets(c) { ", meets the budget" } else { ", closest so far" }
+                );
+                current = points[best].clone();
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    // The answer: the fastest feasible setting among every candidate in the CSV (the
+    // descent's path and earlier runs' alike), else where the descent ended. So a run with
+    // a tighter budget over the same CSV never answers with a faster setting.
+    let rows = by_point(&session)?;
+    let all: Vec<(&Point, Candidate)> = rows.iter().map(|(p, r)| (p, candidate(r))).collect();
+    let feasible: Vec<Candidate> = all.iter().map(|(_, c)| *c).collect();
+    let chosen = match pick(&feasible, c).filter(|&i| feasible[i].meets(c)) {
+        Some(i) => all[i].0.clone(),
+        None => current,
+    };
+    let row = rows.get(&chosen).cloned().context("the chosen setting is missing from the CSV")?;
+    let cand = candidate(&row);
+    Ok(Answer { meets: cand.meets(c), dials, point: chosen, row, measured: rows.len() })
+}
+
+impl Answer {
+    /// The answer in words: the setting, its time and spread, its errors, or why the truth
+    /// itself is the answer.
+    pub fn summary(&self) -> String {
+        let what = axes::describe(&self.dials, &self.point);
+        let n = |c: &str| num(&self.row, c);
+        let numbers = format!(
+            "{:.3} ms (frames {:.3}-{:.3} ms), FLIP mean {:.4} p99 {:.4}, worst pixel {:.3}; the truth {:.3} ms",
+            n("total_ms"),
+            n("frame_min_ms"),
+            n("frame_max_ms"),
+            n("flip_mean"),
+            n("flip_p99"),
+            n("max_error"),
+            n("reference_ms")
+        );
+        if self.meets {
+            format!("fastest within the budget: {what}: {numbers} ({} candidates measured)", self.measured)
+        } else {
+            format!(
+                "no setting faster than the truth meets the budget; the closest found: {what}: {numbers} ({} candidates measured): render the truth itself (--method traced-reference)",
+                self.measured
+            )
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cand(time: f64, flip: f64) -> Candidate {
+        Candidate { time, reference_time: 100.0, flip, p99: flip * 3.0, worst: flip * 10.0, incomplete: false }
+    }
+
+    /// The fastest feasible candidate wins; while none is feasible, the most accurate; a
+    /// candidate that dropped lights, one slower than the truth and one past the p99 or
+    /// worst-pixel limit never count as feasible.
+    #[test]
+    fn pick_takes_the_fastest_within_the_budget() {
+        let c = Constraints { flip: 0.05, p99: None, worst: None };
+        let cands = [cand(30.0, 0.04), cand(10.0, 0.06), cand(20.0, 0.03), cand(5.0, 0.2)];
+        assert_eq!(pick(&cands, &c), Some(2));
+        // A tighter budget never picks a faster setting: here, the most accurate one.
+        let tight = Constraints { flip: 0.02, ..c };
+        assert_eq!(pick(&cands, &tight), Some(2));
+        assert!(!cands[2].meets(&tight));
+        let dropped = [Candidate { incomplete: true, ..cand(1.0, 0.01) }, cand(30.0, 0.04)];
+        assert_eq!(pick(&dropped, &c), Some(1));
+        let slower = [Candidate { time: 150.0, ..cand(0.0, 0.001) }, cand(30.0, 0.049)];
+        assert_eq!(pick(&slower, &c), Some(1));
+        let p99 = Constraints { p99: Some(0.1), ..c };
+        assert_eq!(pick(&cands, &p99), Some(2), "p99 0.09 < 0.1");
+        let worst = Constraints { worst: Some(0.35), ..c };
+        assert!(!cands[0].meets(&worst) && cands[2].meets(&worst));
+        assert_eq!(pick(&[], &c), None);
+        assert_eq!(pick(&[cand(1.0, f64::NAN), cand(9.0, 0.5)], &c), Some(1));
+    }
+
+    #[test]
+    fn render_flags_spell_each_dial() {
+        let dials = vec![
+            Axis { name: "method".into(), values: vec!["deferred".into()] },
+            Axis { name: "aabb".into(), values: vec!["on".into(), "off".into()] },
+            Axis { name: "threshold".into(), values: vec!["0.003".into()] },
+        ];
+        let on = render_flags(&dials, &["deferred".into(), "on".into(), "0.003".into()]);
+        assert_eq!(on, ["--method", "deferred", "--aabb", "--threshold", "0.003"]);
+        let off = render_flags(&dials, &["deferred".into(), "off".into(), "0.003".into()]);
+        assert_eq!(off, ["--method", "deferred", "--threshold", "0.003"]);
+    }
+}
