@@ -160,6 +160,10 @@ mod tests {
         assert!((e.max_error - 0.5).abs() < 1e-12);
         assert!((e.energy_lost - 0.5 / 1000.0).abs() < 1e-9);
         assert_eq!(e.worst_pixel, Some(3));
+        // A tie keeps the first pixel with that difference.
+        let mut tie = test.clone();
+        tie[5] = [0.5, 0.5, 0.5, 1.0];
+        assert_eq!(HdrError::of(&reference, &tie).worst_pixel, Some(3));
         // A smaller difference elsewhere, before and after, does not move the worst pixel;
         // a NaN anywhere is the worst.
         test[1] = [0.9, 1.0, 1.0, 1.0];
