@@ -12,7 +12,11 @@
 //!   limits (nothing to occlude; the same surface reconstruction as `--method visibility`);
 //!   with 4x MSAA it equals its own 1x away from edge pixels, and brute force's by FLIP.
 //! - Every light a caster: traced equals brute force with shadow maps except near shadow
-//!   borders (where the maps' filter and bias blur what the rays cut sharply).
+//!   borders (where the maps' filter and bias blur what the rays cut sharply); also 10 km
+//!   from the origin, where the ray's offset must be bounded by the scene's size.
+//! - The truth against an independent CPU renderer (issue 44): f64 primary rays, the f64
+//!   ray cast with the harness's own alpha test and the CPU BRDF twin, at 160x90 on a scene
+//!   with occluders, a mask and a spot, no shadow border excluded.
 //!
 //! lavapipe casts about 0.4 million rays a second, so the images are small with
 //! few lights (320x180, as every GPU test).
