@@ -666,6 +666,37 @@ pub fn surface_point(camera: &Camera, width: u32, height: u32, depth: &[f32], x:
     at(camera, &camera.view().inverse(), (width, height, depth), x, y)
 }
 
+/// The world position of pixel (`x`, `y`)'s centre at its depth (None for the sky or off
+/// the screen): [`surface_point`]'s position without the normal, so also at a silhouette.
+///
+/// # Panics
+/// When `depth` does not hold `width * height` values (a caller bug).
+pub fn pixel_position(camera: &Camera, width: u32, height: u32, depth: &[f32], x: u32, y: u32) -> Option<Vec3> {
+    assert_eq!(
+        depth.len() as u64,
+        u64::from(width) * u64::from(height),
+        "pixel_position: the depth buffer must hold {width}x{height} values"
+    );
+    position_at(camera, &camera.view().inverse(), (width, height, depth), i64::from(x), i64::from(y))
+}
+
+/// [`pixel_position`] with the inverse view given.
+fn position_at(
+    camera: &Camera,
+    to_world: &glam::Mat4,
+    (width, height, depth): (u32, u32, &[f32]),
+    x: i64,
+    y: i64,
+) -> Option<Vec3> {
+    let (w, h) = (i64::from(width), i64::from(height));
+    if x < 0 || y < 0 || x >= w || y >= h {
+        return None;
+    }
+    let d = depth[(y * w + x) as usize];
+    let ndc = ((x as f32 + 0.5) / width as f32 * 2.0 - 1.0, 1.0 - (y as f32 + 0.5) / height as f32 * 2.0);
+    camera.unproject_view(ndc.0, ndc.1, d).map(|v| to_world.transform_point3(v))
+}
+
 /// One pixel of [`surface_points`]; `to_world` is the inverse of the camera's view.
 fn at(
     camera: &Camera,
@@ -674,15 +705,7 @@ fn at(
     x: u32,
     y: u32,
 ) -> Option<SurfacePoint> {
-    let (w, h) = (i64::from(width), i64::from(height));
-    let pos = |x: i64, y: i64| -> Option<Vec3> {
-        if x < 0 || y < 0 || x >= w || y >= h {
-            return None;
-        }
-        let d = depth[(y * w + x) as usize];
-        let ndc = ((x as f32 + 0.5) / width as f32 * 2.0 - 1.0, 1.0 - (y as f32 + 0.5) / height as f32 * 2.0);
-        camera.unproject_view(ndc.0, ndc.1, d).map(|v| to_world.transform_point3(v))
-    };
+    let pos = |x: i64, y: i64| position_at(camera, to_world, (width, height, depth), x, y);
     let (x, y) = (i64::from(x), i64::from(y));
     let eye = camera.eye();
     let p = pos(x, y)?;
@@ -883,6 +906,12 @@ pub(crate) mod tests {
                 let (x, y) = (i as u32 % w, i as u32 / w);
                 assert_eq!(surface_point(&cam, w, h, &depth, x, y), *want, "pixel ({x}, {y})");
             }
+            for (i, want) in frame.iter().enumerate() {
+                let (x, y) = (i as u32 % w, i as u32 / w);
+                let p = pixel_position(&cam, w, h, &depth, x, y).expect("every pixel sees a plane");
+                assert!(want.is_none_or(|s| s.position == p), "pixel ({x}, {y})");
+            }
+            assert_eq!(pixel_position(&cam, w, h, &depth, 0, h), None);
             assert_eq!(surface_point(&cam, w, h, &depth, w, 0), None);
             assert_eq!(surface_point(&cam, w, h, &depth, 0, h), None);
         }

@@ -143,7 +143,8 @@ pub enum ReferenceKind {
     Traced,
 }
 
-const HEAD: [&str; 3] = ["adapter", "width", "height"];
+/// The CSV columns before the axes'.
+pub(crate) const HEAD: [&str; 3] = ["adapter", "width", "height"];
 const TAIL: [&str; 33] = [
     "total_ms",
     "passes",
@@ -465,11 +466,6 @@ pub(crate) fn check_frames(args: &Accuracy) -> Result<()> {
     Ok(())
 }
 
-/// Columns after the axes' in [`header`].
-pub(crate) fn tail_len() -> usize {
-    TAIL.len()
-}
-
 /// An accuracy run's state across the settings it measures: the GPU, the CSV, the
 /// references and sorted frames rendered so far (each rendered once: the truth is reused
 /// by every setting that shares its key), the FLIP heat maps, the warnings given. The
@@ -525,18 +521,7 @@ impl Session {
             let (point, pargs) = (&points[i], &all_args[i]);
             let what = axes::describe(axes, point);
             pb.set_message(what.clone());
-            let mut state = RunState {
-                prep: &mut self.prep,
-                adapter: &mut self.adapter,
-                csv: &mut self.csv,
-                references: &mut self.references,
-                sorted: &mut self.sorted,
-                heat: &mut self.heat,
-                keep_sorted: self.keep_sorted,
-                warned_scene: &mut self.warned_scene,
-                geometry: &mut self.geometry,
-            };
-            match measure_setting(&mut state, (point, pargs, &what), args, out, &pb) {
+            match measure_setting(self, (point, pargs, &what), args, out, &pb) {
                 Ok(Some(w)) => axes::warn(&pb, &mut self.warnings, &format!("{what}: {w}")),
                 Ok(None) => {}
                 Err(e) => {
@@ -553,41 +538,24 @@ impl Session {
     }
 }
 
-/// What the settings of a run share: the GPU, the CSV, the references and sorted frames
-/// rendered so far, the FLIP heat maps.
-struct RunState<'a> {
-    prep: &'a mut Option<Prepared>,
-    adapter: &'a mut String,
-    csv: &'a mut ResumableCsv,
-    references: &'a mut HashMap<String, Reference>,
-    sorted: &'a mut HashMap<String, SortedFrame>,
-    heat: &'a mut HashMap<Vec<String>, Vec<u8>>,
-    keep_sorted: bool,
-    /// The scene whose load warnings were shown last (once per scene).
-    warned_scene: &'a mut Option<tiledlight_setup::SceneSource>,
-    /// The shadow rays' geometry of the scene, and the settings it was built for: the
-    /// worst pixels' lights are checked against it ([`worst`]).
-    geometry: &'a mut Option<(Settings, TraceGeometry)>,
-}
-
 /// Measures one setting and appends its row; returns the warning about its frames, if they
 /// dropped lights.
 fn measure_setting(
-    st: &mut RunState<'_>,
+    st: &mut Session,
     (point, pargs, what): (&axes::Point, &Settings, &String),
     args: &Accuracy,
     out: &Path,
     pb: &indicatif::ProgressBar,
 ) -> Result<Option<String>> {
     let what = what.clone();
-    let RunState { prep, adapter, csv, references, sorted, heat, keep_sorted, warned_scene, geometry } = st;
+    let Session { prep, adapter, csv, references, sorted, heat, keep_sorted, warned_scene, geometry, .. } = st;
     let keep_sorted = *keep_sorted;
     {
         let p = match prep.as_mut() {
             Some(p) => p,
             None => {
                 let p = Prepared::new(pargs).with_context(|| what.clone())?;
-                **adapter = p.ctx.info.name.clone();
+                *adapter = p.ctx.info.name.clone();
                 let size = [adapter.as_str(), &pargs.width.to_string(), &pargs.height.to_string()];
                 axes::check_same_setup(&csv.existing, [0, 1, 2], size, out)?;
                 axes::say(pb, format!("adapter:    {}", p.ctx.describe()));
@@ -619,7 +587,7 @@ fn measure_setting(
         // warnings once per scene.
         if warned_scene.as_ref() != Some(&pargs.scene) {
             pb.suspend(|| crate::output::print_load_warnings(&p.scene_warnings));
-            **warned_scene = Some(pargs.scene.clone());
+            *warned_scene = Some(pargs.scene.clone());
         }
         let mut renderer = p.renderer(false).with_context(|| what.clone())?;
         let m = bench::measure(p, &mut renderer, args.warmup, args.frames).with_context(|| what.clone())?;
@@ -1094,7 +1062,6 @@ mod tests {
         let at = |c: &str| h.iter().position(|x| x == c).unwrap_or_else(|| panic!("no column {c}"));
         assert_eq!(h[HEAD.len()], "blend-mode");
         assert!(at("total_ms") < at("sorted_ms") && at("sorted_ms") + 1 == at("vs_sorted_flip_mean"));
-        assert_eq!(h.len(), HEAD.len() + 1 + TAIL.len());
         // The worst pixel's columns close the row.
         assert_eq!(at("vs_sorted_flip_p99") + 1, at(worst::COLUMNS[0]));
         assert_eq!(&h[h.len() - worst::COLUMNS.len()..], worst::COLUMNS);

@@ -228,7 +228,7 @@ pub fn run<F: Flags>(scene: &F, t: &Tune) -> Result<Answer> {
     let head = accuracy::header(&dials);
     let by_point = |session: &Session| -> Result<HashMap<Point, HashMap<String, String>>> {
         let rows = session.csv.read_all()?;
-        let first = head.len() - accuracy::tail_len() - dials.len();
+        let first = accuracy::HEAD.len();
         Ok(rows
             .into_iter()
             .map(|r| {
@@ -295,8 +295,8 @@ pub fn run<F: Flags>(scene: &F, t: &Tune) -> Result<Answer> {
     // a tighter budget over the same CSV never answers with a faster setting.
     let rows = by_point(&session)?;
     let all: Vec<(&Point, Candidate)> = rows.iter().map(|(p, r)| (p, candidate(r))).collect();
-    let feasible: Vec<Candidate> = all.iter().map(|(_, c)| *c).collect();
-    let chosen = match pick(&feasible, c).filter(|&i| feasible[i].meets(c)) {
+    let measured: Vec<Candidate> = all.iter().map(|(_, c)| *c).collect();
+    let chosen = match pick(&measured, c).filter(|&i| measured[i].meets(c)) {
         Some(i) => all[i].0.clone(),
         None => current,
     };

@@ -24,7 +24,7 @@
 use glam::Vec3;
 use tiledlight_cull::brdf::{spot_falloff, unwindowed_attenuation, windowed_attenuation};
 use tiledlight_cull::light::PackedLights;
-use tiledlight_cull::raycast::{surface_point, SurfacePoint};
+use tiledlight_cull::raycast::{pixel_position, surface_point, SurfacePoint};
 use tiledlight_cull::Camera;
 use tiledlight_scene::trace::TraceGeometry;
 
@@ -129,11 +129,7 @@ pub fn attribute(frame: &Frame<'_>, pixel: usize, reference: &[[f32; 4]], settin
     // The position without the silhouette rule when the normal is unknown: the light's
     // distance still ranks the lights (without n·l).
     let surface = surface_point(frame.camera, w, h, frame.depth, x, y);
-    let position = surface.map(|s| s.position).or_else(|| {
-        let d = frame.depth[pixel];
-        let ndc = ((x as f32 + 0.5) / w as f32 * 2.0 - 1.0, 1.0 - (y as f32 + 0.5) / h as f32 * 2.0);
-        frame.camera.unproject_view(ndc.0, ndc.1, d).map(|v| frame.camera.view().inverse().transform_point3(v))
-    });
+    let position = surface.map(|s| s.position).or_else(|| pixel_position(frame.camera, w, h, frame.depth, x, y));
     let mut lights = Vec::new();
     if let Some(p) = position {
         let n = surface.map(|s| s.normal);
