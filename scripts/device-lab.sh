@@ -11,7 +11,7 @@
 # both resume from their CSV if rerun with the same $OUT.
 # The shadow step (shadow-accuracy: 13 shadow configurations at 960x540 against a CPU ray
 # cast of 12 + 12 casters, on every core) runs at its own resolution.
-# Usage: scripts/device-lab.sh [figure9] [accuracy] [deferred] [msaa] [shadows] [blended] [layouts] [layouts-surface] [blended-vs-sorted] [vpl] [budget]
+# Usage: scripts/device-lab.sh [figure9] [accuracy] [deferred] [msaa] [shadows] [blended] [layouts] [layouts-surface] [blended-vs-sorted] [vpl] [budget] [tune] [tune-views]
 # (default: the first five)
 set -uo pipefail
 out=${OUT:-lab-out}
@@ -76,8 +76,28 @@ for s in $steps; do
       # shellcheck disable=SC2086 # extra holds flags.
       step 580 "budget-$sc" accuracy --lights 1024 --spot-lights 256 --threshold 0.0015 --shadow-point-lights 16 \
         $extra --reference traced --budget --axis method=forward-plus,deferred,visibility \
-        --axis shadow-point-lights=16,0,64 --frames 5 --warmup 3 --reference-frames 3 --out "$out/budget-$sc.csv"
+        --axis shadow-point-lights=16,0,64 --axis threshold=0.0015,0.003,0.0006 --frames 5 --warmup 3 \
+        --reference-frames 3 --out "$out/budget-$sc.csv" --diff-dir "$out/budget-$sc-flip"
     done
+    ;;
+  tune)
+    # Issue 44: the tuner's answer for FLIP 0.15 against the truth, default dials, on the
+    # courtyard and the Figure 9 scene (TUNE_SCENES picks them).
+    for sc in ${TUNE_SCENES:-court f9}; do
+      extra=""
+      [ "$sc" = f9 ] && extra="--grid-objects 280 --density medium"
+      # shellcheck disable=SC2086 # extra holds flags.
+      step 590 "tune-$sc" tune --lights 1024 --spot-lights 256 $extra --target-flip 0.15 --frames 5 --warmup 3 \
+        --reference-frames 2 --out "$out/tune-$sc.csv"
+    done
+    ;;
+  tune-views)
+    # The tuner from two views of the courtyard at once (assets/cameras): the budget must
+    # hold from each; the compute methods, the threshold and the casters as dials.
+    step 590 tune-views tune --lights 1024 --spot-lights 256 --target-flip 0.15 --frames 5 --warmup 3 \
+      --reference-frames 2 --dial method=deferred,visibility --dial threshold=0.0015,0.003 \
+      --dial shadow-point-lights=64,256,512 --dial casters-by=contribution,brightness \
+      --bookmarks assets/cameras/courtyard-along.txt,assets/cameras/courtyard-above.txt --out "$out/tune-views.csv"
     ;;
   vpl)
     # Issue 15: the VPLs' error against the every-texel one-bounce reference (brute force,
@@ -114,7 +134,7 @@ for s in $steps; do
     RES="--width 960 --height 540" step 600 shadow-accuracy shadow-accuracy --frames 10 --warmup 3 \
       --out "$out/shadow-accuracy.json"
     ;;
-  *) echo "unknown step $s (figure9, accuracy, deferred, msaa, shadows, blended, layouts, layouts-surface, blended-vs-sorted, vpl, budget)" >&2; exit 2 ;;
+  *) echo "unknown step $s (figure9, accuracy, deferred, msaa, shadows, blended, layouts, layouts-surface, blended-vs-sorted, vpl, budget, tune, tune-views)" >&2; exit 2 ;;
   esac
 done
 tar -czf "$out/lab.tar.gz" -C "$out" --exclude lab.tar.gz . && ls -la "$out"

@@ -37,7 +37,7 @@ use tiledlight_gpu::GpuContext;
 use tiledlight_scene::trace::TraceGeometry;
 use tiledlight_scene::{shadow_box_scene, Scene};
 use tiledlight_tests::compare::{
-    assert_visibility_matches, msaa_by_design, render_frame, Frame, RASTER_POSITION_ERROR_PX,
+    assert_visibility_matches, msaa_by_design, render_frame, visibility_matches, Frame, RASTER_POSITION_ERROR_PX,
 };
 use tiledlight_tests::images::assert_flip;
 use tiledlight_tests::{gpu, scenes};
@@ -235,10 +235,21 @@ fn traced_sized(
     size: (u32, u32),
     msaa: u32,
 ) -> Traced {
+    traced_method(ctx, (scene, lights, camera), size, Method::TRUTH, msaa)
+}
+
+/// [`traced_sized`] of either traced method (with or without the cutoff).
+fn traced_method(
+    ctx: &GpuContext,
+    (scene, lights, camera): (&Scene, &[Light], &Camera),
+    size: (u32, u32),
+    method: Method,
+    msaa: u32,
+) -> Traced {
     let mut sg = SceneGpu::new(&ctx.device, &ctx.queue, scene).unwrap();
     sg.add_trace(&ctx.device, scene).unwrap();
     let lb = LightBuffers::new(&ctx.device, lights).unwrap();
-    let s = FrameSettings { method: Method::TracedReference, msaa, ..Default::default() };
+    let s = FrameSettings { method, msaa, ..Default::default() };
     let mut r = FrameRenderer::new(ctx, &sg, &lb, size.0, size.1, s).expect("traced reference");
     let frame = render_frame(ctx, &mut r, &sg, camera);
     let shading = r.passes::<VisibilityFrame>().expect("the traced reference is a visibility frame").shading();
@@ -250,8 +261,18 @@ fn traced_sized(
 /// Brute force without cutoff: its frame (at 1x with the raster's position allowance,
 /// which reads one depth a pixel) and its depth.
 fn brute_force(ctx: &GpuContext, scene: &Scene, lb: &LightBuffers, camera: &Camera, msaa: u32) -> (Frame, Vec<f32>) {
+    brute_force_method(ctx, (scene, lb, camera), Method::BruteForce { cutoff: false }, msaa)
+}
+
+/// [`brute_force`] with or without the cutoff.
+fn brute_force_method(
+    ctx: &GpuContext,
+    (scene, lb, camera): (&Scene, &LightBuffers, &Camera),
+    method: Method,
+    msaa: u32,
+) -> (Frame, Vec<f32>) {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, scene).unwrap();
-    let s = FrameSettings { method: Method::BruteForce { cutoff: false }, msaa, ..Default::default() };
+    let s = FrameSettings { method, msaa, ..Default::default() };
     let mut r = FrameRenderer::new(ctx, &sg, lb, W, H, s).expect("brute force");
     let frame = render_frame(ctx, &mut r, &sg, camera);
     let depth = r.read_depth(ctx).unwrap();
@@ -316,6 +337,35 @@ fn an_open_plane_equals_brute_force() {
         tiledlight_tests::compare::VISIBILITY_VS_REFERENCE.flip,
     );
     assert!(four.rays > one.rays, "per-sample shading of edge pixels casts more rays");
+}
+
+/// The open plane lit by lights whose radii end on the floor (threshold 0.1: radii of 5.5
+/// to 11 m over a 12 m floor): the traced reference with the cutoff
+/// (`traced-reference-cutoff`, what the lab's error split measures the cutoff's share with)
+/// equals brute force with the cutoff at the visibility buffer's limits, pixel by pixel.
+/// The negative test: the truth itself (no cutoff) is rejected by the same comparison, and
+/// nowhere darker than the cutoff's image (the window only takes light away).
+#[test]
+fn with_the_cutoff_an_open_plane_equals_brute_force_with_it() {
+    let ctx = gpu();
+    let lights: Vec<Light> = floor_lights()
+        .into_iter()
+        .map(|l| Light::point(l.position, l.color, l.intensity, 0.1).expect("light"))
+        .collect();
+    let scene = scenes::floor_scene(0.5, 0.0, vec![]);
+    let camera = scenes::floor_camera(W, H);
+    let lb = LightBuffers::new(&ctx.device, &lights).unwrap();
+    let cut = Method::TracedReference { cutoff: true };
+    let traced_cut = traced_method(ctx, (&scene, &lights, &camera), (W, H), cut, 1).frame;
+    let (reference, _) = brute_force_method(ctx, (&scene, &lb, &camera), Method::BruteForce { cutoff: true }, 1);
+    assert_visibility_matches("traced_cutoff_open_plane", W, (&reference, &traced_cut), false);
+    let truth = traced(ctx, &scene, &lights, &camera, 1).frame;
+    assert!(
+        !visibility_matches("traced_no_cutoff_vs_cutoff", W, &reference, &truth),
+        "the truth without the cutoff must not pass for brute force with it"
+    );
+    let darker = truth.hdr.iter().zip(&traced_cut.hdr).filter(|(t, c)| (0..3).any(|k| t[k] < c[k] * 0.999)).count();
+    assert_eq!(darker, 0, "the cutoff only takes light away");
 }
 
 /// Two points and a spot around the shadow box's cube.
@@ -482,7 +532,7 @@ fn a_scene_without_its_bvh_is_refused() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     assert!(sg.trace.is_none(), "the BVH is built only when asked for");
     let lb = LightBuffers::new(&ctx.device, &floor_lights()).unwrap();
-    let s = FrameSettings { method: Method::TracedReference, ..Default::default() };
+    let s = FrameSettings { method: Method::TRUTH, ..Default::default() };
     let err = tiledlight_tests::err_text(FrameRenderer::new(ctx, &sg, &lb, W, H, s));
     assert!(err.contains("BVH") && err.contains("add_trace"), "{err}");
 }

@@ -382,7 +382,7 @@ fn normal_maps_on_rotated_scaled_and_mirrored_instances_match_the_cpu_in_every_m
     let uncut = render_frame(ctx, &mut nb, &sg, &camera);
     let uncut =
         uncut.allow_position_error(&nb.read_depth(ctx).unwrap(), TW, (&camera, &lb.packed), RASTER_POSITION_ERROR_PX);
-    let mut tr = FrameRenderer::new(ctx, &sg, &lb, TW, TH, fs(Method::TracedReference)).unwrap();
+    let mut tr = FrameRenderer::new(ctx, &sg, &lb, TW, TH, fs(Method::TRUTH)).unwrap();
     let traced: Frame = render_frame(ctx, &mut tr, &sg, &camera);
     assert_visibility_matches("transformed-traced", TW, (&uncut, &traced), false);
     let _ = Vec2::ZERO;
@@ -856,7 +856,7 @@ fn masked_shadows_wrap_each_axis_by_its_own_mode_in_the_atlas_and_the_traced_ref
         let (unshadowed, depth) = render(&plain, Method::BruteForce { cutoff: true });
         let (atlas, _) = render(&casting, Method::BruteForce { cutoff: true });
         let (uncut, _) = render(&plain, Method::BruteForce { cutoff: false });
-        let (traced, _) = render(&plain, Method::TracedReference);
+        let (traced, _) = render(&plain, Method::TRUTH);
         for (name, shadowed, reference, border) in
             [("shadow atlas", &atlas, &unshadowed, atlas_border), ("traced", &traced, &uncut, 0.01)]
         {
@@ -1115,7 +1115,7 @@ fn mipmapped_transformed_textures_on_both_sets_pick_the_hardwares_levels() {
     }
     let (uncut, uncut_depth) = render(&sg, Method::BruteForce { cutoff: false });
     let uncut = uncut.allow_position_error(&uncut_depth, MW, (&camera, &lb.packed), RASTER_POSITION_ERROR_PX);
-    let (traced, _) = render(&sg, Method::TracedReference);
+    let (traced, _) = render(&sg, Method::TRUTH);
     assert_matches_with_outliers("mips-traced", MW, (&uncut, &traced), VISIBILITY_VS_REFERENCE, mip_outliers());
     let (deferred, _) = render(&sg, Method::TiledDeferred);
     let reference = brute.clone().allow_gbuffer_normals(&depth, MW, &camera, &lb.packed);

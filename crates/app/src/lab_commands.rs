@@ -244,10 +244,16 @@ pub struct TuneArgs {
     /// out/tune.csv].
     #[arg(long, value_name = "FILE.csv")]
     pub out: Option<PathBuf>,
+    /// Camera bookmarks (files the viewer's "save camera" writes) the budget must hold
+    /// from: every candidate is measured from each and judged by its worst view (slowest
+    /// time, largest error) [default: the scene flags' camera].
+    #[arg(long, value_name = "A,B,...", value_delimiter = ',', conflicts_with = "camera")]
+    pub bookmarks: Vec<PathBuf>,
 }
 
 /// `tune`'s own flags that take a value (left out of the reproducing command lines).
-const TUNE_FLAGS: [&str; 9] = [
+const TUNE_FLAGS: [&str; 10] = [
+    "--bookmarks",
     "--target-flip",
     "--target-p99",
     "--max-worst",
@@ -293,6 +299,7 @@ impl TuneArgs {
             reference_frames: self.reference_frames,
             passes: self.passes,
             out: self.out.clone(),
+            bookmarks: self.bookmarks.clone(),
         };
         let answer = tune::run(&self.scene, &job)?;
         println!("result:     {}", answer.summary());
@@ -300,9 +307,14 @@ impl TuneArgs {
         let scene = scene_flags(cli, &names).join(" ");
         let sep = if scene.is_empty() { "" } else { " " };
         let render = tune::render_flags(&answer.dials, &answer.point).join(" ");
-        let axes: Vec<String> =
+        let mut axes: Vec<String> =
             answer.dials.iter().zip(&answer.point).map(|(d, v)| format!("--axis {}={v}", d.name)).collect();
-        println!("render it:  tiledlight render{sep}{scene} {render}");
+        // From each view: the first bookmark's render, every view measured.
+        let camera = answer.views.first().map(|v| format!(" --camera {v}")).unwrap_or_default();
+        if !answer.views.is_empty() {
+            axes.push(format!("--axis camera={}", answer.views.join(",")));
+        }
+        println!("render it:  tiledlight render{sep}{scene} {render}{camera}");
         println!("measure it: tiledlight accuracy{sep}{scene} --reference traced {}", axes.join(" "));
         Ok(())
     }

@@ -131,7 +131,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let mut renderer = prep.renderer_with_heatmap(heatmap)?;
     // The traced reference's frame takes seconds: one is enough (nothing in it carries
     // over between frames).
-    let traced = prep.settings.method == tiledlight_gpu::features::Method::TracedReference;
+    let traced = prep.settings.method.is_traced();
     let start = std::time::Instant::now();
     let m = bench::measure(&prep, &mut renderer, 0, if traced { 1 } else { RENDER_FRAMES })?;
     let seconds = start.elapsed().as_secs_f64();

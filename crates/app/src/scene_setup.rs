@@ -664,6 +664,8 @@ impl Flags for SceneArgs {
             "lights" => args.lights = Some(int()?),
             "spot-lights" => args.spot_lights = Some(int()?),
             "seed" => args.seed = int()?,
+            // Read (and checked) with the other files the settings name.
+            "camera" => args.camera = Some(PathBuf::from(value)),
             "grid-objects" => args.grid_objects = small()?,
             "gbuffer-rts" => args.gbuffer_rts = small()?,
             "raster-large-px" => args.raster_large_px = small()?,

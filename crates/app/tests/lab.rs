@@ -295,6 +295,8 @@ fn bad_lab_input_is_one_clear_error() {
     assert!(fails(&["sweep", "--axis", "lights=4", "--chart", "x.svg"]).contains("only .png"));
     assert!(fails(&["sweep", "--axis", "lights=4", "--x", "method"]).contains("--x method"));
     assert!(fails(&["accuracy", "--axis", "method=brute-force-no-cutoff"]).contains("reference itself"));
+    let truth = ["accuracy", "--reference", "traced", "--axis", "method=traced-reference"];
+    assert!(fails(&truth).contains("traced-reference is the reference itself"));
     assert!(fails(&["accuracy", "--target-flip", "2"]).contains("--target-flip"));
     assert!(fails(&["shadow-accuracy", "--config", "100x3"]).contains("--config 100x3: tile 100"));
     assert!(fails(&["shadow-accuracy", "--config", "512x3", "--config", "512x3:d16"]).contains("given twice"));
@@ -491,6 +493,8 @@ fn accuracy_budget_against_the_traced_reference() {
         "culling=planes,aabb",
         "--axis",
         "shadow-point-lights=0,12",
+        "--axis",
+        "method=forward-plus,traced-reference-cutoff",
         "--reference-frames",
         "1",
         "--out",
@@ -498,16 +502,21 @@ fn accuracy_budget_against_the_traced_reference() {
     ];
     args.extend(SMALL);
     let out = stdout(&gpu_run(&args));
-    assert!(out.contains("4 settings"), "base + one change per dial: {out}");
+    assert!(out.contains("5 settings"), "base + one change per dial: {out}");
     for eps in ["0.01", "0.02", "0.05"] {
         assert!(out.contains(&format!("cheapest within FLIP {eps}:")), "{out}");
     }
     assert!(out.contains("traced (no cutoff, a shadow ray per light)"), "{out}");
     let (_, rows) = read_csv(&csv);
-    assert_eq!(rows.len(), 4);
+    assert_eq!(rows.len(), 5);
     let at = |t: &str, c: &str, s: &str| {
         rows.iter()
-            .find(|r| r["threshold"] == t && r["culling"] == c && r["shadow-point-lights"] == s)
+            .find(|r| {
+                r["threshold"] == t
+                    && r["culling"] == c
+                    && r["shadow-point-lights"] == s
+                    && r["method"] == "forward-plus"
+            })
             .unwrap_or_else(|| panic!("row {t} {c} {s}"))
     };
     let base = at("0.01", "planes", "0");
@@ -544,6 +553,38 @@ fn accuracy_budget_against_the_traced_reference() {
     let differ = |r: &HashMap<String, String>| r["worst_reference"] != r["worst_setting"];
     assert!(rows.iter().all(differ));
     assert!(out.contains("worst pixel ("), "{out}");
+    // The error split by cause (issue 44): the truth with the cutoff measures the cutoff's
+    // share, larger for the coarser cutoff; the truth without shadow rays is one image for
+    // every row (no dial here changes it), and errs (the courtyard's columns cast shadows).
+    for r in &rows {
+        for c in ["cutoff_flip_mean", "unshadowed_flip_mean", "beyond_cutoff_flip_mean"] {
+            assert!(num(r, c).is_finite() && num(r, c) >= 0.0, "{c} = {}", r[c]);
+        }
+        assert_eq!(r["unshadowed_flip_mean"], base["unshadowed_flip_mean"], "the unshadowed truth changed");
+    }
+    assert!(num(base, "unshadowed_flip_mean") > 1e-3, "no light is shadowed in the truth: {base:?}");
+    assert!(num(base, "cutoff_flip_mean") > 0.0, "the cutoff takes no light: {base:?}");
+    assert!(num(coarse, "cutoff_flip_mean") > num(base, "cutoff_flip_mean"), "a coarser cutoff's share must grow");
+    // The truth with the cutoff as a setting: its error is the cutoff's share exactly, and
+    // nothing beyond it (the negative test of the split's comparison: an image equal to
+    // the split's own is told apart from every other setting, which all differ from it).
+    let cut = rows.iter().find(|r| r["method"] == "traced-reference-cutoff").expect("the traced cutoff's row");
+    assert_eq!(num(cut, "beyond_cutoff_flip_mean"), 0.0, "{cut:?}");
+    assert_eq!(cut["flip_mean"], cut["cutoff_flip_mean"]);
+    assert!(rows.iter().filter(|r| r["method"] == "forward-plus").all(|r| num(r, "beyond_cutoff_flip_mean") > 0.0));
+    assert!(out.contains("error by cause (FLIP mean vs the truth): the cutoff alone"), "{out}");
+    // Beside each frontier setting's heat map, the split's three.
+    let maps: Vec<String> = std::fs::read_dir(dir.join("budget-flip"))
+        .expect("the heat maps' directory")
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    let suffixes = [".cutoff.png", ".unshadowed.png", ".beyond-cutoff.png"];
+    let own = maps.iter().filter(|m| !suffixes.iter().any(|s| m.ends_with(s))).count();
+    for suffix in suffixes {
+        let with = maps.iter().filter(|m| m.ends_with(suffix)).count();
+        assert!(with >= 1 && with == own, "{suffix}: {with} of {own} heat maps in {maps:?}");
+    }
+    assert!(out.contains("of the error by cause beside them"), "{out}");
 
     // Without a threshold axis the flags' --threshold is the base's (no default axes are
     // added to a budget): one dial, two settings.
@@ -651,4 +692,65 @@ fn tune_finds_a_setting_within_the_budget_and_a_tighter_one_is_never_faster() {
         let err = fails(&args);
         assert!(err.contains(needle), "{err}");
     }
+}
+
+/// `tune --bookmarks a,b` (12 lights, 160x96, two views of the courtyard: along it, and
+/// from above its far end): every candidate is measured from each view (a `camera`
+/// column; one truth per view), the answer meets the budget from both and the summary gives
+/// each view's numbers; a budget that the answer meets from one view but not the other
+/// moves the answer (the constraint holds on each view, not on the best one or the mean).
+#[test]
+fn tune_holds_the_budget_from_every_bookmark() {
+    let dir = scratch("tune-views");
+    let (a, b) = (dir.join("along.txt"), dir.join("above.txt"));
+    std::fs::write(&a, "eye 0 1.7 16.5\ntarget 0 2.6 -18\nfov_y_deg 60\n").unwrap();
+    std::fs::write(&b, "eye 6 9 -16\ntarget -2 0 4\nfov_y_deg 50\n").unwrap();
+    let views = format!("{},{}", a.display(), b.display());
+    let csv = dir.join("tune.csv");
+    let run = |target: &str| {
+        let mut args = vec!["tune", "--lights", "12", "--target-flip", target, "--reference-frames", "1"];
+        args.extend(["--passes", "1", "--dial", "method=deferred"]);
+        args.extend(["--dial", "threshold=0.2,0.02", "--dial", "shadow-point-lights=0,12"]);
+        args.extend(["--bookmarks", &views, "--out", csv.to_str().unwrap()]);
+        args.extend(SMALL);
+        let out = stdout(&gpu_run(&args));
+        // The answer's dials, from the command that measures it again.
+        let measure = out.lines().find_map(|l| l.strip_prefix("measure it: ")).unwrap_or_else(|| panic!("{out}"));
+        assert!(measure.contains(&format!("--axis camera={views}")), "{measure}");
+        let point: Vec<(String, String)> = ["threshold", "shadow-point-lights"]
+            .iter()
+            .map(|k| {
+                let v = measure.split(' ').find_map(|w| w.strip_prefix(&format!("{k}="))).expect("the dial's value");
+                (k.to_string(), v.to_string())
+            })
+            .collect();
+        let (_, rows) = read_csv(&csv);
+        let of: Vec<HashMap<String, String>> =
+            rows.into_iter().filter(|r| point.iter().all(|(k, v)| r[k] == *v)).collect();
+        (out, point, of)
+    };
+    let (out, loose, rows) = run("0.5");
+    assert!(out.contains("result:     fastest within the budget:"), "FLIP 0.5 must be met: {out}");
+    // Measured from both views, and within the budget from each.
+    let cams: Vec<&str> = rows.iter().map(|r| r["camera"].as_str()).collect();
+    assert!(cams.len() == 2 && cams.contains(&a.to_str().unwrap()) && cams.contains(&b.to_str().unwrap()));
+    for r in &rows {
+        assert!(num(r, "flip_mean") < 0.5 && num(r, "total_ms") < num(r, "reference_ms"), "{r:?}");
+    }
+    for v in [&a, &b] {
+        assert!(out.contains(&format!("from {}: ", v.display())), "each view's numbers: {out}");
+    }
+    // The views differ (another camera, another error); a budget between them is met from
+    // the better view only, so the answer must move.
+    let flips: Vec<f64> = rows.iter().map(|r| num(r, "flip_mean")).collect();
+    let (best, worst) = (flips[0].min(flips[1]), flips[0].max(flips[1]));
+    assert!(best < worst, "two views with the same error: {flips:?}");
+    let (out, tight, rows) = run(&format!("{worst}"));
+    if out.contains("result:     fastest within the budget:") {
+        assert_ne!(tight, loose, "an answer missing the budget from one view: {out}");
+        assert!(rows.len() == 2 && rows.iter().all(|r| num(r, "flip_mean") < worst), "{rows:?}");
+    } else {
+        assert!(out.contains("no setting faster than the truth meets the budget"), "{out}");
+    }
+    assert!(fails(&["tune", "--target-flip", "0.1", "--dial", "camera=x.txt"]).contains("the camera is not a dial"));
 }

@@ -171,7 +171,7 @@ impl FrameRenderer {
                 |c, sh, sl, st, m| Ok(Box::new(visibility::VisibilityFrame::new(c, sh, sl, st, m)?)),
                 "building the visibility-buffer renderer",
             ),
-            Method::TracedReference => (
+            Method::TracedReference { .. } => (
                 visibility::targets(&features, s.raster),
                 |c, sh, sl, st, m| Ok(Box::new(visibility::VisibilityFrame::new(c, sh, sl, st, m)?)),
                 "building the traced reference",

@@ -99,7 +99,7 @@ impl VisibilityFrame {
             (settings.raster, settings.compute_raster, &targets.depth_view),
             memory,
         )?;
-        let traced = settings.method == Method::TracedReference;
+        let traced = settings.method.is_traced();
         let culling = (!traced)
             .then(|| {
                 LightCulling::with_drop_light(
@@ -118,12 +118,16 @@ impl VisibilityFrame {
                 memory.extend(&c.memory);
                 ShadeLights::Lists(c)
             }
-            None => ShadeLights::Traced(scene.trace.as_ref().ok_or_else(|| {
-                GpuError::Config(
-                    "the traced reference needs the scene's BVH: build it with SceneGpu::add_trace before the renderer"
-                        .into(),
-                )
-            })?),
+            None => ShadeLights::Traced {
+                bvh: scene.trace.as_ref().ok_or_else(|| {
+                    GpuError::Config(
+                        "the traced reference needs the scene's BVH: build it with SceneGpu::add_trace before the \
+                         renderer"
+                            .into(),
+                    )
+                })?,
+                cutoff: settings.method == Method::TracedReference { cutoff: true },
+            },
         };
         let shading = VisibilityShading::new(
             device,

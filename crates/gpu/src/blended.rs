@@ -236,16 +236,17 @@ impl BlendedPath {
             }
         };
         let culling = match (features.method, &depth) {
-            (Method::BruteForce { .. } | Method::TracedReference, _) | (_, None) => None,
+            (Method::BruteForce { .. } | Method::TracedReference { .. }, _) | (_, None) => None,
             (_, Some(d)) => Some(LightCulling::blended(device, views, (opaque_depth, &d.view), lights, grid, options)?),
         };
         // Shading pipelines.
         let wboit = features.blend_mode == BlendMode::WeightedOit;
         let lights_key = match (features.method, frame_grid) {
             (Method::BruteForce { cutoff }, _) => LightLoopKey::Every { cutoff },
-            // The traced reference's blended surfaces: every light, no cutoff, unshadowed
-            // (its rays are traced for the opaque surface only; docs/ACCURACY.md).
-            (Method::TracedReference, _) => LightLoopKey::Every { cutoff: false },
+            // The traced reference's blended surfaces: every light, with its cutoff or
+            // none, unshadowed (its rays are traced for the opaque surface only;
+            // docs/ACCURACY.md).
+            (Method::TracedReference { cutoff }, _) => LightLoopKey::Every { cutoff },
             (_, Some(_)) => LightLoopKey::Clusters,
             (_, None) => LightLoopKey::TileLists { half_z: false },
         };

@@ -33,29 +33,43 @@ pub enum Method {
     },
     /// The truth to measure against: the visibility buffer's surface lit by every light
     /// with no cutoff, each light's share multiplied by a shadow ray through the scene's
-    /// BVH (no shadow maps). Seconds a frame, not milliseconds.
-    TracedReference,
+    /// BVH (no shadow maps). Seconds a frame, not milliseconds. `cutoff: true` keeps the
+    /// windowed falloff (the truth with the tiled methods' cutoff: the lab's error split
+    /// measures the cutoff's share of a setting's error with it).
+    TracedReference {
+        /// Keep the windowed falloff with its radius cutoff.
+        cutoff: bool,
+    },
 }
 
 impl Method {
     /// Every method, in the order reports list them.
-    pub const ALL: [Method; 6] = [
+    pub const ALL: [Method; 7] = [
         Method::ForwardPlus,
         Method::BruteForce { cutoff: true },
         Method::BruteForce { cutoff: false },
         Method::TiledDeferred,
         Method::Visibility,
-        Method::TracedReference,
+        Method::TracedReference { cutoff: false },
+        Method::TracedReference { cutoff: true },
     ];
+
+    /// The truth the lab measures against: traced, no cutoff.
+    pub const TRUTH: Method = Method::TracedReference { cutoff: false };
 
     /// True for the methods with tiles (culling, light grid, heat map).
     pub fn is_tiled(self) -> bool {
-        !matches!(self, Method::BruteForce { .. } | Method::TracedReference)
+        !matches!(self, Method::BruteForce { .. } | Method::TracedReference { .. })
     }
 
     /// True for the methods whose surface is the visibility buffer's (its raster).
     pub fn uses_visibility_buffer(self) -> bool {
-        matches!(self, Method::Visibility | Method::TracedReference)
+        matches!(self, Method::Visibility | Method::TracedReference { .. })
+    }
+
+    /// True for the traced references (shadow rays through the scene's BVH).
+    pub fn is_traced(self) -> bool {
+        matches!(self, Method::TracedReference { .. })
     }
 
     /// True for the references (every light, no tiles): brute force and the traced one.
@@ -71,7 +85,8 @@ impl Method {
             Method::BruteForce { cutoff: false } => "brute-force-no-cutoff",
             Method::TiledDeferred => "deferred",
             Method::Visibility => "visibility",
-            Method::TracedReference => "traced-reference",
+            Method::TracedReference { cutoff: false } => "traced-reference",
+            Method::TracedReference { cutoff: true } => "traced-reference-cutoff",
         }
     }
 
@@ -83,7 +98,8 @@ impl Method {
             Method::BruteForce { cutoff: false } => "Brute force, no cutoff",
             Method::TiledDeferred => "Tiled Deferred",
             Method::Visibility => "Visibility buffer",
-            Method::TracedReference => "Traced reference",
+            Method::TracedReference { cutoff: false } => "Traced reference",
+            Method::TracedReference { cutoff: true } => "Traced, with the cutoff",
         }
     }
 
@@ -102,9 +118,13 @@ impl Method {
                 "Depth and triangle IDs, tiled light culling, then one compute pass that rebuilds each pixel's \
                  surface from its triangle and shades it"
             }
-            Method::TracedReference => {
+            Method::TracedReference { cutoff: false } => {
                 "Every light for every pixel, no cutoff, each shadowed by a ray through the scene's BVH (the truth; \
                  seconds a frame)"
+            }
+            Method::TracedReference { cutoff: true } => {
+                "The traced reference with the radius cutoff (the truth less the cutoff's light: the cutoff's share \
+                 of the error)"
             }
         }
     }
@@ -331,7 +351,7 @@ impl Features {
             extra_targets: if method == Method::TiledDeferred { gbuffer_rts.saturating_sub(2) } else { 0 },
             // The traced reference's shadows are rays: its atlas exists only for the VPLs'
             // reflective shadow maps.
-            shadows: (points + spots > 0 && (method != Method::TracedReference || vpl)).then_some(Shadows {
+            shadows: (points + spots > 0 && (!method.is_traced() || vpl)).then_some(Shadows {
                 points,
                 spots,
                 options: shadow,
@@ -380,7 +400,12 @@ impl Features {
             Method::Visibility => "visibility buffer".to_string(),
             Method::BruteForce { cutoff: true } => "brute force".to_string(),
             Method::BruteForce { cutoff: false } => "brute force, no cutoff".to_string(),
-            Method::TracedReference => "traced reference (every light, a shadow ray each)".to_string(),
+            Method::TracedReference { cutoff: false } => {
+                "traced reference (every light, a shadow ray each)".to_string()
+            }
+            Method::TracedReference { cutoff: true } => {
+                "traced reference with the cutoff (every light in range, a shadow ray each)".to_string()
+            }
         }];
         parts.push(if self.spot_lights { "points+spots" } else { "points" }.into());
         parts.extend(self.materials.describe().into_iter().map(String::from));

@@ -96,7 +96,7 @@ impl FramePlan {
         // Head: what writes depth.
         match features.method {
             Method::TiledDeferred => steps.push(Step::GBuffer),
-            Method::Visibility | Method::TracedReference => steps.push(Step::VisibilityRaster),
+            Method::Visibility | Method::TracedReference { .. } => steps.push(Step::VisibilityRaster),
             Method::ForwardPlus | Method::BruteForce { .. } => steps.push(Step::DepthPrepass),
         }
         // Culling and the method's middle.
@@ -118,7 +118,7 @@ impl FramePlan {
                     steps.push(Step::DeferredResolve);
                 }
             }
-            Method::TracedReference => {
+            Method::TracedReference { .. } => {
                 steps.push(Step::TracedShade);
                 if features.msaa > 1 {
                     steps.push(Step::VisibilityResolve);
@@ -207,8 +207,8 @@ mod tests {
         assert_eq!(plan(Method::ForwardPlus, 1), [DepthPrepass, Cull, ForwardShade, Tonemap, Heatmap]);
         assert_eq!(plan(Method::BruteForce { cutoff: true }, 4), [DepthPrepass, BruteForceShade, Tonemap]);
         assert_eq!(plan(Method::TiledDeferred, 1), [GBuffer, DeferredShade, Tonemap, Heatmap]);
-        assert_eq!(plan(Method::TracedReference, 1), [VisibilityRaster, TracedShade, Tonemap]);
-        assert_eq!(plan(Method::TracedReference, 4), [VisibilityRaster, TracedShade, VisibilityResolve, Tonemap]);
+        assert_eq!(plan(Method::TRUTH, 1), [VisibilityRaster, TracedShade, Tonemap]);
+        assert_eq!(plan(Method::TRUTH, 4), [VisibilityRaster, TracedShade, VisibilityResolve, Tonemap]);
         assert_eq!(plan(Method::TiledDeferred, 4), [GBuffer, DeferredShade, DeferredResolve, Tonemap, Heatmap]);
     }
 

@@ -252,7 +252,8 @@ impl ShadowAtlas {
             bounds: scene.instance_bounds.clone(),
             radius_cull: !matches!(
                 features.method,
-                crate::features::Method::BruteForce { cutoff: false } | crate::features::Method::TracedReference
+                crate::features::Method::BruteForce { cutoff: false }
+                    | crate::features::Method::TracedReference { cutoff: false }
             ),
             first_slot,
             state: Mutex::new(state),

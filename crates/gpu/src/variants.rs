@@ -941,6 +941,8 @@ impl ShaderKey for VisibilityKey {
 /// replace them) and no light grid.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct TracedKey {
+    /// Without `NO_CUTOFF`: the windowed falloff (`--method traced-reference-cutoff`).
+    pub cutoff: bool,
     /// `SPOT_LIGHTS`.
     pub spots: bool,
     /// `VPLS`: every VPL is added, unshadowed, as brute force adds them.
@@ -957,12 +959,14 @@ impl TracedKey {
     /// Every value.
     pub fn all() -> Vec<Self> {
         let mut v = Vec::new();
-        for spots in BOOLS {
-            for vpls in BOOLS {
-                for msaa in BOOLS {
-                    for masks in BOOLS {
-                        for materials in MaterialKey::all() {
-                            v.push(Self { spots, vpls, msaa, masks, materials });
+        for cutoff in BOOLS {
+            for spots in BOOLS {
+                for vpls in BOOLS {
+                    for msaa in BOOLS {
+                        for masks in BOOLS {
+                            for materials in MaterialKey::all() {
+                                v.push(Self { cutoff, spots, vpls, msaa, masks, materials });
+                            }
                         }
                     }
                 }
@@ -982,7 +986,8 @@ impl ShaderKey for TracedKey {
     }
 
     fn defines(&self) -> Vec<&'static str> {
-        let mut d = vec!["VISIBILITY", "TRACED", "NO_CUTOFF"];
+        let mut d = vec!["VISIBILITY", "TRACED"];
+        flag(&mut d, !self.cutoff, "NO_CUTOFF");
         flag(&mut d, self.msaa, "MSAA");
         flag(&mut d, self.spots, "SPOT_LIGHTS");
         flag(&mut d, self.vpls, "VPLS");
@@ -1116,8 +1121,9 @@ mod tests {
         assert_eq!(count("deferred_assigned.wgsl"), 288);
         // 3 lookups x spots x 3 shadowings x 34 material paths, per sample mode.
         assert_eq!(count("visibility.wgsl"), 612);
-        assert_eq!(count("traced.wgsl"), 8 * 34);
-        assert_eq!(count("traced_msaa.wgsl"), 8 * 34);
+        // cutoff x spots x VPLs x masks x 34 material paths, per sample mode.
+        assert_eq!(count("traced.wgsl"), 16 * 34);
+        assert_eq!(count("traced_msaa.wgsl"), 16 * 34);
         assert_eq!(count("trace_rays.wgsl"), 2);
         assert_eq!(count("visibility_msaa.wgsl"), 612);
         // 4 pre-pass and 4 ID-raster variants, and 3 masked ones resolving IDs with atomics

@@ -22,6 +22,18 @@
 //! frontier drawn, the fastest setting under the target error ringed) and FLIP heat maps
 //! of the frontier's settings.
 //!
+//! The error split by cause (`--budget --reference traced`): every setting is also
+//! compared through two more images of the same frame, each rendered once per key and
+//! compared with the truth: *the truth with the cutoff* (`traced-reference-cutoff` at the
+//! setting's threshold: every light shadowed by its ray, the windowed falloff) measures the
+//! cutoff's share (`cutoff_flip_mean`), and *the truth without shadow rays* (brute force,
+//! no cutoff, no casters) the error of leaving every light unshadowed
+//! (`unshadowed_flip_mean`; not measured with VPLs, whose RSMs need the casters). The
+//! setting against the truth with its cutoff (`beyond_cutoff_flip_mean`) is what its
+//! shadows (unshadowed lights, shadow maps) and its method add to the cutoff. FLIP is not
+//! additive: each number is its own comparison. `--diff-dir` gets each one's heat map
+//! beside the setting's.
+//!
 //! A setting whose frames dropped lights (a light grid full, [`crate::dropped`]) gets a
 //! `warning:` line, the columns `dropped_frames`, `dropped_lights`, `dropped_lists` (over
 //! its measured frames read back; `overflowing_lists` is the compared frame's) and a red
@@ -36,6 +48,7 @@
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::rc::Rc;
 use tiledlight_frame::Diagnostics as _;
 use tiledlight_gpu::features::BlendMode;
 
@@ -145,7 +158,7 @@ pub enum ReferenceKind {
 
 /// The CSV columns before the axes'.
 pub(crate) const HEAD: [&str; 3] = ["adapter", "width", "height"];
-const TAIL: [&str; 33] = [
+const TAIL: [&str; 36] = [
     "total_ms",
     "passes",
     "frame_min_ms",
@@ -179,6 +192,9 @@ const TAIL: [&str; 33] = [
     worst::COLUMNS[2],
     worst::COLUMNS[3],
     worst::COLUMNS[4],
+    "cutoff_flip_mean",
+    "unshadowed_flip_mean",
+    "beyond_cutoff_flip_mean",
 ];
 
 /// The CSV header of a run over `axes`.
@@ -228,6 +244,8 @@ fn reference_key(a: &Settings, reference: ReferenceKind, vpl_ref: VplReference) 
         String::new()
     };
     let shadows = shadows + &reference_vpl(a, vpl_ref).map(|v| format!("|vpl {v:?}")).unwrap_or_default();
+    // The camera: a bookmark axis (the tuner's --bookmarks) changes the truth.
+    let shadows = shadows + &a.camera.as_ref().map(|c| format!("|camera {:?}", c.camera)).unwrap_or_default();
     threshold
         + &format!(
             "{}|{}|{}|{}|{:?}|{:?}|{:?}|{}|{}x{}|{}|{}|{shadows}",
@@ -268,6 +286,118 @@ fn render_sorted(prep: &mut Prepared, a: &Settings, warmup: u32, frames: u32) ->
     let ldr = r.read_ldr(&prep.ctx).context("reading the sorted frame back")?;
     prep.check_gpu_errors()?;
     Ok(SortedFrame { ldr, total_ms })
+}
+
+/// One image of the error split, rendered once per key ([`split_keys`]) and compared with
+/// the truth.
+struct SplitFrame {
+    ldr: Vec<u8>,
+    /// FLIP mean against the truth.
+    flip_mean: f64,
+    /// Its FLIP heat map against the truth (RGB).
+    heat: Vec<u8>,
+}
+
+/// A setting's error split by cause (see the module doc).
+pub(crate) struct ErrorSplit {
+    /// The truth with the setting's cutoff.
+    cutoff: Rc<SplitFrame>,
+    /// The truth without shadow rays (None with VPLs).
+    unshadowed: Option<Rc<SplitFrame>>,
+    /// The setting against the truth with its cutoff: FLIP mean and heat map.
+    beyond: (f64, Vec<u8>),
+}
+
+impl ErrorSplit {
+    /// The split's CSV cells, in [`TAIL`]'s order.
+    fn csv(&self) -> [String; 3] {
+        [
+            f(self.cutoff.flip_mean, 6),
+            self.unshadowed.as_ref().map_or(String::new(), |u| f(u.flip_mean, 6)),
+            f(self.beyond.0, 6),
+        ]
+    }
+
+    /// The report's line under the setting.
+    fn line(&self) -> String {
+        let unshadowed =
+            self.unshadowed.as_ref().map_or("not measured (VPLs)".to_string(), |u| format!("{:.5}", u.flip_mean));
+        format!(
+            "error by cause (FLIP mean vs the truth): the cutoff alone {:.5}; every light unshadowed {unshadowed}; \
+             this setting vs the truth with its cutoff {:.5}",
+            self.cutoff.flip_mean, self.beyond.0
+        )
+    }
+}
+
+/// The settings of the split's two images of setting `a` (already at the truth's
+/// exposure): the traced reference with the cutoff, and brute force without cutoff or
+/// casters (None with VPLs: their RSMs need the casters). Blended geometry sorted as in
+/// the truth.
+fn split_settings(a: &Settings, vpl_ref: VplReference) -> (Settings, Option<Settings>) {
+    let cutoff = Settings {
+        method: Method::TracedReference { cutoff: true },
+        blend_mode: BlendMode::Sorted,
+        vpl: reference_vpl(a, vpl_ref),
+        ..a.clone()
+    };
+    let unshadowed = a.vpl.is_none().then(|| Settings {
+        method: Method::BruteForce { cutoff: false },
+        blend_mode: BlendMode::Sorted,
+        shadow_point_lights: 0,
+        shadow_spot_lights: 0,
+        ..a.clone()
+    });
+    (cutoff, unshadowed)
+}
+
+/// What identifies the split's two images: the truth's key, with the threshold (and lights'
+/// placement) for the cutoff; without casters for the unshadowed one.
+fn split_keys(a: &Settings, vpl_ref: VplReference) -> (String, Option<String>) {
+    let truth = reference_key(a, ReferenceKind::Traced, vpl_ref);
+    let (_, unshadowed) = split_settings(a, vpl_ref);
+    (
+        format!("cutoff|{}|{:?}|{truth}", a.threshold, a.placement),
+        unshadowed.map(|u| format!("unshadowed|{}", reference_key(&u, ReferenceKind::NoCutoff, vpl_ref))),
+    )
+}
+
+/// Renders one frame of `settings` and compares it with the truth's `truth_ldr`.
+fn render_split(prep: &mut Prepared, settings: &Settings, truth_ldr: &[u8]) -> Result<SplitFrame> {
+    prep.reconfigure(settings)?;
+    let mut r = prep.renderer(false)?;
+    bench::measure(prep, &mut r, 0, 1)?;
+    let ldr = r.read_ldr(&prep.ctx).context("reading the image back")?;
+    prep.check_gpu_errors()?;
+    let map = flip(settings.width, settings.height, truth_ldr, &ldr);
+    Ok(SplitFrame { flip_mean: f64::from(map.summary(PERCENTILE).mean), heat: map.heat_rgb(), ldr })
+}
+
+/// The error split of setting `a` whose image is `ldr` ([`ErrorSplit`]): its two images
+/// from `cache` or rendered (once per key).
+fn error_split(
+    prep: &mut Prepared,
+    (a, ldr, truth_ldr): (&Settings, &[u8], &[u8]),
+    vpl_ref: VplReference,
+    cache: &mut HashMap<String, Rc<SplitFrame>>,
+) -> Result<ErrorSplit> {
+    let (cutoff_settings, unshadowed_settings) = split_settings(a, vpl_ref);
+    let (cutoff_key, unshadowed_key) = split_keys(a, vpl_ref);
+    let mut get = |key: String, s: &Settings, what: &str| -> Result<Rc<SplitFrame>> {
+        if let Some(f) = cache.get(&key) {
+            return Ok(f.clone());
+        }
+        let f = Rc::new(render_split(prep, s, truth_ldr).with_context(|| format!("rendering {what}"))?);
+        cache.insert(key, f.clone());
+        Ok(f)
+    };
+    let cutoff = get(cutoff_key, &cutoff_settings, "the truth with the cutoff")?;
+    let unshadowed = match (unshadowed_key, unshadowed_settings) {
+        (Some(k), Some(s)) => Some(get(k, &s, "the truth without shadow rays")?),
+        _ => None,
+    };
+    let map = flip(a.width, a.height, &cutoff.ldr, ldr);
+    Ok(ErrorSplit { beyond: (f64::from(map.summary(PERCENTILE).mean), map.heat_rgb()), cutoff, unshadowed })
 }
 
 /// The fastest and slowest measured frame (the sum of its timed passes): the spread of the
@@ -334,7 +464,7 @@ fn render_reference(
     let method = match reference {
         ReferenceKind::NoCutoff => Method::BruteForce { cutoff: false },
         ReferenceKind::Cutoff => Method::BruteForce { cutoff: true },
-        ReferenceKind::Traced => Method::TracedReference,
+        ReferenceKind::Traced => Method::TRUTH,
     };
     // Blended geometry in the reference is exact "over" (sorted back to front), whatever
     // the setting's blend mode.
@@ -423,6 +553,10 @@ pub fn run<F: Flags>(scene: &F, args: &Accuracy) -> Result<()> {
         all_args.iter().all(|a| a.method != Method::BruteForce { cutoff: false }),
         "method brute-force-no-cutoff is the reference itself: leave it out of the settings"
     );
+    ensure!(
+        args.reference != ReferenceKind::Traced || all_args.iter().all(|a| a.method != Method::TRUTH),
+        "method traced-reference is the reference itself: leave it out of the settings"
+    );
     let out = args.out.clone().unwrap_or_else(|| PathBuf::from("out/accuracy.csv"));
     let chart_path = args.chart.clone().unwrap_or_else(|| axes::sibling(&out, "png"));
     let ext = chart_path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
@@ -444,7 +578,7 @@ pub fn run<F: Flags>(scene: &F, args: &Accuracy) -> Result<()> {
     );
     session.measure(&axes, (&points, &all_args), args, &out)?;
     let csv = &session.csv;
-    let heat = &session.heat;
+    let heat = (&session.heat, &session.split);
     let warnings = session.warnings;
     let rows = csv.read_all()?;
     let base = (scene.scene_label(), scene.plain().method);
@@ -479,6 +613,9 @@ pub(crate) struct Session {
     sorted: HashMap<String, SortedFrame>,
     /// FLIP heat maps (RGB) by point.
     pub(crate) heat: HashMap<Vec<String>, Vec<u8>>,
+    /// The error split's images by key, and each point's split (`--budget` against the truth).
+    splits: HashMap<String, Rc<SplitFrame>>,
+    split: HashMap<Vec<String>, ErrorSplit>,
     keep_sorted: bool,
     warned_scene: Option<tiledlight_setup::SceneSource>,
     geometry: Option<(Settings, TraceGeometry)>,
@@ -499,6 +636,8 @@ impl Session {
             references: HashMap::new(),
             sorted: HashMap::new(),
             heat: HashMap::new(),
+            splits: HashMap::new(),
+            split: HashMap::new(),
             keep_sorted,
             warned_scene: None,
             geometry: None,
@@ -548,7 +687,20 @@ fn measure_setting(
     pb: &indicatif::ProgressBar,
 ) -> Result<Option<String>> {
     let what = what.clone();
-    let Session { prep, adapter, csv, references, sorted, heat, keep_sorted, warned_scene, geometry, .. } = st;
+    let Session {
+        prep,
+        adapter,
+        csv,
+        references,
+        sorted,
+        heat,
+        keep_sorted,
+        warned_scene,
+        geometry,
+        splits,
+        split,
+        ..
+    } = st;
     let keep_sorted = *keep_sorted;
     {
         let p = match prep.as_mut() {
@@ -630,6 +782,14 @@ fn measure_setting(
             }
             BlendMode::WeightedOit => None,
         };
+        // The error split by cause: the budget against the truth.
+        let by_cause = if args.budget && args.reference == ReferenceKind::Traced {
+            let e = error_split(p, (pargs, &ldr, &reference.ldr), args.vpl_reference_rsm, splits)
+                .with_context(|| format!("{what}: the error split"))?;
+            Some(e)
+        } else {
+            None
+        };
         let mut row = vec![adapter.clone(), pargs.width.to_string(), pargs.height.to_string()];
         row.extend(point.iter().cloned());
         let opt = |v: Option<String>| v.unwrap_or_default();
@@ -664,6 +824,7 @@ fn measure_setting(
             opt(vs_sorted.as_ref().map(|v| f(f64::from(v.1.percentile), 6))),
         ]);
         row.extend(worst.as_ref().map_or_else(|| std::array::from_fn(|_| String::new()), worst::WorstPixel::csv));
+        row.extend(by_cause.as_ref().map_or_else(|| std::array::from_fn(|_| String::new()), ErrorSplit::csv));
         csv.append(&[row])?;
         let vs = vs_sorted.map_or(String::new(), |(ms, v)| {
             format!("; vs sorted ({ms:.3} ms): FLIP mean {:.5} p99 {:.4}", v.mean, v.percentile)
@@ -681,6 +842,10 @@ fn measure_setting(
         );
         if let Some(w) = &worst {
             axes::say(pb, format!("  {}", w.line()));
+        }
+        if let Some(e) = by_cause {
+            axes::say(pb, format!("  {}", e.line()));
+            split.insert(point.clone(), e);
         }
         let max_binding = p.ctx.device.limits().max_storage_buffer_binding_size;
         let refused = vpls.and_then(|c| crate::dropped::refused_line("the measured frames", c));
@@ -790,7 +955,7 @@ fn report(
     diff_dir: &Path,
     axes: &[Axis],
     rows: &[Vec<String>],
-    heat: &HashMap<Vec<String>, Vec<u8>>,
+    (heat, split): (&HashMap<Vec<String>, Vec<u8>>, &HashMap<Vec<String>, ErrorSplit>),
     (args, (scene, method)): (&Accuracy, (String, Method)),
 ) -> Result<String> {
     let head = header(axes);
@@ -932,13 +1097,27 @@ fn report(
     let culling = culling_chart(chart_path, &c.title, &c.subtitle, rows, &parse_rows(rows, &head), &varying)?;
     let (w, h) = first.map(|r| (r[1].parse().unwrap_or(0), r[2].parse().unwrap_or(0))).unwrap_or((0, 0));
     let mut wrote = 0;
+    let mut split_maps = 0;
+    let save = |name: String, rgb: &[u8]| -> Result<()> {
+        let img = image::RgbImage::from_raw(w, h, rgb.to_vec()).context("building a heat map image")?;
+        crate::output::save_png(&diff_dir.join(name), &img)
+    };
     for &i in &frontier {
         let key = rows[i][n..n + axes.len()].to_vec();
         let Some(rgb) = heat.get(&key) else { continue };
-        let name = format!("flip-{}.png", describe(i).replace(' ', "_").replace(['=', '+'], "-"));
-        let img = image::RgbImage::from_raw(w, h, rgb.clone()).context("building a heat map image")?;
-        crate::output::save_png(&diff_dir.join(name), &img)?;
+        let stem = format!("flip-{}", describe(i).replace(' ', "_").replace(['=', '+'], "-"));
+        save(format!("{stem}.png"), rgb)?;
         wrote += 1;
+        // Beside it, the error by cause (module doc).
+        if let Some(e) = split.get(&key) {
+            save(format!("{stem}.cutoff.png"), &e.cutoff.heat)?;
+            save(format!("{stem}.beyond-cutoff.png"), &e.beyond.1)?;
+            split_maps += 2;
+            if let Some(u) = &e.unshadowed {
+                save(format!("{stem}.unshadowed.png"), &u.heat)?;
+                split_maps += 1;
+            }
+        }
     }
     let mut out = culling.map_or(String::new(), |line| format!("{line}\n"));
     // The frontier without the settings the reference beats (slower than it, and exact).
@@ -949,7 +1128,16 @@ fn report(
         candidates.iter().map(|&i| describe(i)).collect::<Vec<_>>().join("; ")
     );
     if wrote > 0 {
-        out.push_str(&format!("heat maps:  {wrote} in {}\n", diff_dir.display()));
+        let by_cause = if split_maps > 0 {
+            format!(
+                ", with {split_maps} of the error by cause beside them (.cutoff: the truth with the cutoff, \
+                 .unshadowed: the truth without shadow rays, each against the truth; .beyond-cutoff: the setting \
+                 against the truth with its cutoff)"
+            )
+        } else {
+            String::new()
+        };
+        out.push_str(&format!("heat maps:  {wrote} in {}{by_cause}\n", diff_dir.display()));
     }
     out.push_str(&format!("result:     {note}"));
     for b in &budgets {
@@ -1062,8 +1250,10 @@ mod tests {
         let at = |c: &str| h.iter().position(|x| x == c).unwrap_or_else(|| panic!("no column {c}"));
         assert_eq!(h[HEAD.len()], "blend-mode");
         assert!(at("total_ms") < at("sorted_ms") && at("sorted_ms") + 1 == at("vs_sorted_flip_mean"));
-        // The worst pixel's columns close the row.
+        // The worst pixel's columns follow, and the error split's close the row.
         assert_eq!(at("vs_sorted_flip_p99") + 1, at(worst::COLUMNS[0]));
-        assert_eq!(&h[h.len() - worst::COLUMNS.len()..], worst::COLUMNS);
+        let split = ["cutoff_flip_mean", "unshadowed_flip_mean", "beyond_cutoff_flip_mean"];
+        assert_eq!(at(worst::COLUMNS[4]) + 1, at(split[0]));
+        assert_eq!(&h[h.len() - split.len()..], split);
     }
 }

@@ -68,7 +68,11 @@ pub const MAX_POINTS: usize = 10_000;
 pub const AXES: &[(&str, &str)] = &[
     ("lights", "random point lights (integer; ranges allowed)"),
     ("spot-lights", "random spot lights (integer; ranges allowed)"),
-    ("method", "forward-plus | deferred | visibility | brute-force | brute-force-no-cutoff"),
+    (
+        "method",
+        "forward-plus | deferred | visibility | brute-force | brute-force-no-cutoff | traced-reference | \
+         traced-reference-cutoff",
+    ),
     ("raster", "visibility buffer raster: auto | hardware | compute"),
     ("raster-large-px", "compute raster: triangles spanning more pixels are large (integer; ranges allowed)"),
     ("raster-large", "compute raster: large triangles by compute | hardware"),
@@ -83,6 +87,7 @@ pub const AXES: &[(&str, &str)] = &[
     ("aabb", "sphere-vs-AABB test: on | off"),
     ("half-z", "two lists per tile: on | off"),
     ("seed", "seed of the random lights (integer)"),
+    ("camera", "camera bookmark file (the viewer's \"save camera\"; a path without commas)"),
     ("msaa", "MSAA samples per pixel: 1 | 2 | 4 | 8"),
     ("edge-distance", "Tiled Deferred MSAA edge test: off-plane distance / view distance (number; ranges allowed)"),
     ("edge-normal-deg", "Tiled Deferred MSAA edge test: normal angle in degrees (number; ranges allowed)"),
@@ -175,7 +180,8 @@ pub fn parse_axis<F: Flags>(spec: &str) -> Result<Axis> {
     known(name).with_context(|| format!("--axis {spec}"))?;
     let values = values.trim();
     ensure!(!values.is_empty(), "--axis {spec}: no values (an empty sweep)");
-    let list: Vec<String> = if let Some((a, b)) = values.split_once("..") {
+    // A camera bookmark's path may hold "..": never a range.
+    let list: Vec<String> = if let Some((a, b)) = values.split_once("..").filter(|_| name != "camera") {
         ensure!(is_numeric_axis(name), "--axis {spec}: ranges need a numeric axis, '{name}' is not");
         range(name, a, b).with_context(|| format!("--axis {spec}"))?
     } else {

@@ -16,7 +16,11 @@
 //!    while none does, to the most accurate (of those within [`FLIP_TIE`] of it, the
 //!    fastest) ([`pick`]). Passes over the dials repeat until one changes nothing (at
 //!    most `passes`).
-//! 4. **Answer**: the fastest setting meeting the budget among every candidate in the CSV
+//! 4. **Views** (`--bookmarks a,b,c`): every candidate is measured from each camera
+//!    bookmark (a `camera` column; one truth per view) and judged by its worst view: the
+//!    slowest time, the largest errors; it meets the budget only where it meets it from
+//!    every view and is faster than the truth in each ([`Candidate::worst_of`]).
+//! 5. **Answer**: the fastest setting meeting the budget among every candidate in the CSV
 //!    (so a tighter budget over the same CSV never answers faster, beyond the [`TIME_TIE`]
 //!    within which the more accurate wins), else where the descent
 //!    ended; its time (the median of the measured frames, with the fastest and slowest
@@ -80,6 +84,8 @@ pub struct Tune {
     pub passes: u32,
     /// CSV of every candidate measured [default: out/tune.csv]; a rerun resumes from it.
     pub out: Option<PathBuf>,
+    /// Camera bookmarks the budget must hold from (empty: the scene flags' camera).
+    pub bookmarks: Vec<PathBuf>,
 }
 
 /// One measured candidate, as [`pick`] judges it.
@@ -100,6 +106,28 @@ pub struct Candidate {
 }
 
 impl Candidate {
+    /// One setting seen from several views, judged by its worst: the slowest time, the
+    /// largest errors, incomplete if any view dropped lights. Its truth time is scaled so
+    /// that it is faster than it exactly when it is faster than the truth in every view
+    /// (`time * min(truth_i / time_i)`). None for no views.
+    pub fn worst_of(views: &[Candidate]) -> Option<Candidate> {
+        // NaN (an unmeasured number) in any view makes the whole NaN: it never qualifies.
+        let fold = |f: &dyn Fn(&Candidate) -> f64, pick: fn(f64, f64) -> f64| {
+            views.iter().map(f).reduce(|a, b| if a.is_nan() || b.is_nan() { f64::NAN } else { pick(a, b) })
+        };
+        let max = |f: fn(&Candidate) -> f64| fold(&f, f64::max).unwrap_or(f64::NAN);
+        let time = max(|c| c.time);
+        let margin = fold(&|c: &Candidate| c.reference_time / c.time, f64::min).unwrap_or(f64::NAN);
+        (!views.is_empty()).then(|| Candidate {
+            time,
+            reference_time: time * margin,
+            flip: max(|c| c.flip),
+            p99: max(|c| c.p99),
+            worst: max(|c| c.worst),
+            incomplete: views.iter().any(|c| c.incomplete),
+        })
+    }
+
     /// Whether it meets `c` (and is complete and faster than the truth).
     pub fn meets(&self, c: &Constraints) -> bool {
         !self.incomplete
@@ -169,9 +197,13 @@ pub struct Answer {
     pub point: Point,
     /// It meets the constraints (else it is the closest found, and the truth is the answer).
     pub meets: bool,
-    /// Its CSV row, by column.
-    pub row: HashMap<String, String>,
-    /// Candidates measured in all (the CSV's rows).
+    /// The views (bookmark paths; empty: the scene flags' camera).
+    pub views: Vec<String>,
+    /// Its CSV rows by column, one per view (one without views).
+    pub rows: Vec<HashMap<String, String>>,
+    /// Its verdict over the views (their worst).
+    pub judged: Candidate,
+    /// Candidates measured in all (settings, each from every view).
     pub measured: usize,
 }
 
@@ -224,26 +256,52 @@ pub fn run<F: Flags>(scene: &F, t: &Tune) -> Result<Answer> {
         diff_dir: None,
     };
     accuracy::check_frames(&args)?;
-    let mut session = Session::open(&out, &dials, false)?;
-    let head = accuracy::header(&dials);
+    // The views: a camera axis after the dials (each candidate measured from every one).
+    let views: Vec<String> = t.bookmarks.iter().map(|b| b.display().to_string()).collect();
+    ensure!(!names.contains("camera"), "the camera is not a dial: give the views with --bookmarks");
+    let mut seen = std::collections::HashSet::new();
+    if let Some(v) = views.iter().find(|v| !seen.insert(v.as_str())) {
+        anyhow::bail!("--bookmarks: {v} is given twice");
+    }
+    let mut axes_measured = dials.clone();
+    if !views.is_empty() {
+        let spec = format!("camera={}", views.join(","));
+        axes_measured.push(axes::parse_axis::<F>(&spec).context("--bookmarks")?);
+    }
+    let in_views = |p: &Point| -> Vec<Point> {
+        if views.is_empty() {
+            return vec![p.clone()];
+        }
+        views.iter().map(|v| p.iter().cloned().chain([v.clone()]).collect()).collect()
+    };
+    let mut session = Session::open(&out, &axes_measured, false)?;
+    let head = accuracy::header(&axes_measured);
     let by_point = |session: &Session| -> Result<HashMap<Point, HashMap<String, String>>> {
         let rows = session.csv.read_all()?;
         let first = accuracy::HEAD.len();
         Ok(rows
             .into_iter()
             .map(|r| {
-                let key = r[first..first + dials.len()].to_vec();
+                let key = r[first..first + axes_measured.len()].to_vec();
                 (key, head.iter().cloned().zip(r).collect())
             })
             .collect())
     };
+    // A candidate's rows (one per view) and its verdict; None while a view is missing.
+    let judged = |rows: &HashMap<Point, HashMap<String, String>>, p: &Point| {
+        let rows: Option<Vec<HashMap<String, String>>> = in_views(p).iter().map(|q| rows.get(q).cloned()).collect();
+        let rows = rows?;
+        let views: Vec<Candidate> = rows.iter().map(candidate).collect();
+        Some((Candidate::worst_of(&views)?, rows))
+    };
     println!(
-        "tune:       {} dials ({}), FLIP mean < {}{}{}; against the traced truth; {} already in {}",
+        "tune:       {} dials ({}), FLIP mean < {}{}{}; against the traced truth{}; {} already in {}",
         dials.len(),
         dials.iter().map(|a| format!("{} x{}", a.name, a.values.len())).collect::<Vec<_>>().join(", "),
         c.flip,
         c.p99.map(|p| format!(", p99 < {p}")).unwrap_or_default(),
         c.worst.map(|w| format!(", worst pixel < {w}")).unwrap_or_default(),
+        if views.is_empty() { String::new() } else { format!(" from each of {} views", views.len()) },
         session.csv.existing.len(),
         out.display()
     );
@@ -260,26 +318,28 @@ pub fn run<F: Flags>(scene: &F, t: &Tune) -> Result<Answer> {
                     p
                 })
                 .collect();
-            let settings: Vec<Settings> = points
+            let measured: Vec<Point> = points.iter().flat_map(&in_views).collect();
+            let settings: Vec<Settings> = measured
                 .iter()
-                .map(|p| axes::args_at(scene, &dials, p).and_then(|a| a.settings()))
+                .map(|p| axes::args_at(scene, &axes_measured, p).and_then(|a| a.settings()))
                 .collect::<Result<_>>()?;
-            session.measure(&dials, (&points, &settings), &args, &out)?;
+            session.measure(&axes_measured, (&measured, &settings), &args, &out)?;
             let rows = by_point(&session)?;
             let cands: Vec<Candidate> = points
                 .iter()
-                .map(|p| rows.get(p).map(candidate).context("a measured candidate is missing from the CSV"))
+                .map(|p| judged(&rows, p).map(|j| j.0).context("a measured candidate is missing from the CSV"))
                 .collect::<Result<_>>()?;
             let Some(best) = pick(&cands, c) else { continue };
             if points[best] != current {
                 let b = &cands[best];
                 println!(
-                    "pass {pass}, {}: {} -> {} ({:.3} ms, FLIP mean {:.4}{})",
+                    "pass {pass}, {}: {} -> {} ({:.3} ms, FLIP mean {:.4}{}{})",
                     dial.name,
                     current[k],
                     points[best][k],
                     b.time,
                     b.flip,
+                    if views.is_empty() { "" } else { " in the worst view" },
                     if b.meets(c) { ", meets the budget" } else { ", closest so far" }
                 );
                 current = points[best].clone();
@@ -291,44 +351,68 @@ pub fn run<F: Flags>(scene: &F, t: &Tune) -> Result<Answer> {
         }
     }
     // The answer: the fastest feasible setting among every candidate in the CSV (the
-    // descent's path and earlier runs' alike), else where the descent ended. So a run with
-    // a tighter budget over the same CSV never answers with a faster setting.
+    // descent's path and earlier runs' alike, measured from every view), else where the
+    // descent ended. So a run with a tighter budget over the same CSV never answers with a
+    // faster setting.
     let rows = by_point(&session)?;
-    let all: Vec<(&Point, Candidate)> = rows.iter().map(|(p, r)| (p, candidate(r))).collect();
+    let mut points: Vec<Point> = rows.keys().map(|p| p[..dials.len()].to_vec()).collect();
+    points.sort();
+    points.dedup();
+    let all: Vec<(Point, Candidate)> =
+        points.into_iter().filter_map(|p| judged(&rows, &p).map(|(c, _)| (p, c))).collect();
     let measured: Vec<Candidate> = all.iter().map(|(_, c)| *c).collect();
     let chosen = match pick(&measured, c).filter(|&i| measured[i].meets(c)) {
         Some(i) => all[i].0.clone(),
         None => current,
     };
-    let row = rows.get(&chosen).cloned().context("the chosen setting is missing from the CSV")?;
-    let cand = candidate(&row);
-    Ok(Answer { meets: cand.meets(c), dials, point: chosen, row, measured: rows.len() })
+    let (cand, rows_of) = judged(&rows, &chosen).context("the chosen setting is missing from the CSV")?;
+    Ok(Answer { meets: cand.meets(c), dials, point: chosen, views, rows: rows_of, judged: cand, measured: all.len() })
 }
 
 impl Answer {
-    /// The answer in words: the setting, its time and spread, its errors, or why the truth
-    /// itself is the answer.
+    /// The answer in words: the setting, its time and spread, its errors (the worst view's,
+    /// then each view's), or why the truth itself is the answer.
     pub fn summary(&self) -> String {
         let what = axes::describe(&self.dials, &self.point);
-        let n = |c: &str| num(&self.row, c);
-        let numbers = format!(
-            "{:.3} ms (frames {:.3}-{:.3} ms), FLIP mean {:.4} p99 {:.4}, worst pixel {:.3}; the truth {:.3} ms",
-            n("total_ms"),
-            n("frame_min_ms"),
-            n("frame_max_ms"),
-            n("flip_mean"),
-            n("flip_p99"),
-            n("max_error"),
-            n("reference_ms")
-        );
-        if self.meets {
-            format!("fastest within the budget: {what}: {numbers} ({} candidates measured)", self.measured)
+        let numbers = |r: &HashMap<String, String>| {
+            let n = |c: &str| num(r, c);
+            format!(
+                "{:.3} ms (frames {:.3}-{:.3} ms), FLIP mean {:.4} p99 {:.4}, worst pixel {:.3}; the truth {:.3} ms",
+                n("total_ms"),
+                n("frame_min_ms"),
+                n("frame_max_ms"),
+                n("flip_mean"),
+                n("flip_p99"),
+                n("max_error"),
+                n("reference_ms")
+            )
+        };
+        let j = &self.judged;
+        let overall = match self.rows.as_slice() {
+            [one] => numbers(one),
+            _ => format!(
+                "{:.3} ms, FLIP mean {:.4} p99 {:.4}, worst pixel {:.3} in the worst of {} views",
+                j.time,
+                j.flip,
+                j.p99,
+                j.worst,
+                self.rows.len()
+            ),
+        };
+        let mut out = if self.meets {
+            format!("fastest within the budget: {what}: {overall} ({} candidates measured)", self.measured)
         } else {
             format!(
-                "no setting faster than the truth meets the budget; the closest found: {what}: {numbers} ({} candidates measured): render the truth itself (--method traced-reference)",
+                "no setting faster than the truth meets the budget; the closest found: {what}: {overall} ({} candidates measured): render the truth itself (--method traced-reference)",
                 self.measured
             )
+        };
+        if self.rows.len() > 1 {
+            for (v, r) in self.views.iter().zip(&self.rows) {
+                out.push_str(&format!("\n  from {v}: {}", numbers(r)));
+            }
         }
+        out
     }
 }
 
@@ -380,6 +464,28 @@ mod tests {
         assert_eq!(pick(&methods, &tight), Some(0));
         let methods_apart = [cand(15.2, 0.1780), cand(629.0, 0.1745)];
         assert_eq!(pick(&methods_apart, &tight), Some(1), "0.0035 more accurate is more accurate");
+    }
+
+    /// Several views judge a setting by its worst: the slowest time and largest errors; it
+    /// is faster than the truth only when faster in every view (a view where the truth is
+    /// quicker than the setting rejects it even though the other view's truth is slower
+    /// than the setting's worst time); a view that dropped lights or lacks a number
+    /// rejects it too.
+    #[test]
+    fn views_are_judged_by_their_worst() {
+        let c = Constraints { flip: 0.05, p99: None, worst: None };
+        let a = Candidate { reference_time: 100.0, ..cand(10.0, 0.01) };
+        let b = Candidate { reference_time: 400.0, ..cand(150.0, 0.04) };
+        let both = Candidate::worst_of(&[a, b]).unwrap();
+        assert_eq!((both.time, both.flip, both.p99, both.worst), (150.0, 0.04, 0.12, 0.4));
+        assert!(both.meets(&c), "faster than the truth in each view: {both:?}");
+        let slow = Candidate { time: 120.0, ..a };
+        assert!(!Candidate::worst_of(&[slow, b]).unwrap().meets(&c), "slower than the truth in one view");
+        assert!(!Candidate::worst_of(&[a, Candidate { flip: 0.06, ..b }]).unwrap().meets(&c));
+        assert!(!Candidate::worst_of(&[a, Candidate { incomplete: true, ..b }]).unwrap().meets(&c));
+        assert!(!Candidate::worst_of(&[Candidate { flip: f64::NAN, ..a }, b]).unwrap().meets(&c));
+        assert_eq!(Candidate::worst_of(&[a]), Some(a));
+        assert_eq!(Candidate::worst_of(&[]), None);
     }
 
     #[test]

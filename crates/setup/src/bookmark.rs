@@ -195,4 +195,19 @@ mod tests {
         let e = format!("{:#}", load(Path::new("/nonexistent/cam.txt")).unwrap_err());
         assert!(e.contains("--camera /nonexistent/cam.txt: cannot read the file"), "{e}");
     }
+
+    /// The bookmarks shipped in `assets/cameras` (the tuner's views in
+    /// `scripts/device-lab.sh tune-views`) parse, and each looks at its scene from inside
+    /// the courtyard's bounds (eye within 20 m of the origin, a distinct target).
+    #[test]
+    fn the_shipped_bookmarks_parse() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/cameras");
+        let mut n = 0;
+        for e in std::fs::read_dir(&dir).expect("assets/cameras") {
+            let c = load(&e.unwrap().path()).unwrap();
+            assert!(c.eye.length() < 20.0 && c.eye.distance(c.target) > 1.0, "{c:?}");
+            n += 1;
+        }
+        assert!(n >= 2, "{n} bookmarks");
+    }
 }

@@ -96,7 +96,7 @@ fn upload(
     let mut scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &cpu.scene)
         .with_context(|| format!("uploading scene '{}'", cpu.scene.name))?;
     // The traced reference's BVH only when it is asked for (a second a million triangles).
-    if settings.method == Method::TracedReference {
+    if settings.method.is_traced() {
         scene_gpu
             .add_trace(&ctx.device, &cpu.scene)
             .with_context(|| format!("building the BVH of scene '{}' for the traced reference", cpu.scene.name))?;
@@ -230,7 +230,7 @@ impl Prepared {
         let plan = rebuild_plan(&self.requested, settings);
         // The traced reference needs the scene's BVH, built from the scene on the CPU,
         // which is not kept: the scene is loaded again once.
-        let needs_trace = settings.method == Method::TracedReference && self.scene_gpu.trace.is_none();
+        let needs_trace = settings.method.is_traced() && self.scene_gpu.trace.is_none();
         match plan.reload {
             _ if needs_trace => self.replace_scene(settings, SceneCpu::load(settings)?)?,
             Reload::Scene => self.replace_scene(settings, SceneCpu::load(settings)?)?,
@@ -460,14 +460,21 @@ impl Prepared {
                 )
             }
             Method::Visibility => format!("visibility ({}, 32-bit triangle IDs)", a.culling_description()),
-            Method::TracedReference => match &self.scene_gpu.trace {
-                Some(t) => format!(
-                    "traced-reference (every light, no cutoff, a shadow ray each through a BVH of {} triangles, \
-                     {} nodes, depth {}, built in {:.2} s)",
-                    t.triangle_count, t.node_count, t.depth, t.build_seconds
-                ),
-                None => "traced-reference".into(),
-            },
+            Method::TracedReference { cutoff } => {
+                let (name, falloff) = if cutoff {
+                    ("traced-reference-cutoff", "the radius cutoff")
+                } else {
+                    ("traced-reference", "no cutoff")
+                };
+                match &self.scene_gpu.trace {
+                    Some(t) => format!(
+                        "{name} (every light, {falloff}, a shadow ray each through a BVH of {} triangles, {} nodes, \
+                         depth {}, built in {:.2} s)",
+                        t.triangle_count, t.node_count, t.depth, t.build_seconds
+                    ),
+                    None => name.into(),
+                }
+            }
             m => format!("{} (every light for every pixel)", m.name()),
         };
         let method = if a.early_outs {

@@ -164,9 +164,14 @@ pub const TRACED_MSAA_BINDINGS: PassBindings = PassBindings { entry: "traced_msa
 pub enum ShadeLights<'a> {
     /// Its list in the light grid `culling` writes (the visibility buffer).
     Lists(&'a LightCulling),
-    /// Every light, no cutoff, each with a shadow ray through the scene's hierarchy (the
-    /// traced reference).
-    Traced(&'a GpuBvh),
+    /// Every light, each with a shadow ray through the scene's hierarchy (the traced
+    /// reference); `cutoff`: with the windowed falloff (else plain inverse-square).
+    Traced {
+        /// The scene's hierarchy.
+        bvh: &'a GpuBvh,
+        /// Keep the radius cutoff.
+        cutoff: bool,
+    },
 }
 
 /// What [`VisibilityShading::record_traced`] calls after each band: `(encoder, band done
@@ -235,7 +240,7 @@ impl VisibilityShading {
         memory: &mut MemoryReport,
         vpls: Option<&VplBindings>,
     ) -> Result<Self, GpuError> {
-        let traced = matches!(shade, ShadeLights::Traced(_));
+        let traced = matches!(shade, ShadeLights::Traced { .. });
         // The grid's pass reads the VPLs' grid; the traced one every VPL.
         if features.vpl != vpls.is_some_and(|v| v.lists.is_some() != traced) {
             return Err(GpuError::Config(
@@ -264,8 +269,9 @@ impl VisibilityShading {
                 VISIBILITY_BINDINGS,
                 culling.options.tile_size,
             ),
-            ShadeLights::Traced(bvh) => (
+            ShadeLights::Traced { bvh, cutoff } => (
                 Box::new(TracedKey {
+                    cutoff,
                     spots: features.spot_lights,
                     vpls: features.vpl,
                     msaa: samples > 1,
@@ -320,7 +326,7 @@ impl VisibilityShading {
         bind.extend(light_entries(lights, features, atlas.filter(|_| !traced), vpls));
         let traced_state = match shade {
             ShadeLights::Lists(_) => None,
-            ShadeLights::Traced(bvh) => {
+            ShadeLights::Traced { bvh, .. } => {
                 bind.extend(bvh.entries(33));
                 if let Some(v) = vpls {
                     bind.push(buffer_entry(23, &v.count));
@@ -449,7 +455,7 @@ impl VisibilityShading {
                     &constants,
                 )
             }
-            ShadeLights::Traced(bvh) => {
+            ShadeLights::Traced { bvh, .. } => {
                 constants.extend([
                     ("TRACE_EPS", f64::from(tiledlight_cull::trace::SURFACE_EPS)),
                     ("TRACE_POSITION_EPS", f64::from(tiledlight_cull::trace::POSITION_EPS)),
