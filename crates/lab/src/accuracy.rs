@@ -298,6 +298,9 @@ struct SplitFrame {
     heat: Vec<u8>,
 }
 
+/// Something per measured point (its axis values).
+type ByPoint<T> = HashMap<Vec<String>, T>;
+
 /// A setting's error split by cause (see the module doc).
 pub(crate) struct ErrorSplit {
     /// The truth with the setting's cutoff.
@@ -612,10 +615,10 @@ pub(crate) struct Session {
     references: HashMap<String, Reference>,
     sorted: HashMap<String, SortedFrame>,
     /// FLIP heat maps (RGB) by point.
-    pub(crate) heat: HashMap<Vec<String>, Vec<u8>>,
+    pub(crate) heat: ByPoint<Vec<u8>>,
     /// The error split's images by key, and each point's split (`--budget` against the truth).
     splits: HashMap<String, Rc<SplitFrame>>,
-    split: HashMap<Vec<String>, ErrorSplit>,
+    split: ByPoint<ErrorSplit>,
     keep_sorted: bool,
     warned_scene: Option<tiledlight_setup::SceneSource>,
     geometry: Option<(Settings, TraceGeometry)>,
@@ -955,7 +958,7 @@ fn report(
     diff_dir: &Path,
     axes: &[Axis],
     rows: &[Vec<String>],
-    (heat, split): (&HashMap<Vec<String>, Vec<u8>>, &HashMap<Vec<String>, ErrorSplit>),
+    (heat, split): (&ByPoint<Vec<u8>>, &ByPoint<ErrorSplit>),
     (args, (scene, method)): (&Accuracy, (String, Method)),
 ) -> Result<String> {
     let head = header(axes);
