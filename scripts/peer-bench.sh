@@ -44,7 +44,7 @@
 # heavy Bevy runs, whose frames take over 0.5 s, HEAVY_FRAMES/HEAVY_WARMUP: 6/6).
 # DRY_RUN=1 prints the commands without running them (for checking here).
 set -uo pipefail
-out=${OUT:-peer-out}
+out=${OUT:-out/peer-run}
 d=$out/peer
 mkdir -p "$d"
 work=${WORK:-$(mktemp -d)}

@@ -2,8 +2,8 @@
 //! `shaders/common/visibility.wgsl` (`vis_barycentrics`) against its CPU twin
 //! (`tiledlight_cull::visibility::barycentrics`) and the twin's f64 reference, over random
 //! cameras, targets, triangles (ordinary, crossing the eye plane, small and far) and
-//! pixels. The material pass that will use it is not built yet; this is its arithmetic,
-//! and the measurement of which derivatives it must take so that `textureSampleGrad`
+//! pixels: the arithmetic of the material pass (`shaders/common/visibility_surface.wgsl`,
+//! whose images `visibility_method.rs` compares with brute force), and the measurement of which derivatives it must take so that `textureSampleGrad`
 //! picks the level the hardware's implicit derivatives pick
 //! (`explicit_gradients_choose_the_hardware_mip_level`: on lavapipe those of the 2x2
 //! quad's first pixel, exactly; the pixel's own differences are up to 0.39 of a level off).

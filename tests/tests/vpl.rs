@@ -445,7 +445,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     assert!(lit > 50 && (lit as usize) < want.len() - 50, "{lit} of {} lit", want.len());
 }
 
-// ---- VPL shading in the brute-force reference (Forward+ and Tiled Deferred: not yet) ----
+// ---- VPL shading in the brute-force reference (the methods' VPLs are compared with it below) ----
 
 const W: u32 = 320;
 const H: u32 = 180;

@@ -17,13 +17,6 @@ use naga::valid::ModuleInfo;
 use naga::Module;
 use tiledlight_gpu::bindings::{Cond, PassBindings};
 
-/// The declaration of the viewer's blit lives in the app, a binary crate: its file is
-/// compiled here too, for its `BLIT_BINDINGS` (blit.rs depends only on wgpu, anyhow and
-/// tiledlight-gpu).
-#[allow(dead_code)]
-#[path = "../../crates/app/src/viewer/blit.rs"]
-mod blit;
-
 /// Every pass declaration of the workspace.
 pub fn declarations() -> Vec<PassBindings> {
     let mut v = tiledlight_gpu::binding_declarations();
@@ -35,7 +28,6 @@ pub fn declarations() -> Vec<PassBindings> {
         tiledlight_deferred::shading::DEFERRED_BINDINGS,
         tiledlight_deferred::shading::DEFERRED_MSAA_BINDINGS,
         tiledlight_deferred::shading::DEFERRED_ASSIGNED_BINDINGS,
-        tiledlight_deferred::shading::DEFERRED_RESOLVE_BINDINGS,
         tiledlight_visibility::shading::VISIBILITY_BINDINGS,
         tiledlight_visibility::shading::VISIBILITY_MSAA_BINDINGS,
         tiledlight_visibility::shading::TRACED_BINDINGS,
@@ -43,7 +35,6 @@ pub fn declarations() -> Vec<PassBindings> {
         tiledlight_visibility::compute_raster::COMPUTE_RASTER_BINDINGS,
         tiledlight_visibility::compute_raster::LARGE_BINDINGS,
         tiledlight_visibility::raster::DEPTH_COPY_BINDINGS,
-        blit::BLIT_BINDINGS,
     ]);
     v.extend(tiledlight_vpl::binding_declarations());
     v

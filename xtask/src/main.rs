@@ -11,6 +11,8 @@
 //!   `validate-shaders`, then every workspace test with GPU tests one at a time; `ARGS`
 //!   go to `cargo nextest run` (or `cargo test` when nextest is missing).
 //! - `lint`: `cargo fmt --check` and `cargo clippy -D warnings` over the workspace.
+//! - The docs' paths (`doc_paths.rs`, a unit test): every repository path the docs name
+//!   exists.
 //! - `mutants`: apply each realistic bug of `xtask/mutants/*.toml` to a scratch copy and run
 //!   the tests named for it; a surviving mutant is a missing test (`mutants.rs`).
 //!
@@ -19,6 +21,7 @@
 
 mod bindings;
 mod circles;
+mod doc_paths;
 mod lint;
 mod mutants;
 mod process;

@@ -8,4 +8,4 @@
 pub mod gbuffer;
 pub mod shading;
 
-pub use shading::EdgeTest;
+pub use tiledlight_gpu::edge_samples::EdgeTest;

@@ -15,6 +15,12 @@ use std::sync::{Arc, Mutex};
 
 use crate::error::GpuError;
 
+/// The wgpu features the visibility buffer's compute raster needs (64-bit integers and
+/// 64-bit atomic max on storage buffers): requested with the device where the adapter has
+/// them. Defined with the device it is asked of, so the context depends on no frame policy.
+pub const COMPUTE_RASTER_FEATURES: wgpu::Features =
+    wgpu::Features::SHADER_INT64.union(wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX);
+
 /// A device and queue with what the renderer learnt about the adapter.
 pub struct GpuContext {
     /// The wgpu instance.
@@ -109,7 +115,7 @@ impl GpuContext {
         }
         // The visibility buffer's compute rasteriser (issue 29): 64-bit integers and 64-bit
         // atomic max, where the adapter has both (lavapipe and the H200 do).
-        let int64 = crate::features::COMPUTE_RASTER_FEATURES;
+        let int64 = COMPUTE_RASTER_FEATURES;
         if features.contains(int64) {
             required_features |= int64;
         }

@@ -9,7 +9,8 @@
 //! VPLs included, each with its passes, buffers and variants only when asked for. Depends on [`crate::scene_gpu`],
 //! [`crate::light_buffers`] and [`crate::culling`] (the culling options).
 
-use crate::culling::CullOptions;
+use crate::context::COMPUTE_RASTER_FEATURES;
+use crate::culling::options::CullOptions;
 use crate::light_buffers::LightBuffers;
 use crate::scene_gpu::{DrawKind, MaterialFeatures, SceneGpu};
 use tiledlight_cull::shadow::ShadowOptions;
@@ -150,11 +151,6 @@ impl clap::ValueEnum for Method {
         Some(clap::builder::PossibleValue::new(self.name()).help(self.summary()))
     }
 }
-
-/// The wgpu features the visibility buffer's compute raster needs (64-bit integers and
-/// 64-bit atomic max on storage buffers).
-pub const COMPUTE_RASTER_FEATURES: wgpu::Features =
-    wgpu::Features::SHADER_INT64.union(wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX);
 
 /// Which rasteriser draws the visibility buffer's depth and triangle IDs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]

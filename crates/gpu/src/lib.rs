@@ -17,11 +17,13 @@ pub use tiledlight_cull::draw_order;
 
 pub mod bindings;
 pub mod blended;
+pub mod blit;
 pub mod bvh;
 pub mod context;
 pub mod contribution;
 pub mod culling;
 pub mod depth_prepass;
+pub mod edge_samples;
 pub mod error;
 pub mod exposure;
 pub mod features;
@@ -64,6 +66,8 @@ pub fn binding_declarations() -> Vec<bindings::PassBindings> {
         blended::COMPOSITE_BINDINGS,
         bvh::TRACE_RAYS_BINDINGS,
         contribution::CONTRIBUTION_BINDINGS,
+        edge_samples::RESOLVE_BINDINGS,
+        blit::BLIT_BINDINGS,
     ]
 }
 

@@ -22,8 +22,8 @@
 //!
 //! No command line here (no clap): the app converts its flags into the plain job structs
 //! (`sweep::Sweep`, `accuracy::Accuracy`, ...) and implements [`axes::Flags`] for its
-//! scene flags. Depends on tiledlight-setup (the run), tiledlight-gpu (the renderer trait,
-//! timer, grids), tiledlight-forward (shadow-accuracy's renderer), tiledlight-cull (CPU
+//! scene flags. Depends on tiledlight-setup (the run), tiledlight-gpu (timer, grids,
+//! methods), tiledlight-frame (the renderer, shadow-accuracy's too), tiledlight-cull (CPU
 //! culling and ray cast), tiledlight-scene (the shadow rays' geometry), tiledlight-metrics;
 //! never on the app. Errors are `anyhow` errors
 //! whose text is meant for the user (they name the app's flags).

@@ -27,8 +27,9 @@
 //!   camera"), read and written (files, no GPU).
 //!
 //! Layering: depends on tiledlight-cull, tiledlight-scene, tiledlight-gpu,
-//! tiledlight-forward, tiledlight-deferred and tiledlight-gltf-writer (and wgpu, glam,
-//! anyhow, serde_json); the app
+//! tiledlight-frame (the renderer), tiledlight-deferred (its workgroup budget),
+//! tiledlight-visibility (the compute raster's checks) and tiledlight-gltf-writer (and
+//! wgpu, glam, anyhow, serde_json); the app
 //! (`tiledlight`) and the GPU tests depend on it, never the other way round. Errors are
 //! `anyhow` errors whose text is meant for the user as it is: settings errors name the
 //! app's flag (`--width 0: ...`).

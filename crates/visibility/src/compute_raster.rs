@@ -49,7 +49,7 @@ const FS: wgpu::ShaderStages = wgpu::ShaderStages::FRAGMENT;
 /// and shading passes as they read a `Depth32Float` target.
 pub const COMPUTE_DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 
-pub use tiledlight_gpu::features::COMPUTE_RASTER_FEATURES;
+pub use tiledlight_gpu::context::COMPUTE_RASTER_FEATURES;
 
 /// Whether the compute raster can draw on a device with `features` at `msaa` samples: an
 /// error naming what is missing otherwise (checked before any target is made).

@@ -6,8 +6,8 @@
 //! textures sampled by explicit gradients) and lights it with the same light grid, BRDF,
 //! shadows and VPLs as the other methods. No G-buffer and no forward shading pipeline
 //! exist for it. The raster has two paths: the hardware's and a compute raster
-//! ([`compute_raster`], issue 29). Depends on tiledlight-gpu (passes, buffers, the culling) and
-//! tiledlight-deferred (the MSAA edge machinery it shares with Tiled Deferred).
+//! ([`compute_raster`], issue 29). Depends on tiledlight-gpu (passes, buffers, the culling, and
+//! the MSAA edge machinery it shares with Tiled Deferred, `tiledlight_gpu::edge_samples`).
 
 pub mod compute_raster;
 pub mod raster;

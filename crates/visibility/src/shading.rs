@@ -32,13 +32,13 @@
 //! multiplied by a shadow ray through the scene's BVH (`tiledlight_gpu::bvh`). A frame costs
 //! seconds: with progress it is dispatched in bands of tile rows (each at most
 //! [`TRACED_BAND_PAIRS`] pixel-light pairs, at least [`TRACED_BAND_WORKGROUPS`] workgroups),
-//! which [`VisibilityShading::record_traced`] submits one by one; timed, one dispatch. Depends on tiledlight-gpu and tiledlight-deferred.
+//! which [`VisibilityShading::record_traced`] submits one by one; timed, one dispatch. Depends on tiledlight-gpu (with the MSAA edge machinery it shares with Tiled Deferred, `tiledlight_gpu::edge_samples`).
 
 use tiledlight_cull::TileGrid;
-use tiledlight_deferred::shading::{light_entries, view_entry, EdgeSamples, EdgeTest};
 use tiledlight_gpu::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
 use tiledlight_gpu::bvh::GpuBvh;
 use tiledlight_gpu::culling::{LightCulling, DEPTH_BINDING};
+use tiledlight_gpu::edge_samples::{light_entries, EdgeSamples, EdgeTest};
 use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::{compute_bindings, LightGrid};
@@ -49,6 +49,7 @@ use tiledlight_gpu::scene_gpu::{SceneGpu, TEXTURE_BINDINGS};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
+use tiledlight_gpu::util::view_entry;
 use tiledlight_gpu::util::{buffer_entry, buffer_init, buffer_zeroed, compute_pipeline, keyed_module};
 use tiledlight_gpu::variants::{GridLookup, MaterialKey, ShaderKey, Shadowing, TracedKey, VisibilityKey};
 use tiledlight_gpu::view::Views;

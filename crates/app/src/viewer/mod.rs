@@ -18,7 +18,6 @@
 //!
 //! May depend on every other module of the app.
 
-mod blit;
 pub mod camera_control;
 mod script;
 pub mod settings;
@@ -51,10 +50,10 @@ use winit::window::{Window, WindowId};
 
 use crate::render::write_image;
 use crate::scene_setup::SceneArgs;
-use blit::{Blit, DisplayImage};
 use camera_control::CameraRig;
 use script::Action;
 use settings::{plan, Settings};
+use tiledlight_gpu::blit::{Blit, DisplayImage};
 use tiledlight_lab::dropped::{self, Dropped};
 use tiledlight_lab::output::{check_png_path, rgb_image, save_png};
 use tiledlight_setup::bookmark;
@@ -339,7 +338,7 @@ impl Viewer {
         let prep = Prepared::with_context(&setup, cpu, ctx).map_err(other)?;
         let settings = Settings::new(setup);
         let renderer = prep.renderer(false).map_err(other)?;
-        let blit = Blit::new(&prep.ctx.device, format.add_srgb_suffix()).map_err(other)?;
+        let blit = Blit::new(&prep.ctx.device, format.add_srgb_suffix()).map_err(|e| other(e.into()))?;
         let display = blit.display_image(&prep.ctx.device, (width, height));
         let timer = GpuTimer::new(&prep.ctx).map_err(|e| other(e.into()))?;
 

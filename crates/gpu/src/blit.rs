@@ -1,15 +1,16 @@
-//! Presenting the lit image: the renderer's tonemapped target is copied into a sampled
-//! texture (the renderers' `ldr` target is a render attachment and copy source only) and
-//! drawn onto the window surface with `shaders/viewer_blit.wgsl`, whatever the surface's
-//! format. The pipeline is built once per surface format, the texture and bind group once
-//! per renderer (screen size), never per frame. Depends on wgpu, anyhow and tiledlight-gpu
-//! only: `cargo xtask validate-shaders` compiles this file too (`#[path]`), for the bindings
-//! check of `BLIT_BINDINGS`, so it must not use the rest of the app.
+//! Presenting a lit image on a window surface (the viewer's last pass): the renderer's
+//! tonemapped target is copied into a sampled texture (the renderers' `ldr` target is a
+//! render attachment and copy source only) and drawn over the surface with
+//! `shaders/viewer_blit.wgsl`, whatever the surface's format. The pipeline is built once per
+//! surface format, the texture and bind group once per renderer (screen size), never per
+//! frame. Here and not in the app so that an engine's own window can present a frame the
+//! same way, and `cargo xtask validate-shaders` checks [`BLIT_BINDINGS`] like every pass's.
+//! Depends on the crate's bindings, tonemap, timer and util modules.
 
-use anyhow::Result;
-use tiledlight_gpu::bindings::{create_layout, Binding, PassBindings, PassGroup};
-use tiledlight_gpu::timer::GpuTimer;
-use tiledlight_gpu::util::{pipeline_layout, shader_module};
+use crate::bindings::{create_layout, Binding, PassBindings, PassGroup};
+use crate::timer::GpuTimer;
+use crate::util::{pipeline_layout, shader_module};
+use crate::GpuError;
 
 /// The bindings of the blit (`shaders/viewer_blit.wgsl`): group 0, the display image (0)
 /// and its sampler (1).
@@ -40,7 +41,7 @@ pub struct DisplayImage {
 
 impl Blit {
     /// Builds the pipeline writing `format`.
-    pub fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> Result<Self> {
+    pub fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> Result<Self, GpuError> {
         let layout = create_layout(device, "viewer.blit.layout", BLIT_BINDINGS.group(0), &[]);
         let module = shader_module(device, BLIT_BINDINGS.entry, &[])?;
         let pl = pipeline_layout(device, "viewer.blit.pipeline_layout", &[&layout]);
@@ -78,13 +79,13 @@ impl Blit {
     pub fn display_image(&self, device: &wgpu::Device, size: (u32, u32)) -> DisplayImage {
         // The renderer's display image's format (copied as is), sampled through its sRGB
         // view so the filtering and the sRGB swapchain see linear values.
-        let texture = tiledlight_gpu::tonemap::ldr_texture(
+        let texture = crate::tonemap::ldr_texture(
             device,
             "viewer.display",
             size,
             wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
         );
-        let view = tiledlight_gpu::tonemap::ldr_srgb_view(&texture, "viewer.display.view");
+        let view = crate::tonemap::ldr_srgb_view(&texture, "viewer.display.view");
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("viewer.blit.bind_group"),
             layout: &self.layout,
