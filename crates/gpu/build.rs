@@ -1,5 +1,6 @@
-//! Embeds every WGSL file of the workspace's `shaders/` directory in the crate, so the
-//! binaries find their shaders wherever they run from.
+//! Embeds every WGSL file of the workspace's `shaders/` directory (through the crate's
+//! `shaders` link to it) in the crate, so the binaries find their shaders wherever they
+//! run from, and the published crate holds them.
 //!
 //! Writes `$OUT_DIR/shaders_generated.rs` with one `SHADER_FILES` table of
 //! `(path relative to shaders/, include_str!(absolute path))`, sorted by path, which
@@ -12,7 +13,9 @@ use std::path::{Path, PathBuf};
 
 fn main() {
     let manifest_dir = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
-    let shaders_dir = manifest_dir.join("../../shaders");
+    // `crates/gpu/shaders` links to the workspace's `shaders/`, so the packaged crate
+    // (cargo copies the linked files in) carries them too.
+    let shaders_dir = manifest_dir.join("shaders");
     let out_dir = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
 
     println!("cargo:rerun-if-changed=build.rs");

@@ -21,7 +21,9 @@ use anyhow::{anyhow, ensure, Context, Result};
 use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint};
 use plotters::prelude::*;
 
-static FONT: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
+// `crates/lab/assets/fonts` links to the workspace's `assets/fonts`, so the published crate
+// holds the font too.
+static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
 const FAMILY: &str = "sans-serif";
 
 /// Chart size in pixels.
