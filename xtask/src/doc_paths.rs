@@ -4,7 +4,8 @@
 //! `:line`, a `::item` or a parenthesis off; `{a,b}` expands to each, and `*` in the last
 //! component matches by prefix and suffix. Tokens with `<...>` are patterns of names, not
 //! paths. Checked by this module's unit test (run by `cargo xtask test`), so a moved or
-//! renamed file breaks the build of the docs that name it. Depends on std only.
+//! renamed file breaks the build of the docs that name it. Every library crate's README
+//! names a `cargo run -p ... --example ...` whose example exists. Depends on std only.
 
 use std::path::Path;
 
@@ -62,6 +63,25 @@ pub fn missing(root: &Path, text: &str) -> Vec<String> {
     paths(text).into_iter().filter(|(_, c)| !c.iter().all(|p| exists(root, p))).map(|(t, _)| t).collect()
 }
 
+/// The `cargo run ... -p PACKAGE --example NAME` commands of `text` whose example file
+/// (`crates/*/examples/NAME.rs` of the package named) does not exist under `root`.
+pub fn missing_examples(root: &Path, text: &str) -> Vec<String> {
+    let mut bad = Vec::new();
+    for line in text.lines().filter(|l| l.contains("cargo run") && l.contains("--example")) {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let after = |flag: &str| words.iter().position(|w| *w == flag).and_then(|i| words.get(i + 1)).copied();
+        let (Some(package), Some(example)) = (after("-p"), after("--example")) else {
+            bad.push(line.trim().to_string());
+            continue;
+        };
+        let dir = package.strip_prefix("tiledlight-").unwrap_or(package);
+        if !root.join(format!("crates/{dir}/examples/{example}.rs")).exists() {
+            bad.push(line.trim().to_string());
+        }
+    }
+    bad
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -80,6 +100,35 @@ mod tests {
             bad.extend(missing(root(), &text).into_iter().map(|t| format!("{doc}: `{t}`")));
         }
         assert!(bad.is_empty(), "paths named in the docs that do not exist:\n{}", bad.join("\n"));
+    }
+
+    /// Every library crate has a README (its package's `readme`) whose runnable example
+    /// exists.
+    #[test]
+    fn every_library_crate_has_a_readme_with_a_runnable_example() {
+        let mut bad = Vec::new();
+        for entry in std::fs::read_dir(root().join("crates")).unwrap() {
+            let dir = entry.unwrap().path();
+            if dir.file_name().is_some_and(|n| n == "app") {
+                continue;
+            }
+            let Ok(text) = std::fs::read_to_string(dir.join("README.md")) else {
+                bad.push(format!("{}: no README.md", dir.display()));
+                continue;
+            };
+            if !text.contains("--example") {
+                bad.push(format!("{}: README.md runs no example", dir.display()));
+            }
+            bad.extend(missing_examples(root(), &text).into_iter().map(|l| format!("{}: `{l}`", dir.display())));
+        }
+        assert!(bad.is_empty(), "{}", bad.join("\n"));
+    }
+
+    /// An example command naming a file that does not exist is reported.
+    #[test]
+    fn a_missing_example_is_reported() {
+        let text = "cargo run -p tiledlight-cull --example cull_a_floor\ncargo run -p tiledlight-cull --example gone\n";
+        assert_eq!(missing_examples(root(), text), ["cargo run -p tiledlight-cull --example gone"]);
     }
 
     /// The negative test: a renamed file, one alternative of a brace group and a glob that

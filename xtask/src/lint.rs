@@ -1,5 +1,15 @@
-//! `cargo xtask lint`: formatting and clippy over the whole workspace, both run even
-//! when the first fails so one pass shows every problem.
+//! `cargo xtask lint`: formatting, clippy, the library crates' public docs and their
+//! packages, over the whole workspace; every check runs even when one before it fails, so
+//! one pass shows every problem.
+//!
+//! 1. `cargo fmt --all --check`.
+//! 2. `cargo clippy --workspace --all-targets -D warnings`.
+//! 3. `cargo doc` of the library crates (no private items), rustdoc warnings as errors:
+//!    broken intra-doc links and bad doc syntax in what a user of the crates reads.
+//! 4. `cargo publish --workspace --dry-run`: every library crate packaged and built from
+//!    its package (a local overlay stands in for the workspace's unpublished crates), so a
+//!    file a crate reads from outside its folder, a missing version or a bad manifest field
+//!    fails here, not at publishing. The slowest step (a second build of every crate).
 
 use std::path::Path;
 
@@ -7,14 +17,33 @@ use anyhow::{bail, Result};
 
 use crate::process::{cargo, run_status};
 
-/// Runs `cargo fmt --all --check` and `cargo clippy --workspace --all-targets -D warnings`.
+/// The workspace members that are not published (the app, the GPU tests, this tool).
+const UNPUBLISHED: [&str; 3] = ["tiledlight", "tiledlight-tests", "xtask"];
+
+/// Runs the four checks of the module doc.
 pub fn lint(root: &Path) -> Result<()> {
     let fmt = run_status(cargo(root).args(["fmt", "--all", "--check"]))?;
     let clippy = run_status(cargo(root).args(["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"]))?;
-    match (fmt, clippy) {
-        (true, true) => Ok(()),
-        (false, true) => bail!("formatting differs from rustfmt: run `cargo fmt --all`"),
-        (true, false) => bail!("clippy found problems"),
-        (false, false) => bail!("formatting differs from rustfmt (run `cargo fmt --all`) and clippy found problems"),
+    let mut doc = cargo(root);
+    doc.args(["doc", "--workspace", "--no-deps"]).env("RUSTDOCFLAGS", "-D warnings");
+    for p in UNPUBLISHED {
+        doc.args(["--exclude", p]);
+    }
+    let doc = run_status(&mut doc)?;
+    let publish = run_status(cargo(root).args(["publish", "--workspace", "--dry-run", "--allow-dirty"]))?;
+    let failed: Vec<&str> = [
+        (fmt, "formatting differs from rustfmt (run `cargo fmt --all`)"),
+        (clippy, "clippy found problems"),
+        (doc, "the library crates' docs have warnings"),
+        (publish, "a library crate does not package or build from its package"),
+    ]
+    .into_iter()
+    .filter(|(ok, _)| !ok)
+    .map(|(_, what)| what)
+    .collect();
+    if failed.is_empty() {
+        Ok(())
+    } else {
+        bail!("{}", failed.join("; "))
     }
 }

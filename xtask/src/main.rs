@@ -21,6 +21,8 @@
 
 mod bindings;
 mod circles;
+// Only its unit tests use it (`cargo xtask test` runs them with every other test).
+#[cfg(test)]
 mod doc_paths;
 mod lint;
 mod mutants;
