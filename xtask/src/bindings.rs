@@ -49,8 +49,8 @@ pub fn named_defines(pass: &PassBindings) -> Vec<&'static str> {
         match c {
             Cond::Always | Cond::Never => {}
             Cond::Defined(d) | Cond::NotDefined(d) => {
-                if !out.contains(d) {
-                    out.push(d)
+                if !out.contains(&d.name()) {
+                    out.push(d.name())
                 }
             }
             Cond::All(cs) | Cond::Any(cs) => cs.iter().for_each(|c| walk(c, out)),
@@ -293,6 +293,7 @@ mod tests {
     use super::*;
     use naga::valid::{ValidationFlags, Validator};
     use tiledlight_gpu::bindings::{Binding, PassGroup};
+    use tiledlight_gpu::define::Define;
 
     const FS: wgpu::ShaderStages = wgpu::ShaderStages::FRAGMENT;
     const CS: wgpu::ShaderStages = wgpu::ShaderStages::COMPUTE;
@@ -325,7 +326,8 @@ mod tests {
                 &[
                     Binding::storage(0, CS),
                     Binding::storage_rw(1, CS),
-                    Binding::texture(2, CS, wgpu::TextureSampleType::Depth).multisampled_when(Cond::Defined("MSAA")),
+                    Binding::texture(2, CS, wgpu::TextureSampleType::Depth)
+                        .multisampled_when(Cond::Defined(Define::Msaa)),
                     Binding::storage_texture(
                         3,
                         CS,
@@ -405,21 +407,21 @@ mod tests {
             entry: "test.wgsl",
             source: "test.rs",
             groups: &[
-                PassGroup::new(0, &[Binding::storage(0, CS).when(Cond::NotDefined("NO_LIGHTS"))]),
-                PassGroup::new(1, &[Binding::uniform(0, CS)]).when(Cond::Defined("PARAMS")),
+                PassGroup::new(0, &[Binding::storage(0, CS).when(Cond::NotDefined(Define::Shadows))]),
+                PassGroup::new(1, &[Binding::uniform(0, CS)]).when(Cond::Defined(Define::Msaa)),
             ],
         };
         let wgsl = "@group(0) @binding(0) var<storage, read> lights: array<u32>;\n\
                     @compute @workgroup_size(1) fn main() { _ = lights[0]; }";
         assert_eq!(check(&PASS, &[], wgsl), Vec::<String>::new());
         assert_eq!(
-            check(&PASS, &["NO_LIGHTS", "PARAMS"], wgsl),
+            check(&PASS, &["SHADOWS", "MSAA"], wgsl),
             [
                 "@group(0) @binding(0): not declared in Rust, lights: var<storage, read> in the WGSL",
                 "@group(1) @binding(0): var<uniform> in Rust, not declared in the WGSL",
             ]
         );
-        assert_eq!(named_defines(&PASS), ["NO_LIGHTS", "PARAMS"]);
+        assert_eq!(named_defines(&PASS), ["SHADOWS", "MSAA"]);
     }
 
     #[test]
@@ -427,11 +429,14 @@ mod tests {
         const PASS: PassBindings = PassBindings {
             entry: "test.wgsl",
             source: "test.rs",
-            groups: &[PassGroup::new(0, &[Binding::storage(0, CS), Binding::storage(0, CS).when(Cond::Defined("X"))])],
+            groups: &[PassGroup::new(
+                0,
+                &[Binding::storage(0, CS), Binding::storage(0, CS).when(Cond::Defined(Define::Aabb))],
+            )],
         };
         let wgsl = "@group(0) @binding(0) var<storage, read> lights: array<u32>;";
         assert_eq!(check(&PASS, &[], wgsl), Vec::<String>::new());
-        assert_eq!(check(&PASS, &["X"], wgsl), ["@group(0) @binding(0): declared twice in Rust"]);
+        assert_eq!(check(&PASS, &["AABB"], wgsl), ["@group(0) @binding(0): declared twice in Rust"]);
     }
 
     #[test]

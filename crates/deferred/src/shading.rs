@@ -22,6 +22,7 @@ use tiledlight_gpu::bindings::{create_layout, Binding, Cond, PassBindings, PassG
 use tiledlight_gpu::culling::{
     CoarseCulling, CullOptions, DropLight, LightAssign, CULL_WORKGROUP_BYTES, DEPTH_BINDING,
 };
+use tiledlight_gpu::define::Define;
 use tiledlight_gpu::edge_samples::{light_entries, EdgeSamples, EdgeTest};
 use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_buffers::LightBuffers;
@@ -65,7 +66,7 @@ const CS: wgpu::ShaderStages = wgpu::ShaderStages::COMPUTE;
 /// A G-buffer target read by the pass (multisampled with `MSAA`).
 const fn gbuffer_binding(binding: u32) -> Binding {
     Binding::texture(binding, CS, wgpu::TextureSampleType::Float { filterable: false })
-        .multisampled_when(Cond::Defined("MSAA"))
+        .multisampled_when(Cond::Defined(Define::Msaa))
 }
 
 /// An HDR image the pass writes.
@@ -86,30 +87,30 @@ pub const DEFERRED_GROUP: &[Binding] = &[
     DEPTH_BINDING,
     Binding::storage(1, CS),
     Binding::uniform(2, CS),
-    Binding::texture(3, CS, wgpu::TextureSampleType::Uint).multisampled_when(Cond::Defined("MSAA")),
+    Binding::texture(3, CS, wgpu::TextureSampleType::Uint).multisampled_when(Cond::Defined(Define::Msaa)),
     Binding::texture(4, CS, wgpu::TextureSampleType::Float { filterable: false }),
     Binding::storage(6, CS),
     hdr_storage_binding(9),
-    gbuffer_binding(5).when(Cond::Defined("EXTRA_RTS")),
-    gbuffer_binding(10).when(Cond::All(&[Cond::Defined("EXTRA_RTS"), Cond::Defined("EXTRA_RTS_2")])),
+    gbuffer_binding(5).when(Cond::Defined(Define::ExtraRts)),
+    gbuffer_binding(10).when(Cond::All(&[Cond::Defined(Define::ExtraRts), Cond::Defined(Define::ExtraRts2)])),
     gbuffer_binding(11).when(Cond::All(&[
-        Cond::Defined("EXTRA_RTS"),
-        Cond::Defined("EXTRA_RTS_2"),
-        Cond::Defined("EXTRA_RTS_3"),
+        Cond::Defined(Define::ExtraRts),
+        Cond::Defined(Define::ExtraRts2),
+        Cond::Defined(Define::ExtraRts3),
     ])),
-    Binding::storage(7, CS).when(Cond::Any(&[Cond::Defined("SPOT_LIGHTS"), Cond::Defined("SPOT_CONE")])),
-    Binding::storage(8, CS).when(Cond::Defined("COARSE")),
-    hdr_storage_binding(12).when(Cond::Defined("MSAA")),
-    Binding::storage_rw(13, CS).when(Cond::Defined("MSAA")),
-    Binding::storage_rw(14, CS).when(Cond::Defined("MSAA")),
-    Binding::depth_array(15, CS).when(Cond::Defined("SHADOWS")),
-    Binding::sampler(16, CS, wgpu::SamplerBindingType::Comparison).when(Cond::Defined("SHADOWS")),
-    Binding::storage(17, CS).when(Cond::Defined("SHADOWS")),
-    gbuffer_binding(18).when(Cond::Defined("EMISSION")),
-    Binding::storage(19, CS).when(Cond::Defined("VPLS")),
-    Binding::uniform(20, CS).when(Cond::Defined("VPLS")),
-    Binding::storage(21, CS).when(Cond::Defined("VPLS")),
-    Binding::storage(22, CS).when(Cond::Defined("VPLS")),
+    Binding::storage(7, CS).when(Cond::Any(&[Cond::Defined(Define::SpotLights), Cond::Defined(Define::SpotCone)])),
+    Binding::storage(8, CS).when(Cond::Defined(Define::Coarse)),
+    hdr_storage_binding(12).when(Cond::Defined(Define::Msaa)),
+    Binding::storage_rw(13, CS).when(Cond::Defined(Define::Msaa)),
+    Binding::storage_rw(14, CS).when(Cond::Defined(Define::Msaa)),
+    Binding::depth_array(15, CS).when(Cond::Defined(Define::Shadows)),
+    Binding::sampler(16, CS, wgpu::SamplerBindingType::Comparison).when(Cond::Defined(Define::Shadows)),
+    Binding::storage(17, CS).when(Cond::Defined(Define::Shadows)),
+    gbuffer_binding(18).when(Cond::Defined(Define::Emission)),
+    Binding::storage(19, CS).when(Cond::Defined(Define::Vpls)),
+    Binding::uniform(20, CS).when(Cond::Defined(Define::Vpls)),
+    Binding::storage(21, CS).when(Cond::Defined(Define::Vpls)),
+    Binding::storage(22, CS).when(Cond::Defined(Define::Vpls)),
 ];
 
 /// The bindings of [`DeferredShading`]'s cull-and-shade kernel (`shaders/deferred.wgsl`):

@@ -15,6 +15,8 @@
 
 use std::fmt;
 
+use crate::define::Define;
+
 /// When a binding (or a whole group) exists, in terms of the shader defines of the
 /// variant: the same condition the WGSL's `#ifdef`s put around its declaration.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -24,9 +26,9 @@ pub enum Cond {
     /// In no variant (a shared group's binding that this pass never has).
     Never,
     /// When the define is set.
-    Defined(&'static str),
+    Defined(Define),
     /// When the define is not set.
-    NotDefined(&'static str),
+    NotDefined(Define),
     /// When every condition holds.
     All(&'static [Cond]),
     /// When at least one condition holds.
@@ -48,8 +50,8 @@ impl Cond {
         match self {
             Cond::Always => true,
             Cond::Never => false,
-            Cond::Defined(d) => defines.contains(d),
-            Cond::NotDefined(d) => !defines.contains(d),
+            Cond::Defined(d) => defines.contains(&d.name()),
+            Cond::NotDefined(d) => !defines.contains(&d.name()),
             Cond::All(c) => c.iter().all(|c| c.holds(defines)),
             Cond::Any(c) => c.iter().any(|c| c.holds(defines)),
         }
@@ -71,8 +73,8 @@ impl fmt::Display for Cond {
         match self {
             Cond::Always => f.write_str("always"),
             Cond::Never => f.write_str("never"),
-            Cond::Defined(d) => f.write_str(d),
-            Cond::NotDefined(d) => write!(f, "!{d}"),
+            Cond::Defined(d) => f.write_str(d.name()),
+            Cond::NotDefined(d) => write!(f, "!{}", d.name()),
             Cond::All(c) => list(f, c, " && "),
             Cond::Any(c) => list(f, c, " || "),
         }
@@ -339,19 +341,23 @@ mod tests {
     const GROUP: &[Binding] = &[
         Binding::storage(0, FS),
         Binding::uniform(5, FS),
-        Binding::storage(4, FS).when(Cond::All(&[Cond::Defined("HALF_Z"), Cond::NotDefined("BRUTE_FORCE")])),
-        Binding::texture(3, FS, wgpu::TextureSampleType::Depth).multisampled_when(Cond::Defined("MSAA")),
+        Binding::storage(4, FS).when(Cond::All(&[Cond::Defined(Define::HalfZ), Cond::NotDefined(Define::BruteForce)])),
+        Binding::texture(3, FS, wgpu::TextureSampleType::Depth).multisampled_when(Cond::Defined(Define::Msaa)),
     ];
 
     #[test]
     fn conditions_follow_the_defines() {
-        let c = Cond::Any(&[Cond::Defined("A"), Cond::All(&[Cond::Defined("B"), Cond::NotDefined("C")])]);
-        assert!(c.holds(&["A"]));
-        assert!(c.holds(&["B"]));
-        assert!(!c.holds(&["B", "C"]));
-        assert!(!c.holds(&[]));
-        assert_eq!(c.to_string(), "(A || (B && !C))");
-        assert!(Cond::from_bool(true).holds(&[]) && !Cond::from_bool(false).holds(&["A"]));
+        const COND: Cond = Cond::Any(&[
+            Cond::Defined(Define::Aabb),
+            Cond::All(&[Cond::Defined(Define::Blended), Cond::NotDefined(Define::Coarse)]),
+        ]);
+        let (a, b, c, cond) = (Define::Aabb, Define::Blended, Define::Coarse, COND);
+        assert!(cond.holds(&[a.name()]));
+        assert!(cond.holds(&[b.name()]));
+        assert!(!cond.holds(&[b.name(), c.name()]));
+        assert!(!cond.holds(&[]));
+        assert_eq!(cond.to_string(), "(AABB || (BLENDED && !COARSE))");
+        assert!(Cond::from_bool(true).holds(&[]) && !Cond::from_bool(false).holds(&[a.name()]));
     }
 
     #[test]

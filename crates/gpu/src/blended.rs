@@ -39,6 +39,7 @@
 //! Depends on [`crate::depth_prepass`], [`crate::culling`], [`crate::scene_gpu`],
 //! [`crate::shadow_atlas`], [`crate::features`], [`crate::view`].
 
+use crate::define::Define;
 use std::sync::Mutex;
 
 use glam::{Mat4, Vec3};
@@ -88,7 +89,8 @@ pub const COMPOSITE_BINDINGS: PassBindings = PassBindings {
         0,
         &[
             Binding::texture(0, FS, wgpu::TextureSampleType::Float { filterable: false }),
-            Binding::texture(1, FS, wgpu::TextureSampleType::Float { filterable: false }).when(Cond::Defined("WBOIT")),
+            Binding::texture(1, FS, wgpu::TextureSampleType::Float { filterable: false })
+                .when(Cond::Defined(Define::Wboit)),
         ],
     )],
 };

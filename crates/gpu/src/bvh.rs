@@ -7,6 +7,7 @@
 //! `trace` (layout and CPU twin), tiledlight-scene's `trace` (what casts) and this crate's
 //! helpers.
 
+use crate::define::Define;
 use std::time::Instant;
 
 use bytemuck::{Pod, Zeroable};
@@ -29,9 +30,9 @@ pub const fn trace_bindings(base: u32) -> [Binding; 5] {
     [
         Binding::storage(base, CS),
         Binding::storage(base + 1, CS),
-        Binding::storage(base + 2, CS).when(Cond::Defined("TRACE_MASKS")),
-        Binding::storage(base + 3, CS).when(Cond::Defined("TRACE_MASKS")),
-        Binding::storage(base + 4, CS).when(Cond::Defined("TRACE_MASKS")),
+        Binding::storage(base + 2, CS).when(Cond::Defined(Define::TraceMasks)),
+        Binding::storage(base + 3, CS).when(Cond::Defined(Define::TraceMasks)),
+        Binding::storage(base + 4, CS).when(Cond::Defined(Define::TraceMasks)),
     ]
 }
 

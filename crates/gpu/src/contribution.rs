@@ -6,6 +6,7 @@
 //! (`tiledlight_frame::caster_rank`). Depends on wgpu, [`crate::light_grid`],
 //! [`crate::light_buffers`], [`crate::view`], [`crate::bindings`].
 
+use crate::define::Define;
 use tiledlight_cull::contribution::pair_scale;
 
 use crate::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
@@ -42,7 +43,7 @@ pub const CONTRIBUTION_BINDINGS: PassBindings = PassBindings {
                 Binding::storage_rw(4, CS),
                 Binding::storage(5, CS),
                 Binding::storage(6, CS),
-                Binding::storage(7, CS).when(Cond::Defined("SPOTS")),
+                Binding::storage(7, CS).when(Cond::Defined(Define::Spots)),
             ],
         ),
     ],

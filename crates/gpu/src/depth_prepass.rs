@@ -4,6 +4,7 @@
 //! the scene has. Depends on wgpu, [`crate::scene_gpu`], [`crate::scene_raster`] and [`crate::view`].
 
 use crate::bindings::{Binding, Cond, PassBindings, PassGroup};
+use crate::define::Define;
 use crate::error::GpuError;
 use crate::features::Features;
 use crate::scene_gpu::{DrawCount, DrawKind, SceneGpu, BASE_COLOR_BINDINGS, POSITION_LAYOUT, SCENE_GROUPS};
@@ -32,9 +33,11 @@ pub const DEPTH_PREPASS_BINDINGS: PassBindings = PassBindings {
     groups: &[
         SCENE_GROUPS[0],
         SCENE_GROUPS[1],
-        PassGroup::new(2, BASE_COLOR_BINDINGS).when(Cond::Defined("TEXTURES")),
-        PassGroup::new(2, ATOMIC_TEXELS).when(Cond::All(&[Cond::Defined("ATOMIC"), Cond::NotDefined("TEXTURES")])),
-        PassGroup::new(3, ATOMIC_TEXELS).when(Cond::All(&[Cond::Defined("ATOMIC"), Cond::Defined("TEXTURES")])),
+        PassGroup::new(2, BASE_COLOR_BINDINGS).when(Cond::Defined(Define::Textures)),
+        PassGroup::new(2, ATOMIC_TEXELS)
+            .when(Cond::All(&[Cond::Defined(Define::Atomic), Cond::NotDefined(Define::Textures)])),
+        PassGroup::new(3, ATOMIC_TEXELS)
+            .when(Cond::All(&[Cond::Defined(Define::Atomic), Cond::Defined(Define::Textures)])),
     ],
 };
 

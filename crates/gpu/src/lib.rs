@@ -22,6 +22,7 @@ pub mod bvh;
 pub mod context;
 pub mod contribution;
 pub mod culling;
+pub mod define;
 pub mod depth_prepass;
 pub mod edge_samples;
 pub mod error;

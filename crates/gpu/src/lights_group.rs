@@ -8,6 +8,7 @@
 //! [`crate::light_buffers`], [`crate::light_grid`], [`crate::shadow_atlas`].
 
 use crate::bindings::{Binding, Cond};
+use crate::define::Define;
 use crate::light_buffers::LightBuffers;
 use crate::light_grid::LightGrid;
 use crate::shadow_atlas::ShadowAtlas;
@@ -23,18 +24,18 @@ const FS: wgpu::ShaderStages = wgpu::ShaderStages::FRAGMENT;
 pub const LIGHTS_GROUP: &[Binding] = &[
     Binding::storage(0, FS),
     Binding::uniform(5, FS),
-    Binding::storage(1, FS).when(Cond::Defined("SPOT_LIGHTS")),
-    Binding::storage(2, FS).when(Cond::NotDefined("BRUTE_FORCE")),
-    Binding::storage(3, FS).when(Cond::NotDefined("BRUTE_FORCE")),
-    Binding::storage(4, FS).when(Cond::All(&[Cond::Defined("HALF_Z"), Cond::NotDefined("BRUTE_FORCE")])),
-    Binding::depth_array(15, FS).when(Cond::Defined("SHADOWS")),
-    Binding::sampler(16, FS, wgpu::SamplerBindingType::Comparison).when(Cond::Defined("SHADOWS")),
-    Binding::storage(17, FS).when(Cond::Defined("SHADOWS")),
-    Binding::storage(19, FS).when(Cond::Defined("VPLS")),
-    Binding::uniform(20, FS).when(Cond::Defined("VPLS")),
-    Binding::storage(23, FS).when(Cond::Defined("VPLS")),
-    Binding::storage(21, FS).when(Cond::All(&[Cond::Defined("VPLS"), Cond::NotDefined("BRUTE_FORCE")])),
-    Binding::storage(22, FS).when(Cond::All(&[Cond::Defined("VPLS"), Cond::NotDefined("BRUTE_FORCE")])),
+    Binding::storage(1, FS).when(Cond::Defined(Define::SpotLights)),
+    Binding::storage(2, FS).when(Cond::NotDefined(Define::BruteForce)),
+    Binding::storage(3, FS).when(Cond::NotDefined(Define::BruteForce)),
+    Binding::storage(4, FS).when(Cond::All(&[Cond::Defined(Define::HalfZ), Cond::NotDefined(Define::BruteForce)])),
+    Binding::depth_array(15, FS).when(Cond::Defined(Define::Shadows)),
+    Binding::sampler(16, FS, wgpu::SamplerBindingType::Comparison).when(Cond::Defined(Define::Shadows)),
+    Binding::storage(17, FS).when(Cond::Defined(Define::Shadows)),
+    Binding::storage(19, FS).when(Cond::Defined(Define::Vpls)),
+    Binding::uniform(20, FS).when(Cond::Defined(Define::Vpls)),
+    Binding::storage(23, FS).when(Cond::Defined(Define::Vpls)),
+    Binding::storage(21, FS).when(Cond::All(&[Cond::Defined(Define::Vpls), Cond::NotDefined(Define::BruteForce)])),
+    Binding::storage(22, FS).when(Cond::All(&[Cond::Defined(Define::Vpls), Cond::NotDefined(Define::BruteForce)])),
 ];
 
 /// The shadow atlas's sampled view, comparison sampler and face table.

@@ -6,6 +6,7 @@
 //! samplers). Depends on wgpu, image (mip levels), tiledlight-scene and tiledlight-cull
 //! (layouts).
 
+use crate::define::Define;
 use std::ops::Range;
 
 use std::collections::HashMap;
@@ -187,15 +188,15 @@ impl MaterialFeatures {
     /// The shader defines of these features, in `shaders/common/scene.wgsl`'s order.
     pub fn defines(&self) -> Vec<&'static str> {
         [
-            (self.textures, "TEXTURES"),
-            (self.metallic_roughness, "MR_TEXTURE"),
-            (self.normal_map, "NORMAL_MAP"),
-            (self.occlusion, "OCCLUSION"),
-            (self.emissive, "EMISSIVE"),
-            (self.uv1, "UV1"),
+            (self.textures, Define::Textures),
+            (self.metallic_roughness, Define::MrTexture),
+            (self.normal_map, Define::NormalMap),
+            (self.occlusion, Define::Occlusion),
+            (self.emissive, Define::Emissive),
+            (self.uv1, Define::Uv1),
         ]
         .into_iter()
-        .filter_map(|(on, d)| on.then_some(d))
+        .filter_map(|(on, d)| on.then_some(d.name()))
         .collect()
     }
 
@@ -321,14 +322,14 @@ const FS: wgpu::ShaderStages = wgpu::ShaderStages::FRAGMENT.union(wgpu::ShaderSt
 pub const TEXTURE_BINDINGS: &[Binding] = &[
     Binding::texture(0, FS, FLOAT),
     Binding::sampler(1, FS, FILTERING),
-    Binding::texture(2, FS, FLOAT).when(Cond::Defined("MR_TEXTURE")),
-    Binding::sampler(3, FS, FILTERING).when(Cond::Defined("MR_TEXTURE")),
-    Binding::texture(4, FS, FLOAT).when(Cond::Defined("NORMAL_MAP")),
-    Binding::sampler(5, FS, FILTERING).when(Cond::Defined("NORMAL_MAP")),
-    Binding::texture(6, FS, FLOAT).when(Cond::Defined("OCCLUSION")),
-    Binding::sampler(7, FS, FILTERING).when(Cond::Defined("OCCLUSION")),
-    Binding::texture(8, FS, FLOAT).when(Cond::Defined("EMISSIVE")),
-    Binding::sampler(9, FS, FILTERING).when(Cond::Defined("EMISSIVE")),
+    Binding::texture(2, FS, FLOAT).when(Cond::Defined(Define::MrTexture)),
+    Binding::sampler(3, FS, FILTERING).when(Cond::Defined(Define::MrTexture)),
+    Binding::texture(4, FS, FLOAT).when(Cond::Defined(Define::NormalMap)),
+    Binding::sampler(5, FS, FILTERING).when(Cond::Defined(Define::NormalMap)),
+    Binding::texture(6, FS, FLOAT).when(Cond::Defined(Define::Occlusion)),
+    Binding::sampler(7, FS, FILTERING).when(Cond::Defined(Define::Occlusion)),
+    Binding::texture(8, FS, FLOAT).when(Cond::Defined(Define::Emissive)),
+    Binding::sampler(9, FS, FILTERING).when(Cond::Defined(Define::Emissive)),
 ];
 
 /// The base colour slot of [`TEXTURE_BINDINGS`] alone (what the alpha test of the depth
@@ -341,7 +342,7 @@ pub const BASE_COLOR_BINDINGS: &[Binding] = TEXTURE_BINDINGS.split_at(2).0;
 pub const SCENE_GROUPS: [PassGroup; 3] = [
     PassGroup::new(0, crate::view::BINDINGS),
     PassGroup::new(1, SCENE_BINDINGS),
-    PassGroup::new(2, TEXTURE_BINDINGS).when(Cond::Defined("TEXTURES")),
+    PassGroup::new(2, TEXTURE_BINDINGS).when(Cond::Defined(Define::Textures)),
 ];
 
 /// Material textures: group 2, one bind group per material, with the slots

@@ -8,6 +8,7 @@
 //! It reads no view: its parameters are its own. Bind groups are made once per target
 //! set, never per frame. Depends on wgpu, [`crate::exposure`] and this crate's utilities.
 
+use crate::define::Define;
 use bytemuck::{Pod, Zeroable};
 
 use crate::bindings::{create_layout, Binding, PassBindings, PassGroup};
@@ -145,7 +146,7 @@ pub const TONEMAP_BINDINGS: PassBindings = PassBindings {
         &[
             Binding::texture(0, wgpu::ShaderStages::COMPUTE, wgpu::TextureSampleType::Float { filterable: false }),
             Binding::uniform(1, wgpu::ShaderStages::COMPUTE),
-            Binding::storage(2, wgpu::ShaderStages::COMPUTE).when(crate::bindings::Cond::Defined("AUTO_EXPOSURE")),
+            Binding::storage(2, wgpu::ShaderStages::COMPUTE).when(crate::bindings::Cond::Defined(Define::AutoExposure)),
             Binding::storage_texture(3, wgpu::ShaderStages::COMPUTE, LDR_FORMAT, wgpu::StorageTextureAccess::WriteOnly),
         ],
     )],

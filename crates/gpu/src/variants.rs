@@ -10,6 +10,7 @@
 //! `MaterialFeatures` in [`crate::scene_gpu`], which imports this module): no device
 //! needed, so xtask and tests enumerate the spaces without one.
 
+use crate::define::Define;
 use std::fmt;
 
 /// A shader variant: an entry file and the defines it is compiled with.
@@ -65,9 +66,9 @@ pub fn key_spaces() -> Vec<(&'static str, Vec<Vec<&'static str>>)> {
 const BOOLS: [bool; 2] = [false, true];
 
 /// Pushes `define` when `on`.
-fn flag(out: &mut Vec<&'static str>, on: bool, define: &'static str) {
+fn flag(out: &mut Vec<&'static str>, on: bool, define: Define) {
     if on {
-        out.push(define);
+        out.push(define.name());
     }
 }
 
@@ -116,12 +117,12 @@ impl MaterialKey {
     pub fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
         let m = self.textures.unwrap_or_default();
-        flag(&mut d, self.textures.is_some(), "TEXTURES");
-        flag(&mut d, m.metallic_roughness, "MR_TEXTURE");
-        flag(&mut d, m.normal_map, "NORMAL_MAP");
-        flag(&mut d, m.occlusion, "OCCLUSION");
-        flag(&mut d, self.emissive, "EMISSIVE");
-        flag(&mut d, m.uv1, "UV1");
+        flag(&mut d, self.textures.is_some(), Define::Textures);
+        flag(&mut d, m.metallic_roughness, Define::MrTexture);
+        flag(&mut d, m.normal_map, Define::NormalMap);
+        flag(&mut d, m.occlusion, Define::Occlusion);
+        flag(&mut d, self.emissive, Define::Emissive);
+        flag(&mut d, m.uv1, Define::Uv1);
         d
     }
 }
@@ -153,8 +154,8 @@ impl Shadowing {
     }
 
     fn defines(self, d: &mut Vec<&'static str>) {
-        flag(d, self != Self::Off, "SHADOWS");
-        flag(d, self == Self::ShadowsAndVpls, "VPLS");
+        flag(d, self != Self::Off, Define::Shadows);
+        flag(d, self == Self::ShadowsAndVpls, Define::Vpls);
     }
 }
 
@@ -190,11 +191,11 @@ impl LightLoopKey {
 
     fn defines(self, d: &mut Vec<&'static str>) {
         match self {
-            Self::TileLists { half_z } => flag(d, half_z, "HALF_Z"),
-            Self::Clusters => d.push("CLUSTERED"),
+            Self::TileLists { half_z } => flag(d, half_z, Define::HalfZ),
+            Self::Clusters => d.push(Define::Clustered.name()),
             Self::Every { cutoff } => {
-                d.push("BRUTE_FORCE");
-                flag(d, !cutoff, "NO_CUTOFF");
+                d.push(Define::BruteForce.name());
+                flag(d, !cutoff, Define::NoCutoff);
             }
         }
     }
@@ -246,11 +247,11 @@ impl ShaderKey for ForwardKey {
 
     fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
-        flag(&mut d, self.spots, "SPOT_LIGHTS");
+        flag(&mut d, self.spots, Define::SpotLights);
         self.shadowing.defines(&mut d);
         d.extend(self.materials.defines());
         self.lights.defines(&mut d);
-        flag(&mut d, self.alpha_mask, "ALPHA_MASK");
+        flag(&mut d, self.alpha_mask, Define::AlphaMask);
         d
     }
 
@@ -304,10 +305,10 @@ impl ShaderKey for BlendedKey {
 
     fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
-        flag(&mut d, self.spots, "SPOT_LIGHTS");
-        flag(&mut d, self.shadows, "SHADOWS");
+        flag(&mut d, self.spots, Define::SpotLights);
+        flag(&mut d, self.shadows, Define::Shadows);
         d.extend(self.materials.defines());
-        flag(&mut d, self.wboit, "WBOIT");
+        flag(&mut d, self.wboit, Define::Wboit);
         self.lights.defines(&mut d);
         d
     }
@@ -337,7 +338,7 @@ impl ShaderKey for CompositeKey {
     }
     fn defines(&self) -> Vec<&'static str> {
         if self.wboit {
-            vec!["WBOIT"]
+            vec![Define::Wboit.name()]
         } else {
             Vec::new()
         }
@@ -377,9 +378,11 @@ impl ShaderKey for DepthPrepassKey {
     fn defines(&self) -> Vec<&'static str> {
         match self {
             Self::Opaque => Vec::new(),
-            Self::Masked => vec!["ALPHA_MASK"],
-            Self::MaskedTextured { uv1: false } => vec!["ALPHA_MASK", "TEXTURES"],
-            Self::MaskedTextured { uv1: true } => vec!["ALPHA_MASK", "TEXTURES", "UV1"],
+            Self::Masked => vec![Define::AlphaMask.name()],
+            Self::MaskedTextured { uv1: false } => vec![Define::AlphaMask.name(), Define::Textures.name()],
+            Self::MaskedTextured { uv1: true } => {
+                vec![Define::AlphaMask.name(), Define::Textures.name(), Define::Uv1.name()]
+            }
         }
     }
     fn is_valid(&self) -> bool {
@@ -423,10 +426,10 @@ impl ShaderKey for GBufferKey {
     }
     fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
-        flag(&mut d, self.alpha_mask, "ALPHA_MASK");
+        flag(&mut d, self.alpha_mask, Define::AlphaMask);
         d.extend(self.materials.defines());
-        flag(&mut d, self.emission, "EMISSION");
-        flag(&mut d, self.extra_test_values, "EXTRA_TEST_VALUES");
+        flag(&mut d, self.emission, Define::Emission);
+        flag(&mut d, self.extra_test_values, Define::ExtraTestValues);
         d
     }
     fn is_valid(&self) -> bool {
@@ -476,11 +479,11 @@ impl CullTests {
     }
 
     fn defines(self, d: &mut Vec<&'static str>) {
-        flag(d, self.aabb, "AABB");
-        flag(d, self.half_z, "HALF_Z");
-        flag(d, self.spot_cone, "SPOT_CONE");
-        flag(d, self.coarse, "COARSE");
-        flag(d, self.depth_mask, "DEPTH_MASK");
+        flag(d, self.aabb, Define::Aabb);
+        flag(d, self.half_z, Define::HalfZ);
+        flag(d, self.spot_cone, Define::SpotCone);
+        flag(d, self.coarse, Define::Coarse);
+        flag(d, self.depth_mask, Define::DepthMask);
     }
 }
 
@@ -520,9 +523,9 @@ impl ShaderKey for CullKey {
     fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
         self.tests.defines(&mut d);
-        flag(&mut d, self.msaa, "MSAA");
-        flag(&mut d, self.drop_light, "DROP_LIGHT");
-        flag(&mut d, self.blended, "BLENDED");
+        flag(&mut d, self.msaa, Define::Msaa);
+        flag(&mut d, self.drop_light, Define::DropLight);
+        flag(&mut d, self.blended, Define::Blended);
         d
     }
     fn is_valid(&self) -> bool {
@@ -550,7 +553,7 @@ impl ShaderKey for CullCoarseKey {
     }
     fn defines(&self) -> Vec<&'static str> {
         if self.msaa {
-            vec!["MSAA"]
+            vec![Define::Msaa.name()]
         } else {
             Vec::new()
         }
@@ -595,9 +598,9 @@ impl ShaderKey for TileDepthKey {
     }
     fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
-        flag(&mut d, self.msaa, "MSAA");
-        flag(&mut d, self.output == TileDepthOutput::DepthMask, "DEPTH_MASK");
-        flag(&mut d, self.output == TileDepthOutput::Clusters, "CLUSTERED");
+        flag(&mut d, self.msaa, Define::Msaa);
+        flag(&mut d, self.output == TileDepthOutput::DepthMask, Define::DepthMask);
+        flag(&mut d, self.output == TileDepthOutput::Clusters, Define::Clustered);
         d
     }
     fn is_valid(&self) -> bool {
@@ -635,14 +638,14 @@ impl ShaderKey for AssignKey {
         let mut d = Vec::new();
         match *self {
             Self::Tiles(t) => {
-                flag(&mut d, t.half_z, "HALF_Z");
-                flag(&mut d, t.aabb, "AABB");
-                flag(&mut d, t.spot_cone, "SPOT_CONE");
-                flag(&mut d, t.depth_mask, "DEPTH_MASK");
+                flag(&mut d, t.half_z, Define::HalfZ);
+                flag(&mut d, t.aabb, Define::Aabb);
+                flag(&mut d, t.spot_cone, Define::SpotCone);
+                flag(&mut d, t.depth_mask, Define::DepthMask);
             }
             Self::Clusters { geometry_only } => {
-                d.push("CLUSTERED");
-                flag(&mut d, geometry_only, "GEOMETRY_ONLY");
+                d.push(Define::Clustered.name());
+                flag(&mut d, geometry_only, Define::GeometryOnly);
             }
         }
         d
@@ -742,19 +745,19 @@ impl ShaderKey for DeferredKey {
         match self.lists {
             DeferredLists::Culled { tests, drop_light } => {
                 tests.defines(&mut d);
-                flag(&mut d, drop_light, "DROP_LIGHT");
+                flag(&mut d, drop_light, Define::DropLight);
             }
             DeferredLists::Assigned { half_z, clustered } => {
-                flag(&mut d, half_z, "HALF_Z");
-                flag(&mut d, clustered, "CLUSTERED");
+                flag(&mut d, half_z, Define::HalfZ);
+                flag(&mut d, clustered, Define::Clustered);
             }
         }
-        flag(&mut d, self.msaa, "MSAA");
-        flag(&mut d, self.extra_targets >= 1, "EXTRA_RTS");
-        flag(&mut d, self.extra_targets >= 2, "EXTRA_RTS_2");
-        flag(&mut d, self.extra_targets >= 3, "EXTRA_RTS_3");
-        flag(&mut d, self.emission, "EMISSION");
-        flag(&mut d, self.spots, "SPOT_LIGHTS");
+        flag(&mut d, self.msaa, Define::Msaa);
+        flag(&mut d, self.extra_targets >= 1, Define::ExtraRts);
+        flag(&mut d, self.extra_targets >= 2, Define::ExtraRts2);
+        flag(&mut d, self.extra_targets >= 3, Define::ExtraRts3);
+        flag(&mut d, self.emission, Define::Emission);
+        flag(&mut d, self.spots, Define::SpotLights);
         self.shadowing.defines(&mut d);
         d
     }
@@ -791,7 +794,7 @@ impl ShaderKey for VisibilityRasterKey {
     }
     fn defines(&self) -> Vec<&'static str> {
         let mut d = self.0.defines();
-        d.push("IDS");
+        d.push(Define::Ids.name());
         d
     }
     fn is_valid(&self) -> bool {
@@ -818,7 +821,7 @@ impl ShaderKey for AtomicIdsKey {
     }
     fn defines(&self) -> Vec<&'static str> {
         let mut d = self.0.defines();
-        d.extend(["IDS", "ATOMIC"]);
+        d.extend([Define::Ids.name(), Define::Atomic.name()]);
         d
     }
     fn is_valid(&self) -> bool {
@@ -846,7 +849,7 @@ impl ShaderKey for ComputeRasterKey {
         }
     }
     fn defines(&self) -> Vec<&'static str> {
-        vec!["VISIBILITY"]
+        vec![Define::Visibility.name()]
     }
     fn is_valid(&self) -> bool {
         true
@@ -871,8 +874,8 @@ impl GridLookup {
     pub const ALL: [Self; 3] = [Self::Tile, Self::HalfZ, Self::Clustered];
 
     fn defines(self, d: &mut Vec<&'static str>) {
-        flag(d, self == Self::HalfZ, "HALF_Z");
-        flag(d, self == Self::Clustered, "CLUSTERED");
+        flag(d, self == Self::HalfZ, Define::HalfZ);
+        flag(d, self == Self::Clustered, Define::Clustered);
     }
 }
 
@@ -921,9 +924,9 @@ impl ShaderKey for VisibilityKey {
     }
 
     fn defines(&self) -> Vec<&'static str> {
-        let mut d = vec!["VISIBILITY"];
-        flag(&mut d, self.msaa, "MSAA");
-        flag(&mut d, self.spots, "SPOT_LIGHTS");
+        let mut d = vec![Define::Visibility.name()];
+        flag(&mut d, self.msaa, Define::Msaa);
+        flag(&mut d, self.spots, Define::SpotLights);
         self.lookup.defines(&mut d);
         self.shadowing.defines(&mut d);
         d.extend(self.materials.defines());
@@ -986,12 +989,12 @@ impl ShaderKey for TracedKey {
     }
 
     fn defines(&self) -> Vec<&'static str> {
-        let mut d = vec!["VISIBILITY", "TRACED"];
-        flag(&mut d, !self.cutoff, "NO_CUTOFF");
-        flag(&mut d, self.msaa, "MSAA");
-        flag(&mut d, self.spots, "SPOT_LIGHTS");
-        flag(&mut d, self.vpls, "VPLS");
-        flag(&mut d, self.masks, "TRACE_MASKS");
+        let mut d = vec![Define::Visibility.name(), Define::Traced.name()];
+        flag(&mut d, !self.cutoff, Define::NoCutoff);
+        flag(&mut d, self.msaa, Define::Msaa);
+        flag(&mut d, self.spots, Define::SpotLights);
+        flag(&mut d, self.vpls, Define::Vpls);
+        flag(&mut d, self.masks, Define::TraceMasks);
         d.extend(self.materials.defines());
         d
     }
@@ -1016,7 +1019,7 @@ impl ShaderKey for TraceRaysKey {
 
     fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
-        flag(&mut d, self.masks, "TRACE_MASKS");
+        flag(&mut d, self.masks, Define::TraceMasks);
         d
     }
 
@@ -1039,7 +1042,7 @@ impl ShaderKey for ContributionKey {
 
     fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
-        flag(&mut d, self.spots, "SPOTS");
+        flag(&mut d, self.spots, Define::Spots);
         d
     }
 
@@ -1068,7 +1071,7 @@ impl ShaderKey for TonemapKey {
     }
     fn defines(&self) -> Vec<&'static str> {
         if self.auto_exposure {
-            vec!["AUTO_EXPOSURE"]
+            vec![Define::AutoExposure.name()]
         } else {
             Vec::new()
         }

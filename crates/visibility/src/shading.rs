@@ -38,6 +38,7 @@ use tiledlight_cull::TileGrid;
 use tiledlight_gpu::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
 use tiledlight_gpu::bvh::GpuBvh;
 use tiledlight_gpu::culling::{LightCulling, DEPTH_BINDING};
+use tiledlight_gpu::define::Define;
 use tiledlight_gpu::edge_samples::{light_entries, EdgeSamples, EdgeTest};
 use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_buffers::LightBuffers;
@@ -87,43 +88,44 @@ pub const VISIBILITY_GROUP: &[Binding] = &[
     DEPTH_BINDING,
     Binding::storage(1, CS),
     Binding::uniform(2, CS),
-    Binding::texture(3, CS, wgpu::TextureSampleType::Uint).multisampled_when(Cond::Defined("MSAA")),
+    Binding::texture(3, CS, wgpu::TextureSampleType::Uint).multisampled_when(Cond::Defined(Define::Msaa)),
     Binding::storage(6, CS),
     Binding::storage_texture(9, CS, HDR_FORMAT, wgpu::StorageTextureAccess::WriteOnly),
-    Binding::storage(7, CS).when(Cond::Defined("SPOT_LIGHTS")),
-    Binding::storage_texture(12, CS, HDR_FORMAT, wgpu::StorageTextureAccess::WriteOnly).when(Cond::Defined("MSAA")),
-    Binding::storage_rw(13, CS).when(Cond::Defined("MSAA")),
-    Binding::storage_rw(14, CS).when(Cond::Defined("MSAA")),
-    Binding::depth_array(15, CS).when(Cond::Defined("SHADOWS")),
-    Binding::sampler(16, CS, wgpu::SamplerBindingType::Comparison).when(Cond::Defined("SHADOWS")),
-    Binding::storage(17, CS).when(Cond::Defined("SHADOWS")),
-    Binding::storage(19, CS).when(Cond::Defined("VPLS")),
-    Binding::uniform(20, CS).when(Cond::Defined("VPLS")),
-    Binding::storage(21, CS).when(Cond::All(&[Cond::Defined("VPLS"), Cond::NotDefined("TRACED")])),
-    Binding::storage(22, CS).when(Cond::All(&[Cond::Defined("VPLS"), Cond::NotDefined("TRACED")])),
-    Binding::storage(23, CS).when(Cond::All(&[Cond::Defined("VPLS"), Cond::Defined("TRACED")])),
+    Binding::storage(7, CS).when(Cond::Defined(Define::SpotLights)),
+    Binding::storage_texture(12, CS, HDR_FORMAT, wgpu::StorageTextureAccess::WriteOnly)
+        .when(Cond::Defined(Define::Msaa)),
+    Binding::storage_rw(13, CS).when(Cond::Defined(Define::Msaa)),
+    Binding::storage_rw(14, CS).when(Cond::Defined(Define::Msaa)),
+    Binding::depth_array(15, CS).when(Cond::Defined(Define::Shadows)),
+    Binding::sampler(16, CS, wgpu::SamplerBindingType::Comparison).when(Cond::Defined(Define::Shadows)),
+    Binding::storage(17, CS).when(Cond::Defined(Define::Shadows)),
+    Binding::storage(19, CS).when(Cond::Defined(Define::Vpls)),
+    Binding::uniform(20, CS).when(Cond::Defined(Define::Vpls)),
+    Binding::storage(21, CS).when(Cond::All(&[Cond::Defined(Define::Vpls), Cond::NotDefined(Define::Traced)])),
+    Binding::storage(22, CS).when(Cond::All(&[Cond::Defined(Define::Vpls), Cond::NotDefined(Define::Traced)])),
+    Binding::storage(23, CS).when(Cond::All(&[Cond::Defined(Define::Vpls), Cond::Defined(Define::Traced)])),
     Binding::storage(24, CS),
     Binding::storage(25, CS),
     Binding::storage(26, CS),
     Binding::storage(27, CS),
     Binding::storage(28, CS),
     Binding::storage(29, CS),
-    Binding::storage(30, CS).when(Cond::Defined("NORMAL_MAP")),
-    Binding::storage(31, CS).when(Cond::Defined("UV1")),
-    Binding::uniform(32, CS).dynamic_offset(16).when(Cond::Defined("TEXTURES")),
+    Binding::storage(30, CS).when(Cond::Defined(Define::NormalMap)),
+    Binding::storage(31, CS).when(Cond::Defined(Define::Uv1)),
+    Binding::uniform(32, CS).dynamic_offset(16).when(Cond::Defined(Define::Textures)),
     TRACE[0],
     TRACE[1],
     TRACE[2],
     TRACE[3],
     TRACE[4],
-    Binding::uniform(38, CS).dynamic_offset(16).when(Cond::Defined("TRACED")),
-    Binding::storage_rw(39, CS).when(Cond::Defined("TRACED")),
+    Binding::uniform(38, CS).dynamic_offset(16).when(Cond::Defined(Define::Traced)),
+    Binding::storage_rw(39, CS).when(Cond::Defined(Define::Traced)),
 ];
 
 /// The traced reference's hierarchy (33-37), only with `TRACED`.
 const TRACE: [Binding; 5] = {
     let t = tiledlight_gpu::bvh::trace_bindings(33);
-    let traced = Cond::Defined("TRACED");
+    let traced = Cond::Defined(Define::Traced);
     [t[0].when(traced), t[1].when(traced), t[2], t[3], t[4]]
 };
 
@@ -136,7 +138,7 @@ pub const VISIBILITY_BINDINGS: PassBindings = PassBindings {
     groups: &[
         PassGroup::new(0, tiledlight_gpu::view::BINDINGS),
         PassGroup::new(1, VISIBILITY_GROUP),
-        PassGroup::new(2, TEXTURE_BINDINGS).when(Cond::Defined("TEXTURES")),
+        PassGroup::new(2, TEXTURE_BINDINGS).when(Cond::Defined(Define::Textures)),
         PassGroup::new(3, &compute_bindings(Cond::Always)),
     ],
 };
@@ -153,7 +155,7 @@ pub const TRACED_BINDINGS: PassBindings = PassBindings {
     groups: &[
         PassGroup::new(0, tiledlight_gpu::view::BINDINGS),
         PassGroup::new(1, VISIBILITY_GROUP),
-        PassGroup::new(2, TEXTURE_BINDINGS).when(Cond::Defined("TEXTURES")),
+        PassGroup::new(2, TEXTURE_BINDINGS).when(Cond::Defined(Define::Textures)),
     ],
 };
 

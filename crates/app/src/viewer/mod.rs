@@ -1,6 +1,6 @@
 //! `tiledlight view`: the interactive viewer. A winit window with a wgpu surface; each
 //! frame the renderer of the chosen method draws into its own targets, the tonemapped
-//! image is drawn onto the surface ([`blit`]) and the egui panel over it ([`ui`]). The
+//! image is drawn onto the surface ([`tiledlight_gpu::blit`]) and the egui panel over it ([`ui`]). The
 //! GPU context is made for the window's surface; scene, lights and renderer come from the
 //! same tiledlight-setup [`Prepared`] as `render` and `bench`, and a change of settings
 //! rebuilds only what depends on it ([`settings`], `Prepared::reconfigure`). `--frames N`

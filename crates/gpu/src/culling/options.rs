@@ -6,6 +6,7 @@
 //! [`super::tile`].
 //! Depends on wgpu, [`super::clusters`], [`crate::light_grid`] (the layout), [`crate::bindings`].
 
+use crate::define::Define;
 use tiledlight_cull::lists::{COARSE_SIZE, DEFAULT_CAPACITY, MAX_CAPACITY};
 use tiledlight_cull::TileGrid;
 
@@ -250,7 +251,7 @@ pub const CULL_WORKGROUP_BYTES: u32 = 40;
 /// a `Depth32Float` view and the compute raster's `R32Float` depth both bind.
 pub const DEPTH_BINDING: Binding =
     Binding::texture(0, wgpu::ShaderStages::COMPUTE, wgpu::TextureSampleType::Float { filterable: false })
-        .multisampled_when(Cond::Defined("MSAA"));
+        .multisampled_when(Cond::Defined(Define::Msaa));
 
 #[cfg(test)]
 mod tests {

@@ -41,6 +41,7 @@
 //! clustered variant), [`crate::light_grid`], [`crate::light_buffers`], [`crate::view`],
 //! [`crate::bindings`].
 
+use crate::define::Define;
 use tiledlight_cull::TileGrid;
 
 use crate::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
@@ -108,8 +109,8 @@ pub const TILE_DEPTH_BINDINGS: PassBindings = PassBindings {
             &[
                 DEPTH_BINDING,
                 Binding::storage_rw(3, wgpu::ShaderStages::COMPUTE)
-                    .when(Cond::Any(&[Cond::Defined("DEPTH_MASK"), Cond::Defined("CLUSTERED")])),
-                Binding::storage_rw(4, wgpu::ShaderStages::COMPUTE).when(Cond::NotDefined("CLUSTERED")),
+                    .when(Cond::Any(&[Cond::Defined(Define::DepthMask), Cond::Defined(Define::Clustered)])),
+                Binding::storage_rw(4, wgpu::ShaderStages::COMPUTE).when(Cond::NotDefined(Define::Clustered)),
             ],
         ),
         PassGroup::new(2, &compute_bindings(Cond::Always)),
@@ -131,11 +132,11 @@ pub const ASSIGN_BINDINGS: PassBindings = PassBindings {
             &[
                 Binding::storage(1, wgpu::ShaderStages::COMPUTE),
                 Binding::uniform(9, wgpu::ShaderStages::COMPUTE),
-                Binding::storage(2, wgpu::ShaderStages::COMPUTE).when(Cond::NotDefined("CLUSTERED")),
-                Binding::storage(6, wgpu::ShaderStages::COMPUTE).when(Cond::Defined("SPOT_CONE")),
-                Binding::storage(7, wgpu::ShaderStages::COMPUTE).when(Cond::Defined("SPOT_CONE")),
+                Binding::storage(2, wgpu::ShaderStages::COMPUTE).when(Cond::NotDefined(Define::Clustered)),
+                Binding::storage(6, wgpu::ShaderStages::COMPUTE).when(Cond::Defined(Define::SpotCone)),
+                Binding::storage(7, wgpu::ShaderStages::COMPUTE).when(Cond::Defined(Define::SpotCone)),
                 Binding::storage(3, wgpu::ShaderStages::COMPUTE)
-                    .when(Cond::Any(&[Cond::Defined("DEPTH_MASK"), Cond::Defined("GEOMETRY_ONLY")])),
+                    .when(Cond::Any(&[Cond::Defined(Define::DepthMask), Cond::Defined(Define::GeometryOnly)])),
                 Binding::storage_rw(4, wgpu::ShaderStages::COMPUTE),
                 Binding::storage_rw(5, wgpu::ShaderStages::COMPUTE),
                 Binding::storage_rw(8, wgpu::ShaderStages::COMPUTE),

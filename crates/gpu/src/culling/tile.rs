@@ -11,6 +11,7 @@
 //! Depends on wgpu, [`super::options`], [`crate::view`], [`crate::light_grid`],
 //! [`crate::light_buffers`].
 
+use crate::define::Define;
 use tiledlight_cull::lists::{COARSE_CAPACITY, COARSE_SIZE};
 use tiledlight_cull::TileGrid;
 
@@ -182,15 +183,15 @@ pub const CULL_BINDINGS: PassBindings = PassBindings {
                 DEPTH_BINDING,
                 Binding::storage(1, wgpu::ShaderStages::COMPUTE),
                 Binding::uniform(9, wgpu::ShaderStages::COMPUTE),
-                Binding::storage(6, wgpu::ShaderStages::COMPUTE).when(Cond::Defined("SPOT_CONE")),
-                Binding::storage(7, wgpu::ShaderStages::COMPUTE).when(Cond::Defined("SPOT_CONE")),
-                Binding::storage(8, wgpu::ShaderStages::COMPUTE).when(Cond::Defined("COARSE")),
+                Binding::storage(6, wgpu::ShaderStages::COMPUTE).when(Cond::Defined(Define::SpotCone)),
+                Binding::storage(7, wgpu::ShaderStages::COMPUTE).when(Cond::Defined(Define::SpotCone)),
+                Binding::storage(8, wgpu::ShaderStages::COMPUTE).when(Cond::Defined(Define::Coarse)),
                 Binding::texture(10, wgpu::ShaderStages::COMPUTE, wgpu::TextureSampleType::Float { filterable: false })
-                    .multisampled_when(Cond::Defined("MSAA"))
-                    .when(Cond::Defined("BLENDED")),
+                    .multisampled_when(Cond::Defined(Define::Msaa))
+                    .when(Cond::Defined(Define::Blended)),
             ],
         ),
-        PassGroup::new(2, &crate::light_grid::compute_bindings(Cond::Defined("HALF_Z"))),
+        PassGroup::new(2, &crate::light_grid::compute_bindings(Cond::Defined(Define::HalfZ))),
     ],
 };
 
