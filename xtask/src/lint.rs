@@ -20,6 +20,33 @@ use crate::process::{cargo, run_status};
 /// The workspace members that are not published (the app, the GPU tests, this tool).
 const UNPUBLISHED: [&str; 3] = ["tiledlight", "tiledlight-tests", "xtask"];
 
+/// The dry run's own target directory: its builds of the packaged crates are registry
+/// builds, which cargo never rebuilds for the same version, so they are forgotten before
+/// each run ([`forget_packaged_builds`]); the dependencies' stay.
+const PUBLISH_TARGET: &str = "target/publish-check";
+
+/// Removes the build outputs of this workspace's crates (named `tiledlight*`) under
+/// `target`, so the dry run builds them from today's packages, not from a previous
+/// run's package of the same version (measured: a new module of tiledlight-gpu was "not
+/// found" by tiledlight-deferred's verification until they were removed).
+fn forget_packaged_builds(target: &Path) -> Result<()> {
+    for dir in [".fingerprint", "deps", "build"] {
+        let Ok(entries) = std::fs::read_dir(target.join("debug").join(dir)) else { continue };
+        for e in entries.filter_map(|e| e.ok()) {
+            let name = e.file_name().to_string_lossy().into_owned();
+            if name.starts_with("tiledlight") || name.starts_with("libtiledlight") {
+                let p = e.path();
+                if p.is_dir() {
+                    std::fs::remove_dir_all(&p)?;
+                } else {
+                    std::fs::remove_file(&p)?;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Runs the four checks of the module doc.
 pub fn lint(root: &Path) -> Result<()> {
     let fmt = run_status(cargo(root).args(["fmt", "--all", "--check"]))?;
@@ -30,7 +57,15 @@ pub fn lint(root: &Path) -> Result<()> {
         doc.args(["--exclude", p]);
     }
     let doc = run_status(&mut doc)?;
-    let publish = run_status(cargo(root).args(["publish", "--workspace", "--dry-run", "--allow-dirty"]))?;
+    forget_packaged_builds(&root.join(PUBLISH_TARGET))?;
+    let publish = run_status(cargo(root).args([
+        "publish",
+        "--workspace",
+        "--dry-run",
+        "--allow-dirty",
+        "--target-dir",
+        PUBLISH_TARGET,
+    ]))?;
     let failed: Vec<&str> = [
         (fmt, "formatting differs from rustfmt (run `cargo fmt --all`)"),
         (clippy, "clippy found problems"),
