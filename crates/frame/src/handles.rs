@@ -2,8 +2,8 @@
 //! buffer, the linear HDR image, the display image and the light grids. A step's
 //! constructor and `record` take the handles it reads, so each method's frame function
 //! shows its data flow in its types (`docs/ARCHITECTURE.md` has the table). [`Rec`] is
-//! what every step records into, and checks (debug builds) that the steps come in the
-//! order of the frame plan. Depends on tiledlight-gpu.
+//! what every step records into, and checks (in every build: one comparison a step) that
+//! the steps come in the order of the frame plan. Depends on tiledlight-gpu.
 
 use std::cell::Cell;
 
@@ -83,11 +83,12 @@ impl<'a> Rec<'a> {
         Self { encoder, timer, view, scene, order, plan, next: Cell::new(0) }
     }
 
-    /// Marks `step` as recorded next. Debug builds (every test) check that it is the plan's
-    /// next step: the frame functions and the plan can never disagree unnoticed.
+    /// Marks `step` as recorded next, checking in every build that it is the plan's next
+    /// step: the frame functions and the plan can never disagree unnoticed, in a release
+    /// binary either (a disagreement is a bug of this crate, never of its input).
     pub fn step(&self, step: Step) {
         let i = self.next.get();
-        debug_assert_eq!(
+        assert_eq!(
             self.plan.steps().get(i),
             Some(&step),
             "step {i} of the frame recorded {step:?}; the plan says {:?}",
@@ -96,9 +97,9 @@ impl<'a> Rec<'a> {
         self.next.set(i + 1);
     }
 
-    /// Checks (debug builds) that every step of the plan was recorded.
+    /// Checks (every build) that every step of the plan was recorded.
     pub fn finish(self) {
-        debug_assert_eq!(
+        assert_eq!(
             self.next.get(),
             self.plan.steps().len(),
             "the frame skipped steps of {:?}",

@@ -18,7 +18,7 @@
 //!          Tonemap (Hdr -> Ldr), Heatmap (Lists -> Ldr)
 //! ```
 //!
-//! The order is the frame plan's (`tiledlight_gpu::plan`): debug builds check every frame
+//! The order is the frame plan's (`tiledlight_gpu::plan`): every build checks every frame
 //! against it. Depends on tiledlight-gpu, tiledlight-vpl, tiledlight-forward,
 //! tiledlight-deferred and tiledlight-visibility (their passes); nothing below depends on it.
 
