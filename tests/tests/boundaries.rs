@@ -68,8 +68,12 @@ fn contribution_scores_saturate_and_carry_past_2_32_like_the_twin() {
     r.render_once(ctx, &mut timer, &sg, &camera).unwrap();
     let out = r.outputs();
     let grid = out.light_grid.expect("Forward+ has a light grid");
-    let inputs =
-        ContributionInputs { depth: &out.targets.depth_view, lights: &lb, lighting: &r.shared().lighting, grid };
+    let inputs = ContributionInputs {
+        depth: tiledlight_gpu::handles::target_handles(out.targets).0,
+        lights: &lb,
+        lighting: &r.shared().lighting,
+        grid,
+    };
     let mut kernel = LightContribution::new(&ctx.device, &r.shared().views, inputs).unwrap();
     let scale = kernel.scale * RAISE;
     kernel.set_scale(&ctx.queue, scale);

@@ -73,8 +73,12 @@ fn run(ctx: &GpuContext, scene: &tiledlight_scene::Scene, lights: &[Light], came
     r.render_once(ctx, &mut timer, &sg, camera).unwrap();
     let out = r.outputs();
     let grid = out.light_grid.expect("Forward+ has a light grid");
-    let inputs =
-        ContributionInputs { depth: &out.targets.depth_view, lights: &lb, lighting: &r.shared().lighting, grid };
+    let inputs = ContributionInputs {
+        depth: tiledlight_gpu::handles::target_handles(out.targets).0,
+        lights: &lb,
+        lighting: &r.shared().lighting,
+        grid,
+    };
     let kernel = LightContribution::new(&ctx.device, &r.shared().views, inputs).unwrap();
     let mut encoder = ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("test") });
     kernel.record(&mut encoder, &timer, r.shared().main_view());

@@ -25,11 +25,29 @@ const UNPUBLISHED: [&str; 3] = ["tiledlight", "tiledlight-tests", "xtask"];
 /// each run ([`forget_packaged_builds`]); the dependencies' stay.
 const PUBLISH_TARGET: &str = "target/publish-check";
 
-/// Removes the build outputs of this workspace's crates (named `tiledlight*`) under
-/// `target`, so the dry run builds them from today's packages, not from a previous
-/// run's package of the same version (measured: a new module of tiledlight-gpu was "not
-/// found" by tiledlight-deferred's verification until they were removed).
+/// Removes what a previous dry run left of this workspace's crates (named `tiledlight*`):
+/// their build outputs under `target`, and their sources that cargo unpacked from the
+/// run's temporary local registry into `$CARGO_HOME/registry/src/-<hash>/` (cargo never
+/// unpacks or rebuilds a registry version again), so the dry run builds today's packages
+/// (measured: a new module of tiledlight-gpu was "not found" by the verification of the
+/// crates using it until both were removed). crates.io's sources are not touched.
 fn forget_packaged_builds(target: &Path) -> Result<()> {
+    let cargo_home = std::env::var_os("CARGO_HOME")
+        .map(std::path::PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| Path::new(&h).join(".cargo")));
+    if let Some(src) = cargo_home.map(|h| h.join("registry/src")) {
+        for registry in std::fs::read_dir(&src).into_iter().flatten().filter_map(|e| e.ok()) {
+            // Local registries' folders are named "-<hash>"; crates.io's "index.crates.io-<hash>".
+            if !registry.file_name().to_string_lossy().starts_with('-') {
+                continue;
+            }
+            for e in std::fs::read_dir(registry.path())?.filter_map(|e| e.ok()) {
+                if e.file_name().to_string_lossy().starts_with("tiledlight") {
+                    std::fs::remove_dir_all(e.path())?;
+                }
+            }
+        }
+    }
     for dir in [".fingerprint", "deps", "build"] {
         let Ok(entries) = std::fs::read_dir(target.join("debug").join(dir)) else { continue };
         for e in entries.filter_map(|e| e.ok()) {

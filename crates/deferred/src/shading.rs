@@ -25,6 +25,7 @@ use tiledlight_gpu::culling::{
 use tiledlight_gpu::define::Define;
 use tiledlight_gpu::edge_samples::{light_entries, EdgeSamples, EdgeTest};
 use tiledlight_gpu::features::Features;
+use tiledlight_gpu::handles::{Depth, Hdr};
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::{compute_bindings, GpuTileLists, LightGrid};
 use tiledlight_gpu::lights_group::VplBindings;
@@ -153,9 +154,9 @@ impl DeferredShading {
     pub fn new(
         device: &wgpu::Device,
         views: &Views,
-        depth: &wgpu::TextureView,
+        depth: Depth<'_>,
         gbuffer: &GBuffer,
-        hdr: &wgpu::TextureView,
+        hdr: Hdr<'_>,
         (lights, lighting): (&LightBuffers, &wgpu::Buffer),
         grid: TileGrid,
         options: CullOptions,
@@ -165,6 +166,14 @@ impl DeferredShading {
         memory: &mut MemoryReport,
         vpls: Option<&VplBindings>,
     ) -> Result<Self, GpuError> {
+        if depth.samples != gbuffer.samples() {
+            return Err(GpuError::Config(format!(
+                "Tiled Deferred: a depth buffer of {} samples a pixel, a G-buffer of {}",
+                depth.samples,
+                gbuffer.samples()
+            )));
+        }
+        let (depth, hdr) = (depth.view, hdr.view);
         if features.vpl != vpls.is_some_and(|v| v.lists.is_some()) {
             return Err(GpuError::Config(
                 "the VPL buffers and their light grid must be given exactly when the features have VPLs".into(),

@@ -22,6 +22,7 @@ use tiledlight_cull::contribution::scores_in_input_order;
 use tiledlight_cull::{Camera, Light};
 use tiledlight_gpu::contribution::{ContributionInputs, LightContribution, CONTRIBUTION_TILE};
 use tiledlight_gpu::culling::CullOptions;
+use tiledlight_gpu::handles::target_handles;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::{GpuTimer, PassTime};
@@ -95,7 +96,7 @@ pub fn contribution_scores(
             let shared = frame.shared();
             let mut encoder =
                 ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("ranking") });
-            head.record_head(&mut encoder, &timer, shared.main_view(), (scene, &shared.targets.depth_view));
+            head.record_head(&mut encoder, &timer, shared.main_view(), (scene, target_handles(&shared.targets).0));
             timer.resolve(&mut encoder);
             ctx.queue.submit([encoder.finish()]);
         })?;
@@ -123,8 +124,12 @@ pub fn contribution_scores(
             )));
         }
         let shared = frame.shared();
-        let inputs =
-            ContributionInputs { depth: &out.targets.depth_view, lights: &buffers, lighting: &shared.lighting, grid };
+        let inputs = ContributionInputs {
+            depth: target_handles(out.targets).0,
+            lights: &buffers,
+            lighting: &shared.lighting,
+            grid,
+        };
         let kernel = LightContribution::new(&ctx.device, &shared.views, inputs)?;
         let mut encoder =
             ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("contribution") });

@@ -28,10 +28,11 @@ use tiledlight_gpu::targets::texture_2d_msaa;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::{GpuContext, GpuError};
 
-use crate::handles::{Depth, Hdr, Lists, Rec};
+use crate::handles::Rec;
 use crate::method::MethodFrame;
 use crate::settings::FrameSettings;
 use crate::shared::{SharedSteps, TargetNeeds};
+use tiledlight_gpu::handles::{target_handles, Depth, Lists};
 
 /// The display targets Forward+ needs: depth and HDR drawn multisampled by render passes.
 pub fn targets(_: &Features) -> TargetNeeds {
@@ -51,6 +52,9 @@ pub struct ForwardFrame {
     shading: ShadingPass,
     /// The multisampled HDR target the shading pass draws into and resolves (MSAA only).
     hdr_msaa: Option<(wgpu::Texture, wgpu::TextureView)>,
+    /// The frame's HDR image (its handle at construction), which the shading pass draws
+    /// into or resolves to.
+    hdr: wgpu::TextureView,
 }
 
 impl ForwardFrame {
@@ -88,7 +92,7 @@ impl ForwardFrame {
                 LightCulling::with_drop_light(
                     device,
                     views,
-                    &targets.depth_view,
+                    target_handles(targets).0,
                     (lights, &shared.lighting),
                     shared.grid,
                     settings.cull,
@@ -113,7 +117,7 @@ impl ForwardFrame {
             (features, shared.shadows.as_ref()),
             shared.vpls.as_ref().map(|v| v.bindings.clone()),
         )?;
-        Ok(Self { prepass, culling, shading, hdr_msaa })
+        Ok(Self { prepass, culling, shading, hdr_msaa, hdr: target_handles(targets).1.view.clone() })
     }
 
     /// The culling pass (Forward+ only).
@@ -139,8 +143,9 @@ impl ForwardFrame {
         encoder: &mut wgpu::CommandEncoder,
         timer: &tiledlight_gpu::timer::GpuTimer,
         view: (&tiledlight_gpu::view::Views, u32),
-        (scene, depth): (&SceneGpu, &wgpu::TextureView),
+        (scene, depth): (&SceneGpu, Depth<'_>),
     ) {
+        let depth = depth.view;
         // The instance buffer's order: the ranking runs once, its cost is not measured.
         self.prepass.record(encoder, timer, view, (scene, None), depth);
         if let Some(cull) = &self.culling {
@@ -150,19 +155,19 @@ impl ForwardFrame {
 }
 
 impl MethodFrame for ForwardFrame {
-    fn record(&self, rec: &mut Rec<'_>, shared: &SharedSteps, depth: Depth<'_>, hdr: Hdr<'_>) {
+    fn record(&self, rec: &mut Rec<'_>, shared: &SharedSteps, depth: Depth<'_>) {
         rec.step(Step::DepthPrepass);
         self.prepass.record(rec.encoder, rec.timer, rec.view, (rec.scene, rec.order), depth.view);
         if let Some(cull) = &self.culling {
             rec.step(Step::Cull);
             cull.record(rec.encoder, rec.timer, rec.view, "forward.cull");
         }
-        shared.record_vpl_cull(rec, depth);
+        shared.record_vpl_cull(rec);
         rec.step(if self.culling.is_some() { Step::ForwardShade } else { Step::BruteForceShade });
         // With MSAA the pass draws the multisampled target and resolves it into the HDR image.
         let (target, resolve) = match &self.hdr_msaa {
-            Some((_, v)) => (v, Some(hdr.view)),
-            None => (hdr.view, None),
+            Some((_, v)) => (v, Some(&self.hdr)),
+            None => (&self.hdr, None),
         };
         self.shading.record(rec.encoder, rec.timer, rec.view, rec.scene, target, resolve, depth.view);
     }

@@ -1,57 +1,15 @@
-//! Typed handles to what one step of a frame writes and a later one reads: the depth
-//! buffer, the linear HDR image, the display image and the light grids. A step's
-//! constructor and `record` take the handles it reads, so each method's frame function
-//! shows its data flow in its types (`docs/ARCHITECTURE.md` has the table). [`Rec`] is
-//! what every step records into, and checks (in every build: one comparison a step) that
+//! [`Rec`], what every step of a frame records into (the typed handles a step's
+//! constructor and `record` take are `tiledlight_gpu::handles`'s, so the passes of every
+//! crate take them too; `docs/ARCHITECTURE.md` has the table). [`Rec`] and checks (in every build: one comparison a step) that
 //! the steps come in the order of the frame plan. Depends on tiledlight-gpu.
 
 use std::cell::Cell;
 
 use tiledlight_gpu::draw_order::DrawOrder;
-use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::plan::{FramePlan, Step};
 use tiledlight_gpu::scene_gpu::SceneGpu;
-use tiledlight_gpu::targets::DisplayTargets;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::view::Views;
-
-/// The frame's reversed-Z depth of opaque and masked geometry, `samples` values a pixel
-/// (written by the method's head step: depth pre-pass or G-buffer).
-#[derive(Clone, Copy)]
-pub struct Depth<'a> {
-    /// The depth attachment's view.
-    pub view: &'a wgpu::TextureView,
-    /// MSAA samples per pixel.
-    pub samples: u32,
-}
-
-/// The frame's linear HDR radiance, one resolved value a pixel (written by the method's
-/// shading, then blended geometry composites over it; the tonemap reads it).
-#[derive(Clone, Copy)]
-pub struct Hdr<'a> {
-    /// The HDR image's view.
-    pub view: &'a wgpu::TextureView,
-}
-
-/// The tonemapped display image (written by the tonemap, then the heat map over it).
-#[derive(Clone, Copy)]
-pub struct Ldr<'a> {
-    /// The display image's view.
-    pub view: &'a wgpu::TextureView,
-}
-
-/// A light grid: per list `(first, count)`, the indices and the header (written by a
-/// culling step, read by shading, blended geometry and the heat map).
-#[derive(Clone, Copy)]
-pub struct Lists<'a> {
-    /// The grid.
-    pub grid: &'a LightGrid,
-}
-
-/// The handles of a frame's display targets.
-pub fn target_handles(t: &DisplayTargets) -> (Depth<'_>, Hdr<'_>, Ldr<'_>) {
-    (Depth { view: &t.depth_view, samples: t.samples }, Hdr { view: &t.hdr_view }, Ldr { view: &t.ldr_view })
-}
 
 /// What every step of one frame records into: the encoder, the timer, the main view and
 /// the scene; [`Rec::step`] names each step as it is recorded.
@@ -99,11 +57,6 @@ impl<'a> Rec<'a> {
 
     /// Checks (every build) that every step of the plan was recorded.
     pub fn finish(self) {
-        assert_eq!(
-            self.next.get(),
-            self.plan.steps().len(),
-            "the frame skipped steps of {:?}",
-            self.plan.steps()
-        );
+        assert_eq!(self.next.get(), self.plan.steps().len(), "the frame skipped steps of {:?}", self.plan.steps());
     }
 }

@@ -9,15 +9,17 @@ use std::any::Any;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::{GpuContext, GpuError};
 
-use crate::handles::{Depth, Hdr, Lists, Rec};
+use crate::handles::Rec;
 use crate::shared::SharedSteps;
+use tiledlight_gpu::handles::{Depth, Lists};
 
 /// A method's middle steps.
 pub trait MethodFrame: Any {
-    /// Records the method's steps, in its plan's order: what writes `depth`, its culling,
-    /// the shared VPL culling where the method puts it ([`SharedSteps::record_vpl_cull`]),
-    /// the shading that writes `hdr`.
-    fn record(&self, rec: &mut Rec<'_>, shared: &SharedSteps, depth: Depth<'_>, hdr: Hdr<'_>);
+    /// Records the method's steps, in its plan's order: what writes `depth` (drawn into
+    /// here), its culling, the shared VPL culling where the method puts it
+    /// ([`SharedSteps::record_vpl_cull`]), the shading that writes the HDR image (the
+    /// handle its constructor took).
+    fn record(&self, rec: &mut Rec<'_>, shared: &SharedSteps, depth: Depth<'_>);
     /// The opaque light grid the method shades with (tiled methods).
     fn lists(&self) -> Option<Lists<'_>>;
     /// Grows that grid's index buffer to `capacity` and rebinds it wherever the method reads

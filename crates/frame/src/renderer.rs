@@ -23,11 +23,12 @@ use tiledlight_gpu::targets::DisplayTargets;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::{GpuContext, GpuError};
 
-use crate::handles::{target_handles, Rec};
+use crate::handles::Rec;
 use crate::method::MethodFrame;
 use crate::settings::FrameSettings;
 use crate::shared::{SharedSteps, Vpls};
 use crate::{forward_plus, tiled_deferred, visibility};
+use tiledlight_gpu::handles::target_handles;
 
 /// What a renderer's last frame left to read, by name.
 #[derive(Clone, Copy)]
@@ -305,9 +306,9 @@ impl Renderer for FrameRenderer {
         let mut rec = Rec::new(encoder, timer, f.main_view(), (scene, order), &f.plan);
         f.record_shadows(&mut rec);
         f.record_vpls(&mut rec);
-        self.method.record(&mut rec, f, depth, hdr);
+        self.method.record(&mut rec, f, depth);
         f.record_blended(&mut rec, camera, depth, hdr);
-        f.record_tail(&mut rec, hdr, ldr);
+        f.record_tail(&mut rec, ldr);
         rec.finish();
     }
 

@@ -31,8 +31,9 @@ use tiledlight_gpu::view::{ViewUniforms, Views, MAIN_VIEW};
 use tiledlight_gpu::{GpuContext, GpuError};
 use tiledlight_vpl::VplPath;
 
-use crate::handles::{Depth, Hdr, Ldr, Lists, Rec};
+use crate::handles::Rec;
 use crate::settings::FrameSettings;
+use tiledlight_gpu::handles::{target_handles, Depth, Hdr, Ldr, Lists};
 
 /// What a method asks of the shared display targets.
 #[derive(Clone, Debug)]
@@ -145,7 +146,7 @@ impl SharedSteps {
             DisplayTargets::with_depth(device, needs.prefix, size, features.msaa, needs.hdr_usage, needs.depth);
         let tonemap = TonemapPass::new(
             device,
-            (&targets.hdr_view, &targets.ldr_storage_view),
+            (target_handles(&targets).1, target_handles(&targets).2),
             size,
             (settings.exposure, settings.auto_exposure),
         )?;
@@ -191,7 +192,7 @@ impl SharedSteps {
         let culling = self
             .plan
             .has(Step::VplCull)
-            .then(|| path.culling(device, &self.views, &self.targets.depth_view, (self.grid, &settings.cull)))
+            .then(|| path.culling(device, &self.views, target_handles(&self.targets).0, (self.grid, &settings.cull)))
             .transpose()?;
         let bindings = path.bindings(device, culling.as_ref());
         self.memory.extend(&path.memory);
@@ -220,7 +221,7 @@ impl SharedSteps {
                 lights: (lights, &self.lighting),
                 features: &self.features,
                 cull: (self.grid, settings.cull),
-                opaque_depth: &self.targets.depth_view,
+                opaque_depth: target_handles(&self.targets).0,
                 shadows: self.shadows.as_ref(),
                 frame_grid: lists.map(|l| l.grid),
             };
@@ -269,7 +270,7 @@ impl SharedSteps {
 
     /// The VPLs' culling into their own grid (after the frame's depth exists): the method's
     /// frame function calls it where its plan puts it.
-    pub fn record_vpl_cull(&self, rec: &mut Rec<'_>, _depth: Depth<'_>) {
+    pub fn record_vpl_cull(&self, rec: &mut Rec<'_>) {
         if let Some(c) = self.vpls.as_ref().and_then(|v| v.culling.as_ref()) {
             rec.step(Step::VplCull);
             c.record(rec.encoder, rec.timer, rec.view, &self.vpl_cull_label);
@@ -283,13 +284,13 @@ impl SharedSteps {
         for step in [Step::BlendedDepth, Step::BlendedCull, Step::BlendedShade] {
             if self.plan.has(step) {
                 rec.step(step);
-                b.record_step(step, rec.encoder, rec.timer, (rec.view, rec.scene, camera), (depth.view, hdr.view));
+                b.record_step(step, rec.encoder, rec.timer, (rec.view, rec.scene, camera), (depth, hdr));
             }
         }
     }
 
     /// HDR to display (with the automatic exposure's passes when on), then the heat map.
-    pub fn record_tail(&self, rec: &mut Rec<'_>, _hdr: Hdr<'_>, ldr: Ldr<'_>) {
+    pub fn record_tail(&self, rec: &mut Rec<'_>, ldr: Ldr<'_>) {
         rec.step(Step::Tonemap);
         // The tonemap writes the display image it was built over (`ldr`'s texture).
         self.tonemap.record(rec.encoder, rec.timer);

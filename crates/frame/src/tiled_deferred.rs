@@ -27,10 +27,11 @@ use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::{GpuContext, GpuError};
 
-use crate::handles::{Depth, Hdr, Lists, Rec};
+use crate::handles::Rec;
 use crate::method::MethodFrame;
 use crate::settings::FrameSettings;
 use crate::shared::{SharedSteps, TargetNeeds};
+use tiledlight_gpu::handles::{target_handles, Depth, Lists};
 
 /// The display targets Tiled Deferred needs: the G-buffer's formats multisampled, the HDR
 /// image written by compute (and, with blended geometry, composited onto by a render
@@ -77,9 +78,9 @@ impl DeferredFrame {
         let shading = DeferredShading::new(
             device,
             views,
-            &targets.depth_view,
+            target_handles(targets).0,
             &gbuffer,
-            &targets.hdr_view,
+            target_handles(targets).1,
             (lights, &shared.lighting),
             shared.grid,
             settings.cull,
@@ -104,10 +105,10 @@ impl DeferredFrame {
 }
 
 impl MethodFrame for DeferredFrame {
-    fn record(&self, rec: &mut Rec<'_>, shared: &SharedSteps, depth: Depth<'_>, _hdr: Hdr<'_>) {
+    fn record(&self, rec: &mut Rec<'_>, shared: &SharedSteps, depth: Depth<'_>) {
         rec.step(Step::GBuffer);
         self.gbuffer_pass.record(rec.encoder, rec.timer, rec.view, (rec.scene, rec.order), &self.gbuffer, depth.view);
-        shared.record_vpl_cull(rec, depth);
+        shared.record_vpl_cull(rec);
         // The pass was built over the frame's depth, G-buffer and HDR image.
         rec.step(Step::DeferredShade);
         self.shading.record(rec.encoder, rec.timer, rec.view);

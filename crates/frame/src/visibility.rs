@@ -40,10 +40,11 @@ use tiledlight_gpu::{GpuContext, GpuError};
 use tiledlight_visibility::raster::{depth_target, VisibilityRaster};
 use tiledlight_visibility::shading::{ShadeLights, VisibilityShading};
 
-use crate::handles::{Depth, Hdr, Lists, Rec};
+use crate::handles::Rec;
 use crate::method::MethodFrame;
 use crate::settings::FrameSettings;
 use crate::shared::{SharedSteps, TargetNeeds};
+use tiledlight_gpu::handles::{target_handles, Depth, Lists};
 
 /// The display targets the visibility buffer needs: depth and IDs multisampled, the HDR
 /// image written by compute (and, with blended geometry, composited onto by a render pass);
@@ -96,7 +97,7 @@ impl VisibilityFrame {
             scene,
             features,
             (size, settings.test_wrong_id),
-            (settings.raster, settings.compute_raster, &targets.depth_view),
+            (settings.raster, settings.compute_raster, target_handles(targets).0),
             memory,
         )?;
         let traced = settings.method.is_traced();
@@ -105,7 +106,7 @@ impl VisibilityFrame {
                 LightCulling::with_drop_light(
                     device,
                     views,
-                    &targets.depth_view,
+                    target_handles(targets).0,
                     (lights, &shared.lighting),
                     shared.grid,
                     settings.cull,
@@ -132,8 +133,8 @@ impl VisibilityFrame {
         let shading = VisibilityShading::new(
             device,
             views,
-            (&targets.depth_view, &raster),
-            &targets.hdr_view,
+            (target_handles(targets).0, &raster),
+            target_handles(targets).1,
             (scene, lights, &shared.lighting),
             (shade, shared.grid, settings.edge),
             (features, shared.shadows.as_ref()),
@@ -161,14 +162,14 @@ impl VisibilityFrame {
 }
 
 impl MethodFrame for VisibilityFrame {
-    fn record(&self, rec: &mut Rec<'_>, shared: &SharedSteps, depth: Depth<'_>, _hdr: Hdr<'_>) {
+    fn record(&self, rec: &mut Rec<'_>, shared: &SharedSteps, depth: Depth<'_>) {
         rec.step(Step::VisibilityRaster);
         self.raster.record(rec.encoder, rec.timer, rec.view, rec.scene, depth.view);
         match &self.culling {
             Some(culling) => {
                 rec.step(Step::Cull);
                 culling.record(rec.encoder, rec.timer, rec.view, "visibility.cull");
-                shared.record_vpl_cull(rec, depth);
+                shared.record_vpl_cull(rec);
                 rec.step(Step::VisibilityShade);
                 self.shading.record(rec.encoder, rec.timer, rec.view, rec.scene, &culling.grid);
             }

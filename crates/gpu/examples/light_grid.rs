@@ -34,6 +34,7 @@
 
 use std::collections::BTreeSet;
 use std::path::PathBuf;
+use tiledlight_gpu::handles::Depth;
 
 use anyhow::{anyhow, bail, ensure, Result};
 use bytemuck::{Pod, Zeroable};
@@ -170,7 +171,8 @@ fn main() -> Result<()> {
     let gpu_mesh = GpuMesh::new(device, &mesh);
 
     // 5. The culling pass reads the engine's depth view; it owns the light grid.
-    let mut culling = LightCulling::new(device, &views, &depth_view, &lights, &lighting, grid, options)?;
+    let mut culling =
+        LightCulling::new(device, &views, Depth { view: &depth_view, samples: 1 }, &lights, &lighting, grid, options)?;
     let timer = GpuTimer::new(&ctx)?;
 
     // 4-6. One frame in one submission: the engine's depth pass, tiledlight's culling,

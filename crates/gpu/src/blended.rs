@@ -40,6 +40,7 @@
 //! [`crate::shadow_atlas`], [`crate::features`], [`crate::view`].
 
 use crate::define::Define;
+use crate::handles::{Depth, Hdr};
 use std::sync::Mutex;
 
 use glam::{Mat4, Vec3};
@@ -154,7 +155,7 @@ pub struct BlendedInputs<'a> {
     /// The tiling and culling options (tiled methods cull blended geometry with them).
     pub cull: (TileGrid, CullOptions),
     /// The opaque depth buffer.
-    pub opaque_depth: &'a wgpu::TextureView,
+    pub opaque_depth: Depth<'a>,
     /// The shadow atlas, when lights cast shadows.
     pub shadows: Option<&'a ShadowAtlas>,
     /// The frame's light grid, read instead of lists of its own when it is frustum
@@ -239,7 +240,9 @@ impl BlendedPath {
         };
         let culling = match (features.method, &depth) {
             (Method::BruteForce { .. } | Method::TracedReference { .. }, _) | (_, None) => None,
-            (_, Some(d)) => Some(LightCulling::blended(device, views, (opaque_depth, &d.view), lights, grid, options)?),
+            (_, Some(d)) => {
+                Some(LightCulling::blended(device, views, (opaque_depth.view, &d.view), lights, grid, options)?)
+            }
         };
         // Shading pipelines.
         let wboit = features.blend_mode == BlendMode::WeightedOit;
@@ -444,9 +447,10 @@ impl BlendedPath {
         (views, view): (&Views, u32),
         scene: &SceneGpu,
         world_to_view: &Mat4,
-        opaque_depth: &wgpu::TextureView,
-        hdr: &wgpu::TextureView,
+        opaque_depth: Depth<'_>,
+        hdr: Hdr<'_>,
     ) {
+        let (opaque_depth, hdr) = (opaque_depth.view, hdr.view);
         let mut order = self.order.lock().expect("blended sort scratch");
         order.clear();
         // View space looks down -Z: the view depth is -z; farthest first. Weighted blended
@@ -518,7 +522,7 @@ impl BlendedPath {
         encoder: &mut wgpu::CommandEncoder,
         timer: &GpuTimer,
         (view, scene, camera): ((&Views, u32), &SceneGpu, &Camera),
-        (opaque_depth, hdr): (&wgpu::TextureView, &wgpu::TextureView),
+        (opaque_depth, hdr): (Depth<'_>, Hdr<'_>),
     ) {
         match step {
             Step::BlendedDepth => self.record_depth(encoder, timer, view, scene),

@@ -7,6 +7,7 @@
 //! [`crate::light_buffers`], [`crate::view`], [`crate::bindings`].
 
 use crate::define::Define;
+use crate::handles::Depth;
 use tiledlight_cull::contribution::pair_scale;
 
 use crate::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
@@ -53,8 +54,8 @@ pub const CONTRIBUTION_BINDINGS: PassBindings = PassBindings {
 /// `Lighting` uniform, and the light grid culled from that depth.
 #[derive(Clone, Copy)]
 pub struct ContributionInputs<'a> {
-    /// A single-sampled `Depth32Float` view of the frame's depth.
-    pub depth: &'a wgpu::TextureView,
+    /// The frame's depth, single-sampled (another count is refused).
+    pub depth: Depth<'a>,
     /// The lights, packed as the grid indexes them.
     pub lights: &'a LightBuffers,
     /// Their `Lighting` uniform (the point-light count).
@@ -86,6 +87,12 @@ impl LightContribution {
                 "the contribution estimate reads {CONTRIBUTION_TILE}-pixel tiles with one list each; \
                  this grid has {}-pixel tiles with {} lists each",
                 g.tiles.tile_size, g.lists_per_tile
+            )));
+        }
+        if inputs.depth.samples != 1 {
+            return Err(GpuError::Config(format!(
+                "the contribution estimate reads one depth sample a pixel, not {}",
+                inputs.depth.samples
             )));
         }
         let key = ContributionKey { spots: inputs.lights.has_spots() };
@@ -125,7 +132,7 @@ impl LightContribution {
         inputs: ContributionInputs<'_>,
     ) -> wgpu::BindGroup {
         let mut entries = vec![
-            wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(inputs.depth) },
+            wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(inputs.depth.view) },
             buffer_entry(1, &inputs.lights.shading),
             buffer_entry(2, inputs.lighting),
             buffer_entry(3, params),

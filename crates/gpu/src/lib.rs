@@ -28,6 +28,7 @@ pub mod edge_samples;
 pub mod error;
 pub mod exposure;
 pub mod features;
+pub mod handles;
 pub mod heatmap;
 pub mod light_buffers;
 pub mod light_grid;

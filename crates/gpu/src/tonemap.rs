@@ -9,6 +9,7 @@
 //! set, never per frame. Depends on wgpu, [`crate::exposure`] and this crate's utilities.
 
 use crate::define::Define;
+use crate::handles::{Hdr, Ldr};
 use bytemuck::{Pod, Zeroable};
 
 use crate::bindings::{create_layout, Binding, PassBindings, PassGroup};
@@ -173,10 +174,12 @@ impl TonemapPass {
     /// and kept).
     pub fn new(
         device: &wgpu::Device,
-        (hdr, ldr): (&wgpu::TextureView, &wgpu::TextureView),
+        (hdr, ldr): (Hdr<'_>, Ldr<'_>),
         size: (u32, u32),
         (exposure, auto): (f32, bool),
     ) -> Result<Self, GpuError> {
+        // The tonemap reads the HDR image and writes the display image through its storage view.
+        let (hdr, ldr) = (hdr.view, ldr.storage);
         check_exposure(exposure)?;
         let auto = auto.then(|| AutoExposure::new(device, hdr, size)).transpose()?;
         let key = TonemapKey { auto_exposure: auto.is_some() };

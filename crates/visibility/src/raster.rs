@@ -12,6 +12,7 @@ use tiledlight_cull::visibility::IdLayout;
 use tiledlight_gpu::bindings::{create_layout, Binding, PassBindings, PassGroup};
 use tiledlight_gpu::depth_prepass::{DepthPrepass, DEPTH_FORMAT, ID_FORMAT};
 use tiledlight_gpu::features::{Features, Raster};
+use tiledlight_gpu::handles::Depth;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::readback::read_texture;
 use tiledlight_gpu::scene_gpu::SceneGpu;
@@ -82,9 +83,16 @@ impl VisibilityRaster {
         scene: &SceneGpu,
         features: &Features,
         (size, wrong_id): ((u32, u32), Option<(u32, u32)>),
-        (raster, options, depth): (Raster, ComputeRasterOptions, &wgpu::TextureView),
+        (raster, options, depth): (Raster, ComputeRasterOptions, Depth<'_>),
         memory: &mut MemoryReport,
     ) -> Result<Self, GpuError> {
+        if depth.samples != features.msaa {
+            return Err(GpuError::Config(format!(
+                "the visibility raster: a depth buffer of {} samples a pixel, features of {}",
+                depth.samples, features.msaa
+            )));
+        }
+        let depth = depth.view;
         if let Some((x, y)) = wrong_id {
             if features.msaa > 1 || x >= size.0 || y >= size.1 {
                 return Err(GpuError::Config(format!(

@@ -41,6 +41,7 @@ use tiledlight_gpu::culling::{LightCulling, DEPTH_BINDING};
 use tiledlight_gpu::define::Define;
 use tiledlight_gpu::edge_samples::{light_entries, EdgeSamples, EdgeTest};
 use tiledlight_gpu::features::Features;
+use tiledlight_gpu::handles::{Depth, Hdr};
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::{compute_bindings, LightGrid};
 use tiledlight_gpu::lights_group::VplBindings;
@@ -235,14 +236,15 @@ impl VisibilityShading {
     pub fn new(
         device: &wgpu::Device,
         views: &Views,
-        (depth, raster): (&wgpu::TextureView, &VisibilityRaster),
-        hdr: &wgpu::TextureView,
+        (depth, raster): (Depth<'_>, &VisibilityRaster),
+        hdr: Hdr<'_>,
         (scene, lights, lighting): (&SceneGpu, &LightBuffers, &wgpu::Buffer),
         (shade, grid, edge): (ShadeLights<'_>, TileGrid, EdgeTest),
         (features, atlas): (&Features, Option<&ShadowAtlas>),
         memory: &mut MemoryReport,
         vpls: Option<&VplBindings>,
     ) -> Result<Self, GpuError> {
+        let (depth, hdr) = (depth.view, hdr.view);
         let traced = matches!(shade, ShadeLights::Traced { .. });
         // The grid's pass reads the VPLs' grid; the traced one every VPL.
         if features.vpl != vpls.is_some_and(|v| v.lists.is_some() != traced) {

@@ -26,6 +26,7 @@ use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::vpl::{GpuVplShading, VPL_GRID_PER_TILE};
 use tiledlight_cull::TileGrid;
 use tiledlight_gpu::culling::{CullOptions, LightCulling};
+use tiledlight_gpu::handles::Depth;
 use tiledlight_gpu::lights_group::VplBindings;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::scene_gpu::SceneGpu;
@@ -88,7 +89,7 @@ impl VplPath {
         &self,
         device: &wgpu::Device,
         views: &Views,
-        depth: &wgpu::TextureView,
+        depth: Depth<'_>,
         (grid, cull): (TileGrid, &CullOptions),
     ) -> Result<LightCulling, GpuError> {
         let options = cull_options(cull, grid, self.config.cap, &device.limits());

@@ -26,6 +26,7 @@ pub mod tile;
 use tiledlight_cull::TileGrid;
 
 use crate::error::GpuError;
+use crate::handles::Depth;
 use crate::light_buffers::LightBuffers;
 use crate::light_grid::LightGrid;
 use crate::memory::MemoryReport;
@@ -59,11 +60,11 @@ pub struct LightCulling {
 
 impl LightCulling {
     /// Builds the pipeline and buffers for `grid`, reading `depth` (a `Depth32Float` view
-    /// of the pre-pass with `options.samples` samples per pixel).
+    /// of the pre-pass with `options.samples` samples per pixel: another count is refused).
     pub fn new(
         device: &wgpu::Device,
         views: &Views,
-        depth: &wgpu::TextureView,
+        depth: Depth<'_>,
         lights: &LightBuffers,
         lighting: &wgpu::Buffer,
         grid: TileGrid,
@@ -76,13 +77,19 @@ impl LightCulling {
     pub fn with_drop_light(
         device: &wgpu::Device,
         views: &Views,
-        depth: &wgpu::TextureView,
+        depth: Depth<'_>,
         lights: (&LightBuffers, &wgpu::Buffer),
         grid: TileGrid,
         options: CullOptions,
         drop: Option<DropLight>,
     ) -> Result<Self, GpuError> {
-        Self::build(device, views, (depth, None), lights, grid, options, drop)
+        if depth.samples != options.samples {
+            return Err(GpuError::Config(format!(
+                "light culling: a depth buffer of {} samples a pixel, culling options for {}",
+                depth.samples, options.samples
+            )));
+        }
+        Self::build(device, views, (depth.view, None), lights, grid, options, drop)
     }
 
     /// The culling pass of blended geometry (`BLENDED`, [`crate::blended`]): tiles with
