@@ -205,3 +205,32 @@ fn deferred_rejects_bad_settings_with_reasons() {
         "{e}"
     );
 }
+
+/// A typed handle carries its target's sample count, and a pass built over it checks it
+/// against its own: the light culling over a 4x depth buffer with options for 1x, or the
+/// reverse, is a named error, not a pipeline that reads the wrong texture type (a wgpu
+/// validation panic); the matching handle builds.
+#[test]
+fn a_depth_handle_of_another_sample_count_is_refused() {
+    use tiledlight_cull::TileGrid;
+    use tiledlight_gpu::culling::LightCulling;
+    use tiledlight_gpu::handles::target_handles;
+    use tiledlight_gpu::targets::DisplayTargets;
+    use tiledlight_gpu::view::Views;
+    let ctx = gpu();
+    let scene = scenes::mixed_scene();
+    let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 8, 0, 1)).unwrap();
+    let lighting = lights.lighting(&ctx.device, Vec3::splat(0.03));
+    let views = Views::new(&ctx.device, 1);
+    let grid = TileGrid::new(64, 32, 16).unwrap();
+    let build = |samples: u32, options_samples: u32| {
+        let t = DisplayTargets::new(&ctx.device, "test", (64, 32), samples, wgpu::TextureUsages::empty());
+        let options = CullOptions { samples: options_samples, ..Default::default() };
+        LightCulling::new(&ctx.device, &views, target_handles(&t).0, &lights, &lighting, grid, options).map(|_| ())
+    };
+    let e = err_text(build(4, 1));
+    assert!(e.contains("a depth buffer of 4 samples a pixel, culling options for 1"), "{e}");
+    let e = err_text(build(1, 4));
+    assert!(e.contains("a depth buffer of 1 samples a pixel, culling options for 4"), "{e}");
+    build(4, 4).expect("the matching handle");
+}
