@@ -15,7 +15,13 @@ fn main() {
     let manifest_dir = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
     // `crates/gpu/shaders` links to the workspace's `shaders/`, so the packaged crate
     // (cargo copies the linked files in) carries them too.
-    let shaders_dir = manifest_dir.join("shaders");
+    // A checkout without links (a copy, some Windows setups) finds them at the workspace root.
+    let shaders_dir = [manifest_dir.join("shaders"), manifest_dir.join("../../shaders")]
+        .into_iter()
+        .find(|d| d.is_dir())
+        .unwrap_or_else(|| {
+            panic!("no shaders: neither {}/shaders nor ../../shaders is a folder", manifest_dir.display())
+        });
     let out_dir = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
 
     println!("cargo:rerun-if-changed=build.rs");
@@ -24,9 +30,7 @@ fn main() {
     println!("cargo:rerun-if-changed={}", shaders_dir.display());
 
     let mut files = Vec::new();
-    if shaders_dir.is_dir() {
-        collect(&shaders_dir, &shaders_dir, &mut files);
-    }
+    collect(&shaders_dir, &shaders_dir, &mut files);
     files.sort();
 
     let mut code = String::new();

@@ -1,4 +1,5 @@
-//! Records the git commit the lab is built from (`bench::commit_hash`), so benchmark JSON
+//! Finds the charts' font (`TILEDLIGHT_CHART_FONT`, embedded by `chart.rs`) and records
+//! the git commit the lab is built from (`bench::commit_hash`), so benchmark JSON
 //! written on another machine (without the repository) still names it. Empty when git is unavailable.
 
 use std::process::Command;
@@ -14,6 +15,17 @@ fn git(args: &[&str]) -> Option<String> {
 }
 
 fn main() {
+    // The charts' font: through the crate's `assets/fonts` link (also what the published
+    // package holds), or at the workspace root in a checkout without links.
+    let manifest = std::path::PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets it"));
+    let font = ["assets/fonts/DejaVuSans.ttf", "../../assets/fonts/DejaVuSans.ttf"]
+        .iter()
+        .map(|p| manifest.join(p))
+        .find(|p| p.is_file())
+        .unwrap_or_else(|| panic!("no chart font under {}/assets/fonts or ../../assets/fonts", manifest.display()));
+    let font = font.canonicalize().expect("the font's path resolves");
+    println!("cargo:rerun-if-changed={}", font.display());
+    println!("cargo:rustc-env=TILEDLIGHT_CHART_FONT={}", font.display());
     let commit = git(&["rev-parse", "--short=12", "HEAD"]).unwrap_or_default();
     // No "-dirty" mark: cargo reruns this only when HEAD, the branch or the index moves,
     // so a mark would go stale with the next edit. Benchmarks are run from committed trees.

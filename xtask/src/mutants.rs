@@ -357,10 +357,22 @@ fn sync_tree(root: &Path, tree: &Path) -> Result<()> {
     let mut copied = 0;
     for f in &files {
         let from = root.join(f);
+        let to = tree.join(f);
+        // A tracked link (crates/gpu/shaders, crates/lab/assets/fonts) is linked again: its
+        // relative target is in the tree too.
+        if std::fs::symlink_metadata(&from).is_ok_and(|m| m.file_type().is_symlink()) {
+            let target = std::fs::read_link(&from)?;
+            if std::fs::read_link(&to).ok() != Some(target.clone()) {
+                let _ = std::fs::remove_file(&to);
+                std::fs::create_dir_all(to.parent().expect("a link has a parent"))?;
+                link(&target, &to).with_context(|| format!("linking {}", to.display()))?;
+                copied += 1;
+            }
+            continue;
+        }
         if !from.is_file() {
             continue; // deleted in the working tree but still in the index
         }
-        let to = tree.join(f);
         let bytes = std::fs::read(&from).with_context(|| format!("reading {}", from.display()))?;
         if std::fs::read(&to).ok().as_deref() != Some(&bytes[..]) {
             std::fs::create_dir_all(to.parent().expect("a file has a parent"))?;
@@ -382,21 +394,33 @@ fn sync_tree(root: &Path, tree: &Path) -> Result<()> {
     Ok(())
 }
 
-/// Every file under `dir`.
+/// Every file and link under `dir` (links are not followed: a linked folder is one entry).
 fn walk(dir: &Path) -> Result<Vec<PathBuf>> {
     let mut out = Vec::new();
     let mut stack = vec![dir.to_path_buf()];
     while let Some(d) = stack.pop() {
         for e in std::fs::read_dir(&d)? {
-            let p = e?.path();
-            if p.is_dir() {
-                stack.push(p);
+            let e = e?;
+            if e.file_type()?.is_dir() {
+                stack.push(e.path());
             } else {
-                out.push(p);
+                out.push(e.path());
             }
         }
     }
     Ok(out)
+}
+
+/// A symbolic link at `at` to `target`.
+#[cfg(unix)]
+fn link(target: &Path, at: &Path) -> std::io::Result<()> {
+    std::os::unix::fs::symlink(target, at)
+}
+
+/// A symbolic link at `at` to `target` (a folder's, as the workspace's links are).
+#[cfg(windows)]
+fn link(target: &Path, at: &Path) -> std::io::Result<()> {
+    std::os::windows::fs::symlink_dir(target, at)
 }
 
 fn git_lines(root: &Path, args: &[&str]) -> Result<Vec<String>> {

@@ -22,8 +22,8 @@ use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint};
 use plotters::prelude::*;
 
 // `crates/lab/assets/fonts` links to the workspace's `assets/fonts`, so the published crate
-// holds the font too.
-static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
+// holds the font too; build.rs finds it (through the link, or at the workspace root).
+static FONT: &[u8] = include_bytes!(env!("TILEDLIGHT_CHART_FONT"));
 const FAMILY: &str = "sans-serif";
 
 /// Chart size in pixels.
