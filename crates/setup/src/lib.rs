@@ -25,6 +25,7 @@
 //!   (`tiledlight export`; intensity units and what else is written in its docs);
 //! - [`bookmark`]: the camera bookmark file format (`--camera FILE`, the viewer's "save
 //!   camera"), read and written (files, no GPU).
+//! - [`camera_rig`]: an interactive fly/orbit camera (the viewer's), pure logic.
 //!
 //! Layering: depends on tiledlight-cull, tiledlight-scene, tiledlight-gpu,
 //! tiledlight-frame (the renderer), tiledlight-deferred (its workgroup budget),
@@ -37,6 +38,7 @@
 pub mod animate;
 pub mod bookmark;
 pub mod camera;
+pub mod camera_rig;
 pub mod demo;
 pub mod export;
 pub mod load;

@@ -18,7 +18,6 @@
 //!
 //! May depend on every other module of the app.
 
-pub mod camera_control;
 mod script;
 pub mod settings;
 pub mod ui;
@@ -50,13 +49,13 @@ use winit::window::{Window, WindowId};
 
 use crate::render::write_image;
 use crate::scene_setup::SceneArgs;
-use camera_control::CameraRig;
 use script::Action;
 use settings::{plan, Settings};
 use tiledlight_gpu::blit::{Blit, DisplayImage};
 use tiledlight_lab::dropped::{self, Dropped};
 use tiledlight_lab::output::{check_png_path, rgb_image, save_png};
 use tiledlight_setup::bookmark;
+use tiledlight_setup::camera_rig::CameraRig;
 use ui::{Command, Info, Stats, UiState};
 
 /// How often the culling statistics (a GPU readback) are refreshed.

@@ -9,10 +9,10 @@
 use anyhow::{bail, Context, Result};
 use clap::ValueEnum;
 
-use super::camera_control::Mode;
 use super::settings::{Settings, VplControl};
 use crate::scene_setup::{AssignArg, BlendModeArg, CastersByArg, DensityArg, DrawOrderArg, GridArg, ShadowFormatArg};
 use tiledlight_gpu::heatmap::HeatmapOf;
+use tiledlight_setup::camera_rig::Mode;
 use tiledlight_setup::SceneSource;
 
 /// One step of a script.

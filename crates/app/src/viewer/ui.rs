@@ -22,11 +22,11 @@ use tiledlight_gpu::memory::{format_bytes, MemoryReport};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::PassTime;
 
-use super::camera_control::{CameraRig, Mode, Motion};
 use super::settings::{Settings, VplControl, METHODS, MSAA_CHOICES, VPL_BLOCKS, VPL_RSM_SIZES};
 use tiledlight_cull::vpl::VplShading;
 use tiledlight_lab::legend::label_values;
 use tiledlight_scene::GridDensity;
+use tiledlight_setup::camera_rig::{CameraRig, Mode, Motion};
 use tiledlight_setup::stats::atlas_layout_description;
 use tiledlight_setup::{CasterChoice, CullingStats, LightSummary, Method, Raster, SceneSource};
 

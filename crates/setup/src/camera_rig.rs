@@ -1,8 +1,9 @@
-//! The viewer's camera: fly (WASD + mouse look, speed on the wheel) or orbit (drag to turn
+//! An interactive camera (the viewer's, and any engine's that wants one): fly (WASD + mouse look, speed on the wheel) or orbit (drag to turn
 //! around a target, wheel to zoom), kept as eye + yaw/pitch so neither mode can roll or
 //! flip over the pole. Converts to a [`Camera`] for rendering and to a [`CameraDesc`] for
 //! bookmarks. Right-handed, Y up; yaw 0 looks down -Z. Depends on glam, tiledlight-cull
-//! and tiledlight-scene only (no window or GPU types, so it is unit-tested).
+//! and tiledlight-scene only (no window or GPU types, so it is unit-tested; the app's
+//! viewer turns winit's input into its calls).
 
 use anyhow::Result;
 use glam::Vec3;
