@@ -214,7 +214,7 @@ fn deferred_rejects_bad_settings_with_reasons() {
 fn a_depth_handle_of_another_sample_count_is_refused() {
     use tiledlight_cull::TileGrid;
     use tiledlight_gpu::culling::LightCulling;
-    use tiledlight_gpu::handles::target_handles;
+    use tiledlight_gpu::targets::target_handles;
     use tiledlight_gpu::targets::DisplayTargets;
     use tiledlight_gpu::view::Views;
     let ctx = gpu();

@@ -69,7 +69,7 @@ fn contribution_scores_saturate_and_carry_past_2_32_like_the_twin() {
     let out = r.outputs();
     let grid = out.light_grid.expect("Forward+ has a light grid");
     let inputs = ContributionInputs {
-        depth: tiledlight_gpu::handles::target_handles(out.targets).0,
+        depth: tiledlight_gpu::targets::target_handles(out.targets).0,
         lights: &lb,
         lighting: &r.shared().lighting,
         grid,

@@ -74,7 +74,7 @@ fn run(ctx: &GpuContext, scene: &tiledlight_scene::Scene, lights: &[Light], came
     let out = r.outputs();
     let grid = out.light_grid.expect("Forward+ has a light grid");
     let inputs = ContributionInputs {
-        depth: tiledlight_gpu::handles::target_handles(out.targets).0,
+        depth: tiledlight_gpu::targets::target_handles(out.targets).0,
         lights: &lb,
         lighting: &r.shared().lighting,
         grid,

@@ -22,9 +22,9 @@ use tiledlight_cull::contribution::scores_in_input_order;
 use tiledlight_cull::{Camera, Light};
 use tiledlight_gpu::contribution::{ContributionInputs, LightContribution, CONTRIBUTION_TILE};
 use tiledlight_gpu::culling::CullOptions;
-use tiledlight_gpu::handles::target_handles;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_gpu::targets::target_handles;
 use tiledlight_gpu::timer::{GpuTimer, PassTime};
 use tiledlight_gpu::{GpuContext, GpuError};
 

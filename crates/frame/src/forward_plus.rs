@@ -32,7 +32,8 @@ use crate::handles::Rec;
 use crate::method::MethodFrame;
 use crate::settings::FrameSettings;
 use crate::shared::{SharedSteps, TargetNeeds};
-use tiledlight_gpu::handles::{target_handles, Depth, Lists};
+use tiledlight_gpu::handles::{Depth, Lists};
+use tiledlight_gpu::targets::target_handles;
 
 /// The display targets Forward+ needs: depth and HDR drawn multisampled by render passes.
 pub fn targets(_: &Features) -> TargetNeeds {

@@ -28,7 +28,7 @@ use crate::method::MethodFrame;
 use crate::settings::FrameSettings;
 use crate::shared::{SharedSteps, Vpls};
 use crate::{forward_plus, tiled_deferred, visibility};
-use tiledlight_gpu::handles::target_handles;
+use tiledlight_gpu::targets::target_handles;
 
 /// What a renderer's last frame left to read, by name.
 #[derive(Clone, Copy)]

@@ -33,7 +33,8 @@ use tiledlight_vpl::VplPath;
 
 use crate::handles::Rec;
 use crate::settings::FrameSettings;
-use tiledlight_gpu::handles::{target_handles, Depth, Hdr, Ldr, Lists};
+use tiledlight_gpu::handles::{Depth, Hdr, Ldr, Lists};
+use tiledlight_gpu::targets::target_handles;
 
 /// What a method asks of the shared display targets.
 #[derive(Clone, Debug)]

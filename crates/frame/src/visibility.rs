@@ -44,7 +44,8 @@ use crate::handles::Rec;
 use crate::method::MethodFrame;
 use crate::settings::FrameSettings;
 use crate::shared::{SharedSteps, TargetNeeds};
-use tiledlight_gpu::handles::{target_handles, Depth, Lists};
+use tiledlight_gpu::handles::{Depth, Lists};
+use tiledlight_gpu::targets::target_handles;
 
 /// The display targets the visibility buffer needs: depth and IDs multisampled, the HDR
 /// image written by compute (and, with blended geometry, composited onto by a render pass);

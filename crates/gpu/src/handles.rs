@@ -2,11 +2,10 @@
 //! buffer, the linear HDR image, the display image and the light grids. Every pass that
 //! reads or writes one of them takes its handle in its constructor (and, where it records
 //! into it, in `record`), so a pass's signature says what it reads and writes; no raw
-//! texture view of the frame's targets is passed around. Depends on the crate's light grid
-//! and targets.
+//! texture view of the frame's targets is passed around (`targets::target_handles` gives a
+//! frame's). Depends on the crate's light grid only.
 
 use crate::light_grid::LightGrid;
-use crate::targets::DisplayTargets;
 
 /// The frame's reversed-Z depth of opaque and masked geometry, `samples` values a pixel
 /// (written by the method's head step: depth pre-pass or G-buffer).
@@ -41,13 +40,4 @@ pub struct Ldr<'a> {
 pub struct Lists<'a> {
     /// The grid.
     pub grid: &'a LightGrid,
-}
-
-/// The handles of a frame's display targets.
-pub fn target_handles(t: &DisplayTargets) -> (Depth<'_>, Hdr<'_>, Ldr<'_>) {
-    (
-        Depth { view: &t.depth_view, samples: t.samples },
-        Hdr { view: &t.hdr_view },
-        Ldr { view: &t.ldr_view, storage: &t.ldr_storage_view },
-    )
 }

@@ -5,6 +5,7 @@
 use crate::context::GpuContext;
 use crate::depth_prepass::DEPTH_FORMAT;
 use crate::error::GpuError;
+use crate::handles::{Depth, Hdr, Ldr};
 use crate::tonemap::HDR_FORMAT;
 
 pub use crate::util::{texture_2d, texture_2d_msaa};
@@ -147,4 +148,13 @@ impl DisplayTargets {
         let px = self.depth.width() as u64 * self.depth.height() as u64;
         px * (4 * self.samples as u64 + 8 + 4)
     }
+}
+
+/// The handles of a frame's display targets.
+pub fn target_handles(t: &DisplayTargets) -> (Depth<'_>, Hdr<'_>, Ldr<'_>) {
+    (
+        Depth { view: &t.depth_view, samples: t.samples },
+        Hdr { view: &t.hdr_view },
+        Ldr { view: &t.ldr_view, storage: &t.ldr_storage_view },
+    )
 }
