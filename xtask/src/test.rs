@@ -25,8 +25,16 @@ use crate::{circles, shaders};
 const GPU_TEST_PACKAGE: &str = "tiledlight-tests";
 
 /// (package, example) of every example `cargo xtask test` runs.
-const EXAMPLES: [(&str, &str); 3] =
-    [("tiledlight-cull", "cull_a_floor"), ("tiledlight-gpu", "light_grid"), ("tiledlight-lab", "lights_by_tile")];
+const EXAMPLES: [(&str, &str); 8] = [
+    ("tiledlight-cull", "cull_a_floor"),
+    ("tiledlight-gpu", "light_grid"),
+    ("tiledlight-lab", "lights_by_tile"),
+    ("tiledlight-scene", "courtyard"),
+    ("tiledlight-metrics", "compare_images"),
+    ("tiledlight-gltf-writer", "triangle"),
+    ("tiledlight-frame", "one_frame"),
+    ("tiledlight-setup", "render_png"),
+];
 
 /// lavapipe's adapter name starts with this (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)").
 const DEFAULT_ADAPTER: &str = "llvmpipe";
