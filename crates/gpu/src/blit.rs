@@ -9,6 +9,7 @@
 
 use crate::bindings::{create_layout, Binding, PassBindings, PassGroup};
 use crate::timer::GpuTimer;
+use crate::tonemap::{full_triangle_pipeline, fullscreen_pass};
 use crate::util::{pipeline_layout, shader_module};
 use crate::GpuError;
 
@@ -45,27 +46,8 @@ impl Blit {
         let layout = create_layout(device, "viewer.blit.layout", BLIT_BINDINGS.group(0), &[]);
         let module = shader_module(device, BLIT_BINDINGS.entry, &[])?;
         let pl = pipeline_layout(device, "viewer.blit.pipeline_layout", &[&layout]);
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("viewer.blit"),
-            layout: Some(&pl),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_blit"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: Default::default(),
-            depth_stencil: None,
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_blit"),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let pipeline =
+            full_triangle_pipeline(device, "viewer.blit", (&module, "vs_blit", "fs_blit"), &pl, (format, None));
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("viewer.blit.sampler"),
             mag_filter: wgpu::FilterMode::Linear,
@@ -110,30 +92,7 @@ impl Blit {
         if ldr.size() == image.texture.size() {
             encoder.copy_texture_to_texture(ldr.as_image_copy(), image.texture.as_image_copy(), ldr.size());
         }
-        let t = timer.map(|t| t.begin("viewer.present", encoder));
-        {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("viewer.present"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: target,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: t.as_ref().and_then(|t| t.render_writes()),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &image.bind_group, &[]);
-            pass.draw(0..3, 0..1);
-        }
-        if let (Some(timer), Some(t)) = (timer, t) {
-            timer.end(encoder, t);
-        }
+        let clear = wgpu::LoadOp::Clear(wgpu::Color::BLACK);
+        fullscreen_pass(encoder, timer, "viewer.present", target, clear, &self.pipeline, &image.bind_group);
     }
 }

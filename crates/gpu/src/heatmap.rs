@@ -191,6 +191,6 @@ impl HeatmapPass {
             return;
         }
         let group = self.group(self.of()).unwrap_or(&self.bind_group);
-        fullscreen_pass(encoder, timer, "heatmap", target, wgpu::LoadOp::Load, &self.pipeline, group);
+        fullscreen_pass(encoder, Some(timer), "heatmap", target, wgpu::LoadOp::Load, &self.pipeline, group);
     }
 }

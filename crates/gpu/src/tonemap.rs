@@ -56,12 +56,24 @@ pub(crate) fn fullscreen_pipeline(
     layout: &wgpu::PipelineLayout,
     blend: Option<wgpu::BlendState>,
 ) -> wgpu::RenderPipeline {
+    full_triangle_pipeline(device, label, (module, "vs_fullscreen", fs), layout, (LDR_VIEW_FORMAT, blend))
+}
+
+/// A one-triangle pipeline with vertex entry `vs` and fragment entry `fs` of `module`,
+/// writing `format` (with `blend`): the full-screen passes' (heat map, the window blit).
+pub(crate) fn full_triangle_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    (module, vs, fs): (&wgpu::ShaderModule, &str, &str),
+    layout: &wgpu::PipelineLayout,
+    (format, blend): (wgpu::TextureFormat, Option<wgpu::BlendState>),
+) -> wgpu::RenderPipeline {
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some(label),
         layout: Some(layout),
         vertex: wgpu::VertexState {
             module,
-            entry_point: Some("vs_fullscreen"),
+            entry_point: Some(vs),
             compilation_options: Default::default(),
             buffers: &[],
         },
@@ -72,28 +84,24 @@ pub(crate) fn fullscreen_pipeline(
             module,
             entry_point: Some(fs),
             compilation_options: Default::default(),
-            targets: &[Some(wgpu::ColorTargetState {
-                format: LDR_VIEW_FORMAT,
-                blend,
-                write_mask: wgpu::ColorWrites::ALL,
-            })],
+            targets: &[Some(wgpu::ColorTargetState { format, blend, write_mask: wgpu::ColorWrites::ALL })],
         }),
         multiview_mask: None,
         cache: None,
     })
 }
 
-/// Records a full-screen pass into `target`, timed as `label`.
+/// Records a full-screen pass into `target`, timed as `label` when `timer` is given.
 pub(crate) fn fullscreen_pass(
     encoder: &mut wgpu::CommandEncoder,
-    timer: &GpuTimer,
+    timer: Option<&GpuTimer>,
     label: &str,
     target: &wgpu::TextureView,
     load: wgpu::LoadOp<wgpu::Color>,
     pipeline: &wgpu::RenderPipeline,
     group: &wgpu::BindGroup,
 ) {
-    let t = timer.begin(label, encoder);
+    let t = timer.map(|timer| timer.begin(label, encoder));
     {
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some(label),
@@ -104,7 +112,7 @@ pub(crate) fn fullscreen_pass(
                 ops: wgpu::Operations { load, store: wgpu::StoreOp::Store },
             })],
             depth_stencil_attachment: None,
-            timestamp_writes: t.render_writes(),
+            timestamp_writes: t.as_ref().and_then(|t| t.render_writes()),
             occlusion_query_set: None,
             multiview_mask: None,
         });
@@ -112,7 +120,9 @@ pub(crate) fn fullscreen_pass(
         pass.set_bind_group(0, group, &[]);
         pass.draw(0..3, 0..1);
     }
-    timer.end(encoder, t);
+    if let (Some(timer), Some(t)) = (timer, t) {
+        timer.end(encoder, t);
+    }
 }
 
 /// The tonemap pass's own parameters.

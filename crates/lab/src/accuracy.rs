@@ -288,7 +288,7 @@ fn render_sorted(prep: &mut Prepared, a: &Settings, warmup: u32, frames: u32) ->
     Ok(SortedFrame { ldr, total_ms })
 }
 
-/// One image of the error split, rendered once per key ([`split_keys`]) and compared with
+/// One image of the error split, rendered once per key ([`split_images`]) and compared with
 /// the truth.
 struct SplitFrame {
     ldr: Vec<u8>,
@@ -333,36 +333,29 @@ impl ErrorSplit {
     }
 }
 
-/// The settings of the split's two images of setting `a` (already at the truth's
-/// exposure): the traced reference with the cutoff, and brute force without cutoff or
-/// casters (None with VPLs: their RSMs need the casters). Blended geometry sorted as in
-/// the truth.
-fn split_settings(a: &Settings, vpl_ref: VplReference) -> (Settings, Option<Settings>) {
+/// The split's two images of setting `a` (already at the truth's exposure), each with what
+/// identifies it: the traced reference with the cutoff (the truth's key, with the threshold
+/// and the lights' placement), and brute force without cutoff or casters (its own key;
+/// None with VPLs: their RSMs need the casters). Blended geometry sorted as in the truth.
+fn split_images(a: &Settings, vpl_ref: VplReference) -> ((String, Settings), Option<(String, Settings)>) {
     let cutoff = Settings {
         method: Method::TracedReference { cutoff: true },
         blend_mode: BlendMode::Sorted,
         vpl: reference_vpl(a, vpl_ref),
         ..a.clone()
     };
-    let unshadowed = a.vpl.is_none().then(|| Settings {
-        method: Method::BruteForce { cutoff: false },
-        blend_mode: BlendMode::Sorted,
-        shadow_point_lights: 0,
-        shadow_spot_lights: 0,
-        ..a.clone()
-    });
-    (cutoff, unshadowed)
-}
-
-/// What identifies the split's two images: the truth's key, with the threshold (and lights'
-/// placement) for the cutoff; without casters for the unshadowed one.
-fn split_keys(a: &Settings, vpl_ref: VplReference) -> (String, Option<String>) {
     let truth = reference_key(a, ReferenceKind::Traced, vpl_ref);
-    let (_, unshadowed) = split_settings(a, vpl_ref);
-    (
-        format!("cutoff|{}|{:?}|{truth}", a.threshold, a.placement),
-        unshadowed.map(|u| format!("unshadowed|{}", reference_key(&u, ReferenceKind::NoCutoff, vpl_ref))),
-    )
+    let unshadowed = a.vpl.is_none().then(|| {
+        let u = Settings {
+            method: Method::BruteForce { cutoff: false },
+            blend_mode: BlendMode::Sorted,
+            shadow_point_lights: 0,
+            shadow_spot_lights: 0,
+            ..a.clone()
+        };
+        (format!("unshadowed|{}", reference_key(&u, ReferenceKind::NoCutoff, vpl_ref)), u)
+    });
+    ((format!("cutoff|{}|{:?}|{truth}", a.threshold, a.placement), cutoff), unshadowed)
 }
 
 /// Renders one frame of `settings` and compares it with the truth's `truth_ldr`.
@@ -384,8 +377,7 @@ fn error_split(
     vpl_ref: VplReference,
     cache: &mut HashMap<String, Rc<SplitFrame>>,
 ) -> Result<ErrorSplit> {
-    let (cutoff_settings, unshadowed_settings) = split_settings(a, vpl_ref);
-    let (cutoff_key, unshadowed_key) = split_keys(a, vpl_ref);
+    let ((cutoff_key, cutoff_settings), unshadowed) = split_images(a, vpl_ref);
     let mut get = |key: String, s: &Settings, what: &str| -> Result<Rc<SplitFrame>> {
         if let Some(f) = cache.get(&key) {
             return Ok(f.clone());
@@ -395,9 +387,9 @@ fn error_split(
         Ok(f)
     };
     let cutoff = get(cutoff_key, &cutoff_settings, "the truth with the cutoff")?;
-    let unshadowed = match (unshadowed_key, unshadowed_settings) {
-        (Some(k), Some(s)) => Some(get(k, &s, "the truth without shadow rays")?),
-        _ => None,
+    let unshadowed = match unshadowed {
+        Some((k, s)) => Some(get(k, &s, "the truth without shadow rays")?),
+        None => None,
     };
     let map = flip(a.width, a.height, &cutoff.ldr, ldr);
     Ok(ErrorSplit { beyond: (f64::from(map.summary(PERCENTILE).mean), map.heat_rgb()), cutoff, unshadowed })

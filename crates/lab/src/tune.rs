@@ -115,6 +115,10 @@ impl Candidate {
         let fold = |f: &dyn Fn(&Candidate) -> f64, pick: fn(f64, f64) -> f64| {
             views.iter().map(f).reduce(|a, b| if a.is_nan() || b.is_nan() { f64::NAN } else { pick(a, b) })
         };
+        // One view is its own verdict (no rescaled truth time to round).
+        if let [one] = views {
+            return Some(*one);
+        }
         let max = |f: fn(&Candidate) -> f64| fold(&f, f64::max).unwrap_or(f64::NAN);
         let time = max(|c| c.time);
         let margin = fold(&|c: &Candidate| c.reference_time / c.time, f64::min).unwrap_or(f64::NAN);
