@@ -12,6 +12,7 @@ use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::Camera;
 use tiledlight_frame::{FrameRenderer, FrameSettings, Method};
+use tiledlight_gpu::knobs::Knobs;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::GpuContext;
@@ -653,7 +654,7 @@ pub fn visibility_frames(
     let mut hardware_ids: Option<(Vec<f32>, Vec<u32>)> = None;
     let mut out = Vec::new();
     for raster in crate::visibility_rasters(s.msaa) {
-        let s = FrameSettings { raster, ..s };
+        let s = FrameSettings { knobs: Knobs { raster, ..s.knobs }, ..s };
         let mut r = FrameRenderer::new(ctx, scene, lights, w, h, s)
             .unwrap_or_else(|e| panic!("visibility renderer ({}): {e}", raster.name()));
         let frame = render_frame(ctx, &mut r, scene, camera);

@@ -5,9 +5,9 @@
 use glam::Vec3;
 use tiledlight_cull::lists::MAX_CAPACITY;
 use tiledlight_cull::Light;
-use tiledlight_deferred::EdgeTest;
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::culling::CullOptions;
+use tiledlight_gpu::knobs::Knobs;
 use tiledlight_gpu::light_buffers::{LightBuffers, MAX_LIGHTS};
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
@@ -176,7 +176,7 @@ fn deferred_rejects_bad_settings_with_reasons() {
     let e = err_text(new(FrameSettings {
         method: Method::TiledDeferred,
         msaa: 4,
-        edge: EdgeTest { distance: f32::NAN, ..d.edge },
+        knobs: Knobs { edge_distance: f32::NAN, ..d.knobs },
         ..d
     }));
     assert!(e.contains("edge distance"), "{e}");

@@ -24,6 +24,7 @@ use tiledlight_cull::blended_depth::raster_depth;
 use tiledlight_cull::{Camera, Light};
 use tiledlight_frame::{DeferredFrame, Diagnostics, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::culling::{ClusterOptions, CullOptions};
+use tiledlight_gpu::knobs::Knobs;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::plan::Step;
 use tiledlight_gpu::readback::read_depth;
@@ -722,7 +723,14 @@ fn blended_geometry_with_shadows_and_vpls_at_every_sample_count() {
         // The visibility buffer: blended geometry through the same forward path after its
         // compute shading, shadows and VPLs from the same atlas and grid; each raster.
         for raster in visibility_rasters(msaa) {
-            let s = FrameSettings { method: Method::Visibility, msaa, shadows, vpl, raster, ..Default::default() };
+            let s = FrameSettings {
+                method: Method::Visibility,
+                msaa,
+                shadows,
+                vpl,
+                knobs: Knobs { raster, ..Knobs::default() },
+                ..Default::default()
+            };
             let mut vr = FrameRenderer::new(ctx, &sg, &casting, W, H, s).expect("visibility renderer");
             assert!(vr.vpls().is_some() && vr.plan().has(Step::BlendedShade));
             let v = render_frame(ctx, &mut vr, &sg, &cam);

@@ -31,6 +31,7 @@ use tiledlight_frame::caster_rank::ranking_settings;
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method, VisibilityFrame};
 use tiledlight_gpu::contribution::{ContributionInputs, LightContribution};
 use tiledlight_gpu::features::Raster as RasterPath;
+use tiledlight_gpu::knobs::Knobs;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
@@ -206,7 +207,9 @@ fn ids_fill_their_bit_fields_exactly_in_every_raster() {
             ("compute, large by a workgroup", RasterPath::Compute, opts(0, LargeRaster::Compute)),
             ("compute, large by the hardware", RasterPath::Compute, opts(0, LargeRaster::Hardware)),
         ] {
-            let s = FrameSettings { method: Method::Visibility, raster, compute_raster: options, ..Default::default() };
+            let knobs =
+                Knobs { raster, raster_large_px: options.large_px, raster_large: options.large, ..Knobs::default() };
+            let s = FrameSettings { method: Method::Visibility, knobs, ..Default::default() };
             let mut r = FrameRenderer::new(ctx, &sg, &lights, VW, VH, s).unwrap();
             render_frame(ctx, &mut r, &sg, &cam);
             let vf = r.passes::<VisibilityFrame>().unwrap();

@@ -21,6 +21,7 @@ use tiledlight_cull::raster::{pack, rasterize, unpack, Cull, Raster, CLEAR};
 use tiledlight_cull::visibility::{IdLayout, NO_TRIANGLE};
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method, VisibilityFrame};
 use tiledlight_gpu::features::Raster as RasterPath;
+use tiledlight_gpu::knobs::Knobs;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_scene::AlphaMode;
@@ -364,9 +365,15 @@ fn scene_raster(
     raster: RasterPath,
     compute_raster: ComputeRasterOptions,
 ) -> (Vec<f32>, Vec<u32>) {
-    let s = FrameSettings { method: Method::Visibility, raster, compute_raster, ..Default::default() };
+    let knobs = Knobs {
+        raster,
+        raster_large_px: compute_raster.large_px,
+        raster_large: compute_raster.large,
+        ..Knobs::default()
+    };
+    let s = FrameSettings { method: Method::Visibility, knobs, ..Default::default() };
     let mut r = FrameRenderer::new(ctx, sg, lights, SW, SH, s).unwrap_or_else(|e| panic!("{raster:?}: {e}"));
-    assert_eq!(r.settings().raster, raster);
+    assert_eq!(r.settings().knobs.raster, raster);
     render_frame(ctx, &mut r, sg, camera);
     let ids = r.passes::<VisibilityFrame>().unwrap().raster().read_ids(&ctx.device, &ctx.queue).unwrap();
     (r.read_depth(ctx).unwrap(), ids)
@@ -438,7 +445,8 @@ fn each_frame_forgets_the_last() {
     .unwrap();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &tiledlight_tests::scenes::lights(&scene, 16, 0, 1)).unwrap();
-    let s = FrameSettings { method: Method::Visibility, raster: RasterPath::Compute, ..Default::default() };
+    let knobs = Knobs { raster: RasterPath::Compute, ..Knobs::default() };
+    let s = FrameSettings { method: Method::Visibility, knobs, ..Default::default() };
     let read = |r: &FrameRenderer| {
         let ids = r.passes::<VisibilityFrame>().unwrap().raster().read_ids(&ctx.device, &ctx.queue).unwrap();
         (r.read_depth(ctx).unwrap(), ids)

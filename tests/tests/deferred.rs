@@ -9,6 +9,7 @@
 
 use tiledlight_frame::{DeferredFrame, Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::culling::CullOptions;
+use tiledlight_gpu::knobs::Knobs;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
@@ -68,7 +69,12 @@ fn compare_with_forward(
         &lights,
         W,
         H,
-        FrameSettings { method: Method::TiledDeferred, cull, gbuffer_rts: 3, ..Default::default() },
+        FrameSettings {
+            method: Method::TiledDeferred,
+            cull,
+            knobs: Knobs { gbuffer_rts: 3, ..Knobs::default() },
+            ..Default::default()
+        },
     )
     .unwrap();
     let deferred = render_frame(ctx, &mut deferred, &sg, &camera);
@@ -131,7 +137,11 @@ fn gbuffer_targets_do_not_change_the_image() {
                 &lights,
                 W,
                 H,
-                FrameSettings { method: Method::TiledDeferred, gbuffer_rts: rts, ..Default::default() },
+                FrameSettings {
+                    method: Method::TiledDeferred,
+                    knobs: Knobs { gbuffer_rts: rts, ..Knobs::default() },
+                    ..Default::default()
+                },
             )
             .unwrap();
             assert_eq!(r.passes::<DeferredFrame>().expect("Tiled Deferred").gbuffer().rts(), rts);
@@ -152,7 +162,11 @@ fn gbuffer_targets_do_not_change_the_image() {
         &lights,
         W,
         H,
-        FrameSettings { method: Method::TiledDeferred, gbuffer_rts: 6, ..Default::default() },
+        FrameSettings {
+            method: Method::TiledDeferred,
+            knobs: Knobs { gbuffer_rts: 6, ..Knobs::default() },
+            ..Default::default()
+        },
     )
     .err()
     .expect("6 targets refused");

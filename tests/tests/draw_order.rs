@@ -17,6 +17,7 @@ use tiledlight_cull::raster::{rasterize, Cull};
 use tiledlight_cull::Camera;
 use tiledlight_frame::{FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::draw_order::{DrawOrder, DrawOrderMode};
+use tiledlight_gpu::knobs::Knobs;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_scene::{default_scene, DefaultSceneOptions, Instance, Scene};
@@ -111,7 +112,12 @@ fn the_gbuffer_draws_in_the_frames_order() {
     let lights = LightBuffers::new(&ctx.device, &[]).unwrap();
     let ambient = Vec3::splat(0.5);
     let centre = |draw_order| {
-        let s = FrameSettings { method: Method::TiledDeferred, ambient, draw_order, ..Default::default() };
+        let s = FrameSettings {
+            method: Method::TiledDeferred,
+            ambient,
+            knobs: Knobs { draw_order, ..Knobs::default() },
+            ..Default::default()
+        };
         let mut r = FrameRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
         let f = render_frame(ctx, &mut r, &sg, &camera);
         // A 9x9 block at the centre, all of it inside the green plate.
@@ -147,7 +153,7 @@ fn the_order_changes_no_pixel_of_the_courtyard() {
     let exact = tiledlight_tests::is_lavapipe(ctx);
     for method in [Method::TiledDeferred, Method::ForwardPlus] {
         let image = |draw_order| {
-            let s = FrameSettings { method, draw_order, ..Default::default() };
+            let s = FrameSettings { method, knobs: Knobs { draw_order, ..Knobs::default() }, ..Default::default() };
             let mut r = FrameRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
             render_frame(ctx, &mut r, &sg, &camera).hdr
         };

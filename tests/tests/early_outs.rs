@@ -17,6 +17,7 @@
 use glam::Vec3;
 use tiledlight_cull::{Light, LightKind};
 use tiledlight_frame::{FrameRenderer, FrameSettings, Method};
+use tiledlight_gpu::knobs::Knobs;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_scene::{default_scene, DefaultSceneOptions};
@@ -44,7 +45,7 @@ fn the_ablation_changes_no_pixel() {
     for method in [Method::ForwardPlus, Method::TiledDeferred, Method::Visibility, Method::BruteForce { cutoff: true }]
     {
         let image = |early_outs| {
-            let s = FrameSettings { method, early_outs, ..Default::default() };
+            let s = FrameSettings { method, knobs: Knobs { early_outs, ..Knobs::default() }, ..Default::default() };
             let mut r = FrameRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
             render_frame(ctx, &mut r, &sg, &camera).hdr
         };
@@ -71,7 +72,7 @@ fn bevys_many_lights_add_nothing_to_the_picture() {
     let exact = tiledlight_tests::is_lavapipe(ctx);
     for method in [Method::ForwardPlus, Method::TiledDeferred] {
         let image = |lights: &LightBuffers, early_outs| {
-            let s = FrameSettings { method, early_outs, ..Default::default() };
+            let s = FrameSettings { method, knobs: Knobs { early_outs, ..Knobs::default() }, ..Default::default() };
             let mut r = FrameRenderer::new(ctx, &sg, lights, W, H, s).unwrap();
             let f = render_frame(ctx, &mut r, &sg, &camera);
             let grid = r.outputs().light_grid.expect("a tiled method has a light grid");

@@ -23,6 +23,7 @@ use tiledlight_cull::visibility::NO_TRIANGLE;
 use tiledlight_cull::{Camera, Light};
 use tiledlight_frame::{FrameRenderer, FrameSettings, Method, VisibilityFrame};
 use tiledlight_gpu::features::Raster;
+use tiledlight_gpu::knobs::Knobs;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::GpuContext;
@@ -177,7 +178,12 @@ fn msaa_edge_pixels_are_exactly_those_whose_samples_hold_different_ids() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &sc).unwrap();
     let lights = [Light::point(Vec3::new(0.0, 3.0, 1.0), Vec3::ONE, 4.0, 8.0).unwrap()];
     let lb = LightBuffers::new(&ctx.device, &lights).unwrap();
-    let s = FrameSettings { method: Method::Visibility, msaa: SAMPLES, raster: Raster::Hardware, ..Default::default() };
+    let s = FrameSettings {
+        method: Method::Visibility,
+        msaa: SAMPLES,
+        knobs: Knobs { raster: Raster::Hardware, ..Knobs::default() },
+        ..Default::default()
+    };
     let mut r = FrameRenderer::new(ctx, &sg, &lb, W, H, s).unwrap();
     render_frame(ctx, &mut r, &sg, &camera());
     let vf = r.passes::<VisibilityFrame>().expect("visibility");

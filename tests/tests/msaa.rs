@@ -13,6 +13,7 @@ use tiledlight_cull::Camera;
 use tiledlight_deferred::EdgeTest;
 use tiledlight_frame::{DeferredFrame, Diagnostics as _, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::culling::CullOptions;
+use tiledlight_gpu::knobs::Knobs;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
@@ -348,7 +349,12 @@ fn edge_pixels(ctx: &GpuContext, scene: &Scene, camera: &Camera, edge: EdgeTest)
         &sg,
         &lights,
         (W, H),
-        FrameSettings { method: Method::TiledDeferred, msaa: 4, edge, ..Default::default() },
+        FrameSettings {
+            method: Method::TiledDeferred,
+            msaa: 4,
+            knobs: Knobs { edge_distance: edge.distance, edge_normal_deg: edge.normal_deg, ..Knobs::default() },
+            ..Default::default()
+        },
     );
     render(ctx, &mut d, &sg, camera);
     (d.edge_pixels(ctx).unwrap().expect("MSAA deferred counts edges"), d.read_depth(ctx).unwrap())
@@ -541,7 +547,12 @@ fn check_visibility_msaa(
     // there (`Raster::Auto` picks the compute raster at 1x on a discrete GPU, whose depths
     // tests/tests/compute_raster.rs bounds against the hardware's).
     let raster = tiledlight_gpu::features::Raster::Hardware;
-    let s = FrameSettings { method: Method::Visibility, msaa, raster, ..Default::default() };
+    let s = FrameSettings {
+        method: Method::Visibility,
+        msaa,
+        knobs: Knobs { raster, ..Knobs::default() },
+        ..Default::default()
+    };
     let v = FrameRenderer::new(ctx, full_sg, lights, W, H, s);
     let mut v = v.unwrap_or_else(|e| panic!("the visibility buffer refused {msaa}x, which the adapter has: {e}"));
     render(ctx, &mut v, full_sg, camera);

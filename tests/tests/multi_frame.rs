@@ -44,6 +44,7 @@ use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method, V
 use tiledlight_gpu::culling::CullOptions;
 use tiledlight_gpu::draw_order::DrawOrderMode;
 use tiledlight_gpu::features::Raster;
+use tiledlight_gpu::knobs::Knobs;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_scene::{random_lights, Aabb, Instance, LightOptions, Material, Scene, DEFAULT_INTENSITY_RANGE};
@@ -158,10 +159,14 @@ fn the_compute_raster_starts_every_frame_clean() {
     let scene = walled_scene();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let base = bright_lights(&scene, (2.0, 4.0), 24, 8, 43);
-    let settings = FrameSettings { method: Method::Visibility, raster: Raster::Compute, ..Default::default() };
+    let settings = FrameSettings {
+        method: Method::Visibility,
+        knobs: Knobs { raster: Raster::Compute, ..Knobs::default() },
+        ..Default::default()
+    };
     let mut carried_lights = LightBuffers::new(&ctx.device, &moved(&base, 0.0)).unwrap();
     let mut carried = FrameRenderer::new(ctx, &sg, &carried_lights, W, H, settings).unwrap();
-    assert_eq!(carried.settings().raster, Raster::Compute);
+    assert_eq!(carried.settings().knobs.raster, Raster::Compute);
     let read = |r: &FrameRenderer| {
         let ids = r.passes::<VisibilityFrame>().unwrap().raster().read_ids(&ctx.device, &ctx.queue).unwrap();
         (r.read_depth(ctx).unwrap(), ids)
@@ -233,7 +238,7 @@ fn the_draw_order_is_sorted_again_when_the_eye_moves() {
     let settings = |draw_order| FrameSettings {
         method: Method::TiledDeferred,
         ambient: Vec3::splat(0.5),
-        draw_order,
+        knobs: Knobs { draw_order, ..Knobs::default() },
         ..Default::default()
     };
     let eyes = [Vec3::new(0.0, 10.0, 0.0), Vec3::new(4.5, 10.0, 0.0), Vec3::new(-0.5, 10.0, 0.5)];
@@ -344,7 +349,8 @@ fn the_light_grid_grows_as_the_lights_come_into_view() {
     // 60 tiles x 400 lights: every pair there can be.
     let fixed = CullOptions { grid_pairs: Some(60 * 400), ..CullOptions::default() };
     for method in [Method::ForwardPlus, Method::TiledDeferred, Method::Visibility] {
-        let settings = FrameSettings { method, raster: Raster::Auto, ..Default::default() };
+        let settings =
+            FrameSettings { method, knobs: Knobs { raster: Raster::Auto, ..Knobs::default() }, ..Default::default() };
         let mut carried_lights = LightBuffers::new(&ctx.device, &frame_lights(0)).unwrap();
         let mut carried = FrameRenderer::new(ctx, &sg, &carried_lights, W, H, settings).unwrap();
         let mut capacities = Vec::new();

@@ -23,8 +23,9 @@ use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::{cull_tiles, Camera, TileLists};
 use tiledlight_deferred::gbuffer::EXTRA_TEST_VALUES;
-use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method};
+use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method, TestHooks};
 use tiledlight_gpu::culling::{CullOptions, DropLight};
+use tiledlight_gpu::knobs::Knobs;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_tests::compare::{
@@ -137,15 +138,10 @@ fn one_dropped_light_fails_the_reference_comparisons() {
     );
 
     // Forward+: the hook removes exactly that light from exactly that list.
-    let mut dropped = FrameRenderer::new(
-        ctx,
-        &sg,
-        &lights,
-        W,
-        H,
-        FrameSettings { cull, test_drop_light: Some(drop), ..Default::default() },
-    )
-    .unwrap();
+    let hook = TestHooks { drop_light: Some(drop), ..TestHooks::default() };
+    let mut dropped =
+        FrameRenderer::with_hooks(ctx, (&sg, &lights), (W, H), FrameSettings { cull, ..Default::default() }, hook)
+            .unwrap();
     let dropped_frame = render_frame(ctx, &mut dropped, &sg, &camera);
     let sorted = |mut l: Vec<u32>| {
         l.sort_unstable();
@@ -173,18 +169,16 @@ fn one_dropped_light_fails_the_reference_comparisons() {
     );
 
     // Tiled Deferred: the same drop in its own culling.
-    let settings = FrameSettings { method: Method::TiledDeferred, cull, gbuffer_rts: 3, ..Default::default() };
+    let settings = FrameSettings {
+        method: Method::TiledDeferred,
+        cull,
+        knobs: Knobs { gbuffer_rts: 3, ..Knobs::default() },
+        ..Default::default()
+    };
     let mut plain = FrameRenderer::new(ctx, &sg, &lights, W, H, settings).unwrap();
     let plain_frame = render_frame(ctx, &mut plain, &sg, &camera);
-    let mut dropped = FrameRenderer::new(
-        ctx,
-        &sg,
-        &lights,
-        W,
-        H,
-        FrameSettings { method: Method::TiledDeferred, test_drop_light: Some(drop), ..settings },
-    )
-    .unwrap();
+    let deferred = FrameSettings { method: Method::TiledDeferred, ..settings };
+    let mut dropped = FrameRenderer::with_hooks(ctx, (&sg, &lights), (W, H), deferred, hook).unwrap();
     let dropped_frame = render_frame(ctx, &mut dropped, &sg, &camera);
     let counts = dropped.outputs().light_grid.unwrap().read_counts(&ctx.device, &ctx.queue).unwrap();
     assert_eq!(counts[tile] as usize + 1, cpu.lists[tile].len(), "deferred: the tile's count lost one light");
@@ -204,9 +198,8 @@ fn one_dropped_light_fails_the_reference_comparisons() {
     let settings = FrameSettings { method: Method::Visibility, cull, ..Default::default() };
     let plain_frame =
         render_frame(ctx, &mut FrameRenderer::new(ctx, &sg, &lights, W, H, settings).unwrap(), &sg, &camera);
-    let dropped = FrameSettings { test_drop_light: Some(drop), ..settings };
-    let dropped_frame =
-        render_frame(ctx, &mut FrameRenderer::new(ctx, &sg, &lights, W, H, dropped).unwrap(), &sg, &camera);
+    let mut dropped = FrameRenderer::with_hooks(ctx, (&sg, &lights), (W, H), settings, hook).unwrap();
+    let dropped_frame = render_frame(ctx, &mut dropped, &sg, &camera);
     let reference =
         plain_reference.allow_position_error(&depth, W, (&camera, &lights.packed), RASTER_POSITION_ERROR_PX);
     let lit: Vec<f32> = reference
@@ -254,32 +247,18 @@ fn drop_light_hook_rejects_what_does_not_exist() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 10, 0, 1)).unwrap();
     let (w, h) = (64, 48);
-    let err = |s: FrameSettings| FrameRenderer::new(ctx, &sg, &lights, w, h, s).err().expect("refused").to_string();
-    let e = err(FrameSettings { test_drop_light: Some(DropLight { tile: 12, light: 0 }), ..Default::default() });
+    let err = |method, (tile, light)| {
+        let hook = TestHooks { drop_light: Some(DropLight { tile, light }), ..TestHooks::default() };
+        let s = FrameSettings::of(method);
+        FrameRenderer::with_hooks(ctx, (&sg, &lights), (w, h), s, hook).err().expect("refused").to_string()
+    };
+    let e = err(Method::ForwardPlus, (12, 0));
     assert!(e.contains("tile 12") && e.contains("12 tiles"), "{e}");
-    let e = err(FrameSettings { test_drop_light: Some(DropLight { tile: 0, light: 10 }), ..Default::default() });
+    let e = err(Method::ForwardPlus, (0, 10));
     assert!(e.contains("light 10") && e.contains("10 lights"), "{e}");
-    let e = err(FrameSettings {
-        method: Method::BruteForce { cutoff: true },
-        test_drop_light: Some(DropLight { tile: 0, light: 0 }),
-        ..Default::default()
-    });
+    let e = err(Method::BruteForce { cutoff: true }, (0, 0));
     assert!(e.contains("brute force"), "{e}");
-    let e = FrameRenderer::new(
-        ctx,
-        &sg,
-        &lights,
-        w,
-        h,
-        FrameSettings {
-            method: Method::TiledDeferred,
-            test_drop_light: Some(DropLight { tile: 0, light: 99 }),
-            ..Default::default()
-        },
-    )
-    .err()
-    .expect("refused")
-    .to_string();
+    let e = err(Method::TiledDeferred, (0, 99));
     assert!(e.contains("light 99"), "{e}");
 }
 
@@ -309,7 +288,11 @@ fn gbuffer_extra_targets_are_read_and_multiplied() {
         &lights,
         W,
         H,
-        FrameSettings { method: Method::TiledDeferred, gbuffer_rts: 5, ..Default::default() },
+        FrameSettings {
+            method: Method::TiledDeferred,
+            knobs: Knobs { gbuffer_rts: 5, ..Knobs::default() },
+            ..Default::default()
+        },
     )
     .unwrap();
     let white = render_frame(ctx, &mut white, &sg, &camera);
@@ -337,20 +320,13 @@ fn gbuffer_extra_targets_are_read_and_multiplied() {
             &camera,
             &lights.packed,
         );
-        let mut r = FrameRenderer::new(
-            ctx,
-            &sg,
-            &lights,
-            W,
-            H,
-            FrameSettings {
-                method: Method::TiledDeferred,
-                gbuffer_rts: rts,
-                test_gbuffer_values: true,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let s = FrameSettings {
+            method: Method::TiledDeferred,
+            knobs: Knobs { gbuffer_rts: rts, ..Knobs::default() },
+            ..Default::default()
+        };
+        let hook = TestHooks { gbuffer_values: true, ..TestHooks::default() };
+        let mut r = FrameRenderer::with_hooks(ctx, (&sg, &lights), (W, H), s, hook).unwrap();
         let tested = render_frame(ctx, &mut r, &sg, &camera);
         let lit = reference.hdr.iter().filter(|p| p[0] + p[1] + p[2] > 0.05).count();
         assert!(lit * 4 > reference.hdr.len(), "{rts} targets: frame mostly unlit; the comparison would test nothing");
@@ -468,8 +444,9 @@ fn list_comparison_rejects_a_dim_missing_pair_and_a_wrong_index() {
         let broken = if cull == d {
             // The renderer drops it itself (list = tile without half-z or clusters).
             let drop = DropLight { tile: list as u32, light };
-            let hooked = FrameSettings { cull, test_drop_light: Some(drop), ..Default::default() };
-            let mut r = FrameRenderer::new(ctx, &sg, &lights, W, H, hooked).unwrap();
+            let hook = TestHooks { drop_light: Some(drop), ..TestHooks::default() };
+            let s = FrameSettings { cull, ..Default::default() };
+            let mut r = FrameRenderer::with_hooks(ctx, (&sg, &lights), (W, H), s, hook).unwrap();
             let dropped_frame = render_frame(ctx, &mut r, &sg, &camera);
             let reference = reference_frame(ctx, &sg, &lights, (W, H), &camera);
             let verdict = |f: &Frame| compare_with_reference(name, W, &reference, f, FORWARD_VS_REFERENCE).passes();

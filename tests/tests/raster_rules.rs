@@ -33,6 +33,7 @@ use tiledlight_cull::visibility::NO_TRIANGLE;
 use tiledlight_cull::{Camera, Light};
 use tiledlight_frame::{FrameRenderer, FrameSettings, Method, VisibilityFrame};
 use tiledlight_gpu::features::Raster as RasterPath;
+use tiledlight_gpu::knobs::Knobs;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_scene::{Aabb, Instance, Mesh, Scene};
@@ -395,7 +396,8 @@ fn raster_ids(
     options: ComputeRasterOptions,
 ) -> Vec<u32> {
     let ctx = gpu();
-    let s = FrameSettings { method: Method::Visibility, raster, compute_raster: options, ..Default::default() };
+    let knobs = Knobs { raster, raster_large_px: options.large_px, raster_large: options.large, ..Knobs::default() };
+    let s = FrameSettings { method: Method::Visibility, knobs, ..Default::default() };
     let mut r = FrameRenderer::new(ctx, sg, lights, W, H, s).unwrap_or_else(|e| panic!("{raster:?}: {e}"));
     render_frame(ctx, &mut r, sg, cam);
     r.passes::<VisibilityFrame>().unwrap().raster().read_ids(&ctx.device, &ctx.queue).unwrap()

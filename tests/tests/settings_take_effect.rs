@@ -36,13 +36,14 @@ use tiledlight_frame::{
 use tiledlight_gpu::culling::CullOptions;
 use tiledlight_gpu::draw_order::{DrawOrder, DrawOrderMode};
 use tiledlight_gpu::features::Raster;
+use tiledlight_gpu::knobs::Knobs;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_scene::{default_scene, AlphaMode, DefaultSceneOptions, Instance, Scene};
 use tiledlight_tests::compare::render_frame;
 use tiledlight_tests::{gpu, scenes};
-use tiledlight_visibility::compute_raster::{ComputeRasterOptions, LargeRaster};
+use tiledlight_visibility::compute_raster::LargeRaster;
 
 const W: u32 = 128;
 const H: u32 = 72;
@@ -106,7 +107,12 @@ fn the_early_outs_ablation_reaches_every_lighting_pipeline() {
     for method in [Method::ForwardPlus, Method::TiledDeferred, Method::Visibility, Method::BruteForce { cutoff: true }]
     {
         for early_outs in [true, false] {
-            let s = FrameSettings { method, early_outs, shadows, ..Default::default() };
+            let s = FrameSettings {
+                method,
+                knobs: Knobs { early_outs, ..Knobs::default() },
+                shadows,
+                ..Default::default()
+            };
             let r = FrameRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
             let pipelines = lighting_constants(&r);
             let what = format!("{}, early-outs {early_outs}", method.label());
@@ -173,7 +179,8 @@ fn the_draw_order_reaches_the_passes() {
     for method in [Method::ForwardPlus, Method::BruteForce { cutoff: true }, Method::TiledDeferred] {
         let mut sorted_calls = Vec::new();
         for mode in [DrawOrderMode::FrontToBack, DrawOrderMode::Submission] {
-            let s = FrameSettings { method, draw_order: mode, ..Default::default() };
+            let s =
+                FrameSettings { method, knobs: Knobs { draw_order: mode, ..Knobs::default() }, ..Default::default() };
             let mut r = FrameRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
             for cam in [&first, &second] {
                 render_frame(ctx, &mut r, &sg, cam);
@@ -285,10 +292,10 @@ fn the_visibility_raster_is_the_one_asked_for() {
         (Raster::Auto, LargeRaster::Compute),
     ];
     for (raster, large) in cases {
-        let compute_raster = ComputeRasterOptions { large, ..Default::default() };
-        let s = FrameSettings { method: Method::Visibility, raster, compute_raster, ..Default::default() };
+        let knobs = Knobs { raster, raster_large: large, ..Knobs::default() };
+        let s = FrameSettings { method: Method::Visibility, knobs, ..Default::default() };
         let mut r = FrameRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
-        let built = r.settings().raster;
+        let built = r.settings().knobs.raster;
         let what = format!("raster {} (built {}), large by {}", raster.name(), built.name(), large.name());
         let expected = raster.pick(ctx.info.device_type, ctx.device.features(), 1);
         assert_eq!(built, expected, "{what}");

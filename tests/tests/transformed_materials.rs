@@ -442,7 +442,7 @@ fn the_rsm_of_a_transformed_normal_mapped_wall_holds_the_cpu_normals_and_its_vpl
         &lights,
         tiledlight_gpu::features::Method::ForwardPlus,
         &CullOptions::default(),
-        (1, 2),
+        (1, Default::default()),
         (shadow, Default::default(), false),
     );
     let limits = device.limits();

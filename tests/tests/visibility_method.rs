@@ -9,9 +9,10 @@
 //! each sample count). The reconstruction's arithmetic is `visibility.rs`.
 
 use tiledlight_cull::Camera;
-use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method, VisibilityFrame};
+use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method, TestHooks, VisibilityFrame};
 use tiledlight_gpu::culling::{ClusterOptions, CullOptions};
 use tiledlight_gpu::features::Raster;
+use tiledlight_gpu::knobs::Knobs;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::plan::Step;
 use tiledlight_gpu::scene_gpu::SceneGpu;
@@ -70,7 +71,12 @@ fn every_layout_matches_reference_and_cpu_lists() {
         layouts.into_iter().flat_map(|l| visibility_rasters(1).into_iter().map(move |r| (l, r)))
     {
         let name = format!("{name}-{}", raster.name());
-        let s = FrameSettings { method: Method::Visibility, cull, raster, ..Default::default() };
+        let s = FrameSettings {
+            method: Method::Visibility,
+            cull,
+            knobs: Knobs { raster, ..Knobs::default() },
+            ..Default::default()
+        };
         let mut v = renderer(ctx, &sg, &lights, s);
         let frame = render_frame(ctx, &mut v, &sg, &camera);
         let dispatches = v.passes::<VisibilityFrame>().expect("visibility").shading().dispatches();
@@ -88,7 +94,7 @@ fn every_layout_matches_reference_and_cpu_lists() {
 
 /// The comparison catches one wrong triangle ID: the same frame with one pixel's ID
 /// replaced by another valid triangle's (instance 0's triangle 0, the floor's far corner;
-/// the test hook `FrameSettings::test_wrong_id`) fails against brute force, at that pixel,
+/// the test hook `TestHooks::wrong_id`) fails against brute force, at that pixel,
 /// while the frame without it passes. The pixel is on a box, not the floor.
 #[test]
 fn one_wrong_triangle_id_is_caught() {
@@ -110,7 +116,8 @@ fn one_wrong_id(
     reference: &Frame,
     raster: Raster,
 ) {
-    let s = FrameSettings { method: Method::Visibility, raster, ..Default::default() };
+    let s =
+        FrameSettings { method: Method::Visibility, knobs: Knobs { raster, ..Knobs::default() }, ..Default::default() };
     let good = render_frame(ctx, &mut renderer(ctx, sg, lights, s), sg, camera);
     assert!(visibility_matches("visibility-good", W, reference, &good), "the right IDs must pass");
     // A pixel of a box (the boxes stand at x -6..6, z -3..-1; the camera looks from the corner).
@@ -119,8 +126,9 @@ fn one_wrong_id(
         ((box_centre.x / box_centre.w + 1.0) * 0.5 * W as f32) as u32,
         ((1.0 - box_centre.y / box_centre.w) * 0.5 * H as f32) as u32,
     );
-    let wrong = FrameSettings { test_wrong_id: Some((x, y)), ..s };
-    let bad = render_frame(ctx, &mut renderer(ctx, sg, lights, wrong), sg, camera);
+    let hook = |pixel| TestHooks { wrong_id: Some(pixel), ..TestHooks::default() };
+    let mut wrong = FrameRenderer::with_hooks(ctx, (sg, lights), (W, H), s, hook((x, y))).unwrap();
+    let bad = render_frame(ctx, &mut wrong, sg, camera);
     let i = (y * W + x) as usize;
     eprintln!(
         "pixel ({x}, {y}): reference {:?}, right ID {:?}, wrong ID {:?}",
@@ -134,10 +142,9 @@ fn one_wrong_id(
     let c = compare_with_reference("visibility-wrong-id", W, reference, &bad, VISIBILITY_VS_REFERENCE);
     assert_eq!(c.hdr_at, i, "the worst pixel is the wrong one");
     // The hook is refused where it cannot work.
-    let e =
-        FrameRenderer::new(ctx, sg, lights, W, H, FrameSettings { test_wrong_id: Some((0, 0)), ..Default::default() });
+    let e = FrameRenderer::with_hooks(ctx, (sg, lights), (W, H), FrameSettings::default(), hook((0, 0)));
     assert!(e.err().expect("Forward+ refuses the hook").to_string().contains("visibility"));
-    let e = FrameRenderer::new(ctx, sg, lights, W, H, FrameSettings { test_wrong_id: Some((W, 0)), ..s });
+    let e = FrameRenderer::with_hooks(ctx, (sg, lights), (W, H), s, hook((W, 0)));
     assert!(e.err().expect("a pixel off screen is refused").to_string().contains("320x180"));
 }
 
@@ -157,7 +164,12 @@ fn models_only_what_it_needs() {
         let sg = SceneGpu::new(&ctx.device, &ctx.queue, scene).unwrap();
         let lights = LightBuffers::new(&ctx.device, &scenes::lights(scene, 50, 10, 3)).unwrap();
         for (msaa, raster) in [(1, Raster::Hardware), (4, Raster::Hardware), (1, Raster::Compute)] {
-            let s = FrameSettings { method: Method::Visibility, msaa, raster, ..Default::default() };
+            let s = FrameSettings {
+                method: Method::Visibility,
+                msaa,
+                knobs: Knobs { raster, ..Knobs::default() },
+                ..Default::default()
+            };
             let r = renderer(ctx, &sg, &lights, s);
             let plan = r.plan();
             assert!(plan.has(Step::VisibilityRaster) && plan.has(Step::Cull) && plan.has(Step::VisibilityShade));
@@ -231,17 +243,26 @@ fn the_compute_raster_refuses_what_it_cannot_draw() {
     let scene = scenes::mixed_scene();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 20, 0, 3)).unwrap();
-    let compute = FrameSettings { method: Method::Visibility, raster: Raster::Compute, ..Default::default() };
+    let compute = FrameSettings {
+        method: Method::Visibility,
+        knobs: Knobs { raster: Raster::Compute, ..Knobs::default() },
+        ..Default::default()
+    };
     let e = FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings { msaa: 4, ..compute }).err().expect("MSAA");
     assert!(e.to_string().contains("one sample a pixel") && e.to_string().contains("4x MSAA"), "{e}");
     let e = FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings { method: Method::ForwardPlus, ..compute });
     assert!(e.err().expect("Forward+").to_string().contains("visibility buffer only"));
     let auto = FrameSettings { method: Method::Visibility, msaa: 4, ..Default::default() };
-    assert_eq!(renderer(ctx, &sg, &lights, auto).settings().raster, Raster::Hardware, "Auto with MSAA");
+    assert_eq!(renderer(ctx, &sg, &lights, auto).settings().knobs.raster, Raster::Hardware, "Auto with MSAA");
     let expected =
         if ctx.info.device_type == wgpu::DeviceType::DiscreteGpu { Raster::Compute } else { Raster::Hardware };
     let auto = FrameSettings { method: Method::Visibility, ..Default::default() };
-    assert_eq!(renderer(ctx, &sg, &lights, auto).settings().raster, expected, "Auto on {:?}", ctx.info.device_type);
+    assert_eq!(
+        renderer(ctx, &sg, &lights, auto).settings().knobs.raster,
+        expected,
+        "Auto on {:?}",
+        ctx.info.device_type
+    );
     // A device without the atomics.
     let without = wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX;
     let small = GpuContext::headless(ContextOptions { without_features: without, ..Default::default() }).unwrap();
@@ -254,5 +275,5 @@ fn the_compute_raster_refuses_what_it_cannot_draw() {
         "{e}"
     );
     let r = FrameRenderer::new(&small, &sg, &lights, W, H, auto).expect("Auto without the atomics");
-    assert_eq!(r.settings().raster, Raster::Hardware);
+    assert_eq!(r.settings().knobs.raster, Raster::Hardware);
 }

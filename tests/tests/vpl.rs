@@ -117,7 +117,7 @@ fn run_shadowed(scene: &Scene, cfg: &VplConfig, lights: &[Light], casters: (u32,
         &lights,
         Method::ForwardPlus,
         &CullOptions::default(),
-        (1, 2),
+        (1, Default::default()),
         (shadow, Default::default(), false),
     );
     let limits = device.limits();
@@ -304,7 +304,7 @@ fn bad_settings_are_errors_naming_the_setting() {
         &lights,
         Method::ForwardPlus,
         &CullOptions::default(),
-        (1, 2),
+        (1, Default::default()),
         (shadow, Default::default(), false),
     );
     let limits = device.limits();

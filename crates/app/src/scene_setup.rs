@@ -11,15 +11,15 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use tiledlight_cull::shadow::ShadowFormat;
-use tiledlight_deferred::EdgeTest;
 use tiledlight_gpu::culling::ClusterOptions;
 use tiledlight_gpu::features::BlendMode;
+use tiledlight_gpu::knobs::KnobArgs;
 use tiledlight_lab::axes::{on_off, Flags};
 use tiledlight_scene::{GridDensity, DEFAULT_LIGHT_THRESHOLD};
 use tiledlight_setup::bookmark;
 use tiledlight_setup::{
-    surface_exposure, CameraBookmark, CasterChoice, ComputeRasterOptions, DrawOrderMode, LargeRaster, LightPlacement,
-    Method, Raster, SceneSource, Settings, DEFAULT_LIGHTS_PER_POINT, MILLION_LIGHTS,
+    surface_exposure, CameraBookmark, CasterChoice, LightPlacement, Method, SceneSource, Settings,
+    DEFAULT_LIGHTS_PER_POINT, MILLION_LIGHTS,
 };
 
 /// Tessellation of the default scene's grid objects.
@@ -104,61 +104,6 @@ impl From<ShadowFormat> for ShadowFormatArg {
         match f {
             ShadowFormat::Depth16 => ShadowFormatArg::D16,
             ShadowFormat::Depth32 => ShadowFormatArg::D32,
-        }
-    }
-}
-
-/// Who draws the compute raster's large triangles (`--raster-large`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum LargeRasterArg {
-    /// A compute workgroup per large triangle.
-    Compute,
-    /// The hardware raster, by one indirect draw.
-    Hardware,
-}
-
-impl From<LargeRasterArg> for LargeRaster {
-    fn from(m: LargeRasterArg) -> Self {
-        match m {
-            LargeRasterArg::Compute => LargeRaster::Compute,
-            LargeRasterArg::Hardware => LargeRaster::Hardware,
-        }
-    }
-}
-
-impl From<LargeRaster> for LargeRasterArg {
-    fn from(m: LargeRaster) -> Self {
-        match m {
-            LargeRaster::Compute => LargeRasterArg::Compute,
-            LargeRaster::Hardware => LargeRasterArg::Hardware,
-        }
-    }
-}
-
-/// The order the depth pre-pass and the G-buffer draw the scene in (`--draw-order`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum DrawOrderArg {
-    /// Nearest instances first, sorted again when the camera moves: hidden fragments fail
-    /// the early depth test instead of being shaded and exported.
-    FrontToBack,
-    /// The instance buffer's order (by mesh and material, as the scene lists them).
-    Submission,
-}
-
-impl From<DrawOrderArg> for DrawOrderMode {
-    fn from(m: DrawOrderArg) -> Self {
-        match m {
-            DrawOrderArg::FrontToBack => DrawOrderMode::FrontToBack,
-            DrawOrderArg::Submission => DrawOrderMode::Submission,
-        }
-    }
-}
-
-impl From<DrawOrderMode> for DrawOrderArg {
-    fn from(m: DrawOrderMode) -> Self {
-        match m {
-            DrawOrderMode::FrontToBack => DrawOrderArg::FrontToBack,
-            DrawOrderMode::Submission => DrawOrderArg::Submission,
         }
     }
 }
@@ -402,45 +347,10 @@ pub struct SceneArgs {
     /// 64x64-pixel cell, and tiles test only their cell's lights).
     #[arg(long)]
     pub flat_cull: bool,
-    /// Tiled Deferred's G-buffer render targets, 2 to 5: the extra ones are written white
-    /// and read back (the sample's bandwidth stress knob; the image does not change).
-    #[arg(long, default_value_t = 2, value_name = "2..5")]
-    pub gbuffer_rts: u32,
-    /// The order the depth pre-pass (Forward+, brute force) and the G-buffer (Tiled
-    /// Deferred) draw the scene in: nearest first, or the instance buffer's order (to
-    /// measure what sorting saves). Images differ only where two surfaces tie in depth.
-    #[arg(long, value_enum, default_value_t = DrawOrderArg::FrontToBack)]
-    pub draw_order: DrawOrderArg,
-    /// An ablation: shade every light a list holds in full, without returning early for a
-    /// light beyond its radius or behind the surface (the result is discarded, so the
-    /// image is the same). Measures what the early-outs save, e.g. against a renderer
-    /// that has none.
-    #[arg(long)]
-    pub no_early_outs: bool,
-    /// The visibility buffer's raster (--method visibility): auto picks compute on a
-    /// discrete GPU with 64-bit atomics at one sample a pixel, else hardware.
-    #[arg(long, value_enum, default_value_t = Raster::Auto)]
-    pub raster: Raster,
-    /// The compute raster hands triangles whose bounds span more pixels than this (either
-    /// way) to the hardware raster.
-    #[arg(long, default_value_t = ComputeRasterOptions::default().large_px, value_name = "PX")]
-    pub raster_large_px: u32,
-    /// Who draws the compute raster's large triangles: compute (a workgroup a triangle) or
-    /// the hardware raster (one indirect draw).
-    #[arg(long, value_enum, default_value_t = LargeRasterArg::Compute)]
-    pub raster_large: LargeRasterArg,
     /// MSAA samples per pixel: 1 (off), 2, 4 or 8 (2 and 8 where the GPU has them). Forward+
     /// and brute force use hardware MSAA; Tiled Deferred shades edge pixels per sample.
     #[arg(long, default_value_t = 1, value_name = "1|2|4|8")]
     pub msaa: u32,
-    /// Tiled Deferred's MSAA edge test: a sample farther than this fraction of the view
-    /// distance from sample 0's tangent plane makes the pixel an edge.
-    #[arg(long, default_value_t = EdgeTest::default().distance, value_name = "F")]
-    pub edge_distance: f32,
-    /// Tiled Deferred's MSAA edge test: a sample normal turned more than this many degrees
-    /// from sample 0's makes the pixel an edge.
-    #[arg(long, default_value_t = EdgeTest::default().normal_deg, value_name = "DEG")]
-    pub edge_normal_deg: f32,
     /// A fixed exposure before tonemapping [default: automatic, from each frame's
     /// log-average luminance, mapped to middle grey; `accuracy` and `shadow-accuracy` fix
     /// the one their reference image gets, so every setting is tonemapped alike].
@@ -491,6 +401,10 @@ pub struct SceneArgs {
     /// Virtual point lights (`--vpl` and its settings).
     #[command(flatten)]
     pub vpl: crate::vpl_args::VplArgs,
+    /// The pass settings, one flag a row of `tiledlight_gpu::knobs` (`--gbuffer-rts`,
+    /// `--draw-order`, `--no-early-outs`, `--raster`, `--edge-distance`, ...).
+    #[command(flatten)]
+    pub knobs: KnobArgs,
 }
 
 impl Default for SceneArgs {
@@ -530,15 +444,7 @@ impl Default for SceneArgs {
             cluster_geometry_only: c.geometry_only,
             spot_cone: d.spot_cone,
             flat_cull: d.flat_cull,
-            gbuffer_rts: d.gbuffer_rts,
-            draw_order: d.draw_order.into(),
-            no_early_outs: !d.early_outs,
-            raster: d.raster,
-            raster_large_px: d.raster_large_px,
-            raster_large: d.raster_large.into(),
             msaa: d.msaa,
-            edge_distance: d.edge_distance,
-            edge_normal_deg: d.edge_normal_deg,
             exposure: None,
             shadow_point_lights: d.shadow_point_lights,
             shadow_spot_lights: d.shadow_spot_lights,
@@ -552,6 +458,7 @@ impl Default for SceneArgs {
             grid_budget: d.grid_pairs,
             allow_any_path: d.allow_any_path,
             vpl: crate::vpl_args::VplArgs::of(d.vpl),
+            knobs: KnobArgs(d.knobs),
         }
     }
 }
@@ -611,15 +518,7 @@ impl SceneArgs {
             }),
             spot_cone: self.spot_cone,
             flat_cull: self.flat_cull,
-            gbuffer_rts: self.gbuffer_rts,
-            draw_order: self.draw_order.into(),
-            early_outs: !self.no_early_outs,
-            raster: self.raster,
-            raster_large_px: self.raster_large_px,
-            raster_large: self.raster_large.into(),
             msaa: self.msaa,
-            edge_distance: self.edge_distance,
-            edge_normal_deg: self.edge_normal_deg,
             exposure,
             shadow_point_lights: self.shadow_point_lights,
             shadow_spot_lights: self.shadow_spot_lights,
@@ -632,6 +531,7 @@ impl SceneArgs {
             strict: self.strict,
             allow_any_path: self.allow_any_path,
             vpl: self.vpl.config(),
+            knobs: self.knobs.0,
             traced_progress: false,
         }
     }
@@ -660,6 +560,10 @@ impl Flags for SceneArgs {
             let n = int()?;
             u32::try_from(n).with_context(|| format!("{name} {n}: too large"))
         };
+        // A row of the pass settings' table parses its own value.
+        if let Some(set) = args.knobs.0.set(name, value) {
+            return set.map_err(anyhow::Error::msg);
+        }
         match name {
             "lights" => args.lights = Some(int()?),
             "spot-lights" => args.spot_lights = Some(int()?),
@@ -667,29 +571,8 @@ impl Flags for SceneArgs {
             // Read (and checked) with the other files the settings name.
             "camera" => args.camera = Some(PathBuf::from(value)),
             "grid-objects" => args.grid_objects = small()?,
-            "gbuffer-rts" => args.gbuffer_rts = small()?,
-            "raster-large-px" => args.raster_large_px = small()?,
-            "raster-large" => {
-                args.raster_large =
-                    LargeRasterArg::from_str(value, true).map_err(|e| anyhow::anyhow!("raster-large '{value}': {e}"))?
-            }
-            "draw-order" => {
-                args.draw_order =
-                    DrawOrderArg::from_str(value, true).map_err(|e| anyhow::anyhow!("draw-order '{value}': {e}"))?
-            }
-            "raster" => {
-                args.raster = Raster::from_str(value, true).map_err(|e| anyhow::anyhow!("raster '{value}': {e}"))?
-            }
             "tile-size" => args.tile_size = small()?,
             "msaa" => args.msaa = small()?,
-            "edge-distance" => {
-                args.edge_distance =
-                    value.parse().with_context(|| format!("edge-distance '{value}': expected a number"))?
-            }
-            "edge-normal-deg" => {
-                args.edge_normal_deg =
-                    value.parse().with_context(|| format!("edge-normal-deg '{value}': expected a number"))?
-            }
             "threshold" => {
                 args.threshold = value.parse().with_context(|| format!("threshold '{value}': expected a number"))?
             }
@@ -736,7 +619,6 @@ impl Flags for SceneArgs {
                     Some(value.parse().with_context(|| format!("lights-per-pixel '{value}': expected a number"))?)
             }
             "aabb" => args.aabb = on_off(value)?,
-            "early-outs" => args.no_early_outs = !on_off(value)?,
             "half-z" => args.half_z = on_off(value)?,
             // The VPL settings' axes apply with --vpl (or the vpl axis) on.
             "vpl" => args.vpl.vpl = on_off(value)?,
@@ -787,20 +669,12 @@ mod tests {
     use super::*;
     use clap::Parser;
     use tiledlight_lab::axes;
+    use tiledlight_setup::{DrawOrderMode, Knobs, LargeRaster, Raster};
 
     #[derive(Parser)]
     struct Cli {
         #[command(flatten)]
         scene: SceneArgs,
-    }
-
-    /// The command line's draw-order names are the library's labels (the bench JSON's).
-    #[test]
-    fn draw_order_names_are_the_library_labels() {
-        for arg in DrawOrderArg::value_variants() {
-            let name = arg.to_possible_value().unwrap().get_name().to_string();
-            assert_eq!(name, DrawOrderMode::from(*arg).label());
-        }
     }
 
     /// `--demo` puts its flags after the subcommand, leaving out those the user gives, so
@@ -939,15 +813,7 @@ mod tests {
             clusters: None,
             spot_cone: true,
             flat_cull: true,
-            gbuffer_rts: 3,
-            draw_order: DrawOrderMode::Submission,
-            early_outs: false,
-            raster: Raster::Hardware,
-            raster_large_px: 48,
-            raster_large: LargeRaster::Hardware,
             msaa: 4,
-            edge_distance: 0.25,
-            edge_normal_deg: 30.0,
             exposure: 2.0,
             auto_exposure: false,
             shadow_point_lights: 2,
@@ -959,6 +825,16 @@ mod tests {
             blend_mode: BlendMode::WeightedOit,
             vpl: None,
             traced_progress: false,
+            knobs: Knobs {
+                gbuffer_rts: 3,
+                draw_order: DrawOrderMode::Submission,
+                early_outs: false,
+                raster: Raster::Hardware,
+                raster_large_px: 48,
+                raster_large: LargeRaster::Hardware,
+                edge_distance: 0.25,
+                edge_normal_deg: 30.0,
+            },
             camera: None,
             strict: false,
             allow_any_path: false,
@@ -1200,9 +1076,9 @@ mod tests {
         let axes = vec![axes::parse_axis::<SceneArgs>("early-outs=on,off").unwrap()];
         let p = axes::points(&axes).unwrap();
         let settings = |i: usize| axes::args_at(&SceneArgs::default(), &axes, &p[i]).unwrap().settings().unwrap();
-        assert!(settings(0).early_outs);
-        assert!(!settings(1).early_outs);
-        assert!(!settings(1).frame_settings(false).early_outs, "the ablation reaches the frame");
+        assert!(settings(0).knobs.early_outs);
+        assert!(!settings(1).knobs.early_outs);
+        assert!(!settings(1).frame_settings(false).knobs.early_outs, "the ablation reaches the frame");
         let e = format!("{:#}", axes::parse_axis::<SceneArgs>("early-outs=sometimes").unwrap_err());
         assert!(e.contains("early-outs"), "{e}");
     }

@@ -50,7 +50,7 @@ pub enum DrawOrderMode {
 
 impl DrawOrderMode {
     /// The name the command line and the reports use.
-    pub fn label(self) -> &'static str {
+    pub const fn label(self) -> &'static str {
         match self {
             Self::FrontToBack => "front-to-back",
             Self::Submission => "submission",

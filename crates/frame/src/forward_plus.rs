@@ -97,7 +97,7 @@ impl ForwardFrame {
                     (lights, &shared.lighting),
                     shared.grid,
                     settings.cull,
-                    settings.test_drop_light,
+                    shared.hooks.drop_light,
                 )
             })
             .transpose()?;

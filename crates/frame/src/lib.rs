@@ -37,7 +37,7 @@ pub use diagnostics::Diagnostics;
 pub use forward_plus::ForwardFrame;
 pub use method::MethodFrame;
 pub use renderer::{BetweenFrames, FrameRenderer, Outputs, Renderer};
-pub use settings::FrameSettings;
+pub use settings::{FrameSettings, TestHooks};
 pub use tiled_deferred::DeferredFrame;
 pub use tiledlight_gpu::features::Method;
 pub use visibility::VisibilityFrame;

@@ -25,7 +25,7 @@ use tiledlight_gpu::{GpuContext, GpuError};
 
 use crate::handles::Rec;
 use crate::method::MethodFrame;
-use crate::settings::FrameSettings;
+use crate::settings::{FrameSettings, TestHooks};
 use crate::shared::{SharedSteps, Vpls};
 use crate::{forward_plus, tiled_deferred, visibility};
 use tiledlight_gpu::targets::target_handles;
@@ -107,39 +107,45 @@ impl FrameRenderer {
         height: u32,
         settings: FrameSettings,
     ) -> Result<Self, GpuError> {
+        Self::with_hooks(ctx, (scene, lights), (width, height), settings, TestHooks::default())
+    }
+
+    /// [`FrameRenderer::new`] with test hooks: deliberate faults that tests use to prove a
+    /// comparison catches them ([`TestHooks`]).
+    pub fn with_hooks(
+        ctx: &GpuContext,
+        (scene, lights): (&SceneGpu, &LightBuffers),
+        (width, height): (u32, u32),
+        settings: FrameSettings,
+        hooks: TestHooks,
+    ) -> Result<Self, GpuError> {
         let mut settings = settings;
         settings.cull.samples = settings.msaa;
+        let raster = &mut settings.knobs.raster;
         if settings.method.uses_visibility_buffer() {
-            settings.raster = settings.raster.pick(ctx.info.device_type, ctx.device.features(), settings.msaa);
-            if settings.raster == Raster::Compute {
+            *raster = raster.pick(ctx.info.device_type, ctx.device.features(), settings.msaa);
+            if *raster == Raster::Compute {
                 tiledlight_visibility::compute_raster::check_support(ctx.device.features(), settings.msaa)?;
             }
-        } else if settings.raster == Raster::Compute {
+        } else if *raster == Raster::Compute {
             return Err(GpuError::Config(format!(
                 "the compute raster draws the visibility buffer only, not {}",
                 settings.method.label()
             )));
         }
         let s = &settings;
-        let mut features = Features::new(
-            scene,
-            lights,
-            s.method,
-            &s.cull,
-            (s.msaa, s.gbuffer_rts),
-            (s.shadows, s.blend, s.vpl.is_some()),
-        );
-        features.early_outs = s.early_outs;
+        let features =
+            Features::new(scene, lights, s.method, &s.cull, (s.msaa, s.knobs), (s.shadows, s.blend, s.vpl.is_some()));
         if features.vpl && features.shadows.is_none() {
             return Err(GpuError::Config(
                 "VPLs are made from the shadow-casting lights' reflective shadow maps: no light casts a shadow".into(),
             ));
         }
-        if s.test_wrong_id.is_some() && s.method != Method::Visibility {
+        if hooks.wrong_id.is_some() && s.method != Method::Visibility {
             return Err(GpuError::Config("the wrong-ID test hook needs the visibility method".into()));
         }
         if !s.method.is_tiled() {
-            if s.test_drop_light.is_some() {
+            if hooks.drop_light.is_some() {
                 return Err(GpuError::Config(
                     "the drop-light test hook needs a tiled method (brute force has no tiles)".into(),
                 ));
@@ -168,17 +174,18 @@ impl FrameRenderer {
                 "building the Tiled Deferred renderer",
             ),
             Method::Visibility => (
-                visibility::targets(&features, s.raster),
+                visibility::targets(&features, s.knobs.raster),
                 |c, sh, sl, st, m| Ok(Box::new(visibility::VisibilityFrame::new(c, sh, sl, st, m)?)),
                 "building the visibility-buffer renderer",
             ),
             Method::TracedReference { .. } => (
-                visibility::targets(&features, s.raster),
+                visibility::targets(&features, s.knobs.raster),
                 |c, sh, sl, st, m| Ok(Box::new(visibility::VisibilityFrame::new(c, sh, sl, st, m)?)),
                 "building the traced reference",
             ),
         };
         let mut shared = SharedSteps::new(ctx, scene, lights, features, (s, (width, height)), needs)?;
+        shared.hooks = hooks;
         let method = ctx.checked(what, || {
             shared.build_vpls(ctx, scene, lights, s)?;
             let mut memory = std::mem::take(&mut shared.memory);
@@ -292,13 +299,13 @@ impl Renderer for FrameRenderer {
         f.write_view(queue, camera);
         let (depth, hdr, ldr) = target_handles(&f.targets);
         let mut cached = self.order.borrow_mut();
-        if self.settings.draw_order == DrawOrderMode::FrontToBack {
+        if self.settings.knobs.draw_order == DrawOrderMode::FrontToBack {
             let eye = camera.eye();
             if cached.as_ref().is_none_or(|(e, _)| *e != eye) {
                 *cached = Some((eye, scene.front_to_back(eye)));
             }
         }
-        let order = match self.settings.draw_order {
+        let order = match self.settings.knobs.draw_order {
             DrawOrderMode::FrontToBack => cached.as_ref().map(|(_, o)| o),
             DrawOrderMode::Submission => None,
         };

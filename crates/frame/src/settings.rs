@@ -1,19 +1,17 @@
 //! [`FrameSettings`]: every setting of a frame, for every method, in one value (the method,
-//! its culling, MSAA, exposure, shadows, blended geometry, VPLs, the heat map, and the
-//! knobs only Tiled Deferred or the visibility buffer reads). What the scene itself requires is decided from
-//! it and the scene once, in [`tiledlight_gpu::features::Features`]. Depends on
-//! tiledlight-gpu (option types), tiledlight-cull (shadow and VPL options) and
-//! tiledlight-deferred (its edge test's thresholds).
+//! its culling, MSAA, exposure, shadows, blended geometry, VPLs, the heat map, and the pass
+//! settings' table [`Knobs`]). What the scene itself requires is decided from it and the
+//! scene once, in [`tiledlight_gpu::features::Features`]. [`TestHooks`]: what only tests
+//! set, given to [`crate::FrameRenderer::with_hooks`] beside the settings. Depends on
+//! tiledlight-gpu (option types) and tiledlight-cull (shadow and VPL options).
 
 use glam::Vec3;
 use tiledlight_cull::shadow::ShadowOptions;
 use tiledlight_cull::vpl::VplConfig;
-use tiledlight_deferred::EdgeTest;
 use tiledlight_gpu::culling::{CullOptions, DropLight};
-use tiledlight_gpu::draw_order::DrawOrderMode;
-use tiledlight_gpu::features::{BlendMode, Method, Raster};
+use tiledlight_gpu::features::{BlendMode, Method};
 use tiledlight_gpu::heatmap::HeatmapOf;
-use tiledlight_visibility::compute_raster::ComputeRasterOptions;
+use tiledlight_gpu::knobs::Knobs;
 
 /// How a frame is drawn: built into a renderer once ([`crate::FrameRenderer::new`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -48,34 +46,13 @@ pub struct FrameSettings {
     /// Tiled methods cull them into a light grid of their own (one list per tile); brute
     /// force shades every one.
     pub vpl: Option<VplConfig>,
-    /// The order the depth pre-pass and the G-buffer draw the scene in: nearest first
-    /// (the default; sorted again when the eye moves) or the instance buffer's
-    /// ([`tiledlight_gpu::draw_order`]). Images differ only where two surfaces tie in depth.
-    pub draw_order: DrawOrderMode,
-    /// The shading's early-outs (true, the default); false is the ablation that evaluates
-    /// every listed light in full ([`tiledlight_gpu::features::Features::early_outs`]).
-    pub early_outs: bool,
-    /// Tiled Deferred: G-buffer render targets, 2..=5 (extra ones are written white and
-    /// read back: the sample's bandwidth stress knob). Other methods ignore it.
-    pub gbuffer_rts: u32,
-    /// Tiled Deferred with MSAA: the edge test's thresholds. Other methods ignore it.
-    pub edge: EdgeTest,
-    /// Test-only: leave one light out of one tile's list (tiled methods; see
-    /// [`DropLight`]). `None` by default; production never sets it.
-    pub test_drop_light: Option<DropLight>,
-    /// Test-only (Tiled Deferred): the extra G-buffer targets hold
-    /// `tiledlight_deferred::gbuffer::EXTRA_TEST_VALUES` instead of white, so tests can
-    /// prove the shading pass reads and multiplies each of them. `false` by default.
-    pub test_gbuffer_values: bool,
-    /// The visibility buffer's raster: [`Raster::Auto`] (the default) picks per adapter
-    /// ([`Raster::pick`]); [`crate::FrameRenderer::settings`] reports the one built.
-    pub raster: Raster,
-    /// The compute raster's split with the hardware (large triangles).
-    pub compute_raster: ComputeRasterOptions,
-    /// Test-only (visibility buffer, one sample): after the raster pass the ID at this
-    /// pixel is overwritten with instance 0's triangle 0 (a valid but wrong triangle), so
-    /// tests can prove a comparison catches one wrong ID. `None` by default.
-    pub test_wrong_id: Option<(u32, u32)>,
+    /// The pass settings (early-outs, G-buffer targets, draw order, the visibility
+    /// buffer's raster and its large triangles, the MSAA edge test): one row each in
+    /// [`tiledlight_gpu::knobs`], read by the passes through
+    /// [`tiledlight_gpu::features::Features::knobs`]. `knobs.raster` `Raster::Auto` (the
+    /// default) picks per adapter (`Raster::pick`); [`crate::FrameRenderer::settings`]
+    /// reports the one built.
+    pub knobs: Knobs,
     /// The traced reference submits each band of its frame on its own and prints its
     /// progress on stderr (renders of a second or more); untimed. Off by default (one timed
     /// submission, as benchmarks need).
@@ -96,15 +73,7 @@ impl Default for FrameSettings {
             shadows: ShadowOptions::default(),
             blend: BlendMode::Sorted,
             vpl: None,
-            draw_order: DrawOrderMode::FrontToBack,
-            early_outs: true,
-            gbuffer_rts: 2,
-            edge: EdgeTest::default(),
-            test_drop_light: None,
-            test_gbuffer_values: false,
-            test_wrong_id: None,
-            raster: Raster::Auto,
-            compute_raster: ComputeRasterOptions::default(),
+            knobs: Knobs::default(),
             traced_progress: false,
         }
     }
@@ -115,4 +84,20 @@ impl FrameSettings {
     pub fn of(method: Method) -> Self {
         Self { method, ..Self::default() }
     }
+}
+
+/// What only tests set: deliberate faults that prove a comparison catches them. Production
+/// builds renderers with [`crate::FrameRenderer::new`], which sets none.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TestHooks {
+    /// Leave one light out of one tile's list (tiled methods; see [`DropLight`]).
+    pub drop_light: Option<DropLight>,
+    /// Tiled Deferred: the extra G-buffer targets hold
+    /// `tiledlight_deferred::gbuffer::EXTRA_TEST_VALUES` instead of white, so tests can
+    /// prove the shading pass reads and multiplies each of them.
+    pub gbuffer_values: bool,
+    /// Visibility buffer, one sample: after the raster pass the ID at this pixel is
+    /// overwritten with instance 0's triangle 0 (a valid but wrong triangle), so tests can
+    /// prove a comparison catches one wrong ID.
+    pub wrong_id: Option<(u32, u32)>,
 }

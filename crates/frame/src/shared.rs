@@ -32,7 +32,7 @@ use tiledlight_gpu::{GpuContext, GpuError};
 use tiledlight_vpl::VplPath;
 
 use crate::handles::Rec;
-use crate::settings::FrameSettings;
+use crate::settings::{FrameSettings, TestHooks};
 use tiledlight_gpu::handles::{Depth, Hdr, Ldr, Lists};
 use tiledlight_gpu::targets::target_handles;
 
@@ -86,6 +86,9 @@ pub struct SharedSteps {
     pub heatmap: Option<HeatmapPass>,
     /// GPU memory of the scene, lights, targets and every step, by category.
     pub memory: MemoryReport,
+    /// The test hooks the renderer was built with ([`crate::FrameRenderer::with_hooks`]);
+    /// none in production.
+    pub hooks: TestHooks,
     vpl_cull_label: String,
 }
 
@@ -172,6 +175,7 @@ impl SharedSteps {
             blended: None,
             heatmap: None,
             memory,
+            hooks: TestHooks::default(),
             vpl_cull_label: format!("{}.cull_vpls", needs.prefix),
         })
     }

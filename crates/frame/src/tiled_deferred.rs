@@ -18,6 +18,7 @@ use std::any::Any;
 use tiledlight_deferred::gbuffer::{emission_format, GBuffer, GBufferPass, EXTRA_FORMAT, SURFACE_FORMAT};
 use tiledlight_deferred::shading::DeferredShading;
 use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
+use tiledlight_gpu::edge_samples::EdgeTest;
 use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::LightGrid;
@@ -71,9 +72,15 @@ impl DeferredFrame {
         let (features, views, targets) = (&shared.features, &shared.views, &shared.targets);
         let size = (targets.hdr.width(), targets.hdr.height());
         let emission = emission_format(device, &features.materials);
-        let gbuffer = GBuffer::new((device, &ctx.queue), size, settings.gbuffer_rts, features.msaa, emission)?;
-        let gbuffer_pass =
-            GBufferPass::new(device, views, scene, settings.gbuffer_rts, features.msaa, settings.test_gbuffer_values)?;
+        let gbuffer = GBuffer::new((device, &ctx.queue), size, features.knobs.gbuffer_rts, features.msaa, emission)?;
+        let gbuffer_pass = GBufferPass::new(
+            device,
+            views,
+            scene,
+            features.knobs.gbuffer_rts,
+            features.msaa,
+            shared.hooks.gbuffer_values,
+        )?;
         memory.add("deferred.gbuffer", gbuffer.bytes());
         memory.note("deferred.gbuffer", gbuffer.describe());
         let shading = DeferredShading::new(
@@ -85,8 +92,8 @@ impl DeferredFrame {
             (lights, &shared.lighting),
             shared.grid,
             settings.cull,
-            settings.edge,
-            settings.test_drop_light,
+            EdgeTest::of(&features.knobs),
+            shared.hooks.drop_light,
             (features, shared.shadows.as_ref()),
             memory,
             shared.vpls.as_ref().map(|v| &v.bindings),

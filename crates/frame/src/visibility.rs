@@ -28,6 +28,7 @@ use std::any::Any;
 
 use tiledlight_gpu::culling::LightCulling;
 use tiledlight_gpu::depth_prepass::{DEPTH_FORMAT, ID_FORMAT};
+use tiledlight_gpu::edge_samples::EdgeTest;
 use tiledlight_gpu::features::Raster;
 use tiledlight_gpu::features::{Features, Method};
 use tiledlight_gpu::light_buffers::LightBuffers;
@@ -37,6 +38,7 @@ use tiledlight_gpu::plan::Step;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::{GpuContext, GpuError};
+use tiledlight_visibility::compute_raster::ComputeRasterOptions;
 use tiledlight_visibility::raster::{depth_target, VisibilityRaster};
 use tiledlight_visibility::shading::{ShadeLights, VisibilityShading};
 
@@ -97,8 +99,8 @@ impl VisibilityFrame {
             views,
             scene,
             features,
-            (size, settings.test_wrong_id),
-            (settings.raster, settings.compute_raster, target_handles(targets).0),
+            (size, shared.hooks.wrong_id),
+            (settings.knobs.raster, ComputeRasterOptions::of(&settings.knobs), target_handles(targets).0),
             memory,
         )?;
         let traced = settings.method.is_traced();
@@ -111,7 +113,7 @@ impl VisibilityFrame {
                     (lights, &shared.lighting),
                     shared.grid,
                     settings.cull,
-                    settings.test_drop_light,
+                    shared.hooks.drop_light,
                 )
             })
             .transpose()?;
@@ -137,7 +139,7 @@ impl VisibilityFrame {
             (target_handles(targets).0, &raster),
             target_handles(targets).1,
             (scene, lights, &shared.lighting),
-            (shade, shared.grid, settings.edge),
+            (shade, shared.grid, EdgeTest::of(&features.knobs)),
             (features, shared.shadows.as_ref()),
             memory,
             shared.vpls.as_ref().map(|v| &v.bindings),

@@ -9,6 +9,7 @@ use tiledlight_cull::TileGrid;
 
 use crate::bindings::{create_layout, Binding, PassBindings, PassGroup};
 use crate::features::Features;
+use crate::knobs::Knobs;
 use crate::light_buffers::LightBuffers;
 use crate::lights_group::VplBindings;
 use crate::memory::MemoryReport;
@@ -40,12 +41,18 @@ pub struct EdgeTest {
 }
 
 impl Default for EdgeTest {
+    /// The pass settings' defaults (rows `edge-distance` and `edge-normal-deg`).
     fn default() -> Self {
-        Self { distance: 0.002, normal_deg: 10.0 }
+        Self::of(&Knobs::default())
     }
 }
 
 impl EdgeTest {
+    /// The thresholds the pass settings' rows `edge-distance` and `edge-normal-deg` state.
+    pub fn of(knobs: &Knobs) -> Self {
+        Self { distance: knobs.edge_distance, normal_deg: knobs.edge_normal_deg }
+    }
+
     /// Checks the thresholds are finite and in range.
     pub fn validate(&self) -> Result<(), GpuError> {
         if !(self.distance.is_finite() && self.distance >= 0.0) {

@@ -188,7 +188,7 @@ mod tests {
             blend_mode: Default::default(),
             shadows: None,
             vpl: false,
-            early_outs: true,
+            knobs: Default::default(),
         }
     }
 
@@ -196,7 +196,7 @@ mod tests {
     fn the_early_outs_ablation_is_one_pipeline_constant() {
         let mut f = features(Method::ForwardPlus, 1);
         assert!(f.light_constants().is_empty(), "the default passes no constant: the shaders' default holds");
-        f.early_outs = false;
+        f.knobs.early_outs = false;
         assert_eq!(f.light_constants(), [("EARLY_OUTS", 0.0)]);
     }
 

@@ -4,9 +4,9 @@
 //! run (the product of its axes); the resumable CSV file that records them; and the
 //! progress bar.
 //!
-//! An axis is one entry of [`AXES`]: adding a setting to the lab (as MSAA and its edge
-//! thresholds were) is one more entry there and one more arm in the app's
-//! [`Flags::set_axis`] (`crates/app/src/lab_commands.rs`).
+//! An axis is a row of the pass settings' table (`tiledlight_gpu::knobs`: nothing to add
+//! here) or one entry of [`AXES`] and one more arm in the app's [`Flags::set_axis`]
+//! (`crates/app/src/scene_setup.rs`); [`axes`] lists both.
 //!
 //! A run cut short by a fault of the GPU (a lost device, out of GPU memory) ends with the
 //! fault named, how many points the CSV already holds and that the same command resumes
@@ -20,6 +20,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, ensure, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
+use tiledlight_gpu::knobs::{Kind, Knobs, KNOBS};
 use tiledlight_setup::Settings;
 
 /// The settings a lab run starts from and varies, as the command line states them: the
@@ -27,7 +28,7 @@ use tiledlight_setup::Settings;
 /// settings are built from the whole once every axis of a point is applied (so an axis
 /// that depends on another, e.g. the spot casters on the spot lights, is checked then).
 pub trait Flags: Clone + Default {
-    /// Sets axis `name` (a name of [`AXES`]) to `value`, checking only its syntax (an
+    /// Sets axis `name` (a name of [`axes`]) to `value`, checking only its syntax (an
     /// error names the axis and the value, e.g. "method 'forward': ..."). A name this type
     /// does not handle is an error.
     fn set_axis(&mut self, name: &str, value: &str) -> Result<()>;
@@ -64,7 +65,8 @@ pub fn scene_phrase(name: &str, grid_objects: u32) -> String {
 /// The most points one run may have (a guard against a typo that would run for days).
 pub const MAX_POINTS: usize = 10_000;
 
-/// The axes a sweep can vary: name and what its values are.
+/// The axes of the settings that are not rows of the pass settings' table: name and what
+/// its values are ([`axes`] adds the rows).
 pub const AXES: &[(&str, &str)] = &[
     ("lights", "random point lights (integer; ranges allowed)"),
     ("spot-lights", "random spot lights (integer; ranges allowed)"),
@@ -73,14 +75,8 @@ pub const AXES: &[(&str, &str)] = &[
         "forward-plus | deferred | visibility | brute-force | brute-force-no-cutoff | traced-reference | \
          traced-reference-cutoff",
     ),
-    ("raster", "visibility buffer raster: auto | hardware | compute"),
-    ("raster-large-px", "compute raster: triangles spanning more pixels are large (integer; ranges allowed)"),
-    ("raster-large", "compute raster: large triangles by compute | hardware"),
     ("grid-objects", "grid objects of the default scene, 0..280 (integer; ranges allowed)"),
     ("density", "grid object tessellation: low | medium | high"),
-    ("gbuffer-rts", "Tiled Deferred G-buffer targets, 2..5"),
-    ("draw-order", "depth pre-pass and G-buffer draw order: front-to-back | submission"),
-    ("early-outs", "the shading's early-outs: on | off (off is the ablation: the same image, every light in full)"),
     ("tile-size", "8 | 16 | 32"),
     ("threshold", "light intensity threshold, the radius dial (number; ranges allowed)"),
     ("culling", "culling tests: planes | aabb | half-z | aabb+half-z"),
@@ -89,8 +85,6 @@ pub const AXES: &[(&str, &str)] = &[
     ("seed", "seed of the random lights (integer)"),
     ("camera", "camera bookmark file (the viewer's \"save camera\"; a path without commas)"),
     ("msaa", "MSAA samples per pixel: 1 | 2 | 4 | 8"),
-    ("edge-distance", "Tiled Deferred MSAA edge test: off-plane distance / view distance (number; ranges allowed)"),
-    ("edge-normal-deg", "Tiled Deferred MSAA edge test: normal angle in degrees (number; ranges allowed)"),
     ("shadow-point-lights", "shadow-casting point lights, the brightest (integer; ranges allowed)"),
     ("shadow-spot-lights", "shadow-casting spot lights, the brightest (integer; ranges allowed)"),
     ("casters-by", "how the shadow casters are chosen: brightness | contribution"),
@@ -114,7 +108,22 @@ pub const AXES: &[(&str, &str)] = &[
     ("vpl-shading", "VPLs: sample | physical"),
 ];
 
-/// One swept axis: its name (a key of [`AXES`]) and its values, in sweep order.
+/// Every axis a sweep can vary, name and what its values are: [`AXES`], then one a row of
+/// the pass settings' table (`tiledlight_gpu::knobs`), described from the row.
+pub fn axes() -> Vec<(&'static str, String)> {
+    let rows = KNOBS.iter().map(|k| {
+        let values = match k.kind {
+            Kind::Switch => "on | off".to_string(),
+            Kind::Count => "integer; ranges allowed".to_string(),
+            Kind::Number => "number; ranges allowed".to_string(),
+            Kind::Choice(names) => names.join(" | "),
+        };
+        (k.name, format!("{} ({values})", k.label))
+    });
+    AXES.iter().map(|(n, d)| (*n, d.to_string())).chain(rows).collect()
+}
+
+/// One swept axis: its name (a key of [`axes`]) and its values, in sweep order.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Axis {
     /// Name, e.g. "lights".
@@ -124,22 +133,24 @@ pub struct Axis {
 }
 
 fn known(name: &str) -> Result<()> {
-    if AXES.iter().any(|(n, _)| *n == name) {
+    let all = axes();
+    if all.iter().any(|(n, _)| *n == name) {
         return Ok(());
     }
-    let names: Vec<&str> = AXES.iter().map(|(n, _)| *n).collect();
+    let names: Vec<&str> = all.iter().map(|(n, _)| *n).collect();
     bail!("unknown axis '{name}': expected one of {}", names.join(", "))
 }
 
 /// Whether the axis's values are integers.
 pub fn is_integer_axis(name: &str) -> bool {
+    if let Some(row) = Knobs::row(name) {
+        return row.kind == Kind::Count;
+    }
     matches!(
         name,
         "lights"
             | "spot-lights"
             | "grid-objects"
-            | "gbuffer-rts"
-            | "raster-large-px"
             | "tile-size"
             | "seed"
             | "msaa"
@@ -158,16 +169,13 @@ pub fn is_integer_axis(name: &str) -> bool {
 
 /// Whether the axis's values are numbers (plotted on a numeric x axis).
 pub fn is_numeric_axis(name: &str) -> bool {
+    if let Some(row) = Knobs::row(name) {
+        return matches!(row.kind, Kind::Count | Kind::Number);
+    }
     is_integer_axis(name)
         || matches!(
             name,
-            "threshold"
-                | "edge-distance"
-                | "edge-normal-deg"
-                | "cluster-first"
-                | "lights-per-pixel"
-                | "vpl-colour-threshold"
-                | "vpl-brightness-threshold"
+            "threshold" | "cluster-first" | "lights-per-pixel" | "vpl-colour-threshold" | "vpl-brightness-threshold"
         )
 }
 

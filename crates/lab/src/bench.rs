@@ -48,6 +48,7 @@ use anyhow::{ensure, Context, Result};
 use serde::Serialize;
 use tiledlight_cull::Camera;
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, Renderer};
+use tiledlight_gpu::knobs::{Kind, Knob, Knobs, KNOBS};
 use tiledlight_gpu::light_grid::GridStatus;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::{GpuTimer, PassTime};
@@ -597,14 +598,7 @@ pub struct RendererJson {
     pub half_z: bool,
     pub spot_cone: bool,
     pub coarse: bool,
-    pub gbuffer_rts: u32,
-    /// The depth pre-pass's and G-buffer's draw order: "front-to-back" or "submission".
-    pub draw_order: &'static str,
-    /// The shading's early-outs (false: the `--no-early-outs` ablation).
-    pub early_outs: bool,
     pub msaa: u32,
-    pub edge_distance: f32,
-    pub edge_normal_deg: f32,
     pub shadow_point_lights: u32,
     pub shadow_spot_lights: u32,
     /// How the casters were chosen: "brightness" or "contribution".
@@ -615,6 +609,46 @@ pub struct RendererJson {
     pub transparent_objects: u32,
     /// The default scene's banners glow (`--emissive`: the emission target exists).
     pub emissive: bool,
+    /// The pass settings, one key a row of `tiledlight_gpu::knobs` ([`knobs_json`]).
+    #[serde(flatten)]
+    pub knobs: KnobsJson,
+}
+
+/// The pass settings as JSON keys, in the table's order ([`knobs_json`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct KnobsJson(pub Vec<(&'static str, serde_json::Value)>);
+
+impl Serialize for KnobsJson {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut map = s.serialize_map(Some(self.0.len()))?;
+        for (k, v) in &self.0 {
+            map.serialize_entry(k, v)?;
+        }
+        map.end()
+    }
+}
+
+/// The pass settings as JSON: one key a row ([`Knob::field`]), a switch as a boolean, a
+/// count or number as a number, a choice as its name.
+pub fn knobs_json(knobs: &Knobs) -> KnobsJson {
+    use serde_json::Value;
+    KnobsJson(
+        KNOBS
+            .iter()
+            .map(|k: &Knob| {
+                let text = (k.get)(knobs);
+                let value = match k.kind {
+                    Kind::Switch => Value::Bool(text == "on"),
+                    Kind::Count | Kind::Number => {
+                        serde_json::from_str::<serde_json::Number>(&text).map_or(Value::String(text), Value::Number)
+                    }
+                    Kind::Choice(_) => Value::String(text),
+                };
+                (k.field, value)
+            })
+            .collect(),
+    )
 }
 
 /// The commit the lab was built from (`TILEDLIGHT_COMMIT`, set by its build.rs), else
@@ -692,12 +726,7 @@ pub fn run<F: Flags>(scene: &F, args: &Bench) -> Result<()> {
                     half_z: a.half_z,
                     spot_cone: a.spot_cone,
                     coarse: !a.flat_cull,
-                    gbuffer_rts: a.gbuffer_rts,
-                    draw_order: a.draw_order.label(),
-                    early_outs: a.early_outs,
                     msaa: a.msaa,
-                    edge_distance: a.edge_distance,
-                    edge_normal_deg: a.edge_normal_deg,
                     shadow_point_lights: a.shadow_point_lights,
                     shadow_spot_lights: a.shadow_spot_lights,
                     casters_by: a.casters_by.name(),
@@ -706,6 +735,7 @@ pub fn run<F: Flags>(scene: &F, args: &Bench) -> Result<()> {
                     shadow_format: a.shadow_format.name(),
                     transparent_objects: a.transparent_objects,
                     emissive: a.emissive,
+                    knobs: knobs_json(&a.knobs),
                 }),
                 ..ConfigJson::of(&prep)
             },
@@ -833,12 +863,7 @@ mod tests {
                 half_z: false,
                 spot_cone: false,
                 coarse: true,
-                gbuffer_rts: 2,
-                draw_order: "front-to-back",
-                early_outs: true,
                 msaa: 1,
-                edge_distance: 0.1,
-                edge_normal_deg: 30.0,
                 shadow_point_lights: 0,
                 shadow_spot_lights: 0,
                 casters_by: "brightness",
@@ -847,14 +872,16 @@ mod tests {
                 shadow_format: "d16",
                 transparent_objects: 0,
                 emissive: false,
+                knobs: knobs_json(&Knobs { edge_distance: 0.1, ..Knobs::default() }),
             }),
             ..common.clone()
         };
-        // The fields and order of bench's `config` before the two schemas became one.
+        // The fields and order of bench's `config`: those before the two schemas became one,
+        // then one key a row of the pass settings' table.
         let bench_keys = "adapter resolution width height scene triangles instances point_lights spot_lights seed \
-             threshold method tile_size capacity aabb half_z spot_cone coarse gbuffer_rts draw_order early_outs msaa edge_distance \
-             edge_normal_deg shadow_point_lights shadow_spot_lights casters_by shadow_size shadow_filter shadow_format \
-             transparent_objects emissive commit";
+             threshold method tile_size capacity aabb half_z spot_cone coarse msaa shadow_point_lights shadow_spot_lights \
+             casters_by shadow_size shadow_filter shadow_format transparent_objects emissive early_outs gbuffer_rts \
+             draw_order raster raster_large_px raster_large edge_distance edge_normal_deg commit";
         assert_eq!(keys(&bench).join(" "), bench_keys.split_whitespace().collect::<Vec<_>>().join(" "));
         let shadow = ConfigJson {
             casters: Some(CastersJson {

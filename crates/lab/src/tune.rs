@@ -2,7 +2,7 @@
 //! traced truth (issue 44). The question a user brings: "which method and which dials give
 //! me FLIP under E on my scene, fastest?"
 //!
-//! 1. **Dials**: `--dial NAME=VALUES` (axes of [`crate::axes::AXES`]), or
+//! 1. **Dials**: `--dial NAME=VALUES` (axes of [`crate::axes::axes`]), or
 //!    [`DEFAULT_DIALS`]. The first value of each dial is where the search starts.
 //! 2. **Constraints** ([`Constraints`]): FLIP mean under the target, and optionally its
 //!    99th percentile and the worst pixel's HDR error (`max_error`) under theirs; frames that

@@ -54,7 +54,8 @@ pub use load::{BoundsFit, FittedLights, LightSummary, SceneCpu, SpotPlacement, S
 pub use prepared::Prepared;
 pub use rebuild::{rebuild_plan, Rebuild, Reload};
 pub use settings::{
-    surface_exposure, CameraBookmark, CasterChoice, ComputeRasterOptions, DrawOrderMode, LargeRaster, LightPlacement,
-    Method, PeerScene, Raster, SceneSource, Settings, DEFAULT_LIGHTS_PER_POINT, DEFAULT_POINT_LIGHTS, MILLION_LIGHTS,
+    surface_exposure, CameraBookmark, CasterChoice, ComputeRasterOptions, DrawOrderMode, Knobs, LargeRaster,
+    LightPlacement, Method, PeerScene, Raster, SceneSource, Settings, DEFAULT_LIGHTS_PER_POINT, DEFAULT_POINT_LIGHTS,
+    MILLION_LIGHTS,
 };
 pub use stats::{blended_stats, culling_stats, group_digits, shadow_atlas_description, BlendedStats, CullingStats};

@@ -455,8 +455,8 @@ impl Prepared {
                 format!(
                     "deferred ({}, {} G-buffer targets, drawn {})",
                     a.culling_description(),
-                    a.gbuffer_rts,
-                    a.draw_order.label()
+                    a.knobs.gbuffer_rts,
+                    a.knobs.draw_order.label()
                 )
             }
             Method::Visibility => format!("visibility ({}, 32-bit triangle IDs)", a.culling_description()),
@@ -477,7 +477,7 @@ impl Prepared {
             }
             m => format!("{} (every light for every pixel)", m.name()),
         };
-        let method = if a.early_outs {
+        let method = if a.knobs.early_outs {
             method
         } else {
             format!("{method}; ABLATION --no-early-outs: every listed light shaded in full, none skipped")
@@ -490,7 +490,7 @@ impl Prepared {
             if a.method == Method::TiledDeferred {
                 res.push_str(&format!(
                     " (edge test: {} of the view distance off the tangent plane, or normals {} deg apart)",
-                    a.edge_distance, a.edge_normal_deg
+                    a.knobs.edge_distance, a.knobs.edge_normal_deg
                 ));
             }
         }

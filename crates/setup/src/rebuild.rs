@@ -104,15 +104,9 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || a.clusters != b.clusters
         || a.spot_cone != b.spot_cone
         || a.flat_cull != b.flat_cull
-        || a.gbuffer_rts != b.gbuffer_rts
-        || a.draw_order != b.draw_order
-        || a.early_outs != b.early_outs
-        || a.raster != b.raster
-        || a.raster_large_px != b.raster_large_px
-        || a.raster_large != b.raster_large
+        // A pass setting (a row of the table) the new method reads.
+        || a.knobs.changed(&b.knobs).iter().any(|k| (k.applies)(b.method))
         || a.msaa != b.msaa
-        || a.edge_distance != b.edge_distance
-        || a.edge_normal_deg != b.edge_normal_deg
         // Automatic exposure is a pass and a tonemap variant of its own.
         || a.auto_exposure != b.auto_exposure
         // How shadows are drawn matters only while some light casts one.
@@ -129,13 +123,11 @@ mod tests {
     use super::*;
     use crate::settings::{CameraBookmark, Method};
     use glam::Vec3;
-    use tiledlight_cull::draw_order::DrawOrderMode;
     use tiledlight_cull::shadow::ShadowFormat;
     use tiledlight_gpu::culling::ClusterOptions;
     use tiledlight_gpu::features::BlendMode;
-    use tiledlight_gpu::features::Raster;
+    use tiledlight_gpu::knobs::{Kind, Knobs, KNOBS};
     use tiledlight_scene::{CameraDesc, GridDensity};
-    use tiledlight_visibility::compute_raster::LargeRaster;
 
     fn base() -> Settings {
         Settings { width: 320, height: 180, ..Settings::default() }
@@ -183,21 +175,35 @@ mod tests {
             |s| s.half_z = true,
             |s| s.spot_cone = true,
             |s| s.flat_cull = true,
-            |s| s.gbuffer_rts = 4,
             |s| s.msaa = 4,
-            |s| s.edge_distance = 0.01,
-            |s| s.edge_normal_deg = 20.0,
             |s| s.grid_pairs = Some(1 << 20),
             |s| s.depth_mask = true,
             |s| s.scatter = true,
             |s| s.clusters = Some(ClusterOptions::default()),
-            |s| s.draw_order = DrawOrderMode::Submission,
-            |s| s.early_outs = false,
-            |s| s.raster = Raster::Compute,
-            |s| s.raster_large_px = 4096,
-            |s| s.raster_large = LargeRaster::Hardware,
         ] {
             assert_eq!(with(f), RENDERER);
+        }
+    }
+
+    /// Every row of the pass settings' table rebuilds the renderer of a method it applies
+    /// to, and nothing for a method that ignores it.
+    #[test]
+    fn pass_settings_rebuild_the_renderer_of_the_methods_they_apply_to() {
+        for k in KNOBS {
+            let other = match k.kind {
+                Kind::Switch => if (k.default)() == "on" { "off" } else { "on" }.to_string(),
+                Kind::Count => ((k.default)().parse::<u32>().unwrap() + 1).to_string(),
+                Kind::Number => ((k.default)().parse::<f32>().unwrap() + 0.5).to_string(),
+                Kind::Choice(names) => names.iter().find(|n| **n != (k.default)()).unwrap().to_string(),
+            };
+            let mut changed = Knobs::default();
+            (k.set)(&mut changed, &other).unwrap();
+            for method in Method::ALL {
+                let from = Settings { method, ..base() };
+                let to = Settings { knobs: changed, ..from.clone() };
+                let want = if (k.applies)(method) { RENDERER } else { Rebuild::default() };
+                assert_eq!(rebuild_plan(&from, &to), want, "{} = {other} with {}", k.name, method.name());
+            }
         }
     }
 

@@ -20,13 +20,13 @@ use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat, ShadowOptions, TILE_SI
 use tiledlight_cull::tiles::MAX_SCREEN_SIDE;
 use tiledlight_cull::vpl::VplConfig;
 use tiledlight_deferred::shading::workgroup_bytes_besides_lists;
-use tiledlight_deferred::EdgeTest;
 use tiledlight_frame::FrameSettings;
 use tiledlight_gpu::culling::CLUSTER_TILE_SIZES;
 use tiledlight_gpu::culling::{ClusterOptions, CullOptions, CULL_WORKGROUP_BYTES};
 pub use tiledlight_gpu::draw_order::DrawOrderMode;
 use tiledlight_gpu::features::BlendMode;
 pub use tiledlight_gpu::features::{Method, Raster};
+pub use tiledlight_gpu::knobs::Knobs;
 use tiledlight_scene::{
     surface_irradiance_factor, CameraDesc, GridDensity, SurfaceLightOptions, DEFAULT_LIGHT_THRESHOLD,
     DEFAULT_SURFACE_OFFSET, MAX_GRID_OBJECTS, MAX_LIGHTS,
@@ -260,28 +260,11 @@ pub struct Settings {
     /// One-level culling: every tile tests every light (the default first culls per
     /// 64x64-pixel cell, and tiles test only their cell's lights).
     pub flat_cull: bool,
-    /// Tiled Deferred's G-buffer render targets, 2 to 5.
-    pub gbuffer_rts: u32,
-    /// The order the depth pre-pass and the G-buffer draw the scene in.
-    pub draw_order: DrawOrderMode,
-    /// The shading's early-outs (true); false is the ablation `--no-early-outs`.
-    pub early_outs: bool,
-    /// The visibility buffer's raster: auto (per adapter), hardware or compute.
-    pub raster: Raster,
-    /// The compute raster hands a triangle whose bounds span more pixels than this (either
-    /// way) to the hardware.
-    pub raster_large_px: u32,
-    /// Who draws the compute raster's large triangles: compute or the hardware.
-    pub raster_large: LargeRaster,
     /// The traced reference submits its frame band by band and prints its progress on
     /// stderr (`render`, `accuracy`); off for benchmarks, which time one submission.
     pub traced_progress: bool,
     /// MSAA samples per pixel: 1 (off), 2, 4 or 8.
     pub msaa: u32,
-    /// Tiled Deferred's MSAA edge test: off-plane distance / view distance.
-    pub edge_distance: f32,
-    /// Tiled Deferred's MSAA edge test: normal angle in degrees.
-    pub edge_normal_deg: f32,
     /// Exposure before tonemapping.
     pub exposure: f32,
     /// Compute the exposure from each frame's image (log-average luminance;
@@ -309,6 +292,10 @@ pub struct Settings {
     pub vpl: Option<VplConfig>,
     /// A pinned camera; None: the scene's own camera, else one framing the scene.
     pub camera: Option<CameraBookmark>,
+    /// The pass settings, one row each in `tiledlight_gpu::knobs` (early-outs, G-buffer
+    /// targets, draw order, the visibility buffer's raster, the MSAA edge test): their
+    /// flags, axes, script keys, checks and rebuilds come from the rows.
+    pub knobs: Knobs,
     /// Every warning becomes an error: a glTF file that loads only with warnings (a
     /// missing texture, an extension it is drawn without) fails to load.
     pub strict: bool,
@@ -345,16 +332,8 @@ impl Default for Settings {
             clusters: None,
             spot_cone: false,
             flat_cull: false,
-            gbuffer_rts: 2,
-            draw_order: DrawOrderMode::FrontToBack,
-            early_outs: true,
-            raster: Raster::Auto,
-            raster_large_px: ComputeRasterOptions::default().large_px,
-            raster_large: ComputeRasterOptions::default().large,
             traced_progress: false,
             msaa: 1,
-            edge_distance: EdgeTest::default().distance,
-            edge_normal_deg: EdgeTest::default().normal_deg,
             exposure: 1.0,
             auto_exposure: false,
             shadow_point_lights: 0,
@@ -366,6 +345,7 @@ impl Default for Settings {
             blend_mode: BlendMode::default(),
             vpl: None,
             camera: None,
+            knobs: Knobs::default(),
             strict: false,
             allow_any_path: false,
         }
@@ -392,9 +372,8 @@ impl Settings {
         }
         let side = 1..=MAX_SCREEN_SIDE;
         ensure!(side.contains(&self.width), "--width {}: must be between 1 and {MAX_SCREEN_SIDE} pixels", self.width);
-        ensure!((2..=5).contains(&self.gbuffer_rts), "--gbuffer-rts {}: must be between 2 and 5", self.gbuffer_rts);
-        ensure!(self.raster_large_px >= 1, "--raster-large-px 0: a triangle spans at least one pixel");
-        if self.raster == Raster::Compute {
+        self.knobs.check().map_err(anyhow::Error::msg)?;
+        if self.knobs.raster == Raster::Compute {
             ensure!(
                 self.method.uses_visibility_buffer(),
                 "--raster compute: the compute raster draws the visibility buffer only (--method visibility or \
@@ -436,16 +415,6 @@ impl Settings {
                 c.first
             );
         }
-        ensure!(
-            self.edge_distance.is_finite() && self.edge_distance >= 0.0,
-            "--edge-distance {}: must be a number >= 0",
-            self.edge_distance
-        );
-        ensure!(
-            (0.0..=180.0).contains(&self.edge_normal_deg),
-            "--edge-normal-deg {}: must be between 0 and 180 degrees",
-            self.edge_normal_deg
-        );
         ensure!(
             self.capacity.is_none_or(|c| (1..=MAX_CAPACITY).contains(&c)),
             "--capacity {}: must be between 1 and {MAX_CAPACITY} lights per tile list",
@@ -602,16 +571,11 @@ impl Settings {
         FrameSettings {
             method: self.method,
             cull: self.cull_options(),
-            gbuffer_rts: self.gbuffer_rts,
-            draw_order: self.draw_order,
-            early_outs: self.early_outs,
-            raster: self.raster,
-            compute_raster: ComputeRasterOptions { large_px: self.raster_large_px, large: self.raster_large },
+            knobs: self.knobs,
             exposure: self.exposure,
             auto_exposure: self.auto_exposure,
             heatmap,
             msaa: self.msaa,
-            edge: EdgeTest { distance: self.edge_distance, normal_deg: self.edge_normal_deg },
             shadows: self.shadow_options(),
             blend: self.blend_mode,
             vpl: self.vpl,
@@ -804,7 +768,8 @@ mod tests {
         let grid_on_file = Settings { scene: file("x.glb"), grid_objects: 3, ..small() };
         assert!(err(grid_on_file).contains("default scene"));
         assert!(err(Settings { msaa: 3, ..small() }).contains("--msaa 3"));
-        assert!(err(Settings { gbuffer_rts: 6, ..small() }).contains("--gbuffer-rts 6"));
+        assert!(err(Settings { knobs: Knobs { gbuffer_rts: 6, ..Knobs::default() }, ..small() })
+            .contains("--gbuffer-rts 6"));
         assert!(err(Settings { shadow_size: 100, ..small() }).contains("--shadow-size 100: must be between 128"));
         assert!(err(Settings { shadow_filter: 2, ..small() }).contains("--shadow-filter 2"));
         let casters = Settings { lights: Some(4), shadow_point_lights: 5, ..small() };
@@ -867,8 +832,9 @@ mod tests {
         let f = s.frame_settings(false);
         assert_eq!(f.method, Method::BruteForce { cutoff: false });
         assert_eq!((f.cull.capacity, f.cull.half_z, f.cull.coarse, f.cull.samples, f.msaa), (99, true, false, 4, 4));
-        let d = Settings { gbuffer_rts: 4, edge_distance: 0.5, ..s.clone() }.frame_settings(true);
-        assert_eq!((d.gbuffer_rts, d.edge.distance, d.heatmap), (4, 0.5, true));
+        let knobs = Knobs { gbuffer_rts: 4, edge_distance: 0.5, ..Knobs::default() };
+        let d = Settings { knobs, ..s.clone() }.frame_settings(true);
+        assert_eq!((d.knobs, d.heatmap), (knobs, true));
         assert_eq!(
             Settings { aabb: true, ..s }.culling_description(),
             "16 px tiles, capacity 99, one level, tests: planes+aabb, half-z (2 lists per tile)"

@@ -117,28 +117,9 @@ pub const LARGE_BINDINGS: PassBindings = PassBindings {
     groups: &[PassGroup::new(0, tiledlight_gpu::view::BINDINGS), PassGroup::new(1, LARGE_GROUP)],
 };
 
-/// Who draws the compute raster's large triangles.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum LargeRaster {
-    /// A compute workgroup per triangle, its lanes sharing the pixels (`cs_large`).
-    #[default]
-    Compute,
-    /// The hardware raster, by one indirect draw (`visibility_raster_large.wgsl`).
-    Hardware,
-}
-
-impl LargeRaster {
-    /// Both, in the order the command line lists them.
-    pub const ALL: [LargeRaster; 2] = [LargeRaster::Compute, LargeRaster::Hardware];
-
-    /// The flag value.
-    pub fn name(self) -> &'static str {
-        match self {
-            LargeRaster::Compute => "compute",
-            LargeRaster::Hardware => "hardware",
-        }
-    }
-}
+/// Who draws the compute raster's large triangles (declared beside [`tiledlight_gpu::features::Raster`]:
+/// the pass settings' table holds it).
+pub use tiledlight_gpu::features::LargeRaster;
 
 /// How the compute raster splits its work.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -150,10 +131,17 @@ pub struct ComputeRasterOptions {
     pub large: LargeRaster,
 }
 
+impl ComputeRasterOptions {
+    /// The options the pass settings' rows `raster-large-px` and `raster-large` state.
+    pub fn of(knobs: &tiledlight_gpu::knobs::Knobs) -> Self {
+        Self { large_px: knobs.raster_large_px, large: knobs.raster_large }
+    }
+}
+
 impl Default for ComputeRasterOptions {
-    /// 32 px, by compute: the fastest measured on the H200 (docs/PERFORMANCE.md).
+    /// The pass settings' defaults (rows `raster-large-px` and `raster-large`).
     fn default() -> Self {
-        Self { large_px: 32, large: LargeRaster::Compute }
+        Self::of(&tiledlight_gpu::knobs::Knobs::default())
     }
 }
 

@@ -10,7 +10,7 @@ use anyhow::{bail, Context, Result};
 use clap::ValueEnum;
 
 use super::settings::{Settings, VplControl};
-use crate::scene_setup::{AssignArg, BlendModeArg, CastersByArg, DensityArg, DrawOrderArg, GridArg, ShadowFormatArg};
+use crate::scene_setup::{AssignArg, BlendModeArg, CastersByArg, DensityArg, GridArg, ShadowFormatArg};
 use tiledlight_gpu::heatmap::HeatmapOf;
 use tiledlight_setup::camera_rig::Mode;
 use tiledlight_setup::SceneSource;
@@ -92,6 +92,10 @@ fn number<T: std::str::FromStr>(key: &str, v: &str) -> Result<T> {
 /// as for the widgets).
 pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
     let a = &mut s.setup;
+    // A row of the pass settings' table parses its own value.
+    if let Some(set) = a.knobs.set(key, value) {
+        return set.map_err(|e| anyhow::anyhow!("--script: {e}"));
+    }
     match key {
         "method" => {
             a.method = <tiledlight_setup::Method as ValueEnum>::from_str(value, true)
@@ -102,17 +106,6 @@ pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
         "threshold" => a.threshold = number(key, value)?,
         "seed" => a.seed = number(key, value)?,
         "tile-size" => a.tile_size = number(key, value)?,
-        "gbuffer-rts" => a.gbuffer_rts = number(key, value)?,
-        "draw-order" => {
-            a.draw_order = DrawOrderArg::from_str(value, true)
-                .map_err(|e| anyhow::anyhow!("--script: draw-order={value}: {e}"))?
-                .into()
-        }
-        "raster" => {
-            a.raster = <tiledlight_setup::Raster as ValueEnum>::from_str(value, true)
-                .map_err(|e| anyhow::anyhow!("--script: raster={value}: {e}"))?
-        }
-        "raster-large-px" => a.raster_large_px = number(key, value)?,
         "msaa" => a.msaa = number(key, value)?,
         "grid-objects" => a.grid_objects = number(key, value)?,
         "density" => {

@@ -15,9 +15,9 @@ use std::collections::VecDeque;
 use egui::{Color32, RichText};
 use tiledlight_cull::shadow::ShadowFormat;
 use tiledlight_gpu::blended::BlendedPath;
-use tiledlight_gpu::draw_order::DrawOrderMode;
 use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::heatmap::{heatmap_palette, heatmap_t, HeatmapOf, HEATMAP_OVERFLOW};
+use tiledlight_gpu::knobs::{Control, Kind, Knobs, KNOBS};
 use tiledlight_gpu::memory::{format_bytes, MemoryReport};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::PassTime;
@@ -28,7 +28,7 @@ use tiledlight_lab::legend::label_values;
 use tiledlight_scene::GridDensity;
 use tiledlight_setup::camera_rig::{CameraRig, Mode, Motion};
 use tiledlight_setup::stats::atlas_layout_description;
-use tiledlight_setup::{CasterChoice, CullingStats, LightSummary, Method, Raster, SceneSource};
+use tiledlight_setup::{CasterChoice, CullingStats, LightSummary, Method, SceneSource};
 
 use crate::scene_setup::GridArg;
 
@@ -448,27 +448,6 @@ fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'
             ui.checkbox(&mut two_level, "two-level culling (64 px cells)");
             s.setup.flat_cull = !two_level;
         });
-        ui.add_enabled(s.setup.method == Method::TiledDeferred, |ui: &mut egui::Ui| {
-            ui.add(egui::Slider::new(&mut s.setup.gbuffer_rts, 2..=5).text("G-buffer RTs"))
-        });
-        let mut sorted = s.setup.draw_order == DrawOrderMode::FrontToBack;
-        ui.checkbox(&mut sorted, "draw nearest first")
-            .on_hover_text("depth pre-pass and G-buffer: hidden fragments fail the early depth test");
-        s.setup.draw_order = if sorted { DrawOrderMode::FrontToBack } else { DrawOrderMode::Submission };
-        ui.checkbox(&mut s.setup.early_outs, "shading early-outs").on_hover_text(
-            "skip a light beyond its radius or behind the surface; off shades every listed light in full (same image)",
-        );
-        ui.add_enabled_ui(s.setup.method == Method::Visibility, |ui| {
-            egui::ComboBox::from_label("raster")
-                .selected_text(s.setup.raster.name())
-                .show_ui(ui, |ui| {
-                    for r in Raster::ALL {
-                        ui.selectable_value(&mut s.setup.raster, r, r.name()).on_hover_text(r.summary());
-                    }
-                })
-                .response
-                .on_hover_text("the visibility buffer's raster; compute: one sample a pixel, 64-bit atomics");
-        });
         egui::ComboBox::from_label("MSAA")
             .selected_text(format!("{}x", s.setup.msaa))
             .show_ui(ui, |ui| {
@@ -478,15 +457,7 @@ fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'
             })
             .response
             .on_hover_text("2x and 8x only where the GPU has them (an error says so otherwise)");
-        ui.add_enabled_ui(s.setup.method == Method::TiledDeferred && s.setup.msaa > 1, |ui| {
-            ui.add(
-                egui::Slider::new(&mut s.setup.edge_distance, 0.0..=0.05)
-                    .logarithmic(true)
-                    .text("edge: off-plane / distance"),
-            )
-            .on_hover_text("Tiled Deferred MSAA edge test: a sample this far off sample 0's tangent plane (relative to the view distance) makes the pixel an edge");
-            ui.add(egui::Slider::new(&mut s.setup.edge_normal_deg, 0.0..=90.0).text("edge: normal angle (deg)"));
-        });
+        knob_controls(ui, &mut s.setup.knobs, s.setup.method);
         ui.add_enabled_ui(tiled, |ui| {
             ui.checkbox(&mut s.heatmap, "heat map (lights per tile)").on_disabled_hover_text("needs a tiled method");
         });
@@ -769,6 +740,53 @@ fn camera_section(ui: &mut egui::Ui, rig: &mut CameraRig, commands: &mut Vec<Com
             }
         });
     });
+}
+
+/// One control a row of the pass settings' table (`tiledlight_gpu::knobs`), enabled for the
+/// methods the row applies to, its help on hover: a new row needs no code here.
+fn knob_controls(ui: &mut egui::Ui, knobs: &mut Knobs, method: Method) {
+    for row in KNOBS {
+        let text = (row.get)(knobs);
+        let mut new = text.clone();
+        ui.add_enabled_ui((row.applies)(method), |ui| {
+            let response = match (row.control, row.kind) {
+                (Control::Checkbox, _) => {
+                    let mut on = text == "on";
+                    let r = ui.checkbox(&mut on, row.label);
+                    new = if on { "on" } else { "off" }.into();
+                    r
+                }
+                (Control::Slider(lo, hi), Kind::Count) => {
+                    let mut v: u32 = text.parse().unwrap_or_default();
+                    let r = ui.add(egui::Slider::new(&mut v, lo as u32..=hi as u32).text(row.label));
+                    new = v.to_string();
+                    r
+                }
+                (Control::Slider(lo, hi), _) => {
+                    let mut v: f64 = text.parse().unwrap_or_default();
+                    let r = ui.add(egui::Slider::new(&mut v, lo..=hi).text(row.label));
+                    new = (v as f32).to_string();
+                    r
+                }
+                (Control::Choice, Kind::Choice(names)) => {
+                    egui::ComboBox::from_label(row.label)
+                        .selected_text(text.as_str())
+                        .show_ui(ui, |ui| {
+                            for name in names {
+                                ui.selectable_value(&mut new, name.to_string(), *name);
+                            }
+                        })
+                        .response
+                }
+                (Control::Choice, _) => ui.label(format!("{}: {text}", row.label)),
+            };
+            response.on_hover_text(row.help()).on_disabled_hover_text(format!("not read by {}", method.label()));
+        });
+        if new != text {
+            // The control offers only values the row parses.
+            let _ = (row.set)(knobs, &new);
+        }
+    }
 }
 
 #[cfg(test)]

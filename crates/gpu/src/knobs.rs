@@ -1,0 +1,480 @@
+//! The table of pass settings ([`Knobs`], [`KNOBS`]): every setting that a pass reads
+//! declared once, as one row of the [`knobs!`](crate::knobs!) invocation below: its field
+//! and type, default, command-line name and help, the methods it applies to, its check and
+//! the viewer's control. Everything else is derived from the rows, never spelled again:
+//!
+//! 1. the struct [`Knobs`] (one field a row) that the frame settings carry and
+//!    [`crate::features::Features::knobs`] hands to every pass;
+//! 2. the command-line flags (the app builds them from [`KNOBS`]: `--NAME VALUE`, or for a
+//!    switch `--NAME` when it is off by default and `--no-NAME` when on);
+//! 3. the lab's axes and the viewer's script keys (`NAME=VALUE`, [`Knob::set`]);
+//! 4. the range checks ([`Knobs::check`], errors naming the flag);
+//! 5. what a change rebuilds (each row rebuilds the renderer; [`Knobs::changed`] lists the
+//!    rows that differ);
+//! 6. the reports' and the JSON's keys ([`Knob::field`], values by [`Knob::get`]);
+//! 7. the viewer's controls ([`Knob::control`]), shown for the methods a row applies to.
+//!
+//! So a switch that reaches one pass is one row here, its read in the pass
+//! (`features.knobs.NAME`) and its WGSL: three files.
+//!
+//! Why a `macro_rules!` table and not a derive or an inventory: the rows are data of one
+//! crate, a declarative macro needs no proc-macro crate or linker section, and the
+//! generated code stays readable by `cargo expand`. Settings that are not a pass's (the
+//! scene, the lights, the screen) live in `tiledlight-setup`'s `Settings`.
+//!
+//! Depends on [`crate::method`] (the method and raster types) and tiledlight-cull (the draw
+//! order).
+
+use std::fmt;
+
+use crate::method::{LargeRaster, Method, Raster};
+use tiledlight_cull::draw_order::DrawOrderMode;
+
+/// What kind of value a row holds: how a command line, a chart's axis and the JSON write it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// On or off: a flag on the command line, `on`/`off` on an axis, a JSON boolean.
+    Switch,
+    /// A whole number.
+    Count,
+    /// A real number.
+    Number,
+    /// One of these names.
+    Choice(&'static [&'static str]),
+}
+
+/// A value a row can hold: parsed from and written as the command line's text.
+pub trait KnobValue: Copy + PartialEq + fmt::Debug + 'static {
+    /// How it is written.
+    const KIND: Kind;
+    /// The value of `text` (an error says what was expected).
+    fn parse(text: &str) -> Result<Self, String>;
+    /// The text that parses back to this value.
+    fn text(self) -> String;
+}
+
+impl KnobValue for bool {
+    const KIND: Kind = Kind::Switch;
+    fn parse(text: &str) -> Result<Self, String> {
+        match text.to_ascii_lowercase().as_str() {
+            "on" | "true" | "yes" | "1" => Ok(true),
+            "off" | "false" | "no" | "0" => Ok(false),
+            _ => Err("expected on or off".into()),
+        }
+    }
+    fn text(self) -> String {
+        if self { "on" } else { "off" }.into()
+    }
+}
+
+impl KnobValue for u32 {
+    const KIND: Kind = Kind::Count;
+    fn parse(text: &str) -> Result<Self, String> {
+        text.trim().parse().map_err(|_| "expected a whole number".into())
+    }
+    fn text(self) -> String {
+        self.to_string()
+    }
+}
+
+impl KnobValue for f32 {
+    const KIND: Kind = Kind::Number;
+    fn parse(text: &str) -> Result<Self, String> {
+        text.trim().parse().map_err(|_| "expected a number".into())
+    }
+    fn text(self) -> String {
+        self.to_string()
+    }
+}
+
+/// A choice of named values: `KIND` lists the names, parsing accepts any case.
+macro_rules! named_choice {
+    ($ty:ty, $all:expr, $name:expr) => {
+        impl KnobValue for $ty {
+            const KIND: Kind = Kind::Choice(&{
+                let all = $all;
+                let mut names = [""; $all.len()];
+                let mut i = 0;
+                while i < names.len() {
+                    names[i] = $name(all[i]);
+                    i += 1;
+                }
+                names
+            });
+            fn parse(text: &str) -> Result<Self, String> {
+                let Kind::Choice(names) = Self::KIND else { unreachable!() };
+                names
+                    .iter()
+                    .position(|n| n.eq_ignore_ascii_case(text.trim()))
+                    .map(|i| $all[i])
+                    .ok_or_else(|| format!("expected one of {}", names.join(", ")))
+            }
+            fn text(self) -> String {
+                $name(self).to_string()
+            }
+        }
+    };
+}
+
+named_choice!(DrawOrderMode, [DrawOrderMode::FrontToBack, DrawOrderMode::Submission], DrawOrderMode::label);
+named_choice!(Raster, Raster::ALL, Raster::name);
+named_choice!(LargeRaster, LargeRaster::ALL, LargeRaster::name);
+
+/// The viewer's control for a row.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Control {
+    /// A checkbox (switches).
+    Checkbox,
+    /// A slider over this range (numbers).
+    Slider(f64, f64),
+    /// A drop-down of the names (choices).
+    Choice,
+}
+
+/// One row of the table: what every layer needs to know of one setting.
+#[derive(Clone, Copy)]
+pub struct Knob {
+    /// The command-line name, the lab's axis, the viewer's script key: `early-outs`.
+    pub name: &'static str,
+    /// The field of [`Knobs`] and the key in JSON reports: `early_outs`.
+    pub field: &'static str,
+    /// The flag that turns a switch on by default off: `no-early-outs`.
+    pub off_flag: &'static str,
+    /// The help, one doc line an entry (the command line's and the viewer's).
+    pub help_lines: &'static [&'static str],
+    /// The short label of the viewer's control.
+    pub label: &'static str,
+    /// The placeholder of the value on the command line (`2..5`, `PX`).
+    pub value_name: &'static str,
+    /// How the value is written.
+    pub kind: Kind,
+    /// The viewer's control.
+    pub control: Control,
+    /// The methods whose frames read it (others ignore it).
+    pub applies: fn(Method) -> bool,
+    /// The value of the default [`Knobs`], as text.
+    pub default: fn() -> String,
+    /// The value in `knobs`, as text.
+    pub get: fn(&Knobs) -> String,
+    /// Sets the value from text (an error names the row and the text).
+    pub set: fn(&mut Knobs, &str) -> Result<(), String>,
+    /// Checks the value's range (an error names the flag, the value and the limit).
+    pub check: fn(&Knobs) -> Result<(), String>,
+}
+
+impl fmt::Debug for Knob {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Knob").field("name", &self.name).field("kind", &self.kind).finish_non_exhaustive()
+    }
+}
+
+impl Knob {
+    /// The help as one paragraph.
+    pub fn help(&self) -> String {
+        self.help_lines.iter().map(|l| l.trim()).collect::<Vec<_>>().join(" ")
+    }
+
+    /// The command-line flag without dashes: the name, or for a switch that is on by
+    /// default its `no-` form.
+    pub fn flag(&self) -> &'static str {
+        if self.kind == Kind::Switch && (self.default)() == "on" {
+            self.off_flag
+        } else {
+            self.name
+        }
+    }
+
+    /// True when the value differs between `a` and `b`.
+    pub fn differs(&self, a: &Knobs, b: &Knobs) -> bool {
+        (self.get)(a) != (self.get)(b)
+    }
+}
+
+/// Declares the table: the struct [`Knobs`] and its rows [`KNOBS`], one entry a setting.
+///
+/// ```text
+/// /// Help (the doc lines are the help).
+/// field: Type = default; "name", "label", "VALUE", control, applies(|m| ...), check(|v| ...);
+/// ```
+#[macro_export]
+macro_rules! knobs {
+    ($(
+        $(#[doc = $doc:literal])*
+        $field:ident : $ty:ty = $default:expr ;
+        $name:literal, $label:literal, $value_name:literal, $control:expr,
+        applies($applies:expr), check($check:expr) ;
+    )*) => {
+        /// Every pass setting's value (the rows of [`KNOBS`]); `Default` is every row's default.
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct Knobs {
+            $( $(#[doc = $doc])* pub $field: $ty, )*
+        }
+
+        impl Default for Knobs {
+            fn default() -> Self {
+                Self { $( $field: $default, )* }
+            }
+        }
+
+        /// The rows, in the order help and reports list them.
+        pub const KNOBS: &[Knob] = &[$(
+            Knob {
+                name: $name,
+                field: stringify!($field),
+                off_flag: concat!("no-", $name),
+                help_lines: &[$($doc),*],
+                label: $label,
+                value_name: $value_name,
+                kind: <$ty as KnobValue>::KIND,
+                control: $control,
+                applies: $applies,
+                default: || KnobValue::text(Knobs::default().$field),
+                get: |k| KnobValue::text(k.$field),
+                set: |k, text| {
+                    k.$field = <$ty as KnobValue>::parse(text).map_err(|e| format!("{} '{text}': {e}", $name))?;
+                    Ok(())
+                },
+                check: |k| {
+                    let check: fn($ty) -> Result<(), String> = $check;
+                    check(k.$field).map_err(|e| format!("--{} {}: {e}", $name, KnobValue::text(k.$field)))
+                },
+            },
+        )*];
+    };
+}
+
+fn any_method(_: Method) -> bool {
+    true
+}
+
+fn no_check<T>(_: T) -> Result<(), String> {
+    Ok(())
+}
+
+knobs! {
+    /// The shading's early-outs: a light beyond its radius or behind the surface returns at
+    /// once. Off is an ablation: every light a list holds is shaded in full and the result
+    /// discarded (the image is the same), to measure what the early-outs save.
+    early_outs: bool = true;
+    "early-outs", "shading early-outs", "on|off", Control::Checkbox, applies(any_method), check(no_check);
+
+    /// Tiled Deferred's G-buffer render targets, 2 to 5: the extra ones are written white
+    /// and read back (the sample's bandwidth stress knob; the image does not change).
+    gbuffer_rts: u32 = 2;
+    "gbuffer-rts", "G-buffer RTs", "2..5", Control::Slider(2.0, 5.0),
+    applies(|m| m == Method::TiledDeferred),
+    check(|v| if (2..=5).contains(&v) { Ok(()) } else { Err("must be between 2 and 5".into()) });
+
+    /// The order the depth pre-pass and the G-buffer draw the scene in: front-to-back
+    /// (nearest first, sorted again when the eye moves) or submission (the instance
+    /// buffer's, to measure what sorting saves). Images differ only where two surfaces tie
+    /// in depth.
+    draw_order: DrawOrderMode = DrawOrderMode::FrontToBack;
+    "draw-order", "draw order", "ORDER", Control::Choice, applies(any_method), check(no_check);
+
+    /// The visibility buffer's raster: auto (compute on a discrete GPU with 64-bit atomics
+    /// at one sample a pixel, else hardware), hardware or compute.
+    raster: Raster = Raster::Auto;
+    "raster", "raster", "RASTER", Control::Choice, applies(Method::uses_visibility_buffer), check(no_check);
+
+    /// The compute raster hands a triangle whose bounds span more pixels than this (either
+    /// way) to the large-triangle path.
+    raster_large_px: u32 = 32;
+    "raster-large-px", "large triangle (px)", "PX", Control::Slider(1.0, 256.0),
+    applies(Method::uses_visibility_buffer),
+    check(|v| if v >= 1 { Ok(()) } else { Err("a triangle spans at least one pixel".into()) });
+
+    /// Who draws the compute raster's large triangles: compute (a workgroup a triangle) or
+    /// hardware (one indirect draw).
+    raster_large: LargeRaster = LargeRaster::Compute;
+    "raster-large", "large triangles by", "BY", Control::Choice, applies(Method::uses_visibility_buffer),
+    check(no_check);
+
+    /// The MSAA edge test (Tiled Deferred, visibility buffer): a sample farther than this
+    /// fraction of the view distance from sample 0's tangent plane makes the pixel an edge.
+    edge_distance: f32 = 0.002;
+    "edge-distance", "edge: off-plane distance", "F", Control::Slider(0.0, 0.05),
+    applies(|m| matches!(m, Method::TiledDeferred | Method::Visibility)),
+    check(|v| if v.is_finite() && v >= 0.0 { Ok(()) } else { Err("must be a number >= 0".into()) });
+
+    /// The MSAA edge test (Tiled Deferred, visibility buffer): a sample normal turned more
+    /// than this many degrees from sample 0's makes the pixel an edge.
+    edge_normal_deg: f32 = 10.0;
+    "edge-normal-deg", "edge: normal angle (deg)", "DEG", Control::Slider(0.0, 90.0),
+    applies(|m| matches!(m, Method::TiledDeferred | Method::Visibility)),
+    check(|v| if (0.0..=180.0).contains(&v) { Ok(()) } else { Err("must be between 0 and 180 degrees".into()) });
+}
+
+impl Knobs {
+    /// Checks every row's range; the first error names its flag.
+    pub fn check(&self) -> Result<(), String> {
+        KNOBS.iter().try_for_each(|k| (k.check)(self))
+    }
+
+    /// The rows whose values differ between `self` and `other`.
+    pub fn changed(&self, other: &Knobs) -> Vec<&'static Knob> {
+        KNOBS.iter().filter(|k| k.differs(self, other)).collect()
+    }
+
+    /// The row named `name` ([`Knob::name`]).
+    pub fn row(name: &str) -> Option<&'static Knob> {
+        KNOBS.iter().find(|k| k.name == name)
+    }
+
+    /// Sets row `name` from `text`: None when no row has that name.
+    pub fn set(&mut self, name: &str, text: &str) -> Option<Result<(), String>> {
+        Self::row(name).map(|k| (k.set)(self, text))
+    }
+}
+
+/// The table's flags on a command line (feature `clap`): `#[command(flatten)] knobs:
+/// KnobArgs` adds one flag a row, named, helped and checked by the row. A value the row
+/// cannot parse is clap's usage error naming the flag; a range error is left to
+/// [`Knobs::check`], with the other settings' checks.
+#[cfg(feature = "clap")]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct KnobArgs(pub Knobs);
+
+#[cfg(feature = "clap")]
+impl clap::FromArgMatches for KnobArgs {
+    fn from_arg_matches(matches: &clap::ArgMatches) -> Result<Self, clap::Error> {
+        let mut args = Self::default();
+        args.update_from_arg_matches(matches)?;
+        Ok(args)
+    }
+
+    fn update_from_arg_matches(&mut self, matches: &clap::ArgMatches) -> Result<(), clap::Error> {
+        for row in KNOBS {
+            let text = if row.kind == Kind::Switch {
+                // The flag flips the default.
+                let flipped = if (row.default)() == "on" { "off" } else { "on" };
+                matches.get_flag(row.field).then(|| flipped.to_string())
+            } else {
+                matches.get_one::<String>(row.field).cloned()
+            };
+            if let Some(text) = text {
+                (row.set)(&mut self.0, &text).map_err(|e| {
+                    clap::Error::raw(clap::error::ErrorKind::ValueValidation, format!("--{}: {e}\n", row.flag()))
+                })?;
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(feature = "clap")]
+impl clap::Args for KnobArgs {
+    fn augment_args(cmd: clap::Command) -> clap::Command {
+        KNOBS.iter().fold(cmd, |cmd, row| {
+            let arg = clap::Arg::new(row.field).long(row.flag());
+            cmd.arg(match row.kind {
+                Kind::Switch => arg.action(clap::ArgAction::SetTrue).help(row.help()),
+                Kind::Choice(names) => arg
+                    .value_parser(clap::builder::PossibleValuesParser::new(names.iter().copied()))
+                    .help(format!("{} [default: {}]", row.help(), (row.default)())),
+                Kind::Count | Kind::Number => {
+                    arg.value_name(row.value_name).help(format!("{} [default: {}]", row.help(), (row.default)()))
+                }
+            })
+        })
+    }
+
+    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+        Self::augment_args(cmd)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every row's default parses back to itself, passes its check, and its text is one of
+    /// its choices; names and fields are unique and spelled alike.
+    #[test]
+    fn every_row_round_trips_and_names_are_unique() {
+        let mut names = std::collections::HashSet::new();
+        for k in KNOBS {
+            assert!(names.insert(k.name), "{} twice", k.name);
+            assert_eq!(k.field.replace('_', "-"), k.name, "field and name spelled alike");
+            let mut knobs = Knobs::default();
+            let default = (k.default)();
+            (k.set)(&mut knobs, &default).unwrap();
+            assert_eq!(knobs, Knobs::default(), "{}", k.name);
+            (k.check)(&knobs).unwrap();
+            if let Kind::Choice(names) = k.kind {
+                assert!(names.contains(&default.as_str()), "{}", k.name);
+                assert_eq!(k.control, Control::Choice);
+            }
+            assert!(!k.help().is_empty() && !k.help().contains("  "), "{}", k.name);
+        }
+    }
+
+    /// A value is set by name, a bad one named in the error, a range error names the flag.
+    #[test]
+    fn rows_set_check_and_report_changes() {
+        let mut k = Knobs::default();
+        k.set("gbuffer-rts", "4").unwrap().unwrap();
+        k.set("early-outs", "off").unwrap().unwrap();
+        k.set("draw-order", "Submission").unwrap().unwrap();
+        k.set("raster", "compute").unwrap().unwrap();
+        assert_eq!(
+            (k.gbuffer_rts, k.early_outs, k.draw_order, k.raster),
+            (4, false, DrawOrderMode::Submission, Raster::Compute)
+        );
+        let changed: Vec<_> = k.changed(&Knobs::default()).iter().map(|r| r.name).collect();
+        assert_eq!(changed, ["early-outs", "gbuffer-rts", "draw-order", "raster"]);
+        assert!(k.set("bogus", "1").is_none());
+        let e = k.set("raster", "sideways").unwrap().unwrap_err();
+        assert!(e.contains("raster 'sideways'") && e.contains("auto, hardware, compute"), "{e}");
+        let e = k.set("gbuffer-rts", "x").unwrap().unwrap_err();
+        assert!(e.contains("whole number"), "{e}");
+        k.gbuffer_rts = 7;
+        assert_eq!(k.check().unwrap_err(), "--gbuffer-rts 7: must be between 2 and 5");
+        k.gbuffer_rts = 2;
+        k.edge_distance = f32::NAN;
+        assert!(k.check().unwrap_err().starts_with("--edge-distance NaN"));
+        k.edge_distance = 0.0;
+        k.edge_normal_deg = 181.0;
+        assert!(k.check().unwrap_err().starts_with("--edge-normal-deg 181"));
+        k.edge_normal_deg = 180.0;
+        k.raster_large_px = 0;
+        assert!(k.check().unwrap_err().starts_with("--raster-large-px 0"));
+    }
+
+    /// Every row is a flag: parsed into the row's field, a bad value refused by name.
+    #[cfg(feature = "clap")]
+    #[test]
+    fn every_row_is_a_command_line_flag() {
+        use clap::{Args, FromArgMatches};
+        let cmd = KnobArgs::augment_args(clap::Command::new("t").no_binary_name(true));
+        let parse = |args: &[&str]| {
+            let m = cmd.clone().try_get_matches_from(args)?;
+            KnobArgs::from_arg_matches(&m).map(|a| a.0)
+        };
+        assert_eq!(parse(&[]).unwrap(), Knobs::default());
+        let k =
+            parse(&["--no-early-outs", "--gbuffer-rts", "3", "--draw-order", "submission", "--edge-distance", "0.25"])
+                .unwrap();
+        assert_eq!(
+            (k.early_outs, k.gbuffer_rts, k.draw_order, k.edge_distance),
+            (false, 3, DrawOrderMode::Submission, 0.25)
+        );
+        let e = parse(&["--gbuffer-rts", "three"]).unwrap_err().to_string();
+        assert!(e.contains("--gbuffer-rts") && e.contains("whole number"), "{e}");
+        assert!(parse(&["--raster", "sideways"]).is_err());
+        assert!(parse(&["--early-outs"]).is_err(), "a switch on by default has only its --no- flag");
+        let help = cmd.clone().render_long_help().to_string();
+        for row in KNOBS {
+            assert!(help.contains(&format!("--{}", row.flag())), "{}", row.name);
+        }
+    }
+
+    /// A switch on by default is turned off by `--no-NAME`; one off by default by `--NAME`.
+    #[test]
+    fn switch_flags_follow_the_default() {
+        assert_eq!(Knobs::row("early-outs").unwrap().flag(), "no-early-outs");
+        assert_eq!(Knobs::row("gbuffer-rts").unwrap().flag(), "gbuffer-rts");
+        assert!(!(Knobs::row("gbuffer-rts").unwrap().applies)(Method::ForwardPlus));
+        assert!((Knobs::row("raster").unwrap().applies)(Method::TRUTH));
+    }
+}
