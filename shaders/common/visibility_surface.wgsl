@@ -191,11 +191,33 @@ fn pixel_owned(p: vec2<u32>) -> bool {
 }
 
 #ifdef MSAA
-// A pixel whose samples all hold one ID is shaded once; any two IDs make it an edge.
+// Two IDs in a pixel make it an edge only where their surfaces differ (the pass settings'
+// row `surface-edges`, on by default): another material, sky, or a sample off sample 0's
+// tangent plane or turned from its normal beyond the edge test's thresholds (Tiled
+// Deferred's test, common/deferred_shade.wgsl). Off: any two IDs do. A floor split into
+// triangles, or a finely tessellated smooth surface, is then shaded once a pixel, as the
+// G-buffer's test shades it.
+override SURFACE_EDGES: bool = true;
+
+// A pixel whose samples all hold one ID is shaded once; two IDs make it an edge where their
+// surfaces differ (SURFACE_EDGES).
 fn is_edge(p: vec2<u32>, g0: GSample) -> bool {
     let id0 = vis_id(p, 0u);
     for (var s = 1u; s < SAMPLES; s++) {
-        if vis_id(p, s) != id0 {
+        let id = vis_id(p, s);
+        if id == id0 {
+            continue;
+        }
+        if !SURFACE_EDGES || g0.sky || id == VIS_NO_TRIANGLE {
+            return true;
+        }
+        // One material keeps the pixel in one material dispatch's hands (ownership).
+        if instances[vis_instance(id)].material != instances[vis_instance(id0)].material {
+            return true;
+        }
+        let g = vis_surface(p, id, vec2<f32>(p) + sample_position(s));
+        if g.sky || abs(dot(g.world - g0.world, g0.normal)) > EDGE_DISTANCE * g0.dist
+            || dot(g.normal, g0.normal) < EDGE_COS {
             return true;
         }
     }

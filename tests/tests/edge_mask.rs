@@ -1,13 +1,20 @@
-//! The visibility method's MSAA edge classification, checked exactly (issue 43, class 9):
-//! the edge pixels its material pass queues (`is_edge` in
+//! The visibility method's MSAA edge classification, checked exactly (issue 43, class 9;
+//! issue 45's `surface-edges` row): the edge pixels its material pass queues (`is_edge` in
 //! `shaders/common/visibility_surface.wgsl`, read back as the frame's edge list) against
 //! the CPU's definition computed from the raster's per-sample IDs read back from the
-//! multisampled ID target: **a pixel is an edge iff its samples do not all hold the same ID**
-//! (the documented rule, `visibility_msaa.wgsl`: "a pixel whose samples share one ID is
-//! shaded once at its centre, others per sample"). Under that rule two coplanar adjacent
-//! triangles (a quad's diagonal, two abutting panels) make an edge like a silhouette does:
-//! the test checks exactly that rule, and if coplanar same-normal IDs are later merged into
-//! one surface this test must change with the rule.
+//! multisampled ID target, under both rules:
+//!
+//! - `surface-edges` off: **a pixel is an edge iff its samples do not all hold the same
+//!   ID**; two coplanar adjacent triangles (a quad's diagonal, two abutting panels) make an
+//!   edge like a silhouette does.
+//! - `surface-edges` on (the default): two IDs make an edge only where their surfaces
+//!   differ by the edge test (another material, off sample 0's plane or turned from its
+//!   normal beyond the thresholds). This scene's surfaces are flat faces that are either
+//!   exactly coplanar (same material, same plane and normal) or far beyond both thresholds
+//!   (creases of 30 degrees and more, silhouettes against other materials or the sky), so
+//!   the CPU's rule needs no thresholds: **an edge iff the samples do not all lie on one
+//!   face** (a box's face, the floor, the two panels' common plane; the sky is a face of
+//!   its own).
 //!
 //! At 4x (what lavapipe has besides 1x), hardware raster (the compute raster draws one
 //! sample), a scene without textures (one material dispatch, so each edge pixel is queued
@@ -37,7 +44,8 @@ const H: u32 = 90;
 const SAMPLES: u32 = 4;
 
 /// A floor, boxes (one upright, one turned, one tilted so its faces meet at creases seen
-/// from the camera), and two upright coplanar panels meeting edge to edge; no textures.
+/// from the camera), two upright coplanar panels meeting edge to edge and a third, parallel
+/// one in front of them; no textures.
 fn scene() -> Scene {
     let mut panel = material("panel", [0.3, 0.8, 0.4, 1.0], 0.4, 0.0);
     panel.double_sided = true;
@@ -61,6 +69,9 @@ fn scene() -> Scene {
         // Coplanar panels: the same plane z = -2.5, abutting at x = 0.75.
         inst(2, 2, Mat4::from_translation(Vec3::new(0.0, 1.5, -2.5)) * upright),
         inst(2, 2, Mat4::from_translation(Vec3::new(1.5, 1.5, -2.5)) * upright),
+        // A parallel panel half a metre in front, overlapping both: one material, one
+        // normal, another plane (an edge only the plane test finds).
+        inst(2, 2, Mat4::from_translation(Vec3::new(0.75, 1.0, -2.0)) * upright),
     ];
     let mut s = Scene {
         name: "edges".into(),
@@ -167,7 +178,7 @@ fn mask_differences(edges: &[(u32, u32)], mask: &[bool]) -> (Pixels, Pixels) {
 }
 
 #[test]
-fn msaa_edge_pixels_are_exactly_those_whose_samples_hold_different_ids() {
+fn msaa_edge_pixels_are_exactly_those_whose_samples_lie_on_different_surfaces_or_ids() {
     let ctx = gpu();
     assert!(
         tiledlight_tests::adapter_sample_counts(ctx).contains(&SAMPLES),
@@ -178,21 +189,20 @@ fn msaa_edge_pixels_are_exactly_those_whose_samples_hold_different_ids() {
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &sc).unwrap();
     let lights = [Light::point(Vec3::new(0.0, 3.0, 1.0), Vec3::ONE, 4.0, 8.0).unwrap()];
     let lb = LightBuffers::new(&ctx.device, &lights).unwrap();
-    let s = FrameSettings {
-        method: Method::Visibility,
-        msaa: SAMPLES,
-        knobs: Knobs { raster: Raster::Hardware, ..Knobs::default() },
-        ..Default::default()
+    let edge_list = |surface_edges| {
+        let knobs = Knobs { raster: Raster::Hardware, surface_edges, ..Knobs::default() };
+        let s = FrameSettings { method: Method::Visibility, msaa: SAMPLES, knobs, ..Default::default() };
+        let mut r = FrameRenderer::new(ctx, &sg, &lb, W, H, s).unwrap();
+        render_frame(ctx, &mut r, &sg, &camera());
+        let vf = r.passes::<VisibilityFrame>().expect("visibility");
+        let ids = read_sample_ids(ctx, &vf.raster().ids_view);
+        let edges = vf.shading().read_edge_list(&ctx.device, &ctx.queue).unwrap();
+        (ids, edges, vf.raster().layout)
     };
-    let mut r = FrameRenderer::new(ctx, &sg, &lb, W, H, s).unwrap();
-    render_frame(ctx, &mut r, &sg, &camera());
-    let vf = r.passes::<VisibilityFrame>().expect("visibility");
-    let ids = read_sample_ids(ctx, &vf.raster().ids_view);
-    let edges = vf.shading().read_edge_list(&ctx.device, &ctx.queue).unwrap();
+    let (ids, edges, layout) = edge_list(false);
     let mask = edge_mask_from_ids(&ids);
 
     // What the scene puts in the mask: each kind of edge is there.
-    let layout = vf.raster().layout;
     let (mut sky, mut between, mut within) = (0, 0, 0);
     for s in ids.chunks_exact(SAMPLES as usize).filter(|s| s.iter().any(|&id| id != s[0])) {
         let inst = |id: u32| layout.unpack(id).map(|(i, _)| i);
@@ -250,4 +260,37 @@ fn msaa_edge_pixels_are_exactly_those_whose_samples_hold_different_ids() {
     let mut short = edges.clone();
     short.pop();
     assert!(!mask_differences(&short, &mask).0.is_empty(), "a missing edge pixel must fail");
+
+    // The surface rule (the default): the same raster, the pixels whose samples do not all
+    // lie on one face.
+    let (ids_on, edges_on, _) = edge_list(true);
+    assert_eq!(ids_on, ids, "the rule changes the shading pass only");
+    let face_of = |id: u32| {
+        layout.unpack(id).map(|(slot, t)| match sg.instance_order[slot as usize] {
+            0 => (0, 0),
+            4 | 5 => (4, 0),
+            i => (i, t / 2),
+        })
+    };
+    let by_face: Vec<bool> =
+        ids.chunks_exact(SAMPLES as usize).map(|s| s.iter().any(|&id| face_of(id) != face_of(s[0]))).collect();
+    let count = |m: &[bool]| m.iter().filter(|&&e| e).count();
+    eprintln!(
+        "surface rule: {} edge pixels ({} by IDs; {coplanar_pixels} coplanar ones no longer edges); {} queued",
+        count(&by_face),
+        count(&mask),
+        edges_on.len()
+    );
+    assert_eq!(count(&mask) - count(&by_face), coplanar_pixels, "exactly the coplanar pixels leave the mask");
+    let (differ, twice) = mask_differences(&edges_on, &by_face);
+    assert!(twice.is_empty(), "pixels queued twice: {:?}", &twice[..twice.len().min(8)]);
+    assert!(
+        differ.is_empty(),
+        "{} pixels where the edge list and the surface rule disagree (x, y): {:?}",
+        differ.len(),
+        &differ[..differ.len().min(12)]
+    );
+    // The teeth: the ID rule's list fails the surface rule here, and the surface rule's the
+    // ID rule.
+    assert!(!mask_differences(&edges, &by_face).0.is_empty() && !mask_differences(&edges_on, &mask).0.is_empty());
 }

@@ -290,18 +290,26 @@ knobs! {
     "raster-large", "large triangles by", "BY", Control::Choice, applies(Method::uses_visibility_buffer),
     check(no_check);
 
+    /// The visibility buffer with MSAA: two triangle IDs in a pixel make it an edge (shaded
+    /// per sample) only where their surfaces differ by the edge test (another material,
+    /// off the plane or turned beyond --edge-distance and --edge-normal-deg); off, any two
+    /// IDs do (a floor of two triangles then has an edge along its diagonal).
+    surface_edges: bool = true;
+    "surface-edges", "edges by surface, not ID", "on|off", Control::Checkbox,
+    applies(Method::uses_visibility_buffer), check(no_check);
+
     /// The MSAA edge test (Tiled Deferred, visibility buffer): a sample farther than this
     /// fraction of the view distance from sample 0's tangent plane makes the pixel an edge.
     edge_distance: f32 = 0.002;
     "edge-distance", "edge: off-plane distance", "F", Control::Slider(0.0, 0.05),
-    applies(|m| matches!(m, Method::TiledDeferred | Method::Visibility)),
+    applies(|m| m == Method::TiledDeferred || m.uses_visibility_buffer()),
     check(|v| if v.is_finite() && v >= 0.0 { Ok(()) } else { Err("must be a number >= 0".into()) });
 
     /// The MSAA edge test (Tiled Deferred, visibility buffer): a sample normal turned more
     /// than this many degrees from sample 0's makes the pixel an edge.
     edge_normal_deg: f32 = 10.0;
     "edge-normal-deg", "edge: normal angle (deg)", "DEG", Control::Slider(0.0, 90.0),
-    applies(|m| matches!(m, Method::TiledDeferred | Method::Visibility)),
+    applies(|m| m == Method::TiledDeferred || m.uses_visibility_buffer()),
     check(|v| if (0.0..=180.0).contains(&v) { Ok(()) } else { Err("must be between 0 and 180 degrees".into()) });
 }
 

@@ -9,7 +9,9 @@
 //! technique ([`culling`]: tile gather, light-centric scatter, clusters) into the light grid
 //! ([`light_grid`]), the shadow atlas ([`shadow_atlas`]), the blended-geometry path ([`blended`]), tonemapping ([`tonemap`]), the traced
 //! reference's BVH ([`bvh`]) and each light's contribution to a frame ([`contribution`],
-//! which picks shadow casters by what they light). Depends on wgpu, tiledlight-cull and
+//! which picks shadow casters by what they light). The method types are [`method`]; the table
+//! of pass settings, each declared once with its flag, axis, check and viewer control, is
+//! [`knobs`]. Depends on wgpu, tiledlight-cull and
 //! tiledlight-scene; never on a renderer crate.
 
 /// The draw order of the depth pre-pass and the G-buffer: CPU logic, in tiledlight-cull.

@@ -881,7 +881,7 @@ mod tests {
         let bench_keys = "adapter resolution width height scene triangles instances point_lights spot_lights seed \
              threshold method tile_size capacity aabb half_z spot_cone coarse msaa shadow_point_lights shadow_spot_lights \
              casters_by shadow_size shadow_filter shadow_format transparent_objects emissive early_outs gbuffer_rts \
-             draw_order raster raster_large_px raster_large edge_distance edge_normal_deg commit";
+             draw_order raster raster_large_px raster_large surface_edges edge_distance edge_normal_deg commit";
         assert_eq!(keys(&bench).join(" "), bench_keys.split_whitespace().collect::<Vec<_>>().join(" "));
         let shadow = ConfigJson {
             casters: Some(CastersJson {

@@ -448,6 +448,7 @@ impl VisibilityShading {
         if samples > 1 {
             constants.push(("SAMPLES", samples as f64));
             constants.extend(EdgeSamples::constants(samples, edge, tile));
+            constants.push(("SURFACE_EDGES", f64::from(u8::from(features.knobs.surface_edges))));
         }
         let pipeline = match shade {
             ShadeLights::Lists(culling) => {
