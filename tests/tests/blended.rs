@@ -22,11 +22,11 @@
 use glam::{Mat4, Vec3};
 use tiledlight_cull::blended_depth::raster_depth;
 use tiledlight_cull::{Camera, Light};
+use tiledlight_frame::plan::Step;
 use tiledlight_frame::{DeferredFrame, Diagnostics, FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::culling::{ClusterOptions, CullOptions};
 use tiledlight_gpu::knobs::Knobs;
 use tiledlight_gpu::light_buffers::LightBuffers;
-use tiledlight_gpu::plan::Step;
 use tiledlight_gpu::readback::read_depth;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;

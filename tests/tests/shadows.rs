@@ -1132,7 +1132,7 @@ fn no_casters_no_shadow_path() {
     let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 8, 2, 1)).unwrap();
     let f = FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings::default()).unwrap();
     assert!(f.outputs().shadow_atlas.is_none() && f.features().shadows.is_none());
-    assert!(!f.plan().has(tiledlight_gpu::plan::Step::ShadowMaps));
+    assert!(!f.plan().has(tiledlight_frame::plan::Step::ShadowMaps));
     assert!(f.memory().entries.iter().all(|(c, _)| !c.starts_with("shadow")));
     let d = FrameRenderer::new(ctx, &sg, &lights, W, H, FrameSettings::of(Method::TiledDeferred)).unwrap();
     assert!(d.outputs().shadow_atlas.is_none());

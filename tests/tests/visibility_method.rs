@@ -9,12 +9,12 @@
 //! each sample count). The reconstruction's arithmetic is `visibility.rs`.
 
 use tiledlight_cull::Camera;
+use tiledlight_frame::plan::Step;
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method, TestHooks, VisibilityFrame};
 use tiledlight_gpu::culling::{ClusterOptions, CullOptions};
 use tiledlight_gpu::features::Raster;
 use tiledlight_gpu::knobs::Knobs;
 use tiledlight_gpu::light_buffers::LightBuffers;
-use tiledlight_gpu::plan::Step;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::GpuContext;

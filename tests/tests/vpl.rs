@@ -485,7 +485,7 @@ fn render(method: Method, vpl: Option<VplConfig>) -> (tiledlight_tests::compare:
     let lights = LightBuffers::with_casters(&ctx.device, &[short_spot()], (0, 1)).expect("lights");
     let s = FrameSettings { method, ambient: Vec3::ZERO, vpl, ..Default::default() };
     let mut r = FrameRenderer::new(ctx, &scene, &lights, W, H, s).expect("renderer with VPLs");
-    assert_eq!(r.plan().has(tiledlight_gpu::plan::Step::Vpl), vpl.is_some(), "a VPL step exactly with --vpl");
+    assert_eq!(r.plan().has(tiledlight_frame::plan::Step::Vpl), vpl.is_some(), "a VPL step exactly with --vpl");
     assert_eq!(r.vpls().map(|v| &v.path).is_some(), vpl.is_some());
     let frame = tiledlight_tests::compare::render_frame(ctx, &mut r, &scene, &camera());
     (frame, r)
@@ -572,7 +572,7 @@ fn no_vpl_no_cost_and_no_caster_no_vpls() {
     // Without VPLs nothing of them exists: no step, no buffers, no variant.
     let r = FrameRenderer::new(ctx, &scene, &casters, W, H, FrameSettings::default()).expect("renderer");
     assert!(r.vpls().map(|v| &v.path).is_none() && r.vpls().and_then(|v| v.culling.as_ref()).is_none());
-    assert!(!r.plan().has(tiledlight_gpu::plan::Step::Vpl) && !r.plan().has(tiledlight_gpu::plan::Step::VplCull));
+    assert!(!r.plan().has(tiledlight_frame::plan::Step::Vpl) && !r.plan().has(tiledlight_frame::plan::Step::VplCull));
     assert!(!r.memory().entries.iter().any(|(c, _)| c.contains("vpl")), "{:?}", r.memory().entries);
     let bf = FrameSettings { method: Fwd::BruteForce { cutoff: true }, vpl, ..Default::default() };
     let e = tiledlight_tests::err_text(FrameRenderer::new(ctx, &scene, &plain, W, H, bf));
@@ -588,7 +588,7 @@ fn forward_plus_with_culled_vpls_equals_brute_force() {
     let vpl = Some(VplConfig::default());
     let (reference, _) = render(Fwd::BruteForce { cutoff: true }, vpl);
     let (actual, r) = render(Fwd::ForwardPlus, vpl);
-    assert!(r.plan().has(tiledlight_gpu::plan::Step::VplCull));
+    assert!(r.plan().has(tiledlight_frame::plan::Step::VplCull));
     assert_matches_reference_frame("Forward+ with VPLs", W, &reference, &actual, FORWARD_VS_REFERENCE);
     // And the VPLs changed the image (the comparison is not of two unlit frames).
     let (plain, _) = render(Fwd::BruteForce { cutoff: true }, None);
@@ -642,7 +642,7 @@ fn tiled_deferred_with_vpls_equals_forward_plus_and_brute_force() {
     let s = FrameSettings { method: Method::TiledDeferred, ambient: Vec3::ZERO, vpl, ..Default::default() };
     let mut r = FrameRenderer::new(ctx, &scene, &lights, W, H, s).expect("Tiled Deferred with VPLs");
     let plan = r.plan();
-    assert!(plan.has(tiledlight_gpu::plan::Step::Vpl) && plan.has(tiledlight_gpu::plan::Step::VplCull));
+    assert!(plan.has(tiledlight_frame::plan::Step::Vpl) && plan.has(tiledlight_frame::plan::Step::VplCull));
     let deferred = tiledlight_tests::compare::render_frame(ctx, &mut r, &scene, &camera());
     let (forward, _) = render(Method::ForwardPlus, vpl);
     let (reference, _) = render(Method::BruteForce { cutoff: true }, vpl);

@@ -136,14 +136,14 @@ mod tests {
     /// pattern with `<...>` are not paths to check.
     #[test]
     fn a_missing_path_is_reported() {
-        let text = "see `crates/gpu/src/plan.rs:12`, `crates/gpu/src/{plan,nope}.rs`, `shaders/traced*.wgsl`, \
+        let text = "see `crates/frame/src/plan.rs:12`, `crates/frame/src/{plan,nope}.rs`, `shaders/traced*.wgsl`, \
                     `shaders/zzz*.wgsl`, `crates/gpu/src/gone.rs`, `tiledlight_gpu::plan`, \
                     `crates/lab/src/tune.rs::Candidate`, `docs/results/<gpu>-<commit>/` and `a b/c`";
         let found: Vec<String> = paths(text).into_iter().map(|(t, _)| t).collect();
         assert_eq!(found.len(), 6, "{found:?}");
         assert_eq!(
             missing(root(), text),
-            ["crates/gpu/src/{plan,nope}.rs", "shaders/zzz*.wgsl", "crates/gpu/src/gone.rs"]
+            ["crates/frame/src/{plan,nope}.rs", "shaders/zzz*.wgsl", "crates/gpu/src/gone.rs"]
         );
     }
 }

@@ -15,6 +15,7 @@
 
 use std::any::Any;
 
+use crate::plan::Step;
 use tiledlight_forward::shading::{LightLoop, ShadingPass};
 use tiledlight_gpu::culling::LightCulling;
 use tiledlight_gpu::depth_prepass::{DepthPrepass, DEPTH_FORMAT};
@@ -22,7 +23,6 @@ use tiledlight_gpu::features::{Features, Method};
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::memory::MemoryReport;
-use tiledlight_gpu::plan::Step;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::texture_2d_msaa;
 use tiledlight_gpu::tonemap::HDR_FORMAT;

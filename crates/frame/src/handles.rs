@@ -5,8 +5,8 @@
 
 use std::cell::Cell;
 
+use crate::plan::{FramePlan, Step};
 use tiledlight_gpu::draw_order::DrawOrder;
-use tiledlight_gpu::plan::{FramePlan, Step};
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::view::Views;

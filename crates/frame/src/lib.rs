@@ -18,7 +18,7 @@
 //!          Tonemap (Hdr -> Ldr), Heatmap (Lists -> Ldr)
 //! ```
 //!
-//! The order is the frame plan's (`tiledlight_gpu::plan`): every build checks every frame
+//! The order is the frame plan's ([`plan`]): every build checks every frame
 //! against it. Depends on tiledlight-gpu, tiledlight-vpl, tiledlight-forward,
 //! tiledlight-deferred and tiledlight-visibility (their passes); nothing below depends on it.
 
@@ -27,6 +27,7 @@ pub mod diagnostics;
 pub mod forward_plus;
 pub mod handles;
 pub mod method;
+pub mod plan;
 pub mod renderer;
 pub mod settings;
 pub mod shared;

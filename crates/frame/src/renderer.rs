@@ -6,6 +6,7 @@
 
 use std::cell::RefCell;
 
+use crate::plan::FramePlan;
 use glam::Vec3;
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::{Camera, TileGrid};
@@ -16,7 +17,6 @@ use tiledlight_gpu::heatmap::HeatmapPass;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::{GridStatus, LightGrid};
 use tiledlight_gpu::memory::MemoryReport;
-use tiledlight_gpu::plan::FramePlan;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::targets::DisplayTargets;

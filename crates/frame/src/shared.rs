@@ -13,6 +13,7 @@
 //! [`SharedSteps::finish`], its `record_*` call in `FrameRenderer::record`, one plan step.
 //! Depends on tiledlight-gpu (passes, targets) and tiledlight-vpl.
 
+use crate::plan::{FramePlan, Step};
 use tiledlight_cull::shadow::AtlasLayout;
 use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::blended::{BlendedInputs, BlendedPath};
@@ -22,7 +23,6 @@ use tiledlight_gpu::heatmap::{HeatmapGrids, HeatmapPass};
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::lights_group::VplBindings;
 use tiledlight_gpu::memory::MemoryReport;
-use tiledlight_gpu::plan::{FramePlan, Step};
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::targets::{check_msaa, DisplayTargets};
@@ -286,11 +286,18 @@ impl SharedSteps {
     /// shading and composite.
     pub fn record_blended(&self, rec: &mut Rec<'_>, camera: &Camera, depth: Depth<'_>, hdr: Hdr<'_>) {
         let Some(b) = &self.blended else { return };
-        for step in [Step::BlendedDepth, Step::BlendedCull, Step::BlendedShade] {
-            if self.plan.has(step) {
-                rec.step(step);
-                b.record_step(step, rec.encoder, rec.timer, (rec.view, rec.scene, camera), (depth, hdr));
-            }
+        if self.plan.has(Step::BlendedDepth) {
+            rec.step(Step::BlendedDepth);
+            b.record_depth(rec.encoder, rec.timer, rec.view, rec.scene);
+        }
+        if self.plan.has(Step::BlendedCull) {
+            rec.step(Step::BlendedCull);
+            b.record_cull(rec.encoder, rec.timer, rec.view);
+        }
+        if self.plan.has(Step::BlendedShade) {
+            rec.step(Step::BlendedShade);
+            let to_view = camera.view();
+            b.record_shade(rec.encoder, rec.timer, rec.view, rec.scene, &to_view, depth, hdr);
         }
     }
 

@@ -15,6 +15,7 @@
 
 use std::any::Any;
 
+use crate::plan::Step;
 use tiledlight_deferred::gbuffer::{emission_format, GBuffer, GBufferPass, EXTRA_FORMAT, SURFACE_FORMAT};
 use tiledlight_deferred::shading::DeferredShading;
 use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
@@ -23,7 +24,6 @@ use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::memory::MemoryReport;
-use tiledlight_gpu::plan::Step;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::{GpuContext, GpuError};

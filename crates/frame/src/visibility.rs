@@ -26,6 +26,7 @@
 
 use std::any::Any;
 
+use crate::plan::Step;
 use tiledlight_gpu::culling::LightCulling;
 use tiledlight_gpu::depth_prepass::{DEPTH_FORMAT, ID_FORMAT};
 use tiledlight_gpu::edge_samples::EdgeTest;
@@ -34,7 +35,6 @@ use tiledlight_gpu::features::{Features, Method};
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::memory::MemoryReport;
-use tiledlight_gpu::plan::Step;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::{GpuContext, GpuError};

@@ -3,7 +3,8 @@
 //! shading, as the sample does). Exists only when the scene has blended materials
 //! ([`Features::blended`]): no blended depth, grid, pipeline or layer otherwise.
 //!
-//! The steps (the frame plan's `BlendedDepth`, `BlendedCull`, `BlendedShade`):
+//! The steps (the frame plan's `BlendedDepth`, `BlendedCull`, `BlendedShade`, in
+//! tiledlight-frame, which calls `record_depth`, `record_cull` and `record_shade`):
 //! 1. **Depth.** The blended draws, depth-only, into a depth buffer of their own cleared to
 //!    0 (`blended.depth`): per sample, the nearest blended surface. It is tested against the
 //!    opaque depth where the culling kernel reads both buffers (a blended sample counts
@@ -44,7 +45,7 @@ use crate::handles::{Depth, Hdr};
 use std::sync::Mutex;
 
 use glam::{Mat4, Vec3};
-use tiledlight_cull::{Camera, TileGrid};
+use tiledlight_cull::TileGrid;
 
 use crate::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
 use crate::culling::{CullOptions, LightCulling};
@@ -55,7 +56,6 @@ use crate::light_buffers::LightBuffers;
 use crate::light_grid::{GridStatus, LightGrid};
 use crate::lights_group::{LightsGroup, LIGHTS_GROUP};
 use crate::memory::MemoryReport;
-use crate::plan::Step;
 use crate::scene_gpu::{DrawKind, SceneGpu, SCENE_GROUPS};
 use crate::scene_raster::{begin_pass, cleared, DepthUse, RasterTargets, SceneRaster};
 use crate::shadow_atlas::ShadowAtlas;
@@ -511,28 +511,6 @@ impl BlendedPath {
             pass.draw(0..3, 0..1);
         }
         timer.end(encoder, t);
-    }
-
-    /// Records plan step `step` (`BlendedDepth`, `BlendedCull` or `BlendedShade`; others
-    /// record nothing) of view slot `view` seen by `camera`, over the frame's opaque depth
-    /// and HDR image.
-    pub fn record_step(
-        &self,
-        step: Step,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: &GpuTimer,
-        (view, scene, camera): ((&Views, u32), &SceneGpu, &Camera),
-        (opaque_depth, hdr): (Depth<'_>, Hdr<'_>),
-    ) {
-        match step {
-            Step::BlendedDepth => self.record_depth(encoder, timer, view, scene),
-            Step::BlendedCull => self.record_cull(encoder, timer, view),
-            Step::BlendedShade => {
-                let to_view = camera.view();
-                self.record_shade(encoder, timer, view, scene, &to_view, opaque_depth, hdr)
-            }
-            _ => {}
-        }
     }
 
     /// Blended instances (drawn one by one each frame).

@@ -38,7 +38,6 @@ pub mod light_grid;
 pub mod lights_group;
 pub mod memory;
 pub mod method;
-pub mod plan;
 pub mod readback;
 pub mod scene_gpu;
 pub mod scene_raster;

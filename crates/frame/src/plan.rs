@@ -18,9 +18,10 @@
 //! ```
 //!
 //! A new pass touches its own Rust file, its WGSL, one line here and, when the scene
-//! decides whether it exists, one field of [`Features`]. Depends on [`crate::features`].
+//! decides whether it exists, one field of [`Features`]. Depends on tiledlight-gpu's
+//! `features` (the method and the features); lives with the frame that records it.
 
-use crate::features::{Features, Method};
+use tiledlight_gpu::features::{Features, Method};
 
 /// One step of a frame. Each names the pass struct that records it and its timer label.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -168,7 +169,7 @@ impl FramePlan {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene_gpu::DrawKind;
+    use tiledlight_gpu::scene_gpu::DrawKind;
 
     fn features(method: Method, msaa: u32) -> Features {
         Features {
@@ -244,7 +245,7 @@ mod tests {
     fn vpls_follow_the_shadow_maps_and_exist_only_when_asked_for() {
         use Step::*;
         let mut f = features(Method::BruteForce { cutoff: true }, 1);
-        f.shadows = Some(crate::features::Shadows { points: 0, spots: 1, options: Default::default() });
+        f.shadows = Some(tiledlight_gpu::features::Shadows { points: 0, spots: 1, options: Default::default() });
         assert!(!FramePlan::new(&f).has(Vpl), "no --vpl, no VPL step");
         f.vpl = true;
         assert_eq!(FramePlan::new(&f).steps(), [ShadowMaps, Vpl, DepthPrepass, BruteForceShade, Tonemap]);
