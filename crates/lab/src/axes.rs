@@ -621,6 +621,22 @@ mod tests {
         }
     }
 
+    /// Every row of the pass settings' table is an axis, described from the row, numeric
+    /// exactly when the row holds a number; the hand-written axes stay.
+    #[test]
+    fn every_pass_setting_row_is_an_axis() {
+        let all = axes();
+        for row in KNOBS {
+            let (_, d) = all.iter().find(|(n, _)| *n == row.name).unwrap_or_else(|| panic!("{} no axis", row.name));
+            assert!(d.starts_with(row.label), "{d}");
+            assert_eq!(is_numeric_axis(row.name), matches!(row.kind, Kind::Count | Kind::Number), "{}", row.name);
+            assert_eq!(is_integer_axis(row.name), row.kind == Kind::Count, "{}", row.name);
+        }
+        assert!(all.iter().any(|(n, _)| *n == "lights") && all.len() == AXES.len() + KNOBS.len());
+        assert!(format!("{:#}", parse_axis::<Two>("gbuffer-rts=2..4").unwrap_err()).contains("not one of this"));
+        assert!(is_numeric_axis("threshold") && !is_numeric_axis("method"));
+    }
+
     #[test]
     fn any_flags_type_takes_axes() {
         assert_eq!(parse_axis::<Two>("lights=64..1000").unwrap().values, ["64", "128", "256", "512", "1000"]);

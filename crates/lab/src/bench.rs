@@ -883,6 +883,14 @@ mod tests {
              casters_by shadow_size shadow_filter shadow_format transparent_objects emissive early_outs gbuffer_rts \
              draw_order raster raster_large_px raster_large surface_edges edge_distance edge_normal_deg commit";
         assert_eq!(keys(&bench).join(" "), bench_keys.split_whitespace().collect::<Vec<_>>().join(" "));
+        // The rows' values by kind: a switch a boolean, a count or number a number, a choice
+        // its name (scripts read `config.early_outs` as a boolean).
+        let v = serde_json::to_value(&bench).unwrap();
+        assert_eq!(v["early_outs"], serde_json::json!(true));
+        assert_eq!(v["gbuffer_rts"], serde_json::json!(2));
+        assert_eq!(v["edge_distance"], serde_json::json!(0.1));
+        assert_eq!(v["draw_order"], serde_json::json!("front-to-back"));
+        assert_eq!(v["raster"], serde_json::json!("auto"));
         let shadow = ConfigJson {
             casters: Some(CastersJson {
                 camera: "x".into(),
