@@ -23,7 +23,7 @@ pub struct Rec<'a> {
     /// The scene's buffers and draws.
     pub scene: &'a SceneGpu,
     /// The order the head step (depth pre-pass or G-buffer) draws the scene in; None:
-    /// the instance buffer's ([`FrameSettings::draw_order`](crate::FrameSettings::draw_order)).
+    /// the instance buffer's ([`Knobs::draw_order`](tiledlight_gpu::knobs::Knobs::draw_order)).
     pub order: Option<&'a DrawOrder>,
     plan: &'a FramePlan,
     next: Cell<usize>,

@@ -48,7 +48,7 @@ pub struct FrameSettings {
     pub vpl: Option<VplConfig>,
     /// The pass settings (early-outs, G-buffer targets, draw order, the visibility
     /// buffer's raster and its large triangles, the MSAA edge test): one row each in
-    /// [`tiledlight_gpu::knobs`], read by the passes through
+    /// [`tiledlight_gpu::knobs`](mod@tiledlight_gpu::knobs), read by the passes through
     /// [`tiledlight_gpu::features::Features::knobs`]. `knobs.raster` `Raster::Auto` (the
     /// default) picks per adapter (`Raster::pick`); [`crate::FrameRenderer::settings`]
     /// reports the one built.

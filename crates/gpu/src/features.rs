@@ -1,5 +1,5 @@
 //! Scene features: one value, computed once per renderer from the scene, the lights and the
-//! settings, that decides which passes exist ([`crate::plan`]), which buffers are allocated
+//! settings, that decides which passes exist (the plan in tiledlight-frame), which buffers are allocated
 //! and which shader variants are compiled. Passes read it; nothing re-derives it from the
 //! scene or the light buffers.
 //!
@@ -99,7 +99,7 @@ pub struct Features {
     /// Virtual point lights (`--vpl`, crate tiledlight-vpl): the RSM and generation step
     /// and the `VPLS` shading variant, in every method.
     pub vpl: bool,
-    /// The pass settings ([`crate::knobs`]: early-outs, G-buffer targets, draw order,
+    /// The pass settings ([`crate::knobs`](mod@crate::knobs): early-outs, G-buffer targets, draw order,
     /// raster, edge test): every pass reads its own rows here. `early_outs` false is an
     /// ablation (`--no-early-outs`): every light a list holds is evaluated in full and its
     /// result discarded, as a renderer without them pays; the image is the same (the

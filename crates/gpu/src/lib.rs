@@ -11,7 +11,7 @@
 //! reference's BVH ([`bvh`]) and each light's contribution to a frame ([`contribution`],
 //! which picks shadow casters by what they light). The method types are [`method`]; the table
 //! of pass settings, each declared once with its flag, axis, check and viewer control, is
-//! [`knobs`]. Depends on wgpu, tiledlight-cull and
+//! [`knobs`](mod@knobs). Depends on wgpu, tiledlight-cull and
 //! tiledlight-scene; never on a renderer crate.
 
 /// The draw order of the depth pre-pass and the G-buffer: CPU logic, in tiledlight-cull.

@@ -2,7 +2,7 @@
 //! draws the visibility buffer ([`Raster`]) and who draws the compute raster's large
 //! triangles ([`LargeRaster`]); re-exported by [`crate::features`]. A leaf module: depends
 //! only on [`crate::context`] (the compute raster's device features), so the pass
-//! settings' table ([`crate::knobs`]) and the features can both name them.
+//! settings' table ([`crate::knobs`](mod@crate::knobs)) and the features can both name them.
 
 use crate::context::COMPUTE_RASTER_FEATURES;
 
