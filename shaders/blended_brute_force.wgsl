@@ -2,5 +2,5 @@
 // inverse-square): common/blended_shade.wgsl. One entry file per light loop keeps each
 // file's variants few (crates/gpu/src/variants.rs, BlendedKey).
 // variants: SPOT_LIGHTS TEXTURES BRUTE_FORCE NO_CUTOFF SHADOWS WBOIT
-// variants: MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1
+// variants: NORMAL_MAP UV1
 #include "common/blended_shade.wgsl"

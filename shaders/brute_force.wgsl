@@ -3,5 +3,5 @@
 // common/forward_shade.wgsl. One entry file per light loop keeps each file's variants few
 // (crates/gpu/src/variants.rs, ForwardKey).
 // variants: SPOT_LIGHTS TEXTURES BRUTE_FORCE NO_CUTOFF ALPHA_MASK SHADOWS
-// variants: MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1 VPLS
+// variants: NORMAL_MAP UV1 VPLS
 #include "common/forward_shade.wgsl"

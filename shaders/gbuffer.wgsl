@@ -13,7 +13,7 @@
 // the extra targets hold known colours instead of white (crates/deferred/src/gbuffer.rs
 // EXTRA_TEST_VALUES: keep in step), so tests can prove each one is read and multiplied in.
 // variants: ALPHA_MASK TEXTURES EXTRA_TEST_VALUES EMISSION
-// variants: MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1
+// variants: NORMAL_MAP UV1
 #include "common/scene.wgsl"
 #include "common/gbuffer_texel.wgsl"
 

@@ -3,5 +3,5 @@
 // light with no cutoff, each light's share multiplied by a shadow ray through the scene's
 // BVH (common/traced_shade.wgsl, common/trace.wgsl). The MSAA kernel is traced_msaa.wgsl.
 // variants: VISIBILITY TRACED NO_CUTOFF SPOT_LIGHTS VPLS TRACE_MASKS
-// variants: TEXTURES MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1
+// variants: TEXTURES NORMAL_MAP UV1
 #include "common/traced_shade.wgsl"

@@ -4,5 +4,5 @@
 // visibility_msaa.wgsl (one entry file each keeps each file's variants few:
 // crates/gpu/src/variants.rs, VisibilityKey).
 // variants: VISIBILITY SPOT_LIGHTS HALF_Z CLUSTERED SHADOWS VPLS
-// variants: TEXTURES MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1
+// variants: TEXTURES NORMAL_MAP UV1
 #include "common/assigned_shade.wgsl"

@@ -3,8 +3,7 @@
 // assigned-list kernel, common/assigned_shade.wgsl behind deferred_assigned.wgsl) and by the
 // visibility buffer's (visibility.wgsl, visibility_msaa.wgsl): with VISIBILITY the surface
 // comes from the triangle IDs instead of a G-buffer (common/visibility_surface.wgsl defines
-// load_gsample, is_edge, at_pixel_centre and pixel_owned; a sample another dispatch owns is
-// skipped) and the light grid is group 3. Group 1 (the G-buffer, the lights, the HDR
+// load_gsample and classify_pixel) and the light grid is group 3. Group 1 (the G-buffer, the lights, the HDR
 // output, shadows, VPLs; crates/deferred/src/shading.rs), the light grid (group 2, written
 // by the tile kernel, read by both), one G-buffer sample's loading and shading (the
 // including kernel defines `shade_lights_at`, its light loop), and the tile's pixel loop
@@ -171,9 +170,6 @@ struct GSample {
     surface: Surface,
     // The unlit part of the colour: ambient x albedo (x occlusion) (+ emission).
     unlit: vec3<f32>,
-    // This dispatch shades the sample (always with a G-buffer; the visibility kernels of a
-    // textured scene shade one material per dispatch).
-    owned: bool,
 }
 
 #ifndef VISIBILITY
@@ -181,7 +177,6 @@ struct GSample {
 // multisampled one: with k = s (0 without MSAA) the same code serves both.
 fn load_gsample(p: vec2<u32>, s: u32) -> GSample {
     var g: GSample;
-    g.owned = true;
     let d = load_depth(p, s);
     g.sky = d <= 0.0;
     if g.sky {
@@ -217,11 +212,6 @@ fn load_gsample(p: vec2<u32>, s: u32) -> GSample {
 #endif
     return g;
 }
-
-// Every pixel is this dispatch's (the visibility kernels' differs).
-fn pixel_owned(p: vec2<u32>) -> bool {
-    return true;
-}
 #endif
 
 // Linear HDR of one G-buffer sample of pixel `p`: its lights, and with VPLS its tile's VPLs.
@@ -251,7 +241,23 @@ fn shade_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
 }
 
 #ifdef MSAA
+// A pixel as the tile loop shades it: an edge (shaded per sample; `g` is sample 0) or not
+// (shaded once; `g` is the surface at the pixel centre).
+struct PixelClass {
+    g: GSample,
+    edge: bool,
+}
+
 #ifndef VISIBILITY
+// The G-buffer's pixel: sample 0, and the edge test against it.
+fn classify_pixel(p: vec2<u32>) -> PixelClass {
+    let g0 = load_gsample(p, 0u);
+    if is_edge(p, g0) {
+        return PixelClass(g0, true);
+    }
+    return PixelClass(at_pixel_centre(p, g0), false);
+}
+
 // A non-edge pixel's samples lie on one plane: its shading point is where the pixel-centre
 // ray meets that plane (sample 0's tangent plane), the point Forward+ and the no-MSAA path
 // shade, rather than sample 0's own position up to 0.4 px away.
@@ -313,26 +319,16 @@ fn shade_tile_pixels(wid: vec3<u32>, lid: vec3<u32>, lidx: u32) {
         for (var i = 0u; i < steps; i++) {
             let p = origin + lid.xy + vec2<u32>(i, j) * WG;
             if p.x < view.screen.x && p.y < view.screen.y {
-                let g0 = load_gsample(p, 0u);
 #ifdef MSAA
-                if is_edge(p, g0) {
-                    // Queued by every dispatch that owns one of its samples (so with
-                    // several materials the resolve may average a pixel twice, alike).
-                    if pixel_owned(p) {
-                        wg_edges[atomicAdd(&wg_edge_count, 1u)] = p.x | (p.y << 16u);
-                    }
-                    if g0.owned {
-                        textureStore(samples_out, sample_texel(p, 0u), vec4<f32>(shade_at(g0, p), 1.0));
-                    }
+                let c = classify_pixel(p);
+                if c.edge {
+                    wg_edges[atomicAdd(&wg_edge_count, 1u)] = p.x | (p.y << 16u);
+                    textureStore(samples_out, sample_texel(p, 0u), vec4<f32>(shade_at(c.g, p), 1.0));
                     continue;
                 }
-                if g0.owned {
-                    textureStore(output, p, vec4<f32>(shade_at(at_pixel_centre(p, g0), p), 1.0));
-                }
+                textureStore(output, p, vec4<f32>(shade_at(c.g, p), 1.0));
 #else
-                if g0.owned {
-                    textureStore(output, p, vec4<f32>(shade_at(g0, p), 1.0));
-                }
+                textureStore(output, p, vec4<f32>(shade_at(load_gsample(p, 0u), p), 1.0));
 #endif
             }
         }
@@ -360,10 +356,7 @@ fn shade_tile_pixels(wid: vec3<u32>, lid: vec3<u32>, lidx: u32) {
         let packed = wg_edges[k / per_pixel];
         let p = vec2<u32>(packed & 0xffffu, packed >> 16u);
         let s = 1u + k % per_pixel;
-        let g = load_gsample(p, s);
-        if g.owned {
-            textureStore(samples_out, sample_texel(p, s), vec4<f32>(shade_at(g, p), 1.0));
-        }
+        textureStore(samples_out, sample_texel(p, s), vec4<f32>(shade_at(load_gsample(p, s), p), 1.0));
     }
 #endif
 }

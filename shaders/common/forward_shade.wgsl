@@ -6,7 +6,7 @@
 // shaded once.
 // Alpha-masked draws (ALPHA_MASK) discard as the pre-pass did: depth Equal alone would let a
 // masked-out texel shade a coplanar surface behind it.
-// The material defines (TEXTURES MR_TEXTURE NORMAL_MAP OCCLUSION EMISSIVE UV1) are common/scene.wgsl's.
+// The material defines (TEXTURES NORMAL_MAP UV1) are common/scene.wgsl's.
 // With VPLS every fragment also sums the virtual point lights (tiledlight-vpl;
 // common/vpl.wgsl vpl_light): Forward+ those of its tile's list in the VPLs' own light grid
 // (one list per tile), brute force all min(count, cap) of them, the count read from the

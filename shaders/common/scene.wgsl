@@ -1,19 +1,18 @@
 // Scene geometry bindings, the shared vertex transform and the material model.
 // Keep in sync with crates/gpu/src/scene_gpu.rs (GpuInstance, GpuMaterial, MaterialFeatures);
-// the CPU twin of the material maths is crates/cull/src/material.rs.
+// the CPU twin of the material maths is crates/cull/src/material.rs, of texture sampling
+// crates/cull/src/texture.rs.
 //
 // Material defines, each set only when some material of the scene needs it
 // (tiledlight_gpu::scene_gpu::MaterialFeatures):
-//   TEXTURES    group 2 exists: a material's base-colour texture and sampler (a white 1x1
-//               for materials without one), and the other texture slots below
-//   MR_TEXTURE  metallic-roughness textures (needs TEXTURES)
-//   NORMAL_MAP  normal maps and the tangent vertex attribute (needs TEXTURES)
-//   OCCLUSION   occlusion textures, scaling the ambient term (needs TEXTURES)
-//   EMISSIVE    emission factors; with TEXTURES also the emissive texture
+//   TEXTURES    group 2 exists: every material's textures in eight texture arrays
+//               (common/material_textures.wgsl), and the texture transforms
+//   NORMAL_MAP  the tangent vertex attribute (needs TEXTURES)
 //   UV1         the second texture coordinate set (needs TEXTURES)
-// Without TEXTURES no texture is sampled and texture transforms are not applied (there is
-// nothing to transform). Materials without a texture in a slot the variant has get a neutral
-// 1x1 texture (white; a normal map is skipped by its flag bit instead).
+// Which slots a material has textures in is a per-material bit (Material.textures), tested
+// per pixel: the kernels' variants do not grow with the materials, and one draw or
+// dispatch shades any mix of them. Without TEXTURES no texture is read and texture
+// transforms are not applied (there is nothing to transform).
 #include "common/view.wgsl"
 
 struct Instance {
@@ -51,6 +50,19 @@ struct Material {
     uv1_sets: u32,
     // Per slot, KHR_texture_transform as two rows of a 2x3 matrix (xyz; w unused).
     uv_rows: array<vec4<f32>, 10>,
+    // Per slot, where its texture lives and how it is sampled.
+    slots: array<TextureSlot, 5>,
+}
+
+// A material slot's texture (tiledlight_gpu::texture_arrays::GpuTextureSlot). place: array
+// (bits 0-3), layer (4-31); size: width (0-15), height (16-31); sampling: wrap u (0-1),
+// wrap v (2-3: 0 repeat, 1 mirrored, 2 clamp), mag linear (4), min linear (5), mipmap (6-7:
+// 0 none, 1 nearest, 2 linear), mip count (8-12).
+struct TextureSlot {
+    place: u32,
+    size: u32,
+    sampling: u32,
+    pad: u32,
 }
 
 #ifdef VISIBILITY
@@ -64,24 +76,7 @@ struct Material {
 #endif
 
 #ifdef TEXTURES
-@group(2) @binding(0) var base_color_texture: texture_2d<f32>;
-@group(2) @binding(1) var base_color_sampler: sampler;
-#ifdef MR_TEXTURE
-@group(2) @binding(2) var metallic_roughness_texture: texture_2d<f32>;
-@group(2) @binding(3) var metallic_roughness_sampler: sampler;
-#endif
-#ifdef NORMAL_MAP
-@group(2) @binding(4) var normal_texture: texture_2d<f32>;
-@group(2) @binding(5) var normal_sampler: sampler;
-#endif
-#ifdef OCCLUSION
-@group(2) @binding(6) var occlusion_texture: texture_2d<f32>;
-@group(2) @binding(7) var occlusion_sampler: sampler;
-#endif
-#ifdef EMISSIVE
-@group(2) @binding(8) var emissive_texture: texture_2d<f32>;
-@group(2) @binding(9) var emissive_sampler: sampler;
-#endif
+#include "common/material_textures.wgsl"
 #endif
 
 // A fragment's texture coordinate sets with their screen-space derivatives, taken from the
@@ -109,9 +104,15 @@ fn uv_sets(uv0: vec2<f32>, uv1: vec2<f32>) -> UvSets {
 #endif
 }
 
-// Samples `t` for slot `slot` of material `mi`: its coordinate set, through its transform
-// (the gradients through the transform's linear part).
-fn sample_slot(t: texture_2d<f32>, s: sampler, mi: u32, slot: u32, sets: UvSets) -> vec4<f32> {
+// Whether material `mi` has a texture in slot `slot`.
+fn has_slot(mi: u32, slot: u32) -> bool {
+    return ((materials[mi].textures >> slot) & 1u) != 0u;
+}
+
+#ifdef TEXTURES
+// Samples slot `slot` of material `mi` (which must have a texture there): its coordinate
+// set, through its transform (the gradients through the transform's linear part).
+fn sample_slot(mi: u32, slot: u32, sets: UvSets) -> vec4<f32> {
     var uv = sets.uv0;
     var dx = sets.dx0;
     var dy = sets.dy0;
@@ -127,15 +128,17 @@ fn sample_slot(t: texture_2d<f32>, s: sampler, mi: u32, slot: u32, sets: UvSets)
     let tuv = vec2<f32>(dot(r0.xy, uv) + r0.z, dot(r1.xy, uv) + r1.z);
     let tdx = vec2<f32>(dot(r0.xy, dx), dot(r1.xy, dx));
     let tdy = vec2<f32>(dot(r0.xy, dy), dot(r1.xy, dy));
-    return textureSampleGrad(t, s, tuv, tdx, tdy);
+    return sample_texture(materials[mi].slots[slot], tuv, tdx, tdy);
 }
+#endif
 
 // Base colour and alpha of material `mi` at a fragment's texture coordinates.
 fn material_color(mi: u32, sets: UvSets) -> vec4<f32> {
     var c = materials[mi].base_color;
 #ifdef TEXTURES
-    // A material without a texture has a white one.
-    c *= sample_slot(base_color_texture, base_color_sampler, mi, SLOT_BASE, sets);
+    if has_slot(mi, SLOT_BASE) {
+        c *= sample_slot(mi, SLOT_BASE, sets);
+    }
 #endif
     return c;
 }
@@ -236,9 +239,9 @@ struct MaterialSample {
     // Unit normal facing the viewer: double-sided surfaces seen from behind are lit on
     // their back.
     normal: vec3<f32>,
-    // Scales the ambient term (1 without OCCLUSION).
+    // Scales the ambient term (1 without an occlusion map).
     occlusion: f32,
-    // Linear emitted radiance (0 without EMISSIVE).
+    // Linear emitted radiance (0 for materials that do not emit).
     emission: vec3<f32>,
 }
 
@@ -274,29 +277,30 @@ fn material_at(mi: u32, sets: UvSets, base: vec4<f32>, n_in: vec3<f32>, tangent:
     ms.roughness = m.roughness;
     ms.metallic = m.metallic;
     ms.occlusion = 1.0;
-    ms.emission = vec3<f32>(0.0);
     var n = normalize(n_in);
-#ifdef MR_TEXTURE
-    // glTF: roughness in green, metalness in blue (linear); white where there is none.
-    let mr = sample_slot(metallic_roughness_texture, metallic_roughness_sampler, mi, SLOT_MR, sets);
-    ms.roughness *= mr.g;
-    ms.metallic *= mr.b;
-#endif
+    ms.emission = m.emissive;
+#ifdef TEXTURES
+    // Each map only where the material has it (a per-material bit: one kernel serves
+    // every mix of maps).
+    if has_slot(mi, SLOT_MR) {
+        // glTF: roughness in green, metalness in blue (linear).
+        let mr = sample_slot(mi, SLOT_MR, sets);
+        ms.roughness *= mr.g;
+        ms.metallic *= mr.b;
+    }
 #ifdef NORMAL_MAP
-    let nt = sample_slot(normal_texture, normal_sampler, mi, SLOT_NORMAL, sets).rgb;
-    if ((m.textures >> SLOT_NORMAL) & 1u) != 0u {
+    if has_slot(mi, SLOT_NORMAL) {
+        let nt = sample_slot(mi, SLOT_NORMAL, sets).rgb;
         n = perturb_normal(n, tangent, nt, m.normal_scale);
     }
 #endif
-#ifdef OCCLUSION
-    let o = sample_slot(occlusion_texture, occlusion_sampler, mi, SLOT_OCCLUSION, sets).r;
-    ms.occlusion = 1.0 + m.occlusion_strength * (o - 1.0);
-#endif
-#ifdef EMISSIVE
-    ms.emission = m.emissive;
-#ifdef TEXTURES
-    ms.emission *= sample_slot(emissive_texture, emissive_sampler, mi, SLOT_EMISSIVE, sets).rgb;
-#endif
+    if has_slot(mi, SLOT_OCCLUSION) {
+        let o = sample_slot(mi, SLOT_OCCLUSION, sets).r;
+        ms.occlusion = 1.0 + m.occlusion_strength * (o - 1.0);
+    }
+    if has_slot(mi, SLOT_EMISSIVE) {
+        ms.emission *= sample_slot(mi, SLOT_EMISSIVE, sets).rgb;
+    }
 #endif
     ms.normal = select(-n, n, front);
     return ms;

@@ -4,15 +4,13 @@
 // (storage-readable), transformed as the raster pass transformed them, and intersected with
 // the sample's ray by perspective-correct barycentrics (common/visibility.wgsl), which
 // interpolate the world position, normal, tangent and texture coordinates. Textures are
-// sampled with explicit gradients (textureSampleGrad): the barycentrics' one-pixel steps
+// sampled with explicit gradients: the barycentrics' one-pixel steps
 // at the 2x2 quad's first pixel, the coarse derivatives the hardware's fragment stage
 // takes (measured on lavapipe and the H200: tests/tests/visibility.rs). The material is
 // common/scene.wgsl's material_at, as every raster pass evaluates it.
 //
-// With TEXTURES a dispatch shades one textured material (its textures at group 2, its index
-// in vis_class) or every untextured one: a sample of another material is not this
-// dispatch's (`owned` false), and the sky belongs to the dispatch with `owns_sky`. Without
-// textures one dispatch shades all.
+// One dispatch shades every material: a material's textures are per-pixel data in the
+// texture arrays (common/material_textures.wgsl), so the material count does not matter.
 // Included by common/deferred_shade.wgsl with VISIBILITY; bindings in
 // crates/visibility/src/shading.rs (VISIBILITY_GROUP).
 #include "common/scene.wgsl"
@@ -35,19 +33,6 @@
 #ifdef UV1
 @group(1) @binding(31) var<storage, read> vis_uvs1: array<vec2<f32>>;
 #endif
-#ifdef TEXTURES
-// What a dispatch shades (by dynamic offset): one textured material, or (`untextured`)
-// every material without a texture, whose bind groups all hold the same white textures;
-// and whether it also writes the sky.
-struct VisClass {
-    material: u32,
-    owns_sky: u32,
-    untextured: u32,
-    _pad0: u32,
-}
-@group(1) @binding(32) var<uniform> vis_class: VisClass;
-#endif
-
 // Low bits of an ID holding the triangle (depth_prepass.wgsl with IDS; IdLayout::triangle_bits).
 override TRIANGLE_BITS: u32 = 16u;
 // The clear value: no triangle (tiledlight_cull::visibility::NO_TRIANGLE).
@@ -64,22 +49,6 @@ fn vis_instance(id: u32) -> u32 {
 
 fn vis_triangle(id: u32) -> u32 {
     return select(id & ((1u << TRIANGLE_BITS) - 1u), id, TRIANGLE_BITS >= 32u);
-}
-
-// Whether this dispatch shades the sample with ID `id`.
-fn vis_owned(id: u32) -> bool {
-#ifdef TEXTURES
-    if id == VIS_NO_TRIANGLE {
-        return vis_class.owns_sky != 0u;
-    }
-    let mi = instances[vis_instance(id)].material;
-    if vis_class.untextured != 0u {
-        return materials[mi].textures == 0u;
-    }
-    return mi == vis_class.material;
-#else
-    return true;
-#endif
 }
 
 fn vis_position(v: u32) -> vec3<f32> {
@@ -102,9 +71,8 @@ fn vis_mix3(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, w: vec3<f32>) -> vec3<f32>
 // it; pixel `p` is the one shaded (its quad gives the texture gradients).
 fn vis_surface(p: vec2<u32>, id: u32, at: vec2<f32>) -> GSample {
     var g: GSample;
-    g.owned = vis_owned(id);
     g.sky = id == VIS_NO_TRIANGLE;
-    if g.sky || !g.owned {
+    if g.sky {
         return g;
     }
     let inst = instances[vis_instance(id)];
@@ -176,20 +144,6 @@ fn load_gsample(p: vec2<u32>, s: u32) -> GSample {
     return vis_surface(p, vis_id(p, s), vec2<f32>(p) + sample_position(s));
 }
 
-// Whether this dispatch owns some sample of pixel `p` (its MSAA edge queue takes it).
-fn pixel_owned(p: vec2<u32>) -> bool {
-#ifdef MSAA
-    for (var s = 0u; s < SAMPLES; s++) {
-        if vis_owned(vis_id(p, s)) {
-            return true;
-        }
-    }
-    return false;
-#else
-    return vis_owned(vis_id(p, 0u));
-#endif
-}
-
 #ifdef MSAA
 // Two IDs in a pixel make it an edge only where their surfaces differ (the pass settings'
 // row `surface-edges`, on by default): another material, sky, or a sample off sample 0's
@@ -211,7 +165,6 @@ fn is_edge(p: vec2<u32>, g0: GSample) -> bool {
         if !SURFACE_EDGES || g0.sky || id == VIS_NO_TRIANGLE {
             return true;
         }
-        // One material keeps the pixel in one material dispatch's hands (ownership).
         if instances[vis_instance(id)].material != instances[vis_instance(id0)].material {
             return true;
         }
@@ -224,11 +177,25 @@ fn is_edge(p: vec2<u32>, g0: GSample) -> bool {
     return false;
 }
 
-// A non-edge pixel: its one triangle at the pixel centre (the point Forward+ shades).
-fn at_pixel_centre(p: vec2<u32>, g: GSample) -> GSample {
-    if g.sky || !g.owned {
-        return g;
+// The pixel's class and surface, each surface reconstructed once: a pixel whose samples
+// all hold one ID (nearly every pixel) is no edge and its triangle is met at the pixel
+// centre (the point Forward+ shades) without first reconstructing sample 0; otherwise
+// sample 0's surface decides the edge test, and only a pixel the test finds on one surface
+// is reconstructed again, at its centre.
+fn classify_pixel(p: vec2<u32>) -> PixelClass {
+    let id0 = vis_id(p, 0u);
+    let centre = vec2<f32>(p) + 0.5;
+    var one_id = true;
+    for (var s = 1u; s < SAMPLES; s++) {
+        one_id = one_id && vis_id(p, s) == id0;
     }
-    return vis_surface(p, vis_id(p, 0u), vec2<f32>(p) + 0.5);
+    if one_id {
+        return PixelClass(vis_surface(p, id0, centre), false);
+    }
+    let g0 = vis_surface(p, id0, vec2<f32>(p) + sample_position(0u));
+    if is_edge(p, g0) {
+        return PixelClass(g0, true);
+    }
+    return PixelClass(vis_surface(p, id0, centre), false);
 }
 #endif

@@ -360,8 +360,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 "#;
 
-const MATERIAL_DEFINES: [&str; 7] =
-    ["TEXTURES", "MR_TEXTURE", "NORMAL_MAP", "OCCLUSION", "EMISSIVE", "UV1", "VISIBILITY"];
+const MATERIAL_DEFINES: [&str; 4] = ["TEXTURES", "NORMAL_MAP", "UV1", "VISIBILITY"];
 
 /// One case: texture coordinates of both sets, the interpolated normal (w > 0: seen from
 /// the front) and tangent (bitangent sign in w).
@@ -521,7 +520,7 @@ fn run_material_kernel(scene: &Scene, cases: &[Case]) -> Vec<[f32; 16]> {
         pass.set_pipeline(&pipeline);
         pass.set_bind_group(0, &empty_group, &[]);
         pass.set_bind_group(1, &scene_group, &[]);
-        pass.set_bind_group(2, &textures.bind_groups[0], &[]);
+        pass.set_bind_group(2, &textures.bind_group, &[]);
         pass.set_bind_group(3, &io_group, &[]);
         pass.dispatch_workgroups((cases.len() as u32).div_ceil(64), 1, 1);
     }

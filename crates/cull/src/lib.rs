@@ -23,7 +23,9 @@
 //! ([`contribution`]); and unit normals in two fixed-point numbers, the octahedral map
 //! with its error bound ([`octahedral`]), and the compact G-buffer texel that packs a
 //! surface sample into 64 bits ([`gbuffer`]); and the order the depth pre-pass and the
-//! G-buffer draw instances in, nearest first ([`draw_order`]).
+//! G-buffer draw instances in, nearest first ([`draw_order`]); and material texture
+//! sampling as the shaders filter texels themselves: mip chains, levels, wraps
+//! ([`texture`]).
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
 
 pub mod error;
@@ -53,6 +55,7 @@ pub mod raster;
 pub mod raycast;
 pub mod reference;
 pub mod shadow;
+pub mod texture;
 pub mod tiles;
 pub mod trace;
 pub mod visibility;

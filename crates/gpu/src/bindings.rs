@@ -161,6 +161,19 @@ impl Binding {
         )
     }
 
+    /// A filterable float 2D-array texture (`texture_2d_array<f32>`: the material arrays).
+    pub const fn texture_array(binding: u32, visibility: wgpu::ShaderStages) -> Self {
+        Self::new(
+            binding,
+            visibility,
+            BindingKind::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                dimension: wgpu::TextureViewDimension::D2Array,
+                multisampled: Cond::Never,
+            },
+        )
+    }
+
     /// A depth 2D-array texture (`texture_depth_2d_array`: the shadow atlas).
     pub const fn depth_array(binding: u32, visibility: wgpu::ShaderStages) -> Self {
         Self::new(

@@ -477,6 +477,7 @@ impl BlendedPath {
             self.raster.bind(&mut pass, Some((views, view)), scene);
             pass.set_bind_group(3, &self.lights_group.group, &[]);
             scene.bind_geometry(&mut pass);
+            scene.bind_textures(&mut pass);
             let mut current: Option<DrawKind> = None;
             for &(_, i) in order.iter() {
                 let (slot, draw, _) = self.instances[i];

@@ -51,8 +51,6 @@ defines! {
     DropLight = "DROP_LIGHT",
     /// Tiled Deferred's emission target.
     Emission = "EMISSION",
-    /// Emissive materials.
-    Emissive = "EMISSIVE",
     /// Tiled Deferred's third G-buffer target (the stress knob).
     ExtraRts = "EXTRA_RTS",
     /// Its fourth.
@@ -67,16 +65,12 @@ defines! {
     HalfZ = "HALF_Z",
     /// The visibility buffer's triangle IDs.
     Ids = "IDS",
-    /// Metallic-roughness textures.
-    MrTexture = "MR_TEXTURE",
     /// Several samples a pixel.
     Msaa = "MSAA",
     /// Normal maps.
     NormalMap = "NORMAL_MAP",
     /// Plain inverse-square falloff (no radius window).
     NoCutoff = "NO_CUTOFF",
-    /// Occlusion textures.
-    Occlusion = "OCCLUSION",
     /// The shadow atlas.
     Shadows = "SHADOWS",
     /// The contribution estimate's spot lights.

@@ -7,7 +7,7 @@ use crate::bindings::{Binding, Cond, PassBindings, PassGroup};
 use crate::define::Define;
 use crate::error::GpuError;
 use crate::features::Features;
-use crate::scene_gpu::{DrawCount, DrawKind, SceneGpu, BASE_COLOR_BINDINGS, POSITION_LAYOUT, SCENE_GROUPS};
+use crate::scene_gpu::{DrawCount, DrawKind, SceneGpu, TEXTURE_BINDINGS, POSITION_LAYOUT, SCENE_GROUPS};
 use crate::scene_raster::{begin_pass, cleared, scene_pipeline, DepthUse, SceneDraw, SceneInputs, SceneRaster};
 use crate::timer::GpuTimer;
 use crate::util::{keyed_module, pipeline_layout};
@@ -33,7 +33,7 @@ pub const DEPTH_PREPASS_BINDINGS: PassBindings = PassBindings {
     groups: &[
         SCENE_GROUPS[0],
         SCENE_GROUPS[1],
-        PassGroup::new(2, BASE_COLOR_BINDINGS).when(Cond::Defined(Define::Textures)),
+        PassGroup::new(2, TEXTURE_BINDINGS).when(Cond::Defined(Define::Textures)),
         PassGroup::new(2, ATOMIC_TEXELS)
             .when(Cond::All(&[Cond::Defined(Define::Atomic), Cond::NotDefined(Define::Textures)])),
         PassGroup::new(3, ATOMIC_TEXELS)

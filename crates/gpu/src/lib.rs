@@ -3,7 +3,8 @@
 //! Device creation with adapter selection by name ([`context`]), WGSL loading with includes
 //! and variants ([`shader`], shaders embedded from `shaders/`), bind group layouts declared
 //! once as data and checked against the WGSL ([`bindings`]), GPU timers ([`timer`]),
-//! readback ([`readback`]), scene and light buffers ([`scene_gpu`], [`light_buffers`]), and the
+//! readback ([`readback`]), scene and light buffers ([`scene_gpu`], [`light_buffers`]; material
+//! textures in a few arrays, [`texture_arrays`]), and the
 //! passes both methods share: the depth pre-pass ([`depth_prepass`]) and the order it and
 //! the G-buffer draw in ([`draw_order`]), light culling by
 //! technique ([`culling`]: tile gather, light-centric scatter, clusters) into the light grid
@@ -44,6 +45,7 @@ pub mod scene_raster;
 pub mod shader;
 pub mod shadow_atlas;
 pub mod targets;
+pub mod texture_arrays;
 pub mod timer;
 pub mod tonemap;
 pub mod util;

@@ -2,9 +2,9 @@
 //! when a material needs them), per-instance transforms, materials, material textures (only
 //! the slots some material uses: [`MaterialFeatures`]), and the draw list grouped into
 //! instanced draws per pipeline kind (opaque/alpha-masked x single/double-sided). Builds the
-//! scene bind groups (group 1: instances and materials; group 2: a material's textures and
-//! samplers). Depends on wgpu, image (mip levels), tiledlight-scene and tiledlight-cull
-//! (layouts).
+//! scene bind groups (group 1: instances and materials; group 2: every material's textures
+//! in the texture arrays of [`crate::texture_arrays`], one group for the whole scene).
+//! Depends on wgpu, tiledlight-scene and tiledlight-cull (layouts, mip chains).
 
 use crate::define::Define;
 use std::ops::Range;
@@ -14,12 +14,13 @@ use std::collections::HashMap;
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, Mat4};
 use tiledlight_scene::clusters::{cluster_scene, Cluster};
-use tiledlight_scene::{AlphaMode, Filter, Material, Sampler, Scene, TextureRef, Wrap};
+use tiledlight_scene::{AlphaMode, Material, Scene, TextureRef};
 
 use crate::bindings::{create_layout, Binding, Cond, PassGroup};
 use crate::error::GpuError;
 use crate::memory::MemoryReport;
 use crate::util::buffer_init;
+use crate::texture_arrays::{ArrayPlan, GpuTextureSlot, ImageUse, MATERIAL_ARRAYS};
 use crate::variants::{MaterialKey, TextureMaps};
 use tiledlight_cull::draw_order::DrawOrder;
 
@@ -45,12 +46,13 @@ pub struct GpuInstance {
     pub base_vertex: i32,
 }
 
-/// Texture slots of a material, in the order of [`GpuMaterial::uv_rows`], the bits of
-/// [`GpuMaterial::textures`] and the bindings of [`TEXTURE_BINDINGS`] (slot k: texture
-/// `2k`, sampler `2k + 1`). Keep in step with `shaders/common/scene.wgsl` (`SLOT_*`).
+/// Texture slots of a material, in the order of [`GpuMaterial::uv_rows`],
+/// [`GpuMaterial::slots`] and the bits of [`GpuMaterial::textures`]. Keep in step with
+/// `shaders/common/scene.wgsl` (`SLOT_*`).
 pub const TEXTURE_SLOTS: [&str; 5] = ["base colour", "metallic-roughness", "normal", "occlusion", "emissive"];
 
-/// Material factors, texture flags and texture transforms (224 bytes).
+/// Material factors, texture flags, texture transforms and where each slot's texture lives
+/// (304 bytes).
 ///
 /// Keep in sync with `shaders/common/scene.wgsl` (`Material`).
 #[repr(C)]
@@ -79,10 +81,13 @@ pub struct GpuMaterial {
     /// Per slot, its texture transform as two rows of a 2x3 matrix (w unused): identity
     /// for slots without one.
     pub uv_rows: [[f32; 4]; 10],
+    /// Per slot, its texture's array, layer, size and sampler (zeros for slots without one).
+    pub slots: [GpuTextureSlot; 5],
 }
 
 impl GpuMaterial {
-    /// The GPU form of `m`.
+    /// The GPU form of `m`, its slots' textures not yet placed ([`GpuMaterial::slots`]
+    /// zero: [`SceneGpu::new`] fills them in once the texture arrays are planned).
     pub fn new(m: &Material) -> Self {
         let slots = material_slots(m);
         let mut uv_rows = [[0.0; 4]; 10];
@@ -112,6 +117,7 @@ impl GpuMaterial {
             uv1_sets,
             _pad: [0; 2],
             uv_rows,
+            slots: [GpuTextureSlot::default(); 5],
         }
     }
 }
@@ -127,21 +133,23 @@ fn material_slots(m: &Material) -> [Option<&TextureRef>; 5] {
     ]
 }
 
-/// Which material paths the scene's drawn materials need: each one a shader define
-/// (`shaders/common/scene.wgsl`), and the bindings, vertex buffers and G-buffer target that
-/// come with it. Nothing here is set for a material no instance draws.
+/// Which material paths the scene's drawn materials need: textures, normal maps and the
+/// second UV set are shader defines (`shaders/common/scene.wgsl`) with the bindings and
+/// vertex buffers that come with them; the other maps and emission are per-material data
+/// (the same kernel shades every mix) that decide the G-buffer's targets. Nothing here is
+/// set for a material no instance draws.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct MaterialFeatures {
-    /// Some material has a texture (`TEXTURES`: group 2 with the base colour slot, and the
+    /// Some material has a texture (`TEXTURES`: group 2, the texture arrays, and the
     /// texture transforms).
     pub textures: bool,
-    /// Some material has a metallic-roughness texture (`MR_TEXTURE`).
+    /// Some material has a metallic-roughness texture.
     pub metallic_roughness: bool,
-    /// Some material has a normal map (`NORMAL_MAP`: the normal slot and the tangent vertex buffer).
+    /// Some material has a normal map (`NORMAL_MAP`: the tangent vertex buffer).
     pub normal_map: bool,
-    /// Some material has an occlusion texture (`OCCLUSION`).
+    /// Some material has an occlusion texture (Tiled Deferred's emission target).
     pub occlusion: bool,
-    /// Some material emits (`EMISSIVE`; with textures also the emissive slot).
+    /// Some material emits (Tiled Deferred's emission target).
     pub emissive: bool,
     /// Some texture reads texture coordinate set 1 (`UV1`: the second UV vertex buffer).
     pub uv1: bool,
@@ -152,15 +160,7 @@ pub struct MaterialFeatures {
 impl MaterialKey {
     /// The key of the scene's material features (maps only with textures).
     pub fn of(f: &MaterialFeatures) -> Self {
-        Self {
-            textures: f.textures.then_some(TextureMaps {
-                metallic_roughness: f.metallic_roughness,
-                normal_map: f.normal_map,
-                occlusion: f.occlusion,
-                uv1: f.uv1,
-            }),
-            emissive: f.emissive,
-        }
+        Self { textures: f.textures.then_some(TextureMaps { normal_map: f.normal_map, uv1: f.uv1 }) }
     }
 }
 
@@ -187,14 +187,7 @@ impl MaterialFeatures {
 
     /// The shader defines of these features, in `shaders/common/scene.wgsl`'s order.
     pub fn defines(&self) -> Vec<&'static str> {
-        [
-            (self.textures, Define::Textures),
-            (self.metallic_roughness, Define::MrTexture),
-            (self.normal_map, Define::NormalMap),
-            (self.occlusion, Define::Occlusion),
-            (self.emissive, Define::Emissive),
-            (self.uv1, Define::Uv1),
-        ]
+        [(self.textures, Define::Textures), (self.normal_map, Define::NormalMap), (self.uv1, Define::Uv1)]
         .into_iter()
         .filter_map(|(on, d)| on.then_some(d.name()))
         .collect()
@@ -204,19 +197,6 @@ impl MaterialFeatures {
     /// reach the deferred shading only through it).
     pub fn emission_target(&self) -> bool {
         self.emissive || self.occlusion
-    }
-
-    /// Whether slot `k` of [`TEXTURE_SLOTS`] is bound (base colour whenever there are
-    /// textures; emissive only when something emits).
-    fn slot_bound(&self, k: usize) -> bool {
-        self.textures
-            && match k {
-                0 => true,
-                1 => self.metallic_roughness,
-                2 => self.normal_map,
-                3 => self.occlusion,
-                _ => self.emissive,
-            }
     }
 
     /// The names of the features that are on, e.g. "normal maps, emission".
@@ -310,31 +290,22 @@ pub const SCENE_BINDINGS: &[Binding] = &[
     Binding::storage(1, wgpu::ShaderStages::VERTEX_FRAGMENT),
 ];
 
-const FLOAT: wgpu::TextureSampleType = wgpu::TextureSampleType::Float { filterable: true };
-const FILTERING: wgpu::SamplerBindingType = wgpu::SamplerBindingType::Filtering;
-/// Fragment stages sample the textures, and the visibility buffer's compute pass.
-const FS: wgpu::ShaderStages = wgpu::ShaderStages::FRAGMENT.union(wgpu::ShaderStages::COMPUTE);
-
-/// Group 2 of the scene's raster passes, for scenes with textures (`TEXTURES`): per slot of
-/// [`TEXTURE_SLOTS`] a texture (`2k`) and its sampler (`2k + 1`): base colour (0, 1),
-/// metallic-roughness (2, 3) with `MR_TEXTURE`, normal (4, 5) with `NORMAL_MAP`,
-/// occlusion (6, 7) with `OCCLUSION`, emissive (8, 9) with `EMISSIVE`.
+/// Group 2 of the scene's raster passes and the visibility buffer's material pass, for
+/// scenes with textures (`TEXTURES`): the [`MATERIAL_ARRAYS`] texture arrays
+/// (`shaders/common/material_textures.wgsl`), read by fragment and compute stages.
 pub const TEXTURE_BINDINGS: &[Binding] = &[
-    Binding::texture(0, FS, FLOAT),
-    Binding::sampler(1, FS, FILTERING),
-    Binding::texture(2, FS, FLOAT).when(Cond::Defined(Define::MrTexture)),
-    Binding::sampler(3, FS, FILTERING).when(Cond::Defined(Define::MrTexture)),
-    Binding::texture(4, FS, FLOAT).when(Cond::Defined(Define::NormalMap)),
-    Binding::sampler(5, FS, FILTERING).when(Cond::Defined(Define::NormalMap)),
-    Binding::texture(6, FS, FLOAT).when(Cond::Defined(Define::Occlusion)),
-    Binding::sampler(7, FS, FILTERING).when(Cond::Defined(Define::Occlusion)),
-    Binding::texture(8, FS, FLOAT).when(Cond::Defined(Define::Emissive)),
-    Binding::sampler(9, FS, FILTERING).when(Cond::Defined(Define::Emissive)),
+    Binding::texture_array(0, FS),
+    Binding::texture_array(1, FS),
+    Binding::texture_array(2, FS),
+    Binding::texture_array(3, FS),
+    Binding::texture_array(4, FS),
+    Binding::texture_array(5, FS),
+    Binding::texture_array(6, FS),
+    Binding::texture_array(7, FS),
 ];
 
-/// The base colour slot of [`TEXTURE_BINDINGS`] alone (what the alpha test of the depth
-/// pre-pass reads).
-pub const BASE_COLOR_BINDINGS: &[Binding] = TEXTURE_BINDINGS.split_at(2).0;
+/// Fragment stages read the textures, and the visibility buffer's compute pass.
+const FS: wgpu::ShaderStages = wgpu::ShaderStages::FRAGMENT.union(wgpu::ShaderStages::COMPUTE);
 
 /// Groups 0 to 2 of a raster pass drawing the scene with `shaders/common/scene.wgsl`: the
 /// view, [`SCENE_BINDINGS`] and, when the shader is compiled with `TEXTURES`,
@@ -345,15 +316,14 @@ pub const SCENE_GROUPS: [PassGroup; 3] = [
     PassGroup::new(2, TEXTURE_BINDINGS).when(Cond::Defined(Define::Textures)),
 ];
 
-/// Material textures: group 2, one bind group per material, with the slots
-/// [`MaterialFeatures`] says the scene uses.
+/// Material textures: group 2, one bind group for every material of the scene.
 pub struct SceneTextures {
     /// Layout of group 2.
     pub layout: wgpu::BindGroupLayout,
-    /// Per material (a slot without a texture gets a 1x1 white one).
-    pub bind_groups: Vec<wgpu::BindGroup>,
-    /// The distinct samplers (one per distinct glTF sampler the materials use).
-    pub samplers: usize,
+    /// The bind group: the texture arrays (1x1 ones for bindings the scene does not need).
+    pub bind_group: wgpu::BindGroup,
+    /// Where each image went.
+    pub plan: ArrayPlan,
     _textures: Vec<wgpu::Texture>,
 }
 
@@ -559,7 +529,13 @@ impl SceneGpu {
                 (b.min, b.max)
             })
             .collect();
-        let gpu_materials: Vec<GpuMaterial> = scene.materials.iter().map(GpuMaterial::new).collect();
+        let mut gpu_materials: Vec<GpuMaterial> = scene.materials.iter().map(GpuMaterial::new).collect();
+        let textures = if material_features.textures {
+            let max_layers = device.limits().max_texture_array_layers;
+            Some(upload_textures(device, queue, scene, &mut gpu_materials, max_layers, &mut memory)?)
+        } else {
+            None
+        };
         let storage = wgpu::BufferUsages::STORAGE;
         let instance_buf = buffer_init(device, "scene.instances", bytemuck::cast_slice(&gpu_instances), storage);
         let material_buf = buffer_init(device, "scene.materials", bytemuck::cast_slice(&gpu_materials), storage);
@@ -576,11 +552,6 @@ impl SceneGpu {
                 wgpu::BindGroupEntry { binding: 1, resource: material_buf.as_entire_binding() },
             ],
         });
-        let textures = if material_features.textures {
-            Some(upload_textures(device, queue, scene, &material_features, &mut memory))
-        } else {
-            None
-        };
         let submission = DrawOrder::submission(&slot_ranges(&draws));
         Ok(Self {
             positions,
@@ -638,14 +609,19 @@ impl SceneGpu {
             .collect()
     }
 
-    /// Draws instance `slot` of draw `draw` alone (the blended path's sorted order); binds
-    /// its material texture (group 2) when the scene has textures.
+    /// Draws instance `slot` of draw `draw` alone (the blended path's sorted order); the
+    /// caller binds the textures once ([`Self::bind_textures`]).
     pub fn record_instance(&self, pass: &mut wgpu::RenderPass<'_>, slot: u32, draw: usize) {
         let d = &self.draws[draw];
-        if let Some(t) = &self.textures {
-            pass.set_bind_group(2, &t.bind_groups[d.material], &[]);
-        }
         pass.draw_indexed(d.indices.clone(), d.base_vertex, slot..slot + 1);
+    }
+
+    /// Binds the material textures (group 2) when the scene has textures: one group for
+    /// every draw.
+    pub fn bind_textures(&self, pass: &mut wgpu::RenderPass<'_>) {
+        if let Some(t) = &self.textures {
+            pass.set_bind_group(2, &t.bind_group, &[]);
+        }
     }
 
     /// Binds the vertex and index buffers every scene draw reads.
@@ -673,7 +649,7 @@ impl SceneGpu {
         vertex_layouts(&self.material_features)
     }
 
-    /// True when material `m` has a texture in some slot (its bind group is not all white).
+    /// True when material `m` has a texture in some slot.
     pub fn material_has_textures(&self, m: usize) -> bool {
         self.material_textures.get(m).is_some_and(|&bits| bits != 0)
     }
@@ -684,7 +660,7 @@ impl SceneGpu {
     }
 
     /// Binds vertex/index buffers (`with_attributes`: normals and uvs too) and records the
-    /// draws of `kind`, switching texture bind groups (group 2) when `bind_textures`.
+    /// draws of `kind`, binding the material textures (group 2) first when `bind_textures`.
     pub fn record_draws(
         &self,
         pass: &mut wgpu::RenderPass<'_>,
@@ -714,15 +690,13 @@ impl SceneGpu {
             self.bind_attributes(pass);
         }
         pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
+        if bind_textures {
+            self.bind_textures(pass);
+        }
         for d in order.draws().iter().map(|&d| &self.draws[d as usize]).filter(|d| d.kind == kind) {
             let runs = order.runs(d.instances.clone(), visible);
             if runs.is_empty() {
                 continue;
-            }
-            if bind_textures {
-                if let Some(t) = &self.textures {
-                    pass.set_bind_group(2, &t.bind_groups[d.material], &[]);
-                }
             }
             for r in runs {
                 count.calls += 1;
@@ -755,165 +729,84 @@ impl std::ops::AddAssign for DrawCount {
     }
 }
 
-fn mip_chain(width: u32, height: u32, rgba: &[u8]) -> Vec<(u32, u32, Vec<u8>)> {
-    let mut levels = vec![(width, height, rgba.to_vec())];
-    let mut img = image::RgbaImage::from_raw(width, height, rgba.to_vec()).expect("validated size");
-    let (mut w, mut h) = (width, height);
-    while w > 1 || h > 1 {
-        w = (w / 2).max(1);
-        h = (h / 2).max(1);
-        img = image::imageops::resize(&img, w, h, image::imageops::FilterType::Triangle);
-        levels.push((w, h, img.as_raw().clone()));
-    }
-    levels
-}
-
-fn address_mode(w: Wrap) -> wgpu::AddressMode {
-    match w {
-        Wrap::Repeat => wgpu::AddressMode::Repeat,
-        Wrap::MirroredRepeat => wgpu::AddressMode::MirrorRepeat,
-        Wrap::ClampToEdge => wgpu::AddressMode::ClampToEdge,
-    }
-}
-
-fn filter_mode(f: Filter) -> wgpu::FilterMode {
-    match f {
-        Filter::Nearest => wgpu::FilterMode::Nearest,
-        Filter::Linear => wgpu::FilterMode::Linear,
-    }
-}
-
-/// The wgpu sampler of a scene sampler. Without mipmapping (glTF's plain `NEAREST` and
-/// `LINEAR` minification) only mip 0 is read: the LOD is clamped to 0.
-fn sampler_descriptor(s: &Sampler) -> wgpu::SamplerDescriptor<'static> {
-    wgpu::SamplerDescriptor {
-        label: Some("scene.sampler"),
-        address_mode_u: address_mode(s.wrap_u),
-        address_mode_v: address_mode(s.wrap_v),
-        mag_filter: filter_mode(s.mag),
-        min_filter: filter_mode(s.min),
-        mipmap_filter: match s.mipmap {
-            Some(Filter::Linear) => wgpu::MipmapFilterMode::Linear,
-            _ => wgpu::MipmapFilterMode::Nearest,
+/// A glTF sampler's bits in a texture slot ([`GpuTextureSlot::sampling`], the sampler part).
+fn sampling(s: &tiledlight_scene::Sampler) -> tiledlight_cull::texture::Sampling {
+    use tiledlight_cull::texture as t;
+    use tiledlight_scene::{Filter, Wrap};
+    let wrap = |w| match w {
+        Wrap::Repeat => t::WRAP_REPEAT,
+        Wrap::MirroredRepeat => t::WRAP_MIRROR,
+        Wrap::ClampToEdge => t::WRAP_CLAMP,
+    };
+    t::Sampling {
+        wrap: [wrap(s.wrap_u), wrap(s.wrap_v)],
+        mag_linear: s.mag == Filter::Linear,
+        min_linear: s.min == Filter::Linear,
+        mipmap: match s.mipmap {
+            None => t::MIPMAP_NONE,
+            Some(Filter::Nearest) => t::MIPMAP_NEAREST,
+            Some(Filter::Linear) => t::MIPMAP_LINEAR,
         },
-        lod_max_clamp: if s.mipmap.is_some() { 32.0 } else { 0.0 },
-        anisotropy_clamp: 1,
-        ..Default::default()
     }
 }
 
+/// Plans and uploads the texture arrays of every (image, colour space) the materials read
+/// (colour slots, base colour and emissive, sRGB; data slots linear), and fills in each
+/// material's slots.
 fn upload_textures(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     scene: &Scene,
-    features: &MaterialFeatures,
+    materials: &mut [GpuMaterial],
+    max_layers: u32,
     memory: &mut MemoryReport,
-) -> SceneTextures {
-    let defines = features.defines();
-    let layout = create_layout(device, "scene.texture_layout", TEXTURE_BINDINGS, &defines);
-    let make = |label: &str, w: u32, h: u32, rgba: &[u8], format, memory: &mut MemoryReport| {
-        let levels = mip_chain(w, h, rgba);
-        let tex = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some(label),
-            size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-            mip_level_count: levels.len() as u32,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
-        for (level, (lw, lh, data)) in levels.iter().enumerate() {
-            memory.add("scene.textures", data.len() as u64);
-            queue.write_texture(
-                wgpu::TexelCopyTextureInfo {
-                    texture: &tex,
-                    mip_level: level as u32,
-                    origin: wgpu::Origin3d::ZERO,
-                    aspect: wgpu::TextureAspect::All,
-                },
-                data,
-                wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(lw * 4), rows_per_image: Some(*lh) },
-                wgpu::Extent3d { width: *lw, height: *lh, depth_or_array_layers: 1 },
-            );
-        }
-        tex
-    };
-    // One GPU texture per (image, colour space) the bound slots use: colour slots (base
-    // colour, emissive) are sRGB, data slots (metallic-roughness, normal, occlusion) linear.
+) -> Result<SceneTextures, GpuError> {
     let srgb_slot = |k: usize| k == 0 || k == 4;
-    let mut textures: Vec<wgpu::Texture> = Vec::new();
-    let mut views: Vec<wgpu::TextureView> = Vec::new();
+    let mut uses: Vec<ImageUse> = Vec::new();
+    let mut use_image: Vec<usize> = Vec::new();
     let mut by_image: HashMap<(usize, bool), usize> = HashMap::new();
-    let mut samplers: Vec<wgpu::Sampler> = Vec::new();
-    let mut by_sampler: HashMap<Sampler, usize> = HashMap::new();
-    let white = make("scene.texture.white", 1, 1, &[255; 4], wgpu::TextureFormat::Rgba8Unorm, memory);
-    let white_view = white.create_view(&Default::default());
-    let default_sampler = device.create_sampler(&sampler_descriptor(&Sampler::default()));
-    let mut slot_of = Vec::with_capacity(scene.materials.len());
+    let mut slot_use: Vec<[Option<usize>; 5]> = Vec::with_capacity(scene.materials.len());
     for m in &scene.materials {
-        let mut bound = Vec::new();
+        let mut slots = [None; 5];
         for (k, slot) in material_slots(m).into_iter().enumerate() {
-            if !features.slot_bound(k) {
-                continue;
-            }
-            let Some(t) = slot else {
-                bound.push((k, None));
-                continue;
-            };
+            let Some(t) = slot else { continue };
             let srgb = srgb_slot(k);
-            let view = *by_image.entry((t.texture, srgb)).or_insert_with(|| {
+            let u = *by_image.entry((t.texture, srgb)).or_insert_with(|| {
                 let img = &scene.textures[t.texture];
-                let format = if srgb { wgpu::TextureFormat::Rgba8UnormSrgb } else { wgpu::TextureFormat::Rgba8Unorm };
-                let space = if srgb { "srgb" } else { "linear" };
-                let tex = make(
-                    &format!("scene.texture.{}.{space}", img.name),
-                    img.width,
-                    img.height,
-                    &img.rgba8,
-                    format,
-                    memory,
-                );
-                views.push(tex.create_view(&Default::default()));
-                textures.push(tex);
-                views.len() - 1
+                uses.push(ImageUse { srgb, width: img.width, height: img.height });
+                use_image.push(t.texture);
+                uses.len() - 1
             });
-            let sampler = *by_sampler.entry(t.sampler).or_insert_with(|| {
-                samplers.push(device.create_sampler(&sampler_descriptor(&t.sampler)));
-                samplers.len() - 1
-            });
-            bound.push((k, Some((view, sampler))));
+            slots[k] = Some(u);
         }
-        slot_of.push(bound);
+        slot_use.push(slots);
     }
-    let bind_groups = scene
-        .materials
-        .iter()
-        .zip(&slot_of)
-        .map(|(m, bound)| {
-            let mut entries = Vec::with_capacity(bound.len() * 2);
-            for &(k, slot) in bound {
-                let (view, sampler) = match slot {
-                    Some((v, s)) => (&views[v], &samplers[s]),
-                    None => (&white_view, &default_sampler),
-                };
-                let k = k as u32;
-                entries
-                    .push(wgpu::BindGroupEntry { binding: 2 * k, resource: wgpu::BindingResource::TextureView(view) });
-                entries.push(wgpu::BindGroupEntry {
-                    binding: 2 * k + 1,
-                    resource: wgpu::BindingResource::Sampler(sampler),
-                });
+    let plan = ArrayPlan::new(&uses, MATERIAL_ARRAYS, max_layers)?;
+    for ((gm, m), slots) in materials.iter_mut().zip(&scene.materials).zip(&slot_use) {
+        for (k, (u, t)) in slots.iter().zip(material_slots(m)).enumerate() {
+            if let (Some(u), Some(t)) = (u, t) {
+                let use_ = uses[*u];
+                gm.slots[k] = GpuTextureSlot::new(plan.placements[*u], use_.width, use_.height, &sampling(&t.sampler));
             }
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(&format!("scene.material.{}", m.name)),
-                layout: &layout,
-                entries: &entries,
-            })
-        })
+        }
+    }
+    let (textures, views) = crate::texture_arrays::upload(
+        device,
+        queue,
+        &plan,
+        &uses,
+        |i| scene.textures[use_image[i]].rgba8.as_slice(),
+        memory,
+    );
+    let layout = create_layout(device, "scene.texture_layout", TEXTURE_BINDINGS, &[]);
+    let entries: Vec<wgpu::BindGroupEntry<'_>> = views
+        .iter()
+        .enumerate()
+        .map(|(k, v)| wgpu::BindGroupEntry { binding: k as u32, resource: wgpu::BindingResource::TextureView(v) })
         .collect();
-    textures.push(white);
-    SceneTextures { layout, bind_groups, samplers: samplers.len(), _textures: textures }
+    let bind_group =
+        device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("scene.textures"), layout: &layout, entries: &entries });
+    Ok(SceneTextures { layout, bind_group, plan, _textures: textures })
 }
 
 /// Layouts of this module's GPU structs, for the xtask layout check.
@@ -939,7 +832,8 @@ pub fn layouts() -> Vec<tiledlight_cull::layout::StructLayout> {
                 occlusion_strength,
                 textures,
                 uv1_sets,
-                uv_rows
+                uv_rows,
+                slots
             ]
         ),
     ]

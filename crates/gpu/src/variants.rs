@@ -72,56 +72,43 @@ fn flag(out: &mut Vec<&'static str>, on: bool, define: Define) {
     }
 }
 
-/// The texture maps beside the base colour (`shaders/common/scene.wgsl`): each needs
-/// `TEXTURES`.
+/// The vertex attributes a textured scene adds (`shaders/common/scene.wgsl`): each needs
+/// `TEXTURES`. Which slots a material has textures in is per-material data, not a variant.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct TextureMaps {
-    /// `MR_TEXTURE`.
-    pub metallic_roughness: bool,
-    /// `NORMAL_MAP`.
+    /// `NORMAL_MAP`: the tangent attribute.
     pub normal_map: bool,
-    /// `OCCLUSION`.
-    pub occlusion: bool,
     /// `UV1`: some texture reads the second coordinate set.
     pub uv1: bool,
 }
 
-/// The material paths of a scene pass (`shaders/common/scene.wgsl`): textures with their
-/// maps, and emission (a factor, times the emissive texture with textures).
+/// The material paths of a scene pass (`shaders/common/scene.wgsl`): textures (every
+/// material's, in the texture arrays) with the attributes they need, or none. Emission and
+/// the metallic-roughness and occlusion maps are per-material data.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct MaterialKey {
-    /// `TEXTURES` and the maps, or no textures at all.
+    /// `TEXTURES` and the attributes, or no textures at all.
     pub textures: Option<TextureMaps>,
-    /// `EMISSIVE`.
-    pub emissive: bool,
 }
 
 impl MaterialKey {
-    /// Every value (34).
+    /// Every value (5).
     pub fn all() -> Vec<Self> {
         let mut maps = vec![None];
-        for metallic_roughness in BOOLS {
-            for normal_map in BOOLS {
-                for occlusion in BOOLS {
-                    for uv1 in BOOLS {
-                        maps.push(Some(TextureMaps { metallic_roughness, normal_map, occlusion, uv1 }));
-                    }
-                }
+        for normal_map in BOOLS {
+            for uv1 in BOOLS {
+                maps.push(Some(TextureMaps { normal_map, uv1 }));
             }
         }
-        maps.into_iter().flat_map(|textures| BOOLS.map(|emissive| Self { textures, emissive })).collect()
+        maps.into_iter().map(|textures| Self { textures }).collect()
     }
 
-    /// The defines, in `scene.wgsl`'s order: `TEXTURES MR_TEXTURE NORMAL_MAP OCCLUSION
-    /// EMISSIVE UV1`.
+    /// The defines, in `scene.wgsl`'s order: `TEXTURES NORMAL_MAP UV1`.
     pub fn defines(&self) -> Vec<&'static str> {
         let mut d = Vec::new();
         let m = self.textures.unwrap_or_default();
         flag(&mut d, self.textures.is_some(), Define::Textures);
-        flag(&mut d, m.metallic_roughness, Define::MrTexture);
         flag(&mut d, m.normal_map, Define::NormalMap);
-        flag(&mut d, m.occlusion, Define::Occlusion);
-        flag(&mut d, self.emissive, Define::Emissive);
         flag(&mut d, m.uv1, Define::Uv1);
         d
     }
@@ -1114,21 +1101,21 @@ mod tests {
     #[test]
     fn key_space_counts() {
         let count = |e: &str| key_spaces().into_iter().find(|(x, _)| *x == e).map_or(0, |(_, v)| v.len());
-        assert_eq!(MaterialKey::all().len(), 34);
-        assert_eq!(count("forward.wgsl"), 816);
-        assert_eq!(count("forward_clustered.wgsl"), 408);
-        assert_eq!(count("brute_force.wgsl"), 816);
-        assert_eq!(count("blended.wgsl"), 544);
+        assert_eq!(MaterialKey::all().len(), 5);
+        assert_eq!(count("forward.wgsl"), 120);
+        assert_eq!(count("forward_clustered.wgsl"), 60);
+        assert_eq!(count("brute_force.wgsl"), 120);
+        assert_eq!(count("blended.wgsl"), 80);
         assert_eq!(count("deferred.wgsl"), 672);
         assert_eq!(count("deferred_msaa.wgsl"), 576);
         assert_eq!(count("deferred_assigned.wgsl"), 288);
-        // 3 lookups x spots x 3 shadowings x 34 material paths, per sample mode.
-        assert_eq!(count("visibility.wgsl"), 612);
-        // cutoff x spots x VPLs x masks x 34 material paths, per sample mode.
-        assert_eq!(count("traced.wgsl"), 16 * 34);
-        assert_eq!(count("traced_msaa.wgsl"), 16 * 34);
+        // 3 lookups x spots x 3 shadowings x 5 material paths, per sample mode.
+        assert_eq!(count("visibility.wgsl"), 90);
+        // cutoff x spots x VPLs x masks x 5 material paths, per sample mode.
+        assert_eq!(count("traced.wgsl"), 16 * 5);
+        assert_eq!(count("traced_msaa.wgsl"), 16 * 5);
         assert_eq!(count("trace_rays.wgsl"), 2);
-        assert_eq!(count("visibility_msaa.wgsl"), 612);
+        assert_eq!(count("visibility_msaa.wgsl"), 90);
         // 4 pre-pass and 4 ID-raster variants, and 3 masked ones resolving IDs with atomics
         // (the compute raster's masked draws).
         assert_eq!(count("depth_prepass.wgsl"), 11);

@@ -19,12 +19,9 @@
 //!    IDs make it an edge pixel, shaded per sample and resolved by Tiled Deferred's resolve
 //!    ([`EdgeSamples`]).
 //!
-//! A textured scene's materials each have their own texture bind group (group 2), and a
-//! compute kernel cannot pick one per pixel without non-uniform binding arrays (which
-//! lavapipe lacks), so there the pass runs once per opaque textured material and once for
-//! all untextured ones (whose bind groups hold the same white textures), each dispatch
-//! shading only the samples of its class (the first also the sky), selected by a dynamic
-//! offset into a small uniform array. Untextured scenes run it once.
+//! One dispatch shades every material: a textured scene's textures are all in the texture
+//! arrays of one bind group (group 2, `tiledlight_gpu::texture_arrays`), a material's slots
+//! per-pixel data, so the pass costs the same at 2 materials as at 500 (issue 46).
 //!
 //! The traced reference ([`ShadeLights::Traced`], `shaders/traced.wgsl`,
 //! `shaders/traced_msaa.wgsl`, body `shaders/common/traced_shade.wgsl`) is the same pass
@@ -61,9 +58,8 @@ use crate::raster::VisibilityRaster;
 
 const CS: wgpu::ShaderStages = wgpu::ShaderStages::COMPUTE;
 
-/// Stride of the per-material uniforms (`VisClass`) and of the traced bands' uniforms:
-/// wgpu's dynamic-offset alignment.
-const CLASS_STRIDE: u64 = 256;
+/// Stride of the traced bands' uniforms: wgpu's dynamic-offset alignment.
+const BAND_STRIDE: u64 = 256;
 
 /// Pixel-light pairs (samples counted as pixels with MSAA) one band of the traced
 /// reference covers at most (unless that is fewer than [`TRACED_BAND_WORKGROUPS`]): 2^28,
@@ -81,7 +77,7 @@ pub const TRACED_BAND_WORKGROUPS: u64 = 2048;
 /// `VPLS` the VPLs (19), their uniform (20), grid (21) and indices (22) (the numbers of
 /// Tiled Deferred's group); then the scene: instances (24), materials (25), indices (26),
 /// positions (27), normals (28), uvs (29), tangents (30) with `NORMAL_MAP`, second uvs (31)
-/// with `UV1`, and with `TEXTURES` the dispatch's material (32, dynamic offset). The traced
+/// with `UV1`. The traced
 /// reference (`TRACED`) has no VPL grid (21, 22) but the VPL counter (23), and the BVH's
 /// nodes (33), triangles (34), with `TRACE_MASKS` its masks (35-37), its band (38, dynamic
 /// offset) and ray count (39).
@@ -113,7 +109,6 @@ pub const VISIBILITY_GROUP: &[Binding] = &[
     Binding::storage(29, CS),
     Binding::storage(30, CS).when(Cond::Defined(Define::NormalMap)),
     Binding::storage(31, CS).when(Cond::Defined(Define::Uv1)),
-    Binding::uniform(32, CS).dynamic_offset(16).when(Cond::Defined(Define::Textures)),
     TRACE[0],
     TRACE[1],
     TRACE[2],
@@ -184,7 +179,7 @@ pub type BandFlush<'a> = dyn FnMut(&mut wgpu::CommandEncoder, u32, u32) + 'a;
 
 /// The traced reference's bands and ray count.
 struct Traced {
-    /// One `TracedBand` a band, [`CLASS_STRIDE`] apart.
+    /// One `TracedBand` a band, [`BAND_STRIDE`] apart.
     bands_buffer: wgpu::Buffer,
     /// Tile rows a band.
     rows: u32,
@@ -194,22 +189,12 @@ struct Traced {
     stats: wgpu::Buffer,
 }
 
-/// One dispatch of the pass: the material it shades (textured scenes) and its offset into
-/// the uniform array.
-struct Class {
-    material: usize,
-    offset: u32,
-}
-
 /// The material-and-lights pass.
 pub struct VisibilityShading {
     pipeline: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
     /// Group 2 for untextured scenes (an empty group).
     empty_group: Option<wgpu::BindGroup>,
-    /// One per dispatch (one dispatch without textures).
-    classes: Vec<Class>,
-    _class_buffer: Option<wgpu::Buffer>,
     msaa: Option<EdgeSamples>,
     tiles: (u32, u32),
     /// The traced reference's bands (None for the light grid's pass).
@@ -347,10 +332,10 @@ impl VisibilityShading {
                 let rows =
                     (TRACED_BAND_PAIRS / pairs_per_row).max(min_rows).clamp(1, u64::from(rows_total.max(1))) as u32;
                 let bands = rows_total.max(1).div_ceil(rows);
-                let mut data = vec![0u8; bands as usize * CLASS_STRIDE as usize];
+                let mut data = vec![0u8; bands as usize * BAND_STRIDE as usize];
                 for b in 0..bands as usize {
                     let first = (b as u32) * rows;
-                    data[b * CLASS_STRIDE as usize..b * CLASS_STRIDE as usize + 4]
+                    data[b * BAND_STRIDE as usize..b * BAND_STRIDE as usize + 4]
                         .copy_from_slice(&first.to_le_bytes());
                 }
                 let bands_buffer = buffer_init(device, "traced.bands", &data, wgpu::BufferUsages::UNIFORM);
@@ -379,47 +364,6 @@ impl VisibilityShading {
             (samples > 1).then(|| EdgeSamples::new(device, "visibility", &grid, samples, hdr, memory)).transpose()?;
         if let Some(m) = &msaa {
             bind.extend(m.entries());
-        }
-        // Textured scenes: one dispatch per opaque textured material and one for all the
-        // untextured ones (their bind groups hold the same white textures), the first also
-        // writing the sky.
-        let (classes, class_buffer) = if textures.is_some() {
-            let mut materials: Vec<usize> =
-                scene.draws.iter().filter(|d| !d.kind.blended).map(|d| d.material).collect();
-            materials.sort_unstable();
-            materials.dedup();
-            let (textured, plain): (Vec<usize>, Vec<usize>) =
-                materials.into_iter().partition(|&m| scene.material_has_textures(m));
-            let mut classes: Vec<(usize, bool)> = textured.into_iter().map(|m| (m, false)).collect();
-            if let Some(&m) = plain.first() {
-                classes.push((m, true));
-            }
-            let mut data = vec![0u8; classes.len().max(1) * CLASS_STRIDE as usize];
-            for (k, &(m, untextured)) in classes.iter().enumerate() {
-                let at = k * CLASS_STRIDE as usize;
-                let class = [m as u32, u32::from(k == 0), u32::from(untextured)];
-                data[at..at + 12].copy_from_slice(bytemuck::cast_slice(&class));
-            }
-            let buffer = buffer_init(device, "visibility.classes", &data, wgpu::BufferUsages::UNIFORM);
-            memory.add("visibility.classes", buffer.size());
-            let classes = classes
-                .iter()
-                .enumerate()
-                .map(|(k, &(material, _))| Class { material, offset: (k as u64 * CLASS_STRIDE) as u32 })
-                .collect();
-            (classes, Some(buffer))
-        } else {
-            (vec![Class { material: 0, offset: 0 }], None)
-        };
-        if let Some(b) = &class_buffer {
-            bind.push(wgpu::BindGroupEntry {
-                binding: 32,
-                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: b,
-                    offset: 0,
-                    size: wgpu::BufferSize::new(16),
-                }),
-            });
         }
         let layout = create_layout(device, "visibility.layout", VISIBILITY_GROUP, &defines);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -477,8 +421,6 @@ impl VisibilityShading {
             pipeline,
             bind_group,
             empty_group,
-            classes,
-            _class_buffer: class_buffer,
             msaa,
             tiles,
             traced: traced_state,
@@ -575,24 +517,16 @@ impl VisibilityShading {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
         let rows = band.map_or(self.tiles.1, |(_, rows)| rows);
-        let band_offset = band.map(|(b, _)| (u64::from(b) * CLASS_STRIDE) as u32);
-        for class in &self.classes {
-            match (&self.empty_group, &scene.textures) {
-                (Some(empty), _) => {
-                    let offsets: Vec<u32> = band_offset.into_iter().collect();
-                    pass.set_bind_group(1, &self.bind_group, &offsets);
-                    pass.set_bind_group(2, empty, &[]);
-                }
-                (None, Some(t)) => {
-                    let offsets: Vec<u32> = std::iter::once(class.offset).chain(band_offset).collect();
-                    pass.set_bind_group(1, &self.bind_group, &offsets);
-                    pass.set_bind_group(2, &t.bind_groups[class.material], &[]);
-                }
-                (None, None) => unreachable!("a textured pass without the scene's textures"),
-            }
-            if rows > 0 {
-                pass.dispatch_workgroups(self.tiles.0, rows, 1);
-            }
+        let band_offset = band.map(|(b, _)| (u64::from(b) * BAND_STRIDE) as u32);
+        let offsets: Vec<u32> = band_offset.into_iter().collect();
+        pass.set_bind_group(1, &self.bind_group, &offsets);
+        match (&self.empty_group, &scene.textures) {
+            (Some(empty), _) => pass.set_bind_group(2, empty, &[]),
+            (None, Some(t)) => pass.set_bind_group(2, &t.bind_group, &[]),
+            (None, None) => unreachable!("a textured pass without the scene's textures"),
+        }
+        if rows > 0 {
+            pass.dispatch_workgroups(self.tiles.0, rows, 1);
         }
     }
 
@@ -615,20 +549,12 @@ impl VisibilityShading {
         }
     }
 
-    /// Dispatches a frame makes (one per textured material and one for the untextured ones
-    /// in a textured scene, else one).
-    pub fn dispatches(&self) -> usize {
-        self.classes.len()
-    }
-
     /// Pixels of the last frame queued for per-sample shading (MSAA only; stalls the GPU).
-    /// With several materials a pixel is counted once per material among its samples.
     pub fn read_edge_pixels(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Option<u32>, GpuError> {
         self.msaa.as_ref().map(|m| m.read_edge_pixels(device, queue)).transpose()
     }
 
-    /// The last frame's edge pixels (MSAA only; stalls the GPU), in no particular order
-    /// (with several materials a pixel may be listed once per material among its samples).
+    /// The last frame's edge pixels (MSAA only; stalls the GPU), in no particular order.
     pub fn read_edge_list(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Vec<(u32, u32)>, GpuError> {
         self.msaa.as_ref().map_or(Ok(Vec::new()), |m| m.read_edge_list(device, queue))
     }
