@@ -664,8 +664,8 @@ fn quantized_mesh_renders_like_its_float_twin() {
 
 /// "Model only what the scene requires": the courtyard (base colour textures only) and a
 /// plain scene compile and bind no material path beyond theirs (no tangent or second UV
-/// buffer, no extra texture bindings, no emission target), while a scene with every
-/// material feature gets each of them.
+/// buffer, no texture arrays beyond their images' classes, no emission target), while a
+/// scene with every material feature gets each of them.
 #[test]
 fn scenes_without_material_maps_get_no_extra_paths() {
     let ctx = gpu();
@@ -692,16 +692,21 @@ fn scenes_without_material_maps_get_no_extra_paths() {
         assert_eq!(gbuffer, 64 * 48 * per_pixel, "{name}: G-buffer bytes ({per_pixel} a pixel besides depth)");
         let f = FrameRenderer::new(ctx, &sg, &lights, 64, 48, FrameSettings::default()).unwrap();
         assert_eq!(f.features().material_defines(), want.defines(), "{name}: Forward+ variant");
-        // Group 2 exists only with TEXTURES.
-        let bound = if want.textures { layout_entries(TEXTURE_BINDINGS, &want.defines()).len() } else { 0 };
-        eprintln!("{name}: defines {:?}, {bound} texture bindings", want.defines());
-        bound
+        // Group 2 exists only with TEXTURES: its eight arrays, as many of them real as
+        // the scene's images have classes (size and colour space), without padding.
+        let arrays = sg.textures.as_ref().map_or(0, |t| {
+            assert_eq!(layout_entries(TEXTURE_BINDINGS, &want.defines()).len(), 8, "{name}");
+            assert_eq!(t.plan.padding_bytes(), 0, "{name}: images of few sizes are not padded");
+            t.plan.arrays.len()
+        });
+        eprintln!("{name}: defines {:?}, {arrays} texture arrays", want.defines());
+        arrays
     };
     let plain = scenes::floor_scene(0.5, 0.0, vec![]);
     assert_eq!(check("floor", &plain, MaterialFeatures::default()), 0);
     let courtyard = scenes::courtyard();
     let textures_only = MaterialFeatures { textures: true, ..Default::default() };
-    assert_eq!(check("courtyard", &courtyard, textures_only), 2, "base colour texture and sampler only");
+    assert_eq!(check("courtyard", &courtyard, textures_only), 1, "one 64x64 sRGB image, one array");
 
     // Every feature.
     let dir = tempfile::tempdir().unwrap();
@@ -723,7 +728,8 @@ fn scenes_without_material_maps_get_no_extra_paths() {
         emissive: true,
         uv1: true,
     };
-    assert_eq!(check("full", &full, all), 10);
+    // Five 1x1 images: the two colour slots' sRGB, the three data slots' linear.
+    assert_eq!(check("full", &full, all), 2);
     // Emission alone: the emission target and define, no texture group.
     let mut emissive = plain.clone();
     emissive.materials[0].emissive = [1.0, 0.0, 0.0];

@@ -459,12 +459,18 @@ fn material_cases() -> Vec<Case> {
 /// `material_at` on the GPU over `cases`: 16 floats a case (base rgb, alpha, roughness,
 /// metallic, normal xyz, occlusion, emission rgb, padding).
 fn run_material_kernel(scene: &Scene, cases: &[Case]) -> Vec<[f32; 16]> {
+    run_scene_kernel(scene, cases, MATERIAL_KERNEL)
+}
+
+/// `kernel` (a `main` over `cases` writing 16 floats each) on the GPU with `scene`'s
+/// instances, materials and texture arrays.
+fn run_scene_kernel(scene: &Scene, cases: &[Case], kernel: &str) -> Vec<[f32; 16]> {
     let ctx = gpu();
     let device = &ctx.device;
     let sg = SceneGpu::new(device, &ctx.queue, scene).unwrap();
     let textures = sg.textures.as_ref().expect("textured scene");
     let files = |p: &str| match p {
-        "test.material_at" => Some(MATERIAL_KERNEL.to_string()),
+        "test.material_at" => Some(kernel.to_string()),
         _ => tiledlight_gpu::shader::embedded(p).map(str::to_owned),
     };
     let text = tiledlight_gpu::shader::preprocess_with(&files, "test.material_at", &MATERIAL_DEFINES)
@@ -732,5 +738,156 @@ fn material_sample_matches_the_texture_bytes() {
         let bad = material_mismatches(&scene, &cases, &rows, reading);
         eprintln!("{what}: {} values rejected", bad.len());
         assert!(bad.len() * 4 > cases.len(), "{what} must be rejected ({} values of {} cases)", bad.len(), cases.len());
+    }
+}
+
+/// The texture kernel: `material_color` of material `u32(n.x)` at `uv0` with screen
+/// gradients `t.xy` (x) and `t.zw` (y): the texture arrays' sampling, filter and mip level
+/// included.
+const TEXTURE_KERNEL: &str = r#"
+#include "common/scene.wgsl"
+struct Case { uv0: vec2<f32>, uv1: vec2<f32>, n: vec4<f32>, t: vec4<f32> }
+@group(3) @binding(0) var<storage, read> cases: array<Case>;
+@group(3) @binding(1) var<storage, read_write> out: array<array<f32, 16>>;
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if i >= arrayLength(&cases) { return; }
+    let c = cases[i];
+    let sets = UvSets(c.uv0, c.t.xy, c.t.zw, c.uv0, c.t.xy, c.t.zw);
+    let b = material_color(u32(c.n.x), sets);
+    out[i] = array<f32, 16>(b.x, b.y, b.z, b.w, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+}
+"#;
+
+/// Twelve materials, each with a base-colour image of its own size (twelve sRGB classes:
+/// more than the eight arrays, so some share a padded layer; five sizes not powers of
+/// two) and its own sampler (every wrap on each axis, nearest and linear, no, nearest and
+/// linear mipmaps).
+fn texture_array_scene() -> Scene {
+    use tiledlight_scene::{Filter, Sampler, Wrap};
+    let mut rng = Rng(0x7e57_a77a);
+    let sizes = [(16, 16), (8, 8), (5, 3), (7, 7), (13, 9), (32, 8), (33, 17), (4, 16), (64, 64), (2, 2), (20, 12), (1, 9)];
+    let wraps = [Wrap::Repeat, Wrap::MirroredRepeat, Wrap::ClampToEdge];
+    let filters = [Filter::Nearest, Filter::Linear];
+    let textures: Vec<Texture> = sizes.iter().enumerate().map(|(k, &(w, h))| random_texture(&format!("t{k}"), w, h, &mut rng)).collect();
+    let materials = (0..sizes.len())
+        .map(|k| {
+            let sampler = Sampler {
+                wrap_u: wraps[k % 3],
+                wrap_v: wraps[(k / 3) % 3],
+                mag: filters[k % 2],
+                min: filters[(k / 2) % 2],
+                mipmap: [None, Some(Filter::Nearest), Some(Filter::Linear)][k % 3],
+            };
+            Material {
+                name: format!("m{k}"),
+                base_color: [1.0; 4],
+                base_color_texture: Some(TextureRef { sampler, ..TextureRef::new(k) }),
+                ..Material::default()
+            }
+        })
+        .collect();
+    let mut scene = Scene {
+        name: "texture arrays".into(),
+        meshes: vec![scenes::quad("quad", 1.0)],
+        materials,
+        textures,
+        instances: vec![Instance { mesh: 0, material: 0, transform: Mat4::IDENTITY }],
+        lights: vec![],
+        camera: None,
+        bounds: tiledlight_scene::Aabb::empty(),
+    };
+    scene.bounds = scene.compute_bounds();
+    scene.validate().expect("texture array scene");
+    scene
+}
+
+/// How the CPU reads the arrays' textures in [`texture_mismatches`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum TexReading {
+    Right,
+    /// Broken: one mip level finer than asked (gradients halved).
+    LevelOff,
+    /// Broken: every wrap taken as repeat.
+    RepeatOnly,
+}
+
+/// Values of `rows` (the texture kernel over `cases`) that differ from the CPU twin's
+/// sample read as `reading`, beyond the adapter's sRGB decode error.
+fn texture_mismatches(scene: &Scene, cases: &[Case], rows: &[[f32; 16]], reading: TexReading) -> Vec<String> {
+    use tiledlight_cull::texture::{Mips, Sampling, MIPMAP_LINEAR, MIPMAP_NEAREST, MIPMAP_NONE, WRAP_CLAMP, WRAP_MIRROR, WRAP_REPEAT};
+    use tiledlight_scene::{Filter, Wrap};
+    let srgb_error = if is_lavapipe(gpu()) { LAVAPIPE_SRGB_DECODE_ERROR } else { 1e-2 };
+    let mips: Vec<Mips> = scene.textures.iter().map(|t| Mips::new(t.width, t.height, &t.rgba8, true)).collect();
+    let wrap = |w: Wrap| match (w, reading) {
+        (_, TexReading::RepeatOnly) | (Wrap::Repeat, _) => WRAP_REPEAT,
+        (Wrap::MirroredRepeat, _) => WRAP_MIRROR,
+        (Wrap::ClampToEdge, _) => WRAP_CLAMP,
+    };
+    let mut bad = Vec::new();
+    for (i, (c, row)) in cases.iter().zip(rows).enumerate() {
+        let m = c.n[0] as usize;
+        let t = scene.materials[m].base_color_texture.as_ref().unwrap();
+        let s = Sampling {
+            wrap: [wrap(t.sampler.wrap_u), wrap(t.sampler.wrap_v)],
+            mag_linear: t.sampler.mag == Filter::Linear,
+            min_linear: t.sampler.min == Filter::Linear,
+            mipmap: match t.sampler.mipmap {
+                None => MIPMAP_NONE,
+                Some(Filter::Nearest) => MIPMAP_NEAREST,
+                Some(Filter::Linear) => MIPMAP_LINEAR,
+            },
+        };
+        let scale = if reading == TexReading::LevelOff { 0.5 } else { 1.0 };
+        let (dx, dy) = (glam::Vec2::new(c.t[0], c.t[1]) * scale, glam::Vec2::new(c.t[2], c.t[3]) * scale);
+        let want = mips[t.texture].sample(s, glam::Vec2::from(c.uv0), dx, dy);
+        for k in 0..4 {
+            let err = (row[k] - want[k]).abs();
+            if err.is_nan() || err > srgb_error * want[k].max(0.05) + 1e-4 {
+                bad.push(format!("case {i} (material {m}, {c:?}): channel {k} GPU {} CPU {}", row[k], want[k]));
+            }
+        }
+    }
+    bad
+}
+
+/// The texture arrays on the GPU read every image as the CPU twin
+/// (`tiledlight_cull::texture`) does: twelve image sizes in eight arrays (so smaller images
+/// sit padded in larger layers and must wrap within their own size), every wrap mode,
+/// filter and mipmap mode, coordinates up to 40 periods from the origin and gradients
+/// from magnification to past the last level. The comparison rejects a sample one level
+/// off and wraps all taken as repeat.
+#[test]
+fn texture_arrays_sample_every_image_as_the_cpu_twin() {
+    let scene = texture_array_scene();
+    let sg = SceneGpu::new(&gpu().device, &gpu().queue, &scene).unwrap();
+    let plan = &sg.textures.as_ref().expect("textured").plan;
+    assert_eq!(plan.arrays.len(), tiledlight_gpu::texture_arrays::MATERIAL_ARRAYS);
+    assert!(plan.padding_bytes() > 0, "the test must put images in padded layers");
+    drop(sg);
+    let mut rng = Rng(0x5a3b_1e55);
+    let cases: Vec<Case> = (0..scene.materials.len() * 96)
+        .map(|k| {
+            let m = k % scene.materials.len();
+            let far = if k % 7 == 0 { 40.0 } else { 3.0 };
+            // Gradients of 2^-4 to 2^7 texels a pixel of a 16-texel image.
+            let g = 2f32.powf(rng.range(-4.0, 7.0)) / 16.0;
+            let a = rng.range(0.0, std::f32::consts::TAU);
+            Case {
+                uv0: [rng.range(-far, far), rng.range(-far, far)],
+                uv1: [0.0; 2],
+                n: [m as f32, 0.0, 0.0, 1.0],
+                t: [g * a.cos(), g * a.sin(), -g * a.sin() * 0.5, g * a.cos() * 0.5],
+            }
+        })
+        .collect();
+    let rows = run_scene_kernel(&scene, &cases, TEXTURE_KERNEL);
+    let bad = texture_mismatches(&scene, &cases, &rows, TexReading::Right);
+    assert!(bad.is_empty(), "{} values of {} cases differ from the CPU twin:\n{}", bad.len(), cases.len(), bad[..bad.len().min(12)].join("\n"));
+    for reading in [TexReading::LevelOff, TexReading::RepeatOnly] {
+        let bad = texture_mismatches(&scene, &cases, &rows, reading);
+        eprintln!("{reading:?}: {} values rejected", bad.len());
+        assert!(bad.len() * 10 > cases.len(), "{reading:?} must be rejected ({} of {} cases)", bad.len(), cases.len());
     }
 }

@@ -232,9 +232,10 @@ pub fn expand_demo(args: Vec<std::ffi::OsString>, takes_demo: impl Fn(&str) -> b
 /// so an absurd value gets a message naming the flag and its limit.
 #[derive(Args, Clone, Debug, PartialEq)]
 pub struct SceneArgs {
-    /// `default` (the procedural courtyard), `bevy-many-lights` (Bevy's many_lights stress
-    /// test rebuilt: 100,000 lights of 0.3 m on a sphere) or a glTF file (.gltf or .glb).
-    #[arg(long, default_value = "default", value_name = "default|bevy-many-lights|FILE")]
+    /// `default` (the procedural courtyard), `materials` (576 boxes with --materials
+    /// distinct textured materials), `bevy-many-lights` (Bevy's many_lights stress test
+    /// rebuilt: 100,000 lights of 0.3 m on a sphere) or a glTF file (.gltf or .glb).
+    #[arg(long, default_value = "default", value_name = "default|materials|bevy-many-lights|FILE")]
     pub scene: String,
     /// A demo setup of the courtyard that makes one feature obvious: shadows, vpl (add
     /// --vpl for the bounce), glass, million, heatmap, clusters. It stands for a few flags
@@ -283,6 +284,10 @@ pub struct SceneArgs {
     /// Grid objects (instanced spheres) added to the default scene, 0 to 280.
     #[arg(long, default_value_t = 0, value_name = "N")]
     pub grid_objects: u32,
+    /// Distinct textured materials of `--scene materials`, 1 to 4096 (box i takes material
+    /// i mod N: the boxes, and so the coverage, stay the same).
+    #[arg(long, default_value_t = tiledlight_scene::materials::DEFAULT_MATERIALS, value_name = "N")]
+    pub materials: u32,
     /// Tessellation of the grid objects.
     #[arg(long, value_enum, default_value_t = DensityArg::Medium)]
     pub density: DensityArg,
@@ -425,6 +430,7 @@ impl Default for SceneArgs {
             seed: d.seed,
             threshold: d.threshold,
             grid_objects: d.grid_objects,
+            materials: d.materials,
             density: d.density.into(),
             transparent_objects: d.transparent_objects,
             emissive: d.emissive,
@@ -496,6 +502,7 @@ impl SceneArgs {
             threshold: self.threshold,
             auto_exposure: self.exposure.is_none(),
             grid_objects: self.grid_objects,
+            materials: self.materials,
             density: self.density.into(),
             transparent_objects: self.transparent_objects,
             emissive: self.emissive,
@@ -571,6 +578,7 @@ impl Flags for SceneArgs {
             // Read (and checked) with the other files the settings name.
             "camera" => args.camera = Some(PathBuf::from(value)),
             "grid-objects" => args.grid_objects = small()?,
+            "materials" => args.materials = small()?,
             "tile-size" => args.tile_size = small()?,
             "msaa" => args.msaa = small()?,
             "threshold" => {

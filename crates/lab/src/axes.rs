@@ -76,6 +76,7 @@ pub const AXES: &[(&str, &str)] = &[
          traced-reference-cutoff",
     ),
     ("grid-objects", "grid objects of the default scene, 0..280 (integer; ranges allowed)"),
+    ("materials", "textured materials of --scene materials, 1..4096 (integer; ranges allowed)"),
     ("density", "grid object tessellation: low | medium | high"),
     ("tile-size", "8 | 16 | 32"),
     ("threshold", "light intensity threshold, the radius dial (number; ranges allowed)"),
@@ -151,6 +152,7 @@ pub fn is_integer_axis(name: &str) -> bool {
         "lights"
             | "spot-lights"
             | "grid-objects"
+            | "materials"
             | "tile-size"
             | "seed"
             | "msaa"

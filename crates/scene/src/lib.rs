@@ -6,6 +6,8 @@
 //! - [`default_scene`]: a procedural Sponza-like courtyard (about 250k triangles) plus
 //!   TiledLighting11's grid objects, some of them alpha-blended glass;
 //! - [`shadow_box_scene`]: a cube on or above a floor, for the shadow tests;
+//! - [`materials`]: a floor and 576 boxes with N distinct textured materials (images of
+//!   several sizes, normal maps, masks, UV1, texture transforms), `--scene materials`;
 //! - [`peer`]: other engines' benchmark scenes rebuilt (Bevy's `many_lights`), for the
 //!   peer benchmark;
 //! - [`random_lights`]: deterministic random point and spot lights, the courtyard's radii
@@ -35,6 +37,7 @@ mod error;
 mod geometry;
 mod lights;
 mod loader;
+pub mod materials;
 mod model;
 pub mod peer;
 mod procedural;

@@ -238,6 +238,12 @@ fn load_scene(settings: &Settings) -> Result<(Scene, usize, Vec<String>)> {
             let n = scene.lights.len();
             Ok((scene, n, Vec::new()))
         }
+        SceneSource::Materials => {
+            let scene = tiledlight_scene::materials::materials_scene(settings.materials)
+                .context("building the many-material scene")?;
+            let n = scene.lights.len();
+            Ok((scene, n, Vec::new()))
+        }
         SceneSource::Peer(p) => {
             let scene = p.build();
             let n = scene.lights.len();

@@ -124,6 +124,9 @@ pub enum SceneSource {
     /// The procedural courtyard.
     #[default]
     Default,
+    /// The many-material scene (`materials`: [`tiledlight_scene::materials`]), with
+    /// [`Settings::materials`] materials.
+    Materials,
     /// A glTF file.
     File(PathBuf),
     /// Another engine's benchmark scene, rebuilt (its own lights and camera).
@@ -158,11 +161,13 @@ impl PeerScene {
 }
 
 impl SceneSource {
-    /// The source a `--scene` value names: `default` (any case), a peer scene's name
-    /// (`bevy-many-lights`, any case) or a glTF file.
+    /// The source a `--scene` value names: `default` or `materials` (any case), a peer
+    /// scene's name (`bevy-many-lights`, any case) or a glTF file.
     pub fn parse(value: &str) -> Self {
         if value.eq_ignore_ascii_case("default") {
             SceneSource::Default
+        } else if value.eq_ignore_ascii_case("materials") {
+            SceneSource::Materials
         } else if let Some(p) = PeerScene::ALL.into_iter().find(|p| value.eq_ignore_ascii_case(p.name())) {
             SceneSource::Peer(p)
         } else {
@@ -176,6 +181,7 @@ impl fmt::Display for SceneSource {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             SceneSource::Default => f.write_str("default"),
+            SceneSource::Materials => f.write_str("materials"),
             SceneSource::File(path) => write!(f, "{}", path.display()),
             SceneSource::Peer(p) => f.write_str(p.name()),
         }
@@ -217,6 +223,8 @@ pub struct Settings {
     pub threshold: f32,
     /// Grid objects (instanced spheres) added to the default scene, 0 to 280.
     pub grid_objects: u32,
+    /// Materials of the many-material scene (`--scene materials`), 1 to 4096.
+    pub materials: u32,
     /// Tessellation of the grid objects.
     pub density: GridDensity,
     /// Grid objects drawn as alpha-blended glass spheres, 0 to `grid_objects` (the default
@@ -316,6 +324,7 @@ impl Default for Settings {
             seed: 1,
             threshold: DEFAULT_LIGHT_THRESHOLD,
             grid_objects: 0,
+            materials: tiledlight_scene::materials::DEFAULT_MATERIALS,
             density: GridDensity::Medium,
             transparent_objects: 0,
             emissive: false,
@@ -356,7 +365,9 @@ impl Settings {
     /// Random (point, spot) lights asked for, with the per-scene defaults applied.
     pub fn random_light_counts(&self) -> (u64, u64) {
         match self.scene {
-            SceneSource::Default => (self.lights.unwrap_or(DEFAULT_POINT_LIGHTS), self.spot_lights.unwrap_or(0)),
+            SceneSource::Default | SceneSource::Materials => {
+                (self.lights.unwrap_or(DEFAULT_POINT_LIGHTS), self.spot_lights.unwrap_or(0))
+            }
             SceneSource::File(_) | SceneSource::Peer(_) => (self.lights.unwrap_or(0), self.spot_lights.unwrap_or(0)),
         }
     }
@@ -455,7 +466,7 @@ impl Settings {
                 self.transparent_objects,
                 self.grid_objects
             ),
-            SceneSource::File(_) | SceneSource::Peer(_) => ensure!(
+            SceneSource::File(_) | SceneSource::Peer(_) | SceneSource::Materials => ensure!(
                 self.transparent_objects == 0,
                 "--transparent-objects {}: transparent grid objects exist only in the default scene (a glTF \
                  file's BLEND materials are drawn blended on their own)",
@@ -507,6 +518,26 @@ impl Settings {
                     "{flag} {n}: more than the scene's {count} {kind} lights ({count_flag} {random}{demo})"
                 );
             }
+        }
+        {
+            use tiledlight_scene::materials::{DEFAULT_MATERIALS, MAX_MATERIALS};
+            ensure!(
+                (1..=MAX_MATERIALS).contains(&self.materials),
+                "--materials {}: must be between 1 and {MAX_MATERIALS}",
+                self.materials
+            );
+            ensure!(
+                self.materials == DEFAULT_MATERIALS || self.scene == SceneSource::Materials,
+                "--materials {}: only the many-material scene has them (--scene materials)",
+                self.materials
+            );
+        }
+        if self.scene == SceneSource::Materials {
+            ensure!(
+                self.grid_objects == 0,
+                "--grid-objects {}: grid objects exist only in the default scene (--scene materials has its boxes)",
+                self.grid_objects
+            );
         }
         if let SceneSource::Peer(p) = self.scene {
             ensure!(

@@ -356,6 +356,7 @@ impl Viewer {
         let stats = Stats { timestamps: timer.enabled(), ..Stats::default() };
         let scene_path = match &prep.settings.scene {
             SceneSource::Default => String::new(),
+            SceneSource::Materials => "materials".to_string(),
             SceneSource::File(path) => path.display().to_string(),
             SceneSource::Peer(p) => p.name().to_string(),
         };
