@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced casters casters-curve ranking
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced casters casters-curve ranking materials surface-edges
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -304,8 +304,27 @@ for set in $sets; do
     for m in forward-plus deferred visibility; do
       run "sum-msaa4-$m-4096" 30 --lights 4096 --grid-objects 280 --density medium --method $m --msaa 4
     done
+    for m in forward-plus deferred visibility; do
+      run "sum-mat144-$m-1024" 30 --scene materials --materials 144 --lights 1024 --method $m
+    done
     timeout 400 "$bin" sweep --preset figure9 --frames 20 --warmup 5 --width 1920 --height 1080 \
       --out "$out/figure9.csv" >>"$out/log.txt" 2>&1
+    ;;
+  materials)
+    # Issue 46: what the number of textured materials costs each method. The materials
+    # scene (576 boxes, the same coverage at every count), 1,024 lights, 1080p.
+    for n in 2 16 64 144 512; do
+      for m in forward-plus deferred visibility; do
+        run "mat-$n-$m" 30 --scene materials --materials $n --lights 1024 --method $m
+      done
+    done
+    ;;
+  surface-edges)
+    # Issue 46 item 3: the visibility buffer's MSAA edge test by surface (default) and by
+    # triangle ID alone, against Tiled Deferred, on the Figure 9 scene at 4,096 lights, 4x.
+    run se-f9-vb-surface 50 --lights 4096 --grid-objects 280 --density medium --method visibility --msaa 4
+    run se-f9-vb-ids 50 --lights 4096 --grid-objects 280 --density medium --method visibility --msaa 4 --no-surface-edges
+    run se-f9-td 50 --lights 4096 --grid-objects 280 --density medium --method deferred --msaa 4
     ;;
   order)
     # Issue 31: the depth pre-pass and the G-buffer drawn nearest first against the

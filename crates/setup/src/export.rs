@@ -594,3 +594,35 @@ mod tests {
         assert_eq!(extras["width"], json!(64));
     }
 }
+
+#[cfg(test)]
+mod materials_scene_tests {
+    use super::*;
+    use tiledlight_scene::{load_gltf_bytes, LoadOptions, Material};
+
+    /// The many-material scene (`--scene materials`) written and read back: every
+    /// material's values, samplers, transforms and UV sets, and every image's texels, come
+    /// back, so tests and peers can load the file in its place.
+    #[test]
+    fn the_materials_scene_comes_back_from_its_file() {
+        let scene = tiledlight_scene::materials::materials_scene(24).unwrap();
+        let camera = Camera::perspective(Vec3::new(0.0, 5.0, 10.0), Vec3::ZERO, Vec3::Y, 0.9, 16.0 / 9.0, 0.1, None)
+            .unwrap();
+        let frame = FrameExtras { exposure: None, width: 64, height: 36, ambient: Vec3::splat(0.02) };
+        let (root, bin) = gltf_document(&scene, &[], &camera, &frame).unwrap();
+        let bytes = writer::glb_bytes(&root, &bin);
+        let loaded = load_gltf_bytes(&bytes, Path::new("materials.glb"), &LoadOptions::new(0.1)).unwrap();
+        assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+        let back = loaded.scene;
+        assert_eq!(back.instances.len(), scene.instances.len());
+        for (a, b) in scene.instances.iter().zip(&back.instances) {
+            let (pa, pb) = (&scene.materials[a.material], &back.materials[b.material]);
+            assert_eq!(Material { name: String::new(), ..pa.clone() }, Material { name: String::new(), ..pb.clone() });
+            let (ma, mb) = (&scene.meshes[a.mesh], &back.meshes[b.mesh]);
+            assert!(ma.uvs1 == mb.uvs1 && ma.tangents == mb.tangents, "{}", ma.name);
+        }
+        let sizes = |s: &tiledlight_scene::Scene| s.textures.iter().map(|t| (t.width, t.height)).collect::<Vec<_>>();
+        assert_eq!(sizes(&back), sizes(&scene));
+        assert!(back.textures.iter().zip(&scene.textures).all(|(a, b)| a.rgba8 == b.rgba8));
+    }
+}
