@@ -806,6 +806,7 @@ mod tests {
             seed: 5,
             threshold: 0.5,
             grid_objects: 0,
+            materials: tiledlight_scene::materials::DEFAULT_MATERIALS,
             density: GridDensity::High,
             transparent_objects: 0,
             emissive: false,
