@@ -342,15 +342,6 @@ fn weighted_composite_is_mcguire_bavoil() {
 /// puts the instance and material buffers at group 1's bindings 24 and 25 (as the
 /// visibility buffer's compute pass has them); group 0 (the view) is unused.
 const MATERIAL_KERNEL: &str = r#"
-#include "common/scene.wgsl"
-struct Case { uv0: vec2<f32>, uv1: vec2<f32>, n: vec4<f32>, t: vec4<f32> }
-@group(3) @binding(0) var<storage, read> cases: array<Case>;
-@group(3) @binding(1) var<storage, read_write> out: array<array<f32, 16>>;
-@compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x;
-    if i >= arrayLength(&cases) { return; }
-    let c = cases[i];
     let z = vec2<f32>(0.0);
     let sets = UvSets(c.uv0, z, z, c.uv1, z, z);
     let ms = material_at(0u, sets, material_color(0u, sets), c.n.xyz, c.t, c.n.w > 0.0);
@@ -462,9 +453,24 @@ fn run_material_kernel(scene: &Scene, cases: &[Case]) -> Vec<[f32; 16]> {
     run_scene_kernel(scene, cases, MATERIAL_KERNEL)
 }
 
-/// `kernel` (a `main` over `cases` writing 16 floats each) on the GPU with `scene`'s
-/// instances, materials and texture arrays.
-fn run_scene_kernel(scene: &Scene, cases: &[Case], kernel: &str) -> Vec<[f32; 16]> {
+/// What every scene kernel starts with: the scene's WGSL, the cases and the output, and
+/// `main`'s head up to the case `c` (the kernel's body follows, then `}`).
+const KERNEL_HEAD: &str = r#"
+#include "common/scene.wgsl"
+struct Case { uv0: vec2<f32>, uv1: vec2<f32>, n: vec4<f32>, t: vec4<f32> }
+@group(3) @binding(0) var<storage, read> cases: array<Case>;
+@group(3) @binding(1) var<storage, read_write> out: array<array<f32, 16>>;
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if i >= arrayLength(&cases) { return; }
+    let c = cases[i];
+"#;
+
+/// The kernel whose body (after [`KERNEL_HEAD`]) is `body`, over `cases` writing 16 floats
+/// each, on the GPU with `scene`'s instances, materials and texture arrays.
+fn run_scene_kernel(scene: &Scene, cases: &[Case], body: &str) -> Vec<[f32; 16]> {
+    let kernel = format!("{KERNEL_HEAD}{body}");
     let ctx = gpu();
     let device = &ctx.device;
     let sg = SceneGpu::new(device, &ctx.queue, scene).unwrap();
@@ -745,15 +751,6 @@ fn material_sample_matches_the_texture_bytes() {
 /// gradients `t.xy` (x) and `t.zw` (y): the texture arrays' sampling, filter and mip level
 /// included.
 const TEXTURE_KERNEL: &str = r#"
-#include "common/scene.wgsl"
-struct Case { uv0: vec2<f32>, uv1: vec2<f32>, n: vec4<f32>, t: vec4<f32> }
-@group(3) @binding(0) var<storage, read> cases: array<Case>;
-@group(3) @binding(1) var<storage, read_write> out: array<array<f32, 16>>;
-@compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x;
-    if i >= arrayLength(&cases) { return; }
-    let c = cases[i];
     let sets = UvSets(c.uv0, c.t.xy, c.t.zw, c.uv0, c.t.xy, c.t.zw);
     let b = material_color(u32(c.n.x), sets);
     out[i] = array<f32, 16>(b.x, b.y, b.z, b.w, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
@@ -767,10 +764,12 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 fn texture_array_scene() -> Scene {
     use tiledlight_scene::{Filter, Sampler, Wrap};
     let mut rng = Rng(0x7e57_a77a);
-    let sizes = [(16, 16), (8, 8), (5, 3), (7, 7), (13, 9), (32, 8), (33, 17), (4, 16), (64, 64), (2, 2), (20, 12), (1, 9)];
+    let sizes =
+        [(16, 16), (8, 8), (5, 3), (7, 7), (13, 9), (32, 8), (33, 17), (4, 16), (64, 64), (2, 2), (20, 12), (1, 9)];
     let wraps = [Wrap::Repeat, Wrap::MirroredRepeat, Wrap::ClampToEdge];
     let filters = [Filter::Nearest, Filter::Linear];
-    let textures: Vec<Texture> = sizes.iter().enumerate().map(|(k, &(w, h))| random_texture(&format!("t{k}"), w, h, &mut rng)).collect();
+    let textures: Vec<Texture> =
+        sizes.iter().enumerate().map(|(k, &(w, h))| random_texture(&format!("t{k}"), w, h, &mut rng)).collect();
     let materials = (0..sizes.len())
         .map(|k| {
             let sampler = Sampler {
@@ -816,7 +815,9 @@ enum TexReading {
 /// Values of `rows` (the texture kernel over `cases`) that differ from the CPU twin's
 /// sample read as `reading`, beyond the adapter's sRGB decode error.
 fn texture_mismatches(scene: &Scene, cases: &[Case], rows: &[[f32; 16]], reading: TexReading) -> Vec<String> {
-    use tiledlight_cull::texture::{Mips, Sampling, MIPMAP_LINEAR, MIPMAP_NEAREST, MIPMAP_NONE, WRAP_CLAMP, WRAP_MIRROR, WRAP_REPEAT};
+    use tiledlight_cull::texture::{
+        Mips, Sampling, MIPMAP_LINEAR, MIPMAP_NEAREST, MIPMAP_NONE, WRAP_CLAMP, WRAP_MIRROR, WRAP_REPEAT,
+    };
     use tiledlight_scene::{Filter, Wrap};
     let srgb_error = if is_lavapipe(gpu()) { LAVAPIPE_SRGB_DECODE_ERROR } else { 1e-2 };
     let mips: Vec<Mips> = scene.textures.iter().map(|t| Mips::new(t.width, t.height, &t.rgba8, true)).collect();
@@ -884,7 +885,13 @@ fn texture_arrays_sample_every_image_as_the_cpu_twin() {
         .collect();
     let rows = run_scene_kernel(&scene, &cases, TEXTURE_KERNEL);
     let bad = texture_mismatches(&scene, &cases, &rows, TexReading::Right);
-    assert!(bad.is_empty(), "{} values of {} cases differ from the CPU twin:\n{}", bad.len(), cases.len(), bad[..bad.len().min(12)].join("\n"));
+    assert!(
+        bad.is_empty(),
+        "{} values of {} cases differ from the CPU twin:\n{}",
+        bad.len(),
+        cases.len(),
+        bad[..bad.len().min(12)].join("\n")
+    );
     for reading in [TexReading::LevelOff, TexReading::RepeatOnly] {
         let bad = texture_mismatches(&scene, &cases, &rows, reading);
         eprintln!("{reading:?}: {} values rejected", bad.len());

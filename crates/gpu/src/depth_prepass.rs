@@ -7,7 +7,7 @@ use crate::bindings::{Binding, Cond, PassBindings, PassGroup};
 use crate::define::Define;
 use crate::error::GpuError;
 use crate::features::Features;
-use crate::scene_gpu::{DrawCount, DrawKind, SceneGpu, TEXTURE_BINDINGS, POSITION_LAYOUT, SCENE_GROUPS};
+use crate::scene_gpu::{DrawCount, DrawKind, SceneGpu, POSITION_LAYOUT, SCENE_GROUPS, TEXTURE_BINDINGS};
 use crate::scene_raster::{begin_pass, cleared, scene_pipeline, DepthUse, SceneDraw, SceneInputs, SceneRaster};
 use crate::timer::GpuTimer;
 use crate::util::{keyed_module, pipeline_layout};

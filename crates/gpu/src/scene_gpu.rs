@@ -19,8 +19,8 @@ use tiledlight_scene::{AlphaMode, Material, Scene, TextureRef};
 use crate::bindings::{create_layout, Binding, Cond, PassGroup};
 use crate::error::GpuError;
 use crate::memory::MemoryReport;
-use crate::util::buffer_init;
 use crate::texture_arrays::{ArrayPlan, GpuTextureSlot, ImageUse, MATERIAL_ARRAYS};
+use crate::util::buffer_init;
 use crate::variants::{MaterialKey, TextureMaps};
 use tiledlight_cull::draw_order::DrawOrder;
 
@@ -188,9 +188,9 @@ impl MaterialFeatures {
     /// The shader defines of these features, in `shaders/common/scene.wgsl`'s order.
     pub fn defines(&self) -> Vec<&'static str> {
         [(self.textures, Define::Textures), (self.normal_map, Define::NormalMap), (self.uv1, Define::Uv1)]
-        .into_iter()
-        .filter_map(|(on, d)| on.then_some(d.name()))
-        .collect()
+            .into_iter()
+            .filter_map(|(on, d)| on.then_some(d.name()))
+            .collect()
     }
 
     /// Whether Tiled Deferred's G-buffer needs its emission target (emission and occlusion
@@ -804,8 +804,11 @@ fn upload_textures(
         .enumerate()
         .map(|(k, v)| wgpu::BindGroupEntry { binding: k as u32, resource: wgpu::BindingResource::TextureView(v) })
         .collect();
-    let bind_group =
-        device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("scene.textures"), layout: &layout, entries: &entries });
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("scene.textures"),
+        layout: &layout,
+        entries: &entries,
+    });
     Ok(SceneTextures { layout, bind_group, plan, _textures: textures })
 }
 

@@ -90,9 +90,7 @@ pub use tiledlight_cull::texture::mip_count;
 
 /// Bytes of one RGBA8 image with its full mip chain.
 fn layer_bytes(width: u32, height: u32) -> u64 {
-    (0..mip_count(width, height))
-        .map(|k| u64::from((width >> k).max(1)) * u64::from((height >> k).max(1)) * 4)
-        .sum()
+    (0..mip_count(width, height)).map(|k| u64::from((width >> k).max(1)) * u64::from((height >> k).max(1)) * 4).sum()
 }
 
 /// A class being merged: its layer size and its uses.

@@ -102,7 +102,15 @@ fn box_mesh() -> Mesh {
 /// The floor under the grid, its texture every 2 m.
 fn floor_mesh(half: f32) -> Mesh {
     let mut b = MeshBuilder::new();
-    add_grid(&mut b, Vec3::new(-half, 0.0, half), Vec3::new(2.0 * half, 0.0, 0.0), Vec3::new(0.0, 0.0, -2.0 * half), 8, 8, 2.0);
+    add_grid(
+        &mut b,
+        Vec3::new(-half, 0.0, half),
+        Vec3::new(2.0 * half, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, -2.0 * half),
+        8,
+        8,
+        2.0,
+    );
     let mut mesh = b.build("floor");
     mesh.tangents = vec![[1.0, 0.0, 0.0, 1.0]; mesh.positions.len()];
     mesh.uvs1 = mesh.uvs.clone();
@@ -144,15 +152,29 @@ fn material(m: u32, textures: &mut Vec<Texture>) -> Material {
     if m % 4 == 1 {
         let normal = add(image(format!("m{m}.normal"), (64, 64), |x, y| {
             // Bumps: a tilted normal near each cell's edges.
-            let dx = if x % 16 < 3 { 90 } else if x % 16 > 12 { 166 } else { 128 };
-            let dy = if y % 16 < 3 { 90 } else if y % 16 > 12 { 166 } else { 128 };
+            let dx = if x % 16 < 3 {
+                90
+            } else if x % 16 > 12 {
+                166
+            } else {
+                128
+            };
+            let dy = if y % 16 < 3 {
+                90
+            } else if y % 16 > 12 {
+                166
+            } else {
+                128
+            };
             [dx, dy, 230, 255]
         }));
         mat.normal_texture = Some(tex(normal, 0));
         mat.normal_scale = 1.0;
     }
     if m % 7 == 3 {
-        let mr = add(image(format!("m{m}.mr"), (32, 32), |x, y| [0, 64 + noise(m, x, y, 2) / 2, 255 * ((x / 8) % 2) as u8, 255]));
+        let mr = add(image(format!("m{m}.mr"), (32, 32), |x, y| {
+            [0, 64 + noise(m, x, y, 2) / 2, 255 * ((x / 8) % 2) as u8, 255]
+        }));
         mat.metallic_roughness_texture = Some(tex(mr, 0));
         mat.metallic = 1.0;
         mat.roughness = 1.0;
@@ -235,8 +257,11 @@ mod tests {
         assert_eq!(s.materials.len(), 144);
         assert_eq!(s.instances.len() as u32, 1 + GRID * GRID);
         let m = &s.materials;
-        let sizes: std::collections::BTreeSet<(u32, u32)> =
-            m.iter().map(|m| &s.textures[m.base_color_texture.as_ref().unwrap().texture]).map(|t| (t.width, t.height)).collect();
+        let sizes: std::collections::BTreeSet<(u32, u32)> = m
+            .iter()
+            .map(|m| &s.textures[m.base_color_texture.as_ref().unwrap().texture])
+            .map(|t| (t.width, t.height))
+            .collect();
         assert_eq!(sizes.len(), SIZES.len());
         assert!(sizes.iter().any(|(w, h)| !w.is_power_of_two() || !h.is_power_of_two()));
         assert_eq!(m.iter().filter(|m| m.normal_texture.is_some()).count(), 36);
@@ -254,6 +279,8 @@ mod tests {
         assert_eq!(wraps.len(), 3);
         assert!(m.iter().any(|m| m.base_color_texture.as_ref().unwrap().sampler.mipmap.is_none()));
         // Every material is drawn (144 < 576 boxes), and the box count does not change.
+        let drawn: std::collections::BTreeSet<usize> = s.instances.iter().map(|i| i.material).collect();
+        assert_eq!(drawn.len(), 144);
         let two = materials_scene(2).unwrap();
         assert_eq!(two.instances.len(), s.instances.len());
         assert_eq!(two.materials.len(), 2);

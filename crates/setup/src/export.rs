@@ -606,8 +606,8 @@ mod materials_scene_tests {
     #[test]
     fn the_materials_scene_comes_back_from_its_file() {
         let scene = tiledlight_scene::materials::materials_scene(24).unwrap();
-        let camera = Camera::perspective(Vec3::new(0.0, 5.0, 10.0), Vec3::ZERO, Vec3::Y, 0.9, 16.0 / 9.0, 0.1, None)
-            .unwrap();
+        let camera =
+            Camera::perspective(Vec3::new(0.0, 5.0, 10.0), Vec3::ZERO, Vec3::Y, 0.9, 16.0 / 9.0, 0.1, None).unwrap();
         let frame = FrameExtras { exposure: None, width: 64, height: 36, ambient: Vec3::splat(0.02) };
         let (root, bin) = gltf_document(&scene, &[], &camera, &frame).unwrap();
         let bytes = writer::glb_bytes(&root, &bin);

@@ -335,8 +335,7 @@ impl VisibilityShading {
                 let mut data = vec![0u8; bands as usize * BAND_STRIDE as usize];
                 for b in 0..bands as usize {
                     let first = (b as u32) * rows;
-                    data[b * BAND_STRIDE as usize..b * BAND_STRIDE as usize + 4]
-                        .copy_from_slice(&first.to_le_bytes());
+                    data[b * BAND_STRIDE as usize..b * BAND_STRIDE as usize + 4].copy_from_slice(&first.to_le_bytes());
                 }
                 let bands_buffer = buffer_init(device, "traced.bands", &data, wgpu::BufferUsages::UNIFORM);
                 let stats = buffer_zeroed(
@@ -416,15 +415,7 @@ impl VisibilityShading {
         };
         let tiles = (grid.width.div_ceil(tile), grid.height.div_ceil(tile));
         let constants = constants.iter().map(|&(k, v)| (k.to_string(), v)).collect();
-        Ok(Self {
-            constants,
-            pipeline,
-            bind_group,
-            empty_group,
-            msaa,
-            tiles,
-            traced: traced_state,
-        })
+        Ok(Self { constants, pipeline, bind_group, empty_group, msaa, tiles, traced: traced_state })
     }
 
     /// The pipeline constants the shading pipeline was built with (tests: a setting that
