@@ -127,9 +127,6 @@ impl GpuContext {
             max_storage_buffer_binding_size: supported.max_storage_buffer_binding_size,
             max_buffer_size: supported.max_buffer_size,
             max_texture_dimension_2d: supported.max_texture_dimension_2d.min(16384),
-            // Material textures share eight arrays (texture_arrays): a scene's images of
-            // one size are layers of one array. 2048 where the adapter has them.
-            max_texture_array_layers: supported.max_texture_array_layers.min(2048),
             // Tiled Deferred's stress knob: 5 G-buffer targets are 40 bytes a sample, over
             // WebGPU's default 32. Raised only as far as that needs and the adapter allows.
             max_color_attachment_bytes_per_sample: supported.max_color_attachment_bytes_per_sample.min(64),
