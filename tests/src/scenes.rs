@@ -355,3 +355,26 @@ fn texture_alpha(tex: &Texture, sampler: &Sampler, uv: [f32; 2]) -> f32 {
     let bottom = texel(x0, y0 + 1) * (1.0 - tx) + texel(x0 + 1, y0 + 1) * tx;
     top * (1.0 - ty) + bottom * ty
 }
+
+/// A scene of the given parts, its bounds computed and validated (`name` in the message
+/// when it is not valid): the common tail of a test's hand-built scene.
+pub fn assemble(
+    name: &str,
+    meshes: Vec<Mesh>,
+    (materials, textures): (Vec<tiledlight_scene::Material>, Vec<tiledlight_scene::Texture>),
+    instances: Vec<tiledlight_scene::Instance>,
+) -> Scene {
+    let mut scene = Scene {
+        name: name.into(),
+        meshes,
+        materials,
+        textures,
+        instances,
+        lights: vec![],
+        camera: None,
+        bounds: tiledlight_scene::Aabb::empty(),
+    };
+    scene.bounds = scene.compute_bounds();
+    scene.validate().unwrap_or_else(|e| panic!("{name}: {e}"));
+    scene
+}

@@ -410,19 +410,8 @@ fn material_scene() -> Scene {
     let mut mesh = scenes::quad("quad", 1.0);
     mesh.tangents = vec![[1.0, 0.0, 0.0, 1.0]; 4];
     mesh.uvs1 = mesh.uvs.clone();
-    let mut scene = Scene {
-        name: "material".into(),
-        meshes: vec![mesh],
-        materials: vec![material],
-        textures,
-        instances: vec![Instance { mesh: 0, material: 0, transform: Mat4::IDENTITY }],
-        lights: vec![],
-        camera: None,
-        bounds: tiledlight_scene::Aabb::empty(),
-    };
-    scene.bounds = scene.compute_bounds();
-    scene.validate().expect("material scene");
-    scene
+    let instances = vec![Instance { mesh: 0, material: 0, transform: Mat4::IDENTITY }];
+    scenes::assemble("material", vec![mesh], (vec![material], textures), instances)
 }
 
 /// Seeded cases: coordinates on the 1/64 grid in [-1, 2) (repeat wraps them), random
@@ -787,19 +776,8 @@ fn texture_array_scene() -> Scene {
             }
         })
         .collect();
-    let mut scene = Scene {
-        name: "texture arrays".into(),
-        meshes: vec![scenes::quad("quad", 1.0)],
-        materials,
-        textures,
-        instances: vec![Instance { mesh: 0, material: 0, transform: Mat4::IDENTITY }],
-        lights: vec![],
-        camera: None,
-        bounds: tiledlight_scene::Aabb::empty(),
-    };
-    scene.bounds = scene.compute_bounds();
-    scene.validate().expect("texture array scene");
-    scene
+    let instances = vec![Instance { mesh: 0, material: 0, transform: Mat4::IDENTITY }];
+    scenes::assemble("texture arrays", vec![scenes::quad("quad", 1.0)], (materials, textures), instances)
 }
 
 /// How the CPU reads the arrays' textures in [`texture_mismatches`].
@@ -815,31 +793,17 @@ enum TexReading {
 /// Values of `rows` (the texture kernel over `cases`) that differ from the CPU twin's
 /// sample read as `reading`, beyond the adapter's sRGB decode error.
 fn texture_mismatches(scene: &Scene, cases: &[Case], rows: &[[f32; 16]], reading: TexReading) -> Vec<String> {
-    use tiledlight_cull::texture::{
-        Mips, Sampling, MIPMAP_LINEAR, MIPMAP_NEAREST, MIPMAP_NONE, WRAP_CLAMP, WRAP_MIRROR, WRAP_REPEAT,
-    };
-    use tiledlight_scene::{Filter, Wrap};
+    use tiledlight_cull::texture::{Mips, WRAP_REPEAT};
     let srgb_error = if is_lavapipe(gpu()) { LAVAPIPE_SRGB_DECODE_ERROR } else { 1e-2 };
     let mips: Vec<Mips> = scene.textures.iter().map(|t| Mips::new(t.width, t.height, &t.rgba8, true)).collect();
-    let wrap = |w: Wrap| match (w, reading) {
-        (_, TexReading::RepeatOnly) | (Wrap::Repeat, _) => WRAP_REPEAT,
-        (Wrap::MirroredRepeat, _) => WRAP_MIRROR,
-        (Wrap::ClampToEdge, _) => WRAP_CLAMP,
-    };
     let mut bad = Vec::new();
     for (i, (c, row)) in cases.iter().zip(rows).enumerate() {
         let m = c.n[0] as usize;
         let t = scene.materials[m].base_color_texture.as_ref().unwrap();
-        let s = Sampling {
-            wrap: [wrap(t.sampler.wrap_u), wrap(t.sampler.wrap_v)],
-            mag_linear: t.sampler.mag == Filter::Linear,
-            min_linear: t.sampler.min == Filter::Linear,
-            mipmap: match t.sampler.mipmap {
-                None => MIPMAP_NONE,
-                Some(Filter::Nearest) => MIPMAP_NEAREST,
-                Some(Filter::Linear) => MIPMAP_LINEAR,
-            },
-        };
+        let mut s = tiledlight_gpu::scene_gpu::texture_sampling(&t.sampler);
+        if reading == TexReading::RepeatOnly {
+            s.wrap = [WRAP_REPEAT; 2];
+        }
         let scale = if reading == TexReading::LevelOff { 0.5 } else { 1.0 };
         let (dx, dy) = (glam::Vec2::new(c.t[0], c.t[1]) * scale, glam::Vec2::new(c.t[2], c.t[3]) * scale);
         let want = mips[t.texture].sample(s, glam::Vec2::from(c.uv0), dx, dy);

@@ -372,8 +372,6 @@ pub struct SceneGpu {
     pub instances: wgpu::Buffer,
     /// The material buffer (group 1, binding 1).
     pub materials: wgpu::Buffer,
-    /// Per material, its texture slots' bits ([`GpuMaterial::textures`]).
-    pub material_textures: Vec<u32>,
     /// Per material: whether it emits or is occlusion-mapped, i.e. writes Tiled Deferred's
     /// emission target (every other material leaves it at its clear value).
     pub material_unlit: Vec<bool>,
@@ -572,7 +570,6 @@ impl SceneGpu {
             instance_order: order,
             instances: instance_buf,
             materials: material_buf,
-            material_textures: gpu_materials.iter().map(|m| m.textures).collect(),
             material_unlit: scene.materials.iter().map(|m| m.is_emissive() || m.occlusion_texture.is_some()).collect(),
             submission,
             instance_bounds,
@@ -647,11 +644,6 @@ impl SceneGpu {
     /// The vertex buffer layouts of this scene's shading draws ([`vertex_layouts`]).
     pub fn vertex_layouts(&self) -> [Option<wgpu::VertexBufferLayout<'static>>; 5] {
         vertex_layouts(&self.material_features)
-    }
-
-    /// True when material `m` has a texture in some slot.
-    pub fn material_has_textures(&self, m: usize) -> bool {
-        self.material_textures.get(m).is_some_and(|&bits| bits != 0)
     }
 
     /// True when some draw is alpha-masked.
@@ -729,8 +721,9 @@ impl std::ops::AddAssign for DrawCount {
     }
 }
 
-/// A glTF sampler's bits in a texture slot ([`GpuTextureSlot::sampling`], the sampler part).
-fn sampling(s: &tiledlight_scene::Sampler) -> tiledlight_cull::texture::Sampling {
+/// A glTF sampler as the shaders' texture sampling reads it (the sampler part of
+/// [`GpuTextureSlot::sampling`]; tests compare the GPU with the CPU twin through it).
+pub fn texture_sampling(s: &tiledlight_scene::Sampler) -> tiledlight_cull::texture::Sampling {
     use tiledlight_cull::texture as t;
     use tiledlight_scene::{Filter, Wrap};
     let wrap = |w| match w {
@@ -786,7 +779,8 @@ fn upload_textures(
         for (k, (u, t)) in slots.iter().zip(material_slots(m)).enumerate() {
             if let (Some(u), Some(t)) = (u, t) {
                 let use_ = uses[*u];
-                gm.slots[k] = GpuTextureSlot::new(plan.placements[*u], use_.width, use_.height, &sampling(&t.sampler));
+                gm.slots[k] =
+                    GpuTextureSlot::new(plan.placements[*u], use_.width, use_.height, &texture_sampling(&t.sampler));
             }
         }
     }

@@ -227,8 +227,9 @@ impl GpuTextureSlot {
 }
 
 /// Uploads the arrays of `plan`, each use's image (RGBA8 texels of `uses[i]`'s size, from
-/// `texels(i)`) with its mip chain into its layer's top-left corner; an unused binding gets
-/// a 1x1 array. Returns the arrays' views, [`MATERIAL_ARRAYS`] of them.
+/// `texels(i)`) with its mip chain into its layer's top-left corner; the bindings the plan
+/// does not use share one 1x1 array. Returns the textures and the [`MATERIAL_ARRAYS`]
+/// views.
 pub fn upload<'a>(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
@@ -282,7 +283,9 @@ pub fn upload<'a>(
             );
         }
     }
-    while textures.len() < MATERIAL_ARRAYS {
+    // One 1x1 array stands in for every binding the scene does not need.
+    let used = textures.len();
+    if used < MATERIAL_ARRAYS {
         textures.push(device.create_texture(&wgpu::TextureDescriptor {
             label: Some("scene.texture_array.unused"),
             size: wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
@@ -294,10 +297,9 @@ pub fn upload<'a>(
             view_formats: &[],
         }));
     }
-    let views = textures
-        .iter()
-        .map(|t| {
-            t.create_view(&wgpu::TextureViewDescriptor {
+    let views = (0..MATERIAL_ARRAYS)
+        .map(|k| {
+            textures[k.min(used)].create_view(&wgpu::TextureViewDescriptor {
                 label: Some("scene.texture_array.view"),
                 dimension: Some(wgpu::TextureViewDimension::D2Array),
                 ..Default::default()

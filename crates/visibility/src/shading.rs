@@ -77,10 +77,9 @@ pub const TRACED_BAND_WORKGROUPS: u64 = 2048;
 /// `VPLS` the VPLs (19), their uniform (20), grid (21) and indices (22) (the numbers of
 /// Tiled Deferred's group); then the scene: instances (24), materials (25), indices (26),
 /// positions (27), normals (28), uvs (29), tangents (30) with `NORMAL_MAP`, second uvs (31)
-/// with `UV1`. The traced
-/// reference (`TRACED`) has no VPL grid (21, 22) but the VPL counter (23), and the BVH's
-/// nodes (33), triangles (34), with `TRACE_MASKS` its masks (35-37), its band (38, dynamic
-/// offset) and ray count (39).
+/// with `UV1`. The traced reference (`TRACED`) has no VPL grid (21, 22) but the VPL
+/// counter (23), and the BVH's nodes (33), triangles (34), with `TRACE_MASKS` its masks
+/// (35-37), its band (38, dynamic offset) and ray count (39).
 pub const VISIBILITY_GROUP: &[Binding] = &[
     DEPTH_BINDING,
     Binding::storage(1, CS),
