@@ -67,6 +67,7 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         // A demo places its own lights, camera and props when the scene is built.
         || a.demo != b.demo
         || a.grid_objects != b.grid_objects
+        || a.materials != b.materials
         || a.density != b.density
         || a.transparent_objects != b.transparent_objects
         || a.emissive != b.emissive
@@ -306,6 +307,9 @@ mod tests {
         let scene = Rebuild { reload: Reload::Scene, camera: true, renderer: true, exposure: false };
         assert_eq!(with(|s| s.grid_objects = 10), scene);
         assert_eq!(with(|s| s.density = GridDensity::High), scene);
+        // The many-material scene at another count (a lab sweep over `materials`).
+        let materials = Settings { scene: SceneSource::Materials, ..base() };
+        assert_eq!(with_from(materials, |s| s.materials = 16), scene);
         assert_eq!(with_from(Settings { grid_objects: 50, ..base() }, |s| s.transparent_objects = 20), scene);
         let glass = Settings { grid_objects: 50, transparent_objects: 20, ..base() };
         assert_eq!(with_from(glass.clone(), |s| s.transparent_objects = 0), scene);

@@ -756,6 +756,19 @@ mod tests {
     }
 
     #[test]
+    fn material_counts_are_checked_and_only_for_the_materials_scene() {
+        let materials = |n| Settings { scene: SceneSource::Materials, materials: n, ..small() };
+        assert!(materials(512).validate().is_ok());
+        assert!(err(materials(0)).contains("--materials 0: must be between 1 and 4096"));
+        assert!(err(materials(4097)).contains("--materials 4097"));
+        let courtyard = Settings { materials: 16, ..small() };
+        assert!(err(courtyard).contains("--materials 16: only the many-material scene has them"));
+        assert!(err(Settings { grid_objects: 4, ..materials(16) }).contains("--scene materials has its boxes"));
+        assert_eq!(SceneSource::parse("Materials"), SceneSource::Materials);
+        assert_eq!(SceneSource::Materials.to_string(), "materials");
+    }
+
+    #[test]
     fn defaults_are_valid() {
         Settings::default().validate().unwrap();
         assert_eq!(Settings::default().random_light_counts(), (1024, 0));
