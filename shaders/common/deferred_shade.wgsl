@@ -3,11 +3,11 @@
 // assigned-list kernel, common/assigned_shade.wgsl behind deferred_assigned.wgsl) and by the
 // visibility buffer's (visibility.wgsl, visibility_msaa.wgsl): with VISIBILITY the surface
 // comes from the triangle IDs instead of a G-buffer (common/visibility_surface.wgsl defines
-// load_gsample and classify_pixel) and the light grid is group 3. Group 1 (the G-buffer, the lights, the HDR
-// output, shadows, VPLs; crates/deferred/src/shading.rs), the light grid (group 2, written
-// by the tile kernel, read by both), one G-buffer sample's loading and shading (the
-// including kernel defines `shade_lights_at`, its light loop), and the tile's pixel loop
-// with the MSAA edge machinery.
+// load_gsample and classify_pixel) and the light grid is group 3. Group 1 (the G-buffer,
+// the lights, the HDR output, shadows, VPLs; crates/deferred/src/shading.rs), the light
+// grid (group 2, written by the tile kernel, read by both), one G-buffer sample's loading
+// and shading (the including kernel defines `shade_lights_at`, its light loop), and the
+// tile's pixel loop with the MSAA edge machinery.
 //
 // With MSAA the G-buffer is multisampled (SAMPLES per pixel). Each pixel first runs the edge
 // test (is_edge); a pixel whose samples all lie on one surface is shaded once, at its centre

@@ -165,6 +165,7 @@ fn is_edge(p: vec2<u32>, g0: GSample) -> bool {
         if !SURFACE_EDGES || g0.sky || id == VIS_NO_TRIANGLE {
             return true;
         }
+        // Another material shades differently even on one plane: a real edge.
         if instances[vis_instance(id)].material != instances[vis_instance(id0)].material {
             return true;
         }
