@@ -738,11 +738,15 @@ fn material_sample_matches_the_texture_bytes() {
 
 /// The texture kernel: `material_color` of material `u32(n.x)` at `uv0` with screen
 /// gradients `t.xy` (x) and `t.zw` (y): the texture arrays' sampling, filter and mip level
-/// included.
+/// included; then `material_at`'s roughness, metallic, occlusion and emission (the
+/// materials have no map in those slots: the factors, 1 and 0 exactly).
 const TEXTURE_KERNEL: &str = r#"
     let sets = UvSets(c.uv0, c.t.xy, c.t.zw, c.uv0, c.t.xy, c.t.zw);
-    let b = material_color(u32(c.n.x), sets);
-    out[i] = array<f32, 16>(b.x, b.y, b.z, b.w, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    let mi = u32(c.n.x);
+    let b = material_color(mi, sets);
+    let ms = material_at(mi, sets, b, vec3<f32>(0.0, 0.0, 1.0), vec4<f32>(1.0, 0.0, 0.0, 1.0), true);
+    out[i] = array<f32, 16>(b.x, b.y, b.z, b.w, ms.roughness, ms.metallic, ms.occlusion,
+        ms.emission.x, ms.emission.y, ms.emission.z, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
 }
 "#;
 
@@ -812,6 +816,12 @@ fn texture_mismatches(scene: &Scene, cases: &[Case], rows: &[[f32; 16]], reading
             if err.is_nan() || err > srgb_error * want[k].max(0.05) + 1e-4 {
                 bad.push(format!("case {i} (material {m}, {c:?}): channel {k} GPU {} CPU {}", row[k], want[k]));
             }
+        }
+        // A slot without its bit is never read.
+        let mat = &scene.materials[m];
+        let unlit = [mat.roughness, mat.metallic, 1.0, 0.0, 0.0, 0.0];
+        if row[4..10] != unlit {
+            bad.push(format!("case {i} (material {m}): roughness, metallic, occlusion, emission {:?}", &row[4..10]));
         }
     }
     bad

@@ -307,6 +307,15 @@ mod tests {
         assert_eq!(levels[1].2[3], 128);
         let linear = mip_chain(4, 2, &checker(4, 2), false);
         assert_eq!(linear[1].2[0], 128);
+        // A uniform image keeps its value at every level, in either space: mid-grey sRGB
+        // 128 decoded, averaged and encoded back is 128 again.
+        let grey = vec![128u8; 4 * 4 * 4];
+        for srgb in [true, false] {
+            assert!(mip_chain(4, 4, &grey, srgb).iter().all(|(_, _, t)| t.iter().all(|&b| b == 128)), "{srgb}");
+        }
+        // sRGB 128 averaged with 255 in linear light is sRGB 205, not (128 + 255) / 2 = 192.
+        let pair = [128u8, 128, 128, 255, 255, 255, 255, 255];
+        assert_eq!(mip_chain(2, 1, &pair, true)[1].2[0], 205);
         // 3 texels into 1: each weighs a third.
         let row = [30u8, 0, 0, 0, 60, 0, 0, 0, 90, 0, 0, 0];
         assert_eq!(mip_chain(3, 1, &row, false)[1].2[0], 60);

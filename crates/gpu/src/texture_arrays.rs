@@ -352,6 +352,22 @@ mod tests {
     }
 
     #[test]
+    fn merges_keep_colour_spaces_apart_and_take_the_larger_layer() {
+        // Six sizes in each colour space: twelve classes into eight arrays; no array mixes
+        // sRGB and linear images, and each merged layer holds its largest image.
+        let uses: Vec<ImageUse> = (0..12).map(|k| u(k % 2 == 0, 8 << (k / 2 % 3), 8 + 4 * (k / 2) as u32)).collect();
+        let plan = ArrayPlan::new(&uses, MATERIAL_ARRAYS, 256).unwrap();
+        for (p, use_) in plan.placements.iter().zip(&uses) {
+            let a = plan.arrays[p.array as usize];
+            assert_eq!(a.srgb, use_.srgb, "{use_:?} in {a:?}");
+            assert!(a.width >= use_.width && a.height >= use_.height, "{use_:?} in {a:?}");
+        }
+        // Two sizes into one array: the layer is the larger of each side.
+        let plan = ArrayPlan::new(&[u(true, 8, 32), u(true, 16, 4)], 1, 256).unwrap();
+        assert_eq!((plan.arrays[0].width, plan.arrays[0].height), (16, 32));
+    }
+
+    #[test]
     fn the_layer_limit_splits_a_class_and_too_many_images_are_refused_by_name() {
         let uses = vec![u(false, 8, 8); 5];
         let plan = ArrayPlan::new(&uses, MATERIAL_ARRAYS, 2).unwrap();
