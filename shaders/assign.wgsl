@@ -24,7 +24,7 @@
 // The lists hold the tile-centric kernel's lights (order aside) but for false positives of
 // lights reaching the eye plane outside near_cap_rect: the CPU twin is tiledlight_cull's
 // cull_tiles_scatter (and cull_clusters), the rectangle's light_tile_rect.
-// variants: HALF_Z AABB SPOT_CONE DEPTH_MASK CLUSTERED GEOMETRY_ONLY
+// variants: HALF_Z SPOT_CONE DEPTH_MASK CLUSTERED GEOMETRY_ONLY
 #include "common/tile_tests.wgsl"
 #include "common/light_grid_rw.wgsl"
 

@@ -13,7 +13,7 @@
 // geometry in front (common/depth_range.wgsl); one list per tile, planes only, one level.
 // With DEPTH_MASK (2.5D, Harada 2012) a light must also meet a depth bin of the tile that
 // holds a surface (32 bins over the tile's range; one list per tile).
-// variants: AABB HALF_Z SPOT_CONE COARSE MSAA DROP_LIGHT BLENDED DEPTH_MASK
+// variants: HALF_Z SPOT_CONE COARSE MSAA DROP_LIGHT BLENDED DEPTH_MASK
 #include "common/tile_cull.wgsl"
 #include "common/light_grid_write.wgsl"
 

@@ -2,6 +2,6 @@
 // shading of edge pixels and the resolve's edge list): common/deferred_tile.wgsl. One entry
 // file per kernel keeps each file's variants few (crates/gpu/src/variants.rs,
 // DeferredTileKey).
-// variants: SPOT_LIGHTS HALF_Z AABB SPOT_CONE COARSE EXTRA_RTS EXTRA_RTS_2 EXTRA_RTS_3
+// variants: SPOT_LIGHTS HALF_Z SPOT_CONE COARSE EXTRA_RTS
 // variants: MSAA SHADOWS EMISSION VPLS
 #include "common/deferred_tile.wgsl"

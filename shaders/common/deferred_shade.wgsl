@@ -17,7 +17,7 @@
 // texture (SAMPLES_X x SAMPLES_Y texels a pixel) and its position to a global edge list,
 // which deferred_resolve.wgsl averages into the HDR image (an indirect dispatch sized here).
 //
-// With EXTRA_RTS (EXTRA_RTS_2, EXTRA_RTS_3) the stress knob's extra G-buffer targets (all
+// With EXTRA_RTS the stress knob's extra G-buffer targets (EXTRA_TARGETS of them, all
 // white) are read and multiplied into the albedo. With EMISSION (a scene with emissive or
 // occlusion-mapped materials) the G-buffer's emission target holds each pixel's emission
 // (rgb) and occlusion (alpha): the unlit part is ambient x albedo x occlusion + emission, as
@@ -59,14 +59,14 @@ alias GSurfaceTexture = texture_2d<u32>;
 // GBuffer::srgb_lut_view says why).
 @group(1) @binding(3) var gbuffer_surface: GSurfaceTexture;
 @group(1) @binding(4) var gbuffer_srgb_lut: texture_2d<f32>;
+// The stress knob's extra targets read (1 to 3; a pipeline constant, so the count is not a
+// variant): with EXTRA_RTS all three bindings exist, those past the count bound to the first
+// target and never read.
+override EXTRA_TARGETS: u32 = 0u;
 #ifdef EXTRA_RTS
 @group(1) @binding(5) var gbuffer_extra0: GTexture;
-#ifdef EXTRA_RTS_2
 @group(1) @binding(10) var gbuffer_extra1: GTexture;
-#ifdef EXTRA_RTS_3
 @group(1) @binding(11) var gbuffer_extra2: GTexture;
-#endif
-#endif
 #endif
 #ifdef EMISSION
 @group(1) @binding(18) var gbuffer_emission: GTexture;
@@ -195,12 +195,12 @@ fn load_gsample(p: vec2<u32>, s: u32) -> GSample {
     );
 #ifdef EXTRA_RTS
     albedo *= textureLoad(gbuffer_extra0, p, s).rgb;
-#ifdef EXTRA_RTS_2
-    albedo *= textureLoad(gbuffer_extra1, p, s).rgb;
-#ifdef EXTRA_RTS_3
-    albedo *= textureLoad(gbuffer_extra2, p, s).rgb;
-#endif
-#endif
+    if EXTRA_TARGETS >= 2u {
+        albedo *= textureLoad(gbuffer_extra1, p, s).rgb;
+    }
+    if EXTRA_TARGETS >= 3u {
+        albedo *= textureLoad(gbuffer_extra2, p, s).rgb;
+    }
 #endif
     g.normal = t.normal;
     g.surface = Surface(albedo, t.roughness, t.metallic);

@@ -11,19 +11,24 @@
 #include "common/cull_tests.wgsl"
 #include "common/lights.wgsl"
 
+// The light tests beyond the sphere/planes one, switched by pipeline constants rather than
+// defines (a define each doubled every kernel's variants: issue 45): the view-space box
+// test (AABB_TEST, `--aabb`), and with SPOT_CONE (the spot buffers bound) the spot cone
+// against the tile's box (SPOT_CONE_TEST; Tiled Deferred compiles the cone with any spot
+// light and switches it here, the culling kernels define SPOT_CONE only when it is on).
+override AABB_TEST: bool = false;
+override SPOT_CONE_TEST: bool = true;
+
 // The light's tests beyond the sphere/planes one (AABB, spot cone); `c` is the view-space centre.
 fn extra_tests(v: TileVolume, light: u32, c: vec3<f32>, r: f32) -> bool {
-#ifdef AABB
-    let b = volume_aabb(v);
-    if !sphere_vs_aabb(b, c, r) {
-        return false;
+    if AABB_TEST {
+        if !sphere_vs_aabb(volume_aabb(v), c, r) {
+            return false;
+        }
     }
-#endif
 #ifdef SPOT_CONE
-    if light >= lighting.num_point_lights {
-#ifndef AABB
+    if SPOT_CONE_TEST && light >= lighting.num_point_lights {
         let b = volume_aabb(v);
-#endif
         let s = spot_lights[light - lighting.num_point_lights];
         let sh = shading_lights[light];
         let apex = (view.world_to_view * vec4<f32>(sh.position, 1.0)).xyz;

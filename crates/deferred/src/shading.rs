@@ -77,7 +77,8 @@ const fn hdr_storage_binding(binding: u32) -> Binding {
 
 /// Group 1 of every Tiled Deferred kernel: depth (0), bounding spheres (1), the lighting
 /// uniform (2), the packed surface (3, `Rgba16Uint`) and its sRGB table (4), shading lights (6), the HDR output (9); the extra
-/// targets (5, 10, 11) with `EXTRA_RTS`, `_2`, `_3`; spots (7) with `SPOT_LIGHTS` (or
+/// targets (5, 10, 11) with `EXTRA_RTS` (those past the knob's count bound to the first,
+/// unread: the count is the constant `EXTRA_TARGETS`); spots (7) with `SPOT_LIGHTS` (or
 /// `SPOT_CONE`, which the pass sets only with spots); cells (8) with `COARSE`; with `MSAA`
 /// the sample texture (12), edge list (13) and resolve arguments (14); with `SHADOWS` the
 /// shadow atlas (15), its comparison sampler (16) and faces (17); with `EMISSION` the
@@ -93,12 +94,8 @@ pub const DEFERRED_GROUP: &[Binding] = &[
     Binding::storage(6, CS),
     hdr_storage_binding(9),
     gbuffer_binding(5).when(Cond::Defined(Define::ExtraRts)),
-    gbuffer_binding(10).when(Cond::All(&[Cond::Defined(Define::ExtraRts), Cond::Defined(Define::ExtraRts2)])),
-    gbuffer_binding(11).when(Cond::All(&[
-        Cond::Defined(Define::ExtraRts),
-        Cond::Defined(Define::ExtraRts2),
-        Cond::Defined(Define::ExtraRts3),
-    ])),
+    gbuffer_binding(10).when(Cond::Defined(Define::ExtraRts)),
+    gbuffer_binding(11).when(Cond::Defined(Define::ExtraRts)),
     Binding::storage(7, CS).when(Cond::Any(&[Cond::Defined(Define::SpotLights), Cond::Defined(Define::SpotCone)])),
     Binding::storage(8, CS).when(Cond::Defined(Define::Coarse)),
     hdr_storage_binding(12).when(Cond::Defined(Define::Msaa)),
@@ -263,8 +260,11 @@ impl DeferredShading {
             wgpu::BindGroupEntry { binding: 6, resource: lights.shading.as_entire_binding() },
             view_entry(9, hdr),
         ];
-        for (view, binding) in gbuffer.extra_views().iter().zip(EXTRA_BINDINGS) {
-            bind.push(view_entry(binding, view));
+        let extra = gbuffer.extra_views();
+        if !extra.is_empty() {
+            for (k, binding) in EXTRA_BINDINGS.into_iter().enumerate() {
+                bind.push(view_entry(binding, &extra[k.min(extra.len() - 1)]));
+            }
         }
         if let Some(view) = gbuffer.emission_view() {
             bind.push(view_entry(18, view));
@@ -298,6 +298,7 @@ impl DeferredShading {
             options.cull_constants(coarse.as_ref(), drop, (&light_grid, lights.len()))
         };
         constants.extend(features.light_constants());
+        constants.push(("EXTRA_TARGETS", extra.len() as f64));
         if samples > 1 {
             constants.extend(EdgeSamples::constants(samples, edge, options.tile_size));
         }

@@ -361,15 +361,15 @@ mod tests {
     #[test]
     fn conditions_follow_the_defines() {
         const COND: Cond = Cond::Any(&[
-            Cond::Defined(Define::Aabb),
+            Cond::Defined(Define::HalfZ),
             Cond::All(&[Cond::Defined(Define::Blended), Cond::NotDefined(Define::Coarse)]),
         ]);
-        let (a, b, c, cond) = (Define::Aabb, Define::Blended, Define::Coarse, COND);
+        let (a, b, c, cond) = (Define::HalfZ, Define::Blended, Define::Coarse, COND);
         assert!(cond.holds(&[a.name()]));
         assert!(cond.holds(&[b.name()]));
         assert!(!cond.holds(&[b.name(), c.name()]));
         assert!(!cond.holds(&[]));
-        assert_eq!(cond.to_string(), "(AABB || (BLENDED && !COARSE))");
+        assert_eq!(cond.to_string(), "(HALF_Z || (BLENDED && !COARSE))");
         assert!(Cond::from_bool(true).holds(&[]) && !Cond::from_bool(false).holds(&[a.name()]));
     }
 

@@ -29,8 +29,6 @@ macro_rules! defines {
 }
 
 defines! {
-    /// Culling: the sphere-vs-AABB test on top of the planes.
-    Aabb = "AABB",
     /// Alpha-masked materials (discard below the cutoff).
     AlphaMask = "ALPHA_MASK",
     /// The compute raster's masked draws resolving IDs with atomics.
@@ -51,12 +49,9 @@ defines! {
     DropLight = "DROP_LIGHT",
     /// Tiled Deferred's emission target.
     Emission = "EMISSION",
-    /// Tiled Deferred's third G-buffer target (the stress knob).
+    /// Tiled Deferred's extra G-buffer targets (the stress knob; how many is the constant
+    /// `EXTRA_TARGETS`).
     ExtraRts = "EXTRA_RTS",
-    /// Its fourth.
-    ExtraRts2 = "EXTRA_RTS_2",
-    /// Its fifth.
-    ExtraRts3 = "EXTRA_RTS_3",
     /// Test hook: the extra targets written with test values instead of white.
     ExtraTestValues = "EXTRA_TEST_VALUES",
     /// Clusters: only those holding a surface get lights.

@@ -302,6 +302,9 @@ impl LightAssign {
             ("WIDE_BLOCKS", WIDE_BLOCKS as f64),
             ("TEAM", TEAM as f64),
             ("GRID_GUARD", f64::from(u8::from(grid.needs_guard(lights.len())))),
+            // The light tests that are constants (common/tile_tests.wgsl); tile lists only.
+            ("AABB_TEST", f64::from(u8::from(options.aabb && clusters.is_none()))),
+            ("SPOT_CONE_TEST", f64::from(u8::from(spot_cone))),
         ];
         let groups = [&views.layout, &layout, grid.layout()];
         let pipeline =

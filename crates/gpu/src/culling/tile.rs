@@ -42,7 +42,8 @@ impl CullOptions {
     }
 
     /// The override constants of the culling code: tile and workgroup size, capacity, the
-    /// cells' (two-level), the depth samples' and the test hook's.
+    /// box and spot-cone tests, the cells' (two-level), the depth samples' and the test
+    /// hook's.
     /// `grid` is the light grid the kernel writes (its lists and the light count decide
     /// whether its allocation counter needs the wrap guard: [`LightGrid::needs_guard`]).
     pub fn cull_constants(
@@ -56,6 +57,9 @@ impl CullOptions {
             ("WG", self.tile_size.min(16) as f64),
             ("CAPACITY", self.capacity as f64),
             ("GRID_GUARD", f64::from(u8::from(grid.0.needs_guard(grid.1)))),
+            // The light tests that are constants, not defines (common/tile_tests.wgsl).
+            ("AABB_TEST", f64::from(u8::from(self.aabb))),
+            ("SPOT_CONE_TEST", f64::from(u8::from(self.spot_cone))),
         ];
         if let Some(c) = coarse {
             constants.extend(c.constants());
