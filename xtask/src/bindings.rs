@@ -431,12 +431,12 @@ mod tests {
             source: "test.rs",
             groups: &[PassGroup::new(
                 0,
-                &[Binding::storage(0, CS), Binding::storage(0, CS).when(Cond::Defined(Define::Aabb))],
+                &[Binding::storage(0, CS), Binding::storage(0, CS).when(Cond::Defined(Define::HalfZ))],
             )],
         };
         let wgsl = "@group(0) @binding(0) var<storage, read> lights: array<u32>;";
         assert_eq!(check(&PASS, &[], wgsl), Vec::<String>::new());
-        assert_eq!(check(&PASS, &["AABB"], wgsl), ["@group(0) @binding(0): declared twice in Rust"]);
+        assert_eq!(check(&PASS, &["HALF_Z"], wgsl), ["@group(0) @binding(0): declared twice in Rust"]);
     }
 
     #[test]

@@ -429,7 +429,7 @@ impl ShaderKey for GBufferKey {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct CullTests {
     /// The view-space box test: the pipeline constant `AABB_TEST`, not a define (so not part
-    /// of the validated space: [`CullTests::all`] leaves it off).
+    /// of the validated space, which leaves it off).
     pub aabb: bool,
     /// `HALF_Z`: two lists per tile.
     pub half_z: bool,
