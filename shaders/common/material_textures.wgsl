@@ -69,7 +69,9 @@ fn reduce_coordinate(x: f32, mode: u32) -> f32 {
     return select(0.0, r, r >= lo && r <= hi);
 }
 
-// Level `level` of slot `s` at `uv`, nearest or bilinear (twin: Mips::filter).
+// Level `level` of slot `s` at `uv`, nearest or bilinear (twin: Mips::filter): the texels'
+// weighted sum, one tap (nearest) or four, read at one call site (the kernel holds one copy
+// of the loads).
 fn filter_level(s: TextureSlot, uv: vec2<f32>, level: u32, linear: bool) -> vec4<f32> {
     let a = s.place & 15u;
     let layer = s.place >> 4u;
@@ -78,49 +80,54 @@ fn filter_level(s: TextureSlot, uv: vec2<f32>, level: u32, linear: bool) -> vec4
     let wu = s.sampling & 3u;
     let wv = (s.sampling >> 2u) & 3u;
     let u = vec2<f32>(reduce_coordinate(uv.x, wu), reduce_coordinate(uv.y, wv));
-    if !linear {
-        let i = vec2<i32>(floor(u * size));
-        return material_texel(a, layer, vec2<i32>(wrap_texel(i.x, n.x, wu), wrap_texel(i.y, n.y, wv)), level);
+    // Nearest: the texel holding u; linear: the four around it, half a texel off.
+    var p = u * size;
+    var taps = 1u;
+    if linear {
+        p -= 0.5;
+        taps = 4u;
     }
-    let p = u * size - 0.5;
     let i0f = floor(p);
-    let f = p - i0f;
+    let f = select(vec2<f32>(0.0), p - i0f, linear);
     let i0 = vec2<i32>(i0f);
-    let x0 = wrap_texel(i0.x, n.x, wu);
-    let x1 = wrap_texel(i0.x + 1, n.x, wu);
-    let y0 = wrap_texel(i0.y, n.y, wv);
-    let y1 = wrap_texel(i0.y + 1, n.y, wv);
-    let top = mix(material_texel(a, layer, vec2<i32>(x0, y0), level), material_texel(a, layer, vec2<i32>(x1, y0), level), f.x);
-    let bottom = mix(material_texel(a, layer, vec2<i32>(x0, y1), level), material_texel(a, layer, vec2<i32>(x1, y1), level), f.x);
-    return mix(top, bottom, f.y);
+    var sum = vec4<f32>(0.0);
+    for (var k = 0u; k < taps; k++) {
+        let o = vec2<u32>(k & 1u, k >> 1u);
+        let w = select(1.0 - f.x, f.x, o.x == 1u) * select(1.0 - f.y, f.y, o.y == 1u);
+        let t = vec2<i32>(wrap_texel(i0.x + i32(o.x), n.x, wu), wrap_texel(i0.y + i32(o.y), n.y, wv));
+        sum += w * material_texel(a, layer, t, level);
+    }
+    return sum;
 }
 
 // Slot `s` at `uv` with screen-space gradients `dx`, `dy` (twin: Mips::sample): the level
-// from the longer gradient, the sampler's filters and mipmap mode.
+// from the longer gradient, the sampler's filters and mipmap mode; one or two levels read at
+// one call site.
 fn sample_texture(s: TextureSlot, uv: vec2<f32>, dx: vec2<f32>, dy: vec2<f32>) -> vec4<f32> {
     let size = vec2<f32>(f32(s.size & 0xffffu), f32(s.size >> 16u));
     let rho = max(length(dx * size), length(dy * size));
     let lambda = log2(rho);
     let last = f32(((s.sampling >> 8u) & 31u) - 1u);
     let mipmap = (s.sampling >> 6u) & 3u;
-    if !(lambda > 0.0) {
-        return filter_level(s, uv, 0u, ((s.sampling >> 4u) & 1u) != 0u);
-    }
-    let linear = ((s.sampling >> 5u) & 1u) != 0u;
-    if mipmap == MIPMAP_NEAREST {
-        let l = clamp(ceil(lambda + 0.5) - 1.0, 0.0, last);
-        return filter_level(s, uv, u32(l), linear);
-    }
-    if mipmap == MIPMAP_LINEAR {
-        let d = min(lambda, last);
-        let l0 = floor(d);
-        let l1 = min(l0 + 1.0, last);
-        let a = filter_level(s, uv, u32(l0), linear);
-        let t = d - l0;
-        if t > 0.0 {
-            return mix(a, filter_level(s, uv, u32(l1), linear), t);
+    // Magnified (or not a number): level 0 with the magnification filter.
+    var linear = ((s.sampling >> 4u) & 1u) != 0u;
+    var l0 = 0.0;
+    var t = 0.0;
+    if lambda > 0.0 {
+        linear = ((s.sampling >> 5u) & 1u) != 0u;
+        if mipmap == MIPMAP_NEAREST {
+            l0 = clamp(ceil(lambda + 0.5) - 1.0, 0.0, last);
+        } else if mipmap == MIPMAP_LINEAR {
+            let d = min(lambda, last);
+            l0 = floor(d);
+            t = d - l0;
         }
-        return a;
     }
-    return filter_level(s, uv, 0u, linear);
+    var sum = vec4<f32>(0.0);
+    let levels = select(1u, 2u, t > 0.0);
+    for (var j = 0u; j < levels; j++) {
+        let w = select(1.0 - t, t, j == 1u);
+        sum += w * filter_level(s, uv, u32(min(l0 + f32(j), last)), linear);
+    }
+    return sum;
 }

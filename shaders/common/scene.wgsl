@@ -280,27 +280,25 @@ fn material_at(mi: u32, sets: UvSets, base: vec4<f32>, n_in: vec3<f32>, tangent:
     var n = normalize(n_in);
     ms.emission = m.emissive;
 #ifdef TEXTURES
-    // Each map only where the material has it (a per-material bit: one kernel serves
-    // every mix of maps).
-    if has_slot(mi, SLOT_MR) {
-        // glTF: roughness in green, metalness in blue (linear).
-        let mr = sample_slot(mi, SLOT_MR, sets);
-        ms.roughness *= mr.g;
-        ms.metallic *= mr.b;
+    // Every map the material has (a per-material bit: one kernel serves every mix of maps),
+    // sampled at one call site so the kernel holds one copy of the filter, not four; a
+    // slot without a map reads white, which leaves its factor as it is.
+    var maps = array<vec4<f32>, 5>(vec4<f32>(1.0), vec4<f32>(1.0), vec4<f32>(1.0), vec4<f32>(1.0), vec4<f32>(1.0));
+    for (var slot = SLOT_MR; slot <= SLOT_EMISSIVE; slot++) {
+        if has_slot(mi, slot) {
+            maps[slot] = sample_slot(mi, slot, sets);
+        }
     }
+    // glTF: roughness in green, metalness in blue (linear).
+    ms.roughness *= maps[SLOT_MR].g;
+    ms.metallic *= maps[SLOT_MR].b;
 #ifdef NORMAL_MAP
     if has_slot(mi, SLOT_NORMAL) {
-        let nt = sample_slot(mi, SLOT_NORMAL, sets).rgb;
-        n = perturb_normal(n, tangent, nt, m.normal_scale);
+        n = perturb_normal(n, tangent, maps[SLOT_NORMAL].rgb, m.normal_scale);
     }
 #endif
-    if has_slot(mi, SLOT_OCCLUSION) {
-        let o = sample_slot(mi, SLOT_OCCLUSION, sets).r;
-        ms.occlusion = 1.0 + m.occlusion_strength * (o - 1.0);
-    }
-    if has_slot(mi, SLOT_EMISSIVE) {
-        ms.emission *= sample_slot(mi, SLOT_EMISSIVE, sets).rgb;
-    }
+    ms.occlusion = 1.0 + m.occlusion_strength * (maps[SLOT_OCCLUSION].r - 1.0);
+    ms.emission *= maps[SLOT_EMISSIVE].rgb;
 #endif
     ms.normal = select(-n, n, front);
     return ms;

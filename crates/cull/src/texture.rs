@@ -248,10 +248,15 @@ impl Mips {
         let i0 = [p[0].floor(), p[1].floor()];
         let f = [p[0] - i0[0], p[1] - i0[1]];
         let (x0, y0) = (i0[0] as i32, i0[1] as i32);
-        let t = |dx: i32, dy: i32| self.texel(level, at(0, x0.wrapping_add(dx)), at(1, y0.wrapping_add(dy)));
-        let top = t(0, 0).lerp(t(1, 0), f[0]);
-        let bottom = t(0, 1).lerp(t(1, 1), f[0]);
-        top.lerp(bottom, f[1])
+        // The four taps' weighted sum, in the shader's order.
+        let mut sum = Vec4::ZERO;
+        for k in 0..4 {
+            let (ox, oy) = (k & 1, k >> 1);
+            let wx = if ox == 1 { f[0] } else { 1.0 - f[0] };
+            let wy = if oy == 1 { f[1] } else { 1.0 - f[1] };
+            sum += wx * wy * self.texel(level, at(0, x0.wrapping_add(ox)), at(1, y0.wrapping_add(oy)));
+        }
+        sum
     }
 
     /// The sample at `uv` with screen-space gradients `dx`, `dy` through `s` (module doc).
@@ -259,7 +264,7 @@ impl Mips {
         let (l0, l1, t, linear) = self.levels(s, dx, dy);
         let a = self.filter(l0, s, uv, linear);
         if t > 0.0 {
-            a.lerp(self.filter(l1, s, uv, linear), t)
+            (1.0 - t) * a + t * self.filter(l1, s, uv, linear)
         } else {
             a
         }
