@@ -216,7 +216,8 @@ impl Mips {
         let rho = (dx * size).length().max((dy * size).length());
         let lambda = rho.log2();
         let last = (self.levels.len() - 1) as f32;
-        if !(lambda > 0.0) {
+        // Magnified, or not a number (NaN gradients): level 0 with the magnification filter.
+        if lambda.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return (0, 0, 0.0, s.mag_linear);
         }
         match s.mipmap {
@@ -277,7 +278,9 @@ mod tests {
     use proptest::prelude::*;
 
     fn checker(w: u32, h: u32) -> Vec<u8> {
-        (0..w * h).flat_map(|i| if (i % w + i / w) % 2 == 0 { [255, 0, 0, 255] } else { [0, 0, 255, 0] }).collect()
+        (0..w * h)
+            .flat_map(|i| if (i % w + i / w).is_multiple_of(2) { [255, 0, 0, 255] } else { [0, 0, 255, 0] })
+            .collect()
     }
 
     const LINEAR_REPEAT: Sampling =

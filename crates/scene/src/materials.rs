@@ -128,13 +128,13 @@ fn material(m: u32, textures: &mut Vec<Texture>) -> Material {
     let masked = m % 6 == 5;
     let cell = 4 + m % 5;
     let base = add(image(format!("m{m}.base"), size, |x, y| {
-        let light = ((x / cell) + (y / cell)) % 2 == 0;
+        let light = ((x / cell) + (y / cell)).is_multiple_of(2);
         let n = noise(m, x, y, 1) / 8;
         let k = if light { 255 } else { 150 };
         let a = if masked && (x / cell) % 3 == 1 && (y / cell) % 3 == 1 { 0 } else { 255 };
         [(r as u32 * k / 255) as u8 + n / 2, (g as u32 * k / 255) as u8 + n / 2, (b as u32 * k / 255) as u8, a]
     }));
-    let transform = if m % 3 == 0 {
+    let transform = if m.is_multiple_of(3) {
         UvTransform { offset: [0.1, 0.2], rotation: 0.3 + 0.01 * m as f32, scale: [1.5, 2.0] }
     } else {
         UvTransform::default()
