@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced casters casters-curve ranking materials surface-edges
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced casters casters-curve ranking materials surface-edges big-scene
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -318,6 +318,16 @@ for set in $sets; do
         run "mat-$n-$m" 30 --scene materials --materials $n --lights 1024 --method $m
       done
     done
+    ;;
+  big-scene)
+    # Issue 46 item 4: ten million triangles (crates/app/tests/big_scene.rs writes the file:
+    # a 32,768-triangle plate instanced 320 times; staged as .device/plates.gltf), every
+    # method at 1080p with 1,024 lights on its surfaces.
+    for m in forward-plus deferred brute-force; do run "big-$m" 10 --scene .device/plates.gltf --lights 1024 --method $m; done
+    for r in hardware compute; do
+      run "big-visibility-$r" 10 --scene .device/plates.gltf --lights 1024 --method visibility --raster $r
+    done
+    run_traced big-traced --scene .device/plates.gltf --lights 1024 --method traced-reference
     ;;
   surface-edges)
     # Issue 46 item 3: the visibility buffer's MSAA edge test by surface (default) and by

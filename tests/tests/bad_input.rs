@@ -234,3 +234,104 @@ fn a_depth_handle_of_another_sample_count_is_refused() {
     assert!(e.contains("a depth buffer of 1 samples a pixel, culling options for 4"), "{e}");
     build(4, 4).expect("the matching handle");
 }
+
+/// A plate of 64 x 64 quads (8,192 triangles: 98,304 bytes of indices, 50,700 of
+/// positions) instanced 16 times on a grid in the XY plane: 131,072 triangles drawn.
+fn plates_scene() -> tiledlight_scene::Scene {
+    use tiledlight_scene::{Aabb, Instance, Mesh, Scene};
+    const Q: u32 = 64;
+    let mut mesh = Mesh { name: "plate".into(), ..Mesh::default() };
+    for y in 0..=Q {
+        for x in 0..=Q {
+            let (u, v) = (x as f32 / Q as f32, y as f32 / Q as f32);
+            mesh.positions.push([u - 0.5, v - 0.5, 0.0]);
+            mesh.normals.push([0.0, 0.0, 1.0]);
+            mesh.uvs.push([u, v]);
+        }
+    }
+    for y in 0..Q {
+        for x in 0..Q {
+            let i = y * (Q + 1) + x;
+            mesh.indices.extend([i, i + 1, i + Q + 2, i, i + Q + 2, i + Q + 1]);
+        }
+    }
+    let instances = (0..16)
+        .map(|k| Instance {
+            mesh: 0,
+            material: 0,
+            transform: glam::Mat4::from_translation(Vec3::new(
+                (k % 4) as f32 * 1.1 - 1.65,
+                (k / 4) as f32 * 1.1 - 1.65,
+                0.0,
+            )),
+        })
+        .collect();
+    Scene {
+        name: "plates".into(),
+        meshes: vec![mesh],
+        materials: vec![scenes::material("grey", [0.8, 0.8, 0.8, 1.0], 0.5, 0.0)],
+        textures: vec![],
+        instances,
+        lights: vec![],
+        camera: None,
+        bounds: Aabb::new(Vec3::new(-2.2, -2.2, 0.0), Vec3::new(2.2, 2.2, 0.0)),
+    }
+}
+
+/// Buffers that grow with the geometry are checked against the device's storage-binding
+/// limit before they are made (issue 46 item 4), so a scene too big for a GPU is refused
+/// with the limit it exceeds, its value and what was asked, never a wgpu validation panic.
+/// Devices asking for smaller bindings stand in for smaller GPUs (the 10-million-triangle
+/// file on the real limits is `crates/app/tests/big_scene.rs`): at 256 KiB the scene's own
+/// buffers fit and Forward+ renders it, while the compute raster's large-triangle list
+/// (8 bytes for each of 131,072 triangles drawn) and the traced reference's triangles
+/// (48 bytes each) do not; at 64 KiB the scene's index buffer (98,304 bytes) does not.
+#[test]
+fn buffers_past_a_smaller_storage_binding_are_refused_by_name() {
+    use tiledlight_gpu::features::Raster;
+    let scene = plates_scene();
+    let camera =
+        tiledlight_cull::Camera::perspective(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, Vec3::Y, 1.0, 1.0, 0.1, None)
+            .unwrap();
+    let small = |cap: u64| {
+        let ctx = GpuContext::headless(ContextOptions { storage_binding_cap: Some(cap), ..Default::default() })
+            .expect("adapter");
+        assert_eq!(ctx.device.limits().max_storage_buffer_binding_size, cap);
+        ctx
+    };
+
+    let ctx = small(256 << 10);
+    let mut sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).expect("the scene's own buffers fit 256 KiB");
+    let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 8, 0, 1)).unwrap();
+    let mut r = FrameRenderer::new(&ctx, &sg, &lights, 64, 64, FrameSettings::default()).expect("Forward+ fits");
+    let frame = tiledlight_tests::compare::render_frame(&ctx, &mut r, &sg, &camera);
+    assert!(frame.hdr.iter().any(|p| p[0] > 0.0), "Forward+ drew the plates");
+
+    let knobs = Knobs { raster: Raster::Compute, ..Knobs::default() };
+    if ctx.device.features().contains(tiledlight_gpu::context::COMPUTE_RASTER_FEATURES) {
+        let s = FrameSettings { method: Method::Visibility, knobs, ..FrameSettings::default() };
+        let e = err_text(FrameRenderer::new(&ctx, &sg, &lights, 64, 64, s));
+        assert_eq!(
+            e,
+            "the compute raster's list of large triangles (8 bytes for each of 131072 triangles drawn): \
+             limit max_storage_buffer_binding_size = 262144, asked for 1048576 bytes"
+        );
+    } else {
+        // The error without the features is the features' (tests/tests/visibility_method.rs).
+        eprintln!("this adapter has no 64-bit atomics: the compute raster's list is not reached");
+    }
+    let e = err_text(sg.add_trace(&ctx.device, &scene));
+    assert_eq!(
+        e,
+        "the traced reference's 131072 triangles (48 bytes each): limit max_storage_buffer_binding_size = 262144, \
+         asked for 6291456 bytes"
+    );
+
+    let ctx = small(64 << 10);
+    let e = err_text(SceneGpu::new(&ctx.device, &ctx.queue, &scene));
+    assert_eq!(
+        e,
+        "the scene's indices (4225 vertices, 8192 triangles in 1 meshes): limit \
+         max_storage_buffer_binding_size = 65536, asked for 98304 bytes"
+    );
+}

@@ -18,7 +18,7 @@ use tiledlight_scene::trace::TraceGeometry;
 use crate::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
 use crate::memory::MemoryReport;
 use crate::readback::read_buffer;
-use crate::util::{buffer_entry, buffer_init, buffer_zeroed, compute_pipeline, keyed_module};
+use crate::util::{buffer_entry, buffer_init, buffer_zeroed, check_storage_binding, compute_pipeline, keyed_module};
 use crate::variants::{ShaderKey, TraceRaysKey};
 use crate::GpuError;
 
@@ -86,9 +86,22 @@ struct TraceVertex {
     w: u32,
 }
 
+/// Bytes of the triangle buffer a triangle takes: three `TraceVertex`es.
+const TRIANGLE_BYTES: u64 = 3 * size_of::<TraceVertex>() as u64;
+
+/// Whether `triangles` casting triangles fit one binding of the triangle buffer.
+fn check_triangles(limits: &wgpu::Limits, triangles: u64) -> Result<(), GpuError> {
+    check_storage_binding(limits, triangles * TRIANGLE_BYTES, || {
+        format!("the traced reference's {triangles} triangles ({TRIANGLE_BYTES} bytes each)")
+    })
+}
+
 impl GpuBvh {
     /// Builds the hierarchy of `scene`'s casting geometry on the CPU and uploads it.
     pub fn of_scene(device: &wgpu::Device, scene: &tiledlight_scene::Scene) -> Result<Self, GpuError> {
+        // Refused before the build, which takes about a second and a few hundred MB of CPU
+        // memory a million triangles.
+        check_triangles(&device.limits(), TraceGeometry::casting_triangles(scene))?;
         let start = Instant::now();
         let geometry = TraceGeometry::of(scene);
         let seconds = start.elapsed().as_secs_f64();
@@ -101,16 +114,11 @@ impl GpuBvh {
     pub fn new(device: &wgpu::Device, geometry: &TraceGeometry) -> Result<Self, GpuError> {
         let flat = &geometry.flat;
         let usage = wgpu::BufferUsages::STORAGE;
-        let limit = device.limits().max_storage_buffer_binding_size;
-        let tri_bytes = flat.triangles.len() as u64 * 48;
-        if tri_bytes > limit {
-            return Err(GpuError::Limit {
-                what: "the traced reference's triangles".into(),
-                name: "max_storage_buffer_binding_size",
-                limit,
-                asked: format!("{tri_bytes} bytes ({} triangles)", flat.triangles.len()),
-            });
-        }
+        let limits = device.limits();
+        check_triangles(&limits, flat.triangles.len() as u64)?;
+        check_storage_binding(&limits, (flat.nodes.len() * size_of::<FlatNode>()) as u64, || {
+            format!("the traced reference's {} BVH nodes", flat.nodes.len())
+        })?;
         let slot_of =
             |leaf: usize| -> u32 { geometry.masks.as_ref().map_or(NO_MASK, |m| m.slots[flat.ids[leaf] as usize]) };
         let vertices: Vec<TraceVertex> = flat

@@ -50,6 +50,9 @@ pub struct ContextOptions {
     /// Optional features the device is created without even where the adapter has them:
     /// to see the error a GPU without them gets (tests).
     pub without_features: wgpu::Features,
+    /// Ask for at most this storage-buffer binding and buffer size (bytes): to see what a
+    /// GPU with smaller buffers refuses (tests).
+    pub storage_binding_cap: Option<u64>,
 }
 
 fn adapter_name_filter() -> Option<String> {
@@ -124,8 +127,10 @@ impl GpuContext {
         // WebGPU defaults, plus large storage buffers: per-tile lists at 4K with big
         // capacities and 1M lights exceed the default 128 MiB binding.
         let required_limits = wgpu::Limits {
-            max_storage_buffer_binding_size: supported.max_storage_buffer_binding_size,
-            max_buffer_size: supported.max_buffer_size,
+            max_storage_buffer_binding_size: supported
+                .max_storage_buffer_binding_size
+                .min(options.storage_binding_cap.unwrap_or(u64::MAX)),
+            max_buffer_size: supported.max_buffer_size.min(options.storage_binding_cap.unwrap_or(u64::MAX)),
             max_texture_dimension_2d: supported.max_texture_dimension_2d.min(16384),
             // Tiled Deferred's stress knob: 5 G-buffer targets are 40 bytes a sample, over
             // WebGPU's default 32. Raised only as far as that needs and the adapter allows.

@@ -20,7 +20,7 @@ use crate::bindings::{create_layout, Binding, Cond, PassGroup};
 use crate::error::GpuError;
 use crate::memory::MemoryReport;
 use crate::texture_arrays::{ArrayPlan, GpuTextureSlot, ImageUse, MATERIAL_ARRAYS};
-use crate::util::buffer_init;
+use crate::util::{buffer_init, check_storage_binding};
 use crate::variants::{MaterialKey, TextureMaps};
 use tiledlight_cull::draw_order::DrawOrder;
 
@@ -446,6 +446,29 @@ impl SceneGpu {
             idx.extend_from_slice(&m.indices);
             mesh_ranges.push((first..idx.len() as u32, base_vertex));
         }
+        // Every one of these is bound as storage (the visibility buffer fetches triangles
+        // from them): a scene past the device's binding size is refused by name here, not
+        // by a validation error when a pass binds it. Instances share their mesh's
+        // vertices, so only the meshes' own sizes count.
+        let limits = device.limits();
+        let mesh_bytes = [
+            ("positions", pos.len() * 12),
+            ("normals", nrm.len() * 12),
+            ("uvs", uv.len() * 8),
+            ("tangents", tan.len() * 16),
+            ("second uvs", uv1.len() * 8),
+            ("indices", idx.len() * 4),
+        ];
+        for (what, bytes) in mesh_bytes {
+            check_storage_binding(&limits, bytes as u64, || {
+                format!(
+                    "the scene's {what} ({} vertices, {} triangles in {} meshes)",
+                    pos.len(),
+                    idx.len() / 3,
+                    scene.meshes.len()
+                )
+            })?;
+        }
         // STORAGE too: the visibility buffer's compute pass fetches triangles from them.
         let vertex_usage = wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE;
         let positions = buffer_init(device, "scene.positions", bytemuck::cast_slice(&pos), vertex_usage);
@@ -535,6 +558,12 @@ impl SceneGpu {
             None
         };
         let storage = wgpu::BufferUsages::STORAGE;
+        check_storage_binding(&limits, (gpu_instances.len() * size_of::<GpuInstance>()) as u64, || {
+            format!("the scene's {} instances", gpu_instances.len())
+        })?;
+        check_storage_binding(&limits, (gpu_materials.len() * size_of::<GpuMaterial>()) as u64, || {
+            format!("the scene's {} materials", gpu_materials.len())
+        })?;
         let instance_buf = buffer_init(device, "scene.instances", bytemuck::cast_slice(&gpu_instances), storage);
         let material_buf = buffer_init(device, "scene.materials", bytemuck::cast_slice(&gpu_materials), storage);
         memory.add(

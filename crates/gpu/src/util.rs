@@ -7,6 +7,23 @@ use crate::error::GpuError;
 use crate::shader;
 use crate::variants::ShaderKey;
 
+/// Whether a storage buffer of `bytes` can be made and bound on a device with `limits`:
+/// an error naming the limit it exceeds (`max_storage_buffer_binding_size`, or
+/// `max_buffer_size` when that is the smaller), its value and `bytes`, for `what` (called
+/// only on failure, e.g. "the scene's indices (30000000 triangles)"). Checked before the
+/// buffer is made: past the limit wgpu would fail the binding with a validation error.
+pub fn check_storage_binding(limits: &wgpu::Limits, bytes: u64, what: impl FnOnce() -> String) -> Result<(), GpuError> {
+    let (name, limit) = if limits.max_buffer_size < limits.max_storage_buffer_binding_size {
+        ("max_buffer_size", limits.max_buffer_size)
+    } else {
+        ("max_storage_buffer_binding_size", limits.max_storage_buffer_binding_size)
+    };
+    if bytes > limit {
+        return Err(GpuError::Limit { what: what(), name, limit, asked: format!("{bytes} bytes") });
+    }
+    Ok(())
+}
+
 /// A labelled buffer initialised with `contents`; an empty slice gets a 16-byte buffer
 /// because wgpu rejects zero-sized bindings (callers avoid binding it when unused).
 pub fn buffer_init(device: &wgpu::Device, label: &str, contents: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
@@ -149,4 +166,28 @@ pub fn texture_2d_viewed_as(
         usage,
         view_formats,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn limits(binding: u64, buffer: u64) -> wgpu::Limits {
+        wgpu::Limits { max_storage_buffer_binding_size: binding, max_buffer_size: buffer, ..wgpu::Limits::default() }
+    }
+
+    #[test]
+    fn a_storage_binding_up_to_the_smaller_limit_passes() {
+        assert!(check_storage_binding(&limits(1000, 2000), 1000, || unreachable!()).is_ok());
+        assert!(check_storage_binding(&limits(2000, 1000), 1000, || unreachable!()).is_ok());
+        assert!(check_storage_binding(&limits(1000, 1000), 0, || unreachable!()).is_ok());
+    }
+
+    #[test]
+    fn a_storage_binding_past_a_limit_names_that_limit_its_value_and_the_bytes() {
+        let e = check_storage_binding(&limits(1000, 2000), 1001, || "the thing".into()).unwrap_err().to_string();
+        assert_eq!(e, "the thing: limit max_storage_buffer_binding_size = 1000, asked for 1001 bytes");
+        let e = check_storage_binding(&limits(2000, 1000), 1001, || "the thing".into()).unwrap_err().to_string();
+        assert_eq!(e, "the thing: limit max_buffer_size = 1000, asked for 1001 bytes");
+    }
 }

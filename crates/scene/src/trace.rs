@@ -63,6 +63,19 @@ fn mask_wrap(w: Wrap) -> MaskWrap {
 }
 
 impl TraceGeometry {
+    /// The triangles [`Self::of`] would build over: every instance's but the blended ones'
+    /// (counted without building, so a caller can refuse a scene before the seconds and the
+    /// memory of the build).
+    pub fn casting_triangles(scene: &Scene) -> u64 {
+        scene
+            .instances
+            .iter()
+            .filter(|i| scene.materials.get(i.material).is_some_and(|m| !matches!(m.alpha_mode, AlphaMode::Blend)))
+            .filter_map(|i| scene.meshes.get(i.mesh))
+            .map(|m| (m.indices.len() / 3) as u64)
+            .sum()
+    }
+
     /// Builds the hierarchy over `scene`'s casting instances (about a second a million
     /// triangles).
     pub fn of(scene: &Scene) -> Self {
@@ -165,6 +178,8 @@ mod tests {
         assert!(blended > 0, "two glass grid objects");
         assert_eq!(g.bvh.len() as u64 + blended, scene.world_triangles().len() as u64);
         assert_eq!(g.flat.triangles.len(), g.bvh.len());
+        // Counted without building: the same number.
+        assert_eq!(TraceGeometry::casting_triangles(&scene), g.bvh.len() as u64);
         let b = scene.bounds;
         let (lo, hi) = (b.min, b.max);
         let above = hi.y + 1.0;

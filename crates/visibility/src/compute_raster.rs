@@ -35,7 +35,8 @@ use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::util::{
-    buffer_entry as buf, buffer_init, compute_pipeline_at, keyed_module, pipeline_layout, view_entry,
+    buffer_entry as buf, buffer_init, check_storage_binding, compute_pipeline_at, keyed_module, pipeline_layout,
+    view_entry,
 };
 use tiledlight_gpu::variants::ComputeRasterKey;
 use tiledlight_gpu::view::Views;
@@ -232,6 +233,17 @@ impl ComputeRaster {
                 count: c.triangles,
             })
             .collect();
+        // The per-triangle and per-cluster buffers grow with the triangles drawn (instances
+        // times their mesh's), not the scene's own buffers: refused by the limit they pass.
+        let limits = device.limits();
+        let large_bytes = (triangles.max(1) * 8).max(16);
+        check_storage_binding(&limits, large_bytes, || {
+            format!("the compute raster's list of large triangles (8 bytes for each of {triangles} triangles drawn)")
+        })?;
+        check_storage_binding(&limits, entries.len() as u64 * 8, || {
+            format!("the compute raster's {} (instance, cluster) entries", entries.len())
+        })?;
+        // At most 2^29 entries once their buffer fits a binding (at most 4 GiB).
         let n = entries.len() as u32;
         let dispatch = (n.clamp(1, GROUPS_X), n.div_ceil(GROUPS_X).max(1));
         let params = RasterParams {
@@ -259,7 +271,7 @@ impl ComputeRaster {
         // Every triangle could be large: the list never overflows.
         let large_buf = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("visibility.compute_raster.large"),
-            size: (triangles.max(1) * 8).max(16),
+            size: large_bytes,
             usage: U::STORAGE,
             mapped_at_creation: false,
         });
