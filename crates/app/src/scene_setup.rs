@@ -10,7 +10,6 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
-use tiledlight_cull::shadow::ShadowFormat;
 use tiledlight_gpu::culling::ClusterOptions;
 use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::knobs::KnobArgs;
@@ -77,33 +76,6 @@ impl From<CasterChoice> for CastersByArg {
         match c {
             CasterChoice::Brightness => CastersByArg::Brightness,
             CasterChoice::Contribution => CastersByArg::Contribution,
-        }
-    }
-}
-
-/// Depth format of the shadow atlas.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum ShadowFormatArg {
-    /// 16-bit unsigned normalised depth (TiledLighting11's).
-    D16,
-    /// 32-bit float depth.
-    D32,
-}
-
-impl From<ShadowFormatArg> for ShadowFormat {
-    fn from(f: ShadowFormatArg) -> Self {
-        match f {
-            ShadowFormatArg::D16 => ShadowFormat::Depth16,
-            ShadowFormatArg::D32 => ShadowFormat::Depth32,
-        }
-    }
-}
-
-impl From<ShadowFormat> for ShadowFormatArg {
-    fn from(f: ShadowFormat) -> Self {
-        match f {
-            ShadowFormat::Depth16 => ShadowFormatArg::D16,
-            ShadowFormat::Depth32 => ShadowFormatArg::D32,
         }
     }
 }
@@ -373,16 +345,6 @@ pub struct SceneArgs {
     /// grid, for the camera the lights are made with).
     #[arg(long, value_enum, default_value_t = CastersByArg::Brightness)]
     pub casters_by: CastersByArg,
-    /// Texels per side of each shadow face, 128 to 1024.
-    #[arg(long, default_value_t = 256, value_name = "128..1024")]
-    pub shadow_size: u32,
-    /// Shadow filter: taps per side of the percentage-closer filter (each a hardware 2x2
-    /// comparison).
-    #[arg(long, default_value_t = 5, value_name = "1|3|5")]
-    pub shadow_filter: u32,
-    /// Depth format of the shadow atlas.
-    #[arg(long, value_enum, default_value_t = ShadowFormatArg::D16)]
-    pub shadow_format: ShadowFormatArg,
     /// How alpha-blended geometry (transparent objects, glTF BLEND materials) is
     /// composited over the opaque image.
     #[arg(long, value_enum, default_value_t = BlendModeArg::Sorted)]
@@ -455,9 +417,6 @@ impl Default for SceneArgs {
             shadow_point_lights: d.shadow_point_lights,
             shadow_spot_lights: d.shadow_spot_lights,
             casters_by: d.casters_by.into(),
-            shadow_size: d.shadow_size,
-            shadow_filter: d.shadow_filter,
-            shadow_format: d.shadow_format.into(),
             blend_mode: d.blend_mode.into(),
             camera: None,
             strict: d.strict,
@@ -530,9 +489,6 @@ impl SceneArgs {
             shadow_point_lights: self.shadow_point_lights,
             shadow_spot_lights: self.shadow_spot_lights,
             casters_by: self.casters_by.into(),
-            shadow_size: self.shadow_size,
-            shadow_filter: self.shadow_filter,
-            shadow_format: self.shadow_format.into(),
             blend_mode: self.blend_mode.into(),
             camera: None,
             strict: self.strict,
@@ -596,12 +552,6 @@ impl Flags for SceneArgs {
             "casters-by" => {
                 args.casters_by =
                     CastersByArg::from_str(value, true).map_err(|e| anyhow::anyhow!("casters-by '{value}': {e}"))?
-            }
-            "shadow-size" => args.shadow_size = small()?,
-            "shadow-filter" => args.shadow_filter = small()?,
-            "shadow-format" => {
-                args.shadow_format = ShadowFormatArg::from_str(value, true)
-                    .map_err(|e| anyhow::anyhow!("shadow-format '{value}': {e}"))?
             }
             "transparent-objects" => args.transparent_objects = small()?,
             "blend-mode" => {
@@ -676,6 +626,7 @@ impl Flags for SceneArgs {
 mod tests {
     use super::*;
     use clap::Parser;
+    use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat};
     use tiledlight_lab::axes;
     use tiledlight_setup::{DrawOrderMode, Knobs, LargeRaster, Raster};
 
@@ -829,9 +780,6 @@ mod tests {
             shadow_point_lights: 2,
             shadow_spot_lights: 1,
             casters_by: CasterChoice::Contribution,
-            shadow_size: 512,
-            shadow_filter: 3,
-            shadow_format: ShadowFormat::Depth32,
             blend_mode: BlendMode::WeightedOit,
             vpl: None,
             traced_progress: false,
@@ -845,6 +793,9 @@ mod tests {
                 surface_edges: false,
                 edge_distance: 0.25,
                 edge_normal_deg: 30.0,
+                shadow_size: 512,
+                shadow_filter: ShadowFilter::Pcf3,
+                shadow_format: ShadowFormat::Depth32,
             },
             camera: None,
             strict: false,
@@ -926,7 +877,8 @@ mod tests {
         assert!(SceneArgs { tile_size: 7, ..SceneArgs::default() }.validate().is_err());
         let e = |flags: &[&str]| format!("{:#}", parse(flags).settings().unwrap_err());
         assert_eq!(e(&["--shadow-size", "100"]), "--shadow-size 100: must be between 128 and 1024 texels");
-        assert!(e(&["--shadow-filter", "4"]).starts_with("--shadow-filter 4:"));
+        let bad_filter = Cli::try_parse_from(["x", "--shadow-filter", "4"]).err().expect("refused").to_string();
+        assert!(bad_filter.contains("'4'") && bad_filter.contains("--shadow-filter") && bad_filter.contains("1, 3, 5"));
         assert!(e(&["--lights", "3", "--shadow-point-lights", "4"]).starts_with("--shadow-point-lights 4:"));
         let bad_format = Cli::try_parse_from(["x", "--shadow-format", "d24"]);
         assert!(bad_format.is_err());
@@ -969,7 +921,11 @@ mod tests {
         assert!(e("lights=1,1").contains("twice"));
         assert!(e("lights=1..1e9:100000").contains("step count"));
         assert!(e("shadow-size=100").contains("--shadow-size 100"), "{}", e("shadow-size=100"));
-        assert!(e("shadow-filter=2").contains("--shadow-filter 2"));
+        assert!(
+            e("shadow-filter=2").contains("shadow-filter '2': expected one of 1, 3, 5"),
+            "{}",
+            e("shadow-filter=2")
+        );
         assert!(e("shadow-format=d24").contains("shadow-format 'd24'"));
         assert!(axes::points(&[]).is_err());
     }
@@ -1009,8 +965,14 @@ mod tests {
         let base = SceneArgs { spot_lights: Some(8), ..SceneArgs::default() };
         let a = axes::args_at(&base, &axes, &p[p.len() - 1]).unwrap();
         assert_eq!(
-            (a.shadow_spot_lights, a.shadow_size, a.shadow_filter, a.shadow_format, a.shadow_point_lights),
-            (8, 1024, 5, ShadowFormatArg::D32, 2)
+            (
+                a.shadow_spot_lights,
+                a.knobs.0.shadow_size,
+                a.knobs.0.shadow_filter,
+                a.knobs.0.shadow_format,
+                a.shadow_point_lights
+            ),
+            (8, 1024, ShadowFilter::Pcf5, ShadowFormat::Depth32, 2)
         );
         // ...and are checked against them with the point's settings.
         let e = format!("{:#}", axes::args_at(&SceneArgs::default(), &axes, &p[0]).unwrap_err());

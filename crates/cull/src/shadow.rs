@@ -62,6 +62,18 @@ pub enum ShadowFilter {
 }
 
 impl ShadowFilter {
+    /// Every filter, fewest taps first.
+    pub const ALL: [ShadowFilter; 3] = [Self::Tap1, Self::Pcf3, Self::Pcf5];
+
+    /// Taps per side as the flag writes it: `1`, `3` or `5`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Tap1 => "1",
+            Self::Pcf3 => "3",
+            Self::Pcf5 => "5",
+        }
+    }
+
     /// The filter of `size` taps per side (1, 3 or 5).
     pub fn from_size(size: u32) -> Result<Self, CullError> {
         match size {
@@ -101,6 +113,9 @@ pub enum ShadowFormat {
 }
 
 impl ShadowFormat {
+    /// Both formats.
+    pub const ALL: [ShadowFormat; 2] = [Self::Depth16, Self::Depth32];
+
     /// Bytes per texel.
     pub fn bytes(self) -> u32 {
         match self {
@@ -117,7 +132,7 @@ impl ShadowFormat {
         }
     }
     /// The flag value.
-    pub fn name(self) -> &'static str {
+    pub const fn name(self) -> &'static str {
         match self {
             Self::Depth16 => "d16",
             Self::Depth32 => "d32",

@@ -29,6 +29,7 @@ use std::fmt;
 
 use crate::method::{LargeRaster, Method, Raster};
 use tiledlight_cull::draw_order::DrawOrderMode;
+use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat, TILE_SIZES};
 
 /// What kind of value a row holds: how a command line, a chart's axis and the JSON write it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -41,6 +42,8 @@ pub enum Kind {
     Number,
     /// One of these names.
     Choice(&'static [&'static str]),
+    /// One of these whole numbers (written as numbers: on a chart's axis and in JSON).
+    Values(&'static [&'static str]),
 }
 
 /// A value a row can hold: parsed from and written as the command line's text.
@@ -117,8 +120,33 @@ macro_rules! named_choice {
 }
 
 named_choice!(DrawOrderMode, [DrawOrderMode::FrontToBack, DrawOrderMode::Submission], DrawOrderMode::label);
+named_choice!(ShadowFormat, ShadowFormat::ALL, ShadowFormat::name);
+
+impl KnobValue for ShadowFilter {
+    const KIND: Kind = Kind::Values(&["1", "3", "5"]);
+    fn parse(text: &str) -> Result<Self, String> {
+        let Kind::Values(names) = Self::KIND else { unreachable!() };
+        ShadowFilter::ALL
+            .into_iter()
+            .find(|f| f.name() == text.trim())
+            .ok_or_else(|| format!("expected one of {} (taps per side)", names.join(", ")))
+    }
+    fn text(self) -> String {
+        self.name().to_string()
+    }
+}
 named_choice!(Raster, Raster::ALL, Raster::name);
 named_choice!(LargeRaster, LargeRaster::ALL, LargeRaster::name);
+
+/// When a row is read at all, beyond its methods: a change of a row the frame does not
+/// read rebuilds nothing (model only what the scene requires).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Needs {
+    /// Whenever its method runs.
+    Always,
+    /// Only while some light casts a shadow (the shadow atlas exists).
+    Shadows,
+}
 
 /// The viewer's control for a row.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -152,6 +180,8 @@ pub struct Knob {
     pub control: Control,
     /// The methods whose frames read it (others ignore it).
     pub applies: fn(Method) -> bool,
+    /// What else the frame must have for it to be read.
+    pub needs: Needs,
     /// The value of the default [`Knobs`], as text.
     pub default: fn() -> String,
     /// The value in `knobs`, as text.
@@ -194,15 +224,18 @@ impl Knob {
 ///
 /// ```text
 /// /// Help (the doc lines are the help).
-/// field: Type = default; "name", "label", "VALUE", control, applies(|m| ...), check(|v| ...);
+/// field: Type = default; "name", "label", "VALUE", control, applies(|m| ...), check(|v| ...)
+///     [, needs(Shadows)];
 /// ```
 #[macro_export]
 macro_rules! knobs {
+    (@needs) => { Needs::Always };
+    (@needs $needs:ident) => { Needs::$needs };
     ($(
         $(#[doc = $doc:literal])*
         $field:ident : $ty:ty = $default:expr ;
         $name:literal, $label:literal, $value_name:literal, $control:expr,
-        applies($applies:expr), check($check:expr) ;
+        applies($applies:expr), check($check:expr) $(, needs($needs:ident))? ;
     )*) => {
         /// Every pass setting's value (the rows of [`KNOBS`]); `Default` is every row's default.
         #[derive(Clone, Copy, Debug, PartialEq)]
@@ -228,6 +261,7 @@ macro_rules! knobs {
                 kind: <$ty as KnobValue>::KIND,
                 control: $control,
                 applies: $applies,
+                needs: $crate::knobs!(@needs $($needs)?),
                 default: || KnobValue::text(Knobs::default().$field),
                 get: |k| KnobValue::text(k.$field),
                 set: |k, text| {
@@ -249,6 +283,11 @@ fn any_method(_: Method) -> bool {
 
 fn no_check<T>(_: T) -> Result<(), String> {
     Ok(())
+}
+
+/// The methods that draw shadow maps (the traced references cast rays instead).
+fn shadow_mapped(m: Method) -> bool {
+    !m.is_traced()
 }
 
 knobs! {
@@ -311,6 +350,28 @@ knobs! {
     "edge-normal-deg", "edge: normal angle (deg)", "DEG", Control::Slider(0.0, 90.0),
     applies(|m| m == Method::TiledDeferred || m.uses_visibility_buffer()),
     check(|v| if (0.0..=180.0).contains(&v) { Ok(()) } else { Err("must be between 0 and 180 degrees".into()) });
+
+    /// Texels per side of each shadow face's atlas tile, 128 to 1024 (used only when some
+    /// light casts a shadow).
+    shadow_size: u32 = 256;
+    "shadow-size", "shadow tile (texels)", "TEXELS", Control::Slider(128.0, 1024.0), applies(shadow_mapped),
+    check(|v| {
+        if TILE_SIZES.contains(&v) {
+            Ok(())
+        } else {
+            Err(format!("must be between {} and {} texels", TILE_SIZES.start(), TILE_SIZES.end()))
+        }
+    }), needs(Shadows);
+
+    /// Shadow filter: taps per side of the percentage-closer filter, 1, 3 or 5.
+    shadow_filter: ShadowFilter = ShadowFilter::Pcf5;
+    "shadow-filter", "shadow PCF taps", "1|3|5", Control::Choice, applies(shadow_mapped), check(no_check),
+    needs(Shadows);
+
+    /// Depth format of the shadow atlas: d16 (TiledLighting11's) or d32.
+    shadow_format: ShadowFormat = ShadowFormat::Depth16;
+    "shadow-format", "shadow depth format", "FORMAT", Control::Choice, applies(shadow_mapped), check(no_check),
+    needs(Shadows);
 }
 
 impl Knobs {
@@ -377,7 +438,7 @@ impl clap::Args for KnobArgs {
             let arg = clap::Arg::new(row.field).long(row.flag());
             cmd.arg(match row.kind {
                 Kind::Switch => arg.action(clap::ArgAction::SetTrue).help(row.help()),
-                Kind::Choice(names) => arg
+                Kind::Choice(names) | Kind::Values(names) => arg
                     .value_parser(clap::builder::PossibleValuesParser::new(names.iter().copied()))
                     .help(format!("{} [default: {}]", row.help(), (row.default)())),
                 Kind::Count | Kind::Number => {
@@ -409,9 +470,12 @@ mod tests {
             (k.set)(&mut knobs, &default).unwrap();
             assert_eq!(knobs, Knobs::default(), "{}", k.name);
             (k.check)(&knobs).unwrap();
-            if let Kind::Choice(names) = k.kind {
+            if let Kind::Choice(names) | Kind::Values(names) = k.kind {
                 assert!(names.contains(&default.as_str()), "{}", k.name);
                 assert_eq!(k.control, Control::Choice);
+            }
+            if let Kind::Values(names) = k.kind {
+                assert!(names.iter().all(|n| n.parse::<u32>().is_ok()), "{}: values are whole numbers", k.name);
             }
             assert!(!k.help().is_empty() && !k.help().contains("  "), "{}", k.name);
         }
@@ -447,6 +511,17 @@ mod tests {
         k.edge_normal_deg = 180.0;
         k.raster_large_px = 0;
         assert!(k.check().unwrap_err().starts_with("--raster-large-px 0"));
+        k.raster_large_px = 1;
+        // The shadow rows: a size out of range, a filter and a format by name.
+        k.shadow_size = 100;
+        assert_eq!(k.check().unwrap_err(), "--shadow-size 100: must be between 128 and 1024 texels");
+        k.shadow_size = 1024;
+        k.check().unwrap();
+        k.set("shadow-filter", "3").unwrap().unwrap();
+        k.set("shadow-format", "d32").unwrap().unwrap();
+        assert_eq!((k.shadow_filter, k.shadow_format), (ShadowFilter::Pcf3, ShadowFormat::Depth32));
+        let e = k.set("shadow-filter", "2").unwrap().unwrap_err();
+        assert!(e.contains("shadow-filter '2'") && e.contains("1, 3, 5"), "{e}");
     }
 
     /// Every row is a flag: parsed into the row's field, a bad value refused by name.

@@ -89,9 +89,6 @@ pub const AXES: &[(&str, &str)] = &[
     ("shadow-point-lights", "shadow-casting point lights, the brightest (integer; ranges allowed)"),
     ("shadow-spot-lights", "shadow-casting spot lights, the brightest (integer; ranges allowed)"),
     ("casters-by", "how the shadow casters are chosen: brightness | contribution"),
-    ("shadow-size", "shadow tile size in texels: 128 | 256 | 512 | 1024 (integer)"),
-    ("shadow-filter", "shadow filter taps per side: 1 | 3 | 5"),
-    ("shadow-format", "shadow atlas depth format: d16 | d32"),
     ("transparent-objects", "grid objects drawn as blended glass, 0 to the grid objects (integer; ranges allowed)"),
     ("blend-mode", "compositing of blended geometry: sorted | wboit"),
     ("grid", "light grid layout: tiled | half-z | 2.5d | clustered"),
@@ -117,7 +114,7 @@ pub fn axes() -> Vec<(&'static str, String)> {
             Kind::Switch => "on | off".to_string(),
             Kind::Count => "integer; ranges allowed".to_string(),
             Kind::Number => "number; ranges allowed".to_string(),
-            Kind::Choice(names) => names.join(" | "),
+            Kind::Choice(names) | Kind::Values(names) => names.join(" | "),
         };
         (k.name, format!("{} ({values})", k.label))
     });
@@ -145,7 +142,7 @@ fn known(name: &str) -> Result<()> {
 /// Whether the axis's values are integers.
 pub fn is_integer_axis(name: &str) -> bool {
     if let Some(row) = Knobs::row(name) {
-        return row.kind == Kind::Count;
+        return matches!(row.kind, Kind::Count | Kind::Values(_));
     }
     matches!(
         name,
@@ -158,8 +155,6 @@ pub fn is_integer_axis(name: &str) -> bool {
             | "msaa"
             | "shadow-point-lights"
             | "shadow-spot-lights"
-            | "shadow-size"
-            | "shadow-filter"
             | "transparent-objects"
             | "cluster-tile"
             | "cluster-slices"
@@ -172,7 +167,7 @@ pub fn is_integer_axis(name: &str) -> bool {
 /// Whether the axis's values are numbers (plotted on a numeric x axis).
 pub fn is_numeric_axis(name: &str) -> bool {
     if let Some(row) = Knobs::row(name) {
-        return matches!(row.kind, Kind::Count | Kind::Number);
+        return matches!(row.kind, Kind::Count | Kind::Number | Kind::Values(_));
     }
     is_integer_axis(name)
         || matches!(
@@ -631,8 +626,9 @@ mod tests {
         for row in KNOBS {
             let (_, d) = all.iter().find(|(n, _)| *n == row.name).unwrap_or_else(|| panic!("{} no axis", row.name));
             assert!(d.starts_with(row.label), "{d}");
-            assert_eq!(is_numeric_axis(row.name), matches!(row.kind, Kind::Count | Kind::Number), "{}", row.name);
-            assert_eq!(is_integer_axis(row.name), row.kind == Kind::Count, "{}", row.name);
+            let numbers = matches!(row.kind, Kind::Count | Kind::Values(_));
+            assert_eq!(is_numeric_axis(row.name), numbers || row.kind == Kind::Number, "{}", row.name);
+            assert_eq!(is_integer_axis(row.name), numbers, "{}", row.name);
         }
         assert!(all.iter().any(|(n, _)| *n == "lights") && all.len() == AXES.len() + KNOBS.len());
         assert!(format!("{:#}", parse_axis::<Two>("gbuffer-rts=2..4").unwrap_err()).contains("not one of this"));

@@ -603,9 +603,6 @@ pub struct RendererJson {
     pub shadow_spot_lights: u32,
     /// How the casters were chosen: "brightness" or "contribution".
     pub casters_by: &'static str,
-    pub shadow_size: u32,
-    pub shadow_filter: u32,
-    pub shadow_format: &'static str,
     pub transparent_objects: u32,
     /// The default scene's banners glow (`--emissive`: the emission target exists).
     pub emissive: bool,
@@ -640,7 +637,7 @@ pub fn knobs_json(knobs: &Knobs) -> KnobsJson {
                 let text = (k.get)(knobs);
                 let value = match k.kind {
                     Kind::Switch => Value::Bool(text == "on"),
-                    Kind::Count | Kind::Number => {
+                    Kind::Count | Kind::Number | Kind::Values(_) => {
                         serde_json::from_str::<serde_json::Number>(&text).map_or(Value::String(text), Value::Number)
                     }
                     Kind::Choice(_) => Value::String(text),
@@ -730,9 +727,6 @@ pub fn run<F: Flags>(scene: &F, args: &Bench) -> Result<()> {
                     shadow_point_lights: a.shadow_point_lights,
                     shadow_spot_lights: a.shadow_spot_lights,
                     casters_by: a.casters_by.name(),
-                    shadow_size: a.shadow_size,
-                    shadow_filter: a.shadow_filter,
-                    shadow_format: a.shadow_format.name(),
                     transparent_objects: a.transparent_objects,
                     emissive: a.emissive,
                     knobs: knobs_json(&a.knobs),
@@ -867,9 +861,6 @@ mod tests {
                 shadow_point_lights: 0,
                 shadow_spot_lights: 0,
                 casters_by: "brightness",
-                shadow_size: 256,
-                shadow_filter: 5,
-                shadow_format: "d16",
                 transparent_objects: 0,
                 emissive: false,
                 knobs: knobs_json(&Knobs { edge_distance: 0.1, ..Knobs::default() }),
@@ -880,14 +871,16 @@ mod tests {
         // then one key a row of the pass settings' table.
         let bench_keys = "adapter resolution width height scene triangles instances point_lights spot_lights seed \
              threshold method tile_size capacity aabb half_z spot_cone coarse msaa shadow_point_lights shadow_spot_lights \
-             casters_by shadow_size shadow_filter shadow_format transparent_objects emissive early_outs gbuffer_rts \
-             draw_order raster raster_large_px raster_large surface_edges edge_distance edge_normal_deg commit";
+             casters_by transparent_objects emissive early_outs gbuffer_rts draw_order raster raster_large_px \
+             raster_large surface_edges edge_distance edge_normal_deg shadow_size shadow_filter shadow_format commit";
         assert_eq!(keys(&bench).join(" "), bench_keys.split_whitespace().collect::<Vec<_>>().join(" "));
         // The rows' values by kind: a switch a boolean, a count or number a number, a choice
         // its name (scripts read `config.early_outs` as a boolean).
         let v = serde_json::to_value(&bench).unwrap();
         assert_eq!(v["early_outs"], serde_json::json!(true));
         assert_eq!(v["gbuffer_rts"], serde_json::json!(2));
+        // A row of whole numbers is written as a number, as the flag was before it was a row.
+        assert_eq!((&v["shadow_filter"], &v["shadow_format"]), (&serde_json::json!(5), &serde_json::json!("d16")));
         assert_eq!(v["edge_distance"], serde_json::json!(0.1));
         assert_eq!(v["draw_order"], serde_json::json!("front-to-back"));
         assert_eq!(v["raster"], serde_json::json!("auto"));

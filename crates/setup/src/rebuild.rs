@@ -19,6 +19,7 @@
 //! Pure data: depends on [`crate::settings`] only.
 
 use crate::settings::{CasterChoice, SceneSource, Settings};
+use tiledlight_gpu::knobs::Needs;
 
 /// What is loaded or generated again, from the least to the most work.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -105,13 +106,12 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || a.clusters != b.clusters
         || a.spot_cone != b.spot_cone
         || a.flat_cull != b.flat_cull
-        // A pass setting (a row of the table) the new method reads.
-        || a.knobs.changed(&b.knobs).iter().any(|k| (k.applies)(b.method))
+        // A pass setting (a row of the table) the new frame reads: the shadow rows only
+        // while some light casts a shadow.
+        || a.knobs.changed(&b.knobs).iter().any(|k| (k.applies)(b.method) && (k.needs == Needs::Always || b.has_shadows()))
         || a.msaa != b.msaa
         // Automatic exposure is a pass and a tonemap variant of its own.
         || a.auto_exposure != b.auto_exposure
-        // How shadows are drawn matters only while some light casts one.
-        || (b.has_shadows() && a.shadow_options() != b.shadow_options())
         // So does how blended geometry is composited, while there may be some.
         || (b.may_blend() && a.blend_mode != b.blend_mode)
         // VPLs are passes, buffers and a shading variant of their own.
@@ -124,7 +124,7 @@ mod tests {
     use super::*;
     use crate::settings::{CameraBookmark, Method};
     use glam::Vec3;
-    use tiledlight_cull::shadow::ShadowFormat;
+    use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat};
     use tiledlight_gpu::culling::ClusterOptions;
     use tiledlight_gpu::features::BlendMode;
     use tiledlight_gpu::knobs::{Kind, Knobs, KNOBS};
@@ -195,15 +195,24 @@ mod tests {
                 Kind::Switch => if (k.default)() == "on" { "off" } else { "on" }.to_string(),
                 Kind::Count => ((k.default)().parse::<u32>().unwrap() + 1).to_string(),
                 Kind::Number => ((k.default)().parse::<f32>().unwrap() + 0.5).to_string(),
-                Kind::Choice(names) => names.iter().find(|n| **n != (k.default)()).unwrap().to_string(),
+                Kind::Choice(names) | Kind::Values(names) => {
+                    names.iter().find(|n| **n != (k.default)()).unwrap().to_string()
+                }
             };
             let mut changed = Knobs::default();
             (k.set)(&mut changed, &other).unwrap();
-            for method in Method::ALL {
-                let from = Settings { method, ..base() };
+            for (method, casters) in Method::ALL.into_iter().flat_map(|m| [(m, 0), (m, 2)]) {
+                let from = Settings { method, shadow_point_lights: casters, ..base() };
                 let to = Settings { knobs: changed, ..from.clone() };
-                let want = if (k.applies)(method) { RENDERER } else { Rebuild::default() };
-                assert_eq!(rebuild_plan(&from, &to), want, "{} = {other} with {}", k.name, method.name());
+                let read = (k.applies)(method) && (k.needs == Needs::Always || casters > 0);
+                let want = if read { RENDERER } else { Rebuild::default() };
+                assert_eq!(
+                    rebuild_plan(&from, &to),
+                    want,
+                    "{} = {other} with {}, {casters} casters",
+                    k.name,
+                    method.name()
+                );
             }
         }
     }
@@ -222,16 +231,16 @@ mod tests {
     fn shadow_options_rebuild_the_renderer_while_lights_cast_shadows() {
         let shadowed = Settings { shadow_point_lights: 2, ..base() };
         for f in [
-            (|s: &mut Settings| s.shadow_size = 512) as fn(&mut Settings),
-            |s| s.shadow_filter = 3,
-            |s| s.shadow_format = ShadowFormat::Depth32,
+            (|s: &mut Settings| s.knobs.shadow_size = 512) as fn(&mut Settings),
+            |s| s.knobs.shadow_filter = ShadowFilter::Pcf3,
+            |s| s.knobs.shadow_format = ShadowFormat::Depth32,
         ] {
             assert_eq!(with_from(shadowed.clone(), f), RENDERER);
             // Without casters the renderer does not use them.
             assert!(with(f).is_nothing());
         }
         // Casters and how they are drawn, together: both.
-        let both = with(|s| (s.shadow_point_lights, s.shadow_size) = (2, 1024));
+        let both = with(|s| (s.shadow_point_lights, s.knobs.shadow_size) = (2, 1024));
         assert_eq!(both, Rebuild { reload: Reload::LightBuffers, ..RENDERER });
         // New light data with the same casters: in place (the renderer is told, not rebuilt).
         assert_eq!(with_from(Settings { shadow_point_lights: 2, ..base() }, |s| s.seed = 4).reload, Reload::LightData);

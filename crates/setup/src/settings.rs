@@ -16,7 +16,7 @@ use std::path::PathBuf;
 
 use anyhow::{ensure, Result};
 use tiledlight_cull::lists::{DEFAULT_CAPACITY, MAX_CAPACITY};
-use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat, ShadowOptions, TILE_SIZES};
+use tiledlight_cull::shadow::ShadowOptions;
 use tiledlight_cull::tiles::MAX_SCREEN_SIDE;
 use tiledlight_cull::vpl::VplConfig;
 use tiledlight_deferred::shading::workgroup_bytes_besides_lists;
@@ -285,12 +285,6 @@ pub struct Settings {
     pub shadow_spot_lights: u32,
     /// How the casters of each kind are chosen (brightest, or by contribution to the frame).
     pub casters_by: CasterChoice,
-    /// Texels per side of each shadow face's atlas tile, 128 to 1024.
-    pub shadow_size: u32,
-    /// Shadow filter: taps per side of the percentage-closer filter, 1, 3 or 5.
-    pub shadow_filter: u32,
-    /// Depth format of the shadow atlas.
-    pub shadow_format: ShadowFormat,
     /// How alpha-blended geometry is composited: sorted back to front ("over"), or weighted
     /// blended order-independent transparency (unsorted, approximate). Used only when the
     /// scene has blended materials.
@@ -348,9 +342,6 @@ impl Default for Settings {
             shadow_point_lights: 0,
             shadow_spot_lights: 0,
             casters_by: CasterChoice::Brightness,
-            shadow_size: ShadowOptions::default().tile_size,
-            shadow_filter: ShadowOptions::default().filter.size(),
-            shadow_format: ShadowOptions::default().format,
             blend_mode: BlendMode::default(),
             vpl: None,
             camera: None,
@@ -478,13 +469,6 @@ impl Settings {
             "--emissive: the glowing banners exist only in the default scene (a glTF file's emissive materials \
              glow on their own)"
         );
-        ensure!(
-            TILE_SIZES.contains(&self.shadow_size),
-            "--shadow-size {}: must be between {} and {} texels",
-            self.shadow_size,
-            TILE_SIZES.start(),
-            TILE_SIZES.end()
-        );
         if let Some(v) = &self.vpl {
             ensure!(
                 self.has_shadows(),
@@ -493,11 +477,6 @@ impl Settings {
             );
             v.validate().map_err(|e| anyhow::anyhow!("--vpl: {e}"))?;
         }
-        ensure!(
-            ShadowFilter::from_size(self.shadow_filter).is_ok(),
-            "--shadow-filter {}: must be 1, 3 or 5 (taps per side)",
-            self.shadow_filter
-        );
         // The default scene's lights are all random, so their counts are known here; a glTF
         // file's own lights are counted when it is loaded (the upload checks the casters).
         // A demo's own lights (the dressing) come on top of the random ones.
@@ -625,13 +604,12 @@ impl Settings {
         self.shadow_casters() != (0, 0)
     }
 
-    /// How shadows are drawn (the filter is the default one for a size that
-    /// [`Settings::validate`] refuses).
+    /// How shadows are drawn: the shadow rows of the pass settings' table.
     pub fn shadow_options(&self) -> ShadowOptions {
         ShadowOptions {
-            tile_size: self.shadow_size,
-            filter: ShadowFilter::from_size(self.shadow_filter).unwrap_or_default(),
-            format: self.shadow_format,
+            tile_size: self.knobs.shadow_size,
+            filter: self.knobs.shadow_filter,
+            format: self.knobs.shadow_format,
         }
     }
 
@@ -742,6 +720,7 @@ pub fn shadow_options_description(o: &ShadowOptions) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat};
 
     fn small() -> Settings {
         Settings { width: 64, height: 36, ..Settings::default() }
@@ -814,8 +793,8 @@ mod tests {
         assert!(err(Settings { msaa: 3, ..small() }).contains("--msaa 3"));
         assert!(err(Settings { knobs: Knobs { gbuffer_rts: 6, ..Knobs::default() }, ..small() })
             .contains("--gbuffer-rts 6"));
-        assert!(err(Settings { shadow_size: 100, ..small() }).contains("--shadow-size 100: must be between 128"));
-        assert!(err(Settings { shadow_filter: 2, ..small() }).contains("--shadow-filter 2"));
+        let tiny_tiles = Knobs { shadow_size: 100, ..Knobs::default() };
+        assert!(err(Settings { knobs: tiny_tiles, ..small() }).contains("--shadow-size 100: must be between 128"));
         let casters = Settings { lights: Some(4), shadow_point_lights: 5, ..small() };
         assert_eq!(err(casters), "--shadow-point-lights 5: more than the scene's 4 point lights (--lights 4)");
         let spots = Settings { spot_lights: Some(2), shadow_spot_lights: 3, ..small() };
@@ -884,12 +863,22 @@ mod tests {
             "16 px tiles, capacity 99, one level, tests: planes+aabb, half-z (2 lists per tile)"
         );
         assert_eq!((f.shadows, d.shadows), (ShadowOptions::default(), ShadowOptions::default()));
-        let sh = Settings { shadow_size: 512, shadow_filter: 3, shadow_format: ShadowFormat::Depth32, ..small() };
+        let shadow_knobs = Knobs {
+            shadow_size: 512,
+            shadow_filter: ShadowFilter::Pcf3,
+            shadow_format: ShadowFormat::Depth32,
+            ..Knobs::default()
+        };
+        let sh = Settings { knobs: shadow_knobs, ..small() };
         let want = ShadowOptions { tile_size: 512, filter: ShadowFilter::Pcf3, format: ShadowFormat::Depth32 };
         assert_eq!((sh.frame_settings(false).shadows, sh.frame_settings(false).shadows), (want, want));
         // Shadows are mentioned only when some light casts one.
         assert_eq!(sh.shadow_description(), None);
-        let one = Settings { shadow_spot_lights: 1, shadow_filter: 1, ..sh };
+        let one = Settings {
+            shadow_spot_lights: 1,
+            knobs: Knobs { shadow_filter: ShadowFilter::Tap1, ..shadow_knobs },
+            ..sh
+        };
         assert_eq!(
             one.shadow_description().unwrap(),
             "0 point + 1 spot casters (the brightest of each kind), 512 px tiles, 1 tap, d32"

@@ -9,10 +9,11 @@
 //! rebuilds only the renderer.
 
 use tiledlight_cull::light::{try_pack_lights_ranked, CasterRank};
-use tiledlight_cull::shadow::ShadowFormat;
+use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat};
 use tiledlight_frame::caster_rank::contribution_scores;
 use tiledlight_frame::Diagnostics as _;
 use tiledlight_gpu::features::BlendMode;
+use tiledlight_gpu::knobs::Knobs;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_scene::GridDensity;
 use tiledlight_setup::{
@@ -139,7 +140,7 @@ fn shadow_casters_follow_the_settings_through_reconfigure() {
         spot_lights: Some(6),
         shadow_point_lights: 2,
         shadow_spot_lights: 1,
-        shadow_size: 128,
+        knobs: Knobs { shadow_size: 128, ..Knobs::default() },
         ..Settings::default()
     };
     let mut prep = Prepared::new(&s0).unwrap();
@@ -197,7 +198,9 @@ fn shadow_casters_follow_the_settings_through_reconfigure() {
     drop(r);
 
     // How they are drawn: the renderer only.
-    let s3 = Settings { shadow_size: 256, shadow_filter: 1, shadow_format: ShadowFormat::Depth32, ..s2.clone() };
+    let shadow_knobs =
+        Knobs { shadow_size: 256, shadow_filter: ShadowFilter::Tap1, shadow_format: ShadowFormat::Depth32, ..s2.knobs };
+    let s3 = Settings { knobs: shadow_knobs, ..s2.clone() };
     assert_eq!(prep.reconfigure(&s3).unwrap(), Rebuild { renderer: true, ..Rebuild::default() });
     let r = prep.renderer(false).unwrap();
     let atlas = r.outputs().shadow_atlas.expect("spots cast shadows");

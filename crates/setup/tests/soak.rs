@@ -41,7 +41,12 @@ const SEGMENT: usize = 100;
 fn configurations(base: &Settings) -> Vec<Settings> {
     let clusters = Some(ClusterConfig { tile_size: 16, slices: 16, first: 1.0, last: 60.0, geometry_only: true });
     // The smallest shadow tile: every frame moves the lights, so every face is drawn again.
-    let shadows = |s: Settings| Settings { shadow_point_lights: 1, shadow_spot_lights: 1, shadow_size: 128, ..s };
+    let shadows = |s: Settings| Settings {
+        shadow_point_lights: 1,
+        shadow_spot_lights: 1,
+        knobs: tiledlight_gpu::knobs::Knobs { shadow_size: 128, ..s.knobs },
+        ..s
+    };
     let b = || base.clone();
     vec![
         b(),

@@ -10,7 +10,7 @@ use anyhow::{bail, Context, Result};
 use clap::ValueEnum;
 
 use super::settings::{Settings, VplControl};
-use crate::scene_setup::{AssignArg, BlendModeArg, CastersByArg, DensityArg, GridArg, ShadowFormatArg};
+use crate::scene_setup::{AssignArg, BlendModeArg, CastersByArg, DensityArg, GridArg};
 use tiledlight_gpu::heatmap::HeatmapOf;
 use tiledlight_setup::camera_rig::Mode;
 use tiledlight_setup::SceneSource;
@@ -119,13 +119,6 @@ pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
                 .map_err(|e| anyhow::anyhow!("--script: casters-by={value}: {e}"))?
                 .into()
         }
-        "shadow-size" => a.shadow_size = number(key, value)?,
-        "shadow-filter" => a.shadow_filter = number(key, value)?,
-        "shadow-format" => {
-            a.shadow_format = ShadowFormatArg::from_str(value, true)
-                .map_err(|e| anyhow::anyhow!("--script: shadow-format={value}: {e}"))?
-                .into()
-        }
         "transparent-objects" => a.transparent_objects = number(key, value)?,
         "blend-mode" => {
             a.blend_mode = BlendModeArg::from_str(value, true)
@@ -207,8 +200,11 @@ mod tests {
             set(&mut s, k, v).unwrap();
         }
         let a = &s.setup;
-        assert_eq!((a.shadow_point_lights, a.shadow_spot_lights, a.shadow_size, a.shadow_filter), (8, 4, 512, 3));
-        assert_eq!(a.shadow_format, tiledlight_cull::shadow::ShadowFormat::Depth32);
+        assert_eq!((a.shadow_point_lights, a.shadow_spot_lights, a.knobs.shadow_size), (8, 4, 512));
+        assert_eq!(
+            (a.knobs.shadow_filter, a.knobs.shadow_format),
+            (tiledlight_cull::shadow::ShadowFilter::Pcf3, tiledlight_cull::shadow::ShadowFormat::Depth32)
+        );
         set(&mut s, "transparent-objects", "20").unwrap();
         set(&mut s, "blend-mode", "wboit").unwrap();
         assert_eq!(
@@ -267,8 +263,12 @@ mod tests {
         assert!(e("lights=many").contains("lights=many: not a number"));
         assert!(e("method=fast").contains("method=fast"));
         assert!(e("heatmap=maybe").contains("heatmap=maybe: expected on, off, opaque, blended or vpl"));
-        assert!(e("shadow-size=big").contains("shadow-size=big: not a number"));
-        assert!(e("shadow-format=d24").contains("shadow-format=d24"));
+        assert!(
+            e("shadow-size=big").contains("shadow-size 'big': expected a whole number"),
+            "{}",
+            e("shadow-size=big")
+        );
+        assert!(e("shadow-format=d24").contains("shadow-format 'd24': expected one of d16, d32"));
         assert!(e("transparent-objects=some").contains("transparent-objects=some: not a number"));
         assert!(e("blend-mode=additive").contains("blend-mode=additive"));
         assert!(e("wait=-1").contains("wait=-1"));

@@ -159,6 +159,7 @@ pub const METHODS: [Method; 5] = [
 #[cfg(test)]
 mod tests {
     use super::*;
+    use tiledlight_cull::shadow::ShadowFilter;
     use tiledlight_setup::Reload;
 
     fn base() -> Settings {
@@ -196,7 +197,7 @@ mod tests {
         assert_eq!((p.setup.reload, p.renderer), (Reload::Scene, true));
         let p = with(|s| s.setup.shadow_spot_lights = 4);
         assert_eq!((p.setup.reload, p.renderer), (Reload::LightBuffers, true));
-        let p = with(|s| (s.setup.shadow_point_lights, s.setup.shadow_filter) = (2, 1));
+        let p = with(|s| (s.setup.shadow_point_lights, s.setup.knobs.shadow_filter) = (2, ShadowFilter::Tap1));
         assert_eq!((p.setup.reload, p.renderer), (Reload::LightBuffers, true));
         let p = with(|s| (s.setup.grid_objects, s.setup.transparent_objects) = (50, 20));
         assert_eq!((p.setup.reload, p.renderer), (Reload::Scene, true));

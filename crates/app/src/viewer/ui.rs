@@ -13,11 +13,10 @@
 use std::collections::VecDeque;
 
 use egui::{Color32, RichText};
-use tiledlight_cull::shadow::ShadowFormat;
 use tiledlight_gpu::blended::BlendedPath;
 use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::heatmap::{heatmap_palette, heatmap_t, HeatmapOf, HEATMAP_OVERFLOW};
-use tiledlight_gpu::knobs::{Control, Kind, Knobs, KNOBS};
+use tiledlight_gpu::knobs::{Control, Kind, Knobs, Needs, KNOBS};
 use tiledlight_gpu::memory::{format_bytes, MemoryReport};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::PassTime;
@@ -35,9 +34,6 @@ use crate::scene_setup::GridArg;
 /// The most shadow-casting lights of each kind the panel's sliders offer (TiledLighting11
 /// has a few; every point caster is six atlas tiles).
 pub const MAX_PANEL_CASTERS: usize = 128;
-
-/// The shadow tile sizes the panel offers (texels per side).
-pub const SHADOW_SIZES: [u32; 4] = [128, 256, 512, 1024];
 
 /// Key bindings, as the help overlay (F1) and docs/USAGE.md list them.
 pub const KEYS: [(&str, &str); 15] = [
@@ -457,7 +453,7 @@ fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'
             })
             .response
             .on_hover_text("2x and 8x only where the GPU has them (an error says so otherwise)");
-        knob_controls(ui, &mut s.setup.knobs, s.setup.method);
+        knob_controls(ui, &mut s.setup.knobs, s.setup.method, Needs::Always);
         ui.add_enabled_ui(tiled, |ui| {
             ui.checkbox(&mut s.heatmap, "heat map (lights per tile)").on_disabled_hover_text("needs a tiled method");
         });
@@ -589,24 +585,8 @@ fn shadow_controls(ui: &mut egui::Ui, s: &mut Settings, info: &Info<'_>) {
                  the camera moves)",
             );
         });
-        ui.horizontal(|ui| {
-            ui.label("tile size");
-            for t in SHADOW_SIZES {
-                ui.radio_value(&mut sh.shadow_size, t, format!("{t}"));
-            }
-        });
-        ui.horizontal(|ui| {
-            ui.label("filter");
-            for (n, label) in [(1, "1 tap"), (3, "3x3"), (5, "5x5")] {
-                ui.radio_value(&mut sh.shadow_filter, n, label);
-            }
-        });
-        ui.horizontal(|ui| {
-            ui.label("format");
-            for f in [ShadowFormat::Depth16, ShadowFormat::Depth32] {
-                ui.radio_value(&mut sh.shadow_format, f, f.name());
-            }
-        });
+        // How the shadows are drawn: the shadow rows of the pass settings' table.
+        knob_controls(ui, &mut sh.knobs, sh.method, Needs::Shadows);
     });
 }
 
@@ -744,8 +724,8 @@ fn camera_section(ui: &mut egui::Ui, rig: &mut CameraRig, commands: &mut Vec<Com
 
 /// One control a row of the pass settings' table (`tiledlight_gpu::knobs`), enabled for the
 /// methods the row applies to, its help on hover: a new row needs no code here.
-fn knob_controls(ui: &mut egui::Ui, knobs: &mut Knobs, method: Method) {
-    for row in KNOBS {
+fn knob_controls(ui: &mut egui::Ui, knobs: &mut Knobs, method: Method, needs: Needs) {
+    for row in KNOBS.iter().filter(|r| r.needs == needs) {
         let text = (row.get)(knobs);
         let mut new = text.clone();
         ui.add_enabled_ui((row.applies)(method), |ui| {
@@ -768,7 +748,7 @@ fn knob_controls(ui: &mut egui::Ui, knobs: &mut Knobs, method: Method) {
                     new = (v as f32).to_string();
                     r
                 }
-                (Control::Choice, Kind::Choice(names)) => {
+                (Control::Choice, Kind::Choice(names) | Kind::Values(names)) => {
                     egui::ComboBox::from_label(row.label)
                         .selected_text(text.as_str())
                         .show_ui(ui, |ui| {
@@ -800,12 +780,6 @@ mod tests {
             let row = format!("| {k} | {what} |");
             assert!(usage.contains(&row), "docs/USAGE.md has no row {row:?}");
         }
-    }
-
-    #[test]
-    fn shadow_sizes_are_accepted_tile_sizes() {
-        assert!(SHADOW_SIZES.iter().all(|t| tiledlight_cull::shadow::TILE_SIZES.contains(t)));
-        assert!(SHADOW_SIZES.contains(&tiledlight_setup::Settings::default().shadow_size));
     }
 
     #[test]
