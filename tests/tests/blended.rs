@@ -322,7 +322,7 @@ fn weighted_oit_approximates_the_sorted_result() {
     let lights = LightBuffers::new(&ctx.device, &lights_for_panes()).unwrap();
     let cam = camera(Vec3::new(0.5, 0.5, 4.0), Vec3::new(0.0, 0.0, -10.0));
     let frame = |blend, method| {
-        let s = FrameSettings { method, blend, ..Default::default() };
+        let s = FrameSettings { method, knobs: Knobs { blend_mode: blend, ..Knobs::default() }, ..Default::default() };
         let mut r = FrameRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
         render_frame(ctx, &mut r, &sg, &cam)
     };
@@ -333,7 +333,8 @@ fn weighted_oit_approximates_the_sorted_result() {
     eprintln!("weighted blended OIT vs sorted: FLIP mean {:.4}, p99 {:.4}", r.mean, r.percentile);
     assert!(r.mean > 1e-4, "weighted blended OIT must change the image (FLIP mean {})", r.mean);
     // Tiled Deferred and brute force run the same blended code.
-    let s = FrameSettings { method: Method::TiledDeferred, blend: BlendMode::WeightedOit, ..Default::default() };
+    let knobs = Knobs { blend_mode: BlendMode::WeightedOit, ..Knobs::default() };
+    let s = FrameSettings { method: Method::TiledDeferred, knobs, ..Default::default() };
     let mut td = FrameRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
     let d = render_frame(ctx, &mut td, &sg, &cam);
     let bf = frame(BlendMode::WeightedOit, Method::BruteForce { cutoff: true });

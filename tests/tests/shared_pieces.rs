@@ -31,6 +31,7 @@ use glam::{Mat4, Vec3};
 use tiledlight_cull::Camera;
 use tiledlight_frame::{FrameRenderer, FrameSettings, Method};
 use tiledlight_gpu::features::BlendMode;
+use tiledlight_gpu::knobs::Knobs;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_scene::{AlphaMode, Instance, Material, Scene, Texture, TextureRef, UvTransform};
@@ -252,7 +253,8 @@ fn composite_frame(scene: &Scene, method: Method, blend: BlendMode) -> Vec<[f32;
     let ctx = gpu();
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, scene).unwrap();
     let lights = LightBuffers::new(&ctx.device, &[]).unwrap();
-    let s = FrameSettings { method, blend, ambient: AMBIENT, ..Default::default() };
+    let knobs = Knobs { blend_mode: blend, ..Knobs::default() };
+    let s = FrameSettings { method, knobs, ambient: AMBIENT, ..Default::default() };
     let mut r = FrameRenderer::new(ctx, &sg, &lights, W, H, s).expect("renderer");
     render_frame(ctx, &mut r, &sg, &composite_camera()).hdr
 }

@@ -443,7 +443,7 @@ fn the_rsm_of_a_transformed_normal_mapped_wall_holds_the_cpu_normals_and_its_vpl
         tiledlight_gpu::features::Method::ForwardPlus,
         &CullOptions::default(),
         (1, Default::default()),
-        (shadow, Default::default(), false),
+        (shadow, false),
     );
     let limits = device.limits();
     let layout =

@@ -118,7 +118,7 @@ fn run_shadowed(scene: &Scene, cfg: &VplConfig, lights: &[Light], casters: (u32,
         Method::ForwardPlus,
         &CullOptions::default(),
         (1, Default::default()),
-        (shadow, Default::default(), false),
+        (shadow, false),
     );
     let limits = device.limits();
     let layout = AtlasLayout::new(
@@ -305,7 +305,7 @@ fn bad_settings_are_errors_naming_the_setting() {
         Method::ForwardPlus,
         &CullOptions::default(),
         (1, Default::default()),
-        (shadow, Default::default(), false),
+        (shadow, false),
     );
     let limits = device.limits();
     let layout =

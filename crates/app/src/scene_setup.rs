@@ -4,14 +4,13 @@
 //! PNG output helpers the subcommands use.
 //!
 //! May depend on tiledlight-setup, tiledlight-scene, tiledlight-deferred (flag defaults),
-//! tiledlight-gpu (the blend mode) and tiledlight-setup (its `bookmark` file format); the subcommand modules depend on it.
+//! tiledlight-gpu (the pass settings' table) and tiledlight-setup (its `bookmark` file format); the subcommand modules depend on it.
 
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use tiledlight_gpu::culling::ClusterOptions;
-use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::knobs::KnobArgs;
 use tiledlight_lab::axes::{on_off, Flags};
 use tiledlight_scene::{GridDensity, DEFAULT_LIGHT_THRESHOLD};
@@ -76,35 +75,6 @@ impl From<CasterChoice> for CastersByArg {
         match c {
             CasterChoice::Brightness => CastersByArg::Brightness,
             CasterChoice::Contribution => CastersByArg::Contribution,
-        }
-    }
-}
-
-/// How alpha-blended geometry is composited.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum BlendModeArg {
-    /// Blended instances sorted back to front each frame and drawn "over" (exact for
-    /// instances that do not interpenetrate; TiledLighting11's way).
-    Sorted,
-    /// Weighted blended order-independent transparency (McGuire and Bavoil 2013): no sort,
-    /// an approximation of "over".
-    Wboit,
-}
-
-impl From<BlendModeArg> for BlendMode {
-    fn from(m: BlendModeArg) -> Self {
-        match m {
-            BlendModeArg::Sorted => BlendMode::Sorted,
-            BlendModeArg::Wboit => BlendMode::WeightedOit,
-        }
-    }
-}
-
-impl From<BlendMode> for BlendModeArg {
-    fn from(m: BlendMode) -> Self {
-        match m {
-            BlendMode::Sorted => BlendModeArg::Sorted,
-            BlendMode::WeightedOit => BlendModeArg::Wboit,
         }
     }
 }
@@ -345,10 +315,6 @@ pub struct SceneArgs {
     /// grid, for the camera the lights are made with).
     #[arg(long, value_enum, default_value_t = CastersByArg::Brightness)]
     pub casters_by: CastersByArg,
-    /// How alpha-blended geometry (transparent objects, glTF BLEND materials) is
-    /// composited over the opaque image.
-    #[arg(long, value_enum, default_value_t = BlendModeArg::Sorted)]
-    pub blend_mode: BlendModeArg,
     /// Camera bookmark to render from (a small text file; the viewer writes them with its
     /// "save camera" button): eye, target, up, field of view, near and far plane.
     #[arg(long, value_name = "FILE")]
@@ -417,7 +383,6 @@ impl Default for SceneArgs {
             shadow_point_lights: d.shadow_point_lights,
             shadow_spot_lights: d.shadow_spot_lights,
             casters_by: d.casters_by.into(),
-            blend_mode: d.blend_mode.into(),
             camera: None,
             strict: d.strict,
             grid_budget: d.grid_pairs,
@@ -489,7 +454,6 @@ impl SceneArgs {
             shadow_point_lights: self.shadow_point_lights,
             shadow_spot_lights: self.shadow_spot_lights,
             casters_by: self.casters_by.into(),
-            blend_mode: self.blend_mode.into(),
             camera: None,
             strict: self.strict,
             allow_any_path: self.allow_any_path,
@@ -554,10 +518,6 @@ impl Flags for SceneArgs {
                     CastersByArg::from_str(value, true).map_err(|e| anyhow::anyhow!("casters-by '{value}': {e}"))?
             }
             "transparent-objects" => args.transparent_objects = small()?,
-            "blend-mode" => {
-                args.blend_mode =
-                    BlendModeArg::from_str(value, true).map_err(|e| anyhow::anyhow!("blend-mode '{value}': {e}"))?
-            }
             "grid" => {
                 args.grid = GridArg::from_str(value, true).map_err(|e| anyhow::anyhow!("grid '{value}': {e}"))?;
                 // The layout is the axis's alone: --half-z on the command line would fight it.
@@ -627,6 +587,7 @@ mod tests {
     use super::*;
     use clap::Parser;
     use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat};
+    use tiledlight_gpu::features::BlendMode;
     use tiledlight_lab::axes;
     use tiledlight_setup::{DrawOrderMode, Knobs, LargeRaster, Raster};
 
@@ -780,7 +741,6 @@ mod tests {
             shadow_point_lights: 2,
             shadow_spot_lights: 1,
             casters_by: CasterChoice::Contribution,
-            blend_mode: BlendMode::WeightedOit,
             vpl: None,
             traced_progress: false,
             knobs: Knobs {
@@ -796,6 +756,7 @@ mod tests {
                 shadow_size: 512,
                 shadow_filter: ShadowFilter::Pcf3,
                 shadow_format: ShadowFormat::Depth32,
+                blend_mode: BlendMode::WeightedOit,
             },
             camera: None,
             strict: false,
@@ -804,7 +765,10 @@ mod tests {
         assert_eq!(s, expected);
         assert_eq!(parse(&["--grid-objects", "7"]).settings().unwrap().grid_objects, 7);
         let glass = parse(&["--grid-objects", "50", "--transparent-objects", "20"]).settings().unwrap();
-        assert_eq!((glass.grid_objects, glass.transparent_objects, glass.blend_mode), (50, 20, BlendMode::Sorted));
+        assert_eq!(
+            (glass.grid_objects, glass.transparent_objects, glass.knobs.blend_mode),
+            (50, 20, BlendMode::Sorted)
+        );
         assert_eq!(parse(&["--scene", "DEFAULT"]).settings().unwrap().scene, SceneSource::Default);
     }
 
@@ -1033,7 +997,7 @@ mod tests {
         // The count parses before the grid objects it needs are known...
         let base = SceneArgs { grid_objects: 280, ..SceneArgs::default() };
         let a = axes::args_at(&base, &axes, &p[p.len() - 1]).unwrap();
-        assert_eq!((a.transparent_objects, a.blend_mode), (280, BlendModeArg::Wboit));
+        assert_eq!((a.transparent_objects, a.knobs.0.blend_mode), (280, BlendMode::WeightedOit));
         // ...and is checked against them with the point's settings.
         let e = format!("{:#}", axes::args_at(&SceneArgs { grid_objects: 50, ..base }, &axes, &p[6]).unwrap_err());
         assert!(

@@ -134,8 +134,7 @@ impl FrameRenderer {
             )));
         }
         let s = &settings;
-        let features =
-            Features::new(scene, lights, s.method, &s.cull, (s.msaa, s.knobs), (s.shadows, s.blend, s.vpl.is_some()));
+        let features = Features::new(scene, lights, s.method, &s.cull, (s.msaa, s.knobs), (s.shadows, s.vpl.is_some()));
         if features.vpl && features.shadows.is_none() {
             return Err(GpuError::Config(
                 "VPLs are made from the shadow-casting lights' reflective shadow maps: no light casts a shadow".into(),

@@ -9,7 +9,7 @@ use glam::Vec3;
 use tiledlight_cull::shadow::ShadowOptions;
 use tiledlight_cull::vpl::VplConfig;
 use tiledlight_gpu::culling::{CullOptions, DropLight};
-use tiledlight_gpu::features::{BlendMode, Method};
+use tiledlight_gpu::features::Method;
 use tiledlight_gpu::heatmap::HeatmapOf;
 use tiledlight_gpu::knobs::Knobs;
 
@@ -39,8 +39,6 @@ pub struct FrameSettings {
     /// How shadows are drawn (tile size, filter, format); used only when the lights were
     /// uploaded with shadow casters (`LightBuffers::with_casters`).
     pub shadows: ShadowOptions,
-    /// How blended geometry is composited (used only when the scene has some).
-    pub blend: BlendMode,
     /// Virtual point lights from the shadow casters' reflective shadow maps
     /// (tiledlight-vpl); `None` (the default): none of their passes, buffers or variants.
     /// Tiled methods cull them into a light grid of their own (one list per tile); brute
@@ -71,7 +69,6 @@ impl Default for FrameSettings {
             heatmap: false,
             heatmap_of: HeatmapOf::Opaque,
             shadows: ShadowOptions::default(),
-            blend: BlendMode::Sorted,
             vpl: None,
             knobs: Knobs::default(),
             traced_progress: false,

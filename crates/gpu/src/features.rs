@@ -27,34 +27,7 @@ pub struct Shadows {
     pub options: ShadowOptions,
 }
 
-/// How blended geometry is composited.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum BlendMode {
-    /// Instances sorted back to front each frame and drawn "over" (TiledLighting11's way).
-    #[default]
-    Sorted,
-    /// Weighted blended order-independent transparency (McGuire and Bavoil 2013): no sort,
-    /// an approximation of "over" whose error the lab measures against the sorted result.
-    WeightedOit,
-}
-
-impl BlendMode {
-    /// The flag value.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Sorted => "sorted",
-            Self::WeightedOit => "wboit",
-        }
-    }
-    /// The mode of flag value `name` (`sorted`, `wboit`).
-    pub fn from_name(name: &str) -> Result<Self, String> {
-        match name {
-            "sorted" => Ok(Self::Sorted),
-            "wboit" => Ok(Self::WeightedOit),
-            _ => Err(format!("blend mode {name:?}: use sorted or wboit")),
-        }
-    }
-}
+pub use crate::knobs::BlendMode;
 
 /// What the scene, its lights and the settings require of a frame.
 #[derive(Clone, Debug, PartialEq)]
@@ -111,15 +84,15 @@ impl Features {
     /// The features of `scene` lit by `lights` with `method`, culling options `cull`,
     /// `msaa` samples, the pass settings `knobs` (Tiled Deferred's G-buffer targets among
     /// them), shadows drawn
-    /// with `shadow` for the casters `lights` were packed with, blended geometry composited
-    /// by `blend_mode`, and virtual point lights when `vpl`.
+    /// with `shadow` for the casters `lights` were packed with (blended geometry composited
+    /// by the `blend_mode` row), and virtual point lights when `vpl`.
     pub fn new(
         scene: &SceneGpu,
         lights: &LightBuffers,
         method: Method,
         cull: &CullOptions,
         (msaa, knobs): (u32, Knobs),
-        (shadow, blend_mode, vpl): (ShadowOptions, BlendMode, bool),
+        (shadow, vpl): (ShadowOptions, bool),
     ) -> Self {
         let (points, spots) = (lights.packed.shadow_points, lights.packed.shadow_spots);
         let tiled = method.is_tiled();
@@ -132,7 +105,7 @@ impl Features {
             materials: scene.material_features,
             draw_kinds: scene.opaque_kinds(),
             blended_kinds: scene.kinds().into_iter().filter(|k| k.blended).collect(),
-            blend_mode,
+            blend_mode: knobs.blend_mode,
             msaa,
             half_z: tiled && cull.half_z,
             coarse: tiled && cull.coarse,

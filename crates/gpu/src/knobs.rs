@@ -31,6 +31,38 @@ use crate::method::{LargeRaster, Method, Raster};
 use tiledlight_cull::draw_order::DrawOrderMode;
 use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat, TILE_SIZES};
 
+/// How blended geometry is composited.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum BlendMode {
+    /// Instances sorted back to front each frame and drawn "over" (TiledLighting11's way).
+    #[default]
+    Sorted,
+    /// Weighted blended order-independent transparency (McGuire and Bavoil 2013): no sort,
+    /// an approximation of "over" whose error the lab measures against the sorted result.
+    WeightedOit,
+}
+
+impl BlendMode {
+    /// Both modes.
+    pub const ALL: [BlendMode; 2] = [Self::Sorted, Self::WeightedOit];
+
+    /// The flag value.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Sorted => "sorted",
+            Self::WeightedOit => "wboit",
+        }
+    }
+    /// The mode of flag value `name` (`sorted`, `wboit`).
+    pub fn from_name(name: &str) -> Result<Self, String> {
+        match name {
+            "sorted" => Ok(Self::Sorted),
+            "wboit" => Ok(Self::WeightedOit),
+            _ => Err(format!("blend mode {name:?}: use sorted or wboit")),
+        }
+    }
+}
+
 /// What kind of value a row holds: how a command line, a chart's axis and the JSON write it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kind {
@@ -121,6 +153,7 @@ macro_rules! named_choice {
 
 named_choice!(DrawOrderMode, [DrawOrderMode::FrontToBack, DrawOrderMode::Submission], DrawOrderMode::label);
 named_choice!(ShadowFormat, ShadowFormat::ALL, ShadowFormat::name);
+named_choice!(BlendMode, BlendMode::ALL, BlendMode::name);
 
 impl KnobValue for ShadowFilter {
     const KIND: Kind = Kind::Values(&["1", "3", "5"]);
@@ -146,6 +179,8 @@ pub enum Needs {
     Always,
     /// Only while some light casts a shadow (the shadow atlas exists).
     Shadows,
+    /// Only while the scene may have alpha-blended geometry.
+    Blended,
 }
 
 /// The viewer's control for a row.
@@ -372,6 +407,15 @@ knobs! {
     shadow_format: ShadowFormat = ShadowFormat::Depth16;
     "shadow-format", "shadow depth format", "FORMAT", Control::Choice, applies(shadow_mapped), check(no_check),
     needs(Shadows);
+
+    /// How alpha-blended geometry (transparent objects, glTF BLEND materials) is composited
+    /// over the opaque image: sorted (back to front each frame, drawn "over": exact for
+    /// instances that do not interpenetrate, TiledLighting11's way) or wboit (weighted
+    /// blended order-independent transparency, McGuire and Bavoil 2013: no sort, an
+    /// approximation of "over").
+    blend_mode: BlendMode = BlendMode::Sorted;
+    "blend-mode", "blended geometry", "MODE", Control::Choice, applies(any_method), check(no_check),
+    needs(Blended);
 }
 
 impl Knobs {

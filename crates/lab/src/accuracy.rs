@@ -51,6 +51,7 @@ use std::path::{Path, PathBuf};
 use std::rc::Rc;
 use tiledlight_frame::Diagnostics as _;
 use tiledlight_gpu::features::BlendMode;
+use tiledlight_gpu::knobs::Knobs;
 
 use anyhow::{ensure, Context, Result};
 use tiledlight_cull::reference::{cull_tiles, list_quality, ListQuality};
@@ -270,16 +271,21 @@ struct SortedFrame {
     total_ms: f64,
 }
 
+/// The setting `a` with its blended layer sorted.
+fn sorted(a: &Settings) -> Settings {
+    Settings { knobs: Knobs { blend_mode: BlendMode::Sorted, ..a.knobs }, ..a.clone() }
+}
+
 /// What identifies the sorted frame of a setting: every setting, the blend mode sorted
 /// (the frame differs from the setting's own by the sort alone).
 fn sorted_key(a: &Settings) -> String {
-    format!("{:?}", Settings { blend_mode: BlendMode::Sorted, ..a.clone() })
+    format!("{:?}", sorted(a))
 }
 
 /// Renders and times the setting `a` with the blended layer sorted, as the setting itself
 /// was measured (`warmup`, `frames`).
 fn render_sorted(prep: &mut Prepared, a: &Settings, warmup: u32, frames: u32) -> Result<SortedFrame> {
-    prep.reconfigure(&Settings { blend_mode: BlendMode::Sorted, ..a.clone() })?;
+    prep.reconfigure(&sorted(a))?;
     let mut r = prep.renderer(false)?;
     let m = bench::measure(prep, &mut r, warmup, frames).context("rendering the sorted frame")?;
     let (total_ms, _) = pass_times(&m)?;
@@ -338,20 +344,15 @@ impl ErrorSplit {
 /// and the lights' placement), and brute force without cutoff or casters (its own key;
 /// None with VPLs: their RSMs need the casters). Blended geometry sorted as in the truth.
 fn split_images(a: &Settings, vpl_ref: VplReference) -> ((String, Settings), Option<(String, Settings)>) {
-    let cutoff = Settings {
-        method: Method::TracedReference { cutoff: true },
-        blend_mode: BlendMode::Sorted,
-        vpl: reference_vpl(a, vpl_ref),
-        ..a.clone()
-    };
+    let cutoff =
+        Settings { method: Method::TracedReference { cutoff: true }, vpl: reference_vpl(a, vpl_ref), ..sorted(a) };
     let truth = reference_key(a, ReferenceKind::Traced, vpl_ref);
     let unshadowed = a.vpl.is_none().then(|| {
         let u = Settings {
             method: Method::BruteForce { cutoff: false },
-            blend_mode: BlendMode::Sorted,
             shadow_point_lights: 0,
             shadow_spot_lights: 0,
-            ..a.clone()
+            ..sorted(a)
         };
         (format!("unshadowed|{}", reference_key(&u, ReferenceKind::NoCutoff, vpl_ref)), u)
     });
@@ -463,12 +464,7 @@ fn render_reference(
     };
     // Blended geometry in the reference is exact "over" (sorted back to front), whatever
     // the setting's blend mode.
-    let settings = Settings {
-        method,
-        blend_mode: BlendMode::Sorted,
-        vpl: reference_vpl(point_args, vpl_ref),
-        ..point_args.clone()
-    };
+    let settings = Settings { method, vpl: reference_vpl(point_args, vpl_ref), ..sorted(point_args) };
     prep.reconfigure(&settings)?;
     let mut r = prep.renderer(false)?;
     let m = bench::measure(prep, &mut r, 1, frames).context("rendering the brute-force reference")?;
@@ -561,7 +557,7 @@ pub fn run<F: Flags>(scene: &F, args: &Accuracy) -> Result<()> {
         out.with_file_name(format!("{stem}-flip"))
     });
 
-    let keep_sorted = all_args.iter().any(|a| a.blend_mode == BlendMode::WeightedOit);
+    let keep_sorted = all_args.iter().any(|a| a.knobs.blend_mode == BlendMode::WeightedOit);
     let mut session = Session::open(&out, &axes, keep_sorted)?;
     let pending = points.iter().filter(|p| !session.csv.is_done(p)).count();
     println!(
@@ -758,7 +754,7 @@ fn measure_setting(
         let glass = p.has_blended_geometry();
         let vpls = renderer.vpl_count(&p.ctx).context("reading the VPL count back")?;
         drop(renderer);
-        let vs_sorted = match pargs.blend_mode {
+        let vs_sorted = match pargs.knobs.blend_mode {
             BlendMode::Sorted => {
                 if glass && keep_sorted {
                     sorted.insert(sorted_key(pargs), SortedFrame { ldr: ldr.clone(), total_ms: total });
@@ -1149,7 +1145,7 @@ mod tests {
     fn the_reference_follows_the_transparent_objects_not_the_blend_mode() {
         let s = Settings { grid_objects: 50, transparent_objects: 10, ..Settings::default() };
         let key = |s: &Settings| reference_key(s, ReferenceKind::NoCutoff, VplReference::Scale(1));
-        let oit = Settings { blend_mode: BlendMode::WeightedOit, ..s.clone() };
+        let oit = Settings { knobs: Knobs { blend_mode: BlendMode::WeightedOit, ..s.knobs }, ..s.clone() };
         assert_eq!(key(&s), key(&oit), "the reference is always sorted");
         assert_ne!(key(&s), key(&Settings { transparent_objects: 20, ..s.clone() }));
         assert_eq!(key(&s), key(&Settings { threshold: 0.5, method: Method::TiledDeferred, ..s.clone() }));
@@ -1225,7 +1221,7 @@ mod tests {
     #[test]
     fn the_sorted_frame_differs_from_the_setting_by_the_blend_mode_only() {
         let s = Settings { grid_objects: 50, transparent_objects: 10, ..Settings::default() };
-        let oit = Settings { blend_mode: BlendMode::WeightedOit, ..s.clone() };
+        let oit = Settings { knobs: Knobs { blend_mode: BlendMode::WeightedOit, ..s.knobs }, ..s.clone() };
         assert_eq!(sorted_key(&s), sorted_key(&oit), "a WBOIT point finds the sorted point of its settings");
         // Unlike the reference, the cutoff, method and culling are the setting's own.
         for other in [

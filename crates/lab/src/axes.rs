@@ -90,7 +90,6 @@ pub const AXES: &[(&str, &str)] = &[
     ("shadow-spot-lights", "shadow-casting spot lights, the brightest (integer; ranges allowed)"),
     ("casters-by", "how the shadow casters are chosen: brightness | contribution"),
     ("transparent-objects", "grid objects drawn as blended glass, 0 to the grid objects (integer; ranges allowed)"),
-    ("blend-mode", "compositing of blended geometry: sorted | wboit"),
     ("grid", "light grid layout: tiled | half-z | 2.5d | clustered"),
     ("assign", "light assignment: gather (tile-centric) | scatter (light-centric)"),
     ("cluster-tile", "cluster tile side in pixels: 8 | 16 | 32 | 64 | 128 | 256 (integer)"),

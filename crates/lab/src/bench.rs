@@ -872,7 +872,7 @@ mod tests {
         let bench_keys = "adapter resolution width height scene triangles instances point_lights spot_lights seed \
              threshold method tile_size capacity aabb half_z spot_cone coarse msaa shadow_point_lights shadow_spot_lights \
              casters_by transparent_objects emissive early_outs gbuffer_rts draw_order raster raster_large_px \
-             raster_large surface_edges edge_distance edge_normal_deg shadow_size shadow_filter shadow_format commit";
+             raster_large surface_edges edge_distance edge_normal_deg shadow_size shadow_filter shadow_format blend_mode commit";
         assert_eq!(keys(&bench).join(" "), bench_keys.split_whitespace().collect::<Vec<_>>().join(" "));
         // The rows' values by kind: a switch a boolean, a count or number a number, a choice
         // its name (scripts read `config.early_outs` as a boolean).

@@ -60,6 +60,16 @@ impl Rebuild {
     }
 }
 
+/// Whether a row that `needs` this is read by the frame of `s`: the shadow rows while
+/// some light casts a shadow, the blend mode while the scene may blend.
+fn read_now(needs: Needs, s: &Settings) -> bool {
+    match needs {
+        Needs::Always => true,
+        Needs::Shadows => s.has_shadows(),
+        Needs::Blended => s.may_blend(),
+    }
+}
+
 /// What going from `old` to `new` must rebuild (see the module's table).
 pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
     let (a, b) = (old, new);
@@ -108,12 +118,10 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || a.flat_cull != b.flat_cull
         // A pass setting (a row of the table) the new frame reads: the shadow rows only
         // while some light casts a shadow.
-        || a.knobs.changed(&b.knobs).iter().any(|k| (k.applies)(b.method) && (k.needs == Needs::Always || b.has_shadows()))
+        || a.knobs.changed(&b.knobs).iter().any(|k| (k.applies)(b.method) && read_now(k.needs, b))
         || a.msaa != b.msaa
         // Automatic exposure is a pass and a tonemap variant of its own.
         || a.auto_exposure != b.auto_exposure
-        // So does how blended geometry is composited, while there may be some.
-        || (b.may_blend() && a.blend_mode != b.blend_mode)
         // VPLs are passes, buffers and a shading variant of their own.
         || a.vpl != b.vpl;
     Rebuild { reload, camera, renderer, exposure: !b.auto_exposure && a.exposure != b.exposure }
@@ -201,15 +209,27 @@ mod tests {
             };
             let mut changed = Knobs::default();
             (k.set)(&mut changed, &other).unwrap();
-            for (method, casters) in Method::ALL.into_iter().flat_map(|m| [(m, 0), (m, 2)]) {
-                let from = Settings { method, shadow_point_lights: casters, ..base() };
+            // Each method with and without casters, with and without glass.
+            let cases = Method::ALL.into_iter().flat_map(|m| [(m, 0, 0), (m, 2, 0), (m, 0, 5), (m, 2, 5)]);
+            for (method, casters, glass) in cases {
+                let from = Settings {
+                    method,
+                    shadow_point_lights: casters,
+                    grid_objects: 10,
+                    transparent_objects: glass,
+                    ..base()
+                };
                 let to = Settings { knobs: changed, ..from.clone() };
-                let read = (k.applies)(method) && (k.needs == Needs::Always || casters > 0);
-                let want = if read { RENDERER } else { Rebuild::default() };
+                let needed = match k.needs {
+                    Needs::Always => true,
+                    Needs::Shadows => casters > 0,
+                    Needs::Blended => glass > 0,
+                };
+                let want = if (k.applies)(method) && needed { RENDERER } else { Rebuild::default() };
                 assert_eq!(
                     rebuild_plan(&from, &to),
                     want,
-                    "{} = {other} with {}, {casters} casters",
+                    "{} = {other} with {}, {casters} casters, {glass} glass objects",
                     k.name,
                     method.name()
                 );
@@ -272,11 +292,11 @@ mod tests {
 
     #[test]
     fn blend_mode_rebuilds_the_renderer_while_the_scene_may_blend() {
-        let wboit = |s: &mut Settings| s.blend_mode = BlendMode::WeightedOit;
+        let wboit = |s: &mut Settings| s.knobs.blend_mode = BlendMode::WeightedOit;
         let glass = Settings { grid_objects: 50, transparent_objects: 20, ..base() };
         assert_eq!(with_from(glass.clone(), wboit), RENDERER);
-        let back = Settings { blend_mode: BlendMode::WeightedOit, ..glass };
-        assert_eq!(with_from(back, |s| s.blend_mode = BlendMode::Sorted), RENDERER);
+        let back = Settings { knobs: Knobs { blend_mode: BlendMode::WeightedOit, ..glass.knobs }, ..glass };
+        assert_eq!(with_from(back, |s| s.knobs.blend_mode = BlendMode::Sorted), RENDERER);
         // A glTF file's blended materials are found when it loads: rebuilt too.
         assert_eq!(with_from(Settings { scene: SceneSource::File("a.glb".into()), ..base() }, wboit), RENDERER);
         // Without blended geometry the renderer does not use it.
@@ -323,7 +343,10 @@ mod tests {
         let glass = Settings { grid_objects: 50, transparent_objects: 20, ..base() };
         assert_eq!(with_from(glass.clone(), |s| s.transparent_objects = 0), scene);
         // A new count and a new mode together: the scene (and so the renderer).
-        assert_eq!(with_from(glass, |s| (s.transparent_objects, s.blend_mode) = (10, BlendMode::WeightedOit)), scene);
+        assert_eq!(
+            with_from(glass, |s| (s.transparent_objects, s.knobs.blend_mode) = (10, BlendMode::WeightedOit)),
+            scene
+        );
         assert_eq!(with(|s| s.scene = SceneSource::File("a.glb".into())), scene);
         assert_eq!(with(|s| (s.scene, s.seed) = (SceneSource::File("a.glb".into()), 5)), scene);
     }

@@ -285,10 +285,6 @@ pub struct Settings {
     pub shadow_spot_lights: u32,
     /// How the casters of each kind are chosen (brightest, or by contribution to the frame).
     pub casters_by: CasterChoice,
-    /// How alpha-blended geometry is composited: sorted back to front ("over"), or weighted
-    /// blended order-independent transparency (unsorted, approximate). Used only when the
-    /// scene has blended materials.
-    pub blend_mode: BlendMode,
     /// Virtual point lights from the shadow casters' reflective shadow maps (`--vpl` and
     /// its settings; tiledlight-vpl); None: none of their passes or buffers.
     pub vpl: Option<VplConfig>,
@@ -342,7 +338,6 @@ impl Default for Settings {
             shadow_point_lights: 0,
             shadow_spot_lights: 0,
             casters_by: CasterChoice::Brightness,
-            blend_mode: BlendMode::default(),
             vpl: None,
             camera: None,
             knobs: Knobs::default(),
@@ -587,7 +582,6 @@ impl Settings {
             heatmap,
             msaa: self.msaa,
             shadows: self.shadow_options(),
-            blend: self.blend_mode,
             vpl: self.vpl,
             traced_progress: self.traced_progress,
             ..FrameSettings::default()
@@ -647,7 +641,7 @@ impl Settings {
         } else {
             "the scene's blended materials".to_string()
         };
-        Some(format!("{what}, {}", blend_mode_description(self.blend_mode)))
+        Some(format!("{what}, {}", blend_mode_description(self.knobs.blend_mode)))
     }
 
     /// The options of the surface lights, None unless they are placed on surfaces (the
@@ -884,10 +878,10 @@ mod tests {
             "0 point + 1 spot casters (the brightest of each kind), 512 px tiles, 1 tap, d32"
         );
         // The blend mode reaches both renderers; blended geometry is mentioned only when used.
-        assert_eq!((f.blend, d.blend), (BlendMode::Sorted, BlendMode::Sorted));
-        let oit = Settings { blend_mode: BlendMode::WeightedOit, ..small() };
+        assert_eq!((f.knobs.blend_mode, d.knobs.blend_mode), (BlendMode::Sorted, BlendMode::Sorted));
+        let oit = Settings { knobs: Knobs { blend_mode: BlendMode::WeightedOit, ..Knobs::default() }, ..small() };
         assert_eq!(
-            (oit.frame_settings(false).blend, oit.frame_settings(false).blend),
+            (oit.frame_settings(false).knobs.blend_mode, oit.frame_settings(true).knobs.blend_mode),
             (BlendMode::WeightedOit, BlendMode::WeightedOit)
         );
         assert_eq!(oit.blend_description(false), None);

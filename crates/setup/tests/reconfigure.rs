@@ -247,7 +247,7 @@ fn transparent_objects_and_the_blend_mode_follow_the_settings_through_reconfigur
     drop(r);
 
     // The blend mode: the renderer only.
-    let s2 = Settings { blend_mode: BlendMode::WeightedOit, ..s1.clone() };
+    let s2 = Settings { knobs: Knobs { blend_mode: BlendMode::WeightedOit, ..s1.knobs }, ..s1.clone() };
     assert_eq!(prep.reconfigure(&s2).unwrap(), Rebuild { renderer: true, ..Rebuild::default() });
     let mut r = prep.renderer(false).unwrap();
     r.render_once(&prep.ctx, &mut timer, &prep.scene_gpu, &prep.camera).unwrap();
@@ -270,6 +270,9 @@ fn transparent_objects_and_the_blend_mode_follow_the_settings_through_reconfigur
     let s3 = Settings { transparent_objects: 0, ..s2 };
     assert_eq!(prep.reconfigure(&s3).unwrap().reload, Reload::Scene);
     assert!(!prep.has_blend);
-    assert!(prep.reconfigure(&Settings { blend_mode: BlendMode::Sorted, ..s3 }).unwrap().is_nothing());
+    assert!(prep
+        .reconfigure(&Settings { knobs: Knobs { blend_mode: BlendMode::Sorted, ..s3.knobs }, ..s3 })
+        .unwrap()
+        .is_nothing());
     prep.check_gpu_errors().unwrap();
 }

@@ -10,7 +10,7 @@ use anyhow::{bail, Context, Result};
 use clap::ValueEnum;
 
 use super::settings::{Settings, VplControl};
-use crate::scene_setup::{AssignArg, BlendModeArg, CastersByArg, DensityArg, GridArg};
+use crate::scene_setup::{AssignArg, CastersByArg, DensityArg, GridArg};
 use tiledlight_gpu::heatmap::HeatmapOf;
 use tiledlight_setup::camera_rig::Mode;
 use tiledlight_setup::SceneSource;
@@ -120,11 +120,6 @@ pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
                 .into()
         }
         "transparent-objects" => a.transparent_objects = number(key, value)?,
-        "blend-mode" => {
-            a.blend_mode = BlendModeArg::from_str(value, true)
-                .map_err(|e| anyhow::anyhow!("--script: blend-mode={value}: {e}"))?
-                .into()
-        }
         "half-z" => a.half_z = on_off(key, value)?,
         "grid" => GridArg::from_str(value, true).map_err(|e| anyhow::anyhow!("--script: grid={value}: {e}"))?.apply(a),
         "assign" => {
@@ -208,7 +203,7 @@ mod tests {
         set(&mut s, "transparent-objects", "20").unwrap();
         set(&mut s, "blend-mode", "wboit").unwrap();
         assert_eq!(
-            (s.setup.transparent_objects, s.setup.blend_mode),
+            (s.setup.transparent_objects, s.setup.knobs.blend_mode),
             (20, tiledlight_gpu::features::BlendMode::WeightedOit)
         );
         set(&mut s, "grid", "clustered").unwrap();
@@ -270,7 +265,7 @@ mod tests {
         );
         assert!(e("shadow-format=d24").contains("shadow-format 'd24': expected one of d16, d32"));
         assert!(e("transparent-objects=some").contains("transparent-objects=some: not a number"));
-        assert!(e("blend-mode=additive").contains("blend-mode=additive"));
+        assert!(e("blend-mode=additive").contains("blend-mode 'additive': expected one of sorted, wboit"));
         assert!(e("wait=-1").contains("wait=-1"));
         assert!(e("window=0x5").contains("WIDTHxHEIGHT"));
     }

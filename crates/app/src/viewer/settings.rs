@@ -204,11 +204,11 @@ mod tests {
         let mut glass = base();
         (glass.setup.grid_objects, glass.setup.transparent_objects) = (50, 20);
         let mut oit = glass.clone();
-        oit.setup.blend_mode = tiledlight_gpu::features::BlendMode::WeightedOit;
+        oit.setup.knobs.blend_mode = tiledlight_gpu::features::BlendMode::WeightedOit;
         let p = plan(&glass, &oit);
         assert_eq!((p.setup.reload, p.renderer, p.surface), (Reload::Nothing, true, false));
         // Without blended geometry the mode is not used: nothing to rebuild.
-        assert!(with(|s| s.setup.blend_mode = tiledlight_gpu::features::BlendMode::WeightedOit).is_empty());
+        assert!(with(|s| s.setup.knobs.blend_mode = tiledlight_gpu::features::BlendMode::WeightedOit).is_empty());
     }
 
     #[test]

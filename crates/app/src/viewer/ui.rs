@@ -14,7 +14,6 @@ use std::collections::VecDeque;
 
 use egui::{Color32, RichText};
 use tiledlight_gpu::blended::BlendedPath;
-use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::heatmap::{heatmap_palette, heatmap_t, HeatmapOf, HEATMAP_OVERFLOW};
 use tiledlight_gpu::knobs::{Control, Kind, Knobs, Needs, KNOBS};
 use tiledlight_gpu::memory::{format_bytes, MemoryReport};
@@ -544,13 +543,8 @@ fn transparency_controls(ui: &mut egui::Ui, s: &mut Settings) {
             .on_disabled_hover_text("needs grid objects of the built-in scene");
         });
         a.transparent_objects = a.transparent_objects.min(a.grid_objects);
-        ui.horizontal(|ui| {
-            ui.label("blend");
-            ui.radio_value(&mut a.blend_mode, BlendMode::Sorted, "sorted")
-                .on_hover_text("blended instances sorted back to front and drawn over each other (exact)");
-            ui.radio_value(&mut a.blend_mode, BlendMode::WeightedOit, "WBOIT")
-                .on_hover_text("weighted blended order-independent transparency: no sort, approximate");
-        });
+        // How blended geometry is composited: the blend-mode row of the pass settings' table.
+        knob_controls(ui, &mut a.knobs, a.method, Needs::Blended);
     });
 }
 
