@@ -38,6 +38,13 @@ configs=(
   "td-vpl|--lights 64 --shadow-point-lights 4 --vpl --method deferred"
   "td-emissive-rts4|--lights 512 --emissive --gbuffer-rts 4 --method deferred"
   "fp-heatmap|--lights 512 --heatmap"
+  "vb|--lights 512 --method visibility --raster hardware"
+  "vb-compute|--lights 512 --method visibility --raster compute"
+  "vb-msaa4|--lights 512 --method visibility --msaa 4"
+  "vb-shadows-blended|--lights 128 --spot-lights 16 --shadow-point-lights 4 --grid-objects 40 --transparent-objects 10 --method visibility"
+  "vb-materials|--scene materials --materials 16 --lights 256 --method visibility"
+  "td-materials|--scene materials --materials 16 --lights 256 --method deferred"
+  "traced|--lights 64 --method traced-reference"
 )
 differ=0
 for c in "${configs[@]}"; do

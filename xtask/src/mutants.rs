@@ -3,7 +3,7 @@
 //!
 //! 1. Reads every `xtask/mutants/*.toml` (one file per family; `[[mutant]]` entries with
 //!    `name`, `file`, `find`, `replace`, `test` as `PACKAGE::BINARY` — an integration
-//!    test file's name, or `lib` for the unit tests — an optional `filter` and `why`) and
+//!    test file's name, `lib` for a library's unit tests or `bin` for a binary's — an optional `filter` and `why`) and
 //!    checks the list: names unique, every file present, every `find` occurring exactly
 //!    once in its file (so a mutation never lands somewhere unintended, and a refactor that
 //!    removes the text turns the list red instead of silently testing nothing).
@@ -49,7 +49,7 @@ pub struct Mutant {
     pub find: String,
     /// What `find` becomes.
     pub replace: String,
-    /// `PACKAGE::BINARY`: an integration test file's name, or `lib` for unit tests.
+    /// `PACKAGE::BINARY`: an integration test file's name, `lib` for a library's unit tests, `bin` for a binary's.
     pub test: String,
     /// A test-name substring selecting tests of the binary (all when absent).
     #[serde(default)]
@@ -312,6 +312,9 @@ fn run_tests(
         }
         if binary == "lib" {
             cmd.arg("--lib");
+        } else if binary == "bin" {
+            // A binary crate's unit tests (the app's).
+            cmd.arg("--bins");
         } else {
             cmd.args(["--test", binary]);
         }

@@ -15,7 +15,7 @@ use std::collections::VecDeque;
 use egui::{Color32, RichText};
 use tiledlight_gpu::blended::BlendedPath;
 use tiledlight_gpu::heatmap::{heatmap_palette, heatmap_t, HeatmapOf, HEATMAP_OVERFLOW};
-use tiledlight_gpu::knobs::{Control, Kind, Knobs, Needs, KNOBS};
+use tiledlight_gpu::knobs::{Control, Kind, Knob, Knobs, Needs, KNOBS};
 use tiledlight_gpu::memory::{format_bytes, MemoryReport};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::PassTime;
@@ -718,8 +718,14 @@ fn camera_section(ui: &mut egui::Ui, rig: &mut CameraRig, commands: &mut Vec<Com
 
 /// One control a row of the pass settings' table (`tiledlight_gpu::knobs`), enabled for the
 /// methods the row applies to, its help on hover: a new row needs no code here.
+/// The rows a section of the panel shows: the pass settings' section those read always,
+/// the shadow section the shadow rows, the transparency section the blend mode.
+fn section_rows(needs: Needs) -> impl Iterator<Item = &'static Knob> {
+    KNOBS.iter().filter(move |r| r.needs == needs)
+}
+
 fn knob_controls(ui: &mut egui::Ui, knobs: &mut Knobs, method: Method, needs: Needs) {
-    for row in KNOBS.iter().filter(|r| r.needs == needs) {
+    for row in section_rows(needs) {
         let text = (row.get)(knobs);
         let mut new = text.clone();
         ui.add_enabled_ui((row.applies)(method), |ui| {
@@ -774,6 +780,22 @@ mod tests {
             let row = format!("| {k} | {what} |");
             assert!(usage.contains(&row), "docs/USAGE.md has no row {row:?}");
         }
+    }
+
+    /// Every row is shown in exactly one section of the panel.
+    #[test]
+    fn every_row_is_in_one_section() {
+        let mut shown: Vec<&str> = [Needs::Always, Needs::Shadows, Needs::Blended]
+            .into_iter()
+            .flat_map(section_rows)
+            .map(|r| r.name)
+            .collect();
+        shown.sort_unstable();
+        let mut all: Vec<&str> = KNOBS.iter().map(|r| r.name).collect();
+        all.sort_unstable();
+        assert_eq!(shown, all);
+        assert!(section_rows(Needs::Shadows).all(|r| r.name.starts_with("shadow-")));
+        assert_eq!(section_rows(Needs::Blended).map(|r| r.name).collect::<Vec<_>>(), ["blend-mode"]);
     }
 
     #[test]
