@@ -444,7 +444,7 @@ fn bad_input_gives_one_clear_error_line() {
         (&["bench", "--frames", "0"], "--frames 0"),
         (&["bench", "--tile-size", "64"], "--tile-size 64"),
         (&["render", "--shadow-size", "100"], "--shadow-size 100"),
-        (&["render", "--shadow-filter", "4"], "--shadow-filter 4"),
+        (&["render", "--shadow-filter", "4"], "'4' for '--shadow-filter"),
         (&["render", "--shadow-format", "d24"], "d24"),
         (&["render", "--grid-objects", "4", "--transparent-objects", "5"], "--transparent-objects 5"),
         (&["render", "--blend-mode", "additive"], "additive"),
