@@ -93,8 +93,10 @@ pub fn read_gbuffer(ctx: &GpuContext, r: &FrameRenderer, (w, h): (u32, u32)) -> 
 /// [`read_gbuffer`] returns it): the CPU BRDF twin (`tiledlight_cull::brdf`) summed over the
 /// lights reaching the pixel (radiance x windowed attenuation x `brdf_cos`, spot cones left
 /// at 1, their largest), with the normal turned by the encoding's bound
-/// ([`tiledlight_cull::gbuffer::max_normal_error`]) about 8 axes and the roughness moved by
-/// half its step, the largest change kept. Unlike [`crate::compare::Frame::allow_gbuffer_normals`]
+/// ([`tiledlight_cull::gbuffer::max_normal_error`]) about 8 axes, the roughness moved by
+/// half its step and the metallic by half its (1/30: four bits; a glTF metallic image's
+/// 8-bit values are not on that grid: measured on the many-material scene, a dark pixel of
+/// a metallic-roughness-mapped box moves 8.4% on lavapipe), the largest change kept. Unlike [`crate::compare::Frame::allow_gbuffer_normals`]
 /// (diffuse light only, no surface needed) it covers the specular lobe, whose change under
 /// a turned normal is `brdf x` the turn for a light at grazing incidence: measured on
 /// lavapipe, a courtyard column pixel (roughness 0.35) whose brightest light arrives at
@@ -105,6 +107,7 @@ pub fn surface_allowance(gbuffer: &[f32], depth: &[f32], w: u32, camera: &Camera
     let inv_view = camera.view().inverse();
     let e = tiledlight_cull::gbuffer::max_normal_error() as f32;
     let dr = tiledlight_cull::gbuffer::max_roughness_error();
+    let dm = tiledlight_cull::gbuffer::max_metallic_error();
     (0..depth.len())
         .map(|i| {
             let (x, y) = (i as u32 % w, i as u32 / w);
@@ -136,6 +139,11 @@ pub fn surface_allowance(gbuffer: &[f32], depth: &[f32], w: u32, camera: &Camera
             }
             for r in [s.roughness - dr, s.roughness + dr] {
                 worst = worst.max((shade(n, &Surface { roughness: r, ..s }) - base).abs().max_element());
+            }
+            // The shading is linear in metallic (diffuse x (1 - m), F0 mixed by m): the
+            // rounding's two ends bound it.
+            for m in [s.metallic - dm, s.metallic + dm] {
+                worst = worst.max((shade(n, &Surface { metallic: m.clamp(0.0, 1.0), ..s }) - base).abs().max_element());
             }
             worst
         })

@@ -808,3 +808,51 @@ fn the_readme_normal_mapped_asset_is_current() {
     assert!(xs.iter().min() < Some(&30) && xs.iter().max() > Some(&225), "{:?}", (xs.iter().min(), xs.iter().max()));
     assert!(found.meshes[0].tangents.len() == 4, "MikkTSpace tangents for the normal map");
 }
+
+/// The many-material scene (issue 46, `--scene materials`) at 16 materials, which cover every
+/// map and sampler it has (normal maps, masks, the second uv set, texture transforms,
+/// metallic-roughness, occlusion and emission images, every wrap mode, a nearest sampler,
+/// images of seven sizes, two not powers of two): Forward+, Tiled Deferred and the visibility
+/// buffer with both rasters against brute force at one sample a pixel, with the tolerances
+/// of the other material tests (`render_and_check`). The scene's 577 instances and 16
+/// materials are shaded by one visibility dispatch; the images must not tell.
+#[test]
+fn the_many_material_scene_agrees_with_brute_force() {
+    let ctx = gpu();
+    let scene = tiledlight_scene::materials::materials_scene(16).expect("materials scene");
+    let camera = scenes::courtyard_camera(&scene, W, H);
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lb = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 96, 16, 5)).unwrap();
+    let fs = |method| FrameSettings { method, ..Default::default() };
+    let mut bf = FrameRenderer::new(ctx, &sg, &lb, W, H, fs(Method::BruteForce { cutoff: true })).unwrap();
+    let brute = render_frame(ctx, &mut bf, &sg, &camera);
+    let depth = bf.read_depth(ctx).unwrap();
+    let covered = depth.iter().filter(|&&d| d > 0.0).count();
+    assert!(covered * 2 > (W * H) as usize, "the boxes and floor fill the view ({covered} pixels)");
+    let lit = brute.hdr.iter().filter(|p| p[0] + p[1] + p[2] > 1e-3).count();
+    assert!(lit * 4 > covered, "the lights reach the boxes ({lit} of {covered} pixels lit)");
+
+    let mut fr = FrameRenderer::new(ctx, &sg, &lb, W, H, fs(Method::ForwardPlus)).unwrap();
+    let forward = render_frame(ctx, &mut fr, &sg, &camera);
+    assert_matches_reference_frame("materials-scene-forward", W, &brute, &forward, FORWARD_VS_REFERENCE);
+
+    let mut dr = FrameRenderer::new(ctx, &sg, &lb, W, H, fs(Method::TiledDeferred)).unwrap();
+    let deferred = render_frame(ctx, &mut dr, &sg, &camera);
+    // The packed G-buffer rounds metallic to 1/15 steps, and this scene's metallic images
+    // are 8-bit: the reference carries, per pixel, what the rounding of the surface the
+    // G-buffer holds may move its lights (normal, roughness and metallic).
+    let gbuffer = tiledlight_tests::gbuffer::read_gbuffer(ctx, &dr, (W, H));
+    let allowance = tiledlight_tests::gbuffer::surface_allowance(&gbuffer, &depth, W, &camera, &lb.packed);
+    let reference = brute.clone().allow_gbuffer_normals(&depth, W, &camera, &lb.packed).with_allowance(&allowance);
+    let small_emission = dr.passes::<DeferredFrame>().expect("Tiled Deferred").gbuffer().emission_format()
+        == Some(EMISSION_FORMAT_SMALL);
+    let tolerance = if small_emission { DEFERRED_SMALL_EMISSION_VS_REFERENCE } else { DEFERRED_VS_REFERENCE };
+    assert_matches_reference_frame("materials-scene-deferred", W, &reference, &deferred, tolerance);
+
+    let shifted = brute.clone().allow_position_error(&depth, W, (&camera, &lb.packed), RASTER_POSITION_ERROR_PX);
+    for (raster, visibility, ties) in visibility_frames(ctx, (&sg, &lb, &camera), (W, H), fs(Method::Visibility)) {
+        let reference = shifted.clone().forgive_hdr(&ties).0;
+        let name = format!("materials-scene-visibility-{}", raster.name());
+        assert_visibility_matches(&name, W, (&reference, &visibility), false);
+    }
+}
