@@ -320,9 +320,10 @@ for set in $sets; do
     done
     ;;
   big-scene)
-    # Issue 46 item 4: ten million triangles (crates/app/tests/big_scene.rs writes the file:
-    # a 32,768-triangle plate instanced 320 times; staged as .device/plates.gltf), every
-    # method at 1080p with 1,024 lights on its surfaces.
+    # Issue 46 item 4: ten million triangles, every method at 1080p with 1,024 lights on its
+    # surfaces. The file is the one crates/app/tests/big_scene.rs writes (a 32,768-triangle
+    # plate instanced 320 times): run that test here, then copy
+    # target/tmp/cli/big-scene/plates.{gltf,bin} to .device/ before staging.
     for m in forward-plus deferred brute-force; do run "big-$m" 10 --scene .device/plates.gltf --lights 1024 --method $m; done
     for r in hardware compute; do
       run "big-visibility-$r" 10 --scene .device/plates.gltf --lights 1024 --method visibility --raster $r

@@ -134,18 +134,7 @@ fn ten_million_triangles_render_in_every_method_or_are_refused_by_their_limit() 
         if out.status.success() {
             let text = stdout(&out);
             // The report counts every instance's triangles (grouped by thousands).
-            let count = TRIANGLES.to_string();
-            let grouped: String = count
-                .chars()
-                .rev()
-                .collect::<Vec<_>>()
-                .chunks(3)
-                .map(|c| c.iter().collect::<String>())
-                .collect::<Vec<_>>()
-                .join(",")
-                .chars()
-                .rev()
-                .collect();
+            let grouped = tiledlight_setup::group_digits(TRIANGLES);
             assert!(text.contains(&grouped), "{name}: the report does not count {grouped} triangles:\n{text}");
             // The wall fills about a sixth of the view that frames the scene's bounds.
             let lit = lit_fraction(&png);

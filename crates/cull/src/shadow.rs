@@ -66,7 +66,7 @@ impl ShadowFilter {
     pub const ALL: [ShadowFilter; 3] = [Self::Tap1, Self::Pcf3, Self::Pcf5];
 
     /// Taps per side as the flag writes it: `1`, `3` or `5`.
-    pub fn name(self) -> &'static str {
+    pub const fn name(self) -> &'static str {
         match self {
             Self::Tap1 => "1",
             Self::Pcf3 => "3",

@@ -122,11 +122,15 @@ impl KnobValue for f32 {
     }
 }
 
-/// A choice of named values: `KIND` lists the names, parsing accepts any case.
+/// A choice of named values: `KIND` lists the names (as `Kind::Choice`, or `Kind::Values`
+/// when the names are whole numbers), parsing accepts any case.
 macro_rules! named_choice {
     ($ty:ty, $all:expr, $name:expr) => {
+        named_choice!($ty, $all, $name, Choice);
+    };
+    ($ty:ty, $all:expr, $name:expr, $kind:ident) => {
         impl KnobValue for $ty {
-            const KIND: Kind = Kind::Choice(&{
+            const KIND: Kind = Kind::$kind(&{
                 let all = $all;
                 let mut names = [""; $all.len()];
                 let mut i = 0;
@@ -137,7 +141,7 @@ macro_rules! named_choice {
                 names
             });
             fn parse(text: &str) -> Result<Self, String> {
-                let Kind::Choice(names) = Self::KIND else { unreachable!() };
+                let (Kind::Choice(names) | Kind::Values(names)) = Self::KIND else { unreachable!() };
                 names
                     .iter()
                     .position(|n| n.eq_ignore_ascii_case(text.trim()))
@@ -155,19 +159,7 @@ named_choice!(DrawOrderMode, [DrawOrderMode::FrontToBack, DrawOrderMode::Submiss
 named_choice!(ShadowFormat, ShadowFormat::ALL, ShadowFormat::name);
 named_choice!(BlendMode, BlendMode::ALL, BlendMode::name);
 
-impl KnobValue for ShadowFilter {
-    const KIND: Kind = Kind::Values(&["1", "3", "5"]);
-    fn parse(text: &str) -> Result<Self, String> {
-        let Kind::Values(names) = Self::KIND else { unreachable!() };
-        ShadowFilter::ALL
-            .into_iter()
-            .find(|f| f.name() == text.trim())
-            .ok_or_else(|| format!("expected one of {} (taps per side)", names.join(", ")))
-    }
-    fn text(self) -> String {
-        self.name().to_string()
-    }
-}
+named_choice!(ShadowFilter, ShadowFilter::ALL, ShadowFilter::name, Values);
 named_choice!(Raster, Raster::ALL, Raster::name);
 named_choice!(LargeRaster, LargeRaster::ALL, LargeRaster::name);
 

@@ -30,7 +30,7 @@ use crate::bindings::{create_layout, Binding, Cond};
 use crate::error::GpuError;
 use crate::memory::MemoryReport;
 use crate::readback::{read_buffer, read_buffer_range};
-use crate::util::buffer_init;
+use crate::util::{buffer_init, check_storage_binding};
 
 /// The grid buffer's header: this frame's counters and the index buffer's length.
 ///
@@ -206,14 +206,7 @@ impl LightGrid {
         let max_binding = device.limits().max_storage_buffer_binding_size;
         let lists = tiles.tile_count() as u64 * lists_per_tile as u64;
         let grid_bytes = HEADER_BYTES + lists * 8;
-        if grid_bytes > max_binding {
-            return Err(GpuError::Limit {
-                what: format!("the light grid of {lists} lists"),
-                name: "max_storage_buffer_binding_size",
-                limit: max_binding,
-                asked: format!("{grid_bytes} bytes"),
-            });
-        }
+        check_storage_binding(&device.limits(), grid_bytes, || format!("the light grid of {lists} lists"))?;
         let max_capacity = (max_binding / 4).min(u32::MAX as u64) as u32;
         let capacity = match fixed_pairs {
             Some(0) => return Err(GpuError::Config("a fixed light-grid budget must hold at least one index".into())),

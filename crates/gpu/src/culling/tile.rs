@@ -21,7 +21,7 @@ use crate::light_buffers::LightBuffers;
 use crate::light_grid::LightGrid;
 use crate::memory::MemoryReport;
 use crate::timer::GpuTimer;
-use crate::util::{buffer_zeroed, compute_pipeline, keyed_module};
+use crate::util::{buffer_zeroed, check_storage_binding, compute_pipeline, keyed_module};
 use crate::variants::{CullCoarseKey, CullKey, CullTests, ShaderKey};
 use crate::view::Views;
 
@@ -105,14 +105,9 @@ impl CoarseCulling {
         // has only 8 storage buffers and the per-tile pass already uses up to 7.
         let n = cells.tile_count() as u64;
         let bytes = (n + n * capacity as u64) * 4;
-        if bytes > device.limits().max_storage_buffer_binding_size {
-            return Err(GpuError::Limit {
-                what: format!("the cell lists of two-level culling ({n} cells x {capacity} lights)"),
-                name: "max_storage_buffer_binding_size",
-                limit: device.limits().max_storage_buffer_binding_size,
-                asked: format!("{bytes} bytes"),
-            });
-        }
+        check_storage_binding(&device.limits(), bytes, || {
+            format!("the cell lists of two-level culling ({n} cells x {capacity} lights)")
+        })?;
         let lists = buffer_zeroed(device, "cull.cell_lists", bytes, usage);
         memory.add("cull.cell_lists", lists.size());
         let (msaa, samples) = options.depth_variant();
