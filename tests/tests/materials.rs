@@ -312,24 +312,47 @@ fn render_and_check(
     }
     eprintln!("{name}: brute force vs CPU, {} pixels, worst relative error {worst:.2e}", checked.len());
     assert!(checked.len() > (W * H / 8) as usize, "{name}: too few pixels checked ({})", checked.len());
-    let mut forward = FrameRenderer::new(ctx, &sg, &lb, W, H, fs(Method::ForwardPlus)).unwrap();
-    let forward = render_frame(ctx, &mut forward, &sg, &cam);
-    assert_matches_reference_frame(&format!("{name}-forward"), W, &brute, &forward, FORWARD_VS_REFERENCE);
-    let ds = FrameSettings { method: Method::TiledDeferred, ambient, ..Default::default() };
-    let mut dr = FrameRenderer::new(ctx, &sg, &lb, W, H, ds).unwrap();
-    let deferred = render_frame(ctx, &mut dr, &sg, &cam);
-    let reference = brute.clone().allow_gbuffer_normals(&depth, W, &cam, &lb.packed);
+    let (forward, deferred) = tiled_against_brute(name, (&sg, &lb, &cam), ambient, (&brute, &depth), false);
+    (Frames { brute, forward, deferred }, checked)
+}
+
+/// Forward+, Tiled Deferred and the visibility buffer (both rasters) against `brute` (brute
+/// force's frame, `depth` its depth) with the tolerances every material test uses; returns
+/// Forward+'s and Tiled Deferred's frames. Tiled Deferred's reference allows what the packed
+/// normal may move diffuse light ([`Frame::allow_gbuffer_normals`]) and, with `surface`,
+/// what the rounding of the whole surface the G-buffer holds may move every lobe
+/// (`surface_allowance`: normal, roughness and metallic, for scenes whose metallic values
+/// are not on the G-buffer's 1/15 grid).
+fn tiled_against_brute(
+    name: &str,
+    (sg, lb, cam): (&SceneGpu, &LightBuffers, &Camera),
+    ambient: Vec3,
+    (brute, depth): (&Frame, &[f32]),
+    surface: bool,
+) -> (Frame, Frame) {
+    let ctx = gpu();
+    let fs = |method| FrameSettings { method, ambient, ..Default::default() };
+    let mut forward = FrameRenderer::new(ctx, sg, lb, W, H, fs(Method::ForwardPlus)).unwrap();
+    let forward = render_frame(ctx, &mut forward, sg, cam);
+    assert_matches_reference_frame(&format!("{name}-forward"), W, brute, &forward, FORWARD_VS_REFERENCE);
+    let mut dr = FrameRenderer::new(ctx, sg, lb, W, H, fs(Method::TiledDeferred)).unwrap();
+    let deferred = render_frame(ctx, &mut dr, sg, cam);
+    let mut reference = brute.clone().allow_gbuffer_normals(depth, W, cam, &lb.packed);
+    if surface {
+        let gbuffer = tiledlight_tests::gbuffer::read_gbuffer(ctx, &dr, (W, H));
+        reference = reference
+            .with_allowance(&tiledlight_tests::gbuffer::surface_allowance(&gbuffer, depth, W, cam, &lb.packed));
+    }
     let small_emission = dr.passes::<DeferredFrame>().expect("Tiled Deferred").gbuffer().emission_format()
         == Some(EMISSION_FORMAT_SMALL);
     let tolerance = if small_emission { DEFERRED_SMALL_EMISSION_VS_REFERENCE } else { DEFERRED_VS_REFERENCE };
     assert_matches_reference_frame(&format!("{name}-deferred"), W, &reference, &deferred, tolerance);
-    let shifted = brute.clone().allow_position_error(&depth, W, (&cam, &lb.packed), RASTER_POSITION_ERROR_PX);
-    let vs = FrameSettings { method: Method::Visibility, ambient, ..Default::default() };
-    for (raster, visibility, ties) in visibility_frames(ctx, (&sg, &lb, &cam), (W, H), vs) {
+    let shifted = brute.clone().allow_position_error(depth, W, (cam, &lb.packed), RASTER_POSITION_ERROR_PX);
+    for (raster, visibility, ties) in visibility_frames(ctx, (sg, lb, cam), (W, H), fs(Method::Visibility)) {
         let reference = shifted.clone().forgive_hdr(&ties).0;
         assert_visibility_matches(&format!("{name}-visibility-{}", raster.name()), W, (&reference, &visibility), false);
     }
-    (Frames { brute, forward, deferred }, checked)
+    (forward, deferred)
 }
 
 /// Mean r + g + b of `frame`'s pixels among `checked` whose uv passes `pick`.
@@ -823,8 +846,8 @@ fn the_many_material_scene_agrees_with_brute_force() {
     let camera = scenes::courtyard_camera(&scene, W, H);
     let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     let lb = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 96, 16, 5)).unwrap();
-    let fs = |method| FrameSettings { method, ..Default::default() };
-    let mut bf = FrameRenderer::new(ctx, &sg, &lb, W, H, fs(Method::BruteForce { cutoff: true })).unwrap();
+    let bs = FrameSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() };
+    let mut bf = FrameRenderer::new(ctx, &sg, &lb, W, H, bs).unwrap();
     let brute = render_frame(ctx, &mut bf, &sg, &camera);
     let depth = bf.read_depth(ctx).unwrap();
     let covered = depth.iter().filter(|&&d| d > 0.0).count();
@@ -832,27 +855,7 @@ fn the_many_material_scene_agrees_with_brute_force() {
     let lit = brute.hdr.iter().filter(|p| p[0] + p[1] + p[2] > 1e-3).count();
     assert!(lit * 4 > covered, "the lights reach the boxes ({lit} of {covered} pixels lit)");
 
-    let mut fr = FrameRenderer::new(ctx, &sg, &lb, W, H, fs(Method::ForwardPlus)).unwrap();
-    let forward = render_frame(ctx, &mut fr, &sg, &camera);
-    assert_matches_reference_frame("materials-scene-forward", W, &brute, &forward, FORWARD_VS_REFERENCE);
-
-    let mut dr = FrameRenderer::new(ctx, &sg, &lb, W, H, fs(Method::TiledDeferred)).unwrap();
-    let deferred = render_frame(ctx, &mut dr, &sg, &camera);
     // The packed G-buffer rounds metallic to 1/15 steps, and this scene's metallic images
-    // are 8-bit: the reference carries, per pixel, what the rounding of the surface the
-    // G-buffer holds may move its lights (normal, roughness and metallic).
-    let gbuffer = tiledlight_tests::gbuffer::read_gbuffer(ctx, &dr, (W, H));
-    let allowance = tiledlight_tests::gbuffer::surface_allowance(&gbuffer, &depth, W, &camera, &lb.packed);
-    let reference = brute.clone().allow_gbuffer_normals(&depth, W, &camera, &lb.packed).with_allowance(&allowance);
-    let small_emission = dr.passes::<DeferredFrame>().expect("Tiled Deferred").gbuffer().emission_format()
-        == Some(EMISSION_FORMAT_SMALL);
-    let tolerance = if small_emission { DEFERRED_SMALL_EMISSION_VS_REFERENCE } else { DEFERRED_VS_REFERENCE };
-    assert_matches_reference_frame("materials-scene-deferred", W, &reference, &deferred, tolerance);
-
-    let shifted = brute.clone().allow_position_error(&depth, W, (&camera, &lb.packed), RASTER_POSITION_ERROR_PX);
-    for (raster, visibility, ties) in visibility_frames(ctx, (&sg, &lb, &camera), (W, H), fs(Method::Visibility)) {
-        let reference = shifted.clone().forgive_hdr(&ties).0;
-        let name = format!("materials-scene-visibility-{}", raster.name());
-        assert_visibility_matches(&name, W, (&reference, &visibility), false);
-    }
+    // are 8-bit: Tiled Deferred's reference carries the whole surface's rounding.
+    tiled_against_brute("materials-scene", (&sg, &lb, &camera), bs.ambient, (&brute, &depth), true);
 }
