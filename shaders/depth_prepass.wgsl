@@ -53,16 +53,16 @@ struct MaskedIn {
 #endif
 }
 
-// Texture coordinates at the centroid of the covered samples, as the shading and G-buffer
-// passes read them (common/scene.wgsl): with MSAA the pixel centre can lie outside a partly
-// covered triangle, and an alpha test there (extrapolated coordinates) decided the coverage
-// of the triangle's samples otherwise than Tiled Deferred's G-buffer pass did.
+// Texture coordinates at the pixel centre, as the shading and G-buffer passes read them
+// (common/scene.wgsl says why not at the centroid): the alpha test of a partly covered pixel
+// must decide the triangle's samples as Tiled Deferred's G-buffer pass decides them, so every
+// pass interpolates at the same point.
 struct MaskedOut {
     @invariant @builtin(position) clip: vec4<f32>,
-    @location(0) @interpolate(perspective, centroid) uv: vec2<f32>,
+    @location(0) uv: vec2<f32>,
     @location(1) @interpolate(flat) material: u32,
 #ifdef UV1
-    @location(2) @interpolate(perspective, centroid) uv1: vec2<f32>,
+    @location(2) uv1: vec2<f32>,
 #endif
 #ifdef IDS
     @location(3) @interpolate(flat) instance: u32,

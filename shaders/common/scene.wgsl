@@ -161,18 +161,24 @@ struct VertexIn {
 struct VertexOut {
     // Invariant: the shading pass tests depth Equal against the pre-pass.
     @invariant @builtin(position) clip: vec4<f32>,
-    // Centroid: with MSAA a pixel whose centre lies outside the triangle is shaded at a
-    // covered point, not extrapolated off the surface (no change without MSAA).
-    @location(0) @interpolate(perspective, centroid) world_pos: vec3<f32>,
-    @location(1) @interpolate(perspective, centroid) normal: vec3<f32>,
-    @location(2) @interpolate(perspective, centroid) uv: vec2<f32>,
+    // Every attribute at the pixel centre, also with MSAA, not at the centroid: where a
+    // centroid lies is the implementation's choice ("inside both the pixel and the
+    // primitive"), and lavapipe's is off the centre even in fully covered pixels (measured at
+    // 4x on the many-material scene: brute force moved from its 1x image at 2,675 pixels,
+    // the visibility buffer, shading at the centre, at none). Differencing centroids across
+    // a quad also bent the texture gradients along every edge. A partly covered pixel whose
+    // centre lies off the triangle is shaded with the triangle's attributes extrapolated to
+    // the centre, as hardware MSAA does by default (and TiledLighting11 with it).
+    @location(0) world_pos: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
     @location(3) @interpolate(flat) material: u32,
 #ifdef NORMAL_MAP
     // World-space tangent, bitangent sign in w (mirroring instances flip it).
-    @location(4) @interpolate(perspective, centroid) tangent: vec4<f32>,
+    @location(4) tangent: vec4<f32>,
 #endif
 #ifdef UV1
-    @location(5) @interpolate(perspective, centroid) uv1: vec2<f32>,
+    @location(5) uv1: vec2<f32>,
 #endif
 }
 

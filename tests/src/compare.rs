@@ -721,6 +721,59 @@ pub fn assert_same_hdr(a: &[[f32; 4]], b: &[[f32; 4]], w: u32, exact: bool, what
     }
 }
 
+/// The pixels of `mask` whose `actual` HDR value lies outside the range of `reference`'s
+/// values over the pixel's 3x3 neighbourhood (per channel, widened by `t`'s relative limit
+/// and floor): for pixels that the two sample differently by design (an MSAA edge pixel
+/// shaded per sample against hardware MSAA's one shading per triangle at the centre), each
+/// of the pixel's samples shades a point of one of the triangles the neighbourhood shows,
+/// so its average lies within what the neighbourhood's centres span unless the shading
+/// varies faster than a pixel (a light's core, a texel smaller than the gap). Returns the
+/// indices of the pixels outside.
+pub fn outside_neighbourhood(
+    w: u32,
+    reference: &[[f32; 4]],
+    actual: &[[f32; 4]],
+    mask: &[bool],
+    t: Tolerance,
+) -> Vec<usize> {
+    let h = (reference.len() / w as usize) as i64;
+    let w = w as i64;
+    let mut out = Vec::new();
+    for (i, _) in mask.iter().enumerate().filter(|(_, &m)| m) {
+        let (x, y) = (i as i64 % w, i as i64 / w);
+        let inside = (0..3).all(|c| {
+            let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+            for (dx, dy) in (-1..=1).flat_map(|dy| (-1..=1).map(move |dx| (dx, dy))) {
+                let (nx, ny) = (x + dx, y + dy);
+                if (0..w).contains(&nx) && (0..h).contains(&ny) {
+                    let v = reference[(ny * w + nx) as usize][c];
+                    lo = lo.min(v);
+                    hi = hi.max(v);
+                }
+            }
+            let a = actual[i][c];
+            let slack = |v: f32| v.abs().max(t.hdr_floor) * t.hdr_rel;
+            a >= lo - slack(lo) && a <= hi + slack(hi)
+        });
+        if !inside {
+            out.push(i);
+        }
+    }
+    out
+}
+
+impl Frame {
+    /// This frame with the tonemapped pixels of `mask` taken from `other`: FLIP then sees
+    /// only the other pixels (for pixels compared by another rule, the caller says which).
+    pub fn with_ldr_from(mut self, mask: &[bool], other: &Frame) -> Self {
+        assert_eq!(mask.len() * 4, self.ldr.len(), "with_ldr_from: one flag a pixel");
+        for (i, _) in mask.iter().enumerate().filter(|(_, &m)| m) {
+            self.ldr[4 * i..4 * i + 4].copy_from_slice(&other.ldr[4 * i..4 * i + 4]);
+        }
+        self
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -776,6 +829,30 @@ mod tests {
         }
         let r = std::panic::catch_unwind(|| assert_matches_reference_msaa("many", w, &reference, &many, t));
         assert!(r.is_err(), "16 pixels of 10,000 beyond the limit must fail");
+    }
+
+    /// A pixel between its neighbours' values passes; one above their maximum or below their
+    /// minimum by more than the limit, or a NaN, is reported; pixels outside the mask never.
+    #[test]
+    fn neighbourhood_bound_rejects_a_value_outside_the_range() {
+        let t = VISIBILITY_VS_REFERENCE;
+        let mut reference = vec![[0.5f32, 0.5, 0.5, 1.0]; 9];
+        reference[0] = [0.2, 0.9, 0.5, 1.0];
+        let mut actual = reference.clone();
+        let mask = [false, false, false, false, true, false, false, false, false];
+        actual[4] = [0.3, 0.8, 0.5, 1.0];
+        assert!(outside_neighbourhood(3, &reference, &actual, &mask, t).is_empty());
+        actual[4] = [0.5, 0.9 * 1.02, 0.5, 1.0];
+        assert_eq!(outside_neighbourhood(3, &reference, &actual, &mask, t), vec![4]);
+        actual[4] = [0.2 * 0.98, 0.5, 0.5, 1.0];
+        assert_eq!(outside_neighbourhood(3, &reference, &actual, &mask, t), vec![4]);
+        actual[4] = [f32::NAN, 0.5, 0.5, 1.0];
+        assert_eq!(outside_neighbourhood(3, &reference, &actual, &mask, t), vec![4]);
+        actual[4] = [0.5; 4];
+        actual[8] = [9.0; 4];
+        assert!(outside_neighbourhood(3, &reference, &actual, &mask, t).is_empty());
+        let f = |v: u8| Frame { hdr: vec![[0.0; 4]; 2], ldr: vec![v; 8], allowance: Vec::new() };
+        assert_eq!(f(1).with_ldr_from(&[false, true], &f(2)).ldr, [1, 1, 1, 1, 2, 2, 2, 2]);
     }
 
     /// A plane's 4x samples pass; one sample moved off it by 0.1% (a crease, a second
