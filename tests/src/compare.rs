@@ -762,6 +762,28 @@ pub fn outside_neighbourhood(
     out
 }
 
+/// For a scene whose MSAA edge pixels lie on high-contrast textures: the pixels of `mask`
+/// (sampled otherwise than hardware MSAA by design) must lie within their reference
+/// neighbourhood's range ([`outside_neighbourhood`] with `t`) but for 1% of them, where a
+/// sample reads a texel or a light gradient that no neighbouring centre shows (measured on
+/// the many-material scene at 4x: the visibility buffer 25 of 3,627, Tiled Deferred 24 of 3,136).
+/// Returns `actual` with those pixels' tonemapped values taken from `reference`, so that
+/// FLIP compares the others: per-sample shading reads the texture at each sample and
+/// hardware MSAA once per triangle at the centre, which FLIP sees (the visibility buffer:
+/// FLIP mean 0.0033 over the whole image, 0.0008 without these pixels).
+pub fn bound_by_design(name: &str, w: u32, (reference, actual): (&Frame, Frame), mask: &[bool], t: Tolerance) -> Frame {
+    let outside = outside_neighbourhood(w, &reference.hdr, &actual.hdr, mask, t);
+    let designed = mask.iter().filter(|&&m| m).count();
+    eprintln!("{name}: {} of {designed} pixels sampled by design outside their neighbourhood", outside.len());
+    assert!(
+        outside.len() * 100 <= designed,
+        "{name}: {} of {designed} pixels sampled by design lie outside their neighbourhood's range, first at {:?}",
+        outside.len(),
+        outside.first().map(|i| (i % w as usize, i / w as usize))
+    );
+    actual.with_ldr_from(mask, reference)
+}
+
 impl Frame {
     /// This frame with the tonemapped pixels of `mask` taken from `other`: FLIP then sees
     /// only the other pixels (for pixels compared by another rule, the caller says which).
@@ -853,6 +875,15 @@ mod tests {
         assert!(outside_neighbourhood(3, &reference, &actual, &mask, t).is_empty());
         let f = |v: u8| Frame { hdr: vec![[0.0; 4]; 2], ldr: vec![v; 8], allowance: Vec::new() };
         assert_eq!(f(1).with_ldr_from(&[false, true], &f(2)).ldr, [1, 1, 1, 1, 2, 2, 2, 2]);
+        // bound_by_design: one pixel of 100 outside passes, two fail.
+        let (w, n) = (10u32, 100usize);
+        let reference = Frame { hdr: vec![[0.5; 4]; n], ldr: vec![128; 4 * n], allowance: Vec::new() };
+        let mask = vec![true; n];
+        let mut one = reference.clone();
+        one.hdr[55] = [0.9; 4];
+        bound_by_design("one", w, (&reference, one.clone()), &mask, t);
+        one.hdr[22] = [0.1; 4];
+        assert!(std::panic::catch_unwind(|| bound_by_design("two", w, (&reference, one), &mask, t)).is_err());
     }
 
     /// A plane's 4x samples pass; one sample moved off it by 0.1% (a crease, a second
