@@ -29,7 +29,7 @@ use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::{GpuContext, GpuError};
 
 use crate::handles::Rec;
-use crate::method::MethodFrame;
+use crate::method::{MethodFrame, Registration};
 use crate::settings::FrameSettings;
 use crate::shared::{SharedSteps, TargetNeeds};
 use tiledlight_gpu::handles::{Depth, Lists};
@@ -44,6 +44,32 @@ pub fn targets(_: &Features) -> TargetNeeds {
         depth: None,
     }
 }
+
+/// Forward+: depth pre-pass, culling, the VPLs' culling (with VPLs), forward shading.
+pub const FORWARD_PLUS: Registration = Registration {
+    renders: |m| m == Method::ForwardPlus,
+    building: "building the Forward+ renderer",
+    steps: |f| {
+        let mut steps = vec![Step::DepthPrepass, Step::Cull];
+        if f.vpl {
+            steps.push(Step::VplCull);
+        }
+        steps.push(Step::ForwardShade);
+        steps
+    },
+    targets,
+    build: |c, sh, sl, st, m| Ok(Box::new(ForwardFrame::new(c, sh, sl, st, m)?)),
+};
+
+/// The brute-force reference (with or without the cutoff): depth pre-pass, every light for
+/// every pixel. Forward+'s frame without its culling.
+pub const BRUTE_FORCE: Registration = Registration {
+    renders: |m| matches!(m, Method::BruteForce { .. }),
+    building: "building the brute-force reference",
+    steps: |_| vec![Step::DepthPrepass, Step::BruteForceShade],
+    targets,
+    build: FORWARD_PLUS.build,
+};
 
 /// Forward+'s (or brute force's) passes.
 pub struct ForwardFrame {

@@ -19,7 +19,8 @@
 //! ```
 //!
 //! The order is the frame plan's ([`plan`]): every build checks every frame
-//! against it. Depends on tiledlight-gpu, tiledlight-vpl, tiledlight-forward,
+//! against it. Each method is registered once ([`method::METHODS`]): the plan and the
+//! renderer read its registration. Depends on tiledlight-gpu, tiledlight-vpl, tiledlight-forward,
 //! tiledlight-deferred and tiledlight-visibility (their passes); nothing below depends on it.
 
 pub mod caster_rank;

@@ -17,11 +17,14 @@
 //! tail     tonemap, heat map (tiled methods; drawn when switched on)
 //! ```
 //!
-//! A new pass touches its own Rust file, its WGSL, one line here and, when the scene
+//! A method's own steps come from its registration ([`crate::method::Registration`]);
+//! a new shared pass touches its own Rust file, its WGSL, one line here and, when the scene
 //! decides whether it exists, one field of [`Features`]. Depends on tiledlight-gpu's
 //! `features` (the method and the features); lives with the frame that records it.
 
-use tiledlight_gpu::features::{Features, Method};
+use tiledlight_gpu::features::Features;
+#[cfg(test)]
+use tiledlight_gpu::features::Method;
 
 /// One step of a frame. Each names the pass struct that records it and its timer label.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -94,48 +97,8 @@ impl FramePlan {
         if features.vpl {
             steps.push(Step::Vpl);
         }
-        // Head: what writes depth.
-        match features.method {
-            Method::TiledDeferred => steps.push(Step::GBuffer),
-            Method::Visibility | Method::TracedReference { .. } => steps.push(Step::VisibilityRaster),
-            Method::ForwardPlus | Method::BruteForce { .. } => steps.push(Step::DepthPrepass),
-        }
-        // Culling and the method's middle.
-        match features.method {
-            Method::ForwardPlus => {
-                steps.push(Step::Cull);
-                if features.vpl {
-                    steps.push(Step::VplCull);
-                }
-                steps.push(Step::ForwardShade);
-            }
-            Method::BruteForce { .. } => steps.push(Step::BruteForceShade),
-            Method::TiledDeferred => {
-                if features.vpl {
-                    steps.push(Step::VplCull);
-                }
-                steps.push(Step::DeferredShade);
-                if features.msaa > 1 {
-                    steps.push(Step::DeferredResolve);
-                }
-            }
-            Method::TracedReference { .. } => {
-                steps.push(Step::TracedShade);
-                if features.msaa > 1 {
-                    steps.push(Step::VisibilityResolve);
-                }
-            }
-            Method::Visibility => {
-                steps.push(Step::Cull);
-                if features.vpl {
-                    steps.push(Step::VplCull);
-                }
-                steps.push(Step::VisibilityShade);
-                if features.msaa > 1 {
-                    steps.push(Step::VisibilityResolve);
-                }
-            }
-        }
+        // The method's steps: what writes depth, its culling, its shading (its registration).
+        steps.extend((crate::method::registration(features.method).steps)(features));
         // Blended geometry, over the opaque image, both methods alike.
         // Frustum clusters already list every light a blended surface can see.
         if features.blended() {

@@ -27,7 +27,6 @@ use crate::handles::Rec;
 use crate::method::MethodFrame;
 use crate::settings::{FrameSettings, TestHooks};
 use crate::shared::{SharedSteps, Vpls};
-use crate::{forward_plus, tiled_deferred, visibility};
 use tiledlight_gpu::targets::target_handles;
 
 /// What a renderer's last frame left to read, by name.
@@ -153,36 +152,9 @@ impl FrameRenderer {
                 return Err(GpuError::Config("the heat map needs a tiled method (brute force has no tiles)".into()));
             }
         }
-        // The one place a method is chosen: its target needs and its frame.
-        type Build = fn(
-            &GpuContext,
-            &SharedSteps,
-            (&SceneGpu, &LightBuffers),
-            &FrameSettings,
-            &mut MemoryReport,
-        ) -> Result<Box<dyn MethodFrame>, GpuError>;
-        let (needs, build, what): (_, Build, _) = match s.method {
-            Method::ForwardPlus | Method::BruteForce { .. } => (
-                forward_plus::targets(&features),
-                |c, sh, sl, st, m| Ok(Box::new(forward_plus::ForwardFrame::new(c, sh, sl, st, m)?)),
-                "building the Forward+ renderer",
-            ),
-            Method::TiledDeferred => (
-                tiled_deferred::targets(&features),
-                |c, sh, sl, st, m| Ok(Box::new(tiled_deferred::DeferredFrame::new(c, sh, sl, st, m)?)),
-                "building the Tiled Deferred renderer",
-            ),
-            Method::Visibility => (
-                visibility::targets(&features, s.knobs.raster),
-                |c, sh, sl, st, m| Ok(Box::new(visibility::VisibilityFrame::new(c, sh, sl, st, m)?)),
-                "building the visibility-buffer renderer",
-            ),
-            Method::TracedReference { .. } => (
-                visibility::targets(&features, s.knobs.raster),
-                |c, sh, sl, st, m| Ok(Box::new(visibility::VisibilityFrame::new(c, sh, sl, st, m)?)),
-                "building the traced reference",
-            ),
-        };
+        // The method's registration: its target needs and its frame.
+        let method = crate::method::registration(s.method);
+        let (needs, build, what) = (((method.targets)(&features)), method.build, method.building);
         let mut shared = SharedSteps::new(ctx, scene, lights, features, (s, (width, height)), needs)?;
         shared.hooks = hooks;
         let method = ctx.checked(what, || {

@@ -20,7 +20,7 @@ use tiledlight_deferred::gbuffer::{emission_format, GBuffer, GBufferPass, EXTRA_
 use tiledlight_deferred::shading::DeferredShading;
 use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
 use tiledlight_gpu::edge_samples::EdgeTest;
-use tiledlight_gpu::features::Features;
+use tiledlight_gpu::features::{Features, Method};
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::memory::MemoryReport;
@@ -29,7 +29,7 @@ use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::{GpuContext, GpuError};
 
 use crate::handles::Rec;
-use crate::method::MethodFrame;
+use crate::method::{MethodFrame, Registration};
 use crate::settings::FrameSettings;
 use crate::shared::{SharedSteps, TargetNeeds};
 use tiledlight_gpu::handles::{Depth, Lists};
@@ -50,6 +50,26 @@ pub fn targets(features: &Features) -> TargetNeeds {
     }
     TargetNeeds { prefix: "deferred", msaa_formats, hdr_usage, depth: None }
 }
+
+/// Tiled Deferred: G-buffer, the VPLs' culling (with VPLs), culling and shading in one
+/// pass, the MSAA resolve (with MSAA).
+pub const REGISTRATION: Registration = Registration {
+    renders: |m| m == Method::TiledDeferred,
+    building: "building the Tiled Deferred renderer",
+    steps: |f| {
+        let mut steps = vec![Step::GBuffer];
+        if f.vpl {
+            steps.push(Step::VplCull);
+        }
+        steps.push(Step::DeferredShade);
+        if f.msaa > 1 {
+            steps.push(Step::DeferredResolve);
+        }
+        steps
+    },
+    targets,
+    build: |c, sh, sl, st, m| Ok(Box::new(DeferredFrame::new(c, sh, sl, st, m)?)),
+};
 
 /// Tiled Deferred's passes and G-buffer.
 pub struct DeferredFrame {

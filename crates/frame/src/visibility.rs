@@ -30,7 +30,6 @@ use crate::plan::Step;
 use tiledlight_gpu::culling::LightCulling;
 use tiledlight_gpu::depth_prepass::{DEPTH_FORMAT, ID_FORMAT};
 use tiledlight_gpu::edge_samples::EdgeTest;
-use tiledlight_gpu::features::Raster;
 use tiledlight_gpu::features::{Features, Method};
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::LightGrid;
@@ -43,7 +42,7 @@ use tiledlight_visibility::raster::{depth_target, VisibilityRaster};
 use tiledlight_visibility::shading::{ShadeLights, VisibilityShading};
 
 use crate::handles::Rec;
-use crate::method::MethodFrame;
+use crate::method::{MethodFrame, Registration};
 use crate::settings::FrameSettings;
 use crate::shared::{SharedSteps, TargetNeeds};
 use tiledlight_gpu::handles::{Depth, Lists};
@@ -53,7 +52,8 @@ use tiledlight_gpu::targets::target_handles;
 /// image written by compute (and, with blended geometry, composited onto by a render pass);
 /// with the compute raster (`raster`) an `R32Float` depth it writes from compute, unless
 /// blended passes need the depth attachment.
-pub fn targets(features: &Features, raster: Raster) -> TargetNeeds {
+pub fn targets(features: &Features) -> TargetNeeds {
+    let raster = features.knobs.raster;
     let mut msaa_formats = vec![DEPTH_FORMAT, ID_FORMAT];
     let mut hdr_usage = wgpu::TextureUsages::STORAGE_BINDING;
     if features.blended() {
@@ -62,6 +62,42 @@ pub fn targets(features: &Features, raster: Raster) -> TargetNeeds {
     }
     TargetNeeds { prefix: "visibility", msaa_formats, hdr_usage, depth: depth_target(raster, features.blended()) }
 }
+
+/// The visibility buffer: its raster, culling, the VPLs' culling (with VPLs), shading, the
+/// MSAA resolve (with MSAA).
+pub const REGISTRATION: Registration = Registration {
+    renders: |m| m == Method::Visibility,
+    building: "building the visibility-buffer renderer",
+    steps: |f| {
+        let mut steps = vec![Step::VisibilityRaster, Step::Cull];
+        if f.vpl {
+            steps.push(Step::VplCull);
+        }
+        steps.push(Step::VisibilityShade);
+        if f.msaa > 1 {
+            steps.push(Step::VisibilityResolve);
+        }
+        steps
+    },
+    targets,
+    build: |c, sh, sl, st, m| Ok(Box::new(VisibilityFrame::new(c, sh, sl, st, m)?)),
+};
+
+/// The traced reference (with or without the cutoff): the visibility buffer's raster, every
+/// light with a shadow ray each, the MSAA resolve (with MSAA). No culling.
+pub const TRACED: Registration = Registration {
+    renders: Method::is_traced,
+    building: "building the traced reference",
+    steps: |f| {
+        let mut steps = vec![Step::VisibilityRaster, Step::TracedShade];
+        if f.msaa > 1 {
+            steps.push(Step::VisibilityResolve);
+        }
+        steps
+    },
+    targets,
+    build: REGISTRATION.build,
+};
 
 /// The visibility buffer's passes (or the traced reference's).
 pub struct VisibilityFrame {

@@ -51,7 +51,7 @@ use crate::bindings::{create_layout, Binding, Cond, PassBindings, PassGroup};
 use crate::culling::{CullOptions, LightCulling};
 use crate::depth_prepass::{DepthPrepass, DepthTarget, DEPTH_FORMAT};
 use crate::error::GpuError;
-use crate::features::{BlendMode, Features, Method};
+use crate::features::{BlendMode, Features};
 use crate::light_buffers::LightBuffers;
 use crate::light_grid::{GridStatus, LightGrid};
 use crate::lights_group::{LightsGroup, LIGHTS_GROUP};
@@ -238,22 +238,21 @@ impl BlendedPath {
                 Some(BlendedDepth { texture, view, pass })
             }
         };
-        let culling = match (features.method, &depth) {
-            (Method::BruteForce { .. } | Method::TracedReference { .. }, _) | (_, None) => None,
-            (_, Some(d)) => {
+        let culling = match &depth {
+            Some(d) if features.method.is_tiled() => {
                 Some(LightCulling::blended(device, views, (opaque_depth.view, &d.view), lights, grid, options)?)
             }
+            _ => None,
         };
         // Shading pipelines.
         let wboit = features.blend_mode == BlendMode::WeightedOit;
-        let lights_key = match (features.method, frame_grid) {
-            (Method::BruteForce { cutoff }, _) => LightLoopKey::Every { cutoff },
-            // The traced reference's blended surfaces: every light, with its cutoff or
-            // none, unshadowed (its rays are traced for the opaque surface only;
-            // docs/ACCURACY.md).
-            (Method::TracedReference { cutoff }, _) => LightLoopKey::Every { cutoff },
-            (_, Some(_)) => LightLoopKey::Clusters,
-            (_, None) => LightLoopKey::TileLists { half_z: false },
+        let lights_key = match (features.method.is_reference(), frame_grid) {
+            // The references' blended surfaces: every light, with the cutoff or none (the
+            // traced reference's unshadowed: its rays are traced for the opaque surface
+            // only; docs/ACCURACY.md).
+            (true, _) => LightLoopKey::Every { cutoff: features.method.has_cutoff() },
+            (false, Some(_)) => LightLoopKey::Clusters,
+            (false, None) => LightLoopKey::TileLists { half_z: false },
         };
         let key = BlendedKey {
             spots: features.spot_lights,

@@ -69,6 +69,12 @@ impl Method {
         !self.is_tiled()
     }
 
+    /// False for the references without the radius window (plain inverse-square): every
+    /// other method's lights end at their radius.
+    pub fn has_cutoff(self) -> bool {
+        !matches!(self, Method::BruteForce { cutoff: false } | Method::TracedReference { cutoff: false })
+    }
+
     /// The flag value, for the command line, reports and JSON.
     pub fn name(self) -> &'static str {
         match self {
@@ -235,5 +241,21 @@ impl LargeRaster {
             LargeRaster::Compute => "compute",
             LargeRaster::Hardware => "hardware",
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Only the two references named "no cutoff" drop the radius window; every name parses
+    /// back to its method.
+    #[test]
+    fn the_cutoff_and_the_names_of_every_method() {
+        for m in Method::ALL {
+            assert_eq!(m.has_cutoff(), !m.name().ends_with("no-cutoff") && m != Method::TRUTH, "{m:?}");
+            assert_eq!(Method::from_name(m.name()), Ok(m));
+        }
+        assert!(Method::from_name("nope").unwrap_err().contains("forward-plus"));
     }
 }

@@ -250,11 +250,7 @@ impl ShadowAtlas {
             depth,
             clear,
             bounds: scene.instance_bounds.clone(),
-            radius_cull: !matches!(
-                features.method,
-                crate::features::Method::BruteForce { cutoff: false }
-                    | crate::features::Method::TracedReference { cutoff: false }
-            ),
+            radius_cull: features.method.has_cutoff(),
             first_slot,
             state: Mutex::new(state),
             memory,
