@@ -19,7 +19,7 @@
 //! ```
 //!
 //! The order is the frame plan's ([`plan`]): every build checks every frame
-//! against it. Each method is registered once ([`method::METHODS`]): the plan and the
+//! against it. Each method is registered once ([`registry::METHODS`]): the plan and the
 //! renderer read its registration. Depends on tiledlight-gpu, tiledlight-vpl, tiledlight-forward,
 //! tiledlight-deferred and tiledlight-visibility (their passes); nothing below depends on it.
 
@@ -29,6 +29,7 @@ pub mod forward_plus;
 pub mod handles;
 pub mod method;
 pub mod plan;
+pub mod registry;
 pub mod renderer;
 pub mod settings;
 pub mod shared;

@@ -1,13 +1,9 @@
 //! What a method contributes to a frame ([`MethodFrame`]): its middle steps, recorded
 //! between the shared ones with the handles they read, and the light grid it makes; and
-//! every method registered once ([`Registration`], [`METHODS`]): which methods a frame
-//! renders, the steps it records, the display targets it needs and its constructor. The
-//! plan ([`crate::plan::FramePlan`]) and the renderer ([`crate::FrameRenderer::new`]) read
-//! the registration and match on no method. Adding a method: its crate or module with its
-//! passes and WGSL, one file here with its frame (a `MethodFrame`, its target needs, its
-//! steps and its `REGISTRATION`), one line in [`METHODS`], and its variant of
-//! [`Method`] (name, label, summary). Depends on [`crate::handles`], [`crate::shared`] and
-//! [`crate::plan`] (the steps).
+//! what a method registers ([`Registration`]): which methods a frame renders, the steps it
+//! records, the display targets it needs and its constructor (the list of registrations is
+//! [`crate::registry`]). Depends on [`crate::handles`], [`crate::shared`],
+//! [`crate::settings`] and [`crate::plan`] (the steps).
 
 use std::any::Any;
 
@@ -71,36 +67,4 @@ pub struct Registration {
     pub targets: fn(&Features) -> TargetNeeds,
     /// Its constructor.
     pub build: Build,
-}
-
-/// Every method, registered once (each of [`Method::ALL`] by exactly one).
-pub const METHODS: [&Registration; 5] = [
-    &crate::forward_plus::FORWARD_PLUS,
-    &crate::forward_plus::BRUTE_FORCE,
-    &crate::tiled_deferred::REGISTRATION,
-    &crate::visibility::REGISTRATION,
-    &crate::visibility::TRACED,
-];
-
-/// The registration of `method`.
-pub fn registration(method: Method) -> &'static Registration {
-    METHODS.into_iter().find(|r| (r.renders)(method)).unwrap_or_else(|| panic!("{method:?} is not registered"))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Each method is rendered by exactly one registration, and each registration renders
-    /// some method.
-    #[test]
-    fn every_method_is_registered_once() {
-        for m in Method::ALL {
-            let n = METHODS.iter().filter(|r| (r.renders)(m)).count();
-            assert_eq!(n, 1, "{m:?}: {n} registrations");
-        }
-        for r in METHODS {
-            assert!(Method::ALL.into_iter().any(|m| (r.renders)(m)), "{} renders no method", r.building);
-        }
-    }
 }

@@ -17,14 +17,13 @@
 //! tail     tonemap, heat map (tiled methods; drawn when switched on)
 //! ```
 //!
-//! A method's own steps come from its registration ([`crate::method::Registration`]);
+//! A method's own steps come from its registration ([`crate::method::Registration`], given
+//! by [`crate::registry::plan`]);
 //! a new shared pass touches its own Rust file, its WGSL, one line here and, when the scene
 //! decides whether it exists, one field of [`Features`]. Depends on tiledlight-gpu's
 //! `features` (the method and the features); lives with the frame that records it.
 
 use tiledlight_gpu::features::Features;
-#[cfg(test)]
-use tiledlight_gpu::features::Method;
 
 /// One step of a frame. Each names the pass struct that records it and its timer label.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -86,8 +85,9 @@ pub struct FramePlan {
 }
 
 impl FramePlan {
-    /// The frame of `features`: the whole frame of both methods reads here.
-    pub fn new(features: &Features) -> Self {
+    /// The frame of `features` around `method_steps`, the steps of its method's
+    /// registration (`crate::registry::plan` passes them): the whole frame reads here.
+    pub fn new(features: &Features, method_steps: &[Step]) -> Self {
         let mut steps = Vec::new();
         // Shadow maps first: every method's shading reads them.
         if features.shadows.is_some() {
@@ -97,8 +97,8 @@ impl FramePlan {
         if features.vpl {
             steps.push(Step::Vpl);
         }
-        // The method's steps: what writes depth, its culling, its shading (its registration).
-        steps.extend((crate::method::registration(features.method).steps)(features));
+        // The method's steps: what writes depth, its culling, its shading.
+        steps.extend_from_slice(method_steps);
         // Blended geometry, over the opaque image, both methods alike.
         // Frustum clusters already list every light a blended surface can see.
         if features.blended() {
@@ -126,106 +126,5 @@ impl FramePlan {
     /// True when the frame has `step`.
     pub fn has(&self, step: Step) -> bool {
         self.steps.contains(&step)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use tiledlight_gpu::scene_gpu::DrawKind;
-
-    fn features(method: Method, msaa: u32) -> Features {
-        Features {
-            method,
-            spot_lights: false,
-            spot_cone: false,
-            textures: false,
-            materials: Default::default(),
-            draw_kinds: vec![DrawKind { masked: false, double_sided: false, blended: false }],
-            msaa,
-            half_z: false,
-            coarse: true,
-            aabb: false,
-            extra_targets: 0,
-            blended_kinds: vec![],
-            frustum_clusters: false,
-            blend_mode: Default::default(),
-            shadows: None,
-            vpl: false,
-            knobs: Default::default(),
-        }
-    }
-
-    #[test]
-    fn the_early_outs_ablation_is_one_pipeline_constant() {
-        let mut f = features(Method::ForwardPlus, 1);
-        assert!(f.light_constants().is_empty(), "the default passes no constant: the shaders' default holds");
-        f.knobs.early_outs = false;
-        assert_eq!(f.light_constants(), [("EARLY_OUTS", 0.0)]);
-    }
-
-    #[test]
-    fn each_method_has_its_passes_and_the_shared_tail() {
-        use Step::*;
-        let plan = |m, s| FramePlan::new(&features(m, s)).steps().to_vec();
-        assert_eq!(plan(Method::ForwardPlus, 1), [DepthPrepass, Cull, ForwardShade, Tonemap, Heatmap]);
-        assert_eq!(plan(Method::BruteForce { cutoff: true }, 4), [DepthPrepass, BruteForceShade, Tonemap]);
-        assert_eq!(plan(Method::TiledDeferred, 1), [GBuffer, DeferredShade, Tonemap, Heatmap]);
-        assert_eq!(plan(Method::TRUTH, 1), [VisibilityRaster, TracedShade, Tonemap]);
-        assert_eq!(plan(Method::TRUTH, 4), [VisibilityRaster, TracedShade, VisibilityResolve, Tonemap]);
-        assert_eq!(plan(Method::TiledDeferred, 4), [GBuffer, DeferredShade, DeferredResolve, Tonemap, Heatmap]);
-    }
-
-    #[test]
-    fn blended_geometry_adds_its_passes_to_both_methods() {
-        use Step::*;
-        let blended = |m| {
-            let mut f = features(m, 1);
-            f.blended_kinds = vec![DrawKind { masked: false, double_sided: true, blended: true }];
-            FramePlan::new(&f).steps().to_vec()
-        };
-        assert_eq!(
-            blended(Method::ForwardPlus),
-            [DepthPrepass, Cull, ForwardShade, BlendedDepth, BlendedCull, BlendedShade, Tonemap, Heatmap]
-        );
-        assert_eq!(
-            blended(Method::TiledDeferred),
-            [GBuffer, DeferredShade, BlendedDepth, BlendedCull, BlendedShade, Tonemap, Heatmap]
-        );
-        assert_eq!(
-            blended(Method::BruteForce { cutoff: true }),
-            [DepthPrepass, BruteForceShade, BlendedDepth, BlendedShade, Tonemap]
-        );
-        // Frustum clusters serve blended geometry: no blended depth or lists.
-        let mut f = features(Method::ForwardPlus, 1);
-        f.blended_kinds = vec![DrawKind { masked: false, double_sided: true, blended: true }];
-        f.frustum_clusters = true;
-        assert_eq!(FramePlan::new(&f).steps(), [DepthPrepass, Cull, ForwardShade, BlendedShade, Tonemap, Heatmap]);
-        assert!(!FramePlan::new(&features(Method::ForwardPlus, 1)).has(BlendedDepth));
-    }
-
-    #[test]
-    fn vpls_follow_the_shadow_maps_and_exist_only_when_asked_for() {
-        use Step::*;
-        let mut f = features(Method::BruteForce { cutoff: true }, 1);
-        f.shadows = Some(tiledlight_gpu::features::Shadows { points: 0, spots: 1, options: Default::default() });
-        assert!(!FramePlan::new(&f).has(Vpl), "no --vpl, no VPL step");
-        f.vpl = true;
-        assert_eq!(FramePlan::new(&f).steps(), [ShadowMaps, Vpl, DepthPrepass, BruteForceShade, Tonemap]);
-        f.method = Method::ForwardPlus;
-        assert_eq!(
-            FramePlan::new(&f).steps(),
-            [ShadowMaps, Vpl, DepthPrepass, Cull, VplCull, ForwardShade, Tonemap, Heatmap]
-        );
-        f.method = Method::TiledDeferred;
-        assert_eq!(FramePlan::new(&f).steps(), [ShadowMaps, Vpl, GBuffer, VplCull, DeferredShade, Tonemap, Heatmap]);
-    }
-
-    #[test]
-    fn no_feature_no_pass() {
-        // Without MSAA there is no resolve; without tiles no culling and no heat map.
-        assert!(!FramePlan::new(&features(Method::TiledDeferred, 1)).has(Step::DeferredResolve));
-        let bf = FramePlan::new(&features(Method::BruteForce { cutoff: false }, 1));
-        assert!(!bf.has(Step::Cull) && !bf.has(Step::Heatmap));
     }
 }

@@ -152,10 +152,11 @@ impl FrameRenderer {
                 return Err(GpuError::Config("the heat map needs a tiled method (brute force has no tiles)".into()));
             }
         }
-        // The method's registration: its target needs and its frame.
-        let method = crate::method::registration(s.method);
-        let (needs, build, what) = (((method.targets)(&features)), method.build, method.building);
-        let mut shared = SharedSteps::new(ctx, scene, lights, features, (s, (width, height)), needs)?;
+        // The method's registration: its target needs, its steps and its frame.
+        let method = crate::registry::registration(s.method);
+        let (needs, build, what) = ((method.targets)(&features), method.build, method.building);
+        let plan = crate::registry::plan(&features);
+        let mut shared = SharedSteps::new(ctx, scene, lights, features, (s, (width, height)), (needs, plan))?;
         shared.hooks = hooks;
         let method = ctx.checked(what, || {
             shared.build_vpls(ctx, scene, lights, s)?;

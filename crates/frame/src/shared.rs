@@ -101,7 +101,7 @@ impl SharedSteps {
         lights: &LightBuffers,
         features: Features,
         (settings, size): (&FrameSettings, (u32, u32)),
-        needs: TargetNeeds,
+        (needs, plan): (TargetNeeds, FramePlan),
     ) -> Result<Self, GpuError> {
         let device = &ctx.device;
         check_msaa(ctx, features.msaa, &needs.msaa_formats)?;
@@ -161,7 +161,6 @@ impl SharedSteps {
         if let Some(a) = &shadows {
             memory.extend(&a.memory);
         }
-        let plan = FramePlan::new(&features);
         Ok(Self {
             features,
             plan,
