@@ -45,6 +45,9 @@ configs=(
   "vb-materials|--scene materials --materials 16 --lights 256 --method visibility"
   "td-materials|--scene materials --materials 16 --lights 256 --method deferred"
   "traced|--lights 64 --method traced-reference"
+  "bf-blended|--lights 256 --grid-objects 40 --transparent-objects 10 --method brute-force"
+  "bfnc-shadows|--lights 64 --spot-lights 8 --shadow-point-lights 2 --shadow-spot-lights 2 --method brute-force-no-cutoff"
+  "traced-cutoff-blended|--lights 32 --grid-objects 40 --transparent-objects 10 --method traced-reference-cutoff"
 )
 differ=0
 for c in "${configs[@]}"; do
