@@ -11,7 +11,12 @@
 #endif
 
 fn shade_light(i: u32, p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, s: Surface) -> vec3<f32> {
-    let light = shading_lights[i];
+    return shade_light_record(i, shading_lights[i], p, n, v, s);
+}
+
+// Light `i`, whose shading record `light` the caller has read (from `shading_lights`, or a
+// copy the workgroup staged: common/assigned_shade.wgsl).
+fn shade_light_record(i: u32, light: ShadingLight, p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, s: Surface) -> vec3<f32> {
     let to_light = light.position - p;
     let d2 = dot(to_light, to_light);
 #ifdef NO_CUTOFF
