@@ -585,6 +585,14 @@ mod tests {
         let help = cmd.clone().render_long_help().to_string();
         for row in KNOBS {
             assert!(help.contains(&format!("--{}", row.flag())), "{}", row.name);
+            // Every switch's flag flips exactly its own row (a command line that names a
+            // row's flag sets that row: the app's and the lab's tests need not list rows).
+            if row.kind == Kind::Switch {
+                let flag = format!("--{}", row.flag());
+                let k = parse(&[flag.as_str()]).unwrap();
+                let changed: Vec<&str> = Knobs::default().changed(&k).iter().map(|r| r.name).collect();
+                assert_eq!(changed, [row.name], "{flag}");
+            }
         }
     }
 
