@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced casters casters-curve ranking materials surface-edges big-scene
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced casters casters-curve ranking materials surface-edges stage-lights big-scene
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -329,6 +329,23 @@ for set in $sets; do
       run "big-visibility-$r" 10 --scene .device/plates.gltf --lights 1024 --method visibility --raster $r
     done
     run_traced big-traced --scene .device/plates.gltf --lights 1024 --method traced-reference
+    ;;
+  stage-lights)
+    # Issue 49 item 2 (and issue 45's setting added in three files): the visibility
+    # buffer's shading with its tile list staged in workgroup memory (--stage-lights) and
+    # without, three interleaved repeats: the Figure 9 scene at 4,096 and 16,384 lights, 100
+    # frames; the million preset (assigned, tile lists), 30 frames; the courtyard at 1,024.
+    for rep in 1 2 3; do
+      for st in off on; do
+        flag=()
+        [ "$st" = on ] && flag=(--stage-lights)
+        for n in 4096 16384; do
+          run "st-f9-$n-$st-$rep" 100 --lights $n --grid-objects 280 --density medium --method visibility "${flag[@]}"
+        done
+        run "st-mp-$st-$rep" 30 --light-preset million --method visibility --assign scatter "${flag[@]}"
+        run "st-court-$st-$rep" 100 --lights 1024 --method visibility "${flag[@]}"
+      done
+    done
     ;;
   surface-edges)
     # Issue 46 item 3: the visibility buffer's MSAA edge test by surface (default) and by

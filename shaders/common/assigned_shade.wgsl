@@ -19,6 +19,32 @@ override WG: u32 = 16u;
 #endif
 #include "common/light_grid_pixel.wgsl"
 
+// The pass settings' row `stage-lights` (the visibility buffer; the host sets it only with
+// tile lists, where the workgroup's tile is the grid's and every pixel reads one list): the
+// workgroup copies its list's first STAGE_CAP indices and shading records into workgroup
+// memory once, and its pixels read them from there instead of each fetching every record
+// from the light buffer. The sum is the same in the same order: the image does not change.
+override STAGE_LIGHTS: bool = false;
+const STAGE_CAP: u32 = 256u;
+var<workgroup> staged_index: array<u32, STAGE_CAP>;
+var<workgroup> staged_light: array<ShadingLight, STAGE_CAP>;
+var<workgroup> staged_count: u32;
+
+// Copies the first lights of workgroup `wid`'s tile list (call before the barrier that
+// starts the shading).
+fn stage_lights(wid: vec3<u32>, lidx: u32) {
+    let l = light_list(light_grid.lists[wid.y * light_grid.header.tiles.x + wid.x], light_grid.header.capacity);
+    let n = min(l.count, STAGE_CAP);
+    for (var k = lidx; k < n; k += WG * WG) {
+        let i = light_indices[l.first + k];
+        staged_index[k] = i;
+        staged_light[k] = shading_lights[i];
+    }
+    if lidx == 0u {
+        staged_count = n;
+    }
+}
+
 // Linear HDR of one surface sample of pixel `p`, lit by its list in the grid.
 fn shade_lights_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
     if g.sky {
@@ -27,7 +53,14 @@ fn shade_lights_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
     let v = view_vector(g.world);
     var color = g.unlit;
     let l = pixel_list(p, g.dist);
-    for (var i = 0u; i < l.count; i++) {
+    var i = 0u;
+    if STAGE_LIGHTS {
+        // The pixel's list is the workgroup's: its first lights are staged.
+        for (; i < staged_count; i++) {
+            color += shade_light_record(staged_index[i], staged_light[i], g.world, g.normal, v, g.surface);
+        }
+    }
+    for (; i < l.count; i++) {
         color += shade_light(light_indices[l.first + i], g.world, g.normal, v, g.surface);
     }
     return color;
@@ -40,7 +73,10 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid
         atomicStore(&wg_edge_count, 0u);
     }
 #endif
-    // The lists are in the grid already; the barrier orders the reset above.
+    if STAGE_LIGHTS {
+        stage_lights(wid, lidx);
+    }
+    // The lists are in the grid already; the barrier orders the reset and the staging above.
     workgroupBarrier();
     shade_tile_pixels(wid, lid, lidx);
 }

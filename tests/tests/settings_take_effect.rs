@@ -322,3 +322,37 @@ fn the_visibility_raster_is_the_one_asked_for() {
         }
     }
 }
+
+/// The visibility buffer's light staging (`--stage-lights`, the `STAGE_LIGHTS` pipeline
+/// constant of `shaders/common/assigned_shade.wgsl`): built in with tile lists only (half-z
+/// and clusters give a workgroup several lists: built without it), and the image the same
+/// as without it on a frame whose tiles hold both fewer and more lights than the stage's 256
+/// (so both the staged records and those read from the light buffer are shaded). Bit for
+/// bit on lavapipe; within an f16 step on a parallel GPU (a tile's list order, and with it
+/// the summation order, varies from run to run).
+#[test]
+fn light_staging_reaches_the_visibility_pass_and_changes_no_pixel() {
+    use tiledlight_tests::compare::assert_same_hdr;
+    let ctx = gpu();
+    let scene = default_scene(&DefaultSceneOptions { grid_objects: 40, ..Default::default() }).unwrap();
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 4000, 400, 11)).unwrap();
+    let camera = scenes::courtyard_camera(&scene, W, H);
+    let frame = |stage_lights, cull| {
+        let knobs = Knobs { stage_lights, ..Knobs::default() };
+        let s = FrameSettings { method: Method::Visibility, cull, knobs, ..Default::default() };
+        let mut r = FrameRenderer::new(ctx, &sg, &lights, W, H, s).unwrap();
+        let hdr = render_frame(ctx, &mut r, &sg, &camera).hdr;
+        let shading = r.passes::<VisibilityFrame>().expect("visibility buffer").shading();
+        (hdr, constant(shading.constants(), "STAGE_LIGHTS"), r.read_lists(ctx).unwrap().counts)
+    };
+    let (off, built_off, _) = frame(false, CullOptions::default());
+    let (on, built_on, counts) = frame(true, CullOptions::default());
+    assert_eq!((built_off, built_on), (None, Some(1.0)), "STAGE_LIGHTS follows the row");
+    let (few, many) =
+        (counts.iter().filter(|&&c| (1..=256).contains(&c)).count(), counts.iter().filter(|&&c| c > 256).count());
+    assert!(few > 0 && many > 0, "tiles below and above the stage: {few} and {many} ({counts:?})");
+    assert_same_hdr(&off, &on, W, tiledlight_tests::is_lavapipe(ctx), "the visibility buffer with and without staging");
+    let (_, built_half_z, _) = frame(true, CullOptions { half_z: true, ..CullOptions::default() });
+    assert_eq!(built_half_z, None, "half-z gives a workgroup two lists: no staging");
+}

@@ -364,6 +364,15 @@ knobs! {
     "surface-edges", "edges by surface, not ID", "on|off", Control::Checkbox,
     applies(Method::uses_visibility_buffer), check(no_check);
 
+    /// The visibility buffer's shading stages its workgroup's light list (its first 256
+    /// lights: indices and shading records) in workgroup memory once, and every pixel reads
+    /// them from there; off, every pixel reads the records from the light buffer. Used with
+    /// tile lists only (one list a workgroup); half-z and clusters read as off. The image is
+    /// the same.
+    stage_lights: bool = false;
+    "stage-lights", "stage lists in workgroup memory", "on|off", Control::Checkbox,
+    applies(|m| m == Method::Visibility), check(no_check);
+
     /// The MSAA edge test (Tiled Deferred, visibility buffer): a sample farther than this
     /// fraction of the view distance from sample 0's tangent plane makes the pixel an edge.
     edge_distance: f32 = 0.002;

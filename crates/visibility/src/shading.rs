@@ -395,6 +395,10 @@ impl VisibilityShading {
         let pipeline = match shade {
             ShadeLights::Lists(culling) => {
                 constants.extend(features.light_constants());
+                // One list a workgroup only with tile lists (the workgroup's tile is the grid's).
+                if features.knobs.stage_lights && lookup(culling) == GridLookup::Tile {
+                    constants.push(("STAGE_LIGHTS", 1.0));
+                }
                 compute_pipeline(
                     device,
                     "visibility.shade",
