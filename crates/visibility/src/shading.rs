@@ -5,7 +5,7 @@
 //! 1. The light grid is written before it by the lights' culling pass, the same pass and
 //!    contract as Forward+'s (`tiledlight_gpu::culling::LightCulling`: every layout, test
 //!    and assignment), culled against the visibility buffer's depth.
-//! 2. One workgroup per 16x16 tile; each thread reads its pixels' IDs, fetches the
+//! 2. One workgroup per tile of the light grid (16x16 threads); each thread reads its pixels' IDs, fetches the
 //!    triangle's three vertices from the scene's index and vertex buffers, transforms them
 //!    as the raster pass did, and computes perspective-correct barycentrics with their
 //!    one-pixel steps (`shaders/common/visibility.wgsl`, CPU twin
@@ -15,6 +15,9 @@
 //!    2x2 quad's first pixel (the hardware's coarse derivatives, measured equal).
 //! 4. The pixel's list is looked up in the grid (its tile's, half's or cluster's) and lit
 //!    with the shared BRDF, shadows and the VPLs' own grid, into the HDR storage image.
+//!    With the row `stage-lights` and tile lists (one list a workgroup) the workgroup
+//!    first copies its list's first 256 lights (indices and shading records) into
+//!    workgroup memory, and its pixels read them from there.
 //! 5. With MSAA a pixel whose samples share one ID is shaded once at its centre; any two
 //!    IDs make it an edge pixel, shaded per sample and resolved by Tiled Deferred's resolve
 //!    ([`EdgeSamples`]).
