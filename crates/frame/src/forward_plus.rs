@@ -29,7 +29,7 @@ use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::{GpuContext, GpuError};
 
 use crate::handles::Rec;
-use crate::method::{MethodFrame, Registration};
+use crate::method::{tiled_steps, MethodFrame, Registration};
 use crate::settings::FrameSettings;
 use crate::shared::{SharedSteps, TargetNeeds};
 use tiledlight_gpu::handles::{Depth, Lists};
@@ -49,14 +49,7 @@ pub fn targets(_: &Features) -> TargetNeeds {
 pub const FORWARD_PLUS: Registration = Registration {
     renders: |m| m == Method::ForwardPlus,
     building: "building the Forward+ renderer",
-    steps: |f| {
-        let mut steps = vec![Step::DepthPrepass, Step::Cull];
-        if f.vpl {
-            steps.push(Step::VplCull);
-        }
-        steps.push(Step::ForwardShade);
-        steps
-    },
+    steps: |f| tiled_steps(f, &[Step::DepthPrepass, Step::Cull], Step::ForwardShade, None),
     targets,
     build: |c, sh, sl, st, m| Ok(Box::new(ForwardFrame::new(c, sh, sl, st, m)?)),
 };

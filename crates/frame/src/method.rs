@@ -68,3 +68,15 @@ pub struct Registration {
     /// Its constructor.
     pub build: Build,
 }
+
+/// The steps of a tiled method: `head` (what writes depth, and its culling where it culls
+/// before shading), the shared VPL culling with VPLs, `shade`, and with MSAA `resolve`.
+pub fn tiled_steps(features: &Features, head: &[Step], shade: Step, resolve: Option<Step>) -> Vec<Step> {
+    let mut steps = head.to_vec();
+    if features.vpl {
+        steps.push(Step::VplCull);
+    }
+    steps.push(shade);
+    steps.extend(resolve.filter(|_| features.msaa > 1));
+    steps
+}

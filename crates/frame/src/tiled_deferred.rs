@@ -29,7 +29,7 @@ use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::{GpuContext, GpuError};
 
 use crate::handles::Rec;
-use crate::method::{MethodFrame, Registration};
+use crate::method::{tiled_steps, MethodFrame, Registration};
 use crate::settings::FrameSettings;
 use crate::shared::{SharedSteps, TargetNeeds};
 use tiledlight_gpu::handles::{Depth, Lists};
@@ -56,17 +56,7 @@ pub fn targets(features: &Features) -> TargetNeeds {
 pub const REGISTRATION: Registration = Registration {
     renders: |m| m == Method::TiledDeferred,
     building: "building the Tiled Deferred renderer",
-    steps: |f| {
-        let mut steps = vec![Step::GBuffer];
-        if f.vpl {
-            steps.push(Step::VplCull);
-        }
-        steps.push(Step::DeferredShade);
-        if f.msaa > 1 {
-            steps.push(Step::DeferredResolve);
-        }
-        steps
-    },
+    steps: |f| tiled_steps(f, &[Step::GBuffer], Step::DeferredShade, Some(Step::DeferredResolve)),
     targets,
     build: |c, sh, sl, st, m| Ok(Box::new(DeferredFrame::new(c, sh, sl, st, m)?)),
 };

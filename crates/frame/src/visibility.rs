@@ -42,7 +42,7 @@ use tiledlight_visibility::raster::{depth_target, VisibilityRaster};
 use tiledlight_visibility::shading::{ShadeLights, VisibilityShading};
 
 use crate::handles::Rec;
-use crate::method::{MethodFrame, Registration};
+use crate::method::{tiled_steps, MethodFrame, Registration};
 use crate::settings::FrameSettings;
 use crate::shared::{SharedSteps, TargetNeeds};
 use tiledlight_gpu::handles::{Depth, Lists};
@@ -69,15 +69,8 @@ pub const REGISTRATION: Registration = Registration {
     renders: |m| m == Method::Visibility,
     building: "building the visibility-buffer renderer",
     steps: |f| {
-        let mut steps = vec![Step::VisibilityRaster, Step::Cull];
-        if f.vpl {
-            steps.push(Step::VplCull);
-        }
-        steps.push(Step::VisibilityShade);
-        if f.msaa > 1 {
-            steps.push(Step::VisibilityResolve);
-        }
-        steps
+        let head = [Step::VisibilityRaster, Step::Cull];
+        tiled_steps(f, &head, Step::VisibilityShade, Some(Step::VisibilityResolve))
     },
     targets,
     build: |c, sh, sl, st, m| Ok(Box::new(VisibilityFrame::new(c, sh, sl, st, m)?)),
