@@ -34,6 +34,7 @@ pub struct ExportArgs {
 pub fn run(args: &ExportArgs) -> Result<()> {
     // The extension first: a typo costs no scene building.
     ExportFormat::of_path(&args.out)?;
+    tiledlight_lab::output::check_output("--out", &args.out)?;
     let settings = args.scene.settings()?;
     let cpu = SceneCpu::load(&settings)?;
     print_load_warnings(&cpu.warnings);

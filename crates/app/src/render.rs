@@ -100,14 +100,24 @@ pub fn last_frame_times(m: &Measurement, dropped: &Dropped) -> String {
 /// Reads the renderer's image, adds the legend for a heat map, and writes the PNG.
 /// Returns a note when the legend did not fit.
 pub fn write_image(prep: &Prepared, renderer: &FrameRenderer, heatmap: bool, path: &Path) -> Result<Option<String>> {
+    let (img, note) = frame_image(prep, renderer, heatmap)?;
+    save_png(path, &img)?;
+    Ok(note)
+}
+
+/// The renderer's image with the heat map's legend, and a note when the legend did not fit.
+pub fn frame_image(
+    prep: &Prepared,
+    renderer: &FrameRenderer,
+    heatmap: bool,
+) -> Result<(image::RgbImage, Option<String>)> {
     let ldr = renderer.read_ldr(&prep.ctx).context("reading the image back")?;
     let mut img = rgb_image(prep.settings.width, prep.settings.height, &ldr)?;
     let mut note = None;
     if heatmap && !legend::draw_legend(&mut img, prep.settings.capacity()) {
         note = Some(format!("the image ({}x{}) is too small for the legend: not drawn", img.width(), img.height()));
     }
-    save_png(path, &img)?;
-    Ok(note)
+    Ok((img, note))
 }
 
 /// Runs `tiledlight render`.
@@ -120,6 +130,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from(if heatmap_arg.is_some() { "out/heatmap.png" } else { "out/render.png" }));
     check_png_path(&out)?;
+    tiledlight_lab::output::check_output("--out", &out)?;
     let method = args.scene.method;
     let heatmap = heatmap_arg.map(HeatmapOf::from);
     if heatmap.is_some() && !method.is_tiled() {
@@ -140,7 +151,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let edges = renderer.edge_pixels(&prep.ctx).context("reading the MSAA edge count back")?;
     // The image is the last frame: what it lost is its own headers' (read back, stalling).
     let dropped = Dropped::last_frame(&prep, &renderer)?;
-    let note = write_image(&prep, &renderer, heatmap.is_some(), &out)?;
+    // The image is written after the report is printed: a failed write loses no report.
+    let (img, note) = frame_image(&prep, &renderer, heatmap.is_some())?;
     let exposure = renderer.auto_exposure(&prep.ctx).context("reading the exposure back")?;
     prep.check_gpu_errors()?;
 
@@ -195,6 +207,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         Some(HeatmapOf::Vpl) => " (heat map of the VPL lists, with legend)",
         None => "",
     };
+    save_png(&out, &img)?;
     println!("wrote {}{what}", out.display());
     let mut warnings = 0;
     let max_binding = prep.ctx.device.limits().max_storage_buffer_binding_size;

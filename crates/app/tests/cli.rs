@@ -462,6 +462,51 @@ fn bad_input_gives_one_clear_error_line() {
     }
 }
 
+/// Every output path is checked before any GPU work (issue 47): a path nothing can be
+/// written to fails at once with one error line naming the flag and the path. The runs ask
+/// for an adapter that does not exist, so a command that reached the GPU first would fail
+/// naming the adapter instead; /proc takes no new files even from root (file permissions
+/// would not stop a root CI run). A path that can be written leaves no file behind the
+/// check (render's image appears only after the frame).
+#[test]
+fn output_paths_are_checked_before_any_gpu_work() {
+    if !Path::new("/proc/self").exists() {
+        panic!("this test needs Linux's /proc (a folder nobody can write a file in)");
+    }
+    let dir = scratch("output-checks");
+    let csv = dir.join("ok.csv");
+    let csv = csv.to_str().unwrap();
+    let cases: &[(&[&str], &str)] = &[
+        (&["render", "--out", "/proc/tiledlight/x.png"], "--out /proc/tiledlight/x.png"),
+        (&["render", "--out", "/proc/x.png", "--lights", "4096"], "--out /proc/x.png"),
+        (&["bench", "--json", "/proc/b.json"], "--json /proc/b.json"),
+        (&["sweep", "--axis", "tile-size=8,16", "--out", "/proc/s.csv"], "--out /proc/s.csv"),
+        (&["sweep", "--axis", "tile-size=8,16", "--out", csv, "--chart", "/proc/s.png"], "--chart /proc/s.png"),
+        (&["accuracy", "--out", "/proc/a.csv"], "--out /proc/a.csv"),
+        (&["accuracy", "--out", csv, "--diff-dir", "/proc/flip"], "--diff-dir /proc/flip"),
+        (&["shadow-accuracy", "--out", "/proc/sa.json"], "--out /proc/sa.json"),
+        (&["tune", "--target-flip", "0.05", "--out", "/proc/t.csv"], "--out /proc/t.csv"),
+        (&["export", "--out", "/proc/e.glb"], "--out /proc/e.glb"),
+        (&["view", "--frames", "1", "--screenshot", "/proc/v.png"], "--screenshot /proc/v.png"),
+    ];
+    for (args, needle) in cases {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_tiledlight"))
+            .args(*args)
+            .env("WGPU_ADAPTER_NAME", "no-such-adapter-anywhere")
+            .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+        assert!(!out.status.success(), "tiledlight {args:?} succeeded");
+        assert_eq!(lines.len(), 1, "tiledlight {args:?}: one error line, got:\n{err}");
+        assert!(lines[0].starts_with(&format!("error: {needle}: ")), "tiledlight {args:?}: {:?}", lines[0]);
+        assert!(!lines[0].contains("adapter"), "tiledlight {args:?} reached the GPU first: {:?}", lines[0]);
+        assert!(stdout(&out).is_empty(), "tiledlight {args:?} printed a report before failing: {}", stdout(&out));
+    }
+    assert!(!Path::new(csv).exists(), "the checks made no output file");
+}
+
 /// A camera bookmark (as the viewer's "save camera" writes it) pins the view of `render`;
 /// a malformed one names the file and line before any GPU work.
 #[test]

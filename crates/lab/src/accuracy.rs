@@ -556,6 +556,10 @@ pub fn run<F: Flags>(scene: &F, args: &Accuracy) -> Result<()> {
         let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("accuracy");
         out.with_file_name(format!("{stem}-flip"))
     });
+    // Every output before the first frame: a bad path costs no rendering.
+    crate::output::check_output("--out", &out)?;
+    crate::output::check_output("--chart", &chart_path)?;
+    crate::output::check_output_dir("--diff-dir", &diff_dir)?;
 
     let keep_sorted = all_args.iter().any(|a| a.knobs.blend_mode == BlendMode::WeightedOit);
     let mut session = Session::open(&out, &axes, keep_sorted)?;

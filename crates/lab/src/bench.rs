@@ -671,9 +671,7 @@ pub fn run<F: Flags>(scene: &F, args: &Bench) -> Result<()> {
     ensure!(args.warmup <= MAX_FRAMES, "--warmup {}: must be at most {MAX_FRAMES}", args.warmup);
     if let Some(p) = &args.json {
         // Fail before minutes of rendering if the file cannot be written.
-        if let Some(dir) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).with_context(|| format!("creating directory {}", dir.display()))?;
-        }
+        crate::output::check_output("--json", p)?;
     }
     let prep = Prepared::new(&scene.settings()?)?;
     crate::output::print_load_warnings(&prep.scene_warnings);

@@ -48,9 +48,78 @@ pub fn check_png_path(path: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Checks, before any work, that output file `path` (given by `flag`) can be written: not
+/// a folder, its folder exists or can be made, a file can be made in that folder, and an
+/// existing file can be opened for writing (it is not changed). A command calls it for
+/// every output before it renders, so a bad path costs no time and loses no report.
+pub fn check_output(flag: &str, path: &Path) -> Result<()> {
+    let shown = path.display();
+    ensure!(!path.is_dir(), "{flag} {shown}: is a folder, not a file");
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    check_folder(flag, &shown.to_string(), dir)?;
+    if path.exists() {
+        std::fs::OpenOptions::new()
+            .append(true)
+            .open(path)
+            .map_err(|e| anyhow::anyhow!("{flag} {shown}: the file cannot be written: {e}"))?;
+    }
+    Ok(())
+}
+
+/// [`check_output`] for an output folder (`--diff-dir`): it exists or can be made, and a
+/// file can be made in it.
+pub fn check_output_dir(flag: &str, dir: &Path) -> Result<()> {
+    let shown = dir.display().to_string();
+    ensure!(!dir.is_file(), "{flag} {shown}: is a file, not a folder");
+    check_folder(flag, &shown, dir)
+}
+
+/// Makes `dir` if needed and proves a file can be made in it (made and removed again).
+fn check_folder(flag: &str, shown: &str, dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| anyhow::anyhow!("{flag} {shown}: its folder {} cannot be made: {e}", dir.display()))?;
+    let probe = dir.join(format!(".tiledlight-write-check-{}", std::process::id()));
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+        .map_err(|e| anyhow::anyhow!("{flag} {shown}: nothing can be written in {}: {e}", dir.display()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A writable path passes and leaves nothing behind; a folder, a path under a file and a
+    /// folder nothing can be written in are refused naming the flag and the path. (A
+    /// read-only file is not tried: the tests may run as root, whom permissions do not stop.)
+    #[test]
+    fn outputs_are_checked_before_the_work() {
+        let dir = std::env::temp_dir().join(format!("tiledlight-check-output-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let file = dir.join("new/sub/out.png");
+        check_output("--out", &file).unwrap();
+        assert!(!file.exists(), "the check writes no output");
+        assert_eq!(std::fs::read_dir(file.parent().unwrap()).unwrap().count(), 0, "the probe is removed");
+        let e = check_output("--out", &dir).unwrap_err().to_string();
+        assert!(e.starts_with(&format!("--out {}: is a folder", dir.display())), "{e}");
+        std::fs::write(&file, b"kept").unwrap();
+        let e = check_output("--json", &file.join("x.json")).unwrap_err().to_string();
+        assert!(e.starts_with("--json ") && e.contains("cannot be made"), "{e}");
+        check_output("--out", &file).unwrap();
+        assert_eq!(std::fs::read(&file).unwrap(), b"kept", "an existing file is not changed");
+        let e = check_output_dir("--diff-dir", &file).unwrap_err().to_string();
+        assert!(e.contains("is a file, not a folder"), "{e}");
+        check_output_dir("--diff-dir", &dir.join("flip")).unwrap();
+        // /proc takes no new files, even from root (file permissions would not stop root).
+        if Path::new("/proc/self").exists() {
+            let e = check_output("--out", Path::new("/proc/tiledlight.png")).unwrap_err().to_string();
+            assert!(e.starts_with("--out /proc/tiledlight.png: nothing can be written in /proc"), "{e}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     #[test]
     fn messages_become_one_line() {

@@ -689,7 +689,7 @@ pub fn run(dir: &Path, out: Option<&Path>) -> Result<()> {
         bail!("{}: no such folder (unpack scripts/peer-bench.sh's peer-SCENE.tar.gz archives into one)", dir.display());
     }
     let out = out.unwrap_or(dir).to_path_buf();
-    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    crate::output::check_output_dir("--out", &out)?;
     let res = Results::read(dir)?;
     let adapter = res.field(true, &["adapter"]).or_else(|| res.field(false, &["config", "adapter"]));
     let adapter = adapter.unwrap_or_else(|| "adapter not recorded".into());

@@ -389,11 +389,10 @@ pub fn run<F: Flags>(scene: &F, args: &ShadowAccuracy) -> Result<()> {
         let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("shadow-accuracy");
         out.with_file_name(format!("{stem}-images"))
     });
-    for p in [&out, &chart_path] {
-        if let Some(dir) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).with_context(|| format!("creating directory {}", dir.display()))?;
-        }
-    }
+    // Every output before the first frame: a bad path costs no rendering.
+    crate::output::check_output("--out", &out)?;
+    crate::output::check_output("--chart", &chart_path)?;
+    crate::output::check_output_dir("--diff-dir", &image_dir)?;
 
     // The scene and its lights on the CPU; then only the casters are kept.
     let mut cpu = SceneCpu::load(&settings)?;

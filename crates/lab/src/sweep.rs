@@ -184,6 +184,8 @@ pub fn run<F: Flags>(scene: &F, args: &Sweep) -> Result<()> {
     let chart_path = args.chart.clone().unwrap_or_else(|| axes::sibling(&out, "png"));
     let ext = chart_path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     ensure!(ext.as_deref() == Some("png"), "--chart {}: only .png charts are supported", chart_path.display());
+    crate::output::check_output("--out", &out)?;
+    crate::output::check_output("--chart", &chart_path)?;
     // Every point's flags are checked before the first is measured.
     let all_args: Vec<Settings> =
         points.iter().map(|p| axes::args_at(scene, &axes, p).and_then(|a| a.settings())).collect::<Result<_>>()?;

@@ -246,6 +246,7 @@ pub fn run<F: Flags>(scene: &F, t: &Tune) -> Result<Answer> {
         ensure!(names.insert(d.name.as_str()), "dial '{}' is given twice", d.name);
     }
     let out = t.out.clone().unwrap_or_else(|| PathBuf::from("out/tune.csv"));
+    crate::output::check_output("--out", &out)?;
     let args = Accuracy {
         axes: specs.clone(),
         frames: t.frames,

@@ -148,8 +148,11 @@ fn run_viewer(args: &ViewArgs) -> Result<(), Failure> {
         Some(s) => script::parse(s).map_err(Failure::Other)?.into(),
         None => VecDeque::new(),
     };
-    for p in [&args.screenshot, &args.screenshot_ui].into_iter().flatten() {
-        check_png_path(p).map_err(Failure::Other)?;
+    for (flag, p) in [("--screenshot", &args.screenshot), ("--screenshot-ui", &args.screenshot_ui)] {
+        if let Some(p) = p {
+            check_png_path(p).map_err(Failure::Other)?;
+            tiledlight_lab::output::check_output(flag, p).map_err(Failure::Other)?;
+        }
     }
     if args.frames.is_none() && (args.screenshot.is_some() || args.screenshot_ui.is_some()) {
         return Err(Failure::Other(anyhow::anyhow!("--screenshot and --screenshot-ui need --frames N")));
