@@ -507,6 +507,28 @@ fn output_paths_are_checked_before_any_gpu_work() {
     assert!(!Path::new(csv).exists(), "the checks made no output file");
 }
 
+/// The README's first screen (its first 50 lines) says how to get the `tiledlight` command
+/// and shows the four methods (issue 47); each of its `tiledlight render --method` lines
+/// runs as written (at a tiny size, into a scratch folder).
+#[test]
+fn the_readme_first_screen_gets_the_command_and_runs_the_four_methods() {
+    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../README.md")).unwrap();
+    let first: Vec<&str> = readme.lines().take(50).collect();
+    assert!(first.iter().any(|l| l.contains("cargo install --locked --path crates/app")), "how to get the command");
+    let runs: Vec<&str> = first
+        .iter()
+        .filter_map(|l| l.strip_prefix("tiledlight render --method "))
+        .map(|l| l.split_whitespace().next().unwrap())
+        .collect();
+    assert_eq!(runs, ["forward-plus", "deferred", "visibility", "brute-force"], "the four methods");
+    let dir = scratch("readme-methods");
+    for m in runs {
+        let out = dir.join(format!("{m}.png"));
+        gpu_run(&with_tiny("render", &["--method", m, "--out", out.to_str().unwrap()]));
+        assert!(out.exists(), "{m}: no image");
+    }
+}
+
 /// A camera bookmark (as the viewer's "save camera" writes it) pins the view of `render`;
 /// a malformed one names the file and line before any GPU work.
 #[test]
