@@ -56,6 +56,9 @@ use messages::{error_line, one_line};
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
+    /// No progress bars (they show only when stderr is a terminal anyway).
+    #[arg(long, global = true)]
+    quiet: bool,
 }
 
 #[derive(Subcommand, Debug)]
@@ -132,6 +135,7 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    tiledlight_lab::axes::set_quiet(cli.quiet);
     // Headless commands: no window-system probe by Mesa's device-select layer (it prints
     // "error: XDG_RUNTIME_DIR ..." lines on machines without one). Here, before any thread.
     let headless = match &cli.command {

@@ -34,7 +34,7 @@ pub fn run() -> Result<()> {
     {
         let mut renderer = prep.renderer(false)?;
         println!("benchmark:  {WARMUP} warm-up + {FRAMES} measured frames");
-        let m = bench::measure(&prep, &mut renderer, WARMUP, FRAMES)?;
+        let m = bench::measure_shown(&prep, &mut renderer, (WARMUP, FRAMES), None, "quick start")?;
         print!("{}", bench::table(&m));
         if let Some(s) = prep.culling_stats(&renderer)? {
             println!("culling:    {s}");

@@ -144,7 +144,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     // over between frames).
     let traced = prep.settings.method.is_traced();
     let start = std::time::Instant::now();
-    let m = bench::measure(&prep, &mut renderer, 0, if traced { 1 } else { RENDER_FRAMES })?;
+    let frames = if traced { 1 } else { RENDER_FRAMES };
+    let m = bench::measure_shown(&prep, &mut renderer, (0, frames), None, "render")?;
     let seconds = start.elapsed().as_secs_f64();
     let stats = prep.culling_stats(&renderer)?;
     let blended = prep.blended_stats(&renderer)?;

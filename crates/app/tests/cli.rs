@@ -529,6 +529,34 @@ fn the_readme_first_screen_gets_the_command_and_runs_the_four_methods() {
     }
 }
 
+/// Long commands show a progress bar of their frames on a terminal (issue 47), not on a
+/// pipe, and not with `--quiet`. The terminal is `script`'s pseudo-terminal (util-linux's
+/// bsdutils, essential on Debian).
+#[test]
+fn progress_shows_on_a_terminal_only_and_quiet_hides_it() {
+    let bin = env!("CARGO_BIN_EXE_tiledlight");
+    let bench = format!("{bin} bench --width 64 --height 36 --lights 16 --frames 200 --warmup 0");
+    let _guard = common::gpu_lock();
+    let on_tty = |cmd: &str| {
+        let out = std::process::Command::new("script")
+            .args(["-qec", cmd, "/dev/null"])
+            .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+            .output()
+            .expect("util-linux's script (bsdutils) runs the command on a pseudo-terminal");
+        assert!(out.status.success(), "{cmd}: {}", String::from_utf8_lossy(&out.stdout));
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    // The bar moves: some frame after the first is drawn (indicatif draws up to 20 times a
+    // second; 200 frames take over a second on lavapipe).
+    let shown = on_tty(&bench);
+    let moved = (1..=200).any(|n| shown.contains(&format!(" {n}/200 frames")));
+    assert!(moved, "no moving progress bar on a terminal: {shown}");
+    assert!(!on_tty(&format!("{bench} --quiet")).contains("frames,"), "--quiet shows a bar");
+    let piped = tiledlight(&["bench", "--width", "64", "--height", "36", "--lights", "16", "--frames", "40"]);
+    assert!(piped.status.success());
+    assert!(piped.stderr.is_empty(), "a pipe gets a bar: {}", String::from_utf8_lossy(&piped.stderr));
+}
+
 /// A camera bookmark (as the viewer's "save camera" writes it) pins the view of `render`;
 /// a malformed one names the file and line before any GPU work.
 #[test]

@@ -521,9 +521,40 @@ pub fn check_same_setup(rows: &[Vec<String>], cols: [usize; 3], now: [&str; 3], 
     Ok(())
 }
 
-/// A progress bar of `n` points on stderr (hidden when stderr is not a terminal).
+/// `--quiet`: no progress bar anywhere (they are hidden anyway when stderr is not a
+/// terminal).
+static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Switches every progress bar of this process off (`--quiet`) or back on.
+pub fn set_quiet(quiet: bool) {
+    QUIET.store(quiet, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// A bar of `n` steps on stderr: hidden with `--quiet`, and by indicatif when stderr is
+/// not a terminal (a pipe or a file gets no bar).
+fn bar(n: u64) -> ProgressBar {
+    if QUIET.load(std::sync::atomic::Ordering::Relaxed) {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(n)
+    }
+}
+
+/// A progress bar of `n` frames on stderr for a command's own frames (bench, render, the
+/// quick start), `what` beside it; hidden as [`progress`]'s.
+pub fn frames_progress(n: u32, what: &str) -> ProgressBar {
+    let pb = bar(u64::from(n));
+    if let Ok(style) = ProgressStyle::with_template("{bar:30} {pos}/{len} frames, {elapsed} elapsed  {msg}") {
+        pb.set_style(style);
+    }
+    pb.set_message(what.to_string());
+    pb
+}
+
+/// A progress bar of `n` points on stderr (hidden with `--quiet` or when stderr is not a
+/// terminal).
 pub fn progress(n: usize) -> ProgressBar {
-    let pb = ProgressBar::new(n as u64);
+    let pb = bar(n as u64);
     if let Ok(style) =
         ProgressStyle::with_template("{bar:30} {pos}/{len} points, {elapsed} elapsed, ~{eta} left  {msg}")
     {

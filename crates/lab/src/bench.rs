@@ -223,6 +223,21 @@ pub fn measure(prep: &Prepared, renderer: &mut FrameRenderer, warmup: u32, frame
     measure_moving(prep, renderer, warmup, frames, None)
 }
 
+/// [`measure`] with a progress bar of its frames on stderr (`what` beside it), cleared
+/// when done: for commands whose own frames take long (bench, render, the quick start).
+pub fn measure_shown(
+    prep: &Prepared,
+    renderer: &mut FrameRenderer,
+    (warmup, frames): (u32, u32),
+    animator: Option<&mut LightAnimator>,
+    what: &str,
+) -> Result<Measurement> {
+    let pb = crate::axes::frames_progress(warmup + frames, what);
+    let m = measure_with(prep, renderer, (warmup, frames), animator, &pb);
+    pb.finish_and_clear();
+    m
+}
+
 /// [`measure`], with the lights moved by `animator` (made for `prep`'s lights), one
 /// [`MOVE_STEP_S`] before every frame, when it is given.
 pub fn measure_moving(
@@ -230,7 +245,19 @@ pub fn measure_moving(
     renderer: &mut FrameRenderer,
     warmup: u32,
     frames: u32,
+    animator: Option<&mut LightAnimator>,
+) -> Result<Measurement> {
+    measure_with(prep, renderer, (warmup, frames), animator, &indicatif::ProgressBar::hidden())
+}
+
+/// [`measure_moving`], stepping `pb` once a frame (warm-up frames past `warmup`, run until
+/// the clocks are up, lengthen it).
+fn measure_with(
+    prep: &Prepared,
+    renderer: &mut FrameRenderer,
+    (warmup, frames): (u32, u32),
     mut animator: Option<&mut LightAnimator>,
+    pb: &indicatif::ProgressBar,
 ) -> Result<Measurement> {
     let ctx = &prep.ctx;
     let mut timer = GpuTimer::new(ctx).context("creating the GPU timer")?;
@@ -284,6 +311,10 @@ pub fn measure_moving(
     while (skip < warmup || (warmup > 0 && start.elapsed() < MIN_WARMUP)) && skip < MAX_FRAMES {
         frame(&mut timer, renderer, None)?;
         skip += 1;
+        if skip > warmup {
+            pb.inc_length(1);
+        }
+        pb.inc(1);
         ctx.device.poll(wgpu::PollType::Poll).context("polling the GPU")?;
         drain(&mut timer, &mut out, &mut finished, skip);
     }
@@ -291,6 +322,7 @@ pub fn measure_moving(
         let t0 = Instant::now();
         let mut grids = Measurement::default();
         frame(&mut timer, renderer, Some(&mut grids))?;
+        pb.inc(1);
         out.grid.append(&mut grids.grid);
         out.blended_grid.append(&mut grids.blended_grid);
         out.vpl_grid.append(&mut grids.vpl_grid);
@@ -682,7 +714,7 @@ pub fn run<F: Flags>(scene: &F, args: &Bench) -> Result<()> {
     let motion = if args.move_lights { "lights moved before every frame (--move-lights)" } else { "lights still" };
     println!("frames:     {} warm-up + {} measured, {motion}", args.warmup, args.frames);
     let mut animator = args.move_lights.then(|| LightAnimator::new(&prep.lights.packed, prep.bounds.center()));
-    let m = measure_moving(&prep, &mut renderer, args.warmup, args.frames, animator.as_mut())?;
+    let m = measure_shown(&prep, &mut renderer, (args.warmup, args.frames), animator.as_mut(), "bench")?;
     print!("{}", table(&m));
     let atlas = renderer.outputs().shadow_atlas;
     if let Some(a) = atlas {
