@@ -61,29 +61,35 @@ struct Cli {
     quiet: bool,
 }
 
+/// Under `-h` of every command with the scene flags: `-h` lists the main flags of each
+/// group, `--help` every flag.
+const GROUPS_NOTE: &str = "-h shows the main flags of each group; --help shows every flag, grouped: scene, lights, \
+     method and image, culling, shadows, VPLs, blended geometry, pass settings, input checks, output. docs/USAGE.md has \
+     the commands, the demos and the lab.";
+
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Render one image (or the lights-per-tile heat map) to a PNG and report on it.
     // Negative numbers are values, so `--threshold -1` gets a range error, not "unknown flag".
-    #[command(allow_negative_numbers = true)]
+    #[command(allow_negative_numbers = true, after_help = GROUPS_NOTE)]
     Render(render::RenderArgs),
     /// Time every pass over many frames; print a table and optionally write JSON.
-    #[command(allow_negative_numbers = true)]
+    #[command(allow_negative_numbers = true, after_help = GROUPS_NOTE)]
     Bench(BenchArgs),
     /// Measure per-pass GPU time over a grid of settings (--axis NAME=VALUES, or --preset
     /// figure9); write a resumable CSV and a chart.
-    #[command(allow_negative_numbers = true)]
+    #[command(allow_negative_numbers = true, after_help = GROUPS_NOTE)]
     Sweep(SweepArgs),
     /// Measure the speed/accuracy trade: per setting, GPU time, image error against the
     /// brute-force reference without cutoff, and culling statistics; CSV, Pareto chart and
     /// FLIP heat maps.
-    #[command(allow_negative_numbers = true)]
+    #[command(allow_negative_numbers = true, after_help = GROUPS_NOTE)]
     Accuracy(AccuracyArgs),
     /// Find the fastest setting within an error budget: coordinate descent over dials
     /// (method, threshold, casters, shadow atlas, culling, MSAA), each candidate measured
     /// against the traced truth; prints the setting, its time and errors, and the command
     /// lines that render it and measure it again.
-    #[command(allow_negative_numbers = true)]
+    #[command(allow_negative_numbers = true, after_help = GROUPS_NOTE)]
     Tune(TuneArgs),
     /// Measure the shadow maps' own error: only the shadow casters lit, brute force, each
     /// shadow configuration (atlas tile size x filter x format) against a CPU ray-cast
@@ -91,19 +97,20 @@ enum Command {
     // Its own default resolution: the CPU ray cast must stay affordable.
     #[command(
         allow_negative_numbers = true,
+        after_help = GROUPS_NOTE,
         mut_arg("width", |a| a.default_value(shadow_accuracy::DEFAULT_SIZE.0)),
         mut_arg("height", |a| a.default_value(shadow_accuracy::DEFAULT_SIZE.1))
     )]
     ShadowAccuracy(ShadowAccuracyArgs),
     /// Write the scene, its lights (KHR_lights_punctual) and the camera that `render` with
     /// the same flags draws as one glTF file (.gltf + .bin, or .glb) for another engine.
-    #[command(allow_negative_numbers = true)]
+    #[command(allow_negative_numbers = true, after_help = GROUPS_NOTE)]
     Export(export::ExportArgs),
     /// Report a peer benchmark (scripts/peer-bench.sh: tiledlight and Bevy on one exported
     /// scene): frame-time table and chart, ratios, per-pass times, FLIP between the frames.
     PeerReport(PeerReportArgs),
     /// Open the interactive viewer: a window with the controls, camera and pass timings.
-    #[command(allow_negative_numbers = true)]
+    #[command(allow_negative_numbers = true, after_help = GROUPS_NOTE)]
     View(viewer::ViewArgs),
 }
 

@@ -44,10 +44,10 @@ pub struct RenderArgs {
     /// geometry's lists (`--heatmap` alone), of the alpha-blended geometry's own lists
     /// (`--heatmap blended`; tiles without blended geometry keep the image), or of the
     /// virtual point lights' own lists (`--heatmap vpl`; needs --vpl).
-    #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "opaque", value_name = "LISTS")]
+    #[arg(help_heading = "Output", long, value_enum, num_args = 0..=1, default_missing_value = "opaque", value_name = "LISTS")]
     pub heatmap: Option<HeatmapArg>,
     /// Output PNG [default: out/render.png, or out/heatmap.png with --heatmap].
-    #[arg(long, value_name = "FILE.png")]
+    #[arg(help_heading = "Output", long, value_name = "FILE.png")]
     pub out: Option<PathBuf>,
 }
 

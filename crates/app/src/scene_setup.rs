@@ -177,27 +177,32 @@ pub struct SceneArgs {
     /// `default` (the procedural courtyard), `materials` (576 boxes with --materials
     /// distinct textured materials), `bevy-many-lights` (Bevy's many_lights stress test
     /// rebuilt: 100,000 lights of 0.3 m on a sphere) or a glTF file (.gltf or .glb).
-    #[arg(long, default_value = "default", value_name = "default|materials|bevy-many-lights|FILE")]
+    #[arg(
+        help_heading = "Scene",
+        long,
+        default_value = "default",
+        value_name = "default|materials|bevy-many-lights|FILE"
+    )]
     pub scene: String,
     /// A demo setup of the courtyard that makes one feature obvious: shadows, vpl (add
     /// --vpl for the bounce), glass, million, heatmap, clusters. It stands for a few flags
     /// (any given on the command line wins) and places its own lights, camera and props
     /// (docs/USAGE.md, "Demos").
-    #[arg(long, value_name = "NAME", value_parser = clap::builder::PossibleValuesParser::new(tiledlight_setup::Demo::ALL.map(|d| d.name())))]
+    #[arg(help_heading = "Scene", long, value_name = "NAME", value_parser = clap::builder::PossibleValuesParser::new(tiledlight_setup::Demo::ALL.map(|d| d.name())))]
     pub demo: Option<String>,
     /// Random point lights [default: 1024 for the default scene; for a glTF file, random
     /// lights are added to its own lights only when this or --spot-lights is given].
-    #[arg(long, value_name = "N")]
+    #[arg(help_heading = "Lights", long, value_name = "N")]
     pub lights: Option<u64>,
     /// Random spot lights [default: 0]. A glTF scene's go near its surfaces, aimed at them
     /// (never past the first geometry above), their radius following its area and the
     /// count; the default scene's (and with --lights-in-bounds) go in the bounds.
-    #[arg(long, value_name = "N")]
+    #[arg(help_heading = "Lights", long, value_name = "N")]
     pub spot_lights: Option<u64>,
     /// A named configuration: `million` is 1,000,000 point lights on the surfaces (see
     /// --lights-on-surfaces) with the exposure chosen for them. --lights, --lights-per-pixel
     /// and --exposure given with it override its values.
-    #[arg(long, value_enum, value_name = "NAME")]
+    #[arg(help_heading = "Lights", hide_short_help = true, long, value_enum, value_name = "NAME")]
     pub light_preset: Option<PresetArg>,
     /// Place the random point lights on the scene's surfaces (area-weighted, lifted off
     /// them along the normal by a quarter of their radius), all with one radius that
@@ -206,121 +211,121 @@ pub struct SceneArgs {
     /// the scene's bounds.
     /// The default for a glTF scene (random lights then fit its size: their radius follows
     /// its surface area and the count).
-    #[arg(long)]
+    #[arg(help_heading = "Lights", hide_short_help = true, long)]
     pub lights_on_surfaces: bool,
     /// Place a glTF scene's random point and spot lights uniformly in its bounds instead,
     /// with radii fitted to the bounds and the count (8 lights reaching a surface point on
     /// average; the built-in courtyard's keep TiledLighting11's 1.5-4 m).
-    #[arg(long, conflicts_with_all = ["lights_on_surfaces", "lights_per_pixel", "light_preset"])]
+    #[arg(help_heading = "Lights", hide_short_help = true, long, conflicts_with_all = ["lights_on_surfaces", "lights_per_pixel", "light_preset"])]
     pub lights_in_bounds: bool,
     /// Mean number of surface lights reaching a pixel's surface point, the radius dial of
     /// surface lights (implies --lights-on-surfaces) [default: 8].
-    #[arg(long, value_name = "K")]
+    #[arg(help_heading = "Lights", hide_short_help = true, long, value_name = "K")]
     pub lights_per_pixel: Option<f32>,
     /// Seed of the random lights (the same seed gives the same lights).
-    #[arg(long, default_value_t = 1, value_name = "S")]
+    #[arg(help_heading = "Lights", hide_short_help = true, long, default_value_t = 1, value_name = "S")]
     pub seed: u64,
     /// Intensity threshold that sets each light's radius: r = sqrt(intensity / T).
-    #[arg(long, default_value_t = DEFAULT_LIGHT_THRESHOLD, value_name = "T")]
+    #[arg(help_heading = "Lights", hide_short_help = true, long, default_value_t = DEFAULT_LIGHT_THRESHOLD, value_name = "T")]
     pub threshold: f32,
     /// Grid objects (instanced spheres) added to the default scene, 0 to 280.
-    #[arg(long, default_value_t = 0, value_name = "N")]
+    #[arg(help_heading = "Scene", long, default_value_t = 0, value_name = "N")]
     pub grid_objects: u32,
     /// Distinct textured materials of `--scene materials`, 1 to 4096 (box i takes material
     /// i mod N: the boxes, and so the coverage, stay the same).
-    #[arg(long, default_value_t = tiledlight_scene::materials::DEFAULT_MATERIALS, value_name = "N")]
+    #[arg(help_heading = "Scene", hide_short_help = true, long, default_value_t = tiledlight_scene::materials::DEFAULT_MATERIALS, value_name = "N")]
     pub materials: u32,
     /// Tessellation of the grid objects.
-    #[arg(long, value_enum, default_value_t = DensityArg::Medium)]
+    #[arg(help_heading = "Scene", hide_short_help = true, long, value_enum, default_value_t = DensityArg::Medium)]
     pub density: DensityArg,
     /// Grid objects drawn as alpha-blended glass spheres, 0 to the grid count (spread evenly
     /// over the grid; the default scene only: a glTF file's BLEND materials are drawn
     /// blended on their own).
-    #[arg(long, default_value_t = 0, value_name = "N")]
+    #[arg(help_heading = "Blended geometry", long, default_value_t = 0, value_name = "N")]
     pub transparent_objects: u32,
     /// The default scene's banners glow in their colour (emissive materials: Tiled
     /// Deferred's G-buffer gets its emission target; for measuring its cost).
-    #[arg(long)]
+    #[arg(help_heading = "Scene", hide_short_help = true, long)]
     pub emissive: bool,
     /// Image width in pixels.
-    #[arg(long, default_value_t = 1920, value_name = "W")]
+    #[arg(help_heading = "Method and image", long, default_value_t = 1920, value_name = "W")]
     pub width: u32,
     /// Image height in pixels.
-    #[arg(long, default_value_t = 1080, value_name = "H")]
+    #[arg(help_heading = "Method and image", long, default_value_t = 1080, value_name = "H")]
     pub height: u32,
     /// Renderer.
-    #[arg(long, value_enum, default_value_t = Method::ForwardPlus)]
+    #[arg(help_heading = "Method and image", long, value_enum, default_value_t = Method::ForwardPlus)]
     pub method: Method,
     /// Tile side in pixels: 8, 16 or 32.
-    #[arg(long, default_value_t = 16, value_name = "8|16|32")]
+    #[arg(help_heading = "Culling", hide_short_help = true, long, default_value_t = 16, value_name = "8|16|32")]
     pub tile_size: u32,
     /// Light indices stored per tile list (more are counted as overflow), 1 to 2048.
     /// Default: the light count, up to what the GPU's workgroup memory holds (2048), so
     /// lists overflow only when a tile really sees more lights than that.
-    #[arg(long, value_name = "N")]
+    #[arg(help_heading = "Culling", hide_short_help = true, long, value_name = "N")]
     pub capacity: Option<u32>,
     /// Also test light spheres against each tile's view-space AABB.
-    #[arg(long)]
+    #[arg(help_heading = "Culling", hide_short_help = true, long)]
     pub aabb: bool,
     /// Two lists per tile, split at the middle of its depth range (the same as --grid half-z).
-    #[arg(long)]
+    #[arg(help_heading = "Culling", hide_short_help = true, long)]
     pub half_z: bool,
     /// The light grid's layout: screen tiles, half-z, 2.5D depth masks or clusters.
-    #[arg(long, value_enum, default_value_t = GridArg::Tiled)]
+    #[arg(help_heading = "Culling", hide_short_help = true, long, value_enum, default_value_t = GridArg::Tiled)]
     pub grid: GridArg,
     /// How lights are assigned to the grid's lists (clusters are always scattered).
-    #[arg(long, value_enum, default_value_t = AssignArg::Gather)]
+    #[arg(help_heading = "Culling", hide_short_help = true, long, value_enum, default_value_t = AssignArg::Gather)]
     pub assign: AssignArg,
     /// Clusters: tile side in pixels, 8, 16, 32 or 64.
-    #[arg(long, default_value_t = ClusterOptions::default().tile_size, value_name = "PX")]
+    #[arg(help_heading = "Culling", hide_short_help = true, long, default_value_t = ClusterOptions::default().tile_size, value_name = "PX")]
     pub cluster_tile: u32,
     /// Clusters: depth slices, 1 to 32.
-    #[arg(long, default_value_t = ClusterOptions::default().slices, value_name = "N")]
+    #[arg(help_heading = "Culling", hide_short_help = true, long, default_value_t = ClusterOptions::default().slices, value_name = "N")]
     pub cluster_slices: u32,
     /// Clusters: far end of the first depth slice, metres (exponential slicing starts here).
-    #[arg(long, default_value_t = ClusterOptions::default().first, value_name = "M")]
+    #[arg(help_heading = "Culling", hide_short_help = true, long, default_value_t = ClusterOptions::default().first, value_name = "M")]
     pub cluster_first: f32,
     /// Clusters: far end of the exponential slices, metres (the last slice reaches past it).
-    #[arg(long, default_value_t = ClusterOptions::default().last, value_name = "M")]
+    #[arg(help_heading = "Culling", hide_short_help = true, long, default_value_t = ClusterOptions::default().last, value_name = "M")]
     pub cluster_last: f32,
     /// Clusters: only clusters holding a surface of the depth buffer get lights (off: every
     /// cluster of the frustum, which also serves transparent geometry).
-    #[arg(long)]
+    #[arg(help_heading = "Culling", hide_short_help = true, long)]
     pub cluster_geometry_only: bool,
     /// Also test spot cones against each tile (needs spot lights to matter).
-    #[arg(long)]
+    #[arg(help_heading = "Culling", hide_short_help = true, long)]
     pub spot_cone: bool,
     /// One-level culling: every tile tests every light (the default first culls per
     /// 64x64-pixel cell, and tiles test only their cell's lights).
-    #[arg(long)]
+    #[arg(help_heading = "Culling", hide_short_help = true, long)]
     pub flat_cull: bool,
     /// MSAA samples per pixel: 1 (off), 2, 4 or 8 (2 and 8 where the GPU has them). Forward+
     /// and brute force use hardware MSAA; Tiled Deferred shades edge pixels per sample.
-    #[arg(long, default_value_t = 1, value_name = "1|2|4|8")]
+    #[arg(help_heading = "Method and image", long, default_value_t = 1, value_name = "1|2|4|8")]
     pub msaa: u32,
     /// A fixed exposure before tonemapping [default: automatic, from each frame's
     /// log-average luminance, mapped to middle grey; `accuracy` and `shadow-accuracy` fix
     /// the one their reference image gets, so every setting is tonemapped alike].
-    #[arg(long, value_name = "E")]
+    #[arg(help_heading = "Method and image", hide_short_help = true, long, value_name = "E")]
     pub exposure: Option<f32>,
     /// Shadow-casting point lights: the N brightest point lights cast shadows (six cube
     /// faces each, in the shadow atlas).
-    #[arg(long, default_value_t = 0, value_name = "N")]
+    #[arg(help_heading = "Shadows", long, default_value_t = 0, value_name = "N")]
     pub shadow_point_lights: u32,
     /// Shadow-casting spot lights: the N brightest spot lights cast shadows (one face each).
-    #[arg(long, default_value_t = 0, value_name = "N")]
+    #[arg(help_heading = "Shadows", hide_short_help = true, long, default_value_t = 0, value_name = "N")]
     pub shadow_spot_lights: u32,
     /// How the shadow casters of each kind are chosen: the brightest, or the largest
     /// contributions to the frame (estimated on the GPU from one frame's depth and light
     /// grid, for the camera the lights are made with).
-    #[arg(long, value_enum, default_value_t = CastersByArg::Brightness)]
+    #[arg(help_heading = "Shadows", hide_short_help = true, long, value_enum, default_value_t = CastersByArg::Brightness)]
     pub casters_by: CastersByArg,
     /// Camera bookmark to render from (a small text file; the viewer writes them with its
     /// "save camera" button): eye, target, up, field of view, near and far plane.
-    #[arg(long, value_name = "FILE")]
+    #[arg(help_heading = "Scene", hide_short_help = true, long, value_name = "FILE")]
     pub camera: Option<PathBuf>,
     /// Turn every warning (missing textures, unknown extensions, dropped lights...) into an error with a non-zero exit
-    #[arg(long)]
+    #[arg(help_heading = "Input checks", hide_short_help = true, long)]
     pub strict: bool,
     /// Test only: a fixed light-grid budget of N (list, light) indices for the opaque and
     /// the blended grid (the grid never grows; pairs beyond it are dropped, with a warning).
@@ -329,7 +334,7 @@ pub struct SceneArgs {
     /// Read the buffer and image files a glTF file names wherever they point (absolute
     /// paths, `../`, links leading out); without it only files inside the model's folder
     /// are read, since a downloaded model may name any file on the machine.
-    #[arg(long)]
+    #[arg(help_heading = "Input checks", hide_short_help = true, long)]
     pub allow_any_path: bool,
     /// Virtual point lights (`--vpl` and its settings).
     #[command(flatten)]

@@ -39,25 +39,25 @@ impl From<VplShading> for VplShadingArg {
 pub struct VplArgs {
     /// Virtual point lights: one-bounce indirect light from the shadow-casting lights'
     /// reflective shadow maps (needs --shadow-spot-lights or --shadow-point-lights).
-    #[arg(long)]
+    #[arg(help_heading = "VPLs", long)]
     pub vpl: bool,
     /// Texels per side of each caster face's reflective shadow map.
-    #[arg(long, default_value_t = DEFAULT_RSM_SIZE, value_name = "4..512")]
+    #[arg(help_heading = "VPLs", hide_short_help = true, long, default_value_t = DEFAULT_RSM_SIZE, value_name = "4..512")]
     pub vpl_rsm_size: u32,
     /// Texels per side of the block one VPL stands for (divides --vpl-rsm-size).
-    #[arg(long, default_value_t = DEFAULT_BLOCK, value_name = "N")]
+    #[arg(help_heading = "VPLs", hide_short_help = true, long, default_value_t = DEFAULT_BLOCK, value_name = "N")]
     pub vpl_block: u32,
     /// Keep a VPL only when a channel of its normalised colour reaches this (0..1).
-    #[arg(long, default_value_t = 0.0, value_name = "0..1")]
+    #[arg(help_heading = "VPLs", hide_short_help = true, long, default_value_t = 0.0, value_name = "0..1")]
     pub vpl_colour_threshold: f32,
     /// Keep a VPL only when its colour's length exceeds this.
-    #[arg(long, default_value_t = 0.0, value_name = "F")]
+    #[arg(help_heading = "VPLs", hide_short_help = true, long, default_value_t = 0.0, value_name = "F")]
     pub vpl_brightness_threshold: f32,
     /// Most VPLs; the rest are refused and reported.
-    #[arg(long, default_value_t = DEFAULT_CAP, value_name = "N")]
+    #[arg(help_heading = "VPLs", hide_short_help = true, long, default_value_t = DEFAULT_CAP, value_name = "N")]
     pub vpl_cap: u32,
     /// How VPLs light a surface.
-    #[arg(long, value_enum, default_value_t = VplShadingArg::Sample)]
+    #[arg(help_heading = "VPLs", hide_short_help = true, long, value_enum, default_value_t = VplShadingArg::Sample)]
     pub vpl_shading: VplShadingArg,
 }
 

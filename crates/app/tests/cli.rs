@@ -591,6 +591,34 @@ fn help_and_version_succeed() {
     {
         assert!(help.contains(flag), "render --help lacks {flag}");
     }
+    // Issue 47: the flags under headings; -h at most 60 lines, naming every group and how
+    // to see them all; the summary names every method.
+    let headings = [
+        "Scene:",
+        "Lights:",
+        "Method and image:",
+        "Culling:",
+        "Shadows:",
+        "VPLs:",
+        "Blended geometry:",
+        "Pass settings:",
+        "Input checks:",
+        "Output:",
+    ];
+    for h in headings {
+        assert!(help.lines().any(|l| l == h), "render --help lacks the heading {h}");
+    }
+    for cmd in ["render", "bench", "sweep", "accuracy", "tune", "shadow-accuracy", "export", "view"] {
+        let short = stdout(&tiledlight(&[cmd, "-h"]));
+        let n = short.lines().count();
+        assert!(n <= 60, "{cmd} -h: {n} lines");
+        assert!(short.contains("--help shows every flag, grouped: scene, lights,"), "{cmd} -h names no groups");
+        assert!(!short.contains("--cluster-slices"), "{cmd} -h lists a flag --help keeps");
+    }
+    let top = stdout(&tiledlight(&["-h"]));
+    for m in ["Forward+", "Tiled Deferred", "visibility buffer", "brute-force", "traced"] {
+        assert!(top.lines().next().unwrap().contains(m), "the summary does not name {m}: {top}");
+    }
 }
 
 /// The culling flags reach the renderer, each seen in what `render` reports of the frame

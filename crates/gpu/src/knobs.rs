@@ -480,7 +480,8 @@ impl clap::FromArgMatches for KnobArgs {
 impl clap::Args for KnobArgs {
     fn augment_args(cmd: clap::Command) -> clap::Command {
         KNOBS.iter().fold(cmd, |cmd, row| {
-            let arg = clap::Arg::new(row.field).long(row.flag());
+            // Under their own heading, listed by --help only (-h names the group).
+            let arg = clap::Arg::new(row.field).long(row.flag()).help_heading("Pass settings").hide_short_help(true);
             cmd.arg(match row.kind {
                 Kind::Switch => arg.action(clap::ArgAction::SetTrue).help(row.help()),
                 Kind::Choice(names) | Kind::Values(names) => arg
