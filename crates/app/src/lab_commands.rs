@@ -66,14 +66,8 @@ pub struct SweepArgs {
     /// Scene, lights, screen and renderer: the settings every point starts from.
     #[command(flatten)]
     pub scene: SceneArgs,
-    /// An axis to vary, NAME=VALUES: a list (method=forward-plus,deferred), a doubling range
-    /// (lights=64..65536) or N log-spaced values (lights=64..65536:9). Repeat for more axes;
-    /// every combination is measured. Names: lights, spot-lights, method, grid-objects,
-    /// density, gbuffer-rts, draw-order, tile-size, threshold, culling, aabb, half-z, seed, msaa,
-    /// edge-distance, edge-normal-deg, shadow-point-lights, shadow-spot-lights, shadow-size,
-    /// shadow-filter, shadow-format, transparent-objects, blend-mode, vpl, vpl-rsm-size,
-    /// vpl-block, vpl-colour-threshold, vpl-brightness-threshold, vpl-cap, vpl-shading.
-    #[arg(long = "axis", value_name = "NAME=VALUES")]
+    /// An axis to vary, NAME=VALUES (every name: `tiledlight_lab::axes::axis_help`).
+    #[arg(long = "axis", value_name = "NAME=VALUES", help = tiledlight_lab::axes::axis_help())]
     pub axes: Vec<String>,
     /// A named sweep; --axis replaces its axes of the same name.
     #[arg(long, value_enum)]
@@ -120,10 +114,14 @@ pub struct AccuracyArgs {
     /// Scene, lights, screen and renderer: the settings every point starts from.
     #[command(flatten)]
     pub scene: SceneArgs,
-    /// A setting to vary, NAME=VALUES (as for `sweep`) [default: threshold=0.4,0.2,...,0.0001
-    /// (13 values) and culling=planes,aabb,half-z]. Given axes replace default ones of the same name
-    /// and add to the others.
-    #[arg(long = "axis", value_name = "NAME=VALUES")]
+    /// A setting to vary, NAME=VALUES [default: threshold=0.4,0.2,...,0.0001 (13 values) and
+    /// culling=planes,aabb,half-z]. Given axes replace default ones of the same name and add
+    /// to the others.
+    #[arg(long = "axis", value_name = "NAME=VALUES", help = format!(
+        "A setting to vary, NAME=VALUES [default: threshold=0.4,0.2,...,0.0001 (13 values) and \
+         culling=planes,aabb,half-z]. Given axes replace default ones of the same name and add to the others. Names: {}",
+        tiledlight_lab::axes::axis_names()
+    ))]
     pub axes: Vec<String>,
     /// Measured frames per setting.
     #[arg(long, default_value_t = 20, value_name = "N")]

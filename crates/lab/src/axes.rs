@@ -120,6 +120,21 @@ pub fn axes() -> Vec<(&'static str, String)> {
     AXES.iter().map(|(n, d)| (*n, d.to_string())).chain(rows).collect()
 }
 
+/// Every axis name, comma-separated: the one list `sweep --help`, `accuracy --help`, the
+/// error for an unknown axis and docs/USAGE.md's table (checked by a test) all show.
+pub fn axis_names() -> String {
+    axes().iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
+}
+
+/// `--axis`'s help: the syntax and every name ([`axis_names`]).
+pub fn axis_help() -> String {
+    format!(
+        "An axis to vary, NAME=VALUES: a list (method=forward-plus,deferred), a doubling range (lights=64..65536) \
+         or N log-spaced values (lights=64..65536:9). Repeat for more axes; every combination is measured. Names: {}",
+        axis_names()
+    )
+}
+
 /// One swept axis: its name (a key of [`axes`]) and its values, in sweep order.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Axis {
@@ -134,8 +149,7 @@ fn known(name: &str) -> Result<()> {
     if all.iter().any(|(n, _)| *n == name) {
         return Ok(());
     }
-    let names: Vec<&str> = all.iter().map(|(n, _)| *n).collect();
-    bail!("unknown axis '{name}': expected one of {}", names.join(", "))
+    bail!("unknown axis '{name}': expected one of {}", axis_names())
 }
 
 /// Whether the axis's values are integers.
@@ -625,6 +639,31 @@ pub fn sibling(path: &Path, ext: &str) -> PathBuf {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The axes as docs/USAGE.md lists them: a markdown table, one row an axis.
+    fn usage_table() -> String {
+        let mut t = String::from("| axis | values |\n| --- | --- |\n");
+        for (name, what) in axes() {
+            t.push_str(&format!("| `{name}` | {} |\n", what.replace('|', "\\|")));
+        }
+        t
+    }
+
+    /// One list of axes everywhere (issue 47): docs/USAGE.md's table between its markers is
+    /// [`axes`]' (the help and the unknown-axis error print [`axis_names`]); the failure
+    /// prints the table to paste.
+    #[test]
+    fn usage_lists_every_axis() {
+        let usage = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/USAGE.md")).unwrap();
+        let start = usage.find("<!-- axes: generated").expect("USAGE's axes marker");
+        let body = &usage[start..];
+        let (first, end) = (body.find('\n').unwrap() + 1, body.find("<!-- /axes -->").expect("end marker"));
+        let table = usage_table();
+        assert!(body[first..end] == table, "docs/USAGE.md's axes table is stale; it should read:\n{table}");
+        let e = known("bogus").unwrap_err().to_string();
+        assert!(e.ends_with(&axis_names()), "{e}");
+        assert!(axis_help().ends_with(&axis_names()));
+    }
 
     /// A program's own flags: a light count and a tile size, as the lab's example has.
     #[derive(Clone, Debug, Default, PartialEq)]
