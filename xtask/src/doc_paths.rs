@@ -65,6 +65,34 @@ pub fn missing(root: &Path, text: &str) -> Vec<String> {
 
 /// The `cargo run ... -p PACKAGE --example NAME` commands of `text` whose example file
 /// (`crates/*/examples/NAME.rs` of the package named) does not exist under `root`.
+/// The differences between a markdown text's contents list (the `- [Title](#anchor)`
+/// lines under `## Contents`) and its `## ` sections after it: each section listed once, in
+/// order, with GitHub's anchor.
+pub fn contents_mismatch(text: &str) -> Vec<String> {
+    let anchor = |h: &str| {
+        h.to_lowercase()
+            .chars()
+            .filter(|c| c.is_ascii_alphanumeric() || *c == ' ' || *c == '-')
+            .collect::<String>()
+            .replace(' ', "-")
+    };
+    let Some(start) = text.find("## Contents\n") else {
+        return vec!["no `## Contents` section".into()];
+    };
+    let body = &text[start + "## Contents\n".len()..];
+    let listed: Vec<String> =
+        body.lines().skip_while(|l| l.is_empty()).take_while(|l| l.starts_with("- [")).map(str::to_string).collect();
+    let sections: Vec<String> =
+        body.lines().filter_map(|l| l.strip_prefix("## ")).map(|h| format!("- [{h}](#{})", anchor(h))).collect();
+    let mut bad: Vec<String> =
+        sections.iter().filter(|s| !listed.contains(s)).map(|s| format!("not listed: {s}")).collect();
+    bad.extend(listed.iter().filter(|l| !sections.contains(l)).map(|l| format!("no such section: {l}")));
+    if bad.is_empty() && listed != sections {
+        bad.push("listed out of order".into());
+    }
+    bad
+}
+
 pub fn missing_examples(root: &Path, text: &str) -> Vec<String> {
     let mut bad = Vec::new();
     for line in text.lines().filter(|l| l.contains("cargo run") && l.contains("--example")) {
@@ -88,6 +116,19 @@ mod tests {
 
     fn root() -> &'static Path {
         Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
+    }
+
+    /// docs/USAGE.md opens with a contents list of its sections (issue 47); a list that
+    /// misses, invents or reorders a section is reported.
+    #[test]
+    fn usage_has_a_true_contents_list() {
+        let usage = std::fs::read_to_string(root().join("docs/USAGE.md")).unwrap();
+        assert_eq!(contents_mismatch(&usage), Vec::<String>::new());
+        let text = "## Contents\n\n- [B](#b)\n- [A b](#a-b)\n\n## A b\n\n## B\n";
+        assert_eq!(contents_mismatch(text), ["listed out of order"]);
+        let text = "## Contents\n\n- [A](#a)\n- [C](#c)\n\n## A\n\n## B\n";
+        assert_eq!(contents_mismatch(text), ["not listed: - [B](#b)", "no such section: - [C](#c)"]);
+        assert_eq!(contents_mismatch("## A\n"), ["no `## Contents` section"]);
     }
 
     #[test]
