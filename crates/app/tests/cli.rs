@@ -426,6 +426,8 @@ fn bad_input_gives_one_clear_error_line() {
     let cases: &[(&[&str], &str)] = &[
         (&["render", "--scene", "/nonexistent.gltf"], "/nonexistent.gltf"),
         (&["render", "--scene", "scene.obj"], "--scene"),
+        (&["render", "--scene", "scene.obj"], "'bevy-many-lights'"),
+        (&["render", "--scene", "/tmp"], "--scene /tmp: is a folder"),
         (&["render", "--width", "0"], "--width 0"),
         (&["render", "--height", "100000"], "--height 100000"),
         (&["render", "--lights", "99999999"], "--lights 99999999"),

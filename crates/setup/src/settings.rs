@@ -522,11 +522,22 @@ impl Settings {
             );
         }
         if let SceneSource::File(path) = &self.scene {
+            let built_in = || {
+                let peers: Vec<&str> = PeerScene::ALL.iter().map(|p| p.name()).collect();
+                format!("'default', 'materials', '{}'", peers.join("', '"))
+            };
+            ensure!(
+                !path.is_dir(),
+                "--scene {}: is a folder; give the .gltf or .glb file inside it, or a built-in scene: {}",
+                path.display(),
+                built_in()
+            );
             let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
             ensure!(
                 matches!(ext.as_deref(), Some("gltf" | "glb")),
-                "--scene {}: expected 'default' or a .gltf/.glb file",
-                path.display()
+                "--scene {}: expected a .gltf or .glb file, or a built-in scene: {}",
+                path.display(),
+                built_in()
             );
             ensure!(
                 self.grid_objects == 0,
