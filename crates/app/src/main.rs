@@ -59,6 +59,10 @@ struct Cli {
     /// No progress bars (they show only when stderr is a terminal anyway).
     #[arg(long, global = true)]
     quiet: bool,
+    /// Every detail of grouped warnings (each missing image of a model, not only the count
+    /// and two examples).
+    #[arg(long, global = true)]
+    verbose: bool,
 }
 
 /// Under `-h` of every command with the scene flags: `-h` lists the main flags of each
@@ -143,6 +147,7 @@ fn main() -> ExitCode {
         }
     };
     tiledlight_lab::axes::set_quiet(cli.quiet);
+    tiledlight_lab::output::set_verbose(cli.verbose);
     // Headless commands: no window-system probe by Mesa's device-select layer (it prints
     // "error: XDG_RUNTIME_DIR ..." lines on machines without one). Here, before any thread.
     let headless = match &cli.command {

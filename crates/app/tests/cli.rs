@@ -559,6 +559,56 @@ fn progress_shows_on_a_terminal_only_and_quiet_hides_it() {
     assert!(piped.stderr.is_empty(), "a pipe gets a bar: {}", String::from_utf8_lossy(&piped.stderr));
 }
 
+/// A model downloaded without its 15 textures (issue 47: FlightHelmet printed 7,500
+/// characters of warnings): at most 1,500 characters of warning lines, one of them naming
+/// the folder and two examples; `--verbose` adds each image's line.
+#[test]
+fn missing_textures_are_one_grouped_warning_and_verbose_lists_them() {
+    let dir = scratch("missing-textures");
+    let quad = write_gltf(&dir);
+    let mut doc: Value = serde_json::from_str(&std::fs::read_to_string(&quad).unwrap()).unwrap();
+    let prim = doc["meshes"][0]["primitives"][0].clone();
+    let (mut images, mut materials, mut prims) = (vec![], vec![], vec![]);
+    for m in 0..5 {
+        let name = format!("FlightHelmet_Materials_Part{m}Mat");
+        for kind in ["BaseColor", "OcclusionRoughMetal", "Normal"] {
+            images.push(serde_json::json!({"uri": format!("{name}_{kind}.png")}));
+        }
+        materials.push(serde_json::json!({
+            "name": name,
+            "pbrMetallicRoughness": {"baseColorTexture": {"index": 3 * m}, "metallicRoughnessTexture": {"index": 3 * m + 1}},
+            "normalTexture": {"index": 3 * m + 2}
+        }));
+        let mut p = prim.clone();
+        p["material"] = serde_json::json!(m);
+        prims.push(p);
+    }
+    doc["images"] = Value::from(images);
+    doc["textures"] = Value::from((0..15).map(|i| serde_json::json!({"source": i})).collect::<Vec<_>>());
+    doc["materials"] = Value::from(materials);
+    doc["meshes"][0]["primitives"] = Value::from(prims);
+    let path = dir.join("helmet.gltf");
+    std::fs::write(&path, serde_json::to_string(&doc).unwrap()).unwrap();
+    let out = dir.join("helmet.png");
+    let run = |verbose: bool| {
+        let mut args = with_tiny("render", &["--scene", path.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        if verbose {
+            args.push("--verbose");
+        }
+        String::from_utf8_lossy(&gpu_run(&args).stderr).into_owned()
+    };
+    let short = run(false);
+    let warnings: Vec<&str> = short.lines().filter(|l| l.starts_with("warning: ")).collect();
+    let chars: usize = warnings.iter().map(|l| l.len()).sum();
+    assert!(chars <= 1500, "{chars} characters of warnings:\n{short}");
+    assert!(warnings.iter().any(|l| l.contains("15 of the file's 15 images are missing from")), "{short}");
+    assert!(!short.contains("Part4Mat_Normal.png"), "a detail without --verbose:\n{short}");
+    let long = run(true);
+    for m in 0..5 {
+        assert!(long.contains(&format!("Part{m}Mat_Normal.png: material {m}")), "--verbose lacks image {m}:\n{long}");
+    }
+}
+
 /// A camera bookmark (as the viewer's "save camera" writes it) pins the view of `render`;
 /// a malformed one names the file and line before any GPU work.
 #[test]

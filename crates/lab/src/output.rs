@@ -16,9 +16,23 @@ pub fn one_line(msg: &str) -> String {
 /// Prints each warning of a scene's loading (`SceneCpu::warnings`,
 /// `Prepared::scene_warnings`) as a line starting `warning: ` on stderr.
 pub fn print_load_warnings(warnings: &[String]) {
+    let verbose = VERBOSE.load(std::sync::atomic::Ordering::Relaxed);
     for w in warnings {
-        eprintln!("warning: {w}");
+        match w.strip_prefix(tiledlight_scene::DETAIL) {
+            // A grouped warning's per-image list: only with --verbose.
+            Some(detail) if verbose => eprintln!("warning:   - {detail}"),
+            Some(_) => {}
+            None => eprintln!("warning: {w}"),
+        }
     }
+}
+
+/// `--verbose`: the load warnings' details too ([`print_load_warnings`]).
+static VERBOSE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Prints the details of grouped load warnings from now on (`--verbose`) or not.
+pub fn set_verbose(verbose: bool) {
+    VERBOSE.store(verbose, std::sync::atomic::Ordering::Relaxed);
 }
 
 /// An RGB image from tightly packed RGBA8 pixels.

@@ -50,8 +50,8 @@ pub use lights::{
     DEFAULT_INTENSITY_RANGE, DEFAULT_LIGHT_THRESHOLD, MAX_LIGHTS,
 };
 pub use loader::{
-    load_gltf, load_gltf_bytes, load_gltf_with, LoadLimits, LoadOptions, Loaded, MAX_IMAGE_BYTES, MAX_SCENE_BYTES,
-    MAX_TEXTURE_BYTES, MAX_WORLD_COORDINATE, SUPPORTED_EXTENSIONS,
+    load_gltf, load_gltf_bytes, load_gltf_with, LoadLimits, LoadOptions, Loaded, DETAIL, GROUP_MISSING,
+    MAX_IMAGE_BYTES, MAX_SCENE_BYTES, MAX_TEXTURE_BYTES, MAX_WORLD_COORDINATE, SUPPORTED_EXTENSIONS,
 };
 pub use model::{
     Aabb, AlphaMode, CameraDesc, Filter, Instance, Material, Mesh, Sampler, Scene, Texture, TextureRef, UvTransform,

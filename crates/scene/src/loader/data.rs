@@ -64,13 +64,16 @@ pub(crate) enum ReadError {
     Refused(String),
     /// Missing, unreadable or too large: a texture may be left out with a warning.
     Failed(String),
+    /// The file does not exist (`path`): a texture may be left out with a warning, grouped
+    /// with the other images missing from its folder.
+    Missing(String, std::path::PathBuf),
 }
 
 impl ReadError {
     /// The message.
     pub(crate) fn message(self) -> String {
         match self {
-            Self::Refused(m) | Self::Failed(m) => m,
+            Self::Refused(m) | Self::Failed(m) | Self::Missing(m, _) => m,
         }
     }
 }
@@ -122,8 +125,14 @@ impl Files {
             return Err(self.outside(uri, path, ""));
         }
         // Follows symbolic links: what counts is the file read.
-        let meta = std::fs::metadata(path)
-            .map_err(|e| ReadError::Failed(format!("cannot read '{}' (URI '{uri}'): {e}", path.display())))?;
+        let meta = std::fs::metadata(path).map_err(|e| {
+            let m = format!("cannot read '{}' (URI '{uri}'): {e}", path.display());
+            if e.kind() == std::io::ErrorKind::NotFound {
+                ReadError::Missing(m, path.to_path_buf())
+            } else {
+                ReadError::Failed(m)
+            }
+        })?;
         if !self.allow_any_path {
             let canonical = |p: &Path| {
                 p.canonicalize()

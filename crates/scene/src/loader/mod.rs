@@ -49,6 +49,13 @@ pub use options::{LoadLimits, LoadOptions, Loaded, MAX_IMAGE_BYTES, MAX_SCENE_BY
 /// beyond this fails, naming the node.
 pub const MAX_WORLD_COORDINATE: f32 = 1e18;
 
+/// How many images missing from one folder make one grouped warning instead of a line each.
+pub const GROUP_MISSING: usize = 3;
+
+/// The start of a detail line among the warnings: it belongs to the warning before it (the
+/// per-image list of a grouped warning); the command line prints it only with `--verbose`.
+pub const DETAIL: &str = "  - ";
+
 /// Loads a glTF 2.0 file (`.gltf` or `.glb`) into a validated [`Scene`], strictly: every
 /// problem, including those [`load_gltf_with`] only warns about (a missing texture, an
 /// unknown extension), is an error, so nothing the file describes is silently left out.
@@ -145,7 +152,11 @@ pub fn load_gltf_bytes(bytes: &[u8], path: &Path, options: &LoadOptions) -> Resu
         // Each warning is a sentence of its own.
         return Err(fail(format!("strict loading turns warnings into errors: {}", warnings.join(" "))));
     }
-    let warnings = warnings.into_iter().map(|w| format!("{}: {w}", path.display())).collect();
+    // Each warning names the file once; a detail line belongs to the line before it.
+    let warnings = warnings
+        .into_iter()
+        .map(|w| if w.starts_with(DETAIL) { w } else { format!("{}: {w}", path.display()) })
+        .collect();
     Ok(Loaded { scene, warnings })
 }
 
@@ -214,6 +225,8 @@ struct UnusableImage {
     index: usize,
     /// What is wrong, naming the image ([`ReadError::Failed`]'s message).
     problem: String,
+    /// The file, when it does not exist ([`ReadError::Missing`]).
+    missing: Option<std::path::PathBuf>,
     /// Each material ("material 0 'paint'") and slot ("base colour") that uses it, in the
     /// order met.
     users: Vec<(String, String)>,
@@ -236,10 +249,50 @@ impl Loader<'_> {
     }
 
     /// One warning per unusable image, naming every material and slot drawn without
-    /// it, then (with more than one) their count.
+    /// it, then (with more than one) their count. Images missing from one folder, at least
+    /// [`GROUP_MISSING`] of them (a downloaded model without its textures), are one line for
+    /// the folder instead: how many of the file's images, two example names, how many slots
+    /// are drawn without them and how; their per-image lines follow as details
+    /// ([`DETAIL`]: the command line prints them with `--verbose`).
     fn unusable_image_warnings(&mut self) {
         let images = std::mem::take(&mut self.unusable_images);
+        let mut folders: Vec<(std::path::PathBuf, Vec<&UnusableImage>)> = Vec::new();
         for i in &images {
+            let Some(dir) = i.missing.as_ref().and_then(|p| p.parent()) else { continue };
+            match folders.iter_mut().find(|(d, _)| d == dir) {
+                Some((_, g)) => g.push(i),
+                None => folders.push((dir.to_path_buf(), vec![i])),
+            }
+        }
+        folders.retain(|(_, g)| g.len() >= GROUP_MISSING);
+        let grouped = |i: &UnusableImage| folders.iter().any(|(_, g)| g.iter().any(|x| x.index == i.index));
+        let total = self.doc.images().len();
+        for (dir, group) in &folders {
+            let name = |i: &UnusableImage| {
+                i.missing
+                    .as_ref()
+                    .and_then(|p| p.file_name())
+                    .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+            };
+            let examples: Vec<String> = group.iter().take(2).map(|i| format!("'{}'", name(i))).collect();
+            let slots: usize = group.iter().map(|i| i.users.len()).sum();
+            let colour = group.iter().flat_map(|i| &i.users).filter(|(_, s)| s == "base colour").count();
+            self.warn(format!(
+                "{} of the file's {total} images are missing from {}/ (e.g. {}); {slots} material slots are drawn \
+                 without them: {colour} base colour slots with the base colour factor alone (as if the texture were \
+                 white), {} other slots with their factors alone (--verbose lists each image).",
+                group.len(),
+                dir.display(),
+                examples.join(", "),
+                slots - colour
+            ));
+            for i in group {
+                let named: Vec<String> =
+                    i.users.iter().map(|(material, slot)| format!("{material} ({slot})")).collect();
+                self.warn(format!("{DETAIL}{}: {}.", name(i), named.join(", ")));
+            }
+        }
+        for i in images.iter().filter(|i| !grouped(i)) {
             let base_colour = i.users.iter().any(|(_, slot)| slot == "base colour");
             let other = i.users.iter().any(|(_, slot)| slot != "base colour");
             let drawn = match (base_colour, other) {
@@ -590,12 +643,17 @@ impl Loader<'_> {
         match self.texture(image) {
             Ok(t) => Ok(Some(t)),
             Err(ReadError::Refused(m)) => Err(format!("{material}: {slot} texture: {m}")),
-            Err(ReadError::Failed(problem)) => {
+            Err(e @ (ReadError::Failed(_) | ReadError::Missing(..))) => {
                 let index = image.index();
+                let missing = match &e {
+                    ReadError::Missing(_, p) => Some(p.clone()),
+                    _ => None,
+                };
+                let problem = e.message();
                 let at = match self.unusable_images.iter().position(|i| i.index == index) {
                     Some(at) => at,
                     None => {
-                        self.unusable_images.push(UnusableImage { index, problem, users: vec![] });
+                        self.unusable_images.push(UnusableImage { index, problem, missing, users: vec![] });
                         self.unusable_images.len() - 1
                     }
                 };
@@ -643,6 +701,7 @@ impl Loader<'_> {
                         let d = self.files.read(uri, &p, max, Larger::Fail).map_err(|e| match e {
                             ReadError::Refused(m) => ReadError::Refused(format!("{label}: {m}")),
                             ReadError::Failed(m) => failed(format!("{label}: {m}")),
+                            ReadError::Missing(m, p) => ReadError::Missing(format!("{label}: {m}"), p),
                         })?;
                         (Cow::Owned(d), name)
                     }

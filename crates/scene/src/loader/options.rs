@@ -82,5 +82,7 @@ pub struct Loaded {
     /// One complete sentence per problem the scene was drawn despite (a missing texture,
     /// an extension it was drawn without...), each naming the file. Empty when the scene
     /// is what the file describes; always empty after a strict load (that fails instead).
+    /// A line starting with [`crate::DETAIL`] does not name the file: it is a detail
+    /// of the warning before it (a grouped warning's per-image list).
     pub warnings: Vec<String>,
 }

@@ -10,7 +10,7 @@ use serde_json::{json, Value};
 
 use super::{assert_fails, base64, one_mesh_scene, png, write_embedded, write_gltf, Bin};
 use crate::error::SceneError;
-use crate::loader::{load_gltf, load_gltf_with, LoadLimits, LoadOptions, Loaded};
+use crate::loader::{load_gltf, load_gltf_with, LoadLimits, LoadOptions, Loaded, DETAIL};
 use crate::model::Scene;
 
 fn lenient() -> LoadOptions {
@@ -383,6 +383,60 @@ fn missing_and_broken_textures_warn_and_fall_back_to_the_factor() {
             "material 2 'trim' (base colour)",
         ],
     );
+}
+
+/// A model downloaded without its textures (issue 47: FlightHelmet's 15 images gave 16
+/// lines of 530-600 characters): 15 images missing from one folder are one line naming the
+/// folder, the count of the file's images, two examples and what is drawn instead, each
+/// image's line a detail after it ([`DETAIL`]), then the count of slots; the lines that
+/// are not details stay under 1,500 characters. Two missing images keep a line each.
+#[test]
+fn missing_images_of_one_folder_are_one_warning_with_details() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bin = Bin::default();
+    let prim = bin.triangle();
+    let slots = ["baseColorTexture", "metallicRoughnessTexture"];
+    let mut images = Vec::new();
+    let mut materials = Vec::new();
+    let mut prims = Vec::new();
+    for m in 0..5 {
+        let name = format!("FlightHelmet_Materials_Part{m}Mat");
+        let mut pbr = serde_json::Map::new();
+        for (k, slot) in slots.iter().enumerate() {
+            pbr.insert(slot.to_string(), json!({"index": 3 * m + k}));
+        }
+        materials.push(json!({"name": name, "pbrMetallicRoughness": pbr, "normalTexture": {"index": 3 * m + 2}}));
+        for kind in ["BaseColor", "OcclusionRoughMetal", "Normal"] {
+            images.push(json!({"uri": format!("{name}_{kind}.png")}));
+        }
+        let mut p = prim.clone();
+        p["material"] = json!(m);
+        prims.push(p);
+    }
+    let textures: Vec<_> = (0..15).map(|i| json!({"source": i})).collect();
+    let root = bin.document(json!({
+        "images": images, "textures": textures, "materials": materials,
+        "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}], "meshes": [{"primitives": prims}],
+    }));
+    let path = write_gltf(dir.path(), "helmet", root, &bin.data);
+    let w = load_gltf_with(&path, &lenient()).unwrap().warnings;
+    let (details, lines): (Vec<&String>, Vec<&String>) = w.iter().partition(|l| l.starts_with(DETAIL));
+    assert_eq!((lines.len(), details.len()), (2, 15), "{w:#?}");
+    let folder = dir.path().display();
+    assert!(
+        lines[0].starts_with(&format!(
+            "{}: 15 of the file's 15 images are missing from {folder}/ (e.g. 'FlightHelmet_Materials_Part0Mat_BaseColor.png', \
+             'FlightHelmet_Materials_Part0Mat_OcclusionRoughMetal.png'); 15 material slots are drawn without them: 5 base colour slots",
+            path.display()
+        )),
+        "{}",
+        lines[0]
+    );
+    assert!(details[0].contains("FlightHelmet_Materials_Part0Mat_BaseColor.png: material 0"), "{}", details[0]);
+    assert!(lines[1].ends_with("15 images cannot be used (listed above); 15 material slots are drawn without theirs."));
+    let chars: usize = lines.iter().map(|l| l.len()).sum();
+    assert!(chars < 1500, "{chars} characters of warnings without the details");
+    assert!(details.iter().all(|d| !d.contains(&path.display().to_string())), "details do not repeat the file");
 }
 
 // ---- memory limits ----
