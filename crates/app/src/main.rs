@@ -118,6 +118,27 @@ enum Command {
     View(viewer::ViewArgs),
 }
 
+/// A window without `XDG_RUNTIME_DIR` (a plain `ssh -X` or Xvfb session): libwayland, probed
+/// by winit and Mesa, printed "error: XDG_RUNTIME_DIR is invalid or not set" on every start
+/// (twice on lavapipe under Xvfb). Then a private folder of this user's (0700, in the temp
+/// folder) stands in for it: nothing listens there, so the probes fail quietly and the
+/// window opens on X11 as before. Called before any thread starts.
+fn runtime_dir_fallback() {
+    #[cfg(unix)]
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        use std::os::unix::fs::{DirBuilderExt, MetadataExt, PermissionsExt};
+        let Ok(uid) = std::fs::metadata("/proc/self").map(|m| m.uid()) else { return };
+        let dir = std::env::temp_dir().join(format!("tiledlight-runtime-{uid}"));
+        let _ = std::fs::DirBuilder::new().mode(0o700).create(&dir);
+        // Only a folder this user owns with no one else's access stands in.
+        let ours =
+            std::fs::metadata(&dir).is_ok_and(|m| m.is_dir() && m.uid() == uid && m.permissions().mode() & 0o077 == 0);
+        if ours {
+            std::env::set_var("XDG_RUNTIME_DIR", &dir);
+        }
+    }
+}
+
 /// Whether subcommand `name` has the `--demo` flag (the scene flags).
 fn takes_demo(name: &str) -> bool {
     use clap::CommandFactory;
@@ -157,6 +178,8 @@ fn main() -> ExitCode {
     };
     if headless {
         tiledlight_gpu::skip_display_gpu_probe();
+    } else {
+        runtime_dir_fallback();
     }
     let result = match &cli.command {
         Some(Command::Render(args)) => render::run(args),

@@ -325,3 +325,23 @@ fn a_lost_device_ends_the_viewer_naming_it() {
     let last = stderr.lines().last().unwrap_or_default();
     assert!(last.starts_with("error: the GPU device was lost (destroyed by the program)"), "{stderr}");
 }
+
+/// A window started without `XDG_RUNTIME_DIR` (issue 47: every start printed libwayland's
+/// "error: XDG_RUNTIME_DIR is invalid or not set" lines, which USAGE promises a successful
+/// run does not) prints no such line: the viewer stands a private folder in for it.
+#[test]
+fn a_window_without_xdg_runtime_dir_prints_no_error_line() {
+    let x = Xvfb::start();
+    let dir = scratch("no-xdg");
+    let out = Command::new(env!("CARGO_BIN_EXE_tiledlight"))
+        .args(["view", "--width", "320", "--height", "180", "--lights", "32", "--frames", "2"])
+        .current_dir(&dir)
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("XDG_RUNTIME_DIR")
+        .output()
+        .expect("run the tiledlight binary");
+    let err = text(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(!err.contains("XDG_RUNTIME_DIR"), "a successful start printed:\n{err}");
+}
