@@ -217,8 +217,8 @@ impl Dropped {
                     ),
                     // Grown for the next frame: only frames before the growth lost lights.
                     None => (
-                        format!("{} indices, before it grew for the next frames", group_digits(capacity.into())),
-                        "warm-up frames (--warmup) let the grid grow before frames are measured",
+                        format!("{} indices, then grew", group_digits(capacity.into())),
+                        "--warmup 1 or more lets it grow first",
                     ),
                 };
                 hint.get_or_insert(help);
@@ -232,8 +232,8 @@ impl Dropped {
         };
         let hint = hint.map(|h| format!(" ({h})")).unwrap_or_default();
         Some(format!(
-            "{subject}: light lists overflowed{frames}, DROPPED {}: the image is wrong where those lights are \
-             missing and a time of such a frame is of less work than the whole frame{hint}",
+            "{subject}: light lists overflowed{frames}, DROPPED {}: image and times incomplete (docs/RELIABILITY.md, \
+             \"Dropped lights\"){hint}",
             parts.join("; ")
         ))
     }
@@ -339,7 +339,8 @@ mod tests {
         assert!(w.contains("limit max_storage_buffer_binding_size = 400 bytes, asked for 600 bytes"), "{w}");
         // A grid below the device's limit was growing: the frames before it lost lights.
         let w = Dropped::of(&[status(150, 100)], &[]).warning("the image", None, 4000).unwrap();
-        assert!(w.contains("the grid holds 100 indices, before it grew for the next frames"), "{w}");
+        assert!(w.contains("the grid holds 100 indices, then grew): image and times incomplete"), "{w}");
+        assert!(w.ends_with("(--warmup 1 or more lets it grow first)"), "{w}");
         assert!(!w.contains("frames read back"), "one frame: {w}");
         assert_eq!(d.mark().unwrap(), "DROPPED lights in 2 of 3 frames read back");
     }
