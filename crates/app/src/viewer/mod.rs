@@ -258,6 +258,9 @@ struct Viewer {
     screenshot: Option<PathBuf>,
     screenshot_ui: Option<PathBuf>,
     frames: u64,
+    /// Frames a scripted run drew while its script's actions (and waits) were still running;
+    /// `--frames N` counts the frames after them.
+    script_frames: u64,
     last_frame: Instant,
     last_stats: Option<Instant>,
     minimized: bool,
@@ -389,6 +392,7 @@ impl Viewer {
             screenshot: args.screenshot.clone(),
             screenshot_ui: args.screenshot_ui.clone(),
             frames: 0,
+            script_frames: 0,
             last_frame: Instant::now(),
             last_stats: None,
             minimized: false,
@@ -756,6 +760,8 @@ impl Viewer {
         if let Some(n) = self.frames_left.as_mut() {
             if self.script.is_empty() && self.wait == 0 {
                 *n = n.saturating_sub(1);
+            } else {
+                self.script_frames += 1;
             }
         }
         Ok(quit)
@@ -795,7 +801,13 @@ impl Viewer {
     fn print_state(&self) {
         let s = &self.settings;
         let l = &self.prep.light_summary;
-        println!("viewer frames: {}", self.frames);
+        // `--frames N` counts the frames after the script: say which frames were which.
+        println!(
+            "viewer frames: {} ({} while the script's actions ran, {} after them)",
+            self.frames,
+            self.script_frames,
+            self.frames - self.script_frames
+        );
         println!("viewer method: {}", s.setup.method.name());
         println!("viewer lights: {} point, {} spot", l.point, l.spot);
         println!("viewer scene: {}", self.prep.scene_name);
