@@ -130,7 +130,7 @@ fn viewer_renders_changes_method_and_lights_and_saves_screenshots() {
         "viewer culling:",
         // --frames 3 counts the frames after the script's 15 actions (issue 47: the report
         // gave the total alone, which looked like a miscount).
-        "while the script's actions ran, 3 after them)",
+        "while the script's actions ran, 3 after them, 1 final)",
     ] {
         assert!(stdout.contains(needle), "no {needle:?} in:\n{stdout}\nstderr:\n{}", text(&out.stderr));
     }

@@ -801,12 +801,13 @@ impl Viewer {
     fn print_state(&self) {
         let s = &self.settings;
         let l = &self.prep.light_summary;
-        // `--frames N` counts the frames after the script: say which frames were which.
+        // `--frames N` counts the frames after the script; one more is drawn for the
+        // screenshots and this report: say which frames were which.
         println!(
-            "viewer frames: {} ({} while the script's actions ran, {} after them)",
+            "viewer frames: {} ({} while the script's actions ran, {} after them, 1 final)",
             self.frames,
             self.script_frames,
-            self.frames - self.script_frames
+            self.frames.saturating_sub(self.script_frames + 1)
         );
         println!("viewer method: {}", s.setup.method.name());
         println!("viewer lights: {} point, {} spot", l.point, l.spot);
