@@ -332,13 +332,13 @@ for set in $sets; do
     ;;
   stage-lights)
     # Issue 49 item 2 (and issue 45's setting added in three files): the visibility
-    # buffer's shading with its tile list staged in workgroup memory (--stage-lights) and
-    # without, three interleaved repeats: the Figure 9 scene at 4,096 and 16,384 lights, 100
+    # buffer's shading with its tile list staged in workgroup memory (the default) and
+    # without (--no-stage-lights), three interleaved repeats: the Figure 9 scene at 4,096 and 16,384 lights, 100
     # frames; the million preset (assigned, tile lists), 30 frames; the courtyard at 1,024.
     for rep in 1 2 3; do
       for st in off on; do
         flag=()
-        [ "$st" = on ] && flag=(--stage-lights)
+        [ "$st" = off ] && flag=(--no-stage-lights)
         for n in 4096 16384; do
           run "st-f9-$n-$st-$rep" 100 --lights $n --grid-objects 280 --density medium --method visibility "${flag[@]}"
         done

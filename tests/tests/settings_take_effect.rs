@@ -323,7 +323,7 @@ fn the_visibility_raster_is_the_one_asked_for() {
     }
 }
 
-/// The visibility buffer's light staging (`--stage-lights`, the `STAGE_LIGHTS` pipeline
+/// The visibility buffer's light staging (on by default, `--no-stage-lights` off; the `STAGE_LIGHTS` pipeline
 /// constant of `shaders/common/assigned_shade.wgsl`): built in with tile lists only (half-z
 /// and clusters give a workgroup several lists: built without it), and the image the same
 /// as without it on a frame whose tiles hold both fewer and more lights than the stage's 256
