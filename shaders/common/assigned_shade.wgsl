@@ -19,11 +19,14 @@ override WG: u32 = 16u;
 #endif
 #include "common/light_grid_pixel.wgsl"
 
+#ifdef VISIBILITY
 // The pass settings' row `stage-lights` (the visibility buffer; the host sets it only with
 // tile lists, where the workgroup's tile is the grid's and every pixel reads one list): the
 // workgroup copies its list's first STAGE_CAP indices and shading records into workgroup
 // memory once, and its pixels read them from there instead of each fetching every record
 // from the light buffer. The sum is the same in the same order: the image does not change.
+// Only the visibility buffer's kernels declare it (Tiled Deferred's assigned-list kernel
+// never stages: no workgroup memory for it there).
 override STAGE_LIGHTS: bool = false;
 const STAGE_CAP: u32 = 256u;
 var<workgroup> staged_index: array<u32, STAGE_CAP>;
@@ -44,6 +47,7 @@ fn stage_lights(wid: vec3<u32>, lidx: u32) {
         staged_count = n;
     }
 }
+#endif
 
 // Linear HDR of one surface sample of pixel `p`, lit by its list in the grid.
 fn shade_lights_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
@@ -54,12 +58,14 @@ fn shade_lights_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
     var color = g.unlit;
     let l = pixel_list(p, g.dist);
     var i = 0u;
+#ifdef VISIBILITY
     if STAGE_LIGHTS {
         // The pixel's list is the workgroup's: its first lights are staged.
         for (; i < staged_count; i++) {
             color += shade_light_record(staged_index[i], staged_light[i], g.world, g.normal, v, g.surface);
         }
     }
+#endif
     for (; i < l.count; i++) {
         color += shade_light(light_indices[l.first + i], g.world, g.normal, v, g.surface);
     }
@@ -73,9 +79,11 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid
         atomicStore(&wg_edge_count, 0u);
     }
 #endif
+#ifdef VISIBILITY
     if STAGE_LIGHTS {
         stage_lights(wid, lidx);
     }
+#endif
     // The lists are in the grid already; the barrier orders the reset and the staging above.
     workgroupBarrier();
     shade_tile_pixels(wid, lid, lidx);

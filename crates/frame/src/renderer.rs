@@ -155,7 +155,7 @@ impl FrameRenderer {
         // The method's registration: its target needs, its steps and its frame.
         let method = crate::registry::registration(s.method);
         let (needs, build, what) = ((method.targets)(&features), method.build, method.building);
-        let plan = crate::registry::plan(&features);
+        let plan = FramePlan::new(&features, &(method.steps)(&features));
         let mut shared = SharedSteps::new(ctx, scene, lights, features, (s, (width, height)), (needs, plan))?;
         shared.hooks = hooks;
         let method = ctx.checked(what, || {
