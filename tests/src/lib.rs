@@ -3,7 +3,8 @@
 //! [`gpu`] shares one device per test process, on the adapter named by `WGPU_ADAPTER_NAME` (failing, never
 //! skipping, when none exists); [`scenes`] builds small test scenes, cameras and lights;
 //! [`compare`] holds the comparisons with the brute-force reference as functions (their
-//! tolerances stated once); [`lists`] compares GPU per-tile light lists with the CPU
+//! tolerances stated once); [`subpixel`] measures what one step of the rasteriser's
+//! sub-pixel grid does to a textured reference; [`lists`] compares GPU per-tile light lists with the CPU
 //! reference culler; [`kernels`] runs a WGSL function over test cases for its twin test;
 //! [`images`] compares images with nv-flip (mean and percentile thresholds) and writes
 //! `-actual.png` / `-difference.png` next to the test output on failure. Depends on every
@@ -15,6 +16,7 @@ pub mod images;
 pub mod kernels;
 pub mod lists;
 pub mod scenes;
+pub mod subpixel;
 pub mod textured;
 
 use tiledlight_gpu::{ContextOptions, GpuContext};

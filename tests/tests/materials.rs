@@ -35,9 +35,11 @@ use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::{MaterialFeatures, SceneGpu, TEXTURE_BINDINGS};
 use tiledlight_scene::{load_gltf, Scene, UvTransform, Wrap};
 use tiledlight_tests::compare::{
-    assert_matches_reference_frame, assert_visibility_matches, render_frame, visibility_frames, Frame,
-    DEFERRED_SMALL_EMISSION_VS_REFERENCE, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE, RASTER_POSITION_ERROR_PX,
+    assert_matches_reference_frame, assert_visibility_matches, render_frame, visibility_frames, visibility_matches,
+    Frame, DEFERRED_SMALL_EMISSION_VS_REFERENCE, DEFERRED_VS_REFERENCE, FORWARD_VS_REFERENCE, RASTER_POSITION_ERROR_PX,
+    VISIBILITY_VS_REFERENCE,
 };
+use tiledlight_tests::subpixel::{self, shifted_lookups};
 
 use tiledlight_tests::images::{linear_to_srgb, srgb_to_linear};
 use tiledlight_tests::{gpu, scenes};
@@ -347,12 +349,32 @@ fn tiled_against_brute(
         == Some(EMISSION_FORMAT_SMALL);
     let tolerance = if small_emission { DEFERRED_SMALL_EMISSION_VS_REFERENCE } else { DEFERRED_VS_REFERENCE };
     assert_matches_reference_frame(&format!("{name}-deferred"), W, &reference, &deferred, tolerance);
-    let shifted = brute.clone().allow_position_error(depth, W, (cam, &lb.packed), RASTER_POSITION_ERROR_PX);
+    let (positioned, with_shift) = visibility_reference((sg, lb, cam), ambient, (brute, depth));
+    let covered = depth.iter().filter(|&&d| d > 0.0).count();
     for (raster, visibility, ties) in visibility_frames(ctx, (sg, lb, cam), (W, H), fs(Method::Visibility)) {
-        let reference = shifted.clone().forgive_hdr(&ties).0;
-        assert_visibility_matches(&format!("{name}-visibility-{}", raster.name()), W, (&reference, &visibility), false);
+        let name = format!("{name}-visibility-{}", raster.name());
+        let (without, reference) = (positioned.clone().forgive_hdr(&ties).0, with_shift.clone().forgive_hdr(&ties).0);
+        let visibility = shifted_lookups(&name, (&without, &reference), visibility, VISIBILITY_VS_REFERENCE, covered);
+        assert_visibility_matches(&name, W, (&reference, &visibility), false);
     }
     (forward, deferred)
+}
+
+/// Brute force's frame `brute` (depth `depth`) as the visibility buffer's reference, before
+/// and after the sub-pixel shift's texture lookups (`tiledlight_tests::subpixel`): both with
+/// the lighting's position allowance ([`Frame::allow_position_error`]).
+fn visibility_reference(
+    (sg, lb, cam): (&SceneGpu, &LightBuffers, &Camera),
+    ambient: Vec3,
+    (brute, depth): (&Frame, &[f32]),
+) -> (Frame, Frame) {
+    let ctx = gpu();
+    let positioned = brute.clone().allow_position_error(depth, W, (cam, &lb.packed), RASTER_POSITION_ERROR_PX);
+    let settings = FrameSettings { method: Method::BruteForce { cutoff: true }, ambient, ..Default::default() };
+    let mut bf = FrameRenderer::new(ctx, sg, lb, W, H, settings).unwrap();
+    let shifted = subpixel::shifted_frames(ctx, &mut bf, sg, cam, H);
+    let with_shift = positioned.clone().allow_subpixel_shift(depth, W, &shifted);
+    (positioned, with_shift)
 }
 
 /// Mean r + g + b of `frame`'s pixels among `checked` whose uv passes `pick`.
@@ -858,4 +880,37 @@ fn the_many_material_scene_agrees_with_brute_force() {
     // The packed G-buffer rounds metallic to 1/15 steps, and this scene's metallic images
     // are 8-bit: Tiled Deferred's reference carries the whole surface's rounding.
     tiled_against_brute("materials-scene", (&sg, &lb, &camera), bs.ambient, (&brute, &depth), true);
+}
+
+/// The negative test of the sub-pixel shift's allowance (`tiledlight_tests::subpixel`): the
+/// many-material scene's visibility buffer with its whole image moved by one pixel, 256
+/// grid steps, is rejected by the comparison that accepts one step's texel flips, and needs
+/// the allowance at more than the 1% of the pixels that `shifted_lookups` accepts.
+#[test]
+fn a_visibility_image_moved_by_a_pixel_is_not_a_texel_flip() {
+    let ctx = gpu();
+    let scene = tiledlight_scene::materials::materials_scene(16).expect("materials scene");
+    let camera = scenes::courtyard_camera(&scene, W, H);
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let lb = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 96, 16, 5)).unwrap();
+    let bs = FrameSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() };
+    let mut bf = FrameRenderer::new(ctx, &sg, &lb, W, H, bs).unwrap();
+    let brute = render_frame(ctx, &mut bf, &sg, &camera);
+    let depth = bf.read_depth(ctx).unwrap();
+    let (without, with_shift) = visibility_reference((&sg, &lb, &camera), bs.ambient, (&brute, &depth));
+    let allowed = with_shift.allowance.iter().filter(|&&a| a > 0.0).count();
+    assert!(allowed > 100, "the shifted frames flip texels somewhere ({allowed} pixels)");
+    let vs = FrameSettings { method: Method::Visibility, ..Default::default() };
+    let mut vr = FrameRenderer::new(ctx, &sg, &lb, W, H, vs).unwrap();
+    let moved = render_frame(ctx, &mut vr, &sg, &subpixel::shifted_camera(&camera, H, (1.0, 0.0), 1.0));
+    assert!(!visibility_matches("moved-by-a-pixel", W, &with_shift, &moved), "a one-pixel move passed");
+    let covered = depth.iter().filter(|&&d| d > 0.0).count();
+    let caught = std::panic::catch_unwind(|| {
+        shifted_lookups("moved-by-a-pixel", (&without, &with_shift), moved.clone(), VISIBILITY_VS_REFERENCE, covered)
+    });
+    assert!(caught.is_err(), "shifted_lookups accepted a one-pixel move as texel flips");
+    // The same frame unmoved passes both.
+    let exact = render_frame(ctx, &mut vr, &sg, &camera);
+    let exact = shifted_lookups("unmoved", (&without, &with_shift), exact, VISIBILITY_VS_REFERENCE, covered);
+    assert!(visibility_matches("unmoved", W, &with_shift, &exact));
 }
