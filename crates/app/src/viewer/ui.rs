@@ -197,8 +197,12 @@ pub fn draw(
             if let Some(d) = &info.stats.dropped {
                 ui.colored_label(Color32::from_rgb(255, 60, 60), RichText::new(format!("warning: {d}")).strong());
             }
-            stats_section(ui, info);
+            // The panel's order (issue 47): at 1280x720 the method, the lights and the main
+            // dials are what a user comes to change, so they come first under a one-line
+            // frame summary; the statistics (a screen of numbers) follow, collapsed.
+            ui.label(summary_line(info));
             controls(ui, st, s, info);
+            stats_section(ui, info);
             camera_section(ui, rig, &mut commands);
             ui.horizontal(|ui| {
                 if ui.button("Screenshot (P)").clicked() {
@@ -283,17 +287,27 @@ fn input(
     }
 }
 
+/// The panel's first line: size, frame time and rate, the GPU total when timed, and the
+/// visible lights (the statistics section below has the rest).
+fn summary_line(info: &Info<'_>) -> String {
+    let st = info.stats;
+    let frame = st.mean_frame_ms();
+    let fps = if frame > 0.0 { 1000.0 / frame } else { 0.0 };
+    let gpu = if st.timestamps && !st.passes.is_empty() {
+        let total: f64 = st.passes.iter().map(|p| p.ms).sum();
+        format!(", GPU {total:.2} ms")
+    } else {
+        String::new()
+    };
+    format!(
+        "{}x{}  frame {frame:.2} ms ({fps:.1} fps){gpu}, {} lights visible",
+        info.size.0, info.size.1, st.visible_lights
+    )
+}
+
 fn stats_section(ui: &mut egui::Ui, info: &Info<'_>) {
     let st = info.stats;
-    egui::CollapsingHeader::new("Statistics").default_open(true).show(ui, |ui| {
-        let frame = st.mean_frame_ms();
-        ui.label(format!(
-            "{}x{}  frame {:.2} ms ({:.1} fps)",
-            info.size.0,
-            info.size.1,
-            frame,
-            if frame > 0.0 { 1000.0 / frame } else { 0.0 }
-        ));
+    egui::CollapsingHeader::new("Statistics").default_open(false).show(ui, |ui| {
         if st.timestamps {
             egui::Grid::new("passes").num_columns(2).show(ui, |ui| {
                 for p in &st.passes {
@@ -399,13 +413,60 @@ fn graph(ui: &mut egui::Ui, st: &Stats) {
 }
 
 fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'_>) {
-    egui::CollapsingHeader::new("Method and culling").default_open(true).show(ui, |ui| {
+    let tiled = s.setup.method.is_tiled();
+    egui::CollapsingHeader::new("Method and lights").default_open(true).show(ui, |ui| {
         egui::ComboBox::from_label("method").selected_text(s.setup.method.label()).show_ui(ui, |ui| {
             for m in METHODS {
                 ui.selectable_value(&mut s.setup.method, m, m.label());
             }
         });
-        let tiled = s.setup.method.is_tiled();
+        let (mut points, mut spots) = s.setup.random_light_counts();
+        ui.add(egui::Slider::new(&mut points, 0..=65_536).logarithmic(true).text("point lights"));
+        ui.add(egui::Slider::new(&mut spots, 0..=65_536).logarithmic(true).text("spot lights"));
+        if (points, spots) != s.setup.random_light_counts() {
+            (s.setup.lights, s.setup.spot_lights) = (Some(points), Some(spots));
+        }
+        ui.add(egui::Slider::new(&mut s.setup.threshold, 0.001..=2.0).logarithmic(true).text("intensity threshold"))
+            .on_hover_text("each light's radius is sqrt(intensity / threshold): lower is more accurate and slower");
+        ui.checkbox(&mut s.animate, "animate lights");
+        egui::ComboBox::from_label("MSAA")
+            .selected_text(format!("{}x", s.setup.msaa))
+            .show_ui(ui, |ui| {
+                for m in MSAA_CHOICES {
+                    ui.selectable_value(&mut s.setup.msaa, m, format!("{m}x"));
+                }
+            })
+            .response
+            .on_hover_text("2x and 8x only where the GPU has them (an error says so otherwise)");
+        ui.add_enabled_ui(tiled, |ui| {
+            ui.checkbox(&mut s.heatmap, "heat map (lights per tile)").on_disabled_hover_text("needs a tiled method");
+        });
+        ui.add_enabled_ui(tiled && s.heatmap, |ui| {
+            ui.horizontal(|ui| {
+                ui.label("  of");
+                ui.radio_value(&mut s.heatmap_of, HeatmapOf::Opaque, "opaque");
+                ui.add_enabled_ui(info.blended.is_some(), |ui| {
+                    ui.radio_value(&mut s.heatmap_of, HeatmapOf::Blended, "blended")
+                        .on_hover_text("the transparent geometry's own light lists; tiles without it keep the image")
+                        .on_disabled_hover_text("needs blended geometry (transparent objects)");
+                });
+                ui.add_enabled_ui(s.setup.vpl.is_some(), |ui| {
+                    ui.radio_value(&mut s.heatmap_of, HeatmapOf::Vpl, "VPL")
+                        .on_hover_text("the virtual point lights' own lists: VPLs per tile")
+                        .on_disabled_hover_text("needs VPLs (the VPL section)");
+                });
+            });
+        });
+        if s.effective_heatmap() {
+            legend(ui, info.capacity);
+        }
+        ui.checkbox(&mut s.setup.auto_exposure, "automatic exposure")
+            .on_hover_text("from each frame's log-average luminance, mapped to middle grey (a compute pass)");
+        ui.add_enabled_ui(!s.setup.auto_exposure, |ui| {
+            ui.add(egui::Slider::new(&mut s.setup.exposure, 1e-3..=1e3).logarithmic(true).text("exposure"))
+        });
+    });
+    egui::CollapsingHeader::new("Culling and passes").default_open(true).show(ui, |ui| {
         ui.add_enabled_ui(tiled, |ui| {
             ui.horizontal(|ui| {
                 ui.label("tile size");
@@ -443,54 +504,7 @@ fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'
             ui.checkbox(&mut two_level, "two-level culling (64 px cells)");
             s.setup.flat_cull = !two_level;
         });
-        egui::ComboBox::from_label("MSAA")
-            .selected_text(format!("{}x", s.setup.msaa))
-            .show_ui(ui, |ui| {
-                for m in MSAA_CHOICES {
-                    ui.selectable_value(&mut s.setup.msaa, m, format!("{m}x"));
-                }
-            })
-            .response
-            .on_hover_text("2x and 8x only where the GPU has them (an error says so otherwise)");
         knob_controls(ui, &mut s.setup.knobs, s.setup.method, Needs::Always);
-        ui.add_enabled_ui(tiled, |ui| {
-            ui.checkbox(&mut s.heatmap, "heat map (lights per tile)").on_disabled_hover_text("needs a tiled method");
-        });
-        ui.add_enabled_ui(tiled && s.heatmap, |ui| {
-            ui.horizontal(|ui| {
-                ui.label("  of");
-                ui.radio_value(&mut s.heatmap_of, HeatmapOf::Opaque, "opaque");
-                ui.add_enabled_ui(info.blended.is_some(), |ui| {
-                    ui.radio_value(&mut s.heatmap_of, HeatmapOf::Blended, "blended")
-                        .on_hover_text("the transparent geometry's own light lists; tiles without it keep the image")
-                        .on_disabled_hover_text("needs blended geometry (transparent objects)");
-                });
-                ui.add_enabled_ui(s.setup.vpl.is_some(), |ui| {
-                    ui.radio_value(&mut s.heatmap_of, HeatmapOf::Vpl, "VPL")
-                        .on_hover_text("the virtual point lights' own lists: VPLs per tile")
-                        .on_disabled_hover_text("needs VPLs (the VPL section)");
-                });
-            });
-        });
-        if s.effective_heatmap() {
-            legend(ui, info.capacity);
-        }
-        ui.checkbox(&mut s.setup.auto_exposure, "automatic exposure")
-            .on_hover_text("from each frame's log-average luminance, mapped to middle grey (a compute pass)");
-        ui.add_enabled_ui(!s.setup.auto_exposure, |ui| {
-            ui.add(egui::Slider::new(&mut s.setup.exposure, 1e-3..=1e3).logarithmic(true).text("exposure"))
-        });
-    });
-    egui::CollapsingHeader::new("Lights").default_open(true).show(ui, |ui| {
-        let (mut points, mut spots) = s.setup.random_light_counts();
-        ui.add(egui::Slider::new(&mut points, 0..=65_536).logarithmic(true).text("point lights"));
-        ui.add(egui::Slider::new(&mut spots, 0..=65_536).logarithmic(true).text("spot lights"));
-        if (points, spots) != s.setup.random_light_counts() {
-            (s.setup.lights, s.setup.spot_lights) = (Some(points), Some(spots));
-        }
-        ui.add(egui::Slider::new(&mut s.setup.threshold, 0.001..=2.0).logarithmic(true).text("intensity threshold"))
-            .on_hover_text("each light's radius is sqrt(intensity / threshold): lower is more accurate and slower");
-        ui.checkbox(&mut s.animate, "animate lights");
     });
     shadow_controls(ui, s, info);
     vpl_controls(ui, s, info);
@@ -772,6 +786,123 @@ fn knob_controls(ui: &mut egui::Ui, knobs: &mut Knobs, method: Method, needs: Ne
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// What the panel shows, fixed: 1,024 lights, one timed pass.
+    struct Fixture {
+        lights: LightSummary,
+        memory: MemoryReport,
+        stats: Stats,
+    }
+
+    impl Fixture {
+        fn new() -> Self {
+            Fixture {
+                lights: LightSummary { point: 1024, spot: 0, from_file: 0, random: 1024 },
+                memory: MemoryReport::default(),
+                stats: Stats {
+                    passes: vec![PassTime { label: "forward.shade".into(), ms: 1.25 }],
+                    timestamps: true,
+                    ..Default::default()
+                },
+            }
+        }
+
+        fn info(&self, size: (f32, f32)) -> Info<'_> {
+            Info {
+                adapter: "adapter",
+                scene: "scene".into(),
+                lights: &self.lights,
+                memory: &self.memory,
+                capacity: 512,
+                shadow_atlas: None,
+                blended: None,
+                size: (size.0 as u32, size.1 as u32),
+                stats: &self.stats,
+            }
+        }
+    }
+
+    /// Every text `ui_fn` draws in a window of `size` after a few frames (egui sizes a new
+    /// window on its first frame without showing it): (text, top y, bottom y).
+    fn collect_texts(size: (f32, f32), mut ui_fn: impl FnMut(&mut egui::Ui)) -> Vec<(String, f32, f32)> {
+        let ctx = egui::Context::default();
+        let mut out = Vec::new();
+        for _ in 0..3 {
+            let raw = egui::RawInput {
+                screen_rect: Some(egui::Rect::from_min_size(egui::Pos2::ZERO, egui::vec2(size.0, size.1))),
+                ..Default::default()
+            };
+            let mut output = ctx.run_ui(raw, &mut ui_fn);
+            // No renderer here to upload the font atlas to.
+            output.textures_delta.clear();
+            out.clear();
+            let mut stack: Vec<egui::Shape> = output.shapes.into_iter().map(|c| c.shape).collect();
+            while let Some(shape) = stack.pop() {
+                match shape {
+                    egui::Shape::Text(t) => {
+                        let r = t.galley.rect.translate(t.pos.to_vec2());
+                        out.push((t.galley.text().to_string(), r.top(), r.bottom()));
+                    }
+                    egui::Shape::Vec(v) => stack.extend(v),
+                    _ => {}
+                }
+            }
+        }
+        out
+    }
+
+    /// Every text the whole panel draws in a window of `size`, at its default place.
+    fn panel_texts(size: (f32, f32)) -> Vec<(String, f32, f32)> {
+        let mut st = UiState::default();
+        let mut s = Settings::new(tiledlight_setup::Settings::default());
+        let camera = tiledlight_cull::Camera::perspective(
+            glam::Vec3::new(0.0, 2.0, 5.0),
+            glam::Vec3::ZERO,
+            glam::Vec3::Y,
+            1.0,
+            size.0 / size.1,
+            0.1,
+            None,
+        )
+        .unwrap();
+        let mut rig = CameraRig::from_camera(&camera, 5.0);
+        let fixture = Fixture::new();
+        let info = fixture.info(size);
+        collect_texts(size, |ui| {
+            draw(ui.ctx(), &mut st, &mut s, &mut rig, &info, 1.0 / 60.0);
+        })
+    }
+
+    /// Issue 47: at 1280x720 the panel shows the method, the light counts and the main dials
+    /// above the fold, and the statistics collapsed (their pass table not drawn), with the
+    /// frame summary on the first line.
+    #[test]
+    fn the_panel_shows_method_and_lights_first_at_720p() {
+        let texts = panel_texts((1280.0, 720.0));
+        let find = |what: &str| {
+            texts
+                .iter()
+                .find(|(t, ..)| t == what)
+                .unwrap_or_else(|| {
+                    panic!("the panel draws no {what:?}: {:?}", texts.iter().map(|t| &t.0).collect::<Vec<_>>())
+                })
+                .clone()
+        };
+        for what in
+            ["method", "point lights", "spot lights", "intensity threshold", "MSAA", "heat map (lights per tile)"]
+        {
+            let (_, top, bottom) = find(what);
+            assert!(top >= 0.0 && bottom <= 720.0, "{what} is drawn at {top}..{bottom}, outside the 720 px window");
+        }
+        assert!(find("method").1 < find("Culling and passes").1, "the method comes before the culling");
+        let summary = texts.iter().find(|(t, ..)| t.starts_with("1280x720  frame")).expect("the summary line");
+        assert!(summary.0.contains("GPU 1.25 ms") && summary.1 < find("method").1, "{summary:?}");
+        // The statistics alone: a header, collapsed (its pass table not drawn).
+        let fixture = Fixture::new();
+        let stats = collect_texts((1280.0, 720.0), |ui| stats_section(ui, &fixture.info((1280.0, 720.0))));
+        assert!(stats.iter().any(|(t, ..)| t == "Statistics"), "{stats:?}");
+        assert!(!stats.iter().any(|(t, ..)| t == "forward.shade"), "the statistics are open by default: {stats:?}");
+    }
 
     #[test]
     fn usage_lists_every_key() {
