@@ -798,3 +798,43 @@ fn the_truth_matches_an_independent_cpu_renderer() {
     let (bad, _) = outside_truth(&truth, &unmasked.hdr);
     assert!(bad > 500, "a truth without the screen's shadows must fail ({bad} pixels outside)");
 }
+
+/// A traced frame with `traced_progress` reports its bands in order to the process's band
+/// reporter (`set_band_reporter`: what `render`'s progress bar shows), ends at the last
+/// one, and renders the same image as the frame submitted at once (bit for bit: the bands
+/// only split the submission). Without a reporter the bands pass silently. At this size a
+/// frame is one band (a band holds at least 2^28 pixel-light pairs or 2,048 tiles: two
+/// bands would need over 5e8 rays, minutes on lavapipe), so the order of several bands is
+/// seen only on large renders; here the wiring, the count and the image are.
+#[test]
+fn a_traced_frame_reports_its_bands_in_order() {
+    use std::sync::{Arc, Mutex};
+    use tiledlight_frame::visibility::set_band_reporter;
+    let ctx = gpu();
+    let (scene, lights) = (scenes::floor_scene(0.5, 0.0, vec![]), floor_lights());
+    let camera = scenes::floor_camera(W, H);
+    let mut sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    sg.add_trace(&ctx.device, &scene).unwrap();
+    let lb = LightBuffers::new(&ctx.device, &lights).unwrap();
+    let render = |progress: bool| {
+        let s = FrameSettings { method: Method::TRUTH, traced_progress: progress, ..Default::default() };
+        let mut r = FrameRenderer::new(ctx, &sg, &lb, W, H, s).expect("traced reference");
+        render_frame(ctx, &mut r, &sg, &camera)
+    };
+    let heard: Arc<Mutex<Vec<(u32, u32)>>> = Arc::default();
+    let log = heard.clone();
+    set_band_reporter(Some(Arc::new(move |band, bands, _| log.lock().unwrap().push((band, bands)))));
+    let banded = render(true);
+    set_band_reporter(None);
+    let heard = heard.lock().unwrap().clone();
+    let bands = heard.last().expect("no band reported").1;
+    assert!(bands >= 1);
+    let expected: Vec<(u32, u32)> = (1..=bands).map(|b| (b, bands)).collect();
+    // A render's warm-up may run more than one frame: each reports 1..=bands.
+    assert!(!heard.is_empty() && heard.len() % bands as usize == 0, "{heard:?}");
+    for frame in heard.chunks(bands as usize) {
+        assert_eq!(frame, &expected[..], "bands out of order");
+    }
+    let whole = render(false);
+    tiledlight_tests::compare::assert_same_hdr(&banded.hdr, &whole.hdr, W, true, "banded against whole");
+}

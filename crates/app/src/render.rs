@@ -145,7 +145,13 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let traced = prep.settings.method.is_traced();
     let start = std::time::Instant::now();
     let frames = if traced { 1 } else { RENDER_FRAMES };
-    let m = bench::measure_shown(&prep, &mut renderer, (0, frames), None, "render")?;
+    let m = if traced {
+        // Its one frame's bands are the bar (two bars would draw over each other's line).
+        let _bands = tiledlight_lab::axes::BandsProgress::start();
+        bench::measure_moving(&prep, &mut renderer, 0, frames, None)?
+    } else {
+        bench::measure_shown(&prep, &mut renderer, (0, frames), None, "render")?
+    };
     let seconds = start.elapsed().as_secs_f64();
     let stats = prep.culling_stats(&renderer)?;
     let blended = prep.blended_stats(&renderer)?;

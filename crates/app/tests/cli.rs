@@ -557,6 +557,12 @@ fn progress_shows_on_a_terminal_only_and_quiet_hides_it() {
     let piped = tiledlight(&["bench", "--width", "64", "--height", "36", "--lights", "16", "--frames", "40"]);
     assert!(piped.status.success());
     assert!(piped.stderr.is_empty(), "a pipe gets a bar: {}", String::from_utf8_lossy(&piped.stderr));
+    // The traced reference's bands are a bar too: a pipe gets no band lines.
+    let out = scratch("progress-traced").join("traced.png");
+    let traced = tiledlight(&with_tiny("render", &["--method", "traced-reference", "--out", out.to_str().unwrap()]));
+    assert!(traced.status.success(), "{}", String::from_utf8_lossy(&traced.stderr));
+    let err = String::from_utf8_lossy(&traced.stderr);
+    assert!(!err.contains("band") && !err.contains('\r'), "a pipe gets the traced reference's band lines: {err}");
 }
 
 /// A model downloaded without its 15 textures (issue 47: FlightHelmet printed 7,500

@@ -51,9 +51,10 @@ pub struct FrameSettings {
     /// default) picks per adapter (`Raster::pick`); [`crate::FrameRenderer::settings`]
     /// reports the one built.
     pub knobs: Knobs,
-    /// The traced reference submits each band of its frame on its own and prints its
-    /// progress on stderr (renders of a second or more); untimed. Off by default (one timed
-    /// submission, as benchmarks need).
+    /// The traced reference submits each band of its frame on its own and reports its
+    /// progress to the process's band reporter
+    /// ([`crate::visibility::set_band_reporter`]; renders of a second or more); untimed. Off
+    /// by default (one timed submission, as benchmarks need).
     pub traced_progress: bool,
 }
 

@@ -193,6 +193,27 @@ impl VisibilityFrame {
     }
 }
 
+/// Who hears of the traced reference's progress, band by band, in a frame of
+/// `FrameSettings::traced_progress`: `(band, bands, time since the frame's first band)`.
+pub type BandReporter = dyn Fn(u32, u32, std::time::Duration) + Send + Sync;
+
+static BAND_REPORTER: std::sync::RwLock<Option<std::sync::Arc<BandReporter>>> = std::sync::RwLock::new(None);
+
+/// Installs (or with `None` removes) the process's [`BandReporter`]: the command that
+/// renders a traced reference shows a progress bar with it. Without one the bands pass
+/// silently (this crate prints nothing of its own).
+pub fn set_band_reporter(reporter: Option<std::sync::Arc<BandReporter>>) {
+    // A reporter that panicked poisons the lock; the next one replaces it all the same.
+    *BAND_REPORTER.write().unwrap_or_else(|e| e.into_inner()) = reporter;
+}
+
+fn report_band(band: u32, bands: u32, elapsed: std::time::Duration) {
+    let reporter = BAND_REPORTER.read().unwrap_or_else(|e| e.into_inner()).clone();
+    if let Some(r) = reporter {
+        r(band, bands, elapsed);
+    }
+}
+
 impl MethodFrame for VisibilityFrame {
     fn record(&self, rec: &mut Rec<'_>, shared: &SharedSteps, depth: Depth<'_>) {
         rec.step(Step::VisibilityRaster);
@@ -222,10 +243,7 @@ impl MethodFrame for VisibilityFrame {
                             if let Err(e) = device.poll(wgpu::PollType::wait_indefinitely()) {
                                 eprintln!("\ntraced reference: waiting for band {band}: {e}");
                             }
-                            eprint!("\rtraced reference: band {band}/{bands} ({:.1} s)", start.elapsed().as_secs_f64());
-                            if band == bands {
-                                eprintln!();
-                            }
+                            report_band(band, bands, start.elapsed());
                         };
                         self.shading.record_traced(rec.encoder, rec.timer, rec.view, rec.scene, Some(&mut flush));
                     }

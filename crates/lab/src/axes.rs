@@ -2,7 +2,7 @@
 //! share: the axes a run varies (`--axis NAME=VALUES`), parsed and applied to the run's
 //! [`Flags`] (the app's scene flags, or a program's own settings type); the points of a
 //! run (the product of its axes); the resumable CSV file that records them; and the
-//! progress bar.
+//! progress bars (points, frames, the traced reference's bands).
 //!
 //! An axis is a row of the pass settings' table (`tiledlight_gpu::knobs`: nothing to add
 //! here) or one entry of [`AXES`] and one more arm in the app's [`Flags::set_axis`]
@@ -12,7 +12,8 @@
 //! fault named, how many points the CSV already holds and that the same command resumes
 //! after them ([`interrupted`]): every point is appended and flushed as soon as it is
 //! measured, so nothing measured is lost. May depend on [`crate::dropped`],
-//! tiledlight-setup and tiledlight-gpu (the fault's error type).
+//! tiledlight-setup, tiledlight-gpu (the fault's error type) and tiledlight-frame (the
+//! band reporter).
 
 use std::collections::HashSet;
 use std::fs::OpenOptions;
@@ -575,6 +576,40 @@ pub fn progress(n: usize) -> ProgressBar {
         pb.set_style(style);
     }
     pb
+}
+
+/// The traced reference's bands as a progress bar on stderr while this lives: it installs
+/// the frame crate's band reporter (`tiledlight_frame::visibility::set_band_reporter`) and
+/// removes it when dropped. Hidden as [`progress`]'s (with `--quiet`, or when stderr is
+/// not a terminal: a pipe gets no carriage-return lines).
+pub struct BandsProgress {
+    pb: ProgressBar,
+}
+
+impl BandsProgress {
+    /// Starts the bar (its length is the frame's band count, known at the first band).
+    pub fn start() -> Self {
+        let pb = bar(0);
+        if let Ok(style) =
+            ProgressStyle::with_template("{bar:30} {pos}/{len} bands, {elapsed} elapsed, ~{eta} left  {msg}")
+        {
+            pb.set_style(style);
+        }
+        pb.set_message("traced reference");
+        let shown = pb.clone();
+        tiledlight_frame::visibility::set_band_reporter(Some(std::sync::Arc::new(move |band, bands, _| {
+            shown.set_length(u64::from(bands));
+            shown.set_position(u64::from(band));
+        })));
+        BandsProgress { pb }
+    }
+}
+
+impl Drop for BandsProgress {
+    fn drop(&mut self) {
+        tiledlight_frame::visibility::set_band_reporter(None);
+        self.pb.finish_and_clear();
+    }
 }
 
 /// Prints a line above the progress bar, or plainly when the bar is hidden (output to a

@@ -268,8 +268,9 @@ pub struct Settings {
     /// One-level culling: every tile tests every light (the default first culls per
     /// 64x64-pixel cell, and tiles test only their cell's lights).
     pub flat_cull: bool,
-    /// The traced reference submits its frame band by band and prints its progress on
-    /// stderr (`render`, `accuracy`); off for benchmarks, which time one submission.
+    /// The traced reference submits its frame band by band and reports its progress to the
+    /// band reporter (`render` shows it as a bar); off for benchmarks, which time one
+    /// submission.
     pub traced_progress: bool,
     /// MSAA samples per pixel: 1 (off), 2, 4 or 8.
     pub msaa: u32,
