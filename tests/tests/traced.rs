@@ -831,7 +831,7 @@ fn a_traced_frame_reports_its_bands_in_order() {
     assert!(bands >= 1);
     let expected: Vec<(u32, u32)> = (1..=bands).map(|b| (b, bands)).collect();
     // A render's warm-up may run more than one frame: each reports 1..=bands.
-    assert!(!heard.is_empty() && heard.len() % bands as usize == 0, "{heard:?}");
+    assert!(!heard.is_empty() && heard.len().is_multiple_of(bands as usize), "{heard:?}");
     for frame in heard.chunks(bands as usize) {
         assert_eq!(frame, &expected[..], "bands out of order");
     }
