@@ -1000,6 +1000,18 @@ mod tests {
         ];
         assert!(axes::is_numeric_axis("transparent-objects") && !axes::is_numeric_axis("blend-mode"));
         assert_eq!(axes::parse_axis::<SceneArgs>("transparent-objects=10..40").unwrap().values, ["10", "20", "40"]);
+        // The material count needs `--scene materials`, which the command's flags give: the
+        // axis parses without it (USAGE's `sweep --scene materials --axis materials=2..512`
+        // was refused), and a point of it without that scene is refused by name.
+        let materials = axes::parse_axis::<SceneArgs>("materials=2..512").unwrap();
+        assert_eq!(materials.values.len(), 9);
+        let on = SceneArgs { scene: "materials".into(), ..SceneArgs::default() };
+        assert!(axes::args_at(&on, std::slice::from_ref(&materials), &vec!["2".to_string()]).is_ok());
+        let off = format!(
+            "{:#}",
+            axes::args_at(&SceneArgs::default(), &[materials], &vec!["2".to_string()]).map(|_| ()).unwrap_err()
+        );
+        assert!(off.contains("only the many-material scene"), "{off}");
         let p = axes::points(&axes).unwrap();
         assert_eq!(p.len(), 8);
         // The count parses before the grid objects it needs are known...

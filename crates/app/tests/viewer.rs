@@ -5,62 +5,12 @@
 //! and the screenshots it saves. Xvfb missing is a failure, not a skip: CI (`.ci/run`)
 //! installs it.
 
-use std::io::{BufRead, BufReader};
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::process::{Command, Output};
 
-/// A running Xvfb, stopped when dropped (also when a test fails).
-struct Xvfb {
-    child: Child,
-    display: String,
-}
-
-impl Xvfb {
-    /// Starts Xvfb on a display number it picks itself (`-displayfd`: no race with other
-    /// tests or a desktop for a free number) and waits until it accepts connections.
-    fn start() -> Self {
-        let child = Command::new("Xvfb")
-            .args(["-displayfd", "1", "-screen", "0", "640x480x24", "-nolisten", "tcp"])
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn();
-        let mut child = match child {
-            Ok(c) => c,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-                panic!("Xvfb not found: the viewer test needs it (`apt-get install xvfb`; .ci/run installs it)")
-            }
-            Err(e) => panic!("cannot start Xvfb: {e}"),
-        };
-        // Xvfb writes the display number once it is ready to accept clients.
-        let mut line = String::new();
-        let stdout = child.stdout.take().expect("piped stdout");
-        let read = BufReader::new(stdout).read_line(&mut line);
-        let n = line.trim();
-        if read.is_err() || n.is_empty() || !n.bytes().all(|b| b.is_ascii_digit()) {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("Xvfb did not report a display number (read {read:?}, got {line:?})");
-        }
-        Self { display: format!(":{n}"), child }
-    }
-}
-
-impl Drop for Xvfb {
-    fn drop(&mut self) {
-        // SIGTERM lets Xvfb remove its lock file and socket; SIGKILL only if it hangs.
-        let _ = Command::new("kill").args(["-TERM", &self.child.id().to_string()]).status();
-        let t0 = Instant::now();
-        while t0.elapsed() < Duration::from_secs(5) {
-            if let Ok(Some(_)) = self.child.try_wait() {
-                return;
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
+use common::Xvfb;
 
 fn scratch(name: &str) -> PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("viewer").join(name);

@@ -280,9 +280,10 @@ pub fn on_off(v: &str) -> Result<bool> {
 pub fn apply<F: Flags>(args: &mut F, name: &str, value: &str) -> Result<()> {
     known(name)?;
     args.set_axis(name, value)?;
-    if matches!(name, "shadow-point-lights" | "shadow-spot-lights" | "transparent-objects") {
-        // Their only limit is the scene's lights of that kind (the grid objects), which
-        // other axes and flags set: checked with the point's whole settings ([`args_at`]).
+    if matches!(name, "shadow-point-lights" | "shadow-spot-lights" | "transparent-objects" | "materials") {
+        // Their limits depend on other flags (the scene's lights of that kind, the grid
+        // objects, `--scene materials`), which other axes and flags set: checked with the
+        // point's whole settings ([`args_at`]) before anything is measured.
         return Ok(());
     }
     let probe = args.validate();

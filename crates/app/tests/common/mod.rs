@@ -66,3 +66,56 @@ pub fn fails(args: &[&str]) -> String {
     assert!(lines[0].starts_with("error: "), "{err}");
     lines[0].to_string()
 }
+
+/// A running Xvfb, stopped when dropped (also when a test fails).
+pub struct Xvfb {
+    child: std::process::Child,
+    /// Its display, e.g. `:5`.
+    pub display: String,
+}
+
+impl Xvfb {
+    /// Starts Xvfb on a display number it picks itself (`-displayfd`: no race with other
+    /// tests or a desktop for a free number) and waits until it accepts connections.
+    pub fn start() -> Self {
+        let child = Command::new("Xvfb")
+            .args(["-displayfd", "1", "-screen", "0", "640x480x24", "-nolisten", "tcp"])
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::null())
+            .spawn();
+        let mut child = match child {
+            Ok(c) => c,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                panic!("Xvfb not found: the viewer test needs it (`apt-get install xvfb`; .ci/run installs it)")
+            }
+            Err(e) => panic!("cannot start Xvfb: {e}"),
+        };
+        // Xvfb writes the display number once it is ready to accept clients.
+        let mut line = String::new();
+        let stdout = child.stdout.take().expect("piped stdout");
+        let read = std::io::BufRead::read_line(&mut std::io::BufReader::new(stdout), &mut line);
+        let n = line.trim();
+        if read.is_err() || n.is_empty() || !n.bytes().all(|b| b.is_ascii_digit()) {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("Xvfb did not report a display number (read {read:?}, got {line:?})");
+        }
+        Self { display: format!(":{n}"), child }
+    }
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        // SIGTERM lets Xvfb remove its lock file and socket; SIGKILL only if it hangs.
+        let _ = Command::new("kill").args(["-TERM", &self.child.id().to_string()]).status();
+        let t0 = std::time::Instant::now();
+        while t0.elapsed() < std::time::Duration::from_secs(5) {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
