@@ -362,7 +362,7 @@ pub struct Layout {
     pub size: (u32, u32),
     /// Every text drawn.
     pub texts: Vec<TextBox>,
-    /// The legend's box, if any.
+    /// The legend's box, if any (drawn by the chart, so exact).
     pub legend: Option<Rect>,
     /// The box of every plotted point's marker.
     pub points: Vec<Rect>,
@@ -480,6 +480,14 @@ fn anchored(text: &str, px: f64, pos: (i32, i32), h: HPos, v: VPos) -> Rect {
         VPos::Bottom => -lh,
     };
     Rect::at((pos.0 + dx, pos.1 + dy - above(px)), (w, line_h(px)))
+}
+
+/// The box of `text` as plotters draws it turned 270 degrees (reading upwards) at `pos`,
+/// anchored at its top centre: the line's height runs along x from `pos`, its width along
+/// y, centred (the glyph at the text's start lands a pixel past the half width).
+fn turned(text: &str, px: f64, (x, y): (i32, i32)) -> Rect {
+    let (w, _) = layout_size(text, px);
+    Rect { x0: x - above(px), y0: y - (w - w / 2), x1: x - above(px) + line_h(px), y1: y + w / 2 + 1 }
 }
 
 /// Where `s` may break: (end of this line, start of the next), at spaces and after
@@ -1090,16 +1098,7 @@ fn frame<'a, 'b>(
         lay.texts.push(TextBox { kind: TextKind::XDesc, panel, text: x_desc, rect });
     }
     if !y_desc.is_empty() {
-        // Turned 270 degrees: the line's height runs along x from the area's left edge,
-        // its width along y, centred.
-        let (w, _) = layout_size(&y_desc, d_px);
-        let (ax, ay) = (plot.x0 - y_area, plot.y0 + plot.h() / 2);
-        let rect = Rect {
-            x0: ax - above(d_px),
-            y0: ay - (w - w / 2),
-            x1: ax - above(d_px) + line_h(d_px),
-            y1: ay + w / 2 + 1,
-        };
+        let rect = turned(&y_desc, d_px, (plot.x0 - y_area, plot.y0 + plot.h() / 2));
         lay.texts.push(TextBox { kind: TextKind::YDesc, panel, text: y_desc, rect });
     }
     Ok(chart)
@@ -1773,12 +1772,10 @@ mod tests {
                 let bottom = TextStyle::from(font.clone()).pos(Pos::new(HPos::Center, VPos::Bottom));
                 root.draw_text(text, &bottom, (200, 290)).unwrap();
                 boxes.push(anchored(text, px, (200, 290), HPos::Center, VPos::Bottom));
-                let turned =
+                let upward =
                     TextStyle::from(font.transform(FontTransform::Rotate270)).pos(Pos::new(HPos::Center, VPos::Top));
-                root.draw_text(text, &turned, (20, 150)).unwrap();
-                let (tw, _) = layout_size(text, px);
-                let x0 = 20 - above(px);
-                boxes.push(Rect { x0, y0: 150 - (tw - tw / 2), x1: x0 + line_h(px), y1: 150 + tw / 2 + 1 });
+                root.draw_text(text, &upward, (20, 150)).unwrap();
+                boxes.push(turned(text, px, (20, 150)));
                 root.present().unwrap();
             }
             let img = image::RgbImage::from_raw(w, h, buf).unwrap();
@@ -1951,6 +1948,12 @@ mod tests {
                 }
             }
         }
+        // The smallest size draws too (crowded: not checked).
+        let name = |kind: &str| dir.join(format!("{kind}-min.png"));
+        line_chart_sized(&name("lights"), &lights_chart(), MIN_SIZE).unwrap();
+        line_chart_sized(&name("grid"), &grid_chart(), MIN_SIZE).unwrap();
+        pareto_chart_sized(&name("accuracy"), &accuracy_chart(), MIN_SIZE).unwrap();
+        bar_panels_sized(&name("culling"), &culling_chart(), MIN_SIZE).unwrap();
         if !keep {
             let _ = std::fs::remove_dir_all(&dir);
         }
