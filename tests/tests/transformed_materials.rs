@@ -440,7 +440,7 @@ fn the_rsm_of_a_transformed_normal_mapped_wall_holds_the_cpu_normals_and_its_vpl
     let features = Features::new(
         &sg,
         &lights,
-        tiledlight_gpu::features::Method::ForwardPlus,
+        tiledlight_frame::Method::ForwardPlus.traits(),
         &CullOptions::default(),
         (1, Default::default()),
         (shadow, false),

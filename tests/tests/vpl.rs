@@ -33,9 +33,10 @@ use glam::{Mat4, Vec3};
 use tiledlight_cull::shadow::{AtlasLayout, ShadowOptions};
 use tiledlight_cull::vpl::{self, GpuVpl, RsmFace, Vpl, VplConfig};
 use tiledlight_cull::Light;
+use tiledlight_frame::Method;
 use tiledlight_frame::{FrameRenderer, FrameSettings};
 use tiledlight_gpu::culling::CullOptions;
-use tiledlight_gpu::features::{Features, Method};
+use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
@@ -115,7 +116,7 @@ fn run_shadowed(scene: &Scene, cfg: &VplConfig, lights: &[Light], casters: (u32,
     let features = Features::new(
         &scene,
         &lights,
-        Method::ForwardPlus,
+        Method::ForwardPlus.traits(),
         &CullOptions::default(),
         (1, Default::default()),
         (shadow, false),
@@ -302,7 +303,7 @@ fn bad_settings_are_errors_naming_the_setting() {
     let features = Features::new(
         &scene,
         &lights,
-        Method::ForwardPlus,
+        Method::ForwardPlus.traits(),
         &CullOptions::default(),
         (1, Default::default()),
         (shadow, false),

@@ -15,11 +15,12 @@
 
 use std::any::Any;
 
+use crate::methods::Method;
 use crate::plan::Step;
 use tiledlight_forward::shading::{LightLoop, ShadingPass};
 use tiledlight_gpu::culling::LightCulling;
 use tiledlight_gpu::depth_prepass::{DepthPrepass, DEPTH_FORMAT};
-use tiledlight_gpu::features::{Features, Method};
+use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::memory::MemoryReport;

@@ -7,7 +7,8 @@
 
 use std::any::Any;
 
-use tiledlight_gpu::features::{Features, Method};
+use crate::methods::Method;
+use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::memory::MemoryReport;

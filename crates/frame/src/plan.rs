@@ -104,7 +104,7 @@ impl FramePlan {
         if features.blended() {
             if !features.frustum_clusters {
                 steps.push(Step::BlendedDepth);
-                if features.method.is_tiled() {
+                if features.method.tiled {
                     steps.push(Step::BlendedCull);
                 }
             }
@@ -112,7 +112,7 @@ impl FramePlan {
         }
         // Tail.
         steps.push(Step::Tonemap);
-        if features.method.is_tiled() {
+        if features.method.tiled {
             steps.push(Step::Heatmap);
         }
         Self { steps }

@@ -8,7 +8,8 @@
 //! [`crate::tiled_deferred`], [`crate::visibility`]), [`crate::method`] and [`crate::plan`];
 //! only [`crate::FrameRenderer`] depends on it.
 
-use tiledlight_gpu::features::{Features, Method};
+use crate::methods::Method;
+use tiledlight_gpu::features::Features;
 
 use crate::method::Registration;
 use crate::plan::FramePlan;
@@ -27,9 +28,9 @@ pub fn registration(method: Method) -> &'static Registration {
     METHODS.into_iter().find(|r| (r.renders)(method)).unwrap_or_else(|| panic!("{method:?} is not registered"))
 }
 
-/// The plan of a frame of `features`: the shared steps around its method's.
-pub fn plan(features: &Features) -> FramePlan {
-    FramePlan::new(features, &(registration(features.method).steps)(features))
+/// The plan of a frame of `method` with `features`: the shared steps around the method's.
+pub fn plan(method: Method, features: &Features) -> FramePlan {
+    FramePlan::new(features, &(registration(method).steps)(features))
 }
 
 #[cfg(test)]
@@ -40,7 +41,7 @@ mod tests {
 
     fn features(method: Method, msaa: u32) -> Features {
         Features {
-            method,
+            method: method.traits(),
             spot_lights: false,
             spot_cone: false,
             textures: false,
@@ -85,7 +86,7 @@ mod tests {
     #[test]
     fn each_method_has_its_passes_and_the_shared_tail() {
         use Step::*;
-        let plan = |m, s| plan(&features(m, s)).steps().to_vec();
+        let plan = |m, s| plan(m, &features(m, s)).steps().to_vec();
         assert_eq!(plan(Method::ForwardPlus, 1), [DepthPrepass, Cull, ForwardShade, Tonemap, Heatmap]);
         assert_eq!(plan(Method::BruteForce { cutoff: true }, 4), [DepthPrepass, BruteForceShade, Tonemap]);
         assert_eq!(plan(Method::TiledDeferred, 1), [GBuffer, DeferredShade, Tonemap, Heatmap]);
@@ -100,7 +101,7 @@ mod tests {
         let blended = |m| {
             let mut f = features(m, 1);
             f.blended_kinds = vec![DrawKind { masked: false, double_sided: true, blended: true }];
-            plan(&f).steps().to_vec()
+            plan(m, &f).steps().to_vec()
         };
         assert_eq!(
             blended(Method::ForwardPlus),
@@ -118,29 +119,39 @@ mod tests {
         let mut f = features(Method::ForwardPlus, 1);
         f.blended_kinds = vec![DrawKind { masked: false, double_sided: true, blended: true }];
         f.frustum_clusters = true;
-        assert_eq!(plan(&f).steps(), [DepthPrepass, Cull, ForwardShade, BlendedShade, Tonemap, Heatmap]);
-        assert!(!plan(&features(Method::ForwardPlus, 1)).has(BlendedDepth));
+        assert_eq!(
+            plan(Method::ForwardPlus, &f).steps(),
+            [DepthPrepass, Cull, ForwardShade, BlendedShade, Tonemap, Heatmap]
+        );
+        assert!(!plan(Method::ForwardPlus, &features(Method::ForwardPlus, 1)).has(BlendedDepth));
     }
 
     #[test]
     fn vpls_follow_the_shadow_maps_and_exist_only_when_asked_for() {
         use Step::*;
-        let mut f = features(Method::BruteForce { cutoff: true }, 1);
+        let bf = Method::BruteForce { cutoff: true };
+        let mut f = features(bf, 1);
         f.shadows = Some(tiledlight_gpu::features::Shadows { points: 0, spots: 1, options: Default::default() });
-        assert!(!plan(&f).has(Vpl), "no --vpl, no VPL step");
+        assert!(!plan(bf, &f).has(Vpl), "no --vpl, no VPL step");
         f.vpl = true;
-        assert_eq!(plan(&f).steps(), [ShadowMaps, Vpl, DepthPrepass, BruteForceShade, Tonemap]);
-        f.method = Method::ForwardPlus;
-        assert_eq!(plan(&f).steps(), [ShadowMaps, Vpl, DepthPrepass, Cull, VplCull, ForwardShade, Tonemap, Heatmap]);
-        f.method = Method::TiledDeferred;
-        assert_eq!(plan(&f).steps(), [ShadowMaps, Vpl, GBuffer, VplCull, DeferredShade, Tonemap, Heatmap]);
+        assert_eq!(plan(bf, &f).steps(), [ShadowMaps, Vpl, DepthPrepass, BruteForceShade, Tonemap]);
+        let mut with = |m: Method| {
+            f.method = m.traits();
+            plan(m, &f).steps().to_vec()
+        };
+        assert_eq!(
+            with(Method::ForwardPlus),
+            [ShadowMaps, Vpl, DepthPrepass, Cull, VplCull, ForwardShade, Tonemap, Heatmap]
+        );
+        assert_eq!(with(Method::TiledDeferred), [ShadowMaps, Vpl, GBuffer, VplCull, DeferredShade, Tonemap, Heatmap]);
     }
 
     #[test]
     fn no_feature_no_pass() {
         // Without MSAA there is no resolve; without tiles no culling and no heat map.
-        assert!(!plan(&features(Method::TiledDeferred, 1)).has(Step::DeferredResolve));
-        let bf = plan(&features(Method::BruteForce { cutoff: false }, 1));
+        assert!(!plan(Method::TiledDeferred, &features(Method::TiledDeferred, 1)).has(Step::DeferredResolve));
+        let m = Method::BruteForce { cutoff: false };
+        let bf = plan(m, &features(m, 1));
         assert!(!bf.has(Step::Cull) && !bf.has(Step::Heatmap));
     }
 }

@@ -6,13 +6,14 @@
 
 use std::cell::RefCell;
 
+use crate::methods::Method;
 use crate::plan::FramePlan;
 use glam::Vec3;
 use tiledlight_cull::light::PackedLights;
 use tiledlight_cull::{Camera, TileGrid};
 use tiledlight_gpu::blended::BlendedPath;
 use tiledlight_gpu::draw_order::{DrawOrder, DrawOrderMode};
-use tiledlight_gpu::features::{Features, Method, Raster};
+use tiledlight_gpu::features::{Features, Raster};
 use tiledlight_gpu::heatmap::HeatmapPass;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::{GridStatus, LightGrid};
@@ -133,7 +134,8 @@ impl FrameRenderer {
             )));
         }
         let s = &settings;
-        let features = Features::new(scene, lights, s.method, &s.cull, (s.msaa, s.knobs), (s.shadows, s.vpl.is_some()));
+        let features =
+            Features::new(scene, lights, s.method.traits(), &s.cull, (s.msaa, s.knobs), (s.shadows, s.vpl.is_some()));
         if features.vpl && features.shadows.is_none() {
             return Err(GpuError::Config(
                 "VPLs are made from the shadow-casting lights' reflective shadow maps: no light casts a shadow".into(),

@@ -5,11 +5,11 @@
 //! set, given to [`crate::FrameRenderer::with_hooks`] beside the settings. Depends on
 //! tiledlight-gpu (option types) and tiledlight-cull (shadow and VPL options).
 
+use crate::methods::Method;
 use glam::Vec3;
 use tiledlight_cull::shadow::ShadowOptions;
 use tiledlight_cull::vpl::VplConfig;
 use tiledlight_gpu::culling::{CullOptions, DropLight};
-use tiledlight_gpu::features::Method;
 use tiledlight_gpu::heatmap::HeatmapOf;
 use tiledlight_gpu::knobs::Knobs;
 

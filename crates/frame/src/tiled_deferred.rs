@@ -15,12 +15,13 @@
 
 use std::any::Any;
 
+use crate::methods::Method;
 use crate::plan::Step;
 use tiledlight_deferred::gbuffer::{emission_format, GBuffer, GBufferPass, EXTRA_FORMAT, SURFACE_FORMAT};
 use tiledlight_deferred::shading::DeferredShading;
 use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
 use tiledlight_gpu::edge_samples::EdgeTest;
-use tiledlight_gpu::features::{Features, Method};
+use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::memory::MemoryReport;

@@ -26,11 +26,12 @@
 
 use std::any::Any;
 
+use crate::methods::Method;
 use crate::plan::Step;
 use tiledlight_gpu::culling::LightCulling;
 use tiledlight_gpu::depth_prepass::{DEPTH_FORMAT, ID_FORMAT};
 use tiledlight_gpu::edge_samples::EdgeTest;
-use tiledlight_gpu::features::{Features, Method};
+use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::memory::MemoryReport;

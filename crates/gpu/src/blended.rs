@@ -239,7 +239,7 @@ impl BlendedPath {
             }
         };
         let culling = match &depth {
-            Some(d) if features.method.is_tiled() => {
+            Some(d) if features.method.tiled => {
                 Some(LightCulling::blended(device, views, (opaque_depth.view, &d.view), lights, grid, options)?)
             }
             _ => None,
@@ -250,7 +250,7 @@ impl BlendedPath {
             // The references' blended surfaces: every light, with the cutoff or none (the
             // traced reference's unshadowed: its rays are traced for the opaque surface
             // only; docs/ACCURACY.md).
-            (true, _) => LightLoopKey::Every { cutoff: features.method.has_cutoff() },
+            (true, _) => LightLoopKey::Every { cutoff: features.method.cutoff },
             (false, Some(_)) => LightLoopKey::Clusters,
             (false, None) => LightLoopKey::TileLists { half_z: false },
         };

@@ -12,7 +12,7 @@
 use crate::culling::options::CullOptions;
 use crate::knobs::Knobs;
 use crate::light_buffers::LightBuffers;
-pub use crate::method::{LargeRaster, Method, Raster};
+pub use crate::method::{LargeRaster, MethodTraits, Raster};
 use crate::scene_gpu::{DrawKind, MaterialFeatures, SceneGpu};
 use tiledlight_cull::shadow::ShadowOptions;
 
@@ -32,8 +32,9 @@ pub use crate::knobs::BlendMode;
 /// What the scene, its lights and the settings require of a frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Features {
-    /// The method.
-    pub method: Method,
+    /// What the passes need to know of the frame's method (`tiledlight_frame::Method`
+    /// names it).
+    pub method: MethodTraits,
     /// Some lights are spot lights: the spot buffer and the `SPOT_LIGHTS` shading variant.
     pub spot_lights: bool,
     /// Spot cones are culled against tiles (`SPOT_CONE`): asked for and spot lights exist.
@@ -89,13 +90,13 @@ impl Features {
     pub fn new(
         scene: &SceneGpu,
         lights: &LightBuffers,
-        method: Method,
+        method: MethodTraits,
         cull: &CullOptions,
         (msaa, knobs): (u32, Knobs),
         (shadow, vpl): (ShadowOptions, bool),
     ) -> Self {
         let (points, spots) = (lights.packed.shadow_points, lights.packed.shadow_spots);
-        let tiled = method.is_tiled();
+        let tiled = method.tiled;
         let spot_lights = lights.has_spots();
         Self {
             method,
@@ -110,10 +111,10 @@ impl Features {
             half_z: tiled && cull.half_z,
             coarse: tiled && cull.coarse,
             aabb: tiled && cull.aabb,
-            extra_targets: if method == Method::TiledDeferred { knobs.gbuffer_rts.saturating_sub(2) } else { 0 },
+            extra_targets: if method.gbuffer { knobs.gbuffer_rts.saturating_sub(2) } else { 0 },
             // The traced reference's shadows are rays: its atlas exists only for the VPLs'
             // reflective shadow maps.
-            shadows: (points + spots > 0 && (!method.is_traced() || vpl)).then_some(Shadows {
+            shadows: (points + spots > 0 && (!method.traced || vpl)).then_some(Shadows {
                 points,
                 spots,
                 options: shadow,
@@ -152,51 +153,5 @@ impl Features {
             c.push(("EARLY_OUTS", 0.0));
         }
         c
-    }
-
-    /// One line of what the frame models, e.g. "Forward+, points+spots, textures, MSAA 4x".
-    pub fn describe(&self) -> String {
-        let mut parts = vec![match self.method {
-            Method::ForwardPlus => "Forward+".to_string(),
-            Method::TiledDeferred => "Tiled Deferred".to_string(),
-            Method::Visibility => "visibility buffer".to_string(),
-            Method::BruteForce { cutoff: true } => "brute force".to_string(),
-            Method::BruteForce { cutoff: false } => "brute force, no cutoff".to_string(),
-            Method::TracedReference { cutoff: false } => {
-                "traced reference (every light, a shadow ray each)".to_string()
-            }
-            Method::TracedReference { cutoff: true } => {
-                "traced reference with the cutoff (every light in range, a shadow ray each)".to_string()
-            }
-        }];
-        parts.push(if self.spot_lights { "points+spots" } else { "points" }.into());
-        parts.extend(self.materials.describe().into_iter().map(String::from));
-        if self.masked() {
-            parts.push("alpha-masked".into());
-        }
-        if self.msaa > 1 {
-            parts.push(format!("MSAA {}x", self.msaa));
-        }
-        if let Some(s) = &self.shadows {
-            parts.push(format!(
-                "shadows: {} point + {} spot casters, {}px tiles, {}x{} PCF, {}",
-                s.points,
-                s.spots,
-                s.options.tile_size,
-                s.options.filter.size(),
-                s.options.filter.size(),
-                s.options.format.name()
-            ));
-        }
-        if self.vpl {
-            parts.push("virtual point lights".into());
-        }
-        if self.blended() {
-            parts.push(match self.blend_mode {
-                BlendMode::Sorted => "alpha-blended geometry (sorted back to front)".into(),
-                BlendMode::WeightedOit => "alpha-blended geometry (weighted blended OIT, unsorted)".into(),
-            });
-        }
-        parts.join(", ")
     }
 }

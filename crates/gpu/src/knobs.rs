@@ -27,7 +27,7 @@
 
 use std::fmt;
 
-use crate::method::{LargeRaster, Method, Raster};
+use crate::method::{LargeRaster, MethodTraits, Raster};
 use tiledlight_cull::draw_order::DrawOrderMode;
 use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat, TILE_SIZES};
 
@@ -205,8 +205,9 @@ pub struct Knob {
     pub kind: Kind,
     /// The viewer's control.
     pub control: Control,
-    /// The methods whose frames read it (others ignore it).
-    pub applies: fn(Method) -> bool,
+    /// Whether a method with these traits reads it (others ignore it): by trait, so a new
+    /// method gets the rows its passes read without a change here.
+    pub applies: fn(MethodTraits) -> bool,
     /// What else the frame must have for it to be read.
     pub needs: Needs,
     /// The value of the default [`Knobs`], as text.
@@ -304,7 +305,7 @@ macro_rules! knobs {
     };
 }
 
-fn any_method(_: Method) -> bool {
+fn any_method(_: MethodTraits) -> bool {
     true
 }
 
@@ -313,8 +314,8 @@ fn no_check<T>(_: T) -> Result<(), String> {
 }
 
 /// The methods that draw shadow maps (the traced references cast rays instead).
-fn shadow_mapped(m: Method) -> bool {
-    !m.is_traced()
+fn shadow_mapped(m: MethodTraits) -> bool {
+    !m.traced
 }
 
 knobs! {
@@ -328,7 +329,7 @@ knobs! {
     /// and read back (the sample's bandwidth stress knob; the image does not change).
     gbuffer_rts: u32 = 2;
     "gbuffer-rts", "G-buffer RTs", "2..5", Control::Slider(2.0, 5.0),
-    applies(|m| m == Method::TiledDeferred),
+    applies(|m| m.gbuffer),
     check(|v| if (2..=5).contains(&v) { Ok(()) } else { Err("must be between 2 and 5".into()) });
 
     /// The order the depth pre-pass and the G-buffer draw the scene in: front-to-back
@@ -341,19 +342,19 @@ knobs! {
     /// The visibility buffer's raster: auto (compute on a discrete GPU with 64-bit atomics
     /// at one sample a pixel, else hardware), hardware or compute.
     raster: Raster = Raster::Auto;
-    "raster", "raster", "RASTER", Control::Choice, applies(Method::uses_visibility_buffer), check(no_check);
+    "raster", "raster", "RASTER", Control::Choice, applies(|m| m.visibility_buffer), check(no_check);
 
     /// The compute raster hands a triangle whose bounds span more pixels than this (either
     /// way) to the large-triangle path.
     raster_large_px: u32 = 32;
     "raster-large-px", "large triangle (px)", "PX", Control::Slider(1.0, 256.0),
-    applies(Method::uses_visibility_buffer),
+    applies(|m| m.visibility_buffer),
     check(|v| if v >= 1 { Ok(()) } else { Err("a triangle spans at least one pixel".into()) });
 
     /// Who draws the compute raster's large triangles: compute (a workgroup a triangle) or
     /// hardware (one indirect draw).
     raster_large: LargeRaster = LargeRaster::Compute;
-    "raster-large", "large triangles by", "BY", Control::Choice, applies(Method::uses_visibility_buffer),
+    "raster-large", "large triangles by", "BY", Control::Choice, applies(|m| m.visibility_buffer),
     check(no_check);
 
     /// The visibility buffer with MSAA: two triangle IDs in a pixel make it an edge (shaded
@@ -362,7 +363,7 @@ knobs! {
     /// IDs do (a floor of two triangles then has an edge along its diagonal).
     surface_edges: bool = true;
     "surface-edges", "edges by surface, not ID", "on|off", Control::Checkbox,
-    applies(Method::uses_visibility_buffer), check(no_check);
+    applies(|m| m.visibility_buffer), check(no_check);
 
     /// The visibility buffer's shading stages its workgroup's light list (its first 256
     /// lights: indices and shading records) in workgroup memory once, and every pixel reads
@@ -371,20 +372,20 @@ knobs! {
     /// half-z and clusters read as off. The image is the same.
     stage_lights: bool = true;
     "stage-lights", "stage lists in workgroup memory", "on|off", Control::Checkbox,
-    applies(|m| m == Method::Visibility), check(no_check);
+    applies(|m| m.visibility_buffer && m.tiled), check(no_check);
 
     /// The MSAA edge test (Tiled Deferred, visibility buffer): a sample farther than this
     /// fraction of the view distance from sample 0's tangent plane makes the pixel an edge.
     edge_distance: f32 = 0.002;
     "edge-distance", "edge: off-plane distance", "F", Control::Slider(0.0, 0.05),
-    applies(|m| m == Method::TiledDeferred || m.uses_visibility_buffer()),
+    applies(|m| m.gbuffer || m.visibility_buffer),
     check(|v| if v.is_finite() && v >= 0.0 { Ok(()) } else { Err("must be a number >= 0".into()) });
 
     /// The MSAA edge test (Tiled Deferred, visibility buffer): a sample normal turned more
     /// than this many degrees from sample 0's makes the pixel an edge.
     edge_normal_deg: f32 = 10.0;
     "edge-normal-deg", "edge: normal angle (deg)", "DEG", Control::Slider(0.0, 90.0),
-    applies(|m| m == Method::TiledDeferred || m.uses_visibility_buffer()),
+    applies(|m| m.gbuffer || m.visibility_buffer),
     check(|v| if (0.0..=180.0).contains(&v) { Ok(()) } else { Err("must be between 0 and 180 degrees".into()) });
 
     /// Texels per side of each shadow face's atlas tile, 128 to 1024 (used only when some
@@ -611,7 +612,18 @@ mod tests {
     fn switch_flags_follow_the_default() {
         assert_eq!(Knobs::row("early-outs").unwrap().flag(), "no-early-outs");
         assert_eq!(Knobs::row("gbuffer-rts").unwrap().flag(), "gbuffer-rts");
-        assert!(!(Knobs::row("gbuffer-rts").unwrap().applies)(Method::ForwardPlus));
-        assert!((Knobs::row("raster").unwrap().applies)(Method::TRUTH));
+        // Rows apply by trait: a forward method (tiles, no G-buffer, no visibility buffer)
+        // has no G-buffer targets; a traced one reads the raster and draws no shadow maps.
+        let forward =
+            MethodTraits { tiled: true, gbuffer: false, visibility_buffer: false, traced: false, cutoff: true };
+        let traced =
+            MethodTraits { tiled: false, gbuffer: false, visibility_buffer: true, traced: true, cutoff: false };
+        assert!(!(Knobs::row("gbuffer-rts").unwrap().applies)(forward));
+        assert!((Knobs::row("raster").unwrap().applies)(traced));
+        assert!(!(Knobs::row("stage-lights").unwrap().applies)(traced), "staging needs tile lists");
+        assert!(
+            !(Knobs::row("shadow-size").unwrap().applies)(traced)
+                && (Knobs::row("shadow-size").unwrap().applies)(forward)
+        );
     }
 }

@@ -1,151 +1,36 @@
-//! The method types every crate names: how a frame is lit ([`Method`]), which rasteriser
-//! draws the visibility buffer ([`Raster`]) and who draws the compute raster's large
-//! triangles ([`LargeRaster`]); re-exported by [`crate::features`]. A leaf module: depends
-//! only on [`crate::context`] (the compute raster's device features), so the pass
+//! What this crate knows of methods: the traits of a frame's method that its passes read
+//! ([`MethodTraits`]; the methods themselves are `tiledlight_frame::Method`), which
+//! rasteriser draws the visibility buffer ([`Raster`]) and who draws the compute raster's
+//! large triangles ([`LargeRaster`]); re-exported by [`crate::features`]. A leaf module:
+//! depends only on [`crate::context`] (the compute raster's device features), so the pass
 //! settings' table ([`crate::knobs`](mod@crate::knobs)) and the features can both name them.
 
 use crate::context::COMPUTE_RASTER_FEATURES;
 
-/// How a frame is lit: the one method type of every crate (settings, renderers, reports).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum Method {
-    /// Depth pre-pass, tiled culling, forward shading of each tile's list.
-    #[default]
-    ForwardPlus,
-    /// G-buffer, then one compute pass that culls each tile and shades it.
-    TiledDeferred,
-    /// Depth and triangle IDs, tiled culling, then one compute pass that rebuilds each
-    /// pixel's surface from its triangle and shades it (the visibility buffer).
-    Visibility,
-    /// Depth pre-pass, then every light for every pixel (the reference). `cutoff: false`
-    /// drops the radius window (plain inverse-square).
-    BruteForce {
-        /// Keep the windowed falloff with its radius cutoff.
-        cutoff: bool,
-    },
-    /// The truth to measure against: the visibility buffer's surface lit by every light
-    /// with no cutoff, each light's share multiplied by a shadow ray through the scene's
-    /// BVH (no shadow maps). Seconds a frame, not milliseconds. `cutoff: true` keeps the
-    /// windowed falloff (the truth with the tiled methods' cutoff: the lab's error split
-    /// measures the cutoff's share of a setting's error with it).
-    TracedReference {
-        /// Keep the windowed falloff with its radius cutoff.
-        cutoff: bool,
-    },
+/// What this crate's passes and the pass settings' table need to know of a frame's method:
+/// its traits, not its name. The methods themselves (`tiledlight_frame::Method`) and their
+/// registrations live above this crate, so a new method is declared there and only says
+/// which of these it has.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct MethodTraits {
+    /// Tiles: culling, the light grid, the heat map. The others are references (every
+    /// light for every pixel).
+    pub tiled: bool,
+    /// A G-buffer (Tiled Deferred): its extra targets, its MSAA edge test.
+    pub gbuffer: bool,
+    /// The visibility buffer's surface: its raster and its MSAA edge test.
+    pub visibility_buffer: bool,
+    /// Shadows by rays through the scene's BVH (no shadow maps).
+    pub traced: bool,
+    /// Lights end at their radius (the windowed falloff); false only for the references
+    /// without it (plain inverse-square).
+    pub cutoff: bool,
 }
 
-impl Method {
-    /// Every method, in the order reports list them.
-    pub const ALL: [Method; 7] = [
-        Method::ForwardPlus,
-        Method::BruteForce { cutoff: true },
-        Method::BruteForce { cutoff: false },
-        Method::TiledDeferred,
-        Method::Visibility,
-        Method::TracedReference { cutoff: false },
-        Method::TracedReference { cutoff: true },
-    ];
-
-    /// The truth the lab measures against: traced, no cutoff.
-    pub const TRUTH: Method = Method::TracedReference { cutoff: false };
-
-    /// True for the methods with tiles (culling, light grid, heat map).
-    pub fn is_tiled(self) -> bool {
-        !matches!(self, Method::BruteForce { .. } | Method::TracedReference { .. })
-    }
-
-    /// True for the methods whose surface is the visibility buffer's (its raster).
-    pub fn uses_visibility_buffer(self) -> bool {
-        matches!(self, Method::Visibility | Method::TracedReference { .. })
-    }
-
-    /// True for the traced references (shadow rays through the scene's BVH).
-    pub fn is_traced(self) -> bool {
-        matches!(self, Method::TracedReference { .. })
-    }
-
-    /// True for the references (every light, no tiles): brute force and the traced one.
+impl MethodTraits {
+    /// Every light for every pixel, no tiles.
     pub fn is_reference(self) -> bool {
-        !self.is_tiled()
-    }
-
-    /// False for the references without the radius window (plain inverse-square): every
-    /// other method's lights end at their radius.
-    pub fn has_cutoff(self) -> bool {
-        !matches!(self, Method::BruteForce { cutoff: false } | Method::TracedReference { cutoff: false })
-    }
-
-    /// The flag value, for the command line, reports and JSON.
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::ForwardPlus => "forward-plus",
-            Method::BruteForce { cutoff: true } => "brute-force",
-            Method::BruteForce { cutoff: false } => "brute-force-no-cutoff",
-            Method::TiledDeferred => "deferred",
-            Method::Visibility => "visibility",
-            Method::TracedReference { cutoff: false } => "traced-reference",
-            Method::TracedReference { cutoff: true } => "traced-reference-cutoff",
-        }
-    }
-
-    /// The name people read (the viewer's panel, charts).
-    pub fn label(self) -> &'static str {
-        match self {
-            Method::ForwardPlus => "Forward+",
-            Method::BruteForce { cutoff: true } => "Brute force",
-            Method::BruteForce { cutoff: false } => "Brute force, no cutoff",
-            Method::TiledDeferred => "Tiled Deferred",
-            Method::Visibility => "Visibility buffer",
-            Method::TracedReference { cutoff: false } => "Traced reference",
-            Method::TracedReference { cutoff: true } => "Traced, with the cutoff",
-        }
-    }
-
-    /// What the method does, in one line (the command line's help).
-    pub fn summary(self) -> &'static str {
-        match self {
-            Method::ForwardPlus => "Depth pre-pass, tiled light culling, forward shading of each tile's list",
-            Method::BruteForce { cutoff: true } => {
-                "Every light for every pixel, with the radius cutoff (the reference for culling)"
-            }
-            Method::BruteForce { cutoff: false } => {
-                "Every light for every pixel, plain inverse-square (the reference for the cutoff)"
-            }
-            Method::TiledDeferred => "G-buffer pass, then one compute pass that culls each tile's lights and shades it",
-            Method::Visibility => {
-                "Depth and triangle IDs, tiled light culling, then one compute pass that rebuilds each pixel's \
-                 surface from its triangle and shades it"
-            }
-            Method::TracedReference { cutoff: false } => {
-                "Every light for every pixel, no cutoff, each shadowed by a ray through the scene's BVH (the truth; \
-                 seconds a frame)"
-            }
-            Method::TracedReference { cutoff: true } => {
-                "The traced reference with the radius cutoff (the truth less the cutoff's light: the cutoff's share \
-                 of the error)"
-            }
-        }
-    }
-
-    /// The method of flag value `name` ([`Method::name`]).
-    pub fn from_name(name: &str) -> Result<Self, String> {
-        Self::ALL.into_iter().find(|m| m.name() == name).ok_or_else(|| {
-            let names: Vec<&str> = Self::ALL.iter().map(|m| m.name()).collect();
-            format!("method {name:?}: use one of {}", names.join(", "))
-        })
-    }
-}
-
-/// `--method` on a command line (feature `clap`): the values are [`Method::name`], their
-/// help [`Method::summary`], so a new method needs no second enum.
-#[cfg(feature = "clap")]
-impl clap::ValueEnum for Method {
-    fn value_variants<'a>() -> &'a [Self] {
-        &Self::ALL
-    }
-
-    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
-        Some(clap::builder::PossibleValue::new(self.name()).help(self.summary()))
+        !self.tiled
     }
 }
 
@@ -181,7 +66,8 @@ impl Raster {
             Raster::Auto => "The faster on this adapter class where it can run (measured: docs/PERFORMANCE.md)",
             Raster::Hardware => "The hardware raster: depth pre-pass pipelines writing triangle IDs (any MSAA)",
             Raster::Compute => {
-                "Compute: 64-bit atomicMax of (depth, ID) per pixel, large triangles and masked materials                  by the hardware (one sample a pixel; needs 64-bit buffer atomics)"
+                "Compute: 64-bit atomicMax of (depth, ID) per pixel, large triangles and masked materials by \
+                 the hardware (one sample a pixel; needs 64-bit buffer atomics)"
             }
         }
     }
@@ -241,21 +127,5 @@ impl LargeRaster {
             LargeRaster::Compute => "compute",
             LargeRaster::Hardware => "hardware",
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Only the two references named "no cutoff" drop the radius window; every name parses
-    /// back to its method.
-    #[test]
-    fn the_cutoff_and_the_names_of_every_method() {
-        for m in Method::ALL {
-            assert_eq!(m.has_cutoff(), !m.name().ends_with("no-cutoff") && m != Method::TRUTH, "{m:?}");
-            assert_eq!(Method::from_name(m.name()), Ok(m));
-        }
-        assert!(Method::from_name("nope").unwrap_err().contains("forward-plus"));
     }
 }

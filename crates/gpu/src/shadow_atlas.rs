@@ -250,7 +250,7 @@ impl ShadowAtlas {
             depth,
             clear,
             bounds: scene.instance_bounds.clone(),
-            radius_cull: features.method.has_cutoff(),
+            radius_cull: features.method.cutoff,
             first_slot,
             state: Mutex::new(state),
             memory,

@@ -118,7 +118,7 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
         || a.flat_cull != b.flat_cull
         // A pass setting (a row of the table) the new frame reads: the shadow rows only
         // while some light casts a shadow.
-        || a.knobs.changed(&b.knobs).iter().any(|k| (k.applies)(b.method) && read_now(k.needs, b))
+        || a.knobs.changed(&b.knobs).iter().any(|k| (k.applies)(b.method.traits()) && read_now(k.needs, b))
         || a.msaa != b.msaa
         // Automatic exposure is a pass and a tonemap variant of its own.
         || a.auto_exposure != b.auto_exposure
@@ -225,7 +225,7 @@ mod tests {
                     Needs::Shadows => casters > 0,
                     Needs::Blended => glass > 0,
                 };
-                let want = if (k.applies)(method) && needed { RENDERER } else { Rebuild::default() };
+                let want = if (k.applies)(method.traits()) && needed { RENDERER } else { Rebuild::default() };
                 assert_eq!(
                     rebuild_plan(&from, &to),
                     want,

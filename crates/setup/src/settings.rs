@@ -21,11 +21,12 @@ use tiledlight_cull::tiles::MAX_SCREEN_SIDE;
 use tiledlight_cull::vpl::VplConfig;
 use tiledlight_deferred::shading::workgroup_bytes_besides_lists;
 use tiledlight_frame::FrameSettings;
+pub use tiledlight_frame::Method;
 use tiledlight_gpu::culling::CLUSTER_TILE_SIZES;
 use tiledlight_gpu::culling::{ClusterOptions, CullOptions, CULL_WORKGROUP_BYTES};
 pub use tiledlight_gpu::draw_order::DrawOrderMode;
 use tiledlight_gpu::features::BlendMode;
-pub use tiledlight_gpu::features::{Method, Raster};
+pub use tiledlight_gpu::features::Raster;
 pub use tiledlight_gpu::knobs::Knobs;
 use tiledlight_scene::{
     surface_irradiance_factor, CameraDesc, GridDensity, SurfaceLightOptions, DEFAULT_LIGHT_THRESHOLD,

@@ -742,7 +742,7 @@ fn knob_controls(ui: &mut egui::Ui, knobs: &mut Knobs, method: Method, needs: Ne
     for row in section_rows(needs) {
         let text = (row.get)(knobs);
         let mut new = text.clone();
-        ui.add_enabled_ui((row.applies)(method), |ui| {
+        ui.add_enabled_ui((row.applies)(method.traits()), |ui| {
             let response = match (row.control, row.kind) {
                 (Control::Checkbox, _) => {
                     let mut on = text == "on";
