@@ -24,7 +24,7 @@ use tiledlight_scene::{Aabb, CameraDesc, Light};
 use crate::camera::choose_camera;
 use crate::load::{build_lights, FittedLights, LightSummary, SceneCpu, SurfacePlacement, Surfaces};
 use crate::rebuild::{rebuild_plan, Rebuild, Reload};
-use crate::settings::{CasterChoice, Method, Settings};
+use crate::settings::{CasterChoice, Settings};
 use crate::stats::{blended_stats, culling_stats, group_digits, BlendedStats, CullingStats};
 
 /// Everything a run needs before a renderer exists: the GPU, the uploaded scene and
@@ -449,34 +449,33 @@ impl Prepared {
                 g.tile_count()
             ));
         }
-        let method = match a.method {
-            Method::ForwardPlus => format!("forward-plus ({})", a.culling_description()),
-            Method::TiledDeferred => {
-                format!(
-                    "deferred ({}, {} G-buffer targets, drawn {})",
-                    a.culling_description(),
-                    a.knobs.gbuffer_rts,
-                    a.knobs.draw_order.label()
-                )
-            }
-            Method::Visibility => format!("visibility ({}, 32-bit triangle IDs)", a.culling_description()),
-            Method::TracedReference { cutoff } => {
-                let (name, falloff) = if cutoff {
-                    ("traced-reference-cutoff", "the radius cutoff")
-                } else {
-                    ("traced-reference", "no cutoff")
-                };
-                match &self.scene_gpu.trace {
-                    Some(t) => format!(
-                        "{name} (every light, {falloff}, a shadow ray each through a BVH of {} triangles, {} nodes, \
-                         depth {}, built in {:.2} s)",
-                        t.triangle_count, t.node_count, t.depth, t.build_seconds
-                    ),
-                    None => name.into(),
-                }
-            }
-            m => format!("{} (every light for every pixel)", m.name()),
-        };
+        // The method's line from its traits (a new method needs no arm here): its name,
+        // then what its traits add.
+        let t = a.method.traits();
+        let mut parts: Vec<String> = Vec::new();
+        if t.tiled {
+            parts.push(a.culling_description());
+        }
+        if t.gbuffer {
+            parts.push(format!("{} G-buffer targets, drawn {}", a.knobs.gbuffer_rts, a.knobs.draw_order.label()));
+        }
+        if t.visibility_buffer && !t.traced {
+            parts.push("32-bit triangle IDs".into());
+        }
+        if t.traced {
+            let falloff = if t.cutoff { "the radius cutoff" } else { "no cutoff" };
+            parts.push(match &self.scene_gpu.trace {
+                Some(tr) => format!(
+                    "every light, {falloff}, a shadow ray each through a BVH of {} triangles, {} nodes, depth {}, \
+                     built in {:.2} s",
+                    tr.triangle_count, tr.node_count, tr.depth, tr.build_seconds
+                ),
+                None => format!("every light, {falloff}, a shadow ray each"),
+            });
+        } else if t.is_reference() {
+            parts.push("every light for every pixel".into());
+        }
+        let method = format!("{} ({})", a.method.name(), parts.join(", "));
         let method = if a.knobs.early_outs {
             method
         } else {
@@ -484,12 +483,15 @@ impl Prepared {
         };
         if a.msaa > 1 {
             res.push_str(&format!(", MSAA {}x", a.msaa));
-            if a.method == Method::Visibility {
+            // The edge test of the methods that shade a pixel once unless it is an edge.
+            let by_surface = t.gbuffer || (t.visibility_buffer && a.knobs.surface_edges);
+            if t.visibility_buffer && !a.knobs.surface_edges {
                 res.push_str(" (edge test: samples with different triangle IDs)");
-            }
-            if a.method == Method::TiledDeferred {
+            } else if by_surface {
+                let ids =
+                    if t.visibility_buffer { "two triangles whose surfaces differ: another material, " } else { "" };
                 res.push_str(&format!(
-                    " (edge test: {} of the view distance off the tangent plane, or normals {} deg apart)",
+                    " (edge test: {ids}{} of the view distance off the tangent plane, or normals {} deg apart)",
                     a.knobs.edge_distance, a.knobs.edge_normal_deg
                 ));
             }
