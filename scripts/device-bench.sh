@@ -333,9 +333,10 @@ for set in $sets; do
   stage-lights)
     # Issue 49 item 2 (and issue 45's setting added in three files): the visibility
     # buffer's shading with its tile list staged in workgroup memory (the default) and
-    # without (--no-stage-lights), three interleaved repeats: the Figure 9 scene at 4,096 and 16,384 lights, 100
-    # frames; the million preset (assigned, tile lists), 30 frames; the courtyard at 1,024.
-    for rep in 1 2 3; do
+    # without (--no-stage-lights), STAGE_REPEATS interleaved repeats (default 1; 3 for a
+    # recorded A/B): the Figure 9 scene at 4,096 and 16,384 lights, 100 frames; the million
+    # preset (assigned, tile lists), 30 frames; the courtyard at 1,024.
+    for rep in $(seq 1 "${STAGE_REPEATS:-1}"); do
       for st in off on; do
         flag=()
         [ "$st" = off ] && flag=(--no-stage-lights)
