@@ -25,7 +25,8 @@
 //! surface sample into 64 bits ([`gbuffer`]); and the order the depth pre-pass and the
 //! G-buffer draw instances in, nearest first ([`draw_order`]); and material texture
 //! sampling as the shaders filter texels themselves: mip chains, levels, wraps
-//! ([`texture`]).
+//! ([`texture`]); and the stochastic method's light sampler (resampled importance sampling
+//! into a reservoir, one shadow ray a pixel: [`stochastic`]).
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
 
 pub mod error;
@@ -55,6 +56,7 @@ pub mod raster;
 pub mod raycast;
 pub mod reference;
 pub mod shadow;
+pub mod stochastic;
 pub mod texture;
 pub mod tiles;
 pub mod trace;

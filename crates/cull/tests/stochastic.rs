@@ -1,0 +1,193 @@
+//! The stochastic sampler's twin (`tiledlight_cull::stochastic`, issue 48) is unbiased: on
+//! a floor with a box and a wall between it and 40 lights (points and spots, some in the
+//! box's shadow), the mean of many independent one-sample-per-pixel estimates (no reuse, no
+//! denoising) converges to the truth, every light's contribution times its shadow ray
+//! (`raycast::Triangles`), within a bound derived from the sample variance; so do merged
+//! reservoirs. The negative test: a sampler that draws its candidates from another pdf than
+//! the one it weights them by is rejected by the same test.
+//!
+//! The statistic: per pixel `z = (mean - truth) / sqrt(var / K)` over `K` frames. An
+//! unbiased estimator gives `z` about standard normal: every `|z| <= 4.5` (a false alarm
+//! under 1e-5 a pixel) and the mean of `z^2` within 1 +- 6 sqrt(2 / N) over `N` pixels. The
+//! estimate of a pixel with zero variance (no light reaches it, or one light only) must
+//! equal the truth to f32 rounding.
+
+use glam::Vec3;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use tiledlight_cull::brdf::Surface;
+use tiledlight_cull::light::{Light, LightKind};
+use tiledlight_cull::raycast::Triangles;
+use tiledlight_cull::stochastic::{estimate, luminance, rand01, resample, unshadowed, Reservoir, Source};
+
+/// A surface point: position, normal, direction to the eye, material.
+struct Pixel {
+    p: Vec3,
+    n: Vec3,
+    v: Vec3,
+    s: Surface,
+}
+
+/// Two triangles of an axis-aligned quad from its four corners.
+fn quad(tris: &mut Vec<[Vec3; 3]>, a: Vec3, b: Vec3, c: Vec3, d: Vec3) {
+    tris.push([a, b, c]);
+    tris.push([a, c, d]);
+}
+
+/// The scene: a floor of 8 x 8 m at y = 0, a 1 m box at the centre, a 3 m wall 2 m high at
+/// z = -1.5; 32 point lights and 8 spots pointing down, 0.3 to 2.5 m up.
+fn scene() -> (Triangles, Vec<Light>, Vec<Pixel>) {
+    let mut tris = Vec::new();
+    let v = Vec3::new;
+    quad(&mut tris, v(-4.0, 0.0, -4.0), v(4.0, 0.0, -4.0), v(4.0, 0.0, 4.0), v(-4.0, 0.0, 4.0));
+    let (lo, hi) = (v(-0.5, 0.0, -0.5), v(0.5, 1.0, 0.5));
+    for (a, b, c, d) in [
+        (v(lo.x, hi.y, lo.z), v(hi.x, hi.y, lo.z), v(hi.x, hi.y, hi.z), v(lo.x, hi.y, hi.z)),
+        (v(lo.x, lo.y, lo.z), v(hi.x, lo.y, lo.z), v(hi.x, hi.y, lo.z), v(lo.x, hi.y, lo.z)),
+        (v(lo.x, lo.y, hi.z), v(hi.x, lo.y, hi.z), v(hi.x, hi.y, hi.z), v(lo.x, hi.y, hi.z)),
+        (v(lo.x, lo.y, lo.z), v(lo.x, lo.y, hi.z), v(lo.x, hi.y, hi.z), v(lo.x, hi.y, lo.z)),
+        (v(hi.x, lo.y, lo.z), v(hi.x, lo.y, hi.z), v(hi.x, hi.y, hi.z), v(hi.x, hi.y, lo.z)),
+    ] {
+        quad(&mut tris, a, b, c, d);
+    }
+    quad(&mut tris, v(-1.5, 0.0, -1.5), v(1.5, 0.0, -1.5), v(1.5, 2.0, -1.5), v(-1.5, 2.0, -1.5));
+    let mut rng = Pcg64::seed_from_u64(48);
+    let mut lights = Vec::new();
+    for k in 0..40 {
+        let position = v(rng.random_range(-3.5..3.5), rng.random_range(0.3..2.5), rng.random_range(-3.5..3.5));
+        let color = v(rng.random_range(0.2..1.0), rng.random_range(0.2..1.0), rng.random_range(0.2..1.0));
+        let intensity = rng.random_range(0.5..4.0);
+        let light = if k < 32 {
+            Light::point(position, color, intensity, 0.02).unwrap()
+        } else {
+            let kind = Light::spot_kind(v(rng.random_range(-0.3..0.3), -1.0, 0.0), 0.4, 0.7).unwrap();
+            Light { kind, ..Light::point(position, color, intensity, 0.02).unwrap() }
+        };
+        assert!(matches!(light.kind, LightKind::Point) == (k < 32));
+        lights.push(light);
+    }
+    let eye = v(0.0, 5.0, 8.0);
+    let mut pixels = Vec::new();
+    for i in 0..12 {
+        for j in 0..12 {
+            let p = v(-3.3 + 0.6 * i as f32, 0.0, -3.3 + 0.6 * j as f32);
+            let inside_box = p.x.abs() < 0.5 && p.z.abs() < 0.5;
+            let p = if inside_box { v(p.x, 1.0, p.z) } else { p };
+            let s = Surface {
+                albedo: v(0.7, 0.6, 0.5),
+                roughness: if (i + j) % 3 == 0 { 0.25 } else { 0.7 },
+                metallic: if (i + j) % 5 == 0 { 1.0 } else { 0.0 },
+            };
+            pixels.push(Pixel { p, n: Vec3::Y, v: (eye - p).normalize(), s });
+        }
+    }
+    (Triangles::new(tris), lights, pixels)
+}
+
+fn visible(bvh: &Triangles, px: &Pixel, light: &Light) -> bool {
+    !bvh.occluded(px.p + px.n * 1e-3, light.position, 1e-4)
+}
+
+/// The truth at `px`: every light's contribution times its shadow ray (luminance).
+fn truth(bvh: &Triangles, lights: &[Light], px: &Pixel, cutoff: bool) -> f64 {
+    lights
+        .iter()
+        .filter(|l| visible(bvh, px, l))
+        .map(|l| f64::from(luminance(unshadowed(l, (px.p, px.n, px.v), &px.s, cutoff))))
+        .sum()
+}
+
+/// The verdict of the statistic over `K` frames of `sample(pixel, frame)` (luminance).
+fn unbiased(
+    what: &str,
+    (bvh, lights, pixels): (&Triangles, &[Light], &[Pixel]),
+    cutoff: bool,
+    frames: u32,
+    sample: impl Fn(u32, &Pixel, u32) -> f32,
+) -> Result<(), String> {
+    let (mut z2_sum, mut n_z) = (0.0f64, 0usize);
+    let mut worst = (0.0f64, 0usize);
+    for (i, px) in pixels.iter().enumerate() {
+        let t = truth(bvh, lights, px, cutoff);
+        let xs: Vec<f64> = (0..frames).map(|f| f64::from(sample(i as u32, px, f))).collect();
+        let k = xs.len() as f64;
+        let mean = xs.iter().sum::<f64>() / k;
+        let var = xs.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (k - 1.0);
+        if var <= 1e-18 * mean.abs().max(1.0) {
+            if (mean - t).abs() > 1e-5 * t.abs().max(1e-6) {
+                return Err(format!("{what}: pixel {i} has no variance but its estimate {mean} is not the truth {t}"));
+            }
+            continue;
+        }
+        let z = (mean - t) / (var / k).sqrt();
+        z2_sum += z * z;
+        n_z += 1;
+        if z.abs() > worst.0 {
+            worst = (z.abs(), i);
+        }
+    }
+    let n = n_z as f64;
+    let mean_z2 = z2_sum / n;
+    let band = 6.0 * (2.0 / n).sqrt();
+    eprintln!(
+        "{what}: {n_z} pixels with variance, mean z^2 {mean_z2:.3} (1 +- {band:.3}), worst |z| {:.2} at pixel {}",
+        worst.0, worst.1
+    );
+    if n_z < pixels.len() / 2 {
+        return Err(format!("{what}: only {n_z} pixels vary: the scene tests too little"));
+    }
+    if worst.0 > 4.5 || (mean_z2 - 1.0).abs() > band {
+        return Err(format!("{what}: biased: worst |z| {:.2} at pixel {}, mean z^2 {mean_z2:.3}", worst.0, worst.1));
+    }
+    Ok(())
+}
+
+const FRAMES: u32 = 3000;
+
+/// Resampled importance sampling with 8 uniform candidates over every light, one shadow ray
+/// a pixel, converges to the truth with and without the radius cutoff; so do two reservoirs
+/// of 4 candidates merged into one.
+#[test]
+fn one_sample_a_pixel_converges_to_the_truth() {
+    let (bvh, lights, pixels) = scene();
+    let all: Vec<u32> = (0..lights.len() as u32).collect();
+    for cutoff in [true, false] {
+        let ris = |i: u32, px: &Pixel, f: u32| {
+            let r = resample(&lights, &all, (px.p, px.n, px.v), &px.s, (8, Source::Uniform, cutoff), (i, f));
+            luminance(estimate(&lights, &r, (px.p, px.n, px.v), &px.s, cutoff, |l| {
+                visible(&bvh, px, &lights[l as usize])
+            }))
+        };
+        unbiased(&format!("RIS M=8, cutoff {cutoff}"), (&bvh, &lights, &pixels), cutoff, FRAMES, ris).unwrap();
+    }
+    let merged = |i: u32, px: &Pixel, f: u32| {
+        let at = (px.p, px.n, px.v);
+        let mut a = resample(&lights, &all, at, &px.s, (4, Source::Uniform, true), (i, 2 * f));
+        let b = resample(&lights, &all, at, &px.s, (4, Source::Uniform, true), (i, 2 * f + 1));
+        a.merge(&b, rand01(i, f, 1_000_000));
+        luminance(estimate(&lights, &a, at, &px.s, true, |l| visible(&bvh, px, &lights[l as usize])))
+    };
+    unbiased("two reservoirs of 4 merged", (&bvh, &lights, &pixels), true, FRAMES, merged).unwrap();
+}
+
+/// The negative test: candidates drawn with probability growing with their index (`u^2`:
+/// low indices favoured) but weighted as if uniform, the bug of a source pdf that does not
+/// match the draw, is rejected by the same statistic.
+#[test]
+fn a_sampler_with_the_wrong_pdf_is_rejected() {
+    let (bvh, lights, pixels) = scene();
+    let n = lights.len() as u32;
+    let wrong = |i: u32, px: &Pixel, f: u32| {
+        let at = (px.p, px.n, px.v);
+        let mut r = Reservoir::default();
+        for k in 0..8 {
+            let u = rand01(i, f, 2 * k);
+            let light = ((u * u * n as f32) as u32).min(n - 1);
+            let p_hat = luminance(unshadowed(&lights[light as usize], at, &px.s, true));
+            r.update(light, (p_hat * n as f32, p_hat), rand01(i, f, 2 * k + 1));
+        }
+        luminance(estimate(&lights, &r, at, &px.s, true, |l| visible(&bvh, px, &lights[l as usize])))
+    };
+    let verdict = unbiased("wrong pdf", (&bvh, &lights, &pixels), true, FRAMES, wrong);
+    assert!(verdict.is_err(), "a sampler whose pdf does not match its draw passed as unbiased");
+}
