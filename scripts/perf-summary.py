@@ -82,7 +82,7 @@ def table(folder):
 #
 # The GPU. NVIDIA H200 and H100 SXM are both GH100: 132 SMs, 4 warp schedulers an SM,
 # each issuing one warp instruction (32 thread-instructions) a clock, boost ~1.98 GHz:
-# 132 x 4 x 32 x 1.98e9 = 33.4e12 thread-instructions/s. An FP32 FMA is one instruction
+# 132 x 4 x 32 x 1.98e9 = 33.45e12 thread-instructions/s. An FP32 FMA is one instruction
 # like an FADD, an integer op or a load (no flop is priced at 2). The special-function
 # unit (MUFU: rcp, rsq, sqrt, lg2, ex2) runs 16 lanes an SM a clock (4.2e12/s), checked
 # as a third bound where a pass counts MUFU ops. HBM: 4.8 TB/s (H200), 3.35 TB/s (H100
@@ -432,7 +432,7 @@ def floors(runs, warn=lambda m: print(m, file=sys.stderr)):
         f"Each pass against its floor on the {gpu['name']} (picked from the adapter name): "
         f"max(instructions / issue rate, MUFU ops / MUFU rate, bytes / {gpu['bytes_per_s'] / 1e12:g} TB/s); "
         f"issue {gpu['sms']} SMs x {LANES_PER_SM_CLOCK} lanes x {gpu['clock_hz'] / 1e9:g} GHz = "
-        f"{gpu['sms'] * LANES_PER_SM_CLOCK * gpu['clock_hz'] / 1e12:.1f}e12 instructions/s for compute, "
+        f"{gpu['sms'] * LANES_PER_SM_CLOCK * gpu['clock_hz'] / 1e12:.2f}e12 instructions/s for compute, "
         f"{gpu['graphics_sms']} graphics SMs ({gpu['graphics_sms'] * LANES_PER_SM_CLOCK * gpu['clock_hz'] / 1e12:.2f}e12/s) "
         "for vertex and fragment shaders; an FMA is one instruction. Counts a unit: px pixel, samples "
         "pixel x MSAA, shaded pixels + edge pixels x (MSAA - 1), pair a pixel's listed light (pixels x "
