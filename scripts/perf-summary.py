@@ -415,8 +415,9 @@ def pass_row(run, p, gpu, warn=None):
     try:
         t, kind, full = pass_floor(entry, quantities(run), gpu)
     except MissingCount as e:
-        msg = f"no {e} in the JSON"
-        if "pair" in str(e) and warn is not None:
+        needs_pairs = "pair" in str(e)
+        msg = "no light_pairs in the JSON" if needs_pairs else f"no count for {e} in the JSON"
+        if needs_pairs and warn is not None:
             warn(f"{run.get('_file', '?')}: no light_pairs: {p['pass']}'s floor needs bench's light-pair count")
         return ("no floor", "-", "-", "-", msg)
     ms = p["median_ms"]

@@ -81,7 +81,7 @@ class FloorModel(unittest.TestCase):
         said = []
         cells = ps.pass_row(run, run["passes"][0], ps.gpu_of(run["config"]["adapter"]), said.append)
         self.assertEqual(cells[0], "no floor")
-        self.assertIn("pair", cells[4])
+        self.assertEqual(cells[4], "no light_pairs in the JSON")
         self.assertEqual(len(said), 1)
         self.assertIn("sum-test.json: no light_pairs", said[0])
         # Passes that need no pairs still get their floor.
