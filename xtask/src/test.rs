@@ -3,7 +3,8 @@
 //! 1. Picks the adapter GPU tests use (`WGPU_ADAPTER_NAME`, default `llvmpipe`, i.e.
 //!    lavapipe on Vulkan) and checks with wgpu that such an adapter exists. A missing
 //!    adapter fails the run: GPU tests are never skipped.
-//! 2. Runs `validate-shaders`, `circles`, `cargo doc --no-deps --workspace` with rustdoc warnings
+//! 2. Runs `validate-shaders`, `circles`, the scripts' Python tests (`PYTHON_TESTS`, with
+//!    `python3 -m unittest`), `cargo doc --no-deps --workspace` with rustdoc warnings
 //!    denied, and the examples (`EXAMPLES`).
 //! 3. Runs every workspace test: `cargo nextest run` when installed (GPU tests one at a
 //!    time through the `gpu` test group of `.config/nextest.toml`) plus the doc tests,
@@ -35,6 +36,10 @@ const EXAMPLES: [(&str, &str); 8] = [
     ("tiledlight-frame", "one_frame"),
     ("tiledlight-setup", "render_png"),
 ];
+
+/// The scripts' unit tests (standard library only), run from the repository root with
+/// `python3 -m unittest`: the floor model of `scripts/perf-summary.py`.
+const PYTHON_TESTS: [&str; 1] = ["scripts/test_perf_summary.py"];
 
 /// lavapipe's adapter name starts with this (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)").
 const DEFAULT_ADAPTER: &str = "llvmpipe";
@@ -120,6 +125,17 @@ pub fn test(root: &Path, extra: &[String]) -> Result<()> {
     if let Err(e) = circles::check(root) {
         eprintln!("error: {e:#}");
         failed.push("circles");
+    }
+    // The script that turns bench's JSON into docs/PERFORMANCE.md's table and floors.
+    let mut cmd = Command::new("python3");
+    cmd.current_dir(root).args(["-m", "unittest"]).args(PYTHON_TESTS);
+    match run_status(&mut cmd) {
+        Ok(true) => {}
+        Ok(false) => failed.push("python tests"),
+        Err(e) => {
+            eprintln!("error: {e:#} (python3 is needed for the scripts' tests)");
+            failed.push("python tests");
+        }
     }
     // The API docs build without a warning (a broken intra-doc link, stray HTML in a doc
     // comment): the crates are meant to be read and reused.
