@@ -854,15 +854,18 @@ fn the_readme_normal_mapped_asset_is_current() {
     assert!(found.meshes[0].tangents.len() == 4, "MikkTSpace tangents for the normal map");
 }
 
-/// The many-material scene (issue 46, `--scene materials`) at 16 materials, which cover every
-/// map and sampler it has (normal maps, masks, the second uv set, texture transforms,
-/// metallic-roughness, occlusion and emission images, every wrap mode, a nearest sampler,
-/// images of seven sizes, two not powers of two): Forward+, Tiled Deferred and the visibility
-/// buffer with both rasters against brute force at one sample a pixel, with the tolerances
-/// of the other material tests (`render_and_check`). The scene's 577 instances and 16
-/// materials are shaded by one visibility dispatch; the images must not tell.
-#[test]
-fn the_many_material_scene_agrees_with_brute_force() {
+/// The many-material scene (16 textured materials) under 96 point and 16 spot lights, its
+/// camera, and brute force's frame and depth of it: what its tests compare with.
+struct ManyMaterials {
+    camera: Camera,
+    sg: SceneGpu,
+    lb: LightBuffers,
+    bs: FrameSettings,
+    brute: Frame,
+    depth: Vec<f32>,
+}
+
+fn many_materials() -> ManyMaterials {
     let ctx = gpu();
     let scene = tiledlight_scene::materials::materials_scene(16).expect("materials scene");
     let camera = scenes::courtyard_camera(&scene, W, H);
@@ -872,6 +875,19 @@ fn the_many_material_scene_agrees_with_brute_force() {
     let mut bf = FrameRenderer::new(ctx, &sg, &lb, W, H, bs).unwrap();
     let brute = render_frame(ctx, &mut bf, &sg, &camera);
     let depth = bf.read_depth(ctx).unwrap();
+    ManyMaterials { camera, sg, lb, bs, brute, depth }
+}
+
+/// The many-material scene (issue 46, `--scene materials`) at 16 materials, which cover every
+/// map and sampler it has (normal maps, masks, the second uv set, texture transforms,
+/// metallic-roughness, occlusion and emission images, every wrap mode, a nearest sampler,
+/// images of seven sizes, two not powers of two): Forward+, Tiled Deferred and the visibility
+/// buffer with both rasters against brute force at one sample a pixel, with the tolerances
+/// of the other material tests (`render_and_check`). The scene's 577 instances and 16
+/// materials are shaded by one visibility dispatch; the images must not tell.
+#[test]
+fn the_many_material_scene_agrees_with_brute_force() {
+    let ManyMaterials { camera, sg, lb, bs, brute, depth } = many_materials();
     let covered = depth.iter().filter(|&&d| d > 0.0).count();
     assert!(covered * 2 > (W * H) as usize, "the boxes and floor fill the view ({covered} pixels)");
     let lit = brute.hdr.iter().filter(|p| p[0] + p[1] + p[2] > 1e-3).count();
@@ -889,14 +905,7 @@ fn the_many_material_scene_agrees_with_brute_force() {
 #[test]
 fn a_visibility_image_moved_by_a_pixel_is_not_a_texel_flip() {
     let ctx = gpu();
-    let scene = tiledlight_scene::materials::materials_scene(16).expect("materials scene");
-    let camera = scenes::courtyard_camera(&scene, W, H);
-    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
-    let lb = LightBuffers::new(&ctx.device, &scenes::lights(&scene, 96, 16, 5)).unwrap();
-    let bs = FrameSettings { method: Method::BruteForce { cutoff: true }, ..Default::default() };
-    let mut bf = FrameRenderer::new(ctx, &sg, &lb, W, H, bs).unwrap();
-    let brute = render_frame(ctx, &mut bf, &sg, &camera);
-    let depth = bf.read_depth(ctx).unwrap();
+    let ManyMaterials { camera, sg, lb, bs, brute, depth } = many_materials();
     let (without, with_shift) = visibility_reference((&sg, &lb, &camera), bs.ambient, (&brute, &depth));
     let allowed = with_shift.allowance.iter().filter(|&&a| a > 0.0).count();
     assert!(allowed > 100, "the shifted frames flip texels somewhere ({allowed} pixels)");

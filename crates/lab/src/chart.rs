@@ -884,6 +884,20 @@ struct FrameStyle {
     y_grid: bool,
 }
 
+impl FrameStyle {
+    /// The style of a whole-chart plot (the line and Pareto charts): 18 px ticks, 22 px axis
+    /// descriptions, horizontal grid lines, a top margin that clears the top tick label.
+    fn plot(m: &Metrics) -> Self {
+        let tick_px = m.font(18.0);
+        FrameStyle {
+            tick_px,
+            desc_px: m.font(22.0),
+            margin: (m.px(12.0).max((tick_px * 0.8) as i32), m.px(12.0), m.px(16.0), m.px(28.0)),
+            y_grid: true,
+        }
+    }
+}
+
 /// The keys (indices into `boxes`) whose labels keep `gap` apart along the axis and stay
 /// inside `within`, clear of `avoid`: the ends of the range first, then the plainest
 /// values, then in order.
@@ -1216,13 +1230,7 @@ pub fn line_chart_sized(path: &Path, c: &LineChart, size: (u32, u32)) -> Result<
             names_w: 0,
             desc: &c.y.label,
         };
-        let tick_px = m.font(18.0);
-        let style = FrameStyle {
-            tick_px,
-            desc_px: m.font(22.0),
-            margin: (m.px(12.0).max((tick_px * 0.8) as i32), m.px(12.0), m.px(16.0), m.px(28.0)),
-            y_grid: true,
-        };
+        let style = FrameStyle::plot(&m);
         let mut chart = frame(&rest, lay, &m, 0, (&x_axis, &y_axis), &style)?;
         let plot = plot_rect(&chart);
         let dot = m.px(5.0).max(3);
@@ -1518,13 +1526,7 @@ pub fn pareto_chart_sized(path: &Path, c: &ParetoChart, size: (u32, u32)) -> Res
         let (_, rest) = root.split_vertically(top);
         let x_axis = AxisIn { lo: x0, hi: x1, scale: xsc, ticks: None, names: None, names_w: 0, desc: &c.x_label };
         let y_axis = AxisIn { lo: y0, hi: y1, scale: ysc, ticks: None, names: None, names_w: 0, desc: &c.y_label };
-        let tick_px = m.font(18.0);
-        let style = FrameStyle {
-            tick_px,
-            desc_px: m.font(22.0),
-            margin: (m.px(12.0).max((tick_px * 0.8) as i32), m.px(12.0), m.px(16.0), m.px(28.0)),
-            y_grid: true,
-        };
+        let style = FrameStyle::plot(&m);
         let mut chart = frame(&rest, lay, &m, 0, (&x_axis, &y_axis), &style)?;
         let plot = plot_rect(&chart);
         let map = |p: &ParetoPoint| (xsc.map(p.time), ysc.map(p.error));
