@@ -25,10 +25,10 @@ use tiledlight_cull::gbuffer::TEXEL_BYTES;
 use tiledlight_gpu::bindings::PassBindings;
 use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
 use tiledlight_gpu::draw_order::DrawOrder;
+use tiledlight_gpu::recording::Recording;
 use tiledlight_gpu::scene_gpu::{MaterialFeatures, SceneGpu, SCENE_GROUPS};
 use tiledlight_gpu::scene_raster::{begin_pass, cleared, DepthUse, RasterTargets, SceneRaster};
 use tiledlight_gpu::targets::texture_2d_msaa;
-use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::util::keyed_module;
 use tiledlight_gpu::variants::{GBufferKey, MaterialKey};
 use tiledlight_gpu::view::Views;
@@ -311,13 +311,12 @@ impl GBufferPass {
     /// fragments, [`tiledlight_gpu::draw_order`]).
     pub fn record(
         &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: &GpuTimer,
-        (views, view): (&Views, u32),
-        (scene, order): (&SceneGpu, Option<&DrawOrder>),
+        r: &mut Recording<'_>,
+        order: Option<&DrawOrder>,
         gbuffer: &GBuffer,
         depth: &wgpu::TextureView,
     ) {
+        let (encoder, timer, (views, view), scene) = (&mut *r.encoder, r.timer, r.view, r.scene);
         let clear = |view| cleared(view, None, wgpu::Color::BLACK);
         let mut attachments = vec![clear(&gbuffer.surface_view)];
         attachments.extend(gbuffer.extra_views.iter().map(clear));

@@ -14,10 +14,10 @@ use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::LightGrid;
 use tiledlight_gpu::lights_group::{LightsGroup, VplBindings, LIGHTS_GROUP};
+use tiledlight_gpu::recording::Recording;
 use tiledlight_gpu::scene_gpu::{SceneGpu, SCENE_GROUPS};
 use tiledlight_gpu::scene_raster::{begin_pass, cleared, DepthUse, RasterTargets, SceneRaster};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
-use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::util::keyed_module;
 use tiledlight_gpu::variants::{ForwardKey, LightLoopKey, MaterialKey, ShaderKey, Shadowing};
@@ -160,17 +160,14 @@ impl ShadingPass {
 
     /// Shades into `hdr` (cleared to black) using the pre-pass `depth`; with MSAA `hdr` is
     /// the multisampled target, resolved into `resolve` and then discarded.
-    #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: &GpuTimer,
-        (views, view): (&Views, u32),
-        scene: &SceneGpu,
+        r: &mut Recording<'_>,
         hdr: &wgpu::TextureView,
         resolve: Option<&wgpu::TextureView>,
         depth: &wgpu::TextureView,
     ) {
+        let (encoder, timer, (views, view), scene) = (&mut *r.encoder, r.timer, r.view, r.scene);
         let t = timer.begin(self.label, encoder);
         {
             let hdr = cleared(hdr, resolve, wgpu::Color::BLACK);

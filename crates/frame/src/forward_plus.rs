@@ -167,10 +167,11 @@ impl ForwardFrame {
         (scene, depth): (&SceneGpu, Depth<'_>),
     ) {
         let depth = depth.view;
+        let mut r = tiledlight_gpu::recording::Recording { encoder, timer, view, scene };
         // The instance buffer's order: the ranking runs once, its cost is not measured.
-        self.prepass.record(encoder, timer, view, (scene, None), depth);
+        self.prepass.record(&mut r, None, depth);
         if let Some(cull) = &self.culling {
-            cull.record(encoder, timer, view, "forward.cull");
+            cull.record(r.encoder, timer, view, "forward.cull");
         }
     }
 }
@@ -178,10 +179,12 @@ impl ForwardFrame {
 impl MethodFrame for ForwardFrame {
     fn record(&self, rec: &mut Rec<'_>, shared: &SharedSteps, depth: Depth<'_>) {
         rec.step(Step::DepthPrepass);
-        self.prepass.record(rec.encoder, rec.timer, rec.view, (rec.scene, rec.order), depth.view);
+        let order = rec.order;
+        self.prepass.record(rec, order, depth.view);
         if let Some(cull) = &self.culling {
             rec.step(Step::Cull);
-            cull.record(rec.encoder, rec.timer, rec.view, "forward.cull");
+            let r = &mut rec.recording;
+            cull.record(r.encoder, r.timer, r.view, "forward.cull");
         }
         shared.record_vpl_cull(rec);
         rec.step(if self.culling.is_some() { Step::ForwardShade } else { Step::BruteForceShade });
@@ -190,7 +193,7 @@ impl MethodFrame for ForwardFrame {
             Some((_, v)) => (v, Some(&self.hdr)),
             None => (&self.hdr, None),
         };
-        self.shading.record(rec.encoder, rec.timer, rec.view, rec.scene, target, resolve, depth.view);
+        self.shading.record(rec, target, resolve, depth.view);
     }
 
     fn lists(&self) -> Option<Lists<'_>> {

@@ -7,26 +7,36 @@ use std::cell::Cell;
 
 use crate::plan::{FramePlan, Step};
 use tiledlight_gpu::draw_order::DrawOrder;
+use tiledlight_gpu::recording::Recording;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::view::Views;
 
 /// What every step of one frame records into: the encoder, the timer, the main view and
-/// the scene; [`Rec::step`] names each step as it is recorded.
+/// the scene (its [`Recording`], which it derefs to, so a pass's `record` takes `rec`
+/// itself), and the order the head step draws in; [`Rec::step`] names each step as it is
+/// recorded.
 pub struct Rec<'a> {
-    /// The frame's command encoder.
-    pub encoder: &'a mut wgpu::CommandEncoder,
-    /// The GPU timer (one query pair a pass).
-    pub timer: &'a GpuTimer,
-    /// The camera's view slot.
-    pub view: (&'a Views, u32),
-    /// The scene's buffers and draws.
-    pub scene: &'a SceneGpu,
+    /// The encoder, timer, view and scene every pass records with.
+    pub recording: Recording<'a>,
     /// The order the head step (depth pre-pass or G-buffer) draws the scene in; None:
     /// the instance buffer's ([`Knobs::draw_order`](tiledlight_gpu::knobs::Knobs::draw_order)).
     pub order: Option<&'a DrawOrder>,
     plan: &'a FramePlan,
     next: Cell<usize>,
+}
+
+impl<'a> std::ops::Deref for Rec<'a> {
+    type Target = Recording<'a>;
+    fn deref(&self) -> &Recording<'a> {
+        &self.recording
+    }
+}
+
+impl<'a> std::ops::DerefMut for Rec<'a> {
+    fn deref_mut(&mut self) -> &mut Recording<'a> {
+        &mut self.recording
+    }
 }
 
 impl<'a> Rec<'a> {
@@ -38,7 +48,7 @@ impl<'a> Rec<'a> {
         (scene, order): (&'a SceneGpu, Option<&'a DrawOrder>),
         plan: &'a FramePlan,
     ) -> Self {
-        Self { encoder, timer, view, scene, order, plan, next: Cell::new(0) }
+        Self { recording: Recording { encoder, timer, view, scene }, order, plan, next: Cell::new(0) }
     }
 
     /// Marks `step` as recorded next, checking in every build that it is the plan's next

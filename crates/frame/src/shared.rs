@@ -260,7 +260,8 @@ impl SharedSteps {
     pub fn record_shadows(&self, rec: &mut Rec<'_>) {
         if let Some(a) = &self.shadows {
             rec.step(Step::ShadowMaps);
-            a.record(rec.encoder, rec.timer, &self.views, rec.scene);
+            let r = &mut rec.recording;
+            a.record(r.encoder, r.timer, &self.views, r.scene);
         }
     }
 
@@ -268,7 +269,8 @@ impl SharedSteps {
     pub fn record_vpls(&self, rec: &mut Rec<'_>) {
         if let Some(v) = &self.vpls {
             rec.step(Step::Vpl);
-            v.path.record(rec.encoder, rec.timer, rec.scene);
+            let r = &mut rec.recording;
+            v.path.record(r.encoder, r.timer, r.scene);
         }
     }
 
@@ -277,7 +279,8 @@ impl SharedSteps {
     pub fn record_vpl_cull(&self, rec: &mut Rec<'_>) {
         if let Some(c) = self.vpls.as_ref().and_then(|v| v.culling.as_ref()) {
             rec.step(Step::VplCull);
-            c.record(rec.encoder, rec.timer, rec.view, &self.vpl_cull_label);
+            let r = &mut rec.recording;
+            c.record(r.encoder, r.timer, r.view, &self.vpl_cull_label);
         }
     }
 
@@ -287,16 +290,17 @@ impl SharedSteps {
         let Some(b) = &self.blended else { return };
         if self.plan.has(Step::BlendedDepth) {
             rec.step(Step::BlendedDepth);
-            b.record_depth(rec.encoder, rec.timer, rec.view, rec.scene);
+            b.record_depth(rec);
         }
         if self.plan.has(Step::BlendedCull) {
             rec.step(Step::BlendedCull);
-            b.record_cull(rec.encoder, rec.timer, rec.view);
+            let r = &mut rec.recording;
+            b.record_cull(r.encoder, r.timer, r.view);
         }
         if self.plan.has(Step::BlendedShade) {
             rec.step(Step::BlendedShade);
             let to_view = camera.view();
-            b.record_shade(rec.encoder, rec.timer, rec.view, rec.scene, &to_view, depth, hdr);
+            b.record_shade(rec, &to_view, depth, hdr);
         }
     }
 
@@ -304,10 +308,12 @@ impl SharedSteps {
     pub fn record_tail(&self, rec: &mut Rec<'_>, ldr: Ldr<'_>) {
         rec.step(Step::Tonemap);
         // The tonemap writes the display image it was built over (`ldr`'s texture).
-        self.tonemap.record(rec.encoder, rec.timer);
+        let r = &mut rec.recording;
+        self.tonemap.record(r.encoder, r.timer);
         if let Some(h) = &self.heatmap {
             rec.step(Step::Heatmap);
-            h.record(rec.encoder, rec.timer, ldr.view);
+            let r = &mut rec.recording;
+            h.record(r.encoder, r.timer, ldr.view);
         }
     }
 }

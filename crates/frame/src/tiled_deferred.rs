@@ -126,14 +126,17 @@ impl DeferredFrame {
 impl MethodFrame for DeferredFrame {
     fn record(&self, rec: &mut Rec<'_>, shared: &SharedSteps, depth: Depth<'_>) {
         rec.step(Step::GBuffer);
-        self.gbuffer_pass.record(rec.encoder, rec.timer, rec.view, (rec.scene, rec.order), &self.gbuffer, depth.view);
+        let order = rec.order;
+        self.gbuffer_pass.record(rec, order, &self.gbuffer, depth.view);
         shared.record_vpl_cull(rec);
         // The pass was built over the frame's depth, G-buffer and HDR image.
         rec.step(Step::DeferredShade);
-        self.shading.record(rec.encoder, rec.timer, rec.view);
+        let r = &mut rec.recording;
+        self.shading.record(r.encoder, r.timer, r.view);
         if depth.samples > 1 {
             rec.step(Step::DeferredResolve);
-            self.shading.record_resolve(rec.encoder, rec.timer);
+            let r = &mut rec.recording;
+            self.shading.record_resolve(r.encoder, r.timer);
         }
     }
 

@@ -218,14 +218,15 @@ fn report_band(band: u32, bands: u32, elapsed: std::time::Duration) {
 impl MethodFrame for VisibilityFrame {
     fn record(&self, rec: &mut Rec<'_>, shared: &SharedSteps, depth: Depth<'_>) {
         rec.step(Step::VisibilityRaster);
-        self.raster.record(rec.encoder, rec.timer, rec.view, rec.scene, depth.view);
+        self.raster.record(rec, depth.view);
         match &self.culling {
             Some(culling) => {
                 rec.step(Step::Cull);
-                culling.record(rec.encoder, rec.timer, rec.view, "visibility.cull");
+                let r = &mut rec.recording;
+                culling.record(r.encoder, r.timer, r.view, "visibility.cull");
                 shared.record_vpl_cull(rec);
                 rec.step(Step::VisibilityShade);
-                self.shading.record(rec.encoder, rec.timer, rec.view, rec.scene, &culling.grid);
+                self.shading.record(rec, &culling.grid);
             }
             None => {
                 rec.step(Step::TracedShade);
@@ -246,15 +247,16 @@ impl MethodFrame for VisibilityFrame {
                             }
                             report_band(band, bands, start.elapsed());
                         };
-                        self.shading.record_traced(rec.encoder, rec.timer, rec.view, rec.scene, Some(&mut flush));
+                        self.shading.record_traced(rec, Some(&mut flush));
                     }
-                    None => self.shading.record_traced(rec.encoder, rec.timer, rec.view, rec.scene, None),
+                    None => self.shading.record_traced(rec, None),
                 }
             }
         }
         if depth.samples > 1 {
             rec.step(Step::VisibilityResolve);
-            self.shading.record_resolve(rec.encoder, rec.timer);
+            let r = &mut rec.recording;
+            self.shading.record_resolve(r.encoder, r.timer);
         }
     }
 

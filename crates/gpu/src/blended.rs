@@ -42,6 +42,7 @@
 
 use crate::define::Define;
 use crate::handles::{Depth, Hdr};
+use crate::recording::Recording;
 use std::sync::Mutex;
 
 use glam::{Mat4, Vec3};
@@ -412,13 +413,8 @@ impl BlendedPath {
 
     /// Step 1: the blended depth of view slot `view` (nothing when frustum clusters serve
     /// the blended geometry: the plan has no such step then).
-    pub fn record_depth(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: &GpuTimer,
-        view: (&Views, u32),
-        scene: &SceneGpu,
-    ) {
+    pub fn record_depth(&self, r: &mut Recording<'_>) {
+        let (encoder, timer, view, scene) = (&mut *r.encoder, r.timer, r.view, r.scene);
         let Some(depth) = &self.depth else { return };
         let t = timer.begin("blended.depth", encoder);
         {
@@ -438,17 +434,8 @@ impl BlendedPath {
 
     /// Steps 3 and 4: the blended instances back to front as seen by `world_to_view` into
     /// the layer (depth-tested against `opaque_depth`), then the layer over `hdr`.
-    #[allow(clippy::too_many_arguments)]
-    pub fn record_shade(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: &GpuTimer,
-        (views, view): (&Views, u32),
-        scene: &SceneGpu,
-        world_to_view: &Mat4,
-        opaque_depth: Depth<'_>,
-        hdr: Hdr<'_>,
-    ) {
+    pub fn record_shade(&self, r: &mut Recording<'_>, world_to_view: &Mat4, opaque_depth: Depth<'_>, hdr: Hdr<'_>) {
+        let (encoder, timer, (views, view), scene) = (&mut *r.encoder, r.timer, r.view, r.scene);
         let (opaque_depth, hdr) = (opaque_depth.view, hdr.view);
         let mut order = self.order.lock().expect("blended sort scratch");
         order.clear();

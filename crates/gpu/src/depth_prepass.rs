@@ -7,9 +7,9 @@ use crate::bindings::{Binding, Cond, PassBindings, PassGroup};
 use crate::define::Define;
 use crate::error::GpuError;
 use crate::features::Features;
+use crate::recording::Recording;
 use crate::scene_gpu::{DrawCount, DrawKind, SceneGpu, POSITION_LAYOUT, SCENE_GROUPS, TEXTURE_BINDINGS};
 use crate::scene_raster::{begin_pass, cleared, scene_pipeline, DepthUse, SceneDraw, SceneInputs, SceneRaster};
-use crate::timer::GpuTimer;
 use crate::util::{keyed_module, pipeline_layout};
 use crate::variants::{AtomicIdsKey, DepthPrepassKey, VisibilityRasterKey};
 use tiledlight_cull::draw_order::DrawOrder;
@@ -238,14 +238,8 @@ impl DepthPrepass {
 
     /// Clears `depth` to 0 and `ids` to [`tiledlight_cull::visibility::NO_TRIANGLE`] and
     /// draws the scene's depth and IDs (a pass built by [`Self::with_ids`]).
-    pub fn record_with_ids(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: &GpuTimer,
-        (views, view): (&Views, u32),
-        scene: &SceneGpu,
-        (depth, ids): (&wgpu::TextureView, &wgpu::TextureView),
-    ) {
+    pub fn record_with_ids(&self, r: &mut Recording<'_>, (depth, ids): (&wgpu::TextureView, &wgpu::TextureView)) {
+        let (encoder, timer, (views, view), scene) = (&mut *r.encoder, r.timer, r.view, r.scene);
         let t = timer.begin(self.label, encoder);
         {
             let no_triangle = f64::from(tiledlight_cull::visibility::NO_TRIANGLE);
@@ -263,14 +257,8 @@ impl DepthPrepass {
 
     /// Clears `depth` to 0 (far, reversed-Z) and draws the scene seen from view slot `view`
     /// into it, in `order` (the instance buffer's when None).
-    pub fn record(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: &GpuTimer,
-        (views, view): (&Views, u32),
-        (scene, order): (&SceneGpu, Option<&DrawOrder>),
-        depth: &wgpu::TextureView,
-    ) {
+    pub fn record(&self, r: &mut Recording<'_>, order: Option<&DrawOrder>, depth: &wgpu::TextureView) {
+        let (encoder, timer, (views, view), scene) = (&mut *r.encoder, r.timer, r.view, r.scene);
         let t = timer.begin(self.label, encoder);
         {
             let mut pass = begin_pass(encoder, self.label, &[], (depth, wgpu::LoadOp::Clear(0.0)), t.render_writes());

@@ -40,6 +40,7 @@ pub mod lights_group;
 pub mod memory;
 pub mod method;
 pub mod readback;
+pub mod recording;
 pub mod scene_gpu;
 pub mod scene_raster;
 pub mod shader;

@@ -15,9 +15,9 @@ use tiledlight_gpu::features::{Features, Raster};
 use tiledlight_gpu::handles::Depth;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::readback::read_texture;
+use tiledlight_gpu::recording::Recording;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::targets::texture_2d_msaa;
-use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::util::{buffer_init, pipeline_layout, shader_module, texture_2d, view_entry};
 use tiledlight_gpu::view::Views;
 use tiledlight_gpu::GpuError;
@@ -179,17 +179,11 @@ impl VisibilityRaster {
     }
 
     /// Clears and draws depth and IDs.
-    pub fn record(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: &GpuTimer,
-        view: (&Views, u32),
-        scene: &SceneGpu,
-        depth: &wgpu::TextureView,
-    ) {
+    pub fn record(&self, r: &mut Recording<'_>, depth: &wgpu::TextureView) {
         match &self.path {
-            Path::Hardware(pass) => pass.record_with_ids(encoder, timer, view, scene, (depth, &self.ids_view)),
+            Path::Hardware(pass) => pass.record_with_ids(r, (depth, &self.ids_view)),
             Path::Compute(raster, copy) => {
+                let (encoder, timer, view, scene) = (&mut *r.encoder, r.timer, r.view, r.scene);
                 raster.record(encoder, timer, view, scene, &self.ids_view);
                 if let Some(c) = copy {
                     let t = timer.begin("visibility.raster.depth_copy", encoder);
@@ -217,7 +211,7 @@ impl VisibilityRaster {
             }
         }
         if let Some(((x, y), buffer)) = &self.wrong_id {
-            encoder.copy_buffer_to_texture(
+            r.encoder.copy_buffer_to_texture(
                 wgpu::TexelCopyBufferInfo {
                     buffer,
                     layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(256), rows_per_image: None },

@@ -47,6 +47,7 @@ use tiledlight_gpu::light_grid::{compute_bindings, LightGrid};
 use tiledlight_gpu::lights_group::VplBindings;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::readback::read_buffer;
+use tiledlight_gpu::recording::Recording;
 use tiledlight_gpu::scene_gpu::{SceneGpu, TEXTURE_BINDINGS};
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::GpuTimer;
@@ -432,14 +433,8 @@ impl VisibilityShading {
 
     /// Records the pass (one dispatch per material of a textured scene) with the lists of
     /// `light_grid` (the culling pass's, recorded before).
-    pub fn record(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: &GpuTimer,
-        (views, view): (&Views, u32),
-        scene: &SceneGpu,
-        light_grid: &LightGrid,
-    ) {
+    pub fn record(&self, r: &mut Recording<'_>, light_grid: &LightGrid) {
+        let (encoder, timer, (views, view), scene) = (&mut *r.encoder, r.timer, r.view, r.scene);
         if let Some(m) = &self.msaa {
             m.record_clear(encoder);
         }
@@ -459,14 +454,8 @@ impl VisibilityShading {
     /// its own compute pass (untimed) followed by `flush(encoder, band, bands)`, which may
     /// submit what the encoder holds and report progress; without, one timed dispatch
     /// covers the frame.
-    pub fn record_traced(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: &GpuTimer,
-        (views, view): (&Views, u32),
-        scene: &SceneGpu,
-        flush: Option<&mut BandFlush<'_>>,
-    ) {
+    pub fn record_traced(&self, r: &mut Recording<'_>, flush: Option<&mut BandFlush<'_>>) {
+        let (encoder, timer, (views, view), scene) = (&mut *r.encoder, r.timer, r.view, r.scene);
         let Some(traced) = &self.traced else { return };
         if let Some(m) = &self.msaa {
             m.record_clear(encoder);
