@@ -24,13 +24,10 @@ use tiledlight_gpu::culling::{
 };
 use tiledlight_gpu::define::Define;
 use tiledlight_gpu::edge_samples::{light_entries, EdgeSamples, EdgeTest};
-use tiledlight_gpu::features::Features;
 use tiledlight_gpu::handles::{Depth, Hdr};
-use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::{compute_bindings, GpuTileLists, LightGrid};
-use tiledlight_gpu::lights_group::VplBindings;
+use tiledlight_gpu::lights_group::LightingInputs;
 use tiledlight_gpu::memory::MemoryReport;
-use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::util::{compute_pipeline, keyed_module, view_entry};
@@ -147,22 +144,14 @@ impl DeferredShading {
     /// Builds the pipeline and bindings for `grid`, reading `depth` and `gbuffer` (both of
     /// `gbuffer.samples()` samples), writing `hdr`. `drop` is the test-only hook that
     /// leaves one light out of one tile's list (`None` in production).
-    #[allow(clippy::too_many_arguments)]
     pub fn new(
-        device: &wgpu::Device,
-        views: &Views,
-        depth: Depth<'_>,
-        gbuffer: &GBuffer,
-        hdr: Hdr<'_>,
-        (lights, lighting): (&LightBuffers, &wgpu::Buffer),
-        grid: TileGrid,
-        options: CullOptions,
-        edge: EdgeTest,
+        inputs: &LightingInputs<'_>,
+        (depth, gbuffer, hdr): (Depth<'_>, &GBuffer, Hdr<'_>),
+        (grid, options, edge): (TileGrid, CullOptions, EdgeTest),
         drop: Option<DropLight>,
-        (features, atlas): (&Features, Option<&ShadowAtlas>),
         memory: &mut MemoryReport,
-        vpls: Option<&VplBindings>,
     ) -> Result<Self, GpuError> {
+        let LightingInputs { device, views, lights, lighting, features, atlas, vpls } = *inputs;
         if depth.samples != gbuffer.samples() {
             return Err(GpuError::Config(format!(
                 "Tiled Deferred: a depth buffer of {} samples a pixel, a G-buffer of {}",

@@ -10,18 +10,14 @@
 use tiledlight_gpu::bindings::{create_layout, PassBindings, PassGroup};
 use tiledlight_gpu::culling::LightCulling;
 use tiledlight_gpu::depth_prepass::DEPTH_FORMAT;
-use tiledlight_gpu::features::Features;
-use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::LightGrid;
-use tiledlight_gpu::lights_group::{LightsGroup, VplBindings, LIGHTS_GROUP};
+use tiledlight_gpu::lights_group::{LightingInputs, LightsGroup, LIGHTS_GROUP};
 use tiledlight_gpu::recording::Recording;
 use tiledlight_gpu::scene_gpu::{SceneGpu, SCENE_GROUPS};
 use tiledlight_gpu::scene_raster::{begin_pass, cleared, DepthUse, RasterTargets, SceneRaster};
-use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::util::keyed_module;
 use tiledlight_gpu::variants::{ForwardKey, LightLoopKey, MaterialKey, ShaderKey, Shadowing};
-use tiledlight_gpu::view::Views;
 use tiledlight_gpu::GpuError;
 
 /// Which lights each fragment loops over.
@@ -67,17 +63,14 @@ pub struct ShadingPass {
 impl ShadingPass {
     /// Builds one pipeline per draw kind of `scene`. `culling` must be given for
     /// [`LightLoop::Tiled`], `vpls` exactly when the features have VPLs.
-    #[allow(clippy::too_many_arguments)]
     pub fn new(
-        device: &wgpu::Device,
-        views: &Views,
+        inputs: &LightingInputs<'_>,
         scene: &SceneGpu,
-        (lights, lighting): (&LightBuffers, &wgpu::Buffer),
         culling: Option<&LightCulling>,
         light_loop: LightLoop,
-        (features, atlas): (&Features, Option<&ShadowAtlas>),
-        vpls: Option<VplBindings>,
     ) -> Result<Self, GpuError> {
+        let LightingInputs { device, views, lights, lighting, features, atlas, vpls } = *inputs;
+        let vpls = vpls.cloned();
         let samples = features.msaa;
         if features.vpl != vpls.is_some() {
             return Err(GpuError::Config("the VPL buffers must be given exactly when the features have VPLs".into()));

@@ -128,16 +128,8 @@ impl ForwardFrame {
             Method::BruteForce { cutoff } => LightLoop::All { cutoff },
             _ => LightLoop::Tiled { half_z: features.half_z },
         };
-        let shading = ShadingPass::new(
-            device,
-            views,
-            scene,
-            (lights, &shared.lighting),
-            culling.as_ref(),
-            light_loop,
-            (features, shared.shadows.as_ref()),
-            shared.vpls.as_ref().map(|v| v.bindings.clone()),
-        )?;
+        let inputs = shared.lighting_inputs(device, views, lights, features);
+        let shading = ShadingPass::new(&inputs, scene, culling.as_ref(), light_loop)?;
         Ok(Self { prepass, culling, shading, hdr_msaa, hdr: target_handles(targets).1.view.clone() })
     }
 

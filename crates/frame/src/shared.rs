@@ -21,7 +21,7 @@ use tiledlight_gpu::culling::LightCulling;
 use tiledlight_gpu::features::Features;
 use tiledlight_gpu::heatmap::{HeatmapGrids, HeatmapPass};
 use tiledlight_gpu::light_buffers::LightBuffers;
-use tiledlight_gpu::lights_group::VplBindings;
+use tiledlight_gpu::lights_group::{LightingInputs, VplBindings};
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::shadow_atlas::ShadowAtlas;
@@ -93,6 +93,26 @@ pub struct SharedSteps {
 }
 
 impl SharedSteps {
+    /// What a method's lighting pass is built from: `device`, `views`, `lights` and
+    /// `features` with this frame's lighting uniform, shadow atlas and VPLs.
+    pub fn lighting_inputs<'a>(
+        &'a self,
+        device: &'a wgpu::Device,
+        views: &'a Views,
+        lights: &'a LightBuffers,
+        features: &'a Features,
+    ) -> LightingInputs<'a> {
+        LightingInputs {
+            device,
+            views,
+            lights,
+            lighting: &self.lighting,
+            features,
+            atlas: self.shadows.as_ref(),
+            vpls: self.vpls.as_ref().map(|v| &v.bindings),
+        }
+    }
+
     /// Checks the MSAA sample count and the screen size, then builds what comes before the
     /// method: views, shadow atlas, lighting uniform, targets, tonemap.
     pub fn new(

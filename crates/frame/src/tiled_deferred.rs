@@ -94,20 +94,13 @@ impl DeferredFrame {
         )?;
         memory.add("deferred.gbuffer", gbuffer.bytes());
         memory.note("deferred.gbuffer", gbuffer.describe());
+        let (depth, hdr) = (target_handles(targets).0, target_handles(targets).1);
         let shading = DeferredShading::new(
-            device,
-            views,
-            target_handles(targets).0,
-            &gbuffer,
-            target_handles(targets).1,
-            (lights, &shared.lighting),
-            shared.grid,
-            settings.cull,
-            EdgeTest::of(&features.knobs),
+            &shared.lighting_inputs(device, views, lights, features),
+            (depth, &gbuffer, hdr),
+            (shared.grid, settings.cull, EdgeTest::of(&features.knobs)),
             shared.hooks.drop_light,
-            (features, shared.shadows.as_ref()),
             memory,
-            shared.vpls.as_ref().map(|v| &v.bindings),
         )?;
         Ok(Self { gbuffer_pass, gbuffer, shading })
     }

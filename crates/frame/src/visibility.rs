@@ -164,15 +164,12 @@ impl VisibilityFrame {
             },
         };
         let shading = VisibilityShading::new(
-            device,
-            views,
+            &shared.lighting_inputs(device, views, lights, features),
             (target_handles(targets).0, &raster),
             target_handles(targets).1,
-            (scene, lights, &shared.lighting),
+            scene,
             (shade, shared.grid, EdgeTest::of(&features.knobs)),
-            (features, shared.shadows.as_ref()),
             memory,
-            shared.vpls.as_ref().map(|v| &v.bindings),
         )?;
         let progress = (traced && settings.traced_progress).then(|| (ctx.device.clone(), ctx.queue.clone()));
         Ok(Self { raster, culling, shading, progress })

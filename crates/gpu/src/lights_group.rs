@@ -4,14 +4,18 @@
 //! 19-23; the shadow and VPL numbers are Tiled Deferred's too), declared once in WGSL
 //! (`shaders/common/lights_group.wgsl`) and once in Rust ([`LIGHTS_GROUP`]). Built
 //! once; [`LightsGroup::rebind`] makes the group again when the light grid's index buffer
-//! grew (a new buffer), the only thing in it that changes after creation. Depends on wgpu,
-//! [`crate::light_buffers`], [`crate::light_grid`], [`crate::shadow_atlas`].
+//! grew (a new buffer), the only thing in it that changes after creation. Also what every
+//! lighting pass's constructor reads of its frame ([`LightingInputs`]). Depends on wgpu,
+//! [`crate::light_buffers`], [`crate::light_grid`], [`crate::shadow_atlas`], and (for the
+//! inputs) [`crate::features`] and [`crate::view`].
 
 use crate::bindings::{Binding, Cond};
 use crate::define::Define;
+use crate::features::Features;
 use crate::light_buffers::LightBuffers;
 use crate::light_grid::LightGrid;
 use crate::shadow_atlas::ShadowAtlas;
+use crate::view::Views;
 
 const FS: wgpu::ShaderStages = wgpu::ShaderStages::FRAGMENT;
 
@@ -55,6 +59,29 @@ pub struct VplBindings {
     pub count: wgpu::Buffer,
     /// The VPLs' light grid and its index buffer (tiled passes).
     pub lists: Option<(wgpu::Buffer, wgpu::Buffer)>,
+}
+
+/// What every lighting pass's constructor reads of its frame (Forward+ and brute force,
+/// Tiled Deferred, the visibility buffer and the traced reference): the device, the views'
+/// layout, the lights with their lighting uniform, the features, the shadow atlas (exactly
+/// when the features have shadows) and the VPLs' bindings (exactly with VPLs). Beside it a
+/// constructor takes only what is its own (its handles, its grid, its light loop).
+#[derive(Clone, Copy)]
+pub struct LightingInputs<'a> {
+    /// The device the pass is built on.
+    pub device: &'a wgpu::Device,
+    /// The views (group 0's layout).
+    pub views: &'a Views,
+    /// The frame's lights.
+    pub lights: &'a LightBuffers,
+    /// The lighting uniform (ambient, counts, shadow constants).
+    pub lighting: &'a wgpu::Buffer,
+    /// What the frame models.
+    pub features: &'a Features,
+    /// The shadow atlas, with shadow casters.
+    pub atlas: Option<&'a ShadowAtlas>,
+    /// The VPLs' bindings, with `--vpl`.
+    pub vpls: Option<&'a VplBindings>,
 }
 
 /// Group 3 of a forward shading pass and what it was made of.

@@ -40,16 +40,13 @@ use tiledlight_gpu::bvh::GpuBvh;
 use tiledlight_gpu::culling::{LightCulling, DEPTH_BINDING};
 use tiledlight_gpu::define::Define;
 use tiledlight_gpu::edge_samples::{light_entries, EdgeSamples, EdgeTest};
-use tiledlight_gpu::features::Features;
 use tiledlight_gpu::handles::{Depth, Hdr};
-use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::{compute_bindings, LightGrid};
-use tiledlight_gpu::lights_group::VplBindings;
+use tiledlight_gpu::lights_group::LightingInputs;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::readback::read_buffer;
 use tiledlight_gpu::recording::Recording;
 use tiledlight_gpu::scene_gpu::{SceneGpu, TEXTURE_BINDINGS};
-use tiledlight_gpu::shadow_atlas::ShadowAtlas;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::util::view_entry;
@@ -220,18 +217,15 @@ fn lookup(culling: &LightCulling) -> GridLookup {
 impl VisibilityShading {
     /// Builds the pass over `raster`'s IDs and `depth`, writing `hdr`, with the lights of
     /// `shade` (a grid built over the same depth, or every light traced).
-    #[allow(clippy::too_many_arguments)]
     pub fn new(
-        device: &wgpu::Device,
-        views: &Views,
+        inputs: &LightingInputs<'_>,
         (depth, raster): (Depth<'_>, &VisibilityRaster),
         hdr: Hdr<'_>,
-        (scene, lights, lighting): (&SceneGpu, &LightBuffers, &wgpu::Buffer),
+        scene: &SceneGpu,
         (shade, grid, edge): (ShadeLights<'_>, TileGrid, EdgeTest),
-        (features, atlas): (&Features, Option<&ShadowAtlas>),
         memory: &mut MemoryReport,
-        vpls: Option<&VplBindings>,
     ) -> Result<Self, GpuError> {
+        let LightingInputs { device, views, lights, lighting, features, atlas, vpls } = *inputs;
         let (depth, hdr) = (depth.view, hdr.view);
         let traced = matches!(shade, ShadeLights::Traced { .. });
         // The grid's pass reads the VPLs' grid; the traced one every VPL.
