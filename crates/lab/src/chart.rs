@@ -531,6 +531,45 @@ fn elide(text: &str, px: f64, max_w: i32) -> String {
         .unwrap_or_default()
 }
 
+/// `text` cut in the middle with "…" to at most `max_w`: two fifths of the kept characters
+/// from its start, the rest from its end (where settings named alike differ: the last
+/// value of `grid=clustered, bounds=aabb`).
+fn elide_middle(text: &str, px: f64, max_w: i32) -> String {
+    if width(text, px) <= max_w {
+        return text.to_string();
+    }
+    let chars: Vec<char> = text.chars().collect();
+    (1..chars.len())
+        .rev()
+        .map(|n| {
+            let head = n * 2 / 5;
+            let tail = n - head;
+            let (a, b): (String, String) =
+                (chars[..head].iter().collect(), chars[chars.len() - tail..].iter().collect());
+            format!("{}…{}", a.trim_end(), b.trim_start())
+        })
+        .find(|s| width(s, px) <= max_w)
+        .unwrap_or_default()
+}
+
+/// `names` each cut to `max_w` at size `px`, told apart: cut at the end where that leaves
+/// them distinct, else in the middle (their ends differ), else numbered.
+fn elide_distinct(names: &[String], px: f64, max_w: i32) -> Vec<String> {
+    let distinct = |v: &[String]| {
+        let mut seen = std::collections::HashSet::new();
+        v.iter().all(|s| seen.insert(s.as_str()))
+    };
+    let end: Vec<String> = names.iter().map(|s| elide(s, px, max_w)).collect();
+    if distinct(&end) || !distinct(names) {
+        return end;
+    }
+    let middle: Vec<String> = names.iter().map(|s| elide_middle(s, px, max_w)).collect();
+    if distinct(&middle) {
+        return middle;
+    }
+    names.iter().enumerate().map(|(i, s)| elide(&format!("{}: {s}", i + 1), px, max_w)).collect()
+}
+
 /// `text` in at most `max_lines` lines no wider than `max_w`: broken at word boundaries
 /// at size `px`, else at smaller sizes down to `min_px`, else cut short with "…" there.
 /// Returns the lines and the size.
@@ -1311,7 +1350,8 @@ pub fn bar_panels(path: &Path, c: &BarPanels) -> Result<Layout> {
 }
 
 /// Draws `c` at `size` to the PNG `path` (see [`bar_panels`]) and returns where it put
-/// things. Setting names too long for a panel's left 40% are cut short with "…".
+/// things. Setting names too long for a panel's left 40% are cut short with "…", in the
+/// middle where cutting their ends would make two read the same.
 pub fn bar_panels_sized(path: &Path, c: &BarPanels, size: (u32, u32)) -> Result<Layout> {
     ensure!(!c.settings.is_empty() && !c.panels.is_empty(), "chart {}: no bars to draw", path.display());
     for (name, values) in &c.panels {
@@ -1358,7 +1398,7 @@ pub fn bar_panels_sized(path: &Path, c: &BarPanels, size: (u32, u32)) -> Result<
                 .map(|s| fit(s, tick_px, MIN_FONT.min(tick_px), max_name, 1).1)
                 .fold(tick_px, f64::min);
             // Bar i is drawn at y = n - 1 - i: the first setting on top.
-            let names: Vec<String> = c.settings.iter().rev().map(|s| elide(s, npx, max_name)).collect();
+            let names: Vec<String> = elide_distinct(&c.settings, npx, max_name).into_iter().rev().collect();
             let hi = values.iter().copied().filter(|v| v.is_finite()).fold(0.0f64, f64::max);
             let hi = if hi > 0.0 { hi * 1.25 } else { 1.0 };
             let x_axis = AxisIn { lo: 0.0, hi, scale: Scale::Linear, ticks: None, names: None, names_w: 0, desc: "" };
@@ -1926,6 +1966,25 @@ mod tests {
         }
     }
 
+    /// Names cut short at their end where that tells them apart, in the middle where their
+    /// ends differ, numbered where neither does; equal names stay equal.
+    #[test]
+    fn cut_names_stay_apart() {
+        register_font().unwrap();
+        let px = 16.0;
+        let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        let w = width("grid=clustered, bo…", px);
+        let tail = elide_distinct(&names(&["grid=clustered, bounds=aabb", "grid=clustered, bounds=sphere"]), px, w);
+        assert_ne!(tail[0], tail[1], "{tail:?}");
+        assert!(tail.iter().all(|s| s.contains('…') && width(s, px) <= w), "{tail:?}");
+        let plain = elide_distinct(&names(&["alpha=1, rest", "beta=2, rest"]), px, w);
+        assert!(plain[0].starts_with("alpha") && plain[1].starts_with("beta"), "{plain:?}");
+        let same_ends =
+            elide_distinct(&names(&["a, x, middle-one, z", "a, x, middle-two, z"]), px, width("a, x…z", px));
+        assert_ne!(same_ends[0], same_ends[1], "{same_ends:?}");
+        assert_eq!(elide_distinct(&names(&["same", "same"]), px, 1000), ["same", "same"]);
+    }
+
     /// Every kind of chart at every size: the image has the size, and no text leaves it or
     /// overlaps another, no tick labels run together, the legend covers no point.
     #[test]
@@ -1947,6 +2006,19 @@ mod tests {
                 assert!(layout.texts_of(TextKind::XTick).count() >= 2, "{kind} at {size:?}: x labels");
                 if kind != "culling" {
                     assert!(layout.legend.is_some(), "{kind}: no legend");
+                } else {
+                    // Cut to fit, the settings' names still tell the bars apart.
+                    for panel in 0..4 {
+                        let names: Vec<&str> = layout
+                            .texts_of(TextKind::YTick)
+                            .filter(|t| t.panel == panel)
+                            .map(|t| t.text.as_str())
+                            .collect();
+                        let mut unique = names.clone();
+                        unique.sort_unstable();
+                        unique.dedup();
+                        assert_eq!(unique.len(), 3, "culling at {size:?}, panel {panel}: names {names:?}");
+                    }
                 }
             }
         }
