@@ -4,9 +4,10 @@
 //! 1982), as ReSTIR DI (Bitterli et al. 2020) starts each pixel; `../shared/DESIGN.md`,
 //! "Stochastic many-light shadows".
 //!
-//! 1. **Candidates.** `M` lights drawn from a source pdf `q` over the pixel's candidate set
-//!    (its tile's list, or every light): uniform ([`Source::Uniform`], `q = 1 / N`), each
-//!    draw from [`rand01`] of a hash of (pixel, frame, draw), so the GPU can draw the same.
+//! 1. **Candidates.** `M` lights drawn uniformly (`q = 1 / N`) from the pixel's candidate
+//!    set (its tile's list, or every light), each draw from [`rand01`] of a hash of (pixel,
+//!    frame, draw), so the GPU can draw the same. (A light tree's source pdf, the issue's
+//!    next source, comes with its own draw.)
 //! 2. **Target.** `p_hat(l)`: the luminance of the light's unshadowed contribution at the
 //!    surface point ([`unshadowed`]: `brdf_cos` x radiance x attenuation x cone), the
 //!    integrand without its visibility; positive wherever the integrand is.
@@ -69,13 +70,6 @@ pub fn luminance(c: Vec3) -> f32 {
     c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
 
-/// Where the candidates come from (step 1).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Source {
-    /// Uniform over the candidate set: `q = 1 / N`.
-    Uniform,
-}
-
 /// A weighted reservoir holding one light (step 3).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Reservoir {
@@ -121,15 +115,15 @@ impl Reservoir {
     }
 }
 
-/// Steps 1-3 for one pixel: `m` candidates from `candidates` (indices into `lights`) drawn
-/// with `source`, resampled by their target at the surface `(p, n, v)` of `s`. Draw `k` of
-/// the pixel uses `rand01(pixel, frame, 2k)` to pick and `2k + 1` to resample.
+/// Steps 1-3 for one pixel: `m` candidates drawn uniformly from `candidates` (indices into
+/// `lights`), resampled by their target at the surface `(p, n, v)` of `s`. Draw `k` of the
+/// pixel uses `rand01(pixel, frame, 2k)` to pick and `2k + 1` to resample.
 pub fn resample(
     lights: &[Light],
     candidates: &[u32],
     (p, n, v): (Vec3, Vec3, Vec3),
     s: &Surface,
-    (m, source, cutoff): (u32, Source, bool),
+    (m, cutoff): (u32, bool),
     (pixel, frame): (u32, u32),
 ) -> Reservoir {
     let mut r = Reservoir::default();
@@ -137,13 +131,9 @@ pub fn resample(
         return r;
     }
     let n_cand = candidates.len() as u32;
+    let q = 1.0 / n_cand as f32;
     for k in 0..m {
-        let (i, q) = match source {
-            Source::Uniform => {
-                let i = ((rand01(pixel, frame, 2 * k) * n_cand as f32) as u32).min(n_cand - 1);
-                (i, 1.0 / n_cand as f32)
-            }
-        };
+        let i = ((rand01(pixel, frame, 2 * k) * n_cand as f32) as u32).min(n_cand - 1);
         let light = candidates[i as usize];
         let p_hat = luminance(unshadowed(&lights[light as usize], (p, n, v), s, cutoff));
         r.update(light, (p_hat / q, p_hat), rand01(pixel, frame, 2 * k + 1));

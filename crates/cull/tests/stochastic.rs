@@ -18,7 +18,7 @@ use rand_pcg::Pcg64;
 use tiledlight_cull::brdf::Surface;
 use tiledlight_cull::light::{Light, LightKind};
 use tiledlight_cull::raycast::Triangles;
-use tiledlight_cull::stochastic::{estimate, luminance, rand01, resample, unshadowed, Reservoir, Source};
+use tiledlight_cull::stochastic::{estimate, luminance, rand01, resample, unshadowed, Reservoir};
 
 /// A surface point: position, normal, direction to the eye, material.
 struct Pixel {
@@ -153,7 +153,7 @@ fn one_sample_a_pixel_converges_to_the_truth() {
     let all: Vec<u32> = (0..lights.len() as u32).collect();
     for cutoff in [true, false] {
         let ris = |i: u32, px: &Pixel, f: u32| {
-            let r = resample(&lights, &all, (px.p, px.n, px.v), &px.s, (8, Source::Uniform, cutoff), (i, f));
+            let r = resample(&lights, &all, (px.p, px.n, px.v), &px.s, (8, cutoff), (i, f));
             luminance(estimate(&lights, &r, (px.p, px.n, px.v), &px.s, cutoff, |l| {
                 visible(&bvh, px, &lights[l as usize])
             }))
@@ -162,8 +162,8 @@ fn one_sample_a_pixel_converges_to_the_truth() {
     }
     let merged = |i: u32, px: &Pixel, f: u32| {
         let at = (px.p, px.n, px.v);
-        let mut a = resample(&lights, &all, at, &px.s, (4, Source::Uniform, true), (i, 2 * f));
-        let b = resample(&lights, &all, at, &px.s, (4, Source::Uniform, true), (i, 2 * f + 1));
+        let mut a = resample(&lights, &all, at, &px.s, (4, true), (i, 2 * f));
+        let b = resample(&lights, &all, at, &px.s, (4, true), (i, 2 * f + 1));
         a.merge(&b, rand01(i, f, 1_000_000));
         luminance(estimate(&lights, &a, at, &px.s, true, |l| visible(&bvh, px, &lights[l as usize])))
     };
