@@ -36,11 +36,14 @@ fn shade_light_record(i: u32, light: ShadingLight, p: vec3<f32>, n: vec3<f32>, v
     }
 #endif
 #ifdef TRACED
+#ifndef STOCHASTIC
     // Every light's visibility is a shadow ray (common/traced_shade.wgsl), cast only where
-    // the light would add something.
+    // the light would add something. The stochastic method asks for the unshadowed
+    // contribution (its target) and casts one ray for the light it keeps.
     if atten > 0.0 && dot(n, l) > 0.0 {
         atten *= traced_visibility(p, n, light.position);
     }
+#endif
 #endif
 #ifdef SHADOWS
     if casts_shadow(i) && atten > 0.0 && dot(n, l) > 0.0 {

@@ -5,7 +5,8 @@
 //
 // A frame is cast in bands of tile rows, one dispatch each (crates/visibility/src/
 // shading.rs, Traced): `traced_band.first_row` (a dynamic offset) says where this dispatch
-// starts, so a long render can be submitted band by band and report its progress. Each
+// starts, so a long render can be submitted band by band and report its progress. With
+// STOCHASTIC the light loop is the sampler's (common/stochastic_shade.wgsl; one band). Each
 // workgroup adds the rays its threads cast to `trace_stats` (a 64-bit count in two words).
 #include "common/deferred_shade.wgsl"
 #include "common/trace.wgsl"
@@ -28,11 +29,14 @@ override TRACE_SCALE: f32;
 @group(1) @binding(36) var<storage, read> trace_mask_slots: array<vec4<u32>>;
 @group(1) @binding(37) var<storage, read> trace_mask_bits: array<u32>;
 #endif
+// A band's first row; the stochastic method's frame (its one band is rewritten each
+// frame): the seed, the candidates a pixel and the frames its history holds
+// (crates/visibility/src/stochastic.rs, FrameParams; 0 for the traced reference).
 struct TracedBand {
     first_row: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    frame: u32,
+    candidates: u32,
+    accumulated: u32,
 }
 @group(1) @binding(38) var<uniform> traced_band: TracedBand;
 // Rays cast: low word, high word.
@@ -49,6 +53,9 @@ fn traced_visibility(p: vec3<f32>, n: vec3<f32>, light_pos: vec3<f32>) -> f32 {
     return select(1.0, 0.0, trace_occluded(p + n * eps, light_pos, eps));
 }
 
+#ifdef STOCHASTIC
+#include "common/stochastic_shade.wgsl"
+#else
 // Linear HDR of one surface sample: every light, each shadowed by its ray.
 fn shade_lights_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
     if g.sky {
@@ -61,6 +68,7 @@ fn shade_lights_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
     }
     return color;
 }
+#endif
 
 @compute @workgroup_size(WG, WG)
 fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>, @builtin(local_invocation_index) lidx: u32) {

@@ -142,7 +142,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let mut renderer = prep.renderer_with_heatmap(heatmap)?;
     // The traced reference's frame takes seconds: one is enough (nothing in it carries
     // over between frames).
-    let traced = prep.settings.method.is_traced();
+    let traced = prep.settings.method.is_traced_reference();
     let start = std::time::Instant::now();
     let frames = if traced { 1 } else { RENDER_FRAMES };
     let m = if traced {

@@ -8,6 +8,7 @@
 use std::any::Any;
 
 use crate::methods::Method;
+use tiledlight_cull::Camera;
 use tiledlight_gpu::features::Features;
 use tiledlight_gpu::light_buffers::LightBuffers;
 use tiledlight_gpu::light_grid::LightGrid;
@@ -28,6 +29,12 @@ pub trait MethodFrame: Any {
     /// ([`SharedSteps::record_vpl_cull`]), the shading that writes the HDR image (the
     /// handle its constructor took).
     fn record(&self, rec: &mut Rec<'_>, shared: &SharedSteps, depth: Depth<'_>);
+    /// Writes the method's own per-frame uniforms for a frame through `camera`, before it
+    /// is recorded (the stochastic method's seed and history length); nothing by default.
+    fn prepare(&self, _queue: &wgpu::Queue, _camera: &Camera) {}
+    /// The lights or the scene changed between frames: what the method kept of earlier
+    /// frames no longer holds (the stochastic method's history); nothing by default.
+    fn scene_changed(&self) {}
     /// The opaque light grid the method shades with (tiled methods).
     fn lists(&self) -> Option<Lists<'_>>;
     /// Grows that grid's index buffer to `capacity` and rebinds it wherever the method reads

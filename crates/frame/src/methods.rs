@@ -33,11 +33,16 @@ pub enum Method {
         /// Keep the windowed falloff with its radius cutoff.
         cutoff: bool,
     },
+    /// Every light shadowed, stochastically (issue 48): the visibility buffer's surface; a
+    /// few candidate lights a pixel drawn from every light, one kept in proportion to its
+    /// unshadowed contribution and shadowed by a ray through the scene's BVH; the frames
+    /// of a still view accumulated. No cutoff: it converges to the truth.
+    Stochastic,
 }
 
 impl Method {
     /// Every method, in the order reports list them.
-    pub const ALL: [Method; 7] = [
+    pub const ALL: [Method; 8] = [
         Method::ForwardPlus,
         Method::BruteForce { cutoff: true },
         Method::BruteForce { cutoff: false },
@@ -45,6 +50,7 @@ impl Method {
         Method::Visibility,
         Method::TracedReference { cutoff: false },
         Method::TracedReference { cutoff: true },
+        Method::Stochastic,
     ];
 
     /// The truth the lab measures against: traced, no cutoff.
@@ -54,11 +60,15 @@ impl Method {
     /// settings' table read (`Features::traits`, `Knob::applies`).
     pub const fn traits(self) -> MethodTraits {
         MethodTraits {
-            tiled: !matches!(self, Method::BruteForce { .. } | Method::TracedReference { .. }),
+            tiled: !matches!(self, Method::BruteForce { .. } | Method::TracedReference { .. } | Method::Stochastic),
             gbuffer: matches!(self, Method::TiledDeferred),
-            visibility_buffer: matches!(self, Method::Visibility | Method::TracedReference { .. }),
-            traced: matches!(self, Method::TracedReference { .. }),
-            cutoff: !matches!(self, Method::BruteForce { cutoff: false } | Method::TracedReference { cutoff: false }),
+            visibility_buffer: matches!(self, Method::Visibility | Method::TracedReference { .. } | Method::Stochastic),
+            traced: matches!(self, Method::TracedReference { .. } | Method::Stochastic),
+            stochastic: matches!(self, Method::Stochastic),
+            cutoff: !matches!(
+                self,
+                Method::BruteForce { cutoff: false } | Method::TracedReference { cutoff: false } | Method::Stochastic
+            ),
         }
     }
 
@@ -72,14 +82,21 @@ impl Method {
         self.traits().visibility_buffer
     }
 
-    /// True for the traced references (shadow rays through the scene's BVH).
+    /// True for the methods whose shadows are rays through the scene's BVH: the traced
+    /// references and the stochastic method (their scene needs its BVH).
     pub fn is_traced(self) -> bool {
         self.traits().traced
     }
 
+    /// True for the traced references (every light, a ray each: seconds a frame, one frame
+    /// enough).
+    pub fn is_traced_reference(self) -> bool {
+        matches!(self, Method::TracedReference { .. })
+    }
+
     /// True for the references (every light, no tiles): brute force and the traced one.
     pub fn is_reference(self) -> bool {
-        !self.is_tiled()
+        !self.is_tiled() && !self.traits().stochastic
     }
 
     /// False for the references without the radius window (plain inverse-square): every
@@ -98,6 +115,7 @@ impl Method {
             Method::Visibility => "visibility",
             Method::TracedReference { cutoff: false } => "traced-reference",
             Method::TracedReference { cutoff: true } => "traced-reference-cutoff",
+            Method::Stochastic => "stochastic",
         }
     }
 
@@ -111,6 +129,7 @@ impl Method {
             Method::Visibility => "Visibility buffer",
             Method::TracedReference { cutoff: false } => "Traced reference",
             Method::TracedReference { cutoff: true } => "Traced, with the cutoff",
+            Method::Stochastic => "Stochastic",
         }
     }
 
@@ -136,6 +155,10 @@ impl Method {
             Method::TracedReference { cutoff: true } => {
                 "The traced reference with the radius cutoff (the truth less the cutoff's light: the cutoff's share \
                  of the error)"
+            }
+            Method::Stochastic => {
+                "Every light shadowed: a few candidate lights a pixel, one kept by its contribution and shadowed by a \
+                 ray, a still view's frames accumulated (converges to the truth)"
             }
         }
     }
@@ -171,17 +194,22 @@ mod tests {
     #[test]
     fn the_cutoff_and_the_names_of_every_method() {
         for m in Method::ALL {
-            assert_eq!(m.has_cutoff(), !m.name().ends_with("no-cutoff") && m != Method::TRUTH, "{m:?}");
+            let no_cutoff = m.name().ends_with("no-cutoff") || m == Method::TRUTH || m == Method::Stochastic;
+            assert_eq!(m.has_cutoff(), !no_cutoff, "{m:?}");
             assert_eq!(Method::from_name(m.name()), Ok(m));
         }
         assert!(Method::from_name("nope").unwrap_err().contains("forward-plus"));
         let with = |f: fn(MethodTraits) -> bool| Method::ALL.into_iter().filter(|&m| f(m.traits())).collect::<Vec<_>>();
         assert_eq!(with(|t| t.gbuffer), [Method::TiledDeferred]);
-        assert_eq!(with(|t| t.traced), [Method::TRUTH, Method::TracedReference { cutoff: true }]);
+        assert_eq!(with(|t| t.traced), [Method::TRUTH, Method::TracedReference { cutoff: true }, Method::Stochastic]);
+        assert_eq!(with(|t| t.stochastic), [Method::Stochastic]);
         assert_eq!(
             with(|t| t.visibility_buffer),
-            [Method::Visibility, Method::TRUTH, Method::TracedReference { cutoff: true }]
+            [Method::Visibility, Method::TRUTH, Method::TracedReference { cutoff: true }, Method::Stochastic]
         );
+        let references: Vec<Method> = Method::ALL.into_iter().filter(|m| m.is_reference()).collect();
+        assert!(!references.contains(&Method::Stochastic), "the stochastic method is no reference");
+        assert_eq!(references.len(), 4);
         assert_eq!(with(|t| t.tiled), [Method::ForwardPlus, Method::TiledDeferred, Method::Visibility]);
     }
 }

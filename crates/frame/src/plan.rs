@@ -64,6 +64,9 @@ pub enum Step {
     /// The traced reference's every-light pass with a shadow ray per light over the
     /// visibility buffer (`traced.shade`, in bands of tile rows).
     TracedShade,
+    /// The stochastic method's pass: candidates, one kept and one shadow ray a pixel, the
+    /// frames accumulated (`stochastic.shade`).
+    StochasticShade,
     /// Depth of the blended geometry, in its own buffer (`blended.depth`; only with blended
     /// geometry).
     BlendedDepth,

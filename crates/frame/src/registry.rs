@@ -15,12 +15,13 @@ use crate::method::Registration;
 use crate::plan::FramePlan;
 
 /// Every method's registration (each of [`Method::ALL`] by exactly one).
-pub const METHODS: [&Registration; 5] = [
+pub const METHODS: [&Registration; 6] = [
     &crate::forward_plus::FORWARD_PLUS,
     &crate::forward_plus::BRUTE_FORCE,
     &crate::tiled_deferred::REGISTRATION,
     &crate::visibility::REGISTRATION,
     &crate::visibility::TRACED,
+    &crate::visibility::STOCHASTIC,
 ];
 
 /// The registration of `method`.

@@ -208,8 +208,9 @@ impl FrameRenderer {
     }
     /// Call after the lights moved on the GPU (their buffers rewritten), with the lights as
     /// now uploaded: the next frame redraws the shadow faces (and the RSM) of the casters
-    /// that moved.
+    /// that moved, and the stochastic method starts its history again.
     pub fn lights_moved(&self, queue: &wgpu::Queue, lights: &PackedLights) -> Result<(), GpuError> {
+        self.method.scene_changed();
         let Some(atlas) = &self.shared.shadows else { return Ok(()) };
         atlas.update(queue, &self.shared.views, lights)?;
         if let Some(v) = &self.shared.vpls {
@@ -271,6 +272,7 @@ impl Renderer for FrameRenderer {
     ) {
         let f = &self.shared;
         f.write_view(queue, camera);
+        self.method.prepare(queue, camera);
         let (depth, hdr, ldr) = target_handles(&f.targets);
         let mut cached = self.order.borrow_mut();
         if self.settings.knobs.draw_order == DrawOrderMode::FrontToBack {

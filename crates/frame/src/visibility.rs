@@ -22,6 +22,15 @@
 //! [VisibilityResolve] per-sample shading       -> Hdr (MSAA only)
 //! ```
 //!
+//! The stochastic method (issue 48) is the traced reference's frame with the sampler's
+//! light loop and a history (one sample a pixel):
+//!
+//! ```text
+//! VisibilityRaster   scene                     -> Depth, IDs
+//! StochasticShade    IDs, scene buffers, BVH,  -> Hdr, history (candidates, one kept, one
+//!                    history                           ray a pixel; the frames accumulated)
+//! ```
+//!
 //! Depends on tiledlight-gpu (culling) and tiledlight-visibility (raster and shading passes).
 
 use std::any::Any;
@@ -41,6 +50,8 @@ use tiledlight_gpu::{GpuContext, GpuError};
 use tiledlight_visibility::compute_raster::ComputeRasterOptions;
 use tiledlight_visibility::raster::{depth_target, VisibilityRaster};
 use tiledlight_visibility::shading::{ShadeLights, VisibilityShading};
+use tiledlight_visibility::stochastic::Accumulation;
+use tiledlight_cull::Camera;
 
 use crate::handles::Rec;
 use crate::method::{tiled_steps, MethodFrame, Registration};
@@ -80,7 +91,7 @@ pub const REGISTRATION: Registration = Registration {
 /// The traced reference (with or without the cutoff): the visibility buffer's raster, every
 /// light with a shadow ray each, the MSAA resolve (with MSAA). No culling.
 pub const TRACED: Registration = Registration {
-    renders: Method::is_traced,
+    renders: Method::is_traced_reference,
     building: "building the traced reference",
     steps: |f| {
         let mut steps = vec![Step::VisibilityRaster, Step::TracedShade];
@@ -93,6 +104,16 @@ pub const TRACED: Registration = Registration {
     build: REGISTRATION.build,
 };
 
+/// The stochastic method: the visibility buffer's raster, the sampler's pass (one sample a
+/// pixel: MSAA is refused when it is built). No culling, no shadow maps.
+pub const STOCHASTIC: Registration = Registration {
+    renders: |m| m == Method::Stochastic,
+    building: "building the stochastic method",
+    steps: |_| vec![Step::VisibilityRaster, Step::StochasticShade],
+    targets,
+    build: REGISTRATION.build,
+};
+
 /// The visibility buffer's passes (or the traced reference's).
 pub struct VisibilityFrame {
     raster: VisibilityRaster,
@@ -101,6 +122,8 @@ pub struct VisibilityFrame {
     shading: VisibilityShading,
     /// The traced reference with progress: the device and queue its bands are submitted to.
     progress: Option<(wgpu::Device, wgpu::Queue)>,
+    /// The stochastic method's frame counter and history length.
+    accumulation: Option<Accumulation>,
 }
 
 impl VisibilityFrame {
@@ -152,16 +175,18 @@ impl VisibilityFrame {
                 memory.extend(&c.memory);
                 ShadeLights::Lists(c)
             }
-            None => ShadeLights::Traced {
-                bvh: scene.trace.as_ref().ok_or_else(|| {
-                    GpuError::Config(
-                        "the traced reference needs the scene's BVH: build it with SceneGpu::add_trace before the \
-                         renderer"
-                            .into(),
-                    )
-                })?,
-                cutoff: settings.method == Method::TracedReference { cutoff: true },
-            },
+            None => {
+                let bvh = scene.trace.as_ref().ok_or_else(|| {
+                    GpuError::Config(format!(
+                        "the {} needs the scene's BVH: build it with SceneGpu::add_trace before the renderer",
+                        settings.method.label().to_lowercase()
+                    ))
+                })?;
+                match settings.method {
+                    Method::Stochastic => ShadeLights::Stochastic { bvh },
+                    m => ShadeLights::Traced { bvh, cutoff: m.has_cutoff() },
+                }
+            }
         };
         let shading = VisibilityShading::new(
             &shared.lighting_inputs(device, views, lights, features),
@@ -171,8 +196,12 @@ impl VisibilityFrame {
             (shade, shared.grid, EdgeTest::of(&features.knobs)),
             memory,
         )?;
-        let progress = (traced && settings.traced_progress).then(|| (ctx.device.clone(), ctx.queue.clone()));
-        Ok(Self { raster, culling, shading, progress })
+        let progress = (settings.method.is_traced_reference() && settings.traced_progress)
+            .then(|| (ctx.device.clone(), ctx.queue.clone()));
+        let knobs = &settings.knobs;
+        let accumulation =
+            (settings.method == Method::Stochastic).then(|| Accumulation::new(knobs.candidates, knobs.accumulate));
+        Ok(Self { raster, culling, shading, progress, accumulation })
     }
 
     /// The raster pass (its ID layout).
@@ -225,6 +254,10 @@ impl MethodFrame for VisibilityFrame {
                 rec.step(Step::VisibilityShade);
                 self.shading.record(rec, &culling.grid);
             }
+            None if self.accumulation.is_some() => {
+                rec.step(Step::StochasticShade);
+                self.shading.record_traced(rec, None);
+            }
             None => {
                 rec.step(Step::TracedShade);
                 match &self.progress {
@@ -254,6 +287,18 @@ impl MethodFrame for VisibilityFrame {
             rec.step(Step::VisibilityResolve);
             let r = &mut rec.recording;
             self.shading.record_resolve(r.encoder, r.timer);
+        }
+    }
+
+    fn prepare(&self, queue: &wgpu::Queue, camera: &Camera) {
+        if let Some(a) = &self.accumulation {
+            self.shading.write_stochastic_frame(queue, a.next(camera.view_proj()));
+        }
+    }
+
+    fn scene_changed(&self) {
+        if let Some(a) = &self.accumulation {
+            a.reset();
         }
     }
 

@@ -74,6 +74,8 @@ defines! {
     SpotCone = "SPOT_CONE",
     /// Spot lights in the shading.
     SpotLights = "SPOT_LIGHTS",
+    /// The stochastic method's light sampler (with `TRACED`: its one ray a pixel).
+    Stochastic = "STOCHASTIC",
     /// Base-colour textures.
     Textures = "TEXTURES",
     /// The traced reference's shadow rays.

@@ -410,6 +410,20 @@ knobs! {
     "shadow-format", "shadow depth format", "FORMAT", Control::Choice, applies(shadow_mapped), check(no_check),
     needs(Shadows);
 
+    /// The stochastic method's candidates a pixel each frame: lights drawn uniformly from
+    /// every light, one kept in proportion to its unshadowed contribution and shadowed by
+    /// a ray. More candidates cost more shading (no more rays) and leave less noise.
+    candidates: u32 = 16;
+    "candidates", "candidates a pixel", "M", Control::Slider(1.0, 256.0), applies(|m| m.stochastic),
+    check(|v| if (1..=4096).contains(&v) { Ok(()) } else { Err("must be between 1 and 4096".into()) });
+
+    /// The stochastic method's history: a pixel's image is the mean of up to this many
+    /// frames since the view or the lights last changed (a moving average beyond); 0 shows
+    /// each frame's own estimate (the raw estimator's noise, as the lab measures it).
+    accumulate: u32 = 64;
+    "accumulate", "frames accumulated", "FRAMES", Control::Slider(0.0, 256.0), applies(|m| m.stochastic),
+    check(|v| if v <= 65_536 { Ok(()) } else { Err("must be at most 65536 frames".into()) });
+
     /// How alpha-blended geometry (transparent objects, glTF BLEND materials) is composited
     /// over the opaque image: sorted (back to front each frame, drawn "over": exact for
     /// instances that do not interpenetrate, TiledLighting11's way) or wboit (weighted
@@ -615,9 +629,9 @@ mod tests {
         // Rows apply by trait: a forward method (tiles, no G-buffer, no visibility buffer)
         // has no G-buffer targets; a traced one reads the raster and draws no shadow maps.
         let forward =
-            MethodTraits { tiled: true, gbuffer: false, visibility_buffer: false, traced: false, cutoff: true };
+            MethodTraits { tiled: true, gbuffer: false, visibility_buffer: false, traced: false, stochastic: false, cutoff: true };
         let traced =
-            MethodTraits { tiled: false, gbuffer: false, visibility_buffer: true, traced: true, cutoff: false };
+            MethodTraits { tiled: false, gbuffer: false, visibility_buffer: true, traced: true, stochastic: false, cutoff: false };
         assert!(!(Knobs::row("gbuffer-rts").unwrap().applies)(forward));
         assert!((Knobs::row("raster").unwrap().applies)(traced));
         assert!(!(Knobs::row("stage-lights").unwrap().applies)(traced), "staging needs tile lists");

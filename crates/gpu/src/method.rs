@@ -22,6 +22,9 @@ pub struct MethodTraits {
     pub visibility_buffer: bool,
     /// Shadows by rays through the scene's BVH (no shadow maps).
     pub traced: bool,
+    /// A few lights a pixel, sampled by what they would contribute, each shadowed by a ray,
+    /// frames accumulated (the stochastic method): its candidates and history.
+    pub stochastic: bool,
     /// Lights end at their radius (the windowed falloff); false only for the references
     /// without it (plain inverse-square).
     pub cutoff: bool,

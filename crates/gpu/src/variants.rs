@@ -57,6 +57,7 @@ pub fn key_spaces() -> Vec<(&'static str, Vec<Vec<&'static str>>)> {
     add(boxed(vec![ComputeRasterKey::Clusters, ComputeRasterKey::Large]));
     add(boxed(VisibilityKey::all()));
     add(boxed(TracedKey::all()));
+    add(boxed(StochasticKey::all()));
     add(boxed(vec![TraceRaysKey { masks: false }, TraceRaysKey { masks: true }]));
     add(boxed(BOOLS.map(|spots| ContributionKey { spots }).to_vec()));
     out
@@ -982,6 +983,60 @@ impl ShaderKey for TracedKey {
         let mut d = vec![Define::Visibility.name(), Define::Traced.name()];
         flag(&mut d, !self.cutoff, Define::NoCutoff);
         flag(&mut d, self.msaa, Define::Msaa);
+        flag(&mut d, self.spots, Define::SpotLights);
+        flag(&mut d, self.vpls, Define::Vpls);
+        flag(&mut d, self.masks, Define::TraceMasks);
+        d.extend(self.materials.defines());
+        d
+    }
+
+    fn is_valid(&self) -> bool {
+        true
+    }
+}
+
+/// The stochastic method's material-and-lights pass (`stochastic.wgsl`): the traced
+/// kernel (the visibility buffer's surface, `TRACED`) with the sampler's light loop
+/// (`STOCHASTIC`, `shaders/common/stochastic_shade.wgsl`): a few candidates a pixel, one
+/// kept, one shadow ray. No cutoff (it converges to the truth), one sample a pixel (MSAA is
+/// refused), no shadow maps and no light grid.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct StochasticKey {
+    /// `SPOT_LIGHTS`.
+    pub spots: bool,
+    /// `VPLS`: every VPL is added, unshadowed, as the traced reference adds them.
+    pub vpls: bool,
+    /// `TRACE_MASKS`: some casting material is alpha-masked.
+    pub masks: bool,
+    /// The material paths.
+    pub materials: MaterialKey,
+}
+
+impl StochasticKey {
+    /// Every value.
+    pub fn all() -> Vec<Self> {
+        let mut v = Vec::new();
+        for spots in BOOLS {
+            for vpls in BOOLS {
+                for masks in BOOLS {
+                    for materials in MaterialKey::all() {
+                        v.push(Self { spots, vpls, masks, materials });
+                    }
+                }
+            }
+        }
+        v
+    }
+}
+
+impl ShaderKey for StochasticKey {
+    fn entry(&self) -> &'static str {
+        "stochastic.wgsl"
+    }
+
+    fn defines(&self) -> Vec<&'static str> {
+        let mut d =
+            vec![Define::Visibility.name(), Define::Traced.name(), Define::Stochastic.name(), Define::NoCutoff.name()];
         flag(&mut d, self.spots, Define::SpotLights);
         flag(&mut d, self.vpls, Define::Vpls);
         flag(&mut d, self.masks, Define::TraceMasks);

@@ -462,7 +462,17 @@ impl Prepared {
         if t.visibility_buffer && !t.traced {
             parts.push("32-bit triangle IDs".into());
         }
-        if t.traced {
+        if t.stochastic {
+            let history = match a.knobs.accumulate {
+                0 => "no history (each frame's own estimate)".to_string(),
+                n => format!("a still view's last {n} frames accumulated"),
+            };
+            parts.push(format!(
+                "{} candidates a pixel from every light, one kept by its contribution and shadowed by a ray, no \
+                 cutoff, {history}",
+                a.knobs.candidates
+            ));
+        } else if t.traced {
             let falloff = if t.cutoff { "the radius cutoff" } else { "no cutoff" };
             parts.push(match &self.scene_gpu.trace {
                 Some(tr) => format!(

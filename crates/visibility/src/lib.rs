@@ -6,9 +6,11 @@
 //! textures sampled by explicit gradients) and lights it with the same light grid, BRDF,
 //! shadows and VPLs as the other methods. No G-buffer and no forward shading pipeline
 //! exist for it. The raster has two paths: the hardware's and a compute raster
-//! ([`compute_raster`], issue 29). Depends on tiledlight-gpu (passes, buffers, the culling, and
+//! ([`compute_raster`], issue 29). The fourth method, stochastic (issue 48), is the traced
+//! reference's pass with a sampler's light loop and a history ([`stochastic`]). Depends on tiledlight-gpu (passes, buffers, the culling, and
 //! the MSAA edge machinery it shares with Tiled Deferred, `tiledlight_gpu::edge_samples`).
 
 pub mod compute_raster;
 pub mod raster;
 pub mod shading;
+pub mod stochastic;

@@ -51,7 +51,9 @@ use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::util::view_entry;
 use tiledlight_gpu::util::{buffer_entry, buffer_init, buffer_zeroed, compute_pipeline, keyed_module};
-use tiledlight_gpu::variants::{GridLookup, MaterialKey, ShaderKey, Shadowing, TracedKey, VisibilityKey};
+use tiledlight_gpu::variants::{
+    GridLookup, MaterialKey, ShaderKey, Shadowing, StochasticKey, TracedKey, VisibilityKey,
+};
 use tiledlight_gpu::view::Views;
 use tiledlight_gpu::GpuError;
 
@@ -80,7 +82,8 @@ pub const TRACED_BAND_WORKGROUPS: u64 = 2048;
 /// positions (27), normals (28), uvs (29), tangents (30) with `NORMAL_MAP`, second uvs (31)
 /// with `UV1`. The traced reference (`TRACED`) has no VPL grid (21, 22) but the VPL
 /// counter (23), and the BVH's nodes (33), triangles (34), with `TRACE_MASKS` its masks
-/// (35-37), its band (38, dynamic offset) and ray count (39).
+/// (35-37), its band (38, dynamic offset) and ray count (39); the stochastic method
+/// (`STOCHASTIC`, with `TRACED`) adds its history (40).
 pub const VISIBILITY_GROUP: &[Binding] = &[
     DEPTH_BINDING,
     Binding::storage(1, CS),
@@ -116,6 +119,7 @@ pub const VISIBILITY_GROUP: &[Binding] = &[
     TRACE[4],
     Binding::uniform(38, CS).dynamic_offset(16).when(Cond::Defined(Define::Traced)),
     Binding::storage_rw(39, CS).when(Cond::Defined(Define::Traced)),
+    Binding::storage_rw(40, CS).when(Cond::Defined(Define::Stochastic)),
 ];
 
 /// The traced reference's hierarchy (33-37), only with `TRACED`.
@@ -158,6 +162,9 @@ pub const TRACED_BINDINGS: PassBindings = PassBindings {
 /// [`TRACED_BINDINGS`] for the MSAA kernel (`shaders/traced_msaa.wgsl`).
 pub const TRACED_MSAA_BINDINGS: PassBindings = PassBindings { entry: "traced_msaa.wgsl", ..TRACED_BINDINGS };
 
+/// [`TRACED_BINDINGS`] for the stochastic method's kernel (`shaders/stochastic.wgsl`).
+pub const STOCHASTIC_BINDINGS: PassBindings = PassBindings { entry: "stochastic.wgsl", ..TRACED_BINDINGS };
+
 /// Where each pixel's lights come from.
 #[derive(Clone, Copy)]
 pub enum ShadeLights<'a> {
@@ -171,6 +178,23 @@ pub enum ShadeLights<'a> {
         /// Keep the radius cutoff.
         cutoff: bool,
     },
+    /// The stochastic method: every light a candidate, one kept a pixel by its unshadowed
+    /// contribution and shadowed by a ray through the scene's hierarchy, the frames
+    /// accumulated ([`crate::stochastic`]); no cutoff.
+    Stochastic {
+        /// The scene's hierarchy.
+        bvh: &'a GpuBvh,
+    },
+}
+
+impl<'a> ShadeLights<'a> {
+    /// The hierarchy its rays go through (None for the light grid's lists).
+    fn bvh(self) -> Option<&'a GpuBvh> {
+        match self {
+            ShadeLights::Lists(_) => None,
+            ShadeLights::Traced { bvh, .. } | ShadeLights::Stochastic { bvh } => Some(bvh),
+        }
+    }
 }
 
 /// What [`VisibilityShading::record_traced`] calls after each band: `(encoder, band done
@@ -187,6 +211,10 @@ struct Traced {
     bands: u32,
     /// The frame's rays, a 64-bit count in two words (cleared at the start of each frame).
     stats: wgpu::Buffer,
+    /// The stochastic method's per-pixel history (None for the traced reference).
+    history: Option<wgpu::Buffer>,
+    /// The pass's label and timer name: `traced.shade` or `stochastic.shade`.
+    label: &'static str,
 }
 
 /// The material-and-lights pass.
@@ -227,7 +255,14 @@ impl VisibilityShading {
     ) -> Result<Self, GpuError> {
         let LightingInputs { device, views, lights, lighting, features, atlas, vpls } = *inputs;
         let (depth, hdr) = (depth.view, hdr.view);
-        let traced = matches!(shade, ShadeLights::Traced { .. });
+        let traced = shade.bvh().is_some();
+        let stochastic = matches!(shade, ShadeLights::Stochastic { .. });
+        if stochastic && features.msaa > 1 {
+            return Err(GpuError::Config(format!(
+                "the stochastic method shades one sample a pixel: MSAA ({}x) is not supported, use --msaa 1",
+                features.msaa
+            )));
+        }
         // The grid's pass reads the VPLs' grid; the traced one every VPL.
         if features.vpl != vpls.is_some_and(|v| v.lists.is_some() != traced) {
             return Err(GpuError::Config(
@@ -266,6 +301,16 @@ impl VisibilityShading {
                     materials,
                 }),
                 TRACED_BINDINGS,
+                16,
+            ),
+            ShadeLights::Stochastic { bvh } => (
+                Box::new(StochasticKey {
+                    spots: features.spot_lights,
+                    vpls: features.vpl,
+                    masks: bvh.masks.is_some(),
+                    materials,
+                }),
+                STOCHASTIC_BINDINGS,
                 16,
             ),
         };
@@ -311,9 +356,9 @@ impl VisibilityShading {
         }
         // The traced kernel reads no shadow map (its atlas, with VPLs, serves their RSM).
         bind.extend(light_entries(lights, features, atlas.filter(|_| !traced), vpls));
-        let traced_state = match shade {
-            ShadeLights::Lists(_) => None,
-            ShadeLights::Traced { bvh, .. } => {
+        let traced_state = match shade.bvh() {
+            None => None,
+            Some(bvh) => {
                 bind.extend(bvh.entries(33));
                 if let Some(v) = vpls {
                     bind.push(buffer_entry(23, &v.count));
@@ -328,13 +373,17 @@ impl VisibilityShading {
                 let min_rows = TRACED_BAND_WORKGROUPS.div_ceil(u64::from(grid.width.div_ceil(tile).max(1)));
                 let rows =
                     (TRACED_BAND_PAIRS / pairs_per_row).max(min_rows).clamp(1, u64::from(rows_total.max(1))) as u32;
+                // The stochastic method's frame is one band (milliseconds, no progress).
+                let rows = if stochastic { rows_total.max(1) } else { rows };
                 let bands = rows_total.max(1).div_ceil(rows);
                 let mut data = vec![0u8; bands as usize * BAND_STRIDE as usize];
                 for b in 0..bands as usize {
                     let first = (b as u32) * rows;
                     data[b * BAND_STRIDE as usize..b * BAND_STRIDE as usize + 4].copy_from_slice(&first.to_le_bytes());
                 }
-                let bands_buffer = buffer_init(device, "traced.bands", &data, wgpu::BufferUsages::UNIFORM);
+                // The stochastic method writes its frame's parameters into its band.
+                let usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
+                let bands_buffer = buffer_init(device, "traced.bands", &data, usage);
                 let stats = buffer_zeroed(
                     device,
                     "traced.stats",
@@ -342,7 +391,13 @@ impl VisibilityShading {
                     wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
                 );
                 memory.add("traced.bands", bands_buffer.size());
-                Some(Traced { bands_buffer, rows, bands, stats })
+                let history = stochastic.then(|| {
+                    let bytes = u64::from(grid.width) * u64::from(grid.height) * 16;
+                    memory.add("stochastic.history", bytes);
+                    buffer_zeroed(device, "stochastic.history", bytes.max(16), wgpu::BufferUsages::STORAGE)
+                });
+                let label = if stochastic { "stochastic.shade" } else { "traced.shade" };
+                Some(Traced { bands_buffer, rows, bands, stats, history, label })
             }
         };
         if let Some(t) = &traced_state {
@@ -355,6 +410,9 @@ impl VisibilityShading {
                 }),
             });
             bind.push(buffer_entry(39, &t.stats));
+            if let Some(h) = &t.history {
+                bind.push(buffer_entry(40, h));
+            }
         }
         let msaa =
             (samples > 1).then(|| EdgeSamples::new(device, "visibility", &grid, samples, hdr, memory)).transpose()?;
@@ -405,13 +463,14 @@ impl VisibilityShading {
                     &constants,
                 )
             }
-            ShadeLights::Traced { bvh, .. } => {
+            ShadeLights::Traced { bvh, .. } | ShadeLights::Stochastic { bvh } => {
                 constants.extend([
                     ("TRACE_EPS", f64::from(tiledlight_cull::trace::SURFACE_EPS)),
                     ("TRACE_POSITION_EPS", f64::from(tiledlight_cull::trace::POSITION_EPS)),
                     ("TRACE_SCALE", f64::from(bvh.scale)),
                 ]);
-                compute_pipeline(device, "traced.shade", &[&views.layout, &layout, texture_layout], &module, &constants)
+                let label = if stochastic { "stochastic.shade" } else { "traced.shade" };
+                compute_pipeline(device, label, &[&views.layout, &layout, texture_layout], &module, &constants)
             }
         };
         let tiles = (grid.width.div_ceil(tile), grid.height.div_ceil(tile));
@@ -457,10 +516,10 @@ impl VisibilityShading {
         encoder.clear_buffer(&traced.stats, 0, None);
         match flush {
             None => {
-                let t = timer.begin("traced.shade", encoder);
+                let t = timer.begin(traced.label, encoder);
                 {
                     let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                        label: Some("traced.shade"),
+                        label: Some(traced.label),
                         timestamp_writes: t.compute_writes(),
                     });
                     // Timed: the whole frame in one dispatch (band 0 starts at row 0), so
@@ -473,7 +532,7 @@ impl VisibilityShading {
                 for band in 0..traced.bands {
                     {
                         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                            label: Some("traced.shade"),
+                            label: Some(traced.label),
                             timestamp_writes: None,
                         });
                         let rows = traced.rows.min(self.tiles.1.saturating_sub(band * traced.rows));
@@ -515,6 +574,15 @@ impl VisibilityShading {
         let Some(t) = &self.traced else { return Ok(None) };
         let words: Vec<u32> = read_buffer(device, queue, &t.stats)?;
         Ok(Some(u64::from(words[0]) | u64::from(words[1]) << 32))
+    }
+
+    /// Writes the stochastic method's next frame (its seed, candidates and history length)
+    /// into its one band, before the frame is recorded; nothing for the other passes.
+    pub fn write_stochastic_frame(&self, queue: &wgpu::Queue, p: crate::stochastic::FrameParams) {
+        if let Some(t) = self.traced.as_ref().filter(|t| t.history.is_some()) {
+            let words = [p.frame, p.candidates, p.accumulated];
+            queue.write_buffer(&t.bands_buffer, 4, bytemuck::cast_slice(&words));
+        }
     }
 
     /// Bands a traced frame is cast in (None for the light grid's pass).
