@@ -37,6 +37,7 @@ use std::any::Any;
 
 use crate::methods::Method;
 use crate::plan::Step;
+use tiledlight_cull::Camera;
 use tiledlight_gpu::culling::LightCulling;
 use tiledlight_gpu::depth_prepass::{DEPTH_FORMAT, ID_FORMAT};
 use tiledlight_gpu::edge_samples::EdgeTest;
@@ -51,7 +52,6 @@ use tiledlight_visibility::compute_raster::ComputeRasterOptions;
 use tiledlight_visibility::raster::{depth_target, VisibilityRaster};
 use tiledlight_visibility::shading::{ShadeLights, VisibilityShading};
 use tiledlight_visibility::stochastic::Accumulation;
-use tiledlight_cull::Camera;
 
 use crate::handles::Rec;
 use crate::method::{tiled_steps, MethodFrame, Registration};

@@ -628,10 +628,22 @@ mod tests {
         assert_eq!(Knobs::row("gbuffer-rts").unwrap().flag(), "gbuffer-rts");
         // Rows apply by trait: a forward method (tiles, no G-buffer, no visibility buffer)
         // has no G-buffer targets; a traced one reads the raster and draws no shadow maps.
-        let forward =
-            MethodTraits { tiled: true, gbuffer: false, visibility_buffer: false, traced: false, stochastic: false, cutoff: true };
-        let traced =
-            MethodTraits { tiled: false, gbuffer: false, visibility_buffer: true, traced: true, stochastic: false, cutoff: false };
+        let forward = MethodTraits {
+            tiled: true,
+            gbuffer: false,
+            visibility_buffer: false,
+            traced: false,
+            stochastic: false,
+            cutoff: true,
+        };
+        let traced = MethodTraits {
+            tiled: false,
+            gbuffer: false,
+            visibility_buffer: true,
+            traced: true,
+            stochastic: false,
+            cutoff: false,
+        };
         assert!(!(Knobs::row("gbuffer-rts").unwrap().applies)(forward));
         assert!((Knobs::row("raster").unwrap().applies)(traced));
         assert!(!(Knobs::row("stage-lights").unwrap().applies)(traced), "staging needs tile lists");

@@ -999,13 +999,11 @@ impl ShaderKey for TracedKey {
 /// kernel (the visibility buffer's surface, `TRACED`) with the sampler's light loop
 /// (`STOCHASTIC`, `shaders/common/stochastic_shade.wgsl`): a few candidates a pixel, one
 /// kept, one shadow ray. No cutoff (it converges to the truth), one sample a pixel (MSAA is
-/// refused), no shadow maps and no light grid.
+/// refused), no VPLs (refused: they are not sampled yet), no shadow maps and no light grid.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct StochasticKey {
     /// `SPOT_LIGHTS`.
     pub spots: bool,
-    /// `VPLS`: every VPL is added, unshadowed, as the traced reference adds them.
-    pub vpls: bool,
     /// `TRACE_MASKS`: some casting material is alpha-masked.
     pub masks: bool,
     /// The material paths.
@@ -1017,11 +1015,9 @@ impl StochasticKey {
     pub fn all() -> Vec<Self> {
         let mut v = Vec::new();
         for spots in BOOLS {
-            for vpls in BOOLS {
-                for masks in BOOLS {
-                    for materials in MaterialKey::all() {
-                        v.push(Self { spots, vpls, masks, materials });
-                    }
+            for masks in BOOLS {
+                for materials in MaterialKey::all() {
+                    v.push(Self { spots, masks, materials });
                 }
             }
         }
@@ -1038,7 +1034,6 @@ impl ShaderKey for StochasticKey {
         let mut d =
             vec![Define::Visibility.name(), Define::Traced.name(), Define::Stochastic.name(), Define::NoCutoff.name()];
         flag(&mut d, self.spots, Define::SpotLights);
-        flag(&mut d, self.vpls, Define::Vpls);
         flag(&mut d, self.masks, Define::TraceMasks);
         d.extend(self.materials.defines());
         d
@@ -1173,6 +1168,8 @@ mod tests {
         // cutoff x spots x VPLs x masks x 5 material paths, per sample mode.
         assert_eq!(count("traced.wgsl"), 16 * 5);
         assert_eq!(count("traced_msaa.wgsl"), 16 * 5);
+        // spots x masks x 5 material paths, one sample a pixel.
+        assert_eq!(count("stochastic.wgsl"), 4 * 5);
         assert_eq!(count("trace_rays.wgsl"), 2);
         assert_eq!(count("visibility_msaa.wgsl"), 90);
         // 4 pre-pass and 4 ID-raster variants, and 3 masked ones resolving IDs with atomics

@@ -263,6 +263,13 @@ impl VisibilityShading {
                 features.msaa
             )));
         }
+        if stochastic && features.vpl {
+            return Err(GpuError::Config(
+                "the stochastic method does not sample VPLs yet: render it without --vpl (the traced reference adds \
+                 them unshadowed)"
+                    .into(),
+            ));
+        }
         // The grid's pass reads the VPLs' grid; the traced one every VPL.
         if features.vpl != vpls.is_some_and(|v| v.lists.is_some() != traced) {
             return Err(GpuError::Config(
@@ -304,12 +311,7 @@ impl VisibilityShading {
                 16,
             ),
             ShadeLights::Stochastic { bvh } => (
-                Box::new(StochasticKey {
-                    spots: features.spot_lights,
-                    vpls: features.vpl,
-                    masks: bvh.masks.is_some(),
-                    materials,
-                }),
+                Box::new(StochasticKey { spots: features.spot_lights, masks: bvh.masks.is_some(), materials }),
                 STOCHASTIC_BINDINGS,
                 16,
             ),

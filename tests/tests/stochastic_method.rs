@@ -1,0 +1,261 @@
+//! The stochastic method (issue 48: every light shadowed) against the traced truth, on the
+//! shadow box (a cube hovering over a floor, so lights are occluded) lit by point lights on
+//! every side and a spot, at 160x90.
+//!
+//! - **Unbiased.** Without history, the mean of many frames (each its own seed) converges to
+//!   the truth: the image's summed error stays within a bound derived from the frames'
+//!   sample variance ([`unbiased_within`]), and hardly any pixel strays beyond its own
+//!   bound. The same check rejects the truth scaled by 2% and the image without shadows
+//!   (negative tests).
+//! - **History.** A still view's accumulated image approaches the truth as frames add up;
+//!   after the camera moves, or the lights are moved, the next frame is exactly that
+//!   frame's own estimate (no ghost of what came before).
+//! - **Refusals.** MSAA and a scene without its BVH are refused by name.
+//!
+//! The GPU sampler against its CPU twin is `stochastic_twin.rs`; the twin's unbiasedness on
+//! the CPU is `crates/cull/tests/stochastic.rs`.
+
+use glam::Vec3;
+use tiledlight_cull::{Camera, Light};
+use tiledlight_frame::{FrameRenderer, FrameSettings, Method};
+use tiledlight_gpu::light_buffers::LightBuffers;
+use tiledlight_gpu::scene_gpu::SceneGpu;
+use tiledlight_gpu::GpuContext;
+use tiledlight_scene::{shadow_box_scene, Scene};
+use tiledlight_tests::compare::render_frame;
+use tiledlight_tests::{err_text, gpu};
+
+const W: u32 = 160;
+const H: u32 = 90;
+
+/// Frames averaged for the unbiasedness check: enough that the summed error's bound is
+/// well under the 2% the negative test must be told apart by.
+const FRAMES: usize = 48;
+
+/// How many standard errors the summed error may reach: |z| < 4 fails a correct estimator
+/// once in 16,000 seeds (the test's seeds are fixed, so it either always passes or never).
+const Z_LIMIT: f64 = 4.0;
+
+/// Pixels allowed beyond [`PIXEL_Z`] of their own standard error. A pixel's mean of 48
+/// draws of a skewed distribution is not normal (a light picked once in 48 frames carries
+/// the whole pixel), so a few stray: 1% of the pixels.
+const PIXEL_OUTLIERS: f64 = 0.01;
+/// A pixel's own bound, in standard errors.
+const PIXEL_Z: f64 = 5.0;
+
+fn lights() -> Vec<Light> {
+    let mut v = Vec::new();
+    // A ring of low lights around the cube (each shadows part of the floor) and two above.
+    for k in 0..8 {
+        let a = k as f32 * std::f32::consts::TAU / 8.0;
+        let c = Vec3::new(0.5 + 0.5 * a.cos(), 0.6, 0.5 + 0.5 * a.sin());
+        v.push(Light::point(Vec3::new(3.0 * a.cos(), 0.7, 3.0 * a.sin()), c, 6.0, 0.01).expect("light"));
+    }
+    v.push(Light::point(Vec3::new(0.3, 4.0, 0.2), Vec3::ONE, 12.0, 0.01).expect("light"));
+    v.push(Light::point(Vec3::new(-4.0, 2.5, -3.0), Vec3::new(0.4, 0.6, 1.0), 10.0, 0.01).expect("light"));
+    let spot = Vec3::new(2.5, 3.5, 2.5);
+    v.push(
+        Light::spot(spot, (Vec3::new(-0.5, 0.0, -0.5) - spot).normalize(), Vec3::ONE, 14.0, 0.4, 0.6, 0.01)
+            .expect("spot"),
+    );
+    v
+}
+
+fn camera(eye: Vec3) -> Camera {
+    Camera::perspective(eye, Vec3::new(0.0, 0.5, 0.0), Vec3::Y, 50f32.to_radians(), W as f32 / H as f32, 0.1, None)
+        .expect("camera")
+}
+
+const EYE_A: Vec3 = Vec3::new(5.0, 5.0, 7.0);
+const EYE_B: Vec3 = Vec3::new(-6.0, 4.0, 5.0);
+
+struct Fixture {
+    scene: SceneGpu,
+    lights: LightBuffers,
+}
+
+fn fixture(ctx: &GpuContext) -> (Fixture, Scene) {
+    let scene = shadow_box_scene(0.5);
+    let mut sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    sg.add_trace(&ctx.device, &scene).unwrap();
+    let lb = LightBuffers::new(&ctx.device, &lights()).unwrap();
+    (Fixture { scene: sg, lights: lb }, scene)
+}
+
+fn renderer(ctx: &GpuContext, f: &Fixture, method: Method, (candidates, accumulate): (u32, u32)) -> FrameRenderer {
+    let mut s = FrameSettings::of(method);
+    s.knobs.candidates = candidates;
+    s.knobs.accumulate = accumulate;
+    FrameRenderer::new(ctx, &f.scene, &f.lights, W, H, s).expect("renderer")
+}
+
+fn luminance(p: &[f32; 4]) -> f64 {
+    0.2126 * f64::from(p[0]) + 0.7152 * f64::from(p[1]) + 0.0722 * f64::from(p[2])
+}
+
+/// Per-pixel luminance of one frame.
+fn frame(ctx: &GpuContext, r: &mut FrameRenderer, f: &Fixture, camera: &Camera) -> Vec<f64> {
+    render_frame(ctx, r, &f.scene, camera).hdr.iter().map(luminance).collect()
+}
+
+/// Per pixel, the sum and the sum of squares of `frames` frames' luminance.
+struct Moments {
+    sum: Vec<f64>,
+    squares: Vec<f64>,
+    frames: usize,
+}
+
+impl Moments {
+    fn of(frames: &[Vec<f64>]) -> Self {
+        let n = frames[0].len();
+        let mut m = Moments { sum: vec![0.0; n], squares: vec![0.0; n], frames: frames.len() };
+        for f in frames {
+            for (i, &x) in f.iter().enumerate() {
+                m.sum[i] += x;
+                m.squares[i] += x * x;
+            }
+        }
+        m
+    }
+
+    fn mean(&self, i: usize) -> f64 {
+        self.sum[i] / self.frames as f64
+    }
+
+    /// The variance of pixel `i`'s mean (its sample variance over the frames, divided by
+    /// their count).
+    fn variance_of_mean(&self, i: usize) -> f64 {
+        let k = self.frames as f64;
+        let var = ((self.squares[i] - self.sum[i] * self.sum[i] / k) / (k - 1.0)).max(0.0);
+        var / k
+    }
+}
+
+/// Whether the frames' mean is an unbiased estimate of `truth`: the image's summed error
+/// within [`Z_LIMIT`] standard errors (pixels' estimates are independent: their seeds are
+/// hashes of the pixel), and at most [`PIXEL_OUTLIERS`] of the pixels beyond [`PIXEL_Z`] of
+/// their own (a pixel with no variance must equal the truth to rounding). Returns the z of
+/// the sum, or why not.
+fn unbiased_within(m: &Moments, truth: &[f64]) -> Result<f64, String> {
+    let (mut error, mut variance, mut strays) = (0.0, 0.0, 0usize);
+    for (i, &t) in truth.iter().enumerate() {
+        let (d, v) = (m.mean(i) - t, m.variance_of_mean(i));
+        error += d;
+        variance += v;
+        // Rounding: the frames sum the same f32 terms in another order than the truth's
+        // loop (a few ulps of the pixel's value).
+        let rounding = 1e-5 * t.abs() + 1e-7;
+        if d.abs() > PIXEL_Z * v.sqrt() + rounding {
+            strays += 1;
+        }
+    }
+    let z = error / variance.sqrt().max(1e-30);
+    let total: f64 = truth.iter().sum();
+    if z.abs() >= Z_LIMIT {
+        return Err(format!(
+            "the summed error {error:.4e} ({:.3}% of the image's light) is {z:.1} standard errors from 0",
+            100.0 * error / total
+        ));
+    }
+    if strays as f64 > PIXEL_OUTLIERS * truth.len() as f64 {
+        return Err(format!("{strays} of {} pixels beyond {PIXEL_Z} standard errors of their own", truth.len()));
+    }
+    Ok(z)
+}
+
+/// The raw estimator's frames (no history) of the stochastic method, their moments, and the
+/// truth, through camera A.
+fn raw_frames_and_truth(ctx: &GpuContext) -> (Moments, Vec<f64>, Fixture) {
+    let (f, _) = fixture(ctx);
+    let cam = camera(EYE_A);
+    let mut truth_r = renderer(ctx, &f, Method::TRUTH, (1, 0));
+    let truth = frame(ctx, &mut truth_r, &f, &cam);
+    // Four candidates of eleven lights: a pixel often keeps a light the truth weighs
+    // little, so the weights' every term is exercised.
+    let mut r = renderer(ctx, &f, Method::Stochastic, (4, 0));
+    let frames: Vec<Vec<f64>> = (0..FRAMES).map(|_| frame(ctx, &mut r, &f, &cam)).collect();
+    assert!(frames[0] != frames[1], "two frames drew the same numbers: the seed does not change");
+    (Moments::of(&frames), truth, f)
+}
+
+/// Without history, the mean of 48 frames is the truth within its standard error, image-
+/// wide and pixel by pixel; the truth scaled by 2% and the image without shadows are not.
+#[test]
+fn without_history_the_mean_of_frames_converges_to_the_truth() {
+    let ctx = gpu();
+    let (m, truth, f) = raw_frames_and_truth(ctx);
+    let lit = truth.iter().filter(|&&t| t > 1e-4).count();
+    assert!(lit > truth.len() / 2, "the view shows lit surfaces ({lit} of {} pixels)", truth.len());
+    let z = unbiased_within(&m, &truth).unwrap_or_else(|e| panic!("the stochastic method is biased: {e}"));
+    eprintln!("summed error: {z:.2} standard errors");
+
+    // Negative: 2% more light everywhere.
+    let brighter: Vec<f64> = truth.iter().map(|t| t * 1.02).collect();
+    let e = unbiased_within(&m, &brighter).expect_err("the truth scaled by 2% must be rejected");
+    assert!(e.contains("standard errors"), "{e}");
+    // Negative: no shadows (brute force without the cutoff: every light unoccluded).
+    let mut unshadowed_r = renderer(ctx, &f, Method::BruteForce { cutoff: false }, (1, 0));
+    let unshadowed = frame(ctx, &mut unshadowed_r, &f, &camera(EYE_A));
+    let dark: f64 = truth.iter().zip(&unshadowed).map(|(t, u)| u - t).sum();
+    assert!(dark > 0.05 * truth.iter().sum::<f64>(), "the cube's shadows hold light back ({dark})");
+    unbiased_within(&m, &unshadowed).expect_err("an image without shadows must be rejected");
+}
+
+/// Mean absolute luminance error against `truth`.
+fn error(image: &[f64], truth: &[f64]) -> f64 {
+    image.iter().zip(truth).map(|(a, b)| (a - b).abs()).sum::<f64>() / truth.len() as f64
+}
+
+/// A still view's history converges (the error after 8 and 32 frames falls roughly as one
+/// over the root of the count); a moved camera's first frame, and the first frame after the
+/// lights moved, are exactly their frame's own estimate (the same seed without history).
+#[test]
+fn a_still_view_converges_and_a_change_leaves_no_ghost() {
+    let ctx = gpu();
+    let (f, _) = fixture(ctx);
+    let (a, b) = (camera(EYE_A), camera(EYE_B));
+    let mut truth_r = renderer(ctx, &f, Method::TRUTH, (1, 0));
+    let truth_a = frame(ctx, &mut truth_r, &f, &a);
+
+    let mut r = renderer(ctx, &f, Method::Stochastic, (8, 64));
+    let mut errors = Vec::new();
+    for n in 1..=32 {
+        let image = frame(ctx, &mut r, &f, &a);
+        if [1, 8, 32].contains(&n) {
+            errors.push(error(&image, &truth_a));
+        }
+    }
+    // 1/sqrt(8) = 0.35 and sqrt(8/32) = 0.5 for independent frames; the limits leave room
+    // for the noise of the error itself.
+    assert!(errors[1] < 0.5 * errors[0], "8 frames: {errors:?}");
+    assert!(errors[2] < 0.7 * errors[1], "32 frames: {errors:?}");
+
+    // Frame 32 through camera B, then frame 33 after the lights moved: each the raw
+    // estimate of its seed, as a renderer without history draws it.
+    let moved = frame(ctx, &mut r, &f, &b);
+    r.lights_moved(&ctx.queue, &f.lights.packed).unwrap();
+    let relit = frame(ctx, &mut r, &f, &b);
+    let mut raw = renderer(ctx, &f, Method::Stochastic, (8, 0));
+    let raws: Vec<Vec<f64>> = (0..34).map(|_| frame(ctx, &mut raw, &f, &b)).collect();
+    assert!(moved == raws[32], "the first frame after the camera moved kept some of the old view");
+    assert!(relit == raws[33], "the first frame after the lights moved kept some of the old light");
+    // And the history then continues (frame 34 is no longer the raw estimate).
+    let continued = frame(ctx, &mut r, &f, &b);
+    let raw34 = frame(ctx, &mut raw, &f, &b);
+    assert!(continued != raw34, "a still view after a change accumulates again");
+}
+
+/// MSAA, and a scene without its BVH, are refused by name, not drawn wrong.
+#[test]
+fn msaa_and_a_missing_bvh_are_refused_by_name() {
+    let ctx = gpu();
+    let (f, _) = fixture(ctx);
+    let s = FrameSettings { msaa: 4, ..FrameSettings::of(Method::Stochastic) };
+    let e = err_text(FrameRenderer::new(ctx, &f.scene, &f.lights, W, H, s));
+    assert!(e.contains("stochastic") && e.contains("MSAA") && e.contains("--msaa 1"), "{e}");
+    // Without the BVH the method says what it needs.
+    let scene = shadow_box_scene(0.5);
+    let bare = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let e = err_text(FrameRenderer::new(ctx, &bare, &f.lights, W, H, FrameSettings::of(Method::Stochastic)));
+    assert!(e.contains("stochastic") && e.contains("BVH"), "{e}");
+}
