@@ -2,19 +2,32 @@
 // traced kernel's body (common/traced_shade.wgsl) with STOCHASTIC in place of the traced
 // reference's loop over every light:
 //
-// 1. M candidates (`traced_band.candidates`) drawn uniformly from every light, each with
-//    the luminance of its unshadowed contribution as its target (common/shade.wgsl with
-//    STOCHASTIC casts no ray), resampled into one reservoir (common/stochastic.wgsl; the
-//    CPU twin is tiledlight_cull::stochastic::resample, draw k from rand01(pixel, frame,
-//    2k) and 2k + 1).
+// 1. Candidates from two sources that split the lights (CPU twin:
+//    tiledlight_cull::stochastic::resample_near_far, the same draws): `candidates` drawn
+//    uniformly from the pixel's list in the light grid, counted only when the light's
+//    radius reaches the point (the culling lists every such light), and `far_candidates`
+//    drawn uniformly from every light, counted only when it does not. Each candidate's
+//    target is the luminance of its unshadowed contribution with no cutoff
+//    (common/shade.wgsl with STOCHASTIC casts no ray), its weight p_hat / (q M_source)
+//    times the total M; one is kept in a reservoir (common/stochastic.wgsl).
 // 2. One shadow ray to the kept light through the BVH (traced_visibility); the pixel's
-//    light is f(y) V(y) W, unbiased for the sum over every light of f V.
+//    light is f(y) V(y) W, unbiased for the sum over every light of f V (with no far
+//    candidates, over the lights whose radius reaches the point: the cutoff's bias).
 // 3. Temporal accumulation: the running mean of the frames since the camera or the lights
 //    last changed (`traced_band.accumulated` of them before this one, 0 after a change:
 //    nothing of another view remains), kept per pixel in `stochastic_history`. The count
 //    stops at the `accumulate` setting, where the mean becomes a moving average.
 
 #include "common/stochastic.wgsl"
+
+// The light grid (group 3, as the visibility kernel binds it; common/deferred_shade.wgsl
+// declares it for the kernels without TRACED) and, per grid tile, near and far view
+// distance (the half-z lookup).
+#include "common/light_grid_rw.wgsl"
+@group(3) @binding(0) var<storage, read_write> light_grid: LightGridRw;
+@group(3) @binding(1) var<storage, read_write> light_indices: array<u32>;
+@group(3) @binding(2) var<storage, read_write> tile_ranges: array<vec2<f32>>;
+#include "common/light_grid_pixel.wgsl"
 
 // The accumulated image: one linear HDR colour a pixel, row-major at the screen's width.
 @group(1) @binding(40) var<storage, read_write> stochastic_history: array<vec4<f32>>;
@@ -23,21 +36,38 @@ fn luminance(c: vec3<f32>) -> f32 {
     return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
 }
 
+// True when the light's radius reaches point `p`: the windowed falloff's `in_range`
+// (common/shade.wgsl), so the light is in the list of every tile that holds `p`.
+fn reaches(light: u32, p: vec3<f32>) -> bool {
+    let d = shading_lights[light].position - p;
+    let r = shading_lights[light].radius;
+    return dot(d, d) < r * r;
+}
+
 // This frame's estimate of the pixel's light (steps 1 and 2), without the unlit term.
-fn stochastic_estimate(g: GSample, pixel: u32) -> vec3<f32> {
+fn stochastic_estimate(g: GSample, p: vec2<u32>, pixel: u32) -> vec3<f32> {
     let n = lighting.num_lights;
     if n == 0u {
         return vec3<f32>(0.0);
     }
     let v = view_vector(g.world);
     let frame = traced_band.frame;
-    let count = f32(n);
+    let list = pixel_list(p, g.dist);
+    let m_near = select(0u, traced_band.candidates, list.count > 0u);
+    let m_far = traced_band.far_candidates;
+    let total = f32(m_near + m_far);
     var r = reservoir_empty();
-    for (var k = 0u; k < traced_band.candidates; k++) {
-        let light = min(u32(rand01(pixel, frame, 2u * k) * count), n - 1u);
-        let p_hat = luminance(shade_light(light, g.world, g.normal, v, g.surface));
-        // Source pdf 1 / n: the candidate's weight is p_hat n.
-        reservoir_update(&r, light, p_hat * count, p_hat, rand01(pixel, frame, 2u * k + 1u));
+    for (var k = 0u; k < m_near + m_far; k++) {
+        let near = k < m_near;
+        let count = select(n, list.count, near);
+        let i = min(u32(rand01(pixel, frame, 2u * k) * f32(count)), count - 1u);
+        let light = select(i, light_indices[list.first + i], near);
+        var p_hat = 0.0;
+        if reaches(light, g.world) == near {
+            p_hat = luminance(shade_light(light, g.world, g.normal, v, g.surface));
+        }
+        let m = select(m_far, m_near, near);
+        reservoir_update(&r, light, p_hat * f32(count) * total / f32(m), p_hat, rand01(pixel, frame, 2u * k + 1u));
     }
     let w = reservoir_weight(r);
     if w <= 0.0 {
@@ -54,7 +84,7 @@ fn shade_lights_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     let pixel = p.y * view.screen.x + p.x;
-    let c = stochastic_estimate(g, pixel);
+    let c = stochastic_estimate(g, p, pixel);
     let n = traced_band.accumulated;
     var mean = c;
     if n > 0u {

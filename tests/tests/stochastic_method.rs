@@ -5,8 +5,10 @@
 //! - **Unbiased.** Without history, the mean of many frames (each its own seed) converges to
 //!   the truth: the image's summed error stays within a bound derived from the frames'
 //!   sample variance ([`unbiased_within`]), and hardly any pixel strays beyond its own
-//!   bound. The same check rejects the truth scaled by 2% and the image without shadows
-//!   (negative tests).
+//!   bound. The lights' radii are short, so both candidate sources matter (the pixel's list
+//!   for the lights whose radius reaches it, every light for the rest). The same check
+//!   rejects the truth scaled by 2%, the image without shadows, and the method without far
+//!   candidates (negative tests).
 //! - **History.** A still view's accumulated image approaches the truth as frames add up;
 //!   after the camera moves, or the lights are moved, the next frame is exactly that
 //!   frame's own estimate (no ghost of what came before).
@@ -43,19 +45,24 @@ const PIXEL_OUTLIERS: f64 = 0.01;
 /// A pixel's own bound, in standard errors.
 const PIXEL_Z: f64 = 5.0;
 
+/// The lights' threshold: radii of 3.5 to 5.3 m, so each pixel's list holds some lights
+/// (the near candidates' source) and the rest reach it only beyond their radius (the far
+/// candidates').
+const THRESHOLD: f32 = 0.5;
+
 fn lights() -> Vec<Light> {
     let mut v = Vec::new();
     // A ring of low lights around the cube (each shadows part of the floor) and two above.
     for k in 0..8 {
         let a = k as f32 * std::f32::consts::TAU / 8.0;
         let c = Vec3::new(0.5 + 0.5 * a.cos(), 0.6, 0.5 + 0.5 * a.sin());
-        v.push(Light::point(Vec3::new(3.0 * a.cos(), 0.7, 3.0 * a.sin()), c, 6.0, 0.01).expect("light"));
+        v.push(Light::point(Vec3::new(3.0 * a.cos(), 0.7, 3.0 * a.sin()), c, 6.0, THRESHOLD).expect("light"));
     }
-    v.push(Light::point(Vec3::new(0.3, 4.0, 0.2), Vec3::ONE, 12.0, 0.01).expect("light"));
-    v.push(Light::point(Vec3::new(-4.0, 2.5, -3.0), Vec3::new(0.4, 0.6, 1.0), 10.0, 0.01).expect("light"));
+    v.push(Light::point(Vec3::new(0.3, 4.0, 0.2), Vec3::ONE, 12.0, THRESHOLD).expect("light"));
+    v.push(Light::point(Vec3::new(-4.0, 2.5, -3.0), Vec3::new(0.4, 0.6, 1.0), 10.0, THRESHOLD).expect("light"));
     let spot = Vec3::new(2.5, 3.5, 2.5);
     v.push(
-        Light::spot(spot, (Vec3::new(-0.5, 0.0, -0.5) - spot).normalize(), Vec3::ONE, 14.0, 0.4, 0.6, 0.01)
+        Light::spot(spot, (Vec3::new(-0.5, 0.0, -0.5) - spot).normalize(), Vec3::ONE, 14.0, 0.4, 0.6, THRESHOLD)
             .expect("spot"),
     );
     v
@@ -83,8 +90,20 @@ fn fixture(ctx: &GpuContext) -> (Fixture, Scene) {
 }
 
 fn renderer(ctx: &GpuContext, f: &Fixture, method: Method, (candidates, accumulate): (u32, u32)) -> FrameRenderer {
+    renderer_far(ctx, f, method, (candidates, 2), accumulate)
+}
+
+/// [`renderer`] with `(near, far)` candidates.
+fn renderer_far(
+    ctx: &GpuContext,
+    f: &Fixture,
+    method: Method,
+    (near, far): (u32, u32),
+    accumulate: u32,
+) -> FrameRenderer {
     let mut s = FrameSettings::of(method);
-    s.knobs.candidates = candidates;
+    s.knobs.candidates = near;
+    s.knobs.far_candidates = far;
     s.knobs.accumulate = accumulate;
     FrameRenderer::new(ctx, &f.scene, &f.lights, W, H, s).expect("renderer")
 }
@@ -163,16 +182,14 @@ fn unbiased_within(m: &Moments, truth: &[f64]) -> Result<f64, String> {
     Ok(z)
 }
 
-/// The raw estimator's frames (no history) of the stochastic method, their moments, and the
-/// truth, through camera A.
-fn raw_frames_and_truth(ctx: &GpuContext) -> (Moments, Vec<f64>, Fixture) {
+/// The raw estimator's frames (no history) of the stochastic method with `(near, far)`
+/// candidates, their moments, and the truth, through camera A.
+fn raw_frames_and_truth(ctx: &GpuContext, candidates: (u32, u32)) -> (Moments, Vec<f64>, Fixture) {
     let (f, _) = fixture(ctx);
     let cam = camera(EYE_A);
     let mut truth_r = renderer(ctx, &f, Method::TRUTH, (1, 0));
     let truth = frame(ctx, &mut truth_r, &f, &cam);
-    // Four candidates of eleven lights: a pixel often keeps a light the truth weighs
-    // little, so the weights' every term is exercised.
-    let mut r = renderer(ctx, &f, Method::Stochastic, (4, 0));
+    let mut r = renderer_far(ctx, &f, Method::Stochastic, candidates, 0);
     let frames: Vec<Vec<f64>> = (0..FRAMES).map(|_| frame(ctx, &mut r, &f, &cam)).collect();
     assert!(frames[0] != frames[1], "two frames drew the same numbers: the seed does not change");
     (Moments::of(&frames), truth, f)
@@ -183,7 +200,9 @@ fn raw_frames_and_truth(ctx: &GpuContext) -> (Moments, Vec<f64>, Fixture) {
 #[test]
 fn without_history_the_mean_of_frames_converges_to_the_truth() {
     let ctx = gpu();
-    let (m, truth, f) = raw_frames_and_truth(ctx);
+    // Three near and two far candidates of eleven lights: a pixel often keeps a light the
+    // truth weighs little, so the weights' every term is exercised.
+    let (m, truth, f) = raw_frames_and_truth(ctx, (3, 2));
     let lit = truth.iter().filter(|&&t| t > 1e-4).count();
     assert!(lit > truth.len() / 2, "the view shows lit surfaces ({lit} of {} pixels)", truth.len());
     let z = unbiased_within(&m, &truth).unwrap_or_else(|e| panic!("the stochastic method is biased: {e}"));
@@ -199,6 +218,17 @@ fn without_history_the_mean_of_frames_converges_to_the_truth() {
     let dark: f64 = truth.iter().zip(&unshadowed).map(|(t, u)| u - t).sum();
     assert!(dark > 0.05 * truth.iter().sum::<f64>(), "the cube's shadows hold light back ({dark})");
     unbiased_within(&m, &unshadowed).expect_err("an image without shadows must be rejected");
+}
+
+/// Without far candidates the method leaves out the light from beyond each light's radius
+/// (the cutoff's share, by design): the same check rejects it against the truth, so the far
+/// lights carry light in this scene and the test above needs its far candidates to pass.
+#[test]
+fn without_far_candidates_the_cutoffs_share_is_missing() {
+    let ctx = gpu();
+    let (m, truth, _) = raw_frames_and_truth(ctx, (3, 0));
+    let e = unbiased_within(&m, &truth).expect_err("no far candidates must miss the light beyond the radii");
+    assert!(e.contains("standard errors"), "{e}");
 }
 
 /// Mean absolute luminance error against `truth`.

@@ -6,8 +6,10 @@
 //!
 //! 1. **Candidates.** `M` lights drawn uniformly (`q = 1 / N`) from the pixel's candidate
 //!    set (its tile's list, or every light), each draw from [`rand01`] of a hash of (pixel,
-//!    frame, draw), so the GPU can draw the same. (A light tree's source pdf, the issue's
-//!    next source, comes with its own draw.)
+//!    frame, draw), so the GPU can draw the same ([`resample`]). The method draws from two
+//!    sources that split the lights ([`resample_near_far`]): the pixel's list for the
+//!    lights whose radius reaches it, every light for the rest. (A light tree's source
+//!    pdf, the next source, comes with its own draw.)
 //! 2. **Target.** `p_hat(l)`: the luminance of the light's unshadowed contribution at the
 //!    surface point ([`unshadowed`]: `brdf_cos` x radiance x attenuation x cone), the
 //!    integrand without its visibility; positive wherever the integrand is.
@@ -137,6 +139,51 @@ pub fn resample(
         let light = candidates[i as usize];
         let p_hat = luminance(unshadowed(&lights[light as usize], (p, n, v), s, cutoff));
         r.update(light, (p_hat / q, p_hat), rand01(pixel, frame, 2 * k + 1));
+    }
+    r
+}
+
+/// True when the point `p` is inside `light`'s radius: the lights whose windowed
+/// contribution can be non-zero there, every one of which the culling puts in the list of
+/// the pixel's tile (no false negatives). `shaders/common/stochastic_shade.wgsl`'s
+/// `reaches`, the same comparison as the windowed falloff's `in_range`.
+pub fn reaches(light: &Light, p: Vec3) -> bool {
+    (light.position - p).length_squared() < light.radius * light.radius
+}
+
+/// Steps 1-3 with two candidate sources whose domains split the lights (the method's
+/// sampler): `m_near` candidates drawn uniformly from the pixel's `list` (the light grid's:
+/// it holds every light that [`reaches`] the point) that count only when they reach it, and
+/// `m_far` drawn uniformly from every light that count only when they do not. Each
+/// candidate's weight is `p_hat / (q_s M_s)` for its source `s` (the generalised RIS of
+/// Lin et al. 2022 with disjoint domains: a light is made by one source only), scaled by
+/// the reservoir's total `M` so that [`Reservoir::weight`] (which divides by it) is the
+/// estimator's `W`. The near lights' share then costs few candidates (a short list) and
+/// the far lights' share (beyond the radius: what the cutoff drops) is still sampled;
+/// `m_far = 0` drops it (the cutoff's bias). Draw `k` (near first, then far) uses
+/// `rand01(pixel, frame, 2k)` to pick and `2k + 1` to resample.
+pub fn resample_near_far(
+    lights: &[Light],
+    list: &[u32],
+    (p, n, v): (Vec3, Vec3, Vec3),
+    s: &Surface,
+    (m_near, m_far): (u32, u32),
+    (pixel, frame): (u32, u32),
+) -> Reservoir {
+    let mut r = Reservoir::default();
+    let m_near = if list.is_empty() { 0 } else { m_near };
+    let total = (m_near + m_far) as f32;
+    let sources: [(u32, u32, bool); 2] = [(m_near, list.len() as u32, true), (m_far, lights.len() as u32, false)];
+    let mut draw = 0;
+    for (m, count, near) in sources {
+        for _ in 0..m {
+            let i = ((rand01(pixel, frame, 2 * draw) * count as f32) as u32).min(count - 1);
+            let light = if near { list[i as usize] } else { i };
+            let l = &lights[light as usize];
+            let p_hat = if reaches(l, p) == near { luminance(unshadowed(l, (p, n, v), s, false)) } else { 0.0 };
+            r.update(light, (p_hat * count as f32 * total / m as f32, p_hat), rand01(pixel, frame, 2 * draw + 1));
+            draw += 1;
+        }
     }
     r
 }

@@ -18,7 +18,9 @@ use rand_pcg::Pcg64;
 use tiledlight_cull::brdf::Surface;
 use tiledlight_cull::light::{Light, LightKind};
 use tiledlight_cull::raycast::Triangles;
-use tiledlight_cull::stochastic::{estimate, luminance, rand01, resample, unshadowed, Reservoir};
+use tiledlight_cull::stochastic::{
+    estimate, luminance, rand01, reaches, resample, resample_near_far, unshadowed, Reservoir,
+};
 
 /// A surface point: position, normal, direction to the eye, material.
 struct Pixel {
@@ -34,9 +36,14 @@ fn quad(tris: &mut Vec<[Vec3; 3]>, a: Vec3, b: Vec3, c: Vec3, d: Vec3) {
     tris.push([a, c, d]);
 }
 
-/// The scene: a floor of 8 x 8 m at y = 0, a 1 m box at the centre, a 3 m wall 2 m high at
+/// The scene (lights of threshold 0.02): a floor of 8 x 8 m at y = 0, a 1 m box at the centre, a 3 m wall 2 m high at
 /// z = -1.5; 32 point lights and 8 spots pointing down, 0.3 to 2.5 m up.
 fn scene() -> (Triangles, Vec<Light>, Vec<Pixel>) {
+    scene_at(0.02)
+}
+
+/// [`scene`] with the lights' radii set by `threshold` (their intensity there).
+fn scene_at(threshold: f32) -> (Triangles, Vec<Light>, Vec<Pixel>) {
     let mut tris = Vec::new();
     let v = Vec3::new;
     quad(&mut tris, v(-4.0, 0.0, -4.0), v(4.0, 0.0, -4.0), v(4.0, 0.0, 4.0), v(-4.0, 0.0, 4.0));
@@ -58,10 +65,10 @@ fn scene() -> (Triangles, Vec<Light>, Vec<Pixel>) {
         let color = v(rng.random_range(0.2..1.0), rng.random_range(0.2..1.0), rng.random_range(0.2..1.0));
         let intensity = rng.random_range(0.5..4.0);
         let light = if k < 32 {
-            Light::point(position, color, intensity, 0.02).unwrap()
+            Light::point(position, color, intensity, threshold).unwrap()
         } else {
             let kind = Light::spot_kind(v(rng.random_range(-0.3..0.3), -1.0, 0.0), 0.4, 0.7).unwrap();
-            Light { kind, ..Light::point(position, color, intensity, 0.02).unwrap() }
+            Light { kind, ..Light::point(position, color, intensity, threshold).unwrap() }
         };
         assert!(matches!(light.kind, LightKind::Point) == (k < 32));
         lights.push(light);
@@ -105,10 +112,21 @@ fn unbiased(
     frames: u32,
     sample: impl Fn(u32, &Pixel, u32) -> f32,
 ) -> Result<(), String> {
+    unbiased_against(what, (bvh, pixels), |px| truth(bvh, lights, px, cutoff), frames, sample)
+}
+
+/// [`unbiased`] against the truth `truth(pixel)`.
+fn unbiased_against(
+    what: &str,
+    (_bvh, pixels): (&Triangles, &[Pixel]),
+    truth: impl Fn(&Pixel) -> f64,
+    frames: u32,
+    sample: impl Fn(u32, &Pixel, u32) -> f32,
+) -> Result<(), String> {
     let (mut z2_sum, mut n_z) = (0.0f64, 0usize);
     let mut worst = (0.0f64, 0usize);
     for (i, px) in pixels.iter().enumerate() {
-        let t = truth(bvh, lights, px, cutoff);
+        let t = truth(px);
         let xs: Vec<f64> = (0..frames).map(|f| f64::from(sample(i as u32, px, f))).collect();
         let k = xs.len() as f64;
         let mean = xs.iter().sum::<f64>() / k;
@@ -190,4 +208,85 @@ fn a_sampler_with_the_wrong_pdf_is_rejected() {
     };
     let verdict = unbiased("wrong pdf", (&bvh, &lights, &pixels), true, FRAMES, wrong);
     assert!(verdict.is_err(), "a sampler whose pdf does not match its draw passed as unbiased");
+}
+
+/// The lights' threshold of the two-source tests: radii of 1.3 to 3.7 m on the 8 m floor.
+const NEAR_FAR_THRESHOLD: f32 = 0.3;
+
+/// The pixel's list as the culling would give it: every light whose radius reaches the
+/// point, and (conservatively, as a tile's list does) every third other light.
+fn list_of(lights: &[Light], px: &Pixel) -> Vec<u32> {
+    (0..lights.len() as u32).filter(|&l| reaches(&lights[l as usize], px.p) || l % 3 == 0).collect()
+}
+
+/// The method's two sources (near: the pixel's list, for the lights whose radius reaches
+/// it; far: every light, for the rest) converge to the truth without the cutoff; with no
+/// far candidates, to the truth of the near lights alone (the cutoff's bias, by design). The
+/// radii are small enough that both sources matter: some pixels reach a few lights, most
+/// lights are far.
+#[test]
+fn near_and_far_candidates_converge_to_the_truth() {
+    let (bvh, lights, pixels) = scene_at(NEAR_FAR_THRESHOLD);
+    let near_share: usize = pixels.iter().map(|px| lights.iter().filter(|l| reaches(l, px.p)).count()).sum();
+    assert!(
+        near_share > pixels.len() && near_share < pixels.len() * lights.len() / 2,
+        "both sources are exercised ({near_share} near pairs)"
+    );
+    let near_far = |m: (u32, u32)| {
+        let (bvh, lights) = (&bvh, &lights);
+        move |i: u32, px: &Pixel, f: u32| {
+            let at = (px.p, px.n, px.v);
+            let r = resample_near_far(lights, &list_of(lights, px), at, &px.s, m, (i, f));
+            luminance(estimate(lights, &r, at, &px.s, false, |l| visible(bvh, px, &lights[l as usize])))
+        }
+    };
+    unbiased("near 4 + far 2", (&bvh, &lights, &pixels), false, FRAMES, near_far((4, 2))).unwrap();
+    // No far candidates: the near lights' truth (unwindowed), nothing of the far ones.
+    let near_only: Vec<Vec<Light>> = pixels
+        .iter()
+        .map(|px| lights.iter().map(|l| if reaches(l, px.p) { *l } else { Light { intensity: 0.0, ..*l } }).collect())
+        .collect();
+    let index: std::collections::HashMap<[u32; 3], usize> =
+        pixels.iter().enumerate().map(|(i, px)| (px.p.to_array().map(f32::to_bits), i)).collect();
+    let near_only_truth = |px: &Pixel| &near_only[index[&px.p.to_array().map(f32::to_bits)]];
+    let verdict = unbiased_against(
+        "near 4, no far",
+        (&bvh, &pixels),
+        |px| truth(&bvh, near_only_truth(px), px, false),
+        FRAMES,
+        near_far((4, 0)),
+    );
+    verdict.unwrap();
+    // And that truth is not the whole truth: the far lights' share is what `m_far` buys.
+    let whole: f64 = pixels.iter().map(|px| truth(&bvh, &lights, px, false)).sum();
+    let near: f64 = pixels.iter().map(|px| truth(&bvh, near_only_truth(px), px, false)).sum();
+    assert!(near < 0.95 * whole, "the far lights carry light ({near} of {whole})");
+}
+
+/// The negative test of the two sources: a far source that does not leave out the near
+/// lights counts them twice (once from each source), and the same statistic rejects it.
+#[test]
+fn near_and_far_sources_that_overlap_are_rejected() {
+    let (bvh, lights, pixels) = scene_at(NEAR_FAR_THRESHOLD);
+    let n = lights.len() as u32;
+    let overlapping = |i: u32, px: &Pixel, f: u32| {
+        let at = (px.p, px.n, px.v);
+        let list = list_of(&lights, px);
+        let mut r = Reservoir::default();
+        let (m_near, m_far) = (4u32, 2u32);
+        for k in 0..m_near + m_far {
+            let near = k < m_near;
+            let count = if near { list.len() as u32 } else { n };
+            let j = ((rand01(i, f, 2 * k) * count as f32) as u32).min(count - 1);
+            let light = if near { list[j as usize] } else { j };
+            let l = &lights[light as usize];
+            // The bug: the far source keeps the near lights too.
+            let p_hat = if !near || reaches(l, px.p) { luminance(unshadowed(l, at, &px.s, false)) } else { 0.0 };
+            let m = if near { m_near } else { m_far };
+            r.update(light, (p_hat * count as f32 * 6.0 / m as f32, p_hat), rand01(i, f, 2 * k + 1));
+        }
+        luminance(estimate(&lights, &r, at, &px.s, false, |l| visible(&bvh, px, &lights[l as usize])))
+    };
+    let verdict = unbiased("overlapping sources", (&bvh, &lights, &pixels), false, FRAMES, overlapping);
+    assert!(verdict.is_err(), "two sources that both make the near lights passed as unbiased");
 }

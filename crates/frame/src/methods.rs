@@ -33,10 +33,11 @@ pub enum Method {
         /// Keep the windowed falloff with its radius cutoff.
         cutoff: bool,
     },
-    /// Every light shadowed, stochastically (issue 48): the visibility buffer's surface; a
-    /// few candidate lights a pixel drawn from every light, one kept in proportion to its
-    /// unshadowed contribution and shadowed by a ray through the scene's BVH; the frames
-    /// of a still view accumulated. No cutoff: it converges to the truth.
+    /// Every light shadowed, stochastically (issue 48): the visibility buffer's surface and
+    /// its culling; a few candidate lights a pixel drawn from its tile's list and from every
+    /// light, one kept in proportion to its unshadowed contribution and shadowed by a ray
+    /// through the scene's BVH; the frames of a still view accumulated. No cutoff: it
+    /// converges to the truth.
     Stochastic,
 }
 
@@ -60,7 +61,7 @@ impl Method {
     /// settings' table read (`Features::traits`, `Knob::applies`).
     pub const fn traits(self) -> MethodTraits {
         MethodTraits {
-            tiled: !matches!(self, Method::BruteForce { .. } | Method::TracedReference { .. } | Method::Stochastic),
+            tiled: !matches!(self, Method::BruteForce { .. } | Method::TracedReference { .. }),
             gbuffer: matches!(self, Method::TiledDeferred),
             visibility_buffer: matches!(self, Method::Visibility | Method::TracedReference { .. } | Method::Stochastic),
             traced: matches!(self, Method::TracedReference { .. } | Method::Stochastic),
@@ -96,7 +97,7 @@ impl Method {
 
     /// True for the references (every light, no tiles): brute force and the traced one.
     pub fn is_reference(self) -> bool {
-        !self.is_tiled() && !self.traits().stochastic
+        !self.is_tiled()
     }
 
     /// False for the references without the radius window (plain inverse-square): every
@@ -210,6 +211,9 @@ mod tests {
         let references: Vec<Method> = Method::ALL.into_iter().filter(|m| m.is_reference()).collect();
         assert!(!references.contains(&Method::Stochastic), "the stochastic method is no reference");
         assert_eq!(references.len(), 4);
-        assert_eq!(with(|t| t.tiled), [Method::ForwardPlus, Method::TiledDeferred, Method::Visibility]);
+        assert_eq!(
+            with(|t| t.tiled),
+            [Method::ForwardPlus, Method::TiledDeferred, Method::Visibility, Method::Stochastic]
+        );
     }
 }

@@ -104,12 +104,13 @@ pub const TRACED: Registration = Registration {
     build: REGISTRATION.build,
 };
 
-/// The stochastic method: the visibility buffer's raster, the sampler's pass (one sample a
-/// pixel: MSAA is refused when it is built). No culling, no shadow maps.
+/// The stochastic method: the visibility buffer's raster, the lights' culling (its lists
+/// are the near candidates' source), the sampler's pass (one sample a pixel: MSAA and VPLs
+/// are refused when it is built). No shadow maps.
 pub const STOCHASTIC: Registration = Registration {
     renders: |m| m == Method::Stochastic,
     building: "building the stochastic method",
-    steps: |_| vec![Step::VisibilityRaster, Step::StochasticShade],
+    steps: |f| tiled_steps(f, &[Step::VisibilityRaster, Step::Cull], Step::StochasticShade, None),
     targets,
     build: REGISTRATION.build,
 };
@@ -156,8 +157,7 @@ impl VisibilityFrame {
             (settings.knobs.raster, ComputeRasterOptions::of(&settings.knobs), target_handles(targets).0),
             memory,
         )?;
-        let traced = settings.method.is_traced();
-        let culling = (!traced)
+        let culling = (!settings.method.is_traced_reference())
             .then(|| {
                 LightCulling::with_drop_light(
                     device,
@@ -170,23 +170,21 @@ impl VisibilityFrame {
                 )
             })
             .transpose()?;
-        let shade = match &culling {
-            Some(c) => {
-                memory.extend(&c.memory);
-                ShadeLights::Lists(c)
-            }
-            None => {
-                let bvh = scene.trace.as_ref().ok_or_else(|| {
-                    GpuError::Config(format!(
-                        "the {} needs the scene's BVH: build it with SceneGpu::add_trace before the renderer",
-                        settings.method.label().to_lowercase()
-                    ))
-                })?;
-                match settings.method {
-                    Method::Stochastic => ShadeLights::Stochastic { bvh },
-                    m => ShadeLights::Traced { bvh, cutoff: m.has_cutoff() },
-                }
-            }
+        if let Some(c) = &culling {
+            memory.extend(&c.memory);
+        }
+        let bvh = || {
+            scene.trace.as_ref().ok_or_else(|| {
+                GpuError::Config(format!(
+                    "the {} needs the scene's BVH: build it with SceneGpu::add_trace before the renderer",
+                    settings.method.label().to_lowercase()
+                ))
+            })
+        };
+        let shade = match (&culling, settings.method) {
+            (Some(culling), Method::Stochastic) => ShadeLights::Stochastic { bvh: bvh()?, culling },
+            (Some(c), _) => ShadeLights::Lists(c),
+            (None, m) => ShadeLights::Traced { bvh: bvh()?, cutoff: m.has_cutoff() },
         };
         let shading = VisibilityShading::new(
             &shared.lighting_inputs(device, views, lights, features),
@@ -199,8 +197,8 @@ impl VisibilityFrame {
         let progress = (settings.method.is_traced_reference() && settings.traced_progress)
             .then(|| (ctx.device.clone(), ctx.queue.clone()));
         let knobs = &settings.knobs;
-        let accumulation =
-            (settings.method == Method::Stochastic).then(|| Accumulation::new(knobs.candidates, knobs.accumulate));
+        let accumulation = (settings.method == Method::Stochastic)
+            .then(|| Accumulation::new((knobs.candidates, knobs.far_candidates), knobs.accumulate));
         Ok(Self { raster, culling, shading, progress, accumulation })
     }
 
@@ -251,12 +249,13 @@ impl MethodFrame for VisibilityFrame {
                 let r = &mut rec.recording;
                 culling.record(r.encoder, r.timer, r.view, "visibility.cull");
                 shared.record_vpl_cull(rec);
-                rec.step(Step::VisibilityShade);
-                self.shading.record(rec, &culling.grid);
-            }
-            None if self.accumulation.is_some() => {
-                rec.step(Step::StochasticShade);
-                self.shading.record_traced(rec, None);
+                if self.accumulation.is_some() {
+                    rec.step(Step::StochasticShade);
+                    self.shading.record_stochastic(rec, &culling.grid);
+                } else {
+                    rec.step(Step::VisibilityShade);
+                    self.shading.record(rec, &culling.grid);
+                }
             }
             None => {
                 rec.step(Step::TracedShade);

@@ -410,12 +410,20 @@ knobs! {
     "shadow-format", "shadow depth format", "FORMAT", Control::Choice, applies(shadow_mapped), check(no_check),
     needs(Shadows);
 
-    /// The stochastic method's candidates a pixel each frame: lights drawn uniformly from
-    /// every light, one kept in proportion to its unshadowed contribution and shadowed by
-    /// a ray. More candidates cost more shading (no more rays) and leave less noise.
+    /// The stochastic method's near candidates a pixel each frame: lights drawn from the
+    /// pixel's list in the light grid, for the lights whose radius reaches it. One of all
+    /// the candidates is kept in proportion to its unshadowed contribution and shadowed by
+    /// a ray: more cost more shading (no more rays) and leave less noise.
     candidates: u32 = 16;
-    "candidates", "candidates a pixel", "M", Control::Slider(1.0, 256.0), applies(|m| m.stochastic),
+    "candidates", "near candidates a pixel", "M", Control::Slider(1.0, 256.0), applies(|m| m.stochastic),
     check(|v| if (1..=4096).contains(&v) { Ok(()) } else { Err("must be between 1 and 4096".into()) });
+
+    /// The stochastic method's far candidates a pixel each frame: lights drawn from every
+    /// light, for those whose radius does not reach the pixel (what the cutoff drops). 0
+    /// leaves them out: faster, and biased by exactly the cutoff's share.
+    far_candidates: u32 = 4;
+    "far-candidates", "far candidates a pixel", "M", Control::Slider(0.0, 64.0), applies(|m| m.stochastic),
+    check(|v| if v <= 4096 { Ok(()) } else { Err("must be at most 4096".into()) });
 
     /// The stochastic method's history: a pixel's image is the mean of up to this many
     /// frames since the view or the lights last changed (a moving average beyond); 0 shows

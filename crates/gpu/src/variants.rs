@@ -998,10 +998,13 @@ impl ShaderKey for TracedKey {
 /// The stochastic method's material-and-lights pass (`stochastic.wgsl`): the traced
 /// kernel (the visibility buffer's surface, `TRACED`) with the sampler's light loop
 /// (`STOCHASTIC`, `shaders/common/stochastic_shade.wgsl`): a few candidates a pixel, one
-/// kept, one shadow ray. No cutoff (it converges to the truth), one sample a pixel (MSAA is
+/// kept, one shadow ray; the near candidates from the light grid's lists (`HALF_Z`,
+/// `CLUSTERED` lookups). No cutoff (it converges to the truth), one sample a pixel (MSAA is
 /// refused), no VPLs (refused: they are not sampled yet), no shadow maps and no light grid.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct StochasticKey {
+    /// The near candidates' list lookup.
+    pub lookup: GridLookup,
     /// `SPOT_LIGHTS`.
     pub spots: bool,
     /// `TRACE_MASKS`: some casting material is alpha-masked.
@@ -1014,10 +1017,12 @@ impl StochasticKey {
     /// Every value.
     pub fn all() -> Vec<Self> {
         let mut v = Vec::new();
-        for spots in BOOLS {
-            for masks in BOOLS {
-                for materials in MaterialKey::all() {
-                    v.push(Self { spots, masks, materials });
+        for lookup in GridLookup::ALL {
+            for spots in BOOLS {
+                for masks in BOOLS {
+                    for materials in MaterialKey::all() {
+                        v.push(Self { lookup, spots, masks, materials });
+                    }
                 }
             }
         }
@@ -1033,6 +1038,7 @@ impl ShaderKey for StochasticKey {
     fn defines(&self) -> Vec<&'static str> {
         let mut d =
             vec![Define::Visibility.name(), Define::Traced.name(), Define::Stochastic.name(), Define::NoCutoff.name()];
+        self.lookup.defines(&mut d);
         flag(&mut d, self.spots, Define::SpotLights);
         flag(&mut d, self.masks, Define::TraceMasks);
         d.extend(self.materials.defines());
@@ -1168,8 +1174,8 @@ mod tests {
         // cutoff x spots x VPLs x masks x 5 material paths, per sample mode.
         assert_eq!(count("traced.wgsl"), 16 * 5);
         assert_eq!(count("traced_msaa.wgsl"), 16 * 5);
-        // spots x masks x 5 material paths, one sample a pixel.
-        assert_eq!(count("stochastic.wgsl"), 4 * 5);
+        // 3 lookups x spots x masks x 5 material paths, one sample a pixel.
+        assert_eq!(count("stochastic.wgsl"), 3 * 4 * 5);
         assert_eq!(count("trace_rays.wgsl"), 2);
         assert_eq!(count("visibility_msaa.wgsl"), 90);
         // 4 pre-pass and 4 ID-raster variants, and 3 masked ones resolving IDs with atomics

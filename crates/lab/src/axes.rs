@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, ensure, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
+use tiledlight_frame::Method;
 use tiledlight_gpu::knobs::{Kind, Knobs, KNOBS};
 use tiledlight_setup::Settings;
 
@@ -71,11 +72,8 @@ pub const MAX_POINTS: usize = 10_000;
 pub const AXES: &[(&str, &str)] = &[
     ("lights", "random point lights (integer; ranges allowed)"),
     ("spot-lights", "random spot lights (integer; ranges allowed)"),
-    (
-        "method",
-        "forward-plus | deferred | visibility | brute-force | brute-force-no-cutoff | traced-reference | \
-         traced-reference-cutoff",
-    ),
+    // The values are every method's name ([`axes`] writes them from `Method::ALL`).
+    ("method", ""),
     ("grid-objects", "grid objects of the default scene, 0..280 (integer; ranges allowed)"),
     ("materials", "textured materials of --scene materials, 1..4096 (integer; ranges allowed)"),
     ("density", "grid object tessellation: low | medium | high"),
@@ -118,7 +116,8 @@ pub fn axes() -> Vec<(&'static str, String)> {
         };
         (k.name, format!("{} ({values})", k.label))
     });
-    AXES.iter().map(|(n, d)| (*n, d.to_string())).chain(rows).collect()
+    let methods = || Method::ALL.iter().map(|m| m.name()).collect::<Vec<_>>().join(" | ");
+    AXES.iter().map(|&(n, d)| (n, if n == "method" { methods() } else { d.to_string() })).chain(rows).collect()
 }
 
 /// Every axis name, comma-separated: the one list `sweep --help`, `accuracy --help`, the

@@ -468,9 +468,9 @@ impl Prepared {
                 n => format!("a still view's last {n} frames accumulated"),
             };
             parts.push(format!(
-                "{} candidates a pixel from every light, one kept by its contribution and shadowed by a ray, no \
-                 cutoff, {history}",
-                a.knobs.candidates
+                "{} candidates a pixel from its list and {} from every light, one kept by its contribution and \
+                 shadowed by a ray, no cutoff, {history}",
+                a.knobs.candidates, a.knobs.far_candidates
             ));
         } else if t.traced {
             let falloff = if t.cutoff { "the radius cutoff" } else { "no cutoff" };

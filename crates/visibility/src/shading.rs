@@ -64,6 +64,10 @@ const CS: wgpu::ShaderStages = wgpu::ShaderStages::COMPUTE;
 /// Stride of the traced bands' uniforms: wgpu's dynamic-offset alignment.
 const BAND_STRIDE: u64 = 256;
 
+/// Size of one band's uniform (`TracedBand`: its first row, and the stochastic method's
+/// frame parameters).
+const BAND_SIZE: u64 = 32;
+
 /// Pixel-light pairs (samples counted as pixels with MSAA) one band of the traced
 /// reference covers at most (unless that is fewer than [`TRACED_BAND_WORKGROUPS`]): 2^28,
 /// about 0.1 s on the H200, so progress comes often.
@@ -117,7 +121,7 @@ pub const VISIBILITY_GROUP: &[Binding] = &[
     TRACE[2],
     TRACE[3],
     TRACE[4],
-    Binding::uniform(38, CS).dynamic_offset(16).when(Cond::Defined(Define::Traced)),
+    Binding::uniform(38, CS).dynamic_offset(BAND_SIZE).when(Cond::Defined(Define::Traced)),
     Binding::storage_rw(39, CS).when(Cond::Defined(Define::Traced)),
     Binding::storage_rw(40, CS).when(Cond::Defined(Define::Stochastic)),
 ];
@@ -162,8 +166,10 @@ pub const TRACED_BINDINGS: PassBindings = PassBindings {
 /// [`TRACED_BINDINGS`] for the MSAA kernel (`shaders/traced_msaa.wgsl`).
 pub const TRACED_MSAA_BINDINGS: PassBindings = PassBindings { entry: "traced_msaa.wgsl", ..TRACED_BINDINGS };
 
-/// [`TRACED_BINDINGS`] for the stochastic method's kernel (`shaders/stochastic.wgsl`).
-pub const STOCHASTIC_BINDINGS: PassBindings = PassBindings { entry: "stochastic.wgsl", ..TRACED_BINDINGS };
+/// The bindings of the stochastic method's kernel (`shaders/stochastic.wgsl`): the traced
+/// reference's, and the light grid with its tile ranges (3; the ranges read only with
+/// `HALF_Z`), whose lists are its near candidates' source.
+pub const STOCHASTIC_BINDINGS: PassBindings = PassBindings { entry: "stochastic.wgsl", ..VISIBILITY_BINDINGS };
 
 /// Where each pixel's lights come from.
 #[derive(Clone, Copy)]
@@ -184,6 +190,8 @@ pub enum ShadeLights<'a> {
     Stochastic {
         /// The scene's hierarchy.
         bvh: &'a GpuBvh,
+        /// The light grid's culling: each pixel's list is its near candidates' source.
+        culling: &'a LightCulling,
     },
 }
 
@@ -192,7 +200,7 @@ impl<'a> ShadeLights<'a> {
     fn bvh(self) -> Option<&'a GpuBvh> {
         match self {
             ShadeLights::Lists(_) => None,
-            ShadeLights::Traced { bvh, .. } | ShadeLights::Stochastic { bvh } => Some(bvh),
+            ShadeLights::Traced { bvh, .. } | ShadeLights::Stochastic { bvh, .. } => Some(bvh),
         }
     }
 }
@@ -310,8 +318,13 @@ impl VisibilityShading {
                 TRACED_BINDINGS,
                 16,
             ),
-            ShadeLights::Stochastic { bvh } => (
-                Box::new(StochasticKey { spots: features.spot_lights, masks: bvh.masks.is_some(), materials }),
+            ShadeLights::Stochastic { bvh, culling } => (
+                Box::new(StochasticKey {
+                    lookup: lookup(culling),
+                    spots: features.spot_lights,
+                    masks: bvh.masks.is_some(),
+                    materials,
+                }),
                 STOCHASTIC_BINDINGS,
                 16,
             ),
@@ -408,7 +421,7 @@ impl VisibilityShading {
                 resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
                     buffer: &t.bands_buffer,
                     offset: 0,
-                    size: wgpu::BufferSize::new(16),
+                    size: wgpu::BufferSize::new(BAND_SIZE),
                 }),
             });
             bind.push(buffer_entry(39, &t.stats));
@@ -465,14 +478,18 @@ impl VisibilityShading {
                     &constants,
                 )
             }
-            ShadeLights::Traced { bvh, .. } | ShadeLights::Stochastic { bvh } => {
+            ShadeLights::Traced { bvh, .. } | ShadeLights::Stochastic { bvh, .. } => {
                 constants.extend([
                     ("TRACE_EPS", f64::from(tiledlight_cull::trace::SURFACE_EPS)),
                     ("TRACE_POSITION_EPS", f64::from(tiledlight_cull::trace::POSITION_EPS)),
                     ("TRACE_SCALE", f64::from(bvh.scale)),
                 ]);
                 let label = if stochastic { "stochastic.shade" } else { "traced.shade" };
-                compute_pipeline(device, label, &[&views.layout, &layout, texture_layout], &module, &constants)
+                let mut layouts = vec![&views.layout, &layout, texture_layout];
+                if let ShadeLights::Stochastic { culling, .. } = shade {
+                    layouts.push(culling.grid.layout());
+                }
+                compute_pipeline(device, label, &layouts, &module, &constants)
             }
         };
         let tiles = (grid.width.div_ceil(tile), grid.height.div_ceil(tile));
@@ -510,6 +527,17 @@ impl VisibilityShading {
     /// submit what the encoder holds and report progress; without, one timed dispatch
     /// covers the frame.
     pub fn record_traced(&self, r: &mut Recording<'_>, flush: Option<&mut BandFlush<'_>>) {
+        self.record_rays(r, None, flush);
+    }
+
+    /// Records the stochastic method's pass with the lists of `light_grid` (the culling
+    /// pass's, recorded before): one timed dispatch.
+    pub fn record_stochastic(&self, r: &mut Recording<'_>, light_grid: &LightGrid) {
+        self.record_rays(r, Some(light_grid), None);
+    }
+
+    /// [`Self::record_traced`], with the light grid the stochastic kernel reads.
+    fn record_rays(&self, r: &mut Recording<'_>, light_grid: Option<&LightGrid>, flush: Option<&mut BandFlush<'_>>) {
         let (encoder, timer, (views, view), scene) = (&mut *r.encoder, r.timer, r.view, r.scene);
         let Some(traced) = &self.traced else { return };
         if let Some(m) = &self.msaa {
@@ -524,6 +552,9 @@ impl VisibilityShading {
                         label: Some(traced.label),
                         timestamp_writes: t.compute_writes(),
                     });
+                    if let Some(g) = light_grid {
+                        pass.set_bind_group(3, g.bind_group(), &[]);
+                    }
                     // Timed: the whole frame in one dispatch (band 0 starts at row 0), so
                     // no band waits for the previous one's tail.
                     self.dispatch(&mut pass, (views, view), scene, Some((0, self.tiles.1)));
@@ -582,7 +613,7 @@ impl VisibilityShading {
     /// into its one band, before the frame is recorded; nothing for the other passes.
     pub fn write_stochastic_frame(&self, queue: &wgpu::Queue, p: crate::stochastic::FrameParams) {
         if let Some(t) = self.traced.as_ref().filter(|t| t.history.is_some()) {
-            let words = [p.frame, p.candidates, p.accumulated];
+            let words = [p.frame, p.candidates, p.accumulated, p.far_candidates];
             queue.write_buffer(&t.bands_buffer, 4, bytemuck::cast_slice(&words));
         }
     }

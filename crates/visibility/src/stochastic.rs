@@ -4,9 +4,11 @@
 //! loop ([`crate::shading::ShadeLights::Stochastic`], `shaders/stochastic.wgsl`, body
 //! `shaders/common/stochastic_shade.wgsl`):
 //!
-//! 1. Each frame draws `candidates` lights a pixel uniformly from every light, keeps one by
-//!    resampled importance sampling with the unshadowed contribution as the target, and
-//!    casts one shadow ray to it (`tiledlight_cull::stochastic` is the CPU twin).
+//! 1. Each frame draws `candidates` lights a pixel from its list in the light grid (the
+//!    lights whose radius reaches it) and `far_candidates` from every light (the others),
+//!    keeps one by resampled importance sampling with the unshadowed contribution as the
+//!    target, and casts one shadow ray to it (`tiledlight_cull::stochastic::
+//!    resample_near_far` is the CPU twin).
 //! 2. The pixel's estimate enters a running mean of the frames since the view or the
 //!    lights last changed ([`Accumulation::next`]): after a change the mean starts again
 //!    from this frame alone, so nothing of another view survives (no ghost, at the price of
@@ -25,8 +27,10 @@ use std::cell::Cell;
 pub struct FrameParams {
     /// The frame's number: the random numbers' seed (wraps at 2^32).
     pub frame: u32,
-    /// Candidates drawn a pixel.
+    /// Candidates drawn a pixel from its list (the lights whose radius reaches it).
     pub candidates: u32,
+    /// Candidates drawn a pixel from every light (those whose radius does not reach it).
+    pub far_candidates: u32,
     /// Frames in the history before this one (0: this frame's estimate alone).
     pub accumulated: u32,
 }
@@ -35,6 +39,7 @@ pub struct FrameParams {
 #[derive(Debug)]
 pub struct Accumulation {
     candidates: u32,
+    far_candidates: u32,
     accumulate: u32,
     frame: Cell<u32>,
     accumulated: Cell<u32>,
@@ -44,9 +49,11 @@ pub struct Accumulation {
 }
 
 impl Accumulation {
-    /// `candidates` a pixel each frame, at most `accumulate` frames of history (0: none).
-    pub fn new(candidates: u32, accumulate: u32) -> Self {
-        Self { candidates, accumulate, frame: Cell::new(0), accumulated: Cell::new(0), last_view: Cell::new(None) }
+    /// `(candidates, far_candidates)` a pixel each frame, at most `accumulate` frames of
+    /// history (0: none).
+    pub fn new((candidates, far_candidates): (u32, u32), accumulate: u32) -> Self {
+        let (frame, accumulated, last_view) = (Cell::new(0), Cell::new(0), Cell::new(None));
+        Self { candidates, far_candidates, accumulate, frame, accumulated, last_view }
     }
 
     /// The parameters of the next frame, seen through `world_to_clip`: a new seed; the
@@ -59,7 +66,7 @@ impl Accumulation {
         self.last_view.set(Some(world_to_clip));
         let accumulated = if same_view { (self.accumulated.get() + 1).min(self.accumulate) } else { 0 };
         self.accumulated.set(accumulated);
-        FrameParams { frame, candidates: self.candidates, accumulated }
+        FrameParams { frame, candidates: self.candidates, far_candidates: self.far_candidates, accumulated }
     }
 
     /// Forgets the history (the lights or the scene moved): the next frame starts a new
@@ -77,16 +84,16 @@ mod tests {
     /// a reset starts again at 0, and a limit of 0 never accumulates.
     #[test]
     fn the_history_grows_while_the_view_holds_and_restarts_when_it_moves() {
-        let a = Accumulation::new(8, 3);
+        let a = Accumulation::new((8, 2), 3);
         let still = Mat4::IDENTITY;
         let counts: Vec<u32> = (0..5).map(|_| a.next(still).accumulated).collect();
         assert_eq!(counts, [0, 1, 2, 3, 3]);
         let moved = Mat4::from_translation(glam::Vec3::X * 1e-6);
-        assert_eq!(a.next(moved), FrameParams { frame: 5, candidates: 8, accumulated: 0 });
+        assert_eq!(a.next(moved), FrameParams { frame: 5, candidates: 8, far_candidates: 2, accumulated: 0 });
         assert_eq!(a.next(moved).accumulated, 1);
         a.reset();
         assert_eq!(a.next(moved).accumulated, 0);
-        let off = Accumulation::new(8, 0);
+        let off = Accumulation::new((8, 2), 0);
         assert_eq!((0..3).map(|_| off.next(still).accumulated).collect::<Vec<_>>(), [0, 0, 0]);
         let seeds: Vec<u32> = (0..3).map(|_| off.next(still).frame).collect();
         assert_eq!(seeds, [3, 4, 5]);
