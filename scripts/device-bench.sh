@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced casters casters-curve ranking materials surface-edges stage-lights big-scene
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced stochastic casters casters-curve ranking materials surface-edges stage-lights big-scene
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -16,7 +16,7 @@ run() { # name frames args...
   local name=$prefix$1 frames=$2; shift 2
   echo "== $name: $*" | tee -a "$out/log.txt"
   timeout 300 "$bin" bench --width 1920 --height 1080 --frames "$frames" --warmup 20 --json "$out/$name.json" "$@" 2>&1 \
-    | tee -a "$out/log.txt" | grep -E "^(depth|forward|brute|deferred|visibility|cull|tonemap|shadow|blended|total|error|MSAA|light grid)"
+    | tee -a "$out/log.txt" | grep -E "^(depth|forward|brute|deferred|visibility|stochastic|cull|tonemap|shadow|blended|total|error|MSAA|light grid)"
 }
 # The traced reference: seconds a frame, so 1 warm-up frame and 2 timed ones.
 run_traced() { # name args...
@@ -196,6 +196,29 @@ for set in $sets; do
       run "rs-g$g-cs" 50 --lights 1024 --grid-objects $g --density medium --method visibility --raster compute
     done
     run "rs-mp-cs-scatter" 10 --light-preset million --method visibility --raster compute --assign scatter
+    ;;
+  stochastic)
+    # Issue 48: the stochastic method's frame time (Figure 9 scene at 4,096 lights, the
+    # courtyard at 1,024, the million preset) at the default threshold and at the budget's
+    # 0.0015 (longer lists: more near lights, fewer far), then its error against the traced
+    # truth after 8 frames of a still camera and of one frame alone (accumulate 0), beside
+    # the visibility buffer's, on the Figure 9 scene at 4,096 lights.
+    for t in 0.1 0.0015; do
+      run "sto-f9-4096-t$t" 50 --lights 4096 --grid-objects 280 --density medium --method stochastic --threshold $t
+      run "sto-court-1024-t$t" 50 --lights 1024 --method stochastic --threshold $t
+    done
+    run "sto-mp" 10 --light-preset million --method stochastic --assign scatter
+    for t in 0.1 0.0015; do
+      echo "== sto-acc-f9-t$t" | tee -a "$out/log.txt"
+      # The compared image is the 8th frame (1 warm-up, 7 measured): 7 frames before it in
+      # the history, unless the grid grew (which starts the history again).
+      timeout 280 "$bin" accuracy --width 1920 --height 1080 --lights 4096 --grid-objects 280 --density medium \
+        --reference traced --frames 7 --warmup 1 --reference-frames 1 --axis threshold=$t --axis culling=planes \
+        --axis method=stochastic,visibility --axis accumulate=64,0 \
+        --out "/tmp/sto-acc-$t/acc.csv" >"$out/sto-acc-f9-t$t.txt" 2>&1
+      echo "exit $?" >>"$out/sto-acc-f9-t$t.txt"
+      cp "/tmp/sto-acc-$t/acc.csv" "$out/sto-acc-f9-t$t.csv" 2>/dev/null
+    done
     ;;
   casters)
     # Issue 30: the error budget against the traced truth at its best cutoff (threshold

@@ -308,6 +308,11 @@ impl MethodFrame for VisibilityFrame {
     fn grow_lists(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, capacity: u32) -> Option<&LightGrid> {
         // The shading pass binds the grid's group at record time: nothing to rebind.
         let culling = self.culling.as_mut()?;
+        // The stochastic method's history holds frames that dropped lights (that is why
+        // the grid grows): it starts again with the grown grid.
+        if let Some(a) = &self.accumulation {
+            a.reset();
+        }
         culling.grid.grow(device, queue, capacity);
         Some(&culling.grid)
     }
