@@ -754,3 +754,63 @@ fn tune_holds_the_budget_from_every_bookmark() {
     }
     assert!(fails(&["tune", "--target-flip", "0.1", "--dial", "camera=x.txt"]).contains("the camera is not a dial"));
 }
+
+/// The stochastic method in the lab (issue 48): against the traced truth, its dials are
+/// axes; averaging frames lowers its error (`accumulate` 64 against 0, 8 frames), its
+/// energy stays near the truth's where the visibility buffer's does not, and only its rows
+/// report flicker (FLIP between the compared frame and the next), which the history lowers.
+#[test]
+fn accuracy_measures_the_stochastic_method_and_its_flicker() {
+    let dir = scratch("lab-stochastic");
+    let csv = dir.join("stochastic.csv");
+    let args = [
+        "accuracy",
+        "--lights",
+        "12",
+        "--reference",
+        "traced",
+        "--reference-frames",
+        "1",
+        "--axis",
+        "threshold=0.02",
+        "--axis",
+        "method=stochastic,visibility",
+        "--axis",
+        "accumulate=64,0",
+        "--axis",
+        "culling=planes",
+        "--width",
+        "160",
+        "--height",
+        "96",
+        "--frames",
+        "7",
+        "--warmup",
+        "1",
+        "--exposure",
+        "1",
+        "--out",
+        csv.to_str().unwrap(),
+    ];
+    let out = stdout(&gpu_run(&args));
+    assert!(out.contains("flicker (FLIP to the next frame)"), "{out}");
+    let (header, rows) = read_csv(&csv);
+    assert!(header.iter().any(|h| h == "flicker_flip_mean"), "{header:?}");
+    let at = |m: &str, acc: &str| {
+        rows.iter().find(|r| r["method"] == m && r["accumulate"] == acc).unwrap_or_else(|| panic!("{m} {acc}"))
+    };
+    let (history, raw) = (at("stochastic", "64"), at("stochastic", "0"));
+    assert!(num(history, "flip_mean") < num(raw, "flip_mean"), "8 frames averaged err less than one");
+    assert!(num(history, "flicker_flip_mean") < num(raw, "flicker_flip_mean"), "the history flickers less");
+    assert!(num(raw, "flicker_flip_mean") > 0.0, "two frames of the raw estimator differ");
+    assert_eq!(at("visibility", "0")["flicker_flip_mean"], "", "a deterministic method reports no flicker");
+    // Unbiased: no more light lost or added than one frame's noise leaves, where the
+    // visibility buffer (the cutoff, no shadows) is off by more.
+    let lost = |r: &HashMap<String, String>| num(r, "energy_lost").abs();
+    assert!(
+        lost(history) < 0.05 && lost(history) < lost(at("visibility", "0")),
+        "{} vs {}",
+        lost(history),
+        lost(at("visibility", "0"))
+    );
+}

@@ -159,7 +159,7 @@ pub enum ReferenceKind {
 
 /// The CSV columns before the axes'.
 pub(crate) const HEAD: [&str; 3] = ["adapter", "width", "height"];
-const TAIL: [&str; 36] = [
+const TAIL: [&str; 37] = [
     "total_ms",
     "passes",
     "frame_min_ms",
@@ -196,6 +196,7 @@ const TAIL: [&str; 36] = [
     "cutoff_flip_mean",
     "unshadowed_flip_mean",
     "beyond_cutoff_flip_mean",
+    "flicker_flip_mean",
 ];
 
 /// The CSV header of a run over `axes`.
@@ -757,6 +758,15 @@ fn measure_setting(
         // WBOIT against the sorted frame of the same settings: the sort's share alone.
         let glass = p.has_blended_geometry();
         let vpls = renderer.vpl_count(&p.ctx).context("reading the VPL count back")?;
+        // Flicker (the stochastic method only: every other method draws a still view's
+        // frames alike): FLIP between the compared frame and the next one of the same view.
+        let flicker = if pargs.method.traits().stochastic {
+            let next = bench::render_frame(&p.ctx, &mut renderer, &p.scene_gpu, &p.camera)
+                .with_context(|| format!("{what}: the next frame (flicker)"))?;
+            Some(flip(pargs.width, pargs.height, &ldr, &next.ldr).summary(PERCENTILE).mean)
+        } else {
+            None
+        };
         drop(renderer);
         let vs_sorted = match pargs.knobs.blend_mode {
             BlendMode::Sorted => {
@@ -820,11 +830,16 @@ fn measure_setting(
         ]);
         row.extend(worst.as_ref().map_or_else(|| std::array::from_fn(|_| String::new()), worst::WorstPixel::csv));
         row.extend(by_cause.as_ref().map_or_else(|| std::array::from_fn(|_| String::new()), ErrorSplit::csv));
+        row.push(opt(flicker.map(|v| f(f64::from(v), 6))));
         csv.append(&[row])?;
         let vs = vs_sorted.map_or(String::new(), |(ms, v)| {
             format!("; vs sorted ({ms:.3} ms): FLIP mean {:.5} p99 {:.4}", v.mean, v.percentile)
         });
         let mark = dropped.mark().map(|d| format!(" ({d}: incomplete frames)")).unwrap_or_default();
+        let vs = match flicker {
+            Some(v) => format!("{vs}; flicker (FLIP to the next frame) {v:.5}"),
+            None => vs,
+        };
         axes::say(
             pb,
             format!(
