@@ -195,7 +195,11 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         );
     }
     if let Some(v) = renderer.passes::<tiledlight_frame::VisibilityFrame>() {
-        if let Some(rays) = v.shading().read_traced_rays(&prep.ctx.device, &prep.ctx.queue)? {
+        let rays = v.shading().read_traced_rays(&prep.ctx.device, &prep.ctx.queue)?;
+        if let Some(rays) = rays.filter(|_| !traced) {
+            // The stochastic method: at most one ray a pixel, counted for the last frame only.
+            println!("rays:       {rays} shadow rays in the last frame (at most one a pixel; of {frames} frames)");
+        } else if let Some(rays) = rays {
             println!(
                 "rays:       {rays} shadow rays in {:.2} s wall ({:.1} M rays/s; {} bands)",
                 seconds,

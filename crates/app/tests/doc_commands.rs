@@ -203,6 +203,16 @@ const CHECKS: &[Check] = &[
         also: None,
         setup: None,
     },
+    // The stochastic method's converged image: 64 frames of a still view (small, few lights:
+    // 64 frames of the courtyard at its full size take minutes on lavapipe).
+    Check {
+        doc: "tiledlight view --method stochastic --frames 64 --screenshot out.png",
+        extra: &["--width", "160", "--height", "90", "--lights", "64"],
+        files: &["out.png"],
+        prints: &["viewer error: none"],
+        also: None,
+        setup: None,
+    },
     Check {
         doc: "tiledlight render --demo vpl --vpl --out vpl.png",
         extra: &[],

@@ -678,11 +678,23 @@ fn tune_finds_a_setting_within_the_budget_and_a_tighter_one_is_never_faster() {
     assert_png(&png);
 
     let tighter = loose["flip_mean"].clone();
+    let point = |r: &HashMap<String, String>| {
+        ["method", "threshold", "shadow-point-lights"].map(|k| r[k].clone())
+    };
+    let before: Vec<[String; 3]> = read_csv(&csv).1.iter().map(point).collect();
     let (out, tight) = tune(&csv, &tighter);
     match tight {
         Some(row) => {
             assert!(num(&row, "flip_mean") < num(&loose, "flip_mean"), "{row:?}");
-            assert!(num(&row, "total_ms") >= num(&loose, "total_ms"), "a tighter budget answered faster: {out}");
+            // The answer is the fastest setting of the CSV within the budget, so a faster
+            // answer to a tighter budget can only be one the loose run never measured (the
+            // descent from the same start takes another path when the start misses the
+            // tighter budget; lavapipe's times of Forward+ and Tiled Deferred at 12 lights
+            // are within its noise of each other).
+            assert!(
+                num(&row, "total_ms") >= num(&loose, "total_ms") || !before.contains(&point(&row)),
+                "a tighter budget answered faster with a setting the CSV already held: {out}"
+            );
         }
         None => assert!(out.contains("no setting faster than the truth meets the budget"), "{out}"),
     }

@@ -1260,10 +1260,12 @@ mod tests {
         let at = |c: &str| h.iter().position(|x| x == c).unwrap_or_else(|| panic!("no column {c}"));
         assert_eq!(h[HEAD.len()], "blend-mode");
         assert!(at("total_ms") < at("sorted_ms") && at("sorted_ms") + 1 == at("vs_sorted_flip_mean"));
-        // The worst pixel's columns follow, and the error split's close the row.
+        // The worst pixel's columns follow, then the error split's.
         assert_eq!(at("vs_sorted_flip_p99") + 1, at(worst::COLUMNS[0]));
         let split = ["cutoff_flip_mean", "unshadowed_flip_mean", "beyond_cutoff_flip_mean"];
         assert_eq!(at(worst::COLUMNS[4]) + 1, at(split[0]));
-        assert_eq!(&h[h.len() - split.len()..], split);
+        // Then the flicker column closes the row.
+        assert_eq!(&h[h.len() - split.len() - 1..h.len() - 1], split);
+        assert_eq!(h.last().map(String::as_str), Some("flicker_flip_mean"));
     }
 }

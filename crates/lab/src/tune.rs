@@ -21,8 +21,9 @@
 //!    slowest time, the largest errors; it meets the budget only where it meets it from
 //!    every view and is faster than the truth in each ([`Candidate::worst_of`]).
 //! 5. **Answer**: the fastest setting meeting the budget among every candidate in the CSV
-//!    (so a tighter budget over the same CSV never answers faster, beyond the [`TIME_TIE`]
-//!    within which the more accurate wins), else where the descent
+//!    (so a tighter budget over the same CSV never answers with a faster setting the CSV
+//!    already held, beyond the [`TIME_TIE`] within which the more accurate wins; its own
+//!    descent may measure a faster one the first run's path never reached), else where the descent
 //!    ended; its time (the median of the measured frames, with the fastest and slowest
 //!    frame), its errors, and two command lines: one that renders it and one that measures
 //!    it again. One CSV per scene, camera and light set: its rows are compared as one.

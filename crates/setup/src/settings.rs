@@ -913,6 +913,6 @@ mod tests {
             "the scene's blended materials, sorted back to front, --blend-mode sorted"
         );
         let tiled: Vec<&str> = Method::ALL.iter().filter(|m| m.is_tiled()).map(|m| m.name()).collect();
-        assert_eq!(tiled, ["forward-plus", "deferred", "visibility"]);
+        assert_eq!(tiled, ["forward-plus", "deferred", "visibility", "stochastic"]);
     }
 }
