@@ -678,9 +678,7 @@ fn tune_finds_a_setting_within_the_budget_and_a_tighter_one_is_never_faster() {
     assert_png(&png);
 
     let tighter = loose["flip_mean"].clone();
-    let point = |r: &HashMap<String, String>| {
-        ["method", "threshold", "shadow-point-lights"].map(|k| r[k].clone())
-    };
+    let point = |r: &HashMap<String, String>| ["method", "threshold", "shadow-point-lights"].map(|k| r[k].clone());
     let before: Vec<[String; 3]> = read_csv(&csv).1.iter().map(point).collect();
     let (out, tight) = tune(&csv, &tighter);
     match tight {
