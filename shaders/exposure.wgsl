@@ -19,9 +19,7 @@ override MAX_EXPOSURE: f32 = 1e6;
 
 var<workgroup> wg_sum: array<vec2<f32>, 256>;
 
-fn luminance(c: vec3<f32>) -> f32 {
-    return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
-}
+#include "common/luminance.wgsl"
 
 // Tree sum of wg_sum into wg_sum[0].
 fn workgroup_sum(lidx: u32) {

@@ -32,9 +32,7 @@
 // The accumulated image: one linear HDR colour a pixel, row-major at the screen's width.
 @group(1) @binding(40) var<storage, read_write> stochastic_history: array<vec4<f32>>;
 
-fn luminance(c: vec3<f32>) -> f32 {
-    return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
-}
+#include "common/luminance.wgsl"
 
 // True when the light's radius reaches point `p`: the windowed falloff's `in_range`
 // (common/shade.wgsl), so the light is in the list of every tile that holds `p`.

@@ -67,9 +67,9 @@ pub fn unshadowed(light: &Light, (p, n, v): (Vec3, Vec3, Vec3), s: &Surface, cut
     light.color * light.intensity * attenuation * cone * brdf_cos(n, v, l, s)
 }
 
-/// Rec. 709 luminance: the scalar target of a colour.
+/// Rec. 709 luminance: the scalar target of a colour ([`crate::exposure::luminance`]).
 pub fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+    crate::exposure::luminance(c.to_array())
 }
 
 /// A weighted reservoir holding one light (step 3).
