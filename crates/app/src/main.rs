@@ -242,7 +242,10 @@ mod tests {
         let cli = Cli::try_parse_from(scene_setup::expand_demo(argv.to_vec(), takes_demo)).unwrap();
         assert!(takes_demo("render") && takes_demo("view") && !takes_demo("peer-report") && !takes_demo("x"));
         let Some(Command::Render(r)) = cli.command else { panic!("not render") };
-        assert_eq!((r.scene.lights, r.scene.grid_objects, r.scene.shadow_point_lights), (Some(0), 8, 6));
+        assert_eq!(
+            (r.scene.rows().lights, r.scene.rows().grid_objects, r.scene.rows().shadow_point_lights),
+            (Some(0), 8, 6)
+        );
         assert_eq!(r.scene.demo.as_deref(), Some("shadows"));
         let e = Cli::try_parse_from(["tiledlight", "render", "--demo", "sparkles"]).unwrap_err().to_string();
         assert!(e.contains("sparkles") && e.contains("shadows"), "{e}");
@@ -275,9 +278,9 @@ mod tests {
         ])
         .unwrap();
         let Some(Command::Render(r)) = cli.command else { panic!("not render") };
-        assert_eq!(r.scene.lights, Some(5));
-        assert_eq!(r.scene.method, tiledlight_setup::Method::BruteForce { cutoff: false });
-        assert_eq!(r.scene.tile_size, 32);
+        assert_eq!(r.scene.rows().lights, Some(5));
+        assert_eq!(r.scene.rows().method, tiledlight_setup::Method::BruteForce { cutoff: false });
+        assert_eq!(r.scene.rows().tile_size, 32);
         assert_eq!(r.heatmap, Some(render::HeatmapArg::Opaque));
         let cli = Cli::try_parse_from(["tiledlight", "render", "--heatmap", "blended", "--out", "x.png"]).unwrap();
         let Some(Command::Render(r)) = cli.command else { panic!("not render") };
@@ -292,22 +295,22 @@ mod tests {
         let cli = Cli::try_parse_from(["tiledlight", "bench", "--frames", "3", "--json", "a.json"]).unwrap();
         let Some(Command::Bench(b)) = cli.command else { panic!("not bench") };
         assert_eq!((b.frames, b.warmup), (3, 20));
-        assert_eq!(b.scene.width, 1920);
+        assert_eq!(b.scene.rows().width, 1920);
         assert!(Cli::try_parse_from(["tiledlight"]).unwrap().command.is_none());
         // shadow-accuracy's own resolution default; the other subcommands keep 1920x1080.
         let cli =
             Cli::try_parse_from(["tiledlight", "shadow-accuracy", "--config", "512x3", "--config", "128x1"]).unwrap();
         let Some(Command::ShadowAccuracy(s)) = cli.command else { panic!("not shadow-accuracy") };
-        assert_eq!((s.scene.width, s.scene.height, s.configs.len()), (960, 540, 2));
+        assert_eq!((s.scene.rows().width, s.scene.rows().height, s.configs.len()), (960, 540, 2));
         let cli = Cli::try_parse_from(["tiledlight", "shadow-accuracy", "--width", "320"]).unwrap();
         let Some(Command::ShadowAccuracy(s)) = cli.command else { panic!("not shadow-accuracy") };
-        assert_eq!((s.scene.width, s.scene.height), (320, 540));
+        assert_eq!((s.scene.rows().width, s.scene.rows().height), (320, 540));
         let cli = Cli::try_parse_from(["tiledlight", "render"]).unwrap();
         let Some(Command::Render(r)) = cli.command else { panic!("not render") };
-        assert_eq!(r.scene.width, 1920);
+        assert_eq!(r.scene.rows().width, 1920);
         let cli = Cli::try_parse_from(["tiledlight", "export", "--lights", "7", "--out", "a.glb"]).unwrap();
         let Some(Command::Export(x)) = cli.command else { panic!("not export") };
-        assert_eq!((x.scene.lights, x.out.as_path()), (Some(7), std::path::Path::new("a.glb")));
+        assert_eq!((x.scene.rows().lights, x.out.as_path()), (Some(7), std::path::Path::new("a.glb")));
         assert!(Cli::try_parse_from(["tiledlight", "export"]).is_err(), "--out is required");
     }
 }

@@ -131,7 +131,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         .unwrap_or_else(|| PathBuf::from(if heatmap_arg.is_some() { "out/heatmap.png" } else { "out/render.png" }));
     check_png_path(&out)?;
     tiledlight_lab::output::check_output("--out", &out)?;
-    let method = args.scene.method;
+    let method = args.scene.rows().method;
     let heatmap = heatmap_arg.map(HeatmapOf::from);
     if heatmap.is_some() && !method.is_tiled() {
         bail!("--heatmap needs --method forward-plus ({} has no tiles)", method.name());
@@ -229,5 +229,5 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     if let Some(w) = tiledlight_lab::dropped::refused_warning(&renderer, &prep.ctx, &what)? {
         dropped::warn(&mut warnings, &w);
     }
-    dropped::strict(args.scene.strict, warnings)
+    dropped::strict(args.scene.rows().strict, warnings)
 }

@@ -13,124 +13,11 @@ use clap::{Args, ValueEnum};
 use tiledlight_gpu::culling::ClusterOptions;
 use tiledlight_gpu::knobs::KnobArgs;
 use tiledlight_lab::axes::{on_off, Flags};
-use tiledlight_scene::{GridDensity, DEFAULT_LIGHT_THRESHOLD};
 use tiledlight_setup::bookmark;
+use tiledlight_setup::table::SettingArgs;
 use tiledlight_setup::{
-    surface_exposure, CameraBookmark, CasterChoice, LightPlacement, Method, SceneSource, Settings,
-    DEFAULT_LIGHTS_PER_POINT, MILLION_LIGHTS,
+    surface_exposure, CameraBookmark, LightPlacement, SceneSource, Settings, DEFAULT_LIGHTS_PER_POINT, MILLION_LIGHTS,
 };
-
-/// Tessellation of the default scene's grid objects.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum DensityArg {
-    /// 484 triangles per object.
-    Low,
-    /// 1764 triangles per object.
-    Medium,
-    /// 3600 triangles per object.
-    High,
-}
-
-impl From<DensityArg> for GridDensity {
-    fn from(d: DensityArg) -> Self {
-        match d {
-            DensityArg::Low => GridDensity::Low,
-            DensityArg::Medium => GridDensity::Medium,
-            DensityArg::High => GridDensity::High,
-        }
-    }
-}
-
-impl From<GridDensity> for DensityArg {
-    fn from(d: GridDensity) -> Self {
-        match d {
-            GridDensity::Low => DensityArg::Low,
-            GridDensity::Medium => DensityArg::Medium,
-            GridDensity::High => DensityArg::High,
-        }
-    }
-}
-
-/// How the shadow casters of each kind are chosen.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum CastersByArg {
-    /// The brightest (intensity times the largest colour channel).
-    Brightness,
-    /// The largest contributions to the frame: each light's arrival at the surfaces it
-    /// reaches on screen, estimated on the GPU from one frame's depth and light grid.
-    Contribution,
-}
-
-impl From<CastersByArg> for CasterChoice {
-    fn from(c: CastersByArg) -> Self {
-        match c {
-            CastersByArg::Brightness => CasterChoice::Brightness,
-            CastersByArg::Contribution => CasterChoice::Contribution,
-        }
-    }
-}
-
-impl From<CasterChoice> for CastersByArg {
-    fn from(c: CasterChoice) -> Self {
-        match c {
-            CasterChoice::Brightness => CastersByArg::Brightness,
-            CasterChoice::Contribution => CastersByArg::Contribution,
-        }
-    }
-}
-
-/// The light grid's layout.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum GridArg {
-    /// One list per screen tile (TiledLighting11).
-    Tiled,
-    /// Two lists per tile, split at the middle of its depth range (TiledLighting11's half-z).
-    HalfZ,
-    /// One list per tile, lights tested against 32 depth bins of the tile that hold a
-    /// surface (Harada 2012).
-    #[value(name = "2.5d")]
-    DepthMask,
-    /// 3D clusters: tiles x exponential depth slices (Olsson 2012), assigned light-centrically.
-    Clustered,
-}
-
-impl GridArg {
-    /// Every layout with the label the viewer shows.
-    pub const ALL: [(GridArg, &'static str); 4] = [
-        (GridArg::Tiled, "tiles"),
-        (GridArg::HalfZ, "half-z (two lists per tile)"),
-        (GridArg::DepthMask, "2.5D (32 depth bins per tile)"),
-        (GridArg::Clustered, "clusters (exponential depth slices)"),
-    ];
-
-    /// Sets `settings` to this layout (clusters keep their options, or get the defaults).
-    pub fn apply(self, settings: &mut Settings) {
-        settings.half_z = self == Self::HalfZ;
-        settings.depth_mask = self == Self::DepthMask;
-        settings.clusters = (self == Self::Clustered).then(|| settings.clusters.unwrap_or_default());
-    }
-
-    /// The layout `settings` name.
-    pub fn of(settings: &Settings) -> Self {
-        match (settings.clusters.is_some(), settings.depth_mask, settings.half_z) {
-            (true, ..) => Self::Clustered,
-            (_, true, _) => Self::DepthMask,
-            (_, _, true) => Self::HalfZ,
-            _ => Self::Tiled,
-        }
-    }
-}
-
-/// How lights get into the grid's lists.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum AssignArg {
-    /// Tile-centric: a workgroup per tile tests the lights (TiledLighting11; cost ~ lights
-    /// x tiles, two-level by default).
-    Gather,
-    /// Light-centric: each light scatters itself into the tiles it covers (cost ~ lights +
-    /// pairs). Same lists.
-    Scatter,
-}
 
 /// A named configuration of the lights (`--light-preset`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -168,37 +55,26 @@ pub fn expand_demo(args: Vec<std::ffi::OsString>, takes_demo: impl Fn(&str) -> b
     out
 }
 
-/// Scene, lights, screen and renderer flags shared by `render` and `bench`.
+/// Scene, lights, screen and renderer flags shared by `render`, `bench`, the lab and the
+/// viewer: one flag a row of the run settings' table (`tiledlight_setup::table`) and of
+/// the pass settings' table (`tiledlight_gpu::knobs`), and the flags that stand for several
+/// settings at once or are derived from several (the light placement and its preset, the
+/// exposure, the cluster options, VPLs, the camera bookmark, the demo).
 ///
-/// Numbers are parsed wide (u64 light counts) and range-checked in [`SceneArgs::validate`],
-/// so an absurd value gets a message naming the flag and its limit.
+/// Numbers are parsed wide (u64 light counts) and range-checked by the settings'
+/// validation, so an absurd value gets a message naming the flag and its limit.
 #[derive(Args, Clone, Debug, PartialEq)]
 pub struct SceneArgs {
-    /// `default` (the procedural courtyard), `materials` (576 boxes with --materials
-    /// distinct textured materials), `bevy-many-lights` (Bevy's many_lights stress test
-    /// rebuilt: 100,000 lights of 0.3 m on a sphere) or a glTF file (.gltf or .glb).
-    #[arg(
-        help_heading = "Scene",
-        long,
-        default_value = "default",
-        value_name = "default|materials|bevy-many-lights|FILE"
-    )]
-    pub scene: String,
+    /// The run settings, one flag a row of `tiledlight_setup::table` (`--scene`, `--lights`,
+    /// `--method`, `--width`, `--tile-size`, `--grid`, `--aabb`, `--shadow-point-lights`, ...).
+    #[command(flatten)]
+    pub settings: SettingArgs,
     /// A demo setup of the courtyard that makes one feature obvious: shadows, vpl (add
     /// --vpl for the bounce), glass, million, heatmap, clusters. It stands for a few flags
     /// (any given on the command line wins) and places its own lights, camera and props
     /// (docs/USAGE.md, "Demos").
     #[arg(help_heading = "Scene", long, value_name = "NAME", value_parser = clap::builder::PossibleValuesParser::new(tiledlight_setup::Demo::ALL.map(|d| d.name())))]
     pub demo: Option<String>,
-    /// Random point lights [default: 1024 for the default scene; for a glTF file, random
-    /// lights are added to its own lights only when this or --spot-lights is given].
-    #[arg(help_heading = "Lights", long, value_name = "N")]
-    pub lights: Option<u64>,
-    /// Random spot lights [default: 0]. A glTF scene's go near its surfaces, aimed at them
-    /// (never past the first geometry above), their radius following its area and the
-    /// count; the default scene's (and with --lights-in-bounds) go in the bounds.
-    #[arg(help_heading = "Lights", long, value_name = "N")]
-    pub spot_lights: Option<u64>,
     /// A named configuration: `million` is 1,000,000 point lights on the surfaces (see
     /// --lights-on-surfaces) with the exposure chosen for them. --lights, --lights-per-pixel
     /// and --exposure given with it override its values.
@@ -222,60 +98,9 @@ pub struct SceneArgs {
     /// surface lights (implies --lights-on-surfaces) [default: 8].
     #[arg(help_heading = "Lights", hide_short_help = true, long, value_name = "K")]
     pub lights_per_pixel: Option<f32>,
-    /// Seed of the random lights (the same seed gives the same lights).
-    #[arg(help_heading = "Lights", hide_short_help = true, long, default_value_t = 1, value_name = "S")]
-    pub seed: u64,
-    /// Intensity threshold that sets each light's radius: r = sqrt(intensity / T).
-    #[arg(help_heading = "Lights", hide_short_help = true, long, default_value_t = DEFAULT_LIGHT_THRESHOLD, value_name = "T")]
-    pub threshold: f32,
-    /// Grid objects (instanced spheres) added to the default scene, 0 to 280.
-    #[arg(help_heading = "Scene", long, default_value_t = 0, value_name = "N")]
-    pub grid_objects: u32,
-    /// Distinct textured materials of `--scene materials`, 1 to 4096 (box i takes material
-    /// i mod N: the boxes, and so the coverage, stay the same).
-    #[arg(help_heading = "Scene", hide_short_help = true, long, default_value_t = tiledlight_scene::materials::DEFAULT_MATERIALS, value_name = "N")]
-    pub materials: u32,
-    /// Tessellation of the grid objects.
-    #[arg(help_heading = "Scene", hide_short_help = true, long, value_enum, default_value_t = DensityArg::Medium)]
-    pub density: DensityArg,
-    /// Grid objects drawn as alpha-blended glass spheres, 0 to the grid count (spread evenly
-    /// over the grid; the default scene only: a glTF file's BLEND materials are drawn
-    /// blended on their own).
-    #[arg(help_heading = "Blended geometry", long, default_value_t = 0, value_name = "N")]
-    pub transparent_objects: u32,
-    /// The default scene's banners glow in their colour (emissive materials: Tiled
-    /// Deferred's G-buffer gets its emission target; for measuring its cost).
-    #[arg(help_heading = "Scene", hide_short_help = true, long)]
-    pub emissive: bool,
-    /// Image width in pixels.
-    #[arg(help_heading = "Method and image", long, default_value_t = 1920, value_name = "W")]
-    pub width: u32,
-    /// Image height in pixels.
-    #[arg(help_heading = "Method and image", long, default_value_t = 1080, value_name = "H")]
-    pub height: u32,
-    /// Renderer.
-    #[arg(help_heading = "Method and image", long, value_enum, default_value_t = Method::ForwardPlus)]
-    pub method: Method,
-    /// Tile side in pixels: 8, 16 or 32.
-    #[arg(help_heading = "Culling", hide_short_help = true, long, default_value_t = 16, value_name = "8|16|32")]
-    pub tile_size: u32,
-    /// Light indices stored per tile list (more are counted as overflow), 1 to 2048.
-    /// Default: the light count, up to what the GPU's workgroup memory holds (2048), so
-    /// lists overflow only when a tile really sees more lights than that.
-    #[arg(help_heading = "Culling", hide_short_help = true, long, value_name = "N")]
-    pub capacity: Option<u32>,
-    /// Also test light spheres against each tile's view-space AABB.
-    #[arg(help_heading = "Culling", hide_short_help = true, long)]
-    pub aabb: bool,
     /// Two lists per tile, split at the middle of its depth range (the same as --grid half-z).
     #[arg(help_heading = "Culling", hide_short_help = true, long)]
     pub half_z: bool,
-    /// The light grid's layout: screen tiles, half-z, 2.5D depth masks or clusters.
-    #[arg(help_heading = "Culling", hide_short_help = true, long, value_enum, default_value_t = GridArg::Tiled)]
-    pub grid: GridArg,
-    /// How lights are assigned to the grid's lists (clusters are always scattered).
-    #[arg(help_heading = "Culling", hide_short_help = true, long, value_enum, default_value_t = AssignArg::Gather)]
-    pub assign: AssignArg,
     /// Clusters: tile side in pixels, 8, 16, 32 or 64.
     #[arg(help_heading = "Culling", hide_short_help = true, long, default_value_t = ClusterOptions::default().tile_size, value_name = "PX")]
     pub cluster_tile: u32,
@@ -292,50 +117,19 @@ pub struct SceneArgs {
     /// cluster of the frustum, which also serves transparent geometry).
     #[arg(help_heading = "Culling", hide_short_help = true, long)]
     pub cluster_geometry_only: bool,
-    /// Also test spot cones against each tile (needs spot lights to matter).
-    #[arg(help_heading = "Culling", hide_short_help = true, long)]
-    pub spot_cone: bool,
-    /// One-level culling: every tile tests every light (the default first culls per
-    /// 64x64-pixel cell, and tiles test only their cell's lights).
-    #[arg(help_heading = "Culling", hide_short_help = true, long)]
-    pub flat_cull: bool,
-    /// MSAA samples per pixel: 1 (off), 2, 4 or 8 (2 and 8 where the GPU has them). Forward+
-    /// and brute force use hardware MSAA; Tiled Deferred shades edge pixels per sample.
-    #[arg(help_heading = "Method and image", long, default_value_t = 1, value_name = "1|2|4|8")]
-    pub msaa: u32,
     /// A fixed exposure before tonemapping [default: automatic, from each frame's
     /// log-average luminance, mapped to middle grey; `accuracy` and `shadow-accuracy` fix
     /// the one their reference image gets, so every setting is tonemapped alike].
     #[arg(help_heading = "Method and image", hide_short_help = true, long, value_name = "E")]
     pub exposure: Option<f32>,
-    /// Shadow-casting point lights: the N brightest point lights cast shadows (six cube
-    /// faces each, in the shadow atlas).
-    #[arg(help_heading = "Shadows", long, default_value_t = 0, value_name = "N")]
-    pub shadow_point_lights: u32,
-    /// Shadow-casting spot lights: the N brightest spot lights cast shadows (one face each).
-    #[arg(help_heading = "Shadows", hide_short_help = true, long, default_value_t = 0, value_name = "N")]
-    pub shadow_spot_lights: u32,
-    /// How the shadow casters of each kind are chosen: the brightest, or the largest
-    /// contributions to the frame (estimated on the GPU from one frame's depth and light
-    /// grid, for the camera the lights are made with).
-    #[arg(help_heading = "Shadows", hide_short_help = true, long, value_enum, default_value_t = CastersByArg::Brightness)]
-    pub casters_by: CastersByArg,
     /// Camera bookmark to render from (a small text file; the viewer writes them with its
     /// "save camera" button): eye, target, up, field of view, near and far plane.
     #[arg(help_heading = "Scene", hide_short_help = true, long, value_name = "FILE")]
     pub camera: Option<PathBuf>,
-    /// Turn every warning (missing textures, unknown extensions, dropped lights...) into an error with a non-zero exit
-    #[arg(help_heading = "Input checks", hide_short_help = true, long)]
-    pub strict: bool,
     /// Test only: a fixed light-grid budget of N (list, light) indices for the opaque and
     /// the blended grid (the grid never grows; pairs beyond it are dropped, with a warning).
     #[arg(long, value_name = "N", hide = true)]
     pub grid_budget: Option<u32>,
-    /// Read the buffer and image files a glTF file names wherever they point (absolute
-    /// paths, `../`, links leading out); without it only files inside the model's folder
-    /// are read, since a downloaded model may name any file on the machine.
-    #[arg(help_heading = "Input checks", hide_short_help = true, long)]
-    pub allow_any_path: bool,
     /// Virtual point lights (`--vpl` and its settings).
     #[command(flatten)]
     pub vpl: crate::vpl_args::VplArgs,
@@ -352,62 +146,44 @@ impl Default for SceneArgs {
         let d = Settings::default();
         let c = d.clusters.unwrap_or_default();
         Self {
-            scene: d.scene.to_string(),
             demo: d.demo.map(|x| x.name().to_string()),
-            lights: d.lights,
-            spot_lights: d.spot_lights,
             light_preset: None,
             lights_on_surfaces: d.placement.on_surfaces(),
             lights_in_bounds: false,
             lights_per_pixel: None,
-            seed: d.seed,
-            threshold: d.threshold,
-            grid_objects: d.grid_objects,
-            materials: d.materials,
-            density: d.density.into(),
-            transparent_objects: d.transparent_objects,
-            emissive: d.emissive,
-            width: d.width,
-            height: d.height,
-            method: d.method,
-            tile_size: d.tile_size,
-            capacity: d.capacity,
-            aabb: d.aabb,
             half_z: d.half_z,
-            grid: GridArg::of(&d),
-            assign: if d.scatter { AssignArg::Scatter } else { AssignArg::Gather },
             cluster_tile: c.tile_size,
             cluster_slices: c.slices,
             cluster_first: c.first,
             cluster_last: c.last,
             cluster_geometry_only: c.geometry_only,
-            spot_cone: d.spot_cone,
-            flat_cull: d.flat_cull,
-            msaa: d.msaa,
             exposure: None,
-            shadow_point_lights: d.shadow_point_lights,
-            shadow_spot_lights: d.shadow_spot_lights,
-            casters_by: d.casters_by.into(),
             camera: None,
-            strict: d.strict,
             grid_budget: d.grid_pairs,
-            allow_any_path: d.allow_any_path,
             vpl: crate::vpl_args::VplArgs::of(d.vpl),
             knobs: KnobArgs(d.knobs),
+            settings: SettingArgs(d),
         }
     }
 }
 
 impl SceneArgs {
+    /// The run settings' rows as given (the table's values, before the flags that stand
+    /// for several settings are applied).
+    pub fn rows(&self) -> &Settings {
+        &self.settings.0
+    }
+
     /// The settings of these flags, unchecked (`Flags::validate` checks them), the
     /// camera bookmark not read (`camera: None`).
     pub fn plain_settings(&self) -> Settings {
+        let mut s = self.settings.0.clone();
         let million = self.light_preset == Some(PresetArg::Million);
         // A loaded scene may be 2 m or 200 m across: its random lights go on its surfaces,
         // sized from its area, unless asked otherwise. The built-in courtyard keeps the
         // sample's uniform lights (every benchmark here is measured with them).
-        let file = matches!(SceneSource::parse(&self.scene), SceneSource::File(_));
-        let placement = if self.lights_on_surfaces
+        let file = matches!(s.scene, SceneSource::File(_));
+        s.placement = if self.lights_on_surfaces
             || million
             || self.lights_per_pixel.is_some()
             || (file && !self.lights_in_bounds)
@@ -416,56 +192,30 @@ impl SceneArgs {
         } else {
             LightPlacement::Bounds
         };
-        let exposure = self.exposure.unwrap_or(match placement {
-            LightPlacement::Surfaces { lights_per_point } => surface_exposure(lights_per_point, self.threshold),
+        s.exposure = self.exposure.unwrap_or(match s.placement {
+            LightPlacement::Surfaces { lights_per_point } => surface_exposure(lights_per_point, s.threshold),
             LightPlacement::Bounds => Settings::default().exposure,
         });
-        Settings {
-            scene: SceneSource::parse(&self.scene),
-            // Clap accepts only the names of Demo::ALL.
-            demo: self.demo.as_deref().and_then(|n| tiledlight_setup::demo::parse(n).ok()),
-            lights: self.lights.or(million.then_some(MILLION_LIGHTS)),
-            spot_lights: self.spot_lights,
-            placement,
-            seed: self.seed,
-            threshold: self.threshold,
-            auto_exposure: self.exposure.is_none(),
-            grid_objects: self.grid_objects,
-            materials: self.materials,
-            density: self.density.into(),
-            transparent_objects: self.transparent_objects,
-            emissive: self.emissive,
-            width: self.width,
-            height: self.height,
-            method: self.method,
-            tile_size: self.tile_size,
-            capacity: self.capacity,
-            grid_pairs: self.grid_budget,
-            aabb: self.aabb,
-            half_z: self.half_z || self.grid == GridArg::HalfZ,
-            depth_mask: self.grid == GridArg::DepthMask,
-            scatter: self.assign == AssignArg::Scatter,
-            clusters: (self.grid == GridArg::Clustered).then_some(ClusterOptions {
+        s.auto_exposure = self.exposure.is_none();
+        // Clap accepts only the names of Demo::ALL.
+        s.demo = self.demo.as_deref().and_then(|n| tiledlight_setup::demo::parse(n).ok());
+        s.lights = s.lights.or(million.then_some(MILLION_LIGHTS));
+        s.grid_pairs = self.grid_budget;
+        s.half_z |= self.half_z;
+        if s.clusters.is_some() {
+            s.clusters = Some(ClusterOptions {
                 tile_size: self.cluster_tile,
                 slices: self.cluster_slices,
                 first: self.cluster_first,
                 last: self.cluster_last,
                 geometry_only: self.cluster_geometry_only,
-            }),
-            spot_cone: self.spot_cone,
-            flat_cull: self.flat_cull,
-            msaa: self.msaa,
-            exposure,
-            shadow_point_lights: self.shadow_point_lights,
-            shadow_spot_lights: self.shadow_spot_lights,
-            casters_by: self.casters_by.into(),
-            camera: None,
-            strict: self.strict,
-            allow_any_path: self.allow_any_path,
-            vpl: self.vpl.config(),
-            knobs: self.knobs.0,
-            traced_progress: false,
+            });
         }
+        s.camera = None;
+        s.vpl = self.vpl.config();
+        s.knobs = self.knobs.0;
+        s.traced_progress = false;
+        s
     }
 
     /// The library settings of these flags: checked first, then the `--camera` bookmark
@@ -481,56 +231,28 @@ impl SceneArgs {
 }
 
 /// The lab's axes set these flags (`sweep`/`accuracy --axis NAME=VALUES`): an axis's name
-/// is its flag's.
+/// is its flag's. A row of either settings table parses its own value.
 impl Flags for SceneArgs {
     fn set_axis(&mut self, name: &str, value: &str) -> Result<()> {
         let args = self;
-        let int = || -> Result<u64> {
-            value.parse::<u64>().with_context(|| format!("{name} '{value}': expected an integer"))
-        };
-        let small = || -> Result<u32> {
-            let n = int()?;
-            u32::try_from(n).with_context(|| format!("{name} {n}: too large"))
-        };
-        // A row of the pass settings' table parses its own value.
         if let Some(set) = args.knobs.0.set(name, value) {
             return set.map_err(anyhow::Error::msg);
         }
-        match name {
-            "lights" => args.lights = Some(int()?),
-            "spot-lights" => args.spot_lights = Some(int()?),
-            "seed" => args.seed = int()?,
-            // Read (and checked) with the other files the settings name.
-            "camera" => args.camera = Some(PathBuf::from(value)),
-            "grid-objects" => args.grid_objects = small()?,
-            "materials" => args.materials = small()?,
-            "tile-size" => args.tile_size = small()?,
-            "msaa" => args.msaa = small()?,
-            "threshold" => {
-                args.threshold = value.parse().with_context(|| format!("threshold '{value}': expected a number"))?
-            }
-            "method" => {
-                args.method = Method::from_str(value, true).map_err(|e| anyhow::anyhow!("method '{value}': {e}"))?
-            }
-            "density" => {
-                args.density =
-                    DensityArg::from_str(value, true).map_err(|e| anyhow::anyhow!("density '{value}': {e}"))?
-            }
-            "shadow-point-lights" => args.shadow_point_lights = small()?,
-            "shadow-spot-lights" => args.shadow_spot_lights = small()?,
-            "casters-by" => {
-                args.casters_by =
-                    CastersByArg::from_str(value, true).map_err(|e| anyhow::anyhow!("casters-by '{value}': {e}"))?
-            }
-            "transparent-objects" => args.transparent_objects = small()?,
-            "grid" => {
-                args.grid = GridArg::from_str(value, true).map_err(|e| anyhow::anyhow!("grid '{value}': {e}"))?;
+        if let Some(row) = tiledlight_setup::table::row(name) {
+            (row.set)(&mut args.settings.0, value).map_err(anyhow::Error::msg)?;
+            if name == "grid" {
                 // The layout is the axis's alone: --half-z on the command line would fight it.
                 args.half_z = false;
             }
-            "assign" => {
-                args.assign = AssignArg::from_str(value, true).map_err(|e| anyhow::anyhow!("assign '{value}': {e}"))?
-            }
+            return Ok(());
+        }
+        let small = || -> Result<u32> {
+            let n: u64 = value.parse().with_context(|| format!("{name} '{value}': expected an integer"))?;
+            u32::try_from(n).with_context(|| format!("{name} {n}: too large"))
+        };
+        match name {
+            // Read (and checked) with the other files the settings name.
+            "camera" => args.camera = Some(PathBuf::from(value)),
             "cluster-tile" => args.cluster_tile = small()?,
             "cluster-slices" => args.cluster_slices = small()?,
             "cluster-first" => {
@@ -541,7 +263,6 @@ impl Flags for SceneArgs {
                 args.lights_per_pixel =
                     Some(value.parse().with_context(|| format!("lights-per-pixel '{value}': expected a number"))?)
             }
-            "aabb" => args.aabb = on_off(value)?,
             "half-z" => args.half_z = on_off(value)?,
             // The VPL settings' axes apply with --vpl (or the vpl axis) on.
             "vpl" => args.vpl.vpl = on_off(value)?,
@@ -561,7 +282,7 @@ impl Flags for SceneArgs {
                     .map_err(|e| anyhow::anyhow!("vpl-shading '{value}': {e}"))?
             }
             "culling" => {
-                (args.aabb, args.half_z) = match value {
+                (args.settings.0.aabb, args.half_z) = match value {
                     "planes" => (false, false),
                     "aabb" => (true, false),
                     "half-z" => (false, true),
@@ -583,7 +304,7 @@ impl Flags for SceneArgs {
     }
 
     fn scene_label(&self) -> String {
-        tiledlight_lab::axes::scene_phrase(&self.scene, self.grid_objects)
+        tiledlight_lab::axes::scene_phrase(&self.rows().scene.to_string(), self.rows().grid_objects)
     }
 }
 
@@ -594,7 +315,15 @@ mod tests {
     use tiledlight_cull::shadow::{ShadowFilter, ShadowFormat};
     use tiledlight_gpu::features::BlendMode;
     use tiledlight_lab::axes;
-    use tiledlight_setup::{DrawOrderMode, Knobs, LargeRaster, Raster};
+    use tiledlight_scene::{GridDensity, DEFAULT_LIGHT_THRESHOLD};
+    use tiledlight_setup::{CasterChoice, DrawOrderMode, GridLayout, Knobs, LargeRaster, Method, Raster};
+
+    /// The default flags with the run settings' rows changed by `f`.
+    fn with(f: impl FnOnce(&mut Settings)) -> SceneArgs {
+        let mut a = SceneArgs::default();
+        f(&mut a.settings.0);
+        a
+    }
 
     #[derive(Parser)]
     struct Cli {
@@ -801,16 +530,15 @@ mod tests {
         ]);
         let want = ClusterOptions { tile_size: 32, slices: 16, first: 2.0, last: 100.0, geometry_only: true };
         assert_eq!(c.clusters, Some(want));
-        for g in [GridArg::Tiled, GridArg::HalfZ, GridArg::DepthMask, GridArg::Clustered] {
-            let name = g.to_possible_value().unwrap().get_name().to_string();
-            assert_eq!(GridArg::of(&s(&["--grid", &name])), g);
+        for g in GridLayout::ALL {
+            assert_eq!(GridLayout::of(&s(&["--grid", g.name()])), g);
             let mut settings = c.clone();
             g.apply(&mut settings);
-            assert_eq!(GridArg::of(&settings), g);
+            assert_eq!(GridLayout::of(&settings), g);
         }
         // Switching away and back keeps the clusters' options only while clustered.
         let mut settings = c.clone();
-        GridArg::Tiled.apply(&mut settings);
+        GridLayout::Tiled.apply(&mut settings);
         assert_eq!(settings.clusters, None);
         let e = |flags: &[&str]| format!("{:#}", parse(flags).settings().unwrap_err());
         assert!(e(&["--grid", "2.5d", "--half-z"]).contains("--grid 2.5d"), "{}", e(&["--grid", "2.5d", "--half-z"]));
@@ -843,10 +571,10 @@ mod tests {
     fn bad_flags_are_named_before_the_bookmark_is_read() {
         let e = |a: SceneArgs| format!("{:#}", a.settings().unwrap_err());
         let missing = Some(PathBuf::from("/nonexistent/cam.txt"));
-        assert!(e(SceneArgs { width: 0, camera: missing.clone(), ..SceneArgs::default() }).contains("--width 0"));
+        assert!(e(SceneArgs { camera: missing.clone(), ..with(|s| s.width = 0) }).contains("--width 0"));
         let line = e(SceneArgs { camera: missing, ..SceneArgs::default() });
         assert!(line.contains("--camera /nonexistent/cam.txt: cannot read the file"), "{line}");
-        assert!(SceneArgs { tile_size: 7, ..SceneArgs::default() }.validate().is_err());
+        assert!(with(|s| s.tile_size = 7).validate().is_err());
         let e = |flags: &[&str]| format!("{:#}", parse(flags).settings().unwrap_err());
         assert_eq!(e(&["--shadow-size", "100"]), "--shadow-size 100: must be between 128 and 1024 texels");
         let bad_filter = Cli::try_parse_from(["x", "--shadow-filter", "4"]).err().expect("refused").to_string();
@@ -888,7 +616,9 @@ mod tests {
         assert!(e("method=a..b").contains("numeric"));
         assert!(e("lights=0..8").contains("positive"));
         assert!(e("lights=99999999999").contains("--lights"), "{}", e("lights=99999999999"));
-        assert!(e("tile-size=12").contains("--tile-size 12"));
+        // A value outside a row's choices is refused by the row, naming the axis.
+        assert!(e("tile-size=12").contains("tile-size '12': expected one of 8, 16, 32"), "{}", e("tile-size=12"));
+        assert!(e("msaa=3").contains("msaa '3'"));
         assert!(e("threshold=-1").contains("--threshold"));
         assert!(e("lights=1,1").contains("twice"));
         assert!(e("lights=1..1e9:100000").contains("step count"));
@@ -912,7 +642,7 @@ mod tests {
         assert_eq!(p.len(), 4);
         assert_eq!(p[1], ["1", "deferred"]);
         let a = axes::args_at(&SceneArgs::default(), &axes, &p[3]).unwrap();
-        assert_eq!((a.lights, a.method), (Some(2), Method::TiledDeferred));
+        assert_eq!((a.rows().lights, a.rows().method), (Some(2), Method::TiledDeferred));
         let merged = axes::merge_axes(
             axes.clone(),
             vec![axes::parse_axis::<SceneArgs>("lights=8").unwrap(), axes::parse_axis::<SceneArgs>("seed=3").unwrap()],
@@ -934,15 +664,15 @@ mod tests {
         assert_eq!(axes[0].values, ["1", "2", "4", "8"]);
         let p = axes::points(&axes).unwrap();
         assert_eq!(p.len(), 4 * 2 * 2 * 2);
-        let base = SceneArgs { spot_lights: Some(8), ..SceneArgs::default() };
+        let base = with(|s| s.spot_lights = Some(8));
         let a = axes::args_at(&base, &axes, &p[p.len() - 1]).unwrap();
         assert_eq!(
             (
-                a.shadow_spot_lights,
+                a.rows().shadow_spot_lights,
                 a.knobs.0.shadow_size,
                 a.knobs.0.shadow_filter,
                 a.knobs.0.shadow_format,
-                a.shadow_point_lights
+                a.rows().shadow_point_lights
             ),
             (8, 1024, ShadowFilter::Pcf5, ShadowFormat::Depth32, 2)
         );
@@ -961,9 +691,9 @@ mod tests {
         );
         let mut args = SceneArgs { half_z: true, ..SceneArgs::default() };
         axes::apply(&mut args, "grid", "2.5d").unwrap();
-        assert_eq!((args.grid, args.half_z), (GridArg::DepthMask, false));
+        assert_eq!((GridLayout::of(args.rows()), args.half_z), (GridLayout::DepthMask, false));
         axes::apply(&mut args, "assign", "scatter").unwrap();
-        assert_eq!(args.assign, AssignArg::Scatter);
+        assert!(args.rows().scatter);
         let e = format!("{:#}", axes::parse_axis::<SceneArgs>("grid=hexagonal").unwrap_err());
         assert!(e.contains("grid 'hexagonal'"), "{e}");
     }
@@ -1005,7 +735,7 @@ mod tests {
         // was refused), and a point of it without that scene is refused by name.
         let materials = axes::parse_axis::<SceneArgs>("materials=2..512").unwrap();
         assert_eq!(materials.values.len(), 9);
-        let on = SceneArgs { scene: "materials".into(), ..SceneArgs::default() };
+        let on = with(|s| s.scene = SceneSource::Materials);
         assert!(axes::args_at(&on, std::slice::from_ref(&materials), &vec!["2".to_string()]).is_ok());
         let off = format!(
             "{:#}",
@@ -1015,11 +745,13 @@ mod tests {
         let p = axes::points(&axes).unwrap();
         assert_eq!(p.len(), 8);
         // The count parses before the grid objects it needs are known...
-        let base = SceneArgs { grid_objects: 280, ..SceneArgs::default() };
+        let base = with(|s| s.grid_objects = 280);
         let a = axes::args_at(&base, &axes, &p[p.len() - 1]).unwrap();
-        assert_eq!((a.transparent_objects, a.knobs.0.blend_mode), (280, BlendMode::WeightedOit));
+        assert_eq!((a.rows().transparent_objects, a.knobs.0.blend_mode), (280, BlendMode::WeightedOit));
         // ...and is checked against them with the point's settings.
-        let e = format!("{:#}", axes::args_at(&SceneArgs { grid_objects: 50, ..base }, &axes, &p[6]).unwrap_err());
+        let mut fifty = base.clone();
+        fifty.settings.0.grid_objects = 50;
+        let e = format!("{:#}", axes::args_at(&fifty, &axes, &p[6]).unwrap_err());
         assert!(
             e.contains("--transparent-objects 280: must be between 0 and the grid objects (--grid-objects 50)"),
             "{e}"

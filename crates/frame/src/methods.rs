@@ -107,7 +107,7 @@ impl Method {
     }
 
     /// The flag value, for the command line, reports and JSON.
-    pub fn name(self) -> &'static str {
+    pub const fn name(self) -> &'static str {
         match self {
             Method::ForwardPlus => "forward-plus",
             Method::BruteForce { cutoff: true } => "brute-force",
@@ -172,6 +172,12 @@ impl Method {
         })
     }
 }
+
+// A row of the run settings' table (tiledlight-setup's `table`): the names, each with its
+// summary as its help.
+tiledlight_gpu::knob_choice!(Method, Method::ALL, Method::name, Choice, |n| Method::from_name(n)
+    .ok()
+    .map(Method::summary));
 
 /// `--method` on a command line (feature `clap`): the values are [`Method::name`], their
 /// help [`Method::summary`], so a new method needs no second enum.

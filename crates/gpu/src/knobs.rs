@@ -76,16 +76,23 @@ pub enum Kind {
     Choice(&'static [&'static str]),
     /// One of these whole numbers (written as numbers: on a chart's axis and in JSON).
     Values(&'static [&'static str]),
+    /// Free text (a file or a scene's name): a string in JSON, never a numeric axis.
+    Text,
 }
 
 /// A value a row can hold: parsed from and written as the command line's text.
-pub trait KnobValue: Copy + PartialEq + fmt::Debug + 'static {
+pub trait KnobValue: Clone + PartialEq + fmt::Debug + 'static {
     /// How it is written.
     const KIND: Kind;
     /// The value of `text` (an error says what was expected).
     fn parse(text: &str) -> Result<Self, String>;
     /// The text that parses back to this value.
-    fn text(self) -> String;
+    fn text(&self) -> String;
+    /// One line on what the choice named `name` does (a command line's help lists it
+    /// beside the name); None: the name says it.
+    fn value_help(_name: &str) -> Option<&'static str> {
+        None
+    }
 }
 
 impl KnobValue for bool {
@@ -97,8 +104,8 @@ impl KnobValue for bool {
             _ => Err("expected on or off".into()),
         }
     }
-    fn text(self) -> String {
-        if self { "on" } else { "off" }.into()
+    fn text(&self) -> String {
+        if *self { "on" } else { "off" }.into()
     }
 }
 
@@ -107,7 +114,17 @@ impl KnobValue for u32 {
     fn parse(text: &str) -> Result<Self, String> {
         text.trim().parse().map_err(|_| "expected a whole number".into())
     }
-    fn text(self) -> String {
+    fn text(&self) -> String {
+        self.to_string()
+    }
+}
+
+impl KnobValue for u64 {
+    const KIND: Kind = Kind::Count;
+    fn parse(text: &str) -> Result<Self, String> {
+        text.trim().parse().map_err(|_| "expected a whole number".into())
+    }
+    fn text(&self) -> String {
         self.to_string()
     }
 }
@@ -117,20 +134,45 @@ impl KnobValue for f32 {
     fn parse(text: &str) -> Result<Self, String> {
         text.trim().parse().map_err(|_| "expected a number".into())
     }
-    fn text(self) -> String {
+    fn text(&self) -> String {
         self.to_string()
     }
 }
 
-/// A choice of named values: `KIND` lists the names (as `Kind::Choice`, or `Kind::Values`
-/// when the names are whole numbers), parsing accepts any case.
-macro_rules! named_choice {
+/// A value that may be left to a default chosen later (a scene's own light count, a list
+/// capacity fitted to the GPU): `auto` is None.
+impl<T: KnobValue> KnobValue for Option<T> {
+    const KIND: Kind = T::KIND;
+    fn parse(text: &str) -> Result<Self, String> {
+        if text.trim().eq_ignore_ascii_case(AUTO) {
+            Ok(None)
+        } else {
+            T::parse(text).map(Some)
+        }
+    }
+    fn text(&self) -> String {
+        self.as_ref().map_or_else(|| AUTO.to_string(), T::text)
+    }
+}
+
+/// The text of a value left to its default ([`Option`]'s None).
+pub const AUTO: &str = "auto";
+
+/// A choice of named values as a [`KnobValue`]: `knob_choice!(Type, ALL, name_fn)` (or
+/// with a last argument `Values` when the names are whole numbers); `KIND` lists the names,
+/// parsing accepts any case. Exported so that the crates above implement it for their own
+/// choices (the run settings' table in tiledlight-setup).
+#[macro_export]
+macro_rules! knob_choice {
     ($ty:ty, $all:expr, $name:expr) => {
-        named_choice!($ty, $all, $name, Choice);
+        $crate::knob_choice!($ty, $all, $name, Choice);
     };
     ($ty:ty, $all:expr, $name:expr, $kind:ident) => {
-        impl KnobValue for $ty {
-            const KIND: Kind = Kind::$kind(&{
+        $crate::knob_choice!($ty, $all, $name, $kind, |_: &str| None);
+    };
+    ($ty:ty, $all:expr, $name:expr, $kind:ident, $help:expr) => {
+        impl $crate::knobs::KnobValue for $ty {
+            const KIND: $crate::knobs::Kind = $crate::knobs::Kind::$kind(&{
                 let all = $all;
                 let mut names = [""; $all.len()];
                 let mut i = 0;
@@ -141,27 +183,40 @@ macro_rules! named_choice {
                 names
             });
             fn parse(text: &str) -> Result<Self, String> {
-                let (Kind::Choice(names) | Kind::Values(names)) = Self::KIND else { unreachable!() };
+                let ($crate::knobs::Kind::Choice(names) | $crate::knobs::Kind::Values(names)) =
+                    <Self as $crate::knobs::KnobValue>::KIND
+                else {
+                    unreachable!()
+                };
                 names
                     .iter()
                     .position(|n| n.eq_ignore_ascii_case(text.trim()))
                     .map(|i| $all[i])
                     .ok_or_else(|| format!("expected one of {}", names.join(", ")))
             }
-            fn text(self) -> String {
-                $name(self).to_string()
+            fn text(&self) -> String {
+                $name(*self).to_string()
+            }
+            fn value_help(name: &str) -> Option<&'static str> {
+                let help: fn(&str) -> Option<&'static str> = $help;
+                help(name)
             }
         }
     };
 }
 
-named_choice!(DrawOrderMode, [DrawOrderMode::FrontToBack, DrawOrderMode::Submission], DrawOrderMode::label);
-named_choice!(ShadowFormat, ShadowFormat::ALL, ShadowFormat::name);
-named_choice!(BlendMode, BlendMode::ALL, BlendMode::name);
+crate::knob_choice!(DrawOrderMode, [DrawOrderMode::FrontToBack, DrawOrderMode::Submission], DrawOrderMode::label);
+crate::knob_choice!(ShadowFormat, ShadowFormat::ALL, ShadowFormat::name);
+crate::knob_choice!(BlendMode, BlendMode::ALL, BlendMode::name);
 
-named_choice!(ShadowFilter, ShadowFilter::ALL, ShadowFilter::name, Values);
-named_choice!(Raster, Raster::ALL, Raster::name);
-named_choice!(LargeRaster, LargeRaster::ALL, LargeRaster::name);
+crate::knob_choice!(ShadowFilter, ShadowFilter::ALL, ShadowFilter::name, Values);
+crate::knob_choice!(Raster, Raster::ALL, Raster::name);
+crate::knob_choice!(LargeRaster, LargeRaster::ALL, LargeRaster::name);
+crate::knob_choice!(
+    tiledlight_scene::GridDensity,
+    [tiledlight_scene::GridDensity::Low, tiledlight_scene::GridDensity::Medium, tiledlight_scene::GridDensity::High],
+    tiledlight_scene::GridDensity::name
+);
 
 /// When a row is read at all, beyond its methods: a change of a row the frame does not
 /// read rebuilds nothing (model only what the scene requires).
@@ -290,15 +345,15 @@ macro_rules! knobs {
                 control: $control,
                 applies: $applies,
                 needs: $crate::knobs!(@needs $($needs)?),
-                default: || KnobValue::text(Knobs::default().$field),
-                get: |k| KnobValue::text(k.$field),
+                default: || KnobValue::text(&Knobs::default().$field),
+                get: |k| KnobValue::text(&k.$field),
                 set: |k, text| {
                     k.$field = <$ty as KnobValue>::parse(text).map_err(|e| format!("{} '{text}': {e}", $name))?;
                     Ok(())
                 },
                 check: |k| {
                     let check: fn($ty) -> Result<(), String> = $check;
-                    check(k.$field).map_err(|e| format!("--{} {}: {e}", $name, KnobValue::text(k.$field)))
+                    check(k.$field).map_err(|e| format!("--{} {}: {e}", $name, KnobValue::text(&k.$field)))
                 },
             },
         )*];
@@ -485,14 +540,8 @@ impl clap::FromArgMatches for KnobArgs {
 
     fn update_from_arg_matches(&mut self, matches: &clap::ArgMatches) -> Result<(), clap::Error> {
         for row in KNOBS {
-            let text = if row.kind == Kind::Switch {
-                // The flag flips the default.
-                let flipped = if (row.default)() == "on" { "off" } else { "on" };
-                matches.get_flag(row.field).then(|| flipped.to_string())
-            } else {
-                matches.get_one::<String>(row.field).cloned()
-            };
-            if let Some(text) = text {
+            let flag = Flag { id: row.field, long: row.flag(), kind: row.kind, value_name: row.value_name };
+            if let Some(text) = flag.given(matches, &(row.default)()) {
                 (row.set)(&mut self.0, &text).map_err(|e| {
                     clap::Error::raw(clap::error::ErrorKind::ValueValidation, format!("--{}: {e}\n", row.flag()))
                 })?;
@@ -507,21 +556,72 @@ impl clap::Args for KnobArgs {
     fn augment_args(cmd: clap::Command) -> clap::Command {
         KNOBS.iter().fold(cmd, |cmd, row| {
             // Under their own heading, listed by --help only (-h names the group).
-            let arg = clap::Arg::new(row.field).long(row.flag()).help_heading("Pass settings").hide_short_help(true);
-            cmd.arg(match row.kind {
-                Kind::Switch => arg.action(clap::ArgAction::SetTrue).help(row.help()),
-                Kind::Choice(names) | Kind::Values(names) => arg
-                    .value_parser(clap::builder::PossibleValuesParser::new(names.iter().copied()))
-                    .help(format!("{} [default: {}]", row.help(), (row.default)())),
-                Kind::Count | Kind::Number => {
-                    arg.value_name(row.value_name).help(format!("{} [default: {}]", row.help(), (row.default)()))
-                }
-            })
+            let flag = Flag { id: row.field, long: row.flag(), kind: row.kind, value_name: row.value_name };
+            cmd.arg(
+                flag.arg(row.help(), &(row.default)(), |_| None).help_heading("Pass settings").hide_short_help(true),
+            )
         })
     }
 
     fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
         Self::augment_args(cmd)
+    }
+}
+
+/// One table row as a command-line flag (feature `clap`): the pass settings' table here
+/// and the run settings' table of tiledlight-setup build their flags with it.
+#[cfg(feature = "clap")]
+#[derive(Clone, Copy, Debug)]
+pub struct Flag {
+    /// clap's id (a row's field: unique in a command).
+    pub id: &'static str,
+    /// The flag without dashes.
+    pub long: &'static str,
+    /// How the value is written.
+    pub kind: Kind,
+    /// The value's placeholder.
+    pub value_name: &'static str,
+}
+
+#[cfg(feature = "clap")]
+impl Flag {
+    /// The argument: a switch flips its default; a choice lists its names (with
+    /// `value_help`'s line beside each); a count, number or text takes a value, with the
+    /// default as clap's (a subcommand may give its own with `mut_arg`) unless it is
+    /// [`AUTO`] (the help then says what auto is).
+    pub fn arg(&self, help: String, default: &str, value_help: fn(&str) -> Option<&'static str>) -> clap::Arg {
+        let arg = clap::Arg::new(self.id).long(self.long).help(help);
+        let arg = match self.kind {
+            Kind::Switch => return arg.action(clap::ArgAction::SetTrue),
+            Kind::Choice(names) | Kind::Values(names) => {
+                let values = names.iter().map(|&n| {
+                    let v = clap::builder::PossibleValue::new(n);
+                    match value_help(n) {
+                        Some(h) => v.help(h),
+                        None => v,
+                    }
+                });
+                arg.value_parser(clap::builder::PossibleValuesParser::new(values))
+            }
+            Kind::Count | Kind::Number | Kind::Text => arg.value_name(self.value_name),
+        };
+        // A choice named auto is a value like any other; elsewhere auto is "left to later".
+        if default == AUTO && !matches!(self.kind, Kind::Choice(_) | Kind::Values(_)) {
+            arg
+        } else {
+            arg.default_value(default.to_string())
+        }
+    }
+
+    /// The text a command line gives this flag in `matches`: a switch's flipped default,
+    /// else its value; None when the flag is not given.
+    pub fn given(&self, matches: &clap::ArgMatches, default: &str) -> Option<String> {
+        if self.kind == Kind::Switch {
+            let flipped = if default == "on" { "off" } else { "on" };
+            matches.get_flag(self.id).then(|| flipped.to_string())
+        } else {
+            matches.get_one::<String>(self.id).cloned()
+        }
     }
 }
 

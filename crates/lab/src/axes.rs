@@ -4,9 +4,10 @@
 //! run (the product of its axes); the resumable CSV file that records them; and the
 //! progress bars (points, frames, the traced reference's bands).
 //!
-//! An axis is a row of the pass settings' table (`tiledlight_gpu::knobs`: nothing to add
-//! here) or one entry of [`AXES`] and one more arm in the app's [`Flags::set_axis`]
-//! (`crates/app/src/scene_setup.rs`); [`axes`] lists both.
+//! An axis is a row of the run settings' table (`tiledlight_setup::table`) or of the pass
+//! settings' table (`tiledlight_gpu::knobs`): nothing to add here; or one entry of [`AXES`]
+//! and one more arm in the app's [`Flags::set_axis`] (`crates/app/src/scene_setup.rs`)
+//! for the flags that are rows of neither; [`axes`] lists all.
 //!
 //! A run cut short by a fault of the GPU (a lost device, out of GPU memory) ends with the
 //! fault named, how many points the CSV already holds and that the same command resumes
@@ -21,8 +22,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, ensure, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use tiledlight_frame::Method;
 use tiledlight_gpu::knobs::{Kind, Knobs, KNOBS};
+use tiledlight_setup::table::{self, SETTINGS};
 use tiledlight_setup::Settings;
 
 /// The settings a lab run starts from and varies, as the command line states them: the
@@ -67,30 +68,13 @@ pub fn scene_phrase(name: &str, grid_objects: u32) -> String {
 /// The most points one run may have (a guard against a typo that would run for days).
 pub const MAX_POINTS: usize = 10_000;
 
-/// The axes of the settings that are not rows of the pass settings' table: name and what
-/// its values are ([`axes`] adds the rows).
+/// The axes of the settings that are rows of neither table (the run settings' in
+/// tiledlight-setup, the pass settings' in tiledlight-gpu): name and what its values are
+/// ([`axes`] adds the rows).
 pub const AXES: &[(&str, &str)] = &[
-    ("lights", "random point lights (integer; ranges allowed)"),
-    ("spot-lights", "random spot lights (integer; ranges allowed)"),
-    // The values are every method's name ([`axes`] writes them from `Method::ALL`).
-    ("method", ""),
-    ("grid-objects", "grid objects of the default scene, 0..280 (integer; ranges allowed)"),
-    ("materials", "textured materials of --scene materials, 1..4096 (integer; ranges allowed)"),
-    ("density", "grid object tessellation: low | medium | high"),
-    ("tile-size", "8 | 16 | 32"),
-    ("threshold", "light intensity threshold, the radius dial (number; ranges allowed)"),
     ("culling", "culling tests: planes | aabb | half-z | aabb+half-z"),
-    ("aabb", "sphere-vs-AABB test: on | off"),
     ("half-z", "two lists per tile: on | off"),
-    ("seed", "seed of the random lights (integer)"),
     ("camera", "camera bookmark file (the viewer's \"save camera\"; a path without commas)"),
-    ("msaa", "MSAA samples per pixel: 1 | 2 | 4 | 8"),
-    ("shadow-point-lights", "shadow-casting point lights, the brightest (integer; ranges allowed)"),
-    ("shadow-spot-lights", "shadow-casting spot lights, the brightest (integer; ranges allowed)"),
-    ("casters-by", "how the shadow casters are chosen: brightness | contribution"),
-    ("transparent-objects", "grid objects drawn as blended glass, 0 to the grid objects (integer; ranges allowed)"),
-    ("grid", "light grid layout: tiled | half-z | 2.5d | clustered"),
-    ("assign", "light assignment: gather (tile-centric) | scatter (light-centric)"),
     ("cluster-tile", "cluster tile side in pixels: 8 | 16 | 32 | 64 | 128 | 256 (integer)"),
     ("cluster-slices", "cluster depth slices, 1 to 32 (integer; ranges allowed)"),
     ("cluster-first", "far end of the first cluster slice, metres (number; ranges allowed)"),
@@ -104,20 +88,29 @@ pub const AXES: &[(&str, &str)] = &[
     ("vpl-shading", "VPLs: sample | physical"),
 ];
 
-/// Every axis a sweep can vary, name and what its values are: [`AXES`], then one a row of
-/// the pass settings' table (`tiledlight_gpu::knobs`), described from the row.
+/// What a row's values are, from its kind.
+fn values_of(kind: Kind) -> String {
+    match kind {
+        Kind::Switch => "on | off".to_string(),
+        Kind::Count => "integer; ranges allowed".to_string(),
+        Kind::Number => "number; ranges allowed".to_string(),
+        Kind::Choice(names) | Kind::Values(names) => names.join(" | "),
+        Kind::Text => "a name or a file".to_string(),
+    }
+}
+
+/// The kind of the row of either table named `name`, if it is one.
+fn row_kind(name: &str) -> Option<Kind> {
+    table::row(name).map(|r| r.kind).or_else(|| Knobs::row(name).map(|r| r.kind))
+}
+
+/// Every axis a sweep can vary, name and what its values are: one a row of the run
+/// settings' table (`tiledlight_setup::table`), then [`AXES`], then one a row of the pass
+/// settings' table (`tiledlight_gpu::knobs`), each row described from itself.
 pub fn axes() -> Vec<(&'static str, String)> {
-    let rows = KNOBS.iter().map(|k| {
-        let values = match k.kind {
-            Kind::Switch => "on | off".to_string(),
-            Kind::Count => "integer; ranges allowed".to_string(),
-            Kind::Number => "number; ranges allowed".to_string(),
-            Kind::Choice(names) | Kind::Values(names) => names.join(" | "),
-        };
-        (k.name, format!("{} ({values})", k.label))
-    });
-    let methods = || Method::ALL.iter().map(|m| m.name()).collect::<Vec<_>>().join(" | ");
-    AXES.iter().map(|&(n, d)| (n, if n == "method" { methods() } else { d.to_string() })).chain(rows).collect()
+    let settings = SETTINGS.iter().map(|r| (r.name, format!("{} ({})", r.label, values_of(r.kind))));
+    let knobs = KNOBS.iter().map(|k| (k.name, format!("{} ({})", k.label, values_of(k.kind))));
+    settings.chain(AXES.iter().map(|&(n, d)| (n, d.to_string()))).chain(knobs).collect()
 }
 
 /// Every axis name, comma-separated: the one list `sweep --help`, `accuracy --help`, the
@@ -154,39 +147,19 @@ fn known(name: &str) -> Result<()> {
 
 /// Whether the axis's values are integers.
 pub fn is_integer_axis(name: &str) -> bool {
-    if let Some(row) = Knobs::row(name) {
-        return matches!(row.kind, Kind::Count | Kind::Values(_));
+    if let Some(kind) = row_kind(name) {
+        return matches!(kind, Kind::Count | Kind::Values(_));
     }
-    matches!(
-        name,
-        "lights"
-            | "spot-lights"
-            | "grid-objects"
-            | "materials"
-            | "tile-size"
-            | "seed"
-            | "msaa"
-            | "shadow-point-lights"
-            | "shadow-spot-lights"
-            | "transparent-objects"
-            | "cluster-tile"
-            | "cluster-slices"
-            | "vpl-rsm-size"
-            | "vpl-block"
-            | "vpl-cap"
-    )
+    matches!(name, "cluster-tile" | "cluster-slices" | "vpl-rsm-size" | "vpl-block" | "vpl-cap")
 }
 
 /// Whether the axis's values are numbers (plotted on a numeric x axis).
 pub fn is_numeric_axis(name: &str) -> bool {
-    if let Some(row) = Knobs::row(name) {
-        return matches!(row.kind, Kind::Count | Kind::Number | Kind::Values(_));
+    if let Some(kind) = row_kind(name) {
+        return matches!(kind, Kind::Count | Kind::Number | Kind::Values(_));
     }
     is_integer_axis(name)
-        || matches!(
-            name,
-            "threshold" | "cluster-first" | "lights-per-pixel" | "vpl-colour-threshold" | "vpl-brightness-threshold"
-        )
+        || matches!(name, "cluster-first" | "lights-per-pixel" | "vpl-colour-threshold" | "vpl-brightness-threshold")
 }
 
 /// Parses `NAME=VALUES`. VALUES is a comma-separated list, or for numeric axes a range
@@ -734,7 +707,12 @@ mod tests {
             assert_eq!(is_numeric_axis(row.name), numbers || row.kind == Kind::Number, "{}", row.name);
             assert_eq!(is_integer_axis(row.name), numbers, "{}", row.name);
         }
-        assert!(all.iter().any(|(n, _)| *n == "lights") && all.len() == AXES.len() + KNOBS.len());
+        assert!(all.iter().any(|(n, _)| *n == "lights") && all.len() == SETTINGS.len() + AXES.len() + KNOBS.len());
+        // So is every row of the run settings' table.
+        for row in SETTINGS {
+            let (_, d) = all.iter().find(|(n, _)| *n == row.name).unwrap_or_else(|| panic!("{} no axis", row.name));
+            assert!(d.starts_with(row.label), "{d}");
+        }
         assert!(format!("{:#}", parse_axis::<Two>("gbuffer-rts=2..4").unwrap_err()).contains("not one of this"));
         assert!(is_numeric_axis("threshold") && !is_numeric_axis("method"));
     }

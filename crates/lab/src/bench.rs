@@ -672,7 +672,7 @@ pub fn knobs_json(knobs: &Knobs) -> KnobsJson {
                     Kind::Count | Kind::Number | Kind::Values(_) => {
                         serde_json::from_str::<serde_json::Number>(&text).map_or(Value::String(text), Value::Number)
                     }
-                    Kind::Choice(_) => Value::String(text),
+                    Kind::Choice(_) | Kind::Text => Value::String(text),
                 };
                 (k.field, value)
             })

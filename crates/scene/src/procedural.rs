@@ -35,6 +35,15 @@ pub enum GridDensity {
 }
 
 impl GridDensity {
+    /// The flag value: `low`, `medium` or `high`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            GridDensity::Low => "low",
+            GridDensity::Medium => "medium",
+            GridDensity::High => "high",
+        }
+    }
+
     /// Stacks of the UV sphere (it has twice as many slices).
     pub fn stacks(self) -> u32 {
         match self {

@@ -13,6 +13,8 @@
 //! Modules:
 //! - [`settings`]: [`Settings`], [`Method`], [`SceneSource`], validation, what the
 //!   renderers take, report text (pure data);
+//! - [`table`]: the run settings' table ([`table::SETTINGS`]: one row a setting, from
+//!   which the flags, axes, script keys, range checks and rebuilds come; pure data);
 //! - [`rebuild`]: [`rebuild_plan`], [`Rebuild`], [`Reload`] (pure data);
 //! - [`camera`]: [`choose_camera`], [`camera_from_desc`], [`frame_bounds`] (no GPU);
 //! - [`load`]: [`SceneCpu`], [`LightSummary`] (files and CPU work, no GPU);
@@ -46,6 +48,7 @@ pub mod prepared;
 pub mod rebuild;
 pub mod settings;
 pub mod stats;
+pub mod table;
 
 pub use animate::LightAnimator;
 pub use camera::{camera_from_desc, choose_camera, frame_bounds};
@@ -59,3 +62,4 @@ pub use settings::{
     MILLION_LIGHTS,
 };
 pub use stats::{blended_stats, culling_stats, group_digits, shadow_atlas_description, BlendedStats, CullingStats};
+pub use table::{Assign, GridLayout, Setting, SETTINGS};

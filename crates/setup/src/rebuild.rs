@@ -16,9 +16,11 @@
 //! | exposure | | | no: `exposure` (the tonemap pass's uniform is rewritten) |
 //! | automatic exposure on/off | | yes | |
 //!
-//! Pure data: depends on [`crate::settings`] only.
+//! Pure data: depends on [`crate::settings`] and [`crate::table`] (each row's
+//! [`Rebuilds`]).
 
 use crate::settings::{CasterChoice, SceneSource, Settings};
+use crate::table::Rebuilds;
 use tiledlight_gpu::knobs::Needs;
 
 /// What is loaded or generated again, from the least to the most work.
@@ -70,56 +72,55 @@ fn read_now(needs: Needs, s: &Settings) -> bool {
     }
 }
 
-/// What going from `old` to `new` must rebuild (see the module's table).
+/// What going from `old` to `new` must rebuild (see the module's table): each changed row
+/// of the run settings' table by its [`Rebuilds`], each changed pass setting the frame
+/// reads, then the settings that are not rows.
 pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
     let (a, b) = (old, new);
     let file_scene = matches!(b.scene, SceneSource::File(_));
-    let scene = a.scene != b.scene
-        // A demo places its own lights, camera and props when the scene is built.
-        || a.demo != b.demo
-        || a.grid_objects != b.grid_objects
-        || a.materials != b.materials
-        || a.density != b.density
-        || a.transparent_objects != b.transparent_objects
-        || a.emissive != b.emissive
-        // A glTF file's own lights get their radii from the threshold when it is loaded.
-        || (file_scene && a.threshold != b.threshold)
-        // How a glTF file is loaded: which files it may name, whether warnings fail it.
-        || (file_scene && (a.strict != b.strict || a.allow_any_path != b.allow_any_path))
-        // The surfaces are sampled when the scene is loaded (kept while lights are on them).
-        || a.placement.on_surfaces() != b.placement.on_surfaces();
-    let screen = a.width != b.width || a.height != b.height;
-    let camera = scene || screen || a.camera != b.camera;
-    // Casters chosen by contribution are ranked from a frame of the camera: a new choice,
-    // camera or screen chooses them again (same counts: the light data is rewritten).
-    let by_contribution = b.has_shadows() && b.casters_by == CasterChoice::Contribution;
-    let recast = b.has_shadows() && (a.casters_by != b.casters_by || (by_contribution && camera));
-    let reload = if scene {
-        Reload::Scene
-    } else if a.random_light_counts() != b.random_light_counts() || a.shadow_casters() != b.shadow_casters() {
-        Reload::LightBuffers
-    } else if a.seed != b.seed || a.threshold != b.threshold || a.placement != b.placement || recast {
-        Reload::LightData
-    } else {
-        Reload::Nothing
-    };
-    let renderer = reload >= Reload::LightBuffers
+    let (mut reload, mut screen, mut renderer) = (Reload::Nothing, false, false);
+    for row in a.changed_rows(b) {
+        let (row_reload, row_screen, row_renderer) = match row.rebuild {
+            Rebuilds::Scene => (Reload::Scene, false, false),
+            // A glTF file's own lights get their radii from the threshold when it is loaded,
+            // and its load reads the input checks.
+            Rebuilds::SceneOfFile(r) => (if file_scene { Reload::Scene } else { r }, false, false),
+            // Counts given that equal the defaults (or casters beyond the lights) are the same lights.
+            Rebuilds::LightBuffers => {
+                let same =
+                    a.random_light_counts() == b.random_light_counts() && a.shadow_casters() == b.shadow_casters();
+                (if same { Reload::Nothing } else { Reload::LightBuffers }, false, false)
+            }
+            Rebuilds::LightData => (Reload::LightData, false, false),
+            Rebuilds::Casters => (if b.has_shadows() { Reload::LightData } else { Reload::Nothing }, false, false),
+            Rebuilds::Screen => (Reload::Nothing, true, false),
+            Rebuilds::Renderer => (Reload::Nothing, false, true),
+        };
+        (reload, screen, renderer) = (reload.max(row_reload), screen || row_screen, renderer || row_renderer);
+    }
+    // A demo places its own lights, camera and props when the scene is built; the surfaces
+    // are sampled when the scene is loaded (kept while lights are on them), and another
+    // density of surface lights keeps the counts (the light data is rewritten).
+    if a.demo != b.demo || a.placement.on_surfaces() != b.placement.on_surfaces() {
+        reload = Reload::Scene;
+    } else if a.placement != b.placement {
+        reload = reload.max(Reload::LightData);
+    }
+    let camera = reload == Reload::Scene || screen || a.camera != b.camera;
+    // Casters chosen by contribution are ranked from a frame of the camera: a new camera or
+    // screen chooses them again (same counts: the light data is rewritten).
+    if b.has_shadows() && b.casters_by == CasterChoice::Contribution && camera {
+        reload = reload.max(Reload::LightData);
+    }
+    let renderer = renderer
+        || reload >= Reload::LightBuffers
         || screen
-        || a.method != b.method
-        || a.tile_size != b.tile_size
-        || a.capacity != b.capacity
         || a.grid_pairs != b.grid_pairs
-        || a.aabb != b.aabb
-        || a.half_z != b.half_z
-        || a.depth_mask != b.depth_mask
-        || a.scatter != b.scatter
+        // The cluster options (the grid row says whether there are clusters).
         || a.clusters != b.clusters
-        || a.spot_cone != b.spot_cone
-        || a.flat_cull != b.flat_cull
         // A pass setting (a row of the table) the new frame reads: the shadow rows only
         // while some light casts a shadow.
         || a.knobs.changed(&b.knobs).iter().any(|k| (k.applies)(b.method.traits()) && read_now(k.needs, b))
-        || a.msaa != b.msaa
         // Automatic exposure is a pass and a tonemap variant of its own.
         || a.auto_exposure != b.auto_exposure
         // VPLs are passes, buffers and a shading variant of their own.
@@ -194,19 +195,56 @@ mod tests {
         }
     }
 
+    /// A value of a row of either table other than its default `default`.
+    fn other_value(kind: Kind, default: &str) -> String {
+        match kind {
+            Kind::Count if default == tiledlight_gpu::knobs::AUTO => "7".to_string(),
+            Kind::Switch => if default == "on" { "off" } else { "on" }.to_string(),
+            Kind::Count => (default.parse::<u64>().unwrap() + 1).to_string(),
+            Kind::Number => (default.parse::<f32>().unwrap() + 0.5).to_string(),
+            Kind::Choice(names) | Kind::Values(names) => names.iter().find(|n| **n != default).unwrap().to_string(),
+            Kind::Text => "materials".to_string(),
+        }
+    }
+
+    /// Every row of the run settings' table rebuilds what its [`Rebuilds`] says when it
+    /// changes on the default scene with shadows (no row rebuilds nothing there but the
+    /// input checks, which only a glTF file's load reads).
+    #[test]
+    fn run_settings_rebuild_what_their_rows_say() {
+        let from = Settings { shadow_point_lights: 2, ..base() };
+        for r in crate::table::SETTINGS {
+            let mut to = from.clone();
+            (r.set)(&mut to, &other_value(r.kind, &(r.default)())).unwrap();
+            let got = rebuild_plan(&from, &to);
+            let scene = Rebuild { reload: Reload::Scene, camera: true, renderer: true, exposure: false };
+            let want = match r.rebuild {
+                Rebuilds::Scene => scene,
+                Rebuilds::SceneOfFile(reload) => Rebuild { reload, ..Rebuild::default() },
+                Rebuilds::LightBuffers => {
+                    Rebuild { reload: Reload::LightBuffers, renderer: true, ..Rebuild::default() }
+                }
+                Rebuilds::LightData | Rebuilds::Casters => Rebuild { reload: Reload::LightData, ..Rebuild::default() },
+                Rebuilds::Screen => Rebuild { camera: true, renderer: true, ..Rebuild::default() },
+                Rebuilds::Renderer => RENDERER,
+            };
+            assert_eq!(got, want, "{}", r.name);
+            // A glTF scene reloads for the rows its load reads.
+            if let Rebuilds::SceneOfFile(_) = r.rebuild {
+                let file = Settings { scene: SceneSource::File("a.glb".into()), ..from.clone() };
+                let mut to = file.clone();
+                (r.set)(&mut to, &other_value(r.kind, &(r.default)())).unwrap();
+                assert_eq!(rebuild_plan(&file, &to), scene, "{} of a file", r.name);
+            }
+        }
+    }
+
     /// Every row of the pass settings' table rebuilds the renderer of a method it applies
     /// to, and nothing for a method that ignores it.
     #[test]
     fn pass_settings_rebuild_the_renderer_of_the_methods_they_apply_to() {
         for k in KNOBS {
-            let other = match k.kind {
-                Kind::Switch => if (k.default)() == "on" { "off" } else { "on" }.to_string(),
-                Kind::Count => ((k.default)().parse::<u32>().unwrap() + 1).to_string(),
-                Kind::Number => ((k.default)().parse::<f32>().unwrap() + 0.5).to_string(),
-                Kind::Choice(names) | Kind::Values(names) => {
-                    names.iter().find(|n| **n != (k.default)()).unwrap().to_string()
-                }
-            };
+            let other = other_value(k.kind, &(k.default)());
             let mut changed = Knobs::default();
             (k.set)(&mut changed, &other).unwrap();
             // Each method with and without casters, with and without glass.

@@ -15,9 +15,8 @@ use std::fmt;
 use std::path::PathBuf;
 
 use anyhow::{ensure, Result};
-use tiledlight_cull::lists::{DEFAULT_CAPACITY, MAX_CAPACITY};
+use tiledlight_cull::lists::DEFAULT_CAPACITY;
 use tiledlight_cull::shadow::ShadowOptions;
-use tiledlight_cull::tiles::MAX_SCREEN_SIDE;
 use tiledlight_cull::vpl::VplConfig;
 use tiledlight_deferred::shading::workgroup_bytes_besides_lists;
 use tiledlight_frame::FrameSettings;
@@ -30,7 +29,7 @@ pub use tiledlight_gpu::features::Raster;
 pub use tiledlight_gpu::knobs::Knobs;
 use tiledlight_scene::{
     surface_irradiance_factor, CameraDesc, GridDensity, SurfaceLightOptions, DEFAULT_LIGHT_THRESHOLD,
-    DEFAULT_SURFACE_OFFSET, MAX_GRID_OBJECTS, MAX_LIGHTS,
+    DEFAULT_SURFACE_OFFSET, MAX_LIGHTS,
 };
 pub use tiledlight_visibility::compute_raster::{ComputeRasterOptions, LargeRaster};
 
@@ -103,7 +102,7 @@ pub enum CasterChoice {
 
 impl CasterChoice {
     /// The flag's value: "brightness" or "contribution".
-    pub fn name(self) -> &'static str {
+    pub const fn name(self) -> &'static str {
         match self {
             CasterChoice::Brightness => "brightness",
             CasterChoice::Contribution => "contribution",
@@ -369,8 +368,9 @@ impl Settings {
                 self.scene
             );
         }
-        let side = 1..=MAX_SCREEN_SIDE;
-        ensure!(side.contains(&self.width), "--width {}: must be between 1 and {MAX_SCREEN_SIDE} pixels", self.width);
+        // Each row of the run settings' table checks its own range (`crate::table`); what
+        // relates two settings is checked below.
+        crate::table::check_rows(self).map_err(anyhow::Error::msg)?;
         self.knobs.check().map_err(anyhow::Error::msg)?;
         if self.knobs.raster == Raster::Compute {
             ensure!(
@@ -386,13 +386,6 @@ impl Settings {
             );
         }
         ensure!(self.grid_pairs != Some(0), "--grid-budget 0: the light grid must hold at least one index");
-        ensure!(
-            side.contains(&self.height),
-            "--height {}: must be between 1 and {MAX_SCREEN_SIDE} pixels",
-            self.height
-        );
-        ensure!([8, 16, 32].contains(&self.tile_size), "--tile-size {}: must be 8, 16 or 32", self.tile_size);
-        ensure!([1, 2, 4, 8].contains(&self.msaa), "--msaa {}: must be 1, 2, 4 or 8", self.msaa);
         ensure!(!(self.depth_mask && self.half_z), "--grid 2.5d with --half-z: they are alternative layouts, pick one");
         if let Some(c) = &self.clusters {
             ensure!(!self.half_z, "--grid clustered with --half-z: clusters slice depth themselves");
@@ -414,25 +407,10 @@ impl Settings {
                 c.first
             );
         }
-        ensure!(
-            self.capacity.is_none_or(|c| (1..=MAX_CAPACITY).contains(&c)),
-            "--capacity {}: must be between 1 and {MAX_CAPACITY} lights per tile list",
-            self.capacity.unwrap_or_default()
-        );
-        for (flag, n) in [("--lights", self.lights), ("--spot-lights", self.spot_lights)] {
-            if let Some(n) = n {
-                ensure!(n <= MAX_LIGHTS, "{flag} {n}: at most {MAX_LIGHTS} lights are supported");
-            }
-        }
         let (points, spots) = self.random_light_counts();
         ensure!(
             points + spots <= MAX_LIGHTS,
             "--lights {points} plus --spot-lights {spots}: at most {MAX_LIGHTS} lights in total are supported"
-        );
-        ensure!(
-            self.threshold.is_finite() && self.threshold > 0.0,
-            "--threshold {}: must be a positive number",
-            self.threshold
         );
         if let LightPlacement::Surfaces { lights_per_point: k } = self.placement {
             ensure!(k.is_finite() && k > 0.0, "--lights-per-pixel {k}: must be a positive number");
@@ -441,11 +419,6 @@ impl Settings {
             self.exposure.is_finite() && self.exposure > 0.0,
             "--exposure {}: must be a positive number",
             self.exposure
-        );
-        ensure!(
-            self.grid_objects <= MAX_GRID_OBJECTS,
-            "--grid-objects {}: must be between 0 and {MAX_GRID_OBJECTS}",
-            self.grid_objects
         );
         match &self.scene {
             SceneSource::Default => ensure!(
@@ -496,12 +469,7 @@ impl Settings {
             }
         }
         {
-            use tiledlight_scene::materials::{DEFAULT_MATERIALS, MAX_MATERIALS};
-            ensure!(
-                (1..=MAX_MATERIALS).contains(&self.materials),
-                "--materials {}: must be between 1 and {MAX_MATERIALS}",
-                self.materials
-            );
+            use tiledlight_scene::materials::DEFAULT_MATERIALS;
             ensure!(
                 self.materials == DEFAULT_MATERIALS || self.scene == SceneSource::Materials,
                 "--materials {}: only the many-material scene has them (--scene materials)",

@@ -126,13 +126,9 @@ pub fn run_default() -> Result<()> {
         headless_line("no display (DISPLAY and WAYLAND_DISPLAY are unset)");
         return crate::quickstart::run();
     }
-    let args = ViewArgs {
-        scene: SceneArgs { width: 1280, height: 720, ..SceneArgs::default() },
-        frames: None,
-        script: None,
-        screenshot: None,
-        screenshot_ui: None,
-    };
+    let mut scene = SceneArgs::default();
+    (scene.settings.0.width, scene.settings.0.height) = (1280, 720);
+    let args = ViewArgs { scene, frames: None, script: None, screenshot: None, screenshot_ui: None };
     match run_viewer(&args) {
         Ok(()) => Ok(()),
         Err(Failure::NoWindow(e)) => {
@@ -169,7 +165,7 @@ fn run_viewer(args: &ViewArgs) -> Result<(), Failure> {
         Some(f) => Err(f),
         None => {
             let warnings = app.viewer.as_ref().map_or(0, |v| v.warnings);
-            dropped::strict(args.scene.strict, warnings).map_err(Failure::Other)
+            dropped::strict(args.scene.rows().strict, warnings).map_err(Failure::Other)
         }
     }
 }

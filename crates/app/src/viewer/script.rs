@@ -10,10 +10,9 @@ use anyhow::{bail, Context, Result};
 use clap::ValueEnum;
 
 use super::settings::{Settings, VplControl};
-use crate::scene_setup::{AssignArg, CastersByArg, DensityArg, GridArg};
 use tiledlight_gpu::heatmap::HeatmapOf;
+use tiledlight_gpu::knobs::KNOBS;
 use tiledlight_setup::camera_rig::Mode;
-use tiledlight_setup::SceneSource;
 
 /// One step of a script.
 #[derive(Clone, Debug, PartialEq)]
@@ -33,22 +32,35 @@ pub enum Action {
     Window(u32, u32),
 }
 
-/// The keys `Action::Set` understands.
-pub const KEYS: &str = "method, lights, spot-lights, threshold, seed, tile-size, half-z, grid (tiled, half-z, \
-                        2.5d, clustered), assign (gather, scatter), aabb, spot-cone, \
-                        grid-objects, density, gbuffer-rts, msaa, shadow-point-lights, shadow-spot-lights, \
-                        casters-by (brightness, contribution), \
-                        shadow-size, shadow-filter, shadow-format, transparent-objects, blend-mode, \
-                        heatmap (on, off, opaque, blended, vpl), vpl (on, off), vpl-rsm-size, vpl-block, \
-                        vpl-colour-threshold, vpl-brightness-threshold, vpl-cap, vpl-shading (sample, physical), \
-                        animate, vsync, scene, camera, window, wait";
+/// The keys `Action::Set` understands: every row of the run settings' table and of the
+/// pass settings' table (by name), then the viewer's own.
+pub fn keys() -> String {
+    let rows = tiledlight_setup::SETTINGS.iter().map(|r| r.name).chain(KNOBS.iter().map(|r| r.name));
+    let own = [
+        "half-z",
+        "heatmap (on, off, opaque, blended, vpl)",
+        "vpl (on, off)",
+        "vpl-rsm-size",
+        "vpl-block",
+        "vpl-colour-threshold",
+        "vpl-brightness-threshold",
+        "vpl-cap",
+        "vpl-shading (sample, physical)",
+        "animate",
+        "vsync",
+        "camera",
+        "window",
+        "wait",
+    ];
+    rows.chain(own).collect::<Vec<_>>().join(", ")
+}
 
 /// Parses a script; an unknown key or a malformed action is an error naming it.
 pub fn parse(script: &str) -> Result<Vec<Action>> {
     let mut out = Vec::new();
     for item in script.split(';').map(str::trim).filter(|s| !s.is_empty()) {
         let Some((key, value)) = item.split_once('=') else {
-            bail!("--script: '{item}' is not key=value (keys: {KEYS})");
+            bail!("--script: '{item}' is not key=value (keys: {})", keys());
         };
         let (key, value) = (key.trim(), value.trim());
         let action = match key {
@@ -92,44 +104,12 @@ fn number<T: std::str::FromStr>(key: &str, v: &str) -> Result<T> {
 /// as for the widgets).
 pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
     let a = &mut s.setup;
-    // A row of the pass settings' table parses its own value.
-    if let Some(set) = a.knobs.set(key, value) {
+    // A row of either settings table parses its own value.
+    if let Some(set) = a.set_row(key, value) {
         return set.map_err(|e| anyhow::anyhow!("--script: {e}"));
     }
     match key {
-        "method" => {
-            a.method = <tiledlight_setup::Method as ValueEnum>::from_str(value, true)
-                .map_err(|e| anyhow::anyhow!("--script: method={value}: {e}"))?
-        }
-        "lights" => a.lights = Some(number(key, value)?),
-        "spot-lights" => a.spot_lights = Some(number(key, value)?),
-        "threshold" => a.threshold = number(key, value)?,
-        "seed" => a.seed = number(key, value)?,
-        "tile-size" => a.tile_size = number(key, value)?,
-        "msaa" => a.msaa = number(key, value)?,
-        "grid-objects" => a.grid_objects = number(key, value)?,
-        "density" => {
-            a.density =
-                DensityArg::from_str(value, true).map_err(|e| anyhow::anyhow!("--script: density={value}: {e}"))?.into()
-        }
-        "shadow-point-lights" => a.shadow_point_lights = number(key, value)?,
-        "shadow-spot-lights" => a.shadow_spot_lights = number(key, value)?,
-        "casters-by" => {
-            a.casters_by = CastersByArg::from_str(value, true)
-                .map_err(|e| anyhow::anyhow!("--script: casters-by={value}: {e}"))?
-                .into()
-        }
-        "transparent-objects" => a.transparent_objects = number(key, value)?,
         "half-z" => a.half_z = on_off(key, value)?,
-        "grid" => GridArg::from_str(value, true).map_err(|e| anyhow::anyhow!("--script: grid={value}: {e}"))?.apply(a),
-        "assign" => {
-            a.scatter = AssignArg::from_str(value, true)
-                .map_err(|e| anyhow::anyhow!("--script: assign={value}: {e}"))?
-                == AssignArg::Scatter
-        }
-        "aabb" => a.aabb = on_off(key, value)?,
-        "spot-cone" => a.spot_cone = on_off(key, value)?,
-        "scene" => a.scene = SceneSource::parse(value),
         // on (the opaque lists), off, or the lists to show: opaque, blended (the blended
         // geometry's) or vpl (the VPLs').
         "heatmap" => {
@@ -156,7 +136,7 @@ pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
         )),
         "animate" => s.animate = on_off(key, value)?,
         "vsync" => s.vsync = on_off(key, value)?,
-        _ => bail!("--script: unknown key '{key}' (keys: {KEYS})"),
+        _ => bail!("--script: unknown key '{key}' (keys: {})", keys()),
     }
     Ok(())
 }
@@ -164,6 +144,7 @@ pub fn set(s: &mut Settings, key: &str, value: &str) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use tiledlight_setup::SceneSource;
 
     #[test]
     fn parses_actions() {
@@ -255,8 +236,8 @@ mod tests {
         let e = |s: &str| format!("{:#}", parse(s).unwrap_err());
         assert!(e("method").contains("'method' is not key=value"));
         assert!(e("zoom=3").contains("unknown key 'zoom'"));
-        assert!(e("lights=many").contains("lights=many: not a number"));
-        assert!(e("method=fast").contains("method=fast"));
+        assert!(e("lights=many").contains("lights 'many': expected a whole number"), "{}", e("lights=many"));
+        assert!(e("method=fast").contains("method 'fast'"), "{}", e("method=fast"));
         assert!(e("heatmap=maybe").contains("heatmap=maybe: expected on, off, opaque, blended or vpl"));
         assert!(
             e("shadow-size=big").contains("shadow-size 'big': expected a whole number"),
@@ -264,7 +245,9 @@ mod tests {
             e("shadow-size=big")
         );
         assert!(e("shadow-format=d24").contains("shadow-format 'd24': expected one of d16, d32"));
-        assert!(e("transparent-objects=some").contains("transparent-objects=some: not a number"));
+        assert!(e("transparent-objects=some").contains("transparent-objects 'some': expected a whole number"));
+        assert!(e("grid=hex").contains("grid 'hex': expected one of tiled, half-z, 2.5d, clustered"));
+        assert!(e("casters-by=luck").contains("casters-by 'luck': expected one of brightness, contribution"));
         assert!(e("blend-mode=additive").contains("blend-mode 'additive': expected one of sorted, wboit"));
         assert!(e("wait=-1").contains("wait=-1"));
         assert!(e("window=0x5").contains("WIDTHxHEIGHT"));

@@ -28,7 +28,7 @@ use tiledlight_setup::camera_rig::{CameraRig, Mode, Motion};
 use tiledlight_setup::stats::atlas_layout_description;
 use tiledlight_setup::{CasterChoice, CullingStats, LightSummary, Method, SceneSource};
 
-use crate::scene_setup::GridArg;
+use tiledlight_setup::GridLayout;
 
 /// The most shadow-casting lights of each kind the panel's sliders offer (TiledLighting11
 /// has a few; every point caster is six atlas tiles).
@@ -474,14 +474,13 @@ fn controls(ui: &mut egui::Ui, st: &mut UiState, s: &mut Settings, info: &Info<'
                     ui.radio_value(&mut s.setup.tile_size, t, format!("{t}"));
                 }
             });
-            let mut grid = GridArg::of(&s.setup);
-            let label = GridArg::ALL.iter().find(|(g, _)| *g == grid).map_or("", |(_, l)| *l);
-            egui::ComboBox::from_label("light grid").selected_text(label).show_ui(ui, |ui| {
-                for (g, label) in GridArg::ALL {
-                    ui.selectable_value(&mut grid, g, label);
+            let mut grid = GridLayout::of(&s.setup);
+            egui::ComboBox::from_label("light grid").selected_text(grid.label()).show_ui(ui, |ui| {
+                for g in GridLayout::ALL {
+                    ui.selectable_value(&mut grid, g, g.label());
                 }
             });
-            if grid != GridArg::of(&s.setup) {
+            if grid != GridLayout::of(&s.setup) {
                 grid.apply(&mut s.setup);
             }
             if let Some(c) = &mut s.setup.clusters {
