@@ -616,9 +616,9 @@ mod tests {
         assert!(e("method=a..b").contains("numeric"));
         assert!(e("lights=0..8").contains("positive"));
         assert!(e("lights=99999999999").contains("--lights"), "{}", e("lights=99999999999"));
-        // A value outside a row's choices is refused by the row, naming the axis.
-        assert!(e("tile-size=12").contains("tile-size '12': expected one of 8, 16, 32"), "{}", e("tile-size=12"));
-        assert!(e("msaa=3").contains("msaa '3'"));
+        assert!(e("tile-size=12").contains("--tile-size 12: must be 8, 16 or 32"), "{}", e("tile-size=12"));
+        assert!(e("msaa=3").contains("--msaa 3: must be 1, 2, 4 or 8"), "{}", e("msaa=3"));
+        assert!(e("grid=hex").contains("grid 'hex': expected one of tiled, half-z, 2.5d, clustered"));
         assert!(e("threshold=-1").contains("--threshold"));
         assert!(e("lights=1,1").contains("twice"));
         assert!(e("lights=1..1e9:100000").contains("step count"));

@@ -601,7 +601,7 @@ impl Flag {
                         None => v,
                     }
                 });
-                arg.value_parser(clap::builder::PossibleValuesParser::new(values))
+                arg.value_parser(clap::builder::PossibleValuesParser::new(values)).value_name(self.value_name)
             }
             Kind::Count | Kind::Number | Kind::Text => arg.value_name(self.value_name),
         };

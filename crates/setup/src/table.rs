@@ -121,49 +121,14 @@ impl Assign {
     }
 }
 
-/// A whole number that must be one of `VALUES`: the MSAA sample counts, the tile sides.
-/// Its text is the number it holds (also one outside `VALUES`, so a range error names it).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct OneOf<const N: usize>(u32, [&'static str; N]);
-
-/// MSAA samples per pixel.
-const SAMPLES: [&str; 4] = ["1", "2", "4", "8"];
-/// Tile sides in pixels.
-const TILE_SIDES: [&str; 3] = ["8", "16", "32"];
-
-/// `OneOf` of `values` holding `v`.
-const fn one_of<const N: usize>(v: u32, values: [&'static str; N]) -> OneOf<N> {
-    OneOf(v, values)
-}
-
-macro_rules! one_of_value {
-    ($values:expr, $n:literal) => {
-        impl KnobValue for OneOf<$n> {
-            const KIND: Kind = Kind::Values(&$values);
-            fn parse(text: &str) -> Result<Self, String> {
-                match $values.iter().find(|v| **v == text.trim()) {
-                    Some(v) => Ok(OneOf(v.parse().unwrap_or_default(), $values)),
-                    None => Err(format!("expected one of {}", $values.join(", "))),
-                }
-            }
-            fn text(&self) -> String {
-                self.0.to_string()
-            }
-        }
-    };
-}
-
-one_of_value!(SAMPLES, 4);
-one_of_value!(TILE_SIDES, 3);
-
-/// Whether `v` holds one of its values.
-fn listed<const N: usize>(v: &OneOf<N>) -> Result<(), String> {
-    if v.1.contains(&v.0.to_string().as_str()) {
-        Ok(())
-    } else {
-        let (last, rest) = v.1.split_last().expect("a choice of at least one value");
-        Err(format!("must be {} or {last}", rest.join(", ")))
+/// A check that `v` is one of `values` (an error lists them).
+fn one_of(v: u32, values: &[u32]) -> Result<(), String> {
+    if values.contains(&v) {
+        return Ok(());
     }
+    let (last, rest) = values.split_last().expect("a choice of at least one value");
+    let rest: Vec<String> = rest.iter().map(u32::to_string).collect();
+    Err(format!("must be {} or {last}", rest.join(", ")))
 }
 
 knob_choice!(GridLayout, GridLayout::ALL, GridLayout::name);
@@ -286,6 +251,23 @@ impl Setting {
     /// True when the value differs between `a` and `b`.
     pub fn differs(&self, a: &Settings, b: &Settings) -> bool {
         (self.get)(a) != (self.get)(b)
+    }
+
+    /// The methods that read this row, when not every method does (`--help` names them).
+    pub fn only_for(&self) -> Option<Vec<Method>> {
+        let read: Vec<Method> = Method::ALL.into_iter().filter(|m| (self.applies)(m.traits())).collect();
+        (read.len() < Method::ALL.len()).then_some(read)
+    }
+
+    /// The help, with the methods that read the row when not every method does.
+    pub fn full_help(&self) -> String {
+        match self.only_for() {
+            Some(methods) => {
+                let names: Vec<&str> = methods.iter().map(|m| m.name()).collect();
+                format!("{} [methods: {}]", self.help(), names.join(", "))
+            }
+            None => self.help(),
+        }
     }
 }
 
@@ -462,15 +444,15 @@ settings! {
 
     /// MSAA samples per pixel: 1 (off), 2, 4 or 8 (2 and 8 where the GPU has them). Forward+
     /// and brute force use hardware MSAA; Tiled Deferred shades edge pixels per sample.
-    msaa: OneOf<4> => (|s: &Settings| one_of(s.msaa, SAMPLES), |s: &mut Settings, v: OneOf<4>| s.msaa = v.0);
-    "msaa", MethodAndImage, "1|2|4|8", "MSAA samples per pixel",
-    applies(any_method), check(listed),
+    msaa: u32;
+    "msaa", MethodAndImage, "1|2|4|8", "MSAA samples per pixel, 1 | 2 | 4 | 8",
+    applies(any_method), check(|v: &u32| one_of(*v, &[1, 2, 4, 8])),
     rebuild(Rebuilds::Renderer), short;
 
     /// Tile side in pixels: 8, 16 or 32.
-    tile_size: OneOf<3> => (|s: &Settings| one_of(s.tile_size, TILE_SIDES), |s: &mut Settings, v: OneOf<3>| s.tile_size = v.0);
-    "tile-size", Culling, "8|16|32", "tile side (px)",
-    applies(tiled), check(listed),
+    tile_size: u32;
+    "tile-size", Culling, "8|16|32", "tile side in pixels, 8 | 16 | 32",
+    applies(tiled), check(|v: &u32| one_of(*v, &[8, 16, 32])),
     rebuild(Rebuilds::Renderer);
 
     /// Light indices stored per tile list (more are counted as overflow), 1 to 2048.
@@ -613,7 +595,8 @@ impl clap::FromArgMatches for SettingArgs {
 impl clap::Args for SettingArgs {
     fn augment_args(cmd: clap::Command) -> clap::Command {
         SETTINGS.iter().fold(cmd, |cmd, row| {
-            let arg = flag(row).arg(row.help(), &(row.default)(), row.value_help).help_heading(row.heading.title());
+            let arg =
+                flag(row).arg(row.full_help(), &(row.default)(), row.value_help).help_heading(row.heading.title());
             cmd.arg(arg.hide_short_help(!row.short))
         })
     }
@@ -699,8 +682,8 @@ mod tests {
         s.set_row("grid", "2.5d").unwrap().unwrap();
         assert!(s.depth_mask && s.clusters.is_none() && !s.half_z);
         assert!(s.set_row("bogus", "1").is_none());
-        let e = s.set_row("msaa", "3").unwrap().unwrap_err();
-        assert!(e.contains("msaa '3'") && e.contains("1, 2, 4, 8"), "{e}");
+        let e = s.set_row("grid", "hex").unwrap().unwrap_err();
+        assert!(e.contains("grid 'hex'") && e.contains("tiled, half-z, 2.5d, clustered"), "{e}");
         let e = s.set_row("lights", "many").unwrap().unwrap_err();
         assert!(e.contains("lights 'many'") && e.contains("whole number"), "{e}");
         let e = s.set_row("method", "forward").unwrap().unwrap_err();
@@ -735,10 +718,20 @@ mod tests {
         assert_eq!(s.scene, SceneSource::File("x.glb".into()));
         let e = parse(&["--width", "wide"]).unwrap_err().to_string();
         assert!(e.contains("--width") && e.contains("whole number"), "{e}");
-        assert!(parse(&["--msaa", "3"]).is_err());
+        assert!(parse(&["--grid", "hex"]).is_err());
+        // A whole number out of its range parses; the check names it.
+        let s = parse(&["--msaa", "3", "--tile-size", "7"]).unwrap();
+        assert_eq!(check_rows(&s).unwrap_err(), "--msaa 3: must be 1, 2, 4 or 8");
+        assert_eq!(check_rows(&Settings { msaa: 4, ..s }).unwrap_err(), "--tile-size 7: must be 8, 16 or 32");
         let help = cmd.clone().render_long_help().to_string();
         assert!(help.contains("Culling:") && help.contains("--spot-cone"), "{help}");
         assert!(help.contains(Method::Stochastic.summary()), "the methods' summaries");
+        // A row some methods ignore names those that read it.
+        assert!(
+            help.contains("[methods: forward-plus, deferred, visibility, stochastic]"),
+            "the culling rows name the tiled methods: {help}"
+        );
+        assert_eq!(row("width").unwrap().only_for(), None);
         let short = cmd.clone().render_help().to_string();
         assert!(short.contains("--width") && !short.contains("--flat-cull"), "{short}");
         for row in SETTINGS {
