@@ -1,12 +1,12 @@
 //! The table of run settings ([`SETTINGS`]): every setting of [`Settings`] that is one
 //! value (the scene, the lights, the screen and method, the culling, the shadow casters, the
-//! input checks) declared once, as one row of the [`settings!`] invocation below: its field
+//! input checks) declared once, as one row of the `settings!` invocation below: its field
 //! and type, command-line name, help and heading, the viewer's label, the methods it
 //! applies to, its range check and what a change rebuilds. The pass settings are the same
 //! kind of table one layer down (`tiledlight_gpu::knobs`, the rows a pass reads); this one
 //! holds what is not a pass's. Everything else is derived from the rows:
 //!
-//! 1. the command-line flags ([`SettingArgs`], feature `clap`: `--NAME VALUE`, a switch
+//! 1. the command-line flags (`SettingArgs`, feature `clap`: `--NAME VALUE`, a switch
 //!    `--NAME`, under the row's heading; `-h` lists the rows marked `short`);
 //! 2. the lab's axes and the viewer's script keys ([`Settings::set_row`]: `NAME=VALUE`;
 //!    the lab's axis list and which axes are numeric come from [`Setting::kind`]);
