@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced stochastic casters casters-curve ranking materials surface-edges stage-lights big-scene
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced stochastic denoise casters casters-curve ranking materials surface-edges stage-lights big-scene
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -218,6 +218,26 @@ for set in $sets; do
         --out "/tmp/sto-acc-$t/acc.csv" >"$out/sto-acc-f9-t$t.txt" 2>&1
       echo "exit $?" >>"$out/sto-acc-f9-t$t.txt"
       cp "/tmp/sto-acc-$t/acc.csv" "$out/sto-acc-f9-t$t.csv" 2>/dev/null
+    done
+    ;;
+  denoise)
+    # Issue 48's denoiser: the stochastic method's frame time without it and with 4
+    # iterations (Figure 9 scene at 4,096 lights, the courtyard at 1,024), then its error
+    # against the traced truth per iteration count after 8 frames of a still camera and of
+    # one frame alone (accumulate 0), on both scenes.
+    for d in 0 4; do
+      run "den-f9-4096-d$d" 50 --lights 4096 --grid-objects 280 --density medium --method stochastic --denoise $d
+      run "den-court-1024-d$d" 50 --lights 1024 --method stochastic --denoise $d
+    done
+    for scene in f9 court; do
+      extra=(--lights 1024)
+      [ "$scene" = f9 ] && extra=(--lights 4096 --grid-objects 280 --density medium)
+      echo "== den-acc-$scene" | tee -a "$out/log.txt"
+      timeout 280 "$bin" accuracy --width 1920 --height 1080 "${extra[@]}" --reference traced --frames 7 \
+        --warmup 1 --reference-frames 1 --axis method=stochastic --axis denoise=0,2,4 --axis accumulate=64,0 \
+        --out "/tmp/den-acc-$scene/acc.csv" >"$out/den-acc-$scene.txt" 2>&1
+      echo "exit $?" >>"$out/den-acc-$scene.txt"
+      cp "/tmp/den-acc-$scene/acc.csv" "$out/den-acc-$scene.csv" 2>/dev/null
     done
     ;;
   casters)

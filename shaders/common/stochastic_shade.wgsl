@@ -15,8 +15,13 @@
 //    candidates, over the lights whose radius reaches the point: the cutoff's bias).
 // 3. Temporal accumulation: the running mean of the frames since the camera or the lights
 //    last changed (`traced_band.accumulated` of them before this one, 0 after a change:
-//    nothing of another view remains), kept per pixel in `stochastic_history`. The count
-//    stops at the `accumulate` setting, where the mean becomes a moving average.
+//    nothing of another view remains), kept per pixel in `stochastic_history` with the mean
+//    of the squared luminance of each frame's light over the albedo (the denoiser's
+//    variance). The count stops at the `accumulate` setting, where the mean becomes a moving
+//    average.
+// 4. With DENOISE, the denoiser's guide: the pixel's normal and view distance (0: sky), the
+//    albedo the light is divided by and the unlit term (stochastic_denoise.wgsl filters the
+//    history with it).
 
 #include "common/stochastic.wgsl"
 
@@ -29,8 +34,18 @@
 @group(3) @binding(2) var<storage, read_write> tile_ranges: array<vec2<f32>>;
 #include "common/light_grid_pixel.wgsl"
 
-// The accumulated image: one linear HDR colour a pixel, row-major at the screen's width.
+// The accumulated image: one linear HDR colour a pixel (a: the mean squared luminance of
+// the frames' light over the albedo), row-major at the screen's width.
 @group(1) @binding(40) var<storage, read_write> stochastic_history: array<vec4<f32>>;
+
+// The smallest albedo the light is divided by (tiledlight_cull::denoise::DEMOD_FLOOR).
+override DEMOD_FLOOR: f32;
+
+#ifdef DENOISE
+// The denoiser's guide (stochastic_denoise.wgsl's binding 0): three planes of one vec4 a
+// pixel, the surface (normal, view distance; 0: sky), the albedo, the unlit term.
+@group(1) @binding(41) var<storage, read_write> denoise_guide: array<vec4<f32>>;
+#endif
 
 #include "common/luminance.wgsl"
 
@@ -76,19 +91,33 @@ fn stochastic_estimate(g: GSample, p: vec2<u32>, pixel: u32) -> vec3<f32> {
     return f * (w * traced_visibility(g.world, g.normal, shading_lights[r.light].position));
 }
 
-// Linear HDR of one surface sample: the unlit term and the accumulated estimate (step 3).
+// Linear HDR of one surface sample: the unlit term and the accumulated estimate (steps 3
+// and 4).
 fn shade_lights_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
+    let pixel = p.y * view.screen.x + p.x;
     if g.sky {
+#ifdef DENOISE
+        denoise_guide[pixel] = vec4<f32>(0.0);
+#endif
         return vec3<f32>(0.0);
     }
-    let pixel = p.y * view.screen.x + p.x;
     let c = stochastic_estimate(g, p, pixel);
+    let albedo = max(g.surface.albedo, vec3<f32>(DEMOD_FLOOR));
+    let l = luminance(c / albedo);
     let n = traced_band.accumulated;
     var mean = c;
+    var squares = l * l;
     if n > 0u {
-        let h = stochastic_history[pixel].rgb;
-        mean = h + (c - h) / f32(n + 1u);
+        let h = stochastic_history[pixel];
+        mean = h.rgb + (c - h.rgb) / f32(n + 1u);
+        squares = h.a + (l * l - h.a) / f32(n + 1u);
     }
-    stochastic_history[pixel] = vec4<f32>(mean, 1.0);
+    stochastic_history[pixel] = vec4<f32>(mean, squares);
+#ifdef DENOISE
+    let plane = view.screen.x * view.screen.y;
+    denoise_guide[pixel] = vec4<f32>(g.normal, g.dist);
+    denoise_guide[plane + pixel] = vec4<f32>(albedo, 0.0);
+    denoise_guide[2u * plane + pixel] = vec4<f32>(g.unlit, 0.0);
+#endif
     return g.unlit + mean;
 }

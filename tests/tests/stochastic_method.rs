@@ -15,7 +15,8 @@
 //! - **Refusals.** MSAA and a scene without its BVH are refused by name.
 //!
 //! The GPU sampler against its CPU twin is `stochastic_twin.rs`; the twin's unbiasedness on
-//! the CPU is `crates/cull/tests/stochastic.rs`.
+//! the CPU is `crates/cull/tests/stochastic.rs`; the denoiser (off here) is
+//! `stochastic_denoise.rs`.
 
 use glam::Vec3;
 use tiledlight_cull::{Camera, Light};
@@ -115,6 +116,9 @@ fn renderer_far(
     s.knobs.candidates = near;
     s.knobs.far_candidates = far;
     s.knobs.accumulate = accumulate;
+    // The sampler and its history alone: the denoiser (a spatial filter, biased frame by
+    // frame) has its own tests (stochastic_denoise.rs).
+    s.knobs.denoise = 0;
     FrameRenderer::new(ctx, &f.scene, &f.lights, W, H, s).expect("renderer")
 }
 

@@ -32,6 +32,8 @@ pub fn declarations() -> Vec<PassBindings> {
         tiledlight_visibility::shading::VISIBILITY_MSAA_BINDINGS,
         tiledlight_visibility::shading::TRACED_BINDINGS,
         tiledlight_visibility::shading::TRACED_MSAA_BINDINGS,
+        tiledlight_visibility::shading::STOCHASTIC_BINDINGS,
+        tiledlight_visibility::denoise::DENOISE_BINDINGS,
         tiledlight_visibility::compute_raster::COMPUTE_RASTER_BINDINGS,
         tiledlight_visibility::compute_raster::LARGE_BINDINGS,
         tiledlight_visibility::raster::DEPTH_COPY_BINDINGS,

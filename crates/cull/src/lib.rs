@@ -26,7 +26,8 @@
 //! G-buffer draw instances in, nearest first ([`draw_order`]); and material texture
 //! sampling as the shaders filter texels themselves: mip chains, levels, wraps
 //! ([`texture`]); and the stochastic method's light sampler (resampled importance sampling
-//! into a reservoir, one shadow ray a pixel: [`stochastic`]).
+//! into a reservoir, one shadow ray a pixel: [`stochastic`]) and its denoiser (an à-trous filter
+//! guided by the surface and the estimate's variance: [`denoise`]).
 //! Depends only on glam, bytemuck and thiserror; every other crate may depend on it.
 
 pub mod error;
@@ -44,6 +45,7 @@ pub mod brdf;
 pub mod camera;
 pub mod cluster;
 pub mod contribution;
+pub mod denoise;
 pub mod depth_mask;
 pub mod draw_order;
 pub mod estimate;

@@ -67,6 +67,9 @@ pub enum Step {
     /// The stochastic method's pass: candidates, one kept and one shadow ray a pixel, the
     /// frames accumulated (`stochastic.shade`).
     StochasticShade,
+    /// The stochastic method's denoiser over its history (`stochastic.denoise`; only with
+    /// `--denoise N` > 0).
+    StochasticDenoise,
     /// Depth of the blended geometry, in its own buffer (`blended.depth`; only with blended
     /// geometry).
     BlendedDepth,

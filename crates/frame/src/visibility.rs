@@ -28,7 +28,9 @@
 //! ```text
 //! VisibilityRaster   scene                     -> Depth, IDs
 //! StochasticShade    IDs, scene buffers, BVH,  -> Hdr, history (candidates, one kept, one
-//!                    history                           ray a pixel; the frames accumulated)
+//!                    history                           ray a pixel; the frames accumulated),
+//!                                                      guide (with the denoiser)
+//! [StochasticDenoise] history, guide           -> Hdr (--denoise N > 0: N à-trous iterations)
 //! ```
 //!
 //! Depends on tiledlight-gpu (culling) and tiledlight-visibility (raster and shading passes).
@@ -49,6 +51,7 @@ use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
 use tiledlight_gpu::{GpuContext, GpuError};
 use tiledlight_visibility::compute_raster::ComputeRasterOptions;
+use tiledlight_visibility::denoise::StochasticDenoise;
 use tiledlight_visibility::raster::{depth_target, VisibilityRaster};
 use tiledlight_visibility::shading::{ShadeLights, VisibilityShading};
 use tiledlight_visibility::stochastic::Accumulation;
@@ -110,7 +113,13 @@ pub const TRACED: Registration = Registration {
 pub const STOCHASTIC: Registration = Registration {
     renders: |m| m == Method::Stochastic,
     building: "building the stochastic method",
-    steps: |f| tiled_steps(f, &[Step::VisibilityRaster, Step::Cull], Step::StochasticShade, None),
+    steps: |f| {
+        let mut steps = tiled_steps(f, &[Step::VisibilityRaster, Step::Cull], Step::StochasticShade, None);
+        if f.knobs.denoise > 0 {
+            steps.push(Step::StochasticDenoise);
+        }
+        steps
+    },
     targets,
     build: REGISTRATION.build,
 };
@@ -125,6 +134,8 @@ pub struct VisibilityFrame {
     progress: Option<(wgpu::Device, wgpu::Queue)>,
     /// The stochastic method's frame counter and history length.
     accumulation: Option<Accumulation>,
+    /// The stochastic method's denoiser (`--denoise N` > 0).
+    denoise: Option<StochasticDenoise>,
 }
 
 impl VisibilityFrame {
@@ -199,7 +210,18 @@ impl VisibilityFrame {
         let knobs = &settings.knobs;
         let accumulation = (settings.method == Method::Stochastic)
             .then(|| Accumulation::new((knobs.candidates, knobs.far_candidates), knobs.accumulate));
-        Ok(Self { raster, culling, shading, progress, accumulation })
+        let denoise = match shading.stochastic_buffers() {
+            Some((history, Some(guide))) => Some(StochasticDenoise::new(
+                device,
+                (history, guide),
+                target_handles(targets).1.view,
+                size,
+                knobs.denoise,
+                memory,
+            )?),
+            _ => None,
+        };
+        Ok(Self { raster, culling, shading, progress, accumulation, denoise })
     }
 
     /// The raster pass (its ID layout).
@@ -215,6 +237,11 @@ impl VisibilityFrame {
     /// The material-and-lights pass.
     pub fn shading(&self) -> &VisibilityShading {
         &self.shading
+    }
+
+    /// The stochastic method's denoiser (None without `--denoise N` > 0).
+    pub fn denoise(&self) -> Option<&StochasticDenoise> {
+        self.denoise.as_ref()
     }
 }
 
@@ -252,6 +279,10 @@ impl MethodFrame for VisibilityFrame {
                 if self.accumulation.is_some() {
                     rec.step(Step::StochasticShade);
                     self.shading.record_stochastic(rec, &culling.grid);
+                    if let Some(d) = &self.denoise {
+                        rec.step(Step::StochasticDenoise);
+                        d.record(rec);
+                    }
                 } else {
                     rec.step(Step::VisibilityShade);
                     self.shading.record(rec, &culling.grid);
@@ -291,7 +322,11 @@ impl MethodFrame for VisibilityFrame {
 
     fn prepare(&self, queue: &wgpu::Queue, camera: &Camera) {
         if let Some(a) = &self.accumulation {
-            self.shading.write_stochastic_frame(queue, a.next(camera.view_proj()));
+            let p = a.next(camera.view_proj());
+            self.shading.write_stochastic_frame(queue, p);
+            if let Some(d) = &self.denoise {
+                d.write_frame(queue, p.accumulated + 1);
+            }
         }
     }
 

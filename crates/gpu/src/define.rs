@@ -43,6 +43,8 @@ defines! {
     Clustered = "CLUSTERED",
     /// Two-level culling (64x64-pixel cells first).
     Coarse = "COARSE",
+    /// The stochastic method's denoiser: its shading pass leaves the filter's guide.
+    Denoise = "DENOISE",
     /// 2.5D culling's depth masks.
     DepthMask = "DEPTH_MASK",
     /// Test hook: one light dropped from every list.

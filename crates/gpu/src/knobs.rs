@@ -490,6 +490,19 @@ knobs! {
     "accumulate", "frames accumulated", "FRAMES", Control::Slider(0.0, 256.0), applies(|m| m.stochastic),
     check(|v| if v <= 65_536 { Ok(()) } else { Err("must be at most 65536 frames".into()) });
 
+    /// The stochastic method's denoiser: iterations of an edge-avoiding à-trous filter
+    /// (taps 1, 2, 4, ... pixels apart) guided by each pixel's normal and view distance and
+    /// by the variance of its accumulated estimate, on the light over the albedo (textures
+    /// stay sharp). As a still view's frames add up the variance falls and the filter lets
+    /// the mean through, so it converges to the same truth. 0 shows the accumulated estimate
+    /// unfiltered (the raw estimator's error, as the lab measures it).
+    denoise: u32 = 4;
+    "denoise", "denoiser iterations", "N", Control::Slider(0.0, 8.0), applies(|m| m.stochastic),
+    check(|v| {
+        use tiledlight_cull::denoise::MAX_ITERATIONS;
+        if v <= MAX_ITERATIONS { Ok(()) } else { Err(format!("must be at most {MAX_ITERATIONS} iterations")) }
+    });
+
     /// How alpha-blended geometry (transparent objects, glTF BLEND materials) is composited
     /// over the opaque image: sorted (back to front each frame, drawn "over": exact for
     /// instances that do not interpenetrate, TiledLighting11's way) or wboit (weighted

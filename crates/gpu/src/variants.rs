@@ -1011,6 +1011,8 @@ pub struct StochasticKey {
     pub masks: bool,
     /// The material paths.
     pub materials: MaterialKey,
+    /// `DENOISE`: the pass leaves the denoiser's guide (`--denoise N` > 0).
+    pub denoise: bool,
 }
 
 impl StochasticKey {
@@ -1021,7 +1023,9 @@ impl StochasticKey {
             for spots in BOOLS {
                 for masks in BOOLS {
                     for materials in MaterialKey::all() {
-                        v.push(Self { lookup, spots, masks, materials });
+                        for denoise in BOOLS {
+                            v.push(Self { lookup, spots, masks, materials, denoise });
+                        }
                     }
                 }
             }
@@ -1042,6 +1046,7 @@ impl ShaderKey for StochasticKey {
         flag(&mut d, self.spots, Define::SpotLights);
         flag(&mut d, self.masks, Define::TraceMasks);
         d.extend(self.materials.defines());
+        flag(&mut d, self.denoise, Define::Denoise);
         d
     }
 
@@ -1174,8 +1179,9 @@ mod tests {
         // cutoff x spots x VPLs x masks x 5 material paths, per sample mode.
         assert_eq!(count("traced.wgsl"), 16 * 5);
         assert_eq!(count("traced_msaa.wgsl"), 16 * 5);
-        // 3 lookups x spots x masks x 5 material paths, one sample a pixel.
-        assert_eq!(count("stochastic.wgsl"), 3 * 4 * 5);
+        // 3 lookups x spots x masks x 5 material paths x the denoiser's guide, one sample a
+        // pixel.
+        assert_eq!(count("stochastic.wgsl"), 3 * 4 * 5 * 2);
         assert_eq!(count("trace_rays.wgsl"), 2);
         assert_eq!(count("visibility_msaa.wgsl"), 90);
         // 4 pre-pass and 4 ID-raster variants, and 3 masked ones resolving IDs with atomics

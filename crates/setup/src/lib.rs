@@ -15,6 +15,7 @@
 //!   renderers take, report text (pure data);
 //! - [`table`]: the run settings' table ([`table::SETTINGS`]: one row a setting, from
 //!   which the flags, axes, script keys, range checks and rebuilds come; pure data);
+//! - [`validate`]: [`Settings::validate`], the checks that relate settings (pure data);
 //! - [`rebuild`]: [`rebuild_plan`], [`Rebuild`], [`Reload`] (pure data);
 //! - [`camera`]: [`choose_camera`], [`camera_from_desc`], [`frame_bounds`] (no GPU);
 //! - [`load`]: [`SceneCpu`], [`LightSummary`] (files and CPU work, no GPU);
@@ -49,6 +50,7 @@ pub mod rebuild;
 pub mod settings;
 pub mod stats;
 pub mod table;
+pub mod validate;
 
 pub use animate::LightAnimator;
 pub use camera::{camera_from_desc, choose_camera, frame_bounds};

@@ -84,7 +84,10 @@ pub fn rebuild_plan(old: &Settings, new: &Settings) -> Rebuild {
             Rebuilds::Scene => (Reload::Scene, false, false),
             // A glTF file's own lights get their radii from the threshold when it is loaded,
             // and its load reads the input checks.
-            Rebuilds::SceneOfFile(r) => (if file_scene { Reload::Scene } else { r }, false, false),
+            Rebuilds::SceneOfFile => (if file_scene { Reload::Scene } else { Reload::Nothing }, false, false),
+            Rebuilds::SceneOfFileElseLightData => {
+                (if file_scene { Reload::Scene } else { Reload::LightData }, false, false)
+            }
             // Counts given that equal the defaults (or casters beyond the lights) are the same lights.
             Rebuilds::LightBuffers => {
                 let same =
@@ -220,7 +223,8 @@ mod tests {
             let scene = Rebuild { reload: Reload::Scene, camera: true, renderer: true, exposure: false };
             let want = match r.rebuild {
                 Rebuilds::Scene => scene,
-                Rebuilds::SceneOfFile(reload) => Rebuild { reload, ..Rebuild::default() },
+                Rebuilds::SceneOfFile => Rebuild::default(),
+                Rebuilds::SceneOfFileElseLightData => Rebuild { reload: Reload::LightData, ..Rebuild::default() },
                 Rebuilds::LightBuffers => {
                     Rebuild { reload: Reload::LightBuffers, renderer: true, ..Rebuild::default() }
                 }
@@ -230,7 +234,7 @@ mod tests {
             };
             assert_eq!(got, want, "{}", r.name);
             // A glTF scene reloads for the rows its load reads.
-            if let Rebuilds::SceneOfFile(_) = r.rebuild {
+            if matches!(r.rebuild, Rebuilds::SceneOfFile | Rebuilds::SceneOfFileElseLightData) {
                 let file = Settings { scene: SceneSource::File("a.glb".into()), ..from.clone() };
                 let mut to = file.clone();
                 (r.set)(&mut to, &other_value(r.kind, &(r.default)())).unwrap();

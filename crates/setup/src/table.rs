@@ -23,8 +23,8 @@
 //! same reasons as the pass settings' (no proc-macro crate, no linker section, readable by
 //! `cargo expand`), and `Settings` keeps its plain typed fields for every reader.
 //!
-//! Pure data: depends on [`crate::settings`], [`crate::rebuild`]'s [`Reload`],
-//! tiledlight-gpu's table types (`knobs`) and tiledlight-frame's [`Method`].
+//! Pure data: depends on [`crate::settings`], tiledlight-gpu's table types (`knobs`) and
+//! tiledlight-frame's [`Method`]; [`crate::validate`] and [`crate::rebuild`] read it.
 
 use std::fmt;
 
@@ -36,7 +36,6 @@ use tiledlight_gpu::knob_choice;
 use tiledlight_gpu::knobs::{Kind, KnobValue};
 use tiledlight_scene::{GridDensity, MAX_GRID_OBJECTS, MAX_LIGHTS};
 
-use crate::rebuild::Reload;
 use crate::settings::{CasterChoice, SceneSource, Settings};
 
 /// The light grid's layout: screen tiles, two lists a tile, 2.5D depth masks or clusters.
@@ -186,8 +185,11 @@ impl Heading {
 pub enum Rebuilds {
     /// The scene is built again, with its lights and camera (and so the renderer).
     Scene,
-    /// The scene when it is a glTF file (its load reads the row), else this.
-    SceneOfFile(Reload),
+    /// The scene when it is a glTF file (its load reads the row), else nothing.
+    SceneOfFile,
+    /// The scene when it is a glTF file (its own lights' radii follow the row), else the
+    /// light data.
+    SceneOfFileElseLightData,
     /// New light buffers (and so the renderer) when the random light counts or the
     /// shadow casters change.
     LightBuffers,
@@ -389,7 +391,7 @@ settings! {
     "threshold", Lights, "T", "light intensity threshold, the radius dial",
     applies(any_method),
     check(|v: &f32| if v.is_finite() && *v > 0.0 { Ok(()) } else { Err("must be a positive number".into()) }),
-    rebuild(Rebuilds::SceneOfFile(Reload::LightData));
+    rebuild(Rebuilds::SceneOfFileElseLightData);
 
     /// Grid objects (instanced spheres) added to the default scene, 0 to 280.
     grid_objects: u32;
@@ -521,14 +523,14 @@ settings! {
     /// error with a non-zero exit.
     strict: bool;
     "strict", InputChecks, "on|off", "warnings are errors",
-    applies(any_method), check(no_check), rebuild(Rebuilds::SceneOfFile(Reload::Nothing));
+    applies(any_method), check(no_check), rebuild(Rebuilds::SceneOfFile);
 
     /// Read the buffer and image files a glTF file names wherever they point (absolute
     /// paths, `../`, links leading out); without it only files inside the model's folder
     /// are read, since a downloaded model may name any file on the machine.
     allow_any_path: bool;
     "allow-any-path", InputChecks, "on|off", "read files outside the model's folder",
-    applies(any_method), check(no_check), rebuild(Rebuilds::SceneOfFile(Reload::Nothing));
+    applies(any_method), check(no_check), rebuild(Rebuilds::SceneOfFile);
 }
 
 /// Checks every row's range; the first error names its flag.

@@ -7,10 +7,12 @@
 //! shadows and VPLs as the other methods. No G-buffer and no forward shading pipeline
 //! exist for it. The raster has two paths: the hardware's and a compute raster
 //! ([`compute_raster`], issue 29). The fourth method, stochastic (issue 48), is the traced
-//! reference's pass with a sampler's light loop and a history ([`stochastic`]). Depends on tiledlight-gpu (passes, buffers, the culling, and
+//! reference's pass with a sampler's light loop and a history ([`stochastic`]) and its
+//! denoiser ([`denoise`]). Depends on tiledlight-gpu (passes, buffers, the culling, and
 //! the MSAA edge machinery it shares with Tiled Deferred, `tiledlight_gpu::edge_samples`).
 
 pub mod compute_raster;
+pub mod denoise;
 pub mod raster;
 pub mod shading;
 pub mod stochastic;

@@ -124,6 +124,7 @@ pub const VISIBILITY_GROUP: &[Binding] = &[
     Binding::uniform(38, CS).dynamic_offset(BAND_SIZE).when(Cond::Defined(Define::Traced)),
     Binding::storage_rw(39, CS).when(Cond::Defined(Define::Traced)),
     Binding::storage_rw(40, CS).when(Cond::Defined(Define::Stochastic)),
+    Binding::storage_rw(41, CS).when(Cond::Defined(Define::Denoise)),
 ];
 
 /// The traced reference's hierarchy (33-37), only with `TRACED`.
@@ -221,6 +222,9 @@ struct Traced {
     stats: wgpu::Buffer,
     /// The stochastic method's per-pixel history (None for the traced reference).
     history: Option<wgpu::Buffer>,
+    /// What the stochastic method's shading leaves its denoiser (`--denoise N` > 0): a
+    /// pixel's surface, albedo and unlit term.
+    guide: Option<wgpu::Buffer>,
     /// The pass's label and timer name: `traced.shade` or `stochastic.shade`.
     label: &'static str,
 }
@@ -324,6 +328,7 @@ impl VisibilityShading {
                     spots: features.spot_lights,
                     masks: bvh.masks.is_some(),
                     materials,
+                    denoise: features.knobs.denoise > 0,
                 }),
                 STOCHASTIC_BINDINGS,
                 16,
@@ -409,10 +414,17 @@ impl VisibilityShading {
                 let history = stochastic.then(|| {
                     let bytes = u64::from(grid.width) * u64::from(grid.height) * 16;
                     memory.add("stochastic.history", bytes);
-                    buffer_zeroed(device, "stochastic.history", bytes.max(16), wgpu::BufferUsages::STORAGE)
+                    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+                    buffer_zeroed(device, "stochastic.history", bytes.max(16), usage)
+                });
+                let guide = (stochastic && features.knobs.denoise > 0).then(|| {
+                    let bytes = u64::from(grid.width) * u64::from(grid.height) * crate::denoise::GUIDE_BYTES_PER_PIXEL;
+                    memory.add("stochastic.denoise.guide", bytes);
+                    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+                    buffer_zeroed(device, "stochastic.denoise.guide", bytes, usage)
                 });
                 let label = if stochastic { "stochastic.shade" } else { "traced.shade" };
-                Some(Traced { bands_buffer, rows, bands, stats, history, label })
+                Some(Traced { bands_buffer, rows, bands, stats, history, guide, label })
             }
         };
         if let Some(t) = &traced_state {
@@ -427,6 +439,9 @@ impl VisibilityShading {
             bind.push(buffer_entry(39, &t.stats));
             if let Some(h) = &t.history {
                 bind.push(buffer_entry(40, h));
+            }
+            if let Some(g) = &t.guide {
+                bind.push(buffer_entry(41, g));
             }
         }
         let msaa =
@@ -484,6 +499,9 @@ impl VisibilityShading {
                     ("TRACE_POSITION_EPS", f64::from(tiledlight_cull::trace::POSITION_EPS)),
                     ("TRACE_SCALE", f64::from(bvh.scale)),
                 ]);
+                if stochastic {
+                    constants.push(("DEMOD_FLOOR", f64::from(tiledlight_cull::denoise::DEMOD_FLOOR)));
+                }
                 let label = if stochastic { "stochastic.shade" } else { "traced.shade" };
                 let mut layouts = vec![&views.layout, &layout, texture_layout];
                 if let ShadeLights::Stochastic { culling, .. } = shade {
@@ -616,6 +634,14 @@ impl VisibilityShading {
             let words = [p.frame, p.candidates, p.accumulated, p.far_candidates];
             queue.write_buffer(&t.bands_buffer, 4, bytemuck::cast_slice(&words));
         }
+    }
+
+    /// The stochastic method's history (`[f32; 4]` a pixel: the mean light, the mean
+    /// squared luminance over the albedo) and, with the denoiser, its guide (three planes of
+    /// a `[f32; 4]` a pixel: surface, albedo, unlit); None for the other passes.
+    pub fn stochastic_buffers(&self) -> Option<(&wgpu::Buffer, Option<&wgpu::Buffer>)> {
+        let t = self.traced.as_ref()?;
+        Some((t.history.as_ref()?, t.guide.as_ref()))
     }
 
     /// Bands a traced frame is cast in (None for the light grid's pass).
