@@ -462,7 +462,7 @@ impl Settings {
     }
 
     /// The options of the surface lights, None unless they are placed on surfaces (the
-    /// count is the settings' random point lights, at most [`MAX_LIGHTS`]).
+    /// count is the settings' random point lights, at most [`MAX_LIGHTS`](tiledlight_scene::MAX_LIGHTS)).
     pub fn surface_light_options(&self) -> Option<SurfaceLightOptions> {
         let LightPlacement::Surfaces { lights_per_point } = self.placement else {
             return None;
