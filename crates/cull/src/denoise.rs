@@ -203,8 +203,12 @@ pub fn denoise(history: &[[f32; 4]], g: &Guide<'_>, frames: u32, iterations: u32
 mod tests {
     use super::*;
 
-    /// A w x h floor facing the camera at distance 5, albedo 0.5, nothing unlit.
-    fn flat(w: u32, h: u32) -> (Vec<[f32; 4]>, Vec<[f32; 4]>, Vec<[f32; 4]>) {
+    /// One `[f32; 4]` a pixel.
+    type Plane = Vec<[f32; 4]>;
+
+    /// A w x h floor facing the camera at distance 5, albedo 0.5, nothing unlit: the
+    /// surface, albedo and unlit planes.
+    fn flat(w: u32, h: u32) -> (Plane, Plane, Plane) {
         let n = (w * h) as usize;
         (vec![[0.0, 0.0, 1.0, 5.0]; n], vec![[0.5, 0.5, 0.5, 0.0]; n], vec![[0.0; 4]; n])
     }
