@@ -1,7 +1,7 @@
 // The stochastic method's denoiser (issue 48, step 4): an edge-avoiding à-trous filter
 // guided by each pixel's surface and by the variance of its estimate, on the light divided
 // by the albedo. CPU twin: tiledlight_cull::denoise (the same steps, constants and order;
-// tests/tests/stochastic_denoise.rs compares the two). Three entry points share group 0:
+// tests/tests/stochastic_denoise.rs compares the two). Two entry points share group 0:
 //
 // 1. `demodulate`: the history (the mean of `frames` frames' light; a: the mean of their
 //    squared luminance over the albedo) divided by the albedo, and the variance of that
@@ -10,7 +10,7 @@
 // 2. `atrous`: one iteration at `step` pixels: 5x5 B3-spline taps weighted by the normals'
 //    agreement (^128), the view distances against the local depth slope and the estimates
 //    against the noise their variance predicts; the variance filtered along.
-// 3. `atrous_last`: the last iteration, written to the HDR image as the unlit term plus the
+// 3. The last iteration (`atrous` with LAST) writes the HDR image: the unlit term plus the
 //    albedo times the filtered light.
 //
 // Sky pixels (distance 0) are neither filtered nor taps; the last step leaves them as the
@@ -43,6 +43,8 @@ override SIGMA_L: f32;
 override SIGMA_Z: f32;
 override EPS_L: f32;
 override EPS_Z: f32;
+// The last iteration: write the HDR image, not the next buffer.
+override LAST: bool;
 
 // The B3-spline kernel's weight at offset k (0, 1 or 2 pixels steps).
 fn kernel(k: i32) -> f32 {
@@ -184,6 +186,8 @@ fn filtered(x: i32, y: i32, i: i32) -> vec4<f32> {
     return vec4<f32>(sum_c / sum_w, sum_v / (sum_w * sum_w));
 }
 
+// Iterations before the last (LAST false) write the next buffer; the last (LAST true) the
+// HDR image: one entry point, two pipelines.
 @compute @workgroup_size(8, 8)
 fn atrous(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= params.width || id.y >= params.height {
@@ -193,24 +197,16 @@ fn atrous(@builtin(global_invocation_id) id: vec3<u32>) {
     let y = i32(id.y);
     let i = surface_at(x, y);
     if i < 0 {
-        let k = y * i32(params.width) + x;
-        dst[k] = src[k];
-        return;
-    }
-    dst[i] = filtered(x, y, i);
-}
-
-@compute @workgroup_size(8, 8)
-fn atrous_last(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= params.width || id.y >= params.height {
-        return;
-    }
-    let x = i32(id.x);
-    let y = i32(id.y);
-    let i = surface_at(x, y);
-    if i < 0 {
+        if !LAST {
+            let k = y * i32(params.width) + x;
+            dst[k] = src[k];
+        }
         return;
     }
     let c = filtered(x, y, i);
-    textureStore(hdr, id.xy, vec4<f32>(unlit(i) + albedo(i) * c.rgb, 1.0));
+    if LAST {
+        textureStore(hdr, id.xy, vec4<f32>(unlit(i) + albedo(i) * c.rgb, 1.0));
+    } else {
+        dst[i] = c;
+    }
 }

@@ -111,19 +111,22 @@ impl StochasticDenoise {
             group("stochastic.denoise.pong_to_ping", &pong, &ping),
         ];
         let module = shader_module(device, DENOISE_BINDINGS.entry, &[])?;
-        let constants = [
-            ("SHORT_HISTORY", f64::from(SHORT_HISTORY)),
-            ("SIGMA_L", f64::from(SIGMA_L)),
-            ("SIGMA_Z", f64::from(SIGMA_Z)),
-            ("EPS_L", f64::from(EPS_L)),
-            ("EPS_Z", f64::from(EPS_Z)),
-        ];
-        let pipeline =
-            |label: &str, entry: &str| compute_pipeline_at(device, (label, entry), &[&layout], &module, &constants);
+        // `LAST`: the last iteration writes the HDR image (one entry point, two pipelines).
+        let pipeline = |label: &str, entry: &str, last: bool| {
+            let constants = [
+                ("SHORT_HISTORY", f64::from(SHORT_HISTORY)),
+                ("SIGMA_L", f64::from(SIGMA_L)),
+                ("SIGMA_Z", f64::from(SIGMA_Z)),
+                ("EPS_L", f64::from(EPS_L)),
+                ("EPS_Z", f64::from(EPS_Z)),
+                ("LAST", f64::from(u8::from(last))),
+            ];
+            compute_pipeline_at(device, (label, entry), &[&layout], &module, &constants)
+        };
         Ok(Self {
-            demodulate: pipeline("stochastic.denoise.demodulate", "demodulate"),
-            atrous: pipeline("stochastic.denoise.atrous", "atrous"),
-            last: pipeline("stochastic.denoise.atrous_last", "atrous_last"),
+            demodulate: pipeline("stochastic.denoise.demodulate", "demodulate", false),
+            atrous: pipeline("stochastic.denoise.atrous", "atrous", false),
+            last: pipeline("stochastic.denoise.atrous_last", "atrous", true),
             groups,
             params,
             ping,
