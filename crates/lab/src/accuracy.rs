@@ -415,6 +415,18 @@ fn pass_times(m: &bench::Measurement) -> Result<(f64, String)> {
 }
 
 /// The VPLs of the reference of a setting with VPLs: one bounce from every texel of the
+/// The chart subtitle's setting: the scene, the lights, the base method unless an axis
+/// names the method (its values are the points', or its one value is among the fixed
+/// axes), then every axis of one value as `name=value`.
+fn setting_phrase(scene: &str, lights: &str, method: Method, axes: &[Axis]) -> String {
+    let mut parts = vec![scene.to_string(), format!("{lights} lights")];
+    if !axes.iter().any(|a| a.name == "method") {
+        parts.push(method.name().to_string());
+    }
+    parts.extend(axes.iter().filter(|a| a.values.len() == 1).map(|a| format!("{}={}", a.name, a.values[0])));
+    parts.join(", ")
+}
+
 /// The Pareto chart's subtitle's end when its points are labelled by threshold.
 const THRESHOLD_LABELS: &str = "; labels: intensity threshold T";
 
@@ -1069,16 +1081,11 @@ fn report(
     let adapter = first.map(|r| r[0].clone()).unwrap_or_default();
     let res = first.map(|r| format!("{}x{}", r[1], r[2])).unwrap_or_default();
     let lights = first.map(|r| group_digits(r[col("lights")].parse().unwrap_or(0))).unwrap_or_default();
-    let fixed: Vec<String> =
-        axes.iter().filter(|a| a.values.len() == 1).map(|a| format!("{}={}", a.name, a.values[0])).collect();
     let c = ParetoChart {
         title: format!("Speed vs accuracy: {adapter}, {res}"),
         subtitle: format!(
-            "{}, {lights} lights, {}{}{}; error vs the reference ({}){}",
-            scene,
-            method.name(),
-            if fixed.is_empty() { "" } else { ", " },
-            fixed.join(", "),
+            "{}; error vs the reference ({}){}",
+            setting_phrase(&scene, &lights, method, axes),
             reference_kind(args.reference),
             // The points are labelled by threshold only outside a budget, with a threshold axis.
             if threshold.is_some() && !args.budget { THRESHOLD_LABELS } else { "" }
@@ -1159,6 +1166,25 @@ fn report(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The subtitle names the base method only when no axis names the method, and every
+    /// axis of one value.
+    #[test]
+    fn the_subtitle_names_the_method_once() {
+        let axis = |name: &str, values: &[&str]| Axis {
+            name: name.into(),
+            values: values.iter().map(|v| v.to_string()).collect(),
+        };
+        let base = Method::ForwardPlus;
+        assert_eq!(
+            setting_phrase("default scene", "1,024", base, &[axis("threshold", &["0.1"]), axis("lights", &["1", "2"])]),
+            "default scene, 1,024 lights, forward-plus, threshold=0.1"
+        );
+        let methods = [axis("method", &["stochastic", "visibility"]), axis("accumulate", &["64"])];
+        assert_eq!(setting_phrase("f9", "4,096", base, &methods), "f9, 4,096 lights, accumulate=64");
+        let one = [axis("method", &["deferred"])];
+        assert_eq!(setting_phrase("f9", "4,096", base, &one), "f9, 4,096 lights, method=deferred");
+    }
 
     #[test]
     fn the_reference_follows_the_transparent_objects_not_the_blend_mode() {

@@ -1,5 +1,6 @@
 //! tiledlight-setup: a run of tiledlight without a command line. From plain
-//! [`Settings`] (no clap types; the app's flags convert into them) it checks the input,
+//! [`Settings`] (their flags, one a row of the run settings' table [`table`], are clap
+//! arguments only behind the `clap` feature, which the app enables) it checks the input,
 //! builds the scene, its lights and the camera on the CPU ([`SceneCpu`]), creates or takes
 //! a GPU context, uploads everything and builds the chosen renderer ([`Prepared`]). A
 //! change of settings is planned as a value ([`rebuild_plan`] -> [`Rebuild`]) and carried
@@ -33,7 +34,7 @@
 //! Layering: depends on tiledlight-cull, tiledlight-scene, tiledlight-gpu,
 //! tiledlight-frame (the renderer), tiledlight-deferred (its workgroup budget),
 //! tiledlight-visibility (the compute raster's checks) and tiledlight-gltf-writer (and
-//! wgpu, glam, anyhow, serde_json); the app
+//! wgpu, glam, anyhow, serde_json; clap with the `clap` feature); the app
 //! (`tiledlight`) and the GPU tests depend on it, never the other way round. Errors are
 //! `anyhow` errors whose text is meant for the user as it is: settings errors name the
 //! app's flag (`--width 0: ...`).
