@@ -6,6 +6,8 @@
 //!   and guide the GPU's shading pass left (read back), for a first frame (the variance
 //!   from the 3x3 neighbours) and a fifth (the history's own), within the HDR target's
 //!   half-float rounding; the twin with one iteration fewer is rejected by the same check.
+//!   The history's second moment (the variance's source) is checked on its own: the twin
+//!   reads it back, so it cannot see a wrong one.
 //! - **Error.** Against the traced truth, the denoised image's error is well below the raw
 //!   estimate's after one frame and after eight; after 64 frames of a still view it is no
 //!   worse than the raw mean's by more than a small margin (the filter converges to the
@@ -113,6 +115,9 @@ fn the_gpu_denoiser_matches_its_cpu_twin() {
             continue;
         }
         let (history, [surface, albedo, unlit]) = read_back(ctx, &r);
+        if frame == 5 {
+            second_moment_is_the_mean_of_squares(&history, &surface, &albedo);
+        }
         let g = Guide { width: W, height: H, surface: &surface, albedo: &albedo, unlit: &unlit };
         let cpu = denoise(&history, &g, frame, iterations);
         surfaces = cpu.iter().flatten().count();
@@ -129,6 +134,32 @@ fn the_gpu_denoiser_matches_its_cpu_twin() {
     }
     // The scene fills most of the image (the floor and the cube), so the check covers it.
     assert!(surfaces > (W * H / 2) as usize, "{surfaces} surface pixels");
+}
+
+/// The history's fourth channel is the mean of the frames' squared luminance (of the light
+/// over the albedo), so it is at least the square of the mean's luminance (Jensen), equal
+/// where every frame agreed and above it where they did not: a second moment that kept
+/// only the last frame's square falls below it wherever that frame was darker than the
+/// mean.
+fn second_moment_is_the_mean_of_squares(history: &[[f32; 4]], surface: &[[f32; 4]], albedo: &[[f32; 4]]) {
+    let (mut below, mut spread, mut surfaces) = (0, 0, 0);
+    for ((h, s), a) in history.iter().zip(surface).zip(albedo) {
+        if s[3] <= 0.0 {
+            continue;
+        }
+        surfaces += 1;
+        let l = tiledlight_cull::exposure::luminance([h[0] / a[0], h[1] / a[1], h[2] / a[2]]);
+        let square = l * l;
+        // f32 rounding of a running mean: a few ulps of the larger value.
+        if h[3] < square * (1.0 - 1e-4) - 1e-12 {
+            below += 1;
+        }
+        if h[3] > square * 1.01 {
+            spread += 1;
+        }
+    }
+    assert_eq!(below, 0, "{below} of {surfaces} pixels have a second moment below the mean's square");
+    assert!(spread * 5 > surfaces, "only {spread} of {surfaces} pixels show the frames' spread");
 }
 
 /// Root-mean-square error of the surface pixels' luminance against `truth`.
