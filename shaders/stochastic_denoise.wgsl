@@ -159,7 +159,6 @@ fn filtered(x: i32, y: i32, i: i32) -> vec4<f32> {
     let gx = slope(x, y, 1, 0, p.w);
     let gy = slope(x, y, 0, 1, p.w);
     let l_p = luminance(src[i].rgb);
-    let tol_l = SIGMA_L * sqrt(src[i].a) + EPS_L;
     var sum_w = 0.0;
     var sum_c = vec3<f32>(0.0);
     var sum_v = 0.0;
@@ -175,6 +174,9 @@ fn filtered(x: i32, y: i32, i: i32) -> vec4<f32> {
                 let q = surface(j);
                 let tol_z = SIGMA_Z * (gx * f32(abs(dx)) + gy * f32(abs(dy))) * f32(params.step) + EPS_Z * p.w;
                 let l_q = luminance(src[j].rgb);
+                // The larger of the two predicted deviations: a dark pixel next to a bright
+                // sample takes its share as the bright one gives it away.
+                let tol_l = SIGMA_L * sqrt(max(src[i].a, src[j].a)) + EPS_L;
                 let e = abs(p.w - q.w) / tol_z + abs(l_p - l_q) / tol_l;
                 w = h * pow128(max(normals_dot(p, q), 0.0)) * exp(-e);
             }

@@ -147,7 +147,6 @@ pub fn atrous(src: &[[f32; 4]], g: &Guide<'_>, step: u32) -> Vec<[f32; 4]> {
             let p = g.surface[i];
             let (gx, gy) = (slope(g, (x, y), (1, 0)), slope(g, (x, y), (0, 1)));
             let l_p = luminance(rgb(src[i]));
-            let tol_l = SIGMA_L * src[i][3].sqrt() + EPS_L;
             let (mut sum_w, mut sum_c, mut sum_v) = (0.0f32, [0.0f32; 3], 0.0f32);
             for dy in -2i64..=2 {
                 for dx in -2i64..=2 {
@@ -160,6 +159,9 @@ pub fn atrous(src: &[[f32; 4]], g: &Guide<'_>, step: u32) -> Vec<[f32; 4]> {
                         let tol_z =
                             SIGMA_Z * (gx * dx.abs() as f32 + gy * dy.abs() as f32) * step as f32 + EPS_Z * p[3];
                         let l_q = luminance(rgb(src[j]));
+                        // The larger of the two predicted deviations: a dark pixel next to
+                        // a bright sample takes its share as the bright one gives it away.
+                        let tol_l = SIGMA_L * src[i][3].max(src[j][3]).sqrt() + EPS_L;
                         let e = (p[3] - q[3]).abs() / tol_z + (l_p - l_q).abs() / tol_l;
                         h * pow128(dot3(p, q).max(0.0)) * (-e).exp()
                     };
