@@ -9,7 +9,8 @@
 //    neighbours on the same surface.
 // 2. `atrous`: one iteration at `step` pixels: 5x5 B3-spline taps weighted by the normals'
 //    agreement (^128), the view distances against the local depth slope and the estimates
-//    against the noise their variance predicts; the variance filtered along.
+//    against the noise their variance predicts (the larger of the two pixels'
+//    predictions); the variance filtered along.
 // 3. The last iteration (`atrous` with LAST) writes the HDR image: the unlit term plus the
 //    albedo times the filtered light.
 //
