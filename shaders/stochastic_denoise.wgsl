@@ -97,16 +97,33 @@ fn demodulated(i: i32) -> vec3<f32> {
     return src[i].rgb / albedo(i);
 }
 
-@compute @workgroup_size(8, 8)
-fn demodulate(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= params.width || id.y >= params.height {
-        return;
-    }
+// An invocation's pixel: its coordinates, its index (-1 outside the image) and its surface
+// index (-1 outside or on the sky).
+struct Pixel {
+    x: i32,
+    y: i32,
+    k: i32,
+    i: i32,
+}
+
+fn pixel_of(id: vec3<u32>) -> Pixel {
     let x = i32(id.x);
     let y = i32(id.y);
-    let i = surface_at(x, y);
+    if id.x >= params.width || id.y >= params.height {
+        return Pixel(x, y, -1, -1);
+    }
+    return Pixel(x, y, y * i32(params.width) + x, surface_at(x, y));
+}
+
+@compute @workgroup_size(8, 8)
+fn demodulate(@builtin(global_invocation_id) id: vec3<u32>) {
+    let px = pixel_of(id);
+    if px.k < 0 {
+        return;
+    }
+    let i = px.i;
     if i < 0 {
-        dst[y * i32(params.width) + x] = vec4<f32>(0.0);
+        dst[px.k] = vec4<f32>(0.0);
         return;
     }
     let c = demodulated(i);
@@ -120,7 +137,7 @@ fn demodulate(@builtin(global_invocation_id) id: vec3<u32>) {
         var k = 0.0;
         for (var dy = -1; dy <= 1; dy++) {
             for (var dx = -1; dx <= 1; dx++) {
-                let j = surface_at(x + dx, y + dy);
+                let j = surface_at(px.x + dx, px.y + dy);
                 if j >= 0 && same_surface(surface(i), surface(j)) {
                     let lj = luminance(demodulated(j));
                     s1 += lj;
@@ -193,20 +210,18 @@ fn filtered(x: i32, y: i32, i: i32) -> vec4<f32> {
 // HDR image: one entry point, two pipelines.
 @compute @workgroup_size(8, 8)
 fn atrous(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= params.width || id.y >= params.height {
+    let px = pixel_of(id);
+    if px.k < 0 {
         return;
     }
-    let x = i32(id.x);
-    let y = i32(id.y);
-    let i = surface_at(x, y);
+    let i = px.i;
     if i < 0 {
         if !LAST {
-            let k = y * i32(params.width) + x;
-            dst[k] = src[k];
+            dst[px.k] = src[px.k];
         }
         return;
     }
-    let c = filtered(x, y, i);
+    let c = filtered(px.x, px.y, i);
     if LAST {
         textureStore(hdr, id.xy, vec4<f32>(unlit(i) + albedo(i) * c.rgb, 1.0));
     } else {
