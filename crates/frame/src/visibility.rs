@@ -214,7 +214,7 @@ impl VisibilityFrame {
             Some((history, Some(guide))) => Some(StochasticDenoise::new(
                 device,
                 (history, guide),
-                target_handles(targets).1.view,
+                target_handles(targets).1,
                 size,
                 knobs.denoise,
                 memory,
@@ -237,11 +237,6 @@ impl VisibilityFrame {
     /// The material-and-lights pass.
     pub fn shading(&self) -> &VisibilityShading {
         &self.shading
-    }
-
-    /// The stochastic method's denoiser (None without `--denoise N` > 0).
-    pub fn denoise(&self) -> Option<&StochasticDenoise> {
-        self.denoise.as_ref()
     }
 }
 

@@ -9,10 +9,11 @@
 
 use tiledlight_cull::denoise::{EPS_L, EPS_Z, MAX_ITERATIONS, SHORT_HISTORY, SIGMA_L, SIGMA_Z};
 use tiledlight_gpu::bindings::{create_layout, Binding, PassBindings, PassGroup};
+use tiledlight_gpu::handles::Hdr;
 use tiledlight_gpu::memory::MemoryReport;
 use tiledlight_gpu::recording::Recording;
 use tiledlight_gpu::tonemap::HDR_FORMAT;
-use tiledlight_gpu::util::{buffer_entry, buffer_zeroed, compute_pipeline_at, shader_module, view_entry};
+use tiledlight_gpu::util::{buffer_entry, buffer_init, buffer_zeroed, compute_pipeline_at, shader_module, view_entry};
 use tiledlight_gpu::GpuError;
 
 const CS: wgpu::ShaderStages = wgpu::ShaderStages::COMPUTE;
@@ -51,8 +52,9 @@ pub struct StochasticDenoise {
     /// history -> ping, ping -> pong, pong -> ping.
     groups: [wgpu::BindGroup; 3],
     params: wgpu::Buffer,
-    /// The working buffers (`[f32; 4]` a pixel: light over albedo, variance), for tests.
-    ping: wgpu::Buffer,
+    /// The working buffers (`[f32; 4]` a pixel: light over albedo, variance), held with
+    /// the bind groups that read and write them.
+    _working: [wgpu::Buffer; 2],
     iterations: u32,
     size: (u32, u32),
 }
@@ -63,7 +65,7 @@ impl StochasticDenoise {
     pub fn new(
         device: &wgpu::Device,
         (history, guide): (&wgpu::Buffer, &wgpu::Buffer),
-        hdr: &wgpu::TextureView,
+        hdr: Hdr<'_>,
         size: (u32, u32),
         iterations: u32,
         memory: &mut MemoryReport,
@@ -78,12 +80,17 @@ impl StochasticDenoise {
         let ping = buffer_zeroed(device, "stochastic.denoise.ping", bytes, usage);
         let pong = buffer_zeroed(device, "stochastic.denoise.pong", bytes, usage);
         memory.add("stochastic.denoise", 2 * bytes);
-        let params = buffer_zeroed(
-            device,
-            "stochastic.denoise.params",
-            PARAMS_STRIDE * u64::from(iterations + 1),
-            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        );
+        // Every dispatch's size and step, written once; the frames in the history's mean
+        // are rewritten each frame ([`Self::write_frame`]).
+        let mut data = vec![0u8; (PARAMS_STRIDE * u64::from(iterations + 1)) as usize];
+        for k in 0..=iterations {
+            // Dispatch 0 demodulates (its step unused); dispatch k is iteration k - 1.
+            let words = [size.0, size.1, 1u32 << k.saturating_sub(1), 1];
+            let at = (PARAMS_STRIDE * u64::from(k)) as usize;
+            data[at..at + 16].copy_from_slice(bytemuck::cast_slice(&words));
+        }
+        let usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
+        let params = buffer_init(device, "stochastic.denoise.params", &data, usage);
         let layout = create_layout(device, "stochastic.denoise.layout", DENOISE_BINDINGS.group(0), &[]);
         let group = |label: &str, src: &wgpu::Buffer, dst: &wgpu::Buffer| {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -101,7 +108,7 @@ impl StochasticDenoise {
                             size: wgpu::BufferSize::new(16),
                         }),
                     },
-                    view_entry(4, hdr),
+                    view_entry(4, hdr.view),
                 ],
             })
         };
@@ -129,24 +136,18 @@ impl StochasticDenoise {
             last: pipeline("stochastic.denoise.atrous_last", "atrous", true),
             groups,
             params,
-            ping,
+            _working: [ping, pong],
             iterations,
             size,
         })
     }
 
-    /// Writes the frame's parameters: every dispatch's size and step, and the frames in the
-    /// history's mean (`frames`, at least 1).
+    /// Writes the frames in the history's mean (`frames`, at least 1) into every
+    /// dispatch's parameters: one word each, nothing allocated.
     pub fn write_frame(&self, queue: &wgpu::Queue, frames: u32) {
-        let mut data = vec![0u8; (PARAMS_STRIDE * u64::from(self.iterations + 1)) as usize];
         for k in 0..=self.iterations {
-            // Dispatch 0 demodulates (its step unused); dispatch k is iteration k - 1.
-            let step = 1u32 << k.saturating_sub(1);
-            let words = [self.size.0, self.size.1, step, frames.max(1)];
-            let at = (PARAMS_STRIDE * u64::from(k)) as usize;
-            data[at..at + 16].copy_from_slice(bytemuck::cast_slice(&words));
+            queue.write_buffer(&self.params, PARAMS_STRIDE * u64::from(k) + 12, bytemuck::bytes_of(&frames.max(1)));
         }
-        queue.write_buffer(&self.params, 0, &data);
     }
 
     /// Records the pass: demodulation, then the iterations, the last into the HDR image.
@@ -172,16 +173,5 @@ impl StochasticDenoise {
             }
         }
         timer.end(encoder, t);
-    }
-
-    /// The demodulated history with its variance (`[f32; 4]` a pixel) as the last frame's
-    /// first dispatch left it, for tests: with one iteration the ping buffer still holds it.
-    pub fn ping(&self) -> &wgpu::Buffer {
-        &self.ping
-    }
-
-    /// Iterations a frame.
-    pub fn iterations(&self) -> u32 {
-        self.iterations
     }
 }
