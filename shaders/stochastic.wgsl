@@ -4,5 +4,5 @@
 // by a ray through the scene's BVH, the frames accumulated (common/stochastic_shade.wgsl,
 // in the traced kernel's body common/traced_shade.wgsl).
 // variants: VISIBILITY TRACED STOCHASTIC NO_CUTOFF SPOT_LIGHTS TRACE_MASKS HALF_Z CLUSTERED
-// variants: TEXTURES NORMAL_MAP UV1 DENOISE
+// variants: TEXTURES NORMAL_MAP UV1 DENOISE REUSE
 #include "common/traced_shade.wgsl"

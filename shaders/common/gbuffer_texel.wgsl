@@ -6,6 +6,7 @@
 //   w: base blue in 15-8, perceptual roughness (8 bits) in 7-0
 
 #include "common/srgb.wgsl"
+#include "common/octahedral.wgsl"
 
 const GB_NORMAL_MAX: f32 = 8191.0;   // 2^13 - 1
 const GB_NORMAL_OFFSET: i32 = 8192;  // 2^13
@@ -16,30 +17,6 @@ struct GTexel {
     metallic: f32,
     normal: vec3<f32>,
     roughness: f32,
-}
-
-// The lower half's fold (its own inverse): (1 - |v|, 1 - |u|) with the signs of (u, v).
-fn oct_fold(p: vec2<f32>) -> vec2<f32> {
-    let sign = select(vec2<f32>(-1.0), vec2<f32>(1.0), p >= vec2<f32>(0.0));
-    return (vec2<f32>(1.0) - abs(p.yx)) * sign;
-}
-
-// The point of the square [-1, 1]^2 a direction maps to (+Z's, the origin, for a zero one).
-fn oct_map(n: vec3<f32>) -> vec2<f32> {
-    let a = abs(n);
-    let m = max(a.x, max(a.y, a.z));
-    if !(m > 0.0) {
-        return vec2<f32>(0.0);
-    }
-    let s = n / m;
-    let p = s.xy / (abs(s.x) + abs(s.y) + abs(s.z));
-    return select(p, oct_fold(p), s.z < 0.0);
-}
-
-fn oct_unmap(p: vec2<f32>) -> vec3<f32> {
-    let z = 1.0 - abs(p.x) - abs(p.y);
-    let xy = select(p, oct_fold(p), z < 0.0);
-    return normalize(vec3<f32>(xy, z));
 }
 
 fn unorm_code(c: f32, max_code: f32) -> u32 {

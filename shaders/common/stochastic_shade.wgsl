@@ -22,6 +22,11 @@
 // 4. With DENOISE, the denoiser's guide: the pixel's normal and view distance (0: sky), the
 //    albedo the light is divided by and the unlit term (stochastic_denoise.wgsl filters the
 //    history with it).
+// 5. With REUSE, spatial reuse (tiledlight_cull::reuse, whose doc numbers the steps): the
+//    pass runs twice. The first (REUSE_PASS 0) stops after step 1 and leaves each pixel's
+//    reservoir as a record (the kept light, W, the normal and view distance); the second
+//    (REUSE_PASS 1) merges its own record with REUSE_NEIGHBOURS neighbours' of a similar
+//    surface, each light weighed by the target at this pixel, and goes on with steps 2-4.
 
 #include "common/stochastic.wgsl"
 
@@ -47,6 +52,22 @@ override DEMOD_FLOOR: f32;
 @group(1) @binding(41) var<storage, read_write> denoise_guide: array<vec4<f32>>;
 #endif
 
+#ifdef REUSE
+#include "common/reuse.wgsl"
+// Which run of the pass this is: 0 samples and leaves the records, 1 reuses them (step 5).
+override REUSE_PASS: u32 = 0u;
+// Neighbours merged a pixel; the box's half side in pixels; the similarity test's normal
+// cosine and distance share; the first random draw of the reuse (tiledlight_cull::reuse's
+// constants, passed by the host).
+override REUSE_NEIGHBOURS: u32 = 0u;
+override REUSE_RADIUS: i32;
+override REUSE_NORMAL_COS: f32;
+override REUSE_DISTANCE_SHARE: f32;
+override REUSE_DRAW_BASE: u32;
+// One record a pixel, row-major (common/reuse.wgsl, ReuseRecord).
+@group(1) @binding(42) var<storage, read_write> stochastic_records: array<vec4<u32>>;
+#endif
+
 #include "common/luminance.wgsl"
 
 // True when the light's radius reaches point `p`: the windowed falloff's `in_range`
@@ -57,13 +78,9 @@ fn reaches(light: u32, p: vec3<f32>) -> bool {
     return dot(d, d) < r * r;
 }
 
-// This frame's estimate of the pixel's light (steps 1 and 2), without the unlit term.
-fn stochastic_estimate(g: GSample, p: vec2<u32>, pixel: u32) -> vec3<f32> {
+// Step 1: the pixel's reservoir of this frame's candidates.
+fn stochastic_sample(g: GSample, p: vec2<u32>, pixel: u32, v: vec3<f32>) -> Reservoir {
     let n = lighting.num_lights;
-    if n == 0u {
-        return vec3<f32>(0.0);
-    }
-    let v = view_vector(g.world);
     let frame = traced_band.frame;
     let list = pixel_list(p, g.dist);
     let m_near = select(0u, traced_band.candidates, list.count > 0u);
@@ -82,6 +99,46 @@ fn stochastic_estimate(g: GSample, p: vec2<u32>, pixel: u32) -> vec3<f32> {
         let m = select(m_far, m_near, near);
         reservoir_update(&r, light, p_hat * f32(count) * total / f32(m), p_hat, rand01(pixel, frame, 2u * k + 1u));
     }
+    return r;
+}
+
+#ifdef REUSE
+// The surface the reuse weighs lights at (common/reuse.wgsl's reuse_target), set before
+// reuse_combine.
+var<private> reuse_surface: GSample;
+var<private> reuse_view: vec3<f32>;
+
+fn reuse_record(index: u32) -> vec4<u32> {
+    return stochastic_records[index];
+}
+
+fn reuse_target(light: u32) -> f32 {
+    let g = reuse_surface;
+    return luminance(shade_light(light, g.world, g.normal, reuse_view, g.surface));
+}
+
+// Step 5's second run: the pixel's own record and its neighbours' merged.
+fn stochastic_reuse(g: GSample, p: vec2<u32>, v: vec3<f32>) -> Reservoir {
+    reuse_surface = g;
+    reuse_view = v;
+    let c = ReuseParams(view.screen.xy, traced_band.frame, traced_band.candidates, traced_band.far_candidates,
+        REUSE_NEIGHBOURS, REUSE_RADIUS, REUSE_NORMAL_COS, REUSE_DISTANCE_SHARE, REUSE_DRAW_BASE);
+    return reuse_combine(p, c);
+}
+#endif
+
+// This frame's estimate of the pixel's light (steps 1 and 2, with REUSE step 5), without
+// the unlit term.
+fn stochastic_estimate(g: GSample, p: vec2<u32>, pixel: u32) -> vec3<f32> {
+    if lighting.num_lights == 0u {
+        return vec3<f32>(0.0);
+    }
+    let v = view_vector(g.world);
+#ifdef REUSE
+    let r = stochastic_reuse(g, p, v);
+#else
+    let r = stochastic_sample(g, p, pixel, v);
+#endif
     let w = reservoir_weight(r);
     if w <= 0.0 {
         return vec3<f32>(0.0);
@@ -95,6 +152,19 @@ fn stochastic_estimate(g: GSample, p: vec2<u32>, pixel: u32) -> vec3<f32> {
 // and 4).
 fn shade_lights_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
     let pixel = p.y * view.screen.x + p.x;
+#ifdef REUSE
+    if REUSE_PASS == 0u {
+        // Step 5's first run: the record, no ray, nothing accumulated.
+        var w = vec4<u32>(0u);
+        if !g.sky && lighting.num_lights > 0u {
+            let r = stochastic_sample(g, p, pixel, view_vector(g.world));
+            // More candidates than the far ones: the list had some.
+            w = record_pack(ReuseRecord(r.light, r.m > traced_band.far_candidates, reservoir_weight(r), g.normal, g.dist));
+        }
+        stochastic_records[pixel] = w;
+        return vec3<f32>(0.0);
+    }
+#endif
     if g.sky {
 #ifdef DENOISE
         denoise_guide[pixel] = vec4<f32>(0.0);

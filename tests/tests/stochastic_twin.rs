@@ -9,7 +9,13 @@
 //! its sum (an FMA), so sums and weights may differ in the last bits, and a pick may differ
 //! where the CPU's decision `u w_sum < w` was within 1e-5 of a tie; any other difference
 //! fails. The negative test: a twin that draws with the draw index off by one is rejected.
+//!
+//! The spatial reuse's WGSL (`shaders/common/reuse.wgsl`) against `tiledlight_cull::reuse`
+//! likewise, on a record image (below, at `REUSE_SRC`); its negative test: a twin that
+//! skips the similarity test is rejected.
 
+use glam::Vec3;
+use tiledlight_cull::reuse::{self, Record};
 use tiledlight_cull::stochastic::{rand01, Reservoir};
 use tiledlight_tests::gpu;
 use tiledlight_tests::kernels::{run_cases, Rng};
@@ -164,4 +170,173 @@ fn the_comparison_rejects_a_twin_that_draws_otherwise() {
     let rows = run(&cases);
     let bad = mismatches(&cases, &rows, 1);
     assert!(bad.len() * 10 > cases.len() * 9, "only {} of {} cases caught", bad.len(), cases.len());
+}
+
+// Spatial reuse (tiledlight_cull::reuse, shaders/common/reuse.wgsl): every pixel of a
+// record image merged with its neighbours on the GPU and by the twin. The image has
+// surfaces of three normals (0, 10 and 40 degrees from +Z) and three view distances (10,
+// 10.5, 12) in blocks, sky pixels, records without a light (W 0), weights from 1e-30 to
+// 1e30 and light indices up to the largest (2^20 - 1); no pair of surfaces is within 1e-3
+// of the similarity test's thresholds, so rounding cannot flip a decision. The target is a
+// table of the light index, exact in f32 on both sides (every fifth light 0).
+const REUSE_SRC: &str = r#"
+#include "common/reuse.wgsl"
+@group(0) @binding(0) var<storage, read> records: array<vec4<u32>>;
+@group(0) @binding(1) var<storage, read_write> out: array<vec4<u32>>;
+
+fn reuse_record(index: u32) -> vec4<u32> {
+    return records[index + 1u];
+}
+
+fn reuse_target(light: u32) -> f32 {
+    return select(f32((light * 2654435761u) >> 16u) / 65536.0, 0.0, light % 5u == 0u);
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let head = records[0];
+    let screen = head.xy;
+    let i = id.x;
+    if i >= screen.x * screen.y { return; }
+    let c = ReuseParams(screen, head.z, 4u, 16u, head.w, REUSE_RADIUS, REUSE_NORMAL_COS, REUSE_DISTANCE_SHARE,
+        REUSE_DRAW_BASE);
+    let r = reuse_combine(vec2<u32>(i % screen.x, i / screen.x), c);
+    out[i] = vec4<u32>(r.light, bitcast<u32>(r.w_sum), r.m, bitcast<u32>(reservoir_weight(r)));
+}
+"#;
+
+const REUSE_SIZE: (u32, u32) = (48, 32);
+const REUSE_COUNTS: (u32, u32) = (4, 16);
+
+fn reuse_target(light: u32) -> f32 {
+    if light % 5 == 0 {
+        0.0
+    } else {
+        (light.wrapping_mul(2_654_435_761) >> 16) as f32 / 65536.0
+    }
+}
+
+fn reuse_records() -> Vec<Record> {
+    let mut rng = Rng(4848);
+    let normals = [0.0f32, 10.0, 40.0].map(|d| Vec3::new(d.to_radians().sin(), 0.0, d.to_radians().cos()));
+    let dists = [10.0f32, 10.5, 12.0];
+    (0..REUSE_SIZE.0 * REUSE_SIZE.1)
+        .map(|i| {
+            let (x, y) = (i % REUSE_SIZE.0, i / REUSE_SIZE.0);
+            // Blocks of 8x8 of one normal and distance, a fifth of the pixels another.
+            let block = ((x / 8) * 7 + (y / 8) * 3) as usize;
+            let odd = rng.unit() < 0.2;
+            let normal = normals[if odd { (rng.unit() * 3.0) as usize } else { block % 3 }];
+            let dist = if rng.unit() < 0.05 {
+                0.0
+            } else {
+                dists[if odd { (rng.unit() * 3.0) as usize } else { block / 3 % 3 }]
+            };
+            let light = if i == 5 { (1 << 20) - 1 } else { (rng.unit() * 4000.0) as u32 };
+            let weight = if rng.unit() < 0.1 { 0.0 } else { rng.log(1e-30, 1e30) };
+            Record { light, near: rng.unit() < 0.7, weight, normal, dist }
+        })
+        .collect()
+}
+
+fn run_reuse(records: &[Record], (frame, k): (u32, u32)) -> Vec<[u32; 4]> {
+    let mut words = vec![[REUSE_SIZE.0, REUSE_SIZE.1, frame, k]];
+    words.extend(records.iter().map(Record::pack));
+    let n = records.len() as u32;
+    let constants = format!(
+        "const REUSE_RADIUS: i32 = {};\nconst REUSE_NORMAL_COS: f32 = {:?};\nconst REUSE_DISTANCE_SHARE: f32 = {:?};\nconst REUSE_DRAW_BASE: u32 = {}u;\n",
+        reuse::RADIUS,
+        reuse::NORMAL_COS,
+        reuse::DISTANCE_SHARE,
+        reuse::DRAW_BASE
+    );
+    let out = run_cases(
+        gpu(),
+        "test.stochastic.reuse",
+        &(constants + REUSE_SRC),
+        bytemuck::cast_slice(&words),
+        n,
+        u64::from(n) * 16,
+    );
+    out.chunks_exact(4).map(|c| [0, 1, 2, 3].map(|j| c[j].to_bits())).collect()
+}
+
+/// The smallest distance of one of pixel `(x, y)`'s keep-or-not decisions from a tie
+/// (`|u w_sum - w| / w_sum`): where it is within rounding, the GPU may keep the other one.
+fn reuse_margin(records: &[Record], (x, y): (u32, u32), (frame, k): (u32, u32)) -> f32 {
+    let pixel = y * REUSE_SIZE.0 + x;
+    let own = records[pixel as usize];
+    let mut offered = vec![(own, rand01(pixel, frame, reuse::DRAW_BASE - 1))];
+    for j in 0..k {
+        if let Some((nx, ny)) = reuse::neighbour((x, y), REUSE_SIZE, frame, j) {
+            let other = records[(ny * REUSE_SIZE.0 + nx) as usize];
+            if reuse::similar(&own, &other) {
+                offered.push((other, rand01(pixel, frame, reuse::DRAW_BASE + 3 * j + 2)));
+            }
+        }
+    }
+    let mut w_sum = 0.0f32;
+    let mut margin = f32::INFINITY;
+    for (rec, u) in offered {
+        let p = if rec.weight > 0.0 { reuse_target(rec.light) } else { 0.0 };
+        let w = p * rec.weight * rec.count(REUSE_COUNTS) as f32;
+        w_sum += w;
+        if w > 0.0 {
+            margin = margin.min((u * w_sum - w).abs() / w_sum);
+        }
+    }
+    margin
+}
+
+/// The pixels whose GPU reservoir differs from `twin`'s beyond rounding and near-ties.
+fn reuse_mismatches(records: &[Record], rows: &[[u32; 4]], twin: &[Record], (frame, k): (u32, u32)) -> Vec<String> {
+    let mut bad = Vec::new();
+    for (i, row) in rows.iter().enumerate() {
+        let (x, y) = (i as u32 % REUSE_SIZE.0, i as u32 / REUSE_SIZE.0);
+        let c = reuse::combine(twin, ((x, y), REUSE_SIZE), (k, REUSE_COUNTS, frame), reuse_target);
+        let close = |g: u32, c: f32| {
+            let g = f32::from_bits(g);
+            g == c || (g - c).abs() <= 1e-5 * c.abs().max(g.abs())
+        };
+        let pick_ok = row[0] == c.light || reuse_margin(records, (x, y), (frame, k)) < 1e-5;
+        if row[2] != c.m || !close(row[1], c.w_sum) || !pick_ok || (row[0] == c.light && !close(row[3], c.weight())) {
+            bad.push(format!("pixel ({x}, {y}): GPU {row:?}, CPU {c:?} weight {}", c.weight()));
+        }
+    }
+    bad
+}
+
+#[test]
+fn the_gpu_reuse_matches_its_cpu_twin() {
+    let records = reuse_records();
+    for (frame, k) in [(0, 1), (7, 4), (u32::MAX, 16)] {
+        let rows = run_reuse(&records, (frame, k));
+        let bad = reuse_mismatches(&records, &rows, &records, (frame, k));
+        // Pixels that merged a neighbour (more candidates than their own) and kept a light.
+        let merged = rows.iter().zip(&records).filter(|(r, rec)| r[2] > rec.count(REUSE_COUNTS) && r[3] != 0).count();
+        eprintln!(
+            "frame {frame}, {k} neighbours: {merged} of {} pixels merged a neighbour, {} mismatches",
+            rows.len(),
+            bad.len()
+        );
+        assert!(merged * 8 > rows.len(), "too few pixels merged a neighbour ({merged}): the reuse is barely tested");
+        assert!(
+            bad.is_empty(),
+            "{} of {} pixels differ:\n{}",
+            bad.len(),
+            rows.len(),
+            bad[..bad.len().min(10)].join("\n")
+        );
+    }
+}
+
+/// The negative test: a twin that skips the similarity test (every surface alike) is
+/// rejected on most pixels that have a dissimilar neighbour.
+#[test]
+fn the_reuse_comparison_rejects_a_twin_without_the_similarity_test() {
+    let records = reuse_records();
+    let alike: Vec<Record> = records.iter().map(|r| Record { normal: Vec3::Z, dist: 10.0, ..*r }).collect();
+    let rows = run_reuse(&records, (7, 4));
+    let bad = reuse_mismatches(&records, &rows, &alike, (7, 4));
+    assert!(bad.len() * 2 > rows.len(), "only {} of {} pixels caught", bad.len(), rows.len());
 }

@@ -57,6 +57,7 @@ pub mod octahedral;
 pub mod raster;
 pub mod raycast;
 pub mod reference;
+pub mod reuse;
 pub mod shadow;
 pub mod stochastic;
 pub mod texture;

@@ -68,6 +68,9 @@ defines! {
     NormalMap = "NORMAL_MAP",
     /// Plain inverse-square falloff (no radius window).
     NoCutoff = "NO_CUTOFF",
+    /// The stochastic method's spatial reuse: its pass runs twice, sampling then reusing
+    /// the neighbours' reservoirs.
+    Reuse = "REUSE",
     /// The shadow atlas.
     Shadows = "SHADOWS",
     /// The contribution estimate's spot lights.

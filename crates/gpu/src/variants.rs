@@ -1013,6 +1013,9 @@ pub struct StochasticKey {
     pub materials: MaterialKey,
     /// `DENOISE`: the pass leaves the denoiser's guide (`--denoise N` > 0).
     pub denoise: bool,
+    /// `REUSE`: spatial reuse (`--reuse N` > 0): the pass runs twice, through its
+    /// reservoirs' records.
+    pub reuse: bool,
 }
 
 impl StochasticKey {
@@ -1024,7 +1027,9 @@ impl StochasticKey {
                 for masks in BOOLS {
                     for materials in MaterialKey::all() {
                         for denoise in BOOLS {
-                            v.push(Self { lookup, spots, masks, materials, denoise });
+                            for reuse in BOOLS {
+                                v.push(Self { lookup, spots, masks, materials, denoise, reuse });
+                            }
                         }
                     }
                 }
@@ -1047,6 +1052,7 @@ impl ShaderKey for StochasticKey {
         flag(&mut d, self.masks, Define::TraceMasks);
         d.extend(self.materials.defines());
         flag(&mut d, self.denoise, Define::Denoise);
+        flag(&mut d, self.reuse, Define::Reuse);
         d
     }
 

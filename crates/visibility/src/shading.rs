@@ -125,6 +125,7 @@ pub const VISIBILITY_GROUP: &[Binding] = &[
     Binding::storage_rw(39, CS).when(Cond::Defined(Define::Traced)),
     Binding::storage_rw(40, CS).when(Cond::Defined(Define::Stochastic)),
     Binding::storage_rw(41, CS).when(Cond::Defined(Define::Denoise)),
+    Binding::storage_rw(42, CS).when(Cond::Defined(Define::Reuse)),
 ];
 
 /// The traced reference's hierarchy (33-37), only with `TRACED`.
@@ -225,6 +226,12 @@ struct Traced {
     /// What the stochastic method's shading leaves its denoiser (`--denoise N` > 0): a
     /// pixel's surface, albedo and unlit term.
     guide: Option<wgpu::Buffer>,
+    /// The stochastic method's reservoirs between the sampling and the reusing run
+    /// (`--reuse N` > 0): one 16-byte record a pixel (`tiledlight_cull::reuse::Record`).
+    records: Option<wgpu::Buffer>,
+    /// The sampling run (`REUSE_PASS` 0) of the pass with spatial reuse; the pass's
+    /// pipeline is then the reusing run.
+    sample: Option<wgpu::ComputePipeline>,
     /// The pass's label and timer name: `traced.shade` or `stochastic.shade`.
     label: &'static str,
 }
@@ -329,6 +336,7 @@ impl VisibilityShading {
                     masks: bvh.masks.is_some(),
                     materials,
                     denoise: features.knobs.denoise > 0,
+                    reuse: features.knobs.reuse > 0,
                 }),
                 STOCHASTIC_BINDINGS,
                 16,
@@ -376,7 +384,7 @@ impl VisibilityShading {
         }
         // The traced kernel reads no shadow map (its atlas, with VPLs, serves their RSM).
         bind.extend(light_entries(lights, features, atlas.filter(|_| !traced), vpls));
-        let traced_state = match shade.bvh() {
+        let mut traced_state = match shade.bvh() {
             None => None,
             Some(bvh) => {
                 bind.extend(bvh.entries(33));
@@ -423,8 +431,13 @@ impl VisibilityShading {
                     let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
                     buffer_zeroed(device, "stochastic.denoise.guide", bytes, usage)
                 });
+                let records = (stochastic && features.knobs.reuse > 0).then(|| {
+                    let bytes = u64::from(grid.width) * u64::from(grid.height) * 16;
+                    memory.add("stochastic.reuse.records", bytes);
+                    buffer_zeroed(device, "stochastic.reuse.records", bytes.max(16), wgpu::BufferUsages::STORAGE)
+                });
                 let label = if stochastic { "stochastic.shade" } else { "traced.shade" };
-                Some(Traced { bands_buffer, rows, bands, stats, history, guide, label })
+                Some(Traced { bands_buffer, rows, bands, stats, history, guide, records, sample: None, label })
             }
         };
         if let Some(t) = &traced_state {
@@ -442,6 +455,9 @@ impl VisibilityShading {
             }
             if let Some(g) = &t.guide {
                 bind.push(buffer_entry(41, g));
+            }
+            if let Some(r) = &t.records {
+                bind.push(buffer_entry(42, r));
             }
         }
         let msaa =
@@ -507,6 +523,20 @@ impl VisibilityShading {
                 if let ShadeLights::Stochastic { culling, .. } = shade {
                     layouts.push(culling.grid.layout());
                 }
+                if let Some(t) = traced_state.as_mut().filter(|t| t.records.is_some()) {
+                    use tiledlight_cull::reuse;
+                    constants.extend([
+                        ("REUSE_NEIGHBOURS", f64::from(features.knobs.reuse)),
+                        ("REUSE_RADIUS", f64::from(reuse::RADIUS)),
+                        ("REUSE_NORMAL_COS", f64::from(reuse::NORMAL_COS)),
+                        ("REUSE_DISTANCE_SHARE", f64::from(reuse::DISTANCE_SHARE)),
+                        ("REUSE_DRAW_BASE", f64::from(reuse::DRAW_BASE)),
+                    ]);
+                    let mut sampling = constants.clone();
+                    sampling.push(("REUSE_PASS", 0.0));
+                    t.sample = Some(compute_pipeline(device, "stochastic.sample", &layouts, &module, &sampling));
+                    constants.push(("REUSE_PASS", 1.0));
+                }
                 compute_pipeline(device, label, &layouts, &module, &constants)
             }
         };
@@ -564,6 +594,21 @@ impl VisibilityShading {
         encoder.clear_buffer(&traced.stats, 0, None);
         match flush {
             None => {
+                // With spatial reuse the sampling run first, timed on its own: it leaves
+                // the records the pass reads.
+                if let Some(sample) = &traced.sample {
+                    let t = timer.begin("stochastic.sample", encoder);
+                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some("stochastic.sample"),
+                        timestamp_writes: t.compute_writes(),
+                    });
+                    if let Some(g) = light_grid {
+                        pass.set_bind_group(3, g.bind_group(), &[]);
+                    }
+                    self.dispatch_with(sample, &mut pass, (views, view), scene, Some((0, self.tiles.1)));
+                    drop(pass);
+                    timer.end(encoder, t);
+                }
                 let t = timer.begin(traced.label, encoder);
                 {
                     let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -604,7 +649,19 @@ impl VisibilityShading {
         scene: &SceneGpu,
         band: Option<(u32, u32)>,
     ) {
-        pass.set_pipeline(&self.pipeline);
+        self.dispatch_with(&self.pipeline, pass, (views, view), scene, band);
+    }
+
+    /// [`Self::dispatch`] with `pipeline` (the stochastic method's sampling run).
+    fn dispatch_with(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        pass: &mut wgpu::ComputePass<'_>,
+        (views, view): (&Views, u32),
+        scene: &SceneGpu,
+        band: Option<(u32, u32)>,
+    ) {
+        pass.set_pipeline(pipeline);
         pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
         let rows = band.map_or(self.tiles.1, |(_, rows)| rows);
         let band_offset = band.map(|(b, _)| (u64::from(b) * BAND_STRIDE) as u32);
