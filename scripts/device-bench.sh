@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced stochastic denoise casters casters-curve ranking materials surface-edges stage-lights big-scene
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced stochastic denoise reuse casters casters-curve ranking materials surface-edges stage-lights big-scene
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -243,6 +243,29 @@ for set in $sets; do
         --out "/tmp/den-acc-$scene-$t/acc.csv" >"$out/den-acc-$scene-t$t.txt" 2>&1
       echo "exit $?" >>"$out/den-acc-$scene-t$t.txt"
       cp "/tmp/den-acc-$scene-$t/acc.csv" "$out/den-acc-$scene-t$t.csv" 2>/dev/null
+    done
+    ;;
+  reuse)
+    # Issue 48's spatial reuse: the stochastic method's frame time without it and with 4
+    # neighbours (the denoiser on, its default), then its error against the traced truth
+    # after 8 frames of a still camera and of one frame alone (accumulate 0), with the
+    # denoiser off and on, on the Figure 9 scene (default threshold and the budget's 0.0015)
+    # and the courtyard.
+    for r in 0 4; do
+      run "reuse-f9-4096-r$r" 50 --lights 4096 --grid-objects 280 --density medium --method stochastic --reuse $r
+      run "reuse-court-1024-r$r" 50 --lights 1024 --method stochastic --reuse $r
+    done
+    for run in f9:0.1 f9:0.0015 court:0.1; do
+      scene=${run%%:*} t=${run#*:}
+      extra=(--lights 1024)
+      [ "$scene" = f9 ] && extra=(--lights 4096 --grid-objects 280 --density medium)
+      echo "== reuse-acc-$scene-t$t" | tee -a "$out/log.txt"
+      timeout 200 "$bin" accuracy --width 1920 --height 1080 "${extra[@]}" --reference traced --frames 7 \
+        --warmup 1 --reference-frames 1 --axis threshold="$t" --axis culling=planes --axis method=stochastic \
+        --axis reuse=0,4 --axis denoise=0,4 --axis accumulate=64,0 \
+        --out "/tmp/reuse-acc-$scene-$t/acc.csv" >"$out/reuse-acc-$scene-t$t.txt" 2>&1
+      echo "exit $?" >>"$out/reuse-acc-$scene-t$t.txt"
+      cp "/tmp/reuse-acc-$scene-$t/acc.csv" "$out/reuse-acc-$scene-t$t.csv" 2>/dev/null
     done
     ;;
   casters)
