@@ -29,7 +29,11 @@
 //! VisibilityRaster   scene                     -> Depth, IDs
 //! StochasticShade    IDs, scene buffers, BVH,  -> Hdr, history (candidates, one kept, one
 //!                    history                           ray a pixel; the frames accumulated),
-//!                                                      guide (with the denoiser)
+//!                                                      guide (with the denoiser); with
+//!                                                      --reuse N > 0 two dispatches: the
+//!                                                      sampling run leaves each pixel's
+//!                                                      reservoir record, the shading run
+//!                                                      merges N neighbours' and casts the ray
 //! [StochasticDenoise] history, guide           -> Hdr (--denoise N > 0: N à-trous iterations)
 //! ```
 //!
