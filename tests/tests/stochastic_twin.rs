@@ -209,7 +209,7 @@ const REUSE_SIZE: (u32, u32) = (48, 32);
 const REUSE_COUNTS: (u32, u32) = (4, 16);
 
 fn reuse_target(light: u32) -> f32 {
-    if light % 5 == 0 {
+    if light.is_multiple_of(5) {
         0.0
     } else {
         (light.wrapping_mul(2_654_435_761) >> 16) as f32 / 65536.0

@@ -52,7 +52,7 @@ pub const DRAW_BASE: u32 = 1 << 16;
 
 /// The bit of a record's first word that says the pixel's list had candidates (its
 /// reservoir saw the near candidates; light indices are below 2^20).
-const NEAR_BIT: u32 = 1 << 31;
+pub const NEAR_BIT: u32 = 1 << 31;
 
 /// A pixel's reservoir as the sampling pass leaves it (step 1).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -1185,9 +1185,9 @@ mod tests {
         // cutoff x spots x VPLs x masks x 5 material paths, per sample mode.
         assert_eq!(count("traced.wgsl"), 16 * 5);
         assert_eq!(count("traced_msaa.wgsl"), 16 * 5);
-        // 3 lookups x spots x masks x 5 material paths x the denoiser's guide, one sample a
-        // pixel.
-        assert_eq!(count("stochastic.wgsl"), 3 * 4 * 5 * 2);
+        // 3 lookups x spots x masks x 5 material paths x the denoiser's guide x the spatial
+        // reuse, one sample a pixel.
+        assert_eq!(count("stochastic.wgsl"), 3 * 4 * 5 * 2 * 2);
         assert_eq!(count("trace_rays.wgsl"), 2);
         assert_eq!(count("visibility_msaa.wgsl"), 90);
         // 4 pre-pass and 4 ID-raster variants, and 3 masked ones resolving IDs with atomics
