@@ -25,6 +25,25 @@ run_traced() { # name args...
   timeout 500 "$bin" bench --width 1920 --height 1080 --frames 2 --warmup 1 --json "$out/$name.json" "$@" 2>&1 \
     | tee -a "$out/log.txt" | grep -E "^(visibility|traced|tonemap|total|error|rays)"
 }
+# The stochastic method's error against the traced truth after 8 frames of a still camera
+# (7 compared + 1 warm-up) per dial, on the Figure 9 scene (4,096 lights) at the default
+# threshold and the budget's 0.0015 and on the courtyard (1,024) at the default; the lab's
+# default axes fixed to one value each. Each run's CSV and printout: $out/PREFIX-SCENE-tT.*
+run_stochastic_accuracy() { # prefix axes...
+  local prefix=$1 run scene t extra; shift
+  for run in f9:0.1 f9:0.0015 court:0.1; do
+    scene=${run%%:*} t=${run#*:}
+    extra=(--lights 1024)
+    [ "$scene" = f9 ] && extra=(--lights 4096 --grid-objects 280 --density medium)
+    echo "== $prefix-$scene-t$t" | tee -a "$out/log.txt"
+    timeout 200 "$bin" accuracy --width 1920 --height 1080 "${extra[@]}" --reference traced --frames 7 \
+      --warmup 1 --reference-frames 1 --axis threshold="$t" --axis culling=planes --axis method=stochastic \
+      "$@" --out "/tmp/$prefix-$scene-$t/acc.csv" >"$out/$prefix-$scene-t$t.txt" 2>&1
+    echo "exit $?" >>"$out/$prefix-$scene-t$t.txt"
+    cp "/tmp/$prefix-$scene-$t/acc.csv" "$out/$prefix-$scene-t$t.csv" 2>/dev/null
+  done
+}
+
 # An error budget against the traced truth (issue 30) on both scenes, 1,024 point + 256
 # spot lights, threshold 0.0015, Forward+: each scene's CSV, chart and printout under
 # $out/<scene>-NAME.*; its heat maps stay in /tmp.
@@ -229,21 +248,7 @@ for set in $sets; do
       run "den-f9-4096-d$d" 50 --lights 4096 --grid-objects 280 --density medium --method stochastic --denoise $d
       run "den-court-1024-d$d" 50 --lights 1024 --method stochastic --denoise $d
     done
-    # The lab's default axes (thresholds, culling tests) are fixed to one value each: the
-    # default threshold and the budget's 0.0015 on the Figure 9 scene, the default on the
-    # courtyard.
-    for run in f9:0.1 f9:0.0015 court:0.1; do
-      scene=${run%%:*} t=${run#*:}
-      extra=(--lights 1024)
-      [ "$scene" = f9 ] && extra=(--lights 4096 --grid-objects 280 --density medium)
-      echo "== den-acc-$scene-t$t" | tee -a "$out/log.txt"
-      timeout 200 "$bin" accuracy --width 1920 --height 1080 "${extra[@]}" --reference traced --frames 7 \
-        --warmup 1 --reference-frames 1 --axis threshold="$t" --axis culling=planes --axis method=stochastic \
-        --axis denoise=0,2,4 --axis accumulate=64,0 \
-        --out "/tmp/den-acc-$scene-$t/acc.csv" >"$out/den-acc-$scene-t$t.txt" 2>&1
-      echo "exit $?" >>"$out/den-acc-$scene-t$t.txt"
-      cp "/tmp/den-acc-$scene-$t/acc.csv" "$out/den-acc-$scene-t$t.csv" 2>/dev/null
-    done
+    run_stochastic_accuracy den-acc --axis denoise=0,2,4 --axis accumulate=64,0
     ;;
   reuse)
     # Issue 48's spatial reuse: the stochastic method's frame time without it and with 4
@@ -255,18 +260,7 @@ for set in $sets; do
       run "reuse-f9-4096-r$r" 50 --lights 4096 --grid-objects 280 --density medium --method stochastic --reuse $r
       run "reuse-court-1024-r$r" 50 --lights 1024 --method stochastic --reuse $r
     done
-    for run in f9:0.1 f9:0.0015 court:0.1; do
-      scene=${run%%:*} t=${run#*:}
-      extra=(--lights 1024)
-      [ "$scene" = f9 ] && extra=(--lights 4096 --grid-objects 280 --density medium)
-      echo "== reuse-acc-$scene-t$t" | tee -a "$out/log.txt"
-      timeout 200 "$bin" accuracy --width 1920 --height 1080 "${extra[@]}" --reference traced --frames 7 \
-        --warmup 1 --reference-frames 1 --axis threshold="$t" --axis culling=planes --axis method=stochastic \
-        --axis reuse=0,4 --axis denoise=0,4 --axis accumulate=64,0 \
-        --out "/tmp/reuse-acc-$scene-$t/acc.csv" >"$out/reuse-acc-$scene-t$t.txt" 2>&1
-      echo "exit $?" >>"$out/reuse-acc-$scene-t$t.txt"
-      cp "/tmp/reuse-acc-$scene-$t/acc.csv" "$out/reuse-acc-$scene-t$t.csv" 2>/dev/null
-    done
+    run_stochastic_accuracy reuse-acc --axis reuse=0,4 --axis denoise=0,4 --axis accumulate=64,0
     ;;
   casters)
     # Issue 30: the error budget against the traced truth at its best cutoff (threshold
