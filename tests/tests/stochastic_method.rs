@@ -303,6 +303,37 @@ fn spatial_reuse_cuts_a_frames_noise_and_keeps_the_light() {
     assert!(l_reused.abs() < 0.01, "reuse changed the image's light by {:+.2}%", 100.0 * l_reused);
 }
 
+/// The sampling run's records say whether the pixel drew near candidates (its count in a
+/// neighbour's merge): with lights whose radii reach no surface almost every list is empty
+/// and few records claim the near candidates; with the usual radii most surface pixels
+/// have a list.
+#[test]
+fn reuse_records_know_which_pixels_drew_near_candidates() {
+    let ctx = gpu();
+    let near_share = |threshold: f32| {
+        let (f, _) = fixture_at(ctx, threshold);
+        let mut s = FrameSettings::of(Method::Stochastic);
+        (s.knobs.accumulate, s.knobs.denoise, s.knobs.reuse) = (0, 0, 2);
+        let mut r = FrameRenderer::new(ctx, &f.scene, &f.lights, W, H, s).expect("renderer");
+        frame(ctx, &mut r, &f, &camera(EYE_A));
+        let v = r.passes::<tiledlight_frame::visibility::VisibilityFrame>().expect("the visibility frame");
+        let buffer = v.shading().stochastic_records().expect("the reuse's records");
+        let words: Vec<[u32; 4]> = tiledlight_gpu::readback::read_buffer(&ctx.device, &ctx.queue, buffer).unwrap();
+        let records: Vec<_> =
+            words[..(W * H) as usize].iter().map(|&w| tiledlight_cull::reuse::Record::unpack(w)).collect();
+        let surfaces: Vec<_> = records.iter().filter(|r| r.is_surface()).collect();
+        assert!(surfaces.len() > records.len() / 2, "the view shows surfaces");
+        surfaces.iter().filter(|r| r.near).count() as f64 / surfaces.len() as f64
+    };
+    // Radii of about 0.1 m, the lights 0.7 m and more from every surface: only the tiles
+    // whose frustum a light's small sphere crosses in front of the surface list it (the
+    // lists are per tile and conservative; measured 12% of the surface pixels).
+    let tiny = near_share(1000.0);
+    assert!(tiny < 0.25, "{tiny:.2} of the pixels claim near candidates where almost every list is empty");
+    let usual = near_share(THRESHOLD);
+    assert!(usual > 0.5, "only {usual:.2} of the surface pixels drew near candidates");
+}
+
 /// Mean absolute luminance error against `truth`.
 fn error(image: &[f64], truth: &[f64]) -> f64 {
     image.iter().zip(truth).map(|(a, b)| (a - b).abs()).sum::<f64>() / truth.len() as f64

@@ -434,7 +434,8 @@ impl VisibilityShading {
                 let records = (stochastic && features.knobs.reuse > 0).then(|| {
                     let bytes = u64::from(grid.width) * u64::from(grid.height) * 16;
                     memory.add("stochastic.reuse.records", bytes);
-                    buffer_zeroed(device, "stochastic.reuse.records", bytes.max(16), wgpu::BufferUsages::STORAGE)
+                    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+                    buffer_zeroed(device, "stochastic.reuse.records", bytes.max(16), usage)
                 });
                 let label = if stochastic { "stochastic.shade" } else { "traced.shade" };
                 Some(Traced { bands_buffer, rows, bands, stats, history, guide, records, sample: None, label })
@@ -699,6 +700,12 @@ impl VisibilityShading {
     pub fn stochastic_buffers(&self) -> Option<(&wgpu::Buffer, Option<&wgpu::Buffer>)> {
         let t = self.traced.as_ref()?;
         Some((t.history.as_ref()?, t.guide.as_ref()))
+    }
+
+    /// The stochastic method's reservoir records (`--reuse N` > 0: 16 bytes a pixel,
+    /// `tiledlight_cull::reuse::Record::pack`); None without reuse.
+    pub fn stochastic_records(&self) -> Option<&wgpu::Buffer> {
+        self.traced.as_ref()?.records.as_ref()
     }
 
     /// Bands a traced frame is cast in (None for the light grid's pass).
