@@ -1,9 +1,13 @@
 // The stochastic method's spatial reuse (issue 48, item 3): tiledlight_cull::reuse's steps
-// 1-4 (its module doc numbers them) with the reservoir of common/stochastic.wgsl. The
-// includer defines where the records are and what a light's target is at the pixel:
+// 1-5 (its module doc numbers them) with the reservoir of common/stochastic.wgsl. The
+// includer defines where the records are, where a pixel is and what a light gives:
 //
 //   fn reuse_record(index: u32) -> vec4<u32>   // the record of pixel `index` (row-major)
 //   fn reuse_target(light: u32) -> f32         // p_hat of `light` at this pixel's surface
+//   fn reuse_position(q: vec2<u32>, dist: f32) -> vec3<f32>
+//                                              // pixel q's world point at view distance dist
+//   fn reuse_proxy(light: u32, x: vec3<f32>, n: vec3<f32>) -> f32
+//                                              // the balance heuristic's p' (reuse::proxy)
 //
 // (common/stochastic_shade.wgsl reads its record buffer and shades the light;
 // tests/tests/stochastic_twin.rs gives a table.) Include-only; no binding of its own.
@@ -63,34 +67,64 @@ fn reuse_similar(a: ReuseRecord, b: ReuseRecord, c: ReuseParams) -> bool {
         && abs(a.dist - b.dist) <= c.distance_share * a.dist;
 }
 
-// Step 4: a record offered to the merged reservoir, its light weighed at this surface.
-fn reuse_offer(r: ptr<function, Reservoir>, rec: ReuseRecord, u: f32, c: ReuseParams) {
-    var p_hat = 0.0;
-    if rec.weight > 0.0 {
-        p_hat = reuse_target(rec.light);
-    }
-    let m = select(0u, c.candidates, rec.near) + c.far_candidates;
-    let before = (*r).m;
-    reservoir_update(r, rec.light, p_hat * rec.weight * f32(m), p_hat, u);
-    (*r).m = before + m;
-}
+// The merge's inputs at most: the pixel's own record and tiledlight_cull::reuse::
+// MAX_NEIGHBOURS neighbours' (the setting's limit).
+const REUSE_MAX_INPUTS: u32 = 17u;
 
-// Steps 2-4 (tiledlight_cull::reuse::combine): pixel p's own record and its similar
-// neighbours' merged into one reservoir.
+// Steps 2-5 (tiledlight_cull::reuse::offers and combine): pixel p's own record and its
+// similar neighbours' merged into one reservoir, each input weighed by its balance-
+// heuristic share of the light; the reservoir's count is 1 (W = w_sum / p_hat(y)).
 fn reuse_combine(p: vec2<u32>, c: ReuseParams) -> Reservoir {
     let pixel = p.y * c.screen.x + p.x;
     let own = record_unpack(reuse_record(pixel));
-    var r = reservoir_empty();
-    reuse_offer(&r, own, rand01(pixel, c.frame, c.draw_base - 1u), c);
-    for (var j = 0u; j < c.neighbours; j++) {
-        let q = reuse_neighbour(p, pixel, j, c);
-        if q.x < 0 {
-            continue;
+    var lights: array<u32, REUSE_MAX_INPUTS>;
+    var weights: array<f32, REUSE_MAX_INPUTS>;
+    var draws: array<f32, REUSE_MAX_INPUTS>;
+    // Each input's world point and count, and its normal.
+    var points: array<vec4<f32>, REUSE_MAX_INPUTS>;
+    var normals: array<vec3<f32>, REUSE_MAX_INPUTS>;
+    var n = 0u;
+    var rec = own;
+    var q = vec2<i32>(p);
+    var u = rand01(pixel, c.frame, c.draw_base - 1u);
+    let k = min(c.neighbours, REUSE_MAX_INPUTS - 1u);
+    for (var j = 0u; j <= k; j++) {
+        if j > 0u {
+            q = reuse_neighbour(p, pixel, j - 1u, c);
+            if q.x < 0 {
+                continue;
+            }
+            rec = record_unpack(reuse_record(u32(q.y) * c.screen.x + u32(q.x)));
+            if !reuse_similar(own, rec, c) {
+                continue;
+            }
+            u = rand01(pixel, c.frame, c.draw_base + 3u * (j - 1u) + 2u);
         }
-        let other = record_unpack(reuse_record(u32(q.y) * c.screen.x + u32(q.x)));
-        if reuse_similar(own, other, c) {
-            reuse_offer(&r, other, rand01(pixel, c.frame, c.draw_base + 3u * j + 2u), c);
-        }
+        let m = select(0u, c.candidates, rec.near) + c.far_candidates;
+        lights[n] = rec.light;
+        weights[n] = rec.weight;
+        draws[n] = u;
+        points[n] = vec4<f32>(reuse_position(vec2<u32>(q), rec.dist), f32(m));
+        normals[n] = rec.normal;
+        n++;
     }
+    var r = reservoir_empty();
+    for (var i = 0u; i < n; i++) {
+        var w = 0.0;
+        var p_hat = 0.0;
+        if weights[i] > 0.0 {
+            var total = 0.0;
+            for (var j = 0u; j < n; j++) {
+                total += points[j].w * reuse_proxy(lights[i], points[j].xyz, normals[j]);
+            }
+            let mine = points[i].w * reuse_proxy(lights[i], points[i].xyz, normals[i]);
+            p_hat = reuse_target(lights[i]);
+            if total > 0.0 {
+                w = mine / total * p_hat * weights[i];
+            }
+        }
+        reservoir_update(&r, lights[i], w, p_hat, draws[i]);
+    }
+    r.m = 1u;
     return r;
 }

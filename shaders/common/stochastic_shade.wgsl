@@ -26,7 +26,8 @@
 //    pass runs twice. The first (REUSE_PASS 0) stops after step 1 and leaves each pixel's
 //    reservoir as a record (the kept light, W, the normal and view distance); the second
 //    (REUSE_PASS 1) merges its own record with REUSE_NEIGHBOURS neighbours' of a similar
-//    surface, each light weighed by the target at this pixel, and goes on with steps 2-4.
+//    surface, each light weighed by the target at this pixel and its balance-heuristic
+//    share (common/reuse.wgsl), and goes on with steps 2-4.
 
 #include "common/stochastic.wgsl"
 
@@ -115,6 +116,29 @@ fn reuse_record(index: u32) -> vec4<u32> {
 fn reuse_target(light: u32) -> f32 {
     let g = reuse_surface;
     return luminance(shade_light(light, g.world, g.normal, reuse_view, g.surface));
+}
+
+fn reuse_position(q: vec2<u32>, dist: f32) -> vec3<f32> {
+    let v = view_point_at(pixel_to_ndc(vec2<f32>(q) + vec2<f32>(0.5)), dist);
+    return (view.view_to_world * vec4<f32>(v, 1.0)).xyz;
+}
+
+// tiledlight_cull::reuse::proxy: luminance x inverse-square falloff x spot cone x cosine.
+fn reuse_proxy(light: u32, x: vec3<f32>, n: vec3<f32>) -> f32 {
+    let to_light = shading_lights[light].position - x;
+    let d2 = dot(to_light, to_light);
+    if d2 <= 0.0 {
+        return 0.0;
+    }
+    let l = to_light * inverseSqrt(d2);
+    var a = unwindowed_attenuation(d2) * max(dot(n, l), 0.0);
+#ifdef SPOT_LIGHTS
+    if light >= lighting.num_point_lights {
+        let spot = spot_lights[light - lighting.num_point_lights];
+        a *= spot_falloff(dot(-l, spot.direction), spot.angle_scale, spot.angle_offset);
+    }
+#endif
+    return luminance(shading_lights[light].radiance) * a;
 }
 
 // Step 5's second run: the pixel's own record and its neighbours' merged.

@@ -192,6 +192,14 @@ fn reuse_target(light: u32) -> f32 {
     return select(f32((light * 2654435761u) >> 16u) / 65536.0, 0.0, light % 5u == 0u);
 }
 
+fn reuse_position(q: vec2<u32>, dist: f32) -> vec3<f32> {
+    return vec3<f32>(f32(q.x), f32(q.y), dist);
+}
+
+fn reuse_proxy(light: u32, x: vec3<f32>, n: vec3<f32>) -> f32 {
+    return (0.25 + f32(light % 7u)) * (1.5 + n.x) / (1.0 + 0.01 * x.x * f32(light % 3u));
+}
+
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let head = records[0];
@@ -213,6 +221,17 @@ fn reuse_target(light: u32) -> f32 {
         0.0
     } else {
         (light.wrapping_mul(2_654_435_761) >> 16) as f32 / 65536.0
+    }
+}
+
+/// The test kernel's scene: pixel coordinates and distance as the point, a proxy that
+/// depends on the light, the point and the normal (so neighbours' shares differ), the
+/// target table.
+fn reuse_scene() -> reuse::Scene<impl Fn(u32, u32, f32) -> Vec3, impl Fn(u32, Vec3, Vec3) -> f32, fn(u32) -> f32> {
+    reuse::Scene {
+        position: |x: u32, y: u32, d: f32| Vec3::new(x as f32, y as f32, d),
+        proxy: |l: u32, p: Vec3, n: Vec3| (0.25 + (l % 7) as f32) * (1.5 + n.x) / (1.0 + 0.01 * p.x * (l % 3) as f32),
+        target: reuse_target as fn(u32) -> f32,
     }
 }
 
@@ -264,22 +283,9 @@ fn run_reuse(records: &[Record], (frame, k): (u32, u32)) -> Vec<[u32; 4]> {
 /// The smallest distance of one of pixel `(x, y)`'s keep-or-not decisions from a tie
 /// (`|u w_sum - w| / w_sum`): where it is within rounding, the GPU may keep the other one.
 fn reuse_margin(records: &[Record], (x, y): (u32, u32), (frame, k): (u32, u32)) -> f32 {
-    let pixel = y * REUSE_SIZE.0 + x;
-    let own = records[pixel as usize];
-    let mut offered = vec![(own, rand01(pixel, frame, reuse::DRAW_BASE - 1))];
-    for j in 0..k {
-        if let Some((nx, ny)) = reuse::neighbour((x, y), REUSE_SIZE, frame, j) {
-            let other = records[(ny * REUSE_SIZE.0 + nx) as usize];
-            if reuse::similar(&own, &other) {
-                offered.push((other, rand01(pixel, frame, reuse::DRAW_BASE + 3 * j + 2)));
-            }
-        }
-    }
-    let mut w_sum = 0.0f32;
-    let mut margin = f32::INFINITY;
-    for (rec, u) in offered {
-        let p = if rec.weight > 0.0 { reuse_target(rec.light) } else { 0.0 };
-        let w = p * rec.weight * rec.count(REUSE_COUNTS) as f32;
+    let offers = reuse::offers(records, ((x, y), REUSE_SIZE), (k, REUSE_COUNTS, frame), &reuse_scene());
+    let (mut w_sum, mut margin) = (0.0f32, f32::INFINITY);
+    for (_, w, _, u) in offers {
         w_sum += w;
         if w > 0.0 {
             margin = margin.min((u * w_sum - w).abs() / w_sum);
@@ -293,7 +299,7 @@ fn reuse_mismatches(records: &[Record], rows: &[[u32; 4]], twin: &[Record], (fra
     let mut bad = Vec::new();
     for (i, row) in rows.iter().enumerate() {
         let (x, y) = (i as u32 % REUSE_SIZE.0, i as u32 / REUSE_SIZE.0);
-        let c = reuse::combine(twin, ((x, y), REUSE_SIZE), (k, REUSE_COUNTS, frame), reuse_target);
+        let c = reuse::combine(twin, ((x, y), REUSE_SIZE), (k, REUSE_COUNTS, frame), &reuse_scene());
         let close = |g: u32, c: f32| {
             let g = f32::from_bits(g);
             g == c || (g - c).abs() <= 1e-5 * c.abs().max(g.abs())
@@ -312,8 +318,14 @@ fn the_gpu_reuse_matches_its_cpu_twin() {
     for (frame, k) in [(0, 1), (7, 4), (u32::MAX, 16)] {
         let rows = run_reuse(&records, (frame, k));
         let bad = reuse_mismatches(&records, &rows, &records, (frame, k));
-        // Pixels that merged a neighbour (more candidates than their own) and kept a light.
-        let merged = rows.iter().zip(&records).filter(|(r, rec)| r[2] > rec.count(REUSE_COUNTS) && r[3] != 0).count();
+        // Pixels that merged a neighbour and kept a light.
+        let merged = (0..rows.len())
+            .filter(|&i| {
+                let (x, y) = (i as u32 % REUSE_SIZE.0, i as u32 / REUSE_SIZE.0);
+                rows[i][3] != 0
+                    && reuse::offers(&records, ((x, y), REUSE_SIZE), (k, REUSE_COUNTS, frame), &reuse_scene()).len() > 1
+            })
+            .count();
         eprintln!(
             "frame {frame}, {k} neighbours: {merged} of {} pixels merged a neighbour, {} mismatches",
             rows.len(),

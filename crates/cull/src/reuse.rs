@@ -17,26 +17,40 @@
 //!    or whose view distance differs by more than 10% of the pixel's is skipped
 //!    ([`similar`]: ReSTIR's thresholds); the rest see nearly the same lights with
 //!    nearly the same contribution.
-//! 4. **Merge.** The pixel's own reservoir and each kept neighbour's enter one reservoir as
-//!    a candidate of weight `p_hat(y) W M` with `p_hat` the target at *this* pixel's
-//!    surface ([`combine`]); the candidates' counts `M` add up.
-//! 5. **Weight.** `W = w_sum / (M p_hat(y))` with `M` the sum of the merged counts:
-//!    ReSTIR's biased combination. It is unbiased where every merged pixel can produce the
-//!    light the pixel can (its target non-zero there too); where a neighbour's target is 0
-//!    for a light this pixel sees (the light behind the neighbour's surface, outside its
-//!    spot cone), its count still divides, so such lights lose a little: steps 2-3 keep that
-//!    share small, and the tests bound it against the truth.
+//! 4. **Merge** (generalised RIS with the balance heuristic, Lin et al. 2022, section 5):
+//!    the pixel's own record and each kept neighbour's are the merge's inputs `S`. Input
+//!    `i` with light `y_i` enters with weight `m_i(y_i) p_hat(y_i) W_i`, where `p_hat` is
+//!    the target at *this* pixel's surface and `m_i(y) = M_i p'_i(y) / sum_j M_j p'_j(y)`
+//!    its share of the light over `S` ([`offers`]). `p'_j` is [`proxy`]: the light's
+//!    luminance x inverse-square falloff x spot cone x `max(n . l, 0)` at input `j`'s
+//!    position (rebuilt from its pixel and view distance) and normal: cheap, and positive
+//!    wherever that pixel's target is, so the shares of the inputs that can draw `y` add
+//!    up to 1.
+//! 5. **Weight.** `W = w_sum / p_hat(y)` for the kept light `y` (the reservoir's count is
+//!    1: the shares did the normalising). Unbiased for this pixel's sum of every light's
+//!    shadowed light. The shares are what keeps the merge's noise down: a light that sits
+//!    much closer to this pixel than to the neighbour that chose it (so its `W` there is
+//!    large) gets the small share that neighbour's proxy gives it, where ReSTIR's 1/M
+//!    combination (this module's first version) let it in with its whole weight: on the
+//!    courtyard, whose lights hug the walls, that tail made the image noisier than without
+//!    reuse.
 //!
-//! Depends on this crate's stochastic and octahedral modules and glam.
+//! Depends on this crate's stochastic, octahedral, light and brdf modules and glam.
 
 use glam::Vec3;
 
+use crate::brdf::{spot_falloff, unwindowed_attenuation};
+use crate::light::{spot_scale_offset, Light, LightKind};
 use crate::octahedral::{decode_u32, encode_u32};
-use crate::stochastic::{rand01, Reservoir};
+use crate::stochastic::{luminance, rand01, Reservoir};
 
 /// Half the side of the box neighbours are drawn from, in pixels (step 2): ReSTIR's 30
 /// pixel radius at 1080p, as a box of that width.
 pub const RADIUS: i32 = 15;
+
+/// The most neighbours a pixel merges (the setting's limit: the GPU keeps the merge's
+/// inputs in a fixed array of `1 + MAX_NEIGHBOURS`, `shaders/common/reuse.wgsl`).
+pub const MAX_NEIGHBOURS: u32 = 16;
 
 /// The cosine of the largest angle between the pixel's and a kept neighbour's normal
 /// (step 3): 25 degrees.
@@ -130,35 +144,103 @@ pub fn similar(pixel: &Record, other: &Record) -> bool {
         && (pixel.dist - other.dist).abs() <= DISTANCE_SHARE * pixel.dist
 }
 
-/// Steps 2-4 for pixel `(x, y)` of a `size` screen whose records are `records` (row-major):
-/// its own reservoir and those of `k` neighbours ([`neighbour`], [`similar`]) merged, each
-/// light weighed by `p_hat_at(light)`, the target at this pixel's surface. `counts` are the
-/// near and far candidates a pixel drew this frame. [`Reservoir::weight`] of the result is
-/// step 5's `W`.
-pub fn combine(
+/// The balance heuristic's proxy `p'` of `light` at point `x` with unit normal `n` (step
+/// 4): luminance x inverse-square falloff x spot cone x `max(n . l, 0)`. Positive wherever
+/// [`crate::stochastic::unshadowed`] (without the cutoff) is: the cone and the cosine are
+/// the target's own factors, and the BRDF's other terms are positive where `n . l` is.
+pub fn proxy(light: &Light, x: Vec3, n: Vec3) -> f32 {
+    let to = light.position - x;
+    let d2 = to.length_squared();
+    if d2 <= 0.0 {
+        return 0.0;
+    }
+    let l = to / d2.sqrt();
+    let cone = match light.kind {
+        LightKind::Point => 1.0,
+        LightKind::Spot { direction, inner_angle, outer_angle } => {
+            let (scale, offset) = spot_scale_offset(inner_angle, outer_angle);
+            spot_falloff((-l).dot(direction), scale, offset)
+        }
+    };
+    luminance(light.color * light.intensity) * unwindowed_attenuation(d2) * cone * n.dot(l).max(0.0)
+}
+
+/// What a pixel's merge needs of its scene: `position(x, y, dist)` the world point of a
+/// pixel at a view distance, `proxy(light, point, normal)` the balance heuristic's `p'`
+/// ([`proxy`] on the GPU), `target(light)` the target `p_hat` at this pixel's surface.
+pub struct Scene<P, Q, T> {
+    /// A pixel's world point at a view distance.
+    pub position: P,
+    /// `p'` of a light at a point with a normal.
+    pub proxy: Q,
+    /// `p_hat` of a light at this pixel's surface.
+    pub target: T,
+}
+
+/// Steps 2-4 for pixel `(x, y)` of a `size` screen whose records are `records`
+/// (row-major): the inputs merged (its own record first, then the similar neighbours'
+/// of `k` drawn, [`neighbour`], [`similar`]), each as `(light, weight, p_hat, u)`: the
+/// light, its weight `m_i p_hat W_i`, its target here and the number that decides whether
+/// it is kept. `counts` are the near and far candidates a pixel drew this frame.
+pub fn offers<P, Q, T>(
     records: &[Record],
     ((x, y), size): ((u32, u32), (u32, u32)),
     (k, counts, frame): (u32, (u32, u32), u32),
-    p_hat_at: impl Fn(u32) -> f32,
-) -> Reservoir {
+    scene: &Scene<P, Q, T>,
+) -> Vec<(u32, f32, f32, f32)>
+where
+    P: Fn(u32, u32, f32) -> Vec3,
+    Q: Fn(u32, Vec3, Vec3) -> f32,
+    T: Fn(u32) -> f32,
+{
     let pixel = y * size.0 + x;
-    let own = &records[pixel as usize];
-    let mut r = Reservoir::default();
-    let mut offer = |rec: &Record, u: f32| {
-        let p_hat = if rec.weight > 0.0 { p_hat_at(rec.light) } else { 0.0 };
-        let m = rec.count(counts);
-        let before = r.m;
-        r.update(rec.light, (p_hat * rec.weight * m as f32, p_hat), u);
-        r.m = before + m;
-    };
-    offer(own, rand01(pixel, frame, DRAW_BASE - 1));
+    let own = records[pixel as usize];
+    let mut inputs = vec![((x, y), own, rand01(pixel, frame, DRAW_BASE - 1))];
     for j in 0..k {
         let Some((nx, ny)) = neighbour((x, y), size, frame, j) else { continue };
-        let other = &records[(ny * size.0 + nx) as usize];
-        if similar(own, other) {
-            offer(other, rand01(pixel, frame, DRAW_BASE + 3 * j + 2));
+        let other = records[(ny * size.0 + nx) as usize];
+        if similar(&own, &other) {
+            inputs.push(((nx, ny), other, rand01(pixel, frame, DRAW_BASE + 3 * j + 2)));
         }
     }
+    let at: Vec<(Vec3, Vec3, f32)> = inputs
+        .iter()
+        .map(|&((px, py), r, _)| ((scene.position)(px, py, r.dist), r.normal, r.count(counts) as f32))
+        .collect();
+    inputs
+        .iter()
+        .enumerate()
+        .map(|(i, &(_, rec, u))| {
+            if rec.weight <= 0.0 {
+                return (rec.light, 0.0, 0.0, u);
+            }
+            let share = |&(p, n, m): &(Vec3, Vec3, f32)| m * (scene.proxy)(rec.light, p, n);
+            let total: f32 = at.iter().map(share).sum();
+            let mine = share(&at[i]);
+            let p_hat = (scene.target)(rec.light);
+            let w = if total > 0.0 { mine / total * p_hat * rec.weight } else { 0.0 };
+            (rec.light, w, p_hat, u)
+        })
+        .collect()
+}
+
+/// Steps 2-5: [`offers`] kept in one reservoir, whose [`Reservoir::weight`] is `W`.
+pub fn combine<P, Q, T>(
+    records: &[Record],
+    pixel: ((u32, u32), (u32, u32)),
+    draws: (u32, (u32, u32), u32),
+    scene: &Scene<P, Q, T>,
+) -> Reservoir
+where
+    P: Fn(u32, u32, f32) -> Vec3,
+    Q: Fn(u32, Vec3, Vec3) -> f32,
+    T: Fn(u32) -> f32,
+{
+    let mut r = Reservoir::default();
+    for (light, w, p_hat, u) in offers(records, pixel, draws, scene) {
+        r.update(light, (w, p_hat), u);
+    }
+    r.m = 1;
     r
 }
 
@@ -239,19 +321,27 @@ mod tests {
         assert!(!similar(&record(0, 1.0, Vec3::Z, 0.0), &record(0, 1.0, Vec3::Z, 0.0)));
     }
 
+    /// A scene whose proxy and target are `p_hat(light)` wherever the point is.
+    fn flat(
+        p_hat: fn(u32) -> f32,
+    ) -> Scene<impl Fn(u32, u32, f32) -> Vec3, impl Fn(u32, Vec3, Vec3) -> f32, fn(u32) -> f32> {
+        Scene { position: |x, y, d| Vec3::new(x as f32, y as f32, d), proxy: move |l, _, _| p_hat(l), target: p_hat }
+    }
+
     /// With every neighbour's light as bright here as there, merging keeps the weights'
     /// meaning: `W p_hat(y)` of the merged reservoir is the mean of the merged pixels' own
     /// estimates' expectation, here all 1 (each record's `W p_hat = 1`); a dissimilar
-    /// neighbour is not merged (its count does not enter).
+    /// neighbour is not merged.
     #[test]
     fn merged_reservoirs_keep_the_estimate_and_skip_other_surfaces() {
         let size = (32, 32);
         let p_hat = |light: u32| 1.0 + light as f32;
+        let scene = flat(p_hat);
         let mut records: Vec<Record> = (0..32 * 32).map(|i| record(i % 8, 1.0 / p_hat(i % 8), Vec3::Z, 5.0)).collect();
         let own = 16 * 32 + 16;
-        let r = combine(&records, ((16, 16), size), (8, (4, 16), 1), p_hat);
-        let merged = r.m / 20;
-        assert!(merged > 1, "no neighbour merged");
+        let draws = (8, (4, 16), 1);
+        assert!(offers(&records, ((16, 16), size), draws, &scene).len() > 2, "no neighbour merged");
+        let r = combine(&records, ((16, 16), size), draws, &scene);
         assert!((r.weight() * r.p_hat - 1.0).abs() < 1e-5, "W p_hat = {}", r.weight() * r.p_hat);
         // Every other pixel a wall (normal across): only the pixel's own reservoir counts.
         for (i, rec) in records.iter_mut().enumerate() {
@@ -259,7 +349,73 @@ mod tests {
                 rec.normal = Vec3::X;
             }
         }
-        let alone = combine(&records, ((16, 16), size), (8, (4, 16), 1), p_hat);
-        assert_eq!((alone.m, alone.light), (20, own as u32 % 8));
+        assert_eq!(offers(&records, ((16, 16), size), draws, &scene).len(), 1);
+        let alone = combine(&records, ((16, 16), size), draws, &scene);
+        assert_eq!(alone.light, own as u32 % 8);
+        assert!((alone.weight() * alone.p_hat - 1.0).abs() < 1e-6);
+    }
+
+    /// The balance heuristic's shares: a light that only this pixel's proxy sees (behind
+    /// the neighbour's surface) takes all its weight from this pixel, and one the neighbour
+    /// sees 9x as brightly gives this pixel's sample a tenth of the share when the counts
+    /// are equal.
+    #[test]
+    fn the_shares_follow_the_proxy_and_the_counts() {
+        let size = (2, 1);
+        let records = [record(1, 1.0, Vec3::Z, 5.0), record(2, 1.0, Vec3::Z, 5.0)];
+        // Find a frame whose one draw lands on the other pixel.
+        let frame = (0..1000).find(|&f| neighbour((0, 0), size, f, 0) == Some((1, 0))).expect("a frame");
+        let scene = Scene {
+            position: |x: u32, _: u32, _: f32| Vec3::new(x as f32, 0.0, 0.0),
+            // Light 1: seen from pixel 0 only; light 2: 9x brighter at pixel 1.
+            proxy: |l: u32, p: Vec3, _: Vec3| match (l, p.x > 0.5) {
+                (1, false) => 1.0,
+                (1, true) => 0.0,
+                (_, false) => 1.0,
+                (_, true) => 9.0,
+            },
+            target: |_: u32| 1.0,
+        };
+        let o = offers(&records, ((0, 0), size), (1, (4, 16), frame), &scene);
+        assert_eq!(o.len(), 2);
+        assert!((o[0].1 - 1.0).abs() < 1e-6 && (o[1].1 - 0.9).abs() < 1e-6, "{o:?}");
+        // The neighbour drew only its far candidates (16 of 20): its share shrinks.
+        let few = [records[0], Record { near: false, ..records[1] }];
+        let o = offers(&few, ((0, 0), size), (1, (4, 16), frame), &scene);
+        let expected = 9.0 * 16.0 / (9.0 * 16.0 + 20.0);
+        assert!((o[1].1 - expected).abs() < 1e-6, "{o:?}");
+    }
+
+    /// The proxy is positive wherever the target is (so the shares of the inputs that can
+    /// draw a light add up to 1), for points and spots, lights in front of and behind the
+    /// surface, near and far.
+    #[test]
+    fn the_proxy_is_positive_wherever_the_target_is() {
+        use crate::brdf::Surface;
+        use crate::stochastic::unshadowed;
+        let s = Surface { albedo: Vec3::splat(0.5), roughness: 0.4, metallic: 0.0 };
+        let mut seen = 0;
+        for i in 0..400 {
+            let t = i as f32 * 0.37;
+            let pos = Vec3::new(t.sin() * 5.0, (t * 1.3).cos() * 3.0, (t * 0.7).sin() * 4.0);
+            let dir = Vec3::new((t * 2.1).cos(), -1.0, (t * 1.7).sin()).normalize();
+            let light = if i % 2 == 0 {
+                Light::point(pos, Vec3::new(1.0, 0.5, 0.2), 5.0, 0.1).unwrap()
+            } else {
+                Light::spot(pos, dir, Vec3::ONE, 5.0, 0.3, 0.6, 0.1).unwrap()
+            };
+            let n = Vec3::new((t * 0.9).sin(), 1.0, (t * 1.1).cos()).normalize();
+            let x = Vec3::new(0.1 * t.cos(), 0.0, 0.2);
+            let v = (Vec3::new(0.0, 2.0, 6.0) - x).normalize();
+            if v.dot(n) <= 0.0 {
+                continue;
+            }
+            let target = luminance(unshadowed(&light, (x, n, v), &s, false));
+            if target > 0.0 {
+                seen += 1;
+                assert!(proxy(&light, x, n) > 0.0, "light {i}: target {target} but proxy 0");
+            }
+        }
+        assert!(seen > 50, "only {seen} lit cases");
     }
 }

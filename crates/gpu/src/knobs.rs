@@ -486,13 +486,17 @@ knobs! {
     /// The stochastic method's spatial reuse: neighbours whose reservoirs each pixel
     /// merges with its own (drawn from the 31x31-pixel box around it, those whose surface
     /// turns less than 25 degrees and whose distance differs by less than 10%), each
-    /// neighbour's light weighed by its contribution here: a frame's pixel chooses among
-    /// (1 + N) times the candidates for N more contribution evaluations and no more rays
-    /// (ReSTIR DI's spatial reuse, biased combination). 0 turns it off (no second run of the
-    /// pass, no record buffer).
+    /// neighbour's light weighed by its contribution here and by its share of the light
+    /// among the merged pixels (the balance heuristic: unbiased): a frame's pixel chooses
+    /// among (1 + N) times the candidates for N more contribution evaluations and no more
+    /// rays (ReSTIR DI's spatial reuse). 0 turns it off (no second run of the pass, no record
+    /// buffer); at most 16.
     reuse: u32 = 0;
     "reuse", "spatial reuse neighbours", "N", Control::Slider(0.0, 16.0), applies(|m| m.stochastic),
-    check(|v| if v <= 64 { Ok(()) } else { Err("must be at most 64 neighbours".into()) });
+    check(|v| {
+        use tiledlight_cull::reuse::MAX_NEIGHBOURS;
+        if v <= MAX_NEIGHBOURS { Ok(()) } else { Err(format!("must be at most {MAX_NEIGHBOURS} neighbours")) }
+    });
 
     /// The stochastic method's history: a pixel's image is the mean of up to this many
     /// frames since the view or the lights last changed (a moving average beyond); 0 shows
