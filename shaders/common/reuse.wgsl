@@ -2,12 +2,13 @@
 // 1-5 (its module doc numbers them) with the reservoir of common/stochastic.wgsl. The
 // includer defines where the records are, where a pixel is and what a light gives:
 //
-//   fn reuse_record(index: u32) -> vec4<u32>   // the record of pixel `index` (row-major)
+//   fn reuse_record(index: u32) -> RecordWords // the record of pixel `index` (row-major)
 //   fn reuse_target(light: u32) -> f32         // p_hat of `light` at this pixel's surface
 //   fn reuse_position(q: vec2<u32>, dist: f32) -> vec3<f32>
 //                                              // pixel q's world point at view distance dist
-//   fn reuse_proxy(light: u32, x: vec3<f32>, n: vec3<f32>) -> f32
-//                                              // the balance heuristic's p' (reuse::proxy)
+//   fn reuse_proxy(light: u32, x: vec3<f32>, n: vec3<f32>, s: vec2<u32>) -> f32
+//                                              // the balance heuristic's p': the target at
+//                                              // a point, normal and packed material
 //
 // (common/stochastic_shade.wgsl reads its record buffer and shades the light;
 // tests/tests/stochastic_twin.rs gives a table.) Include-only; no binding of its own.
@@ -32,23 +33,39 @@ struct ReuseParams {
 // Bit 31 of a record's first word: the pixel drew near candidates.
 const REUSE_NEAR_BIT: u32 = 0x80000000u;
 
-// Step 1: a pixel's reservoir as the sampling run leaves it (Record::pack).
+// Step 1: a pixel's reservoir as the sampling run leaves it (Record::pack): the light, the
+// near flag, W, the normal, the view distance and the material's two words
+// (tiledlight_cull::reuse::pack_surface).
 struct ReuseRecord {
     light: u32,
     near: bool,
     weight: f32,
     normal: vec3<f32>,
     dist: f32,
+    surface: vec2<u32>,
 }
 
-fn record_pack(r: ReuseRecord) -> vec4<u32> {
-    return vec4<u32>(r.light | select(0u, REUSE_NEAR_BIT, r.near), bitcast<u32>(r.weight),
+// A record's eight words, as stored (two vec4s a pixel).
+struct RecordWords {
+    head: vec4<u32>,
+    surface: vec4<u32>,
+}
+
+fn record_pack(r: ReuseRecord) -> RecordWords {
+    let head = vec4<u32>(r.light | select(0u, REUSE_NEAR_BIT, r.near), bitcast<u32>(r.weight),
         pack2x16snorm(oct_map(r.normal)), bitcast<u32>(r.dist));
+    return RecordWords(head, vec4<u32>(r.surface, 0u, 0u));
 }
 
-fn record_unpack(w: vec4<u32>) -> ReuseRecord {
-    return ReuseRecord(w.x & ~REUSE_NEAR_BIT, (w.x & REUSE_NEAR_BIT) != 0u, bitcast<f32>(w.y),
-        oct_unmap(unpack2x16snorm(w.z)), bitcast<f32>(w.w));
+fn record_unpack(w: RecordWords) -> ReuseRecord {
+    let h = w.head;
+    return ReuseRecord(h.x & ~REUSE_NEAR_BIT, (h.x & REUSE_NEAR_BIT) != 0u, bitcast<f32>(h.y),
+        oct_unmap(unpack2x16snorm(h.z)), bitcast<f32>(h.w), w.surface.xy);
+}
+
+// tiledlight_cull::reuse::pack_surface.
+fn surface_pack(albedo: vec3<f32>, roughness: f32, metallic: f32) -> vec2<u32> {
+    return vec2<u32>(pack4x8unorm(vec4<f32>(albedo, roughness)), bitcast<u32>(metallic));
 }
 
 // Step 2: neighbour j of pixel p, or (-1, -1) off the screen or on p itself.
@@ -83,6 +100,7 @@ fn reuse_combine(p: vec2<u32>, c: ReuseParams) -> Reservoir {
     // Each input's world point and count, and its normal.
     var points: array<vec4<f32>, REUSE_MAX_INPUTS>;
     var normals: array<vec3<f32>, REUSE_MAX_INPUTS>;
+    var surfaces: array<vec2<u32>, REUSE_MAX_INPUTS>;
     var n = 0u;
     var rec = own;
     var q = vec2<i32>(p);
@@ -106,6 +124,7 @@ fn reuse_combine(p: vec2<u32>, c: ReuseParams) -> Reservoir {
         draws[n] = u;
         points[n] = vec4<f32>(reuse_position(vec2<u32>(q), rec.dist), f32(m));
         normals[n] = rec.normal;
+        surfaces[n] = rec.surface;
         n++;
     }
     var r = reservoir_empty();
@@ -115,9 +134,9 @@ fn reuse_combine(p: vec2<u32>, c: ReuseParams) -> Reservoir {
         if weights[i] > 0.0 {
             var total = 0.0;
             for (var j = 0u; j < n; j++) {
-                total += points[j].w * reuse_proxy(lights[i], points[j].xyz, normals[j]);
+                total += points[j].w * reuse_proxy(lights[i], points[j].xyz, normals[j], surfaces[j]);
             }
-            let mine = points[i].w * reuse_proxy(lights[i], points[i].xyz, normals[i]);
+            let mine = points[i].w * reuse_proxy(lights[i], points[i].xyz, normals[i], surfaces[i]);
             p_hat = reuse_target(lights[i]);
             if total > 0.0 {
                 w = mine / total * p_hat * weights[i];

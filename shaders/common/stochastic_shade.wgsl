@@ -65,7 +65,7 @@ override REUSE_RADIUS: i32;
 override REUSE_NORMAL_COS: f32;
 override REUSE_DISTANCE_SHARE: f32;
 override REUSE_DRAW_BASE: u32;
-// One record a pixel, row-major (common/reuse.wgsl, ReuseRecord).
+// One record a pixel, row-major, two vec4s each (common/reuse.wgsl, RecordWords).
 @group(1) @binding(42) var<storage, read_write> stochastic_records: array<vec4<u32>>;
 #endif
 
@@ -109,8 +109,8 @@ fn stochastic_sample(g: GSample, p: vec2<u32>, pixel: u32, v: vec3<f32>) -> Rese
 var<private> reuse_surface: GSample;
 var<private> reuse_view: vec3<f32>;
 
-fn reuse_record(index: u32) -> vec4<u32> {
-    return stochastic_records[index];
+fn reuse_record(index: u32) -> RecordWords {
+    return RecordWords(stochastic_records[2u * index], stochastic_records[2u * index + 1u]);
 }
 
 fn reuse_target(light: u32) -> f32 {
@@ -123,22 +123,12 @@ fn reuse_position(q: vec2<u32>, dist: f32) -> vec3<f32> {
     return (view.view_to_world * vec4<f32>(v, 1.0)).xyz;
 }
 
-// tiledlight_cull::reuse::proxy: luminance x inverse-square falloff x spot cone x cosine.
-fn reuse_proxy(light: u32, x: vec3<f32>, n: vec3<f32>) -> f32 {
-    let to_light = shading_lights[light].position - x;
-    let d2 = dot(to_light, to_light);
-    if d2 <= 0.0 {
-        return 0.0;
-    }
-    let l = to_light * inverseSqrt(d2);
-    var a = unwindowed_attenuation(d2) * max(dot(n, l), 0.0);
-#ifdef SPOT_LIGHTS
-    if light >= lighting.num_point_lights {
-        let spot = spot_lights[light - lighting.num_point_lights];
-        a *= spot_falloff(dot(-l, spot.direction), spot.angle_scale, spot.angle_offset);
-    }
-#endif
-    return luminance(shading_lights[light].radiance) * a;
+// The balance heuristic's p' (tiledlight_cull::reuse, step 4): the target at another
+// pixel's point, normal and material.
+fn reuse_proxy(light: u32, x: vec3<f32>, n: vec3<f32>, s: vec2<u32>) -> f32 {
+    let m = unpack4x8unorm(s.x);
+    let surface = Surface(m.rgb, m.a, bitcast<f32>(s.y));
+    return luminance(shade_light(light, x, n, view_vector(x), surface));
 }
 
 // Step 5's second run: the pixel's own record and its neighbours' merged.
@@ -179,13 +169,16 @@ fn shade_lights_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
 #ifdef REUSE
     if REUSE_PASS == 0u {
         // Step 5's first run: the record, no ray, nothing accumulated.
-        var w = vec4<u32>(0u);
+        var w = RecordWords(vec4<u32>(0u), vec4<u32>(0u));
         if !g.sky && lighting.num_lights > 0u {
             let r = stochastic_sample(g, p, pixel, view_vector(g.world));
+            let s = g.surface;
             // More candidates than the far ones: the list had some.
-            w = record_pack(ReuseRecord(r.light, r.m > traced_band.far_candidates, reservoir_weight(r), g.normal, g.dist));
+            w = record_pack(ReuseRecord(r.light, r.m > traced_band.far_candidates, reservoir_weight(r), g.normal, g.dist,
+                surface_pack(s.albedo, s.roughness, s.metallic)));
         }
-        stochastic_records[pixel] = w;
+        stochastic_records[2u * pixel] = w.head;
+        stochastic_records[2u * pixel + 1u] = w.surface;
         return vec3<f32>(0.0);
     }
 #endif

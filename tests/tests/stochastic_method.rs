@@ -322,7 +322,7 @@ fn reuse_records_know_which_pixels_drew_near_candidates() {
         frame(ctx, &mut r, &f, &camera(EYE_A));
         let v = r.passes::<tiledlight_frame::visibility::VisibilityFrame>().expect("the visibility frame");
         let buffer = v.shading().stochastic_records().expect("the reuse's records");
-        let words: Vec<[u32; 4]> = tiledlight_gpu::readback::read_buffer(&ctx.device, &ctx.queue, buffer).unwrap();
+        let words: Vec<[u32; 8]> = tiledlight_gpu::readback::read_buffer(&ctx.device, &ctx.queue, buffer).unwrap();
         let records: Vec<_> =
             words[..(W * H) as usize].iter().map(|&w| tiledlight_cull::reuse::Record::unpack(w)).collect();
         let surfaces: Vec<_> = records.iter().filter(|r| r.is_surface()).collect();

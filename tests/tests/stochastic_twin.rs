@@ -184,8 +184,8 @@ const REUSE_SRC: &str = r#"
 @group(0) @binding(0) var<storage, read> records: array<vec4<u32>>;
 @group(0) @binding(1) var<storage, read_write> out: array<vec4<u32>>;
 
-fn reuse_record(index: u32) -> vec4<u32> {
-    return records[index + 1u];
+fn reuse_record(index: u32) -> RecordWords {
+    return RecordWords(records[2u * index + 2u], records[2u * index + 3u]);
 }
 
 fn reuse_target(light: u32) -> f32 {
@@ -196,8 +196,8 @@ fn reuse_position(q: vec2<u32>, dist: f32) -> vec3<f32> {
     return vec3<f32>(f32(q.x), f32(q.y), dist);
 }
 
-fn reuse_proxy(light: u32, x: vec3<f32>, n: vec3<f32>) -> f32 {
-    return (0.25 + f32(light % 7u)) * (1.5 + n.x) / (1.0 + 0.01 * x.x * f32(light % 3u));
+fn reuse_proxy(light: u32, x: vec3<f32>, n: vec3<f32>, s: vec2<u32>) -> f32 {
+    return (0.25 + f32(light % 7u)) * (1.5 + n.x) / (1.0 + 0.01 * x.x * f32(light % 3u)) * (1.0 + f32(s.x & 255u) / 255.0);
 }
 
 @compute @workgroup_size(64)
@@ -227,10 +227,14 @@ fn reuse_target(light: u32) -> f32 {
 /// The test kernel's scene: pixel coordinates and distance as the point, a proxy that
 /// depends on the light, the point and the normal (so neighbours' shares differ), the
 /// target table.
-fn reuse_scene() -> reuse::Scene<impl Fn(u32, u32, f32) -> Vec3, impl Fn(u32, Vec3, Vec3) -> f32, fn(u32) -> f32> {
+fn reuse_scene(
+) -> reuse::Scene<impl Fn(u32, u32, f32) -> Vec3, impl Fn(u32, Vec3, Vec3, [u32; 2]) -> f32, fn(u32) -> f32> {
     reuse::Scene {
         position: |x: u32, y: u32, d: f32| Vec3::new(x as f32, y as f32, d),
-        proxy: |l: u32, p: Vec3, n: Vec3| (0.25 + (l % 7) as f32) * (1.5 + n.x) / (1.0 + 0.01 * p.x * (l % 3) as f32),
+        proxy: |l: u32, p: Vec3, n: Vec3, s: [u32; 2]| {
+            (0.25 + (l % 7) as f32) * (1.5 + n.x) / (1.0 + 0.01 * p.x * (l % 3) as f32)
+                * (1.0 + (s[0] & 255) as f32 / 255.0)
+        },
         target: reuse_target as fn(u32) -> f32,
     }
 }
@@ -253,14 +257,18 @@ fn reuse_records() -> Vec<Record> {
             };
             let light = if i == 5 { (1 << 20) - 1 } else { (rng.unit() * 4000.0) as u32 };
             let weight = if rng.unit() < 0.1 { 0.0 } else { rng.log(1e-30, 1e30) };
-            Record { light, near: rng.unit() < 0.7, weight, normal, dist }
+            let surface = [(rng.unit() * 65536.0) as u32, 0];
+            Record { light, near: rng.unit() < 0.7, weight, normal, dist, surface }
         })
         .collect()
 }
 
 fn run_reuse(records: &[Record], (frame, k): (u32, u32)) -> Vec<[u32; 4]> {
-    let mut words = vec![[REUSE_SIZE.0, REUSE_SIZE.1, frame, k]];
-    words.extend(records.iter().map(Record::pack));
+    let mut words = vec![[REUSE_SIZE.0, REUSE_SIZE.1, frame, k], [0; 4]];
+    for r in records {
+        let w = r.pack();
+        words.extend([[w[0], w[1], w[2], w[3]], [w[4], w[5], w[6], w[7]]]);
+    }
     let n = records.len() as u32;
     let constants = format!(
         "const REUSE_RADIUS: i32 = {};\nconst REUSE_NORMAL_COS: f32 = {:?};\nconst REUSE_DISTANCE_SHARE: f32 = {:?};\nconst REUSE_DRAW_BASE: u32 = {}u;\n",

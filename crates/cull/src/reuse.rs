@@ -6,10 +6,10 @@
 //! rays. The CPU twin of `shaders/common/stochastic_shade.wgsl` with `REUSE`
 //! (`tests/tests/stochastic_reuse.rs` compares the two).
 //!
-//! 1. **Record.** The sampling pass leaves each pixel's reservoir as a [`Record`] (16
+//! 1. **Record.** The sampling pass leaves each pixel's reservoir as a [`Record`] (32
 //!    bytes: the kept light and whether the pixel's list had candidates, its contribution
-//!    weight `W`, the surface's normal and view distance; a view distance of 0 is the sky:
-//!    no reservoir). [`Record::pack`] is the layout both sides read.
+//!    weight `W`, the surface's normal, view distance and material; a view distance of 0 is
+//!    the sky: no reservoir). [`Record::pack`] is the layout both sides read.
 //! 2. **Neighbours.** `k` pixels drawn uniformly from the `(2R + 1)^2` box around the
 //!    pixel ([`neighbour`], integer offsets from [`rand01`]: the GPU draws the same ones);
 //!    one off the screen, the pixel itself or the sky is skipped.
@@ -20,29 +20,27 @@
 //! 4. **Merge** (generalised RIS with the balance heuristic, Lin et al. 2022, section 5):
 //!    the pixel's own record and each kept neighbour's are the merge's inputs `S`. Input
 //!    `i` with light `y_i` enters with weight `m_i(y_i) p_hat(y_i) W_i`, where `p_hat` is
-//!    the target at *this* pixel's surface and `m_i(y) = M_i p'_i(y) / sum_j M_j p'_j(y)`
-//!    its share of the light over `S` ([`offers`]). `p'_j` is [`proxy`]: the light's
-//!    luminance x inverse-square falloff x spot cone x `max(n . l, 0)` at input `j`'s
-//!    position (rebuilt from its pixel and view distance) and normal: cheap, and positive
-//!    wherever that pixel's target is, so the shares of the inputs that can draw `y` add
-//!    up to 1.
+//!    the target at *this* pixel's surface and `m_i(y) = M_i p_i'(y) / sum_j M_j p_j'(y)`
+//!    its share of the light over `S` ([`offers`]). `p_j'` is input `j`'s own target: the
+//!    light's unshadowed contribution at its point (rebuilt from its pixel and view
+//!    distance), normal and material (albedo and roughness to 8 bits), so the shares of
+//!    the inputs that can draw `y` add up to 1.
 //! 5. **Weight.** `W = w_sum / p_hat(y)` for the kept light `y` (the reservoir's count is
 //!    1: the shares did the normalising). Unbiased for this pixel's sum of every light's
 //!    shadowed light. The shares are what keeps the merge's noise down: a light that sits
-//!    much closer to this pixel than to the neighbour that chose it (so its `W` there is
-//!    large) gets the small share that neighbour's proxy gives it, where ReSTIR's 1/M
-//!    combination (this module's first version) let it in with its whole weight: on the
-//!    courtyard, whose lights hug the walls, that tail made the image noisier than without
-//!    reuse.
+//!    much brighter here than at the neighbour that chose it (closer, or in this pixel's
+//!    specular lobe, so its `W` there is large) gets the small share that neighbour's
+//!    target gives it, where ReSTIR's 1/M combination (this module's first version) let it
+//!    in with its whole weight; a geometric proxy without the BRDF (its second) left the
+//!    lobes' tail: on the courtyard both made a frame noisier than without reuse.
 //!
-//! Depends on this crate's stochastic, octahedral, light and brdf modules and glam.
+//! Depends on this crate's stochastic, octahedral and brdf modules and glam.
 
 use glam::Vec3;
 
-use crate::brdf::{spot_falloff, unwindowed_attenuation};
-use crate::light::{spot_scale_offset, Light, LightKind};
+use crate::brdf::Surface;
 use crate::octahedral::{decode_u32, encode_u32};
-use crate::stochastic::{luminance, rand01, Reservoir};
+use crate::stochastic::{rand01, Reservoir};
 
 /// Half the side of the box neighbours are drawn from, in pixels (step 2): ReSTIR's 30
 /// pixel radius at 1080p, as a box of that width.
@@ -82,28 +80,42 @@ pub struct Record {
     pub normal: Vec3,
     /// The surface's view distance; 0 for the sky (no reservoir).
     pub dist: f32,
+    /// The surface's material as [`pack_surface`] stores it.
+    pub surface: [u32; 2],
+}
+
+/// A material in two words: albedo and roughness as `pack4x8unorm`, metallic's bits.
+pub fn pack_surface(s: &Surface) -> [u32; 2] {
+    let unorm = |c: f32| (0.5 + 255.0 * c.clamp(0.0, 1.0)).floor() as u32;
+    let a = s.albedo;
+    [unorm(a.x) | unorm(a.y) << 8 | unorm(a.z) << 16 | unorm(s.roughness) << 24, s.metallic.to_bits()]
+}
+
+/// The material of two words written by [`pack_surface`] (`unpack4x8unorm`).
+pub fn unpack_surface(w: [u32; 2]) -> Surface {
+    let c = |shift: u32| ((w[0] >> shift) & 0xff) as f32 / 255.0;
+    Surface { albedo: Vec3::new(c(0), c(8), c(16)), roughness: c(24), metallic: f32::from_bits(w[1]) }
 }
 
 impl Record {
-    /// The four words the GPU stores: the light with [`NEAR_BIT`], `W`'s bits, the normal
-    /// as `pack2x16snorm` of its octahedral map, the view distance's bits.
-    pub fn pack(&self) -> [u32; 4] {
-        [
-            self.light | if self.near { NEAR_BIT } else { 0 },
-            self.weight.to_bits(),
-            encode_u32(self.normal),
-            self.dist.to_bits(),
-        ]
+    /// The eight words the GPU stores: the light with [`NEAR_BIT`], `W`'s bits, the normal
+    /// as `pack2x16snorm` of its octahedral map, the view distance's bits; the material's
+    /// two words and two unused.
+    pub fn pack(&self) -> [u32; 8] {
+        let head = self.light | if self.near { NEAR_BIT } else { 0 };
+        let (normal, dist) = (encode_u32(self.normal), self.dist.to_bits());
+        [head, self.weight.to_bits(), normal, dist, self.surface[0], self.surface[1], 0, 0]
     }
 
-    /// The record of four stored words (the normal decoded: within 0.004 degrees).
-    pub fn unpack(w: [u32; 4]) -> Self {
+    /// The record of eight stored words (the normal decoded: within 0.004 degrees).
+    pub fn unpack(w: [u32; 8]) -> Self {
         Self {
             light: w[0] & !NEAR_BIT,
             near: w[0] & NEAR_BIT != 0,
             weight: f32::from_bits(w[1]),
             normal: decode_u32(w[2]),
             dist: f32::from_bits(w[3]),
+            surface: [w[4], w[5]],
         }
     }
 
@@ -144,34 +156,14 @@ pub fn similar(pixel: &Record, other: &Record) -> bool {
         && (pixel.dist - other.dist).abs() <= DISTANCE_SHARE * pixel.dist
 }
 
-/// The balance heuristic's proxy `p'` of `light` at point `x` with unit normal `n` (step
-/// 4): luminance x inverse-square falloff x spot cone x `max(n . l, 0)`. Positive wherever
-/// [`crate::stochastic::unshadowed`] (without the cutoff) is: the cone and the cosine are
-/// the target's own factors, and the BRDF's other terms are positive where `n . l` is.
-pub fn proxy(light: &Light, x: Vec3, n: Vec3) -> f32 {
-    let to = light.position - x;
-    let d2 = to.length_squared();
-    if d2 <= 0.0 {
-        return 0.0;
-    }
-    let l = to / d2.sqrt();
-    let cone = match light.kind {
-        LightKind::Point => 1.0,
-        LightKind::Spot { direction, inner_angle, outer_angle } => {
-            let (scale, offset) = spot_scale_offset(inner_angle, outer_angle);
-            spot_falloff((-l).dot(direction), scale, offset)
-        }
-    };
-    luminance(light.color * light.intensity) * unwindowed_attenuation(d2) * cone * n.dot(l).max(0.0)
-}
-
 /// What a pixel's merge needs of its scene: `position(x, y, dist)` the world point of a
-/// pixel at a view distance, `proxy(light, point, normal)` the balance heuristic's `p'`
-/// ([`proxy`] on the GPU), `target(light)` the target `p_hat` at this pixel's surface.
+/// pixel at a view distance, `proxy(light, point, normal, surface)` the balance
+/// heuristic's `p'` (on the GPU the target at that point: the luminance of the light's
+/// unshadowed contribution), `target(light)` the target `p_hat` at this pixel's surface.
 pub struct Scene<P, Q, T> {
     /// A pixel's world point at a view distance.
     pub position: P,
-    /// `p'` of a light at a point with a normal.
+    /// `p'` of a light at a point with a normal and a material ([`pack_surface`]).
     pub proxy: Q,
     /// `p_hat` of a light at this pixel's surface.
     pub target: T,
@@ -190,7 +182,7 @@ pub fn offers<P, Q, T>(
 ) -> Vec<(u32, f32, f32, f32)>
 where
     P: Fn(u32, u32, f32) -> Vec3,
-    Q: Fn(u32, Vec3, Vec3) -> f32,
+    Q: Fn(u32, Vec3, Vec3, [u32; 2]) -> f32,
     T: Fn(u32) -> f32,
 {
     let pixel = y * size.0 + x;
@@ -203,9 +195,9 @@ where
             inputs.push(((nx, ny), other, rand01(pixel, frame, DRAW_BASE + 3 * j + 2)));
         }
     }
-    let at: Vec<(Vec3, Vec3, f32)> = inputs
+    let at: Vec<(Vec3, Vec3, [u32; 2], f32)> = inputs
         .iter()
-        .map(|&((px, py), r, _)| ((scene.position)(px, py, r.dist), r.normal, r.count(counts) as f32))
+        .map(|&((px, py), r, _)| ((scene.position)(px, py, r.dist), r.normal, r.surface, r.count(counts) as f32))
         .collect();
     inputs
         .iter()
@@ -214,7 +206,7 @@ where
             if rec.weight <= 0.0 {
                 return (rec.light, 0.0, 0.0, u);
             }
-            let share = |&(p, n, m): &(Vec3, Vec3, f32)| m * (scene.proxy)(rec.light, p, n);
+            let share = |&(p, n, s, m): &(Vec3, Vec3, [u32; 2], f32)| m * (scene.proxy)(rec.light, p, n, s);
             let total: f32 = at.iter().map(share).sum();
             let mine = share(&at[i]);
             let p_hat = (scene.target)(rec.light);
@@ -233,7 +225,7 @@ pub fn combine<P, Q, T>(
 ) -> Reservoir
 where
     P: Fn(u32, u32, f32) -> Vec3,
-    Q: Fn(u32, Vec3, Vec3) -> f32,
+    Q: Fn(u32, Vec3, Vec3, [u32; 2]) -> f32,
     T: Fn(u32) -> f32,
 {
     let mut r = Reservoir::default();
@@ -249,7 +241,7 @@ mod tests {
     use super::*;
 
     fn record(light: u32, weight: f32, normal: Vec3, dist: f32) -> Record {
-        Record { light, near: true, weight, normal, dist }
+        Record { light, near: true, weight, normal, dist, surface: [0; 2] }
     }
 
     /// The packing keeps the light (up to the largest index), the near flag, `W` and the
@@ -260,11 +252,14 @@ mod tests {
         let largest = (1u32 << 20) - 1;
         for rec in [
             record(largest, f32::MAX, Vec3::Z, 1e-30),
-            Record { light: 0, near: false, weight: 0.0, normal: -Vec3::Z, dist: 0.0 },
+            Record { light: 0, near: false, weight: 0.0, normal: -Vec3::Z, dist: 0.0, surface: [u32::MAX; 2] },
             record(7, 1e-38, Vec3::new(1.0, -1.0, -1.0).normalize(), 1e30),
         ] {
             let back = Record::unpack(rec.pack());
-            assert_eq!((back.light, back.near, back.weight, back.dist), (rec.light, rec.near, rec.weight, rec.dist));
+            assert_eq!(
+                (back.light, back.near, back.weight, back.dist, back.surface),
+                (rec.light, rec.near, rec.weight, rec.dist, rec.surface)
+            );
             assert!(back.normal.dot(rec.normal) > 0.999_999, "{rec:?} -> {back:?}");
         }
     }
@@ -324,8 +319,8 @@ mod tests {
     /// A scene whose proxy and target are `p_hat(light)` wherever the point is.
     fn flat(
         p_hat: fn(u32) -> f32,
-    ) -> Scene<impl Fn(u32, u32, f32) -> Vec3, impl Fn(u32, Vec3, Vec3) -> f32, fn(u32) -> f32> {
-        Scene { position: |x, y, d| Vec3::new(x as f32, y as f32, d), proxy: move |l, _, _| p_hat(l), target: p_hat }
+    ) -> Scene<impl Fn(u32, u32, f32) -> Vec3, impl Fn(u32, Vec3, Vec3, [u32; 2]) -> f32, fn(u32) -> f32> {
+        Scene { position: |x, y, d| Vec3::new(x as f32, y as f32, d), proxy: move |l, _, _, _| p_hat(l), target: p_hat }
     }
 
     /// With every neighbour's light as bright here as there, merging keeps the weights'
@@ -368,7 +363,7 @@ mod tests {
         let scene = Scene {
             position: |x: u32, _: u32, _: f32| Vec3::new(x as f32, 0.0, 0.0),
             // Light 1: seen from pixel 0 only; light 2: 9x brighter at pixel 1.
-            proxy: |l: u32, p: Vec3, _: Vec3| match (l, p.x > 0.5) {
+            proxy: |l: u32, p: Vec3, _: Vec3, _: [u32; 2]| match (l, p.x > 0.5) {
                 (1, false) => 1.0,
                 (1, true) => 0.0,
                 (_, false) => 1.0,
@@ -386,36 +381,19 @@ mod tests {
         assert!((o[1].1 - expected).abs() < 1e-6, "{o:?}");
     }
 
-    /// The proxy is positive wherever the target is (so the shares of the inputs that can
-    /// draw a light add up to 1), for points and spots, lights in front of and behind the
-    /// surface, near and far.
+    /// A material survives its two words: metallic bit for bit, albedo and roughness to
+    /// 8 bits (within half a step), clamped to [0, 1].
     #[test]
-    fn the_proxy_is_positive_wherever_the_target_is() {
-        use crate::brdf::Surface;
-        use crate::stochastic::unshadowed;
-        let s = Surface { albedo: Vec3::splat(0.5), roughness: 0.4, metallic: 0.0 };
-        let mut seen = 0;
-        for i in 0..400 {
-            let t = i as f32 * 0.37;
-            let pos = Vec3::new(t.sin() * 5.0, (t * 1.3).cos() * 3.0, (t * 0.7).sin() * 4.0);
-            let dir = Vec3::new((t * 2.1).cos(), -1.0, (t * 1.7).sin()).normalize();
-            let light = if i % 2 == 0 {
-                Light::point(pos, Vec3::new(1.0, 0.5, 0.2), 5.0, 0.1).unwrap()
-            } else {
-                Light::spot(pos, dir, Vec3::ONE, 5.0, 0.3, 0.6, 0.1).unwrap()
-            };
-            let n = Vec3::new((t * 0.9).sin(), 1.0, (t * 1.1).cos()).normalize();
-            let x = Vec3::new(0.1 * t.cos(), 0.0, 0.2);
-            let v = (Vec3::new(0.0, 2.0, 6.0) - x).normalize();
-            if v.dot(n) <= 0.0 {
-                continue;
-            }
-            let target = luminance(unshadowed(&light, (x, n, v), &s, false));
-            if target > 0.0 {
-                seen += 1;
-                assert!(proxy(&light, x, n) > 0.0, "light {i}: target {target} but proxy 0");
-            }
+    fn a_material_survives_its_packing() {
+        for s in [
+            Surface { albedo: Vec3::new(0.0, 0.5, 1.0), roughness: 0.04, metallic: 0.3 },
+            Surface { albedo: Vec3::new(2.0, -1.0, 0.999), roughness: 1.0, metallic: 1.0 },
+        ] {
+            let back = unpack_surface(pack_surface(&s));
+            let clamped = s.albedo.clamp(Vec3::ZERO, Vec3::ONE);
+            assert!((back.albedo - clamped).abs().max_element() <= 0.5 / 255.0 + 1e-6, "{s:?} -> {back:?}");
+            assert!((back.roughness - s.roughness).abs() <= 0.5 / 255.0 + 1e-6);
+            assert_eq!(back.metallic, s.metallic);
         }
-        assert!(seen > 50, "only {seen} lit cases");
     }
 }

@@ -227,7 +227,7 @@ struct Traced {
     /// pixel's surface, albedo and unlit term.
     guide: Option<wgpu::Buffer>,
     /// The stochastic method's reservoirs between the sampling and the reusing run
-    /// (`--reuse N` > 0): one 16-byte record a pixel (`tiledlight_cull::reuse::Record`).
+    /// (`--reuse N` > 0): one 32-byte record a pixel (`tiledlight_cull::reuse::Record`).
     records: Option<wgpu::Buffer>,
     /// The sampling run (`REUSE_PASS` 0) of the pass with spatial reuse; the pass's
     /// pipeline is then the reusing run.
@@ -432,7 +432,7 @@ impl VisibilityShading {
                     buffer_zeroed(device, "stochastic.denoise.guide", bytes, usage)
                 });
                 let records = (stochastic && features.knobs.reuse > 0).then(|| {
-                    let bytes = u64::from(grid.width) * u64::from(grid.height) * 16;
+                    let bytes = u64::from(grid.width) * u64::from(grid.height) * 32;
                     memory.add("stochastic.reuse.records", bytes);
                     let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
                     buffer_zeroed(device, "stochastic.reuse.records", bytes.max(16), usage)
@@ -702,7 +702,7 @@ impl VisibilityShading {
         Some((t.history.as_ref()?, t.guide.as_ref()))
     }
 
-    /// The stochastic method's reservoir records (`--reuse N` > 0: 16 bytes a pixel,
+    /// The stochastic method's reservoir records (`--reuse N` > 0: 32 bytes a pixel,
     /// `tiledlight_cull::reuse::Record::pack`); None without reuse.
     pub fn stochastic_records(&self) -> Option<&wgpu::Buffer> {
         self.traced.as_ref()?.records.as_ref()
