@@ -651,6 +651,29 @@ mod tests {
         assert!(axes::points(&[axes[0].clone(), axes[0].clone()]).is_err());
     }
 
+    /// An axis a point's method does not read keeps its first value there: Forward+ is
+    /// measured once whatever the denoiser's values, the stochastic method at each; an axis
+    /// every method reads (lights) multiplies every method.
+    #[test]
+    fn axes_a_method_does_not_read_do_not_multiply_it() {
+        let axes = vec![
+            axes::parse_axis::<SceneArgs>("method=forward-plus,stochastic").unwrap(),
+            axes::parse_axis::<SceneArgs>("denoise=0,2,4").unwrap(),
+            axes::parse_axis::<SceneArgs>("lights=8,16").unwrap(),
+        ];
+        let all = axes::points(&axes).unwrap();
+        let (kept, left_out) = axes::without_unread(&SceneArgs::default(), &axes, all).unwrap();
+        assert_eq!((kept.len(), left_out), (2 + 6, 4));
+        assert!(kept.iter().all(|p| p[0] == "stochastic" || p[1] == "0"), "{kept:?}");
+        assert!(axes::unread_line(left_out).unwrap().contains("4 settings"));
+        assert!(axes::unread_line(0).is_none());
+        // Every method reads the culling test's tile size: nothing is left out.
+        let tiles = vec![axes[0].clone(), axes::parse_axis::<SceneArgs>("tile-size=8,16").unwrap()];
+        let (kept, left_out) =
+            axes::without_unread(&SceneArgs::default(), &tiles, axes::points(&tiles).unwrap()).unwrap();
+        assert_eq!((kept.len(), left_out), (4, 0));
+    }
+
     #[test]
     fn shadows_are_axes() {
         // Spot casters parse before the spot lights they need are known...

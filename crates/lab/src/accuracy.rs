@@ -551,6 +551,10 @@ pub fn run<F: Flags>(scene: &F, args: &Accuracy) -> Result<()> {
     let given: Vec<Axis> = args.axes.iter().map(|s| axes::parse_axis::<F>(s)).collect::<Result<_>>()?;
     let axes = axes::merge_axes(defaults, given);
     let points = if args.budget { axes::points_one_at_a_time(&axes)? } else { axes::points(&axes)? };
+    let (points, unread) = axes::without_unread(scene, &axes, points)?;
+    if let Some(line) = axes::unread_line(unread) {
+        println!("{line}");
+    }
     let all_args: Vec<Settings> =
         points.iter().map(|p| axes::args_at(scene, &axes, p).and_then(|a| a.settings())).collect::<Result<_>>()?;
     ensure!(

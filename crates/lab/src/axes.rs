@@ -289,6 +289,42 @@ pub fn points(axes: &[Axis]) -> Result<Vec<Point>> {
     Ok(out)
 }
 
+/// Whether run settings `s` read axis `name`: a pass setting's or a run setting's row says
+/// which methods read it (its `applies`, as `--help`'s `[methods: ...]`); every other axis
+/// is read by every method.
+pub fn reads(name: &str, s: &Settings) -> bool {
+    let traits = s.method.traits();
+    if let Some(k) = KNOBS.iter().find(|k| k.name == name) {
+        return (k.applies)(traits);
+    }
+    SETTINGS.iter().find(|r| r.name == name).is_none_or(|r| (r.applies)(traits))
+}
+
+/// `points` less those that give an axis their method does not read another value than
+/// its first (`--axis method=deferred,stochastic --axis denoise=0,4` would measure Tiled
+/// Deferred twice: the same image and time), and how many were left out.
+pub fn without_unread<F: Flags>(base: &F, axes: &[Axis], points: Vec<Point>) -> Result<(Vec<Point>, usize)> {
+    let given = points.len();
+    let mut kept = Vec::with_capacity(given);
+    for p in points {
+        let s = args_at(base, axes, &p)?.plain();
+        if !axes.iter().zip(&p).any(|(a, v)| *v != a.values[0] && !reads(&a.name, &s)) {
+            kept.push(p);
+        }
+    }
+    let left_out = given - kept.len();
+    Ok((kept, left_out))
+}
+
+/// One line for a run that left points out ([`without_unread`]), or None.
+pub fn unread_line(left_out: usize) -> Option<String> {
+    (left_out > 0).then(|| {
+        format!(
+            "skipped:    {left_out} settings that give an axis their method does not read a value other than its first (each would repeat one measured)"
+        )
+    })
+}
+
 /// Axes of the error budget swept again under each other value of [`CHOICE_AXIS`]: the
 /// caster counts, whose curve is the point of choosing casters one way or another.
 const CHOSEN_COUNTS: [&str; 2] = ["shadow-point-lights", "shadow-spot-lights"];

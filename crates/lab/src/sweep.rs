@@ -175,7 +175,10 @@ pub fn run<F: Flags>(scene: &F, args: &Sweep) -> Result<()> {
         Some(p) => axes::merge_axes(p.axes::<F>(), given),
         None => given,
     };
-    let points = axes::points(&axes)?;
+    let (points, unread) = axes::without_unread(scene, &axes, axes::points(&axes)?)?;
+    if let Some(line) = axes::unread_line(unread) {
+        println!("{line}");
+    }
     let x_axis = chart_x_axis(&axes, args.x.as_deref())?;
     let out = args
         .out
