@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced stochastic denoise reuse casters casters-curve ranking materials surface-edges stage-lights big-scene
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced stochastic denoise reuse error-time casters casters-curve ranking materials surface-edges stage-lights big-scene
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -261,6 +261,26 @@ for set in $sets; do
       run "reuse-court-1024-r$r" 50 --lights 1024 --method stochastic --reuse $r
     done
     run_stochastic_accuracy reuse-acc --axis reuse=0,4 --axis denoise=0,4 --axis accumulate=64,0
+    ;;
+  error-time)
+    # Issue 48's error-against-time chart: every shading method beside the stochastic
+    # method's dials on one Pareto chart per scene, against the traced truth after 8 frames
+    # of a still camera (the lab leaves out the points that give a method a dial it does not
+    # read). The tiled methods at the default threshold, 0.01 and the budget's 0.0015; the
+    # stochastic method with and without the denoiser and its history, and with 4
+    # neighbours' reuse. Each scene's CSV, chart and printout: $out/et-SCENE.*
+    for scene in f9 court; do
+      extra=(--lights 1024)
+      [ "$scene" = f9 ] && extra=(--lights 4096 --grid-objects 280 --density medium)
+      echo "== et-$scene" | tee -a "$out/log.txt"
+      timeout 280 "$bin" accuracy --width 1920 --height 1080 "${extra[@]}" --reference traced --frames 7 \
+        --warmup 1 --reference-frames 1 --axis method=visibility,deferred,forward-plus,stochastic \
+        --axis threshold=0.1,0.01,0.0015 --axis culling=planes --axis denoise=4,0 --axis accumulate=64,0 \
+        --axis reuse=0,4 --out "/tmp/et-$scene/et.csv" >"$out/et-$scene.txt" 2>&1
+      echo "exit $?" >>"$out/et-$scene.txt"
+      cp "/tmp/et-$scene/et.csv" "$out/et-$scene.csv" 2>/dev/null
+      cp "/tmp/et-$scene/et.png" "$out/et-$scene.png" 2>/dev/null
+    done
     ;;
   casters)
     # Issue 30: the error budget against the traced truth at its best cutoff (threshold

@@ -667,6 +667,13 @@ mod tests {
         assert!(kept.iter().all(|p| p[0] == "stochastic" || p[1] == "0"), "{kept:?}");
         assert!(axes::unread_line(left_out).unwrap().contains("4 settings"));
         assert!(axes::unread_line(0).is_none());
+        // The chart names a point by the values its method reads; the base method stands
+        // where no axis names one.
+        let p = |m: &str, d: &str| vec![m.to_string(), d.to_string(), "8".to_string()];
+        assert_eq!(axes::series_name(&axes, &[0, 1], &p("forward-plus", "0"), Method::Stochastic), "forward-plus");
+        assert_eq!(axes::series_name(&axes, &[0, 1], &p("stochastic", "4"), Method::ForwardPlus), "stochastic, 4");
+        assert_eq!(axes::method_at(&axes[1..], &["4".into()], Method::Stochastic), Method::Stochastic);
+        assert_eq!(axes::series_name(&axes[1..], &[0], &["4".into()], Method::ForwardPlus), "");
         // Every method reads the culling test's tile size: nothing is left out.
         let tiles = vec![axes[0].clone(), axes::parse_axis::<SceneArgs>("tile-size=8,16").unwrap()];
         let (kept, left_out) =

@@ -552,9 +552,6 @@ pub fn run<F: Flags>(scene: &F, args: &Accuracy) -> Result<()> {
     let axes = axes::merge_axes(defaults, given);
     let points = if args.budget { axes::points_one_at_a_time(&axes)? } else { axes::points(&axes)? };
     let (points, unread) = axes::without_unread(scene, &axes, points)?;
-    if let Some(line) = axes::unread_line(unread) {
-        println!("{line}");
-    }
     let all_args: Vec<Settings> =
         points.iter().map(|p| axes::args_at(scene, &axes, p).and_then(|a| a.settings())).collect::<Result<_>>()?;
     ensure!(
@@ -588,6 +585,9 @@ pub fn run<F: Flags>(scene: &F, args: &Accuracy) -> Result<()> {
         points.len() - pending,
         out.display()
     );
+    if let Some(line) = axes::unread_line(unread) {
+        println!("{line}");
+    }
     session.measure(&axes, (&points, &all_args), args, &out)?;
     let csv = &session.csv;
     let heat = (&session.heat, &session.split);
@@ -1000,7 +1000,7 @@ fn report(
                 // caster counts once per way of choosing them).
                 axes::budget_series(axes, &r[n..n + axes.len()])
             } else {
-                let s = series_axes.iter().map(|&i| r[n + i].clone()).collect::<Vec<_>>().join(", ");
+                let s = axes::series_name(axes, &series_axes, &r[n..n + axes.len()], method);
                 if s.is_empty() {
                     "settings".into()
                 } else {

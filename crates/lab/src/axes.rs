@@ -24,7 +24,7 @@ use anyhow::{bail, ensure, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use tiledlight_gpu::knobs::{Kind, Knobs, KNOBS};
 use tiledlight_setup::table::{self, SETTINGS};
-use tiledlight_setup::Settings;
+use tiledlight_setup::{Method, Settings};
 
 /// The settings a lab run starts from and varies, as the command line states them: the
 /// app's scene flags, or a program's own type. An axis sets one value by name; the
@@ -289,11 +289,11 @@ pub fn points(axes: &[Axis]) -> Result<Vec<Point>> {
     Ok(out)
 }
 
-/// Whether run settings `s` read axis `name`: a pass setting's or a run setting's row says
+/// Whether `method` reads axis `name`: a pass setting's or a run setting's row says
 /// which methods read it (its `applies`, as `--help`'s `[methods: ...]`); every other axis
 /// is read by every method.
-pub fn reads(name: &str, s: &Settings) -> bool {
-    let traits = s.method.traits();
+pub fn reads(name: &str, method: Method) -> bool {
+    let traits = method.traits();
     if let Some(k) = KNOBS.iter().find(|k| k.name == name) {
         return (k.applies)(traits);
     }
@@ -308,12 +308,30 @@ pub fn without_unread<F: Flags>(base: &F, axes: &[Axis], points: Vec<Point>) -> 
     let mut kept = Vec::with_capacity(given);
     for p in points {
         let s = args_at(base, axes, &p)?.plain();
-        if !axes.iter().zip(&p).any(|(a, v)| *v != a.values[0] && !reads(&a.name, &s)) {
+        // (Only the method is asked: a point's flags are checked in full before it runs.)
+        if !axes.iter().zip(&p).any(|(a, v)| *v != a.values[0] && !reads(&a.name, s.method)) {
             kept.push(p);
         }
     }
     let left_out = given - kept.len();
     Ok((kept, left_out))
+}
+
+/// The method of a point: its `method` axis's value, else `base`.
+pub fn method_at(axes: &[Axis], point: &[String], base: Method) -> Method {
+    axes.iter()
+        .zip(point)
+        .find(|(a, _)| a.name == "method")
+        .and_then(|(_, v)| Method::ALL.into_iter().find(|m| m.name() == v.as_str()))
+        .unwrap_or(base)
+}
+
+/// A chart series' name for `point`: the values of its `series` axes, less those the
+/// point's method does not read (Tiled Deferred is "deferred", not "deferred, 0" for a
+/// denoiser it has not).
+pub fn series_name(axes: &[Axis], series: &[usize], point: &[String], base: Method) -> String {
+    let m = method_at(axes, point, base);
+    series.iter().filter(|&&i| reads(&axes[i].name, m)).map(|&i| point[i].clone()).collect::<Vec<_>>().join(", ")
 }
 
 /// One line for a run that left points out ([`without_unread`]), or None.
