@@ -218,9 +218,45 @@ impl SceneArgs {
         s
     }
 
+    /// The `--cluster-*` flags given a value other than their default.
+    fn cluster_flags_given(&self) -> Vec<String> {
+        let d = ClusterOptions::default();
+        let mut given = Vec::new();
+        if self.cluster_tile != d.tile_size {
+            given.push(format!("--cluster-tile {}", self.cluster_tile));
+        }
+        if self.cluster_slices != d.slices {
+            given.push(format!("--cluster-slices {}", self.cluster_slices));
+        }
+        if self.cluster_first != d.first {
+            given.push(format!("--cluster-first {}", self.cluster_first));
+        }
+        if self.cluster_last != d.last {
+            given.push(format!("--cluster-last {}", self.cluster_last));
+        }
+        if self.cluster_geometry_only != d.geometry_only {
+            given.push("--cluster-geometry-only".into());
+        }
+        given
+    }
+
     /// The library settings of these flags: checked first, then the `--camera` bookmark
-    /// read, so a typo in a flag is reported before a file problem.
+    /// read, so a typo in a flag is reported before a file problem. A `--cluster-*` flag
+    /// without clusters is refused by name (it would change nothing).
     pub fn settings(&self) -> Result<Settings> {
+        let settings = self.point_settings()?;
+        if settings.clusters.is_none() {
+            if let Some(flag) = self.cluster_flags_given().first() {
+                let grid = tiledlight_setup::table::GridLayout::of(&settings).name();
+                bail!("{flag}: the clusters' settings are read only with --grid clustered (this run's grid is {grid})");
+            }
+        }
+        Ok(settings)
+    }
+
+    /// [`Self::settings`] without the clusters' check: a lab point of a sweep over grids
+    /// keeps the run's `--cluster-*` flags for its clustered points.
+    fn point_settings(&self) -> Result<Settings> {
         let mut settings = self.plain_settings();
         settings.validate()?;
         if let Some(path) = &self.camera {
@@ -300,7 +336,7 @@ impl Flags for SceneArgs {
     }
 
     fn settings(&self) -> Result<Settings> {
-        SceneArgs::settings(self)
+        self.point_settings()
     }
 
     fn scene_label(&self) -> String {
@@ -679,6 +715,25 @@ mod tests {
         let (kept, left_out) =
             axes::without_unread(&SceneArgs::default(), &tiles, axes::points(&tiles).unwrap()).unwrap();
         assert_eq!((kept.len(), left_out), (4, 0));
+    }
+
+    /// A `--cluster-*` flag without clusters is refused by name (it would change nothing);
+    /// with `--grid clustered` it is taken.
+    #[test]
+    fn cluster_flags_need_the_clustered_grid() {
+        let mut a = SceneArgs { cluster_tile: 32, ..SceneArgs::default() };
+        let e = a.settings().unwrap_err().to_string();
+        assert!(e.contains("--cluster-tile 32") && e.contains("--grid clustered"), "{e}");
+        a.set_axis("grid", "half-z").unwrap();
+        assert!(a.settings().unwrap_err().to_string().contains("grid is half-z"));
+        let only = SceneArgs { cluster_geometry_only: true, ..SceneArgs::default() };
+        assert!(only.settings().unwrap_err().to_string().starts_with("--cluster-geometry-only"));
+        a.set_axis("grid", "clustered").unwrap();
+        assert_eq!(a.settings().unwrap().clusters.unwrap().tile_size, 32);
+        assert!(SceneArgs::default().settings().is_ok());
+        // A lab point of a sweep over grids keeps the flags for its clustered points.
+        let tiled = SceneArgs { cluster_tile: 32, ..SceneArgs::default() };
+        assert!(Flags::settings(&tiled).is_ok());
     }
 
     #[test]
