@@ -227,8 +227,7 @@ fn reuse_target(light: u32) -> f32 {
 /// The test kernel's scene: pixel coordinates and distance as the point, a proxy that
 /// depends on the light, the point and the normal (so neighbours' shares differ), the
 /// target table.
-fn reuse_scene(
-) -> reuse::Scene<impl Fn(u32, u32, f32) -> Vec3, impl Fn(u32, Vec3, Vec3, [u32; 2]) -> f32, fn(u32) -> f32> {
+fn reuse_scene() -> reuse::FnScene {
     reuse::Scene {
         position: |x: u32, y: u32, d: f32| Vec3::new(x as f32, y as f32, d),
         proxy: |l: u32, p: Vec3, n: Vec3, s: [u32; 2]| {

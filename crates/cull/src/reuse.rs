@@ -169,6 +169,9 @@ pub struct Scene<P, Q, T> {
     pub target: T,
 }
 
+/// A [`Scene`] of plain functions (no state: a test's tables).
+pub type FnScene = Scene<fn(u32, u32, f32) -> Vec3, fn(u32, Vec3, Vec3, [u32; 2]) -> f32, fn(u32) -> f32>;
+
 /// Steps 2-4 for pixel `(x, y)` of a `size` screen whose records are `records`
 /// (row-major): the inputs merged (its own record first, then the similar neighbours'
 /// of `k` drawn, [`neighbour`], [`similar`]), each as `(light, weight, p_hat, u)`: the
@@ -316,11 +319,14 @@ mod tests {
         assert!(!similar(&record(0, 1.0, Vec3::Z, 0.0), &record(0, 1.0, Vec3::Z, 0.0)));
     }
 
-    /// A scene whose proxy and target are `p_hat(light)` wherever the point is.
-    fn flat(
-        p_hat: fn(u32) -> f32,
-    ) -> Scene<impl Fn(u32, u32, f32) -> Vec3, impl Fn(u32, Vec3, Vec3, [u32; 2]) -> f32, fn(u32) -> f32> {
-        Scene { position: |x, y, d| Vec3::new(x as f32, y as f32, d), proxy: move |l, _, _, _| p_hat(l), target: p_hat }
+    /// The target of the flat scene: brighter for a larger index.
+    fn p_hat(light: u32) -> f32 {
+        1.0 + light as f32
+    }
+
+    /// A scene whose proxy and target are [`p_hat`] wherever the point is.
+    fn flat() -> FnScene {
+        Scene { position: |x, y, d| Vec3::new(x as f32, y as f32, d), proxy: |l, _, _, _| p_hat(l), target: p_hat }
     }
 
     /// With every neighbour's light as bright here as there, merging keeps the weights'
@@ -330,8 +336,7 @@ mod tests {
     #[test]
     fn merged_reservoirs_keep_the_estimate_and_skip_other_surfaces() {
         let size = (32, 32);
-        let p_hat = |light: u32| 1.0 + light as f32;
-        let scene = flat(p_hat);
+        let scene = flat();
         let mut records: Vec<Record> = (0..32 * 32).map(|i| record(i % 8, 1.0 / p_hat(i % 8), Vec3::Z, 5.0)).collect();
         let own = 16 * 32 + 16;
         let draws = (8, (4, 16), 1);
