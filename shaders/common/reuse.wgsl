@@ -132,11 +132,16 @@ fn reuse_combine(p: vec2<u32>, c: ReuseParams) -> Reservoir {
         var w = 0.0;
         var p_hat = 0.0;
         if weights[i] > 0.0 {
+            // Input i's own term is one of the sum's: kept, not evaluated again.
             var total = 0.0;
+            var mine = 0.0;
             for (var j = 0u; j < n; j++) {
-                total += points[j].w * reuse_proxy(lights[i], points[j].xyz, normals[j], surfaces[j]);
+                let term = points[j].w * reuse_proxy(lights[i], points[j].xyz, normals[j], surfaces[j]);
+                total += term;
+                if j == i {
+                    mine = term;
+                }
             }
-            let mine = points[i].w * reuse_proxy(lights[i], points[i].xyz, normals[i], surfaces[i]);
             p_hat = reuse_target(lights[i]);
             if total > 0.0 {
                 w = mine / total * p_hat * weights[i];

@@ -24,7 +24,7 @@
 //    history with it).
 // 5. With REUSE, spatial reuse (tiledlight_cull::reuse, whose doc numbers the steps): the
 //    pass runs twice. The first (REUSE_PASS 0) stops after step 1 and leaves each pixel's
-//    reservoir as a record (the kept light, W, the normal and view distance); the second
+//    reservoir as a record (the kept light, W, the normal, view distance and material); the second
 //    (REUSE_PASS 1) merges its own record with REUSE_NEIGHBOURS neighbours' of a similar
 //    surface, each light weighed by the target at this pixel and its balance-heuristic
 //    share (common/reuse.wgsl), and goes on with steps 2-4.
