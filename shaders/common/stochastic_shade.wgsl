@@ -22,12 +22,18 @@
 // 4. With DENOISE, the denoiser's guide: the pixel's normal and view distance (0: sky), the
 //    albedo the light is divided by and the unlit term (stochastic_denoise.wgsl filters the
 //    history with it).
-// 5. With REUSE, spatial reuse (tiledlight_cull::reuse, whose doc numbers the steps): the
-//    pass runs twice. The first (REUSE_PASS 0) stops after step 1 and leaves each pixel's
-//    reservoir as a record (the kept light, W, the normal, view distance and material); the second
-//    (REUSE_PASS 1) merges its own record with REUSE_NEIGHBOURS neighbours' of a similar
-//    surface, each light weighed by the target at this pixel and its balance-heuristic
-//    share (common/reuse.wgsl), and goes on with steps 2-4.
+// 5. With REUSE, reservoir reuse (common/reuse.wgsl; tiledlight_cull::reuse and ::temporal,
+//    whose docs number the steps). Spatial (REUSE_NEIGHBOURS > 0): the pass runs twice. The
+//    first (REUSE_PASS 0) stops after step 1 and leaves each pixel's reservoir as a record
+//    (the kept light, the candidates it stands for, W, the normal, view distance and
+//    material); the second (REUSE_PASS 1) merges its own record with REUSE_NEIGHBOURS
+//    neighbours' of a similar surface, each light weighed by the target at this pixel and
+//    its balance-heuristic share, and goes on with steps 2-4. Temporal (TEMPORAL_CAP > 0):
+//    step 1's reservoir is merged with the history's record of the same surface, found by
+//    reprojecting the pixel's point into the previous view (in the first run, or with no
+//    spatial reuse in the one run, REUSE_PASS 2, which reads a copy of the history the
+//    host made in the records: it overwrites the history as it goes); the run that shades
+//    leaves each pixel's final reservoir in the history for the next frame.
 
 #include "common/stochastic.wgsl"
 
@@ -55,18 +61,29 @@ override DEMOD_FLOOR: f32;
 
 #ifdef REUSE
 #include "common/reuse.wgsl"
-// Which run of the pass this is: 0 samples and leaves the records, 1 reuses them (step 5).
+// Which run of the pass this is (step 5): 0 samples and leaves the records, 1 reuses the
+// neighbours' and shades, 2 (temporal reuse alone) samples, reuses the history and shades.
 override REUSE_PASS: u32 = 0u;
 // Neighbours merged a pixel; the box's half side in pixels; the similarity test's normal
 // cosine and distance share; the first random draw of the reuse (tiledlight_cull::reuse's
-// constants, passed by the host).
+// constants, passed by the host); the history's count at most TEMPORAL_CAP times a
+// frame's (0: no temporal reuse).
 override REUSE_NEIGHBOURS: u32 = 0u;
 override REUSE_RADIUS: i32;
 override REUSE_NORMAL_COS: f32;
 override REUSE_DISTANCE_SHARE: f32;
 override REUSE_DRAW_BASE: u32;
+override TEMPORAL_CAP: u32 = 0u;
 // One record a pixel, row-major, two vec4s each (common/reuse.wgsl, RecordWords).
 @group(1) @binding(42) var<storage, read_write> stochastic_records: array<vec4<u32>>;
+// The history (temporal reuse): the view the previous frame was seen through, then its
+// pixels' final records. Without temporal reuse the host binds the records here (never
+// read).
+struct ReuseHistory {
+    view: View,
+    records: array<vec4<u32>>,
+}
+@group(1) @binding(43) var<storage, read_write> reuse_history: ReuseHistory;
 #endif
 
 #include "common/luminance.wgsl"
@@ -105,9 +122,14 @@ fn stochastic_sample(g: GSample, p: vec2<u32>, pixel: u32, v: vec3<f32>) -> Rese
 
 #ifdef REUSE
 // The surface the reuse weighs lights at (common/reuse.wgsl's reuse_target), set before
-// reuse_combine.
+// reuse_combine and temporal_merge.
 var<private> reuse_surface: GSample;
 var<private> reuse_view: vec3<f32>;
+
+fn reuse_params() -> ReuseParams {
+    return ReuseParams(view.screen.xy, traced_band.frame, REUSE_NEIGHBOURS, REUSE_RADIUS, REUSE_NORMAL_COS,
+        REUSE_DISTANCE_SHARE, REUSE_DRAW_BASE);
+}
 
 fn reuse_record(index: u32) -> RecordWords {
     return RecordWords(stochastic_records[2u * index], stochastic_records[2u * index + 1u]);
@@ -123,21 +145,75 @@ fn reuse_position(q: vec2<u32>, dist: f32) -> vec3<f32> {
     return (view.view_to_world * vec4<f32>(v, 1.0)).xyz;
 }
 
+// The target of `light` at point x, normal n and packed material s, seen along v.
+fn target_at(light: u32, x: vec3<f32>, n: vec3<f32>, v: vec3<f32>, s: vec2<u32>) -> f32 {
+    let m = unpack4x8unorm(s.x);
+    return luminance(shade_light(light, x, n, v, Surface(m.rgb, m.a, bitcast<f32>(s.y))));
+}
+
 // The balance heuristic's p' (tiledlight_cull::reuse, step 4): the target at another
 // pixel's point, normal and material.
 fn reuse_proxy(light: u32, x: vec3<f32>, n: vec3<f32>, s: vec2<u32>) -> f32 {
-    let m = unpack4x8unorm(s.x);
-    let surface = Surface(m.rgb, m.a, bitcast<f32>(s.y));
-    return luminance(shade_light(light, x, n, view_vector(x), surface));
+    return target_at(light, x, n, view_vector(x), s);
 }
 
-// Step 5's second run: the pixel's own record and its neighbours' merged.
-fn stochastic_reuse(g: GSample, p: vec2<u32>, v: vec3<f32>) -> Reservoir {
+// The same for the history's record (tiledlight_cull::temporal, step 5), seen from the
+// previous frame's eye.
+fn temporal_proxy(light: u32, x: vec3<f32>, n: vec3<f32>, s: vec2<u32>) -> f32 {
+    let h = reuse_history.view;
+    return target_at(light, x, n, vector_to_viewer(h.view_to_world, h.eye, h.orthographic, x), s);
+}
+
+// The history's record of pixel `index`: the history itself in the first run, the host's
+// copy of it in the records in the only one (REUSE_PASS 2, which overwrites the history).
+fn history_record(index: u32) -> RecordWords {
+    if REUSE_PASS == 0u {
+        return RecordWords(reuse_history.records[2u * index], reuse_history.records[2u * index + 1u]);
+    }
+    return reuse_record(index);
+}
+
+// Leaves pixel `pixel`'s final record in the history (with temporal reuse).
+fn history_write(pixel: u32, w: RecordWords) {
+    if TEMPORAL_CAP > 0u {
+        reuse_history.records[2u * pixel] = w.head;
+        reuse_history.records[2u * pixel + 1u] = w.surface;
+    }
+}
+
+// The record of the pixel's merged reservoir `m` at surface g.
+fn record_of(g: GSample, m: Merged) -> RecordWords {
+    let s = g.surface;
+    return record_pack(ReuseRecord(m.r.light, m.count, reservoir_weight(m.r), g.normal, g.dist,
+        surface_pack(s.albedo, s.roughness, s.metallic)));
+}
+
+// Step 1's reservoir, with temporal reuse (tiledlight_cull::temporal, steps 2-5) merged
+// with the history's record of the same surface (none after a reset, behind the previous
+// camera, off its screen or where the surface was hidden).
+fn stochastic_own(g: GSample, p: vec2<u32>, pixel: u32, v: vec3<f32>) -> Merged {
+    let r = stochastic_sample(g, p, pixel, v);
+    if TEMPORAL_CAP == 0u {
+        return Merged(r, r.m);
+    }
     reuse_surface = g;
     reuse_view = v;
-    let c = ReuseParams(view.screen.xy, traced_band.frame, traced_band.candidates, traced_band.far_candidates,
-        REUSE_NEIGHBOURS, REUSE_RADIUS, REUSE_NORMAL_COS, REUSE_DISTANCE_SHARE, REUSE_DRAW_BASE);
-    return reuse_combine(p, c);
+    let c = reuse_params();
+    var h = ReuseRecord(0u, 0u, 0.0, vec3<f32>(0.0, 0.0, 1.0), 0.0, vec2<u32>(0u));
+    var x = vec3<f32>(0.0);
+    var kept = false;
+    if traced_band.history != 0u {
+        let prev = reuse_history.view;
+        let q = temporal_reproject(g.world, prev.world_to_clip, prev.world_to_view, view.screen.xy);
+        if q.pixel.x >= 0 {
+            h = record_unpack(history_record(u32(q.pixel.y) * view.screen.x + u32(q.pixel.x)));
+            kept = h.light < lighting.num_lights && temporal_same_surface(g.normal, q.dist, h, c);
+            let at = point_in_view(prev.view_to_clip, prev.orthographic, pixel_to_ndc(vec2<f32>(q.pixel) + 0.5),
+                h.dist);
+            x = (prev.view_to_world * vec4<f32>(at, 1.0)).xyz;
+        }
+    }
+    return temporal_merge(r, h, x, kept, pixel, c, TEMPORAL_CAP);
 }
 #endif
 
@@ -145,11 +221,23 @@ fn stochastic_reuse(g: GSample, p: vec2<u32>, v: vec3<f32>) -> Reservoir {
 // the unlit term.
 fn stochastic_estimate(g: GSample, p: vec2<u32>, pixel: u32) -> vec3<f32> {
     if lighting.num_lights == 0u {
+#ifdef REUSE
+        history_write(pixel, RecordWords(vec4<u32>(0u), vec4<u32>(0u)));
+#endif
         return vec3<f32>(0.0);
     }
     let v = view_vector(g.world);
 #ifdef REUSE
-    let r = stochastic_reuse(g, p, v);
+    var m: Merged;
+    if REUSE_PASS == 1u {
+        reuse_surface = g;
+        reuse_view = v;
+        m = reuse_combine(p, reuse_params());
+    } else {
+        m = stochastic_own(g, p, pixel, v);
+    }
+    history_write(pixel, record_of(g, m));
+    let r = m.r;
 #else
     let r = stochastic_sample(g, p, pixel, v);
 #endif
@@ -171,11 +259,7 @@ fn shade_lights_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
         // Step 5's first run: the record, no ray, nothing accumulated.
         var w = RecordWords(vec4<u32>(0u), vec4<u32>(0u));
         if !g.sky && lighting.num_lights > 0u {
-            let r = stochastic_sample(g, p, pixel, view_vector(g.world));
-            let s = g.surface;
-            // More candidates than the far ones: the list had some.
-            w = record_pack(ReuseRecord(r.light, r.m > traced_band.far_candidates, reservoir_weight(r), g.normal, g.dist,
-                surface_pack(s.albedo, s.roughness, s.metallic)));
+            w = record_of(g, stochastic_own(g, p, pixel, view_vector(g.world)));
         }
         stochastic_records[2u * pixel] = w.head;
         stochastic_records[2u * pixel + 1u] = w.surface;
@@ -183,6 +267,9 @@ fn shade_lights_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
     }
 #endif
     if g.sky {
+#ifdef REUSE
+        history_write(pixel, RecordWords(vec4<u32>(0u), vec4<u32>(0u)));
+#endif
 #ifdef DENOISE
         denoise_guide[pixel] = vec4<f32>(0.0);
 #endif

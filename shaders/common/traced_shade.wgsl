@@ -30,15 +30,16 @@ override TRACE_SCALE: f32;
 @group(1) @binding(37) var<storage, read> trace_mask_bits: array<u32>;
 #endif
 // A band's first row; the stochastic method's frame (its one band is rewritten each
-// frame): the seed, the near and far candidates a pixel and the frames its history holds
-// (crates/visibility/src/stochastic.rs, FrameParams; 0 for the traced reference).
+// frame): the seed, the near and far candidates a pixel, the frames its history holds and
+// whether its temporal reuse has a previous frame (crates/visibility/src/stochastic.rs,
+// FrameParams; 0 for the traced reference).
 struct TracedBand {
     first_row: u32,
     frame: u32,
     candidates: u32,
     accumulated: u32,
     far_candidates: u32,
-    _pad0: u32,
+    history: u32,
     _pad1: u32,
     _pad2: u32,
 }

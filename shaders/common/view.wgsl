@@ -36,10 +36,15 @@ fn view_distance(depth: f32) -> f32 {
 // View-space point at NDC (x, y) and view distance `dist`; uses the projection's entries
 // directly, as crates/cull/src/camera.rs `view_point_at` does.
 fn view_point_at(ndc: vec2<f32>, dist: f32) -> vec3<f32> {
-    let p = view.view_to_clip;
+    return point_in_view(view.view_to_clip, view.orthographic, ndc, dist);
+}
+
+// view_point_at through another view's projection (`orthographic` 1 for orthographic):
+// the stochastic method's previous frame.
+fn point_in_view(p: mat4x4<f32>, orthographic: u32, ndc: vec2<f32>, dist: f32) -> vec3<f32> {
     let z = -dist;
     var w = dist;
-    if view.orthographic != 0u {
+    if orthographic != 0u {
         w = 1.0;
     }
     let x = (ndc.x * w - p[2].x * z - p[3].x) / p[0].x;
@@ -55,8 +60,13 @@ fn pixel_to_ndc(p: vec2<f32>) -> vec2<f32> {
 // Unit vector from a world-space surface point towards the viewer: towards the eye for
 // perspective, the camera's backward axis for orthographic projections.
 fn view_vector(world: vec3<f32>) -> vec3<f32> {
-    if view.orthographic != 0u {
-        return normalize(view.view_to_world[2].xyz);
+    return vector_to_viewer(view.view_to_world, view.eye, view.orthographic, world);
+}
+
+// view_vector for another view (its view-to-world matrix, eye and projection kind).
+fn vector_to_viewer(view_to_world: mat4x4<f32>, eye: vec3<f32>, orthographic: u32, world: vec3<f32>) -> vec3<f32> {
+    if orthographic != 0u {
+        return normalize(view_to_world[2].xyz);
     }
-    return normalize(view.eye - world);
+    return normalize(eye - world);
 }

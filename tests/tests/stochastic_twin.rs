@@ -12,11 +12,15 @@
 //!
 //! The spatial reuse's WGSL (`shaders/common/reuse.wgsl`) against `tiledlight_cull::reuse`
 //! likewise, on a record image (below, at `REUSE_SRC`); its negative test: a twin that
-//! skips the similarity test is rejected.
+//! skips the similarity test is rejected. The temporal reuse's (`tiledlight_cull::temporal`)
+//! on tables of reservoirs and history records (`TEMPORAL_SRC`) and of points seen through
+//! random cameras (`REPROJECT_SRC`); their negative tests: a twin without the cap, and one
+//! whose rows run upwards, are rejected.
 
 use glam::Vec3;
 use tiledlight_cull::reuse::{self, Record};
 use tiledlight_cull::stochastic::{rand01, Reservoir};
+use tiledlight_cull::temporal;
 use tiledlight_tests::gpu;
 use tiledlight_tests::kernels::{run_cases, Rng};
 
@@ -184,6 +188,11 @@ const REUSE_SRC: &str = r#"
 @group(0) @binding(0) var<storage, read> records: array<vec4<u32>>;
 @group(0) @binding(1) var<storage, read_write> out: array<vec4<u32>>;
 
+// Not called here (the temporal kernels below test it).
+fn temporal_proxy(light: u32, x: vec3<f32>, n: vec3<f32>, s: vec2<u32>) -> f32 {
+    return 0.0;
+}
+
 fn reuse_record(index: u32) -> RecordWords {
     return RecordWords(records[2u * index + 2u], records[2u * index + 3u]);
 }
@@ -206,15 +215,13 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let screen = head.xy;
     let i = id.x;
     if i >= screen.x * screen.y { return; }
-    let c = ReuseParams(screen, head.z, 4u, 16u, head.w, REUSE_RADIUS, REUSE_NORMAL_COS, REUSE_DISTANCE_SHARE,
-        REUSE_DRAW_BASE);
-    let r = reuse_combine(vec2<u32>(i % screen.x, i / screen.x), c);
-    out[i] = vec4<u32>(r.light, bitcast<u32>(r.w_sum), r.m, bitcast<u32>(reservoir_weight(r)));
+    let c = ReuseParams(screen, head.z, head.w, REUSE_RADIUS, REUSE_NORMAL_COS, REUSE_DISTANCE_SHARE, REUSE_DRAW_BASE);
+    let m = reuse_combine(vec2<u32>(i % screen.x, i / screen.x), c);
+    out[i] = vec4<u32>(m.r.light, bitcast<u32>(m.r.w_sum), m.count, bitcast<u32>(reservoir_weight(m.r)));
 }
 "#;
 
 const REUSE_SIZE: (u32, u32) = (48, 32);
-const REUSE_COUNTS: (u32, u32) = (4, 16);
 
 fn reuse_target(light: u32) -> f32 {
     if light.is_multiple_of(5) {
@@ -257,7 +264,9 @@ fn reuse_records() -> Vec<Record> {
             let light = if i == 5 { (1 << 20) - 1 } else { (rng.unit() * 4000.0) as u32 };
             let weight = if rng.unit() < 0.1 { 0.0 } else { rng.log(1e-30, 1e30) };
             let surface = [(rng.unit() * 65536.0) as u32, 0];
-            Record { light, near: rng.unit() < 0.7, weight, normal, dist, surface }
+            // A pixel's candidates, or with temporal reuse up to 21x them.
+            let count = if rng.unit() < 0.5 { 20 } else { (rng.unit() * 420.0) as u32 };
+            Record { light, count, weight, normal, dist, surface }
         })
         .collect()
 }
@@ -269,13 +278,7 @@ fn run_reuse(records: &[Record], (frame, k): (u32, u32)) -> Vec<[u32; 4]> {
         words.extend([[w[0], w[1], w[2], w[3]], [w[4], w[5], w[6], w[7]]]);
     }
     let n = records.len() as u32;
-    let constants = format!(
-        "const REUSE_RADIUS: i32 = {};\nconst REUSE_NORMAL_COS: f32 = {:?};\nconst REUSE_DISTANCE_SHARE: f32 = {:?};\nconst REUSE_DRAW_BASE: u32 = {}u;\n",
-        reuse::RADIUS,
-        reuse::NORMAL_COS,
-        reuse::DISTANCE_SHARE,
-        reuse::DRAW_BASE
-    );
+    let constants = reuse_constants();
     let out = run_cases(
         gpu(),
         "test.stochastic.reuse",
@@ -290,9 +293,9 @@ fn run_reuse(records: &[Record], (frame, k): (u32, u32)) -> Vec<[u32; 4]> {
 /// The smallest distance of one of pixel `(x, y)`'s keep-or-not decisions from a tie
 /// (`|u w_sum - w| / w_sum`): where it is within rounding, the GPU may keep the other one.
 fn reuse_margin(records: &[Record], (x, y): (u32, u32), (frame, k): (u32, u32)) -> f32 {
-    let offers = reuse::offers(records, ((x, y), REUSE_SIZE), (k, REUSE_COUNTS, frame), &reuse_scene());
+    let offers = reuse::offers(records, ((x, y), REUSE_SIZE), (k, frame), &reuse_scene());
     let (mut w_sum, mut margin) = (0.0f32, f32::INFINITY);
-    for (_, w, _, u) in offers {
+    for (_, w, _, u, _) in offers {
         w_sum += w;
         if w > 0.0 {
             margin = margin.min((u * w_sum - w).abs() / w_sum);
@@ -306,14 +309,14 @@ fn reuse_mismatches(records: &[Record], rows: &[[u32; 4]], twin: &[Record], (fra
     let mut bad = Vec::new();
     for (i, row) in rows.iter().enumerate() {
         let (x, y) = (i as u32 % REUSE_SIZE.0, i as u32 / REUSE_SIZE.0);
-        let c = reuse::combine(twin, ((x, y), REUSE_SIZE), (k, REUSE_COUNTS, frame), &reuse_scene());
+        let (c, count) = reuse::combine(twin, ((x, y), REUSE_SIZE), (k, frame), &reuse_scene());
         let close = |g: u32, c: f32| {
             let g = f32::from_bits(g);
             g == c || (g - c).abs() <= 1e-5 * c.abs().max(g.abs())
         };
         let pick_ok = row[0] == c.light || reuse_margin(records, (x, y), (frame, k)) < 1e-5;
-        if row[2] != c.m || !close(row[1], c.w_sum) || !pick_ok || (row[0] == c.light && !close(row[3], c.weight())) {
-            bad.push(format!("pixel ({x}, {y}): GPU {row:?}, CPU {c:?} weight {}", c.weight()));
+        if row[2] != count || !close(row[1], c.w_sum) || !pick_ok || (row[0] == c.light && !close(row[3], c.weight())) {
+            bad.push(format!("pixel ({x}, {y}): GPU {row:?}, CPU {c:?} count {count} weight {}", c.weight()));
         }
     }
     bad
@@ -329,8 +332,7 @@ fn the_gpu_reuse_matches_its_cpu_twin() {
         let merged = (0..rows.len())
             .filter(|&i| {
                 let (x, y) = (i as u32 % REUSE_SIZE.0, i as u32 / REUSE_SIZE.0);
-                rows[i][3] != 0
-                    && reuse::offers(&records, ((x, y), REUSE_SIZE), (k, REUSE_COUNTS, frame), &reuse_scene()).len() > 1
+                rows[i][3] != 0 && reuse::offers(&records, ((x, y), REUSE_SIZE), (k, frame), &reuse_scene()).len() > 1
             })
             .count();
         eprintln!(
@@ -358,4 +360,321 @@ fn the_reuse_comparison_rejects_a_twin_without_the_similarity_test() {
     let rows = run_reuse(&records, (7, 4));
     let bad = reuse_mismatches(&records, &rows, &alike, (7, 4));
     assert!(bad.len() * 2 > rows.len(), "only {} of {} pixels caught", bad.len(), rows.len());
+}
+
+// Temporal reuse (tiledlight_cull::temporal, shaders/common/reuse.wgsl): each case is this
+// frame's reservoir (light, p_hat, w_sum, count 0..64), a history record (the spatial
+// table's mix: sky, empty, weights 1e-30..1e30, counts to 2,000), the point and normal this
+// pixel sees and the distance the reprojection expects, and a cap (1, 20 or 64): the GPU
+// decides whether the record shows the same surface and merges, the twin likewise. The
+// history's proxy depends on the light, the point, the normal and the material.
+const TEMPORAL_STUBS: &str = r#"
+#include "common/reuse.wgsl"
+
+fn reuse_record(index: u32) -> RecordWords {
+    return RecordWords(vec4<u32>(0u), vec4<u32>(0u));
+}
+
+fn reuse_position(q: vec2<u32>, dist: f32) -> vec3<f32> {
+    return vec3<f32>(0.0);
+}
+
+fn reuse_proxy(light: u32, x: vec3<f32>, n: vec3<f32>, s: vec2<u32>) -> f32 {
+    return 0.0;
+}
+
+fn reuse_target(light: u32) -> f32 {
+    return select(f32((light * 2654435761u) >> 16u) / 65536.0, 0.0, light % 5u == 0u);
+}
+
+fn temporal_proxy(light: u32, x: vec3<f32>, n: vec3<f32>, s: vec2<u32>) -> f32 {
+    return (0.5 + f32(light % 6u)) * (1.25 + n.x) * (1.0 + 0.05 * x.z * f32(light % 4u)) * (1.0 + f32(s.x & 255u) / 255.0);
+}
+"#;
+
+const TEMPORAL_SRC: &str = r#"
+@group(0) @binding(0) var<storage, read> cases: array<array<u32, 24>>;
+@group(0) @binding(1) var<storage, read_write> out: array<vec4<u32>>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if i >= arrayLength(&cases) { return; }
+    let w = cases[i];
+    let own = Reservoir(w[4], bitcast<f32>(w[5]), bitcast<f32>(w[6]), w[7]);
+    let h = record_unpack(RecordWords(vec4<u32>(w[8], w[9], w[10], w[11]), vec4<u32>(w[12], w[13], w[14], w[15])));
+    let x = vec3<f32>(bitcast<f32>(w[16]), bitcast<f32>(w[17]), bitcast<f32>(w[18]));
+    let n = vec3<f32>(bitcast<f32>(w[19]), bitcast<f32>(w[20]), bitcast<f32>(w[21]));
+    let c = ReuseParams(vec2<u32>(1u), w[1], 0u, REUSE_RADIUS, REUSE_NORMAL_COS, REUSE_DISTANCE_SHARE, REUSE_DRAW_BASE);
+    let kept = temporal_same_surface(n, bitcast<f32>(w[3]), h, c);
+    let m = temporal_merge(own, h, x, kept, w[0], c, w[2]);
+    out[i] = vec4<u32>(m.r.light, bitcast<u32>(m.r.w_sum), m.count, bitcast<u32>(reservoir_weight(m.r)));
+}
+"#;
+
+/// The reuse's constants as WGSL, for the test kernels.
+fn reuse_constants() -> String {
+    format!(
+        "const REUSE_RADIUS: i32 = {};\nconst REUSE_NORMAL_COS: f32 = {:?};\nconst REUSE_DISTANCE_SHARE: f32 = {:?};\nconst REUSE_DRAW_BASE: u32 = {}u;\n",
+        reuse::RADIUS,
+        reuse::NORMAL_COS,
+        reuse::DISTANCE_SHARE,
+        reuse::DRAW_BASE
+    )
+}
+
+/// A temporal case: pixel, frame, cap, expected distance, this frame's reservoir, the
+/// history's record, this pixel's point and normal.
+struct TemporalCase {
+    pixel: u32,
+    frame: u32,
+    cap: u32,
+    dist: f32,
+    own: Reservoir,
+    history: Record,
+    x: Vec3,
+    normal: Vec3,
+}
+
+fn temporal_proxy(l: u32, x: Vec3, n: Vec3, s: [u32; 2]) -> f32 {
+    (0.5 + (l % 6) as f32) * (1.25 + n.x) * (1.0 + 0.05 * x.z * (l % 4) as f32) * (1.0 + (s[0] & 255) as f32 / 255.0)
+}
+
+fn temporal_cases() -> Vec<TemporalCase> {
+    let mut rng = Rng(4949);
+    let records = reuse_records();
+    let normals = [0.0f32, 10.0, 40.0].map(|d| Vec3::new(d.to_radians().sin(), 0.0, d.to_radians().cos()));
+    let dists = [10.0f32, 10.5, 12.0];
+    (0..4000u32)
+        .map(|n| {
+            let light = (rng.unit() * 4000.0) as u32;
+            let m = if n % 50 == 0 { 0 } else { 1 + (rng.unit() * 64.0) as u32 };
+            let p_hat = if rng.unit() < 0.1 { 0.0 } else { reuse_target(light) };
+            let w = rng.log(1e-30, 1e30);
+            let own = Reservoir { light, p_hat, w_sum: if p_hat > 0.0 { w * m as f32 * p_hat } else { 0.0 }, m };
+            TemporalCase {
+                pixel: n * 7919 + 5,
+                frame: n / 7,
+                cap: [1, temporal::DEFAULT_CAP, temporal::MAX_CAP][n as usize % 3],
+                dist: dists[(rng.unit() * 3.0) as usize],
+                own,
+                history: records[n as usize % records.len()],
+                x: Vec3::new(rng.unit(), rng.unit(), 10.0 * rng.unit()),
+                normal: normals[(rng.unit() * 3.0) as usize],
+            }
+        })
+        .collect()
+}
+
+/// The twin's merge of a case with the history's count capped at `cap` (the case's own in
+/// the positive test), and the smallest margin of its history decision from a tie.
+fn temporal_twin(c: &TemporalCase, cap: u32) -> ((Reservoir, u32), f32) {
+    // The record as the GPU reads it (the normal through its octahedral code).
+    let h = Record::unpack(c.history.pack());
+    let kept = temporal::same_surface(c.normal, c.dist, &h);
+    let merged = temporal::merge(&c.own, kept.then_some(&h), (c.pixel, c.frame, cap), reuse_target, |l| {
+        temporal_proxy(l, c.x, h.normal, h.surface)
+    });
+    // Offer the history alone to find its weight: the decision is `u w_sum < w`.
+    let alone = temporal::merge(
+        &Reservoir { m: c.own.m, ..Reservoir::default() },
+        kept.then_some(&h),
+        (c.pixel, c.frame, cap),
+        reuse_target,
+        |l| temporal_proxy(l, c.x, h.normal, h.surface),
+    );
+    let w = alone.0.w_sum;
+    let u = rand01(c.pixel, c.frame, temporal::DRAW);
+    let margin = if w > 0.0 && merged.0.w_sum > 0.0 { (u * merged.0.w_sum - w).abs() / merged.0.w_sum } else { 1.0 };
+    (merged, margin)
+}
+
+fn run_temporal(cases: &[TemporalCase]) -> Vec<[u32; 4]> {
+    let mut words: Vec<u32> = Vec::new();
+    for c in cases {
+        let r = c.history.pack();
+        words.extend([c.pixel, c.frame, c.cap, c.dist.to_bits(), c.own.light, c.own.p_hat.to_bits()]);
+        words.extend([c.own.w_sum.to_bits(), c.own.m]);
+        words.extend(r);
+        words.extend([c.x.x, c.x.y, c.x.z, c.normal.x, c.normal.y, c.normal.z].map(f32::to_bits));
+        words.extend([0, 0]);
+    }
+    let n = cases.len() as u32;
+    let src = reuse_constants() + TEMPORAL_STUBS + TEMPORAL_SRC;
+    let out = run_cases(gpu(), "test.stochastic.temporal", &src, bytemuck::cast_slice(&words), n, u64::from(n) * 16);
+    out.chunks_exact(4).map(|c| [0, 1, 2, 3].map(|j| c[j].to_bits())).collect()
+}
+
+fn temporal_mismatches(
+    cases: &[TemporalCase],
+    rows: &[[u32; 4]],
+    cap_of: impl Fn(&TemporalCase) -> u32,
+) -> Vec<String> {
+    let mut bad = Vec::new();
+    for (i, (c, row)) in cases.iter().zip(rows).enumerate() {
+        let ((r, count), margin) = temporal_twin(c, cap_of(c));
+        let close = |g: u32, c: f32| {
+            let g = f32::from_bits(g);
+            g == c || (g - c).abs() <= 1e-5 * c.abs().max(g.abs())
+        };
+        let pick_ok = row[0] == r.light || margin < 1e-5;
+        if row[2] != count || !close(row[1], r.w_sum) || !pick_ok || (row[0] == r.light && !close(row[3], r.weight())) {
+            bad.push(format!("case {i}: GPU {row:?}, CPU {r:?} count {count} weight {}", r.weight()));
+        }
+    }
+    bad
+}
+
+#[test]
+fn the_gpu_temporal_merge_matches_its_cpu_twin() {
+    let cases = temporal_cases();
+    let rows = run_temporal(&cases);
+    let bad = temporal_mismatches(&cases, &rows, |c| c.cap);
+    // Cases that kept the history's light: the merge is exercised, not just its own input.
+    let history_kept =
+        cases.iter().zip(&rows).filter(|(c, row)| row[0] == c.history.light && row[0] != c.own.light).count();
+    let merged = cases.iter().filter(|c| temporal::same_surface(c.normal, c.dist, &c.history)).count();
+    eprintln!(
+        "{} cases, {merged} with the same surface, {history_kept} kept the history's light, {} mismatches",
+        cases.len(),
+        bad.len()
+    );
+    assert!(
+        merged * 5 > cases.len() && history_kept * 20 > cases.len(),
+        "the history is barely merged: {merged}, {history_kept}"
+    );
+    assert!(bad.is_empty(), "{} of {} cases differ:\n{}", bad.len(), cases.len(), bad[..bad.len().min(10)].join("\n"));
+}
+
+/// The negative test: a twin without the cap (the history's whole count) is rejected on
+/// many of the cases that merged a history of more than the cap allows.
+#[test]
+fn the_temporal_comparison_rejects_a_twin_without_the_cap() {
+    let cases = temporal_cases();
+    let rows = run_temporal(&cases);
+    let bad = temporal_mismatches(&cases, &rows, |_| u32::MAX);
+    let capped = cases
+        .iter()
+        .filter(|c| {
+            temporal::same_surface(c.normal, c.dist, &c.history) && c.history.count > c.own.m * c.cap && c.own.m > 0
+        })
+        .count();
+    assert!(capped > 100, "few cases exceed the cap ({capped})");
+    assert!(bad.len() * 2 > capped, "only {} of {capped} capped cases caught", bad.len());
+}
+
+// Reprojection (tiledlight_cull::temporal::reproject): points near and around the target of
+// random perspective cameras (some behind the eye, some beside the frustum), on screens of
+// odd and even sizes.
+const REPROJECT_SRC: &str = r#"
+@group(0) @binding(0) var<storage, read> cases: array<array<f32, 40>>;
+@group(0) @binding(1) var<storage, read_write> out: array<vec4<u32>>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if i >= arrayLength(&cases) { return; }
+    let c = cases[i];
+    let clip = mat4x4<f32>(c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12], c[13],
+        c[14], c[15]);
+    let view = mat4x4<f32>(c[16], c[17], c[18], c[19], c[20], c[21], c[22], c[23], c[24], c[25], c[26], c[27],
+        c[28], c[29], c[30], c[31]);
+    let q = temporal_reproject(vec3<f32>(c[32], c[33], c[34]), clip, view, vec2<u32>(bitcast<u32>(c[35]), bitcast<u32>(c[36])));
+    out[i] = vec4<u32>(bitcast<u32>(q.pixel.x), bitcast<u32>(q.pixel.y), bitcast<u32>(q.dist), 0u);
+}
+"#;
+
+struct ReprojectCase {
+    clip: glam::Mat4,
+    view: glam::Mat4,
+    point: Vec3,
+    screen: (u32, u32),
+}
+
+fn reproject_cases() -> Vec<ReprojectCase> {
+    let mut rng = Rng(5050);
+    (0..3000)
+        .map(|n| {
+            let eye = Vec3::new(rng.unit() * 20.0 - 10.0, rng.unit() * 8.0 + 0.5, rng.unit() * 20.0 - 10.0);
+            let target = Vec3::new(rng.unit() * 4.0 - 2.0, rng.unit(), rng.unit() * 4.0 - 2.0);
+            let screen = [(320, 180), (161, 91), (1920, 1080)][n % 3];
+            let camera = tiledlight_cull::Camera::perspective(
+                eye,
+                target,
+                Vec3::Y,
+                (30.0 + 60.0 * rng.unit()).to_radians(),
+                screen.0 as f32 / screen.1 as f32,
+                0.1,
+                None,
+            )
+            .expect("camera");
+            let spread = if n % 4 == 0 { 40.0 } else { 6.0 };
+            let point = target + Vec3::new(rng.unit() - 0.5, rng.unit() - 0.5, rng.unit() - 0.5) * spread;
+            ReprojectCase { clip: camera.view_proj(), view: camera.view(), point, screen }
+        })
+        .collect()
+}
+
+fn run_reproject(cases: &[ReprojectCase]) -> Vec<[u32; 4]> {
+    let mut words: Vec<u32> = Vec::new();
+    for c in cases {
+        words.extend(c.clip.to_cols_array().map(f32::to_bits));
+        words.extend(c.view.to_cols_array().map(f32::to_bits));
+        words.extend([c.point.x, c.point.y, c.point.z].map(f32::to_bits));
+        words.extend([c.screen.0, c.screen.1, 0, 0, 0]);
+    }
+    let n = cases.len() as u32;
+    let src = reuse_constants() + TEMPORAL_STUBS + REPROJECT_SRC;
+    let out = run_cases(gpu(), "test.stochastic.reproject", &src, bytemuck::cast_slice(&words), n, u64::from(n) * 16);
+    out.chunks_exact(4).map(|c| [0, 1, 2, 3].map(|j| c[j].to_bits())).collect()
+}
+
+/// Cases the GPU reprojects otherwise than `twin`, beyond a pixel boundary within rounding
+/// (the point's screen coordinate within 1e-3 of an integer).
+fn reproject_mismatches(
+    cases: &[ReprojectCase],
+    rows: &[[u32; 4]],
+    twin: impl Fn(&ReprojectCase) -> Option<((u32, u32), f32)>,
+) -> Vec<String> {
+    let mut bad = Vec::new();
+    for (i, (c, row)) in cases.iter().zip(rows).enumerate() {
+        let clip = c.clip * c.point.extend(1.0);
+        let f = [(clip.x / clip.w + 1.0) * 0.5 * c.screen.0 as f32, (1.0 - clip.y / clip.w) * 0.5 * c.screen.1 as f32];
+        let near_edge = f.iter().any(|v| (v - v.round()).abs() < 1e-3) || clip.w.abs() < 1e-4;
+        let (gx, gy, gd) = (row[0] as i32, row[1] as i32, f32::from_bits(row[2]));
+        let ok = match twin(c) {
+            Some(((x, y), d)) => (gx, gy) == (x as i32, y as i32) && (gd - d).abs() <= 1e-5 * d.abs().max(1.0),
+            None => (gx, gy) == (-1, -1),
+        };
+        if !ok && !near_edge {
+            bad.push(format!("case {i}: GPU ({gx}, {gy}) {gd}, CPU {:?}", twin(c)));
+        }
+    }
+    bad
+}
+
+#[test]
+fn the_gpu_reprojection_matches_its_cpu_twin() {
+    let cases = reproject_cases();
+    let rows = run_reproject(&cases);
+    let twin = |c: &ReprojectCase| temporal::reproject(c.point, (&c.clip, &c.view), c.screen);
+    let bad = reproject_mismatches(&cases, &rows, twin);
+    let on = cases.iter().filter(|c| twin(c).is_some()).count();
+    eprintln!("{} cases, {on} on the screen, {} mismatches", cases.len(), bad.len());
+    assert!(on * 2 > cases.len() && on * 20 < cases.len() * 19, "both outcomes must be common ({on} on the screen)");
+    assert!(bad.is_empty(), "{} of {} cases differ:\n{}", bad.len(), cases.len(), bad[..bad.len().min(10)].join("\n"));
+}
+
+/// The negative test: a twin whose rows run upwards (no flip of NDC's y) is rejected on
+/// most cases on the screen.
+#[test]
+fn the_reprojection_comparison_rejects_a_twin_with_rows_upwards() {
+    let cases = reproject_cases();
+    let rows = run_reproject(&cases);
+    let flipped = |c: &ReprojectCase| {
+        temporal::reproject(c.point, (&c.clip, &c.view), c.screen).map(|((x, y), d)| ((x, c.screen.1 - 1 - y), d))
+    };
+    let bad = reproject_mismatches(&cases, &rows, flipped);
+    let on = cases.iter().filter(|c| flipped(c).is_some()).count();
+    assert!(bad.len() * 10 > on * 9, "only {} of {on} cases caught", bad.len());
 }

@@ -60,6 +60,7 @@ pub mod reference;
 pub mod reuse;
 pub mod shadow;
 pub mod stochastic;
+pub mod temporal;
 pub mod texture;
 pub mod tiles;
 pub mod trace;

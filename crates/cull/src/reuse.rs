@@ -7,9 +7,10 @@
 //! (`tests/tests/stochastic_reuse.rs` compares the two).
 //!
 //! 1. **Record.** The sampling pass leaves each pixel's reservoir as a [`Record`] (32
-//!    bytes: the kept light and whether the pixel's list had candidates, its contribution
+//!    bytes: the kept light, the candidates the reservoir stands for, its contribution
 //!    weight `W`, the surface's normal, view distance and material; a view distance of 0 is
-//!    the sky: no reservoir). [`Record::pack`] is the layout both sides read.
+//!    the sky: no reservoir). [`Record::pack`] is the layout both sides read. With temporal
+//!    reuse ([`crate::temporal`]) the count includes the history's share.
 //! 2. **Neighbours.** `k` pixels drawn uniformly from the `(2R + 1)^2` box around the
 //!    pixel ([`neighbour`], integer offsets from [`rand01`]: the GPU draws the same ones);
 //!    one off the screen, the pixel itself or the sky is skipped.
@@ -62,18 +63,15 @@ pub const DISTANCE_SHARE: f32 = 0.1;
 /// (two a candidate, at most 8,192 candidates), so no number is used twice.
 pub const DRAW_BASE: u32 = 1 << 16;
 
-/// The bit of a record's first word that says the pixel's list had candidates (its
-/// reservoir saw the near candidates; light indices are below 2^20).
-pub const NEAR_BIT: u32 = 1 << 31;
-
 /// A pixel's reservoir as the sampling pass leaves it (step 1).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Record {
     /// The kept light (meaningless while `weight` is 0).
     pub light: u32,
-    /// Whether the pixel drew near candidates (its list was not empty): its reservoir's
-    /// count is the near and far candidates, else the far ones alone.
-    pub near: bool,
+    /// The candidates the reservoir stands for (its confidence `M` in a merge): the near
+    /// and far candidates the pixel drew (the far alone when its list was empty), plus
+    /// what temporal reuse merged; after a merge, the merged inputs' sum.
+    pub count: u32,
     /// The reservoir's contribution weight `W` (0: nothing kept).
     pub weight: f32,
     /// The surface's unit normal.
@@ -98,34 +96,23 @@ pub fn unpack_surface(w: [u32; 2]) -> Surface {
 }
 
 impl Record {
-    /// The eight words the GPU stores: the light with [`NEAR_BIT`], `W`'s bits, the normal
-    /// as `pack2x16snorm` of its octahedral map, the view distance's bits; the material's
-    /// two words and two unused.
+    /// The eight words the GPU stores: the light, `W`'s bits, the normal as
+    /// `pack2x16snorm` of its octahedral map, the view distance's bits; the material's two
+    /// words, the count and one unused.
     pub fn pack(&self) -> [u32; 8] {
-        let head = self.light | if self.near { NEAR_BIT } else { 0 };
         let (normal, dist) = (encode_u32(self.normal), self.dist.to_bits());
-        [head, self.weight.to_bits(), normal, dist, self.surface[0], self.surface[1], 0, 0]
+        [self.light, self.weight.to_bits(), normal, dist, self.surface[0], self.surface[1], self.count, 0]
     }
 
     /// The record of eight stored words (the normal decoded: within 0.004 degrees).
     pub fn unpack(w: [u32; 8]) -> Self {
         Self {
-            light: w[0] & !NEAR_BIT,
-            near: w[0] & NEAR_BIT != 0,
+            light: w[0],
+            count: w[6],
             weight: f32::from_bits(w[1]),
             normal: decode_u32(w[2]),
             dist: f32::from_bits(w[3]),
             surface: [w[4], w[5]],
-        }
-    }
-
-    /// The candidates the reservoir saw: `near` of the pixel's list (when it had any) and
-    /// `far` of every light.
-    pub fn count(&self, (near, far): (u32, u32)) -> u32 {
-        if self.near {
-            near + far
-        } else {
-            far
         }
     }
 
@@ -174,15 +161,15 @@ pub type FnScene = Scene<fn(u32, u32, f32) -> Vec3, fn(u32, Vec3, Vec3, [u32; 2]
 
 /// Steps 2-4 for pixel `(x, y)` of a `size` screen whose records are `records`
 /// (row-major): the inputs merged (its own record first, then the similar neighbours'
-/// of `k` drawn, [`neighbour`], [`similar`]), each as `(light, weight, p_hat, u)`: the
-/// light, its weight `m_i p_hat W_i`, its target here and the number that decides whether
-/// it is kept. `counts` are the near and far candidates a pixel drew this frame.
+/// of `k` drawn, [`neighbour`], [`similar`]), each as `(light, weight, p_hat, u, count)`:
+/// the light, its weight `m_i p_hat W_i`, its target here, the number that decides
+/// whether it is kept and its record's count.
 pub fn offers<P, Q, T>(
     records: &[Record],
     ((x, y), size): ((u32, u32), (u32, u32)),
-    (k, counts, frame): (u32, (u32, u32), u32),
+    (k, frame): (u32, u32),
     scene: &Scene<P, Q, T>,
-) -> Vec<(u32, f32, f32, f32)>
+) -> Vec<(u32, f32, f32, f32, u32)>
 where
     P: Fn(u32, u32, f32) -> Vec3,
     Q: Fn(u32, Vec3, Vec3, [u32; 2]) -> f32,
@@ -200,43 +187,47 @@ where
     }
     let at: Vec<(Vec3, Vec3, [u32; 2], f32)> = inputs
         .iter()
-        .map(|&((px, py), r, _)| ((scene.position)(px, py, r.dist), r.normal, r.surface, r.count(counts) as f32))
+        .map(|&((px, py), r, _)| ((scene.position)(px, py, r.dist), r.normal, r.surface, r.count as f32))
         .collect();
     inputs
         .iter()
         .enumerate()
         .map(|(i, &(_, rec, u))| {
             if rec.weight <= 0.0 {
-                return (rec.light, 0.0, 0.0, u);
+                return (rec.light, 0.0, 0.0, u, rec.count);
             }
             let share = |&(p, n, s, m): &(Vec3, Vec3, [u32; 2], f32)| m * (scene.proxy)(rec.light, p, n, s);
             let total: f32 = at.iter().map(share).sum();
             let mine = share(&at[i]);
             let p_hat = (scene.target)(rec.light);
             let w = if total > 0.0 { mine / total * p_hat * rec.weight } else { 0.0 };
-            (rec.light, w, p_hat, u)
+            (rec.light, w, p_hat, u, rec.count)
         })
         .collect()
 }
 
-/// Steps 2-5: [`offers`] kept in one reservoir, whose [`Reservoir::weight`] is `W`.
+/// Steps 2-5: [`offers`] kept in one reservoir, whose [`Reservoir::weight`] is `W`, and
+/// the merged inputs' summed count (the merged reservoir's confidence in the next frame's
+/// temporal reuse).
 pub fn combine<P, Q, T>(
     records: &[Record],
     pixel: ((u32, u32), (u32, u32)),
-    draws: (u32, (u32, u32), u32),
+    draws: (u32, u32),
     scene: &Scene<P, Q, T>,
-) -> Reservoir
+) -> (Reservoir, u32)
 where
     P: Fn(u32, u32, f32) -> Vec3,
     Q: Fn(u32, Vec3, Vec3, [u32; 2]) -> f32,
     T: Fn(u32) -> f32,
 {
     let mut r = Reservoir::default();
-    for (light, w, p_hat, u) in offers(records, pixel, draws, scene) {
+    let mut count = 0u32;
+    for (light, w, p_hat, u, m) in offers(records, pixel, draws, scene) {
         r.update(light, (w, p_hat), u);
+        count += m;
     }
     r.m = 1;
-    r
+    (r, count)
 }
 
 #[cfg(test)]
@@ -244,10 +235,10 @@ mod tests {
     use super::*;
 
     fn record(light: u32, weight: f32, normal: Vec3, dist: f32) -> Record {
-        Record { light, near: true, weight, normal, dist, surface: [0; 2] }
+        Record { light, count: 20, weight, normal, dist, surface: [0; 2] }
     }
 
-    /// The packing keeps the light (up to the largest index), the near flag, `W` and the
+    /// The packing keeps the light (up to the largest index), the count, `W` and the
     /// view distance bit for bit, and the normal within the octahedral code's bound, at the
     /// extremes: the largest light index, a sky record, huge and tiny weights.
     #[test]
@@ -255,25 +246,16 @@ mod tests {
         let largest = (1u32 << 20) - 1;
         for rec in [
             record(largest, f32::MAX, Vec3::Z, 1e-30),
-            Record { light: 0, near: false, weight: 0.0, normal: -Vec3::Z, dist: 0.0, surface: [u32::MAX; 2] },
+            Record { light: 0, count: u32::MAX, weight: 0.0, normal: -Vec3::Z, dist: 0.0, surface: [u32::MAX; 2] },
             record(7, 1e-38, Vec3::new(1.0, -1.0, -1.0).normalize(), 1e30),
         ] {
             let back = Record::unpack(rec.pack());
             assert_eq!(
-                (back.light, back.near, back.weight, back.dist, back.surface),
-                (rec.light, rec.near, rec.weight, rec.dist, rec.surface)
+                (back.light, back.count, back.weight, back.dist, back.surface),
+                (rec.light, rec.count, rec.weight, rec.dist, rec.surface)
             );
             assert!(back.normal.dot(rec.normal) > 0.999_999, "{rec:?} -> {back:?}");
         }
-    }
-
-    /// A record's count is the near and far candidates, the far alone without a list.
-    #[test]
-    fn a_record_counts_the_candidates_its_pixel_drew() {
-        let mut r = record(0, 1.0, Vec3::Z, 1.0);
-        assert_eq!(r.count((4, 16)), 20);
-        r.near = false;
-        assert_eq!(r.count((4, 16)), 16);
     }
 
     /// Neighbours fall in the box, never on the pixel or off the screen, cover the box
@@ -339,9 +321,11 @@ mod tests {
         let scene = flat();
         let mut records: Vec<Record> = (0..32 * 32).map(|i| record(i % 8, 1.0 / p_hat(i % 8), Vec3::Z, 5.0)).collect();
         let own = 16 * 32 + 16;
-        let draws = (8, (4, 16), 1);
+        let draws = (8, 1);
         assert!(offers(&records, ((16, 16), size), draws, &scene).len() > 2, "no neighbour merged");
-        let r = combine(&records, ((16, 16), size), draws, &scene);
+        let (r, count) = combine(&records, ((16, 16), size), draws, &scene);
+        let merged = offers(&records, ((16, 16), size), draws, &scene).len() as u32;
+        assert_eq!(count, 20 * merged, "the merged reservoir stands for every merged record's candidates");
         assert!((r.weight() * r.p_hat - 1.0).abs() < 1e-5, "W p_hat = {}", r.weight() * r.p_hat);
         // Every other pixel a wall (normal across): only the pixel's own reservoir counts.
         for (i, rec) in records.iter_mut().enumerate() {
@@ -350,7 +334,8 @@ mod tests {
             }
         }
         assert_eq!(offers(&records, ((16, 16), size), draws, &scene).len(), 1);
-        let alone = combine(&records, ((16, 16), size), draws, &scene);
+        let (alone, count) = combine(&records, ((16, 16), size), draws, &scene);
+        assert_eq!(count, 20);
         assert_eq!(alone.light, own as u32 % 8);
         assert!((alone.weight() * alone.p_hat - 1.0).abs() < 1e-6);
     }
@@ -376,12 +361,12 @@ mod tests {
             },
             target: |_: u32| 1.0,
         };
-        let o = offers(&records, ((0, 0), size), (1, (4, 16), frame), &scene);
+        let o = offers(&records, ((0, 0), size), (1, frame), &scene);
         assert_eq!(o.len(), 2);
         assert!((o[0].1 - 1.0).abs() < 1e-6 && (o[1].1 - 0.9).abs() < 1e-6, "{o:?}");
         // The neighbour drew only its far candidates (16 of 20): its share shrinks.
-        let few = [records[0], Record { near: false, ..records[1] }];
-        let o = offers(&few, ((0, 0), size), (1, (4, 16), frame), &scene);
+        let few = [records[0], Record { count: 16, ..records[1] }];
+        let o = offers(&few, ((0, 0), size), (1, frame), &scene);
         let expected = 9.0 * 16.0 / (9.0 * 16.0 + 20.0);
         assert!((o[1].1 - expected).abs() < 1e-6, "{o:?}");
     }

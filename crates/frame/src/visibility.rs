@@ -322,7 +322,9 @@ impl MethodFrame for VisibilityFrame {
     fn prepare(&self, queue: &wgpu::Queue, camera: &Camera) {
         if let Some(a) = &self.accumulation {
             let p = a.next(camera.view_proj());
-            self.shading.write_stochastic_frame(queue, p);
+            let (width, height) = self.shading.screen();
+            let view = tiledlight_gpu::view::ViewUniforms::new(camera, width, height);
+            self.shading.write_stochastic_frame(queue, p, &view);
             if let Some(d) = &self.denoise {
                 d.write_frame(queue, p.accumulated + 1);
             }

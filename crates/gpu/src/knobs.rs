@@ -498,6 +498,20 @@ knobs! {
         if v <= MAX_NEIGHBOURS { Ok(()) } else { Err(format!("must be at most {MAX_NEIGHBOURS} neighbours")) }
     });
 
+    /// The stochastic method's temporal reuse: each pixel merges this frame's reservoir with
+    /// the one its surface had last frame (found by reprojecting the pixel into the previous
+    /// view; none where the surface was hidden, off the screen or after the scene changed),
+    /// the history counting at most N times a frame's candidates (ReSTIR DI's temporal
+    /// reuse, 20 in the paper; the balance heuristic keeps it unbiased). A light chosen well
+    /// once keeps being offered, also while the camera moves, where the frames' mean starts
+    /// again. 0 turns it off (no history buffer); at most 64.
+    temporal: u32 = 0;
+    "temporal", "temporal reuse cap", "N", Control::Slider(0.0, 64.0), applies(|m| m.stochastic),
+    check(|v| {
+        use tiledlight_cull::temporal::MAX_CAP;
+        if v <= MAX_CAP { Ok(()) } else { Err(format!("must be at most {MAX_CAP} (times a frame's candidates)")) }
+    });
+
     /// The stochastic method's history: a pixel's image is the mean of up to this many
     /// frames since the view or the lights last changed (a moving average beyond); 0 shows
     /// each frame's own estimate (the raw estimator's noise, as the lab measures it).

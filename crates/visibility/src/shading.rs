@@ -126,7 +126,12 @@ pub const VISIBILITY_GROUP: &[Binding] = &[
     Binding::storage_rw(40, CS).when(Cond::Defined(Define::Stochastic)),
     Binding::storage_rw(41, CS).when(Cond::Defined(Define::Denoise)),
     Binding::storage_rw(42, CS).when(Cond::Defined(Define::Reuse)),
+    Binding::storage_rw(43, CS).when(Cond::Defined(Define::Reuse)),
 ];
+
+/// Bytes of the temporal history's header (`ReuseHistory::view` in
+/// `shaders/common/stochastic_shade.wgsl`: the previous frame's view) before its records.
+const HISTORY_HEADER: u64 = std::mem::size_of::<tiledlight_gpu::view::ViewUniforms>() as u64;
 
 /// The traced reference's hierarchy (33-37), only with `TRACED`.
 const TRACE: [Binding; 5] = {
@@ -227,8 +232,14 @@ struct Traced {
     /// pixel's surface, albedo and unlit term.
     guide: Option<wgpu::Buffer>,
     /// The stochastic method's reservoirs between the sampling and the reusing run
-    /// (`--reuse N` > 0): one 32-byte record a pixel (`tiledlight_cull::reuse::Record`).
+    /// (`--reuse N` > 0), or the copy of the history the one run reads (`--temporal N` > 0
+    /// alone): one 32-byte record a pixel (`tiledlight_cull::reuse::Record`).
     records: Option<wgpu::Buffer>,
+    /// The temporal reuse's history (`--temporal N` > 0): the previous frame's view
+    /// ([`HISTORY_HEADER`] bytes), then each pixel's final record.
+    history_records: Option<wgpu::Buffer>,
+    /// The view of the frame the history holds (None before the first frame).
+    previous_view: std::cell::Cell<Option<tiledlight_gpu::view::ViewUniforms>>,
     /// The sampling run (`REUSE_PASS` 0) of the pass with spatial reuse; the pass's
     /// pipeline is then the reusing run.
     sample: Option<wgpu::ComputePipeline>,
@@ -244,6 +255,8 @@ pub struct VisibilityShading {
     empty_group: Option<wgpu::BindGroup>,
     msaa: Option<EdgeSamples>,
     tiles: (u32, u32),
+    /// The screen in pixels.
+    screen: (u32, u32),
     /// The traced reference's bands (None for the light grid's pass).
     traced: Option<Traced>,
     /// The pipeline constants the pass was built with ([`Self::constants`]).
@@ -336,7 +349,7 @@ impl VisibilityShading {
                     masks: bvh.masks.is_some(),
                     materials,
                     denoise: features.knobs.denoise > 0,
-                    reuse: features.knobs.reuse > 0,
+                    reuse: features.knobs.reuse > 0 || features.knobs.temporal > 0,
                 }),
                 STOCHASTIC_BINDINGS,
                 16,
@@ -431,14 +444,37 @@ impl VisibilityShading {
                     let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
                     buffer_zeroed(device, "stochastic.denoise.guide", bytes, usage)
                 });
-                let records = (stochastic && features.knobs.reuse > 0).then(|| {
-                    let bytes = u64::from(grid.width) * u64::from(grid.height) * 32;
-                    memory.add("stochastic.reuse.records", bytes);
-                    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
-                    buffer_zeroed(device, "stochastic.reuse.records", bytes.max(16), usage)
+                let record_bytes = u64::from(grid.width) * u64::from(grid.height) * 32;
+                let records = (stochastic && (features.knobs.reuse > 0 || features.knobs.temporal > 0)).then(|| {
+                    memory.add("stochastic.reuse.records", record_bytes);
+                    let usage =
+                        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+                    // At least the history's header: the buffer stands in for the history
+                    // (binding 43) when there is none.
+                    buffer_zeroed(device, "stochastic.reuse.records", record_bytes.max(HISTORY_HEADER + 32), usage)
+                });
+                let history_records = (stochastic && features.knobs.temporal > 0).then(|| {
+                    let bytes = HISTORY_HEADER + record_bytes;
+                    memory.add("stochastic.temporal.history", bytes);
+                    let usage =
+                        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+                    buffer_zeroed(device, "stochastic.temporal.history", bytes, usage)
                 });
                 let label = if stochastic { "stochastic.shade" } else { "traced.shade" };
-                Some(Traced { bands_buffer, rows, bands, stats, history, guide, records, sample: None, label })
+                let previous_view = std::cell::Cell::new(None);
+                Some(Traced {
+                    bands_buffer,
+                    rows,
+                    bands,
+                    stats,
+                    history,
+                    guide,
+                    records,
+                    history_records,
+                    previous_view,
+                    sample: None,
+                    label,
+                })
             }
         };
         if let Some(t) = &traced_state {
@@ -459,6 +495,8 @@ impl VisibilityShading {
             }
             if let Some(r) = &t.records {
                 bind.push(buffer_entry(42, r));
+                // Without temporal reuse the records stand in for the history (never read).
+                bind.push(buffer_entry(43, t.history_records.as_ref().unwrap_or(r)));
             }
         }
         let msaa =
@@ -532,18 +570,25 @@ impl VisibilityShading {
                         ("REUSE_NORMAL_COS", f64::from(reuse::NORMAL_COS)),
                         ("REUSE_DISTANCE_SHARE", f64::from(reuse::DISTANCE_SHARE)),
                         ("REUSE_DRAW_BASE", f64::from(reuse::DRAW_BASE)),
+                        ("TEMPORAL_CAP", f64::from(features.knobs.temporal)),
                     ]);
-                    let mut sampling = constants.clone();
-                    sampling.push(("REUSE_PASS", 0.0));
-                    t.sample = Some(compute_pipeline(device, "stochastic.sample", &layouts, &module, &sampling));
-                    constants.push(("REUSE_PASS", 1.0));
+                    if features.knobs.reuse > 0 {
+                        let mut sampling = constants.clone();
+                        sampling.push(("REUSE_PASS", 0.0));
+                        t.sample = Some(compute_pipeline(device, "stochastic.sample", &layouts, &module, &sampling));
+                        constants.push(("REUSE_PASS", 1.0));
+                    } else {
+                        // Temporal reuse alone: one run samples, reuses and shades.
+                        constants.push(("REUSE_PASS", 2.0));
+                    }
                 }
                 compute_pipeline(device, label, &layouts, &module, &constants)
             }
         };
         let tiles = (grid.width.div_ceil(tile), grid.height.div_ceil(tile));
         let constants = constants.iter().map(|&(k, v)| (k.to_string(), v)).collect();
-        Ok(Self { constants, pipeline, bind_group, empty_group, msaa, tiles, traced: traced_state })
+        let screen = (grid.width, grid.height);
+        Ok(Self { constants, pipeline, bind_group, empty_group, msaa, tiles, screen, traced: traced_state })
     }
 
     /// The pipeline constants the shading pipeline was built with (tests: a setting that
@@ -593,6 +638,10 @@ impl VisibilityShading {
             m.record_clear(encoder);
         }
         encoder.clear_buffer(&traced.stats, 0, None);
+        // Temporal reuse in one run: it reads the history from a copy, as it overwrites it.
+        if let (None, Some(history), Some(records)) = (&traced.sample, &traced.history_records, &traced.records) {
+            encoder.copy_buffer_to_buffer(history, HISTORY_HEADER, records, 0, history.size() - HISTORY_HEADER);
+        }
         match flush {
             None => {
                 // With spatial reuse the sampling run first, timed on its own: it leaves
@@ -685,13 +734,23 @@ impl VisibilityShading {
         Ok(Some(u64::from(words[0]) | u64::from(words[1]) << 32))
     }
 
-    /// Writes the stochastic method's next frame (its seed, candidates and history length)
-    /// into its one band, before the frame is recorded; nothing for the other passes.
-    pub fn write_stochastic_frame(&self, queue: &wgpu::Queue, p: crate::stochastic::FrameParams) {
-        if let Some(t) = self.traced.as_ref().filter(|t| t.history.is_some()) {
-            let words = [p.frame, p.candidates, p.accumulated, p.far_candidates];
-            queue.write_buffer(&t.bands_buffer, 4, bytemuck::cast_slice(&words));
+    /// Writes the stochastic method's next frame (its seed, candidates, history length and
+    /// whether a previous frame came) into its one band, and with temporal reuse the view
+    /// the history was seen through, before the frame, seen through `view`, is recorded;
+    /// nothing for the other passes.
+    pub fn write_stochastic_frame(
+        &self,
+        queue: &wgpu::Queue,
+        p: crate::stochastic::FrameParams,
+        view: &tiledlight_gpu::view::ViewUniforms,
+    ) {
+        let Some(t) = self.traced.as_ref().filter(|t| t.history.is_some()) else { return };
+        let previous = t.previous_view.replace(Some(*view)).filter(|_| p.previous);
+        if let (Some(h), Some(v)) = (&t.history_records, &previous) {
+            queue.write_buffer(h, 0, bytemuck::bytes_of(v));
         }
+        let words = [p.frame, p.candidates, p.accumulated, p.far_candidates, u32::from(previous.is_some())];
+        queue.write_buffer(&t.bands_buffer, 4, bytemuck::cast_slice(&words));
     }
 
     /// The stochastic method's history (`[f32; 4]` a pixel: the mean light, the mean
@@ -702,10 +761,25 @@ impl VisibilityShading {
         Some((t.history.as_ref()?, t.guide.as_ref()))
     }
 
-    /// The stochastic method's reservoir records (`--reuse N` > 0: 32 bytes a pixel,
-    /// `tiledlight_cull::reuse::Record::pack`); None without reuse.
+    /// The stochastic method's reservoir records (`--reuse N` or `--temporal N` > 0: 32
+    /// bytes a pixel, `tiledlight_cull::reuse::Record::pack`); None without reuse.
     pub fn stochastic_records(&self) -> Option<&wgpu::Buffer> {
         self.traced.as_ref()?.records.as_ref()
+    }
+
+    /// The temporal reuse's history (`--temporal N` > 0): the previous frame's view
+    /// (`ViewUniforms`, [`Self::HISTORY_HEADER`] bytes), then each pixel's final record as
+    /// [`Self::stochastic_records`] holds them; None without temporal reuse.
+    pub fn stochastic_history_records(&self) -> Option<&wgpu::Buffer> {
+        self.traced.as_ref()?.history_records.as_ref()
+    }
+
+    /// Bytes before the history's records ([`Self::stochastic_history_records`]).
+    pub const HISTORY_HEADER: u64 = HISTORY_HEADER;
+
+    /// The screen the pass shades, in pixels.
+    pub fn screen(&self) -> (u32, u32) {
+        self.screen
     }
 
     /// Bands a traced frame is cast in (None for the light grid's pass).

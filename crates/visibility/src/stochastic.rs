@@ -9,7 +9,10 @@
 //!    keeps one by resampled importance sampling with the unshadowed contribution as the
 //!    target, and casts one shadow ray to it (`tiledlight_cull::stochastic::
 //!    resample_near_far` is the CPU twin).
-//! 2. The pixel's estimate enters a running mean of the frames since the view or the
+//! 2. With temporal reuse (`--temporal N`), each frame's reservoirs are merged with the
+//!    previous frame's, reprojected ([`FrameParams::previous`]: none for the first frame
+//!    and after a reset; `tiledlight_cull::temporal` numbers the steps).
+//! 3. The pixel's estimate enters a running mean of the frames since the view or the
 //!    lights last changed ([`Accumulation::next`]): after a change the mean starts again
 //!    from this frame alone, so nothing of another view survives (no ghost, at the price of
 //!    one frame's noise after every move). The count stops at `accumulate` (a moving
@@ -33,6 +36,9 @@ pub struct FrameParams {
     pub far_candidates: u32,
     /// Frames in the history before this one (0: this frame's estimate alone).
     pub accumulated: u32,
+    /// Whether a frame of this scene came before (through any view): temporal reuse has
+    /// its reservoirs to reproject (false for the first frame and after a reset).
+    pub previous: bool,
 }
 
 /// The frame counter and the history's length, kept between frames.
@@ -62,15 +68,16 @@ impl Accumulation {
     pub fn next(&self, world_to_clip: Mat4) -> FrameParams {
         let frame = self.frame.get();
         self.frame.set(frame.wrapping_add(1));
-        let same_view = self.last_view.get() == Some(world_to_clip);
-        self.last_view.set(Some(world_to_clip));
+        let last = self.last_view.replace(Some(world_to_clip));
+        let same_view = last == Some(world_to_clip);
         let accumulated = if same_view { (self.accumulated.get() + 1).min(self.accumulate) } else { 0 };
         self.accumulated.set(accumulated);
-        FrameParams { frame, candidates: self.candidates, far_candidates: self.far_candidates, accumulated }
+        let (candidates, far_candidates) = (self.candidates, self.far_candidates);
+        FrameParams { frame, candidates, far_candidates, accumulated, previous: last.is_some() }
     }
 
     /// Forgets the history (the lights or the scene moved): the next frame starts a new
-    /// mean.
+    /// mean and has no previous frame to reuse reservoirs from.
     pub fn reset(&self) {
         self.last_view.set(None);
     }
@@ -89,10 +96,15 @@ mod tests {
         let counts: Vec<u32> = (0..5).map(|_| a.next(still).accumulated).collect();
         assert_eq!(counts, [0, 1, 2, 3, 3]);
         let moved = Mat4::from_translation(glam::Vec3::X * 1e-6);
-        assert_eq!(a.next(moved), FrameParams { frame: 5, candidates: 8, far_candidates: 2, accumulated: 0 });
+        let expected = FrameParams { frame: 5, candidates: 8, far_candidates: 2, accumulated: 0, previous: true };
+        assert_eq!(a.next(moved), expected);
         assert_eq!(a.next(moved).accumulated, 1);
+        // The first frame after a reset (and the very first) has no previous frame.
         a.reset();
-        assert_eq!(a.next(moved).accumulated, 0);
+        let first = a.next(moved);
+        assert_eq!((first.accumulated, first.previous), (0, false));
+        assert!(a.next(moved).previous);
+        assert!(!Accumulation::new((8, 2), 3).next(still).previous);
         let off = Accumulation::new((8, 2), 0);
         assert_eq!((0..3).map(|_| off.next(still).accumulated).collect::<Vec<_>>(), [0, 0, 0]);
         let seeds: Vec<u32> = (0..3).map(|_| off.next(still).frame).collect();
