@@ -622,3 +622,28 @@ fn temporal_reuse_follows_a_moving_camera_and_leaves_no_ghost() {
     assert!(error(&moved, &truth_b) < 1.3 * one_b, "the first frame after the jump is one frame's estimate");
     assert!(to_b < 0.5 * to_a, "the first frame after the jump ghosts A");
 }
+
+/// With a running mean (`--accumulate 64`), temporal reuse merges the history only while
+/// the mean starts again (the first frame after the view changed): a still view's later
+/// frames stay independent (every final record stands for its own candidates alone), so
+/// the mean converges as without temporal reuse; after a move the history is merged again.
+#[test]
+fn a_still_view_accumulates_independent_frames_under_temporal_reuse() {
+    let ctx = gpu();
+    let (f, _) = fixture(ctx);
+    let mut s = FrameSettings::of(Method::Stochastic);
+    (s.knobs.candidates, s.knobs.far_candidates, s.knobs.accumulate, s.knobs.denoise) = (1, 1, 64, 0);
+    s.knobs.temporal = 20;
+    let mut r = FrameRenderer::new(ctx, &f.scene, &f.lights, W, H, s).expect("renderer");
+    // Records that stand for more than one frame's candidates (1 near + 1 far at most).
+    let merged = |records: &[tiledlight_cull::reuse::Record]| records.iter().filter(|r| r.count > 2).count();
+    let (a, b) = (camera(EYE_A), orbit(3.0));
+    frame(ctx, &mut r, &f, &a);
+    for n in 1..4 {
+        frame(ctx, &mut r, &f, &a);
+        assert_eq!(merged(&history_records(ctx, &r)), 0, "still frame {n} merged the history");
+    }
+    frame(ctx, &mut r, &f, &b);
+    let after_move = merged(&history_records(ctx, &r));
+    assert!(after_move as u32 > W * H / 3, "the first frame after a move merged the history on {after_move} pixels");
+}

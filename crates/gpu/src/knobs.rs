@@ -503,8 +503,10 @@ knobs! {
     /// view; none where the surface was hidden, off the screen or after the scene changed),
     /// the history counting at most N times a frame's candidates (ReSTIR DI's temporal
     /// reuse, 20 in the paper; the balance heuristic keeps it unbiased). A light chosen well
-    /// once keeps being offered, also while the camera moves, where the frames' mean starts
-    /// again. 0 turns it off (no history buffer); at most 64.
+    /// once keeps being offered while the camera moves (or with `--accumulate 0`), where
+    /// the frames' mean starts again each frame; once a still view accumulates, its frames
+    /// stay independent and the mean takes over. 0 turns it off (no history buffer); at
+    /// most 64.
     temporal: u32 = 0;
     "temporal", "temporal reuse cap", "N", Control::Slider(0.0, 64.0), applies(|m| m.stochastic),
     check(|v| {
