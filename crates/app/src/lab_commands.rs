@@ -132,6 +132,13 @@ pub struct AccuracyArgs {
     /// Measured frames of the brute-force reference (slow: every light for every pixel).
     #[arg(long, default_value_t = 3, value_name = "N")]
     pub reference_frames: u32,
+    /// Degrees a frame the camera orbits the scene's vertical axis (through its centre)
+    /// during the measured frames, ending at the view the reference shows; the warm-up
+    /// stands still where the orbit starts. The error of a camera in motion: what the
+    /// stochastic method's history does while the view changes (its frames' mean starts
+    /// again each frame; `--temporal N` reuses reservoirs across the move). 0: still.
+    #[arg(long, default_value_t = 0.0, value_name = "DEG", allow_negative_numbers = true)]
+    pub camera_orbit: f32,
     /// The reference: `no-cutoff` (brute force, plain inverse-square: what the radius
     /// cutoff costs is part of the error) or `cutoff` (brute force with the same radii:
     /// the error is only what the method's other approximations cost, e.g. the G-buffer's
@@ -187,6 +194,7 @@ impl AccuracyArgs {
             frames: self.frames,
             warmup: self.warmup,
             reference_frames: self.reference_frames,
+            camera_orbit: self.camera_orbit,
             reference: match self.reference {
                 ReferenceArg::NoCutoff => ReferenceKind::NoCutoff,
                 ReferenceArg::Cutoff => ReferenceKind::Cutoff,

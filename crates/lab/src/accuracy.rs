@@ -90,6 +90,9 @@ pub struct Accuracy {
     pub warmup: u32,
     /// Measured frames of the brute-force reference.
     pub reference_frames: u32,
+    /// Degrees a frame the camera orbits the scene's vertical axis through the measured
+    /// frames, ending at the view the reference shows (0: a still camera).
+    pub camera_orbit: f32,
     /// The reference's radius cutoff.
     pub reference: ReferenceKind,
     /// With VPLs, the RSM size of the reference.
@@ -588,6 +591,12 @@ pub fn run<F: Flags>(scene: &F, args: &Accuracy) -> Result<()> {
     if let Some(line) = axes::unread_line(unread) {
         println!("{line}");
     }
+    if args.camera_orbit != 0.0 {
+        println!(
+            "camera:     orbiting {} degrees a frame through the {} measured frames, the last at the compared view",
+            args.camera_orbit, args.frames
+        );
+    }
     session.measure(&axes, (&points, &all_args), args, &out)?;
     let csv = &session.csv;
     let heat = (&session.heat, &session.split);
@@ -600,10 +609,19 @@ pub fn run<F: Flags>(scene: &F, args: &Accuracy) -> Result<()> {
     dropped::strict(all_args.iter().any(|a| a.strict), warnings)
 }
 
-/// Checks the frame counts of `args` (an error names the flag).
+/// The largest orbit a frame (`--camera-orbit`): beyond it consecutive frames share
+/// little of their view.
+pub const MAX_ORBIT_DEG: f32 = 45.0;
+
+/// Checks the frame counts and the orbit of `args` (an error names the flag).
 pub(crate) fn check_frames(args: &Accuracy) -> Result<()> {
     ensure!((1..=MAX_FRAMES).contains(&args.frames), "--frames {}: must be between 1 and {MAX_FRAMES}", args.frames);
     ensure!(args.warmup <= MAX_FRAMES, "--warmup {}: must be at most {MAX_FRAMES}", args.warmup);
+    ensure!(
+        args.camera_orbit.is_finite() && args.camera_orbit.abs() <= MAX_ORBIT_DEG,
+        "--camera-orbit {}: must be a number of degrees between -{MAX_ORBIT_DEG} and {MAX_ORBIT_DEG}",
+        args.camera_orbit
+    );
     ensure!(
         (1..=MAX_FRAMES).contains(&args.reference_frames),
         "--reference-frames {}: must be between 1 and {MAX_FRAMES}",
@@ -754,7 +772,12 @@ fn measure_setting(
             *warned_scene = Some(pargs.scene.clone());
         }
         let mut renderer = p.renderer(false).with_context(|| what.clone())?;
-        let m = bench::measure(p, &mut renderer, args.warmup, args.frames).with_context(|| what.clone())?;
+        let m = if args.camera_orbit == 0.0 {
+            bench::measure(p, &mut renderer, args.warmup, args.frames)
+        } else {
+            bench::measure_orbiting(p, &mut renderer, (args.warmup, args.frames), args.camera_orbit)
+        }
+        .with_context(|| what.clone())?;
         let (total, passes) = pass_times(&m).with_context(|| what.clone())?;
         let spread = frame_spread(&m);
         let dropped = m.dropped();

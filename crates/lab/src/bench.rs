@@ -45,6 +45,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use anyhow::{ensure, Context, Result};
+use glam::Mat4;
 use serde::Serialize;
 use tiledlight_cull::Camera;
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, Renderer};
@@ -223,6 +224,36 @@ pub fn measure(prep: &Prepared, renderer: &mut FrameRenderer, warmup: u32, frame
     measure_moving(prep, renderer, warmup, frames, None)
 }
 
+/// [`measure`] with the camera orbiting `degrees` a frame about the vertical axis through
+/// the scene's centre: the warm-up stands still where the orbit starts, each measured
+/// frame moves on, and the last one is seen through the settings' camera (what a
+/// reference of the settings' view is compared with: the error of a camera in motion).
+pub fn measure_orbiting(
+    prep: &Prepared,
+    renderer: &mut FrameRenderer,
+    (warmup, frames): (u32, u32),
+    degrees: f32,
+) -> Result<Measurement> {
+    let pb = indicatif::ProgressBar::hidden();
+    measure_along(prep, renderer, (warmup, frames), (None, degrees), &pb)
+}
+
+/// The camera `degrees` times `steps` back along the orbit of [`measure_orbiting`]
+/// (`prep`'s own at 0 steps).
+pub fn orbit_camera(prep: &Prepared, degrees: f32, steps: u32) -> Result<Camera> {
+    let centre = (prep.bounds.min + prep.bounds.max) * 0.5;
+    orbit(&prep.camera, centre, -degrees * steps as f32)
+        .map_err(|e| anyhow::anyhow!("orbiting the camera {degrees} degrees a frame: {e}"))
+}
+
+/// `camera` moved `degrees` about the vertical axis through `centre` (its view turning
+/// with it, its projection kept).
+pub fn orbit(camera: &Camera, centre: glam::Vec3, degrees: f32) -> Result<Camera, tiledlight_cull::CullError> {
+    let moved =
+        Mat4::from_translation(centre) * Mat4::from_rotation_y(degrees.to_radians()) * Mat4::from_translation(-centre);
+    Camera::from_view(camera.view() * moved.inverse(), camera.projection())
+}
+
 /// [`measure`] with a progress bar of its frames on stderr (`what` beside it), cleared
 /// when done: for commands whose own frames take long (bench, render, the quick start).
 pub fn measure_shown(
@@ -256,13 +287,26 @@ fn measure_with(
     prep: &Prepared,
     renderer: &mut FrameRenderer,
     (warmup, frames): (u32, u32),
-    mut animator: Option<&mut LightAnimator>,
+    animator: Option<&mut LightAnimator>,
+    pb: &indicatif::ProgressBar,
+) -> Result<Measurement> {
+    measure_along(prep, renderer, (warmup, frames), (animator, 0.0), pb)
+}
+
+/// [`measure_with`], the camera orbiting `orbit` degrees a frame ([`measure_orbiting`]; 0:
+/// still).
+fn measure_along(
+    prep: &Prepared,
+    renderer: &mut FrameRenderer,
+    (warmup, frames): (u32, u32),
+    (mut animator, orbit): (Option<&mut LightAnimator>, f32),
     pb: &indicatif::ProgressBar,
 ) -> Result<Measurement> {
     let ctx = &prep.ctx;
     let mut timer = GpuTimer::new(ctx).context("creating the GPU timer")?;
     let mut out = Measurement { timestamps: timer.enabled(), ..Default::default() };
-    let mut frame = |timer: &mut GpuTimer, renderer: &mut FrameRenderer, grids: Option<&mut Measurement>| {
+    // `left`: measured frames still to come after this one (the orbit's steps back).
+    let mut frame = |timer: &mut GpuTimer, renderer: &mut FrameRenderer, grids: Option<&mut Measurement>, left: u32| {
         // The last finished frame's light-grid headers: grow a grid that was too small.
         // (Never waits: it cannot fail on a read-back.) The VPL grid's header is copied
         // after its culling as the light grid's is; it never grows, so its status is only
@@ -281,7 +325,8 @@ fn measure_with(
             }
             let mut encoder =
                 ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bench.frame") });
-            renderer.record(&ctx.queue, &mut encoder, timer, &prep.scene_gpu, &prep.camera);
+            let moved = (orbit != 0.0).then(|| orbit_camera(prep, orbit, left)).transpose()?;
+            renderer.record(&ctx.queue, &mut encoder, timer, &prep.scene_gpu, moved.as_ref().unwrap_or(&prep.camera));
             timer.resolve(&mut encoder);
             ctx.queue.submit([encoder.finish()]);
             timer.end_frame().context("ending a timed frame")?;
@@ -309,7 +354,7 @@ fn measure_with(
         }
     };
     while (skip < warmup || (warmup > 0 && start.elapsed() < MIN_WARMUP)) && skip < MAX_FRAMES {
-        frame(&mut timer, renderer, None)?;
+        frame(&mut timer, renderer, None, frames)?;
         skip += 1;
         if skip > warmup {
             pb.inc_length(1);
@@ -318,10 +363,10 @@ fn measure_with(
         ctx.device.poll(wgpu::PollType::Poll).context("polling the GPU")?;
         drain(&mut timer, &mut out, &mut finished, skip);
     }
-    for _ in 0..frames {
+    for k in 0..frames {
         let t0 = Instant::now();
         let mut grids = Measurement::default();
-        frame(&mut timer, renderer, Some(&mut grids))?;
+        frame(&mut timer, renderer, Some(&mut grids), frames - 1 - k)?;
         pb.inc(1);
         out.grid.append(&mut grids.grid);
         out.blended_grid.append(&mut grids.blended_grid);

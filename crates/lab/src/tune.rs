@@ -253,6 +253,7 @@ pub fn run<F: Flags>(scene: &F, t: &Tune) -> Result<Answer> {
         frames: t.frames,
         warmup: t.warmup,
         reference_frames: t.reference_frames,
+        camera_orbit: 0.0,
         reference: ReferenceKind::Traced,
         vpl_reference_rsm: VplReference::Scale(1),
         target_flip: c.flip,
