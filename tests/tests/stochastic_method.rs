@@ -117,8 +117,10 @@ fn renderer_far(
     s.knobs.far_candidates = far;
     s.knobs.accumulate = accumulate;
     // The sampler and its history alone: the denoiser (a spatial filter, biased frame by
-    // frame) has its own tests (stochastic_denoise.rs).
+    // frame) has its own tests (stochastic_denoise.rs); temporal reuse (frames that share
+    // reservoirs: not independent) has its own below.
     s.knobs.denoise = 0;
+    s.knobs.temporal = 0;
     FrameRenderer::new(ctx, &f.scene, &f.lights, W, H, s).expect("renderer")
 }
 
@@ -275,7 +277,8 @@ fn spatial_reuse_cuts_a_frames_noise_and_stays_unbiased() {
     let frames_of = |reuse: u32| {
         let mut s = FrameSettings::of(Method::Stochastic);
         (s.knobs.candidates, s.knobs.far_candidates, s.knobs.accumulate, s.knobs.denoise) = (1, 1, 0, 0);
-        s.knobs.reuse = reuse;
+        // Independent frames: no temporal reuse.
+        (s.knobs.reuse, s.knobs.temporal) = (reuse, 0);
         let mut r = FrameRenderer::new(ctx, &f.scene, &f.lights, W, H, s).expect("renderer");
         (0..FRAMES).map(|_| frame(ctx, &mut r, &f, &cam)).collect::<Vec<_>>()
     };
@@ -317,7 +320,7 @@ fn reuse_records_know_which_pixels_drew_near_candidates() {
     let near_share = |threshold: f32| {
         let (f, _) = fixture_at(ctx, threshold);
         let mut s = FrameSettings::of(Method::Stochastic);
-        (s.knobs.accumulate, s.knobs.denoise, s.knobs.reuse) = (0, 0, 2);
+        (s.knobs.accumulate, s.knobs.denoise, s.knobs.reuse, s.knobs.temporal) = (0, 0, 2, 0);
         let mut r = FrameRenderer::new(ctx, &f.scene, &f.lights, W, H, s).expect("renderer");
         frame(ctx, &mut r, &f, &camera(EYE_A));
         let v = r.passes::<tiledlight_frame::visibility::VisibilityFrame>().expect("the visibility frame");
