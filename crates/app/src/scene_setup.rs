@@ -707,7 +707,10 @@ mod tests {
         // where no axis names one.
         let p = |m: &str, d: &str| vec![m.to_string(), d.to_string(), "8".to_string()];
         assert_eq!(axes::series_name(&axes, &[0, 1], &p("forward-plus", "0"), Method::Stochastic), "forward-plus");
-        assert_eq!(axes::series_name(&axes, &[0, 1], &p("stochastic", "4"), Method::ForwardPlus), "stochastic, 4");
+        assert_eq!(
+            axes::series_name(&axes, &[0, 1], &p("stochastic", "4"), Method::ForwardPlus),
+            "stochastic, denoise=4"
+        );
         assert_eq!(axes::method_at(&axes[1..], &["4".into()], Method::Stochastic), Method::Stochastic);
         assert_eq!(axes::series_name(&axes[1..], &[0], &["4".into()], Method::ForwardPlus), "");
         // Every method reads the culling test's tile size: nothing is left out.

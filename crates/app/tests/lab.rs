@@ -769,6 +769,54 @@ fn tune_holds_the_budget_from_every_bookmark() {
     assert!(fails(&["tune", "--target-flip", "0.1", "--dial", "camera=x.txt"]).contains("the camera is not a dial"));
 }
 
+/// The stochastic method's history in the lab holds the measured frames alone, however
+/// long the warm-up ran (at least half a second of frames, to bring a GPU's clocks up: on a
+/// fast GPU 150 frames, which would otherwise be averaged into "one frame"): with one
+/// measured frame, a history of 64 frames and none err alike.
+#[test]
+fn the_stochastic_history_holds_the_measured_frames_alone() {
+    let dir = scratch("lab-stochastic-warmup");
+    let csv = dir.join("warmup.csv");
+    let args = [
+        "accuracy",
+        "--lights",
+        "12",
+        "--reference",
+        "traced",
+        "--reference-frames",
+        "1",
+        "--method",
+        "stochastic",
+        "--axis",
+        "threshold=0.02",
+        "--axis",
+        "accumulate=64,0",
+        "--axis",
+        "denoise=0",
+        "--axis",
+        "culling=planes",
+        "--width",
+        "160",
+        "--height",
+        "96",
+        "--frames",
+        "1",
+        "--warmup",
+        "3",
+        "--exposure",
+        "1",
+        "--out",
+        csv.to_str().unwrap(),
+    ];
+    gpu_run(&args);
+    let (_, rows) = read_csv(&csv);
+    let at = |acc: &str| num(rows.iter().find(|r| r["accumulate"] == acc).expect("row"), "flip_mean");
+    let (history, raw) = (at("64"), at("0"));
+    // Two one-frame estimates of different seeds: their errors differ by a few percent
+    // (the warm-up's frames averaged in took the history's to half the raw one's).
+    assert!((history / raw - 1.0).abs() < 0.15, "one measured frame: FLIP {history} with a history, {raw} without");
+}
+
 /// The stochastic method in the lab (issue 48): against the traced truth, its dials are
 /// axes; averaging frames lowers its error (`accumulate` 64 against 0, 8 frames), its
 /// energy stays near the truth's where the visibility buffer's does not, and only its rows

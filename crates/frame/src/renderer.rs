@@ -206,6 +206,14 @@ impl FrameRenderer {
     pub fn set_exposure(&self, queue: &wgpu::Queue, exposure: f32) -> Result<(), GpuError> {
         self.shared.tonemap.set_exposure(queue, exposure)
     }
+    /// Starts the stochastic method's history again (its frames' mean and its temporal
+    /// reuse: the next frame is the first since a change); nothing for the other methods.
+    /// The lab calls it after its warm-up, so that a measured frame's history holds the
+    /// measured frames alone, however many frames the warm-up took.
+    pub fn restart_history(&self) {
+        self.method.scene_changed();
+    }
+
     /// Call after the lights moved on the GPU (their buffers rewritten), with the lights as
     /// now uploaded: the next frame redraws the shadow faces (and the RSM) of the casters
     /// that moved, and the stochastic method starts its history again.

@@ -326,12 +326,17 @@ pub fn method_at(axes: &[Axis], point: &[String], base: Method) -> Method {
         .unwrap_or(base)
 }
 
-/// A chart series' name for `point`: the values of its `series` axes, less those the
-/// point's method does not read (Tiled Deferred is "deferred", not "deferred, 0" for a
-/// denoiser it has not).
+/// A chart series' name for `point`: the method's name and `NAME=VALUE` of its other
+/// `series` axes (a legend of bare numbers does not say which dial is which), less those
+/// the point's method does not read (Tiled Deferred is "deferred", not "deferred,
+/// denoise=0" for a denoiser it has not).
 pub fn series_name(axes: &[Axis], series: &[usize], point: &[String], base: Method) -> String {
     let m = method_at(axes, point, base);
-    series.iter().filter(|&&i| reads(&axes[i].name, m)).map(|&i| point[i].clone()).collect::<Vec<_>>().join(", ")
+    let named = |i: usize| match axes[i].name.as_str() {
+        "method" => point[i].clone(),
+        name => format!("{name}={}", point[i]),
+    };
+    series.iter().filter(|&&i| reads(&axes[i].name, m)).map(|&i| named(i)).collect::<Vec<_>>().join(", ")
 }
 
 /// One line for a run that left points out ([`without_unread`]), or None.

@@ -363,6 +363,10 @@ fn measure_along(
         ctx.device.poll(wgpu::PollType::Poll).context("polling the GPU")?;
         drain(&mut timer, &mut out, &mut finished, skip);
     }
+    // The stochastic method's history holds the measured frames alone: the warm-up's length
+    // depends on the GPU's speed (MIN_WARMUP), and a history of the warm-up's frames too
+    // would make "after N frames" mean more frames on a faster GPU.
+    renderer.restart_history();
     for k in 0..frames {
         let t0 = Instant::now();
         let mut grids = Measurement::default();

@@ -65,9 +65,14 @@ const COLORS: [RGBColor; 10] = [
     RGBColor(23, 190, 207),
 ];
 
-/// The colour of series `i`.
+/// The colour of series `i`: the ten, then each again darker (a chart of the methods and
+/// the stochastic method's dials has more than ten series; a repeated colour would merge
+/// two of them).
 fn color(i: usize) -> RGBColor {
-    COLORS[i % COLORS.len()]
+    let RGBColor(r, g, b) = COLORS[i % COLORS.len()];
+    let round = (i / COLORS.len()).min(2) as u32;
+    let shade = |c: u8| (u32::from(c) * (10 - 3 * round) / 10) as u8;
+    RGBColor(shade(r), shade(g), shade(b))
 }
 
 fn register_font() -> Result<()> {
@@ -1705,6 +1710,20 @@ pub fn pareto_chart_sized(path: &Path, c: &ParetoChart, size: (u32, u32)) -> Res
 
 #[cfg(test)]
 mod tests {
+    /// Series past the first ten get darker colours, never one already used (the error-
+    /// against-time chart across methods has eleven series and more).
+    #[test]
+    fn more_than_ten_series_keep_distinct_colours() {
+        let colours: std::collections::HashSet<_> = (0..30)
+            .map(|i| {
+                let super::RGBColor(r, g, b) = super::color(i);
+                (r, g, b)
+            })
+            .collect();
+        assert_eq!(colours.len(), 30);
+        assert_eq!(super::color(3).0, super::COLORS[3].0);
+    }
+
     use super::*;
     use plotters::style::text_anchor::Pos;
 
