@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced stochastic denoise reuse error-time casters casters-curve ranking materials surface-edges stage-lights big-scene
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced stochastic denoise reuse temporal error-time casters casters-curve ranking materials surface-edges stage-lights big-scene
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -26,7 +26,7 @@ run_traced() { # name args...
     | tee -a "$out/log.txt" | grep -E "^(visibility|traced|tonemap|total|error|rays)"
 }
 # The stochastic method's error against the traced truth after 8 frames of a still camera
-# (7 compared + 1 warm-up) per dial, on the Figure 9 scene (4,096 lights) at the default
+# (the 8 measured frames: the history restarts after the warm-up) per dial, on the Figure 9 scene (4,096 lights) at the default
 # threshold and the budget's 0.0015 and on the courtyard (1,024) at the default; the lab's
 # default axes fixed to one value each. Each run's CSV and printout: $out/PREFIX-SCENE-tT.*
 run_stochastic_accuracy() { # prefix axes...
@@ -36,7 +36,7 @@ run_stochastic_accuracy() { # prefix axes...
     extra=(--lights 1024)
     [ "$scene" = f9 ] && extra=(--lights 4096 --grid-objects 280 --density medium)
     echo "== $prefix-$scene-t$t" | tee -a "$out/log.txt"
-    timeout 200 "$bin" accuracy --width 1920 --height 1080 "${extra[@]}" --reference traced --frames 7 \
+    timeout 200 "$bin" accuracy --width 1920 --height 1080 "${extra[@]}" --reference traced --frames 8 \
       --warmup 1 --reference-frames 1 --axis threshold="$t" --axis culling=planes --axis method=stochastic \
       "$@" --out "/tmp/$prefix-$scene-$t/acc.csv" >"$out/$prefix-$scene-t$t.txt" 2>&1
     echo "exit $?" >>"$out/$prefix-$scene-t$t.txt"
@@ -229,10 +229,10 @@ for set in $sets; do
     run "sto-mp" 10 --light-preset million --method stochastic --assign scatter
     for t in 0.1 0.0015; do
       echo "== sto-acc-f9-t$t" | tee -a "$out/log.txt"
-      # The compared image is the 8th frame (1 warm-up, 7 measured): 7 frames before it in
-      # the history, unless the grid grew (which starts the history again).
+      # The compared image is the 8th measured frame (the history restarts after the
+      # warm-up): 7 frames before it in the history, unless the grid grew.
       timeout 280 "$bin" accuracy --width 1920 --height 1080 --lights 4096 --grid-objects 280 --density medium \
-        --reference traced --frames 7 --warmup 1 --reference-frames 1 --axis threshold=$t --axis culling=planes \
+        --reference traced --frames 8 --warmup 1 --reference-frames 1 --axis threshold=$t --axis culling=planes \
         --axis method=stochastic,visibility --axis accumulate=64,0 \
         --out "/tmp/sto-acc-$t/acc.csv" >"$out/sto-acc-f9-t$t.txt" 2>&1
       echo "exit $?" >>"$out/sto-acc-f9-t$t.txt"
@@ -249,6 +249,25 @@ for set in $sets; do
       run "den-court-1024-d$d" 50 --lights 1024 --method stochastic --denoise $d
     done
     run_stochastic_accuracy den-acc --axis denoise=0,2,4 --axis accumulate=64,0
+    ;;
+  temporal)
+    # Issue 48's temporal reuse: the stochastic method after 8 frames of a still camera
+    # (denoiser on and off) on both scenes, then with the camera orbiting 1 degree a frame
+    # through the 8 measured frames, without and with temporal reuse (Figure 9 scene). Each
+    # run's CSV and printout: $out/tr-SCENE-MOTION.*
+    for run in f9:0 court:0 f9:1; do
+      scene=${run%%:*} orbit=${run#*:}
+      extra=(--lights 1024)
+      [ "$scene" = f9 ] && extra=(--lights 4096 --grid-objects 280 --density medium)
+      axes=(--axis temporal=20 --axis accumulate=64)
+      [ "$orbit" != 0 ] && axes=(--axis temporal=0,20)
+      echo "== tr-$scene-o$orbit" | tee -a "$out/log.txt"
+      timeout 200 "$bin" accuracy --width 1920 --height 1080 "${extra[@]}" --reference traced --frames 8 --warmup 1 \
+        --reference-frames 1 --axis method=stochastic --axis threshold=0.1 --axis culling=planes "${axes[@]}" \
+        --axis denoise=4,0 --camera-orbit "$orbit" --out "/tmp/tr-$scene-$orbit/acc.csv" >"$out/tr-$scene-o$orbit.txt" 2>&1
+      echo "exit $?" >>"$out/tr-$scene-o$orbit.txt"
+      cp "/tmp/tr-$scene-$orbit/acc.csv" "$out/tr-$scene-o$orbit.csv" 2>/dev/null
+    done
     ;;
   reuse)
     # Issue 48's spatial reuse: the stochastic method's frame time without it and with 4
@@ -273,7 +292,7 @@ for set in $sets; do
       extra=(--lights 1024)
       [ "$scene" = f9 ] && extra=(--lights 4096 --grid-objects 280 --density medium)
       echo "== et-$scene" | tee -a "$out/log.txt"
-      timeout 280 "$bin" accuracy --width 1920 --height 1080 "${extra[@]}" --reference traced --frames 7 \
+      timeout 280 "$bin" accuracy --width 1920 --height 1080 "${extra[@]}" --reference traced --frames 8 \
         --warmup 1 --reference-frames 1 --axis method=visibility,deferred,forward-plus,stochastic \
         --axis threshold=0.1,0.01,0.0015 --axis culling=planes --axis denoise=4,0 --axis accumulate=64,0 \
         --axis reuse=0,4 --out "/tmp/et-$scene/et.csv" >"$out/et-$scene.txt" 2>&1

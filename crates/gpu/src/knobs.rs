@@ -506,10 +506,10 @@ knobs! {
     /// once keeps being offered while the camera moves (or with `--accumulate 0`), where
     /// the frames' mean starts again each frame; once a still view accumulates, its frames
     /// stay independent and the mean takes over. On lavapipe's courtyard, the camera
-    /// orbiting 1 degree a frame, after 8 frames: FLIP 0.212 -> 0.195 denoised (PSNR 20.4
-    /// -> 22.4 dB), 0.515 -> 0.440 raw with 1 near and 2 far candidates; a still view's
-    /// error is unchanged. 0 turns it off (no history buffer, 64 bytes a pixel less); at
-    /// most 64.
+    /// orbiting 1 degree a frame, after 8 frames: FLIP 0.205 -> 0.196 denoised (PSNR 20.6
+    /// -> 21.9 dB), the light lost 2.0% -> 0.8% (`accuracy --camera-orbit 1`,
+    /// docs/ACCURACY.md); a still view's error is unchanged. 0 turns it off (no history
+    /// buffer, 64 bytes a pixel less); at most 64.
     temporal: u32 = 20;
     "temporal", "temporal reuse cap", "N", Control::Slider(0.0, 64.0), applies(|m| m.stochastic),
     check(|v| {
