@@ -218,7 +218,7 @@ impl FrameRenderer {
     /// now uploaded: the next frame redraws the shadow faces (and the RSM) of the casters
     /// that moved, and the stochastic method starts its history again.
     pub fn lights_moved(&self, queue: &wgpu::Queue, lights: &PackedLights) -> Result<(), GpuError> {
-        self.method.scene_changed();
+        self.restart_history();
         let Some(atlas) = &self.shared.shadows else { return Ok(()) };
         atlas.update(queue, &self.shared.views, lights)?;
         if let Some(v) = &self.shared.vpls {
