@@ -6,7 +6,9 @@
 //    tiledlight_cull::stochastic::resample_near_far, the same draws): `candidates` drawn
 //    uniformly from the pixel's list in the light grid, counted only when the light's
 //    radius reaches the point (the culling lists every such light), and `far_candidates`
-//    drawn uniformly from every light, counted only when it does not. Each candidate's
+//    drawn from every light, uniformly or (FAR_FROM_TREE) from the light tree
+//    (common/light_tree.wgsl: in proportion to each light's power over its distance),
+//    counted only when its radius does not reach. Each candidate's
 //    target is the luminance of its unshadowed contribution with no cutoff
 //    (common/shade.wgsl with STOCHASTIC casts no ray), its weight p_hat / (q M_source)
 //    times the total M; one is kept in a reservoir (common/stochastic.wgsl).
@@ -88,12 +90,24 @@ struct ReuseHistory {
 
 #include "common/luminance.wgsl"
 
+// The light tree the far candidates are drawn from with FAR_FROM_TREE 1
+// (tiledlight_cull::light_tree; else uniformly, and the host binds one zero node here,
+// never read).
+override FAR_FROM_TREE: u32 = 0u;
+@group(1) @binding(44) var<storage, read> light_tree: array<LightNode>;
+#include "common/light_tree.wgsl"
+
 // True when the light's radius reaches point `p`: the windowed falloff's `in_range`
 // (common/shade.wgsl), so the light is in the list of every tile that holds `p`.
 fn reaches(light: u32, p: vec3<f32>) -> bool {
     let d = shading_lights[light].position - p;
     let r = shading_lights[light].radius;
     return dot(d, d) < r * r;
+}
+
+// The light tree's leaves left to the list (common/light_tree.wgsl).
+fn tree_reaches(light: u32, p: vec3<f32>) -> bool {
+    return reaches(light, p);
 }
 
 // Step 1: the pixel's reservoir of this frame's candidates.
@@ -109,13 +123,21 @@ fn stochastic_sample(g: GSample, p: vec2<u32>, pixel: u32, v: vec3<f32>) -> Rese
         let near = k < m_near;
         let count = select(n, list.count, near);
         let i = min(u32(rand01(pixel, frame, 2u * k) * f32(count)), count - 1u);
-        let light = select(i, light_indices[list.first + i], near);
+        var light = select(i, light_indices[list.first + i], near);
+        // One over the light's probability: uniform over the list, or the tree's.
+        var inv_q = f32(count);
+        if !near && FAR_FROM_TREE != 0u {
+            let t = tree_sample(g.world, pixel, frame, 2u * k);
+            light = t.x;
+            let q = bitcast<f32>(t.y);
+            inv_q = select(0.0, 1.0 / q, q > 0.0);
+        }
         var p_hat = 0.0;
-        if reaches(light, g.world) == near {
+        if reaches(light, g.world) == near && inv_q > 0.0 {
             p_hat = luminance(shade_light(light, g.world, g.normal, v, g.surface));
         }
         let m = select(m_far, m_near, near);
-        reservoir_update(&r, light, p_hat * f32(count) * total / f32(m), p_hat, rand01(pixel, frame, 2u * k + 1u));
+        reservoir_update(&r, light, p_hat * inv_q * total / f32(m), p_hat, rand01(pixel, frame, 2u * k + 1u));
     }
     return r;
 }

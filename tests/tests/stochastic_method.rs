@@ -249,6 +249,43 @@ fn where_far_lights_carry_the_image_it_stays_unbiased() {
     eprintln!("far lights: summed error {z:.2} standard errors");
 }
 
+/// The far candidates from the light tree (`--light-tree`): where the far lights carry the
+/// image it stays unbiased as the uniform source does (a tree whose probabilities did not
+/// match its draws would be off by more than the bound), and a light that moves is
+/// followed (the tree is refitted): after the lights move, the mean of frames is the new
+/// truth's.
+#[test]
+fn the_light_tree_keeps_the_far_source_unbiased_and_follows_moved_lights() {
+    let ctx = gpu();
+    let (f, _) = fixture_at(ctx, 3.0);
+    let cam = camera(EYE_A);
+    let mut s = FrameSettings::of(Method::Stochastic);
+    (s.knobs.candidates, s.knobs.far_candidates, s.knobs.accumulate, s.knobs.denoise, s.knobs.temporal) =
+        (1, 4, 0, 0, 0);
+    s.knobs.light_tree = true;
+    let mut r = FrameRenderer::new(ctx, &f.scene, &f.lights, W, H, s).expect("renderer");
+    let truth = frame(ctx, &mut renderer(ctx, &f, Method::TRUTH, (1, 0)), &f, &cam);
+    let frames: Vec<Vec<f64>> = (0..FRAMES).map(|_| frame(ctx, &mut r, &f, &cam)).collect();
+    let z = unbiased_within(&Moments::of(&frames), &truth).unwrap_or_else(|e| panic!("the light tree is biased: {e}"));
+    eprintln!("light tree: summed error {z:.2} standard errors");
+    // The lights move (rewritten in place, as the viewer's animation does).
+    let moved: Vec<Light> =
+        lights_at(3.0).into_iter().map(|l| Light { position: l.position + Vec3::new(0.8, 0.0, -0.6), ..l }).collect();
+    let new = LightBuffers::new(&ctx.device, &moved).unwrap();
+    ctx.queue.write_buffer(&f.lights.cull, 0, bytemuck::cast_slice(&new.packed.cull));
+    ctx.queue.write_buffer(&f.lights.shading, 0, bytemuck::cast_slice(&new.packed.shading));
+    if let Some(spots) = &f.lights.spots {
+        ctx.queue.write_buffer(spots, 0, bytemuck::cast_slice(&new.packed.spots));
+    }
+    r.lights_moved(&ctx.queue, &new.packed).unwrap();
+    let g = Fixture { scene: new_scene(ctx, &shadow_box_scene(0.5)), lights: new };
+    let truth_moved = frame(ctx, &mut renderer(ctx, &g, Method::TRUTH, (1, 0)), &g, &cam);
+    let frames: Vec<Vec<f64>> = (0..FRAMES).map(|_| frame(ctx, &mut r, &f, &cam)).collect();
+    let z = unbiased_within(&Moments::of(&frames), &truth_moved)
+        .unwrap_or_else(|e| panic!("after the lights moved the light tree is biased: {e}"));
+    eprintln!("light tree after a move: summed error {z:.2} standard errors");
+}
+
 /// Without far candidates the method leaves out the light from beyond each light's radius
 /// (the cutoff's share, by design): the same check rejects it against the truth, so the far
 /// lights carry light in this scene and the test above needs its far candidates to pass.

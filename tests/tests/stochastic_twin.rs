@@ -678,3 +678,115 @@ fn the_reprojection_comparison_rejects_a_twin_with_rows_upwards() {
     let on = cases.iter().filter(|c| flipped(c).is_some()).count();
     assert!(bad.len() * 10 > on * 9, "only {} of {on} cases caught", bad.len());
 }
+
+// The light tree (tiledlight_cull::light_tree, shaders/common/light_tree.wgsl): a tree of
+// 3,000 lights (clusters, a line of lights at one point, powers over four decades, some
+// dark; a third of them the list's) descended at 4,096 points on the GPU and by the twin. Each case's point, pixel,
+// frame and draw come from its index, the same on both sides; a choice may differ only
+// where the twin's number was within 1e-5 of the share (rounding of the importances).
+const TREE_SRC: &str = r#"
+@group(0) @binding(0) var<storage, read> light_tree: array<LightNode>;
+@group(0) @binding(1) var<storage, read_write> out: array<vec2<u32>>;
+#include "common/light_tree.wgsl"
+
+// A third of the lights are the list's (left out where their sibling is not).
+fn tree_reaches(light: u32, p: vec3<f32>) -> bool {
+    return light % 3u == 0u;
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if i >= 4096u { return; }
+    let p = vec3<f32>(f32(i % 37u) * 0.75 - 13.0, f32(i % 11u) * 0.5, f32((i / 37u) % 29u) * 0.875 - 12.0);
+    out[i] = tree_sample(p, i * 7919u, i / 64u, i % 5u);
+}
+"#;
+
+const TREE_CASES: u32 = 4096;
+
+fn tree_point(i: u32) -> Vec3 {
+    Vec3::new((i % 37) as f32 * 0.75 - 13.0, (i % 11) as f32 * 0.5, ((i / 37) % 29) as f32 * 0.875 - 12.0)
+}
+
+fn tree_lights() -> Vec<tiledlight_cull::light_tree::TreeLight> {
+    let mut rng = Rng(777);
+    (0..3000)
+        .map(|i| {
+            let p = match i % 10 {
+                0 => Vec3::new(2.0, 1.0, -3.0),
+                1..=3 => Vec3::new(rng.unit() * 2.0 - 8.0, rng.unit(), rng.unit() * 2.0 + 4.0),
+                _ => Vec3::new(rng.unit() * 30.0 - 15.0, rng.unit() * 6.0, rng.unit() * 30.0 - 15.0),
+            };
+            let power = if i % 17 == 0 { 0.0 } else { rng.log(1e-2, 1e2) };
+            // Radii of 0.5 to 3 m: whole boxes around some points are the list's.
+            (p, power, 0.5 + 2.5 * rng.unit())
+        })
+        .collect()
+}
+
+/// The twin's descent for case `i` with level numbers taken `shift` levels on (0: the
+/// GPU's), and the smallest distance of a choice's number from its share.
+fn tree_twin(t: &tiledlight_cull::light_tree::LightTree, i: u32, shift: u32) -> (u32, f32, f32) {
+    use tiledlight_cull::light_tree::{child_importance, first_share, level_rand, LEAF};
+    let reaches = |l: u32, _: Vec3| l % 3 == 0;
+    let p = tree_point(i);
+    let (mut node, mut pdf, mut margin) = (t.nodes[0], 1.0f32, f32::INFINITY);
+    for level in 0.. {
+        if node.link & LEAF != 0 {
+            return (node.link & !LEAF, pdf, margin);
+        }
+        let (a, b) = (t.nodes[node.link as usize], t.nodes[node.link as usize + 1]);
+        let share = first_share(child_importance(&a, p, &reaches), child_importance(&b, p, &reaches));
+        let u = level_rand(i * 7919, i / 64, i % 5, level + shift);
+        margin = margin.min((u - share).abs());
+        (node, pdf) = if u < share { (a, pdf * share) } else { (b, pdf * (1.0 - share)) };
+    }
+    unreachable!()
+}
+
+fn run_tree(t: &tiledlight_cull::light_tree::LightTree) -> Vec<(u32, f32)> {
+    let out = run_cases(
+        gpu(),
+        "test.light_tree",
+        TREE_SRC,
+        bytemuck::cast_slice(&t.nodes),
+        TREE_CASES,
+        u64::from(TREE_CASES) * 8,
+    );
+    out.chunks_exact(2).map(|c| (c[0].to_bits(), c[1])).collect()
+}
+
+fn tree_mismatches(t: &tiledlight_cull::light_tree::LightTree, rows: &[(u32, f32)], shift: u32) -> Vec<String> {
+    let mut bad = Vec::new();
+    for (i, &(light, pdf)) in rows.iter().enumerate() {
+        let (l, q, margin) = tree_twin(t, i as u32, shift);
+        let same = light == l && (pdf - q).abs() <= 1e-5 * q.max(pdf);
+        if !same && margin > 1e-5 {
+            bad.push(format!("case {i}: GPU light {light} p {pdf:e}, CPU light {l} p {q:e}"));
+        }
+    }
+    bad
+}
+
+#[test]
+fn the_gpu_light_tree_draws_as_its_cpu_twin() {
+    let t = tiledlight_cull::light_tree::LightTree::from_points(&tree_lights());
+    let rows = run_tree(&t);
+    let bad = tree_mismatches(&t, &rows, 0);
+    let distinct: std::collections::HashSet<u32> = rows.iter().map(|r| r.0).collect();
+    eprintln!("{TREE_CASES} descents, {} distinct lights drawn, {} mismatches", distinct.len(), bad.len());
+    assert!(distinct.len() > 500, "the descents reach few lights ({})", distinct.len());
+    assert!(rows.iter().all(|r| r.1 > 0.0), "a descent without a probability");
+    assert!(bad.is_empty(), "{} of {TREE_CASES} descents differ:\n{}", bad.len(), bad[..bad.len().min(10)].join("\n"));
+}
+
+/// The negative test: a twin that takes each level's number from the next level is
+/// rejected on most descents.
+#[test]
+fn the_light_tree_comparison_rejects_a_twin_with_other_numbers() {
+    let t = tiledlight_cull::light_tree::LightTree::from_points(&tree_lights());
+    let rows = run_tree(&t);
+    let bad = tree_mismatches(&t, &rows, 1);
+    assert!(bad.len() * 10 > TREE_CASES as usize * 8, "only {} of {TREE_CASES} descents caught", bad.len());
+}

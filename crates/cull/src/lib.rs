@@ -34,6 +34,7 @@ pub mod error;
 
 pub mod layout;
 pub mod light;
+pub mod light_tree;
 pub mod lists;
 pub mod material;
 pub use error::CullError;

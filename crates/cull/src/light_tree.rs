@@ -7,13 +7,20 @@
 //!
 //! 1. **Build** ([`LightTree::build`], once per light set): a binary tree whose leaves are
 //!    the lights, split at the median of the longest axis of their positions' bounds;
-//!    each node keeps the bounds and its lights' summed power (the luminance of colour
-//!    times intensity). A node's two children are adjacent (`link`, `link + 1`); a leaf's
-//!    `link` is the light with [`LEAF`] set. 2n - 1 nodes of 32 bytes for n lights.
+//!    each node keeps the bounds, its lights' summed power (the luminance of colour times
+//!    intensity) and their smallest radius. A node's two children are adjacent (`link`,
+//!    `link + 1`); a leaf's `link` is the light with [`LEAF`] set. 2n - 1 nodes of 48 bytes
+//!    for n lights. [`LightTree::refit`] recomputes bounds, power and radii for moved
+//!    lights, keeping the shape (O(n)).
 //! 2. **Importance** ([`importance`]) of a node at point `p`: its power over the squared
 //!    distance from `p` to its bounds' centre, clamped below by the squared half
 //!    diagonal (near or inside a box any of its lights may be close: the clamp keeps the
-//!    importance finite and the choice between two boxes fair).
+//!    importance finite and the choice between two boxes fair). A leaf whose light's
+//!    radius reaches `p` has none: the stochastic method draws those lights from the
+//!    pixel's list, and the tree serves the others (the far candidates), so a draw that
+//!    ended on a near light would be wasted ([`child_importance`]); nor has a node whose
+//!    whole box lies within its smallest radius of `p` (every light of it reaches `p`: a
+//!    cluster of lights around the point, which would otherwise take most draws).
 //! 3. **Descent** ([`LightTree::sample`]): from the root, a child with probability in
 //!    proportion to its importance (half each when both are 0), one random number a level
 //!    ([`level_rand`]); the light's probability is the product of the choices.
@@ -35,7 +42,8 @@ pub const LEAF: u32 = 1 << 31;
 /// The deepest descent the GPU takes: a median split of 2^20 lights is 21 levels deep.
 pub const MAX_DEPTH: u32 = 48;
 
-/// One node (`LightNode` in `shaders/common/light_tree.wgsl`): bounds, power, link.
+/// One node (`LightNode` in `shaders/common/light_tree.wgsl`): bounds, power, link and
+/// its lights' smallest radius.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct Node {
@@ -47,7 +55,14 @@ pub struct Node {
     pub max: [f32; 3],
     /// The first of its two adjacent children, or a leaf's light with [`LEAF`].
     pub link: u32,
+    /// Its lights' smallest radius.
+    pub reach: f32,
+    /// Padding to 16-byte alignment.
+    pub _pad: [f32; 3],
 }
+
+/// A light as the tree sees it: position, power, radius.
+pub type TreeLight = (Vec3, f32, f32);
 
 /// The tree: node 0 is the root (no node for no lights).
 #[derive(Clone, Debug, Default)]
@@ -69,6 +84,21 @@ pub fn importance(node: &Node, p: Vec3) -> f32 {
     node.power / d2.max(h2).max(1e-12)
 }
 
+/// Step 2 for a child: 0 for a leaf whose light `reaches(light, p)` (the near source's)
+/// and for a node whose box lies within its smallest radius of `p` (the farthest corner
+/// closer than it: every light of it reaches `p`), else [`importance`].
+pub fn child_importance(node: &Node, p: Vec3, reaches: &impl Fn(u32, Vec3) -> bool) -> f32 {
+    if node.link & LEAF != 0 {
+        return if reaches(node.link & !LEAF, p) { 0.0 } else { importance(node, p) };
+    }
+    let far = (p - Vec3::from(node.min)).abs().max((Vec3::from(node.max) - p).abs());
+    if far.length_squared() < node.reach * node.reach {
+        0.0
+    } else {
+        importance(node, p)
+    }
+}
+
 /// Step 3's number for `level` of draw `draw` of `pixel` in `frame`: 24 bits of a hash
 /// chain, as the GPU's `tree_rand`.
 pub fn level_rand(pixel: u32, frame: u32, draw: u32, level: u32) -> f32 {
@@ -88,6 +118,12 @@ pub fn first_share(a: f32, b: f32) -> f32 {
 impl LightTree {
     /// Step 1: the tree of `lights` (their indices are the leaves' lights).
     pub fn build(lights: &[Light]) -> Self {
+        Self::from_points(&lights.iter().map(|l| (l.position, power(l), l.radius)).collect::<Vec<_>>())
+    }
+
+    /// Step 1 for lights given as `(position, power, radius)` (the GPU's shading records:
+    /// the luminance of `color * intensity`).
+    pub fn from_points(lights: &[TreeLight]) -> Self {
         let mut nodes = Vec::with_capacity((2 * lights.len()).saturating_sub(1));
         if lights.is_empty() {
             return Self { nodes };
@@ -99,13 +135,15 @@ impl LightTree {
         while let Some((at, start, end)) = stack.pop() {
             let slice = &mut order[start..end];
             let (mut lo, mut hi, mut sum) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY), 0.0f32);
+            let mut reach = f32::INFINITY;
             for &i in slice.iter() {
-                let l = &lights[i as usize];
-                lo = lo.min(l.position);
-                hi = hi.max(l.position);
-                sum += power(l);
+                let (position, power, radius) = lights[i as usize];
+                lo = lo.min(position);
+                hi = hi.max(position);
+                sum += power;
+                reach = reach.min(radius);
             }
-            nodes[at] = Node { min: lo.into(), power: sum, max: hi.into(), link: 0 };
+            nodes[at] = Node { min: lo.into(), power: sum, max: hi.into(), reach, ..Node::default() };
             if slice.len() == 1 {
                 nodes[at].link = slice[0] | LEAF;
                 continue;
@@ -113,7 +151,7 @@ impl LightTree {
             let axis = (hi - lo).max_position();
             let mid = slice.len() / 2;
             slice.select_nth_unstable_by(mid, |&a, &b| {
-                let (pa, pb) = (lights[a as usize].position[axis], lights[b as usize].position[axis]);
+                let (pa, pb) = (lights[a as usize].0[axis], lights[b as usize].0[axis]);
                 pa.total_cmp(&pb).then(a.cmp(&b))
             });
             let first = nodes.len();
@@ -126,9 +164,33 @@ impl LightTree {
         Self { nodes }
     }
 
+    /// Recomputes every node's bounds, power and radius for `lights` (the same count, moved
+    /// or changed), keeping the tree's shape: children come after their parents, so one
+    /// pass from the last node up suffices.
+    pub fn refit(&mut self, lights: &[TreeLight]) {
+        for i in (0..self.nodes.len()).rev() {
+            let n = self.nodes[i];
+            self.nodes[i] = if n.link & LEAF != 0 {
+                let (position, power, reach) = lights[(n.link & !LEAF) as usize];
+                Node { min: position.into(), power, max: position.into(), reach, ..n }
+            } else {
+                let (a, b) = (self.nodes[n.link as usize], self.nodes[n.link as usize + 1]);
+                let min = Vec3::from(a.min).min(b.min.into()).into();
+                let max = Vec3::from(a.max).max(b.max.into()).into();
+                Node { min, max, power: a.power + b.power, reach: a.reach.min(b.reach), ..n }
+            };
+        }
+    }
+
     /// Step 3 at point `p`: a light and its probability, descending with the numbers of
-    /// draw `draw` of `pixel` in `frame`; None for an empty tree.
-    pub fn sample(&self, p: Vec3, (pixel, frame, draw): (u32, u32, u32)) -> Option<(u32, f32)> {
+    /// draw `draw` of `pixel` in `frame`, the lights that `reaches(light, p)` left out where
+    /// their sibling is not; None for an empty tree.
+    pub fn sample(
+        &self,
+        p: Vec3,
+        (pixel, frame, draw): (u32, u32, u32),
+        reaches: impl Fn(u32, Vec3) -> bool,
+    ) -> Option<(u32, f32)> {
         let mut node = *self.nodes.first()?;
         let mut pdf = 1.0f32;
         for level in 0..MAX_DEPTH {
@@ -136,7 +198,7 @@ impl LightTree {
                 return Some((node.link & !LEAF, pdf));
             }
             let (a, b) = (self.nodes[node.link as usize], self.nodes[node.link as usize + 1]);
-            let share = first_share(importance(&a, p), importance(&b, p));
+            let share = first_share(child_importance(&a, p, &reaches), child_importance(&b, p, &reaches));
             if level_rand(pixel, frame, draw, level) < share {
                 pdf *= share;
                 node = a;
@@ -150,7 +212,7 @@ impl LightTree {
 
     /// The probability that [`Self::sample`] at `p` draws `light` (0 for a light not in
     /// the tree): the product of the choices along its path.
-    pub fn pdf(&self, p: Vec3, light: u32) -> f32 {
+    pub fn pdf(&self, p: Vec3, light: u32, reaches: impl Fn(u32, Vec3) -> bool) -> f32 {
         // Each node's parent, then the path from the light's leaf up.
         let mut parent = vec![usize::MAX; self.nodes.len()];
         let mut leaf = None;
@@ -168,7 +230,8 @@ impl LightTree {
         let mut pdf = 1.0f32;
         while parent[at] != usize::MAX {
             let first = self.nodes[parent[at]].link as usize;
-            let share = first_share(importance(&self.nodes[first], p), importance(&self.nodes[first + 1], p));
+            let (a, b) = (&self.nodes[first], &self.nodes[first + 1]);
+            let share = first_share(child_importance(a, p, &reaches), child_importance(b, p, &reaches));
             pdf *= if at == first { share } else { 1.0 - share };
             at = parent[at];
         }
@@ -180,8 +243,15 @@ impl LightTree {
 mod tests {
     use super::*;
 
+    /// No light reaches any point.
+    fn none(_: u32, _: Vec3) -> bool {
+        false
+    }
+
+    /// A point light of radius 1 mm (no box lies within it of a point: the tests that
+    /// leave lights to the list give radii of their own).
     fn light(p: Vec3, intensity: f32) -> Light {
-        Light::point(p, Vec3::ONE, intensity, 0.1).expect("light")
+        Light { radius: 1e-3, ..Light::point(p, Vec3::ONE, intensity, 0.1).expect("light") }
     }
 
     /// A scatter of lights of varied power, some at one point.
@@ -222,7 +292,7 @@ mod tests {
             assert!(seen.iter().all(|&s| s == 1), "{n} lights: {seen:?}");
         }
         assert!(LightTree::build(&[]).nodes.is_empty());
-        assert!(LightTree::build(&[]).sample(Vec3::ZERO, (0, 0, 0)).is_none());
+        assert!(LightTree::build(&[]).sample(Vec3::ZERO, (0, 0, 0), none).is_none());
     }
 
     /// The lights' probabilities at a point add up to 1, each above 0; the sampler's
@@ -233,14 +303,14 @@ mod tests {
         let ls = lights(200);
         let t = LightTree::build(&ls);
         let p = Vec3::new(1.2, 1.5, 3.1);
-        let pdfs: Vec<f32> = (0..ls.len() as u32).map(|l| t.pdf(p, l)).collect();
+        let pdfs: Vec<f32> = (0..ls.len() as u32).map(|l| t.pdf(p, l, none)).collect();
         let total: f32 = pdfs.iter().sum();
         assert!((total - 1.0).abs() < 1e-4, "{total}");
         assert!(pdfs.iter().all(|&q| q > 0.0));
         let mut counts = vec![0u32; ls.len()];
         let draws = 20_000;
         for d in 0..draws {
-            let (l, q) = t.sample(p, (d, 7, 3)).expect("a light");
+            let (l, q) = t.sample(p, (d, 7, 3), none).expect("a light");
             assert!((q - pdfs[l as usize]).abs() <= 1e-5 * q.max(1e-30) + 1e-9, "{l}: {q} vs {}", pdfs[l as usize]);
             counts[l as usize] += 1;
         }
@@ -250,7 +320,11 @@ mod tests {
         for (l, &q) in pdfs.iter().enumerate() {
             let expected = q * draws as f32;
             let sd = (expected * (1.0 - q)).sqrt();
-            assert!((counts[l] as f32 - expected).abs() < 5.0 * sd + 3.0, "light {l}: {} draws, {expected} expected", counts[l]);
+            assert!(
+                (counts[l] as f32 - expected).abs() < 5.0 * sd + 3.0,
+                "light {l}: {} draws, {expected} expected",
+                counts[l]
+            );
         }
     }
 
@@ -261,17 +335,42 @@ mod tests {
     fn degenerate_sets_still_sample_properly() {
         let same: Vec<Light> = (0..33).map(|_| light(Vec3::ONE, 2.0)).collect();
         let t = LightTree::build(&same);
-        let total: f32 = (0..33).map(|l| t.pdf(Vec3::ONE, l)).sum();
+        let total: f32 = (0..33).map(|l| t.pdf(Vec3::ONE, l, none)).sum();
         assert!((total - 1.0).abs() < 1e-4);
         let mut dark = lights(40);
         dark[5].color = Vec3::ZERO;
         let t = LightTree::build(&dark);
         for p in [Vec3::ZERO, Vec3::splat(1e6), dark[5].position] {
-            let total: f32 = (0..40).map(|l| t.pdf(p, l)).sum();
+            let total: f32 = (0..40).map(|l| t.pdf(p, l, none)).sum();
             assert!((total - 1.0).abs() < 1e-4, "at {p}: {total}");
-            assert_eq!(t.pdf(p, 5), 0.0);
+            assert_eq!(t.pdf(p, 5, none), 0.0);
         }
-        assert_eq!(t.pdf(Vec3::ZERO, 99), 0.0, "a light not in the tree");
+        assert_eq!(t.pdf(Vec3::ZERO, 99, none), 0.0, "a light not in the tree");
+    }
+
+    /// The lights that reach the point are left out where their sibling is not: the others'
+    /// probabilities still add up to 1 when no two near lights are siblings, the near ones
+    /// are drawn only when both children of a node reach, and the sampler agrees.
+    #[test]
+    fn lights_that_reach_the_point_are_left_to_the_list() {
+        let ls: Vec<Light> = lights(300).into_iter().map(|l| Light { radius: 2.0, ..l }).collect();
+        let t = LightTree::build(&ls);
+        let p = Vec3::new(1.2, 1.5, 3.1);
+        let reaches = |l: u32, q: Vec3| (ls[l as usize].position - q).length() < ls[l as usize].radius;
+        let near = (0..300u32).filter(|&l| reaches(l, p)).count();
+        assert!(near > 20 && near < 100, "{near} lights reach the point");
+        let far_mass: f32 = (0..300u32).filter(|&l| !reaches(l, p)).map(|l| t.pdf(p, l, reaches)).sum();
+        let near_mass: f32 = (0..300u32).filter(|&l| reaches(l, p)).map(|l| t.pdf(p, l, reaches)).sum();
+        assert!((far_mass + near_mass - 1.0).abs() < 1e-4);
+        // Without the rule the cluster at the point takes most draws (the test above).
+        assert!(near_mass < 0.2, "the near lights still take {near_mass} of the draws");
+        for d in 0..2000 {
+            let (l, q) = t.sample(p, (d, 1, 0), reaches).expect("a light");
+            assert!((q - t.pdf(p, l, reaches)).abs() <= 1e-5 * q);
+        }
+        assert!((0..300u32)
+            .filter(|&l| !reaches(l, p))
+            .all(|l| t.pdf(p, l, reaches) > 0.0 || ls[l as usize].intensity == 0.0));
     }
 
     /// The level numbers are uniform, differ by level, draw and pixel.

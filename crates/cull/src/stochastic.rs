@@ -161,7 +161,10 @@ pub fn reaches(light: &Light, p: Vec3) -> bool {
 /// estimator's `W`. The near lights' share then costs few candidates (a short list) and
 /// the far lights' share (beyond the radius: what the cutoff drops) is still sampled;
 /// `m_far = 0` drops it (the cutoff's bias). Draw `k` (near first, then far) uses
-/// `rand01(pixel, frame, 2k)` to pick and `2k + 1` to resample.
+/// `rand01(pixel, frame, 2k)` to pick and `2k + 1` to resample. With `tree` the far
+/// candidates are drawn from it (`crate::light_tree`: in proportion to each light's power
+/// over its distance, draw `2k`'s level numbers), weighed by one over their probability;
+/// without, uniformly from every light.
 pub fn resample_near_far(
     lights: &[Light],
     list: &[u32],
@@ -169,6 +172,7 @@ pub fn resample_near_far(
     s: &Surface,
     (m_near, m_far): (u32, u32),
     (pixel, frame): (u32, u32),
+    tree: Option<&crate::light_tree::LightTree>,
 ) -> Reservoir {
     let mut r = Reservoir::default();
     let m_near = if list.is_empty() { 0 } else { m_near };
@@ -178,10 +182,20 @@ pub fn resample_near_far(
     for (m, count, near) in sources {
         for _ in 0..m {
             let i = ((rand01(pixel, frame, 2 * draw) * count as f32) as u32).min(count - 1);
-            let light = if near { list[i as usize] } else { i };
+            // The light and one over its probability.
+            let (light, inv_q) = match (near, tree) {
+                (true, _) => (list[i as usize], count as f32),
+                (false, None) => (i, count as f32),
+                (false, Some(t)) => match t.sample(p, (pixel, frame, 2 * draw), |l, q| reaches(&lights[l as usize], q))
+                {
+                    Some((l, q)) if q > 0.0 => (l, 1.0 / q),
+                    _ => (0, 0.0),
+                },
+            };
             let l = &lights[light as usize];
-            let p_hat = if reaches(l, p) == near { luminance(unshadowed(l, (p, n, v), s, false)) } else { 0.0 };
-            r.update(light, (p_hat * count as f32 * total / m as f32, p_hat), rand01(pixel, frame, 2 * draw + 1));
+            let p_hat =
+                if reaches(l, p) == near && inv_q > 0.0 { luminance(unshadowed(l, (p, n, v), s, false)) } else { 0.0 };
+            r.update(light, (p_hat * inv_q * total / m as f32, p_hat), rand01(pixel, frame, 2 * draw + 1));
             draw += 1;
         }
     }

@@ -17,6 +17,7 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use tiledlight_cull::brdf::Surface;
 use tiledlight_cull::light::{Light, LightKind};
+use tiledlight_cull::light_tree::LightTree;
 use tiledlight_cull::raycast::Triangles;
 use tiledlight_cull::stochastic::{
     estimate, luminance, rand01, reaches, resample, resample_near_far, unshadowed, Reservoir,
@@ -232,15 +233,20 @@ fn near_and_far_candidates_converge_to_the_truth() {
         near_share > pixels.len() && near_share < pixels.len() * lights.len() / 2,
         "both sources are exercised ({near_share} near pairs)"
     );
-    let near_far = |m: (u32, u32)| {
-        let (bvh, lights) = (&bvh, &lights);
+    let tree = LightTree::build(&lights);
+    let near_far_from = |m: (u32, u32), from_tree: bool| {
+        let (bvh, lights, tree) = (&bvh, &lights, from_tree.then_some(&tree));
         move |i: u32, px: &Pixel, f: u32| {
             let at = (px.p, px.n, px.v);
-            let r = resample_near_far(lights, &list_of(lights, px), at, &px.s, m, (i, f));
+            let r = resample_near_far(lights, &list_of(lights, px), at, &px.s, m, (i, f), tree);
             luminance(estimate(lights, &r, at, &px.s, false, |l| visible(bvh, px, &lights[l as usize])))
         }
     };
+    let near_far = |m: (u32, u32)| near_far_from(m, false);
     unbiased("near 4 + far 2", (&bvh, &lights, &pixels), false, FRAMES, near_far((4, 2))).unwrap();
+    // The far candidates from the light tree: unbiased too.
+    unbiased("near 4 + far 2, light tree", (&bvh, &lights, &pixels), false, FRAMES, near_far_from((4, 2), true))
+        .unwrap();
     // No far candidates: the near lights' truth (unwindowed), nothing of the far ones.
     let near_only: Vec<Vec<Light>> = pixels
         .iter()

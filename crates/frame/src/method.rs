@@ -35,6 +35,10 @@ pub trait MethodFrame: Any {
     /// The lights or the scene changed between frames: what the method kept of earlier
     /// frames no longer holds (the stochastic method's history); nothing by default.
     fn scene_changed(&self) {}
+    /// The lights moved or changed (the same count, `lights` as now uploaded): what the
+    /// method built from them is brought up to date (the stochastic method's light tree);
+    /// nothing by default.
+    fn lights_changed(&self, _queue: &wgpu::Queue, _lights: &tiledlight_cull::light::PackedLights) {}
     /// The opaque light grid the method shades with (tiled methods).
     fn lists(&self) -> Option<Lists<'_>>;
     /// Grows that grid's index buffer to `capacity` and rebinds it wherever the method reads

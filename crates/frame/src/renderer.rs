@@ -219,6 +219,7 @@ impl FrameRenderer {
     /// that moved, and the stochastic method starts its history again.
     pub fn lights_moved(&self, queue: &wgpu::Queue, lights: &PackedLights) -> Result<(), GpuError> {
         self.restart_history();
+        self.method.lights_changed(queue, lights);
         let Some(atlas) = &self.shared.shadows else { return Ok(()) };
         atlas.update(queue, &self.shared.views, lights)?;
         if let Some(v) = &self.shared.vpls {

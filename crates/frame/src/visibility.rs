@@ -337,6 +337,10 @@ impl MethodFrame for VisibilityFrame {
         }
     }
 
+    fn lights_changed(&self, queue: &wgpu::Queue, lights: &tiledlight_cull::light::PackedLights) {
+        self.shading.refit_light_tree(queue, lights);
+    }
+
     fn lists(&self) -> Option<Lists<'_>> {
         self.culling.as_ref().map(|c| Lists { grid: &c.grid })
     }

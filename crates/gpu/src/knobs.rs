@@ -483,6 +483,18 @@ knobs! {
     "far-candidates", "far candidates a pixel", "M", Control::Slider(0.0, 64.0), applies(|m| m.stochastic),
     check(|v| if v <= 4096 { Ok(()) } else { Err("must be at most 4096".into()) });
 
+    /// The stochastic method's far candidates drawn from a light tree over every light (in
+    /// proportion to each light's power over its distance, the lights whose radius reaches
+    /// the pixel left to its list; `tiledlight_cull::light_tree`): where thousands of lights
+    /// lie beyond the radii (the million preset, low thresholds) uniform draws rarely find
+    /// the few that matter. Off: uniform over every light, cheaper (no descent; on
+    /// lavapipe's courtyard with 256 lights the tree took FLIP after 8 frames 0.196 ->
+    /// 0.186 for 1.7x the CPU time, docs/ACCURACY.md); its GPU cost is not measured yet,
+    /// so it is off by default: measure it on your scene (`--axis light-tree=off,on`).
+    light_tree: bool = false;
+    "light-tree", "far candidates from a light tree", "on|off", Control::Checkbox, applies(|m| m.stochastic),
+    check(no_check);
+
     /// The stochastic method's spatial reuse: neighbours whose reservoirs each pixel
     /// merges with its own (drawn from the 31x31-pixel box around it, those whose surface
     /// turns less than 25 degrees and whose distance differs by less than 10%), each

@@ -127,7 +127,15 @@ pub const VISIBILITY_GROUP: &[Binding] = &[
     Binding::storage_rw(41, CS).when(Cond::Defined(Define::Denoise)),
     Binding::storage_rw(42, CS).when(Cond::Defined(Define::Reuse)),
     Binding::storage_rw(43, CS).when(Cond::Defined(Define::Reuse)),
+    Binding::storage(44, CS).when(Cond::Defined(Define::Stochastic)),
 ];
+
+/// The lights as the light tree sees them (`tiledlight_cull::light_tree::TreeLight`): the
+/// shading records' position, the luminance of their radiance, their radius.
+fn tree_lights(packed: &tiledlight_cull::light::PackedLights) -> Vec<tiledlight_cull::light_tree::TreeLight> {
+    let luminance = tiledlight_cull::stochastic::luminance;
+    packed.shading.iter().map(|s| (s.position.into(), luminance(s.radiance.into()), s.radius)).collect()
+}
 
 /// Bytes of the temporal history's header (`ReuseHistory::view` in
 /// `shaders/common/stochastic_shade.wgsl`: the previous frame's view) before its records.
@@ -238,6 +246,12 @@ struct Traced {
     /// The temporal reuse's history (`--temporal N` > 0): the previous frame's view
     /// ([`HISTORY_HEADER`] bytes), then each pixel's final record.
     history_records: Option<wgpu::Buffer>,
+    /// The light tree the far candidates are drawn from (`--far-candidates` > 0 and some
+    /// lights; `tiledlight_cull::light_tree`), else one zero node, never read (the binding
+    /// needs a buffer of one node at least).
+    light_tree: wgpu::Buffer,
+    /// The tree's shape, refitted when the lights move (None: the placeholder).
+    tree: std::cell::RefCell<Option<tiledlight_cull::light_tree::LightTree>>,
     /// The view of the frame the history holds (None before the first frame).
     previous_view: std::cell::Cell<Option<tiledlight_gpu::view::ViewUniforms>>,
     /// The sampling run (`REUSE_PASS` 0) of the pass with spatial reuse; the pass's
@@ -460,6 +474,24 @@ impl VisibilityShading {
                         wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
                     buffer_zeroed(device, "stochastic.temporal.history", bytes, usage)
                 });
+                let tree = (stochastic
+                    && features.knobs.light_tree
+                    && features.knobs.far_candidates > 0
+                    && !lights.packed.is_empty())
+                .then(|| tiledlight_cull::light_tree::LightTree::from_points(&tree_lights(&lights.packed)));
+                let light_tree = match &tree {
+                    Some(t) => {
+                        let bytes: &[u8] = bytemuck::cast_slice(&t.nodes);
+                        memory.add("stochastic.light_tree", bytes.len() as u64);
+                        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+                        buffer_init(device, "stochastic.light_tree", bytes, usage)
+                    }
+                    None => {
+                        let node = std::mem::size_of::<tiledlight_cull::light_tree::Node>() as u64;
+                        buffer_zeroed(device, "stochastic.light_tree.unused", node, wgpu::BufferUsages::STORAGE)
+                    }
+                };
+                let tree = std::cell::RefCell::new(tree);
                 let label = if stochastic { "stochastic.shade" } else { "traced.shade" };
                 let previous_view = std::cell::Cell::new(None);
                 Some(Traced {
@@ -471,6 +503,8 @@ impl VisibilityShading {
                     guide,
                     records,
                     history_records,
+                    light_tree,
+                    tree,
                     previous_view,
                     sample: None,
                     label,
@@ -489,6 +523,7 @@ impl VisibilityShading {
             bind.push(buffer_entry(39, &t.stats));
             if let Some(h) = &t.history {
                 bind.push(buffer_entry(40, h));
+                bind.push(buffer_entry(44, &t.light_tree));
             }
             if let Some(g) = &t.guide {
                 bind.push(buffer_entry(41, g));
@@ -556,6 +591,8 @@ impl VisibilityShading {
                 ]);
                 if stochastic {
                     constants.push(("DEMOD_FLOOR", f64::from(tiledlight_cull::denoise::DEMOD_FLOOR)));
+                    let from_tree = traced_state.as_ref().is_some_and(|t| t.tree.borrow().is_some());
+                    constants.push(("FAR_FROM_TREE", f64::from(u32::from(from_tree))));
                 }
                 let label = if stochastic { "stochastic.shade" } else { "traced.shade" };
                 let mut layouts = vec![&views.layout, &layout, texture_layout];
@@ -751,6 +788,17 @@ impl VisibilityShading {
         }
         let words = [p.frame, p.candidates, p.accumulated, p.far_candidates, u32::from(previous.is_some())];
         queue.write_buffer(&t.bands_buffer, 4, bytemuck::cast_slice(&words));
+    }
+
+    /// Refits the stochastic method's light tree to `lights` (moved or changed, the same
+    /// count) and uploads it; nothing without a tree.
+    pub fn refit_light_tree(&self, queue: &wgpu::Queue, lights: &tiledlight_cull::light::PackedLights) {
+        let Some(t) = &self.traced else { return };
+        let mut tree = t.tree.borrow_mut();
+        if let Some(tree) = tree.as_mut().filter(|tree| tree.nodes.len() + 1 == 2 * lights.len()) {
+            tree.refit(&tree_lights(lights));
+            queue.write_buffer(&t.light_tree, 0, bytemuck::cast_slice(&tree.nodes));
+        }
     }
 
     /// The stochastic method's history (`[f32; 4]` a pixel: the mean light, the mean
