@@ -373,6 +373,37 @@ mod tests {
             .all(|l| t.pdf(p, l, reaches) > 0.0 || ls[l as usize].intensity == 0.0));
     }
 
+    /// A refit of moved lights keeps the shape and brings every node up to date: each leaf
+    /// holds its light's position, power and radius, each inner node its children's union,
+    /// sum and smallest radius; the probabilities still add up.
+    #[test]
+    fn a_refit_follows_the_lights() {
+        let mut ls = lights(100);
+        let mut t = LightTree::build(&ls);
+        let links: Vec<u32> = t.nodes.iter().map(|n| n.link).collect();
+        for (i, l) in ls.iter_mut().enumerate() {
+            l.position += Vec3::new(0.5, -0.25, i as f32 * 0.01);
+            l.radius = 0.5 + (i % 5) as f32;
+            l.intensity *= 2.0;
+        }
+        let moved: Vec<TreeLight> = ls.iter().map(|l| (l.position, power(l), l.radius)).collect();
+        t.refit(&moved);
+        assert_eq!(t.nodes.iter().map(|n| n.link).collect::<Vec<_>>(), links, "the shape changed");
+        for n in &t.nodes {
+            if n.link & LEAF != 0 {
+                let (p, w, r) = moved[(n.link & !LEAF) as usize];
+                assert_eq!((Vec3::from(n.min), Vec3::from(n.max), n.power, n.reach), (p, p, w, r));
+                continue;
+            }
+            let (a, b) = (t.nodes[n.link as usize], t.nodes[n.link as usize + 1]);
+            assert_eq!(Vec3::from(n.min), Vec3::from(a.min).min(b.min.into()));
+            assert_eq!(Vec3::from(n.max), Vec3::from(a.max).max(b.max.into()));
+            assert_eq!((n.power, n.reach), (a.power + b.power, a.reach.min(b.reach)));
+        }
+        let total: f32 = (0..100).map(|l| t.pdf(Vec3::ZERO, l, none)).sum();
+        assert!((total - 1.0).abs() < 1e-4);
+    }
+
     /// The level numbers are uniform, differ by level, draw and pixel.
     #[test]
     fn level_numbers_are_uniform_and_independent() {
