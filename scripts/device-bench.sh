@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced stochastic denoise reuse temporal error-time casters casters-curve ranking materials surface-edges stage-lights big-scene
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced stochastic denoise reuse temporal light-tree error-time casters casters-curve ranking materials surface-edges stage-lights big-scene
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -249,6 +249,24 @@ for set in $sets; do
       run "den-court-1024-d$d" 50 --lights 1024 --method stochastic --denoise $d
     done
     run_stochastic_accuracy den-acc --axis denoise=0,2,4 --axis accumulate=64,0
+    ;;
+  light-tree)
+    # Issue 48 item 1: the far candidates from the light tree against uniform draws: frame
+    # time on the Figure 9 scene (4,096 lights) and the million preset (must hold: 8 ms),
+    # then the error after 8 frames on the Figure 9 scene at the default threshold and the
+    # budget's 0.0015. Printouts and CSVs: $out/lt-*.
+    for t in off on; do
+      flag=()
+      [ "$t" = on ] && flag=(--light-tree)
+      run "lt-f9-4096-$t" 30 --lights 4096 --grid-objects 280 --density medium --method stochastic "${flag[@]}"
+      run "lt-mp-$t" 10 --light-preset million --method stochastic --assign scatter "${flag[@]}"
+    done
+    echo "== lt-acc-f9" | tee -a "$out/log.txt"
+    timeout 200 "$bin" accuracy --width 1920 --height 1080 --lights 4096 --grid-objects 280 --density medium \
+      --reference traced --frames 8 --warmup 1 --reference-frames 1 --axis method=stochastic --axis culling=planes \
+      --axis threshold=0.1,0.0015 --axis light-tree=off,on --axis denoise=4,0 --out /tmp/lt-acc/acc.csv >"$out/lt-acc-f9.txt" 2>&1
+    echo "exit $?" >>"$out/lt-acc-f9.txt"
+    cp /tmp/lt-acc/acc.csv "$out/lt-acc-f9.csv" 2>/dev/null
     ;;
   temporal)
     # Issue 48's temporal reuse: the stochastic method after 8 frames of a still camera
