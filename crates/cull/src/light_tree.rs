@@ -239,6 +239,12 @@ impl LightTree {
     }
 }
 
+impl crate::stochastic::FarSource for LightTree {
+    fn draw(&self, p: Vec3, draws: (u32, u32, u32), reaches: &dyn Fn(u32, Vec3) -> bool) -> Option<(u32, f32)> {
+        self.sample(p, draws, reaches)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

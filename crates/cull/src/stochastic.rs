@@ -162,9 +162,9 @@ pub fn reaches(light: &Light, p: Vec3) -> bool {
 /// the far lights' share (beyond the radius: what the cutoff drops) is still sampled;
 /// `m_far = 0` drops it (the cutoff's bias). Draw `k` (near first, then far) uses
 /// `rand01(pixel, frame, 2k)` to pick and `2k + 1` to resample. With `tree` the far
-/// candidates are drawn from it (`crate::light_tree`: in proportion to each light's power
-/// over its distance, draw `2k`'s level numbers), weighed by one over their probability;
-/// without, uniformly from every light.
+/// candidates are drawn from it (a [`FarSource`]: the light tree draws in proportion to
+/// each light's power over its distance, with draw `2k`'s level numbers), weighed by one
+/// over their probability; without, uniformly from every light.
 pub fn resample_near_far(
     lights: &[Light],
     list: &[u32],
@@ -172,7 +172,7 @@ pub fn resample_near_far(
     s: &Surface,
     (m_near, m_far): (u32, u32),
     (pixel, frame): (u32, u32),
-    tree: Option<&crate::light_tree::LightTree>,
+    tree: Option<&dyn FarSource>,
 ) -> Reservoir {
     let mut r = Reservoir::default();
     let m_near = if list.is_empty() { 0 } else { m_near };
@@ -186,11 +186,12 @@ pub fn resample_near_far(
             let (light, inv_q) = match (near, tree) {
                 (true, _) => (list[i as usize], count as f32),
                 (false, None) => (i, count as f32),
-                (false, Some(t)) => match t.sample(p, (pixel, frame, 2 * draw), |l, q| reaches(&lights[l as usize], q))
-                {
-                    Some((l, q)) if q > 0.0 => (l, 1.0 / q),
-                    _ => (0, 0.0),
-                },
+                (false, Some(t)) => {
+                    match t.draw(p, (pixel, frame, 2 * draw), &|l, q| reaches(&lights[l as usize], q)) {
+                        Some((l, q)) if q > 0.0 => (l, 1.0 / q),
+                        _ => (0, 0.0),
+                    }
+                }
             };
             let l = &lights[light as usize];
             let p_hat =
@@ -200,6 +201,14 @@ pub fn resample_near_far(
         }
     }
     r
+}
+
+/// A source of far candidates other than uniform draws (`crate::light_tree::LightTree`):
+/// a light and its probability at point `p`, drawn with the numbers of draw `draw` of
+/// `pixel` in `frame`, the lights that `reaches(light, p)` (the list's) left out.
+pub trait FarSource {
+    /// One draw; None when the source has no light to give.
+    fn draw(&self, p: Vec3, draws: (u32, u32, u32), reaches: &dyn Fn(u32, Vec3) -> bool) -> Option<(u32, f32)>;
 }
 
 /// Step 4: the pixel's light from reservoir `r`, `f(y) V(y) W`, with `visible(light)` the

@@ -20,7 +20,7 @@ use tiledlight_cull::light::{Light, LightKind};
 use tiledlight_cull::light_tree::LightTree;
 use tiledlight_cull::raycast::Triangles;
 use tiledlight_cull::stochastic::{
-    estimate, luminance, rand01, reaches, resample, resample_near_far, unshadowed, Reservoir,
+    estimate, luminance, rand01, reaches, resample, resample_near_far, unshadowed, FarSource, Reservoir,
 };
 
 /// A surface point: position, normal, direction to the eye, material.
@@ -235,7 +235,7 @@ fn near_and_far_candidates_converge_to_the_truth() {
     );
     let tree = LightTree::build(&lights);
     let near_far_from = |m: (u32, u32), from_tree: bool| {
-        let (bvh, lights, tree) = (&bvh, &lights, from_tree.then_some(&tree));
+        let (bvh, lights, tree) = (&bvh, &lights, from_tree.then_some(&tree as &dyn FarSource));
         move |i: u32, px: &Pixel, f: u32| {
             let at = (px.p, px.n, px.v);
             let r = resample_near_far(lights, &list_of(lights, px), at, &px.s, m, (i, f), tree);
