@@ -729,7 +729,7 @@ fn tree_lights() -> Vec<tiledlight_cull::light_tree::TreeLight> {
 /// GPU's), and the smallest distance of a choice's number from its share.
 fn tree_twin(t: &tiledlight_cull::light_tree::LightTree, i: u32, shift: u32) -> (u32, f32, f32) {
     use tiledlight_cull::light_tree::{child_importance, first_share, level_rand, LEAF};
-    let reaches = |l: u32, _: Vec3| l % 3 == 0;
+    let reaches = |l: u32, _: Vec3| l.is_multiple_of(3);
     let p = tree_point(i);
     let (mut node, mut pdf, mut margin) = (t.nodes[0], 1.0f32, f32::INFINITY);
     for level in 0.. {
