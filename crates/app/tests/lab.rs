@@ -777,37 +777,13 @@ fn tune_holds_the_budget_from_every_bookmark() {
 fn the_stochastic_history_holds_the_measured_frames_alone() {
     let dir = scratch("lab-stochastic-warmup");
     let csv = dir.join("warmup.csv");
-    let args = [
-        "accuracy",
-        "--lights",
-        "12",
-        "--reference",
-        "traced",
-        "--reference-frames",
-        "1",
-        "--method",
-        "stochastic",
-        "--axis",
-        "threshold=0.02",
-        "--axis",
-        "accumulate=64,0",
-        "--axis",
-        "denoise=0",
-        "--axis",
-        "culling=planes",
-        "--width",
-        "160",
-        "--height",
-        "96",
-        "--frames",
-        "1",
-        "--warmup",
-        "3",
-        "--exposure",
-        "1",
-        "--out",
-        csv.to_str().unwrap(),
-    ];
+    // The stochastic method at 160x96 with 12 lights against the truth, one measured frame.
+    let mut args: Vec<&str> = "accuracy --lights 12 --reference traced --reference-frames 1 --method stochastic \
+        --axis threshold=0.02 --axis accumulate=64,0 --axis denoise=0 --axis culling=planes --width 160 --height 96 \
+        --frames 1 --warmup 3 --exposure 1 --out"
+        .split_whitespace()
+        .collect();
+    args.push(csv.to_str().unwrap());
     gpu_run(&args);
     let (_, rows) = read_csv(&csv);
     let at = |acc: &str| num(rows.iter().find(|r| r["accumulate"] == acc).expect("row"), "flip_mean");
