@@ -262,9 +262,13 @@ fn the_light_tree_keeps_the_far_source_unbiased_and_follows_moved_lights() {
     let mut s = FrameSettings::of(Method::Stochastic);
     (s.knobs.candidates, s.knobs.far_candidates, s.knobs.accumulate, s.knobs.denoise, s.knobs.temporal) =
         (1, 4, 0, 0, 0);
+    let uniform_frame =
+        frame(ctx, &mut FrameRenderer::new(ctx, &f.scene, &f.lights, W, H, s.clone()).expect("renderer"), &f, &cam);
     s.knobs.light_tree = true;
     let mut r = FrameRenderer::new(ctx, &f.scene, &f.lights, W, H, s).expect("renderer");
     let truth = frame(ctx, &mut renderer(ctx, &f, Method::TRUTH, (1, 0)), &f, &cam);
+    // The tree draws other lights than the uniform source with the same numbers.
+    assert_ne!(frame(ctx, &mut r, &f, &cam), uniform_frame, "--light-tree drew as the uniform source");
     let frames: Vec<Vec<f64>> = (0..FRAMES).map(|_| frame(ctx, &mut r, &f, &cam)).collect();
     let z = unbiased_within(&Moments::of(&frames), &truth).unwrap_or_else(|e| panic!("the light tree is biased: {e}"));
     eprintln!("light tree: summed error {z:.2} standard errors");
@@ -278,6 +282,16 @@ fn the_light_tree_keeps_the_far_source_unbiased_and_follows_moved_lights() {
         ctx.queue.write_buffer(spots, 0, bytemuck::cast_slice(&new.packed.spots));
     }
     r.lights_moved(&ctx.queue, &new.packed).unwrap();
+    // The tree was refitted: its root holds the moved lights' bounds.
+    let v = r.passes::<tiledlight_frame::visibility::VisibilityFrame>().expect("the visibility frame");
+    let nodes: Vec<tiledlight_cull::light_tree::Node> = tiledlight_gpu::readback::read_buffer(
+        &ctx.device,
+        &ctx.queue,
+        v.shading().stochastic_light_tree().expect("tree"),
+    )
+    .unwrap();
+    let lo = moved.iter().fold(Vec3::splat(f32::INFINITY), |a, l| a.min(l.position));
+    assert_eq!(Vec3::from(nodes[0].min), lo, "the tree was not refitted to the moved lights");
     let g = Fixture { scene: new_scene(ctx, &shadow_box_scene(0.5)), lights: new };
     let truth_moved = frame(ctx, &mut renderer(ctx, &g, Method::TRUTH, (1, 0)), &g, &cam);
     let frames: Vec<Vec<f64>> = (0..FRAMES).map(|_| frame(ctx, &mut r, &f, &cam)).collect();

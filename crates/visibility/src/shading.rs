@@ -483,7 +483,8 @@ impl VisibilityShading {
                     Some(t) => {
                         let bytes: &[u8] = bytemuck::cast_slice(&t.nodes);
                         memory.add("stochastic.light_tree", bytes.len() as u64);
-                        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+                        let usage =
+                            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
                         buffer_init(device, "stochastic.light_tree", bytes, usage)
                     }
                     None => {
@@ -820,6 +821,12 @@ impl VisibilityShading {
     /// [`Self::stochastic_records`] holds them; None without temporal reuse.
     pub fn stochastic_history_records(&self) -> Option<&wgpu::Buffer> {
         self.traced.as_ref()?.history_records.as_ref()
+    }
+
+    /// The stochastic method's light tree (`tiledlight_cull::light_tree::Node`s, the root
+    /// first; one zero node without `--light-tree`); None for the other passes.
+    pub fn stochastic_light_tree(&self) -> Option<&wgpu::Buffer> {
+        self.traced.as_ref().filter(|t| t.history.is_some()).map(|t| &t.light_tree)
     }
 
     /// Bytes before the history's records ([`Self::stochastic_history_records`]).
