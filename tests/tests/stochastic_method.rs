@@ -263,7 +263,7 @@ fn the_light_tree_keeps_the_far_source_unbiased_and_follows_moved_lights() {
     (s.knobs.candidates, s.knobs.far_candidates, s.knobs.accumulate, s.knobs.denoise, s.knobs.temporal) =
         (1, 4, 0, 0, 0);
     let uniform_frame =
-        frame(ctx, &mut FrameRenderer::new(ctx, &f.scene, &f.lights, W, H, s.clone()).expect("renderer"), &f, &cam);
+        frame(ctx, &mut FrameRenderer::new(ctx, &f.scene, &f.lights, W, H, s).expect("renderer"), &f, &cam);
     s.knobs.light_tree = true;
     let mut r = FrameRenderer::new(ctx, &f.scene, &f.lights, W, H, s).expect("renderer");
     let truth = frame(ctx, &mut renderer(ctx, &f, Method::TRUTH, (1, 0)), &f, &cam);
