@@ -248,8 +248,8 @@ struct Traced {
     history_records: Option<wgpu::Buffer>,
     /// The light tree the far candidates are drawn from (`--far-candidates` > 0 and some
     /// lights; `tiledlight_cull::light_tree`), else one zero node, never read (the binding
-    /// needs a buffer of one node at least).
-    light_tree: wgpu::Buffer,
+    /// needs a buffer of one node at least); None for the traced reference.
+    light_tree: Option<wgpu::Buffer>,
     /// The tree's shape, refitted when the lights move (None: the placeholder).
     tree: std::cell::RefCell<Option<tiledlight_cull::light_tree::LightTree>>,
     /// The view of the frame the history holds (None before the first frame).
@@ -479,7 +479,7 @@ impl VisibilityShading {
                     && features.knobs.far_candidates > 0
                     && !lights.packed.is_empty())
                 .then(|| tiledlight_cull::light_tree::LightTree::from_points(&tree_lights(&lights.packed)));
-                let light_tree = match &tree {
+                let light_tree = stochastic.then(|| match &tree {
                     Some(t) => {
                         let bytes: &[u8] = bytemuck::cast_slice(&t.nodes);
                         memory.add("stochastic.light_tree", bytes.len() as u64);
@@ -491,7 +491,7 @@ impl VisibilityShading {
                         let node = std::mem::size_of::<tiledlight_cull::light_tree::Node>() as u64;
                         buffer_zeroed(device, "stochastic.light_tree.unused", node, wgpu::BufferUsages::STORAGE)
                     }
-                };
+                });
                 let tree = std::cell::RefCell::new(tree);
                 let label = if stochastic { "stochastic.shade" } else { "traced.shade" };
                 let previous_view = std::cell::Cell::new(None);
@@ -524,7 +524,9 @@ impl VisibilityShading {
             bind.push(buffer_entry(39, &t.stats));
             if let Some(h) = &t.history {
                 bind.push(buffer_entry(40, h));
-                bind.push(buffer_entry(44, &t.light_tree));
+                if let Some(tree) = &t.light_tree {
+                    bind.push(buffer_entry(44, tree));
+                }
             }
             if let Some(g) = &t.guide {
                 bind.push(buffer_entry(41, g));
@@ -798,7 +800,9 @@ impl VisibilityShading {
         let mut tree = t.tree.borrow_mut();
         if let Some(tree) = tree.as_mut().filter(|tree| tree.nodes.len() + 1 == 2 * lights.len()) {
             tree.refit(&tree_lights(lights));
-            queue.write_buffer(&t.light_tree, 0, bytemuck::cast_slice(&tree.nodes));
+            if let Some(buffer) = &t.light_tree {
+                queue.write_buffer(buffer, 0, bytemuck::cast_slice(&tree.nodes));
+            }
         }
     }
 
@@ -826,7 +830,7 @@ impl VisibilityShading {
     /// The stochastic method's light tree (`tiledlight_cull::light_tree::Node`s, the root
     /// first; one zero node without `--light-tree`); None for the other passes.
     pub fn stochastic_light_tree(&self) -> Option<&wgpu::Buffer> {
-        self.traced.as_ref().filter(|t| t.history.is_some()).map(|t| &t.light_tree)
+        self.traced.as_ref()?.light_tree.as_ref()
     }
 
     /// Bytes before the history's records ([`Self::stochastic_history_records`]).
