@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced stochastic denoise reuse temporal light-tree error-time casters casters-curve ranking materials surface-edges stage-lights big-scene
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced stochastic denoise reuse temporal light-tree million-truth error-time casters casters-curve ranking materials surface-edges stage-lights big-scene
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -267,6 +267,38 @@ for set in $sets; do
       --axis threshold=0.1,0.0015 --axis light-tree=off,on --axis denoise=4,0 --out /tmp/lt-acc/acc.csv >"$out/lt-acc-f9.txt" 2>&1
     echo "exit $?" >>"$out/lt-acc-f9.txt"
     cp /tmp/lt-acc/acc.csv "$out/lt-acc-f9.csv" 2>/dev/null
+    ;;
+  million-truth)
+    # Issue 48: the million preset's error with every light shadowed, against the traced
+    # truth (10^12 shadow rays at 1080p: minutes). First the truth's time at 192x108 (its
+    # rate), then the stochastic method with uniform far candidates and with the light
+    # tree, 8 frames of a still camera, the denoiser on and off, at MT_SIZE (WIDTHxHEIGHT)
+    # or else the largest of 1920x1080, 1280x720, 960x540, 640x360 whose truth the probe's
+    # rate puts under MT_BUDGET_S seconds (default 330). The truth is kept in
+    # $out/refcache (--reference-cache): carried back as .device/refcache, the next run
+    # reads it instead of tracing again.
+    echo "== mt-probe: the truth at 192x108" | tee -a "$out/log.txt"
+    timeout 300 "$bin" bench --width 192 --height 108 --frames 1 --warmup 0 --json "$out/mt-probe.json" \
+      --light-preset million --method traced-reference 2>&1 | tee "$out/mt-probe.txt" | tee -a "$out/log.txt" \
+      | grep -E "^(traced|total|error)"
+    probe_ms=$(awk '/^total GPU/ {print $3; exit}' "$out/mt-probe.txt")
+    size=${MT_SIZE:-}
+    if [ -z "$size" ]; then
+      size=$(awk -v t="${probe_ms:-0}" -v b="${MT_BUDGET_S:-330}" 'BEGIN {
+        split("1920x1080 1280x720 960x540 640x360", s, " ");
+        for (i = 1; i <= 4; i++) { split(s[i], wh, "x"); if (t > 0 && t * wh[1] * wh[2] / 20736 <= b * 1000) { print s[i]; exit } }
+        print "640x360" }')
+    fi
+    echo "probe ${probe_ms:-?} ms at 192x108: the accuracy run at $size" | tee -a "$out/log.txt"
+    mkdir -p "$out/refcache"
+    [ -d .device/refcache ] && cp -n .device/refcache/* "$out/refcache/" 2>/dev/null
+    echo "== mt-acc-$size" | tee -a "$out/log.txt"
+    timeout "${MT_TIMEOUT:-560}" "$bin" accuracy --width "${size%x*}" --height "${size#*x}" --light-preset million \
+      --assign scatter --reference traced --reference-cache "$out/refcache" --frames 8 --warmup 1 \
+      --reference-frames 1 --axis method=stochastic --axis culling=planes --axis light-tree=off,on \
+      --axis denoise=4,0 --out "/tmp/mt-acc/acc.csv" >"$out/mt-acc-$size.txt" 2>&1
+    echo "exit $?" >>"$out/mt-acc-$size.txt"
+    cp /tmp/mt-acc/acc.csv "$out/mt-acc-$size.csv" 2>/dev/null
     ;;
   temporal)
     # Issue 48's temporal reuse: the stochastic method after 8 frames of a still camera

@@ -139,6 +139,12 @@ pub struct AccuracyArgs {
     /// again each frame; `--temporal N` reuses reservoirs across the move). 0: still.
     #[arg(long, default_value_t = 0.0, value_name = "DEG", allow_negative_numbers = true)]
     pub camera_orbit: f32,
+    /// Keep references on disk in DIR: a reference an earlier run rendered with the same
+    /// scene, lights, screen and shaders is read from there instead of rendered again (the
+    /// traced truth of a million lights takes minutes). Clear DIR after changing the code
+    /// that places lights or builds the scene.
+    #[arg(long, value_name = "DIR")]
+    pub reference_cache: Option<PathBuf>,
     /// The reference: `no-cutoff` (brute force, plain inverse-square: what the radius
     /// cutoff costs is part of the error) or `cutoff` (brute force with the same radii:
     /// the error is only what the method's other approximations cost, e.g. the G-buffer's
@@ -195,6 +201,7 @@ impl AccuracyArgs {
             warmup: self.warmup,
             reference_frames: self.reference_frames,
             camera_orbit: self.camera_orbit,
+            reference_cache: self.reference_cache.clone(),
             reference: match self.reference {
                 ReferenceArg::NoCutoff => ReferenceKind::NoCutoff,
                 ReferenceArg::Cutoff => ReferenceKind::Cutoff,

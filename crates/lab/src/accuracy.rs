@@ -63,6 +63,7 @@ use crate::axes::{self, Axis, Flags, ResumableCsv};
 use crate::bench::{self, MAX_FRAMES};
 use crate::chart::{self, ParetoChart, ParetoPoint};
 use crate::dropped;
+use crate::reference_cache::{hash_parts, shader_fingerprint, CachedReference, ReferenceCache};
 use crate::worst;
 
 /// The settings measured when no `--axis` is given: thirteen thresholds, about halving
@@ -93,6 +94,9 @@ pub struct Accuracy {
     /// Degrees a frame the camera orbits the scene's vertical axis through the measured
     /// frames, ending at the view the reference shows (0: a still camera).
     pub camera_orbit: f32,
+    /// A directory of references kept on disk ([`crate::reference_cache`]): each one is
+    /// read from there if an earlier run rendered it, else rendered and stored.
+    pub reference_cache: Option<PathBuf>,
     /// The reference's radius cutoff.
     pub reference: ReferenceKind,
     /// With VPLs, the RSM size of the reference.
@@ -467,12 +471,15 @@ fn reference_vpl(a: &Settings, vpl_ref: VplReference) -> Option<tiledlight_cull:
     })
 }
 
+/// Renders the reference of `point_args`, or reads it from `cache` (then the second value
+/// is the file it came from); a rendered one is stored there.
 fn render_reference(
     prep: &mut Prepared,
     point_args: &Settings,
     (reference, vpl_ref): (ReferenceKind, VplReference),
     frames: u32,
-) -> Result<Reference> {
+    cache: Option<&ReferenceCache>,
+) -> Result<(Reference, Option<PathBuf>)> {
     let method = match reference {
         ReferenceKind::NoCutoff => Method::BruteForce { cutoff: false },
         ReferenceKind::Cutoff => Method::BruteForce { cutoff: true },
@@ -482,13 +489,57 @@ fn render_reference(
     // the setting's blend mode.
     let settings = Settings { method, vpl: reference_vpl(point_args, vpl_ref), ..sorted(point_args) };
     prep.reconfigure(&settings)?;
+    let disk_key = cache.map(|_| cache_key(prep, &reference_key(point_args, reference, vpl_ref), reference));
+    if let (Some(c), Some(key)) = (cache, &disk_key) {
+        if let Some(r) = c.load(key)? {
+            let CachedReference { exposure, hdr, ldr, total_ms, passes, .. } = r;
+            return Ok((Reference { exposure, hdr, ldr, total_ms, passes }, Some(c.path(key))));
+        }
+    }
     let mut r = prep.renderer(false)?;
-    let m = bench::measure(prep, &mut r, 1, frames).context("rendering the brute-force reference")?;
+    // No warm-up frame for the traced truth: a frame of seconds (minutes with a million
+    // lights) needs no clocks brought up, and rendering it twice would double the wait.
+    let warmup = u32::from(reference != ReferenceKind::Traced);
+    let m = bench::measure(prep, &mut r, warmup, frames).context("rendering the brute-force reference")?;
     let (total_ms, passes) = pass_times(&m)?;
     let hdr = r.read_hdr(&prep.ctx).context("reading the reference back")?;
     let ldr = r.read_ldr(&prep.ctx).context("reading the reference back")?;
     let exposure = r.auto_exposure(&prep.ctx).context("reading the reference's exposure back")?;
-    Ok(Reference { exposure, hdr, ldr, total_ms, passes })
+    let reference = Reference { exposure, hdr, ldr, total_ms, passes };
+    if let (Some(c), Some(key)) = (cache, &disk_key) {
+        let (width, height) = (settings.width, settings.height);
+        let Reference { exposure, hdr, ldr, total_ms, passes } = &reference;
+        let cached = CachedReference {
+            width,
+            height,
+            exposure: *exposure,
+            hdr: hdr.clone(),
+            ldr: ldr.clone(),
+            total_ms: *total_ms,
+            passes: passes.clone(),
+        };
+        c.store(key, &cached)?;
+    }
+    Ok((reference, None))
+}
+
+/// The key a reference is kept on disk by ([`crate::reference_cache`], step 1), with the
+/// reference's settings in `prep`: its in-memory key, its kind, the prepared scene's and
+/// lights' description, the packed lights' hash and the shaders' fingerprint.
+fn cache_key(prep: &Prepared, rkey: &str, kind: ReferenceKind) -> String {
+    let described = prep.describe().into_iter().filter(|(k, _)| k == "scene" || k == "lights");
+    let described: Vec<String> = described.map(|(k, v)| format!("{k}: {v}")).collect();
+    let p = &prep.lights.packed;
+    let lights = hash_parts([
+        bytemuck::cast_slice::<_, u8>(&p.cull),
+        bytemuck::cast_slice(&p.shading),
+        bytemuck::cast_slice(&p.spots),
+    ]);
+    format!(
+        "{kind:?}|{rkey}|{}|lights {lights:016x}|shaders {:016x}",
+        described.join("; "),
+        shader_fingerprint()
+    )
 }
 
 /// What the reference of a setting with VPLs sums, for the lab's output: "VPLs: every
@@ -746,11 +797,14 @@ fn measure_setting(
         };
         let rkey = reference_key(pargs, args.reference, args.vpl_reference_rsm);
         if !references.contains_key(&rkey) {
-            let r = render_reference(p, pargs, (args.reference, args.vpl_reference_rsm), args.reference_frames)
+            let cache = args.reference_cache.as_deref().map(ReferenceCache::new);
+            let refs = (args.reference, args.vpl_reference_rsm);
+            let (r, from) = render_reference(p, pargs, refs, args.reference_frames, cache.as_ref())
                 .with_context(|| format!("{what}: reference"))?;
             let kind = reference_kind(args.reference);
             let vpls = reference_vpl_line(pargs, args.vpl_reference_rsm).map(|l| format!("; {l}")).unwrap_or_default();
-            axes::say(pb, format!("reference ({kind}{vpls}): {:.3} ms", r.total_ms));
+            let from = from.map(|f| format!(" when it was rendered; read from {}", f.display())).unwrap_or_default();
+            axes::say(pb, format!("reference ({kind}{vpls}): {:.3} ms{from}", r.total_ms));
             references.insert(rkey.clone(), r);
         }
         let reference = &references[&rkey];

@@ -14,6 +14,7 @@
 //! - [`chart`] (line, bar and Pareto charts), [`legend`] (the heat map's legend);
 //! - [`dropped`]: accounting of the work a full light grid dropped, and the warnings;
 //! - [`tune`]: the fastest setting within an error budget (`tiledlight tune`);
+//! - [`reference_cache`]: references kept on disk (`accuracy --reference-cache`);
 //! - [`worst`]: a setting's worst pixel explained (where, both values, its largest lights);
 //! - [`output`]: one-line messages, load warnings and PNG output.
 //!
@@ -36,6 +37,7 @@ pub mod dropped;
 pub mod legend;
 pub mod output;
 pub mod peer_report;
+pub mod reference_cache;
 pub mod shadow_accuracy;
 pub mod sweep;
 pub mod tune;

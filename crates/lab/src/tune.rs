@@ -254,6 +254,7 @@ pub fn run<F: Flags>(scene: &F, t: &Tune) -> Result<Answer> {
         warmup: t.warmup,
         reference_frames: t.reference_frames,
         camera_orbit: 0.0,
+        reference_cache: None,
         reference: ReferenceKind::Traced,
         vpl_reference_rsm: VplReference::Scale(1),
         target_flip: c.flip,
