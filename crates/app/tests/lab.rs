@@ -856,3 +856,50 @@ fn accuracy_measures_the_stochastic_method_and_its_flicker() {
         lost(at("visibility", "64"))
     );
 }
+
+/// `--reference-cache`: a second run reads the truth the first one stored (the same
+/// errors, "read from" said), a truncated file is an error naming it, and a CSV measured
+/// one way is not resumed another way (its `measured` column: frames, camera motion,
+/// reference).
+#[test]
+fn a_cached_reference_is_read_back_and_a_resume_measured_otherwise_is_refused() {
+    let dir = scratch("lab-reference-cache");
+    let cache = dir.join("refs");
+    let run = |csv: &str, frames: &str| -> std::process::Output {
+        let csv = dir.join(csv);
+        let mut args: Vec<&str> = "accuracy --lights 12 --reference traced --reference-frames 1 --method visibility \
+            --axis threshold=0.02 --axis culling=planes --width 160 --height 96 --warmup 0 --exposure 1"
+            .split_whitespace()
+            .collect();
+        args.extend(["--frames", frames, "--reference-cache", cache.to_str().unwrap()]);
+        args.extend(["--out", csv.to_str().unwrap()]);
+        let _gpu = common::gpu_lock();
+        common::tiledlight(&args)
+    };
+    let first = run("a.csv", "1");
+    assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stderr));
+    assert!(!stdout(&first).contains("read from"), "{}", stdout(&first));
+    let files: Vec<_> = std::fs::read_dir(&cache).expect("the cache directory").map(|e| e.unwrap().path()).collect();
+    assert_eq!(files.len(), 1, "{files:?}");
+    let second = run("b.csv", "1");
+    assert!(stdout(&second).contains(&format!("read from {}", files[0].display())), "{}", stdout(&second));
+    let row = |csv: &str| read_csv(&dir.join(csv)).1.remove(0);
+    let (a, b) = (row("a.csv"), row("b.csv"));
+    for c in ["flip_mean", "psnr_db", "energy_lost", "reference_ms"] {
+        assert_eq!(a[c], b[c], "{c}: the cached truth is another image");
+    }
+    assert_eq!(
+        a["measured"],
+        "1 frames after 0 warm-up, a still camera, against traced (no cutoff, a shadow ray per light)"
+    );
+    // Resuming a.csv with 2 frames a point would mix two ways of measuring.
+    let other = run("a.csv", "2");
+    let err = String::from_utf8_lossy(&other.stderr);
+    assert!(!other.status.success() && err.contains("holds points measured with 1 frames"), "{err}");
+    // A cut-off cache file: an error that names it, not a wrong truth.
+    let bytes = std::fs::read(&files[0]).unwrap();
+    std::fs::write(&files[0], &bytes[..bytes.len() / 2]).unwrap();
+    let cut = run("c.csv", "1");
+    let err = String::from_utf8_lossy(&cut.stderr);
+    assert!(!cut.status.success() && err.contains(&files[0].display().to_string()), "{err}");
+}

@@ -53,7 +53,7 @@ use tiledlight_frame::Diagnostics as _;
 use tiledlight_gpu::features::BlendMode;
 use tiledlight_gpu::knobs::Knobs;
 
-use anyhow::{ensure, Context, Result};
+use anyhow::{bail, ensure, Context, Result};
 use tiledlight_cull::reference::{cull_tiles, list_quality, ListQuality};
 use tiledlight_metrics::{flip, HdrError};
 use tiledlight_scene::trace::TraceGeometry;
@@ -165,7 +165,22 @@ pub enum ReferenceKind {
 }
 
 /// The CSV columns before the axes'.
-pub(crate) const HEAD: [&str; 3] = ["adapter", "width", "height"];
+pub(crate) const HEAD: [&str; 4] = ["adapter", "width", "height", "measured"];
+
+/// The `measured` column: how every point of the run was measured (frames, camera
+/// motion, reference), which a resumed CSV must share.
+fn measured(args: &Accuracy) -> String {
+    let motion = match args.camera_orbit {
+        0.0 => "a still camera".to_string(),
+        d => format!("the camera orbiting {d} degrees a frame"),
+    };
+    format!(
+        "{} frames after {} warm-up, {motion}, against {}",
+        args.frames,
+        args.warmup,
+        reference_kind(args.reference)
+    )
+}
 const TAIL: [&str; 37] = [
     "total_ms",
     "passes",
@@ -535,11 +550,7 @@ fn cache_key(prep: &Prepared, rkey: &str, kind: ReferenceKind) -> String {
         bytemuck::cast_slice(&p.shading),
         bytemuck::cast_slice(&p.spots),
     ]);
-    format!(
-        "{kind:?}|{rkey}|{}|lights {lights:016x}|shaders {:016x}",
-        described.join("; "),
-        shader_fingerprint()
-    )
+    format!("{kind:?}|{rkey}|{}|lights {lights:016x}|shaders {:016x}", described.join("; "), shader_fingerprint())
 }
 
 /// What the reference of a setting with VPLs sums, for the lab's output: "VPLs: every
@@ -630,7 +641,7 @@ pub fn run<F: Flags>(scene: &F, args: &Accuracy) -> Result<()> {
     crate::output::check_output_dir("--diff-dir", &diff_dir)?;
 
     let keep_sorted = all_args.iter().any(|a| a.knobs.blend_mode == BlendMode::WeightedOit);
-    let mut session = Session::open(&out, &axes, keep_sorted)?;
+    let mut session = Session::open(&out, &axes, keep_sorted, args)?;
     let pending = points.iter().filter(|p| !session.csv.is_done(p)).count();
     println!(
         "accuracy:   {} settings ({}), {} already in {}",
@@ -707,13 +718,24 @@ pub(crate) struct Session {
 impl Session {
     /// Opens the CSV at `out` for `axes` (resuming what it holds). `keep_sorted`: keep the
     /// sorted frames of sorted points for WBOIT points to compare with.
-    pub(crate) fn open(out: &Path, axes: &[Axis], keep_sorted: bool) -> Result<Self> {
+    /// Rows measured another way than `args` says ([`measured`]) are refused here, before
+    /// anything is measured or skipped.
+    pub(crate) fn open(out: &Path, axes: &[Axis], keep_sorted: bool, args: &Accuracy) -> Result<Self> {
         let head = header(axes);
         let key: Vec<usize> = (HEAD.len()..HEAD.len() + axes.len()).collect();
+        let csv = ResumableCsv::open(out, &head, &key, None)?;
+        if let Some(r) = csv.existing.iter().find(|r| r[3] != measured(args)) {
+            bail!(
+                "{} holds points measured with {}, this run measures {}: choose another output file",
+                out.display(),
+                r[3],
+                measured(args)
+            );
+        }
         Ok(Self {
             prep: None,
             adapter: String::new(),
-            csv: ResumableCsv::open(out, &head, &key, None)?,
+            csv,
             references: HashMap::new(),
             sorted: HashMap::new(),
             heat: HashMap::new(),
@@ -888,7 +910,7 @@ fn measure_setting(
         } else {
             None
         };
-        let mut row = vec![adapter.clone(), pargs.width.to_string(), pargs.height.to_string()];
+        let mut row = vec![adapter.clone(), pargs.width.to_string(), pargs.height.to_string(), measured(args)];
         row.extend(point.iter().cloned());
         let opt = |v: Option<String>| v.unwrap_or_default();
         row.extend([

@@ -282,7 +282,7 @@ pub fn run<F: Flags>(scene: &F, t: &Tune) -> Result<Answer> {
         }
         views.iter().map(|v| p.iter().cloned().chain([v.clone()]).collect()).collect()
     };
-    let mut session = Session::open(&out, &axes_measured, false)?;
+    let mut session = Session::open(&out, &axes_measured, false, &args)?;
     let head = accuracy::header(&axes_measured);
     let by_point = |session: &Session| -> Result<HashMap<Point, HashMap<String, String>>> {
         let rows = session.csv.read_all()?;
