@@ -25,6 +25,12 @@ struct TraceRay {
 
 // Rays cast by this invocation (the kernel sums them for the frame's statistics).
 var<private> trace_ray_count: u32 = 0u;
+// Set when a traversal ended without reaching either of its ends (a hit, or an empty
+// stack): a driver cut the loop short. llvmpipe stops a shader's loops after 65,535
+// iterations in all, counted per group of lanes and shared by every loop of the shader
+// (Mesa's LP_MAX_TGSI_LOOP_ITERATIONS): a pixel's thousand lights times their traversals
+// pass that, and the rays it would still cast would silently see no occluder.
+var<private> trace_cut: bool = false;
 
 fn trace_inv(c: f32) -> f32 {
     // A zero component: a huge finite reciprocal, so (lo - o) * inv is 0, never NaN.
@@ -184,6 +190,8 @@ fn trace_occluded(p0: vec3<f32>, p1: vec3<f32>, eps: f32) -> bool {
     var stack: array<u32, TRACE_STACK>;
     var len = 0u;
     var node = 0u;
+    // The stack ran empty: the only way out of the loop but a hit (trace_cut).
+    var done = false;
     loop {
         let n = trace_nodes[node];
         var next_a = TRACE_NO_CHILD;
@@ -213,11 +221,15 @@ fn trace_occluded(p0: vec3<f32>, p1: vec3<f32>, eps: f32) -> bool {
             node = next_b;
         } else {
             if len == 0u {
-                return false;
+                done = true;
+                break;
             }
             len -= 1u;
             node = stack[len];
         }
+    }
+    if !done {
+        trace_cut = true;
     }
     return false;
 }

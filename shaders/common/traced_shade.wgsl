@@ -44,8 +44,9 @@ struct TracedBand {
     _pad2: u32,
 }
 @group(1) @binding(38) var<uniform> traced_band: TracedBand;
-// Rays cast: low word, high word.
-@group(1) @binding(39) var<storage, read_write> trace_stats: array<atomic<u32>, 2>;
+// Rays cast: low word, high word; then the invocations whose loops a driver cut short
+// (common/trace.wgsl, trace_cut).
+@group(1) @binding(39) var<storage, read_write> trace_stats: array<atomic<u32>, 3>;
 
 var<workgroup> wg_rays: atomic<u32>;
 
@@ -68,8 +69,17 @@ fn shade_lights_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
     }
     let v = view_vector(g.world);
     var color = g.unlit;
-    for (var i = 0u; i < lighting.num_lights; i++) {
+    var i = 0u;
+    loop {
+        if i >= lighting.num_lights {
+            break;
+        }
         color += shade_light(i, g.world, g.normal, v, g.surface);
+        i++;
+    }
+    // Left before the last light: a driver's loop limit (trace_cut).
+    if i < lighting.num_lights {
+        trace_cut = true;
     }
     return color;
 }
@@ -86,6 +96,9 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid
     workgroupBarrier();
     shade_tile_pixels(vec3<u32>(wid.x, wid.y + traced_band.first_row, 0u), lid, lidx);
     atomicAdd(&wg_rays, trace_ray_count);
+    if trace_cut {
+        atomicAdd(&trace_stats[2], 1u);
+    }
     workgroupBarrier();
     if lidx == 0u {
         let n = atomicLoad(&wg_rays);

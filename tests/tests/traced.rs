@@ -838,3 +838,52 @@ fn a_traced_frame_reports_its_bands_in_order() {
     let whole = render(false);
     tiledlight_tests::compare::assert_same_hdr(&banded.hdr, &whole.hdr, W, true, "banded against whole");
 }
+
+/// The open plane lit by `n` lights above it (a frame of `size`): the rays' statistics
+/// and whether the driver let the frame finish.
+fn plane_with_lights(ctx: &GpuContext, n: usize, size: (u32, u32)) -> (u32, Result<(), tiledlight_gpu::GpuError>) {
+    let mut rng = Pcg64::seed_from_u64(48);
+    let lights: Vec<Light> = (0..n)
+        .map(|_| {
+            let p = Vec3::new(rng.random_range(-6.0..6.0), rng.random_range(1.0..3.0), rng.random_range(-6.0..4.0));
+            Light::point(p, Vec3::splat(0.5), 0.001, 0.01).expect("light")
+        })
+        .collect();
+    let scene = scenes::floor_scene(0.5, 0.0, vec![]);
+    let camera = scenes::floor_camera(size.0, size.1);
+    let mut sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    sg.add_trace(&ctx.device, &scene).unwrap();
+    let lb = LightBuffers::new(&ctx.device, &lights).unwrap();
+    let s = FrameSettings { method: Method::TRUTH, ..Default::default() };
+    let mut r = FrameRenderer::new(ctx, &sg, &lb, size.0, size.1, s).expect("traced reference");
+    render_frame(ctx, &mut r, &sg, &camera);
+    let shading = r.passes::<VisibilityFrame>().expect("a visibility frame").shading();
+    let stats = shading.read_traced_stats(&ctx.device, &ctx.queue).unwrap().expect("traced statistics");
+    (stats.cut, r.check_traced_complete(ctx))
+}
+
+/// A traced frame whose loops the driver cut short is refused by name, never shown:
+/// llvmpipe stops a shader's loops after 65,535 iterations in all (Mesa's
+/// LP_MAX_TGSI_LOOP_ITERATIONS, counted per group of lanes), and 40,000 lights over the
+/// open plane (a loop iteration and a traversal step each) pass that in every pixel that
+/// sees the plane. On a
+/// GPU the same frame runs whole. Negative: 1,000 lights run whole everywhere.
+#[test]
+fn a_traced_frame_the_driver_cuts_short_is_refused_by_name() {
+    let ctx = gpu();
+    let (cut, verdict) = plane_with_lights(ctx, 40_000, (32, 18));
+    let llvmpipe = ctx.info.name.contains("llvmpipe");
+    eprintln!("{}: {cut} invocations cut short of 576", ctx.info.name);
+    if llvmpipe {
+        // Every invocation whose pixel sees the floor (410 of 576 with Mesa 22.3.6).
+        assert!(cut * 2 > 576, "llvmpipe cut {cut} invocations: its loop limit is no longer what this test knows");
+        let e = verdict.expect_err("an incomplete frame must be refused").to_string();
+        assert!(e.contains("65,535") && e.contains(&format!("cut {cut} invocations")), "{e}");
+    } else {
+        assert_eq!(cut, 0, "a GPU cut the loops short");
+        verdict.expect("a complete frame");
+    }
+    let (cut, verdict) = plane_with_lights(ctx, 1_000, (32, 18));
+    assert_eq!(cut, 0, "1,000 lights cut short");
+    verdict.expect("1,000 lights render whole");
+}

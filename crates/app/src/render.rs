@@ -162,6 +162,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let (img, note) = frame_image(&prep, &renderer, heatmap.is_some())?;
     let exposure = renderer.auto_exposure(&prep.ctx).context("reading the exposure back")?;
     prep.check_gpu_errors()?;
+    // A traced frame the driver cut short is refused, not written (llvmpipe's loop limit).
+    renderer.check_traced_complete(&prep.ctx)?;
 
     for (k, v) in prep.describe() {
         println!("{:<11} {v}", format!("{k}:"));

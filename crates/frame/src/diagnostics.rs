@@ -86,6 +86,16 @@ impl FrameRenderer {
     pub fn edge_pixels(&self, ctx: &GpuContext) -> Result<Option<u32>, GpuError> {
         self.method().edge_pixels(ctx)
     }
+    /// An error naming the problem when the last frame traced rays (the traced reference,
+    /// the stochastic method) and the driver cut some invocations' loops short
+    /// (`tiledlight_visibility::shading::TracedStats::cut`: llvmpipe's loop limit); Ok
+    /// otherwise, and for methods that trace nothing.
+    pub fn check_traced_complete(&self, ctx: &GpuContext) -> Result<(), GpuError> {
+        match self.passes::<crate::VisibilityFrame>() {
+            Some(v) => v.shading().check_traced_complete(ctx),
+            None => Ok(()),
+        }
+    }
     /// The opaque light grid's lists the last frame was shaded with (tiled methods).
     pub fn read_lists(&self, ctx: &GpuContext) -> Result<GpuTileLists, GpuError> {
         match self.outputs().light_grid {

@@ -516,6 +516,7 @@ fn render_reference(
     // lights) needs no clocks brought up, and rendering it twice would double the wait.
     let warmup = u32::from(reference != ReferenceKind::Traced);
     let m = bench::measure(prep, &mut r, warmup, frames).context("rendering the brute-force reference")?;
+    r.check_traced_complete(&prep.ctx).context("the reference")?;
     let (total_ms, passes) = pass_times(&m)?;
     let hdr = r.read_hdr(&prep.ctx).context("reading the reference back")?;
     let ldr = r.read_ldr(&prep.ctx).context("reading the reference back")?;
@@ -854,6 +855,7 @@ fn measure_setting(
             bench::measure_orbiting(p, &mut renderer, (args.warmup, args.frames), args.camera_orbit)
         }
         .with_context(|| what.clone())?;
+        renderer.check_traced_complete(&p.ctx).with_context(|| what.clone())?;
         let (total, passes) = pass_times(&m).with_context(|| what.clone())?;
         let spread = frame_spread(&m);
         let dropped = m.dropped();

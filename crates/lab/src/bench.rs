@@ -764,6 +764,8 @@ pub fn run<F: Flags>(scene: &F, args: &Bench) -> Result<()> {
     println!("frames:     {} warm-up + {} measured, {motion}", args.warmup, args.frames);
     let mut animator = args.move_lights.then(|| LightAnimator::new(&prep.lights.packed, prep.bounds.center()));
     let m = measure_shown(&prep, &mut renderer, (args.warmup, args.frames), animator.as_mut(), "bench")?;
+    // The times of a traced frame the driver cut short are of work it did not do.
+    renderer.check_traced_complete(&prep.ctx)?;
     print!("{}", table(&m));
     let atlas = renderer.outputs().shadow_atlas;
     if let Some(a) = atlas {

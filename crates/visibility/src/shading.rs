@@ -224,6 +224,17 @@ impl<'a> ShadeLights<'a> {
 /// (1-based), bands)`.
 pub type BandFlush<'a> = dyn FnMut(&mut wgpu::CommandEncoder, u32, u32) + 'a;
 
+/// What a traced frame (the traced reference's or the stochastic method's) cast.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TracedStats {
+    /// Shadow rays cast.
+    pub rays: u64,
+    /// Invocations whose light loop or BVH traversal ended before its end: a driver's
+    /// loop limit (llvmpipe's 65,535 iterations a shader) cut them short, and their
+    /// pixels are missing light or shadows. 0 on every GPU.
+    pub cut: u32,
+}
+
 /// The traced reference's bands and ray count.
 struct Traced {
     /// One `TracedBand` a band, [`BAND_STRIDE`] apart.
@@ -442,7 +453,7 @@ impl VisibilityShading {
                 let stats = buffer_zeroed(
                     device,
                     "traced.stats",
-                    8,
+                    12,
                     wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
                 );
                 memory.add("traced.bands", bands_buffer.size());
@@ -769,9 +780,37 @@ impl VisibilityShading {
 
     /// Rays the last traced frame cast (stalls the GPU); None for the light grid's pass.
     pub fn read_traced_rays(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Option<u64>, GpuError> {
+        Ok(self.read_traced_stats(device, queue)?.map(|s| s.rays))
+    }
+
+    /// What the last traced frame cast and whether the driver let it finish (stalls the
+    /// GPU); None for the light grid's pass.
+    pub fn read_traced_stats(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+    ) -> Result<Option<TracedStats>, GpuError> {
         let Some(t) = &self.traced else { return Ok(None) };
         let words: Vec<u32> = read_buffer(device, queue, &t.stats)?;
-        Ok(Some(u64::from(words[0]) | u64::from(words[1]) << 32))
+        Ok(Some(TracedStats { rays: u64::from(words[0]) | u64::from(words[1]) << 32, cut: words[2] }))
+    }
+
+    /// An error naming the problem when the last traced frame's loops were cut short by
+    /// the driver ([`TracedStats::cut`]); Ok for the light grid's pass and complete frames.
+    pub fn check_traced_complete(&self, ctx: &tiledlight_gpu::GpuContext) -> Result<(), GpuError> {
+        match self.read_traced_stats(&ctx.device, &ctx.queue)? {
+            Some(s) if s.cut > 0 => Err(GpuError::Unsupported {
+                adapter: ctx.info.name.clone(),
+                what: format!(
+                    "this traced frame: it cut {} invocations' loops short, so their pixels miss light or shadows \
+                     (llvmpipe stops a shader's loops after 65,535 iterations in all, and a pixel's lights times \
+                     their BVH traversals passed that); fewer lights or a smaller scene renders whole there, any \
+                     GPU renders it",
+                    s.cut
+                ),
+            }),
+            _ => Ok(()),
+        }
     }
 
     /// Writes the stochastic method's next frame (its seed, candidates, history length and
