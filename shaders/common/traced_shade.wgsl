@@ -40,8 +40,11 @@ struct TracedBand {
     accumulated: u32,
     far_candidates: u32,
     history: u32,
-    _pad1: u32,
-    _pad2: u32,
+    // The traced reference's lights of this dispatch, [light_first, light_end): all of
+    // them (0, u32 max) but on a CPU adapter, whose driver caps a shader's loops
+    // (crates/visibility/src/shading.rs, CPU_TRACED_CHUNK_LIGHTS).
+    light_first: u32,
+    light_end: u32,
 }
 @group(1) @binding(38) var<uniform> traced_band: TracedBand;
 // Rays cast: low word, high word; then the invocations whose loops a driver cut short
@@ -62,25 +65,44 @@ fn traced_visibility(p: vec3<f32>, n: vec3<f32>, light_pos: vec3<f32>) -> f32 {
 #ifdef STOCHASTIC
 #include "common/stochastic_shade.wgsl"
 #else
-// Linear HDR of one surface sample: every light, each shadowed by its ray.
+#ifndef MSAA
+// The sum of the lights the band's earlier dispatches shaded, one linear HDR colour a
+// pixel, row-major (a 16-byte placeholder, never touched, when one dispatch shades every
+// light).
+@group(1) @binding(40) var<storage, read_write> traced_sum: array<vec4<f32>>;
+#endif
+
+// Linear HDR of one surface sample: the dispatch's lights (every light, but on a CPU
+// adapter), each shadowed by its ray, plus what the earlier dispatches summed.
 fn shade_lights_at(g: GSample, p: vec2<u32>) -> vec3<f32> {
     if g.sky {
         return vec3<f32>(0.0);
     }
     let v = view_vector(g.world);
-    var color = g.unlit;
-    var i = 0u;
+    let first = traced_band.light_first;
+    let end = min(traced_band.light_end, lighting.num_lights);
+    var color = select(vec3<f32>(0.0), g.unlit, first == 0u);
+    var i = first;
     loop {
-        if i >= lighting.num_lights {
+        if i >= end {
             break;
         }
         color += shade_light(i, g.world, g.normal, v, g.surface);
         i++;
     }
     // Left before the last light: a driver's loop limit (trace_cut).
-    if i < lighting.num_lights {
+    if i < end {
         trace_cut = true;
     }
+#ifndef MSAA
+    if end < lighting.num_lights || first > 0u {
+        let pixel = p.y * view.screen.x + p.x;
+        if first > 0u {
+            color += traced_sum[pixel].rgb;
+        }
+        traced_sum[pixel] = vec4<f32>(color, 0.0);
+    }
+#endif
     return color;
 }
 #endif

@@ -839,9 +839,14 @@ fn a_traced_frame_reports_its_bands_in_order() {
     tiledlight_tests::compare::assert_same_hdr(&banded.hdr, &whole.hdr, W, true, "banded against whole");
 }
 
-/// The open plane lit by `n` lights above it (a frame of `size`): the rays' statistics
-/// and whether the driver let the frame finish.
-fn plane_with_lights(ctx: &GpuContext, n: usize, size: (u32, u32)) -> (u32, Result<(), tiledlight_gpu::GpuError>) {
+/// The open plane lit by `n` lights above it (a frame of `size`, `msaa` samples): the
+/// invocations the driver cut short and whether the frame is accepted.
+fn plane_with_lights(
+    ctx: &GpuContext,
+    n: usize,
+    size: (u32, u32),
+    msaa: u32,
+) -> (u32, Result<(), tiledlight_gpu::GpuError>) {
     let mut rng = Pcg64::seed_from_u64(48);
     let lights: Vec<Light> = (0..n)
         .map(|_| {
@@ -854,7 +859,7 @@ fn plane_with_lights(ctx: &GpuContext, n: usize, size: (u32, u32)) -> (u32, Resu
     let mut sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
     sg.add_trace(&ctx.device, &scene).unwrap();
     let lb = LightBuffers::new(&ctx.device, &lights).unwrap();
-    let s = FrameSettings { method: Method::TRUTH, ..Default::default() };
+    let s = FrameSettings { method: Method::TRUTH, msaa, ..Default::default() };
     let mut r = FrameRenderer::new(ctx, &sg, &lb, size.0, size.1, s).expect("traced reference");
     render_frame(ctx, &mut r, &sg, &camera);
     let shading = r.passes::<VisibilityFrame>().expect("a visibility frame").shading();
@@ -866,16 +871,22 @@ fn plane_with_lights(ctx: &GpuContext, n: usize, size: (u32, u32)) -> (u32, Resu
 /// llvmpipe stops a shader's loops after 65,535 iterations in all (Mesa's
 /// LP_MAX_TGSI_LOOP_ITERATIONS, counted per group of lanes), and 40,000 lights over the
 /// open plane (a loop iteration and a traversal step each) pass that in every pixel that
-/// sees the plane. On a
-/// GPU the same frame runs whole. Negative: 1,000 lights run whole everywhere.
+/// sees the plane. At 1x a CPU adapter shades the lights in dispatches of
+/// `CPU_TRACED_CHUNK_LIGHTS` (summed right: [`the_traced_lights_in_dispatches_sum_to_brute_force`]),
+/// so the frame runs whole; the 4x kernel shades every light in one dispatch (its edge
+/// pixels' samples are not summed across dispatches), so there it is cut and refused. On a
+/// GPU both run whole. Negative: 1,000 lights at 4x run whole everywhere.
 #[test]
 fn a_traced_frame_the_driver_cuts_short_is_refused_by_name() {
     let ctx = gpu();
-    let (cut, verdict) = plane_with_lights(ctx, 40_000, (32, 18));
+    let (cut, verdict) = plane_with_lights(ctx, 40_000, (32, 18), 1);
+    assert_eq!(cut, 0, "at 1x the lights come in dispatches a driver lets finish");
+    verdict.expect("a complete 1x frame");
+    let (cut, verdict) = plane_with_lights(ctx, 40_000, (32, 18), 4);
     let llvmpipe = ctx.info.name.contains("llvmpipe");
     eprintln!("{}: {cut} invocations cut short of 576", ctx.info.name);
     if llvmpipe {
-        // Every invocation whose pixel sees the floor (410 of 576 with Mesa 22.3.6).
+        // Most invocations whose pixel sees the floor (462 of 576 with Mesa 22.3.6).
         assert!(cut * 2 > 576, "llvmpipe cut {cut} invocations: its loop limit is no longer what this test knows");
         let e = verdict.expect_err("an incomplete frame must be refused").to_string();
         assert!(e.contains("65,535") && e.contains(&format!("cut {cut} invocations")), "{e}");
@@ -883,7 +894,41 @@ fn a_traced_frame_the_driver_cuts_short_is_refused_by_name() {
         assert_eq!(cut, 0, "a GPU cut the loops short");
         verdict.expect("a complete frame");
     }
-    let (cut, verdict) = plane_with_lights(ctx, 1_000, (32, 18));
+    let (cut, verdict) = plane_with_lights(ctx, 1_000, (32, 18), 4);
     assert_eq!(cut, 0, "1,000 lights cut short");
     verdict.expect("1,000 lights render whole");
+}
+
+/// On a CPU adapter the traced reference shades its lights in dispatches of
+/// `CPU_TRACED_CHUNK_LIGHTS`, each adding to a per-pixel sum (llvmpipe's loop limit): 150
+/// lights over the open plane (three dispatches there, one on a GPU) equal brute force
+/// without cutoff at the visibility buffer's limits, as 12 do in
+/// [`an_open_plane_equals_brute_force`]: the unlit term counted once, no chunk lost or
+/// doubled. The sum exists only where the chunks do.
+#[test]
+fn the_traced_lights_in_dispatches_sum_to_brute_force() {
+    use tiledlight_visibility::shading::CPU_TRACED_CHUNK_LIGHTS;
+    let ctx = gpu();
+    let mut rng = Pcg64::seed_from_u64(49);
+    let lights: Vec<Light> = (0..150)
+        .map(|_| {
+            let p = Vec3::new(rng.random_range(-6.0..6.0), rng.random_range(1.0..3.0), rng.random_range(-6.0..4.0));
+            let c = Vec3::new(rng.random_range(0.2..1.0), rng.random_range(0.2..1.0), rng.random_range(0.2..1.0));
+            Light::point(p, c, rng.random_range(0.3..1.2), 0.01).expect("light")
+        })
+        .collect();
+    let scene = scenes::floor_scene(0.5, 0.0, vec![]);
+    let camera = scenes::floor_camera(W, H);
+    let lb = LightBuffers::new(&ctx.device, &lights).unwrap();
+    let mut sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    sg.add_trace(&ctx.device, &scene).unwrap();
+    let s = FrameSettings { method: Method::TRUTH, ..Default::default() };
+    let mut r = FrameRenderer::new(ctx, &sg, &lb, W, H, s).expect("traced reference");
+    let traced = render_frame(ctx, &mut r, &sg, &camera);
+    r.check_traced_complete(ctx).expect("a complete frame");
+    let cpu = ctx.info.device_type == wgpu::DeviceType::Cpu;
+    let sum = r.memory().get("traced.sum");
+    assert_eq!(sum > 0, cpu && lights.len() > CPU_TRACED_CHUNK_LIGHTS as usize, "traced.sum {sum} B");
+    let (reference, _) = brute_force(ctx, &scene, &lb, &camera, 1);
+    assert_visibility_matches("traced_chunks_open_plane", W, (&reference, &traced), false);
 }

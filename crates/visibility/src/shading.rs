@@ -73,6 +73,15 @@ const BAND_SIZE: u64 = 32;
 /// about 0.1 s on the H200, so progress comes often.
 pub const TRACED_BAND_PAIRS: u64 = 1 << 28;
 
+/// Lights one dispatch of the traced reference shades on an adapter whose driver caps a
+/// shader's loops (a CPU adapter: llvmpipe stops them after 65,535 iterations in all, per
+/// group of lanes): the light loop is split into dispatches of this many lights, each
+/// adding to a per-pixel sum. On the Figure 9 scene 256 lights a dispatch ran whole and
+/// 1,024 did not (a light costs its traversal's steps, up to about 250 there): 64 leaves a
+/// margin of 4, and a frame cut short anyway is refused by name
+/// ([`VisibilityShading::check_traced_complete`]). GPUs shade every light in one dispatch.
+pub const CPU_TRACED_CHUNK_LIGHTS: u32 = 64;
+
 /// Workgroups a band of the traced reference has at least (bands are only for progress:
 /// a timed frame is one dispatch): 2,048, several waves on a 132-SM GPU.
 pub const TRACED_BAND_WORKGROUPS: u64 = 2048;
@@ -123,7 +132,12 @@ pub const VISIBILITY_GROUP: &[Binding] = &[
     TRACE[4],
     Binding::uniform(38, CS).dynamic_offset(BAND_SIZE).when(Cond::Defined(Define::Traced)),
     Binding::storage_rw(39, CS).when(Cond::Defined(Define::Traced)),
-    Binding::storage_rw(40, CS).when(Cond::Defined(Define::Stochastic)),
+    // The stochastic method's history, or the traced reference's per-pixel sum of the
+    // lights its earlier dispatches shaded ([`CPU_TRACED_CHUNK_LIGHTS`]; one sample a pixel).
+    Binding::storage_rw(40, CS).when(Cond::Any(&[
+        Cond::Defined(Define::Stochastic),
+        Cond::All(&[Cond::Defined(Define::Traced), Cond::NotDefined(Define::Msaa)]),
+    ])),
     Binding::storage_rw(41, CS).when(Cond::Defined(Define::Denoise)),
     Binding::storage_rw(42, CS).when(Cond::Defined(Define::Reuse)),
     Binding::storage_rw(43, CS).when(Cond::Defined(Define::Reuse)),
@@ -243,6 +257,12 @@ struct Traced {
     rows: u32,
     /// Bands of the frame.
     bands: u32,
+    /// Dispatches a band's lights are split into (1 but on a CPU adapter:
+    /// [`CPU_TRACED_CHUNK_LIGHTS`]); band `b`'s chunk `c` is entry `c * bands + b`.
+    chunks: u32,
+    /// The traced reference's per-pixel sum across its chunks (binding 40): the screen's
+    /// with several chunks, else one unused vec4 (the binding needs a buffer).
+    sum: Option<wgpu::Buffer>,
     /// The frame's rays, a 64-bit count in two words (cleared at the start of each frame).
     stats: wgpu::Buffer,
     /// The stochastic method's per-pixel history (None for the traced reference).
@@ -442,11 +462,30 @@ impl VisibilityShading {
                 // The stochastic method's frame is one band (milliseconds, no progress).
                 let rows = if stochastic { rows_total.max(1) } else { rows };
                 let bands = rows_total.max(1).div_ceil(rows);
-                let mut data = vec![0u8; bands as usize * BAND_STRIDE as usize];
-                for b in 0..bands as usize {
-                    let first = (b as u32) * rows;
-                    data[b * BAND_STRIDE as usize..b * BAND_STRIDE as usize + 4].copy_from_slice(&first.to_le_bytes());
+                // A CPU adapter's loop limit: the light loop in chunks (one sample a pixel).
+                let n_lights = lights.packed.len() as u32;
+                let cpu = device.adapter_info().device_type == wgpu::DeviceType::Cpu;
+                let chunk = if cpu && !stochastic && samples == 1 { CPU_TRACED_CHUNK_LIGHTS } else { u32::MAX };
+                let chunks = n_lights.div_ceil(chunk).max(1);
+                let mut data = vec![0u8; (bands * chunks) as usize * BAND_STRIDE as usize];
+                for c in 0..chunks {
+                    let (light_first, light_end) =
+                        if chunks == 1 { (0, u32::MAX) } else { (c * chunk, ((c + 1) * chunk).min(n_lights)) };
+                    for b in 0..bands {
+                        let at = ((c * bands + b) as u64 * BAND_STRIDE) as usize;
+                        data[at..at + 4].copy_from_slice(&(b * rows).to_le_bytes());
+                        // TracedBand's light_first and light_end (words 6 and 7).
+                        data[at + 24..at + 28].copy_from_slice(&light_first.to_le_bytes());
+                        data[at + 28..at + 32].copy_from_slice(&light_end.to_le_bytes());
+                    }
                 }
+                let sum = (!stochastic && samples == 1).then(|| {
+                    let bytes = if chunks > 1 { u64::from(grid.width) * u64::from(grid.height) * 16 } else { 16 };
+                    if chunks > 1 {
+                        memory.add("traced.sum", bytes);
+                    }
+                    buffer_zeroed(device, "traced.sum", bytes.max(16), wgpu::BufferUsages::STORAGE)
+                });
                 // The stochastic method writes its frame's parameters into its band.
                 let usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
                 let bands_buffer = buffer_init(device, "traced.bands", &data, usage);
@@ -510,6 +549,8 @@ impl VisibilityShading {
                     bands_buffer,
                     rows,
                     bands,
+                    chunks,
+                    sum,
                     stats,
                     history,
                     guide,
@@ -533,6 +574,9 @@ impl VisibilityShading {
                 }),
             });
             bind.push(buffer_entry(39, &t.stats));
+            if let Some(s) = &t.sum {
+                bind.push(buffer_entry(40, s));
+            }
             if let Some(h) = &t.history {
                 bind.push(buffer_entry(40, h));
                 if let Some(tree) = &t.light_tree {
@@ -720,8 +764,11 @@ impl VisibilityShading {
                         pass.set_bind_group(3, g.bind_group(), &[]);
                     }
                     // Timed: the whole frame in one dispatch (band 0 starts at row 0), so
-                    // no band waits for the previous one's tail.
-                    self.dispatch(&mut pass, (views, view), scene, Some((0, self.tiles.1)));
+                    // no band waits for the previous one's tail; a dispatch a chunk of
+                    // lights on a CPU adapter.
+                    for c in 0..traced.chunks {
+                        self.dispatch(&mut pass, (views, view), scene, Some((c * traced.bands, self.tiles.1)));
+                    }
                 }
                 timer.end(encoder, t);
             }
@@ -733,7 +780,9 @@ impl VisibilityShading {
                             timestamp_writes: None,
                         });
                         let rows = traced.rows.min(self.tiles.1.saturating_sub(band * traced.rows));
-                        self.dispatch(&mut pass, (views, view), scene, Some((band, rows)));
+                        for c in 0..traced.chunks {
+                            self.dispatch(&mut pass, (views, view), scene, Some((c * traced.bands + band, rows)));
+                        }
                     }
                     flush(encoder, band + 1, traced.bands);
                 }
