@@ -332,3 +332,29 @@ fn buffers_past_a_smaller_storage_binding_are_refused_by_name() {
          max_storage_buffer_binding_size = 65536, asked for 98304 bytes"
     );
 }
+
+/// A loop a CPU adapter's driver would cut short is refused by name, before any frame:
+/// brute force over 70,000 lights (llvmpipe stops a shader's loops after 65,535 iterations
+/// in all; `tiledlight_gpu::error::CPU_LOOP_LIMIT`). A GPU builds the same renderer, and a
+/// CPU adapter builds brute force over 60,000 lights.
+#[test]
+fn brute_force_past_a_cpu_drivers_loop_limit_is_refused() {
+    let ctx = gpu();
+    let scene = scenes::mixed_scene();
+    let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+    let build = |n: u32| {
+        let lights = LightBuffers::new(&ctx.device, &scenes::lights(&scene, n, 0, 1)).unwrap();
+        let s = FrameSettings { method: Method::BruteForce { cutoff: false }, ..Default::default() };
+        FrameRenderer::new(ctx, &sg, &lights, 64, 36, s).map(|_| ())
+    };
+    let cpu = ctx.info.device_type == wgpu::DeviceType::Cpu;
+    match build(70_000) {
+        Err(e) if cpu => {
+            let e = e.to_string();
+            assert!(e.contains("70000 lights") && e.contains("65535 iterations"), "{e}");
+        }
+        Err(e) => panic!("a GPU refused brute force over 70,000 lights: {e}"),
+        Ok(()) => assert!(!cpu, "a CPU adapter built brute force past its loop limit"),
+    }
+    build(60_000).expect("60,000 lights stay under the limit");
+}

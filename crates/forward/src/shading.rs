@@ -93,7 +93,12 @@ impl ShadingPass {
                 };
                 (key, "forward.shade")
             }
-            LightLoop::All { cutoff } => (LightLoopKey::Every { cutoff }, "brute_force.shade"),
+            LightLoop::All { cutoff } => {
+                let n = lights.packed.len();
+                let what = format!("brute force's loop over {n} lights");
+                tiledlight_gpu::error::check_cpu_loop_limit(device, n as u64, &what)?;
+                (LightLoopKey::Every { cutoff }, "brute_force.shade")
+            }
         };
         let key = ForwardKey {
             spots: features.spot_lights,

@@ -255,6 +255,11 @@ impl BlendedPath {
             (false, Some(_)) => LightLoopKey::Clusters,
             (false, None) => LightLoopKey::TileLists { half_z: false },
         };
+        if matches!(lights_key, LightLoopKey::Every { .. }) {
+            let n = lights.0.packed.len();
+            let what = format!("the reference's blended surfaces, every one of {n} lights");
+            crate::error::check_cpu_loop_limit(device, n as u64, &what)?;
+        }
         let key = BlendedKey {
             spots: features.spot_lights,
             shadows: features.shadows.is_some(),
