@@ -275,8 +275,11 @@ for set in $sets; do
     # tree, 8 frames of a still camera, the denoiser on and off, at MT_SIZE (WIDTHxHEIGHT)
     # or else the largest of 1920x1080, 1280x720, 960x540, 640x360 whose truth the probe's
     # rate puts under MT_BUDGET_S seconds (default 330). The truth is kept in
-    # $out/refcache (--reference-cache): carried back as .device/refcache, the next run
-    # reads it instead of tracing again.
+    # $out/refcache (--reference-cache), packed at the end into 15 MiB parts
+    # ($MT_PARTS/refcache.tar.xz.part-*, default $out: the device tool returns files of 16
+    # MiB at most, a 1080p truth is 41 MB). Put the parts in .device/ for the next call
+    # (they count towards the 64 MiB that travel): it unpacks them and reads the truth
+    # instead of tracing it again.
     echo "== mt-probe: the truth at 192x108" | tee -a "$out/log.txt"
     timeout 300 "$bin" bench --width 192 --height 108 --frames 1 --warmup 0 --json "$out/mt-probe.json" \
       --light-preset million --method traced-reference 2>&1 | tee "$out/mt-probe.txt" | tee -a "$out/log.txt" \
@@ -291,7 +294,9 @@ for set in $sets; do
     fi
     echo "probe ${probe_ms:-?} ms at 192x108: the accuracy run at $size" | tee -a "$out/log.txt"
     mkdir -p "$out/refcache"
-    [ -d .device/refcache ] && cp -n .device/refcache/* "$out/refcache/" 2>/dev/null
+    if ls .device/refcache.tar.xz.part-* >/dev/null 2>&1; then
+      cat .device/refcache.tar.xz.part-* | xz -dc | tar -C "$out" -xf -
+    fi
     echo "== mt-acc-$size" | tee -a "$out/log.txt"
     timeout "${MT_TIMEOUT:-560}" "$bin" accuracy --width "${size%x*}" --height "${size#*x}" --light-preset million \
       --assign scatter --reference traced --reference-cache "$out/refcache" --frames 8 --warmup 1 \
@@ -299,6 +304,10 @@ for set in $sets; do
       --axis denoise=4,0 --out "/tmp/mt-acc/acc.csv" >"$out/mt-acc-$size.txt" 2>&1
     echo "exit $?" >>"$out/mt-acc-$size.txt"
     cp /tmp/mt-acc/acc.csv "$out/mt-acc-$size.csv" 2>/dev/null
+    if ls "$out"/refcache/*.bin >/dev/null 2>&1; then
+      tar -C "$out" -cf - refcache | xz -T0 -6 | split -b 15m - "${MT_PARTS:-$out}/refcache.tar.xz.part-"
+    fi
+    rm -rf "$out/refcache"
     ;;
   temporal)
     # Issue 48's temporal reuse: the stochastic method after 8 frames of a still camera
