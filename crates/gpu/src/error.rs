@@ -80,15 +80,19 @@ pub enum GpuError {
 /// counted per group of lanes and shared by all its loops, and says nothing.
 pub const CPU_LOOP_LIMIT: u64 = 65_535;
 
+/// Whether `device`'s driver caps a shader's loops at [`CPU_LOOP_LIMIT`]: a CPU adapter.
+pub fn has_cpu_loop_limit(device: &wgpu::Device) -> bool {
+    device.adapter_info().device_type == wgpu::DeviceType::Cpu
+}
+
 /// Refuses, by name, a shader loop of `iterations` (at least: one a light) on a CPU
 /// adapter, whose driver would cut it short at [`CPU_LOOP_LIMIT`] and leave a silently
 /// wrong image; `what` names the loop ("brute force's loop over 100,000 lights"). GPUs
 /// have no such limit.
 pub fn check_cpu_loop_limit(device: &wgpu::Device, iterations: u64, what: &str) -> Result<(), GpuError> {
-    let info = device.adapter_info();
-    if info.device_type == wgpu::DeviceType::Cpu && iterations >= CPU_LOOP_LIMIT {
+    if has_cpu_loop_limit(device) && iterations >= CPU_LOOP_LIMIT {
         return Err(GpuError::Unsupported {
-            adapter: info.name,
+            adapter: device.adapter_info().name,
             what: format!(
                 "{what}: its driver stops a shader's loops after {CPU_LOOP_LIMIT} iterations in all, which would \
                  leave the image short of light; a tiled method, fewer lights or a GPU renders it"

@@ -230,16 +230,9 @@ pub fn header(axes: &[Axis]) -> Vec<String> {
         .collect()
 }
 
-/// The brute-force, no-cutoff image of one scene, light set and screen.
-struct Reference {
-    /// The automatic exposure the reference got (None: the exposure is fixed); every
-    /// setting compared with it is tonemapped with it.
-    exposure: Option<f32>,
-    hdr: Vec<[f32; 4]>,
-    ldr: Vec<u8>,
-    total_ms: f64,
-    passes: String,
-}
+/// The reference image of one scene, light set and screen, as the cache keeps it: every
+/// setting compared with it is tonemapped with its exposure.
+type Reference = CachedReference;
 
 /// What identifies a reference image: everything but the settings it is compared over
 /// (threshold, tests, tile size, method), which do not change it. The reference draws
@@ -507,8 +500,7 @@ fn render_reference(
     let disk_key = cache.map(|_| cache_key(prep, &reference_key(point_args, reference, vpl_ref), reference));
     if let (Some(c), Some(key)) = (cache, &disk_key) {
         if let Some(r) = c.load(key)? {
-            let CachedReference { exposure, hdr, ldr, total_ms, passes, .. } = r;
-            return Ok((Reference { exposure, hdr, ldr, total_ms, passes }, Some(c.path(key))));
+            return Ok((r, Some(c.path(key))));
         }
     }
     let mut r = prep.renderer(false)?;
@@ -521,20 +513,10 @@ fn render_reference(
     let hdr = r.read_hdr(&prep.ctx).context("reading the reference back")?;
     let ldr = r.read_ldr(&prep.ctx).context("reading the reference back")?;
     let exposure = r.auto_exposure(&prep.ctx).context("reading the reference's exposure back")?;
-    let reference = Reference { exposure, hdr, ldr, total_ms, passes };
+    let (width, height) = (settings.width, settings.height);
+    let reference = Reference { width, height, exposure, hdr, ldr, total_ms, passes };
     if let (Some(c), Some(key)) = (cache, &disk_key) {
-        let (width, height) = (settings.width, settings.height);
-        let Reference { exposure, hdr, ldr, total_ms, passes } = &reference;
-        let cached = CachedReference {
-            width,
-            height,
-            exposure: *exposure,
-            hdr: hdr.clone(),
-            ldr: ldr.clone(),
-            total_ms: *total_ms,
-            passes: passes.clone(),
-        };
-        c.store(key, &cached)?;
+        c.store(key, &reference)?;
     }
     Ok((reference, None))
 }

@@ -464,7 +464,7 @@ impl VisibilityShading {
                 let bands = rows_total.max(1).div_ceil(rows);
                 // A CPU adapter's loop limit: the light loop in chunks (one sample a pixel).
                 let n_lights = lights.packed.len() as u32;
-                let cpu = device.adapter_info().device_type == wgpu::DeviceType::Cpu;
+                let cpu = tiledlight_gpu::error::has_cpu_loop_limit(device);
                 let chunk = if cpu && !stochastic && samples == 1 { CPU_TRACED_CHUNK_LIGHTS } else { u32::MAX };
                 let chunks = n_lights.div_ceil(chunk).max(1);
                 let mut data = vec![0u8; (bands * chunks) as usize * BAND_STRIDE as usize];
