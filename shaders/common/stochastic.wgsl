@@ -18,6 +18,17 @@ fn rand01(pixel: u32, frame: u32, draw: u32) -> f32 {
     return f32(h >> 8u) / 16777216.0;
 }
 
+// Near draw `k` of `m` (at most `count`) over a list of `count` lights with `u` in [0, 1):
+// one entry of stratum k (entries k count / m to (k + 1) count / m, no 64-bit product) and
+// the stratum's size (tiledlight_cull::stochastic::near_draw).
+fn near_draw(k: u32, m: u32, count: u32, u: f32) -> vec2<u32> {
+    let q = count / m;
+    let r = count % m;
+    let first = k * q + k * r / m;
+    let size = (k + 1u) * q + (k + 1u) * r / m - first;
+    return vec2<u32>(first + min(u32(u * f32(size)), size - 1u), size);
+}
+
 // One light kept of the candidates seen: its index, its target p_hat, the sum of the
 // candidates' weights and their count.
 struct Reservoir {

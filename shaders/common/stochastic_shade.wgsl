@@ -4,8 +4,10 @@
 //
 // 1. Candidates from two sources that split the lights (CPU twin:
 //    tiledlight_cull::stochastic::resample_near_far, the same draws): `candidates` drawn
-//    uniformly from the pixel's list in the light grid, counted only when the light's
-//    radius reaches the point (the culling lists every such light), and `far_candidates`
+//    from the pixel's list in the light grid, counted only when the light's
+//    radius reaches the point (the culling lists every such light; stratified over the
+//    list, at most one a light: with candidates >= the list's length every light once),
+//    and `far_candidates`
 //    drawn from every light, uniformly or (FAR_FROM_TREE) from the light tree
 //    (common/light_tree.wgsl: in proportion to each light's power over its distance),
 //    counted only when its radius does not reach. Each candidate's
@@ -115,17 +117,26 @@ fn stochastic_sample(g: GSample, p: vec2<u32>, pixel: u32, v: vec3<f32>) -> Rese
     let n = lighting.num_lights;
     let frame = traced_band.frame;
     let list = pixel_list(p, g.dist);
-    let m_near = select(0u, traced_band.candidates, list.count > 0u);
+    // Stratified over the list, at most one draw a light (tiledlight_cull::stochastic::
+    // near_count and near_draw).
+    let m_near = min(traced_band.candidates, list.count);
     let m_far = traced_band.far_candidates;
     let total = f32(m_near + m_far);
     var r = reservoir_empty();
     for (var k = 0u; k < m_near + m_far; k++) {
         let near = k < m_near;
         let count = select(n, list.count, near);
-        let i = min(u32(rand01(pixel, frame, 2u * k) * f32(count)), count - 1u);
-        var light = select(i, light_indices[list.first + i], near);
-        // One over the light's probability: uniform over the list, or the tree's.
+        let u = rand01(pixel, frame, 2u * k);
+        var light = min(u32(u * f32(count)), count - 1u);
+        // One over the light's probability: uniform over every light, or the tree's; from
+        // a stratum of the list, the stratum's size times the near draws (the weight's
+        // division by m_near leaves the size).
         var inv_q = f32(count);
+        if near {
+            let d = near_draw(k, m_near, count, u);
+            light = light_indices[list.first + d.x];
+            inv_q = f32(d.y) * f32(m_near);
+        }
         if !near && FAR_FROM_TREE != 0u {
             let t = tree_sample(g.world, pixel, frame, 2u * k);
             light = t.x;

@@ -176,6 +176,99 @@ fn the_comparison_rejects_a_twin_that_draws_otherwise() {
     assert!(bad.len() * 10 > cases.len() * 9, "only {} of {} cases caught", bad.len(), cases.len());
 }
 
+// The near candidates' stratified draw (tiledlight_cull::stochastic::near_draw,
+// `near_draw` in shaders/common/stochastic.wgsl): each case is (k, m, count, u) and the
+// kernel writes the entry and the stratum's size; integers, so equal bit for bit.
+const NEAR_SRC: &str = r#"
+#include "common/stochastic.wgsl"
+@group(0) @binding(0) var<storage, read> cases: array<vec4<u32>>;
+@group(0) @binding(1) var<storage, read_write> out: array<vec2<u32>>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if i >= arrayLength(&cases) { return; }
+    let c = cases[i];
+    out[i] = near_draw(c.x, c.y, c.z, bitcast<f32>(c.w));
+}
+"#;
+
+/// Near-draw cases: short lists cut in every way, long ones (a million lights) and the
+/// integer limits (`u32::MAX` entries in 65,536 strata: a 64-bit product otherwise), `u`
+/// from 0 to the largest below 1.
+fn near_cases() -> Vec<[u32; 4]> {
+    let mut rng = Rng(49);
+    let top = f32::from_bits(1.0f32.to_bits() - 1);
+    let mut v = Vec::new();
+    for count in 1..=24u32 {
+        for m in 1..=count {
+            for k in 0..m {
+                v.push([k, m, count, rng.unit().to_bits()]);
+            }
+        }
+    }
+    for (m, count) in [(65_536u32, u32::MAX), (4096, 1_000_000), (4095, 1_048_577), (7, 3_000_001)] {
+        for k in [0, 1, m / 2, m - 2, m - 1] {
+            for u in [0.0, 0.5, top, rng.unit()] {
+                v.push([k, m, count, f32::to_bits(u)]);
+            }
+        }
+    }
+    v
+}
+
+fn run_near(cases: &[[u32; 4]]) -> Vec<[u32; 2]> {
+    let out = run_cases(
+        gpu(),
+        "test.near_draw",
+        NEAR_SRC,
+        bytemuck::cast_slice(cases),
+        cases.len() as u32,
+        cases.len() as u64 * 8,
+    );
+    out.chunks_exact(2).map(|c| [c[0].to_bits(), c[1].to_bits()]).collect()
+}
+
+/// The cases where the GPU's row differs from `twin`'s.
+fn near_mismatches(
+    cases: &[[u32; 4]],
+    rows: &[[u32; 2]],
+    twin: impl Fn(u32, u32, u32, f32) -> (u32, u32),
+) -> Vec<String> {
+    cases
+        .iter()
+        .zip(rows)
+        .filter_map(|(&[k, m, count, u], &[i, size])| {
+            let c = twin(k, m, count, f32::from_bits(u));
+            (c != (i, size))
+                .then(|| format!("k {k} m {m} count {count} u {}: GPU ({i}, {size}), CPU {c:?}", f32::from_bits(u)))
+        })
+        .collect()
+}
+
+#[test]
+fn the_gpu_near_draw_matches_its_cpu_twin() {
+    let cases = near_cases();
+    let rows = run_near(&cases);
+    let bad = near_mismatches(&cases, &rows, tiledlight_cull::stochastic::near_draw);
+    eprintln!("{} near draws, {} mismatches", cases.len(), bad.len());
+    assert!(bad.is_empty(), "{} of {} differ:\n{}", bad.len(), cases.len(), bad[..bad.len().min(10)].join("\n"));
+}
+
+/// The negative test: a twin that finds the stratum's start in f32 (`k count / m` rounded
+/// to 24 bits) is rejected on the long lists.
+#[test]
+fn the_near_draw_comparison_rejects_a_twin_in_floats() {
+    let cases = near_cases();
+    let rows = run_near(&cases);
+    let bad = near_mismatches(&cases, &rows, |k, m, count, u| {
+        let start = |k: u32| (k as f32 * count as f32 / m as f32) as u32;
+        let (first, size) = (start(k), start(k + 1) - start(k));
+        (first + ((u * size as f32) as u32).min(size.max(1) - 1), size)
+    });
+    assert!(bad.len() >= 20, "only {} of {} caught", bad.len(), cases.len());
+}
+
 // Spatial reuse (tiledlight_cull::reuse, shaders/common/reuse.wgsl): every pixel of a
 // record image merged with its neighbours on the GPU and by the twin. The image has
 // surfaces of three normals (0, 10 and 40 degrees from +Z) and three view distances (10,

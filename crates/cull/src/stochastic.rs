@@ -8,7 +8,8 @@
 //!    set (its tile's list, or every light), each draw from [`rand01`] of a hash of (pixel,
 //!    frame, draw), so the GPU can draw the same ([`resample`]). The method draws from two
 //!    sources that split the lights ([`resample_near_far`]): the pixel's list for the
-//!    lights whose radius reaches it, every light for the rest. (A light tree's source
+//!    lights whose radius reaches it (stratified, [`near_draw`]: with as many candidates as
+//!    the list is long, every light in it once), every light for the rest. (A light tree's source
 //!    pdf, the next source, comes with its own draw.)
 //! 2. **Target.** `p_hat(l)`: the luminance of the light's unshadowed contribution at the
 //!    surface point ([`unshadowed`]: `brdf_cos` x radiance x attenuation x cone), the
@@ -151,9 +152,35 @@ pub fn reaches(light: &Light, p: Vec3) -> bool {
     (light.position - p).length_squared() < light.radius * light.radius
 }
 
+/// The near candidates a pixel draws from a list of `count` lights when `candidates` are
+/// asked for: as many, at most one a light (0 for an empty list).
+pub fn near_count(candidates: u32, count: u32) -> u32 {
+    candidates.min(count)
+}
+
+/// Near draw `k` of `m` (`m` at most `count`, from [`near_count`]) over a list of `count`
+/// lights, with `u` in [0, 1): the list is cut into `m` strata of consecutive entries
+/// (stratum `k` from `k count / m` to `(k + 1) count / m`, integer division, so sizes differ
+/// by at most one) and one entry is drawn uniformly from stratum `k`. Returns the entry and
+/// the stratum's size `s`: the entry's probability is `1 / s`, so the candidate's RIS
+/// weight is `p_hat s` (scaled as [`resample_near_far`] says).
+/// Stratified draws never repeat an entry in one frame and, with `m = count`, take every
+/// entry once: the near lights' unshadowed sum is then exact and the kept light is drawn in
+/// proportion to its contribution, so only the shadows are left to noise (a light that
+/// nearly touches the surface no longer makes fireflies when a uniform draw misses it).
+/// Integer maths without overflow for `count` up to `u32::MAX` and `m` up to 65,536 (the
+/// GPU has no 64-bit integers): `k count / m = k (count / m) + k (count % m) / m`.
+pub fn near_draw(k: u32, m: u32, count: u32, u: f32) -> (u32, u32) {
+    let start = |k: u32| k * (count / m) + k * (count % m) / m;
+    let (first, end) = (start(k), start(k + 1));
+    let size = end - first;
+    let i = ((u * size as f32) as u32).min(size - 1);
+    (first + i, size)
+}
+
 /// Steps 1-3 with two candidate sources whose domains split the lights (the method's
-/// sampler): `m_near` candidates drawn uniformly from the pixel's `list` (the light grid's:
-/// it holds every light that [`reaches`] the point) that count only when they reach it, and
+/// sampler): `m_near` candidates drawn stratified from the pixel's `list` ([`near_draw`]:
+/// at most one a light; the light grid's list holds every light that [`reaches`] the point) that count only when they reach it, and
 /// `m_far` drawn uniformly from every light that count only when they do not. Each
 /// candidate's weight is `p_hat / (q_s M_s)` for its source `s` (the generalised RIS of
 /// Lin et al. 2022 with disjoint domains: a light is made by one source only), scaled by
@@ -175,16 +202,22 @@ pub fn resample_near_far(
     tree: Option<&dyn FarSource>,
 ) -> Reservoir {
     let mut r = Reservoir::default();
-    let m_near = if list.is_empty() { 0 } else { m_near };
+    let m_near = near_count(m_near, list.len() as u32);
     let total = (m_near + m_far) as f32;
     let sources: [(u32, u32, bool); 2] = [(m_near, list.len() as u32, true), (m_far, lights.len() as u32, false)];
     let mut draw = 0;
     for (m, count, near) in sources {
-        for _ in 0..m {
-            let i = ((rand01(pixel, frame, 2 * draw) * count as f32) as u32).min(count - 1);
-            // The light and one over its probability.
+        for k in 0..m {
+            let u = rand01(pixel, frame, 2 * draw);
+            let i = ((u * count as f32) as u32).min(count - 1);
+            // The light and one over its probability (from a stratum of the list, one over
+            // the probability a uniform draw of the same weight would have: the stratum's
+            // size times the draws).
             let (light, inv_q) = match (near, tree) {
-                (true, _) => (list[i as usize], count as f32),
+                (true, _) => {
+                    let (i, size) = near_draw(k, m, count, u);
+                    (list[i as usize], size as f32 * m as f32)
+                }
                 (false, None) => (i, count as f32),
                 (false, Some(t)) => {
                     match t.draw(p, (pixel, frame, 2 * draw), &|l, q| reaches(&lights[l as usize], q)) {
@@ -243,6 +276,40 @@ mod tests {
         assert!((mean - 0.5).abs() < 0.005, "{mean}");
         assert_ne!(pcg_hash(1), pcg_hash(2));
         assert_eq!(pcg_hash(0), pcg_hash(0));
+    }
+
+    /// The near draw's strata cover the list: over every `k`, each entry lies in exactly
+    /// one stratum, the sizes differ by at most one, `u` near 1 stays inside the stratum, and
+    /// `m = count` is every entry once. At the extremes (a list of `u32::MAX` entries in
+    /// 65,536 strata, a million in 4,096) the integer maths does not overflow (a debug build
+    /// would panic) and the last stratum ends at the list's end.
+    #[test]
+    fn near_draws_are_strata_that_cover_the_list() {
+        for count in 1..=40u32 {
+            for m in 1..=count {
+                let mut seen = vec![0u32; count as usize];
+                let mut sizes = Vec::new();
+                for k in 0..m {
+                    let (first, size) = near_draw(k, m, count, 0.0);
+                    let (last, size_hi) = near_draw(k, m, count, 0.999_999_9);
+                    assert_eq!(size, size_hi);
+                    assert_eq!(last, first + size - 1, "m {m} count {count} k {k}");
+                    sizes.push(size);
+                    for i in first..first + size {
+                        seen[i as usize] += 1;
+                    }
+                }
+                assert!(seen.iter().all(|&c| c == 1), "m {m} count {count}: {seen:?}");
+                let (lo, hi) = (sizes.iter().min().unwrap(), sizes.iter().max().unwrap());
+                assert!(hi - lo <= 1, "m {m} count {count}: {sizes:?}");
+            }
+        }
+        for (m, count) in [(65_536u32, u32::MAX), (4096, 1_000_000), (4095, 1_000_003)] {
+            let (first, size) = near_draw(m - 1, m, count, 0.999_999_9);
+            assert_eq!(first, count - 1, "m {m} count {count}");
+            assert!((count / m..=count / m + 1).contains(&size));
+        }
+        assert_eq!((near_count(16, 5), near_count(4, 100), near_count(8, 0)), (5, 4, 0));
     }
 
     /// A reservoir keeps each candidate with probability proportional to its weight

@@ -20,7 +20,7 @@ use tiledlight_cull::light::{Light, LightKind};
 use tiledlight_cull::light_tree::LightTree;
 use tiledlight_cull::raycast::Triangles;
 use tiledlight_cull::stochastic::{
-    estimate, luminance, rand01, reaches, resample, resample_near_far, unshadowed, FarSource, Reservoir,
+    estimate, luminance, near_draw, rand01, reaches, resample, resample_near_far, unshadowed, FarSource, Reservoir,
 };
 
 /// A surface point: position, normal, direction to the eye, material.
@@ -244,6 +244,11 @@ fn near_and_far_candidates_converge_to_the_truth() {
     };
     let near_far = |m: (u32, u32)| near_far_from(m, false);
     unbiased("near 4 + far 2", (&bvh, &lights, &pixels), false, FRAMES, near_far((4, 2))).unwrap();
+    // As many near candidates as the longest list: every list light once (stratified draws
+    // with strata of one), the near lights' unshadowed sum exact.
+    let longest = pixels.iter().map(|px| list_of(&lights, px).len()).max().unwrap() as u32;
+    assert!(longest > 4 && longest < 40, "the lists are longer than 4 candidates ({longest})");
+    unbiased("every list light + far 2", (&bvh, &lights, &pixels), false, FRAMES, near_far((longest, 2))).unwrap();
     // The far candidates from the light tree: unbiased too.
     unbiased("near 4 + far 2, light tree", (&bvh, &lights, &pixels), false, FRAMES, near_far_from((4, 2), true))
         .unwrap();
@@ -295,4 +300,41 @@ fn near_and_far_sources_that_overlap_are_rejected() {
     };
     let verdict = unbiased("overlapping sources", (&bvh, &lights, &pixels), false, FRAMES, overlapping);
     assert!(verdict.is_err(), "two sources that both make the near lights passed as unbiased");
+}
+
+/// The negative test of the stratified near draws: strata of `count / m` entries each, the
+/// remainder at the list's end never drawn (the bug integer division invites), weighted as
+/// if they covered the list, are rejected by the same statistic; the lists' lengths are
+/// not multiples of 4, so every pixel misses some lights.
+#[test]
+fn near_strata_that_miss_the_lists_end_are_rejected() {
+    let (bvh, lights, pixels) = scene_at(NEAR_FAR_THRESHOLD);
+    let m = 4u32;
+    let short = pixels.iter().filter(|px| list_of(&lights, px).len() as u32 % m != 0).count();
+    assert!(short > pixels.len() / 2, "most lists leave a remainder ({short} of {})", pixels.len());
+    let missing = |i: u32, px: &Pixel, f: u32| {
+        let at = (px.p, px.n, px.v);
+        let list = list_of(&lights, px);
+        let count = list.len() as u32;
+        let mut r = Reservoir::default();
+        for k in 0..m {
+            let size = count / m;
+            let u = rand01(i, f, 2 * k);
+            let j = k * size + ((u * size as f32) as u32).min(size - 1);
+            // The right draw's light lies in the same stratum when the sizes agree.
+            assert!(count % m != 0 || j / size == near_draw(k, m, count, u).0 / size);
+            let l = &lights[list[j as usize] as usize];
+            let p_hat = if reaches(l, px.p) { luminance(unshadowed(l, at, &px.s, false)) } else { 0.0 };
+            r.update(list[j as usize], (p_hat * count as f32, p_hat), rand01(i, f, 2 * k + 1));
+        }
+        luminance(estimate(&lights, &r, at, &px.s, false, |l| visible(&bvh, px, &lights[l as usize])))
+    };
+    // The truth of the near lights alone (no far candidates here).
+    let near_truth = |px: &Pixel| {
+        let near: Vec<Light> =
+            lights.iter().map(|l| if reaches(l, px.p) { *l } else { Light { intensity: 0.0, ..*l } }).collect();
+        truth(&bvh, &near, px, false)
+    };
+    let verdict = unbiased_against("strata missing the end", (&bvh, &pixels), near_truth, FRAMES, missing);
+    assert!(verdict.is_err(), "near draws that never reach the list's end passed as unbiased");
 }

@@ -466,7 +466,9 @@ knobs! {
     needs(Shadows);
 
     /// The stochastic method's near candidates a pixel each frame: lights drawn from the
-    /// pixel's list in the light grid, for the lights whose radius reaches it. One of all
+    /// pixel's list in the light grid, for the lights whose radius reaches it, one from each
+    /// of as many runs of the list (stratified: none twice; as many as the list is long or
+    /// more take every light in it once, its unshadowed light exact). One of all
     /// the candidates is kept in proportion to its unshadowed contribution and shadowed by
     /// a ray: more cost more shading (no more rays) and leave less noise. At the default
     /// threshold the far lights carry most of the light, so few near candidates suffice
