@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced stochastic denoise reuse temporal light-tree million-truth error-time casters casters-curve ranking materials surface-edges stage-lights big-scene
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced stochastic denoise reuse temporal near light-tree million-truth error-time casters casters-curve ranking materials surface-edges stage-lights big-scene
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -249,6 +249,17 @@ for set in $sets; do
       run "den-court-1024-d$d" 50 --lights 1024 --method stochastic --denoise $d
     done
     run_stochastic_accuracy den-acc --axis denoise=0,2,4 --axis accumulate=64,0
+    ;;
+  near)
+    # Issue 48's near field: the near candidates stratified over the pixel's list, 4 (the
+    # default), 16, 64 and every light of the list (4096 is more than any list here): frame
+    # time on the Figure 9 scene (4,096 lights) and the courtyard (1,024), then the error
+    # after 8 frames, denoised and raw, on both scenes (run_stochastic_accuracy: $out/near-acc-*).
+    for c in 4 16 64 4096; do
+      run "near-f9-4096-c$c" 50 --lights 4096 --grid-objects 280 --density medium --method stochastic --candidates $c
+      run "near-court-1024-c$c" 50 --lights 1024 --method stochastic --candidates $c
+    done
+    run_stochastic_accuracy near-acc --axis candidates=4,16,64,4096 --axis denoise=4,0
     ;;
   light-tree)
     # Issue 48 item 1: the far candidates from the light tree against uniform draws: frame
