@@ -29,6 +29,15 @@ fn near_draw(k: u32, m: u32, count: u32, u: f32) -> vec2<u32> {
     return vec2<u32>(first + min(u32(u * f32(size)), size - 1u), size);
 }
 
+// The number pick j of `rays` decides a candidate with, where pick 0 used `u` (from
+// rand01): u shifted by j / rays and wrapped, in 24-bit integers
+// (tiledlight_cull::stochastic::ray_number, bit for bit).
+fn ray_number(u: f32, j: u32, rays: u32) -> f32 {
+    let i = u32(u * 16777216.0);
+    let step = 16777216u / rays;
+    return f32((i + j * step) & 0xFFFFFFu) / 16777216.0;
+}
+
 // One light kept of the candidates seen: its index, its target p_hat, the sum of the
 // candidates' weights and their count.
 struct Reservoir {

@@ -99,6 +99,13 @@ override FAR_FROM_TREE: u32 = 0u;
 @group(1) @binding(44) var<storage, read> light_tree: array<LightNode>;
 #include "common/light_tree.wgsl"
 
+// Shadow rays a pixel (tiledlight_cull::stochastic::MAX_RAYS at most): pick 0 is the
+// reservoir step 1 returns (and reuse merges), picks 1 to RAYS - 1 reservoirs over the same
+// candidates deciding with ray_number, left in `more_picks` by stochastic_sample; the
+// pixel's light is the mean of the picks' estimates.
+override RAYS: u32 = 1u;
+var<private> more_picks: array<Reservoir, 7>;
+
 // True when the light's radius reaches point `p`: the windowed falloff's `in_range`
 // (common/shade.wgsl), so the light is in the list of every tile that holds `p`.
 fn reaches(light: u32, p: vec3<f32>) -> bool {
@@ -123,6 +130,7 @@ fn stochastic_sample(g: GSample, p: vec2<u32>, pixel: u32, v: vec3<f32>) -> Rese
     let m_far = traced_band.far_candidates;
     let total = f32(m_near + m_far);
     var r = reservoir_empty();
+    var more: array<Reservoir, 7>;
     for (var k = 0u; k < m_near + m_far; k++) {
         let near = k < m_near;
         let count = select(n, list.count, near);
@@ -148,9 +156,30 @@ fn stochastic_sample(g: GSample, p: vec2<u32>, pixel: u32, v: vec3<f32>) -> Rese
             p_hat = luminance(shade_light(light, g.world, g.normal, v, g.surface));
         }
         let m = select(m_far, m_near, near);
-        reservoir_update(&r, light, p_hat * inv_q * total / f32(m), p_hat, rand01(pixel, frame, 2u * k + 1u));
+        let w = p_hat * inv_q * total / f32(m);
+        let ur = rand01(pixel, frame, 2u * k + 1u);
+        reservoir_update(&r, light, w, p_hat, ur);
+        for (var j = 1u; j < RAYS; j++) {
+            // Through a copy: naga's SPIR-V writer fails on a pointer to a dynamically
+            // indexed element passed to a function (naga 30, "Expression is not cached").
+            var q = more[j - 1u];
+            reservoir_update(&q, light, w, p_hat, ray_number(ur, j, RAYS));
+            more[j - 1u] = q;
+        }
     }
+    more_picks = more;
     return r;
+}
+
+// One pick's estimate f(y) V(y) W (0 when nothing was kept).
+fn pick_estimate(r: Reservoir, g: GSample, v: vec3<f32>) -> vec3<f32> {
+    let w = reservoir_weight(r);
+    if w <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let f = shade_light(r.light, g.world, g.normal, v, g.surface);
+    // p_hat > 0: the light is on the normal's side, as the ray assumes.
+    return f * (w * traced_visibility(g.world, g.normal, shading_lights[r.light].position));
 }
 
 #ifdef REUSE
@@ -270,6 +299,11 @@ fn stochastic_estimate(g: GSample, p: vec2<u32>, pixel: u32) -> vec3<f32> {
         reuse_surface = g;
         reuse_view = v;
         m = reuse_combine(p, reuse_params());
+        if RAYS > 1u {
+            // The other picks are this pixel's own: its candidates drawn again (the same
+            // numbers as the sampling run's, so the same candidates).
+            _ = stochastic_sample(g, p, pixel, v);
+        }
     } else {
         m = stochastic_own(g, p, pixel, v);
     }
@@ -278,13 +312,11 @@ fn stochastic_estimate(g: GSample, p: vec2<u32>, pixel: u32) -> vec3<f32> {
 #else
     let r = stochastic_sample(g, p, pixel, v);
 #endif
-    let w = reservoir_weight(r);
-    if w <= 0.0 {
-        return vec3<f32>(0.0);
+    var c = pick_estimate(r, g, v);
+    for (var j = 1u; j < RAYS; j++) {
+        c += pick_estimate(more_picks[j - 1u], g, v);
     }
-    let f = shade_light(r.light, g.world, g.normal, v, g.surface);
-    // p_hat > 0: the light is on the normal's side, as the ray assumes.
-    return f * (w * traced_visibility(g.world, g.normal, shading_lights[r.light].position));
+    return c / f32(RAYS);
 }
 
 // Linear HDR of one surface sample: the unlit term and the accumulated estimate (steps 3

@@ -178,6 +178,22 @@ pub fn near_draw(k: u32, m: u32, count: u32, u: f32) -> (u32, u32) {
     (first + i, size)
 }
 
+/// The most shadow rays a pixel casts a frame (the `rays` setting): each of its picks is a
+/// reservoir over the same candidates ([`resample_near_far_rays`]).
+pub const MAX_RAYS: u32 = 8;
+
+/// The number pick `j` of `rays` decides a candidate with, where pick 0 used `u` (from
+/// [`rand01`], a multiple of 2^-24): `u` shifted by `j / rays` of the unit interval and
+/// wrapped, in 24-bit integers so the GPU's is the same bit for bit. Each pick's numbers are
+/// uniform (a shift is a bijection), so each pick alone is a reservoir as pick 0 is; shifted
+/// together they are stratified, so the picks spread over the candidates' weights rather
+/// than repeat the heaviest.
+pub fn ray_number(u: f32, j: u32, rays: u32) -> f32 {
+    let i = (u * 16_777_216.0) as u32;
+    let step = (1u32 << 24) / rays;
+    (i.wrapping_add(j.wrapping_mul(step)) & 0xFF_FFFF) as f32 / 16_777_216.0
+}
+
 /// Steps 1-3 with two candidate sources whose domains split the lights (the method's
 /// sampler): `m_near` candidates drawn stratified from the pixel's `list` ([`near_draw`]:
 /// at most one a light; the light grid's list holds every light that [`reaches`] the point) that count only when they reach it, and
@@ -201,7 +217,24 @@ pub fn resample_near_far(
     (pixel, frame): (u32, u32),
     tree: Option<&dyn FarSource>,
 ) -> Reservoir {
-    let mut r = Reservoir::default();
+    resample_near_far_rays(lights, list, (p, n, v), s, (m_near, m_far), (pixel, frame), (tree, 1))[0]
+}
+
+/// [`resample_near_far`] with `rays` picks (at most [`MAX_RAYS`]): as many reservoirs over
+/// the same candidates, pick `j` deciding with [`ray_number`]`(u, j, rays)` where pick 0
+/// decides with `u`. Each is the estimator's reservoir on its own; the pixel's light is the
+/// mean of their estimates (one shadow ray each): `rays` times the rays for the shading of
+/// one set of candidates. Pick 0 is [`resample_near_far`]'s.
+pub fn resample_near_far_rays(
+    lights: &[Light],
+    list: &[u32],
+    (p, n, v): (Vec3, Vec3, Vec3),
+    s: &Surface,
+    (m_near, m_far): (u32, u32),
+    (pixel, frame): (u32, u32),
+    (tree, rays): (Option<&dyn FarSource>, u32),
+) -> Vec<Reservoir> {
+    let mut picks = vec![Reservoir::default(); rays as usize];
     let m_near = near_count(m_near, list.len() as u32);
     let total = (m_near + m_far) as f32;
     let sources: [(u32, u32, bool); 2] = [(m_near, list.len() as u32, true), (m_far, lights.len() as u32, false)];
@@ -229,11 +262,14 @@ pub fn resample_near_far(
             let l = &lights[light as usize];
             let p_hat =
                 if reaches(l, p) == near && inv_q > 0.0 { luminance(unshadowed(l, (p, n, v), s, false)) } else { 0.0 };
-            r.update(light, (p_hat * inv_q * total / m as f32, p_hat), rand01(pixel, frame, 2 * draw + 1));
+            let (w, u) = (p_hat * inv_q * total / m as f32, rand01(pixel, frame, 2 * draw + 1));
+            for (j, r) in picks.iter_mut().enumerate() {
+                r.update(light, (w, p_hat), ray_number(u, j as u32, rays));
+            }
             draw += 1;
         }
     }
-    r
+    picks
 }
 
 /// A source of far candidates other than uniform draws (`crate::light_tree::LightTree`):
@@ -310,6 +346,26 @@ mod tests {
             assert!((count / m..=count / m + 1).contains(&size));
         }
         assert_eq!((near_count(16, 5), near_count(4, 100), near_count(8, 0)), (5, 4, 0));
+    }
+
+    /// A pick's numbers are the first pick's shifted by `j / rays` and wrapped: pick 0's is
+    /// the number itself, the shifts are exact multiples of 2^-24, every result in [0, 1),
+    /// and over 4 picks a number near 1 wraps.
+    #[test]
+    fn ray_numbers_are_the_first_shifted_and_wrapped() {
+        let top = 0xFF_FFFF as f32 / 16_777_216.0;
+        assert_eq!(ray_number(0.3, 0, 4), 0.3_f32 * 16_777_216.0 / 16_777_216.0);
+        assert_eq!(ray_number(0.0, 1, 4), 0.25);
+        assert_eq!(ray_number(0.5, 3, 4), 0.25);
+        assert_eq!(ray_number(top, 1, 2), 0.5 - 1.0 / 16_777_216.0);
+        for rays in 1..=MAX_RAYS {
+            for j in 0..rays {
+                for k in 0..1000 {
+                    let x = ray_number(rand01(k, rays, j), j, rays);
+                    assert!((0.0..1.0).contains(&x) && (x * 16_777_216.0).fract() == 0.0, "{x}");
+                }
+            }
+        }
     }
 
     /// A reservoir keeps each candidate with probability proportional to its weight

@@ -485,6 +485,19 @@ knobs! {
     "far-candidates", "far candidates a pixel", "M", Control::Slider(0.0, 64.0), applies(|m| m.stochastic),
     check(|v| if v <= 4096 { Ok(()) } else { Err("must be at most 4096".into()) });
 
+    /// The stochastic method's shadow rays a pixel each frame: as many lights kept of the
+    /// same candidates (each its own reservoir, their numbers shifted apart so they spread
+    /// over the candidates rather than repeat the heaviest), each shadowed by its own ray,
+    /// the pixel's light their mean. The noise left when the near lights are shaded in full
+    /// is the shadows' (which of the lights a pixel sees): K rays divide its variance by
+    /// up to K for K times the rays and no more shading of candidates. 1 to 8.
+    rays: u32 = 1;
+    "rays", "shadow rays a pixel", "K", Control::Slider(1.0, 8.0), applies(|m| m.stochastic),
+    check(|v| {
+        use tiledlight_cull::stochastic::MAX_RAYS;
+        if (1..=MAX_RAYS).contains(&v) { Ok(()) } else { Err(format!("must be between 1 and {MAX_RAYS}")) }
+    });
+
     /// The stochastic method's far candidates drawn from a light tree over every light (in
     /// proportion to each light's power over its distance, the lights whose radius reaches
     /// the pixel left to its list; `tiledlight_cull::light_tree`): where thousands of lights

@@ -651,6 +651,7 @@ impl VisibilityShading {
                     constants.push(("DEMOD_FLOOR", f64::from(tiledlight_cull::denoise::DEMOD_FLOOR)));
                     let from_tree = traced_state.as_ref().is_some_and(|t| t.tree.borrow().is_some());
                     constants.push(("FAR_FROM_TREE", f64::from(u32::from(from_tree))));
+                    constants.push(("RAYS", f64::from(features.knobs.rays)));
                 }
                 let label = if stochastic { "stochastic.shade" } else { "traced.shade" };
                 let mut layouts = vec![&views.layout, &layout, texture_layout];
