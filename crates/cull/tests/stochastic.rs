@@ -310,7 +310,7 @@ fn near_and_far_sources_that_overlap_are_rejected() {
 fn near_strata_that_miss_the_lists_end_are_rejected() {
     let (bvh, lights, pixels) = scene_at(NEAR_FAR_THRESHOLD);
     let m = 4u32;
-    let short = pixels.iter().filter(|px| list_of(&lights, px).len() as u32 % m != 0).count();
+    let short = pixels.iter().filter(|px| !(list_of(&lights, px).len() as u32).is_multiple_of(m)).count();
     assert!(short > pixels.len() / 2, "most lists leave a remainder ({short} of {})", pixels.len());
     let missing = |i: u32, px: &Pixel, f: u32| {
         let at = (px.p, px.n, px.v);
@@ -322,7 +322,7 @@ fn near_strata_that_miss_the_lists_end_are_rejected() {
             let u = rand01(i, f, 2 * k);
             let j = k * size + ((u * size as f32) as u32).min(size - 1);
             // The right draw's light lies in the same stratum when the sizes agree.
-            assert!(count % m != 0 || j / size == near_draw(k, m, count, u).0 / size);
+            assert!(!count.is_multiple_of(m) || j / size == near_draw(k, m, count, u).0 / size);
             let l = &lights[list[j as usize] as usize];
             let p_hat = if reaches(l, px.p) { luminance(unshadowed(l, at, &px.s, false)) } else { 0.0 };
             r.update(list[j as usize], (p_hat * count as f32, p_hat), rand01(i, f, 2 * k + 1));
