@@ -252,14 +252,19 @@ for set in $sets; do
     ;;
   near)
     # Issue 48's near field: the near candidates stratified over the pixel's list, 4 (the
-    # default), 16, 64 and every light of the list (4096 is more than any list here): frame
+    # default), 16, 64 and every light of the list (4096 is more than any list here), frame
     # time on the Figure 9 scene (4,096 lights) and the courtyard (1,024), then the error
     # after 8 frames, denoised and raw, on both scenes (run_stochastic_accuracy: $out/near-acc-*).
+    # Then 2 and 4 shadow rays a pixel (--rays) with every near light.
     for c in 4 16 64 4096; do
       run "near-f9-4096-c$c" 50 --lights 4096 --grid-objects 280 --density medium --method stochastic --candidates $c
       run "near-court-1024-c$c" 50 --lights 1024 --method stochastic --candidates $c
     done
-    run_stochastic_accuracy near-acc --axis candidates=4,16,64,4096 --axis denoise=4,0
+    for k in 2 4; do
+      run "near-f9-4096-all-k$k" 50 --lights 4096 --grid-objects 280 --density medium --method stochastic --candidates 4096 --rays $k
+      run "near-court-1024-all-k$k" 50 --lights 1024 --method stochastic --candidates 4096 --rays $k
+    done
+    run_stochastic_accuracy near-acc --axis candidates=4,16,4096 --axis rays=1,2,4 --axis denoise=4,0
     ;;
   light-tree)
     # Issue 48 item 1: the far candidates from the light tree against uniform draws: frame

@@ -267,7 +267,7 @@ fn every_near_light_and_more_rays_lower_the_noise_and_stay_unbiased() {
         (Moments::of(&frames), rays.expect("a traced method counts rays"))
     };
     let (base, base_rays) = run((3, 1));
-    let longest = f.lights.len() as u32;
+    let longest = f.lights.len();
     let every = run((longest, 1));
     let more = run((longest, 4));
     for (dial, (m, rays), than) in [("every near light", &every, &base), ("and 4 rays", &more, &every.0)] {
