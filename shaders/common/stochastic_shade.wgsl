@@ -167,7 +167,9 @@ fn stochastic_sample(g: GSample, p: vec2<u32>, pixel: u32, v: vec3<f32>) -> Rese
             more[j - 1u] = q;
         }
     }
-    more_picks = more;
+    if RAYS > 1u {
+        more_picks = more;
+    }
     return r;
 }
 
