@@ -178,18 +178,22 @@ fn the_comparison_rejects_a_twin_that_draws_otherwise() {
 
 // The near candidates' stratified draw (tiledlight_cull::stochastic::near_draw,
 // `near_draw` in shaders/common/stochastic.wgsl): each case is (k, m, count, u) and the
-// kernel writes the entry and the stratum's size; integers, so equal bit for bit.
+// kernel writes the entry and the stratum's size; integers, so equal bit for bit. With
+// them the number pick `m % rays` of `rays = 1 + k % 8` decides with (`ray_number`: 24-bit
+// integers, so equal bit for bit too).
 const NEAR_SRC: &str = r#"
 #include "common/stochastic.wgsl"
 @group(0) @binding(0) var<storage, read> cases: array<vec4<u32>>;
-@group(0) @binding(1) var<storage, read_write> out: array<vec2<u32>>;
+@group(0) @binding(1) var<storage, read_write> out: array<vec4<u32>>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x;
     if i >= arrayLength(&cases) { return; }
     let c = cases[i];
-    out[i] = near_draw(c.x, c.y, c.z, bitcast<f32>(c.w));
+    let u = bitcast<f32>(c.w);
+    let rays = 1u + c.x % 8u;
+    out[i] = vec4<u32>(near_draw(c.x, c.y, c.z, u), bitcast<u32>(ray_number(u, c.y % rays, rays)), 0u);
 }
 "#;
 
@@ -217,31 +221,38 @@ fn near_cases() -> Vec<[u32; 4]> {
     v
 }
 
-fn run_near(cases: &[[u32; 4]]) -> Vec<[u32; 2]> {
+fn run_near(cases: &[[u32; 4]]) -> Vec<[u32; 3]> {
     let out = run_cases(
         gpu(),
         "test.near_draw",
         NEAR_SRC,
         bytemuck::cast_slice(cases),
         cases.len() as u32,
-        cases.len() as u64 * 8,
+        cases.len() as u64 * 16,
     );
-    out.chunks_exact(2).map(|c| [c[0].to_bits(), c[1].to_bits()]).collect()
+    out.chunks_exact(4).map(|c| [c[0].to_bits(), c[1].to_bits(), c[2].to_bits()]).collect()
 }
 
-/// The cases where the GPU's row differs from `twin`'s.
+/// The twin's pick number for a case (the kernel's `rays` and `j`).
+fn ray_twin(k: u32, m: u32, u: f32) -> u32 {
+    let rays = 1 + k % 8;
+    tiledlight_cull::stochastic::ray_number(u, m % rays, rays).to_bits()
+}
+
+/// The cases where the GPU's row differs from `twin`'s near draw or from the pick number.
 fn near_mismatches(
     cases: &[[u32; 4]],
-    rows: &[[u32; 2]],
+    rows: &[[u32; 3]],
     twin: impl Fn(u32, u32, u32, f32) -> (u32, u32),
 ) -> Vec<String> {
     cases
         .iter()
         .zip(rows)
-        .filter_map(|(&[k, m, count, u], &[i, size])| {
-            let c = twin(k, m, count, f32::from_bits(u));
-            (c != (i, size))
-                .then(|| format!("k {k} m {m} count {count} u {}: GPU ({i}, {size}), CPU {c:?}", f32::from_bits(u)))
+        .filter_map(|(&[k, m, count, u], &[i, size, number])| {
+            let u = f32::from_bits(u);
+            let c = (twin(k, m, count, u), ray_twin(k, m, u));
+            (c != ((i, size), number))
+                .then(|| format!("k {k} m {m} count {count} u {u}: GPU ({i}, {size}), {number:#x}, CPU {c:?}"))
         })
         .collect()
 }
@@ -251,7 +262,9 @@ fn the_gpu_near_draw_matches_its_cpu_twin() {
     let cases = near_cases();
     let rows = run_near(&cases);
     let bad = near_mismatches(&cases, &rows, tiledlight_cull::stochastic::near_draw);
-    eprintln!("{} near draws, {} mismatches", cases.len(), bad.len());
+    let wrapped = rows.iter().zip(&cases).filter(|(r, c)| f32::from_bits(r[2]) < f32::from_bits(c[3])).count();
+    eprintln!("{} near draws, {} mismatches, {wrapped} pick numbers wrapped", cases.len(), bad.len());
+    assert!(wrapped > cases.len() / 10, "few pick numbers wrap past 1 ({wrapped}): the wrap is barely tested");
     assert!(bad.is_empty(), "{} of {} differ:\n{}", bad.len(), cases.len(), bad[..bad.len().min(10)].join("\n"));
 }
 
