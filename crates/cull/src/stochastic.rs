@@ -348,6 +348,23 @@ mod tests {
         assert_eq!((near_count(16, 5), near_count(4, 100), near_count(8, 0)), (5, 4, 0));
     }
 
+    /// Two picks of two candidates of equal weight never agree: the first candidate is
+    /// kept by both, the second replaces it where a pick's number is below 1/2, and the
+    /// two numbers are 1/2 apart. Pick 0 is the one-ray sampler's.
+    #[test]
+    fn the_picks_of_one_pixel_spread_over_its_candidates() {
+        let lights: Vec<Light> = (0..2)
+            .map(|i| Light::point(Vec3::new(i as f32 * 0.5 - 0.25, 1.0, 0.0), Vec3::ONE, 1.0, 0.01).unwrap())
+            .collect();
+        let s = Surface { albedo: Vec3::splat(0.5), roughness: 1.0, metallic: 0.0 };
+        let at = (Vec3::ZERO, Vec3::Y, Vec3::Y);
+        for pixel in 0..200 {
+            let picks = resample_near_far_rays(&lights, &[0, 1], at, &s, (2, 0), (pixel, 7), (None, 2));
+            assert_ne!(picks[0].light, picks[1].light, "pixel {pixel}: {picks:?}");
+            assert_eq!(picks[0], resample_near_far(&lights, &[0, 1], at, &s, (2, 0), (pixel, 7), None));
+        }
+    }
+
     /// A pick's numbers are the first pick's shifted by `j / rays` and wrapped: pick 0's is
     /// the number itself, the shifts are exact multiples of 2^-24, every result in [0, 1),
     /// and over 4 picks a number near 1 wraps.

@@ -20,7 +20,8 @@ use tiledlight_cull::light::{Light, LightKind};
 use tiledlight_cull::light_tree::LightTree;
 use tiledlight_cull::raycast::Triangles;
 use tiledlight_cull::stochastic::{
-    estimate, luminance, near_draw, rand01, reaches, resample, resample_near_far, unshadowed, FarSource, Reservoir,
+    estimate, luminance, near_draw, rand01, reaches, resample, resample_near_far, resample_near_far_rays, unshadowed,
+    FarSource, Reservoir,
 };
 
 /// A surface point: position, normal, direction to the eye, material.
@@ -249,6 +250,17 @@ fn near_and_far_candidates_converge_to_the_truth() {
     let longest = pixels.iter().map(|px| list_of(&lights, px).len()).max().unwrap() as u32;
     assert!(longest > 4 && longest < 40, "the lists are longer than 4 candidates ({longest})");
     unbiased("every list light + far 2", (&bvh, &lights, &pixels), false, FRAMES, near_far((longest, 2))).unwrap();
+    // Three picks of the same candidates, a ray each, their mean.
+    let rays = |i: u32, px: &Pixel, f: u32| {
+        let at = (px.p, px.n, px.v);
+        let picks = resample_near_far_rays(&lights, &list_of(&lights, px), at, &px.s, (4, 2), (i, f), (None, 3));
+        let sum: f32 = picks
+            .iter()
+            .map(|r| luminance(estimate(&lights, r, at, &px.s, false, |l| visible(&bvh, px, &lights[l as usize]))))
+            .sum();
+        sum / 3.0
+    };
+    unbiased("near 4 + far 2, 3 rays", (&bvh, &lights, &pixels), false, FRAMES, rays).unwrap();
     // The far candidates from the light tree: unbiased too.
     unbiased("near 4 + far 2, light tree", (&bvh, &lights, &pixels), false, FRAMES, near_far_from((4, 2), true))
         .unwrap();
