@@ -248,7 +248,8 @@ fn noise(m: &Moments) -> f64 {
 /// near candidates (the near lights' unshadowed sum is exact); 4 rays a pixel on top (4
 /// lights kept of the same candidates, each with its ray) stays unbiased and leaves less
 /// noise again (4 shadows averaged). On lavapipe the noise falls 10.5x, then 1.6x (the far
-/// candidates' share of it is not the rays'). The rays are counted: 4 a lit pixel.
+/// candidates' share of it is not the rays'). The rays are counted: 4 a lit pixel. With
+/// spatial reuse (2 neighbours) and 4 rays the mean stays unbiased too.
 #[test]
 fn every_near_light_and_more_rays_lower_the_noise_and_stay_unbiased() {
     let ctx = gpu();
@@ -256,9 +257,9 @@ fn every_near_light_and_more_rays_lower_the_noise_and_stay_unbiased() {
     let cam = camera(EYE_A);
     let truth = frame(ctx, &mut renderer(ctx, &f, Method::TRUTH, (1, 0)), &f, &cam);
     let brighter: Vec<f64> = truth.iter().map(|t| t * 1.02).collect();
-    let run = |(near, rays): (u32, u32)| {
+    let run_reusing = |(near, rays): (u32, u32), reuse: u32| {
         let mut s = FrameSettings::of(Method::Stochastic);
-        (s.knobs.candidates, s.knobs.far_candidates, s.knobs.rays) = (near, 2, rays);
+        (s.knobs.candidates, s.knobs.far_candidates, s.knobs.rays, s.knobs.reuse) = (near, 2, rays, reuse);
         (s.knobs.accumulate, s.knobs.denoise, s.knobs.temporal) = (0, 0, 0);
         let mut r = FrameRenderer::new(ctx, &f.scene, &f.lights, W, H, s).expect("renderer");
         let frames: Vec<Vec<f64>> = (0..FRAMES).map(|_| frame(ctx, &mut r, &f, &cam)).collect();
@@ -266,6 +267,7 @@ fn every_near_light_and_more_rays_lower_the_noise_and_stay_unbiased() {
         let rays = v.shading().read_traced_rays(&ctx.device, &ctx.queue).expect("the ray count");
         (Moments::of(&frames), rays.expect("a traced method counts rays"))
     };
+    let run = |candidates: (u32, u32)| run_reusing(candidates, 0);
     let (base, base_rays) = run((3, 1));
     let longest = f.lights.len();
     let every = run((longest, 1));
@@ -284,6 +286,12 @@ fn every_near_light_and_more_rays_lower_the_noise_and_stay_unbiased() {
         let share = *rays as f64 / (per_frame * base_rays as f64);
         assert!((0.9..1.1).contains(&share), "{dial}: {rays} rays in the last frame, {base_rays} with one");
     }
+    // With spatial reuse pick 0 is the merged reservoir and the other picks the pixel's
+    // own (its candidates drawn again in the reusing run): their mean stays unbiased.
+    let (reused, _) = run_reusing((3, 4), 2);
+    let z = unbiased_within(&reused, &truth).unwrap_or_else(|e| panic!("4 rays with spatial reuse: biased: {e}"));
+    unbiased_within(&reused, &brighter).expect_err("the truth scaled by 2% must be rejected");
+    eprintln!("4 rays with spatial reuse: summed error {z:.2} standard errors");
 }
 
 /// Lights with radii of 1.4 to 2.2 m (threshold 3): most of a pixel's light comes from
