@@ -289,8 +289,10 @@ for set in $sets; do
     # truth (10^12 shadow rays at 1080p: minutes), at the preset's threshold 0.1 (lights on
     # surfaces take their intensity from the threshold, so each threshold is another truth:
     # the lab's default axis of 13 would render 13). The stochastic method with uniform far
-    # candidates and with the light tree, 8 frames of a still camera, the denoiser on and
-    # off, at MT_SIZE (WIDTHxHEIGHT, default 960x540). The truth's time does not scale with
+    # candidates and with the light tree, 4 and 16 far candidates (the tree's descent costs
+    # 20 dependent reads a candidate here: at 640x360 3.8 ms against uniform draws' 1.1),
+    # 8 frames of a still camera, the denoiser on and off, at MT_SIZE (WIDTHxHEIGHT,
+    # default 960x540). The truth's time does not scale with
     # the pixels at small sizes (H100, 4e14d2c: 79 s at 192x108, 112 s at 640x360: a small
     # image leaves the GPU idle), so no probe: 960x540 is about 250 s there, 1080p about
     # 1,000 s (more than a call may take). The truth is kept in $out/refcache
@@ -307,7 +309,8 @@ for set in $sets; do
     timeout "${MT_TIMEOUT:-560}" "$bin" accuracy --width "${size%x*}" --height "${size#*x}" --light-preset million \
       --assign scatter --reference traced --reference-cache "$out/refcache" --frames 8 --warmup 1 \
       --reference-frames 1 --axis threshold=0.1 --axis method=stochastic --axis culling=planes \
-      --axis light-tree=off,on --axis denoise=4,0 --out "/tmp/mt-acc/acc.csv" >"$out/mt-acc-$size.txt" 2>&1
+      --axis light-tree=off,on --axis far-candidates=4,16 --axis denoise=4,0 --out "/tmp/mt-acc/acc.csv" \
+      >"$out/mt-acc-$size.txt" 2>&1
     echo "exit $?" >>"$out/mt-acc-$size.txt"
     cp /tmp/mt-acc/acc.csv "$out/mt-acc-$size.csv" 2>/dev/null
     if ls "$out"/refcache/*.bin >/dev/null 2>&1; then
@@ -351,8 +354,9 @@ for set in $sets; do
     # method's dials on one Pareto chart per scene, against the traced truth after 8 frames
     # of a still camera (the lab leaves out the points that give a method a dial it does not
     # read). The tiled methods at the default threshold, 0.01 and the budget's 0.0015; the
-    # stochastic method with and without the denoiser and its history, and with 4
-    # neighbours' reuse. Each scene's CSV, chart and printout: $out/et-SCENE.*
+    # stochastic method with and without the denoiser and its history, with 4 near
+    # candidates and every list light, 1 and 4 rays. Each scene's CSV, chart and printout:
+    # $out/et-SCENE.*
     for scene in f9 court; do
       extra=(--lights 1024)
       [ "$scene" = f9 ] && extra=(--lights 4096 --grid-objects 280 --density medium)
@@ -360,7 +364,7 @@ for set in $sets; do
       timeout 280 "$bin" accuracy --width 1920 --height 1080 "${extra[@]}" --reference traced --frames 8 \
         --warmup 1 --reference-frames 1 --axis method=visibility,deferred,forward-plus,stochastic \
         --axis threshold=0.1,0.01,0.0015 --axis culling=planes --axis denoise=4,0 --axis accumulate=64,0 \
-        --axis reuse=0,4 --out "/tmp/et-$scene/et.csv" >"$out/et-$scene.txt" 2>&1
+        --axis candidates=4,4096 --axis rays=1,4 --out "/tmp/et-$scene/et.csv" >"$out/et-$scene.txt" 2>&1
       echo "exit $?" >>"$out/et-$scene.txt"
       cp "/tmp/et-$scene/et.csv" "$out/et-$scene.csv" 2>/dev/null
       cp "/tmp/et-$scene/et.png" "$out/et-$scene.png" 2>/dev/null
