@@ -708,6 +708,32 @@ fn tune_finds_a_setting_within_the_budget_and_a_tighter_one_is_never_faster() {
     }
 }
 
+/// `tune` searches a dial only while the current method reads it, and skips a value the
+/// settings refuse: from the stochastic method (12 lights, 160x96), the shadow casters'
+/// dial is never measured (the method has no shadow atlas: one image under each value),
+/// 4x MSAA is skipped with the refusal printed (one sample a pixel), and the near
+/// candidates' dial is measured. The refusal comes from the settings alone
+/// (`Settings::validate`), before any GPU work.
+#[test]
+fn tune_skips_dials_the_method_does_not_read_and_values_it_refuses() {
+    let dir = scratch("tune-unread");
+    let csv = dir.join("tune.csv");
+    let mut args = vec!["tune", "--lights", "12", "--target-flip", "0.5", "--reference-frames", "1"];
+    args.extend(["--dial", "method=stochastic", "--dial", "shadow-point-lights=0,12", "--dial", "msaa=1,4"]);
+    args.extend(["--dial", "candidates=4,12", "--out", csv.to_str().unwrap()]);
+    args.extend(SMALL);
+    let out = stdout(&gpu_run(&args));
+    assert!(
+        out.lines().any(|l| l.starts_with("skipped:") && l.contains("msaa=4") && l.contains("one sample a pixel")),
+        "{out}"
+    );
+    let (_, rows) = read_csv(&csv);
+    let values = |dial: &str| rows.iter().map(|r| r[dial].clone()).collect::<std::collections::BTreeSet<_>>();
+    assert_eq!(values("shadow-point-lights"), ["0".to_string()].into(), "{out}");
+    assert_eq!(values("msaa"), ["1".to_string()].into(), "{out}");
+    assert_eq!(values("candidates"), ["12".to_string(), "4".to_string()].into(), "{out}");
+}
+
 /// `tune --bookmarks a,b` (12 lights, 160x96, two views of the courtyard: along it, and
 /// from above its far end): every candidate is measured from each view (a `camera`
 /// column; one truth per view), the answer meets the budget from both and the summary gives

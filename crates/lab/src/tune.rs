@@ -8,10 +8,11 @@
 //!    99th percentile and the worst pixel's HDR error (`max_error`) under theirs; frames that
 //!    dropped lights never qualify (their time is of less work), nor does a setting slower
 //!    than the truth (the truth is exact: the answer is then the truth itself).
-//! 3. **Coordinate descent**: for each dial in turn, every value with the other dials at
-//!    the current setting is measured (accuracy's session: one truth per scene, camera and
-//!    light set, reused by every candidate; candidates already in the CSV are not measured
-//!    again, so a rerun resumes). The current setting moves to the fastest candidate that
+//! 3. **Coordinate descent**: for each dial the current method reads, in turn, every value
+//!    the settings accept with the other dials at the current setting is measured
+//!    (accuracy's session: one truth per scene, camera and light set, reused by every
+//!    candidate; candidates already in the CSV are not measured again, so a rerun
+//!    resumes). The current setting moves to the fastest candidate that
 //!    meets every constraint (of those within [`TIME_TIE`] of it, the most accurate);
 //!    while none does, to the most accurate (of those within [`FLIP_TIE`] of it, the
 //!    fastest) ([`pick`]). Passes over the dials repeat until one changes nothing (at
@@ -43,11 +44,13 @@ use crate::accuracy::{self, Accuracy, ReferenceKind, Session, VplReference};
 use crate::axes::{self, Axis, Flags, Point};
 
 /// The dials searched when none is given: the method, the radius cutoff, the casters and
-/// their choice, the shadow atlas, the culling test, MSAA. The first value of each is the
+/// their choice, the shadow atlas, the culling test, MSAA, and the stochastic method's near
+/// candidates (4096: every light of a pixel's list) and rays a pixel (a dial is searched
+/// only while the current method reads it). The first value of each is the
 /// start (the defaults of a user who has not tuned anything yet, at a threshold where the
 /// cutoff's lost light and the unshadowed lights' added light roughly balance).
-pub const DEFAULT_DIALS: [&str; 8] = [
-    "method=deferred,visibility,forward-plus",
+pub const DEFAULT_DIALS: [&str; 10] = [
+    "method=deferred,visibility,forward-plus,stochastic",
     "threshold=0.0015,0.003,0.00625,0.025,0.1,0.0006",
     "shadow-point-lights=16,0,64,256",
     "casters-by=contribution,brightness",
@@ -55,6 +58,8 @@ pub const DEFAULT_DIALS: [&str; 8] = [
     "shadow-filter=3,1,5",
     "aabb=on,off",
     "msaa=1,4",
+    "candidates=4,16,4096",
+    "rays=1,2,4",
 ];
 
 /// What a setting must meet.
@@ -317,20 +322,35 @@ pub fn run<F: Flags>(scene: &F, t: &Tune) -> Result<Answer> {
     for pass in 1..=t.passes {
         let mut changed = false;
         for (k, dial) in dials.iter().enumerate() {
-            let points: Vec<Point> = dial
-                .values
-                .iter()
-                .map(|v| {
-                    let mut p = current.clone();
-                    p[k] = v.clone();
-                    p
-                })
-                .collect();
+            // A dial the current method does not read would measure its setting again under
+            // each value (the stochastic method has no shadow atlas, the tiled ones no rays).
+            let method = axes::args_at(scene, &dials, &current)?.plain().method;
+            if !axes::reads(&dial.name, method) {
+                continue;
+            }
+            // Values the settings refuse with the others as they are (the stochastic
+            // method's one sample a pixel at 4x MSAA) are no candidates; the current
+            // setting itself must be valid.
+            let mut points = Vec::new();
+            let mut settings: Vec<Settings> = Vec::new();
+            for v in &dial.values {
+                let mut p = current.clone();
+                p[k] = v.clone();
+                let of_views: Result<Vec<Settings>> = in_views(&p)
+                    .iter()
+                    .map(|q| axes::args_at(scene, &axes_measured, q).and_then(|a| a.settings()))
+                    .collect();
+                match of_views {
+                    Ok(s) => {
+                        settings.extend(s);
+                        points.push(p);
+                    }
+                    // (The error names the point: `args_at` says which values it was at.)
+                    Err(e) if p != current => println!("skipped:    {e:#}"),
+                    Err(e) => return Err(e),
+                }
+            }
             let measured: Vec<Point> = points.iter().flat_map(&in_views).collect();
-            let settings: Vec<Settings> = measured
-                .iter()
-                .map(|p| axes::args_at(scene, &axes_measured, p).and_then(|a| a.settings()))
-                .collect::<Result<_>>()?;
             session.measure(&axes_measured, (&measured, &settings), &args, &out)?;
             let rows = by_point(&session)?;
             let cands: Vec<Candidate> = points

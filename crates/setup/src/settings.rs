@@ -405,8 +405,13 @@ impl Settings {
         }
     }
 
-    /// Shadow-casting (point, spot) lights asked for.
+    /// Shadow-casting (point, spot) lights: those asked for, none for a method that does
+    /// not read casters (the stochastic method: its rays are its shadows; no atlas, no
+    /// caster ranking is built for it).
     pub fn shadow_casters(&self) -> (u32, u32) {
+        if !crate::table::reads_casters(self.method.traits()) {
+            return (0, 0);
+        }
         (self.shadow_point_lights, self.shadow_spot_lights)
     }
 
@@ -427,6 +432,15 @@ impl Settings {
     /// One line of the shadow settings, e.g. "8 point + 4 spot casters (the brightest of
     /// each kind), 256 px tiles, 5x5 PCF, d16"; None when no light casts a shadow.
     pub fn shadow_description(&self) -> Option<String> {
+        let asked = (self.shadow_point_lights, self.shadow_spot_lights);
+        if !crate::table::reads_casters(self.method.traits()) && asked != (0, 0) {
+            return Some(format!(
+                "every light by a ray; the {} point + {} spot casters asked for are not read by the {} method",
+                asked.0,
+                asked.1,
+                self.method.name()
+            ));
+        }
         self.has_shadows().then(|| {
             format!(
                 "{} point + {} spot casters ({}), {}",
@@ -602,6 +616,26 @@ mod tests {
         let grid_on_file = Settings { scene: file("x.glb"), grid_objects: 3, ..small() };
         assert!(err(grid_on_file).contains("default scene"));
         assert!(err(Settings { msaa: 3, ..small() }).contains("--msaa 3"));
+        // The stochastic method's one sample a pixel, refused from the settings alone.
+        let stochastic = || Settings { method: Method::Stochastic, ..small() };
+        stochastic().validate().unwrap();
+        assert!(err(Settings { msaa: 4, ..stochastic() })
+            .starts_with("--method stochastic shades one sample a pixel: --msaa 4"));
+        Settings { msaa: 4, ..small() }.validate().unwrap();
+        // Casters asked of the stochastic method are not read (no atlas, no ranking), and
+        // its description says so; the same for a shadow-mapped method are.
+        let casters = Settings { shadow_point_lights: 4, ..stochastic() };
+        assert_eq!((casters.shadow_casters(), casters.has_shadows()), ((0, 0), false));
+        assert_eq!(
+            casters.shadow_description().unwrap(),
+            "every light by a ray; the 4 point + 0 spot casters asked for are not read by the stochastic method"
+        );
+        assert_eq!(stochastic().shadow_description(), None);
+        let mapped = Settings { shadow_point_lights: 4, ..small() };
+        assert_eq!(mapped.shadow_casters(), (4, 0));
+        assert!(mapped.shadow_description().unwrap().starts_with("4 point + 0 spot casters"));
+        let with_vpls = Settings { vpl: Some(VplConfig::default()), ..stochastic() };
+        assert!(err(with_vpls).starts_with("--method stochastic does not sample VPLs yet"));
         assert!(err(Settings { knobs: Knobs { gbuffer_rts: 6, ..Knobs::default() }, ..small() })
             .contains("--gbuffer-rts 6"));
         let tiny_tiles = Knobs { shadow_size: 100, ..Knobs::default() };

@@ -40,6 +40,20 @@ impl Settings {
                 self.msaa
             );
         }
+        if self.method.traits().stochastic {
+            // Also refused where the pass is built; checked here so that a sweep or the
+            // tuner learns it from the settings alone, before any GPU work.
+            ensure!(
+                self.msaa == 1,
+                "--method stochastic shades one sample a pixel: --msaa {} is not supported, use --msaa 1",
+                self.msaa
+            );
+            ensure!(
+                self.vpl.is_none(),
+                "--method stochastic does not sample VPLs yet: render it without --vpl (the traced reference adds \
+                 them unshadowed)"
+            );
+        }
         ensure!(self.grid_pairs != Some(0), "--grid-budget 0: the light grid must hold at least one index");
         ensure!(!(self.depth_mask && self.half_z), "--grid 2.5d with --half-z: they are alternative layouts, pick one");
         if let Some(c) = &self.clusters {
