@@ -346,6 +346,14 @@ impl Default for Settings {
     }
 }
 
+/// Every method but the stochastic one reads the shadow casters: the shadow-mapped methods
+/// draw them, the traced reference takes its VPLs' reflective shadow maps from them; the
+/// stochastic method's rays are its shadows and it has no VPLs. (The run settings' table's
+/// caster rows apply to it.)
+pub fn reads_casters(m: tiledlight_gpu::method::MethodTraits) -> bool {
+    !m.stochastic
+}
+
 impl Settings {
     /// Random (point, spot) lights asked for, with the per-scene defaults applied.
     pub fn random_light_counts(&self) -> (u64, u64) {
@@ -409,7 +417,7 @@ impl Settings {
     /// not read casters (the stochastic method: its rays are its shadows; no atlas, no
     /// caster ranking is built for it).
     pub fn shadow_casters(&self) -> (u32, u32) {
-        if !crate::table::reads_casters(self.method.traits()) {
+        if !reads_casters(self.method.traits()) {
             return (0, 0);
         }
         (self.shadow_point_lights, self.shadow_spot_lights)
@@ -433,7 +441,7 @@ impl Settings {
     /// each kind), 256 px tiles, 5x5 PCF, d16"; None when no light casts a shadow.
     pub fn shadow_description(&self) -> Option<String> {
         let asked = (self.shadow_point_lights, self.shadow_spot_lights);
-        if !crate::table::reads_casters(self.method.traits()) && asked != (0, 0) {
+        if !reads_casters(self.method.traits()) && asked != (0, 0) {
             return Some(format!(
                 "every light by a ray; the {} point + {} spot casters asked for are not read by the {} method",
                 asked.0,

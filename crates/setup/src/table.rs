@@ -337,13 +337,6 @@ fn any_method(_: MethodTraits) -> bool {
     true
 }
 
-/// Every method but the stochastic one reads the shadow casters: the shadow-mapped methods
-/// draw them, the traced reference takes its VPLs' reflective shadow maps from them; the
-/// stochastic method's rays are its shadows and it has no VPLs.
-pub fn reads_casters(m: MethodTraits) -> bool {
-    !m.stochastic
-}
-
 fn tiled(m: MethodTraits) -> bool {
     m.tiled
 }
@@ -512,19 +505,19 @@ settings! {
     /// faces each, in the shadow atlas).
     shadow_point_lights: u32;
     "shadow-point-lights", Shadows, "N", "shadow-casting point lights",
-    applies(reads_casters), check(no_check), rebuild(Rebuilds::LightBuffers), short;
+    applies(crate::settings::reads_casters), check(no_check), rebuild(Rebuilds::LightBuffers), short;
 
     /// Shadow-casting spot lights: the N brightest spot lights cast shadows (one face each).
     shadow_spot_lights: u32;
     "shadow-spot-lights", Shadows, "N", "shadow-casting spot lights",
-    applies(reads_casters), check(no_check), rebuild(Rebuilds::LightBuffers);
+    applies(crate::settings::reads_casters), check(no_check), rebuild(Rebuilds::LightBuffers);
 
     /// How the shadow casters of each kind are chosen: the brightest, or the largest
     /// contributions to the frame (estimated on the GPU from one frame's depth and light
     /// grid, for the camera the lights are made with).
     casters_by: CasterChoice;
     "casters-by", Shadows, "HOW", "how the shadow casters are chosen",
-    applies(reads_casters), check(no_check), rebuild(Rebuilds::Casters);
+    applies(crate::settings::reads_casters), check(no_check), rebuild(Rebuilds::Casters);
 
     /// Turn every warning (missing textures, unknown extensions, dropped lights...) into an
     /// error with a non-zero exit.
