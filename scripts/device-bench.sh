@@ -292,12 +292,12 @@ for set in $sets; do
     # candidates and with the light tree, 4 and 16 far candidates (the tree's descent costs
     # 20 dependent reads a candidate here: at 640x360 3.8 ms against uniform draws' 1.1),
     # 8 frames of a still camera, the denoiser on and off, at MT_SIZE (WIDTHxHEIGHT,
-    # default 960x540). The truth's time does not scale with
-    # the pixels at small sizes (H100, 4e14d2c: 79 s at 192x108, 112 s at 640x360: a small
-    # image leaves the GPU idle), so no probe: 960x540 is about 250 s there, 1080p about
-    # 1,000 s (more than a call may take). The truth is kept in $out/refcache
-    # (--reference-cache), packed at the end into 15 MiB parts ($MT_PARTS/refcache.tar.xz.part-*,
-    # default $out: the device tool returns files of 16 MiB at most). Put the parts in
+    # default 960x540). The truth's time does not scale with the pixels at small sizes
+    # (H100, 4e14d2c: 79 s at 192x108, 112 s at 640x360: a small image leaves the GPU idle),
+    # so no probe: 960x540 is about 250 s there, 1080p about 1,000 s (more than a call may
+    # take). The truth is kept in $out/refcache (--reference-cache), packed at the end into
+    # 15 MiB parts ($MT_PARTS/refcache.tar.xz.part-*, default $out: the device tool returns
+    # files of 16 MiB at most). Put the parts in
     # .device/ for the next call (they count towards the 64 MiB that travel): it unpacks
     # them and reads the truth instead of tracing it again.
     size=${MT_SIZE:-960x540}

@@ -9,8 +9,8 @@
 //!    frame, draw), so the GPU can draw the same ([`resample`]). The method draws from two
 //!    sources that split the lights ([`resample_near_far`]): the pixel's list for the
 //!    lights whose radius reaches it (stratified, [`near_draw`]: with as many candidates as
-//!    the list is long, every light in it once), every light for the rest. (A light tree's source
-//!    pdf, the next source, comes with its own draw.)
+//!    the list is long, every light in it once), every light for the rest (uniformly, or
+//!    from a [`FarSource`] such as `crate::light_tree::LightTree`, with its own draw).
 //! 2. **Target.** `p_hat(l)`: the luminance of the light's unshadowed contribution at the
 //!    surface point ([`unshadowed`]: `brdf_cos` x radiance x attenuation x cone), the
 //!    integrand without its visibility; positive wherever the integrand is.
@@ -21,7 +21,10 @@
 //! 4. **Estimate.** One shadow ray to the kept light `y`: the pixel's light is
 //!    `f(y) V(y) W` with `W = w_sum / (M p_hat(y))` ([`Reservoir::weight`]), an unbiased
 //!    estimate of `sum_l f(l) V(l)` over the candidate set; with `M` candidates its
-//!    variance falls as the target approaches `f V`.
+//!    variance falls as the target approaches `f V`. With K rays
+//!    ([`resample_near_far_rays`]) K reservoirs take the same candidates, their numbers
+//!    shifted apart ([`ray_number`]), and the pixel's light is the mean of their K
+//!    estimates.
 //!
 //! Depends on this crate's light and brdf modules only (the shadow ray is the caller's:
 //! the tests use [`crate::raycast::Triangles`], the GPU its BVH).
@@ -196,8 +199,9 @@ pub fn ray_number(u: f32, j: u32, rays: u32) -> f32 {
 
 /// Steps 1-3 with two candidate sources whose domains split the lights (the method's
 /// sampler): `m_near` candidates drawn stratified from the pixel's `list` ([`near_draw`]:
-/// at most one a light; the light grid's list holds every light that [`reaches`] the point) that count only when they reach it, and
-/// `m_far` drawn uniformly from every light that count only when they do not. Each
+/// at most one a light; the light grid's list holds every light that [`reaches`] the
+/// point) that count only when they reach it, and `m_far` drawn uniformly from every light
+/// that count only when they do not. Each
 /// candidate's weight is `p_hat / (q_s M_s)` for its source `s` (the generalised RIS of
 /// Lin et al. 2022 with disjoint domains: a light is made by one source only), scaled by
 /// the reservoir's total `M` so that [`Reservoir::weight`] (which divides by it) is the

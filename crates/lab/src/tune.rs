@@ -319,13 +319,13 @@ pub fn run<F: Flags>(scene: &F, t: &Tune) -> Result<Answer> {
         out.display()
     );
     let mut current: Point = dials.iter().map(|d| d.values[0].clone()).collect();
+    let base_method = scene.plain().method;
     for pass in 1..=t.passes {
         let mut changed = false;
         for (k, dial) in dials.iter().enumerate() {
             // A dial the current method does not read would measure its setting again under
             // each value (the stochastic method has no shadow atlas, the tiled ones no rays).
-            let method = axes::args_at(scene, &dials, &current)?.plain().method;
-            if !axes::reads(&dial.name, method) {
+            if !axes::reads(&dial.name, axes::method_at(&dials, &current, base_method)) {
                 continue;
             }
             // Values the settings refuse with the others as they are (the stochastic

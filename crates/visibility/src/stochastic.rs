@@ -4,8 +4,9 @@
 //! loop ([`crate::shading::ShadeLights::Stochastic`], `shaders/stochastic.wgsl`, body
 //! `shaders/common/stochastic_shade.wgsl`):
 //!
-//! 1. Each frame draws `candidates` lights a pixel from its list in the light grid (stratified, none twice; the
-//!    lights whose radius reaches it) and `far_candidates` from every light (the others),
+//! 1. Each frame draws `candidates` lights a pixel from its list in the light grid (the
+//!    lights whose radius reaches it; stratified, none twice) and `far_candidates` from
+//!    every light (the others), with `rays` picks of them (a shadow ray each),
 //!    keeps one by resampled importance sampling with the unshadowed contribution as the
 //!    target, and casts one shadow ray to it (`tiledlight_cull::stochastic::
 //!    resample_near_far` is the CPU twin).
