@@ -152,12 +152,25 @@ fn snap(v: Vec4, (w, h): (u32, u32)) -> Snapped {
 /// Calls `emit` for every pixel of a `size` target that triangle `clip` covers (the
 /// module's rules; a pixel at most once per triangle even where clipping fans it).
 pub fn rasterize(clip: [Vec4; 3], size: (u32, u32), cull: Cull, mut emit: impl FnMut(Fragment)) {
-    if clip.iter().any(|v| !v.is_finite()) || size.0 == 0 || size.1 == 0 {
+    let Some((s, front)) = setup(clip, size, cull) else {
         return;
+    };
+    for i in 1..s.len() - 1 {
+        if let Some(p) = Prepared::new(s[0], s[i], s[i + 1], size) {
+            p.fill(front, &mut emit);
+        }
+    }
+}
+
+/// Steps 1 to 4 (module doc): the snapped polygon (a fan from its first vertex) and
+/// whether it faces the viewer; `None` when nothing of it is drawn.
+fn setup(clip: [Vec4; 3], size: (u32, u32), cull: Cull) -> Option<(Vec<Snapped>, bool)> {
+    if clip.iter().any(|v| !v.is_finite()) || size.0 == 0 || size.1 == 0 {
+        return None;
     }
     let poly = clip_triangle(clip);
     if poly.len() < 3 {
-        return;
+        return None;
     }
     let s: Vec<Snapped> = poly.iter().map(|&v| snap(v, size)).collect();
     // The facing of the whole triangle (the fan's pieces share it; a clipped-away
@@ -165,16 +178,49 @@ pub fn rasterize(clip: [Vec4; 3], size: (u32, u32), cull: Cull, mut emit: impl F
     let area = |a: Snapped, b: Snapped, c: Snapped| (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
     let total: i64 = (1..s.len() - 1).map(|i| area(s[0], s[i], s[i + 1])).sum();
     if total == 0 {
-        return;
+        return None;
     }
     // Window y points down: counter-clockwise in NDC is a negative area here.
     let front = total < 0;
     if cull == Cull::Back && !front {
-        return;
+        return None;
     }
+    Some((s, front))
+}
+
+/// Side of the screen tiles the large triangles are filled by (`LARGE_TILE` in
+/// `shaders/visibility_raster.wgsl`: one workgroup of 16 x 16 lanes a tile).
+pub const LARGE_TILE: u32 = 16;
+
+/// The work a large triangle is split into (the compute raster's `cs_large`, issue 49):
+/// `[piece, tile x, tile y]` for every piece of its clipped fan (0 = the first) and every
+/// [`LARGE_TILE`] tile of the screen within the piece's pixel bounds that no edge rules
+/// out. An edge function is linear, so its largest value over the tile's pixel centres
+/// (clipped to the bounds) is at one of their four corners: a tile is left out only when
+/// an edge is negative at all four, where no centre can be covered. Every covered pixel
+/// lies in a listed tile of its piece; a listed tile may cover none.
+pub fn large_tiles(clip: [Vec4; 3], size: (u32, u32), cull: Cull) -> Vec<[u32; 3]> {
+    let mut out = Vec::new();
+    let Some((s, _)) = setup(clip, size, cull) else {
+        return out;
+    };
+    let t = i64::from(LARGE_TILE);
     for i in 1..s.len() - 1 {
-        fill(s[0], s[i], s[i + 1], size, front, &mut emit);
+        let Some(p) = Prepared::new(s[0], s[i], s[i + 1], size).filter(|p| p.x0 <= p.x1 && p.y0 <= p.y1) else {
+            continue;
+        };
+        for ty in p.y0 / t..=p.y1 / t {
+            for tx in p.x0 / t..=p.x1 / t {
+                let (x0, x1) = ((tx * t).max(p.x0), (tx * t + t - 1).min(p.x1));
+                let (y0, y1) = ((ty * t).max(p.y0), (ty * t + t - 1).min(p.y1));
+                let corners = [(x0, y0), (x1, y0), (x0, y1), (x1, y1)].map(|(x, y)| p.edges(x, y));
+                if (0..3).all(|k| corners.iter().any(|e| e[k] >= 0)) {
+                    out.push([i as u32 - 1, tx as u32, ty as u32]);
+                }
+            }
+        }
     }
+    out
 }
 
 /// Whether the edge from `a` to `b` of a positive-area triangle (window y down) is a top
@@ -189,36 +235,61 @@ fn edge(a: Snapped, b: Snapped, px: i64, py: i64) -> i64 {
     (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x)
 }
 
-fn fill(a: Snapped, b: Snapped, c: Snapped, (w, h): (u32, u32), front: bool, emit: &mut impl FnMut(Fragment)) {
-    let ab = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
-    if ab == 0 {
-        return;
+/// A snapped triangle ready to fill (`RasterFill` in the WGSL): vertices ordered to a
+/// positive area and the pixels its bounds hold on screen (`x0..=x1`, `y0..=y1`; empty
+/// when `x1 < x0` or `y1 < y0`).
+struct Prepared {
+    v: [Snapped; 3],
+    area: i64,
+    x0: i64,
+    x1: i64,
+    y0: i64,
+    y1: i64,
+}
+
+impl Prepared {
+    /// `None` for a zero area.
+    fn new(a: Snapped, b: Snapped, c: Snapped, (w, h): (u32, u32)) -> Option<Self> {
+        let ab = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+        if ab == 0 {
+            return None;
+        }
+        // Positive area: swap two vertices of a negative one.
+        let v = if ab > 0 { [a, b, c] } else { [a, c, b] };
+        let one = 1i64 << SUBPIXEL_BITS;
+        let half = one / 2;
+        // Pixels whose centres the bounding box can hold (one more at the low end is harmless).
+        let lo = |m: i64| (m - half).div_euclid(one).max(0);
+        let hi = |m: i64, n: u32| ((m - half).div_euclid(one)).min(i64::from(n) - 1);
+        let (xs, ys) = (v.map(|p| p.x), v.map(|p| p.y));
+        let (min, max) = (|a: [i64; 3]| a[0].min(a[1]).min(a[2]), |a: [i64; 3]| a[0].max(a[1]).max(a[2]));
+        Some(Self { v, area: ab.abs(), x0: lo(min(xs)), x1: hi(max(xs), w), y0: lo(min(ys)), y1: hi(max(ys), h) })
     }
-    // Positive area: swap two vertices of a negative one.
-    let (v0, v1, v2) = if ab > 0 { (a, b, c) } else { (a, c, b) };
-    let area = ab.abs();
-    let one = 1i64 << SUBPIXEL_BITS;
-    let half = one / 2;
-    // Pixels whose centres the bounding box can hold (one more at the low end is harmless).
-    let lo = |m: i64| (m - half).div_euclid(one).max(0);
-    let hi = |m: i64, n: u32| ((m - half).div_euclid(one)).min(i64::from(n) - 1);
-    let (x0, x1) = (lo(v0.x.min(v1.x).min(v2.x)), hi(v0.x.max(v1.x).max(v2.x), w));
-    let (y0, y1) = (lo(v0.y.min(v1.y).min(v2.y)), hi(v0.y.max(v1.y).max(v2.y), h));
-    let edges = [(v1, v2), (v2, v0), (v0, v1)];
-    let owns: [bool; 3] = edges.map(|(p, q)| top_left(p, q));
-    for py in y0..=y1 {
-        for px in x0..=x1 {
-            let (cx, cy) = (px * one + half, py * one + half);
-            let e = edges.map(|(p, q)| edge(p, q, cx, cy));
-            let inside = (0..3).all(|k| e[k] > 0 || (e[k] == 0 && owns[k]));
-            if !inside {
-                continue;
+
+    /// The three edge functions at the centre of pixel `(px, py)`: edge k is opposite
+    /// vertex k (so it weighs that vertex).
+    fn edges(&self, px: i64, py: i64) -> [i64; 3] {
+        let one = 1i64 << SUBPIXEL_BITS;
+        let (cx, cy) = (px * one + one / 2, py * one + one / 2);
+        let [v0, v1, v2] = self.v;
+        [(v1, v2), (v2, v0), (v0, v1)].map(|(p, q)| edge(p, q, cx, cy))
+    }
+
+    fn fill(&self, front: bool, emit: &mut impl FnMut(Fragment)) {
+        let [v0, v1, v2] = self.v;
+        let owns = [(v1, v2), (v2, v0), (v0, v1)].map(|(p, q)| top_left(p, q));
+        for py in self.y0..=self.y1 {
+            for px in self.x0..=self.x1 {
+                let e = self.edges(px, py);
+                let inside = (0..3).all(|k| e[k] > 0 || (e[k] == 0 && owns[k]));
+                if !inside {
+                    continue;
+                }
+                let inv = 1.0 / self.area as f32;
+                let depth =
+                    (e[0] as f32 * inv) * v0.depth + (e[1] as f32 * inv) * v1.depth + (e[2] as f32 * inv) * v2.depth;
+                emit(Fragment { x: px as u32, y: py as u32, depth, front });
             }
-            // e[0] weighs v0 (the edge opposite it), e[1] v1, e[2] v2.
-            let inv = 1.0 / area as f32;
-            let depth =
-                (e[0] as f32 * inv) * v0.depth + (e[1] as f32 * inv) * v1.depth + (e[2] as f32 * inv) * v2.depth;
-            emit(Fragment { x: px as u32, y: py as u32, depth, front });
         }
     }
 }

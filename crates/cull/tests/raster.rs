@@ -16,6 +16,8 @@
 //!   front of the near plane, is covered.
 //! - **Watertight**: two triangles sharing an edge never both cover a pixel (the top-left
 //!   rule), and a pixel inside the quad they make is covered (completeness of both).
+//! - **Large triangles' tiles** (`large_tiles`, what the GPU's `cs_large` lists): every
+//!   covered pixel lies in a listed tile, for every shape (clipped fans included).
 
 mod common;
 
@@ -23,7 +25,7 @@ use common::{log_uniform, proptest_config, rng, unit};
 use glam::{DVec2, DVec4, Mat4, Vec3, Vec4};
 use proptest::prelude::*;
 use rand::Rng;
-use tiledlight_cull::raster::{rasterize, Cull, Fragment};
+use tiledlight_cull::raster::{large_tiles, rasterize, Cull, Fragment, LARGE_TILE};
 use tiledlight_cull::visibility::{barycentrics_f64, pixel_ndc};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -244,6 +246,15 @@ proptest! {
         check(&c).map_err(|e| TestCaseError::fail(format!("{e}\n{c:?}")))?;
     }
 
+    /// Every covered pixel of every shape lies in one of the tiles `large_tiles` lists.
+    #[test]
+    fn the_large_tiles_hold_every_covered_pixel(seed in any::<u64>(), s in 0usize..6) {
+        let c = case(seed, SHAPES[s]);
+        let clip = c.clip();
+        tiles_hold(&large_tiles(clip, c.size, Cull::None), &c.fragments(clip))
+            .map_err(|e| TestCaseError::fail(format!("{e}\n{c:?}")))?;
+    }
+
     /// Two triangles sharing an edge (a quad split along its diagonal, either way) never
     /// both cover a pixel.
     #[test]
@@ -292,4 +303,47 @@ fn the_property_sees_pixels_and_rejects_a_shifted_triangle() {
         .filter(|f| exact(clip, (f.x, f.y), c.size).is_some_and(|e| (0..3).any(|k| e.lambda[k] < -e.margin[k])))
         .count();
     assert!(outside > 0, "a one-pixel shift must put some fragment outside the triangle");
+}
+
+/// Whether every fragment's pixel lies in one of `tiles` (`[piece, x, y]`, the piece not
+/// checked: `rasterize` does not say which piece covered a pixel).
+fn tiles_hold(tiles: &[[u32; 3]], frags: &[Fragment]) -> Result<(), String> {
+    let set: std::collections::HashSet<(u32, u32)> = tiles.iter().map(|t| (t[1], t[2])).collect();
+    match frags.iter().find(|f| !set.contains(&(f.x / LARGE_TILE, f.y / LARGE_TILE))) {
+        Some(f) => Err(format!("pixel ({}, {}) is in no listed tile ({} listed)", f.x, f.y, tiles.len())),
+        None => Ok(()),
+    }
+}
+
+/// The tiles of a triangle filling the lower-left half of a 64 x 64 target: the ten tiles
+/// on and below the diagonal, not the six above it that no pixel centre of the triangle
+/// reaches; and `tiles_hold` rejects the list with any one of them left out. A triangle
+/// clipped by the near plane lists its tiles per piece of its fan.
+#[test]
+fn a_half_screen_triangle_lists_the_tiles_on_its_side() {
+    let size = (64, 64);
+    // Counter-clockwise in NDC: (-1, -1), (1, -1), (-1, 1); window y down.
+    let tri = [Vec4::new(-1.0, -1.0, 0.5, 1.0), Vec4::new(1.0, -1.0, 0.5, 1.0), Vec4::new(-1.0, 1.0, 0.5, 1.0)];
+    let tiles = large_tiles(tri, size, Cull::Back);
+    let mut got: Vec<(u32, u32)> = tiles.iter().map(|t| (t[1], t[2])).collect();
+    got.sort_unstable();
+    let mut want: Vec<(u32, u32)> = (0..4).flat_map(|y| (0..4).map(move |x| (x, y))).filter(|&(x, y)| x <= y).collect();
+    want.sort_unstable();
+    assert_eq!(got, want);
+    assert!(tiles.iter().all(|t| t[0] == 0));
+    let mut frags = Vec::new();
+    rasterize(tri, size, Cull::Back, |f| frags.push(f));
+    tiles_hold(&tiles, &frags).unwrap();
+    for k in 0..tiles.len() {
+        let mut fewer = tiles.clone();
+        fewer.remove(k);
+        assert!(tiles_hold(&fewer, &frags).is_err(), "tile {:?} left out must be caught", tiles[k]);
+    }
+    // Back faces are culled as rasterize culls them; nothing off screen is listed.
+    assert!(large_tiles([tri[0], tri[2], tri[1]], size, Cull::Back).is_empty());
+    assert!(large_tiles(tri.map(|v| v + Vec4::new(3.0, 0.0, 0.0, 0.0)), size, Cull::None).is_empty());
+    // Crossing the near plane (z > w at one vertex): a fan of two pieces, each listing tiles.
+    let near = [Vec4::new(-1.0, -1.0, 0.5, 1.0), Vec4::new(1.0, -1.0, 0.5, 1.0), Vec4::new(-1.0, 1.0, 2.0, 1.0)];
+    let pieces: std::collections::BTreeSet<u32> = large_tiles(near, size, Cull::None).iter().map(|t| t[0]).collect();
+    assert_eq!(pieces.into_iter().collect::<Vec<_>>(), vec![0, 1]);
 }
