@@ -13,12 +13,19 @@
 //    the entry's top bit), and fills it when its bounds span at most params.large_px
 //    pixels each way; a larger one is appended to the large list (one thread would take
 //    too long over its pixels).
-// 2. The large list: cs_large below (a workgroup a triangle, the default) or the hardware
+// 2. The large list, by compute (the default) or by the hardware
 //    (visibility_raster_large.wgsl); alpha-masked instances by the hardware
-//    (depth_prepass.wgsl with IDS ATOMIC), atomicMax from fragments.
+//    (depth_prepass.wgsl with IDS ATOMIC), atomicMax from fragments. By compute, in two
+//    passes so that no workgroup waits on one triangle's many pixels (issue 49):
+//    a. cs_large: a workgroup a large triangle sets it up once and lists the 16 x 16 px
+//       screen tiles of its bounds that its edges do not rule out (raster_tile_open), as
+//       (triangle, piece of its clipped fan, tile) items;
+//    b. cs_large_tiles: a workgroup an item, a lane a pixel of its tile, covered by the same
+//       rules and values as one thread's fill. A list that would pass its capacity is not
+//       cut: the lane that finds it full fills that tile's pixels itself.
 // 3. cs_finalize: per pixel, the texel's depth to an R32Float texture and its ID to the
 //    R32Uint ID texture (what the culling and shading passes read), then the texel back to
-//    the clear value and the large list emptied, ready for the next frame.
+//    the clear value and the large list and its tiles emptied, ready for the next frame.
 // variants: VISIBILITY
 #include "common/scene.wgsl"
 #include "common/compute_raster.wgsl"
@@ -48,6 +55,11 @@ struct RasterParams {
     large_px: u32,
     // Triangle IDs' low bits (tiledlight_cull::visibility::IdLayout::triangle_bits).
     triangle_bits: u32,
+    // Items the large triangles' tile list holds.
+    tile_capacity: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 // A triangle handed to the hardware: instance, triangle within the instance's mesh.
@@ -56,12 +68,18 @@ struct Large {
     triangle: u32,
 }
 
-// wgpu::util::DrawIndirectArgs.
+// wgpu::util::DrawIndirectArgs (the hardware's draw of the large list), then the count of
+// the large triangles' tile items listed (it may pass the capacity) and the last frame's
+// (kept by cs_finalize for tests).
 struct LargeArgs {
     vertex_count: atomic<u32>,
     instance_count: u32,
     first_vertex: u32,
     first_instance: u32,
+    tiles: atomic<u32>,
+    tiles_last: u32,
+    pad0: u32,
+    pad1: u32,
 }
 
 @group(1) @binding(26) var<storage, read> vis_indices: array<u32>;
@@ -76,6 +94,8 @@ struct LargeArgs {
 @group(1) @binding(46) var<storage, read_write> large_args: LargeArgs;
 @group(1) @binding(47) var depth_out: texture_storage_2d<r32float, write>;
 @group(1) @binding(48) var ids_out: texture_storage_2d<r32uint, write>;
+// The large triangles' tile items: (large list index << 3 | piece, tile x | tile y << 16).
+@group(1) @binding(51) var<storage, read_write> large_tiles: array<vec2<u32>>;
 // Per triangle of the merged index buffer in cluster order, its index within its mesh
 // (SceneGpu::cluster_triangles): the index buffer keeps each mesh's own order.
 @group(1) @binding(50) var<storage, read> cluster_order: array<u32>;
@@ -131,7 +151,9 @@ fn cs_clusters(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_i
     let c2 = transform_position(entry.instance, vertex_position(vis_indices[base + 2u], inst.base_vertex));
     let cull_back = (entry.cluster & 0x80000000u) != 0u;
     let id = select(entry.instance << params.triangle_bits, 0u, params.triangle_bits >= 32u) | triangle;
-    let large_px = vec2<i64>(i64(params.large_px));
+    // Through i32: u32::MAX ("none is large") became -1 (every triangle large) when
+    // converted to i64 directly (seen on lavapipe); no span passes 2^31 px.
+    let large_px = vec2<i64>(i64(i32(min(params.large_px, 0x7fffffffu))));
     // Most triangles need no clipping: three snapped vertices, no polygon arrays.
     if raster_finite(c0) && raster_finite(c1) && raster_finite(c2) && raster_inside(c0, c1, c2) {
         let t = raster_setup_inside(c0, c1, c2, view.screen, cull_back);
@@ -167,25 +189,88 @@ fn append_large(instance: u32, triangle: u32) {
 const LARGE_GROUPS: u32 = 1024u;
 const LARGE_LANES: u32 = 256u;
 
-// 2'. With large triangles by compute: a workgroup a large triangle (LARGE_GROUPS of them
-// looping over the list), its 256 lanes sharing the triangle's pixels (raster_fill_strided:
-// the same rules and values as one thread's fill). Back faces were culled when listed.
+// A large triangle's clip-space vertices (back faces were culled when it was listed).
+struct LargeClip {
+    c0: vec4<f32>,
+    c1: vec4<f32>,
+    c2: vec4<f32>,
+    id: u32,
+}
+
+fn large_clip(l: Large) -> LargeClip {
+    let inst = instances[l.instance];
+    let base = inst.first_index + 3u * l.triangle;
+    let c0 = transform_position(l.instance, vertex_position(vis_indices[base], inst.base_vertex));
+    let c1 = transform_position(l.instance, vertex_position(vis_indices[base + 1u], inst.base_vertex));
+    let c2 = transform_position(l.instance, vertex_position(vis_indices[base + 2u], inst.base_vertex));
+    let id = select(l.instance << params.triangle_bits, 0u, params.triangle_bits >= 32u) | l.triangle;
+    return LargeClip(c0, c1, c2, id);
+}
+
+// Lists the tiles of piece `piece` (prepared as f) of large triangle `t` (step 2a).
+fn list_tiles(f: RasterFill, t: u32, piece: u32, id: u32, lane: u32) {
+    if !f.drawn || any(f.hi < f.lo) {
+        return;
+    }
+    let t0 = f.lo / vec2<i64>(RASTER_TILE);
+    let t1 = f.hi / vec2<i64>(RASTER_TILE);
+    let width = u32(t1.x - t0.x) + 1u;
+    let tiles = width * (u32(t1.y - t0.y) + 1u);
+    for (var k = lane; k < tiles; k += LARGE_LANES) {
+        let tile = t0 + vec2<i64>(i64(k % width), i64(k / width));
+        if !raster_tile_open(f, tile) {
+            continue;
+        }
+        let slot = atomicAdd(&large_args.tiles, 1u);
+        if slot < params.tile_capacity {
+            large_tiles[slot] = vec2<u32>((t << 3u) | piece, u32(tile.x) | (u32(tile.y) << 16u));
+        } else {
+            raster_fill_tile(f, tile, id);
+        }
+    }
+}
+
+// 2a. With large triangles by compute: a workgroup a large triangle (LARGE_GROUPS of them
+// looping over the list), its 256 lanes sharing the tiles of its bounds.
 @compute @workgroup_size(256)
 fn cs_large(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
     let count = atomicLoad(&large_args.vertex_count) / 3u;
     for (var t = wg.x; t < count; t += LARGE_GROUPS) {
-        let l = large[t];
-        let inst = instances[l.instance];
-        let base = inst.first_index + 3u * l.triangle;
-        let c0 = transform_position(l.instance, vertex_position(vis_indices[base], inst.base_vertex));
-        let c1 = transform_position(l.instance, vertex_position(vis_indices[base + 1u], inst.base_vertex));
-        let c2 = transform_position(l.instance, vertex_position(vis_indices[base + 2u], inst.base_vertex));
-        let id = select(l.instance << params.triangle_bits, 0u, params.triangle_bits >= 32u) | l.triangle;
-        if raster_inside(c0, c1, c2) {
-            let s = raster_setup_inside(c0, c1, c2, view.screen, false);
-            raster_fill_strided(s.a, s.b, s.c, view.screen, id, lane, LARGE_LANES);
+        let c = large_clip(large[t]);
+        if raster_inside(c.c0, c.c1, c.c2) {
+            let s = raster_setup_inside(c.c0, c.c1, c.c2, view.screen, false);
+            list_tiles(raster_prepare(s.a, s.b, s.c, view.screen), t, 0u, c.id, lane);
         } else {
-            raster_fill_setup_strided(raster_setup(c0, c1, c2, view.screen, false), view.screen, id, lane, LARGE_LANES);
+            let s = raster_setup(c.c0, c.c1, c.c2, view.screen, false);
+            for (var i = 1u; i + 1u < s.n; i++) {
+                list_tiles(raster_prepare(s.s[0], s.s[i], s.s[i + 1u], view.screen), t, i - 1u, c.id, lane);
+            }
+        }
+    }
+}
+
+// 2b. A workgroup a tile item (as many workgroups as the screen has tiles, looping over
+// the items), a lane a pixel: the same coverage and depth as raster_fill's.
+@compute @workgroup_size(16, 16)
+fn cs_large_tiles(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
+                  @builtin(local_invocation_id) local: vec3<u32>) {
+    let count = min(atomicLoad(&large_args.tiles), params.tile_capacity);
+    let stride = groups.x * groups.y;
+    for (var w = wg.y * groups.x + wg.x; w < count; w += stride) {
+        let item = large_tiles[w];
+        let c = large_clip(large[item.x >> 3u]);
+        let piece = item.x & 7u;
+        var f: RasterFill;
+        if raster_inside(c.c0, c.c1, c.c2) {
+            let s = raster_setup_inside(c.c0, c.c1, c.c2, view.screen, false);
+            f = raster_prepare(s.a, s.b, s.c, view.screen);
+        } else {
+            let s = raster_setup(c.c0, c.c1, c.c2, view.screen, false);
+            f = raster_prepare(s.s[0], s.s[piece + 1u], s.s[piece + 2u], view.screen);
+        }
+        let p = vec2<i64>(i64(item.y & 0xffffu), i64(item.y >> 16u)) * RASTER_TILE + vec2<i64>(local.xy);
+        if f.drawn && all(p >= f.lo) && all(p <= f.hi) {
+            raster_cover(f, raster_edges(f, p.x, p.y), p.x, p.y, c.id);
         }
     }
 }
@@ -194,6 +279,8 @@ fn cs_large(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_inde
 fn cs_finalize(@builtin(global_invocation_id) gid: vec3<u32>) {
     if gid.x == 0u && gid.y == 0u {
         atomicStore(&large_args.vertex_count, 0u);
+        large_args.tiles_last = atomicLoad(&large_args.tiles);
+        atomicStore(&large_args.tiles, 0u);
     }
     if gid.x >= view.screen.x || gid.y >= view.screen.y {
         return;

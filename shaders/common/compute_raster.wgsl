@@ -249,6 +249,34 @@ fn raster_fill_strided(a: RasterVertex, b: RasterVertex, c: RasterVertex, size: 
     }
 }
 
+// Side of the screen tiles a large triangle is split into (tiledlight_cull::raster::LARGE_TILE).
+const RASTER_TILE: i64 = 16li;
+
+// Whether no edge of f rules out screen tile `tile` (tiledlight_cull::raster::large_tiles):
+// an edge function is linear, so its largest value over the tile's pixel centres (clipped
+// to f's bounds, which must not be empty) is at one of their four corners.
+fn raster_tile_open(f: RasterFill, tile: vec2<i64>) -> bool {
+    let lo = max(tile * RASTER_TILE, f.lo);
+    let hi = min(tile * RASTER_TILE + vec2<i64>(RASTER_TILE - 1li), f.hi);
+    let a = raster_edges(f, lo.x, lo.y);
+    let b = raster_edges(f, hi.x, lo.y);
+    let c = raster_edges(f, lo.x, hi.y);
+    let d = raster_edges(f, hi.x, hi.y);
+    return all(max(max(a, b), max(c, d)) >= vec3<i64>(0li));
+}
+
+// Fills the pixels of screen tile `tile` that f covers, one thread: raster_fill's
+// coverage and depths within the tile.
+fn raster_fill_tile(f: RasterFill, tile: vec2<i64>, id: u32) {
+    let lo = max(tile * RASTER_TILE, f.lo);
+    let hi = min(tile * RASTER_TILE + vec2<i64>(RASTER_TILE - 1li), f.hi);
+    for (var py = lo.y; py <= hi.y; py++) {
+        for (var px = lo.x; px <= hi.x; px++) {
+            raster_cover(f, raster_edges(f, px, py), px, py, id);
+        }
+    }
+}
+
 // No NaN or infinity in v.
 fn raster_finite(v: vec4<f32>) -> bool {
     return all(v == v) && all(abs(v) <= vec4<f32>(3.4028235e38));

@@ -15,9 +15,14 @@
 //! ID may differ (the tie went the other way). Counted and bounded; anything else fails. Needs wgpu's `SHADER_INT64` and
 //! `SHADER_INT64_ATOMIC_MIN_MAX` (Vulkan `shaderInt64`, `shaderBufferInt64Atomics`): lavapipe
 //! and the H200 have both, and the test fails, naming them, on an adapter without them.
+//!
+//! The large triangles' tiles (issue 49): the tiles `raster_tile_open` lets through, per
+//! piece of each triangle's clipped fan, equal the twin's `large_tiles` bit for bit (exact
+//! integers on both sides), and filling only those tiles (`raster_fill_tile`) draws what
+//! the twin draws. On a scene, the listed tiles and the fallback past the list's capacity.
 
 use glam::{DVec3, Mat4, Vec3, Vec4};
-use tiledlight_cull::raster::{pack, rasterize, unpack, Cull, Raster, CLEAR};
+use tiledlight_cull::raster::{large_tiles, pack, rasterize, unpack, Cull, Raster, CLEAR, LARGE_TILE};
 use tiledlight_cull::visibility::{IdLayout, NO_TRIANGLE};
 use tiledlight_frame::{Diagnostics as _, FrameRenderer, FrameSettings, Method, VisibilityFrame};
 use tiledlight_gpu::features::Raster as RasterPath;
@@ -28,7 +33,7 @@ use tiledlight_scene::AlphaMode;
 use tiledlight_tests::compare::render_frame;
 use tiledlight_tests::gpu;
 use tiledlight_tests::kernels::{run_cases, Rng};
-use tiledlight_visibility::compute_raster::{ComputeRasterOptions, LargeRaster};
+use tiledlight_visibility::compute_raster::{ComputeRasterOptions, LargeRaster, LargeTile};
 
 const W: u32 = 97;
 const H: u32 = 61;
@@ -109,6 +114,120 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
 }
 "#;
 
+/// The tile tests' shader: per triangle, the texels of its open tiles filled one tile at a
+/// time, and after the target's texels one mask of open tiles per piece of its fan (bit
+/// ty * tiles_x + tx; 8 words a triangle).
+const TILES_SHADER: &str = r#"
+#include "common/compute_raster.wgsl"
+
+struct Tri {
+    c0: vec4<f32>,
+    c1: vec4<f32>,
+    c2: vec4<f32>,
+    // width, height, ID, cull back faces
+    info: vec4<u32>,
+}
+
+@group(0) @binding(0) var<storage, read> tris: array<Tri>;
+@group(0) @binding(1) var<storage, read_write> texels: array<atomic<u64>>;
+
+var<private> p_width: u32;
+
+fn raster_emit(x: u32, y: u32, texel: u64) {
+    atomicMax(&texels[y * p_width + x], texel);
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if gid.x >= arrayLength(&tris) {
+        return;
+    }
+    let t = tris[gid.x];
+    p_width = t.info.x;
+    let s = raster_setup(t.c0, t.c1, t.c2, t.info.xy, t.info.w != 0u);
+    let tiles_x = (t.info.x + 15u) / 16u;
+    for (var i = 1u; i + 1u < s.n; i++) {
+        let f = raster_prepare(s.s[0], s.s[i], s.s[i + 1u], t.info.xy);
+        if !f.drawn || any(f.hi < f.lo) {
+            continue;
+        }
+        var mask = 0u;
+        for (var ty = f.lo.y / RASTER_TILE; ty <= f.hi.y / RASTER_TILE; ty++) {
+            for (var tx = f.lo.x / RASTER_TILE; tx <= f.hi.x / RASTER_TILE; tx++) {
+                if raster_tile_open(f, vec2<i64>(tx, ty)) {
+                    mask |= 1u << (u32(ty) * tiles_x + u32(tx));
+                    raster_fill_tile(f, vec2<i64>(tx, ty), t.info.z);
+                }
+            }
+        }
+        atomicMax(&texels[t.info.x * t.info.y + gid.x * 8u + i - 1u], u64(mask));
+    }
+}
+"#;
+
+/// The GPU's open tiles equal the twin's `large_tiles`, piece by piece, and filling only
+/// them draws the twin's texels (the module doc's comparison); the comparison rejects a
+/// tile list with one tile dropped.
+#[test]
+fn gpu_large_tiles_equal_the_cpu_twin() {
+    let ctx = gpu();
+    let tris = triangles(600, 0x5851_f42d);
+    let tiles_x = W.div_ceil(LARGE_TILE);
+    assert!(tiles_x * H.div_ceil(LARGE_TILE) <= 32, "a piece's tiles must fit one mask word");
+    let pixels = (W * H) as usize;
+    let bytes = (pixels + tris.len() * 8) as u64 * 8;
+    let out = run_cases(ctx, "compute_raster.tiles", TILES_SHADER, &tri_input(&tris), tris.len() as u32, bytes);
+    let words: Vec<u64> = bytemuck::cast_slice(&out).to_vec();
+    let (gpu_texels, gpu_masks) = words.split_at(pixels);
+    let gpu_masks: Vec<u32> = gpu_masks.iter().map(|&m| m as u32).collect();
+    let mut cpu_masks = vec![0u32; tris.len() * 8];
+    for (i, (c, cull)) in tris.iter().enumerate() {
+        for [piece, tx, ty] in large_tiles(*c, (W, H), if *cull { Cull::Back } else { Cull::None }) {
+            cpu_masks[i * 8 + piece as usize] |= 1 << (ty * tiles_x + tx);
+        }
+    }
+    let listed: u32 = cpu_masks.iter().map(|m| m.count_ones()).sum();
+    let pieces = cpu_masks.chunks(8).filter(|m| m[1] != 0).count();
+    eprintln!("{listed} tiles listed; {pieces} triangles with a second piece");
+    assert!(listed > 600 && pieces > 10, "the triangles must list tiles and clipped fans to test: {listed}, {pieces}");
+    let differ = |a: &[u32], b: &[u32]| a.iter().zip(b).position(|(x, y)| x != y);
+    assert_eq!(differ(&gpu_masks, &cpu_masks), None, "open tiles differ (triangle * 8 + piece)");
+    let mut dropped = cpu_masks.clone();
+    let k = dropped.iter().position(|&m| m != 0).unwrap();
+    dropped[k] &= dropped[k] - 1;
+    assert!(differ(&gpu_masks, &dropped).is_some(), "a dropped tile must be caught");
+    // Filled tile by tile: the twin's texels.
+    let (cpu, at) = twin(&tris);
+    let (covered, depth_off, ties) = compare(gpu_texels, &cpu.texels, &at).unwrap_or_else(|e| panic!("{e}"));
+    eprintln!("tile by tile: {covered} pixels covered; {depth_off} depths a few ulps off, {ties} ties");
+    assert!(covered > (W * H / 2) as usize, "the triangles cover too little to test: {covered}");
+}
+
+/// The tests' triangles as the shaders' `Tri` records (ID = index).
+fn tri_input(tris: &[([Vec4; 3], bool)]) -> Vec<u8> {
+    let mut input: Vec<u8> = Vec::new();
+    for (i, (c, cull)) in tris.iter().enumerate() {
+        for v in c {
+            input.extend_from_slice(bytemuck::cast_slice(&v.to_array()));
+        }
+        input.extend_from_slice(bytemuck::cast_slice(&[W, H, i as u32, u32::from(*cull)]));
+    }
+    input
+}
+
+/// The twin's target with every triangle drawn, and per pixel every triangle's depth
+/// there (for ties).
+fn twin(tris: &[([Vec4; 3], bool)]) -> (Raster, Vec<Vec<(f32, u32)>>) {
+    let mut cpu = Raster::new(W, H);
+    let mut at: Vec<Vec<(f32, u32)>> = vec![Vec::new(); (W * H) as usize];
+    for (i, (c, cull)) in tris.iter().enumerate() {
+        let cull = if *cull { Cull::Back } else { Cull::None };
+        cpu.draw(*c, i as u32, cull);
+        rasterize(*c, (W, H), cull, |f| at[(f.y * W + f.x) as usize].push((f.depth, i as u32)));
+    }
+    (cpu, at)
+}
+
 /// The largest depth difference between the GPU and the twin, in ulps (module doc).
 const MAX_ULPS: u32 = 16;
 
@@ -127,23 +246,9 @@ fn gpu_raster_equals_the_cpu_twin() {
         ctx.info.name
     );
     let tris = triangles(600, 0x9e37_79b9);
-    let mut input: Vec<u8> = Vec::new();
-    for (i, (c, cull)) in tris.iter().enumerate() {
-        for v in c {
-            input.extend_from_slice(bytemuck::cast_slice(&v.to_array()));
-        }
-        input.extend_from_slice(bytemuck::cast_slice(&[W, H, i as u32, u32::from(*cull)]));
-    }
-    let out = run_cases(ctx, "compute_raster", SHADER, &input, tris.len() as u32, u64::from(W * H) * 8);
+    let out = run_cases(ctx, "compute_raster", SHADER, &tri_input(&tris), tris.len() as u32, u64::from(W * H) * 8);
     let gpu_texels: Vec<u64> = bytemuck::cast_slice(&out).to_vec();
-    let mut cpu = Raster::new(W, H);
-    // Per pixel, every triangle's depth there (for ties).
-    let mut at: Vec<Vec<(f32, u32)>> = vec![Vec::new(); (W * H) as usize];
-    for (i, (c, cull)) in tris.iter().enumerate() {
-        let cull = if *cull { Cull::Back } else { Cull::None };
-        cpu.draw(*c, i as u32, cull);
-        rasterize(*c, (W, H), cull, |f| at[(f.y * W + f.x) as usize].push((f.depth, i as u32)));
-    }
+    let (cpu, at) = twin(&tris);
     let (covered, depth_off, ties) = compare(&gpu_texels, &cpu.texels, &at).unwrap_or_else(|e| panic!("{e}"));
     eprintln!("{covered} pixels covered; {depth_off} with a depth a few ulps off, {ties} ties resolved otherwise");
     assert!(covered > (W * H / 2) as usize, "the triangles cover too little to test: {covered}");
@@ -358,13 +463,14 @@ const SW: u32 = 320;
 const SH: u32 = 180;
 
 /// The courtyard drawn by the visibility buffer with `raster` (and the compute raster's
-/// `large_px`): its (depth, ID) per pixel.
+/// `large_px`): its (depth, ID) per pixel, and with the large triangles by compute the
+/// tiles they listed, how many, and the list's capacity.
 fn scene_raster(
     ctx: &tiledlight_gpu::GpuContext,
     (sg, lights, camera): (&SceneGpu, &LightBuffers, &tiledlight_cull::Camera),
     raster: RasterPath,
     compute_raster: ComputeRasterOptions,
-) -> (Vec<f32>, Vec<u32>) {
+) -> (Vec<f32>, Vec<u32>, Option<(Vec<LargeTile>, u32, u32)>) {
     let knobs = Knobs {
         raster,
         raster_large_px: compute_raster.large_px,
@@ -375,8 +481,10 @@ fn scene_raster(
     let mut r = FrameRenderer::new(ctx, sg, lights, SW, SH, s).unwrap_or_else(|e| panic!("{raster:?}: {e}"));
     assert_eq!(r.settings().knobs.raster, raster);
     render_frame(ctx, &mut r, sg, camera);
-    let ids = r.passes::<VisibilityFrame>().unwrap().raster().read_ids(&ctx.device, &ctx.queue).unwrap();
-    (r.read_depth(ctx).unwrap(), ids)
+    let vis = r.passes::<VisibilityFrame>().unwrap().raster();
+    let ids = vis.read_ids(&ctx.device, &ctx.queue).unwrap();
+    let tiles = vis.compute().and_then(|c| c.read_large_tiles(&ctx.device, &ctx.queue).unwrap());
+    (r.read_depth(ctx).unwrap(), ids, tiles)
 }
 
 /// The compute raster on a whole scene (the courtyard, 320x180), pixel by pixel:
@@ -386,7 +494,12 @@ fn scene_raster(
 ///   pixels whose centre lies within 1/128 px of an edge (the GPU's vertex transform may
 ///   contract a multiply-add the CPU rounds twice, moving a vertex by a snap step);
 /// - large triangles by the hardware, and the hardware raster, against the default: the
-///   same, the hardware snapping its vertices from its own viewport arithmetic.
+///   same, the hardware snapping its vertices from its own viewport arithmetic;
+/// - every triangle wider than a pixel large (`large_px` 1), its tiles past the tile
+///   list's capacity (the lanes that list them fill the rest), against the twin: the same.
+///
+/// The default's tile list holds tiles of listed triangles only, each once; with
+/// `large_px` 1 the list is full and more were listed.
 ///
 /// Each count is printed; edge pixels must stay under 0.5% of the covered ones.
 #[test]
@@ -406,12 +519,30 @@ fn compute_raster_matches_twin_and_hardware_on_a_scene() {
     let split = scene_raster(ctx, inputs, RasterPath::Compute, ComputeRasterOptions::default());
     let split_hw = scene_raster(ctx, inputs, RasterPath::Compute, options(32, LargeRaster::Hardware));
     let hardware = scene_raster(ctx, inputs, RasterPath::Hardware, ComputeRasterOptions::default());
+    let overflow = scene_raster(ctx, inputs, RasterPath::Compute, options(1, LargeRaster::Compute));
+    let (tiles, listed, capacity) = split.2.clone().expect("the default draws large triangles by compute");
+    eprintln!("default: {listed} tiles listed of {capacity}");
+    assert!(listed > 0 && listed as usize == tiles.len(), "the courtyard's large triangles list {listed} tiles");
+    let mut unique = tiles.clone();
+    unique.dedup();
+    assert_eq!(unique.len(), tiles.len(), "a tile listed twice for one piece");
+    let (_, listed, capacity) = overflow.2.clone().unwrap();
+    eprintln!("large_px 1: {listed} tiles listed, {capacity} kept");
+    assert!(listed > capacity, "large_px 1 must pass the tile list's capacity to test the fallback");
+    assert!(split_hw.2.is_none(), "tiles listed with the large triangles by the hardware");
+    let none = all_compute.2.as_ref().map(|t| t.1);
+    assert_eq!(none, Some(0), "tiles listed with no triangle large");
     let eps = 2.0 / 256.0;
     let pairs = [
         ("all-compute vs twin", (&all_compute.0[..], &all_compute.1[..]), (&twin_depth[..], &twin_ids[..])),
         ("large by compute vs twin", (&split.0[..], &split.1[..]), (&twin_depth[..], &twin_ids[..])),
         ("large by hardware vs large by compute", (&split_hw.0[..], &split_hw.1[..]), (&split.0[..], &split.1[..])),
         ("hardware vs large by compute", (&hardware.0[..], &hardware.1[..]), (&split.0[..], &split.1[..])),
+        (
+            "large_px 1, the tile list full, vs twin",
+            (&overflow.0[..], &overflow.1[..]),
+            (&twin_depth[..], &twin_ids[..]),
+        ),
     ];
     for (what, a, b) in pairs {
         let d = compare_scene(a, b, (&tris, &at), (SW, SH), eps).unwrap_or_else(|e| panic!("{what}: {e}"));

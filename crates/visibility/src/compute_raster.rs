@@ -10,9 +10,13 @@
 //!    sets up one triangle (clip, snap, cull back faces of single-sided materials) and
 //!    fills it, unless its bounds span more than [`ComputeRasterOptions::large_px`] pixels
 //!    either way: those go to the large list.
-//! 2. **Large triangles** ([`LargeRaster`]): by compute (`cs_large`, the default: a
-//!    workgroup per triangle, 256 lanes sharing its pixels by the same rules), or by the
-//!    hardware (`visibility_raster_large.wgsl`, one indirect draw).
+//! 2. **Large triangles** ([`LargeRaster`]): by compute (the default, one timed pass of two
+//!    dispatches: `cs_large`, a workgroup per triangle listing the 16 px screen tiles its
+//!    edges do not rule out, [`tiledlight_cull::raster::large_tiles`]; then
+//!    `cs_large_tiles`, a workgroup per listed tile and a lane per pixel, by the same
+//!    rules), or by the hardware (`visibility_raster_large.wgsl`, one indirect draw). The
+//!    tile list holds [`TILE_CAPACITY_SCREENS`] screens of tiles; past that a tile is filled
+//!    by the lane that lists it (slower, nothing dropped).
 //! 3. **Hardware** (`depth_prepass.wgsl` with `IDS ATOMIC`, and the large triangles when
 //!    the hardware draws them): the alpha-masked instances (their alpha test with the
 //!    hardware's derivatives), each fragment resolving its texel by the same `atomicMax`.
@@ -32,6 +36,7 @@ use tiledlight_gpu::bindings::{create_layout, Binding, PassBindings, PassGroup};
 use tiledlight_gpu::depth_prepass::{DepthPrepass, ATOMIC_TEXELS, ID_FORMAT};
 use tiledlight_gpu::features::Features;
 use tiledlight_gpu::memory::MemoryReport;
+use tiledlight_gpu::readback::{read_buffer, read_buffer_range};
 use tiledlight_gpu::scene_gpu::SceneGpu;
 use tiledlight_gpu::timer::GpuTimer;
 use tiledlight_gpu::util::{
@@ -73,8 +78,9 @@ pub fn check_support(features: wgpu::Features, msaa: u32) -> Result<(), GpuError
 /// Group 1 of the compute kernels (`visibility_raster.wgsl`): the scene's instances (24),
 /// materials (25), indices (26) and positions (27) at the visibility group's numbers; the
 /// parameters (40), entries (41), clusters (42), texels as atomics (43) and as words (44),
-/// the large list (45) and its draw arguments (46), the depth (47) and ID (48) outputs,
-/// the clusters' triangle order (50, [`SceneGpu::cluster_triangles`]).
+/// the large list (45) and its draw arguments and tile count (46), the depth (47) and ID
+/// (48) outputs, the clusters' triangle order (50, [`SceneGpu::cluster_triangles`]), the
+/// large triangles' tile list (51).
 pub const COMPUTE_RASTER_GROUP: &[Binding] = &[
     Binding::storage(24, CS),
     Binding::storage(25, CS),
@@ -90,6 +96,7 @@ pub const COMPUTE_RASTER_GROUP: &[Binding] = &[
     Binding::storage_texture(47, CS, COMPUTE_DEPTH_FORMAT, wgpu::StorageTextureAccess::WriteOnly),
     Binding::storage_texture(48, CS, ID_FORMAT, wgpu::StorageTextureAccess::WriteOnly),
     Binding::storage(50, CS),
+    Binding::storage_rw(51, CS),
 ];
 
 /// The compute kernels' bindings: the view (0) and [`COMPUTE_RASTER_GROUP`] (1).
@@ -149,6 +156,32 @@ impl Default for ComputeRasterOptions {
 /// Workgroups of the large-triangle kernel (`LARGE_GROUPS` in the WGSL).
 const LARGE_GROUPS: u32 = 1024;
 
+/// The large triangles' tile list holds this many screens' worth of 16 px tiles (the
+/// large triangles' overdraw it fits without the slower fallback).
+pub const TILE_CAPACITY_SCREENS: u32 = 16;
+
+/// The large triangles by compute: the listing kernel, the tiles' kernel, the tile list.
+struct LargeCompute {
+    list: wgpu::ComputePipeline,
+    tiles: wgpu::ComputePipeline,
+    items: wgpu::Buffer,
+    capacity: u32,
+}
+
+/// One listed tile of a large triangle (read back for tests,
+/// [`ComputeRaster::read_large_tiles`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct LargeTile {
+    /// The triangle's instance.
+    pub instance: u32,
+    /// The triangle within its instance's mesh.
+    pub triangle: u32,
+    /// The piece of its clipped fan (0: the first, or the triangle itself).
+    pub piece: u32,
+    /// The tile's column and row (16 px tiles).
+    pub tile: (u32, u32),
+}
+
 /// An (instance, cluster) pair (`Entry` in the WGSL).
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -176,6 +209,8 @@ struct RasterParams {
     groups_x: u32,
     large_px: u32,
     triangle_bits: u32,
+    tile_capacity: u32,
+    pad: [u32; 3],
 }
 
 /// Workgroups per row of the clusters' 2D dispatch (below every adapter's 65,535).
@@ -185,7 +220,7 @@ const GROUPS_X: u32 = 32_768;
 pub struct ComputeRaster {
     clusters: wgpu::ComputePipeline,
     /// The large triangles by compute (with [`LargeRaster::Compute`]).
-    large_compute: Option<wgpu::ComputePipeline>,
+    large_compute: Option<LargeCompute>,
     finalize: wgpu::ComputePipeline,
     /// The large triangles by the hardware (with [`LargeRaster::Hardware`]) and its group.
     large: Option<(wgpu::RenderPipeline, wgpu::BindGroup)>,
@@ -193,6 +228,7 @@ pub struct ComputeRaster {
     /// The masked instances' pipelines and the texels' group for them.
     masked: Option<(DepthPrepass, wgpu::BindGroup, u32)>,
     large_args: wgpu::Buffer,
+    large_list: wgpu::Buffer,
     dispatch: (u32, u32),
     screen: (u32, u32),
 }
@@ -246,11 +282,17 @@ impl ComputeRaster {
         // At most 2^29 entries once their buffer fits a binding (at most 4 GiB).
         let n = entries.len() as u32;
         let dispatch = (n.clamp(1, GROUPS_X), n.div_ceil(GROUPS_X).max(1));
+        let tile = tiledlight_cull::raster::LARGE_TILE;
+        let screen_tiles = size.0.div_ceil(tile) * size.1.div_ceil(tile);
+        let tile_capacity =
+            if options.large == LargeRaster::Compute { screen_tiles * TILE_CAPACITY_SCREENS } else { 1 };
         let params = RasterParams {
             entries: n,
             groups_x: dispatch.0,
             large_px: options.large_px,
             triangle_bits: layout.triangle_bits,
+            tile_capacity,
+            pad: [0; 3],
         };
         use wgpu::BufferUsages as U;
         let params = buffer_init(device, "visibility.compute_raster.params", bytemuck::bytes_of(&params), U::UNIFORM);
@@ -272,17 +314,27 @@ impl ComputeRaster {
         let large_buf = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("visibility.compute_raster.large"),
             size: large_bytes,
-            usage: U::STORAGE,
+            usage: U::STORAGE | U::COPY_SRC,
             mapped_at_creation: false,
         });
         let large_args = buffer_init(
             device,
             "visibility.compute_raster.large_args",
-            bytemuck::cast_slice(&[0u32, 1, 0, 0]),
-            U::STORAGE | if options.large == LargeRaster::Hardware { U::INDIRECT } else { U::empty() },
+            bytemuck::cast_slice(&[0u32, 1, 0, 0, 0, 0, 0, 0]),
+            U::STORAGE | U::COPY_SRC | if options.large == LargeRaster::Hardware { U::INDIRECT } else { U::empty() },
         );
+        // (large list index << 3 | piece, tile x | tile y << 16) a listed tile.
+        let tile_buf = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("visibility.compute_raster.large_tiles"),
+            size: u64::from(tile_capacity) * 8,
+            usage: U::STORAGE | U::COPY_SRC,
+            mapped_at_creation: false,
+        });
         memory.add("visibility.compute_raster.texels", pixels as u64 * 8);
         memory.add("visibility.compute_raster.large", large_buf.size());
+        if options.large == LargeRaster::Compute {
+            memory.add("visibility.compute_raster.large_tiles", tile_buf.size());
+        }
         memory.add(
             "visibility.compute_raster.clusters",
             (entries.len() * 8 + clusters.len() * 32 + scene.cluster_triangles.len() * 4) as u64,
@@ -307,6 +359,7 @@ impl ComputeRaster {
                 view_entry(47, depth),
                 view_entry(48, ids),
                 buf(50, &order_buf),
+                buf(51, &tile_buf),
             ],
         });
         let module = keyed_module(device, &ComputeRasterKey::Clusters)?;
@@ -315,8 +368,23 @@ impl ComputeRaster {
             compute_pipeline_at(device, ("visibility.compute_raster.clusters", "cs_clusters"), &groups, &module, &[]);
         let finalize =
             compute_pipeline_at(device, ("visibility.compute_raster.finalize", "cs_finalize"), &groups, &module, &[]);
-        let large_compute = (options.large == LargeRaster::Compute).then(|| {
-            compute_pipeline_at(device, ("visibility.compute_raster.large_compute", "cs_large"), &groups, &module, &[])
+        let large_compute = (options.large == LargeRaster::Compute).then(|| LargeCompute {
+            list: compute_pipeline_at(
+                device,
+                ("visibility.compute_raster.large_compute", "cs_large"),
+                &groups,
+                &module,
+                &[],
+            ),
+            tiles: compute_pipeline_at(
+                device,
+                ("visibility.compute_raster.large_tiles", "cs_large_tiles"),
+                &groups,
+                &module,
+                &[],
+            ),
+            items: tile_buf,
+            capacity: tile_capacity,
         });
 
         let large = (options.large == LargeRaster::Hardware)
@@ -392,6 +460,7 @@ impl ComputeRaster {
             compute_group,
             masked,
             large_args,
+            large_list: large_buf,
             dispatch,
             screen: size,
         })
@@ -414,11 +483,15 @@ impl ComputeRaster {
             pass.dispatch_workgroups(self.dispatch.0, self.dispatch.1, 1);
         });
         if let Some(large) = &self.large_compute {
+            let tile = tiledlight_cull::raster::LARGE_TILE;
             timer.compute_pass(encoder, "visibility.raster.large", |pass| {
-                pass.set_pipeline(large);
+                pass.set_pipeline(&large.list);
                 pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
                 pass.set_bind_group(1, &self.compute_group, &[]);
                 pass.dispatch_workgroups(LARGE_GROUPS, 1, 1);
+                // As many workgroups as the screen has tiles, each looping over the items.
+                pass.set_pipeline(&large.tiles);
+                pass.dispatch_workgroups(self.screen.0.div_ceil(tile), self.screen.1.div_ceil(tile), 1);
             });
             if self.masked.is_none() {
                 // Nothing left for the hardware.
@@ -453,6 +526,37 @@ impl ComputeRaster {
         }
         timer.end(encoder, t);
         self.record_finalize(encoder, timer, (views, view));
+    }
+
+    /// The tiles the last frame listed for its large triangles (with [`LargeRaster::Compute`],
+    /// else `None`), sorted, and how many were listed in all: more than the list's
+    /// capacity (the second number) when some were filled by the lane that listed them
+    /// (those are not in the list). Stalls the GPU.
+    pub fn read_large_tiles(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+    ) -> Result<Option<(Vec<LargeTile>, u32, u32)>, GpuError> {
+        let Some(large) = &self.large_compute else {
+            return Ok(None);
+        };
+        let args: Vec<u32> = read_buffer(device, queue, &self.large_args)?;
+        let listed = args[5];
+        let kept = listed.min(large.capacity);
+        if kept == 0 {
+            return Ok(Some((Vec::new(), listed, large.capacity)));
+        }
+        let items: Vec<[u32; 2]> = read_buffer_range(device, queue, &large.items, 0, u64::from(kept) * 8)?;
+        let list: Vec<[u32; 2]> = read_buffer(device, queue, &self.large_list)?;
+        let mut tiles: Vec<LargeTile> = items
+            .iter()
+            .map(|&[t, xy]| {
+                let [instance, triangle] = list[(t >> 3) as usize];
+                LargeTile { instance, triangle, piece: t & 7, tile: (xy & 0xffff, xy >> 16) }
+            })
+            .collect();
+        tiles.sort_unstable();
+        Ok(Some((tiles, listed, large.capacity)))
     }
 
     /// Step 3: the texels to the depth and ID targets, reset for the next frame.
