@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced stochastic denoise reuse temporal near light-tree million-truth error-time casters casters-curve ranking materials surface-edges stage-lights big-scene
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced stochastic denoise reuse temporal near light-tree million-truth error-time casters casters-curve ranking materials surface-edges stage-lights raster-tiles big-scene
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -502,6 +502,27 @@ for set in $sets; do
       run "big-visibility-$r" 10 --scene .device/plates.gltf --lights 1024 --method visibility --raster $r
     done
     run_traced big-traced --scene .device/plates.gltf --lights 1024 --method traced-reference
+    ;;
+  raster-tiles)
+    # Issue 49 item 4: the compute raster's large triangles split into 16 px tiles against
+    # the binary before (OLD=path, staged beside), three interleaved repeats of 100 frames
+    # (the million preset 30): the Figure 9 scene at 4,096 lights, the courtyard at 1,024,
+    # the million preset assigned; then the large-triangle threshold (8 / 16 / 32 / 64 px)
+    # with the tiles on the Figure 9 scene.
+    new_bin=$bin
+    for rep in 1 2 3; do
+      for v in old new; do
+        bin=$new_bin
+        [ "$v" = old ] && bin=${OLD:?OLD names the binary before}
+        run "rt-f9-$v-$rep" 100 --lights 4096 --grid-objects 280 --density medium --method visibility
+        run "rt-court-$v-$rep" 100 --lights 1024 --method visibility
+        run "rt-mp-$v-$rep" 30 --light-preset million --method visibility --assign scatter
+      done
+    done
+    bin=$new_bin
+    for px in 8 16 32 64; do
+      run "rt-f9-l$px" 100 --lights 4096 --grid-objects 280 --density medium --method visibility --raster-large-px $px
+    done
     ;;
   stage-lights)
     # Issue 49 item 2 (and issue 45's setting added in three files): the visibility

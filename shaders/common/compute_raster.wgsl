@@ -232,23 +232,6 @@ fn raster_fill(a: RasterVertex, b: RasterVertex, c: RasterVertex, size: vec2<u32
     }
 }
 
-// Fills a snapped triangle with `stride` threads of a workgroup, this one `lane`: pixel k
-// of its bounds (row-major) by lane k mod stride. The same edge values and depths as
-// raster_fill.
-fn raster_fill_strided(a: RasterVertex, b: RasterVertex, c: RasterVertex, size: vec2<u32>, id: u32, lane: u32, stride: u32) {
-    let f = raster_prepare(a, b, c, size);
-    if !f.drawn || any(f.hi < f.lo) {
-        return;
-    }
-    let width = u32(f.hi.x - f.lo.x) + 1u;
-    let pixels = width * (u32(f.hi.y - f.lo.y) + 1u);
-    for (var k = lane; k < pixels; k += stride) {
-        let px = f.lo.x + i64(k % width);
-        let py = f.lo.y + i64(k / width);
-        raster_cover(f, raster_edges(f, px, py), px, py, id);
-    }
-}
-
 // Side of the screen tiles a large triangle is split into (tiledlight_cull::raster::LARGE_TILE).
 const RASTER_TILE: i64 = 16li;
 
@@ -357,13 +340,6 @@ fn raster_span(t: RasterSetup) -> vec2<i64> {
 fn raster_fill_setup(t: RasterSetup, size: vec2<u32>, id: u32) {
     for (var i = 1u; i + 1u < t.n; i++) {
         raster_fill(t.s[0], t.s[i], t.s[i + 1u], size, id);
-    }
-}
-
-// Fills a set-up triangle with `id` by `stride` threads (raster_fill_strided).
-fn raster_fill_setup_strided(t: RasterSetup, size: vec2<u32>, id: u32, lane: u32, stride: u32) {
-    for (var i = 1u; i + 1u < t.n; i++) {
-        raster_fill_strided(t.s[0], t.s[i], t.s[i + 1u], size, id, lane, stride);
     }
 }
 

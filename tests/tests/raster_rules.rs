@@ -15,8 +15,8 @@
 //!
 //! Checked: (1) per pixel, how many triangles of each group cover it, on the GPU (the
 //! one-thread fill `raster_triangle`, whose small triangles take its i32 path and the
-//! full-screen pair its i64 path, and the workgroup fill `raster_fill_strided` of the large
-//! triangles) equals the CPU twin's count, is never 2 (drawn twice) and, for each group's
+//! full-screen pair its i64 path, and the large triangles' fill tile by tile,
+//! `raster_tile_open` and `raster_fill_tile`) equals the CPU twin's count, is never 2 (drawn twice) and, for each group's
 //! convex union, is the top-left rule applied to the union as one polygon (never missed
 //! inside it); (2) the ID the compute raster keeps (both kernels, and large triangles by
 //! the hardware) equals the twin's and the hardware raster's, exactly; (3) at equal depth
@@ -147,8 +147,8 @@ struct Tri {
     c0: vec4<f32>,
     c1: vec4<f32>,
     c2: vec4<f32>,
-    // width, height, group, lanes (0: raster_triangle by one thread; n: raster_fill_strided
-    // by n invocations, this case being one lane of them)
+    // width, height, group, kernel (0: raster_triangle; 1: the large triangles' fill, the
+    // tiles raster_tile_open lets through filled by raster_fill_tile)
     info: vec4<u32>,
 }
 
@@ -165,27 +165,35 @@ fn raster_emit(x: u32, y: u32, texel: u64) {
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let lanes = tris[0].info.w;
-    let n = max(lanes, 1u);
-    let k = gid.x / n;
+    let kernel = tris[0].info.w;
+    let k = gid.x;
     if k >= arrayLength(&tris) {
         return;
     }
     let t = tris[k];
     p_width = t.info.x;
     p_base = t.info.z * t.info.x * t.info.y;
-    if lanes == 0u {
+    if kernel == 0u {
         raster_triangle(t.c0, t.c1, t.c2, t.info.xy, false, k);
     } else {
         let s = raster_setup_inside(t.c0, t.c1, t.c2, t.info.xy, false);
-        raster_fill_strided(s.a, s.b, s.c, t.info.xy, k, gid.x % n, n);
+        let f = raster_prepare(s.a, s.b, s.c, t.info.xy);
+        if f.drawn && all(f.lo <= f.hi) {
+            for (var ty = f.lo.y / RASTER_TILE; ty <= f.hi.y / RASTER_TILE; ty++) {
+                for (var tx = f.lo.x / RASTER_TILE; tx <= f.hi.x / RASTER_TILE; tx++) {
+                    if raster_tile_open(f, vec2<i64>(tx, ty)) {
+                        raster_fill_tile(f, vec2<i64>(tx, ty), k);
+                    }
+                }
+            }
+        }
     }
 }
 "#;
 
 /// Per group, per pixel, how many triangles the GPU covered it with: by one thread each
-/// (`lanes` 0) or by `lanes` invocations each (the large-triangle fill).
-fn gpu_counts(tris: &[Tri], cam: &Camera, lanes: u32) -> Vec<u32> {
+/// (`kernel` 0) or tile by tile (`kernel` 1, the large triangles' fill).
+fn gpu_counts(tris: &[Tri], cam: &Camera, kernel: u32) -> Vec<u32> {
     let ctx = gpu();
     let mut input: Vec<u8> = Vec::new();
     for t in tris {
@@ -193,9 +201,9 @@ fn gpu_counts(tris: &[Tri], cam: &Camera, lanes: u32) -> Vec<u32> {
             input.extend_from_slice(bytemuck::cast_slice(&v.to_array()));
         }
         let g = GROUPS.iter().position(|&g| g == t.group).unwrap() as u32;
-        input.extend_from_slice(bytemuck::cast_slice(&[W, H, g, lanes]));
+        input.extend_from_slice(bytemuck::cast_slice(&[W, H, g, kernel]));
     }
-    let cases = tris.len() as u32 * lanes.max(1);
+    let cases = tris.len() as u32;
     let bytes = GROUPS.len() as u64 * u64::from(W * H) * 4;
     let out = run_cases(ctx, "raster_rules_count", COUNT_SHADER, &input, cases, bytes);
     bytemuck::cast_slice(&out).to_vec()
@@ -330,10 +338,8 @@ fn shared_edges_through_pixel_centres_are_drawn_exactly_once() {
     // The twin itself: never twice, never missed inside a union (its own rule, checked
     // against the one-polygon rule written above).
     check_counts(&twin, &twin).unwrap_or_else(|e| panic!("the CPU twin: {e}"));
-    for (what, lanes) in
-        [("one thread a triangle (raster_triangle)", 0), ("32 lanes a triangle (raster_fill_strided)", 32)]
-    {
-        let got = gpu_counts(&tris, &cam, lanes);
+    for (what, kernel) in [("one thread a triangle (raster_triangle)", 0), ("tile by tile (raster_fill_tile)", 1)] {
+        let got = gpu_counts(&tris, &cam, kernel);
         check_counts(&got, &twin).unwrap_or_else(|e| panic!("{what}: {e}"));
     }
     // The check's teeth: a pixel on a shared edge counted twice, and one missed, fail.

@@ -406,8 +406,8 @@ knobs! {
     applies(|m| m.visibility_buffer),
     check(|v| if v >= 1 { Ok(()) } else { Err("a triangle spans at least one pixel".into()) });
 
-    /// Who draws the compute raster's large triangles: compute (a workgroup a triangle) or
-    /// hardware (one indirect draw).
+    /// Who draws the compute raster's large triangles: compute (split into 16 px screen
+    /// tiles, a workgroup a tile) or hardware (one indirect draw).
     raster_large: LargeRaster = LargeRaster::Compute;
     "raster-large", "large triangles by", "BY", Control::Choice, applies(|m| m.visibility_buffer),
     check(no_check);

@@ -113,7 +113,8 @@ impl clap::ValueEnum for Raster {
 /// Who draws the compute raster's large triangles.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum LargeRaster {
-    /// A compute workgroup per triangle, its lanes sharing the pixels (`cs_large`, tiledlight-visibility's compute raster).
+    /// Compute: each triangle's 16 px screen tiles listed (`cs_large`), a workgroup a tile
+    /// (`cs_large_tiles`, tiledlight-visibility's compute raster).
     #[default]
     Compute,
     /// The hardware raster, by one indirect draw (`visibility_raster_large.wgsl`).
