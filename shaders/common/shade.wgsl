@@ -19,16 +19,20 @@ fn shade_light(i: u32, p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, s: Surface) -> 
 fn shade_light_record(i: u32, light: ShadingLight, p: vec3<f32>, n: vec3<f32>, v: vec3<f32>, s: Surface) -> vec3<f32> {
     let to_light = light.position - p;
     let d2 = dot(to_light, to_light);
-#ifdef NO_CUTOFF
-    var atten = unwindowed_attenuation(d2);
-#else
+#ifndef NO_CUTOFF
     let in_range = d2 < light.radius * light.radius;
     if EARLY_OUTS && !in_range {
         return vec3<f32>(0.0);
     }
-    var atten = windowed_attenuation(d2, light.radius);
 #endif
-    let l = to_light * inverseSqrt(max(d2, 1e-30));
+    // One inverse square root gives the direction and the inverse-square falloff.
+    let r = inverseSqrt(max(d2, 1e-30));
+#ifdef NO_CUTOFF
+    var atten = inverse_square_rsq(r);
+#else
+    var atten = windowed_attenuation_rsq(d2, r, light.radius);
+#endif
+    let l = to_light * r;
 #ifdef SPOT_LIGHTS
     if i >= lighting.num_point_lights {
         let spot = spot_lights[i - lighting.num_point_lights];

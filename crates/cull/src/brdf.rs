@@ -131,16 +131,20 @@ fn diffuse_with_f0(albedo: Vec3, metallic: f32, f0: Vec3, n_dot_l: f32, n_dot_v:
 /// `-n`: a clamped `n.h` of 0 with `|n x h| -> 0` made the denominator vanish and `D` grow
 /// without bound (3,300 where the lobe's peak is 3, the error budget's worst pixel).
 pub fn ggx_ndf(n: Vec3, h: Vec3, a2: f32) -> f32 {
+    ggx_denominator(n, h, a2).map_or(0.0, |dd| a2 / (std::f32::consts::PI * dd * dd))
+}
+
+/// `1 - n.h^2 (1 - a2)` of [`ggx_ndf`] (`D = a2 / (pi dd^2)`), `None` where `n.h <= 0`.
+fn ggx_denominator(n: Vec3, h: Vec3, a2: f32) -> Option<f32> {
     let n_dot_h = n.dot(h);
     if n_dot_h <= 0.0 {
-        return 0.0;
+        return None;
     }
     // 1 - n.h^2 (1 - a^2), written as n.h^2 a^2 + |n x h|^2 (Lagrange's identity): near the
     // peak n.h is within an ulp of 1 and the first form cancels in f32, which made a white
     // metal reflect 2% more light than it receives at the roughness clamp.
     let n_cross_h = n.cross(h);
-    let dd = n_dot_h * n_dot_h * a2 + n_cross_h.length_squared();
-    a2 / (std::f32::consts::PI * dd * dd)
+    Some(n_dot_h * n_dot_h * a2 + n_cross_h.length_squared())
 }
 
 /// The peak of [`ggx_ndf`], at `h = n`: `1 / (pi a2)`.
@@ -173,7 +177,8 @@ pub struct Surface {
 /// BRDF times cosine for unit normal `n`, unit view direction `v` and unit light
 /// direction `l` (both pointing away from the surface). Ashikhmin-Shirley diffuse
 /// ([`diffuse`]) plus GGX specular with height-correlated Smith visibility and Schlick
-/// Fresnel.
+/// Fresnel. As the WGSL computes it (issue 49): `D` times the visibility term by one
+/// division, the fifth power by multiplies.
 pub fn brdf_cos(n: Vec3, v: Vec3, l: Vec3, s: &Surface) -> Vec3 {
     let n_dot_l = n.dot(l).clamp(0.0, 1.0);
     if n_dot_l <= 0.0 {
@@ -185,14 +190,16 @@ pub fn brdf_cos(n: Vec3, v: Vec3, l: Vec3, s: &Surface) -> Vec3 {
     let rough = s.roughness.clamp(MIN_ROUGHNESS, 1.0);
     let a = rough * rough;
     let a2 = a * a;
-    let d = ggx_ndf(n, h, a2);
     let gv = n_dot_l * (n_dot_v * n_dot_v * (1.0 - a2) + a2).sqrt();
     let gl = n_dot_v * (n_dot_l * n_dot_l * (1.0 - a2) + a2).sqrt();
-    let vis = 0.5 / (gv + gl);
+    // D vis = a2 / (pi dd^2) x 0.5 / (gv + gl).
+    let d_vis = ggx_denominator(n, h, a2).map_or(0.0, |dd| (0.5 * a2) / (std::f32::consts::PI * dd * dd * (gv + gl)));
     let f0 = Vec3::splat(DIELECTRIC_F0).lerp(s.albedo, s.metallic);
-    let f = f0 + (Vec3::ONE - f0) * (1.0 - v_dot_h).powi(5);
+    let m = 1.0 - v_dot_h;
+    let m2 = m * m;
+    let f = f0 + (Vec3::ONE - f0) * (m2 * m2 * m);
     let diffuse = diffuse_with_f0(s.albedo, s.metallic, f0, n_dot_l, n_dot_v);
-    (diffuse + f * (d * vis)) * n_dot_l
+    (diffuse + f * d_vis) * n_dot_l
 }
 
 #[cfg(test)]
