@@ -467,21 +467,27 @@ for set in $sets; do
     # scenes at the current commit. The Figure 9 scene (courtyard + 280 medium grid
     # objects) at 1,024 / 4,096 / 16,384 lights, the courtyard at 1,024, 4x MSAA at 4,096,
     # the million-light preset assigned light-centrically; default settings otherwise
-    # (Tiled Deferred's G-buffer without stress targets). Then the Figure 9 sweep (its
-    # crossover chart), 20 frames a point.
+    # (Tiled Deferred's G-buffer without stress targets). 100 frames a run (issue 49's
+    # protocol). REP=N names the runs as repeat N (sum-...-rN; perf-summary.py keeps each
+    # run's median repeat): issue 49's three interleaved repeats are three calls, REP=1,
+    # 2 and 3, each within one device call's 10 minutes. SWEEP=1 adds the Figure 9 sweep
+    # (its crossover chart), 20 frames a point.
+    r=${REP:+-r$REP}
     for m in forward-plus deferred visibility; do
-      for n in 1024 4096 16384; do run "sum-f9-$m-$n" 50 --lights $n --grid-objects 280 --density medium --method $m; done
-      run "sum-court-$m-1024" 50 --lights 1024 --method $m
-      run "sum-mp-$m" 10 --light-preset million --method $m --assign scatter
+      for n in 1024 4096 16384; do run "sum-f9-$m-$n$r" 100 --lights $n --grid-objects 280 --density medium --method $m; done
+      run "sum-court-$m-1024$r" 100 --lights 1024 --method $m
+      run "sum-mp-$m$r" 100 --light-preset million --method $m --assign scatter
     done
     for m in forward-plus deferred visibility; do
-      run "sum-msaa4-$m-4096" 30 --lights 4096 --grid-objects 280 --density medium --method $m --msaa 4
+      run "sum-msaa4-$m-4096$r" 100 --lights 4096 --grid-objects 280 --density medium --method $m --msaa 4
     done
     for m in forward-plus deferred visibility; do
-      run "sum-mat144-$m-1024" 30 --scene materials --materials 144 --lights 1024 --method $m
+      run "sum-mat144-$m-1024$r" 100 --scene materials --materials 144 --lights 1024 --method $m
     done
-    timeout 400 "$bin" sweep --preset figure9 --frames 20 --warmup 5 --width 1920 --height 1080 \
-      --out "$out/figure9.csv" >>"$out/log.txt" 2>&1
+    if [ "${SWEEP:-0}" = 1 ]; then
+      timeout 400 "$bin" sweep --preset figure9 --frames 20 --warmup 5 --width 1920 --height 1080 \
+        --out "$out/figure9.csv" >>"$out/log.txt" 2>&1
+    fi
     ;;
   materials)
     # Issue 46: what the number of textured materials costs each method. The materials

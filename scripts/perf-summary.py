@@ -3,7 +3,8 @@
 
 Usage: scripts/perf-summary.py DIR [--write docs/PERFORMANCE.md]
 
-Reads DIR/sum-*.json (tiledlight bench's JSON) and prints a Markdown table: per scene and
+Reads DIR/sum-*.json (tiledlight bench's JSON; a name ending in -rN is repeat N of the same
+run, and the repeat with the median total stands for it) and prints a Markdown table: per scene and
 light count, each method's total GPU time and its largest passes, the ratio of Tiled
 Deferred and the visibility buffer to Forward+, and whether any frame dropped lights; then
 every pass against its floor, max(instruction issue, MUFU, HBM bandwidth), from the counts
@@ -45,14 +46,32 @@ def cell(run):
     passes = sorted(run["passes"], key=lambda p: -p["median_ms"])[:2]
     top = ", ".join(f"{p['pass']} {p['median_ms']:.2f}" for p in passes)
     drop = " (dropped lights!)" if run.get("dropped_frames") else ""
-    return f"**{run['total_gpu_median_ms']:.3f}** ({top}){drop}"
+    reps = run.get("_repeats", [])
+    spread = f" [{len(reps)} repeats {reps[0]:.3f}-{reps[-1]:.3f}]" if len(reps) > 1 else ""
+    return f"**{run['total_gpu_median_ms']:.3f}**{spread} ({top}){drop}"
+
+
+def median_runs(paths):
+    """{key: run} from sum-<key>[-rN].json files: each key's repeat with the median total
+    (the lower middle of an even count), its "_file" and "_repeats" (the totals, sorted)
+    added."""
+    groups = {}
+    for path in paths:
+        key = re.sub(r"-r[0-9]+$", "", os.path.basename(path)[4:-5])
+        run = load(path)
+        run["_file"] = path
+        groups.setdefault(key, []).append(run)
+    runs = {}
+    for key, group in groups.items():
+        group.sort(key=lambda r: r["total_gpu_median_ms"])
+        run = group[(len(group) - 1) // 2]
+        run["_repeats"] = [r["total_gpu_median_ms"] for r in group]
+        runs[key] = run
+    return runs
 
 
 def table(folder):
-    runs = {}
-    for path in sorted(glob.glob(os.path.join(folder, "sum-*.json"))):
-        runs[os.path.basename(path)[4:-5]] = load(path)
-        runs[os.path.basename(path)[4:-5]]["_file"] = path
+    runs = median_runs(sorted(glob.glob(os.path.join(folder, "sum-*.json"))))
     if not runs:
         sys.exit(f"{folder}: no sum-*.json (run scripts/device-bench.sh summary)")
     any_run = next(iter(runs.values()))
@@ -61,7 +80,8 @@ def table(folder):
     out = [
         f"{cfg['adapter']}, {cfg['resolution']}, commit {', '.join(commits)}; "
         f"`scripts/device-bench.sh summary`, raw JSON in `{folder}`. Total GPU ms a frame "
-        "(the sum of the passes' medians; gaps between passes not counted) and the two costliest passes; "
+        "(the sum of the passes' medians; gaps between passes not counted; of several repeats the one with "
+        "the median total, their range in brackets) and the two costliest passes; "
         "ratio = the method's total over Forward+'s.",
         "",
         "| scene | " + " | ".join(name for _, name in METHODS) + " | Tiled Deferred / Forward+ | visibility / Forward+ |",
@@ -110,15 +130,17 @@ MUFU_LANES_PER_SM_CLOCK = 16
 #   to_light 3; d2 = dot 3; r^2 1; compare 1; early-out branch 1: 17.
 #   LIT, paid only where the light is in range (and, from the n.l test on, in front):
 #   l = to_light * rsq(max(d2)) 5 (1 MUFU); windowed attenuation (x = d2/r^2: RCP+FMUL,
-#   saturate(1-x^2) 1, w^2 1, max 1, / RCP+FMUL) 7 (2 MUFU); n.l + early-out 5; h = (v+l)
-#   normalised: add 3, dot 3, RSQ 1, test 1, scale 3 = 11 (1 MUFU); v.h 3; GGX (n.h 3,
-#   cross 6, dd 5, a2/(pi dd^2) 4 with 1 MUFU, select 2) 20; Smith (gv 1, gl FMUL FFMA
-#   SQRT FMUL 4, 0.5/(gv+gl) 3) 8 (2 MUFU); Schlick (1 - v.h, ^5, 3 FFMA) 7; diffuse
-#   (falloff(n.l) 7, x hoisted scale 1, vec3 3) 11; (diffuse + F D V) n.l 7; radiance x
-#   atten x brdf 6; accumulate 3: 93, 7 of them MUFU.
+#   saturate(1-x^2) 1, w^2 1, 1/d2 as min(rsq^2, 1e4) 2, x 1) 7 (1 MUFU); n.l + early-out 5;
+#   h = (v+l) normalised: add 3, dot 3, RSQ 1, test 1, scale 3 = 11 (1 MUFU); v.h 3; GGX
+#   times Smith (n.h 3, cross 6, dd 5, gv 1, gl FMUL FFMA SQRT FMUL 4, one division
+#   0.5 a2 / (pi dd^2 (gv + gl)) 6 with 1 MUFU, select 2) 27 (2 MUFU); Schlick (1 - v.h,
+#   ^5 by 3 FMUL, 3 FFMA) 7; diffuse (falloff(n.l) 7, x hoisted scale 1, vec3 3) 11;
+#   (diffuse + F D V) n.l 7; radiance x atten x brdf 6; accumulate 3: 92, 5 of them MUFU
+#   (issue 49: the code had 93 and 8, with a second division for D and the visibility
+#   term, one for 1/d2, and pow(x, 5) as exp2 and log2).
 PAIR_TEST = 17
-PAIR_LIT = 93
-PAIR_LIT_MUFU = 7
+PAIR_LIT = 92
+PAIR_LIT_MUFU = 5
 # The staged kernel (visibility, `stage-lights`) reads the index and record from workgroup
 # memory (3 LDS for the 2 + 3 above): the same count within one instruction; not split.
 
