@@ -2,7 +2,7 @@
 # Runs the benchmark set recorded in docs/PERFORMANCE.md on the device machine (H100):
 # staged by ../shared/tools/device-prep.sh (.gl loader packages, .device/tiledlight,
 # stripped to travel). Writes one JSON per configuration and a log under $OUT.
-# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced stochastic denoise reuse temporal near light-tree million-truth error-time casters casters-curve ranking materials surface-edges stage-lights raster-tiles big-scene
+# Usage: scripts/device-bench.sh [SET...]   sets: core cull scale methods msaa grid shadows blended million assign gbuffer order summary emission vpl reshape visibility raster raster-short traced stochastic denoise reuse temporal near light-tree million-truth error-time casters casters-curve ranking materials surface-edges stage-lights raster-tiles lists-49 big-scene
 # (default: core cull scale methods msaa). BIN=path picks another binary (A/B runs: stage the old one beside it);
 # PREFIX= is prepended to every result name.
 set -uo pipefail
@@ -528,6 +528,25 @@ for set in $sets; do
     bin=$new_bin
     for px in 8 16 32 64; do
       run "rt-f9-l$px" 100 --lights 4096 --grid-objects 280 --density medium --method visibility --raster-large-px $px
+    done
+    ;;
+  lists-49)
+    # Issue 49 item 3: the 2.5D depth mask and 8 px tiles for the compute-shaded methods
+    # (Tiled Deferred and the visibility buffer) against today's 16 px tiled lists, 100
+    # frames (the million preset 30): the Figure 9 scene at 4,096 and 16,384 lights, the
+    # courtyard at 1,024, the million preset assigned. One repeat a call (REP=N, default 1;
+    # a call each for two interleaved repeats).
+    for rep in ${REP:-1}; do
+      for lists in tiled:16 2.5d:16 tiled:8 2.5d:8; do
+        g=${lists%%:*} t=${lists#*:}
+        for m in deferred visibility; do
+          for n in 4096 16384; do
+            run "l49-f9-$n-$m-$g-$t-$rep" 100 --lights $n --grid-objects 280 --density medium --method $m --grid $g --tile-size $t
+          done
+          run "l49-court-$m-$g-$t-$rep" 100 --lights 1024 --method $m --grid $g --tile-size $t
+          run "l49-mp-$m-$g-$t-$rep" 30 --light-preset million --method $m --assign scatter --grid $g --tile-size $t
+        done
+      done
     done
     ;;
   stage-lights)

@@ -12,7 +12,9 @@
 //    (common/compute_raster.wgsl raster_setup; back faces only for single-sided materials,
 //    the entry's top bit), and fills it when its bounds span at most params.large_px
 //    pixels each way; a larger one is appended to the large list (one thread would take
-//    too long over its pixels).
+//    too long over its pixels). With CLIPPED_TO_LARGE (the large triangles by compute) a
+//    triangle that needs clipping is appended too, unclipped and with its culling flag,
+//    so the clipped polygon's arrays stay out of this, the hot kernel (issue 49).
 // 2. The large list, by compute (the default) or by the hardware
 //    (visibility_raster_large.wgsl); alpha-masked instances by the hardware
 //    (depth_prepass.wgsl with IDS ATOMIC), atomicMax from fragments. By compute, in two
@@ -20,8 +22,8 @@
 //    a. cs_large: a workgroup a large triangle sets it up once and lists the 16 x 16 px
 //       screen tiles of its bounds that its edges do not rule out (raster_tile_open), as
 //       (triangle, piece of its clipped fan, tile) items;
-//    b. cs_large_tiles: a workgroup an item, a lane a pixel of its tile, covered by the same
-//       rules and values as one thread's fill. A list that would pass its capacity is not
+//    b. cs_large_tiles: 32 lanes an item, each setting the triangle up and covering eight
+//       pixels of the tile, by the same rules and values as one thread's fill. A list that would pass its capacity is not
 //       cut: the lane that finds it full fills that tile's pixels itself.
 // 3. cs_finalize: per pixel, the texel's depth to an R32Float texture and its ID to the
 //    R32Uint ID texture (what the culling and shading passes read), then the texel back to
@@ -62,7 +64,9 @@ struct RasterParams {
     pad2: u32,
 }
 
-// A triangle handed to the hardware: instance, triangle within the instance's mesh.
+// A large triangle: instance, triangle within the instance's mesh; the triangle's top bit
+// (LARGE_CULL) set when it still needs back-face culling (appended before its set-up, with
+// CLIPPED_TO_LARGE).
 struct Large {
     instance: u32,
     triangle: u32,
@@ -99,6 +103,12 @@ struct LargeArgs {
 // Per triangle of the merged index buffer in cluster order, its index within its mesh
 // (SceneGpu::cluster_triangles): the index buffer keeps each mesh's own order.
 @group(1) @binding(50) var<storage, read> cluster_order: array<u32>;
+
+// Whether cs_clusters hands every triangle that needs clipping to the large list (true with
+// the large triangles by compute, whose kernels clip; the hardware's draw has no culling
+// of its own, so with it cs_clusters clips and culls them).
+override CLIPPED_TO_LARGE: bool = false;
+const LARGE_CULL: u32 = 0x80000000u;
 
 // The clear value: depth 0 (infinitely far), no triangle (tiledlight_cull::raster::CLEAR).
 const VIS_NO_TRIANGLE: u32 = 0xffffffffu;
@@ -167,6 +177,12 @@ fn cs_clusters(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_i
         raster_fill(t.a, t.b, t.c, view.screen, id);
         return;
     }
+    if CLIPPED_TO_LARGE {
+        if raster_finite(c0) && raster_finite(c1) && raster_finite(c2) {
+            append_large(entry.instance, triangle | select(0u, LARGE_CULL, cull_back));
+        }
+        return;
+    }
     let t = raster_setup(c0, c1, c2, view.screen, cull_back);
     if t.n == 0u {
         return;
@@ -199,11 +215,12 @@ struct LargeClip {
 
 fn large_clip(l: Large) -> LargeClip {
     let inst = instances[l.instance];
-    let base = inst.first_index + 3u * l.triangle;
+    let triangle = l.triangle & ~LARGE_CULL;
+    let base = inst.first_index + 3u * triangle;
     let c0 = transform_position(l.instance, vertex_position(vis_indices[base], inst.base_vertex));
     let c1 = transform_position(l.instance, vertex_position(vis_indices[base + 1u], inst.base_vertex));
     let c2 = transform_position(l.instance, vertex_position(vis_indices[base + 2u], inst.base_vertex));
-    let id = select(l.instance << params.triangle_bits, 0u, params.triangle_bits >= 32u) | l.triangle;
+    let id = select(l.instance << params.triangle_bits, 0u, params.triangle_bits >= 32u) | triangle;
     return LargeClip(c0, c1, c2, id);
 }
 
@@ -236,12 +253,14 @@ fn list_tiles(f: RasterFill, t: u32, piece: u32, id: u32, lane: u32) {
 fn cs_large(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
     let count = atomicLoad(&large_args.vertex_count) / 3u;
     for (var t = wg.x; t < count; t += LARGE_GROUPS) {
-        let c = large_clip(large[t]);
+        let l = large[t];
+        let c = large_clip(l);
+        // Inside every plane: culled when listed. Clipped: culled here when flagged.
         if raster_inside(c.c0, c.c1, c.c2) {
             let s = raster_setup_inside(c.c0, c.c1, c.c2, view.screen, false);
             list_tiles(raster_prepare(s.a, s.b, s.c, view.screen), t, 0u, c.id, lane);
         } else {
-            let s = raster_setup(c.c0, c.c1, c.c2, view.screen, false);
+            let s = raster_setup(c.c0, c.c1, c.c2, view.screen, (l.triangle & LARGE_CULL) != 0u);
             for (var i = 1u; i + 1u < s.n; i++) {
                 list_tiles(raster_prepare(s.s[0], s.s[i], s.s[i + 1u], view.screen), t, i - 1u, c.id, lane);
             }
@@ -249,28 +268,43 @@ fn cs_large(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_inde
     }
 }
 
-// 2b. A workgroup a tile item (as many workgroups as the screen has tiles, looping over
-// the items), a lane a pixel: the same coverage and depth as raster_fill's.
-@compute @workgroup_size(16, 16)
+// 2b. Two tile items a 64-lane workgroup (as many workgroups as the screen has tiles,
+// looping over the items), 32 lanes an item: each lane sets the triangle up once and
+// covers eight pixels of the tile, a column of it every second row, its edge values
+// stepped by exact integer additions from the first (the set-up, a few hundred
+// instructions, paid once per eight pixels): the same coverage and depth as raster_fill's.
+@compute @workgroup_size(64)
 fn cs_large_tiles(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
-                  @builtin(local_invocation_id) local: vec3<u32>) {
+                  @builtin(local_invocation_index) lane: u32) {
     let count = min(atomicLoad(&large_args.tiles), params.tile_capacity);
-    let stride = groups.x * groups.y;
-    for (var w = wg.y * groups.x + wg.x; w < count; w += stride) {
+    let stride = 2u * groups.x * groups.y;
+    let column = vec2<i64>(i64(lane % 16u), i64((lane / 16u) % 2u));
+    for (var w = 2u * (wg.y * groups.x + wg.x) + lane / 32u; w < count; w += stride) {
         let item = large_tiles[w];
-        let c = large_clip(large[item.x >> 3u]);
+        let l = large[item.x >> 3u];
+        let c = large_clip(l);
         let piece = item.x & 7u;
         var f: RasterFill;
         if raster_inside(c.c0, c.c1, c.c2) {
             let s = raster_setup_inside(c.c0, c.c1, c.c2, view.screen, false);
             f = raster_prepare(s.a, s.b, s.c, view.screen);
         } else {
-            let s = raster_setup(c.c0, c.c1, c.c2, view.screen, false);
+            let s = raster_setup(c.c0, c.c1, c.c2, view.screen, (l.triangle & LARGE_CULL) != 0u);
             f = raster_prepare(s.s[0], s.s[piece + 1u], s.s[piece + 2u], view.screen);
         }
-        let p = vec2<i64>(i64(item.y & 0xffffu), i64(item.y >> 16u)) * RASTER_TILE + vec2<i64>(local.xy);
-        if f.drawn && all(p >= f.lo) && all(p <= f.hi) {
-            raster_cover(f, raster_edges(f, p.x, p.y), p.x, p.y, c.id);
+        if !f.drawn {
+            continue;
+        }
+        var p = vec2<i64>(i64(item.y & 0xffffu), i64(item.y >> 16u)) * RASTER_TILE + column;
+        var e = raster_edges(f, p.x, p.y);
+        // Two rows down: the edge functions' y step (raster_fill's sy) twice.
+        let step = vec3<i64>(f.v2.x - f.v1.x, f.v0.x - f.v2.x, f.v1.x - f.v0.x) * (2li * RASTER_ONE);
+        for (var k = 0u; k < 8u; k++) {
+            if all(p >= f.lo) && all(p <= f.hi) {
+                raster_cover(f, e, p.x, p.y, c.id);
+            }
+            p.y += 2li;
+            e += step;
         }
     }
 }

@@ -561,7 +561,7 @@ fn compute_raster_matches_twin_and_hardware_on_a_scene() {
 }
 
 /// Every frame starts clean: the finalize kernel resets the texels and empties the large
-/// list for the next frame (no clear pass runs). A renderer that drew the courtyard from
+/// list and its tiles for the next frame (no clear pass runs). A renderer that drew the courtyard from
 /// one camera and then from another gives, for the second, the depth and IDs of a fresh
 /// renderer drawing only the second, bit for bit (the same kernels on the same inputs).
 #[test]
@@ -589,6 +589,14 @@ fn each_frame_forgets_the_last() {
     let mut fresh = FrameRenderer::new(ctx, &sg, &lights, SW, SH, s).unwrap();
     render_frame(ctx, &mut fresh, &sg, &second);
     let (a, b) = (read(&twice), read(&fresh));
+    // The large triangles' tile list restarts too: the same tiles listed, none past the list.
+    let tiles = |r: &FrameRenderer| {
+        let vis = r.passes::<VisibilityFrame>().unwrap().raster();
+        vis.compute().unwrap().read_large_tiles(&ctx.device, &ctx.queue).unwrap().unwrap()
+    };
+    let (t_twice, t_fresh) = (tiles(&twice), tiles(&fresh));
+    assert!(t_fresh.1 > 0, "the second view must list large triangles' tiles to test this");
+    assert_eq!((t_twice.0, t_twice.1), (t_fresh.0, t_fresh.1), "the tile list kept the frame before's");
     assert_ne!(after_first.1, b.1, "the two cameras must see different triangles for this to test anything");
     let differ = a.1.iter().zip(&b.1).filter(|(x, y)| x != y).count();
     assert_eq!(differ, 0, "{differ} pixels keep IDs of the frame before");

@@ -9,11 +9,13 @@
 //!    (per cluster; an instance off screen loses all its clusters there); each lane then
 //!    sets up one triangle (clip, snap, cull back faces of single-sided materials) and
 //!    fills it, unless its bounds span more than [`ComputeRasterOptions::large_px`] pixels
-//!    either way: those go to the large list.
+//!    either way: those go to the large list. With the large triangles by compute, a
+//!    triangle that needs clipping goes there too, before its set-up, with its culling
+//!    flag (their kernels clip; the hot kernel keeps no polygon arrays).
 //! 2. **Large triangles** ([`LargeRaster`]): by compute (the default, one timed pass of two
 //!    dispatches: `cs_large`, a workgroup per triangle listing the 16 px screen tiles its
 //!    edges do not rule out, [`tiledlight_cull::raster::large_tiles`]; then
-//!    `cs_large_tiles`, a workgroup per listed tile and a lane per pixel, by the same
+//!    `cs_large_tiles`, 32 lanes per listed tile, eight pixels a lane, by the same
 //!    rules), or by the hardware (`visibility_raster_large.wgsl`, one indirect draw). The
 //!    tile list holds [`TILE_CAPACITY_SCREENS`] screens of tiles; past that a tile is filled
 //!    by the lane that lists it (slower, nothing dropped).
@@ -364,8 +366,16 @@ impl ComputeRaster {
         });
         let module = keyed_module(device, &ComputeRasterKey::Clusters)?;
         let groups = [&views.layout, &compute_layout];
-        let clusters_pipeline =
-            compute_pipeline_at(device, ("visibility.compute_raster.clusters", "cs_clusters"), &groups, &module, &[]);
+        // With the large triangles by compute, the clusters' kernel hands the triangles that
+        // need clipping to them (the clipped polygon's arrays out of the hot kernel).
+        let clipped_to_large = [("CLIPPED_TO_LARGE", f64::from(u8::from(options.large == LargeRaster::Compute)))];
+        let clusters_pipeline = compute_pipeline_at(
+            device,
+            ("visibility.compute_raster.clusters", "cs_clusters"),
+            &groups,
+            &module,
+            &clipped_to_large,
+        );
         let finalize =
             compute_pipeline_at(device, ("visibility.compute_raster.finalize", "cs_finalize"), &groups, &module, &[]);
         let large_compute = (options.large == LargeRaster::Compute).then(|| LargeCompute {
@@ -489,7 +499,7 @@ impl ComputeRaster {
                 pass.set_bind_group(0, views.bind_group(), &views.offsets(view));
                 pass.set_bind_group(1, &self.compute_group, &[]);
                 pass.dispatch_workgroups(LARGE_GROUPS, 1, 1);
-                // As many workgroups as the screen has tiles, each looping over the items.
+                // As many workgroups (two items each) as the screen has tiles, looping.
                 pass.set_pipeline(&large.tiles);
                 pass.dispatch_workgroups(self.screen.0.div_ceil(tile), self.screen.1.div_ceil(tile), 1);
             });
@@ -552,7 +562,8 @@ impl ComputeRaster {
             .iter()
             .map(|&[t, xy]| {
                 let [instance, triangle] = list[(t >> 3) as usize];
-                LargeTile { instance, triangle, piece: t & 7, tile: (xy & 0xffff, xy >> 16) }
+                // The top bit: a clipped triangle's culling flag.
+                LargeTile { instance, triangle: triangle & 0x7fff_ffff, piece: t & 7, tile: (xy & 0xffff, xy >> 16) }
             })
             .collect();
         tiles.sort_unstable();
