@@ -560,6 +560,56 @@ fn compute_raster_matches_twin_and_hardware_on_a_scene() {
     );
 }
 
+/// A single-sided surface seen from behind and crossing the near plane (a lid 0.5 m below
+/// the eye of the floor scene's camera, facing down, reaching behind the eye) is culled by
+/// the compute raster as by the twin, and drawn when its material is double-sided: the
+/// clusters' kernel hands triangles that need clipping to the large kernels with their
+/// culling flag (issue 49). Compared with the twin pixel by pixel as the courtyard is.
+#[test]
+fn a_clipped_back_face_is_culled_and_a_double_sided_one_drawn() {
+    let ctx = gpu();
+    let camera = tiledlight_tests::scenes::floor_camera(SW, SH);
+    for double_sided in [false, true] {
+        let light = tiledlight_cull::Light::point(Vec3::new(0.0, 1.0, 0.0), Vec3::ONE, 1.0, 0.01).unwrap();
+        let mut scene = tiledlight_tests::scenes::floor_scene(0.5, 0.0, vec![light]);
+        let mut lid = scene.meshes[0].clone();
+        lid.name = "lid".into();
+        for p in &mut lid.positions {
+            p[1] = 2.5;
+        }
+        lid.normals = vec![[0.0, -1.0, 0.0]; 4];
+        lid.indices = vec![0, 2, 1, 0, 3, 2];
+        scene.meshes.push(lid);
+        let mut material = scene.materials[0].clone();
+        material.double_sided = double_sided;
+        scene.materials.push(material);
+        scene.instances.push(tiledlight_scene::Instance { mesh: 1, material: 1, transform: glam::Mat4::IDENTITY });
+        let sg = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
+        let lights = LightBuffers::new(&ctx.device, &scene.lights).unwrap();
+        let tris = SceneTriangles::new(&scene, &sg, &camera);
+        let layout = IdLayout::for_scene(sg.instance_order.len() as u32, sg.max_triangles).unwrap();
+        let slot = sg.instance_order.iter().position(|&i| i == 1).unwrap() as u32;
+        let lid_ids = [layout.pack(slot, 0), layout.pack(slot, 1)];
+        let crosses = |id: u32| tris.tris.iter().any(|t| t.2 == id && t.0.iter().any(|c| c.z > c.w));
+        assert!(lid_ids.iter().all(|&id| crosses(id)), "the lid must cross the near plane to test clipping");
+        let (twin, at) = tris.twin((SW, SH));
+        let twin_depth: Vec<f32> = twin.iter().map(|&t| unpack(t).0).collect();
+        let twin_ids: Vec<u32> = twin.iter().map(|&t| unpack(t).1).collect();
+        let (depth, ids, _) =
+            scene_raster(ctx, (&sg, &lights, &camera), RasterPath::Compute, ComputeRasterOptions::default());
+        let d = compare_scene((&depth, &ids), (&twin_depth, &twin_ids), (&tris, &at), (SW, SH), 2.0 / 256.0)
+            .unwrap_or_else(|e| panic!("double-sided {double_sided}: {e}"));
+        let lid = ids.iter().filter(|id| lid_ids.contains(id)).count();
+        eprintln!("double-sided {double_sided}: {d:?}, {lid} lid pixels");
+        assert!(d.edges * 200 < d.covered, "{} edge pixels differ, more than 0.5%", d.edges);
+        if double_sided {
+            assert!(lid > (SW * SH / 2) as usize, "the double-sided lid must cover the view: {lid} pixels");
+        } else {
+            assert_eq!(lid, 0, "the single-sided lid is seen from behind: culled");
+        }
+    }
+}
+
 /// Every frame starts clean: the finalize kernel resets the texels and empties the large
 /// list and its tiles for the next frame (no clear pass runs). A renderer that drew the courtyard from
 /// one camera and then from another gives, for the second, the depth and IDs of a fresh

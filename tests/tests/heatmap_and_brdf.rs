@@ -2,7 +2,7 @@
 //! twin (`tiledlight_cull::brdf`) pixel by pixel.
 
 use glam::{Vec3, Vec4};
-use tiledlight_cull::brdf::{brdf_cos, spot_falloff, windowed_attenuation, Surface};
+use tiledlight_cull::brdf::{brdf_cos, spot_falloff, windowed_attenuation, Surface, LIGHT_SIZE_SQ};
 use tiledlight_cull::light::spot_scale_offset;
 use tiledlight_cull::reference::pixel_view_position;
 use tiledlight_cull::{cull_tiles, Light, LightKind};
@@ -157,7 +157,10 @@ fn heatmap_palette_is_the_documented_one() {
 /// Brute-force pixels of a lit floor against the CPU BRDF evaluated at the pixel's
 /// position (reconstructed from depth). Tolerance 3e-3 relative (floor 1e-3): the f16
 /// target rounds to 2^-11 relative, and the GPU interpolates the world position while the
-/// CPU unprojects it from depth (about 1e-5 relative apart).
+/// CPU unprojects it from depth (about 1e-5 relative apart). A third light hangs 4 mm
+/// above the floor at the middle pixel's surface point, nearer than the emitter's 1 cm:
+/// there the inverse-square falloff must stop at `1 / LIGHT_SIZE_SQ` (the shading loop
+/// takes it from the direction's inverse square root, issue 49), not grow as `1 / d^2`.
 #[test]
 fn gpu_brdf_matches_cpu_twin() {
     let ctx = gpu();
@@ -175,8 +178,14 @@ fn gpu_brdf_matches_cpu_twin() {
         0.05,
     )
     .unwrap();
+    // The middle pixel's ray meets the floor (y = 0) at `under`.
+    let ndc = ((w / 2) as f32 + 0.5) / w as f32 * 2.0 - 1.0;
+    let ndc_y = 1.0 - ((h / 2) as f32 + 0.5) / h as f32 * 2.0;
+    let along = (camera.view().inverse() * camera.view_point_at(ndc, ndc_y, 1.0).extend(1.0)).truncate() - camera.eye();
+    let under = camera.eye() + along * (-camera.eye().y / along.y);
+    let near = Light::point(under + Vec3::Y * 0.004, Vec3::ONE, 1e-3, 4e-3).unwrap();
     for (roughness, metallic) in [(0.9, 0.0), (0.3, 0.0), (0.2, 1.0)] {
-        let scene = scenes::floor_scene(roughness, metallic, vec![point, spot]);
+        let scene = scenes::floor_scene(roughness, metallic, vec![point, spot, near]);
         let scene_gpu = SceneGpu::new(&ctx.device, &ctx.queue, &scene).unwrap();
         let lights = LightBuffers::new(&ctx.device, &scene.lights).unwrap();
         let mut r = FrameRenderer::new(
@@ -197,6 +206,7 @@ fn gpu_brdf_matches_cpu_twin() {
         let s = Surface { albedo, roughness, metallic };
         let mut checked = 0;
         let mut worst = 0.0f32;
+        let mut clamped = 0;
         for y in 0..h {
             for x in 0..w {
                 let i = (y * w + x) as usize;
@@ -212,6 +222,7 @@ fn gpu_brdf_matches_cpu_twin() {
                         continue;
                     }
                     let dir = to / d2.sqrt();
+                    clamped += usize::from(d2 < LIGHT_SIZE_SQ);
                     let mut att = windowed_attenuation(d2, l.radius);
                     if let LightKind::Spot { direction, inner_angle, outer_angle } = l.kind {
                         let (scale, offset) = spot_scale_offset(inner_angle, outer_angle);
@@ -232,8 +243,12 @@ fn gpu_brdf_matches_cpu_twin() {
                 checked += 1;
             }
         }
-        eprintln!("roughness {roughness} metallic {metallic}: {checked} pixels, worst relative error {worst:.2e}");
+        eprintln!(
+            "roughness {roughness} metallic {metallic}: {checked} pixels ({clamped} nearer a light than 1 cm), worst \
+             relative error {worst:.2e}"
+        );
         assert!(checked > (w * h / 3) as usize, "the floor must cover the frame");
+        assert!(clamped > 0, "a pixel must lie nearer the third light than the emitter's size");
     }
 }
 
