@@ -83,6 +83,10 @@ fn triangles(n: usize, seed: u32) -> Vec<([Vec4; 3], bool)> {
         .collect()
 }
 
+/// The tests' shader, one thread a triangle: `raster_triangle` into the texels, or with
+/// `info.w` bit 1 (TILES) the tiles `raster_tile_open` lets through filled one at a time
+/// (`raster_fill_tile`), and after the target's texels one mask of open tiles per piece of
+/// its fan (bit ty * tiles_x + tx; 8 words a triangle).
 const SHADER: &str = r#"
 #include "common/compute_raster.wgsl"
 
@@ -90,7 +94,7 @@ struct Tri {
     c0: vec4<f32>,
     c1: vec4<f32>,
     c2: vec4<f32>,
-    // width, height, ID, cull back faces
+    // width, height, ID, flags (bit 0: cull back faces; bit 1: by tiles)
     info: vec4<u32>,
 }
 
@@ -110,41 +114,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let t = tris[gid.x];
     p_width = t.info.x;
-    raster_triangle(t.c0, t.c1, t.c2, t.info.xy, t.info.w != 0u, t.info.z);
-}
-"#;
-
-/// The tile tests' shader: per triangle, the texels of its open tiles filled one tile at a
-/// time, and after the target's texels one mask of open tiles per piece of its fan (bit
-/// ty * tiles_x + tx; 8 words a triangle).
-const TILES_SHADER: &str = r#"
-#include "common/compute_raster.wgsl"
-
-struct Tri {
-    c0: vec4<f32>,
-    c1: vec4<f32>,
-    c2: vec4<f32>,
-    // width, height, ID, cull back faces
-    info: vec4<u32>,
-}
-
-@group(0) @binding(0) var<storage, read> tris: array<Tri>;
-@group(0) @binding(1) var<storage, read_write> texels: array<atomic<u64>>;
-
-var<private> p_width: u32;
-
-fn raster_emit(x: u32, y: u32, texel: u64) {
-    atomicMax(&texels[y * p_width + x], texel);
-}
-
-@compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if gid.x >= arrayLength(&tris) {
+    let cull = (t.info.w & 1u) != 0u;
+    if (t.info.w & 2u) == 0u {
+        raster_triangle(t.c0, t.c1, t.c2, t.info.xy, cull, t.info.z);
         return;
     }
-    let t = tris[gid.x];
-    p_width = t.info.x;
-    let s = raster_setup(t.c0, t.c1, t.c2, t.info.xy, t.info.w != 0u);
+    let s = raster_setup(t.c0, t.c1, t.c2, t.info.xy, cull);
     let tiles_x = (t.info.x + 15u) / 16u;
     for (var i = 1u; i + 1u < s.n; i++) {
         let f = raster_prepare(s.s[0], s.s[i], s.s[i + 1u], t.info.xy);
@@ -176,7 +151,7 @@ fn gpu_large_tiles_equal_the_cpu_twin() {
     assert!(tiles_x * H.div_ceil(LARGE_TILE) <= 32, "a piece's tiles must fit one mask word");
     let pixels = (W * H) as usize;
     let bytes = (pixels + tris.len() * 8) as u64 * 8;
-    let out = run_cases(ctx, "compute_raster.tiles", TILES_SHADER, &tri_input(&tris), tris.len() as u32, bytes);
+    let out = run_cases(ctx, "compute_raster.tiles", SHADER, &tri_input(&tris, true), tris.len() as u32, bytes);
     let words: Vec<u64> = bytemuck::cast_slice(&out).to_vec();
     let (gpu_texels, gpu_masks) = words.split_at(pixels);
     let gpu_masks: Vec<u32> = gpu_masks.iter().map(|&m| m as u32).collect();
@@ -203,14 +178,14 @@ fn gpu_large_tiles_equal_the_cpu_twin() {
     assert!(covered > (W * H / 2) as usize, "the triangles cover too little to test: {covered}");
 }
 
-/// The tests' triangles as the shaders' `Tri` records (ID = index).
-fn tri_input(tris: &[([Vec4; 3], bool)]) -> Vec<u8> {
+/// The tests' triangles as the shader's `Tri` records (ID = index), drawn by tiles or not.
+fn tri_input(tris: &[([Vec4; 3], bool)], by_tiles: bool) -> Vec<u8> {
     let mut input: Vec<u8> = Vec::new();
     for (i, (c, cull)) in tris.iter().enumerate() {
         for v in c {
             input.extend_from_slice(bytemuck::cast_slice(&v.to_array()));
         }
-        input.extend_from_slice(bytemuck::cast_slice(&[W, H, i as u32, u32::from(*cull)]));
+        input.extend_from_slice(bytemuck::cast_slice(&[W, H, i as u32, u32::from(*cull) | u32::from(by_tiles) << 1]));
     }
     input
 }
@@ -246,7 +221,8 @@ fn gpu_raster_equals_the_cpu_twin() {
         ctx.info.name
     );
     let tris = triangles(600, 0x9e37_79b9);
-    let out = run_cases(ctx, "compute_raster", SHADER, &tri_input(&tris), tris.len() as u32, u64::from(W * H) * 8);
+    let out =
+        run_cases(ctx, "compute_raster", SHADER, &tri_input(&tris, false), tris.len() as u32, u64::from(W * H) * 8);
     let gpu_texels: Vec<u64> = bytemuck::cast_slice(&out).to_vec();
     let (cpu, at) = twin(&tris);
     let (covered, depth_off, ties) = compare(&gpu_texels, &cpu.texels, &at).unwrap_or_else(|e| panic!("{e}"));
