@@ -174,7 +174,7 @@ FORWARD_PIXEL = 60
 #   adds ~16 (3 I2F, depth 6, pack 2, address 3, 64-bit atomicMax 1): 2 x 20 + 16 = 56.
 # The JSON has no fragment count: covered pixels are taken as the screen's (depth
 # complexity 1, overdraw left out, no sky), all priced in raster.compute's row (the large
-# triangles' share of them is not in the JSON, so raster.large has no floor).
+# triangles' share of them is not in the JSON: raster.large is priced by its tiles below).
 # Hardware raster (depth_prepass.wgsl, gbuffer.wgsl, visibility's MSAA raster): vertices
 # taken as triangles / 2 (post-transform reuse on a closed mesh, a lower bound), vertex
 # shader ~35 instructions (loads 6, transform 28, out 1; gbuffer's ~50 with normal and UV),
@@ -233,8 +233,18 @@ FLOOR_MODEL = {
         "instr": {"tri": RASTER_TRI, "px": RASTER_PIXEL},
         "bytes": {"tri": 18, "px": 8},
     },
+    # The large triangles by tiles (issue 49; visibility_raster.wgsl cs_large and
+    # cs_large_tiles), priced per listed 16 px tile (bench's large_tiles): 32 lanes each set
+    # the triangle up (~330 as a triangle above, less the span test and edge steps) and
+    # cover 8 pixels (~38 a pixel: bounds 4, i64 edge steps 6, inside test 12, depth, pack
+    # and atomicMax 16), 32 x 330 + 256 x 38 = 20,288; listing it ~100 (four corners'
+    # i64 edges, the append); 256 texels' atomicMax 8 B each and the 8-byte item. The
+    # per-triangle set-up of cs_large (256 lanes, once a large triangle) is not in the JSON.
     "visibility.raster.large": {
-        "none": "the JSON has no count of the triangles handed on or their pixels (priced in raster.compute)",
+        "source": "visibility_raster.wgsl cs_large + cs_large_tiles: ~20,400 a listed tile, 2,056 B",
+        "issue": "compute",
+        "instr": {"large_tile": 20400},
+        "bytes": {"large_tile": 2056},
     },
     "visibility.raster.finalize": {
         "source": "visibility_raster.wgsl cs_finalize: texel read 8, depth 4 + ID 4 written, texel reset 8",
@@ -378,6 +388,8 @@ def quantities(run):
     if cfg.get("triangles") is not None:
         q["tri"] = cfg["triangles"]
         q["vert"] = cfg["triangles"] / 2
+    if run.get("large_tiles") is not None:
+        q["large_tile"] = run["large_tiles"]
     if run.get("light_pairs") is not None:
         q["tile_pair"] = run["light_pairs"]
         q["pair"] = q["shaded"] * run["light_pairs"] / tiles

@@ -105,6 +105,16 @@ class FloorModel(unittest.TestCase):
             self.assertTrue(out.endswith("<!-- summary:end -->\nafter\n"))
             self.assertNotIn("\nold\n", out)
 
+    def test_large_raster_priced_by_its_tiles(self):
+        run = run_json([("visibility.raster.large", 0.1)])
+        run["large_tiles"] = 1000
+        t, kind, _ = ps.pass_floor(ps.match("visibility.raster.large"), ps.quantities(run), ps.gpu_of(run["config"]["adapter"]))
+        self.assertAlmostEqual(t, 1000 * 20400 / ISSUE, delta=t * 1e-9)
+        self.assertEqual(kind, "issue")
+        del run["large_tiles"]
+        with self.assertRaises(ps.MissingCount):
+            ps.pass_floor(ps.match("visibility.raster.large"), ps.quantities(run), ps.gpu_of(run["config"]["adapter"]))
+
     def test_repeats_take_the_median(self):
         with tempfile.TemporaryDirectory() as d:
             for rep, ms in [(1, 1.3), (2, 1.1), (3, 1.2)]:

@@ -95,6 +95,25 @@ fn bench_writes_json_with_every_pass() {
     assert!(v["blended_instances"].is_null() && v["blend_mode"].is_null(), "{v}");
     assert_eq!(v["config"]["transparent_objects"], 0);
     assert!(!text.contains("blend"), "{text}");
+    // No compute raster: no large triangles' tiles.
+    assert!(v["large_tiles"].is_null() && !text.contains("large triangles"), "{v}");
+}
+
+/// The visibility buffer's compute raster reports the screen tiles its large triangles
+/// listed (what `scripts/perf-summary.py` prices `visibility.raster.large` by): with every
+/// triangle wider than a pixel large, some, in the JSON and the printout.
+#[test]
+fn bench_reports_the_large_triangles_tiles() {
+    let dir = scratch("bench-large");
+    let json = dir.join("l.json");
+    let args = ["--method", "visibility", "--raster", "compute", "--raster-large-px", "1", "--frames", "2"];
+    let mut bench = with_tiny("bench", &args);
+    bench.extend(["--warmup", "1", "--json", json.to_str().unwrap()]);
+    let out = gpu_run(&bench);
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let tiles = v["large_tiles"].as_u64().unwrap_or_else(|| panic!("no large_tiles in {v}"));
+    assert!(tiles > 0, "{v}");
+    assert!(stdout(&out).contains(&format!("large triangles: {tiles} screen tiles")), "{}", stdout(&out));
 }
 
 /// Transparent grid objects: `render` names them and reports the blended path (instances,

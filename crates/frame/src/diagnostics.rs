@@ -86,6 +86,11 @@ impl FrameRenderer {
     pub fn edge_pixels(&self, ctx: &GpuContext) -> Result<Option<u32>, GpuError> {
         self.method().edge_pixels(ctx)
     }
+    /// Screen tiles the last frame listed for its large triangles (the visibility buffer's
+    /// compute raster with the large triangles by compute).
+    pub fn large_tiles(&self, ctx: &GpuContext) -> Result<Option<u32>, GpuError> {
+        self.method().large_tiles(ctx)
+    }
     /// An error naming the problem when the last frame traced rays (the traced reference,
     /// the stochastic method) and the driver cut some invocations' loops short
     /// (`tiledlight_visibility::shading::TracedStats::cut`: llvmpipe's loop limit); Ok

@@ -49,6 +49,11 @@ pub trait MethodFrame: Any {
     fn edge_pixels(&self, _ctx: &GpuContext) -> Result<Option<u32>, GpuError> {
         Ok(None)
     }
+    /// Screen tiles the last frame listed for its large triangles, when the method draws
+    /// them by compute tiles (the visibility buffer's compute raster; stalls the GPU).
+    fn large_tiles(&self, _ctx: &GpuContext) -> Result<Option<u32>, GpuError> {
+        Ok(None)
+    }
     /// For [`crate::FrameRenderer::passes`]: the method's own type.
     fn as_any(&self) -> &dyn Any;
 }

@@ -361,6 +361,11 @@ impl MethodFrame for VisibilityFrame {
         self.shading.read_edge_pixels(&ctx.device, &ctx.queue)
     }
 
+    fn large_tiles(&self, ctx: &GpuContext) -> Result<Option<u32>, GpuError> {
+        let Some(raster) = self.raster.compute() else { return Ok(None) };
+        raster.read_large_tile_count(&ctx.device, &ctx.queue)
+    }
+
     fn as_any(&self) -> &dyn Any {
         self
     }

@@ -524,6 +524,9 @@ struct BenchJson {
     edge_pixels: Option<u32>,
     /// (list, light) pairs of the last measured frame read back (tiled methods).
     light_pairs: Option<u32>,
+    /// Screen tiles (16 px) the last frame listed for its large triangles (the visibility
+    /// buffer's compute raster, large triangles by compute).
+    large_tiles: Option<u32>,
     /// Lights dropped because the light grid was full, summed over the measured frames
     /// read back (0: every measured frame was complete; null without a light grid).
     dropped_lights: Option<u64>,
@@ -781,6 +784,10 @@ pub fn run<F: Flags>(scene: &F, args: &Bench) -> Result<()> {
         let pixels = f64::from(prep.settings.width) * f64::from(prep.settings.height);
         println!("MSAA edges: {e} pixels ({:.2}%) shaded per sample", 100.0 * f64::from(e) / pixels);
     }
+    let large_tiles = renderer.large_tiles(&prep.ctx).context("reading the large triangles' tile count back")?;
+    if let Some(t) = large_tiles {
+        println!("large triangles: {t} screen tiles of 16 px listed in the last frame");
+    }
     let vpls = renderer.vpl_count(&prep.ctx).context("reading the VPL count back")?;
     if let Some((kept, refused)) = vpls {
         println!("VPLs: {kept} made in the last frame, {refused} refused by the cap (of {})", kept + refused);
@@ -826,6 +833,7 @@ pub fn run<F: Flags>(scene: &F, args: &Bench) -> Result<()> {
             gpu_memory_total: renderer.memory().total(),
             edge_pixels,
             light_pairs: m.grid.last().map(|g| g.header.pairs),
+            large_tiles,
             dropped_lights: dropped.opaque.map(|g| g.pairs),
             dropped_lists: dropped.opaque.map(|g| g.lists),
             dropped_frames: dropped.frames_read().map(|_| dropped.frames()),

@@ -538,6 +538,16 @@ impl ComputeRaster {
         self.record_finalize(encoder, timer, (views, view));
     }
 
+    /// How many tiles the last frame listed for its large triangles (with
+    /// [`LargeRaster::Compute`], else `None`). Stalls the GPU.
+    pub fn read_large_tile_count(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Option<u32>, GpuError> {
+        if self.large_compute.is_none() {
+            return Ok(None);
+        }
+        let args: Vec<u32> = read_buffer(device, queue, &self.large_args)?;
+        Ok(Some(args[5]))
+    }
+
     /// The tiles the last frame listed for its large triangles (with [`LargeRaster::Compute`],
     /// else `None`), sorted, and how many were listed in all: more than the list's
     /// capacity (the second number) when some were filled by the lane that listed them
@@ -547,11 +557,9 @@ impl ComputeRaster {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
     ) -> Result<Option<(Vec<LargeTile>, u32, u32)>, GpuError> {
-        let Some(large) = &self.large_compute else {
+        let (Some(large), Some(listed)) = (&self.large_compute, self.read_large_tile_count(device, queue)?) else {
             return Ok(None);
         };
-        let args: Vec<u32> = read_buffer(device, queue, &self.large_args)?;
-        let listed = args[5];
         let kept = listed.min(large.capacity);
         if kept == 0 {
             return Ok(Some((Vec::new(), listed, large.capacity)));
