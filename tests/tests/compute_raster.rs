@@ -33,7 +33,7 @@ use tiledlight_scene::AlphaMode;
 use tiledlight_tests::compare::render_frame;
 use tiledlight_tests::gpu;
 use tiledlight_tests::kernels::{run_cases, Rng};
-use tiledlight_visibility::compute_raster::{ComputeRasterOptions, LargeRaster, LargeTile};
+use tiledlight_visibility::compute_raster::{ComputeRasterOptions, LargeRaster, LargeTiles};
 
 const W: u32 = 97;
 const H: u32 = 61;
@@ -446,7 +446,7 @@ fn scene_raster(
     (sg, lights, camera): (&SceneGpu, &LightBuffers, &tiledlight_cull::Camera),
     raster: RasterPath,
     compute_raster: ComputeRasterOptions,
-) -> (Vec<f32>, Vec<u32>, Option<(Vec<LargeTile>, u32, u32)>) {
+) -> (Vec<f32>, Vec<u32>, Option<LargeTiles>) {
     let knobs = Knobs {
         raster,
         raster_large_px: compute_raster.large_px,
@@ -496,17 +496,17 @@ fn compute_raster_matches_twin_and_hardware_on_a_scene() {
     let split_hw = scene_raster(ctx, inputs, RasterPath::Compute, options(32, LargeRaster::Hardware));
     let hardware = scene_raster(ctx, inputs, RasterPath::Hardware, ComputeRasterOptions::default());
     let overflow = scene_raster(ctx, inputs, RasterPath::Compute, options(1, LargeRaster::Compute));
-    let (tiles, listed, capacity) = split.2.clone().expect("the default draws large triangles by compute");
+    let LargeTiles { tiles, listed, capacity } = split.2.clone().expect("the default draws large triangles by compute");
     eprintln!("default: {listed} tiles listed of {capacity}");
     assert!(listed > 0 && listed as usize == tiles.len(), "the courtyard's large triangles list {listed} tiles");
     let mut unique = tiles.clone();
     unique.dedup();
     assert_eq!(unique.len(), tiles.len(), "a tile listed twice for one piece");
-    let (_, listed, capacity) = overflow.2.clone().unwrap();
+    let LargeTiles { listed, capacity, .. } = overflow.2.clone().unwrap();
     eprintln!("large_px 1: {listed} tiles listed, {capacity} kept");
     assert!(listed > capacity, "large_px 1 must pass the tile list's capacity to test the fallback");
     assert!(split_hw.2.is_none(), "tiles listed with the large triangles by the hardware");
-    let none = all_compute.2.as_ref().map(|t| t.1);
+    let none = all_compute.2.as_ref().map(|t| t.listed);
     assert_eq!(none, Some(0), "tiles listed with no triangle large");
     let eps = 2.0 / 256.0;
     let pairs = [
@@ -621,8 +621,8 @@ fn each_frame_forgets_the_last() {
         vis.compute().unwrap().read_large_tiles(&ctx.device, &ctx.queue).unwrap().unwrap()
     };
     let (t_twice, t_fresh) = (tiles(&twice), tiles(&fresh));
-    assert!(t_fresh.1 > 0, "the second view must list large triangles' tiles to test this");
-    assert_eq!((t_twice.0, t_twice.1), (t_fresh.0, t_fresh.1), "the tile list kept the frame before's");
+    assert!(t_fresh.listed > 0, "the second view must list large triangles' tiles to test this");
+    assert_eq!(t_twice, t_fresh, "the tile list kept the frame before's");
     assert_ne!(after_first.1, b.1, "the two cameras must see different triangles for this to test anything");
     let differ = a.1.iter().zip(&b.1).filter(|(x, y)| x != y).count();
     assert_eq!(differ, 0, "{differ} pixels keep IDs of the frame before");

@@ -184,6 +184,18 @@ pub struct LargeTile {
     pub tile: (u32, u32),
 }
 
+/// The tiles a frame listed for its large triangles ([`ComputeRaster::read_large_tiles`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct LargeTiles {
+    /// The listed tiles kept in the list, sorted.
+    pub tiles: Vec<LargeTile>,
+    /// How many were listed in all: more than `capacity` when some were filled by the lane
+    /// that listed them (those are not in `tiles`).
+    pub listed: u32,
+    /// The list's capacity.
+    pub capacity: u32,
+}
+
 /// An (instance, cluster) pair (`Entry` in the WGSL).
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -549,20 +561,15 @@ impl ComputeRaster {
     }
 
     /// The tiles the last frame listed for its large triangles (with [`LargeRaster::Compute`],
-    /// else `None`), sorted, and how many were listed in all: more than the list's
-    /// capacity (the second number) when some were filled by the lane that listed them
-    /// (those are not in the list). Stalls the GPU.
-    pub fn read_large_tiles(
-        &self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-    ) -> Result<Option<(Vec<LargeTile>, u32, u32)>, GpuError> {
+    /// else `None`). Stalls the GPU.
+    pub fn read_large_tiles(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Option<LargeTiles>, GpuError> {
         let (Some(large), Some(listed)) = (&self.large_compute, self.read_large_tile_count(device, queue)?) else {
             return Ok(None);
         };
         let kept = listed.min(large.capacity);
+        let capacity = large.capacity;
         if kept == 0 {
-            return Ok(Some((Vec::new(), listed, large.capacity)));
+            return Ok(Some(LargeTiles { tiles: Vec::new(), listed, capacity }));
         }
         let items: Vec<[u32; 2]> = read_buffer_range(device, queue, &large.items, 0, u64::from(kept) * 8)?;
         let list: Vec<[u32; 2]> = read_buffer(device, queue, &self.large_list)?;
@@ -575,7 +582,7 @@ impl ComputeRaster {
             })
             .collect();
         tiles.sort_unstable();
-        Ok(Some((tiles, listed, large.capacity)))
+        Ok(Some(LargeTiles { tiles, listed, capacity }))
     }
 
     /// Step 3: the texels to the depth and ID targets, reset for the next frame.
