@@ -23,8 +23,9 @@
 //       screen tiles of its bounds that its edges do not rule out (raster_tile_open), as
 //       (triangle, piece of its clipped fan, tile) items;
 //    b. cs_large_tiles: 32 lanes an item, each setting the triangle up and covering eight
-//       pixels of the tile, by the same rules and values as one thread's fill. A list that would pass its capacity is not
-//       cut: the lane that finds it full fills that tile's pixels itself.
+//       pixels of the tile, by the same rules and values as one thread's fill. A list
+//       that would pass its capacity is not cut: the lane that finds it full fills that
+//       tile's pixels itself.
 // 3. cs_finalize: per pixel, the texel's depth to an R32Float texture and its ID to the
 //    R32Uint ID texture (what the culling and shading passes read), then the texel back to
 //    the clear value and the large list and its tiles emptied, ready for the next frame.
@@ -205,7 +206,9 @@ fn append_large(instance: u32, triangle: u32) {
 const LARGE_GROUPS: u32 = 1024u;
 const LARGE_LANES: u32 = 256u;
 
-// A large triangle's clip-space vertices (back faces were culled when it was listed).
+// A large triangle's clip-space vertices and ID (inside every plane, its back face was
+// culled when it was listed; one that needs clipping carries LARGE_CULL, and its set-up
+// culls it).
 struct LargeClip {
     c0: vec4<f32>,
     c1: vec4<f32>,
