@@ -242,11 +242,17 @@ fn without_history_the_mean_of_frames_converges_to_the_truth() {
 /// reservoirs) but which are independent of each other.
 fn totals_z(frames: &[Vec<f64>], target: f64) -> f64 {
     let totals: Vec<f64> = frames.iter().map(|img| img.iter().sum()).collect();
-    let k = totals.len() as f64;
-    let mean = totals.iter().sum::<f64>() / k;
-    let var = totals.iter().map(|t| (t - mean) * (t - mean)).sum::<f64>() / (k - 1.0);
+    mean_z("frames'", &totals, target)
+}
+
+/// How many standard errors the mean of independent `values` is from `target` (printed as
+/// `what`'s light against the truth's).
+fn mean_z(what: &str, values: &[f64], target: f64) -> f64 {
+    let k = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / k;
+    let var = values.iter().map(|t| (t - mean) * (t - mean)).sum::<f64>() / (k - 1.0);
     eprintln!(
-        "frames' light {:+.3}% of the truth's, standard error {:.3}%",
+        "{what} light {:+.3}% of the truth's, standard error {:.3}%",
         100.0 * (mean / target - 1.0),
         100.0 * (var / k).sqrt() / target
     );
@@ -643,17 +649,7 @@ fn temporal_reuse_lowers_a_still_views_noise_and_stays_unbiased() {
     assert!((errors[0] / plain - 1.0).abs() < 0.15, "the first frame {} against {plain}", errors[0]);
     assert!(errors[CHAIN - 1] < 0.8 * errors[0], "the history left the error at {errors:?}");
     let total: f64 = truth.iter().sum();
-    let z = |target: f64| {
-        let k = chain_light.len() as f64;
-        let mean = chain_light.iter().sum::<f64>() / k;
-        let var = chain_light.iter().map(|t| (t - mean) * (t - mean)).sum::<f64>() / (k - 1.0);
-        eprintln!(
-            "chains' light {:+.3}% of the truth's, standard error {:.3}%",
-            100.0 * (mean / target - 1.0),
-            100.0 * (var / k).sqrt() / target
-        );
-        (mean - target) / (var / k).sqrt()
-    };
+    let z = |target: f64| mean_z("chains'", &chain_light, target);
     let z_truth = z(total);
     assert!(z_truth.abs() < Z_LIMIT, "temporal reuse's mean light is {z_truth:.1} standard errors from the truth's");
     let z_brighter = z(total * 1.02);
